@@ -1,0 +1,48 @@
+"""Image pyramid of stage 2: level ``l`` is the frame scaled by ``(1/sqrt 2)**(l-1)``."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+
+def level_scale(level: int) -> float:
+    """Scale factor of 1-based pyramid ``level``."""
+    return (1 / np.sqrt(2)) ** (level - 1)
+
+
+def level_shape(shape: tuple[int, int], level: int) -> tuple[int, int]:
+    """``(rows, cols)`` of 1-based pyramid ``level`` for a frame of ``shape``.
+
+    Level 1 is the frame itself; level ``l > 1`` has ``int(n*s) + 1`` samples
+    along each axis, as the reference implementation sizes them.
+    """
+    h, w = shape
+    if level == 1:
+        return (h, w)
+    s = level_scale(level)
+    return (int(h * s) + 1, int(w * s) + 1)
+
+
+def resize(img: np.ndarray, shape: tuple[int, int], interpolation: str = "cubic") -> np.ndarray:
+    """Resize a 2-D (or H x W x C) float64 array to ``shape`` (rows, cols).
+
+    ``cubic`` is OpenCV's bicubic (a = -0.75, half-pixel centres); ``linear``
+    is bilinear. Returns the input unchanged if the shape already matches.
+    """
+    if img.shape[:2] == tuple(shape):
+        return img
+    flag = {"cubic": cv2.INTER_CUBIC, "linear": cv2.INTER_LINEAR}[interpolation]
+    # OpenCV handles at most 512 channels per call.
+    if img.ndim == 3 and img.shape[2] > 512:
+        return np.concatenate([resize(img[..., i:i + 512], shape, interpolation)
+                               for i in range(0, img.shape[2], 512)], axis=2)
+    out = cv2.resize(img, (shape[1], shape[0]), interpolation=flag)
+    if img.ndim == 3 and out.ndim == 2:
+        out = out[..., None]
+    return out
+
+
+def pyramid(img: np.ndarray, levels: int) -> list[np.ndarray]:
+    """Bicubic pyramid of ``img`` (float64), one array per level."""
+    img = np.asarray(img, dtype=np.float64)
+    return [resize(img, level_shape(img.shape[:2], l)) for l in range(1, levels + 1)]

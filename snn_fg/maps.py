@@ -1,0 +1,63 @@
+"""Decoded model output: the figure-ground vector field and the grouping map."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import save_npz
+from .errors import InputError
+
+
+@dataclass
+class Maps:
+    """Figure-ground field (``fg_x``, ``fg_y``; x right, y up) and grouping map.
+
+    Arrays are float32, ``(H, W)`` for one frame or ``(n_windows, H, W)`` for a
+    recording. ``params`` records every parameter used (saved as JSON).
+    ``extra`` holds further arrays saved beside them (spike counts, times...).
+    """
+
+    fg_x: np.ndarray
+    fg_y: np.ndarray
+    grouping: np.ndarray
+    params: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        shapes = {self.fg_x.shape, self.fg_y.shape, self.grouping.shape}
+        if len(shapes) != 1:
+            raise ValueError(f"Maps: fg_x, fg_y and grouping differ in shape: {sorted(shapes)}")
+
+    @property
+    def angle(self) -> np.ndarray:
+        """Direction towards the owning object, radians (``atan2(fg_y, fg_x)``)."""
+        return np.arctan2(self.fg_y, self.fg_x)
+
+    @property
+    def magnitude(self) -> np.ndarray:
+        return np.hypot(self.fg_x, self.fg_y)
+
+    def save(self, path) -> Path:
+        return save_npz(path, fg_x=self.fg_x, fg_y=self.fg_y, grouping=self.grouping,
+                        params=np.array(json.dumps(self.params, sort_keys=True)), **self.extra)
+
+    @classmethod
+    def load(cls, path) -> "Maps":
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as d:
+                missing = [k for k in ("fg_x", "fg_y", "grouping") if k not in d.files]
+                if missing:
+                    raise InputError(path, f"not a maps file: missing {', '.join(missing)}")
+                params = json.loads(str(d["params"])) if "params" in d.files else {}
+                extra = {k: d[k] for k in d.files if k not in ("fg_x", "fg_y", "grouping", "params")}
+                return cls(d["fg_x"], d["fg_y"], d["grouping"], params, extra)
+        except InputError:
+            raise
+        except FileNotFoundError:
+            raise InputError(path, "file not found") from None
+        except Exception as exc:  # zip/pickle/format errors from numpy
+            raise InputError(path, f"cannot read maps file ({type(exc).__name__}: {exc})") from None

@@ -1,0 +1,88 @@
+"""Connectivity kernels of the model, as pure numpy functions.
+
+* :func:`dog_kernels` - the oriented difference-of-Gaussians kernels of the
+  simple cells (stage 3 of ``docs/model.md``), one per direction.
+* :func:`von_mises_masks` - the pair of half-ring kernels that connect
+  border-ownership cells to grouping cells (stage 6).
+
+These are the weight-shared convolutions of the network description; the rate
+model applies them as convolutions/correlations, the spiking simulator unrolls
+them into synapses.
+"""
+from __future__ import annotations
+
+import functools
+
+import cv2
+import numpy as np
+from scipy.special import i0
+
+from ..params import ModelParams
+
+
+def _gauss2d(u_r, u_c, var_r, var_c):
+    return np.exp(-0.5 * (u_r**2 / var_r + u_c**2 / var_c)) / (2 * np.pi * np.sqrt(var_r * var_c))
+
+
+@functools.lru_cache(maxsize=16)
+def _dog_kernels_cached(s1, s2, half_width, step, n_dir):
+    n = int(round(2 * half_width / step)) + 1
+    u = -half_width + step * np.arange(n)
+    ur, uc = np.meshgrid(u, u, indexing="ij")
+    base = _gauss2d(ur, uc, *s2) - _gauss2d(ur, uc, *s1)
+    c = (n - 1) / 2
+    out = np.empty((n_dir, n, n))
+    for k in range(n_dir):
+        m = cv2.getRotationMatrix2D((c, c), 360.0 * k / n_dir, 1.0)
+        out[k] = cv2.warpAffine(base, m, (n, n), flags=cv2.INTER_LINEAR,
+                                borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    out.setflags(write=False)
+    return out
+
+
+def dog_kernels(params: ModelParams = ModelParams()) -> np.ndarray:
+    """Oriented DoG kernels, shape ``(2*n_ori, n, n)`` (read-only, float64).
+
+    Direction ``k`` is the base kernel ``N(S2) - N(S1)`` rotated by
+    ``360*k/(2*n_ori)`` degrees counter-clockwise as displayed, about the
+    centre pixel, with bilinear interpolation and zeros outside.
+    """
+    return _dog_kernels_cached(params.dog_s1, params.dog_s2, params.dog_half_width,
+                               params.dog_step, params.n_dir)
+
+
+@functools.lru_cache(maxsize=16)
+def _von_mises_cached(r0, n_ori):
+    half = int(round(3 * r0))
+    x = np.arange(-half, half + 1, dtype=float)
+    y = np.arange(half, -half - 1, -1, dtype=float)
+    xx, yy = np.meshgrid(x, y)
+    r = np.hypot(xx, yy)
+    phi = np.arctan2(yy, xx)
+    bessel = i0(r - r0)
+    m1 = np.empty((n_ori,) + r.shape)
+    m2 = np.empty_like(m1)
+    eps = np.finfo(float).eps
+    for o in range(n_ori):
+        theta0 = np.pi * o / n_ori + np.pi / 2
+        a = np.exp(r0 * np.cos(phi - theta0)) / bessel
+        b = np.exp(r0 * np.cos(phi - theta0 - np.pi)) / bessel
+        a[r == 0] = 0
+        b[r == 0] = 0
+        a /= a.max()
+        b /= b.max()
+        m1[o] = a * (a - b > eps)
+        m2[o] = b * (b - a > eps)
+    m1.setflags(write=False)
+    m2.setflags(write=False)
+    return m1, m2
+
+
+def von_mises_masks(params: ModelParams = ModelParams()) -> tuple[np.ndarray, np.ndarray]:
+    """The two half-ring von Mises kernels ``(m1, m2)``, each ``(n_ori, n, n)``.
+
+    Rows run from ``y = +3 R0`` (top) to ``-3 R0``, columns from ``x = -3 R0``
+    to ``+3 R0``. ``m1[o]`` weights the side at angle ``theta0 = pi*o/n_ori + pi/2``
+    (y up), ``m2[o]`` the opposite side; the two are disjoint.
+    """
+    return _von_mises_cached(float(params.r0), params.n_ori)

@@ -15,7 +15,7 @@ with it. It is written for speed without changing the maths:
 from __future__ import annotations
 
 import functools
-import json
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +26,8 @@ from ..maps import Maps
 from ..network.kernels import dog_kernels, von_mises_masks
 from ..params import ModelParams
 
-_WORKERS = 2
+_WORKERS = 1
+_THREADS = 2
 
 
 # --------------------------------------------------------------------------
@@ -71,6 +72,12 @@ def _irfft(x, shape, crop):
 # --------------------------------------------------------------------------
 # Stages 3-4: oriented responses and the orientation matrix
 # --------------------------------------------------------------------------
+@functools.lru_cache(maxsize=64)
+def _dog_hat(s1, s2, half_width, step, n_ori, shape):
+    p = ModelParams(dog_s1=s1, dog_s2=s2, dog_half_width=half_width, dog_step=step, n_ori=n_ori)
+    return _rfft(_place(dog_kernels(p), shape, flip=False), shape)
+
+
 def oriented_responses(pos: np.ndarray, neg: np.ndarray, params: ModelParams = ModelParams()) -> np.ndarray:
     """Thresholded DoG responses, shape ``(2*n_ori, H, W)`` (stage 3).
 
@@ -79,7 +86,8 @@ def oriented_responses(pos: np.ndarray, neg: np.ndarray, params: ModelParams = M
     ``sum_threshold``) are zeroed.
     """
     shape = pos.shape
-    k_hat = _rfft(_place(dog_kernels(params), shape, flip=False), shape)
+    k_hat = _dog_hat(params.dog_s1, params.dog_s2, params.dog_half_width, params.dog_step,
+                     params.n_ori, shape)
     n = params.n_ori
     src = _rfft(np.stack([pos, neg]).astype(np.float64), shape)
     resp = np.empty((2 * n,) + shape)
@@ -139,43 +147,53 @@ def _allclose(a, b):
     return np.allclose(a, b, rtol=1e-5, atol=1e-8)
 
 
-@dataclass
-class RateState:
-    """Everything the rate model computed, for inspection and tests."""
+def event_simple_cells(pos, neg, params: ModelParams = ModelParams()):
+    """Stages 1-4: S maps per pyramid level from an event frame.
 
-    resp: np.ndarray             # level-1 responses (n_dir, H, W)
-    winner: np.ndarray           # level-1 winning direction (H, W)
-    levels: list                 # per level: dict of S, B and G maps
-    fg_x: np.ndarray
-    fg_y: np.ndarray
-    grouping: np.ndarray
-
-
-def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None) -> RateState:
-    """Run stages 1-9 on an event frame and return every intermediate map."""
+    Returns ``(s_levels, resp1, winner1)``: ``s_levels[l]`` is ``(2*n_ori, h, w)``
+    with ``S[o] = edges * (index == o)``; ``resp1``/``winner1`` are the level-1
+    responses and winning directions.
+    """
     pos = np.asarray(pos, dtype=np.float64)
     neg = np.asarray(neg, dtype=np.float64)
     edges = ((pos != 0) | (neg != 0)).astype(np.float64)
-    n = params.n_ori
-    full = pos.shape
-
     pyr_pos = pyramid(pos, params.levels)
     pyr_neg = pyramid(neg, params.levels)
     pyr_edges = pyramid(edges, params.levels)
-    m_size = von_mises_masks(params)[0].shape[-1]
-
-    lv: list[_Level] = []
+    s_levels = []
     resp1 = winner1 = None
     for l in range(params.levels):
         resp = oriented_responses(pyr_pos[l], pyr_neg[l], params)
         winner, index = orientation_index(resp, params)
         if l == 0:
             resp1, winner1 = resp, winner
-        e = pyr_edges[l]
-        s = np.stack([e * (index == o) for o in range(2 * n)])
-        fshape = _fshape(e.shape, m_size)
+        s_levels.append(pyr_edges[l][None] * (index[None] == np.arange(params.n_dir)[:, None, None]))
+    return s_levels, resp1, winner1
+
+
+@dataclass
+class GroupingResult:
+    """Border-ownership and grouping maps per level after the iterations."""
+
+    s: list     # (2n, h, w) per level
+    bl1: list   # (n, h, w) per level; likewise bl2, bd1, bd2
+    bl2: list
+    bd1: list
+    bd2: list
+    gl: list    # (h, w) per level; likewise gd
+    gd: list
+
+
+def border_ownership_grouping(s_levels, params: ModelParams = ModelParams(), progress=None) -> GroupingResult:
+    """Stages 5-8: iterate grouping cells and feedback on the S pyramid."""
+    n = params.n_ori
+    m_size = von_mises_masks(params)[0].shape[-1]
+    lv: list[_Level] = []
+    for s in s_levels:
+        shape = s.shape[1:]
+        fshape = _fshape(shape, m_size)
         k1, k2 = _vm_hat(float(params.r0), n, fshape)
-        lv.append(_Level(e.shape, fshape, s[:n], s[n:], k1, k2))
+        lv.append(_Level(shape, fshape, s[:n], s[n:], k1, k2))
 
     # Border-ownership state: BL1 = s_lo*f(d1), BD2 = s_lo*f(-d1),
     #                         BL2 = s_hi*f(d2), BD1 = s_hi*f(-d2).
@@ -185,65 +203,104 @@ def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None)
     bd1 = [L.s_hi.copy() for L in lv]
     gl = [np.zeros(L.shape) for L in lv]
     gd = [np.zeros(L.shape) for L in lv]
+    x_levels = [None] * len(lv)
     w = params.w_inh
+
+    def grouping_cells(i):
+        """Stage 7 at level i: GL, GD from the border-ownership maps."""
+        L = lv[i]
+        inhibit = np.array([not _allclose(bl1[i][o], bd2[i][o]) for o in range(n)])
+        iw = np.where(inhibit, w, 0.0)[:, None, None]
+        # Inputs of the four correlations (opposite family subtracted where
+        # inhibiting): gL1 = in_l1 (*) m2, gL2 = in_l2 (*) m1, gD1 = in_d1 (*) m2,
+        # gD2 = in_d2 (*) m1. Two common cases need half the transforms: full
+        # inhibition with w = 1 (in_d2 = -in_l1, in_d1 = -in_l2) and no
+        # inhibition with equal families (the first iteration: in_d2 = in_l1).
+        in_l1 = bl1[i] - iw * bd2[i]
+        in_l2 = bl2[i] - iw * bd1[i]
+        if w == 1.0 and inhibit.all():
+            half = _rfft(np.concatenate([in_l1, in_l2]), L.fshape)
+            f = np.concatenate([half, -half[n:], -half[:n]])
+        elif not inhibit.any() and np.array_equal(bl1[i], bd2[i]) and np.array_equal(bl2[i], bd1[i]):
+            half = _rfft(np.concatenate([in_l1, in_l2]), L.fshape)
+            f = np.concatenate([half, half[n:], half[:n]])
+        else:
+            f = _rfft(np.concatenate([in_l1, in_l2, bd1[i] - iw * bl2[i], bd2[i] - iw * bl1[i]]),
+                      L.fshape)
+        gl_hat = np.sum(f[:n] * L.k2, axis=0) + np.sum(f[n:2 * n] * L.k1, axis=0)
+        gd_hat = np.sum(f[2 * n:3 * n] * L.k2, axis=0) + np.sum(f[3 * n:] * L.k1, axis=0)
+        g = np.maximum(_irfft(np.stack([gl_hat, gd_hat]), L.fshape, L.shape), 0.0)
+        gl[i] = np.where(g[0] > g[1], g[0], 0.0)
+        gd[i] = np.where(g[1] > g[0], g[1], 0.0)
+        # The level's share of stage 8: VL1 - VD2 and VL2 - VD1 before pooling.
+        fg_ = _rfft(np.stack([gl[i], gd[i]]), L.fshape)
+        d1 = fg_[0] * L.k1 - fg_[1] * L.k2      # GL (*) m1 - GD (*) m2
+        d2 = fg_[0] * L.k2 - fg_[1] * L.k1      # GL (*) m2 - GD (*) m1
+        x = _irfft(np.concatenate([d1, d2]), L.fshape, L.shape)
+        x_levels[i] = np.ascontiguousarray(np.moveaxis(x, 0, -1))  # h, w, 2n
+
+    def feedback(i):
+        """Stage 8 at level i: pool the levels k >= i and update the B maps."""
+        L = lv[i]
+        acc = np.zeros(L.shape + (2 * n,))
+        for k in range(i, len(lv)):
+            acc += params.pyramid_decay ** (k - i) * resize(x_levels[k], L.shape, "cubic")
+        acc = np.moveaxis(acc, -1, 0)
+        f1 = _feedback_gain(acc[:n], params.alpha)
+        f2 = _feedback_gain(acc[n:], params.alpha)
+        # f(-z) = 2 - f(z). Clip the product, not the gain: S itself can be
+        # negative at coarse levels (bicubic undershoot of the edge map).
+        bl1[i] = np.maximum(L.s_lo * f1, 0.0)
+        bd2[i] = np.maximum(L.s_lo * (2.0 - f1), 0.0)
+        bl2[i] = np.maximum(L.s_hi * f2, 0.0)
+        bd1[i] = np.maximum(L.s_hi * (2.0 - f2), 0.0)
 
     steps = range(params.iterations)
     if progress is not None:
         steps = progress(steps)
-    for _ in steps:
-        # Stage 7: grouping cells.
-        for i, L in enumerate(lv):
-            inhibit = np.array([not _allclose(bl1[i][o], bd2[i][o]) for o in range(n)])
-            iw = np.where(inhibit, w, 0.0)[:, None, None]
-            f_l1 = _rfft(bl1[i], L.fshape)
-            f_d2 = _rfft(bd2[i], L.fshape)
-            f_l2 = _rfft(bl2[i], L.fshape)
-            f_d1 = _rfft(bd1[i], L.fshape)
-            gl_hat = ((f_l1 - iw * f_d2) * L.k2 + (f_l2 - iw * f_d1) * L.k1).sum(axis=0)
-            gd_hat = ((f_d1 - iw * f_l2) * L.k2 + (f_d2 - iw * f_l1) * L.k1).sum(axis=0)
-            g = _irfft(np.stack([gl_hat, gd_hat]), L.fshape, L.shape)
-            g = np.maximum(g, 0.0)
-            gl[i] = np.where(g[0] > g[1], g[0], 0.0)
-            gd[i] = np.where(g[1] > g[0], g[1], 0.0)
+    # numpy and pocketfft release the GIL: two threads, level 1 (about half
+    # the work) on one, the coarser levels on the other.
+    with ThreadPoolExecutor(max_workers=_THREADS) as pool:
+        for _ in steps:
+            list(pool.map(grouping_cells, range(len(lv))))
+            list(pool.map(feedback, range(len(lv))))
 
-        # Stage 8: feedback, pooled across scales (k >= l, weight decay**(k-l)).
-        x_levels = []
-        for i, L in enumerate(lv):
-            fg_ = _rfft(np.stack([gl[i], gd[i]]), L.fshape)
-            d1 = fg_[0] * L.k1 - fg_[1] * L.k2      # GL*m1 - GD*m2  ->  VL1 - VD2
-            d2 = fg_[0] * L.k2 - fg_[1] * L.k1      # GL*m2 - GD*m1  ->  VL2 - VD1
-            x = _irfft(np.concatenate([d1, d2]), L.fshape, L.shape)
-            x_levels.append(np.ascontiguousarray(np.moveaxis(x, 0, -1)))  # h, w, 2n
-        for i, L in enumerate(lv):
-            acc = np.zeros(L.shape + (2 * n,))
-            for k in range(i, len(lv)):
-                acc += params.pyramid_decay ** (k - i) * resize(x_levels[k], L.shape, "cubic")
-            acc = np.moveaxis(acc, -1, 0)
-            fd1 = _feedback_gain(acc[:n], params.alpha)
-            fd1n = _feedback_gain(-acc[:n], params.alpha)
-            fd2 = _feedback_gain(acc[n:], params.alpha)
-            fd2n = _feedback_gain(-acc[n:], params.alpha)
-            # Clip the product, not the gain: S itself can be negative at coarse
-            # levels (bicubic undershoot of the edge map).
-            bl1[i] = np.maximum(L.s_lo * fd1, 0.0)
-            bd2[i] = np.maximum(L.s_lo * fd1n, 0.0)
-            bl2[i] = np.maximum(L.s_hi * fd2, 0.0)
-            bd1[i] = np.maximum(L.s_hi * fd2n, 0.0)
+    return GroupingResult(list(s_levels), bl1, bl2, bd1, bd2, gl, gd)
 
-    # Stage 9: read-out at level 1.
-    b1 = bl1[0] + bd1[0]
-    b2 = bl2[0] + bd2[0]
+
+def readout(g: GroupingResult, params: ModelParams, full_shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stage 9: level-1 figure-ground field ``(fg_x, fg_y)`` and the grouping map."""
+    n = params.n_ori
+    b1 = g.bl1[0] + g.bd1[0]
+    b2 = g.bl2[0] + g.bd2[0]
     ang = 2 * np.pi * np.arange(n) / (2 * n) - np.pi / 2
     diff = b2 - b1
     fg_x = np.tensordot(np.cos(ang), diff, axes=1)
     fg_y = np.tensordot(np.sin(ang), diff, axes=1)
-    grouping = np.zeros(full)
-    for i in range(len(lv)):
-        grouping += resize(gl[i] + gd[i], full, "linear")
+    grouping = np.zeros(full_shape)
+    for gl, gd in zip(g.gl, g.gd):
+        grouping += resize(gl + gd, full_shape, "linear")
+    return fg_x, fg_y, grouping
 
-    levels = [dict(s_lo=L.s_lo, s_hi=L.s_hi, bl1=bl1[i], bl2=bl2[i], bd1=bd1[i], bd2=bd2[i],
-                   gl=gl[i], gd=gd[i]) for i, L in enumerate(lv)]
-    return RateState(resp1, winner1, levels, fg_x, fg_y, grouping)
+
+@dataclass
+class RateState:
+    """Everything the rate model computed, for inspection and tests."""
+
+    resp: np.ndarray             # level-1 responses (n_dir, H, W)
+    winner: np.ndarray           # level-1 winning direction (H, W)
+    grouping_result: GroupingResult
+    fg_x: np.ndarray
+    fg_y: np.ndarray
+    grouping: np.ndarray
+
+
+def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None) -> RateState:
+    """Run stages 1-9 on an event frame and return every intermediate map."""
+    s_levels, resp1, winner1 = event_simple_cells(pos, neg, params)
+    g = border_ownership_grouping(s_levels, params, progress)
+    fg_x, fg_y, grouping = readout(g, params, np.shape(pos))
+    return RateState(resp1, winner1, g, fg_x, fg_y, grouping)
 
 
 def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None) -> Maps:

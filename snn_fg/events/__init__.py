@@ -1,0 +1,36 @@
+"""Event-camera input for snn-fg.
+
+* :func:`open_recording` / :func:`iter_recording`: read any supported
+  recording (``.es``, ``.raw`` EVT2/EVT3, ``.dat``, ``.aedat4``, N-MNIST
+  ``.bin``, iCub YARP ``data.log``, ``.npy``/``.npz``, or an in-memory
+  structured array) whole or in bounded chunks; see :mod:`snn_fg.events.io`
+  for the format table and which formats stream.
+* :func:`events_to_frame` (model stage 1) and :func:`iter_windows`.
+* :func:`image_to_events` / :func:`image_to_frame`: an ESIM-style simulator
+  for still images under the paper's ``shift4`` motion or the iCub's
+  ``circle`` microsaccade (:mod:`snn_fg.events.esim`).
+* :func:`save_events`: write ``.npy``/``.npz``/EVT2/EVT3/``.es`` atomically.
+"""
+from snn_fg.events._core import EVENT_DTYPE, Recording
+from snn_fg.events.esim import image_to_events, image_to_frame, motion_frames
+from snn_fg.events.io import STREAMING_FORMATS, RecordingStream, detect_format, iter_recording, open_recording
+from snn_fg.events.window import EmptyWindowWarning, EventWindow, events_to_frame, iter_windows
+from snn_fg.events.writers import save_events
+
+__all__ = [
+    "EVENT_DTYPE",
+    "EmptyWindowWarning",
+    "EventWindow",
+    "Recording",
+    "RecordingStream",
+    "STREAMING_FORMATS",
+    "detect_format",
+    "events_to_frame",
+    "image_to_events",
+    "image_to_frame",
+    "iter_recording",
+    "iter_windows",
+    "motion_frames",
+    "open_recording",
+    "save_events",
+]

@@ -1,0 +1,143 @@
+"""Event dtype, the :class:`Recording` container and array validation."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from snn_fg.errors import InputError
+
+#: Structured dtype of every event array this package returns (tonic-style
+#: field names; ``t`` in microseconds; ``p`` is 1 for ON, 0 for OFF).
+EVENT_DTYPE = np.dtype([("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "i1")])
+
+_COORD_MAX = np.iinfo(np.int16).max
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Events of one recording.
+
+    ``events`` has dtype :data:`EVENT_DTYPE`, ``sensor_size`` is ``(W, H, 2)``
+    as in tonic, ``format`` names the decoder used and ``path`` is the source
+    file (``None`` for an in-memory array).
+    """
+
+    events: np.ndarray
+    sensor_size: tuple[int, int, int]
+    format: str
+    path: Path | None = None
+
+    @property
+    def width(self) -> int:
+        return self.sensor_size[0]
+
+    @property
+    def height(self) -> int:
+        return self.sensor_size[1]
+
+    def __len__(self) -> int:
+        return len(self.events)
+
+    @property
+    def duration_us(self) -> int:
+        """Last minus first timestamp (0 for fewer than two events)."""
+        if len(self.events) < 2:
+            return 0
+        return int(self.events["t"][-1]) - int(self.events["t"][0])
+
+
+def empty_events(n: int = 0) -> np.ndarray:
+    return np.zeros(n, dtype=EVENT_DTYPE)
+
+
+def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, int]:
+    """Return ``(W, H, 2)`` from ``(W, H)`` or ``(W, H, 2)``; reject nonsense."""
+    try:
+        vals = tuple(int(v) for v in sensor_size)
+        if any(float(a) != b for a, b in zip(sensor_size, vals)):
+            raise ValueError
+    except (TypeError, ValueError):
+        raise InputError(source, f"sensor size must be (width, height[, 2]) integers, got {sensor_size!r}")
+    if len(vals) == 2:
+        vals = vals + (2,)
+    if len(vals) != 3 or vals[2] != 2 or vals[0] < 1 or vals[1] < 1:
+        raise InputError(source, f"sensor size must be (width, height[, 2]) with positive sizes, got {sensor_size!r}")
+    if vals[0] > _COORD_MAX + 1 or vals[1] > _COORD_MAX + 1:
+        raise InputError(source, f"sensor size {vals[:2]} exceeds the supported {_COORD_MAX + 1} pixels")
+    return vals
+
+
+def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:
+    """Convert a structured array with fields x, y, t, p to :data:`EVENT_DTYPE`.
+
+    ``p`` > 0 becomes ON (1), anything else OFF (0); a boolean ``p`` is kept.
+    Timestamps must be integers (or integral floats) in microseconds.
+    ``offset`` is added to event indices in error messages.
+    """
+    if not isinstance(arr, np.ndarray) or arr.dtype.names is None:
+        raise InputError(source, "expected a structured array with fields x, y, t, p")
+    missing = [f for f in "xytp" if f not in arr.dtype.names]
+    if missing:
+        raise InputError(source, f"structured array lacks field(s) {', '.join(missing)} "
+                                 f"(has {', '.join(arr.dtype.names)})")
+    if arr.ndim != 1:
+        arr = arr.reshape(-1)
+    if arr.dtype == EVENT_DTYPE:
+        return arr
+    out = np.empty(len(arr), dtype=EVENT_DTYPE)
+    for name in "xyt":
+        col = arr[name]
+        if col.dtype.kind not in "iub":
+            if col.dtype.kind != "f":
+                raise InputError(source, f"field {name} has non-numeric dtype {col.dtype}")
+            bad = ~np.isfinite(col) | (col != np.round(col))
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise InputError(source, f"field {name} must hold integers, got {col[i]!r}",
+                                 f"event {i + offset}")
+        lim = (-_COORD_MAX - 1, _COORD_MAX) if name in "xy" else (np.iinfo(np.int64).min, np.iinfo(np.int64).max)
+        if len(col) and col.dtype.kind != "b":
+            bad = (col < lim[0]) | (col > lim[1])
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise InputError(source, f"field {name} value {col[i]!r} is out of range",
+                                 f"event {i + offset}")
+        out[name] = col
+    pcol = arr["p"]
+    if pcol.dtype.kind not in "iubf":
+        raise InputError(source, f"field p has non-numeric dtype {pcol.dtype}")
+    out["p"] = pcol > 0
+    return out
+
+
+def check_in_sensor(events: np.ndarray, sensor_size, source="<array>", offset: int = 0) -> None:
+    """Raise :class:`InputError` naming the first event outside the sensor."""
+    w, h = sensor_size[0], sensor_size[1]
+    if not len(events):
+        return
+    x = events["x"]
+    y = events["y"]
+    bad = (x < 0) | (x >= w) | (y < 0) | (y >= h)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(source, f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the "
+                                 f"{w} x {h} sensor", f"event {i + offset}")
+
+
+def check_monotonic(events: np.ndarray, source="<array>", offset: int = 0, prev_t: int | None = None) -> None:
+    """Raise :class:`InputError` naming the first event whose timestamp goes backwards."""
+    t = events["t"]
+    if not len(t):
+        return
+    if prev_t is not None and t[0] < prev_t:
+        raise InputError(source, f"timestamp goes backwards ({int(t[0])} us after {int(prev_t)} us)",
+                         f"event {offset}")
+    if len(t) > 1:
+        d = np.diff(t)
+        bad = d < 0
+        if bad.any():
+            i = int(np.argmax(bad)) + 1
+            raise InputError(source, f"timestamp goes backwards ({int(t[i])} us after {int(t[i - 1])} us)",
+                             f"event {i + offset}")

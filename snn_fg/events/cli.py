@@ -1,0 +1,145 @@
+"""``snn-fg events``: summarise a recording (or simulate an image) and write frames.
+
+Wire it in with :func:`add_events_command`; the handler raises
+:class:`~snn_fg.errors.InputError` for bad input (the main CLI prints it).
+"""
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+
+import numpy as np
+
+from snn_fg.atomic import save_npz
+from snn_fg.errors import InputError
+
+IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"}
+
+
+def _sensor_size(text):
+    m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)
+    if not m:
+        raise argparse.ArgumentTypeError(f"sensor size must look like 640x480, got {text!r}")
+    return int(m.group(1)), int(m.group(2))
+
+
+def add_events_command(subparsers) -> argparse.ArgumentParser:
+    """Register ``events`` on an ``argparse`` subparsers object; returns the parser."""
+    p = subparsers.add_parser(
+        "events",
+        help="summarise an event recording or simulate one from an image; write event frames",
+        description="Print format, sensor size, event count, time span and rate of an event recording "
+                    "(.es .raw .dat .aedat4 .bin data.log .npy .npz). For an image (png/jpg/...) simulate "
+                    "an event camera (ESIM) under a small motion instead. Optionally write the event frame "
+                    "of one window (.npz with pos, neg, t_start_us, t_end_us) and/or the events.",
+    )
+    p.add_argument("input", metavar="INPUT", help="recording or image file")
+    g = p.add_argument_group("recordings")
+    g.add_argument("--window-ms", type=float, default=85.0, help="window length for --write-frame (default 85)")
+    g.add_argument("--start-ms", type=float, default=0.0,
+                   help="window start, ms after the first event (default 0)")
+    g.add_argument("--sensor-size", type=_sensor_size, default=None, metavar="WxH",
+                   help="sensor size, needed for RAW files without geometry (e.g. 640x480)")
+    g = p.add_argument_group("images (event-camera simulation)")
+    g.add_argument("--threshold", type=float, default=0.10, metavar="C", help="contrast threshold (default 0.10)")
+    g.add_argument("--motion", choices=("shift4", "circle"), default="shift4",
+                   help="shift4: 1-px shift up, right, down, left; circle: iCub microsaccade")
+    g.add_argument("--amplitude-px", type=float, default=1.0, metavar="A", help="motion amplitude (default 1)")
+    g.add_argument("--seed", type=int, default=0, help="seed for threshold noise (default 0)")
+    g.add_argument("--threshold-sigma", type=float, default=0.0,
+                   help="per-pixel threshold noise (std, default 0)")
+    g = p.add_argument_group("outputs")
+    g.add_argument("--write-frame", metavar="OUT.npz", default=None,
+                   help="write the event frame (pos, neg uint8, t_start_us, t_end_us)")
+    g.add_argument("--write-events", metavar="OUT.npy", default=None,
+                   help="write the events (.npy, .npz, .raw EVT2 or .es)")
+    g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run_events, handler=run_events)
+    return p
+
+
+def _summary(lines):
+    width = max(len(k) for k, _ in lines)
+    return "\n".join(f"{k + ':':<{width + 1}} {v}" for k, v in lines)
+
+
+def _span_lines(n, n_on, t_first, t_last):
+    span = (t_last - t_first) if n else 0
+    rate = f"{n / (span / 1e6):,.0f} events/s" if span > 0 else "n/a"
+    on = f" (ON {100 * n_on / n:.1f} %)" if n else ""
+    return [("events", f"{n:,}{on}"),
+            ("time span", f"{span / 1e6:.6f} s ({t_first} us .. {t_last} us)" if n else "n/a"),
+            ("event rate", rate)]
+
+
+def _written_note(out):
+    if Path(out).suffix.lower() == ".npy":
+        return f"{out} (.npy keeps no sensor size: give it when reading, or write .npz)"
+    return str(out)
+
+
+def run_events(args) -> int:
+    """Handler of ``snn-fg events``; prints a summary, returns 0."""
+    from snn_fg.events import image_to_events, iter_recording, iter_windows, save_events
+    from snn_fg.events.window import events_to_frame
+
+    path = Path(args.input)
+    if not path.exists():
+        raise InputError(path, "no such file")
+    for out in (args.write_frame, args.write_events):
+        if out is not None and Path(out).resolve() == path.resolve():
+            raise InputError(out, "output would overwrite the input")
+    if args.write_frame is not None and Path(args.write_frame).suffix.lower() != ".npz":
+        raise InputError(args.write_frame, "--write-frame needs an .npz file name")
+
+    if path.suffix.lower() in IMAGE_SUFFIXES:
+        rec = image_to_events(path, threshold=args.threshold, motion=args.motion,
+                              amplitude_px=args.amplitude_px, seed=args.seed,
+                              threshold_sigma=args.threshold_sigma)
+        ev = rec.events
+        n = len(ev)
+        lines = [("file", str(path)), ("format", f"image, simulated (ESIM, {args.motion}, "
+                                                 f"threshold {args.threshold:g}, amplitude {args.amplitude_px:g} px)"),
+                 ("sensor", f"{rec.sensor_size[0]} x {rec.sensor_size[1]}")]
+        t_first, t_last = (int(ev["t"][0]), int(ev["t"][-1])) if n else (0, 0)
+        lines += _span_lines(n, int((ev["p"] > 0).sum()), t_first, t_last)
+        if args.write_frame:
+            pos, neg = events_to_frame(ev, rec.sensor_size)
+            t_end = t_last + 1 if n else 0
+            save_npz(args.write_frame, pos=pos, neg=neg, t_start_us=np.int64(0), t_end_us=np.int64(t_end))
+            lines.append(("frame written", f"{args.write_frame} (whole motion, {int(pos.sum())} ON, "
+                                           f"{int(neg.sum())} OFF pixels)"))
+        if args.write_events:
+            save_events(args.write_events, ev, rec.sensor_size)
+            lines.append(("events written", _written_note(args.write_events)))
+        print(_summary(lines))
+        return 0
+
+    stream = iter_recording(path, sensor_size=args.sensor_size, progress=not args.no_progress)
+    n = n_on = 0
+    t_first = t_last = None
+    for chunk in stream:
+        n += len(chunk)
+        n_on += int((chunk["p"] > 0).sum())
+        if t_first is None:
+            t_first = int(chunk["t"][0])
+        t_last = int(chunk["t"][-1])
+    lines = [("file", str(path)), ("format", f"{stream.format}" + ("" if stream.streams else " (read whole)")),
+             ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}")]
+    lines += _span_lines(n, n_on, t_first or 0, t_last or 0)
+    if args.write_frame:
+        w = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
+        save_npz(args.write_frame, pos=w.pos, neg=w.neg, t_start_us=np.int64(w.t_start_us),
+                 t_end_us=np.int64(w.t_end_us))
+        lines.append(("frame written", f"{args.write_frame} (window {w.t_start_us}..{w.t_end_us} us, "
+                                       f"{len(w.events):,} events, {int(w.pos.sum())} ON, "
+                                       f"{int(w.neg.sum())} OFF pixels)"))
+    if args.write_events:
+        from snn_fg.events import open_recording
+
+        rec = open_recording(stream)
+        save_events(args.write_events, rec.events, rec.sensor_size)
+        lines.append(("events written", _written_note(args.write_events)))
+    print(_summary(lines))
+    return 0

@@ -1,0 +1,263 @@
+"""ESIM-style event-camera simulator for still images moved by a small motion.
+
+Model (after Rebecq et al. 2018, "ESIM: an open event camera simulator"):
+
+* Intensities are scaled to [0, 1] (uint8 / 255, uint16 / 65535; floats
+  must already lie in [0, 1]; RGB is converted to grey with the BT.601
+  weights 0.299, 0.587, 0.114) and the simulator works on
+  ``L = log(I + eps)`` with ``eps = 1e-3`` (:data:`LOG_EPS`), so that black
+  pixels have a finite log intensity.
+* Each pixel keeps a reference level, initialised to ``L`` of the first
+  frame.  Between two frames ``L`` is interpolated linearly in time; every
+  time it crosses ``ref + C_on`` (ON) or ``ref - C_off`` (OFF) an event is
+  emitted at the interpolated crossing time and the reference moves by one
+  threshold, so one interval can produce several events per pixel.
+* Thresholds default to 0.10 for both polarities; ``threshold_sigma`` adds
+  per-pixel Gaussian noise to them (drawn once, from ``seed``; clipped below
+  at 0.01).
+* ``refractory_us``: an event closer than this to the previous *emitted*
+  event of the same pixel is dropped (the reference still moves, as in ESIM).
+* Timestamps are integer microseconds: a crossing at fraction ``f`` of an
+  interval ``(t0, t1]`` is stamped ``t0 + ceil(f * (t1 - t0))``.  Events are
+  sorted by time, then by pixel (row-major), so output is deterministic.
+
+Motions (see :func:`motion_frames`): ``shift4`` moves the image content by one
+pixel up, right, down and left, back to the start (5 frames); ``circle`` is the
+iCub's circular microsaccade, 72 positions on a circle of radius
+``amplitude_px`` (default 1 px) around the original position, visited in
+order and returning to the first (73 frames).  Frames are
+``frame_interval_us`` apart (default 5000 us for both).  Shifted frames
+replicate the edge pixels instead of wrapping around (so image borders
+do not produce spurious events); integer shifts are exact, sub-pixel
+positions use bilinear interpolation (``cv2.warpAffine``, ``INTER_LINEAR``,
+``BORDER_REPLICATE``).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from snn_fg.errors import InputError, ParameterError
+from snn_fg.events._core import EVENT_DTYPE, Recording
+
+#: eps in ``log(I + eps)``, intensities in [0, 1].
+LOG_EPS = 1e-3
+#: Smallest contrast threshold kept after adding threshold noise.
+MIN_THRESHOLD = 0.01
+MOTIONS = ("shift4", "circle")
+_GREY_WEIGHTS = np.array([0.299, 0.587, 0.114])
+_IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"}
+
+
+def load_image(path) -> np.ndarray:
+    """Read an image file as grey float64 in [0, 1]."""
+    import cv2
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "no such file")
+    data = np.fromfile(path, dtype=np.uint8)
+    img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if len(data) else None
+    if img is None:
+        raise InputError(path, "not a readable image (OpenCV could not decode it)")
+    if img.ndim == 3:
+        if img.shape[2] == 4:
+            img = img[:, :, :3]
+        img = img[:, :, ::-1]  # OpenCV decodes to BGR
+    return to_grey(img, path)
+
+
+def to_grey(image, source="<image>") -> np.ndarray:
+    """Return a grey float64 copy of ``image`` scaled to [0, 1].
+
+    ``image`` is H x W, H x W x 1, H x W x 3 (RGB) or H x W x 4 (RGBA, alpha
+    ignored); uint8 is divided by 255, uint16 by 65535, other integer
+    types must hold 0..255, floats must lie in [0, 1], bool maps to 0/1.
+    """
+    if isinstance(image, (str, Path)):
+        return load_image(image)
+    try:
+        img = np.asarray(image)
+    except Exception as exc:  # ragged lists and the like
+        raise InputError(source, f"not an image array ({exc})")
+    if img.ndim == 3 and img.shape[2] in (1, 3, 4):
+        pass
+    elif img.ndim != 2:
+        raise InputError(source, f"image must be H x W or H x W x 3, got shape {img.shape}")
+    if img.shape[0] < 1 or img.shape[1] < 1:
+        raise InputError(source, f"image is empty (shape {img.shape})")
+    if img.shape[0] > 32767 or img.shape[1] > 32767:
+        raise InputError(source, f"image {img.shape[:2]} is larger than the 32767-pixel event coordinates allow")
+    kind = img.dtype.kind
+    if kind == "b":
+        f = img.astype(np.float64)
+    elif img.dtype == np.uint8:
+        f = img.astype(np.float64) / 255.0
+    elif img.dtype == np.uint16:
+        f = img.astype(np.float64) / 65535.0
+    elif kind in "iu":
+        if img.size and (img.min() < 0 or img.max() > 255):
+            raise InputError(source, f"integer image of dtype {img.dtype} must hold values 0..255 "
+                                     f"(found {img.min()}..{img.max()})")
+        f = img.astype(np.float64) / 255.0
+    elif kind == "f":
+        f = img.astype(np.float64)
+        if not np.isfinite(f).all():
+            raise InputError(source, "image contains NaN or infinite values")
+        if f.size and (f.min() < -1e-6 or f.max() > 1.0 + 1e-6):
+            raise InputError(source, f"float image must lie in [0, 1] (found {f.min():g}..{f.max():g})")
+        f = np.clip(f, 0.0, 1.0)  # round-off of a weighted grey conversion may overshoot 1 slightly
+    else:
+        raise InputError(source, f"unsupported image dtype {img.dtype}")
+    if f.ndim == 3:
+        if f.shape[2] == 1:
+            f = f[:, :, 0]
+        else:
+            f = np.clip(f[:, :, :3] @ _GREY_WEIGHTS, 0.0, 1.0)
+    return np.ascontiguousarray(f)
+
+
+def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """Move image content by ``(dx, dy)`` pixels (right, down), replicating edges."""
+    if dx == int(dx) and dy == int(dy):
+        dx, dy = int(dx), int(dy)
+        h, w = img.shape
+        ys = np.clip(np.arange(h) - dy, 0, h - 1)
+        xs = np.clip(np.arange(w) - dx, 0, w - 1)
+        return img[np.ix_(ys, xs)]
+    import cv2
+
+    m = np.array([[1.0, 0.0, dx], [0.0, 1.0, dy]])
+    return cv2.warpAffine(img, m, (img.shape[1], img.shape[0]), flags=cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REPLICATE)
+
+
+def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndarray:
+    """Image offsets ``(dx, dy)`` (pixels; +x right, +y down) of each frame."""
+    if motion == "shift4":
+        if amplitude_px != 1.0 and (amplitude_px != int(amplitude_px) or amplitude_px <= 0):
+            raise ParameterError(f"amplitude_px for shift4 must be a positive integer, got {amplitude_px}")
+        a = float(amplitude_px)
+        return np.array([(0, 0), (0, -a), (a, -a), (a, 0), (0, 0)], dtype=np.float64)
+    if motion == "circle":
+        if not (amplitude_px > 0 and math.isfinite(amplitude_px)):
+            raise ParameterError(f"amplitude_px must be positive, got {amplitude_px}")
+        k = np.arange(73) % 72
+        ang = 2 * np.pi * k / 72
+        off = np.stack([amplitude_px * np.cos(ang), amplitude_px * np.sin(ang)], axis=1)
+        return np.round(off, 12)  # exact integers where the circle meets the axes
+    raise ParameterError(f"motion must be one of {', '.join(MOTIONS)}, got {motion!r}")
+
+
+def motion_frames(image, motion: str = "shift4", amplitude_px: float = 1.0,
+                  frame_interval_us: int = 5000):
+    """Return ``(frames, times_us)``: grey frames (N x H x W float64) and their times."""
+    img = to_grey(image)
+    if int(frame_interval_us) != frame_interval_us or frame_interval_us < 1:
+        raise ParameterError(f"frame_interval_us must be a positive integer, got {frame_interval_us}")
+    offs = motion_offsets(motion, amplitude_px)
+    frames = np.stack([shift_image(img, dx, dy) for dx, dy in offs])
+    times = np.arange(len(offs), dtype=np.int64) * int(frame_interval_us)
+    return frames, times
+
+
+def _thresholds(value, sigma, shape, rng, name):
+    if not (value > 0 and math.isfinite(value)):
+        raise ParameterError(f"{name} must be positive, got {value}")
+    if sigma == 0:
+        return np.full(shape, float(value))
+    return np.maximum(value + sigma * rng.standard_normal(shape), MIN_THRESHOLD)
+
+
+def simulate_frames(frames, times_us, threshold_on=0.10, threshold_off=None, threshold_sigma=0.0,
+                    seed=0, refractory_us=0, eps=LOG_EPS) -> np.ndarray:
+    """Simulate events from grey frames in [0, 1] (N x H x W) at ``times_us``."""
+    frames = np.asarray(frames, dtype=np.float64)
+    times = np.asarray(times_us, dtype=np.int64)
+    if frames.ndim != 3 or len(frames) != len(times) or len(frames) < 1:
+        raise ParameterError("frames must be N x H x W with one time per frame")
+    if len(times) > 1 and (np.diff(times) <= 0).any():
+        raise ParameterError("frame times must increase strictly")
+    if not (threshold_sigma >= 0 and math.isfinite(threshold_sigma)):
+        raise ParameterError(f"threshold_sigma must be >= 0, got {threshold_sigma}")
+    if not (refractory_us >= 0):
+        raise ParameterError(f"refractory_us must be >= 0, got {refractory_us}")
+    if not (eps > 0):
+        raise ParameterError(f"eps must be positive, got {eps}")
+    threshold_off = threshold_on if threshold_off is None else threshold_off
+    _, h, w = frames.shape
+    rng = np.random.default_rng(seed)
+    c_on = _thresholds(threshold_on, threshold_sigma, h * w, rng, "threshold_on")
+    c_off = _thresholds(threshold_off, threshold_sigma, h * w, rng, "threshold_off")
+
+    logs = np.log(frames.reshape(len(frames), -1) + eps)
+    ref = logs[0].copy()
+    last_t = np.full(h * w, np.iinfo(np.int64).min // 2)
+    chunks_idx, chunks_t, chunks_p = [], [], []
+    for i in range(1, len(frames)):
+        l0, l1 = logs[i - 1], logs[i]
+        t0, dt = int(times[i - 1]), int(times[i] - times[i - 1])
+        for sign, c in ((1, c_on), (-1, c_off)):
+            n = np.floor(sign * (l1 - ref) / c).astype(np.int64)
+            # a crossing needs L to move that way in this interval; this also
+            # drops float round-off "crossings" where L stands still
+            pix = np.flatnonzero((n > 0) & (sign * (l1 - l0) > 0))
+            if not len(pix):
+                continue
+            n_p, c_p, ref_p = n[pix], c[pix], ref[pix]
+            d_p = l1[pix] - l0[pix]
+            for k in range(1, int(n_p.max()) + 1):
+                sel = n_p >= k
+                px = pix[sel]
+                level = ref_p[sel] + sign * k * c_p[sel]
+                frac = np.clip((level - l0[px]) / d_p[sel], 0.0, 1.0)
+                t = t0 + np.clip(np.ceil(frac * dt).astype(np.int64), 1, dt)
+                if refractory_us:
+                    keep = t - last_t[px] >= refractory_us
+                    px, t = px[keep], t[keep]
+                last_t[px] = t
+                chunks_idx.append(px)
+                chunks_t.append(t)
+                chunks_p.append(np.full(len(px), sign > 0, dtype=np.int8))
+            ref[pix] = ref_p + sign * n_p * c_p
+    if not chunks_idx:
+        return np.zeros(0, dtype=EVENT_DTYPE)
+    idx = np.concatenate(chunks_idx)
+    t = np.concatenate(chunks_t)
+    p = np.concatenate(chunks_p)
+    order = np.lexsort((np.arange(len(t)), idx, t))
+    ev = np.empty(len(t), dtype=EVENT_DTYPE)
+    ev["x"] = idx[order] % w
+    ev["y"] = idx[order] // w
+    ev["t"] = t[order]
+    ev["p"] = p[order]
+    return ev
+
+
+def image_to_events(image, threshold: float = 0.10, motion: str = "shift4", amplitude_px: float = 1.0,
+                    threshold_off: float | None = None, threshold_sigma: float = 0.0, seed: int = 0,
+                    refractory_us: int = 0, frame_interval_us: int = 5000,
+                    eps: float = LOG_EPS) -> Recording:
+    """Simulate an event camera looking at ``image`` under ``motion``.
+
+    ``image`` is an array (see :func:`to_grey`) or an image file path.
+    ``threshold`` is the ON threshold (and the OFF one unless
+    ``threshold_off`` is given).  Returns a :class:`Recording` with
+    ``format="esim"``: ``.events`` (tonic-style structured array) and
+    ``.sensor_size`` ``(W, H, 2)``.  Deterministic for a given ``seed``.
+    """
+    src = Path(image) if isinstance(image, (str, Path)) else None
+    frames, times = motion_frames(image, motion, amplitude_px, frame_interval_us)
+    ev = simulate_frames(frames, times, threshold, threshold_off, threshold_sigma, seed, refractory_us, eps)
+    h, w = frames.shape[1:]
+    return Recording(events=ev, sensor_size=(int(w), int(h), 2), format="esim", path=src)
+
+
+def image_to_frame(image, threshold: float = 0.10, motion: str = "shift4", **kwargs):
+    """``(pos, neg)`` event frame of the simulated events (whole motion = one window)."""
+    from snn_fg.events.window import events_to_frame
+
+    rec = image_to_events(image, threshold=threshold, motion=motion, **kwargs)
+    return events_to_frame(rec.events, rec.sensor_size)

@@ -1,0 +1,180 @@
+"""Stage 1 of the model: event frames, and cutting a recording into time windows."""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from snn_fg.errors import InputError, ParameterError
+from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, check_sensor_size
+
+
+def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
+    """Return ``(pos, neg)``, uint8 ``H x W`` event frames (model.md stage 1).
+
+    Each pixel keeps the polarity of its last event: ``pos`` is 1 where that
+    event was ON, ``neg`` where it was OFF; pixels without events are 0 in
+    both (``edges = pos | neg``).  "Last" means latest timestamp; among equal
+    timestamps the later one in the array wins.  Events outside the sensor
+    raise :class:`~snn_fg.errors.InputError` naming the event index.
+    """
+    w, h, _ = check_sensor_size(sensor_size)
+    ev = as_events(events, source, offset)
+    check_in_sensor(ev, (w, h), source, offset)
+    pos = np.zeros(h * w, dtype=np.uint8)
+    neg = np.zeros(h * w, dtype=np.uint8)
+    if len(ev):
+        t = ev["t"]
+        if len(t) > 1 and (np.diff(t) < 0).any():
+            ev = ev[np.argsort(t, kind="stable")]
+        idx = ev["y"].astype(np.int64) * w + ev["x"].astype(np.int64)
+        # last occurrence of each pixel = first occurrence in the reversed array
+        uniq, first_rev = np.unique(idx[::-1], return_index=True)
+        last_p = ev["p"][::-1][first_rev] > 0
+        pos[uniq[last_p]] = 1
+        neg[uniq[~last_p]] = 1
+    return pos.reshape(h, w), neg.reshape(h, w)
+
+
+class EmptyWindowWarning(UserWarning):
+    """A time window contained no events; its frames are all zero."""
+
+
+@dataclass(frozen=True)
+class EventWindow:
+    """One time window ``[t_start_us, t_end_us)`` and its event frame.
+
+    ``events`` are the window's events (after the optional denoise and
+    refractory filters); ``pos``/``neg`` come from :func:`events_to_frame`.
+    """
+
+    index: int
+    t_start_us: int
+    t_end_us: int
+    events: np.ndarray
+    pos: np.ndarray
+    neg: np.ndarray
+
+    @property
+    def edges(self) -> np.ndarray:
+        """1 where any event fired (model.md stage 1)."""
+        return self.pos | self.neg
+
+
+def _filter(events, denoise_us, refractory_us):
+    if len(events) and denoise_us:
+        from tonic.transforms import Denoise
+
+        events = Denoise(filter_time=denoise_us)(events)
+    if len(events) and refractory_us:
+        from tonic.transforms import RefractoryPeriod
+
+        events = RefractoryPeriod(delta=refractory_us)(events)
+    return events
+
+
+def _check_ms(name, value, positive=True, allow_none=False):
+    if value is None and allow_none:
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number of milliseconds, got {value!r}")
+    if not np.isfinite(v) or (v <= 0 if positive else v < 0):
+        raise ParameterError(f"{name} must be {'positive' if positive else 'non-negative'}, got {value!r}")
+    us = round(v * 1000)
+    if positive and us < 1:
+        raise ParameterError(f"{name} must be at least 0.001 ms (1 us), got {value!r}")
+    return int(us)
+
+
+def iter_windows(recording_or_path, window_ms: float = 85, start_ms: float = 0, stride_ms: float | None = None,
+                 max_windows: int | None = None, denoise_us: int | None = None, refractory_us: int | None = None,
+                 sensor_size=None, chunk_events: int = 1_000_000, **options):
+    """Cut a recording into time windows and yield :class:`EventWindow` s.
+
+    Window ``k`` covers ``[t0 + start + k * stride, ... + window)`` where ``t0``
+    is the recording's first timestamp, ``stride`` defaults to the window
+    length (no overlap; a stride longer than the window skips time).  The
+    recording is read chunk by chunk (:func:`iter_recording`), so memory is
+    bounded by one window plus one chunk, not by the file.
+
+    * Windows continue until one contains the last event; a window longer
+      than the recording yields one window holding everything after the start.
+    * An empty window (a pause in the recording) is yielded with all-zero
+      frames and an :class:`EmptyWindowWarning`.
+    * Timestamps must not go backwards: that is an InputError naming the
+      event index (we do not sort, since sorting needs the whole file).
+    * Events outside the sensor are an InputError naming the event index.
+    * ``denoise_us`` / ``refractory_us`` apply tonic's ``Denoise`` /
+      ``RefractoryPeriod`` to each window's events separately (no state is
+      carried across windows).  Their semantics are tonic's: Denoise keeps an
+      event if a 4-neighbour fired within ``denoise_us`` *before* it (and keeps
+      every event with ``t < denoise_us``); RefractoryPeriod drops an event
+      closer than ``refractory_us`` to the pixel's previous event, dropped or
+      not (and drops an event at ``t == 0``).  Both loop in Python (~1 us per
+      event).
+    * A recording without events, or a start after its last event, is an
+      InputError.
+    """
+    from snn_fg.events.io import iter_recording
+
+    win = _check_ms("window_ms", window_ms)
+    start = _check_ms("start_ms", start_ms, positive=False)
+    stride = win if stride_ms is None else _check_ms("stride_ms", stride_ms)
+    if max_windows is not None and (not isinstance(max_windows, (int, np.integer)) or max_windows < 1):
+        raise ParameterError(f"max_windows must be a positive integer, got {max_windows!r}")
+    for name, v in (("denoise_us", denoise_us), ("refractory_us", refractory_us)):
+        if v is not None and (not isinstance(v, (int, float, np.number)) or not np.isfinite(v) or v < 0):
+            raise ParameterError(f"{name} must be a non-negative number of microseconds, got {v!r}")
+    stream = iter_recording(recording_or_path, chunk_events=chunk_events, sensor_size=sensor_size, **options)
+    size = stream.sensor_size
+    name = stream.path if stream.path is not None else "<array>"
+
+    buf = np.zeros(0, dtype=EVENT_DTYPE)
+    t0 = None
+    w_start = w_end = None
+    k = 0
+    seen = 0
+    prev_t = None
+
+    def emit(events, ws, we):
+        nonlocal k
+        ev = _filter(events, denoise_us, refractory_us)
+        if not len(ev):
+            warnings.warn(f"{name}: window {k} [{ws} us, {we} us) has no events; its frames are all zero",
+                          EmptyWindowWarning, stacklevel=3)
+        pos, neg = events_to_frame(ev, size)
+        out = EventWindow(index=k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg)
+        k += 1
+        return out
+
+    for chunk in stream:
+        check_monotonic(chunk, name, offset=seen, prev_t=prev_t)
+        seen += len(chunk)
+        prev_t = int(chunk["t"][-1])
+        if t0 is None:
+            t0 = int(chunk["t"][0])
+            w_start = t0 + start
+            w_end = w_start + win
+        buf = np.concatenate([buf, chunk[chunk["t"] >= w_start]]) if len(buf) else chunk[chunk["t"] >= w_start]
+        # every window that ends at or before the newest timestamp is complete
+        while prev_t >= w_end:
+            cut = int(np.searchsorted(buf["t"], w_end, side="left"))
+            yield emit(buf[:cut], w_start, w_end)
+            if max_windows is not None and k >= max_windows:
+                return
+            w_start += stride
+            w_end = w_start + win
+            keep_from = int(np.searchsorted(buf["t"], w_start, side="left"))
+            buf = buf[keep_from:]
+    if t0 is None:
+        raise InputError(name, "recording contains no events")
+    if w_start > prev_t:
+        if k == 0:
+            raise InputError(name, f"start_ms={start_ms} lies after the last event "
+                                   f"({(prev_t - t0) / 1000:g} ms after the first)")
+        return
+    yield emit(buf, w_start, w_end)
+

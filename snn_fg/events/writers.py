@@ -1,0 +1,131 @@
+"""Writers for event arrays: ``.npy``, ``.npz``, Prophesee EVT2/EVT3 ``.raw`` and
+Event Stream ``.es``.  Every file is written atomically (complete or absent)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from snn_fg.atomic import atomic_path
+from snn_fg.errors import InputError
+from snn_fg.events._core import as_events, check_in_sensor, check_monotonic, check_sensor_size
+
+
+def _prepare(events, sensor_size, need_sorted=False, need_nonneg_t=False):
+    ev = as_events(events)
+    size = check_sensor_size(sensor_size)
+    check_in_sensor(ev, size)
+    if need_sorted:
+        check_monotonic(ev)
+    if need_nonneg_t and len(ev) and ev["t"][0] < 0:
+        raise InputError("<array>", "this format cannot store negative timestamps", "event 0")
+    return ev, size
+
+
+def encode_evt2(events, sensor_size) -> bytes:
+    """EVT 2.0 bytes (header with geometry + 32-bit words); events sorted by time."""
+    ev, (w, h, _) = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    if w > 2048 or h > 2048:
+        raise InputError("<array>", "EVT2 stores at most 2048 x 2048 pixels")
+    hdr = f"% evt 2.0\n% format EVT2;height={h};width={w}\n% geometry {w}x{h}\n% end\n".encode()
+    t = ev["t"].astype(np.int64)
+    th = t >> 6
+    if len(t) and th[-1] >= (1 << 28):
+        raise InputError("<array>", "timestamps beyond 2**34 us do not fit EVT2's counter")
+    new_th = np.ones(len(t), dtype=bool)
+    new_th[1:] = th[1:] != th[:-1]
+    cd = ((ev["p"].astype(np.uint32) & 1) << 28) | ((t & 63).astype(np.uint32) << 22) | \
+         (ev["x"].astype(np.uint32) << 11) | ev["y"].astype(np.uint32)
+    thw = (np.uint32(0x8) << np.uint32(28)) | th.astype(np.uint32)
+    slots = np.stack([thw, cd], axis=1)
+    keep = np.stack([new_th, np.ones(len(t), dtype=bool)], axis=1)
+    return hdr + slots[keep].astype("<u4").tobytes()
+
+
+def encode_evt3(events, sensor_size) -> bytes:
+    """EVT 3.0 bytes using single-event words (no vectors); events sorted by time."""
+    ev, (w, h, _) = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    if w > 2048 or h > 2048:
+        raise InputError("<array>", "EVT3 stores at most 2048 x 2048 pixels")
+    hdr = f"% evt 3.0\n% format EVT3;height={h};width={w}\n% geometry {w}x{h}\n% end\n".encode()
+    t = ev["t"].astype(np.int64)
+    hi = (t >> 12) & 0xFFF
+    lo = t & 0xFFF
+    blk = t >> 12
+    n = len(t)
+    new_hi = np.ones(n, dtype=bool)
+    new_hi[1:] = blk[1:] != blk[:-1]
+    new_lo = new_hi.copy()
+    new_lo[1:] |= lo[1:] != lo[:-1]
+    y = ev["y"].astype(np.int64)
+    new_y = np.ones(n, dtype=bool)
+    new_y[1:] = y[1:] != y[:-1]
+    slots = np.stack([0x8000 | hi, 0x6000 | lo, y,
+                      0x2000 | (ev["p"].astype(np.int64) << 11) | ev["x"].astype(np.int64)], axis=1)
+    keep = np.stack([new_hi, new_lo, new_y, np.ones(n, dtype=bool)], axis=1)
+    # a block of 2**24 us skipped entirely would look like no wrap: add TIME_HIGH words in between
+    if n > 1 and (np.diff(blk) >= 4096).any():
+        raise InputError("<array>", "gaps of 2**24 us or more cannot be stored in EVT3")
+    return hdr + slots[keep].astype("<u2").tobytes()
+
+
+def encode_es(events, sensor_size) -> bytes:
+    """Event Stream 2.0.0 DVS bytes; events sorted by time, first timestamp >= 0."""
+    ev, (w, h, _) = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    if w > 65535 or h > 65535:
+        raise InputError("<array>", "Event Stream stores at most 65535 x 65535 pixels")
+    hdr = b"Event Stream" + bytes([2, 0, 0, 1]) + np.array([w, h], dtype="<u2").tobytes()
+    t = ev["t"].astype(np.int64)
+    delta = np.diff(np.concatenate([[0], t]))
+    n_over = delta // 127
+    rem = delta % 127
+    rec = np.empty((len(t), 5), dtype=np.uint8)
+    rec[:, 0] = (rem << 1) | (ev["p"] & 1)
+    x = ev["x"].astype(np.uint16)
+    y = ev["y"].astype(np.uint16)
+    rec[:, 1] = x & 0xFF
+    rec[:, 2] = x >> 8
+    rec[:, 3] = y & 0xFF
+    rec[:, 4] = y >> 8
+    total = int(n_over.sum()) + 5 * len(t)
+    out = np.full(total, 0xFF, dtype=np.uint8)
+    starts = np.cumsum(n_over + 5) - 5  # start of each event's 5 bytes
+    idx = (starts[:, None] + np.arange(5)[None, :]).ravel()
+    out[idx] = rec.ravel()
+    return hdr + out.tobytes()
+
+
+def save_events(path, events, sensor_size, encoding: str | None = None) -> Path:
+    """Write ``events`` to ``path``; the format follows the extension.
+
+    ``.npy``: the structured array (dtype :data:`EVENT_DTYPE`); ``.npz``:
+    ``events`` plus ``sensor_size``; ``.raw``: Prophesee EVT2 (default) or
+    ``encoding="evt3"``; ``.es``: Event Stream 2.0 DVS.  Binary formats need
+    time-sorted events.  The write is atomic.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    ev, size = _prepare(events, sensor_size)
+    if suffix == ".npy":
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as fh:
+                np.save(fh, ev, allow_pickle=False)
+    elif suffix == ".npz":
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, events=ev, sensor_size=np.array(size, dtype=np.int64))
+    elif suffix == ".raw":
+        enc = (encoding or "evt2").lower()
+        if enc not in ("evt2", "evt3"):
+            raise InputError(path, f"unknown RAW encoding {encoding!r} (use 'evt2' or 'evt3')")
+        data = encode_evt2(ev, size) if enc == "evt2" else encode_evt3(ev, size)
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(data)
+    elif suffix == ".es":
+        data = encode_es(ev, size)
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(data)
+    else:
+        raise InputError(path, f"cannot write events as '{suffix or '(no extension)'}' "
+                               "(use .npy, .npz, .raw or .es)")
+    return path

@@ -1,0 +1,120 @@
+"""What ``snn-fg run INPUT`` accepts, checked before any model runs.
+
+* ``demo`` - the built-in synthetic scene (:func:`snn_fg.scenes.demo`);
+* an event frame ``.npz`` holding ``pos`` and ``neg`` (uint8 or bool, H x W, 0/1);
+* an image file (png, jpg, bmp, tif);
+* an event recording in any format :mod:`snn_fg.events` reads.
+
+Every problem raises :class:`~snn_fg.errors.InputError` naming the file.
+"""
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
+
+
+def input_kind(spec: str) -> str:
+    """One of ``demo``, ``frame``, ``image``, ``recording``."""
+    if spec == "demo":
+        return "demo"
+    path = Path(spec)
+    if not path.exists():
+        raise InputError(path, "no such file (INPUT is an .npz event frame, an image, a recording or 'demo')")
+    if path.is_dir():
+        raise InputError(path, "is a folder, not a file")
+    suffix = path.suffix.lower()
+    if suffix in IMAGE_SUFFIXES:
+        return "image"
+    if suffix == ".npz":
+        try:
+            with np.load(path, allow_pickle=False) as d:
+                if "pos" in d.files or "neg" in d.files:
+                    return "frame"
+        except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
+            raise InputError(path, f"not a readable .npz archive ({exc})") from None
+    return "recording"
+
+
+def _check_binary(path, key, a) -> np.ndarray:
+    if a.ndim != 2:
+        raise InputError(path, f"'{key}' must be a 2-D H x W array, got shape {a.shape}")
+    if a.dtype.kind == "f":
+        bad = ~np.isfinite(a)
+        if bad.any():
+            r, c = np.argwhere(bad)[0]
+            raise InputError(path, f"'{key}' contains NaN or infinite values", f"pixel row {r}, column {c}")
+    if a.dtype != np.uint8 and a.dtype != np.bool_:
+        raise InputError(path, f"'{key}' has dtype {a.dtype}; an event frame needs uint8 (or bool) 0/1 values")
+    if a.dtype == np.uint8 and a.max(initial=0) > 1:
+        r, c = np.argwhere(a > 1)[0]
+        raise InputError(path, f"'{key}' holds values other than 0 and 1 (max {a.max()})", f"pixel row {r}, column {c}")
+    return a.astype(np.uint8)
+
+
+def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
+    """``(pos, neg)`` from an ``.npz`` event frame, validated."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as d:
+            missing = [k for k in ("pos", "neg") if k not in d.files]
+            if missing:
+                raise InputError(path, f"event frame lacks key(s) {', '.join(missing)} "
+                                       f"(found: {', '.join(d.files) or 'nothing'})")
+            pos, neg = d["pos"], d["neg"]
+    except InputError:
+        raise
+    except FileNotFoundError:
+        raise InputError(path, "no such file") from None
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
+        raise InputError(path, f"cannot read the .npz archive ({exc})") from None
+    pos = _check_binary(path, "pos", pos)
+    neg = _check_binary(path, "neg", neg)
+    if pos.shape != neg.shape:
+        raise InputError(path, f"'pos' and 'neg' differ in shape: {pos.shape} vs {neg.shape}")
+    if min(pos.shape) < 2:
+        raise InputError(path, f"frame of shape {pos.shape} is too small")
+    if not (pos.any() or neg.any()):
+        raise InputError(path, "the event frame is empty: no pixel has an event")
+    both = (pos > 0) & (neg > 0)
+    if both.any():
+        r, c = np.argwhere(both)[0]
+        raise InputError(path, "a pixel is both ON and OFF; stage 1 keeps only the last event's polarity",
+                         f"pixel row {r}, column {c}")
+    return pos, neg
+
+
+def load_image(path, grey: bool = True) -> np.ndarray:
+    """Image as float64 in [0, 1]: (H, W) grey, or (H, W, 3) RGB if ``grey=False``."""
+    import cv2
+
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "no such file")
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise InputError(path, "not a readable image (corrupt, or not the format its extension says)")
+    if img.dtype == np.uint8:
+        img = img.astype(np.float64) / 255.0
+    elif img.dtype == np.uint16:
+        img = img.astype(np.float64) / 65535.0
+    else:
+        img = img.astype(np.float64)
+        if not np.isfinite(img).all():
+            raise InputError(path, "image contains NaN or infinite values")
+        lo, hi = img.min(), img.max()
+        img = (img - lo) / (hi - lo) if hi > lo else np.zeros_like(img)
+    if img.ndim == 3:
+        img = img[..., :3][..., ::-1]  # BGR(A) -> RGB
+        if img.shape[2] == 1:
+            img = img[..., 0]
+    if min(img.shape[:2]) < 8:
+        raise InputError(path, f"image of size {img.shape[1]} x {img.shape[0]} is too small (min 8 x 8)")
+    if grey and img.ndim == 3:
+        img = img @ np.array([0.299, 0.587, 0.114])
+    return img

@@ -1,0 +1,344 @@
+"""Readers: shared real recordings, round trips, spec-encoded synthetic files, mislabelled files."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from snn_fg.errors import InputError
+from snn_fg.events import (EVENT_DTYPE, Recording, detect_format, iter_recording, open_recording, save_events)
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared"
+EVENTS = SHARED / "data" / "events"
+needs_shared = pytest.mark.skipif(not EVENTS.is_dir(), reason="../shared/data/events is absent (fresh clone)")
+
+
+def random_events(n=2000, w=64, h=48, t_max=200_000, seed=0):
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = np.sort(rng.integers(0, t_max, n))
+    ev["x"] = rng.integers(0, w, n)
+    ev["y"] = rng.integers(0, h, n)
+    ev["p"] = rng.integers(0, 2, n)
+    return ev
+
+
+# ------------------------------------------------------------------ shared recordings (README table)
+README_TABLE = [
+    # file, sensor (W, H), span s (1 decimal or 2 decimals as printed), events, extra kwargs
+    ("dvs.es", (320, 240), 1.0, 473_225, {}),
+    ("tonic_sample_person.aedat4", (320, 240), 0.59, 111_954, {}),
+    ("expelliarmus_evt2_spinner.raw", (640, 480), 0.050, 539_481, {"sensor_size": (640, 480)}),
+    ("tonic_sample_nmnist.bin", (34, 34), 0.31, 4_325, {}),
+]
+
+
+@needs_shared
+@pytest.mark.shared
+@pytest.mark.parametrize("name,size,span_s,count,kw", README_TABLE)
+def test_shared_recordings_match_readme(name, size, span_s, count, kw):
+    rec = open_recording(EVENTS / name, **kw)
+    assert isinstance(rec, Recording)
+    assert rec.events.dtype == EVENT_DTYPE
+    assert len(rec.events) == count
+    assert rec.sensor_size == size + (2,)
+    span = (int(rec.events["t"][-1]) - int(rec.events["t"][0])) / 1e6
+    digits = len(str(span_s).split(".")[1])
+    assert round(span, digits) == pytest.approx(span_s)
+    assert (np.diff(rec.events["t"]) >= 0).all()
+    assert set(np.unique(rec.events["p"])) == {0, 1}
+
+
+@needs_shared
+@pytest.mark.shared
+def test_dvs_es_count_includes_reset_burst():
+    rec = open_recording(EVENTS / "dvs.es")
+    burst = int((rec.events["t"] < 1000).sum())
+    # README: 473,225 events, of which the first 1 ms is a ~77k-event reset burst
+    assert len(rec.events) == 473_225
+    assert 70_000 < burst < 85_000
+    assert burst == 76_785  # what we find; 396,440 events remain after dropping t < 1 ms
+    assert len(rec.events) - burst == 396_440
+
+
+@needs_shared
+@pytest.mark.shared
+def test_shared_es_matches_event_stream_package():
+    event_stream = pytest.importorskip("event_stream")
+    ours = open_recording(EVENTS / "dvs.es").events
+    ref = np.concatenate(list(event_stream.Decoder(str(EVENTS / "dvs.es"))))
+    for ko, kr in (("t", "t"), ("x", "x"), ("y", "y"), ("p", "on")):
+        np.testing.assert_array_equal(ours[ko], ref[kr].astype(np.int64))
+
+
+@needs_shared
+@pytest.mark.shared
+def test_evt2_without_geometry_needs_sensor_size():
+    with pytest.raises(InputError, match="no geometry"):
+        open_recording(EVENTS / "expelliarmus_evt2_spinner.raw")
+
+
+@needs_shared
+@pytest.mark.shared
+@pytest.mark.parametrize("name,kw", [("dvs.es", {}), ("expelliarmus_evt2_spinner.raw", {"sensor_size": (640, 480)}),
+                                     ("tonic_sample_person.aedat4", {})])
+def test_streaming_equals_whole(name, kw):
+    whole = open_recording(EVENTS / name, **kw).events
+    stream = iter_recording(EVENTS / name, chunk_events=33_333, **kw)
+    assert stream.streams
+    chunks = list(stream)
+    assert all(len(c) <= 33_333 for c in chunks)
+    np.testing.assert_array_equal(np.concatenate(chunks), whole)
+
+
+# ------------------------------------------------------------------ round trips
+@pytest.mark.parametrize("suffix,enc", [(".npy", None), (".npz", None), (".raw", "evt2"), (".raw", "evt3"),
+                                        (".es", None)])
+def test_write_read_round_trip_identical(tmp_path, suffix, enc):
+    ev = random_events(seed=3, t_max=20_000_000)  # > 2**24 us: crosses an EVT3 counter wrap
+    path = tmp_path / f"rec{suffix}"
+    save_events(path, ev, (64, 48), encoding=enc)
+    rec = open_recording(path)
+    assert rec.sensor_size == (64, 48, 2)
+    np.testing.assert_array_equal(rec.events, ev)
+    assert rec.format == {".npy": "npy", ".npz": "npz", ".es": "es"}.get(suffix, enc)
+    chunks = list(iter_recording(path, chunk_events=77))
+    np.testing.assert_array_equal(np.concatenate(chunks), ev)
+
+
+def test_npy_streams_memory_mapped_and_converts_dtype(tmp_path):
+    ev = np.zeros(5, dtype=[("t", "f8"), ("x", "u2"), ("y", "u2"), ("p", "i1")])
+    ev["t"] = [0, 1, 2, 3, 4]
+    ev["x"] = [0, 1, 2, 3, 4]
+    ev["p"] = [1, -1, 1, -1, 0]
+    np.save(tmp_path / "a.npy", ev)
+    rec = open_recording(tmp_path / "a.npy")
+    assert rec.sensor_size == (5, 1, 2)  # inferred from max x, y
+    assert rec.events["p"].tolist() == [1, 0, 1, 0, 0]
+    ev["t"][2] = 2.5
+    np.save(tmp_path / "b.npy", ev)
+    with pytest.raises(InputError, match="event 2"):
+        open_recording(tmp_path / "b.npy")
+
+
+def test_in_memory_array_and_recording_inputs():
+    ev = random_events(50)
+    rec = open_recording(ev, sensor_size=(64, 48))
+    assert rec.format == "array" and rec.path is None
+    np.testing.assert_array_equal(rec.events, ev)
+    again = open_recording(rec)
+    np.testing.assert_array_equal(again.events, ev)
+    with pytest.raises(InputError, match="outside"):
+        open_recording(ev, sensor_size=(10, 10))
+
+
+# ------------------------------------------------------------------ EVT3 against the specification
+def evt3_file(tmp_path, words, header=True):
+    hdr = b"% evt 3.0\n% format EVT3;height=48;width=64\n% geometry 64x48\n% end\n" if header else b""
+    path = tmp_path / "v.raw"
+    path.write_bytes(hdr + np.array(words, dtype="<u2").tobytes())
+    return path
+
+
+def test_evt3_vectors_and_time_words(tmp_path):
+    TH, TL, Y, X, BX, V12, V8 = 0x8000, 0x6000, 0x0000, 0x2000, 0x3000, 0x4000, 0x5000
+    words = [
+        Y | 5, X | 3,                       # before any TIME_HIGH: dropped
+        TH | 1, TL | 7, Y | 10, X | (1 << 11) | 20,   # t = 4096 + 7, ON event at (20, 10)
+        BX | 30,                            # base x 30, OFF
+        V12 | 0b000000000101,               # x = 30, 32
+        V8 | 0b10000001,                    # x = 42, 49
+        TL | 9, Y | 11, BX | (1 << 11) | 2, V8 | 0b00000011,  # t = 4096 + 9, ON x = 2, 3 at y 11
+        TH | 2, X | 1,                      # t = 8192 (TIME_LOW reset by TIME_HIGH)
+        TH | 3, TL | 4000, TH | 4, TL | 5, X | 2,   # t = 4*4096 + 5: no 4096 drift from TIME_LOW wraps
+        0xA000 | 1, 0xE000, 0x7000, 0xF000,  # trigger / others / continued words are ignored
+    ]
+    ev = open_recording(evt3_file(tmp_path, words)).events
+    want = [(20, 10, 4103, 1), (30, 10, 4103, 0), (32, 10, 4103, 0), (42, 10, 4103, 0), (49, 10, 4103, 0),
+            (2, 11, 4105, 1), (3, 11, 4105, 1), (1, 11, 8192, 0), (2, 11, 4 * 4096 + 5, 0)]
+    got = [(int(e["x"]), int(e["y"]), int(e["t"]), int(e["p"])) for e in ev]
+    assert got == want
+
+
+def test_evt3_counter_wrap_unwrapped(tmp_path):
+    TH, TL, Y, X = 0x8000, 0x6000, 0x0000, 0x2000
+    words = [TH | 4095, TL | 4095, Y | 1, X | 1, TH | 0, TL | 1, X | 2]
+    ev = open_recording(evt3_file(tmp_path, words)).events
+    assert ev["t"].tolist() == [(1 << 24) - 1, (1 << 24) + 1]
+
+
+def test_evt3_unknown_word_names_byte_offset(tmp_path):
+    path = evt3_file(tmp_path, [0x8001, 0x0001, 0x9000])
+    hdr_len = len(b"% evt 3.0\n% format EVT3;height=48;width=64\n% geometry 64x48\n% end\n")
+    with pytest.raises(InputError, match=f"byte offset {hdr_len + 4}"):
+        open_recording(path)
+
+
+def test_evt2_spec_words(tmp_path):
+    # EVT2: type<<28 | t_low(6)<<22 | x(11)<<11 | y(11); TIME_HIGH 0x8<<28 | t>>6
+    words = [(0x8 << 28) | 100, (0x1 << 28) | (5 << 22) | (7 << 11) | 3, (0x0 << 28) | (63 << 22) | (1 << 11) | 2,
+             (0xA << 28), (0x8 << 28) | 101, (0x1 << 28) | (0 << 22) | (0 << 11) | 0]
+    path = tmp_path / "e.raw"
+    path.write_bytes(b"% evt 2.0\n% geometry 16x8\n% end\n" + np.array(words, "<u4").tobytes())
+    ev = open_recording(path).events
+    assert [(int(e["x"]), int(e["y"]), int(e["t"]), int(e["p"])) for e in ev] == \
+        [(7, 3, 100 * 64 + 5, 1), (1, 2, 100 * 64 + 63, 0), (0, 0, 101 * 64, 1)]
+    bad = tmp_path / "bad.raw"
+    bad.write_bytes(b"% evt 2.0\n% geometry 16x8\n% end\n" + np.array(words[:2] + [0x3 << 28], "<u4").tobytes())
+    with pytest.raises(InputError, match="unknown EVT2 word type 0x3.*byte offset"):
+        open_recording(bad)
+    outside = tmp_path / "out.raw"
+    outside.write_bytes(b"% evt 2.0\n% geometry 4x4\n% end\n" + np.array(words[:2], "<u4").tobytes())
+    with pytest.raises(InputError, match="outside the 4 x 4 sensor"):
+        open_recording(outside)
+
+
+# ------------------------------------------------------------------ DAT
+def dat_file(tmp_path, ts, xs, ys, ps, w=64, h=48):
+    data = (np.asarray(ps, np.uint64) << 28) | (np.asarray(ys, np.uint64) << 14) | np.asarray(xs, np.uint64)
+    words = (data << np.uint64(32)) | np.asarray(ts, np.uint64)
+    path = tmp_path / "c.dat"
+    path.write_bytes(f"% Data file containing CD events.\n% Version 2\n% Width {w}\n% Height {h}\n".encode()
+                     + bytes([0x0C, 8]) + words.astype("<u8").tobytes())
+    return path
+
+
+def test_dat_reader(tmp_path):
+    path = dat_file(tmp_path, [10, 20, 30], [1, 63, 5], [2, 47, 0], [1, 0, 1])
+    rec = open_recording(path)
+    assert rec.format == "dat" and rec.sensor_size == (64, 48, 2)
+    assert rec.events["t"].tolist() == [10, 20, 30]
+    assert rec.events["x"].tolist() == [1, 63, 5] and rec.events["y"].tolist() == [2, 47, 0]
+    assert rec.events["p"].tolist() == [1, 0, 1]
+    with pytest.raises(InputError, match="outside"):
+        open_recording(dat_file(tmp_path, [10], [64], [0], [1]))
+
+
+# ------------------------------------------------------------------ YARP data.log
+def yarp_addr24(x, y, p, ch=0):
+    # event-driven CODEC_304x240_24: p bit 0, x bits 1-10, y bits 12-20, channel bit 22
+    return p | (x << 1) | (y << 12) | (ch << 22)
+
+
+def yarp_addr20(x, y, p, ch=0):
+    # CODEC_304x240_20: p bit 0, x bits 1-9, y bits 10-17, channel bit 20
+    return p | (x << 1) | (y << 10) | (ch << 20)
+
+
+def yarp_log(path, pairs, numbered=True):
+    lines = []
+    for k in range(0, len(pairs), 3):
+        vals = " ".join(f"{ts} {a}" for ts, a in pairs[k:k + 3])
+        lines.append((f"{k} {1000.5 + k:.6f} " if numbered else "") + f"AE ({vals})")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("codec,enc", [("24", yarp_addr24), ("20", yarp_addr20)])
+def test_yarp_codecs(tmp_path, codec, enc):
+    rng = np.random.default_rng(1)
+    n = 1500
+    xs = rng.integers(0, 304, n)
+    ys = rng.integers(0, 240, n)
+    ps = rng.integers(0, 2, n)
+    ticks = np.cumsum(rng.integers(1, 200, n))
+    pairs = [(int(t), enc(int(x), int(y), int(p))) for t, x, y, p in zip(ticks, xs, ys, ps)]
+    for auto in ("auto", codec):
+        rec = open_recording(yarp_log(tmp_path / "data.log", pairs), codec=auto)
+        assert rec.format == "yarp" and rec.sensor_size == (304, 240, 2)
+        np.testing.assert_array_equal(rec.events["x"], xs)
+        np.testing.assert_array_equal(rec.events["y"], ys)
+        np.testing.assert_array_equal(rec.events["p"], ps)
+        np.testing.assert_array_equal(rec.events["t"], ticks * 80 // 1000)
+
+
+def test_yarp_wrap_flag_bit_channels_and_samples(tmp_path):
+    period = 1 << 30
+    pairs = [
+        ((period - 100) | (1 << 31), yarp_addr24(1, 1, 1)),  # bit 31 flag set (older logs): ignored
+        (period - 50, yarp_addr24(2, 1, 0, ch=1)),           # right camera: skipped by default
+        (30, yarp_addr24(3, 2, 1)),                          # counter wrapped
+        (40, (1 << 23) | 5),                                 # non-vision sample: skipped
+        (60, yarp_addr24(4, 2, 0)),
+    ]
+    path = yarp_log(tmp_path / "data.log", pairs, numbered=False)
+    rec = open_recording(path)
+    want_ticks = [period - 100, period + 30, period + 60]
+    assert rec.events["x"].tolist() == [1, 3, 4]
+    assert rec.events["t"].tolist() == [t * 80 // 1000 for t in want_ticks]
+    both = open_recording(path, channel=None)
+    assert both.events["x"].tolist() == [1, 2, 3, 4]
+
+
+def test_yarp_errors_name_line(tmp_path):
+    p = tmp_path / "data.log"
+    p.write_text("0 1.0 AE (10 2 20 4)\n1 1.1 AE (30 5 40)\n")
+    with pytest.raises(InputError, match="line 2"):
+        open_recording(p)
+    p.write_text("0 1.0 AE (10 2)\nhello world\n")
+    with pytest.raises(InputError, match="line 2"):
+        open_recording(p)
+    p.write_text(f"0 1.0 AE (10 {yarp_addr24(400, 1, 1)})\n")  # x beyond 304
+    with pytest.raises(InputError, match="outside the ATIS.*line 1"):
+        open_recording(p, codec="24")
+
+
+# ------------------------------------------------------------------ detection and mislabelled files
+def test_mislabelled_files_are_refused(tmp_path):
+    ev = random_events(20)
+    es = tmp_path / "a.es"
+    save_events(es, ev, (64, 48))
+    fake = tmp_path / "a.raw"
+    fake.write_bytes(es.read_bytes())
+    with pytest.raises(InputError, match="Event Stream.*mislabelled"):
+        open_recording(fake, sensor_size=(64, 48))
+    npy = tmp_path / "b.npy"
+    save_events(npy, ev, (64, 48))
+    fake = tmp_path / "b.aedat4"
+    fake.write_bytes(npy.read_bytes())
+    with pytest.raises(InputError, match="mislabelled"):
+        open_recording(fake)
+    fake = tmp_path / "c.es"
+    fake.write_bytes(b"0 1.0 AE (1 2)\n")
+    with pytest.raises(InputError, match="YARP"):
+        open_recording(fake)
+    with pytest.raises(InputError, match="unknown event file extension"):
+        open_recording(tmp_path / "x.mp4")
+    with pytest.raises(InputError, match="no such file"):
+        open_recording(tmp_path / "missing.es")
+    (tmp_path / "empty.es").write_bytes(b"")
+    with pytest.raises(InputError, match="empty"):
+        open_recording(tmp_path / "empty.es")
+    assert detect_format(es) == "es"
+
+
+def test_nmnist_synthetic_and_truncated(tmp_path):
+    # N-MNIST record: x, y, p<<7 | t[22:16], t[15:8], t[7:0]
+    recs = [(1, 2, 1, 100), (33, 33, 0, 70000), (0, 0, 1, 80000)]
+    raw = bytearray()
+    for x, y, p, t in recs:
+        raw += bytes([x, y, (p << 7) | (t >> 16), (t >> 8) & 0xFF, t & 0xFF])
+    path = tmp_path / "d.bin"
+    path.write_bytes(bytes(raw))
+    rec = open_recording(path)
+    assert [(int(e["x"]), int(e["y"]), int(e["t"]), int(e["p"])) for e in rec.events] == \
+        [(x, y, t, p) for x, y, p, t in recs]
+    path.write_bytes(bytes(raw[:-2]))
+    with pytest.raises(InputError, match="byte offset 10"):
+        open_recording(path)
+    bad = bytearray(raw)
+    bad[5] = 40
+    path.write_bytes(bytes(bad))
+    with pytest.raises(InputError, match="outside the 34 x 34"):
+        open_recording(path)
+
+
+def test_es_truncated_names_offset(tmp_path):
+    path = tmp_path / "t.es"
+    save_events(path, random_events(10), (64, 48))
+    data = path.read_bytes()
+    path.write_bytes(data[:-2])
+    with pytest.raises(InputError, match="ends inside an event.*byte offset"):
+        open_recording(path)
+    path.write_bytes(data[:14])
+    with pytest.raises(InputError, match="truncated"):
+        open_recording(path)

@@ -1,0 +1,137 @@
+"""iter_windows edge cases and streaming behaviour."""
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from snn_fg.errors import InputError, ParameterError
+from snn_fg.events import EVENT_DTYPE, EmptyWindowWarning, events_to_frame, iter_windows, save_events
+
+EVENTS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events"
+
+
+def ev_at(times, xs=None, ys=None, ps=None):
+    n = len(times)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = times
+    ev["x"] = xs if xs is not None else np.arange(n) % 8
+    ev["y"] = ys if ys is not None else 0
+    ev["p"] = ps if ps is not None else 1
+    return ev
+
+
+def test_windows_partition_events_and_frames_match():
+    rng = np.random.default_rng(0)
+    t = np.sort(rng.integers(0, 1_000_000, 5000)) + 123
+    ev = ev_at(t, rng.integers(0, 16, 5000), rng.integers(0, 8, 5000), rng.integers(0, 2, 5000))
+    wins = list(iter_windows(ev, window_ms=85, sensor_size=(16, 8), chunk_events=333))
+    assert [w.index for w in wins] == list(range(len(wins)))
+    assert wins[0].t_start_us == t[0] and all(w.t_end_us - w.t_start_us == 85_000 for w in wins)
+    assert len(wins) == int(np.ceil((t[-1] - t[0] + 1) / 85_000))
+    np.testing.assert_array_equal(np.concatenate([w.events for w in wins]), ev)
+    for w in wins:
+        assert ((w.events["t"] >= w.t_start_us) & (w.events["t"] < w.t_end_us)).all()
+        pos, neg = events_to_frame(w.events, (16, 8))
+        np.testing.assert_array_equal(w.pos, pos)
+        np.testing.assert_array_equal(w.neg, neg)
+
+
+def test_start_stride_and_max_windows():
+    ev = ev_at(np.arange(0, 100_000, 10))
+    wins = list(iter_windows(ev, window_ms=10, start_ms=20, stride_ms=25, max_windows=3, sensor_size=(8, 1)))
+    assert [(w.t_start_us, w.t_end_us) for w in wins] == [(20_000, 30_000), (45_000, 55_000), (70_000, 80_000)]
+    assert all(len(w.events) == 1000 for w in wins)
+    over = list(iter_windows(ev, window_ms=10, stride_ms=5, sensor_size=(8, 1), max_windows=4))
+    assert [len(w.events) for w in over] == [1000] * 4  # overlapping windows share events
+
+
+def test_empty_window_warns_and_is_all_zero():
+    ev = ev_at([0, 1000, 300_000, 300_500])
+    with pytest.warns(EmptyWindowWarning, match="no events"):
+        wins = list(iter_windows(ev, window_ms=100, sensor_size=(8, 1)))
+    assert len(wins) == 4
+    assert [len(w.events) for w in wins] == [2, 0, 0, 2]
+    assert not wins[1].pos.any() and not wins[1].neg.any() and wins[1].pos.shape == (1, 8)
+
+
+def test_window_longer_than_recording_gives_one_window():
+    ev = ev_at(np.arange(50) * 100)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        wins = list(iter_windows(ev, window_ms=10_000, sensor_size=(8, 1)))
+    assert len(wins) == 1
+    assert len(wins[0].events) == 50 and wins[0].t_end_us == 10_000_000
+
+
+def test_backwards_timestamp_names_event_index():
+    ev = ev_at([0, 10, 20, 15, 30])
+    with pytest.raises(InputError, match="backwards.*event 3"):
+        list(iter_windows(ev, window_ms=1, sensor_size=(8, 1)))
+    # also across chunk boundaries
+    with pytest.raises(InputError, match="event 3"):
+        list(iter_windows(ev, window_ms=1, sensor_size=(8, 1), chunk_events=3))
+
+
+def test_out_of_sensor_names_event_index():
+    ev = ev_at([0, 10, 20, 30], xs=[0, 1, 9, 2])
+    with pytest.raises(InputError, match="outside.*event 2"):
+        list(iter_windows(ev, sensor_size=(8, 1)))
+
+
+def test_empty_recording_and_late_start_are_errors(tmp_path):
+    with pytest.raises(InputError, match="no events"):
+        list(iter_windows(np.zeros(0, EVENT_DTYPE), sensor_size=(8, 1)))
+    with pytest.raises(InputError, match="after the last event"):
+        list(iter_windows(ev_at([0, 10]), start_ms=5, sensor_size=(8, 1)))
+    for bad in ({"window_ms": 0}, {"window_ms": -1}, {"start_ms": -1}, {"window_ms": float("nan")},
+                {"max_windows": 0}, {"max_windows": "2"}, {"stride_ms": "x"}, {"denoise_us": "5"},
+                {"refractory_us": -1}):
+        with pytest.raises(ParameterError):
+            list(iter_windows(ev_at([0, 10]), sensor_size=(8, 1), **bad))
+
+
+def test_denoise_and_refractory_filters_use_tonic():
+    # tonic's Denoise is causal: an event survives if a 4-neighbour fired within filter_time
+    # before it, so isolated events and the first event of a cluster are dropped
+    t = [20_000, 50_000, 50_010, 50_020, 90_000]
+    ev = ev_at(t, xs=[0, 4, 5, 4, 7], ys=[0, 3, 3, 4, 7])
+    w = next(iter(iter_windows(ev, window_ms=100, sensor_size=(8, 8), denoise_us=1000)))
+    assert w.events["t"].tolist() == [50_010, 50_020]
+    # RefractoryPeriod: dropped events also restart the pixel's refractory clock
+    burst = ev_at([1000, 1010, 1020, 1090, 6000], xs=[1, 1, 1, 1, 1])
+    w = next(iter(iter_windows(burst, window_ms=100, sensor_size=(8, 1), refractory_us=100)))
+    assert w.events["t"].tolist() == [1000, 6000]
+
+
+def test_file_input_streams(tmp_path):
+    rng = np.random.default_rng(2)
+    ev = ev_at(np.sort(rng.integers(0, 500_000, 3000)), rng.integers(0, 8, 3000))
+    save_events(tmp_path / "r.es", ev, (8, 1))
+    wins = list(iter_windows(tmp_path / "r.es", window_ms=50, chunk_events=100))
+    np.testing.assert_array_equal(np.concatenate([w.events for w in wins]), ev)
+
+
+@pytest.mark.skipif(not EVENTS.is_dir(), reason="../shared/data/events is absent (fresh clone)")
+@pytest.mark.shared
+def test_shared_dvs_es_windows():
+    wins = list(iter_windows(EVENTS / "dvs.es", window_ms=85, start_ms=1, chunk_events=50_000))
+    assert sum(len(w.events) for w in wins) == 396_440  # everything after the 1 ms reset burst
+    assert all(w.pos.shape == (240, 320) for w in wins)
+    assert all((w.pos | w.neg).any() for w in wins)
+
+
+def test_streaming_memory_experiment_small(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    script = Path(__file__).resolve().parents[1] / "experiments" / "events_streaming_memory.py"
+    report = tmp_path / "r.json"
+    res = subprocess.run([sys.executable, str(script), "--events", "200000", "--duration-s", "2",
+                          "--report", str(report)], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    out = json.loads(report.read_text())
+    assert out["events_streamed"] == 200_000
+    assert out["windows"] == 24  # ceil(2 s / 85 ms)
+    assert out["within_target"] and out["peak_rss_mb"] < 1024

@@ -36,6 +36,11 @@ def input_kind(spec: str) -> str:
             with np.load(path, allow_pickle=False) as d:
                 if "pos" in d.files or "neg" in d.files:
                     return "frame"
+                if "events" not in d.files and not {"x", "y", "t", "p"} <= set(d.files):
+                    raise InputError(path, "lacks keys pos, neg (an event frame) and x, y, t, p or "
+                                           f"'events' (a recording); found keys {', '.join(d.files) or 'none'}")
+        except InputError:
+            raise
         except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
             raise InputError(path, f"not a readable .npz archive ({exc})") from None
     return "recording"

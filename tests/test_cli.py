@@ -1,0 +1,133 @@
+"""The CLI contract: outputs, one-line errors for bad input, atomic writes."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from snn_fg import atomic
+from snn_fg.cli import main
+from snn_fg.maps import Maps
+
+
+def run_cli(*args):
+    """Run the real console entry point in a subprocess (as a user would)."""
+    return subprocess.run([sys.executable, "-m", "snn_fg.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_demo_rate_writes_maps_and_figure(tmp_path):
+    res = run_cli("run", "demo", "--out", tmp_path, "--no-progress")
+    assert res.returncode == 0, res.stderr
+    m = Maps.load(tmp_path / "maps.npz")
+    with np.load(tmp_path / "maps.npz") as d:
+        assert set(d.files) >= {"fg_x", "fg_y", "grouping", "params"}
+        for k in ("fg_x", "fg_y", "grouping"):
+            assert d[k].dtype == np.float32 and d[k].shape == (120, 160)
+        params = json.loads(str(d["params"]))
+    assert params["levels"] == 10 and params["alpha"] == 2 and params["source"]["threshold"] == 0.1
+    assert np.count_nonzero(m.magnitude) > 100
+    assert (tmp_path / "maps.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(os.listdir(tmp_path)) == ["maps.npz", "maps.png"]
+
+
+def test_parameters_reach_the_model(tmp_path):
+    assert main(["run", "demo", "--out", str(tmp_path), "--r0", "6", "--levels", "4",
+                 "--iterations", "3", "--no-progress"]) == 0
+    p = Maps.load(tmp_path / "maps.npz").params
+    assert (p["r0"], p["levels"], p["iterations"]) == (6, 4, 3)
+
+
+def test_fbfg_on_image(tmp_path):
+    import cv2
+
+    from snn_fg.scenes import disc
+
+    img = tmp_path / "disc.png"
+    cv2.imwrite(str(img), (disc(20).image * 255).astype(np.uint8))
+    assert main(["run", str(img), "--out", str(tmp_path / "o"), "--model", "fbfg", "--no-progress"]) == 0
+    assert Maps.load(tmp_path / "o" / "maps.npz").grouping.max() == pytest.approx(1.0)
+    assert main(["run", str(img), "--out", str(tmp_path / "r"), "--model", "rate", "--no-progress"]) == 0
+
+
+def _frame(tmp_path, name, **arrays):
+    p = tmp_path / name
+    np.savez(p, **arrays)
+    return p
+
+
+def _bad_inputs(tmp_path):
+    ok = np.zeros((20, 30), np.uint8)
+    ok[5, 5:20] = 1
+    nan = np.zeros((20, 30))
+    nan[3, 4] = np.nan
+    (tmp_path / "broken.npz").write_bytes(b"PK\x03\x04 this is not a zip")
+    (tmp_path / "text.png").write_text("not an image")
+    return {
+        "missing": (tmp_path / "nope.npz", "no such file"),
+        "keys": (_frame(tmp_path, "keys.npz", on=ok, off=ok), "lacks key"),
+        "dtype": (_frame(tmp_path, "dtype.npz", pos=ok.astype(np.int32), neg=ok.astype(np.int32)), "dtype"),
+        "shape": (_frame(tmp_path, "shape.npz", pos=ok, neg=ok[:10]), "differ in shape"),
+        "ndim": (_frame(tmp_path, "ndim.npz", pos=ok[None], neg=ok[None]), "2-D"),
+        "empty": (_frame(tmp_path, "empty.npz", pos=ok * 0, neg=ok * 0), "empty"),
+        "nan": (_frame(tmp_path, "nan.npz", pos=nan, neg=nan), "NaN"),
+        "zip": (tmp_path / "broken.npz", "npz"),
+        "image": (tmp_path / "text.png", "not a readable image"),
+    }
+
+
+@pytest.mark.parametrize("case", ["missing", "keys", "dtype", "shape", "ndim", "empty", "nan", "zip", "image"])
+def test_bad_input_gives_one_clear_line(tmp_path, case):
+    path, expect = _bad_inputs(tmp_path)[case]
+    out = tmp_path / "out"
+    res = run_cli("run", path, "--out", out, "--no-progress")
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert "Traceback" not in res.stderr
+    assert str(path.name) in lines[0] and expect in lines[0]
+    assert not (out / "maps.npz").exists()
+
+
+def test_interrupted_write_leaves_nothing(tmp_path, monkeypatch):
+    def explode(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(atomic.np, "savez", explode)
+    rc = main(["run", "demo", "--out", str(tmp_path), "--iterations", "1", "--no-progress"])
+    assert rc == 130
+    assert os.listdir(tmp_path) == []
+
+
+def test_compare_prints_and_saves_metrics(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert main(["run", "demo", "--out", str(a), "--no-progress"]) == 0
+    assert main(["run", "demo", "--out", str(b), "--r0", "6", "--no-progress"]) == 0
+    res = run_cli("compare", a / "maps.npz", a / "maps.npz", "--json", tmp_path / "same.json")
+    assert res.returncode == 0, res.stderr
+    same = json.loads((tmp_path / "same.json").read_text())["windows"][0]
+    assert same["grouping_pearson_r"] == pytest.approx(1.0)
+    assert same["angle_diff_median_deg"] == 0 and same["angle_mse"] == 0
+    assert main(["compare", str(a / "maps.npz"), str(b / "maps.npz"), "--json", str(tmp_path / "d.json")]) == 0
+    diff = json.loads((tmp_path / "d.json").read_text())["windows"][0]
+    assert diff["grouping_pearson_r"] < 1.0
+    assert set(diff) >= {"grouping_ssim", "angle_ssim", "angle_diff_mean_deg"}
+
+
+def test_recording_gives_windows(tmp_path):
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.scenes import disc
+
+    rec = image_to_events(disc(16).image, motion="circle")
+    path = tmp_path / "disc.npy"
+    save_events(path, rec.events, rec.sensor_size)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--window-ms", "100", "--max-windows", "3", "--sensor-size", "64x64",
+                 "--no-progress"]) == 0
+    with np.load(out / "maps.npz") as d:
+        n = d["fg_x"].shape[0]
+        assert d["fg_x"].shape[1:] == (64, 64) and 1 <= n <= 3
+        assert np.all(np.diff(d["t_start_us"]) == 100_000)
+        assert np.all(d["t_end_us"] - d["t_start_us"] == 100_000)

@@ -89,6 +89,13 @@ class Scene:
         return self.image.shape
 
 
+def _neighbours(labels: np.ndarray) -> np.ndarray:
+    """The 3 x 3 neighbourhood of every pixel, stacked: shape (9, H, W)."""
+    h, w = labels.shape
+    pad = np.pad(labels, 1, mode="edge")
+    return np.stack([pad[1 + dr:h + 1 + dr, 1 + dc:w + 1 + dc] for dr in (-1, 0, 1) for dc in (-1, 0, 1)])
+
+
 def render(shapes, size, background, name="scene") -> Scene:
     """Paint ``shapes`` (back to front) on a ``size`` = (H, W) background."""
     h, w = size
@@ -105,9 +112,7 @@ def render(shapes, size, background, name="scene") -> Scene:
     labels = np.zeros((h, w), dtype=np.int32)
     for i, sh in enumerate(shapes):
         labels[sh.contains(r, c)] = i + 1
-    pad = np.pad(labels, 1, mode="edge")
-    neigh = np.stack([pad[1 + dr:h + 1 + dr, 1 + dc:w + 1 + dc]
-                      for dr in (-1, 0, 1) for dc in (-1, 0, 1)])
+    neigh = _neighbours(labels)
     boundary = (neigh != labels[None]).any(axis=0)
     # Owner: the front-most (highest label) region meeting at the pixel.
     owner = np.where(boundary, neigh.max(axis=0), 0)
@@ -166,11 +171,7 @@ def shared_border_ownership(scene: Scene, fg_x, fg_y, front: int, back: int, tol
     vector lies within ``tol_deg`` of the front shape's inward direction.
     Only pixels where the model vector is non-zero count.
     """
-    h, w = scene.shape
-    lab = scene.labels
-    pad = np.pad(lab, 1, mode="edge")
-    neigh = np.stack([pad[1 + dr:h + 1 + dr, 1 + dc:w + 1 + dc]
-                      for dr in (-1, 0, 1) for dc in (-1, 0, 1)])
+    neigh = _neighbours(scene.labels)
     shared = (neigh == front + 1).any(0) & (neigh == back + 1).any(0)
     mag = np.hypot(fg_x, fg_y)
     m = shared & (mag > 0)

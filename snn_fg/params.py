@@ -33,6 +33,9 @@ class ModelParams:
     sum_threshold: after summing frames, responses below this are zeroed.
     pyramid_decay: weight ``decay**(k-l)`` of level ``k`` when pooling feedback at level ``l``.
     grouping_floor: FBFG only: normalised grouping values below this are zeroed.
+    fbfg_edge_sigma: FBFG only: scale (px) of the Gaussian-derivative edge operator.
+    fbfg_edge_floor: FBFG only: edge strengths below this fraction of the level-1
+        maximum are zeroed.
     """
 
     levels: int = 10
@@ -49,6 +52,8 @@ class ModelParams:
     sum_threshold: float = 0.2
     pyramid_decay: float = 0.5
     grouping_floor: float = 0.1
+    fbfg_edge_sigma: float = 1.0
+    fbfg_edge_floor: float = 0.1
 
     def __post_init__(self):
         def bad(name, why):
@@ -65,7 +70,8 @@ class ModelParams:
         if self.iterations < 0:
             bad("iterations", "must be >= 0")
         for name in ("r0", "alpha", "w_inh", "dog_half_width", "dog_step", "edge_threshold",
-                     "sum_threshold", "pyramid_decay", "grouping_floor"):
+                     "sum_threshold", "pyramid_decay", "grouping_floor", "fbfg_edge_sigma",
+                     "fbfg_edge_floor"):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v):
                 bad(name, "must be a finite number")
@@ -73,6 +79,8 @@ class ModelParams:
             bad("r0", "must be > 0")
         if self.alpha < 0:
             bad("alpha", "must be >= 0")
+        if self.fbfg_edge_sigma <= 0:
+            bad("fbfg_edge_sigma", "must be > 0")
         if self.dog_step <= 0 or self.dog_half_width <= 0:
             bad("dog_step", "DoG sampling step and half width must be > 0")
         for name in ("dog_s1", "dog_s2"):

@@ -6,12 +6,13 @@ operators. We use a documented equivalent that is much cheaper:
 
 * channels: intensity (mean of R, G, B) and two colour-opponent channels
   (R - G, B - (R + G)/2), weighted 0.8 / 0.2 as in the original;
-* edge strength and direction from Gaussian-derivative filters (sigma 1 px),
+* edge strength and direction from Gaussian-derivative filters
+  (``params.fbfg_edge_sigma``, 1 px),
   i.e. the steerable odd-symmetric response at the best of 16 directions;
 * non-maximum suppression along the gradient, so contours are one pixel wide
   (CORF's output is likewise thin);
 * strengths are divided by the level-1 maximum and values below
-  ``fbfg_floor`` (10 %) are zeroed.
+  ``params.fbfg_edge_floor`` (10 %) are zeroed.
 
 Differences from CORF: no push-pull inhibition (CORF suppresses responses
 to textures with the opposite-polarity response), no DoG sub-unit geometry, a
@@ -28,9 +29,6 @@ from ..frames.pyramid import pyramid
 from ..maps import Maps
 from ..params import ModelParams
 from .edfg import border_ownership_grouping, readout
-
-EDGE_SIGMA = 1.0
-FBFG_FLOOR = 0.1
 
 
 def _channels(image: np.ndarray) -> list[tuple[float, np.ndarray]]:
@@ -53,14 +51,14 @@ def _nonmax(mag, gr, gc):
     return mag * ((mag >= p1) & (mag >= p2))
 
 
-def image_edges(image) -> tuple[np.ndarray, np.ndarray]:
+def image_edges(image, sigma: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Edge strength (H, W) and gradient direction in radians (x right, y up)."""
     strength = None
     best = None
     gr_i = gc_i = None
     for weight, ch in _channels(image):
-        gr = ndi.gaussian_filter(ch, EDGE_SIGMA, order=(1, 0))
-        gc = ndi.gaussian_filter(ch, EDGE_SIGMA, order=(0, 1))
+        gr = ndi.gaussian_filter(ch, sigma, order=(1, 0))
+        gc = ndi.gaussian_filter(ch, sigma, order=(0, 1))
         mag = weight * np.hypot(gr, gc)
         if strength is None:
             strength, best, gr_i, gc_i = mag, mag, gr, gc
@@ -83,11 +81,11 @@ def frame_simple_cells(image, params: ModelParams = ModelParams()):
     norm = None
     s_levels = []
     for lvl in levels:
-        strength, direction = image_edges(lvl)
+        strength, direction = image_edges(lvl, params.fbfg_edge_sigma)
         if norm is None:
             norm = strength.max() if strength.max() > 0 else 1.0
         strength = strength / norm
-        strength[strength < FBFG_FLOOR] = 0.0
+        strength[strength < params.fbfg_edge_floor] = 0.0
         k = np.round(direction / (2 * np.pi) * n_dir).astype(int)
         index = (k + n_dir // 4) % n_dir
         s_levels.append(strength[None] * (index[None] == np.arange(n_dir)[:, None, None]))
@@ -109,5 +107,4 @@ def run_fbfg(image, params: ModelParams = ModelParams(), progress=None) -> Maps:
         grouping = grouping / top
     grouping[grouping < params.grouping_floor] = 0.0
     return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32),
-                params={"model": "fbfg", "edge_sigma": EDGE_SIGMA, "fbfg_floor": FBFG_FLOOR,
-                        **params.to_dict()})
+                params={"model": "fbfg", **params.to_dict()})

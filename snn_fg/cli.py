@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SnnFgError
+from .events.cli import sensor_size_arg
 
 MODELS = ("rate", "fbfg", "spiking")
 EXIT_INPUT = 2
@@ -58,7 +59,8 @@ def _add_run(sub):
     g.add_argument("--max-windows", type=_positive_int, default=None)
     g.add_argument("--denoise-us", type=int, default=None, help="tonic Denoise filter time (us)")
     g.add_argument("--refractory-us", type=int, default=None, help="tonic RefractoryPeriod (us)")
-    g.add_argument("--sensor-size", default=None, metavar="WxH", help="for RAW files without geometry")
+    g.add_argument("--sensor-size", type=sensor_size_arg, default=None, metavar="WxH",
+                   help="for RAW files without geometry, or .npy arrays")
     g = p.add_argument_group("spiking model")
     g.add_argument("--duration-ms", type=float, default=None, help="presentation time per frame")
     g.add_argument("--dt-ms", type=float, default=None, help="simulation time step")
@@ -131,33 +133,12 @@ def _run_frame(args, params, pos, neg, image, progress=True):
                        progress=progress and not args.no_progress, **_spiking_kw(args))
 
 
-def _stack(maps_list, **extra):
-    from .maps import Maps
-
-    m0 = maps_list[0]
-    ex = {k: np.stack([m.extra[k] for m in maps_list]) for k in m0.extra
-          if all(k in m.extra and np.shape(m.extra[k]) == np.shape(m0.extra[k]) for m in maps_list)}
-    ex.update(extra)
-    return Maps(np.stack([m.fg_x for m in maps_list]), np.stack([m.fg_y for m in maps_list]),
-                np.stack([m.grouping for m in maps_list]), dict(m0.params), ex)
-
-
-def _sensor(text):
-    from .errors import InputError
-
-    if text is None:
-        return None
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise InputError(text, "--sensor-size must look like 640x480") from None
-    return (w, h, 2)
-
-
 def cmd_run(args) -> int:
     from .errors import InputError
-    from .figures import event_frame_rgb, save_maps_figure
-    from .inputs import input_kind, load_event_frame, load_image
+    from .figures import event_frame_rgb
+    from .images import read_image
+    from .inputs import input_kind, load_event_frame
+    from .maps import Maps, MapsSeriesWriter
 
     params = _params(args)
     out = Path(args.out)
@@ -174,15 +155,16 @@ def cmd_run(args) -> int:
         windows = iter_windows(args.input, window_ms=args.window_ms, start_ms=args.start_ms,
                                stride_ms=args.stride_ms, max_windows=args.max_windows,
                                denoise_us=args.denoise_us, refractory_us=args.refractory_us,
-                               sensor_size=_sensor(args.sensor_size))
+                               sensor_size=args.sensor_size)
         if not args.no_progress:
             from tqdm import tqdm
 
             windows = tqdm(windows, desc="windows", unit="win", file=sys.stderr,
                            total=args.max_windows)
-        results, inputs, t0, t1 = [], [], [], []
+        out.mkdir(parents=True, exist_ok=True)
+        t0, t1 = [], []
         n_empty = 0
-        with warnings.catch_warnings():
+        with MapsSeriesWriter(out / "maps.npz") as sink, warnings.catch_warnings():
             # Empty windows are counted and reported once below.
             warnings.simplefilter("ignore", EmptyWindowWarning)
             for w in windows:
@@ -197,19 +179,28 @@ def cmd_run(args) -> int:
                                     params=params, seed=args.seed, progress=False, **_spiking_kw(args))
                 else:
                     m = _run_frame(args, params, w.pos, w.neg, None, progress=False)
-                results.append(m)
-                inputs.append(event_frame_rgb(w.pos, w.neg))
+                # The window's event frame (+1 ON, -1 OFF) is kept with its maps.
+                sink.append(m, event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8))
                 t0.append(w.t_start_us)
                 t1.append(w.t_end_us)
-        if not results:
-            raise InputError(args.input, "no window to process: the recording has no events after --start-ms")
-        if n_empty:
-            print(f"snn-fg: warning: {n_empty} of {len(results)} windows had no events; their maps are zero",
-                  file=sys.stderr)
-        maps = _stack(results, t_start_us=np.array(t0, dtype=np.int64), t_end_us=np.array(t1, dtype=np.int64))
-        source.update(window_ms=args.window_ms, start_ms=args.start_ms, stride_ms=args.stride_ms or args.window_ms,
-                      max_windows=args.max_windows, denoise_us=args.denoise_us, refractory_us=args.refractory_us)
-        titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(t0, t1)]
+            if sink.n == 0:
+                raise InputError(args.input, "no window to process: the recording has no events after --start-ms")
+            if n_empty:
+                print(f"snn-fg: warning: {n_empty} of {sink.n} windows had no events; their maps are zero",
+                      file=sys.stderr)
+            source.update(window_ms=args.window_ms, start_ms=args.start_ms,
+                          stride_ms=args.stride_ms or args.window_ms, max_windows=args.max_windows,
+                          denoise_us=args.denoise_us, refractory_us=args.refractory_us)
+            st = sink.stacked()
+            maps = Maps(st["fg_x"], st["fg_y"], st["grouping"], {**sink.params, "source": source},
+                        {k: v for k, v in st.items() if k not in ("fg_x", "fg_y", "grouping")})
+            titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(t0, t1)]
+            sink.finish(maps.params, t_start_us=np.array(t0, dtype=np.int64),
+                        t_end_us=np.array(t1, dtype=np.int64))
+            _write_figures(args, out, _LazyFrames(st["event_frame"]), maps, titles)
+            del maps, st
+        _report(args, out)
+        return 0
     else:
         image = pos = neg = None
         if kind == "demo":
@@ -217,7 +208,7 @@ def cmd_run(args) -> int:
 
             image = demo().image
         elif kind == "image":
-            image = load_image(args.input, grey=args.model != "fbfg")
+            image = read_image(args.input, grey=args.model != "fbfg")
         else:
             if args.model == "fbfg":
                 raise InputError(args.input, "the fbfg model needs an image, not an event frame")
@@ -225,25 +216,49 @@ def cmd_run(args) -> int:
         if pos is None and args.model != "fbfg":
             from .events import image_to_frame
 
-            grey = image if image.ndim == 2 else image @ np.array([0.299, 0.587, 0.114])
-            pos, neg = image_to_frame(grey, threshold=args.threshold)
+            pos, neg = image_to_frame(image, threshold=args.threshold)
             source["threshold"] = args.threshold
             if not (pos.any() or neg.any()):
                 raise InputError(args.input, f"the image gives no events at contrast threshold {args.threshold}")
         maps = _run_frame(args, params, pos, neg, image)
         inputs = image if args.model == "fbfg" else event_frame_rgb(pos, neg)
-        titles = None
     maps.params = {**maps.params, "source": source}
     out.mkdir(parents=True, exist_ok=True)
     maps.save(out / "maps.npz")
+    _write_figures(args, out, inputs, maps, None)
+    _report(args, out)
+    return 0
+
+
+def _write_figures(args, out, inputs, maps, titles):
+    from .figures import save_maps_figure
+
     save_maps_figure(out / "maps.png", inputs, maps.fg_x, maps.fg_y, maps.grouping, titles=titles)
-    written = [out / "maps.npz", out / "maps.png"]
     if args.model == "spiking":
         from .spiking import save_spiking_figures
 
-        written += list(save_spiking_figures(maps, out) or [])
-    print(f"snn-fg: {args.model} model on {args.input}: wrote " + ", ".join(str(p) for p in written))
-    return 0
+        save_spiking_figures(maps, out)
+
+
+def _report(args, out):
+    written = ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith(".")))
+    print(f"snn-fg: {args.model} model on {args.input}: wrote {out}/ ({written})")
+
+
+class _LazyFrames:
+    """Event frames (+1 ON, -1 OFF) shown as RGB only when a figure row needs them."""
+
+    def __init__(self, frames):
+        self.frames = frames
+
+    def __len__(self):
+        return len(self.frames)
+
+    def __getitem__(self, i):
+        from .figures import event_frame_rgb
+
+        f = self.frames[i]
+        return event_frame_rgb(f > 0, f < 0)
 
 
 def _empty_maps(shape, params, model):

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .images import IMAGE_SUFFIXES
 
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
 
 
 def input_kind(spec: str) -> str:
@@ -92,34 +92,3 @@ def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(path, "a pixel is both ON and OFF; stage 1 keeps only the last event's polarity",
                          f"pixel row {r}, column {c}")
     return pos, neg
-
-
-def load_image(path, grey: bool = True) -> np.ndarray:
-    """Image as float64 in [0, 1]: (H, W) grey, or (H, W, 3) RGB if ``grey=False``."""
-    import cv2
-
-    path = Path(path)
-    if not path.exists():
-        raise InputError(path, "no such file")
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if img is None:
-        raise InputError(path, "not a readable image (corrupt, or not the format its extension says)")
-    if img.dtype == np.uint8:
-        img = img.astype(np.float64) / 255.0
-    elif img.dtype == np.uint16:
-        img = img.astype(np.float64) / 65535.0
-    else:
-        img = img.astype(np.float64)
-        if not np.isfinite(img).all():
-            raise InputError(path, "image contains NaN or infinite values")
-        lo, hi = img.min(), img.max()
-        img = (img - lo) / (hi - lo) if hi > lo else np.zeros_like(img)
-    if img.ndim == 3:
-        img = img[..., :3][..., ::-1]  # BGR(A) -> RGB
-        if img.shape[2] == 1:
-            img = img[..., 0]
-    if min(img.shape[:2]) < 8:
-        raise InputError(path, f"image of size {img.shape[1]} x {img.shape[0]} is too small (min 8 x 8)")
-    if grey and img.ndim == 3:
-        img = img @ np.array([0.299, 0.587, 0.114])
-    return img

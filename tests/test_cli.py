@@ -131,3 +131,31 @@ def test_recording_gives_windows(tmp_path):
         assert d["fg_x"].shape[1:] == (64, 64) and 1 <= n <= 3
         assert np.all(np.diff(d["t_start_us"]) == 100_000)
         assert np.all(d["t_end_us"] - d["t_start_us"] == 100_000)
+        # each window's event frame is stored beside its maps: +1 ON, -1 OFF
+        assert d["event_frame"].shape == d["fg_x"].shape and set(np.unique(d["event_frame"])) <= {-1, 0, 1}
+        assert np.all((d["fg_x"] != 0) <= (d["event_frame"] != 0))
+    assert sorted(os.listdir(out)) == ["maps.npz", "maps.png"]   # no temporary parts left
+
+
+def test_interrupted_recording_run_leaves_nothing(tmp_path, monkeypatch):
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.rate import edfg
+    from snn_fg.scenes import disc
+
+    rec = image_to_events(disc(16).image, motion="circle")
+    path = tmp_path / "disc.npy"
+    save_events(path, rec.events, rec.sensor_size)
+    calls = []
+    real = edfg.run_edfg
+
+    def second_window_interrupted(*a, **k):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    monkeypatch.setattr(edfg, "run_edfg", second_window_interrupted)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--window-ms", "50", "--no-progress"]) == 130
+    assert len(calls) == 2
+    assert os.listdir(out) == []

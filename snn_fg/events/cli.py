@@ -13,11 +13,12 @@ import numpy as np
 
 from snn_fg.atomic import save_npz
 from snn_fg.errors import InputError
+from snn_fg.images import IMAGE_SUFFIXES
 
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"}
 
 
-def _sensor_size(text):
+def sensor_size_arg(text):
+    """argparse type for ``WxH`` sensor sizes."""
     m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)
     if not m:
         raise argparse.ArgumentTypeError(f"sensor size must look like 640x480, got {text!r}")
@@ -39,7 +40,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     g.add_argument("--window-ms", type=float, default=85.0, help="window length for --write-frame (default 85)")
     g.add_argument("--start-ms", type=float, default=0.0,
                    help="window start, ms after the first event (default 0)")
-    g.add_argument("--sensor-size", type=_sensor_size, default=None, metavar="WxH",
+    g.add_argument("--sensor-size", type=sensor_size_arg, default=None, metavar="WxH",
                    help="sensor size, needed for RAW files without geometry (e.g. 640x480)")
     g = p.add_argument_group("images (event-camera simulation)")
     g.add_argument("--threshold", type=float, default=0.10, metavar="C", help="contrast threshold (default 0.10)")

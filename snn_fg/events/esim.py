@@ -39,84 +39,17 @@ from pathlib import Path
 
 import numpy as np
 
-from snn_fg.errors import InputError, ParameterError
+from snn_fg.errors import ParameterError
 from snn_fg.events._core import EVENT_DTYPE, Recording
+from snn_fg.images import to_grey
 
 #: eps in ``log(I + eps)``, intensities in [0, 1].
 LOG_EPS = 1e-3
 #: Smallest contrast threshold kept after adding threshold noise.
 MIN_THRESHOLD = 0.01
 MOTIONS = ("shift4", "circle")
-_GREY_WEIGHTS = np.array([0.299, 0.587, 0.114])
-_IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"}
 
 
-def load_image(path) -> np.ndarray:
-    """Read an image file as grey float64 in [0, 1]."""
-    import cv2
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "no such file")
-    data = np.fromfile(path, dtype=np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if len(data) else None
-    if img is None:
-        raise InputError(path, "not a readable image (OpenCV could not decode it)")
-    if img.ndim == 3:
-        if img.shape[2] == 4:
-            img = img[:, :, :3]
-        img = img[:, :, ::-1]  # OpenCV decodes to BGR
-    return to_grey(img, path)
-
-
-def to_grey(image, source="<image>") -> np.ndarray:
-    """Return a grey float64 copy of ``image`` scaled to [0, 1].
-
-    ``image`` is H x W, H x W x 1, H x W x 3 (RGB) or H x W x 4 (RGBA, alpha
-    ignored); uint8 is divided by 255, uint16 by 65535, other integer
-    types must hold 0..255, floats must lie in [0, 1], bool maps to 0/1.
-    """
-    if isinstance(image, (str, Path)):
-        return load_image(image)
-    try:
-        img = np.asarray(image)
-    except Exception as exc:  # ragged lists and the like
-        raise InputError(source, f"not an image array ({exc})")
-    if img.ndim == 3 and img.shape[2] in (1, 3, 4):
-        pass
-    elif img.ndim != 2:
-        raise InputError(source, f"image must be H x W or H x W x 3, got shape {img.shape}")
-    if img.shape[0] < 1 or img.shape[1] < 1:
-        raise InputError(source, f"image is empty (shape {img.shape})")
-    if img.shape[0] > 32767 or img.shape[1] > 32767:
-        raise InputError(source, f"image {img.shape[:2]} is larger than the 32767-pixel event coordinates allow")
-    kind = img.dtype.kind
-    if kind == "b":
-        f = img.astype(np.float64)
-    elif img.dtype == np.uint8:
-        f = img.astype(np.float64) / 255.0
-    elif img.dtype == np.uint16:
-        f = img.astype(np.float64) / 65535.0
-    elif kind in "iu":
-        if img.size and (img.min() < 0 or img.max() > 255):
-            raise InputError(source, f"integer image of dtype {img.dtype} must hold values 0..255 "
-                                     f"(found {img.min()}..{img.max()})")
-        f = img.astype(np.float64) / 255.0
-    elif kind == "f":
-        f = img.astype(np.float64)
-        if not np.isfinite(f).all():
-            raise InputError(source, "image contains NaN or infinite values")
-        if f.size and (f.min() < -1e-6 or f.max() > 1.0 + 1e-6):
-            raise InputError(source, f"float image must lie in [0, 1] (found {f.min():g}..{f.max():g})")
-        f = np.clip(f, 0.0, 1.0)  # round-off of a weighted grey conversion may overshoot 1 slightly
-    else:
-        raise InputError(source, f"unsupported image dtype {img.dtype}")
-    if f.ndim == 3:
-        if f.shape[2] == 1:
-            f = f[:, :, 0]
-        else:
-            f = np.clip(f[:, :, :3] @ _GREY_WEIGHTS, 0.0, 1.0)
-    return np.ascontiguousarray(f)
 
 
 def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:

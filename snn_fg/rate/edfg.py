@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft as sfft
 
-from ..frames.pyramid import level_shape, pyramid, resize
+from ..frames.pyramid import pyramid, resize
 from ..maps import Maps
 from ..network.kernels import dog_kernels, von_mises_masks
 from ..params import ModelParams

@@ -352,7 +352,7 @@ def iter_evt3(path, offset, read_bytes=READ_BYTES):
         big = ax > 32767
         if big.any():
             i = int(np.argmax(big))
-            raise InputError(path, f"vector event runs past x = 32767", f"byte offset {pos + 2 * int(ai[i])}")
+            raise InputError(path, "vector event runs past x = 32767", f"byte offset {pos + 2 * int(ai[i])}")
         if len(ax):
             yield _pack(ax, ay, at, ap)
 

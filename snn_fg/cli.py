@@ -112,6 +112,15 @@ def _progress(args, desc):
     return lambda it: tqdm(it, desc=desc, leave=False, file=sys.stderr)
 
 
+def _spiking():
+    """The spiking simulator package, or a clear error if this build lacks it."""
+    try:
+        from . import spiking
+    except ImportError as exc:
+        raise SnnFgError(f"the spiking model is not available in this installation ({exc})") from None
+    return spiking
+
+
 def _spiking_kw(args):
     return {k: v for k, v in (("duration_ms", args.duration_ms), ("dt_ms", args.dt_ms)) if v is not None}
 
@@ -127,10 +136,8 @@ def _run_frame(args, params, pos, neg, image, progress=True):
         from .rate.fbfg import run_fbfg
 
         return run_fbfg(image, params, progress=bar)
-    from .spiking import run_spiking
-
-    return run_spiking(pos=pos, neg=neg, params=params, seed=args.seed,
-                       progress=progress and not args.no_progress, **_spiking_kw(args))
+    return _spiking().run_spiking(pos=pos, neg=neg, params=params, seed=args.seed,
+                                  progress=progress and not args.no_progress, **_spiking_kw(args))
 
 
 def cmd_run(args) -> int:
@@ -173,10 +180,9 @@ def cmd_run(args) -> int:
                 if empty:
                     m = _empty_maps(w.pos.shape, params, args.model)
                 elif args.model == "spiking":
-                    from .spiking import run_spiking
-
-                    m = run_spiking(events=w.events, sensor_size=(w.pos.shape[1], w.pos.shape[0], 2),
-                                    params=params, seed=args.seed, progress=False, **_spiking_kw(args))
+                    m = _spiking().run_spiking(events=w.events, sensor_size=(w.pos.shape[1], w.pos.shape[0], 2),
+                                               params=params, seed=args.seed, progress=False,
+                                               **_spiking_kw(args))
                 else:
                     m = _run_frame(args, params, w.pos, w.neg, None, progress=False)
                 # The window's event frame (+1 ON, -1 OFF) is kept with its maps.
@@ -235,9 +241,7 @@ def _write_figures(args, out, inputs, maps, titles):
 
     save_maps_figure(out / "maps.png", inputs, maps.fg_x, maps.fg_y, maps.grouping, titles=titles)
     if args.model == "spiking":
-        from .spiking import save_spiking_figures
-
-        save_spiking_figures(maps, out)
+        _spiking().save_spiking_figures(maps, out)
 
 
 def _report(args, out):

@@ -200,7 +200,8 @@ def cmd_run(args) -> int:
             st = sink.stacked()
             maps = Maps(st["fg_x"], st["fg_y"], st["grouping"], {**sink.params, "source": source},
                         {k: v for k, v in st.items() if k not in ("fg_x", "fg_y", "grouping")})
-            titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(t0, t1)]
+            # Times relative to the first window (some formats stamp Unix time in us).
+            titles = [f"{(a - t0[0]) / 1000:.0f}-{(b - t0[0]) / 1000:.0f} ms" for a, b in zip(t0, t1)]
             sink.finish(maps.params, t_start_us=np.array(t0, dtype=np.int64),
                         t_end_us=np.array(t1, dtype=np.int64))
             _write_figures(args, out, _LazyFrames(st["event_frame"]), maps, titles)

@@ -18,7 +18,6 @@ from .errors import InputError
 from .images import IMAGE_SUFFIXES
 
 
-
 def input_kind(spec: str) -> str:
     """One of ``demo``, ``frame``, ``image``, ``recording``."""
     if spec == "demo":

@@ -658,11 +658,16 @@ class NetworkParams:
     delay_opposite_ms: delay of the opposite-family inhibition onto grouping
         cells (stands in for the rate model's first iteration, which runs
         without that inhibition).
+    delay_feedback_ms: delay of the feedback onto border-ownership cells.
     wta_s: lateral inhibition between directions at a pixel (per 100 Hz).
     untuned_drive: excitation of an untuned cell at its reference edge value
         (1 at level 1, ``support_min`` above).
     untuned_inh: inhibition of an untuned cell per 50 Hz of a simple cell.
     sb_drive: border-ownership drive per 50 Hz of its simple cell.
+    ub_drive: border-ownership drive per 150 Hz of an untuned cell (untuned
+        cells fire faster than simple cells; this keeps the B cells they
+        drive below their refractory ceiling).
+    t_ref_untuned_ms: refractory period of the untuned cells.
     bb_inh: mutual inhibition of the two B cells sharing a simple cell (per 100 Hz).
     fb_exc, fb_inh: feedback from the own family's pooled cells (excitatory)
         and the opposite family's (inhibitory), per 100 Hz.
@@ -683,7 +688,8 @@ class NetworkParams:
     prune_resize: float = 0.0
     delay_ms: float = 1.0
     delay_untuned_ms: float = 8.0
-    delay_opposite_ms: float = 30.0
+    delay_opposite_ms: float = 70.0
+    delay_feedback_ms: float = 25.0
     v_th_mv: float = 10.0
     tau_exc_ms: float = 5.0
     tau_inh_ms: float = 10.0
@@ -692,22 +698,24 @@ class NetworkParams:
     tau_m_relay_ms: float = 200.0
     t_ref_relay_ms: float = 1.0
     tau_m_bo_ms: float = 10.0
-    t_ref_bo_ms: float = 4.0
+    t_ref_bo_ms: float = 5.0
     tau_m_group_ms: float = 20.0
-    t_ref_group_ms: float = 2.0
+    t_ref_group_ms: float = 1.0
     tau_m_fb_ms: float = 20.0
-    t_ref_fb_ms: float = 2.0
-    tau_inh_untuned_ms: float = 30.0
+    t_ref_fb_ms: float = 1.0
+    tau_inh_untuned_ms: float = 50.0
+    t_ref_untuned_ms: float = 4.0
     wta_s: float = 3.0
-    untuned_drive: float = 2.0
-    untuned_inh: float = 8.0
-    sb_drive: float = 2.0
-    bb_inh: float = 3.0
+    untuned_drive: float = 1.5
+    untuned_inh: float = 20.0
+    sb_drive: float = 6.0
+    ub_drive: float = 6.0
+    bb_inh: float = 1.0
     fb_exc: float = 0.0
-    fb_inh: float = 2.0
-    bg_gain: float = 0.05
-    gg_inh: float = 3.0
-    gv_gain: float = 0.02
+    fb_inh: float = 100.0
+    bg_gain: float = 2.0
+    gg_inh: float = 0.5
+    gv_gain: float = 0.1
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -820,7 +828,7 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
                       v_th_mv=th, t_ref_ms=t_ref)
 
     simple = lif(net.tau_m_simple_ms, net.t_ref_simple_ms)
-    untuned = lif(net.tau_m_simple_ms, net.t_ref_simple_ms, net.tau_inh_untuned_ms)
+    untuned = lif(net.tau_m_simple_ms, net.t_ref_untuned_ms, net.tau_inh_untuned_ms)
     relay = lif(net.tau_m_relay_ms, net.t_ref_relay_ms)
     bo = lif(net.tau_m_bo_ms, net.t_ref_bo_ms)
     grp = lif(net.tau_m_group_ms, net.t_ref_group_ms)
@@ -831,6 +839,7 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
     g_in = th / (params.edge_threshold * r_in * tau_e)        # S threshold <-> edge_threshold
     g_relay = th * net.tau_m_relay_ms / net.tau_exc_ms        # a unit-weight spike = one threshold of charge
     g_sb = net.sb_drive * th / (50.0 * tau_e)
+    g_ub = net.ub_drive * th / (150.0 * tau_e)
     g_fb_e = net.fb_exc * th / (100.0 * tau_e)
     g_fb_i = net.fb_inh * th / (100.0 * tau_i)
     g_bg = net.bg_gain * th / (100.0 * tau_e)
@@ -839,6 +848,10 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
     g_bb = net.bb_inh * th / (100.0 * tau_i)
     g_gg = net.gg_inh * th / (100.0 * tau_i)
     g_su = net.untuned_inh * th / (50.0 * net.tau_inh_untuned_ms / 1000.0)
+    # A subtraction (opposite family, the other half of a z pair) must weigh
+    # what it subtracts as much as the excitation: its current decays with
+    # tau_inh instead of tau_exc, so its gain is scaled by tau_exc / tau_inh.
+    sub = net.tau_exc_ms / net.tau_inh_ms
     # Pooling V_{l+1} -> V_l: a feedback cell's rate is ~ I / (tau_m * v_th), so
     # this gain hands decay * (its input current) on to the finer level.
     g_pool = params.pyramid_decay * net.tau_m_fb_ms * th / net.tau_exc_ms
@@ -887,7 +900,7 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
             conv(f"{s}_to_{b[f]}", s, b[f], _cmap(n, n_dir, [(o, (o + off_s - n // 2) % n_dir) for o in range(n)]),
                  1, g_sb)
             if off_s == 0:   # untuned pixels take index n/2, read by L1 and D2
-                conv(f"{u}_to_{b[f]}", u, b[f], _cmap(n, 1, [(n // 2, 0)]), 1, g_sb)
+                conv(f"{u}_to_{b[f]}", u, b[f], _cmap(n, 1, [(n // 2, 0)]), 1, g_ub)
             conv(f"{b[PARTNER[f]]}_inh_{b[f]}", b[PARTNER[f]], b[f], _cmap(n, n, lo), -1, g_bb)
         # ---- grouping cells (stage 7) --------------------------------------
         gl = pop(f"GL_{l}", "group_L", l, 1, st, grp, "reachable", tuple(b.values()))
@@ -900,7 +913,7 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
             if sign < 0 and w == 0:
                 continue
             conv(f"{b[f]}_to_{g}", b[f], g, Kernel("von_mises", {"half": half, "layout": "gather"}), sign,
-                 g_bg * (1.0 if sign > 0 else w), delay=d if sign > 0 else net.delay_opposite_ms,
+                 g_bg * (1.0 if sign > 0 else w * sub), delay=d if sign > 0 else net.delay_opposite_ms,
                  prune=net.prune_vm)
         conv(f"{gl}_inh_{gd}", gl, gd, _cmap(1, 1, [(0, 0)]), -1, g_gg)
         conv(f"{gd}_inh_{gl}", gd, gl, _cmap(1, 1, [(0, 0)]), -1, g_gg)
@@ -918,22 +931,23 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
             conv(f"{g_pos}_to_{z[k]}", g_pos, z[k], Kernel("von_mises", {"half": half_pos, "layout": "scatter"}),
                  1, g_gv * st * st, prune=net.prune_vm)
             conv(f"{g_neg}_inh_{z[k]}", g_neg, z[k], Kernel("von_mises", {"half": half_neg, "layout": "scatter"}),
-                 -1, g_gv * st * st, prune=net.prune_vm)
+                 -1, g_gv * st * st * sub, prune=net.prune_vm)
         # B cells: the side z favours is excited (optional), the other inhibited
         for f, (zk_for, zk_against) in {"L1": ("1p", "1n"), "D2": ("1n", "1p"),
                                         "L2": ("2p", "2n"), "D1": ("2n", "2p")}.items():
             if g_fb_e > 0:
-                prjs.append(Resize(f"{z[zk_for]}_to_{b[f]}", z[zk_for], b[f], net.fb_interpolation, 1, g_fb_e, d))
+                prjs.append(Resize(f"{z[zk_for]}_to_{b[f]}", z[zk_for], b[f], net.fb_interpolation, 1, g_fb_e,
+                                   net.delay_feedback_ms))
             if g_fb_i > 0:
                 prjs.append(Resize(f"{z[zk_against]}_inh_{b[f]}", z[zk_against], b[f], net.fb_interpolation, -1,
-                                   g_fb_i, d))
+                                   g_fb_i, net.delay_feedback_ms))
     # top-down pooling: z_l += decay * resize(z_{l+1}), for both halves of each pair
     for l in range(1, params.levels):
         for k, other in (("1p", "1n"), ("1n", "1p"), ("2p", "2n"), ("2n", "2p")):
             prjs.append(Resize(f"Z{k}_{l + 1}_to_Z{k}_{l}", f"Z{k}_{l + 1}", f"Z{k}_{l}", net.pool_interpolation,
                                1, g_pool, d, net.prune_resize))
             prjs.append(Resize(f"Z{other}_{l + 1}_inh_Z{k}_{l}", f"Z{other}_{l + 1}", f"Z{k}_{l}",
-                               net.pool_interpolation, -1, g_pool, d, net.prune_resize))
+                               net.pool_interpolation, -1, g_pool * sub, d, net.prune_resize))
     notes = (
         "Deviation: the multiplicative feedback S*f(z) of stage 8 is additive here: z = VL1 - VD2 (and "
         "VL2 - VD1) is carried by a rectified pair of cells; the half against a B cell inhibits it (and with "

@@ -1,0 +1,188 @@
+"""Fidelity of the spiking network to the rate reference, and its own scores
+on synthetic scenes.
+
+Rows:
+* the six BSDS frames of ../shared/data/bsds-edfg (321 x 481; the stored
+  fg_x / fg_y / grouping are the rate reference's output on pos / neg);
+* synthetic discs (radius 16-64, light-on-dark and dark-on-light; event frame
+  from ``image_to_frame``), a square, the occlusion scene and the demo scene,
+  each compared with ``run_edfg`` on the same frame and scored against the
+  scene's analytic ground truth;
+* two discs fed as timed events (``image_to_events``), same comparisons.
+
+Acceptance (issue 3): median |angle difference| <= 20 deg on pixels where both
+maps are non-zero, grouping Pearson r >= 0.8; on discs >= 75 % of boundary
+pixels within 45 deg and the grouping maximum inside the disc.
+
+Writes experiments/results/spiking_fidelity.json and .md.
+Usage: python experiments/spiking_fidelity.py [--quick] [--only NAME ...]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from snn_fg import scenes  # noqa: E402
+from snn_fg.atomic import save_text  # noqa: E402
+from snn_fg.events import image_to_events, image_to_frame  # noqa: E402
+from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores  # noqa: E402
+from snn_fg.rate.edfg import run_edfg  # noqa: E402
+from snn_fg.spiking import run_spiking_result  # noqa: E402
+from snn_fg.spiking.api import ROLE_ORDER  # noqa: E402
+
+BSDS = ROOT.parent / "shared" / "data" / "bsds-edfg"
+OUT = ROOT / "experiments" / "results"
+
+
+def _roles(maps):
+    """Mean rate per role over all levels (cells of every level pooled) and
+    the highest per-level population mean, with the refractory ceiling."""
+    pops = maps.params["populations"]
+    out = {}
+    for role in ROLE_ORDER:
+        ps = [p for p in pops.values() if p["role"] == role and p["cells"] > 0]
+        if not ps:
+            continue
+        cells = sum(p["cells"] for p in ps)
+        out[role] = {
+            "mean_rate_hz": sum(p["mean_rate_hz"] * p["cells"] for p in ps) / cells,
+            "active_frac": sum(p["active_frac"] * p["cells"] for p in ps) / cells,
+            "max_level_mean_hz": max(p["mean_rate_hz"] for p in ps),
+            "refractory_max_hz": ps[0]["refractory_max_hz"],
+            "silent_levels": sorted(p["level"] for p in ps if p["mean_rate_hz"] == 0),
+        }
+    return out
+
+
+def _row(name, kind, maps, ref, elapsed, scene=None, extra=None):
+    c = compare_frame(maps.fg_x, maps.fg_y, maps.grouping, ref.fg_x if hasattr(ref, "fg_x") else ref["fg_x"],
+                      ref.fg_y if hasattr(ref, "fg_y") else ref["fg_y"],
+                      ref.grouping if hasattr(ref, "grouping") else ref["grouping"])
+    row = {"name": name, "kind": kind, "angle_diff_median_deg": c["angle_diff_median_deg"],
+           "angle_diff_mean_deg": c["angle_diff_mean_deg"], "grouping_pearson_r": c["grouping_pearson_r"],
+           "pixels_compared": c["pixels_compared"], "seconds": elapsed,
+           "cells": maps.params["counts"]["total_cells"], "synapses": maps.params["counts"]["total_synapses"],
+           "timings_s": maps.params["timings_s"], "roles": _roles(maps)}
+    row["pass_fidelity"] = bool(row["angle_diff_median_deg"] <= 20 and row["grouping_pearson_r"] >= 0.8)
+    if scene is not None:
+        t = truth_scores(maps.fg_x, maps.fg_y, scene)
+        tr = truth_scores(ref.fg_x, ref.fg_y, scene)
+        row.update({"truth_frac_within_45": t["frac_within_45"], "truth_coverage": t["coverage"],
+                    "truth_frac_of_all_boundary": t["frac_within_45"] * t["coverage"],
+                    "truth_median_err_deg": t["median_err_deg"],
+                    "peak_inside": grouping_peak_inside(maps.grouping, scene),
+                    "ref_truth_frac_within_45": tr["frac_within_45"], "ref_truth_coverage": tr["coverage"],
+                    "ref_peak_inside": grouping_peak_inside(ref.grouping, scene)})
+        if scene.name.startswith("disc"):
+            row["pass_disc"] = bool(row["truth_frac_within_45"] >= 0.75 and row["peak_inside"])
+    if extra:
+        row.update(extra)
+    return row
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="synthetic scenes only (no BSDS frames)")
+    ap.add_argument("--only", nargs="*", help="run only rows whose name contains one of these")
+    ap.add_argument("--out", default=str(OUT))
+    args = ap.parse_args(argv)
+    rows = []
+
+    def want(name):
+        return not args.only or any(o in name for o in args.only)
+
+    def log(msg):
+        print(msg, flush=True)
+
+    if not args.quick and BSDS.exists():
+        for path in sorted(BSDS.glob("*.npz")):
+            name = f"bsds-{path.stem}"
+            if not want(name):
+                continue
+            d = np.load(path)
+            t0 = time.perf_counter()
+            res = run_spiking_result(d["pos"], d["neg"], progress=False)
+            rows.append(_row(name, "bsds", res.maps, d, time.perf_counter() - t0))
+            log(_fmt(rows[-1]))
+    elif not args.quick:
+        log(f"skipping BSDS frames: {BSDS} is absent")
+
+    synth = [scenes.disc(r, light) for r in (16, 24, 32, 48, 64) for light in (True, False)]
+    synth += [scenes.square(24, True), scenes.occlusion(), scenes.demo()]
+    for sc in synth:
+        if not want(sc.name):
+            continue
+        pos, neg = image_to_frame(sc.image)
+        ref = run_edfg(pos, neg)
+        t0 = time.perf_counter()
+        res = run_spiking_result(pos, neg, progress=False)
+        rows.append(_row(sc.name, "synthetic-frame", res.maps, ref, time.perf_counter() - t0, sc))
+        log(_fmt(rows[-1]))
+    for sc in (scenes.disc(24, True), scenes.disc(40, False)):
+        name = sc.name + "-timed-events"
+        if not want(name):
+            continue
+        rec = image_to_events(sc.image)
+        pos, neg = image_to_frame(sc.image)
+        ref = run_edfg(pos, neg)
+        t0 = time.perf_counter()
+        res = run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, progress=False)
+        rows.append(_row(name, "synthetic-events", res.maps, ref, time.perf_counter() - t0, sc,
+                         {"events": int(len(rec.events)), "input_rate_hz": res.inputs.rate_hz,
+                          "merged_spikes": res.inputs.merged}))
+        log(_fmt(rows[-1]))
+
+    out = Path(args.out)
+    record = {"rows": rows, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+              "network_params": res.maps.params["network"], "simulation": res.maps.params["simulation"]}
+    save_text(out / "spiking_fidelity.json", json.dumps(record, indent=1, default=float))
+    save_text(out / "spiking_fidelity.md", _markdown(rows))
+    log(f"wrote {out / 'spiking_fidelity.json'} and .md")
+
+
+def _fmt(r):
+    s = (f"{r['name']:28s} median dAngle {r['angle_diff_median_deg']:5.1f} deg  mean {r['angle_diff_mean_deg']:5.1f}  "
+         f"r {r['grouping_pearson_r']:.3f}  {r['seconds']:6.1f} s")
+    if "truth_frac_within_45" in r:
+        s += f"  truth<=45: {r['truth_frac_within_45']:.2f} (ref {r['ref_truth_frac_within_45']:.2f}) peak in {r['peak_inside']}"
+    return s
+
+
+def _markdown(rows):
+    lines = ["# Spiking network vs the rate reference", "",
+             "Generated by `experiments/spiking_fidelity.py` (default parameters). Angle difference: "
+             "median / mean of |circular difference| on pixels where both figure-ground maps are non-zero. "
+             "Truth: fraction of scored boundary pixels within 45 deg of the analytic direction "
+             "(scored = the model has a vector there; `coverage` = scored / all boundary pixels).", "",
+             "| input | median dAngle (deg) | mean dAngle | grouping r | pass | truth <= 45 (spk / ref) | coverage "
+             "| peak inside (spk / ref) | cells | synapses | time (s) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        truth = (f"{r['truth_frac_within_45']:.2f} / {r['ref_truth_frac_within_45']:.2f}"
+                 if "truth_frac_within_45" in r else "")
+        cov = f"{r['truth_coverage']:.2f}" if "truth_coverage" in r else ""
+        peak = f"{r['peak_inside']} / {r['ref_peak_inside']}" if "peak_inside" in r else ""
+        lines.append(f"| {r['name']} | {r['angle_diff_median_deg']:.1f} | {r['angle_diff_mean_deg']:.1f} | "
+                     f"{r['grouping_pearson_r']:.3f} | {'yes' if r['pass_fidelity'] else 'NO'} | {truth} | {cov} | "
+                     f"{peak} | {r['cells']:,} | {r['synapses']:,} | {r['seconds']:.0f} |")
+    lines += ["", "## Mean firing rate per population role (Hz; all levels pooled; first row)", ""]
+    if rows:
+        lines.append("| role | mean | active fraction | highest level mean | refractory max |")
+        lines.append("|---|---|---|---|---|")
+        for role, v in rows[0]["roles"].items():
+            lines.append(f"| {role} | {v['mean_rate_hz']:.1f} | {v['active_frac']:.2f} | "
+                         f"{v['max_level_mean_hz']:.1f} | {v['refractory_max_hz']:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,163 @@
+"""Input spike trains for the spiking network.
+
+Two kinds of input, both ending as one spike source per pixel and polarity
+(ON neurons ``0..H*W-1``, OFF neurons ``H*W..2*H*W-1``, pixel ``y*W + x``):
+
+* timed events (a tonic-style structured array with fields ``x``, ``y``,
+  ``t`` in microseconds and ``p``): each event is a spike at its own time,
+  relative to the window's first event. With ``replay`` the window repeats
+  (like the iCub's periodic micro-saccades) until the simulation ends;
+* an event frame without timing (``pos``/``neg`` uint8): every pixel with an
+  event fires at ``rate_hz`` for the whole presentation, either regularly
+  with a random phase or as a Poisson process; deterministic for a seed.
+
+Spike times are put on the simulation grid (multiples of ``dt``); two spikes
+of one neuron in the same step are merged (Brian2 allows one per step).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, ParameterError
+
+
+@dataclass
+class InputSpikes:
+    """Spikes of the input sources, ready for a ``SpikeGeneratorGroup``.
+
+    ``indices``/``steps`` are the neuron index and time step of each spike in
+    one period; the pattern repeats every ``period_steps`` if that is not
+    ``None``. ``on``/``off`` are the (H, W) masks of pixels that get spikes;
+    ``rate_hz`` is the mean rate of an active pixel (used to calibrate gains).
+    """
+
+    shape: tuple
+    indices: np.ndarray
+    steps: np.ndarray
+    period_steps: int | None
+    on: np.ndarray
+    off: np.ndarray
+    rate_hz: float
+    merged: int = 0        # spikes dropped because they fell in an occupied step
+    kind: str = "frame"
+
+    @property
+    def n_sources(self) -> int:
+        return 2 * self.shape[0] * self.shape[1]
+
+    def spike_times_steps(self, n_steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """All (index, step) pairs up to ``n_steps`` (periodic patterns expanded)."""
+        if self.period_steps is None:
+            keep = self.steps < n_steps
+            return self.indices[keep], self.steps[keep]
+        reps = -(-n_steps // self.period_steps)
+        idx = np.tile(self.indices, reps)
+        st = (self.steps[None, :] + self.period_steps * np.arange(reps)[:, None]).ravel()
+        keep = st < n_steps
+        return idx[keep], st[keep]
+
+
+def _check_dt(dt_ms):
+    if not (isinstance(dt_ms, (int, float)) and np.isfinite(dt_ms) and dt_ms > 0):
+        raise ParameterError(f"dt_ms={dt_ms!r}: must be a positive number")
+
+
+def frame_spikes(pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, seed: int = 0,
+                 process: str = "regular") -> InputSpikes:
+    """Spike trains for an event frame without timing.
+
+    ``regular``: each active pixel fires every ``round(1000 / rate_hz / dt)``
+    steps with a random phase (so the realised rate is ``1000 / (k * dt)``
+    Hz); ``poisson``: a Poisson train at ``rate_hz`` sampled per time step.
+    """
+    _check_dt(dt_ms)
+    pos = np.asarray(pos)
+    neg = np.asarray(neg)
+    if pos.ndim != 2 or pos.shape != neg.shape:
+        raise InputError("<frame>", f"pos and neg must be 2-D arrays of one shape, got {pos.shape} and {neg.shape}")
+    if not (isinstance(rate_hz, (int, float)) and np.isfinite(rate_hz) and rate_hz > 0):
+        raise ParameterError(f"rate_hz={rate_hz!r}: must be a positive number")
+    if process not in ("regular", "poisson"):
+        raise ParameterError(f"input_process={process!r}: must be 'regular' or 'poisson'")
+    on = pos != 0
+    off = neg != 0
+    h, w = pos.shape
+    src = np.concatenate([np.flatnonzero(on), h * w + np.flatnonzero(off)]).astype(np.int64)
+    rng = np.random.default_rng(seed)
+    n_steps = int(round(duration_ms / dt_ms))
+    if process == "regular":
+        k = max(1, int(round(1000.0 / rate_hz / dt_ms)))
+        if 1000.0 / (k * dt_ms) > 1.5 * rate_hz or 1000.0 / (k * dt_ms) < rate_hz / 1.5:
+            raise ParameterError(f"rate_hz={rate_hz}: not representable as a regular train with dt={dt_ms} ms")
+        phase = rng.integers(0, k, size=src.size)
+        order = np.lexsort((src, phase))
+        return InputSpikes((h, w), src[order], phase[order], k, on, off, 1000.0 / (k * dt_ms), 0, "frame-regular")
+    p = rate_hz * dt_ms / 1000.0
+    if p >= 1:
+        raise ParameterError(f"rate_hz={rate_hz}: at least one spike per step at dt={dt_ms} ms")
+    idx_l, st_l = [], []
+    for s0 in range(0, n_steps, 1000):      # bounded memory for long presentations
+        block = min(1000, n_steps - s0)
+        hit = rng.random((block, src.size)) < p
+        st, j = np.nonzero(hit)
+        idx_l.append(src[j])
+        st_l.append(st + s0)
+    idx = np.concatenate(idx_l) if idx_l else np.zeros(0, np.int64)
+    st = np.concatenate(st_l) if st_l else np.zeros(0, np.int64)
+    return InputSpikes((h, w), idx.astype(np.int64), st.astype(np.int64), None, on, off, float(rate_hz), 0,
+                       "frame-poisson")
+
+
+def _field(events, name):
+    try:
+        return np.asarray(events[name])
+    except (ValueError, KeyError, IndexError):
+        raise InputError("<events>", f"structured array needs fields x, y, t, p; missing {name!r}") from None
+
+
+def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source: str = "<events>") -> InputSpikes:
+    """Spike trains from timed events (tonic-style: x, y, t in microseconds, p).
+
+    ``sensor_size`` is ``(W, H)`` or ``(W, H, 2)``. Times are taken relative to
+    the first event; the window is ``[t_first, t_last]``. With ``replay`` the
+    window repeats with period ``ceil((t_last - t_first + 1 us) / dt)`` steps.
+    """
+    _check_dt(dt_ms)
+    if not isinstance(events, np.ndarray) or events.dtype.names is None:
+        raise InputError(source, "events must be a structured array with fields x, y, t, p")
+    try:
+        w, h = int(sensor_size[0]), int(sensor_size[1])
+    except (TypeError, ValueError, IndexError):
+        raise InputError(source, f"sensor_size must be (width, height[, 2]), got {sensor_size!r}") from None
+    if w < 1 or h < 1:
+        raise InputError(source, f"sensor_size must be positive, got {sensor_size!r}")
+    x, y, t, p = (_field(events, k) for k in ("x", "y", "t", "p"))
+    if x.size == 0:
+        raise InputError(source, "no events in the window")
+    bad = np.flatnonzero((x < 0) | (x >= w) | (y < 0) | (y >= h))
+    if bad.size:
+        raise InputError(source, f"event at x={x[bad[0]]}, y={y[bad[0]]} outside the {w} x {h} sensor",
+                         f"event {bad[0]}")
+    if not np.issubdtype(t.dtype, np.number) or not np.all(np.isfinite(t)):
+        raise InputError(source, "timestamps t must be finite numbers (microseconds)")
+    t = t.astype(np.float64)
+    t0 = t.min()
+    step = np.floor((t - t0) / (dt_ms * 1000.0)).astype(np.int64)
+    pol_on = p > 0
+    idx = (y.astype(np.int64) * w + x.astype(np.int64)) + np.where(pol_on, 0, h * w)
+    key = np.unique(step * (2 * h * w) + idx)
+    merged = int(x.size - key.size)
+    idx_u = key % (2 * h * w)
+    st_u = key // (2 * h * w)
+    period = int(st_u.max()) + 1 if replay else None
+    on = np.zeros(h * w, bool)
+    off = np.zeros(h * w, bool)
+    on[idx_u[idx_u < h * w]] = True
+    off[idx_u[idx_u >= h * w] - h * w] = True
+    n_active = int(on.sum() + off.sum())
+    span_s = (period if period else int(st_u.max()) + 1) * dt_ms / 1000.0
+    rate = key.size / max(n_active, 1) / span_s
+    return InputSpikes((h, w), idx_u, st_u, period, on.reshape(h, w), off.reshape(h, w), float(rate), merged,
+                       "events")

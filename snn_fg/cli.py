@@ -62,7 +62,9 @@ def _add_run(sub):
     g.add_argument("--sensor-size", type=sensor_size_arg, default=None, metavar="WxH",
                    help="for RAW files without geometry, or .npy arrays")
     g = p.add_argument_group("spiking model")
-    g.add_argument("--duration-ms", type=float, default=None, help="presentation time per frame")
+    g.add_argument("--duration-ms", type=float, default=None, help="simulated time per frame or window (400)")
+    g.add_argument("--settle-ms", type=float, default=None,
+                   help="spikes before this time are not counted (default: half of --duration-ms)")
     g.add_argument("--dt-ms", type=float, default=None, help="simulation time step")
     g.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -122,7 +124,8 @@ def _spiking():
 
 
 def _spiking_kw(args):
-    return {k: v for k, v in (("duration_ms", args.duration_ms), ("dt_ms", args.dt_ms)) if v is not None}
+    return {k: v for k, v in (("duration_ms", args.duration_ms), ("dt_ms", args.dt_ms), ("settle_ms", args.settle_ms))
+            if v is not None}
 
 
 def _run_frame(args, params, pos, neg, image, progress=True):

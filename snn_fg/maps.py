@@ -69,7 +69,16 @@ class MapsSeriesWriter:
     Each window's arrays are appended to temporary raw files next to the
     destination, so memory stays bounded by one window however long the
     recording; :meth:`finish` reads them back as memory maps while writing the
-    stacked ``.npz``. Temporary files are removed whatever happens.
+    result. Temporary files are removed whatever happens.
+
+    An array with the same shape in every window is stored stacked,
+    ``(n_windows, ...)``; a window that lacks it (an empty window has no spike
+    counts) gets zeros. An array whose length varies between windows (spike
+    counts per instantiated cell: each window instantiates its own cells) is
+    stored *ragged*: ``key`` is the windows' arrays concatenated along their
+    first axis and ``key_offsets`` (int64, ``n_windows + 1``) says where each
+    window's part starts; see :func:`window_part`. A window's ``params`` that
+    differ from the first window's are kept under ``params["windows"]``.
     """
 
     def __init__(self, path):
@@ -78,7 +87,9 @@ class MapsSeriesWriter:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._dir = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".parts", dir=self.path.parent))
-        self._meta: dict[str, tuple] = {}   # key -> (dtype, shape of one window)
+        self._dtype: dict[str, np.dtype] = {}
+        self._shapes: dict[str, list] = {}     # key -> per window: its shape, or None where absent
+        self._window_params: list[dict] = []
         self.n = 0
         self.params: dict = {}
 
@@ -87,21 +98,53 @@ class MapsSeriesWriter:
         arrays = {"fg_x": maps.fg_x, "fg_y": maps.fg_y, "grouping": maps.grouping, **maps.extra, **more}
         if self.n == 0:
             self.params = dict(maps.params)
-            self._meta = {k: (np.asarray(v).dtype, np.shape(v)) for k, v in arrays.items()}
-        for key, (dtype, shape) in self._meta.items():
-            v = np.asarray(arrays.get(key, np.zeros(shape, dtype)), dtype=dtype)
-            if v.shape != shape:   # e.g. an empty window without spike counts
-                v = np.zeros(shape, dtype)
+        self._window_params.append({k: v for k, v in maps.params.items() if self.params.get(k) != v})
+        for key, v in arrays.items():
+            v = np.asarray(v)
+            if key not in self._dtype:
+                self._dtype[key] = v.dtype
+                self._shapes[key] = [None] * self.n
+            elif v.dtype != self._dtype[key]:
+                v = v.astype(self._dtype[key])
             with open(self._dir / key, "ab") as fh:
-                v.tofile(fh)
+                np.ascontiguousarray(v).tofile(fh)
+            self._shapes[key].append(v.shape)
+        for key, shapes in self._shapes.items():
+            if len(shapes) == self.n:      # absent from this window
+                shapes.append(None)
         self.n += 1
 
+    def _raw(self, key):
+        count = sum(int(np.prod(s)) for s in self._shapes[key] if s is not None)
+        return np.memmap(self._dir / key, dtype=self._dtype[key], mode="r", shape=(count,)) if count else \
+            np.zeros(0, self._dtype[key])
+
     def stacked(self) -> dict:
-        """The windows so far as read-only memory maps, ``(n, ...)`` per key."""
+        """The windows so far, ``(n, ...)`` per key (read-only memory maps where
+        every window has the key), plus ``key`` / ``key_offsets`` for ragged keys."""
         if self.n == 0:
             raise ValueError("MapsSeriesWriter: no window was appended")
-        return {k: np.memmap(self._dir / k, dtype=dt, mode="r", shape=(self.n,) + shp)
-                for k, (dt, shp) in self._meta.items()}
+        out = {}
+        for key, shapes in self._shapes.items():
+            present = [s for s in shapes if s is not None]
+            raw = self._raw(key)
+            if len(set(present)) == 1 and len(present) == self.n:
+                out[key] = raw.reshape((self.n,) + present[0])
+            elif len(set(present)) == 1 and len(present[0]) != 1:
+                # a fixed-shape array (a map, a scalar) missing from some windows: zeros there
+                full = np.zeros((self.n,) + present[0], self._dtype[key])
+                full[[i for i, s in enumerate(shapes) if s is not None]] = raw.reshape((-1,) + present[0])
+                out[key] = full
+            else:
+                tails = {s[1:] for s in present}
+                if len(tails) != 1 or any(len(s) == 0 for s in present):
+                    raise ValueError(f"MapsSeriesWriter: array {key!r} changes its trailing shape between windows "
+                                     f"({sorted(set(present))}); cannot store it")
+                tail = tails.pop()
+                lengths = [0 if s is None else s[0] for s in shapes]
+                out[key] = raw.reshape((-1,) + tail)
+                out[f"{key}_offsets"] = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+        return out
 
     def finish(self, params: dict | None = None, **extra) -> Path:
         """Write ``path``: the stacked windows, ``extra`` arrays and ``params``.
@@ -111,7 +154,10 @@ class MapsSeriesWriter:
         """
         stacked = self.stacked()
         stacked.update(extra)
-        stacked["params"] = np.array(json.dumps(params if params is not None else self.params, sort_keys=True))
+        params = dict(params if params is not None else self.params)
+        if any(self._window_params):
+            params["windows"] = self._window_params
+        stacked["params"] = np.array(json.dumps(params, sort_keys=True))
         return save_npz(self.path, **stacked)
 
     def close(self):
@@ -124,3 +170,13 @@ class MapsSeriesWriter:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def window_part(extra: dict, key: str, window: int) -> np.ndarray:
+    """Window ``window``'s part of a per-window array of a recording's Maps:
+    a slice of a ragged array (see :class:`MapsSeriesWriter`) or one row of a
+    stacked one."""
+    if f"{key}_offsets" in extra:
+        off = np.asarray(extra[f"{key}_offsets"])
+        return np.asarray(extra[key])[off[window]:off[window + 1]]
+    return np.asarray(extra[key])[window]

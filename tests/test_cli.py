@@ -10,6 +10,7 @@ import pytest
 from snn_fg import atomic
 from snn_fg.cli import main
 from snn_fg.maps import Maps
+from snn_fg.params import ModelParams
 
 
 def run_cli(*args):
@@ -159,3 +160,35 @@ def test_interrupted_recording_run_leaves_nothing(tmp_path, monkeypatch):
     assert main(["run", str(path), "--out", str(out), "--window-ms", "50", "--no-progress"]) == 130
     assert len(calls) == 2
     assert os.listdir(out) == []
+
+
+def test_spiking_recording_keeps_every_windows_spikes(tmp_path):
+    """snn-fg run RECORDING --model spiking: each window's spike counts are
+    stored (ragged: every window instantiates its own cells) and equal a
+    direct run_spiking on that window's events; figures show one window."""
+    from snn_fg.events import image_to_events, iter_windows, save_events
+    from snn_fg.maps import window_part
+    from snn_fg.scenes import disc
+    from snn_fg.spiking import run_spiking
+
+    rec = image_to_events(disc(12).image, motion="circle")
+    path = tmp_path / "disc.npy"
+    save_events(path, rec.events, rec.sensor_size)
+    out = tmp_path / "out"
+    opts = ["--window-ms", "120", "--max-windows", "2", "--levels", "3", "--duration-ms", "80", "--sensor-size", "64x64"]
+    assert main(["run", str(path), "--out", str(out), "--model", "spiking", *opts, "--no-progress"]) == 0
+    m = Maps.load(out / "maps.npz")
+    assert m.fg_x.shape[0] == 2
+    windows = list(iter_windows(path, window_ms=120, max_windows=2, sensor_size=(64, 64)))
+    sizes = []
+    for i, w in enumerate(windows):
+        direct = run_spiking(events=w.events, sensor_size=rec.sensor_size, duration_ms=80,
+                             params=ModelParams(levels=3),
+                             progress=False)
+        np.testing.assert_array_equal(m.fg_x[i], direct.fg_x)
+        for name in ("S_1", "BL1_1", "GL_1"):
+            np.testing.assert_array_equal(window_part(m.extra, f"spikes_{name}", i), direct.extra[f"spikes_{name}"])
+        assert m.params["windows"][i].get("counts", m.params["counts"]) == direct.params["counts"]
+        sizes.append(direct.extra["spikes_S_1"].size)
+    assert ("spikes_S_1_offsets" in m.extra) == (sizes[0] != sizes[1])
+    assert sorted(os.listdir(out)) == ["maps.npz", "maps.png", "rate_histograms.png", "spike_raster.png"]

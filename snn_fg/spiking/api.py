@@ -45,7 +45,7 @@ def _check_number(name, v, positive=True):
 
 def run_spiking_result(pos=None, neg=None, events=None, sensor_size=None, params: ModelParams = ModelParams(),
                        duration_ms: float = 400.0, dt_ms: float = 0.5, seed: int = 0, rate_hz: float = 200.0,
-                       progress: bool = True, network: NetworkParams | None = None, settle_ms: float = 200.0,
+                       progress: bool = True, network: NetworkParams | None = None, settle_ms: float | None = None,
                        input_process: str = "regular", replay: bool = True, codegen: str = "auto",
                        record_spikes: bool = True, keep_connections: bool = False, log=None) -> SpikingResult:
     """:func:`run_spiking`, returning the full :class:`SpikingResult`."""
@@ -57,7 +57,7 @@ def run_spiking_result(pos=None, neg=None, events=None, sensor_size=None, params
         raise ParameterError(f"network: expected a NetworkParams, got {type(net_params).__name__}")
     duration_ms = _check_number("duration_ms", duration_ms)
     dt_ms = _check_number("dt_ms", dt_ms)
-    settle_ms = _check_number("settle_ms", settle_ms, positive=False)
+    settle_ms = duration_ms / 2 if settle_ms is None else _check_number("settle_ms", settle_ms, positive=False)
     if not 0 <= settle_ms < duration_ms:
         raise ParameterError(f"settle_ms={settle_ms}: must lie in [0, duration_ms={duration_ms})")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
@@ -175,7 +175,7 @@ def run_spiking(pos=None, neg=None, events=None, sensor_size=None, params: Model
     cell and synapse counts, kept kernel mass, mean rates and timings.
 
     Options (keywords): ``network`` (:class:`NetworkParams`), ``settle_ms``
-    (200), ``input_process`` ('regular' | 'poisson'), ``replay`` (True),
+    (default: half of ``duration_ms``), ``input_process`` ('regular' | 'poisson'), ``replay`` (True),
     ``codegen`` ('auto' | 'cython' | 'numpy'), ``record_spikes`` (True),
     ``keep_connections`` (False: the unrolled synapse arrays are dropped once
     Brian2 holds them), ``log``.
@@ -213,11 +213,43 @@ def _raster_sample(sim: SimResult, lay, pops):
         np.zeros(0, np.int16)
 
 
-def save_spiking_figures(maps_or_result, out_dir) -> list[Path]:
+def spiking_window(maps: Maps, window: int | None = None) -> tuple[dict, dict, int | None]:
+    """The spiking data of one frame: ``(extra, params, window)``.
+
+    For a single frame the Maps' own ``extra`` and ``params``. For a
+    recording (maps of shape ``(n_windows, H, W)``, written window by window
+    by ``snn-fg run RECORDING --model spiking``) window ``window``'s part of
+    every per-window array and its own parameters (cell counts, rates); by
+    default the window with the most spikes.
+    """
+    from ..maps import window_part
+
+    ex = maps.extra
+    if "population_names" not in ex:
+        raise InputError("<maps>", "no spiking data in Maps.extra (was it made by run_spiking?)")
+    if maps.fg_x.ndim == 2:
+        return ex, maps.params, None
+    n = maps.fg_x.shape[0]
+    names = [k[len("spikes_"):] for k in ex if k.startswith("spikes_") and not k.endswith("_offsets")]
+    if window is None:
+        totals = [sum(int(window_part(ex, f"spikes_{p}", i).sum()) for p in names) for i in range(n)]
+        window = int(np.argmax(totals))
+    if not 0 <= window < n:
+        raise ParameterError(f"window={window}: the maps hold windows 0..{n - 1}")
+    keys = {k for k in ex if not k.endswith("_offsets")}
+    one = {k: window_part(ex, k, window) for k in keys}
+    params = {k: v for k, v in maps.params.items() if k != "windows"}
+    params.update(maps.params.get("windows", [{}] * n)[window])
+    return one, params, window
+
+
+def save_spiking_figures(maps_or_result, out_dir, window: int | None = None) -> list[Path]:
     """Write ``spike_raster.png`` and ``rate_histograms.png`` into ``out_dir``.
 
     Accepts the :class:`Maps` of :func:`run_spiking` (or a saved one loaded
-    with ``Maps.load``) or a :class:`SpikingResult`.
+    with ``Maps.load``) or a :class:`SpikingResult`. For a recording's maps
+    the figures show one window (``window``; default: the one with the most
+    spikes, see :func:`spiking_window`).
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -228,15 +260,14 @@ def save_spiking_figures(maps_or_result, out_dir) -> list[Path]:
     maps = maps_or_result.maps if isinstance(maps_or_result, SpikingResult) else maps_or_result
     if not isinstance(maps, Maps):
         raise ParameterError(f"save_spiking_figures: expected Maps or SpikingResult, got {type(maps).__name__}")
-    ex = maps.extra
-    if "population_names" not in ex:
-        raise InputError("<maps>", "no spiking data in Maps.extra (was it made by run_spiking?)")
+    ex, params, window = spiking_window(maps, window)
+    where = "" if window is None else f" (window {window})"
     out_dir = Path(out_dir)
     names = [str(n) for n in ex["population_names"]]
-    pops = maps.params.get("populations", {})
-    window_s = maps.params.get("simulation", {}).get("count_window_ms", 1000.0) / 1000.0
-    duration = maps.params.get("simulation", {}).get("duration_ms", None)
-    settle = maps.params.get("simulation", {}).get("settle_ms", None)
+    pops = params.get("populations", {})
+    window_s = params.get("simulation", {}).get("count_window_ms", 1000.0) / 1000.0
+    duration = params.get("simulation", {}).get("duration_ms", None)
+    settle = params.get("simulation", {}).get("settle_ms", None)
     written = []
 
     # -- raster --------------------------------------------------------------
@@ -263,7 +294,7 @@ def save_spiking_figures(maps_or_result, out_dir) -> list[Path]:
         ax.set_xlim(0, duration)
     ax.set_xlabel("time (ms)  [dashed: start of the counting window]")
     ax.set_ylabel(f"sampled cells (up to {RASTER_CELLS_PER_ROLE} per role, level 1 first)")
-    ax.set_title("Spike raster by population role")
+    ax.set_title(f"Spike raster by population role{where}")
     fig.tight_layout()
     written.append(save_figure(fig, out_dir / "spike_raster.png", dpi=120))
     plt.close(fig)
@@ -286,7 +317,7 @@ def save_spiking_figures(maps_or_result, out_dir) -> list[Path]:
         ax.set_xlabel("rate (Hz)", fontsize=7)
     for ax in axes.ravel()[len(roles):]:
         ax.axis("off")
-    fig.suptitle("Firing rates per population role (all levels, counting window)")
+    fig.suptitle(f"Firing rates per population role (all levels, counting window){where}")
     fig.tight_layout()
     written.append(save_figure(fig, out_dir / "rate_histograms.png", dpi=110))
     plt.close(fig)

@@ -190,3 +190,16 @@ def test_unrolled_network_iterated_like_the_rate_model_reproduces_it(light):
     assert c["pixels_compared"] > 150
     assert c["angle_diff_median_deg"] < 1e-3       # float rounding of the unrolled weights only
     assert c["grouping_pearson_r"] > 0.98
+
+
+def test_synapse_counts_survive_freeing_the_arrays(unrolled):
+    """A simulator frees each projection's arrays once it holds them; the
+    counts table must still report the synapses."""
+    import copy
+    un = copy.deepcopy(unrolled)
+    before = un.counts()["synapses_in"]
+    assert before["S_1"] > 0
+    for c in un.connections:
+        c.free()
+    assert all(c.pre.size == 0 for c in un.connections)
+    assert un.counts()["synapses_in"] == before

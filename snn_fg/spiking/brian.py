@@ -166,9 +166,7 @@ def simulate(un: Unrolled, inp: InputSpikes, duration_ms: float, dt_ms: float, c
         w = np.concatenate([np.abs(c.w) if rec == "inh" else c.w for c in conns])
         if free:
             for c in conns:
-                c.pre = c.pre[:0]
-                c.post = c.post[:0]
-                c.w = c.w[:0]
+                c.free()
         syn = b2.Synapses(gen if src_name == "inp" else lif, lif, "w : volt",
                           on_pre=f"I_{rec}_post += w", delay=delay * ms, dt=dt, name=name)
         syn.connect(i=pre, j=post)

@@ -115,10 +115,14 @@ class Connections:
     w: np.ndarray          # float64, signed weight in mV
     kept_mass: float       # kept fraction of sum |K| after pruning (1.0 if none)
     taps: int              # kernel taps kept (Conv) or interpolation weights kept (Resize)
+    n: int = field(init=False)   # synapses; kept when a simulator frees pre/post/w
 
-    @property
-    def n(self) -> int:
-        return int(self.pre.size)
+    def __post_init__(self):
+        self.n = int(self.pre.size)
+
+    def free(self):
+        """Drop the synapse arrays (a simulator holds its own copy); ``n`` stays."""
+        self.pre, self.post, self.w = self.pre[:0], self.post[:0], self.w[:0]
 
 
 @dataclass

@@ -203,3 +203,31 @@ def test_synapse_counts_survive_freeing_the_arrays(unrolled):
         c.free()
     assert all(c.pre.size == 0 for c in un.connections)
     assert un.counts()["synapses_in"] == before
+
+
+def test_source_and_target_enumeration_give_the_same_synapses(frame):
+    """Conv synapses are enumerated from whichever side has fewer (tap, cell)
+    pairs; both sides must give the same set, on every kind of Conv (DoG with
+    wrap-around, channel maps, von Mises gather and scatter across lattices)."""
+    from snn_fg.network.description import Conv
+    from snn_fg.spiking.unroll import _conv_pairs
+    pos, neg = frame
+    net = build_network(ModelParams(levels=2), pos.shape, NetworkParams())
+    un = unroll(net, {"on": pos, "off": neg})
+    checked = 0
+    for c in un.connections:
+        pr = c.projection
+        if not isinstance(pr, Conv):
+            continue
+        src, tgt = net.population(pr.source), net.population(pr.target)
+        act = un.active[src.name].ravel() if src.neuron is None else None
+        got = []
+        for side in ("sources", "targets"):
+            pre, post, k, _, _ = _conv_pairs(pr, src, tgt, un.sites[src.name], un.sites[tgt.name], net, act, side)
+            order = np.lexsort((pre, post))
+            got.append((pre[order], post[order], k[order]))
+        np.testing.assert_array_equal(got[0][0], got[1][0], err_msg=pr.name)
+        np.testing.assert_array_equal(got[0][1], got[1][1], err_msg=pr.name)
+        np.testing.assert_allclose(got[0][2], got[1][2], rtol=0, atol=0, err_msg=pr.name)
+        checked += got[0][0].size > 0
+    assert checked > 20

@@ -25,18 +25,30 @@ from ..errors import ParameterError
 from .inputs import InputSpikes
 from .unroll import Unrolled
 
+#: CUBA LIF state, advanced once per step by :data:`_STEP` with per-cell decay
+#: factors ``d = exp(-dt / tau)`` computed once (Brian2's exponential Euler
+#: would evaluate three exponentials per cell and step; the update is the same:
+#: each variable decays exactly over the step, ``v`` towards
+#: ``v_rest + I_exc - I_inh`` with the currents of the step's start).
 _EQS = """
-dv/dt = (v_rest - v + I_exc - I_inh) / tau_m : volt (unless refractory)
-dI_exc/dt = -I_exc / tau_exc : volt
-dI_inh/dt = -I_inh / tau_inh : volt
-tau_m : second (constant)
-tau_exc : second (constant)
-tau_inh : second (constant)
+v : volt
+I_exc : volt
+I_inh : volt
+d_m : 1 (constant)
+d_exc : 1 (constant)
+d_inh : 1 (constant)
 v_rest : volt (constant)
 v_reset : volt (constant)
 v_th : volt (constant)
 t_ref : second (constant)
 n_spikes : integer
+"""
+#: v is clamped while refractory (Brian2's ``unless refractory``); the
+#: currents keep decaying.
+_STEP = """
+v = v + int(not_refractory) * (1 - d_m) * (v_rest - v + I_exc - I_inh)
+I_exc = I_exc * d_exc
+I_inh = I_inh * d_inh
 """
 
 
@@ -132,12 +144,14 @@ def simulate(un: Unrolled, inp: InputSpikes, duration_ms: float, dt_ms: float, c
         return vals[lay.pop_of_lif]
 
     lif = b2.NeuronGroup(max(lay.n_lif, 1), _EQS, threshold="v > v_th", reset="v = v_reset\n"
-                         "n_spikes += int(t >= t_count)", refractory="t_ref", method="exponential_euler",
+                         "n_spikes += int(t >= t_count)", refractory="t_ref",
                          dt=dt, name="lif", namespace={"t_count": count_from_ms * ms})
+    # the state update runs where Brian2 puts its own: before thresholds and synapses
+    lif.run_regularly(_STEP, when="groups", name="lif_step")
     if lay.n_lif:
-        lif.tau_m = per_cell("tau_m_ms") * ms
-        lif.tau_exc = per_cell("tau_exc_ms") * ms
-        lif.tau_inh = per_cell("tau_inh_ms") * ms
+        lif.d_m = np.exp(-dt_ms / per_cell("tau_m_ms"))
+        lif.d_exc = np.exp(-dt_ms / per_cell("tau_exc_ms"))
+        lif.d_inh = np.exp(-dt_ms / per_cell("tau_inh_ms"))
         lif.v_rest = per_cell("v_rest_mv") * mV
         lif.v_reset = per_cell("v_reset_mv") * mV
         lif.v_th = per_cell("v_th_mv") * mV

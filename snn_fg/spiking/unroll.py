@@ -194,15 +194,88 @@ def _kernel_taps(proj: Conv, network: Network):
 
 
 def _conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_sites, network: Network,
-                src_active=None):
+                src_active=None, side: str = "auto"):
     """Synapses (pre, post, K) of a Conv between the given cell sets.
 
     ``src_active`` (optional, bool over src sites) restricts sources to those
     that can fire (spike sources: pixels with input).
+
+    Every (tap, cell) pair is tried from whichever side has fewer: from each
+    target cell, the sources its taps reach, or from each source cell, the
+    targets its taps reach (edge cells are sparse, so a von Mises gather onto
+    a dense grouping lattice is far cheaper from the source side). Both give
+    the same synapses, in a different order. ``side`` ('auto', 'sources',
+    'targets') forces one.
     """
     co, ci, dr, dc, kv, kept = _kernel_taps(proj, network)
+    live = src_sites if src_active is None else src_sites[src_active]
+    n_src_ch = np.bincount(live // (src.size // src.channels), minlength=src.channels)
+    n_tgt_ch = np.bincount(tgt_sites // (tgt.size // tgt.channels), minlength=tgt.channels)
+    if side == "sources" or (side == "auto" and n_src_ch[ci].sum() < n_tgt_ch[co].sum()):
+        pre, post, w = _conv_pairs_from_sources(proj, src, tgt, src_sites, tgt_sites, live,
+                                                (co, ci, dr, dc, kv))
+    else:
+        pre, post, w = _conv_pairs_from_targets(proj, src, tgt, src_sites, tgt_sites, src_active,
+                                                (co, ci, dr, dc, kv))
+    if proj.padding == "wrap" and pre.size:
+        lr, lc = tgt.level_shape
+        kh = 2 * int(np.abs(dr).max()) + 1 if dr.size else 1
+        kw = 2 * int(np.abs(dc).max()) + 1 if dc.size else 1
+        if kh > lr or kw > lc:      # taps fold onto the same source: add them up
+            pre, post, w = _merge(pre, post, w, src_sites.size)
+    return pre, post, w, kept, int(co.size)
+
+
+def _conv_pairs_from_sources(proj, src, tgt, src_sites, tgt_sites, live, taps_all):
+    """:func:`_conv_pairs` enumerated from the source cells ``live``: a source
+    at level pixel p reaches the target at p - (dr, dc) through each tap."""
+    co, ci, dr, dc, kv = taps_all
     lr, lc = tgt.level_shape
-    s_src, s_tgt = src.stride, tgt.stride
+    s_tgt = tgt.stride
+    tgt_map = _index_map(tgt, tgt_sites)
+    src_map = _index_map(src, src_sites)
+    s_c, s_r, s_col = _positions(src, live)
+    local = src_map[live]
+    order = np.argsort(s_c, kind="stable")
+    bounds = np.searchsorted(s_c[order], np.arange(src.channels + 1))
+    tg_r, tg_c = tgt.grid
+    pre_l, post_l, w_l = [], [], []
+    for ch in np.unique(ci):
+        sloc = order[bounds[ch]:bounds[ch + 1]]
+        if sloc.size == 0:
+            continue
+        taps = np.nonzero(ci == ch)[0]
+        sr0, sc0 = s_r[sloc], s_col[sloc]
+        step = max(1, _CHUNK // sloc.size)
+        for a0 in range(0, taps.size, step):
+            ta = taps[a0:a0 + step]
+            r = sr0[None, :] - dr[ta, None]
+            c = sc0[None, :] - dc[ta, None]
+            if proj.padding == "wrap":
+                r %= lr
+                c %= lc
+                ok = np.ones(r.shape, bool)
+            else:
+                ok = (r >= 0) & (r < lr) & (c >= 0) & (c < lc)
+            if s_tgt != 1:
+                ok &= (r % s_tgt == 0) & (c % s_tgt == 0)
+            flat = (co[ta, None] * tg_r + r // s_tgt) * tg_c + c // s_tgt
+            idx = np.where(ok, tgt_map[np.where(ok, flat, 0)], -1)
+            ti, si = np.nonzero(idx >= 0)
+            if ti.size == 0:
+                continue
+            pre_l.append(local[sloc[si]])
+            post_l.append(idx[ti, si])
+            w_l.append(kv[ta][ti])
+    return _cat(pre_l, post_l, w_l)
+
+
+def _conv_pairs_from_targets(proj, src, tgt, src_sites, tgt_sites, src_active, taps_all):
+    """:func:`_conv_pairs` enumerated from the target cells: a target at
+    level pixel p reads the source at p + (dr, dc) through each tap."""
+    co, ci, dr, dc, kv = taps_all
+    lr, lc = tgt.level_shape
+    s_src = src.stride
     src_map = _index_map(src, src_sites)
     if src_active is not None:
         src_map[src_sites[~src_active]] = -1
@@ -239,13 +312,7 @@ def _conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_sit
             pre_l.append(idx[ti, si])
             post_l.append(tloc[si])
             w_l.append(kv[ta][ti])
-    pre, post, w = _cat(pre_l, post_l, w_l)
-    if proj.padding == "wrap" and pre.size:
-        kh = 2 * int(np.abs(dr).max()) + 1 if dr.size else 1
-        kw = 2 * int(np.abs(dc).max()) + 1 if dc.size else 1
-        if kh > lr or kw > lc:      # taps fold onto the same source: add them up
-            pre, post, w = _merge(pre, post, w, src_sites.size)
-    return pre, post, w, kept, int(co.size)
+    return _cat(pre_l, post_l, w_l)
 
 
 def _resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_sites, src_active=None):

@@ -68,7 +68,8 @@ def _row(name, kind, maps, ref, elapsed, scene=None, extra=None):
                       ref.fg_y if hasattr(ref, "fg_y") else ref["fg_y"],
                       ref.grouping if hasattr(ref, "grouping") else ref["grouping"])
     row = {"name": name, "kind": kind, "angle_diff_median_deg": c["angle_diff_median_deg"],
-           "angle_diff_mean_deg": c["angle_diff_mean_deg"], "grouping_pearson_r": c["grouping_pearson_r"],
+           "angle_diff_mean_deg": c["angle_diff_mean_deg"], "angle_within_45_frac": c["angle_within_45_frac"],
+           "grouping_pearson_r": c["grouping_pearson_r"],
            "pixels_compared": c["pixels_compared"], "seconds": elapsed,
            "cells": maps.params["counts"]["total_cells"], "synapses": maps.params["counts"]["total_synapses"],
            "timings_s": maps.params["timings_s"], "roles": _roles(maps)}
@@ -163,16 +164,17 @@ def _markdown(rows):
              "median / mean of |circular difference| on pixels where both figure-ground maps are non-zero. "
              "Truth: fraction of scored boundary pixels within 45 deg of the analytic direction "
              "(scored = the model has a vector there; `coverage` = scored / all boundary pixels).", "",
-             "| input | median dAngle (deg) | mean dAngle | grouping r | pass | truth <= 45 (spk / ref) | coverage "
-             "| peak inside (spk / ref) | cells | synapses | time (s) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| input | median dAngle (deg) | mean dAngle | dAngle <= 45 | grouping r | pass | truth <= 45 (spk / ref) "
+             "| coverage | peak inside (spk / ref) | cells | synapses | time (s) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         truth = (f"{r['truth_frac_within_45']:.2f} / {r['ref_truth_frac_within_45']:.2f}"
                  if "truth_frac_within_45" in r else "")
         cov = f"{r['truth_coverage']:.2f}" if "truth_coverage" in r else ""
         peak = f"{r['peak_inside']} / {r['ref_peak_inside']}" if "peak_inside" in r else ""
         lines.append(f"| {r['name']} | {r['angle_diff_median_deg']:.1f} | {r['angle_diff_mean_deg']:.1f} | "
-                     f"{r['grouping_pearson_r']:.3f} | {'yes' if r['pass_fidelity'] else 'NO'} | {truth} | {cov} | "
+                     f"{r.get('angle_within_45_frac', float('nan')):.2f} | {r['grouping_pearson_r']:.3f} | "
+                     f"{'yes' if r['pass_fidelity'] else 'NO'} | {truth} | {cov} | "
                      f"{peak} | {r['cells']:,} | {r['synapses']:,} | {r['seconds']:.0f} |")
     lines += ["", "## Mean firing rate per population role (Hz; all levels pooled; first row)", ""]
     if rows:

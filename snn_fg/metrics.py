@@ -55,6 +55,7 @@ def compare_frame(ax, ay, ag, bx, by, bg) -> dict:
         "angle_ssim": _ssim(am, bm),
         "angle_diff_median_deg": float(np.median(diff)) if diff.size else float("nan"),
         "angle_diff_mean_deg": float(np.mean(diff)) if diff.size else float("nan"),
+        "angle_within_45_frac": float(np.mean(diff <= 45)) if diff.size else float("nan"),
         "pixels_compared": int(both.sum()),
     }
 

@@ -114,7 +114,8 @@ def test_compare_prints_and_saves_metrics(tmp_path):
     assert main(["compare", str(a / "maps.npz"), str(b / "maps.npz"), "--json", str(tmp_path / "d.json")]) == 0
     diff = json.loads((tmp_path / "d.json").read_text())["windows"][0]
     assert diff["grouping_pearson_r"] < 1.0
-    assert set(diff) >= {"grouping_ssim", "angle_ssim", "angle_diff_mean_deg"}
+    assert set(diff) >= {"grouping_ssim", "angle_ssim", "angle_diff_mean_deg", "angle_within_45_frac"}
+    assert 0 <= diff["angle_within_45_frac"] <= 1 and same["angle_within_45_frac"] == 1
 
 
 def test_recording_gives_windows(tmp_path):

@@ -211,13 +211,19 @@ def _conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_sit
     live = src_sites if src_active is None else src_sites[src_active]
     n_src_ch = np.bincount(live // (src.size // src.channels), minlength=src.channels)
     n_tgt_ch = np.bincount(tgt_sites // (tgt.size // tgt.channels), minlength=tgt.channels)
+    wrap = proj.padding == "wrap"
+    src_map = _index_map(src, src_sites)
     if side == "sources" or (side == "auto" and n_src_ch[ci].sum() < n_tgt_ch[co].sum()):
-        pre, post, w = _conv_pairs_from_sources(proj, src, tgt, src_sites, tgt_sites, live,
-                                                (co, ci, dr, dc, kv))
+        # a source at level pixel p reaches the target at p - (dr, dc)
+        post, pre, w = _walk_taps(src, live, src_map[live], ci, co, -dr, -dc, kv, tgt,
+                                  _index_map(tgt, tgt_sites), wrap)
     else:
-        pre, post, w = _conv_pairs_from_targets(proj, src, tgt, src_sites, tgt_sites, src_active,
-                                                (co, ci, dr, dc, kv))
-    if proj.padding == "wrap" and pre.size:
+        # a target at level pixel p reads the source at p + (dr, dc)
+        if src_active is not None:
+            src_map[src_sites[~src_active]] = -1
+        pre, post, w = _walk_taps(tgt, tgt_sites, np.arange(tgt_sites.size), co, ci, dr, dc, kv, src, src_map,
+                                  wrap)
+    if wrap and pre.size:
         lr, lc = tgt.level_shape
         kh = 2 * int(np.abs(dr).max()) + 1 if dr.size else 1
         kw = 2 * int(np.abs(dc).max()) + 1 if dc.size else 1
@@ -226,93 +232,49 @@ def _conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_sit
     return pre, post, w, kept, int(co.size)
 
 
-def _conv_pairs_from_sources(proj, src, tgt, src_sites, tgt_sites, live, taps_all):
-    """:func:`_conv_pairs` enumerated from the source cells ``live``: a source
-    at level pixel p reaches the target at p - (dr, dc) through each tap."""
-    co, ci, dr, dc, kv = taps_all
-    lr, lc = tgt.level_shape
-    s_tgt = tgt.stride
-    tgt_map = _index_map(tgt, tgt_sites)
-    src_map = _index_map(src, src_sites)
-    s_c, s_r, s_col = _positions(src, live)
-    local = src_map[live]
-    order = np.argsort(s_c, kind="stable")
-    bounds = np.searchsorted(s_c[order], np.arange(src.channels + 1))
-    tg_r, tg_c = tgt.grid
-    pre_l, post_l, w_l = [], [], []
-    for ch in np.unique(ci):
-        sloc = order[bounds[ch]:bounds[ch + 1]]
-        if sloc.size == 0:
+def _walk_taps(pop, cells, local, ch_from, ch_to, dr, dc, kv, other: Population, other_map, wrap: bool):
+    """Follow every tap from the cells ``cells`` of ``pop`` (flat indices;
+    ``local`` their numbers in the result) to the cells of ``other`` (same
+    level; ``other_map`` gives their numbers, -1 where none): a tap leads from
+    channel ``ch_from`` at level pixel p to channel ``ch_to`` at p + (dr, dc).
+
+    Returns ``(other's numbers, local numbers, kernel values)`` of the hits.
+    """
+    lr, lc = pop.level_shape
+    s_to = other.stride
+    g_r, g_c = other.grid
+    p_c, p_r, p_col = _positions(pop, cells)
+    order = np.argsort(p_c, kind="stable")
+    bounds = np.searchsorted(p_c[order], np.arange(pop.channels + 1))
+    to_l, from_l, w_l = [], [], []
+    for ch in np.unique(ch_from):
+        loc = order[bounds[ch]:bounds[ch + 1]]
+        if loc.size == 0:
             continue
-        taps = np.nonzero(ci == ch)[0]
-        sr0, sc0 = s_r[sloc], s_col[sloc]
-        step = max(1, _CHUNK // sloc.size)
+        taps = np.nonzero(ch_from == ch)[0]
+        r0, c0 = p_r[loc], p_col[loc]
+        step = max(1, _CHUNK // loc.size)
         for a0 in range(0, taps.size, step):
             ta = taps[a0:a0 + step]
-            r = sr0[None, :] - dr[ta, None]
-            c = sc0[None, :] - dc[ta, None]
-            if proj.padding == "wrap":
+            r = r0[None, :] + dr[ta, None]
+            c = c0[None, :] + dc[ta, None]
+            if wrap:
                 r %= lr
                 c %= lc
                 ok = np.ones(r.shape, bool)
             else:
                 ok = (r >= 0) & (r < lr) & (c >= 0) & (c < lc)
-            if s_tgt != 1:
-                ok &= (r % s_tgt == 0) & (c % s_tgt == 0)
-            flat = (co[ta, None] * tg_r + r // s_tgt) * tg_c + c // s_tgt
-            idx = np.where(ok, tgt_map[np.where(ok, flat, 0)], -1)
+            if s_to != 1:
+                ok &= (r % s_to == 0) & (c % s_to == 0)
+            flat = (ch_to[ta, None] * g_r + r // s_to) * g_c + c // s_to
+            idx = np.where(ok, other_map[np.where(ok, flat, 0)], -1)
             ti, si = np.nonzero(idx >= 0)
             if ti.size == 0:
                 continue
-            pre_l.append(local[sloc[si]])
-            post_l.append(idx[ti, si])
+            to_l.append(idx[ti, si])
+            from_l.append(local[loc[si]])
             w_l.append(kv[ta][ti])
-    return _cat(pre_l, post_l, w_l)
-
-
-def _conv_pairs_from_targets(proj, src, tgt, src_sites, tgt_sites, src_active, taps_all):
-    """:func:`_conv_pairs` enumerated from the target cells: a target at
-    level pixel p reads the source at p + (dr, dc) through each tap."""
-    co, ci, dr, dc, kv = taps_all
-    lr, lc = tgt.level_shape
-    s_src = src.stride
-    src_map = _index_map(src, src_sites)
-    if src_active is not None:
-        src_map[src_sites[~src_active]] = -1
-    t_c, t_r, t_col = _positions(tgt, tgt_sites)
-    order = np.argsort(t_c, kind="stable")
-    bounds = np.searchsorted(t_c[order], np.arange(tgt.channels + 1))
-    pre_l, post_l, w_l = [], [], []
-    sg_r, sg_c = src.grid
-    for ch in np.unique(co):
-        tloc = order[bounds[ch]:bounds[ch + 1]]
-        if tloc.size == 0:
-            continue
-        taps = np.nonzero(co == ch)[0]
-        tr0, tc0 = t_r[tloc], t_col[tloc]
-        step = max(1, _CHUNK // tloc.size)
-        for a0 in range(0, taps.size, step):
-            ta = taps[a0:a0 + step]
-            r = tr0[None, :] + dr[ta, None]
-            c = tc0[None, :] + dc[ta, None]
-            if proj.padding == "wrap":
-                r %= lr
-                c %= lc
-                ok = np.ones(r.shape, bool)
-            else:
-                ok = (r >= 0) & (r < lr) & (c >= 0) & (c < lc)
-            if s_src != 1:
-                ok &= (r % s_src == 0) & (c % s_src == 0)
-            flat = (ci[ta, None] * sg_r + r // s_src) * sg_c + c // s_src
-            idx = np.where(ok, src_map[np.where(ok, flat, 0)], -1)
-            hit = idx >= 0
-            if not hit.any():
-                continue
-            ti, si = np.nonzero(hit)
-            pre_l.append(idx[ti, si])
-            post_l.append(tloc[si])
-            w_l.append(kv[ta][ti])
-    return _cat(pre_l, post_l, w_l)
+    return _cat(to_l, from_l, w_l)
 
 
 def _resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_sites, src_active=None):

@@ -5,6 +5,9 @@ Here an angle map holds ``atan2(fg_y, fg_x)`` in degrees, wrapped to
 [0, 360) and divided by 360, on pixels whose vector is non-zero, and 0
 elsewhere; MSE and SSIM are computed on that map (11 x 11 SSIM window).
 Angle differences are always circular: ``|a - b|`` folded into [0, 180].
+Grouping maps are compared by Pearson r and by SSIM after scaling each map
+by its own maximum: the spiking model's grouping is in Hz, the rate model's
+in its own units, and SSIM (unlike r) is not invariant to scale.
 """
 from __future__ import annotations
 
@@ -35,6 +38,12 @@ def _ssim(a, b):
     return float(structural_similarity(a, b, win_size=11, data_range=rng))
 
 
+def _unit(a):
+    a = np.asarray(a, dtype=np.float64)
+    peak = np.abs(a).max() if a.size else 0.0
+    return a / peak if peak > 0 else a
+
+
 def pearson(a, b) -> float:
     a = np.asarray(a, dtype=np.float64).ravel()
     b = np.asarray(b, dtype=np.float64).ravel()
@@ -50,7 +59,7 @@ def compare_frame(ax, ay, ag, bx, by, bg) -> dict:
     am, bm = angle_map(ax, ay), angle_map(bx, by)
     return {
         "grouping_pearson_r": pearson(ag, bg),
-        "grouping_ssim": _ssim(ag, bg),
+        "grouping_ssim": _ssim(_unit(ag), _unit(bg)),
         "angle_mse": float(np.mean((am - bm) ** 2)),
         "angle_ssim": _ssim(am, bm),
         "angle_diff_median_deg": float(np.median(diff)) if diff.size else float("nan"),

@@ -60,3 +60,18 @@ def test_rate_model_is_deterministic():
     pos, neg = image_to_frame(sc.image)
     a, b = run_edfg(pos, neg), run_edfg(pos, neg)
     assert np.array_equal(a.fg_x, b.fg_x) and np.array_equal(a.grouping, b.grouping)
+
+
+def test_grouping_comparison_ignores_the_maps_units():
+    """Spiking grouping maps are in Hz, the rate model's in its own units:
+    a map and a scaled copy of it compare as identical, on r and on SSIM."""
+    from snn_fg.metrics import compare_frame
+    sc = scenes.disc(20)
+    pos, neg = image_to_frame(sc.image)
+    m = run_edfg(pos, neg)
+    same = compare_frame(m.fg_x, m.fg_y, m.grouping, 3 * m.fg_x, 3 * m.fg_y, 30.0 * m.grouping)
+    assert same["grouping_pearson_r"] == pytest.approx(1.0)
+    assert same["grouping_ssim"] == pytest.approx(1.0)
+    assert same["angle_diff_median_deg"] == pytest.approx(0, abs=1e-4) and same["angle_within_45_frac"] == 1.0
+    other = compare_frame(m.fg_x, m.fg_y, m.grouping, m.fg_x, m.fg_y, np.roll(m.grouping, 15, axis=1))
+    assert other["grouping_ssim"] < 0.9

@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import tempfile
+import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -39,12 +42,39 @@ def atomic_path(path, suffix: str | None = None):
         raise
 
 
+@dataclass(frozen=True)
+class RawArrayFile:
+    """An array stored as raw C-order bytes in a file (no header), for
+    :func:`save_npz` to copy into the archive without loading or mapping it."""
+
+    path: Path
+    dtype: np.dtype
+    shape: tuple
+
+
+def _write_npy(fh, value):
+    if isinstance(value, RawArrayFile):
+        header = {"descr": np.lib.format.dtype_to_descr(np.dtype(value.dtype)), "fortran_order": False,
+                  "shape": tuple(value.shape)}
+        np.lib.format.write_array_header_2_0(fh, header)
+        with open(value.path, "rb") as src:
+            shutil.copyfileobj(src, fh, 1 << 20)
+    else:
+        np.lib.format.write_array(fh, np.asanyarray(value), allow_pickle=False)
+
+
 def save_npz(path, **arrays) -> Path:
-    """Write an uncompressed ``.npz`` atomically and return its path."""
+    """Write an uncompressed ``.npz`` atomically and return its path.
+
+    Values are arrays or :class:`RawArrayFile` (streamed from disk in 1 MB
+    blocks, so writing a recording's maps needs no memory for them).
+    """
     path = Path(path)
     with atomic_path(path, suffix=".npz") as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+            for name, value in arrays.items():
+                with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
+                    _write_npy(fh, value)
     return path
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import save_npz
+from .atomic import RawArrayFile, save_npz
 from .errors import InputError
 
 
@@ -114,26 +114,31 @@ class MapsSeriesWriter:
                 shapes.append(None)
         self.n += 1
 
-    def _raw(self, key):
-        count = sum(int(np.prod(s)) for s in self._shapes[key] if s is not None)
-        return np.memmap(self._dir / key, dtype=self._dtype[key], mode="r", shape=(count,)) if count else \
-            np.zeros(0, self._dtype[key])
-
-    def stacked(self) -> dict:
+    def stacked(self, lazy: bool = False) -> dict:
         """The windows so far, ``(n, ...)`` per key (read-only memory maps where
-        every window has the key), plus ``key`` / ``key_offsets`` for ragged keys."""
+        every window has the key), plus ``key`` / ``key_offsets`` for ragged
+        keys. ``lazy``: arrays that are a whole part file come as
+        :class:`~snn_fg.atomic.RawArrayFile` instead of memory maps."""
         if self.n == 0:
             raise ValueError("MapsSeriesWriter: no window was appended")
         out = {}
         for key, shapes in self._shapes.items():
             present = [s for s in shapes if s is not None]
-            raw = self._raw(key)
+            count = sum(int(np.prod(s)) for s in present)
+
+            def whole(shape):
+                if lazy or count == 0:
+                    return RawArrayFile(self._dir / key, self._dtype[key], shape) if count else \
+                        np.zeros(shape, self._dtype[key])
+                return np.memmap(self._dir / key, dtype=self._dtype[key], mode="r", shape=shape)
+
             if len(set(present)) == 1 and len(present) == self.n:
-                out[key] = raw.reshape((self.n,) + present[0])
+                out[key] = whole((self.n,) + present[0])
             elif len(set(present)) == 1 and len(present[0]) != 1:
                 # a fixed-shape array (a map, a scalar) missing from some windows: zeros there
                 full = np.zeros((self.n,) + present[0], self._dtype[key])
-                full[[i for i, s in enumerate(shapes) if s is not None]] = raw.reshape((-1,) + present[0])
+                raw = np.fromfile(self._dir / key, dtype=self._dtype[key]).reshape((-1,) + present[0])
+                full[[i for i, s in enumerate(shapes) if s is not None]] = raw
                 out[key] = full
             else:
                 tails = {s[1:] for s in present}
@@ -142,17 +147,19 @@ class MapsSeriesWriter:
                                      f"({sorted(set(present))}); cannot store it")
                 tail = tails.pop()
                 lengths = [0 if s is None else s[0] for s in shapes]
-                out[key] = raw.reshape((-1,) + tail)
+                out[key] = whole((sum(lengths),) + tail)
                 out[f"{key}_offsets"] = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
         return out
 
     def finish(self, params: dict | None = None, **extra) -> Path:
         """Write ``path``: the stacked windows, ``extra`` arrays and ``params``.
 
-        The temporary parts stay until :meth:`close` (or the end of the
-        ``with`` block), so :meth:`stacked` can still be read afterwards.
+        The windows' arrays are copied from their part files in blocks (never
+        loaded or mapped). The temporary parts stay until :meth:`close` (or
+        the end of the ``with`` block), so :meth:`stacked` can still be read
+        afterwards.
         """
-        stacked = self.stacked()
+        stacked = self.stacked(lazy=True)
         stacked.update(extra)
         params = dict(params if params is not None else self.params)
         if any(self._window_params):

@@ -93,10 +93,11 @@ def test_bad_input_gives_one_clear_line(tmp_path, case):
 
 
 def test_interrupted_write_leaves_nothing(tmp_path, monkeypatch):
-    def explode(*a, **k):
+    def explode(fh, value):     # Ctrl-C halfway through writing an array
+        fh.write(b"\x93NUMPY partial")
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(atomic.np, "savez", explode)
+    monkeypatch.setattr(atomic, "_write_npy", explode)
     rc = main(["run", "demo", "--out", str(tmp_path), "--iterations", "1", "--no-progress"])
     assert rc == 130
     assert os.listdir(tmp_path) == []

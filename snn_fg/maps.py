@@ -68,8 +68,8 @@ class MapsSeriesWriter:
 
     Each window's arrays are appended to temporary raw files next to the
     destination, so memory stays bounded by one window however long the
-    recording; :meth:`finish` reads them back as memory maps while writing the
-    result. Temporary files are removed whatever happens.
+    recording; :meth:`finish` copies them block by block into the result.
+    Temporary files are removed whatever happens.
 
     An array with the same shape in every window is stored stacked,
     ``(n_windows, ...)``; a window that lacks it (an empty window has no spike
@@ -127,9 +127,10 @@ class MapsSeriesWriter:
             count = sum(int(np.prod(s)) for s in present)
 
             def whole(shape):
-                if lazy or count == 0:
-                    return RawArrayFile(self._dir / key, self._dtype[key], shape) if count else \
-                        np.zeros(shape, self._dtype[key])
+                if count == 0:
+                    return np.zeros(shape, self._dtype[key])
+                if lazy:
+                    return RawArrayFile(self._dir / key, self._dtype[key], shape)
                 return np.memmap(self._dir / key, dtype=self._dtype[key], mode="r", shape=shape)
 
             if len(set(present)) == 1 and len(present) == self.n:

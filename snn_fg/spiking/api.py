@@ -2,7 +2,6 @@
 :func:`save_spiking_figures`."""
 from __future__ import annotations
 
-import dataclasses
 import sys
 import time
 from dataclasses import dataclass

@@ -1,0 +1,82 @@
+"""Argument checks written once: every parameter of every public object is
+checked here, and every failure is a :class:`~snn_fg.errors.ParameterError`
+whose message names the object, the parameter and the value at fault::
+
+    ParameterError: Conv 'on_to_S_1': gain_mv=-1.0 must be >= 0
+
+Each checker takes ``owner`` (the object being built or the function being
+called, as a user would recognise it: ``"ModelParams"``, ``"Population 'S_1'"``,
+``"run_spiking"``), the parameter ``name`` and its ``value``, and returns the
+value converted to its canonical type.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+
+from .errors import ParameterError
+
+
+def fail(owner: str, name: str | None, value, problem: str):
+    """Raise the one error type for a bad parameter (``name=None``: the
+    problem concerns ``owner`` as a whole)."""
+    what = f"{owner}: " if owner else ""
+    if name is not None:
+        what += f"{name}={value!r} "
+    raise ParameterError(f"{what}{problem}")
+
+
+def number(owner: str, name: str, value, *, lo: float | None = None, lo_open: bool = False,
+           hi: float | None = None, hi_open: bool = False) -> float:
+    """A finite real number within optional bounds, as ``float``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value):
+        fail(owner, name, value, "must be a finite number")
+    v = float(value)
+    if lo is not None and (v < lo or (lo_open and v == lo)):
+        fail(owner, name, value, f"must be {'>' if lo_open else '>='} {lo:g}")
+    if hi is not None and (v > hi or (hi_open and v == hi)):
+        fail(owner, name, value, f"must be {'<' if hi_open else '<='} {hi:g}")
+    return v
+
+
+def integer(owner: str, name: str, value, *, lo: int | None = None, hi: int | None = None) -> int:
+    """An integer (not a bool, not a float) within optional bounds, as ``int``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        fail(owner, name, value, "must be an integer")
+    v = int(value)
+    if lo is not None and v < lo:
+        fail(owner, name, value, f"must be >= {lo}")
+    if hi is not None and v > hi:
+        fail(owner, name, value, f"must be <= {hi}")
+    return v
+
+
+def choice(owner: str, name: str, value, choices: Iterable):
+    """One of ``choices``."""
+    choices = tuple(choices)
+    if value not in choices:
+        fail(owner, name, value, f"must be one of {', '.join(repr(c) for c in choices)}")
+    return value
+
+
+def shape2(owner: str, name: str, value) -> tuple[int, int]:
+    """Two positive integers ``(rows, cols)``."""
+    try:
+        t = tuple(int(x) for x in value)
+        exact = len(t) == 2 and all(float(a) == b for a, b in zip(value, t))
+    except (TypeError, ValueError):
+        exact = False
+    if not exact or min(t) < 1:
+        fail(owner, name, value, "must be two positive integers (rows, cols)")
+    return t
+
+
+def known_keys(owner: str, given: Iterable[str], allowed: Iterable[str]) -> None:
+    """Refuse keys (keyword options, mapping fields) that ``owner`` does not take."""
+    unknown = sorted(set(given) - set(allowed))
+    if unknown:
+        fail(owner, None, None, f"unknown field(s) {', '.join(unknown)} "
+                                f"(known: {', '.join(sorted(allowed))})")

@@ -1,0 +1,17 @@
+"""snn-fg: event-driven figure-ground organisation (D'Angelo et al. 2025) as a
+spiking neural network.
+
+The data flow is the package layout: :mod:`snn_fg.events` (recordings,
+windows, event-camera simulation) -> event frames and :mod:`snn_fg.frames` ->
+:mod:`snn_fg.network` (the network description) -> a simulator of
+:mod:`snn_fg.backends` (or the rate models of :mod:`snn_fg.rate`) ->
+:mod:`snn_fg.maps` (decoded maps) -> :mod:`snn_fg.metrics` and
+:mod:`snn_fg.figures`. :mod:`snn_fg.models` puts every model behind one
+interface for the command line (:mod:`snn_fg.cli`).
+"""
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("snn-fg")
+except PackageNotFoundError:     # running from a source tree that was not installed
+    __version__ = "0+unknown"

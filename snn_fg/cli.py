@@ -1,279 +1,183 @@
-"""The ``snn-fg`` command line.
+"""The ``snn-fg`` command line: ``run``, ``compare`` and ``events``.
 
-``snn-fg run INPUT --out DIR --model rate|fbfg|spiking``   maps.npz + maps.png
-``snn-fg compare A.npz B.npz [--json OUT]``                 metrics between maps
-``snn-fg events INPUT``                                      recording summary / event frames
-
-Bad input ends with one line ``snn-fg: error: <file>: <problem>`` and a
-non-zero exit status; outputs are written atomically.
+Bad input ends with one line ``snn-fg: error: <file>: <problem>`` and exit
+status 2; an interrupted run (Ctrl-C, SIGTERM) exits 130 or 143 and leaves
+the output folder as it was.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
-import warnings
 from pathlib import Path
 
-import numpy as np
+from . import __version__
+from .errors import InputError, SnnFgError
+from .events.cli import add_events_command, sensor_size_arg
+from .models import MODELS
 
-from .errors import SnnFgError
-from .events.cli import sensor_size_arg
-
-MODELS = ("rate", "fbfg", "spiking")
 EXIT_INPUT = 2
+MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
+RECORDING_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
 
 
-def _positive_int(text):
-    v = int(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
-    return v
+def _number(kind, lo, strict=True):
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}, "
+                                             f"got {text!r}") from None
+        if not (v > lo if strict else v >= lo) or v != v or v in (float("inf"), float("-inf")):
+            raise argparse.ArgumentTypeError(f"must be {'>' if strict else '>='} {lo}, got {text}")
+        return v
+    return parse
+
+
+#: (group title, ((flag, type, lower bound, strictly above it, help), ...)); defaults in brackets
+_RUN_OPTIONS = (
+    ("model parameters (defaults: the paper's)", (
+        ("--levels", int, 1, False, "pyramid levels (10)"),
+        ("--n-ori", int, 2, False, "orientations per half-turn (8)"),
+        ("--r0", float, 0, True, "grouping radius in px: sets the object size grouped (8)"),
+        ("--iterations", int, 0, False, "grouping/feedback iterations (10)"),
+        ("--alpha", float, 0, False, "feedback gain (2)"),
+        ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1)"))),
+    ("recordings (not for frames or images)", (
+        ("--window-ms", float, 0, True, "window length (85, the iCub microsaccade period)"),
+        ("--start-ms", float, 0, False, "start of the first window, ms after the first event (0)"),
+        ("--stride-ms", float, 0, True, "window stride (the window length)"),
+        ("--max-windows", int, 1, False, "stop after this many windows (all)"),
+        ("--denoise-us", int, 0, True, "tonic Denoise filter time in us (off)"),
+        ("--refractory-us", int, 0, True, "tonic RefractoryPeriod in us (off)"))),
+    ("spiking model", (
+        ("--network", None, None, None, "run a stored network description (FILE.json, see networks/) instead "
+                                        "of building one from the model parameters"),
+        ("--backend", None, None, None, "simulator (brian2)"),
+        ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
+        ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
+        ("--dt-ms", float, 0, True, "simulation time step (0.5)"),
+        ("--seed", int, -2**63, False, "seed of the input spike phases (0)"))),
+)
 
 
 def _add_run(sub):
-    p = sub.add_parser("run", help="run the figure-ground model on an input and write maps",
-                       description="Run the model on INPUT: an .npz event frame (pos, neg), an image "
-                                   "(png/jpg), an event recording (.es .raw .dat .aedat4 .bin data.log "
-                                   ".npy .npz), or 'demo' (built-in synthetic scene). Writes DIR/maps.npz "
-                                   "(fg_x, fg_y, grouping float32, params JSON) and DIR/maps.png.")
+    p = sub.add_parser("run", allow_abbrev=False, help="run a figure-ground model on an input and write its maps",
+                       description="Run a model on INPUT: an .npz event frame (pos, neg), an image (png/jpg/...), "
+                                   "an event recording (.es .raw .dat .aedat4 .bin data.log .npy .npz) or 'demo' "
+                                   "(a built-in synthetic scene). Writes DIR/maps.npz (fg_x, fg_y, grouping, "
+                                   "params) and figures.")
     p.add_argument("input", metavar="INPUT")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--model", choices=MODELS, default="rate",
-                   help="rate: event-driven rate model (EDFG); fbfg: frame-based model on an image; "
-                        "spiking: the Brian2 spiking network")
-    g = p.add_argument_group("model parameters (defaults: the paper's Table T1)")
-    g.add_argument("--levels", type=_positive_int)
-    g.add_argument("--n-ori", type=_positive_int, help="orientations per half-turn (8)")
-    g.add_argument("--r0", type=float, help="von Mises radius in px (8)")
-    g.add_argument("--iterations", type=int)
-    g.add_argument("--alpha", type=float, help="feedback gain (2)")
-    g.add_argument("--w-inh", type=float, help="opposite border-ownership inhibition (1)")
-    g = p.add_argument_group("images -> events (rate and spiking models)")
-    g.add_argument("--threshold", type=float, default=0.10, metavar="C",
-                   help="contrast threshold of the simulated event camera (0.10)")
-    g = p.add_argument_group("recordings")
-    g.add_argument("--window-ms", type=float, default=85.0, help="window length (85, the iCub microsaccade period)")
-    g.add_argument("--start-ms", type=float, default=0.0, help="first window start, ms after the first event")
-    g.add_argument("--stride-ms", type=float, default=None, help="window stride (default: the window length)")
-    g.add_argument("--max-windows", type=_positive_int, default=None)
-    g.add_argument("--denoise-us", type=int, default=None, help="tonic Denoise filter time (us)")
-    g.add_argument("--refractory-us", type=int, default=None, help="tonic RefractoryPeriod (us)")
-    g.add_argument("--sensor-size", type=sensor_size_arg, default=None, metavar="WxH",
-                   help="for RAW files without geometry, or .npy arrays")
-    g = p.add_argument_group("spiking model")
-    g.add_argument("--duration-ms", type=float, default=None, help="simulated time per frame or window (400)")
-    g.add_argument("--settle-ms", type=float, default=None,
-                   help="spikes before this time are not counted (default: half of --duration-ms)")
-    g.add_argument("--dt-ms", type=float, default=None, help="simulation time step")
-    g.add_argument("--seed", type=int, default=0)
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
+    p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
+    p.add_argument("--model", choices=tuple(MODELS), default="rate",
+                   help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image; "
+                        "spiking: the spiking network (default: rate)")
+    for title, options in _RUN_OPTIONS:
+        g = p.add_argument_group(title)
+        for flag, kind, lo, strict, text in options:
+            g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
+    p.add_argument("--threshold", type=_number(float, 0), default=0.10, metavar="C",
+                   help="images turned into events: contrast threshold of the simulated event camera (0.10)")
+    p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
+                   help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
+    p.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
     p.set_defaults(handler=cmd_run)
+    return p
 
 
 def _add_compare(sub):
-    p = sub.add_parser("compare", help="compare two maps.npz files (e.g. spiking vs rate)",
-                       description="Print the comparison metrics of two maps files, window by window: "
-                                   "grouping Pearson r and SSIM (11x11), angle-map MSE and SSIM, median and "
-                                   "mean absolute angle difference on pixels where both maps have a vector.")
+    p = sub.add_parser("compare", allow_abbrev=False, help="compare two maps.npz files (e.g. spiking vs rate)",
+                       description="Print, window by window, how two maps files agree: grouping Pearson r and "
+                                   "SSIM, and on the pixels where both have a figure-ground vector the angle "
+                                   "difference (mean, median, fraction within 45 degrees) and angle-map MSE "
+                                   "and SSIM.")
     p.add_argument("a", metavar="A.npz")
     p.add_argument("b", metavar="B.npz")
     p.add_argument("--json", metavar="OUT.json", default=None,
-                   help="where to save the metrics (default: compare.json next to A)")
+                   help="where to save the metrics (compare.json next to A)")
     p.set_defaults(handler=cmd_compare)
+    return p
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from .events.cli import add_events_command
-
-    parser = argparse.ArgumentParser(prog="snn-fg", description=__doc__.split("\n\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    _add_run(sub)
-    _add_compare(sub)
-    add_events_command(sub)
-    return parser
+def build_parser() -> tuple[argparse.ArgumentParser, dict]:
+    """The parser and its subcommand parsers by name."""
+    parser = argparse.ArgumentParser(prog="snn-fg", allow_abbrev=False,
+                                     description="Event-driven figure-ground organisation as a spiking neural "
+                                                 "network: run the model on events or images, compare maps, "
+                                                 "inspect event recordings.")
+    parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    subs = {"run": _add_run(sub), "compare": _add_compare(sub), "events": add_events_command(sub)}
+    return parser, subs
 
 
 # --------------------------------------------------------------------------
 # run
 # --------------------------------------------------------------------------
-def _params(args):
+def _model(args, kind):
+    """The model the arguments ask for, refusing options that would be ignored."""
     from .params import ModelParams
 
-    changes = {k: getattr(args, a) for k, a in (("levels", "levels"), ("n_ori", "n_ori"), ("r0", "r0"),
-                                                ("iterations", "iterations"), ("alpha", "alpha"),
-                                                ("w_inh", "w_inh")) if getattr(args, a) is not None}
-    return ModelParams(**changes)
+    given = {k: getattr(args, k) for k in MODEL_PARAMS if getattr(args, k) is not None}
+    takes = MODELS[args.model].options
+    unused = [k for m in MODELS.values() for k in m.options if k not in takes and getattr(args, k) is not None]
+    if kind != "recording":
+        unused += [k for k in RECORDING_OPTIONS + ("sensor_size",) if getattr(args, k) is not None]
+    if args.network is not None and given:
+        unused += list(given)
+    if unused:
+        flags = ", ".join("--" + k.replace("_", "-") for k in unused)
+        why = "a stored network (--network) carries its own model parameters" if args.network and given else \
+            f"they do not apply to the {args.model} model on this input"
+        raise InputError(args.input, f"{flags}: {why}")
+    progress = None if args.no_progress else _progress_factory()
+    options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}
+    return MODELS[args.model](ModelParams(**given), progress, **options)
 
 
-def _progress(args, desc):
-    if args.no_progress:
-        return None
+def _progress_factory():
     from tqdm import tqdm
 
-    return lambda it: tqdm(it, desc=desc, leave=False, file=sys.stderr)
+    return lambda it: tqdm(it, desc="iterations", leave=False, file=sys.stderr)
 
 
-def _spiking():
-    """The spiking simulator package, or a clear error if this build lacks it."""
-    try:
-        from . import spiking
-    except ImportError as exc:
-        raise SnnFgError(f"the spiking model is not available in this installation ({exc})") from None
-    return spiking
+def _windows(args):
+    from .events import iter_recording, iter_windows
 
+    stream = iter_recording(args.input, sensor_size=args.sensor_size)
+    opts = {k: getattr(args, k) for k in RECORDING_OPTIONS if getattr(args, k) is not None}
+    windows = iter_windows(stream, **{"window_ms": 85.0, **opts})
+    if not args.no_progress:
+        from tqdm import tqdm
 
-def _spiking_kw(args):
-    return {k: v for k, v in (("duration_ms", args.duration_ms), ("dt_ms", args.dt_ms), ("settle_ms", args.settle_ms))
-            if v is not None}
-
-
-def _run_frame(args, params, pos, neg, image, progress=True):
-    """One frame through the chosen model -> Maps."""
-    bar = _progress(args, "iterations") if progress else None
-    if args.model == "rate":
-        from .rate.edfg import run_edfg
-
-        return run_edfg(pos, neg, params, progress=bar)
-    if args.model == "fbfg":
-        from .rate.fbfg import run_fbfg
-
-        return run_fbfg(image, params, progress=bar)
-    return _spiking().run_spiking(pos=pos, neg=neg, params=params, seed=args.seed,
-                                  progress=progress and not args.no_progress, **_spiking_kw(args))
+        windows = tqdm(windows, desc="windows", unit="win", file=sys.stderr, total=args.max_windows)
+    source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
+    source.setdefault("stride_ms", source["window_ms"])
+    return windows, source
 
 
 def cmd_run(args) -> int:
-    from .errors import InputError
-    from .figures import event_frame_rgb
-    from .images import read_image
-    from .inputs import input_kind, load_event_frame
-    from .maps import Maps, MapsSeriesWriter
+    from .inputs import input_kind, load_frame
+    from .runner import OutputFolder, run_frame, run_recording
 
-    params = _params(args)
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(out, "--out must be a folder, but a file of that name exists")
     kind = input_kind(args.input)
-    source = {"input": args.input, "kind": kind}
-
+    model = _model(args, kind)
     if kind == "recording":
-        if args.model == "fbfg":
-            raise InputError(args.input, "the fbfg model needs an image, not an event recording")
-        from .events import EmptyWindowWarning, iter_windows
-
-        windows = iter_windows(args.input, window_ms=args.window_ms, start_ms=args.start_ms,
-                               stride_ms=args.stride_ms, max_windows=args.max_windows,
-                               denoise_us=args.denoise_us, refractory_us=args.refractory_us,
-                               sensor_size=args.sensor_size)
-        if not args.no_progress:
-            from tqdm import tqdm
-
-            windows = tqdm(windows, desc="windows", unit="win", file=sys.stderr,
-                           total=args.max_windows)
-        out.mkdir(parents=True, exist_ok=True)
-        t0, t1 = [], []
-        n_empty = 0
-        with MapsSeriesWriter(out / "maps.npz") as sink, warnings.catch_warnings():
-            # Empty windows are counted and reported once below.
-            warnings.simplefilter("ignore", EmptyWindowWarning)
-            for w in windows:
-                empty = not (w.pos.any() or w.neg.any())
-                n_empty += empty
-                if empty:
-                    m = _empty_maps(w.pos.shape, params, args.model)
-                elif args.model == "spiking":
-                    m = _spiking().run_spiking(events=w.events, sensor_size=(w.pos.shape[1], w.pos.shape[0], 2),
-                                               params=params, seed=args.seed, progress=False,
-                                               **_spiking_kw(args))
-                else:
-                    m = _run_frame(args, params, w.pos, w.neg, None, progress=False)
-                # The window's event frame (+1 ON, -1 OFF) is kept with its maps.
-                sink.append(m, event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8))
-                t0.append(w.t_start_us)
-                t1.append(w.t_end_us)
-            if sink.n == 0:
-                raise InputError(args.input, "no window to process: the recording has no events after --start-ms")
-            if n_empty:
-                print(f"snn-fg: warning: {n_empty} of {sink.n} windows had no events; their maps are zero",
-                      file=sys.stderr)
-            source.update(window_ms=args.window_ms, start_ms=args.start_ms,
-                          stride_ms=args.stride_ms or args.window_ms, max_windows=args.max_windows,
-                          denoise_us=args.denoise_us, refractory_us=args.refractory_us)
-            st = sink.stacked()
-            maps = Maps(st["fg_x"], st["fg_y"], st["grouping"], {**sink.params, "source": source},
-                        {k: v for k, v in st.items() if k not in ("fg_x", "fg_y", "grouping")})
-            # Times relative to the first window (some formats stamp Unix time in us).
-            titles = [f"{(a - t0[0]) / 1000:.0f}-{(b - t0[0]) / 1000:.0f} ms" for a, b in zip(t0, t1)]
-            sink.finish(maps.params, t_start_us=np.array(t0, dtype=np.int64),
-                        t_end_us=np.array(t1, dtype=np.int64))
-            _write_figures(args, out, _LazyFrames(st["event_frame"]), maps, titles)
-            del maps, st
-        _report(args, out)
-        return 0
+        if model.needs == "image":
+            raise InputError(args.input, f"the {model.name} model needs an image, not an event recording")
+        windows, source = _windows(args)
     else:
-        image = pos = neg = None
-        if kind == "demo":
-            from .scenes import demo
-
-            image = demo().image
-        elif kind == "image":
-            image = read_image(args.input, grey=args.model != "fbfg")
+        frame, source = load_frame(args.input, model.needs, args.threshold)
+    with OutputFolder(args.out, force=args.force) as out:
+        if kind == "recording":
+            run_recording(model, windows, out.dir, source, args.input)
         else:
-            if args.model == "fbfg":
-                raise InputError(args.input, "the fbfg model needs an image, not an event frame")
-            pos, neg = load_event_frame(args.input)
-        if pos is None and args.model != "fbfg":
-            from .events import image_to_frame
-
-            pos, neg = image_to_frame(image, threshold=args.threshold)
-            source["threshold"] = args.threshold
-            if not (pos.any() or neg.any()):
-                raise InputError(args.input, f"the image gives no events at contrast threshold {args.threshold}")
-        maps = _run_frame(args, params, pos, neg, image)
-        inputs = image if args.model == "fbfg" else event_frame_rgb(pos, neg)
-    maps.params = {**maps.params, "source": source}
-    out.mkdir(parents=True, exist_ok=True)
-    maps.save(out / "maps.npz")
-    _write_figures(args, out, inputs, maps, None)
-    _report(args, out)
+            run_frame(model, frame, out.dir, source)
+        written = ", ".join(sorted(p.name for p in out.dir.iterdir()))
+    print(f"snn-fg: {model.name} model on {args.input}: wrote {args.out}/ ({written})")
     return 0
-
-
-def _write_figures(args, out, inputs, maps, titles):
-    from .figures import save_maps_figure
-
-    save_maps_figure(out / "maps.png", inputs, maps.fg_x, maps.fg_y, maps.grouping, titles=titles)
-    if args.model == "spiking":
-        _spiking().save_spiking_figures(maps, out)
-
-
-def _report(args, out):
-    written = ", ".join(sorted(p.name for p in out.iterdir() if not p.name.startswith(".")))
-    print(f"snn-fg: {args.model} model on {args.input}: wrote {out}/ ({written})")
-
-
-class _LazyFrames:
-    """Event frames (+1 ON, -1 OFF) shown as RGB only when a figure row needs them."""
-
-    def __init__(self, frames):
-        self.frames = frames
-
-    def __len__(self):
-        return len(self.frames)
-
-    def __getitem__(self, i):
-        from .figures import event_frame_rgb
-
-        f = self.frames[i]
-        return event_frame_rgb(f > 0, f < 0)
-
-
-def _empty_maps(shape, params, model):
-    from .maps import Maps
-
-    z = np.zeros(shape, np.float32)
-    return Maps(z, z.copy(), z.copy(), {"model": model, **params.to_dict()})
 
 
 # --------------------------------------------------------------------------
@@ -286,8 +190,6 @@ def cmd_compare(args) -> int:
 
     a, b = Maps.load(args.a), Maps.load(args.b)
     if a.fg_x.shape != b.fg_x.shape:
-        from .errors import InputError
-
         raise InputError(args.b, f"maps shape {b.fg_x.shape} differs from {args.a}'s {a.fg_x.shape}")
     rows = compare_maps(a, b)
     keys = list(rows[0])
@@ -300,17 +202,28 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def _terminated(signum, frame):      # noqa: ARG001 - signal handler signature
+    raise KeyboardInterrupt("SIGTERM")
+
+
 def main(argv=None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    parser, subs = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:       # report an unknown option under the subcommand's own usage
+        subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+    previous = signal.signal(signal.SIGTERM, _terminated)
     try:
         return args.handler(args)
     except SnnFgError as exc:
         print(f"snn-fg: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    except KeyboardInterrupt:
-        print("snn-fg: interrupted; no partial output was written", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        term = exc.args == ("SIGTERM",)
+        print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); the output was left as it was before "
+              "the run", file=sys.stderr)
+        return 143 if term else 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -91,3 +91,39 @@ def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(path, "a pixel is both ON and OFF; stage 1 keeps only the last event's polarity",
                          f"pixel row {r}, column {c}")
     return pos, neg
+
+
+def load_frame(spec: str, needs: str, threshold: float = 0.10):
+    """The frame a model needs from ``INPUT`` (``demo``, an image or an event
+    frame), and what to record about where it came from.
+
+    ``needs`` is ``"events"`` (an event frame; images are turned into events
+    by the simulated event camera at contrast ``threshold``) or ``"image"``.
+    Returns ``(Frame, source)``.
+    """
+    from .events import image_to_frame
+    from .images import read_image
+    from .models import Frame
+
+    kind = input_kind(spec)
+    source = {"input": str(spec), "kind": kind}
+    if kind == "recording":
+        raise InputError(spec, "is an event recording, not a frame")
+    if kind == "frame":
+        if needs == "image":
+            raise InputError(spec, "the fbfg model needs an image, not an event frame")
+        pos, neg = load_event_frame(spec)
+        return Frame(pos, neg), source
+    if kind == "demo":
+        from .scenes import demo
+
+        image = demo().image
+    else:
+        image = read_image(spec, grey=needs != "image")
+    if needs == "image":
+        return Frame(image=image), source
+    pos, neg = image_to_frame(image, threshold=threshold)
+    if not (pos.any() or neg.any()):
+        raise InputError(spec, f"the image gives no events at contrast threshold {threshold}")
+    source["threshold"] = threshold
+    return Frame(pos, neg, image), source

@@ -12,62 +12,62 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import validate as check
+
 _SUPERSAMPLE = 4
 
 
+def _unit(x, y):
+    norm = np.hypot(x, y)
+    norm = np.where(norm == 0, 1, norm)
+    return x / norm, y / norm
+
+
 @dataclass(frozen=True)
-class Disc:
+class _Shape:
+    """A shape centred at (``row``, ``col``) of one ``size`` (radius or half
+    side) and grey level ``intensity``."""
+
     row: float
     col: float
-    radius: float
+    size: float
     intensity: float
 
     def __post_init__(self):
-        if self.radius <= 0:
-            raise ValueError(f"Disc(radius={self.radius}): radius must be > 0")
-
-    def contains(self, r, c):
-        return (r - self.row) ** 2 + (c - self.col) ** 2 <= self.radius**2
-
-    def inward(self, r, c):
-        """Unit vector (x, y-up) from (r, c) towards the centre."""
-        dx, dy = self.col - c, -(self.row - r)
-        norm = np.hypot(dx, dy)
-        norm = np.where(norm == 0, 1, norm)
-        return dx / norm, dy / norm
+        check.number(type(self).__name__, "size", self.size, lo=0, lo_open=True)
 
     @property
     def centre(self):
         return self.row, self.col
 
 
-@dataclass(frozen=True)
-class Square:
-    row: float
-    col: float
-    half: float
-    intensity: float
-
-    def __post_init__(self):
-        if self.half <= 0:
-            raise ValueError(f"Square(half={self.half}): half side must be > 0")
-
+class Disc(_Shape):
     def contains(self, r, c):
-        return (np.abs(r - self.row) <= self.half) & (np.abs(c - self.col) <= self.half)
+        return (r - self.row) ** 2 + (c - self.col) ** 2 <= self.size**2
+
+    def inward(self, r, c):
+        """Unit vector (x, y-up) from (r, c) towards the centre."""
+        return _unit(self.col - c, r - self.row)
+
+    @property
+    def radius(self) -> float:
+        return self.size
+
+
+class Square(_Shape):
+    def contains(self, r, c):
+        return (np.abs(r - self.row) <= self.size) & (np.abs(c - self.col) <= self.size)
 
     def inward(self, r, c):
         """Inward normal of the nearest side (diagonal exactly at corners)."""
         dr, dc = r - self.row, c - self.col
         ar, ac = np.abs(dr), np.abs(dc)
-        x = np.where(ac >= ar, -np.sign(dc), 0.0)
-        y = np.where(ar >= ac, np.sign(dr), 0.0)   # row below centre -> point up
-        norm = np.hypot(x, y)
-        norm = np.where(norm == 0, 1, norm)
-        return x / norm, y / norm
+        return _unit(np.where(ac >= ar, -np.sign(dc), 0.0),
+                     np.where(ar >= ac, np.sign(dr), 0.0))   # row below centre -> point up
 
     @property
-    def centre(self):
-        return self.row, self.col
+    def half(self) -> float:
+        return self.size
 
 
 @dataclass

@@ -161,9 +161,10 @@ def test_interrupted_recording_run_leaves_nothing(tmp_path, monkeypatch):
     out = tmp_path / "out"
     assert main(["run", str(path), "--out", str(out), "--window-ms", "50", "--no-progress"]) == 130
     assert len(calls) == 2
-    assert os.listdir(out) == []
+    assert not out.exists() and sorted(os.listdir(tmp_path)) == ["disc.npy"]
 
 
+@pytest.mark.slow
 def test_spiking_recording_keeps_every_windows_spikes(tmp_path):
     """snn-fg run RECORDING --model spiking: each window's spike counts are
     stored (ragged: every window instantiates its own cells) and equal a
@@ -188,9 +189,84 @@ def test_spiking_recording_keeps_every_windows_spikes(tmp_path):
                              params=ModelParams(levels=3),
                              progress=False)
         np.testing.assert_array_equal(m.fg_x[i], direct.fg_x)
-        for name in ("S_1", "BL1_1", "GL_1"):
+        for name in ("simple_1", "bo_L1_1", "group_L_1"):
             np.testing.assert_array_equal(window_part(m.extra, f"spikes_{name}", i), direct.extra[f"spikes_{name}"])
         assert m.params["windows"][i].get("counts", m.params["counts"]) == direct.params["counts"]
-        sizes.append(direct.extra["spikes_S_1"].size)
-    assert ("spikes_S_1_offsets" in m.extra) == (sizes[0] != sizes[1])
+        sizes.append(direct.extra["spikes_simple_1"].size)
+    assert ("spikes_simple_1_offsets" in m.extra) == (sizes[0] != sizes[1])
     assert sorted(os.listdir(out)) == ["maps.npz", "maps.png", "rate_histograms.png", "spike_raster.png"]
+
+
+def _disc_frame(tmp_path, radius=16):
+    from snn_fg.events import image_to_frame
+    from snn_fg.scenes import disc
+
+    pos, neg = image_to_frame(disc(radius).image)
+    path = tmp_path / "disc.npz"
+    np.savez(path, pos=pos, neg=neg)
+    return path
+
+
+@pytest.mark.slow
+def test_a_stored_network_runs_from_the_command_line_and_an_edit_changes_it(tmp_path):
+    """snn-fg run disc.npz --model spiking --network networks/default_321x481.json
+    gives the default run's maps (the stored network is resized to the frame);
+    editing one gain in the JSON changes them."""
+    from pathlib import Path
+
+    disc_npz = _disc_frame(tmp_path)
+    stored = Path(__file__).resolve().parents[1] / "networks" / "default_321x481.json"
+    opts = ["--model", "spiking", "--duration-ms", "150", "--no-progress"]
+    assert main(["run", str(disc_npz), "--out", str(tmp_path / "default"), *opts]) == 0
+    assert main(["run", str(disc_npz), "--out", str(tmp_path / "stored"), "--network", str(stored), *opts]) == 0
+    a, b = Maps.load(tmp_path / "default" / "maps.npz"), Maps.load(tmp_path / "stored" / "maps.npz")
+    for k in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+    d = json.loads(stored.read_text())
+    edited = next(p for p in d["projections"] if p["name"] == "bo_L1_1_to_group_L_1")
+    edited["gain_mv"] *= 3
+    (tmp_path / "edited.json").write_text(json.dumps(d))
+    assert main(["run", str(disc_npz), "--out", str(tmp_path / "edited"), "--network",
+                 str(tmp_path / "edited.json"), *opts]) == 0
+    assert not np.array_equal(Maps.load(tmp_path / "edited" / "maps.npz").grouping, a.grouping)
+    # a stored network carries its own model parameters
+    res = run_cli("run", disc_npz, "--out", tmp_path / "x", "--network", stored, "--levels", "3", *opts)
+    assert res.returncode == 2 and "--levels" in res.stderr and not (tmp_path / "x").exists()
+
+
+def test_output_folder_is_never_mixed_with_an_earlier_run(tmp_path):
+    out = tmp_path / "out"
+    assert main(["run", "demo", "--out", str(out), "--no-progress"]) == 0
+    (out / "spike_raster.png").write_bytes(b"left over from an older run")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    res = run_cli("run", "demo", "--out", out, "--r0", "6", "--no-progress")
+    assert res.returncode == 2 and "--force" in res.stderr
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert main(["run", "demo", "--out", str(out), "--r0", "6", "--force", "--no-progress"]) == 0
+    assert sorted(os.listdir(out)) == ["maps.npz", "maps.png"]          # replaced as a whole
+    assert Maps.load(out / "maps.npz").params["r0"] == 6
+    assert sorted(os.listdir(tmp_path)) == ["out"]                       # no staging left
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--window-ms", "50"], "--window-ms"),                # a recording option for a frame
+    (["--duration-ms", "50"], "--duration-ms"),            # a spiking option for the rate model
+    (["--levels", "0"], "--levels"),                       # argparse range check
+    (["--r0", "nan"], "--r0"),
+])
+def test_invalid_arguments_create_nothing(tmp_path, args, message):
+    out = tmp_path / "a" / "b" / "out"
+    res = run_cli("run", "demo", "--out", out, *args, "--no-progress")
+    assert res.returncode == 2 and message in res.stderr and "Traceback" not in res.stderr
+    assert not (tmp_path / "a").exists()
+
+
+def test_usage_errors_are_reported_under_the_subcommand(tmp_path):
+    res = run_cli("run", "demo", "--out", tmp_path / "o", "--leves", "3")
+    assert res.returncode == 2
+    assert "usage: snn-fg run" in res.stderr and "--leves" in res.stderr
+    res = run_cli("run", "demo", "--out", tmp_path / "o", "--window", "3")      # no abbreviations
+    assert res.returncode == 2 and "--window" in res.stderr
+    res = run_cli("--version")
+    from snn_fg import __version__
+    assert res.returncode == 0 and res.stdout.strip() == f"snn-fg {__version__}" and __version__[0].isdigit()

@@ -1,103 +1,87 @@
-"""The spiking model end to end on small synthetic scenes (fast), its inputs,
-its Python API, determinism, and its errors."""
+"""The spiking model's Python API: inputs, what a run records, running a
+stored (and edited) network description, and errors."""
+import json
+
 import numpy as np
 import pytest
 
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.events import image_to_events, image_to_frame
+from snn_fg.figures import save_spiking_figures
 from snn_fg.maps import Maps
-from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores
-from snn_fg.rate.edfg import run_edfg
+from snn_fg.network import Network, SpikingParams, build_network
+from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
-from snn_fg.spiking import run_spiking, run_spiking_result, save_spiking_figures
-from snn_fg.spiking.api import ROLE_ORDER
+from snn_fg.spiking import SpikingRecord, run_spiking, run_spiking_result
 from snn_fg.spiking.inputs import event_spikes, frame_spikes
 
-
-@pytest.fixture(scope="module", params=[True, False], ids=["light", "dark"])
-def disc_run(request):
-    sc = disc(16, light_on_dark=request.param)
-    pos, neg = image_to_frame(sc.image)
-    res = run_spiking_result(pos, neg, progress=False)
-    return sc, pos, neg, res
+SMALL = ModelParams(levels=2)
 
 
-def test_disc_matches_the_rate_reference(disc_run):
-    sc, pos, neg, res = disc_run
-    ref = run_edfg(pos, neg)
-    c = compare_frame(res.maps.fg_x, res.maps.fg_y, res.maps.grouping, ref.fg_x, ref.fg_y, ref.grouping)
-    assert c["pixels_compared"] > 100
-    assert c["angle_diff_median_deg"] <= 20
-    assert c["grouping_pearson_r"] >= 0.8
+@pytest.fixture(scope="module")
+def frame():
+    return image_to_frame(disc(12).image)
 
 
-def test_disc_figure_ground_and_grouping_are_right(disc_run):
-    sc, _, _, res = disc_run
-    t = truth_scores(res.maps.fg_x, res.maps.fg_y, sc)
-    assert t["coverage"] > 0.5
-    assert t["frac_within_45"] >= 0.75
-    assert grouping_peak_inside(res.maps.grouping, sc)
+@pytest.fixture(scope="module")
+def small_run(frame):
+    pos, neg = frame
+    return run_spiking_result(pos, neg, params=SMALL, duration_ms=120, progress=False)
 
 
-def test_every_population_role_fires_below_its_ceiling(disc_run):
-    _, _, _, res = disc_run
-    pops = res.maps.params["populations"]
-    seen = set()
-    for role in ROLE_ORDER:
-        ps = [p for p in pops.values() if p["role"] == role and p["cells"] > 0]
-        if not ps:
-            continue
-        seen.add(role)
-        cells = sum(p["cells"] for p in ps)
-        mean = sum(p["mean_rate_hz"] * p["cells"] for p in ps) / cells
-        assert mean > 0.5, role
-        assert mean < 0.5 * ps[0]["refractory_max_hz"], role
-    assert {"simple", "untuned", "bo_L1", "bo_D2", "group_L", "group_D", "fb_z1p", "fb_z1n"} <= seen
-
-
-def test_maps_record_counts_rates_and_parameters(disc_run, tmp_path):
-    _, pos, _, res = disc_run
-    m = res.maps
+def test_maps_record_counts_rates_and_parameters(small_run, frame, tmp_path):
+    pos, _ = frame
+    m = small_run.maps
     assert m.fg_x.shape == pos.shape and m.fg_x.dtype == np.float32
-    names = [str(n) for n in m.extra["population_names"]]
-    assert "S_1" in names and "GL_1" in names
-    for n in names:
-        spikes, sites = m.extra[f"spikes_{n}"], m.extra[f"sites_{n}"]
-        assert spikes.shape == sites.shape and spikes.dtype == np.int32
-        # the decoded rates are these counts over the counting window
-        np.testing.assert_allclose(res.rates[n], spikes / (m.params["simulation"]["count_window_ms"] / 1000))
+    rec, _ = SpikingRecord.from_maps(m)
+    assert "simple_1" in rec.names and "group_L_1" in rec.names
+    for n in rec.names:
+        assert rec.counts[n].shape == rec.sites[n].shape and rec.counts[n].dtype == np.int32
+        np.testing.assert_allclose(small_run.result.rates(n), rec.rates(n))
     sim = m.params["simulation"]
-    for key in ("duration_ms", "dt_ms", "settle_ms", "seed", "rate_hz_used", "codegen"):
+    for key in ("duration_ms", "dt_ms", "settle_ms", "count_window_ms", "seed", "rate_hz_used", "instantiate"):
         assert key in sim
-    assert m.params["model"] == "spiking" and m.params["levels"] == 10
-    assert m.params["counts"]["total_synapses"] == sum(m.params["counts"]["synapses_in"].values())
+    assert m.params["backend"]["name"] == "brian2" and m.params["backend"]["codegen"] in ("cython", "numpy")
+    assert m.params["model"] == "spiking" and m.params["levels"] == 2
+    assert m.params["network"]["origin"] == "built"
+    assert m.params["counts"]["total_synapses"] == sum(m.params["counts"]["synapses_in"].values()) > 0
     assert all(0 < v <= 1 + 1e-9 for v in m.params["kept_kernel_mass"].values())
-    back = Maps.load(m.save(tmp_path / "spk.npz"))
-    np.testing.assert_array_equal(back.extra["spikes_GL_1"], m.extra["spikes_GL_1"])
-    assert back.params["simulation"] == sim
-    files = save_spiking_figures(back, tmp_path / "figs")
-    assert [f.name for f in files] == ["spike_raster.png", "rate_histograms.png"]
-    assert all(f.stat().st_size > 10_000 for f in files)
+    files = save_spiking_figures(Maps.load(m.save(tmp_path / "spk.npz")), tmp_path / "figs")
+    assert [f.name for f in files] == ["maps.png", "spike_raster.png", "rate_histograms.png"]
+    assert all(f.read_bytes()[:4] == b"\x89PNG" and f.stat().st_size > 10_000 for f in files)
 
 
-def test_same_seed_same_spikes_other_seed_other_spikes():
-    pos, neg = image_to_frame(disc(16).image)
-    runs = [run_spiking_result(pos, neg, duration_ms=120, settle_ms=20, seed=s, progress=False) for s in (5, 5, 6)]
-    a, b, c = (r.sim for r in runs)
-    assert a.spike_i.size > 1000
-    np.testing.assert_array_equal(a.spike_i, b.spike_i)
-    np.testing.assert_array_equal(a.spike_t, b.spike_t)
-    assert a.spike_i.size != c.spike_i.size or not np.array_equal(a.spike_t, c.spike_t)
+def test_a_stored_description_runs_and_an_edited_gain_changes_the_result(small_run, frame, tmp_path):
+    pos, neg = frame
+    path = small_run.network.save(tmp_path / "net.json")
+    same = run_spiking(pos, neg, network=path, duration_ms=120, progress=False)
+    for k in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(same, k), getattr(small_run.maps, k))
+    assert same.params["network"]["origin"] == str(path)
+    d = json.loads(path.read_text())
+    for pr in d["projections"]:
+        if pr["name"] == "bo_L1_1_to_group_L_1":
+            pr["gain_mv"] *= 3
+    path.write_text(json.dumps(d))
+    edited = run_spiking(pos, neg, network=path, duration_ms=120, progress=False)
+    assert not np.array_equal(edited.grouping, small_run.maps.grouping)
+    # the stored network is for another frame size: it is resized, and says so
+    other = build_network(SMALL, (40, 40)).save(tmp_path / "other.json")
+    resized = run_spiking(pos, neg, network=other, duration_ms=120, progress=False)
+    assert resized.params["network"]["resized_from"] == [40, 40]
+    np.testing.assert_array_equal(resized.grouping, small_run.maps.grouping)
+    with pytest.raises(ParameterError, match="not both"):
+        run_spiking(pos, neg, network=path, params=SMALL, progress=False)
 
 
-def test_timed_events_drive_the_network():
-    sc = disc(16)
-    rec = image_to_events(sc.image)
-    res = run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, progress=False)
-    assert res.inputs.kind == "events" and res.inputs.period_steps is not None
-    t = truth_scores(res.maps.fg_x, res.maps.fg_y, sc)
-    assert t["frac_within_45"] >= 0.75
-    assert grouping_peak_inside(res.maps.grouping, sc)
+def test_the_run_is_silent_unless_asked(frame, capfd):
+    pos, neg = frame
+    run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False)
+    assert capfd.readouterr().err == ""
+    lines = []
+    run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False, log=lines.append)
+    assert any("unrolling" in m for m in lines) and any("compiling" in m for m in lines)
+    assert len(lines) < 10
 
 
 def test_event_spike_times_come_from_the_timestamps():
@@ -141,8 +125,8 @@ def test_frame_spike_trains_are_regular_or_poisson_and_seeded():
         frame_spikes(pos, neg, 200.0, 0.5, 100.0, process="burst")
 
 
-def test_errors_name_what_is_wrong():
-    pos, neg = image_to_frame(disc(16).image)
+def test_errors_name_what_is_wrong(frame):
+    pos, neg = frame
     ev = image_to_events(disc(16).image)
     with pytest.raises(InputError, match="not both"):
         run_spiking(pos, neg, events=ev.events, sensor_size=ev.sensor_size, progress=False)
@@ -155,4 +139,8 @@ def test_errors_name_what_is_wrong():
     with pytest.raises(ParameterError, match="dt_ms"):
         run_spiking(pos, neg, dt_ms=0, progress=False)
     with pytest.raises(ParameterError, match="codegen"):
-        run_spiking(pos, neg, codegen="gpu", duration_ms=10, settle_ms=0, progress=False)
+        run_spiking(pos, neg, backend_options={"codegen": "gpu"}, duration_ms=10, settle_ms=0, progress=False)
+    with pytest.raises(ParameterError, match="backend: name='nest2'"):
+        run_spiking(pos, neg, backend="nest2", progress=False)
+    with pytest.raises(TypeError, match="durration_ms"):
+        run_spiking(pos, neg, durration_ms=10)

@@ -1,0 +1,16 @@
+"""The network description: what the spiking model is, independent of any
+simulator or exporter.
+
+* :mod:`.nodes` - neurons, populations, kernels, projections;
+* :mod:`.graph` - :class:`Network`, the validated graph (JSON in and out);
+* :mod:`.spiking_params` - :class:`SpikingParams`, the spiking constants;
+* :mod:`.builder` - :func:`build_network`, the figure-ground network;
+* :mod:`.kernels` - the model's DoG and von Mises kernels.
+"""
+from .builder import build_network
+from .graph import Network
+from .nodes import ROLES, SITE_RULES, Conv, Kernel, Neuron, Population, Projection, Resize
+from .spiking_params import SpikingParams
+
+__all__ = ["ROLES", "SITE_RULES", "Conv", "Kernel", "Network", "Neuron", "Population", "Projection", "Resize",
+           "SpikingParams", "build_network"]

@@ -1,18 +1,21 @@
-"""Spiking (Brian2) form of the event-driven figure-ground model.
+"""The spiking form of the figure-ground model.
 
-* :func:`run_spiking` - event frame or timed events -> :class:`~snn_fg.maps.Maps`
-  decoded from spike counts (``run_spiking_result`` returns the internals too);
-* :func:`save_spiking_figures` - spike raster and per-population rate histograms;
-* :mod:`.unroll` - the network description unrolled for one input (numpy only);
-* :mod:`.inputs` - events / frames -> input spike trains;
-* :mod:`.brian` - the Brian2 network;
-* :mod:`.decode` - spike counts -> the rate model's readout.
+* :func:`run_spiking` - an event frame or timed events -> :class:`~snn_fg.maps.Maps`
+  decoded from spike counts (:func:`run_spiking_result` returns the internals);
+* :mod:`.inputs` - events and frames -> input spike trains;
+* :mod:`.unroll` (with :mod:`.sites`, :mod:`.connect`, :mod:`.interp`) - the
+  description unrolled into cells and synapses for one input, for backends
+  that need explicit synapses;
+* :mod:`.decode` - firing rates -> the rate model's readout;
+* :mod:`.record` - the spike counts kept beside the maps;
+* :mod:`.twin` - the unrolled network iterated like the rate model.
 
-The network itself is described declaratively in
-:mod:`snn_fg.network.description`.
+The network is described in :mod:`snn_fg.network` and simulated by a backend
+of :mod:`snn_fg.backends`.
 """
-from ..network.description import NetworkParams, build_network
-from .api import SpikingResult, run_spiking, run_spiking_result, save_spiking_figures
+from ..network import SpikingParams, build_network
+from .api import SpikingResult, run_spiking, run_spiking_result
+from .record import SpikingRecord
 
-__all__ = ["NetworkParams", "SpikingResult", "build_network", "run_spiking", "run_spiking_result",
-           "save_spiking_figures"]
+__all__ = ["SpikingParams", "SpikingRecord", "SpikingResult", "build_network", "run_spiking",
+           "run_spiking_result"]

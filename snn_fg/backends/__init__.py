@@ -1,0 +1,62 @@
+"""Simulator backends, chosen by name.
+
+A backend turns a network description and input spikes into a
+:class:`~snn_fg.backends.base.SimulationResult`. To add one (NEST through
+PyNN, a fast event-driven engine...), write a module here with a subclass of
+:class:`~snn_fg.backends.base.Backend` and add it to :data:`BACKENDS`; the
+decoder, the figures, the command line and the backend-agnostic tests then
+use it without change. Exporters (PyNN scripts, NIR files) consume the same
+description from :mod:`snn_fg.export`.
+
+>>> from snn_fg.backends import backend_names, get_backend
+>>> "brian2" in backend_names()
+True
+>>> get_backend("brian2").name
+'brian2'
+"""
+from __future__ import annotations
+
+import importlib
+
+from .. import validate as check
+from ..errors import SnnFgError
+from .base import Backend, RunSettings, SimulationResult
+
+#: name -> "module:Class", imported only when the backend is asked for, so
+#: that a missing optional simulator costs nothing until it is used.
+BACKENDS = {
+    "brian2": "snn_fg.backends.brian2:Brian2Backend",
+}
+DEFAULT_BACKEND = "brian2"
+
+
+def backend_names() -> list[str]:
+    return list(BACKENDS)
+
+
+def backend_class(name: str) -> type[Backend]:
+    check.choice("backend", "name", name, tuple(BACKENDS))
+    module, cls = BACKENDS[name].split(":")
+    return getattr(importlib.import_module(module), cls)
+
+
+def get_backend(name: str = DEFAULT_BACKEND, **options) -> Backend:
+    """The backend ``name``, constructed with its ``options``.
+
+    Raises :class:`~snn_fg.errors.SnnFgError` with one line saying what to
+    install when the simulator it needs is missing.
+    """
+    cls = backend_class(name)
+    ok, why = cls.available()
+    if not ok:
+        raise SnnFgError(f"backend {name!r} is not available: {why}")
+    return cls(**options)
+
+
+def available_backends() -> dict[str, tuple[bool, str]]:
+    """name -> (usable here, what to install if not)."""
+    return {name: backend_class(name).available() for name in BACKENDS}
+
+
+__all__ = ["BACKENDS", "DEFAULT_BACKEND", "Backend", "RunSettings", "SimulationResult", "available_backends",
+           "backend_class", "backend_names", "get_backend"]

@@ -1,0 +1,178 @@
+"""The seam between a network description and whatever simulates it.
+
+Everything above it (decoding, figures, the command line, experiments)
+speaks only of :class:`SimulationResult`; everything below it (a backend)
+consumes only a :class:`~snn_fg.network.Network` and the input spikes
+(:class:`~snn_fg.spiking.inputs.InputSpikes`). A backend subclasses
+:class:`Backend`, implements :meth:`Backend.simulate`, and is registered by
+name in :mod:`snn_fg.backends` - the way PyNN keeps one neutral model in
+``pyNN.common`` and one package per simulator.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from .. import validate as check
+from ..network.graph import Network
+from ..network.nodes import Population
+
+#: Per-cell state variables a backend can report at the end of a run (mV).
+STATE_VARIABLES = ("v", "I_exc", "I_inh")
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunSettings:
+    """How to run a simulation (independent of the backend).
+
+    Parameters
+    ----------
+    duration_ms : float
+        Simulated time.
+    dt_ms : float
+        Time step.
+    count_from_ms : float
+        Spikes from this time on are counted (the counting window ends at
+        ``duration_ms``).
+    record_spikes : bool
+        Keep every spike's cell and time (for rasters), not only counts.
+    record_state : tuple of str
+        State variables (:data:`STATE_VARIABLES`) whose final values to report.
+    instantiate : {"input", "all"}
+        ``input``: a backend that instantiates cells may create only those the
+        input can use (the populations' site hints); ``all``: every cell.
+    sites : dict, optional
+        Fixed cells (flat indices) of some populations (hand-built circuits).
+    log : callable, optional
+        Receives one-line progress messages (``None``: silent).
+    progress : bool
+        Show a progress bar while simulating.
+    """
+
+    duration_ms: float
+    dt_ms: float = 0.5
+    count_from_ms: float = 0.0
+    record_spikes: bool = True
+    record_state: tuple = ()
+    instantiate: str = "input"
+    sites: dict | None = None
+    log: Callable | None = None
+    progress: bool = False
+
+    def __post_init__(self):
+        owner = "RunSettings"
+        object.__setattr__(self, "duration_ms", check.number(owner, "duration_ms", self.duration_ms,
+                                                             lo=0, lo_open=True))
+        object.__setattr__(self, "dt_ms", check.number(owner, "dt_ms", self.dt_ms, lo=0, lo_open=True))
+        object.__setattr__(self, "count_from_ms", check.number(owner, "count_from_ms", self.count_from_ms, lo=0,
+                                                               hi=self.duration_ms, hi_open=True))
+        check.choice(owner, "instantiate", self.instantiate, ("input", "all"))
+        for v in self.record_state:
+            check.choice(owner, "record_state", v, STATE_VARIABLES)
+        object.__setattr__(self, "record_state", tuple(self.record_state))
+
+    @property
+    def count_window_ms(self) -> float:
+        return self.duration_ms - self.count_from_ms
+
+    def say(self, message: str):
+        if self.log is not None:
+            self.log(message)
+
+
+@dataclass
+class SimulationResult:
+    """What one simulation produced, whichever backend ran it.
+
+    Per LIF population (spike sources are not included): ``sites`` the
+    instantiated cells (sorted flat indices into the population's
+    ``(channels, rows, cols)`` shape; every cell for a backend that
+    instantiates all), ``counts`` the spikes of each of those cells in the
+    counting window, ``spikes`` (if recorded) every spike as
+    ``(cell, t_ms)`` with ``cell`` indexing ``sites``, and ``state`` the
+    requested final state variables (mV). ``stats`` holds what the backend
+    knows about its own build (synapses per target population, kept kernel
+    mass per projection, simulator objects).
+    """
+
+    network: Network
+    backend: str
+    sites: dict
+    counts: dict
+    count_window_ms: float
+    simulated_ms: float
+    dt_ms: float
+    spikes: dict | None = None
+    state: dict = field(default_factory=dict)
+    timings_s: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def populations(self) -> list[str]:
+        """Names of the simulated (LIF) populations, in network order."""
+        return [p.name for p in self.network.populations if p.name in self.counts]
+
+    def of_role(self, role: str, level: int | None = None) -> list[str]:
+        return [p.name for p in self.network.by_role(role, level) if p.name in self.counts]
+
+    def rates(self, name: str) -> np.ndarray:
+        """Firing rate (Hz) of each instantiated cell of ``name`` in the counting window."""
+        return self.counts[name] / (self.count_window_ms / 1000.0)
+
+    def grid(self, name: str, values: np.ndarray | None = None) -> np.ndarray:
+        """Per-cell ``values`` (default: rates) on the population's whole
+        ``(channels, rows, cols)`` grid, 0 where no cell was instantiated."""
+        pop = self.network.population(name)
+        out = np.zeros(pop.size)
+        out[self.sites[name]] = self.rates(name) if values is None else values
+        return out.reshape(pop.shape)
+
+    @property
+    def total_cells(self) -> int:
+        return int(sum(s.size for s in self.sites.values()))
+
+
+def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:
+    """Spike-source name -> bool mask of pixels with input, by role."""
+    return {network.one("input_on", 1).name: np.asarray(on, bool),
+            network.one("input_off", 1).name: np.asarray(off, bool)}
+
+
+def source_offsets(network: Network) -> dict:
+    """Spike-source name -> first input index: inputs number the ON pixels
+    ``0..H*W-1`` and the OFF pixels ``H*W..2*H*W-1`` (row-major)."""
+    h, w = network.frame_shape
+    return {network.one("input_on", 1).name: 0, network.one("input_off", 1).name: h * w}
+
+
+def lif_populations(network: Network) -> list[Population]:
+    return [p for p in network.populations if not p.is_source]
+
+
+class Backend(ABC):
+    """A simulator that runs a network description on input spikes.
+
+    Subclasses set ``name`` (the registry key), ``requires`` (what to install
+    if it is missing, one line) and implement :meth:`simulate`; options are
+    keyword arguments of their constructor, refused when unknown.
+    """
+
+    name: ClassVar[str] = ""
+    requires: ClassVar[str] = ""
+
+    @classmethod
+    def available(cls) -> tuple[bool, str]:
+        """Whether the backend can run here, and if not, what to install."""
+        return True, ""
+
+    @abstractmethod
+    def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
+        """Simulate ``network`` fed by ``inputs`` (InputSpikes) as ``settings`` say."""
+
+    def describe(self) -> dict:
+        """What to record about this backend in a run's parameters."""
+        return {"name": self.name}

@@ -1,0 +1,246 @@
+"""The Brian2 backend: the network unrolled for one input and simulated in Brian2.
+
+All LIF cells of all populations live in one ``NeuronGroup`` (``lif``,
+per-cell constants), all input pixels in one ``SpikeGeneratorGroup``
+(``inp``), and the synapses in a handful of ``Synapses`` objects, one per
+(source group, receptor, delay). Few objects with fixed names mean few
+generated code objects, which Cython compiles once per machine and then
+reuses from its cache (``~/.cython/brian_extensions``) for every network and
+input.
+
+A projection's ``sign`` picks the receptor (+1 ``I_exc``, -1 ``I_inh``); the
+kernel's own signs are kept, so a kernel with negative lobes keeps its
+balance under one time constant.
+"""
+from __future__ import annotations
+
+import contextlib
+import logging
+import time
+
+import numpy as np
+
+from .. import validate as check
+from ..network.graph import Network
+from ..spiking.unroll import Unrolled, unroll
+from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
+
+#: CUBA LIF state, advanced once per step by :data:`_STEP` with per-cell decay
+#: factors ``d = exp(-dt / tau)`` computed once: each variable decays exactly
+#: over the step, ``v`` towards ``v_rest + I_exc - I_inh`` with the currents
+#: of the step's start (Brian2's exponential Euler would evaluate three
+#: exponentials per cell and step for the same update).
+_EQS = """
+v : volt
+I_exc : volt
+I_inh : volt
+d_m : 1 (constant)
+d_exc : 1 (constant)
+d_inh : 1 (constant)
+v_rest : volt (constant)
+v_reset : volt (constant)
+v_th : volt (constant)
+t_ref : second (constant)
+n_spikes : integer
+"""
+#: v is clamped while refractory; the currents keep decaying.
+_STEP = """
+v = v + int(not_refractory) * (1 - d_m) * (v_rest - v + I_exc - I_inh)
+I_exc = I_exc * d_exc
+I_inh = I_inh * d_inh
+"""
+CODEGEN = ("auto", "cython", "numpy")
+
+
+@contextlib.contextmanager
+def _brian2_session(codegen: str):
+    """Brian2 preferences and log level for one run, restored afterwards."""
+    from brian2 import prefs
+
+    logger = logging.getLogger("brian2")
+    saved = (prefs.codegen.target, prefs.codegen.runtime.cython.multiprocess_safe,
+             prefs.core.stop_on_keyboard_interrupt, logger.level)
+    target = codegen
+    if target == "auto":
+        try:
+            from brian2.codegen.runtime.cython_rt import CythonCodeObject
+            target = "cython" if CythonCodeObject.is_available() else "numpy"
+        except Exception:   # no Cython or no compiler
+            target = "numpy"
+    try:
+        prefs.codegen.target = target
+        prefs.codegen.runtime.cython.multiprocess_safe = True
+        # Ctrl-C must interrupt the run, not end it early with partial counts
+        prefs.core.stop_on_keyboard_interrupt = False
+        logger.setLevel(logging.WARNING)
+        yield target
+    finally:
+        (prefs.codegen.target, prefs.codegen.runtime.cython.multiprocess_safe,
+         prefs.core.stop_on_keyboard_interrupt) = saved[:3]
+        logger.setLevel(saved[3])
+
+
+class Brian2Backend(Backend):
+    """Brian2 (runtime mode, Cython code generation when a compiler is present).
+
+    Parameters
+    ----------
+    codegen : {"auto", "cython", "numpy"}
+        Brian2's code generation target; ``auto`` uses Cython when it works.
+    free : bool
+        Drop each projection's unrolled arrays once Brian2 holds its copy
+        (keeps peak memory down at full scale).
+    """
+
+    name = "brian2"
+    requires = "brian2 (a core dependency: reinstall snn-fg)"
+
+    def __init__(self, *, codegen: str = "auto", free: bool = True):
+        self.codegen = check.choice("Brian2Backend", "codegen", codegen, CODEGEN)
+        self.free = bool(free)
+        self.used_codegen = None
+
+    @classmethod
+    def available(cls):
+        try:
+            import brian2  # noqa: F401
+        except ImportError:
+            return False, "pip install brian2"
+        return True, ""
+
+    def describe(self) -> dict:
+        return {"name": self.name, "codegen": self.used_codegen or self.codegen}
+
+    def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
+        t0 = time.perf_counter()
+        settings.say("unrolling the network for this input")
+        un = unroll(network, source_masks(network, inputs.on, inputs.off), sites=settings.sites,
+                    instantiate=settings.instantiate)
+        stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
+        timings = {"unroll": time.perf_counter() - t0}
+        settings.say(f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
+                     f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)")
+        with _brian2_session(self.codegen) as target:
+            self.used_codegen = target
+            counts, spikes, state, objects = self._run(un, inputs, settings, timings)
+        stats["brian2_synapse_objects"] = objects
+        timings["total"] = time.perf_counter() - t0
+        sites = {p.name: un.sites[p.name] for p in lif_populations(network)}
+        return SimulationResult(network=network, backend=self.name, sites=sites, counts=counts,
+                                count_window_ms=settings.count_window_ms, simulated_ms=settings.duration_ms,
+                                dt_ms=settings.dt_ms, spikes=spikes, state=state, timings_s=timings, stats=stats)
+
+    def _run(self, un: Unrolled, inputs, settings: RunSettings, timings: dict):
+        import brian2 as b2
+        from brian2 import ms, mV
+
+        net = un.network
+        pops = lif_populations(net)
+        offsets, n_lif = {}, 0
+        for p in pops:
+            offsets[p.name] = n_lif
+            n_lif += un.n_cells(p.name)
+        offsets.update(source_offsets(net))
+        pop_of = np.repeat(np.arange(len(pops)), [un.n_cells(p.name) for p in pops])
+        dt = settings.dt_ms * ms
+
+        def per_cell(attr):
+            return np.array([getattr(p.neuron, attr) for p in pops], dtype=np.float64)[pop_of]
+
+        lif = b2.NeuronGroup(max(n_lif, 1), _EQS, threshold="v > v_th",
+                             reset="v = v_reset\nn_spikes += int(t >= t_count)", refractory="t_ref", dt=dt,
+                             name="lif", namespace={"t_count": settings.count_from_ms * ms})
+        lif.run_regularly(_STEP, when="groups", name="lif_step")
+        if n_lif:
+            for var, tau in (("d_m", "tau_m_ms"), ("d_exc", "tau_exc_ms"), ("d_inh", "tau_inh_ms")):
+                setattr(lif, var, np.exp(-settings.dt_ms / per_cell(tau)))
+            lif.v_rest = per_cell("v_rest_mv") * mV
+            lif.v_reset = per_cell("v_reset_mv") * mV
+            lif.v_th = per_cell("v_th_mv") * mV
+            lif.t_ref = per_cell("t_ref_ms") * ms
+            lif.v = per_cell("v_rest_mv") * mV
+        gen = b2.SpikeGeneratorGroup(inputs.n_sources, inputs.indices.astype(np.int64), inputs.steps * dt,
+                                     period=(inputs.period_steps * dt if inputs.period_steps else 0 * ms),
+                                     dt=dt, name="inp", sorted=False)
+        t_build = time.perf_counter()
+        synapses, n_syn = self._synapses(un, offsets, lif, gen, dt, settings)
+        timings["build"] = time.perf_counter() - t_build
+        objects = [lif, gen, *synapses]
+        monitor = None
+        if settings.record_spikes and n_lif:
+            monitor = b2.SpikeMonitor(lif, name="spikes")
+            objects.append(monitor)
+        network = b2.Network(*objects)
+        settings.say("compiling and simulating (Brian2 compiles its code once per machine: the first run "
+                     "takes a minute or two longer)")
+        t_run = time.perf_counter()
+        with _progress_bar(settings) as report:
+            network.run(settings.duration_ms * ms, report=report, report_period=2 * b2.second, namespace={})
+        if float(network.t / ms) < settings.duration_ms - settings.dt_ms / 2:
+            raise KeyboardInterrupt(f"the simulation stopped at {float(network.t / ms):g} ms")
+        timings["run"] = time.perf_counter() - t_run
+        all_counts = np.asarray(lif.n_spikes[:], dtype=np.int64)[:n_lif]
+        counts = {p.name: all_counts[offsets[p.name]:offsets[p.name] + un.n_cells(p.name)] for p in pops}
+        spikes = None
+        if monitor is not None:
+            cell = np.asarray(monitor.i[:], dtype=np.int64)
+            t_ms = np.asarray(monitor.t[:] / ms, dtype=np.float64)
+            which = pop_of[cell] if cell.size else cell
+            spikes = {p.name: (cell[which == k] - offsets[p.name], t_ms[which == k]) for k, p in enumerate(pops)}
+        state = {}
+        for var in settings.record_state:
+            values = np.asarray(getattr(lif, var)[:] / mV, dtype=np.float64)[:n_lif]
+            for p in pops:
+                state.setdefault(p.name, {})[var] = values[offsets[p.name]:offsets[p.name] + un.n_cells(p.name)]
+        return counts, spikes, state, n_syn
+
+    def _synapses(self, un: Unrolled, offsets, lif, gen, dt, settings):
+        """One ``Synapses`` object per (source group, receptor, delay)."""
+        import brian2 as b2
+        from brian2 import ms, mV
+
+        groups: dict = {}
+        for conn in un.connections:
+            if conn.n == 0:
+                continue
+            pr = conn.projection
+            src_group = "inp" if un.network.population(pr.source).is_source else "lif"
+            key = (src_group, "exc" if pr.sign > 0 else "inh", round(pr.delay_ms, 6))
+            groups.setdefault(key, []).append(conn)
+        objects, n_syn = [], {}
+        for (src_group, receptor, delay), conns in sorted(groups.items()):
+            name = f"syn_{src_group}_{receptor}_{str(delay).replace('.', 'p')}ms"
+            pre = np.concatenate([c.pre.astype(np.int32) + np.int32(offsets[c.projection.source]) for c in conns])
+            post = np.concatenate([c.post.astype(np.int32) + np.int32(offsets[c.projection.target]) for c in conns])
+            w = np.concatenate([np.abs(c.w) if receptor == "inh" else c.w for c in conns])
+            if self.free:
+                for c in conns:
+                    c.free()
+            syn = b2.Synapses(gen if src_group == "inp" else lif, lif, "w : volt",
+                              on_pre=f"I_{receptor}_post += w", delay=delay * ms, dt=dt, name=name)
+            syn.connect(i=pre, j=post)
+            syn.w = w * mV
+            n_syn[name] = int(pre.size)
+            objects.append(syn)
+        return objects, n_syn
+
+
+@contextlib.contextmanager
+def _progress_bar(settings: RunSettings):
+    """A Brian2 ``report`` callback driving a tqdm bar in simulated ms (or None)."""
+    if not settings.progress:
+        yield None
+        return
+    from tqdm import tqdm
+
+    bar = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False)
+    done = {"ms": 0}
+
+    def report(elapsed, completed, start, duration):    # noqa: ARG001 - Brian2's signature
+        now = int(round(float(completed) * settings.duration_ms))
+        bar.update(now - done["ms"])
+        done["ms"] = now
+    try:
+        yield report
+    finally:
+        bar.close()

@@ -1,0 +1,156 @@
+"""The models ``snn-fg run`` can run, behind one interface: :class:`Model`.
+
+A model runs one frame (an event frame, or an image for the frame-based
+model) or one window of a recording, and draws its figures. The command line
+and the experiments pick a model by name from :data:`MODELS` and never branch
+on which one it is. To add a model, subclass :class:`Model` and register it.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+from . import validate as check
+from .errors import InputError
+from .figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure, save_spiking_figures
+from .maps import Maps
+from .params import ModelParams
+
+
+@dataclass
+class Frame:
+    """One input frame: an event frame (``pos``, ``neg``) and/or an image."""
+
+    pos: np.ndarray | None = None
+    neg: np.ndarray | None = None
+    image: np.ndarray | None = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.pos if self.pos is not None else self.image).shape[:2]
+
+
+class Model(ABC):
+    """A figure-ground model: frames and windows in, :class:`Maps` out.
+
+    ``needs`` says what a frame must hold (``"events"``: ``pos``/``neg``;
+    ``"image"``: an image); ``grouping_label`` labels the grouping map's
+    colour bar with its unit.
+    """
+
+    name: ClassVar[str]
+    needs: ClassVar[str] = "events"
+    #: keyword options of the constructor besides params and progress (CLI flags of the same name)
+    options: ClassVar[tuple] = ()
+    grouping_label: ClassVar[str] = "grouping"
+
+    def __init__(self, params: ModelParams = ModelParams(), progress=None):
+        self.params = params
+        self.progress = progress      # a factory wrapping iterables in a progress bar, or None
+
+    @abstractmethod
+    def run_frame(self, frame: Frame) -> Maps:
+        """Maps of one frame."""
+
+    def run_window(self, window) -> Maps:
+        """Maps of one window of a recording (an :class:`~snn_fg.events.EventWindow`)."""
+        if not (window.pos.any() or window.neg.any()):
+            return self.empty_maps(window.pos.shape)
+        return self.run_frame(Frame(window.pos, window.neg))
+
+    def empty_maps(self, shape) -> Maps:
+        z = np.zeros(shape, np.float32)
+        return Maps(z, z.copy(), z.copy(), {"model": self.name, **self.params.to_dict()})
+
+    def figure_input(self, frame: Frame) -> np.ndarray:
+        """The image shown beside the maps."""
+        return event_frame_rgb(frame.pos, frame.neg)
+
+    def write_figures(self, out: Path, maps: Maps, inputs, titles=None) -> list[Path]:
+        """Figures of a run into folder ``out``; ``inputs`` one image per frame."""
+        return [save_maps_figure(out / "maps.png", inputs, maps.fg_x, maps.fg_y, maps.grouping, titles=titles,
+                                 grouping_label=self.grouping_label)]
+
+
+class RateModel(Model):
+    """The rate reference (EDFG, stages 1-9) on an event frame."""
+
+    name = "rate"
+    grouping_label = "grouping activity (rate-model units)"
+
+    def run_frame(self, frame: Frame) -> Maps:
+        from .rate.edfg import run_edfg
+
+        return run_edfg(frame.pos, frame.neg, self.params, progress=self.progress)
+
+
+class FbfgModel(Model):
+    """The frame-based model (FBFG) on a grey or RGB image."""
+
+    name = "fbfg"
+    needs = "image"
+    grouping_label = "grouping (normalised to 1)"
+
+    def run_frame(self, frame: Frame) -> Maps:
+        from .rate.fbfg import run_fbfg
+
+        return run_fbfg(frame.image, self.params, progress=self.progress)
+
+    def run_window(self, window) -> Maps:
+        raise InputError("<recording>", "the fbfg model needs an image, not an event recording")
+
+    def figure_input(self, frame: Frame) -> np.ndarray:
+        return frame.image
+
+
+class SpikingModel(Model):
+    """The spiking network (:func:`snn_fg.spiking.run_spiking`) on a backend.
+
+    Options: ``network`` (a stored description), ``backend``, ``duration_ms``,
+    ``settle_ms``, ``dt_ms``, ``seed``; a window of a recording is fed as its
+    own timed events.
+    """
+
+    name = "spiking"
+    grouping_label = SPIKING_GROUPING_LABEL
+    options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed")
+
+    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None, backend="brian2",
+                 **run_options):
+        super().__init__(params, progress)
+        self.network = network       # a stored description (its own ModelParams), or None: build from params
+        self.backend = backend
+        self.run_options = run_options
+
+    def _run(self, **inputs) -> Maps:
+        from .spiking import run_spiking
+
+        net = {"params": self.params} if self.network is None else {"network": self.network}
+        return run_spiking(**inputs, **net, backend=self.backend, progress=self.progress is not None,
+                           **self.run_options)
+
+    def run_frame(self, frame: Frame) -> Maps:
+        return self._run(pos=frame.pos, neg=frame.neg)
+
+    def run_window(self, window) -> Maps:
+        if not (window.pos.any() or window.neg.any()):
+            return self.empty_maps(window.pos.shape)
+        h, w = window.pos.shape
+        return self._run(events=window.events, sensor_size=(w, h, 2))
+
+    def write_figures(self, out: Path, maps: Maps, inputs, titles=None) -> list[Path]:
+        written = super().write_figures(out, maps, inputs, titles)
+        return written + save_spiking_figures(maps, out)[1:]
+
+
+MODELS: dict[str, type[Model]] = {m.name: m for m in (RateModel, FbfgModel, SpikingModel)}
+
+
+def get_model(name: str, params: ModelParams = ModelParams(), progress=None, **options) -> Model:
+    """The model ``name`` (one of :data:`MODELS`) with its options."""
+    check.choice("model", "name", name, tuple(MODELS))
+    return MODELS[name](params, progress, **options)

@@ -1,0 +1,355 @@
+"""The spiking figure-ground network, built stage by stage from the model's
+parameters: :func:`build_network`.
+
+Every population is named ``<role>_<level>`` and every projection
+``<source>_to_<target>`` (excitatory) or ``<source>_inh_<target>``
+(inhibitory). How each stage of the model becomes populations and
+projections, and where the network departs from the rate model, is written
+out in ``docs/model.md``.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import validate as check
+from ..frames.pyramid import level_shape
+from ..params import ModelParams
+from .graph import Network
+from .nodes import Conv, Kernel, Neuron, Population, Resize
+from .spiking_params import CELL_KINDS, CELL_RATE_HZ, SIMPLE_RATE_HZ, UNTUNED_RATE_HZ, SpikingParams
+
+FAMILIES = ("L1", "L2", "D1", "D2")
+#: Stage 5: the half of the simple cells each family reads (0: directions
+#: ``o``, 1: directions ``o + n_ori``): BL1[o] = S[o], BL2[o] = S[o+n],
+#: BD1[o] = S[o+n], BD2[o] = S[o].
+FAMILY_HALF = {"L1": 0, "L2": 1, "D1": 1, "D2": 0}
+#: The family sharing a simple cell with each family (the two compete).
+PARTNER = {"L1": "D2", "D2": "L1", "L2": "D1", "D1": "L2"}
+#: The feedback signals z1 = VL1 - VD2 and z2 = VL2 - VD1, each carried by a
+#: rectified pair of feedback cells (``p``: positive part, ``n``: negative).
+FEEDBACK_HALVES = ("1p", "1n", "2p", "2n")
+OPPOSITE_HALF = {"1p": "1n", "1n": "1p", "2p": "2n", "2n": "2p"}
+#: Stage 7: (border-ownership family, grouping polarity, von Mises half,
+#: sign): gL1 = (BL1 - w BD2) (*) m2, gL2 = (BL2 - w BD1) (*) m1,
+#: gD1 = (BD1 - w BL2) (*) m2, gD2 = (BD2 - w BL1) (*) m1.
+GROUPING_INPUTS = (("L1", "L", 2, 1), ("L2", "L", 1, 1), ("D2", "L", 2, -1), ("D1", "L", 1, -1),
+                   ("D1", "D", 2, 1), ("D2", "D", 1, 1), ("L2", "D", 2, -1), ("L1", "D", 1, -1))
+#: Stage 8: each feedback half as (grouping polarity, half) excitatory minus
+#: (grouping polarity, half) inhibitory: z1 = GL (*) m1 - GD (*) m2,
+#: z2 = GL (*) m2 - GD (*) m1, and their negatives.
+FEEDBACK_INPUTS = {"1p": (("L", 1), ("D", 2)), "1n": (("D", 2), ("L", 1)),
+                   "2p": (("L", 2), ("D", 1)), "2n": (("D", 1), ("L", 2))}
+#: Stage 8: the feedback half (for, against) each border-ownership family:
+#: z1 favours BL1 and opposes BD2, z2 favours BL2 and opposes BD1.
+FEEDBACK_TO_FAMILY = {"L1": ("1p", "1n"), "D2": ("1n", "1p"), "L2": ("2p", "2n"), "D1": ("2n", "2p")}
+
+NOTES = (
+    "Deviation: the multiplicative feedback S*f(z) of stage 8 is additive here: z = VL1 - VD2 (and "
+    "VL2 - VD1) is carried by a rectified pair of feedback cells; the half against a border-ownership cell "
+    "inhibits it (and with feedback_to_bo > 0 the half for it excites it), and the two border-ownership cells "
+    "sharing a simple cell inhibit each other. A border-ownership cell without simple-cell input has no drive, "
+    "so feedback alone cannot make it fire.",
+    "Deviation: the rate model's first iteration runs without opposite-family inhibition; here that "
+    "inhibition arrives delay_opposite_ms later than the excitation.",
+    "Deviation: coarse-level simple, untuned and border-ownership cells exist only where the resized edge map "
+    ">= support_min, and their activity does not scale with the edge value.",
+    "Deviation: grouping and feedback cells sit on a stride-grouping_stride lattice; pooling across scales is "
+    "top-down (z_l = G_l (*) m - G_l (*) m' + decay * resize(z_{l+1})) with pool_interpolation.",
+)
+
+
+def _channel_map(n_out: int, n_in: int, pairs, weight: float = 1.0) -> Kernel:
+    return Kernel(ref="channel_map", args={"n_out": n_out, "n_in": n_in,
+                                           "entries": [[o, i, weight] for o, i in pairs]})
+
+
+def _dog_half(polarity: int, n: int) -> Kernel:
+    """DoG kernels from one input polarity to all ``2n`` directions; only the
+    polarity's own half (ON: ``0..n-1``, OFF: ``n..2n-1``) is non-zero."""
+    return Kernel(ref="dog", args={"directions": [k if polarity * n <= k < (polarity + 1) * n else None
+                                                  for k in range(2 * n)]})
+
+
+def _von_mises(half: int, layout: str) -> Kernel:
+    return Kernel(ref="von_mises", args={"half": half, "layout": layout})
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Millivolts per spike (per unit kernel value) of each kind of projection."""
+
+    dog: float                   # input (or relay) -> simple cells, per unit DoG weight
+    relay: float                 # input -> relay, per unit interpolation weight
+    simple_to_bo: float
+    untuned_to_bo: float
+    feedback_to_bo: float
+    feedback_inh_bo: float
+    bo_to_group: float
+    group_to_feedback: float
+    simple_inh_simple: float
+    bo_inh_bo: float
+    group_inh_group: float
+    simple_inh_untuned: float
+    pool: float                  # feedback cells of level l+1 -> level l
+    balance: float               # tau_exc / tau_inh: the weight of a subtraction
+
+    @classmethod
+    def of(cls, params: ModelParams, sp: SpikingParams) -> "Gains":
+        """Each gain in terms of its target cells' threshold and synaptic time constant."""
+
+        def per_spike(gain, rate_hz, target: Neuron, receptor="exc"):
+            """Weight that gives ``gain`` thresholds of mean current at ``rate_hz``."""
+            tau_s = (target.tau_exc_ms if receptor == "exc" else target.tau_inh_ms) / 1000.0
+            return gain * target.v_th_mv / (rate_hz * tau_s)
+
+        s, u, bo, g, fb = sp.simple, sp.untuned, sp.bo, sp.group, sp.feedback
+        return cls(
+            # a DoG response of edge_threshold at the input rate is one threshold (stage 3)
+            dog=s.v_th_mv / (params.edge_threshold * sp.input_rate_hz * (s.tau_exc_ms / 1000.0)),
+            # one relay spike per unit of input: a unit-weight spike is one threshold of charge
+            relay=sp.relay.v_th_mv * sp.relay.tau_m_ms / sp.relay.tau_exc_ms,
+            simple_to_bo=per_spike(sp.simple_to_bo, SIMPLE_RATE_HZ, bo),
+            untuned_to_bo=per_spike(sp.untuned_to_bo, UNTUNED_RATE_HZ, bo),
+            feedback_to_bo=per_spike(sp.feedback_to_bo, CELL_RATE_HZ, bo),
+            feedback_inh_bo=per_spike(sp.feedback_inh_bo, CELL_RATE_HZ, bo, "inh"),
+            bo_to_group=per_spike(sp.bo_to_group, CELL_RATE_HZ, g),
+            group_to_feedback=per_spike(sp.group_to_feedback, CELL_RATE_HZ, fb),
+            simple_inh_simple=per_spike(sp.simple_inh_simple, CELL_RATE_HZ, s, "inh"),
+            bo_inh_bo=per_spike(sp.bo_inh_bo, CELL_RATE_HZ, bo, "inh"),
+            group_inh_group=per_spike(sp.group_inh_group, CELL_RATE_HZ, g, "inh"),
+            simple_inh_untuned=sp.simple_inh_untuned * u.v_th_mv / (SIMPLE_RATE_HZ * u.tau_inh_ms / 1000.0),
+            # a feedback cell's rate is ~ I / (tau_m v_th): this hands decay * its input current on
+            pool=params.pyramid_decay * fb.tau_m_ms * fb.v_th_mv / fb.tau_exc_ms,
+            # a subtraction decays with tau_inh instead of tau_exc; scaled so it weighs what it subtracts
+            balance=g.tau_exc_ms / g.tau_inh_ms,
+        )
+
+    def input_to_untuned(self, sp: SpikingParams, level: int) -> float:
+        """An untuned cell's excitation: ``input_to_untuned`` thresholds at its
+        reference edge value (1 at level 1, ``support_min`` above)."""
+        edge = 1.0 if level == 1 else max(sp.support_min, 1e-3)
+        tau_e = sp.untuned.tau_exc_ms / 1000.0
+        return sp.input_to_untuned * sp.untuned.v_th_mv / (edge * sp.input_rate_hz * tau_e)
+
+
+class _Builder:
+    """Collects populations and projections level by level."""
+
+    def __init__(self, params: ModelParams, frame_shape, sp: SpikingParams):
+        self.params, self.frame_shape, self.sp = params, frame_shape, sp
+        self.gains = Gains.of(params, sp)
+        self.pops: list[Population] = []
+        self.prjs: list = []
+        self.neurons = {kind: getattr(sp, kind) for kind in CELL_KINDS}
+
+    def pop(self, role, level, *, channels=1, stride=1, neuron=None, sites="all", site_sources=(),
+            edge_mask=False) -> str:
+        name = f"{role}_{level}"
+        self.pops.append(Population(name=name, role=role, level=level,
+                                    level_shape=level_shape(self.frame_shape, level), channels=channels,
+                                    stride=stride, neuron=neuron, sites=sites, site_sources=tuple(site_sources),
+                                    edge_mask=edge_mask))
+        return name
+
+    def conv(self, src, dst, kernel, *, sign=1, gain, delay=None, mode="corr", padding="zero", prune=0.0,
+             calibrated=False, verb=None):
+        verb = verb or ("to" if sign > 0 else "inh")
+        self.prjs.append(Conv(name=f"{src}_{verb}_{dst}", source=src, target=dst,
+                              kernel=kernel, mode=mode, padding=padding, sign=sign, gain_mv=gain,
+                              delay_ms=self.sp.delay_ms if delay is None else delay, prune=prune,
+                              calibrated=calibrated))
+
+    def resize(self, src, dst, *, sign=1, gain, interpolation, delay=None, prune=0.0):
+        self.prjs.append(Resize(name=f"{src}_{'to' if sign > 0 else 'inh'}_{dst}", source=src, target=dst,
+                                interpolation=interpolation, sign=sign, gain_mv=gain,
+                                delay_ms=self.sp.delay_ms if delay is None else delay, prune=prune))
+
+    def gate_mv(self, kernels) -> float:
+        """Depth (mV) of a simple cell's gate: the largest mean current its
+        kept DoG taps can deliver with every source at the input rate, plus
+        ``gate_margin`` thresholds."""
+        worst = 0.0
+        for kernel in kernels:
+            k = kernel.array(self.params)
+            kept = np.where(np.abs(k) >= self.sp.prune_dog * np.abs(k).max(), k, 0.0)
+            worst = max(worst, float(np.clip(kept, 0, None).sum(axis=(1, 2, 3)).max()))
+        simple = self.sp.simple
+        drive = worst * self.gains.dog * self.sp.input_rate_hz * simple.tau_exc_ms / 1000.0
+        return drive + self.sp.gate_margin * simple.v_th_mv
+
+    # -- stages ------------------------------------------------------------
+    def inputs(self, level):
+        """Level 1: spike sources; coarser levels: relays whose rate follows
+        the bicubic-resized event frame (stage 2)."""
+        if level == 1:
+            return self.pop("input_on", 1), self.pop("input_off", 1)
+        relays = []
+        for polarity in ("on", "off"):
+            name = self.pop(f"relay_{polarity}", level, neuron=self.neurons["relay"], sites="reachable")
+            self.resize(f"input_{polarity}_1", name, gain=self.gains.relay, interpolation="cubic",
+                        prune=self.sp.prune_resize)
+            relays.append(name)
+        return tuple(relays)
+
+    def simple_cells(self, level, on, off):
+        """Stages 3-4: DoG convolution (wrap-around) from ON for directions
+        ``0..n-1`` and OFF for the rest; lateral inhibition between the
+        directions at a pixel stands for the arg-max.
+
+        At level 1 a simple cell exists only where its pixel had an event
+        (``S = edges * ...``): it rests ``gate`` below its usual resting
+        potential, more than any DoG drive can make up, and its own pixel's
+        input (either polarity) gives that back."""
+        n, n_dir = self.params.n_ori, self.params.n_dir
+        kernels = [_dog_half(polarity, n) for polarity in (0, 1)]
+        neuron = self.neurons["simple"]
+        gate = self.gate_mv(kernels) if level == 1 else 0.0
+        if gate:
+            neuron = dataclasses.replace(neuron, v_rest_mv=neuron.v_rest_mv - gate)
+        s = self.pop("simple", level, channels=n_dir, neuron=neuron, sites="edges&drive", edge_mask=level > 1)
+        for kernel, src in zip(kernels, (on, off)):
+            self.conv(src, s, kernel, gain=self.gains.dog, mode="conv", padding="wrap", prune=self.sp.prune_dog,
+                      calibrated=True)
+        if gate:
+            for src in (on, off):
+                self.conv(src, s, _channel_map(n_dir, 1, [(k, 0) for k in range(n_dir)]), verb="gates",
+                          gain=gate / (self.sp.input_rate_hz * neuron.tau_exc_ms / 1000.0), calibrated=True)
+        others = [(a, b) for a in range(n_dir) for b in range(n_dir) if a != b]
+        self.conv(s, s, _channel_map(n_dir, n_dir, others), sign=-1, gain=self.gains.simple_inh_simple)
+        return s
+
+    def untuned_cells(self, level, on, off, s):
+        """Stage 4's rule for event pixels without an oriented response: an
+        untuned cell is excited by its pixel's input after ``delay_untuned_ms``
+        and silenced by any simple cell there."""
+        u = self.pop("untuned", level, neuron=self.neurons["untuned"], sites="edges", edge_mask=level > 1)
+        g_u = self.gains.input_to_untuned(self.sp, level)
+        for src in (on, off):
+            self.conv(src, u, _channel_map(1, 1, [(0, 0)]), gain=g_u, delay=self.sp.delay_untuned_ms,
+                      calibrated=True)
+        n_dir = self.params.n_dir
+        self.conv(s, u, _channel_map(1, n_dir, [(0, k) for k in range(n_dir)]), sign=-1,
+                  gain=self.gains.simple_inh_untuned)
+        return u
+
+    def border_ownership(self, level, s, u):
+        """Stage 5: family ``f`` reads simple-cell index ``o`` (L1, D2) or
+        ``o + n`` (L2, D1), the index being the direction turned a quarter
+        (``k -> (k + n/2) mod 2n``); untuned pixels take index ``n/2``."""
+        n, n_dir = self.params.n_ori, self.params.n_dir
+        b = {f: self.pop(f"bo_{f}", level, channels=n, neuron=self.neurons["bo"], sites="reachable",
+                         site_sources=(s, u)) for f in FAMILIES}
+        same = [(o, o) for o in range(n)]
+        for f in FAMILIES:
+            half = FAMILY_HALF[f] * n
+            self.conv(s, b[f], _channel_map(n, n_dir, [(o, (o + half - n // 2) % n_dir) for o in range(n)]),
+                      gain=self.gains.simple_to_bo)
+            if half == 0:
+                self.conv(u, b[f], _channel_map(n, 1, [(n // 2, 0)]), gain=self.gains.untuned_to_bo)
+            self.conv(b[PARTNER[f]], b[f], _channel_map(n, n, same), sign=-1, gain=self.gains.bo_inh_bo)
+        return b
+
+    def grouping_cells(self, level, b):
+        """Stage 7: von Mises correlation of the border-ownership cells, the
+        opposite family inhibitory and delayed; light and dark compete."""
+        st = self.sp.grouping_stride
+        g = {pol: self.pop(f"group_{pol}", level, stride=st, neuron=self.neurons["group"], sites="reachable",
+                           site_sources=tuple(b.values())) for pol in ("L", "D")}
+        w = self.params.w_inh
+        for fam, pol, half, sign in GROUPING_INPUTS:
+            if sign < 0 and w == 0:
+                continue
+            gain = self.gains.bo_to_group * (1.0 if sign > 0 else w * self.gains.balance)
+            self.conv(b[fam], g[pol], _von_mises(half, "gather"), sign=sign, gain=gain,
+                      delay=self.sp.delay_ms if sign > 0 else self.sp.delay_opposite_ms, prune=self.sp.prune_vm)
+        for a, c in (("L", "D"), ("D", "L")):
+            self.conv(g[a], g[c], _channel_map(1, 1, [(0, 0)]), sign=-1, gain=self.gains.group_inh_group)
+        return g
+
+    def feedback_cells(self, level, b, g):
+        """Stage 8 at one level: feedback cells carry z1 = VL1 - VD2 and
+        z2 = VL2 - VD1 as rectified pairs on the grouping lattice (every
+        stride-th tap is used, hence the stride**2); the half against a
+        border-ownership cell inhibits it, the half for it excites it."""
+        st = self.sp.grouping_stride
+        gain = self.gains.group_to_feedback * st * st
+        z = {k: self.pop(f"feedback_{k}", level, channels=self.params.n_ori, stride=st,
+                         neuron=self.neurons["feedback"], sites="needed") for k in FEEDBACK_HALVES}
+        for k in FEEDBACK_HALVES:
+            (pol_for, half_for), (pol_against, half_against) = FEEDBACK_INPUTS[k]
+            self.conv(g[pol_for], z[k], _von_mises(half_for, "scatter"), gain=gain, prune=self.sp.prune_vm)
+            self.conv(g[pol_against], z[k], _von_mises(half_against, "scatter"), sign=-1,
+                      gain=gain * self.gains.balance, prune=self.sp.prune_vm)
+        for fam, (k_for, k_against) in FEEDBACK_TO_FAMILY.items():
+            for k, sign, gain in ((k_for, 1, self.gains.feedback_to_bo), (k_against, -1, self.gains.feedback_inh_bo)):
+                if gain > 0:
+                    self.resize(z[k], b[fam], sign=sign, gain=gain, interpolation=self.sp.feedback_interpolation,
+                                delay=self.sp.delay_feedback_ms)
+
+    def pooling(self):
+        """Stage 8 across levels, top-down: z_l += decay * resize(z_{l+1}), for
+        both halves of each pair (the opposite half subtracts)."""
+        for level in range(1, self.params.levels):
+            for k in FEEDBACK_HALVES:
+                dst = f"feedback_{k}_{level}"
+                self.resize(f"feedback_{k}_{level + 1}", dst, gain=self.gains.pool,
+                            interpolation=self.sp.pool_interpolation, prune=self.sp.prune_resize)
+                self.resize(f"feedback_{OPPOSITE_HALF[k]}_{level + 1}", dst, sign=-1,
+                            gain=self.gains.pool * self.gains.balance, interpolation=self.sp.pool_interpolation,
+                            prune=self.sp.prune_resize)
+
+
+def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
+                  spiking: SpikingParams = SpikingParams()) -> Network:
+    """The spiking figure-ground network for frames of ``frame_shape``.
+
+    Parameters
+    ----------
+    params : ModelParams
+        The model's parameters (levels, orientations, R0, kernels...): the
+        same object the rate model takes.
+    frame_shape : (int, int)
+        Rows and columns of the event frames the network will see.
+    spiking : SpikingParams
+        The spiking constants (neurons, gains, delays, lattices).
+
+    Returns
+    -------
+    Network
+        The validated description: per level, input sources or relays,
+        simple, untuned, border-ownership (four families), grouping (light,
+        dark) and feedback cells, and the projections between them.
+
+    Examples
+    --------
+    >>> from snn_fg.network import build_network
+    >>> from snn_fg.params import ModelParams
+    >>> net = build_network(ModelParams(levels=2), (40, 52))
+    >>> net.one("simple", 1).shape
+    (16, 40, 52)
+    >>> [p.name for p in net.incoming("group_L_1")][:2]
+    ['bo_L1_1_to_group_L_1', 'bo_L2_1_to_group_L_1']
+    """
+    if not isinstance(params, ModelParams):
+        check.fail("build_network", "params", type(params).__name__, "must be a ModelParams")
+    if not isinstance(spiking, SpikingParams):
+        check.fail("build_network", "spiking", type(spiking).__name__, "must be a SpikingParams")
+    frame_shape = check.shape2("build_network", "frame_shape", frame_shape)
+    if params.n_ori % 2:
+        check.fail("build_network", "params.n_ori", params.n_ori,
+                   "must be even (index n_ori/2 is the untuned cells' orientation)")
+    bld = _Builder(params, frame_shape, spiking)
+    for level in range(1, params.levels + 1):
+        on, off = bld.inputs(level)
+        s = bld.simple_cells(level, on, off)
+        u = bld.untuned_cells(level, on, off, s)
+        b = bld.border_ownership(level, s, u)
+        g = bld.grouping_cells(level, b)
+        bld.feedback_cells(level, b, g)
+    bld.pooling()
+    return Network(params=params, frame_shape=frame_shape, populations=tuple(bld.pops),
+                   projections=tuple(bld.prjs), input_rate_hz=spiking.input_rate_hz,
+                   support_min=spiking.support_min, drive_min=spiking.drive_min, notes=NOTES)

@@ -1,0 +1,444 @@
+"""The nodes of a network description: neurons, populations, kernels and
+projections.
+
+Modelled on NIR's node family: frozen, keyword-only dataclasses, each
+validated on construction with errors that name the node at fault, and
+serialisation written once (:class:`Node`), with a registry that rebuilds a
+projection from its ``type`` name.
+
+* :class:`Neuron` - a current-based leaky integrate-and-fire (CUBA LIF)
+  neuron::
+
+      tau_m dv/dt = v_rest - v + I_exc - I_inh
+      tau_exc dI_exc/dt = -I_exc,  tau_inh dI_inh/dt = -I_inh
+
+  A presynaptic spike through a synapse of weight ``w`` (mV) adds ``w`` to
+  ``I_exc`` (``w > 0``) or ``|w|`` to ``I_inh`` (``w < 0``). When
+  ``v > v_th`` the cell spikes, ``v`` is set to ``v_reset`` and held there
+  for ``t_ref``; the currents keep decaying.
+* :class:`Population` - the cells of one pyramid level: ``channels`` cells at
+  every point of a grid that samples the level every ``stride`` pixels.
+* :class:`Kernel` - a weight-shared kernel ``(C_out, C_in, kh, kw)`` named by
+  reference to the model's own kernel functions, materialised on demand.
+* :class:`Conv`, :class:`Resize` - weight-shared projections between
+  populations (:class:`Projection` holds what they share).
+
+Sign convention: a connection's weight is ``sign * gain_mv * K`` with ``K``
+the kernel (or interpolation) value, so a kernel with negative lobes (the
+DoG, bicubic interpolation) is split between the two currents while its
+balance is kept.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .. import validate as check
+from ..params import ModelParams
+from .kernels import dog_kernels, von_mises_masks
+
+#: What a population computes. The decoder and every backend find
+#: populations by role (and level), never by name.
+ROLES = (
+    "input_on", "input_off",            # spike sources, one per pixel and polarity (level 1)
+    "relay_on", "relay_off",            # the event frame resized to a coarser level (stage 2)
+    "simple",                           # oriented simple cells, 2 * n_ori directions (stages 3-4)
+    "untuned",                          # event pixels without an oriented response (stage 4)
+    "bo_L1", "bo_L2", "bo_D1", "bo_D2",  # border-ownership cells, n_ori orientations (stage 5)
+    "group_L", "group_D",               # grouping cells (stage 7)
+    "feedback_1p", "feedback_1n",       # feedback cells: the signal z1 = VL1 - VD2 as a rectified pair
+    "feedback_2p", "feedback_2n",       # and z2 = VL2 - VD1 (stage 8)
+)
+SOURCE_ROLES = ("input_on", "input_off")
+
+#: Which cells a simulator needs to instantiate for one input. This is an
+#: optimisation hint for backends that unroll the network for an input, not
+#: part of the model: cells it leaves out are cells that input cannot make
+#: fire (see :mod:`snn_fg.spiking.sites`). A backend may instantiate every
+#: cell instead and must then compute the same spikes.
+#:
+#: ``all``          every cell (spike sources);
+#: ``edges``        every channel at grid points where the level's edge map
+#:                  reaches ``Network.support_min`` (level 1: every event pixel);
+#: ``edges&drive``  the ``edges`` cells whose excitation alone, with every
+#:                  source at its nominal rate, reaches ``Network.drive_min``
+#:                  thresholds of mean current;
+#: ``reachable``    cells with an excitatory connection from an instantiated
+#:                  cell of ``site_sources`` (all sources if empty);
+#: ``needed``       cells with a connection onto an instantiated cell.
+SITE_RULES = ("all", "edges", "edges&drive", "reachable", "needed")
+
+
+def _finite(owner, name, v, lo=None, lo_open=False):
+    return check.number(owner, name, v, lo=lo, lo_open=lo_open)
+
+
+class Node:
+    """Serialisation shared by every node: ``to_dict`` writes each field
+    (nested nodes as dicts, tuples as lists) and ``from_dict`` refuses
+    unknown fields and rebuilds nested nodes. Subclasses name their nested
+    node fields in ``_nested``."""
+
+    _nested: ClassVar[dict] = {}
+
+    @property
+    def _owner(self) -> str:
+        return type(self).__name__
+
+    def to_dict(self) -> dict:
+        out = {}
+        for f in dataclasses.fields(self):
+            if not f.init:
+                continue
+            v = getattr(self, f.name)
+            if isinstance(v, Node):
+                v = v.to_dict()
+            elif isinstance(v, tuple):
+                v = list(v)
+            out[f.name] = v
+        return out
+
+    @classmethod
+    def from_dict(cls, d: dict):
+        owner = f"{cls.__name__} {d['name']!r}" if isinstance(d, dict) and "name" in d else cls.__name__
+        if not isinstance(d, dict):
+            check.fail(owner, None, None, f"expected a mapping, got {type(d).__name__}")
+        names = {f.name for f in dataclasses.fields(cls) if f.init}
+        check.known_keys(owner, d, names)
+        d = dict(d)
+        for key, node_type in cls._nested.items():
+            if d.get(key) is not None:
+                d[key] = node_type.from_dict(d[key])
+        return cls(**d)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Neuron(Node):
+    """CUBA LIF constants, in milliseconds and millivolts (see the module docstring)."""
+
+    tau_m_ms: float = 10.0
+    tau_exc_ms: float = 5.0
+    tau_inh_ms: float = 10.0
+    v_rest_mv: float = 0.0
+    v_reset_mv: float = 0.0
+    v_th_mv: float = 10.0
+    t_ref_ms: float = 2.0
+    model: str = "cuba_lif"
+
+    def __post_init__(self):
+        owner = "Neuron"
+        check.choice(owner, "model", self.model, ("cuba_lif",))
+        for name in ("tau_m_ms", "tau_exc_ms", "tau_inh_ms"):
+            object.__setattr__(self, name, _finite(owner, name, getattr(self, name), 0, lo_open=True))
+        object.__setattr__(self, "t_ref_ms", _finite(owner, "t_ref_ms", self.t_ref_ms, 0))
+        for name in ("v_rest_mv", "v_reset_mv", "v_th_mv"):
+            object.__setattr__(self, name, _finite(owner, name, getattr(self, name)))
+        if self.v_th_mv <= self.v_rest_mv or self.v_th_mv <= self.v_reset_mv:
+            check.fail(owner, "v_th_mv", self.v_th_mv, "must lie above v_rest_mv and v_reset_mv")
+
+    @property
+    def max_rate_hz(self) -> float:
+        """Refractory ceiling of the firing rate (inf without refractoriness)."""
+        return math.inf if self.t_ref_ms == 0 else 1000.0 / self.t_ref_ms
+
+
+@dataclass(frozen=True, kw_only=True)
+class Population(Node):
+    """Cells of one pyramid level, ``channels`` per grid point.
+
+    ``level_shape`` is the (rows, cols) of the pyramid level; the
+    population's grid samples it every ``stride`` pixels (grid point
+    ``(i, j)`` sits at level pixel ``(stride*i, stride*j)``). ``neuron`` is
+    ``None`` for spike sources. ``sites`` and ``site_sources`` are the
+    instantiation hint of :data:`SITE_RULES`.
+
+    ``edge_mask``: the cells exist only at level pixels where the level's
+    resized edge map reaches ``Network.support_min``. This is part of the
+    model (the rate model weights coarse levels by that map), and the one
+    part of the network that depends on the input: the spiking network does
+    not compute it (see ``docs/model.md``).
+    """
+
+    name: str
+    role: str
+    level: int
+    level_shape: tuple[int, int]
+    channels: int = 1
+    stride: int = 1
+    neuron: Neuron | None = None
+    sites: str = "all"
+    site_sources: tuple[str, ...] = ()
+    edge_mask: bool = False
+
+    _nested: ClassVar[dict] = {"neuron": Neuron}
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.isidentifier():
+            check.fail(f"Population({self.name!r})", None, None, "name must be a Python identifier")
+        owner = f"Population '{self.name}'"
+        check.choice(owner, "role", self.role, ROLES)
+        check.integer(owner, "level", self.level, lo=1)
+        object.__setattr__(self, "level_shape", check.shape2(owner, "level_shape", self.level_shape))
+        check.integer(owner, "channels", self.channels, lo=1)
+        check.integer(owner, "stride", self.stride, lo=1)
+        check.choice(owner, "sites", self.sites, SITE_RULES)
+        if isinstance(self.site_sources, str) or not all(isinstance(x, str) for x in self.site_sources):
+            check.fail(owner, "site_sources", self.site_sources, "must be a sequence of population names")
+        object.__setattr__(self, "site_sources", tuple(self.site_sources))
+        if not isinstance(self.edge_mask, bool):
+            check.fail(owner, "edge_mask", self.edge_mask, "must be true or false")
+        if self.is_source:
+            if self.neuron is not None:
+                check.fail(owner, None, None, "a spike source (role input_*) has no neuron model")
+            if self.level != 1 or self.stride != 1 or self.channels != 1:
+                check.fail(owner, None, None, "spike sources live on level 1 with stride 1 and one channel")
+        elif not isinstance(self.neuron, Neuron):
+            check.fail(owner, "neuron", self.neuron, f"is needed by role {self.role!r} (a Neuron)")
+
+    @property
+    def is_source(self) -> bool:
+        return self.role in SOURCE_ROLES
+
+    @property
+    def grid(self) -> tuple[int, int]:
+        """(rows, cols) of the population's own grid."""
+        s = self.stride
+        return (-(-self.level_shape[0] // s), -(-self.level_shape[1] // s))
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(channels, rows, cols) of the whole population."""
+        return (self.channels,) + self.grid
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self.shape))
+
+
+def _json_plain(value, owner):
+    """``value`` as plain JSON data (lists, dicts, numbers), rejecting what JSON cannot hold."""
+    def default(x):
+        if isinstance(x, np.ndarray):
+            return x.tolist()
+        if isinstance(x, np.generic):
+            return x.item()
+        raise TypeError(type(x).__name__)
+    try:
+        return json.loads(json.dumps(value, sort_keys=True, default=default, allow_nan=False))
+    except (TypeError, ValueError) as exc:
+        check.fail(owner, "args", value, f"is not JSON data ({exc})")
+
+
+def _check_dog(owner, a):
+    dirs = a["directions"]
+    if not isinstance(dirs, list) or not any(k is not None for k in dirs):
+        check.fail(owner, "directions", dirs, "must name at least one direction (None = an all-zero channel)")
+    if any(k is not None and (isinstance(k, bool) or not isinstance(k, int) or k < 0) for k in dirs):
+        check.fail(owner, "directions", dirs, "must be non-negative integers or None")
+
+
+def _check_von_mises(owner, a):
+    check.choice(owner, "half", a["half"], (1, 2))
+    check.choice(owner, "layout", a["layout"], ("gather", "scatter"))
+
+
+def _check_channel_map(owner, a):
+    n_out = check.integer(owner, "n_out", a["n_out"], lo=1)
+    n_in = check.integer(owner, "n_in", a["n_in"], lo=1)
+    for e in a["entries"]:
+        if not isinstance(e, list) or len(e) != 3 or not (0 <= e[0] < n_out and 0 <= e[1] < n_in):
+            check.fail(owner, "entry", e, f"must be [out < {n_out}, in < {n_in}, weight]")
+        check.number(owner, "entry weight", e[2])
+
+
+def _check_array(owner, a):
+    arr = np.asarray(a["data"], dtype=float)
+    if arr.ndim != 4 or not np.all(np.isfinite(arr)):
+        check.fail(owner, "data", f"<array of shape {arr.shape}>", "must be a finite 4-D array (C_out, C_in, kh, kw)")
+    if arr.shape[2] % 2 == 0 or arr.shape[3] % 2 == 0:
+        check.fail(owner, "data", f"<array of shape {arr.shape}>", "must have an odd spatial size")
+
+
+#: Kernel references: the argument names each takes and its check.
+KERNEL_REFS = {
+    "dog": ({"directions"}, _check_dog),
+    "von_mises": ({"half", "layout"}, _check_von_mises),
+    "channel_map": ({"n_out", "n_in", "entries"}, _check_channel_map),
+    "array": ({"data"}, _check_array),
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Kernel(Node):
+    """A weight-shared kernel of shape ``(C_out, C_in, kh, kw)``.
+
+    ``ref`` names how to make it from ``args`` (plain JSON data):
+
+    * ``dog``: ``{"directions": [k or None, ...]}`` - the oriented DoG
+      kernels of :func:`~snn_fg.network.kernels.dog_kernels`, one output
+      channel per entry (``None``: an all-zero channel), one input channel;
+    * ``von_mises``: ``{"half": 1 | 2, "layout": "gather" | "scatter"}`` - the
+      half rings ``m1``/``m2`` of :func:`~snn_fg.network.kernels.von_mises_masks`;
+      ``gather`` sums ``n_ori`` input channels into one output (border
+      ownership -> grouping), ``scatter`` sends one input to ``n_ori``
+      outputs (grouping -> feedback);
+    * ``channel_map``: ``{"n_out", "n_in", "entries": [[o, i, w], ...]}`` - a
+      1 x 1 kernel connecting input channel ``i`` to output channel ``o``
+      with weight ``w``;
+    * ``array``: ``{"data": nested list (C_out, C_in, kh, kw)}``.
+
+    :meth:`array` materialises it for the :class:`ModelParams` of a network.
+    """
+
+    ref: str
+    args: dict = field(default_factory=dict, hash=False)
+
+    def __post_init__(self):
+        owner = f"Kernel(ref={self.ref!r})"
+        check.choice(owner, "ref", self.ref, tuple(KERNEL_REFS))
+        if not isinstance(self.args, dict):
+            check.fail(owner, "args", self.args, "must be a mapping")
+        need, validate_args = KERNEL_REFS[self.ref]
+        if set(self.args) != need:
+            check.fail(owner, "args", sorted(self.args), f"must have exactly the keys {sorted(need)}")
+        args = _json_plain(self.args, owner)
+        validate_args(owner, args)
+        object.__setattr__(self, "args", args)
+
+    def array(self, params: ModelParams) -> np.ndarray:
+        """The kernel as a float64 array ``(C_out, C_in, kh, kw)``."""
+        a = self.args
+        if self.ref == "dog":
+            k = dog_kernels(params)
+            bad = [d for d in a["directions"] if d is not None and d >= k.shape[0]]
+            if bad:
+                check.fail("Kernel(ref='dog')", "directions", bad, f"lie outside 0..{k.shape[0] - 1}")
+            out = np.zeros((len(a["directions"]), 1) + k.shape[1:])
+            for c, d in enumerate(a["directions"]):
+                if d is not None:
+                    out[c, 0] = k[d]
+            return out
+        if self.ref == "von_mises":
+            m = von_mises_masks(params)[a["half"] - 1]
+            return (m[None] if a["layout"] == "gather" else m[:, None]).copy()
+        if self.ref == "channel_map":
+            out = np.zeros((a["n_out"], a["n_in"], 1, 1))
+            for o, i, w in a["entries"]:
+                out[o, i, 0, 0] += w
+            return out
+        return np.asarray(a["data"], dtype=float)
+
+
+#: projection type name -> class, filled by :class:`Projection` subclasses
+PROJECTION_TYPES: dict[str, type] = {}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Projection(Node):
+    """What every projection has: its ends, the current it feeds (``sign``
+    +1 excitatory, -1 inhibitory), ``gain_mv`` (the weight of a unit kernel
+    value), ``delay_ms``, ``prune`` (kernel taps under this fraction of the
+    largest |value| are left out) and ``calibrated``: the gain is set for the
+    network's ``input_rate_hz`` and is rescaled when the network is
+    calibrated to another input rate (:meth:`Network.calibrated`)."""
+
+    type_name: ClassVar[str] = ""
+
+    name: str
+    source: str
+    target: str
+    sign: int = 1
+    gain_mv: float = 1.0
+    delay_ms: float = 1.0
+    prune: float = 0.0
+    calibrated: bool = False
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        if cls.type_name:
+            PROJECTION_TYPES[cls.type_name] = cls
+
+    @property
+    def _owner(self) -> str:
+        return f"{type(self).__name__} '{self.name}'"
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            check.fail(type(self).__name__, "name", self.name, "must be a non-empty string")
+        owner = self._owner
+        check.choice(owner, "sign", self.sign, (1, -1))
+        object.__setattr__(self, "gain_mv", _finite(owner, "gain_mv", self.gain_mv, 0))
+        object.__setattr__(self, "delay_ms", _finite(owner, "delay_ms", self.delay_ms, 0))
+        object.__setattr__(self, "prune", check.number(owner, "prune", self.prune, lo=0, hi=1, hi_open=True))
+        if not isinstance(self.calibrated, bool):
+            check.fail(owner, "calibrated", self.calibrated, "must be true or false")
+
+    def to_dict(self) -> dict:
+        return {"type": self.type_name, **super().to_dict()}
+
+
+def projection_from_dict(d: dict) -> Projection:
+    """Rebuild a projection from :meth:`Projection.to_dict` output (by its ``type``)."""
+    if not isinstance(d, dict):
+        check.fail("projection", None, None, f"expected a mapping, got {type(d).__name__}")
+    d = dict(d)
+    kind = d.pop("type", None)
+    if kind not in PROJECTION_TYPES:
+        check.fail(f"projection {d.get('name')!r}", "type", kind, f"must be one of {sorted(PROJECTION_TYPES)}")
+    return PROJECTION_TYPES[kind].from_dict(d)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Conv(Projection):
+    """Weight-shared projection between two populations of the same level.
+
+    For a target cell at level pixel ``P`` and a kernel tap at offset ``d``
+    (kernel index minus centre), the source cell sits at ``P + d`` for a
+    correlation (``mode='corr'``) and at ``P - d`` for a convolution. With
+    ``padding='wrap'`` positions are taken modulo the level shape (taps that
+    fold onto the same source add up); with ``'zero'`` positions outside the
+    level are dropped, as are positions off the source's stride lattice.
+    """
+
+    type_name: ClassVar[str] = "conv"
+    _nested: ClassVar[dict] = {"kernel": Kernel}
+
+    kernel: Kernel
+    mode: str = "corr"
+    padding: str = "zero"
+
+    def __post_init__(self):
+        super().__post_init__()
+        owner = self._owner
+        check.choice(owner, "mode", self.mode, ("conv", "corr"))
+        check.choice(owner, "padding", self.padding, ("zero", "wrap"))
+        if not isinstance(self.kernel, Kernel):
+            check.fail(owner, "kernel", type(self.kernel).__name__, "must be a Kernel")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Resize(Projection):
+    """Interpolation from one population's grid onto another's, channel by channel.
+
+    Target cell ``(c, i, j)`` receives from source cell ``(c, i', j')`` with
+    weight ``A_r[i, i'] * A_c[j, j']``: the target grid point at level pixel
+    ``x = stride_t * i`` maps to source level coordinate
+    ``(x + 0.5) * N_src / N_tgt - 0.5`` (half-pixel centres), interpolated on
+    the source lattice (``cubic``: Keys a = -0.75; ``linear``) with clamped
+    indices. Between two stride-1 grids this is exactly OpenCV's resize
+    (stages 2 and 8). Source and target may share a level (resampling
+    between strides).
+    """
+
+    type_name: ClassVar[str] = "resize"
+
+    interpolation: str = "cubic"
+
+    def __post_init__(self):
+        super().__post_init__()
+        check.choice(self._owner, "interpolation", self.interpolation, ("cubic", "linear"))

@@ -1,0 +1,131 @@
+"""Constants of the spiking network that the rate model does not have:
+:class:`SpikingParams`.
+
+Gains are dimensionless: a gain of ``g`` on a projection means ``g`` firing
+thresholds of mean current in the target when the source fires at its
+reference rate (one of the rates below); :mod:`snn_fg.network.builder` turns
+them into millivolts per spike. Projection-shaped gains are named after the
+projection they set: ``<source>_to_<target>`` for excitation and
+``<source>_inh_<target>`` for inhibition.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import ClassVar
+
+from .. import validate as check
+from .nodes import Neuron, Node
+
+#: Reference presynaptic rates (Hz) of the dimensionless gains.
+SIMPLE_RATE_HZ = 50.0     # a simple cell that wins at its pixel
+UNTUNED_RATE_HZ = 150.0   # untuned cells fire faster than simple cells
+CELL_RATE_HZ = 100.0      # border-ownership, grouping and feedback cells
+
+INTERPOLATIONS = ("cubic", "linear")
+
+
+#: the kinds of cell the network has, each with its own neuron constants
+CELL_KINDS = ("simple", "untuned", "relay", "bo", "group", "feedback")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SpikingParams(Node):
+    """Spiking constants of the default network (:func:`~snn_fg.network.build_network`).
+
+    Input and instantiation
+        ``input_rate_hz``: mean rate of an input pixel with events that the
+        input gains are set for: at this rate a simple cell's mean current
+        reaches threshold exactly when its DoG response reaches
+        ``ModelParams.edge_threshold`` (stage 3); ``gate_margin``: how far
+        (thresholds) a level-1 simple cell without an event at its pixel
+        stays below threshold under the strongest possible DoG drive;
+        ``support_min``: coarse levels have simple and untuned cells only
+        where the resized edge map reaches this value; ``drive_min``: the
+        ``edges&drive`` instantiation hint's fraction of the way from reset
+        to threshold (below 1, a margin for fluctuations).
+    Geometry
+        ``grouping_stride``: grouping and feedback cells sit on every
+        ``grouping_stride``-th level pixel along each axis;
+        ``pool_interpolation``: interpolation of the top-down pooling of
+        feedback signals from level ``l+1`` to ``l`` (the rate model: cubic);
+        ``feedback_interpolation``: from the feedback cells' lattice onto the
+        border-ownership cells; ``prune_dog``, ``prune_vm``, ``prune_resize``:
+        kernel taps under this fraction of the kernel's largest |value| are
+        left out.
+    Delays (ms)
+        ``delay_ms`` for every projection but: ``delay_untuned_ms``
+        (excitation of the untuned cells, so that oriented simple cells fire
+        first and silence them), ``delay_opposite_ms`` (opposite-family
+        inhibition of grouping cells: the rate model's first iteration has
+        none) and ``delay_feedback_ms`` (feedback onto border-ownership cells).
+    Neurons
+        One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
+        (:data:`CELL_KINDS`): ``simple``, ``untuned``, ``relay``, ``bo``
+        (border ownership), ``group``, ``feedback``.
+    Gains (dimensionless, see the module docstring; reference rate in brackets)
+        ``simple_inh_simple``: lateral inhibition between the directions at a
+        pixel [100 Hz]; ``input_to_untuned``: an untuned cell's excitation at
+        its reference edge value (1 at level 1, ``support_min`` above);
+        ``simple_inh_untuned`` [50 Hz]; ``simple_to_bo`` [50 Hz];
+        ``untuned_to_bo`` [150 Hz]; ``bo_inh_bo``: between the two
+        border-ownership cells sharing a simple cell [100 Hz];
+        ``feedback_to_bo`` and ``feedback_inh_bo``: the feedback half for and
+        against a border-ownership cell [100 Hz]; ``bo_to_group`` per unit
+        kernel weight [100 Hz]; ``group_inh_group``: light and dark grouping
+        cells [100 Hz]; ``group_to_feedback`` per unit kernel weight [100 Hz].
+    """
+
+    _nested: ClassVar[dict] = {kind: Neuron for kind in CELL_KINDS}
+
+    input_rate_hz: float = 200.0
+    support_min: float = 0.3
+    drive_min: float = 0.8
+    gate_margin: float = 1.0
+    grouping_stride: int = 2
+    pool_interpolation: str = "linear"
+    feedback_interpolation: str = "linear"
+    prune_dog: float = 0.05
+    prune_vm: float = 0.05
+    prune_resize: float = 0.0
+    delay_ms: float = 1.0
+    delay_untuned_ms: float = 8.0
+    delay_opposite_ms: float = 70.0
+    delay_feedback_ms: float = 25.0
+    simple: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=4.0)
+    untuned: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=4.0, tau_inh_ms=50.0)
+    relay: Neuron = Neuron(tau_m_ms=200.0, t_ref_ms=1.0)
+    bo: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
+    group: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=1.0)
+    feedback: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=1.0)
+    simple_inh_simple: float = 3.0
+    input_to_untuned: float = 1.5
+    simple_inh_untuned: float = 20.0
+    simple_to_bo: float = 6.0
+    untuned_to_bo: float = 6.0
+    bo_inh_bo: float = 1.0
+    feedback_to_bo: float = 0.0
+    feedback_inh_bo: float = 100.0
+    bo_to_group: float = 2.0
+    group_inh_group: float = 0.5
+    group_to_feedback: float = 0.1
+
+    def __post_init__(self):
+        owner = "SpikingParams"
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if f.name in CELL_KINDS:
+                if not isinstance(v, Neuron):
+                    check.fail(owner, f.name, v, "must be a Neuron")
+            elif f.name == "grouping_stride":
+                check.integer(owner, f.name, v, lo=1)
+            elif f.name.endswith("_interpolation"):
+                check.choice(owner, f.name, v, INTERPOLATIONS)
+            elif f.name.startswith("prune_"):
+                object.__setattr__(self, f.name, check.number(owner, f.name, v, lo=0, hi=1, hi_open=True))
+            else:
+                strict = f.name == "input_rate_hz"
+                object.__setattr__(self, f.name, check.number(owner, f.name, v, lo=0, lo_open=strict))
+
+    def replace(self, **changes) -> "SpikingParams":
+        return dataclasses.replace(self, **changes)

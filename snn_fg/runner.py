@@ -1,0 +1,137 @@
+"""Running a model on an input into an output folder, as ``snn-fg run`` does.
+
+:class:`OutputFolder` makes a run all-or-nothing: files are written into a
+staging folder beside the destination, which replaces the destination as a
+whole only when the run succeeds. An error, Ctrl-C or SIGTERM leaves the
+destination exactly as it was.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .maps import Maps, MapsSeriesWriter
+from .models import Frame, Model
+
+
+class OutputFolder:
+    """A run's output folder, replaced as a whole on success.
+
+    ``force=False`` refuses a destination that exists and is not empty (so an
+    earlier run is never mixed with this one); ``force=True`` replaces it.
+    Use as a context manager; write into :attr:`dir` inside the block.
+    """
+
+    def __init__(self, path, force: bool = False):
+        self.path = Path(path)
+        if self.path.exists() and not self.path.is_dir():
+            raise InputError(self.path, "--out must be a folder, but a file of that name exists")
+        if self.path.is_dir() and any(self.path.iterdir()) and not force:
+            held = ", ".join(sorted(p.name for p in self.path.iterdir())[:4])
+            raise InputError(self.path, f"output folder is not empty (holds {held}...); choose another folder "
+                                        "or pass --force to replace it")
+        self.dir: Path | None = None
+        self._made: list[Path] = []
+
+    def __enter__(self) -> "OutputFolder":
+        parent = self.path.parent
+        missing = []
+        while not parent.exists():
+            missing.append(parent)
+            parent = parent.parent
+        for p in reversed(missing):
+            p.mkdir()
+            self._made.append(p)
+        self.dir = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".staging", dir=self.path.parent))
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None:
+            shutil.rmtree(self.dir, ignore_errors=True)
+            for p in reversed(self._made):
+                with contextlib.suppress(OSError):
+                    p.rmdir()
+            return False
+        os.chmod(self.dir, 0o777 & ~_umask())
+        if self.path.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".old", dir=self.path.parent))
+            os.replace(self.path, old / "previous")
+            os.replace(self.dir, self.path)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(self.dir, self.path)
+        return False
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def run_frame(model: Model, frame: Frame, out: Path, source: dict) -> Maps:
+    """One frame through ``model``; ``maps.npz`` and figures into ``out``."""
+    maps = model.run_frame(frame)
+    maps.params = {**maps.params, "source": source}
+    maps.save(out / "maps.npz")
+    model.write_figures(out, maps, model.figure_input(frame))
+    return maps
+
+
+class _LazyFrames:
+    """Event frames (+1 ON, -1 OFF) shown as RGB only when a figure row needs them."""
+
+    def __init__(self, frames):
+        self.frames = frames
+
+    def __len__(self):
+        return len(self.frames)
+
+    def __getitem__(self, i):
+        f = self.frames[i]
+        return model_input_rgb(f)
+
+
+def model_input_rgb(frame):
+    from .figures import event_frame_rgb
+
+    return event_frame_rgb(frame > 0, frame < 0)
+
+
+def run_recording(model: Model, windows, out: Path, source: dict, name: str) -> int:
+    """Every window of a recording through ``model``; one ``maps.npz`` (one
+    map per window, streamed to disk) and figures into ``out``. Returns the
+    number of windows."""
+    from .events import EmptyWindowWarning
+
+    t0, t1 = [], []
+    n_empty = 0
+    with MapsSeriesWriter(out / "maps.npz") as sink, warnings.catch_warnings():
+        warnings.simplefilter("ignore", EmptyWindowWarning)     # counted and reported once below
+        for w in windows:
+            n_empty += not (w.pos.any() or w.neg.any())
+            # the window's event frame (+1 ON, -1 OFF) is kept with its maps
+            sink.append(model.run_window(w), event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8))
+            t0.append(w.t_start_us)
+            t1.append(w.t_end_us)
+        if sink.n == 0:
+            raise InputError(name, "no window to process: the recording has no events after --start-ms")
+        if n_empty:
+            print(f"snn-fg: warning: {n_empty} of {sink.n} windows had no events; their maps are zero",
+                  file=sys.stderr)
+        st = sink.stacked()
+        maps = Maps(st["fg_x"], st["fg_y"], st["grouping"], {**sink.params, "source": source},
+                    {k: v for k, v in st.items() if k not in ("fg_x", "fg_y", "grouping")})
+        # window times relative to the first window (some formats stamp Unix time)
+        titles = [f"{(a - t0[0]) / 1000:.0f}-{(b - t0[0]) / 1000:.0f} ms" for a, b in zip(t0, t1)]
+        sink.finish(maps.params, t_start_us=np.array(t0, dtype=np.int64), t_end_us=np.array(t1, dtype=np.int64))
+        model.write_figures(out, maps, _LazyFrames(st["event_frame"]), titles)
+        return sink.n

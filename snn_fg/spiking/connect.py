@@ -1,0 +1,200 @@
+"""Explicit synapses of one projection between two sets of cells.
+
+A weight-shared projection of the description becomes, for given cells at
+its two ends, arrays ``(pre, post, K)``: local source index, local target
+index and kernel (or interpolation) value of every synapse. Kernel taps
+under ``prune`` times the largest |value| are left out; the kept fraction of
+``sum |K|`` is reported.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import validate as check
+from ..network.graph import Network
+from ..network.nodes import Conv, Population, Resize
+from .interp import interp_matrix, sparse_rows
+
+_CHUNK = 1 << 22     # elements per vectorised block when following kernel taps
+
+
+def positions(pop: Population, flat: np.ndarray):
+    """Channel and level-pixel position of the cells ``flat`` of ``pop``."""
+    c, i, j = np.unravel_index(flat, pop.shape)
+    return c, i * pop.stride, j * pop.stride
+
+
+def index_map(pop: Population, sites: np.ndarray) -> np.ndarray:
+    """Dense (channels*rows*cols,) array: local index of each instantiated cell, -1 elsewhere."""
+    m = np.full(pop.size, -1, dtype=np.int64)
+    m[sites] = np.arange(sites.size)
+    return m
+
+
+def pairs(network: Network, proj, src: Population, tgt: Population, src_sites, tgt_sites, src_active=None):
+    """Synapses ``(pre, post, K, kept_mass, taps)`` of ``proj`` between the
+    cells ``src_sites`` and ``tgt_sites``; ``src_active`` (bool over
+    ``src_sites``) keeps only sources that can fire."""
+    if isinstance(proj, Conv):
+        return conv_pairs(proj, src, tgt, src_sites, tgt_sites, network, src_active)
+    return resize_pairs(proj, src, tgt, src_sites, tgt_sites, src_active)
+
+
+def _kernel_taps(proj: Conv, network: Network):
+    """Kept taps of a Conv: arrays (c_out, c_in, dr, dc, k) and the kept mass."""
+    k = proj.kernel.array(network.params)
+    ab = np.abs(k)
+    total = ab.sum()
+    if total == 0:
+        check.fail(proj._owner, None, None, "kernel is all zero")
+    keep = ab >= proj.prune * ab.max() if proj.prune > 0 else ab > 0
+    co, ci, r, c = np.nonzero(keep)
+    cr, cc = k.shape[2] // 2, k.shape[3] // 2
+    dr, dc = r - cr, c - cc
+    if proj.mode == "conv":
+        dr, dc = -dr, -dc
+    return co, ci, dr, dc, k[co, ci, r, c], float(ab[keep].sum() / total)
+
+
+def conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_sites, network: Network,
+                src_active=None, side: str = "auto"):
+    """Synapses (pre, post, K) of a Conv between the given cell sets.
+
+    ``src_active`` (optional, bool over src sites) restricts sources to those
+    that can fire (spike sources: pixels with input).
+
+    Every (tap, cell) pair is tried from whichever side has fewer: from each
+    target cell, the sources its taps reach, or from each source cell, the
+    targets its taps reach (edge cells are sparse, so a von Mises gather onto
+    a dense grouping lattice is far cheaper from the source side). Both give
+    the same synapses, in a different order. ``side`` ('auto', 'sources',
+    'targets') forces one.
+    """
+    co, ci, dr, dc, kv, kept = _kernel_taps(proj, network)
+    live = src_sites if src_active is None else src_sites[src_active]
+    n_src_ch = np.bincount(live // (src.size // src.channels), minlength=src.channels)
+    n_tgt_ch = np.bincount(tgt_sites // (tgt.size // tgt.channels), minlength=tgt.channels)
+    wrap = proj.padding == "wrap"
+    src_map = index_map(src, src_sites)
+    if side == "sources" or (side == "auto" and n_src_ch[ci].sum() < n_tgt_ch[co].sum()):
+        # a source at level pixel p reaches the target at p - (dr, dc)
+        post, pre, w = _walk_taps(src, live, src_map[live], ci, co, -dr, -dc, kv, tgt,
+                                  index_map(tgt, tgt_sites), wrap)
+    else:
+        # a target at level pixel p reads the source at p + (dr, dc)
+        if src_active is not None:
+            src_map[src_sites[~src_active]] = -1
+        pre, post, w = _walk_taps(tgt, tgt_sites, np.arange(tgt_sites.size), co, ci, dr, dc, kv, src, src_map,
+                                  wrap)
+    if wrap and pre.size:
+        lr, lc = tgt.level_shape
+        kh = 2 * int(np.abs(dr).max()) + 1 if dr.size else 1
+        kw = 2 * int(np.abs(dc).max()) + 1 if dc.size else 1
+        if kh > lr or kw > lc:      # taps fold onto the same source: add them up
+            pre, post, w = _merge(pre, post, w, src_sites.size)
+    return pre, post, w, kept, int(co.size)
+
+
+def _walk_taps(pop, cells, local, ch_from, ch_to, dr, dc, kv, other: Population, other_map, wrap: bool):
+    """Follow every tap from the cells ``cells`` of ``pop`` (flat indices;
+    ``local`` their numbers in the result) to the cells of ``other`` (same
+    level; ``other_map`` gives their numbers, -1 where none): a tap leads from
+    channel ``ch_from`` at level pixel p to channel ``ch_to`` at p + (dr, dc).
+
+    Returns ``(other's numbers, local numbers, kernel values)`` of the hits.
+    """
+    lr, lc = pop.level_shape
+    s_to = other.stride
+    g_r, g_c = other.grid
+    p_c, p_r, p_col = positions(pop, cells)
+    order = np.argsort(p_c, kind="stable")
+    bounds = np.searchsorted(p_c[order], np.arange(pop.channels + 1))
+    to_l, from_l, w_l = [], [], []
+    for ch in np.unique(ch_from):
+        loc = order[bounds[ch]:bounds[ch + 1]]
+        if loc.size == 0:
+            continue
+        taps = np.nonzero(ch_from == ch)[0]
+        r0, c0 = p_r[loc], p_col[loc]
+        step = max(1, _CHUNK // loc.size)
+        for a0 in range(0, taps.size, step):
+            ta = taps[a0:a0 + step]
+            r = r0[None, :] + dr[ta, None]
+            c = c0[None, :] + dc[ta, None]
+            if wrap:
+                r %= lr
+                c %= lc
+                ok = np.ones(r.shape, bool)
+            else:
+                ok = (r >= 0) & (r < lr) & (c >= 0) & (c < lc)
+            if s_to != 1:
+                ok &= (r % s_to == 0) & (c % s_to == 0)
+            flat = (ch_to[ta, None] * g_r + r // s_to) * g_c + c // s_to
+            idx = np.where(ok, other_map[np.where(ok, flat, 0)], -1)
+            ti, si = np.nonzero(idx >= 0)
+            if ti.size == 0:
+                continue
+            to_l.append(idx[ti, si])
+            from_l.append(local[loc[si]])
+            w_l.append(kv[ta][ti])
+    return _cat(to_l, from_l, w_l)
+
+
+def resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_sites, src_active=None):
+    ar = interp_matrix(src.level_shape[0], tgt.level_shape[0], src.stride, tgt.stride, proj.interpolation)
+    ac = interp_matrix(src.level_shape[1], tgt.level_shape[1], src.stride, tgt.stride, proj.interpolation)
+    ri, rv = sparse_rows(ar)
+    cj, cv = sparse_rows(ac)
+    src_map = index_map(src, src_sites)
+    if src_active is not None:
+        src_map[src_sites[~src_active]] = -1
+    t_c, t_r, t_col = np.unravel_index(tgt_sites, tgt.shape)   # lattice indices
+    peak = np.abs(ar).max() * np.abs(ac).max()
+    pre_l, post_l, w_l = [], [], []
+    kept_w = 0
+    for a in range(ri.shape[1]):
+        for b in range(cj.shape[1]):
+            i_s = ri[t_r, a]
+            j_s = cj[t_col, b]
+            val = rv[t_r, a] * cv[t_col, b]
+            ok = (i_s >= 0) & (j_s >= 0) & (val != 0)
+            if proj.prune > 0:
+                ok &= np.abs(val) >= proj.prune * peak
+            kept_w += int(ok.sum())
+            idx = np.where(ok, src_map[(t_c * src.grid[0] + np.maximum(i_s, 0)) * src.grid[1]
+                                       + np.maximum(j_s, 0)], -1)
+            hit = idx >= 0
+            pre_l.append(idx[hit])
+            post_l.append(np.nonzero(hit)[0])
+            w_l.append(val[hit])
+    pre, post, w = _cat(pre_l, post_l, w_l)
+    kept = _resize_kept_mass(ar, ac, proj.prune, peak)
+    return pre, post, w, kept, kept_w
+
+
+def _resize_kept_mass(ar, ac, prune, peak):
+    if prune <= 0:
+        return 1.0
+    full = np.abs(ar).sum(1)[:, None] * np.abs(ac).sum(1)[None]
+    prod = np.abs(ar)[:, None, :, None] * np.abs(ac)[None, :, None, :] if ar.size * ac.size < 4e6 else None
+    if prod is None:   # large levels: estimate on the first 64 rows/cols
+        return _resize_kept_mass(ar[:64], ac[:64], prune, peak)
+    kept = (prod * (prod >= prune * peak)).sum((2, 3))
+    return float(kept.sum() / full.sum())
+
+
+def _cat(pre_l, post_l, w_l):
+    if not pre_l:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return (np.concatenate(pre_l).astype(np.int64), np.concatenate(post_l).astype(np.int64),
+            np.concatenate(w_l).astype(np.float64))
+
+
+def _merge(pre, post, w, n_pre):
+    key = post * n_pre + pre
+    uniq, inv = np.unique(key, return_inverse=True)
+    ws = np.bincount(inv, weights=w, minlength=uniq.size)
+    keep = ws != 0
+    return (uniq % n_pre)[keep], (uniq // n_pre)[keep], ws[keep]
+
+

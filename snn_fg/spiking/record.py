@@ -1,0 +1,155 @@
+"""What a spiking run keeps beside its maps: :class:`SpikingRecord`.
+
+Per simulated population the spike count of every instantiated cell and
+where that cell sits, a raster sample, the input masks and a summary (cells,
+rates, synapses). :meth:`SpikingRecord.arrays` is its part of ``maps.npz``;
+:meth:`SpikingRecord.from_maps` reads it back (for a recording, one window's
+part), strictly: a missing key is an error, not a default.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..validate import integer
+
+#: non-source roles in display order (figures, summaries)
+ROLE_ORDER = ("relay_on", "relay_off", "simple", "untuned", "bo_L1", "bo_L2", "bo_D1", "bo_D2",
+              "group_L", "group_D", "feedback_1p", "feedback_1n", "feedback_2p", "feedback_2n")
+RASTER_CELLS_PER_ROLE = 30
+_NAMES = "population_names"
+_RASTER = ("raster_cell", "raster_t_ms", "raster_role")
+
+
+@dataclass
+class Raster:
+    """Spikes of up to :data:`RASTER_CELLS_PER_ROLE` cells per role: row of
+    the sampled cell, time (ms) and role (index into :data:`ROLE_ORDER`)."""
+
+    row: np.ndarray
+    t_ms: np.ndarray
+    role: np.ndarray
+
+
+@dataclass
+class SpikingRecord:
+    """Spike counts and cells of one spiking run (or one window of a recording)."""
+
+    names: list
+    counts: dict               # population -> int32 spikes per instantiated cell
+    sites: dict                # population -> int64 flat index of each cell in its (channels, rows, cols)
+    raster: Raster | None
+    input_on: np.ndarray       # uint8 (H, W): pixels that received ON input
+    input_off: np.ndarray
+    count_window_ms: float
+    duration_ms: float
+    settle_ms: float
+    populations: dict          # population -> summary (role, level, cells, rates, synapses)
+
+    def rates(self, name: str) -> np.ndarray:
+        return self.counts[name] / (self.count_window_ms / 1000.0)
+
+    @classmethod
+    def from_result(cls, result, inputs, settle_ms: float) -> "SpikingRecord":
+        """Summarise a :class:`~snn_fg.backends.SimulationResult` fed by ``inputs``."""
+        names = result.populations
+        syn = result.stats.get("synapses_in", {})
+        summary = {}
+        for name in names:
+            p = result.network.population(name)
+            r = result.rates(name)
+            summary[name] = {"role": p.role, "level": p.level, "cells": int(r.size),
+                             "mean_rate_hz": float(r.mean()) if r.size else 0.0,
+                             "active_frac": float((r > 0).mean()) if r.size else 0.0,
+                             "max_rate_hz": float(r.max()) if r.size else 0.0,
+                             "refractory_max_hz": p.neuron.max_rate_hz, "synapses_in": int(syn.get(name, 0))}
+        return cls(names=names, counts={n: result.counts[n].astype(np.int32) for n in names},
+                   sites={n: result.sites[n].astype(np.int64) for n in names},
+                   raster=_sample_raster(result) if result.spikes is not None else None,
+                   input_on=inputs.on.astype(np.uint8), input_off=inputs.off.astype(np.uint8),
+                   count_window_ms=result.count_window_ms, duration_ms=result.simulated_ms,
+                   settle_ms=settle_ms, populations=summary)
+
+    def arrays(self) -> dict:
+        """The record's part of ``maps.npz``."""
+        out = {_NAMES: np.array(self.names), "input_on": self.input_on, "input_off": self.input_off}
+        for n in self.names:
+            out[f"spikes_{n}"] = self.counts[n]
+            out[f"sites_{n}"] = self.sites[n]
+        if self.raster is not None:
+            out.update(zip(_RASTER, (self.raster.row, self.raster.t_ms, self.raster.role)))
+        return out
+
+    def timing(self) -> dict:
+        """The record's entries of ``params["simulation"]``."""
+        return {"duration_ms": self.duration_ms, "settle_ms": self.settle_ms,
+                "count_window_ms": self.count_window_ms}
+
+    @classmethod
+    def from_maps(cls, maps, window: int | None = None) -> tuple["SpikingRecord", int | None]:
+        """The record stored with ``maps`` and the window it belongs to.
+
+        For one frame ``window`` is ``None``. For a recording's maps (shape
+        ``(n_windows, H, W)``) it is that window's record; by default the
+        window with the most spikes.
+        """
+        from ..maps import window_part
+
+        ex = maps.extra
+        if _NAMES not in ex:
+            raise InputError("<maps>", "holds no spiking record (was it made by the spiking model?)")
+        params = maps.params
+        if maps.fg_x.ndim == 3:
+            n = maps.fg_x.shape[0]
+            names = [str(x) for x in np.atleast_1d(window_part(ex, _NAMES, 0))]
+            if window is None:
+                totals = [sum(int(window_part(ex, f"spikes_{p}", i).sum()) for p in names) for i in range(n)]
+                window = int(np.argmax(totals))
+            integer("SpikingRecord.from_maps", "window", window, lo=0, hi=n - 1)
+            ex = {k: window_part(ex, k, window) for k in ex if not k.endswith("_offsets")}
+            params = {**params, **params.get("windows", [{}] * n)[window]}
+        try:
+            sim = params["simulation"]
+            names = [str(x) for x in np.atleast_1d(ex[_NAMES])]
+            raster = Raster(*(np.asarray(ex[k]) for k in _RASTER)) if _RASTER[0] in ex else None
+            rec = cls(names=names, counts={n: np.asarray(ex[f"spikes_{n}"]) for n in names},
+                      sites={n: np.asarray(ex[f"sites_{n}"]) for n in names}, raster=raster,
+                      input_on=np.asarray(ex["input_on"]), input_off=np.asarray(ex["input_off"]),
+                      count_window_ms=float(sim["count_window_ms"]), duration_ms=float(sim["duration_ms"]),
+                      settle_ms=float(sim["settle_ms"]), populations=params["populations"])
+        except KeyError as exc:
+            raise InputError("<maps>", f"spiking record is incomplete: {exc.args[0]!r} is missing") from None
+        return rec, (window if maps.fg_x.ndim == 3 else None)
+
+
+def _sample_raster(result) -> Raster:
+    """Up to RASTER_CELLS_PER_ROLE cells per role (level 1 first), chosen evenly
+    among the cells that fired (the first cells where none did)."""
+    rows, times, roles = [], [], []
+    row0 = 0
+    for ri, role in enumerate(ROLE_ORDER):
+        names = sorted(result.of_role(role), key=lambda n: result.network.population(n).level)
+        taken = 0
+        for name in names:
+            need = RASTER_CELLS_PER_ROLE - taken
+            if need <= 0:
+                break
+            counts = result.counts[name]
+            fired = np.flatnonzero(counts > 0)
+            if fired.size == 0:
+                fired = np.arange(min(counts.size, RASTER_CELLS_PER_ROLE))
+            cells = np.unique(fired[np.linspace(0, fired.size - 1, min(need, fired.size)).astype(int)]) \
+                if fired.size else fired
+            cell, t_ms = result.spikes[name]
+            keep = np.isin(cell, cells)
+            rows.append(row0 + taken + np.searchsorted(cells, cell[keep]))
+            times.append(t_ms[keep])
+            roles.append(np.full(int(keep.sum()), ri))
+            taken += cells.size
+        row0 += taken
+    if not rows:
+        return Raster(np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(0, np.int16))
+    return Raster(np.concatenate(rows).astype(np.int32), np.concatenate(times).astype(np.float32),
+                  np.concatenate(roles).astype(np.int16))

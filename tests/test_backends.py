@@ -1,0 +1,172 @@
+"""Backend-agnostic tests: every registered simulator backend runs the same
+description and must pass the same checks. A new backend (NEST, a fast
+engine) is tested here as soon as it is registered in snn_fg.backends."""
+import numpy as np
+import pytest
+
+from snn_fg.backends import RunSettings, available_backends, get_backend
+from snn_fg.events import image_to_events, image_to_frame
+from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores
+from snn_fg.params import ModelParams
+from snn_fg.rate.edfg import run_edfg
+from snn_fg.scenes import demo, disc
+from snn_fg.spiking import SpikingRecord, run_spiking_result
+from snn_fg.spiking.record import ROLE_ORDER
+
+AVAILABLE = available_backends()
+
+
+def _skip(name):
+    ok, why = AVAILABLE[name]
+    return pytest.mark.skipif(not ok, reason=f"backend {name}: {why}")
+
+
+BACKENDS = [pytest.param(name, marks=_skip(name)) for name in AVAILABLE]
+
+
+@pytest.fixture(scope="module", params=[pytest.param((name, light), marks=_skip(name),
+                                                     id=f"{name}-{'light' if light else 'dark'}")
+                                        for name in AVAILABLE for light in (True, False)])
+def disc_run(request):
+    backend, light = request.param
+    sc = disc(16, light_on_dark=light)
+    pos, neg = image_to_frame(sc.image)
+    return sc, pos, neg, run_spiking_result(pos, neg, backend=backend, progress=False)
+
+
+def test_disc_matches_the_rate_reference(disc_run):
+    sc, pos, neg, res = disc_run
+    ref = run_edfg(pos, neg)
+    c = compare_frame(res.maps.fg_x, res.maps.fg_y, res.maps.grouping, ref.fg_x, ref.fg_y, ref.grouping)
+    assert c["pixels_compared"] > 100
+    assert c["angle_diff_median_deg"] <= 20
+    assert c["angle_within_45_frac"] >= 0.8
+    assert c["grouping_pearson_r"] >= 0.8
+
+
+def test_disc_figure_ground_and_grouping_are_right(disc_run):
+    sc, _, _, res = disc_run
+    t = truth_scores(res.maps.fg_x, res.maps.fg_y, sc)
+    assert t["coverage"] > 0.5
+    assert t["frac_within_45"] >= 0.75
+    assert grouping_peak_inside(res.maps.grouping, sc)
+
+
+def test_every_population_role_fires_below_its_ceiling(disc_run):
+    _, _, _, res = disc_run
+    pops = res.maps.params["populations"]
+    seen = set()
+    for role in ROLE_ORDER:
+        ps = [p for p in pops.values() if p["role"] == role and p["cells"] > 0]
+        if not ps:
+            continue
+        seen.add(role)
+        cells = sum(p["cells"] for p in ps)
+        mean = sum(p["mean_rate_hz"] * p["cells"] for p in ps) / cells
+        assert mean > 0.5, role
+        assert mean < 0.5 * ps[0]["refractory_max_hz"], role
+    assert {"simple", "untuned", "bo_L1", "bo_D2", "group_L", "group_D", "feedback_1p", "feedback_1n"} <= seen
+
+
+def test_result_is_consistent(disc_run):
+    """What the seam promises: sorted sites inside each population, one count
+    per site, rates = counts / window, and the record made from it."""
+    _, pos, _, res = disc_run
+    r = res.result
+    assert r.populations and set(r.populations) == set(r.sites) == set(r.counts)
+    for name in r.populations:
+        pop = r.network.population(name)
+        s = r.sites[name]
+        assert s.dtype.kind == "i" and np.all(np.diff(s) > 0) and (s.size == 0 or (s[0] >= 0 and s[-1] < pop.size))
+        assert r.counts[name].shape == s.shape
+        np.testing.assert_allclose(r.rates(name), r.counts[name] / (r.count_window_ms / 1000))
+        np.testing.assert_array_equal(res.record.counts[name], r.counts[name])
+    assert r.simulated_ms == 400 and r.count_window_ms == 200
+    total = sum(int(c.sum()) for c in r.counts.values())
+    assert total > 1000
+    if r.spikes is not None:      # spike trains agree with the counts inside the window
+        for name in r.populations:
+            cell, t = r.spikes[name]
+            counted = np.bincount(cell[t >= 200], minlength=r.sites[name].size)
+            np.testing.assert_array_equal(counted, r.counts[name])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_same_seed_same_spikes_other_seed_other_spikes(backend):
+    pos, neg = image_to_frame(disc(16).image)
+    runs = [run_spiking_result(pos, neg, duration_ms=120, settle_ms=20, seed=s, backend=backend, progress=False)
+            for s in (5, 5, 6)]
+    a, b, c = (r.result for r in runs)
+    assert sum(int(v.sum()) for v in a.counts.values()) > 1000
+    for name in a.populations:
+        np.testing.assert_array_equal(a.counts[name], b.counts[name])
+        np.testing.assert_array_equal(a.spikes[name][1], b.spikes[name][1])
+    assert any(not np.array_equal(a.counts[n], c.counts[n]) for n in a.populations)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("scene", ["disc", "demo"])
+def test_every_cell_gives_the_same_spikes_as_the_cells_the_input_can_use(backend, scene):
+    """The populations' site hints are an optimisation: instantiating every
+    cell (inside the coarse levels' edge mask) gives the same spikes on the
+    cells the pruned network has, and no other cell that feeds the maps fires."""
+    img = disc(8).image if scene == "disc" else demo().image[30:100, 20:100]
+    pos, neg = image_to_frame(img)
+    kw = dict(params=ModelParams(levels=3), duration_ms=150, backend=backend, progress=False)
+    pruned = run_spiking_result(pos, neg, **kw).result
+    full = run_spiking_result(pos, neg, instantiate="all", **kw).result
+    assert full.total_cells > 10 * pruned.total_cells
+    for name in pruned.populations:
+        everywhere = full.grid(name, full.counts[name]).ravel()
+        np.testing.assert_array_equal(everywhere[pruned.sites[name]], pruned.counts[name], err_msg=name)
+        outside = everywhere.copy()
+        outside[pruned.sites[name]] = 0
+        # feedback cells outside reach only cells that are silent in both networks
+        if not full.network.population(name).role.startswith("feedback"):
+            assert outside.sum() == 0, name
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_timed_events_drive_the_network(backend):
+    sc = disc(16)
+    rec = image_to_events(sc.image)
+    res = run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, backend=backend, progress=False)
+    assert res.inputs.kind == "events" and res.inputs.period_steps is not None
+    assert res.maps.params["network"]["calibrated"]["to_hz"] == pytest.approx(res.inputs.rate_hz)
+    t = truth_scores(res.maps.fg_x, res.maps.fg_y, sc)
+    assert t["frac_within_45"] >= 0.75
+    assert grouping_peak_inside(res.maps.grouping, sc)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(backend, monkeypatch):
+    """Ctrl-C during a run must not come back as a shorter simulation."""
+    import signal
+    import threading
+
+    pos, neg = image_to_frame(disc(16).image)
+    sim = get_backend(backend)
+    from snn_fg.spiking.inputs import frame_spikes
+    net = run_spiking_result(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False).network
+    inp = frame_spikes(pos, neg, 200.0, 0.5, 20000.0)
+    timer = threading.Timer(2.0, signal.raise_signal, (signal.SIGINT,))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sim.simulate(net, inp, RunSettings(duration_ms=20000.0, record_spikes=False))
+    finally:
+        timer.cancel()
+
+
+def test_record_reads_back_from_a_saved_file(disc_run, tmp_path):
+    from snn_fg.maps import Maps
+
+    _, _, _, res = disc_run
+    back = Maps.load(res.maps.save(tmp_path / "m.npz"))
+    rec, window = SpikingRecord.from_maps(back)
+    assert window is None and rec.names == res.record.names
+    for name in rec.names:
+        np.testing.assert_array_equal(rec.counts[name], res.record.counts[name])
+        np.testing.assert_array_equal(rec.sites[name], res.record.sites[name])
+    assert rec.count_window_ms == 200 and rec.raster is not None and rec.raster.row.size > 0

@@ -21,13 +21,16 @@ class Recording:
 
     ``events`` has dtype :data:`EVENT_DTYPE`, ``sensor_size`` is ``(W, H, 2)``
     as in tonic, ``format`` names the decoder used and ``path`` is the source
-    file (``None`` for an in-memory array).
+    file (``None`` for an in-memory array).  ``exposure_events`` counts the
+    ATIS exposure-measurement events the file held: they are not polarity
+    events, so they are not in ``events`` (0 for every other format).
     """
 
     events: np.ndarray
     sensor_size: tuple[int, int, int]
     format: str
     path: Path | None = None
+    exposure_events: int = 0
 
     @property
     def width(self) -> int:
@@ -52,6 +55,16 @@ def empty_events(n: int = 0) -> np.ndarray:
     return np.zeros(n, dtype=EVENT_DTYPE)
 
 
+def pack_events(x, y, t, p) -> np.ndarray:
+    """One :data:`EVENT_DTYPE` array from equal-length columns (a decoder's output)."""
+    out = np.empty(len(t), dtype=EVENT_DTYPE)
+    out["x"] = x
+    out["y"] = y
+    out["t"] = t
+    out["p"] = p
+    return out
+
+
 def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, int]:
     """Return ``(W, H, 2)`` from ``(W, H)`` or ``(W, H, 2)``; reject nonsense."""
     try:
@@ -67,6 +80,19 @@ def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, in
     if vals[0] > _COORD_MAX + 1 or vals[1] > _COORD_MAX + 1:
         raise InputError(source, f"sensor size {vals[:2]} exceeds the supported {_COORD_MAX + 1} pixels")
     return vals
+
+
+def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
+    """Sensor size ``(max x + 1, max y + 1, 2)`` over event arrays, for inputs that give none."""
+    mx = my = -1
+    for a in arrays:
+        if len(a):
+            mx = max(mx, int(a["x"].max()))
+            my = max(my, int(a["y"].max()))
+    if mx < 0 or my < 0:
+        raise InputError(source, "cannot infer the sensor size (no events, or negative coordinates); "
+                                 "pass sensor_size=(W, H)")
+    return check_sensor_size((mx + 1, my + 1), source)
 
 
 def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:

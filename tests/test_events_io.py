@@ -408,3 +408,23 @@ def test_encoding_option_reads_headerless_raw(tmp_path):
     rec = open_recording(path, encoding="EVT3", sensor_size=(64, 48))
     assert rec.format == "evt3"
     np.testing.assert_array_equal(rec.events, ev)
+
+
+def test_bad_sensor_size_argument_is_a_parameter_error(tmp_path):
+    from snn_fg.errors import ParameterError
+    from snn_fg.events import events_to_frame, iter_windows
+
+    ev = random_events(20)
+    path = tmp_path / "a.es"
+    save_events(path, ev, (64, 48))
+    for bad in ((0, 48), (64,), "64x48", (64.5, 48), (40000, 48)):
+        with pytest.raises(ParameterError, match="open_recording: sensor_size="):
+            open_recording(path, sensor_size=bad)
+        with pytest.raises(ParameterError, match="iter_windows: sensor_size="):
+            list(iter_windows(ev, sensor_size=bad))
+        with pytest.raises(ParameterError, match="events_to_frame: sensor_size="):
+            events_to_frame(ev, bad)
+        with pytest.raises(ParameterError, match="save_events: sensor_size="):
+            save_events(tmp_path / "b.npy", ev, bad)
+    with pytest.raises(ParameterError, match="save_events: encoding='evt4'"):
+        save_events(tmp_path / "b.raw", ev, (64, 48), encoding="evt4")

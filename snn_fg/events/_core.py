@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from snn_fg import validate
 from snn_fg.errors import InputError
 
 #: Structured dtype of every event array this package returns (tonic-style
@@ -65,21 +66,37 @@ def pack_events(x, y, t, p) -> np.ndarray:
     return out
 
 
-def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, int]:
-    """Return ``(W, H, 2)`` from ``(W, H)`` or ``(W, H, 2)``; reject nonsense."""
+def _parse_sensor_size(sensor_size):
+    """``((W, H, 2), None)`` from ``(W, H)`` or ``(W, H, 2)``, or ``(None, what is wrong)``."""
     try:
         vals = tuple(int(v) for v in sensor_size)
         if any(float(a) != b for a, b in zip(sensor_size, vals)):
             raise ValueError
     except (TypeError, ValueError):
-        raise InputError(source, f"sensor size must be (width, height[, 2]) integers, got {sensor_size!r}")
+        return None, "must be (width, height[, 2]) integers"
     if len(vals) == 2:
         vals = vals + (2,)
     if len(vals) != 3 or vals[2] != 2 or vals[0] < 1 or vals[1] < 1:
-        raise InputError(source, f"sensor size must be (width, height[, 2]) with positive sizes, got {sensor_size!r}")
+        return None, "must be (width, height[, 2]) with positive sizes"
     if vals[0] > _COORD_MAX + 1 or vals[1] > _COORD_MAX + 1:
-        raise InputError(source, f"sensor size {vals[:2]} exceeds the supported {_COORD_MAX + 1} pixels")
-    return vals
+        return None, f"exceeds the supported {_COORD_MAX + 1} pixels a side"
+    return vals, None
+
+
+def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, int]:
+    """``(W, H, 2)`` from a file's (or an array's) sensor size; :class:`InputError` if it is nonsense."""
+    size, problem = _parse_sensor_size(sensor_size)
+    if problem:
+        raise InputError(source, f"sensor size {sensor_size!r} {problem}")
+    return size
+
+
+def sensor_size_parameter(owner: str, sensor_size) -> tuple[int, int, int]:
+    """``(W, H, 2)`` from a sensor size a caller passed to ``owner``; ParameterError if it is nonsense."""
+    size, problem = _parse_sensor_size(sensor_size)
+    if problem:
+        validate.fail(owner, "sensor_size", sensor_size, problem)
+    return size
 
 
 def infer_sensor_size(source, arrays) -> tuple[int, int, int]:

@@ -50,7 +50,7 @@ from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events import aedat4, eventstream, nmnist, numpy_files, prophesee, yarp
 from snn_fg.events._core import Recording, as_events, check_in_sensor, check_sensor_size, empty_events, \
-    infer_sensor_size
+    infer_sensor_size, sensor_size_parameter
 from snn_fg.events.source import STREAMING_FORMATS, DecodeTally, Source  # STREAMING_FORMATS: re-exported
 
 SUFFIX_FORMAT = {
@@ -181,8 +181,7 @@ def _open_source(source, sensor_size, chunk_events, options: dict) -> Source:
         return source._source
     if isinstance(source, np.ndarray):
         ev = as_events(source, "<array>")
-        size = check_sensor_size(sensor_size, "<array>") if sensor_size is not None else \
-            infer_sensor_size("<array>", [ev])
+        size = sensor_size if sensor_size is not None else infer_sensor_size("<array>", [ev])
         return Source(None, "array", size, _chunks_of(ev))
     if not isinstance(source, (str, Path)):
         raise InputError(repr(source)[:60], "expected a file path, a Recording or a structured event array")
@@ -212,6 +211,8 @@ class RecordingStream:
                  timer_bits: int | None = None):
         options = check_format_options("RecordingStream", encoding=encoding, codec=codec, channel=channel,
                                        timer_bits=timer_bits)
+        if sensor_size is not None:
+            sensor_size = sensor_size_parameter("RecordingStream", sensor_size)
         self.chunk_events = validate.integer("RecordingStream", "chunk_events", chunk_events, lo=1)
         self._source = _open_source(source, sensor_size, self.chunk_events, options)
         self.progress = progress
@@ -285,6 +286,8 @@ def iter_recording(source, *, chunk_events: int = DEFAULT_CHUNK, sensor_size=Non
     """
     options = check_format_options("iter_recording", encoding=encoding, codec=codec, channel=channel,
                                    timer_bits=timer_bits)
+    if sensor_size is not None:
+        sensor_size_parameter("iter_recording", sensor_size)
     return RecordingStream(source, chunk_events=chunk_events, sensor_size=sensor_size, progress=progress,
                            **options)
 
@@ -310,6 +313,8 @@ def open_recording(path, *, sensor_size=None, progress: bool = False, encoding: 
     """
     options = check_format_options("open_recording", encoding=encoding, codec=codec, channel=channel,
                                    timer_bits=timer_bits)
+    if sensor_size is not None:
+        sensor_size_parameter("open_recording", sensor_size)
     stream = RecordingStream(path, chunk_events=DEFAULT_CHUNK, sensor_size=sensor_size, progress=progress,
                              **options)
     parts = list(stream)

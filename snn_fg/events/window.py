@@ -8,7 +8,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.errors import InputError
-from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, check_sensor_size
+from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, sensor_size_parameter
 from snn_fg.events.io import DEFAULT_CHUNK, check_format_options, iter_recording
 
 
@@ -21,7 +21,7 @@ def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
     timestamps the later one in the array wins.  Events outside the sensor
     raise :class:`~snn_fg.errors.InputError` naming the event index.
     """
-    w, h, _ = check_sensor_size(sensor_size)
+    w, h, _ = sensor_size_parameter("events_to_frame", sensor_size)
     ev = as_events(events, source, offset)
     check_in_sensor(ev, (w, h), source, offset)
     pos = np.zeros(h * w, dtype=np.uint8)
@@ -120,6 +120,8 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
     """
     options = check_format_options("iter_windows", encoding=encoding, codec=codec, channel=channel,
                                    timer_bits=timer_bits)
+    if sensor_size is not None:
+        sensor_size_parameter("iter_windows", sensor_size)
     win = _ms_to_us("window_ms", window_ms)
     start = _ms_to_us("start_ms", start_ms, positive=False)
     stride = win if stride_ms is None else _ms_to_us("stride_ms", stride_ms)

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
+from snn_fg import validate
 from snn_fg.atomic import atomic_path
 from snn_fg.errors import InputError
-from snn_fg.events._core import as_events, check_in_sensor, check_monotonic, check_sensor_size
+from snn_fg.events._core import as_events, check_in_sensor, check_monotonic, sensor_size_parameter
 
 #: Largest sensor side EVT2/EVT3 can address (11-bit coordinates).
 PROPHESEE_MAX_SIZE = 2048
@@ -17,9 +18,9 @@ PROPHESEE_MAX_SIZE = 2048
 ES_DVS, ES_ATIS = 1, 2
 
 
-def _prepare(events, sensor_size, need_sorted=False, need_nonneg_t=False):
+def _prepare(owner, events, sensor_size, need_sorted=False, need_nonneg_t=False):
     ev = as_events(events)
-    size = check_sensor_size(sensor_size)
+    size = sensor_size_parameter(owner, sensor_size)
     check_in_sensor(ev, size)
     if need_sorted:
         check_monotonic(ev)
@@ -30,7 +31,7 @@ def _prepare(events, sensor_size, need_sorted=False, need_nonneg_t=False):
 
 def _prophesee_start(events, sensor_size, version: int):
     """Checked events and the text header of an EVT ``version``.0 file."""
-    ev, (w, h, _) = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    ev, (w, h, _) = _prepare(f"encode_evt{version}", events, sensor_size, need_sorted=True, need_nonneg_t=True)
     if w > PROPHESEE_MAX_SIZE or h > PROPHESEE_MAX_SIZE:
         raise InputError("<array>", f"EVT{version} stores at most {PROPHESEE_MAX_SIZE} pixels a side")
     header = f"% evt {version}.0\n% format EVT{version};height={h};width={w}\n% geometry {w}x{h}\n% end\n"
@@ -80,7 +81,7 @@ def encode_evt3(events, sensor_size) -> bytes:
 
 def encode_es(events, sensor_size) -> bytes:
     """Event Stream 2.0.0 DVS bytes; events sorted by time, first timestamp >= 0."""
-    ev, size = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    ev, size = _prepare("encode_es", events, sensor_size, need_sorted=True, need_nonneg_t=True)
     return _es_header(ES_DVS, size) + _es_body(ev["t"], ev["p"] & 1, ev["x"], ev["y"], flag_bits=1)
 
 
@@ -93,8 +94,8 @@ def encode_es_atis(events, sensor_size, exposures=None) -> bytes:
     Both must be sorted by time; at equal timestamps change detections are
     written first.  The file uses overflow bytes but no reset bytes.
     """
-    ev, size = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
-    exp = _prepare(exposures if exposures is not None else ev[:0], size, need_sorted=True,
+    ev, size = _prepare("encode_es_atis", events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    exp = _prepare("encode_es_atis", exposures if exposures is not None else ev[:0], size, need_sorted=True,
                    need_nonneg_t=True)[0]
     both = np.concatenate([ev, exp])
     is_tc = np.concatenate([np.zeros(len(ev), np.uint8), np.ones(len(exp), np.uint8)])
@@ -150,7 +151,7 @@ def save_events(path, events, sensor_size, encoding: str | None = None) -> Path:
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    ev, size = _prepare(events, sensor_size)
+    ev, size = _prepare("save_events", events, sensor_size)
     if suffix == ".npy":
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
@@ -160,9 +161,8 @@ def save_events(path, events, sensor_size, encoding: str | None = None) -> Path:
             with open(tmp, "wb") as fh:
                 np.savez(fh, events=ev, sensor_size=np.array(size, dtype=np.int64))
     elif suffix == ".raw":
-        enc = (encoding or "evt2").lower()
-        if enc not in ("evt2", "evt3"):
-            raise InputError(path, f"unknown RAW encoding {encoding!r} (use 'evt2' or 'evt3')")
+        enc = encoding.lower() if isinstance(encoding, str) else (encoding or "evt2")
+        validate.choice("save_events", "encoding", enc, ("evt2", "evt3"))
         data = encode_evt2(ev, size) if enc == "evt2" else encode_evt3(ev, size)
         with atomic_path(path) as tmp:
             tmp.write_bytes(data)

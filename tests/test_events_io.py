@@ -105,6 +105,17 @@ def test_write_read_round_trip_identical(tmp_path, suffix, enc):
     np.testing.assert_array_equal(np.concatenate(chunks), ev)
 
 
+def test_es_decoder_state_carries_across_reads(tmp_path):
+    from snn_fg.events.eventstream import iter_dvs, read_header
+
+    ev = random_events(500, t_max=400_000, seed=5)  # gaps of ~800 us: runs of overflow bytes
+    path = tmp_path / "s.es"
+    save_events(path, ev, (64, 48))
+    for read_bytes in (1, 4, 5, 7, 64):
+        got = np.concatenate(list(iter_dvs(path, read_header(path), read_bytes=read_bytes)))
+        np.testing.assert_array_equal(got, ev)
+
+
 def test_npy_streams_memory_mapped_and_converts_dtype(tmp_path):
     ev = np.zeros(5, dtype=[("t", "f8"), ("x", "u2"), ("y", "u2"), ("p", "i1")])
     ev["t"] = [0, 1, 2, 3, 4]
@@ -265,7 +276,7 @@ def test_yarp_wrap_flag_bit_channels_and_samples(tmp_path):
     want_ticks = [period - 100, period + 30, period + 60]
     assert rec.events["x"].tolist() == [1, 3, 4]
     assert rec.events["t"].tolist() == [t * 80 // 1000 for t in want_ticks]
-    both = open_recording(path, channel=None)
+    both = open_recording(path, channel="both")
     assert both.events["x"].tolist() == [1, 2, 3, 4]
 
 
@@ -342,3 +353,78 @@ def test_es_truncated_names_offset(tmp_path):
     path.write_bytes(data[:14])
     with pytest.raises(InputError, match="truncated"):
         open_recording(path)
+
+
+# ------------------------------------------------------------------ format options
+def test_option_typos_are_type_errors(tmp_path):
+    from snn_fg.events import RecordingStream, iter_windows
+
+    path = tmp_path / "a.es"
+    save_events(path, random_events(20), (64, 48))
+    for call in (open_recording, iter_recording, RecordingStream, lambda p, **kw: list(iter_windows(p, **kw))):
+        with pytest.raises(TypeError, match="unexpected keyword argument 'encodng'"):
+            call(path, encodng="evt3")
+
+
+@pytest.mark.parametrize("option,value,applies_to", [("encoding", "evt3", "Prophesee RAW"),
+                                                     ("codec", "24", "YARP"), ("channel", 1, "YARP"),
+                                                     ("timer_bits", 24, "YARP")])
+def test_option_of_another_format_is_a_parameter_error(tmp_path, option, value, applies_to):
+    from snn_fg.errors import ParameterError
+    from snn_fg.events import iter_windows
+
+    ev = random_events(20)
+    path = tmp_path / "a.es"
+    save_events(path, ev, (64, 48))
+    msg = f"{option}={value!r} does not apply to an Event Stream file \\(it is an option for (a|an) {applies_to}"
+    with pytest.raises(ParameterError, match=msg):
+        open_recording(path, **{option: value})
+    with pytest.raises(ParameterError, match=msg):
+        list(iter_windows(path, **{option: value}))
+    with pytest.raises(ParameterError, match=f"{option}=.* does not apply to an in-memory recording"):
+        open_recording(ev, sensor_size=(64, 48), **{option: value})
+
+
+def test_option_values_are_checked(tmp_path):
+    from snn_fg.errors import ParameterError
+
+    path = tmp_path / "a.raw"
+    save_events(path, random_events(20), (64, 48))
+    for bad in ({"encoding": "evt21"}, {"encoding": 3}, {"codec": 24}, {"channel": 2}, {"channel": True},
+                {"timer_bits": 0}, {"timer_bits": 30.0}):
+        (name, value), = bad.items()
+        with pytest.raises(ParameterError, match=f"open_recording: {name}="):
+            open_recording(path, **bad)
+    with pytest.raises(ParameterError, match="chunk_events"):
+        iter_recording(path, chunk_events=0)
+
+
+def test_encoding_option_reads_headerless_raw(tmp_path):
+    ev = random_events(300)
+    path = tmp_path / "h.raw"
+    save_events(path, ev, (64, 48), encoding="evt3")
+    data = path.read_bytes()
+    path.write_bytes(data[data.index(b"% end\n") + len(b"% end\n"):])
+    rec = open_recording(path, encoding="EVT3", sensor_size=(64, 48))
+    assert rec.format == "evt3"
+    np.testing.assert_array_equal(rec.events, ev)
+
+
+def test_bad_sensor_size_argument_is_a_parameter_error(tmp_path):
+    from snn_fg.errors import ParameterError
+    from snn_fg.events import events_to_frame, iter_windows
+
+    ev = random_events(20)
+    path = tmp_path / "a.es"
+    save_events(path, ev, (64, 48))
+    for bad in ((0, 48), (64,), "64x48", (64.5, 48), (40000, 48)):
+        with pytest.raises(ParameterError, match="open_recording: sensor_size="):
+            open_recording(path, sensor_size=bad)
+        with pytest.raises(ParameterError, match="iter_windows: sensor_size="):
+            list(iter_windows(ev, sensor_size=bad))
+        with pytest.raises(ParameterError, match="events_to_frame: sensor_size="):
+            events_to_frame(ev, bad)
+        with pytest.raises(ParameterError, match="save_events: sensor_size="):
+            save_events(tmp_path / "b.npy", ev, bad)
+    with pytest.raises(ParameterError, match="save_events: encoding='evt4'"):
+        save_events(tmp_path / "b.raw", ev, (64, 48), encoding="evt4")

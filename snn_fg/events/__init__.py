@@ -1,15 +1,20 @@
 """Event-camera input for snn-fg.
 
 * :func:`open_recording` / :func:`iter_recording`: read any supported
-  recording (``.es``, ``.raw`` EVT2/EVT3, ``.dat``, ``.aedat4``, N-MNIST
-  ``.bin``, iCub YARP ``data.log``, ``.npy``/``.npz``, or an in-memory
-  structured array) whole or in bounded chunks; see :mod:`snn_fg.events.io`
-  for the format table and which formats stream.
+  recording (``.es`` DVS or ATIS, ``.raw`` EVT2/EVT3, ``.dat``, ``.aedat4``,
+  N-MNIST ``.bin``, iCub YARP ``data.log``, ``.npy``/``.npz``, or an
+  in-memory structured array) whole or in bounded chunks; see
+  :mod:`snn_fg.events.io` for the format table, which formats stream, and
+  the keyword-only format options.  One module per format family decodes
+  (:mod:`~snn_fg.events.eventstream`, :mod:`~snn_fg.events.prophesee`,
+  :mod:`~snn_fg.events.yarp`, :mod:`~snn_fg.events.aedat4`,
+  :mod:`~snn_fg.events.nmnist`, :mod:`~snn_fg.events.numpy_files`).
 * :func:`events_to_frame` (model stage 1) and :func:`iter_windows`.
 * :func:`image_to_events` / :func:`image_to_frame`: an ESIM-style simulator
   for still images under the paper's ``shift4`` motion or the iCub's
   ``circle`` microsaccade (:mod:`snn_fg.events.esim`).
-* :func:`save_events`: write ``.npy``/``.npz``/EVT2/EVT3/``.es`` atomically.
+* :func:`save_events`: write ``.npy``/``.npz``/EVT2/EVT3/``.es`` atomically
+  (:func:`snn_fg.events.writers.encode_es_atis` encodes ATIS streams).
 """
 from snn_fg.events._core import EVENT_DTYPE, Recording
 from snn_fg.events.esim import image_to_events, image_to_frame, motion_frames

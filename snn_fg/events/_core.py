@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from snn_fg import validate
 from snn_fg.errors import InputError
 
 #: Structured dtype of every event array this package returns (tonic-style
@@ -21,13 +22,16 @@ class Recording:
 
     ``events`` has dtype :data:`EVENT_DTYPE`, ``sensor_size`` is ``(W, H, 2)``
     as in tonic, ``format`` names the decoder used and ``path`` is the source
-    file (``None`` for an in-memory array).
+    file (``None`` for an in-memory array).  ``exposure_events`` counts the
+    ATIS exposure-measurement events the file held: they are not polarity
+    events, so they are not in ``events`` (0 for every other format).
     """
 
     events: np.ndarray
     sensor_size: tuple[int, int, int]
     format: str
     path: Path | None = None
+    exposure_events: int = 0
 
     @property
     def width(self) -> int:
@@ -52,21 +56,60 @@ def empty_events(n: int = 0) -> np.ndarray:
     return np.zeros(n, dtype=EVENT_DTYPE)
 
 
-def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, int]:
-    """Return ``(W, H, 2)`` from ``(W, H)`` or ``(W, H, 2)``; reject nonsense."""
+def pack_events(x, y, t, p) -> np.ndarray:
+    """One :data:`EVENT_DTYPE` array from equal-length columns (a decoder's output)."""
+    out = np.empty(len(t), dtype=EVENT_DTYPE)
+    out["x"] = x
+    out["y"] = y
+    out["t"] = t
+    out["p"] = p
+    return out
+
+
+def _parse_sensor_size(sensor_size):
+    """``((W, H, 2), None)`` from ``(W, H)`` or ``(W, H, 2)``, or ``(None, what is wrong)``."""
     try:
         vals = tuple(int(v) for v in sensor_size)
         if any(float(a) != b for a, b in zip(sensor_size, vals)):
             raise ValueError
     except (TypeError, ValueError):
-        raise InputError(source, f"sensor size must be (width, height[, 2]) integers, got {sensor_size!r}")
+        return None, "must be (width, height[, 2]) integers"
     if len(vals) == 2:
         vals = vals + (2,)
     if len(vals) != 3 or vals[2] != 2 or vals[0] < 1 or vals[1] < 1:
-        raise InputError(source, f"sensor size must be (width, height[, 2]) with positive sizes, got {sensor_size!r}")
+        return None, "must be (width, height[, 2]) with positive sizes"
     if vals[0] > _COORD_MAX + 1 or vals[1] > _COORD_MAX + 1:
-        raise InputError(source, f"sensor size {vals[:2]} exceeds the supported {_COORD_MAX + 1} pixels")
-    return vals
+        return None, f"exceeds the supported {_COORD_MAX + 1} pixels a side"
+    return vals, None
+
+
+def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, int]:
+    """``(W, H, 2)`` from a file's (or an array's) sensor size; :class:`InputError` if it is nonsense."""
+    size, problem = _parse_sensor_size(sensor_size)
+    if problem:
+        raise InputError(source, f"sensor size {sensor_size!r} {problem}")
+    return size
+
+
+def sensor_size_parameter(owner: str, sensor_size) -> tuple[int, int, int]:
+    """``(W, H, 2)`` from a sensor size a caller passed to ``owner``; ParameterError if it is nonsense."""
+    size, problem = _parse_sensor_size(sensor_size)
+    if problem:
+        validate.fail(owner, "sensor_size", sensor_size, problem)
+    return size
+
+
+def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
+    """Sensor size ``(max x + 1, max y + 1, 2)`` over event arrays, for inputs that give none."""
+    mx = my = -1
+    for a in arrays:
+        if len(a):
+            mx = max(mx, int(a["x"].max()))
+            my = max(my, int(a["y"].max()))
+    if mx < 0 or my < 0:
+        raise InputError(source, "cannot infer the sensor size (no events, or negative coordinates); "
+                                 "pass sensor_size=(W, H)")
+    return check_sensor_size((mx + 1, my + 1), source)
 
 
 def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:

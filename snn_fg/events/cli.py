@@ -129,6 +129,9 @@ def run_events(args) -> int:
     lines = [("file", str(path)), ("format", f"{stream.format}" + ("" if stream.streams else " (read whole)")),
              ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}")]
     lines += _span_lines(n, n_on, t_first or 0, t_last or 0)
+    if stream.format == "es-atis":
+        lines.append(("exposure events", f"{stream.exposure_events:,} (ATIS exposure measurements, "
+                                         "not used by the model)"))
     if args.write_frame:
         w = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         save_npz(args.write_frame, pos=w.pos, neg=w.neg, t_start_us=np.int64(w.t_start_us),

@@ -34,12 +34,11 @@ positions use bilinear interpolation (``cv2.warpAffine``, ``INTER_LINEAR``,
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
-from snn_fg.errors import ParameterError
+from snn_fg import validate
 from snn_fg.events._core import EVENT_DTYPE, Recording
 from snn_fg.images import to_grey
 
@@ -48,8 +47,8 @@ LOG_EPS = 1e-3
 #: Smallest contrast threshold kept after adding threshold noise.
 MIN_THRESHOLD = 0.01
 MOTIONS = ("shift4", "circle")
-
-
+#: Positions per turn of the ``circle`` motion (every 5 degrees).
+CIRCLE_STEPS = 72
 
 
 def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
@@ -69,36 +68,34 @@ def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
 
 def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndarray:
     """Image offsets ``(dx, dy)`` (pixels; +x right, +y down) of each frame."""
+    validate.choice("motion_offsets", "motion", motion, MOTIONS)
+    a = validate.number("motion_offsets", "amplitude_px", amplitude_px, lo=0, lo_open=True)
     if motion == "shift4":
-        if amplitude_px != 1.0 and (amplitude_px != int(amplitude_px) or amplitude_px <= 0):
-            raise ParameterError(f"amplitude_px for shift4 must be a positive integer, got {amplitude_px}")
-        a = float(amplitude_px)
+        if a != int(a):
+            validate.fail("motion_offsets", "amplitude_px", amplitude_px, "must be a whole number of pixels "
+                                                                          "for shift4")
         return np.array([(0, 0), (0, -a), (a, -a), (a, 0), (0, 0)], dtype=np.float64)
-    if motion == "circle":
-        if not (amplitude_px > 0 and math.isfinite(amplitude_px)):
-            raise ParameterError(f"amplitude_px must be positive, got {amplitude_px}")
-        k = np.arange(73) % 72
-        ang = 2 * np.pi * k / 72
-        off = np.stack([amplitude_px * np.cos(ang), amplitude_px * np.sin(ang)], axis=1)
-        return np.round(off, 12)  # exact integers where the circle meets the axes
-    raise ParameterError(f"motion must be one of {', '.join(MOTIONS)}, got {motion!r}")
+    k = np.arange(CIRCLE_STEPS + 1) % CIRCLE_STEPS
+    ang = 2 * np.pi * k / CIRCLE_STEPS
+    off = np.stack([a * np.cos(ang), a * np.sin(ang)], axis=1)
+    return np.round(off, 12)  # exact integers where the circle meets the axes
 
 
 def motion_frames(image, motion: str = "shift4", amplitude_px: float = 1.0,
                   frame_interval_us: int = 5000):
     """Return ``(frames, times_us)``: grey frames (N x H x W float64) and their times."""
     img = to_grey(image)
-    if int(frame_interval_us) != frame_interval_us or frame_interval_us < 1:
-        raise ParameterError(f"frame_interval_us must be a positive integer, got {frame_interval_us}")
+    interval = validate.number("motion_frames", "frame_interval_us", frame_interval_us, lo=1)
+    if interval != int(interval):
+        validate.fail("motion_frames", "frame_interval_us", frame_interval_us, "must be a whole number")
     offs = motion_offsets(motion, amplitude_px)
     frames = np.stack([shift_image(img, dx, dy) for dx, dy in offs])
-    times = np.arange(len(offs), dtype=np.int64) * int(frame_interval_us)
+    times = np.arange(len(offs), dtype=np.int64) * int(interval)
     return frames, times
 
 
 def _thresholds(value, sigma, shape, rng, name):
-    if not (value > 0 and math.isfinite(value)):
-        raise ParameterError(f"{name} must be positive, got {value}")
+    value = validate.number("simulate_frames", name, value, lo=0, lo_open=True)
     if sigma == 0:
         return np.full(shape, float(value))
     return np.maximum(value + sigma * rng.standard_normal(shape), MIN_THRESHOLD)
@@ -110,15 +107,12 @@ def simulate_frames(frames, times_us, threshold_on=0.10, threshold_off=None, thr
     frames = np.asarray(frames, dtype=np.float64)
     times = np.asarray(times_us, dtype=np.int64)
     if frames.ndim != 3 or len(frames) != len(times) or len(frames) < 1:
-        raise ParameterError("frames must be N x H x W with one time per frame")
+        validate.fail("simulate_frames", None, None, "frames must be N x H x W with one time per frame")
     if len(times) > 1 and (np.diff(times) <= 0).any():
-        raise ParameterError("frame times must increase strictly")
-    if not (threshold_sigma >= 0 and math.isfinite(threshold_sigma)):
-        raise ParameterError(f"threshold_sigma must be >= 0, got {threshold_sigma}")
-    if not (refractory_us >= 0):
-        raise ParameterError(f"refractory_us must be >= 0, got {refractory_us}")
-    if not (eps > 0):
-        raise ParameterError(f"eps must be positive, got {eps}")
+        validate.fail("simulate_frames", None, None, "frame times must increase strictly")
+    validate.number("simulate_frames", "threshold_sigma", threshold_sigma, lo=0)
+    validate.number("simulate_frames", "refractory_us", refractory_us, lo=0)
+    validate.number("simulate_frames", "eps", eps, lo=0, lo_open=True)
     threshold_off = threshold_on if threshold_off is None else threshold_off
     _, h, w = frames.shape
     rng = np.random.default_rng(seed)

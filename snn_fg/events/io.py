@@ -1,50 +1,91 @@
 """Open event-camera recordings: one entry point for every supported format.
 
-=================  ============================  =========================  =========
-extension          format                        decoder                    streams
-=================  ============================  =========================  =========
-``.es``            Event Stream 2.x (DVS)        ours (``_decoders``)       yes
-``.raw``           Prophesee EVT 2.0             expelliarmus (+ our check) yes
-``.raw``           Prophesee EVT 3.0             ours (expelliarmus 1.1     yes
-                                                 drifts by 4096 us steps)
-``.dat``           Prophesee DAT (CD events)     expelliarmus (+ our check) yes
-``.aedat4``        iniVation AEDAT 4             ``aedat`` package          yes (per packet)
-``.bin``           N-MNIST / N-Caltech101        tonic ``read_mnist_file``  no
-``.log``           iCub YARP ``data.log`` (AE)   ours                       yes
-``.npy``           structured array x, y, t, p   numpy (memory-mapped)      yes
-``.npz``           structured array x, y, t, p   numpy                      no
-(array)            structured array x, y, t, p   --                         yes
-=================  ============================  =========================  =========
+=================  ============================  ==========================  =========
+extension          format                        decoder (module)            streams
+=================  ============================  ==========================  =========
+``.es``            Event Stream 2.x, DVS         ours (``eventstream``)      yes
+``.es``            Event Stream 2.x, ATIS        ours (``eventstream``)      yes
+``.raw``           Prophesee EVT 2.0             expelliarmus (+ our check)  yes
+``.raw``           Prophesee EVT 3.0             ours (``prophesee``;        yes
+                                                 expelliarmus 1.1 drifts
+                                                 by 4096 us steps)
+``.dat``           Prophesee DAT (CD events)     expelliarmus (+ our check)  yes
+``.aedat4``        iniVation AEDAT 4             ``aedat`` package           yes (per packet)
+``.bin``           N-MNIST / N-Caltech101        tonic ``read_mnist_file``   no
+``.log``           iCub YARP ``data.log`` (AE)   ours (``yarp``)             yes
+``.npy``           structured array x, y, t, p   numpy (memory-mapped)       yes
+``.npz``           structured array x, y, t, p   numpy                       no
+(array)            structured array x, y, t, p   --                          yes
+=================  ============================  ==========================  =========
 
 The extension picks the format; the file's leading bytes must agree (an
 Event Stream file renamed ``.raw`` is refused with a clear message instead of
 being decoded into garbage).  All timestamps are microseconds (int64); the
 first timestamp is kept as the file gives it (not shifted to zero).
+
+An ATIS Event Stream holds two kinds of events: change detections, which are
+polarity events and are returned, and exposure measurements, which carry
+grey levels; these are counted (``Recording.exposure_events``,
+``RecordingStream.exposure_events``) and left out.
+
+Format options apply to one format each, and giving one for a file of another
+format is a :class:`~snn_fg.errors.ParameterError`:
+
+* ``encoding`` (``.raw``): ``"evt2"`` or ``"evt3"``, for files whose header
+  does not say (default: the header's, else EVT2);
+* ``codec`` (``.log``): address codec, ``"auto"`` (default), ``"24"`` or ``"20"``;
+* ``channel`` (``.log``): camera, 0 (left, default), 1 (right) or ``"both"``;
+* ``timer_bits`` (``.log``): bits of the timestamp counter (default 30).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import inspect
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 
-from snn_fg.errors import InputError, SnnFgError
-from snn_fg.events import _decoders as dec
-from snn_fg.events._core import (EVENT_DTYPE, Recording, as_events, check_in_sensor, check_sensor_size,
-                                 empty_events)
+from snn_fg import validate
+from snn_fg.errors import InputError
+from snn_fg.events import aedat4, eventstream, nmnist, numpy_files, prophesee, yarp
+from snn_fg.events._core import Recording, as_events, check_in_sensor, check_sensor_size, empty_events, \
+    infer_sensor_size, sensor_size_parameter
+from snn_fg.events.source import STREAMING_FORMATS, DecodeTally, Source  # STREAMING_FORMATS: re-exported
 
 SUFFIX_FORMAT = {
     ".es": "es", ".raw": "raw", ".dat": "dat", ".aedat4": "aedat4", ".bin": "nmnist",
     ".log": "yarp", ".npy": "npy", ".npz": "npz",
 }
-#: Formats whose reader yields bounded chunks (see the module table).
-STREAMING_FORMATS = frozenset({"es", "evt2", "evt3", "dat", "aedat4", "yarp", "npy", "array"})
-NMNIST_SIZE = (34, 34)
 DEFAULT_CHUNK = 1_000_000
 
+
+@dataclass(frozen=True)
+class _Format:
+    label: str                    # what a file of this format is, for messages
+    opener: Callable[..., Source]  # (path, sensor_size, chunk_events, *, its options) -> Source
+    looks_like: tuple             # what _sniff may call a file of this format (None: nothing known)
+
+    @property
+    def options(self) -> tuple[str, ...]:
+        """The format options this format takes: its opener's keyword-only parameters."""
+        return tuple(name for name, p in inspect.signature(self.opener).parameters.items()
+                     if p.kind is p.KEYWORD_ONLY)
+
+
+_FORMATS = {
+    "es": _Format("an Event Stream file", eventstream.open_es, ("an Event Stream (.es) file",)),
+    "raw": _Format("a Prophesee RAW file", prophesee.open_raw, ("a Prophesee RAW/DAT file", None)),
+    "dat": _Format("a Prophesee DAT file", prophesee.open_dat, ("a Prophesee RAW/DAT file", None)),
+    "aedat4": _Format("an AEDAT 4 file", aedat4.open_aedat4, ("an AEDAT 4 (.aedat4) file",)),
+    "nmnist": _Format("an N-MNIST binary file", nmnist.open_nmnist, (None,)),
+    "yarp": _Format("a YARP data.log text file", yarp.open_yarp, ("a YARP data.log text file",)),
+    "npy": _Format("a .npy file", numpy_files.open_npy, ("a numpy .npy file",)),
+    "npz": _Format("an .npz archive", numpy_files.open_npz, ("a zip/.npz file",)),
+}
+
 _MAGICS = [
-    (b"Event Stream", "an Event Stream (.es) file"),
+    (eventstream.MAGIC, "an Event Stream (.es) file"),
     (b"#!AER-DAT4", "an AEDAT 4 (.aedat4) file"),
     (b"#!AER-DAT", "an AEDAT 1-3 file (not supported)"),
     (b"\x93NUMPY", "a numpy .npy file"),
@@ -62,23 +103,10 @@ def _sniff(head: bytes):
     if head.startswith(b"%"):
         return "a Prophesee RAW/DAT file"
     if head and all(32 <= c < 127 or c in (9, 10, 13) for c in head[:4096]):
-        first = head.split(b"\n", 1)[0]
-        if dec._YARP_LINE.match(first):
+        if yarp.is_yarp_line(head.split(b"\n", 1)[0]):
             return "a YARP data.log text file"
         return "a text file"
     return None
-
-
-_EXPECTED = {
-    "es": ("an Event Stream (.es) file",),
-    "aedat4": ("an AEDAT 4 (.aedat4) file",),
-    "npy": ("a numpy .npy file",),
-    "npz": ("a zip/.npz file",),
-    "raw": ("a Prophesee RAW/DAT file", None),
-    "dat": ("a Prophesee RAW/DAT file", None),
-    "nmnist": (None,),
-    "yarp": ("a YARP data.log text file",),
-}
 
 
 def detect_format(path) -> str:
@@ -100,303 +128,68 @@ def detect_format(path) -> str:
     if not head:
         raise InputError(path, "file is empty", "byte offset 0")
     seen = _sniff(head)
-    if seen not in _EXPECTED[fmt]:
-        want = {"es": "an Event Stream file", "aedat4": "an AEDAT 4 file", "npy": "a .npy file",
-                "npz": "an .npz archive", "raw": "a Prophesee RAW file", "dat": "a Prophesee DAT file",
-                "nmnist": "an N-MNIST binary file", "yarp": "a YARP data.log text file"}[fmt]
-        what = seen or "unrecognised binary data"
-        raise InputError(path, f"extension says {want} but the content looks like {what}; "
-                               "is the file mislabelled?", "byte offset 0")
+    if seen not in _FORMATS[fmt].looks_like:
+        raise InputError(path, f"extension says {_FORMATS[fmt].label} but the content looks like "
+                               f"{seen or 'unrecognised binary data'}; is the file mislabelled?", "byte offset 0")
     return fmt
 
 
-# --------------------------------------------------------------------------
-# per-format sources
-# --------------------------------------------------------------------------
-@dataclass
-class _Source:
-    path: Path | None
-    format: str
-    sensor_size: tuple
-    _chunks: object = field(repr=False)  # callable(chunk_events) -> iterator of raw chunks
+def check_format_options(owner: str, *, encoding=None, codec=None, channel=None, timer_bits=None) -> dict:
+    """Check the format options passed to ``owner``; return the given ones (not ``None``).
 
-    @property
-    def streams(self) -> bool:
-        return self.format in STREAMING_FORMATS
-
-
-def _open_es(path, sensor_size, chunk_events, **_):
-    w, h, off = dec.read_es_header(path)
-    size = check_sensor_size(sensor_size or (w, h), path)
-    return _Source(path, "es", size, lambda n: dec.iter_es(path, off))
-
-
-def _open_raw(path, sensor_size, chunk_events, encoding=None, **_):
-    info, off = dec.read_raw_header(path)
-    enc = (encoding or dec.raw_encoding(info) or "evt2").lower()
-    if enc not in ("evt2", "evt3"):
-        raise InputError(path, f"RAW encoding '{enc}' is not supported (only EVT 2.0 and EVT 3.0)")
-    geom = dec.raw_geometry(info)
-    if sensor_size is None and geom is None:
-        raise InputError(path, f"{enc.upper()} file has no geometry in its header; pass the sensor size "
-                               "explicitly (sensor_size=(W, H), CLI --sensor-size WxH; a Prophesee Gen3 "
-                               "VGA sensor is 640x480)")
-    size = check_sensor_size(sensor_size or geom, path)
-    if enc == "evt3":
-        return _Source(path, "evt3", size, lambda n: dec.iter_evt3(path, off))
-
-    def chunks(n):
-        dec.check_evt2(path, off, size)  # clear errors (with byte offsets) before the C decoder runs
-        yield from _expelliarmus_chunks(path, "evt2", n)
-    return _Source(path, "evt2", size, chunks)
-
-
-def _expelliarmus_chunks(path, encoding, n):
-    from expelliarmus import Wizard
-
-    wiz = Wizard(encoding=encoding, fpath=str(path), chunk_size=int(n))
-    for arr in wiz.read_chunk():
-        if arr is None:
-            return
-        yield arr
-
-
-def _open_dat(path, sensor_size, chunk_events, **_):
-    info, off = dec.read_raw_header(path)
-    with open(path, "rb") as fh:
-        fh.seek(off)
-        td = fh.read(2)
-    if len(td) < 2:
-        raise InputError(path, "DAT file ends before its event type/size bytes", f"byte offset {off + len(td)}")
-    if td[1] != 8:
-        raise InputError(path, f"DAT events are {td[1]} bytes, expected 8 (CD events)", f"byte offset {off + 1}")
-    geom = dec.raw_geometry(info)
-    if sensor_size is None and geom is None:
-        raise InputError(path, "DAT file has no Width/Height in its header; pass sensor_size=(W, H)")
-    size = check_sensor_size(sensor_size or geom, path)
-
-    def chunks(n):
-        w, h = size[0], size[1]
-        for pos, words in dec._iter_words(path, off + 2, 8):
-            data = (words >> np.uint64(32)).astype(np.uint32)
-            x = data & 0x3FFF
-            y = (data >> 14) & 0x3FFF
-            bad = (x >= w) | (y >= h)
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise InputError(path, f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the "
-                                       f"{w} x {h} sensor", f"byte offset {pos + 8 * i}")
-        yield from _expelliarmus_chunks(path, "dat", n)
-    return _Source(path, "dat", size, chunks)
-
-
-def _panic_safe(path, what, fn, *args):
-    try:
-        return fn(*args)
-    except SnnFgError:
-        raise
-    except (KeyboardInterrupt, SystemExit, GeneratorExit, MemoryError):
-        raise
-    except BaseException as exc:  # the Rust decoder can raise a pyo3 PanicException (a BaseException)
-        raise InputError(path, f"{what}: {exc}".strip().rstrip(":")) from None
-
-
-def _check_aedat4_header(path):
-    """Light check of the AEDAT4 file header before the Rust decoder sees it.
-
-    The header is ``#!AER-DAT4.0\r\n``, a 4-byte size and a flatbuffer
-    holding an XML description; corrupt non-ASCII bytes in that XML make
-    the decoder panic, so they are reported here with their offset.
+    Values are checked here, for every entry point alike; whether an option
+    applies to the file's format is checked once the format is known.
     """
-    with open(path, "rb") as fh:
-        head = fh.read(14 + 4)
-        if len(head) < 18:
-            raise InputError(path, "AEDAT4 header is truncated", f"byte offset {len(head)}")
-        n = int.from_bytes(head[14:18], "little")
-        body = fh.read(min(n, 1 << 24))
-    if len(body) < n:
-        raise InputError(path, f"AEDAT4 header announces {n} bytes but the file ends first",
-                         f"byte offset {18 + len(body)}")
-    start = body.find(b"<")
-    end = body.rfind(b">")
-    if start < 0 or end < start:
-        raise InputError(path, "AEDAT4 header holds no XML description", "byte offset 18")
-    xml = np.frombuffer(body[start:end + 1], dtype=np.uint8)
-    bad = xml >= 128
-    if bad.any():
-        raise InputError(path, "AEDAT4 header description is corrupt (non-ASCII byte)",
-                         f"byte offset {18 + start + int(np.argmax(bad))}")
+    given = {}
+    if encoding is not None:
+        enc = encoding.lower() if isinstance(encoding, str) else encoding
+        given["encoding"] = validate.choice(owner, "encoding", enc, prophesee.ENCODINGS)
+    if codec is not None:
+        given["codec"] = validate.choice(owner, "codec", codec, yarp.CODECS)
+    if channel is not None:
+        if channel != "both" and (isinstance(channel, bool) or not isinstance(channel, (int, np.integer))
+                                  or channel not in (0, 1)):
+            validate.fail(owner, "channel", channel, "must be 0 (left camera), 1 (right camera) or 'both'")
+        given["channel"] = channel if channel == "both" else int(channel)
+    if timer_bits is not None:
+        given["timer_bits"] = validate.integer(owner, "timer_bits", timer_bits, lo=1, hi=31)
+    return given
 
 
-def _open_aedat4(path, sensor_size, chunk_events, **_):
-    import aedat
-
-    _check_aedat4_header(path)
-    decoder = _panic_safe(path, "AEDAT4 decoder rejected the file", aedat.Decoder, str(path))
-    streams = _panic_safe(path, "AEDAT4 decoder rejected the file", decoder.id_to_stream)
-    ids = [sid for sid, s in streams.items() if s.get("type") == "events"]
-    if not ids:
-        raise InputError(path, "AEDAT4 file has no event stream")
-    target = min(ids)
-    geom = (streams[target].get("width"), streams[target].get("height"))
-    if sensor_size is None and None in geom:
-        raise InputError(path, "AEDAT4 event stream has no width/height; pass sensor_size=(W, H)")
-    size = check_sensor_size(sensor_size or geom, path)
-
-    def chunks(n):
-        d = _panic_safe(path, "AEDAT4 decoder rejected the file", aedat.Decoder, str(path))
-        it = iter(d)
-        k = 0
-        while True:
-            packet = _panic_safe(path, f"AEDAT4 packet {k} could not be decoded", next, it, None)
-            if packet is None:
-                return
-            k += 1
-            if packet.get("stream_id") != target or "events" not in packet:
-                continue
-            e = packet["events"]
-            out = np.empty(len(e), dtype=EVENT_DTYPE)
-            out["x"] = e["x"]
-            out["y"] = e["y"]
-            out["t"] = e["t"].astype(np.int64)
-            out["p"] = e["on"]
-            yield out
-    return _Source(path, "aedat4", size, chunks)
+def _refuse_options(options: dict, owner: str, label: str) -> None:
+    """ParameterError for the first of ``options``, none of which applies to ``label``."""
+    for name, value in options.items():
+        users = " or ".join(f.label for f in _FORMATS.values() if name in f.options)
+        validate.fail(owner, name, value, f"does not apply to {label} (it is an option for {users})")
 
 
-def _open_nmnist(path, sensor_size, chunk_events, **_):
-    from tonic.io import read_mnist_file
-
-    nbytes = path.stat().st_size
-    if nbytes % 5:
-        raise InputError(path, f"N-MNIST files hold 5-byte events; {nbytes} bytes leaves "
-                               f"{nbytes % 5} trailing", f"byte offset {nbytes - nbytes % 5}")
-    size = check_sensor_size(sensor_size or NMNIST_SIZE, path)
-
-    def chunks(n):
-        raw = np.fromfile(path, dtype=np.uint8).reshape(-1, 5)
-        td = raw[:, 1] != 240  # y == 240 marks timer-overflow records
-        bad = td & ((raw[:, 0] >= size[0]) | (raw[:, 1] >= size[1]))
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise InputError(path, f"event at (x={int(raw[i, 0])}, y={int(raw[i, 1])}) lies outside the "
-                                   f"{size[0]} x {size[1]} sensor", f"byte offset {5 * i}")
-        yield read_mnist_file(str(path), dtype=EVENT_DTYPE)
-    return _Source(path, "nmnist", size, chunks)
+def _chunks_of(events: np.ndarray, exposure_events: int = 0):
+    def chunks(n, tally):
+        tally.exposure_events = exposure_events
+        for i in range(0, max(len(events), 1), n):
+            yield events[i:i + n]
+    return chunks
 
 
-def _open_yarp(path, sensor_size, chunk_events, codec="auto", channel=0, timer_bits=dec.YARP_TIMER_BITS, **_):
-    size = check_sensor_size(sensor_size or dec.YARP_SENSOR, path)
-    return _Source(path, "yarp", size,
-                   lambda n: dec.iter_yarp(path, codec=codec, channel=channel, timer_bits=timer_bits))
-
-
-def _load_npy(path, mmap=True):
-    try:
-        arr = np.load(path, mmap_mode="r" if mmap else None, allow_pickle=False)
-    except Exception as exc:  # numpy's header parser can raise ValueError, SyntaxError, TokenError...
-        raise InputError(path, f"not a readable .npy array ({type(exc).__name__}: {exc})") from None
-    return arr
-
-
-def _infer_size(path, arrays):
-    """Sensor size = (max x + 1, max y + 1) over chunks; used when none is given."""
-    mx = my = -1
-    for a in arrays:
-        if len(a):
-            mx = max(mx, int(a["x"].max()))
-            my = max(my, int(a["y"].max()))
-    if mx < 0 or my < 0:
-        raise InputError(path, "cannot infer the sensor size (no events, or negative coordinates); "
-                               "pass sensor_size=(W, H)")
-    return check_sensor_size((mx + 1, my + 1), path)
-
-
-def _open_npy(path, sensor_size, chunk_events, **_):
-    arr = _load_npy(path)
-    if arr.dtype.names is None or arr.ndim != 1:
-        raise InputError(path, f".npy must hold a 1-D structured array with fields x, y, t, p "
-                               f"(found dtype {arr.dtype}, shape {arr.shape})")
-    as_events(arr[:0], path)  # field check
-
-    total, dtype, base = len(arr), arr.dtype, int(getattr(arr, "offset", 0))
-    if not isinstance(arr, np.memmap) or not (arr.flags.c_contiguous or arr.flags.f_contiguous):
-        def slices(n):
-            for i in range(0, total, n):
-                yield as_events(np.asarray(arr[i:i + n]), path, offset=i)
-    else:
-        def slices(n):
-            # one short-lived mapping per chunk, copied and unmapped, so resident
-            # memory stays at one chunk however large the file is
-            for i in range(0, total, n):
-                m = min(n, total - i)
-                view = np.memmap(path, dtype=dtype, mode="r", offset=base + i * dtype.itemsize, shape=(m,))
-                chunk = np.array(view)
-                del view
-                yield as_events(chunk, path, offset=i)
-    size = check_sensor_size(sensor_size, path) if sensor_size is not None else \
-        _infer_size(path, slices(chunk_events))
-    return _Source(path, "npy", size, slices)
-
-
-def _open_npz(path, sensor_size, chunk_events, **_):
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            keys = list(z.files)
-            if "events" in keys:
-                arr = z["events"]
-            elif all(k in keys for k in "xytp"):
-                cols = {k: z[k] for k in "xytp"}
-                n = len(cols["t"])
-                if any(c.ndim != 1 or len(c) != n for c in cols.values()):
-                    raise InputError(path, "arrays x, y, t, p in the .npz must be 1-D and of equal length")
-                arr = np.empty(n, dtype=[(k, cols[k].dtype) for k in "xytp"])
-                for k in "xytp":
-                    arr[k] = cols[k]
-            else:
-                structured = [k for k in keys if z[k].dtype.names]
-                if len(structured) != 1:
-                    raise InputError(path, f".npz needs an 'events' structured array or x, y, t, p arrays "
-                                           f"(found keys {', '.join(keys) or 'none'})")
-                arr = z[structured[0]]
-            file_size = tuple(int(v) for v in z["sensor_size"]) if "sensor_size" in keys else None
-    except SnnFgError:
-        raise
-    except Exception as exc:  # zip, zlib and numpy header errors of every kind
-        raise InputError(path, f"not a readable .npz archive ({type(exc).__name__}: {exc})") from None
-    ev = as_events(arr, path)
-    size = sensor_size if sensor_size is not None else file_size
-    size = check_sensor_size(size, path) if size is not None else _infer_size(path, [ev])
-    return _Source(path, "npz", size, lambda n: iter([ev]))
-
-
-_OPENERS = {"es": _open_es, "raw": _open_raw, "dat": _open_dat, "aedat4": _open_aedat4,
-            "nmnist": _open_nmnist, "yarp": _open_yarp, "npy": _open_npy, "npz": _open_npz}
-
-
-def _open_source(source, sensor_size=None, chunk_events=DEFAULT_CHUNK, **options) -> _Source:
+def _open_source(source, sensor_size, chunk_events, options: dict) -> Source:
+    if isinstance(source, (Recording, RecordingStream, np.ndarray)):
+        _refuse_options(options, "<array>", "an in-memory recording")
     if isinstance(source, Recording):
         size = check_sensor_size(sensor_size or source.sensor_size)
-        ev = source.events
-        return _Source(source.path, source.format, size,
-                       lambda n: (ev[i:i + n] for i in range(0, max(len(ev), 1), n)))
+        return Source(source.path, source.format, size, _chunks_of(source.events, source.exposure_events))
     if isinstance(source, RecordingStream):
         return source._source
     if isinstance(source, np.ndarray):
         ev = as_events(source, "<array>")
-        size = check_sensor_size(sensor_size, "<array>") if sensor_size is not None else \
-            _infer_size("<array>", [ev])
-        return _Source(None, "array", size, lambda n: (ev[i:i + n] for i in range(0, max(len(ev), 1), n)))
+        size = sensor_size if sensor_size is not None else infer_sensor_size("<array>", [ev])
+        return Source(None, "array", size, _chunks_of(ev))
     if not isinstance(source, (str, Path)):
         raise InputError(repr(source)[:60], "expected a file path, a Recording or a structured event array")
     path = Path(source)
-    fmt = detect_format(path)
-    try:
-        return _OPENERS[fmt](path, sensor_size, chunk_events, **options)
-    except TypeError as exc:
-        if "unexpected keyword" in str(exc):
-            raise InputError(path, f"option not understood for {fmt} files: {exc}") from None
-        raise
+    fmt = _FORMATS[detect_format(path)]
+    foreign = {k: v for k, v in options.items() if k not in fmt.options}
+    _refuse_options(foreign, str(path), fmt.label)
+    return fmt.opener(path, sensor_size, chunk_events, **options)
 
 
 class RecordingStream:
@@ -408,51 +201,36 @@ class RecordingStream:
     (coordinates inside the sensor; errors name the global event index) and
     have dtype :data:`EVENT_DTYPE`.  ``streams`` tells whether the underlying
     reader works with bounded memory (see the module table).
+    ``exposure_events`` counts the ATIS exposure events skipped so far in the
+    latest iteration (the file's total once an iteration has finished).
+    The format options are described in the module docstring.
     """
 
-    def __init__(self, source, chunk_events=DEFAULT_CHUNK, sensor_size=None, progress=False, **options):
-        if int(chunk_events) < 1:
-            raise InputError("<options>", f"chunk_events must be at least 1, got {chunk_events}")
-        self.chunk_events = int(chunk_events)
-        self._source = _open_source(source, sensor_size, self.chunk_events, **options)
+    def __init__(self, source, *, chunk_events: int = DEFAULT_CHUNK, sensor_size=None, progress: bool = False,
+                 encoding: str | None = None, codec: str | None = None, channel: int | str | None = None,
+                 timer_bits: int | None = None):
+        options = check_format_options("RecordingStream", encoding=encoding, codec=codec, channel=channel,
+                                       timer_bits=timer_bits)
+        if sensor_size is not None:
+            sensor_size = sensor_size_parameter("RecordingStream", sensor_size)
+        self.chunk_events = validate.integer("RecordingStream", "chunk_events", chunk_events, lo=1)
+        self._source = _open_source(source, sensor_size, self.chunk_events, options)
         self.progress = progress
+        self._tally = DecodeTally()
 
     path = property(lambda self: self._source.path)
     format = property(lambda self: self._source.format)
     sensor_size = property(lambda self: self._source.sensor_size)
     streams = property(lambda self: self._source.streams)
+    exposure_events = property(lambda self: self._tally.exposure_events)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         src = self._source
         name = src.path if src.path is not None else "<array>"
-        n = self.chunk_events
-        done = 0
-        bar = None
-        if self.progress:
-            from tqdm import tqdm
-            bar = tqdm(unit="ev", unit_scale=True, desc=f"reading {Path(str(name)).name}", leave=False,
-                       disable=None)
-        pending = []
-        pending_n = 0
+        self._tally = tally = DecodeTally()
+        bar = self._progress_bar(name)
         try:
-            for raw in src._chunks(n):
-                ev = as_events(raw, name, offset=done + pending_n)
-                check_in_sensor(ev, src.sensor_size, name, offset=done + pending_n)
-                if not len(ev):
-                    continue
-                pending.append(ev)
-                pending_n += len(ev)
-                while pending_n >= n:
-                    buf = np.concatenate(pending) if len(pending) > 1 else pending[0]
-                    out, rest = buf[:n], buf[n:]
-                    pending, pending_n = ([rest] if len(rest) else []), len(rest)
-                    done += len(out)
-                    if bar is not None:
-                        bar.update(len(out))
-                    yield out
-            if pending_n:
-                out = np.concatenate(pending) if len(pending) > 1 else pending[0]
-                done += len(out)
+            for out in _rechunk(src.chunks(self.chunk_events, tally), self.chunk_events, name, src.sensor_size):
                 if bar is not None:
                     bar.update(len(out))
                 yield out
@@ -460,33 +238,86 @@ class RecordingStream:
             if bar is not None:
                 bar.close()
 
+    def _progress_bar(self, name):
+        if not self.progress:
+            return None
+        from tqdm import tqdm
+        return tqdm(unit="ev", unit_scale=True, desc=f"reading {Path(str(name)).name}", leave=False, disable=None)
 
-def iter_recording(source, chunk_events: int = DEFAULT_CHUNK, sensor_size=None, progress: bool = False,
-                   **options) -> RecordingStream:
+
+def _rechunk(raw_chunks, n: int, name, sensor_size) -> Iterator[np.ndarray]:
+    """Validated :data:`EVENT_DTYPE` chunks of exactly ``n`` events (the last may be shorter)."""
+    done = 0
+    pending = []
+    pending_n = 0
+    for raw in raw_chunks:
+        ev = as_events(raw, name, offset=done + pending_n)
+        check_in_sensor(ev, sensor_size, name, offset=done + pending_n)
+        if not len(ev):
+            continue
+        pending.append(ev)
+        pending_n += len(ev)
+        while pending_n >= n:
+            buf = np.concatenate(pending) if len(pending) > 1 else pending[0]
+            out, rest = buf[:n], buf[n:]
+            pending, pending_n = ([rest] if len(rest) else []), len(rest)
+            done += len(out)
+            yield out
+    if pending_n:
+        yield np.concatenate(pending) if len(pending) > 1 else pending[0]
+
+
+def iter_recording(source, *, chunk_events: int = DEFAULT_CHUNK, sensor_size=None, progress: bool = False,
+                   encoding: str | None = None, codec: str | None = None, channel: int | str | None = None,
+                   timer_bits: int | None = None) -> RecordingStream:
     """Stream a recording in chunks of at most ``chunk_events`` events.
 
     ``source`` is a path, a :class:`Recording` or a structured array.  The
     returned :class:`RecordingStream` is iterable and knows ``format`` and
     ``sensor_size`` up front.  Memory stays bounded for the formats in
     :data:`STREAMING_FORMATS`; ``.npz`` and N-MNIST ``.bin`` are read whole.
-    Format options: ``encoding`` ("evt2"/"evt3", for headerless ``.raw``);
-    YARP ``codec`` ("auto", "24", "20"), ``channel`` (0, 1 or None) and
-    ``timer_bits`` (30).
+    ``encoding``, ``codec``, ``channel`` and ``timer_bits`` are the format
+    options of the module docstring.
+
+    Examples
+    --------
+    >>> stream = iter_recording("flight.es", chunk_events=100_000)  # doctest: +SKIP
+    >>> n = sum(len(chunk) for chunk in stream)                     # doctest: +SKIP
     """
+    options = check_format_options("iter_recording", encoding=encoding, codec=codec, channel=channel,
+                                   timer_bits=timer_bits)
+    if sensor_size is not None:
+        sensor_size_parameter("iter_recording", sensor_size)
     return RecordingStream(source, chunk_events=chunk_events, sensor_size=sensor_size, progress=progress,
                            **options)
 
 
-def open_recording(path, sensor_size=None, progress: bool = False, **options) -> Recording:
+def open_recording(path, *, sensor_size=None, progress: bool = False, encoding: str | None = None,
+                   codec: str | None = None, channel: int | str | None = None,
+                   timer_bits: int | None = None) -> Recording:
     """Read a whole recording (any supported format, or a structured array).
 
     ``sensor_size`` ``(W, H)`` overrides the file's geometry and is required
     for headerless EVT2/EVT3 files; for arrays and ``.npy`` without it the
-    size is inferred as (max x + 1, max y + 1).  Bad input raises
-    :class:`~snn_fg.errors.InputError` naming file, problem and place.
+    size is inferred as (max x + 1, max y + 1).  ``encoding``, ``codec``,
+    ``channel`` and ``timer_bits`` are the format options of the module
+    docstring.  Bad input raises :class:`~snn_fg.errors.InputError` naming
+    file, problem and place; a bad or inapplicable option raises
+    :class:`~snn_fg.errors.ParameterError`.
+
+    Examples
+    --------
+    >>> rec = open_recording("spinner.raw", sensor_size=(640, 480))  # doctest: +SKIP
+    >>> rec.format, len(rec), rec.exposure_events                   # doctest: +SKIP
+    ('evt2', 539481, 0)
     """
+    options = check_format_options("open_recording", encoding=encoding, codec=codec, channel=channel,
+                                   timer_bits=timer_bits)
+    if sensor_size is not None:
+        sensor_size_parameter("open_recording", sensor_size)
     stream = RecordingStream(path, chunk_events=DEFAULT_CHUNK, sensor_size=sensor_size, progress=progress,
                              **options)
     parts = list(stream)
     events = np.concatenate(parts) if len(parts) > 1 else (parts[0] if parts else empty_events())
-    return Recording(events=events, sensor_size=stream.sensor_size, format=stream.format, path=stream.path)
+    return Recording(events=events, sensor_size=stream.sensor_size, format=stream.format, path=stream.path,
+                     exposure_events=stream.exposure_events)

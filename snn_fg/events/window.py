@@ -6,8 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from snn_fg.errors import InputError, ParameterError
-from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, check_sensor_size
+from snn_fg import validate
+from snn_fg.errors import InputError
+from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, sensor_size_parameter
+from snn_fg.events.io import DEFAULT_CHUNK, check_format_options, iter_recording
 
 
 def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
@@ -19,7 +21,7 @@ def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
     timestamps the later one in the array wins.  Events outside the sensor
     raise :class:`~snn_fg.errors.InputError` naming the event index.
     """
-    w, h, _ = check_sensor_size(sensor_size)
+    w, h, _ = sensor_size_parameter("events_to_frame", sensor_size)
     ev = as_events(events, source, offset)
     check_in_sensor(ev, (w, h), source, offset)
     pos = np.zeros(h * w, dtype=np.uint8)
@@ -74,24 +76,19 @@ def _filter(events, denoise_us, refractory_us):
     return events
 
 
-def _check_ms(name, value, positive=True, allow_none=False):
-    if value is None and allow_none:
-        return None
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number of milliseconds, got {value!r}")
-    if not np.isfinite(v) or (v <= 0 if positive else v < 0):
-        raise ParameterError(f"{name} must be {'positive' if positive else 'non-negative'}, got {value!r}")
-    us = round(v * 1000)
+def _ms_to_us(name, value, positive=True) -> int:
+    """A time in milliseconds given to :func:`iter_windows`, as whole microseconds."""
+    ms = validate.number("iter_windows", name, value, lo=0, lo_open=positive)
+    us = round(ms * 1000)
     if positive and us < 1:
-        raise ParameterError(f"{name} must be at least 0.001 ms (1 us), got {value!r}")
+        validate.fail("iter_windows", name, value, "must be at least 0.001 ms (1 us)")
     return int(us)
 
 
-def iter_windows(recording_or_path, window_ms: float = 85, start_ms: float = 0, stride_ms: float | None = None,
+def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 0, stride_ms: float | None = None,
                  max_windows: int | None = None, denoise_us: int | None = None, refractory_us: int | None = None,
-                 sensor_size=None, chunk_events: int = 1_000_000, **options):
+                 sensor_size=None, chunk_events: int = DEFAULT_CHUNK, encoding: str | None = None,
+                 codec: str | None = None, channel: int | str | None = None, timer_bits: int | None = None):
     """Cut a recording into time windows and yield :class:`EventWindow` s.
 
     Window ``k`` covers ``[t0 + start + k * stride, ... + window)`` where ``t0``
@@ -117,17 +114,22 @@ def iter_windows(recording_or_path, window_ms: float = 85, start_ms: float = 0, 
       event).
     * A recording without events, or a start after its last event, is an
       InputError.
+    * ``encoding``, ``codec``, ``channel`` and ``timer_bits`` are the format
+      options of :mod:`snn_fg.events.io`; an option that does not apply to
+      the recording's format is a ParameterError.
     """
-    from snn_fg.events.io import iter_recording
-
-    win = _check_ms("window_ms", window_ms)
-    start = _check_ms("start_ms", start_ms, positive=False)
-    stride = win if stride_ms is None else _check_ms("stride_ms", stride_ms)
-    if max_windows is not None and (not isinstance(max_windows, (int, np.integer)) or max_windows < 1):
-        raise ParameterError(f"max_windows must be a positive integer, got {max_windows!r}")
+    options = check_format_options("iter_windows", encoding=encoding, codec=codec, channel=channel,
+                                   timer_bits=timer_bits)
+    if sensor_size is not None:
+        sensor_size_parameter("iter_windows", sensor_size)
+    win = _ms_to_us("window_ms", window_ms)
+    start = _ms_to_us("start_ms", start_ms, positive=False)
+    stride = win if stride_ms is None else _ms_to_us("stride_ms", stride_ms)
+    if max_windows is not None:
+        validate.integer("iter_windows", "max_windows", max_windows, lo=1)
     for name, v in (("denoise_us", denoise_us), ("refractory_us", refractory_us)):
-        if v is not None and (not isinstance(v, (int, float, np.number)) or not np.isfinite(v) or v < 0):
-            raise ParameterError(f"{name} must be a non-negative number of microseconds, got {v!r}")
+        if v is not None:
+            validate.number("iter_windows", name, v, lo=0)
     stream = iter_recording(recording_or_path, chunk_events=chunk_events, sensor_size=sensor_size, **options)
     size = stream.sensor_size
     name = stream.path if stream.path is not None else "<array>"

@@ -1,19 +1,26 @@
 """Writers for event arrays: ``.npy``, ``.npz``, Prophesee EVT2/EVT3 ``.raw`` and
-Event Stream ``.es``.  Every file is written atomically (complete or absent)."""
+Event Stream ``.es`` (DVS; :func:`encode_es_atis` makes ATIS streams).  Every file
+is written atomically (complete or absent)."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
+from snn_fg import validate
 from snn_fg.atomic import atomic_path
 from snn_fg.errors import InputError
-from snn_fg.events._core import as_events, check_in_sensor, check_monotonic, check_sensor_size
+from snn_fg.events._core import as_events, check_in_sensor, check_monotonic, sensor_size_parameter
+
+#: Largest sensor side EVT2/EVT3 can address (11-bit coordinates).
+PROPHESEE_MAX_SIZE = 2048
+#: Stream type bytes of the Event Stream specification.
+ES_DVS, ES_ATIS = 1, 2
 
 
-def _prepare(events, sensor_size, need_sorted=False, need_nonneg_t=False):
+def _prepare(owner, events, sensor_size, need_sorted=False, need_nonneg_t=False):
     ev = as_events(events)
-    size = check_sensor_size(sensor_size)
+    size = sensor_size_parameter(owner, sensor_size)
     check_in_sensor(ev, size)
     if need_sorted:
         check_monotonic(ev)
@@ -22,12 +29,18 @@ def _prepare(events, sensor_size, need_sorted=False, need_nonneg_t=False):
     return ev, size
 
 
+def _prophesee_start(events, sensor_size, version: int):
+    """Checked events and the text header of an EVT ``version``.0 file."""
+    ev, (w, h, _) = _prepare(f"encode_evt{version}", events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    if w > PROPHESEE_MAX_SIZE or h > PROPHESEE_MAX_SIZE:
+        raise InputError("<array>", f"EVT{version} stores at most {PROPHESEE_MAX_SIZE} pixels a side")
+    header = f"% evt {version}.0\n% format EVT{version};height={h};width={w}\n% geometry {w}x{h}\n% end\n"
+    return ev, header.encode()
+
+
 def encode_evt2(events, sensor_size) -> bytes:
     """EVT 2.0 bytes (header with geometry + 32-bit words); events sorted by time."""
-    ev, (w, h, _) = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
-    if w > 2048 or h > 2048:
-        raise InputError("<array>", "EVT2 stores at most 2048 x 2048 pixels")
-    hdr = f"% evt 2.0\n% format EVT2;height={h};width={w}\n% geometry {w}x{h}\n% end\n".encode()
+    ev, hdr = _prophesee_start(events, sensor_size, 2)
     t = ev["t"].astype(np.int64)
     th = t >> 6
     if len(t) and th[-1] >= (1 << 28):
@@ -44,10 +57,7 @@ def encode_evt2(events, sensor_size) -> bytes:
 
 def encode_evt3(events, sensor_size) -> bytes:
     """EVT 3.0 bytes using single-event words (no vectors); events sorted by time."""
-    ev, (w, h, _) = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
-    if w > 2048 or h > 2048:
-        raise InputError("<array>", "EVT3 stores at most 2048 x 2048 pixels")
-    hdr = f"% evt 3.0\n% format EVT3;height={h};width={w}\n% geometry {w}x{h}\n% end\n".encode()
+    ev, hdr = _prophesee_start(events, sensor_size, 3)
     t = ev["t"].astype(np.int64)
     hi = (t >> 12) & 0xFFF
     lo = t & 0xFFF
@@ -71,28 +81,64 @@ def encode_evt3(events, sensor_size) -> bytes:
 
 def encode_es(events, sensor_size) -> bytes:
     """Event Stream 2.0.0 DVS bytes; events sorted by time, first timestamp >= 0."""
-    ev, (w, h, _) = _prepare(events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    ev, size = _prepare("encode_es", events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    return _es_header(ES_DVS, size) + _es_body(ev["t"], ev["p"] & 1, ev["x"], ev["y"], flag_bits=1)
+
+
+def encode_es_atis(events, sensor_size, exposures=None) -> bytes:
+    """Event Stream 2.0.0 ATIS bytes holding change detections and exposure measurements.
+
+    ``events`` are the change detections (polarity events, ``p`` = 1 for ON);
+    ``exposures`` (optional) are threshold crossings, a structured array with
+    fields x, y, t, p where ``p`` is the specification's ``is_second`` flag.
+    Both must be sorted by time; at equal timestamps change detections are
+    written first.  The file uses overflow bytes but no reset bytes.
+    """
+    ev, size = _prepare("encode_es_atis", events, sensor_size, need_sorted=True, need_nonneg_t=True)
+    exp = _prepare("encode_es_atis", exposures if exposures is not None else ev[:0], size, need_sorted=True,
+                   need_nonneg_t=True)[0]
+    both = np.concatenate([ev, exp])
+    is_tc = np.concatenate([np.zeros(len(ev), np.uint8), np.ones(len(exp), np.uint8)])
+    order = np.argsort(both["t"], kind="stable")
+    both, is_tc = both[order], is_tc[order]
+    flags = ((both["p"].astype(np.uint8) & 1) << 1) | is_tc
+    return _es_header(ES_ATIS, size) + _es_body(both["t"], flags, both["x"], both["y"], flag_bits=2)
+
+
+def _es_header(stream_type: int, size) -> bytes:
+    w, h = size[0], size[1]
     if w > 65535 or h > 65535:
         raise InputError("<array>", "Event Stream stores at most 65535 x 65535 pixels")
-    hdr = b"Event Stream" + bytes([2, 0, 0, 1]) + np.array([w, h], dtype="<u2").tobytes()
-    t = ev["t"].astype(np.int64)
+    return b"Event Stream" + bytes([2, 0, 0, stream_type]) + np.array([w, h], dtype="<u2").tobytes()
+
+
+def _es_body(t, flags, x, y, flag_bits: int) -> bytes:
+    """5-byte events, each preceded by the overflow bytes its time gap needs.
+
+    Byte 0 holds the time since the previous event above ``flag_bits`` flag
+    bits; a gap the time field cannot hold takes overflow bytes, each worth
+    1 (DVS) or up to 3 (ATIS) units of ``2**(8 - flag_bits) - 1`` us
+    (see :mod:`snn_fg.events.eventstream`).
+    """
+    unit = (256 >> flag_bits) - 1
+    per_byte = (1 << flag_bits) - 1          # units one overflow byte can hold
+    first_special = 256 - (1 << flag_bits)   # its value with 0 units: the reset byte
+    t = np.asarray(t, dtype=np.int64)
     delta = np.diff(np.concatenate([[0], t]))
-    n_over = delta // 127
-    rem = delta % 127
+    units, rem = delta // unit, delta % unit
+    full, part = units // per_byte, units % per_byte
+    n_over = full + (part > 0)
     rec = np.empty((len(t), 5), dtype=np.uint8)
-    rec[:, 0] = (rem << 1) | (ev["p"] & 1)
-    x = ev["x"].astype(np.uint16)
-    y = ev["y"].astype(np.uint16)
-    rec[:, 1] = x & 0xFF
-    rec[:, 2] = x >> 8
-    rec[:, 3] = y & 0xFF
-    rec[:, 4] = y >> 8
-    total = int(n_over.sum()) + 5 * len(t)
-    out = np.full(total, 0xFF, dtype=np.uint8)
+    rec[:, 0] = (rem << flag_bits) | flags
+    x = np.asarray(x).astype(np.uint16)
+    y = np.asarray(y).astype(np.uint16)
+    rec[:, 1], rec[:, 2] = x & 0xFF, x >> 8
+    rec[:, 3], rec[:, 4] = y & 0xFF, y >> 8
+    out = np.full(int(n_over.sum()) + 5 * len(t), 0xFF, dtype=np.uint8)  # full overflow bytes
     starts = np.cumsum(n_over + 5) - 5  # start of each event's 5 bytes
-    idx = (starts[:, None] + np.arange(5)[None, :]).ravel()
-    out[idx] = rec.ravel()
-    return hdr + out.tobytes()
+    out[(starts[:, None] + np.arange(5)[None, :]).ravel()] = rec.ravel()
+    out[starts[part > 0] - 1] = first_special + part[part > 0]  # the partly filled overflow byte
+    return out.tobytes()
 
 
 def save_events(path, events, sensor_size, encoding: str | None = None) -> Path:
@@ -105,7 +151,7 @@ def save_events(path, events, sensor_size, encoding: str | None = None) -> Path:
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    ev, size = _prepare(events, sensor_size)
+    ev, size = _prepare("save_events", events, sensor_size)
     if suffix == ".npy":
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
@@ -115,9 +161,8 @@ def save_events(path, events, sensor_size, encoding: str | None = None) -> Path:
             with open(tmp, "wb") as fh:
                 np.savez(fh, events=ev, sensor_size=np.array(size, dtype=np.int64))
     elif suffix == ".raw":
-        enc = (encoding or "evt2").lower()
-        if enc not in ("evt2", "evt3"):
-            raise InputError(path, f"unknown RAW encoding {encoding!r} (use 'evt2' or 'evt3')")
+        enc = encoding.lower() if isinstance(encoding, str) else (encoding or "evt2")
+        validate.choice("save_events", "encoding", enc, ("evt2", "evt3"))
         data = encode_evt2(ev, size) if enc == "evt2" else encode_evt3(ev, size)
         with atomic_path(path) as tmp:
             tmp.write_bytes(data)

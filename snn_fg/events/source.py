@@ -1,0 +1,46 @@
+"""What a format opener hands to :class:`~snn_fg.events.io.RecordingStream`.
+
+Every per-format module (:mod:`~snn_fg.events.eventstream`,
+:mod:`~snn_fg.events.prophesee`, ...) has an ``open_*`` function that reads
+the file's header and returns a :class:`Source`: the sensor size, the decoder
+name and a ``chunks(n, tally)`` function that decodes the file from its start.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+
+#: Decoder names whose reader yields bounded chunks (see the table in :mod:`snn_fg.events.io`).
+STREAMING_FORMATS = frozenset({"es", "es-atis", "evt2", "evt3", "dat", "aedat4", "yarp", "npy", "array"})
+#: Bytes a binary decoder reads at a time: its memory does not grow with the file.
+READ_BYTES = 1 << 22
+
+
+@dataclass
+class DecodeTally:
+    """Events a decoder read but did not return, counted during one pass over the file."""
+
+    #: ATIS exposure-measurement (threshold-crossing) events: not polarity events.
+    exposure_events: int = 0
+
+
+@dataclass(frozen=True)
+class Source:
+    """An opened recording, ready to decode.
+
+    ``chunks(n, tally)`` yields event arrays (any structured dtype with
+    x, y, t, p; roughly ``n`` events each where the decoder can choose) from
+    the start of the file, and adds what it skips to ``tally``.
+    """
+
+    path: Path | None
+    format: str
+    sensor_size: tuple[int, int, int]
+    chunks: Callable[[int, DecodeTally], Iterator[np.ndarray]] = field(repr=False)
+
+    @property
+    def streams(self) -> bool:
+        return self.format in STREAMING_FORMATS

@@ -31,7 +31,7 @@ sys.path.insert(0, str(ROOT))
 
 from snn_fg.atomic import save_text  # noqa: E402
 from snn_fg.metrics import compare_frame  # noqa: E402
-from snn_fg.network.description import NetworkParams, build_network  # noqa: E402
+from snn_fg.network import SpikingParams, build_network  # noqa: E402
 from snn_fg.params import ModelParams  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking_result  # noqa: E402
@@ -45,9 +45,9 @@ KNOBS = {
     "defaults": {},
     "no pruning": {"prune_dog": 0.0, "prune_vm": 0.0},
     "grouping stride 1": {"grouping_stride": 1},
-    "bicubic pooling + feedback": {"pool_interpolation": "cubic", "fb_interpolation": "cubic"},
+    "bicubic pooling + feedback": {"pool_interpolation": "cubic", "feedback_interpolation": "cubic"},
     "support_min 0.1": {"support_min": 0.1},
-    "no drive rule (drive_min 0)": {"drive_min": 0.0},
+    "no drive hint (drive_min 0)": {"drive_min": 0.0},
 }
 
 
@@ -58,9 +58,9 @@ def _cmp(fx, fy, g, ref):
 
 
 def twin_row(pos, neg, ref, knobs):
-    net = build_network(ModelParams(), pos.shape, NetworkParams(**knobs))
+    net = build_network(ModelParams(), pos.shape, SpikingParams(**knobs))
     t0 = time.perf_counter()
-    un = unroll(net, {"on": pos > 0, "off": neg > 0})
+    un = unroll(net, {"input_on_1": pos > 0, "input_off_1": neg > 0})
     fx, fy, g, _ = run_twin(un)
     return {**_cmp(fx, fy, g, ref), "synapses": int(sum(c.n for c in un.connections)),
             "cells": int(sum(un.n_cells(p.name) for p in net.populations if p.neuron is not None)),
@@ -93,7 +93,7 @@ def main():
         m = res.maps
         sp = _cmp(m.fg_x, m.fg_y, m.grouping, ref)
         # the run freed its unrolled synapses (they would double its peak memory): unroll again for the twin
-        tfx, tfy, tg, _ = run_twin(unroll(res.network, {"on": res.inputs.on, "off": res.inputs.off}))
+        tfx, tfy, tg, _ = run_twin(unroll(res.network, {"input_on_1": res.inputs.on, "input_off_1": res.inputs.off}))
         tw_vs_sp = _cmp(m.fg_x, m.fg_y, m.grouping, {"fg_x": tfx, "fg_y": tfy, "grouping": tg})
         row = {"frame": path.stem, "twin_vs_ref": tw, "spiking_vs_ref": sp, "spiking_vs_twin": tw_vs_sp}
         record["full"].append(row)
@@ -105,7 +105,7 @@ def main():
         ref = {k: d[k] for k in ("fg_x", "fg_y", "grouping")}
         for label, knobs in (("delayed inhibition (default, 70 ms)", {}),
                              ("no delay (1 ms)", {"delay_opposite_ms": 1.0})):
-            res = run_spiking_result(d["pos"], d["neg"], progress=False, network=NetworkParams(**knobs))
+            res = run_spiking_result(d["pos"], d["neg"], progress=False, spiking=SpikingParams(**knobs))
             m = res.maps
             row = {"frame": path.stem, "variant": label, **_cmp(m.fg_x, m.fg_y, m.grouping, ref),
                    "group_mean_rate_hz": float(np.mean([s["mean_rate_hz"] for s in m.params["populations"].values()

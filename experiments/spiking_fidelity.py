@@ -37,7 +37,7 @@ from snn_fg.events import image_to_events, image_to_frame  # noqa: E402
 from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking_result  # noqa: E402
-from snn_fg.spiking.api import ROLE_ORDER  # noqa: E402
+from snn_fg.spiking.record import ROLE_ORDER  # noqa: E402
 
 BSDS = ROOT.parent / "shared" / "data" / "bsds-edfg"
 OUT = ROOT / "experiments" / "results"

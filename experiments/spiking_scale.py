@@ -33,8 +33,8 @@ res = run_spiking_result(d["pos"], d["neg"], progress=True, record_spikes=True)
 wall = time.perf_counter() - t0
 m = res.maps
 out = {{"wall_s": wall, "timings_s": m.params["timings_s"], "counts": m.params["counts"],
-        "kept_kernel_mass": m.params["kept_kernel_mass"], "codegen": m.params["simulation"]["codegen"],
-        "populations": m.params["populations"], "table": res.unrolled.table(),
+        "kept_kernel_mass": m.params["kept_kernel_mass"], "codegen": m.params["backend"]["codegen"],
+        "populations": m.params["populations"],
         "peak_rss_mb_self": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}}
 print("@@RESULT@@" + json.dumps(out))
 """
@@ -69,7 +69,7 @@ def main(argv=None):
         rows.append(r)
         print(f"{r['frame']}: {r['counts']['total_cells']:,} cells, {r['counts']['total_synapses']:,} synapses, "
               f"wall {r['process_wall_s']:.1f} s (unroll {r['timings_s']['unroll']:.1f}, build "
-              f"{r['timings_s']['build_s']:.1f}, run {r['timings_s']['run_s']:.1f}), peak {r['peak_rss_mb']:.0f} MB",
+              f"{r['timings_s']['build']:.1f}, run {r['timings_s']['run']:.1f}), peak {r['peak_rss_mb']:.0f} MB",
               flush=True)
     from snn_fg.atomic import save_text
     save_text(OUT / "spiking_scale.json", json.dumps(rows, indent=1))
@@ -81,7 +81,7 @@ def main(argv=None):
     for r in rows:
         t = r["timings_s"]
         lines.append(f"| {r['frame']} | {r['counts']['total_cells']:,} | {r['counts']['total_synapses']:,} | "
-                     f"{t['unroll']:.1f} | {t['build_s']:.1f} | {t['run_s']:.1f} | {r['process_wall_s']:.1f} | "
+                     f"{t['unroll']:.1f} | {t['build']:.1f} | {t['run']:.1f} | {r['process_wall_s']:.1f} | "
                      f"{r['peak_rss_mb']:.0f} |")
     if rows:
         big = max(rows, key=lambda r: r["counts"]["total_synapses"])

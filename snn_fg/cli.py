@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 from pathlib import Path
@@ -95,6 +96,9 @@ def _add_compare(sub):
                                    "and SSIM.")
     p.add_argument("a", metavar="A.npz")
     p.add_argument("b", metavar="B.npz")
+    p.add_argument("--window", type=_number(int, 0, strict=False), metavar="I",
+                   help="compare window I of each recording (a single frame is used as it is); by default "
+                        "recordings are paired window by window, by start time when both store it")
     p.add_argument("--json", metavar="OUT.json", default=None,
                    help="where to save the metrics (compare.json next to A)")
     p.set_defaults(handler=cmd_compare)
@@ -155,10 +159,11 @@ def _windows(args):
         windows = tqdm(windows, desc="windows", unit="win", file=sys.stderr, total=args.max_windows)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
     source.setdefault("stride_ms", source["window_ms"])
-    return windows, source
+    return windows, source, tuple(stream.sensor_size[1::-1])
 
 
 def cmd_run(args) -> int:
+    from .frames.pyramid import check_levels
     from .inputs import input_kind, load_frame
     from .runner import OutputFolder, run_frame, run_recording
 
@@ -167,10 +172,12 @@ def cmd_run(args) -> int:
     if kind == "recording":
         if model.needs == "image":
             raise InputError(args.input, f"the {model.name} model needs an image, not an event recording")
-        windows, source = _windows(args)
+        windows, source, shape = _windows(args)
     else:
         frame, source = load_frame(args.input, model.needs, args.threshold)
-    with OutputFolder(args.out, force=args.force) as out:
+        shape = frame.shape
+    check_levels(shape, model.params.levels, args.input)
+    with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as out:
         if kind == "recording":
             run_recording(model, windows, out.dir, source, args.input)
         else:
@@ -183,27 +190,63 @@ def cmd_run(args) -> int:
 # --------------------------------------------------------------------------
 # compare
 # --------------------------------------------------------------------------
+#: compare's table: (header, row key, width, format spec); at most 100 characters wide
+_COMPARE_COLUMNS = (("A", "window_a", 3, "d"), ("B", "window_b", 3, "d"), ("t (ms)", "t_start_ms", 8, ".1f"),
+                    ("pixels", "pixels_compared", 7, "d"), ("mean°", "angle_diff_mean_deg", 6, ".1f"),
+                    ("median°", "angle_diff_median_deg", 7, ".1f"), ("<=45°", "angle_within_45_frac", 6, ".3f"),
+                    ("MSE", "angle_mse", 6, ".3f"), ("SSIM", "angle_ssim", 6, ".3f"),
+                    ("grp r", "grouping_pearson_r", 6, ".3f"), ("grp SSIM", "grouping_ssim", 8, ".3f"))
+
+
+def compare_table(rows) -> str:
+    """The rows of :func:`~snn_fg.metrics.compare_maps` as a text table."""
+    lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COMPARE_COLUMNS)]
+    lines += ["  ".join("-".rjust(w) if r[k] is None else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COMPARE_COLUMNS)
+              for r in rows]
+    lines += ["A, B: compared windows; angle columns on pixels where both maps have a figure-ground vector",
+              "(SSIM: where either has one); grouping r and SSIM on the whole map, SSIM with each map scaled to 1"]
+    return "\n".join(lines)
+
+
 def cmd_compare(args) -> int:
     from .atomic import save_text
     from .maps import Maps
     from .metrics import compare_maps
 
     a, b = Maps.load(args.a), Maps.load(args.b)
-    if a.fg_x.shape != b.fg_x.shape:
-        raise InputError(args.b, f"maps shape {b.fg_x.shape} differs from {args.a}'s {a.fg_x.shape}")
-    rows = compare_maps(a, b)
-    keys = list(rows[0])
-    print("window  " + "  ".join(f"{k:>22s}" for k in keys))
-    for i, r in enumerate(rows):
-        print(f"{i:6d}  " + "  ".join(f"{r[k]:22.4f}" if isinstance(r[k], float) else f"{r[k]:22d}" for k in keys))
+    try:
+        rows = compare_maps(a, b, window=args.window)
+    except SnnFgError as exc:
+        raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
+    print(compare_table(rows))
     out = Path(args.json) if args.json else Path(args.a).with_name("compare.json")
     save_text(out, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
     print(f"snn-fg: metrics saved to {out}")
     return 0
 
 
-def _terminated(signum, frame):      # noqa: ARG001 - signal handler signature
-    raise KeyboardInterrupt("SIGTERM")
+class _Signals:
+    """Ctrl-C (SIGINT) and SIGTERM while a command runs: each is remembered
+    (so an interrupt swallowed somewhere, e.g. inside an import, still
+    cancels the run before its output is committed) and raised as
+    KeyboardInterrupt."""
+
+    def __init__(self):
+        self.received: list[str] = []
+        self.previous = {}
+
+    def __call__(self, signum, frame):      # noqa: ARG002 - signal handler signature
+        self.received.append(signal.Signals(signum).name)
+        raise KeyboardInterrupt(self.received[-1])
+
+    def __enter__(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self.previous[sig] = signal.signal(sig, self)
+        return self
+
+    def __exit__(self, *exc):
+        for sig, handler in self.previous.items():
+            signal.signal(sig, handler)
 
 
 def main(argv=None) -> int:
@@ -211,20 +254,32 @@ def main(argv=None) -> int:
     args, extra = parser.parse_known_args(argv)
     if extra:       # report an unknown option under the subcommand's own usage
         subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
-    previous = signal.signal(signal.SIGTERM, _terminated)
-    try:
-        return args.handler(args)
-    except SnnFgError as exc:
-        print(f"snn-fg: error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
-    except KeyboardInterrupt as exc:
-        term = exc.args == ("SIGTERM",)
-        print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); the output was left as it was before "
-              "the run", file=sys.stderr)
-        return 143 if term else 130
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    with _Signals() as signals:
+        args.interrupted = lambda: bool(signals.received)
+        try:
+            return args.handler(args)
+        except SnnFgError as exc:
+            print(f"snn-fg: error: {exc}", file=sys.stderr)
+            return EXIT_INPUT
+        except KeyboardInterrupt:
+            term = "SIGTERM" in signals.received
+            print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); the output was left as it was before "
+                  "the run", file=sys.stderr)
+            return 143 if term else 130
+
+
+def console():
+    """The ``snn-fg`` entry point: :func:`main`, exiting with its status. After
+    an interrupt the process ends at once with 130 (SIGINT) or 143 (SIGTERM):
+    an interrupt that reached library code can otherwise make the interpreter
+    end itself by the signal on the way out."""
+    code = main()
+    if code in (130, 143):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    console()

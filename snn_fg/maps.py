@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import RawArrayFile, save_npz
+from . import validate as check
 from .errors import InputError
 
 
@@ -29,7 +30,7 @@ class Maps:
     def __post_init__(self):
         shapes = {self.fg_x.shape, self.fg_y.shape, self.grouping.shape}
         if len(shapes) != 1:
-            raise ValueError(f"Maps: fg_x, fg_y and grouping differ in shape: {sorted(shapes)}")
+            check.fail("Maps", None, None, f"fg_x, fg_y and grouping differ in shape: {sorted(shapes)}")
 
     @property
     def angle(self) -> np.ndarray:
@@ -120,7 +121,7 @@ class MapsSeriesWriter:
         keys. ``lazy``: arrays that are a whole part file come as
         :class:`~snn_fg.atomic.RawArrayFile` instead of memory maps."""
         if self.n == 0:
-            raise ValueError("MapsSeriesWriter: no window was appended")
+            check.fail("MapsSeriesWriter", None, None, "no window was appended")
         out = {}
         for key, shapes in self._shapes.items():
             present = [s for s in shapes if s is not None]
@@ -144,8 +145,8 @@ class MapsSeriesWriter:
             else:
                 tails = {s[1:] for s in present}
                 if len(tails) != 1 or any(len(s) == 0 for s in present):
-                    raise ValueError(f"MapsSeriesWriter: array {key!r} changes its trailing shape between windows "
-                                     f"({sorted(set(present))}); cannot store it")
+                    check.fail("MapsSeriesWriter", None, None, f"array {key!r} changes its trailing shape between windows "
+                               f"({sorted(set(present))}); cannot store it")
                 tail = tails.pop()
                 lengths = [0 if s is None else s[0] for s in shapes]
                 out[key] = whole((sum(lengths),) + tail)

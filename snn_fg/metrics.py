@@ -1,19 +1,24 @@
 """Comparisons between maps, and scores against ground truth.
 
-Angle maps follow the paper: the figure-ground direction on edge pixels.
-Here an angle map holds ``atan2(fg_y, fg_x)`` in degrees, wrapped to
-[0, 360) and divided by 360, on pixels whose vector is non-zero, and 0
-elsewhere; MSE and SSIM are computed on that map (11 x 11 SSIM window).
-Angle differences are always circular: ``|a - b|`` folded into [0, 180].
-Grouping maps are compared by Pearson r and by SSIM after scaling each map
-by its own maximum: the spiking model's grouping is in Hz, the rate model's
-in its own units, and SSIM (unlike r) is not invariant to scale.
+Figure-ground maps are compared only where they say something: on *vector
+pixels*. Angle differences are circular (``|a - b|`` folded into
+[0, 180] degrees) and taken on the pixels where both maps have a vector: their
+mean, median and the fraction within 45 degrees (a median of quantised
+angles alone can read 0 while a third of the pixels are wrong). ``angle_mse``
+is the mean of ``(difference / 180)**2`` on those pixels (0 = equal,
+1 = opposite everywhere). ``angle_ssim`` is the SSIM (11 x 11 window) of the
+angle maps (``atan2(fg_y, fg_x)`` in turns, 0 off the vectors), averaged over
+the pixels where either map has a vector, not over the empty background.
+Grouping maps are dense and compared whole: Pearson r, and SSIM after scaling
+each map by its own maximum (the spiking model's grouping is in Hz, the rate
+model's in its own units).
 """
 from __future__ import annotations
 
 import numpy as np
 from skimage.metrics import structural_similarity
 
+from . import validate as check
 from .maps import Maps
 
 
@@ -29,13 +34,15 @@ def angle_map(fg_x, fg_y) -> np.ndarray:
     return np.where(nz, a, 0.0)
 
 
-def _ssim(a, b):
+def _ssim(a, b, where=None):
+    """SSIM (11 x 11 window), averaged over the pixels ``where`` (default: all)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     rng = max(float(np.ptp(a)), float(np.ptp(b)), 1e-12)
-    if min(a.shape) < 11:
+    if min(a.shape) < 11 or (where is not None and not where.any()):
         return float("nan")
-    return float(structural_similarity(a, b, win_size=11, data_range=rng))
+    mean, full = structural_similarity(a, b, win_size=11, data_range=rng, full=True)
+    return float(mean if where is None else full[where].mean())
 
 
 def _unit(a):
@@ -53,30 +60,75 @@ def pearson(a, b) -> float:
 
 
 def compare_frame(ax, ay, ag, bx, by, bg) -> dict:
-    """Metrics between two single-frame maps (see module docstring)."""
-    both = (np.hypot(ax, ay) > 0) & (np.hypot(bx, by) > 0)
+    """Metrics between two single-frame maps (see the module docstring)."""
+    has_a, has_b = np.hypot(ax, ay) > 0, np.hypot(bx, by) > 0
+    both = has_a & has_b
     diff = angle_difference_deg(ax, ay, bx, by)[both]
-    am, bm = angle_map(ax, ay), angle_map(bx, by)
+    nan = float("nan")
     return {
+        "pixels_compared": int(both.sum()),
+        "pixels_a": int(has_a.sum()),
+        "pixels_b": int(has_b.sum()),
+        "angle_diff_mean_deg": float(np.mean(diff)) if diff.size else nan,
+        "angle_diff_median_deg": float(np.median(diff)) if diff.size else nan,
+        "angle_within_45_frac": float(np.mean(diff <= 45)) if diff.size else nan,
+        "angle_mse": float(np.mean((diff / 180.0) ** 2)) if diff.size else nan,
+        "angle_ssim": _ssim(angle_map(ax, ay), angle_map(bx, by), has_a | has_b),
         "grouping_pearson_r": pearson(ag, bg),
         "grouping_ssim": _ssim(_unit(ag), _unit(bg)),
-        "angle_mse": float(np.mean((am - bm) ** 2)),
-        "angle_ssim": _ssim(am, bm),
-        "angle_diff_median_deg": float(np.median(diff)) if diff.size else float("nan"),
-        "angle_diff_mean_deg": float(np.mean(diff)) if diff.size else float("nan"),
-        "angle_within_45_frac": float(np.mean(diff <= 45)) if diff.size else float("nan"),
-        "pixels_compared": int(both.sum()),
     }
 
 
-def compare_maps(a: Maps, b: Maps) -> list[dict]:
-    """Compare two Maps window by window; returns one dict per window."""
-    if a.fg_x.shape != b.fg_x.shape:
-        raise ValueError(f"maps differ in shape: {a.fg_x.shape} vs {b.fg_x.shape}")
-    if a.fg_x.ndim == 2:
-        return [compare_frame(a.fg_x, a.fg_y, a.grouping, b.fg_x, b.fg_y, b.grouping)]
-    return [compare_frame(a.fg_x[i], a.fg_y[i], a.grouping[i], b.fg_x[i], b.fg_y[i], b.grouping[i])
-            for i in range(a.fg_x.shape[0])]
+def _windows(m: Maps):
+    """(index, start time in us or None) of each window of ``m`` (one frame: one window)."""
+    if m.fg_x.ndim == 2:
+        return [(None, None)]
+    t = m.extra.get("t_start_us")
+    return [(i, None if t is None else int(t[i])) for i in range(m.fg_x.shape[0])]
+
+
+def _frame(m: Maps, i):
+    return (m.fg_x, m.fg_y, m.grouping) if i is None else (m.fg_x[i], m.fg_y[i], m.grouping[i])
+
+
+def compare_maps(a: Maps, b: Maps, window: int | None = None) -> list[dict]:
+    """Compare two Maps; one dict per compared pair of windows.
+
+    Two recordings are paired by window start time (in the recording's own
+    clock) when both store it, keeping the windows both have; otherwise a
+    single frame or a one-window recording is compared with every window of
+    the other, and equal numbers of windows are paired index by index.
+    ``window`` picks that window of each map that has more than one, and
+    compares them whatever their start times. Every
+    row says which windows it compared (``window_a``, ``window_b``,
+    ``t_start_ms``).
+    """
+    if a.fg_x.shape[-2:] != b.fg_x.shape[-2:]:
+        check.fail("compare_maps", None, None, f"frames differ in size: {a.fg_x.shape[-2:]} vs {b.fg_x.shape[-2:]}")
+    wa, wb = _windows(a), _windows(b)
+    if window is not None:
+        for w in (wa, wb):
+            if len(w) > 1 and not 0 <= window < len(w):
+                check.fail("compare_maps", "window", window, f"is not among the {len(w)} windows of a map")
+        wa, wb = ([w[window]] if len(w) > 1 else w for w in (wa, wb))
+    if window is None and all(t is not None for _, t in wa + wb):
+        starts = {t: i for i, t in wb}
+        pairs = [((i, t), (starts[t], t)) for i, t in wa if t in starts]
+    elif len(wa) == 1 or len(wb) == 1:
+        pairs = [(x, y) for x in wa for y in wb]
+    elif len(wa) == len(wb):
+        pairs = list(zip(wa, wb))
+    else:
+        check.fail("compare_maps", None, None, f"the maps hold {len(wa)} and {len(wb)} windows and no start "
+                                               "times to pair them by; pick one with window=")
+    if not pairs:
+        check.fail("compare_maps", None, None, "the two recordings share no window start time")
+    rows = []
+    for (ia, ta), (ib, tb) in pairs:
+        t = ta if ta is not None else tb
+        rows.append({"window_a": ia, "window_b": ib, "t_start_ms": None if t is None else t / 1000.0,
+                     **compare_frame(*_frame(a, ia), *_frame(b, ib))})
+    return rows
 
 
 def truth_scores(fg_x, fg_y, scene) -> dict:

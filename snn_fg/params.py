@@ -1,6 +1,6 @@
 """The one parameter object shared by every model, simulator and exporter.
 
-Defaults are the paper's Table T1 values (see ``../shared/docs/model.md``).
+Defaults are the paper's Table T1 values (see ``docs/model.md``, "Default parameters").
 """
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import json
 import math
 from dataclasses import dataclass
 
-from .errors import ParameterError
+from . import validate as check
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ModelParams:
     """Parameters of the figure-ground model (rate and spiking forms).
 
@@ -56,38 +56,25 @@ class ModelParams:
     fbfg_edge_floor: float = 0.1
 
     def __post_init__(self):
-        def bad(name, why):
-            raise ParameterError(f"ModelParams.{name}={getattr(self, name)!r}: {why}")
-
-        for name in ("levels", "n_ori", "iterations"):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool):
-                bad(name, "must be an integer")
-        if self.levels < 1:
-            bad("levels", "must be >= 1")
-        if self.n_ori < 1:
-            bad("n_ori", "must be >= 1")
-        if self.iterations < 0:
-            bad("iterations", "must be >= 0")
-        for name in ("r0", "alpha", "w_inh", "dog_half_width", "dog_step", "edge_threshold",
-                     "sum_threshold", "pyramid_decay", "grouping_floor", "fbfg_edge_sigma",
-                     "fbfg_edge_floor"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                bad(name, "must be a finite number")
-        if self.r0 <= 0:
-            bad("r0", "must be > 0")
-        if self.alpha < 0:
-            bad("alpha", "must be >= 0")
-        if self.fbfg_edge_sigma <= 0:
-            bad("fbfg_edge_sigma", "must be > 0")
-        if self.dog_step <= 0 or self.dog_half_width <= 0:
-            bad("dog_step", "DoG sampling step and half width must be > 0")
+        owner = "ModelParams"
+        check.integer(owner, "levels", self.levels, lo=1)
+        check.integer(owner, "n_ori", self.n_ori, lo=1)
+        check.integer(owner, "iterations", self.iterations, lo=0)
+        for name, lo, strict in (("r0", 0, True), ("alpha", 0, False), ("w_inh", None, False),
+                                 ("dog_half_width", 0, True), ("dog_step", 0, True), ("edge_threshold", None, False),
+                                 ("sum_threshold", None, False), ("pyramid_decay", None, False),
+                                 ("grouping_floor", None, False), ("fbfg_edge_sigma", 0, True),
+                                 ("fbfg_edge_floor", None, False)):
+            object.__setattr__(self, name, check.number(owner, name, getattr(self, name), lo=lo, lo_open=strict))
         for name in ("dog_s1", "dog_s2"):
-            v = tuple(getattr(self, name))
-            if len(v) != 2 or not all(isinstance(x, (int, float)) and x > 0 for x in v):
-                bad(name, "must be two positive variances (row, column)")
-            object.__setattr__(self, name, tuple(float(x) for x in v))
+            v = getattr(self, name)
+            try:
+                pair = tuple(check.number(owner, name, x, lo=0, lo_open=True) for x in v)
+            except TypeError:
+                pair = ()
+            if len(pair) != 2:
+                check.fail(owner, name, v, "must be two positive variances (row, column)")
+            object.__setattr__(self, name, pair)
 
     @property
     def n_dir(self) -> int:
@@ -110,10 +97,7 @@ class ModelParams:
 
     @classmethod
     def from_dict(cls, d: dict) -> "ModelParams":
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(d) - names
-        if unknown:
-            raise ParameterError(f"ModelParams: unknown parameter(s) {sorted(unknown)}")
+        check.known_keys("ModelParams", d, [f.name for f in dataclasses.fields(cls)])
         d = dict(d)
         for k in ("dog_s1", "dog_s2"):
             if k in d:

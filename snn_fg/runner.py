@@ -27,11 +27,14 @@ class OutputFolder:
 
     ``force=False`` refuses a destination that exists and is not empty (so an
     earlier run is never mixed with this one); ``force=True`` replaces it.
+    ``cancelled`` (a callable) is asked once more before committing: a run
+    that was cancelled (an interrupt swallowed by a library) leaves nothing.
     Use as a context manager; write into :attr:`dir` inside the block.
     """
 
-    def __init__(self, path, force: bool = False):
+    def __init__(self, path, force: bool = False, cancelled=None):
         self.path = Path(path)
+        self.cancelled = cancelled or (lambda: False)
         if self.path.exists() and not self.path.is_dir():
             raise InputError(self.path, "--out must be a folder, but a file of that name exists")
         if self.path.is_dir() and any(self.path.iterdir()) and not force:
@@ -54,11 +57,15 @@ class OutputFolder:
         return self
 
     def __exit__(self, exc_type, exc, tb):
+        if exc_type is None and self.cancelled():
+            exc_type = KeyboardInterrupt
         if exc_type is not None:
             shutil.rmtree(self.dir, ignore_errors=True)
             for p in reversed(self._made):
                 with contextlib.suppress(OSError):
                     p.rmdir()
+            if exc is None:
+                raise KeyboardInterrupt("cancelled")
             return False
         os.chmod(self.dir, 0o777 & ~_umask())
         if self.path.exists():

@@ -253,6 +253,7 @@ def test_output_folder_is_never_mixed_with_an_earlier_run(tmp_path):
     (["--duration-ms", "50"], "--duration-ms"),            # a spiking option for the rate model
     (["--levels", "0"], "--levels"),                       # argparse range check
     (["--r0", "nan"], "--r0"),
+    (["--levels", "50"], "at most 14 pyramid levels"),    # the 120 x 160 demo has 14 levels of >= 2 x 2 px
 ])
 def test_invalid_arguments_create_nothing(tmp_path, args, message):
     out = tmp_path / "a" / "b" / "out"
@@ -270,3 +271,41 @@ def test_usage_errors_are_reported_under_the_subcommand(tmp_path):
     res = run_cli("--version")
     from snn_fg import __version__
     assert res.returncode == 0 and res.stdout.strip() == f"snn-fg {__version__}" and __version__[0].isdigit()
+
+
+def test_compare_pairs_windows_by_time_and_reads_at_100_columns(tmp_path):
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.scenes import disc
+
+    rec = image_to_events(disc(16).image, motion="circle")
+    path = tmp_path / "disc.npy"
+    save_events(path, rec.events, rec.sensor_size)
+    opts = ["--window-ms", "100", "--sensor-size", "64x64", "--no-progress"]
+    assert main(["run", str(path), "--out", str(tmp_path / "all"), *opts]) == 0
+    assert main(["run", str(path), "--out", str(tmp_path / "one"), "--max-windows", "1", *opts]) == 0
+    a, b = tmp_path / "all" / "maps.npz", tmp_path / "one" / "maps.npz"
+    res = run_cli("compare", a, b, "--json", tmp_path / "c.json")
+    assert res.returncode == 0, res.stderr
+    assert max(len(line) for line in res.stdout.splitlines()) <= 100
+    rows = json.loads((tmp_path / "c.json").read_text())["windows"]
+    t0 = int(rec.events["t"][0]) / 1000
+    assert [(r["window_a"], r["window_b"], r["t_start_ms"]) for r in rows] == [(0, 0, t0)]   # paired by start time
+    assert rows[0]["angle_mse"] == 0 and rows[0]["angle_within_45_frac"] == 1
+    res = run_cli("compare", a, b, "--window", "2", "--json", tmp_path / "w.json")
+    assert res.returncode == 0, res.stderr
+    row, = json.loads((tmp_path / "w.json").read_text())["windows"]
+    assert (row["window_a"], row["window_b"]) == (2, 0) and row["angle_within_45_frac"] < 1
+    res = run_cli("compare", a, b, "--window", "9")
+    assert res.returncode == 2 and "window=9" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_angle_metrics_ignore_the_empty_background():
+    from snn_fg.metrics import compare_frame
+
+    fx = np.zeros((40, 40))
+    fy = np.zeros((40, 40))
+    fx[20, 5:35] = 1.0                      # one edge pointing right...
+    c = compare_frame(fx, fy, fx, -fx, fy, fx)                 # ...against the same edge pointing left
+    assert c["pixels_compared"] == 30 and c["angle_diff_mean_deg"] == 180
+    assert c["angle_mse"] == 1.0 and c["angle_within_45_frac"] == 0.0
+    assert c["angle_ssim"] < 0.5          # over the whole image it would be ~0.99 (background agrees)

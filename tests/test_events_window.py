@@ -27,7 +27,9 @@ def test_windows_partition_events_and_frames_match():
     ev = ev_at(t, rng.integers(0, 16, 5000), rng.integers(0, 8, 5000), rng.integers(0, 2, 5000))
     wins = list(iter_windows(ev, window_ms=85, sensor_size=(16, 8), chunk_events=333))
     assert [w.index for w in wins] == list(range(len(wins)))
-    assert wins[0].t_start_us == t[0] and all(w.t_end_us - w.t_start_us == 85_000 for w in wins)
+    assert wins[0].t_start_us == t[0] and all(w.t_end_us - w.t_start_us == 85_000 for w in wins[:-1])
+    # the last window ends with the recording, one microsecond after its last event
+    assert wins[-1].t_end_us == t[-1] + 1 and wins[-1].t_end_us - wins[-1].t_start_us <= 85_000
     assert len(wins) == int(np.ceil((t[-1] - t[0] + 1) / 85_000))
     np.testing.assert_array_equal(np.concatenate([w.events for w in wins]), ev)
     for w in wins:
@@ -61,7 +63,7 @@ def test_window_longer_than_recording_gives_one_window():
         warnings.simplefilter("error")
         wins = list(iter_windows(ev, window_ms=10_000, sensor_size=(8, 1)))
     assert len(wins) == 1
-    assert len(wins[0].events) == 50 and wins[0].t_end_us == 10_000_000
+    assert len(wins[0].events) == 50 and wins[0].t_end_us == 49 * 100 + 1     # not 10 s past the data
 
 
 def test_backwards_timestamp_names_event_index():

@@ -76,9 +76,10 @@ def test_level_one_simple_cells_are_gated_by_their_own_pixel(net):
     worst = np.clip(kept, 0, None).sum(axis=(1, 2, 3)).max() * dog.gain_mv * rate * tau
     assert nrn.v_rest_mv + worst <= nrn.v_th_mv - SpikingParams().gate_margin * nrn.v_th_mv + 1e-9
     for polarity in ("on", "off"):
-        gate = next(p for p in net.projections if p.name == f"input_{polarity}_1_gates_simple_1")
-        assert gate.kernel.array(net.params)[:, 0, 0, 0].tolist() == [1.0] * 16
-        assert nrn.v_rest_mv + gate.gain_mv * rate * tau == pytest.approx(0.0)
+        gates = [p for p in net.projections if p.name.startswith(f"input_{polarity}_1_gates")]
+        assert len(gates) == SpikingParams().gate_copies and len({p.delay_ms for p in gates}) == len(gates)
+        assert all(p.kernel.array(net.params)[:, 0, 0, 0].tolist() == [1.0] * 16 for p in gates)
+        assert nrn.v_rest_mv + sum(p.gain_mv for p in gates) * rate * tau == pytest.approx(0.0)
     # coarse levels are masked by the resized edge map instead, and say so
     assert not s.edge_mask and all(p.edge_mask for p in net.by_role("simple") if p.level > 1)
 
@@ -143,8 +144,8 @@ def test_calibration_scales_only_the_input_gains(small):
             changed += 1
         else:
             assert b == a
-    # the DoG and gate projections of every level, the input -> untuned ones
-    assert changed == 2 * 3 + 2 + 2 * 3
+    # the DoG projections of every level, the level-1 gates, the input -> untuned ones
+    assert changed == 2 * 3 + 2 * SpikingParams().gate_copies + 2 * 3
     assert half.calibrated(200.0) == small or np.allclose(
         [p.gain_mv for p in half.calibrated(200.0).projections], [p.gain_mv for p in small.projections])
     # the same network as building it for that input rate

@@ -99,6 +99,8 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
 
     * Windows continue until one contains the last event; a window longer
       than the recording yields one window holding everything after the start.
+      The last window's ``t_end_us`` is one microsecond after the last event
+      (never past the end of the recording).
     * An empty window (a pause in the recording) is yielded with all-zero
       frames and an :class:`EmptyWindowWarning`.
     * Timestamps must not go backwards: that is an InputError naming the
@@ -178,5 +180,6 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
             raise InputError(name, f"start_ms={start_ms} lies after the last event "
                                    f"({(prev_t - t0) / 1000:g} ms after the first)")
         return
-    yield emit(buf, w_start, w_end)
+    # the last window ends with the recording: its nominal end may lie far beyond
+    yield emit(buf, w_start, min(w_end, prev_t + 1))
 

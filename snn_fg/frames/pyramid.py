@@ -23,6 +23,25 @@ def level_shape(shape: tuple[int, int], level: int) -> tuple[int, int]:
     return (int(h * s) + 1, int(w * s) + 1)
 
 
+def max_levels(shape: tuple[int, int]) -> int:
+    """The most pyramid levels a frame of ``shape`` has that are at least
+    2 x 2 pixels (coarser ones would be a single row or column)."""
+    level = 1
+    while min(level_shape(shape, level + 1)) >= 2:
+        level += 1
+    return level
+
+
+def check_levels(shape: tuple[int, int], levels: int, source="<frame>") -> None:
+    """Refuse more pyramid levels than a frame of ``shape`` can have."""
+    most = max_levels(shape)
+    if levels > most:
+        from ..errors import InputError
+
+        raise InputError(source, f"a {shape[0]} x {shape[1]} frame has at most {most} pyramid levels of at least "
+                                 f"2 x 2 pixels; --levels {levels} asks for more")
+
+
 def resize(img: np.ndarray, shape: tuple[int, int], interpolation: str = "cubic") -> np.ndarray:
     """Resize a 2-D (or H x W x C) float64 array to ``shape`` (rows, cols).
 

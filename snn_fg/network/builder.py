@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import validate as check
-from ..frames.pyramid import level_shape
+from ..frames.pyramid import check_levels, level_shape
 from ..params import ModelParams
 from .graph import Network
 from .nodes import Conv, Kernel, Neuron, Population, Resize
@@ -214,9 +214,13 @@ class _Builder:
             self.conv(src, s, kernel, gain=self.gains.dog, mode="conv", padding="wrap", prune=self.sp.prune_dog,
                       calibrated=True)
         if gate:
+            copies = self.sp.gate_copies
             for src in (on, off):
-                self.conv(src, s, _channel_map(n_dir, 1, [(k, 0) for k in range(n_dir)]), verb="gates",
-                          gain=gate / (self.sp.input_rate_hz * neuron.tau_exc_ms / 1000.0), calibrated=True)
+                for i in range(copies):
+                    self.conv(src, s, _channel_map(n_dir, 1, [(k, 0) for k in range(n_dir)]),
+                              verb="gates" if i == 0 else f"gates{i}",
+                              gain=gate / copies / (self.sp.input_rate_hz * neuron.tau_exc_ms / 1000.0),
+                              delay=self.sp.delay_ms + i * self.sp.gate_spread_ms, calibrated=True)
         others = [(a, b) for a in range(n_dir) for b in range(n_dir) if a != b]
         self.conv(s, s, _channel_map(n_dir, n_dir, others), sign=-1, gain=self.gains.simple_inh_simple)
         return s
@@ -338,6 +342,7 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
     if not isinstance(spiking, SpikingParams):
         check.fail("build_network", "spiking", type(spiking).__name__, "must be a SpikingParams")
     frame_shape = check.shape2("build_network", "frame_shape", frame_shape)
+    check_levels(frame_shape, params.levels, "build_network")
     if params.n_ori % 2:
         check.fail("build_network", "params.n_ori", params.n_ori,
                    "must be even (index n_ori/2 is the untuned cells' orientation)")

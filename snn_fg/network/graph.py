@@ -39,7 +39,7 @@ class Network:
     projections: tuple[Projection, ...]
     input_rate_hz: float = 200.0
     support_min: float = 0.3
-    drive_min: float = 0.8
+    drive_min: float = 0.85
     notes: tuple[str, ...] = ()
     _by_name: dict = field(init=False, repr=False, compare=False, hash=False)
 

@@ -40,10 +40,15 @@ class SpikingParams(Node):
         ``ModelParams.edge_threshold`` (stage 3); ``gate_margin``: how far
         (thresholds) a level-1 simple cell without an event at its pixel
         stays below threshold under the strongest possible DoG drive;
+        ``gate_copies``, ``gate_spread_ms``: the gate arrives as that many
+        equal parts, ``gate_spread_ms`` apart (a smoother current: one
+        large-weight input would add a ripple of about 2 mV at 200 Hz);
         ``support_min``: coarse levels have simple and untuned cells only
         where the resized edge map reaches this value; ``drive_min``: the
         ``edges&drive`` instantiation hint's fraction of the way from reset
-        to threshold (below 1, a margin for fluctuations).
+        to threshold (below 1: a margin, so that a cell left out cannot fire
+        on fluctuations either; 0.85 keeps the spikes of every instantiated
+        cell equal to those of the whole network in the tests).
     Geometry
         ``grouping_stride``: grouping and feedback cells sit on every
         ``grouping_stride``-th level pixel along each axis;
@@ -80,8 +85,10 @@ class SpikingParams(Node):
 
     input_rate_hz: float = 200.0
     support_min: float = 0.3
-    drive_min: float = 0.8
+    drive_min: float = 0.85
     gate_margin: float = 1.0
+    gate_copies: int = 5
+    gate_spread_ms: float = 1.0
     grouping_stride: int = 2
     pool_interpolation: str = "linear"
     feedback_interpolation: str = "linear"
@@ -117,7 +124,7 @@ class SpikingParams(Node):
             if f.name in CELL_KINDS:
                 if not isinstance(v, Neuron):
                     check.fail(owner, f.name, v, "must be a Neuron")
-            elif f.name == "grouping_stride":
+            elif f.name in ("grouping_stride", "gate_copies"):
                 check.integer(owner, f.name, v, lo=1)
             elif f.name.endswith("_interpolation"):
                 check.choice(owner, f.name, v, INTERPOLATIONS)

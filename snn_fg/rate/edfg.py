@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft as sfft
 
-from ..frames.pyramid import pyramid, resize
+from ..frames.pyramid import check_levels, pyramid, resize
 from ..maps import Maps
 from ..network.kernels import dog_kernels, von_mises_masks
 from ..params import ModelParams
@@ -297,6 +297,7 @@ class RateState:
 
 def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None) -> RateState:
     """Run stages 1-9 on an event frame and return every intermediate map."""
+    check_levels(np.shape(pos), params.levels)
     s_levels, resp1, winner1 = event_simple_cells(pos, neg, params)
     g = border_ownership_grouping(s_levels, params, progress)
     fg_x, fg_y, grouping = readout(g, params, np.shape(pos))

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage as ndi
 
-from ..frames.pyramid import pyramid
+from ..frames.pyramid import check_levels, pyramid
 from ..maps import Maps
 from ..params import ModelParams
 from .edfg import border_ownership_grouping, readout
@@ -99,6 +99,7 @@ def run_fbfg(image, params: ModelParams = ModelParams(), progress=None) -> Maps:
     ``params.grouping_floor`` are zeroed, as the frame-based model does.
     """
     img = np.asarray(image, dtype=np.float64)
+    check_levels(img.shape[:2], params.levels, "<image>")
     s_levels = frame_simple_cells(img, params)
     g = border_ownership_grouping(s_levels, params, progress)
     fg_x, fg_y, grouping = readout(g, params, img.shape[:2])

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from .. import validate as check
+from ..errors import InputError
 
 
 @dataclass
@@ -61,7 +62,7 @@ class InputSpikes:
 
 def _check_dt(dt_ms):
     if not (isinstance(dt_ms, (int, float)) and np.isfinite(dt_ms) and dt_ms > 0):
-        raise ParameterError(f"dt_ms={dt_ms!r}: must be a positive number")
+        check.fail("input spikes", "dt_ms", dt_ms, "must be a positive number")
 
 
 def frame_spikes(pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, seed: int = 0,
@@ -78,9 +79,9 @@ def frame_spikes(pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, see
     if pos.ndim != 2 or pos.shape != neg.shape:
         raise InputError("<frame>", f"pos and neg must be 2-D arrays of one shape, got {pos.shape} and {neg.shape}")
     if not (isinstance(rate_hz, (int, float)) and np.isfinite(rate_hz) and rate_hz > 0):
-        raise ParameterError(f"rate_hz={rate_hz!r}: must be a positive number")
+        check.fail("frame_spikes", "rate_hz", rate_hz, "must be a positive number")
     if process not in ("regular", "poisson"):
-        raise ParameterError(f"input_process={process!r}: must be 'regular' or 'poisson'")
+        check.fail("frame_spikes", "input_process", process, "must be 'regular' or 'poisson'")
     on = pos != 0
     off = neg != 0
     h, w = pos.shape
@@ -90,13 +91,13 @@ def frame_spikes(pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, see
     if process == "regular":
         k = max(1, int(round(1000.0 / rate_hz / dt_ms)))
         if 1000.0 / (k * dt_ms) > 1.5 * rate_hz or 1000.0 / (k * dt_ms) < rate_hz / 1.5:
-            raise ParameterError(f"rate_hz={rate_hz}: not representable as a regular train with dt={dt_ms} ms")
+            check.fail("frame_spikes", "rate_hz", rate_hz, f"is not representable as a regular train with dt={dt_ms} ms")
         phase = rng.integers(0, k, size=src.size)
         order = np.lexsort((src, phase))
         return InputSpikes((h, w), src[order], phase[order], k, on, off, 1000.0 / (k * dt_ms), 0, "frame-regular")
     p = rate_hz * dt_ms / 1000.0
     if p >= 1:
-        raise ParameterError(f"rate_hz={rate_hz}: at least one spike per step at dt={dt_ms} ms")
+        check.fail("frame_spikes", "rate_hz", rate_hz, f"means at least one spike per step at dt={dt_ms} ms")
     idx_l, st_l = [], []
     for s0 in range(0, n_steps, 1000):      # bounded memory for long presentations
         block = min(1000, n_steps - s0)

@@ -1,0 +1,66 @@
+"""Interrupting a run with a real signal (Ctrl-C's SIGINT, or SIGTERM) exits
+non-zero, says so in one line, and leaves the output folder exactly as it
+was before the run: an earlier run in it stays whole."""
+import signal
+import subprocess
+import sys
+import time
+
+import cv2
+import numpy as np
+import pytest
+
+from snn_fg.events import image_to_events, save_events
+from snn_fg.scenes import demo
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("inputs")
+    big = cv2.resize(demo().image, (960, 720), interpolation=cv2.INTER_LINEAR)
+    cv2.imwrite(str(d / "big.png"), (big * 255).astype(np.uint8))
+    rec = image_to_events(demo().image, motion="circle")
+    ev = np.concatenate([rec.events] + [rec.events.copy() for _ in range(29)])
+    ev["t"] += np.repeat(np.arange(30) * 400_000, len(rec.events))          # 12 s of saccades
+    save_events(d / "long.npz", ev, rec.sensor_size)
+    return d
+
+
+CASES = {
+    "rate-image": lambda d: ["big.png"],
+    "fbfg-image": lambda d: ["big.png", "--model", "fbfg"],
+    "spiking-frame": lambda d: ["demo", "--model", "spiking", "--duration-ms", "60000"],
+    "rate-recording": lambda d: ["long.npz", "--window-ms", "50"],
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case, sig, after_s", [
+    ("rate-image", signal.SIGINT, 1.0), ("fbfg-image", signal.SIGTERM, 1.0),
+    ("spiking-frame", signal.SIGINT, 1.0), ("spiking-frame", signal.SIGTERM, 1.0),
+    # at once: while the simulator is still being imported (an interrupt there can be swallowed by importlib)
+    ("spiking-frame", signal.SIGINT, 0.0), ("spiking-frame", signal.SIGINT, 0.1),
+    ("rate-recording", signal.SIGTERM, 1.0), ("rate-recording", signal.SIGINT, 1.0)])
+def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path, case, sig, after_s):
+    out = tmp_path / "out"
+    out.mkdir()
+    earlier = {"maps.npz": b"an earlier run's maps", "maps.png": b"and its figure"}
+    for name, data in earlier.items():
+        (out / name).write_bytes(data)
+    args = CASES[case](inputs)
+    args[0] = args[0] if args[0] == "demo" else str(inputs / args[0])
+    proc = subprocess.Popen([sys.executable, "-m", "snn_fg.cli", "run", *args, "--out", str(out), "--force",
+                             "--no-progress"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not list(tmp_path.glob(".out.*.staging")):          # the run has started writing
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(after_s)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == (130 if sig == signal.SIGINT else 143), err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "interrupted" in lines[0] and "left as it was" in lines[0], err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == earlier
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]              # no staging folder left

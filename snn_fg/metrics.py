@@ -23,8 +23,9 @@ from .maps import Maps
 
 
 def angle_difference_deg(ax, ay, bx, by) -> np.ndarray:
-    """Absolute circular difference between two direction fields, degrees."""
-    d = np.arctan2(ay, ax) - np.arctan2(by, bx)
+    """Absolute circular difference between two direction fields, degrees (float64)."""
+    f = lambda v: np.asarray(v, dtype=np.float64)    # noqa: E731 - float32 maps lose 1e-5 deg here
+    d = np.arctan2(f(ay), f(ax)) - np.arctan2(f(by), f(bx))
     return np.abs(np.degrees(np.angle(np.exp(1j * d))))
 
 
@@ -93,6 +94,30 @@ def _frame(m: Maps, i):
 
 def compare_maps(a: Maps, b: Maps, window: int | None = None) -> list[dict]:
     """Compare two Maps; one dict per compared pair of windows.
+
+    Parameters
+    ----------
+    a, b : Maps
+        One frame each, or one map per window of a recording.
+    window : int, optional
+        Compare only this window of each map that has several.
+
+    Returns
+    -------
+    list of dict
+        Per pair: ``window_a``, ``window_b``, ``t_start_ms`` and the metrics
+        of :func:`compare_frame` (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from snn_fg.maps import Maps
+    >>> fx = np.zeros((16, 16), np.float32); fx[8, 2:14] = 1
+    >>> a = Maps(fx, 0 * fx, fx.copy())
+    >>> b = Maps(-fx, 0 * fx, fx.copy())          # the same edge, owned by the other side
+    >>> row, = compare_maps(a, b)
+    >>> row["pixels_compared"], row["angle_diff_mean_deg"], row["angle_within_45_frac"]
+    (12, 180.0, 0.0)
 
     Two recordings are paired by window start time (in the recording's own
     clock) when both store it, keeping the windows both have; otherwise a

@@ -125,21 +125,23 @@ def render(shapes, size, background, name="scene") -> Scene:
     return Scene(name, image, tuple(shapes), float(background), labels, boundary, owner, tx, ty)
 
 
-def disc(radius: float = 24, light_on_dark: bool = True, margin: float = 1.5) -> Scene:
-    """One disc centred in a square frame of side ``2*margin*radius`` (at least 64)."""
-    side = max(64, int(round(2 * margin * radius)))
+def _centred(shape_type, size, light_on_dark, margin, name) -> Scene:
+    """One shape centred in a square frame of side ``2*margin*size`` (at least 64)."""
+    side = max(64, int(round(2 * margin * size)))
     fg, bg = (0.8, 0.2) if light_on_dark else (0.2, 0.8)
     c = (side - 1) / 2
     kind = "light" if light_on_dark else "dark"
-    return render([Disc(c, c, radius, fg)], (side, side), bg, name=f"disc-r{radius:g}-{kind}")
+    return render([shape_type(c, c, size, fg)], (side, side), bg, name=f"{name}{size:g}-{kind}")
+
+
+def disc(radius: float = 24, light_on_dark: bool = True, margin: float = 1.5) -> Scene:
+    """One disc centred in a square frame of side ``2*margin*radius`` (at least 64)."""
+    return _centred(Disc, radius, light_on_dark, margin, "disc-r")
 
 
 def square(half: float = 24, light_on_dark: bool = True, margin: float = 1.5) -> Scene:
-    side = max(64, int(round(2 * margin * half)))
-    fg, bg = (0.8, 0.2) if light_on_dark else (0.2, 0.8)
-    c = (side - 1) / 2
-    kind = "light" if light_on_dark else "dark"
-    return render([Square(c, c, half, fg)], (side, side), bg, name=f"square-h{half:g}-{kind}")
+    """One square (half side ``half``) centred in a frame of side ``2*margin*half`` (at least 64)."""
+    return _centred(Square, half, light_on_dark, margin, "square-h")
 
 
 def occlusion(size=(96, 128)) -> Scene:

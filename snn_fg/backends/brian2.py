@@ -227,20 +227,25 @@ class Brian2Backend(Backend):
 
 @contextlib.contextmanager
 def _progress_bar(settings: RunSettings):
-    """A Brian2 ``report`` callback driving a tqdm bar in simulated ms (or None)."""
+    """A Brian2 ``report`` callback driving a tqdm bar in simulated ms (or None).
+
+    The bar appears with Brian2's first report, once the code is compiled and
+    the simulation runs, so it never sits at 0 % during the compilation."""
     if not settings.progress:
         yield None
         return
     from tqdm import tqdm
 
-    bar = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False)
-    done = {"ms": 0}
+    state = {"bar": None, "ms": 0}
 
     def report(elapsed, completed, start, duration):    # noqa: ARG001 - Brian2's signature
+        if state["bar"] is None:
+            state["bar"] = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False)
         now = int(round(float(completed) * settings.duration_ms))
-        bar.update(now - done["ms"])
-        done["ms"] = now
+        state["bar"].update(now - state["ms"])
+        state["ms"] = now
     try:
         yield report
     finally:
-        bar.close()
+        if state["bar"] is not None:
+            state["bar"].close()

@@ -281,8 +281,13 @@ def iter_recording(source, *, chunk_events: int = DEFAULT_CHUNK, sensor_size=Non
 
     Examples
     --------
-    >>> stream = iter_recording("flight.es", chunk_events=100_000)  # doctest: +SKIP
-    >>> n = sum(len(chunk) for chunk in stream)                     # doctest: +SKIP
+    >>> import numpy as np
+    >>> from snn_fg.events import EVENT_DTYPE
+    >>> ev = np.zeros(250, EVENT_DTYPE)
+    >>> ev["t"] = np.arange(250) * 100
+    >>> stream = iter_recording(ev, chunk_events=100, sensor_size=(8, 8))
+    >>> stream.format, [len(chunk) for chunk in stream]
+    ('array', [100, 100, 50])
     """
     options = check_format_options("iter_recording", encoding=encoding, codec=codec, channel=channel,
                                    timer_bits=timer_bits)
@@ -297,19 +302,45 @@ def open_recording(path, *, sensor_size=None, progress: bool = False, encoding: 
                    timer_bits: int | None = None) -> Recording:
     """Read a whole recording (any supported format, or a structured array).
 
-    ``sensor_size`` ``(W, H)`` overrides the file's geometry and is required
-    for headerless EVT2/EVT3 files; for arrays and ``.npy`` without it the
-    size is inferred as (max x + 1, max y + 1).  ``encoding``, ``codec``,
-    ``channel`` and ``timer_bits`` are the format options of the module
-    docstring.  Bad input raises :class:`~snn_fg.errors.InputError` naming
-    file, problem and place; a bad or inapplicable option raises
-    :class:`~snn_fg.errors.ParameterError`.
+    Parameters
+    ----------
+    path : str, Path, Recording or structured array
+        The recording; the extension picks the format (see the module table)
+        and the file's first bytes must agree with it.
+    sensor_size : (int, int), optional
+        ``(W, H)``: overrides the file's geometry; required for headerless
+        EVT2/EVT3 files. Arrays and ``.npy`` files without it get
+        ``(max x + 1, max y + 1)``.
+    progress : bool
+        Show a progress bar while reading.
+    encoding, codec, channel, timer_bits
+        Format options: ``encoding`` ("evt2", "evt3") for RAW files without a
+        header, ``codec`` ("auto", "24", "20"), ``channel`` (0, 1, "both") and
+        ``timer_bits`` for iCub YARP logs. An option for another format is
+        refused.
+
+    Returns
+    -------
+    Recording
+        ``events`` (x, y, t in microseconds, p), ``sensor_size`` (W, H, 2),
+        ``format``, ``path`` and, for ATIS Event Streams, the number of
+        exposure events left out (``exposure_events``).
+
+    Raises
+    ------
+    InputError
+        A bad file, naming it, the problem and the byte offset or event.
+    ParameterError
+        A bad or inapplicable option.
 
     Examples
     --------
-    >>> rec = open_recording("spinner.raw", sensor_size=(640, 480))  # doctest: +SKIP
-    >>> rec.format, len(rec), rec.exposure_events                   # doctest: +SKIP
-    ('evt2', 539481, 0)
+    >>> import numpy as np
+    >>> from snn_fg.events import EVENT_DTYPE
+    >>> rec = open_recording(np.array([(1, 0, 10, 1), (2, 1, 20, 0), (3, 2, 30, 1)], EVENT_DTYPE),
+    ...                      sensor_size=(4, 3))
+    >>> rec.format, len(rec), rec.sensor_size, rec.duration_us
+    ('array', 3, (4, 3, 2), 20)
     """
     options = check_format_options("open_recording", encoding=encoding, codec=codec, channel=channel,
                                    timer_bits=timer_bits)

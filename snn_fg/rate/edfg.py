@@ -305,7 +305,34 @@ def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None)
 
 
 def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None) -> Maps:
-    """Event frame (``pos``, ``neg``) -> figure-ground and grouping maps."""
+    """The rate reference model (stages 1-9 of ``docs/model.md``) on one event frame.
+
+    Parameters
+    ----------
+    pos, neg : array (H, W)
+        The event frame: 1 where the pixel's last event was ON (``pos``) or
+        OFF (``neg``), 0 elsewhere (see :func:`snn_fg.events.events_to_frame`).
+    params : ModelParams
+        The model's parameters (default: the paper's).
+    progress : callable, optional
+        Wraps the iterations of stages 7-8 (e.g. ``tqdm``).
+
+    Returns
+    -------
+    Maps
+        ``fg_x``, ``fg_y`` (the figure-ground field, x right, y up) and
+        ``grouping`` (float32, H x W), and ``params``.
+
+    Examples
+    --------
+    >>> from snn_fg.events import image_to_frame
+    >>> from snn_fg.metrics import grouping_peak_inside
+    >>> from snn_fg.scenes import disc
+    >>> scene = disc(radius=16)
+    >>> maps = run_edfg(*image_to_frame(scene.image))
+    >>> maps.fg_x.shape, grouping_peak_inside(maps.grouping, scene)
+    ((64, 64), True)
+    """
     st = run_edfg_state(pos, neg, params, progress)
     return Maps(fg_x=st.fg_x.astype(np.float32), fg_y=st.fg_y.astype(np.float32),
                 grouping=st.grouping.astype(np.float32), params={"model": "rate", **params.to_dict()})

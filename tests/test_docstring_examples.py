@@ -1,0 +1,16 @@
+"""The Examples sections of the public entry points' docstrings run and give
+what they show."""
+import doctest
+import importlib
+
+import pytest
+
+MODULES = ["snn_fg.backends", "snn_fg.events.io", "snn_fg.metrics", "snn_fg.network.builder", "snn_fg.rate.edfg",
+           "snn_fg.spiking.api"]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples(name):
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+    assert result.attempted > 0, f"{name} has no examples"
+    assert result.failed == 0

@@ -128,6 +128,39 @@ def test_every_cell_gives_the_same_spikes_as_the_cells_the_input_can_use(backend
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
+def test_binned_counts_split_the_spike_trains_by_time(backend):
+    """Counting bins (one map per window of a continuous run): each bin holds
+    exactly the spikes whose time falls inside it, and bins ending with the
+    counting window add up to its counts."""
+    from snn_fg.spiking.inputs import frame_spikes
+
+    pos, neg = image_to_frame(disc(12).image)
+    net = run_spiking_result(pos, neg, params=ModelParams(levels=2), duration_ms=10, progress=False).network
+    inp = frame_spikes(pos, neg, 200.0, 0.5, 90.0)
+    edges = (10.0, 30.0, 50.5, 90.0)
+    r = get_backend(backend).simulate(net, inp, RunSettings(duration_ms=90.0, count_from_ms=30.0,
+                                                            count_bins_ms=edges))
+    assert r.count_bins_ms == edges
+    assert sum(int(b.sum()) for b in r.binned_counts.values()) > 500
+    for name in r.populations:
+        b = r.binned_counts[name]
+        assert b.shape == (3, r.sites[name].size)
+        cell, t = r.spikes[name]
+        for k in range(3):
+            inside = (t >= edges[k] - 1e-9) & (t < edges[k + 1] - 1e-9)
+            np.testing.assert_array_equal(b[k], np.bincount(cell[inside], minlength=b.shape[1]), err_msg=name)
+        np.testing.assert_array_equal(b[1] + b[2], r.counts[name])
+
+
+def test_count_bins_must_increase_inside_the_run():
+    from snn_fg.errors import ParameterError
+
+    for bad in ((10.0,), (5.0, 5.0), (0.0, 120.0), (-1.0, 3.0)):
+        with pytest.raises(ParameterError, match="count_bins_ms"):
+            RunSettings(duration_ms=100.0, count_bins_ms=bad)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
 def test_timed_events_drive_the_network(backend):
     sc = disc(16)
     rec = image_to_events(sc.image)

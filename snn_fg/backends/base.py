@@ -45,6 +45,11 @@ class RunSettings:
     instantiate : {"input", "all"}
         ``input``: a backend that instantiates cells may create only those the
         input can use (the populations' site hints); ``all``: every cell.
+    count_bins_ms : tuple of float, optional
+        Edges ``t_0 < t_1 < ... < t_n`` (ms, within ``[0, duration_ms]``) of
+        counting bins: the backend also reports each cell's spikes in every
+        bin ``[t_k, t_k+1)`` (:attr:`SimulationResult.binned_counts`), so that
+        one continuous run over a recording yields one map per window.
     sites : dict, optional
         Fixed cells (flat indices) of some populations (hand-built circuits).
     log : callable, optional
@@ -59,6 +64,7 @@ class RunSettings:
     record_spikes: bool = True
     record_state: tuple = ()
     instantiate: str = "input"
+    count_bins_ms: tuple | None = None
     sites: dict | None = None
     log: Callable | None = None
     progress: bool = False
@@ -71,6 +77,12 @@ class RunSettings:
         object.__setattr__(self, "count_from_ms", check.number(owner, "count_from_ms", self.count_from_ms, lo=0,
                                                                hi=self.duration_ms, hi_open=True))
         check.choice(owner, "instantiate", self.instantiate, ("input", "all"))
+        if self.count_bins_ms is not None:
+            edges = tuple(check.number(owner, "count_bins_ms", t, lo=0, hi=self.duration_ms)
+                          for t in self.count_bins_ms)
+            if len(edges) < 2 or any(b <= a for a, b in zip(edges, edges[1:])):
+                check.fail(owner, "count_bins_ms", self.count_bins_ms, "must be two or more increasing times")
+            object.__setattr__(self, "count_bins_ms", edges)
         for v in self.record_state:
             check.choice(owner, "record_state", v, STATE_VARIABLES)
         object.__setattr__(self, "record_state", tuple(self.record_state))
@@ -94,7 +106,9 @@ class SimulationResult:
     instantiates all), ``counts`` the spikes of each of those cells in the
     counting window, ``spikes`` (if recorded) every spike as
     ``(cell, t_ms)`` with ``cell`` indexing ``sites``, and ``state`` the
-    requested final state variables (mV). ``stats`` holds what the backend
+    requested final state variables (mV). With ``RunSettings.count_bins_ms``,
+    ``binned_counts[name]`` is an int array ``(n_bins, n_cells)``: the spikes
+    of each cell in each bin. ``stats`` holds what the backend
     knows about its own build (synapses per target population, kept kernel
     mass per projection, simulator objects).
     """
@@ -108,6 +122,8 @@ class SimulationResult:
     dt_ms: float
     spikes: dict | None = None
     state: dict = field(default_factory=dict)
+    binned_counts: dict | None = None
+    count_bins_ms: tuple | None = None
     timings_s: dict = field(default_factory=dict)
     stats: dict = field(default_factory=dict)
 

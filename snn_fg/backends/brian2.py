@@ -42,6 +42,7 @@ v_reset : volt (constant)
 v_th : volt (constant)
 t_ref : second (constant)
 n_spikes : integer
+n_all : integer
 """
 #: v is clamped while refractory; the currents keep decaying.
 _STEP = """
@@ -122,13 +123,14 @@ class Brian2Backend(Backend):
                      f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)")
         with _brian2_session(self.codegen) as target:
             self.used_codegen = target
-            counts, spikes, state, objects = self._run(un, inputs, settings, timings)
+            counts, spikes, state, binned, objects = self._run(un, inputs, settings, timings)
         stats["brian2_synapse_objects"] = objects
         timings["total"] = time.perf_counter() - t0
         sites = {p.name: un.sites[p.name] for p in lif_populations(network)}
         return SimulationResult(network=network, backend=self.name, sites=sites, counts=counts,
                                 count_window_ms=settings.count_window_ms, simulated_ms=settings.duration_ms,
-                                dt_ms=settings.dt_ms, spikes=spikes, state=state, timings_s=timings, stats=stats)
+                                dt_ms=settings.dt_ms, spikes=spikes, state=state, timings_s=timings, stats=stats,
+                                binned_counts=binned, count_bins_ms=settings.count_bins_ms)
 
     def _run(self, un: Unrolled, inputs, settings: RunSettings, timings: dict):
         import brian2 as b2
@@ -148,7 +150,7 @@ class Brian2Backend(Backend):
             return np.array([getattr(p.neuron, attr) for p in pops], dtype=np.float64)[pop_of]
 
         lif = b2.NeuronGroup(max(n_lif, 1), _EQS, threshold="v > v_th",
-                             reset="v = v_reset\nn_spikes += int(t >= t_count)", refractory="t_ref", dt=dt,
+                             reset="v = v_reset\nn_spikes += int(t >= t_count)\nn_all += 1", refractory="t_ref", dt=dt,
                              name="lif", namespace={"t_count": settings.count_from_ms * ms})
         lif.run_regularly(_STEP, when="groups", name="lif_step")
         if n_lif:
@@ -174,10 +176,18 @@ class Brian2Backend(Backend):
         settings.say("compiling and simulating (Brian2 compiles its code once per machine: the first run "
                      "takes a minute or two longer)")
         t_run = time.perf_counter()
-        with _progress_bar(settings) as report:
-            network.run(settings.duration_ms * ms, report=report, report_period=2 * b2.second, namespace={})
-        if float(network.t / ms) < settings.duration_ms - settings.dt_ms / 2:
-            raise KeyboardInterrupt(f"the simulation stopped at {float(network.t / ms):g} ms")
+        snapshots = []
+        with _progress_bar(settings) as bar:
+            done = 0
+            for end, snapshot in _segments(settings):
+                if end > done:
+                    network.run((end - done) * dt, report=bar(done, end), report_period=2 * b2.second,
+                                namespace={})
+                    if int(round(float(network.t / dt))) < end:
+                        raise KeyboardInterrupt(f"the simulation stopped at {float(network.t / ms):g} ms")
+                done = end
+                if snapshot:
+                    snapshots.append(np.asarray(lif.n_all[:], dtype=np.int64)[:n_lif])
         timings["run"] = time.perf_counter() - t_run
         all_counts = np.asarray(lif.n_spikes[:], dtype=np.int64)[:n_lif]
         counts = {p.name: all_counts[offsets[p.name]:offsets[p.name] + un.n_cells(p.name)] for p in pops}
@@ -187,12 +197,16 @@ class Brian2Backend(Backend):
             t_ms = np.asarray(monitor.t[:] / ms, dtype=np.float64)
             which = pop_of[cell] if cell.size else cell
             spikes = {p.name: (cell[which == k] - offsets[p.name], t_ms[which == k]) for k, p in enumerate(pops)}
+        binned = None
+        if snapshots:
+            per_bin = np.diff(np.stack(snapshots), axis=0)
+            binned = {p.name: per_bin[:, offsets[p.name]:offsets[p.name] + un.n_cells(p.name)] for p in pops}
         state = {}
         for var in settings.record_state:
             values = np.asarray(getattr(lif, var)[:] / mV, dtype=np.float64)[:n_lif]
             for p in pops:
                 state.setdefault(p.name, {})[var] = values[offsets[p.name]:offsets[p.name] + un.n_cells(p.name)]
-        return counts, spikes, state, n_syn
+        return counts, spikes, state, binned, n_syn
 
     def _synapses(self, un: Unrolled, offsets, lif, gen, dt, settings):
         """One ``Synapses`` object per (source group, receptor, delay)."""
@@ -225,27 +239,40 @@ class Brian2Backend(Backend):
         return objects, n_syn
 
 
+def _segments(settings: RunSettings):
+    """``(end_step, snapshot)`` of each run segment: the simulation stops at
+    every counting-bin edge (to read the spike counters) and at the end."""
+    def step(t_ms):
+        return int(round(t_ms / settings.dt_ms))
+    edges = sorted({step(t) for t in settings.count_bins_ms or ()})
+    ends = sorted(set(edges) | {step(settings.duration_ms)})
+    return [(e, e in edges) for e in ends]
+
+
 @contextlib.contextmanager
 def _progress_bar(settings: RunSettings):
-    """A Brian2 ``report`` callback driving a tqdm bar in simulated ms (or None).
+    """A factory of Brian2 ``report`` callbacks, one per run segment (steps
+    ``start..end``), driving one tqdm bar in simulated ms (or giving None).
 
     The bar appears with Brian2's first report, once the code is compiled and
     the simulation runs, so it never sits at 0 % during the compilation."""
     if not settings.progress:
-        yield None
+        yield lambda start, end: None
         return
     from tqdm import tqdm
 
     state = {"bar": None, "ms": 0}
 
-    def report(elapsed, completed, start, duration):    # noqa: ARG001 - Brian2's signature
-        if state["bar"] is None:
-            state["bar"] = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False)
-        now = int(round(float(completed) * settings.duration_ms))
-        state["bar"].update(now - state["ms"])
-        state["ms"] = now
+    def segment(start, end):
+        def report(elapsed, completed, t_start, duration):    # noqa: ARG001 - Brian2's signature
+            if state["bar"] is None:
+                state["bar"] = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False)
+            now = int(round((start + float(completed) * (end - start)) * settings.dt_ms))
+            state["bar"].update(now - state["ms"])
+            state["ms"] = now
+        return report
     try:
-        yield report
+        yield segment
     finally:
         if state["bar"] is not None:
             state["bar"].close()

@@ -26,6 +26,7 @@ from .base import Backend, RunSettings, SimulationResult
 #: that a missing optional simulator costs nothing until it is used.
 BACKENDS = {
     "brian2": "snn_fg.backends.brian2:Brian2Backend",
+    "nest": "snn_fg.backends.nest:NestBackend",
 }
 DEFAULT_BACKEND = "brian2"
 

@@ -40,7 +40,7 @@ def pairs(network: Network, proj, src: Population, tgt: Population, src_sites, t
     return resize_pairs(proj, src, tgt, src_sites, tgt_sites, src_active)
 
 
-def _kernel_taps(proj: Conv, network: Network):
+def kernel_taps(proj: Conv, network: Network):
     """Kept taps of a Conv: arrays (c_out, c_in, dr, dc, k) and the kept mass."""
     k = proj.kernel.array(network.params)
     ab = np.abs(k)
@@ -70,7 +70,7 @@ def conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_site
     the same synapses, in a different order. ``side`` ('auto', 'sources',
     'targets') forces one.
     """
-    co, ci, dr, dc, kv, kept = _kernel_taps(proj, network)
+    co, ci, dr, dc, kv, kept = kernel_taps(proj, network)
     live = src_sites if src_active is None else src_sites[src_active]
     n_src_ch = np.bincount(live // (src.size // src.channels), minlength=src.channels)
     n_tgt_ch = np.bincount(tgt_sites // (tgt.size // tgt.channels), minlength=tgt.channels)

@@ -1,0 +1,196 @@
+"""The NEST backend: the network unrolled for one input, built with PyNN
+(``pyNN.nest``) and simulated by NEST.
+
+The same cells and synapses as the Brian2 backend (:mod:`snn_fg.spiking.unroll`),
+built by :class:`snn_fg.export.pynn_model.PyNNNetwork`, the code every PyNN
+export runs: ``IF_curr_exp`` cells with ``cm = tau_m`` (so nA = our mV),
+synapses split between the two receptors by the sign of their drive
+(charge-preserving), delays on the time grid (at least one step), NEST's
+exact integration of the CUBA LIF. It is the independent re-simulation that
+checks the exports: same description, another simulator.
+
+Install with ``pip install "snn-fg[nest]"`` (PyNN and the ``nest-simulator``
+wheel). ``threads`` sets NEST's ``local_num_threads``; the wheel has no MPI.
+"""
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import os
+import time
+import warnings
+
+import numpy as np
+
+from .. import validate as check
+from ..network.graph import Network
+from ..export.pynn_model import PyNNNetwork, counts_in
+from ..spiking.unroll import Unrolled, unroll
+from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
+
+#: simulated milliseconds between two returns to Python (progress, Ctrl-C)
+CHUNK_MS = 25.0
+
+
+def import_pynn_nest():
+    """``pyNN.nest``, imported without NEST's banner and PyNN's warning about
+    its optional compiled extensions (``nest-config``)."""
+    os.environ.setdefault("PYNEST_QUIET", "1")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        import pyNN.nest as sim
+    import nest
+
+    nest.set_verbosity("M_ERROR")
+    return sim
+
+
+class NestBackend(Backend):
+    """NEST 3 through PyNN 0.13.
+
+    Parameters
+    ----------
+    threads : int
+        NEST threads (``local_num_threads``).
+    portable : bool
+        Connect and record through PyNN's own ``FromListConnector`` and
+        ``record`` instead of NEST's array calls (slow; the path a
+        non-NEST PyNN simulator takes).
+    weight_bits : int, optional
+        Quantise every projection's weights to signed integers of this many
+        bits with one scale factor per projection
+        (:func:`snn_fg.export.quantise.projection_scales`).
+    """
+
+    name = "nest"
+    requires = 'pip install "snn-fg[nest]"'
+
+    def __init__(self, *, threads: int = 1, portable: bool = False, weight_bits: int | None = None):
+        self.threads = check.integer("NestBackend", "threads", threads, lo=1)
+        self.portable = bool(portable)
+        self.weight_bits = None if weight_bits is None else check.integer("NestBackend", "weight_bits",
+                                                                          weight_bits, lo=2, hi=32)
+
+    @classmethod
+    def available(cls):
+        missing = [m for m in ("pyNN", "nest") if importlib.util.find_spec(m) is None]
+        if missing:
+            return False, cls.requires
+        return True, ""
+
+    def describe(self) -> dict:
+        return {"name": self.name, "threads": self.threads, "portable": self.portable,
+                "weight_bits": self.weight_bits}
+
+    def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
+        t0 = time.perf_counter()
+        settings.say("unrolling the network for this input")
+        un = unroll(network, source_masks(network, inputs.on, inputs.off), sites=settings.sites,
+                    instantiate=settings.instantiate)
+        if self.weight_bits is not None:
+            from ..export.quantise import quantise_unrolled
+
+            quantise_unrolled(un, self.weight_bits)
+        stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
+        timings = {"unroll": time.perf_counter() - t0}
+        settings.say(f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
+                     f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)")
+        sim = import_pynn_nest()
+        net = _build(sim, un, inputs, settings, self.threads, self.portable, timings)
+        try:
+            settings.say("simulating in NEST")
+            with _progress(settings) as report:
+                timings["run"] = net.run(settings.duration_ms, CHUNK_MS, report)
+            counts, spikes, binned, state = _collect(net, un, settings)
+            stats["nest_synapses"] = dict(net.n_synapses)
+        finally:
+            net.end()
+        timings["total"] = time.perf_counter() - t0
+        sites = {p.name: un.sites[p.name] for p in lif_populations(network)}
+        return SimulationResult(network=network, backend=self.name, sites=sites, counts=counts,
+                                count_window_ms=settings.count_window_ms, simulated_ms=settings.duration_ms,
+                                dt_ms=settings.dt_ms, spikes=spikes if settings.record_spikes else None,
+                                state=state, binned_counts=binned, count_bins_ms=settings.count_bins_ms,
+                                timings_s=timings, stats=stats)
+
+
+def _build(sim, un: Unrolled, inputs, settings: RunSettings, threads: int, portable: bool, timings: dict):
+    t0 = time.perf_counter()
+    net_d = un.network
+    max_delay = max([c.projection.delay_ms for c in un.connections] + [settings.dt_ms])
+    net = PyNNNetwork(sim, dt_ms=settings.dt_ms, max_delay_ms=max_delay, threads=threads, portable=portable)
+    for p in lif_populations(net_d):
+        net.add_cells(p.name, un.n_cells(p.name), p.neuron.to_dict())
+    used = _add_sources(net, un, inputs, settings)
+    for conn in un.connections:
+        if conn.n == 0:
+            continue
+        pr = conn.projection
+        tgt = net_d.population(pr.target).neuron
+        pre = used[pr.source][conn.pre] if pr.source in used else conn.pre
+        net.connect(pr.source, pr.target, pre, conn.post, conn.w, sign=pr.sign, delay_ms=pr.delay_ms,
+                    tau_exc_ms=tgt.tau_exc_ms, tau_inh_ms=tgt.tau_inh_ms)
+        conn.free()
+    names = [p.name for p in lif_populations(net_d)]
+    net.record(names)
+    net.record_state(names, settings.record_state, settings.duration_ms)
+    timings["build"] = time.perf_counter() - t0
+    return net
+
+
+def _add_sources(net, un: Unrolled, inputs, settings: RunSettings) -> dict:
+    """One spike source per input pixel with outgoing synapses; returns, per
+    source population, the map from pixel to source index."""
+    n_steps = int(round(settings.duration_ms / settings.dt_ms))
+    idx, steps = inputs.spike_times_steps(n_steps)
+    order = np.argsort(idx, kind="stable")
+    idx, steps = idx[order], steps[order]
+    used = {}
+    for name, offset in source_offsets(un.network).items():
+        pixels = np.unique(np.concatenate([c.pre for c in un.connections if c.projection.source == name] +
+                                          [np.zeros(0, np.int32)]).astype(np.int64))
+        lo = np.searchsorted(idx, offset + pixels, "left")
+        hi = np.searchsorted(idx, offset + pixels, "right")
+        net.add_sources(name, [steps[a:b] for a, b in zip(lo, hi)])
+        remap = np.full(un.network.population(name).size, -1, np.int64)
+        remap[pixels] = np.arange(pixels.size)
+        used[name] = remap
+    return used
+
+
+def _collect(net, un: Unrolled, settings: RunSettings):
+    counts, spikes, binned, state = {}, {}, None, {}
+    edges = settings.count_bins_ms
+    if edges:
+        binned = {}
+    for p in lif_populations(un.network):
+        n = un.n_cells(p.name)
+        cell, t = net.spikes(p.name, n)
+        counts[p.name] = counts_in(cell, t, n, settings.count_from_ms, settings.duration_ms)
+        spikes[p.name] = (cell, t)
+        if edges:
+            binned[p.name] = np.stack([counts_in(cell, t, n, a, b) for a, b in zip(edges, edges[1:])])
+        if settings.record_state:
+            state[p.name] = {v: net.state(p.name, n, v) for v in settings.record_state}
+    return counts, spikes, binned, state
+
+
+@contextlib.contextmanager
+def _progress(settings: RunSettings):
+    """A callback ``report(done_ms)`` driving a tqdm bar (or None)."""
+    if not settings.progress:
+        yield None
+        return
+    from tqdm import tqdm
+
+    bar = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating (NEST)", leave=False)
+    seen = {"ms": 0}
+
+    def report(done_ms):
+        now = int(round(done_ms))
+        bar.update(now - seen["ms"])
+        seen["ms"] = now
+    try:
+        yield report
+    finally:
+        bar.close()

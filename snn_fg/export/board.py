@@ -1,0 +1,103 @@
+"""The network a board holds, and its weight-shared synapse tables.
+
+A neuromorphic board runs one fixed network for every input, so an export
+holds the *whole* description: every cell of every population
+(:func:`board_network`). The one input-dependent part of the description,
+the coarse levels' edge mask (``Population.edge_mask``: cells exist only
+where the resized edge map of the input reaches ``support_min``), cannot be
+part of a fixed network; the board network has those cells everywhere, and
+the export's notes say so (its cost is measured in
+``experiments/results/export_fidelity.md``).
+
+Each projection becomes a table that needs no unrolling to store:
+
+* :class:`ConvTable` - the kept kernel taps ``(c_out, c_in, dr, dc)`` and
+  their values: target channel ``c_out`` at level pixel ``p`` reads source
+  channel ``c_in`` at ``p + (dr, dc)`` (a ``conv``-mode kernel is flipped
+  here once);
+* :class:`ResizeTable` - the two 1-D interpolation matrices, sparse.
+
+:func:`whole_pairs` unrolls a table into explicit synapses with the
+standalone code the PyNN export runs (:mod:`.pynn_model`).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..network.graph import Network
+from ..network.nodes import Conv, Population, Projection
+from ..spiking.connect import kernel_taps
+from ..spiking.interp import interp_matrix, sparse_rows
+from .pynn_model import conv_pairs, resize_pairs
+
+BOARD_NOTE = ("Export: the board network has every cell of every population; the coarse levels' edge mask "
+              "(cells only where the input's resized edge map >= support_min) depends on the input and is "
+              "left out.")
+
+
+def board_network(network: Network) -> Network:
+    """The whole, input-independent network: ``edge_mask`` dropped (noted)."""
+    if not any(p.edge_mask for p in network.populations):
+        return network
+    pops = tuple(dataclasses.replace(p, edge_mask=False) for p in network.populations)
+    return dataclasses.replace(network, populations=pops, notes=network.notes + (BOARD_NOTE,))
+
+
+def geometry(pop: Population) -> dict:
+    """What the standalone unroller needs to know of a population."""
+    return {"level_shape": tuple(pop.level_shape), "grid": tuple(pop.grid), "stride": pop.stride,
+            "channels": pop.channels}
+
+
+@dataclass(frozen=True)
+class ConvTable:
+    """Kept taps of a Conv: rows ``(c_out, c_in, dr, dc)`` and kernel values."""
+
+    taps: np.ndarray
+    values: np.ndarray
+    wrap: bool
+    kept_mass: float
+
+
+@dataclass(frozen=True)
+class ResizeTable:
+    """A Resize's 1-D matrices as per-row (index, value) arrays; products under ``k_min`` are left out."""
+
+    rows: tuple
+    cols: tuple
+    k_min: float
+
+
+def table(network: Network, pr: Projection):
+    """The weight-shared table of projection ``pr``."""
+    if isinstance(pr, Conv):
+        co, ci, dr, dc, kv, kept = kernel_taps(pr, network)
+        return ConvTable(np.stack([co, ci, dr, dc], axis=1).astype(np.int64), kv.astype(np.float64),
+                         pr.padding == "wrap", kept)
+    src, tgt = network.population(pr.source), network.population(pr.target)
+    mats = [interp_matrix(src.level_shape[a], tgt.level_shape[a], src.stride, tgt.stride, pr.interpolation)
+            for a in (0, 1)]
+    peak = float(np.abs(mats[0]).max() * np.abs(mats[1]).max())
+    return ResizeTable(sparse_rows(mats[0]), sparse_rows(mats[1]), pr.prune * peak if pr.prune > 0 else 0.0)
+
+
+def whole_pairs(network: Network, pr: Projection, tab=None):
+    """Explicit synapses ``(pre, post, K)`` of ``pr`` between the whole
+    source and target populations (flat cell indices)."""
+    tab = table(network, pr) if tab is None else tab
+    src, tgt = network.population(pr.source), network.population(pr.target)
+    if isinstance(tab, ConvTable):
+        return conv_pairs(tab.taps, tab.values, geometry(src), geometry(tgt), tab.wrap)
+    return resize_pairs(tab.rows, tab.cols, src.channels, geometry(src), geometry(tgt), tab.k_min)
+
+
+def table_values(tab) -> np.ndarray:
+    """Every distinct kernel (or interpolation product) value the table can give."""
+    if isinstance(tab, ConvTable):
+        return tab.values
+    (_, rv), (_, cv) = tab.rows, tab.cols
+    vals = np.unique(np.round(np.outer(np.unique(rv[rv != 0]), np.unique(cv[cv != 0])).ravel(), 12))
+    return vals[(vals != 0) & (np.abs(vals) >= tab.k_min)]

@@ -1,0 +1,357 @@
+"""The figure-ground network in PyNN: populations, synapses, input, run.
+
+STANDALONE: this module imports only numpy and the standard library (PyNN
+is passed in as the ``sim`` module), because it is copied verbatim into
+every PyNN export (``snn-fg export --format pynn``), where it must run on a
+machine without snn_fg (NEST here, sPyNNaker on SpiNNaker). The NEST backend
+(:mod:`snn_fg.backends.nest`) builds its network with the same code, so the
+exported model and the backend are one implementation.
+
+Neuron mapping (PyNN ``IF_curr_exp``, ``cm dv/dt = cm (v_rest - v)/tau_m +
+I``): ``cm`` in nF is set numerically equal to ``tau_m`` in ms, so the
+membrane resistance is 1 MOhm and a synaptic weight of ``w`` nA moves the
+membrane like our ``w`` mV (``tau_m dv/dt = v_rest - v + I_exc - I_inh``).
+
+Receptors: a synapse's *drive* is ``sign * gain_mv * K`` (positive:
+depolarising). PyNN's current synapses take only positive weights per
+receptor, so a positive drive goes to the excitatory receptor and a negative
+one to the inhibitory receptor. Where that is not the projection's own
+receptor (the negative lobes of a DoG or bicubic kernel on an excitatory
+projection), the magnitude is scaled by ``tau_own / tau_other`` so that the
+synapse delivers the same charge (the same mean current) through the other
+time constant.
+
+Time: PyNN on NEST needs input spikes after ``min_delay`` (= dt), so every
+input spike is presented ``TIME_SHIFT_STEPS`` steps late and every recorded
+spike time is reported with that shift taken off again.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+#: input spikes are presented this many time steps late (NEST refuses a
+#: spike time at 0 and PyNN's spike sources deliver through a parrot neuron
+#: one min_delay later); recorded times are shifted back
+TIME_SHIFT_STEPS = 2
+#: NEST's native units: pA per nA and pF per nF
+NEST_UNIT = 1000.0
+#: state variable -> (NEST recordable, PyNN recordable, factor to nA = mV from NEST's unit)
+STATE_NAMES = {"v": ("V_m", "v", 1.0), "I_exc": ("I_syn_ex", "isyn_exc", 1 / NEST_UNIT),
+               "I_inh": ("I_syn_in", "isyn_inh", 1 / NEST_UNIT)}
+
+
+def cell_parameters(neuron: dict) -> dict:
+    """PyNN ``IF_curr_exp`` parameters of one of our CUBA LIF neurons
+    (``tau_m_ms``, ``tau_exc_ms``, ``tau_inh_ms``, ``v_rest_mv``,
+    ``v_reset_mv``, ``v_th_mv``, ``t_ref_ms``)."""
+    return {"cm": float(neuron["tau_m_ms"]), "tau_m": float(neuron["tau_m_ms"]),
+            "tau_syn_E": float(neuron["tau_exc_ms"]), "tau_syn_I": float(neuron["tau_inh_ms"]),
+            "v_rest": float(neuron["v_rest_mv"]), "v_reset": float(neuron["v_reset_mv"]),
+            "v_thresh": float(neuron["v_th_mv"]), "tau_refrac": float(neuron["t_ref_ms"]), "i_offset": 0.0}
+
+
+def split_receptors(drive: np.ndarray, sign: int, tau_exc_ms: float, tau_inh_ms: float):
+    """Receptor and weight of each synapse: ``(excitatory mask, |weight|)``.
+
+    ``drive`` is the signed weight in mV (positive depolarises). A synapse
+    whose drive opposes its projection's ``sign`` moves to the other receptor
+    with its magnitude scaled by ``tau_own / tau_other`` (same charge).
+    """
+    drive = np.asarray(drive, dtype=np.float64)
+    exc = drive > 0
+    mag = np.abs(drive)
+    if sign > 0:
+        mag = np.where(exc, mag, mag * tau_exc_ms / tau_inh_ms)
+    else:
+        mag = np.where(exc, mag * tau_inh_ms / tau_exc_ms, mag)
+    return exc, mag
+
+
+def quantise(values: np.ndarray, bits: int | None, scale: float) -> np.ndarray:
+    """``values`` rounded to signed ``bits``-bit integers times ``scale``
+    (``scale``: the projection's largest |value| over ``2**(bits-1) - 1``);
+    unchanged for ``bits=None``."""
+    if bits is None or scale <= 0:
+        return np.asarray(values, dtype=np.float64)
+    top = 2 ** (int(bits) - 1) - 1
+    return np.clip(np.round(np.asarray(values) / scale), -top, top) * scale
+
+
+def grid_delay(delay_ms: float, dt_ms: float) -> float:
+    """A delay on the simulation grid, at least one step (NEST's rule)."""
+    return max(1, int(round(delay_ms / dt_ms))) * dt_ms
+
+
+# --------------------------------------------------------------------------
+# the whole network's synapses from weight-shared tables (for the export)
+# --------------------------------------------------------------------------
+def conv_pairs(taps: np.ndarray, values: np.ndarray, src: dict, tgt: dict, wrap: bool):
+    """Synapses ``(pre, post, K)`` (flat cell indices, kernel values) of a
+    weight-shared projection between two whole populations of one level.
+
+    ``taps`` rows are ``(c_out, c_in, dr, dc)``: target channel ``c_out`` at
+    level pixel ``p`` reads source channel ``c_in`` at ``p + (dr, dc)``
+    (taken modulo the level shape with ``wrap``, else dropped outside it, and
+    dropped off the source's stride lattice). Taps that fold onto the same
+    source (a kernel larger than a wrapped level) add up.
+    """
+    lr, lc = tgt["level_shape"]
+    t_gr, t_gc = tgt["grid"]
+    s_gr, s_gc = src["grid"]
+    ss, ts = src["stride"], tgt["stride"]
+    ii, jj = np.meshgrid(np.arange(t_gr), np.arange(t_gc), indexing="ij")
+    r0, c0 = (ii * ts).ravel(), (jj * ts).ravel()
+    cell = np.arange(r0.size)
+    pre_l, post_l, k_l = [], [], []
+    for (co, ci, dr, dc), k in zip(taps, values):
+        r, c = r0 + dr, c0 + dc
+        if wrap:
+            r, c = r % lr, c % lc
+            ok = np.ones(r.shape, bool)
+        else:
+            ok = (r >= 0) & (r < lr) & (c >= 0) & (c < lc)
+        if ss != 1:
+            ok &= (r % ss == 0) & (c % ss == 0)
+        pre_l.append((ci * s_gr + r[ok] // ss) * s_gc + c[ok] // ss)
+        post_l.append(co * t_gr * t_gc + cell[ok])
+        k_l.append(np.full(int(ok.sum()), k))
+    pre, post, k = _cat(pre_l, post_l, k_l)
+    if wrap and pre.size:
+        n_pre = src["channels"] * s_gr * s_gc
+        key = post * n_pre + pre
+        uniq, inv = np.unique(key, return_inverse=True)
+        ks = np.bincount(inv, weights=k, minlength=uniq.size)
+        keep = ks != 0
+        pre, post, k = uniq[keep] % n_pre, uniq[keep] // n_pre, ks[keep]
+    return pre, post, k
+
+
+def resize_pairs(rows: tuple, cols: tuple, channels: int, src: dict, tgt: dict, k_min: float):
+    """Synapses ``(pre, post, K)`` of an interpolation between two whole
+    populations: target ``(c, i, j)`` reads source ``(c, i', j')`` with
+    ``K = A_r[i, i'] * A_c[j, j']``; ``rows``/``cols`` are each 1-D matrix's
+    non-zeros per row as (index, value) arrays padded with index -1; products
+    under ``k_min`` in magnitude are left out."""
+    (ri, rv), (cj, cv) = rows, cols
+    s_gr, s_gc = src["grid"]
+    t_gr, t_gc = tgt["grid"]
+    pre_l, post_l, k_l = [], [], []
+    for a in range(ri.shape[1]):
+        for b in range(cj.shape[1]):
+            val = rv[:, a, None] * cv[None, :, b]
+            ok = (ri[:, a, None] >= 0) & (cj[None, :, b] >= 0) & (val != 0) & (np.abs(val) >= k_min)
+            ti, tj = np.nonzero(ok)
+            src_flat = ri[ti, a] * s_gc + cj[tj, b]
+            tgt_flat = ti * t_gc + tj
+            for c in range(channels):
+                pre_l.append(c * s_gr * s_gc + src_flat)
+                post_l.append(c * t_gr * t_gc + tgt_flat)
+                k_l.append(val[ti, tj])
+    return _cat(pre_l, post_l, k_l)
+
+
+def _cat(pre_l, post_l, k_l):
+    if not pre_l:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return (np.concatenate(pre_l).astype(np.int64), np.concatenate(post_l).astype(np.int64),
+            np.concatenate(k_l).astype(np.float64))
+
+
+# --------------------------------------------------------------------------
+# the network in a PyNN simulator
+# --------------------------------------------------------------------------
+class PyNNNetwork:
+    """Populations of ``IF_curr_exp`` cells and spike sources in one PyNN
+    simulator, connected by explicit synapse lists.
+
+    ``sim`` is the PyNN backend module (``pyNN.nest``, ``pyNN.spiNNaker``).
+    On ``pyNN.nest`` cells, synapses and recorders are created by NEST's own
+    array calls, with the cell parameters PyNN translates ``IF_curr_exp``
+    into: PyNN keeps a Python object per cell and connects one target cell
+    at a time (about 0.4 ms per cell here, minutes for the million cells of
+    a full frame). ``portable=True`` uses PyNN's own ``Population``,
+    ``FromListConnector`` and ``record`` everywhere (what other PyNN
+    simulators run; the tests check both give the same spikes).
+    """
+
+    def __init__(self, sim, *, dt_ms: float, max_delay_ms: float, threads: int = 1, seed: int = 0,
+                 portable: bool = False):
+        self.sim = sim
+        self.dt = float(dt_ms)
+        self.native = (sim.__name__ == "pyNN.nest") and not portable
+        max_delay = max(grid_delay(max_delay_ms, self.dt), 2 * self.dt)
+        opts = {"threads": int(threads), "rng_seed": int(seed) + 1} if sim.__name__ == "pyNN.nest" else {}
+        sim.setup(timestep=self.dt, min_delay=self.dt, max_delay=max_delay, **opts)
+        self.pops: dict = {}       # name -> PyNN Population (portable) or NEST NodeCollection (native)
+        self.first: dict = {}      # native: name -> NEST id of its first node
+        self.recorders: dict = {}
+        self.n_synapses: dict = {}
+        self.shift_ms = TIME_SHIFT_STEPS * self.dt
+        self.duration_ms = 0.0
+
+    def add_cells(self, name: str, size: int, neuron: dict):
+        """``size`` LIF cells, starting at rest."""
+        p = cell_parameters(neuron)
+        size = max(int(size), 1)
+        if self.native:
+            import nest
+
+            ps = self.sim.IF_curr_exp(**p).native_parameters
+            ps.shape = (1,)
+            ps.evaluate(simplify=True)
+            model = f"snnfg_{name}"
+            nest.CopyModel("iaf_psc_exp", model,
+                           {**{k: float(v) for k, v in ps.items()}, "V_m": p["v_rest"]})
+            self._native_nodes(name, nest.Create(model, size))
+        else:
+            pop = self.sim.Population(size, self.sim.IF_curr_exp(**p), label=name)
+            pop.initialize(v=p["v_rest"])
+            self.pops[name] = pop
+
+    def add_sources(self, name: str, steps_per_cell: list):
+        """Spike sources, one per entry of ``steps_per_cell`` (time steps of its spikes)."""
+        times = [(np.asarray(s, dtype=np.float64) + TIME_SHIFT_STEPS) * self.dt for s in steps_per_cell]
+        if self.native:
+            import nest
+
+            # a spike generator's spike at t reaches a target at t + delay, as
+            # PyNN's generator-plus-parrot pair (t - min_delay, then min_delay) does
+            nodes = nest.Create("spike_generator", max(len(times), 1))
+            if times:
+                nodes.set([{"spike_times": t.tolist()} for t in times])
+            self._native_nodes(name, nodes)
+        else:
+            self.pops[name] = self.sim.Population(max(len(times), 1), self.sim.SpikeSourceArray(
+                spike_times=[self.sim.Sequence(t) for t in times] or [self.sim.Sequence([])]), label=name)
+
+    def _native_nodes(self, name, nodes):
+        self.pops[name] = nodes
+        self.first[name] = int(nodes[0].tolist()[0])
+
+    def connect(self, source: str, target: str, pre, post, drive, *, sign: int, delay_ms: float,
+                tau_exc_ms: float, tau_inh_ms: float):
+        """Synapses ``pre[i] -> post[i]`` (cell indices) with signed drive in
+        mV, split between the two receptors (see the module docstring)."""
+        exc, mag = split_receptors(drive, sign, tau_exc_ms, tau_inh_ms)
+        delay = grid_delay(delay_ms, self.dt)
+        pre, post = np.asarray(pre, np.int64), np.asarray(post, np.int64)
+        for receptor, mask in (("excitatory", exc), ("inhibitory", ~exc)):
+            keep = mask & (mag > 0)
+            if not keep.any():
+                continue
+            if self.native:
+                self._connect_nest(source, target, pre[keep], post[keep], mag[keep], receptor, delay)
+            else:
+                rows = np.column_stack([pre[keep], post[keep], mag[keep], np.full(int(keep.sum()), delay)])
+                conn = self.sim.FromListConnector(rows, column_names=["weight", "delay"])
+                self.sim.Projection(self.pops[source], self.pops[target], conn, self.sim.StaticSynapse(),
+                                    receptor_type=receptor)
+            self.n_synapses[target] = self.n_synapses.get(target, 0) + int(keep.sum())
+
+    def _connect_nest(self, source, target, pre, post, mag, receptor, delay):
+        import nest
+
+        w = mag * NEST_UNIT * (1.0 if receptor == "excitatory" else -1.0)
+        step = 1 << 22
+        for a in range(0, pre.size, step):
+            b = min(a + step, pre.size)
+            nest.Connect(self.first[source] + pre[a:b], self.first[target] + post[a:b], "one_to_one",
+                         syn_spec={"synapse_model": "static_synapse", "weight": w[a:b],
+                                   "delay": np.full(b - a, delay)})
+
+    def record(self, names):
+        """Record the spikes of the populations ``names``."""
+        if self.native:
+            import nest
+
+            # one recorder for all: a recorder per population costs a NEST call each
+            rec = nest.Create("spike_recorder")
+            nest.Connect(sum((self.pops[n] for n in names[1:]), self.pops[names[0]]), rec)
+            self._events = None
+        for name in names:
+            if self.native:
+                self.recorders[name] = rec
+            else:
+                self.pops[name].record("spikes")
+                self.recorders[name] = None
+
+    def run(self, duration_ms: float, chunk_ms: float = 50.0, report=None) -> float:
+        """Simulate ``duration_ms`` (plus the input shift) in chunks;
+        ``report(done_ms)`` after each. Returns the wall time in seconds."""
+        t0 = time.perf_counter()
+        self.duration_ms = float(duration_ms)
+        total = duration_ms + self.shift_ms
+        done = 0.0
+        while done < total - 1e-9:
+            step = min(chunk_ms, total - done)
+            self.sim.run(step)
+            done += step
+            if report is not None:
+                report(min(done, duration_ms))
+        return time.perf_counter() - t0
+
+    def spikes(self, name: str, size: int):
+        """``(cell, t_ms)`` of every recorded spike of ``name``, in time of the
+        unshifted input, stamped like Brian2 (at the start of the step in
+        which the cell fired; NEST stamps its end)."""
+        if self.native:
+            if self._events is None:
+                ev = self.recorders[name].get("events")
+                self._events = (np.asarray(ev["senders"], dtype=np.int64), np.asarray(ev["times"], np.float64))
+            ids, t = self._events
+            cell = ids - self.first[name]
+            keep = (cell >= 0) & (cell < size)
+            cell, t = cell[keep], t[keep]
+        else:
+            trains = self.pops[name].get_data("spikes").segments[0].spiketrains
+            cell = np.concatenate([np.full(len(s), i, np.int64) for i, s in enumerate(trains)] or
+                                  [np.zeros(0, np.int64)])
+            t = np.concatenate([np.asarray(s.magnitude, np.float64) for s in trains] or [np.zeros(0)])
+        t = np.round(t / self.dt - TIME_SHIFT_STEPS - 1) * self.dt
+        keep = (cell < size) & (t < self.duration_ms - 1e-9)     # NEST may run past the end
+        cell, t = cell[keep], t[keep]
+        order = np.lexsort((cell, t))
+        return cell[order], t[order]
+
+    def record_state(self, names, variables, end_ms: float):
+        """Record the final ``variables`` (``v``, ``I_exc``, ``I_inh``) of the populations ``names``."""
+        self._state_vars = tuple(variables)
+        if not variables:
+            return
+        if self.native:
+            import nest
+
+            mm = nest.Create("multimeter", params={
+                "record_from": [STATE_NAMES[v][0] for v in variables], "interval": self.dt,
+                "start": end_ms + self.shift_ms - self.dt})
+            nest.Connect(mm, sum((self.pops[n] for n in names[1:]), self.pops[names[0]]))
+            self._multimeter = mm
+        else:
+            for name in names:
+                self.pops[name].record([STATE_NAMES[v][1] for v in variables])
+
+    def state(self, name: str, size: int, variable: str) -> np.ndarray:
+        """Final ``v`` (mV) or synaptic current magnitude ``I_exc``/``I_inh``
+        (nA = mV) of each cell (:meth:`record_state` first)."""
+        nest_key, pynn_key, scale = STATE_NAMES[variable]
+        if self.native:
+            ev = self._multimeter.get("events")
+            cell = np.asarray(ev["senders"], np.int64) - self.first[name]
+            keep = (cell >= 0) & (cell < size)
+            vals = np.zeros(size)
+            vals[cell[keep]] = np.asarray(ev[nest_key], np.float64)[keep]     # the last sample wins
+        else:
+            sig = next(a for a in self.pops[name].get_data(pynn_key).segments[0].analogsignals if a.name == pynn_key)
+            vals = np.asarray(sig.magnitude, np.float64)[-1, :size] * (NEST_UNIT if variable != "v" else 1.0)
+        return vals if variable == "v" else np.abs(vals) * scale
+
+    def end(self):
+        self.sim.end()
+
+
+def counts_in(cell: np.ndarray, t_ms: np.ndarray, size: int, start_ms: float, end_ms: float) -> np.ndarray:
+    """Spikes per cell with ``start_ms <= t < end_ms``."""
+    inside = (t_ms >= start_ms - 1e-9) & (t_ms < end_ms - 1e-9)
+    return np.bincount(cell[inside], minlength=size).astype(np.int64)

@@ -1,0 +1,215 @@
+"""Hardware resource report of the whole network: :func:`resource_report`.
+
+Neurons, synapses, fan-in and fan-out, delays in time steps, the weights'
+dynamic range per receptor, and for SpiNNaker 1, SpiNNaker 2 and Loihi 2 the
+cores, chips and boards the network needs and every documented limit it
+breaks (:mod:`.hardware`). Counts are of the board network
+(:func:`~snn_fg.export.board.board_network`: every cell, explicit synapses
+as a PyNN connection list would hold them); on a chip with weight-shared
+convolutions (Loihi 2, sPyNNaker's ``ConvolutionConnector``) the synaptic
+memory is smaller, the neuron counts the same.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..network.graph import Network
+from .board import board_network, table, table_values
+from .hardware import LOIHI2, SPINNAKER1, SPINNAKER2
+from .pynn_model import grid_delay, quantise, split_receptors
+from .synapses import projection_counts
+
+SCHEMA = "snn-fg.resources/1"
+
+
+def _weights(network: Network, pr, tab) -> dict:
+    """Receptor -> (min, max) |weight| (mV = nA) the projection puts on it."""
+    tgt = network.population(pr.target).neuron
+    exc, mag = split_receptors(pr.sign * pr.gain_mv * table_values(tab), pr.sign, tgt.tau_exc_ms, tgt.tau_inh_ms)
+    return {r: (float(mag[m].min()), float(mag[m].max())) for r, m in (("excitatory", exc), ("inhibitory", ~exc))
+            if m.any()}
+
+
+def _lost_at(bits: int, network: Network, pr, tab) -> float:
+    """Fraction of a projection's distinct weights that round to 0 at ``bits``
+    bits with one scale for the projection."""
+    w = pr.gain_mv * np.abs(table_values(tab))
+    return float(np.mean(quantise(w, bits, w.max() / (2 ** (bits - 1) - 1)) == 0)) if w.size else 0.0
+
+
+def _projection_rows(network: Network, dt_ms: float) -> list:
+    rows = []
+    for pr in network.projections:
+        tab = table(network, pr)
+        c = projection_counts(network, pr, tab)
+        rows.append({"name": pr.name, "type": pr.type_name, "source": pr.source, "target": pr.target,
+                     "synapses": c.synapses, "max_fan_in": c.max_fan_in, "max_fan_out": c.max_fan_out,
+                     "delay_ms": pr.delay_ms, "delay_steps": int(round(grid_delay(pr.delay_ms, dt_ms) / dt_ms)),
+                     "weights_mv": _weights(network, pr, tab), "lost_at_8_bits": _lost_at(8, network, pr, tab),
+                     "_fan_in": c.fan_in_by_channel, "_fan_out": c.fan_out_by_channel})
+    return rows
+
+
+def _population_rows(network: Network, prows: list) -> list:
+    out = []
+    for p in network.populations:
+        fin = np.zeros(p.channels, np.int64)
+        fout = np.zeros(p.channels, np.int64)
+        weights: dict = {}
+        for r in prows:
+            if r["target"] == p.name:
+                fin += r["_fan_in"]
+                for rec, (lo, hi) in r["weights_mv"].items():
+                    a, b = weights.get(rec, (math.inf, 0.0))
+                    weights[rec] = (min(a, lo), max(b, hi))
+            if r["source"] == p.name:
+                fout += r["_fan_out"]
+        out.append({"name": p.name, "role": p.role, "level": p.level, "cells": p.size, "source": p.is_source,
+                    "max_fan_in": int(fin.max()), "max_fan_out": int(fout.max()),
+                    "weights_mv": {k: {"min": lo, "max": hi, "range": hi / lo} for k, (lo, hi) in weights.items()}})
+    return out
+
+
+def _violation(what: str, value, limit, source: str) -> dict:
+    return {"constraint": what, "value": value, "limit": limit, "source": source}
+
+
+def _spinnaker1(pops, prows, totals) -> dict:
+    lim = SPINNAKER1
+    per_core = lim["neurons_per_core"].value
+    cores = sum(math.ceil(p["cells"] / per_core) for p in pops)
+    slots = lim["delay_slots"].value
+    long_src = {r["source"] for r in prows if r["delay_steps"] > slots}
+    cores += sum(math.ceil(p["cells"] / per_core) for p in pops if p["name"] in long_src)   # delay extensions
+    mem_chips = math.ceil(totals["synapses"] * lim["bytes_per_synapse"].value / lim["sdram_per_chip"].value)
+    chips = max(math.ceil(cores / lim["cores_per_chip"].value), mem_chips)
+    bad = []
+    top = slots * lim["delay_extension"].value
+    if totals["max_delay_steps"] > top:
+        bad.append(_violation("delay", totals["max_delay_steps"], top, lim["delay_extension"].source))
+    wide = [(p["name"], rec, w["range"]) for p in pops for rec, w in p["weights_mv"].items()
+            if w["range"] > 2 ** lim["weight_bits"].value - 1]
+    for name, rec, rng in wide:
+        bad.append(_violation(f"weight range on {name} {rec}", round(rng), 2 ** 16 - 1, lim["weight_bits"].source))
+    return {"cores": cores, "chips": chips, "boards_spinn5": math.ceil(chips / lim["chips_per_board"].value),
+            "delay_extension_sources": sorted(long_src), "violations": bad,
+            "note": "cores: 256 neurons per core plus one delay-extension core per 256 sources of delays over "
+                    "32 steps; chips: the larger of cores/17 and synaptic memory at 4 bytes per synapse"}
+
+
+def _spinnaker2(pops, prows, totals) -> dict:
+    lim = SPINNAKER2
+    mem = totals["synapses"] * lim["bytes_per_synapse"].value + totals["neurons"] * lim["bytes_per_neuron"].value
+    cores = math.ceil(mem / lim["memory_per_core"].value)
+    bad = []
+    if totals["distinct_delays"] > 1:
+        bad.append(_violation("distinct delays", totals["distinct_delays"], 1, lim["delays"].source))
+    bad += _eight_bit(prows, lim["weight_bits"].source)
+    return {"cores": cores, "chips": math.ceil(cores / lim["cores_per_chip"].value), "violations": bad,
+            "note": "cores from memory: 4 bytes per explicit synapse and 32 per neuron in 128 KB (assumed figures)"}
+
+
+def _eight_bit(prows, source: str) -> list:
+    return [_violation(f"8-bit weights of {r['name']}", f"{100 * r['lost_at_8_bits']:.0f} % of its weights round "
+                                                         "to 0", "none", source)
+            for r in prows if r["lost_at_8_bits"] > 0]
+
+
+def _loihi2(pops, prows, totals, two_taus: list) -> dict:
+    lim = LOIHI2
+    cores = sum(math.ceil(p["cells"] / lim["neurons_per_core"].value) for p in pops if not p["source"])
+    chips = max(math.ceil(totals["neurons"] / lim["neurons_per_chip"].value),
+                math.ceil(totals["synapses"] / lim["synapses_per_chip"].value),
+                math.ceil(cores / lim["cores_per_chip"].value))
+    bad = []
+    if totals["max_delay_steps"] > lim["delay_steps"].value:
+        long = sorted({r["name"] for r in prows if r["delay_steps"] > lim["delay_steps"].value})
+        bad.append(_violation(f"delay ({', '.join(long[:4])}{'...' if len(long) > 4 else ''})",
+                              totals["max_delay_steps"], lim["delay_steps"].value, lim["delay_steps"].source))
+    if two_taus:
+        bad.append(_violation("two synaptic time constants", f"{len(two_taus)} populations",
+                              1, lim["synaptic_time_constants"].source))
+    bad += _eight_bit(prows, lim["weight_bits"].source)
+    return {"cores": cores, "chips": chips, "violations": bad,
+            "note": "chips: the largest of neurons/1 M, explicit synapses/120 M and cores/128 (8 k neurons per "
+                    "core); weight-shared convolutions need less synaptic memory"}
+
+
+def resource_report(network: Network, dt_ms: float = 0.5) -> dict:
+    """What the whole network needs and which documented limits it breaks.
+
+    Parameters
+    ----------
+    network : Network
+        A description (the report is of its board network).
+    dt_ms : float
+        The time step delays are counted in.
+
+    Returns
+    -------
+    dict
+        ``totals``, ``populations``, ``projections`` and ``targets``
+        (``spinnaker1``, ``spinnaker2``, ``loihi2``: cores, chips, boards,
+        ``violations`` with limit and source); JSON data.
+
+    Examples
+    --------
+    >>> from snn_fg.network import build_network
+    >>> from snn_fg.params import ModelParams
+    >>> rep = resource_report(build_network(ModelParams(levels=2), (40, 52)))
+    >>> rep["totals"]["neurons"] > 0 and rep["targets"]["spinnaker1"]["chips"] >= 1
+    True
+    """
+    net = board_network(network)
+    prows = _projection_rows(net, dt_ms)
+    pops = _population_rows(net, prows)
+    lif = [p for p in pops if not p["source"]]
+    steps = sorted({r["delay_steps"] for r in prows})
+    totals = {"neurons": sum(p["cells"] for p in lif), "sources": sum(p["cells"] for p in pops if p["source"]),
+              "synapses": sum(r["synapses"] for r in prows),
+              "max_fan_in": max((p["max_fan_in"] for p in lif), default=0),
+              "max_fan_out": max((p["max_fan_out"] for p in pops), default=0),
+              "delay_steps": steps, "max_delay_steps": max(steps, default=0), "distinct_delays": len(steps),
+              "weights_mv": _global_weights(lif)}
+    two_taus = [p.name for p in net.populations if p.neuron is not None and p.neuron.tau_exc_ms != p.neuron.tau_inh_ms]
+    for r in prows:
+        del r["_fan_in"], r["_fan_out"]
+    return {"schema": SCHEMA, "frame_shape": list(net.frame_shape), "levels": net.params.levels,
+            "n_ori": net.params.n_ori, "dt_ms": dt_ms, "notes": list(net.notes[-1:]), "totals": totals,
+            "targets": {"spinnaker1": _spinnaker1(pops, prows, totals), "spinnaker2": _spinnaker2(pops, prows, totals),
+                        "loihi2": _loihi2(pops, prows, totals, two_taus)},
+            "populations": pops, "projections": prows}
+
+
+def _global_weights(lif) -> dict:
+    out = {}
+    for rec in ("excitatory", "inhibitory"):
+        ws = [p["weights_mv"][rec] for p in lif if rec in p["weights_mv"]]
+        if ws:
+            lo, hi = min(w["min"] for w in ws), max(w["max"] for w in ws)
+            out[rec] = {"min": lo, "max": hi, "range": hi / lo,
+                        "max_range_on_one_population": max(w["range"] for w in ws)}
+    return out
+
+
+def report_table(rep: dict) -> str:
+    """The report's headline figures as text."""
+    t = rep["totals"]
+    h, w = rep["frame_shape"]
+    lines = [f"Whole network for a {h} x {w} frame, {rep['levels']} levels, {rep['n_ori']} orientations "
+             f"(dt {rep['dt_ms']} ms)",
+             f"  neurons {t['neurons']:,}  spike sources {t['sources']:,}  synapses {t['synapses']:,}",
+             f"  max fan-in {t['max_fan_in']:,}  max fan-out {t['max_fan_out']:,}  delays (steps) {t['delay_steps']}"]
+    for rec, wr in t["weights_mv"].items():
+        lines.append(f"  {rec} weights {wr['min']:.3g}-{wr['max']:.3g} mV (range {wr['range']:.3g}; widest on one "
+                     f"population {wr['max_range_on_one_population']:.3g})")
+    for name, tg in rep["targets"].items():
+        size = f"cores {tg['cores']:,}  chips {tg['chips']:,}"
+        if "boards_spinn5" in tg:
+            size += f"  SpiNN-5 boards {tg['boards_spinn5']:,}"
+        lines.append(f"{name:11s} {size}")
+        for v in tg["violations"]:
+            lines.append(f"    violates {v['constraint']}: {v['value']} (limit {v['limit']}; {v['source']})")
+    return "\n".join(lines)

@@ -1,4 +1,6 @@
-"""Write the default network description for the BSDS frame size to networks/.
+"""Write every file of networks/: the default network description for the BSDS
+frame size, and the default iCub-size (304 x 240) network as a NIR graph with
+its hardware resource report (snn_fg.export.artefacts).
 
 networks/default_321x481.json is the description ``build_network(ModelParams(),
 (321, 481), SpikingParams())`` produces: every population, projection (kernel
@@ -20,6 +22,10 @@ def main():
     path = net.save(ROOT / "networks" / "default_321x481.json")
     print(net.summary().splitlines()[0])
     print(f"wrote {path}")
+    from snn_fg.export.artefacts import write_artefacts
+
+    for path in write_artefacts(ROOT / "networks"):
+        print(f"wrote {path}")
 
 
 if __name__ == "__main__":

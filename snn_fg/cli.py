@@ -1,4 +1,4 @@
-"""The ``snn-fg`` command line: ``run``, ``compare`` and ``events``.
+"""The ``snn-fg`` command line: ``run``, ``compare``, ``events`` and ``export``.
 
 Bad input ends with one line ``snn-fg: error: <file>: <problem>`` and exit
 status 2; an interrupted run (Ctrl-C, SIGTERM) exits 130 or 143 and leaves
@@ -16,6 +16,7 @@ from pathlib import Path
 from . import __version__
 from .errors import InputError, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
+from .export.cli import add_export_command
 from .models import MODELS
 
 EXIT_INPUT = 2
@@ -55,7 +56,7 @@ _RUN_OPTIONS = (
     ("spiking model", (
         ("--network", None, None, None, "run a stored network description (FILE.json, see networks/) instead "
                                         "of building one from the model parameters"),
-        ("--backend", None, None, None, "simulator (brian2)"),
+        ("--backend", None, None, None, "simulator: brian2, or nest (pip install \"snn-fg[nest]\")"),
         ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
         ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
         ("--dt-ms", float, 0, True, "simulation time step (0.5)"),
@@ -110,10 +111,11 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
     parser = argparse.ArgumentParser(prog="snn-fg", allow_abbrev=False,
                                      description="Event-driven figure-ground organisation as a spiking neural "
                                                  "network: run the model on events or images, compare maps, "
-                                                 "inspect event recordings.")
+                                                 "inspect event recordings, export the network.")
     parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    subs = {"run": _add_run(sub), "compare": _add_compare(sub), "events": add_events_command(sub)}
+    subs = {"run": _add_run(sub), "compare": _add_compare(sub), "events": add_events_command(sub),
+            "export": add_export_command(sub, sensor_size_arg, _number)}
     return parser, subs
 
 

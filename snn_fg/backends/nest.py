@@ -24,12 +24,14 @@ import numpy as np
 
 from .. import validate as check
 from ..network.graph import Network
-from ..export.pynn_model import PyNNNetwork, counts_in
+from ..export.pynn_model import PyNNNetwork
 from ..spiking.unroll import Unrolled, unroll
 from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
 CHUNK_MS = 25.0
+#: spike trains are recorded up to this many cells (NEST: 32 KB per recorded cell)
+SPIKE_RECORD_MAX_CELLS = 60_000
 
 
 def import_pynn_nest():
@@ -132,7 +134,13 @@ def _build(sim, un: Unrolled, inputs, settings: RunSettings, threads: int, porta
                     tau_exc_ms=tgt.tau_exc_ms, tau_inh_ms=tgt.tau_inh_ms)
         conn.free()
     names = [p.name for p in lif_populations(net_d)]
-    net.record(names)
+    n_cells = sum(un.n_cells(n) for n in names)
+    spikes = settings.record_spikes and n_cells <= SPIKE_RECORD_MAX_CELLS
+    if settings.record_spikes and not spikes:
+        settings.say(f"spike trains not recorded ({n_cells:,} cells; NEST keeps 32 KB per recorded cell): "
+                     "counts only")
+    edges = {settings.count_from_ms, settings.duration_ms} | set(settings.count_bins_ms or ())
+    net.record(names, spikes=spikes, count_edges_ms=edges)
     net.record_state(names, settings.record_state, settings.duration_ms)
     timings["build"] = time.perf_counter() - t0
     return net
@@ -163,16 +171,17 @@ def _collect(net, un: Unrolled, settings: RunSettings):
     edges = settings.count_bins_ms
     if edges:
         binned = {}
+    recorded = bool(net.recorders) or not net.native
     for p in lif_populations(un.network):
         n = un.n_cells(p.name)
-        cell, t = net.spikes(p.name, n)
-        counts[p.name] = counts_in(cell, t, n, settings.count_from_ms, settings.duration_ms)
-        spikes[p.name] = (cell, t)
+        counts[p.name] = net.counts(p.name, n, settings.count_from_ms, settings.duration_ms)
+        if recorded:
+            spikes[p.name] = net.spikes(p.name, n)
         if edges:
-            binned[p.name] = np.stack([counts_in(cell, t, n, a, b) for a, b in zip(edges, edges[1:])])
+            binned[p.name] = np.stack([net.counts(p.name, n, a, b) for a, b in zip(edges, edges[1:])])
         if settings.record_state:
             state[p.name] = {v: net.state(p.name, n, v) for v in settings.record_state}
-    return counts, spikes, binned, state
+    return counts, spikes if recorded else None, binned, state
 
 
 @contextlib.contextmanager

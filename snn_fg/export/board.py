@@ -38,6 +38,13 @@ BOARD_NOTE = ("Export: the board network has every cell of every population; the
               "left out.")
 
 
+def fingerprint(network: Network) -> str:
+    """SHA-256 of a description's JSON: which network an artefact was made from."""
+    import hashlib
+
+    return hashlib.sha256(network.to_json(indent=None).encode()).hexdigest()
+
+
 def board_network(network: Network) -> Network:
     """The whole, input-independent network: ``edge_mask`` dropped (noted)."""
     if not any(p.edge_mask for p in network.populations):

@@ -1,0 +1,41 @@
+"""The exported artefacts kept in ``networks/``: the default iCub-size (304 x 240)
+network as a NIR graph and its hardware resource report.
+
+:func:`write_artefacts` regenerates them (``python experiments/spiking_export_network.py``
+writes every file of ``networks/``); :func:`fingerprint` identifies the
+description they were made from, so a test can check they are current
+without regenerating them.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..network import SpikingParams, build_network
+from ..params import ModelParams
+from .board import fingerprint
+
+ICUB_SHAPE = (240, 304)            # rows, cols of the iCub ATIS
+NIR_NAME = "icub_304x240.nir"
+REPORT_NAME = "icub_304x240_resources.json"
+REPORT_TABLE = "icub_304x240_resources.txt"
+
+
+def default_icub_network():
+    return build_network(ModelParams(), ICUB_SHAPE, SpikingParams())
+
+
+def write_artefacts(folder) -> list[Path]:
+    """Write the NIR graph, the resource report (JSON) and its table into ``folder``."""
+    from ..atomic import save_text
+    from .nir import export_nir
+    from .report import report_table, resource_report
+
+    folder = Path(folder)
+    net = default_icub_network()
+    rep = resource_report(net)
+    rep["network_sha256"] = fingerprint(net)
+    written = [export_nir(net, folder / NIR_NAME, force=True),
+               save_text(folder / REPORT_NAME, json.dumps(rep, indent=1) + "\n"),
+               save_text(folder / REPORT_TABLE, report_table(rep) + "\n")]
+    return written

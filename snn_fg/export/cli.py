@@ -1,0 +1,126 @@
+"""``snn-fg export``: the network for neuromorphic boards and other simulators.
+
+Formats: ``pynn`` (a folder: self-contained PyNN model), ``nir`` (a NIR
+graph file), ``report`` (hardware resource report, JSON, also printed) and
+``network`` (the snn-fg JSON description; with ``--network FILE.nir`` this
+is the NIR import). Bad arguments end with one line and exit status 2;
+nothing partial is written.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from .. import validate as check
+from ..errors import InputError
+
+FORMATS = ("pynn", "nir", "report", "network")
+TARGETS = ("generic", "spinnaker")
+ICUB_SENSOR = (304, 240)      # iCub ATIS, width x height
+
+
+def add_export_command(sub, sensor_size_arg, number):
+    """Register ``export`` on an ``argparse`` subparsers object; returns the parser."""
+    p = sub.add_parser("export", allow_abbrev=False, help="export the network (PyNN, NIR, resource report)",
+                       description="Export the whole spiking network (every cell: a board holds one fixed network) "
+                                   "as a self-contained PyNN model (--format pynn, a folder), a NIR graph "
+                                   "(--format nir), a hardware resource report for SpiNNaker 1/2 and Loihi 2 "
+                                   "(--format report, JSON, also printed) or the snn-fg description (--format "
+                                   "network; with --network FILE.nir this reads a NIR export back).")
+    p.add_argument("--format", required=True, metavar="|".join(FORMATS))
+    p.add_argument("--out", required=True, metavar="PATH", help="output folder (pynn) or file")
+    p.add_argument("--force", action="store_true", help="replace PATH if it exists")
+    p.add_argument("--network", metavar="FILE", help="a stored description (.json) or NIR export (.nir) instead of "
+                                                     "building one from the model parameters")
+    p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
+                   help="sensor size (default 304x240, the iCub ATIS; a stored network keeps its own unless given)")
+    p.add_argument("--levels", type=number(int, 1, False), help="pyramid levels (10)")
+    p.add_argument("--n-ori", type=number(int, 2, False), help="orientations per half-turn (8)")
+    p.add_argument("--r0", type=number(float, 0), help="grouping radius in px (8)")
+    p.add_argument("--target", default="generic", metavar="|".join(TARGETS),
+                   help="pynn: generic, or spinnaker (also writes spinnaker.json: which projections sPyNNaker's "
+                        "ConvolutionConnector can carry)")
+    p.add_argument("--weight-bits", type=int, metavar="B", help="quantise weights to B bits (2-32), one scale per "
+                                                                "projection (pynn, nir)")
+    p.add_argument("--dt-ms", type=number(float, 0), default=0.5, help="time step delays are counted in (0.5)")
+    p.set_defaults(handler=cmd_export)
+    return p
+
+
+def _network(args):
+    from ..frames.pyramid import check_levels
+    from ..network import SpikingParams, build_network
+    from ..network.graph import Network
+    from ..params import ModelParams
+
+    given = {k: getattr(args, k) for k in ("levels", "n_ori", "r0") if getattr(args, k) is not None}
+    if args.sensor_size and min(args.sensor_size) < 1:
+        raise InputError(f"--sensor-size {args.sensor_size[0]}x{args.sensor_size[1]}", "width and height must be >= 1")
+    if args.network:
+        if given:
+            raise InputError(args.network, "--levels/--n-ori/--r0: a stored network carries its own model parameters")
+        path = Path(args.network)
+        net = read_network_file(path)
+        if args.sensor_size:
+            shape = (args.sensor_size[1], args.sensor_size[0])
+            check_levels(shape, net.params.levels, f"--sensor-size {args.sensor_size[0]}x{args.sensor_size[1]}")
+            net = net.resized(shape)
+        return net
+    w, h = args.sensor_size or ICUB_SENSOR
+    params = ModelParams(**given)
+    check_levels((h, w), params.levels, f"--sensor-size {w}x{h}")
+    return build_network(params, (h, w), SpikingParams())
+
+
+def read_network_file(path: Path):
+    """A description from ``.json`` or a NIR export (``.nir``)."""
+    from ..network.graph import Network
+
+    if path.suffix.lower() == ".nir":
+        from .nir import read_nir
+
+        return read_nir(path)
+    return Network.load(path)
+
+
+def _refuse_existing(out: Path, force: bool):
+    if out.exists() and not force:
+        raise InputError(out, "exists; pass --force to replace it")
+
+
+def cmd_export(args) -> int:
+    from ..atomic import save_text
+    from .quantise import check_bits
+
+    check.choice("snn-fg export", "--format", args.format, FORMATS)
+    check.choice("snn-fg export", "--target", args.target, TARGETS)
+    if args.target != "generic" and args.format != "pynn":
+        raise InputError(args.out, "--target applies to --format pynn only")
+    bits = None if args.weight_bits is None else check_bits(args.weight_bits, "snn-fg export")
+    if bits is not None and args.format not in ("pynn", "nir"):
+        raise InputError(args.out, "--weight-bits applies to --format pynn and nir only")
+    out = Path(args.out)
+    _refuse_existing(out, args.force)
+    net = _network(args)
+    if args.format == "pynn":
+        from .pynn import export_pynn
+
+        export_pynn(net, out, dt_ms=args.dt_ms, weight_bits=bits, target=args.target, force=args.force)
+        what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
+    elif args.format == "nir":
+        from .nir import export_nir
+
+        export_nir(net, out, weight_bits=bits, force=True)
+        what = f"NIR graph ({out.stat().st_size / 1e6:.1f} MB)"
+    elif args.format == "report":
+        from .report import report_table, resource_report
+
+        rep = resource_report(net, dt_ms=args.dt_ms)
+        print(report_table(rep))
+        save_text(out, json.dumps(rep, indent=1) + "\n")
+        what = "resource report"
+    else:
+        net.save(out)
+        what = "network description"
+    print(f"snn-fg: wrote {what} to {out}")
+    return 0

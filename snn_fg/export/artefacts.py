@@ -16,7 +16,7 @@ from ..params import ModelParams
 from .board import fingerprint
 
 ICUB_SHAPE = (240, 304)            # rows, cols of the iCub ATIS
-NIR_NAME = "icub_304x240.nir"
+NIR_NAME = "icub_304x240.nir.gz"     # gzip: the HDF5 file is 18 MB, mostly per-dataset headers
 REPORT_NAME = "icub_304x240_resources.json"
 REPORT_TABLE = "icub_304x240_resources.txt"
 
@@ -25,17 +25,32 @@ def default_icub_network():
     return build_network(ModelParams(), ICUB_SHAPE, SpikingParams())
 
 
+def _gzipped_nir(net, path: Path) -> Path:
+    import gzip
+    import shutil
+    import tempfile
+
+    from ..atomic import atomic_path
+    from .nir import export_nir
+
+    with tempfile.TemporaryDirectory() as tmp:
+        raw = export_nir(net, Path(tmp) / "net.nir")
+        with atomic_path(path, suffix=".gz") as part, open(raw, "rb") as src, \
+                gzip.GzipFile(part, "wb", compresslevel=9, mtime=0) as dst:
+            shutil.copyfileobj(src, dst)
+    return path
+
+
 def write_artefacts(folder) -> list[Path]:
     """Write the NIR graph, the resource report (JSON) and its table into ``folder``."""
     from ..atomic import save_text
-    from .nir import export_nir
     from .report import report_table, resource_report
 
     folder = Path(folder)
     net = default_icub_network()
     rep = resource_report(net)
     rep["network_sha256"] = fingerprint(net)
-    written = [export_nir(net, folder / NIR_NAME, force=True),
+    written = [_gzipped_nir(net, folder / NIR_NAME),
                save_text(folder / REPORT_NAME, json.dumps(rep, indent=1) + "\n"),
                save_text(folder / REPORT_TABLE, report_table(rep) + "\n")]
     return written

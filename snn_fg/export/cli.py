@@ -76,7 +76,7 @@ def read_network_file(path: Path):
     """A description from ``.json`` or a NIR export (``.nir``)."""
     from ..network.graph import Network
 
-    if path.suffix.lower() == ".nir":
+    if path.suffix.lower() == ".nir" or path.name.lower().endswith(".nir.gz"):
         from .nir import read_nir
 
         return read_nir(path)

@@ -122,8 +122,8 @@ def _population_nodes(nir, p: Population) -> dict:
     shape = p.shape
     n = p.neuron
 
-    def full(v):
-        return np.full(shape, v, dtype=np.float32)
+    def full(v):        # float64: the values read back exactly (constant arrays compress to nothing)
+        return np.full(shape, v, dtype=np.float64)
     meta = {"snn_fg_population": _js({k: v for k, v in p.to_dict().items() if k != "neuron"}),
             "t_ref_s": n.t_ref_ms * MS, "refractory": "membrane held at v_reset; currents keep decaying"}
     return {p.name: nir.LIF(tau=full(n.tau_m_ms * MS), r=full(1.0), v_leak=full(n.v_rest_mv),
@@ -235,9 +235,9 @@ def read_nir(path) -> Network:
     if not path.is_file():
         raise InputError(path, "no such file")
     try:
-        g = nir.read(path)
+        g = _read_graph(nir, path)
         meta = json.loads(g.metadata["snn_fg"])
-    except (OSError, KeyError, ValueError, TypeError) as exc:
+    except (OSError, EOFError, KeyError, ValueError, TypeError) as exc:
         raise InputError(path, f"not a NIR graph written by snn-fg ({type(exc).__name__}: {exc})") from None
     if meta.get("schema") != SCHEMA:
         raise InputError(path, f"NIR graph of schema {meta.get('schema')!r}, not {SCHEMA!r}")
@@ -245,6 +245,21 @@ def read_nir(path) -> Network:
         return _network_from(g, meta)
     except (KeyError, ValueError, TypeError, ParameterError) as exc:
         raise InputError(path, f"inconsistent snn-fg NIR graph: {exc}") from None
+
+
+def _read_graph(nir, path: Path):
+    """``nir.read``, also of a gzipped file (``.nir.gz``, as networks/ keeps it)."""
+    if path.suffix != ".gz":
+        return nir.read(path)
+    import gzip
+    import shutil
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp, gzip.open(path, "rb") as src:
+        raw = Path(tmp) / path.stem
+        with open(raw, "wb") as dst:
+            shutil.copyfileobj(src, dst)
+        return nir.read(raw)
 
 
 def _network_from(g, meta) -> Network:

@@ -81,13 +81,13 @@ Made by `snn-fg export --format pynn` (snn-fg {version}) for a {h} x {w} sensor,
 {levels} pyramid levels: {cells:,} neurons, {sources:,} spike sources, {prj} projections
 (target: {target}; weights: {bits}). Needs PyNN, numpy and a PyNN simulator; no snn-fg.
 
-    python run.py --input input.npz --out spikes.npz --simulator nest --duration-ms 400
+    python run.py --input input.npz --out counts.npz --simulator nest --duration-ms 400 [--count-from-ms 200]
 
 `input.npz`: `indices` (ON pixel y*W+x, OFF pixel H*W + y*W+x), `steps`, `dt_ms`
 ({dt} ms), `period_steps` (-1: no repetition), `shape`; `snn_fg.export.pynn.save_input`
-writes one from events or an event frame. `spikes.npz` has `cell_<population>` and
-`t_<population>` (ms) for every population; `snn_fg.export.pynn.read_spikes` turns it
-into maps.
+writes one from events or an event frame. `counts.npz` has `count_<population>` (spikes of
+every cell in the counting window; `--spikes` adds every spike time);
+`snn_fg.export.pynn.read_counts` and `snn_fg.spiking.decode.decode` turn it into maps.
 
 On SpiNNaker: `--simulator spiNNaker` (sPyNNaker). The synapses go through
 `FromListConnector`; `spinnaker.json` lists the projections sPyNNaker's
@@ -152,21 +152,17 @@ def save_input(inputs, path, dt_ms: float) -> Path:
     return Path(path)
 
 
-def read_spikes(network: Network, path, *, count_from_ms: float):
+def read_counts(network: Network, path):
     """``run.py``'s output as a :class:`~snn_fg.backends.SimulationResult`
     of the board network (every cell), ready for :func:`snn_fg.spiking.decode.decode`."""
     from ..backends.base import SimulationResult, lif_populations
-    from .pynn_model import counts_in
 
     net = board_network(network)
     d = np.load(path)
-    duration = float(d["duration_ms"])
-    counts, spikes, sites = {}, {}, {}
-    for p in lif_populations(net):
-        cell, t = d[f"cell_{p.name}"], d[f"t_{p.name}"]
-        sites[p.name] = np.arange(p.size)
-        counts[p.name] = counts_in(cell, t, p.size, count_from_ms, duration)
-        spikes[p.name] = (cell, t)
-    return SimulationResult(network=net, backend="pynn-export", sites=sites, counts=counts,
-                            count_window_ms=duration - count_from_ms, simulated_ms=duration,
-                            dt_ms=float(d["dt_ms"]), spikes=spikes)
+    duration, start = float(d["duration_ms"]), float(d["count_from_ms"])
+    pops = lif_populations(net)
+    spikes = {p.name: (d[f"cell_{p.name}"], d[f"t_{p.name}"]) for p in pops} if f"cell_{pops[0].name}" in d else None
+    return SimulationResult(network=net, backend="pynn-export", sites={p.name: np.arange(p.size) for p in pops},
+                            counts={p.name: d[f"count_{p.name}"].astype(np.int64) for p in pops},
+                            count_window_ms=duration - start, simulated_ms=duration, dt_ms=float(d["dt_ms"]),
+                            spikes=spikes)

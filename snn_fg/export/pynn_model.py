@@ -247,7 +247,9 @@ class PyNNNetwork:
             if self.native:
                 self._connect_nest(source, target, pre[keep], post[keep], mag[keep], receptor, delay)
             else:
-                rows = np.column_stack([pre[keep], post[keep], mag[keep], np.full(int(keep.sum()), delay)])
+                # PyNN's convention for current-based synapses: inhibitory weights are negative
+                w = mag[keep] if receptor == "excitatory" else -mag[keep]
+                rows = np.column_stack([pre[keep], post[keep], w, np.full(int(keep.sum()), delay)])
                 conn = self.sim.FromListConnector(rows, column_names=["weight", "delay"])
                 self.sim.Projection(self.pops[source], self.pops[target], conn, self.sim.StaticSynapse(),
                                     receptor_type=receptor)

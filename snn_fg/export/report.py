@@ -89,10 +89,12 @@ def _spinnaker1(pops, prows, totals) -> dict:
     top = slots * lim["delay_extension"].value
     if totals["max_delay_steps"] > top:
         bad.append(_violation("delay", totals["max_delay_steps"], top, lim["delay_extension"].source))
-    wide = [(p["name"], rec, w["range"]) for p in pops for rec, w in p["weights_mv"].items()
-            if w["range"] > 2 ** lim["weight_bits"].value - 1]
-    for name, rec, rng in wide:
-        bad.append(_violation(f"weight range on {name} {rec}", round(rng), 2 ** 16 - 1, lim["weight_bits"].source))
+    top16 = 2 ** lim["weight_bits"].value - 1
+    wide = sorted(((w["range"], f"{p['name']} {rec}") for p in pops for rec, w in p["weights_mv"].items()
+                   if w["range"] > top16), reverse=True)
+    if wide:
+        bad.append(_violation(f"weight range (largest/smallest |w|) on one receptor, {len(wide)} receptors "
+                              f"(widest: {wide[0][1]})", f"{wide[0][0]:.3g}", top16, lim["weight_bits"].source))
     return {"cores": cores, "chips": chips, "boards_spinn5": math.ceil(chips / lim["chips_per_board"].value),
             "delay_extension_sources": sorted(long_src), "violations": bad,
             "note": "cores: 256 neurons per core plus one delay-extension core per 256 sources of delays over "
@@ -112,9 +114,12 @@ def _spinnaker2(pops, prows, totals) -> dict:
 
 
 def _eight_bit(prows, source: str) -> list:
-    return [_violation(f"8-bit weights of {r['name']}", f"{100 * r['lost_at_8_bits']:.0f} % of its weights round "
-                                                         "to 0", "none", source)
-            for r in prows if r["lost_at_8_bits"] > 0]
+    lossy = sorted(((r["lost_at_8_bits"], r["name"]) for r in prows if r["lost_at_8_bits"] > 0), reverse=True)
+    if not lossy:
+        return []
+    return [_violation(f"8-bit weights (one scale per projection): {len(lossy)} projections lose weights "
+                       f"(worst: {lossy[0][1]})", f"{100 * lossy[0][0]:.0f} % of its distinct weights round to 0",
+                       "none lost", source)]
 
 
 def _loihi2(pops, prows, totals, two_taus: list) -> dict:

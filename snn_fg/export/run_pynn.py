@@ -2,13 +2,16 @@
 
 Needs only PyNN, numpy and a PyNN simulator; run it from its own folder:
 
-    python run.py --input input.npz --out spikes.npz [--simulator nest] [--threads 2]
+    python run.py --input input.npz --out counts.npz [--simulator nest] [--threads 2] [--count-from-ms 200]
 
 ``input.npz`` holds ``indices`` (source of each spike: ON pixel y*W+x, OFF
 pixel H*W + y*W+x), ``steps`` (time step of each spike), ``dt_ms``,
 ``period_steps`` (the pattern repeats with this period; -1: it does not) and
 ``shape`` (H, W); ``snn_fg.export.pynn.save_input`` writes one.
-``spikes.npz`` gets, per population, ``cell_<name>`` and ``t_<name>`` (ms).
+The output gets, per population, ``count_<name>``: every cell's spikes from
+``--count-from-ms`` (default: half the run) to the end; with ``--spikes`` also
+``cell_<name>`` and ``t_<name>`` (ms) of every spike (on NEST a recorded cell
+costs 32 KB: use it on small networks).
 """
 import argparse
 import importlib
@@ -49,7 +52,7 @@ def input_steps(path, n_steps, n_sources):
     return [steps[a:b] for a, b in zip(bounds[:-1], bounds[1:])], float(d["dt_ms"])
 
 
-def build(sim, meta, tables, sources, dt_ms, threads, portable):
+def build(sim, meta, tables, sources, dt_ms, threads, portable, spikes, edges):
     pops = {p["name"]: p for p in meta["populations"]}
     delays = [pr["delay_ms"] for pr in meta["projections"]] + [dt_ms]
     net = fg.PyNNNetwork(sim, dt_ms=dt_ms, max_delay_ms=max(delays), threads=threads, portable=portable)
@@ -71,7 +74,8 @@ def build(sim, meta, tables, sources, dt_ms, threads, portable):
         drive = fg.quantise(pr["sign"] * pr["gain_mv"] * k, meta["weight_bits"], pr["scale_mv"])
         net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"],
                     tau_exc_ms=tgt["neuron"]["tau_exc_ms"], tau_inh_ms=tgt["neuron"]["tau_inh_ms"])
-    net.record([p["name"] for p in meta["populations"] if p["neuron"] is not None])
+    net.record([p["name"] for p in meta["populations"] if p["neuron"] is not None], spikes=spikes,
+               count_edges_ms=edges)
     return net
 
 
@@ -83,6 +87,8 @@ def main(argv=None):
     ap.add_argument("--duration-ms", type=float, default=400.0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--portable", action="store_true", help="PyNN's own connectors and recording on NEST too")
+    ap.add_argument("--count-from-ms", type=float, default=None, help="start of the counting window (half the run)")
+    ap.add_argument("--spikes", action="store_true", help="also write every spike")
     args = ap.parse_args(argv)
     with open("network.json") as fh:
         meta = json.load(fh)
@@ -93,13 +99,17 @@ def main(argv=None):
         sys.exit(f"run.py: error: {args.input}: dt_ms={dt_ms} differs from the network's {meta['dt_ms']}")
     sim = importlib.import_module(f"pyNN.{args.simulator}")
     t0 = time.perf_counter()
-    net = build(sim, meta, tables, sources, dt_ms, args.threads, args.portable)
+    start = args.duration_ms / 2 if args.count_from_ms is None else args.count_from_ms
+    net = build(sim, meta, tables, sources, dt_ms, args.threads, args.portable, args.spikes,
+                (start, args.duration_ms))
     t1 = time.perf_counter()
     net.run(args.duration_ms)
-    out = {"duration_ms": args.duration_ms, "dt_ms": dt_ms}
+    out = {"duration_ms": args.duration_ms, "dt_ms": dt_ms, "count_from_ms": start}
     for p in meta["populations"]:
         if p["neuron"] is not None:
-            out[f"cell_{p['name']}"], out[f"t_{p['name']}"] = net.spikes(p["name"], p["size"])
+            out[f"count_{p['name']}"] = net.counts(p["name"], p["size"], start, args.duration_ms)
+            if args.spikes:
+                out[f"cell_{p['name']}"], out[f"t_{p['name']}"] = net.spikes(p["name"], p["size"])
     net.end()
     np.savez(args.out, **out)
     print(f"run.py: built in {t1 - t0:.1f} s, simulated {args.duration_ms:g} ms in {time.perf_counter() - t1:.1f} s; "

@@ -1,0 +1,216 @@
+"""Hardware figures of the export: resource reports, the largest configuration
+that fits one SpiNN-5 board and one Loihi 2 chip (and its fidelity), and
+weight quantisation at 8 and 16 bits.
+
+* ``reports``: resource reports for 304 x 240 (iCub ATIS) and 321 x 481 (BSDS).
+* ``fit``: sensor crops of the iCub sensor (304 x 240 scaled down), 8 then 4
+  orientations, as many levels as the crop allows; the first (largest) whose
+  report needs <= 48 SpiNNaker chips (one SpiNN-5 board) and <= 1 Loihi 2
+  chip. Its fidelity: Brian2 maps of the dvs.es window (100-185 ms) cropped
+  to that size, against the full network's maps on the same crop.
+* ``quant``: Brian2 runs with every projection's weights rounded to 8 and 16
+  bits (one scale per projection, snn_fg.export.quantise) against float, on
+  discs (radius 16-48, both polarities), the occlusion scene, the demo scene
+  and (``--bsds``) the six shared BSDS frames.
+
+Writes experiments/results/export_hardware.json and .md.
+Usage: python experiments/export_hardware.py [reports] [fit] [quant] [--bsds]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from snn_fg.atomic import save_text  # noqa: E402
+from snn_fg.backends import RunSettings  # noqa: E402
+from snn_fg.backends.brian2 import Brian2Backend  # noqa: E402
+from snn_fg.export.quantise import quantise_unrolled  # noqa: E402
+from snn_fg.export.report import report_table, resource_report  # noqa: E402
+from snn_fg.frames.pyramid import max_levels  # noqa: E402
+from snn_fg.metrics import compare_frame  # noqa: E402
+from snn_fg.network import SpikingParams, build_network  # noqa: E402
+from snn_fg.params import ModelParams  # noqa: E402
+from snn_fg.spiking.decode import decode  # noqa: E402
+
+SHARED = ROOT.parent / "shared" / "data"
+OUT = ROOT / "experiments" / "results"
+CROPS = ((304, 240), (256, 192), (224, 168), (192, 144), (160, 120), (128, 96), (112, 84), (96, 72), (80, 60),
+         (64, 48), (48, 36))
+
+
+class QuantisedBrian2(Brian2Backend):
+    """Brian2 on the unrolled network with quantised weights."""
+
+    def __init__(self, bits, **kw):
+        super().__init__(**kw)
+        self.bits = bits
+
+    def _run(self, un, inputs, settings, timings):
+        quantise_unrolled(un, self.bits)
+        return super()._run(un, inputs, settings, timings)
+
+
+def reports(out):
+    for w, h in ((304, 240), (481, 321)):
+        t0 = time.perf_counter()
+        rep = resource_report(build_network(ModelParams(), (h, w), SpikingParams()))
+        print(report_table(rep), f"\n({time.perf_counter() - t0:.0f} s)", flush=True)
+        out[f"report_{w}x{h}"] = {k: rep[k] for k in ("totals", "targets", "frame_shape")}
+
+
+def _fits(rep):
+    return {"spinn5": rep["targets"]["spinnaker1"]["chips"] <= 48, "loihi2": rep["targets"]["loihi2"]["chips"] <= 1}
+
+
+def fit(out):
+    found = {}
+    tried = []
+    for w, h in CROPS:
+        for n_ori in (8, 4):
+            params = ModelParams(levels=min(10, max_levels((h, w))), n_ori=n_ori)
+            rep = resource_report(build_network(params, (h, w), SpikingParams()))
+            ok = _fits(rep)
+            t = rep["totals"]
+            tried.append({"sensor": [w, h], "levels": params.levels, "n_ori": n_ori, "neurons": t["neurons"],
+                          "synapses": t["synapses"], "spinnaker_chips": rep["targets"]["spinnaker1"]["chips"],
+                          "loihi2_chips": rep["targets"]["loihi2"]["chips"], **ok})
+            print(json.dumps(tried[-1]), flush=True)
+            for target, good in ok.items():
+                if good and target not in found:
+                    found[target] = tried[-1]
+        if len(found) == 2:
+            break
+    out["fit"] = {"tried": tried, "largest": found}
+    out["fit"]["fidelity"] = {t: _crop_fidelity(c) for t, c in found.items()}
+
+
+def _dvs_window():
+    from snn_fg.events import iter_windows
+
+    return next(iter_windows(SHARED / "events" / "dvs.es", window_ms=85.0, start_ms=100.0))
+
+
+def _crop_fidelity(cfg):
+    """The fitting configuration on a crop of the dvs.es window against the
+    full default network on the whole window, compared inside the crop."""
+    from snn_fg.spiking import run_spiking
+
+    win = _dvs_window()
+    H, W = win.pos.shape
+    w, h = cfg["sensor"]
+    ys, xs = np.nonzero(win.pos | win.neg)
+    r0 = int(np.clip(ys.mean() - h / 2, 0, H - h))
+    c0 = int(np.clip(xs.mean() - w / 2, 0, W - w))
+    ev = win.events
+    keep = (ev["x"] >= c0) & (ev["x"] < c0 + w) & (ev["y"] >= r0) & (ev["y"] < r0 + h)
+    crop = ev[keep].copy()
+    crop["x"] -= c0
+    crop["y"] -= r0
+    full = run_spiking(events=ev, sensor_size=(W, H, 2), progress=False)
+    small = run_spiking(events=crop, sensor_size=(w, h, 2), progress=False,
+                        params=ModelParams(levels=cfg["levels"], n_ori=cfg["n_ori"]))
+    sl = (slice(r0, r0 + h), slice(c0, c0 + w))
+    c = compare_frame(small.fg_x, small.fg_y, small.grouping, full.fg_x[sl], full.fg_y[sl], full.grouping[sl])
+    return {"crop_origin": [c0, r0], **{k: c[k] for k in ("grouping_pearson_r", "angle_within_45_frac",
+                                                          "angle_diff_mean_deg", "pixels_compared")}}
+
+
+def _scenes(bsds: bool):
+    from snn_fg import scenes
+    from snn_fg.events import image_to_frame
+
+    for r in (16, 32, 48):
+        for light in (True, False):
+            yield f"disc r{r} {'light' if light else 'dark'}", image_to_frame(scenes.disc(r, light_on_dark=light).image)
+    yield "occlusion", image_to_frame(scenes.occlusion().image)
+    yield "demo", image_to_frame(scenes.demo().image)
+    if bsds:
+        for f in sorted((SHARED / "bsds-edfg").glob("*.npz")):
+            d = np.load(f)
+            yield f"bsds {f.stem}", (d["pos"], d["neg"])
+
+
+def quant(out, bsds: bool):
+    from snn_fg.spiking.inputs import frame_spikes
+
+    rows = []
+    for name, (pos, neg) in _scenes(bsds):
+        net = build_network(ModelParams(), pos.shape, SpikingParams())
+        inp = frame_spikes(pos, neg, 200.0, 0.5, 400.0)
+        net = net.calibrated(inp.rate_hz)
+        s = RunSettings(duration_ms=400.0, count_from_ms=200.0, record_spikes=False)
+        maps = {}
+        for bits in (None, 16, 8):
+            backend = Brian2Backend() if bits is None else QuantisedBrian2(bits)
+            maps[bits] = decode(backend.simulate(net, inp, s))[:3]
+        for bits in (16, 8):
+            c = compare_frame(*maps[bits], *maps[None])
+            rows.append({"input": name, "bits": bits, **{k: c[k] for k in (
+                "grouping_pearson_r", "angle_within_45_frac", "angle_diff_mean_deg", "pixels_compared")}})
+            print(json.dumps(rows[-1]), flush=True)
+    out["quantisation"] = rows
+
+
+def write(out):
+    OUT.mkdir(parents=True, exist_ok=True)
+    old = OUT / "export_hardware.json"
+    merged = json.loads(old.read_text()) if old.exists() else {}
+    merged.update(out)
+    save_text(old, json.dumps(merged, indent=1))
+    lines = ["# Export: hardware resources, fitting configurations, quantisation", "",
+             f"Load average at the end: {os.getloadavg()} (2 shared cores).", ""]
+    for key in ("report_304x240", "report_481x321"):
+        if key in merged:
+            t = merged[key]["totals"]
+            tg = merged[key]["targets"]
+            lines += [f"## {key}", "", f"neurons {t['neurons']:,}, synapses {t['synapses']:,}, max fan-in "
+                      f"{t['max_fan_in']:,}, max fan-out {t['max_fan_out']:,}, delays (steps) {t['delay_steps']}", "",
+                      "| target | cores | chips | violations |", "|---|---|---|---|"]
+            for name, x in tg.items():
+                v = "; ".join(f"{a['constraint']} {a['value']} > {a['limit']}" for a in x["violations"][:3])
+                more = len(x["violations"]) - 3
+                lines.append(f"| {name} | {x['cores']:,} | {x['chips']:,} | {v}{f' (+{more} more)' if more > 0 else ''} |")
+            lines.append("")
+    if "fit" in merged:
+        lines += ["## Largest configuration that fits", "", "| target | sensor | levels | n_ori | neurons | synapses | "
+                  "grouping r vs full | within 45° |", "|---|---|---|---|---|---|---|---|"]
+        for t, c in merged["fit"]["largest"].items():
+            f = merged["fit"]["fidelity"].get(t, {})
+            lines.append(f"| {t} | {c['sensor'][0]}x{c['sensor'][1]} | {c['levels']} | {c['n_ori']} | "
+                         f"{c['neurons']:,} | {c['synapses']:,} | {f.get('grouping_pearson_r', float('nan')):.3f} | "
+                         f"{f.get('angle_within_45_frac', float('nan')):.3f} |")
+        lines.append("")
+    if "quantisation" in merged:
+        lines += ["## Weight quantisation (Brian2, against float)", "", "| input | bits | grouping r | within 45° | "
+                  "mean angle ° |", "|---|---|---|---|---|"]
+        for r in merged["quantisation"]:
+            lines.append(f"| {r['input']} | {r['bits']} | {r['grouping_pearson_r']:.3f} | "
+                         f"{r['angle_within_45_frac']:.3f} | {r['angle_diff_mean_deg']:.1f} |")
+    save_text(OUT / "export_hardware.md", "\n".join(lines) + "\n")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("parts", nargs="*", default=["reports", "fit", "quant"])
+    ap.add_argument("--bsds", action="store_true")
+    args = ap.parse_args()
+    out = {"load_before": os.getloadavg()}
+    for part in args.parts:
+        if part == "quant":
+            quant(out, args.bsds)
+        else:
+            {"reports": reports, "fit": fit}[part](out)
+        write(out)
+
+
+if __name__ == "__main__":
+    main()

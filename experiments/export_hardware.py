@@ -43,8 +43,7 @@ from snn_fg.spiking.decode import decode  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data"
 OUT = ROOT / "experiments" / "results"
-CROPS = ((304, 240), (256, 192), (224, 168), (192, 144), (160, 120), (128, 96), (112, 84), (96, 72), (80, 60),
-         (64, 48), (48, 36))
+CROPS = ((160, 120), (128, 96), (112, 84), (96, 72), (80, 60), (64, 48), (56, 42), (48, 36), (40, 30))
 
 
 class QuantisedBrian2(Brian2Backend):
@@ -71,24 +70,37 @@ def _fits(rep):
     return {"spinn5": rep["targets"]["spinnaker1"]["chips"] <= 48, "loihi2": rep["targets"]["loihi2"]["chips"] <= 1}
 
 
+def _config(w, h, n_ori, levels):
+    rep = resource_report(build_network(ModelParams(levels=levels, n_ori=n_ori), (h, w), SpikingParams()))
+    t = rep["totals"]
+    row = {"sensor": [w, h], "levels": levels, "n_ori": n_ori, "neurons": t["neurons"], "synapses": t["synapses"],
+           "spinnaker_chips": rep["targets"]["spinnaker1"]["chips"], "loihi2_chips": rep["targets"]["loihi2"]["chips"],
+           "loihi2_cores": rep["targets"]["loihi2"]["cores"], **_fits(rep)}
+    print(json.dumps(row), flush=True)
+    return row
+
+
 def fit(out):
-    found = {}
-    tried = []
-    for w, h in CROPS:
-        for n_ori in (8, 4):
-            params = ModelParams(levels=min(10, max_levels((h, w))), n_ori=n_ori)
-            rep = resource_report(build_network(params, (h, w), SpikingParams()))
-            ok = _fits(rep)
-            t = rep["totals"]
-            tried.append({"sensor": [w, h], "levels": params.levels, "n_ori": n_ori, "neurons": t["neurons"],
-                          "synapses": t["synapses"], "spinnaker_chips": rep["targets"]["spinnaker1"]["chips"],
-                          "loihi2_chips": rep["targets"]["loihi2"]["chips"], **ok})
-            print(json.dumps(tried[-1]), flush=True)
-            for target, good in ok.items():
-                if good and target not in found:
-                    found[target] = tried[-1]
-        if len(found) == 2:
-            break
+    """Per target, crops from small to large; for each crop and orientation
+    count the most levels that fit (every population takes at least one
+    core, so fewer levels can fit where more do not); the largest fitting
+    configuration (by neurons) wins; stop at the first crop where none fits."""
+    found, tried = {}, []
+    for target in ("spinn5", "loihi2"):
+        for w, h in sorted(CROPS):
+            fits_here = []
+            for n_ori in (8, 4):
+                for levels in range(min(10, max_levels((h, w))), 3, -1):
+                    row = _config(w, h, n_ori, levels)
+                    tried.append(row)
+                    if row[target]:
+                        fits_here.append(row)
+                        break
+            if not fits_here:
+                break
+            best = max(fits_here, key=lambda r: r["neurons"])
+            if target not in found or best["neurons"] > found[target]["neurons"]:
+                found[target] = best
     out["fit"] = {"tried": tried, "largest": found}
     out["fit"]["fidelity"] = {t: _crop_fidelity(c) for t, c in found.items()}
 

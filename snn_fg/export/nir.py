@@ -31,6 +31,8 @@ named in the graph's ``metadata["approximations"]``):
   ``Input`` node ``<proj>.in`` through a ``Delay``; ``metadata`` holds the
   interpolation, gain, sign and pruning, and a consumer must connect the
   pair itself (:func:`read_nir` does).
+* **Outputs**: the border-ownership and grouping populations (what the maps
+  are decoded from) each feed an ``Output`` node ``<pop>.spikes``.
 * **Input-dependent edge mask**: dropped (the board network, see
   :mod:`.board`).
 
@@ -189,6 +191,9 @@ def to_nir(network: Network, *, weight_bits: int | None = None):
         else:
             nodes.update(_population_nodes(nir, p))
             edges += [(f"{p.name}.exc", p.name), (f"{p.name}.inh", p.name)]
+            if p.role.startswith(("bo_", "group_")):     # what the maps are decoded from
+                nodes[f"{p.name}.spikes"] = nir.Output(output_type={"output": np.array(p.shape)})
+                edges.append((p.name, f"{p.name}.spikes"))
     for pr in net.projections:
         n, e = (_conv_nodes(nir, net, pr, scales.get(pr.name), weight_bits) if isinstance(pr, Conv)
                 else _resize_nodes(nir, net, pr))

@@ -31,7 +31,7 @@ from .base import Backend, RunSettings, SimulationResult, lif_populations, sourc
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
 CHUNK_MS = 25.0
 #: spike trains are recorded up to this many cells (NEST: 32 KB per recorded cell)
-SPIKE_RECORD_MAX_CELLS = 60_000
+SPIKE_RECORD_MAX_CELLS = 30_000
 
 
 def import_pynn_nest():

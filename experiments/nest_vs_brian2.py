@@ -27,12 +27,27 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from snn_fg.atomic import save_text  # noqa: E402
+
 SHARED = ROOT.parent / "shared" / "data"
 OUT = ROOT / "experiments" / "results"
 WINDOW = (100.0, 85.0)     # start, length (ms) of the dvs.es window
 
 
+SYNTHETIC = ("disc16", "disc16dark", "occlusion", "demo", "disc32", "disc32dark", "disc48", "disc48dark")
+
+
 def _inputs(name):
+    if name in SYNTHETIC:
+        from snn_fg import scenes
+        from snn_fg.events import image_to_frame
+
+        if name.startswith("disc"):
+            sc = scenes.disc(int(name[4:6]), light_on_dark=not name.endswith("dark"))
+        else:
+            sc = getattr(scenes, name)()
+        pos, neg = image_to_frame(sc.image)
+        return {"pos": pos, "neg": neg}
     if name == "frame":
         d = np.load(SHARED / "bsds-edfg" / "105053.npz")
         return {"pos": d["pos"], "neg": d["neg"]}
@@ -75,19 +90,19 @@ def _run(name, backend, threads, tmp):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--one", nargs=4, metavar=("INPUT", "BACKEND", "THREADS", "OUT"))
-    ap.add_argument("--only", choices=("frame", "dvs"))
+    ap.add_argument("--only", choices=("frame", "dvs", "synthetic"))
     ap.add_argument("--no-threads", action="store_true")
     args = ap.parse_args()
     if args.one:
         one(args.one[0], args.one[1], int(args.one[2]), args.one[3])
         return
-    from snn_fg.atomic import save_text
     from snn_fg.metrics import compare_frame
 
     rows = []
     load = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
-        for name in ([args.only] if args.only else ["frame", "dvs"]):
+        names = {"synthetic": list(SYNTHETIC), None: ["frame", "dvs"]}.get(args.only, [args.only])
+        for name in names:
             b2, mb = _run(name, "brian2", 1, tmp)
             runs = [(1, _run(name, "nest", 1, tmp))]
             if not args.no_threads:
@@ -99,12 +114,16 @@ def main():
                              "within_45": c["angle_within_45_frac"], "mean_angle_deg": c["angle_diff_mean_deg"],
                              "pixels": c["pixels_compared"], "rate_ratio_nest_over_brian2": ratio,
                              "brian2": mb, "nest": mn})
+                save_text(OUT / f"nest_vs_brian2{'_' + args.only if args.only else ''}.partial.json",
+                          json.dumps(rows, indent=1))
                 print(json.dumps({k: rows[-1][k] for k in ("input", "nest_threads", "grouping_r", "within_45")}),
                       f"brian2 {mb['wall_s']:.1f} s {mb['peak_rss_gb']:.2f} GB, nest {mn['wall_s']:.1f} s "
                       f"{mn['peak_rss_gb']:.2f} GB", flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
     result = {"load_before": load, "load_after": os.getloadavg(), "window_ms": WINDOW, "rows": rows}
-    save_text(OUT / "nest_vs_brian2.json", json.dumps(result, indent=1))
+    stem = f"nest_vs_brian2{'_' + args.only if args.only else ''}"
+    save_text(OUT / f"{stem}.json", json.dumps(result, indent=1))
+    (OUT / f"{stem}.partial.json").unlink(missing_ok=True)
     lines = ["# NEST (PyNN) against Brian2", "", f"Load average before/after: {load} / {result['load_after']} "
              "(2 cores shared by five developers: timings are noisy).", "",
              "| input | NEST threads | grouping r | within 45° | mean angle ° | Brian2 s / GB | NEST s / GB | "
@@ -115,7 +134,7 @@ def main():
                      f"{r['mean_angle_deg']:.1f} | {r['brian2']['wall_s']:.0f} / {r['brian2']['peak_rss_gb']:.2f} | "
                      f"{r['nest']['wall_s']:.0f} / {r['nest']['peak_rss_gb']:.2f} | "
                      f"{r['nest']['timings_s'].get('run', 0):.1f} | {min(vals):.2f}-{max(vals):.2f} |")
-    save_text(OUT / "nest_vs_brian2.md", "\n".join(lines) + "\n")
+    save_text(OUT / f"{stem}.md", "\n".join(lines) + "\n")
     print("\n".join(lines))
 
 

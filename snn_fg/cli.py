@@ -20,7 +20,12 @@ from .models import MODELS
 
 EXIT_INPUT = 2
 MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
-RECORDING_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
+#: how a recording is cut into windows (snn_fg.events.iter_windows)
+WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
+#: options that only a recording uses
+RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms",)
+#: spiking options for one frame that a recording (one continuous run) does not use
+FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
 
 
 def _number(kind, lo, strict=True):
@@ -59,7 +64,13 @@ _RUN_OPTIONS = (
         ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
         ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
         ("--dt-ms", float, 0, True, "simulation time step (0.5)"),
-        ("--seed", int, -2**63, False, "seed of the input spike phases (0)"))),
+        ("--seed", int, -2**63, False, "seed of the input spike phases (0)"),
+        ("--spike-input", ("regular", "events"), None, None, "images: regular trains at every event pixel, or the "
+                                                            "simulated camera's events with their timing (regular)"),
+        ("--feedback", ("on", "off"), None, None, "off: remove the feedback onto border-ownership cells, the "
+                                                  "model's ablation (on)"),
+        ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later "
+                                              "(20)"))),
 )
 
 
@@ -78,7 +89,10 @@ def _add_run(sub):
     for title, options in _RUN_OPTIONS:
         g = p.add_argument_group(title)
         for flag, kind, lo, strict, text in options:
-            g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
+            if isinstance(kind, tuple):
+                g.add_argument(flag, choices=kind, help=text)
+            else:
+                g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
     p.add_argument("--threshold", type=_number(float, 0), default=0.10, metavar="C",
                    help="images turned into events: contrast threshold of the simulated event camera (0.10)")
     p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
@@ -129,6 +143,8 @@ def _model(args, kind):
     unused = [k for m in MODELS.values() for k in m.options if k not in takes and getattr(args, k) is not None]
     if kind != "recording":
         unused += [k for k in RECORDING_OPTIONS + ("sensor_size",) if getattr(args, k) is not None]
+    else:
+        unused += [k for k in FRAME_ONLY_OPTIONS if getattr(args, k) is not None]
     if args.network is not None and given:
         unused += list(given)
     if unused:
@@ -138,6 +154,8 @@ def _model(args, kind):
         raise InputError(args.input, f"{flags}: {why}")
     progress = None if args.no_progress else _progress_factory()
     options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}
+    if "feedback" in options:
+        options["feedback"] = options["feedback"] == "on"
     return MODELS[args.model](ModelParams(**given), progress, **options)
 
 
@@ -151,7 +169,7 @@ def _windows(args):
     from .events import iter_recording, iter_windows
 
     stream = iter_recording(args.input, sensor_size=args.sensor_size)
-    opts = {k: getattr(args, k) for k in RECORDING_OPTIONS if getattr(args, k) is not None}
+    opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
     windows = iter_windows(stream, **{"window_ms": 85.0, **opts})
     if not args.no_progress:
         from tqdm import tqdm

@@ -101,7 +101,7 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10):
     by the simulated event camera at contrast ``threshold``) or ``"image"``.
     Returns ``(Frame, source)``.
     """
-    from .events import image_to_frame
+    from .events import events_to_frame, image_to_events
     from .images import read_image
     from .models import Frame
 
@@ -122,8 +122,9 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10):
         image = read_image(spec, grey=needs != "image")
     if needs == "image":
         return Frame(image=image), source
-    pos, neg = image_to_frame(image, threshold=threshold)
+    recording = image_to_events(image, threshold=threshold)
+    pos, neg = events_to_frame(recording.events, recording.sensor_size)
     if not (pos.any() or neg.any()):
         raise InputError(spec, f"the image gives no events at contrast threshold {threshold}")
     source["threshold"] = threshold
-    return Frame(pos, neg, image), source
+    return Frame(pos, neg, image, recording), source

@@ -50,6 +50,7 @@ ROLES = (
     "simple",                           # oriented simple cells, 2 * n_ori directions (stages 3-4)
     "untuned",                          # event pixels without an oriented response (stage 4)
     "bo_L1", "bo_L2", "bo_D1", "bo_D2",  # border-ownership cells, n_ori orientations (stage 5)
+    "excess_L1", "excess_L2", "excess_D1", "excess_D2",  # a family's excess over its rival (stage 7)
     "group_L", "group_D",               # grouping cells (stage 7)
     "feedback_1p", "feedback_1n",       # feedback cells: the signal z1 = VL1 - VD2 as a rectified pair
     "feedback_2p", "feedback_2n",       # and z2 = VL2 - VD1 (stage 8)

@@ -23,10 +23,12 @@ UNTUNED_RATE_HZ = 150.0   # untuned cells fire faster than simple cells
 CELL_RATE_HZ = 100.0      # border-ownership, grouping and feedback cells
 
 INTERPOLATIONS = ("cubic", "linear")
+#: how the rival border-ownership family inhibits grouping cells (see the builder)
+RIVAL_INHIBITION = ("excess", "direct")
 
 
 #: the kinds of cell the network has, each with its own neuron constants
-CELL_KINDS = ("simple", "untuned", "relay", "bo", "group", "feedback")
+CELL_KINDS = ("simple", "untuned", "relay", "bo", "excess", "group", "feedback")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -37,7 +39,8 @@ class SpikingParams(Node):
         ``input_rate_hz``: mean rate of an input pixel with events that the
         input gains are set for: at this rate a simple cell's mean current
         reaches threshold exactly when its DoG response reaches
-        ``ModelParams.edge_threshold`` (stage 3); ``gate_margin``: how far
+        ``ModelParams.edge_threshold`` (stage 3), times ``simple_drive``;
+        ``gate_margin``: how far
         (thresholds) a level-1 simple cell without an event at its pixel
         stays below threshold under the strongest possible DoG drive;
         ``gate_copies``, ``gate_spread_ms``: the gate arrives as that many
@@ -84,6 +87,7 @@ class SpikingParams(Node):
     _nested: ClassVar[dict] = {kind: Neuron for kind in CELL_KINDS}
 
     input_rate_hz: float = 200.0
+    simple_drive: float = 1.0
     support_min: float = 0.3
     drive_min: float = 0.85
     gate_margin: float = 1.0
@@ -97,25 +101,28 @@ class SpikingParams(Node):
     prune_resize: float = 0.0
     delay_ms: float = 1.0
     delay_untuned_ms: float = 8.0
-    delay_opposite_ms: float = 70.0
-    delay_feedback_ms: float = 25.0
+    delay_feedback_ms: float = 5.0
+    rival_inhibition: str = "excess"
+    bo_gate_margin: float = 0.5
     simple: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=4.0)
     untuned: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=4.0, tau_inh_ms=50.0)
     relay: Neuron = Neuron(tau_m_ms=200.0, t_ref_ms=1.0)
     bo: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
+    excess: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
     group: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=1.0)
-    feedback: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=1.0)
+    feedback: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=4.0)
     simple_inh_simple: float = 3.0
     input_to_untuned: float = 1.5
     simple_inh_untuned: float = 20.0
-    simple_to_bo: float = 6.0
+    simple_to_bo: float = 1.5
     untuned_to_bo: float = 6.0
-    bo_inh_bo: float = 1.0
-    feedback_to_bo: float = 0.0
-    feedback_inh_bo: float = 100.0
+    bo_inh_bo: float = 0.0
+    feedback_to_bo: float = 1.0
+    feedback_inh_bo: float = 20.0
     bo_to_group: float = 2.0
     group_inh_group: float = 0.5
     group_to_feedback: float = 0.1
+    bo_to_excess: float = 2.0
 
     def __post_init__(self):
         owner = "SpikingParams"
@@ -126,6 +133,8 @@ class SpikingParams(Node):
                     check.fail(owner, f.name, v, "must be a Neuron")
             elif f.name in ("grouping_stride", "gate_copies"):
                 check.integer(owner, f.name, v, lo=1)
+            elif f.name == "rival_inhibition":
+                check.choice(owner, f.name, v, RIVAL_INHIBITION)
             elif f.name.endswith("_interpolation"):
                 check.choice(owner, f.name, v, INTERPOLATIONS)
             elif f.name.startswith("prune_"):

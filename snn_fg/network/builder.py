@@ -47,17 +47,21 @@ FEEDBACK_INPUTS = {"1p": (("L", 1), ("D", 2)), "1n": (("D", 2), ("L", 1)),
 FEEDBACK_TO_FAMILY = {"L1": ("1p", "1n"), "D2": ("1n", "1p"), "L2": ("2p", "2n"), "D1": ("2n", "2p")}
 
 NOTES = (
-    "Deviation: the multiplicative feedback S*f(z) of stage 8 is additive here: z = VL1 - VD2 (and "
-    "VL2 - VD1) is carried by a rectified pair of feedback cells; the half against a border-ownership cell "
-    "inhibits it (and with feedback_to_bo > 0 the half for it excites it), and the two border-ownership cells "
-    "sharing a simple cell inhibit each other. A border-ownership cell without simple-cell input has no drive, "
-    "so feedback alone cannot make it fire.",
-    "Deviation: the rate model's first iteration runs without opposite-family inhibition; here that "
-    "inhibition arrives delay_opposite_ms later than the excitation.",
+    "Mechanism: the gain f(z) of stage 8 is realised with a gate. z = VL1 - VD2 (and VL2 - VD1) is carried by a "
+    "rectified pair of feedback cells; the half for a border-ownership cell excites it (the winning side is "
+    "enhanced), the half against it inhibits it (the losing side suppressed). The cell rests below its usual "
+    "resting potential by more than the feedback can give, and its simple cell gives that back, so for the "
+    "model's binary S the product S*f(z) holds: feedback alone cannot make a cell fire.",
+    "Mechanism: the rival family inhibits grouping cells through excess cells rect(B_rival - B_partner), which "
+    "are silent while a pair is still equal: grouping starts uninhibited, as the model's first iteration does "
+    "(there, by a test for equal maps), and is inhibited as in the model once feedback has chosen.",
     "Deviation: coarse-level simple, untuned and border-ownership cells exist only where the resized edge map "
     ">= support_min, and their activity does not scale with the edge value.",
     "Deviation: grouping and feedback cells sit on a stride-grouping_stride lattice; pooling across scales is "
     "top-down (z_l = G_l (*) m - G_l (*) m' + decay * resize(z_{l+1})) with pool_interpolation.",
+    "Deviation: the network runs in continuous time until its counting window ends; the rate model stops after "
+    "a fixed number of synchronous iterations, a point it has not converged at (see "
+    "experiments/results/rate_iterations.md).",
 )
 
 
@@ -109,7 +113,7 @@ class Gains:
         s, u, bo, g, fb = sp.simple, sp.untuned, sp.bo, sp.group, sp.feedback
         return cls(
             # a DoG response of edge_threshold at the input rate is one threshold (stage 3)
-            dog=sp.simple_drive * s.v_th_mv / (params.edge_threshold * sp.input_rate_hz * (s.tau_exc_ms / 1000.0)),
+            dog=s.v_th_mv / (params.edge_threshold * sp.input_rate_hz * (s.tau_exc_ms / 1000.0)),
             # one relay spike per unit of input: a unit-weight spike is one threshold of charge
             relay=sp.relay.v_th_mv * sp.relay.tau_m_ms / sp.relay.tau_exc_ms,
             simple_to_bo=per_spike(sp.simple_to_bo, SIMPLE_RATE_HZ, bo),

@@ -142,6 +142,30 @@ class Neuron(Node):
         if self.v_th_mv <= self.v_rest_mv or self.v_th_mv <= self.v_reset_mv:
             check.fail(owner, "v_th_mv", self.v_th_mv, "must lie above v_rest_mv and v_reset_mv")
 
+    def propagators(self, dt_ms: float) -> dict:
+        """The exact update of the CUBA LIF equations over one step ``dt_ms``
+        without spikes (as NEST's ``iaf_psc_exp`` integrates them)::
+
+            v'     = v_rest + d_m (v - v_rest) + p_exc I_exc - p_inh I_inh
+            I_exc' = d_exc I_exc,   I_inh' = d_inh I_inh
+
+        with ``d = exp(-dt / tau)`` and ``p_s = tau_s / (tau_s - tau_m) *
+        (d_s - d_m)`` (``dt / tau_m * d_m`` when ``tau_s == tau_m``). Every
+        synaptic current then delivers exactly its continuous-time charge,
+        whatever ``dt``: a forward step that moves ``v`` by
+        ``(1 - d_m) * I`` over-counts it by about ``dt / (2 tau_s)``."""
+        dt = check.number("Neuron.propagators", "dt_ms", dt_ms, lo=0, lo_open=True)
+        d_m = math.exp(-dt / self.tau_m_ms)
+        out = {"d_m": d_m}
+        for syn, tau in (("exc", self.tau_exc_ms), ("inh", self.tau_inh_ms)):
+            d_s = math.exp(-dt / tau)
+            out[f"d_{syn}"] = d_s
+            if math.isclose(tau, self.tau_m_ms, rel_tol=1e-9):
+                out[f"p_{syn}"] = dt / self.tau_m_ms * d_m
+            else:
+                out[f"p_{syn}"] = tau / (tau - self.tau_m_ms) * (d_s - d_m)
+        return out
+
     @property
     def max_rate_hz(self) -> float:
         """Refractory ceiling of the firing rate (inf without refractoriness)."""

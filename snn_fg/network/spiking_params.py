@@ -39,8 +39,7 @@ class SpikingParams(Node):
         ``input_rate_hz``: mean rate of an input pixel with events that the
         input gains are set for: at this rate a simple cell's mean current
         reaches threshold exactly when its DoG response reaches
-        ``ModelParams.edge_threshold`` (stage 3), times ``simple_drive``;
-        ``gate_margin``: how far
+        ``ModelParams.edge_threshold`` (stage 3); ``gate_margin``: how far
         (thresholds) a level-1 simple cell without an event at its pixel
         stays below threshold under the strongest possible DoG drive;
         ``gate_copies``, ``gate_spread_ms``: the gate arrives as that many
@@ -64,30 +63,39 @@ class SpikingParams(Node):
     Delays (ms)
         ``delay_ms`` for every projection but: ``delay_untuned_ms``
         (excitation of the untuned cells, so that oriented simple cells fire
-        first and silence them), ``delay_opposite_ms`` (opposite-family
-        inhibition of grouping cells: the rate model's first iteration has
-        none) and ``delay_feedback_ms`` (feedback onto border-ownership cells).
+        first and silence them) and ``delay_feedback_ms`` (feedback onto
+        border-ownership cells). All are at most 20 ms, physiological and
+        representable on the neuromorphic targets at dt = 0.5 ms.
+    Feedback and rival inhibition
+        ``bo_gate_margin``: a border-ownership cell rests below its usual
+        resting potential by the largest mean current the feedback half for it
+        can deliver plus this many thresholds, and its simple-cell input gives
+        that back (so feedback modulates only where the simple cell is
+        active); ``rival_inhibition``: ``excess`` (the rival family inhibits
+        grouping cells through excess cells, ``rect(B_rival - B_partner)``) or
+        ``direct`` (through its own cells: the ablation).
     Neurons
         One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
         (:data:`CELL_KINDS`): ``simple``, ``untuned``, ``relay``, ``bo``
-        (border ownership), ``group``, ``feedback``.
+        (border ownership), ``excess``, ``group``, ``feedback``.
     Gains (dimensionless, see the module docstring; reference rate in brackets)
         ``simple_inh_simple``: lateral inhibition between the directions at a
         pixel [100 Hz]; ``input_to_untuned``: an untuned cell's excitation at
         its reference edge value (1 at level 1, ``support_min`` above);
-        ``simple_inh_untuned`` [50 Hz]; ``simple_to_bo`` [50 Hz];
-        ``untuned_to_bo`` [150 Hz]; ``bo_inh_bo``: between the two
-        border-ownership cells sharing a simple cell [100 Hz];
-        ``feedback_to_bo`` and ``feedback_inh_bo``: the feedback half for and
-        against a border-ownership cell [100 Hz]; ``bo_to_group`` per unit
-        kernel weight [100 Hz]; ``group_inh_group``: light and dark grouping
-        cells [100 Hz]; ``group_to_feedback`` per unit kernel weight [100 Hz].
+        ``simple_inh_untuned`` [50 Hz]; ``simple_to_bo`` [50 Hz] (on top of
+        the gate it gives back); ``untuned_to_bo`` [150 Hz]; ``bo_inh_bo``:
+        between the two border-ownership cells sharing a simple cell (0: none,
+        so that only feedback tells them apart) [100 Hz]; ``feedback_to_bo``
+        and ``feedback_inh_bo``: the feedback half for (exciting) and against
+        (inhibiting) a border-ownership cell [100 Hz]; ``bo_to_excess``
+        [100 Hz]; ``bo_to_group`` per unit kernel weight [100 Hz];
+        ``group_inh_group``: light and dark grouping cells [100 Hz];
+        ``group_to_feedback`` per unit kernel weight [100 Hz].
     """
 
     _nested: ClassVar[dict] = {kind: Neuron for kind in CELL_KINDS}
 
     input_rate_hz: float = 200.0
-    simple_drive: float = 1.0
     support_min: float = 0.3
     drive_min: float = 0.85
     gate_margin: float = 1.0
@@ -101,7 +109,7 @@ class SpikingParams(Node):
     prune_resize: float = 0.0
     delay_ms: float = 1.0
     delay_untuned_ms: float = 8.0
-    delay_feedback_ms: float = 5.0
+    delay_feedback_ms: float = 1.0
     rival_inhibition: str = "excess"
     bo_gate_margin: float = 0.5
     simple: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=4.0)
@@ -109,7 +117,7 @@ class SpikingParams(Node):
     relay: Neuron = Neuron(tau_m_ms=200.0, t_ref_ms=1.0)
     bo: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
     excess: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
-    group: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=1.0)
+    group: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=2.0)
     feedback: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=4.0)
     simple_inh_simple: float = 3.0
     input_to_untuned: float = 1.5
@@ -119,9 +127,9 @@ class SpikingParams(Node):
     bo_inh_bo: float = 0.0
     feedback_to_bo: float = 1.0
     feedback_inh_bo: float = 20.0
-    bo_to_group: float = 2.0
+    bo_to_group: float = 0.5
     group_inh_group: float = 0.5
-    group_to_feedback: float = 0.1
+    group_to_feedback: float = 0.4
     bo_to_excess: float = 2.0
 
     def __post_init__(self):

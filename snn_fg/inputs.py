@@ -93,12 +93,13 @@ def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
     return pos, neg
 
 
-def load_frame(spec: str, needs: str, threshold: float = 0.10):
+def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "shift4"):
     """The frame a model needs from ``INPUT`` (``demo``, an image or an event
     frame), and what to record about where it came from.
 
     ``needs`` is ``"events"`` (an event frame; images are turned into events
-    by the simulated event camera at contrast ``threshold``) or ``"image"``.
+    by the simulated event camera at contrast ``threshold`` under ``motion``,
+    see :data:`snn_fg.events.esim.MOTIONS`) or ``"image"``.
     Returns ``(Frame, source)``.
     """
     from .events import image_to_frame
@@ -119,11 +120,11 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10):
 
         image = demo().image
     else:
-        image = read_image(spec, grey=needs != "image")
+        image = read_image(spec, grey=needs != "image" and motion != "paper")
     if needs == "image":
         return Frame(image=image), source
-    pos, neg = image_to_frame(image, threshold=threshold)
+    pos, neg = image_to_frame(image, threshold=threshold, motion=motion)
     if not (pos.any() or neg.any()):
         raise InputError(spec, f"the image gives no events at contrast threshold {threshold}")
-    source["threshold"] = threshold
+    source.update(threshold=threshold, motion=motion)
     return Frame(pos, neg, image), source

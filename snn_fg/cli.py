@@ -18,6 +18,7 @@ from .errors import InputError, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
 from .events.esim import MOTIONS
 from .models import MODELS
+from .rate.fbfg import EDGE_OPERATORS
 
 EXIT_INPUT = 2
 MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
@@ -61,6 +62,10 @@ _RUN_OPTIONS = (
         ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
         ("--dt-ms", float, 0, True, "simulation time step (0.5)"),
         ("--seed", int, -2**63, False, "seed of the input spike phases (0)"))),
+    ("frame-based model", (
+        ("--edge-operator", EDGE_OPERATORS, None, None, "simple cells' edge operator: gaussian (a "
+                                                               "Gaussian-derivative stand-in) or corf (Hu et al.'s "
+                                                               "CORF push-pull, slower) (gaussian)"),)),
 )
 
 
@@ -79,7 +84,10 @@ def _add_run(sub):
     for title, options in _RUN_OPTIONS:
         g = p.add_argument_group(title)
         for flag, kind, lo, strict, text in options:
-            g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
+            if isinstance(kind, tuple):
+                g.add_argument(flag, choices=kind, help=text)
+            else:
+                g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
     p.add_argument("--threshold", type=_number(float, 0), default=0.10, metavar="C",
                    help="images turned into events: contrast threshold of the simulated event camera (0.10)")
     p.add_argument("--motion", choices=MOTIONS, default=None,

@@ -88,10 +88,11 @@ def _scores(fx, fy, truths) -> dict:
     return out
 
 
-def _event_maps(model, image_path, threshold, motion, params, spiking_options):
+def _event_maps(model, image, threshold, motion, params, spiking_options):
+    """Maps of an event model on ``image`` (array or path) turned into events, and the event pixel count."""
     from .events import image_to_frame
 
-    pos, neg = image_to_frame(image_path, threshold=threshold, motion=motion)
+    pos, neg = image_to_frame(image, threshold=threshold, motion=motion)
     if model == "rate":
         from .rate.edfg import run_edfg
 
@@ -161,3 +162,38 @@ def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thres
     if fig6:
         out["fig6"] = {f"{p}|{q}": map_similarity(fields[p], fields[q]) for p, q in combinations(sorted(fields), 2)}
     return out
+
+
+#: A grouping peak within this fraction of the radius (and at least HIT_MIN_PX) of a disc's centre hits it.
+HIT_RADIUS_FRACTION = 0.25
+HIT_MIN_PX = 2.0
+
+
+def evaluate_disc(*, model: str, r0: float, diameter: float, threshold: float = 0.10,
+                  spiking_options: dict | None = None) -> dict:
+    """One dark disc of ``diameter`` px on a white canvas (the paper's Fig. S3 stimulus) through
+    ``model`` (``rate`` / ``spiking`` on shift4 events, ``fbfg`` on the image) with grouping radius ``r0``.
+
+    Returns the grouping peak's distance from the centre and whether it hits
+    the centre, the rim's angle errors (:func:`snn_fg.metrics.truth_scores`),
+    and SSIM / MSE of the map against the ideal one (:func:`map_similarity`).
+    """
+    from .metrics import grouping_peak, truth_scores
+    from .params import ModelParams
+    from .scenes import disc
+
+    params = ModelParams(r0=r0)
+    scene = disc(radius=diameter / 2, light_on_dark=False, margin=1.5)
+    if model == "fbfg":
+        from .rate.fbfg import run_fbfg
+
+        maps = run_fbfg(scene.image, params)
+    else:
+        maps, _ = _event_maps(model, scene.image, threshold, "shift4", params, spiking_options or {})
+    row, col = grouping_peak(maps.grouping)
+    cr, cc = scene.shapes[0].centre
+    dist = float(np.hypot(row - cr, col - cc))
+    truth = (np.where(scene.boundary, scene.truth_x, 0), np.where(scene.boundary, scene.truth_y, 0))
+    return {"model": model, "r0": r0, "diameter": diameter, "peak_distance_px": dist,
+            "hit": bool(dist <= max(HIT_MIN_PX, HIT_RADIUS_FRACTION * diameter / 2)),
+            **truth_scores(maps.fg_x, maps.fg_y, scene), **map_similarity((maps.fg_x, maps.fg_y), truth)}

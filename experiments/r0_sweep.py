@@ -1,7 +1,7 @@
 """Fig. S3 of the paper: grouping radius R0 against object size, on single dark discs on a white canvas.
 
     python experiments/r0_sweep.py [--models rate fbfg spiking] [--scheduler ADDRESS] [--workers N]
-                                   [--spiking-max-diameter D]
+                                   [--spiking-max-diameter D] [--diameters D ...]
 
 For each model, R0 in {2, 4, 8, 10, 12} and disc diameter from 4 to 200 px:
 whether the grouping map's peak hits the disc's centre (within a quarter of
@@ -73,14 +73,16 @@ def main():
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--models", nargs="+", default=["rate", "fbfg", "spiking"], choices=("rate", "fbfg", "spiking"))
     p.add_argument("--spiking-max-diameter", type=float, default=64)
+    p.add_argument("--diameters", type=float, nargs="+", default=DIAMETERS, metavar="D",
+                   help="disc diameters in px (4 to 200 in 13 steps)")
     args = p.parse_args()
     from snn_fg.errors import SnnFgError
     from snn_fg.evaluation import evaluate_disc
     from snn_fg.sweep import SweepTask, run_sweep
 
     t0 = time.perf_counter()
-    tasks = [SweepTask(f"{m}-r{r0}-d{d}", {"model": m, "r0": r0, "diameter": d})
-             for m in args.models for r0 in R0S for d in DIAMETERS
+    tasks = [SweepTask(f"{m}-r{r0:g}-d{d:g}", {"model": m, "r0": r0, "diameter": d})
+             for m in args.models for r0 in R0S for d in args.diameters
              if m != "spiking" or d <= args.spiking_max_diameter]
     try:
         res = run_sweep(evaluate_disc, tasks, CACHE / "r0_sweep", scheduler=args.scheduler, workers=args.workers,

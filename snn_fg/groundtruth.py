@@ -19,7 +19,6 @@ Directions are unit vectors, x right and y up, like the models' ``fg_x``,
 """
 from __future__ import annotations
 
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +26,7 @@ import numpy as np
 from scipy import ndimage as ndi
 
 from .errors import InputError
+from .inputs import read_npz_arrays
 
 #: Window sides tried in turn for the line fit (the paper: 5 x 5 grown to 21 x 21).
 WINDOWS = tuple(range(5, 22, 2))
@@ -63,18 +63,9 @@ def load_bsds_fg(root, image_id) -> GroundTruth:
     (2, 321, 481)
     """
     path = Path(root, "labels", f"{image_id}.npz")
-    try:
-        with np.load(path, allow_pickle=False) as d:
-            if "fg" not in d.files:
-                raise InputError(path, f"not a bsds-fg label file: no 'fg' array (found {', '.join(d.files)})")
-            fg = d["fg"]
-            labellers = tuple(int(v) for v in d["labellers"]) if "labellers" in d.files else ()
-    except InputError:
-        raise
-    except FileNotFoundError:
-        raise InputError(path, "no such file") from None
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
-        raise InputError(path, f"cannot read the .npz archive ({exc})") from None
+    arrays = read_npz_arrays(path, ("fg",), ("labellers",), what="bsds-fg label file")
+    fg = arrays["fg"]
+    labellers = tuple(int(v) for v in arrays.get("labellers", ()))
     if fg.ndim == 2:
         fg = fg[None]
     if fg.ndim != 3 or not np.isin(fg, (-1, 0, 1)).all():

@@ -60,3 +60,20 @@ def test_paper_motion_against_the_authors_frames(shared, image_id):
     # measured IoU 0.09-0.27: the authors kept only part of the pixels the protocol gives
     # (experiments/README.md, "--motion paper"); the shift4 conversion gives 0.15 on 12003
     assert 0.05 <= iou < 0.8
+
+
+def test_cli_motion_paper_is_recorded_and_refused_where_no_image_becomes_events(tmp_path, capsys):
+    import json
+
+    from snn_fg.cli import main
+    from snn_fg.maps import Maps
+
+    assert main(["run", "demo", "--motion", "paper", "--out", str(tmp_path / "a"), "--no-progress"]) == 0
+    assert json.loads(json.dumps(Maps.load(tmp_path / "a" / "maps.npz").params))["source"]["motion"] == "paper"
+    frame = tmp_path / "f.npz"
+    pos, neg = image_to_frame(np.pad(np.full((20, 20), 0.8), 22, constant_values=0.2), motion="paper")
+    np.savez(frame, pos=pos, neg=neg)
+    assert main(["run", str(frame), "--motion", "paper", "--out", str(tmp_path / "b"), "--no-progress"]) == 2
+    assert main(["run", "demo", "--model", "fbfg", "--motion", "paper", "--out", str(tmp_path / "c")]) == 2
+    assert capsys.readouterr().err.count("--motion") == 2
+    assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()

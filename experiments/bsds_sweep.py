@@ -37,6 +37,7 @@ def parser(description: str) -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     p.add_argument("--images", type=int, metavar="N", help="evaluate N images evenly spaced over the 160 (all)")
     p.add_argument("--quick", action="store_true", help=f"the --images {QUICK_IMAGES} subset")
+    p.add_argument("--ids", nargs="+", metavar="ID", help="evaluate these image ids")
     p.add_argument("--no-progress", action="store_true")
     return p
 
@@ -71,7 +72,7 @@ def evaluate(args, settings: dict | None = None) -> dict:
     from snn_fg.sweep import SweepTask, run_sweep
 
     settings = dict(SETTINGS if settings is None else settings)
-    ids = select_ids(QUICK_IMAGES if args.quick and args.images is None else args.images)
+    ids = args.ids or select_ids(QUICK_IMAGES if args.quick and args.images is None else args.images)
     tasks = [SweepTask(i, {"root": str(BSDS_FG), "image_id": i, **settings}) for i in ids]
     try:
         return run_sweep(evaluate_image, tasks, CACHE / settings_key(settings), scheduler=args.scheduler,

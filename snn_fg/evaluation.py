@@ -166,7 +166,8 @@ def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thres
 
 #: A grouping peak within this fraction of the radius (and at least HIT_MIN_PX) of a disc's centre hits it.
 HIT_RADIUS_FRACTION = 0.25
-HIT_MIN_PX = 2.0
+#: 3 px: the spiking network's grouping cells sit on a stride-2 lattice (up to 1.4 px off), plus 1.5 px.
+HIT_MIN_PX = 3.0
 
 
 def evaluate_disc(*, model: str, r0: float, diameter: float, threshold: float = 0.10,

@@ -56,19 +56,22 @@ def run_recording(name, model, max_windows):
     file, window_ms, start_ms, sensor = RECORDINGS[name]
     m = get_model(model, **({"seed": 0} if model == "spiking" else {}))
     rows, maps, inputs, titles = [], [], [], []
+    t_first = None
     for i, w in enumerate(iter_windows(EVENTS / file, window_ms=window_ms, start_ms=start_ms,
                                        max_windows=max_windows, sensor_size=sensor)):
+        t_first = w.t_start_us if t_first is None else t_first
         t = time.perf_counter()
         mp = m.run_window(w)
         dt = time.perf_counter() - t
         r, c = grouping_peak(mp.grouping)
-        rows.append({"recording": name, "model": model, "window": i, "t_start_ms": w.t_start_us / 1000,
+        rows.append({"recording": name, "model": model, "window": i, "t_start_ms": (w.t_start_us - t_first) / 1000,
                      "events": int(len(w.events)), "vector_pixels": int((mp.magnitude > 0).sum()),
                      "grouping_peak_row": r, "grouping_peak_col": c,
                      "grouping_peak": float(mp.grouping.max()), "runtime_s": dt})
         maps.append(mp)
         inputs.append(event_frame_rgb(w.pos, w.neg))
-        titles.append(f"{name} {w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms")
+        titles.append(f"{name} {(w.t_start_us - t_first) / 1000:.0f}-{(w.t_end_us - t_first) / 1000:.0f} ms "
+                      "(from the first window)")
     stack = lambda k: np.stack([getattr(mp, k) for mp in maps])      # noqa: E731
     label = m.grouping_label
     seq = maps_figure(inputs, stack("fg_x"), stack("fg_y"), stack("grouping"), titles, grouping_label=label)

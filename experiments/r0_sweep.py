@@ -57,7 +57,7 @@ def figure(rows):
             ax_row[1].plot(d, [r["frac_within_45"] for r in sel], "o-", label=f"R0={r0}")
             ax_row[2].plot(d, [r["ssim_angle"] for r in sel], "o-", label=f"R0={r0}")
         ax_row[0].axhline(0.25, color="k", lw=0.8)
-        for ax, title in zip(ax_row, ("grouping peak distance / radius (hit below the line)",
+        for ax, title in zip(ax_row, ("grouping peak distance / radius (line: r/4; a hit is within max(3 px, r/4))",
                                       "rim pixels within 45 deg", "SSIM vs ideal map (angle maps)")):
             ax.set_xscale("log")
             ax.set_title(f"{model}: {title}", fontsize=9)

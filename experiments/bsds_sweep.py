@@ -76,7 +76,8 @@ def evaluate(args, settings: dict | None = None) -> dict:
     tasks = [SweepTask(i, {"root": str(BSDS_FG), "image_id": i, **settings}) for i in ids]
     try:
         return run_sweep(evaluate_image, tasks, CACHE / settings_key(settings), scheduler=args.scheduler,
-                         workers=args.workers, progress=not args.no_progress)
+                         workers=args.workers, progress=not args.no_progress,
+                         preload=("brian2",) if "spiking" in settings["event_models"] else ())
     except SnnFgError as exc:
         fail(str(exc))
 

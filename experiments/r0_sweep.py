@@ -88,7 +88,8 @@ def main():
              if m != "spiking" or d in args.spiking_diameters]
     try:
         res = run_sweep(evaluate_disc, tasks, CACHE / "r0_sweep", scheduler=args.scheduler, workers=args.workers,
-                        progress=not args.no_progress, desc="discs")
+                        progress=not args.no_progress, desc="discs",
+                        preload=("brian2",) if "spiking" in args.models else ())
     except SnnFgError as exc:
         fail(str(exc))
     rows = [{k: res[t.key][k] for k in KEYS} for t in tasks]

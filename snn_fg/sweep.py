@@ -70,7 +70,7 @@ def _client(scheduler, workers):
 
 
 def run_sweep(func: Callable[..., dict], tasks, cache_dir, *, scheduler: str | None = None,
-              workers: int | None = None, progress: bool = True, desc: str = "images") -> dict:
+              workers: int | None = None, progress: bool = True, desc: str = "images", preload=()) -> dict:
     """Run ``func(**task.kwargs)`` for every task not yet cached; return ``{key: result}`` for all.
 
     Parameters
@@ -85,6 +85,10 @@ def run_sweep(func: Callable[..., dict], tasks, cache_dir, *, scheduler: str | N
         started with ``workers`` processes (default: one per core).
     progress : bool
         Show a tqdm bar of tasks done (on stderr).
+    preload : sequence of str
+        Modules every worker imports in its main thread before the tasks run:
+        tasks run in a worker thread, where a module that installs signal
+        handlers at import (Brian2 does) cannot be imported.
 
     Examples
     --------
@@ -103,17 +107,27 @@ def run_sweep(func: Callable[..., dict], tasks, cache_dir, *, scheduler: str | N
     results = {t.key: cached(cache_dir, t.key) for t in tasks}
     todo = [t for t in tasks if results[t.key] is None]
     if todo:
-        _run(func, todo, cache_dir, results, scheduler, workers, progress, desc, done=len(tasks) - len(todo))
+        _run(func, todo, cache_dir, results, scheduler, workers, progress, desc, done=len(tasks) - len(todo),
+             preload=tuple(preload))
     return results
 
 
-def _run(func, todo, cache_dir, results, scheduler, workers, progress, desc, done):
+def _import_all(modules):
+    import importlib
+
+    for name in modules:
+        importlib.import_module(name)
+
+
+def _run(func, todo, cache_dir, results, scheduler, workers, progress, desc, done, preload):
     from tqdm import tqdm
 
     dd = _dask()
     client, cluster = _client(scheduler, workers)
     bar = tqdm(total=len(todo) + done, initial=done, desc=desc, unit="img", file=sys.stderr, disable=not progress)
     try:
+        if preload:
+            client.run(_import_all, preload)        # client.run executes in each worker's main thread
         futures = {client.submit(func, **t.kwargs, key=f"{t.key}-{os.getpid()}", pure=False): t.key for t in todo}
         for fut in dd.as_completed(futures):
             key = futures[fut]

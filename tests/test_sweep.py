@@ -51,3 +51,16 @@ def test_missing_dask_says_what_to_install(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "dask.distributed", None)      # import fails as if not installed
     with pytest.raises(MissingExtraError, match=r'pip install "snn-fg\[sweep\]"'):
         run_sweep(square_task, [SweepTask("a", {"x": 0})], tmp_path, progress=False)
+
+
+def main_thread_task(*, x: int) -> dict:
+    import sys
+
+    return {"x": x, "preloaded": "tabnanny" in sys.modules}
+
+
+def test_preload_imports_modules_on_every_worker_first(tmp_path):
+    plain = run_sweep(main_thread_task, [SweepTask("p", {"x": 1})], tmp_path / "a", workers=1, progress=False)
+    out = run_sweep(main_thread_task, [SweepTask("p", {"x": 1})], tmp_path / "b", workers=1, progress=False,
+                    preload=("tabnanny",))
+    assert out["p"]["preloaded"] and not plain["p"]["preloaded"]

@@ -1,0 +1,292 @@
+"""Stages 5-8 of the rate model, event-driven (see ``docs/model.md``).
+
+Border-ownership activity lives on the few pixels that carry events, so the
+state is kept per *entry* (one active pixel of one channel) and every stage
+costs what those entries touch:
+
+* grouping (stage 7): each entry adds its input times its 49 x 49 von Mises
+  kernel into the grouping cells' linear input ``AL``/``AD``. Only the
+  *change* since the previous iteration is added; once feedback saturates most
+  entries stop changing and cost nothing;
+* feedback (stage 8) is needed only where ``S`` is positive (elsewhere the
+  border-ownership cells are clipped to 0). At the finest level the feedback
+  correlation is gathered at those entries; the coarser levels, whose
+  feedback is resized up to every finer level's entries, are correlated
+  densely in the Fourier domain (their maps are small) and their bicubic
+  upsampling is evaluated at the finer entries only, with OpenCV's own
+  interpolation weights.
+
+The arithmetic is the reference's (float64, the same kernels, the same
+rectification and competition), so results agree with the dense form to
+rounding error.
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..frames.pyramid import resize
+from ..network.kernels import von_mises_masks
+from ..params import ModelParams
+from . import _sparse_kernels as nbk
+from .fourier import irfft, padded_shape, place, rfft
+
+# np.allclose's tolerances: the reference leaves inhibition out for an
+# orientation whose BL1 and BD2 maps are allclose.
+_RTOL = 1e-5
+_ATOL = 1e-8
+# Gathering a feedback value costs one multiply-add per kernel entry; a dense
+# Fourier-domain pass costs about this many multiply-adds per grid cell and
+# transform. It decides whether the finest level gathers or transforms.
+_FFT_COST_PER_CELL = 40.0
+
+
+@dataclass
+class GroupingResult:
+    """Border-ownership and grouping maps per level after the iterations (dense)."""
+
+    s: list     # (2n, h, w) per level
+    bl1: list   # (n, h, w) per level; likewise bl2, bd1, bd2
+    bl2: list
+    bd1: list
+    bd2: list
+    gl: list    # (h, w) per level; likewise gd
+    gd: list
+
+
+@dataclass(frozen=True)
+class Entries:
+    """The active pixels of one level: entry ``e`` is ``S[ch[e]][rows[e], cols[e]] = s[e]``."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    ch: np.ndarray
+    s: np.ndarray
+
+    @classmethod
+    def from_dense(cls, s_map: np.ndarray) -> "Entries":
+        """Entries of a dense ``(2n, h, w)`` S map (its non-zero values)."""
+        ch, r, c = np.nonzero(s_map)
+        return cls(r.astype(np.int64), c.astype(np.int64), ch.astype(np.int64), s_map[ch, r, c].astype(np.float64))
+
+
+@functools.lru_cache(maxsize=8)
+def _kernel_tables(r0: float, n_ori: int):
+    """Scatter and gather kernels per channel (``lo`` = orientations ``0..n-1``,
+    ``hi`` = ``n..2n-1``), each with its row ranges.
+
+    Gather (feedback, correlation at the entry): lo ``d1 = GL*m1 - GD*m2``,
+    hi ``d2 = GL*m2 - GD*m1``. Scatter (grouping, the transpose, so kernels
+    flipped): lo adds into ``AL`` through ``m2`` and ``AD`` through ``m1``,
+    hi the other way round.
+    """
+    m1, m2 = von_mises_masks(ModelParams(r0=r0, n_ori=n_ori))
+    lo_hi = (np.concatenate([m2, m1]), np.concatenate([m1, m2]))
+    scatter = [np.ascontiguousarray(k[:, ::-1, ::-1]) for k in lo_hi]
+    gather = [np.ascontiguousarray(k) for k in lo_hi[::-1]]
+    return tuple((k, *nbk.row_ranges(k)) for k in scatter + gather)
+
+
+@functools.lru_cache(maxsize=64)
+def _vm_hat(r0: float, n_ori: int, fshape: tuple[int, int]):
+    m1, m2 = von_mises_masks(ModelParams(r0=r0, n_ori=n_ori))
+    return rfft(place(m1, fshape, flip=True), fshape), rfft(place(m2, fshape, flip=True), fshape)
+
+
+@functools.lru_cache(maxsize=512)
+def cubic_taps(n_src: int, n_dst: int) -> tuple[np.ndarray, np.ndarray]:
+    """OpenCV's bicubic resize of one axis from ``n_src`` to ``n_dst`` samples
+    as ``(start, weights)``: target ``t`` is ``sum_a weights[t, a] * src[start[t] + a]``.
+
+    The weights are read off ``cv2.resize`` itself (it is linear), so border
+    handling and coefficient rounding are OpenCV's.
+    """
+    m = cv2.resize(np.eye(n_src), (n_src, n_dst), interpolation=cv2.INTER_CUBIC)
+    taps = min(4, n_src)
+    nz = m != 0
+    first = nz.argmax(axis=1)
+    last = n_src - 1 - nz[:, ::-1].argmax(axis=1)
+    if np.any(last - first >= taps):
+        raise AssertionError("OpenCV's bicubic resize reached beyond 4 taps")
+    start = np.clip(first, 0, n_src - taps).astype(np.int64)
+    weights = np.take_along_axis(m, start[:, None] + np.arange(taps), axis=1)
+    return start, np.ascontiguousarray(weights)
+
+
+def _feedback_gain(z, alpha):
+    with np.errstate(over="ignore"):   # exp overflow -> sigmoid 0, as intended
+        return 1.0 + alpha * (1.0 / (1.0 + np.exp(-z)) - 0.5)
+
+
+class _Level:
+    """State of one pyramid level: per-entry B values and padded AL/AD/GL/GD maps."""
+
+    def __init__(self, entries: Entries, shape, pad: int, alpha: float):
+        self.e = entries
+        self.shape = tuple(shape)
+        self.pad = pad
+        # Where S <= 0 the clipped products S*f and S*(2-f) are 0 for any gain
+        # in [0, 2] (alpha <= 2): those entries need no feedback.
+        self.need = np.flatnonzero(entries.s > 0) if alpha <= 2 else np.arange(entries.s.size)
+        self.bl = entries.s.copy()
+        self.bd = entries.s.copy()
+        self.v_l = np.zeros_like(entries.s)
+        self.v_d = np.zeros_like(entries.s)
+        padded = (shape[0] + 2 * pad, shape[1] + 2 * pad)
+        self.a_l, self.a_d = np.zeros(padded), np.zeros(padded)
+        self.g_l, self.g_d = np.zeros(padded), np.zeros(padded)
+
+    def interior(self, a):
+        p = self.pad
+        return a[p:p + self.shape[0], p:p + self.shape[1]]
+
+
+class SparseGrouping:
+    """Stages 5-8 on entries; :meth:`run` iterates, then read the state.
+
+    Parameters
+    ----------
+    entries : list of Entries
+        The S maps' active pixels per level, finest first.
+    shapes : list of (int, int)
+        The level shapes.
+    params : ModelParams
+    """
+
+    def __init__(self, entries, shapes, params: ModelParams = ModelParams()):
+        self.params = params
+        self.n = params.n_ori
+        tables = _kernel_tables(float(params.r0), params.n_ori)
+        self.scatter_k, self.gather_k = tables[:2], tables[2:]
+        self.ksize = tables[0][0].shape[-1]
+        pad = self.ksize // 2
+        self.levels = [_Level(e, s, pad, params.alpha) for e, s in zip(entries, shapes)]
+
+    # -- stage 7 --------------------------------------------------------
+    def _inhibition(self, lv: _Level) -> np.ndarray:
+        """Per-channel inhibition weight: ``w_inh`` unless BL1 and BD2 of the
+        orientation are allclose (then 0), the same for both families."""
+        n, e = self.n, lv.e
+        lo = e.ch < n
+        differs = np.abs(lv.bl[lo] - lv.bd[lo]) > _ATOL + _RTOL * np.abs(lv.bd[lo])
+        inhibit = np.bincount(e.ch[lo][differs], minlength=n)[:n] > 0
+        return np.where(np.tile(inhibit, 2), self.params.w_inh, 0.0)
+
+    def _group(self, lv: _Level) -> None:
+        iw = self._inhibition(lv)[lv.e.ch]
+        v_l = lv.bl - iw * lv.bd
+        v_d = lv.bd - iw * lv.bl
+        (kl, lol, hil), (kd, lod, hid) = self.scatter_k
+        nbk.scatter(lv.a_l, lv.a_d, lv.e.rows, lv.e.cols, lv.e.ch, v_l - lv.v_l, v_d - lv.v_d,
+                    kl, kd, lol, hil, lod, hid)
+        lv.v_l, lv.v_d = v_l, v_d
+        nbk.winner_take_all(lv.g_l, lv.g_d, lv.a_l, lv.a_d, lv.pad)
+
+    # -- stage 8 --------------------------------------------------------
+    def _gathers(self, lv: _Level) -> bool:
+        """Whether the feedback correlation of the finest level is cheaper
+        gathered at its entries than transformed densely."""
+        support = sum(float((hi - lo).sum()) for _, lo, hi in self.gather_k) / (2 * self.n)
+        fs = padded_shape(lv.shape, self.ksize // 2, self.ksize)
+        dense = _FFT_COST_PER_CELL * (2 * self.n + 2) * fs[0] * fs[1]
+        return lv.need.size * support < dense
+
+    def _correlate_dense(self, lv: _Level) -> np.ndarray:
+        """``(2n, h, w)``: ``d1 = GL*m1 - GD*m2`` then ``d2 = GL*m2 - GD*m1``."""
+        fs = padded_shape(lv.shape, self.ksize // 2, self.ksize)
+        k1, k2 = _vm_hat(float(self.params.r0), self.n, fs)
+        g = rfft(np.stack([lv.interior(lv.g_l), lv.interior(lv.g_d)]), fs)
+        d = np.concatenate([g[0] * k1 - g[1] * k2, g[0] * k2 - g[1] * k1])
+        return irfft(d, fs)[..., : lv.shape[0], : lv.shape[1]]
+
+    def _feedback(self, x_dense: list, own0) -> None:
+        p = self.params
+        for i, lv in enumerate(self.levels):
+            e, need = lv.e, lv.need
+            rows, cols, ch = e.rows[need], e.cols[need], e.ch[need]
+            acc = own0.copy() if (i == 0 and own0 is not None) else x_dense[i][ch, rows, cols]
+            for k in range(i + 1, len(self.levels)):
+                rs, rw = cubic_taps(self.levels[k].shape[0], lv.shape[0])
+                cs, cw = cubic_taps(self.levels[k].shape[1], lv.shape[1])
+                nbk.pool_add(acc, rows, cols, ch, x_dense[k], rs, rw, cs, cw, p.pyramid_decay ** (k - i))
+            f = _feedback_gain(acc, p.alpha)
+            s = e.s[need]
+            lv.bl = np.zeros_like(e.s)
+            lv.bd = np.zeros_like(e.s)
+            # f(-z) = 2 - f(z). Clip the product, not the gain: S itself can be
+            # negative at coarse levels (bicubic undershoot of the edge map).
+            lv.bl[need] = np.maximum(s * f, 0.0)
+            lv.bd[need] = np.maximum(s * (2.0 - f), 0.0)
+
+    def _step(self) -> None:
+        for lv in self.levels:
+            self._group(lv)
+        x_dense = [None] * len(self.levels)
+        own0 = None
+        for i, lv in enumerate(self.levels):
+            if i == 0 and self._gathers(lv):
+                need = lv.need
+                own0 = np.empty(need.size)
+                (kl, lol, hil), (kd, lod, hid) = self.gather_k
+                nbk.gather(own0, lv.g_l, lv.g_d, lv.e.rows[need], lv.e.cols[need], lv.e.ch[need],
+                           kl, kd, lol, hil, lod, hid)
+            else:
+                x_dense[i] = self._correlate_dense(lv)
+        self._feedback(x_dense, own0)
+
+    def run(self, progress=None) -> "SparseGrouping":
+        """Iterate stages 7 and 8 ``params.iterations`` times (``progress`` wraps the range)."""
+        steps = range(self.params.iterations)
+        if progress is not None:
+            steps = progress(steps)
+        for _ in steps:
+            self._step()
+        return self
+
+    # -- reading the state ---------------------------------------------
+    def grouping_maps(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """``(GL, GD)`` per level (copies, ``(h, w)``)."""
+        return [(lv.interior(lv.g_l).copy(), lv.interior(lv.g_d).copy()) for lv in self.levels]
+
+    def _dense_family(self, lv: _Level, values, family_hi: bool):
+        n, e = self.n, lv.e
+        out = np.zeros((n,) + lv.shape)
+        sel = (e.ch >= n) if family_hi else (e.ch < n)
+        np.add.at(out, (e.ch[sel] - (n if family_hi else 0), e.rows[sel], e.cols[sel]), values[sel])
+        return out
+
+    def dense(self) -> GroupingResult:
+        """The state as dense maps (the form the spiking decoder also fills)."""
+        res = GroupingResult([], [], [], [], [], [], [])
+        for lv, (gl, gd) in zip(self.levels, self.grouping_maps()):
+            s = np.zeros((2 * self.n,) + lv.shape)
+            np.add.at(s, (lv.e.ch, lv.e.rows, lv.e.cols), lv.e.s)
+            res.s.append(s)
+            res.bl1.append(self._dense_family(lv, lv.bl, False))
+            res.bd2.append(self._dense_family(lv, lv.bd, False))
+            res.bl2.append(self._dense_family(lv, lv.bl, True))
+            res.bd1.append(self._dense_family(lv, lv.bd, True))
+            res.gl.append(gl)
+            res.gd.append(gd)
+        return res
+
+    def readout(self, full_shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Stage 9 from the entries: level-1 ``(fg_x, fg_y)`` and the grouping map."""
+        n, lv = self.n, self.levels[0]
+        e = lv.e
+        hi = e.ch >= n
+        o = np.where(hi, e.ch - n, e.ch)
+        # B2 - B1 at orientation o: lo entries carry BD2 - BL1, hi ones BL2 - BD1.
+        diff = np.where(hi, lv.bl - lv.bd, lv.bd - lv.bl)
+        ang = 2 * np.pi * np.arange(n) / (2 * n) - np.pi / 2
+        flat = e.rows * lv.shape[1] + e.cols
+        size = lv.shape[0] * lv.shape[1]
+        fg_x = np.bincount(flat, np.cos(ang)[o] * diff, minlength=size).reshape(lv.shape)
+        fg_y = np.bincount(flat, np.sin(ang)[o] * diff, minlength=size).reshape(lv.shape)
+        grouping = np.zeros(full_shape)
+        for gl, gd in self.grouping_maps():
+            grouping += resize(gl + gd, full_shape, "linear")
+        return fg_x, fg_y, grouping

@@ -117,3 +117,18 @@ def row_ranges(kernels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lo = np.where(any_, nz.argmax(axis=-1), 0)
     hi = np.where(any_, width - nz[..., ::-1].argmax(axis=-1), 0)
     return lo.astype(np.int64), hi.astype(np.int64)
+
+
+@nb.njit(cache=True, nogil=True)
+def mark_taps(mark, rows, cols, ch, r_start, c_start):
+    """Set ``mark[ch[e]]`` on the 4 x 4 bicubic source window of each target
+    pixel ``(rows[e], cols[e])`` (see :func:`pool_add`)."""
+    taps_r = min(4, mark.shape[1])
+    taps_c = min(4, mark.shape[2])
+    for e in range(rows.shape[0]):
+        rs = r_start[rows[e]]
+        cs = c_start[cols[e]]
+        m = mark[ch[e]]
+        for a in range(taps_r):
+            for b in range(taps_c):
+                m[rs + a, cs + b] = True

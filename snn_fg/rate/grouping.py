@@ -23,6 +23,8 @@ rounding error.
 from __future__ import annotations
 
 import functools
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -39,9 +41,13 @@ from .fourier import irfft, padded_shape, place, rfft
 _RTOL = 1e-5
 _ATOL = 1e-8
 # Gathering a feedback value costs one multiply-add per kernel entry; a dense
-# Fourier-domain pass costs about this many multiply-adds per grid cell and
-# transform. It decides whether the finest level gathers or transforms.
-_FFT_COST_PER_CELL = 40.0
+# Fourier-domain pass costs about as much as this many multiply-adds per grid
+# cell and transform (measured here: 20-25). It decides, per level, whether
+# the feedback correlation is gathered at the sites that need it or computed
+# everywhere.
+_FFT_COST_PER_CELL = 24.0
+# Threads sharing the levels (this project's machines have 2 cores).
+_THREADS = min(2, os.cpu_count() or 1)
 
 
 @dataclass
@@ -138,6 +144,8 @@ class _Level:
         padded = (shape[0] + 2 * pad, shape[1] + 2 * pad)
         self.a_l, self.a_d = np.zeros(padded), np.zeros(padded)
         self.g_l, self.g_d = np.zeros(padded), np.zeros(padded)
+        self.sites = None       # where the feedback correlation is gathered (None: dense)
+        self.x = None           # feedback correlation at the sites (dense array, sites filled)
 
     def interior(self, a):
         p = self.pad
@@ -162,6 +170,8 @@ class SparseGrouping:
         tables = _kernel_tables(float(params.r0), params.n_ori)
         self.scatter_k, self.gather_k = tables[:2], tables[2:]
         self.ksize = tables[0][0].shape[-1]
+        # mean multiply-adds of one scatter or gather (both kernels' supports)
+        self.support = sum(float((hi - lo).sum()) for _, lo, hi in self.gather_k) / (2 * self.n)
         pad = self.ksize // 2
         self.levels = [_Level(e, s, pad, params.alpha) for e, s in zip(entries, shapes)]
 
@@ -175,75 +185,133 @@ class SparseGrouping:
         inhibit = np.bincount(e.ch[lo][differs], minlength=n)[:n] > 0
         return np.where(np.tile(inhibit, 2), self.params.w_inh, 0.0)
 
+    def _dense_cost(self, lv: _Level, transforms: int) -> float:
+        fs = padded_shape(lv.shape, self.ksize // 2, self.ksize)
+        return _FFT_COST_PER_CELL * transforms * fs[0] * fs[1]
+
     def _group(self, lv: _Level) -> None:
         iw = self._inhibition(lv)[lv.e.ch]
         v_l = lv.bl - iw * lv.bd
         v_d = lv.bd - iw * lv.bl
-        (kl, lol, hil), (kd, lod, hid) = self.scatter_k
-        nbk.scatter(lv.a_l, lv.a_d, lv.e.rows, lv.e.cols, lv.e.ch, v_l - lv.v_l, v_d - lv.v_d,
-                    kl, kd, lol, hil, lod, hid)
+        d_l, d_d = v_l - lv.v_l, v_d - lv.v_d
+        changed = np.count_nonzero((d_l != 0) | (d_d != 0))
+        if changed * self.support > self._dense_cost(lv, 2 * self.n + 2):
+            self._group_dense(lv, v_l, v_d)
+        else:
+            (kl, lol, hil), (kd, lod, hid) = self.scatter_k
+            nbk.scatter(lv.a_l, lv.a_d, lv.e.rows, lv.e.cols, lv.e.ch, d_l, d_d, kl, kd, lol, hil, lod, hid)
         lv.v_l, lv.v_d = v_l, v_d
         nbk.winner_take_all(lv.g_l, lv.g_d, lv.a_l, lv.a_d, lv.pad)
 
-    # -- stage 8 --------------------------------------------------------
-    def _gathers(self, lv: _Level) -> bool:
-        """Whether the feedback correlation of the finest level is cheaper
-        gathered at its entries than transformed densely."""
-        support = sum(float((hi - lo).sum()) for _, lo, hi in self.gather_k) / (2 * self.n)
+    def _group_dense(self, lv: _Level, v_l, v_d) -> None:
+        """``AL``/``AD`` recomputed in the Fourier domain (when most entries
+        changed, e.g. the first iterations): lo channels reach ``AL`` through
+        ``m2`` and ``AD`` through ``m1``, hi channels the other way round."""
+        n, e = self.n, lv.e
         fs = padded_shape(lv.shape, self.ksize // 2, self.ksize)
-        dense = _FFT_COST_PER_CELL * (2 * self.n + 2) * fs[0] * fs[1]
-        return lv.need.size * support < dense
+        k1, k2 = _vm_hat(float(self.params.r0), n, fs)
+
+        def spectrum(v):
+            maps = np.zeros((2 * n,) + lv.shape)
+            maps[e.ch, e.rows, e.cols] = v
+            return rfft(maps, fs)
+
+        hat_l = spectrum(v_l)
+        # The common cases need one set of transforms: no inhibition (v_d = v_l)
+        # and full inhibition with w_inh = 1 (v_d = -v_l).
+        hat_d = hat_l if np.array_equal(v_d, v_l) else -hat_l if np.array_equal(v_d, -v_l) else spectrum(v_d)
+        a_l = np.sum(hat_l[:n] * k2, axis=0) + np.sum(hat_l[n:] * k1, axis=0)
+        a_d = np.sum(hat_d[:n] * k1, axis=0) + np.sum(hat_d[n:] * k2, axis=0)
+        a = irfft(np.stack([a_l, a_d]), fs)[..., : lv.shape[0], : lv.shape[1]]
+        # Only the interior is read (by the competition); the border keeps stale values.
+        lv.interior(lv.a_l)[...] = a[0]
+        lv.interior(lv.a_d)[...] = a[1]
+
+    # -- stage 8 --------------------------------------------------------
+    def _plan_feedback(self) -> None:
+        """Per level, where its feedback correlation is needed (its own
+        positive entries and the bicubic taps of every finer level's ones) and
+        whether gathering it there is cheaper than one dense Fourier pass."""
+        support = self.support
+        for k, lv in enumerate(self.levels):
+            dense = self._dense_cost(lv, 2 * self.n + 2)
+            lv.sites = None
+            if lv.need.size * support >= dense:
+                continue
+            mark = np.zeros((2 * self.n,) + lv.shape, bool)
+            mark[lv.e.ch[lv.need], lv.e.rows[lv.need], lv.e.cols[lv.need]] = True
+            for fine in self.levels[:k]:
+                rs, _ = cubic_taps(lv.shape[0], fine.shape[0])
+                cs, _ = cubic_taps(lv.shape[1], fine.shape[1])
+                nd = fine.need
+                nbk.mark_taps(mark, fine.e.rows[nd], fine.e.cols[nd], fine.e.ch[nd], rs, cs)
+            if np.count_nonzero(mark) * support < dense:
+                ch, r, c = np.nonzero(mark)
+                lv.sites = (r.astype(np.int64), c.astype(np.int64), ch.astype(np.int64))
+                lv.x = np.zeros((2 * self.n,) + lv.shape)
+
+    def _correlate(self, lv: _Level) -> np.ndarray:
+        """``(2n, h, w)``: ``d1 = GL*m1 - GD*m2`` then ``d2 = GL*m2 - GD*m1``,
+        everywhere (Fourier domain) or only at the level's planned sites."""
+        if lv.sites is not None:
+            rows, cols, ch = lv.sites
+            vals = np.empty(rows.size)
+            (kl, lol, hil), (kd, lod, hid) = self.gather_k
+            nbk.gather(vals, lv.g_l, lv.g_d, rows, cols, ch, kl, kd, lol, hil, lod, hid)
+            lv.x[ch, rows, cols] = vals
+            return lv.x
+        return self._correlate_dense(lv)
 
     def _correlate_dense(self, lv: _Level) -> np.ndarray:
-        """``(2n, h, w)``: ``d1 = GL*m1 - GD*m2`` then ``d2 = GL*m2 - GD*m1``."""
         fs = padded_shape(lv.shape, self.ksize // 2, self.ksize)
         k1, k2 = _vm_hat(float(self.params.r0), self.n, fs)
         g = rfft(np.stack([lv.interior(lv.g_l), lv.interior(lv.g_d)]), fs)
         d = np.concatenate([g[0] * k1 - g[1] * k2, g[0] * k2 - g[1] * k1])
         return irfft(d, fs)[..., : lv.shape[0], : lv.shape[1]]
 
-    def _feedback(self, x_dense: list, own0) -> None:
+    def _feedback(self, x: list, i: int) -> None:
+        """Stage 8 at level ``i``: pool the levels ``k >= i`` at its entries and update B."""
         p = self.params
-        for i, lv in enumerate(self.levels):
-            e, need = lv.e, lv.need
-            rows, cols, ch = e.rows[need], e.cols[need], e.ch[need]
-            acc = own0.copy() if (i == 0 and own0 is not None) else x_dense[i][ch, rows, cols]
-            for k in range(i + 1, len(self.levels)):
-                rs, rw = cubic_taps(self.levels[k].shape[0], lv.shape[0])
-                cs, cw = cubic_taps(self.levels[k].shape[1], lv.shape[1])
-                nbk.pool_add(acc, rows, cols, ch, x_dense[k], rs, rw, cs, cw, p.pyramid_decay ** (k - i))
-            f = _feedback_gain(acc, p.alpha)
-            s = e.s[need]
-            lv.bl = np.zeros_like(e.s)
-            lv.bd = np.zeros_like(e.s)
-            # f(-z) = 2 - f(z). Clip the product, not the gain: S itself can be
-            # negative at coarse levels (bicubic undershoot of the edge map).
-            lv.bl[need] = np.maximum(s * f, 0.0)
-            lv.bd[need] = np.maximum(s * (2.0 - f), 0.0)
+        lv = self.levels[i]
+        e, need = lv.e, lv.need
+        rows, cols, ch = e.rows[need], e.cols[need], e.ch[need]
+        acc = x[i][ch, rows, cols]
+        for k in range(i + 1, len(self.levels)):
+            rs, rw = cubic_taps(self.levels[k].shape[0], lv.shape[0])
+            cs, cw = cubic_taps(self.levels[k].shape[1], lv.shape[1])
+            nbk.pool_add(acc, rows, cols, ch, x[k], rs, rw, cs, cw, p.pyramid_decay ** (k - i))
+        f = _feedback_gain(acc, p.alpha)
+        s = e.s[need]
+        lv.bl = np.zeros_like(e.s)
+        lv.bd = np.zeros_like(e.s)
+        # f(-z) = 2 - f(z). Clip the product, not the gain: S itself can be
+        # negative at coarse levels (bicubic undershoot of the edge map).
+        lv.bl[need] = np.maximum(s * f, 0.0)
+        lv.bd[need] = np.maximum(s * (2.0 - f), 0.0)
 
-    def _step(self) -> None:
-        for lv in self.levels:
-            self._group(lv)
-        x_dense = [None] * len(self.levels)
-        own0 = None
-        for i, lv in enumerate(self.levels):
-            if i == 0 and self._gathers(lv):
-                need = lv.need
-                own0 = np.empty(need.size)
-                (kl, lol, hil), (kd, lod, hid) = self.gather_k
-                nbk.gather(own0, lv.g_l, lv.g_d, lv.e.rows[need], lv.e.cols[need], lv.e.ch[need],
-                           kl, kd, lol, hil, lod, hid)
-            else:
-                x_dense[i] = self._correlate_dense(lv)
-        self._feedback(x_dense, own0)
+    def _level_step(self, lv: _Level) -> np.ndarray:
+        self._group(lv)
+        return self._correlate(lv)
+
+    def _step(self, pool) -> None:
+        # Levels are independent within each half-step; the compiled loops and
+        # the FFTs release the GIL, so two threads share the levels (largest
+        # first) and the result does not depend on the schedule.
+        order = np.argsort([-lv.shape[0] * lv.shape[1] for lv in self.levels], kind="stable")
+        x = [None] * len(self.levels)
+        for i, xi in zip(order, pool.map(lambda i: self._level_step(self.levels[i]), order)):
+            x[i] = xi
+        list(pool.map(lambda i: self._feedback(x, i), order))
 
     def run(self, progress=None) -> "SparseGrouping":
         """Iterate stages 7 and 8 ``params.iterations`` times (``progress`` wraps the range)."""
         steps = range(self.params.iterations)
         if progress is not None:
             steps = progress(steps)
-        for _ in steps:
-            self._step()
+        self._plan_feedback()
+        with ThreadPoolExecutor(max_workers=_THREADS) as pool:
+            for _ in steps:
+                self._step(pool)
         return self
 
     # -- reading the state ---------------------------------------------

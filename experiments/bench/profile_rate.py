@@ -1,7 +1,9 @@
-"""Where the rate model's time goes: wall time per stage (measurement only).
+"""Where the rate model's time goes: CPU time per stage (measurement only).
 
-The stage functions are wrapped with timers in this process; nothing in the
-model changes. Shares are of the whole ``run_edfg`` call.
+The stage functions are wrapped with timers in this process and the model
+runs on one thread, so stages add up; nothing else in the model changes.
+CPU time (``time.process_time``) rather than wall time, so that the shares
+hold on a loaded machine. Shares are of the whole ``run_edfg`` call.
 """
 from __future__ import annotations
 
@@ -19,6 +21,9 @@ STAGES = (
     ("snn_fg.rate._sparse_kernels", "gather", "stage 8 feedback correlation, sparse levels (gather)"),
     ("snn_fg.rate.grouping", "SparseGrouping._correlate_dense", "stage 8 feedback correlation, dense levels (FFT)"),
     ("snn_fg.rate._sparse_kernels", "pool_add", "stage 8 cross-level pooling (bicubic at entries)"),
+    ("snn_fg.rate.grouping", "SparseGrouping._group_dense", "stage 7 grouping input (FFT, when most changed)"),
+    ("snn_fg.rate.grouping", "SparseGrouping._inhibition", "stage 7 inhibition test"),
+    ("snn_fg.rate.grouping", "SparseGrouping._plan_feedback", "stage 8 planning (sites)"),
     ("snn_fg.rate.grouping", "SparseGrouping.readout", "stage 9 readout"),
 )
 
@@ -27,11 +32,11 @@ def _wrap(acc, owner, attr, label):
     fn = getattr(owner, attr)
 
     def timed(*args, **kwargs):
-        t = time.perf_counter()
+        t = time.process_time()
         try:
             return fn(*args, **kwargs)
         finally:
-            acc[label] += time.perf_counter() - t
+            acc[label] += time.process_time() - t
 
     setattr(owner, attr, timed)
 
@@ -40,7 +45,10 @@ def profile(specs, repeats: int) -> dict:
     """Per-stage seconds per frame (median input order), summed over ``specs``."""
     import importlib
 
+    from snn_fg.rate import grouping
     from snn_fg.rate.edfg import run_edfg
+
+    grouping._THREADS = 1
 
     acc = collections.defaultdict(float)
     for mod, attr, label in STAGES:
@@ -52,12 +60,13 @@ def profile(specs, repeats: int) -> dict:
     inputs = [load(s) for s in specs]
     run_edfg(inputs[0].pos, inputs[0].neg)       # warm-up (compilation, caches)
     acc.clear()
-    t = time.perf_counter()
+    t = time.process_time()
     for _ in range(repeats):
         for inp in inputs:
             run_edfg(inp.pos, inp.neg)
-    total = time.perf_counter() - t
+    total = time.process_time() - t
     n = repeats * len(inputs)
     stages = {label: acc[label] / n for _, _, label in STAGES}
-    return {"inputs": list(specs), "total_s_per_frame": total / n, "stages_s_per_frame": stages,
+    return {"inputs": list(specs), "clock": "cpu (process_time), one thread", "total_s_per_frame": total / n,
+            "stages_s_per_frame": stages,
             "shares": {k: v / (total / n) for k, v in stages.items()}}

@@ -83,7 +83,7 @@ def _throughput(data):
 
 
 def _profile(m):
-    print("\n== rate model: time per stage (s per frame, share) ==")
+    print("\n== rate model: CPU time per stage, one thread (s per frame, share) ==")
     if "error" in m:
         print(f"  ERROR {m['error']}")
         return

@@ -20,8 +20,8 @@ a backend that is not installed is skipped with a note):
 Every measurement runs in its own process (median of repeats after a
 warm-up; peak RSS of that process from ``wait4``); ``uptime``'s load average
 is recorded before and after each. Results go to
-``experiments/results/bench.json``: a run replaces only the entries it
-measured, each stamped with its time and load.
+``experiments/results/bench.json``: a run replaces only the entries (section,
+engine) it measured, each stamped with its time and load.
 
     python -m experiments.bench                       # everything but spiking on frames
     python -m experiments.bench --quick --only rate   # a few minutes
@@ -258,7 +258,12 @@ def main(argv=None) -> int:
             measured[name] = {"measured": run["started"], "data": got}
     run["load_at_end"] = uptime()
     merged = json.loads(args.out.read_text()) if args.out.exists() else {}
-    merged.setdefault("sections", {}).update(measured)
+    for name, sec in measured.items():
+        # Entries (one per engine, mostly) replace their earlier values; the
+        # others keep theirs, each with the time it was measured.
+        old = merged.setdefault("sections", {}).setdefault(name, {"data": {}, "measured": {}})
+        old["data"].update(sec["data"])
+        old["measured"].update({key: sec["measured"] for key in sec["data"]})
     merged["last_run"] = run
     merged.setdefault("runs", []).append(run)
     args.out.parent.mkdir(parents=True, exist_ok=True)

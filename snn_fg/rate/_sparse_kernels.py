@@ -132,3 +132,36 @@ def mark_taps(mark, rows, cols, ch, r_start, c_start):
         for a in range(taps_r):
             for b in range(taps_c):
                 m[rs + a, cs + b] = True
+
+
+@nb.njit(fastmath=_FAST, cache=True, nogil=True)
+def dog_at(out, rows, cols, pos, neg, kernels):
+    """Oriented responses at listed pixels: circular convolution of ``pos``
+    with directions ``0..n-1`` and of ``neg`` with ``n..2n-1`` of
+    ``kernels`` (laid out ``(K, K, 2n)``); ``out`` is ``(pixels, 2n)``, zeroed.
+    Only non-zero input pixels cost more than a test."""
+    size = kernels.shape[0]
+    half = size // 2
+    n = kernels.shape[2] // 2
+    h, w = pos.shape
+    wrap_c = np.empty(size, np.int64)
+    for e in range(rows.shape[0]):
+        acc = out[e]
+        for j in range(size):
+            wrap_c[j] = (cols[e] - (j - half)) % w
+        for i in range(size):
+            rr = (rows[e] - (i - half)) % h
+            prow = pos[rr]
+            nrow = neg[rr]
+            for j in range(size):
+                cc = wrap_c[j]
+                vp = prow[cc]
+                vn = nrow[cc]
+                if vp != 0.0:
+                    ker = kernels[i, j]
+                    for k in range(n):
+                        acc[k] += vp * ker[k]
+                if vn != 0.0:
+                    ker = kernels[i, j]
+                    for k in range(n, 2 * n):
+                        acc[k] += vn * ker[k]

@@ -3,10 +3,10 @@
 This is "the reference" of ``docs/model.md``: every spiking result is compared
 with it. It is written for speed without changing the maths:
 
-* the oriented responses (stage 3) are products in the Fourier domain
-  (``scipy.fft``, float64) on a fast grid: the wrap-around border is made by
-  padding the input periodically, so the result equals the circular
-  convolution to rounding error;
+* the oriented responses (stage 3) are needed only where events are; they
+  are summed there directly over the non-zero input pixels, or, when a level
+  has many active pixels, as products in the Fourier domain (``scipy.fft``,
+  float64) on a fast grid whose periodic padding makes the wrap-around border;
 * stages 5-8 are event-driven (:mod:`snn_fg.rate.grouping`): their cost
   follows the pixels that carry events and the changes between iterations,
   not the frame size.
@@ -22,6 +22,7 @@ from ..frames.pyramid import check_levels, level_shape, pyramid, resize
 from ..maps import Maps
 from ..network.kernels import dog_kernels
 from ..params import ModelParams
+from ._sparse_kernels import dog_at
 from .fourier import irfft, padded_shape, place, rfft
 from .grouping import Entries, GroupingResult, SparseGrouping
 
@@ -79,13 +80,53 @@ def orientation_index(resp: np.ndarray, params: ModelParams = ModelParams()) -> 
     return winner, index
 
 
+# Cost model of the responses at a level, in units of one kernel tap tested
+# at one pixel of the sparse loop: a non-zero input adds ~3 units (its
+# multiply-adds), a dense Fourier pass ~2.6 units per grid cell and transform
+# (both measured here on the shared frames).
+_TAP_COST_PER_NONZERO = 3.0
+_FFT_COST_PER_CELL = 2.6
+
+
+@functools.lru_cache(maxsize=8)
+def _dog_table(s1, s2, half_width, step, n_ori):
+    p = ModelParams(dog_s1=s1, dog_s2=s2, dog_half_width=half_width, dog_step=step, n_ori=n_ori)
+    return np.ascontiguousarray(np.moveaxis(dog_kernels(p), 0, -1))
+
+
+def responses_at(pos, neg, rows, cols, params: ModelParams = ModelParams()) -> np.ndarray:
+    """:func:`oriented_responses` at the listed pixels only, ``(2*n_ori, pixels)``.
+
+    Costs a look-up per kernel tap and pixel (a multiply-add per direction
+    where the input is non-zero) instead of a pass over the whole frame.
+    """
+    table = _dog_table(params.dog_s1, params.dog_s2, params.dog_half_width, params.dog_step, params.n_ori)
+    out = np.zeros((rows.size, params.n_dir))
+    dog_at(out, rows, cols, np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(neg, dtype=np.float64),
+           table)
+    out[out < params.edge_threshold] = 0.0
+    out[out < params.sum_threshold] = 0.0
+    return out.T
+
+
+def _level_responses(pos, neg, rows, cols, params):
+    """Thresholded responses at ``(rows, cols)``: gathered there, or from a
+    dense pass when that is cheaper (many active pixels)."""
+    size = dog_kernels(params).shape[-1]
+    fs = padded_shape(pos.shape, size - 1)
+    density = (np.count_nonzero(pos) + np.count_nonzero(neg)) / pos.size
+    sparse = rows.size * size * size * (1 + _TAP_COST_PER_NONZERO * density)
+    if sparse < _FFT_COST_PER_CELL * (2 + params.n_dir) * fs[0] * fs[1]:
+        return responses_at(pos, neg, rows, cols, params)
+    return oriented_responses(pos, neg, params)[:, rows, cols]
+
+
 def event_entries(pos, neg, params: ModelParams = ModelParams()):
     """Stages 1-4 as entries: the active pixels of the S maps per level.
 
-    Returns ``(entries, shapes, resp1, winner1)``: ``entries[l]`` lists the
-    pixels where the level's edge map is non-zero, each with its orientation
-    index as channel and the edge value as ``s`` (``S[o] = edges * (index == o)``);
-    ``resp1``/``winner1`` are the level-1 responses and winning directions.
+    Returns ``(entries, shapes)``: ``entries[l]`` lists the pixels where the
+    level's edge map is non-zero, each with its orientation index as channel
+    and the edge value as ``s`` (``S[o] = edges * (index == o)``).
     """
     pos = np.asarray(pos, dtype=np.float64)
     neg = np.asarray(neg, dtype=np.float64)
@@ -94,17 +135,13 @@ def event_entries(pos, neg, params: ModelParams = ModelParams()):
     pyr_neg = pyramid(neg, params.levels)
     pyr_edges = pyramid(edges, params.levels)
     entries = []
-    resp1 = winner1 = None
     for l in range(params.levels):
-        resp = oriented_responses(pyr_pos[l], pyr_neg[l], params)
         rows, cols = np.nonzero(pyr_edges[l])
-        if l == 0:
-            resp1, winner1 = resp, orientation_index(resp, params)[0]
-        _, index = orientation_index(resp[:, rows, cols], params)
-        entries.append(Entries(rows.astype(np.int64), cols.astype(np.int64), index.astype(np.int64),
-                               pyr_edges[l][rows, cols]))
+        rows, cols = rows.astype(np.int64), cols.astype(np.int64)
+        _, index = orientation_index(_level_responses(pyr_pos[l], pyr_neg[l], rows, cols, params), params)
+        entries.append(Entries(rows, cols, index.astype(np.int64), pyr_edges[l][rows, cols]))
     shapes = [level_shape(pos.shape, l) for l in range(1, params.levels + 1)]
-    return entries, shapes, resp1, winner1
+    return entries, shapes
 
 
 def event_simple_cells(pos, neg, params: ModelParams = ModelParams()):
@@ -114,7 +151,9 @@ def event_simple_cells(pos, neg, params: ModelParams = ModelParams()):
     with ``S[o] = edges * (index == o)``; ``resp1``/``winner1`` are the level-1
     responses and winning directions.
     """
-    entries, shapes, resp1, winner1 = event_entries(pos, neg, params)
+    entries, shapes = event_entries(pos, neg, params)
+    resp1 = oriented_responses(np.asarray(pos, dtype=np.float64), np.asarray(neg, dtype=np.float64), params)
+    winner1 = orientation_index(resp1, params)[0]
     s_levels = []
     for e, shape in zip(entries, shapes):
         s = np.zeros((params.n_dir,) + tuple(shape))
@@ -147,28 +186,44 @@ def readout(g: GroupingResult, params: ModelParams, full_shape) -> tuple[np.ndar
 
 @dataclass
 class RateState:
-    """Everything the rate model computed, for inspection and tests."""
+    """Everything the rate model computed, for inspection and tests.
 
-    resp: np.ndarray             # level-1 responses (n_dir, H, W)
-    winner: np.ndarray           # level-1 winning direction (H, W)
+    The model itself evaluates responses only at active pixels; the dense
+    level-1 maps ``resp``/``winner`` and the dense ``grouping_result`` are
+    built on first use.
+    """
+
+    pos: np.ndarray
+    neg: np.ndarray
+    params: ModelParams
     engine: SparseGrouping       # stages 5-8 state after the iterations
     fg_x: np.ndarray
     fg_y: np.ndarray
     grouping: np.ndarray
 
+    @functools.cached_property
+    def resp(self) -> np.ndarray:
+        """Level-1 thresholded responses ``(n_dir, H, W)``."""
+        return oriented_responses(np.asarray(self.pos, np.float64), np.asarray(self.neg, np.float64), self.params)
+
+    @functools.cached_property
+    def winner(self) -> np.ndarray:
+        """Level-1 winning direction ``(H, W)``."""
+        return orientation_index(self.resp, self.params)[0]
+
     @property
     def grouping_result(self) -> GroupingResult:
-        """Stages 5-8 as dense maps per level (built on first use)."""
+        """Stages 5-8 as dense maps per level (built on each use)."""
         return self.engine.dense()
 
 
 def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None) -> RateState:
     """Run stages 1-9 on an event frame and return every intermediate map."""
     check_levels(np.shape(pos), params.levels)
-    entries, shapes, resp1, winner1 = event_entries(pos, neg, params)
+    entries, shapes = event_entries(pos, neg, params)
     engine = SparseGrouping(entries, shapes, params).run(progress)
     fg_x, fg_y, grouping = engine.readout(np.shape(pos))
-    return RateState(resp1, winner1, engine, fg_x, fg_y, grouping)
+    return RateState(pos, neg, params, engine, fg_x, fg_y, grouping)
 
 
 def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None) -> Maps:

@@ -42,7 +42,7 @@ def _frames(data):
 
 def _per_window(title, data):
     print(f"\n== {title} ==")
-    med = {}
+    med, by_input = {}, {}
     for eng, m in data.items():
         if not isinstance(m, dict) or "load_before" not in m:
             continue
@@ -51,13 +51,15 @@ def _per_window(title, data):
             continue
         rows = m["result"]
         med[eng] = statistics.median(r["median_s"] for r in rows)
+        by_input[eng] = {r["input"]: r["median_s"] for r in rows}
         ev = [r["n_events"] for r in rows]
         print(f"  {eng:16s} {len(rows)} windows ({min(ev)}-{max(ev)} events): median {med[eng]:.3f} s per window, "
               f"peak {m['peak_rss_mb']:.0f} MB   [{_load(m)}]")
-    if "rate" in med:
-        for eng, v in med.items():
-            if eng != "rate":
-                print(f"  {eng} / rate: {v / med['rate']:.0f}x")
+    for eng, times in by_input.items():
+        common = sorted(set(times) & set(by_input.get("rate", {})))
+        if eng != "rate" and common:
+            ratio = statistics.median(times[k] / by_input["rate"][k] for k in common)
+            print(f"  {eng} / rate on the same {len(common)} input(s) ({', '.join(common)}): {ratio:.0f}x")
     return med
 
 
@@ -79,7 +81,8 @@ def _throughput(data):
             print(f"  {eng:16s} FAILED (exit {r['exit_status']})")
             continue
         print(f"  {eng:16s} {r['windows']} of {r['windows_in_recording']} windows in {r['wall_s']:.1f} s: "
-              f"{r['windows_per_s']:.2f} windows/s, peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]")
+              f"{r['windows_per_s']:.3g} windows/s ({r['s_per_window']:.3g} s per window), "
+              f"peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]")
 
 
 def _profile(m):

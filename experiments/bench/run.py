@@ -225,6 +225,8 @@ def parse_args(argv=None):
                     help="synthetic event counts for spiking runs (1000,10000)")
     ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per measuring process (3600)")
     ap.add_argument("--out", type=Path, default=RESULTS, help=f"JSON file ({RESULTS.relative_to(ROOT)})")
+    ap.add_argument("--report", action="store_true", help="print the tables of the JSON file; measure nothing")
+    ap.add_argument("--merge", type=Path, metavar="JSON", help="merge another run's JSON file into --out; measure nothing")
     args = ap.parse_args(argv)
     args.sections = [s for s in args.sections.split(",") if s]
     bad = set(args.sections) - set(SECTIONS)
@@ -243,8 +245,29 @@ def parse_args(argv=None):
     return args
 
 
+def _merge(merged: dict, measured: dict, stamp) -> None:
+    """Entries (one per engine, mostly) replace their earlier values; the
+    others keep theirs, each with the time it was measured."""
+    for name, sec in measured.items():
+        old = merged.setdefault("sections", {}).setdefault(name, {"data": {}, "measured": {}})
+        old["data"].update(sec["data"])
+        when = sec["measured"]
+        old["measured"].update({key: when if isinstance(when, str) else when.get(key, stamp) for key in sec["data"]})
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
+    if args.report or args.merge:
+        merged = json.loads(args.out.read_text()) if args.out.exists() else {}
+        if args.merge:
+            other = json.loads(args.merge.read_text())
+            _merge(merged, other.get("sections", {}), other.get("last_run", {}).get("started"))
+            merged.setdefault("runs", []).extend(other.get("runs", []))
+            from snn_fg.atomic import save_text
+
+            save_text(args.out, json.dumps(merged, indent=1))
+        print_summary(merged, merged.get("sections", {}))
+        return 0
     eng, notes = engines(args.only)
     for n in notes:
         print(f"note: {n}", file=sys.stderr)
@@ -258,12 +281,7 @@ def main(argv=None) -> int:
             measured[name] = {"measured": run["started"], "data": got}
     run["load_at_end"] = uptime()
     merged = json.loads(args.out.read_text()) if args.out.exists() else {}
-    for name, sec in measured.items():
-        # Entries (one per engine, mostly) replace their earlier values; the
-        # others keep theirs, each with the time it was measured.
-        old = merged.setdefault("sections", {}).setdefault(name, {"data": {}, "measured": {}})
-        old["data"].update(sec["data"])
-        old["measured"].update({key: sec["measured"] for key in sec["data"]})
+    _merge(merged, measured, run["started"])
     merged["last_run"] = run
     merged.setdefault("runs", []).append(run)
     args.out.parent.mkdir(parents=True, exist_ok=True)

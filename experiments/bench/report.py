@@ -114,3 +114,38 @@ def print_summary(merged: dict, measured: dict) -> None:
             _throughput(data)
         elif name == "profile" and data:
             _profile(data)
+
+
+def plot_scaling(merged: dict, path) -> bool:
+    """Time per synthetic window against event count, one line per engine,
+    with its least-squares fit; written to ``path`` (PNG). False if no data."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    data = merged.get("sections", {}).get("synthetic", {}).get("data", {})
+    series = {eng: m for eng, m in data.items() if isinstance(m, dict) and m.get("result")}
+    if not series:
+        return False
+    fig = Figure(figsize=(6.4, 4.2))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    for eng, m in series.items():
+        n = [r["n_events"] for r in m["result"]]
+        t = [r["median_s"] for r in m["result"]]
+        line, = ax.plot(n, t, "o", label=eng)
+        fit = m.get("scaling")
+        if fit:
+            xs = [min(n) * (max(n) / min(n)) ** (i / 40) for i in range(41)]   # a line is curved on log axes
+            ax.plot(xs, [(fit["fixed_ms"] + fit["slope_us_per_event"] * x / 1e3) / 1e3 for x in xs], "-",
+                    color=line.get_color(), alpha=0.5,
+                    label=f"{eng} fit: {fit['fixed_ms']:.0f} ms + {fit['slope_us_per_event']:.1f} us/event")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("events in the 85 ms window")
+    ax.set_ylabel("wall time per window (s)")
+    ax.set_title("time per synthetic 320 x 240 window (median of repeats)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    return True

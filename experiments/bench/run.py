@@ -19,7 +19,8 @@ a backend that is not installed is skipped with a note):
 
 Every measurement runs in its own process (median of repeats after a
 warm-up; peak RSS of that process from ``wait4``); ``uptime``'s load average
-is recorded before and after each. Results go to
+is recorded before and after each (the synthetic section also plots
+``bench_scaling.png`` beside the JSON). Results go to
 ``experiments/results/bench.json``: a run replaces only the entries (section,
 engine) it measured, each stamped with its time and load.
 
@@ -44,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from .inputs import DVS, DVS_START_MS, ROOT, WINDOW_MS, bsds_names, dvs_windows
-from .report import print_summary
+from .report import plot_scaling, print_summary
 
 SECTIONS = ("calibrate", "frames", "dvs", "synthetic", "throughput", "profile")
 SYNTH_SIZES = (1000, 2000, 5000, 10000, 20000, 50000, 100000)
@@ -267,6 +268,8 @@ def main(argv=None) -> int:
 
             save_text(args.out, json.dumps(merged, indent=1))
         print_summary(merged, merged.get("sections", {}))
+        if args.merge and plot_scaling(merged, args.out.with_name("bench_scaling.png")):
+            print(f"saved {args.out.with_name('bench_scaling.png')}")
         return 0
     eng, notes = engines(args.only)
     for n in notes:
@@ -290,6 +293,8 @@ def main(argv=None) -> int:
     save_text(args.out, json.dumps(merged, indent=1))
     print_summary(merged, measured)
     print(f"saved {args.out}")
+    if "synthetic" in measured and plot_scaling(merged, args.out.with_name("bench_scaling.png")):
+        print(f"saved {args.out.with_name('bench_scaling.png')}")
     return 0
 
 

@@ -250,6 +250,11 @@ class SparseGrouping:
             lv.sites = None
             if lv.need.size * support >= dense:
                 continue
+            if k == 0:      # nothing finer pools from the finest level: its own entries
+                need = lv.need
+                lv.sites = (lv.e.rows[need], lv.e.cols[need], lv.e.ch[need])
+                lv.x = np.zeros((2 * self.n,) + lv.shape)
+                continue
             mark = np.zeros((2 * self.n,) + lv.shape, bool)
             mark[lv.e.ch[lv.need], lv.e.rows[lv.need], lv.e.cols[lv.need]] = True
             for fine in self.levels[:k]:

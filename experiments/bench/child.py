@@ -66,15 +66,19 @@ def time_model(spec: dict) -> list[dict]:
     rows = []
     for inp in inputs:
         run = _runner(mdl, inp)
-        times, corr = [], []
+        times, cpu, corr = [], [], []
         for _ in range(spec["repeats"]):
             if spec.get("calibrate"):
                 corr.append(correlate_seconds())
+            c = time.process_time()
             t = time.perf_counter()
             run()
             times.append(time.perf_counter() - t)
+            cpu.append(time.process_time() - c)
+        # CPU time (all threads of this process) is reported beside wall time:
+        # on a shared machine it moves much less with the load.
         row = {**inp.describe(), "times_s": times, "median_s": statistics.median(times), "min_s": min(times),
-               "warmup_s": warm_s}
+               "cpu_s": cpu, "cpu_median_s": statistics.median(cpu), "warmup_s": warm_s}
         if corr:
             ratios = [AUTHORS_CORRELATES_PER_FRAME * c / s for c, s in zip(corr, times)]
             row.update(correlate_s=corr, correlate_median_s=statistics.median(corr),

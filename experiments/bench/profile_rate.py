@@ -15,7 +15,7 @@ from .inputs import load
 # (module, attribute, label): the parts of run_edfg that take time.
 STAGES = (
     ("snn_fg.rate.edfg", "event_entries", "stages 1-4 (pyramid, DoG, orientation)"),
-    ("snn_fg.rate.edfg", "oriented_responses", "  of which DoG responses (FFT)"),
+    ("snn_fg.rate.edfg", "oriented_responses", "  of which DoG responses, Fourier levels"),
     ("snn_fg.rate._sparse_kernels", "scatter", "stage 7 grouping input (scatter)"),
     ("snn_fg.rate._sparse_kernels", "winner_take_all", "stage 7 rectify + compete"),
     ("snn_fg.rate._sparse_kernels", "gather", "stage 8 feedback correlation, sparse levels (gather)"),

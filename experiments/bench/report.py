@@ -67,11 +67,13 @@ def _synthetic(data):
     _per_window("synthetic 85 ms windows", data)
     for eng, m in data.items():
         for r in m.get("result", []):
-            print(f"    {eng:14s} {r['n_events']:7d} events ({r['active_pixels']:6d} px): {r['median_s']:.4f} s")
-        fit = m.get("scaling")
-        if fit:
-            print(f"  {eng}: time per window = {fit['fixed_ms']:.1f} ms + {fit['slope_us_per_event']:.3f} us x events"
-                  f" (R^2 {fit['r2']:.3f})")
+            cpu = f", CPU {r['cpu_median_s']:.4f} s" if "cpu_median_s" in r else ""
+            print(f"    {eng:14s} {r['n_events']:7d} events ({r['active_pixels']:6d} px): {r['median_s']:.4f} s{cpu}")
+        for key, clock in (("scaling", "wall"), ("scaling_cpu", "CPU")):
+            fit = m.get(key)
+            if fit:
+                print(f"  {eng}: {clock} time per window = {fit['fixed_ms']:.1f} ms + "
+                      f"{fit['slope_us_per_event']:.3f} us x events (R^2 {fit['r2']:.3f})")
 
 
 def _throughput(data):

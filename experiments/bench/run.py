@@ -163,6 +163,7 @@ def section_synthetic(args, eng):
         if "result" in m:
             rows = m["result"]
             m["scaling"] = fit_line([r["n_events"] for r in rows], [r["median_s"] for r in rows])
+            m["scaling_cpu"] = fit_line([r["n_events"] for r in rows], [r["cpu_median_s"] for r in rows])
         out[engine_name(model, backend)] = m
     return out
 

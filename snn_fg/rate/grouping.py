@@ -7,14 +7,16 @@ costs what those entries touch:
 * grouping (stage 7): each entry adds its input times its 49 x 49 von Mises
   kernel into the grouping cells' linear input ``AL``/``AD``. Only the
   *change* since the previous iteration is added; once feedback saturates most
-  entries stop changing and cost nothing;
+  entries stop changing and cost nothing (when most entries change, e.g. in
+  the first two iterations of a busy level, a Fourier pass is cheaper and is
+  used instead);
 * feedback (stage 8) is needed only where ``S`` is positive (elsewhere the
-  border-ownership cells are clipped to 0). At the finest level the feedback
-  correlation is gathered at those entries; the coarser levels, whose
-  feedback is resized up to every finer level's entries, are correlated
-  densely in the Fourier domain (their maps are small) and their bicubic
-  upsampling is evaluated at the finer entries only, with OpenCV's own
-  interpolation weights.
+  border-ownership cells are clipped to 0), and a coarser level's feedback
+  only at the bicubic taps that the finer levels' entries read when it is
+  resized up to them. Per level, the feedback correlation is gathered at those
+  sites, or computed densely in the Fourier domain where that is cheaper (a
+  cost model; on busy frames the small coarse levels go dense); the resize is
+  evaluated at the entries only, with OpenCV's own interpolation weights.
 
 The arithmetic is the reference's (the same kernels, the same rectification
 and competition, float64) with one exception: the dense feedback correlation

@@ -49,3 +49,17 @@ def padded_shape(shape: tuple[int, int], margin: int, at_least: int = 0) -> tupl
     least ``at_least`` cells), so a kernel reaching ``margin`` cells out does
     not wrap into the result."""
     return tuple(sfft.next_fast_len(max(n + margin, at_least), real=True) for n in shape)
+
+
+def rfft_rows(x: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """:func:`rfft` of data smaller than the grid: the first pass runs over the
+    data's rows only (the padding rows are zero), the second adds the padding."""
+    x = sfft.rfft(x, n=shape[1], axis=-1, workers=_WORKERS)
+    return sfft.fft(x, n=shape[0], axis=-2, workers=_WORKERS)
+
+
+def irfft_crop(x: np.ndarray, shape: tuple[int, int], crop: tuple[int, int]) -> np.ndarray:
+    """:func:`irfft` on a grid of ``shape`` keeping ``[:crop[0], :crop[1]]``;
+    the second pass runs over the kept rows only."""
+    x = sfft.ifft(x, axis=-2, workers=_WORKERS)[..., : crop[0], :]
+    return sfft.irfft(x, n=shape[1], axis=-1, workers=_WORKERS)[..., : crop[1]]

@@ -16,7 +16,9 @@ from pathlib import Path
 from . import __version__
 from .errors import InputError, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
+from .events.esim import MOTIONS
 from .models import MODELS
+from .rate.fbfg import EDGE_OPERATORS
 
 EXIT_INPUT = 2
 MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
@@ -71,6 +73,10 @@ _RUN_OPTIONS = (
                                                   "model's ablation (on)"),
         ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later "
                                               "(20)"))),
+    ("frame-based model", (
+        ("--edge-operator", EDGE_OPERATORS, None, None, "simple cells' edge operator: gaussian (a "
+                                                               "Gaussian-derivative stand-in) or corf (Hu et al.'s "
+                                                               "CORF push-pull, slower) (gaussian)"),)),
 )
 
 
@@ -95,6 +101,9 @@ def _add_run(sub):
                 g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
     p.add_argument("--threshold", type=_number(float, 0), default=0.10, metavar="C",
                    help="images turned into events: contrast threshold of the simulated event camera (0.10)")
+    p.add_argument("--motion", choices=MOTIONS, default=None,
+                   help="images turned into events: motion of the simulated event camera; paper: the authors' "
+                        "BSDS conversion (default shift4)")
     p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
                    help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
     p.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
@@ -145,6 +154,8 @@ def _model(args, kind):
         unused += [k for k in RECORDING_OPTIONS + ("sensor_size",) if getattr(args, k) is not None]
     else:
         unused += [k for k in FRAME_ONLY_OPTIONS if getattr(args, k) is not None]
+    if args.motion is not None and (kind in ("recording", "frame") or MODELS[args.model].needs == "image"):
+        unused.append("motion")      # only images turned into events have a motion
     if args.network is not None and given:
         unused += list(given)
     if unused:
@@ -192,7 +203,7 @@ def cmd_run(args) -> int:
             raise InputError(args.input, f"the {model.name} model needs an image, not an event recording")
         windows, source, shape = _windows(args)
     else:
-        frame, source = load_frame(args.input, model.needs, args.threshold)
+        frame, source = load_frame(args.input, model.needs, args.threshold, args.motion or "shift4")
         shape = frame.shape
     check_levels(shape, model.params.levels, args.input)
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as out:

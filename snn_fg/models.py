@@ -98,16 +98,24 @@ class RateModel(Model):
 
 
 class FbfgModel(Model):
-    """The frame-based model (FBFG) on a grey or RGB image."""
+    """The frame-based model (FBFG) on a grey or RGB image; option ``edge_operator``
+    (``"gaussian"`` or ``"corf"``, see :mod:`snn_fg.rate.fbfg`)."""
 
     name = "fbfg"
     needs = "image"
+    options = ("edge_operator",)
     grouping_label = "grouping (normalised to 1)"
+
+    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, edge_operator="gaussian"):
+        from .rate.fbfg import EDGE_OPERATORS
+
+        super().__init__(params, progress)
+        self.edge_operator = check.choice("fbfg", "edge_operator", edge_operator, EDGE_OPERATORS)
 
     def run_frame(self, frame: Frame) -> Maps:
         from .rate.fbfg import run_fbfg
 
-        return run_fbfg(frame.image, self.params, progress=self.progress)
+        return run_fbfg(frame.image, self.params, progress=self.progress, edge_operator=self.edge_operator)
 
     def run_window(self, window) -> Maps:
         raise InputError("<recording>", "the fbfg model needs an image, not an event recording")

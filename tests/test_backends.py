@@ -110,7 +110,11 @@ def test_same_seed_same_spikes_other_seed_other_spikes(backend):
 def test_every_cell_gives_the_same_spikes_as_the_cells_the_input_can_use(backend, scene):
     """The populations' site hints are an optimisation: instantiating every
     cell (inside the coarse levels' edge mask) gives the same spikes on the
-    cells the pruned network has, and no other cell that feeds the maps fires."""
+    cells the pruned network has, and no other cell that feeds the maps fires.
+    A backend whose input summation order depends on the cells that exist
+    (NEST) may differ by float rounding at the threshold: at most 1 % of a
+    population's cells, by at most 2 spikes each."""
+    exact = get_backend(backend).fixed_summation_order
     img = disc(8).image if scene == "disc" else demo().image[30:100, 20:100]
     pos, neg = image_to_frame(img)
     kw = dict(params=ModelParams(levels=3), duration_ms=150, backend=backend, progress=False)
@@ -119,7 +123,11 @@ def test_every_cell_gives_the_same_spikes_as_the_cells_the_input_can_use(backend
     assert full.total_cells > 10 * pruned.total_cells
     for name in pruned.populations:
         everywhere = full.grid(name, full.counts[name]).ravel()
-        np.testing.assert_array_equal(everywhere[pruned.sites[name]], pruned.counts[name], err_msg=name)
+        if exact:
+            np.testing.assert_array_equal(everywhere[pruned.sites[name]], pruned.counts[name], err_msg=name)
+        else:
+            diff = np.abs(everywhere[pruned.sites[name]] - pruned.counts[name])
+            assert np.mean(diff > 0) <= 0.01 and diff.max(initial=0) <= 2, name
         outside = everywhere.copy()
         outside[pruned.sites[name]] = 0
         # feedback cells outside reach only cells that are silent in both networks

@@ -179,6 +179,10 @@ class Backend(ABC):
 
     name: ClassVar[str] = ""
     requires: ClassVar[str] = ""
+    #: whether the inputs reaching one cell in one step are summed in an order
+    #: that does not depend on how many other cells exist; where it does
+    #: (NEST), float rounding can move a spike at the threshold's edge
+    fixed_summation_order: ClassVar[bool] = True
 
     @classmethod
     def available(cls) -> tuple[bool, str]:

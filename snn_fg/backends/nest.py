@@ -64,6 +64,7 @@ class NestBackend(Backend):
         (:func:`snn_fg.export.quantise.projection_scales`).
     """
 
+    fixed_summation_order = False
     name = "nest"
     requires = 'pip install "snn-fg[nest]"'
 

@@ -190,6 +190,9 @@ def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(ba
     sim = get_backend(backend)
     from snn_fg.spiking.inputs import frame_spikes
     net = run_spiking_result(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False).network
+    # the same run, short, first: the signal must reach the simulation, not a
+    # first compilation of its code (a cold Brian2 compile can take minutes)
+    sim.simulate(net, frame_spikes(pos, neg, 200.0, 0.5, 10.0), RunSettings(duration_ms=10.0, record_spikes=False))
     inp = frame_spikes(pos, neg, 200.0, 0.5, 20000.0)
     timer = threading.Timer(2.0, signal.raise_signal, (signal.SIGINT,))
     timer.start()

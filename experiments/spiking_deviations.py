@@ -142,8 +142,10 @@ def _markdown(rec):
     lines += ["", "## Mechanisms switched off (spiking vs reference)", "",
               "| frame | variant | grouping r | mean dAngle | grouping cells mean rate (Hz) |", "|---|---|---|---|---|"]
     for r in rec["dynamics"]:
+        mean = r["angle_diff_mean_deg"]
+        mean = "no vectors" if mean != mean else f"{mean:.1f}"       # NaN: the figure-ground map is zero
         lines.append(f"| {r['frame']} | {r['variant']} | {r['grouping_pearson_r']:.3f} | "
-                     f"{r['angle_diff_mean_deg']:.1f} | {r['group_mean_rate_hz']:.1f} |")
+                     f"{mean} | {r['group_mean_rate_hz']:.1f} |")
     return "\n".join(lines) + "\n"
 
 

@@ -26,6 +26,7 @@ from .base import Backend, RunSettings, SimulationResult
 #: that a missing optional simulator costs nothing until it is used.
 BACKENDS = {
     "brian2": "snn_fg.backends.brian2:Brian2Backend",
+    "fast": "snn_fg.backends.fast:FastBackend",
 }
 DEFAULT_BACKEND = "brian2"
 

@@ -1,0 +1,249 @@
+"""The fast engine's view of a network: flat arrays built once per
+description and time step (:func:`build_tables`), never one per synapse.
+
+* cells: every cell of every population gets a global number
+  ``offset(population) + flat index`` (flat index into its
+  ``(channels, rows, cols)`` grid); spike sources are numbered too, so that
+  a spike is one integer whatever emits it;
+* neuron types: one row of constants per distinct :class:`~snn_fg.network.Neuron`
+  (per-step decay factors, potentials in volts, refractory steps) and the
+  tables of the closed-form advance over ``k`` silent steps;
+* projections: a Conv is its kept kernel taps per input channel (exactly
+  those :func:`~snn_fg.spiking.connect.kernel_taps` keeps), a Resize its two
+  interpolation matrices transposed (:func:`~snn_fg.spiking.connect.resize_factors`),
+  the weight of a synapse being computed when a spike passes.
+
+Potentials and weights are held in volts, as Brian2 holds them, so that the
+two simulators round the same numbers the same way.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..network.graph import Network
+from ..network.nodes import Conv
+from ..spiking.connect import kernel_taps, resize_factors, resize_kept_mass
+from .base import receptor, receptor_weights
+
+#: volts per millivolt (Brian2's ``mV``): weights and potentials are scaled
+#: by it exactly as Brian2 scales them
+MV = 1e-3
+#: seconds per millisecond
+MS = 1e-3
+#: neuron-type codes of cells that have no LIF state
+SOURCE_TYPE = 254
+ABSENT_TYPE = 255
+#: columns of the neuron-type table
+DM, DE, DI, V_REST, V_RESET, V_TH, GAP = range(7)
+#: a parked cell's potential bound must stay this far (V) below threshold
+#: (covers rounding between the closed-form advance and step-by-step updates)
+PARK_MARGIN_V = 1e-12
+#: silent steps covered by one row of the advance tables (longer gaps loop)
+ADVANCE_STEPS = 512
+#: columns of the population table
+P_OFF, P_CH, P_GR, P_GC, P_STRIDE, P_LR, P_LC, P_TYPE, P_SIZE = range(9)
+#: columns of the projection table
+(J_KIND, J_SRC, J_TGT, J_COL, J_DELAY, J_WRAP, J_BASE, J_COLBASE, J_PRUNE, J_INH, J_RADIUS) = range(11)
+CONV, RESIZE = 0, 1
+
+
+@dataclass
+class EngineTables:
+    """Everything the engine needs about one network at one time step."""
+
+    network: Network
+    dt_ms: float
+    offsets: dict            # population name -> first global cell number
+    pops: np.ndarray         # int64 (n_populations, 9), columns P_*
+    n_cells: int
+    nrn: np.ndarray          # float64 (n_types, 7), columns DM..GAP, volts
+    ref_steps: np.ndarray    # int64 (n_types,)
+    adv: np.ndarray          # float64 (n_types, 5, ADVANCE_STEPS + 1): d_m^k, d_e^k, d_i^k, P_e(k), P_i(k)
+    prj: np.ndarray          # int64 (n_projections, 11), columns J_*
+    prj_w: np.ndarray        # float64 (n_projections, 2): sign * gain (mV), prune threshold of a Resize
+    ch_ptr: np.ndarray       # int64: Conv taps of input channel c, residues (a, b) modulo the target
+    tap_co: np.ndarray       #   stride s, of projection p are ch_ptr[i] .. ch_ptr[i + 1], i = base + (c s + a) s
+    tap_qr: np.ndarray       #   + b, of tap_co (output channel), tap_qr, tap_qc (the target lattice point is
+    tap_qc: np.ndarray       #   the source's level pixel // s - (qr, qc)), tap_w (volts added to the
+    tap_w: np.ndarray        #   receptor) and tap_off (flat offset, for sources whose whole footprint lies
+    tap_off: np.ndarray      #   inside the level)
+    csr_ptr: np.ndarray      # int64: Resize rows/cols: source index s of a factor starting at
+    csr_idx: np.ndarray      #   base has targets csr_idx[csr_ptr[base + s]:csr_ptr[base + s + 1]]
+    csr_val: np.ndarray      #   with interpolation weights csr_val
+    kept_mass: dict          # projection name -> kept fraction of its kernel mass
+    taps: dict               # projection name -> kept taps (Conv) or interpolation weights (Resize)
+
+    @property
+    def max_delay(self) -> int:
+        return int(self.prj[:, J_DELAY].max()) if self.prj.size else 0
+
+    @property
+    def max_fanout(self) -> int:
+        """Most synaptic events one spike can cause through one projection."""
+        conv = int(np.diff(self.ch_ptr).max()) if self.ch_ptr.size > 1 else 0
+        csr = int(np.diff(self.csr_ptr).max()) if self.csr_ptr.size > 1 else 0
+        return max(conv, csr * csr, 1)
+
+    def population_index(self, name: str) -> int:
+        return [p.name for p in self.network.populations].index(name)
+
+
+def _neuron_types(network: Network, dt_ms: float):
+    """One row per distinct neuron, as Brian2's backend sets its per-cell
+    constants (``d = exp(-dt / tau)``, potentials times ``mV``)."""
+    neurons = []
+    for p in network.populations:
+        if p.neuron is not None and p.neuron not in neurons:
+            neurons.append(p.neuron)
+    n = len(neurons)
+    if n >= SOURCE_TYPE:
+        raise ValueError(f"the fast engine handles at most {SOURCE_TYPE - 1} distinct neurons, this network has {n}")
+    tau = np.array([[x.tau_m_ms, x.tau_exc_ms, x.tau_inh_ms] for x in neurons], dtype=np.float64).reshape(n, 3)
+    nrn = np.zeros((n, 7))
+    nrn[:, DM:DI + 1] = np.exp(-dt_ms / tau)
+    for t, x in enumerate(neurons):
+        nrn[t, V_REST:V_TH + 1] = np.array([x.v_rest_mv, x.v_reset_mv, x.v_th_mv]) * MV
+    nrn[:, GAP] = nrn[:, V_TH] - nrn[:, V_REST] - PARK_MARGIN_V
+    dt_s = dt_ms * MS
+    # Brian2's refractoriness: not refractory once timestep(t - lastspike) >= timestep(t_ref)
+    ref = np.array([int((x.t_ref_ms * MS + 1e-3 * dt_s) / dt_s) for x in neurons], dtype=np.int64)
+    return neurons, nrn, ref, _advance_tables(nrn)
+
+
+def _advance_tables(nrn: np.ndarray) -> np.ndarray:
+    """Closed form of ``k`` silent steps of the update: with ``u = v - v_rest``,
+    ``u_k = d_m^k u + I_exc P_e(k) - I_inh P_i(k)``, ``I_k = d^k I``, where
+    ``P_x(k) = (1 - d_m) sum_j d_m^(k-1-j) d_x^j`` (the recurrence, iterated)."""
+    adv = np.zeros((nrn.shape[0], 5, ADVANCE_STEPS + 1))
+    adv[:, 0:3, 0] = 1.0
+    d_m = nrn[:, DM]
+    for k in range(ADVANCE_STEPS):
+        adv[:, 0:3, k + 1] = adv[:, 0:3, k] * nrn[:, DM:DI + 1]
+        # P_x(k+1) = d_m P_x(k) + (1 - d_m) d_x^k, for x = exc (rows 1, 3) and inh (rows 2, 4)
+        adv[:, 3:5, k + 1] = d_m[:, None] * adv[:, 3:5, k] + (1.0 - d_m)[:, None] * adv[:, 1:3, k]
+    return adv
+
+
+def _populations(network: Network, neurons):
+    rows, offsets, off = [], {}, 0
+    for p in network.populations:
+        offsets[p.name] = off
+        kind = SOURCE_TYPE if p.is_source else neurons.index(p.neuron)
+        rows.append([off, p.channels, *p.grid, p.stride, *p.level_shape, kind, p.size])
+        off += p.size
+    return offsets, np.array(rows, dtype=np.int64).reshape(-1, 9), off
+
+
+def _transposed(a: np.ndarray):
+    """CSR of ``a.T``: for each source index, its target indices and weights."""
+    tgt, src = np.nonzero(a)
+    order = np.lexsort((tgt, src))
+    ptr = np.searchsorted(src[order], np.arange(a.shape[1] + 1))
+    return ptr, tgt[order], a[tgt[order], src[order]]
+
+
+class _Collector:
+    """Concatenates the per-projection tap and CSR arrays."""
+
+    def __init__(self):
+        self.ch_ptr, self.taps, self.csr = [np.zeros(1, np.int64)], [], [[np.zeros(1, np.int64)], [], []]
+        self.n_ch, self.n_taps, self.n_csr_rows, self.n_csr = 0, 0, 0, 0
+
+    def conv(self, ch_ptr, co, qr, qc, w, off):
+        base = self.n_ch
+        self.ch_ptr.append(ch_ptr[1:] + self.n_taps)
+        self.taps.append((co, qr, qc, w, off))
+        self.n_ch += ch_ptr.size - 1
+        self.n_taps += co.size
+        return base
+
+    def factor(self, a: np.ndarray):
+        ptr, idx, val = _transposed(a)
+        base = self.n_csr_rows
+        self.csr[0].append(ptr[1:] + self.n_csr)
+        self.csr[1].append(idx)
+        self.csr[2].append(val)
+        self.n_csr_rows += ptr.size - 1
+        self.n_csr += idx.size
+        return base
+
+    def arrays(self):
+        taps = [np.concatenate([t[i] for t in self.taps]) if self.taps else np.zeros(0) for i in range(5)]
+        csr = [np.concatenate(x) if x else np.zeros(0) for x in self.csr]
+        return (np.concatenate(self.ch_ptr).astype(np.int64), taps[0].astype(np.int32), taps[1].astype(np.int32),
+                taps[2].astype(np.int32), taps[3].astype(np.float64), taps[4].astype(np.int64),
+                csr[0].astype(np.int64), csr[1].astype(np.int32), csr[2].astype(np.float64))
+
+
+def _conv(network, pr, src, tgt, out: _Collector):
+    """A Conv's kept taps, grouped by input channel and by the residues of
+    the tap offset modulo the target's stride: a source at level pixel ``p``
+    reaches the target lattice only through the taps with ``d = p (mod
+    stride)``, and those land on lattice point ``p // stride - q`` with
+    ``q = (d - d mod stride) / stride``."""
+    co, ci, dr, dc, k, kept = kernel_taps(pr, network)
+    w = receptor_weights(pr.sign, pr.sign * pr.gain_mv * k) * MV
+    st = tgt.stride
+    rr, rc = dr % st, dc % st
+    qr, qc = (dr - rr) // st, (dc - rc) // st
+    cls = (ci * st + rr) * st + rc
+    order = np.argsort(cls, kind="stable")
+    co, qr, qc, w, cls = co[order], qr[order], qc[order], w[order], cls[order]
+    ch_ptr = np.searchsorted(cls, np.arange(src.channels * st * st + 1))
+    gr, gc = tgt.grid
+    off = co.astype(np.int64) * gr * gc - qr * gc - qc
+    base = out.conv(ch_ptr, co, qr, qc, w, off)
+    radius = int(max(np.abs(qr).max(), np.abs(qc).max())) if qr.size else 0
+    return base, 0, kept, int(co.size), radius
+
+
+def _resize(pr, src, tgt, out: _Collector):
+    ar, ac, peak = resize_factors(pr, src, tgt)
+    base, colbase = out.factor(ar), out.factor(ac)
+    taps = int(np.count_nonzero(ar)) * int(np.count_nonzero(ac))
+    return base, colbase, resize_kept_mass(ar, ac, pr.prune, peak), taps, pr.prune * peak
+
+
+def _delay_steps(delay_ms: float, dt_ms: float) -> int:
+    """A delay in steps, rounded as Brian2's spike queue rounds it (seconds
+    over seconds, the delay first rounded to 1e-6 ms as our Brian2 backend
+    groups synapses)."""
+    return int(np.round(round(delay_ms, 6) * MS / (dt_ms * MS)))
+
+
+def build_tables(network: Network, dt_ms: float) -> EngineTables:
+    """The engine's arrays for ``network`` simulated at ``dt_ms``.
+
+    Examples
+    --------
+    >>> from snn_fg.network import build_network
+    >>> from snn_fg.params import ModelParams
+    >>> tab = build_tables(build_network(ModelParams(levels=1), (20, 24)), 0.5)
+    >>> tab.n_cells == sum(p.size for p in tab.network.populations)
+    True
+    """
+    neurons, nrn, ref, adv = _neuron_types(network, dt_ms)
+    offsets, pops, n_cells = _populations(network, neurons)
+    index = {p.name: q for q, p in enumerate(network.populations)}
+    out = _Collector()
+    rows, wrow, kept, taps = [], [], {}, {}
+    for pr in network.projections:
+        src, tgt = network.population(pr.source), network.population(pr.target)
+        if isinstance(pr, Conv):
+            base, colbase, kept[pr.name], taps[pr.name], radius = _conv(network, pr, src, tgt, out)
+            kind, wrap, thr = CONV, int(pr.padding == "wrap"), 0.0
+        else:
+            base, colbase, kept[pr.name], taps[pr.name], thr = _resize(pr, src, tgt, out)
+            kind, wrap, radius = RESIZE, 0, 0
+        rows.append([kind, index[src.name], index[tgt.name], 1 if receptor(pr.sign) == "exc" else 2,
+                     _delay_steps(pr.delay_ms, dt_ms), wrap, base, colbase, int(pr.prune > 0),
+                     int(pr.sign < 0), radius])
+        wrow.append([pr.sign * pr.gain_mv, thr])
+    arrays = out.arrays()
+    return EngineTables(network=network, dt_ms=float(dt_ms), offsets=offsets, pops=pops, n_cells=int(n_cells),
+                        nrn=nrn, ref_steps=ref, adv=adv, prj=np.array(rows, dtype=np.int64).reshape(-1, 11),
+                        prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 2), ch_ptr=arrays[0],
+                        tap_co=arrays[1], tap_qr=arrays[2], tap_qc=arrays[3], tap_w=arrays[4], tap_off=arrays[5],
+                        csr_ptr=arrays[6], csr_idx=arrays[7], csr_val=arrays[8], kept_mass=kept, taps=taps)

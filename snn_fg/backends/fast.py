@@ -59,8 +59,6 @@ from .base import Backend, RunSettings, SimulationResult, lif_populations, segme
 
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16
-#: synaptic events gathered before they are delivered in one pass
-BUFFER = 1 << 15
 #: simulated time per call of the compiled loop (progress, Ctrl-C in between)
 CHUNK_MS = 25.0
 
@@ -144,7 +142,7 @@ class _Run:
     """The mutable state of one simulation: cells, active set and spike log."""
 
     def __init__(self, tab: ft.EngineTables, chosen: dict, events, n_steps: int):
-        from .fast_core import N_ACTIVE_STEPS
+        from .fast_core import N_ACTIVE_STEPS, STATE
 
         self.tab, self.n_steps = tab, n_steps
         self.in_ptr, self.in_ids = events
@@ -161,15 +159,15 @@ class _Run:
                 self.ntype[off + sites] = kind
         self.n_present = int(sum(chosen[p.name].size for p in lif_populations(tab.network)))
         # zero pages cost nothing until touched: untouched cells are at rest
-        self.state = np.zeros((n, 4))
-        self.last_spike = np.zeros(n, dtype=np.int32)
+        self.state = np.zeros(n, dtype=STATE)
         self.inact = np.zeros(n, dtype=np.uint8)
-        self.act = np.empty(n, dtype=np.int32)
+        self.act, self.new, self.tmp = (np.empty(n, dtype=np.int32) for _ in range(3))
         self.scalars = np.zeros(2, dtype=np.int64)
         self.log = np.empty(LOG_START, dtype=np.int32)
         self.step_start = np.zeros(n_steps + 1, dtype=np.int64)
-        room = max(BUFFER, tab.max_fanout)
-        self.buf_g, self.buf_w = np.empty(room, dtype=np.int64), np.empty(room)
+        largest = int(max(p.size for p in lif_populations(tab.network)))
+        self.acc = np.zeros(largest)
+        self.touched = np.empty(largest + tab.max_fanout, dtype=np.int64)
         self.counters = np.zeros(N_ACTIVE_STEPS + 1, dtype=np.int64)
         self.prj_events = np.zeros(len(tab.network.projections), dtype=np.int64)
 
@@ -181,12 +179,12 @@ class _Run:
             n = 0
             while n < self.n_steps:
                 end = min(n + chunk, self.n_steps)
-                reached = run_steps(n, end, self.state, self.last_spike, self.ntype, self.inact, self.act,
+                reached = run_steps(n, end, self.state, self.ntype, self.inact, self.act, self.new, self.tmp,
                                     self.scalars, self.log, self.step_start, self.in_ptr, self.in_ids, tab.pops,
                                     self.complete, tab.nrn, tab.ref_steps, tab.adv, tab.prj, tab.prj_w, tab.ch_ptr,
                                     tab.tap_co, tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off, tab.csr_ptr,
-                                    tab.csr_idx, tab.csr_val, self.buf_g, self.buf_w, self.counters,
-                                    self.prj_events)
+                                    tab.csr_idx, tab.csr_val, tab.grp_ptr, tab.grp_prj, self.acc, self.touched,
+                                    self.counters, self.prj_events)
                 if reached < end:         # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
                 bar(reached - n)
@@ -198,6 +196,7 @@ class _Run:
         return self.log[:log_n].astype(np.int64), np.repeat(np.arange(self.n_steps), np.diff(self.step_start))
 
     def final_state(self) -> np.ndarray:
+        """Every cell's state at the end of the run (fields ``v``, ``e``, ``i`` in volts)."""
         from .fast_core import final_state
 
         final_state(self.state, self.ntype, self.tab.nrn, self.tab.adv, self.n_steps)
@@ -244,7 +243,8 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
         values = run.final_state()
         for p in pops:
             rows = tab.offsets[p.name] + chosen[p.name]
-            state[p.name] = {var: values[rows, col] / ft.MV for col, var in enumerate(("v", "I_exc", "I_inh"))
+            state[p.name] = {var: values[field][rows] / ft.MV for field, var in (("v", "v"), ("e", "I_exc"),
+                                                                                    ("i", "I_inh"))
                              if var in settings.record_state}
     events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
     stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),

@@ -35,11 +35,15 @@ MS = 1e-3
 #: neuron-type codes of cells that have no LIF state
 SOURCE_TYPE = 254
 ABSENT_TYPE = 255
-#: columns of the neuron-type table
-DM, DE, DI, V_REST, V_RESET, V_TH, GAP = range(7)
+#: columns of the neuron-type table (TIGHT: the inhibitory current decays no
+#: faster than the excitatory one; PEAK: the largest response of ``v`` to a
+#: unit excitatory current, ``max_k P_e(k)``)
+DM, DE, DI, V_REST, V_RESET, V_TH, GAP, TIGHT, PEAK = range(9)
 #: a parked cell's potential bound must stay this far (V) below threshold
 #: (covers rounding between the closed-form advance and step-by-step updates)
 PARK_MARGIN_V = 1e-12
+#: relative margin on the computed peak response (rounding of the tables)
+PEAK_MARGIN = 1e-9
 #: silent steps covered by one row of the advance tables (longer gaps loop)
 ADVANCE_STEPS = 512
 #: columns of the population table
@@ -58,7 +62,7 @@ class EngineTables:
     offsets: dict            # population name -> first global cell number
     pops: np.ndarray         # int64 (n_populations, 9), columns P_*
     n_cells: int
-    nrn: np.ndarray          # float64 (n_types, 7), columns DM..GAP, volts
+    nrn: np.ndarray          # float64 (n_types, 9), columns DM..PEAK, volts
     ref_steps: np.ndarray    # int64 (n_types,)
     adv: np.ndarray          # float64 (n_types, 5, ADVANCE_STEPS + 1): d_m^k, d_e^k, d_i^k, P_e(k), P_i(k)
     prj: np.ndarray          # int64 (n_projections, 11), columns J_*
@@ -72,6 +76,8 @@ class EngineTables:
     csr_ptr: np.ndarray      # int64: Resize rows/cols: source index s of a factor starting at
     csr_idx: np.ndarray      #   base has targets csr_idx[csr_ptr[base + s]:csr_ptr[base + s + 1]]
     csr_val: np.ndarray      #   with interpolation weights csr_val
+    grp_ptr: np.ndarray      # int64: projections feeding one (target population, current) are
+    grp_prj: np.ndarray      #   grp_prj[grp_ptr[k]:grp_ptr[k + 1]] (their input is summed, then delivered)
     kept_mass: dict          # projection name -> kept fraction of its kernel mass
     taps: dict               # projection name -> kept taps (Conv) or interpolation weights (Resize)
 
@@ -101,18 +107,24 @@ def _neuron_types(network: Network, dt_ms: float):
     if n >= SOURCE_TYPE:
         raise ValueError(f"the fast engine handles at most {SOURCE_TYPE - 1} distinct neurons, this network has {n}")
     tau = np.array([[x.tau_m_ms, x.tau_exc_ms, x.tau_inh_ms] for x in neurons], dtype=np.float64).reshape(n, 3)
-    nrn = np.zeros((n, 7))
+    nrn = np.zeros((n, 9))
     nrn[:, DM:DI + 1] = np.exp(-dt_ms / tau)
     for t, x in enumerate(neurons):
         nrn[t, V_REST:V_TH + 1] = np.array([x.v_rest_mv, x.v_reset_mv, x.v_th_mv]) * MV
     nrn[:, GAP] = nrn[:, V_TH] - nrn[:, V_REST] - PARK_MARGIN_V
+    adv = advance_tables(nrn)
+    nrn[:, TIGHT] = nrn[:, DI] >= nrn[:, DE]
+    p_e = adv[:, 3]
+    # the peak must lie inside the table (P_e falls after it); else only P_e <= 1 holds
+    inside = p_e.argmax(axis=1) < p_e.shape[1] - 1
+    nrn[:, PEAK] = np.where(inside, p_e.max(axis=1) * (1 + PEAK_MARGIN), 1.0)
     dt_s = dt_ms * MS
     # Brian2's refractoriness: not refractory once timestep(t - lastspike) >= timestep(t_ref)
     ref = np.array([int((x.t_ref_ms * MS + 1e-3 * dt_s) / dt_s) for x in neurons], dtype=np.int64)
-    return neurons, nrn, ref, _advance_tables(nrn)
+    return neurons, nrn, ref, adv
 
 
-def _advance_tables(nrn: np.ndarray) -> np.ndarray:
+def advance_tables(nrn: np.ndarray) -> np.ndarray:
     """Closed form of ``k`` silent steps of the update: with ``u = v - v_rest``,
     ``u_k = d_m^k u + I_exc P_e(k) - I_inh P_i(k)``, ``I_k = d^k I``, where
     ``P_x(k) = (1 - d_m) sum_j d_m^(k-1-j) d_x^j`` (the recurrence, iterated)."""
@@ -242,8 +254,15 @@ def build_tables(network: Network, dt_ms: float) -> EngineTables:
                      int(pr.sign < 0), radius])
         wrow.append([pr.sign * pr.gain_mv, thr])
     arrays = out.arrays()
+    prj = np.array(rows, dtype=np.int64).reshape(-1, 11)
+    groups: dict = {}
+    for p in range(prj.shape[0]):
+        groups.setdefault((int(prj[p, J_TGT]), int(prj[p, J_COL])), []).append(p)
+    grp_prj = np.array([p for members in groups.values() for p in members], dtype=np.int64)
+    grp_ptr = np.cumsum([0] + [len(members) for members in groups.values()]).astype(np.int64)
     return EngineTables(network=network, dt_ms=float(dt_ms), offsets=offsets, pops=pops, n_cells=int(n_cells),
-                        nrn=nrn, ref_steps=ref, adv=adv, prj=np.array(rows, dtype=np.int64).reshape(-1, 11),
+                        nrn=nrn, ref_steps=ref, adv=adv, prj=prj,
                         prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 2), ch_ptr=arrays[0],
                         tap_co=arrays[1], tap_qr=arrays[2], tap_qc=arrays[3], tap_w=arrays[4], tap_off=arrays[5],
-                        csr_ptr=arrays[6], csr_idx=arrays[7], csr_val=arrays[8], kept_mass=kept, taps=taps)
+                        csr_ptr=arrays[6], csr_idx=arrays[7], csr_val=arrays[8], grp_ptr=grp_ptr, grp_prj=grp_prj,
+                        kept_mass=kept, taps=taps)

@@ -182,12 +182,13 @@ def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(ba
     sim = get_backend(backend)
     from snn_fg.spiking.inputs import frame_spikes
     net = run_spiking_result(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False).network
-    inp = frame_spikes(pos, neg, 200.0, 0.5, 20000.0)
+    inp = frame_spikes(pos, neg, 200.0, 0.5, 20.0)      # regular trains: one period, repeated
     timer = threading.Timer(2.0, signal.raise_signal, (signal.SIGINT,))
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            sim.simulate(net, inp, RunSettings(duration_ms=20000.0, record_spikes=False))
+            # 1000 s: longer than any backend takes to reach the interrupt
+            sim.simulate(net, inp, RunSettings(duration_ms=1e6, record_spikes=False))
     finally:
         timer.cancel()
 

@@ -123,9 +123,15 @@ class FastBackend(Backend):
 
 
 def _input_events(tab: ft.EngineTables, inputs, n_steps: int):
-    """Input spikes as global cell numbers, grouped by step: ``(ptr, ids)``."""
-    idx, steps = inputs.spike_times_steps(n_steps)
-    idx = np.asarray(idx, dtype=np.int64)
+    """Input spikes as global cell numbers grouped by step, ``(ptr, ids)``:
+    the spikes of step ``s`` are ``ids[ptr[s]:ptr[s + 1]]``, the pattern
+    repeating every ``ptr.size - 1`` steps (the input's period, kept
+    unexpanded, or the whole run)."""
+    periodic = inputs.period_steps is not None and inputs.period_steps < n_steps
+    length = int(inputs.period_steps) if periodic else max(n_steps, 1)
+    idx, steps = np.asarray(inputs.indices, dtype=np.int64), np.asarray(inputs.steps, dtype=np.int64)
+    keep = steps < length
+    idx, steps = idx[keep], steps[keep]
     first = source_offsets(tab.network)
     ids = np.empty(idx.size, dtype=np.int64)
     bounds = sorted(first.items(), key=lambda kv: kv[1])
@@ -134,8 +140,8 @@ def _input_events(tab: ft.EngineTables, inputs, n_steps: int):
         sel = (idx >= start) & (idx < stop)
         ids[sel] = tab.offsets[name] + idx[sel] - start
     order = np.lexsort((ids, steps))
-    ids, steps = ids[order], np.asarray(steps)[order]
-    return np.searchsorted(steps, np.arange(n_steps + 1)).astype(np.int64), ids.astype(np.int32)
+    ids, steps = ids[order], steps[order]
+    return np.searchsorted(steps, np.arange(length + 1)).astype(np.int64), ids.astype(np.int32)
 
 
 class _Run:
@@ -247,11 +253,12 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
                                                                                     ("i", "I_inh"))
                              if var in settings.record_state}
     events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
+    n_input = int(np.count_nonzero(run.ntype[ids] == ft.SOURCE_TYPE))
     stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),
              "synaptic_events": events, "synaptic_events_total": int(run.counters[N_EVENTS]),
              "closed_form_advances": int(run.counters[N_ADVANCES]),
              "active_cell_steps": int(run.counters[N_ACTIVE_STEPS]), "cells": run.n_present,
-             "input_spikes": int(run.in_ids.size), "spikes": int(ids.size - run.in_ids.size)}
+             "input_spikes": int(n_input), "spikes": int(ids.size - n_input)}
     return SimulationResult(network=tab.network, backend=name, sites={p.name: chosen[p.name] for p in pops},
                             counts=counts, count_window_ms=settings.count_window_ms,
                             simulated_ms=settings.duration_ms, dt_ms=settings.dt_ms, spikes=spikes, state=state,

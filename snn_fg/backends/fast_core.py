@@ -286,14 +286,15 @@ def run_steps(n0, n1, state, ntype, inact, act, new, tmp, scalars, log, step_sta
     """
     n_act, log_n = scalars[0], scalars[1]
     for n in range(n0, n1):
-        if log_n + n_act + (in_ptr[n + 1] - in_ptr[n]) > log.size:
+        s = n % (in_ptr.size - 1)     # input spikes repeat with the period of in_ptr (if shorter than the run)
+        if log_n + n_act + (in_ptr[s + 1] - in_ptr[s]) > log.size:
             scalars[0], scalars[1] = n_act, log_n
             return n
         start = log_n
         counters[N_ACTIVE_STEPS] += n_act
         n_act, log_n = _step_active(n, act, n_act, state, inact, pops, nrn, ref, log, log_n)
         mid = log_n
-        for x in range(in_ptr[n], in_ptr[n + 1]):
+        for x in range(in_ptr[s], in_ptr[s + 1]):
             log[log_n] = in_ids[x]
             log_n += 1
         if mid > start and log_n > mid:

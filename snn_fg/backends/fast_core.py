@@ -156,13 +156,31 @@ def _conv(p, spikes, x0, pops, prj, ntype, complete, ch_ptr, tap_co, tap_qr, tap
                     acc[lt] += tap_w[k]
                     events += 1
             continue
+        if not wrap:
+            # the taps are sorted by row offset: those landing inside the level
+            # (row - qr in [0, gr)) are the range with qr in [row - gr + 1, row]
+            a, b = k0, k1
+            while a < b:
+                h = (a + b) // 2
+                if tap_qr[h] < row - gr + 1:
+                    a = h + 1
+                else:
+                    b = h
+            k0, b = a, k1
+            while a < b:
+                h = (a + b) // 2
+                if tap_qr[h] <= row:
+                    a = h + 1
+                else:
+                    b = h
+            k1 = a
         for k in range(k0, k1):
             r = row - tap_qr[k]
             cc = column - tap_qc[k]
-            if wrap:
-                r %= gr
-                cc %= gc
-            elif r < 0 or r >= gr or cc < 0 or cc >= gc:
+            if wrap:            # offsets lie within one level size (folded if the kernel is larger)
+                r += gr if r < 0 else (-gr if r >= gr else 0)
+                cc += gc if cc < 0 else (-gc if cc >= gc else 0)
+            elif cc < 0 or cc >= gc:
                 continue
             lt = (tap_co[k] * gr + r) * gc + cc
             if whole or ntype[off_t + lt] != ABSENT_TYPE:

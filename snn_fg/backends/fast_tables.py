@@ -191,24 +191,41 @@ class _Collector:
 
 def _conv(network, pr, src, tgt, out: _Collector):
     """A Conv's kept taps, grouped by input channel and by the residues of
-    the tap offset modulo the target's stride: a source at level pixel ``p``
+    the tap offset modulo the target's stride (a source at level pixel ``p``
     reaches the target lattice only through the taps with ``d = p (mod
     stride)``, and those land on lattice point ``p // stride - q`` with
-    ``q = (d - d mod stride) / stride``."""
+    ``q = (d - d mod stride) / stride``), each group sorted by ``q`` (rows
+    first) so that the taps landing inside the level form a range.
+
+    A wrap-around kernel larger than the level folds onto it: its taps are
+    taken modulo the level and those landing on the same cell add up, as
+    the unrolled synapses do (:func:`~snn_fg.spiking.connect.conv_pairs`)."""
     co, ci, dr, dc, k, kept = kernel_taps(pr, network)
-    w = receptor_weights(pr.sign, pr.sign * pr.gain_mv * k) * MV
     st = tgt.stride
+    gr, gc = tgt.grid
     rr, rc = dr % st, dc % st
     qr, qc = (dr - rr) // st, (dc - rc) // st
     cls = (ci * st + rr) * st + rc
-    order = np.argsort(cls, kind="stable")
+    radius = int(max(np.abs(qr).max(), np.abs(qc).max())) if qr.size else 0
+    if pr.padding == "wrap" and 2 * radius + 1 > min(gr, gc):     # (wrap-around: stride 1, cls = ci)
+        co, cls, qr, qc, k = _fold(co, cls, qr % gr, qc % gc, k)
+        radius = max(gr, gc)           # never entirely inside the level
+    w = receptor_weights(pr.sign, pr.sign * pr.gain_mv * k) * MV
+    order = np.lexsort((qc, qr, cls))
     co, qr, qc, w, cls = co[order], qr[order], qc[order], w[order], cls[order]
     ch_ptr = np.searchsorted(cls, np.arange(src.channels * st * st + 1))
-    gr, gc = tgt.grid
     off = co.astype(np.int64) * gr * gc - qr * gc - qc
     base = out.conv(ch_ptr, co, qr, qc, w, off)
-    radius = int(max(np.abs(qr).max(), np.abs(qc).max())) if qr.size else 0
     return base, 0, kept, int(co.size), radius
+
+
+def _fold(co, ci, qr, qc, k):
+    """Taps with the same channels and (folded) offset merged, their values summed."""
+    key = np.stack([co, ci, qr, qc], axis=1)
+    uniq, inv = np.unique(key, axis=0, return_inverse=True)
+    total = np.bincount(inv.ravel(), weights=k, minlength=len(uniq))
+    keep = total != 0
+    return uniq[keep, 0], uniq[keep, 1], uniq[keep, 2], uniq[keep, 3], total[keep]
 
 
 def _resize(pr, src, tgt, out: _Collector):

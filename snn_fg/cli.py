@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from . import __version__
+from .backends import DEFAULT_BACKEND, backend_names
 from .errors import InputError, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
 from .models import MODELS
@@ -55,7 +56,8 @@ _RUN_OPTIONS = (
     ("spiking model", (
         ("--network", None, None, None, "run a stored network description (FILE.json, see networks/) instead "
                                         "of building one from the model parameters"),
-        ("--backend", None, None, None, "simulator (brian2)"),
+        ("--backend", None, None, None, f"simulator: {', '.join(backend_names())} ({DEFAULT_BACKEND}; "
+                                        "the one used is recorded in the maps' params)"),
         ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
         ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
         ("--dt-ms", float, 0, True, "simulation time step (0.5)"),

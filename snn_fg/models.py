@@ -15,6 +15,7 @@ from typing import ClassVar
 import numpy as np
 
 from . import validate as check
+from .backends import DEFAULT_BACKEND
 from .errors import InputError
 from .figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure, save_spiking_figures
 from .maps import Maps
@@ -119,8 +120,8 @@ class SpikingModel(Model):
     grouping_label = SPIKING_GROUPING_LABEL
     options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed")
 
-    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None, backend="brian2",
-                 **run_options):
+    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
+                 backend=DEFAULT_BACKEND, **run_options):
         super().__init__(params, progress)
         self.network = network       # a stored description (its own ModelParams), or None: build from params
         self.backend = backend

@@ -130,3 +130,20 @@ def test_memory_follows_cells_not_synapses():
     held = sum(a.nbytes for a in (tab.ch_ptr, tab.tap_co, tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off,
                                   tab.csr_ptr, tab.csr_idx, tab.csr_val))
     assert held < 20e6
+
+
+def test_a_reused_engine_gives_the_spikes_of_a_fresh_one():
+    """The engine keeps its cell arrays from run to run (put back at rest):
+    a second input on the same backend gives what a fresh backend gives."""
+    net = build_network(ModelParams(levels=1), (64, 64))
+    settings = RunSettings(duration_ms=60.0, record_state=("v",))
+    a, b = (frame_spikes(*image_to_frame(disc(r).image), 200.0, 0.5, 60.0) for r in (16, 12))
+    reused = get_backend("fast")
+    reused.simulate(net, a, settings)
+    again = reused.simulate(net, b, settings)
+    fresh = get_backend("fast").simulate(net, b, settings)
+    assert sum(int(c.sum()) for c in fresh.counts.values()) > 1000
+    for name in fresh.populations:
+        for got, want in zip(_trains(again, name), _trains(fresh, name)):
+            np.testing.assert_array_equal(got, want, err_msg=name)
+        np.testing.assert_array_equal(again.state[name]["v"], fresh.state[name]["v"], err_msg=name)

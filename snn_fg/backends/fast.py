@@ -59,6 +59,12 @@ from .base import Backend, RunSettings, SimulationResult, lif_populations, segme
 
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16
+#: a Conv into a population with fewer than this fraction of its cells
+#: instantiated, whose kernel has at least this many taps per row it covers,
+#: finds its synapses from the targets' side (fast_core._conv_gather): visiting
+#: a row costs about as much as following that many taps
+GATHER_BELOW = 0.1
+GATHER_TAPS_PER_ROW = 8
 #: simulated time per call of the compiled loop (progress, Ctrl-C in between)
 CHUNK_MS = 25.0
 
@@ -81,6 +87,7 @@ class FastBackend(Backend):
 
         self.chunk_ms = check.number("FastBackend", "chunk_ms", chunk_ms, lo=0, lo_open=True)
         self._tables: ft.EngineTables | None = None
+        self._pool = _Pool()
 
     @classmethod
     def available(cls):
@@ -109,21 +116,28 @@ class FastBackend(Backend):
         chosen, _, _ = choose_sites(network, source_masks(network, inputs.on, inputs.off), settings.sites,
                                     settings.instantiate)
         n_steps = int(round(settings.duration_ms / settings.dt_ms))
-        run = _Run(tab, chosen, _input_events(tab, inputs, n_steps), n_steps)
+        run = _Run(tab, chosen, inputs, n_steps, self._pool)
         timings = {"build": time.perf_counter() - t0}
         settings.say(f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
                      f"(prepared in {timings['build']:.2f} s)")
-        t_run = time.perf_counter()
-        run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))))
-        timings["run"] = time.perf_counter() - t_run
-        result = _result(self.name, tab, chosen, run, settings)
+        t_run, cpu = time.perf_counter(), time.process_time()
+        try:
+            run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))))
+            timings["run"] = time.perf_counter() - t_run
+            timings["run_cpu"] = time.process_time() - cpu     # (wall time on a shared machine overstates the work)
+            result = _result(self.name, tab, chosen, run, settings)
+            run.release()
+        except BaseException:
+            self._pool.clear()          # (e.g. interrupted mid-step: the arrays are not at rest)
+            raise
         timings["total"] = time.perf_counter() - t0
         result.timings_s = timings
         return result
 
 
-def _input_events(tab: ft.EngineTables, inputs, n_steps: int):
-    """Input spikes as global cell numbers grouped by step, ``(ptr, ids)``:
+def _input_events(tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
+    """Input spikes as cell numbers (``first_cell``: population -> its first
+    number) grouped by step, ``(ptr, ids)``:
     the spikes of step ``s`` are ``ids[ptr[s]:ptr[s + 1]]``, the pattern
     repeating every ``ptr.size - 1`` steps (the input's period, kept
     unexpanded, or the whole run)."""
@@ -138,44 +152,72 @@ def _input_events(tab: ft.EngineTables, inputs, n_steps: int):
     for k, (name, start) in enumerate(bounds):
         stop = bounds[k + 1][1] if k + 1 < len(bounds) else inputs.n_sources
         sel = (idx >= start) & (idx < stop)
-        ids[sel] = tab.offsets[name] + idx[sel] - start
+        ids[sel] = first_cell[name] + idx[sel] - start
     order = np.lexsort((ids, steps))
     ids, steps = ids[order], steps[order]
     return np.searchsorted(steps, np.arange(length + 1)).astype(np.int64), ids.astype(np.int32)
 
 
 class _Run:
-    """The mutable state of one simulation: cells, active set and spike log."""
+    """The mutable state of one simulation: cells, active set and spike log.
 
-    def __init__(self, tab: ft.EngineTables, chosen: dict, events, n_steps: int):
-        from .fast_core import N_ACTIVE_STEPS, STATE
+    Only the chosen cells exist, numbered population after population
+    (:mod:`.fast_core` describes the numbering and the maps between grid and
+    number)."""
 
-        self.tab, self.n_steps = tab, n_steps
-        self.in_ptr, self.in_ids = events
-        n = tab.n_cells
-        self.ntype = np.full(n, ft.ABSENT_TYPE, dtype=np.uint8)
-        self.complete = np.zeros(len(tab.network.populations), dtype=np.uint8)
-        for q, p in enumerate(tab.network.populations):
-            off, kind = tab.pops[q, ft.P_OFF], tab.pops[q, ft.P_TYPE]
-            sites = chosen[p.name]
-            if p.is_source or sites.size == p.size:
-                self.ntype[off:off + p.size] = kind
-                self.complete[q] = 1
-            else:
-                self.ntype[off + sites] = kind
+    def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: "_Pool"):
+        from .fast_core import N_FRESH, STATE
+
+        self.tab, self.n_steps, self.pool = tab, n_steps, pool
+        off = self._number(chosen)
+        sparse = self.cells[tab.prj[:, ft.J_TGT], 1] < GATHER_BELOW * tab.pops[tab.prj[:, ft.J_TGT], ft.P_SIZE]
+        self.gather = (sparse & (tab.taps_per_row >= GATHER_TAPS_PER_ROW)).astype(np.uint8)
+        self.ctype = np.repeat(tab.pops[:, ft.P_TYPE], self.cells[:, 1]).astype(np.uint8)
+        self.in_ptr, self.in_ids = _input_events(tab, self.first, inputs, n_steps)
         self.n_present = int(sum(chosen[p.name].size for p in lif_populations(tab.network)))
-        # zero pages cost nothing until touched: untouched cells are at rest
-        self.state = np.zeros(n, dtype=STATE)
-        self.inact = np.zeros(n, dtype=np.uint8)
-        self.act, self.new, self.tmp = (np.empty(n, dtype=np.int32) for _ in range(3))
+        self.state = pool.zeros("state", off, STATE)          # all at rest: never touched
+        self.inact = pool.zeros("inact", off, np.uint8)
+        self.act, self.new, self.tmp, self.fresh = (pool.empty(name, off, np.int32)
+                                                    for name in ("act", "new", "tmp", "fresh"))
         self.scalars = np.zeros(2, dtype=np.int64)
         self.log = np.empty(LOG_START, dtype=np.int32)
         self.step_start = np.zeros(n_steps + 1, dtype=np.int64)
-        largest = int(max(p.size for p in lif_populations(tab.network)))
-        self.acc = np.zeros(largest)
-        self.touched = np.empty(largest + tab.max_fanout, dtype=np.int64)
-        self.counters = np.zeros(N_ACTIVE_STEPS + 1, dtype=np.int64)
+        largest = int(max(chosen[p.name].size for p in lif_populations(tab.network)))
+        self.acc = pool.zeros("acc", max(largest, 1), np.float64)
+        self.touched = pool.empty("touched", largest + tab.max_fanout, np.int64)
+        self.counters = np.zeros(N_FRESH + 1, dtype=np.int64)
         self.prj_events = np.zeros(len(tab.network.projections), dtype=np.int64)
+
+    def _number(self, chosen: dict) -> int:
+        """Number the chosen cells (see :mod:`.fast_core`); returns how many."""
+        from .fast_core import C_BITS, C_FLAT, C_MAP, C_ROW
+
+        pops = self.tab.network.populations
+        self.cells = np.full((len(pops), 6), -1, dtype=np.int64)
+        maps, flats, columns, rows, bits, off, n_map, n_flat, n_row, n_bits = [], [], [], [], [], 0, 0, 0, 0, 0
+        for q, p in enumerate(pops):
+            sites = chosen[p.name]
+            self.cells[q, :2] = off, sites.size
+            if sites.size != p.size:
+                local = np.full(p.size, -1, dtype=np.int32)
+                local[sites] = np.arange(sites.size, dtype=np.int32)
+                maps.append(local)
+                flats.append(sites.astype(np.int32))
+                columns.append((sites % p.grid[1]).astype(np.int32))
+                rows.append(np.searchsorted(sites, np.arange(p.channels * p.grid[0] + 1) * p.grid[1]))
+                bits.append(np.packbits(local >= 0, bitorder="little"))
+                self.cells[q, C_MAP], self.cells[q, C_FLAT], self.cells[q, C_ROW] = n_map, n_flat, n_row
+                self.cells[q, C_BITS] = n_bits
+                n_map, n_flat, n_row = n_map + p.size, n_flat + sites.size, n_row + rows[-1].size
+                n_bits += bits[-1].size
+            off += sites.size
+        self.first = {p.name: int(self.cells[q, 0]) for q, p in enumerate(pops)}
+        self.cmap = np.concatenate(maps) if maps else np.zeros(1, dtype=np.int32)
+        self.flat_of = np.concatenate(flats) if flats else np.zeros(1, dtype=np.int32)
+        self.column_of = np.concatenate(columns) if columns else np.zeros(1, dtype=np.int32)
+        self.row_ptr = np.concatenate(rows).astype(np.int64) if rows else np.zeros(1, dtype=np.int64)
+        self.bits = np.concatenate(bits) if bits else np.zeros(1, dtype=np.uint8)
+        return off
 
     def simulate(self, settings: RunSettings, chunk: int):
         from .fast_core import run_steps
@@ -185,19 +227,28 @@ class _Run:
             n = 0
             while n < self.n_steps:
                 end = min(n + chunk, self.n_steps)
-                reached = run_steps(n, end, self.state, self.ntype, self.inact, self.act, self.new, self.tmp,
-                                    self.scalars, self.log, self.step_start, self.in_ptr, self.in_ids, tab.pops,
-                                    self.complete, tab.nrn, tab.ref_steps, tab.adv, tab.prj, tab.prj_w, tab.ch_ptr,
-                                    tab.tap_co, tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off, tab.csr_ptr,
-                                    tab.csr_idx, tab.csr_val, tab.grp_ptr, tab.grp_prj, self.acc, self.touched,
-                                    self.counters, self.prj_events)
+                reached = run_steps(n, end, self.state, self.ctype, self.inact, self.act, self.new, self.tmp,
+                                    self.fresh, self.scalars, self.log, self.step_start, self.in_ptr, self.in_ids, tab.pops,
+                                    self.cells, self.cmap, self.flat_of, self.column_of, self.row_ptr, self.bits,
+                                    self.gather,
+                                    tab.nrn, tab.ref_steps, tab.adv, tab.prj, tab.prj_w, tab.ch_ptr, tab.tap_co,
+                                    tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off, tab.dense, tab.pair_ptr,
+                                    tab.pair_co, tab.pair_rlo, tab.pair_rhi, tab.csr_ptr, tab.csr_idx, tab.csr_val,
+                                    tab.grp_ptr, tab.grp_prj, self.acc, self.touched, self.counters,
+                                    self.prj_events)
                 if reached < end:         # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
                 bar(reached - n)
                 n = reached
 
+    def release(self):
+        """Hand the cell arrays back to the pool, at rest again."""
+        from .fast_core import N_FRESH, reset
+
+        reset(self.state, self.inact, self.act, int(self.scalars[0]), self.fresh, int(self.counters[N_FRESH]))
+
     def spikes(self):
-        """Every spike of the run as ``(global cell, step)``."""
+        """Every spike of the run as ``(cell number, step)``."""
         log_n = int(self.scalars[1])
         return self.log[:log_n].astype(np.int64), np.repeat(np.arange(self.n_steps), np.diff(self.step_start))
 
@@ -205,8 +256,33 @@ class _Run:
         """Every cell's state at the end of the run (fields ``v``, ``e``, ``i`` in volts)."""
         from .fast_core import final_state
 
-        final_state(self.state, self.ntype, self.tab.nrn, self.tab.adv, self.n_steps)
+        final_state(self.state, self.ctype, self.tab.nrn, self.tab.adv, self.n_steps)
         return self.state
+
+
+class _Pool:
+    """Cell arrays kept from one run to the next (a run over a recording,
+    window after window, or the next frame): allocating them anew would
+    fault in hundreds of megabytes of fresh memory per run. Arrays handed
+    out by :meth:`zeros` come back at rest (:meth:`_Run.release`)."""
+
+    def __init__(self):
+        self.arrays: dict = {}
+
+    def _get(self, name, n, dtype, zero):
+        a = self.arrays.get(name)
+        if a is None or a.size < n or a.dtype != np.dtype(dtype):
+            a = self.arrays[name] = (np.zeros if zero else np.empty)(max(n, 1), dtype=dtype)
+        return a[:n]
+
+    def zeros(self, name, n, dtype):
+        return self._get(name, n, dtype, True)
+
+    def empty(self, name, n, dtype):
+        return self._get(name, n, dtype, False)
+
+    def clear(self):
+        self.arrays.clear()
 
 
 def first_step_at(t_ms: float, dt_ms: float) -> int:
@@ -223,42 +299,40 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
     from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS
 
     ids, steps = run.spikes()
-    at = np.searchsorted(steps, [first_step_at(settings.count_from_ms, settings.dt_ms)])[0]
-    all_counts = np.bincount(ids[at:], minlength=tab.n_cells)
+    n = run.state.size
     pops = lif_populations(tab.network)
-    counts = {p.name: all_counts[tab.offsets[p.name] + chosen[p.name]] for p in pops}
+    cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
+    at = np.searchsorted(steps, [first_step_at(settings.count_from_ms, settings.dt_ms)])[0]
+    all_counts = np.bincount(ids[at:], minlength=n)
+    counts = {p.name: all_counts[cells[p.name]] for p in pops}
     binned = None
     if settings.count_bins_ms is not None:
         cuts = np.searchsorted(steps, [end for end, snapshot in segments(settings) if snapshot])
-        per_bin = [np.bincount(ids[a:b], minlength=tab.n_cells) for a, b in zip(cuts, cuts[1:])]
-        binned = {p.name: np.stack([b[tab.offsets[p.name] + chosen[p.name]] for b in per_bin]) for p in pops}
+        per_bin = [np.bincount(ids[a:b], minlength=n) for a, b in zip(cuts, cuts[1:])]
+        binned = {p.name: np.stack([b[cells[p.name]] for b in per_bin]) for p in pops}
     spikes = None
     if settings.record_spikes:
-        starts = tab.pops[:, ft.P_OFF]
+        starts = run.cells[:, 0]
         which = np.searchsorted(starts, ids, side="right") - 1
         order = np.argsort(which, kind="stable")       # by population, in time order within each
-        which, ids, t_ms = which[order], ids[order], (steps[order] * (settings.dt_ms * ft.MS)) / ft.MS
+        which, local, t_ms = which[order], ids[order] - starts[which[order]], \
+            (steps[order] * (settings.dt_ms * ft.MS)) / ft.MS
         cuts = np.searchsorted(which, np.arange(starts.size + 1))
-        spikes = {}
-        for q, p in enumerate(tab.network.populations):
-            if not p.is_source:
-                a, b = cuts[q], cuts[q + 1]
-                spikes[p.name] = (np.searchsorted(chosen[p.name], ids[a:b] - starts[q]), t_ms[a:b])
+        spikes = {p.name: (local[cuts[q]:cuts[q + 1]], t_ms[cuts[q]:cuts[q + 1]])
+                  for q, p in enumerate(tab.network.populations) if not p.is_source}
     state = {}
     if settings.record_state:
         values = run.final_state()
         for p in pops:
-            rows = tab.offsets[p.name] + chosen[p.name]
-            state[p.name] = {var: values[field][rows] / ft.MV for field, var in (("v", "v"), ("e", "I_exc"),
-                                                                                    ("i", "I_inh"))
-                             if var in settings.record_state}
+            state[p.name] = {var: values[field][cells[p.name]] / ft.MV
+                             for field, var in (("v", "v"), ("e", "I_exc"), ("i", "I_inh")) if var in settings.record_state}
     events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
-    n_input = int(np.count_nonzero(run.ntype[ids] == ft.SOURCE_TYPE))
+    n_input = int(np.count_nonzero(run.ctype[ids] == ft.SOURCE_TYPE))
     stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),
              "synaptic_events": events, "synaptic_events_total": int(run.counters[N_EVENTS]),
              "closed_form_advances": int(run.counters[N_ADVANCES]),
              "active_cell_steps": int(run.counters[N_ACTIVE_STEPS]), "cells": run.n_present,
-             "input_spikes": int(n_input), "spikes": int(ids.size - n_input)}
+             "input_spikes": n_input, "spikes": int(ids.size - n_input)}
     return SimulationResult(network=tab.network, backend=name, sites={p.name: chosen[p.name] for p in pops},
                             counts=counts, count_window_ms=settings.count_window_ms,
                             simulated_ms=settings.duration_ms, dt_ms=settings.dt_ms, spikes=spikes, state=state,

@@ -20,9 +20,18 @@ linear between spikes, see :func:`snn_fg.backends.fast_tables.advance_tables`).
 Parking is safe because, with no input, the potential stays under a bound
 computed from the current state (:func:`_safe`).
 
-The active cells are kept sorted by number, so that the per-step pass over
-them walks memory in one direction (in a random order it would wait for
-memory at nearly every cell). State per cell (:data:`STATE`): ``v``,
+Cells are numbered compactly, population after population, only those
+instantiated (``cells[q]``: first number ``C_OFF`` and count ``C_N`` of
+population ``q``; for a population with cells left out, ``cmap[C_MAP + flat]``
+gives the local number of grid cell ``flat`` or -1, ``flat_of[C_FLAT +
+local]`` the way back and ``column_of[C_FLAT + local]`` its lattice column;
+its cells on lattice row ``r`` of channel ``c`` are the local numbers
+``row_ptr[C_ROW + c * rows + r]`` .. ``[+ 1]``; bit ``flat`` of the bytes
+from ``bits[C_BITS]`` says whether grid cell ``flat`` exists: a test that
+stays in cache where the map would not). The active cells are kept sorted
+by number, so that the per-step pass over them walks memory in one
+direction (in a random order it would wait for memory at nearly every
+cell). State per cell (:data:`STATE`): ``v``,
 ``e`` (``I_exc``), ``i`` (``I_inh``) in volts, ``last`` (the step the values
 belong to, plus one; 0: never touched, i.e. at rest) and ``spike`` (the
 step of the last spike, plus one; 0: none).
@@ -32,14 +41,19 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .fast_tables import (ABSENT_TYPE, CONV, DE, DI, DM, GAP, J_BASE, J_COL, J_COLBASE, J_DELAY, J_INH, J_KIND,
-                          J_PRUNE, J_RADIUS, J_SRC, J_TGT, J_WRAP, MV, P_GC, P_GR, P_OFF, P_SIZE, P_STRIDE, P_TYPE,
-                          PEAK, SOURCE_TYPE, TIGHT, V_RESET, V_REST, V_TH)
+from .fast_tables import (CONV, DE, DI, DM, GAP, J_BASE, J_COL, J_COLBASE, J_DELAY, J_DENSE, J_GBASE, J_INH,
+                          J_KIND, J_KR, J_PRUNE, J_RADIUS, J_SRC, J_TGT, J_WRAP, MV, P_CH, P_GC, P_GR, P_LC, P_LR,
+                          P_STRIDE, P_TYPE, PEAK, SOURCE_TYPE, TIGHT, V_RESET, V_REST, V_TH)
 
 #: one cell's state (32 bytes, one half cache line)
 STATE = np.dtype([("v", "f8"), ("e", "f8"), ("i", "f8"), ("last", "i4"), ("spike", "i4")], align=True)
+#: array indices are converted to this unsigned type in the hot loops: numba
+#: then skips its negative-index handling, which otherwise doubles their cost
+U = np.uint64
 #: counters returned by run_steps
-N_EVENTS, N_ADVANCES, N_ACTIVE_STEPS = range(3)
+N_EVENTS, N_ADVANCES, N_ACTIVE_STEPS, N_FRESH = range(4)
+#: columns of the per-run cell table ``cells``
+C_OFF, C_N, C_MAP, C_FLAT, C_ROW, C_BITS = range(6)
 EXC = 1
 
 
@@ -79,27 +93,30 @@ def _safe(v, e, i, nrn_row):
 
 
 @njit(cache=True)
-def _flush(acc, touched, n_touched, off, col, n, t, state, inact, new, n_new, nrn, adv, counters):
+def _flush(acc, touched, n_touched, off, col, n, t, state, inact, new, n_new, fresh, nrn, adv, counters):
     """Add the accumulated input ``acc[x]`` to current ``col`` of cell
     ``off + x`` (neuron type ``t``) at step ``n``, for the ``touched`` cells,
-    bringing parked cells up to date first; a cell that might now fire is
-    appended to ``new``. Returns the new length of ``new``."""
+    bringing parked cells up to date first (and listing in ``fresh`` those
+    touched for the first time); a cell that might now fire is appended to
+    ``new``. Returns the new length of ``new``."""
     nrn_row = nrn[t]
     v_rest = nrn_row[V_REST]
     adv_row = adv[t]
     now = n + 1
     advances = 0
     for x in range(n_touched):
-        loc = touched[x]
-        w = acc[loc]
+        loc = touched[U(x)]
+        w = acc[U(loc)]
         if w == 0.0:
             continue          # (a cell listed twice after its input summed to zero)
-        acc[loc] = 0.0
+        acc[U(loc)] = 0.0
         g = off + loc
-        r = state[g]
+        r = state[U(g)]
         if r.last != now:
             if r.last == 0:
                 r.v = v_rest
+                fresh[U(counters[N_FRESH])] = g
+                counters[N_FRESH] += 1
             else:
                 r.v, r.e, r.i = _advanced(r.v, r.e, r.i, v_rest, adv_row, now - r.last)
                 advances += 1
@@ -108,30 +125,38 @@ def _flush(acc, touched, n_touched, off, col, n, t, state, inact, new, n_new, nr
             r.e += w
         else:
             r.i += w
-        if inact[g] == 0 and not _safe(r.v, r.e, r.i, nrn_row):
-            inact[g] = 1
-            new[n_new] = g
+        if inact[U(g)] == 0 and not _safe(r.v, r.e, r.i, nrn_row):
+            inact[U(g)] = 1
+            new[U(n_new)] = g
             n_new += 1
     counters[N_ADVANCES] += advances
     return n_new
 
 
+@njit(cache=True, inline="always")
+def _flat(g, q, cells, flat_of):
+    """Grid (flat) index of the cell numbered ``g`` of population ``q``."""
+    loc = g - cells[q, C_OFF]
+    return loc if cells[q, C_FLAT] < 0 else flat_of[cells[q, C_FLAT] + loc]
+
+
 @njit(cache=True)
-def _conv(p, spikes, x0, pops, prj, ntype, complete, ch_ptr, tap_co, tap_qr, tap_qc, tap_w, tap_off, acc, touched,
-          n_touched, counters):
-    """Accumulate what ``spikes[x0:]`` (global cell numbers) send through the
-    taps of Conv ``p`` into ``acc`` (indexed by target cell within its
+def _conv(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, ch_ptr, tap_co, tap_qr, tap_qc, tap_w, tap_off,
+          acc, touched, n_touched, counters):
+    """Accumulate what ``spikes[x0:]`` (cell numbers) send through the taps
+    of Conv ``p`` into ``acc`` (indexed by target cell within its
     population), listing newly touched cells in ``touched``. Returns the
     list's length and the first spike not sent (when the list is full)."""
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]
-    off_s, gc_s, st_s = pops[qs, P_OFF], pops[qs, P_GC], pops[qs, P_STRIDE]
+    gc_s, st_s = pops[qs, P_GC], pops[qs, P_STRIDE]
     plane = pops[qs, P_GR] * gc_s
-    off_t, gr, gc, st = pops[qt, P_OFF], pops[qt, P_GR], pops[qt, P_GC], pops[qt, P_STRIDE]
-    whole, wrap, rad = complete[qt] == 1, prj[p, J_WRAP] == 1, prj[p, J_RADIUS]
+    gr, gc, st = pops[qt, P_GR], pops[qt, P_GC], pops[qt, P_STRIDE]
+    mbase, bbase = cells[qt, C_MAP], cells[qt, C_BITS]
+    whole, wrap, rad = mbase < 0, prj[p, J_WRAP] == 1, prj[p, J_RADIUS]
     base_ch = prj[p, J_BASE]
     events = 0
     for x in range(x0, spikes.size):
-        loc = spikes[x] - off_s
+        loc = _flat(spikes[U(x)], qs, cells, flat_of)
         c = loc // plane
         ii = (loc - c * plane) // gc_s
         pr = ii * st_s
@@ -141,20 +166,23 @@ def _conv(p, spikes, x0, pops, prj, ntype, complete, ch_ptr, tap_co, tap_qr, tap
         else:
             cls = base_ch + (c * st + pr % st) * st + pc % st
             row, column = pr // st, pc // st
-        k0, k1 = ch_ptr[cls], ch_ptr[cls + 1]
+        k0, k1 = ch_ptr[U(cls)], ch_ptr[U(cls + 1)]
         if n_touched + (k1 - k0) > touched.size:
             counters[N_EVENTS] += events
             return n_touched, x
         if row >= rad and column >= rad and row + rad < gr and column + rad < gc:
             base = row * gc + column          # the whole footprint lies inside the level
             for k in range(k0, k1):
-                lt = base + tap_off[k]
-                if whole or ntype[off_t + lt] != ABSENT_TYPE:
-                    if acc[lt] == 0.0:
-                        touched[n_touched] = lt
-                        n_touched += 1
-                    acc[lt] += tap_w[k]
-                    events += 1
+                lt = base + tap_off[U(k)]
+                if not whole:
+                    if (bits[U(bbase + (lt >> 3))] >> (lt & 7)) & 1 == 0:
+                        continue
+                    lt = cmap[U(mbase + lt)]
+                if acc[U(lt)] == 0.0:
+                    touched[U(n_touched)] = lt
+                    n_touched += 1
+                acc[U(lt)] += tap_w[U(k)]
+                events += 1
             continue
         if not wrap:
             # the taps are sorted by row offset: those landing inside the level
@@ -162,98 +190,199 @@ def _conv(p, spikes, x0, pops, prj, ntype, complete, ch_ptr, tap_co, tap_qr, tap
             a, b = k0, k1
             while a < b:
                 h = (a + b) // 2
-                if tap_qr[h] < row - gr + 1:
+                if tap_qr[U(h)] < row - gr + 1:
                     a = h + 1
                 else:
                     b = h
             k0, b = a, k1
             while a < b:
                 h = (a + b) // 2
-                if tap_qr[h] <= row:
+                if tap_qr[U(h)] <= row:
                     a = h + 1
                 else:
                     b = h
             k1 = a
         for k in range(k0, k1):
-            r = row - tap_qr[k]
-            cc = column - tap_qc[k]
+            r = row - tap_qr[U(k)]
+            cc = column - tap_qc[U(k)]
             if wrap:            # offsets lie within one level size (folded if the kernel is larger)
                 r += gr if r < 0 else (-gr if r >= gr else 0)
                 cc += gc if cc < 0 else (-gc if cc >= gc else 0)
             elif cc < 0 or cc >= gc:
                 continue
-            lt = (tap_co[k] * gr + r) * gc + cc
-            if whole or ntype[off_t + lt] != ABSENT_TYPE:
-                if acc[lt] == 0.0:
-                    touched[n_touched] = lt
+            lt = (tap_co[U(k)] * gr + r) * gc + cc
+            if not whole:
+                if (bits[U(bbase + (lt >> 3))] >> (lt & 7)) & 1 == 0:
+                    continue
+                lt = cmap[U(mbase + lt)]
+            if acc[U(lt)] == 0.0:
+                touched[U(n_touched)] = lt
+                n_touched += 1
+            acc[U(lt)] += tap_w[U(k)]
+            events += 1
+    counters[N_EVENTS] += events
+    return n_touched, spikes.size
+
+
+@njit(cache=True)
+def _conv_gather(p, spikes, x0, pops, cells, flat_of, column_of, row_ptr, prj, dense, pair_ptr, pair_co, pair_rlo,
+                 pair_rhi, acc, touched, n_touched, counters):
+    """Like :func:`_conv`, for a target population with few cells: instead
+    of following every tap, each spike visits the target's cells on the
+    rows its kernel covers and reads the weight of each by its offset (the
+    same synapses, found from the other side)."""
+    qs, qt = prj[p, J_SRC], prj[p, J_TGT]
+    gc_s, st_s, c_in = pops[qs, P_GC], pops[qs, P_STRIDE], pops[qs, P_CH]
+    plane = pops[qs, P_GR] * gc_s
+    gr, st, lr, lc = pops[qt, P_GR], pops[qt, P_STRIDE], pops[qt, P_LR], pops[qt, P_LC]
+    wrap = prj[p, J_WRAP] == 1
+    rad = prj[p, J_KR]
+    size = 2 * rad + 1
+    fold = wrap and size > lc
+    kbase, gbase = prj[p, J_DENSE], prj[p, J_GBASE]
+    rbase, fbase = cells[qt, C_ROW], cells[qt, C_FLAT]
+    bound = pops[qt, P_CH] * size * size
+    events = 0
+    for x in range(x0, spikes.size):
+        if n_touched + bound > touched.size:
+            counters[N_EVENTS] += events
+            return n_touched, x
+        loc = _flat(spikes[U(x)], qs, cells, flat_of)
+        c = loc // plane
+        ii = (loc - c * plane) // gc_s
+        pr = ii * st_s
+        pc = (loc - c * plane - ii * gc_s) * st_s
+        for y in range(pair_ptr[gbase + c], pair_ptr[gbase + c + 1]):
+            co = pair_co[U(y)]
+            kc = kbase + (co * c_in + c) * size * size
+            for dr in range(pair_rlo[U(y)], pair_rhi[U(y)] + 1):
+                tr = pr - dr
+                if wrap:
+                    tr %= lr
+                elif tr < 0 or tr >= lr:
+                    continue
+                if tr % st != 0:
+                    continue
+                a, b = row_ptr[U(rbase + co * gr + tr // st)], row_ptr[U(rbase + co * gr + tr // st + 1)]
+                if a == b:
+                    continue
+                kr = kc + (dr + rad) * size + rad
+                if fold:            # every cell of the row, each through all its folded offsets
+                    for lt in range(a, b):
+                        d = (pc - column_of[U(fbase + lt)]) % lc
+                        d -= lc * ((d + rad) // lc)
+                        while d <= rad:
+                            w = dense[U(kr + d)]
+                            if w != 0.0:
+                                if acc[U(lt)] == 0.0:
+                                    touched[U(n_touched)] = lt
+                                    n_touched += 1
+                                acc[U(lt)] += w
+                                events += 1
+                            d += lc
+                    continue
+                # level columns covered, [pc - rad, pc + rad], as up to two intervals inside
+                # the level; a column wrapped around is ``lc`` further from the source
+                lo, hi, shift = max(pc - rad, 0), min(pc + rad, lc - 1), 0
+                n_int = 1
+                if wrap and pc - rad < 0:
+                    lo2, hi2, shift2, n_int = pc - rad + lc, lc - 1, lc, 2
+                elif wrap and pc + rad >= lc:
+                    lo2, hi2, shift2, n_int = 0, pc + rad - lc, -lc, 2
+                else:
+                    lo2, hi2, shift2 = 0, -1, 0
+                for part in range(n_int):
+                    if part == 1:
+                        lo, hi, shift = lo2, hi2, shift2
+                    a = row_ptr[U(rbase + co * gr + tr // st)]
+                    b = row_ptr[U(rbase + co * gr + tr // st + 1)]
+                    end = b
+                    while a < b:        # first cell at or after lo
+                        h = (a + b) // 2
+                        if column_of[U(fbase + h)] * st < lo:
+                            a = h + 1
+                        else:
+                            b = h
+                    for lt in range(a, end):
+                        col = column_of[U(fbase + lt)] * st
+                        if col > hi:
+                            break
+                        w = dense[U(kr + pc - col + shift)]
+                        if w != 0.0:
+                            if acc[U(lt)] == 0.0:
+                                touched[U(n_touched)] = lt
+                                n_touched += 1
+                            acc[U(lt)] += w
+                            events += 1
+    counters[N_EVENTS] += events
+    return n_touched, spikes.size
+
+
+@njit(cache=True)
+def _resize(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, prj_w, csr_ptr, csr_idx, csr_val, acc, touched,
+            n_touched, counters):
+    """Like :func:`_conv` for Resize ``p``: weight ``sign * gain * A_r[i, i'] * A_c[j, j']``."""
+    qs, qt = prj[p, J_SRC], prj[p, J_TGT]
+    gc_s = pops[qs, P_GC]
+    plane = pops[qs, P_GR] * gc_s
+    gr, gc = pops[qt, P_GR], pops[qt, P_GC]
+    mbase, bbase = cells[qt, C_MAP], cells[qt, C_BITS]
+    whole = mbase < 0
+    sg, thr = prj_w[p, 0], prj_w[p, 1]
+    prune, inh = prj[p, J_PRUNE] == 1, prj[p, J_INH] == 1
+    events = 0
+    for x in range(x0, spikes.size):
+        loc = _flat(spikes[U(x)], qs, cells, flat_of)
+        c = loc // plane
+        si = (loc - c * plane) // gc_s
+        rb, cb = prj[p, J_BASE] + si, prj[p, J_COLBASE] + (loc - c * plane - si * gc_s)
+        if n_touched + (csr_ptr[U(rb + 1)] - csr_ptr[U(rb)]) * (csr_ptr[U(cb + 1)] - csr_ptr[U(cb)]) > touched.size:
+            counters[N_EVENTS] += events
+            return n_touched, x
+        cbase = c * gr * gc
+        for xr in range(csr_ptr[U(rb)], csr_ptr[U(rb + 1)]):
+            a = csr_val[U(xr)]
+            rbase = cbase + csr_idx[U(xr)] * gc
+            for xc in range(csr_ptr[U(cb)], csr_ptr[U(cb + 1)]):
+                val = a * csr_val[U(xc)]
+                if val == 0.0 or (prune and abs(val) < thr):
+                    continue
+                lt = rbase + csr_idx[U(xc)]
+                if not whole:
+                    if (bits[U(bbase + (lt >> 3))] >> (lt & 7)) & 1 == 0:
+                        continue
+                    lt = cmap[U(mbase + lt)]
+                w = sg * val
+                if inh:
+                    w = abs(w)
+                if acc[U(lt)] == 0.0:
+                    touched[U(n_touched)] = lt
                     n_touched += 1
-                acc[lt] += tap_w[k]
+                acc[U(lt)] += w * MV
                 events += 1
     counters[N_EVENTS] += events
     return n_touched, spikes.size
 
 
 @njit(cache=True)
-def _resize(p, spikes, x0, pops, prj, prj_w, ntype, complete, csr_ptr, csr_idx, csr_val, acc, touched, n_touched,
-            counters):
-    """Like :func:`_conv` for Resize ``p``: weight ``sign * gain * A_r[i, i'] * A_c[j, j']``."""
-    qs, qt = prj[p, J_SRC], prj[p, J_TGT]
-    off_s, gc_s = pops[qs, P_OFF], pops[qs, P_GC]
-    plane = pops[qs, P_GR] * gc_s
-    off_t, gr, gc = pops[qt, P_OFF], pops[qt, P_GR], pops[qt, P_GC]
-    whole = complete[qt] == 1
-    sg, thr = prj_w[p, 0], prj_w[p, 1]
-    prune, inh = prj[p, J_PRUNE] == 1, prj[p, J_INH] == 1
-    events = 0
-    for x in range(x0, spikes.size):
-        loc = spikes[x] - off_s
-        c = loc // plane
-        si = (loc - c * plane) // gc_s
-        rb, cb = prj[p, J_BASE] + si, prj[p, J_COLBASE] + (loc - c * plane - si * gc_s)
-        if n_touched + (csr_ptr[rb + 1] - csr_ptr[rb]) * (csr_ptr[cb + 1] - csr_ptr[cb]) > touched.size:
-            counters[N_EVENTS] += events
-            return n_touched, x
-        cbase = c * gr * gc
-        for xr in range(csr_ptr[rb], csr_ptr[rb + 1]):
-            a = csr_val[xr]
-            rbase = cbase + csr_idx[xr] * gc
-            for xc in range(csr_ptr[cb], csr_ptr[cb + 1]):
-                val = a * csr_val[xc]
-                if val == 0.0 or (prune and abs(val) < thr):
-                    continue
-                lt = rbase + csr_idx[xc]
-                if whole or ntype[off_t + lt] != ABSENT_TYPE:
-                    w = sg * val
-                    if inh:
-                        w = abs(w)
-                    if acc[lt] == 0.0:
-                        touched[n_touched] = lt
-                        n_touched += 1
-                    acc[lt] += w * MV
-                    events += 1
-    counters[N_EVENTS] += events
-    return n_touched, spikes.size
-
-
-@njit(cache=True)
-def _step_active(n, act, n_act, state, inact, pops, nrn, ref, log, log_n):
+def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n):
     """Brian2's ``groups`` and ``thresholds`` slots for the active cells
     (sorted by number, hence walked population by population), parking
     those that cannot fire. Returns ``(active cells, log length)``."""
     kept = 0
     q = 0
-    end = pops[0, P_OFF] + pops[0, P_SIZE]
+    end = cells[0, C_OFF] + cells[0, C_N]
     t = pops[0, P_TYPE]
     for a in range(n_act):
-        g = act[a]
+        g = act[U(a)]
         while g >= end:
             q += 1
-            end = pops[q, P_OFF] + pops[q, P_SIZE]
+            end = cells[q, C_OFF] + cells[q, C_N]
             t = pops[q, P_TYPE]
-        r = state[g]
+        r = state[U(g)]
         ready = r.spike == 0 or n - (r.spike - 1) >= ref[t]
         if ready and _safe(r.v, r.e, r.i, nrn[t]):
-            inact[g] = 0
+            inact[U(g)] = 0
             continue
         v, e, i = r.v, r.e, r.i
         if ready:
@@ -263,10 +392,10 @@ def _step_active(n, act, n_act, state, inact, pops, nrn, ref, log, log_n):
         r.i = i * nrn[t, DI]
         r.last = n + 1
         if ready and v > nrn[t, V_TH]:
-            log[log_n] = g
+            log[U(log_n)] = g
             log_n += 1
             r.spike = n + 1
-        act[kept] = g
+        act[U(kept)] = g
         kept += 1
     return kept, log_n
 
@@ -279,11 +408,11 @@ def _merge(act, n_act, new, n_new, tmp):
     new[:n_new].sort()
     a = b = k = 0
     while a < n_act or b < n_new:
-        if b == n_new or (a < n_act and act[a] < new[b]):
-            tmp[k] = act[a]
+        if b == n_new or (a < n_act and act[U(a)] < new[U(b)]):
+            tmp[U(k)] = act[U(a)]
             a += 1
         else:
-            tmp[k] = new[b]
+            tmp[U(k)] = new[U(b)]
             b += 1
         k += 1
     act[:k] = tmp[:k]
@@ -291,9 +420,10 @@ def _merge(act, n_act, new, n_new, tmp):
 
 
 @njit(cache=True)
-def run_steps(n0, n1, state, ntype, inact, act, new, tmp, scalars, log, step_start, in_ptr, in_ids,
-              pops, complete, nrn, ref, adv, prj, prj_w, ch_ptr, tap_co, tap_qr, tap_qc, tap_w, tap_off,
-              csr_ptr, csr_idx, csr_val, grp_ptr, grp_prj, acc, touched, counters, prj_events):
+def run_steps(n0, n1, state, ctype, inact, act, new, tmp, fresh, scalars, log, step_start, in_ptr, in_ids,
+              pops, cells, cmap, flat_of, column_of, row_ptr, bits, gather, nrn, ref, adv, prj, prj_w, ch_ptr, tap_co,
+              tap_qr, tap_qc, tap_w, tap_off, dense, pair_ptr, pair_co, pair_rlo, pair_rhi, csr_ptr, csr_idx,
+              csr_val, grp_ptr, grp_prj, acc, touched, counters, prj_events):
     """Simulate steps ``n0 .. n1-1``; returns the step reached (less than
     ``n1`` when the spike log is too small for the next step: grow it and
     call again from there). ``scalars`` holds (active cells, log length).
@@ -310,7 +440,7 @@ def run_steps(n0, n1, state, ntype, inact, act, new, tmp, scalars, log, step_sta
             return n
         start = log_n
         counters[N_ACTIVE_STEPS] += n_act
-        n_act, log_n = _step_active(n, act, n_act, state, inact, pops, nrn, ref, log, log_n)
+        n_act, log_n = _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
         mid = log_n
         for x in range(in_ptr[s], in_ptr[s + 1]):
             log[log_n] = in_ids[x]
@@ -321,7 +451,7 @@ def run_steps(n0, n1, state, ntype, inact, act, new, tmp, scalars, log, step_sta
         n_new = 0
         for grp in range(grp_ptr.size - 1):
             p = grp_prj[grp_ptr[grp]]
-            off_t, t_t, col = pops[prj[p, J_TGT], P_OFF], pops[prj[p, J_TGT], P_TYPE], prj[p, J_COL]
+            off_t, t_t, col = cells[prj[p, J_TGT], C_OFF], pops[prj[p, J_TGT], P_TYPE], prj[p, J_COL]
             n_touched = 0
             for y in range(grp_ptr[grp], grp_ptr[grp + 1]):
                 p = grp_prj[y]
@@ -330,42 +460,46 @@ def run_steps(n0, n1, state, ntype, inact, act, new, tmp, scalars, log, step_sta
                     continue
                 q = prj[p, J_SRC]
                 spikes = log[step_start[m]:step_start[m + 1]]
-                spikes = spikes[np.searchsorted(spikes, pops[q, P_OFF]):
-                                np.searchsorted(spikes, pops[q, P_OFF] + pops[q, P_SIZE])]
+                spikes = spikes[np.searchsorted(spikes, cells[q, C_OFF]):
+                                np.searchsorted(spikes, cells[q, C_OFF] + cells[q, C_N])]
                 before = counters[N_EVENTS]
                 x = 0
                 while True:
-                    if prj[p, J_KIND] == CONV:
-                        n_touched, x = _conv(p, spikes, x, pops, prj, ntype, complete, ch_ptr, tap_co, tap_qr,
-                                             tap_qc, tap_w, tap_off, acc, touched, n_touched, counters)
+                    if gather[p]:
+                        n_touched, x = _conv_gather(p, spikes, x, pops, cells, flat_of, column_of, row_ptr, prj,
+                                                    dense, pair_ptr, pair_co, pair_rlo, pair_rhi, acc, touched,
+                                                    n_touched, counters)
+                    elif prj[p, J_KIND] == CONV:
+                        n_touched, x = _conv(p, spikes, x, pops, cells, cmap, flat_of, bits, prj, ch_ptr, tap_co,
+                                             tap_qr, tap_qc, tap_w, tap_off, acc, touched, n_touched, counters)
                     else:
-                        n_touched, x = _resize(p, spikes, x, pops, prj, prj_w, ntype, complete, csr_ptr, csr_idx,
-                                               csr_val, acc, touched, n_touched, counters)
+                        n_touched, x = _resize(p, spikes, x, pops, cells, cmap, flat_of, bits, prj, prj_w, csr_ptr,
+                                               csr_idx, csr_val, acc, touched, n_touched, counters)
                     if x >= spikes.size:
                         break
                     # the touched list is full: deliver what it holds, then go on
-                    n_new = _flush(acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, nrn, adv,
-                                   counters)
+                    n_new = _flush(acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, fresh,
+                                   nrn, adv, counters)
                     n_touched = 0
                 prj_events[p] += counters[N_EVENTS] - before
             if n_touched:
-                n_new = _flush(acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, nrn, adv,
-                               counters)
+                n_new = _flush(acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, fresh, nrn,
+                               adv, counters)
         for x in range(start, log_n):
             g = log[x]
-            if ntype[g] < SOURCE_TYPE:
-                state[g].v = nrn[ntype[g], V_RESET]
+            if ctype[g] < SOURCE_TYPE:
+                state[g].v = nrn[ctype[g], V_RESET]
         n_act = _merge(act, n_act, new, n_new, tmp)
     scalars[0], scalars[1] = n_act, log_n
     return n1
 
 
 @njit(cache=True)
-def final_state(state, ntype, nrn, adv, n_steps):
+def final_state(state, ctype, nrn, adv, n_steps):
     """Bring every touched cell to the end of step ``n_steps - 1`` and put
     untouched cells at rest (for reporting the final state)."""
     for g in range(state.shape[0]):
-        t = ntype[g]
+        t = ctype[g]
         if t >= SOURCE_TYPE:
             continue
         r = state[g]
@@ -374,3 +508,15 @@ def final_state(state, ntype, nrn, adv, n_steps):
         elif r.last < n_steps:
             r.v, r.e, r.i = _advanced(r.v, r.e, r.i, nrn[t, V_REST], adv[t], n_steps - r.last)
         r.last = n_steps
+
+
+@njit(cache=True)
+def reset(state, inact, act, n_act, fresh, n_fresh):
+    """Put back at rest the cells a run touched (``fresh``) and clear the
+    active flags, so that the arrays serve the next run without being
+    allocated (and their memory faulted in) again."""
+    for x in range(n_fresh):
+        r = state[U(fresh[U(x)])]
+        r.v, r.e, r.i, r.last, r.spike = 0.0, 0.0, 0.0, 0, 0
+    for x in range(n_act):
+        inact[U(act[U(x)])] = 0

@@ -32,9 +32,8 @@ from .base import receptor, receptor_weights
 MV = 1e-3
 #: seconds per millisecond
 MS = 1e-3
-#: neuron-type codes of cells that have no LIF state
+#: neuron-type code of spike sources (cells without LIF state)
 SOURCE_TYPE = 254
-ABSENT_TYPE = 255
 #: columns of the neuron-type table (TIGHT: the inhibitory current decays no
 #: faster than the excitatory one; PEAK: the largest response of ``v`` to a
 #: unit excitatory current, ``max_k P_e(k)``)
@@ -49,7 +48,8 @@ ADVANCE_STEPS = 512
 #: columns of the population table
 P_OFF, P_CH, P_GR, P_GC, P_STRIDE, P_LR, P_LC, P_TYPE, P_SIZE = range(9)
 #: columns of the projection table
-(J_KIND, J_SRC, J_TGT, J_COL, J_DELAY, J_WRAP, J_BASE, J_COLBASE, J_PRUNE, J_INH, J_RADIUS) = range(11)
+(J_KIND, J_SRC, J_TGT, J_COL, J_DELAY, J_WRAP, J_BASE, J_COLBASE, J_PRUNE, J_INH, J_RADIUS, J_DENSE, J_KR,
+ J_GBASE) = range(14)
 CONV, RESIZE = 0, 1
 
 
@@ -65,7 +65,7 @@ class EngineTables:
     nrn: np.ndarray          # float64 (n_types, 9), columns DM..PEAK, volts
     ref_steps: np.ndarray    # int64 (n_types,)
     adv: np.ndarray          # float64 (n_types, 5, ADVANCE_STEPS + 1): d_m^k, d_e^k, d_i^k, P_e(k), P_i(k)
-    prj: np.ndarray          # int64 (n_projections, 11), columns J_*
+    prj: np.ndarray          # int64 (n_projections, 14), columns J_*
     prj_w: np.ndarray        # float64 (n_projections, 2): sign * gain (mV), prune threshold of a Resize
     ch_ptr: np.ndarray       # int64: Conv taps of input channel c, residues (a, b) modulo the target
     tap_co: np.ndarray       #   stride s, of projection p are ch_ptr[i] .. ch_ptr[i + 1], i = base + (c s + a) s
@@ -73,6 +73,12 @@ class EngineTables:
     tap_qc: np.ndarray       #   the source's level pixel // s - (qr, qc)), tap_w (volts added to the
     tap_w: np.ndarray        #   receptor) and tap_off (flat offset, for sources whose whole footprint lies
     tap_off: np.ndarray      #   inside the level)
+    dense: np.ndarray        # float64: a Conv's weights by level offset, (C_out, C_in, 2R+1, 2R+1) from
+    #                          dense[J_DENSE], R = J_KR (0 where there is no tap)
+    pair_ptr: np.ndarray     # int64: the output channels input channel c reaches, with their row offset
+    pair_co: np.ndarray      #   ranges: pair_ptr[J_GBASE + c] .. [+1] of pair_co, pair_rlo, pair_rhi
+    pair_rlo: np.ndarray
+    pair_rhi: np.ndarray
     csr_ptr: np.ndarray      # int64: Resize rows/cols: source index s of a factor starting at
     csr_idx: np.ndarray      #   base has targets csr_idx[csr_ptr[base + s]:csr_ptr[base + s + 1]]
     csr_val: np.ndarray      #   with interpolation weights csr_val
@@ -82,18 +88,28 @@ class EngineTables:
     taps: dict               # projection name -> kept taps (Conv) or interpolation weights (Resize)
 
     @property
-    def max_delay(self) -> int:
-        return int(self.prj[:, J_DELAY].max()) if self.prj.size else 0
+    def taps_per_row(self) -> np.ndarray:
+        """Per projection: the taps a spike follows (those of its stride
+        residue class) per target row its kernel covers (0 for a Resize)."""
+        out = np.zeros(self.prj.shape[0])
+        for p, pr in enumerate(self.network.projections):
+            if self.prj[p, J_KIND] != CONV:
+                continue
+            g0 = self.prj[p, J_GBASE]
+            c_in, st = self.pops[self.prj[p, J_SRC], P_CH], self.pops[self.prj[p, J_TGT], P_STRIDE]
+            rows = self.pair_rhi[self.pair_ptr[g0]:self.pair_ptr[g0 + c_in]] - \
+                self.pair_rlo[self.pair_ptr[g0]:self.pair_ptr[g0 + c_in]] + 1
+            out[p] = self.taps[pr.name] / st ** 2 / max(rows.sum() / st, 1)
+        return out
 
     @property
     def max_fanout(self) -> int:
         """Most synaptic events one spike can cause through one projection."""
         conv = int(np.diff(self.ch_ptr).max()) if self.ch_ptr.size > 1 else 0
         csr = int(np.diff(self.csr_ptr).max()) if self.csr_ptr.size > 1 else 0
-        return max(conv, csr * csr, 1)
-
-    def population_index(self, name: str) -> int:
-        return [p.name for p in self.network.populations].index(name)
+        conv_out = [self.network.population(pr.target).channels for pr in self.network.projections]
+        footprint = int(max(c * (2 * r + 1) ** 2 for c, r in zip(conv_out, self.prj[:, J_KR]))) if conv_out else 0
+        return max(conv, csr * csr, footprint, 1)
 
 
 def _neuron_types(network: Network, dt_ms: float):
@@ -162,6 +178,29 @@ class _Collector:
     def __init__(self):
         self.ch_ptr, self.taps, self.csr = [np.zeros(1, np.int64)], [], [[np.zeros(1, np.int64)], [], []]
         self.n_ch, self.n_taps, self.n_csr_rows, self.n_csr = 0, 0, 0, 0
+        self.dense, self.n_dense = [], 0
+        self.pair_ptr, self.pairs, self.n_pair_ch, self.n_pairs = [np.zeros(1, np.int64)], [], 0, 0
+
+    def dense_kernel(self, co, ci, dr, dc, w, c_out: int, c_in: int):
+        """The taps as a dense array by level offset, and per input channel
+        the output channels it reaches with their row-offset range."""
+        r = int(max(np.abs(dr).max(), np.abs(dc).max())) if dr.size else 0
+        size = 2 * r + 1
+        kd = np.zeros((c_out, c_in, size, size))
+        kd[co, ci, dr + r, dc + r] = w
+        base = self.n_dense
+        self.dense.append(kd.ravel())
+        self.n_dense += kd.size
+        pairs = sorted({(int(i), int(o)) for o, i in zip(co, ci)})
+        lo = {(i, o): int(dr[(ci == i) & (co == o)].min()) for i, o in pairs}
+        hi = {(i, o): int(dr[(ci == i) & (co == o)].max()) for i, o in pairs}
+        counts = np.bincount([i for i, _ in pairs], minlength=c_in)
+        gbase = self.n_pair_ch
+        self.pair_ptr.append(np.cumsum(counts) + self.n_pairs)
+        self.pairs.append(np.array([(o, lo[i, o], hi[i, o]) for i, o in pairs], dtype=np.int64).reshape(-1, 3))
+        self.n_pair_ch += c_in
+        self.n_pairs += len(pairs)
+        return base, r, gbase
 
     def conv(self, ch_ptr, co, qr, qc, w, off):
         base = self.n_ch
@@ -181,12 +220,18 @@ class _Collector:
         self.n_csr += idx.size
         return base
 
-    def arrays(self):
+    def arrays(self) -> dict:
         taps = [np.concatenate([t[i] for t in self.taps]) if self.taps else np.zeros(0) for i in range(5)]
         csr = [np.concatenate(x) if x else np.zeros(0) for x in self.csr]
-        return (np.concatenate(self.ch_ptr).astype(np.int64), taps[0].astype(np.int32), taps[1].astype(np.int32),
-                taps[2].astype(np.int32), taps[3].astype(np.float64), taps[4].astype(np.int64),
-                csr[0].astype(np.int64), csr[1].astype(np.int32), csr[2].astype(np.float64))
+        pairs = np.concatenate(self.pairs) if self.pairs else np.zeros((0, 3), np.int64)
+        return {"ch_ptr": np.concatenate(self.ch_ptr).astype(np.int64), "tap_co": taps[0].astype(np.int32),
+                "tap_qr": taps[1].astype(np.int32), "tap_qc": taps[2].astype(np.int32),
+                "tap_w": taps[3].astype(np.float64), "tap_off": taps[4].astype(np.int64),
+                "dense": np.concatenate(self.dense) if self.dense else np.zeros(1),
+                "pair_ptr": np.concatenate(self.pair_ptr).astype(np.int64), "pair_co": pairs[:, 0].copy(),
+                "pair_rlo": pairs[:, 1].copy(), "pair_rhi": pairs[:, 2].copy(),
+                "csr_ptr": csr[0].astype(np.int64), "csr_idx": csr[1].astype(np.int32),
+                "csr_val": csr[2].astype(np.float64)}
 
 
 def _conv(network, pr, src, tgt, out: _Collector):
@@ -201,6 +246,8 @@ def _conv(network, pr, src, tgt, out: _Collector):
     taken modulo the level and those landing on the same cell add up, as
     the unrolled synapses do (:func:`~snn_fg.spiking.connect.conv_pairs`)."""
     co, ci, dr, dc, k, kept = kernel_taps(pr, network)
+    dense = out.dense_kernel(co, ci, dr, dc, receptor_weights(pr.sign, pr.sign * pr.gain_mv * k) * MV,
+                             tgt.channels, src.channels)
     st = tgt.stride
     gr, gc = tgt.grid
     rr, rc = dr % st, dc % st
@@ -216,7 +263,7 @@ def _conv(network, pr, src, tgt, out: _Collector):
     ch_ptr = np.searchsorted(cls, np.arange(src.channels * st * st + 1))
     off = co.astype(np.int64) * gr * gc - qr * gc - qc
     base = out.conv(ch_ptr, co, qr, qc, w, off)
-    return base, 0, kept, int(co.size), radius
+    return base, 0, kept, int(co.size), radius, dense
 
 
 def _fold(co, ci, qr, qc, k):
@@ -261,17 +308,17 @@ def build_tables(network: Network, dt_ms: float) -> EngineTables:
     for pr in network.projections:
         src, tgt = network.population(pr.source), network.population(pr.target)
         if isinstance(pr, Conv):
-            base, colbase, kept[pr.name], taps[pr.name], radius = _conv(network, pr, src, tgt, out)
+            base, colbase, kept[pr.name], taps[pr.name], radius, dense = _conv(network, pr, src, tgt, out)
             kind, wrap, thr = CONV, int(pr.padding == "wrap"), 0.0
         else:
             base, colbase, kept[pr.name], taps[pr.name], thr = _resize(pr, src, tgt, out)
-            kind, wrap, radius = RESIZE, 0, 0
+            kind, wrap, radius, dense = RESIZE, 0, 0, (0, 0, 0)
         rows.append([kind, index[src.name], index[tgt.name], 1 if receptor(pr.sign) == "exc" else 2,
                      _delay_steps(pr.delay_ms, dt_ms), wrap, base, colbase, int(pr.prune > 0),
-                     int(pr.sign < 0), radius])
+                     int(pr.sign < 0), radius, *dense])
         wrow.append([pr.sign * pr.gain_mv, thr])
     arrays = out.arrays()
-    prj = np.array(rows, dtype=np.int64).reshape(-1, 11)
+    prj = np.array(rows, dtype=np.int64).reshape(-1, 14)
     groups: dict = {}
     for p in range(prj.shape[0]):
         groups.setdefault((int(prj[p, J_TGT]), int(prj[p, J_COL])), []).append(p)
@@ -279,7 +326,5 @@ def build_tables(network: Network, dt_ms: float) -> EngineTables:
     grp_ptr = np.cumsum([0] + [len(members) for members in groups.values()]).astype(np.int64)
     return EngineTables(network=network, dt_ms=float(dt_ms), offsets=offsets, pops=pops, n_cells=int(n_cells),
                         nrn=nrn, ref_steps=ref, adv=adv, prj=prj,
-                        prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 2), ch_ptr=arrays[0],
-                        tap_co=arrays[1], tap_qr=arrays[2], tap_qc=arrays[3], tap_w=arrays[4], tap_off=arrays[5],
-                        csr_ptr=arrays[6], csr_idx=arrays[7], csr_val=arrays[8], grp_ptr=grp_ptr, grp_prj=grp_prj,
-                        kept_mass=kept, taps=taps)
+                        prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 2), grp_ptr=grp_ptr, grp_prj=grp_prj,
+                        kept_mass=kept, taps=taps, **arrays)

@@ -17,11 +17,18 @@ from . import __version__
 from .backends import DEFAULT_BACKEND, backend_names
 from .errors import InputError, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
+from .events.esim import MOTIONS
 from .models import MODELS
+from .rate.fbfg import EDGE_OPERATORS
 
 EXIT_INPUT = 2
 MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
-RECORDING_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
+#: how a recording is cut into windows (snn_fg.events.iter_windows)
+WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
+#: options that only a recording uses
+RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms",)
+#: spiking options for one frame that a recording (one continuous run) does not use
+FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
 
 
 def _number(kind, lo, strict=True):
@@ -61,7 +68,17 @@ _RUN_OPTIONS = (
         ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
         ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
         ("--dt-ms", float, 0, True, "simulation time step (0.5)"),
-        ("--seed", int, -2**63, False, "seed of the input spike phases (0)"))),
+        ("--seed", int, -2**63, False, "seed of the input spike phases (0)"),
+        ("--spike-input", ("regular", "events"), None, None, "images: regular trains at every event pixel, or the "
+                                                            "simulated camera's events with their timing (regular)"),
+        ("--feedback", ("on", "off"), None, None, "off: remove the feedback onto border-ownership cells, the "
+                                                  "model's ablation (on)"),
+        ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later "
+                                              "(20)"))),
+    ("frame-based model", (
+        ("--edge-operator", EDGE_OPERATORS, None, None, "simple cells' edge operator: gaussian (a "
+                                                               "Gaussian-derivative stand-in) or corf (Hu et al.'s "
+                                                               "CORF push-pull, slower) (gaussian)"),)),
 )
 
 
@@ -80,9 +97,15 @@ def _add_run(sub):
     for title, options in _RUN_OPTIONS:
         g = p.add_argument_group(title)
         for flag, kind, lo, strict, text in options:
-            g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
+            if isinstance(kind, tuple):
+                g.add_argument(flag, choices=kind, help=text)
+            else:
+                g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
     p.add_argument("--threshold", type=_number(float, 0), default=0.10, metavar="C",
                    help="images turned into events: contrast threshold of the simulated event camera (0.10)")
+    p.add_argument("--motion", choices=MOTIONS, default=None,
+                   help="images turned into events: motion of the simulated event camera; paper: the authors' "
+                        "BSDS conversion (default shift4)")
     p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
                    help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
     p.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
@@ -131,6 +154,10 @@ def _model(args, kind):
     unused = [k for m in MODELS.values() for k in m.options if k not in takes and getattr(args, k) is not None]
     if kind != "recording":
         unused += [k for k in RECORDING_OPTIONS + ("sensor_size",) if getattr(args, k) is not None]
+    else:
+        unused += [k for k in FRAME_ONLY_OPTIONS if getattr(args, k) is not None]
+    if args.motion is not None and (kind in ("recording", "frame") or MODELS[args.model].needs == "image"):
+        unused.append("motion")      # only images turned into events have a motion
     if args.network is not None and given:
         unused += list(given)
     if unused:
@@ -140,6 +167,8 @@ def _model(args, kind):
         raise InputError(args.input, f"{flags}: {why}")
     progress = None if args.no_progress else _progress_factory()
     options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}
+    if "feedback" in options:
+        options["feedback"] = options["feedback"] == "on"
     return MODELS[args.model](ModelParams(**given), progress, **options)
 
 
@@ -153,7 +182,7 @@ def _windows(args):
     from .events import iter_recording, iter_windows
 
     stream = iter_recording(args.input, sensor_size=args.sensor_size)
-    opts = {k: getattr(args, k) for k in RECORDING_OPTIONS if getattr(args, k) is not None}
+    opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
     windows = iter_windows(stream, **{"window_ms": 85.0, **opts})
     if not args.no_progress:
         from tqdm import tqdm
@@ -176,7 +205,7 @@ def cmd_run(args) -> int:
             raise InputError(args.input, f"the {model.name} model needs an image, not an event recording")
         windows, source, shape = _windows(args)
     else:
-        frame, source = load_frame(args.input, model.needs, args.threshold)
+        frame, source = load_frame(args.input, model.needs, args.threshold, args.motion or "shift4")
         shape = frame.shape
     check_levels(shape, model.params.levels, args.input)
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as out:

@@ -61,22 +61,33 @@ def _check_binary(path, key, a) -> np.ndarray:
     return a.astype(np.uint8)
 
 
-def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
-    """``(pos, neg)`` from an ``.npz`` event frame, validated."""
+def read_npz_arrays(path, required, optional=(), what: str = "file") -> dict:
+    """The arrays ``required`` (and those of ``optional`` that are present) of an ``.npz`` file.
+
+    A missing file, an unreadable archive or a missing key is an
+    :class:`InputError` naming the file (``what`` says what it should be).
+    """
     path = Path(path)
     try:
         with np.load(path, allow_pickle=False) as d:
-            missing = [k for k in ("pos", "neg") if k not in d.files]
+            missing = [k for k in required if k not in d.files]
             if missing:
-                raise InputError(path, f"event frame lacks key(s) {', '.join(missing)} "
+                raise InputError(path, f"{what} lacks key(s) {', '.join(missing)} "
                                        f"(found: {', '.join(d.files) or 'nothing'})")
-            pos, neg = d["pos"], d["neg"]
+            return {k: d[k] for k in (*required, *optional) if k in d.files}
     except InputError:
         raise
     except FileNotFoundError:
         raise InputError(path, "no such file") from None
     except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
         raise InputError(path, f"cannot read the .npz archive ({exc})") from None
+
+
+def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
+    """``(pos, neg)`` from an ``.npz`` event frame, validated."""
+    path = Path(path)
+    arrays = read_npz_arrays(path, ("pos", "neg"), what="event frame")
+    pos, neg = arrays["pos"], arrays["neg"]
     pos = _check_binary(path, "pos", pos)
     neg = _check_binary(path, "neg", neg)
     if pos.shape != neg.shape:
@@ -93,15 +104,16 @@ def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
     return pos, neg
 
 
-def load_frame(spec: str, needs: str, threshold: float = 0.10):
+def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "shift4"):
     """The frame a model needs from ``INPUT`` (``demo``, an image or an event
     frame), and what to record about where it came from.
 
     ``needs`` is ``"events"`` (an event frame; images are turned into events
-    by the simulated event camera at contrast ``threshold``) or ``"image"``.
+    by the simulated event camera at contrast ``threshold`` under ``motion``,
+    see :data:`snn_fg.events.esim.MOTIONS`) or ``"image"``.
     Returns ``(Frame, source)``.
     """
-    from .events import image_to_frame
+    from .events import events_to_frame, image_to_events
     from .images import read_image
     from .models import Frame
 
@@ -119,11 +131,12 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10):
 
         image = demo().image
     else:
-        image = read_image(spec, grey=needs != "image")
+        image = read_image(spec, grey=needs != "image" and motion != "paper")
     if needs == "image":
         return Frame(image=image), source
-    pos, neg = image_to_frame(image, threshold=threshold)
+    recording = image_to_events(image, threshold=threshold, motion=motion)
+    pos, neg = events_to_frame(recording.events, recording.sensor_size)
     if not (pos.any() or neg.any()):
         raise InputError(spec, f"the image gives no events at contrast threshold {threshold}")
-    source["threshold"] = threshold
-    return Frame(pos, neg, image), source
+    source.update(threshold=threshold, motion=motion)
+    return Frame(pos, neg, image, recording), source

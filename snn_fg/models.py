@@ -24,11 +24,14 @@ from .params import ModelParams
 
 @dataclass
 class Frame:
-    """One input frame: an event frame (``pos``, ``neg``) and/or an image."""
+    """One input frame: an event frame (``pos``, ``neg``) and/or an image, and
+    for an image turned into events, the simulated camera's timed events
+    (``recording``, a :class:`~snn_fg.events.Recording`) the frame was made of."""
 
     pos: np.ndarray | None = None
     neg: np.ndarray | None = None
     image: np.ndarray | None = None
+    recording: object | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -63,6 +66,12 @@ class Model(ABC):
             return self.empty_maps(window.pos.shape)
         return self.run_frame(Frame(window.pos, window.neg))
 
+    def run_windows(self, windows):
+        """``(window, Maps)`` for every window of a recording, in order; by
+        default one window at a time (:meth:`run_window`)."""
+        for w in windows:
+            yield w, self.run_window(w)
+
     def empty_maps(self, shape) -> Maps:
         z = np.zeros(shape, np.float32)
         return Maps(z, z.copy(), z.copy(), {"model": self.name, **self.params.to_dict()})
@@ -90,16 +99,24 @@ class RateModel(Model):
 
 
 class FbfgModel(Model):
-    """The frame-based model (FBFG) on a grey or RGB image."""
+    """The frame-based model (FBFG) on a grey or RGB image; option ``edge_operator``
+    (``"gaussian"`` or ``"corf"``, see :mod:`snn_fg.rate.fbfg`)."""
 
     name = "fbfg"
     needs = "image"
+    options = ("edge_operator",)
     grouping_label = "grouping (normalised to 1)"
+
+    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, edge_operator="gaussian"):
+        from .rate.fbfg import EDGE_OPERATORS
+
+        super().__init__(params, progress)
+        self.edge_operator = check.choice("fbfg", "edge_operator", edge_operator, EDGE_OPERATORS)
 
     def run_frame(self, frame: Frame) -> Maps:
         from .rate.fbfg import run_fbfg
 
-        return run_fbfg(frame.image, self.params, progress=self.progress)
+        return run_fbfg(frame.image, self.params, progress=self.progress, edge_operator=self.edge_operator)
 
     def run_window(self, window) -> Maps:
         raise InputError("<recording>", "the fbfg model needs an image, not an event recording")
@@ -108,33 +125,48 @@ class FbfgModel(Model):
         return frame.image
 
 
+#: how a frame becomes input spikes: regular trains at every event pixel, or
+#: (for an image) the simulated camera's events with their own timing, replayed
+SPIKE_INPUTS = ("regular", "events")
+
+
 class SpikingModel(Model):
     """The spiking network (:func:`snn_fg.spiking.run_spiking`) on a backend.
 
-    Options: ``network`` (a stored description), ``backend``, ``duration_ms``,
-    ``settle_ms``, ``dt_ms``, ``seed``; a window of a recording is fed as its
-    own timed events.
+    Options: ``network`` (a stored description), ``backend``, ``feedback``,
+    ``dt_ms``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
+    ``spike_input`` (:data:`SPIKE_INPUTS`); for a
+    recording ``readout_lag_ms``: a recording runs as one continuous network,
+    every event at its own time (:mod:`snn_fg.spiking.continuous`).
     """
 
     name = "spiking"
     grouping_label = SPIKING_GROUPING_LABEL
-    options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed")
+    options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed", "feedback", "readout_lag_ms",
+               "spike_input")
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
-                 backend=DEFAULT_BACKEND, **run_options):
+                 backend=DEFAULT_BACKEND, spike_input: str = "regular", **run_options):
         super().__init__(params, progress)
         self.network = network       # a stored description (its own ModelParams), or None: build from params
         self.backend = backend
+        self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
         self.run_options = run_options
 
     def _run(self, **inputs) -> Maps:
         from .spiking import run_spiking
 
         net = {"params": self.params} if self.network is None else {"network": self.network}
-        return run_spiking(**inputs, **net, backend=self.backend, progress=self.progress is not None,
-                           **self.run_options)
+        options = {k: v for k, v in self.run_options.items() if k != "readout_lag_ms"}
+        return run_spiking(**inputs, **net, backend=self.backend, progress=self.progress is not None, **options)
 
     def run_frame(self, frame: Frame) -> Maps:
+        if self.spike_input == "events":
+            if frame.recording is None:
+                raise InputError("<frame>", "spike input 'events' needs an image (its simulated events carry "
+                                            "their timing); an event frame has none: use 'regular'")
+            rec = frame.recording
+            return self._run(events=rec.events, sensor_size=rec.sensor_size)
         return self._run(pos=frame.pos, neg=frame.neg)
 
     def run_window(self, window) -> Maps:
@@ -142,6 +174,18 @@ class SpikingModel(Model):
             return self.empty_maps(window.pos.shape)
         h, w = window.pos.shape
         return self._run(events=window.events, sensor_size=(w, h, 2))
+
+    def run_windows(self, windows):
+        """One network over the whole recording (:func:`~snn_fg.spiking.run_spiking_windows`):
+        every event at its own time, each window read from its own spikes."""
+        from .spiking.continuous import run_spiking_windows
+
+        windows = list(windows)
+        net = {"params": self.params} if self.network is None else {"network": self.network}
+        options = {k: v for k, v in self.run_options.items() if k in ("dt_ms", "readout_lag_ms", "feedback")}
+        maps = run_spiking_windows(windows, **net, backend=self.backend, progress=self.progress is not None,
+                                   **options)
+        yield from zip(windows, maps)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None) -> list[Path]:
         written = super().write_figures(out, maps, inputs, titles)

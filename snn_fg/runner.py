@@ -123,10 +123,10 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str) -> 
     n_empty = 0
     with MapsSeriesWriter(out / "maps.npz") as sink, warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)     # counted and reported once below
-        for w in windows:
+        for w, maps in model.run_windows(windows):
             n_empty += not (w.pos.any() or w.neg.any())
             # the window's event frame (+1 ON, -1 OFF) is kept with its maps
-            sink.append(model.run_window(w), event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8))
+            sink.append(maps, event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8))
             t0.append(w.t_start_us)
             t1.append(w.t_end_us)
         if sink.n == 0:

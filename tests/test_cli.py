@@ -165,36 +165,42 @@ def test_interrupted_recording_run_leaves_nothing(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_spiking_recording_keeps_every_windows_spikes(tmp_path):
-    """snn-fg run RECORDING --model spiking: each window's spike counts are
-    stored (ragged: every window instantiates its own cells) and equal a
-    direct run_spiking on that window's events; figures show one window."""
+def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_spikes(tmp_path):
+    """snn-fg run RECORDING --model spiking: one continuous run (one network
+    build, every event at its own time, simulated time = the recording plus
+    the read-out lag); each window's stored spike counts are that run's
+    spikes inside the window shifted by the lag, and equal run_spiking_windows
+    called directly; frame-only options are refused for a recording."""
     from snn_fg.events import image_to_events, iter_windows, save_events
     from snn_fg.maps import window_part
     from snn_fg.scenes import disc
-    from snn_fg.spiking import run_spiking
+    from snn_fg.spiking.continuous import run_spiking_windows
 
     rec = image_to_events(disc(12).image, motion="circle")
     path = tmp_path / "disc.npy"
     save_events(path, rec.events, rec.sensor_size)
     out = tmp_path / "out"
-    opts = ["--window-ms", "120", "--max-windows", "2", "--levels", "3", "--duration-ms", "80", "--sensor-size", "64x64"]
+    opts = ["--window-ms", "60", "--max-windows", "3", "--levels", "3", "--sensor-size", "64x64",
+            "--readout-lag-ms", "10"]
     assert main(["run", str(path), "--out", str(out), "--model", "spiking", *opts, "--no-progress"]) == 0
     m = Maps.load(out / "maps.npz")
-    assert m.fg_x.shape[0] == 2
-    windows = list(iter_windows(path, window_ms=120, max_windows=2, sensor_size=(64, 64)))
-    sizes = []
-    for i, w in enumerate(windows):
-        direct = run_spiking(events=w.events, sensor_size=rec.sensor_size, duration_ms=80,
-                             params=ModelParams(levels=3),
-                             progress=False)
-        np.testing.assert_array_equal(m.fg_x[i], direct.fg_x)
+    assert m.fg_x.shape[0] == 3
+    sim = m.params["simulation"]
+    assert sim["mode"] == "continuous" and sim["network_builds"] == 1 and sim["readout_lag_ms"] == 10
+    assert sim["simulated_ms"] == pytest.approx(180 + 10)
+    windows = list(iter_windows(path, window_ms=60, max_windows=3, sensor_size=(64, 64)))
+    direct = run_spiking_windows(windows, params=ModelParams(levels=3), readout_lag_ms=10, progress=False)
+    for i, d in enumerate(direct):
+        np.testing.assert_array_equal(m.fg_x[i], d.fg_x)
         for name in ("simple_1", "bo_L1_1", "group_L_1"):
-            np.testing.assert_array_equal(window_part(m.extra, f"spikes_{name}", i), direct.extra[f"spikes_{name}"])
-        assert m.params["windows"][i].get("counts", m.params["counts"]) == direct.params["counts"]
-        sizes.append(direct.extra["spikes_simple_1"].size)
-    assert ("spikes_simple_1_offsets" in m.extra) == (sizes[0] != sizes[1])
+            np.testing.assert_array_equal(window_part(m.extra, f"spikes_{name}", i), d.extra[f"spikes_{name}"])
+        w = m.params["windows"][i] if i else {}
+        assert w.get("simulation", sim)["count_from_ms"] == pytest.approx(60 * i + 10)
+    assert sum(int(window_part(m.extra, "spikes_bo_L1_1", i).sum()) for i in range(3)) > 0
     assert sorted(os.listdir(out)) == ["maps.npz", "maps.png", "rate_histograms.png", "spike_raster.png"]
+    res = run_cli("run", path, "--out", tmp_path / "x", "--model", "spiking", "--duration-ms", "80",
+                  "--sensor-size", "64x64")
+    assert res.returncode == 2 and "--duration-ms" in res.stderr and not (tmp_path / "x").exists()
 
 
 def _disc_frame(tmp_path, radius=16):

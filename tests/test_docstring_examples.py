@@ -6,7 +6,8 @@ import importlib
 import pytest
 
 MODULES = ["snn_fg.backends", "snn_fg.events.io", "snn_fg.metrics", "snn_fg.network.builder", "snn_fg.rate.edfg",
-           "snn_fg.spiking.api"]
+           "snn_fg.spiking.api", "snn_fg.events.paper_motion", "snn_fg.groundtruth", "snn_fg.rate.corf",
+           "snn_fg.rate.fbfg"]
 
 
 @pytest.mark.parametrize("name", MODULES)

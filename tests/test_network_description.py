@@ -85,10 +85,11 @@ def test_level_one_simple_cells_are_gated_by_their_own_pixel(net):
 
 
 # Stage 7: gL1 = (BL1 - w BD2) (*) m2, gL2 = (BL2 - w BD1) (*) m1,
-#          gD1 = (BD1 - w BL2) (*) m2, gD2 = (BD2 - w BL1) (*) m1.
+#          gD1 = (BD1 - w BL2) (*) m2, gD2 = (BD2 - w BL1) (*) m1,
+# the rival counted through its excess over its partner, rect(BD2 - BL1) etc.
 STAGE7 = {
-    "group_L": {("bo_L1", 2, 1), ("bo_L2", 1, 1), ("bo_D2", 2, -1), ("bo_D1", 1, -1)},
-    "group_D": {("bo_D1", 2, 1), ("bo_D2", 1, 1), ("bo_L2", 2, -1), ("bo_L1", 1, -1)},
+    "group_L": {("bo_L1", 2, 1), ("bo_L2", 1, 1), ("excess_D2", 2, -1), ("excess_D1", 1, -1)},
+    "group_D": {("bo_D1", 2, 1), ("bo_D2", 1, 1), ("excess_L2", 2, -1), ("excess_L1", 1, -1)},
 }
 
 
@@ -99,12 +100,28 @@ def test_grouping_wiring_follows_stage_7(net, level):
         got = set()
         for p in net.incoming(net.one(g, level).name):
             src = net.population(p.source)
-            if src.role.startswith("bo_"):
+            if src.role.startswith(("bo_", "excess_")):
                 assert isinstance(p, Conv) and p.mode == "corr" and p.padding == "zero"
                 a = p.kernel.array(net.params)[0]                   # (n_ori, 49, 49)
                 half = 1 if np.allclose(a, m1) else 2 if np.allclose(a, m2) else None
                 got.add((src.role, half, p.sign))
         assert got == want, g
+
+
+def test_excess_cells_are_a_family_minus_its_partner(net):
+    """excess_f = rect(B_f - B_partner) at the same orientation and pixel:
+    excited by its family, inhibited by the partner sharing the simple cell,
+    the subtraction weighted like every other (tau_exc / tau_inh)."""
+    partner = {"L1": "D2", "D2": "L1", "L2": "D1", "D1": "L2"}
+    for f, p in partner.items():
+        x = net.one(f"excess_{f}", 2)
+        inc = {(net.population(pr.source).role, pr.sign): pr for pr in net.incoming(x.name)}
+        assert set(inc) == {(f"bo_{f}", 1), (f"bo_{p}", -1)}
+        for pr in inc.values():
+            np.testing.assert_array_equal(pr.kernel.array(net.params)[:, :, 0, 0], np.eye(net.params.n_ori))
+        exc, inh = inc[(f"bo_{f}", 1)], inc[(f"bo_{p}", -1)]
+        assert inh.gain_mv == pytest.approx(exc.gain_mv * x.neuron.tau_exc_ms / net.one("group_L", 2).neuron.tau_inh_ms
+                                            * net.one("group_L", 2).neuron.tau_exc_ms / x.neuron.tau_exc_ms)
 
 
 def test_simple_cells_feed_border_ownership_after_a_quarter_turn(small):

@@ -18,6 +18,7 @@ def test_quickstart_notebook_runs_and_shows_its_figures():
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs]
     assert not [o for o in outputs if o.output_type == "error"]
     images = [o for o in outputs if "image/png" in o.get("data", {})]
-    # rate maps, spiking maps, raster, recording windows (and dvs.es when ../shared is there)
-    assert len(images) >= 4
+    # rate maps, spiking maps, raster, labels vs models, recording windows, a window's raster
+    # (and dvs.es and a BSDS image when ../shared is there)
+    assert len(images) >= 6
     assert sorted(p.name for p in NOTEBOOK.parent.iterdir()) == before

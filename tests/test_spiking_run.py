@@ -159,3 +159,26 @@ def test_errors_name_what_is_wrong(frame):
         run_spiking(pos, neg, backend="nest2", progress=False)
     with pytest.raises(TypeError, match="durration_ms"):
         run_spiking(pos, neg, durration_ms=10)
+
+
+@pytest.mark.parametrize("light", [True, False], ids=["light", "dark"])
+def test_ownership_comes_from_the_feedback(light):
+    """The feedback ablation: with feedback the rim of a disc points inwards
+    (>= 95 % of the boundary pixels that have a vector); without it the two
+    sides of every border stay equal, as in the model with f = 1, and no
+    boundary pixel keeps an inward vector."""
+    from snn_fg.metrics import truth_scores
+
+    sc = disc(20, light_on_dark=light)
+    pos, neg = image_to_frame(sc.image)
+    kw = dict(params=ModelParams(levels=4), duration_ms=200, progress=False)
+    on = run_spiking(pos, neg, **kw)
+    off = run_spiking(pos, neg, feedback=False, **kw)
+    t_on, t_off = truth_scores(on.fg_x, on.fg_y, sc), truth_scores(off.fg_x, off.fg_y, sc)
+    assert t_on["coverage"] >= 0.5 and t_on["frac_within_45"] >= 0.95
+    inward_off = 0.0 if t_off["coverage"] == 0 else t_off["coverage"] * t_off["frac_within_45"]
+    assert inward_off <= 0.1
+    assert off.params["network"]["feedback"] is False and on.params["network"]["feedback"] is True
+    # the border-ownership cells still fire without feedback: the map is zero because both sides are equal
+    rec, _ = SpikingRecord.from_maps(off)
+    assert sum(int(rec.counts[n].sum()) for n in rec.names if n.startswith("bo_")) > 100

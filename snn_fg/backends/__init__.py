@@ -14,7 +14,7 @@ description from :mod:`snn_fg.export`.
 >>> get_backend("brian2").name
 'brian2'
 >>> DEFAULT_BACKEND
-'fast'
+'brian2'
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ BACKENDS = {
 }
 #: the backend runs use unless told otherwise: the fastest one verified against
 #: Brian2 (identical spike trains, tests/test_fast_engine.py)
-DEFAULT_BACKEND = "fast"
+DEFAULT_BACKEND = "brian2"
 
 
 def backend_names() -> list[str]:

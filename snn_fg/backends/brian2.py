@@ -26,11 +26,11 @@ from ..spiking.unroll import Unrolled, unroll
 from .base import (Backend, RunSettings, SimulationResult, lif_populations, receptor, receptor_weights, segments,
                    source_masks, source_offsets)
 
-#: CUBA LIF state, advanced once per step by :data:`_STEP` with per-cell decay
-#: factors ``d = exp(-dt / tau)`` computed once: each variable decays exactly
-#: over the step, ``v`` towards ``v_rest + I_exc - I_inh`` with the currents
-#: of the step's start (Brian2's exponential Euler would evaluate three
-#: exponentials per cell and step for the same update).
+#: CUBA LIF state, advanced once per step by :data:`_STEP` with the exact
+#: per-cell propagators of :meth:`~snn_fg.network.nodes.Neuron.propagators`,
+#: computed once (Brian2's exponential Euler would evaluate three
+#: exponentials per cell and step, and integrate the currents' charge only
+#: approximately).
 _EQS = """
 v : volt
 I_exc : volt
@@ -38,6 +38,8 @@ I_inh : volt
 d_m : 1 (constant)
 d_exc : 1 (constant)
 d_inh : 1 (constant)
+p_exc : 1 (constant)
+p_inh : 1 (constant)
 v_rest : volt (constant)
 v_reset : volt (constant)
 v_th : volt (constant)
@@ -47,7 +49,7 @@ n_all : integer
 """
 #: v is clamped while refractory; the currents keep decaying.
 _STEP = """
-v = v + int(not_refractory) * (1 - d_m) * (v_rest - v + I_exc - I_inh)
+v = v + int(not_refractory) * ((1 - d_m) * (v_rest - v) + p_exc * I_exc - p_inh * I_inh)
 I_exc = I_exc * d_exc
 I_inh = I_inh * d_inh
 """
@@ -155,8 +157,9 @@ class Brian2Backend(Backend):
                              name="lif", namespace={"t_count": settings.count_from_ms * ms})
         lif.run_regularly(_STEP, when="groups", name="lif_step")
         if n_lif:
-            for var, tau in (("d_m", "tau_m_ms"), ("d_exc", "tau_exc_ms"), ("d_inh", "tau_inh_ms")):
-                setattr(lif, var, np.exp(-settings.dt_ms / per_cell(tau)))
+            factors = [p.neuron.propagators(settings.dt_ms) for p in pops]
+            for var in ("d_m", "d_exc", "d_inh", "p_exc", "p_inh"):
+                setattr(lif, var, np.array([f[var] for f in factors], dtype=np.float64)[pop_of])
             lif.v_rest = per_cell("v_rest_mv") * mV
             lif.v_reset = per_cell("v_reset_mv") * mV
             lif.v_th = per_cell("v_th_mv") * mV

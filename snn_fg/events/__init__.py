@@ -11,8 +11,9 @@
   :mod:`~snn_fg.events.nmnist`, :mod:`~snn_fg.events.numpy_files`).
 * :func:`events_to_frame` (model stage 1) and :func:`iter_windows`.
 * :func:`image_to_events` / :func:`image_to_frame`: an ESIM-style simulator
-  for still images under the paper's ``shift4`` motion or the iCub's
-  ``circle`` microsaccade (:mod:`snn_fg.events.esim`).
+  for still images under the paper's described ``shift4`` motion, the iCub's
+  ``circle`` microsaccade, or ``paper``, the authors' own BSDS conversion
+  (:mod:`snn_fg.events.esim`, :mod:`snn_fg.events.paper_motion`).
 * :func:`save_events`: write ``.npy``/``.npz``/EVT2/EVT3/``.es`` atomically
   (:func:`snn_fg.events.writers.encode_es_atis` encodes ATIS streams).
 """

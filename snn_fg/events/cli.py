@@ -13,6 +13,7 @@ import numpy as np
 
 from snn_fg.atomic import save_npz
 from snn_fg.errors import InputError
+from snn_fg.events.esim import MOTIONS
 from snn_fg.images import IMAGE_SUFFIXES
 
 
@@ -44,8 +45,9 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
                    help="sensor size, needed for RAW files without geometry (e.g. 640x480)")
     g = p.add_argument_group("images (event-camera simulation)")
     g.add_argument("--threshold", type=float, default=0.10, metavar="C", help="contrast threshold (default 0.10)")
-    g.add_argument("--motion", choices=("shift4", "circle"), default="shift4",
-                   help="shift4: 1-px shift up, right, down, left; circle: iCub microsaccade")
+    g.add_argument("--motion", choices=MOTIONS, default="shift4",
+                   help="shift4: 1-px shift up, right, down, left; circle: iCub microsaccade; paper: the authors' "
+                        "BSDS conversion (2-px copies down and right, through JPEG)")
     g.add_argument("--amplitude-px", type=float, default=1.0, metavar="A", help="motion amplitude (default 1)")
     g.add_argument("--seed", type=int, default=0, help="seed for threshold noise (default 0)")
     g.add_argument("--threshold-sigma", type=float, default=0.0,
@@ -100,8 +102,8 @@ def run_events(args) -> int:
                               threshold_sigma=args.threshold_sigma)
         ev = rec.events
         n = len(ev)
-        lines = [("file", str(path)), ("format", f"image, simulated (ESIM, {args.motion}, "
-                                                 f"threshold {args.threshold:g}, amplitude {args.amplitude_px:g} px)"),
+        motion = args.motion if args.motion == "paper" else f"{args.motion}, amplitude {args.amplitude_px:g} px"
+        lines = [("file", str(path)), ("format", f"image, simulated (ESIM, {motion}, threshold {args.threshold:g})"),
                  ("sensor", f"{rec.sensor_size[0]} x {rec.sensor_size[1]}")]
         t_first, t_last = (int(ev["t"][0]), int(ev["t"][-1])) if n else (0, 0)
         lines += _span_lines(n, int((ev["p"] > 0).sum()), t_first, t_last)

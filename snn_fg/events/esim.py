@@ -25,7 +25,9 @@ Motions (see :func:`motion_frames`): ``shift4`` moves the image content by one
 pixel up, right, down and left, back to the start (5 frames); ``circle`` is the
 iCub's circular microsaccade, 72 positions on a circle of radius
 ``amplitude_px`` (default 1 px) around the original position, visited in
-order and returning to the first (73 frames).  Frames are
+order and returning to the first (73 frames); ``paper`` is the authors' own
+BSDS conversion (two copies moved 2 px down and 2 px right, each through a
+JPEG round trip; :mod:`snn_fg.events.paper_motion`), 2 frames.  Frames are
 ``frame_interval_us`` apart (default 5000 us for both).  Shifted frames
 replicate the edge pixels instead of wrapping around (so image borders
 do not produce spurious events); integer shifts are exact, sub-pixel
@@ -46,7 +48,7 @@ from snn_fg.images import to_grey
 LOG_EPS = 1e-3
 #: Smallest contrast threshold kept after adding threshold noise.
 MIN_THRESHOLD = 0.01
-MOTIONS = ("shift4", "circle")
+MOTIONS = ("shift4", "circle", "paper")
 #: Positions per turn of the ``circle`` motion (every 5 degrees).
 CIRCLE_STEPS = 72
 
@@ -69,6 +71,10 @@ def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
 def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndarray:
     """Image offsets ``(dx, dy)`` (pixels; +x right, +y down) of each frame."""
     validate.choice("motion_offsets", "motion", motion, MOTIONS)
+    if motion == "paper":
+        from snn_fg.events.paper_motion import PAPER_SHIFT_PX
+
+        return np.array([(0, PAPER_SHIFT_PX), (PAPER_SHIFT_PX, 0)], dtype=np.float64)
     a = validate.number("motion_offsets", "amplitude_px", amplitude_px, lo=0, lo_open=True)
     if motion == "shift4":
         if a != int(a):
@@ -83,13 +89,22 @@ def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndar
 
 def motion_frames(image, motion: str = "shift4", amplitude_px: float = 1.0,
                   frame_interval_us: int = 5000):
-    """Return ``(frames, times_us)``: grey frames (N x H x W float64) and their times."""
-    img = to_grey(image)
+    """Return ``(frames, times_us)``: grey frames (N x H x W float64) and their times.
+
+    ``paper`` ignores ``amplitude_px`` (its shift is the authors' 2 px) and
+    reads colour images in colour (the JPEG encoder makes the grey).
+    """
     interval = validate.number("motion_frames", "frame_interval_us", frame_interval_us, lo=1)
     if interval != int(interval):
         validate.fail("motion_frames", "frame_interval_us", frame_interval_us, "must be a whole number")
     offs = motion_offsets(motion, amplitude_px)
-    frames = np.stack([shift_image(img, dx, dy) for dx, dy in offs])
+    if motion == "paper":
+        from snn_fg.events.paper_motion import paper_frames
+
+        frames = paper_frames(image)
+    else:
+        img = to_grey(image)
+        frames = np.stack([shift_image(img, dx, dy) for dx, dy in offs])
     times = np.arange(len(offs), dtype=np.int64) * int(interval)
     return frames, times
 

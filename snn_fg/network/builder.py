@@ -47,17 +47,21 @@ FEEDBACK_INPUTS = {"1p": (("L", 1), ("D", 2)), "1n": (("D", 2), ("L", 1)),
 FEEDBACK_TO_FAMILY = {"L1": ("1p", "1n"), "D2": ("1n", "1p"), "L2": ("2p", "2n"), "D1": ("2n", "2p")}
 
 NOTES = (
-    "Deviation: the multiplicative feedback S*f(z) of stage 8 is additive here: z = VL1 - VD2 (and "
-    "VL2 - VD1) is carried by a rectified pair of feedback cells; the half against a border-ownership cell "
-    "inhibits it (and with feedback_to_bo > 0 the half for it excites it), and the two border-ownership cells "
-    "sharing a simple cell inhibit each other. A border-ownership cell without simple-cell input has no drive, "
-    "so feedback alone cannot make it fire.",
-    "Deviation: the rate model's first iteration runs without opposite-family inhibition; here that "
-    "inhibition arrives delay_opposite_ms later than the excitation.",
+    "Mechanism: the gain f(z) of stage 8 is realised with a gate. z = VL1 - VD2 (and VL2 - VD1) is carried by a "
+    "rectified pair of feedback cells; the half for a border-ownership cell excites it (the winning side is "
+    "enhanced), the half against it inhibits it (the losing side suppressed). The cell rests below its usual "
+    "resting potential by more than the feedback can give, and its simple cell gives that back, so for the "
+    "model's binary S the product S*f(z) holds: feedback alone cannot make a cell fire.",
+    "Mechanism: the rival family inhibits grouping cells through excess cells rect(B_rival - B_partner), which "
+    "are silent while a pair is still equal: grouping starts uninhibited, as the model's first iteration does "
+    "(there, by a test for equal maps), and is inhibited as in the model once feedback has chosen.",
     "Deviation: coarse-level simple, untuned and border-ownership cells exist only where the resized edge map "
     ">= support_min, and their activity does not scale with the edge value.",
     "Deviation: grouping and feedback cells sit on a stride-grouping_stride lattice; pooling across scales is "
     "top-down (z_l = G_l (*) m - G_l (*) m' + decay * resize(z_{l+1})) with pool_interpolation.",
+    "Deviation: the network runs in continuous time until its counting window ends; the rate model stops after "
+    "a fixed number of synchronous iterations, a point it has not converged at (see "
+    "experiments/results/rate_iterations.md).",
 )
 
 
@@ -89,6 +93,7 @@ class Gains:
     feedback_inh_bo: float
     bo_to_group: float
     group_to_feedback: float
+    bo_to_excess: float
     simple_inh_simple: float
     bo_inh_bo: float
     group_inh_group: float
@@ -117,6 +122,7 @@ class Gains:
             feedback_inh_bo=per_spike(sp.feedback_inh_bo, CELL_RATE_HZ, bo, "inh"),
             bo_to_group=per_spike(sp.bo_to_group, CELL_RATE_HZ, g),
             group_to_feedback=per_spike(sp.group_to_feedback, CELL_RATE_HZ, fb),
+            bo_to_excess=per_spike(sp.bo_to_excess, CELL_RATE_HZ, sp.excess),
             simple_inh_simple=per_spike(sp.simple_inh_simple, CELL_RATE_HZ, s, "inh"),
             bo_inh_bo=per_spike(sp.bo_inh_bo, CELL_RATE_HZ, bo, "inh"),
             group_inh_group=per_spike(sp.group_inh_group, CELL_RATE_HZ, g, "inh"),
@@ -239,36 +245,80 @@ class _Builder:
                   gain=self.gains.simple_inh_untuned)
         return u
 
+    def bo_gate_mv(self) -> float:
+        """Depth (mV) of a border-ownership cell's gate: the largest mean
+        current the feedback half for it can deliver (every feedback cell at
+        its refractory ceiling, interpolation weights summing to at most 1)
+        plus ``bo_gate_margin`` thresholds. The cell rests that far below its
+        usual resting potential and its simple-cell input gives it back, so
+        feedback modulates a border-ownership cell only where its simple cell
+        is active: ``B = S * f(z)`` with ``S`` binary (stage 8)."""
+        if self.gains.feedback_to_bo <= 0:
+            return 0.0
+        bo, fb = self.sp.bo, self.sp.feedback
+        strongest = self.gains.feedback_to_bo * fb.max_rate_hz * bo.tau_exc_ms / 1000.0
+        return strongest + self.sp.bo_gate_margin * bo.v_th_mv
+
     def border_ownership(self, level, s, u):
         """Stage 5: family ``f`` reads simple-cell index ``o`` (L1, D2) or
         ``o + n`` (L2, D1), the index being the direction turned a quarter
-        (``k -> (k + n/2) mod 2n``); untuned pixels take index ``n/2``."""
+        (``k -> (k + n/2) mod 2n``); untuned pixels take index ``n/2``. The
+        feedforward weights carry the gate (:meth:`bo_gate_mv`) back at the
+        simple and untuned cells' reference rates."""
         n, n_dir = self.params.n_ori, self.params.n_dir
-        b = {f: self.pop(f"bo_{f}", level, channels=n, neuron=self.neurons["bo"], sites="reachable",
+        gate = self.bo_gate_mv()
+        neuron = self.neurons["bo"]
+        if gate:
+            neuron = dataclasses.replace(neuron, v_rest_mv=neuron.v_rest_mv - gate)
+        tau_s = neuron.tau_exc_ms / 1000.0
+        b = {f: self.pop(f"bo_{f}", level, channels=n, neuron=neuron, sites="reachable",
                          site_sources=(s, u)) for f in FAMILIES}
         same = [(o, o) for o in range(n)]
         for f in FAMILIES:
             half = FAMILY_HALF[f] * n
             self.conv(s, b[f], _channel_map(n, n_dir, [(o, (o + half - n // 2) % n_dir) for o in range(n)]),
-                      gain=self.gains.simple_to_bo)
+                      gain=self.gains.simple_to_bo + gate / (SIMPLE_RATE_HZ * tau_s))
             if half == 0:
-                self.conv(u, b[f], _channel_map(n, 1, [(n // 2, 0)]), gain=self.gains.untuned_to_bo)
-            self.conv(b[PARTNER[f]], b[f], _channel_map(n, n, same), sign=-1, gain=self.gains.bo_inh_bo)
+                self.conv(u, b[f], _channel_map(n, 1, [(n // 2, 0)]),
+                          gain=self.gains.untuned_to_bo + gate / (UNTUNED_RATE_HZ * tau_s))
+            if self.gains.bo_inh_bo > 0:
+                self.conv(b[PARTNER[f]], b[f], _channel_map(n, n, same), sign=-1, gain=self.gains.bo_inh_bo)
         return b
 
+    def excess_cells(self, level, b):
+        """The excess of each border-ownership family over its partner at the
+        same simple cell, ``rect(B_f - B_partner)``: zero while the pair is
+        still symmetric, the winner's activity once feedback has chosen."""
+        n = self.params.n_ori
+        same = _channel_map(n, n, [(o, o) for o in range(n)])
+        x = {f: self.pop(f"excess_{f}", level, channels=n, neuron=self.neurons["excess"], sites="reachable",
+                         site_sources=(b[f],)) for f in FAMILIES}
+        for f in FAMILIES:
+            self.conv(b[f], x[f], same, gain=self.gains.bo_to_excess)
+            self.conv(b[PARTNER[f]], x[f], same, sign=-1, gain=self.gains.bo_to_excess * self.gains.balance)
+        return x
+
     def grouping_cells(self, level, b):
-        """Stage 7: von Mises correlation of the border-ownership cells, the
-        opposite family inhibitory and delayed; light and dark compete."""
+        """Stage 7: von Mises correlation of the border-ownership cells; light
+        and dark compete.
+
+        ``(B_own - w B_rival) (*) m`` of the model, with the rival family
+        counted through its excess cells (``rival_inhibition="excess"``, the
+        default): a rival inhibits only where it beats its own partner, so
+        grouping runs uninhibited while every pair is still symmetric, as the
+        model's first iteration does, and with the model's inhibition once
+        feedback has chosen. ``"direct"``: the rival cells inhibit as they are."""
         st = self.sp.grouping_stride
         g = {pol: self.pop(f"group_{pol}", level, stride=st, neuron=self.neurons["group"], sites="reachable",
                            site_sources=tuple(b.values())) for pol in ("L", "D")}
         w = self.params.w_inh
+        rivals = self.excess_cells(level, b) if w > 0 and self.sp.rival_inhibition == "excess" else b
         for fam, pol, half, sign in GROUPING_INPUTS:
             if sign < 0 and w == 0:
                 continue
             gain = self.gains.bo_to_group * (1.0 if sign > 0 else w * self.gains.balance)
-            self.conv(b[fam], g[pol], _von_mises(half, "gather"), sign=sign, gain=gain,
-                      delay=self.sp.delay_ms if sign > 0 else self.sp.delay_opposite_ms, prune=self.sp.prune_vm)
+            self.conv((b if sign > 0 else rivals)[fam], g[pol], _von_mises(half, "gather"), sign=sign, gain=gain,
+                      prune=self.sp.prune_vm)
         for a, c in (("L", "D"), ("D", "L")):
             self.conv(g[a], g[c], _channel_map(1, 1, [(0, 0)]), sign=-1, gain=self.gains.group_inh_group)
         return g

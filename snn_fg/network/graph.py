@@ -155,6 +155,14 @@ class Network:
                      for pr in self.projections)
         return dataclasses.replace(self, projections=prjs, input_rate_hz=rate)
 
+    def without_feedback(self) -> "Network":
+        """The same network without the feedback onto border-ownership cells
+        (the ablation of stage 8: both sides of every border stay equal)."""
+        def feedback(pr):
+            return self.population(pr.source).role.startswith("feedback") and \
+                self.population(pr.target).role.startswith("bo_")
+        return dataclasses.replace(self, projections=tuple(pr for pr in self.projections if not feedback(pr)))
+
     def resized(self, frame_shape) -> "Network":
         """The same network for frames of another shape (kernels are weight
         shared, so only the populations' level shapes change)."""

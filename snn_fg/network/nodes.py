@@ -50,6 +50,7 @@ ROLES = (
     "simple",                           # oriented simple cells, 2 * n_ori directions (stages 3-4)
     "untuned",                          # event pixels without an oriented response (stage 4)
     "bo_L1", "bo_L2", "bo_D1", "bo_D2",  # border-ownership cells, n_ori orientations (stage 5)
+    "excess_L1", "excess_L2", "excess_D1", "excess_D2",  # a family's excess over its rival (stage 7)
     "group_L", "group_D",               # grouping cells (stage 7)
     "feedback_1p", "feedback_1n",       # feedback cells: the signal z1 = VL1 - VD2 as a rectified pair
     "feedback_2p", "feedback_2n",       # and z2 = VL2 - VD1 (stage 8)
@@ -140,6 +141,30 @@ class Neuron(Node):
             object.__setattr__(self, name, _finite(owner, name, getattr(self, name)))
         if self.v_th_mv <= self.v_rest_mv or self.v_th_mv <= self.v_reset_mv:
             check.fail(owner, "v_th_mv", self.v_th_mv, "must lie above v_rest_mv and v_reset_mv")
+
+    def propagators(self, dt_ms: float) -> dict:
+        """The exact update of the CUBA LIF equations over one step ``dt_ms``
+        without spikes (as NEST's ``iaf_psc_exp`` integrates them)::
+
+            v'     = v_rest + d_m (v - v_rest) + p_exc I_exc - p_inh I_inh
+            I_exc' = d_exc I_exc,   I_inh' = d_inh I_inh
+
+        with ``d = exp(-dt / tau)`` and ``p_s = tau_s / (tau_s - tau_m) *
+        (d_s - d_m)`` (``dt / tau_m * d_m`` when ``tau_s == tau_m``). Every
+        synaptic current then delivers exactly its continuous-time charge,
+        whatever ``dt``: a forward step that moves ``v`` by
+        ``(1 - d_m) * I`` over-counts it by about ``dt / (2 tau_s)``."""
+        dt = check.number("Neuron.propagators", "dt_ms", dt_ms, lo=0, lo_open=True)
+        d_m = math.exp(-dt / self.tau_m_ms)
+        out = {"d_m": d_m}
+        for syn, tau in (("exc", self.tau_exc_ms), ("inh", self.tau_inh_ms)):
+            d_s = math.exp(-dt / tau)
+            out[f"d_{syn}"] = d_s
+            if math.isclose(tau, self.tau_m_ms, rel_tol=1e-9):
+                out[f"p_{syn}"] = dt / self.tau_m_ms * d_m
+            else:
+                out[f"p_{syn}"] = tau / (tau - self.tau_m_ms) * (d_s - d_m)
+        return out
 
     @property
     def max_rate_hz(self) -> float:

@@ -23,10 +23,12 @@ UNTUNED_RATE_HZ = 150.0   # untuned cells fire faster than simple cells
 CELL_RATE_HZ = 100.0      # border-ownership, grouping and feedback cells
 
 INTERPOLATIONS = ("cubic", "linear")
+#: how the rival border-ownership family inhibits grouping cells (see the builder)
+RIVAL_INHIBITION = ("excess", "direct")
 
 
 #: the kinds of cell the network has, each with its own neuron constants
-CELL_KINDS = ("simple", "untuned", "relay", "bo", "group", "feedback")
+CELL_KINDS = ("simple", "untuned", "relay", "bo", "excess", "group", "feedback")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -61,24 +63,34 @@ class SpikingParams(Node):
     Delays (ms)
         ``delay_ms`` for every projection but: ``delay_untuned_ms``
         (excitation of the untuned cells, so that oriented simple cells fire
-        first and silence them), ``delay_opposite_ms`` (opposite-family
-        inhibition of grouping cells: the rate model's first iteration has
-        none) and ``delay_feedback_ms`` (feedback onto border-ownership cells).
+        first and silence them) and ``delay_feedback_ms`` (feedback onto
+        border-ownership cells). All are at most 20 ms, physiological and
+        representable on the neuromorphic targets at dt = 0.5 ms.
+    Feedback and rival inhibition
+        ``bo_gate_margin``: a border-ownership cell rests below its usual
+        resting potential by the largest mean current the feedback half for it
+        can deliver plus this many thresholds, and its simple-cell input gives
+        that back (so feedback modulates only where the simple cell is
+        active); ``rival_inhibition``: ``excess`` (the rival family inhibits
+        grouping cells through excess cells, ``rect(B_rival - B_partner)``) or
+        ``direct`` (through its own cells: the ablation).
     Neurons
         One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
         (:data:`CELL_KINDS`): ``simple``, ``untuned``, ``relay``, ``bo``
-        (border ownership), ``group``, ``feedback``.
+        (border ownership), ``excess``, ``group``, ``feedback``.
     Gains (dimensionless, see the module docstring; reference rate in brackets)
         ``simple_inh_simple``: lateral inhibition between the directions at a
         pixel [100 Hz]; ``input_to_untuned``: an untuned cell's excitation at
         its reference edge value (1 at level 1, ``support_min`` above);
-        ``simple_inh_untuned`` [50 Hz]; ``simple_to_bo`` [50 Hz];
-        ``untuned_to_bo`` [150 Hz]; ``bo_inh_bo``: between the two
-        border-ownership cells sharing a simple cell [100 Hz];
-        ``feedback_to_bo`` and ``feedback_inh_bo``: the feedback half for and
-        against a border-ownership cell [100 Hz]; ``bo_to_group`` per unit
-        kernel weight [100 Hz]; ``group_inh_group``: light and dark grouping
-        cells [100 Hz]; ``group_to_feedback`` per unit kernel weight [100 Hz].
+        ``simple_inh_untuned`` [50 Hz]; ``simple_to_bo`` [50 Hz] (on top of
+        the gate it gives back); ``untuned_to_bo`` [150 Hz]; ``bo_inh_bo``:
+        between the two border-ownership cells sharing a simple cell (0: none,
+        so that only feedback tells them apart) [100 Hz]; ``feedback_to_bo``
+        and ``feedback_inh_bo``: the feedback half for (exciting) and against
+        (inhibiting) a border-ownership cell [100 Hz]; ``bo_to_excess``
+        [100 Hz]; ``bo_to_group`` per unit kernel weight [100 Hz];
+        ``group_inh_group``: light and dark grouping cells [100 Hz];
+        ``group_to_feedback`` per unit kernel weight [100 Hz].
     """
 
     _nested: ClassVar[dict] = {kind: Neuron for kind in CELL_KINDS}
@@ -97,25 +109,28 @@ class SpikingParams(Node):
     prune_resize: float = 0.0
     delay_ms: float = 1.0
     delay_untuned_ms: float = 8.0
-    delay_opposite_ms: float = 70.0
-    delay_feedback_ms: float = 25.0
+    delay_feedback_ms: float = 1.0
+    rival_inhibition: str = "excess"
+    bo_gate_margin: float = 0.5
     simple: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=4.0)
     untuned: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=4.0, tau_inh_ms=50.0)
     relay: Neuron = Neuron(tau_m_ms=200.0, t_ref_ms=1.0)
     bo: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
-    group: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=1.0)
-    feedback: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=1.0)
+    excess: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
+    group: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=2.0)
+    feedback: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=4.0)
     simple_inh_simple: float = 3.0
     input_to_untuned: float = 1.5
     simple_inh_untuned: float = 20.0
-    simple_to_bo: float = 6.0
+    simple_to_bo: float = 1.5
     untuned_to_bo: float = 6.0
-    bo_inh_bo: float = 1.0
-    feedback_to_bo: float = 0.0
-    feedback_inh_bo: float = 100.0
-    bo_to_group: float = 2.0
+    bo_inh_bo: float = 0.0
+    feedback_to_bo: float = 1.0
+    feedback_inh_bo: float = 20.0
+    bo_to_group: float = 0.5
     group_inh_group: float = 0.5
-    group_to_feedback: float = 0.1
+    group_to_feedback: float = 0.4
+    bo_to_excess: float = 2.0
 
     def __post_init__(self):
         owner = "SpikingParams"
@@ -126,6 +141,8 @@ class SpikingParams(Node):
                     check.fail(owner, f.name, v, "must be a Neuron")
             elif f.name in ("grouping_stride", "gate_copies"):
                 check.integer(owner, f.name, v, lo=1)
+            elif f.name == "rival_inhibition":
+                check.choice(owner, f.name, v, RIVAL_INHIBITION)
             elif f.name.endswith("_interpolation"):
                 check.choice(owner, f.name, v, INTERPOLATIONS)
             elif f.name.startswith("prune_"):

@@ -3,79 +3,40 @@
 This is "the reference" of ``docs/model.md``: every spiking result is compared
 with it. It is written for speed without changing the maths:
 
-* every 2-D convolution/correlation is a product in the Fourier domain
-  (``scipy.fft``, float64), with the circular or zero padding the reference
-  uses, so the result equals a direct convolution to rounding error;
-* the grouping stage uses the linearity of correlation: the feedback terms
-  ``VL1 - VD2`` and ``VL2 - VD1`` are computed directly as one correlation of
-  ``GL`` minus one of ``GD``, never as four separate maps;
-* the cross-scale pooling resizes all orientations of a level in one OpenCV
-  call (channels last).
+* the oriented responses (stage 3) are needed only where events are; they
+  are summed there directly over the non-zero input pixels, or, when a level
+  has many active pixels, as products in the Fourier domain (``scipy.fft``,
+  float64) on a fast grid whose periodic padding makes the wrap-around border;
+* stages 5-8 are event-driven (:mod:`snn_fg.rate.grouping`): their cost
+  follows the pixels that carry events and the changes between iterations,
+  not the frame size.
 """
 from __future__ import annotations
 
 import functools
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.fft as sfft
 
-from ..frames.pyramid import check_levels, pyramid, resize
+from ..frames.pyramid import check_levels, level_shape, pyramid, resize
 from ..maps import Maps
-from ..network.kernels import dog_kernels, von_mises_masks
+from ..network.kernels import dog_kernels
 from ..params import ModelParams
+from ._sparse_kernels import dog_at
+from .fourier import irfft, padded_shape, place, rfft
+from .grouping import Entries, GroupingResult, SparseGrouping
 
-_WORKERS = 1
-_THREADS = 2
-
-
-# --------------------------------------------------------------------------
-# Fourier-domain helpers
-# --------------------------------------------------------------------------
-def _place(kernel: np.ndarray, shape: tuple[int, int], flip: bool) -> np.ndarray:
-    """Lay a centred odd kernel on a periodic grid of ``shape`` (folding if larger).
-
-    ``flip=False`` gives the layout for a convolution, ``flip=True`` for a
-    correlation (offset ``d`` placed at ``-d``).
-    """
-    n_r, n_c = kernel.shape[-2:]
-    c_r, c_c = n_r // 2, n_c // 2
-    dr = np.arange(n_r) - c_r
-    dc = np.arange(n_c) - c_c
-    if flip:
-        dr, dc = -dr, -dc
-    rows = dr % shape[0]
-    cols = dc % shape[1]
-    out = np.zeros(kernel.shape[:-2] + tuple(shape))
-    # np.add.at folds offsets that land on the same cell (kernel wider than grid).
-    idx_r, idx_c = np.meshgrid(rows, cols, indexing="ij")
-    flat = out.reshape(kernel.shape[:-2] + (-1,))
-    lin = (idx_r * shape[1] + idx_c).ravel()
-    k = kernel.reshape(kernel.shape[:-2] + (-1,))
-    if kernel.ndim == 2:
-        np.add.at(flat, lin, k)
-    else:
-        for i in range(kernel.shape[0]):
-            np.add.at(flat[i], lin, k[i])
-    return out
-
-
-def _rfft(x, shape):
-    return sfft.rfft2(x, s=shape, axes=(-2, -1), workers=_WORKERS)
-
-
-def _irfft(x, shape, crop):
-    return sfft.irfft2(x, s=shape, axes=(-2, -1), workers=_WORKERS)[..., : crop[0], : crop[1]]
+__all__ = ["GroupingResult", "RateState", "border_ownership_grouping", "event_simple_cells",
+           "orientation_index", "oriented_responses", "readout", "run_edfg", "run_edfg_state"]
 
 
 # --------------------------------------------------------------------------
 # Stages 3-4: oriented responses and the orientation matrix
 # --------------------------------------------------------------------------
 @functools.lru_cache(maxsize=64)
-def _dog_hat(s1, s2, half_width, step, n_ori, shape):
+def _dog_hat(s1, s2, half_width, step, n_ori, fshape):
     p = ModelParams(dog_s1=s1, dog_s2=s2, dog_half_width=half_width, dog_step=step, n_ori=n_ori)
-    return _rfft(_place(dog_kernels(p), shape, flip=False), shape)
+    return rfft(place(dog_kernels(p), fshape, flip=False), fshape)
 
 
 def oriented_responses(pos: np.ndarray, neg: np.ndarray, params: ModelParams = ModelParams()) -> np.ndarray:
@@ -86,13 +47,19 @@ def oriented_responses(pos: np.ndarray, neg: np.ndarray, params: ModelParams = M
     ``sum_threshold``) are zeroed.
     """
     shape = pos.shape
+    half = dog_kernels(params).shape[-1] // 2
+    # A linear convolution of the periodically padded input equals the
+    # circular one on the frame, and runs on a fast FFT grid.
+    fshape = padded_shape(shape, 2 * half)
     k_hat = _dog_hat(params.dog_s1, params.dog_s2, params.dog_half_width, params.dog_step,
-                     params.n_ori, shape)
+                     params.n_ori, fshape)
     n = params.n_ori
-    src = _rfft(np.stack([pos, neg]).astype(np.float64), shape)
+    src = np.pad(np.stack([pos, neg]).astype(np.float64), ((0, 0), (half, half), (half, half)), mode="wrap")
+    src = rfft(src, fshape)
+    crop = (Ellipsis, slice(half, half + shape[0]), slice(half, half + shape[1]))
     resp = np.empty((2 * n,) + shape)
-    resp[:n] = _irfft(src[0] * k_hat[:n], shape, shape)
-    resp[n:] = _irfft(src[1] * k_hat[n:], shape, shape)
+    resp[:n] = irfft(src[0] * k_hat[:n], fshape)[crop]
+    resp[n:] = irfft(src[1] * k_hat[n:], fshape)[crop]
     resp[resp < params.edge_threshold] = 0.0
     resp[resp < params.sum_threshold] = 0.0
     return resp
@@ -103,7 +70,8 @@ def orientation_index(resp: np.ndarray, params: ModelParams = ModelParams()) -> 
 
     Returns ``(winner, index)``: ``winner`` is the arg-max direction of
     ``|resp|`` (first wins ties, so all-zero pixels get 0), ``index`` is the
-    normal's index ``(winner + n_dir/4) mod n_dir``.
+    normal's index ``(winner + n_dir/4) mod n_dir``. ``resp`` is
+    ``(n_dir, ...)``: a map or the responses of a list of pixels.
     """
     winner = np.argmax(np.abs(resp), axis=0)
     n_dir = params.n_dir
@@ -112,39 +80,68 @@ def orientation_index(resp: np.ndarray, params: ModelParams = ModelParams()) -> 
     return winner, index
 
 
-# --------------------------------------------------------------------------
-# Stages 5-9
-# --------------------------------------------------------------------------
-@dataclass
-class _Level:
-    shape: tuple[int, int]
-    fshape: tuple[int, int]      # padded Fourier grid for zero-padded correlation
-    s_lo: np.ndarray             # S[o], o < n_ori          (n_ori, h, w)
-    s_hi: np.ndarray             # S[o + n_ori]             (n_ori, h, w)
-    k1: np.ndarray               # rfft of m1 (correlation layout)
-    k2: np.ndarray               # rfft of m2
+# Cost model of the responses at a level, in units of one kernel tap tested
+# at one pixel of the sparse loop: a non-zero input adds ~3 units (its
+# multiply-adds), a dense Fourier pass ~2.6 units per grid cell and transform
+# (both measured here on the shared frames).
+_TAP_COST_PER_NONZERO = 3.0
+_FFT_COST_PER_CELL = 2.6
 
 
-@functools.lru_cache(maxsize=64)
-def _vm_hat(r0: float, n_ori: int, fshape: tuple[int, int]):
-    m1, m2 = von_mises_masks(ModelParams(r0=r0, n_ori=n_ori))
-    k1 = _rfft(_place(m1, fshape, flip=True), fshape)
-    k2 = _rfft(_place(m2, fshape, flip=True), fshape)
-    return k1, k2
+@functools.lru_cache(maxsize=8)
+def _dog_table(s1, s2, half_width, step, n_ori):
+    p = ModelParams(dog_s1=s1, dog_s2=s2, dog_half_width=half_width, dog_step=step, n_ori=n_ori)
+    return np.ascontiguousarray(np.moveaxis(dog_kernels(p), 0, -1))
 
 
-def _fshape(shape, kernel_size):
-    c = kernel_size // 2
-    return tuple(sfft.next_fast_len(max(n + c, kernel_size), real=True) for n in shape)
+def responses_at(pos, neg, rows, cols, params: ModelParams = ModelParams()) -> np.ndarray:
+    """:func:`oriented_responses` at the listed pixels only, ``(2*n_ori, pixels)``.
+
+    Costs a look-up per kernel tap and pixel (a multiply-add per direction
+    where the input is non-zero) instead of a pass over the whole frame.
+    """
+    table = _dog_table(params.dog_s1, params.dog_s2, params.dog_half_width, params.dog_step, params.n_ori)
+    out = np.zeros((rows.size, params.n_dir))
+    dog_at(out, rows, cols, np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(neg, dtype=np.float64),
+           table)
+    out[out < params.edge_threshold] = 0.0
+    out[out < params.sum_threshold] = 0.0
+    return out.T
 
 
-def _feedback_gain(z, alpha):
-    with np.errstate(over="ignore"):   # exp overflow -> sigmoid 0, as intended
-        return 1.0 + alpha * (1.0 / (1.0 + np.exp(-z)) - 0.5)
+def _level_responses(pos, neg, rows, cols, params):
+    """Thresholded responses at ``(rows, cols)``: gathered there, or from a
+    dense pass when that is cheaper (many active pixels)."""
+    size = dog_kernels(params).shape[-1]
+    fs = padded_shape(pos.shape, size - 1)
+    density = (np.count_nonzero(pos) + np.count_nonzero(neg)) / pos.size
+    sparse = rows.size * size * size * (1 + _TAP_COST_PER_NONZERO * density)
+    if sparse < _FFT_COST_PER_CELL * (2 + params.n_dir) * fs[0] * fs[1]:
+        return responses_at(pos, neg, rows, cols, params)
+    return oriented_responses(pos, neg, params)[:, rows, cols]
 
 
-def _allclose(a, b):
-    return np.allclose(a, b, rtol=1e-5, atol=1e-8)
+def event_entries(pos, neg, params: ModelParams = ModelParams()):
+    """Stages 1-4 as entries: the active pixels of the S maps per level.
+
+    Returns ``(entries, shapes)``: ``entries[l]`` lists the pixels where the
+    level's edge map is non-zero, each with its orientation index as channel
+    and the edge value as ``s`` (``S[o] = edges * (index == o)``).
+    """
+    pos = np.asarray(pos, dtype=np.float64)
+    neg = np.asarray(neg, dtype=np.float64)
+    edges = ((pos != 0) | (neg != 0)).astype(np.float64)
+    pyr_pos = pyramid(pos, params.levels)
+    pyr_neg = pyramid(neg, params.levels)
+    pyr_edges = pyramid(edges, params.levels)
+    entries = []
+    for l in range(params.levels):
+        rows, cols = np.nonzero(pyr_edges[l])
+        rows, cols = rows.astype(np.int64), cols.astype(np.int64)
+        _, index = orientation_index(_level_responses(pyr_pos[l], pyr_neg[l], rows, cols, params), params)
+        entries.append(Entries(rows, cols, index.astype(np.int64), pyr_edges[l][rows, cols]))
+    shapes = [level_shape(pos.shape, l) for l in range(1, params.levels + 1)]
+    return entries, shapes
 
 
 def event_simple_cells(pos, neg, params: ModelParams = ModelParams()):
@@ -154,118 +151,22 @@ def event_simple_cells(pos, neg, params: ModelParams = ModelParams()):
     with ``S[o] = edges * (index == o)``; ``resp1``/``winner1`` are the level-1
     responses and winning directions.
     """
-    pos = np.asarray(pos, dtype=np.float64)
-    neg = np.asarray(neg, dtype=np.float64)
-    edges = ((pos != 0) | (neg != 0)).astype(np.float64)
-    pyr_pos = pyramid(pos, params.levels)
-    pyr_neg = pyramid(neg, params.levels)
-    pyr_edges = pyramid(edges, params.levels)
+    entries, shapes = event_entries(pos, neg, params)
+    resp1 = oriented_responses(np.asarray(pos, dtype=np.float64), np.asarray(neg, dtype=np.float64), params)
+    winner1 = orientation_index(resp1, params)[0]
     s_levels = []
-    resp1 = winner1 = None
-    for l in range(params.levels):
-        resp = oriented_responses(pyr_pos[l], pyr_neg[l], params)
-        winner, index = orientation_index(resp, params)
-        if l == 0:
-            resp1, winner1 = resp, winner
-        s_levels.append(pyr_edges[l][None] * (index[None] == np.arange(params.n_dir)[:, None, None]))
+    for e, shape in zip(entries, shapes):
+        s = np.zeros((params.n_dir,) + tuple(shape))
+        s[e.ch, e.rows, e.cols] = e.s
+        s_levels.append(s)
     return s_levels, resp1, winner1
 
 
-@dataclass
-class GroupingResult:
-    """Border-ownership and grouping maps per level after the iterations."""
-
-    s: list     # (2n, h, w) per level
-    bl1: list   # (n, h, w) per level; likewise bl2, bd1, bd2
-    bl2: list
-    bd1: list
-    bd2: list
-    gl: list    # (h, w) per level; likewise gd
-    gd: list
-
-
 def border_ownership_grouping(s_levels, params: ModelParams = ModelParams(), progress=None) -> GroupingResult:
-    """Stages 5-8: iterate grouping cells and feedback on the S pyramid."""
-    n = params.n_ori
-    m_size = von_mises_masks(params)[0].shape[-1]
-    lv: list[_Level] = []
-    for s in s_levels:
-        shape = s.shape[1:]
-        fshape = _fshape(shape, m_size)
-        k1, k2 = _vm_hat(float(params.r0), n, fshape)
-        lv.append(_Level(shape, fshape, s[:n], s[n:], k1, k2))
-
-    # Border-ownership state: BL1 = s_lo*f(d1), BD2 = s_lo*f(-d1),
-    #                         BL2 = s_hi*f(d2), BD1 = s_hi*f(-d2).
-    bl1 = [L.s_lo.copy() for L in lv]
-    bd2 = [L.s_lo.copy() for L in lv]
-    bl2 = [L.s_hi.copy() for L in lv]
-    bd1 = [L.s_hi.copy() for L in lv]
-    gl = [np.zeros(L.shape) for L in lv]
-    gd = [np.zeros(L.shape) for L in lv]
-    x_levels = [None] * len(lv)
-    w = params.w_inh
-
-    def grouping_cells(i):
-        """Stage 7 at level i: GL, GD from the border-ownership maps."""
-        L = lv[i]
-        inhibit = np.array([not _allclose(bl1[i][o], bd2[i][o]) for o in range(n)])
-        iw = np.where(inhibit, w, 0.0)[:, None, None]
-        # Inputs of the four correlations (opposite family subtracted where
-        # inhibiting): gL1 = in_l1 (*) m2, gL2 = in_l2 (*) m1, gD1 = in_d1 (*) m2,
-        # gD2 = in_d2 (*) m1. Two common cases need half the transforms: full
-        # inhibition with w = 1 (in_d2 = -in_l1, in_d1 = -in_l2) and no
-        # inhibition with equal families (the first iteration: in_d2 = in_l1).
-        in_l1 = bl1[i] - iw * bd2[i]
-        in_l2 = bl2[i] - iw * bd1[i]
-        if w == 1.0 and inhibit.all():
-            half = _rfft(np.concatenate([in_l1, in_l2]), L.fshape)
-            f = np.concatenate([half, -half[n:], -half[:n]])
-        elif not inhibit.any() and np.array_equal(bl1[i], bd2[i]) and np.array_equal(bl2[i], bd1[i]):
-            half = _rfft(np.concatenate([in_l1, in_l2]), L.fshape)
-            f = np.concatenate([half, half[n:], half[:n]])
-        else:
-            f = _rfft(np.concatenate([in_l1, in_l2, bd1[i] - iw * bl2[i], bd2[i] - iw * bl1[i]]),
-                      L.fshape)
-        gl_hat = np.sum(f[:n] * L.k2, axis=0) + np.sum(f[n:2 * n] * L.k1, axis=0)
-        gd_hat = np.sum(f[2 * n:3 * n] * L.k2, axis=0) + np.sum(f[3 * n:] * L.k1, axis=0)
-        g = np.maximum(_irfft(np.stack([gl_hat, gd_hat]), L.fshape, L.shape), 0.0)
-        gl[i] = np.where(g[0] > g[1], g[0], 0.0)
-        gd[i] = np.where(g[1] > g[0], g[1], 0.0)
-        # The level's share of stage 8: VL1 - VD2 and VL2 - VD1 before pooling.
-        fg_ = _rfft(np.stack([gl[i], gd[i]]), L.fshape)
-        d1 = fg_[0] * L.k1 - fg_[1] * L.k2      # GL (*) m1 - GD (*) m2
-        d2 = fg_[0] * L.k2 - fg_[1] * L.k1      # GL (*) m2 - GD (*) m1
-        x = _irfft(np.concatenate([d1, d2]), L.fshape, L.shape)
-        x_levels[i] = np.ascontiguousarray(np.moveaxis(x, 0, -1))  # h, w, 2n
-
-    def feedback(i):
-        """Stage 8 at level i: pool the levels k >= i and update the B maps."""
-        L = lv[i]
-        acc = np.zeros(L.shape + (2 * n,))
-        for k in range(i, len(lv)):
-            acc += params.pyramid_decay ** (k - i) * resize(x_levels[k], L.shape, "cubic")
-        acc = np.moveaxis(acc, -1, 0)
-        f1 = _feedback_gain(acc[:n], params.alpha)
-        f2 = _feedback_gain(acc[n:], params.alpha)
-        # f(-z) = 2 - f(z). Clip the product, not the gain: S itself can be
-        # negative at coarse levels (bicubic undershoot of the edge map).
-        bl1[i] = np.maximum(L.s_lo * f1, 0.0)
-        bd2[i] = np.maximum(L.s_lo * (2.0 - f1), 0.0)
-        bl2[i] = np.maximum(L.s_hi * f2, 0.0)
-        bd1[i] = np.maximum(L.s_hi * (2.0 - f2), 0.0)
-
-    steps = range(params.iterations)
-    if progress is not None:
-        steps = progress(steps)
-    # numpy and pocketfft release the GIL: two threads, level 1 (about half
-    # the work) on one, the coarser levels on the other.
-    with ThreadPoolExecutor(max_workers=_THREADS) as pool:
-        for _ in steps:
-            list(pool.map(grouping_cells, range(len(lv))))
-            list(pool.map(feedback, range(len(lv))))
-
-    return GroupingResult(list(s_levels), bl1, bl2, bd1, bd2, gl, gd)
+    """Stages 5-8: iterate grouping cells and feedback on the S pyramid (dense in, dense out)."""
+    entries = [Entries.from_dense(s) for s in s_levels]
+    shapes = [s.shape[1:] for s in s_levels]
+    return SparseGrouping(entries, shapes, params).run(progress).dense()
 
 
 def readout(g: GroupingResult, params: ModelParams, full_shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -285,23 +186,44 @@ def readout(g: GroupingResult, params: ModelParams, full_shape) -> tuple[np.ndar
 
 @dataclass
 class RateState:
-    """Everything the rate model computed, for inspection and tests."""
+    """Everything the rate model computed, for inspection and tests.
 
-    resp: np.ndarray             # level-1 responses (n_dir, H, W)
-    winner: np.ndarray           # level-1 winning direction (H, W)
-    grouping_result: GroupingResult
+    The model itself evaluates responses only at active pixels; the dense
+    level-1 maps ``resp``/``winner`` and the dense ``grouping_result`` are
+    built on first use.
+    """
+
+    pos: np.ndarray
+    neg: np.ndarray
+    params: ModelParams
+    engine: SparseGrouping       # stages 5-8 state after the iterations
     fg_x: np.ndarray
     fg_y: np.ndarray
     grouping: np.ndarray
+
+    @functools.cached_property
+    def resp(self) -> np.ndarray:
+        """Level-1 thresholded responses ``(n_dir, H, W)``."""
+        return oriented_responses(np.asarray(self.pos, np.float64), np.asarray(self.neg, np.float64), self.params)
+
+    @functools.cached_property
+    def winner(self) -> np.ndarray:
+        """Level-1 winning direction ``(H, W)``."""
+        return orientation_index(self.resp, self.params)[0]
+
+    @property
+    def grouping_result(self) -> GroupingResult:
+        """Stages 5-8 as dense maps per level (built on each use)."""
+        return self.engine.dense()
 
 
 def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None) -> RateState:
     """Run stages 1-9 on an event frame and return every intermediate map."""
     check_levels(np.shape(pos), params.levels)
-    s_levels, resp1, winner1 = event_simple_cells(pos, neg, params)
-    g = border_ownership_grouping(s_levels, params, progress)
-    fg_x, fg_y, grouping = readout(g, params, np.shape(pos))
-    return RateState(resp1, winner1, g, fg_x, fg_y, grouping)
+    entries, shapes = event_entries(pos, neg, params)
+    engine = SparseGrouping(entries, shapes, params).run(progress)
+    fg_x, fg_y, grouping = engine.readout(np.shape(pos))
+    return RateState(pos, neg, params, engine, fg_x, fg_y, grouping)
 
 
 def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None) -> Maps:

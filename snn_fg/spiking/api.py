@@ -40,28 +40,36 @@ class SpikingResult:
     record: SpikingRecord
 
 
-def _stderr(message: str):
+def stderr_log(message: str):
     print(f"snn-fg: {message}", file=sys.stderr, flush=True)
 
 
-def _network(network, params, spiking, shape) -> tuple[Network, dict]:
-    """The description to run, and how it was obtained (for the record)."""
+def resolve_network(network, params, spiking, shape, feedback: bool = True) -> tuple[Network, dict]:
+    """The description to run, and how it was obtained (for the record).
+
+    ``feedback=False`` removes the feedback onto border-ownership cells
+    (:meth:`Network.without_feedback`), the model's ablation."""
     if network is None:
         params = ModelParams() if params is None else params
         spiking = SpikingParams() if spiking is None else spiking
-        return build_network(params, shape, spiking), {"origin": "built", "spiking_params": spiking.to_dict()}
-    if params is not None or spiking is not None:
-        check.fail("run_spiking", None, None, "give either a network or params/spiking to build one, not both")
-    origin = {"origin": "given"}
-    if isinstance(network, (str, Path)):
-        origin = {"origin": str(network)}
-        network = Network.load(network)
-    if not isinstance(network, Network):
-        check.fail("run_spiking", "network", type(network).__name__, "must be a Network or a path to its JSON")
-    if network.frame_shape != tuple(shape):
-        origin["resized_from"] = list(network.frame_shape)
-        network = network.resized(shape)
-    return network, origin
+        network, origin = build_network(params, shape, spiking), {"origin": "built",
+                                                                   "spiking_params": spiking.to_dict()}
+    else:
+        if params is not None or spiking is not None:
+            check.fail("run_spiking", None, None, "give either a network or params/spiking to build one, not both")
+        origin = {"origin": "given"}
+        if isinstance(network, (str, Path)):
+            origin = {"origin": str(network)}
+            network = Network.load(network)
+        if not isinstance(network, Network):
+            check.fail("run_spiking", "network", type(network).__name__, "must be a Network or a path to its JSON")
+        if network.frame_shape != tuple(shape):
+            origin["resized_from"] = list(network.frame_shape)
+            network = network.resized(shape)
+    if not isinstance(feedback, bool):
+        check.fail("run_spiking", "feedback", feedback, "must be True or False")
+    origin["feedback"] = feedback
+    return (network if feedback else network.without_feedback()), origin
 
 
 def _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, input_process, replay):
@@ -85,7 +93,7 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, par
                        backend: str = DEFAULT_BACKEND, backend_options: dict | None = None,
                        duration_ms: float = 400.0, dt_ms: float = 0.5, settle_ms: float | None = None,
                        seed: int = 0, rate_hz: float = 200.0, input_process: str = "regular",
-                       replay: bool = True, calibrate: bool = True, instantiate: str = "input",
+                       replay: bool = True, calibrate: bool = True, instantiate: str = "input", feedback: bool = True,
                        record_spikes: bool = True, record_state: tuple = (), sites: dict | None = None,
                        progress: bool = True, log=None) -> SpikingResult:
     """:func:`run_spiking`, returning a :class:`SpikingResult` with the internals."""
@@ -96,42 +104,51 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, par
         "run_spiking", "settle_ms", settle_ms, lo=0, hi=duration_ms, hi_open=True)
     check.integer("run_spiking", "seed", seed)
     inp = _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, input_process, replay)
-    net, origin = _network(network, params, spiking, inp.shape)
+    net, origin = resolve_network(network, params, spiking, inp.shape, feedback)
     if calibrate and not np.isclose(net.input_rate_hz, inp.rate_hz, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": inp.rate_hz}
         net = net.calibrated(inp.rate_hz)
     sim_backend = get_backend(backend, **(backend_options or {}))
-    say = log if log is not None else (_stderr if progress else None)
+    say = log if log is not None else (stderr_log if progress else None)
     settings = RunSettings(duration_ms=duration_ms, dt_ms=dt_ms, count_from_ms=settle_ms,
                            record_spikes=record_spikes, record_state=tuple(record_state),
                            instantiate=instantiate, sites=sites, log=say, progress=progress)
     result = sim_backend.simulate(net, inp, settings)
     fg_x, fg_y, grouping, _ = decode(result)
     rec = SpikingRecord.from_result(result, inp, settle_ms)
+    simulation = {**rec.timing(), "dt_ms": dt_ms, "seed": int(seed), "input": inp.kind,
+                  "rate_hz_requested": float(rate_hz), "rate_hz_used": inp.rate_hz,
+                  "input_process": input_process if events is None else "events",
+                  "replay": bool(replay) if events is not None else None,
+                  "merged_input_spikes": inp.merged, "instantiate": instantiate,
+                  "record_spikes": bool(record_spikes)}
+    record = run_params(net, origin, sim_backend, result, rec.populations, simulation, t_start)
+    maps = Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), record,
+                rec.arrays())
+    return SpikingResult(maps, net, result, inp, rec)
+
+
+def run_params(net: Network, origin: dict, backend, result: SimulationResult, populations: dict,
+               simulation: dict, t_start: float) -> dict:
+    """``Maps.params`` of a spiking run: model parameters, where the network
+    came from, the backend, the simulation settings, cell and synapse counts,
+    per-population summaries, timings and the network's notes."""
     syn = result.stats.get("synapses_in", {})
-    record = {
+    return {
         "model": "spiking",
         **net.params.to_dict(),
         "network": {**origin, "frame_shape": list(net.frame_shape), "input_rate_hz": net.input_rate_hz},
-        "backend": sim_backend.describe(),
-        "simulation": {**rec.timing(), "dt_ms": dt_ms, "seed": int(seed), "input": inp.kind,
-                       "rate_hz_requested": float(rate_hz), "rate_hz_used": inp.rate_hz,
-                       "input_process": input_process if events is None else "events",
-                       "replay": bool(replay) if events is not None else None,
-                       "merged_input_spikes": inp.merged, "instantiate": instantiate,
-                       "record_spikes": bool(record_spikes)},
+        "backend": backend.describe(),
+        "simulation": simulation,
         "counts": {"cells": {n: int(s.size) for n, s in result.sites.items()},
                    "synapses_in": {n: int(syn.get(n, 0)) for n in result.sites},
                    "total_cells": result.total_cells, "total_synapses": int(sum(syn.values())),
                    "backend_objects": result.stats.get("brian2_synapse_objects", {})},
         "kept_kernel_mass": result.stats.get("kept_kernel_mass", {}),
-        "populations": rec.populations,
+        "populations": populations,
         "timings_s": {**result.timings_s, "total": time.perf_counter() - t_start},
         "notes": list(net.notes),
     }
-    maps = Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), record,
-                rec.arrays())
-    return SpikingResult(maps, net, result, inp, rec)
 
 
 def run_spiking(pos=None, neg=None, **options) -> Maps:
@@ -162,6 +179,10 @@ def run_spiking(pos=None, neg=None, **options) -> Maps:
     calibrate : bool
         Scale the input gains to the input's actual mean rate (recorded in
         ``params["network"]["calibrated"]``).
+    feedback : bool
+        ``False`` removes the feedback onto border-ownership cells (the
+        ablation: both sides of every border stay equal, the figure-ground
+        map loses its direction).
     instantiate : {"input", "all"}
         Create only the cells this input can use (default), or every cell.
     record_spikes : bool

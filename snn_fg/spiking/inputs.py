@@ -118,12 +118,14 @@ def _field(events, name):
         raise InputError("<events>", f"structured array needs fields x, y, t, p; missing {name!r}") from None
 
 
-def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source: str = "<events>") -> InputSpikes:
+def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source: str = "<events>",
+                 t0_us: float | None = None) -> InputSpikes:
     """Spike trains from timed events (tonic-style: x, y, t in microseconds, p).
 
     ``sensor_size`` is ``(W, H)`` or ``(W, H, 2)``. Times are taken relative to
-    the first event; the window is ``[t_first, t_last]``. With ``replay`` the
-    window repeats with period ``ceil((t_last - t_first + 1 us) / dt)`` steps.
+    ``t0_us`` (default: the first event); the window is ``[t0, t_last]``. With
+    ``replay`` the window repeats with period ``ceil((t_last - t0 + 1 us) / dt)``
+    steps.
     """
     _check_dt(dt_ms)
     if not isinstance(events, np.ndarray) or events.dtype.names is None:
@@ -144,7 +146,10 @@ def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source:
     if not np.issubdtype(t.dtype, np.number) or not np.all(np.isfinite(t)):
         raise InputError(source, "timestamps t must be finite numbers (microseconds)")
     t = t.astype(np.float64)
-    t0 = t.min()
+    t0 = t.min() if t0_us is None else float(t0_us)
+    if t.min() < t0:
+        raise InputError(source, f"an event at t={t.min():g} us lies before the start t0={t0:g} us",
+                         f"event {int(np.argmin(t))}")
     step = np.floor((t - t0) / (dt_ms * 1000.0)).astype(np.int64)
     pol_on = p > 0
     idx = (y.astype(np.int64) * w + x.astype(np.int64)) + np.where(pol_on, 0, h * w)

@@ -8,8 +8,10 @@ reference's synchronous iteration of stages 4-8:
   ``edge_threshold``, arg-max over directions, index = direction + n/2;
   pixels without a response above threshold take index n/2 (the untuned rule);
 * border ownership B = S * f(z) with the reference's ``f`` (each pair sums to 2);
-* grouping G = rectified von Mises sums of B through the unrolled projections
-  (opposite family left out on the first iteration), light/dark winner-take-all;
+* grouping G = rectified von Mises sums of B through the unrolled projections,
+  the rival family inhibiting as the network has it (through excess cells
+  ``rect(B_rival - B_partner)``, zero on the first iteration; or directly,
+  left out on the first ``uninhibited`` iterations), light/dark winner-take-all;
 * z = (z+ - z-) through the unrolled grouping -> feedback projections and the
   top-down pooling, read at the border-ownership cells through the unrolled
   feedback -> border-ownership interpolation.
@@ -23,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..network.builder import FAMILIES, FEEDBACK_TO_FAMILY
+from ..network.builder import FAMILIES, FEEDBACK_TO_FAMILY, PARTNER
 from .decode import decode_rates
 from .unroll import Unrolled
 
@@ -150,17 +152,41 @@ def run_twin(un: Unrolled, iterations: int | None = None, relax: float = 1.0, un
     return fg_x, fg_y, grouping, rates
 
 
+def _excess(un, mats, level, B) -> dict:
+    """Excess cells' values ``rect(B_f - B_partner)`` (networks that have them)."""
+    net = un.network
+    out = {}
+    for f in FAMILIES:
+        found = net.by_role(f"excess_{f}", level)
+        if not found:
+            continue
+        x = found[0].name
+        own, rival = mats.name(f"bo_{f}", level), mats.name(f"bo_{PARTNER[f]}", level)
+        grid = {}
+        for name in (own, rival):
+            a = np.zeros(net.population(name).size)
+            a[un.sites[name]] = B[name]
+            grid[name] = a
+        out[x] = np.maximum(grid[own] - grid[rival], 0.0)[un.sites[x]]
+    return out
+
+
 def _grouping_step(un, mats, level, B, G, w_inh, relax, g_transfer):
-    """Stage 7 at one level, then the light/dark winner-take-all per grid point."""
+    """Stage 7 at one level, then the light/dark winner-take-all per grid point.
+    The rival family inhibits as the network has it: directly, or through
+    its excess cells."""
     net = un.network
     names = {pol: mats.name(f"group_{pol}", level) for pol in ("L", "D")}
+    X = _excess(un, mats, level, B)
+    rivals = X if X else {mats.name(f"bo_{f}", level): B[mats.name(f"bo_{f}", level)] for f in FAMILIES}
     for g in names.values():
         tot = np.zeros(un.n_cells(g))
         for f in FAMILIES:
             b = mats.name(f"bo_{f}", level)
             tot += mats(b, g, 1) @ B[b]
-            if w_inh:
-                tot -= w_inh * (mats(b, g, -1) @ B[b])
+        if w_inh:
+            for r, values in rivals.items():
+                tot -= w_inh * (mats(r, g, -1) @ values)
         new = np.maximum(tot, 0) if g_transfer is None else g_transfer(np.maximum(tot, 0))
         G[g] = new if g not in G else (1 - relax) * G[g] + relax * new
     full = {}

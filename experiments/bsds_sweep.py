@@ -1,0 +1,102 @@
+"""What the BSDS experiments (table1.py, fig6.py, best_worst.py) share: options, the image
+selection, the sweep of :func:`snn_fg.evaluation.evaluate_image` on Dask, and writing tables.
+
+The three scripts run the same per-image evaluation with the same settings, so
+they share one cache (``experiments/results/cache/bsds-<settings>/``): whichever
+runs first computes, the others read.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import hashlib
+import io
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+BSDS_FG = ROOT.parent / "shared" / "data" / "bsds-fg"
+BSDS_EDFG = ROOT.parent / "shared" / "data" / "bsds-edfg"
+RESULTS = ROOT / "experiments" / "results"
+CACHE = RESULTS / "cache"
+#: The paper's Table 1 thresholds.
+THRESHOLDS = (0.10, 0.15, 0.20, 0.30, 0.40)
+#: Images of --quick (evenly spaced over the sorted ids).
+QUICK_IMAGES = 12
+#: The per-image settings every BSDS experiment uses.
+SETTINGS = {"thresholds": THRESHOLDS, "shift4_thresholds": (0.10,), "event_models": ("rate",),
+            "fbfg_operators": ("gaussian", "corf"), "fig6": True}
+
+
+def parser(description: str) -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(description=description)
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler of a running cluster "
+                                                          "(default: local worker processes, one per core)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    p.add_argument("--images", type=int, metavar="N", help="evaluate N images evenly spaced over the 160 (all)")
+    p.add_argument("--quick", action="store_true", help=f"the --images {QUICK_IMAGES} subset")
+    p.add_argument("--ids", nargs="+", metavar="ID", help="evaluate these image ids")
+    p.add_argument("--no-progress", action="store_true")
+    return p
+
+
+def fail(message: str):
+    print(f"{Path(sys.argv[0]).name}: error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def select_ids(n: int | None) -> list[str]:
+    """All image ids, or ``n`` of them evenly spaced (deterministic)."""
+    from snn_fg.groundtruth import bsds_ids
+
+    if not (BSDS_FG / "labels").is_dir():
+        fail(f"{BSDS_FG} is absent: these experiments need the project's shared BSDS labels")
+    ids = bsds_ids(BSDS_FG)
+    if n is None or n >= len(ids):
+        return ids
+    pick = sorted({int(round(i * (len(ids) - 1) / max(n - 1, 1))) for i in range(n)})
+    return [ids[i] for i in pick]
+
+
+def settings_key(settings: dict) -> str:
+    text = json.dumps(settings, sort_keys=True)
+    return "bsds-" + hashlib.sha1(text.encode()).hexdigest()[:10]
+
+
+def evaluate(args, settings: dict | None = None) -> dict:
+    """Per-image results ``{image_id: dict}`` of the selected images (cached)."""
+    from snn_fg.errors import SnnFgError
+    from snn_fg.evaluation import evaluate_image
+    from snn_fg.sweep import SweepTask, run_sweep
+
+    settings = dict(SETTINGS if settings is None else settings)
+    ids = args.ids or select_ids(QUICK_IMAGES if args.quick and args.images is None else args.images)
+    tasks = [SweepTask(i, {"root": str(BSDS_FG), "image_id": i, **settings}) for i in ids]
+    try:
+        return run_sweep(evaluate_image, tasks, CACHE / settings_key(settings), scheduler=args.scheduler,
+                         workers=args.workers, progress=not args.no_progress,
+                         preload=("brian2",) if "spiking" in settings["event_models"] else ())
+    except SnnFgError as exc:
+        fail(str(exc))
+
+
+def write_table(name: str, rows: list[dict]) -> list[Path]:
+    """``results/<name>.json`` (a list of rows) and ``results/<name>.csv``."""
+    from snn_fg.atomic import save_text
+
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    buf = io.StringIO()
+    if rows:
+        w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    return [save_text(RESULTS / f"{name}.json", json.dumps(rows, indent=1)),
+            save_text(RESULTS / f"{name}.csv", buf.getvalue())]
+
+
+def save_figure(fig, name: str) -> Path:
+    path = RESULTS / f"{name}.png"
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    return path

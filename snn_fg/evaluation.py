@@ -1,0 +1,200 @@
+"""The paper's evaluation on one BSDS image: models against human figure/ground labels.
+
+:func:`evaluate_image` is the unit of work of the Table 1 / Fig. 6 sweeps
+(``experiments/table1.py``, ``fig6.py``, ``best_worst.py``): it turns the
+image into events at every contrast threshold, runs the event model(s) and
+the frame-based model with each edge operator through their public entry
+points, scores every figure-ground map against both labellers, and compares
+the maps with each other (Fig. 6). It returns a JSON-serialisable dict, so
+that :func:`snn_fg.sweep.run_sweep` can cache it per image.
+
+Angle errors are kept as sums and a histogram of absolute errors
+(:data:`HIST_BIN_DEG` bins), so that pooled means are exact and the pooled
+median is good to half a bin, without storing every pixel.
+"""
+from __future__ import annotations
+
+from itertools import combinations
+
+import numpy as np
+from skimage.metrics import structural_similarity
+
+from .groundtruth import WITHIN_DEG, angle_errors, boundary_directions, load_bsds_fg
+
+#: Width (degrees) of the bins of the absolute-error histogram.
+HIST_BIN_DEG = 0.5
+_N_BINS = int(round(180 / HIST_BIN_DEG))
+#: SSIM window of the paper (MATLAB's default).
+SSIM_WINDOW = 11
+#: The threshold of the Fig. 6 comparisons (the paper's best).
+FIG6_THRESHOLD = 0.10
+
+
+def error_stats(signed) -> dict:
+    """Sums and histogram of signed errors (degrees), to pool over images with :func:`pool_stats`."""
+    signed = np.asarray(signed, np.float64)
+    a = np.abs(signed)
+    hist = np.bincount(np.minimum((a / HIST_BIN_DEG).astype(int), _N_BINS - 1), minlength=_N_BINS)
+    return {"n": int(a.size), "sum_signed": float(signed.sum()), "sum_abs": float(a.sum()),
+            "n_within45": int((a <= WITHIN_DEG).sum()), "hist_abs": hist.tolist()}
+
+
+def pool_stats(parts) -> dict:
+    """Pooled mean signed / absolute error, median, fraction within 45 degrees, pixel count."""
+    parts = list(parts)
+    n = sum(p["n"] for p in parts)
+    if n == 0:
+        nan = float("nan")
+        return {"mean_signed_deg": nan, "mean_abs_deg": nan, "median_abs_deg": nan, "within45": nan, "n_pixels": 0}
+    hist = np.sum([p["hist_abs"] for p in parts], axis=0)
+    k = int(np.searchsorted(np.cumsum(hist), n / 2))
+    return {"mean_signed_deg": sum(p["sum_signed"] for p in parts) / n,
+            "mean_abs_deg": sum(p["sum_abs"] for p in parts) / n,
+            "median_abs_deg": (k + 0.5) * HIST_BIN_DEG,
+            "within45": sum(p["n_within45"] for p in parts) / n, "n_pixels": n}
+
+
+def _unit(x, y):
+    mag = np.hypot(x, y)
+    has = mag > 0
+    return np.where(has, x / np.where(has, mag, 1), 0.0), np.where(has, y / np.where(has, mag, 1), 0.0)
+
+
+def angle_image(x, y) -> np.ndarray:
+    """The angle map: direction in turns [0, 1) where there is a vector, 0 elsewhere."""
+    turns = (np.arctan2(y, x) % (2 * np.pi)) / (2 * np.pi)
+    return np.where(np.hypot(x, y) > 0, turns, 0.0)
+
+
+def map_similarity(a, b) -> dict:
+    """SSIM (11 x 11, whole image) and MSE of two direction fields ``(x, y)``, on angle maps
+    (turns, 0 off the vectors) and on their colour-wheel renderings (the paper's)."""
+    from .figures import fg_rgb
+
+    ia, ib = angle_image(*a), angle_image(*b)
+    ra, rb = fg_rgb(*_unit(*a)), fg_rgb(*_unit(*b))
+    return {"ssim_angle": float(structural_similarity(ia, ib, win_size=SSIM_WINDOW, data_range=1.0)),
+            "mse_angle": float(np.mean((ia - ib) ** 2)),
+            "ssim_render": float(structural_similarity(ra, rb, win_size=SSIM_WINDOW, data_range=1.0,
+                                                       channel_axis=-1)),
+            "mse_render": float(np.mean((ra - rb) ** 2))}
+
+
+def _scores(fx, fy, truths) -> dict:
+    """Error stats of a field against every labeller's directions, pooled."""
+    signed = np.concatenate([angle_errors(fx, fy, *t) for t in truths])
+    out = error_stats(signed)
+    out["n_truth"] = int(sum(t[2].sum() for t in truths))
+    return out
+
+
+def _event_maps(model, image, threshold, motion, params, spiking_options):
+    """Maps of an event model on ``image`` (array or path) turned into events, and the event pixel count."""
+    from .events import image_to_frame
+
+    pos, neg = image_to_frame(image, threshold=threshold, motion=motion)
+    if model == "rate":
+        from .rate.edfg import run_edfg
+
+        maps = run_edfg(pos, neg, params)
+    else:
+        from .spiking import run_spiking
+
+        maps = run_spiking(pos, neg, params=params, progress=False, **spiking_options)
+    return maps, int((pos | neg).sum())
+
+
+def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thresholds=(),
+                   event_models=("rate",), fbfg_operators=("gaussian", "corf"), r0: float | None = None,
+                   spiking_options: dict | None = None, fig6: bool = True) -> dict:
+    """Everything the Table 1 / Fig. 6 sweeps need from one image.
+
+    Parameters
+    ----------
+    root : str
+        The ``bsds-fg`` folder.
+    image_id : str
+    thresholds : sequence of float
+        Contrast thresholds at which the event models see ``--motion paper`` events.
+    shift4_thresholds : sequence of float
+        Thresholds at which they also see the built-in ``shift4`` events.
+    event_models : sequence of {"rate", "spiking"}
+    fbfg_operators : sequence of {"gaussian", "corf"}
+        The frame-based model runs once per operator (it sees the image itself).
+    r0 : float, optional
+        Grouping radius (the paper's 8 px by default).
+    fig6 : bool
+        Also compare the maps with each other (needs threshold 0.10 and both kinds of model).
+
+    Returns
+    -------
+    dict
+        ``units``: one entry per (model, motion, threshold) with its error stats
+        (:func:`error_stats`) against both labellers; ``ceiling``: labeller 2
+        against labeller 1; ``fig6``: :func:`map_similarity` of the pairs.
+    """
+    from .images import read_image
+    from .params import ModelParams
+    from .rate.fbfg import run_fbfg
+
+    params = ModelParams() if r0 is None else ModelParams(r0=r0)
+    gt = load_bsds_fg(root, image_id)
+    truths = [boundary_directions(m) for m in gt.fg]
+    a, b = truths[0], truths[1] if len(truths) > 1 else truths[0]
+    out = {"image_id": str(image_id), "shape": list(gt.fg.shape[1:]), "units": [],
+           "ceiling": error_stats(angle_errors(np.where(b[2], b[0], 0), np.where(b[2], b[1], 0), *a))}
+    fields = {"GT": a[:2], "GT2": (np.where(b[2], b[0], 0), np.where(b[2], b[1], 0))}
+    runs = [(m, "paper", t) for m in event_models for t in thresholds]
+    runs += [(m, "shift4", t) for m in event_models for t in shift4_thresholds]
+    for model, motion, threshold in runs:
+        maps, n_events = _event_maps(model, str(gt.image_path), threshold, motion, params, spiking_options or {})
+        out["units"].append({"model": model, "motion": motion, "threshold": threshold, "event_pixels": n_events,
+                             **_scores(maps.fg_x, maps.fg_y, truths)})
+        if motion == "paper" and np.isclose(threshold, FIG6_THRESHOLD):
+            fields[f"ED-{model}"] = (maps.fg_x, maps.fg_y)
+    image = read_image(gt.image_path, grey=False)
+    for op in fbfg_operators:
+        maps = run_fbfg(image, params, edge_operator=op)
+        name = "fbfg" if op == "gaussian" else f"fbfg-{op}"
+        out["units"].append({"model": name, "motion": "image", "threshold": None, "event_pixels": None,
+                             **_scores(maps.fg_x, maps.fg_y, truths)})
+        fields[f"FB-{name}"] = (maps.fg_x, maps.fg_y)
+    if fig6:
+        out["fig6"] = {f"{p}|{q}": map_similarity(fields[p], fields[q]) for p, q in combinations(sorted(fields), 2)}
+    return out
+
+
+#: A grouping peak within this fraction of the radius (and at least HIT_MIN_PX) of a disc's centre hits it.
+HIT_RADIUS_FRACTION = 0.25
+#: 3 px: the spiking network's grouping cells sit on a stride-2 lattice (up to 1.4 px off), plus 1.5 px.
+HIT_MIN_PX = 3.0
+
+
+def evaluate_disc(*, model: str, r0: float, diameter: float, threshold: float = 0.10,
+                  spiking_options: dict | None = None) -> dict:
+    """One dark disc of ``diameter`` px on a white canvas (the paper's Fig. S3 stimulus) through
+    ``model`` (``rate`` / ``spiking`` on shift4 events, ``fbfg`` on the image) with grouping radius ``r0``.
+
+    Returns the grouping peak's distance from the centre and whether it hits
+    the centre, the rim's angle errors (:func:`snn_fg.metrics.truth_scores`),
+    and SSIM / MSE of the map against the ideal one (:func:`map_similarity`).
+    """
+    from .metrics import grouping_peak, truth_scores
+    from .params import ModelParams
+    from .scenes import disc
+
+    params = ModelParams(r0=r0)
+    scene = disc(radius=diameter / 2, light_on_dark=False, margin=1.5)
+    if model == "fbfg":
+        from .rate.fbfg import run_fbfg
+
+        maps = run_fbfg(scene.image, params)
+    else:
+        maps, _ = _event_maps(model, scene.image, threshold, "shift4", params, spiking_options or {})
+    row, col = grouping_peak(maps.grouping)
+    cr, cc = scene.shapes[0].centre
+    dist = float(np.hypot(row - cr, col - cc))
+    truth = (np.where(scene.boundary, scene.truth_x, 0), np.where(scene.boundary, scene.truth_y, 0))
+    return {"model": model, "r0": r0, "diameter": diameter, "peak_distance_px": dist,
+            "hit": bool(dist <= max(HIT_MIN_PX, HIT_RADIUS_FRACTION * diameter / 2)),
+            **truth_scores(maps.fg_x, maps.fg_y, scene), **map_similarity((maps.fg_x, maps.fg_y), truth)}

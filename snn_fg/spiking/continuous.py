@@ -1,0 +1,151 @@
+"""One network over a whole recording: :func:`run_spiking_windows`.
+
+A neuromorphic chip runs one fixed network on the event stream as it comes.
+So does this: the network is built (and, for backends that unroll it,
+instantiated) once for the whole recording, every event becomes one input
+spike at its own timestamp (no replay, no per-window rebuild), and each
+window's maps are decoded from the spikes counted inside that window,
+shifted by a read-out lag: the window ``[t_start, t_end)`` is read from the
+spikes in ``[t_start + lag, t_end + lag)``, since the network needs a few
+synaptic delays and membrane time constants to answer. The backend counts
+spikes per window through :attr:`~snn_fg.backends.RunSettings.count_bins_ms`.
+
+The input gains are calibrated once, to the mean event rate of an active
+pixel inside a window (events per active pixel per window length, averaged
+over the windows that have events), the counterpart of a frame's rate.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from types import SimpleNamespace
+
+import numpy as np
+
+from .. import validate as check
+from ..backends import DEFAULT_BACKEND, RunSettings, get_backend
+from ..errors import InputError
+from ..maps import Maps
+from .api import resolve_network, run_params, stderr_log
+from .decode import decode_rates
+from .inputs import event_spikes
+from .record import SpikingRecord
+
+#: Default read-out lag (ms): see the module docstring and
+#: ``experiments/spiking_latency.py`` for how long the network takes to answer.
+READOUT_LAG_MS = 20.0
+
+
+def _window_rate(windows, dt_ms: float) -> float:
+    """Mean rate (Hz) of an active pixel inside a window, over windows with events."""
+    rates = []
+    for w in windows:
+        ev = w.events
+        if not len(ev):
+            continue
+        active = int(np.count_nonzero(w.pos) + np.count_nonzero(w.neg))
+        span_s = max((w.t_end_us - w.t_start_us) / 1e6, dt_ms / 1000.0)
+        rates.append(len(ev) / max(active, 1) / span_s)
+    return float(np.mean(rates)) if rates else 0.0
+
+
+def _all_events(windows):
+    """The events of every window once (overlapping windows share events)."""
+    ev = np.concatenate([w.events for w in windows]) if windows else np.zeros(0)
+    if len(windows) > 1 and any(b.t_start_us < a.t_end_us for a, b in zip(windows, windows[1:])):
+        ev = np.unique(ev)
+    return ev
+
+
+def run_spiking_windows(windows, *, params=None, spiking=None, network=None, backend: str = DEFAULT_BACKEND,
+                        backend_options: dict | None = None, dt_ms: float = 0.5,
+                        readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
+                        instantiate: str = "input", record_spikes: bool = True, progress: bool = True,
+                        log=None, source: str = "<recording>") -> list[Maps]:
+    """Run the spiking network once over consecutive windows of a recording.
+
+    Parameters
+    ----------
+    windows : sequence of EventWindow
+        The recording cut into windows (:func:`snn_fg.events.iter_windows`),
+        all from one sensor, in time order.
+    params, spiking, network, backend, backend_options, dt_ms, calibrate, feedback, instantiate, record_spikes
+        As for :func:`~snn_fg.spiking.run_spiking`.
+    readout_lag_ms : float
+        Each window is read from the spikes ``readout_lag_ms`` later than
+        its own time span; the simulation runs that long past the last window.
+    progress, log
+        Stage messages and a progress bar on stderr, or ``log`` receiving them.
+
+    Returns
+    -------
+    list of Maps
+        One per window, each with its own spiking record; ``params`` says
+        ``simulation.mode = "continuous"``, ``simulated_ms`` and
+        ``network_builds = 1``.
+
+    Examples
+    --------
+    >>> from snn_fg.events import image_to_events, iter_windows
+    >>> from snn_fg.params import ModelParams
+    >>> from snn_fg.scenes import disc
+    >>> rec = image_to_events(disc(radius=10).image)
+    >>> wins = list(iter_windows(rec, window_ms=2))
+    >>> maps = run_spiking_windows(wins, params=ModelParams(levels=2), progress=False)
+    >>> len(maps) == len(wins), maps[0].params["simulation"]["network_builds"]
+    (True, 1)
+    """
+    t_start = time.perf_counter()
+    windows = list(windows)
+    if not windows:
+        raise InputError(source, "no window to process")
+    lag = check.number("run_spiking_windows", "readout_lag_ms", readout_lag_ms, lo=0)
+    h, w = windows[0].pos.shape
+    t0 = windows[0].t_start_us
+    events = _all_events(windows)
+    if not len(events):
+        raise InputError(source, "no window has an event: nothing to simulate")
+    inp = event_spikes(events, (w, h, 2), dt_ms, replay=False, source=source, t0_us=t0)
+    net, origin = resolve_network(network, params, spiking, (h, w), feedback)
+    rate = _window_rate(windows, dt_ms)
+    if calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
+        origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
+        net = net.calibrated(rate)
+    spans = [((x.t_start_us - t0) / 1000.0 + lag, (x.t_end_us - t0) / 1000.0 + lag) for x in windows]
+    edges = sorted({round(t / dt_ms) * dt_ms for span in spans for t in span})
+    duration = edges[-1]
+    say = log if log is not None else (stderr_log if progress else None)
+    settings = RunSettings(duration_ms=duration, dt_ms=dt_ms, count_from_ms=edges[0], record_spikes=record_spikes,
+                           instantiate=instantiate, count_bins_ms=tuple(edges), log=say, progress=progress)
+    sim_backend = get_backend(backend, **(backend_options or {}))
+    result = sim_backend.simulate(net, inp, settings)
+    out = []
+    for x, (a, b) in zip(windows, spans):
+        k0, k1 = (int(np.searchsorted(edges, round(t / dt_ms) * dt_ms)) for t in (a, b))
+        counts = {n: c[k0:k1].sum(axis=0) for n, c in result.binned_counts.items()}
+        window_result = dataclasses.replace(result, counts=counts, count_window_ms=edges[k1] - edges[k0],
+                                            spikes=_spikes_between(result.spikes, edges[k0], edges[k1]))
+        out.append(_window_maps(window_result, x, net, origin, sim_backend, t_start,
+                                {"mode": "continuous", "simulated_ms": duration, "network_builds": 1,
+                                 "readout_lag_ms": lag, "dt_ms": dt_ms, "input": "events",
+                                 "rate_hz_used": rate, "merged_input_spikes": inp.merged,
+                                 "instantiate": instantiate, "record_spikes": bool(record_spikes),
+                                 "count_from_ms": edges[k0], "count_to_ms": edges[k1]}))
+    return out
+
+
+def _spikes_between(spikes, a: float, b: float):
+    if spikes is None:
+        return None
+    return {n: (c[(t >= a) & (t < b)], t[(t >= a) & (t < b)]) for n, (c, t) in spikes.items()}
+
+
+def _window_maps(result, window, net, origin, backend, t_start, simulation) -> Maps:
+    rates = {n: result.rates(n) for n in result.populations}
+    fg_x, fg_y, grouping, _ = decode_rates(net, result.sites, rates)
+    masks = SimpleNamespace(on=window.pos != 0, off=window.neg != 0)
+    rec = SpikingRecord.from_result(result, masks, simulation["count_from_ms"])
+    simulation = {**rec.timing(), **simulation}
+    params = run_params(net, origin, backend, result, rec.populations, simulation, t_start)
+    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params,
+                rec.arrays())

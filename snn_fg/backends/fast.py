@@ -253,11 +253,12 @@ class _Run:
         return self.log[:log_n].astype(np.int64), np.repeat(np.arange(self.n_steps), np.diff(self.step_start))
 
     def final_state(self) -> np.ndarray:
-        """Every cell's state at the end of the run (fields ``v``, ``e``, ``i`` in volts)."""
+        """Every cell's ``(v, I_exc, I_inh)`` at the end of the run (volts, one row per cell)."""
         from .fast_core import final_state
 
-        final_state(self.state, self.ctype, self.tab.nrn, self.tab.adv, self.n_steps)
-        return self.state
+        out = np.zeros((self.state.size, 3))
+        final_state(self.state, self.ctype, self.tab.nrn, self.tab.adv, self.n_steps, out)
+        return out
 
 
 class _Pool:
@@ -324,8 +325,8 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
     if settings.record_state:
         values = run.final_state()
         for p in pops:
-            state[p.name] = {var: values[field][cells[p.name]] / ft.MV
-                             for field, var in (("v", "v"), ("e", "I_exc"), ("i", "I_inh")) if var in settings.record_state}
+            state[p.name] = {var: values[cells[p.name], k] / ft.MV
+                             for k, var in enumerate(("v", "I_exc", "I_inh")) if var in settings.record_state}
     events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
     n_input = int(np.count_nonzero(run.ctype[ids] == ft.SOURCE_TYPE))
     stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),

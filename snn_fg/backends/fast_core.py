@@ -5,8 +5,8 @@ steps. Each step follows Brian2's schedule as our Brian2 backend uses it
 (``groups``, ``thresholds``, ``synapses``, ``resets``):
 
 1. every *active* cell is updated exactly like Brian2's ``lif_step``
-   (``v += (1 - d_m) ((I_exc + v_rest) - (I_inh + v))`` unless refractory,
-   then both currents decay) and spikes if ``v > v_th`` and it is not
+   (the exact propagators: ``v += (1 - d_m) (v_rest - v) + p_exc I_exc -
+   p_inh I_inh`` unless refractory, then both currents decay) and spikes if ``v > v_th`` and it is not
    refractory; the input spikes of the step join them;
 2. each projection takes the spikes its source emitted ``delay`` steps ago
    and sends each one through its kernel footprint (Conv taps, Resize
@@ -43,7 +43,7 @@ from numba import njit
 
 from .fast_tables import (CONV, DE, DI, DM, GAP, J_BASE, J_COL, J_COLBASE, J_DELAY, J_DENSE, J_GBASE, J_INH,
                           J_KIND, J_KR, J_PRUNE, J_RADIUS, J_SRC, J_TGT, J_WRAP, MV, P_CH, P_GC, P_GR, P_LC, P_LR,
-                          P_STRIDE, P_TYPE, PEAK, SOURCE_TYPE, TIGHT, V_RESET, V_REST, V_TH)
+                          P_STRIDE, P_TYPE, PE, PEAK, PI, SOURCE_TYPE, TIGHT, V_RESET, V_REST, V_TH)
 
 #: one cell's state (32 bytes, one half cache line)
 STATE = np.dtype([("v", "f8"), ("e", "f8"), ("i", "f8"), ("last", "i4"), ("spike", "i4")], align=True)
@@ -385,8 +385,8 @@ def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
             inact[U(g)] = 0
             continue
         v, e, i = r.v, r.e, r.i
-        if ready:
-            v += (1.0 - nrn[t, DM]) * ((e + nrn[t, V_REST]) - (i + v))
+        if ready:       # (Brian2's generated expression, operation for operation)
+            v += ((e * nrn[t, PE]) + ((1.0 - nrn[t, DM]) * ((-v) + nrn[t, V_REST]))) - (i * nrn[t, PI])
         r.v = v
         r.e = e * nrn[t, DE]
         r.i = i * nrn[t, DI]
@@ -495,19 +495,22 @@ def run_steps(n0, n1, state, ctype, inact, act, new, tmp, fresh, scalars, log, s
 
 
 @njit(cache=True)
-def final_state(state, ctype, nrn, adv, n_steps):
-    """Bring every touched cell to the end of step ``n_steps - 1`` and put
-    untouched cells at rest (for reporting the final state)."""
+def final_state(state, ctype, nrn, adv, n_steps, out):
+    """Every cell's ``(v, I_exc, I_inh)`` at the end of step ``n_steps - 1``
+    into ``out`` (untouched cells at rest), leaving ``state`` as it is: an
+    untouched cell must stay marked so (``last == 0``), since the arrays
+    serve the next run, whose cell numbering may differ."""
     for g in range(state.shape[0]):
         t = ctype[g]
         if t >= SOURCE_TYPE:
             continue
         r = state[g]
         if r.last == 0:
-            r.v = nrn[t, V_REST]
+            out[g, 0], out[g, 1], out[g, 2] = nrn[t, V_REST], 0.0, 0.0
         elif r.last < n_steps:
-            r.v, r.e, r.i = _advanced(r.v, r.e, r.i, nrn[t, V_REST], adv[t], n_steps - r.last)
-        r.last = n_steps
+            out[g, 0], out[g, 1], out[g, 2] = _advanced(r.v, r.e, r.i, nrn[t, V_REST], adv[t], n_steps - r.last)
+        else:
+            out[g, 0], out[g, 1], out[g, 2] = r.v, r.e, r.i
 
 
 @njit(cache=True)

@@ -34,10 +34,13 @@ MV = 1e-3
 MS = 1e-3
 #: neuron-type code of spike sources (cells without LIF state)
 SOURCE_TYPE = 254
-#: columns of the neuron-type table (TIGHT: the inhibitory current decays no
-#: faster than the excitatory one; PEAK: the largest response of ``v`` to a
-#: unit excitatory current, ``max_k P_e(k)``)
-DM, DE, DI, V_REST, V_RESET, V_TH, GAP, TIGHT, PEAK = range(9)
+#: columns of the neuron-type table: the propagators of
+#: :meth:`~snn_fg.network.nodes.Neuron.propagators` (DM, DE, DI, PE, PI),
+#: potentials (volts), GAP (how far above rest a parked cell may be bounded),
+#: TIGHT (the inhibitory current decays no faster than the excitatory one) and
+#: PEAK (the largest response of ``v`` to a unit excitatory current, ``max_k P_e(k)``)
+DM, DE, DI, PE, PI, V_REST, V_RESET, V_TH, GAP, TIGHT, PEAK = range(11)
+N_NRN = 11
 #: a parked cell's potential bound must stay this far (V) below threshold
 #: (covers rounding between the closed-form advance and step-by-step updates)
 PARK_MARGIN_V = 1e-12
@@ -62,7 +65,7 @@ class EngineTables:
     offsets: dict            # population name -> first global cell number
     pops: np.ndarray         # int64 (n_populations, 9), columns P_*
     n_cells: int
-    nrn: np.ndarray          # float64 (n_types, 9), columns DM..PEAK, volts
+    nrn: np.ndarray          # float64 (n_types, N_NRN), columns DM..PEAK, volts
     ref_steps: np.ndarray    # int64 (n_types,)
     adv: np.ndarray          # float64 (n_types, 5, ADVANCE_STEPS + 1): d_m^k, d_e^k, d_i^k, P_e(k), P_i(k)
     prj: np.ndarray          # int64 (n_projections, 14), columns J_*
@@ -114,7 +117,8 @@ class EngineTables:
 
 def _neuron_types(network: Network, dt_ms: float):
     """One row per distinct neuron, as Brian2's backend sets its per-cell
-    constants (``d = exp(-dt / tau)``, potentials times ``mV``)."""
+    constants (the exact propagators of ``Neuron.propagators``, potentials
+    times ``mV``)."""
     neurons = []
     for p in network.populations:
         if p.neuron is not None and p.neuron not in neurons:
@@ -122,10 +126,10 @@ def _neuron_types(network: Network, dt_ms: float):
     n = len(neurons)
     if n >= SOURCE_TYPE:
         raise ValueError(f"the fast engine handles at most {SOURCE_TYPE - 1} distinct neurons, this network has {n}")
-    tau = np.array([[x.tau_m_ms, x.tau_exc_ms, x.tau_inh_ms] for x in neurons], dtype=np.float64).reshape(n, 3)
-    nrn = np.zeros((n, 9))
-    nrn[:, DM:DI + 1] = np.exp(-dt_ms / tau)
+    nrn = np.zeros((n, N_NRN))
     for t, x in enumerate(neurons):
+        f = x.propagators(dt_ms)
+        nrn[t, [DM, DE, DI, PE, PI]] = [f["d_m"], f["d_exc"], f["d_inh"], f["p_exc"], f["p_inh"]]
         nrn[t, V_REST:V_TH + 1] = np.array([x.v_rest_mv, x.v_reset_mv, x.v_th_mv]) * MV
     nrn[:, GAP] = nrn[:, V_TH] - nrn[:, V_REST] - PARK_MARGIN_V
     adv = advance_tables(nrn)
@@ -143,14 +147,16 @@ def _neuron_types(network: Network, dt_ms: float):
 def advance_tables(nrn: np.ndarray) -> np.ndarray:
     """Closed form of ``k`` silent steps of the update: with ``u = v - v_rest``,
     ``u_k = d_m^k u + I_exc P_e(k) - I_inh P_i(k)``, ``I_k = d^k I``, where
-    ``P_x(k) = (1 - d_m) sum_j d_m^(k-1-j) d_x^j`` (the recurrence, iterated)."""
+    ``P_x(k) = p_x sum_j d_m^(k-1-j) d_x^j`` (the recurrence, iterated; the
+    exact propagators make ``P_x(k)`` the membrane's response at ``k dt`` to a
+    unit current, hence ``0 <= P_x(k) <= 1 - d_m^k``)."""
     adv = np.zeros((nrn.shape[0], 5, ADVANCE_STEPS + 1))
     adv[:, 0:3, 0] = 1.0
     d_m = nrn[:, DM]
     for k in range(ADVANCE_STEPS):
         adv[:, 0:3, k + 1] = adv[:, 0:3, k] * nrn[:, DM:DI + 1]
-        # P_x(k+1) = d_m P_x(k) + (1 - d_m) d_x^k, for x = exc (rows 1, 3) and inh (rows 2, 4)
-        adv[:, 3:5, k + 1] = d_m[:, None] * adv[:, 3:5, k] + (1.0 - d_m)[:, None] * adv[:, 1:3, k]
+        # P_x(k+1) = d_m P_x(k) + p_x d_x^k, for x = exc (rows 1, 3) and inh (rows 2, 4)
+        adv[:, 3:5, k + 1] = d_m[:, None] * adv[:, 3:5, k] + nrn[:, PE:PI + 1] * adv[:, 1:3, k]
     return adv
 
 

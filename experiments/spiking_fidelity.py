@@ -121,6 +121,8 @@ def main(argv=None):
     ap.add_argument("--only", nargs="*", help="run only rows whose name contains one of these")
     ap.add_argument("--backend", nargs="+", default=[DEFAULT_BACKEND], choices=backend_names(),
                     help=f"simulator(s); the first is the one the others are compared with (default {DEFAULT_BACKEND})")
+    ap.add_argument("--instantiate", choices=("input", "all"), default="input",
+                    help="cells every backend creates (input: those the input can use, the same on every backend)")
     ap.add_argument("--out", default=str(OUT))
     args = ap.parse_args(argv)
     rows = []
@@ -155,7 +157,8 @@ def main(argv=None):
             if not want(name):
                 continue
             d = np.load(path)
-            res = run(name, "bsds", lambda b: run_spiking_result(d["pos"], d["neg"], backend=b, progress=False), d)
+            res = run(name, "bsds", lambda b: run_spiking_result(d["pos"], d["neg"], backend=b,
+                                                                 instantiate=args.instantiate, progress=False), d)
     elif not args.quick:
         log(f"skipping BSDS frames: {BSDS} is absent")
 
@@ -165,7 +168,8 @@ def main(argv=None):
         if not want(sc.name):
             continue
         pos, neg = image_to_frame(sc.image)
-        res = run(sc.name, "synthetic-frame", lambda b: run_spiking_result(pos, neg, backend=b, progress=False),
+        res = run(sc.name, "synthetic-frame",
+                  lambda b: run_spiking_result(pos, neg, backend=b, instantiate=args.instantiate, progress=False),
                   run_edfg(pos, neg), sc)
     for sc in (scenes.disc(24, True), scenes.disc(40, False)):
         name = sc.name + "-timed-events"
@@ -175,13 +179,13 @@ def main(argv=None):
         pos, neg = image_to_frame(sc.image)
         res = run(name, "synthetic-events",
                   lambda b: run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, backend=b,
-                                               progress=False),
+                                               instantiate=args.instantiate, progress=False),
                   run_edfg(pos, neg), sc,
                   lambda r: {"events": int(len(rec.events)), "input_rate_hz": r.inputs.rate_hz,
                              "merged_spikes": r.inputs.merged})
 
     out = Path(args.out)
-    record = {"rows": rows, "backends": args.backend,
+    record = {"rows": rows, "backends": args.backend, "instantiate": args.instantiate,
               "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
               "network_params": res.maps.params["network"] if res else None,
               "simulation": res.maps.params["simulation"] if res else None}

@@ -74,7 +74,10 @@ _RUN_OPTIONS = (
         ("--feedback", ("on", "off"), None, None, "off: remove the feedback onto border-ownership cells, the "
                                                   "model's ablation (on)"),
         ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later "
-                                              "(20)"))),
+                                              "(20)"),
+        ("--instantiate", ("input", "all"), None, None, "cells to create: those this input can use, or every "
+                                                        "cell of the network (the backend's choice: brian2 input, "
+                                                        "fast all)"))),
     ("frame-based model", (
         ("--edge-operator", EDGE_OPERATORS, None, None, "simple cells' edge operator: gaussian (a "
                                                                "Gaussian-derivative stand-in) or corf (Hu et al.'s "

@@ -134,7 +134,7 @@ class SpikingModel(Model):
     """The spiking network (:func:`snn_fg.spiking.run_spiking`) on a backend.
 
     Options: ``network`` (a stored description), ``backend``, ``feedback``,
-    ``dt_ms``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
+    ``dt_ms``, ``instantiate``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
     ``spike_input`` (:data:`SPIKE_INPUTS`); for a
     recording ``readout_lag_ms``: a recording runs as one continuous network,
     every event at its own time (:mod:`snn_fg.spiking.continuous`).
@@ -143,7 +143,7 @@ class SpikingModel(Model):
     name = "spiking"
     grouping_label = SPIKING_GROUPING_LABEL
     options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed", "feedback", "readout_lag_ms",
-               "spike_input")
+               "spike_input", "instantiate")
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
                  backend=DEFAULT_BACKEND, spike_input: str = "regular", **run_options):
@@ -182,7 +182,8 @@ class SpikingModel(Model):
 
         windows = list(windows)
         net = {"params": self.params} if self.network is None else {"network": self.network}
-        options = {k: v for k, v in self.run_options.items() if k in ("dt_ms", "readout_lag_ms", "feedback")}
+        options = {k: v for k, v in self.run_options.items()
+                   if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate")}
         maps = run_spiking_windows(windows, **net, backend=self.backend, progress=self.progress is not None,
                                    **options)
         yield from zip(windows, maps)

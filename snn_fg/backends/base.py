@@ -201,6 +201,10 @@ class Backend(ABC):
 
     name: ClassVar[str] = ""
     requires: ClassVar[str] = ""
+    #: ``RunSettings.instantiate`` when the caller leaves it to the backend:
+    #: ``input`` where cells cost per synapse (unrolled), ``all`` where they
+    #: cost only their state and choosing them per input would cost more
+    default_instantiate: ClassVar[str] = "input"
 
     @classmethod
     def available(cls) -> tuple[bool, str]:

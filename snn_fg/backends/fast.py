@@ -81,6 +81,10 @@ class FastBackend(Backend):
 
     name = "fast"
     requires = "numba (a core dependency: reinstall snn-fg)"
+    #: every cell: the engine needs no per-input preparation then (choosing the
+    #: cells an input can use takes seconds to a minute of unrolling in Python,
+    #: longer than simulating the cells it leaves out)
+    default_instantiate = "all"
 
     def __init__(self, *, chunk_ms: float = CHUNK_MS):
         from .. import validate as check
@@ -308,9 +312,14 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
     counts = {p.name: all_counts[cells[p.name]] for p in pops}
     binned = None
     if settings.count_bins_ms is not None:
+        from .fast_core import bin_counts
+
         cuts = np.searchsorted(steps, [end for end, snapshot in segments(settings) if snapshot])
-        per_bin = [np.bincount(ids[a:b], minlength=n) for a, b in zip(cuts, cuts[1:])]
-        binned = {p.name: np.stack([b[cells[p.name]] for b in per_bin]) for p in pops}
+        # int32 (a bin would need 2^31 spikes of one cell): the whole network
+        # over a recording is ~1e7 cells per bin
+        per_bin = np.zeros((max(cuts.size - 1, 0), n), dtype=np.int32)
+        bin_counts(ids, cuts.astype(np.int64), per_bin)
+        binned = {p.name: per_bin[:, cells[p.name]] for p in pops}
     spikes = None
     if settings.record_spikes:
         starts = run.cells[:, 0]

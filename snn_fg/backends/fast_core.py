@@ -523,3 +523,13 @@ def reset(state, inact, act, n_act, fresh, n_fresh):
         r.v, r.e, r.i, r.last, r.spike = 0.0, 0.0, 0.0, 0, 0
     for x in range(n_act):
         inact[U(act[U(x)])] = 0
+
+
+@njit(cache=True)
+def bin_counts(ids, cuts, out):
+    """``out[b, g]`` += spikes of cell ``g`` among ``ids[cuts[b]:cuts[b + 1]]``
+    (one pass, into an array allocated once: a bincount per bin would fault
+    in a fresh cell-sized array each time)."""
+    for b in range(cuts.size - 1):
+        for x in range(cuts[b], cuts[b + 1]):
+            out[b, ids[x]] += 1

@@ -197,15 +197,20 @@ class _Collector:
         base = self.n_dense
         self.dense.append(kd.ravel())
         self.n_dense += kd.size
-        pairs = sorted({(int(i), int(o)) for o, i in zip(co, ci)})
-        lo = {(i, o): int(dr[(ci == i) & (co == o)].min()) for i, o in pairs}
-        hi = {(i, o): int(dr[(ci == i) & (co == o)].max()) for i, o in pairs}
-        counts = np.bincount([i for i, _ in pairs], minlength=c_in)
+        # (input, output) channel pairs in order, with the row-offset range of their taps
+        key = np.asarray(ci, np.int64) * c_out + np.asarray(co, np.int64)
+        uniq, inv = np.unique(key, return_inverse=True)
+        lo = np.full(uniq.size, np.iinfo(np.int64).max)
+        hi = np.full(uniq.size, np.iinfo(np.int64).min)
+        np.minimum.at(lo, inv.ravel(), dr)
+        np.maximum.at(hi, inv.ravel(), dr)
+        pairs = len(uniq)
+        counts = np.bincount(uniq // c_out, minlength=c_in)
         gbase = self.n_pair_ch
         self.pair_ptr.append(np.cumsum(counts) + self.n_pairs)
-        self.pairs.append(np.array([(o, lo[i, o], hi[i, o]) for i, o in pairs], dtype=np.int64).reshape(-1, 3))
+        self.pairs.append(np.stack([uniq % c_out, lo, hi], axis=1).astype(np.int64).reshape(-1, 3))
         self.n_pair_ch += c_in
-        self.n_pairs += len(pairs)
+        self.n_pairs += pairs
         return base, r, gbase
 
     def conv(self, ch_ptr, co, qr, qc, w, off):

@@ -10,7 +10,10 @@ outline that point inwards. Writes experiments/results/dvs_biplane[_spiking].jso
 figure-ground map, grouping map with the outline and the grouping maximum,
 one row per window).
 
-    python experiments/dvs_biplane.py [--model spiking --start-ms 100 --backend brian2]
+    python experiments/dvs_biplane.py [--model spiking --start-ms 100 --backend fast]
+
+With --model spiking it also measures the latency (experiments/dvs_latency.py)
+and writes dvs_biplane_spiking[_BACKEND].md and _latency.png.
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from snn_fg.atomic import save_figure, save_text  # noqa: E402
+from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
 from snn_fg.metrics import grouping_peak  # noqa: E402
@@ -88,7 +92,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", choices=("rate", "spiking"), default="rate")
     ap.add_argument("--start-ms", type=float, default=1.0)
-    ap.add_argument("--backend", default="brian2")
+    ap.add_argument("--backend", default=DEFAULT_BACKEND, choices=backend_names())
     ap.add_argument("--instantiate", choices=("input", "all"), default=None,
                     help="spiking: cells to create (the backend's default: brian2 input, fast all)")
     ap.add_argument("--latency-step-ms", type=float, default=2.5,

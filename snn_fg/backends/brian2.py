@@ -82,6 +82,14 @@ def _brian2_session(codegen: str):
         (prefs.codegen.target, prefs.codegen.runtime.cython.multiprocess_safe,
          prefs.core.stop_on_keyboard_interrupt) = saved[:3]
         logger.setLevel(saved[3])
+        # A run left by an exception (Ctrl-C) leaves Brian2's class-wide
+        # "running" flag set; its SIGINT handler (installed at import) would
+        # then turn every later Ctrl-C in this process into a silent "stop"
+        # request, so that other code (e.g. the fast backend) can never be
+        # interrupted. No Brian2 run is in progress once we are here.
+        from brian2.core.network import Network as _Brian2Network
+
+        _Brian2Network._globally_running = False
 
 
 class Brian2Backend(Backend):

@@ -181,7 +181,9 @@ def grouping_peak(grouping) -> tuple[int, int]:
     return tuple(int(v) for v in np.unravel_index(np.argmax(grouping), grouping.shape))
 
 
-def grouping_peak_inside(grouping, scene, shape_index: int = 0) -> bool:
-    """Whether the grouping maximum lies inside ``scene.shapes[shape_index]``."""
+def grouping_peak_inside(grouping, scene, shape_index: int | None = 0) -> bool:
+    """Whether the grouping maximum lies inside ``scene.shapes[shape_index]``
+    (inside any of the scene's shapes with ``shape_index=None``)."""
     r, c = grouping_peak(grouping)
-    return bool(scene.shapes[shape_index].contains(float(r), float(c)))
+    shapes = scene.shapes if shape_index is None else (scene.shapes[shape_index],)
+    return any(s.contains(float(r), float(c)) for s in shapes)

@@ -10,7 +10,10 @@ outline that point inwards. Writes experiments/results/dvs_biplane[_spiking].jso
 figure-ground map, grouping map with the outline and the grouping maximum,
 one row per window).
 
-    python experiments/dvs_biplane.py [--model spiking --start-ms 100 --backend brian2]
+    python experiments/dvs_biplane.py [--model spiking --start-ms 100 --backend fast]
+
+With --model spiking it also measures the latency (experiments/dvs_latency.py)
+and writes dvs_biplane_spiking[_BACKEND].md and _latency.png.
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from snn_fg.atomic import save_figure, save_text  # noqa: E402
+from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
 from snn_fg.metrics import grouping_peak  # noqa: E402
@@ -38,32 +42,67 @@ REC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events" 
 OUT = Path(__file__).with_name("results")
 
 
-def _maps(model: str, windows, backend: str):
-    """Each window's maps, and what to record about the run."""
+def _maps(model: str, windows, backend: str, instantiate=None):
+    """Each window's maps, what to record about the run, and the run (spiking)."""
     if model == "rate":
-        return [run_edfg(w.pos, w.neg) for w in windows], {}
-    from snn_fg.spiking.continuous import run_spiking_windows
+        return [run_edfg(w.pos, w.neg) for w in windows], {}, None
+    from snn_fg.spiking.continuous import simulate_windows, window_maps
 
-    maps = run_spiking_windows(windows, backend=backend)
+    run = simulate_windows(windows, backend=backend, instantiate=instantiate)
+    maps = window_maps(run)
     sim = maps[0].params["simulation"]
     return maps, {"simulated_ms": sim["simulated_ms"], "network_builds": sim["network_builds"],
                   "readout_lag_ms": sim["readout_lag_ms"], "backend": maps[0].params["backend"],
-                  "cells": maps[0].params["counts"]["total_cells"],
+                  "instantiate": sim["instantiate"], "cells": maps[0].params["counts"]["total_cells"],
                   "synapses": maps[0].params["counts"]["total_synapses"],
-                  "timings_s": maps[-1].params["timings_s"]}
+                  "backend_stats": maps[0].params.get("backend_stats", {}),
+                  "timings_s": maps[-1].params["timings_s"]}, run
+
+
+def _latency(run, maps, regions, rows, step_ms, stem):
+    """Window and plane latencies (experiments/dvs_latency.py) into ``rows``, a figure, and their summary."""
+    from dvs_latency import R_WITHIN, plane_latency, window_latencies
+
+    per_window = window_latencies(run, maps, step_ms)
+    plane = plane_latency(run, regions, step_ms, until_ms=run.spans[0][1] + 85.0)
+    for row, lat in zip(rows, per_window):
+        row["latency_ms"] = lat["latency_ms"]
+        row["latency_curve"] = {"t_ms": lat["t_ms"], "r": lat["r"]}
+    fig, ax = plt.subplots(1, 2, figsize=(11, 3.6))
+    for k, lat in enumerate(per_window):
+        ax[0].plot(lat["t_ms"], lat["r"], lw=1, label=f"window {k}")
+    ax[0].axhline(R_WITHIN, color="k", ls=":", lw=1)
+    ax[0].axvline(85.0, color="grey", ls="--", lw=0.8)
+    ax[0].set(xlabel="ms since the window's start", ylabel="r (running vs final grouping map)",
+              title=f"window latency (step {step_ms:g} ms)", ylim=(-0.2, 1.02))
+    ax[0].legend(fontsize=6, ncol=2)
+    ax[1].step(plane["t_ms"], np.asarray(plane["peak_on_plane"], float), where="post")
+    ax[1].set(xlabel="ms since the first events", ylabel="grouping peak on the plane",
+              title="plane latency (all spikes so far)", yticks=(0, 1), yticklabels=("no", "yes"))
+    fig.tight_layout()
+    save_figure(fig, OUT / f"{stem}_latency.png", dpi=90)
+    plt.close(fig)
+    found = [r["latency_ms"] for r in rows if r["latency_ms"] is not None]
+    return {"step_ms": step_ms, "r_within": R_WITHIN, "plane_latency_ms": plane["latency_ms"], "plane": plane,
+            "window_latency_median_ms": float(np.median(found)) if found else None,
+            "windows_never_within": len(rows) - len(found)}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", choices=("rate", "spiking"), default="rate")
     ap.add_argument("--start-ms", type=float, default=1.0)
-    ap.add_argument("--backend", default="brian2")
+    ap.add_argument("--backend", default=DEFAULT_BACKEND, choices=backend_names())
+    ap.add_argument("--instantiate", choices=("input", "all"), default=None,
+                    help="spiking: cells to create (the backend's default: brian2 input, fast all)")
+    ap.add_argument("--latency-step-ms", type=float, default=2.5,
+                    help="spiking: count step of the latency measures (2.5)")
     a = ap.parse_args()
     if not REC.exists():
         sys.exit(f"needs {REC} (../shared is absent)")
     t0 = time.perf_counter()
     windows = list(iter_windows(REC, window_ms=85, start_ms=a.start_ms))
-    all_maps, run = _maps(a.model, windows, a.backend)
+    all_maps, run, sim_run = _maps(a.model, windows, a.backend, a.instantiate)
     rows, panels = [], []
     for w, m in zip(windows, all_maps):
         region = filled_outline(w.pos | w.neg)
@@ -84,16 +123,64 @@ def main():
         ax[2].contour(region, levels=[0.5], colors="white", linewidths=0.8)
         ax[2].plot(c, r, "w+", ms=12, mew=2)
     fig.tight_layout()
-    stem = "dvs_biplane" + ("" if a.model == "rate" else f"_{a.model}")
+    stem = "dvs_biplane" + ("" if a.model == "rate" else f"_{a.model}") + \
+        ("" if a.model == "rate" or a.backend == "brian2" else f"_{a.backend}")
     save_figure(fig, OUT / f"{stem}.png", dpi=80)
     plt.close(fig)
+    latency = None
+    if sim_run is not None and sim_run.result.spikes is not None:
+        latency = _latency(sim_run, all_maps, [p[2] for p in panels], rows, a.latency_step_ms, stem)
     summary = {"recording": str(REC.name), "model": a.model, "window_ms": 85, "start_ms": a.start_ms, **run,
+               "latency": latency,
                "seconds": time.perf_counter() - t0, "load": os.getloadavg(), "windows": rows,
                "peak_on_plane": sum(r["peak_on_plane"] for r in rows),
                "median_inward_fraction": float(np.nanmedian([r["outline_inward_fraction"] for r in rows]))}
     save_text(OUT / f"{stem}.json", json.dumps(summary, indent=2))
+    save_text(OUT / f"{stem}.md", _markdown(summary, stem, " ".join(sys.argv[1:])))
     print(f"grouping peak on the plane in {summary['peak_on_plane']} of {len(rows)} windows; "
           f"median inward fraction {summary['median_inward_fraction']:.2f}")
+    if latency:
+        print(f"window latency (r >= {latency['r_within']}) median {latency['window_latency_median_ms']} ms; "
+              f"plane latency {latency['plane_latency_ms']} ms")
+
+
+def _markdown(s: dict, stem: str, argv: str) -> str:
+    lat = s.get("latency")
+    lines = [f"# {s['recording']}: {s['model']} model, {s['window_ms']} ms windows from {s['start_ms']:g} ms", "",
+             f"`python experiments/dvs_biplane.py {argv}` ({s['seconds']:.0f} s wall, load average "
+             f"{', '.join(f'{x:.1f}' for x in s['load'])} at the end). Figures: `{stem}.png`"
+             + (f", `{stem}_latency.png`" if lat else "") + "."]
+    if "backend" in s:
+        t = s["timings_s"]
+        lines += ["", f"Backend {s['backend'].get('name')} ({s['instantiate']} cells: {s['cells']:,}), one network "
+                  f"build, {s['simulated_ms']:g} ms simulated (read-out lag {s['readout_lag_ms']:g} ms); "
+                  f"build {t.get('build', 0):.1f} s, run {t.get('run', 0):.1f} s "
+                  f"({t.get('run', 0) / len(s['windows']):.2f} s per window), total {t.get('total', 0):.1f} s."]
+        st = s.get("backend_stats", {})
+        if st.get("synaptic_events_total"):
+            lines.append(f"Synaptic events {st['synaptic_events_total']:,} "
+                         f"({st['synaptic_events_total'] / len(s['windows']):,.0f} per window, "
+                         f"{1e9 * t.get('run', 0) / st['synaptic_events_total']:.1f} ns each), "
+                         f"spikes {st.get('spikes', 0):,}.")
+    lines += ["", "| window | ms | events | peak on plane | inward fraction (vectors) |"
+              + (" latency r>=0.9 (ms) |" if lat else ""),
+              "|---|---|---|---|---|" + ("---|" if lat else "")]
+    for r in s["windows"]:
+        line = (f"| {r['window']} | {r['t_start_ms']:.0f}-{r['t_end_ms']:.0f} | {r['events']:,} | "
+                f"{'yes' if r['peak_on_plane'] else 'no'} | {r['outline_inward_fraction']:.2f} "
+                f"({r['outline_vectors']}) |")
+        if lat:
+            line += f" {'never' if r['latency_ms'] is None else format(r['latency_ms'], 'g')} |"
+        lines.append(line)
+    lines += ["", f"Grouping peak on the plane in {s['peak_on_plane']} of {len(s['windows'])} windows; median "
+              f"inward fraction {s['median_inward_fraction']:.2f}."]
+    if lat:
+        lines += ["", f"Latency (counts in steps of {lat['step_ms']:g} ms): window latency = from a window's "
+                  f"start until the grouping map of the spikes since that start is within r >= {lat['r_within']} "
+                  f"of the window's final map: median {lat['window_latency_median_ms']} ms "
+                  f"({lat['windows_never_within']} windows never); plane latency = from the first events until "
+                  f"the grouping peak of all spikes so far sits on the plane: {lat['plane_latency_ms']} ms."]
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":

@@ -14,8 +14,12 @@ Acceptance (issue 3): median |angle difference| <= 20 deg on pixels where both
 maps are non-zero, grouping Pearson r >= 0.8; on discs >= 75 % of boundary
 pixels within 45 deg and the grouping maximum inside the disc.
 
+With several ``--backend`` s every input runs on each, and the maps and spike
+counts of every backend after the first are compared with the first's
+(issue 13: a second engine must be statistically the same as Brian2).
+
 Writes experiments/results/spiking_fidelity.json and .md.
-Usage: python experiments/spiking_fidelity.py [--quick] [--only NAME ...]
+Usage: python experiments/spiking_fidelity.py [--quick] [--only NAME ...] [--backend NAME ...]
 """
 from __future__ import annotations
 
@@ -33,6 +37,7 @@ sys.path.insert(0, str(ROOT))
 
 from snn_fg import scenes  # noqa: E402
 from snn_fg.atomic import save_text  # noqa: E402
+from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import image_to_events, image_to_frame  # noqa: E402
 from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
@@ -91,10 +96,33 @@ def _row(name, kind, maps, ref, elapsed, scene=None, extra=None):
     return row
 
 
+def _agreement(res, first):
+    """How the maps and spike counts of run ``res`` agree with run ``first``
+    (same input, another backend)."""
+    a, b = res.maps, first.maps
+    c = compare_frame(a.fg_x, a.fg_y, a.grouping, b.fg_x, b.fg_y, b.grouping)
+    same_cells = equal = total_a = total_b = 0
+    for name in first.result.populations:
+        sa, sb = res.result.sites[name], first.result.sites[name]
+        same_cells += int(np.array_equal(sa, sb))
+        if np.array_equal(sa, sb):
+            equal += int(np.sum(res.result.counts[name] == first.result.counts[name]))
+        total_a += int(res.result.counts[name].sum())
+        total_b += int(first.result.counts[name].sum())
+    cells = sum(s.size for s in first.result.sites.values())
+    return {"angle_diff_mean_deg": c["angle_diff_mean_deg"], "angle_within_45_frac": c["angle_within_45_frac"],
+            "grouping_pearson_r": c["grouping_pearson_r"], "populations_same_cells": same_cells,
+            "cells_same_count_frac": equal / max(cells, 1), "spikes": total_a, "spikes_first": total_b}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="synthetic scenes only (no BSDS frames)")
     ap.add_argument("--only", nargs="*", help="run only rows whose name contains one of these")
+    ap.add_argument("--backend", nargs="+", default=[DEFAULT_BACKEND], choices=backend_names(),
+                    help=f"simulator(s); the first is the one the others are compared with (default {DEFAULT_BACKEND})")
+    ap.add_argument("--instantiate", choices=("input", "all"), default="input",
+                    help="cells every backend creates (input: those the input can use, the same on every backend)")
     ap.add_argument("--out", default=str(OUT))
     args = ap.parse_args(argv)
     rows = []
@@ -105,16 +133,32 @@ def main(argv=None):
     def log(msg):
         print(msg, flush=True)
 
+    def run(name, kind, simulate, ref, scene=None, extra=None):
+        """One input on every backend: a row each, the later ones compared with the first."""
+        first = None
+        for backend in args.backend:
+            t0 = time.perf_counter()
+            res = simulate(backend)
+            row = _row(name, kind, res.maps, ref, time.perf_counter() - t0, scene,
+                       extra(res) if extra else None)
+            row["backend"] = backend
+            if first is None:
+                first = res
+            else:
+                row["vs_first"] = _agreement(res, first)
+            rows.append(row)
+            log(_fmt(row))
+        return first
+
+    res = None
     if not args.quick and BSDS.exists():
         for path in sorted(BSDS.glob("*.npz")):
             name = f"bsds-{path.stem}"
             if not want(name):
                 continue
             d = np.load(path)
-            t0 = time.perf_counter()
-            res = run_spiking_result(d["pos"], d["neg"], progress=False)
-            rows.append(_row(name, "bsds", res.maps, d, time.perf_counter() - t0))
-            log(_fmt(rows[-1]))
+            res = run(name, "bsds", lambda b: run_spiking_result(d["pos"], d["neg"], backend=b,
+                                                                 instantiate=args.instantiate, progress=False), d)
     elif not args.quick:
         log(f"skipping BSDS frames: {BSDS} is absent")
 
@@ -124,38 +168,41 @@ def main(argv=None):
         if not want(sc.name):
             continue
         pos, neg = image_to_frame(sc.image)
-        ref = run_edfg(pos, neg)
-        t0 = time.perf_counter()
-        res = run_spiking_result(pos, neg, progress=False)
-        rows.append(_row(sc.name, "synthetic-frame", res.maps, ref, time.perf_counter() - t0, sc))
-        log(_fmt(rows[-1]))
+        res = run(sc.name, "synthetic-frame",
+                  lambda b: run_spiking_result(pos, neg, backend=b, instantiate=args.instantiate, progress=False),
+                  run_edfg(pos, neg), sc)
     for sc in (scenes.disc(24, True), scenes.disc(40, False)):
         name = sc.name + "-timed-events"
         if not want(name):
             continue
         rec = image_to_events(sc.image)
         pos, neg = image_to_frame(sc.image)
-        ref = run_edfg(pos, neg)
-        t0 = time.perf_counter()
-        res = run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, progress=False)
-        rows.append(_row(name, "synthetic-events", res.maps, ref, time.perf_counter() - t0, sc,
-                         {"events": int(len(rec.events)), "input_rate_hz": res.inputs.rate_hz,
-                          "merged_spikes": res.inputs.merged}))
-        log(_fmt(rows[-1]))
+        res = run(name, "synthetic-events",
+                  lambda b: run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, backend=b,
+                                               instantiate=args.instantiate, progress=False),
+                  run_edfg(pos, neg), sc,
+                  lambda r: {"events": int(len(rec.events)), "input_rate_hz": r.inputs.rate_hz,
+                             "merged_spikes": r.inputs.merged})
 
     out = Path(args.out)
-    record = {"rows": rows, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-              "network_params": res.maps.params["network"], "simulation": res.maps.params["simulation"]}
+    record = {"rows": rows, "backends": args.backend, "instantiate": args.instantiate,
+              "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+              "network_params": res.maps.params["network"] if res else None,
+              "simulation": res.maps.params["simulation"] if res else None}
     save_text(out / "spiking_fidelity.json", json.dumps(record, indent=1, default=float))
     save_text(out / "spiking_fidelity.md", _markdown(rows))
     log(f"wrote {out / 'spiking_fidelity.json'} and .md")
 
 
 def _fmt(r):
-    s = (f"{r['name']:28s} median dAngle {r['angle_diff_median_deg']:5.1f} deg  mean {r['angle_diff_mean_deg']:5.1f}  "
+    s = (f"{r['name']:28s} {r['backend']:7s} median dAngle {r['angle_diff_median_deg']:5.1f} deg  mean {r['angle_diff_mean_deg']:5.1f}  "
          f"r {r['grouping_pearson_r']:.3f}  {r['seconds']:6.1f} s")
     if "truth_frac_within_45" in r:
         s += f"  truth<=45: {r['truth_frac_within_45']:.2f} (ref {r['ref_truth_frac_within_45']:.2f}) peak in {r['peak_inside']}"
+    if "vs_first" in r:
+        v = r["vs_first"]
+        s += (f"  vs first backend: r {v['grouping_pearson_r']:.4f}, angle mean {v['angle_diff_mean_deg']:.2f} deg, "
+              f"same counts {v['cells_same_count_frac']:.4f}, spikes {v['spikes']} / {v['spikes_first']}")
     return s
 
 
@@ -168,20 +215,32 @@ def _markdown(rows):
              "Pass (vs rate): mean <= 15 deg, >= 90 % within 45 deg, grouping r >= 0.9. Pass (truth): >= 95 % "
              "within 45 deg of the analytic direction and the grouping peak inside an object (any of the scene's "
              "shapes).", "",
-             "| input | median dAngle (deg) | mean dAngle | dAngle <= 45 | grouping r | pass (vs rate) "
+             "| input | backend | median dAngle (deg) | mean dAngle | dAngle <= 45 | grouping r | pass (vs rate) "
              "| truth <= 45 (spk / ref) | coverage | peak inside (spk / ref) | pass (truth) | cells | synapses "
              "| time (s) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         truth = (f"{r['truth_frac_within_45']:.2f} / {r['ref_truth_frac_within_45']:.2f}"
                  if "truth_frac_within_45" in r else "")
         cov = f"{r['truth_coverage']:.2f}" if "truth_coverage" in r else ""
         peak = f"{r['peak_inside']} / {r['ref_peak_inside']}" if "peak_inside" in r else ""
-        lines.append(f"| {r['name']} | {r['angle_diff_median_deg']:.1f} | {r['angle_diff_mean_deg']:.1f} | "
+        lines.append(f"| {r['name']} | {r.get('backend', '')} | {r['angle_diff_median_deg']:.1f} | {r['angle_diff_mean_deg']:.1f} | "
                      f"{r.get('angle_within_45_frac', float('nan')):.2f} | {r['grouping_pearson_r']:.3f} | "
                      f"{'yes' if r['pass_fidelity'] else 'NO'} | {truth} | {cov} | "
                      f"{peak} | {'' if 'pass_truth' not in r else 'yes' if r['pass_truth'] else 'NO'} | "
                      f"{r['cells']:,} | {r['synapses']:,} | {r['seconds']:.0f} |")
+    versus = [r for r in rows if "vs_first" in r]
+    if versus:
+        lines += ["", "## Each backend against the first on the same input", "",
+                  "Maps compared as above (the first backend's maps as reference); counts: fraction of cells "
+                  "with the same spike count in the counting window; spikes: total in the window.", "",
+                  "| input | backend | grouping r | mean dAngle (deg) | dAngle <= 45 | same counts | spikes (this / first) |",
+                  "|---|---|---|---|---|---|---|"]
+        for r in versus:
+            v = r["vs_first"]
+            lines.append(f"| {r['name']} | {r['backend']} | {v['grouping_pearson_r']:.4f} | {v['angle_diff_mean_deg']:.2f} "
+                         f"| {v['angle_within_45_frac']:.3f} | {v['cells_same_count_frac']:.4f} | "
+                         f"{v['spikes']:,} / {v['spikes_first']:,} |")
     lines += ["", "## Mean firing rate per population role (Hz; all levels pooled; first row)", ""]
     if rows:
         lines.append("| role | mean | active fraction | highest level mean | refractory max |")

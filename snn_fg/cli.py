@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from . import __version__
+from .backends import DEFAULT_BACKEND, backend_names
 from .errors import InputError, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
 from .events.esim import MOTIONS
@@ -63,7 +64,8 @@ _RUN_OPTIONS = (
     ("spiking model", (
         ("--network", None, None, None, "run a stored network description (FILE.json, see networks/) instead "
                                         "of building one from the model parameters"),
-        ("--backend", None, None, None, "simulator: brian2, or nest (pip install \"snn-fg[nest]\")"),
+        ("--backend", None, None, None, f"simulator: {', '.join(backend_names())} ({DEFAULT_BACKEND}; "
+                                        "the one used is recorded in the maps' params)"),
         ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
         ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
         ("--dt-ms", float, 0, True, "simulation time step (0.5)"),
@@ -73,7 +75,10 @@ _RUN_OPTIONS = (
         ("--feedback", ("on", "off"), None, None, "off: remove the feedback onto border-ownership cells, the "
                                                   "model's ablation (on)"),
         ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later "
-                                              "(20)"))),
+                                              "(20)"),
+        ("--instantiate", ("input", "all"), None, None, "cells to create: those this input can use, or every "
+                                                        "cell of the network (the backend's choice: brian2 input, "
+                                                        "fast all)"))),
     ("frame-based model", (
         ("--edge-operator", EDGE_OPERATORS, None, None, "simple cells' edge operator: gaussian (a "
                                                                "Gaussian-derivative stand-in) or corf (Hu et al.'s "

@@ -15,6 +15,7 @@ from typing import ClassVar
 import numpy as np
 
 from . import validate as check
+from .backends import DEFAULT_BACKEND
 from .errors import InputError
 from .figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure, save_spiking_figures
 from .maps import Maps
@@ -133,7 +134,7 @@ class SpikingModel(Model):
     """The spiking network (:func:`snn_fg.spiking.run_spiking`) on a backend.
 
     Options: ``network`` (a stored description), ``backend``, ``feedback``,
-    ``dt_ms``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
+    ``dt_ms``, ``instantiate``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
     ``spike_input`` (:data:`SPIKE_INPUTS`); for a
     recording ``readout_lag_ms``: a recording runs as one continuous network,
     every event at its own time (:mod:`snn_fg.spiking.continuous`).
@@ -142,10 +143,10 @@ class SpikingModel(Model):
     name = "spiking"
     grouping_label = SPIKING_GROUPING_LABEL
     options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed", "feedback", "readout_lag_ms",
-               "spike_input")
+               "spike_input", "instantiate")
 
-    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None, backend="brian2",
-                 spike_input: str = "regular", **run_options):
+    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
+                 backend=DEFAULT_BACKEND, spike_input: str = "regular", **run_options):
         super().__init__(params, progress)
         self.network = network       # a stored description (its own ModelParams), or None: build from params
         self.backend = backend
@@ -181,7 +182,8 @@ class SpikingModel(Model):
 
         windows = list(windows)
         net = {"params": self.params} if self.network is None else {"network": self.network}
-        options = {k: v for k, v in self.run_options.items() if k in ("dt_ms", "readout_lag_ms", "feedback")}
+        options = {k: v for k, v in self.run_options.items()
+                   if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate")}
         maps = run_spiking_windows(windows, **net, backend=self.backend, progress=self.progress is not None,
                                    **options)
         yield from zip(windows, maps)

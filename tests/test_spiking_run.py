@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from snn_fg.backends import DEFAULT_BACKEND
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.events import image_to_events, image_to_frame
 from snn_fg.figures import save_spiking_figures
@@ -41,10 +42,11 @@ def test_maps_record_counts_rates_and_parameters(small_run, frame, tmp_path):
     sim = m.params["simulation"]
     for key in ("duration_ms", "dt_ms", "settle_ms", "count_window_ms", "seed", "rate_hz_used", "instantiate"):
         assert key in sim
-    assert m.params["backend"]["name"] == "brian2" and m.params["backend"]["codegen"] in ("cython", "numpy")
+    assert m.params["backend"]["name"] == DEFAULT_BACKEND == small_run.result.backend
     assert m.params["model"] == "spiking" and m.params["levels"] == 2
     assert m.params["network"]["origin"] == "built"
-    assert m.params["counts"]["total_synapses"] == sum(m.params["counts"]["synapses_in"].values()) > 0
+    assert m.params["counts"]["total_cells"] == sum(m.params["counts"]["cells"].values()) > 0
+    assert set(m.params["kept_kernel_mass"]) == {pr.name for pr in small_run.network.projections}
     assert all(0 < v <= 1 + 1e-9 for v in m.params["kept_kernel_mass"].values())
     files = save_spiking_figures(Maps.load(m.save(tmp_path / "spk.npz")), tmp_path / "figs")
     assert [f.name for f in files] == ["maps.png", "spike_raster.png", "rate_histograms.png"]
@@ -78,10 +80,20 @@ def test_the_run_is_silent_unless_asked(frame, capfd):
     pos, neg = frame
     run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False)
     assert capfd.readouterr().err == ""
-    lines = []
-    run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False, log=lines.append)
-    assert any("unrolling" in m for m in lines) and any("compiling" in m for m in lines)
-    assert len(lines) < 10
+    for backend, says in (("brian2", ("unrolling", "compiling")), ("fast", ("cells",))):
+        lines = []
+        run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False, log=lines.append,
+                    backend=backend)
+        assert all(any(word in m for m in lines) for word in says), lines
+        assert len(lines) < 10
+    assert capfd.readouterr().err == ""
+
+
+def test_brian2_records_its_code_generation_and_synapses(frame):
+    pos, neg = frame
+    m = run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False, backend="brian2")
+    assert m.params["backend"]["name"] == "brian2" and m.params["backend"]["codegen"] in ("cython", "numpy")
+    assert m.params["counts"]["total_synapses"] == sum(m.params["counts"]["synapses_in"].values()) > 0
 
 
 def test_event_spike_times_come_from_the_timestamps():
@@ -139,7 +151,10 @@ def test_errors_name_what_is_wrong(frame):
     with pytest.raises(ParameterError, match="dt_ms"):
         run_spiking(pos, neg, dt_ms=0, progress=False)
     with pytest.raises(ParameterError, match="codegen"):
-        run_spiking(pos, neg, backend_options={"codegen": "gpu"}, duration_ms=10, settle_ms=0, progress=False)
+        run_spiking(pos, neg, backend="brian2", backend_options={"codegen": "gpu"}, duration_ms=10, settle_ms=0,
+                    progress=False)
+    with pytest.raises(TypeError, match="codegen"):      # an option the backend does not have
+        run_spiking(pos, neg, backend="fast", backend_options={"codegen": "cython"}, progress=False)
     with pytest.raises(ParameterError, match="backend: name='nest2'"):
         run_spiking(pos, neg, backend="nest2", progress=False)
     with pytest.raises(TypeError, match="durration_ms"):

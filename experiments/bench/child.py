@@ -35,29 +35,51 @@ def correlate_seconds() -> float:
     return time.perf_counter() - t
 
 
-def _model(model: str, backend: str | None):
+def _model(model: str, backend: str | None, instantiate: str | None = None):
     from snn_fg.models import get_model
 
-    return get_model("spiking", backend=backend) if model == "spiking" else get_model(model)
+    if model != "spiking":
+        return get_model(model)
+    return get_model("spiking", backend=backend, **({"instantiate": instantiate} if instantiate else {}))
 
 
 def _runner(mdl, inp):
+    """The model on one input. A spiking window runs as a recording of one
+    window does (one continuous run, every event at its own time, the window
+    plus the read-out lag simulated, no replay)."""
     from snn_fg.events import EventWindow
     from snn_fg.models import Frame
 
     if inp.events is None:
         return lambda: mdl.run_frame(Frame(inp.pos, inp.neg))
     t = inp.events["t"]
-    win = EventWindow(index=0, t_start_us=int(t[0]), t_end_us=int(t[-1]) + 1, events=inp.events,
+    win = EventWindow(index=0, t_start_us=inp.t_start_us if inp.t_start_us is not None else int(t[0]),
+                      t_end_us=inp.t_end_us if inp.t_end_us is not None else int(t[-1]) + 1, events=inp.events,
                       pos=inp.pos, neg=inp.neg)
+    if mdl.name == "spiking":
+        return lambda: _spiking_window(mdl, win)
     return lambda: mdl.run_window(win)
+
+
+#: engine counters of the last spiking run, reported beside its timing
+LAST_RUN: dict = {}
+
+
+def _spiking_window(mdl, win):
+    (_, maps), = mdl.run_windows([win])
+    p = maps.params
+    LAST_RUN.clear()
+    LAST_RUN.update(simulated_ms=p["simulation"]["simulated_ms"], instantiate=p["simulation"]["instantiate"],
+                    cells=p["counts"]["total_cells"], timings_s=p["timings_s"],
+                    backend_stats=p.get("backend_stats", {}))
+    return maps
 
 
 def time_model(spec: dict) -> list[dict]:
     """Warm up on ``spec["warmup"]`` (or the first input), then time each input
     ``repeats`` times; with ``calibrate`` the calibration call is timed right
     before each repeat, so each ratio compares two timings taken together."""
-    mdl = _model(spec["model"], spec.get("backend"))
+    mdl = _model(spec["model"], spec.get("backend"), spec.get("instantiate"))
     inputs = [load(s) for s in spec["inputs"]]
     warm = load(spec["warmup"]) if spec.get("warmup") else inputs[0]
     t = time.perf_counter()
@@ -79,6 +101,8 @@ def time_model(spec: dict) -> list[dict]:
         # on a shared machine it moves much less with the load.
         row = {**inp.describe(), "times_s": times, "median_s": statistics.median(times), "min_s": min(times),
                "cpu_s": cpu, "cpu_median_s": statistics.median(cpu), "warmup_s": warm_s}
+        if LAST_RUN:
+            row["spiking_run"] = dict(LAST_RUN)
         if corr:
             ratios = [AUTHORS_CORRELATES_PER_FRAME * c / s for c, s in zip(corr, times)]
             row.update(correlate_s=corr, correlate_median_s=statistics.median(corr),

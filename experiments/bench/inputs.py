@@ -1,8 +1,9 @@
 """The benchmark's inputs, rebuilt from a small spec in every measuring process.
 
 * ``bsds:<id>`` - a shared BSDS event frame (../shared/data/bsds-edfg/<id>.npz);
-* ``dvs:<k>`` - the k-th 85 ms window of ../shared/data/events/dvs.es, the
-  first millisecond (a full-frame reset burst) dropped;
+* ``dvs:<k>[@<start_ms>]`` - the k-th 85 ms window of
+  ../shared/data/events/dvs.es from ``start_ms`` (default 1: the first
+  millisecond, a full-frame reset burst, dropped);
 * ``synth:<n>`` - a synthetic 85 ms window of ``n`` events on a 320 x 240
   sensor: edge events of random discs and bars, a few events per pixel, as a
   moving scene gives. Deterministic for ``n``.
@@ -34,6 +35,8 @@ class BenchInput:
     pos: np.ndarray
     neg: np.ndarray
     events: np.ndarray | None = None
+    t_start_us: int | None = None      # a window's own span (else its events')
+    t_end_us: int | None = None
 
     @property
     def n_events(self) -> int | None:
@@ -52,13 +55,13 @@ def bsds_names() -> list[str]:
     return sorted(p.stem for p in BSDS.glob("*.npz")) if BSDS.exists() else []
 
 
-def dvs_windows(max_windows=None):
+def dvs_windows(max_windows=None, start_ms: float = DVS_START_MS):
     """The 85 ms windows of dvs.es (EventWindow objects)."""
     from snn_fg.events import EmptyWindowWarning, iter_windows
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)
-        return list(iter_windows(DVS, window_ms=WINDOW_MS, start_ms=DVS_START_MS, max_windows=max_windows))
+        return list(iter_windows(DVS, window_ms=WINDOW_MS, start_ms=start_ms, max_windows=max_windows))
 
 
 def _contour_pixels(rng, width, height, want):
@@ -107,10 +110,11 @@ def load(spec: str) -> BenchInput:
         d = np.load(BSDS / f"{arg}.npz")
         return BenchInput(spec, d["pos"], d["neg"])
     if kind == "dvs":
-        k = int(arg)
-        w = dvs_windows(max_windows=k + 1)[k]
-        return BenchInput(spec, w.pos, w.neg, w.events)
+        k, _, start = arg.partition("@")
+        k = int(k)
+        w = dvs_windows(max_windows=k + 1, start_ms=float(start) if start else DVS_START_MS)[k]
+        return BenchInput(spec, w.pos, w.neg, w.events, w.t_start_us, w.t_end_us)
     if kind == "synth":
         events, pos, neg = synthetic_window(int(arg))
-        return BenchInput(spec, pos, neg, events)
+        return BenchInput(spec, pos, neg, events, 0, int(WINDOW_MS * 1000))
     raise ValueError(f"unknown input spec {spec!r}")

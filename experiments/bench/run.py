@@ -99,13 +99,20 @@ def engines(only) -> tuple[list[tuple[str, str | None]], list[str]]:
     return chosen, notes
 
 
+#: the cells spiking runs create (--instantiate; None: each backend's default)
+INSTANTIATE = {"value": None}
+
+
 def engine_name(model, backend) -> str:
-    return model if backend is None else f"{model}/{backend}"
+    if backend is None:
+        return model
+    how = INSTANTIATE["value"]
+    return f"{model}/{backend}" + (f"[{how}]" if how else "")
 
 
 def _time(model, backend, inputs, args, *, repeats, calibrate=False, warmup=None):
     spec = {"task": "model", "model": model, "backend": backend, "inputs": inputs, "repeats": repeats,
-            "calibrate": calibrate, "warmup": warmup}
+            "calibrate": calibrate, "warmup": warmup, "instantiate": args.instantiate if backend else None}
     print(f"[{engine_name(model, backend)}] {len(inputs)} input(s) x {repeats}", file=sys.stderr, flush=True)
     return measure(spec, args.timeout)
 
@@ -134,7 +141,8 @@ def section_dvs(args, eng):
         n = min(n_all, args.dvs_windows if model == "rate" else args.spiking_windows)
         reps = args.repeats if model == "rate" else args.spiking_repeats
         warm = "dvs:0" if model == "rate" else "synth:1000"
-        out[engine_name(model, backend)] = _time(model, backend, [f"dvs:{k}" for k in range(n)], args,
+        start = "" if model == "rate" or args.dvs_start_ms is None else f"@{args.dvs_start_ms:g}"
+        out[engine_name(model, backend)] = _time(model, backend, [f"dvs:{k}{start}" for k in range(n)], args,
                                                  repeats=reps, warmup=warm)
     return out
 
@@ -222,6 +230,10 @@ def parse_args(argv=None):
     ap.add_argument("--dvs-windows", type=int, default=None, help="dvs.es windows timed for the rate model (all)")
     ap.add_argument("--spiking-windows", type=int, default=1,
                     help="dvs.es windows for spiking runs, timed and in the throughput run (1)")
+    ap.add_argument("--dvs-start-ms", type=float, default=None,
+                    help="spiking runs: dvs.es windows from this time (ms; default 1, as the rate model's)")
+    ap.add_argument("--instantiate", choices=("input", "all"), default=None,
+                    help="cells spiking backends create (each backend's default: brian2 input, fast all)")
     ap.add_argument("--sizes", help="synthetic event counts for the rate model (1k..100k)")
     ap.add_argument("--spiking-sizes", default="1000,10000",
                     help="synthetic event counts for spiking runs (1000,10000)")
@@ -244,6 +256,7 @@ def parse_args(argv=None):
     sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else list(QUICK_SIZES if args.quick else SYNTH_SIZES)
     args.sizes = sizes
     args.spiking_sizes = [int(s) for s in args.spiking_sizes.split(",")]
+    INSTANTIATE["value"] = args.instantiate
     return args
 
 

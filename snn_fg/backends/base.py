@@ -169,6 +169,28 @@ def lif_populations(network: Network) -> list[Population]:
     return [p for p in network.populations if not p.is_source]
 
 
+def receptor(sign: int) -> str:
+    """The current a projection of ``sign`` feeds: ``exc`` (``I_exc``) or ``inh``."""
+    return "exc" if sign > 0 else "inh"
+
+
+def receptor_weights(sign: int, w_mv: np.ndarray) -> np.ndarray:
+    """What each synapse of a projection of ``sign`` adds to its current
+    (mV), from its signed weights ``w_mv``: ``I_exc`` gets the signed weight
+    (a kernel's negative lobes stay negative), ``I_inh`` its magnitude."""
+    return w_mv if sign > 0 else np.abs(w_mv)
+
+
+def segments(settings: RunSettings) -> list[tuple[int, bool]]:
+    """``(end_step, snapshot)`` of each run segment: a simulation stops at
+    every counting-bin edge (to read its spike counters) and at the end."""
+    def step(t_ms):
+        return int(round(t_ms / settings.dt_ms))
+    edges = sorted({step(t) for t in settings.count_bins_ms or ()})
+    ends = sorted(set(edges) | {step(settings.duration_ms)})
+    return [(e, e in edges) for e in ends]
+
+
 class Backend(ABC):
     """A simulator that runs a network description on input spikes.
 
@@ -183,6 +205,10 @@ class Backend(ABC):
     #: that does not depend on how many other cells exist; where it does
     #: (NEST), float rounding can move a spike at the threshold's edge
     fixed_summation_order: ClassVar[bool] = True
+    #: ``RunSettings.instantiate`` when the caller leaves it to the backend:
+    #: ``input`` where cells cost per synapse (unrolled), ``all`` where they
+    #: cost only their state and choosing them per input would cost more
+    default_instantiate: ClassVar[str] = "input"
 
     @classmethod
     def available(cls) -> tuple[bool, str]:

@@ -23,7 +23,8 @@ import numpy as np
 from .. import validate as check
 from ..network.graph import Network
 from ..spiking.unroll import Unrolled, unroll
-from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
+from .base import (Backend, RunSettings, SimulationResult, lif_populations, receptor, receptor_weights, segments,
+                   source_masks, source_offsets)
 
 #: CUBA LIF state, advanced once per step by :data:`_STEP` with the exact
 #: per-cell propagators of :meth:`~snn_fg.network.nodes.Neuron.propagators`,
@@ -81,6 +82,14 @@ def _brian2_session(codegen: str):
         (prefs.codegen.target, prefs.codegen.runtime.cython.multiprocess_safe,
          prefs.core.stop_on_keyboard_interrupt) = saved[:3]
         logger.setLevel(saved[3])
+        # A run left by an exception (Ctrl-C) leaves Brian2's class-wide
+        # "running" flag set; its SIGINT handler (installed at import) would
+        # then turn every later Ctrl-C in this process into a silent "stop"
+        # request, so that other code (e.g. the fast backend) can never be
+        # interrupted. No Brian2 run is in progress once we are here.
+        from brian2.core.network import Network as _Brian2Network
+
+        _Brian2Network._globally_running = False
 
 
 class Brian2Backend(Backend):
@@ -182,7 +191,7 @@ class Brian2Backend(Backend):
         snapshots = []
         with _progress_bar(settings) as bar:
             done = 0
-            for end, snapshot in _segments(settings):
+            for end, snapshot in segments(settings):
                 if end > done:
                     network.run((end - done) * dt, report=bar(done, end), report_period=2 * b2.second,
                                 namespace={})
@@ -222,34 +231,24 @@ class Brian2Backend(Backend):
                 continue
             pr = conn.projection
             src_group = "inp" if un.network.population(pr.source).is_source else "lif"
-            key = (src_group, "exc" if pr.sign > 0 else "inh", round(pr.delay_ms, 6))
+            key = (src_group, receptor(pr.sign), round(pr.delay_ms, 6))
             groups.setdefault(key, []).append(conn)
         objects, n_syn = [], {}
-        for (src_group, receptor, delay), conns in sorted(groups.items()):
-            name = f"syn_{src_group}_{receptor}_{str(delay).replace('.', 'p')}ms"
+        for (src_group, current, delay), conns in sorted(groups.items()):
+            name = f"syn_{src_group}_{current}_{str(delay).replace('.', 'p')}ms"
             pre = np.concatenate([c.pre.astype(np.int32) + np.int32(offsets[c.projection.source]) for c in conns])
             post = np.concatenate([c.post.astype(np.int32) + np.int32(offsets[c.projection.target]) for c in conns])
-            w = np.concatenate([np.abs(c.w) if receptor == "inh" else c.w for c in conns])
+            w = np.concatenate([receptor_weights(c.projection.sign, c.w) for c in conns])
             if self.free:
                 for c in conns:
                     c.free()
             syn = b2.Synapses(gen if src_group == "inp" else lif, lif, "w : volt",
-                              on_pre=f"I_{receptor}_post += w", delay=delay * ms, dt=dt, name=name)
+                              on_pre=f"I_{current}_post += w", delay=delay * ms, dt=dt, name=name)
             syn.connect(i=pre, j=post)
             syn.w = w * mV
             n_syn[name] = int(pre.size)
             objects.append(syn)
         return objects, n_syn
-
-
-def _segments(settings: RunSettings):
-    """``(end_step, snapshot)`` of each run segment: the simulation stops at
-    every counting-bin edge (to read the spike counters) and at the end."""
-    def step(t_ms):
-        return int(round(t_ms / settings.dt_ms))
-    edges = sorted({step(t) for t in settings.count_bins_ms or ()})
-    ends = sorted(set(edges) | {step(settings.duration_ms)})
-    return [(e, e in edges) for e in ends]
 
 
 @contextlib.contextmanager

@@ -93,7 +93,7 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, par
                        backend: str = DEFAULT_BACKEND, backend_options: dict | None = None,
                        duration_ms: float = 400.0, dt_ms: float = 0.5, settle_ms: float | None = None,
                        seed: int = 0, rate_hz: float = 200.0, input_process: str = "regular",
-                       replay: bool = True, calibrate: bool = True, instantiate: str = "input", feedback: bool = True,
+                       replay: bool = True, calibrate: bool = True, instantiate: str | None = None, feedback: bool = True,
                        record_spikes: bool = True, record_state: tuple = (), sites: dict | None = None,
                        progress: bool = True, log=None) -> SpikingResult:
     """:func:`run_spiking`, returning a :class:`SpikingResult` with the internals."""
@@ -109,6 +109,7 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, par
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": inp.rate_hz}
         net = net.calibrated(inp.rate_hz)
     sim_backend = get_backend(backend, **(backend_options or {}))
+    instantiate = instantiate or sim_backend.default_instantiate
     say = log if log is not None else (stderr_log if progress else None)
     settings = RunSettings(duration_ms=duration_ms, dt_ms=dt_ms, count_from_ms=settle_ms,
                            record_spikes=record_spikes, record_state=tuple(record_state),
@@ -145,6 +146,8 @@ def run_params(net: Network, origin: dict, backend, result: SimulationResult, po
                    "total_cells": result.total_cells, "total_synapses": int(sum(syn.values())),
                    "backend_objects": result.stats.get("brian2_synapse_objects", {})},
         "kept_kernel_mass": result.stats.get("kept_kernel_mass", {}),
+        # the backend's own counters (fast: synaptic events, spikes, cells updated)
+        "backend_stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float))},
         "populations": populations,
         "timings_s": {**result.timings_s, "total": time.perf_counter() - t_start},
         "notes": list(net.notes),
@@ -183,8 +186,9 @@ def run_spiking(pos=None, neg=None, **options) -> Maps:
         ``False`` removes the feedback onto border-ownership cells (the
         ablation: both sides of every border stay equal, the figure-ground
         map loses its direction).
-    instantiate : {"input", "all"}
-        Create only the cells this input can use (default), or every cell.
+    instantiate : {"input", "all"}, optional
+        Create only the cells this input can use, or every cell (default:
+        the backend's ``default_instantiate``; recorded in ``params``).
     record_spikes : bool
         Keep spike times for the raster figure.
     progress, log

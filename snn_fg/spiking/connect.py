@@ -41,7 +41,9 @@ def pairs(network: Network, proj, src: Population, tgt: Population, src_sites, t
 
 
 def kernel_taps(proj: Conv, network: Network):
-    """Kept taps of a Conv: arrays (c_out, c_in, dr, dc, k) and the kept mass."""
+    """Kept taps of a Conv: arrays ``(c_out, c_in, dr, dc, k)`` and the kept
+    mass. A target cell at level pixel ``P`` reads the source cell at
+    ``P + (dr, dc)`` (the mode is already applied)."""
     k = proj.kernel.array(network.params)
     ab = np.abs(k)
     total = ab.sum()
@@ -140,16 +142,24 @@ def _walk_taps(pop, cells, local, ch_from, ch_to, dr, dc, kv, other: Population,
     return _cat(to_l, from_l, w_l)
 
 
-def resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_sites, src_active=None):
+def resize_factors(proj: Resize, src: Population, tgt: Population):
+    """The separable weights of a Resize: row and column interpolation
+    matrices ``(A_r, A_c)`` (target lattice x source lattice) and the peak
+    ``max|A_r| * max|A_c|``. A synapse's value is ``A_r[i, i'] * A_c[j, j']``,
+    kept when non-zero and (with ``prune``) at least ``prune * peak``."""
     ar = interp_matrix(src.level_shape[0], tgt.level_shape[0], src.stride, tgt.stride, proj.interpolation)
     ac = interp_matrix(src.level_shape[1], tgt.level_shape[1], src.stride, tgt.stride, proj.interpolation)
+    return ar, ac, np.abs(ar).max() * np.abs(ac).max()
+
+
+def resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_sites, src_active=None):
+    ar, ac, peak = resize_factors(proj, src, tgt)
     ri, rv = sparse_rows(ar)
     cj, cv = sparse_rows(ac)
     src_map = index_map(src, src_sites)
     if src_active is not None:
         src_map[src_sites[~src_active]] = -1
     t_c, t_r, t_col = np.unravel_index(tgt_sites, tgt.shape)   # lattice indices
-    peak = np.abs(ar).max() * np.abs(ac).max()
     pre_l, post_l, w_l = [], [], []
     kept_w = 0
     for a in range(ri.shape[1]):
@@ -168,17 +178,18 @@ def resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_
             post_l.append(np.nonzero(hit)[0])
             w_l.append(val[hit])
     pre, post, w = _cat(pre_l, post_l, w_l)
-    kept = _resize_kept_mass(ar, ac, proj.prune, peak)
+    kept = resize_kept_mass(ar, ac, proj.prune, peak)
     return pre, post, w, kept, kept_w
 
 
-def _resize_kept_mass(ar, ac, prune, peak):
+def resize_kept_mass(ar, ac, prune, peak):
+    """Kept fraction of a Resize's weight mass ``sum |A_r[i,i'] A_c[j,j']|`` after pruning."""
     if prune <= 0:
         return 1.0
     full = np.abs(ar).sum(1)[:, None] * np.abs(ac).sum(1)[None]
     prod = np.abs(ar)[:, None, :, None] * np.abs(ac)[None, :, None, :] if ar.size * ac.size < 4e6 else None
     if prod is None:   # large levels: estimate on the first 64 rows/cols
-        return _resize_kept_mass(ar[:64], ac[:64], prune, peak)
+        return resize_kept_mass(ar[:64], ac[:64], prune, peak)
     kept = (prod * (prod >= prune * peak)).sum((2, 3))
     return float(kept.sum() / full.sum())
 

@@ -60,7 +60,7 @@ def _all_events(windows):
 def run_spiking_windows(windows, *, params=None, spiking=None, network=None, backend: str = DEFAULT_BACKEND,
                         backend_options: dict | None = None, dt_ms: float = 0.5,
                         readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
-                        instantiate: str = "input", record_spikes: bool = True, progress: bool = True,
+                        instantiate: str | None = None, record_spikes: bool = True, progress: bool = True,
                         log=None, source: str = "<recording>") -> list[Maps]:
     """Run the spiking network once over consecutive windows of a recording.
 
@@ -95,6 +95,38 @@ def run_spiking_windows(windows, *, params=None, spiking=None, network=None, bac
     >>> len(maps) == len(wins), maps[0].params["simulation"]["network_builds"]
     (True, 1)
     """
+    run = simulate_windows(windows, params=params, spiking=spiking, network=network, backend=backend,
+                           backend_options=backend_options, dt_ms=dt_ms, readout_lag_ms=readout_lag_ms,
+                           calibrate=calibrate, feedback=feedback, instantiate=instantiate,
+                           record_spikes=record_spikes, progress=progress, log=log, source=source)
+    return window_maps(run)
+
+
+@dataclasses.dataclass
+class ContinuousRun:
+    """One simulation over a recording's windows (:func:`simulate_windows`):
+    the network, the backend's result (spike counts per bin between
+    ``edges``; spike trains if recorded) and each window's read-out span
+    ``spans[k]`` (ms from the first window's start, lag included)."""
+
+    windows: list
+    network: object
+    origin: dict
+    backend: object
+    result: object
+    edges: list
+    spans: list
+    simulation: dict
+    t_start: float
+
+
+def simulate_windows(windows, *, params=None, spiking=None, network=None, backend: str = DEFAULT_BACKEND,
+                     backend_options: dict | None = None, dt_ms: float = 0.5,
+                     readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
+                     instantiate: str | None = None, record_spikes: bool = True, progress: bool = True,
+                     log=None, source: str = "<recording>") -> ContinuousRun:
+    """The simulation half of :func:`run_spiking_windows` (same parameters):
+    one run over every window, not yet decoded (:func:`window_maps` does)."""
     t_start = time.perf_counter()
     windows = list(windows)
     if not windows:
@@ -115,22 +147,28 @@ def run_spiking_windows(windows, *, params=None, spiking=None, network=None, bac
     edges = sorted({round(t / dt_ms) * dt_ms for span in spans for t in span})
     duration = edges[-1]
     say = log if log is not None else (stderr_log if progress else None)
+    sim_backend = get_backend(backend, **(backend_options or {}))
+    instantiate = instantiate or sim_backend.default_instantiate
     settings = RunSettings(duration_ms=duration, dt_ms=dt_ms, count_from_ms=edges[0], record_spikes=record_spikes,
                            instantiate=instantiate, count_bins_ms=tuple(edges), log=say, progress=progress)
-    sim_backend = get_backend(backend, **(backend_options or {}))
     result = sim_backend.simulate(net, inp, settings)
-    out = []
-    for x, (a, b) in zip(windows, spans):
-        k0, k1 = (int(np.searchsorted(edges, round(t / dt_ms) * dt_ms)) for t in (a, b))
+    simulation = {"mode": "continuous", "simulated_ms": duration, "network_builds": 1, "readout_lag_ms": lag,
+                  "dt_ms": dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": inp.merged,
+                  "instantiate": instantiate, "record_spikes": bool(record_spikes)}
+    return ContinuousRun(windows, net, origin, sim_backend, result, edges, spans, simulation, t_start)
+
+
+def window_maps(run: ContinuousRun) -> list[Maps]:
+    """Each window's maps, decoded from the spikes counted in its read-out span."""
+    out, edges, result = [], run.edges, run.result
+    for x, (a, b) in zip(run.windows, run.spans):
+        k0, k1 = (int(np.searchsorted(edges, round(t / run.simulation["dt_ms"]) * run.simulation["dt_ms"]))
+                  for t in (a, b))
         counts = {n: c[k0:k1].sum(axis=0) for n, c in result.binned_counts.items()}
         window_result = dataclasses.replace(result, counts=counts, count_window_ms=edges[k1] - edges[k0],
                                             spikes=_spikes_between(result.spikes, edges[k0], edges[k1]))
-        out.append(_window_maps(window_result, x, net, origin, sim_backend, t_start,
-                                {"mode": "continuous", "simulated_ms": duration, "network_builds": 1,
-                                 "readout_lag_ms": lag, "dt_ms": dt_ms, "input": "events",
-                                 "rate_hz_used": rate, "merged_input_spikes": inp.merged,
-                                 "instantiate": instantiate, "record_spikes": bool(record_spikes),
-                                 "count_from_ms": edges[k0], "count_to_ms": edges[k1]}))
+        out.append(_window_maps(window_result, x, run.network, run.origin, run.backend, run.t_start,
+                                {**run.simulation, "count_from_ms": edges[k0], "count_to_ms": edges[k1]}))
     return out
 
 

@@ -81,25 +81,14 @@ class Unrolled:
         return "\n".join(rows)
 
 
-def unroll(network: Network, active: dict, progress=None, sites: dict | None = None,
-           instantiate: str = "input") -> Unrolled:
-    """Instantiate the cells and synapses of ``network`` for one input.
+def choose_sites(network: Network, active: dict, sites: dict | None = None, instantiate: str = "input"):
+    """The cells of every population a simulator instantiates for one input.
 
-    Parameters
-    ----------
-    network : Network
-        The description.
-    active : dict
-        Spike-source population name -> bool (rows, cols) mask of the pixels
-        that receive input spikes (their union is the level-1 edge map).
-    progress : callable, optional
-        Wraps the iteration over projections (e.g. a tqdm factory).
-    sites : dict, optional
-        Fixed cells (flat indices) for some populations, overriding their
-        hints: for hand-built circuits.
-    instantiate : {"input", "all"}
-        ``input``: only the cells this input can use; ``all``: every cell
-        (of an ``edge_mask`` population, every cell inside the mask).
+    Parameters are those of :func:`unroll`. Returns ``(chosen, masks, edge_maps)``:
+    population -> sorted flat indices, spike source -> bool (rows, cols) mask of
+    pixels with input, level -> edge map. Shared by every backend that honours
+    the instantiation hints (an unrolling one, or an event-driven engine that
+    marks the cells it leaves out).
     """
     check.choice("unroll", "instantiate", instantiate, INSTANTIATE)
     act = {}
@@ -126,6 +115,31 @@ def unroll(network: Network, active: dict, progress=None, sites: dict | None = N
                  for p in network.populations if not p.is_source}
         fixed = whole | fixed
     chosen, emaps = resolve_sites(network, flat, fixed)
+    return chosen, act, emaps
+
+
+def unroll(network: Network, active: dict, progress=None, sites: dict | None = None,
+           instantiate: str = "input") -> Unrolled:
+    """Instantiate the cells and synapses of ``network`` for one input.
+
+    Parameters
+    ----------
+    network : Network
+        The description.
+    active : dict
+        Spike-source population name -> bool (rows, cols) mask of the pixels
+        that receive input spikes (their union is the level-1 edge map).
+    progress : callable, optional
+        Wraps the iteration over projections (e.g. a tqdm factory).
+    sites : dict, optional
+        Fixed cells (flat indices) for some populations, overriding their
+        hints: for hand-built circuits.
+    instantiate : {"input", "all"}
+        ``input``: only the cells this input can use; ``all``: every cell
+        (of an ``edge_mask`` population, every cell inside the mask).
+    """
+    chosen, act, emaps = choose_sites(network, active, sites, instantiate)
+    flat = {k: v.ravel() for k, v in act.items()}
     conns = []
     items = network.projections if progress is None else progress(network.projections)
     for pr in items:

@@ -1,0 +1,371 @@
+"""The fast backend: an event-driven engine of our own, verified against Brian2.
+
+Why this design
+---------------
+The network is a few weight-shared kernels applied on pyramid grids of
+millions of cells, and at any moment only a small part of it is doing
+anything. Brian2 (and any simulator that wants explicit synapses) must
+first unroll the kernels into per-synapse arrays (1e8-1e9 at full scale)
+and then update every instantiated cell at every step. This engine does
+neither:
+
+* **Weight-shared propagation.** A spike goes through its projection's kernel
+  footprint when it is delivered: a Conv's kept taps (pruned exactly as
+  :func:`~snn_fg.spiking.connect.kernel_taps` prunes them), a Resize's
+  interpolation weights (:func:`~snn_fg.spiking.connect.resize_factors`).
+  Memory is proportional to cells (about 40 bytes each), not synapses, so
+  the whole network (``instantiate="all"``) of a 320 x 240 sensor over ten
+  levels, 9 million cells, fits in a few hundred megabytes.
+* **Active cells only.** A cell is updated step by step only while it might
+  fire (or is refractory); otherwise it is *parked* and brought up to date
+  in closed form when input next reaches it (:mod:`.fast_core`). Cost then
+  follows synaptic events and active cells, not network size times steps.
+* **Brian2's step, bit for bit where it can be.** Each step runs the slots of
+  Brian2's schedule as our Brian2 backend uses them (state update, then
+  threshold with refractoriness by time steps, then synaptic delivery
+  after the projection's delay rounded to steps, then reset), with the same
+  update expression, potentials and weights in volts, the same decay
+  factors, delays, refractory periods and spike and counting times. What
+  may differ is the order in which simultaneous synaptic inputs are summed
+  and the rounding of the closed-form advance: a spike train can only
+  differ where the potential comes within rounding error of threshold.
+  ``tests/test_fast_engine.py`` checks identical spike trains on small
+  networks.
+* **Compiled with numba**, a maintained JIT compiler for numerical Python:
+  the inner loops are plain loops over integers, which numpy cannot
+  vectorise (every event depends on the state the previous one left).
+
+The engine honours the instantiation hints like Brian2 (``instantiate=
+"input"`` marks the cells the hints leave out as absent) so that both
+backends simulate the same cells; with ``instantiate="all"`` it needs no
+per-input preparation beyond the coarse levels' edge masks.
+
+Example
+-------
+>>> from snn_fg.backends import get_backend
+>>> get_backend("fast").name
+'fast'
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..network.graph import Network
+from ..spiking.unroll import choose_sites
+from . import fast_tables as ft
+from .base import Backend, RunSettings, SimulationResult, lif_populations, segments, source_masks, source_offsets
+
+#: initial room of the spike log (spikes); it doubles when a step needs more
+LOG_START = 1 << 16
+#: a Conv into a population with fewer than this fraction of its cells
+#: instantiated, whose kernel has at least this many taps per row it covers,
+#: finds its synapses from the targets' side (fast_core._conv_gather): visiting
+#: a row costs about as much as following that many taps
+GATHER_BELOW = 0.1
+GATHER_TAPS_PER_ROW = 8
+#: simulated time per call of the compiled loop (progress, Ctrl-C in between)
+CHUNK_MS = 25.0
+
+
+class FastBackend(Backend):
+    """Event-driven engine over weight-shared kernels (numba).
+
+    Parameters
+    ----------
+    chunk_ms : float
+        Simulated time per call of the compiled loop; between calls the
+        progress bar moves and Ctrl-C is honoured.
+    """
+
+    name = "fast"
+    requires = "numba (a core dependency: reinstall snn-fg)"
+    #: every cell: the engine needs no per-input preparation then (choosing the
+    #: cells an input can use takes seconds to a minute of unrolling in Python,
+    #: longer than simulating the cells it leaves out)
+    default_instantiate = "all"
+
+    def __init__(self, *, chunk_ms: float = CHUNK_MS):
+        from .. import validate as check
+
+        self.chunk_ms = check.number("FastBackend", "chunk_ms", chunk_ms, lo=0, lo_open=True)
+        self._tables: ft.EngineTables | None = None
+        self._pool = _Pool()
+
+    @classmethod
+    def available(cls):
+        try:
+            import numba  # noqa: F401
+        except ImportError:
+            return False, "pip install numba"
+        return True, ""
+
+    def describe(self) -> dict:
+        import numba
+
+        return {"name": self.name, "engine": "event-driven, weight-shared kernels", "numba": numba.__version__}
+
+    def tables(self, network: Network, dt_ms: float) -> ft.EngineTables:
+        """The engine's arrays for ``network`` at ``dt_ms``, built once and
+        kept while the same description is simulated again."""
+        t = self._tables
+        if t is None or t.network is not network or t.dt_ms != dt_ms:
+            t = self._tables = ft.build_tables(network, dt_ms)
+        return t
+
+    def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
+        t0 = time.perf_counter()
+        tab = self.tables(network, settings.dt_ms)
+        chosen, _, _ = choose_sites(network, source_masks(network, inputs.on, inputs.off), settings.sites,
+                                    settings.instantiate)
+        n_steps = int(round(settings.duration_ms / settings.dt_ms))
+        run = _Run(tab, chosen, inputs, n_steps, self._pool)
+        timings = {"build": time.perf_counter() - t0}
+        settings.say(f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
+                     f"(prepared in {timings['build']:.2f} s)")
+        t_run, cpu = time.perf_counter(), time.process_time()
+        try:
+            run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))))
+            timings["run"] = time.perf_counter() - t_run
+            timings["run_cpu"] = time.process_time() - cpu     # (wall time on a shared machine overstates the work)
+            result = _result(self.name, tab, chosen, run, settings)
+            run.release()
+        except BaseException:
+            self._pool.clear()          # (e.g. interrupted mid-step: the arrays are not at rest)
+            raise
+        timings["total"] = time.perf_counter() - t0
+        result.timings_s = timings
+        return result
+
+
+def _input_events(tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
+    """Input spikes as cell numbers (``first_cell``: population -> its first
+    number) grouped by step, ``(ptr, ids)``:
+    the spikes of step ``s`` are ``ids[ptr[s]:ptr[s + 1]]``, the pattern
+    repeating every ``ptr.size - 1`` steps (the input's period, kept
+    unexpanded, or the whole run)."""
+    periodic = inputs.period_steps is not None and inputs.period_steps < n_steps
+    length = int(inputs.period_steps) if periodic else max(n_steps, 1)
+    idx, steps = np.asarray(inputs.indices, dtype=np.int64), np.asarray(inputs.steps, dtype=np.int64)
+    keep = steps < length
+    idx, steps = idx[keep], steps[keep]
+    first = source_offsets(tab.network)
+    ids = np.empty(idx.size, dtype=np.int64)
+    bounds = sorted(first.items(), key=lambda kv: kv[1])
+    for k, (name, start) in enumerate(bounds):
+        stop = bounds[k + 1][1] if k + 1 < len(bounds) else inputs.n_sources
+        sel = (idx >= start) & (idx < stop)
+        ids[sel] = first_cell[name] + idx[sel] - start
+    order = np.lexsort((ids, steps))
+    ids, steps = ids[order], steps[order]
+    return np.searchsorted(steps, np.arange(length + 1)).astype(np.int64), ids.astype(np.int32)
+
+
+class _Run:
+    """The mutable state of one simulation: cells, active set and spike log.
+
+    Only the chosen cells exist, numbered population after population
+    (:mod:`.fast_core` describes the numbering and the maps between grid and
+    number)."""
+
+    def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: "_Pool"):
+        from .fast_core import N_FRESH, STATE
+
+        self.tab, self.n_steps, self.pool = tab, n_steps, pool
+        off = self._number(chosen)
+        sparse = self.cells[tab.prj[:, ft.J_TGT], 1] < GATHER_BELOW * tab.pops[tab.prj[:, ft.J_TGT], ft.P_SIZE]
+        self.gather = (sparse & (tab.taps_per_row >= GATHER_TAPS_PER_ROW)).astype(np.uint8)
+        self.ctype = np.repeat(tab.pops[:, ft.P_TYPE], self.cells[:, 1]).astype(np.uint8)
+        self.in_ptr, self.in_ids = _input_events(tab, self.first, inputs, n_steps)
+        self.n_present = int(sum(chosen[p.name].size for p in lif_populations(tab.network)))
+        self.state = pool.zeros("state", off, STATE)          # all at rest: never touched
+        self.inact = pool.zeros("inact", off, np.uint8)
+        self.act, self.new, self.tmp, self.fresh = (pool.empty(name, off, np.int32)
+                                                    for name in ("act", "new", "tmp", "fresh"))
+        self.scalars = np.zeros(2, dtype=np.int64)
+        self.log = np.empty(LOG_START, dtype=np.int32)
+        self.step_start = np.zeros(n_steps + 1, dtype=np.int64)
+        largest = int(max(chosen[p.name].size for p in lif_populations(tab.network)))
+        self.acc = pool.zeros("acc", max(largest, 1), np.float64)
+        self.touched = pool.empty("touched", largest + tab.max_fanout, np.int64)
+        self.counters = np.zeros(N_FRESH + 1, dtype=np.int64)
+        self.prj_events = np.zeros(len(tab.network.projections), dtype=np.int64)
+
+    def _number(self, chosen: dict) -> int:
+        """Number the chosen cells (see :mod:`.fast_core`); returns how many."""
+        from .fast_core import C_BITS, C_FLAT, C_MAP, C_ROW
+
+        pops = self.tab.network.populations
+        self.cells = np.full((len(pops), 6), -1, dtype=np.int64)
+        maps, flats, columns, rows, bits, off, n_map, n_flat, n_row, n_bits = [], [], [], [], [], 0, 0, 0, 0, 0
+        for q, p in enumerate(pops):
+            sites = chosen[p.name]
+            self.cells[q, :2] = off, sites.size
+            if sites.size != p.size:
+                local = np.full(p.size, -1, dtype=np.int32)
+                local[sites] = np.arange(sites.size, dtype=np.int32)
+                maps.append(local)
+                flats.append(sites.astype(np.int32))
+                columns.append((sites % p.grid[1]).astype(np.int32))
+                rows.append(np.searchsorted(sites, np.arange(p.channels * p.grid[0] + 1) * p.grid[1]))
+                bits.append(np.packbits(local >= 0, bitorder="little"))
+                self.cells[q, C_MAP], self.cells[q, C_FLAT], self.cells[q, C_ROW] = n_map, n_flat, n_row
+                self.cells[q, C_BITS] = n_bits
+                n_map, n_flat, n_row = n_map + p.size, n_flat + sites.size, n_row + rows[-1].size
+                n_bits += bits[-1].size
+            off += sites.size
+        self.first = {p.name: int(self.cells[q, 0]) for q, p in enumerate(pops)}
+        self.cmap = np.concatenate(maps) if maps else np.zeros(1, dtype=np.int32)
+        self.flat_of = np.concatenate(flats) if flats else np.zeros(1, dtype=np.int32)
+        self.column_of = np.concatenate(columns) if columns else np.zeros(1, dtype=np.int32)
+        self.row_ptr = np.concatenate(rows).astype(np.int64) if rows else np.zeros(1, dtype=np.int64)
+        self.bits = np.concatenate(bits) if bits else np.zeros(1, dtype=np.uint8)
+        return off
+
+    def simulate(self, settings: RunSettings, chunk: int):
+        from .fast_core import run_steps
+
+        tab = self.tab
+        with _progress(settings) as bar:
+            n = 0
+            while n < self.n_steps:
+                end = min(n + chunk, self.n_steps)
+                reached = run_steps(n, end, self.state, self.ctype, self.inact, self.act, self.new, self.tmp,
+                                    self.fresh, self.scalars, self.log, self.step_start, self.in_ptr, self.in_ids, tab.pops,
+                                    self.cells, self.cmap, self.flat_of, self.column_of, self.row_ptr, self.bits,
+                                    self.gather,
+                                    tab.nrn, tab.ref_steps, tab.adv, tab.prj, tab.prj_w, tab.ch_ptr, tab.tap_co,
+                                    tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off, tab.dense, tab.pair_ptr,
+                                    tab.pair_co, tab.pair_rlo, tab.pair_rhi, tab.csr_ptr, tab.csr_idx, tab.csr_val,
+                                    tab.grp_ptr, tab.grp_prj, self.acc, self.touched, self.counters,
+                                    self.prj_events)
+                if reached < end:         # the next step may not fit in the spike log
+                    self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
+                bar(reached - n)
+                n = reached
+
+    def release(self):
+        """Hand the cell arrays back to the pool, at rest again."""
+        from .fast_core import N_FRESH, reset
+
+        reset(self.state, self.inact, self.act, int(self.scalars[0]), self.fresh, int(self.counters[N_FRESH]))
+
+    def spikes(self):
+        """Every spike of the run as ``(cell number, step)``."""
+        log_n = int(self.scalars[1])
+        return self.log[:log_n].astype(np.int64), np.repeat(np.arange(self.n_steps), np.diff(self.step_start))
+
+    def final_state(self) -> np.ndarray:
+        """Every cell's ``(v, I_exc, I_inh)`` at the end of the run (volts, one row per cell)."""
+        from .fast_core import final_state
+
+        out = np.zeros((self.state.size, 3))
+        final_state(self.state, self.ctype, self.tab.nrn, self.tab.adv, self.n_steps, out)
+        return out
+
+
+class _Pool:
+    """Cell arrays kept from one run to the next (a run over a recording,
+    window after window, or the next frame): allocating them anew would
+    fault in hundreds of megabytes of fresh memory per run. Arrays handed
+    out by :meth:`zeros` come back at rest (:meth:`_Run.release`)."""
+
+    def __init__(self):
+        self.arrays: dict = {}
+
+    def _get(self, name, n, dtype, zero):
+        a = self.arrays.get(name)
+        if a is None or a.size < n or a.dtype != np.dtype(dtype):
+            a = self.arrays[name] = (np.zeros if zero else np.empty)(max(n, 1), dtype=dtype)
+        return a[:n]
+
+    def zeros(self, name, n, dtype):
+        return self._get(name, n, dtype, True)
+
+    def empty(self, name, n, dtype):
+        return self._get(name, n, dtype, False)
+
+    def clear(self):
+        self.arrays.clear()
+
+
+def first_step_at(t_ms: float, dt_ms: float) -> int:
+    """The first step whose time ``n * dt`` (seconds, as Brian2's clock
+    computes it) is at or after ``t_ms``: where Brian2's ``t >= t_count`` starts."""
+    dt_s, t_s = dt_ms * ft.MS, t_ms * ft.MS
+    n = max(0, int(np.floor(t_s / dt_s)) - 2)
+    while np.int64(n) * dt_s < t_s:
+        n += 1
+    return n
+
+
+def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings) -> SimulationResult:
+    from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS
+
+    ids, steps = run.spikes()
+    n = run.state.size
+    pops = lif_populations(tab.network)
+    cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
+    at = np.searchsorted(steps, [first_step_at(settings.count_from_ms, settings.dt_ms)])[0]
+    all_counts = np.bincount(ids[at:], minlength=n)
+    counts = {p.name: all_counts[cells[p.name]] for p in pops}
+    binned = None
+    if settings.count_bins_ms is not None:
+        from .fast_core import bin_counts
+
+        cuts = np.searchsorted(steps, [end for end, snapshot in segments(settings) if snapshot])
+        # int32 (a bin would need 2^31 spikes of one cell): the whole network
+        # over a recording is ~1e7 cells per bin
+        per_bin = np.zeros((max(cuts.size - 1, 0), n), dtype=np.int32)
+        bin_counts(ids, cuts.astype(np.int64), per_bin)
+        binned = {p.name: per_bin[:, cells[p.name]] for p in pops}
+    spikes = None
+    if settings.record_spikes:
+        starts = run.cells[:, 0]
+        which = np.searchsorted(starts, ids, side="right") - 1
+        order = np.argsort(which, kind="stable")       # by population, in time order within each
+        which, local, t_ms = which[order], ids[order] - starts[which[order]], \
+            (steps[order] * (settings.dt_ms * ft.MS)) / ft.MS
+        cuts = np.searchsorted(which, np.arange(starts.size + 1))
+        spikes = {p.name: (local[cuts[q]:cuts[q + 1]], t_ms[cuts[q]:cuts[q + 1]])
+                  for q, p in enumerate(tab.network.populations) if not p.is_source}
+    state = {}
+    if settings.record_state:
+        values = run.final_state()
+        for p in pops:
+            state[p.name] = {var: values[cells[p.name], k] / ft.MV
+                             for k, var in enumerate(("v", "I_exc", "I_inh")) if var in settings.record_state}
+    events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
+    n_input = int(np.count_nonzero(run.ctype[ids] == ft.SOURCE_TYPE))
+    stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),
+             "synaptic_events": events, "synaptic_events_total": int(run.counters[N_EVENTS]),
+             "closed_form_advances": int(run.counters[N_ADVANCES]),
+             "active_cell_steps": int(run.counters[N_ACTIVE_STEPS]), "cells": run.n_present,
+             "input_spikes": n_input, "spikes": int(ids.size - n_input)}
+    return SimulationResult(network=tab.network, backend=name, sites={p.name: chosen[p.name] for p in pops},
+                            counts=counts, count_window_ms=settings.count_window_ms,
+                            simulated_ms=settings.duration_ms, dt_ms=settings.dt_ms, spikes=spikes, state=state,
+                            binned_counts=binned, count_bins_ms=settings.count_bins_ms, stats=stats)
+
+
+class _progress:
+    """A callable advancing a tqdm bar by simulated steps (or doing nothing)."""
+
+    def __init__(self, settings: RunSettings):
+        self.settings, self.bar = settings, None
+
+    def __enter__(self):
+        if self.settings.progress:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False)
+        return self
+
+    def __call__(self, steps: int):
+        if self.bar is not None:
+            self.bar.update(steps * self.settings.dt_ms)
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.close()

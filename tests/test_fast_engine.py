@@ -1,0 +1,175 @@
+"""The fast engine (snn_fg.backends.fast) verified against Brian2, and its
+own guarantees: parked cells cannot fire, the closed-form advance is the
+step-by-step update, and memory follows cells, not synapses."""
+import numpy as np
+import pytest
+
+from snn_fg.backends import RunSettings, available_backends, get_backend
+from snn_fg.backends.base import STATE_VARIABLES
+from snn_fg.backends.fast_core import _advanced, _safe
+from snn_fg.backends.fast_tables import DE, DI, DM, PE, PI, V_RESET, V_REST, V_TH, build_tables
+from snn_fg.events import image_to_events, image_to_frame
+from snn_fg.network import build_network
+from snn_fg.params import ModelParams
+from snn_fg.scenes import disc
+from snn_fg.spiking.inputs import event_spikes, frame_spikes
+
+BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
+
+
+def _trains(result, name):
+    """Spikes of population ``name`` as (step, cell) sorted by step then cell."""
+    cell, t = result.spikes[name]
+    steps = np.round(t / result.dt_ms).astype(np.int64)
+    order = np.lexsort((cell, steps))
+    return steps[order], result.sites[name][cell[order]]
+
+
+def _both(net, inp, settings):
+    return {name: get_backend(name).simulate(net, inp, settings) for name in ("brian2", "fast")}
+
+
+#: counting bins of the disc runs (ms): uneven, one edge off the step grid's multiples of 10
+BINS_MS = (20.0, 37.5, 60.0, 100.0, 150.0)
+
+
+@pytest.fixture(scope="module")
+def disc_runs():
+    """Two levels, every kind of projection and delay (feedback on, gated
+    border-ownership cells, excess cells), 150 ms of regular input."""
+    pos, neg = image_to_frame(disc(16).image)
+    inp = frame_spikes(pos, neg, 200.0, 0.5, 150.0, seed=1)
+    net = build_network(ModelParams(levels=2), pos.shape).calibrated(inp.rate_hz)
+    return _both(net, inp, RunSettings(duration_ms=150.0, count_from_ms=50.0, record_state=STATE_VARIABLES,
+                                       count_bins_ms=BINS_MS))
+
+
+def _assert_identical(runs, min_spikes):
+    fast, ref = runs["fast"], runs["brian2"]
+    assert fast.populations == ref.populations
+    total = 0
+    for name in ref.populations:
+        np.testing.assert_array_equal(fast.sites[name], ref.sites[name], err_msg=name)
+        for got, want in zip(_trains(fast, name), _trains(ref, name)):
+            np.testing.assert_array_equal(got, want, err_msg=name)
+        np.testing.assert_array_equal(fast.counts[name], ref.counts[name], err_msg=name)
+        total += ref.spikes[name][0].size
+    assert total >= min_spikes
+
+
+@BRIAN2
+def test_spike_trains_are_identical_to_brian2s(disc_runs):
+    """Every population's spike cells and times, and the counts, equal."""
+    _assert_identical(disc_runs, min_spikes=40_000)
+    net = disc_runs["brian2"].network
+    fired = {p.role for p in net.populations
+             if p.name in disc_runs["brian2"].counts and disc_runs["brian2"].counts[p.name].sum() > 0}
+    roles = {p.role for p in net.populations if not p.is_source}
+    assert any(r.startswith("excess_") for r in roles) and any(r.startswith("feedback_") for r in roles)
+    assert roles <= fired, f"roles that never fired: {sorted(roles - fired)}"
+    gated = [p.neuron for p in net.populations if p.role.startswith("bo_")]
+    assert all(n.v_rest_mv < n.v_reset_mv for n in gated)       # the gate: rest far below reset
+
+
+@BRIAN2
+def test_binned_counts_are_identical_to_brian2s(disc_runs):
+    fast, ref = disc_runs["fast"], disc_runs["brian2"]
+    assert fast.count_bins_ms == ref.count_bins_ms == BINS_MS
+    for name in ref.populations:
+        assert fast.binned_counts[name].shape == (len(BINS_MS) - 1, ref.sites[name].size)
+        np.testing.assert_array_equal(fast.binned_counts[name], ref.binned_counts[name], err_msg=name)
+    # the bins count the spikes of the trains between their edges
+    cell, t = ref.spikes[ref.populations[-1]]
+    in_bin = np.histogram(t, bins=BINS_MS)[0]
+    np.testing.assert_array_equal(ref.binned_counts[ref.populations[-1]].sum(axis=1), in_bin)
+
+
+@BRIAN2
+def test_final_state_is_brian2s_up_to_rounding(disc_runs):
+    fast, ref = disc_runs["fast"], disc_runs["brian2"]
+    for name in ref.populations:
+        for var in STATE_VARIABLES:
+            np.testing.assert_allclose(fast.state[name][var], ref.state[name][var], rtol=1e-9, atol=1e-9,
+                                       err_msg=f"{name}.{var}")
+
+
+@BRIAN2
+def test_timed_events_on_every_cell_are_identical_to_brian2s():
+    """Replayed timed events (a periodic input), instantiate='all', and four
+    levels of a 32 x 32 frame: at levels 3 and 4 (16 x 16, 12 x 12) the
+    25 x 25 wrap-around DoG folds onto itself."""
+    rec = image_to_events(disc(10).image[16:48, 16:48])
+    inp = event_spikes(rec.events, rec.sensor_size, 0.5, replay=True)
+    net = build_network(ModelParams(levels=4), inp.shape).calibrated(inp.rate_hz)
+    runs = _both(net, inp, RunSettings(duration_ms=60.0, instantiate="all"))
+    assert all(runs["fast"].sites[p.name].size == p.size for p in net.populations if p.level == 1 and not p.is_source)
+    _assert_identical(runs, min_spikes=5_000)
+
+
+def _brian2_steps(v, e, i, row, k):
+    """Brian2's update of our Brian2 backend, ``k`` steps, no input; the largest v."""
+    top = -np.inf
+    for _ in range(k):
+        v = v + (((e * row[PE]) + ((1.0 - row[DM]) * ((-v) + row[V_REST]))) - (i * row[PI]))
+        e, i = e * row[DE], i * row[DI]
+        top = max(top, v)
+    return v, e, i, top
+
+
+def test_a_parked_cell_cannot_reach_threshold_without_input():
+    """Random states of every neuron type: whenever the parking bound says
+    safe, 400 steps of the update stay below threshold; and the bound is not
+    vacuous (some unsafe states do cross)."""
+    tab = build_tables(build_network(ModelParams(levels=1), (20, 20)), 0.5)
+    assert (tab.nrn[:, V_RESET] - tab.nrn[:, V_REST] > 0.5 * (tab.nrn[:, V_TH] - tab.nrn[:, V_REST])).any(), \
+        "no gated neuron (rest far below reset) to check the bound on"
+    rng = np.random.default_rng(4)
+    crossed_unsafe = 0
+    for row in tab.nrn:
+        gap = row[V_TH] - row[V_REST]
+        for k in range(300):        # every third state just after a reset
+            v = row[V_RESET] if k % 3 == 0 else row[V_REST] + gap * rng.uniform(-2, 1.2)
+            e, i = gap * rng.uniform(-1, 4), gap * rng.uniform(0, 3) * rng.integers(0, 2)
+            top = _brian2_steps(v, e, i, row, 400)[3]
+            if _safe(v, e, i, row):
+                assert top <= row[V_TH], (v, e, i)
+            else:
+                crossed_unsafe += top > row[V_TH]
+    assert crossed_unsafe > 50
+
+
+def test_the_closed_form_advance_is_the_step_by_step_update():
+    tab = build_tables(build_network(ModelParams(levels=1), (20, 20)), 0.5)
+    for t, row in enumerate(tab.nrn):
+        for k in (1, 7, 100, tab.adv.shape[2] - 1, 1500):
+            v0, e0, i0 = row[V_REST] + 0.004, 0.02, 0.013
+            want = _brian2_steps(v0, e0, i0, row, k)[:3]
+            got = _advanced(v0, e0, i0, row[V_REST], tab.adv[t], k)
+            np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-15)
+
+
+def test_memory_follows_cells_not_synapses():
+    """The whole 320 x 240 network over ten levels (9 million cells, more
+    than 1e9 synapses) is held as kernel taps and interpolation factors."""
+    tab = build_tables(build_network(ModelParams(), (240, 320)), 0.5)
+    assert tab.n_cells > 9_000_000
+    held = sum(a.nbytes for a in (tab.ch_ptr, tab.tap_co, tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off,
+                                  tab.csr_ptr, tab.csr_idx, tab.csr_val))
+    assert held < 20e6
+
+
+def test_a_reused_engine_gives_the_spikes_of_a_fresh_one():
+    """The engine keeps its cell arrays from run to run (put back at rest):
+    a second input on the same backend gives what a fresh backend gives."""
+    net = build_network(ModelParams(levels=1), (64, 64))
+    settings = RunSettings(duration_ms=60.0, record_state=("v",))
+    a, b = (frame_spikes(*image_to_frame(disc(r).image), 200.0, 0.5, 60.0) for r in (16, 12))
+    reused = get_backend("fast")
+    reused.simulate(net, a, settings)
+    again = reused.simulate(net, b, settings)
+    fresh = get_backend("fast").simulate(net, b, settings)
+    assert sum(int(c.sum()) for c in fresh.counts.values()) > 1000
+    for name in fresh.populations:
+        for got, want in zip(_trains(again, name), _trains(fresh, name)):
+            np.testing.assert_array_equal(got, want, err_msg=name)
+        np.testing.assert_array_equal(again.state[name]["v"], fresh.state[name]["v"], err_msg=name)

@@ -10,7 +10,7 @@ description from :mod:`snn_fg.export`.
 
 >>> from snn_fg.backends import DEFAULT_BACKEND, backend_names, get_backend
 >>> backend_names()
-['brian2', 'fast']
+['brian2', 'fast', 'nest']
 >>> get_backend("brian2").name
 'brian2'
 >>> DEFAULT_BACKEND
@@ -28,8 +28,8 @@ from .base import Backend, RunSettings, SimulationResult
 #: that a missing optional simulator costs nothing until it is used.
 BACKENDS = {
     "brian2": "snn_fg.backends.brian2:Brian2Backend",
-    "nest": "snn_fg.backends.nest:NestBackend",
     "fast": "snn_fg.backends.fast:FastBackend",
+    "nest": "snn_fg.backends.nest:NestBackend",
 }
 #: the backend runs use unless told otherwise: the fastest one verified against
 #: Brian2 (identical spike trains, tests/test_fast_engine.py; identical spike

@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT))
 from snn_fg import scenes  # noqa: E402
 from snn_fg.atomic import save_text  # noqa: E402
 from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
-from snn_fg.events import image_to_events, image_to_frame  # noqa: E402
+from snn_fg.events import events_to_frame, image_to_events, image_to_frame  # noqa: E402
 from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking_result  # noqa: E402
@@ -176,7 +176,7 @@ def main(argv=None):
         if not want(name):
             continue
         rec = image_to_events(sc.image)
-        pos, neg = image_to_frame(sc.image)
+        pos, neg = events_to_frame(rec.events, rec.sensor_size)      # the frame of these very events
         res = run(name, "synthetic-events",
                   lambda b: run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, backend=b,
                                                instantiate=args.instantiate, progress=False),

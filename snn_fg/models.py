@@ -153,12 +153,15 @@ class SpikingModel(Model):
         self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
         self.run_options = run_options
 
+    def _net(self) -> dict:
+        """The stored description to run, or the parameters to build it from."""
+        return {"params": self.params} if self.network is None else {"network": self.network}
+
     def _run(self, **inputs) -> Maps:
         from .spiking import run_spiking
 
-        net = {"params": self.params} if self.network is None else {"network": self.network}
         options = {k: v for k, v in self.run_options.items() if k != "readout_lag_ms"}
-        return run_spiking(**inputs, **net, backend=self.backend, progress=self.progress is not None, **options)
+        return run_spiking(**inputs, **self._net(), backend=self.backend, progress=self.progress is not None, **options)
 
     def run_frame(self, frame: Frame) -> Maps:
         if self.spike_input == "events":
@@ -181,10 +184,9 @@ class SpikingModel(Model):
         from .spiking.continuous import run_spiking_windows
 
         windows = list(windows)
-        net = {"params": self.params} if self.network is None else {"network": self.network}
         options = {k: v for k, v in self.run_options.items()
                    if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate")}
-        maps = run_spiking_windows(windows, **net, backend=self.backend, progress=self.progress is not None,
+        maps = run_spiking_windows(windows, **self._net(), backend=self.backend, progress=self.progress is not None,
                                    **options)
         yield from zip(windows, maps)
 

@@ -54,6 +54,13 @@ def integer(owner: str, name: str, value, *, lo: int | None = None, hi: int | No
     return v
 
 
+def flag(owner: str, name: str, value) -> bool:
+    """A bool (not 0 or 1)."""
+    if not isinstance(value, bool):
+        fail(owner, name, value, "must be true or false")
+    return value
+
+
 def choice(owner: str, name: str, value, choices: Iterable):
     """One of ``choices``."""
     choices = tuple(choices)

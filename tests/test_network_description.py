@@ -120,8 +120,8 @@ def test_excess_cells_are_a_family_minus_its_partner(net):
         for pr in inc.values():
             np.testing.assert_array_equal(pr.kernel.array(net.params)[:, :, 0, 0], np.eye(net.params.n_ori))
         exc, inh = inc[(f"bo_{f}", 1)], inc[(f"bo_{p}", -1)]
-        assert inh.gain_mv == pytest.approx(exc.gain_mv * x.neuron.tau_exc_ms / net.one("group_L", 2).neuron.tau_inh_ms
-                                            * net.one("group_L", 2).neuron.tau_exc_ms / x.neuron.tau_exc_ms)
+        g = net.one("group_L", 2).neuron          # the network's balance: the grouping cells' tau_exc / tau_inh
+        assert inh.gain_mv == pytest.approx(exc.gain_mv * g.tau_exc_ms / g.tau_inh_ms)
 
 
 def test_simple_cells_feed_border_ownership_after_a_quarter_turn(small):

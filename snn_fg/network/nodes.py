@@ -215,8 +215,7 @@ class Population(Node):
         if isinstance(self.site_sources, str) or not all(isinstance(x, str) for x in self.site_sources):
             check.fail(owner, "site_sources", self.site_sources, "must be a sequence of population names")
         object.__setattr__(self, "site_sources", tuple(self.site_sources))
-        if not isinstance(self.edge_mask, bool):
-            check.fail(owner, "edge_mask", self.edge_mask, "must be true or false")
+        check.flag(owner, "edge_mask", self.edge_mask)
         if self.is_source:
             if self.neuron is not None:
                 check.fail(owner, None, None, "a spike source (role input_*) has no neuron model")
@@ -400,8 +399,7 @@ class Projection(Node):
         object.__setattr__(self, "gain_mv", _finite(owner, "gain_mv", self.gain_mv, 0))
         object.__setattr__(self, "delay_ms", _finite(owner, "delay_ms", self.delay_ms, 0))
         object.__setattr__(self, "prune", check.number(owner, "prune", self.prune, lo=0, hi=1, hi_open=True))
-        if not isinstance(self.calibrated, bool):
-            check.fail(owner, "calibrated", self.calibrated, "must be true or false")
+        check.flag(owner, "calibrated", self.calibrated)
 
     def to_dict(self) -> dict:
         return {"type": self.type_name, **super().to_dict()}

@@ -66,9 +66,7 @@ def resolve_network(network, params, spiking, shape, feedback: bool = True) -> t
         if network.frame_shape != tuple(shape):
             origin["resized_from"] = list(network.frame_shape)
             network = network.resized(shape)
-    if not isinstance(feedback, bool):
-        check.fail("run_spiking", "feedback", feedback, "must be True or False")
-    origin["feedback"] = feedback
+    origin["feedback"] = check.flag("run_spiking", "feedback", feedback)
     return (network if feedback else network.without_feedback()), origin
 
 

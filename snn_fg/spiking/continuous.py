@@ -32,7 +32,7 @@ from .inputs import event_spikes
 from .record import SpikingRecord
 
 #: Default read-out lag (ms): see the module docstring and
-#: ``experiments/spiking_latency.py`` for how long the network takes to answer.
+#: ``experiments/dvs_latency.py`` for how long the network takes to answer.
 READOUT_LAG_MS = 20.0
 
 
@@ -175,7 +175,11 @@ def window_maps(run: ContinuousRun) -> list[Maps]:
 def _spikes_between(spikes, a: float, b: float):
     if spikes is None:
         return None
-    return {n: (c[(t >= a) & (t < b)], t[(t >= a) & (t < b)]) for n, (c, t) in spikes.items()}
+    out = {}
+    for n, (c, t) in spikes.items():
+        inside = (t >= a) & (t < b)
+        out[n] = (c[inside], t[inside])
+    return out
 
 
 def _window_maps(result, window, net, origin, backend, t_start, simulation) -> Maps:

@@ -13,11 +13,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..network.nodes import ROLES, SOURCE_ROLES
 from ..validate import integer
 
 #: non-source roles in display order (figures, summaries)
-ROLE_ORDER = ("relay_on", "relay_off", "simple", "untuned", "bo_L1", "bo_L2", "bo_D1", "bo_D2",
-              "excess_L1", "excess_L2", "excess_D1", "excess_D2", "group_L", "group_D", "feedback_1p", "feedback_1n", "feedback_2p", "feedback_2n")
+ROLE_ORDER = tuple(r for r in ROLES if r not in SOURCE_ROLES)
 RASTER_CELLS_PER_ROLE = 30
 _NAMES = "population_names"
 _RASTER = ("raster_cell", "raster_t_ms", "raster_role")

@@ -27,7 +27,7 @@ import scipy.sparse as sp
 
 from ..network.builder import FAMILIES, FEEDBACK_TO_FAMILY, PARTNER
 from .decode import decode_rates
-from .unroll import Unrolled
+from .unroll import Unrolled, to_grid
 
 
 def _matrix(un: Unrolled, conn) -> sp.csr_matrix:
@@ -161,13 +161,8 @@ def _excess(un, mats, level, B) -> dict:
         if not found:
             continue
         x = found[0].name
-        own, rival = mats.name(f"bo_{f}", level), mats.name(f"bo_{PARTNER[f]}", level)
-        grid = {}
-        for name in (own, rival):
-            a = np.zeros(net.population(name).size)
-            a[un.sites[name]] = B[name]
-            grid[name] = a
-        out[x] = np.maximum(grid[own] - grid[rival], 0.0)[un.sites[x]]
+        own, rival = (mats.name(f"bo_{k}", level) for k in (f, PARTNER[f]))
+        out[x] = np.maximum(to_grid(un, own, B[own]) - to_grid(un, rival, B[rival]), 0.0).ravel()[un.sites[x]]
     return out
 
 
@@ -175,7 +170,6 @@ def _grouping_step(un, mats, level, B, G, w_inh, relax, g_transfer):
     """Stage 7 at one level, then the light/dark winner-take-all per grid point.
     The rival family inhibits as the network has it: directly, or through
     its excess cells."""
-    net = un.network
     names = {pol: mats.name(f"group_{pol}", level) for pol in ("L", "D")}
     X = _excess(un, mats, level, B)
     rivals = X if X else {mats.name(f"bo_{f}", level): B[mats.name(f"bo_{f}", level)] for f in FAMILIES}
@@ -189,11 +183,8 @@ def _grouping_step(un, mats, level, B, G, w_inh, relax, g_transfer):
                 tot -= w_inh * (mats(r, g, -1) @ values)
         new = np.maximum(tot, 0) if g_transfer is None else g_transfer(np.maximum(tot, 0))
         G[g] = new if g not in G else (1 - relax) * G[g] + relax * new
-    full = {}
-    for pol, g in names.items():       # the two may have different sites
-        a = np.zeros(net.population(g).size)
-        a[un.sites[g]] = G[g]
-        full[pol] = a
+    # the two may have different sites
+    full = {pol: to_grid(un, g, G[g]).ravel() for pol, g in names.items()}
     G[names["L"]] = np.where(full["L"] > full["D"], full["L"], 0.0)[un.sites[names["L"]]]
     G[names["D"]] = np.where(full["D"] > full["L"], full["D"], 0.0)[un.sites[names["D"]]]
 

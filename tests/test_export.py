@@ -103,21 +103,21 @@ def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend
 
 
 @needs_nest
-def test_portable_pynn_path_gives_the_rates_of_the_nest_fast_path():
+def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
     """PyNN's own Population/FromListConnector/record (what SpiNNaker runs)
-    and NEST's array calls build the same network. (Not the same spikes:
-    through PyNN's spike-source parrots some inputs arrive one step apart,
-    and the rates differ by about 10 %.)"""
+    and NEST's array calls build the same network and give the same spikes.
+    (Before PyNN was set up for on-grid spiking, its IF_curr_exp was NEST's
+    off-grid iaf_psc_exp_ps and the rates differed by about 10 %.)"""
     pos, neg, inp = _disc_input(duration=60.0)
     net = build_network(ModelParams(levels=1, r0=4), pos.shape)
-    s = RunSettings(duration_ms=60.0, count_from_ms=20.0, record_spikes=False)
+    s = RunSettings(duration_ms=60.0, count_from_ms=20.0, record_spikes=True)
     fast = get_backend("nest").simulate(net, inp, s)
     portable = get_backend("nest", portable=True).simulate(net, inp, s)
-    assert sum(int(v.sum()) for v in fast.counts.values()) > 100
-    total = [sum(int(r.counts[n].sum()) for n in fast.populations) for r in (fast, portable)]
-    assert abs(total[0] - total[1]) <= 0.15 * total[0]       # measured: 10.6 %
-    a, b = decode(fast), decode(portable)
-    assert np.corrcoef(a[2].ravel(), b[2].ravel())[0, 1] >= 0.95      # grouping maps (measured 0.999)
+    assert sum(int(v.sum()) for v in fast.counts.values()) > 1000
+    for name in fast.populations:
+        (ca, ta), (cb, tb) = fast.spikes[name], portable.spikes[name]
+        assert np.array_equal(ca, cb) and np.array_equal(ta, tb), name
+        assert np.array_equal(fast.counts[name], portable.counts[name]), name
 
 
 def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
@@ -223,3 +223,26 @@ def test_export_report_writes_json_and_prints_the_table(tmp_path, capsys):
     rep = json.loads(out.read_text())
     printed = capsys.readouterr().out
     assert rep["frame_shape"] == [24, 32] and "spinnaker1" in printed and "loihi2" in printed
+
+
+@needs_nest
+def test_nest_gives_brian2s_mean_rate_in_every_population_role():
+    """Issue 10: NEST (the re-simulation every PyNN export is checked by)
+    and Brian2 on a disc, each role's mean rate within 10 % (measured: 0.97-1.02
+    after the refractory and input-time conventions were matched)."""
+    from snn_fg.spiking import run_spiking_result
+
+    pos, neg = image_to_frame(disc(16).image)
+    kw = dict(duration_ms=100.0, settle_ms=20.0, instantiate="input", record_spikes=False, progress=False)
+    rates = {}
+    for backend in ("brian2", "nest"):
+        r = run_spiking_result(pos, neg, backend=backend, **kw).result
+        per_role = {}
+        for p in r.populations:
+            per_role.setdefault(r.network.population(p).role, []).append(int(r.counts[p].sum()))
+        rates[backend] = {role: sum(c) for role, c in per_role.items()}
+    assert rates["brian2"].keys() == rates["nest"].keys()
+    busy = [role for role, n in rates["brian2"].items() if n >= 100]
+    assert {"relay_on", "simple", "untuned", "bo_L1", "group_L", "excess_D2", "feedback_1n"} <= set(busy)
+    for role in busy:
+        assert rates["nest"][role] == pytest.approx(rates["brian2"][role], rel=0.10), role

@@ -21,9 +21,22 @@ projection), the magnitude is scaled by ``tau_own / tau_other`` so that the
 synapse delivers the same charge (the same mean current) through the other
 time constant.
 
-Time: PyNN on NEST needs input spikes after ``min_delay`` (= dt), so every
-input spike is presented ``TIME_SHIFT_STEPS`` steps late and every recorded
-spike time is reported with that shift taken off again.
+Refractoriness: in our description a cell that fires in step ``n`` may fire
+again in step ``n + R`` (``R = t_ref / dt``; the rate ceiling is
+``1 / t_ref``, as in Brian2). NEST and sPyNNaker hold the membrane for
+``tau_refrac / dt`` whole steps after the step of the spike, so the earliest
+next spike is one step later than ours; ``tau_refrac`` is therefore
+``t_ref - dt`` (:func:`cell_parameters`).
+
+Time: a cell that fires in our step ``n`` (stamped ``n dt``, as Brian2 does)
+is stamped at the end of that step by NEST, ``(n + 1) dt``, and a synapse of
+delay ``d`` moves the target's current at the stamp plus ``d`` in both. PyNN
+on NEST needs input spikes after ``min_delay`` (= dt), so NEST runs
+``TIME_SHIFT_STEPS`` steps ahead of our clock: an input spike of our step
+``s`` is presented at ``(s + 1 + TIME_SHIFT_STEPS) dt`` (a spike generator's
+time is its stamp) and every recorded spike time is reported with
+``1 + TIME_SHIFT_STEPS`` steps taken off again. Delays shorter than one step
+become one step (NEST's minimum delay).
 """
 from __future__ import annotations
 
@@ -45,14 +58,16 @@ STATE_NAMES = {"v": ("V_m", "v", 1.0), "I_exc": ("I_syn_ex", "isyn_exc", 1 / NES
                "I_inh": ("I_syn_in", "isyn_inh", 1 / NEST_UNIT)}
 
 
-def cell_parameters(neuron: dict) -> dict:
+def cell_parameters(neuron: dict, dt_ms: float) -> dict:
     """PyNN ``IF_curr_exp`` parameters of one of our CUBA LIF neurons
     (``tau_m_ms``, ``tau_exc_ms``, ``tau_inh_ms``, ``v_rest_mv``,
-    ``v_reset_mv``, ``v_th_mv``, ``t_ref_ms``)."""
+    ``v_reset_mv``, ``v_th_mv``, ``t_ref_ms``) simulated with time step
+    ``dt_ms`` (the refractory period is one step shorter: module docstring)."""
+    ref_steps = max(int(round(float(neuron["t_ref_ms"]) / dt_ms)) - 1, 0)
     return {"cm": float(neuron["tau_m_ms"]), "tau_m": float(neuron["tau_m_ms"]),
             "tau_syn_E": float(neuron["tau_exc_ms"]), "tau_syn_I": float(neuron["tau_inh_ms"]),
             "v_rest": float(neuron["v_rest_mv"]), "v_reset": float(neuron["v_reset_mv"]),
-            "v_thresh": float(neuron["v_th_mv"]), "tau_refrac": float(neuron["t_ref_ms"]), "i_offset": 0.0}
+            "v_thresh": float(neuron["v_th_mv"]), "tau_refrac": ref_steps * dt_ms, "i_offset": 0.0}
 
 
 def split_receptors(drive: np.ndarray, sign: int, tau_exc_ms: float, tau_inh_ms: float):
@@ -185,7 +200,12 @@ class PyNNNetwork:
         self.dt = float(dt_ms)
         self.native = (sim.__name__ == "pyNN.nest") and not portable
         max_delay = max(grid_delay(max_delay_ms, self.dt), 2 * self.dt)
-        opts = {"threads": int(threads), "rng_seed": int(seed) + 1} if sim.__name__ == "pyNN.nest" else {}
+        opts = {}
+        if sim.__name__ == "pyNN.nest":
+            # on_grid: PyNN's default on NEST is off-grid spiking, which swaps
+            # IF_curr_exp for iaf_psc_exp_ps (spike times and refractoriness
+            # between steps): not the time-stepped cell the description means
+            opts = {"threads": int(threads), "rng_seed": int(seed) + 1, "spike_precision": "on_grid"}
         sim.setup(timestep=self.dt, min_delay=self.dt, max_delay=max_delay, **opts)
         self.pops: dict = {}       # name -> PyNN Population (portable) or NEST NodeCollection (native)
         self.first: dict = {}      # native: name -> NEST id of its first node
@@ -196,7 +216,7 @@ class PyNNNetwork:
 
     def add_cells(self, name: str, size: int, neuron: dict):
         """``size`` LIF cells, starting at rest."""
-        p = cell_parameters(neuron)
+        p = cell_parameters(neuron, self.dt)
         size = max(int(size), 1)
         if self.native:
             import nest
@@ -215,7 +235,7 @@ class PyNNNetwork:
 
     def add_sources(self, name: str, steps_per_cell: list):
         """Spike sources, one per entry of ``steps_per_cell`` (time steps of its spikes)."""
-        times = [(np.asarray(s, dtype=np.float64) + TIME_SHIFT_STEPS) * self.dt for s in steps_per_cell]
+        times = [(np.asarray(s, dtype=np.float64) + 1 + TIME_SHIFT_STEPS) * self.dt for s in steps_per_cell]
         if self.native:
             import nest
 

@@ -9,6 +9,12 @@ synapses split between the two receptors by the sign of their drive
 exact integration of the CUBA LIF. It is the independent re-simulation that
 checks the exports: same description, another simulator.
 
+The split is the one approximation between this network and Brian2's: a
+DoG or bicubic kernel's negative lobes reach the cell through the other
+receptor's time constant. ``receptors="signed"`` leaves it out (each
+projection on its own receptor of ``iaf_psc_exp_multisynapse``, signed
+weights) and gives Brian2's spike counts; it is not what a board runs.
+
 Install with ``pip install "snn-fg[nest]"`` (PyNN and the ``nest-simulator``
 wheel). ``threads`` sets NEST's ``local_num_threads``; the wheel has no MPI.
 """
@@ -58,6 +64,14 @@ class NestBackend(Backend):
         Connect and record through PyNN's own ``FromListConnector`` and
         ``record`` instead of NEST's array calls (slow; the path a
         non-NEST PyNN simulator takes).
+    receptors : {"split", "signed"}
+        ``split`` (default): what every PyNN export runs, ``IF_curr_exp``
+        cells whose two receptors each take one sign, so a kernel's lobes of
+        the other sign move to the other receptor with the same charge
+        (:func:`~snn_fg.export.pynn_model.split_receptors`); ``signed``: the
+        description exactly (NEST's ``iaf_psc_exp_multisynapse``, signed
+        weights on each projection's own receptor), Brian2's network in
+        another simulator. Not with ``portable``.
     weight_bits : int, optional
         Quantise every projection's weights to signed integers of this many
         bits with one scale factor per projection
@@ -68,9 +82,13 @@ class NestBackend(Backend):
     name = "nest"
     requires = 'pip install "snn-fg[nest]"'
 
-    def __init__(self, *, threads: int = 1, portable: bool = False, weight_bits: int | None = None):
+    def __init__(self, *, threads: int = 1, portable: bool = False, receptors: str = "split",
+                 weight_bits: int | None = None):
         self.threads = check.integer("NestBackend", "threads", threads, lo=1)
         self.portable = bool(portable)
+        self.receptors = check.choice("NestBackend", "receptors", receptors, ("split", "signed"))
+        if self.portable and self.receptors == "signed":
+            check.fail("NestBackend", "receptors", receptors, "needs NEST's own calls: not with portable=True")
         self.weight_bits = None if weight_bits is None else check.integer("NestBackend", "weight_bits",
                                                                           weight_bits, lo=2, hi=32)
 
@@ -82,7 +100,7 @@ class NestBackend(Backend):
         return True, ""
 
     def describe(self) -> dict:
-        return {"name": self.name, "threads": self.threads, "portable": self.portable,
+        return {"name": self.name, "threads": self.threads, "portable": self.portable, "receptors": self.receptors,
                 "weight_bits": self.weight_bits}
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
@@ -99,7 +117,7 @@ class NestBackend(Backend):
         settings.say(f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
                      f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)")
         sim = import_pynn_nest()
-        net = _build(sim, un, inputs, settings, self.threads, self.portable, timings)
+        net = _build(sim, un, inputs, settings, self, timings)
         try:
             settings.say("simulating in NEST")
             with _progress(settings) as report:
@@ -117,11 +135,12 @@ class NestBackend(Backend):
                                 timings_s=timings, stats=stats)
 
 
-def _build(sim, un: Unrolled, inputs, settings: RunSettings, threads: int, portable: bool, timings: dict):
+def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBackend, timings: dict):
     t0 = time.perf_counter()
     net_d = un.network
     max_delay = max([c.projection.delay_ms for c in un.connections] + [settings.dt_ms])
-    net = PyNNNetwork(sim, dt_ms=settings.dt_ms, max_delay_ms=max_delay, threads=threads, portable=portable)
+    net = PyNNNetwork(sim, dt_ms=settings.dt_ms, max_delay_ms=max_delay, threads=backend.threads,
+                      portable=backend.portable, signed_receptors=backend.receptors == "signed")
     for p in lif_populations(net_d):
         net.add_cells(p.name, un.n_cells(p.name), p.neuron.to_dict())
     used = _add_sources(net, un, inputs, settings)

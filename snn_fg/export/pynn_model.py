@@ -28,6 +28,12 @@ again in step ``n + R`` (``R = t_ref / dt``; the rate ceiling is
 next spike is one step later than ours; ``tau_refrac`` is therefore
 ``t_ref - dt`` (:func:`cell_parameters`).
 
+``signed_receptors=True`` (NEST's array calls only, not portable) builds
+the description exactly instead: NEST's ``iaf_psc_exp_multisynapse`` with
+each projection on its own receptor and signed weights, so nothing moves
+between time constants. That model refuses a synaptic time constant equal
+to the membrane's; such a one is made larger by one part in 10^6.
+
 Time: a cell that fires in our step ``n`` (stamped ``n dt``, as Brian2 does)
 is stamped at the end of that step by NEST, ``(n + 1) dt``, and a synapse of
 delay ``d`` moves the target's current at the stamp plus ``d`` in both. PyNN
@@ -195,10 +201,13 @@ class PyNNNetwork:
     """
 
     def __init__(self, sim, *, dt_ms: float, max_delay_ms: float, threads: int = 1, seed: int = 0,
-                 portable: bool = False):
+                 portable: bool = False, signed_receptors: bool = False):
         self.sim = sim
         self.dt = float(dt_ms)
         self.native = (sim.__name__ == "pyNN.nest") and not portable
+        if signed_receptors and not self.native:
+            raise ValueError("signed_receptors needs NEST's own array calls (pyNN.nest, portable=False)")
+        self.signed = bool(signed_receptors)
         max_delay = max(grid_delay(max_delay_ms, self.dt), 2 * self.dt)
         opts = {}
         if sim.__name__ == "pyNN.nest":
@@ -218,7 +227,16 @@ class PyNNNetwork:
         """``size`` LIF cells, starting at rest."""
         p = cell_parameters(neuron, self.dt)
         size = max(int(size), 1)
-        if self.native:
+        if self.signed:
+            import nest
+
+            taus = [t * (1 + 1e-6) if t == p["tau_m"] else t for t in (p["tau_syn_E"], p["tau_syn_I"])]
+            model = f"snnfg_{name}"
+            nest.CopyModel("iaf_psc_exp_multisynapse", model, {
+                "C_m": p["cm"] * NEST_UNIT, "tau_m": p["tau_m"], "t_ref": p["tau_refrac"], "E_L": p["v_rest"],
+                "V_reset": p["v_reset"], "V_th": p["v_thresh"], "tau_syn": taus, "I_e": 0.0, "V_m": p["v_rest"]})
+            self._native_nodes(name, nest.Create(model, size))
+        elif self.native:
             import nest
 
             ps = self.sim.IF_curr_exp(**p).native_parameters
@@ -257,15 +275,23 @@ class PyNNNetwork:
                 tau_exc_ms: float, tau_inh_ms: float):
         """Synapses ``pre[i] -> post[i]`` (cell indices) with signed drive in
         mV, split between the two receptors (see the module docstring)."""
-        exc, mag = split_receptors(drive, sign, tau_exc_ms, tau_inh_ms)
         delay = grid_delay(delay_ms, self.dt)
         pre, post = np.asarray(pre, np.int64), np.asarray(post, np.int64)
+        if self.signed:         # the projection's own receptor (1: excitatory, 2: inhibitory), signed weights
+            drive = np.asarray(drive, np.float64)
+            keep = drive != 0
+            if keep.any():
+                self._connect_nest(source, target, pre[keep], post[keep], drive[keep], 1 if sign > 0 else 2, delay)
+                self.n_synapses[target] = self.n_synapses.get(target, 0) + int(keep.sum())
+            return
+        exc, mag = split_receptors(drive, sign, tau_exc_ms, tau_inh_ms)
         for receptor, mask in (("excitatory", exc), ("inhibitory", ~exc)):
             keep = mask & (mag > 0)
             if not keep.any():
                 continue
             if self.native:
-                self._connect_nest(source, target, pre[keep], post[keep], mag[keep], receptor, delay)
+                w = mag[keep] if receptor == "excitatory" else -mag[keep]
+                self._connect_nest(source, target, pre[keep], post[keep], w, 0, delay)
             else:
                 # PyNN's convention for current-based synapses: inhibitory weights are negative
                 w = mag[keep] if receptor == "excitatory" else -mag[keep]
@@ -275,16 +301,19 @@ class PyNNNetwork:
                                     receptor_type=receptor)
             self.n_synapses[target] = self.n_synapses.get(target, 0) + int(keep.sum())
 
-    def _connect_nest(self, source, target, pre, post, mag, receptor, delay):
+    def _connect_nest(self, source, target, pre, post, w_mv, port, delay):
+        """NEST synapses of weight ``w_mv`` (nA = mV, signed) on receptor
+        ``port`` (0: by the weight's sign, as ``iaf_psc_exp`` takes them)."""
         import nest
 
-        w = mag * NEST_UNIT * (1.0 if receptor == "excitatory" else -1.0)
+        w = w_mv * NEST_UNIT
+        spec = {"receptor_type": port} if port else {}
         step = 1 << 22
         for a in range(0, pre.size, step):
             b = min(a + step, pre.size)
             nest.Connect(self.first[source] + pre[a:b], self.first[target] + post[a:b], "one_to_one",
                          syn_spec={"synapse_model": "static_synapse", "weight": w[a:b],
-                                   "delay": np.full(b - a, delay)})
+                                   "delay": np.full(b - a, delay), **spec})
 
     def record(self, names, *, spikes: bool = True, count_edges_ms=()):
         """Record the populations ``names``: every spike (``spikes``), and on

@@ -1,9 +1,8 @@
 """NEST (through PyNN) against Brian2 on full-size inputs, and NEST on 1 and 2 threads.
 
 Inputs: BSDS frame 105053 (321 x 481, ../shared/data/bsds-edfg) and one
-85 ms window of ../shared/data/events/dvs.es (320 x 240, from 100 ms), whole
-(``dvs``: more memory than NEST gets on a 23 GB machine) or its 160 x 120
-centre (``dvscrop``).
+85 ms window of ../shared/data/events/dvs.es (320 x 240, from 100 ms; on
+NEST more memory than a 23 GB machine has, see below).
 Each (input, backend, threads) runs in its own process so that its wall
 time and peak memory (ru_maxrss) are its own. Reported: grouping Pearson r,
 fraction of edge pixels with a vector in both within 45 degrees, mean angle
@@ -14,7 +13,7 @@ maps of every input run so far (kept in experiments/results/cache/nest_vs_brian2
 side by side into nest_vs_brian2.png.
 ``--seed-spread`` (after ``--only synthetic``) sets the per-role rate ratios
 beside Brian2's own spread over input seeds (nest_vs_brian2_seeds.{json,md}).
-Usage: python experiments/nest_vs_brian2.py [--only frame|dvs|dvscrop|synthetic] [--no-threads] [--figure] [--seed-spread]
+Usage: python experiments/nest_vs_brian2.py [--only frame|dvs|synthetic] [--no-threads] [--figure] [--seed-spread]
 """
 from __future__ import annotations
 
@@ -39,9 +38,10 @@ SHARED = ROOT.parent / "shared" / "data"
 OUT = ROOT / "experiments" / "results"
 CACHE = OUT / "cache" / "nest_vs_brian2"
 WINDOW = (100.0, 85.0)     # start, length (ms) of the dvs.es window
-#: (width, height) of the dvscrop input: NEST needs about 350 bytes per synapse (measured on
-#: disc48: 0.9 GB for 2.6 M synapses), so the whole window's 98 M synapses would take ~34 GB
-CROP = (160, 120)
+#: NEST needs about 110 bytes per synapse to build the network and more to prepare
+#: the run: the dvs window's 98 M synapses (1.55 M cells, the cells the input can
+#: use) took 10.9 GB to build and the process was killed at 18.7 GB (23 GB machine);
+#: a crop does not help, 96 x 72 still has 79 M (the coarse levels' wide kernels)
 
 
 SYNTHETIC = ("disc16", "disc16dark", "occlusion", "demo", "disc32", "disc32dark", "disc48", "disc48dark")
@@ -64,17 +64,7 @@ def _inputs(name):
     from snn_fg.events import iter_windows
 
     win = next(iter_windows(SHARED / "events" / "dvs.es", window_ms=WINDOW[1], start_ms=WINDOW[0]))
-    if name == "dvs":
-        return {"events": win.events, "sensor_size": (win.pos.shape[1], win.pos.shape[0], 2)}
-    # dvscrop: the window's events inside a CROP-sized box centred on their mean position
-    (H, W), (w, h) = win.pos.shape, CROP
-    ev = win.events
-    r0 = int(np.clip(ev["y"].mean() - h / 2, 0, H - h))
-    c0 = int(np.clip(ev["x"].mean() - w / 2, 0, W - w))
-    crop = ev[(ev["x"] >= c0) & (ev["x"] < c0 + w) & (ev["y"] >= r0) & (ev["y"] < r0 + h)].copy()
-    crop["x"] -= c0
-    crop["y"] -= r0
-    return {"events": crop, "sensor_size": (w, h, 2)}
+    return {"events": win.events, "sensor_size": (win.pos.shape[1], win.pos.shape[0], 2)}
 
 
 def one(name, backend, threads, out):
@@ -173,7 +163,7 @@ def figure():
     from snn_fg.figures import GROUPING_CMAP, fg_rgb
     from snn_fg.metrics import compare_frame
 
-    names = [n for n in ("frame", "dvs", "dvscrop", *SYNTHETIC) if (CACHE / f"{n}_nest_1.npz").exists()
+    names = [n for n in ("frame", "dvs", *SYNTHETIC) if (CACHE / f"{n}_nest_1.npz").exists()
              and (CACHE / f"{n}_brian2_1.npz").exists()]
     if not names:
         raise SystemExit(f"no cached maps in {CACHE}: run the comparison first")
@@ -202,7 +192,7 @@ def figure():
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--one", nargs=4, metavar=("INPUT", "BACKEND", "THREADS", "OUT"))
-    ap.add_argument("--only", choices=("frame", "dvs", "dvscrop", "synthetic"))
+    ap.add_argument("--only", choices=("frame", "dvs", "synthetic"))
     ap.add_argument("--no-threads", action="store_true")
     ap.add_argument("--figure", action="store_true", help="only draw the cached maps")
     ap.add_argument("--seed-spread", action="store_true",

@@ -2,7 +2,8 @@
 
 Inputs: BSDS frame 105053 (321 x 481, ../shared/data/bsds-edfg) and one
 85 ms window of ../shared/data/events/dvs.es (320 x 240, from 100 ms; on
-NEST more memory than a 23 GB machine has, see below).
+NEST more memory than a 23 GB machine has, see below); the first 85 ms of
+the N-MNIST sample (34 x 34, ``nmnist``) are the real events that fit.
 Each (input, backend, threads) runs in its own process so that its wall
 time and peak memory (ru_maxrss) are its own. Reported: grouping Pearson r,
 fraction of edge pixels with a vector in both within 45 degrees, mean angle
@@ -13,7 +14,7 @@ maps of every input run so far (kept in experiments/results/cache/nest_vs_brian2
 side by side into nest_vs_brian2.png.
 ``--seed-spread`` (after ``--only synthetic``) sets the per-role rate ratios
 beside Brian2's own spread over input seeds (nest_vs_brian2_seeds.{json,md}).
-Usage: python experiments/nest_vs_brian2.py [--only frame|dvs|synthetic] [--no-threads] [--figure] [--seed-spread]
+Usage: python experiments/nest_vs_brian2.py [--only frame|dvs|nmnist|synthetic] [--no-threads] [--figure] [--seed-spread]
 """
 from __future__ import annotations
 
@@ -38,10 +39,11 @@ SHARED = ROOT.parent / "shared" / "data"
 OUT = ROOT / "experiments" / "results"
 CACHE = OUT / "cache" / "nest_vs_brian2"
 WINDOW = (100.0, 85.0)     # start, length (ms) of the dvs.es window
-#: NEST needs about 110 bytes per synapse to build the network and more to prepare
-#: the run: the dvs window's 98 M synapses (1.55 M cells, the cells the input can
-#: use) took 10.9 GB to build and the process was killed at 18.7 GB (23 GB machine);
-#: a crop does not help, 96 x 72 still has 79 M (the coarse levels' wide kernels)
+#: NEST needs about 2 KB per node (each cell and its spike counter) and 80 bytes per
+#: synapse (39 to connect, 43 more to prepare the run; measured with random synapses):
+#: the dvs window's 1.55 M cells and 98 M synapses (the cells the input can use) took
+#: 12.7 GB to build and the process was killed at 18.7 GB on the shared 23 GB machine;
+#: a crop does not help, 96 x 72 still has 79 M synapses (the coarse levels' wide kernels)
 
 
 SYNTHETIC = ("disc16", "disc16dark", "occlusion", "demo", "disc32", "disc32dark", "disc48", "disc48dark")
@@ -63,7 +65,9 @@ def _inputs(name):
         return {"pos": d["pos"], "neg": d["neg"]}
     from snn_fg.events import iter_windows
 
-    win = next(iter_windows(SHARED / "events" / "dvs.es", window_ms=WINDOW[1], start_ms=WINDOW[0]))
+    path, start = (SHARED / "events" / "dvs.es", WINDOW[0]) if name == "dvs" else \
+        (SHARED / "events" / "tonic_sample_nmnist.bin", 0.0)
+    win = next(iter_windows(path, window_ms=WINDOW[1], start_ms=start))
     return {"events": win.events, "sensor_size": (win.pos.shape[1], win.pos.shape[0], 2)}
 
 
@@ -163,7 +167,7 @@ def figure():
     from snn_fg.figures import GROUPING_CMAP, fg_rgb
     from snn_fg.metrics import compare_frame
 
-    names = [n for n in ("frame", "dvs", *SYNTHETIC) if (CACHE / f"{n}_nest_1.npz").exists()
+    names = [n for n in ("frame", "dvs", "nmnist", *SYNTHETIC) if (CACHE / f"{n}_nest_1.npz").exists()
              and (CACHE / f"{n}_brian2_1.npz").exists()]
     if not names:
         raise SystemExit(f"no cached maps in {CACHE}: run the comparison first")
@@ -192,7 +196,7 @@ def figure():
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--one", nargs=4, metavar=("INPUT", "BACKEND", "THREADS", "OUT"))
-    ap.add_argument("--only", choices=("frame", "dvs", "synthetic"))
+    ap.add_argument("--only", choices=("frame", "dvs", "nmnist", "synthetic"))
     ap.add_argument("--no-threads", action="store_true")
     ap.add_argument("--figure", action="store_true", help="only draw the cached maps")
     ap.add_argument("--seed-spread", action="store_true",

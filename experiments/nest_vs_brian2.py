@@ -41,9 +41,10 @@ CACHE = OUT / "cache" / "nest_vs_brian2"
 WINDOW = (100.0, 85.0)     # start, length (ms) of the dvs.es window
 #: NEST needs about 2 KB per node (each cell and its spike counter) and 80 bytes per
 #: synapse (39 to connect, 43 more to prepare the run; measured with random synapses):
-#: the dvs window's 1.55 M cells and 98 M synapses (the cells the input can use) took
-#: 12.7 GB to build and the process was killed at 18.7 GB on the shared 23 GB machine;
-#: a crop does not help, 96 x 72 still has 79 M synapses (the coarse levels' wide kernels)
+#: the dvs window (1.55 M cells the input can use, 98 M synapses) was killed at 18.7 GB
+#: on the shared 23 GB machine; its 160 x 120 centre (1.43 M cells, 97.7 M synapses)
+#: took 12.7 GB to build; a crop does not help, 96 x 72 still has 79 M synapses (the
+#: coarse levels' wide kernels)
 
 
 SYNTHETIC = ("disc16", "disc16dark", "occlusion", "demo", "disc32", "disc32dark", "disc48", "disc48dark")

@@ -14,7 +14,9 @@ maps of every input run so far (kept in experiments/results/cache/nest_vs_brian2
 side by side into nest_vs_brian2.png.
 ``--seed-spread`` (after ``--only synthetic``) sets the per-role rate ratios
 beside Brian2's own spread over input seeds (nest_vs_brian2_seeds.{json,md}).
-Usage: python experiments/nest_vs_brian2.py [--only frame|dvs|nmnist|synthetic] [--no-threads] [--figure] [--seed-spread]
+``--nest-memory`` measures NEST's bytes per node and per synapse (nest_memory.json).
+Usage: python experiments/nest_vs_brian2.py [--only frame|dvs|nmnist|synthetic] [--no-threads] [--figure]
+       [--seed-spread] [--nest-memory]
 """
 from __future__ import annotations
 
@@ -40,7 +42,7 @@ OUT = ROOT / "experiments" / "results"
 CACHE = OUT / "cache" / "nest_vs_brian2"
 WINDOW = (100.0, 85.0)     # start, length (ms) of the dvs.es window
 #: NEST needs about 2 KB per node (each cell and its spike counter) and 80 bytes per
-#: synapse (39 to connect, 43 more to prepare the run; measured with random synapses):
+#: synapse (39 to connect, 43 more to prepare the run; ``--nest-memory``):
 #: the dvs window (1.55 M cells the input can use, 98 M synapses) was killed at 18.7 GB
 #: on the shared 23 GB machine; its 160 x 120 centre (1.43 M cells, 97.7 M synapses)
 #: took 12.7 GB to build; a crop does not help, 96 x 72 still has 79 M synapses (the
@@ -161,6 +163,39 @@ def seed_spread():
     print("\n".join(lines))
 
 
+def nest_memory(n_nodes=200_000, n_synapses=10_000_000):
+    """NEST's memory per node and per synapse (random one-to-one synapses
+    with weights and delays, as the backend connects them), from the process's RSS."""
+    from snn_fg.backends.nest import import_pynn_nest
+
+    import_pynn_nest()
+    import nest
+
+    def rss_gb():
+        with open(f"/proc/{os.getpid()}/status") as fh:
+            return next(int(line.split()[1]) for line in fh if line.startswith("VmRSS")) / 1e6
+
+    nest.ResetKernel()
+    nest.resolution = 0.5
+    a = rss_gb()
+    nest.Create("iaf_psc_exp", n_nodes)
+    b = rss_gb()
+    rng = np.random.default_rng(0)
+    step = 1 << 22
+    for i in range(0, n_synapses, step):
+        k = min(step, n_synapses - i)
+        nest.Connect(rng.integers(1, n_nodes + 1, k), rng.integers(1, n_nodes + 1, k), "one_to_one",
+                     syn_spec={"synapse_model": "static_synapse", "weight": rng.random(k) * 100,
+                               "delay": np.full(k, 1.0)})
+    c = rss_gb()
+    nest.Simulate(1.0)
+    d = rss_gb()
+    out = {"bytes_per_node": (b - a) * 1e9 / n_nodes, "bytes_per_synapse_connect": (c - b) * 1e9 / n_synapses,
+           "bytes_per_synapse_prepare": (d - c) * 1e9 / n_synapses, "nodes": n_nodes, "synapses": n_synapses}
+    save_text(OUT / "nest_memory.json", json.dumps(out, indent=1))
+    print(json.dumps(out))
+
+
 def figure():
     """Brian2 and NEST maps of every cached input, one row each."""
     from matplotlib.figure import Figure
@@ -200,6 +235,7 @@ def main():
     ap.add_argument("--only", choices=("frame", "dvs", "nmnist", "synthetic"))
     ap.add_argument("--no-threads", action="store_true")
     ap.add_argument("--figure", action="store_true", help="only draw the cached maps")
+    ap.add_argument("--nest-memory", action="store_true", help="only measure NEST's bytes per node and synapse")
     ap.add_argument("--seed-spread", action="store_true",
                     help="per-role rates of Brian2 over input seeds beside NEST/Brian2 (after --only synthetic)")
     args = ap.parse_args()
@@ -208,6 +244,9 @@ def main():
         return
     if args.seed_spread:
         seed_spread()
+        return
+    if args.nest_memory:
+        nest_memory()
         return
     if args.one:
         one(args.one[0], args.one[1], int(args.one[2]), args.one[3])

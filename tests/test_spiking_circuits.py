@@ -21,9 +21,14 @@ def _sources(shape):
             Population(name="off", role="input_off", level=1, level_shape=shape))
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+NEST_SIGNED = [pytest.param("nest", {"receptors": "signed"}, id="nest-signed", marks=p.marks)
+               for p in BACKENDS if p.values[0] == "nest"]
+
+
+@pytest.mark.parametrize("backend, options", [pytest.param(p.values[0], {}, id=p.values[0], marks=p.marks)
+                                              for p in BACKENDS] + NEST_SIGNED)
 @pytest.mark.parametrize("direction, prune", [(2, 0.05), (11, 0.2)])
-def test_one_input_spike_reaches_exactly_the_dog_footprint(backend, direction, prune):
+def test_one_input_spike_reaches_exactly_the_dog_footprint(backend, options, direction, prune):
     shape = (41, 41)
     c = (20, 20)
     pops = _sources(shape) + (Population(name="T", role="simple", level=1, level_shape=shape, neuron=Neuron()),)
@@ -37,11 +42,11 @@ def test_one_input_spike_reaches_exactly_the_dog_footprint(backend, direction, p
     on, off = (mask, zero) if src == "on" else (zero, mask)
     idx = c[0] * shape[1] + c[1] + (0 if src == "on" else shape[0] * shape[1])
     inp = InputSpikes(shape, np.array([idx]), np.array([2]), None, on, off, 200.0)
-    res = get_backend(backend).simulate(net, inp, RunSettings(duration_ms=4.0, record_spikes=False,
+    res = get_backend(backend, **options).simulate(net, inp, RunSettings(duration_ms=4.0, record_spikes=False,
                                                               record_state=("I_exc", "I_inh")))
     exc, inh = (res.grid("T", res.state["T"][v])[0] for v in ("I_exc", "I_inh"))
     # the net current: a backend may carry the kernel's negative lobes on the
-    # excitatory current (Brian2) or move them to the inhibitory one (NEST, PyNN)
+    # excitatory current (Brian2, NEST signed) or move them to the inhibitory one (NEST, PyNN)
     current = exc - inh
     # expected: the kernel laid around the input pixel (a convolution puts
     # K[d] at target = source + d), taps below prune*max|K| left out

@@ -62,6 +62,8 @@ COUNTER = {"tau_m": 1e12, "C_m": 1.0, "E_L": 0.0, "V_reset": 0.0, "V_th": 1e30, 
            "V_min": -1e30, "I_e": 0.0}
 STATE_NAMES = {"v": ("V_m", "v", 1.0), "I_exc": ("I_syn_ex", "isyn_exc", 1 / NEST_UNIT),
                "I_inh": ("I_syn_in", "isyn_inh", 1 / NEST_UNIT)}
+#: the NEST recordables of iaf_psc_exp_multisynapse (``signed_receptors``): one current per receptor
+SIGNED_STATE_NAMES = {"v": "V_m", "I_exc": "I_syn_1", "I_inh": "I_syn_2"}
 
 
 def cell_parameters(neuron: dict, dt_ms: float) -> dict:
@@ -289,12 +291,11 @@ class PyNNNetwork:
             keep = mask & (mag > 0)
             if not keep.any():
                 continue
+            # PyNN's (and NEST's) convention for current-based synapses: inhibitory weights are negative
+            w = mag[keep] if receptor == "excitatory" else -mag[keep]
             if self.native:
-                w = mag[keep] if receptor == "excitatory" else -mag[keep]
                 self._connect_nest(source, target, pre[keep], post[keep], w, 0, delay)
             else:
-                # PyNN's convention for current-based synapses: inhibitory weights are negative
-                w = mag[keep] if receptor == "excitatory" else -mag[keep]
                 rows = np.column_stack([pre[keep], post[keep], w, np.full(int(keep.sum()), delay)])
                 conn = self.sim.FromListConnector(rows, column_names=["weight", "delay"])
                 self.sim.Projection(self.pops[source], self.pops[target], conn, self.sim.StaticSynapse(),
@@ -424,7 +425,7 @@ class PyNNNetwork:
             import nest
 
             mm = nest.Create("multimeter", params={
-                "record_from": [STATE_NAMES[v][0] for v in variables], "interval": self.dt,
+                "record_from": [self._nest_key(v) for v in variables], "interval": self.dt,
                 "start": end_ms + self.shift_ms - self.dt})
             for name in names:
                 nest.Connect(mm, self.pops[name])
@@ -433,10 +434,15 @@ class PyNNNetwork:
             for name in names:
                 self.pops[name].record([STATE_NAMES[v][1] for v in variables])
 
+    def _nest_key(self, variable: str) -> str:
+        return SIGNED_STATE_NAMES[variable] if self.signed else STATE_NAMES[variable][0]
+
     def state(self, name: str, size: int, variable: str) -> np.ndarray:
-        """Final ``v`` (mV) or synaptic current magnitude ``I_exc``/``I_inh``
-        (nA = mV) of each cell (:meth:`record_state` first)."""
-        nest_key, pynn_key, scale = STATE_NAMES[variable]
+        """Final ``v`` (mV) or synaptic current ``I_exc``/``I_inh`` (nA = mV;
+        magnitudes, signed with ``signed_receptors``, as Brian2 keeps them) of
+        each cell (:meth:`record_state` first)."""
+        _, pynn_key, scale = STATE_NAMES[variable]
+        nest_key = self._nest_key(variable)
         if self.native:
             ev = self._multimeter.get("events")
             cell = np.asarray(ev["senders"], np.int64) - self.first[name]
@@ -446,7 +452,11 @@ class PyNNNetwork:
         else:
             sig = next(a for a in self.pops[name].get_data(pynn_key).segments[0].analogsignals if a.name == pynn_key)
             vals = np.asarray(sig.magnitude, np.float64)[-1, :size] * (NEST_UNIT if variable != "v" else 1.0)
-        return vals if variable == "v" else np.abs(vals) * scale
+        if variable == "v":
+            return vals
+        if self.signed:         # signed currents: I_exc as it is, I_inh the inhibitory receptor's, negated
+            return vals * scale * (1.0 if variable == "I_exc" else -1.0)
+        return np.abs(vals) * scale
 
     def end(self):
         self.sim.end()

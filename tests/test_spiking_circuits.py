@@ -42,8 +42,8 @@ def test_one_input_spike_reaches_exactly_the_dog_footprint(backend, options, dir
     on, off = (mask, zero) if src == "on" else (zero, mask)
     idx = c[0] * shape[1] + c[1] + (0 if src == "on" else shape[0] * shape[1])
     inp = InputSpikes(shape, np.array([idx]), np.array([2]), None, on, off, 200.0)
-    res = get_backend(backend, **options).simulate(net, inp, RunSettings(duration_ms=4.0, record_spikes=False,
-                                                              record_state=("I_exc", "I_inh")))
+    settings = RunSettings(duration_ms=4.0, record_spikes=False, record_state=("I_exc", "I_inh"))
+    res = get_backend(backend, **options).simulate(net, inp, settings)
     exc, inh = (res.grid("T", res.state["T"][v])[0] for v in ("I_exc", "I_inh"))
     # the net current: a backend may carry the kernel's negative lobes on the
     # excitatory current (Brian2, NEST signed) or move them to the inhibitory one (NEST, PyNN)

@@ -2,8 +2,8 @@
 
 Inputs: BSDS frame 105053 (321 x 481, ../shared/data/bsds-edfg) and one
 85 ms window of ../shared/data/events/dvs.es (320 x 240, from 100 ms; on
-NEST more memory than a 23 GB machine has, see below); the first 85 ms of
-the N-MNIST sample (34 x 34, ``nmnist``) are the real events that fit.
+NEST 19 GB, see below: run it with the machine otherwise idle); the first
+85 ms of the N-MNIST sample (34 x 34, ``nmnist``) are small real events.
 Each (input, backend, threads) runs in its own process so that its wall
 time and peak memory (ru_maxrss) are its own. Reported: grouping Pearson r,
 fraction of edge pixels with a vector in both within 45 degrees, mean angle
@@ -43,10 +43,9 @@ CACHE = OUT / "cache" / "nest_vs_brian2"
 WINDOW = (100.0, 85.0)     # start, length (ms) of the dvs.es window
 #: NEST needs about 2 KB per node (each cell and its spike counter) and 80 bytes per
 #: synapse (39 to connect, 43 more to prepare the run; ``--nest-memory``):
-#: the dvs window (1.55 M cells the input can use, 98 M synapses) was killed at 18.7 GB
-#: on the shared 23 GB machine; its 160 x 120 centre (1.43 M cells, 97.7 M synapses)
-#: took 12.7 GB to build; a crop does not help, 96 x 72 still has 79 M synapses (the
-#: coarse levels' wide kernels)
+#: the dvs window (1.4 M cells the input can use, 98 M synapses) peaked at 19.0 GB (it was
+#: killed at 18.7 GB once, when other jobs held memory); a crop does not help, 96 x 72
+#: still has 79 M synapses (the coarse levels' wide kernels)
 
 
 SYNTHETIC = ("disc16", "disc16dark", "occlusion", "demo", "disc32", "disc32dark", "disc48", "disc48dark")

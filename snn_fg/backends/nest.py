@@ -13,7 +13,9 @@ The split is the one approximation between this network and Brian2's: a
 DoG or bicubic kernel's negative lobes reach the cell through the other
 receptor's time constant. ``receptors="signed"`` leaves it out (each
 projection on its own receptor of ``iaf_psc_exp_multisynapse``, signed
-weights) and gives Brian2's spike counts; it is not what a board runs.
+weights) and gives Brian2's spike counts on the synthetic discs; it is not
+what a board runs. (On event windows of 128 x 96 and larger the relays of
+both modes still differ from Brian2's: issue 10.)
 
 Install with ``pip install "snn-fg[nest]"`` (PyNN and the ``nest-simulator``
 wheel). ``threads`` sets NEST's ``local_num_threads``; the wheel has no MPI.

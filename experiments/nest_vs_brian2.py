@@ -73,6 +73,16 @@ def _inputs(name):
     return {"events": win.events, "sensor_size": (win.pos.shape[1], win.pos.shape[0], 2)}
 
 
+def _role_rates(r):
+    """Mean rate (Hz) of each population role over its cells in a SimulationResult."""
+    roles = {}
+    for p in r.populations:
+        role = r.network.population(p).role
+        n, c = roles.get(role, (0, 0))
+        roles[role] = (n + r.counts[p].size, c + int(r.counts[p].sum()))
+    return {k: c / max(n, 1) / (r.count_window_ms / 1000) for k, (n, c) in roles.items()}
+
+
 def one(name, backend, threads, out):
     """Run one simulation in this process; save rates and maps."""
     from snn_fg.spiking import run_spiking_result
@@ -82,11 +92,6 @@ def one(name, backend, threads, out):
     res = run_spiking_result(**_inputs(name), backend=backend, backend_options=opts, progress=False)
     wall = time.perf_counter() - t0
     r = res.result
-    roles = {}
-    for p in r.populations:
-        role = r.network.population(p).role
-        n, c = roles.get(role, (0, 0))
-        roles[role] = (n + r.counts[p].size, c + int(r.counts[p].sum()))
     maps = {"fg_x": res.maps.fg_x, "fg_y": res.maps.fg_y, "grouping": res.maps.grouping}
     CACHE.mkdir(parents=True, exist_ok=True)
     np.savez(CACHE / f"{name}_{backend}_{threads}.npz", **maps)      # for --figure
@@ -94,8 +99,7 @@ def one(name, backend, threads, out):
              meta=json.dumps({"wall_s": wall, "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
                               "timings_s": r.timings_s, "cells": r.total_cells,
                               "synapses": int(sum(r.stats["synapses_in"].values())),
-                              "role_rates_hz": {k: c / max(n, 1) / (r.count_window_ms / 1000) for k, (n, c) in
-                                                roles.items()}}))
+                              "role_rates_hz": _role_rates(r)}))
 
 
 def _run(name, backend, threads, tmp):
@@ -126,12 +130,7 @@ def seed_spread():
         for seed in SEEDS:
             r = run_spiking_result(**_inputs(name), backend="fast", seed=seed, instantiate="input",
                                    record_spikes=False, progress=False).result
-            roles = {}
-            for p in r.populations:
-                role = r.network.population(p).role
-                n, c = roles.get(role, (0, 0))
-                roles[role] = (n + r.counts[p].size, c + int(r.counts[p].sum()))
-            per_seed.append({k: c / max(n, 1) / (r.count_window_ms / 1000) for k, (n, c) in roles.items()})
+            per_seed.append(_role_rates(r))
         n_rates = nest[name]["nest"]["role_rates_hz"]
         for role in per_seed[0]:
             v = [d[role] for d in per_seed]

@@ -279,11 +279,14 @@ class PyNNNetwork:
         mV, split between the two receptors (see the module docstring)."""
         delay = grid_delay(delay_ms, self.dt)
         pre, post = np.asarray(pre, np.int64), np.asarray(post, np.int64)
-        if self.signed:         # the projection's own receptor (1: excitatory, 2: inhibitory), signed weights
+        if self.signed:         # the projection's own receptor (1: excitatory, 2: inhibitory)
+            # as Brian2 adds them (snn_fg.backends.base.receptor_weights): the
+            # excitatory current takes the signed drive, the inhibitory one its magnitude
             drive = np.asarray(drive, np.float64)
-            keep = drive != 0
+            w = drive if sign > 0 else -np.abs(drive)
+            keep = w != 0
             if keep.any():
-                self._connect_nest(source, target, pre[keep], post[keep], drive[keep], 1 if sign > 0 else 2, delay)
+                self._connect_nest(source, target, pre[keep], post[keep], w[keep], 1 if sign > 0 else 2, delay)
                 self.n_synapses[target] = self.n_synapses.get(target, 0) + int(keep.sum())
             return
         exc, mag = split_receptors(drive, sign, tau_exc_ms, tau_inh_ms)

@@ -15,7 +15,8 @@ from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_frame
 from snn_fg.export import synapses
 from snn_fg.export.board import board_network, whole_pairs
-from snn_fg.export.pynn_model import quantise, split_receptors
+from snn_fg.export.pynn_model import (NEST_LOCAL_MARGIN, NEST_MAX_LOCAL_SENDERS, PyNNNetwork, nest_threads,
+                                       quantise, split_receptors)
 from snn_fg.metrics import compare_frame
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
@@ -262,3 +263,52 @@ def test_nest_backend_refuses_signed_receptors_on_the_portable_path():
         get_backend("nest", portable=True, receptors="signed")
     with pytest.raises(ParameterError, match="receptors"):
         get_backend("nest", receptors="both")
+
+
+def test_nest_threads_keep_every_sender_inside_nests_19_bit_local_index():
+    """NEST addresses a spike-sending neuron by its index on its thread in
+    19 bits (2**19 - 1 = 524,287 per thread, less a margin); devices made
+    before the cells take one index on every thread."""
+    top = NEST_MAX_LOCAL_SENDERS - NEST_LOCAL_MARGIN
+    assert nest_threads(1000) == 1 and nest_threads(1000, threads=3) == 3
+    assert nest_threads(top) == 1 and nest_threads(top + 1) == 2
+    assert nest_threads(2 * top + 1) == 3
+    assert nest_threads(top, devices_first=1) == 2
+    with pytest.raises(ValueError, match="create the cells first"):
+        nest_threads(10, devices_first=NEST_MAX_LOCAL_SENDERS)
+
+
+@needs_nest
+def test_a_cell_past_nests_local_index_limit_still_sends_its_spikes():
+    """The last of 524,300 cells fires and drives a probe cell. On one NEST
+    thread its spikes would go out under another cell's index and the probe
+    would stay silent (nest-simulator issue #1211; the dvs.es window's
+    level-2 relays met it); PyNNNetwork takes two threads instead, and
+    refuses the cells when it is not told they are coming."""
+    from snn_fg.backends.nest import import_pynn_nest
+
+    sim = import_pynn_nest()
+    neuron = {"tau_m_ms": 10.0, "tau_exc_ms": 2.0, "tau_inh_ms": 2.0, "v_rest_mv": 0.0, "v_reset_mv": 0.0,
+              "v_th_mv": 10.0, "t_ref_ms": 2.0}
+    big = NEST_MAX_LOCAL_SENDERS + 13
+    net = PyNNNetwork(sim, dt_ms=0.5, max_delay_ms=1.0, n_cells=big + 1)
+    try:
+        assert net.threads == 2
+        net.add_cells("big", big, neuron)
+        net.add_cells("probe", 1, neuron)
+        net.add_sources("input", [np.array([4, 24])])
+        kw = {"sign": 1, "delay_ms": 1.0, "tau_exc_ms": 2.0, "tau_inh_ms": 2.0}
+        net.connect("input", "big", [0], [big - 1], [200.0], **kw)
+        net.connect("big", "probe", [big - 1], [0], [200.0], **kw)
+        net.record(["probe"], spikes=True)
+        net.run(30.0)
+        cell, t = net.spikes("probe", 1)
+        assert t.size == 2 and np.all((t > 2.0) & (t < 20.0))
+    finally:
+        net.end()
+    net = PyNNNetwork(sim, dt_ms=0.5, max_delay_ms=1.0)
+    try:
+        with pytest.raises(ValueError, match="need at least 2 NEST threads"):
+            net.add_cells("big", big, neuron)
+    finally:
+        net.end()

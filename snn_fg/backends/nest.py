@@ -14,11 +14,12 @@ DoG or bicubic kernel's negative lobes reach the cell through the other
 receptor's time constant. ``receptors="signed"`` leaves it out (each
 projection on its own receptor of ``iaf_psc_exp_multisynapse``, signed
 weights) and gives Brian2's spike counts on the synthetic discs; it is not
-what a board runs. (On event windows of 128 x 96 and larger the relays of
-both modes still differ from Brian2's: issue 10.)
+what a board runs.
 
 Install with ``pip install "snn-fg[nest]"`` (PyNN and the ``nest-simulator``
-wheel). ``threads`` sets NEST's ``local_num_threads``; the wheel has no MPI.
+wheel). ``threads`` sets NEST's ``local_num_threads``, raised where the
+network has more cells than NEST can address on one thread (524,223 per
+thread: :func:`~snn_fg.export.pynn_model.nest_threads`); the wheel has no MPI.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ import numpy as np
 
 from .. import validate as check
 from ..network.graph import Network
-from ..export.pynn_model import PyNNNetwork
+from ..export.pynn_model import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from ..spiking.unroll import Unrolled, unroll
 from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
 
@@ -61,7 +62,10 @@ class NestBackend(Backend):
     Parameters
     ----------
     threads : int
-        NEST threads (``local_num_threads``).
+        NEST threads (``local_num_threads``); at least as many as the
+        network's cells need (NEST addresses 2**19 - 1 spike-sending cells
+        per thread and silently mixes up the rest). The threads used are in
+        the result's ``stats["nest_threads"]``.
     portable : bool
         Connect and record through PyNN's own ``FromListConnector`` and
         ``record`` instead of NEST's array calls (slow; the path a
@@ -126,6 +130,7 @@ class NestBackend(Backend):
                 timings["run"] = net.run(settings.duration_ms, CHUNK_MS, report)
             counts, spikes, binned, state = _collect(net, un, settings)
             stats["nest_synapses"] = dict(net.n_synapses)
+            stats["nest_threads"] = net.threads
         finally:
             net.end()
         timings["total"] = time.perf_counter() - t0
@@ -141,11 +146,18 @@ def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBacken
     t0 = time.perf_counter()
     net_d = un.network
     max_delay = max([c.projection.delay_ms for c in un.connections] + [settings.dt_ms])
+    pixels = _source_pixels(un)
+    cells = lif_populations(net_d)
+    n_cells = sum(un.n_cells(p.name) for p in cells)
     net = PyNNNetwork(sim, dt_ms=settings.dt_ms, max_delay_ms=max_delay, threads=backend.threads,
-                      portable=backend.portable, signed_receptors=backend.receptors == "signed")
-    for p in lif_populations(net_d):
+                      portable=backend.portable, signed_receptors=backend.receptors == "signed",
+                      n_cells=n_cells, n_sources=sum(px.size for px in pixels.values()))
+    if net.threads > backend.threads:
+        settings.say(f"NEST on {net.threads} threads, not {backend.threads}: it addresses at most "
+                     f"{NEST_MAX_LOCAL_SENDERS:,} spike-sending cells per thread and this network has {n_cells:,}")
+    for p in cells:
         net.add_cells(p.name, un.n_cells(p.name), p.neuron.to_dict())
-    used = _add_sources(net, un, inputs, settings)
+    used = _add_sources(net, un, inputs, settings, pixels)
     for conn in un.connections:
         if conn.n == 0:
             continue
@@ -155,8 +167,7 @@ def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBacken
         net.connect(pr.source, pr.target, pre, conn.post, conn.w, sign=pr.sign, delay_ms=pr.delay_ms,
                     tau_exc_ms=tgt.tau_exc_ms, tau_inh_ms=tgt.tau_inh_ms)
         conn.free()
-    names = [p.name for p in lif_populations(net_d)]
-    n_cells = sum(un.n_cells(n) for n in names)
+    names = [p.name for p in cells]
     spikes = settings.record_spikes and n_cells <= SPIKE_RECORD_MAX_CELLS
     if settings.record_spikes and not spikes:
         settings.say(f"spike trains not recorded ({n_cells:,} cells; NEST keeps 32 KB per recorded cell): "
@@ -168,22 +179,28 @@ def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBacken
     return net
 
 
-def _add_sources(net, un: Unrolled, inputs, settings: RunSettings) -> dict:
-    """One spike source per input pixel with outgoing synapses; returns, per
-    source population, the map from pixel to source index."""
+def _source_pixels(un: Unrolled) -> dict:
+    """Per spike-source population, the pixels with outgoing synapses (sorted)."""
+    return {name: np.unique(np.concatenate([c.pre for c in un.connections if c.projection.source == name] +
+                                           [np.zeros(0, np.int32)]).astype(np.int64))
+            for name in source_offsets(un.network)}
+
+
+def _add_sources(net, un: Unrolled, inputs, settings: RunSettings, pixels: dict) -> dict:
+    """One spike source per pixel of ``pixels`` (:func:`_source_pixels`);
+    returns, per source population, the map from pixel to source index."""
     n_steps = int(round(settings.duration_ms / settings.dt_ms))
     idx, steps = inputs.spike_times_steps(n_steps)
     order = np.argsort(idx, kind="stable")
     idx, steps = idx[order], steps[order]
     used = {}
     for name, offset in source_offsets(un.network).items():
-        pixels = np.unique(np.concatenate([c.pre for c in un.connections if c.projection.source == name] +
-                                          [np.zeros(0, np.int32)]).astype(np.int64))
-        lo = np.searchsorted(idx, offset + pixels, "left")
-        hi = np.searchsorted(idx, offset + pixels, "right")
+        px = pixels[name]
+        lo = np.searchsorted(idx, offset + px, "left")
+        hi = np.searchsorted(idx, offset + px, "right")
         net.add_sources(name, [steps[a:b] for a, b in zip(lo, hi)])
         remap = np.full(un.network.population(name).size, -1, np.int64)
-        remap[pixels] = np.arange(pixels.size)
+        remap[px] = np.arange(px.size)
         used[name] = remap
     return used
 

@@ -43,6 +43,16 @@ on NEST needs input spikes after ``min_delay`` (= dt), so NEST runs
 time is its stamp) and every recorded spike time is reported with
 ``1 + TIME_SHIFT_STEPS`` steps taken off again. Delays shorter than one step
 become one step (NEST's minimum delay).
+
+Threads: NEST stores, for every synapse, the index of its presynaptic neuron
+among the nodes of that neuron's thread in 19 bits (``TargetData``'s
+``source_lid_`` in nestkernel/target_data.h). Release builds, the wheel
+among them, do not check it: a neuron at index 2**19 - 1 or above on its
+thread sends its spikes through the synapses of the neuron 2**19 places
+before it (nest-simulator issue #1211), and the run goes on with a wrong
+network. :class:`PyNNNetwork` therefore takes as many threads as the
+spike-sending cells need (:func:`nest_threads`) and refuses to create a cell
+past the limit.
 """
 from __future__ import annotations
 
@@ -60,6 +70,11 @@ NEST_UNIT = 1000.0
 #: a spike counter: no leak to speak of, no threshold, each input of weight 1 adds 1 mV
 COUNTER = {"tau_m": 1e12, "C_m": 1.0, "E_L": 0.0, "V_reset": 0.0, "V_th": 1e30, "V_m": 0.0, "t_ref": 0.0,
            "V_min": -1e30, "I_e": 0.0}
+#: NEST addresses a spike-sending neuron by its index among its thread's
+#: nodes in 19 bits (module docstring); the last index is a marker
+NEST_MAX_LOCAL_SENDERS = 2 ** 19 - 1
+#: headroom for threads that get one or two nodes more than their share
+NEST_LOCAL_MARGIN = 64
 STATE_NAMES = {"v": ("V_m", "v", 1.0), "I_exc": ("I_syn_ex", "isyn_exc", 1 / NEST_UNIT),
                "I_inh": ("I_syn_in", "isyn_inh", 1 / NEST_UNIT)}
 #: the NEST recordables of iaf_psc_exp_multisynapse (``signed_receptors``): one current per receptor
@@ -76,6 +91,20 @@ def cell_parameters(neuron: dict, dt_ms: float) -> dict:
             "tau_syn_E": float(neuron["tau_exc_ms"]), "tau_syn_I": float(neuron["tau_inh_ms"]),
             "v_rest": float(neuron["v_rest_mv"]), "v_reset": float(neuron["v_reset_mv"]),
             "v_thresh": float(neuron["v_th_mv"]), "tau_refrac": ref_steps * dt_ms, "i_offset": 0.0}
+
+
+def nest_threads(senders: int, devices_first: int = 0, threads: int = 1) -> int:
+    """The fewest NEST threads, at least ``threads``, on which ``senders``
+    spike-sending neurons stay inside NEST's 19-bit thread-local index
+    (module docstring). NEST deals nodes to threads in turn, so a thread
+    holds at most ``ceil(senders / threads)`` of them; a device (spike
+    generator, recorder) created before them takes one index on every
+    thread (``devices_first``)."""
+    room = NEST_MAX_LOCAL_SENDERS - NEST_LOCAL_MARGIN - int(devices_first)
+    if room <= 0:
+        raise ValueError(f"{devices_first:,} NEST devices created before the cells leave no room for them: "
+                         "create the cells first")
+    return max(int(threads), -(-int(senders) // room), 1)
 
 
 def split_receptors(drive: np.ndarray, sign: int, tau_exc_ms: float, tau_inh_ms: float):
@@ -192,6 +221,11 @@ class PyNNNetwork:
     """Populations of ``IF_curr_exp`` cells and spike sources in one PyNN
     simulator, connected by explicit synapse lists.
 
+    ``n_cells`` and ``n_sources`` say how many cells and spike sources will
+    be added: on NEST, ``threads`` is raised to what they need
+    (:func:`nest_threads`; the threads used are ``self.threads``), and a
+    cell that would still go past NEST's limit is refused.
+
     ``sim`` is the PyNN backend module (``pyNN.nest``, ``pyNN.spiNNaker``).
     On ``pyNN.nest`` cells, synapses and recorders are created by NEST's own
     array calls, with the cell parameters PyNN translates ``IF_curr_exp``
@@ -203,7 +237,7 @@ class PyNNNetwork:
     """
 
     def __init__(self, sim, *, dt_ms: float, max_delay_ms: float, threads: int = 1, seed: int = 0,
-                 portable: bool = False, signed_receptors: bool = False):
+                 portable: bool = False, signed_receptors: bool = False, n_cells: int = 0, n_sources: int = 0):
         self.sim = sim
         self.dt = float(dt_ms)
         self.native = (sim.__name__ == "pyNN.nest") and not portable
@@ -212,11 +246,19 @@ class PyNNNetwork:
         self.signed = bool(signed_receptors)
         max_delay = max(grid_delay(max_delay_ms, self.dt), 2 * self.dt)
         opts = {}
-        if sim.__name__ == "pyNN.nest":
+        self.on_nest = sim.__name__ == "pyNN.nest"
+        self.threads = int(threads)
+        self._senders = 0       # spike-sending neurons created (cells; parrots of portable sources)
+        self._devices = 0       # devices created before the last of them
+        if self.on_nest:
+            # portable sources are a spike generator (a device) plus a parrot
+            # neuron each; native ones are generators only
+            senders = int(n_cells) + (0 if self.native else int(n_sources))
+            self.threads = nest_threads(senders, 0 if self.native else int(n_sources), self.threads)
             # on_grid: PyNN's default on NEST is off-grid spiking, which swaps
             # IF_curr_exp for iaf_psc_exp_ps (spike times and refractoriness
             # between steps): not the time-stepped cell the description means
-            opts = {"threads": int(threads), "rng_seed": int(seed) + 1, "spike_precision": "on_grid"}
+            opts = {"threads": self.threads, "rng_seed": int(seed) + 1, "spike_precision": "on_grid"}
         sim.setup(timestep=self.dt, min_delay=self.dt, max_delay=max_delay, **opts)
         self.pops: dict = {}       # name -> PyNN Population (portable) or NEST NodeCollection (native)
         self.first: dict = {}      # native: name -> NEST id of its first node
@@ -229,6 +271,7 @@ class PyNNNetwork:
         """``size`` LIF cells, starting at rest."""
         p = cell_parameters(neuron, self.dt)
         size = max(int(size), 1)
+        self._count_senders(name, size)
         if self.signed:
             import nest
 
@@ -256,6 +299,10 @@ class PyNNNetwork:
     def add_sources(self, name: str, steps_per_cell: list):
         """Spike sources, one per entry of ``steps_per_cell`` (time steps of its spikes)."""
         times = [(np.asarray(s, dtype=np.float64) + 1 + TIME_SHIFT_STEPS) * self.dt for s in steps_per_cell]
+        if self.on_nest:
+            self._devices += max(len(times), 1)
+            if not self.native:        # PyNN's parrot neurons, which send
+                self._count_senders(name, max(len(times), 1))
         if self.native:
             import nest
 
@@ -268,6 +315,17 @@ class PyNNNetwork:
         else:
             self.pops[name] = self.sim.Population(max(len(times), 1), self.sim.SpikeSourceArray(
                 spike_times=[self.sim.Sequence(t) for t in times] or [self.sim.Sequence([])]), label=name)
+
+    def _count_senders(self, name: str, size: int):
+        """Refuse cells that NEST could not address on ``self.threads`` threads."""
+        if not self.on_nest:
+            return
+        self._senders += int(size)
+        need = nest_threads(self._senders, self._devices, self.threads)
+        if need > self.threads:
+            raise ValueError(f"population '{name}': {self._senders:,} spike-sending cells need at least {need} NEST "
+                             f"threads (NEST addresses {NEST_MAX_LOCAL_SENDERS:,} per thread and silently mixes "
+                             f"them up beyond), not {self.threads}: give n_cells/n_sources or more threads")
 
     def _native_nodes(self, name, nodes):
         self.pops[name] = nodes

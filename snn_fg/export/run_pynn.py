@@ -55,14 +55,19 @@ def input_steps(path, n_steps, n_sources):
 def build(sim, meta, tables, sources, dt_ms, threads, portable, spikes, edges):
     pops = {p["name"]: p for p in meta["populations"]}
     delays = [pr["delay_ms"] for pr in meta["projections"]] + [dt_ms]
-    net = fg.PyNNNetwork(sim, dt_ms=dt_ms, max_delay_ms=max(delays), threads=threads, portable=portable)
+    cells = [p for p in meta["populations"] if p["neuron"] is not None]
+    inputs = [p for p in meta["populations"] if p["neuron"] is None]
+    net = fg.PyNNNetwork(sim, dt_ms=dt_ms, max_delay_ms=max(delays), threads=threads, portable=portable,
+                         n_cells=sum(p["size"] for p in cells), n_sources=sum(p["size"] for p in inputs))
+    if net.threads > threads:
+        print(f"run.py: {net.threads} threads, not {threads}: NEST addresses at most "
+              f"{fg.NEST_MAX_LOCAL_SENDERS:,} spike-sending cells per thread")
+    for p in cells:             # cells before sources: NEST's spike generators would take room on every thread
+        net.add_cells(p["name"], p["size"], p["neuron"])
     offset = 0
-    for p in meta["populations"]:
-        if p["neuron"] is None:
-            net.add_sources(p["name"], sources[offset:offset + p["size"]])
-            offset += p["size"]
-        else:
-            net.add_cells(p["name"], p["size"], p["neuron"])
+    for p in inputs:
+        net.add_sources(p["name"], sources[offset:offset + p["size"]])
+        offset += p["size"]
     for pr in meta["projections"]:
         src, tgt = pops[pr["source"]], pops[pr["target"]]
         if pr["type"] == "conv":

@@ -15,8 +15,10 @@ side by side into nest_vs_brian2.png.
 ``--seed-spread`` (after ``--only synthetic``) sets the per-role rate ratios
 beside Brian2's own spread over input seeds (nest_vs_brian2_seeds.{json,md}).
 ``--nest-memory`` measures NEST's bytes per node and per synapse (nest_memory.json).
+``--receptors signed`` runs NEST on the description exactly (each projection
+on its own receptor, signed weights) instead of the export's receptor split.
 Usage: python experiments/nest_vs_brian2.py [--only frame|dvs|nmnist|synthetic] [--no-threads] [--figure]
-       [--seed-spread] [--nest-memory]
+       [--receptors split|signed] [--seed-spread] [--nest-memory]
 """
 from __future__ import annotations
 
@@ -83,29 +85,30 @@ def _role_rates(r):
     return {k: c / max(n, 1) / (r.count_window_ms / 1000) for k, (n, c) in roles.items()}
 
 
-def one(name, backend, threads, out):
+def one(name, backend, threads, out, receptors="split"):
     """Run one simulation in this process; save rates and maps."""
     from snn_fg.spiking import run_spiking_result
 
     t0 = time.perf_counter()
-    opts = {"threads": threads} if backend == "nest" else {}
+    opts = {"threads": threads, "receptors": receptors} if backend == "nest" else {}
     res = run_spiking_result(**_inputs(name), backend=backend, backend_options=opts, progress=False)
     wall = time.perf_counter() - t0
     r = res.result
     maps = {"fg_x": res.maps.fg_x, "fg_y": res.maps.fg_y, "grouping": res.maps.grouping}
     CACHE.mkdir(parents=True, exist_ok=True)
-    np.savez(CACHE / f"{name}_{backend}_{threads}.npz", **maps)      # for --figure
+    tag = "_signed" if backend == "nest" and receptors == "signed" else ""
+    np.savez(CACHE / f"{name}_{backend}_{threads}{tag}.npz", **maps)      # for --figure
     np.savez(out, **maps,
              meta=json.dumps({"wall_s": wall, "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
                               "timings_s": r.timings_s, "cells": r.total_cells,
                               "synapses": int(sum(r.stats["synapses_in"].values())),
-                              "role_rates_hz": _role_rates(r)}))
+                              "role_rates_hz": _role_rates(r), "threads_used": r.stats.get("nest_threads")}))
 
 
-def _run(name, backend, threads, tmp):
+def _run(name, backend, threads, tmp, receptors="split"):
     out = Path(tmp) / f"{name}_{backend}_{threads}.npz"
-    subprocess.run([sys.executable, __file__, "--one", name, backend, str(threads), str(out)], check=True,
-                   env={**os.environ, "PYNEST_QUIET": "1"})
+    subprocess.run([sys.executable, __file__, "--one", name, backend, str(threads), str(out),
+                    "--receptors", receptors], check=True, env={**os.environ, "PYNEST_QUIET": "1"})
     d = np.load(out)
     return d, json.loads(str(d["meta"]))
 
@@ -232,6 +235,9 @@ def main():
     ap.add_argument("--one", nargs=4, metavar=("INPUT", "BACKEND", "THREADS", "OUT"))
     ap.add_argument("--only", choices=("frame", "dvs", "nmnist", "synthetic"))
     ap.add_argument("--no-threads", action="store_true")
+    ap.add_argument("--receptors", choices=("split", "signed"), default="split",
+                    help="NEST's receptors: split (what a board runs, default) or signed (the description "
+                         "exactly); signed results go to nest_vs_brian2_<input>_signed.*")
     ap.add_argument("--figure", action="store_true", help="only draw the cached maps")
     ap.add_argument("--nest-memory", action="store_true", help="only measure NEST's bytes per node and synapse")
     ap.add_argument("--seed-spread", action="store_true",
@@ -247,38 +253,39 @@ def main():
         nest_memory()
         return
     if args.one:
-        one(args.one[0], args.one[1], int(args.one[2]), args.one[3])
+        one(args.one[0], args.one[1], int(args.one[2]), args.one[3], args.receptors)
         return
     from snn_fg.metrics import compare_frame
 
     rows = []
     load = os.getloadavg()
+    stem = "nest_vs_brian2" + (f"_{args.only}" if args.only else "") + ("_signed" if args.receptors == "signed" else "")
     with tempfile.TemporaryDirectory() as tmp:
         names = {"synthetic": list(SYNTHETIC), None: ["frame", "dvs"]}.get(args.only, [args.only])
         for name in names:
             b2, mb = _run(name, "brian2", 1, tmp)
-            runs = [(1, _run(name, "nest", 1, tmp))]
+            runs = [(1, _run(name, "nest", 1, tmp, args.receptors))]
             if not args.no_threads:
-                runs.append((2, _run(name, "nest", 2, tmp)))
+                runs.append((2, _run(name, "nest", 2, tmp, args.receptors)))
             for threads, (ne, mn) in runs:
                 c = compare_frame(ne["fg_x"], ne["fg_y"], ne["grouping"], b2["fg_x"], b2["fg_y"], b2["grouping"])
                 ratio = {k: (mn["role_rates_hz"][k] / v if v else None) for k, v in mb["role_rates_hz"].items()}
+                threads = mn.get("threads_used") or threads     # raised where the cells need it
                 rows.append({"input": name, "nest_threads": threads, "grouping_r": c["grouping_pearson_r"],
                              "within_45": c["angle_within_45_frac"], "mean_angle_deg": c["angle_diff_mean_deg"],
                              "pixels": c["pixels_compared"], "rate_ratio_nest_over_brian2": ratio,
                              "brian2": mb, "nest": mn})
-                save_text(OUT / f"nest_vs_brian2{'_' + args.only if args.only else ''}.partial.json",
-                          json.dumps(rows, indent=1))
+                save_text(OUT / f"{stem}.partial.json", json.dumps(rows, indent=1))
                 print(json.dumps({k: rows[-1][k] for k in ("input", "nest_threads", "grouping_r", "within_45")}),
                       f"brian2 {mb['wall_s']:.1f} s {mb['peak_rss_gb']:.2f} GB, nest {mn['wall_s']:.1f} s "
                       f"{mn['peak_rss_gb']:.2f} GB", flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
     result = {"load_before": load, "load_after": os.getloadavg(), "window_ms": WINDOW, "rows": rows}
-    stem = f"nest_vs_brian2{'_' + args.only if args.only else ''}"
     save_text(OUT / f"{stem}.json", json.dumps(result, indent=1))
     (OUT / f"{stem}.partial.json").unlink(missing_ok=True)
-    lines = ["# NEST (PyNN) against Brian2", "", f"Load average before/after: {load} / {result['load_after']} "
-             "(2 cores shared by five developers: timings are noisy).", "",
+    lines = [f"# NEST (PyNN, receptors {args.receptors}) against Brian2", "",
+             f"Load average before/after: {load} / {result['load_after']} (2 cores shared by five developers: "
+             "timings are noisy).", "",
              "| input | NEST threads | grouping r | within 45° | mean angle ° | Brian2 s / GB | NEST s / GB | "
              "NEST run s | rate ratio range (NEST/Brian2, per role) |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:

@@ -47,10 +47,10 @@ become one step (NEST's minimum delay).
 Threads: NEST stores, for every synapse, the index of its presynaptic neuron
 among the nodes of that neuron's thread in 19 bits (``TargetData``'s
 ``source_lid_`` in nestkernel/target_data.h). Release builds, the wheel
-among them, do not check it: a neuron at index 2**19 - 1 or above on its
-thread sends its spikes through the synapses of the neuron 2**19 places
-before it (nest-simulator issue #1211), and the run goes on with a wrong
-network. :class:`PyNNNetwork` therefore takes as many threads as the
+among them, do not check it (nest-simulator issue #1211): the index of a
+neuron at 2**19 - 1 or above on its thread is cut to 19 bits, its spikes go
+out through another neuron's synapses (checked here: a probe such a neuron
+drives stays silent), and the run goes on with a wrong network. :class:`PyNNNetwork` therefore takes as many threads as the
 spike-sending cells need (:func:`nest_threads`) and refuses to create a cell
 past the limit.
 """

@@ -18,7 +18,7 @@ Each projection becomes a table that needs no unrolling to store:
 * :class:`ResizeTable` - the two 1-D interpolation matrices, sparse.
 
 :func:`whole_pairs` unrolls a table into explicit synapses with the
-standalone code the PyNN export runs (:mod:`.pynn_model`).
+standalone code the PyNN export runs (:mod:`.pynn_tables`).
 """
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ from ..network.graph import Network
 from ..network.nodes import Conv, Population, Projection
 from ..spiking.connect import kernel_taps
 from ..spiking.interp import interp_matrix, sparse_rows
-from .pynn_model import conv_pairs, resize_pairs
+from .pynn_tables import conv_pairs, resize_pairs
 
 BOARD_NOTE = ("Export: the board network has every cell of every population; the coarse levels' edge mask "
               "(cells only where the input's resized edge map >= support_min) depends on the input and is "

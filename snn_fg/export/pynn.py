@@ -6,6 +6,8 @@ The export folder holds
   reads an input spike file, simulates and writes every population's spikes;
 * ``fg_network.py`` - the network in PyNN (a verbatim copy of
   :mod:`snn_fg.export.pynn_model`, which the NEST backend also runs);
+* ``fg_tables.py`` - explicit synapses from the weight-shared tables (a
+  verbatim copy of :mod:`snn_fg.export.pynn_tables`);
 * ``network.json`` - populations (grids, neuron constants), projections
   (ends, sign, gain, delay, per-projection weight scale) and the snn-fg
   description it was made from; ``tables.npz`` - the weight-shared tables
@@ -122,7 +124,7 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
     >>> from snn_fg.params import ModelParams
     >>> d = export_pynn(build_network(ModelParams(levels=2), (40, 52)), pathlib.Path(tempfile.mkdtemp()) / "m")
     >>> sorted(p.name for p in d.iterdir())
-    ['README.md', 'fg_network.py', 'network.json', 'run.py', 'tables.npz']
+    ['README.md', 'fg_network.py', 'fg_tables.py', 'network.json', 'run.py', 'tables.npz']
     """
     from ..runner import OutputFolder
 
@@ -132,6 +134,7 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
         (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
         np.savez_compressed(tmp / "tables.npz", **arrays)
         shutil.copyfile(HERE / "pynn_model.py", tmp / "fg_network.py")
+        shutil.copyfile(HERE / "pynn_tables.py", tmp / "fg_tables.py")
         shutil.copyfile(HERE / "run_pynn.py", tmp / "run.py")
         if target == "spinnaker":
             (tmp / "spinnaker.json").write_text(json.dumps(spinnaker_plan(board_network(network)), indent=1) + "\n")

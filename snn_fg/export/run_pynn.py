@@ -22,10 +22,11 @@ import time
 import numpy as np
 
 import fg_network as fg
+import fg_tables
 
 
 def load_tables(meta, tables):
-    """Projection name -> what fg_network's unrollers take."""
+    """Projection name -> what fg_tables' unrollers take."""
     out = {}
     for pr in meta["projections"]:
         key = pr["table"]
@@ -72,10 +73,10 @@ def build(sim, meta, tables, sources, dt_ms, threads, portable, spikes, edges):
         src, tgt = pops[pr["source"]], pops[pr["target"]]
         if pr["type"] == "conv":
             taps, values = tables[pr["name"]]
-            pre, post, k = fg.conv_pairs(taps, values, src, tgt, pr["wrap"])
+            pre, post, k = fg_tables.conv_pairs(taps, values, src, tgt, pr["wrap"])
         else:
             rows, cols = tables[pr["name"]]
-            pre, post, k = fg.resize_pairs(rows, cols, src["channels"], src, tgt, pr["k_min"])
+            pre, post, k = fg_tables.resize_pairs(rows, cols, src["channels"], src, tgt, pr["k_min"])
         drive = fg.quantise(pr["sign"] * pr["gain_mv"] * k, meta["weight_bits"], pr["scale_mv"])
         net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"],
                     tau_exc_ms=tgt["neuron"]["tau_exc_ms"], tau_inh_ms=tgt["neuron"]["tau_inh_ms"])

@@ -183,6 +183,12 @@ def _progress_factory():
     return lambda it: tqdm(it, desc="iterations", leave=False, file=sys.stderr)
 
 
+def _checked(windows, check):
+    for w in windows:
+        check()
+        yield w
+
+
 def _windows(args):
     from .events import iter_recording, iter_windows
 
@@ -193,6 +199,9 @@ def _windows(args):
         from tqdm import tqdm
 
         windows = tqdm(windows, desc="windows", unit="win", file=sys.stderr, total=args.max_windows)
+    check = getattr(args, "check_interrupt", None)
+    if check is not None:       # an interrupt swallowed inside a window stops the run at the next one
+        windows = _checked(windows, check)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
     source.setdefault("stride_ms", source["window_ms"])
     return windows, source, tuple(stream.sensor_size[1::-1])
@@ -263,58 +272,89 @@ def cmd_compare(args) -> int:
 
 class _Signals:
     """Ctrl-C (SIGINT) and SIGTERM while a command runs: each is remembered
-    (so an interrupt swallowed somewhere, e.g. inside an import, still
-    cancels the run before its output is committed) and raised as
-    KeyboardInterrupt."""
+    and raised as KeyboardInterrupt.
+
+    Python runs a signal handler wherever the main thread happens to be, and
+    when that is a finalizer run by the garbage collector (or an import) the
+    KeyboardInterrupt is swallowed there: Python prints "Exception ignored"
+    and the run goes on. Remembering the signal makes such a run stop at its
+    next check (:meth:`check`, e.g. between windows) and never commit its
+    output; the swallowed exception is not printed, since the one-line
+    message follows."""
 
     def __init__(self):
         self.received: list[str] = []
         self.previous = {}
+        self.previous_hook = None
 
     def __call__(self, signum, frame):      # noqa: ARG002 - signal handler signature
         self.received.append(signal.Signals(signum).name)
         raise KeyboardInterrupt(self.received[-1])
 
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if a signal came (even one swallowed since)."""
+        if self.received:
+            raise KeyboardInterrupt(self.received[-1])
+
+    def _unraisable(self, info):
+        if not (issubclass(info.exc_type, KeyboardInterrupt) and self.received):
+            self.previous_hook(info)
+
     def __enter__(self):
         for sig in (signal.SIGINT, signal.SIGTERM):
             self.previous[sig] = signal.signal(sig, self)
+        self.previous_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
         return self
 
     def __exit__(self, *exc):
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
+        sys.unraisablehook = self.previous_hook
 
 
-def main(argv=None) -> int:
+def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
+    """Run one ``snn-fg`` command; returns the exit status.
+
+    ``exit_on_interrupt``: after Ctrl-C or SIGTERM (and the one-line message)
+    end the process at once with 130 or 143, without unwinding: what an
+    interrupt cut short in library code (a half-loaded compiled module, say)
+    can crash the interpreter while it is torn down, or make it end itself by
+    the signal. The output folder has been restored by then."""
     parser, subs = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra:       # report an unknown option under the subcommand's own usage
         subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
     with _Signals() as signals:
         args.interrupted = lambda: bool(signals.received)
+        args.check_interrupt = signals.check
         try:
-            return args.handler(args)
-        except SnnFgError as exc:
-            print(f"snn-fg: error: {exc}", file=sys.stderr)
-            return EXIT_INPUT
+            try:
+                return args.handler(args)
+            except Exception as exc:
+                # after an interrupt that a library swallowed, whatever fails
+                # next is its consequence: report the interrupt, not the error
+                if signals.received:
+                    raise KeyboardInterrupt(signals.received[-1]) from None
+                if not isinstance(exc, SnnFgError):
+                    raise
+                print(f"snn-fg: error: {exc}", file=sys.stderr)
+                return EXIT_INPUT
         except KeyboardInterrupt:
             term = "SIGTERM" in signals.received
             print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); the output was left as it was before "
                   "the run", file=sys.stderr)
-            return 143 if term else 130
+            code = 143 if term else 130
+            if exit_on_interrupt:
+                sys.stdout.flush()
+                sys.stderr.flush()
+                os._exit(code)
+            return code
 
 
 def console():
-    """The ``snn-fg`` entry point: :func:`main`, exiting with its status. After
-    an interrupt the process ends at once with 130 (SIGINT) or 143 (SIGTERM):
-    an interrupt that reached library code can otherwise make the interpreter
-    end itself by the signal on the way out."""
-    code = main()
-    if code in (130, 143):
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(code)
-    sys.exit(code)
+    """The ``snn-fg`` entry point: :func:`main`, exiting with its status (at
+    once after an interrupt)."""
+    sys.exit(main(exit_on_interrupt=True))
 
 
 if __name__ == "__main__":

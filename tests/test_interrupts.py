@@ -64,3 +64,49 @@ def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path,
     assert len(lines) == 1 and "interrupted" in lines[0] and "left as it was" in lines[0], err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == earlier
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]              # no staging folder left
+
+
+class _SwallowsAnInterrupt:
+    """Receives Ctrl-C inside its finalizer, where Python can only print the
+    KeyboardInterrupt and go on (as when a signal lands in garbage collection)."""
+
+    def __del__(self):
+        signal.raise_signal(signal.SIGINT)
+        for _ in range(10):         # the handler runs at the next check of the eval loop
+            pass
+
+
+@pytest.mark.parametrize("then", ["goes_on", "fails"])
+def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_next_window(
+        inputs, tmp_path, monkeypatch, capsys, then):
+    """The run goes on after the swallowed interrupt (and stops at the next
+    window), or fails because of it (and the interrupt is reported, not the
+    error)."""
+    from snn_fg import cli, runner
+
+    appended = []
+    real_append = runner.MapsSeriesWriter.append
+
+    def append(self, *a, **kw):
+        appended.append(1)
+        if len(appended) == 2:
+            _SwallowsAnInterrupt()       # made and dropped at once: its finalizer runs here
+            if then == "fails":
+                raise RuntimeError("a library left in a broken state by the interrupt")
+        return real_append(self, *a, **kw)
+
+    monkeypatch.setattr(runner.MapsSeriesWriter, "append", append)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "maps.npz").write_bytes(b"an earlier run's maps")
+    before = signal.getsignal(signal.SIGINT), sys.unraisablehook
+    code = cli.main(["run", str(inputs / "long.npz"), "--window-ms", "50", "--out", str(out), "--force",
+                     "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 130
+    assert len(appended) == 2, f"the run went on for {len(appended)} windows after the interrupt"
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "interrupted" in lines[0], err          # no "Exception ignored" report
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == {"maps.npz": b"an earlier run's maps"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert (signal.getsignal(signal.SIGINT), sys.unraisablehook) == before       # both restored

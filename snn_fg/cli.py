@@ -13,7 +13,7 @@ import signal
 import sys
 from pathlib import Path
 
-from . import __version__
+from . import __version__, cancel
 from .backends import DEFAULT_BACKEND, backend_names
 from .errors import InputError, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
@@ -183,12 +183,6 @@ def _progress_factory():
     return lambda it: tqdm(it, desc="iterations", leave=False, file=sys.stderr)
 
 
-def _checked(windows, check):
-    for w in windows:
-        check()
-        yield w
-
-
 def _windows(args):
     from .events import iter_recording, iter_windows
 
@@ -199,9 +193,6 @@ def _windows(args):
         from tqdm import tqdm
 
         windows = tqdm(windows, desc="windows", unit="win", file=sys.stderr, total=args.max_windows)
-    check = getattr(args, "check_interrupt", None)
-    if check is not None:       # an interrupt swallowed inside a window stops the run at the next one
-        windows = _checked(windows, check)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
     source.setdefault("stride_ms", source["window_ms"])
     return windows, source, tuple(stream.sensor_size[1::-1])
@@ -272,15 +263,10 @@ def cmd_compare(args) -> int:
 
 class _Signals:
     """Ctrl-C (SIGINT) and SIGTERM while a command runs: each is remembered
-    and raised as KeyboardInterrupt.
-
-    Python runs a signal handler wherever the main thread happens to be, and
-    when that is a finalizer run by the garbage collector (or an import) the
-    KeyboardInterrupt is swallowed there: Python prints "Exception ignored"
-    and the run goes on. Remembering the signal makes such a run stop at its
-    next check (:meth:`check`, e.g. between windows) and never commit its
-    output; the swallowed exception is not printed, since the one-line
-    message follows."""
+    (:mod:`snn_fg.cancel`, so a run whose KeyboardInterrupt a library
+    swallowed still stops at its next check and never commits its output)
+    and raised as KeyboardInterrupt. A swallowed one is not printed ("Exception
+    ignored..."): the one-line message follows."""
 
     def __init__(self):
         self.received: list[str] = []
@@ -289,18 +275,15 @@ class _Signals:
 
     def __call__(self, signum, frame):      # noqa: ARG002 - signal handler signature
         self.received.append(signal.Signals(signum).name)
+        cancel.request(self.received[-1])
         raise KeyboardInterrupt(self.received[-1])
-
-    def check(self) -> None:
-        """Raise KeyboardInterrupt if a signal came (even one swallowed since)."""
-        if self.received:
-            raise KeyboardInterrupt(self.received[-1])
 
     def _unraisable(self, info):
         if not (issubclass(info.exc_type, KeyboardInterrupt) and self.received):
             self.previous_hook(info)
 
     def __enter__(self):
+        cancel.clear()
         for sig in (signal.SIGINT, signal.SIGTERM):
             self.previous[sig] = signal.signal(sig, self)
         self.previous_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
@@ -310,6 +293,7 @@ class _Signals:
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
         sys.unraisablehook = self.previous_hook
+        cancel.clear()
 
 
 def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
@@ -326,7 +310,6 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
         subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
     with _Signals() as signals:
         args.interrupted = lambda: bool(signals.received)
-        args.check_interrupt = signals.check
         try:
             try:
                 return args.handler(args)

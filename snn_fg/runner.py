@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import cancel
 from .errors import InputError
 from .maps import Maps, MapsSeriesWriter
 from .models import Frame, Model
@@ -124,6 +125,7 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str) -> 
     with MapsSeriesWriter(out / "maps.npz") as sink, warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)     # counted and reported once below
         for w, maps in model.run_windows(windows):
+            cancel.check()          # (an interrupt swallowed inside the window stops the run here)
             n_empty += not (w.pos.any() or w.neg.any())
             # the window's event frame (+1 ON, -1 OFF) is kept with its maps
             sink.append(maps, event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8))

@@ -20,6 +20,7 @@ import time
 
 import numpy as np
 
+from .. import cancel
 from .. import validate as check
 from ..network.graph import Network
 from ..spiking.unroll import Unrolled, unroll
@@ -197,6 +198,7 @@ class Brian2Backend(Backend):
                                 namespace={})
                     if int(round(float(network.t / dt))) < end:
                         raise KeyboardInterrupt(f"the simulation stopped at {float(network.t / ms):g} ms")
+                    cancel.check()
                 done = end
                 if snapshot:
                     snapshots.append(np.asarray(lif.n_all[:], dtype=np.int64)[:n_lif])

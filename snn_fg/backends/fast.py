@@ -52,6 +52,7 @@ import time
 
 import numpy as np
 
+from .. import cancel
 from ..network.graph import Network
 from ..spiking.unroll import choose_sites
 from . import fast_tables as ft
@@ -243,6 +244,7 @@ class _Run:
                 if reached < end:         # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
                 bar(reached - n)
+                cancel.check()
                 n = reached
 
     def release(self):

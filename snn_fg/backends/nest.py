@@ -31,6 +31,7 @@ import warnings
 
 import numpy as np
 
+from .. import cancel
 from .. import validate as check
 from ..network.graph import Network
 from ..export.pynn_model import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
@@ -127,7 +128,11 @@ class NestBackend(Backend):
         try:
             settings.say("simulating in NEST")
             with _progress(settings) as report:
-                timings["run"] = net.run(settings.duration_ms, CHUNK_MS, report)
+                def each_chunk(done_ms):
+                    if report is not None:
+                        report(done_ms)
+                    cancel.check()
+                timings["run"] = net.run(settings.duration_ms, CHUNK_MS, each_chunk)
             counts, spikes, binned, state = _collect(net, un, settings)
             stats["nest_synapses"] = dict(net.n_synapses)
             stats["nest_threads"] = net.threads

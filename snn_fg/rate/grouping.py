@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from .. import cancel
 from ..frames.pyramid import resize
 from ..network.kernels import von_mises_masks
 from ..params import ModelParams
@@ -331,6 +332,7 @@ class SparseGrouping:
         with ThreadPoolExecutor(max_workers=_THREADS) as pool:
             for _ in steps:
                 self._step(pool)
+                cancel.check()
         return self
 
     # -- reading the state ---------------------------------------------

@@ -9,7 +9,9 @@ built-in ``shift4`` at 0.10, for comparison); the frame-based model (both edge
 operators) sees the image. Every map is scored at the figure pixels of both
 labellers (pooled), with the paper's mean *signed* error beside the mean
 absolute error, the median and the fraction within 45 degrees. The spiking
-network runs on its own small subset (``--spiking-images``), one image at a time.
+network runs on its own small subset (``--spiking-images``), one image at a time,
+beside the rate model on the same images (table1_extra.json); this shares its
+cache with spiking_groundtruth.py.
 
 Writes experiments/results/table1.json / .csv (rows: model, threshold,
 mean_signed_deg, mean_abs_deg, median_abs_deg, within45, n_images, n_pixels),
@@ -65,7 +67,7 @@ def authors_outputs() -> list[dict]:
     return rows + [{"image_id": "pooled", **pool_stats(parts)}] if rows else []
 
 
-def figure(rows, shift4):
+def figure(rows, shift4, same_images=()):
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(11, 3.6))
@@ -73,9 +75,14 @@ def figure(rows, shift4):
     for ax, key, label in zip(axes, ("mean_signed_deg", "mean_abs_deg", "within45"),
                               ("mean signed error (deg)", "mean absolute error (deg)", "fraction within 45 deg")):
         for model, style in (("rate", "o-"), ("spiking", "s--")):
-            pts = [(r["threshold"], r[key]) for r in rows if r["model"] == model]
-            if pts:
-                ax.plot(*zip(*pts), style, label=f"EDFG {model} (paper events)")
+            sel = [r for r in rows if r["model"] == model]
+            if sel:
+                n = sorted({r["n_images"] for r in sel})
+                ax.plot([r["threshold"] for r in sel], [r[key] for r in sel], style,
+                        label=f"EDFG {model} (paper events, {'/'.join(map(str, n))} images)")
+        if same_images:       # the rate model on the spiking subset: the like-for-like comparison
+            ax.plot([r["threshold"] for r in same_images], [r[key] for r in same_images], "o", mfc="none",
+                    color="tab:orange", ms=9, label=f"EDFG rate on the {same_images[0]['n_images']} spiking images")
         pts = [(r["threshold"], r[key]) for r in shift4]
         if pts:
             ax.plot(*zip(*pts), "x", ms=9, label="EDFG rate (shift4 events)")
@@ -87,7 +94,8 @@ def figure(rows, shift4):
             ax.axhline(PAPER_BEST_DEG, color="k", lw=0.8, label="paper: 5.29 deg")
         ax.set_xlabel("contrast threshold C")
         ax.set_title(label, fontsize=10)
-    axes[0].legend(fontsize=7)
+    fig.legend(*axes[0].get_legend_handles_labels(), fontsize=8, loc="upper center", ncol=4,
+               bbox_to_anchor=(0.5, 0.0))
     return fig
 
 
@@ -106,9 +114,11 @@ def main():
 
         sub = p.parse_args([*(["--scheduler", args.scheduler] if args.scheduler else []), "--workers", "1",
                             "--images", str(args.spiking_images)] + (["--no-progress"] if args.no_progress else []))
+        # the settings of spiking_groundtruth.py, so that the two share their cache
         spk = evaluate(sub, {**SETTINGS, "thresholds": (args.spiking_threshold,), "shift4_thresholds": (),
-                             "event_models": ("spiking",), "fbfg_operators": (), "fig6": False})
-        rows += rows_of(spk)
+                             "event_models": ("rate", "spiking"), "fbfg_operators": (), "fig6": False})
+        rows += [r for r in rows_of(spk) if r["model"] == "spiking"]
+        same_images = [r for r in rows_of(spk) if r["model"] == "rate"]      # like for like, in the extra file
     shift4 = [{**r, "motion": "shift4"} for r in rows_of(results, "shift4") if r["model"] == "rate"]
     from snn_fg.evaluation import pool_stats
 
@@ -116,17 +126,23 @@ def main():
              "human_ceiling": pool_stats([r["ceiling"] for r in results.values()]),
              "authors_outputs": authors_outputs(),
              "runtime_s": time.perf_counter() - t0}
+    if args.spiking_images:
+        extra["rate_on_the_spiking_images"] = same_images
     written = write_table("table1", rows)
     from snn_fg.atomic import save_text
 
     written.append(save_text(RESULTS / "table1_extra.json", json.dumps(extra, indent=1)))
-    written.append(save_figure(figure(rows, shift4), "table1"))
+    written.append(save_figure(figure(rows, shift4, extra.get("rate_on_the_spiking_images", ())), "table1"))
     print(f"{'model':10s} {'C':>5s} {'signed':>8s} {'abs':>7s} {'median':>7s} {'<=45':>6s} {'imgs':>5s} {'pixels':>8s}")
     for r in rows + shift4:
         c = "-" if r["threshold"] is None else f"{r['threshold']:.2f}"
         name = r["model"] + ("/shift4" if r in shift4 else "")
         print(f"{name:10s} {c:>5s} {r['mean_signed_deg']:8.2f} {r['mean_abs_deg']:7.2f} {r['median_abs_deg']:7.2f} "
               f"{r['within45']:6.3f} {r['n_images']:5d} {r['n_pixels']:8d}")
+    for r in extra.get("rate_on_the_spiking_images", []):
+        print(f"{'rate, the spiking images':25s} {r['threshold']:.2f} {r['mean_signed_deg']:8.2f} "
+              f"{r['mean_abs_deg']:7.2f} {r['median_abs_deg']:7.2f} {r['within45']:6.3f} {r['n_images']:5d} "
+              f"{r['n_pixels']:8d}")
     print(f"human ceiling: {extra['human_ceiling']}")
     print(f"paper (rate, C = 0.10, mean signed): {PAPER_BEST_DEG} deg; runtime {extra['runtime_s']:.0f} s")
     print("wrote " + ", ".join(str(w.relative_to(RESULTS.parent.parent)) for w in written))

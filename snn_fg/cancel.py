@@ -30,11 +30,6 @@ def request(reason: str) -> None:
     _requested.append(reason)
 
 
-def requested() -> str | None:
-    """The latest request, or None."""
-    return _requested[-1] if _requested else None
-
-
 def clear() -> None:
     """Forget the requests (the command that received them has ended)."""
     _requested.clear()

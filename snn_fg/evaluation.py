@@ -69,10 +69,19 @@ def angle_image(x, y) -> np.ndarray:
 def map_similarity(a, b) -> dict:
     """SSIM (11 x 11, whole image) and MSE of two direction fields ``(x, y)``, on angle maps
     (turns, 0 off the vectors) and on their colour-wheel renderings (the paper's)."""
+    return _similarity(_views(a), _views(b))
+
+
+def _views(field):
+    """The angle map and the colour-wheel rendering of a direction field ``(x, y)``."""
     from .figures import fg_rgb
 
-    ia, ib = angle_image(*a), angle_image(*b)
-    ra, rb = fg_rgb(*_unit(*a)), fg_rgb(*_unit(*b))
+    return angle_image(*field), fg_rgb(*_unit(*field))
+
+
+def _similarity(va, vb) -> dict:
+    """:func:`map_similarity` of two fields given by their :func:`_views`."""
+    (ia, ra), (ib, rb) = va, vb
     return {"ssim_angle": float(structural_similarity(ia, ib, win_size=SSIM_WINDOW, data_range=1.0)),
             "mse_angle": float(np.mean((ia - ib) ** 2)),
             "ssim_render": float(structural_similarity(ra, rb, win_size=SSIM_WINDOW, data_range=1.0,
@@ -160,7 +169,8 @@ def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thres
                              **_scores(maps.fg_x, maps.fg_y, truths)})
         fields[f"FB-{name}"] = (maps.fg_x, maps.fg_y)
     if fig6:
-        out["fig6"] = {f"{p}|{q}": map_similarity(fields[p], fields[q]) for p, q in combinations(sorted(fields), 2)}
+        views = {k: _views(f) for k, f in fields.items()}      # each field rendered once, not once per pair
+        out["fig6"] = {f"{p}|{q}": _similarity(views[p], views[q]) for p, q in combinations(sorted(fields), 2)}
     return out
 
 

@@ -93,3 +93,18 @@ def test_bsds_fg_labels_load_and_the_labellers_mostly_agree(shared):
     assert gt.fg.shape == (2, 321, 481) and gt.image_path is not None and len(gt.labellers) == 2
     ceiling = labeller_agreement(gt)
     assert ceiling["n_pixels"] > 5000 and ceiling["within45"] > 0.95    # measured 0.988
+
+
+def test_map_similarity_is_perfect_only_for_the_same_field():
+    from snn_fg.evaluation import map_similarity
+
+    x, y, valid = boundary_directions(_labels(disc(20))[0])
+    assert valid.sum() > 50
+    same = map_similarity((x, y), (x.copy(), y.copy()))
+    assert same["ssim_angle"] == pytest.approx(1.0) and same["ssim_render"] == pytest.approx(1.0)
+    assert same["mse_angle"] == 0.0 and same["mse_render"] == 0.0
+    flipped = map_similarity((x, y), (-x, -y))           # every vector turned by half a turn
+    assert flipped["ssim_angle"] < 0.9 and flipped["ssim_render"] < 0.9
+    # in turns, every vector moved by 0.5 (either way round the wheel): 0.25 per vector pixel
+    assert flipped["mse_angle"] == pytest.approx(0.25 * valid.mean())
+    assert flipped["mse_render"] > 0

@@ -109,6 +109,7 @@ def main():
     t0 = time.perf_counter()
     results = evaluate(args)
     rows = rows_of(results)
+    same_images = []        # the rate model on the spiking subset: like for like, in the extra file
     if args.spiking_images:
         from bsds_sweep import SETTINGS
 
@@ -117,8 +118,9 @@ def main():
         # the settings of spiking_groundtruth.py, so that the two share their cache
         spk = evaluate(sub, {**SETTINGS, "thresholds": (args.spiking_threshold,), "shift4_thresholds": (),
                              "event_models": ("rate", "spiking"), "fbfg_operators": (), "fig6": False})
-        rows += [r for r in rows_of(spk) if r["model"] == "spiking"]
-        same_images = [r for r in rows_of(spk) if r["model"] == "rate"]      # like for like, in the extra file
+        spk_rows = rows_of(spk)
+        rows += [r for r in spk_rows if r["model"] == "spiking"]
+        same_images = [r for r in spk_rows if r["model"] == "rate"]
     shift4 = [{**r, "motion": "shift4"} for r in rows_of(results, "shift4") if r["model"] == "rate"]
     from snn_fg.evaluation import pool_stats
 
@@ -132,17 +134,14 @@ def main():
     from snn_fg.atomic import save_text
 
     written.append(save_text(RESULTS / "table1_extra.json", json.dumps(extra, indent=1)))
-    written.append(save_figure(figure(rows, shift4, extra.get("rate_on_the_spiking_images", ())), "table1"))
+    written.append(save_figure(figure(rows, shift4, same_images), "table1"))
     print(f"{'model':10s} {'C':>5s} {'signed':>8s} {'abs':>7s} {'median':>7s} {'<=45':>6s} {'imgs':>5s} {'pixels':>8s}")
-    for r in rows + shift4:
+    named = ([(r["model"], r) for r in rows] + [("rate/shift4", r) for r in shift4]
+             + [("rate, the spiking images", r) for r in same_images])
+    for name, r in named:
         c = "-" if r["threshold"] is None else f"{r['threshold']:.2f}"
-        name = r["model"] + ("/shift4" if r in shift4 else "")
         print(f"{name:10s} {c:>5s} {r['mean_signed_deg']:8.2f} {r['mean_abs_deg']:7.2f} {r['median_abs_deg']:7.2f} "
               f"{r['within45']:6.3f} {r['n_images']:5d} {r['n_pixels']:8d}")
-    for r in extra.get("rate_on_the_spiking_images", []):
-        print(f"{'rate, the spiking images':25s} {r['threshold']:.2f} {r['mean_signed_deg']:8.2f} "
-              f"{r['mean_abs_deg']:7.2f} {r['median_abs_deg']:7.2f} {r['within45']:6.3f} {r['n_images']:5d} "
-              f"{r['n_pixels']:8d}")
     print(f"human ceiling: {extra['human_ceiling']}")
     print(f"paper (rate, C = 0.10, mean signed): {PAPER_BEST_DEG} deg; runtime {extra['runtime_s']:.0f} s")
     print("wrote " + ", ".join(str(w.relative_to(RESULTS.parent.parent)) for w in written))

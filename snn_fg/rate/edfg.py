@@ -217,11 +217,20 @@ class RateState:
         return self.engine.dense()
 
 
-def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None) -> RateState:
-    """Run stages 1-9 on an event frame and return every intermediate map."""
+def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
+                   previous: RateState | None = None) -> RateState:
+    """Run stages 1-9 on an event frame and return every intermediate map.
+
+    With ``previous`` (the state of the frame before, same shape) the
+    grouping and feedback start where that frame stopped instead of afresh
+    (:meth:`~snn_fg.rate.grouping.SparseGrouping.continue_from`).
+    """
     check_levels(np.shape(pos), params.levels)
     entries, shapes = event_entries(pos, neg, params)
-    engine = SparseGrouping(entries, shapes, params).run(progress)
+    engine = SparseGrouping(entries, shapes, params)
+    if previous is not None:
+        engine.continue_from(previous.engine)
+    engine.run(progress)
     fg_x, fg_y, grouping = engine.readout(np.shape(pos))
     return RateState(pos, neg, params, engine, fg_x, fg_y, grouping)
 

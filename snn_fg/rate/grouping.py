@@ -32,7 +32,7 @@ from __future__ import annotations
 import functools
 import os
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -322,6 +322,41 @@ class SparseGrouping:
         for i, xi in zip(order, pool.map(lambda i: self._level_step(self.levels[i]), order)):
             x[i] = xi
         list(pool.map(lambda i: self._feedback(x, i), order))
+
+    def continue_from(self, previous: "SparseGrouping") -> "SparseGrouping":
+        """Start where ``previous`` stopped instead of from no feedback.
+
+        ``previous`` is the engine of the frame before (same level shapes and
+        parameters). Its grouping maps give this frame's first feedback, so the
+        border-ownership values ``B`` begin as ``S f(z)`` of the old grouping
+        rather than ``S`` (``f = 1``). Stage 8 of the previous run pooled the same
+        maps, so continuing a frame from its own state after ``n`` iterations and
+        running ``m`` more gives the ``n + m``-iteration maps.
+
+        By default each frame starts afresh, as in the paper. This is the
+        model run over a recording the way a network that is never reset
+        runs it, e.g. to separate what the spiking network's continuous run
+        inherits from the model from what comes from spiking. Returns
+        ``self``; call :meth:`run` next. The iteration counts of the two may
+        differ; the other parameters must not.
+        """
+        from .. import validate as check
+
+        if [lv.shape for lv in previous.levels] != [lv.shape for lv in self.levels]:
+            check.fail("SparseGrouping.continue_from", None, None,
+                       "the previous frame's levels have other shapes "
+                       f"({[lv.shape for lv in previous.levels]} against {[lv.shape for lv in self.levels]})")
+        if replace(previous.params, iterations=self.params.iterations) != self.params:
+            check.fail("SparseGrouping.continue_from", None, None,
+                       "the previous frame ran with other parameters (only the iteration count may differ)")
+        for lv, old in zip(self.levels, previous.levels):
+            lv.g_l[...] = old.g_l
+            lv.g_d[...] = old.g_d
+        self._plan_feedback()
+        x = [self._correlate(lv) for lv in self.levels]
+        for i in range(len(self.levels)):
+            self._feedback(x, i)
+        return self
 
     def run(self, progress=None) -> "SparseGrouping":
         """Iterate stages 7 and 8 ``params.iterations`` times (``progress`` wraps the range)."""

@@ -1,0 +1,180 @@
+"""How much a window's spiking maps depend on what the network saw before it.
+
+The continuous spiking network (one build, every event at its own time)
+carries its state from one window into the next; the rate model starts each
+window afresh. This runs one window of ``dvs.es`` (default: window 8 from
+100 ms, the one where the continuous run of ``dvs_biplane.py`` misses the
+inward-vector goal) as the last window of continuous runs that start
+0, 1, 3, ... windows earlier, and the rate model on the same window. For
+each it reports the fraction of outline vectors pointing inwards, whether
+the grouping peak is on the plane, and how far the peak is from the
+centroid of this window's plane and of the previous window's plane (a peak
+that stays near the previous position is the network's memory), and the
+share of the grouping activity in the light family (L) rather than the dark
+one (D), over all levels: the families compete winner-take-all.
+
+The rate model is also run over every window both ways: afresh (the paper's
+model) and continued from the previous window's state
+(``run_edfg_state(..., previous=...)``), which is what a network that is never
+reset does with the model's dynamics.
+
+Writes ``experiments/results/dvs_history.{json,md,png}``.
+
+    python experiments/dvs_history.py [--window 8] [--before 0,1,3,8] [--backend fast]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from snn_fg.atomic import save_figure, save_text  # noqa: E402
+from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
+from snn_fg.events import iter_windows  # noqa: E402
+from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
+from snn_fg.metrics import grouping_peak  # noqa: E402
+from snn_fg.outline import filled_outline, inward_score  # noqa: E402
+from snn_fg.rate.edfg import run_edfg_state  # noqa: E402
+
+REC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events" / "dvs.es"
+OUT = Path(__file__).with_name("results")
+
+
+def _centroid(region) -> np.ndarray:
+    return np.argwhere(region).mean(axis=0)
+
+
+def _row(label, maps, region, previous, light_share) -> dict:
+    r, c = grouping_peak(maps.grouping)
+    frac, n = inward_score(maps.fg_x, maps.fg_y, region)
+    peak = np.array([r, c], float)
+    return {"run": label, "peak": [r, c], "peak_on_plane": bool(region[r, c]), "outline_vectors": n,
+            "inward_fraction": frac, "peak_to_plane_px": float(np.hypot(*(peak - _centroid(region)))),
+            "peak_to_previous_plane_px": None if previous is None else float(np.hypot(*(peak - _centroid(previous)))),
+            "light_share": light_share}
+
+
+def _rate_light_share(state) -> float:
+    """GL / (GL + GD), summed over the levels' grouping maps."""
+    gl = sum(float(lv.interior(lv.g_l).sum()) for lv in state.engine.levels)
+    gd = sum(float(lv.interior(lv.g_d).sum()) for lv in state.engine.levels)
+    return gl / (gl + gd) if gl + gd > 0 else float("nan")
+
+
+def _spiking_light_share(run) -> float:
+    """Spikes of the light family's grouping cells over both families', all
+    levels, in the last window's read-out span."""
+    dt = run.simulation["dt_ms"]
+    k0, k1 = (int(np.searchsorted(run.edges, round(t / dt) * dt)) for t in run.spans[-1])
+    counts = {f: sum(int(c[k0:k1].sum()) for n, c in run.result.binned_counts.items() if n.startswith(f"group_{f}_"))
+              for f in "LD"}
+    total = counts["L"] + counts["D"]
+    return counts["L"] / total if total else float("nan")
+
+
+def _rate_over_recording(windows) -> list[dict]:
+    """Every window's inward fraction and light share, afresh and continued."""
+    rows, previous = [], None
+    for k, w in enumerate(windows):
+        region = filled_outline(w.pos | w.neg)
+        fresh = run_edfg_state(w.pos, w.neg)
+        previous = run_edfg_state(w.pos, w.neg, previous=previous)
+        row = {"window": k, "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000]}
+        for name, st in (("fresh", fresh), ("continued", previous)):
+            row[f"{name}_inward_fraction"] = inward_score(st.fg_x, st.fg_y, region)[0]
+            row[f"{name}_light_share"] = _rate_light_share(st)
+        rows.append(row)
+        print(f"rate, window {k}: inward {row['fresh_inward_fraction']:.2f} afresh, "
+              f"{row['continued_inward_fraction']:.2f} continued", flush=True)
+    return rows
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--window", type=int, default=8, help="the window studied, counted from --start-ms (8)")
+    ap.add_argument("--start-ms", type=float, default=100.0)
+    ap.add_argument("--before", default="0,1,3,8",
+                    help="how many windows each continuous run simulates before the studied one (0,1,3,8)")
+    ap.add_argument("--backend", default=DEFAULT_BACKEND, choices=backend_names())
+    a = ap.parse_args()
+    if not REC.exists():
+        sys.exit(f"needs {REC} (../shared is absent)")
+    from snn_fg.spiking.continuous import simulate_windows, window_maps
+
+    t0 = time.perf_counter()
+    windows = list(iter_windows(REC, window_ms=85, start_ms=a.start_ms))
+    if not 0 <= a.window < len(windows):
+        sys.exit(f"--window {a.window}: the recording has windows 0-{len(windows) - 1} from {a.start_ms:g} ms")
+    befores = sorted({min(int(b), a.window) for b in a.before.split(",")})
+    w = windows[a.window]
+    region = filled_outline(w.pos | w.neg)
+    previous = filled_outline(windows[a.window - 1].pos | windows[a.window - 1].neg) if a.window else None
+    rows, panels = [], []
+    rate = run_edfg_state(w.pos, w.neg)
+    rows.append(_row("rate model, afresh (no history)", rate, region, previous, _rate_light_share(rate)))
+    panels.append(("rate model", rate))
+    for b in befores:
+        first = a.window - b
+        run = simulate_windows(windows[first:a.window + 1], backend=a.backend, progress=False)
+        maps = window_maps(run)[-1]
+        label = f"spiking, from window {first} ({b} before)"
+        rows.append({**_row(label, maps, region, previous, _spiking_light_share(run)), "first_window": first,
+                     "simulated_ms": maps.params["simulation"]["simulated_ms"]})
+        panels.append((label, maps))
+        print(f"{label}: inward {rows[-1]['inward_fraction']:.2f} of {rows[-1]['outline_vectors']}, light share "
+              f"{rows[-1]['light_share']:.2f}", flush=True)
+    recording = _rate_over_recording(windows)
+    fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
+    for ax, (label, m), row in zip(axes, panels, rows):
+        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), m.fg_x, m.fg_y, m.grouping,
+                      f"{w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms; {label}")
+        ax[2].contour(region, levels=[0.5], colors="white", linewidths=0.8)
+        if previous is not None:
+            ax[2].contour(previous, levels=[0.5], colors="cyan", linewidths=0.6, linestyles="dashed")
+        ax[2].plot(row["peak"][1], row["peak"][0], "w+", ms=12, mew=2)
+        ax[1].set_xlabel(f"x (px); inward {row['inward_fraction']:.2f}", fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, OUT / "dvs_history.png", dpi=80)
+    plt.close(fig)
+    summary = {"recording": REC.name, "window": a.window, "start_ms": a.start_ms, "window_ms": 85,
+               "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000], "backend": a.backend, "rows": rows,
+               "rate_over_recording": recording,
+               "seconds": time.perf_counter() - t0, "load": os.getloadavg()}
+    save_text(OUT / "dvs_history.json", json.dumps(summary, indent=1))
+    lines = [f"# dvs.es window {a.window} ({w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms): "
+             "what the continuous network carries in", "",
+             f"`python experiments/dvs_history.py --window {a.window} --start-ms {a.start_ms:g} "
+             f"--before {a.before} --backend {a.backend}` ({summary['seconds']:.0f} s, load average "
+             f"{', '.join(f'{x:.1f}' for x in summary['load'])} at the end). Figure: `dvs_history.png` "
+             "(white: this window's plane outline; dashed cyan: the previous window's).", "",
+             "| run | inward fraction (vectors) | light share of grouping | peak on plane | "
+             "peak to this plane's centroid (px) | peak to the previous plane's centroid (px) |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        prev = "" if r["peak_to_previous_plane_px"] is None else f"{r['peak_to_previous_plane_px']:.0f}"
+        lines.append(f"| {r['run']} | {r['inward_fraction']:.2f} ({r['outline_vectors']}) | {r['light_share']:.2f} | "
+                     f"{'yes' if r['peak_on_plane'] else 'no'} | {r['peak_to_plane_px']:.0f} | {prev} |")
+    lines += ["", "The rate model over every window: afresh (each window from no feedback, the paper's model) and "
+              "continued (each window from the previous window's grouping state, `run_edfg_state(..., "
+              "previous=...)`).", "",
+              "| window | ms | inward afresh | inward continued | light share afresh | light share continued |",
+              "|---|---|---|---|---|---|"]
+    for r in recording:
+        lines.append(f"| {r['window']} | {r['t_ms'][0]:.0f}-{r['t_ms'][1]:.0f} | {r['fresh_inward_fraction']:.2f} | "
+                     f"{r['continued_inward_fraction']:.2f} | {r['fresh_light_share']:.2f} | "
+                     f"{r['continued_light_share']:.2f} |")
+    save_text(OUT / "dvs_history.md", "\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

@@ -27,7 +27,7 @@ MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
 #: how a recording is cut into windows (snn_fg.events.iter_windows)
 WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
 #: options that only a recording uses
-RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms",)
+RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state")
 #: spiking options for one frame that a recording (one continuous run) does not use
 FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
 
@@ -79,6 +79,10 @@ _RUN_OPTIONS = (
         ("--instantiate", ("input", "all"), None, None, "cells to create: those this input can use, or every "
                                                         "cell of the network (the backend's choice: brian2 input, "
                                                         "fast all)"))),
+    ("rate model", (
+        ("--carry-state", ("on", "off"), None, None, "recordings: start each window's grouping and feedback where "
+                                                     "the previous window's stopped, as a network that is never "
+                                                     "reset would (off: each window afresh, the paper's model)"),)),
     ("frame-based model", (
         ("--edge-operator", EDGE_OPERATORS, None, None, "simple cells' edge operator: gaussian (a "
                                                                "Gaussian-derivative stand-in) or corf (Hu et al.'s "
@@ -172,8 +176,9 @@ def _model(args, kind):
         raise InputError(args.input, f"{flags}: {why}")
     progress = None if args.no_progress else _progress_factory()
     options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}
-    if "feedback" in options:
-        options["feedback"] = options["feedback"] == "on"
+    for k in ("feedback", "carry_state"):
+        if k in options:
+            options[k] = options[k] == "on"
     return MODELS[args.model](ModelParams(**given), progress, **options)
 
 

@@ -87,15 +87,43 @@ class Model(ABC):
 
 
 class RateModel(Model):
-    """The rate reference (EDFG, stages 1-9) on an event frame."""
+    """The rate reference (EDFG, stages 1-9) on an event frame.
+
+    Option ``carry_state`` (recordings): each window's grouping and feedback
+    start where the previous window's stopped
+    (:meth:`~snn_fg.rate.grouping.SparseGrouping.continue_from`), as in a
+    network that is never reset, instead of afresh as in the paper. A window
+    without events carries nothing on.
+    """
 
     name = "rate"
+    options = ("carry_state",)
     grouping_label = "grouping activity (rate-model units)"
+
+    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, carry_state: bool = False):
+        super().__init__(params, progress)
+        self.carry_state = check.flag("rate", "carry_state", carry_state)
 
     def run_frame(self, frame: Frame) -> Maps:
         from .rate.edfg import run_edfg
 
         return run_edfg(frame.pos, frame.neg, self.params, progress=self.progress)
+
+    def run_windows(self, windows):
+        if not self.carry_state:
+            yield from super().run_windows(windows)
+            return
+        from .rate.edfg import run_edfg_state
+
+        previous = None
+        for w in windows:
+            if not (w.pos.any() or w.neg.any()):
+                previous = None
+                yield w, self.empty_maps(w.pos.shape)
+                continue
+            continued = previous is not None
+            previous = run_edfg_state(w.pos, w.neg, self.params, progress=self.progress, previous=previous)
+            yield w, previous.maps(carry_state=True, continued_from_previous_window=continued)
 
 
 class FbfgModel(Model):

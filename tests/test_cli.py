@@ -140,6 +140,27 @@ def test_recording_gives_windows(tmp_path):
     assert sorted(os.listdir(out)) == ["maps.npz", "maps.png"]   # no temporary parts left
 
 
+def test_rate_model_can_carry_its_state_from_window_to_window(tmp_path):
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.scenes import disc
+
+    rec = image_to_events(disc(16).image, motion="circle")
+    path = tmp_path / "disc.npy"
+    save_events(path, rec.events, rec.sensor_size)
+    opts = ["--window-ms", "100", "--max-windows", "3", "--sensor-size", "64x64", "--no-progress"]
+    assert main(["run", str(path), "--out", str(tmp_path / "fresh"), *opts]) == 0
+    assert main(["run", str(path), "--out", str(tmp_path / "carried"), "--carry-state", "on", *opts]) == 0
+    fresh, carried = Maps.load(tmp_path / "fresh" / "maps.npz"), Maps.load(tmp_path / "carried" / "maps.npz")
+    assert carried.params["carry_state"] is True and "carry_state" not in fresh.params
+    assert fresh.grouping.shape == carried.grouping.shape == (3, 64, 64)
+    # the first window has nothing to carry; the next ones start from the one before
+    assert np.array_equal(carried.grouping[0], fresh.grouping[0])
+    for k in (1, 2):
+        assert not np.allclose(carried.grouping[k], fresh.grouping[k])
+    res = run_cli("run", path, "--out", tmp_path / "spk", "--model", "spiking", "--carry-state", "on", *opts)
+    assert res.returncode == 2 and "--carry-state" in res.stderr
+
+
 def test_interrupted_recording_run_leaves_nothing(tmp_path, monkeypatch):
     from snn_fg.events import image_to_events, save_events
     from snn_fg.rate import edfg
@@ -256,6 +277,7 @@ def test_output_folder_is_never_mixed_with_an_earlier_run(tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--window-ms", "50"], "--window-ms"),                # a recording option for a frame
+    (["--carry-state", "on"], "--carry-state"),            # another one
     (["--duration-ms", "50"], "--duration-ms"),            # a spiking option for the rate model
     (["--levels", "0"], "--levels"),                       # argparse range check
     (["--r0", "nan"], "--r0"),

@@ -216,6 +216,12 @@ class RateState:
         """Stages 5-8 as dense maps per level (built on each use)."""
         return self.engine.dense()
 
+    def maps(self, **extra_params) -> Maps:
+        """The model's output: float32 maps and the parameters (plus ``extra_params``)."""
+        return Maps(fg_x=self.fg_x.astype(np.float32), fg_y=self.fg_y.astype(np.float32),
+                    grouping=self.grouping.astype(np.float32),
+                    params={"model": "rate", **self.params.to_dict(), **extra_params})
+
 
 def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
                    previous: RateState | None = None) -> RateState:
@@ -264,6 +270,4 @@ def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None) -> Ma
     >>> maps.fg_x.shape, grouping_peak_inside(maps.grouping, scene)
     ((64, 64), True)
     """
-    st = run_edfg_state(pos, neg, params, progress)
-    return Maps(fg_x=st.fg_x.astype(np.float32), fg_y=st.fg_y.astype(np.float32),
-                grouping=st.grouping.astype(np.float32), params={"model": "rate", **params.to_dict()})
+    return run_edfg_state(pos, neg, params, progress).maps()

@@ -15,12 +15,14 @@ one (D), over all levels: the families compete winner-take-all.
 
 The rate model is also run over every window both ways: afresh (the paper's
 model) and continued from the previous window's state
-(``run_edfg_state(..., previous=...)``), which is what a network that is never
-reset does with the model's dynamics.
+(``run_edfg_state(..., previous=..., carry=c)``, all of its grouping maps or
+the fraction ``c`` of them), which is what a network that is never reset, or
+one that forgets part of its state between windows, does with the model's
+dynamics.
 
 Writes ``experiments/results/dvs_history.{json,md,png}``.
 
-    python experiments/dvs_history.py [--window 8] [--before 0,1,3,8] [--backend fast]
+    python experiments/dvs_history.py [--window 8] [--before 0,1,3,8] [--backend fast] [--carry 1,0.1]
 """
 from __future__ import annotations
 
@@ -81,20 +83,22 @@ def _spiking_light_share(run) -> float:
     return counts["L"] / total if total else float("nan")
 
 
-def _rate_over_recording(windows) -> list[dict]:
-    """Every window's inward fraction and light share, afresh and continued."""
-    rows, previous = [], None
+def _rate_over_recording(windows, carries) -> list[dict]:
+    """Every window's inward fraction and light share, afresh and continued
+    with each fraction of the previous window's grouping maps in ``carries``."""
+    rows, previous = [], {c: None for c in carries}
     for k, w in enumerate(windows):
         region = filled_outline(w.pos | w.neg)
-        fresh = run_edfg_state(w.pos, w.neg)
-        previous = run_edfg_state(w.pos, w.neg, previous=previous)
-        row = {"window": k, "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000]}
-        for name, st in (("fresh", fresh), ("continued", previous)):
-            row[f"{name}_inward_fraction"] = inward_score(st.fg_x, st.fg_y, region)[0]
-            row[f"{name}_light_share"] = _rate_light_share(st)
+        runs = {"fresh": run_edfg_state(w.pos, w.neg)}
+        for c in carries:
+            previous[c] = run_edfg_state(w.pos, w.neg, previous=previous[c], carry=c)
+            runs[f"carry {c:g}"] = previous[c]
+        row = {"window": k, "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000],
+               "inward_fraction": {name: inward_score(st.fg_x, st.fg_y, region)[0] for name, st in runs.items()},
+               "light_share": {name: _rate_light_share(st) for name, st in runs.items()}}
         rows.append(row)
-        print(f"rate, window {k}: inward {row['fresh_inward_fraction']:.2f} afresh, "
-              f"{row['continued_inward_fraction']:.2f} continued", flush=True)
+        print(f"rate, window {k}: inward " + ", ".join(f"{v:.2f} {n}" for n, v in row["inward_fraction"].items()),
+              flush=True)
     return rows
 
 
@@ -105,6 +109,9 @@ def main():
     ap.add_argument("--before", default="0,1,3,8",
                     help="how many windows each continuous run simulates before the studied one (0,1,3,8)")
     ap.add_argument("--backend", default=DEFAULT_BACKEND, choices=backend_names())
+    ap.add_argument("--carry", default="1,0.1",
+                    help="rate model over the recording: fractions of the previous window's grouping maps each "
+                         "window starts from (1,0.1; afresh is always run)")
     a = ap.parse_args()
     if not REC.exists():
         sys.exit(f"needs {REC} (../shared is absent)")
@@ -132,7 +139,7 @@ def main():
         panels.append((label, maps))
         print(f"{label}: inward {rows[-1]['inward_fraction']:.2f} of {rows[-1]['outline_vectors']}, light share "
               f"{rows[-1]['light_share']:.2f}", flush=True)
-    recording = _rate_over_recording(windows)
+    recording = _rate_over_recording(windows, [float(c) for c in a.carry.split(",")])
     fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
     for ax, (label, m), row in zip(axes, panels, rows):
         plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), m.fg_x, m.fg_y, m.grouping,
@@ -153,7 +160,7 @@ def main():
     lines = [f"# dvs.es window {a.window} ({w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms): "
              "what the continuous network carries in", "",
              f"`python experiments/dvs_history.py --window {a.window} --start-ms {a.start_ms:g} "
-             f"--before {a.before} --backend {a.backend}` ({summary['seconds']:.0f} s, load average "
+             f"--before {a.before} --backend {a.backend} --carry {a.carry}` ({summary['seconds']:.0f} s, load average "
              f"{', '.join(f'{x:.1f}' for x in summary['load'])} at the end). Figure: `dvs_history.png` "
              "(white: this window's plane outline; dashed cyan: the previous window's).", "",
              "| run | inward fraction (vectors) | light share of grouping | peak on plane | "
@@ -163,15 +170,17 @@ def main():
         prev = "" if r["peak_to_previous_plane_px"] is None else f"{r['peak_to_previous_plane_px']:.0f}"
         lines.append(f"| {r['run']} | {r['inward_fraction']:.2f} ({r['outline_vectors']}) | {r['light_share']:.2f} | "
                      f"{'yes' if r['peak_on_plane'] else 'no'} | {r['peak_to_plane_px']:.0f} | {prev} |")
+    names = list(recording[0]["inward_fraction"])
     lines += ["", "The rate model over every window: afresh (each window from no feedback, the paper's model) and "
               "continued (each window from the previous window's grouping state, `run_edfg_state(..., "
-              "previous=...)`).", "",
-              "| window | ms | inward afresh | inward continued | light share afresh | light share continued |",
-              "|---|---|---|---|---|---|"]
+              "previous=..., carry=c)`, with the fraction c of its grouping maps). Inward fraction / light share "
+              "of the grouping.", "",
+              "| window | ms | " + " | ".join(names) + " |", "|---|---|" + "---|" * len(names)]
     for r in recording:
-        lines.append(f"| {r['window']} | {r['t_ms'][0]:.0f}-{r['t_ms'][1]:.0f} | {r['fresh_inward_fraction']:.2f} | "
-                     f"{r['continued_inward_fraction']:.2f} | {r['fresh_light_share']:.2f} | "
-                     f"{r['continued_light_share']:.2f} |")
+        lines.append(f"| {r['window']} | {r['t_ms'][0]:.0f}-{r['t_ms'][1]:.0f} | " + " | ".join(
+            f"{r['inward_fraction'][n]:.2f} / {r['light_share'][n]:.2f}" for n in names) + " |")
+    lines.append("| lowest inward | | " + " | ".join(
+        f"{min(r['inward_fraction'][n] for r in recording):.2f}" for n in names) + " |")
     save_text(OUT / "dvs_history.md", "\n".join(lines) + "\n")
     print("\n".join(lines))
 

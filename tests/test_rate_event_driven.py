@@ -154,10 +154,13 @@ def test_continuing_a_frame_from_its_own_state_adds_iterations():
     assert not np.allclose(four[0], whole.readout(pos.shape)[0], rtol=1e-3, atol=1e-6)
 
 
-def test_continuing_from_another_shape_is_refused():
+def test_continuing_from_another_shape_or_more_than_all_is_refused():
     from snn_fg.errors import ParameterError
 
     pos, neg = _frame()
     other = _engine(*_frame(shape=(40, 44)), PARAMS).run()
     with pytest.raises(ParameterError, match="continue_from: the previous frame's levels have other shapes"):
         _engine(pos, neg, PARAMS).continue_from(other)
+    same = _engine(pos, neg, PARAMS).run()
+    with pytest.raises(ParameterError, match="carry=1.5 must be <= 1"):
+        _engine(pos, neg, PARAMS).continue_from(same, carry=1.5)

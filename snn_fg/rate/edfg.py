@@ -224,18 +224,19 @@ class RateState:
 
 
 def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
-                   previous: RateState | None = None) -> RateState:
+                   previous: RateState | None = None, carry: float = 1.0) -> RateState:
     """Run stages 1-9 on an event frame and return every intermediate map.
 
     With ``previous`` (the state of the frame before, same shape) the
-    grouping and feedback start where that frame stopped instead of afresh
+    grouping and feedback start where that frame stopped instead of afresh,
+    with the fraction ``carry`` of its grouping maps
     (:meth:`~snn_fg.rate.grouping.SparseGrouping.continue_from`).
     """
     check_levels(np.shape(pos), params.levels)
     entries, shapes = event_entries(pos, neg, params)
     engine = SparseGrouping(entries, shapes, params)
     if previous is not None:
-        engine.continue_from(previous.engine)
+        engine.continue_from(previous.engine, carry)
     engine.run(progress)
     fg_x, fg_y, grouping = engine.readout(np.shape(pos))
     return RateState(pos, neg, params, engine, fg_x, fg_y, grouping)

@@ -323,7 +323,7 @@ class SparseGrouping:
             x[i] = xi
         list(pool.map(lambda i: self._feedback(x, i), order))
 
-    def continue_from(self, previous: "SparseGrouping") -> "SparseGrouping":
+    def continue_from(self, previous: "SparseGrouping", carry: float = 1.0) -> "SparseGrouping":
         """Start where ``previous`` stopped instead of from no feedback.
 
         ``previous`` is the engine of the frame before (same level shapes and
@@ -338,9 +338,13 @@ class SparseGrouping:
         runs it, e.g. to separate what the spiking network's continuous run
         inherits from the model from what comes from spiking. Returns
         ``self``; call :meth:`run` next. The iteration counts of the two may
-        differ; the other parameters must not.
+        differ; the other parameters must not. ``carry`` in [0, 1] scales the
+        grouping maps carried over (what is left of them after a partial
+        forgetting); 0 starts from ``f = 1`` with ``B = max(S, 0)``.
         """
         from .. import validate as check
+
+        carry = check.number("SparseGrouping.continue_from", "carry", carry, lo=0, hi=1)
 
         if [lv.shape for lv in previous.levels] != [lv.shape for lv in self.levels]:
             check.fail("SparseGrouping.continue_from", None, None,
@@ -350,8 +354,8 @@ class SparseGrouping:
             check.fail("SparseGrouping.continue_from", None, None,
                        "the previous frame ran with other parameters (only the iteration count may differ)")
         for lv, old in zip(self.levels, previous.levels):
-            lv.g_l[...] = old.g_l
-            lv.g_d[...] = old.g_d
+            np.multiply(old.g_l, carry, out=lv.g_l)
+            np.multiply(old.g_d, carry, out=lv.g_d)
         self._plan_feedback()
         x = [self._correlate(lv) for lv in self.levels]
         for i in range(len(self.levels)):

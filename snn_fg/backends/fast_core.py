@@ -38,11 +38,15 @@ step of the last spike, plus one; 0: none).
 """
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
 import numpy as np
 from numba import njit
 
-from .fast_deliver import (C_BITS, C_FLAT, C_MAP, C_N, C_OFF, C_ROW, EXC, N_ACTIVE_STEPS, N_ADVANCES,  # noqa: F401
-                           N_EVENTS, N_FRESH, STATE, U, _advanced, _conv, _conv_gather, _flush, _resize, _safe)
+from .fast_deliver import (AHEAD, C_BITS, C_FLAT, C_MAP, C_N, C_OFF, C_ROW, EXC, N_ACTIVE_STEPS,  # noqa: F401
+                           N_ADVANCES, N_EVENTS, N_FRESH, STATE, U, _advanced, _conv, _conv_gather, _flush, _resize,
+                           _safe, prefetch)
 from .fast_tables import (CONV, DE, DI, DM, J_COL, J_DELAY, J_KIND, J_SRC, J_TGT, PE, PI, P_TYPE, SOURCE_TYPE,
                           V_RESET, V_REST, V_TH)
 
@@ -57,6 +61,8 @@ def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
     end = cells[0, C_OFF] + cells[0, C_N]
     t = pops[0, P_TYPE]
     for a in range(n_act):
+        if a + AHEAD < n_act:
+            prefetch(state, U(act[U(a + AHEAD)]))
         g = act[U(a)]
         while g >= end:
             q += 1
@@ -216,3 +222,33 @@ def bin_counts(ids, cuts, out):
     for b in range(cuts.size - 1):
         for x in range(cuts[b], cuts[b + 1]):
             out[b, ids[x]] += 1
+
+
+def _drop_stale_caches() -> None:
+    """Forget compiled code cached from older versions of the engine's files.
+
+    numba checks a cached function against the file that defines it, and no
+    other. :func:`run_steps` compiles in the functions and constants of
+    ``fast_deliver.py`` and ``fast_tables.py``, so after an edit there it kept
+    running the old code. The caches of both modules' functions are therefore
+    dropped whenever the three files change. Best effort: numba's cache
+    object is not public API, and if it changes this check is skipped.
+    """
+    from . import fast_deliver
+
+    here = Path(__file__).parent
+    digest = hashlib.sha256(b"".join((here / name).read_bytes()
+                                     for name in ("fast_core.py", "fast_deliver.py", "fast_tables.py"))).hexdigest()
+    try:
+        stamp = Path(run_steps._cache._cache_path) / "snn_fg_fast_engine.sources"
+        if stamp.exists() and stamp.read_text() == digest:
+            return
+        for f in [*vars(fast_deliver).values(), *globals().values()]:
+            if hasattr(f, "_cache") and hasattr(f._cache, "flush"):
+                f._cache.flush()
+        stamp.write_text(digest)
+    except (AttributeError, OSError):
+        pass
+
+
+_drop_stale_caches()

@@ -7,7 +7,10 @@ present in closed form first. The numbering and state are described in
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .fast_tables import (GAP, J_BASE, J_COLBASE, J_DENSE, J_GBASE, J_INH, J_KR, J_PRUNE, J_RADIUS, J_SRC, J_TGT,
                           J_WRAP, MV, P_CH, P_GC, P_GR, P_LC, P_LR, P_STRIDE, PEAK, TIGHT, V_REST)
@@ -22,6 +25,31 @@ N_EVENTS, N_ADVANCES, N_ACTIVE_STEPS, N_FRESH = range(4)
 #: columns of the per-run cell table ``cells``
 C_OFF, C_N, C_MAP, C_FLAT, C_ROW, C_BITS = range(6)
 EXC = 1
+#: how many cells ahead of the one being updated :func:`_flush` and the
+#: active-cell pass ask for a cell's state: a cell's 32 bytes are rarely in
+#: cache, and waiting for them was most of a run's time (asking 12 cells ahead
+#: took a dvs.es window's simulation from 5.1 s to 3.5-3.8 s; 8 and 24 did less)
+AHEAD = 12
+
+
+@intrinsic
+def prefetch(typingctx, arr, idx):
+    """Ask the CPU to bring ``arr[idx]`` into cache, to be written (LLVM's
+    ``prefetch`` intrinsic: a hint, with no effect on any result)."""
+    def codegen(context, builder, signature, args):
+        aty = signature.args[0]
+        ary = context.make_array(aty)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer2(context, builder, data=ary.data,
+                                        shape=cgutils.unpack_tuple(builder, ary.shape),
+                                        strides=cgutils.unpack_tuple(builder, ary.strides), layout=aty.layout,
+                                        inds=[args[1]], wraparound=False, boundscheck=False)
+        i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
+                                            "llvm.prefetch.p0")
+        # (address, 1: for writing, 3: keep in every cache level, 1: data)
+        builder.call(fn, [builder.bitcast(ptr, i8p), ir.Constant(i32, 1), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+    return types.void(arr, idx), codegen
 
 
 @njit(cache=True, inline="always")
@@ -72,6 +100,10 @@ def _flush(acc, touched, n_touched, off, col, n, t, state, inact, new, n_new, fr
     now = n + 1
     advances = 0
     for x in range(n_touched):
+        if x + AHEAD < n_touched:
+            ahead = U(off + touched[U(x + AHEAD)])
+            prefetch(state, ahead)
+            prefetch(inact, ahead)
         loc = touched[U(x)]
         w = acc[U(loc)]
         if w == 0.0:

@@ -22,7 +22,7 @@ dynamics.
 
 Writes ``experiments/results/dvs_history.{json,md,png}``.
 
-    python experiments/dvs_history.py [--window 8] [--before 0,1,3,8] [--backend fast] [--carry 1,0.1]
+    python experiments/dvs_history.py [--window 8] [--before 0,1,3,8] [--backend fast] [--carry 1,0.1] [--each-alone]
 """
 from __future__ import annotations
 
@@ -102,6 +102,21 @@ def _rate_over_recording(windows, carries) -> list[dict]:
     return rows
 
 
+def _spiking_each_alone(windows, backend, simulate_windows, window_maps) -> list[dict]:
+    """Every window simulated on its own, from rest: what a network that
+    forgot everything between windows would give."""
+    rows = []
+    for k, w in enumerate(windows):
+        run = simulate_windows([w], backend=backend, progress=False)
+        m = window_maps(run)[-1]
+        region = filled_outline(w.pos | w.neg)
+        r, c = grouping_peak(m.grouping)
+        rows.append({"window": k, "inward_fraction": inward_score(m.fg_x, m.fg_y, region)[0],
+                     "peak_on_plane": bool(region[r, c]), "light_share": _spiking_light_share(run)})
+        print(f"spiking, window {k} alone: inward {rows[-1]['inward_fraction']:.2f}", flush=True)
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--window", type=int, default=8, help="the window studied, counted from --start-ms (8)")
@@ -109,6 +124,8 @@ def main():
     ap.add_argument("--before", default="0,1,3,8",
                     help="how many windows each continuous run simulates before the studied one (0,1,3,8)")
     ap.add_argument("--backend", default=DEFAULT_BACKEND, choices=backend_names())
+    ap.add_argument("--each-alone", action="store_true",
+                    help="also simulate every window of the recording on its own, from rest (about 7 s each)")
     ap.add_argument("--carry", default="1,0.1",
                     help="rate model over the recording: fractions of the previous window's grouping maps each "
                          "window starts from (1,0.1; afresh is always run)")
@@ -140,6 +157,7 @@ def main():
         print(f"{label}: inward {rows[-1]['inward_fraction']:.2f} of {rows[-1]['outline_vectors']}, light share "
               f"{rows[-1]['light_share']:.2f}", flush=True)
     recording = _rate_over_recording(windows, [float(c) for c in a.carry.split(",")])
+    alone = _spiking_each_alone(windows, a.backend, simulate_windows, window_maps) if a.each_alone else None
     fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
     for ax, (label, m), row in zip(axes, panels, rows):
         plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), m.fg_x, m.fg_y, m.grouping,
@@ -154,13 +172,13 @@ def main():
     plt.close(fig)
     summary = {"recording": REC.name, "window": a.window, "start_ms": a.start_ms, "window_ms": 85,
                "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000], "backend": a.backend, "rows": rows,
-               "rate_over_recording": recording,
+               "rate_over_recording": recording, "spiking_each_window_alone": alone,
                "seconds": time.perf_counter() - t0, "load": os.getloadavg()}
     save_text(OUT / "dvs_history.json", json.dumps(summary, indent=1))
     lines = [f"# dvs.es window {a.window} ({w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms): "
              "what the continuous network carries in", "",
              f"`python experiments/dvs_history.py --window {a.window} --start-ms {a.start_ms:g} "
-             f"--before {a.before} --backend {a.backend} --carry {a.carry}` ({summary['seconds']:.0f} s, load average "
+             f"--before {a.before} --backend {a.backend} --carry {a.carry}{' --each-alone' if a.each_alone else ''}` ({summary['seconds']:.0f} s, load average "
              f"{', '.join(f'{x:.1f}' for x in summary['load'])} at the end). Figure: `dvs_history.png` "
              "(white: this window's plane outline; dashed cyan: the previous window's).", "",
              "| run | inward fraction (vectors) | light share of grouping | peak on plane | "
@@ -181,6 +199,14 @@ def main():
             f"{r['inward_fraction'][n]:.2f} / {r['light_share'][n]:.2f}" for n in names) + " |")
     lines.append("| lowest inward | | " + " | ".join(
         f"{min(r['inward_fraction'][n] for r in recording):.2f}" for n in names) + " |")
+    if alone:
+        lines += ["", "The spiking network with every window simulated on its own, from rest (what a network "
+                  "reset between windows would give; `--each-alone`):", "",
+                  "| window | inward | light share | peak on plane |", "|---|---|---|---|"]
+        lines += [f"| {r['window']} | {r['inward_fraction']:.2f} | {r['light_share']:.2f} | "
+                  f"{'yes' if r['peak_on_plane'] else 'no'} |" for r in alone]
+        lines.append(f"| lowest inward | {min(r['inward_fraction'] for r in alone):.2f} | | "
+                     f"{sum(r['peak_on_plane'] for r in alone)} of {len(alone)} |")
     save_text(OUT / "dvs_history.md", "\n".join(lines) + "\n")
     print("\n".join(lines))
 

@@ -72,12 +72,10 @@ def _rate_light_share(state) -> float:
     return gl / (gl + gd) if gl + gd > 0 else float("nan")
 
 
-def _spiking_light_share(run) -> float:
+def _spiking_light_share(maps) -> float:
     """Spikes of the light family's grouping cells over both families', all
-    levels, in the last window's read-out span."""
-    dt = run.simulation["dt_ms"]
-    k0, k1 = (int(np.searchsorted(run.edges, round(t / dt) * dt)) for t in run.spans[-1])
-    counts = {f: sum(int(c[k0:k1].sum()) for n, c in run.result.binned_counts.items() if n.startswith(f"group_{f}_"))
+    levels, in the window's read-out span (the counts stored with its maps)."""
+    counts = {f: sum(int(c.sum()) for k, c in maps.extra.items() if k.startswith(f"spikes_group_{f}_"))
               for f in "LD"}
     total = counts["L"] + counts["D"]
     return counts["L"] / total if total else float("nan")
@@ -107,12 +105,9 @@ def _spiking_each_alone(windows, backend, simulate_windows, window_maps) -> list
     forgot everything between windows would give."""
     rows = []
     for k, w in enumerate(windows):
-        run = simulate_windows([w], backend=backend, progress=False)
-        m = window_maps(run)[-1]
-        region = filled_outline(w.pos | w.neg)
-        r, c = grouping_peak(m.grouping)
-        rows.append({"window": k, "inward_fraction": inward_score(m.fg_x, m.fg_y, region)[0],
-                     "peak_on_plane": bool(region[r, c]), "light_share": _spiking_light_share(run)})
+        m = window_maps(simulate_windows([w], backend=backend, progress=False))[-1]
+        rows.append({"window": k, **_row(f"window {k} alone", m, filled_outline(w.pos | w.neg), None,
+                                         _spiking_light_share(m))})
         print(f"spiking, window {k} alone: inward {rows[-1]['inward_fraction']:.2f}", flush=True)
     return rows
 
@@ -151,7 +146,7 @@ def main():
         run = simulate_windows(windows[first:a.window + 1], backend=a.backend, progress=False)
         maps = window_maps(run)[-1]
         label = f"spiking, from window {first} ({b} before)"
-        rows.append({**_row(label, maps, region, previous, _spiking_light_share(run)), "first_window": first,
+        rows.append({**_row(label, maps, region, previous, _spiking_light_share(maps)), "first_window": first,
                      "simulated_ms": maps.params["simulation"]["simulated_ms"]})
         panels.append((label, maps))
         print(f"{label}: inward {rows[-1]['inward_fraction']:.2f} of {rows[-1]['outline_vectors']}, light share "

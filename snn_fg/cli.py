@@ -27,7 +27,7 @@ MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
 #: how a recording is cut into windows (snn_fg.events.iter_windows)
 WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
 #: options that only a recording uses
-RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state")
+RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state", "window_clock")
 #: spiking options for one frame that a recording (one continuous run) does not use
 FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
 
@@ -76,6 +76,9 @@ _RUN_OPTIONS = (
                                                   "model's ablation (on)"),
         ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later "
                                               "(20)"),
+        ("--window-clock", ("on", "off"), None, None, "recordings: fire the network's window clock as each window "
+                                                      "starts, so that its grouping cells compete afresh (off: "
+                                                      "the network carries its state into the next window) (on)"),
         ("--instantiate", ("input", "all"), None, None, "cells to create: those this input can use, or every "
                                                         "cell of the network (the backend's choice: brian2 input, "
                                                         "fast all)"))),
@@ -176,7 +179,7 @@ def _model(args, kind):
         raise InputError(args.input, f"{flags}: {why}")
     progress = None if args.no_progress else _progress_factory()
     options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}
-    for k in ("feedback", "carry_state"):
+    for k in ("feedback", "carry_state", "window_clock"):
         if k in options:
             options[k] = options[k] == "on"
     return MODELS[args.model](ModelParams(**given), progress, **options)

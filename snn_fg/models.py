@@ -164,14 +164,15 @@ class SpikingModel(Model):
     Options: ``network`` (a stored description), ``backend``, ``feedback``,
     ``dt_ms``, ``instantiate``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
     ``spike_input`` (:data:`SPIKE_INPUTS`); for a
-    recording ``readout_lag_ms``: a recording runs as one continuous network,
-    every event at its own time (:mod:`snn_fg.spiking.continuous`).
+    recording ``readout_lag_ms`` and ``window_clock``: a recording runs as one
+    continuous network, every event at its own time, its window clock firing
+    as each window starts (:mod:`snn_fg.spiking.continuous`).
     """
 
     name = "spiking"
     grouping_label = SPIKING_GROUPING_LABEL
     options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed", "feedback", "readout_lag_ms",
-               "spike_input", "instantiate")
+               "window_clock", "spike_input", "instantiate")
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
                  backend=DEFAULT_BACKEND, spike_input: str = "regular", **run_options):
@@ -188,7 +189,7 @@ class SpikingModel(Model):
     def _run(self, **inputs) -> Maps:
         from .spiking import run_spiking
 
-        options = {k: v for k, v in self.run_options.items() if k != "readout_lag_ms"}
+        options = {k: v for k, v in self.run_options.items() if k not in ("readout_lag_ms", "window_clock")}
         return run_spiking(**inputs, **self._net(), backend=self.backend, progress=self.progress is not None, **options)
 
     def run_frame(self, frame: Frame) -> Maps:
@@ -213,7 +214,7 @@ class SpikingModel(Model):
 
         windows = list(windows)
         options = {k: v for k, v in self.run_options.items()
-                   if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate")}
+                   if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate", "window_clock")}
         maps = run_spiking_windows(windows, **self._net(), backend=self.backend, progress=self.progress is not None,
                                    **options)
         yield from zip(windows, maps)

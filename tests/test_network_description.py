@@ -46,7 +46,7 @@ def test_every_level_has_every_stage(small):
         assert want <= roles, want - roles
         assert {"relay_on", "relay_off"} <= roles if level > 1 else {"input_on", "input_off"} <= roles
         for p in small.populations:
-            if p.level == level:
+            if p.level == level and p.role != "clock":
                 assert p.level_shape == level_shape((40, 52), level)
                 assert p.name == f"{p.role}_{level}"       # one name per concept
 

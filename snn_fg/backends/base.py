@@ -153,16 +153,22 @@ class SimulationResult:
 
 
 def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:
-    """Spike-source name -> bool mask of pixels with input, by role."""
-    return {network.one("input_on", 1).name: np.asarray(on, bool),
-            network.one("input_off", 1).name: np.asarray(off, bool)}
+    """Spike-source name -> bool mask of pixels with input, by role (the
+    window clock, if the network has one, is one cell that is always there)."""
+    out = {network.one("input_on", 1).name: np.asarray(on, bool),
+           network.one("input_off", 1).name: np.asarray(off, bool)}
+    out.update({p.name: np.ones((1, 1), bool) for p in network.by_role("clock")})
+    return out
 
 
 def source_offsets(network: Network) -> dict:
     """Spike-source name -> first input index: inputs number the ON pixels
-    ``0..H*W-1`` and the OFF pixels ``H*W..2*H*W-1`` (row-major)."""
+    ``0..H*W-1``, the OFF pixels ``H*W..2*H*W-1`` (row-major) and the
+    window clock ``2*H*W`` (:data:`~snn_fg.spiking.inputs.InputSpikes.clock_index`)."""
     h, w = network.frame_shape
-    return {network.one("input_on", 1).name: 0, network.one("input_off", 1).name: h * w}
+    out = {network.one("input_on", 1).name: 0, network.one("input_off", 1).name: h * w}
+    out.update({p.name: 2 * h * w for p in network.by_role("clock")})
+    return out
 
 
 def lif_populations(network: Network) -> list[Population]:

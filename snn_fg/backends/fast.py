@@ -153,11 +153,12 @@ def _input_events(tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
     idx, steps = idx[keep], steps[keep]
     first = source_offsets(tab.network)
     ids = np.empty(idx.size, dtype=np.int64)
-    bounds = sorted(first.items(), key=lambda kv: kv[1])
-    for k, (name, start) in enumerate(bounds):
-        stop = bounds[k + 1][1] if k + 1 < len(bounds) else inputs.n_sources
-        sel = (idx >= start) & (idx < stop)
+    known = np.zeros(idx.size, dtype=bool)
+    for name, start in first.items():
+        sel = (idx >= start) & (idx < start + tab.network.population(name).size)
         ids[sel] = first_cell[name] + idx[sel] - start
+        known |= sel
+    ids, steps = ids[known], steps[known]      # (clock spikes for a network without a clock)
     order = np.lexsort((ids, steps))
     ids, steps = ids[order], steps[order]
     return np.searchsorted(steps, np.arange(length + 1)).astype(np.int64), ids.astype(np.int32)

@@ -152,10 +152,10 @@ class _Builder:
         self.neurons = {kind: getattr(sp, kind) for kind in CELL_KINDS}
 
     def pop(self, role, level, *, channels=1, stride=1, neuron=None, sites="all", site_sources=(),
-            edge_mask=False) -> str:
+            edge_mask=False, shape=None) -> str:
         name = f"{role}_{level}"
         self.pops.append(Population(name=name, role=role, level=level,
-                                    level_shape=level_shape(self.frame_shape, level), channels=channels,
+                                    level_shape=shape or level_shape(self.frame_shape, level), channels=channels,
                                     stride=stride, neuron=neuron, sites=sites, site_sources=tuple(site_sources),
                                     edge_mask=edge_mask))
         return name
@@ -343,6 +343,19 @@ class _Builder:
                     self.resize(z[k], b[fam], sign=sign, gain=gain, interpolation=self.sp.feedback_interpolation,
                                 delay=self.sp.delay_feedback_ms)
 
+    def window_clock(self):
+        """The window clock: one spike source that fires as each window of a
+        recording starts and inhibits every grouping cell, so that the light
+        and dark grouping cells compete afresh in every window (without it the
+        family that won one window keeps winning the next: the winner-take-all
+        has hysteresis). Its weight is ``clock_inh_group`` thresholds of
+        inhibitory current, spread evenly over the cells by a 1 x 1 Resize."""
+        clock = self.pop("clock", 1, shape=(1, 1))
+        for level in range(1, self.params.levels + 1):
+            for pol in ("L", "D"):
+                self.resize(clock, f"group_{pol}_{level}", sign=-1, interpolation="linear",
+                            gain=self.sp.clock_inh_group * self.sp.group.v_th_mv)
+
     def pooling(self):
         """Stage 8 across levels, top-down: z_l += decay * resize(z_{l+1}), for
         both halves of each pair (the opposite half subtracts)."""
@@ -405,6 +418,8 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
         g = bld.grouping_cells(level, b)
         bld.feedback_cells(level, b, g)
     bld.pooling()
+    if spiking.clock_inh_group > 0:
+        bld.window_clock()
     return Network(params=params, frame_shape=frame_shape, populations=tuple(bld.pops),
                    projections=tuple(bld.prjs), input_rate_hz=spiking.input_rate_hz,
                    support_min=spiking.support_min, drive_min=spiking.drive_min, notes=NOTES)

@@ -67,7 +67,7 @@ class Network:
                 check.fail(owner, None, None, "name used twice")
             if p.level > self.params.levels:
                 check.fail(owner, "level", p.level, f"exceeds params.levels={self.params.levels}")
-            want = level_shape(self.frame_shape, p.level)
+            want = (1, 1) if p.role == "clock" else level_shape(self.frame_shape, p.level)
             if p.level_shape != want:
                 check.fail(owner, "level_shape", p.level_shape,
                            f"differs from level {p.level} of a {self.frame_shape} frame, {want}")
@@ -167,7 +167,8 @@ class Network:
         """The same network for frames of another shape (kernels are weight
         shared, so only the populations' level shapes change)."""
         shape = check.shape2("Network.resized", "frame_shape", frame_shape)
-        pops = tuple(dataclasses.replace(p, level_shape=level_shape(shape, p.level)) for p in self.populations)
+        pops = tuple(p if p.role == "clock" else dataclasses.replace(p, level_shape=level_shape(shape, p.level))
+                     for p in self.populations)
         return dataclasses.replace(self, frame_shape=shape, populations=pops)
 
     # -- serialisation -----------------------------------------------------

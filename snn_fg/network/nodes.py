@@ -54,8 +54,9 @@ ROLES = (
     "group_L", "group_D",               # grouping cells (stage 7)
     "feedback_1p", "feedback_1n",       # feedback cells: the signal z1 = VL1 - VD2 as a rectified pair
     "feedback_2p", "feedback_2n",       # and z2 = VL2 - VD1 (stage 8)
+    "clock",                            # one spike source marking where each window of a recording starts
 )
-SOURCE_ROLES = ("input_on", "input_off")
+SOURCE_ROLES = ("input_on", "input_off", "clock")
 
 #: Which cells a simulator needs to instantiate for one input. This is an
 #: optimisation hint for backends that unroll the network for an input, not
@@ -221,6 +222,8 @@ class Population(Node):
                 check.fail(owner, None, None, "a spike source (role input_*) has no neuron model")
             if self.level != 1 or self.stride != 1 or self.channels != 1:
                 check.fail(owner, None, None, "spike sources live on level 1 with stride 1 and one channel")
+            if self.role == "clock" and self.level_shape != (1, 1):
+                check.fail(owner, "level_shape", self.level_shape, "must be (1, 1): the clock is one cell")
         elif not isinstance(self.neuron, Neuron):
             check.fail(owner, "neuron", self.neuron, f"is needed by role {self.role!r} (a Neuron)")
 

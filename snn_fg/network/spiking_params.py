@@ -131,6 +131,7 @@ class SpikingParams(Node):
     group_inh_group: float = 0.5
     group_to_feedback: float = 0.4
     bo_to_excess: float = 2.0
+    clock_inh_group: float = 300.0
 
     def __post_init__(self):
         owner = "SpikingParams"

@@ -60,8 +60,8 @@ def _all_events(windows):
 def run_spiking_windows(windows, *, params=None, spiking=None, network=None, backend: str = DEFAULT_BACKEND,
                         backend_options: dict | None = None, dt_ms: float = 0.5,
                         readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
-                        instantiate: str | None = None, record_spikes: bool = True, progress: bool = True,
-                        log=None, source: str = "<recording>") -> list[Maps]:
+                        instantiate: str | None = None, record_spikes: bool = True, window_clock: bool = True,
+                        progress: bool = True, log=None, source: str = "<recording>") -> list[Maps]:
     """Run the spiking network once over consecutive windows of a recording.
 
     Parameters
@@ -74,6 +74,12 @@ def run_spiking_windows(windows, *, params=None, spiking=None, network=None, bac
     readout_lag_ms : float
         Each window is read from the spikes ``readout_lag_ms`` later than
         its own time span; the simulation runs that long past the last window.
+    window_clock : bool
+        Fire the network's window clock (if it has one) as every window
+        starts: its inhibitory pulse holds the grouping cells silent until
+        the previous window's feedback has faded, so each window's light and
+        dark grouping cells compete afresh. ``False``: the clock stays silent
+        and the network carries its state from window to window.
     progress, log
         Stage messages and a progress bar on stderr, or ``log`` receiving them.
 
@@ -98,7 +104,8 @@ def run_spiking_windows(windows, *, params=None, spiking=None, network=None, bac
     run = simulate_windows(windows, params=params, spiking=spiking, network=network, backend=backend,
                            backend_options=backend_options, dt_ms=dt_ms, readout_lag_ms=readout_lag_ms,
                            calibrate=calibrate, feedback=feedback, instantiate=instantiate,
-                           record_spikes=record_spikes, progress=progress, log=log, source=source)
+                           record_spikes=record_spikes, window_clock=window_clock, progress=progress, log=log,
+                           source=source)
     return window_maps(run)
 
 
@@ -123,8 +130,8 @@ class ContinuousRun:
 def simulate_windows(windows, *, params=None, spiking=None, network=None, backend: str = DEFAULT_BACKEND,
                      backend_options: dict | None = None, dt_ms: float = 0.5,
                      readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
-                     instantiate: str | None = None, record_spikes: bool = True, progress: bool = True,
-                     log=None, source: str = "<recording>") -> ContinuousRun:
+                     instantiate: str | None = None, record_spikes: bool = True, window_clock: bool = True,
+                     progress: bool = True, log=None, source: str = "<recording>") -> ContinuousRun:
     """The simulation half of :func:`run_spiking_windows` (same parameters):
     one run over every window, not yet decoded (:func:`window_maps` does)."""
     t_start = time.perf_counter()
@@ -139,6 +146,9 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
         raise InputError(source, "no window has an event: nothing to simulate")
     inp = event_spikes(events, (w, h, 2), dt_ms, replay=False, source=source, t0_us=t0)
     net, origin = resolve_network(network, params, spiking, (h, w), feedback)
+    clock = bool(check.flag("run_spiking_windows", "window_clock", window_clock) and net.by_role("clock"))
+    if clock:      # the window clock fires as every window starts
+        inp = inp.with_clock([int(np.floor((x.t_start_us - t0) / (dt_ms * 1000.0))) for x in windows])
     rate = _window_rate(windows, dt_ms)
     if calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
@@ -154,7 +164,8 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
     result = sim_backend.simulate(net, inp, settings)
     simulation = {"mode": "continuous", "simulated_ms": duration, "network_builds": 1, "readout_lag_ms": lag,
                   "dt_ms": dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": inp.merged,
-                  "instantiate": instantiate, "record_spikes": bool(record_spikes)}
+                  "instantiate": instantiate, "record_spikes": bool(record_spikes),
+                  "window_clock": clock}
     return ContinuousRun(windows, net, origin, sim_backend, result, edges, spans, simulation, t_start)
 
 

@@ -1,7 +1,9 @@
 """Input spike trains for the spiking network.
 
 Two kinds of input, both ending as one spike source per pixel and polarity
-(ON neurons ``0..H*W-1``, OFF neurons ``H*W..2*H*W-1``, pixel ``y*W + x``):
+(ON neurons ``0..H*W-1``, OFF neurons ``H*W..2*H*W-1``, pixel ``y*W + x``;
+neuron ``2*H*W`` is the window clock of a recording, see
+:meth:`InputSpikes.with_clock`):
 
 * timed events (a tonic-style structured array with fields ``x``, ``y``,
   ``t`` in microseconds and ``p``): each event is a spike at its own time,
@@ -16,6 +18,7 @@ of one neuron in the same step are merged (Brian2 allows one per step).
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,8 +48,25 @@ class InputSpikes:
     kind: str = "frame"
 
     @property
-    def n_sources(self) -> int:
+    def clock_index(self) -> int:
+        """Index of the window clock's spikes (after every pixel's ON and OFF source)."""
         return 2 * self.shape[0] * self.shape[1]
+
+    @property
+    def n_sources(self) -> int:
+        return self.clock_index + 1
+
+    def with_clock(self, steps) -> "InputSpikes":
+        """The same input plus window-clock spikes at ``steps`` (a network
+        without a clock ignores them). Only for an input that does not repeat."""
+        if self.period_steps is not None:
+            check.fail("InputSpikes.with_clock", "period_steps", self.period_steps,
+                       "must be None: a repeating input has no windows to mark")
+        steps = np.unique(np.asarray(steps, dtype=np.int64))
+        idx = np.concatenate([self.indices, np.full(steps.size, self.clock_index, dtype=np.int64)])
+        st = np.concatenate([self.steps, steps])
+        order = np.lexsort((idx, st))
+        return dataclasses.replace(self, indices=idx[order], steps=st[order])
 
     def spike_times_steps(self, n_steps: int) -> tuple[np.ndarray, np.ndarray]:
         """All (index, step) pairs up to ``n_steps`` (periodic patterns expanded)."""

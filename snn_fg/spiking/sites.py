@@ -39,6 +39,17 @@ def edge_maps(network: Network, edges1: np.ndarray) -> dict:
             for lv in levels}
 
 
+def input_edges(network: Network, active: dict) -> np.ndarray:
+    """The level-1 edge map: pixels where either input polarity (``active``:
+    source name -> bool mask, flat or 2-D) has events. The window clock is
+    no pixel and takes no part."""
+    edges1 = np.zeros(network.frame_shape)
+    for role in ("input_on", "input_off"):
+        a = active[network.one(role, 1).name]
+        edges1 = np.maximum(edges1, np.asarray(a).reshape(network.frame_shape).astype(float))
+    return edges1
+
+
 def edge_sites(pop: Population, emap: np.ndarray, support_min: float) -> np.ndarray:
     e = emap[::pop.stride, ::pop.stride]
     mask = e > 0 if pop.level == 1 else e >= support_min
@@ -60,10 +71,7 @@ class _Resolver:
         self.sites = {p.name: all_sites(p) for p in network.sources}
         self.sites.update(fixed)
         self.rates = {name: network.input_rate_hz * a for name, a in active.items()}
-        edges1 = np.zeros(network.frame_shape)
-        for a in active.values():
-            edges1 = np.maximum(edges1, a.reshape(network.frame_shape).astype(float))
-        self.emaps = edge_maps(network, edges1)
+        self.emaps = edge_maps(network, input_edges(network, active))
 
     def pairs(self, proj, src_sites=None, tgt_sites=None):
         src, tgt = self.net.population(proj.source), self.net.population(proj.target)

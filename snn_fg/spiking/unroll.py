@@ -20,7 +20,7 @@ from .. import validate as check
 from ..network.graph import Network
 from ..network.nodes import Projection
 from .connect import pairs
-from .sites import all_sites, edge_maps, edge_sites, resolve_sites
+from .sites import all_sites, edge_maps, edge_sites, input_edges, resolve_sites
 
 INSTANTIATE = ("input", "all")
 
@@ -93,6 +93,8 @@ def choose_sites(network: Network, active: dict, sites: dict | None = None, inst
     check.choice("unroll", "instantiate", instantiate, INSTANTIATE)
     act = {}
     for p in network.sources:
+        if p.role == "clock" and p.name not in active:
+            active = {**active, p.name: np.ones(p.grid, bool)}     # one cell, always there
         if p.name not in active:
             check.fail(f"Population '{p.name}'", None, None, "no input mask given for this spike source")
         a = np.asarray(active[p.name], dtype=bool)
@@ -110,7 +112,7 @@ def choose_sites(network: Network, active: dict, sites: dict | None = None, inst
         fixed[name] = idx
     flat = {k: v.ravel() for k, v in act.items()}
     if instantiate == "all":
-        emaps = edge_maps(network, np.maximum(*(a.astype(float) for a in act.values())))
+        emaps = edge_maps(network, input_edges(network, act))
         whole = {p.name: edge_sites(p, emaps[p.level], network.support_min) if p.edge_mask else all_sites(p)
                  for p in network.populations if not p.is_source}
         fixed = whole | fixed

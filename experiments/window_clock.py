@@ -1,0 +1,175 @@
+"""The window clock's strength against what a continuous run remembers.
+
+The continuous spiking network carries its state from one window of a
+recording into the next: the feedback's inhibition of the border-ownership
+cells that lost (up to ``feedback_inh_bo`` x 2.5 = 50 thresholds of current,
+decaying with tau_inh = 10 ms) outlasts the window, and the grouping family
+that won one window keeps winning the next. The window clock fires as each
+window starts and inhibits every grouping cell by ``clock_inh_group``
+thresholds; this sweeps that strength on two inputs:
+
+* a synthetic recording made here (not shared data): a disc seen through the
+  iCub's circular microsaccade, light on dark and dark on light in
+  alternate 85 ms windows (radius 16 and 24 px), scored against the disc;
+* ``dvs.es`` from 100 ms, 85 ms windows, scored as ``dvs_biplane.py`` does
+  (outline of the plane's events).
+
+Per window: the fraction of outline vectors pointing inwards and how many
+vectors there are (the clock's cost: the grouping is silent for part of the
+window), whether the grouping peak is on the figure, the light family's
+share of grouping spikes, and how long the grouping cells stay silent after
+each pulse (until their spike rate is back to half its level before
+the pulse). Writes ``experiments/results/window_clock.{json,md,png}``.
+
+    python experiments/window_clock.py [--gains 0,100,300,1000] [--no-dvs]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from snn_fg.atomic import save_figure, save_text  # noqa: E402
+from snn_fg.events import Recording, image_to_events, iter_windows  # noqa: E402
+from snn_fg.metrics import grouping_peak  # noqa: E402
+from snn_fg.network import SpikingParams  # noqa: E402
+from snn_fg.outline import filled_outline, inward_score  # noqa: E402
+from snn_fg.params import ModelParams  # noqa: E402
+from snn_fg.scenes import disc  # noqa: E402
+from snn_fg.spiking.continuous import simulate_windows, window_maps  # noqa: E402
+
+REC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events" / "dvs.es"
+OUT = Path(__file__).with_name("results")
+WINDOW_MS = 85.0
+
+
+def flip_recording(radius: float, windows: int = 4):
+    """Alternately light and dark discs, one per window; returns (figure masks, windows)."""
+    scenes = [disc(radius, light_on_dark=k % 2 == 0) for k in range(windows)]
+    parts = []
+    for k, scene in enumerate(scenes):
+        ev = image_to_events(scene.image, motion="circle").events
+        ev = ev[ev["t"] < WINDOW_MS * 1000].copy()
+        ev["t"] += int(k * WINDOW_MS * 1000)
+        parts.append(ev)
+    h, w = scenes[0].shape
+    rec = Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)
+    return [s.labels > 0 for s in scenes], list(iter_windows(rec, window_ms=WINDOW_MS))
+
+
+def _light_share(maps) -> float:
+    counts = {f: sum(int(c.sum()) for k, c in maps.extra.items() if k.startswith(f"spikes_group_{f}_"))
+              for f in "LD"}
+    total = counts["L"] + counts["D"]
+    return counts["L"] / total if total else float("nan")
+
+
+def _silence_ms(run, bin_ms: float = 2.5) -> list:
+    """Per window after the first: ms from the clock's pulse reaching the
+    grouping cells until their summed spike rate (``bin_ms`` bins) is back
+    to half its mean over the 20 ms before the pulse (None: never within the window)."""
+    spikes = run.result.spikes
+    t = np.concatenate([spikes[n][1] for n in spikes if n.startswith("group_")] + [np.zeros(0)])
+    clock = run.network.by_role("clock")
+    delay = run.network.outgoing(clock[0].name)[0].delay_ms if clock else 0.0
+    lag = run.simulation["readout_lag_ms"]
+    out = []
+    for a, end in run.spans[1:]:
+        start = a - lag + delay
+        before = np.count_nonzero((t >= start - 20) & (t < start)) / 20.0
+        counts, edges = np.histogram(t, bins=np.arange(start, end - lag + bin_ms / 2, bin_ms))
+        back = np.flatnonzero(counts / bin_ms >= 0.5 * before)
+        out.append(float(edges[back[0]] - start) if back.size and before > 0 else None)
+    return out
+
+
+def sweep_one(windows, regions, gain: float, params=None) -> dict:
+    run = simulate_windows(windows, params=params, spiking=SpikingParams(clock_inh_group=gain), backend="fast",
+                           progress=False)
+    rows = []
+    for m, region in zip(window_maps(run), regions):
+        r, c = grouping_peak(m.grouping)
+        frac, n = inward_score(m.fg_x, m.fg_y, region)
+        rows.append({"inward_fraction": frac, "outline_vectors": n, "peak_on_figure": bool(region[r, c]),
+                     "light_share": _light_share(m)})
+    return {"gain": gain, "windows": rows, "silence_ms": _silence_ms(run) if gain > 0 else None,
+            "min_inward": float(np.nanmin([r["inward_fraction"] for r in rows])),
+            "peak_on_figure": sum(r["peak_on_figure"] for r in rows),
+            "vectors": int(sum(r["outline_vectors"] for r in rows))}
+
+
+def _markdown(s: dict) -> str:
+    out = [f"# Window clock: strength sweep\n\n`python experiments/window_clock.py {s['argv']}` "
+           f"({s['seconds']:.0f} s, load {s['load'][0]:.1f}-{s['load'][2]:.1f}; default "
+           f"`clock_inh_group` = {s['default_gain']:g})\n",
+           "Per input and clock strength (thresholds of inhibitory current onto every grouping cell): the lowest "
+           "fraction of outline vectors pointing inwards over the windows, each window's fraction (and vector "
+           "count), the windows whose grouping peak is on the figure, and the median time the grouping cells "
+           "take after a pulse to get back to half their spike rate before it.\n"]
+    for name, runs in s["inputs"].items():
+        out.append(f"## {name}\n")
+        out.append("| clock | lowest inward | per window: inward (vectors) | light share | peak on figure | vectors "
+                   "| back to half rate after a pulse (median ms) |")
+        out.append("| --- | --- | --- | --- | --- | --- | --- |")
+        for r in runs:
+            per = ", ".join(f"{w['inward_fraction']:.2f} ({w['outline_vectors']})" for w in r["windows"])
+            light = ", ".join(f"{w['light_share']:.2f}" for w in r["windows"])
+            sil = [x for x in (r["silence_ms"] or []) if x is not None]
+            out.append(f"| {r['gain']:g} | {r['min_inward']:.2f} | {per} | {light} | {r['peak_on_figure']}/"
+                       f"{len(r['windows'])} | {r['vectors']} | {np.median(sil) if sil else '-'} |")
+        out.append("")
+    return "\n".join(out)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--gains", default="0,100,300,1000", help="clock strengths (thresholds) to try")
+    ap.add_argument("--no-dvs", action="store_true", help="only the synthetic recordings")
+    a = ap.parse_args()
+    gains = [float(g) for g in a.gains.split(",")]
+    t0 = time.perf_counter()
+    inputs = {}
+    for radius in (16, 24):
+        regions, windows = flip_recording(radius)
+        inputs[f"synthetic: disc r{radius}, polarity flipping every window"] = (windows, regions, ModelParams(levels=5))
+    if not a.no_dvs:
+        if not REC.exists():
+            sys.exit(f"needs {REC} (../shared is absent); --no-dvs runs the synthetic inputs only")
+        windows = list(iter_windows(REC, window_ms=WINDOW_MS, start_ms=100))
+        inputs["dvs.es from 100 ms"] = (windows, [filled_outline(w.pos | w.neg) for w in windows], None)
+    results = {}
+    for name, (windows, regions, params) in inputs.items():
+        results[name] = []
+        for g in gains:
+            r = sweep_one(windows, regions, g, params)
+            results[name].append(r)
+            print(f"{name}, clock {g:g}: inward " + " ".join(f"{w['inward_fraction']:.2f}" for w in r["windows"])
+                  + f"  vectors {r['vectors']}  silence {r['silence_ms']}", flush=True)
+    fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.4), squeeze=False)
+    for ax, (name, runs) in zip(axes[0], results.items()):
+        for r in runs:
+            ax.plot([w["inward_fraction"] for w in r["windows"]], "o-", ms=3, label=f"clock {r['gain']:g}")
+        ax.axhline(0.6, color="k", ls=":", lw=0.8)
+        ax.set(title=name, xlabel="window", ylabel="inward fraction", ylim=(0, 1.02))
+        ax.title.set_fontsize(8)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, OUT / "window_clock.png", dpi=90)
+    plt.close(fig)
+    summary = {"argv": " ".join(sys.argv[1:]), "seconds": time.perf_counter() - t0, "load": os.getloadavg(),
+               "default_gain": SpikingParams().clock_inh_group, "inputs": results}
+    save_text(OUT / "window_clock.json", json.dumps(summary, indent=2))
+    save_text(OUT / "window_clock.md", _markdown(summary))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,133 @@
+"""The window clock of a continuous run over a recording: one spike source
+that fires as each window starts and inhibits every grouping cell, so that
+each window's light and dark grouping cells compete afresh."""
+import numpy as np
+import pytest
+
+from snn_fg.backends import RunSettings, available_backends, get_backend
+from snn_fg.events import Recording, image_to_events, iter_windows
+from snn_fg.network import SpikingParams, build_network
+from snn_fg.outline import inward_score
+from snn_fg.params import ModelParams
+from snn_fg.scenes import disc
+from snn_fg.spiking.continuous import run_spiking_windows
+from snn_fg.spiking.inputs import event_spikes
+
+BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
+
+
+def test_the_network_has_one_clock_onto_every_grouping_population():
+    net = build_network(ModelParams(levels=3), (40, 52))
+    clock = net.one("clock", 1)
+    assert clock.size == 1 and clock.is_source
+    targets = sorted(pr.target for pr in net.outgoing(clock.name))
+    assert targets == sorted(p.name for p in net.populations if p.role in ("group_L", "group_D"))
+    assert all(pr.sign == -1 for pr in net.outgoing(clock.name))
+    assert not build_network(ModelParams(levels=3), (40, 52), SpikingParams(clock_inh_group=0)).by_role("clock")
+    # a resized network keeps its one-cell clock
+    assert net.resized((64, 48)).one("clock", 1).level_shape == (1, 1)
+
+
+def _flip_recording(radius=16, windows=4, window_ms=85.0):
+    """A disc seen through the iCub's circular microsaccade, light on dark in
+    even windows and dark on light in odd ones: the edges change polarity
+    from one window to the next, and so does the family that should group."""
+    scenes = [disc(radius, light_on_dark=k % 2 == 0) for k in range(windows)]
+    parts = []
+    for k, scene in enumerate(scenes):
+        ev = image_to_events(scene.image, motion="circle").events
+        ev = ev[ev["t"] < window_ms * 1000].copy()
+        ev["t"] += int(k * window_ms * 1000)
+        parts.append(ev)
+    h, w = scenes[0].shape
+    rec = Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)
+    return scenes, list(iter_windows(rec, window_ms=window_ms))
+
+
+@pytest.fixture(scope="module")
+def flip_runs():
+    scenes, windows = _flip_recording()
+    runs = {clock: run_spiking_windows(windows, params=ModelParams(levels=4), backend="fast", window_clock=clock,
+                                       progress=False)
+            for clock in (True, False)}
+    return scenes, runs
+
+
+def _inward(scenes, maps):
+    return [inward_score(m.fg_x, m.fg_y, sc.labels > 0) for sc, m in zip(scenes, maps)]
+
+
+def test_with_the_clock_every_window_groups_its_own_figure(flip_runs):
+    """With the clock, every window of the polarity-flipping disc points
+    inwards (the discs differ only in polarity, so each window must pick the
+    other family); the run records that the clock fired."""
+    scenes, runs = flip_runs
+    scores = _inward(scenes, runs[True])
+    assert all(frac >= 0.95 and n >= 30 for frac, n in scores), scores
+    assert runs[True][0].params["simulation"]["window_clock"] is True
+    assert runs[False][0].params["simulation"]["window_clock"] is False
+
+
+def test_without_the_clock_a_window_inherits_the_previous_family(flip_runs):
+    """The hysteresis the clock removes: without it, a dark-disc window that
+    follows a light-disc one has its vectors pointing inwards markedly less."""
+    scenes, runs = flip_runs
+    without = _inward(scenes, runs[False])
+    assert min(frac for frac, _ in without[1::2]) < 0.8, without
+
+
+def _clocked_input(window_ms=60.0):
+    rec = image_to_events(disc(12).image, motion="circle")
+    ev = rec.events[rec.events["t"] < 2 * window_ms * 1000]
+    inp = event_spikes(ev, rec.sensor_size, 0.5, replay=False, t0_us=0)
+    return inp.with_clock([0, int(window_ms / 0.5)])
+
+
+@BRIAN2
+def test_clock_spikes_are_identical_to_brian2s_and_silence_the_grouping_cells():
+    """On a small network whose clock fires at 0 and 60 ms, the fast engine
+    and Brian2 give the same spikes; grouping cells fire before 60 ms and
+    none fires in the 10 ms after the pulse arrives."""
+    inp = _clocked_input()
+    net = build_network(ModelParams(levels=2), inp.shape).calibrated(inp.rate_hz)
+    settings = RunSettings(duration_ms=100.0, instantiate="all")
+    runs = {name: get_backend(name).simulate(net, inp, settings) for name in ("brian2", "fast")}
+    group_times = []
+    for name in runs["brian2"].populations:
+        for backend in ("brian2", "fast"):
+            cell, t = runs[backend].spikes[name]
+            order = np.lexsort((cell, t))
+            runs[backend].spikes[name] = (cell[order], t[order])
+        np.testing.assert_array_equal(runs["fast"].spikes[name][0], runs["brian2"].spikes[name][0], err_msg=name)
+        np.testing.assert_allclose(runs["fast"].spikes[name][1], runs["brian2"].spikes[name][1], err_msg=name)
+        if name.startswith("group_"):
+            group_times.append(runs["brian2"].spikes[name][1])
+    t = np.concatenate(group_times)
+    delay = net.outgoing("clock_1")[0].delay_ms
+    assert np.count_nonzero((t >= 40) & (t < 60)) > 0
+    # (the pulse reaches the cells after their update of the step it arrives in)
+    assert np.count_nonzero((t > 60 + delay) & (t <= 70 + delay)) == 0
+
+
+def test_a_network_without_a_clock_ignores_clock_spikes():
+    """Clock spikes given to a network without a clock change nothing."""
+    inp = _clocked_input()
+    net = build_network(ModelParams(levels=2), inp.shape, SpikingParams(clock_inh_group=0)).calibrated(inp.rate_hz)
+    plain = event_spikes(*_plain_events(), 0.5, replay=False, t0_us=0)
+    settings = RunSettings(duration_ms=100.0)
+    a, b = (get_backend("fast").simulate(net, x, settings) for x in (inp, plain))
+    for name in a.populations:
+        np.testing.assert_array_equal(a.counts[name], b.counts[name], err_msg=name)
+    assert sum(int(a.counts[n].sum()) for n in a.populations) > 0
+
+
+def _plain_events():
+    rec = image_to_events(disc(12).image, motion="circle")
+    return rec.events[rec.events["t"] < 120_000], rec.sensor_size
+
+
+def test_a_repeating_input_has_no_windows_to_mark():
+    rec = image_to_events(disc(12).image)
+    inp = event_spikes(rec.events, rec.sensor_size, 0.5, replay=True)
+    with pytest.raises(Exception, match="period_steps"):
+        inp.with_clock([0])

@@ -20,9 +20,14 @@ the fraction ``c`` of them), which is what a network that is never reset, or
 one that forgets part of its state between windows, does with the model's
 dynamics.
 
+The spiking runs leave the network's window clock silent by default
+(``--window-clock off``): this studies what the network itself remembers,
+which the clock is there to wipe (``experiments/window_clock.py``).
+
 Writes ``experiments/results/dvs_history.{json,md,png}``.
 
     python experiments/dvs_history.py [--window 8] [--before 0,1,3,8] [--backend fast] [--carry 1,0.1] [--each-alone]
+                                      [--window-clock off]
 """
 from __future__ import annotations
 
@@ -124,10 +129,17 @@ def main():
     ap.add_argument("--carry", default="1,0.1",
                     help="rate model over the recording: fractions of the previous window's grouping maps each "
                          "window starts from (1,0.1; afresh is always run)")
+    ap.add_argument("--window-clock", choices=("on", "off"), default="off",
+                    help="fire the network's window clock as each window starts (off: the network's own memory)")
     a = ap.parse_args()
     if not REC.exists():
         sys.exit(f"needs {REC} (../shared is absent)")
-    from snn_fg.spiking.continuous import simulate_windows, window_maps
+    from functools import partial
+
+    from snn_fg.spiking import continuous
+
+    simulate_windows = partial(continuous.simulate_windows, window_clock=a.window_clock == "on")
+    window_maps = continuous.window_maps
 
     t0 = time.perf_counter()
     windows = list(iter_windows(REC, window_ms=85, start_ms=a.start_ms))

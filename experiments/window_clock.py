@@ -17,9 +17,9 @@ thresholds; this sweeps that strength on two inputs:
 Per window: the fraction of outline vectors pointing inwards and how many
 vectors there are (the clock's cost: the grouping is silent for part of the
 window), whether the grouping peak is on the figure, the light family's
-share of grouping spikes, and how long the grouping cells stay silent after
-each pulse (until their spike rate is back to half its level before
-the pulse). Writes ``experiments/results/window_clock.{json,md,png}``.
+share of grouping spikes, and the grouping onset: how long after a window
+starts its grouping cells have fired 5 % of that window's grouping spikes.
+Writes ``experiments/results/window_clock.{json,md,png}``.
 
     python experiments/window_clock.py [--gains 0,100,300,1000] [--no-dvs]
 """
@@ -73,23 +73,21 @@ def _light_share(maps) -> float:
     return counts["L"] / total if total else float("nan")
 
 
-def _silence_ms(run, bin_ms: float = 2.5) -> list:
-    """Per window after the first: ms from the clock's pulse reaching the
-    grouping cells until their summed spike rate (``bin_ms`` bins) is back
-    to half its mean over the 20 ms before the pulse (None: never within the window)."""
+def _onset_ms(run, share: float = 0.05) -> list:
+    """Per window after the first: ms from its start (plus the clock's
+    delay) until its grouping cells have fired ``share`` of the spikes they
+    fire before the next window starts: how long they stay (nearly) silent."""
     spikes = run.result.spikes
-    t = np.concatenate([spikes[n][1] for n in spikes if n.startswith("group_")] + [np.zeros(0)])
+    t = np.sort(np.concatenate([spikes[n][1] for n in spikes if n.startswith("group_")] + [np.zeros(0)]))
     clock = run.network.by_role("clock")
     delay = run.network.outgoing(clock[0].name)[0].delay_ms if clock else 0.0
     lag = run.simulation["readout_lag_ms"]
+    starts = [a - lag + delay for a, _ in run.spans] + [run.simulation["simulated_ms"]]
     out = []
-    for a, end in run.spans[1:]:
-        start = a - lag + delay
-        before = np.count_nonzero((t >= start - 20) & (t < start)) / 20.0
-        counts, edges = np.histogram(t, bins=np.arange(start, end - lag + bin_ms / 2, bin_ms))
-        back = np.flatnonzero(counts / bin_ms >= 0.5 * before)
-        out.append(float(edges[back[0]] - start) if back.size and before > 0 else None)
-    return out
+    for a, b in zip(starts[1:], starts[2:] + [starts[-1]]):
+        inside = t[(t > a) & (t <= b)]
+        out.append(float(inside[int(share * inside.size)] - a) if inside.size else None)
+    return out[:len(run.spans) - 1]
 
 
 def sweep_one(windows, regions, gain: float, params=None) -> dict:
@@ -101,7 +99,7 @@ def sweep_one(windows, regions, gain: float, params=None) -> dict:
         frac, n = inward_score(m.fg_x, m.fg_y, region)
         rows.append({"inward_fraction": frac, "outline_vectors": n, "peak_on_figure": bool(region[r, c]),
                      "light_share": _light_share(m)})
-    return {"gain": gain, "windows": rows, "silence_ms": _silence_ms(run) if gain > 0 else None,
+    return {"gain": gain, "windows": rows, "onset_ms": _onset_ms(run),
             "min_inward": float(np.nanmin([r["inward_fraction"] for r in rows])),
             "peak_on_figure": sum(r["peak_on_figure"] for r in rows),
             "vectors": int(sum(r["outline_vectors"] for r in rows))}
@@ -113,17 +111,18 @@ def _markdown(s: dict) -> str:
            f"`clock_inh_group` = {s['default_gain']:g})\n",
            "Per input and clock strength (thresholds of inhibitory current onto every grouping cell): the lowest "
            "fraction of outline vectors pointing inwards over the windows, each window's fraction (and vector "
-           "count), the windows whose grouping peak is on the figure, and the median time the grouping cells "
-           "take after a pulse to get back to half their spike rate before it.\n"]
+           "count), the windows whose grouping peak is on the figure, and the grouping onset: the median over "
+           "windows 1.. of the time from a window's start until its grouping cells have fired 5 % of the "
+           "spikes they fire before the next window starts.\n"]
     for name, runs in s["inputs"].items():
         out.append(f"## {name}\n")
         out.append("| clock | lowest inward | per window: inward (vectors) | light share | peak on figure | vectors "
-                   "| back to half rate after a pulse (median ms) |")
+                   "| grouping onset (median ms) |")
         out.append("| --- | --- | --- | --- | --- | --- | --- |")
         for r in runs:
             per = ", ".join(f"{w['inward_fraction']:.2f} ({w['outline_vectors']})" for w in r["windows"])
             light = ", ".join(f"{w['light_share']:.2f}" for w in r["windows"])
-            sil = [x for x in (r["silence_ms"] or []) if x is not None]
+            sil = [x for x in r["onset_ms"] if x is not None]
             out.append(f"| {r['gain']:g} | {r['min_inward']:.2f} | {per} | {light} | {r['peak_on_figure']}/"
                        f"{len(r['windows'])} | {r['vectors']} | {np.median(sil) if sil else '-'} |")
         out.append("")
@@ -153,7 +152,7 @@ def main():
             r = sweep_one(windows, regions, g, params)
             results[name].append(r)
             print(f"{name}, clock {g:g}: inward " + " ".join(f"{w['inward_fraction']:.2f}" for w in r["windows"])
-                  + f"  vectors {r['vectors']}  silence {r['silence_ms']}", flush=True)
+                  + f"  vectors {r['vectors']}  onset {r['onset_ms']}", flush=True)
     fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.4), squeeze=False)
     for ax, (name, runs) in zip(axes[0], results.items()):
         for r in runs:

@@ -74,6 +74,16 @@ class SpikingParams(Node):
         active); ``rival_inhibition``: ``excess`` (the rival family inhibits
         grouping cells through excess cells, ``rect(B_rival - B_partner)``) or
         ``direct`` (through its own cells: the ablation).
+    Window clock (recordings)
+        ``clock_inh_group``: thresholds of inhibitory current that the window
+        clock, one spike source firing as each window of a recording starts,
+        puts on every grouping cell (0: no clock). It must hold the grouping
+        cells silent until the feedback's inhibition of the border-ownership
+        cells that lost the previous window has faded (up to
+        ``feedback_inh_bo`` x 2.5 = 50 thresholds, decaying with the
+        border-ownership cells' ``tau_inh``: about 46 ms to half a threshold);
+        otherwise the family that won one window wins the next whatever its
+        input (``experiments/window_clock.py``). A frame never fires it.
     Neurons
         One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
         (:data:`CELL_KINDS`): ``simple``, ``untuned``, ``relay``, ``bo``

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from snn_fg.backends import RunSettings, available_backends, get_backend
+from snn_fg.errors import ParameterError
 from snn_fg.events import Recording, image_to_events, iter_windows
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.outline import inward_score
@@ -76,11 +77,14 @@ def test_without_the_clock_a_window_inherits_the_previous_family(flip_runs):
     assert min(frac for frac, _ in without[1::2]) < 0.8, without
 
 
-def _clocked_input(window_ms=60.0):
+def _disc_input(ms=120.0):
+    """120 ms of a disc's events (circular microsaccade) as input spikes at dt = 0.5 ms."""
     rec = image_to_events(disc(12).image, motion="circle")
-    ev = rec.events[rec.events["t"] < 2 * window_ms * 1000]
-    inp = event_spikes(ev, rec.sensor_size, 0.5, replay=False, t0_us=0)
-    return inp.with_clock([0, int(window_ms / 0.5)])
+    return event_spikes(rec.events[rec.events["t"] < ms * 1000], rec.sensor_size, 0.5, replay=False, t0_us=0)
+
+
+def _clocked_input(window_ms=60.0):
+    return _disc_input().with_clock([0, int(window_ms / 0.5)])
 
 
 @BRIAN2
@@ -113,21 +117,15 @@ def test_a_network_without_a_clock_ignores_clock_spikes():
     """Clock spikes given to a network without a clock change nothing."""
     inp = _clocked_input()
     net = build_network(ModelParams(levels=2), inp.shape, SpikingParams(clock_inh_group=0)).calibrated(inp.rate_hz)
-    plain = event_spikes(*_plain_events(), 0.5, replay=False, t0_us=0)
     settings = RunSettings(duration_ms=100.0)
-    a, b = (get_backend("fast").simulate(net, x, settings) for x in (inp, plain))
+    a, b = (get_backend("fast").simulate(net, x, settings) for x in (inp, _disc_input()))
     for name in a.populations:
         np.testing.assert_array_equal(a.counts[name], b.counts[name], err_msg=name)
     assert sum(int(a.counts[n].sum()) for n in a.populations) > 0
 
 
-def _plain_events():
-    rec = image_to_events(disc(12).image, motion="circle")
-    return rec.events[rec.events["t"] < 120_000], rec.sensor_size
-
-
 def test_a_repeating_input_has_no_windows_to_mark():
     rec = image_to_events(disc(12).image)
     inp = event_spikes(rec.events, rec.sensor_size, 0.5, replay=True)
-    with pytest.raises(Exception, match="period_steps"):
+    with pytest.raises(ParameterError, match="period_steps"):
         inp.with_clock([0])

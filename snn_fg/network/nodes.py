@@ -219,7 +219,7 @@ class Population(Node):
         check.flag(owner, "edge_mask", self.edge_mask)
         if self.is_source:
             if self.neuron is not None:
-                check.fail(owner, None, None, "a spike source (role input_*) has no neuron model")
+                check.fail(owner, None, None, "a spike source (role input_* or clock) has no neuron model")
             if self.level != 1 or self.stride != 1 or self.channels != 1:
                 check.fail(owner, None, None, "spike sources live on level 1 with stride 1 and one channel")
             if self.role == "clock" and self.level_shape != (1, 1):

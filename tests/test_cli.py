@@ -208,6 +208,7 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
     assert m.fg_x.shape[0] == 3
     sim = m.params["simulation"]
     assert sim["mode"] == "continuous" and sim["network_builds"] == 1 and sim["readout_lag_ms"] == 10
+    assert sim["window_clock"] is True
     assert sim["simulated_ms"] == pytest.approx(180 + 10)
     windows = list(iter_windows(path, window_ms=60, max_windows=3, sensor_size=(64, 64)))
     direct = run_spiking_windows(windows, params=ModelParams(levels=3), readout_lag_ms=10, progress=False)
@@ -219,6 +220,13 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
         assert w.get("simulation", sim)["count_from_ms"] == pytest.approx(60 * i + 10)
     assert sum(int(window_part(m.extra, "spikes_bo_L1_1", i).sum()) for i in range(3)) > 0
     assert sorted(os.listdir(out)) == ["maps.npz", "maps.png", "rate_histograms.png", "spike_raster.png"]
+    quiet = tmp_path / "quiet"
+    assert main(["run", str(path), "--out", str(quiet), "--model", "spiking", *opts, "--window-clock", "off",
+                 "--no-progress"]) == 0
+    m_off = Maps.load(quiet / "maps.npz")
+    assert m_off.params["simulation"]["window_clock"] is False
+    second = [window_part(x.extra, "spikes_group_L_1", 1) for x in (m, m_off)]
+    assert not np.array_equal(*second)          # the pulse changed the second window's grouping
     res = run_cli("run", path, "--out", tmp_path / "x", "--model", "spiking", "--duration-ms", "80",
                   "--sensor-size", "64x64")
     assert res.returncode == 2 and "--duration-ms" in res.stderr and not (tmp_path / "x").exists()
@@ -278,6 +286,7 @@ def test_output_folder_is_never_mixed_with_an_earlier_run(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--window-ms", "50"], "--window-ms"),                # a recording option for a frame
     (["--carry-state", "on"], "--carry-state"),            # another one
+    (["--window-clock", "off"], "--window-clock"),         # and the spiking model's
     (["--duration-ms", "50"], "--duration-ms"),            # a spiking option for the rate model
     (["--levels", "0"], "--levels"),                       # argparse range check
     (["--r0", "nan"], "--r0"),

@@ -129,3 +129,19 @@ def test_a_repeating_input_has_no_windows_to_mark():
     inp = event_spikes(rec.events, rec.sensor_size, 0.5, replay=True)
     with pytest.raises(ParameterError, match="period_steps"):
         inp.with_clock([0])
+
+
+def test_a_frame_gives_the_same_maps_with_or_without_a_clock():
+    """A frame never fires the clock: the default network (with one) gives
+    the maps of the network without it, on both engines."""
+    from snn_fg.events import image_to_frame
+    from snn_fg.spiking import run_spiking
+
+    pos, neg = image_to_frame(disc(12).image)
+    for backend in ("fast", "brian2") if available_backends()["brian2"][0] else ("fast",):
+        runs = [run_spiking(pos, neg, params=ModelParams(levels=2), spiking=SpikingParams(clock_inh_group=g),
+                            backend=backend, duration_ms=120.0, progress=False) for g in (300.0, 0.0)]
+        assert [r.params["network"]["spiking_params"]["clock_inh_group"] for r in runs] == [300.0, 0.0]
+        for k in ("fg_x", "fg_y", "grouping"):
+            np.testing.assert_array_equal(getattr(runs[0], k), getattr(runs[1], k), err_msg=f"{backend} {k}")
+        assert np.abs(runs[0].fg_x).sum() > 0

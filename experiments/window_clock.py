@@ -14,8 +14,9 @@ thresholds; this sweeps that strength on two inputs:
 * ``dvs.es`` from 100 ms, 85 ms windows, scored as ``dvs_biplane.py`` does
   (outline of the plane's events).
 
-Per window: the fraction of outline vectors pointing inwards and how many
-vectors there are (the clock's cost: the grouping is silent for part of the
+Per window: the fraction of outline vectors pointing inwards (within 90
+degrees of the inward normal), the fraction within 45 degrees and the mean
+absolute angle to it, and how many vectors there are (the clock's cost: the grouping is silent for part of the
 window), whether the grouping peak is on the figure, the light family's
 share of grouping spikes, and the grouping onset: how long after a window
 starts its grouping cells have fired 5 % of that window's grouping spikes.
@@ -42,7 +43,7 @@ from snn_fg.atomic import save_figure, save_text  # noqa: E402
 from snn_fg.events import Recording, image_to_events, iter_windows  # noqa: E402
 from snn_fg.metrics import grouping_peak  # noqa: E402
 from snn_fg.network import SpikingParams  # noqa: E402
-from snn_fg.outline import filled_outline, inward_score  # noqa: E402
+from snn_fg.outline import filled_outline, inward_angles, inward_score  # noqa: E402
 from snn_fg.params import ModelParams  # noqa: E402
 from snn_fg.scenes import disc  # noqa: E402
 from snn_fg.spiking.continuous import simulate_windows, window_maps  # noqa: E402
@@ -97,10 +98,13 @@ def sweep_one(windows, regions, gain: float, params=None) -> dict:
     for m, region in zip(window_maps(run), regions):
         r, c = grouping_peak(m.grouping)
         frac, n = inward_score(m.fg_x, m.fg_y, region)
-        rows.append({"inward_fraction": frac, "outline_vectors": n, "peak_on_figure": bool(region[r, c]),
-                     "light_share": _light_share(m)})
+        mean_deg, within45 = inward_angles(m.fg_x, m.fg_y, region)
+        rows.append({"inward_fraction": frac, "outline_vectors": n, "mean_abs_deg": mean_deg,
+                     "within_45": within45, "peak_on_figure": bool(region[r, c]), "light_share": _light_share(m)})
     return {"gain": gain, "windows": rows, "onset_ms": _onset_ms(run),
             "min_inward": float(np.nanmin([r["inward_fraction"] for r in rows])),
+            "min_within_45": float(np.nanmin([r["within_45"] for r in rows])),
+            "max_mean_abs_deg": float(np.nanmax([r["mean_abs_deg"] for r in rows])),
             "peak_on_figure": sum(r["peak_on_figure"] for r in rows),
             "vectors": int(sum(r["outline_vectors"] for r in rows))}
 
@@ -110,20 +114,25 @@ def _markdown(s: dict) -> str:
            f"({s['seconds']:.0f} s, load {s['load'][0]:.1f}-{s['load'][2]:.1f}; default "
            f"`clock_inh_group` = {s['default_gain']:g})\n",
            "Per input and clock strength (thresholds of inhibitory current onto every grouping cell): the lowest "
-           "fraction of outline vectors pointing inwards over the windows, each window's fraction (and vector "
+           "fraction of outline vectors pointing inwards (within 90° of the inward normal) over the windows, the "
+           "lowest fraction within 45° of it and the largest mean absolute angle to it, each window's values (and "
+           "vector "
            "count), the windows whose grouping peak is on the figure, and the grouping onset: the median over "
            "windows 1.. of the time from a window's start until its grouping cells have fired 5 % of the "
            "spikes they fire before the next window starts.\n"]
     for name, runs in s["inputs"].items():
         out.append(f"## {name}\n")
-        out.append("| clock | lowest inward | per window: inward (vectors) | light share | peak on figure | vectors "
+        out.append("| clock | lowest inward | lowest within 45° | largest mean angle | per window: inward (vectors) "
+                   "| per window: within 45° / mean angle | light share | peak on figure | vectors "
                    "| grouping onset (median ms) |")
-        out.append("| --- | --- | --- | --- | --- | --- | --- |")
+        out.append("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for r in runs:
             per = ", ".join(f"{w['inward_fraction']:.2f} ({w['outline_vectors']})" for w in r["windows"])
+            angles = ", ".join(f"{w['within_45']:.2f} / {w['mean_abs_deg']:.0f}°" for w in r["windows"])
             light = ", ".join(f"{w['light_share']:.2f}" for w in r["windows"])
             sil = [x for x in r["onset_ms"] if x is not None]
-            out.append(f"| {r['gain']:g} | {r['min_inward']:.2f} | {per} | {light} | {r['peak_on_figure']}/"
+            out.append(f"| {r['gain']:g} | {r['min_inward']:.2f} | {r['min_within_45']:.2f} | "
+                       f"{r['max_mean_abs_deg']:.0f}° | {per} | {angles} | {light} | {r['peak_on_figure']}/"
                        f"{len(r['windows'])} | {r['vectors']} | {np.median(sil) if sil else '-'} |")
         out.append("")
     return "\n".join(out)
@@ -153,14 +162,17 @@ def main():
             results[name].append(r)
             print(f"{name}, clock {g:g}: inward " + " ".join(f"{w['inward_fraction']:.2f}" for w in r["windows"])
                   + f"  vectors {r['vectors']}  onset {r['onset_ms']}", flush=True)
-    fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.4), squeeze=False)
-    for ax, (name, runs) in zip(axes[0], results.items()):
-        for r in runs:
-            ax.plot([w["inward_fraction"] for w in r["windows"]], "o-", ms=3, label=f"clock {r['gain']:g}")
-        ax.axhline(0.6, color="k", ls=":", lw=0.8)
-        ax.set(title=name, xlabel="window", ylabel="inward fraction", ylim=(0, 1.02))
-        ax.title.set_fontsize(8)
-        ax.legend(fontsize=7)
+    fig, axes = plt.subplots(2, len(results), figsize=(4.2 * len(results), 6.4), squeeze=False)
+    for col, (name, runs) in enumerate(results.items()):
+        for row, (key, label) in enumerate((("inward_fraction", "inward fraction (< 90°)"),
+                                            ("within_45", "fraction within 45° of inward"))):
+            ax = axes[row, col]
+            for r in runs:
+                ax.plot([w[key] for w in r["windows"]], "o-", ms=3, label=f"clock {r['gain']:g}")
+            ax.axhline(0.6, color="k", ls=":", lw=0.8)
+            ax.set(title=name, xlabel="window", ylabel=label, ylim=(0, 1.02))
+            ax.title.set_fontsize(8)
+            ax.legend(fontsize=7)
     fig.tight_layout()
     save_figure(fig, OUT / "window_clock.png", dpi=90)
     plt.close(fig)

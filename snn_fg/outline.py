@@ -26,17 +26,35 @@ def filled_outline(edges: np.ndarray, close_px: int = 4, min_fraction: float = 0
     return keep if keep.mean() >= min_fraction else np.zeros_like(keep)
 
 
-def inward_score(fg_x, fg_y, region: np.ndarray, band_px: int = 3, sigma: float = 3.0) -> tuple[float, int]:
-    """Fraction of figure-ground vectors within ``band_px`` of the region's
-    outline (inside it) that point into the region (positive dot product with
-    the inward normal). Returns ``(fraction, n_pixels)``."""
+def _outline_vectors(fg_x, fg_y, region, band_px, sigma):
+    """Model vectors within ``band_px`` of the region's outline (inside it)
+    and the inward normal there: ``(fx, fy, nx, ny)`` of the selected pixels."""
     inner = region & ~ndi.binary_erosion(region, iterations=band_px)
     smooth = ndi.gaussian_filter(region.astype(float), sigma)
     gy_rows, gx = np.gradient(smooth)
     nx, ny = gx, -gy_rows                     # y up
     mag = np.hypot(fg_x, fg_y)
     sel = inner & (mag > 0) & (np.hypot(nx, ny) > 1e-6)
-    if not sel.any():
+    return fg_x[sel], fg_y[sel], nx[sel], ny[sel]
+
+
+def inward_score(fg_x, fg_y, region: np.ndarray, band_px: int = 3, sigma: float = 3.0) -> tuple[float, int]:
+    """Fraction of figure-ground vectors within ``band_px`` of the region's
+    outline (inside it) that point into the region (positive dot product with
+    the inward normal). Returns ``(fraction, n_pixels)``."""
+    fx, fy, nx, ny = _outline_vectors(fg_x, fg_y, region, band_px, sigma)
+    if not fx.size:
         return float("nan"), 0
-    dot = fg_x[sel] * nx[sel] + fg_y[sel] * ny[sel]
-    return float(np.mean(dot > 0)), int(sel.sum())
+    return float(np.mean(fx * nx + fy * ny > 0)), int(fx.size)
+
+
+def inward_angles(fg_x, fg_y, region: np.ndarray, band_px: int = 3, sigma: float = 3.0) -> tuple[float, float]:
+    """The same outline vectors as :func:`inward_score`, scored by angle:
+    ``(mean absolute angle to the inward normal in degrees, fraction within
+    45 degrees of it)``; ``(nan, nan)`` without vectors. Stricter than the
+    sign of the dot product: a vector along the outline counts as 90 degrees off."""
+    fx, fy, nx, ny = _outline_vectors(fg_x, fg_y, region, band_px, sigma)
+    if not fx.size:
+        return float("nan"), float("nan")
+    diff = np.degrees(np.abs(np.angle(np.exp(1j * (np.arctan2(fy, fx) - np.arctan2(ny, nx))))))
+    return float(diff.mean()), float(np.mean(diff <= 45.0))

@@ -35,7 +35,7 @@ from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
 from snn_fg.metrics import grouping_peak  # noqa: E402
-from snn_fg.outline import filled_outline, inward_score  # noqa: E402
+from snn_fg.outline import filled_outline, inward_angles, inward_score  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 
 REC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events" / "dvs.es"
@@ -108,10 +108,12 @@ def main():
         region = filled_outline(w.pos | w.neg)
         r, c = grouping_peak(m.grouping)
         frac, n = inward_score(m.fg_x, m.fg_y, region)
+        mean_deg, within45 = inward_angles(m.fg_x, m.fg_y, region)
         row = {"window": w.index, "t_start_ms": w.t_start_us / 1000, "t_end_ms": w.t_end_us / 1000,
                "events": int(len(w.events)), "plane_pixels": int(region.sum()),
                "grouping_peak": [r, c], "peak_on_plane": bool(region[r, c]),
-               "outline_vectors": n, "outline_inward_fraction": frac}
+               "outline_vectors": n, "outline_inward_fraction": frac, "outline_within_45": within45,
+               "outline_mean_abs_deg": mean_deg}
         rows.append(row)
         panels.append((w, m, region, (r, c)))
         print(f"window {w.index:2d} {row['t_start_ms']:6.0f}-{row['t_end_ms']:4.0f} ms  events {row['events']:6d}  "
@@ -162,13 +164,15 @@ def _markdown(s: dict, stem: str, argv: str) -> str:
                          f"({st['synaptic_events_total'] / len(s['windows']):,.0f} per window, "
                          f"{1e9 * t.get('run', 0) / st['synaptic_events_total']:.1f} ns each), "
                          f"spikes {st.get('spikes', 0):,}.")
-    lines += ["", "| window | ms | events | peak on plane | inward fraction (vectors) |"
+    lines += ["", "Outline vectors (within 3 px of the filled event region's outline) are scored against the "
+              "region's inward normal: inward = within 90°, and, stricter, within 45° and the mean absolute angle.",
+              "", "| window | ms | events | peak on plane | inward fraction (vectors) | within 45° | mean angle |"
               + (" latency r>=0.9 (ms) |" if lat else ""),
-              "|---|---|---|---|---|" + ("---|" if lat else "")]
+              "|---|---|---|---|---|---|---|" + ("---|" if lat else "")]
     for r in s["windows"]:
         line = (f"| {r['window']} | {r['t_start_ms']:.0f}-{r['t_end_ms']:.0f} | {r['events']:,} | "
                 f"{'yes' if r['peak_on_plane'] else 'no'} | {r['outline_inward_fraction']:.2f} "
-                f"({r['outline_vectors']}) |")
+                f"({r['outline_vectors']}) | {r['outline_within_45']:.2f} | {r['outline_mean_abs_deg']:.0f}° |")
         if lat:
             line += f" {'never' if r['latency_ms'] is None else format(r['latency_ms'], 'g')} |"
         lines.append(line)

@@ -145,3 +145,16 @@ def test_a_frame_gives_the_same_maps_with_or_without_a_clock():
         for k in ("fg_x", "fg_y", "grouping"):
             np.testing.assert_array_equal(getattr(runs[0], k), getattr(runs[1], k), err_msg=f"{backend} {k}")
         assert np.abs(runs[0].fg_x).sum() > 0
+
+
+@pytest.mark.skipif(not available_backends()["nest"][0], reason="needs NEST (pip install 'snn-fg[nest]')")
+def test_nest_receives_the_clock_too():
+    """The NEST backend wires the clock like the others: its grouping cells
+    fire before the 60 ms pulse and not in the 10 ms after it arrives."""
+    inp = _clocked_input()
+    net = build_network(ModelParams(levels=2), inp.shape).calibrated(inp.rate_hz)
+    res = get_backend("nest").simulate(net, inp, RunSettings(duration_ms=100.0))
+    t = np.concatenate([res.spikes[n][1] for n in res.populations if n.startswith("group_")])
+    delay = net.outgoing("clock_1")[0].delay_ms
+    assert np.count_nonzero((t >= 40) & (t < 60)) > 0
+    assert np.count_nonzero((t > 60 + delay) & (t <= 70 + delay)) == 0

@@ -40,13 +40,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from snn_fg.atomic import save_figure, save_text  # noqa: E402
-from snn_fg.events import Recording, image_to_events, iter_windows  # noqa: E402
+from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.metrics import grouping_peak  # noqa: E402
 from snn_fg.network import SpikingParams  # noqa: E402
 from snn_fg.outline import filled_outline, inward_angles, inward_score  # noqa: E402
 from snn_fg.params import ModelParams  # noqa: E402
-from snn_fg.scenes import disc  # noqa: E402
+from snn_fg.scenes import flipping_disc_recording  # noqa: E402
 from snn_fg.spiking.continuous import simulate_windows, window_maps  # noqa: E402
+from dvs_history import _spiking_light_share as light_share  # noqa: E402  (beside this script)
 
 REC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events" / "dvs.es"
 OUT = Path(__file__).with_name("results")
@@ -55,23 +56,8 @@ WINDOW_MS = 85.0
 
 def flip_recording(radius: float, windows: int = 4):
     """Alternately light and dark discs, one per window; returns (figure masks, windows)."""
-    scenes = [disc(radius, light_on_dark=k % 2 == 0) for k in range(windows)]
-    parts = []
-    for k, scene in enumerate(scenes):
-        ev = image_to_events(scene.image, motion="circle").events
-        ev = ev[ev["t"] < WINDOW_MS * 1000].copy()
-        ev["t"] += int(k * WINDOW_MS * 1000)
-        parts.append(ev)
-    h, w = scenes[0].shape
-    rec = Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)
+    scenes, rec = flipping_disc_recording(radius, windows, WINDOW_MS)
     return [s.labels > 0 for s in scenes], list(iter_windows(rec, window_ms=WINDOW_MS))
-
-
-def _light_share(maps) -> float:
-    counts = {f: sum(int(c.sum()) for k, c in maps.extra.items() if k.startswith(f"spikes_group_{f}_"))
-              for f in "LD"}
-    total = counts["L"] + counts["D"]
-    return counts["L"] / total if total else float("nan")
 
 
 def _onset_ms(run, share: float = 0.05) -> list:
@@ -100,7 +86,7 @@ def sweep_one(windows, regions, gain: float, params=None) -> dict:
         frac, n = inward_score(m.fg_x, m.fg_y, region)
         mean_deg, within45 = inward_angles(m.fg_x, m.fg_y, region)
         rows.append({"inward_fraction": frac, "outline_vectors": n, "mean_abs_deg": mean_deg,
-                     "within_45": within45, "peak_on_figure": bool(region[r, c]), "light_share": _light_share(m)})
+                     "within_45": within45, "peak_on_figure": bool(region[r, c]), "light_share": light_share(m)})
     return {"gain": gain, "windows": rows, "onset_ms": _onset_ms(run),
             "min_inward": float(np.nanmin([r["inward_fraction"] for r in rows])),
             "min_within_45": float(np.nanmin([r["within_45"] for r in rows])),

@@ -183,3 +183,30 @@ def shared_border_ownership(scene: Scene, fg_x, fg_y, front: int, back: int, tol
     tx, ty = scene.shapes[front].inward(r.astype(float), c.astype(float))
     cos = (fg_x[m] * tx + fg_y[m] * ty) / mag[m]
     return float(np.mean(cos > np.cos(np.radians(tol_deg)))), int(m.sum())
+
+
+def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: float = 85.0):
+    """A synthetic recording whose figure changes polarity every window: a
+    disc seen through the iCub's circular microsaccade (the built-in event
+    simulator), light on dark in even windows and dark on light in odd ones.
+
+    Each window must be grouped by the other family than the one before, so
+    a network that carries its decision from window to window fails every
+    other window. Returns ``(scenes, recording)``: one :class:`Scene` per
+    window (its ``labels`` give the disc) and the
+    :class:`~snn_fg.events.Recording`, window ``k`` covering
+    ``[k * window_ms, (k + 1) * window_ms)`` ms.
+    """
+    from .events import Recording, image_to_events
+
+    check.integer("flipping_disc_recording", "windows", windows, lo=1)
+    window_ms = check.number("flipping_disc_recording", "window_ms", window_ms, lo=0, lo_open=True)
+    scenes = [disc(radius, light_on_dark=k % 2 == 0) for k in range(windows)]
+    parts = []
+    for k, scene in enumerate(scenes):
+        ev = image_to_events(scene.image, motion="circle").events
+        ev = ev[ev["t"] < window_ms * 1000].copy()
+        ev["t"] += int(round(k * window_ms * 1000))
+        parts.append(ev)
+    h, w = scenes[0].shape
+    return scenes, Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)

@@ -6,11 +6,11 @@ import pytest
 
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.errors import ParameterError
-from snn_fg.events import Recording, image_to_events, iter_windows
+from snn_fg.events import image_to_events, iter_windows
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.outline import inward_score
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc
+from snn_fg.scenes import disc, flipping_disc_recording
 from snn_fg.spiking.continuous import run_spiking_windows
 from snn_fg.spiking.inputs import event_spikes
 
@@ -29,19 +29,8 @@ def test_the_network_has_one_clock_onto_every_grouping_population():
     assert net.resized((64, 48)).one("clock", 1).level_shape == (1, 1)
 
 
-def _flip_recording(radius=16, windows=4, window_ms=85.0):
-    """A disc seen through the iCub's circular microsaccade, light on dark in
-    even windows and dark on light in odd ones: the edges change polarity
-    from one window to the next, and so does the family that should group."""
-    scenes = [disc(radius, light_on_dark=k % 2 == 0) for k in range(windows)]
-    parts = []
-    for k, scene in enumerate(scenes):
-        ev = image_to_events(scene.image, motion="circle").events
-        ev = ev[ev["t"] < window_ms * 1000].copy()
-        ev["t"] += int(k * window_ms * 1000)
-        parts.append(ev)
-    h, w = scenes[0].shape
-    rec = Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)
+def _flip_recording(window_ms=85.0):
+    scenes, rec = flipping_disc_recording(16, windows=4, window_ms=window_ms)
     return scenes, list(iter_windows(rec, window_ms=window_ms))
 
 

@@ -84,7 +84,17 @@ def winner_take_all(g_l, g_d, a_l, a_d, pad):
             g_d[r, c] = vd if vd > vl else 0.0
 
 
-@nb.njit(cache=True, nogil=True)
+#: Every type ``pool_add`` is called with, compiled when this module is
+#: imported and always in this order. Left to compile on demand, two processes
+#: starting from an empty cache (the test workers of a fresh checkout) could
+#: meet its float32 and float64 callers in different orders and save each
+#: other's machine code under the wrong type in numba's cache index: the next
+#: process then failed with "can't unbox array" (or worse).
+POOL_ADD_SIGNATURES = [f"void({acc}[::1], i8[::1], i8[::1], i8[::1], {x}[:, :, :], i8[::1], f8[:, ::1], i8[::1], "
+                       "f8[:, ::1], f8)" for acc in ("f8", "f4") for x in ("f8", "f4")]
+
+
+@nb.njit(POOL_ADD_SIGNATURES, cache=True, nogil=True)
 def pool_add(acc, rows, cols, ch, x, r_start, r_w, c_start, c_w, scale):
     """``acc[e] += scale * cubic(x[ch[e]])`` at target pixel ``(rows[e], cols[e])``.
 

@@ -191,11 +191,13 @@ def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: flo
     simulator), light on dark in even windows and dark on light in odd ones.
 
     Each window must be grouped by the other family than the one before, so
-    a network that carries its decision from window to window fails every
-    other window. Returns ``(scenes, recording)``: one :class:`Scene` per
-    window (its ``labels`` give the disc) and the
-    :class:`~snn_fg.events.Recording`, window ``k`` covering
-    ``[k * window_ms, (k + 1) * window_ms)`` ms.
+    a network that carries its decision from one window into the next can
+    get the flipped windows wrong (the spiking network without its window
+    clock does: ``experiments/window_clock.py``). Returns ``(scenes,
+    recording)``: one :class:`Scene` per window (its ``labels`` give the
+    disc) and the :class:`~snn_fg.events.Recording`, whose events of window
+    ``k`` start at ``k * window_ms`` ms and end before ``(k + 1) * window_ms``
+    (so ``iter_windows(recording, window_ms=window_ms)`` cuts it at the flips).
     """
     from .events import Recording, image_to_events
 
@@ -205,8 +207,8 @@ def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: flo
     parts = []
     for k, scene in enumerate(scenes):
         ev = image_to_events(scene.image, motion="circle").events
-        ev = ev[ev["t"] < window_ms * 1000].copy()
-        ev["t"] += int(round(k * window_ms * 1000))
+        ev = ev[ev["t"] - ev["t"].min() < window_ms * 1000].copy()
+        ev["t"] += int(round(k * window_ms * 1000)) - ev["t"].min()
         parts.append(ev)
     h, w = scenes[0].shape
     return scenes, Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)

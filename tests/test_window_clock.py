@@ -30,7 +30,7 @@ def test_the_network_has_one_clock_onto_every_grouping_population():
 
 
 def _flip_recording(window_ms=85.0):
-    scenes, rec = flipping_disc_recording(16, windows=4, window_ms=window_ms)
+    scenes, rec = flipping_disc_recording(24, windows=4, window_ms=window_ms)
     return scenes, list(iter_windows(rec, window_ms=window_ms))
 
 

@@ -185,7 +185,9 @@ def main():
     lines = [f"# dvs.es window {a.window} ({w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms): "
              "what the continuous network carries in", "",
              f"`python experiments/dvs_history.py --window {a.window} --start-ms {a.start_ms:g} "
-             f"--before {a.before} --backend {a.backend} --carry {a.carry}{' --each-alone' if a.each_alone else ''}` ({summary['seconds']:.0f} s, load average "
+             f"--before {a.before} --backend {a.backend} --carry {a.carry}"
+             f"{' --each-alone' if a.each_alone else ''}{' --window-clock on' if a.window_clock == 'on' else ''}` "
+             f"({summary['seconds']:.0f} s, load average "
              f"{', '.join(f'{x:.1f}' for x in summary['load'])} at the end). Figure: `dvs_history.png` "
              "(white: this window's plane outline; dashed cyan: the previous window's).", "",
              "| run | inward fraction (vectors) | light share of grouping | peak on plane | "

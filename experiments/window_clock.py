@@ -69,12 +69,12 @@ def _onset_ms(run, share: float = 0.05) -> list:
     clock = run.network.by_role("clock")
     delay = run.network.outgoing(clock[0].name)[0].delay_ms if clock else 0.0
     lag = run.simulation["readout_lag_ms"]
-    starts = [a - lag + delay for a, _ in run.spans] + [run.simulation["simulated_ms"]]
+    bounds = [a - lag + delay for a, _ in run.spans] + [run.simulation["simulated_ms"]]
     out = []
-    for a, b in zip(starts[1:], starts[2:] + [starts[-1]]):
+    for a, b in zip(bounds[1:-1], bounds[2:]):
         inside = t[(t > a) & (t <= b)]
         out.append(float(inside[int(share * inside.size)] - a) if inside.size else None)
-    return out[:len(run.spans) - 1]
+    return out
 
 
 def sweep_one(windows, regions, gain: float, params=None) -> dict:

@@ -154,11 +154,10 @@ class SimulationResult:
 
 def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:
     """Spike-source name -> bool mask of pixels with input, by role (the
-    window clock, if the network has one, is one cell that is always there)."""
-    out = {network.one("input_on", 1).name: np.asarray(on, bool),
-           network.one("input_off", 1).name: np.asarray(off, bool)}
-    out.update({p.name: np.ones((1, 1), bool) for p in network.by_role("clock")})
-    return out
+    window clock needs none: :func:`~snn_fg.spiking.unroll.choose_sites`
+    keeps its one cell)."""
+    return {network.one("input_on", 1).name: np.asarray(on, bool),
+            network.one("input_off", 1).name: np.asarray(off, bool)}
 
 
 def source_offsets(network: Network) -> dict:

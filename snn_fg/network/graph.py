@@ -21,6 +21,12 @@ from .nodes import Conv, Population, Projection, projection_from_dict
 SCHEMA = "snn-fg.network/2"
 
 
+def _grid_shape(pop, frame_shape) -> tuple[int, int]:
+    """The ``level_shape`` a population must have for frames of
+    ``frame_shape``: its pyramid level's, except the one-cell window clock's."""
+    return (1, 1) if pop.role == "clock" else level_shape(frame_shape, pop.level)
+
+
 @dataclass(frozen=True, kw_only=True)
 class Network:
     """A validated network graph for frames of ``frame_shape`` (rows, cols).
@@ -67,7 +73,7 @@ class Network:
                 check.fail(owner, None, None, "name used twice")
             if p.level > self.params.levels:
                 check.fail(owner, "level", p.level, f"exceeds params.levels={self.params.levels}")
-            want = (1, 1) if p.role == "clock" else level_shape(self.frame_shape, p.level)
+            want = _grid_shape(p, self.frame_shape)
             if p.level_shape != want:
                 check.fail(owner, "level_shape", p.level_shape,
                            f"differs from level {p.level} of a {self.frame_shape} frame, {want}")
@@ -167,8 +173,7 @@ class Network:
         """The same network for frames of another shape (kernels are weight
         shared, so only the populations' level shapes change)."""
         shape = check.shape2("Network.resized", "frame_shape", frame_shape)
-        pops = tuple(p if p.role == "clock" else dataclasses.replace(p, level_shape=level_shape(shape, p.level))
-                     for p in self.populations)
+        pops = tuple(dataclasses.replace(p, level_shape=_grid_shape(p, shape)) for p in self.populations)
         return dataclasses.replace(self, frame_shape=shape, populations=pops)
 
     # -- serialisation -----------------------------------------------------

@@ -179,8 +179,18 @@ class SpikingModel(Model):
         super().__init__(params, progress)
         self.network = network       # a stored description (its own ModelParams), or None: build from params
         self.backend = backend
+        self._backend = None         # the backend object, made on first use and kept (see _sim)
         self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
         self.run_options = run_options
+
+    def _sim(self):
+        """The backend, one object for every input this model runs: the
+        fast engine keeps its tables and cell arrays from one run to the next."""
+        from .backends import as_backend
+
+        if self._backend is None:
+            self._backend = as_backend(self.backend)
+        return self._backend
 
     def _net(self) -> dict:
         """The stored description to run, or the parameters to build it from."""
@@ -190,7 +200,7 @@ class SpikingModel(Model):
         from .spiking import run_spiking
 
         options = {k: v for k, v in self.run_options.items() if k not in ("readout_lag_ms", "window_clock")}
-        return run_spiking(**inputs, **self._net(), backend=self.backend, progress=self.progress is not None, **options)
+        return run_spiking(**inputs, **self._net(), backend=self._sim(), progress=self.progress is not None, **options)
 
     def run_frame(self, frame: Frame) -> Maps:
         if self.spike_input == "events":
@@ -215,13 +225,13 @@ class SpikingModel(Model):
         windows = list(windows)
         options = {k: v for k, v in self.run_options.items()
                    if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate", "window_clock")}
-        maps = run_spiking_windows(windows, **self._net(), backend=self.backend, progress=self.progress is not None,
+        maps = run_spiking_windows(windows, **self._net(), backend=self._sim(), progress=self.progress is not None,
                                    **options)
         yield from zip(windows, maps)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None) -> list[Path]:
         written = super().write_figures(out, maps, inputs, titles)
-        return written + save_spiking_figures(maps, out)[1:]
+        return written + save_spiking_figures(maps, out, maps_figure=False)
 
 
 MODELS: dict[str, type[Model]] = {m.name: m for m in (RateModel, FbfgModel, SpikingModel)}

@@ -173,3 +173,58 @@ def test_a_reused_engine_gives_the_spikes_of_a_fresh_one():
         for got, want in zip(_trains(again, name), _trains(fresh, name)):
             np.testing.assert_array_equal(got, want, err_msg=name)
         np.testing.assert_array_equal(again.state[name]["v"], fresh.state[name]["v"], err_msg=name)
+
+
+def test_tables_made_again_for_other_gains_equal_a_fresh_build():
+    """A recording's window (or a frame) is calibrated for its own input
+    rate: the engine then remakes only the weights of the tables it holds,
+    and they must be exactly (bit for bit) those a fresh build gives."""
+    import dataclasses
+
+    from snn_fg.backends.fast_tables import gains_only
+
+    net = build_network(ModelParams(levels=3), (40, 56))
+    other = net.calibrated(net.input_rate_hz * 1.7)
+    assert gains_only(net, other) and not gains_only(net, net.without_feedback())
+    delayed = dataclasses.replace(other.projections[0], delay_ms=other.projections[0].delay_ms + 1)
+    assert not gains_only(net, dataclasses.replace(other, projections=(delayed, *other.projections[1:])))
+    regained, fresh = build_tables(net, 0.5).with_gains(other), build_tables(other, 0.5)
+    assert regained.network is other
+    changed = 0
+    for f in dataclasses.fields(fresh):
+        got, want = getattr(regained, f.name), getattr(fresh, f.name)
+        if isinstance(want, np.ndarray):
+            assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), f.name
+            changed += not np.array_equal(got, getattr(build_tables(net, 0.5), f.name))
+    assert changed >= 3          # tap weights, dense kernels and gains did change
+
+
+def test_a_backend_keeps_its_tables_across_calibrated_runs():
+    """Two frames with different input rates on one backend object: the
+    second run reuses the tables (weights remade) and gives a fresh backend's spikes."""
+    net = build_network(ModelParams(levels=1), (64, 64))
+    settings = RunSettings(duration_ms=60.0)
+    a, b = (frame_spikes(*image_to_frame(disc(r).image), hz, 0.5, 60.0) for r, hz in ((12, 200.0), (10, 330.0)))
+    backend = get_backend("fast")
+    backend.simulate(net.calibrated(a.rate_hz), a, settings)
+    first = backend._tables
+    again = backend.simulate(net.calibrated(b.rate_hz), b, settings)
+    assert backend._tables is not first and backend._tables.tap_co is first.tap_co      # remade, not rebuilt
+    fresh = get_backend("fast").simulate(net.calibrated(b.rate_hz), b, settings)
+    assert sum(int(c.sum()) for c in fresh.counts.values()) > 500
+    for name in fresh.populations:
+        np.testing.assert_array_equal(again.counts[name], fresh.counts[name], err_msg=name)
+
+
+def test_large_cell_arrays_start_at_zero():
+    """Cell arrays from the huge-page map are zeroed like np.zeros, writable, any dtype."""
+    from snn_fg.backends.fast import HUGE_FROM, zeroed
+    from snn_fg.backends.fast_core import STATE
+
+    for dtype in (STATE, np.int32, np.float64):
+        n = 2 * HUGE_FROM // np.dtype(dtype).itemsize + 3
+        a = zeroed(n, dtype)
+        assert a.shape == (n,) and a.dtype == np.dtype(dtype) and not a.view(np.uint8).any()
+        a[-1] = a[-1]                 # writable
+        a.view(np.uint8)[:] = 7
+        assert a.view(np.uint8).min() == 7

@@ -60,10 +60,23 @@ def get_backend(name: str = DEFAULT_BACKEND, **options) -> Backend:
     return cls(**options)
 
 
+def as_backend(backend: "str | Backend" = DEFAULT_BACKEND, options: dict | None = None) -> Backend:
+    """``backend`` itself if it is a :class:`Backend` (kept by a caller
+    that runs many inputs, so that what it prepares, like the fast engine's
+    tables and cell arrays, serves them all), else :func:`get_backend`
+    of that name with ``options``."""
+    if isinstance(backend, Backend):
+        if options:
+            raise SnnFgError(f"backend options {sorted(options)} were given with a backend object: "
+                             "set them when constructing it")
+        return backend
+    return get_backend(backend, **(options or {}))
+
+
 def available_backends() -> dict[str, tuple[bool, str]]:
     """name -> (usable here, what to install if not)."""
     return {name: backend_class(name).available() for name in BACKENDS}
 
 
-__all__ = ["BACKENDS", "DEFAULT_BACKEND", "Backend", "RunSettings", "SimulationResult", "available_backends",
+__all__ = ["BACKENDS", "DEFAULT_BACKEND", "Backend", "RunSettings", "SimulationResult", "as_backend", "available_backends",
            "backend_class", "backend_names", "get_backend"]

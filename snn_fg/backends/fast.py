@@ -109,8 +109,12 @@ class FastBackend(Backend):
 
     def tables(self, network: Network, dt_ms: float) -> ft.EngineTables:
         """The engine's arrays for ``network`` at ``dt_ms``, built once and
-        kept while the same description is simulated again."""
+        kept while the same description is simulated again (or the same
+        with other gains: a recording's window, or a frame, calibrated for
+        its own input rate)."""
         t = self._tables
+        if t is not None and t.network is not network and t.dt_ms == dt_ms and ft.gains_only(t.network, network):
+            t = self._tables = t.with_gains(network)      # (e.g. calibrated for the next window's input rate)
         if t is None or t.network is not network or t.dt_ms != dt_ms:
             t = self._tables = ft.build_tables(network, dt_ms)
         return t
@@ -272,25 +276,54 @@ class _Pool:
     """Cell arrays kept from one run to the next (a run over a recording,
     window after window, or the next frame): allocating them anew would
     fault in hundreds of megabytes of fresh memory per run. Arrays handed
-    out by :meth:`zeros` come back at rest (:meth:`_Run.release`)."""
+    out by :meth:`zeros` come back at rest (:meth:`_Run.release`).
+
+    Large arrays are mapped in 2 MB pages where the system offers them
+    (:func:`zeroed`): a run touches cells all over its state array, and
+    faulting that in 4 kB at a time took longer than a window's simulation
+    of cell updates in the first run of a process."""
 
     def __init__(self):
         self.arrays: dict = {}
 
-    def _get(self, name, n, dtype, zero):
+    def _get(self, name, n, dtype):
         a = self.arrays.get(name)
         if a is None or a.size < n or a.dtype != np.dtype(dtype):
-            a = self.arrays[name] = (np.zeros if zero else np.empty)(max(n, 1), dtype=dtype)
+            a = self.arrays[name] = zeroed(max(n, 1), dtype)
         return a[:n]
 
     def zeros(self, name, n, dtype):
-        return self._get(name, n, dtype, True)
+        return self._get(name, n, dtype)
 
-    def empty(self, name, n, dtype):
-        return self._get(name, n, dtype, False)
+    #: (every array starts zeroed; the name says the caller needs no zeros)
+    empty = zeros
 
     def clear(self):
         self.arrays.clear()
+
+
+#: arrays at least this large (bytes) are mapped with the huge-page hint
+HUGE_FROM = 4 << 20
+
+
+def zeroed(n: int, dtype) -> np.ndarray:
+    """``np.zeros(n, dtype)``, for a large array as an anonymous memory map
+    with the kernel's transparent-huge-page hint (``MADV_HUGEPAGE``), so
+    that touching it faults in 2 MB at a time. Where the hint does not
+    exist (not Linux) or the map fails, plain ``np.zeros``."""
+    import mmap
+
+    dtype = np.dtype(dtype)
+    size = n * dtype.itemsize
+    advice = getattr(mmap, "MADV_HUGEPAGE", None)
+    if size < HUGE_FROM or advice is None:
+        return np.zeros(n, dtype)
+    try:
+        m = mmap.mmap(-1, size, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
+        m.madvise(advice)
+    except (OSError, ValueError, AttributeError):
+        return np.zeros(n, dtype)
+    return np.frombuffer(m, dtype=dtype, count=n)      # (writable; the array keeps the map alive)
 
 
 def first_step_at(t_ms: float, dt_ms: float) -> int:

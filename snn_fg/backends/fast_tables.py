@@ -18,6 +18,7 @@ two simulators round the same numbers the same way.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -89,6 +90,24 @@ class EngineTables:
     grp_prj: np.ndarray      #   grp_prj[grp_ptr[k]:grp_ptr[k + 1]] (their input is summed, then delivered)
     kept_mass: dict          # projection name -> kept fraction of its kernel mass
     taps: dict               # projection name -> kept taps (Conv) or interpolation weights (Resize)
+    tap_k: np.ndarray        # float64: each tap's kernel value before the gain (tap_w is made from it)
+    dense_k: np.ndarray      # float64: the same for ``dense``
+    spans: np.ndarray        # int64 (n_projections, 4): a Conv's taps tap_*[a:b] and dense[c:d]
+
+    def with_gains(self, network: Network) -> "EngineTables":
+        """These tables for ``network``, which must differ from
+        :attr:`network` in projection gains only (:func:`gains_only`), e.g.
+        the same description calibrated for another input rate: the weights
+        are made again from the kept kernel values, as :func:`build_tables`
+        makes them, and nothing else is recomputed."""
+        tap_w, dense, prj_w = self.tap_w.copy(), self.dense.copy(), self.prj_w.copy()
+        for p, pr in enumerate(network.projections):
+            prj_w[p, 0] = pr.sign * pr.gain_mv
+            if isinstance(pr, Conv):
+                a, b, c, d = self.spans[p]
+                tap_w[a:b] = tap_weights(pr, self.tap_k[a:b])
+                dense[c:d] = tap_weights(pr, self.dense_k[c:d])
+        return dataclasses.replace(self, network=network, tap_w=tap_w, dense=dense, prj_w=prj_w)
 
     @property
     def taps_per_row(self) -> np.ndarray:
@@ -184,18 +203,19 @@ class _Collector:
     def __init__(self):
         self.ch_ptr, self.taps, self.csr = [np.zeros(1, np.int64)], [], [[np.zeros(1, np.int64)], [], []]
         self.n_ch, self.n_taps, self.n_csr_rows, self.n_csr = 0, 0, 0, 0
-        self.dense, self.n_dense = [], 0
+        self.dense, self.dense_k, self.n_dense = [], [], 0
         self.pair_ptr, self.pairs, self.n_pair_ch, self.n_pairs = [np.zeros(1, np.int64)], [], 0, 0
 
-    def dense_kernel(self, co, ci, dr, dc, w, c_out: int, c_in: int):
+    def dense_kernel(self, co, ci, dr, dc, k, pr, c_out: int, c_in: int):
         """The taps as a dense array by level offset, and per input channel
         the output channels it reaches with their row-offset range."""
         r = int(max(np.abs(dr).max(), np.abs(dc).max())) if dr.size else 0
         size = 2 * r + 1
         kd = np.zeros((c_out, c_in, size, size))
-        kd[co, ci, dr + r, dc + r] = w
+        kd[co, ci, dr + r, dc + r] = k
         base = self.n_dense
-        self.dense.append(kd.ravel())
+        self.dense_k.append(kd.ravel())
+        self.dense.append(tap_weights(pr, kd.ravel()))
         self.n_dense += kd.size
         # (input, output) channel pairs in order, with the row-offset range of their taps
         key = np.asarray(ci, np.int64) * c_out + np.asarray(co, np.int64)
@@ -213,10 +233,10 @@ class _Collector:
         self.n_pairs += pairs
         return base, r, gbase
 
-    def conv(self, ch_ptr, co, qr, qc, w, off):
+    def conv(self, ch_ptr, co, qr, qc, k, w, off):
         base = self.n_ch
         self.ch_ptr.append(ch_ptr[1:] + self.n_taps)
-        self.taps.append((co, qr, qc, w, off))
+        self.taps.append((co, qr, qc, w, off, k))
         self.n_ch += ch_ptr.size - 1
         self.n_taps += co.size
         return base
@@ -232,13 +252,15 @@ class _Collector:
         return base
 
     def arrays(self) -> dict:
-        taps = [np.concatenate([t[i] for t in self.taps]) if self.taps else np.zeros(0) for i in range(5)]
+        taps = [np.concatenate([t[i] for t in self.taps]) if self.taps else np.zeros(0) for i in range(6)]
         csr = [np.concatenate(x) if x else np.zeros(0) for x in self.csr]
         pairs = np.concatenate(self.pairs) if self.pairs else np.zeros((0, 3), np.int64)
         return {"ch_ptr": np.concatenate(self.ch_ptr).astype(np.int64), "tap_co": taps[0].astype(np.int32),
                 "tap_qr": taps[1].astype(np.int32), "tap_qc": taps[2].astype(np.int32),
                 "tap_w": taps[3].astype(np.float64), "tap_off": taps[4].astype(np.int64),
+                "tap_k": taps[5].astype(np.float64),
                 "dense": np.concatenate(self.dense) if self.dense else np.zeros(1),
+                "dense_k": np.concatenate(self.dense_k) if self.dense_k else np.zeros(1),
                 "pair_ptr": np.concatenate(self.pair_ptr).astype(np.int64), "pair_co": pairs[:, 0].copy(),
                 "pair_rlo": pairs[:, 1].copy(), "pair_rhi": pairs[:, 2].copy(),
                 "csr_ptr": csr[0].astype(np.int64), "csr_idx": csr[1].astype(np.int32),
@@ -257,8 +279,7 @@ def _conv(network, pr, src, tgt, out: _Collector):
     taken modulo the level and those landing on the same cell add up, as
     the unrolled synapses do (:func:`~snn_fg.spiking.connect.conv_pairs`)."""
     co, ci, dr, dc, k, kept = kernel_taps(pr, network)
-    dense = out.dense_kernel(co, ci, dr, dc, receptor_weights(pr.sign, pr.sign * pr.gain_mv * k) * MV,
-                             tgt.channels, src.channels)
+    dense = out.dense_kernel(co, ci, dr, dc, k, pr, tgt.channels, src.channels)
     st = tgt.stride
     gr, gc = tgt.grid
     rr, rc = dr % st, dc % st
@@ -268,13 +289,28 @@ def _conv(network, pr, src, tgt, out: _Collector):
     if pr.padding == "wrap" and 2 * radius + 1 > min(gr, gc):     # (wrap-around: stride 1, cls = ci)
         co, cls, qr, qc, k = _fold(co, cls, qr % gr, qc % gc, k)
         radius = max(gr, gc)           # never entirely inside the level
-    w = receptor_weights(pr.sign, pr.sign * pr.gain_mv * k) * MV
     order = np.lexsort((qc, qr, cls))
-    co, qr, qc, w, cls = co[order], qr[order], qc[order], w[order], cls[order]
+    co, qr, qc, k, cls = co[order], qr[order], qc[order], k[order], cls[order]
     ch_ptr = np.searchsorted(cls, np.arange(src.channels * st * st + 1))
     off = co.astype(np.int64) * gr * gc - qr * gc - qc
-    base = out.conv(ch_ptr, co, qr, qc, w, off)
+    base = out.conv(ch_ptr, co, qr, qc, k, tap_weights(pr, k), off)
     return base, 0, kept, int(co.size), radius, dense
+
+
+def tap_weights(pr, k: np.ndarray) -> np.ndarray:
+    """What a Conv's taps with kernel values ``k`` add to their receptor (volts)."""
+    return receptor_weights(pr.sign, pr.sign * pr.gain_mv * k) * MV
+
+
+def gains_only(a: Network, b: Network) -> bool:
+    """Whether two networks differ at most in projection gains (and the
+    input rate they are calibrated for): then the engine's tables of one
+    serve the other after :meth:`EngineTables.with_gains`."""
+    def rest(pr):
+        return type(pr), {k: v for k, v in vars(pr).items() if k != "gain_mv"}
+    return (a.params == b.params and a.frame_shape == b.frame_shape and a.populations == b.populations
+            and len(a.projections) == len(b.projections)
+            and all(x is y or rest(x) == rest(y) for x, y in zip(a.projections, b.projections)))
 
 
 def _fold(co, ci, qr, qc, k):
@@ -315,15 +351,17 @@ def build_tables(network: Network, dt_ms: float) -> EngineTables:
     offsets, pops, n_cells = _populations(network, neurons)
     index = {p.name: q for q, p in enumerate(network.populations)}
     out = _Collector()
-    rows, wrow, kept, taps = [], [], {}, {}
+    rows, wrow, kept, taps, spans = [], [], {}, {}, []
     for pr in network.projections:
         src, tgt = network.population(pr.source), network.population(pr.target)
+        spans.append([out.n_taps, out.n_taps, out.n_dense, out.n_dense])
         if isinstance(pr, Conv):
             base, colbase, kept[pr.name], taps[pr.name], radius, dense = _conv(network, pr, src, tgt, out)
             kind, wrap, thr = CONV, int(pr.padding == "wrap"), 0.0
         else:
             base, colbase, kept[pr.name], taps[pr.name], thr = _resize(pr, src, tgt, out)
             kind, wrap, radius, dense = RESIZE, 0, 0, (0, 0, 0)
+        spans[-1][1], spans[-1][3] = out.n_taps, out.n_dense
         rows.append([kind, index[src.name], index[tgt.name], 1 if receptor(pr.sign) == "exc" else 2,
                      _delay_steps(pr.delay_ms, dt_ms), wrap, base, colbase, int(pr.prune > 0),
                      int(pr.sign < 0), radius, *dense])
@@ -338,4 +376,4 @@ def build_tables(network: Network, dt_ms: float) -> EngineTables:
     return EngineTables(network=network, dt_ms=float(dt_ms), offsets=offsets, pops=pops, n_cells=int(n_cells),
                         nrn=nrn, ref_steps=ref, adv=adv, prj=prj,
                         prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 2), grp_ptr=grp_ptr, grp_prj=grp_prj,
-                        kept_mass=kept, taps=taps, **arrays)
+                        kept_mass=kept, taps=taps, spans=np.array(spans, dtype=np.int64).reshape(-1, 4), **arrays)

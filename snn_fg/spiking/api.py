@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import validate as check
-from ..backends import DEFAULT_BACKEND, RunSettings, SimulationResult, get_backend
+from ..backends import DEFAULT_BACKEND, RunSettings, SimulationResult, as_backend
 from ..errors import InputError
 from ..maps import Maps
 from ..network.builder import build_network
@@ -88,7 +88,7 @@ def _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, in
 
 def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, params: ModelParams | None = None,
                        spiking: SpikingParams | None = None, network: Network | str | Path | None = None,
-                       backend: str = DEFAULT_BACKEND, backend_options: dict | None = None,
+                       backend=DEFAULT_BACKEND, backend_options: dict | None = None,
                        duration_ms: float = 400.0, dt_ms: float = 0.5, settle_ms: float | None = None,
                        seed: int = 0, rate_hz: float = 200.0, input_process: str = "regular",
                        replay: bool = True, calibrate: bool = True, instantiate: str | None = None, feedback: bool = True,
@@ -106,7 +106,7 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, par
     if calibrate and not np.isclose(net.input_rate_hz, inp.rate_hz, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": inp.rate_hz}
         net = net.calibrated(inp.rate_hz)
-    sim_backend = get_backend(backend, **(backend_options or {}))
+    sim_backend = as_backend(backend, backend_options)
     instantiate = instantiate or sim_backend.default_instantiate
     say = log if log is not None else (stderr_log if progress else None)
     settings = RunSettings(duration_ms=duration_ms, dt_ms=dt_ms, count_from_ms=settle_ms,
@@ -171,9 +171,11 @@ def run_spiking(pos=None, neg=None, **options) -> Maps:
     network : Network or path, optional
         A description to run instead (e.g. ``networks/default_321x481.json``,
         possibly edited); resized to the input's frame shape if needed.
-    backend : str
+    backend : str or Backend
         Simulator (``snn_fg.backends.backend_names()``); ``backend_options``
-        are passed to it (Brian2: ``codegen``, ``free``).
+        are passed to it (Brian2: ``codegen``, ``free``). A backend object
+        (``get_backend(name)``) serves many calls: what it prepares for a
+        network (the fast engine's tables and cell arrays) is kept.
     duration_ms, dt_ms, settle_ms : float
         Simulated time, time step, and the start of the counting window
         (default: half of ``duration_ms``).

@@ -23,11 +23,11 @@ from types import SimpleNamespace
 import numpy as np
 
 from .. import validate as check
-from ..backends import DEFAULT_BACKEND, RunSettings, get_backend
+from ..backends import DEFAULT_BACKEND, RunSettings, as_backend
 from ..errors import InputError
 from ..maps import Maps
 from .api import resolve_network, run_params, stderr_log
-from .decode import decode_rates
+from .decode import decode_rates, decoded_rates
 from .inputs import event_spikes
 from .record import SpikingRecord
 
@@ -57,7 +57,7 @@ def _all_events(windows):
     return ev
 
 
-def run_spiking_windows(windows, *, params=None, spiking=None, network=None, backend: str = DEFAULT_BACKEND,
+def run_spiking_windows(windows, *, params=None, spiking=None, network=None, backend=DEFAULT_BACKEND,
                         backend_options: dict | None = None, dt_ms: float = 0.5,
                         readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
                         instantiate: str | None = None, record_spikes: bool = True, window_clock: bool = True,
@@ -127,7 +127,7 @@ class ContinuousRun:
     t_start: float
 
 
-def simulate_windows(windows, *, params=None, spiking=None, network=None, backend: str = DEFAULT_BACKEND,
+def simulate_windows(windows, *, params=None, spiking=None, network=None, backend=DEFAULT_BACKEND,
                      backend_options: dict | None = None, dt_ms: float = 0.5,
                      readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
                      instantiate: str | None = None, record_spikes: bool = True, window_clock: bool = True,
@@ -157,7 +157,7 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
     edges = sorted({round(t / dt_ms) * dt_ms for span in spans for t in span})
     duration = edges[-1]
     say = log if log is not None else (stderr_log if progress else None)
-    sim_backend = get_backend(backend, **(backend_options or {}))
+    sim_backend = as_backend(backend, backend_options)
     instantiate = instantiate or sim_backend.default_instantiate
     settings = RunSettings(duration_ms=duration, dt_ms=dt_ms, count_from_ms=edges[0], record_spikes=record_spikes,
                            instantiate=instantiate, count_bins_ms=tuple(edges), log=say, progress=progress)
@@ -194,8 +194,7 @@ def _spikes_between(spikes, a: float, b: float):
 
 
 def _window_maps(result, window, net, origin, backend, t_start, simulation) -> Maps:
-    rates = {n: result.rates(n) for n in result.populations}
-    fg_x, fg_y, grouping, _ = decode_rates(net, result.sites, rates)
+    fg_x, fg_y, grouping, _ = decode_rates(net, result.sites, decoded_rates(result))
     masks = SimpleNamespace(on=window.pos != 0, off=window.neg != 0)
     rec = SpikingRecord.from_result(result, masks, simulation["count_from_ms"])
     simulation = {**rec.timing(), **simulation}

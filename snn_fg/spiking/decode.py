@@ -58,5 +58,14 @@ def decode_rates(network: Network, sites: dict, rates: dict):
 
 def decode(result):
     """``(fg_x, fg_y, grouping, GroupingResult)`` of a :class:`~snn_fg.backends.SimulationResult`."""
-    rates = {name: result.rates(name) for name in result.populations}
-    return decode_rates(result.network, result.sites, rates)
+    return decode_rates(result.network, result.sites, decoded_rates(result))
+
+
+#: the roles whose rates the read-out uses
+DECODED_ROLES = ("simple", "group_L", "group_D", *(f"bo_{f}" for f in FAMILIES))
+
+
+def decoded_rates(result) -> dict:
+    """Per-cell rates of the populations the read-out uses (the others,
+    most of a network's cells, are not needed)."""
+    return {name: result.rates(name) for role in DECODED_ROLES for name in result.of_role(role)}

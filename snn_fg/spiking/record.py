@@ -1,8 +1,10 @@
 """What a spiking run keeps beside its maps: :class:`SpikingRecord`.
 
-Per simulated population the spike count of every instantiated cell and
-where that cell sits, a raster sample, the input masks and a summary (cells,
-rates, synapses). :meth:`SpikingRecord.arrays` is its part of ``maps.npz``;
+Per simulated population the spike count of every cell that fired and
+where that cell sits (a silent cell is only counted, in the summary: a
+recording's network has millions of cells, most of them silent in any
+window), a raster sample, the input masks and a summary (cells, rates,
+synapses). :meth:`SpikingRecord.arrays` is its part of ``maps.npz``;
 :meth:`SpikingRecord.from_maps` reads it back (for a recording, one window's
 part), strictly: a missing key is an error, not a default.
 """
@@ -38,8 +40,9 @@ class SpikingRecord:
     """Spike counts and cells of one spiking run (or one window of a recording)."""
 
     names: list
-    counts: dict               # population -> int32 spikes per instantiated cell
-    sites: dict                # population -> int64 flat index of each cell in its (channels, rows, cols)
+    counts: dict               # population -> int32 spikes of each cell that fired (maps saved before
+    #                            2026-11-24 hold every instantiated cell, silent ones with 0)
+    sites: dict                # population -> int64 flat index of each in its (channels, rows, cols)
     raster: Raster | None
     input_on: np.ndarray       # uint8 (H, W): pixels that received ON input
     input_off: np.ndarray
@@ -49,7 +52,15 @@ class SpikingRecord:
     populations: dict          # population -> summary (role, level, cells, rates, synapses)
 
     def rates(self, name: str) -> np.ndarray:
+        """Firing rate (Hz) of each cell in :attr:`counts`."""
         return self.counts[name] / (self.count_window_ms / 1000.0)
+
+    def all_rates(self, name: str) -> np.ndarray:
+        """Firing rates of every instantiated cell, the silent ones as 0
+        (in no particular order: for distributions)."""
+        r = self.rates(name)
+        silent = max(int(self.populations[name]["cells"]) - int(np.count_nonzero(r)), 0)
+        return np.concatenate([r[r > 0], np.zeros(silent)])
 
     @classmethod
     def from_result(cls, result, inputs, settle_ms: float) -> "SpikingRecord":
@@ -65,8 +76,9 @@ class SpikingRecord:
                              "active_frac": float((r > 0).mean()) if r.size else 0.0,
                              "max_rate_hz": float(r.max()) if r.size else 0.0,
                              "refractory_max_hz": p.neuron.max_rate_hz, "synapses_in": int(syn.get(name, 0))}
-        return cls(names=names, counts={n: result.counts[n].astype(np.int32) for n in names},
-                   sites={n: result.sites[n].astype(np.int64) for n in names},
+        fired = {n: np.flatnonzero(result.counts[n]) for n in names}
+        return cls(names=names, counts={n: result.counts[n][fired[n]].astype(np.int32) for n in names},
+                   sites={n: result.sites[n][fired[n]].astype(np.int64) for n in names},
                    raster=_sample_raster(result) if result.spikes is not None else None,
                    input_on=inputs.on.astype(np.uint8), input_off=inputs.off.astype(np.uint8),
                    count_window_ms=result.count_window_ms, duration_ms=result.simulated_ms,

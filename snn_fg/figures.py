@@ -65,25 +65,36 @@ def _wheel_inset(ax):
     inset.set_axis_off()
 
 
-def plot_maps_row(axes, input_img, fg_x, fg_y, grouping, title: str = "", grouping_label: str = "grouping"):
+def plot_maps_row(axes, input_img, fg_x, fg_y, grouping, title: str = "", grouping_label: str = "grouping",
+                  key: bool = True):
     """Draw input, figure-ground map and grouping map into three axes.
 
     ``grouping_label`` labels the grouping colour bar (say its unit).
+    ``key=False`` leaves out what repeats from row to row of a figure (the
+    colour wheel, the panels' explanations and axis labels): drawing them
+    on every row of a recording's figure took most of its 7 s.
     """
     a0, a1, a2 = axes
     a0.imshow(input_img, cmap="gray" if np.ndim(input_img) == 2 else None, interpolation="nearest")
     a0.set_title(f"input {title}".strip(), fontsize=9)
     a1.imshow(fg_rgb(fg_x, fg_y), interpolation="nearest")
-    a1.set_title("figure-ground: hue = direction to the owner,\nbrightness = strength (wheel: 0° right, 90° up)",
-                 fontsize=8)
-    _wheel_inset(a1)
     im = a2.imshow(grouping, cmap=GROUPING_CMAP, interpolation="nearest")
-    a2.set_title("grouping (proto-object centres are bright)", fontsize=9)
     bar = a2.figure.colorbar(im, ax=a2, fraction=0.046, pad=0.02)
-    bar.set_label(grouping_label, fontsize=8)
     bar.ax.tick_params(labelsize=7)
     for a in axes:
         a.tick_params(labelsize=7)
+    if not key:
+        for a in axes:
+            a.locator_params(nbins=3)
+        a1.set_title(f"figure-ground {title}".strip(), fontsize=9)
+        a2.set_title(f"grouping {title}".strip(), fontsize=9)
+        return
+    a1.set_title("figure-ground: hue = direction to the owner,\nbrightness = strength (wheel: 0° right, 90° up)",
+                 fontsize=8)
+    _wheel_inset(a1)
+    a2.set_title("grouping (proto-object centres are bright)", fontsize=9)
+    bar.set_label(grouping_label, fontsize=8)
+    for a in axes:
         a.set_xlabel("x (px)", fontsize=7)
     a0.set_ylabel("y (px, rows down)", fontsize=7)
 
@@ -105,9 +116,9 @@ def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
     width = 3 * 3.4 * max(w / h, 0.6) + 1.2
     fig = Figure(figsize=(width, 3.4 * len(idx) + 0.3))
     axes = fig.subplots(len(idx), 3, squeeze=False)
-    for row, i in enumerate(idx):
+    for row, i in enumerate(idx):      # (the key, on the first row, explains every row)
         plot_maps_row(axes[row], inputs[i], fg_x[i], fg_y[i], grouping[i],
-                      titles[i] if titles is not None else "", grouping_label)
+                      titles[i] if titles is not None else "", grouping_label, key=row == 0)
     fig.tight_layout()
     return fig
 

@@ -20,7 +20,8 @@ absolute angle to it, and how many vectors there are (the clock's cost: the grou
 window), whether the grouping peak is on the figure, the light family's
 share of grouping spikes, and the grouping onset: how long after a window
 starts its grouping cells have fired 5 % of that window's grouping spikes.
-Writes ``experiments/results/window_clock.{json,md,png}``.
+Writes ``experiments/results/window_clock.{json,md,png}``; with ``--no-dvs``
+``window_clock_synthetic.*`` instead, leaving the full run's files alone.
 
     python experiments/window_clock.py [--gains 0,100,300,1000] [--no-dvs]
 """
@@ -160,12 +161,13 @@ def main():
             ax.title.set_fontsize(8)
             ax.legend(fontsize=7)
     fig.tight_layout()
-    save_figure(fig, OUT / "window_clock.png", dpi=90)
+    stem = "window_clock_synthetic" if a.no_dvs else "window_clock"      # (a partial run keeps off the full files)
+    save_figure(fig, OUT / f"{stem}.png", dpi=90)
     plt.close(fig)
     summary = {"argv": " ".join(sys.argv[1:]), "seconds": time.perf_counter() - t0, "load": os.getloadavg(),
                "default_gain": SpikingParams().clock_inh_group, "inputs": results}
-    save_text(OUT / "window_clock.json", json.dumps(summary, indent=2))
-    save_text(OUT / "window_clock.md", _markdown(summary))
+    save_text(OUT / f"{stem}.json", json.dumps(summary, indent=2))
+    save_text(OUT / f"{stem}.md", _markdown(summary))
 
 
 if __name__ == "__main__":

@@ -186,3 +186,21 @@ def test_ownership_comes_from_the_feedback(light):
     # the border-ownership cells still fire without feedback: the map is zero because both sides are equal
     rec, _ = SpikingRecord.from_maps(off)
     assert sum(int(rec.counts[n].sum()) for n in rec.names if n.startswith("bo_")) > 100
+
+
+def test_a_model_keeps_one_backend_and_gives_a_fresh_models_maps():
+    """The spiking model runs every input on one backend object (so the fast
+    engine's tables and cell arrays serve them all); a frame run after
+    another must give exactly what a fresh model gives."""
+    from snn_fg.models import Frame, get_model
+
+    first, second = (image_to_frame(disc(r).image) for r in (12, 9))
+    kept = get_model("spiking", SMALL, duration_ms=80)
+    kept.run_frame(Frame(*first))
+    backend = kept._sim()
+    again = kept.run_frame(Frame(*second))
+    assert kept._sim() is backend and backend._tables is not None
+    fresh = get_model("spiking", SMALL, duration_ms=80).run_frame(Frame(*second))
+    assert np.abs(fresh.fg_x).sum() > 0
+    for k in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(again, k), getattr(fresh, k), err_msg=k)

@@ -188,11 +188,11 @@ def rate_histogram_figure(record, window: int | None = None) -> Figure:
     return fig
 
 
-def save_spiking_figures(maps, out_dir, window: int | None = None, maps_figure: bool = True) -> list[Path]:
+def save_spiking_figures(maps, out_dir, window: int | None = None, with_maps: bool = True) -> list[Path]:
     """Write ``maps.png``, ``spike_raster.png`` and ``rate_histograms.png`` of a
     spiking run's :class:`~snn_fg.maps.Maps` (or a saved one loaded with
     ``Maps.load``) into ``out_dir``. For a recording's maps the figures show
-    one window (default: the one with the most spikes). ``maps_figure=False``
+    one window (default: the one with the most spikes). ``with_maps=False``
     leaves ``maps.png`` out (for a caller that drew its own)."""
     from .spiking.record import SpikingRecord
 
@@ -203,7 +203,7 @@ def save_spiking_figures(maps, out_dir, window: int | None = None, maps_figure: 
     title = "" if window is None else f"(window {window})"
     written = [save_maps_figure(out / "maps.png", event_frame_rgb(record.input_on, record.input_off),
                                 pick(maps.fg_x), pick(maps.fg_y), pick(maps.grouping), [title],
-                                grouping_label=SPIKING_GROUPING_LABEL)] if maps_figure else []
+                                grouping_label=SPIKING_GROUPING_LABEL)] if with_maps else []
     written.append(save_figure(raster_figure(record, window), out / "spike_raster.png", dpi=120))
     written.append(save_figure(rate_histogram_figure(record, window), out / "rate_histograms.png", dpi=110))
     return written

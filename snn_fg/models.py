@@ -192,6 +192,9 @@ class SpikingModel(Model):
             self._backend = as_backend(self.backend)
         return self._backend
 
+    def __getstate__(self):
+        return {**self.__dict__, "_backend": None}    # (a copy elsewhere makes its own: the arrays stay here)
+
     def _net(self) -> dict:
         """The stored description to run, or the parameters to build it from."""
         return {"params": self.params} if self.network is None else {"network": self.network}
@@ -231,7 +234,7 @@ class SpikingModel(Model):
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None) -> list[Path]:
         written = super().write_figures(out, maps, inputs, titles)
-        return written + save_spiking_figures(maps, out, maps_figure=False)
+        return written + save_spiking_figures(maps, out, with_maps=False)
 
 
 MODELS: dict[str, type[Model]] = {m.name: m for m in (RateModel, FbfgModel, SpikingModel)}

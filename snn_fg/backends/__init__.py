@@ -78,5 +78,5 @@ def available_backends() -> dict[str, tuple[bool, str]]:
     return {name: backend_class(name).available() for name in BACKENDS}
 
 
-__all__ = ["BACKENDS", "DEFAULT_BACKEND", "Backend", "RunSettings", "SimulationResult", "as_backend", "available_backends",
-           "backend_class", "backend_names", "get_backend"]
+__all__ = ["BACKENDS", "DEFAULT_BACKEND", "Backend", "RunSettings", "SimulationResult", "as_backend",
+           "available_backends", "backend_class", "backend_names", "get_backend"]

@@ -40,8 +40,8 @@ class SpikingRecord:
     """Spike counts and cells of one spiking run (or one window of a recording)."""
 
     names: list
-    counts: dict               # population -> int32 spikes of each cell that fired (maps saved before
-    #                            2026-11-24 hold every instantiated cell, silent ones with 0)
+    counts: dict               # population -> int32 spikes of each cell that fired (maps saved by
+    #                            earlier versions hold every instantiated cell, silent ones with 0)
     sites: dict                # population -> int64 flat index of each in its (channels, rows, cols)
     raster: Raster | None
     input_on: np.ndarray       # uint8 (H, W): pixels that received ON input

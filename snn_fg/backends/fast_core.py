@@ -63,6 +63,7 @@ def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
     for a in range(n_act):
         if a + AHEAD < n_act:
             prefetch(state, U(act[U(a + AHEAD)]))
+            prefetch(inact, U(act[U(a + AHEAD)]))      # (written when the cell is parked)
         g = act[U(a)]
         while g >= end:
             q += 1

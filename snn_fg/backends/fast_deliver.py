@@ -31,7 +31,7 @@ EXC = 1
 #: took a dvs.es window's simulation from 4.2 to 3.0 s of CPU; 8 and 24 were
 #: no better then). Since the cell arrays sit in 2 MB pages, 24 is better:
 #: side by side with 12 in 6 rounds of two windows, 0.82-0.99 of its time
-#: (mean 0.91); 6 was slower, 32 and 48 no better than 24
+#: (mean 0.91); 6 was slower, 32 and 48 about the same as 24
 AHEAD = 24
 
 

@@ -53,8 +53,10 @@ def inward_angles(fg_x, fg_y, region: np.ndarray, band_px: int = 3, sigma: float
     ``(mean absolute angle to the inward normal in degrees, fraction within
     45 degrees of it)``; ``(nan, nan)`` without vectors. Stricter than the
     sign of the dot product: a vector along the outline counts as 90 degrees off."""
+    from .metrics import angle_difference_deg
+
     fx, fy, nx, ny = _outline_vectors(fg_x, fg_y, region, band_px, sigma)
     if not fx.size:
         return float("nan"), float("nan")
-    diff = np.degrees(np.abs(np.angle(np.exp(1j * (np.arctan2(fy, fx) - np.arctan2(ny, nx))))))
+    diff = angle_difference_deg(fx, fy, nx, ny)
     return float(diff.mean()), float(np.mean(diff <= 45.0))

@@ -187,14 +187,14 @@ class _Run:
         self.n_present = int(sum(chosen[p.name].size for p in lif_populations(tab.network)))
         self.state = pool.zeros("state", off, STATE)          # all at rest: never touched
         self.inact = pool.zeros("inact", off, np.uint8)
-        self.act, self.new, self.tmp, self.fresh = (pool.empty(name, off, np.int32)
+        self.act, self.new, self.tmp, self.fresh = (pool.zeros(name, off, np.int32)
                                                     for name in ("act", "new", "tmp", "fresh"))
         self.scalars = np.zeros(2, dtype=np.int64)
         self.log = np.empty(LOG_START, dtype=np.int32)
         self.step_start = np.zeros(n_steps + 1, dtype=np.int64)
         largest = int(max(chosen[p.name].size for p in lif_populations(tab.network)))
         self.acc = pool.zeros("acc", max(largest, 1), np.float64)
-        self.touched = pool.empty("touched", largest + tab.max_fanout, np.int64)
+        self.touched = pool.zeros("touched", largest + tab.max_fanout, np.int64)
         self.counters = np.zeros(N_FRESH + 1, dtype=np.int64)
         self.prj_events = np.zeros(len(tab.network.projections), dtype=np.int64)
 
@@ -286,17 +286,12 @@ class _Pool:
     def __init__(self):
         self.arrays: dict = {}
 
-    def _get(self, name, n, dtype):
+    def zeros(self, name, n, dtype):
+        """The pool's array ``name``, at least ``n`` long (zeros when new)."""
         a = self.arrays.get(name)
         if a is None or a.size < n or a.dtype != np.dtype(dtype):
             a = self.arrays[name] = zeroed(max(n, 1), dtype)
         return a[:n]
-
-    def zeros(self, name, n, dtype):
-        return self._get(name, n, dtype)
-
-    #: (every array starts zeroed; the name says the caller needs no zeros)
-    empty = zeros
 
     def clear(self):
         self.arrays.clear()

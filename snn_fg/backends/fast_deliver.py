@@ -106,10 +106,10 @@ def _flush(acc, touched, n_touched, off, col, n, t, state, inact, new, n_new, fr
     advances = 0
     for x in range(n_touched):
         if x + AHEAD < n_touched:
-            ahead = U(off + touched[U(x + AHEAD)])
-            prefetch(state, ahead)
-            prefetch(inact, ahead)
-            prefetch(acc, U(touched[U(x + AHEAD)]))     # (its summed input: 10 MB for dvs.es simple cells)
+            later = touched[U(x + AHEAD)]
+            prefetch(state, U(off + later))
+            prefetch(inact, U(off + later))
+            prefetch(acc, U(later))     # (its summed input: 10 MB for dvs.es simple cells)
         loc = touched[U(x)]
         w = acc[U(loc)]
         if w == 0.0:

@@ -27,7 +27,7 @@ from ..backends import DEFAULT_BACKEND, RunSettings, as_backend
 from ..errors import InputError
 from ..maps import Maps
 from .api import resolve_network, run_params, stderr_log
-from .decode import decode_rates, decoded_rates
+from .decode import decode
 from .inputs import event_spikes
 from .record import SpikingRecord
 
@@ -194,7 +194,7 @@ def _spikes_between(spikes, a: float, b: float):
 
 
 def _window_maps(result, window, net, origin, backend, t_start, simulation) -> Maps:
-    fg_x, fg_y, grouping, _ = decode_rates(net, result.sites, decoded_rates(result))
+    fg_x, fg_y, grouping, _ = decode(result)
     masks = SimpleNamespace(on=window.pos != 0, off=window.neg != 0)
     rec = SpikingRecord.from_result(result, masks, simulation["count_from_ms"])
     simulation = {**rec.timing(), **simulation}

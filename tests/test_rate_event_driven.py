@@ -164,3 +164,28 @@ def test_continuing_from_another_shape_or_more_than_all_is_refused():
     same = _engine(pos, neg, PARAMS).run()
     with pytest.raises(ParameterError, match="carry=1.5 must be <= 1"):
         _engine(pos, neg, PARAMS).continue_from(same, carry=1.5)
+
+
+def test_loading_a_dense_state_and_stepping_each_stage_is_one_more_iteration():
+    """The hooks that put another implementation's state (a spiking network's
+    decoded rates) through the model's own stages: a fresh engine loaded with
+    the dense state after 3 iterations, then stage 7 and stage 8 once, holds
+    the 4-iteration state; ``pooled_z`` is the z that stage 8 turned into B."""
+    pos, neg = _frame()
+    p3, p4 = (ModelParams(levels=2, n_ori=4, iterations=k) for k in (3, 4))
+    three, four = _engine(pos, neg, p3).run(), _engine(pos, neg, p4).run()
+    fresh = _engine(pos, neg, p3).load(three.dense())
+    assert np.allclose(fresh.readout(pos.shape)[0], three.readout(pos.shape)[0])
+    fresh.group_step()
+    for (gl, gd), (wl, wd) in zip(fresh.grouping_maps(), four.grouping_maps()):
+        assert np.allclose(gl, wl, atol=1e-9 * max(np.abs(wl).max(), 1)) and np.allclose(gd, wd, atol=1e-9 * max(np.abs(wd).max(), 1))
+    z = fresh.pooled_z()
+    fresh.feedback_step()
+    for got, want in zip(fresh.readout(pos.shape), four.readout(pos.shape)):
+        assert np.allclose(got, want, rtol=1e-6, atol=1e-9 * max(np.abs(want).max(), 1))
+    lv = fresh.levels[0]
+    f = 1 + PARAMS.alpha * (1 / (1 + np.exp(-z)) - 0.5)
+    assert np.allclose(lv.bl, lv.e.s * f) and np.allclose(lv.bd, lv.e.s * (2 - f))
+    # (and loading only the grouping maps leaves B at S, which differs from the 3-iteration B)
+    only_g = _engine(pos, neg, p3).load(three.dense(), border=False)
+    assert not np.allclose(only_g.levels[0].bl, three.levels[0].bl)

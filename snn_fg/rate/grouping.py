@@ -362,6 +362,56 @@ class SparseGrouping:
             self._feedback(x, i)
         return self
 
+    def load(self, state: GroupingResult, border: bool = True, grouping: bool = True) -> "SparseGrouping":
+        """Set the border-ownership values ``B`` (at this engine's entries)
+        and/or the grouping maps from dense maps in the form of :meth:`dense`,
+        e.g. a spiking network's decoded rates, so that the model's own
+        stages (:meth:`group_step`, :meth:`feedback_step`) can be applied to
+        another implementation's state. Values are taken as they are (Hz
+        stay Hz). Returns ``self``."""
+        n = self.n
+        for k, lv in enumerate(self.levels):
+            e = lv.e
+            if border:
+                hi = e.ch >= n
+                o = np.where(hi, e.ch - n, e.ch)
+                at = (o, e.rows, e.cols)
+                lv.bl = np.where(hi, state.bl2[k][at], state.bl1[k][at]).astype(np.float64)
+                lv.bd = np.where(hi, state.bd1[k][at], state.bd2[k][at]).astype(np.float64)
+            if grouping:
+                lv.interior(lv.g_l)[...] = state.gl[k]
+                lv.interior(lv.g_d)[...] = state.gd[k]
+        return self
+
+    def group_step(self) -> "SparseGrouping":
+        """Stage 7 alone at every level: the grouping maps from the current ``B``."""
+        for lv in self.levels:
+            self._group(lv)
+        return self
+
+    def feedback_step(self) -> "SparseGrouping":
+        """Stage 8 alone at every level: ``B`` from the current grouping maps."""
+        self._plan_feedback()
+        x = [self._correlate(lv) for lv in self.levels]
+        for i in range(len(self.levels)):
+            self._feedback(x, i)
+        return self
+
+    def pooled_z(self) -> np.ndarray:
+        """The pooled feedback input ``z`` of stage 8 at the finest level's
+        entries (``z1`` for channels below ``n_ori``, ``z2`` above; ``S`` is 1
+        at every one of them), from the current grouping maps."""
+        self._plan_feedback()
+        x = [self._correlate(lv) for lv in self.levels]
+        lv, p = self.levels[0], self.params
+        e = lv.e
+        z = x[0][e.ch, e.rows, e.cols].copy()
+        for k in range(1, len(self.levels)):
+            rs, rw = cubic_taps(self.levels[k].shape[0], lv.shape[0])
+            cs, cw = cubic_taps(self.levels[k].shape[1], lv.shape[1])
+            nbk.pool_add(z, e.rows, e.cols, e.ch, x[k], rs, rw, cs, cw, p.pyramid_decay ** k)
+        return z
+
     def run(self, progress=None) -> "SparseGrouping":
         """Iterate stages 7 and 8 ``params.iterations`` times (``progress`` wraps the range)."""
         steps = range(self.params.iterations)

@@ -127,8 +127,12 @@ class Gains:
             bo_inh_bo=per_spike(sp.bo_inh_bo, CELL_RATE_HZ, bo, "inh"),
             group_inh_group=per_spike(sp.group_inh_group, CELL_RATE_HZ, g, "inh"),
             simple_inh_untuned=sp.simple_inh_untuned * u.v_th_mv / (SIMPLE_RATE_HZ * u.tau_inh_ms / 1000.0),
-            # a feedback cell's rate is ~ I / (tau_m v_th): this hands decay * its input current on
-            pool=params.pyramid_decay * fb.tau_m_ms * fb.v_th_mv / fb.tau_exc_ms,
+            # hands level l decay * the drive of the level-(l+1) cell: a feedback cell firing at
+            # CELL_RATE_HZ is under the drive drive_for_rate(CELL_RATE_HZ) (3.9 thresholds for the
+            # default cell, leak and refractoriness included; I / (tau_m v_th), 2 thresholds, passed
+            # on 0.3 of the coarse levels' share, experiments/results/spiking_stages.md)
+            pool=sp.pool_gain * params.pyramid_decay * fb.drive_for_rate(CELL_RATE_HZ)
+            / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0),
             # a subtraction decays with tau_inh instead of tau_exc; scaled so it weighs what it subtracts
             balance=g.tau_exc_ms / g.tau_inh_ms,
         )

@@ -172,6 +172,16 @@ class Neuron(Node):
         """Refractory ceiling of the firing rate (inf without refractoriness)."""
         return math.inf if self.t_ref_ms == 0 else 1000.0 / self.t_ref_ms
 
+    def drive_for_rate(self, rate_hz: float) -> float:
+        """The steady drive (mV above ``v_rest`` that a constant current holds
+        the membrane at, ``R I``) under which the cell fires at ``rate_hz``:
+        the inverse of ``1 / (t_ref + tau_m ln((v_inf - v_reset) / (v_inf - v_th)))``."""
+        if not 0 < rate_hz < self.max_rate_hz:
+            raise ValueError(f"rate_hz={rate_hz} must lie in (0, {self.max_rate_hz}) Hz")
+        grow = math.exp((1000.0 / rate_hz - self.t_ref_ms) / self.tau_m_ms)
+        v_inf = (grow * self.v_th_mv - self.v_reset_mv) / (grow - 1.0)
+        return v_inf - self.v_rest_mv
+
 
 @dataclass(frozen=True, kw_only=True)
 class Population(Node):

@@ -100,7 +100,12 @@ class SpikingParams(Node):
         (inhibiting) a border-ownership cell [100 Hz]; ``bo_to_excess``
         [100 Hz]; ``bo_to_group`` per unit kernel weight [100 Hz];
         ``group_inh_group``: light and dark grouping cells [100 Hz];
-        ``group_to_feedback`` per unit kernel weight [100 Hz].
+        ``group_to_feedback`` per unit kernel weight [100 Hz]; ``pool_gain``:
+        the top-down pooling of stage 8, in units of the model's
+        (1: a level hands the next finer one ``pyramid_decay`` times the drive
+        of its feedback cells, read from their rate through the LIF's own rate
+        curve at 100 Hz; 0.52 was the earlier calibration, which took the rate
+        as ``I / (tau_m v_th)``).
     """
 
     _nested: ClassVar[dict] = {kind: Neuron for kind in CELL_KINDS}
@@ -141,6 +146,7 @@ class SpikingParams(Node):
     group_inh_group: float = 0.5
     group_to_feedback: float = 0.4
     bo_to_excess: float = 2.0
+    pool_gain: float = 1.0
     clock_inh_group: float = 300.0
 
     def __post_init__(self):

@@ -397,6 +397,12 @@ class SparseGrouping:
             self._feedback(x, i)
         return self
 
+    def feedback_correlations(self) -> list[np.ndarray]:
+        """Per level, the dense ``(2n, h, w)`` correlation of its own grouping
+        maps that stage 8 pools (``z1`` channels first, then ``z2``), before
+        any coarser level is added."""
+        return [self._correlate_dense(lv) for lv in self.levels]
+
     def pooled_z(self) -> np.ndarray:
         """The pooled feedback input ``z`` of stage 8 at the finest level's
         entries (``z1`` for channels below ``n_ori``, ``z2`` above; ``S`` is 1

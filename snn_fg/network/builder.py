@@ -99,7 +99,6 @@ class Gains:
     group_inh_group: float
     simple_inh_untuned: float
     pool: float                  # feedback cells of level l+1 -> level l
-    balance: float               # tau_exc / tau_inh: the weight of a subtraction
 
     @classmethod
     def of(cls, params: ModelParams, sp: SpikingParams) -> "Gains":
@@ -133,9 +132,14 @@ class Gains:
             # on 0.3 of the coarse levels' share, experiments/results/spiking_stages.md)
             pool=sp.pool_gain * params.pyramid_decay * fb.drive_for_rate(CELL_RATE_HZ)
             / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0),
-            # a subtraction decays with tau_inh instead of tau_exc; scaled so it weighs what it subtracts
-            balance=g.tau_exc_ms / g.tau_inh_ms,
         )
+
+    @staticmethod
+    def balance(target: Neuron) -> float:
+        """``tau_exc / tau_inh`` of the target: an inhibitory current decays
+        with ``tau_inh`` instead of ``tau_exc``, so a subtraction scaled by
+        this weighs what it subtracts."""
+        return target.tau_exc_ms / target.tau_inh_ms
 
     def input_to_untuned(self, sp: SpikingParams, level: int) -> float:
         """An untuned cell's excitation: ``input_to_untuned`` thresholds at its
@@ -299,7 +303,7 @@ class _Builder:
                          site_sources=(b[f],)) for f in FAMILIES}
         for f in FAMILIES:
             self.conv(b[f], x[f], same, gain=self.gains.bo_to_excess)
-            self.conv(b[PARTNER[f]], x[f], same, sign=-1, gain=self.gains.bo_to_excess * self.gains.balance)
+            self.conv(b[PARTNER[f]], x[f], same, sign=-1, gain=self.gains.bo_to_excess * Gains.balance(self.neurons["excess"]))
         return x
 
     def grouping_cells(self, level, b):
@@ -320,7 +324,7 @@ class _Builder:
         for fam, pol, half, sign in GROUPING_INPUTS:
             if sign < 0 and w == 0:
                 continue
-            gain = self.gains.bo_to_group * (1.0 if sign > 0 else w * self.gains.balance)
+            gain = self.gains.bo_to_group * (1.0 if sign > 0 else w * Gains.balance(self.neurons["group"]))
             self.conv((b if sign > 0 else rivals)[fam], g[pol], _von_mises(half, "gather"), sign=sign, gain=gain,
                       prune=self.sp.prune_vm)
         for a, c in (("L", "D"), ("D", "L")):
@@ -340,7 +344,7 @@ class _Builder:
             (pol_for, half_for), (pol_against, half_against) = FEEDBACK_INPUTS[k]
             self.conv(g[pol_for], z[k], _von_mises(half_for, "scatter"), gain=gain, prune=self.sp.prune_vm)
             self.conv(g[pol_against], z[k], _von_mises(half_against, "scatter"), sign=-1,
-                      gain=gain * self.gains.balance, prune=self.sp.prune_vm)
+                      gain=gain * Gains.balance(self.neurons["feedback"]), prune=self.sp.prune_vm)
         for fam, (k_for, k_against) in FEEDBACK_TO_FAMILY.items():
             for k, sign, gain in ((k_for, 1, self.gains.feedback_to_bo), (k_against, -1, self.gains.feedback_inh_bo)):
                 if gain > 0:
@@ -369,7 +373,8 @@ class _Builder:
                 self.resize(f"feedback_{k}_{level + 1}", dst, gain=self.gains.pool,
                             interpolation=self.sp.pool_interpolation, prune=self.sp.prune_resize)
                 self.resize(f"feedback_{OPPOSITE_HALF[k]}_{level + 1}", dst, sign=-1,
-                            gain=self.gains.pool * self.gains.balance, interpolation=self.sp.pool_interpolation,
+                            gain=self.gains.pool * Gains.balance(self.neurons["feedback"]),
+                            interpolation=self.sp.pool_interpolation,
                             prune=self.sp.prune_resize)
 
 

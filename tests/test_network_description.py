@@ -286,3 +286,31 @@ def test_stored_default_network_is_current():
     net = Network.load(ROOT / "networks" / "default_321x481.json")
     assert net.params == ModelParams()
     assert net == build_network(ModelParams(), (321, 481), SpikingParams())
+
+
+def _lif_rate(neuron: Neuron, drive_mv: float, seconds=2.0, dt_ms=0.005) -> float:
+    """Firing rate of a LIF held under a constant drive, by plain Euler
+    integration (independent of the closed form under test)."""
+    v, t_free, spikes = neuron.v_reset_mv, 0.0, 0
+    for _ in range(int(seconds * 1000 / dt_ms)):
+        if t_free > 0:
+            t_free -= dt_ms
+            continue
+        v += dt_ms / neuron.tau_m_ms * (neuron.v_rest_mv + drive_mv - v)
+        if v >= neuron.v_th_mv:
+            spikes, v, t_free = spikes + 1, neuron.v_reset_mv, neuron.t_ref_ms
+    return spikes / seconds
+
+
+@pytest.mark.parametrize("neuron", [SpikingParams().feedback, Neuron(tau_m_ms=10, t_ref_ms=5, v_rest_mv=-2.0)])
+@pytest.mark.parametrize("rate_hz", [40.0, 100.0])
+def test_drive_for_rate_is_the_drive_that_gives_the_rate(neuron, rate_hz):
+    """The top-down pooling weight reads a feedback cell's rate back as its
+    drive through this inverse of the LIF rate curve (leak and refractory
+    period included); a simulated cell under that drive fires at the rate."""
+    drive = neuron.drive_for_rate(rate_hz)
+    assert _lif_rate(neuron, drive) == pytest.approx(rate_hz, rel=0.02)
+    # (the perfect-integrator reading, rate * tau_m * v_th, is far off: about half the drive)
+    assert rate_hz * neuron.tau_m_ms / 1000.0 * (neuron.v_th_mv - neuron.v_rest_mv) < 0.7 * drive
+    with pytest.raises(ParameterError, match="rate_hz"):
+        neuron.drive_for_rate(neuron.max_rate_hz)

@@ -176,8 +176,8 @@ class Neuron(Node):
         """The steady drive (mV above ``v_rest`` that a constant current holds
         the membrane at, ``R I``) under which the cell fires at ``rate_hz``:
         the inverse of ``1 / (t_ref + tau_m ln((v_inf - v_reset) / (v_inf - v_th)))``."""
-        if not 0 < rate_hz < self.max_rate_hz:
-            raise ValueError(f"rate_hz={rate_hz} must lie in (0, {self.max_rate_hz}) Hz")
+        rate_hz = check.number("Neuron.drive_for_rate", "rate_hz", rate_hz, lo=0, lo_open=True,
+                               hi=None if self.t_ref_ms == 0 else self.max_rate_hz, hi_open=True)
         grow = math.exp((1000.0 / rate_hz - self.t_ref_ms) / self.tau_m_ms)
         v_inf = (grow * self.v_th_mv - self.v_reset_mv) / (grow - 1.0)
         return v_inf - self.v_rest_mv

@@ -356,11 +356,7 @@ class SparseGrouping:
         for lv, old in zip(self.levels, previous.levels):
             np.multiply(old.g_l, carry, out=lv.g_l)
             np.multiply(old.g_d, carry, out=lv.g_d)
-        self._plan_feedback()
-        x = [self._correlate(lv) for lv in self.levels]
-        for i in range(len(self.levels)):
-            self._feedback(x, i)
-        return self
+        return self.feedback_step()
 
     def load(self, state: GroupingResult, border: bool = True, grouping: bool = True) -> "SparseGrouping":
         """Set the border-ownership values ``B`` (at this engine's entries)

@@ -128,8 +128,8 @@ class Gains:
             simple_inh_untuned=sp.simple_inh_untuned * u.v_th_mv / (SIMPLE_RATE_HZ * u.tau_inh_ms / 1000.0),
             # hands level l decay * the drive of the level-(l+1) cell: a feedback cell firing at
             # CELL_RATE_HZ is under the drive drive_for_rate(CELL_RATE_HZ) (3.9 thresholds for the
-            # default cell, leak and refractoriness included; I / (tau_m v_th), 2 thresholds, passed
-            # on 0.3 of the coarse levels' share, experiments/results/spiking_stages.md)
+            # default cell, leak and refractoriness included; reading it as I / (tau_m v_th), 2
+            # thresholds, passed on 0.23-0.41 of the coarse levels' share, docs/model.md stage 8)
             pool=sp.pool_gain * params.pyramid_decay * fb.drive_for_rate(CELL_RATE_HZ)
             / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0),
         )

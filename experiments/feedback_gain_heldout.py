@@ -25,8 +25,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
@@ -44,9 +42,9 @@ OUT = ROOT / "experiments" / "results"
 
 def _vs_rate(maps, ref) -> dict:
     c = compare_frame(maps.fg_x, maps.fg_y, maps.grouping, ref.fg_x, ref.fg_y, ref.grouping)
-    has = np.hypot(ref.fg_x, ref.fg_y) > 0
     return {"mean_deg": c["angle_diff_mean_deg"], "within_45": c["angle_within_45_frac"],
-            "grouping_r": c["grouping_pearson_r"], "coverage": float(np.mean(np.hypot(maps.fg_x, maps.fg_y)[has] > 0))}
+            "grouping_r": c["grouping_pearson_r"],
+            "coverage": c["pixels_compared"] / c["pixels_b"] if c["pixels_b"] else float("nan")}
 
 
 def main():

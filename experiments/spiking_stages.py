@@ -68,14 +68,12 @@ NOISE = (0.03, 0.1, 0.3)
 
 
 def _metrics(a, b) -> dict:
+    """``a`` against ``b`` (each ``(fg_x, fg_y, grouping)``); coverage: the
+    fraction of ``b``'s vectors that ``a`` also has."""
     c = compare_frame(*a, *b)
     return {"mean_deg": c["angle_diff_mean_deg"], "within_45": c["angle_within_45_frac"],
-            "grouping_r": c["grouping_pearson_r"]}
-
-
-def _coverage(maps, ref) -> float:
-    has_ref = np.hypot(ref[0], ref[1]) > 0
-    return float(np.mean(np.hypot(maps[0], maps[1])[has_ref] > 0))
+            "grouping_r": c["grouping_pearson_r"],
+            "coverage": c["pixels_compared"] / c["pixels_b"] if c["pixels_b"] else float("nan")}
 
 
 def _spiking(pos, neg, **kw):
@@ -184,8 +182,9 @@ def main():
         row = {"trajectory": [], "gain": []}
         for end, length in WINDOWS:
             result, maps = _spiking(pos, neg, duration_ms=end, settle_ms=end - length)
-            row["trajectory"].append({"window_ms": [end - length, end], "coverage": _coverage(maps, ref),
-                                      "vs_iterations": {k: _metrics(maps, refs[k]) for k in ITERATIONS}})
+            versus = {k: _metrics(maps, refs[k]) for k in ITERATIONS}
+            row["trajectory"].append({"window_ms": [end - length, end], "coverage": versus[10]["coverage"],
+                                      "vs_iterations": versus})
             print(f"{f} counts {end - length}-{end} ms: " + " ".join(
                 f"n{k} {v['mean_deg']:.1f}" for k, v in row["trajectory"][-1]["vs_iterations"].items()), flush=True)
         row["stages"] = _stages(result, pos, neg, params)       # the last run is the default read-out
@@ -193,11 +192,10 @@ def main():
         row["noise"] = {s: [_metrics(_noisy_reference(pos, neg, params, s, seed), ref) for seed in range(3)]
                         for s in NOISE}
         if f in a.gain_frames:
-            row["gain"].append({"variant": "default", "coverage": row["trajectory"][-1]["coverage"],
-                                **row["trajectory"][-1]["vs_iterations"][10]})
+            row["gain"].append({"variant": "default", **row["trajectory"][-1]["vs_iterations"][10]})
             for name, change in _variants().items():
                 _, maps = _spiking(pos, neg, spiking=SpikingParams(**change))
-                row["gain"].append({"variant": name, "coverage": _coverage(maps, ref), **_metrics(maps, ref)})
+                row["gain"].append({"variant": name, **_metrics(maps, ref)})
         record["frames"][f] = row
     record["seconds"] = time.perf_counter() - t0
     record["finished_load"] = os.getloadavg()

@@ -177,7 +177,7 @@ class Neuron(Node):
         the membrane at, ``R I``) under which the cell fires at ``rate_hz``:
         the inverse of ``1 / (t_ref + tau_m ln((v_inf - v_reset) / (v_inf - v_th)))``."""
         rate_hz = check.number("Neuron.drive_for_rate", "rate_hz", rate_hz, lo=0, lo_open=True,
-                               hi=None if self.t_ref_ms == 0 else self.max_rate_hz, hi_open=True)
+                               hi=self.max_rate_hz, hi_open=True)
         grow = math.exp((1000.0 / rate_hz - self.t_ref_ms) / self.tau_m_ms)
         v_inf = (grow * self.v_th_mv - self.v_reset_mv) / (grow - 1.0)
         return v_inf - self.v_rest_mv

@@ -2,8 +2,9 @@
 
 The continuous spiking network carries its state from one window of a
 recording into the next: the feedback's inhibition of the border-ownership
-cells that lost (up to ``feedback_inh_bo`` x 2.5 = 50 thresholds of current,
-decaying with tau_inh = 10 ms) outlasts the window, and the grouping family
+cells that lost (``feedback_inh_bo`` thresholds of current per 100 Hz of the
+feedback half against them, about 120 from a pair at 600 Hz, decaying with
+tau_inh = 10 ms) outlasts the window, and the grouping family
 that won one window keeps winning the next. The window clock fires as each
 window starts and inhibits every grouping cell by ``clock_inh_group``
 thresholds; this sweeps that strength on two inputs:

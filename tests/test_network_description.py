@@ -302,7 +302,8 @@ def _lif_rate(neuron: Neuron, drive_mv: float, seconds=2.0, dt_ms=0.005) -> floa
     return spikes / seconds
 
 
-@pytest.mark.parametrize("neuron", [SpikingParams().feedback, Neuron(tau_m_ms=10, t_ref_ms=5, v_rest_mv=-2.0)])
+@pytest.mark.parametrize("neuron", [SpikingParams().feedback, Neuron(tau_m_ms=20, t_ref_ms=4),
+                                    Neuron(tau_m_ms=10, t_ref_ms=5, v_rest_mv=-2.0)])
 @pytest.mark.parametrize("rate_hz", [40.0, 100.0])
 def test_drive_for_rate_is_the_drive_that_gives_the_rate(neuron, rate_hz):
     """The top-down pooling weight reads a feedback cell's rate back as its
@@ -310,7 +311,23 @@ def test_drive_for_rate_is_the_drive_that_gives_the_rate(neuron, rate_hz):
     period included); a simulated cell under that drive fires at the rate."""
     drive = neuron.drive_for_rate(rate_hz)
     assert _lif_rate(neuron, drive) == pytest.approx(rate_hz, rel=0.02)
-    # (the perfect-integrator reading, rate * tau_m * v_th, is far off: about half the drive)
-    assert rate_hz * neuron.tau_m_ms / 1000.0 * (neuron.v_th_mv - neuron.v_rest_mv) < 0.7 * drive
+    # (the perfect-integrator reading, rate * tau_m * v_th, is well short of it)
+    assert rate_hz * neuron.tau_m_ms / 1000.0 * (neuron.v_th_mv - neuron.v_rest_mv) < 0.8 * drive
     with pytest.raises(ParameterError, match="rate_hz"):
         neuron.drive_for_rate(neuron.max_rate_hz)
+
+
+def test_feedback_cells_rate_is_proportional_to_drive_over_their_range():
+    """Stage 8's pairs hand z down the pyramid as a rate, each level reading
+    the one above back as drive with one calibration (100 Hz): the default
+    feedback cell's rate per unit drive may not change by more than 10 %
+    between 100 and 400 Hz (the bulk of what the pairs fire at on BSDS
+    frames). The earlier cell (4 ms refractory) fails this: its rate per
+    unit drive halves between 100 and 200 Hz."""
+    def spread(neuron, rates):
+        per_drive = [_lif_rate(neuron, neuron.drive_for_rate(r), seconds=0.5) / neuron.drive_for_rate(r)
+                     for r in rates]
+        return max(per_drive) / min(per_drive)
+
+    assert spread(SpikingParams().feedback, (100.0, 200.0, 400.0)) < 1.10
+    assert spread(Neuron(tau_m_ms=20, t_ref_ms=4), (100.0, 200.0)) > 2.0

@@ -79,15 +79,25 @@ class SpikingParams(Node):
         clock, one spike source firing as each window of a recording starts,
         puts on every grouping cell (0: no clock). It must hold the grouping
         cells silent until the feedback's inhibition of the border-ownership
-        cells that lost the previous window has faded (up to
-        ``feedback_inh_bo`` x 2.5 = 50 thresholds, decaying with the
-        border-ownership cells' ``tau_inh``: about 46 ms to half a threshold);
-        otherwise the family that won one window wins the next whatever its
-        input (``experiments/window_clock.py``). A frame never fires it.
+        cells that lost the previous window has faded (``feedback_inh_bo``
+        thresholds per 100 Hz of the feedback half against them: about 120
+        thresholds from a pair at 600 Hz, the 90th percentile on a BSDS
+        frame, decaying with the border-ownership cells' ``tau_inh``: about
+        55 ms to half a threshold); otherwise the family that won one window
+        wins the next whatever its input (``experiments/window_clock.py``).
+        A frame never fires it.
     Neurons
         One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
         (:data:`CELL_KINDS`): ``simple``, ``untuned``, ``relay``, ``bo``
-        (border ownership), ``excess``, ``group``, ``feedback``.
+        (border ownership), ``excess``, ``group``, ``feedback``. The feedback
+        cells carry ``z`` as a rate through the top-down chain of stage 8, so
+        their rate must stay proportional to their drive over the range
+        ``z`` takes (a rectified pair at 100-600 Hz, a tail to 2 kHz on BSDS
+        frames): their refractory period is one step at the default
+        ``dt`` (0.5 ms), which keeps the rate per threshold of drive at
+        38-40 Hz from 100 to 400 Hz (34 Hz at 620 Hz). With the earlier
+        4 ms it fell from 26 Hz at 100 Hz to 10 Hz at 200 Hz, so the strong
+        part of ``z`` was clipped at every level it passed through.
     Gains (dimensionless, see the module docstring; reference rate in brackets)
         ``simple_inh_simple``: lateral inhibition between the directions at a
         pixel [100 Hz]; ``input_to_untuned``: an untuned cell's excitation at
@@ -133,7 +143,7 @@ class SpikingParams(Node):
     bo: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
     excess: Neuron = Neuron(tau_m_ms=10.0, t_ref_ms=5.0)
     group: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=2.0)
-    feedback: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=4.0)
+    feedback: Neuron = Neuron(tau_m_ms=20.0, t_ref_ms=0.5)
     simple_inh_simple: float = 3.0
     input_to_untuned: float = 1.5
     simple_inh_untuned: float = 20.0

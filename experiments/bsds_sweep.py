@@ -61,7 +61,14 @@ def select_ids(n: int | None) -> list[str]:
 
 
 def settings_key(settings: dict) -> str:
+    """Cache directory name of one set of settings. Runs of the spiking model
+    also key on the default network's constants, so a cache made before a
+    change of ``SpikingParams`` is not read back as the new network's."""
     text = json.dumps(settings, sort_keys=True)
+    if "spiking" in settings.get("event_models", ()):
+        from snn_fg.network import SpikingParams
+
+        text += json.dumps(SpikingParams().to_dict(), sort_keys=True)
     return "bsds-" + hashlib.sha1(text.encode()).hexdigest()[:10]
 
 

@@ -331,3 +331,24 @@ def test_feedback_cells_rate_is_proportional_to_drive_over_their_range():
 
     assert spread(SpikingParams().feedback, (100.0, 200.0, 400.0)) < 1.10
     assert spread(Neuron(tau_m_ms=20, t_ref_ms=4), (100.0, 200.0)) > 2.0
+
+
+def test_border_ownership_gate_covers_the_feedback_and_stays_shallow(net):
+    """Stage 5's gate must exceed what the feedback half for a
+    border-ownership cell can deliver with every feedback cell at its
+    ceiling (feedback alone cannot make the cell fire: B = S * f(z)), and
+    stay a few thresholds deep: the simple cell gives the gate back at its
+    reference rate, so a deep gate makes the cell silent, and its pixel
+    blank, wherever the simple cell fires a little slower (with the 0.5 ms
+    feedback cell and feedback_to_bo 1.0 the gate was 20.5 thresholds and
+    a quarter to a third of the rate model's vectors went blank on BSDS
+    frames)."""
+    for f in FAMILIES:
+        bo = net.one(f"bo_{f}", 1)
+        gate = bo.neuron.v_reset_mv - bo.neuron.v_rest_mv
+        fb = [p for p in net.projections if p.target == bo.name and p.source.startswith("feedback_") and p.sign > 0]
+        assert fb
+        for p in fb:
+            source = net.population(p.source).neuron
+            strongest = p.gain_mv * source.max_rate_hz * bo.neuron.tau_exc_ms / 1000.0
+            assert strongest < gate <= 4 * bo.neuron.v_th_mv

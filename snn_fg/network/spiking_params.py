@@ -107,7 +107,14 @@ class SpikingParams(Node):
         between the two border-ownership cells sharing a simple cell (0: none,
         so that only feedback tells them apart) [100 Hz]; ``feedback_to_bo``
         and ``feedback_inh_bo``: the feedback half for (exciting) and against
-        (inhibiting) a border-ownership cell [100 Hz]; ``bo_to_excess``
+        (inhibiting) a border-ownership cell [100 Hz] (``feedback_to_bo``
+        0.125: at the feedback cells' 2 kHz ceiling the excitation is 2.5
+        thresholds, what 1.0 gave at the 250 Hz ceiling of the earlier 4 ms
+        cell, so the gate that must cover it, and with it how much a
+        border-ownership cell depends on its simple cell's exact rate, stays
+        as deep; 1.0 with the 0.5 ms cell made the gate 20.5 thresholds and
+        left a quarter to a third of the rate model's vectors blank on BSDS
+        frames); ``bo_to_excess``
         [100 Hz]; ``bo_to_group`` per unit kernel weight [100 Hz];
         ``group_inh_group``: light and dark grouping cells [100 Hz];
         ``group_to_feedback`` per unit kernel weight [100 Hz]; ``pool_gain``:
@@ -150,7 +157,7 @@ class SpikingParams(Node):
     simple_to_bo: float = 1.5
     untuned_to_bo: float = 6.0
     bo_inh_bo: float = 0.0
-    feedback_to_bo: float = 1.0
+    feedback_to_bo: float = 0.125
     feedback_inh_bo: float = 20.0
     bo_to_group: float = 0.5
     group_inh_group: float = 0.5

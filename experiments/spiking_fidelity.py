@@ -76,11 +76,7 @@ def _row(name, kind, maps, ref, elapsed, scene=None, extra=None):
            "angle_diff_mean_deg": c["angle_diff_mean_deg"], "angle_within_45_frac": c["angle_within_45_frac"],
            "grouping_pearson_r": c["grouping_pearson_r"],
            "pixels_compared": c["pixels_compared"], "pixels_rate": c["pixels_b"],
-           # the angle columns are over shared pixels: how many of the rate model's vectors the map has at
-           # all, and how many it has within 45 deg, keep a map that drops the hard pixels from looking good
-           "rate_covered_frac": c["pixels_compared"] / c["pixels_b"] if c["pixels_b"] else float("nan"),
-           "rate_within_45_frac": (c["angle_within_45_frac"] * c["pixels_compared"] / c["pixels_b"]
-                                   if c["pixels_b"] else float("nan")),
+           "rate_covered_frac": c["coverage_of_b"], "rate_within_45_frac": c["within_45_of_b"],
            "seconds": elapsed,
            "cells": maps.params["counts"]["total_cells"], "synapses": maps.params["counts"]["total_synapses"],
            "timings_s": maps.params["timings_s"], "roles": _roles(maps)}

@@ -50,7 +50,7 @@ def _vs_rate(maps, ref) -> dict:
     c = compare_frame(maps.fg_x, maps.fg_y, maps.grouping, ref.fg_x, ref.fg_y, ref.grouping)
     return {"mean_deg": c["angle_diff_mean_deg"], "within_45": c["angle_within_45_frac"],
             "grouping_r": c["grouping_pearson_r"],
-            "coverage": c["pixels_compared"] / c["pixels_b"] if c["pixels_b"] else float("nan")}
+            "coverage": c["coverage_of_b"]}
 
 
 def main():

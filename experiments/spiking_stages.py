@@ -77,7 +77,7 @@ def _metrics(a, b) -> dict:
     c = compare_frame(*a, *b)
     return {"mean_deg": c["angle_diff_mean_deg"], "within_45": c["angle_within_45_frac"],
             "grouping_r": c["grouping_pearson_r"],
-            "coverage": c["pixels_compared"] / c["pixels_b"] if c["pixels_b"] else float("nan")}
+            "coverage": c["coverage_of_b"]}
 
 
 def _spiking(pos, neg, **kw):
@@ -181,7 +181,7 @@ def main():
         refs = {}
         for k in ITERATIONS:
             m = run_edfg(pos, neg, dataclasses.replace(params, iterations=k))
-            refs[k] = (m.fg_x, m.fg_y, m.grouping)
+            refs[k] = _maps(m)
         ref = refs[10]
         row = {"trajectory": [], "gain": []}
         for end, length in WINDOWS:

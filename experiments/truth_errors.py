@@ -32,19 +32,11 @@ sys.path.insert(0, str(ROOT))
 from snn_fg import scenes  # noqa: E402
 from snn_fg.atomic import save_figure, save_text  # noqa: E402
 from snn_fg.events import image_to_frame  # noqa: E402
-from snn_fg.metrics import angle_difference_deg, truth_scores  # noqa: E402
+from snn_fg.metrics import truth_errors, truth_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking  # noqa: E402
 
 OUT = ROOT / "experiments" / "results"
-
-
-def _errors(fx, fy, sc):
-    """Angle to the truth (deg) on scored boundary pixels, NaN elsewhere."""
-    m = sc.boundary & (np.hypot(fx, fy) > 0)
-    err = np.full(sc.shape, np.nan)
-    err[m] = angle_difference_deg(fx[m], fy[m], sc.truth_x[m], sc.truth_y[m])
-    return err
 
 
 def _per_owner(err, sc) -> list:
@@ -66,7 +58,7 @@ def main():
         for ax, (model, maps) in zip(ax_row, (("spiking", run_spiking(pos, neg, progress=False)),
                                               ("rate", run_edfg(pos, neg)))):
             fx, fy = maps.fg_x, maps.fg_y
-            err = _errors(fx, fy, sc)
+            err = truth_errors(fx, fy, sc)
             t = truth_scores(fx, fy, sc)
             rows.append({"scene": sc.name, "model": model, "within_45": t["frac_within_45"],
                          "mean_deg": t["mean_err_deg"], "coverage": t["coverage"], "shapes": _per_owner(err, sc)})

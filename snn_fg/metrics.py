@@ -9,6 +9,10 @@ is the mean of ``(difference / 180)**2`` on those pixels (0 = equal,
 1 = opposite everywhere). ``angle_ssim`` is the SSIM (11 x 11 window) of the
 angle maps (``atan2(fg_y, fg_x)`` in turns, 0 off the vectors), averaged over
 the pixels where either map has a vector, not over the empty background.
+Since those figures are over the shared pixels only, ``coverage_of_b`` gives
+the fraction of ``b``'s vectors that ``a`` has at all, and
+``within_45_of_b`` the fraction it has within 45 degrees: a map that leaves
+the hard pixels blank cannot look good on them.
 Grouping maps are dense and compared whole: Pearson r, and SSIM after scaling
 each map by its own maximum (the spiking model's grouping is in Hz, the rate
 model's in its own units).
@@ -73,6 +77,8 @@ def compare_frame(ax, ay, ag, bx, by, bg) -> dict:
         "angle_diff_mean_deg": float(np.mean(diff)) if diff.size else nan,
         "angle_diff_median_deg": float(np.median(diff)) if diff.size else nan,
         "angle_within_45_frac": float(np.mean(diff <= 45)) if diff.size else nan,
+        "coverage_of_b": float(both.sum() / has_b.sum()) if has_b.any() else nan,
+        "within_45_of_b": float(np.sum(diff <= 45) / has_b.sum()) if has_b.any() else nan,
         "angle_mse": float(np.mean((diff / 180.0) ** 2)) if diff.size else nan,
         "angle_ssim": _ssim(angle_map(ax, ay), angle_map(bx, by), has_a | has_b),
         "grouping_pearson_r": pearson(ag, bg),
@@ -156,16 +162,26 @@ def compare_maps(a: Maps, b: Maps, window: int | None = None) -> list[dict]:
     return rows
 
 
+def truth_errors(fg_x, fg_y, scene) -> np.ndarray:
+    """Angle (deg) between each scored pixel's vector and the analytic
+    direction: the boundary pixels where the model has a vector; NaN
+    elsewhere."""
+    m = scene.boundary & (np.hypot(fg_x, fg_y) > 0)
+    err = np.full(np.shape(fg_x), np.nan)
+    err[m] = angle_difference_deg(fg_x[m], fg_y[m], scene.truth_x[m], scene.truth_y[m])
+    return err
+
+
 def truth_scores(fg_x, fg_y, scene) -> dict:
     """Figure-ground direction against a scene's analytic ground truth.
 
     Scored on boundary pixels where the model vector is non-zero; ``coverage``
     is the fraction of boundary pixels that have a model vector at all.
     """
-    mag = np.hypot(fg_x, fg_y)
     b = scene.boundary
-    m = b & (mag > 0)
-    err = angle_difference_deg(fg_x[m], fg_y[m], scene.truth_x[m], scene.truth_y[m])
+    err_map = truth_errors(fg_x, fg_y, scene)
+    m = np.isfinite(err_map)
+    err = err_map[m]
     return {
         "boundary_pixels": int(b.sum()),
         "scored_pixels": int(m.sum()),

@@ -325,8 +325,8 @@ def test_feedback_cells_rate_is_proportional_to_drive_over_their_range():
     frames). The earlier cell (4 ms refractory) fails this: its rate per
     unit drive halves between 100 and 200 Hz."""
     def spread(neuron, rates):
-        per_drive = [_lif_rate(neuron, neuron.drive_for_rate(r), seconds=0.5) / neuron.drive_for_rate(r)
-                     for r in rates]
+        drives = [neuron.drive_for_rate(r) for r in rates]
+        per_drive = [_lif_rate(neuron, d, seconds=0.5) / d for d in drives]
         return max(per_drive) / min(per_drive)
 
     assert spread(SpikingParams().feedback, (100.0, 200.0, 400.0)) < 1.10

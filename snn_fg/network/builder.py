@@ -127,7 +127,7 @@ class Gains:
             group_inh_group=per_spike(sp.group_inh_group, CELL_RATE_HZ, g, "inh"),
             simple_inh_untuned=sp.simple_inh_untuned * u.v_th_mv / (SIMPLE_RATE_HZ * u.tau_inh_ms / 1000.0),
             # hands level l decay * the drive of the level-(l+1) cell: a feedback cell firing at
-            # CELL_RATE_HZ is under the drive drive_for_rate(CELL_RATE_HZ) (3.9 thresholds for the
+            # CELL_RATE_HZ is under the drive drive_for_rate(CELL_RATE_HZ) (2.6 thresholds for the
             # default cell, leak and refractoriness included; reading it as I / (tau_m v_th), 2
             # thresholds, passed on 0.23-0.41 of the coarse levels' share, docs/model.md stage 8)
             pool=sp.pool_gain * params.pyramid_decay * fb.drive_for_rate(CELL_RATE_HZ)

@@ -11,7 +11,7 @@ name in :mod:`snn_fg.backends` - the way PyNN keeps one neutral model in
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -120,7 +120,7 @@ class SimulationResult:
     count_window_ms: float
     simulated_ms: float
     dt_ms: float
-    spikes: dict | None = None
+    spikes: Mapping | None = None      # a dict, or the fast engine's read-only SpikeTrains
     state: dict = field(default_factory=dict)
     binned_counts: dict | None = None
     count_bins_ms: tuple | None = None

@@ -49,6 +49,7 @@ Example
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -259,9 +260,10 @@ class _Run:
         reset(self.state, self.inact, self.act, int(self.scalars[0]), self.fresh, int(self.counters[N_FRESH]))
 
     def spikes(self):
-        """Every spike of the run as ``(cell number, step)``."""
-        log_n = int(self.scalars[1])
-        return self.log[:log_n].astype(np.int64), np.repeat(np.arange(self.n_steps), np.diff(self.step_start))
+        """Every spike of the run: the cell numbers (int32, a view of the log)
+        and where each step's spikes start in them (``step_start[s]``, with
+        ``step_start[n_steps]`` the total)."""
+        return self.log[:int(self.scalars[1])], self.step_start
 
     def final_state(self) -> np.ndarray:
         """Every cell's ``(v, I_exc, I_inh)`` at the end of the run (volts, one row per cell)."""
@@ -331,36 +333,63 @@ def first_step_at(t_ms: float, dt_ms: float) -> int:
     return n
 
 
-def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings) -> SimulationResult:
-    from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS
+class SpikeTrains(Mapping):
+    """Every spike of a run's LIF populations, ``name -> (cell, t_ms)`` as
+    :class:`~.base.SimulationResult` documents it, ``cell`` int32.
 
-    ids, steps = run.spikes()
+    The log is regrouped by population once, into two int32 arrays (8 bytes
+    a spike), and the times are made on access. A BSDS frame's run has
+    about 1e8 spikes: an argsort with int64 keys and float64 times took
+    about 70 bytes a spike, more than the simulation itself."""
+
+    def __init__(self, network: Network, ids, step_start, starts, per_pop, dt_ms: float):
+        from .fast_core import group_by_population
+
+        keep = np.array([not p.is_source for p in network.populations], dtype=np.uint8)
+        kept = np.where(keep == 1, per_pop, 0)
+        self._cuts = np.concatenate([[0], np.cumsum(kept)]).astype(np.int64)
+        self._local = np.empty(int(self._cuts[-1]), dtype=np.int32)
+        self._step = np.empty(int(self._cuts[-1]), dtype=np.int32)
+        group_by_population(ids, step_start, starts, keep, self._cuts, self._local, self._step)
+        self._index = {p.name: q for q, p in enumerate(network.populations) if not p.is_source}
+        self._dt_s = dt_ms * ft.MS
+
+    def __getitem__(self, name):
+        q = self._index[name]
+        a, b = self._cuts[q], self._cuts[q + 1]
+        return self._local[a:b], (self._step[a:b] * self._dt_s) / ft.MS     # Brian2's t = n * dt, in ms
+
+    def __iter__(self):
+        return iter(self._index)
+
+    def __len__(self):
+        return len(self._index)
+
+
+def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings) -> SimulationResult:
+    from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells, population_totals
+
+    ids, step_start = run.spikes()
     n = run.state.size
     pops = lif_populations(tab.network)
     cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
-    at = np.searchsorted(steps, [first_step_at(settings.count_from_ms, settings.dt_ms)])[0]
-    all_counts = np.bincount(ids[at:], minlength=n)
+    all_counts = np.zeros(n, dtype=np.int64)
+    count_cells(ids, step_start[first_step_at(settings.count_from_ms, settings.dt_ms)], ids.size, all_counts)
     counts = {p.name: all_counts[cells[p.name]] for p in pops}
     binned = None
     if settings.count_bins_ms is not None:
-        from .fast_core import bin_counts
-
-        cuts = np.searchsorted(steps, [end for end, snapshot in segments(settings) if snapshot])
+        cuts = step_start[[end for end, snapshot in segments(settings) if snapshot]]
         # int32 (a bin would need 2^31 spikes of one cell): the whole network
         # over a recording is ~1e7 cells per bin
         per_bin = np.zeros((max(cuts.size - 1, 0), n), dtype=np.int32)
         bin_counts(ids, cuts.astype(np.int64), per_bin)
         binned = {p.name: per_bin[:, cells[p.name]] for p in pops}
-    spikes = None
-    if settings.record_spikes:
-        starts = run.cells[:, 0]
-        which = np.searchsorted(starts, ids, side="right") - 1
-        order = np.argsort(which, kind="stable")       # by population, in time order within each
-        which, local, t_ms = which[order], ids[order] - starts[which[order]], \
-            (steps[order] * (settings.dt_ms * ft.MS)) / ft.MS
-        cuts = np.searchsorted(which, np.arange(starts.size + 1))
-        spikes = {p.name: (local[cuts[q]:cuts[q + 1]], t_ms[cuts[q]:cuts[q + 1]])
-                  for q, p in enumerate(tab.network.populations) if not p.is_source}
+    starts = np.ascontiguousarray(run.cells[:, 0])
+    per_pop = np.zeros(starts.size, dtype=np.int64)
+    population_totals(ids, starts, per_pop)
+    is_source = np.array([p.is_source for p in tab.network.populations])
+    spikes = SpikeTrains(tab.network, ids, step_start, starts, per_pop, settings.dt_ms) \
+        if settings.record_spikes else None
     state = {}
     if settings.record_state:
         values = run.final_state()
@@ -368,7 +397,7 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
             state[p.name] = {var: values[cells[p.name], k] / ft.MV
                              for k, var in enumerate(("v", "I_exc", "I_inh")) if var in settings.record_state}
     events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
-    n_input = int(np.count_nonzero(run.ctype[ids] == ft.SOURCE_TYPE))
+    n_input = int(per_pop[is_source].sum())
     stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),
              "synaptic_events": events, "synaptic_events_total": int(run.counters[N_EVENTS]),
              "closed_form_advances": int(run.counters[N_ADVANCES]),

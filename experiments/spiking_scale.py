@@ -1,17 +1,21 @@
 """Wall time and peak memory of the spiking network on full 321 x 481 frames.
 
 Each frame runs in its own child process so that its peak resident memory
-(``ru_maxrss`` of the child) is its own. Prints and stores, per frame: cells
-and synapses per population, kept kernel mass, unroll / build / run times,
-total wall time and peak memory. Targets (issue 3): <= 8 GB peak, faster than
-the authors' non-spiking code (about 200 s per frame on this machine size).
+(``ru_maxrss`` of the child) is its own. Prints and stores, per frame: cells,
+synapses (an unrolling backend) or synaptic events (the fast engine, which
+never unrolls), spikes, the backend's timings, total wall time including
+start-up, peak memory and the machine's load before and after. Targets
+(issue 11): no frame above 7 GB, and no slower than the 20-160 s a frame
+took when that issue was filed.
 
-Usage: python experiments/spiking_scale.py [FRAME_ID ...]   (default: all six)
+Usage: python experiments/spiking_scale.py [--backend NAME] [--instantiate input|all] [FRAME_ID ...]   (default: all six)
 Writes experiments/results/spiking_scale.json and .md.
 """
 from __future__ import annotations
 
+import argparse
 import json
+import os
 import subprocess
 import sys
 import time
@@ -29,19 +33,27 @@ sys.path.insert(0, {root!r})
 from snn_fg.spiking import run_spiking_result
 t0 = time.perf_counter()
 d = np.load({path!r})
-res = run_spiking_result(d["pos"], d["neg"], progress=True, record_spikes=True)
+res = run_spiking_result(d["pos"], d["neg"], backend={backend!r}, instantiate={instantiate!r}, progress=False,
+                         record_spikes=True)
 wall = time.perf_counter() - t0
 m = res.maps
 out = {{"wall_s": wall, "timings_s": m.params["timings_s"], "counts": m.params["counts"],
-        "kept_kernel_mass": m.params["kept_kernel_mass"], "codegen": m.params["backend"]["codegen"],
+        "backend": m.params["backend"], "backend_stats": m.params["backend_stats"],
+        "instantiate": m.params["simulation"]["instantiate"],
         "populations": m.params["populations"],
         "peak_rss_mb_self": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}}
-print("@@RESULT@@" + json.dumps(out))
+print("@@RESULT@@" + json.dumps(out, default=float))
 """
 
 
-def run_frame(path: Path) -> dict:
-    code = CHILD.format(root=str(ROOT), path=str(path))
+def _load() -> str:
+    """The 1-minute load average, as text."""
+    return f"{os.getloadavg()[0]:.2f}"
+
+
+def run_frame(path: Path, backend: str, instantiate: str | None = None) -> dict:
+    code = CHILD.format(root=str(ROOT), path=str(path), backend=backend, instantiate=instantiate)
+    load_before = _load()
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     wall = time.perf_counter() - t0
@@ -49,28 +61,35 @@ def run_frame(path: Path) -> dict:
         raise RuntimeError(f"{path.name}: child failed\n{proc.stderr[-3000:]}")
     line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("@@RESULT@@"))
     res = json.loads(line[len("@@RESULT@@"):])
-    res["frame"] = path.stem
+    res.update(frame=path.stem, load_before=load_before, load_after=_load())
     res["process_wall_s"] = wall       # includes Python start-up and imports
     res["peak_rss_mb"] = res["peak_rss_mb_self"]     # the child's own maximum resident memory
     return res
 
 
 def main(argv=None):
-    argv = sys.argv[1:] if argv is None else argv
+    from snn_fg.backends import DEFAULT_BACKEND, backend_names
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("frames", nargs="*", help="BSDS frame ids (default: all six)")
+    ap.add_argument("--backend", default=DEFAULT_BACKEND, choices=backend_names(),
+                    help=f"simulator (default {DEFAULT_BACKEND})")
+    ap.add_argument("--instantiate", choices=("input", "all"), default=None,
+                    help="cells to create (default: the backend's own default, as snn-fg run does)")
+    args = ap.parse_args(argv)
     if not BSDS.exists():
         print(f"{BSDS} is absent: nothing to measure")
         return
     paths = sorted(BSDS.glob("*.npz"))
-    if argv:
-        paths = [p for p in paths if p.stem in argv]
+    if args.frames:
+        paths = [p for p in paths if p.stem in args.frames]
     rows = []
     for p in paths:
-        r = run_frame(p)
+        r = run_frame(p, args.backend, args.instantiate)
         rows.append(r)
-        print(f"{r['frame']}: {r['counts']['total_cells']:,} cells, {r['counts']['total_synapses']:,} synapses, "
-              f"wall {r['process_wall_s']:.1f} s (unroll {r['timings_s']['unroll']:.1f}, build "
-              f"{r['timings_s']['build']:.1f}, run {r['timings_s']['run']:.1f}), peak {r['peak_rss_mb']:.0f} MB",
-              flush=True)
+        t = ", ".join(f"{k} {v:.1f}" for k, v in r["timings_s"].items())
+        print(f"{r['frame']}: {r['counts']['total_cells']:,} cells, wall {r['process_wall_s']:.1f} s ({t}), "
+              f"peak {r['peak_rss_mb']:.0f} MB (load {r['load_before']})", flush=True)
     from snn_fg.atomic import save_text
     save_text(OUT / "spiking_scale.json", json.dumps(rows, indent=1))
     save_text(OUT / "spiking_scale.md", markdown(rows))
@@ -78,26 +97,35 @@ def main(argv=None):
 
 
 def _population_table(pops: dict) -> str:
-    lines = [f"{'population':16s} {'role':12s} {'level':>5s} {'cells':>10s} {'synapses in':>12s}"]
-    lines += [f"{name:16s} {p['role']:12s} {p['level']:5d} {p['cells']:10,d} {p['synapses_in']:12,d}"
-              for name, p in pops.items()]
+    lines = [f"{'population':16s} {'role':12s} {'level':>5s} {'cells':>10s} {'mean rate (Hz)':>15s} {'synapses in':>12s}"]
+    lines += [f"{name:16s} {p['role']:12s} {p['level']:5d} {p['cells']:10,d} {p['mean_rate_hz']:15.1f} "
+              f"{p['synapses_in']:12,d}" for name, p in pops.items()]
     return "\n".join(lines)
 
 
 def markdown(rows) -> str:
+    backends = sorted({r["backend"]["name"] for r in rows})
     lines = ["# Spiking network at full size (321 x 481, 10 levels)", "",
-             "Generated by `experiments/spiking_scale.py`; one child process per frame; default parameters "
-             "(400 ms simulated, dt 0.5 ms, spikes recorded). Peak = the child's maximum resident memory.", "",
-             "| frame | cells | synapses | unroll (s) | Brian2 build (s) | run (s) | wall incl. start-up (s) "
-             "| peak memory (MB) |", "|---|---|---|---|---|---|---|---|"]
+             f"Generated by `experiments/spiking_scale.py` (backend: {', '.join(backends)}); one child process "
+             "per frame, run one after another; default parameters (400 ms simulated, dt 0.5 ms, spikes "
+             "recorded). Peak = the child's maximum resident memory; wall includes Python start-up and "
+             "imports. Synapses are those an unrolling backend creates; the fast engine never unrolls the "
+             "kernels and counts synaptic events (one per tap a spike is delivered through) instead.", "",
+             "| frame | backend | cells (instantiated) | synapses | synaptic events | spikes | timings (s) "
+             "| wall incl. start-up (s) | peak memory (MB) | load before / after (1 min) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        t = r["timings_s"]
-        lines.append(f"| {r['frame']} | {r['counts']['total_cells']:,} | {r['counts']['total_synapses']:,} | "
-                     f"{t['unroll']:.1f} | {t['build']:.1f} | {t['run']:.1f} | {r['process_wall_s']:.1f} | "
-                     f"{r['peak_rss_mb']:.0f} |")
+        t = ", ".join(f"{k} {v:.1f}" for k, v in r["timings_s"].items())
+        st = r.get("backend_stats", {})
+        ev = f"{st['synaptic_events_total']:,}" if "synaptic_events_total" in st else "-"
+        spikes = f"{st['spikes']:,}" if "spikes" in st else "-"
+        syn = f"{r['counts']['total_synapses']:,}" if r["counts"]["total_synapses"] else "-"
+        lines.append(f"| {r['frame']} | {r['backend']['name']} | {r['counts']['total_cells']:,} ({r['instantiate']}) | "
+                     f"{syn} | {ev} | {spikes} | {t} | {r['process_wall_s']:.1f} | "
+                     f"{r['peak_rss_mb']:.0f} | {r['load_before']} / {r['load_after']} |")
     if rows:
-        big = max(rows, key=lambda r: r["counts"]["total_synapses"])
-        lines += ["", f"## Cells and synapses per population ({big['frame']}, the largest)", "", "```",
+        big = max(rows, key=lambda r: r["counts"]["total_cells"])
+        lines += ["", f"## Cells per population ({big['frame']}, the most cells)", "", "```",
                   _population_table(big["populations"]), "```"]
     return "\n".join(lines) + "\n"
 

@@ -102,7 +102,9 @@ def test_timed_events_on_every_cell_are_identical_to_brian2s():
     inp = event_spikes(rec.events, rec.sensor_size, 0.5, replay=True)
     net = build_network(ModelParams(levels=4), inp.shape).calibrated(inp.rate_hz)
     runs = _both(net, inp, RunSettings(duration_ms=60.0, instantiate="all"))
-    assert all(runs["fast"].sites[p.name].size == p.size for p in net.populations if p.level == 1 and not p.is_source)
+    # (every cell outside the edge masks: the grouping and feedback cells of level 1 are all there)
+    assert all(runs["fast"].sites[p.name].size == p.size for p in net.populations
+               if p.level == 1 and not p.is_source and not p.edge_mask)
     _assert_identical(runs, min_spikes=5_000)
 
 
@@ -228,3 +230,40 @@ def test_large_cell_arrays_start_at_zero():
         a[-1] = a[-1]                 # writable
         a.view(np.uint8)[:] = 7
         assert a.view(np.uint8).min() == 7
+
+
+@pytest.mark.parametrize("timed", [False, True])
+def test_the_cells_left_out_by_the_edge_masks_never_fire(timed):
+    """Level-1 simple and untuned cells outside the event pixels, and
+    border-ownership and excess cells outside their level's edge mask, exist
+    in the whole network (``instantiate="all"``) only if ``edge_mask`` is
+    dropped. They are gated by their pixel's own input or by their simple
+    cell, so the network with them must fire exactly the same spikes, at the
+    same cells, as the network without them; and they must be most of the
+    cells of their populations, or the masks would save nothing."""
+    import dataclasses
+
+    sc = disc(12, False)
+    if timed:
+        rec = image_to_events(sc.image)
+        inp = event_spikes(rec.events, rec.sensor_size, 0.5, replay=True)
+    else:
+        pos, neg = image_to_frame(sc.image)
+        inp = frame_spikes(pos, neg, 200.0, 0.5, 120.0, seed=2)
+    net = build_network(ModelParams(levels=3), inp.shape).calibrated(inp.rate_hz)
+    gated = {p.name for p in net.populations
+             if p.role.startswith(("bo_", "excess_")) or (p.level == 1 and p.role in ("simple", "untuned"))}
+    assert all(net.population(n).edge_mask for n in gated)
+    whole = dataclasses.replace(net, populations=tuple(
+        dataclasses.replace(p, edge_mask=False) if p.name in gated else p for p in net.populations))
+    settings = RunSettings(duration_ms=120.0, count_from_ms=40.0, instantiate="all")
+    masked, full = (get_backend("fast").simulate(n, inp, settings) for n in (net, whole))
+    total = 0
+    for name in full.populations:
+        got, want = _trains(masked, name), _trains(full, name)
+        for a, b in zip(got, want):
+            np.testing.assert_array_equal(a, b, err_msg=name)
+        total += want[0].size
+    assert total > 10_000
+    kept = sum(masked.sites[n].size for n in gated) / sum(full.sites[n].size for n in gated)
+    assert kept < 0.5

@@ -38,7 +38,7 @@ neither:
 The engine honours the instantiation hints like Brian2 (``instantiate=
 "input"`` marks the cells the hints leave out as absent) so that both
 backends simulate the same cells; with ``instantiate="all"`` it needs no
-per-input preparation beyond the coarse levels' edge masks.
+per-input preparation beyond the edge masks.
 
 Example
 -------

@@ -223,7 +223,7 @@ class _Builder:
         gate = self.gate_mv(kernels) if level == 1 else 0.0
         if gate:
             neuron = dataclasses.replace(neuron, v_rest_mv=neuron.v_rest_mv - gate)
-        s = self.pop("simple", level, channels=n_dir, neuron=neuron, sites="edges&drive", edge_mask=level > 1)
+        s = self.pop("simple", level, channels=n_dir, neuron=neuron, sites="edges&drive", edge_mask=True)
         for kernel, src in zip(kernels, (on, off)):
             self.conv(src, s, kernel, gain=self.gains.dog, mode="conv", padding="wrap", prune=self.sp.prune_dog,
                       calibrated=True)
@@ -243,7 +243,7 @@ class _Builder:
         """Stage 4's rule for event pixels without an oriented response: an
         untuned cell is excited by its pixel's input after ``delay_untuned_ms``
         and silenced by any simple cell there."""
-        u = self.pop("untuned", level, neuron=self.neurons["untuned"], sites="edges", edge_mask=level > 1)
+        u = self.pop("untuned", level, neuron=self.neurons["untuned"], sites="edges", edge_mask=True)
         g_u = self.gains.input_to_untuned(self.sp, level)
         for src in (on, off):
             self.conv(src, u, _channel_map(1, 1, [(0, 0)]), gain=g_u, delay=self.sp.delay_untuned_ms,
@@ -280,7 +280,7 @@ class _Builder:
             neuron = dataclasses.replace(neuron, v_rest_mv=neuron.v_rest_mv - gate)
         tau_s = neuron.tau_exc_ms / 1000.0
         b = {f: self.pop(f"bo_{f}", level, channels=n, neuron=neuron, sites="reachable",
-                         site_sources=(s, u)) for f in FAMILIES}
+                         site_sources=(s, u), edge_mask=True) for f in FAMILIES}
         same = [(o, o) for o in range(n)]
         for f in FAMILIES:
             half = FAMILY_HALF[f] * n
@@ -300,7 +300,7 @@ class _Builder:
         n = self.params.n_ori
         same = _channel_map(n, n, [(o, o) for o in range(n)])
         x = {f: self.pop(f"excess_{f}", level, channels=n, neuron=self.neurons["excess"], sites="reachable",
-                         site_sources=(b[f],)) for f in FAMILIES}
+                         site_sources=(b[f],), edge_mask=True) for f in FAMILIES}
         for f in FAMILIES:
             self.conv(b[f], x[f], same, gain=self.gains.bo_to_excess)
             self.conv(b[PARTNER[f]], x[f], same, sign=-1, gain=self.gains.bo_to_excess * Gains.balance(self.neurons["excess"]))

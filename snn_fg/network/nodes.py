@@ -194,10 +194,13 @@ class Population(Node):
     instantiation hint of :data:`SITE_RULES`.
 
     ``edge_mask``: the cells exist only at level pixels where the level's
-    resized edge map reaches ``Network.support_min``. This is part of the
-    model (the rate model weights coarse levels by that map), and the one
-    part of the network that depends on the input: the spiking network does
-    not compute it (see ``docs/model.md``).
+    resized edge map reaches ``Network.support_min`` (level 1: the event
+    pixels). For coarse simple and untuned cells this is part of the model
+    (the rate model weights coarse levels by that map), and the one part of
+    the network that depends on the input: the spiking network does not
+    compute it (see ``docs/model.md``). For the gated populations (level-1
+    simple and untuned cells, border-ownership and excess cells) it leaves
+    out only cells that cannot fire.
     """
 
     name: str

@@ -6,10 +6,10 @@ holds the *whole* description: every cell of every population
 the coarse levels' edge mask (``Population.edge_mask``: cells exist only
 where the resized edge map of the input reaches ``support_min``), cannot be
 part of a fixed network; the board network has those cells everywhere, and
-the export's notes say so. (The gated populations carry the mask too; for
-them it only leaves out cells that cannot fire, so dropping it changes
-nothing but the cell count) (its cost is measured in
-``experiments/results/export_fidelity.md``).
+the export's notes say so (its cost is measured in
+``experiments/results/export_fidelity.md``). The gated populations carry
+the mask too; for them it only leaves out cells that cannot fire, so
+dropping it changes nothing but the cell count.
 
 Each projection becomes a table that needs no unrolling to store:
 

@@ -182,6 +182,7 @@ def quant(out, bsds: bool):
                 "grouping_pearson_r", "angle_within_45_frac", "angle_diff_mean_deg", "pixels_compared")}})
             print(json.dumps(rows[-1]), flush=True)
     out["quantisation"] = rows
+    out["quantisation_bsds"] = bool(bsds)
 
 
 def write(out):
@@ -220,8 +221,10 @@ def write(out):
                              f"{x.get('angle_diff_mean_deg', nan):.1f} | {x.get('pixels_compared', 0):,} |")
         lines.append("")
     if "quantisation" in merged:
-        lines += ["## Weight quantisation (Brian2, against float)", "", "| input | bits | grouping r | within 45° | "
-                  "mean angle ° |", "|---|---|---|---|---|"]
+        scope = ("synthetic scenes and the six BSDS frames" if merged.get("quantisation_bsds")
+                 else "synthetic scenes only; the BSDS frames need `quant --bsds`")
+        lines += ["## Weight quantisation (Brian2, against float)", "", f"Inputs: {scope}.", "",
+                  "| input | bits | grouping r | within 45° | mean angle ° |", "|---|---|---|---|---|"]
         for r in merged["quantisation"]:
             lines.append(f"| {r['input']} | {r['bits']} | {r['grouping_pearson_r']:.3f} | "
                          f"{r['angle_within_45_frac']:.3f} | {r['angle_diff_mean_deg']:.1f} |")

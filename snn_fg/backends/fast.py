@@ -269,6 +269,12 @@ class _Run:
         ``step_start[n_steps]`` the total)."""
         return self.log[:int(self.scalars[1])], self.step_start
 
+    def input_spikes(self) -> int:
+        """How many input spikes the run fed (``in_ptr`` repeats every
+        ``in_ptr.size - 1`` steps), without a pass over the spike log."""
+        periods, rest = divmod(self.n_steps, self.in_ptr.size - 1)
+        return int(periods * self.in_ptr[-1] + self.in_ptr[rest])
+
     def final_state(self) -> np.ndarray:
         """Every cell's ``(v, I_exc, I_inh)`` at the end of the run (volts, one row per cell)."""
         from .fast_core import final_state
@@ -346,9 +352,11 @@ class SpikeTrains(Mapping):
     about 1e8 spikes: an argsort with int64 keys and float64 times took
     about 70 bytes a spike, more than the simulation itself."""
 
-    def __init__(self, network: Network, ids, step_start, starts, per_pop, dt_ms: float):
-        from .fast_core import group_by_population
+    def __init__(self, network: Network, ids, step_start, starts, dt_ms: float):
+        from .fast_core import group_by_population, population_totals
 
+        per_pop = np.zeros(starts.size, dtype=np.int64)
+        population_totals(ids, starts, per_pop)
         keep = np.array([not p.is_source for p in network.populations], dtype=np.uint8)
         kept = np.where(keep == 1, per_pop, 0)
         self._cuts = np.concatenate([[0], np.cumsum(kept)]).astype(np.int64)
@@ -371,7 +379,7 @@ class SpikeTrains(Mapping):
 
 
 def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings) -> SimulationResult:
-    from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells, population_totals
+    from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells
 
     ids, step_start = run.spikes()
     n = run.state.size
@@ -388,11 +396,7 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
         per_bin = np.zeros((max(cuts.size - 1, 0), n), dtype=np.int32)
         bin_counts(ids, cuts.astype(np.int64), per_bin)
         binned = {p.name: per_bin[:, cells[p.name]] for p in pops}
-    starts = np.ascontiguousarray(run.cells[:, 0])
-    per_pop = np.zeros(starts.size, dtype=np.int64)
-    population_totals(ids, starts, per_pop)
-    is_source = np.array([p.is_source for p in tab.network.populations])
-    spikes = SpikeTrains(tab.network, ids, step_start, starts, per_pop, settings.dt_ms) \
+    spikes = SpikeTrains(tab.network, ids, step_start, np.ascontiguousarray(run.cells[:, 0]), settings.dt_ms) \
         if settings.record_spikes else None
     state = {}
     if settings.record_state:
@@ -401,7 +405,7 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
             state[p.name] = {var: values[cells[p.name], k] / ft.MV
                              for k, var in enumerate(("v", "I_exc", "I_inh")) if var in settings.record_state}
     events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
-    n_input = int(per_pop[is_source].sum())
+    n_input = run.input_spikes()
     stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),
              "synaptic_events": events, "synaptic_events_total": int(run.counters[N_EVENTS]),
              "closed_form_advances": int(run.counters[N_ADVANCES]),

@@ -12,8 +12,9 @@ difference, mean rate per role (NEST / Brian2), wall time, peak memory.
 Writes experiments/results/nest_vs_brian2.json and .md; ``--figure`` draws the
 maps of every input run so far (kept in experiments/results/cache/nest_vs_brian2)
 side by side into nest_vs_brian2.png.
-``--seed-spread`` (after ``--only synthetic``) sets the per-role rate ratios
-beside Brian2's own spread over input seeds (nest_vs_brian2_seeds.{json,md}).
+``--seed-spread`` (after the NEST runs) sets the maps' agreement and the
+per-role rate ratios of every input run on NEST beside Brian2's own spread
+over input seeds (nest_vs_brian2_seeds.{json,md}).
 ``--nest-memory`` measures NEST's bytes per node and per synapse (nest_memory.json).
 ``--receptors signed`` runs NEST on the description exactly (each projection
 on its own receptor, signed weights) instead of the export's receptor split.
@@ -117,23 +118,34 @@ SEEDS = (0, 1, 2, 3)
 
 
 def seed_spread():
-    """How far the model's own per-role rates move between input seeds (the
-    phases of the regular input spikes), on the fast engine (Brian2's spikes,
-    verified), beside NEST/Brian2 at seed 0 from nest_vs_brian2_synthetic.json:
-    a role whose rate moves by more than 10 % between Brian2 seeds cannot be
-    held to 10 % between simulators."""
+    """How far the model's own maps and per-role rates move between input
+    seeds (the phases of the regular input spikes), on the fast engine
+    (Brian2's spikes, verified), beside NEST against Brian2 at seed 0 from
+    the nest_vs_brian2_{synthetic,frame,nmnist}.json present: a role whose
+    rate moves by more than 10 % between Brian2 seeds cannot be held to 10 %
+    between simulators, nor maps to a closer agreement than the seeds give.
+    Events (nmnist) have no seed: their row shows none."""
+    from snn_fg.metrics import agreement
     from snn_fg.spiking import run_spiking_result
 
-    syn = json.loads((OUT / "nest_vs_brian2_synthetic.json").read_text())
-    nest = {r["input"]: r for r in syn["rows"]}
+    nest = {}
+    for part in ("synthetic", "frame", "nmnist"):
+        f = OUT / f"nest_vs_brian2_{part}.json"
+        if f.exists():
+            nest.update({r["input"]: r for r in json.loads(f.read_text())["rows"] if r["nest_threads"] == 1})
     load = os.getloadavg()
-    rows = []
-    for name in SYNTHETIC:
-        per_seed = []
+    rows, maps_rows = [], []
+    for name in nest:
+        per_seed, maps = [], []
         for seed in SEEDS:
-            r = run_spiking_result(**_inputs(name), backend="fast", seed=seed, instantiate="input",
-                                   record_spikes=False, progress=False).result
-            per_seed.append(_role_rates(r))
+            res = run_spiking_result(**_inputs(name), backend="fast", seed=seed, instantiate="input",
+                                     record_spikes=False, progress=False)
+            per_seed.append(_role_rates(res.result))
+            maps.append(res.maps)
+        vs = [agreement(m, maps[0]) for m in maps[1:]]
+        maps_rows.append({"input": name, "nest": {k: nest[name][k] for k in ("grouping_r", "within_45",
+                                                                              "mean_angle_deg")},
+                          "brian2_seeds_vs_seed0": vs})
         n_rates = nest[name]["nest"]["role_rates_hz"]
         for role in per_seed[0]:
             v = [d[role] for d in per_seed]
@@ -144,16 +156,30 @@ def seed_spread():
                          "nest_over_brian2": n_rates[role] / v[0], "brian2_seed_spread": hi / lo if lo else None,
                          "nest_inside_brian2_seed_range": bool(0.98 * lo <= n_rates[role] <= 1.02 * hi)})
         print(name, flush=True)
-    out = {"seeds": SEEDS, "load_before": load, "load_after": os.getloadavg(), "rows": rows}
+    out = {"seeds": SEEDS, "load_before": load, "load_after": os.getloadavg(), "rows": rows, "maps": maps_rows}
     save_text(OUT / "nest_vs_brian2_seeds.json", json.dumps(out, indent=1))
     off = [r for r in rows if abs(r["nest_over_brian2"] - 1) > 0.10]
-    lines = ["# Per-role rates: NEST against Brian2, beside Brian2 against itself over input seeds", "",
+    lines = ["# NEST against Brian2, beside Brian2 against itself over input seeds", "",
              f"Seeds {SEEDS} (phases of the regular input spikes), fast engine (Brian2's spikes). Load {load} -> "
-             f"{out['load_after']}. Roles whose NEST/Brian2 ratio (seed 0) is outside 0.9-1.1: {len(off)} of "
-             f"{len(rows)}; of those, NEST's rate lies within Brian2's own seed range (2 % margin) for "
-             f"{sum(r['nest_inside_brian2_seed_range'] for r in off)}.", "",
-             "| input | role | NEST/Brian2 (seed 0) | Brian2 max/min over seeds | NEST inside Brian2's seed range |",
-             "|---|---|---|---|---|"]
+             f"{out['load_after']}.", "",
+             "## Maps", "",
+             "NEST (seed 0) against Brian2 (seed 0), and Brian2 with seeds 1-3 against its seed 0 (lowest - "
+             "highest): grouping r / fraction of shared edge pixels within 45 deg / mean absolute angle (deg).", "",
+             "| input | NEST vs Brian2 | Brian2 seeds vs seed 0 |", "|---|---|---|"]
+    for m in maps_rows:
+        n, vs = m["nest"], m["brian2_seeds_vs_seed0"]
+
+        def span(key, fmt):
+            lo, hi = min(v[key] for v in vs), max(v[key] for v in vs)
+            return fmt.format(lo) if fmt.format(lo) == fmt.format(hi) else f"{fmt.format(lo)}-{fmt.format(hi)}"
+        lines.append(f"| {m['input']} | {n['grouping_r']:.3f} / {n['within_45']:.3f} / {n['mean_angle_deg']:.1f} | "
+                     f"{span('grouping_r', '{:.3f}')} / {span('within_45', '{:.3f}')} / {span('mean_deg', '{:.1f}')} |")
+    lines += ["", "## Per-role rates", "",
+              f"Roles whose NEST/Brian2 ratio (seed 0) is outside 0.9-1.1: {len(off)} of {len(rows)}; of those, "
+              f"NEST's rate lies within Brian2's own seed range (2 % margin) for "
+              f"{sum(r['nest_inside_brian2_seed_range'] for r in off)}.", "",
+              "| input | role | NEST/Brian2 (seed 0) | Brian2 max/min over seeds | NEST inside Brian2's seed range |",
+              "|---|---|---|---|---|"]
     for r in off:
         lines.append(f"| {r['input']} | {r['role']} | {r['nest_over_brian2']:.3f} | {r['brian2_seed_spread']:.3f} | "
                      f"{'yes' if r['nest_inside_brian2_seed_range'] else 'no'} |")

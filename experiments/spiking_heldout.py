@@ -36,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 from snn_fg import scenes  # noqa: E402
 from snn_fg.atomic import save_text  # noqa: E402
 from snn_fg.events import image_to_frame  # noqa: E402
-from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores  # noqa: E402
+from snn_fg.metrics import agreement, grouping_peak_inside, truth_scores  # noqa: E402
 from snn_fg.network import SpikingParams  # noqa: E402
 from snn_fg.network.nodes import Neuron  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
@@ -44,13 +44,6 @@ from snn_fg.spiking import run_spiking  # noqa: E402
 
 IMAGES = ROOT.parent / "shared" / "data" / "bsds-fg" / "images"
 OUT = ROOT / "experiments" / "results"
-
-
-def _vs_rate(maps, ref) -> dict:
-    c = compare_frame(maps.fg_x, maps.fg_y, maps.grouping, ref.fg_x, ref.fg_y, ref.grouping)
-    return {"mean_deg": c["angle_diff_mean_deg"], "within_45": c["angle_within_45_frac"],
-            "grouping_r": c["grouping_pearson_r"],
-            "coverage": c["coverage_of_b"]}
 
 
 def main():
@@ -75,7 +68,7 @@ def main():
         ref = run_edfg(pos, neg)
         for name, sp in variants.items():
             m = run_spiking(pos, neg, spiking=sp, progress=False)
-            rows.append({"input": i, "kind": "held-out image", "variant": name, **_vs_rate(m, ref)})
+            rows.append({"input": i, "kind": "held-out image", "variant": name, **agreement(m, ref)})
             print(f"{i} {name}: {rows[-1]}", flush=True)
     synth = [scenes.disc(r, light) for r in (16, 24, 32, 48, 64) for light in (True, False)]
     synth += [scenes.square(24, True), scenes.occlusion(), scenes.demo()]
@@ -85,7 +78,7 @@ def main():
         for name, sp in variants.items():
             m = run_spiking(pos, neg, spiking=sp, progress=False)
             t = truth_scores(m.fg_x, m.fg_y, sc)
-            rows.append({"input": sc.name, "kind": "synthetic", "variant": name, **_vs_rate(m, ref),
+            rows.append({"input": sc.name, "kind": "synthetic", "variant": name, **agreement(m, ref),
                          "truth_within_45": t["frac_within_45"],
                          "peak_inside": bool(grouping_peak_inside(m.grouping, sc, None))})
             print(f"{sc.name} {name}: {rows[-1]}", flush=True)

@@ -53,7 +53,7 @@ sys.path.insert(0, str(ROOT))
 
 from snn_fg.atomic import save_text  # noqa: E402
 from snn_fg.frames.pyramid import resize  # noqa: E402
-from snn_fg.metrics import compare_frame  # noqa: E402
+from snn_fg.metrics import agreement  # noqa: E402
 from snn_fg.network import SpikingParams  # noqa: E402
 from snn_fg.params import ModelParams  # noqa: E402
 from snn_fg.rate.edfg import event_entries, run_edfg  # noqa: E402
@@ -69,15 +69,6 @@ WINDOWS = ((60, 30), (100, 30), (150, 30), (200, 30), (400, 200))
 NOISE = (0.03, 0.1, 0.3)
 #: factors on pyramid_decay (the coarse levels' share in the pooled feedback)
 SHARES = (0.8, 0.9, 1.1, 1.25)
-
-
-def _metrics(a, b) -> dict:
-    """``a`` against ``b`` (each ``(fg_x, fg_y, grouping)``); coverage: the
-    fraction of ``b``'s vectors that ``a`` also has."""
-    c = compare_frame(*a, *b)
-    return {"mean_deg": c["angle_diff_mean_deg"], "within_45": c["angle_within_45_frac"],
-            "grouping_r": c["grouping_pearson_r"],
-            "coverage": c["coverage_of_b"]}
 
 
 def _spiking(pos, neg, **kw):
@@ -101,7 +92,7 @@ def _stages(result, pos, neg, params: ModelParams) -> dict:
     eng = SparseGrouping(entries, shapes, params).load(g, border=False)
     z_model = eng.pooled_z()
     eng.feedback_step()
-    out["feedback_rule"] = _metrics(eng.readout(pos.shape), (fx, fy, gr))
+    out["feedback_rule"] = agreement(eng.readout(pos.shape), (fx, fy, gr))
     # the spiking network's own pooled z at level 1 against the model's
     net, n = result.network, params.n_ori
 
@@ -186,22 +177,22 @@ def main():
         row = {"trajectory": [], "gain": []}
         for end, length in WINDOWS:
             result, maps = _spiking(pos, neg, duration_ms=end, settle_ms=end - length)
-            versus = {k: _metrics(maps, refs[k]) for k in ITERATIONS}
+            versus = {k: agreement(maps, refs[k]) for k in ITERATIONS}
             row["trajectory"].append({"window_ms": [end - length, end], "coverage": versus[10]["coverage"],
                                       "vs_iterations": versus})
             print(f"{f} counts {end - length}-{end} ms: " + " ".join(
                 f"n{k} {v['mean_deg']:.1f}" for k, v in row["trajectory"][-1]["vs_iterations"].items()), flush=True)
         row["stages"] = _stages(result, pos, neg, params)       # the last run is the default read-out
         print(f"{f} stages: {row['stages']}", flush=True)
-        row["noise"] = {s: [_metrics(_noisy_reference(pos, neg, params, s, seed), ref) for seed in range(3)]
+        row["noise"] = {s: [agreement(_noisy_reference(pos, neg, params, s, seed), ref) for seed in range(3)]
                         for s in NOISE}
-        row["share"] = {c: _metrics(_maps(run_edfg(pos, neg, dataclasses.replace(
+        row["share"] = {c: agreement(_maps(run_edfg(pos, neg, dataclasses.replace(
             params, pyramid_decay=c * params.pyramid_decay))), ref) for c in SHARES}
         if f in a.gain_frames:
             row["gain"].append({"variant": "default", **row["trajectory"][-1]["vs_iterations"][10]})
             for name, change in _variants().items():
                 _, maps = _spiking(pos, neg, spiking=SpikingParams(**change))
-                row["gain"].append({"variant": name, **_metrics(maps, ref)})
+                row["gain"].append({"variant": name, **agreement(maps, ref)})
         record["frames"][f] = row
     record["seconds"] = time.perf_counter() - t0
     record["finished_load"] = os.getloadavg()

@@ -86,6 +86,18 @@ def compare_frame(ax, ay, ag, bx, by, bg) -> dict:
     }
 
 
+def agreement(a, b) -> dict:
+    """The four numbers an experiment table gives for maps ``a`` against
+    maps ``b`` (each ``(fg_x, fg_y, grouping)`` or an object with those
+    attributes): mean absolute angle difference and fraction within 45 deg
+    on the pixels where both have a vector, grouping Pearson r, and the
+    fraction of ``b``'s vectors that ``a`` has at all (``coverage``)."""
+    a, b = (m if isinstance(m, tuple) else (m.fg_x, m.fg_y, m.grouping) for m in (a, b))
+    c = compare_frame(*a, *b)
+    return {"mean_deg": c["angle_diff_mean_deg"], "within_45": c["angle_within_45_frac"],
+            "grouping_r": c["grouping_pearson_r"], "coverage": c["coverage_of_b"]}
+
+
 def _windows(m: Maps):
     """(index, start time in us or None) of each window of ``m`` (one frame: one window)."""
     if m.fg_x.ndim == 2:

@@ -348,3 +348,19 @@ def test_angle_metrics_ignore_the_empty_background():
     assert c["pixels_compared"] == 30 and c["angle_diff_mean_deg"] == 180
     assert c["angle_mse"] == 1.0 and c["angle_within_45_frac"] == 0.0
     assert c["angle_ssim"] < 0.5          # over the whole image it would be ~0.99 (background agrees)
+
+
+def test_agreement_scores_a_against_b_and_reads_maps_or_tuples():
+    from snn_fg.maps import Maps
+    from snn_fg.metrics import agreement
+
+    fx, fy, g = np.zeros((30, 30)), np.zeros((30, 30)), np.zeros((30, 30))
+    fx[10, 0:20] = 1.0                      # b: 20 vectors pointing right
+    ax = fx.copy()
+    ax[10, 10:20] = 0.0                     # a: only the first 10 of them...
+    ax[10, 5:10] = -1.0                     # ...5 of which point left
+    g[10, 10] = 1.0
+    a = (ax, fy, g)
+    s = agreement(a, Maps(fx, fy, g))
+    assert s["coverage"] == 0.5 and s["within_45"] == 0.5 and s["mean_deg"] == 90.0 and s["grouping_r"] == 1.0
+    assert agreement(Maps(fx, fy, g), a)["coverage"] == 1.0       # every vector of a is in b

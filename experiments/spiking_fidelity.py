@@ -18,8 +18,14 @@ With several ``--backend`` s every input runs on each, and the maps and spike
 counts of every backend after the first are compared with the first's
 (issue 13: a second engine must be statistically the same as Brian2).
 
+With several ``--seeds`` every input runs once per seed of the input trains'
+random phase; the main table keeps the first seed, and a second table gives
+the range of every score over the seeds and how far each seed's maps lie from
+the first seed's (the network's own seed-to-seed spread, against which a
+difference between two variants of the network has to be read).
+
 Writes experiments/results/spiking_fidelity.json and .md.
-Usage: python experiments/spiking_fidelity.py [--quick] [--only NAME ...] [--backend NAME ...]
+Usage: python experiments/spiking_fidelity.py [--quick] [--only NAME ...] [--backend NAME ...] [--seeds N ...]
 """
 from __future__ import annotations
 
@@ -39,7 +45,7 @@ from snn_fg import scenes  # noqa: E402
 from snn_fg.atomic import save_text  # noqa: E402
 from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import events_to_frame, image_to_events, image_to_frame  # noqa: E402
-from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores  # noqa: E402
+from snn_fg.metrics import agreement, compare_frame, grouping_peak_inside, truth_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking_result  # noqa: E402
 from snn_fg.spiking.record import ROLE_ORDER  # noqa: E402
@@ -125,6 +131,8 @@ def main(argv=None):
                     help=f"simulator(s); the first is the one the others are compared with (default {DEFAULT_BACKEND})")
     ap.add_argument("--instantiate", choices=("input", "all"), default="input",
                     help="cells every backend creates (input: those the input can use, the same on every backend)")
+    ap.add_argument("--seeds", nargs="+", type=int, default=[0],
+                    help="seeds of the input trains' random phase; each input runs once per seed (default 0)")
     ap.add_argument("--out", default=str(OUT))
     args = ap.parse_args(argv)
     rows = []
@@ -136,20 +144,29 @@ def main(argv=None):
         print(msg, flush=True)
 
     def run(name, kind, simulate, ref, scene=None, extra=None):
-        """One input on every backend: a row each, the later ones compared with the first."""
+        """One input on every backend and seed: a row each, the later backends
+        compared with the first and the later seeds with the first seed."""
         first = None
-        for backend in args.backend:
-            t0 = time.perf_counter()
-            res = simulate(backend)
-            row = _row(name, kind, res.maps, ref, time.perf_counter() - t0, scene,
-                       extra(res) if extra else None)
-            row["backend"] = backend
-            if first is None:
-                first = res
-            else:
-                row["vs_first"] = _agreement(res, first)
-            rows.append(row)
-            log(_fmt(row))
+        seed0 = {}
+        for seed in args.seeds:
+            first_here = None
+            for backend in args.backend:
+                t0 = time.perf_counter()
+                res = simulate(backend, seed)
+                row = _row(name, kind, res.maps, ref, time.perf_counter() - t0, scene,
+                           extra(res) if extra else None)
+                row["backend"], row["seed"] = backend, seed
+                if first_here is None:
+                    first_here = res
+                else:
+                    row["vs_first"] = _agreement(res, first_here)
+                if backend in seed0:
+                    row["vs_first_seed"] = agreement(res.maps, seed0[backend].maps)
+                else:
+                    seed0[backend] = res
+                rows.append(row)
+                log(_fmt(row))
+            first = first if first is not None else first_here
         return first
 
     res = None
@@ -159,8 +176,9 @@ def main(argv=None):
             if not want(name):
                 continue
             d = np.load(path)
-            res = run(name, "bsds", lambda b: run_spiking_result(d["pos"], d["neg"], backend=b,
-                                                                 instantiate=args.instantiate, progress=False), d)
+            res = run(name, "bsds", lambda b, seed: run_spiking_result(d["pos"], d["neg"], backend=b, seed=seed,
+                                                                       instantiate=args.instantiate, progress=False),
+                      d)
     elif not args.quick:
         log(f"skipping BSDS frames: {BSDS} is absent")
 
@@ -171,7 +189,8 @@ def main(argv=None):
             continue
         pos, neg = image_to_frame(sc.image)
         res = run(sc.name, "synthetic-frame",
-                  lambda b: run_spiking_result(pos, neg, backend=b, instantiate=args.instantiate, progress=False),
+                  lambda b, seed: run_spiking_result(pos, neg, backend=b, seed=seed, instantiate=args.instantiate,
+                                                     progress=False),
                   run_edfg(pos, neg), sc)
     for sc in (scenes.disc(24, True), scenes.disc(40, False)):
         name = sc.name + "-timed-events"
@@ -180,24 +199,24 @@ def main(argv=None):
         rec = image_to_events(sc.image)
         pos, neg = events_to_frame(rec.events, rec.sensor_size)      # the frame of these very events
         res = run(name, "synthetic-events",
-                  lambda b: run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, backend=b,
-                                               instantiate=args.instantiate, progress=False),
+                  lambda b, seed: run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, backend=b,
+                                                     seed=seed, instantiate=args.instantiate, progress=False),
                   run_edfg(pos, neg), sc,
                   lambda r: {"events": int(len(rec.events)), "input_rate_hz": r.inputs.rate_hz,
                              "merged_spikes": r.inputs.merged})
 
     out = Path(args.out)
-    record = {"rows": rows, "backends": args.backend, "instantiate": args.instantiate,
+    record = {"rows": rows, "backends": args.backend, "seeds": args.seeds, "instantiate": args.instantiate,
               "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
               "network_params": res.maps.params["network"] if res else None,
               "simulation": res.maps.params["simulation"] if res else None}
     save_text(out / "spiking_fidelity.json", json.dumps(record, indent=1, default=float))
-    save_text(out / "spiking_fidelity.md", _markdown(rows))
+    save_text(out / "spiking_fidelity.md", _markdown(rows, args.seeds))
     log(f"wrote {out / 'spiking_fidelity.json'} and .md")
 
 
 def _fmt(r):
-    s = (f"{r['name']:28s} {r['backend']:7s} median dAngle {r['angle_diff_median_deg']:5.1f} deg  mean {r['angle_diff_mean_deg']:5.1f}  "
+    s = (f"{r['name']:28s} {r['backend']:7s} seed {r.get('seed', 0)} median dAngle {r['angle_diff_median_deg']:5.1f} deg  mean {r['angle_diff_mean_deg']:5.1f}  "
          f"r {r['grouping_pearson_r']:.3f}  {r['seconds']:6.1f} s")
     if "truth_frac_within_45" in r:
         s += f"  truth<=45: {r['truth_frac_within_45']:.2f} (ref {r['ref_truth_frac_within_45']:.2f}) peak in {r['peak_inside']}"
@@ -212,7 +231,8 @@ def _synapses(row) -> str:
     return f"{row['synapses']:,}" if row["synapses"] else "-"
 
 
-def _markdown(rows):
+def _markdown(rows, seeds=(0,)):
+    every_seed, rows = rows, [r for r in rows if r.get("seed", seeds[0]) == seeds[0]]
     lines = ["# Spiking network vs the rate reference", "",
              "Generated by `experiments/spiking_fidelity.py` (default parameters). Angle difference: "
              "median / mean of |circular difference| on pixels where both figure-ground maps are non-zero. "
@@ -224,7 +244,9 @@ def _markdown(rows):
              "Pass (vs rate): mean <= 15 deg, >= 90 % within 45 deg, grouping r >= 0.9. Pass (truth): >= 95 % "
              "within 45 deg of the analytic direction and the grouping peak inside an object (any of the scene's "
              "shapes). Synapses: as a backend that unrolls the network makes them (Brian2); - for the fast "
-             "engine, which follows the weight-shared kernels and makes none.", "",
+             "engine, which follows the weight-shared kernels and makes none.",
+             f"Input trains' seed: {seeds[0]}" + (f" (the spread over seeds {', '.join(map(str, seeds))} follows "
+                                                 "the tables)." if len(seeds) > 1 else "."), "",
              "| input | backend | median dAngle (deg) | mean dAngle | dAngle <= 45 | rate's vectors: covered "
              "/ within 45 | grouping r | pass (vs rate) "
              "| truth <= 45 (spk / ref) | coverage | peak inside (spk / ref) | pass (truth) | cells | synapses "
@@ -254,6 +276,8 @@ def _markdown(rows):
             lines.append(f"| {r['name']} | {r['backend']} | {v['grouping_pearson_r']:.4f} | {v['angle_diff_mean_deg']:.2f} "
                          f"| {v['angle_within_45_frac']:.3f} | {v['cells_same_count_frac']:.4f} | "
                          f"{v['spikes']:,} / {v['spikes_first']:,} |")
+    if len(seeds) > 1:
+        lines += _spread(every_seed, seeds)
     lines += ["", "## Mean firing rate per population role (Hz; all levels pooled; first row)", ""]
     if rows:
         lines.append("| role | mean | active fraction | highest level mean | refractory max |")
@@ -262,6 +286,35 @@ def _markdown(rows):
             lines.append(f"| {role} | {v['mean_rate_hz']:.1f} | {v['active_frac']:.2f} | "
                          f"{v['max_level_mean_hz']:.1f} | {v['refractory_max_hz']:.0f} |")
     return "\n".join(lines) + "\n"
+
+
+def _span(values, fmt):
+    return f"{fmt(min(values))} - {fmt(max(values))}" if len(values) > 1 else fmt(values[0])
+
+
+def _spread(rows, seeds):
+    """The range of each score over the input seeds, per input and backend,
+    and how far each later seed's maps lie from the first seed's."""
+    lines = ["", f"## Spread over the input trains' seeds ({', '.join(map(str, seeds))})", "",
+             "Left: each score against the rate model, lowest - highest over the seeds, and on how many seeds "
+             "the row passes. Right: each later seed's maps against the first seed's (the same network and "
+             "input, only the phase of the input trains changed), lowest - highest.", "",
+             "| input | backend | mean dAngle (deg) | dAngle <= 45 | grouping r | pass (vs rate) | truth <= 45 "
+             "| vs first seed: mean dAngle | dAngle <= 45 | grouping r |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    keys = list(dict.fromkeys((r["name"], r["backend"]) for r in rows))
+    for name, backend in keys:
+        rs = [r for r in rows if (r["name"], r["backend"]) == (name, backend)]
+        vs = [r["vs_first_seed"] for r in rs if "vs_first_seed" in r]
+        deg, frac, corr = (lambda v: f"{v:.1f}"), (lambda v: f"{v:.2f}"), (lambda v: f"{v:.3f}")
+        truth = _span([r["truth_frac_within_45"] for r in rs], frac) if "truth_frac_within_45" in rs[0] else ""
+        right = (f"{_span([v['mean_deg'] for v in vs], deg)} | {_span([v['within_45'] for v in vs], frac)} | "
+                 f"{_span([v['grouping_r'] for v in vs], corr)}") if vs else " | | "
+        lines.append(f"| {name} | {backend} | {_span([r['angle_diff_mean_deg'] for r in rs], deg)} | "
+                     f"{_span([r['angle_within_45_frac'] for r in rs], frac)} | "
+                     f"{_span([r['grouping_pearson_r'] for r in rs], corr)} | "
+                     f"{sum(r['pass_fidelity'] for r in rs)} of {len(rs)} | {truth} | {right} |")
+    return lines
 
 
 if __name__ == "__main__":

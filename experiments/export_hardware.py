@@ -46,6 +46,8 @@ from snn_fg.spiking.decode import decode  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data"
 OUT = ROOT / "experiments" / "results"
+#: the quantisation table's row of the float network on input trains of seed 1
+SEED_1 = "float, input seed 1"
 CROPS = ((160, 120), (128, 96), (112, 84), (96, 72), (80, 60), (64, 48), (56, 42), (48, 36), (40, 30))
 
 
@@ -176,7 +178,11 @@ def quant(out, bsds: bool):
         for bits in (None, 16, 8):
             backend = Brian2Backend() if bits is None else QuantisedBrian2(bits)
             maps[bits] = decode(backend.simulate(net, inp, s))[:3]
-        for bits in (16, 8):
+        # the float network on input trains of another phase: how far the maps
+        # move with no quantisation at all, the scale the rows above are read on
+        other = frame_spikes(pos, neg, 200.0, 0.5, 400.0, seed=1)
+        maps[SEED_1] = decode(Brian2Backend().simulate(net, other, s))[:3]
+        for bits in (16, 8, SEED_1):
             c = compare_frame(*maps[bits], *maps[None])
             rows.append({"input": name, "bits": bits, **{k: c[k] for k in (
                 "grouping_pearson_r", "angle_within_45_frac", "angle_diff_mean_deg", "pixels_compared")}})
@@ -223,7 +229,11 @@ def write(out):
     if "quantisation" in merged:
         scope = ("synthetic scenes and the six BSDS frames" if merged.get("quantisation_bsds")
                  else "synthetic scenes only; the BSDS frames need `quant --bsds`")
-        lines += ["## Weight quantisation (Brian2, against float)", "", f"Inputs: {scope}.", "",
+        lines += ["## Weight quantisation (Brian2, against float)", "", f"Inputs: {scope}.",
+                  f"Each input's row `{SEED_1}` is no quantisation at all: the float network on input trains of "
+                  "another random phase (seed 1 against 0). It is the network's own seed-to-seed spread, the scale "
+                  "on which the quantised rows are to be read." if any(r["bits"] == SEED_1 for r in merged[
+                      "quantisation"]) else "Rows without the seed-to-seed spread: re-run `quant` to add it.", "",
                   "| input | bits | grouping r | within 45° | mean angle ° |", "|---|---|---|---|---|"]
         for r in merged["quantisation"]:
             lines.append(f"| {r['input']} | {r['bits']} | {r['grouping_pearson_r']:.3f} | "

@@ -117,6 +117,12 @@ def _run(name, backend, threads, tmp, receptors="split"):
 SEEDS = (0, 1, 2, 3)
 
 
+def _span(rows, key, fmt):
+    """``lo-hi`` of ``row[key]`` over ``rows``, one number when both print alike."""
+    lo, hi = (fmt.format(f(r[key] for r in rows)) for f in (min, max))
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
 def seed_spread():
     """How far the model's own maps and per-role rates move between input
     seeds (the phases of the regular input spikes), on the fast engine
@@ -137,8 +143,9 @@ def seed_spread():
     rows, maps_rows = [], []
     for name in nest:
         per_seed, maps = [], []
+        inputs = _inputs(name)
         for seed in SEEDS:
-            res = run_spiking_result(**_inputs(name), backend="fast", seed=seed, instantiate="input",
+            res = run_spiking_result(**inputs, backend="fast", seed=seed, instantiate="input",
                                      record_spikes=False, progress=False)
             per_seed.append(_role_rates(res.result))
             maps.append(res.maps)
@@ -168,12 +175,9 @@ def seed_spread():
              "| input | NEST vs Brian2 | Brian2 seeds vs seed 0 |", "|---|---|---|"]
     for m in maps_rows:
         n, vs = m["nest"], m["brian2_seeds_vs_seed0"]
-
-        def span(key, fmt):
-            lo, hi = min(v[key] for v in vs), max(v[key] for v in vs)
-            return fmt.format(lo) if fmt.format(lo) == fmt.format(hi) else f"{fmt.format(lo)}-{fmt.format(hi)}"
         lines.append(f"| {m['input']} | {n['grouping_r']:.3f} / {n['within_45']:.3f} / {n['mean_angle_deg']:.1f} | "
-                     f"{span('grouping_r', '{:.3f}')} / {span('within_45', '{:.3f}')} / {span('mean_deg', '{:.1f}')} |")
+                     f"{_span(vs, 'grouping_r', '{:.3f}')} / {_span(vs, 'within_45', '{:.3f}')} / "
+                     f"{_span(vs, 'mean_deg', '{:.1f}')} |")
     lines += ["", "## Per-role rates", "",
               f"Roles whose NEST/Brian2 ratio (seed 0) is outside 0.9-1.1: {len(off)} of {len(rows)}; of those, "
               f"NEST's rate lies within Brian2's own seed range (2 % margin) for "

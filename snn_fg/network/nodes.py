@@ -121,11 +121,17 @@ class Node:
 
 @dataclass(frozen=True, kw_only=True)
 class Neuron(Node):
-    """CUBA LIF constants, in milliseconds and millivolts (see the module docstring)."""
+    """CUBA LIF constants, in milliseconds and millivolts (see the module docstring).
+
+    Excitation and inhibition decay alike by default (``tau_exc_ms ==
+    tau_inh_ms``): a kernel with negative lobes split between the two
+    currents, as a board must (:func:`snn_fg.export.pynn_model.split_receptors`),
+    then acts exactly as its signed sum, so the export computes what the
+    simulators compute."""
 
     tau_m_ms: float = 10.0
     tau_exc_ms: float = 5.0
-    tau_inh_ms: float = 10.0
+    tau_inh_ms: float = 5.0
     v_rest_mv: float = 0.0
     v_reset_mv: float = 0.0
     v_th_mv: float = 10.0

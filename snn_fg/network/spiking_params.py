@@ -82,14 +82,23 @@ class SpikingParams(Node):
         cells that lost the previous window has faded (``feedback_inh_bo``
         thresholds per 100 Hz of the feedback half against them: about 120
         thresholds from a pair at 600 Hz, the 90th percentile on a BSDS
-        frame, decaying with the border-ownership cells' ``tau_inh``: about
-        55 ms to half a threshold); otherwise the family that won one window
+        frame, decaying with the border-ownership cells' ``tau_inh``, 5 ms:
+        about 27 ms to half a threshold); otherwise the family that won one window
         wins the next whatever its input (``experiments/window_clock.py``).
         A frame never fires it.
     Neurons
         One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
         (:data:`CELL_KINDS`): ``simple``, ``untuned``, ``relay``, ``bo``
-        (border ownership), ``excess``, ``group``, ``feedback``. The feedback
+        (border ownership), ``excess``, ``group``, ``feedback``. Every kind
+        but the untuned cells has one synaptic time constant, 5 ms for
+        excitation and inhibition alike, so that the negative lobes of a
+        kernel (DoG, von Mises differences, interpolation), which a board
+        receives through the inhibitory current, act as in the signed sum
+        the simulators use; with the earlier 10 ms inhibition the export on
+        NEST flipped the light/dark competition of a ``dvs.es`` window. The
+        untuned cells keep 50 ms of inhibition (only simple cells inhibit
+        them, no kernel is split onto them): they stay silenced between
+        their simple cells' spikes. The feedback
         cells carry ``z`` as a rate through the top-down chain of stage 8, so
         their rate must stay proportional to their drive over the range
         ``z`` takes (a rectified pair at 100-600 Hz, a tail to 2 kHz on BSDS

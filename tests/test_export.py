@@ -165,8 +165,13 @@ def test_nir_round_trip_keeps_the_maps(tmp_path, light):
     from snn_fg.export.nir import export_nir, read_nir
     from snn_fg.spiking import run_spiking
 
-    pos, neg = image_to_frame(disc(8, light_on_dark=light).image)
-    net = build_network(ModelParams(levels=1, r0=4), pos.shape)
+    # a disc the one-level network solves (all its vectors within 45 degrees of
+    # the truth): on a radius-8 disc with r0 = 4 it gets 71-93 %, and which
+    # pixels flip changes with the input seed, the grouping lattice's stride
+    # (the NIR graph has none) and the like, so that disc tested the tipping
+    # point rather than the export
+    pos, neg = image_to_frame(disc(12, light_on_dark=light).image)
+    net = build_network(ModelParams(levels=1, r0=6), pos.shape)
     back = read_nir(export_nir(net, tmp_path / "n.nir"))
     kw = dict(duration_ms=200.0, progress=False)
     a, b = run_spiking(pos, neg, network=net, **kw), run_spiking(pos, neg, network=back, **kw)

@@ -12,11 +12,11 @@ hold elsewhere. This runs the default network and each ``--variant`` on:
   truth, grouping peak inside).
 
 A variant is ``NAME=JSON``, the JSON giving ``SpikingParams`` fields (a
-neuron as a dict of its fields). The default variant is the earlier
-feedback: cells with a 4 ms refractory period and ``feedback_to_bo`` 1.0
-(issue 11, stop 25, made the pairs' rate curve linear with a 0.5 ms period
-and ``feedback_to_bo`` 0.125); ``group_to_feedback`` 0.2 was probed the same
-way in stop 24.
+neuron as a dict of its fields). The default variant is the network before
+its latest change: inhibition decaying with 10 ms instead of 5 ms (stop 28).
+Earlier uses: the feedback cells' 4 ms refractory period with
+``feedback_to_bo`` 1.0 against 0.5 ms and 0.125 (stop 25), and
+``group_to_feedback`` 0.2 (stop 24).
 
 Writes experiments/results/spiking_heldout.{json,md}.
 Usage: python experiments/spiking_heldout.py [--images 6] [--variant NAME=JSON ...]
@@ -50,7 +50,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--images", type=int, default=6)
     ap.add_argument("--variant", action="append", default=None, metavar="NAME=JSON",
-                    help="SpikingParams fields to change (repeatable); default: the earlier feedback")
+                    help="SpikingParams fields to change (repeatable); default: inhibition with 10 ms")
     a = ap.parse_args()
     variants = {"default": SpikingParams()}
     for v in a.variant or [EARLIER]:
@@ -90,9 +90,15 @@ def main():
     print(f"wrote {OUT / 'spiking_heldout.md'} ({rec['seconds']:.0f} s)")
 
 
-#: the default variant: the feedback cells as they were before stop 25
-EARLIER = ('earlier feedback (4 ms, feedback_to_bo 1.0)='
-           '{"feedback": {"tau_m_ms": 20.0, "t_ref_ms": 4.0}, "feedback_to_bo": 1.0}')
+#: the default variant: inhibition decaying with 10 ms, as before stop 28
+#: (every kind but the untuned cells now has tau_inh = tau_exc = 5 ms)
+EARLIER = ('tau_inh 10 ms=' + json.dumps({
+    "simple": {"tau_m_ms": 10.0, "t_ref_ms": 4.0, "tau_inh_ms": 10.0},
+    "relay": {"tau_m_ms": 200.0, "t_ref_ms": 1.0, "tau_inh_ms": 10.0},
+    "bo": {"tau_m_ms": 10.0, "t_ref_ms": 5.0, "tau_inh_ms": 10.0},
+    "excess": {"tau_m_ms": 10.0, "t_ref_ms": 5.0, "tau_inh_ms": 10.0},
+    "group": {"tau_m_ms": 20.0, "t_ref_ms": 2.0, "tau_inh_ms": 10.0},
+    "feedback": {"tau_m_ms": 20.0, "t_ref_ms": 0.5, "tau_inh_ms": 10.0}}))
 
 
 def _spiking_params(name, js) -> SpikingParams:

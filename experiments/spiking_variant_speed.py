@@ -1,0 +1,95 @@
+"""The fast engine's time per dvs.es window: the default network against a
+variant of it, side by side.
+
+Each round runs one fresh process per network, alternately, on the same
+windows (85 ms of ``dvs.es``, each run as a recording of one window: one
+continuous network, every event at its own time, the window clock, the
+read-out lag). A process warms up on the first window, then times every
+window once and reports its synaptic events and spikes, which do not depend
+on the machine; the ratio of the medians is the speed cost of the variant.
+The default variant is the network before its latest change (inhibition
+with 10 ms, ``spiking_heldout.EARLIER``).
+
+    python experiments/spiking_variant_speed.py [--variant NAME=JSON] [--windows 0 1 2]
+           [--start-ms 100] [--rounds 2]
+
+Prints one line per window and run and the ratio; writes nothing.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "experiments"))
+
+
+def _worker(js: str, specs: list[str]):
+    """Time each window with the network ``js`` changes (``{}``: the default)."""
+    from bench.inputs import load
+    from spiking_heldout import _spiking_params
+
+    from snn_fg.backends import as_backend
+    from snn_fg.events import EventWindow
+    from snn_fg.spiking.continuous import run_spiking_windows
+
+    sp = _spiking_params("variant", js)
+    backend = as_backend("fast")
+
+    def window(spec):
+        inp = load(spec)
+        return EventWindow(index=0, t_start_us=inp.t_start_us, t_end_us=inp.t_end_us, events=inp.events,
+                           pos=inp.pos, neg=inp.neg)
+
+    wins = [window(s) for s in specs]
+    run_spiking_windows(wins[:1], spiking=sp, backend=backend, progress=False)      # warm-up
+    for spec, w in zip(specs, wins):
+        t = time.perf_counter()
+        (maps,) = run_spiking_windows([w], spiking=sp, backend=backend, progress=False)
+        st = maps.params.get("backend_stats", {})
+        print(json.dumps({"input": spec, "wall_s": time.perf_counter() - t,
+                          "synaptic_events": st.get("synaptic_events_total"), "spikes": st.get("spikes")}),
+              flush=True)
+
+
+def main():
+    from spiking_heldout import EARLIER
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--variant", default=EARLIER, metavar="NAME=JSON")
+    ap.add_argument("--windows", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--start-ms", type=float, default=100.0)
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--worker", nargs=2, metavar=("JSON", "SPECS"), help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.worker:
+        return _worker(args.worker[0], args.worker[1].split(","))
+    name, _, js = args.variant.partition("=")
+    specs = ",".join(f"dvs:{k}@{args.start_ms:g}" for k in args.windows)
+    times = {"default": [], name: []}
+    for r in range(args.rounds):
+        for label, change in (("default", "{}"), (name, js)):
+            load = os.getloadavg()
+            out = subprocess.run([sys.executable, __file__, "--worker", change, specs], capture_output=True,
+                                 text=True, check=True).stdout
+            for line in out.splitlines():
+                if line.startswith("{"):
+                    row = json.loads(line)
+                    times[label].append(row["wall_s"])
+                    print(f"round {r + 1}  {label:>16}  {row['input']:<10} {row['wall_s']:.3f} s  "
+                          f"{row['synaptic_events']:,} synaptic events  {row['spikes']:,} spikes  "
+                          f"(load {load[0]:.2f})", flush=True)
+    a, b = statistics.median(times["default"]), statistics.median(times[name])
+    print(f"median per window: default {a:.3f} s, {name} {b:.3f} s; default / {name} = {a / b:.2f}  "
+          f"(load at the end {os.getloadavg()[0]:.2f})")
+
+
+if __name__ == "__main__":
+    main()

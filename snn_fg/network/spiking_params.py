@@ -96,9 +96,10 @@ class SpikingParams(Node):
         receives through the inhibitory current, act as in the signed sum
         the simulators use; with the earlier 10 ms inhibition the export on
         NEST flipped the light/dark competition of a ``dvs.es`` window. The
-        untuned cells keep 50 ms of inhibition (only simple cells inhibit
-        them, no kernel is split onto them): they stay silenced between
-        their simple cells' spikes. The feedback
+        untuned cells keep their 50 ms inhibition: only simple cells inhibit
+        them and no kernel is split onto them, so the export is exact for
+        them as well (a board with one current decay per neuron, Loihi 2,
+        still needs two there). The feedback
         cells carry ``z`` as a rate through the top-down chain of stage 8, so
         their rate must stay proportional to their drive over the range
         ``z`` takes (a rectified pair at 100-600 Hz, a tail to 2 kHz on BSDS

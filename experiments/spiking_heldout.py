@@ -92,13 +92,8 @@ def main():
 
 #: the default variant: inhibition decaying with 10 ms, as before stop 28
 #: (every kind but the untuned cells now has tau_inh = tau_exc = 5 ms)
-EARLIER = ('tau_inh 10 ms=' + json.dumps({
-    "simple": {"tau_m_ms": 10.0, "t_ref_ms": 4.0, "tau_inh_ms": 10.0},
-    "relay": {"tau_m_ms": 200.0, "t_ref_ms": 1.0, "tau_inh_ms": 10.0},
-    "bo": {"tau_m_ms": 10.0, "t_ref_ms": 5.0, "tau_inh_ms": 10.0},
-    "excess": {"tau_m_ms": 10.0, "t_ref_ms": 5.0, "tau_inh_ms": 10.0},
-    "group": {"tau_m_ms": 20.0, "t_ref_ms": 2.0, "tau_inh_ms": 10.0},
-    "feedback": {"tau_m_ms": 20.0, "t_ref_ms": 0.5, "tau_inh_ms": 10.0}}))
+EARLIER = 'tau_inh 10 ms=' + json.dumps({k: {**getattr(SpikingParams(), k).to_dict(), "tau_inh_ms": 10.0}
+                                         for k in ("simple", "relay", "bo", "excess", "group", "feedback")})
 
 
 def _spiking_params(name, js) -> SpikingParams:

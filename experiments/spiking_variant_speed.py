@@ -37,18 +37,11 @@ def _worker(js: str, specs: list[str]):
     from spiking_heldout import _spiking_params
 
     from snn_fg.backends import as_backend
-    from snn_fg.events import EventWindow
     from snn_fg.spiking.continuous import run_spiking_windows
 
     sp = _spiking_params("variant", js)
     backend = as_backend("fast")
-
-    def window(spec):
-        inp = load(spec)
-        return EventWindow(index=0, t_start_us=inp.t_start_us, t_end_us=inp.t_end_us, events=inp.events,
-                           pos=inp.pos, neg=inp.neg)
-
-    wins = [window(s) for s in specs]
+    wins = [load(s).window() for s in specs]
     run_spiking_windows(wins[:1], spiking=sp, backend=backend, progress=False)      # warm-up
     for spec, w in zip(specs, wins):
         t = time.perf_counter()

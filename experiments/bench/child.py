@@ -47,15 +47,11 @@ def _runner(mdl, inp):
     """The model on one input. A spiking window runs as a recording of one
     window does (one continuous run, every event at its own time, the window
     plus the read-out lag simulated, no replay)."""
-    from snn_fg.events import EventWindow
     from snn_fg.models import Frame
 
     if inp.events is None:
         return lambda: mdl.run_frame(Frame(inp.pos, inp.neg))
-    t = inp.events["t"]
-    win = EventWindow(index=0, t_start_us=inp.t_start_us if inp.t_start_us is not None else int(t[0]),
-                      t_end_us=inp.t_end_us if inp.t_end_us is not None else int(t[-1]) + 1, events=inp.events,
-                      pos=inp.pos, neg=inp.neg)
+    win = inp.window()
     if mdl.name == "spiking":
         return lambda: _spiking_window(mdl, win)
     return lambda: mdl.run_window(win)

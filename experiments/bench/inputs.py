@@ -46,6 +46,16 @@ class BenchInput:
     def active_pixels(self) -> int:
         return int(((self.pos != 0) | (self.neg != 0)).sum())
 
+    def window(self):
+        """The input as an :class:`~snn_fg.events.EventWindow` (a window's
+        own span, else its events')."""
+        from snn_fg.events import EventWindow
+
+        t = self.events["t"]
+        return EventWindow(index=0, t_start_us=self.t_start_us if self.t_start_us is not None else int(t[0]),
+                           t_end_us=self.t_end_us if self.t_end_us is not None else int(t[-1]) + 1,
+                           events=self.events, pos=self.pos, neg=self.neg)
+
     def describe(self) -> dict:
         return {"input": self.name, "shape": list(self.pos.shape), "n_events": self.n_events,
                 "active_pixels": self.active_pixels}

@@ -97,9 +97,10 @@ class SpikingParams(Node):
         (with the earlier 10 ms inhibition the export on NEST flipped the
         light/dark competition of a ``dvs.es`` window), and so that a board
         with one current decay per neuron (Loihi 2) takes every population
-        as it is. The untuned cells had 50 ms inhibition until stop 29; 5 ms
-        gave the same maps within 0.4 deg on held-out images and scenes
-        (``experiments/spiking_heldout.py``). The feedback
+        as it is. The untuned cells had 50 ms inhibition until 24 Nov 2026;
+        with 5 ms the maps moved by at most 0.4 deg against the rate model
+        on held-out images and the synthetic scenes, 2.1 deg on the demo
+        scene (``experiments/spiking_heldout.py``). The feedback
         cells carry ``z`` as a rate through the top-down chain of stage 8, so
         their rate must stay proportional to their drive over the range
         ``z`` takes (a rectified pair at 100-600 Hz, a tail to 2 kHz on BSDS

@@ -90,8 +90,9 @@ def main():
     print(f"wrote {OUT / 'spiking_heldout.md'} ({rec['seconds']:.0f} s)")
 
 
-#: the default variant: inhibition decaying with 10 ms, as before stop 28
-#: (every kind but the untuned cells now has tau_inh = tau_exc = 5 ms)
+#: the default variant: inhibition decaying with 10 ms in every kind but the
+#: untuned cells, as before 24 Nov 2026 (every kind now has tau_inh = tau_exc
+#: = 5 ms; the untuned cells, 50 ms then, keep the default's 5 ms here)
 EARLIER = 'tau_inh 10 ms=' + json.dumps({k: {**getattr(SpikingParams(), k).to_dict(), "tau_inh_ms": 10.0}
                                          for k in ("simple", "relay", "bo", "excess", "group", "feedback")})
 

@@ -12,9 +12,10 @@ hold elsewhere. This runs the default network and each ``--variant`` on:
   truth, grouping peak inside).
 
 A variant is ``NAME=JSON``, the JSON giving ``SpikingParams`` fields (a
-neuron as a dict of its fields). The default variant is the network before
-its latest change: inhibition decaying with 10 ms instead of 5 ms (stop 28).
-Earlier uses: the feedback cells' 4 ms refractory period with
+neuron as a dict of its fields). The default variant is inhibition decaying
+with 10 ms instead of 5 ms in every kind of cell but the untuned cells (the
+network before 24 Nov 2026, stop 28). Stop 29 ran ``untuned 50 ms``: the
+untuned cells' inhibition as it was until then. Earlier uses: the feedback cells' 4 ms refractory period with
 ``feedback_to_bo`` 1.0 against 0.5 ms and 0.125 (stop 25), and
 ``group_to_feedback`` 0.2 (stop 24).
 
@@ -39,6 +40,7 @@ from snn_fg.events import image_to_frame  # noqa: E402
 from snn_fg.metrics import agreement, grouping_peak_inside, truth_scores  # noqa: E402
 from snn_fg.network import SpikingParams  # noqa: E402
 from snn_fg.network.nodes import Neuron  # noqa: E402
+from snn_fg.network.spiking_params import CELL_KINDS  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking  # noqa: E402
 
@@ -94,7 +96,7 @@ def main():
 #: untuned cells, as before 24 Nov 2026 (every kind now has tau_inh = tau_exc
 #: = 5 ms; the untuned cells, 50 ms then, keep the default's 5 ms here)
 EARLIER = 'tau_inh 10 ms=' + json.dumps({k: {**getattr(SpikingParams(), k).to_dict(), "tau_inh_ms": 10.0}
-                                         for k in ("simple", "relay", "bo", "excess", "group", "feedback")})
+                                         for k in CELL_KINDS if k != "untuned"})
 
 
 def _spiking_params(name, js) -> SpikingParams:

@@ -7,8 +7,8 @@ continuous network, every event at its own time, the window clock, the
 read-out lag). A process warms up on the first window, then times every
 window once and reports its synaptic events and spikes, which do not depend
 on the machine; the ratio of the medians is the speed cost of the variant.
-The default variant is the network before its latest change (inhibition
-with 10 ms, ``spiking_heldout.EARLIER``).
+The default variant is ``spiking_heldout.EARLIER`` (inhibition with 10 ms
+in every kind of cell but the untuned cells, the network before 24 Nov 2026).
 
     python experiments/spiking_variant_speed.py [--variant NAME=JSON] [--windows 0 1 2]
            [--start-ms 100] [--rounds 2]

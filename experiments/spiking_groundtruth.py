@@ -52,8 +52,8 @@ def main():
     pooled = {"rate": _stats(units, "rate"), "spiking": _stats(units, "spiking")}
     diff = {k: pooled["spiking"][k] - pooled["rate"][k] for k in KEYS[:4]}
     record = {"threshold": args.threshold, "seed": args.seed, "images": len(per_image), "pooled": pooled,
-              "spiking_minus_rate": diff, "per_image": per_image, "runtime_s": time.perf_counter() - t0, "load_before": load0,
-              "load_after": os.getloadavg()}
+              "spiking_minus_rate": diff, "per_image": per_image, "runtime_s": time.perf_counter() - t0,
+              "load_before": load0, "load_after": os.getloadavg()}
     from snn_fg.atomic import save_text
 
     save_text(RESULTS / f"{name}.json", json.dumps(record, indent=1, default=float))

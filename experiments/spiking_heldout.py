@@ -14,7 +14,7 @@ hold elsewhere. This runs the default network and each ``--variant`` on:
 A variant is ``NAME=JSON``, the JSON giving ``SpikingParams`` fields (a
 neuron as a dict of its fields). The default variant is inhibition decaying
 with 10 ms instead of 5 ms in every kind of cell but the untuned cells (the
-network before 24 Nov 2026, stop 28). Stop 29 ran ``untuned 50 ms``: the
+network before 24 Nov 2026). Later on 24 Nov it ran ``untuned 50 ms``: the
 untuned cells' inhibition as it was until then. Earlier uses: the feedback cells' 4 ms refractory period with
 ``feedback_to_bo`` 1.0 against 0.5 ms and 0.125 (stop 25), and
 ``group_to_feedback`` 0.2 (stop 24).

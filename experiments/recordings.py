@@ -5,10 +5,14 @@
 Each recording is cut into windows (85 ms, the iCub's microsaccade period,
 except where the recording is too short for more than one) and every window
 runs through the rate model (and, with ``--spiking``, the spiking network).
-For each recording: ``recordings_<name>.png`` (one row per window: events,
-figure-ground map, grouping map) and ``recordings_<name>.gif`` (the same
-rows as frames). Writes experiments/results/recordings.json / .csv (per
-window: event count, vector pixels, grouping peak and its value, runtime).
+Each model runs a recording as ``snn-fg run`` does (``Model.run_windows``):
+the rate model window by window, the spiking network as one continuous
+network over all the windows, built once.
+For each recording: ``recordings_<name>_<model>.png`` (one row per window:
+events, figure-ground map, grouping map) and ``recordings_<name>_<model>.gif``
+(the same rows as frames). Writes experiments/results/recordings.json / .csv
+(per window: event count, vector pixels, grouping peak and its value, and
+``runtime_s``, the recording's time divided by its windows).
 """
 from __future__ import annotations
 
@@ -54,20 +58,22 @@ def run_recording(name, model, max_windows):
     from snn_fg.models import get_model
 
     file, window_ms, start_ms, sensor = RECORDINGS[name]
-    m = get_model(model, **({"seed": 0} if model == "spiking" else {}))
+    m = get_model(model)
     rows, maps, inputs, titles = [], [], [], []
-    t_first = None
-    for i, w in enumerate(iter_windows(EVENTS / file, window_ms=window_ms, start_ms=start_ms,
-                                       max_windows=max_windows, sensor_size=sensor)):
-        t_first = w.t_start_us if t_first is None else t_first
-        t = time.perf_counter()
-        mp = m.run_window(w)
-        dt = time.perf_counter() - t
+    windows = list(iter_windows(EVENTS / file, window_ms=window_ms, start_ms=start_ms, max_windows=max_windows,
+                                sensor_size=sensor))
+    if not windows:
+        fail(f"{EVENTS / file}: no {window_ms:g} ms window from {start_ms:g} ms")
+    t_first = windows[0].t_start_us
+    t = time.perf_counter()
+    results = list(m.run_windows(windows))     # (the spiking network: one continuous run over them all)
+    seconds_each = (time.perf_counter() - t) / len(windows)
+    for i, (w, mp) in enumerate(results):
         r, c = grouping_peak(mp.grouping)
         rows.append({"recording": name, "model": model, "window": i, "t_start_ms": (w.t_start_us - t_first) / 1000,
                      "events": int(len(w.events)), "vector_pixels": int((mp.magnitude > 0).sum()),
                      "grouping_peak_row": r, "grouping_peak_col": c,
-                     "grouping_peak": float(mp.grouping.max()), "runtime_s": dt})
+                     "grouping_peak": float(mp.grouping.max()), "runtime_s": seconds_each})
         maps.append(mp)
         inputs.append(event_frame_rgb(w.pos, w.neg))
         titles.append(f"{name} {(w.t_start_us - t_first) / 1000:.0f}-{(w.t_end_us - t_first) / 1000:.0f} ms "

@@ -215,10 +215,14 @@ class SpikingModel(Model):
         return self._run(pos=frame.pos, neg=frame.neg)
 
     def run_window(self, window) -> Maps:
+        """One window, run as a recording of that one window
+        (:meth:`run_windows`): its events at their own times, the window
+        clock, and the window plus the read-out lag simulated, as for every
+        window of a longer recording."""
         if not (window.pos.any() or window.neg.any()):
             return self.empty_maps(window.pos.shape)
-        h, w = window.pos.shape
-        return self._run(events=window.events, sensor_size=(w, h, 2))
+        (_, maps), = self.run_windows([window])
+        return maps
 
     def run_windows(self, windows):
         """One network over the whole recording (:func:`~snn_fg.spiking.run_spiking_windows`):

@@ -121,12 +121,14 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str) -> 
     from .events import EmptyWindowWarning
 
     t0, t1 = [], []
-    n_empty = 0
+    n_empty = n_blank = 0
     with MapsSeriesWriter(out / "maps.npz") as sink, warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)     # counted and reported once below
         for w, maps in model.run_windows(windows):
             cancel.check()          # (an interrupt swallowed inside the window stops the run here)
-            n_empty += not (w.pos.any() or w.neg.any())
+            has_events = bool(w.pos.any() or w.neg.any())
+            n_empty += not has_events
+            n_blank += has_events and not (maps.fg_x.any() or maps.fg_y.any())
             # the window's event frame (+1 ON, -1 OFF) is kept with its maps
             sink.append(maps, event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8))
             t0.append(w.t_start_us)
@@ -136,6 +138,12 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str) -> 
         if n_empty:
             print(f"snn-fg: warning: {n_empty} of {sink.n} windows had no events; their maps are zero",
                   file=sys.stderr)
+        if n_blank:
+            hint = (" (the spiking network needs tens of ms of input before its feedback orders the "
+                    "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle)"
+                    if model.name == "spiking" else "")
+            print(f"snn-fg: warning: {n_blank} of {sink.n - n_empty} windows with events have no figure-ground "
+                  f"vector{hint}", file=sys.stderr)
         st = sink.stacked()
         maps = Maps(st["fg_x"], st["fg_y"], st["grouping"], {**sink.params, "source": source},
                     {k: v for k, v in st.items() if k not in ("fg_x", "fg_y", "grouping")})

@@ -364,3 +364,27 @@ def test_agreement_scores_a_against_b_and_reads_maps_or_tuples():
     s = agreement(a, Maps(fx, fy, g))
     assert s["coverage"] == 0.5 and s["within_45"] == 0.5 and s["mean_deg"] == 90.0 and s["grouping_r"] == 1.0
     assert agreement(Maps(fx, fy, g), a)["coverage"] == 1.0       # every vector of a is in b
+
+
+def test_a_recording_whose_windows_give_no_vector_says_so(tmp_path, capsys):
+    """A window with events but an empty figure-ground map (here a stand-in
+    model that returns empty maps) is counted and reported in one line; a
+    model that finds the disc's outline draws no such line."""
+    from snn_fg.events import image_to_events, iter_windows
+    from snn_fg.models import RateModel
+    from snn_fg.runner import run_recording
+    from snn_fg.scenes import disc
+
+    class Blank(RateModel):
+        def run_window(self, window):
+            return self.empty_maps(window.pos.shape)
+
+    rec = image_to_events(disc(12).image, motion="circle")
+    for model, name in ((Blank(ModelParams(levels=3)), "blank"), (RateModel(ModelParams(levels=3)), "rate")):
+        (tmp_path / name).mkdir()
+        n = run_recording(model, iter_windows(rec, window_ms=120), tmp_path / name, {}, "disc")
+        err = capsys.readouterr().err
+        if name == "blank":
+            assert n >= 2 and f"{n} of {n} windows with events have no figure-ground vector" in err
+        else:
+            assert "no figure-ground vector" not in err

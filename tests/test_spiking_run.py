@@ -57,6 +57,28 @@ def test_maps_record_counts_rates_and_parameters(small_run, frame, tmp_path):
     assert all(f.read_bytes()[:4] == b"\x89PNG" and f.stat().st_size > 10_000 for f in files)
 
 
+def test_a_frame_creates_the_input_s_cells_by_default_and_their_maps_are_every_cell_s(frame):
+    """Regular trains keep the nominal rate the site hints assume, so by
+    default a frame creates only the cells the hints choose, on the fast
+    engine too (whose own default is every cell); the maps are bit for bit
+    those of every cell. Timed events keep the backend's default."""
+    pos, neg = frame
+    params = ModelParams(levels=3)
+    runs = {inst: run_spiking_result(pos, neg, params=params, backend="fast", duration_ms=120, progress=False,
+                                     **({"instantiate": inst} if inst else {}))
+            for inst in (None, "all")}
+    default, every = runs[None], runs["all"]
+    assert default.maps.params["simulation"]["instantiate"] == "input"
+    assert default.maps.params["counts"]["total_cells"] < 0.7 * every.maps.params["counts"]["total_cells"]
+    assert np.abs(every.maps.fg_x).sum() > 0 and every.maps.grouping.max() > 0
+    for key in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(default.maps, key), getattr(every.maps, key), err_msg=key)
+    rec = image_to_events(disc(12).image)
+    timed = run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, params=SMALL, backend="fast",
+                               duration_ms=60, progress=False)
+    assert timed.maps.params["simulation"]["instantiate"] == "all"
+
+
 def test_a_stored_description_runs_and_an_edited_gain_changes_the_result(small_run, frame, tmp_path):
     pos, neg = frame
     path = small_run.network.save(tmp_path / "net.json")

@@ -7,6 +7,7 @@ import pytest
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_events, iter_windows
+from snn_fg.models import get_model
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.outline import inward_score
 from snn_fg.params import ModelParams
@@ -41,6 +42,42 @@ def flip_runs():
                                        progress=False)
             for clock in (True, False)}
     return scenes, runs
+
+
+def test_one_window_of_a_recording_runs_as_a_recording_of_that_window():
+    """The spiking model's ``run_window`` simulates the window and the
+    read-out lag once, events at their own times (no replay up to a frame's
+    400 ms), with the window clock: the dark disc after a light one, run
+    alone, still points inwards."""
+    scenes, windows = _flip_recording()
+    maps = get_model("spiking", ModelParams(levels=4), backend="fast").run_window(windows[1])
+    sim = maps.params["simulation"]
+    span_ms = (windows[1].t_end_us - windows[1].t_start_us) / 1000.0
+    assert sim["mode"] == "continuous" and sim["network_builds"] == 1 and sim["window_clock"] is True
+    assert sim["simulated_ms"] == pytest.approx(span_ms + sim["readout_lag_ms"], abs=0.5)
+    frac, n = inward_score(maps.fg_x, maps.fg_y, scenes[1].labels > 0)
+    assert frac >= 0.95 and n >= 30, (frac, n)
+
+
+def test_a_last_window_shorter_than_a_step_is_read_out_over_one_step():
+    """A recording's last window ends 1 us after its last event; when that
+    event sits on a window boundary the window is shorter than a step. It
+    must still be read out over one step, not over none (which gave NaN
+    maps), and the whole run simulates no more than one step beyond it."""
+    from snn_fg.events import Recording
+
+    _, rec = flipping_disc_recording(24, windows=2, window_ms=60.0)
+    last = rec.events[-1:].copy()
+    last["t"] = 120_000                      # on the boundary after the second window
+    rec = Recording(events=np.concatenate([rec.events, last]), sensor_size=rec.sensor_size, format="synthetic")
+    windows = list(iter_windows(rec, window_ms=60.0))
+    assert len(windows) == 3 and windows[-1].t_end_us - windows[-1].t_start_us == 1
+    maps = run_spiking_windows(windows, params=ModelParams(levels=3), backend="fast", progress=False)
+    for m in maps:
+        assert all(np.isfinite(getattr(m, k)).all() for k in ("fg_x", "fg_y", "grouping"))
+    sim = maps[-1].params["simulation"]
+    assert sim["count_to_ms"] - sim["count_from_ms"] == pytest.approx(0.5)
+    assert sim["simulated_ms"] == pytest.approx(120.0 + sim["readout_lag_ms"] + 0.5)
 
 
 def _inward(scenes, maps):

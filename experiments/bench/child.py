@@ -50,7 +50,10 @@ def _runner(mdl, inp):
     from snn_fg.models import Frame
 
     if inp.events is None:
-        return lambda: mdl.run_frame(Frame(inp.pos, inp.neg))
+        frame = Frame(inp.pos, inp.neg)
+        if mdl.name == "spiking":
+            return lambda: _spiking_record(mdl.run_frame(frame))
+        return lambda: mdl.run_frame(frame)
     win = inp.window()
     if mdl.name == "spiking":
         return lambda: _spiking_window(mdl, win)
@@ -63,9 +66,16 @@ LAST_RUN: dict = {}
 
 def _spiking_window(mdl, win):
     (_, maps), = mdl.run_windows([win])
+    return _spiking_record(maps)
+
+
+def _spiking_record(maps):
+    """Keep the run's counters in LAST_RUN (a frame's as well as a window's:
+    a row must not carry the warm-up's)."""
     p = maps.params
+    sim = p["simulation"]
     LAST_RUN.clear()
-    LAST_RUN.update(simulated_ms=p["simulation"]["simulated_ms"], instantiate=p["simulation"]["instantiate"],
+    LAST_RUN.update(simulated_ms=sim.get("simulated_ms", sim.get("duration_ms")), instantiate=sim["instantiate"],
                     cells=p["counts"]["total_cells"], timings_s=p["timings_s"],
                     backend_stats=p.get("backend_stats", {}))
     return maps

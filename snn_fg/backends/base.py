@@ -210,9 +210,10 @@ class Backend(ABC):
     #: that does not depend on how many other cells exist; where it does
     #: (NEST), float rounding can move a spike at the threshold's edge
     fixed_summation_order: ClassVar[bool] = True
-    #: ``RunSettings.instantiate`` when the caller leaves it to the backend:
-    #: ``input`` where cells cost per synapse (unrolled), ``all`` where they
-    #: cost only their state and choosing them per input would cost more
+    #: ``RunSettings.instantiate`` when the caller leaves it to the backend
+    #: (the spiking API asks for ``input`` on an event frame's regular trains,
+    #: whatever this says): ``input`` where cells cost per synapse (unrolled),
+    #: ``all`` where choosing them per input would cost more than they do
     default_instantiate: ClassVar[str] = "input"
 
     @classmethod

@@ -87,9 +87,12 @@ class FastBackend(Backend):
 
     name = "fast"
     requires = "numba (a core dependency: reinstall snn-fg)"
-    #: every cell: the engine needs no per-input preparation then (choosing the
-    #: cells an input can use takes seconds to a minute of unrolling in Python,
-    #: longer than simulating the cells it leaves out)
+    #: every cell, for timed events: the engine needs no per-input preparation
+    #: then (choosing the cells a recording's window can use takes seconds of
+    #: unrolling in Python, longer than simulating the cells it leaves out), and
+    #: no cell that bursts of events can make fire is left out. An event
+    #: frame's regular trains get the hinted cells on every backend instead
+    #: (:func:`snn_fg.spiking.api.default_instantiate`)
     default_instantiate = "all"
 
     def __init__(self, *, chunk_ms: float = CHUNK_MS):

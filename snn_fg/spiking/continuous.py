@@ -153,8 +153,8 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
     if calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
         net = net.calibrated(rate)
-    spans = [((x.t_start_us - t0) / 1000.0 + lag, (x.t_end_us - t0) / 1000.0 + lag) for x in windows]
-    edges = sorted({round(t / dt_ms) * dt_ms for span in spans for t in span})
+    spans = [_read_out_span(x, t0, lag, dt_ms) for x in windows]
+    edges = sorted({t for span in spans for t in span})
     duration = edges[-1]
     say = log if log is not None else (stderr_log if progress else None)
     sim_backend = as_backend(backend, backend_options)
@@ -167,6 +167,16 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
                   "instantiate": instantiate, "record_spikes": bool(record_spikes),
                   "window_clock": clock}
     return ContinuousRun(windows, net, origin, sim_backend, result, edges, spans, simulation, t_start)
+
+
+def _read_out_span(window, t0_us: float, lag_ms: float, dt_ms: float) -> tuple[float, float]:
+    """A window's read-out span (ms from the first window's start, lag
+    included) on the step grid, at least one step long: a recording's last
+    window can be shorter than a step (it ends 1 us after the last event),
+    and a span of no steps would count no spikes."""
+    a = round(((window.t_start_us - t0_us) / 1000.0 + lag_ms) / dt_ms)
+    b = round(((window.t_end_us - t0_us) / 1000.0 + lag_ms) / dt_ms)
+    return a * dt_ms, max(b, a + 1) * dt_ms
 
 
 def window_maps(run: ContinuousRun) -> list[Maps]:

@@ -2,6 +2,8 @@
 
 * :func:`run_spiking` - an event frame or timed events -> :class:`~snn_fg.maps.Maps`
   decoded from spike counts (:func:`run_spiking_result` returns the internals);
+* :func:`run_spiking_windows` - a recording's windows through one continuous
+  network -> one :class:`~snn_fg.maps.Maps` per window (:mod:`.continuous`);
 * :mod:`.inputs` - events and frames -> input spike trains;
 * :mod:`.unroll` (with :mod:`.sites`, :mod:`.connect`, :mod:`.interp`) - the
   description unrolled into cells and synapses for one input, for backends
@@ -15,7 +17,8 @@ of :mod:`snn_fg.backends`.
 """
 from ..network import SpikingParams, build_network
 from .api import SpikingResult, run_spiking, run_spiking_result
+from .continuous import run_spiking_windows
 from .record import SpikingRecord
 
 __all__ = ["SpikingParams", "SpikingRecord", "SpikingResult", "build_network", "run_spiking",
-           "run_spiking_result"]
+           "run_spiking_result", "run_spiking_windows"]

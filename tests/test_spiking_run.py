@@ -57,7 +57,7 @@ def test_maps_record_counts_rates_and_parameters(small_run, frame, tmp_path):
     assert all(f.read_bytes()[:4] == b"\x89PNG" and f.stat().st_size > 10_000 for f in files)
 
 
-def test_a_frame_creates_the_input_s_cells_by_default_and_their_maps_are_every_cell_s(frame):
+def test_a_frame_gets_the_hinted_cells_by_default_and_every_cell_s_maps(frame):
     """Regular trains keep the nominal rate the site hints assume, so by
     default a frame creates only the cells the hints choose, on the fast
     engine too (whose own default is every cell); the maps are bit for bit

@@ -26,7 +26,7 @@ from .. import validate as check
 from ..backends import DEFAULT_BACKEND, RunSettings, as_backend
 from ..errors import InputError
 from ..maps import Maps
-from .api import resolve_network, run_params, stderr_log
+from .api import default_instantiate, resolve_network, run_params, stderr_log
 from .decode import decode
 from .inputs import event_spikes
 from .record import SpikingRecord
@@ -158,7 +158,7 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
     duration = edges[-1]
     say = log if log is not None else (stderr_log if progress else None)
     sim_backend = as_backend(backend, backend_options)
-    instantiate = instantiate or sim_backend.default_instantiate
+    instantiate = instantiate or default_instantiate(sim_backend, inp)
     settings = RunSettings(duration_ms=duration, dt_ms=dt_ms, count_from_ms=edges[0], record_spikes=record_spikes,
                            instantiate=instantiate, count_bins_ms=tuple(edges), log=say, progress=progress)
     result = sim_backend.simulate(net, inp, settings)
@@ -183,8 +183,7 @@ def window_maps(run: ContinuousRun) -> list[Maps]:
     """Each window's maps, decoded from the spikes counted in its read-out span."""
     out, edges, result = [], run.edges, run.result
     for x, (a, b) in zip(run.windows, run.spans):
-        k0, k1 = (int(np.searchsorted(edges, round(t / run.simulation["dt_ms"]) * run.simulation["dt_ms"]))
-                  for t in (a, b))
+        k0, k1 = (int(np.searchsorted(edges, t)) for t in (a, b))     # (spans are made of edges)
         counts = {n: c[k0:k1].sum(axis=0) for n, c in result.binned_counts.items()}
         window_result = dataclasses.replace(result, counts=counts, count_window_ms=edges[k1] - edges[k0],
                                             spikes=_spikes_between(result.spikes, edges[k0], edges[k1]))

@@ -54,6 +54,50 @@ def pool_stats(parts) -> dict:
             "within45": sum(p["n_within45"] for p in parts) / n, "n_pixels": n}
 
 
+def bootstrap_difference(parts_a, parts_b, n_resamples: int = 2000, seed: int = 0,
+                         keys=("mean_signed_deg", "mean_abs_deg", "within45"), level: float = 0.95) -> dict:
+    """How far the pooled difference ``b - a`` of each score could move with
+    the choice of images: a paired bootstrap over images.
+
+    ``parts_a[i]`` and ``parts_b[i]`` are the :func:`error_stats` parts of
+    image ``i`` (each a list of parts, pooled with :func:`pool_stats`: one per
+    labeller, say) for the two models. Each resample draws as many images as
+    there are, with replacement, the same images for both models, and pools
+    them as :func:`pool_stats` does. Pixels within one image are not
+    independent, so resampling images, not pixels, is what says how much a
+    pooled score owes to which images were picked.
+
+    Returns ``{key: {"difference", "low", "high"}}`` (the observed pooled
+    difference and the central ``level`` interval of the resampled ones).
+    """
+    if len(parts_a) != len(parts_b) or not parts_a:
+        raise ValueError("bootstrap_difference needs the same, non-empty list of images for both models")
+    if not (isinstance(n_resamples, int) and n_resamples >= 1):
+        raise ValueError(f"n_resamples must be a positive integer, got {n_resamples!r}")
+
+    def sums(parts):        # per image: n, sum_signed, sum_abs, n_within45
+        return np.array([[sum(p[k] for p in ps) for k in ("n", "sum_signed", "sum_abs", "n_within45")]
+                         for ps in parts], np.float64)
+
+    a, b = sums(parts_a), sums(parts_b)
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, len(a), size=(n_resamples, len(a)))
+    col = {"mean_signed_deg": 1, "mean_abs_deg": 2, "within45": 3}
+
+    def pooled(s, key, rows=None):
+        t = s if rows is None else s[rows]
+        tot = t.sum(axis=-2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return tot[..., col[key]] / tot[..., 0]
+
+    out = {}
+    for key in keys:
+        d = pooled(b, key, pick) - pooled(a, key, pick)
+        lo, hi = np.nanquantile(d, [(1 - level) / 2, (1 + level) / 2])
+        out[key] = {"difference": float(pooled(b, key) - pooled(a, key)), "low": float(lo), "high": float(hi)}
+    return out
+
+
 def _unit(x, y):
     mag = np.hypot(x, y)
     has = mag > 0

@@ -108,3 +108,23 @@ def test_map_similarity_is_perfect_only_for_the_same_field():
     # in turns, every vector moved by 0.5 (either way round the wheel): 0.25 per vector pixel
     assert flipped["mse_angle"] == pytest.approx(0.25 * valid.mean())
     assert flipped["mse_render"] > 0
+
+
+def test_bootstrap_over_images_separates_a_steady_shift_from_one_image_s_outlier():
+    from snn_fg.evaluation import bootstrap_difference, error_stats
+
+    rng = np.random.default_rng(3)
+    errs = [rng.uniform(-120, 120, size=rng.integers(200, 400)) for _ in range(20)]
+    a = [[error_stats(e)] for e in errs]
+    # every image 10 deg further round: the difference is 10 whichever images are drawn
+    shifted = bootstrap_difference(a, [[error_stats(e + 10)] for e in errs], n_resamples=500)
+    s = shifted["mean_signed_deg"]
+    assert s["difference"] == pytest.approx(10) and s["low"] == pytest.approx(10) and s["high"] == pytest.approx(10)
+    # one image 90 deg off, the rest identical: a pooled difference that the images
+    # left out of a third of the resamples do not have
+    one = [[error_stats(e + (90 if i == 0 else 0))] for i, e in enumerate(errs)]
+    b = bootstrap_difference(a, one, n_resamples=500)["mean_signed_deg"]
+    assert b["difference"] > 2 and b["low"] == 0.0 and b["high"] > b["difference"]
+    assert bootstrap_difference(a, one, n_resamples=500) == bootstrap_difference(a, one, n_resamples=500)
+    with pytest.raises(ValueError, match="same, non-empty"):
+        bootstrap_difference(a, one[:-1])

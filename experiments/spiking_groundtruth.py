@@ -14,8 +14,9 @@ each pooled difference moves with the choice of images.
 Writes experiments/results/spiking_groundtruth.{json,md,png} (with
 ``--seed N`` other than 0, the seed of the spiking network's input trains,
 spiking_groundtruth_seedN.*: how far the pooled scores move with the input's
-phase alone); the figure puts each image's spiking score against its rate
-score (mean absolute error and fraction within 45 degrees).
+phase alone; with other than 20 images, spiking_groundtruth_<N>images*); the
+figure puts each image's spiking score against its rate score (mean absolute
+error and fraction within 45 degrees).
 """
 from __future__ import annotations
 
@@ -48,7 +49,8 @@ def main():
     results = evaluate(args, {**SETTINGS, "thresholds": (args.threshold,), "shift4_thresholds": (),
                               "event_models": ("rate", "spiking"), "fbfg_operators": (), "fig6": False,
                               **({"spiking_options": {"seed": args.seed}} if args.seed else {})})
-    name = "spiking_groundtruth" + (f"_seed{args.seed}" if args.seed else "")
+    name = ("spiking_groundtruth" + (f"_{len(results)}images" if len(results) != 20 else "")
+            + (f"_seed{args.seed}" if args.seed else ""))
     per_image, units, parts = [], [], {"rate": [], "spiking": []}
     for image_id in sorted(results, key=int):
         us = [u for u in results[image_id]["units"] if u["motion"] == "paper"]

@@ -74,6 +74,12 @@ def bootstrap_difference(parts_a, parts_b, n_resamples: int = 2000, seed: int = 
         raise ValueError("bootstrap_difference needs the same, non-empty list of images for both models")
     if not (isinstance(n_resamples, int) and n_resamples >= 1):
         raise ValueError(f"n_resamples must be a positive integer, got {n_resamples!r}")
+    if not 0 < level < 1:
+        raise ValueError(f"level must lie between 0 and 1, got {level!r}")
+    col = {"mean_signed_deg": 1, "mean_abs_deg": 2, "within45": 3}
+    unknown = [k for k in keys if k not in col]
+    if unknown:
+        raise ValueError(f"bootstrap_difference has no score {unknown[0]!r}; it knows {', '.join(col)}")
 
     def sums(parts):        # per image: n, sum_signed, sum_abs, n_within45
         return np.array([[sum(p[k] for p in ps) for k in ("n", "sum_signed", "sum_abs", "n_within45")]
@@ -82,7 +88,6 @@ def bootstrap_difference(parts_a, parts_b, n_resamples: int = 2000, seed: int = 
     a, b = sums(parts_a), sums(parts_b)
     rng = np.random.default_rng(seed)
     pick = rng.integers(0, len(a), size=(n_resamples, len(a)))
-    col = {"mean_signed_deg": 1, "mean_abs_deg": 2, "within45": 3}
 
     def pooled(s, key, rows=None):
         t = s if rows is None else s[rows]

@@ -128,3 +128,5 @@ def test_bootstrap_over_images_separates_a_steady_shift_from_one_image_s_outlier
     assert bootstrap_difference(a, one, n_resamples=500) == bootstrap_difference(a, one, n_resamples=500)
     with pytest.raises(ValueError, match="same, non-empty"):
         bootstrap_difference(a, one[:-1])
+    with pytest.raises(ValueError, match="no score 'median_abs_deg'"):
+        bootstrap_difference(a, one, keys=("median_abs_deg",))

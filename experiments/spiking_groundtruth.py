@@ -31,14 +31,8 @@ KEYS = ("mean_signed_deg", "mean_abs_deg", "median_abs_deg", "within45", "n_pixe
 BOOTSTRAP_RESAMPLES = 4000
 
 
-def _stats(units, model):
-    from snn_fg.evaluation import pool_stats
-
-    return pool_stats([u for u in units if u["model"] == model])
-
-
 def main():
-    from snn_fg.evaluation import bootstrap_difference
+    from snn_fg.evaluation import bootstrap_difference, pool_stats
 
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--threshold", type=float, default=0.40, metavar="C")
@@ -51,15 +45,12 @@ def main():
                               **({"spiking_options": {"seed": args.seed}} if args.seed else {})})
     name = ("spiking_groundtruth" + (f"_{len(results)}images" if len(results) != 20 else "")
             + (f"_seed{args.seed}" if args.seed else ""))
-    per_image, units, parts = [], [], {"rate": [], "spiking": []}
-    for image_id in sorted(results, key=int):
-        us = [u for u in results[image_id]["units"] if u["motion"] == "paper"]
-        units += us
-        for model in parts:
-            parts[model].append([u for u in us if u["model"] == model])
-        row = {"image_id": image_id, "rate": _stats(us, "rate"), "spiking": _stats(us, "spiking")}
-        per_image.append(row)
-    pooled = {"rate": _stats(units, "rate"), "spiking": _stats(units, "spiking")}
+    # per model, per image: its scored units (one per labeller), pooled per image and over all
+    ids = sorted(results, key=int)
+    parts = {model: [[u for u in results[i]["units"] if u["motion"] == "paper" and u["model"] == model]
+                     for i in ids] for model in ("rate", "spiking")}
+    per_image = [{"image_id": i, **{m: pool_stats(parts[m][k]) for m in parts}} for k, i in enumerate(ids)]
+    pooled = {m: pool_stats([u for ps in parts[m] for u in ps]) for m in parts}
     diff = {k: pooled["spiking"][k] - pooled["rate"][k] for k in KEYS[:4]}
     spread = bootstrap_difference(parts["rate"], parts["spiking"], n_resamples=BOOTSTRAP_RESAMPLES)
     record = {"threshold": args.threshold, "seed": args.seed, "images": len(per_image), "pooled": pooled,

@@ -5,9 +5,12 @@ the six shared BSDS frames; the network gives more. This measures, per
 frame, with the fast engine and the default network:
 
 1. **Trajectory.** The spiking maps read from counting windows ending at
-   60, 100, 150, 200 and 400 ms (each from its own run; the runs share their
-   first milliseconds, same seed), against the rate model after n = 1 ... 40
-   iterations: which iteration the network is near, and when.
+   60, 100, 150, 200, 400 and 700 ms (each from its own run; the runs share
+   their first milliseconds, same seed), against the rate model after
+   n = 1 ... 40 iterations: which iteration the network is near, and when;
+   and against the default read-out (counts in 200-400 ms): whether the
+   network has settled by then or keeps moving, as the rate model does
+   after its 10th iteration (``rate_iterations.md``).
 2. **Each stage against the model's own rule**, on the default run (counts
    in 200-400 ms): the model's stage 7 applied to the spiking border-ownership
    rates, against the spiking grouping rates (Pearson r per level); the
@@ -64,8 +67,10 @@ from snn_fg.spiking.decode import decode, to_level_grid  # noqa: E402
 BSDS = ROOT.parent / "shared" / "data" / "bsds-edfg"
 OUT = ROOT / "experiments" / "results"
 ITERATIONS = (1, 2, 3, 5, 10, 20, 40)
-#: (end of the counting window, its length) in ms; the last is the default read-out
-WINDOWS = ((60, 30), (100, 30), (150, 30), (200, 30), (400, 200))
+#: (end of the counting window, its length) in ms
+WINDOWS = ((60, 30), (100, 30), (150, 30), (200, 30), (400, 200), (700, 500), (700, 300))
+#: the default read-out (run_spiking: counts in 200-400 ms)
+DEFAULT_WINDOW = (400, 200)
 NOISE = (0.03, 0.1, 0.3)
 #: factors on pyramid_decay (the coarse levels' share in the pooled feedback)
 SHARES = (0.8, 0.9, 1.1, 1.25)
@@ -175,21 +180,28 @@ def main():
             refs[k] = _maps(m)
         ref = refs[10]
         row = {"trajectory": [], "gain": []}
+        spiking_maps = []
         for end, length in WINDOWS:
             result, maps = _spiking(pos, neg, duration_ms=end, settle_ms=end - length)
+            if (end, length) == DEFAULT_WINDOW:
+                default_result, default_maps = result, maps
+                default_entry = len(row["trajectory"])
+            spiking_maps.append(maps)
             versus = {k: agreement(maps, refs[k]) for k in ITERATIONS}
             row["trajectory"].append({"window_ms": [end - length, end], "coverage": versus[10]["coverage"],
                                       "vs_iterations": versus})
             print(f"{f} counts {end - length}-{end} ms: " + " ".join(
                 f"n{k} {v['mean_deg']:.1f}" for k, v in row["trajectory"][-1]["vs_iterations"].items()), flush=True)
-        row["stages"] = _stages(result, pos, neg, params)       # the last run is the default read-out
+        for t, maps in zip(row["trajectory"], spiking_maps):
+            t["vs_default_readout"] = agreement(maps, default_maps)
+        row["stages"] = _stages(default_result, pos, neg, params)
         print(f"{f} stages: {row['stages']}", flush=True)
         row["noise"] = {s: [agreement(_noisy_reference(pos, neg, params, s, seed), ref) for seed in range(3)]
                         for s in NOISE}
         row["share"] = {c: agreement(_maps(run_edfg(pos, neg, dataclasses.replace(
             params, pyramid_decay=c * params.pyramid_decay))), ref) for c in SHARES}
         if f in a.gain_frames:
-            row["gain"].append({"variant": "default", **row["trajectory"][-1]["vs_iterations"][10]})
+            row["gain"].append({"variant": "default", **row["trajectory"][default_entry]["vs_iterations"][10]})
             for name, change in _variants().items():
                 _, maps = _spiking(pos, neg, spiking=SpikingParams(**change))
                 row["gain"].append({"variant": name, **agreement(maps, ref)})
@@ -223,15 +235,21 @@ def _markdown(rec) -> str:
              f"{rec['started']}, {rec['seconds']:.0f} s). Angles: mean absolute difference (deg) / % of shared "
              "edge pixels within 45 deg / grouping Pearson r.", "",
              "## 1. Spiking maps by counting window, against the rate model after n iterations", "",
-             "| frame | counts (ms) | coverage | " + " | ".join(f"n = {k}" for k in its) + " |",
-             "|---|---|---|" + "---|" * len(its)]
+             "| frame | counts (ms) | coverage | " + " | ".join(f"n = {k}" for k in its)
+             + " | vs the 200-400 ms maps |",
+             "|---|---|---|" + "---|" * len(its) + "---|"]
     for f, row in fr.items():
         for t in row["trajectory"]:
             v = t["vs_iterations"]
             cells = [f"{v[k]['mean_deg']:.1f} / {100 * v[k]['within_45']:.0f} / {v[k]['grouping_r']:.2f}" for k in its]
+            d = t.get("vs_default_readout")
+            cells.append("" if d is None else f"{d['mean_deg']:.1f} / {100 * d['within_45']:.0f} / "
+                                              f"{d['grouping_r']:.2f}")
             lines.append(f"| {f} | {t['window_ms'][0]}-{t['window_ms'][1]} | {t['coverage']:.2f} | "
                          + " | ".join(cells) + " |")
-    lines += ["", "Coverage: fraction of the 10-iteration reference's vectors that the spiking map also has.", "",
+    lines += ["", "Coverage: fraction of the 10-iteration reference's vectors that the spiking map also has. "
+              "The last column: the same maps against the spiking network's own default read-out (counts in "
+              "200-400 ms), i.e. how far the network moves before and after it.", "",
               "## 2. Each spiking stage against the model's rule on the spiking network's own state", "",
               "| frame | stage 7 on spiking B: r with spiking G, levels 1..L | stage 8 on spiking G vs spiking map | "
               "level-1 z: ties | sign agrees (decided) | r | coarse share, levels 1..L-1 |",

@@ -2,10 +2,10 @@
 against the default 0.5 ms, side by side.
 
 The network is described in milliseconds; ``dt_ms`` only says how finely a
-simulator steps it. SpiNNaker runs in real time at 1 ms steps (0.1 ms needs
-a slower time scale), and part of the fast engine's cost is per step: the
-active cells' updates, and the closed-form catch-up of a cell each step that
-input reaches it. What changes at 1 ms: spike times and delays land on a 1 ms
+simulator steps it. SpiNNaker is usually run in real time at 1 ms steps
+(finer steps with a slower time scale), and part of the fast engine's cost
+is per step: the active cells' updates, and the closed-form catch-up of a
+cell each step that input reaches it. What changes at 1 ms: spike times and delays land on a 1 ms
 grid, the feedback cells' one-step refractory period grows from 0.5 to 1 ms
 (a 1 kHz ceiling instead of 2 kHz), and the input spikes of one pixel spread
 over ``gate_spread_ms`` (1 ms) fall into one step.

@@ -1,14 +1,14 @@
-"""The spiking network at a coarser time step: fidelity and cost of dt = 1 ms
-against the default 0.5 ms, side by side.
+"""The spiking network at other time steps: fidelity and cost of dt = 1 ms
+(or any other) against the default 0.5 ms, side by side.
 
 The network is described in milliseconds; ``dt_ms`` only says how finely a
 simulator steps it. SpiNNaker is usually run in real time at 1 ms steps
 (finer steps with a slower time scale), and part of the fast engine's cost
 is per step: the active cells' updates, and the closed-form catch-up of a
-cell each step that input reaches it. What changes at 1 ms: spike times and delays land on a 1 ms
-grid, the feedback cells' one-step refractory period grows from 0.5 to 1 ms
-(a 1 kHz ceiling instead of 2 kHz), and the input spikes of one pixel spread
-over ``gate_spread_ms`` (1 ms) fall into one step.
+cell each step that input reaches it. What changes at 1 ms: spike times and
+delays land on a 1 ms grid, and a cell fires at most once per step (the
+feedback cells, whose refractory period is 0.5 ms, get a 1 kHz ceiling
+instead of 2 kHz).
 
 For each ``--dt`` (the first is the one the others are compared with):
 
@@ -27,6 +27,8 @@ For each ``--dt`` (the first is the one the others are compared with):
 Writes experiments/results/spiking_dt.json, .md and .png.
 
     python experiments/spiking_dt.py [--dt 0.5 1.0] [--quick] [--rounds 3]
+
+The stored results come from ``--dt 0.5 1.0 0.25``.
 
 ``--quick`` leaves out the BSDS frames (about 5 of the 8 minutes).
 """

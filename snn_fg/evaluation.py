@@ -39,6 +39,11 @@ def error_stats(signed) -> dict:
             "n_within45": int((a <= WITHIN_DEG).sum()), "hist_abs": hist.tolist()}
 
 
+#: the pooled scores that are a sum of :func:`error_stats` over pixels divided
+#: by their count, and the sum each divides
+_MEAN_OF = {"mean_signed_deg": "sum_signed", "mean_abs_deg": "sum_abs", "within45": "n_within45"}
+
+
 def pool_stats(parts) -> dict:
     """Pooled mean signed / absolute error, median, fraction within 45 degrees, pixel count."""
     parts = list(parts)
@@ -48,10 +53,9 @@ def pool_stats(parts) -> dict:
         return {"mean_signed_deg": nan, "mean_abs_deg": nan, "median_abs_deg": nan, "within45": nan, "n_pixels": 0}
     hist = np.sum([p["hist_abs"] for p in parts], axis=0)
     k = int(np.searchsorted(np.cumsum(hist), n / 2))
-    return {"mean_signed_deg": sum(p["sum_signed"] for p in parts) / n,
-            "mean_abs_deg": sum(p["sum_abs"] for p in parts) / n,
-            "median_abs_deg": (k + 0.5) * HIST_BIN_DEG,
-            "within45": sum(p["n_within45"] for p in parts) / n, "n_pixels": n}
+    means = {key: sum(p[field] for p in parts) / n for key, field in _MEAN_OF.items()}
+    return {"mean_signed_deg": means["mean_signed_deg"], "mean_abs_deg": means["mean_abs_deg"],
+            "median_abs_deg": (k + 0.5) * HIST_BIN_DEG, "within45": means["within45"], "n_pixels": n}
 
 
 def bootstrap_difference(parts_a, parts_b, n_resamples: int = 2000, seed: int = 0,
@@ -76,14 +80,14 @@ def bootstrap_difference(parts_a, parts_b, n_resamples: int = 2000, seed: int = 
         raise ValueError(f"n_resamples must be a positive integer, got {n_resamples!r}")
     if not 0 < level < 1:
         raise ValueError(f"level must lie between 0 and 1, got {level!r}")
-    col = {"mean_signed_deg": 1, "mean_abs_deg": 2, "within45": 3}
-    unknown = [k for k in keys if k not in col]
+    unknown = [k for k in keys if k not in _MEAN_OF]
     if unknown:
-        raise ValueError(f"bootstrap_difference has no score {unknown[0]!r}; it knows {', '.join(col)}")
+        raise ValueError(f"bootstrap_difference has no score {unknown[0]!r}; it knows {', '.join(_MEAN_OF)}")
+    fields = ("n", *_MEAN_OF.values())
+    col = {key: 1 + k for k, key in enumerate(_MEAN_OF)}
 
-    def sums(parts):        # per image: n, sum_signed, sum_abs, n_within45
-        return np.array([[sum(p[k] for p in ps) for k in ("n", "sum_signed", "sum_abs", "n_within45")]
-                         for ps in parts], np.float64)
+    def sums(parts):        # per image: the pixel count, then the sum behind each score
+        return np.array([[sum(p[f] for p in ps) for f in fields] for ps in parts], np.float64)
 
     a, b = sums(parts_a), sums(parts_b)
     rng = np.random.default_rng(seed)

@@ -35,7 +35,7 @@ from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
 from snn_fg.metrics import grouping_peak  # noqa: E402
-from snn_fg.outline import filled_outline, inward_angles, inward_score  # noqa: E402
+from snn_fg.outline import filled_outline, outline_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 
 REC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events" / "dvs.es"
@@ -107,8 +107,8 @@ def main():
     for w, m in zip(windows, all_maps):
         region = filled_outline(w.pos | w.neg)
         r, c = grouping_peak(m.grouping)
-        frac, n = inward_score(m.fg_x, m.fg_y, region)
-        mean_deg, within45 = inward_angles(m.fg_x, m.fg_y, region)
+        o = outline_scores(m.fg_x, m.fg_y, region)
+        frac, n, mean_deg, within45 = o["inward"], o["vectors"], o["mean_deg"], o["within45"]
         row = {"window": w.index, "t_start_ms": w.t_start_us / 1000, "t_end_ms": w.t_end_us / 1000,
                "events": int(len(w.events)), "plane_pixels": int(region.sum()),
                "grouping_peak": [r, c], "peak_on_plane": bool(region[r, c]),

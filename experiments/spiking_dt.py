@@ -57,7 +57,7 @@ from snn_fg import scenes  # noqa: E402
 from snn_fg.atomic import save_figure, save_text  # noqa: E402
 from snn_fg.events import image_to_frame, iter_windows  # noqa: E402
 from snn_fg.metrics import agreement, grouping_peak  # noqa: E402
-from snn_fg.outline import filled_outline, inward_angles, inward_score  # noqa: E402
+from snn_fg.outline import filled_outline, outline_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking_result  # noqa: E402
 
@@ -123,10 +123,9 @@ def _recording(dts, log):
         for k, (w, m) in enumerate(zip(windows, maps)):
             region = filled_outline(w.pos | w.neg)
             r, c = grouping_peak(m.grouping)
-            frac, n = inward_score(m.fg_x, m.fg_y, region)
-            mean_deg, within45 = inward_angles(m.fg_x, m.fg_y, region)
-            row = {"window": w.index, "peak_on_plane": bool(region[r, c]), "outline_vectors": n,
-                   "inward": frac, "within45": within45, "mean_deg": mean_deg}
+            o = outline_scores(m.fg_x, m.fg_y, region)
+            row = {"window": w.index, "peak_on_plane": bool(region[r, c]), "outline_vectors": o["vectors"],
+                   "inward": o["inward"], "within45": o["within45"], "mean_deg": o["mean_deg"]}
             if first is not None:
                 row["vs_first_dt"] = agreement(m, first[k])
             rows.append(row)

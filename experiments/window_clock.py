@@ -45,7 +45,7 @@ from snn_fg.atomic import save_figure, save_text  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.metrics import grouping_peak  # noqa: E402
 from snn_fg.network import SpikingParams  # noqa: E402
-from snn_fg.outline import filled_outline, inward_angles, inward_score  # noqa: E402
+from snn_fg.outline import filled_outline, outline_scores  # noqa: E402
 from snn_fg.params import ModelParams  # noqa: E402
 from snn_fg.scenes import flipping_disc_recording  # noqa: E402
 from snn_fg.spiking.continuous import simulate_windows, window_maps  # noqa: E402
@@ -85,10 +85,9 @@ def sweep_one(windows, regions, gain: float, params=None) -> dict:
     rows = []
     for m, region in zip(window_maps(run), regions):
         r, c = grouping_peak(m.grouping)
-        frac, n = inward_score(m.fg_x, m.fg_y, region)
-        mean_deg, within45 = inward_angles(m.fg_x, m.fg_y, region)
-        rows.append({"inward_fraction": frac, "outline_vectors": n, "mean_abs_deg": mean_deg,
-                     "within_45": within45, "peak_on_figure": bool(region[r, c]), "light_share": light_share(m)})
+        o = outline_scores(m.fg_x, m.fg_y, region)
+        rows.append({"inward_fraction": o["inward"], "outline_vectors": o["vectors"], "mean_abs_deg": o["mean_deg"],
+                     "within_45": o["within45"], "peak_on_figure": bool(region[r, c]), "light_share": light_share(m)})
     return {"gain": gain, "windows": rows, "onset_ms": _onset_ms(run),
             "min_inward": float(np.nanmin([r["inward_fraction"] for r in rows])),
             "min_within_45": float(np.nanmin([r["within_45"] for r in rows])),

@@ -42,10 +42,7 @@ def inward_score(fg_x, fg_y, region: np.ndarray, band_px: int = 3, sigma: float 
     """Fraction of figure-ground vectors within ``band_px`` of the region's
     outline (inside it) that point into the region (positive dot product with
     the inward normal). Returns ``(fraction, n_pixels)``."""
-    fx, fy, nx, ny = _outline_vectors(fg_x, fg_y, region, band_px, sigma)
-    if not fx.size:
-        return float("nan"), 0
-    return float(np.mean(fx * nx + fy * ny > 0)), int(fx.size)
+    return _inward(*_outline_vectors(fg_x, fg_y, region, band_px, sigma))
 
 
 def inward_angles(fg_x, fg_y, region: np.ndarray, band_px: int = 3, sigma: float = 3.0) -> tuple[float, float]:
@@ -53,9 +50,27 @@ def inward_angles(fg_x, fg_y, region: np.ndarray, band_px: int = 3, sigma: float
     ``(mean absolute angle to the inward normal in degrees, fraction within
     45 degrees of it)``; ``(nan, nan)`` without vectors. Stricter than the
     sign of the dot product: a vector along the outline counts as 90 degrees off."""
+    return _angles(*_outline_vectors(fg_x, fg_y, region, band_px, sigma))
+
+
+def outline_scores(fg_x, fg_y, region: np.ndarray, band_px: int = 3, sigma: float = 3.0) -> dict:
+    """:func:`inward_score` and :func:`inward_angles` from one pass over the
+    outline vectors: ``inward`` (fraction), ``vectors`` (their count),
+    ``mean_deg`` and ``within45``."""
+    v = _outline_vectors(fg_x, fg_y, region, band_px, sigma)
+    (inward, n), (mean_deg, within45) = _inward(*v), _angles(*v)
+    return {"inward": inward, "vectors": n, "mean_deg": mean_deg, "within45": within45}
+
+
+def _inward(fx, fy, nx, ny) -> tuple[float, int]:
+    if not fx.size:
+        return float("nan"), 0
+    return float(np.mean(fx * nx + fy * ny > 0)), int(fx.size)
+
+
+def _angles(fx, fy, nx, ny) -> tuple[float, float]:
     from .metrics import angle_difference_deg
 
-    fx, fy, nx, ny = _outline_vectors(fg_x, fg_y, region, band_px, sigma)
     if not fx.size:
         return float("nan"), float("nan")
     diff = angle_difference_deg(fx, fy, nx, ny)

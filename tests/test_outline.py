@@ -32,3 +32,15 @@ def test_no_vectors_scores_nan():
     region[4:12, 4:12] = True
     zero = np.zeros((16, 16))
     assert all(np.isnan(v) for v in inward_angles(zero, zero, region))
+
+
+def test_outline_scores_gives_both_scores_from_one_pass():
+    from snn_fg.outline import outline_scores
+
+    fx, fy, region = _disc(80)
+    o = outline_scores(fx, fy, region)
+    assert 75 < o["mean_deg"] < 85 and o["within45"] == 0.0 and o["inward"] > 0.9 and o["vectors"] > 100
+    assert (o["inward"], o["vectors"]) == inward_score(fx, fy, region)
+    zero = np.zeros_like(fx)
+    empty = outline_scores(zero, zero, region)
+    assert empty["vectors"] == 0 and all(np.isnan(empty[k]) for k in ("inward", "mean_deg", "within45"))

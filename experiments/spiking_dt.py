@@ -22,7 +22,9 @@ For each ``--dt`` (the first is the one the others are compared with):
    maps against the first dt's;
 4. the time per ``dvs.es`` window, measured in fresh processes that alternate
    between the time steps, round after round (``--rounds``), each warmed up on
-   the first window: the ratio of the medians is the speed gain.
+   the first window and keeping one backend object for all its windows, as
+   ``snn-fg run`` does (``spiking_variant_speed.alternate``): the ratio of the
+   medians is the speed gain.
 
 Writes experiments/results/spiking_dt.json, .md and .png.
 
@@ -38,7 +40,6 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -141,40 +142,13 @@ def _recording(dts, log):
     return out
 
 
-def _worker(dt: float, specs: list[str]):
-    """Time each window at ``dt`` (a fresh process, warmed up on the first)."""
-    from bench.inputs import load
-
-    from snn_fg.spiking.continuous import run_spiking_windows
-
-    wins = [load(s).window() for s in specs]
-    run_spiking_windows(wins[:1], backend="fast", dt_ms=dt, progress=False)        # warm-up
-    for spec, w in zip(specs, wins):
-        t = time.perf_counter()
-        (maps,) = run_spiking_windows([w], backend="fast", dt_ms=dt, progress=False)
-        st = maps.params.get("backend_stats", {})
-        print(json.dumps({"input": spec, "wall_s": time.perf_counter() - t,
-                          "synaptic_events": st.get("synaptic_events_total"),
-                          "closed_form_advances": st.get("closed_form_advances"),
-                          "active_cell_steps": st.get("active_cell_steps")}), flush=True)
-
-
 def _timing(dts, rounds, log):
-    """Section 4: alternating fresh processes, one per dt and round."""
-    specs = ",".join(f"dvs:{k}@{START_MS:g}" for k in TIMED_WINDOWS)
-    runs = []
-    for r in range(rounds):
-        for dt in dts:
-            load = os.getloadavg()[0]
-            proc = subprocess.run([sys.executable, __file__, "--worker", str(dt), specs], capture_output=True,
-                                  text=True)
-            if proc.returncode:
-                sys.exit(f"timing worker (dt {dt:g} ms) failed:\n{proc.stderr[-2000:]}")
-            for line in proc.stdout.splitlines():
-                if line.startswith("{"):
-                    runs.append({"round": r + 1, "dt_ms": dt, "load": load, **json.loads(line)})
-                    log(f"round {r + 1}  dt {dt:g} ms  {runs[-1]['input']:<10} {runs[-1]['wall_s']:.3f} s  "
-                        f"(load {load:.2f})")
+    """Section 4: alternating fresh processes, one per dt and round
+    (``spiking_variant_speed.alternate``, with the default network)."""
+    from spiking_variant_speed import alternate
+
+    runs = alternate([(f"dt {dt:g} ms", "{}", dt) for dt in dts], [f"dvs:{k}@{START_MS:g}" for k in TIMED_WINDOWS],
+                     rounds, log)
     med = {str(dt): statistics.median(x["wall_s"] for x in runs if x["dt_ms"] == dt) for dt in dts}
     return {"runs": runs, "median_s": med, "windows": list(TIMED_WINDOWS), "load_end": os.getloadavg()}
 
@@ -283,10 +257,7 @@ def main():
                     help="time steps in ms; the first is the one the others are compared with (0.5 1.0)")
     ap.add_argument("--quick", action="store_true", help="leave out the BSDS frames")
     ap.add_argument("--rounds", type=int, default=3, help="timing rounds (3)")
-    ap.add_argument("--worker", nargs=2, metavar=("DT", "SPECS"), help=argparse.SUPPRESS)
     a = ap.parse_args()
-    if a.worker:
-        return _worker(float(a.worker[0]), a.worker[1].split(","))
     if not REC.exists():
         sys.exit(f"needs {REC} (../shared is absent)")
     t0, load0 = time.perf_counter(), os.getloadavg()[0]

@@ -85,6 +85,25 @@ def test_binned_counts_are_identical_to_brian2s(disc_runs):
 
 
 @BRIAN2
+def test_spikes_between_two_times_are_those_the_times_select(disc_runs):
+    """``SpikeTrains.between`` (bisection, used for each window of a
+    recording) gives what masking every population's times gives, on spans
+    whose ends fall on a step, between steps and outside the run."""
+    trains = disc_runs["fast"].spikes
+    checked = 0
+    for a, b in ((0.0, 150.0), (20.0, 37.5), (37.25, 37.75), (37.5, 60.0), (49.9, 50.1), (140.0, 400.0),
+                 (60.0, 60.0)):
+        got = trains.between(a, b)
+        assert set(got) == set(trains)
+        for name in trains:
+            cell, t = trains[name]
+            inside = (t >= a) & (t < b)
+            np.testing.assert_array_equal(got[name][0], cell[inside], err_msg=f"{name} [{a}, {b})")
+            np.testing.assert_array_equal(got[name][1], t[inside], err_msg=f"{name} [{a}, {b})")
+            checked += int(inside.sum())
+    assert checked > 40_000
+
+@BRIAN2
 def test_final_state_is_brian2s_up_to_rounding(disc_runs):
     fast, ref = disc_runs["fast"], disc_runs["brian2"]
     for name in ref.populations:

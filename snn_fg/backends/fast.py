@@ -374,6 +374,29 @@ class SpikeTrains(Mapping):
         a, b = self._cuts[q], self._cuts[q + 1]
         return self._local[a:b], (self._step[a:b] * self._dt_s) / ft.MS     # Brian2's t = n * dt, in ms
 
+    def between(self, a_ms: float, b_ms: float) -> dict:
+        """``name -> (cell, t_ms)`` of the spikes with ``a_ms <= t < b_ms``
+        (what masking every population's times gives), found by bisection:
+        each population's spikes are in time order. A recording's windows
+        each take their own spikes this way; masking made every window pay
+        for every spike of the run, and made its times in float64."""
+        s_a, s_b = self._first_step(a_ms), self._first_step(b_ms)
+        out = {}
+        for name, q in self._index.items():
+            steps = self._step[self._cuts[q]:self._cuts[q + 1]]
+            lo = self._cuts[q] + np.searchsorted(steps, s_a)
+            hi = self._cuts[q] + np.searchsorted(steps, s_b)
+            out[name] = self._local[lo:hi], (self._step[lo:hi] * self._dt_s) / ft.MS
+        return out
+
+    def _first_step(self, t_ms: float) -> int:
+        """The first step whose time, as :meth:`__getitem__` computes it, is
+        at or after ``t_ms``."""
+        n = max(0, int(np.floor(t_ms * ft.MS / self._dt_s)) - 2)
+        while (np.float64(n) * self._dt_s) / ft.MS < t_ms:
+            n += 1
+        return n
+
     def __iter__(self):
         return iter(self._index)
 
@@ -393,10 +416,14 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
     counts = {p.name: all_counts[cells[p.name]] for p in pops}
     binned = None
     if settings.count_bins_ms is not None:
-        cuts = step_start[[end for end, snapshot in segments(settings) if snapshot]]
-        # int32 (a bin would need 2^31 spikes of one cell): the whole network
-        # over a recording is ~1e7 cells per bin
-        per_bin = np.zeros((max(cuts.size - 1, 0), n), dtype=np.int32)
+        ends = [end for end, snapshot in segments(settings) if snapshot]
+        cuts = step_start[ends]
+        # a cell fires at most once a step, so a bin of at most 65535 steps
+        # (32 s at 0.5 ms) fits uint16: the array holds every cell in every
+        # bin (the whole network over a recording is ~1e7 cells a bin), and
+        # half the bytes are half the memory that grows with a recording
+        fits = len(ends) < 2 or int(np.diff(ends).max()) <= np.iinfo(np.uint16).max
+        per_bin = np.zeros((max(cuts.size - 1, 0), n), dtype=np.uint16 if fits else np.int32)
         bin_counts(ids, cuts.astype(np.int64), per_bin)
         binned = {p.name: per_bin[:, cells[p.name]] for p in pops}
     spikes = SpikeTrains(tab.network, ids, step_start, np.ascontiguousarray(run.cells[:, 0]), settings.dt_ms) \

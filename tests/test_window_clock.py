@@ -185,3 +185,44 @@ def test_nest_receives_the_clock_too():
     delay = net.outgoing("clock_1")[0].delay_ms
     assert np.count_nonzero((t >= 40) & (t < 60)) > 0
     assert np.count_nonzero((t > 60 + delay) & (t <= 70 + delay)) == 0
+
+
+def _same_maps(a, b):
+    """Two lists of a recording's maps hold the same arrays and the same
+    parameters (timings aside)."""
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        for k in ("fg_x", "fg_y", "grouping"):
+            np.testing.assert_array_equal(getattr(x, k), getattr(y, k))
+        assert x.extra.keys() == y.extra.keys()
+        for k in x.extra:
+            np.testing.assert_array_equal(x.extra[k], y.extra[k], err_msg=k)
+        px, py = dict(x.params), dict(y.params)
+        px.pop("timings_s"), py.pop("timings_s")
+        assert px == py
+
+
+@pytest.mark.parametrize("backend", ["fast", pytest.param("brian2", marks=BRIAN2)])
+def test_a_run_that_forgets_each_bin_once_read_gives_the_kept_runs_maps(backend):
+    """``keep_run=False`` (what ``snn-fg run`` does: the backend hands each
+    counting bin over and forgets it, so memory does not grow with the
+    recording) gives the maps, records and parameters of the run that keeps
+    every bin, with overlapping windows (each read from two bins) and the
+    spike log cut between bins by the fast engine."""
+    from snn_fg.spiking.continuous import simulate_windows, window_maps
+
+    _, rec = flipping_disc_recording(24, windows=3, window_ms=40.0)
+    windows = list(iter_windows(rec, window_ms=40.0, stride_ms=20.0))
+    assert len(windows) >= 5
+    kw = dict(params=ModelParams(levels=3), backend=backend, progress=False)
+    kept = simulate_windows(windows, **kw)
+    streamed = simulate_windows(windows, keep_run=False, **kw)
+    assert kept.result.binned_counts is not None and kept.result.spikes is not None
+    if backend == "fast":
+        assert streamed.result.binned_counts is None and streamed.result.spikes is None
+    maps = window_maps(streamed)
+    _same_maps(window_maps(kept), maps)
+    assert sum(int(m.extra["raster_t_ms"].size) for m in maps if "raster_t_ms" in m.extra) > 0
+    for name, c in kept.result.counts.items():
+        np.testing.assert_array_equal(streamed.result.counts[name], c, err_msg=name)
+    assert streamed.result.stats.get("spikes") == kept.result.stats.get("spikes")

@@ -50,6 +50,14 @@ class RunSettings:
         counting bins: the backend also reports each cell's spikes in every
         bin ``[t_k, t_k+1)`` (:attr:`SimulationResult.binned_counts`), so that
         one continuous run over a recording yields one map per window.
+    on_bin : callable, optional
+        With ``count_bins_ms``: ``on_bin(k, result)`` receives bin ``k`` as
+        a :class:`SimulationResult` of its own (its counts, and its spikes if
+        recorded) as soon as the backend has it. A backend that hands bins
+        over this way may forget them: its final result then has no
+        ``binned_counts`` and no ``spikes``, and its memory need not grow
+        with the run. One that does not keeps them, and :func:`each_bin`
+        replays them, so that the caller sees the same bins either way.
     sites : dict, optional
         Fixed cells (flat indices) of some populations (hand-built circuits).
     log : callable, optional
@@ -65,6 +73,7 @@ class RunSettings:
     record_state: tuple = ()
     instantiate: str = "input"
     count_bins_ms: tuple | None = None
+    on_bin: Callable | None = None
     sites: dict | None = None
     log: Callable | None = None
     progress: bool = False
@@ -150,6 +159,39 @@ class SimulationResult:
     @property
     def total_cells(self) -> int:
         return int(sum(s.size for s in self.sites.values()))
+
+
+def spikes_between(spikes, a_ms: float, b_ms: float):
+    """The spikes with ``a_ms <= t < b_ms`` of a result's ``spikes``
+    (``name -> (cell, t_ms)``; ``None`` stays ``None``)."""
+    if spikes is None:
+        return None
+    if hasattr(spikes, "between"):      # (trains that find a span without a pass over every spike)
+        return spikes.between(a_ms, b_ms)
+    out = {}
+    for n, (c, t) in spikes.items():
+        inside = (t >= a_ms) & (t < b_ms)
+        out[n] = (c[inside], t[inside])
+    return out
+
+
+def each_bin(result: "SimulationResult"):
+    """``(k, bin_result)`` for each counting bin a result kept
+    (``binned_counts``): what a backend that streams its bins hands to
+    ``RunSettings.on_bin`` as it goes."""
+    edges = result.count_bins_ms
+    for k in range(len(edges) - 1):
+        yield k, bin_result(result, {n: c[k] for n, c in result.binned_counts.items()}, edges[k], edges[k + 1],
+                            spikes_between(result.spikes, edges[k], edges[k + 1]))
+
+
+def bin_result(template: "SimulationResult", counts: dict, a_ms: float, b_ms: float, spikes) -> "SimulationResult":
+    """The result of one counting bin ``[a_ms, b_ms)``: ``template``'s
+    network, cells and backend with the bin's counts and spikes."""
+    return SimulationResult(network=template.network, backend=template.backend, sites=template.sites,
+                            counts=counts, count_window_ms=b_ms - a_ms, simulated_ms=template.simulated_ms,
+                            dt_ms=template.dt_ms,
+                            spikes=spikes, stats=template.stats)
 
 
 def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:

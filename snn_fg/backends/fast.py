@@ -57,7 +57,8 @@ from .. import cancel
 from ..network.graph import Network
 from ..spiking.unroll import choose_sites
 from . import fast_tables as ft
-from .base import Backend, RunSettings, SimulationResult, lif_populations, segments, source_masks, source_offsets
+from .base import (Backend, RunSettings, SimulationResult, bin_result, lif_populations, segments, source_masks,
+                   source_offsets)
 
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16
@@ -134,15 +135,22 @@ class FastBackend(Backend):
                                     settings.instantiate)
         n_steps = int(round(settings.duration_ms / settings.dt_ms))
         run = _Run(tab, chosen, inputs, n_steps, self._pool)
+        stream = None
+        if settings.on_bin is not None and settings.count_bins_ms is not None:
+            stream = _BinStream(self.name, tab, chosen, run, settings)
         timings = {"build": time.perf_counter() - t0}
         settings.say(f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
                      f"(prepared in {timings['build']:.2f} s)")
         t_run, cpu = time.perf_counter(), time.process_time()
         try:
-            run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))))
+            run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))), stream)
             timings["run"] = time.perf_counter() - t_run
             timings["run_cpu"] = time.process_time() - cpu     # (wall time on a shared machine overstates the work)
-            result = _result(self.name, tab, chosen, run, settings)
+            if stream is not None:      # (the caller's reading of the bins, done while the run paused)
+                timings["run"] -= stream.seconds
+                timings["run_cpu"] -= stream.cpu_seconds
+                timings["read_bins"] = stream.seconds
+            result = _result(self.name, tab, chosen, run, settings, stream)
             run.release()
         except BaseException:
             self._pool.clear()          # (e.g. interrupted mid-step: the arrays are not at rest)
@@ -237,14 +245,20 @@ class _Run:
         self.bits = np.concatenate(bits) if bits else np.zeros(1, dtype=np.uint8)
         return off
 
-    def simulate(self, settings: RunSettings, chunk: int):
+    def simulate(self, settings: RunSettings, chunk: int, stream: "_BinStream | None" = None):
+        """Run every step; with ``stream``, stop at each counting-bin edge
+        for it to hand the bin over and drop the spikes no delay reaches."""
         from .fast_core import run_steps
 
         tab = self.tab
         with _progress(settings) as bar:
             n = 0
+            if stream is not None:
+                stream.reached(0)
             while n < self.n_steps:
                 end = min(n + chunk, self.n_steps)
+                if stream is not None:
+                    end = min(end, stream.next_stop(n))
                 reached = run_steps(n, end, self.state, self.ctype, self.inact, self.act, self.new, self.tmp,
                                     self.fresh, self.scalars, self.log, self.step_start, self.in_ptr, self.in_ids, tab.pops,
                                     self.cells, self.cmap, self.flat_of, self.column_of, self.row_ptr, self.bits,
@@ -259,6 +273,8 @@ class _Run:
                 bar(reached - n)
                 cancel.check()
                 n = reached
+                if stream is not None:
+                    stream.reached(n)
 
     def release(self):
         """Hand the cell arrays back to the pool, at rest again."""
@@ -271,6 +287,20 @@ class _Run:
         and where each step's spikes start in them (``step_start[s]``, with
         ``step_start[n_steps]`` the total)."""
         return self.log[:int(self.scalars[1])], self.step_start
+
+    def forget_before(self, step: int, now: int) -> int:
+        """Drop the spikes of the steps before ``step`` from the log (no
+        projection reaches that far back any more), the run being at step
+        ``now``; ``step_start`` of steps ``step .. now`` moves with them,
+        that of earlier steps is no longer valid. Returns how many spikes
+        were dropped."""
+        k = int(self.step_start[step])
+        if k:
+            log_n = int(self.scalars[1])
+            self.log[:log_n - k] = self.log[k:log_n]
+            self.scalars[1] = log_n - k
+            self.step_start[step:now + 1] -= k
+        return k
 
     def input_spikes(self) -> int:
         """How many input spikes the run fed (``in_ptr`` repeats every
@@ -355,7 +385,8 @@ class SpikeTrains(Mapping):
     about 1e8 spikes: an argsort with int64 keys and float64 times took
     about 70 bytes a spike, more than the simulation itself."""
 
-    def __init__(self, network: Network, ids, step_start, starts, dt_ms: float):
+    def __init__(self, network: Network, ids, step_start, starts, dt_ms: float, first_step: int = 0):
+        """``first_step``: the step of ``step_start[0]`` (a part of a run)."""
         from .fast_core import group_by_population, population_totals
 
         per_pop = np.zeros(starts.size, dtype=np.int64)
@@ -366,6 +397,8 @@ class SpikeTrains(Mapping):
         self._local = np.empty(int(self._cuts[-1]), dtype=np.int32)
         self._step = np.empty(int(self._cuts[-1]), dtype=np.int32)
         group_by_population(ids, step_start, starts, keep, self._cuts, self._local, self._step)
+        if first_step:
+            self._step += np.int32(first_step)
         self._index = {p.name: q for q, p in enumerate(network.populations) if not p.is_source}
         self._dt_s = dt_ms * ft.MS
 
@@ -404,18 +437,90 @@ class SpikeTrains(Mapping):
         return len(self._index)
 
 
-def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings) -> SimulationResult:
+class _BinStream:
+    """Hands each counting bin to ``RunSettings.on_bin`` as the run passes
+    its end (:meth:`_Run.simulate` stops there), then drops the spikes no
+    delay reaches any more, counting those in the counting window first:
+    the log then holds a bin and the longest delay, not the whole run."""
+
+    def __init__(self, name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings):
+        self.run, self.settings, self.on_bin = run, settings, settings.on_bin
+        self.edges = [end for end, snapshot in segments(settings) if snapshot]
+        self.edges_ms = settings.count_bins_ms
+        self.reach = int(tab.prj[:, ft.J_DELAY].max()) if len(tab.prj) else 0
+        pops = lif_populations(tab.network)
+        self.cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
+        self.template = SimulationResult(network=tab.network, backend=name, sites=chosen, counts={},
+                                         count_window_ms=0.0, simulated_ms=settings.duration_ms,
+                                         dt_ms=settings.dt_ms)
+        self.starts = np.ascontiguousarray(run.cells[:, 0])
+        self.scratch = np.zeros(run.state.size, dtype=np.int32)
+        self.counts = np.zeros(run.state.size, dtype=np.int64)     # the whole counting window's
+        self.counted_to = first_step_at(settings.count_from_ms, settings.dt_ms)
+        self.dropped = 0
+        self.j = 0            # the next edge to reach
+        self.seconds = self.cpu_seconds = 0.0   # spent by on_bin (reading the bins), not simulating
+
+    def next_stop(self, n: int) -> int:
+        return self.edges[self.j] if self.j < len(self.edges) else self.run.n_steps
+
+    def reached(self, n: int):
+        from .fast_core import count_cells
+
+        while self.j < len(self.edges) and self.edges[self.j] <= n:
+            if self.j:
+                self._hand_over(self.j - 1)
+            self.j += 1
+            keep = max(0, n - self.reach)     # (the next bin starts at n: its spikes are all still to come)
+            if keep > self.counted_to:
+                ids, step_start = self.run.spikes()
+                count_cells(ids, step_start[self.counted_to], step_start[keep], self.counts)
+                self.counted_to = keep
+            self.dropped += self.run.forget_before(keep, n)
+
+    def _hand_over(self, k: int):
+        from .fast_core import count_cells
+
+        ids, step_start = self.run.spikes()
+        a, b = self.edges[k], self.edges[k + 1]
+        lo, hi = int(step_start[a]), int(step_start[b])
+        count_cells(ids, lo, hi, self.scratch)
+        counts = {name: self.scratch[sl].copy() for name, sl in self.cells.items()}
+        self.scratch[ids[lo:hi]] = 0
+        spikes = None
+        if self.settings.record_spikes:
+            spikes = SpikeTrains(self.template.network, ids[lo:hi], step_start[a:b + 1] - lo, self.starts,
+                                 self.settings.dt_ms, first_step=a)
+        t, cpu = time.perf_counter(), time.process_time()
+        self.on_bin(k, bin_result(self.template, counts, self.edges_ms[k], self.edges_ms[k + 1], spikes))
+        self.seconds += time.perf_counter() - t
+        self.cpu_seconds += time.process_time() - cpu
+
+    def final_counts(self) -> np.ndarray:
+        """Each cell's spikes in the counting window, once the run is over."""
+        from .fast_core import count_cells
+
+        ids, step_start = self.run.spikes()
+        count_cells(ids, step_start[self.counted_to], ids.size, self.counts)
+        return self.counts
+
+
+def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings,
+            stream: _BinStream | None = None) -> SimulationResult:
     from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells
 
     ids, step_start = run.spikes()
     n = run.state.size
     pops = lif_populations(tab.network)
     cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
-    all_counts = np.zeros(n, dtype=np.int64)
-    count_cells(ids, step_start[first_step_at(settings.count_from_ms, settings.dt_ms)], ids.size, all_counts)
+    if stream is not None:
+        all_counts = stream.final_counts()
+    else:
+        all_counts = np.zeros(n, dtype=np.int64)
+        count_cells(ids, step_start[first_step_at(settings.count_from_ms, settings.dt_ms)], ids.size, all_counts)
     counts = {p.name: all_counts[cells[p.name]] for p in pops}
     binned = None
-    if settings.count_bins_ms is not None:
+    if settings.count_bins_ms is not None and stream is None:
         ends = [end for end, snapshot in segments(settings) if snapshot]
         cuts = step_start[ends]
         # a cell fires at most once a step, so a bin of at most 65535 steps
@@ -427,7 +532,7 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
         bin_counts(ids, cuts.astype(np.int64), per_bin)
         binned = {p.name: per_bin[:, cells[p.name]] for p in pops}
     spikes = SpikeTrains(tab.network, ids, step_start, np.ascontiguousarray(run.cells[:, 0]), settings.dt_ms) \
-        if settings.record_spikes else None
+        if settings.record_spikes and stream is None else None
     state = {}
     if settings.record_state:
         values = run.final_state()
@@ -440,7 +545,7 @@ def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: 
              "synaptic_events": events, "synaptic_events_total": int(run.counters[N_EVENTS]),
              "closed_form_advances": int(run.counters[N_ADVANCES]),
              "active_cell_steps": int(run.counters[N_ACTIVE_STEPS]), "cells": run.n_present,
-             "input_spikes": n_input, "spikes": int(ids.size - n_input)}
+             "input_spikes": n_input, "spikes": int(ids.size + (stream.dropped if stream else 0) - n_input)}
     return SimulationResult(network=tab.network, backend=name, sites={p.name: chosen[p.name] for p in pops},
                             counts=counts, count_window_ms=settings.count_window_ms,
                             simulated_ms=settings.duration_ms, dt_ms=settings.dt_ms, spikes=spikes, state=state,

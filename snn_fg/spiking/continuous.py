@@ -8,7 +8,11 @@ window's maps are decoded from the spikes counted inside that window,
 shifted by a read-out lag: the window ``[t_start, t_end)`` is read from the
 spikes in ``[t_start + lag, t_end + lag)``, since the network needs a few
 synaptic delays and membrane time constants to answer. The backend counts
-spikes per window through :attr:`~snn_fg.backends.RunSettings.count_bins_ms`.
+spikes per window through :attr:`~snn_fg.backends.RunSettings.count_bins_ms`,
+and each window is decoded as soon as the run has passed the end of its
+read-out span. :func:`run_spiking_windows` lets the backend forget each bin
+once it is read (:attr:`~snn_fg.backends.RunSettings.on_bin`), so that a long
+recording does not need the memory of all its spikes.
 
 The input gains are calibrated once, to the mean event rate of an active
 pixel inside a window (events per active pixel per window length, averaged
@@ -24,6 +28,7 @@ import numpy as np
 
 from .. import validate as check
 from ..backends import DEFAULT_BACKEND, RunSettings, as_backend
+from ..backends.base import each_bin
 from ..errors import InputError
 from ..maps import Maps
 from .api import default_instantiate, resolve_network, run_params, stderr_log
@@ -105,7 +110,7 @@ def run_spiking_windows(windows, *, params=None, spiking=None, network=None, bac
                            backend_options=backend_options, dt_ms=dt_ms, readout_lag_ms=readout_lag_ms,
                            calibrate=calibrate, feedback=feedback, instantiate=instantiate,
                            record_spikes=record_spikes, window_clock=window_clock, progress=progress, log=log,
-                           source=source)
+                           source=source, keep_run=False)
     return window_maps(run)
 
 
@@ -113,8 +118,10 @@ def run_spiking_windows(windows, *, params=None, spiking=None, network=None, bac
 class ContinuousRun:
     """One simulation over a recording's windows (:func:`simulate_windows`):
     the network, the backend's result (spike counts per bin between
-    ``edges``; spike trains if recorded) and each window's read-out span
-    ``spans[k]`` (ms from the first window's start, lag included)."""
+    ``edges`` and spike trains if recorded, unless the run was not kept),
+    each window's read-out span ``spans[k]`` (ms from the first window's
+    start, lag included) and each window's decoded maps and record
+    (``decoded[k]``: ``fg_x, fg_y, grouping, SpikingRecord``)."""
 
     windows: list
     network: object
@@ -125,15 +132,24 @@ class ContinuousRun:
     spans: list
     simulation: dict
     t_start: float
+    decoded: list
 
 
 def simulate_windows(windows, *, params=None, spiking=None, network=None, backend=DEFAULT_BACKEND,
                      backend_options: dict | None = None, dt_ms: float = 0.5,
                      readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
                      instantiate: str | None = None, record_spikes: bool = True, window_clock: bool = True,
-                     progress: bool = True, log=None, source: str = "<recording>") -> ContinuousRun:
+                     progress: bool = True, log=None, source: str = "<recording>",
+                     keep_run: bool = True) -> ContinuousRun:
     """The simulation half of :func:`run_spiking_windows` (same parameters):
-    one run over every window, not yet decoded (:func:`window_maps` does)."""
+    one run over every window, each window decoded as the run passes the
+    end of its read-out span; :func:`window_maps` makes their maps.
+
+    ``keep_run=False`` lets the backend forget each counting bin once it is
+    read (``RunSettings.on_bin``): the result then has no per-bin counts
+    and no spike trains, and the memory need not grow with the recording.
+    ``True`` keeps them in ``ContinuousRun.result`` (for analyses of the
+    whole run's spikes)."""
     t_start = time.perf_counter()
     windows = list(windows)
     if not windows:
@@ -159,14 +175,20 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
     say = log if log is not None else (stderr_log if progress else None)
     sim_backend = as_backend(backend, backend_options)
     instantiate = instantiate or default_instantiate(sim_backend, inp)
+    reader = _WindowReader(windows, spans, edges)
     settings = RunSettings(duration_ms=duration, dt_ms=dt_ms, count_from_ms=edges[0], record_spikes=record_spikes,
-                           instantiate=instantiate, count_bins_ms=tuple(edges), log=say, progress=progress)
+                           instantiate=instantiate, count_bins_ms=tuple(edges), log=say, progress=progress,
+                           on_bin=None if keep_run else reader)
     result = sim_backend.simulate(net, inp, settings)
+    if result.binned_counts is not None:        # (a backend that kept its bins)
+        for k, bin_result in each_bin(result):
+            reader(k, bin_result)
     simulation = {"mode": "continuous", "simulated_ms": duration, "network_builds": 1, "readout_lag_ms": lag,
                   "dt_ms": dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": inp.merged,
                   "instantiate": instantiate, "record_spikes": bool(record_spikes),
                   "window_clock": clock}
-    return ContinuousRun(windows, net, origin, sim_backend, result, edges, spans, simulation, t_start)
+    return ContinuousRun(windows, net, origin, sim_backend, result, edges, spans, simulation, t_start,
+                         reader.decoded)
 
 
 def _read_out_span(window, t0_us: float, lag_ms: float, dt_ms: float) -> tuple[float, float]:
@@ -179,37 +201,55 @@ def _read_out_span(window, t0_us: float, lag_ms: float, dt_ms: float) -> tuple[f
     return a * dt_ms, max(b, a + 1) * dt_ms
 
 
+class _WindowReader:
+    """Receives a run's counting bins in order (``RunSettings.on_bin``) and
+    decodes each window as soon as the last bin of its read-out span is in:
+    ``decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``. Only the windows
+    still being read hold their counts and spikes."""
+
+    def __init__(self, windows, spans, edges):
+        self.windows, self.edges = windows, edges
+        self.bins = [tuple(int(np.searchsorted(edges, t)) for t in span) for span in spans]   # (spans are made of edges)
+        self.reading: dict = {}
+        self.decoded: list = [None] * len(windows)
+
+    def __call__(self, k: int, result):
+        for i, (k0, k1) in enumerate(self.bins):
+            if not k0 <= k < k1:
+                continue
+            counts, spikes = self.reading.setdefault(i, ({}, []))
+            for name, c in result.counts.items():
+                counts[name] = counts[name] + c if name in counts else c.astype(np.int64)
+            if result.spikes is not None:
+                spikes.append(result.spikes)
+            if k == k1 - 1:
+                del self.reading[i]
+                self.decoded[i] = self._decode(i, result, counts, spikes)
+
+    def _decode(self, i, result, counts, spikes):
+        k0, k1 = self.bins[i]
+        trains = None
+        if spikes:
+            trains = {n: (np.concatenate([s[n][0] for s in spikes]), np.concatenate([s[n][1] for s in spikes]))
+                      for n in spikes[0]}
+        window_result = dataclasses.replace(result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0],
+                                            spikes=trains)
+        fg_x, fg_y, grouping, _ = decode(window_result)
+        w = self.windows[i]
+        masks = SimpleNamespace(on=w.pos != 0, off=w.neg != 0)
+        return fg_x, fg_y, grouping, SpikingRecord.from_result(window_result, masks, self.edges[k0])
+
+
 def window_maps(run: ContinuousRun) -> list[Maps]:
-    """Each window's maps, decoded from the spikes counted in its read-out span."""
-    out, edges, result = [], run.edges, run.result
-    for x, (a, b) in zip(run.windows, run.spans):
-        k0, k1 = (int(np.searchsorted(edges, t)) for t in (a, b))     # (spans are made of edges)
-        counts = {n: c[k0:k1].sum(axis=0) for n, c in result.binned_counts.items()}
-        window_result = dataclasses.replace(result, counts=counts, count_window_ms=edges[k1] - edges[k0],
-                                            spikes=_spikes_between(result.spikes, edges[k0], edges[k1]))
-        out.append(_window_maps(window_result, x, run.network, run.origin, run.backend, run.t_start,
-                                {**run.simulation, "count_from_ms": edges[k0], "count_to_ms": edges[k1]}))
+    """Each window's maps, decoded from the spikes counted in its read-out
+    span, with the whole run's parameters."""
+    out = []
+    for (k0, k1), (fg_x, fg_y, grouping, rec) in zip(((np.searchsorted(run.edges, a), np.searchsorted(run.edges, b))
+                                                       for a, b in run.spans), run.decoded):
+        simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0],
+                      "count_to_ms": run.edges[k1]}
+        params = run_params(run.network, run.origin, run.backend, run.result, rec.populations, simulation,
+                            run.t_start)
+        out.append(Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params,
+                        rec.arrays()))
     return out
-
-
-def _spikes_between(spikes, a: float, b: float):
-    """The spikes with ``a <= t < b`` (ms) of a result's spike trains."""
-    if spikes is None:
-        return None
-    if hasattr(spikes, "between"):      # (trains that can find a span without a pass over every spike)
-        return spikes.between(a, b)
-    out = {}
-    for n, (c, t) in spikes.items():
-        inside = (t >= a) & (t < b)
-        out[n] = (c[inside], t[inside])
-    return out
-
-
-def _window_maps(result, window, net, origin, backend, t_start, simulation) -> Maps:
-    fg_x, fg_y, grouping, _ = decode(result)
-    masks = SimpleNamespace(on=window.pos != 0, off=window.neg != 0)
-    rec = SpikingRecord.from_result(result, masks, simulation["count_from_ms"])
-    simulation = {**rec.timing(), **simulation}
-    params = run_params(net, origin, backend, result, rec.populations, simulation, t_start)
-    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params,
-                rec.arrays())

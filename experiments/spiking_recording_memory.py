@@ -1,8 +1,9 @@
 """Peak memory and time of the spiking model over recordings of growing length.
 
 ``snn-fg run RECORDING --model spiking`` runs a recording as one continuous
-network and, until the run ends, keeps every spike and every cell's count in
-every window. This measures what that costs as the recording grows: ``dvs.es``
+network, decoding each window as the run passes it (the fast engine then
+forgets that window's spikes; until 25 Nov 2026 it kept them all to the
+end). This measures what memory and time grow with the recording: ``dvs.es``
 cut to its first ``--windows`` windows, and ``dvs.es`` played ``--repeats``
 times in a row (each copy shifted by the recording's span plus 1 ms, written
 as a ``.npy`` recording). Each case runs in a fresh process; its peak

@@ -201,6 +201,12 @@ def _read_out_span(window, t0_us: float, lag_ms: float, dt_ms: float) -> tuple[f
     return a * dt_ms, max(b, a + 1) * dt_ms
 
 
+def _bins_of(span, edges) -> tuple[int, int]:
+    """The counting bins ``k0 .. k1 - 1`` that make up a read-out span (spans
+    are made of edges)."""
+    return int(np.searchsorted(edges, span[0])), int(np.searchsorted(edges, span[1]))
+
+
 class _WindowReader:
     """Receives a run's counting bins in order (``RunSettings.on_bin``) and
     decodes each window as soon as the last bin of its read-out span is in:
@@ -209,7 +215,7 @@ class _WindowReader:
 
     def __init__(self, windows, spans, edges):
         self.windows, self.edges = windows, edges
-        self.bins = [tuple(int(np.searchsorted(edges, t)) for t in span) for span in spans]   # (spans are made of edges)
+        self.bins = [_bins_of(span, edges) for span in spans]
         self.reading: dict = {}
         self.decoded: list = [None] * len(windows)
 
@@ -244,8 +250,8 @@ def window_maps(run: ContinuousRun) -> list[Maps]:
     """Each window's maps, decoded from the spikes counted in its read-out
     span, with the whole run's parameters."""
     out = []
-    for (k0, k1), (fg_x, fg_y, grouping, rec) in zip(((np.searchsorted(run.edges, a), np.searchsorted(run.edges, b))
-                                                       for a, b in run.spans), run.decoded):
+    for span, (fg_x, fg_y, grouping, rec) in zip(run.spans, run.decoded):
+        k0, k1 = _bins_of(span, run.edges)
         simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0],
                       "count_to_ms": run.edges[k1]}
         params = run_params(run.network, run.origin, run.backend, run.result, rec.populations, simulation,

@@ -28,9 +28,8 @@ For each ``--dt`` (the first is the one the others are compared with):
 
 Writes experiments/results/spiking_dt.json, .md and .png (``--name``: another
 stem). ``--changes JSON`` runs a changed network (``SpikingParams`` fields, as
-``spiking_variant_speed.py`` takes them) at every dt; its scores against the
-rate model and the truth stand beside those of the default network in
-``spiking_dt.md``.
+``spiking_variant_speed.py`` takes them) at every dt, to be compared with
+the default network's scores in ``spiking_dt.md``.
 
     python experiments/spiking_dt.py [--dt 0.5 1.0] [--quick] [--rounds 3] [--changes JSON --name STEM]
 

@@ -190,8 +190,7 @@ def bin_result(template: "SimulationResult", counts: dict, a_ms: float, b_ms: fl
     network, cells and backend with the bin's counts and spikes."""
     return SimulationResult(network=template.network, backend=template.backend, sites=template.sites,
                             counts=counts, count_window_ms=b_ms - a_ms, simulated_ms=template.simulated_ms,
-                            dt_ms=template.dt_ms,
-                            spikes=spikes, stats=template.stats)
+                            dt_ms=template.dt_ms, spikes=spikes, stats=template.stats)
 
 
 def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:

@@ -49,7 +49,6 @@ Example
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
 
 import numpy as np
 
@@ -57,8 +56,8 @@ from .. import cancel
 from ..network.graph import Network
 from ..spiking.unroll import choose_sites
 from . import fast_tables as ft
-from .base import (Backend, RunSettings, SimulationResult, bin_result, lif_populations, segments, source_masks,
-                   source_offsets)
+from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
+from .fast_results import BinStream, simulation_result
 
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16
@@ -137,7 +136,7 @@ class FastBackend(Backend):
         run = _Run(tab, chosen, inputs, n_steps, self._pool)
         stream = None
         if settings.on_bin is not None and settings.count_bins_ms is not None:
-            stream = _BinStream(self.name, tab, chosen, run, settings)
+            stream = BinStream(self.name, tab, chosen, run, settings)
         timings = {"build": time.perf_counter() - t0}
         settings.say(f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
                      f"(prepared in {timings['build']:.2f} s)")
@@ -150,7 +149,7 @@ class FastBackend(Backend):
                 timings["run"] -= stream.seconds
                 timings["run_cpu"] -= stream.cpu_seconds
                 timings["read_bins"] = stream.seconds
-            result = _result(self.name, tab, chosen, run, settings, stream)
+            result = simulation_result(self.name, tab, chosen, run, settings, stream)
             run.release()
         except BaseException:
             self._pool.clear()          # (e.g. interrupted mid-step: the arrays are not at rest)
@@ -245,7 +244,7 @@ class _Run:
         self.bits = np.concatenate(bits) if bits else np.zeros(1, dtype=np.uint8)
         return off
 
-    def simulate(self, settings: RunSettings, chunk: int, stream: "_BinStream | None" = None):
+    def simulate(self, settings: RunSettings, chunk: int, stream: "BinStream | None" = None):
         """Run every step; with ``stream``, stop at each counting-bin edge
         for it to hand the bin over and drop the spikes no delay reaches."""
         from .fast_core import run_steps
@@ -364,192 +363,6 @@ def zeroed(n: int, dtype) -> np.ndarray:
     except (OSError, ValueError, AttributeError):
         return np.zeros(n, dtype)
     return np.frombuffer(m, dtype=dtype, count=n)      # (writable; the array keeps the map alive)
-
-
-def first_step_at(t_ms: float, dt_ms: float) -> int:
-    """The first step whose time ``n * dt`` (seconds, as Brian2's clock
-    computes it) is at or after ``t_ms``: where Brian2's ``t >= t_count`` starts."""
-    dt_s, t_s = dt_ms * ft.MS, t_ms * ft.MS
-    n = max(0, int(np.floor(t_s / dt_s)) - 2)
-    while np.int64(n) * dt_s < t_s:
-        n += 1
-    return n
-
-
-class SpikeTrains(Mapping):
-    """Every spike of a run's LIF populations, ``name -> (cell, t_ms)`` as
-    :class:`~.base.SimulationResult` documents it, ``cell`` int32.
-
-    The log is regrouped by population once, into two int32 arrays (8 bytes
-    a spike), and the times are made on access. A BSDS frame's run has
-    about 1e8 spikes: an argsort with int64 keys and float64 times took
-    about 70 bytes a spike, more than the simulation itself."""
-
-    def __init__(self, network: Network, ids, step_start, starts, dt_ms: float, first_step: int = 0):
-        """``first_step``: the step of ``step_start[0]`` (a part of a run)."""
-        from .fast_core import group_by_population, population_totals
-
-        per_pop = np.zeros(starts.size, dtype=np.int64)
-        population_totals(ids, starts, per_pop)
-        keep = np.array([not p.is_source for p in network.populations], dtype=np.uint8)
-        kept = np.where(keep == 1, per_pop, 0)
-        self._cuts = np.concatenate([[0], np.cumsum(kept)]).astype(np.int64)
-        self._local = np.empty(int(self._cuts[-1]), dtype=np.int32)
-        self._step = np.empty(int(self._cuts[-1]), dtype=np.int32)
-        group_by_population(ids, step_start, starts, keep, self._cuts, self._local, self._step)
-        if first_step:
-            self._step += np.int32(first_step)
-        self._index = {p.name: q for q, p in enumerate(network.populations) if not p.is_source}
-        self._dt_s = dt_ms * ft.MS
-
-    def __getitem__(self, name):
-        q = self._index[name]
-        a, b = self._cuts[q], self._cuts[q + 1]
-        return self._local[a:b], (self._step[a:b] * self._dt_s) / ft.MS     # Brian2's t = n * dt, in ms
-
-    def between(self, a_ms: float, b_ms: float) -> dict:
-        """``name -> (cell, t_ms)`` of the spikes with ``a_ms <= t < b_ms``
-        (what masking every population's times gives), found by bisection:
-        each population's spikes are in time order. A recording's windows
-        each take their own spikes this way; masking made every window pay
-        for every spike of the run, and made its times in float64."""
-        s_a, s_b = self._first_step(a_ms), self._first_step(b_ms)
-        out = {}
-        for name, q in self._index.items():
-            steps = self._step[self._cuts[q]:self._cuts[q + 1]]
-            lo = self._cuts[q] + np.searchsorted(steps, s_a)
-            hi = self._cuts[q] + np.searchsorted(steps, s_b)
-            out[name] = self._local[lo:hi], (self._step[lo:hi] * self._dt_s) / ft.MS
-        return out
-
-    def _first_step(self, t_ms: float) -> int:
-        """The first step whose time, as :meth:`__getitem__` computes it, is
-        at or after ``t_ms``."""
-        n = max(0, int(np.floor(t_ms * ft.MS / self._dt_s)) - 2)
-        while (np.float64(n) * self._dt_s) / ft.MS < t_ms:
-            n += 1
-        return n
-
-    def __iter__(self):
-        return iter(self._index)
-
-    def __len__(self):
-        return len(self._index)
-
-
-class _BinStream:
-    """Hands each counting bin to ``RunSettings.on_bin`` as the run passes
-    its end (:meth:`_Run.simulate` stops there), then drops the spikes no
-    delay reaches any more, counting those in the counting window first:
-    the log then holds a bin and the longest delay, not the whole run."""
-
-    def __init__(self, name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings):
-        self.run, self.settings, self.on_bin = run, settings, settings.on_bin
-        self.edges = [end for end, snapshot in segments(settings) if snapshot]
-        self.edges_ms = settings.count_bins_ms
-        self.reach = int(tab.prj[:, ft.J_DELAY].max()) if len(tab.prj) else 0
-        pops = lif_populations(tab.network)
-        self.cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
-        self.template = SimulationResult(network=tab.network, backend=name, sites=chosen, counts={},
-                                         count_window_ms=0.0, simulated_ms=settings.duration_ms,
-                                         dt_ms=settings.dt_ms)
-        self.starts = np.ascontiguousarray(run.cells[:, 0])
-        self.scratch = np.zeros(run.state.size, dtype=np.int32)
-        self.counts = np.zeros(run.state.size, dtype=np.int64)     # the whole counting window's
-        self.counted_to = first_step_at(settings.count_from_ms, settings.dt_ms)
-        self.dropped = 0
-        self.j = 0            # the next edge to reach
-        self.seconds = self.cpu_seconds = 0.0   # spent by on_bin (reading the bins), not simulating
-
-    def next_stop(self, n: int) -> int:
-        return self.edges[self.j] if self.j < len(self.edges) else self.run.n_steps
-
-    def reached(self, n: int):
-        from .fast_core import count_cells
-
-        while self.j < len(self.edges) and self.edges[self.j] <= n:
-            if self.j:
-                self._hand_over(self.j - 1)
-            self.j += 1
-            keep = max(0, n - self.reach)     # (the next bin starts at n: its spikes are all still to come)
-            if keep > self.counted_to:
-                ids, step_start = self.run.spikes()
-                count_cells(ids, step_start[self.counted_to], step_start[keep], self.counts)
-                self.counted_to = keep
-            self.dropped += self.run.forget_before(keep, n)
-
-    def _hand_over(self, k: int):
-        from .fast_core import count_cells
-
-        ids, step_start = self.run.spikes()
-        a, b = self.edges[k], self.edges[k + 1]
-        lo, hi = int(step_start[a]), int(step_start[b])
-        count_cells(ids, lo, hi, self.scratch)
-        counts = {name: self.scratch[sl].copy() for name, sl in self.cells.items()}
-        self.scratch[ids[lo:hi]] = 0
-        spikes = None
-        if self.settings.record_spikes:
-            spikes = SpikeTrains(self.template.network, ids[lo:hi], step_start[a:b + 1] - lo, self.starts,
-                                 self.settings.dt_ms, first_step=a)
-        t, cpu = time.perf_counter(), time.process_time()
-        self.on_bin(k, bin_result(self.template, counts, self.edges_ms[k], self.edges_ms[k + 1], spikes))
-        self.seconds += time.perf_counter() - t
-        self.cpu_seconds += time.process_time() - cpu
-
-    def final_counts(self) -> np.ndarray:
-        """Each cell's spikes in the counting window, once the run is over."""
-        from .fast_core import count_cells
-
-        ids, step_start = self.run.spikes()
-        count_cells(ids, step_start[self.counted_to], ids.size, self.counts)
-        return self.counts
-
-
-def _result(name: str, tab: ft.EngineTables, chosen: dict, run: _Run, settings: RunSettings,
-            stream: _BinStream | None = None) -> SimulationResult:
-    from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells
-
-    ids, step_start = run.spikes()
-    n = run.state.size
-    pops = lif_populations(tab.network)
-    cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
-    if stream is not None:
-        all_counts = stream.final_counts()
-    else:
-        all_counts = np.zeros(n, dtype=np.int64)
-        count_cells(ids, step_start[first_step_at(settings.count_from_ms, settings.dt_ms)], ids.size, all_counts)
-    counts = {p.name: all_counts[cells[p.name]] for p in pops}
-    binned = None
-    if settings.count_bins_ms is not None and stream is None:
-        ends = [end for end, snapshot in segments(settings) if snapshot]
-        cuts = step_start[ends]
-        # a cell fires at most once a step, so a bin of at most 65535 steps
-        # (32 s at 0.5 ms) fits uint16: the array holds every cell in every
-        # bin (the whole network over a recording is ~1e7 cells a bin), and
-        # half the bytes are half the memory that grows with a recording
-        fits = len(ends) < 2 or int(np.diff(ends).max()) <= np.iinfo(np.uint16).max
-        per_bin = np.zeros((max(cuts.size - 1, 0), n), dtype=np.uint16 if fits else np.int32)
-        bin_counts(ids, cuts.astype(np.int64), per_bin)
-        binned = {p.name: per_bin[:, cells[p.name]] for p in pops}
-    spikes = SpikeTrains(tab.network, ids, step_start, np.ascontiguousarray(run.cells[:, 0]), settings.dt_ms) \
-        if settings.record_spikes and stream is None else None
-    state = {}
-    if settings.record_state:
-        values = run.final_state()
-        for p in pops:
-            state[p.name] = {var: values[cells[p.name], k] / ft.MV
-                             for k, var in enumerate(("v", "I_exc", "I_inh")) if var in settings.record_state}
-    events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
-    n_input = run.input_spikes()
-    stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),
-             "synaptic_events": events, "synaptic_events_total": int(run.counters[N_EVENTS]),
-             "closed_form_advances": int(run.counters[N_ADVANCES]),
-             "active_cell_steps": int(run.counters[N_ACTIVE_STEPS]), "cells": run.n_present,
-             "input_spikes": n_input, "spikes": int(ids.size + (stream.dropped if stream else 0) - n_input)}
-    return SimulationResult(network=tab.network, backend=name, sites={p.name: chosen[p.name] for p in pops},
-                            counts=counts, count_window_ms=settings.count_window_ms,
-                            simulated_ms=settings.duration_ms, dt_ms=settings.dt_ms, spikes=spikes, state=state,
-                            binned_counts=binned, count_bins_ms=settings.count_bins_ms, stats=stats)
 
 
 class _progress:

@@ -105,12 +105,12 @@ def _rate_over_recording(windows, carries) -> list[dict]:
     return rows
 
 
-def _spiking_each_alone(windows, backend, simulate_windows, window_maps) -> list[dict]:
+def _spiking_each_alone(windows, backend, run_windows) -> list[dict]:
     """Every window simulated on its own, from rest: what a network that
     forgot everything between windows would give."""
     rows = []
     for k, w in enumerate(windows):
-        m = window_maps(simulate_windows([w], backend=backend, progress=False))[-1]
+        m = run_windows([w], backend=backend, progress=False)[-1]
         rows.append({"window": k, **_row(f"window {k} alone", m, filled_outline(w.pos | w.neg), None,
                                          _spiking_light_share(m))})
         print(f"spiking, window {k} alone: inward {rows[-1]['inward_fraction']:.2f}", flush=True)
@@ -138,8 +138,7 @@ def main():
 
     from snn_fg.spiking import continuous
 
-    simulate_windows = partial(continuous.simulate_windows, window_clock=a.window_clock == "on")
-    window_maps = continuous.window_maps
+    run_windows = partial(continuous.run_spiking_windows, window_clock=a.window_clock == "on")
 
     t0 = time.perf_counter()
     windows = list(iter_windows(REC, window_ms=85, start_ms=a.start_ms))
@@ -155,8 +154,7 @@ def main():
     panels.append(("rate model", rate))
     for b in befores:
         first = a.window - b
-        run = simulate_windows(windows[first:a.window + 1], backend=a.backend, progress=False)
-        maps = window_maps(run)[-1]
+        maps = run_windows(windows[first:a.window + 1], backend=a.backend, progress=False)[-1]
         label = f"spiking, from window {first} ({b} before)"
         rows.append({**_row(label, maps, region, previous, _spiking_light_share(maps)), "first_window": first,
                      "simulated_ms": maps.params["simulation"]["simulated_ms"]})
@@ -164,7 +162,7 @@ def main():
         print(f"{label}: inward {rows[-1]['inward_fraction']:.2f} of {rows[-1]['outline_vectors']}, light share "
               f"{rows[-1]['light_share']:.2f}", flush=True)
     recording = _rate_over_recording(windows, [float(c) for c in a.carry.split(",")])
-    alone = _spiking_each_alone(windows, a.backend, simulate_windows, window_maps) if a.each_alone else None
+    alone = _spiking_each_alone(windows, a.backend, run_windows) if a.each_alone else None
     fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
     for ax, (label, m), row in zip(axes, panels, rows):
         plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), m.fg_x, m.fg_y, m.grouping,

@@ -119,13 +119,13 @@ def _frames(dts, quick, sp, log):
 
 def _recording(dts, sp, log):
     """Section 3: dvs.es as one continuous run per dt."""
-    from snn_fg.spiking.continuous import simulate_windows, window_maps
+    from snn_fg.spiking.continuous import run_spiking_windows
 
     windows = list(iter_windows(REC, window_ms=WINDOW_MS, start_ms=START_MS))
     out, first = {}, None
     for dt in dts:
         t0 = time.perf_counter()
-        maps = window_maps(simulate_windows(windows, spiking=sp, backend="fast", dt_ms=dt, progress=False))
+        maps = run_spiking_windows(windows, spiking=sp, backend="fast", dt_ms=dt, progress=False)
         rows = []
         for k, (w, m) in enumerate(zip(windows, maps)):
             region = filled_outline(w.pos | w.neg)

@@ -48,6 +48,10 @@ def _number(kind, lo, strict=True):
 #: (group title, ((flag, type, lower bound, strictly above it, help), ...)); defaults in brackets
 _RUN_OPTIONS = (
     ("model parameters (defaults: the paper's)", (
+        ("--network", None, None, None, "a network by name (default, compact: the deployment form, "
+                                        "docs/model.md) or a stored description (FILE.json, see networks/); "
+                                        "its model parameters replace the options below, for the rate and "
+                                        "the spiking model (default)"),
         ("--levels", int, 1, False, "pyramid levels (10)"),
         ("--n-ori", int, 2, False, "orientations per half-turn (8)"),
         ("--r0", float, 0, True, "grouping radius in px: sets the object size grouped (8)"),
@@ -62,8 +66,6 @@ _RUN_OPTIONS = (
         ("--denoise-us", int, 0, True, "tonic Denoise filter time in us (off)"),
         ("--refractory-us", int, 0, True, "tonic RefractoryPeriod in us (off)"))),
     ("spiking model", (
-        ("--network", None, None, None, "run a stored network description (FILE.json, see networks/) instead "
-                                        "of building one from the model parameters"),
         ("--backend", None, None, None, f"simulator: {', '.join(backend_names())} ({DEFAULT_BACKEND}; "
                                         "the one used is recorded in the maps' params)"),
         ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
@@ -121,6 +123,7 @@ def _add_run(sub):
     p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
                    help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
     p.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
+    p.add_argument("--no-figures", action="store_true", help="write maps.npz only (no figures)")
     p.set_defaults(handler=cmd_run)
     return p
 
@@ -160,11 +163,13 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
 # --------------------------------------------------------------------------
 def _model(args, kind):
     """The model the arguments ask for, refusing options that would be ignored."""
+    from .network.recipes import model_params_of
     from .params import ModelParams
 
     given = {k: getattr(args, k) for k in MODEL_PARAMS if getattr(args, k) is not None}
     takes = MODELS[args.model].options
-    unused = [k for m in MODELS.values() for k in m.options if k not in takes and getattr(args, k) is not None]
+    unused = [k for m in MODELS.values() for k in m.options
+              if k not in takes and k != "network" and getattr(args, k) is not None]
     if kind != "recording":
         unused += [k for k in RECORDING_OPTIONS + ("sensor_size",) if getattr(args, k) is not None]
     else:
@@ -173,6 +178,8 @@ def _model(args, kind):
         unused.append("motion")      # only images turned into events have a motion
     if args.network is not None and given:
         unused += list(given)
+    if args.network is not None and MODELS[args.model].needs == "image":
+        unused.append("network")
     if unused:
         flags = ", ".join("--" + k.replace("_", "-") for k in unused)
         why = "a stored network (--network) carries its own model parameters" if args.network and given else \
@@ -183,7 +190,8 @@ def _model(args, kind):
     for k in ("feedback", "carry_state", "window_clock"):
         if k in options:
             options[k] = options[k] == "on"
-    return MODELS[args.model](ModelParams(**given), progress, **options)
+    params = ModelParams(**given) if args.network is None else model_params_of(args.network)
+    return MODELS[args.model](params, progress, **options)
 
 
 def _progress_factory():
@@ -208,6 +216,7 @@ def _windows(args):
 
 
 def cmd_run(args) -> int:
+    from .frames.pool import pooled_shape
     from .frames.pyramid import check_levels
     from .inputs import input_kind, load_frame
     from .runner import OutputFolder, run_frame, run_recording
@@ -221,12 +230,13 @@ def cmd_run(args) -> int:
     else:
         frame, source = load_frame(args.input, model.needs, args.threshold, args.motion or "shift4")
         shape = frame.shape
-    check_levels(shape, model.params.levels, args.input)
+    check_levels(pooled_shape(shape, model.params.input_pool), model.params.levels, args.input,
+                 model.params.levels_per_octave)
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as out:
         if kind == "recording":
-            run_recording(model, windows, out.dir, source, args.input)
+            run_recording(model, windows, out.dir, source, args.input, figures=not args.no_figures)
         else:
-            run_frame(model, frame, out.dir, source)
+            run_frame(model, frame, out.dir, source, figures=not args.no_figures)
         written = ", ".join(sorted(p.name for p in out.dir.iterdir()))
     print(f"snn-fg: {model.name} model on {args.input}: wrote {args.out}/ ({written})")
     return 0

@@ -7,6 +7,7 @@ on which one it is. To add a model, subclass :class:`Model` and register it.
 """
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
@@ -107,7 +108,10 @@ class RateModel(Model):
     def run_frame(self, frame: Frame) -> Maps:
         from .rate.edfg import run_edfg
 
-        return run_edfg(frame.pos, frame.neg, self.params, progress=self.progress)
+        t = time.perf_counter()
+        maps = run_edfg(frame.pos, frame.neg, self.params, progress=self.progress)
+        maps.params["timings_s"] = {"run": time.perf_counter() - t}
+        return maps
 
     def run_windows(self, windows):
         if not self.carry_state:
@@ -122,8 +126,10 @@ class RateModel(Model):
                 yield w, self.empty_maps(w.pos.shape)
                 continue
             continued = previous is not None
+            t = time.perf_counter()
             previous = run_edfg_state(w.pos, w.neg, self.params, progress=self.progress, previous=previous)
-            yield w, previous.maps(carry_state=True, continued_from_previous_window=continued)
+            yield w, previous.maps(carry_state=True, continued_from_previous_window=continued,
+                                   timings_s={"run": time.perf_counter() - t})
 
 
 class FbfgModel(Model):

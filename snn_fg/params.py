@@ -18,7 +18,14 @@ class ModelParams:
 
     Attributes
     ----------
-    levels: pyramid levels; level ``l`` (1-based) is scaled by ``(1/sqrt 2)**(l-1)``.
+    levels: pyramid levels; level ``l`` (1-based) is scaled by ``(1/sqrt 2)**(l-1)``
+        (``2 ** (-(l-1) / levels_per_octave)`` in general).
+    levels_per_octave: pyramid levels per halving of the scale: 2 (the paper's
+        ``1/sqrt 2`` steps) or 1 (octaves: half the cells and synapses of the
+        coarse levels, for the compact network).
+    input_pool: stage 0: blocks of ``input_pool x input_pool`` sensor pixels
+        become one pixel of the event frame the model sees (1: none); the
+        maps come back at the sensor's size (:mod:`snn_fg.frames.pool`).
     n_ori: orientations per half-turn (border-ownership orientations); the
         simple cells have ``2 * n_ori`` directions.
     r0: radius in pixels of the von Mises grouping ring (object size grouped).
@@ -39,6 +46,8 @@ class ModelParams:
     """
 
     levels: int = 10
+    levels_per_octave: int = 2
+    input_pool: int = 1
     n_ori: int = 8
     r0: float = 8.0
     iterations: int = 10
@@ -58,6 +67,8 @@ class ModelParams:
     def __post_init__(self):
         owner = "ModelParams"
         check.integer(owner, "levels", self.levels, lo=1)
+        check.integer(owner, "levels_per_octave", self.levels_per_octave, lo=1)
+        check.integer(owner, "input_pool", self.input_pool, lo=1)
         check.integer(owner, "n_ori", self.n_ori, lo=1)
         check.integer(owner, "iterations", self.iterations, lo=0)
         for name, lo, strict in (("r0", 0, True), ("alpha", 0, False), ("w_inh", None, False),

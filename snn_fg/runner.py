@@ -85,12 +85,13 @@ def _umask() -> int:
     return mask
 
 
-def run_frame(model: Model, frame: Frame, out: Path, source: dict) -> Maps:
-    """One frame through ``model``; ``maps.npz`` and figures into ``out``."""
+def run_frame(model: Model, frame: Frame, out: Path, source: dict, figures: bool = True) -> Maps:
+    """One frame through ``model``; ``maps.npz`` and (with ``figures``) its figures into ``out``."""
     maps = model.run_frame(frame)
     maps.params = {**maps.params, "source": source}
     maps.save(out / "maps.npz")
-    model.write_figures(out, maps, model.figure_input(frame))
+    if figures:
+        model.write_figures(out, maps, model.figure_input(frame))
     return maps
 
 
@@ -114,10 +115,10 @@ def model_input_rgb(frame):
     return event_frame_rgb(frame > 0, frame < 0)
 
 
-def run_recording(model: Model, windows, out: Path, source: dict, name: str) -> int:
+def run_recording(model: Model, windows, out: Path, source: dict, name: str, figures: bool = True) -> int:
     """Every window of a recording through ``model``; one ``maps.npz`` (one
-    map per window, streamed to disk) and figures into ``out``. Returns the
-    number of windows."""
+    map per window, streamed to disk) and (with ``figures``) its figures
+    into ``out``. Returns the number of windows."""
     from .events import EmptyWindowWarning
 
     t0, t1 = [], []
@@ -150,5 +151,6 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str) -> 
         # window times relative to the first window (some formats stamp Unix time)
         titles = [f"{(a - t0[0]) / 1000:.0f}-{(b - t0[0]) / 1000:.0f} ms" for a, b in zip(t0, t1)]
         sink.finish(maps.params, t_start_us=np.array(t0, dtype=np.int64), t_end_us=np.array(t1, dtype=np.int64))
-        model.write_figures(out, maps, _LazyFrames(st["event_frame"]), titles)
+        if figures:
+            model.write_figures(out, maps, _LazyFrames(st["event_frame"]), titles)
         return sink.n

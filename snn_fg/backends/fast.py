@@ -83,6 +83,10 @@ class FastBackend(Backend):
     chunk_ms : float
         Simulated time per call of the compiled loop; between calls the
         progress bar moves and Ctrl-C is honoured.
+    weight_bits : int, optional
+        Run with every weight as the ``weight_bits``-bit integer times one
+        scale per projection that a board holds (as ``snn-fg export
+        --weight-bits`` writes them; weights that round to 0 are dropped).
     """
 
     name = "fast"
@@ -95,10 +99,12 @@ class FastBackend(Backend):
     #: (:func:`snn_fg.spiking.api.default_instantiate`)
     default_instantiate = "all"
 
-    def __init__(self, *, chunk_ms: float = CHUNK_MS):
+    def __init__(self, *, chunk_ms: float = CHUNK_MS, weight_bits: int | None = None):
         from .. import validate as check
 
         self.chunk_ms = check.number("FastBackend", "chunk_ms", chunk_ms, lo=0, lo_open=True)
+        self.weight_bits = None if weight_bits is None else check.integer("FastBackend", "weight_bits",
+                                                                          weight_bits, lo=2, hi=32)
         self._tables: ft.EngineTables | None = None
         self._pool = _Pool()
 
@@ -113,7 +119,8 @@ class FastBackend(Backend):
     def describe(self) -> dict:
         import numba
 
-        return {"name": self.name, "engine": "event-driven, weight-shared kernels", "numba": numba.__version__}
+        return {"name": self.name, "engine": "event-driven, weight-shared kernels", "numba": numba.__version__,
+                "weight_bits": self.weight_bits}
 
     def tables(self, network: Network, dt_ms: float) -> ft.EngineTables:
         """The engine's arrays for ``network`` at ``dt_ms``, built once and
@@ -124,7 +131,7 @@ class FastBackend(Backend):
         if t is not None and t.network is not network and t.dt_ms == dt_ms and ft.gains_only(t.network, network):
             t = self._tables = t.with_gains(network)      # (e.g. calibrated for the next window's input rate)
         if t is None or t.network is not network or t.dt_ms != dt_ms:
-            t = self._tables = ft.build_tables(network, dt_ms)
+            t = self._tables = ft.build_tables(network, dt_ms, self.weight_bits)
         return t
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:

@@ -328,14 +328,15 @@ def _conv_gather(p, spikes, x0, pops, cells, flat_of, column_of, row_ptr, prj, d
 @njit(cache=True)
 def _resize(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, prj_w, csr_ptr, csr_idx, csr_val, acc, touched,
             n_touched, counters):
-    """Like :func:`_conv` for Resize ``p``: weight ``sign * gain * A_r[i, i'] * A_c[j, j']``."""
+    """Like :func:`_conv` for Resize ``p``: weight ``sign * gain * A_r[i, i'] * A_c[j, j']``, the
+    product rounded to the projection's quantisation step where it has one."""
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]
     gc_s = pops[qs, P_GC]
     plane = pops[qs, P_GR] * gc_s
     gr, gc = pops[qt, P_GR], pops[qt, P_GC]
     mbase, bbase = cells[qt, C_MAP], cells[qt, C_BITS]
     whole = mbase < 0
-    sg, thr = prj_w[p, 0], prj_w[p, 1]
+    sg, thr, step = prj_w[p, 0], prj_w[p, 1], prj_w[p, 2]
     prune, inh = prj[p, J_PRUNE] == 1, prj[p, J_INH] == 1
     events = 0
     for x in range(x0, spikes.size):
@@ -354,6 +355,10 @@ def _resize(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, prj_w, csr_ptr
                 val = a * csr_val[U(xc)]
                 if val == 0.0 or (prune and abs(val) < thr):
                     continue
+                if step > 0.0:
+                    val = np.round(val / step) * step
+                    if val == 0.0:
+                        continue
                 lt = rbase + csr_idx[U(xc)]
                 if not whole:
                     if (bits[U(bbase + (lt >> 3))] >> (lt & 7)) & 1 == 0:

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..network.graph import Network
 from ..network.nodes import Conv
+from ..export.pynn_model import quantise
 from ..spiking.connect import kernel_taps, resize_factors, resize_kept_mass
 from .base import receptor, receptor_weights
 
@@ -70,7 +71,8 @@ class EngineTables:
     ref_steps: np.ndarray    # int64 (n_types,)
     adv: np.ndarray          # float64 (n_types, 5, ADVANCE_STEPS + 1): d_m^k, d_e^k, d_i^k, P_e(k), P_i(k)
     prj: np.ndarray          # int64 (n_projections, 14), columns J_*
-    prj_w: np.ndarray        # float64 (n_projections, 2): sign * gain (mV), prune threshold of a Resize
+    prj_w: np.ndarray        # float64 (n_projections, 3): sign * gain (mV), prune threshold of a Resize,
+    #                          and its quantisation step (interpolation products rounded to it; 0: exact)
     ch_ptr: np.ndarray       # int64: Conv taps of input channel c, residues (a, b) modulo the target
     tap_co: np.ndarray       #   stride s, of projection p are ch_ptr[i] .. ch_ptr[i + 1], i = base + (c s + a) s
     tap_qr: np.ndarray       #   + b, of tap_co (output channel), tap_qr, tap_qc (the target lattice point is
@@ -267,7 +269,16 @@ class _Collector:
                 "csr_val": csr[2].astype(np.float64)}
 
 
-def _conv(network, pr, src, tgt, out: _Collector):
+def quantised_values(k: np.ndarray, peak: float, weight_bits: int | None) -> np.ndarray:
+    """Kernel values as the ``weight_bits``-bit weights a board holds: one
+    scale per projection, its largest |value| ``peak`` over ``2**(bits-1) - 1``
+    (:func:`snn_fg.export.quantise.projection_scales`); unchanged for None."""
+    if weight_bits is None:
+        return k
+    return quantise(k, weight_bits, peak / (2 ** (weight_bits - 1) - 1))
+
+
+def _conv(network, pr, src, tgt, out: _Collector, weight_bits=None):
     """A Conv's kept taps, grouped by input channel and by the residues of
     the tap offset modulo the target's stride (a source at level pixel ``p``
     reaches the target lattice only through the taps with ``d = p (mod
@@ -279,6 +290,9 @@ def _conv(network, pr, src, tgt, out: _Collector):
     taken modulo the level and those landing on the same cell add up, as
     the unrolled synapses do (:func:`~snn_fg.spiking.connect.conv_pairs`)."""
     co, ci, dr, dc, k, kept = kernel_taps(pr, network)
+    if weight_bits is not None:
+        k = quantised_values(k, float(np.abs(pr.kernel.array(network.params)).max()), weight_bits)
+        co, ci, dr, dc, k = (a[k != 0] for a in (co, ci, dr, dc, k))
     dense = out.dense_kernel(co, ci, dr, dc, k, pr, tgt.channels, src.channels)
     st = tgt.stride
     gr, gc = tgt.grid
@@ -322,11 +336,12 @@ def _fold(co, ci, qr, qc, k):
     return uniq[keep, 0], uniq[keep, 1], uniq[keep, 2], uniq[keep, 3], total[keep]
 
 
-def _resize(pr, src, tgt, out: _Collector):
+def _resize(pr, src, tgt, out: _Collector, weight_bits=None):
     ar, ac, peak = resize_factors(pr, src, tgt)
     base, colbase = out.factor(ar), out.factor(ac)
     taps = int(np.count_nonzero(ar)) * int(np.count_nonzero(ac))
-    return base, colbase, resize_kept_mass(ar, ac, pr.prune, peak), taps, pr.prune * peak
+    step = 0.0 if weight_bits is None else peak / (2 ** (weight_bits - 1) - 1)
+    return base, colbase, resize_kept_mass(ar, ac, pr.prune, peak), taps, pr.prune * peak, step
 
 
 def _delay_steps(delay_ms: float, dt_ms: float) -> int:
@@ -336,8 +351,10 @@ def _delay_steps(delay_ms: float, dt_ms: float) -> int:
     return int(np.round(round(delay_ms, 6) * MS / (dt_ms * MS)))
 
 
-def build_tables(network: Network, dt_ms: float) -> EngineTables:
-    """The engine's arrays for ``network`` simulated at ``dt_ms``.
+def build_tables(network: Network, dt_ms: float, weight_bits: int | None = None) -> EngineTables:
+    """The engine's arrays for ``network`` simulated at ``dt_ms``; with
+    ``weight_bits`` every weight is the ``weight_bits``-bit integer times one
+    scale per projection that a board holds (:func:`quantised_values`).
 
     Examples
     --------
@@ -356,16 +373,17 @@ def build_tables(network: Network, dt_ms: float) -> EngineTables:
         src, tgt = network.population(pr.source), network.population(pr.target)
         spans.append([out.n_taps, out.n_taps, out.n_dense, out.n_dense])
         if isinstance(pr, Conv):
-            base, colbase, kept[pr.name], taps[pr.name], radius, dense = _conv(network, pr, src, tgt, out)
-            kind, wrap, thr = CONV, int(pr.padding == "wrap"), 0.0
+            base, colbase, kept[pr.name], taps[pr.name], radius, dense = _conv(network, pr, src, tgt, out,
+                                                                               weight_bits)
+            kind, wrap, thr, step = CONV, int(pr.padding == "wrap"), 0.0, 0.0
         else:
-            base, colbase, kept[pr.name], taps[pr.name], thr = _resize(pr, src, tgt, out)
+            base, colbase, kept[pr.name], taps[pr.name], thr, step = _resize(pr, src, tgt, out, weight_bits)
             kind, wrap, radius, dense = RESIZE, 0, 0, (0, 0, 0)
         spans[-1][1], spans[-1][3] = out.n_taps, out.n_dense
         rows.append([kind, index[src.name], index[tgt.name], 1 if receptor(pr.sign) == "exc" else 2,
                      _delay_steps(pr.delay_ms, dt_ms), wrap, base, colbase, int(pr.prune > 0),
                      int(pr.sign < 0), radius, *dense])
-        wrow.append([pr.sign * pr.gain_mv, thr])
+        wrow.append([pr.sign * pr.gain_mv, thr, step])
     arrays = out.arrays()
     prj = np.array(rows, dtype=np.int64).reshape(-1, 14)
     groups: dict = {}
@@ -375,5 +393,5 @@ def build_tables(network: Network, dt_ms: float) -> EngineTables:
     grp_ptr = np.cumsum([0] + [len(members) for members in groups.values()]).astype(np.int64)
     return EngineTables(network=network, dt_ms=float(dt_ms), offsets=offsets, pops=pops, n_cells=int(n_cells),
                         nrn=nrn, ref_steps=ref, adv=adv, prj=prj,
-                        prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 2), grp_ptr=grp_ptr, grp_prj=grp_prj,
+                        prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 3), grp_ptr=grp_ptr, grp_prj=grp_prj,
                         kept_mass=kept, taps=taps, spans=np.array(spans, dtype=np.int64).reshape(-1, 4), **arrays)

@@ -8,6 +8,7 @@ nothing partial is written.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -30,8 +31,9 @@ def add_export_command(sub, sensor_size_arg, number):
     p.add_argument("--format", required=True, metavar="|".join(FORMATS))
     p.add_argument("--out", required=True, metavar="PATH", help="output folder (pynn) or file")
     p.add_argument("--force", action="store_true", help="replace PATH if it exists")
-    p.add_argument("--network", metavar="FILE", help="a stored description (.json) or NIR export (.nir) instead of "
-                                                     "building one from the model parameters")
+    p.add_argument("--network", metavar="NAME|FILE", help="a network by name (default, compact: the deployment "
+                                                          "form) or a stored description (.json) or NIR export "
+                                                          "(.nir) (default)")
     p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
                    help="sensor size (default 304x240, the iCub ATIS; a stored network keeps its own unless given)")
     p.add_argument("--levels", type=number(int, 1, False), help="pyramid levels (10)")
@@ -48,28 +50,34 @@ def add_export_command(sub, sensor_size_arg, number):
 
 
 def _network(args):
-    from ..frames.pyramid import check_levels
-    from ..network import SpikingParams, build_network
-    from ..network.graph import Network
-    from ..params import ModelParams
+    """The network to export, for the sensor size asked for, and that sensor size (rows, cols)."""
+    from ..network.recipes import RECIPES, is_recipe, network_for
 
     given = {k: getattr(args, k) for k in ("levels", "n_ori", "r0") if getattr(args, k) is not None}
     if args.sensor_size and min(args.sensor_size) < 1:
         raise InputError(f"--sensor-size {args.sensor_size[0]}x{args.sensor_size[1]}", "width and height must be >= 1")
-    if args.network:
-        if given:
-            raise InputError(args.network, "--levels/--n-ori/--r0: a stored network carries its own model parameters")
-        path = Path(args.network)
-        net = read_network_file(path)
-        if args.sensor_size:
-            shape = (args.sensor_size[1], args.sensor_size[0])
-            check_levels(shape, net.params.levels, f"--sensor-size {args.sensor_size[0]}x{args.sensor_size[1]}")
-            net = net.resized(shape)
-        return net
+    if args.network and given:
+        raise InputError(args.network, "--levels/--n-ori/--r0: a named or stored network carries its own model "
+                                       "parameters")
+    if args.network and not is_recipe(args.network):
+        net = read_network_file(Path(args.network))
+        if not args.sensor_size:
+            return net, None
+        w, h = args.sensor_size
+        _check_sensor(net.params, (h, w), f"--sensor-size {w}x{h}")
+        return network_for(net, (h, w))[0], (h, w)
     w, h = args.sensor_size or ICUB_SENSOR
-    params = ModelParams(**given)
-    check_levels((h, w), params.levels, f"--sensor-size {w}x{h}")
-    return build_network(params, (h, w), SpikingParams())
+    recipe = RECIPES[args.network or "default"]
+    params = recipe.params.replace(**given)
+    _check_sensor(params, (h, w), f"--sensor-size {w}x{h}")
+    return dataclasses.replace(recipe, params=params).build((h, w)), (h, w)
+
+
+def _check_sensor(params, shape, source: str):
+    from ..frames.pool import pooled_shape
+    from ..frames.pyramid import check_levels
+
+    check_levels(pooled_shape(shape, params.input_pool), params.levels, source, params.levels_per_octave)
 
 
 def read_network_file(path: Path):
@@ -90,6 +98,7 @@ def _refuse_existing(out: Path, force: bool):
 
 def cmd_export(args) -> int:
     from ..atomic import save_text
+    from ..network.recipes import network_for
     from .quantise import check_bits
 
     check.choice("snn-fg export", "--format", args.format, FORMATS)
@@ -101,7 +110,7 @@ def cmd_export(args) -> int:
         raise InputError(args.out, "--weight-bits applies to --format pynn and nir only")
     out = Path(args.out)
     _refuse_existing(out, args.force)
-    net = _network(args)
+    net, sensor = _network(args)
     if args.format == "pynn":
         from .pynn import export_pynn
 
@@ -115,7 +124,12 @@ def cmd_export(args) -> int:
     elif args.format == "report":
         from .report import report_table, resource_report
 
-        rep = resource_report(net, dt_ms=args.dt_ms)
+        rep = resource_report(net, dt_ms=args.dt_ms, sensor_shape=sensor)
+        if sensor is not None and rep["targets"]["spinnaker1"]["boards_spinn5"] > 1:
+            from .report import largest_sensor
+
+            rep["targets"]["spinnaker1"]["largest_sensor_one_board"] = largest_sensor(
+                lambda shape: network_for(net, shape)[0], sensor, "spinnaker1", args.dt_ms)
         print(report_table(rep))
         save_text(out, json.dumps(rep, indent=1) + "\n")
         what = "resource report"

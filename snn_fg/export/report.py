@@ -142,7 +142,7 @@ def _loihi2(pops, prows, totals, two_taus: list) -> dict:
                     "core); weight-shared convolutions need less synaptic memory"}
 
 
-def resource_report(network: Network, dt_ms: float = 0.5) -> dict:
+def resource_report(network: Network, dt_ms: float = 0.5, sensor_shape=None) -> dict:
     """What the whole network needs and which documented limits it breaks.
 
     Parameters
@@ -151,6 +151,9 @@ def resource_report(network: Network, dt_ms: float = 0.5) -> dict:
         A description (the report is of its board network).
     dt_ms : float
         The time step delays are counted in.
+    sensor_shape : (int, int), optional
+        The sensor (rows, cols) the network was made for, recorded beside
+        its frame (they differ where the network pools its input).
 
     Returns
     -------
@@ -181,11 +184,45 @@ def resource_report(network: Network, dt_ms: float = 0.5) -> dict:
     two_taus = [p.name for p in net.populations if p.neuron is not None and p.neuron.tau_exc_ms != p.neuron.tau_inh_ms]
     for r in prows:
         del r["_fan_in"], r["_fan_out"]
-    return {"schema": SCHEMA, "frame_shape": list(net.frame_shape), "levels": net.params.levels,
+    return {"schema": SCHEMA, "frame_shape": list(net.frame_shape),
+            "sensor_shape": None if sensor_shape is None else [int(v) for v in sensor_shape],
+            "input_pool": net.params.input_pool, "levels": net.params.levels,
             "n_ori": net.params.n_ori, "dt_ms": dt_ms, "notes": list(net.notes[-1:]), "totals": totals,
             "targets": {"spinnaker1": _spinnaker1(pops, prows, totals), "spinnaker2": _spinnaker2(pops, prows, totals),
                         "loihi2": _loihi2(pops, prows, totals, two_taus)},
             "populations": pops, "projections": prows}
+
+
+def largest_sensor(make, sensor_shape, target: str = "spinnaker1", dt_ms: float = 0.5):
+    """The largest sensor of the same aspect as ``sensor_shape`` (rows,
+    cols) whose network (``make(shape)``) fits one board of ``target``
+    (:data:`~.hardware.TARGETS`: at most ``chips_per_board`` chips, no
+    violated limit), as ``{"width", "height", "chips"}``; ``None`` if even the
+    smallest network that can be made does not."""
+    from ..errors import SnnFgError
+
+    h, w = sensor_shape
+    per_board = {"spinnaker1": SPINNAKER1["chips_per_board"].value}[target]
+
+    def chips(width):
+        shape = (max(1, round(width * h / w)), width)
+        try:
+            tg = resource_report(make(shape), dt_ms)["targets"][target]
+        except SnnFgError:      # too small for the network's levels
+            return None
+        return tg["chips"] if not tg["violations"] else None
+
+    lo, hi, best = 1, w, None
+    while lo <= hi:
+        mid = (lo + hi) // 2
+        c = chips(mid)
+        if c is not None and c <= per_board:
+            best, lo = {"width": mid, "height": max(1, round(mid * h / w)), "chips": int(c)}, mid + 1
+        elif c is None and mid < w // 8:      # below the smallest buildable size: look larger
+            lo = mid + 1
+        else:
+            hi = mid - 1
+    return best
 
 
 def _global_weights(lif) -> dict:
@@ -203,7 +240,9 @@ def report_table(rep: dict) -> str:
     """The report's headline figures as text."""
     t = rep["totals"]
     h, w = rep["frame_shape"]
-    lines = [f"Whole network for a {h} x {w} frame, {rep['levels']} levels, {rep['n_ori']} orientations "
+    pool = rep.get("input_pool", 1)
+    pooled = f", the sensor pooled {pool} x {pool}" if pool > 1 else ""
+    lines = [f"Whole network for a {h} x {w} frame{pooled}, {rep['levels']} levels, {rep['n_ori']} orientations "
              f"(dt {rep['dt_ms']} ms)",
              f"  neurons {t['neurons']:,}  spike sources {t['sources']:,}  synapses {t['synapses']:,}",
              f"  max fan-in {t['max_fan_in']:,}  max fan-out {t['max_fan_out']:,}  delays (steps) {t['delay_steps']}"]
@@ -217,4 +256,7 @@ def report_table(rep: dict) -> str:
         lines.append(f"{name:11s} {size}")
         for v in tg["violations"]:
             lines.append(f"    violates {v['constraint']}: {v['value']} (limit {v['limit']}; {v['source']})")
+        one = tg.get("largest_sensor_one_board")
+        if one:
+            lines.append(f"    one board holds at most a {one['width']} x {one['height']} sensor ({one['chips']} chips)")
     return "\n".join(lines)

@@ -1,16 +1,21 @@
-"""Image pyramid of stage 2: level ``l`` is the frame scaled by ``(1/sqrt 2)**(l-1)``."""
+"""Image pyramid of stage 2: level ``l`` is the frame scaled by ``(1/sqrt 2)**(l-1)``.
+
+``per_octave`` (``ModelParams.levels_per_octave``) sets the step: 2 levels
+per halving of the scale (the paper's ``1/sqrt 2``), or 1 (octaves).
+"""
 from __future__ import annotations
 
 import cv2
 import numpy as np
 
 
-def level_scale(level: int) -> float:
-    """Scale factor of 1-based pyramid ``level``."""
-    return (1 / np.sqrt(2)) ** (level - 1)
+def level_scale(level: int, per_octave: int = 2) -> float:
+    """Scale factor of 1-based pyramid ``level``, ``per_octave`` levels per halving."""
+    step = 1 / np.sqrt(2) if per_octave == 2 else 0.5 ** (1 / per_octave)
+    return step ** (level - 1)
 
 
-def level_shape(shape: tuple[int, int], level: int) -> tuple[int, int]:
+def level_shape(shape: tuple[int, int], level: int, per_octave: int = 2) -> tuple[int, int]:
     """``(rows, cols)`` of 1-based pyramid ``level`` for a frame of ``shape``.
 
     Level 1 is the frame itself; level ``l > 1`` has ``int(n*s) + 1`` samples
@@ -19,22 +24,22 @@ def level_shape(shape: tuple[int, int], level: int) -> tuple[int, int]:
     h, w = shape
     if level == 1:
         return (h, w)
-    s = level_scale(level)
+    s = level_scale(level, per_octave)
     return (int(h * s) + 1, int(w * s) + 1)
 
 
-def max_levels(shape: tuple[int, int]) -> int:
+def max_levels(shape: tuple[int, int], per_octave: int = 2) -> int:
     """The most pyramid levels a frame of ``shape`` has that are at least
     2 x 2 pixels (coarser ones would be a single row or column)."""
     level = 1
-    while min(level_shape(shape, level + 1)) >= 2:
+    while min(level_shape(shape, level + 1, per_octave)) >= 2:
         level += 1
     return level
 
 
-def check_levels(shape: tuple[int, int], levels: int, source="<frame>") -> None:
+def check_levels(shape: tuple[int, int], levels: int, source="<frame>", per_octave: int = 2) -> None:
     """Refuse more pyramid levels than a frame of ``shape`` can have."""
-    most = max_levels(shape)
+    most = max_levels(shape, per_octave)
     if levels > most:
         from ..errors import InputError
 
@@ -61,7 +66,7 @@ def resize(img: np.ndarray, shape: tuple[int, int], interpolation: str = "cubic"
     return out
 
 
-def pyramid(img: np.ndarray, levels: int) -> list[np.ndarray]:
+def pyramid(img: np.ndarray, levels: int, per_octave: int = 2) -> list[np.ndarray]:
     """Bicubic pyramid of ``img`` (float64), one array per level."""
     img = np.asarray(img, dtype=np.float64)
-    return [resize(img, level_shape(img.shape[:2], l)) for l in range(1, levels + 1)]
+    return [resize(img, level_shape(img.shape[:2], l, per_octave)) for l in range(1, levels + 1)]

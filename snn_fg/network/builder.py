@@ -162,8 +162,8 @@ class _Builder:
     def pop(self, role, level, *, channels=1, stride=1, neuron=None, sites="all", site_sources=(),
             edge_mask=False, shape=None) -> str:
         name = f"{role}_{level}"
-        self.pops.append(Population(name=name, role=role, level=level,
-                                    level_shape=shape or level_shape(self.frame_shape, level), channels=channels,
+        shape = shape or level_shape(self.frame_shape, level, self.params.levels_per_octave)
+        self.pops.append(Population(name=name, role=role, level=level, level_shape=shape, channels=channels,
                                     stride=stride, neuron=neuron, sites=sites, site_sources=tuple(site_sources),
                                     edge_mask=edge_mask))
         return name
@@ -296,14 +296,21 @@ class _Builder:
     def excess_cells(self, level, b):
         """The excess of each border-ownership family over its partner at the
         same simple cell, ``rect(B_f - B_partner)``: zero while the pair is
-        still symmetric, the winner's activity once feedback has chosen."""
-        n = self.params.n_ori
-        same = _channel_map(n, n, [(o, o) for o in range(n)])
-        x = {f: self.pop(f"excess_{f}", level, channels=n, neuron=self.neurons["excess"], sites="reachable",
-                         site_sources=(b[f],), edge_mask=True) for f in FAMILIES}
+        still symmetric, the winner's activity once feedback has chosen.
+
+        With ``excess_stride`` s > 1 an excess cell sits on every s-th pixel
+        and takes the excess of the block around it, ``rect(mean B_f - mean
+        B_partner)`` (a ``block_mean`` kernel): s**2 times fewer cells, read
+        by the grouping cells through every s-th tap of their kernel."""
+        n, st = self.params.n_ori, self.sp.excess_stride
+        same = _channel_map(n, n, [(o, o) for o in range(n)]) if st == 1 else \
+            Kernel(ref="block_mean", args={"channels": n, "stride": st})
+        x = {f: self.pop(f"excess_{f}", level, channels=n, stride=st, neuron=self.neurons["excess"],
+                         sites="reachable", site_sources=(b[f],), edge_mask=st == 1) for f in FAMILIES}
+        gain = self.gains.bo_to_excess * st
         for f in FAMILIES:
-            self.conv(b[f], x[f], same, gain=self.gains.bo_to_excess)
-            self.conv(b[PARTNER[f]], x[f], same, sign=-1, gain=self.gains.bo_to_excess * Gains.balance(self.neurons["excess"]))
+            self.conv(b[f], x[f], same, gain=gain)
+            self.conv(b[PARTNER[f]], x[f], same, sign=-1, gain=gain * Gains.balance(self.neurons["excess"]))
         return x
 
     def grouping_cells(self, level, b):
@@ -320,11 +327,15 @@ class _Builder:
         g = {pol: self.pop(f"group_{pol}", level, stride=st, neuron=self.neurons["group"], sites="reachable",
                            site_sources=tuple(b.values())) for pol in ("L", "D")}
         w = self.params.w_inh
-        rivals = self.excess_cells(level, b) if w > 0 and self.sp.rival_inhibition == "excess" else b
+        by_excess = w > 0 and self.sp.rival_inhibition == "excess"
+        rivals = self.excess_cells(level, b) if by_excess else b
+        # a strided excess lattice is read through every s-th tap: s**2 makes up the rest, s of it in
+        # the excess cells' own gain (a block crossed by an edge holds about s of its s**2 pixels)
+        sparse = self.sp.excess_stride if by_excess else 1
         for fam, pol, half, sign in GROUPING_INPUTS:
             if sign < 0 and w == 0:
                 continue
-            gain = self.gains.bo_to_group * (1.0 if sign > 0 else w * Gains.balance(self.neurons["group"]))
+            gain = self.gains.bo_to_group * (1.0 if sign > 0 else w * sparse * Gains.balance(self.neurons["group"]))
             self.conv((b if sign > 0 else rivals)[fam], g[pol], _von_mises(half, "gather"), sign=sign, gain=gain,
                       prune=self.sp.prune_vm)
         for a, c in (("L", "D"), ("D", "L")):
@@ -363,6 +374,7 @@ class _Builder:
             for pol in ("L", "D"):
                 self.resize(clock, f"group_{pol}_{level}", sign=-1, interpolation="linear",
                             gain=self.sp.clock_inh_group * self.sp.group.v_th_mv)
+
 
     def pooling(self):
         """Stage 8 across levels, top-down: z_l += decay * resize(z_{l+1}), for
@@ -414,7 +426,7 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
     if not isinstance(spiking, SpikingParams):
         check.fail("build_network", "spiking", type(spiking).__name__, "must be a SpikingParams")
     frame_shape = check.shape2("build_network", "frame_shape", frame_shape)
-    check_levels(frame_shape, params.levels, "build_network")
+    check_levels(frame_shape, params.levels, "build_network", params.levels_per_octave)
     if params.n_ori % 2:
         check.fail("build_network", "params.n_ori", params.n_ori,
                    "must be even (index n_ori/2 is the untuned cells' orientation)")
@@ -431,4 +443,5 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
         bld.window_clock()
     return Network(params=params, frame_shape=frame_shape, populations=tuple(bld.pops),
                    projections=tuple(bld.prjs), input_rate_hz=spiking.input_rate_hz,
-                   support_min=spiking.support_min, drive_min=spiking.drive_min, notes=NOTES)
+                   support_min=spiking.support_min, drive_min=spiking.drive_min,
+                   input_refractory_ms=spiking.input_refractory_ms, notes=NOTES)

@@ -21,10 +21,10 @@ from .nodes import Conv, Population, Projection, projection_from_dict
 SCHEMA = "snn-fg.network/2"
 
 
-def _grid_shape(pop, frame_shape) -> tuple[int, int]:
+def _grid_shape(pop, frame_shape, per_octave: int) -> tuple[int, int]:
     """The ``level_shape`` a population must have for frames of
     ``frame_shape``: its pyramid level's, except the one-cell window clock's."""
-    return (1, 1) if pop.role == "clock" else level_shape(frame_shape, pop.level)
+    return (1, 1) if pop.role == "clock" else level_shape(frame_shape, pop.level, per_octave)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -35,8 +35,12 @@ class Network:
     ``input_rate_hz`` is the mean input rate per active pixel that the gains
     of the ``calibrated`` projections are set for (see :meth:`calibrated`).
     ``support_min`` and ``drive_min`` parametrise the instantiation hints of
-    the populations (:data:`~snn_fg.network.nodes.SITE_RULES`). ``notes``
-    document the network (its departures from the rate model).
+    the populations (:data:`~snn_fg.network.nodes.SITE_RULES`).
+    ``input_refractory_ms``: the input adapter passes an event of a spike
+    source (a pixel, or a block of them, and a polarity) on only this long
+    after the last one it passed on (0: every event is a spike), so that a
+    busy source fires like a quiet one. ``notes`` document the network (its
+    departures from the rate model).
     """
 
     params: ModelParams
@@ -46,6 +50,7 @@ class Network:
     input_rate_hz: float = 200.0
     support_min: float = 0.3
     drive_min: float = 0.85
+    input_refractory_ms: float = 0.0
     notes: tuple[str, ...] = ()
     _by_name: dict = field(init=False, repr=False, compare=False, hash=False)
 
@@ -60,6 +65,8 @@ class Network:
                            check.number(owner, "input_rate_hz", self.input_rate_hz, lo=0, lo_open=True))
         object.__setattr__(self, "support_min", check.number(owner, "support_min", self.support_min, lo=0))
         object.__setattr__(self, "drive_min", check.number(owner, "drive_min", self.drive_min, lo=0))
+        object.__setattr__(self, "input_refractory_ms",
+                           check.number(owner, "input_refractory_ms", self.input_refractory_ms, lo=0))
         object.__setattr__(self, "_by_name", self._check_populations())
         self._check_projections()
 
@@ -73,7 +80,7 @@ class Network:
                 check.fail(owner, None, None, "name used twice")
             if p.level > self.params.levels:
                 check.fail(owner, "level", p.level, f"exceeds params.levels={self.params.levels}")
-            want = _grid_shape(p, self.frame_shape)
+            want = _grid_shape(p, self.frame_shape, self.params.levels_per_octave)
             if p.level_shape != want:
                 check.fail(owner, "level_shape", p.level_shape,
                            f"differs from level {p.level} of a {self.frame_shape} frame, {want}")
@@ -173,14 +180,16 @@ class Network:
         """The same network for frames of another shape (kernels are weight
         shared, so only the populations' level shapes change)."""
         shape = check.shape2("Network.resized", "frame_shape", frame_shape)
-        pops = tuple(dataclasses.replace(p, level_shape=_grid_shape(p, shape)) for p in self.populations)
+        per_octave = self.params.levels_per_octave
+        pops = tuple(dataclasses.replace(p, level_shape=_grid_shape(p, shape, per_octave)) for p in self.populations)
         return dataclasses.replace(self, frame_shape=shape, populations=pops)
 
     # -- serialisation -----------------------------------------------------
     def to_dict(self) -> dict:
         return {"schema": SCHEMA, "params": self.params.to_dict(), "frame_shape": list(self.frame_shape),
                 "input_rate_hz": self.input_rate_hz, "support_min": self.support_min,
-                "drive_min": self.drive_min, "notes": list(self.notes),
+                "drive_min": self.drive_min, "input_refractory_ms": self.input_refractory_ms,
+                "notes": list(self.notes),
                 "populations": [p.to_dict() for p in self.populations],
                 "projections": [pr.to_dict() for pr in self.projections]}
 
@@ -190,8 +199,8 @@ class Network:
             check.fail("Network", None, None, f"expected a mapping, got {type(d).__name__}")
         if d.get("schema") != SCHEMA:
             check.fail("Network", "schema", d.get("schema"), f"is not {SCHEMA!r}")
-        fields = {"params", "frame_shape", "input_rate_hz", "support_min", "drive_min", "notes",
-                  "populations", "projections"}
+        fields = {"params", "frame_shape", "input_rate_hz", "support_min", "drive_min", "input_refractory_ms",
+                  "notes", "populations", "projections"}
         check.known_keys("Network", set(d) - {"schema"}, fields)
         missing = sorted({"params", "frame_shape", "populations", "projections"} - set(d))
         if missing:

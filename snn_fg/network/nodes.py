@@ -302,6 +302,11 @@ def _check_channel_map(owner, a):
         check.number(owner, "entry weight", e[2])
 
 
+def _check_block_mean(owner, a):
+    check.integer(owner, "channels", a["channels"], lo=1)
+    check.integer(owner, "stride", a["stride"], lo=1)
+
+
 def _check_array(owner, a):
     arr = np.asarray(a["data"], dtype=float)
     if arr.ndim != 4 or not np.all(np.isfinite(arr)):
@@ -315,6 +320,7 @@ KERNEL_REFS = {
     "dog": ({"directions"}, _check_dog),
     "von_mises": ({"half", "layout"}, _check_von_mises),
     "channel_map": ({"n_out", "n_in", "entries"}, _check_channel_map),
+    "block_mean": ({"channels", "stride"}, _check_block_mean),
     "array": ({"data"}, _check_array),
 }
 
@@ -336,6 +342,10 @@ class Kernel(Node):
     * ``channel_map``: ``{"n_out", "n_in", "entries": [[o, i, w], ...]}`` - a
       1 x 1 kernel connecting input channel ``i`` to output channel ``o``
       with weight ``w``;
+    * ``block_mean``: ``{"channels": C, "stride": s}`` - onto a lattice of
+      stride ``s``, each channel's mean over the ``s x s`` block around a
+      lattice point, as a ``(2s-1) x (2s-1)`` tent (bilinear weights summing
+      to 1): every source pixel hands ``1/s**2`` of itself to the lattice;
     * ``array``: ``{"data": nested list (C_out, C_in, kh, kw)}``.
 
     :meth:`array` materialises it for the :class:`ModelParams` of a network.
@@ -376,6 +386,12 @@ class Kernel(Node):
             out = np.zeros((a["n_out"], a["n_in"], 1, 1))
             for o, i, w in a["entries"]:
                 out[o, i, 0, 0] += w
+            return out
+        if self.ref == "block_mean":
+            st = a["stride"]
+            tent = 1.0 - np.abs(np.arange(1 - st, st)) / st
+            out = np.zeros((a["channels"], a["channels"], 2 * st - 1, 2 * st - 1))
+            out[np.arange(a["channels"]), np.arange(a["channels"])] = np.outer(tent, tent) / st ** 2
             return out
         return np.asarray(a["data"], dtype=float)
 

@@ -50,10 +50,14 @@ class SpikingParams(Node):
         ``edges&drive`` instantiation hint's fraction of the way from reset
         to threshold (below 1: a margin, so that a cell left out cannot fire
         on fluctuations either; 0.85 keeps the spikes of every instantiated
-        cell equal to those of the whole network in the tests).
+        cell equal to those of the whole network in the tests);
+        ``input_refractory_ms``: the input adapter's refractory period per
+        spike source (:attr:`Network.input_refractory_ms`; 0: every event).
     Geometry
         ``grouping_stride``: grouping and feedback cells sit on every
-        ``grouping_stride``-th level pixel along each axis;
+        ``grouping_stride``-th level pixel along each axis; ``excess_stride``:
+        the same for the excess cells, each then taking its block's mean
+        excess (1: one per border-ownership cell);
         ``pool_interpolation``: interpolation of the top-down pooling of
         feedback signals from level ``l+1`` to ``l`` (the rate model: cubic);
         ``feedback_interpolation``: from the feedback cells' lattice onto the
@@ -141,10 +145,12 @@ class SpikingParams(Node):
     input_rate_hz: float = 200.0
     support_min: float = 0.3
     drive_min: float = 0.85
+    input_refractory_ms: float = 0.0
     gate_margin: float = 1.0
     gate_copies: int = 5
     gate_spread_ms: float = 1.0
     grouping_stride: int = 2
+    excess_stride: int = 1
     pool_interpolation: str = "linear"
     feedback_interpolation: str = "linear"
     prune_dog: float = 0.05
@@ -184,7 +190,7 @@ class SpikingParams(Node):
             if f.name in CELL_KINDS:
                 if not isinstance(v, Neuron):
                     check.fail(owner, f.name, v, "must be a Neuron")
-            elif f.name in ("grouping_stride", "gate_copies"):
+            elif f.name in ("grouping_stride", "excess_stride", "gate_copies"):
                 check.integer(owner, f.name, v, lo=1)
             elif f.name == "rival_inhibition":
                 check.choice(owner, f.name, v, RIVAL_INHIBITION)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..frames.pool import pool_frame, unpool_maps
 from ..frames.pyramid import check_levels, level_shape, pyramid, resize
 from ..maps import Maps
 from ..network.kernels import dog_kernels
@@ -131,16 +132,17 @@ def event_entries(pos, neg, params: ModelParams = ModelParams()):
     pos = np.asarray(pos, dtype=np.float64)
     neg = np.asarray(neg, dtype=np.float64)
     edges = ((pos != 0) | (neg != 0)).astype(np.float64)
-    pyr_pos = pyramid(pos, params.levels)
-    pyr_neg = pyramid(neg, params.levels)
-    pyr_edges = pyramid(edges, params.levels)
+    per_octave = params.levels_per_octave
+    pyr_pos = pyramid(pos, params.levels, per_octave)
+    pyr_neg = pyramid(neg, params.levels, per_octave)
+    pyr_edges = pyramid(edges, params.levels, per_octave)
     entries = []
     for l in range(params.levels):
         rows, cols = np.nonzero(pyr_edges[l])
         rows, cols = rows.astype(np.int64), cols.astype(np.int64)
         _, index = orientation_index(_level_responses(pyr_pos[l], pyr_neg[l], rows, cols, params), params)
         entries.append(Entries(rows, cols, index.astype(np.int64), pyr_edges[l][rows, cols]))
-    shapes = [level_shape(pos.shape, l) for l in range(1, params.levels + 1)]
+    shapes = [level_shape(pos.shape, l, per_octave) for l in range(1, params.levels + 1)]
     return entries, shapes
 
 
@@ -190,7 +192,8 @@ class RateState:
 
     The model itself evaluates responses only at active pixels; the dense
     level-1 maps ``resp``/``winner`` and the dense ``grouping_result`` are
-    built on first use.
+    built on first use. ``pos``/``neg`` are the frame the model saw (pooled
+    when ``params.input_pool > 1``); the maps are at the sensor's size.
     """
 
     pos: np.ndarray
@@ -231,14 +234,18 @@ def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
     grouping and feedback start where that frame stopped instead of afresh,
     with the fraction ``carry`` of its grouping maps
     (:meth:`~snn_fg.rate.grouping.SparseGrouping.continue_from`).
+    With ``params.input_pool > 1`` the model runs on the pooled frame
+    (:mod:`snn_fg.frames.pool`) and its maps come back at the sensor's size.
     """
-    check_levels(np.shape(pos), params.levels)
+    sensor_edges = (np.asarray(pos) != 0) | (np.asarray(neg) != 0)
+    pos, neg = pool_frame(pos, neg, params.input_pool)
+    check_levels(np.shape(pos), params.levels, per_octave=params.levels_per_octave)
     entries, shapes = event_entries(pos, neg, params)
     engine = SparseGrouping(entries, shapes, params)
     if previous is not None:
         engine.continue_from(previous.engine, carry)
     engine.run(progress)
-    fg_x, fg_y, grouping = engine.readout(np.shape(pos))
+    fg_x, fg_y, grouping = unpool_maps(*engine.readout(np.shape(pos)), sensor_edges, params.input_pool)
     return RateState(pos, neg, params, engine, fg_x, fg_y, grouping)
 
 

@@ -106,7 +106,7 @@ def image_edges(image, sigma: float = 1.0, operator: str = "gaussian") -> tuple[
 def frame_simple_cells(image, params: ModelParams = ModelParams(), edge_operator: str = "gaussian"):
     """S maps per level from an image: strength where the direction index equals o."""
     img = np.asarray(image, dtype=np.float64)
-    levels = pyramid(img, params.levels)
+    levels = pyramid(img, params.levels, params.levels_per_octave)
     n_dir = params.n_dir
     norm = None
     s_levels = []
@@ -152,7 +152,10 @@ def run_fbfg(image, params: ModelParams = ModelParams(), progress=None, edge_ope
     ('corf', (64, 64))
     """
     img = np.asarray(image, dtype=np.float64)
-    check_levels(img.shape[:2], params.levels, "<image>")
+    if params.input_pool != 1:
+        validate.fail("run_fbfg", "params.input_pool", params.input_pool,
+                   "must be 1: input pooling is a stage of the event models, not of the frame-based one")
+    check_levels(img.shape[:2], params.levels, "<image>", params.levels_per_octave)
     s_levels = frame_simple_cells(img, params, edge_operator)
     g = border_ownership_grouping(s_levels, params, progress)
     fg_x, fg_y, grouping = readout(g, params, img.shape[:2])

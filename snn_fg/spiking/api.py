@@ -18,9 +18,12 @@ import numpy as np
 from .. import validate as check
 from ..backends import DEFAULT_BACKEND, RunSettings, SimulationResult, as_backend
 from ..errors import InputError
+from ..events.window import events_to_frame
+from ..frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
 from ..maps import Maps
 from ..network.builder import build_network
 from ..network.graph import Network
+from ..network.recipes import network_for
 from ..network.spiking_params import SpikingParams
 from ..params import ModelParams
 from .decode import decode
@@ -45,38 +48,61 @@ def stderr_log(message: str):
 
 
 def resolve_network(network, params, spiking, shape, feedback: bool = True) -> tuple[Network, dict]:
-    """The description to run, and how it was obtained (for the record).
+    """The description to run for a sensor of ``shape`` (rows, cols), and
+    how it was obtained (for the record): built from ``params`` and
+    ``spiking``, or ``network``, a recipe name, a stored description or a
+    :class:`Network` (:func:`~snn_fg.network.recipes.network_for`). Its frame
+    is the pooled sensor when its ``params.input_pool > 1``.
 
     ``feedback=False`` removes the feedback onto border-ownership cells
     (:meth:`Network.without_feedback`), the model's ablation."""
     if network is None:
         params = ModelParams() if params is None else params
         spiking = SpikingParams() if spiking is None else spiking
-        network, origin = build_network(params, shape, spiking), {"origin": "built",
-                                                                   "spiking_params": spiking.to_dict()}
+        network = build_network(params, pooled_shape(shape, params.input_pool), spiking)
+        origin = {"origin": "built", "spiking_params": spiking.to_dict()}
     else:
         if params is not None or spiking is not None:
             check.fail("run_spiking", None, None, "give either a network or params/spiking to build one, not both")
-        origin = {"origin": "given"}
-        if isinstance(network, (str, Path)):
-            origin = {"origin": str(network)}
-            network = Network.load(network)
-        if not isinstance(network, Network):
-            check.fail("run_spiking", "network", type(network).__name__, "must be a Network or a path to its JSON")
-        if network.frame_shape != tuple(shape):
-            origin["resized_from"] = list(network.frame_shape)
-            network = network.resized(shape)
+        network, origin = network_for(network, shape)
     origin["feedback"] = check.flag("run_spiking", "feedback", feedback)
     return (network if feedback else network.without_feedback()), origin
 
 
-def _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, input_process, replay):
+def _sensor_shape(pos, events, sensor_size) -> tuple[int, int]:
+    """(rows, cols) of the input's sensor (the input is checked in full by :func:`_inputs`)."""
+    if events is None:
+        if pos is None:
+            raise InputError("<input>", "give events (with sensor_size) or both pos and neg")
+        return np.shape(pos)[:2]
+    if sensor_size is None:
+        raise InputError("<events>", "sensor_size (width, height) is needed with events")
+    try:
+        return int(sensor_size[1]), int(sensor_size[0])
+    except (TypeError, ValueError, IndexError):
+        raise InputError("<events>", f"sensor_size must be (width, height[, 2]), got {sensor_size!r}") from None
+
+
+def _pooled(pos, neg, events, sensor_size, pool: int):
+    """The input on the block grid of ``ModelParams.input_pool``, and the
+    sensor's event pixels (to bring the maps back to the sensor's size)."""
+    if events is None:
+        sensor = (np.asarray(pos) != 0) | (np.asarray(neg) != 0)
+        return (*pool_frame(pos, neg, pool), None, None, sensor)
+    on, off = events_to_frame(events, sensor_size, "<events>")
+    sensor = (on != 0) | (off != 0)
+    return None, None, pool_events(events, pool), pooled_shape(sensor.shape, pool)[::-1], sensor
+
+
+def _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, input_process, replay,
+            net: Network | None = None):
     if events is not None:
         if pos is not None or neg is not None:
             raise InputError("<input>", "give either events or a frame (pos, neg), not both")
         if sensor_size is None:
             raise InputError("<events>", "sensor_size (width, height) is needed with events")
-        inp = event_spikes(events, sensor_size, dt_ms, replay=replay)
+        inp = event_spikes(events, sensor_size, dt_ms, replay=replay,
+                           refractory_ms=0.0 if net is None else net.input_refractory_ms)
     else:
         if pos is None or neg is None:
             raise InputError("<input>", "give events (with sensor_size) or both pos and neg")
@@ -117,8 +143,12 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, par
     settle_ms = duration_ms / 2 if settle_ms is None else check.number(
         "run_spiking", "settle_ms", settle_ms, lo=0, hi=duration_ms, hi_open=True)
     check.integer("run_spiking", "seed", seed)
-    inp = _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, input_process, replay)
-    net, origin = resolve_network(network, params, spiking, inp.shape, feedback)
+    net, origin = resolve_network(network, params, spiking, _sensor_shape(pos, events, sensor_size), feedback)
+    pool = net.params.input_pool
+    sensor = None
+    if pool > 1:
+        pos, neg, events, sensor_size, sensor = _pooled(pos, neg, events, sensor_size, pool)
+    inp = _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, input_process, replay, net)
     if calibrate and not np.isclose(net.input_rate_hz, inp.rate_hz, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": inp.rate_hz}
         net = net.calibrated(inp.rate_hz)
@@ -130,6 +160,8 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, par
                            instantiate=instantiate, sites=sites, log=say, progress=progress)
     result = sim_backend.simulate(net, inp, settings)
     fg_x, fg_y, grouping, _ = decode(result)
+    if sensor is not None:
+        fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, sensor, pool)
     rec = SpikingRecord.from_result(result, inp, settle_ms)
     simulation = {**rec.timing(), "dt_ms": dt_ms, "seed": int(seed), "input": inp.kind,
                   "rate_hz_requested": float(rate_hz), "rate_hz_used": inp.rate_hz,

@@ -186,12 +186,13 @@ def resize_kept_mass(ar, ac, prune, peak):
     """Kept fraction of a Resize's weight mass ``sum |A_r[i,i'] A_c[j,j']|`` after pruning."""
     if prune <= 0:
         return 1.0
-    full = np.abs(ar).sum(1)[:, None] * np.abs(ac).sum(1)[None]
-    prod = np.abs(ar)[:, None, :, None] * np.abs(ac)[None, :, None, :] if ar.size * ac.size < 4e6 else None
-    if prod is None:   # large levels: estimate on the first 64 rows/cols
-        return resize_kept_mass(ar[:64], ac[:64], prune, peak)
-    kept = (prod * (prod >= prune * peak)).sum((2, 3))
-    return float(kept.sum() / full.sum())
+    # Each product |A_r[i,i']| |A_c[j,j']| pairs one non-zero entry of each
+    # matrix, so the sums run over the two lists of entries.
+    a = np.abs(ar[ar != 0])
+    c = np.sort(np.abs(ac[ac != 0]))
+    above = np.concatenate([np.cumsum(c[::-1])[::-1], [0.0]])   # sum of c[k:]
+    first = np.searchsorted(c, prune * peak / a, side="left")
+    return float((a * above[first]).sum() / (a.sum() * c.sum()))
 
 
 def _cat(pre_l, post_l, w_l):

@@ -30,6 +30,7 @@ from .. import validate as check
 from ..backends import DEFAULT_BACKEND, RunSettings, as_backend
 from ..backends.base import each_bin
 from ..errors import InputError
+from ..frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
 from ..maps import Maps
 from .api import default_instantiate, resolve_network, run_params, stderr_log
 from .decode import decode
@@ -51,6 +52,22 @@ def _window_rate(windows, dt_ms: float) -> float:
         active = int(np.count_nonzero(w.pos) + np.count_nonzero(w.neg))
         span_s = max((w.t_end_us - w.t_start_us) / 1e6, dt_ms / 1000.0)
         rates.append(len(ev) / max(active, 1) / span_s)
+    return float(np.mean(rates)) if rates else 0.0
+
+
+def _spike_rate(inp, windows, t0_us: float, dt_ms: float) -> float:
+    """Mean rate (Hz) of an active spike source inside a window, over windows
+    with spikes: what the input adapter (pooling, refractory period) passes
+    on, counted as :func:`_window_rate` counts events."""
+    rates = []
+    for w in windows:
+        a = int(np.floor((w.t_start_us - t0_us) / (dt_ms * 1000.0)))
+        b = max(int(np.floor((w.t_end_us - t0_us) / (dt_ms * 1000.0))), a + 1)
+        lo, hi = np.searchsorted(inp.steps, [a, b])
+        idx = inp.indices[lo:hi]
+        idx = idx[idx < inp.clock_index]          # (not the window clock)
+        if idx.size:
+            rates.append(idx.size / np.unique(idx).size / ((b - a) * dt_ms / 1000.0))
     return float(np.mean(rates)) if rates else 0.0
 
 
@@ -121,7 +138,8 @@ class ContinuousRun:
     ``edges`` and spike trains if recorded, unless the run was not kept),
     each window's read-out span ``spans[k]`` (ms from the first window's
     start, lag included) and each window's decoded maps and record
-    (``decoded[k]``: ``fg_x, fg_y, grouping, SpikingRecord``)."""
+    (``decoded[k]``: ``fg_x, fg_y, grouping, SpikingRecord``) with the
+    ``perf_counter()`` time it was decoded at (``decoded_at[k]``)."""
 
     windows: list
     network: object
@@ -133,6 +151,7 @@ class ContinuousRun:
     simulation: dict
     t_start: float
     decoded: list
+    decoded_at: list
 
 
 def simulate_windows(windows, *, params=None, spiking=None, network=None, backend=DEFAULT_BACKEND,
@@ -160,12 +179,15 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
     events = _all_events(windows)
     if not len(events):
         raise InputError(source, "no window has an event: nothing to simulate")
-    inp = event_spikes(events, (w, h, 2), dt_ms, replay=False, source=source, t0_us=t0)
     net, origin = resolve_network(network, params, spiking, (h, w), feedback)
+    pool = net.params.input_pool
+    inp = event_spikes(pool_events(events, pool), (*pooled_shape((h, w), pool)[::-1], 2), dt_ms, replay=False,
+                       source=source, t0_us=t0, refractory_ms=net.input_refractory_ms)
     clock = bool(check.flag("run_spiking_windows", "window_clock", window_clock) and net.by_role("clock"))
     if clock:      # the window clock fires as every window starts
         inp = inp.with_clock([int(np.floor((x.t_start_us - t0) / (dt_ms * 1000.0))) for x in windows])
-    rate = _window_rate(windows, dt_ms)
+    adapted = pool > 1 or net.input_refractory_ms > 0
+    rate = _spike_rate(inp, windows, t0, dt_ms) if adapted else _window_rate(windows, dt_ms)
     if calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
         net = net.calibrated(rate)
@@ -175,7 +197,7 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
     say = log if log is not None else (stderr_log if progress else None)
     sim_backend = as_backend(backend, backend_options)
     instantiate = instantiate or default_instantiate(sim_backend, inp)
-    reader = _WindowReader(windows, spans, edges)
+    reader = _WindowReader(windows, spans, edges, pool)
     settings = RunSettings(duration_ms=duration, dt_ms=dt_ms, count_from_ms=edges[0], record_spikes=record_spikes,
                            instantiate=instantiate, count_bins_ms=tuple(edges), log=say, progress=progress,
                            on_bin=None if keep_run else reader)
@@ -188,7 +210,7 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
                   "instantiate": instantiate, "record_spikes": bool(record_spikes),
                   "window_clock": clock}
     return ContinuousRun(windows, net, origin, sim_backend, result, edges, spans, simulation, t_start,
-                         reader.decoded)
+                         reader.decoded, reader.decoded_at)
 
 
 def _read_out_span(window, t0_us: float, lag_ms: float, dt_ms: float) -> tuple[float, float]:
@@ -213,11 +235,12 @@ class _WindowReader:
     ``decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``. Only the windows
     still being read hold their counts and spikes."""
 
-    def __init__(self, windows, spans, edges):
-        self.windows, self.edges = windows, edges
+    def __init__(self, windows, spans, edges, pool: int = 1):
+        self.windows, self.edges, self.pool = windows, edges, pool
         self.bins = [_bins_of(span, edges) for span in spans]
         self.reading: dict = {}
         self.decoded: list = [None] * len(windows)
+        self.decoded_at: list = [None] * len(windows)      # perf_counter() when each window was decoded
 
     def __call__(self, k: int, result):
         for i, (k0, k1) in enumerate(self.bins):
@@ -231,6 +254,7 @@ class _WindowReader:
             if k == k1 - 1:
                 del self.reading[i]
                 self.decoded[i] = self._decode(i, result, counts, spikes)
+                self.decoded_at[i] = time.perf_counter()
 
     def _decode(self, i, result, counts, spikes):
         k0, k1 = self.bins[i]
@@ -240,22 +264,27 @@ class _WindowReader:
                       for n in spikes[0]}
         window_result = dataclasses.replace(result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0],
                                             spikes=trains)
-        fg_x, fg_y, grouping, _ = decode(window_result)
         w = self.windows[i]
-        masks = SimpleNamespace(on=w.pos != 0, off=w.neg != 0)
+        fg_x, fg_y, grouping = unpool_maps(*decode(window_result)[:3], w.pos | w.neg, self.pool)
+        on, off = pool_frame(w.pos, w.neg, self.pool)
+        masks = SimpleNamespace(on=on != 0, off=off != 0)
         return fg_x, fg_y, grouping, SpikingRecord.from_result(window_result, masks, self.edges[k0])
 
 
 def window_maps(run: ContinuousRun) -> list[Maps]:
     """Each window's maps, decoded from the spikes counted in its read-out
-    span, with the whole run's parameters."""
+    span, with the whole run's parameters; ``timings_s["window"]`` is the
+    wall time from the previous window's decoding (the first: from the
+    run's start) to this one's, what the stream spent on the window."""
     out = []
-    for span, (fg_x, fg_y, grouping, rec) in zip(run.spans, run.decoded):
+    before = [run.t_start] + run.decoded_at[:-1]
+    for span, (fg_x, fg_y, grouping, rec), t0, t1 in zip(run.spans, run.decoded, before, run.decoded_at):
         k0, k1 = _bins_of(span, run.edges)
         simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0],
                       "count_to_ms": run.edges[k1]}
         params = run_params(run.network, run.origin, run.backend, run.result, rec.populations, simulation,
                             run.t_start)
+        params["timings_s"]["window"] = t1 - t0
         out.append(Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params,
                         rec.arrays()))
     return out

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from .. import validate as check
@@ -138,14 +139,34 @@ def _field(events, name):
         raise InputError("<events>", f"structured array needs fields x, y, t, p; missing {name!r}") from None
 
 
+def _refractory(step: np.ndarray, idx: np.ndarray, gap: int):
+    """The events of every source at least ``gap`` steps after the one it last kept."""
+    order = np.lexsort((step, idx))
+    keep = np.zeros(idx.size, bool)
+    _keep_after_gap(idx[order], step[order], gap, keep)
+    keep = np.sort(order[keep])
+    return step[keep], idx[keep]
+
+
+@nb.njit(cache=True)
+def _keep_after_gap(idx, step, gap, keep):
+    last_idx, last_step = -1, 0
+    for e in range(idx.size):
+        if idx[e] != last_idx or step[e] - last_step >= gap:
+            keep[e] = True
+            last_idx, last_step = idx[e], step[e]
+
+
 def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source: str = "<events>",
-                 t0_us: float | None = None) -> InputSpikes:
+                 t0_us: float | None = None, refractory_ms: float = 0.0) -> InputSpikes:
     """Spike trains from timed events (tonic-style: x, y, t in microseconds, p).
 
     ``sensor_size`` is ``(W, H)`` or ``(W, H, 2)``. Times are taken relative to
     ``t0_us`` (default: the first event); the window is ``[t0, t_last]``. With
     ``replay`` the window repeats with period ``ceil((t_last - t0 + 1 us) / dt)``
-    steps.
+    steps. With ``refractory_ms`` a source passes on an event only that long
+    after the last one it passed on
+    (:attr:`~snn_fg.network.Network.input_refractory_ms`).
     """
     _check_dt(dt_ms)
     if not isinstance(events, np.ndarray) or events.dtype.names is None:
@@ -173,8 +194,10 @@ def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source:
     step = np.floor((t - t0) / (dt_ms * 1000.0)).astype(np.int64)
     pol_on = p > 0
     idx = (y.astype(np.int64) * w + x.astype(np.int64)) + np.where(pol_on, 0, h * w)
+    if refractory_ms > 0:
+        step, idx = _refractory(step, idx, int(round(refractory_ms / dt_ms)))
     key = np.unique(step * (2 * h * w) + idx)
-    merged = int(x.size - key.size)
+    merged = int(idx.size - key.size)
     idx_u = key % (2 * h * w)
     st_u = key // (2 * h * w)
     period = int(st_u.max()) + 1 if replay else None

@@ -35,7 +35,8 @@ def all_sites(pop: Population) -> np.ndarray:
 def edge_maps(network: Network, edges1: np.ndarray) -> dict:
     """Edge map of every level: the level-1 map resized bicubically (stage 2)."""
     levels = sorted({p.level for p in network.populations})
-    return {lv: edges1 if lv == 1 else resize(edges1, level_shape(network.frame_shape, lv), "cubic")
+    per_octave = network.params.levels_per_octave
+    return {lv: edges1 if lv == 1 else resize(edges1, level_shape(network.frame_shape, lv, per_octave), "cubic")
             for lv in levels}
 
 

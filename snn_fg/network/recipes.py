@@ -1,0 +1,127 @@
+"""Networks by name: :data:`RECIPES` and :func:`network_for`.
+
+A recipe is the model's parameters and the spiking constants that make one
+kind of network; it is built for the size of whatever input it meets
+(:meth:`Recipe.build`), so ``--network compact`` runs on a 304 x 240 ATIS,
+a 346 x 260 DAVIS or an image alike.
+
+* ``default``: the model as the paper gives it (``ModelParams()``,
+  ``SpikingParams()``), the network every fidelity result is about.
+* ``compact``: the same stages in a form that fits one Loihi 2 chip at the
+  iCub's 304 x 240 and runs in real time on one CPU core: the sensor pooled
+  3 x 3, octave-spaced levels, excess cells on the grouping lattice, an
+  input that passes on every 8th event of a block, and feedback cells that
+  carry their signal at a quarter of the rate. ``docs/model.md`` ("The
+  compact network") gives each choice with what it saves and costs.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from .. import validate as check
+from ..frames.pool import pooled_shape
+from ..frames.pyramid import check_levels
+from ..params import ModelParams
+from .builder import build_network
+from .graph import Network
+from .spiking_params import SpikingParams
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """A named kind of network: model parameters and spiking constants."""
+
+    name: str
+    summary: str
+    params: ModelParams
+    spiking: SpikingParams
+
+    def build(self, sensor_shape) -> Network:
+        """The network for a sensor (or image) of ``sensor_shape`` (rows, cols)."""
+        shape = pooled_shape(check.shape2(f"recipe {self.name!r}", "sensor_shape", sensor_shape),
+                             self.params.input_pool)
+        check_levels(shape, self.params.levels, f"recipe {self.name!r}", self.params.levels_per_octave)
+        return build_network(self.params, shape, self.spiking)
+
+
+@dataclass(frozen=True)
+class Lever:
+    """One departure of the compact network from the default: a name, what
+    it does, and the model parameters and spiking constants it changes."""
+
+    name: str
+    does: str
+    params: dict
+    spiking: dict
+
+    def apply(self, recipe: Recipe) -> Recipe:
+        return Recipe(recipe.name, recipe.summary, recipe.params.replace(**self.params),
+                      recipe.spiking.replace(**self.spiking))
+
+
+#: The compact network's departures from the default, in the order
+#: ``docs/model.md`` ("The compact network") measures them one after the other.
+COMPACT_LEVERS = (
+    Lever("pooled input", "the sensor pooled 3 x 3 before stage 1 (the model sees blocks), R0 = 4 blocks (12 px)",
+          {"input_pool": 3, "r0": 4.0, "levels": 7}, {}),
+    Lever("input refractory period", "a block and polarity passes on one event per 40 ms",
+          {}, {"input_refractory_ms": 40.0}),
+    Lever("octave levels", "3 levels an octave apart (1/2, not 1/sqrt(2))", {"levels_per_octave": 1, "levels": 3}, {}),
+    Lever("excess cells on the grouping lattice", "one excess cell per 2 x 2 block of border-ownership cells",
+          {}, {"excess_stride": 2}),
+    Lever("8-bit interpolation weights", "Resize products under 1 % of their peak left out", {},
+          {"prune_resize": 0.01}),
+    Lever("stronger window clock", "the window clock puts 1400 thresholds on the grouping cells (300)", {},
+          {"clock_inh_group": 1400.0}),
+)
+
+
+def _compact() -> Recipe:
+    r = Recipe("compact", "deployment form: " + "; ".join(lv.does for lv in COMPACT_LEVERS), ModelParams(),
+               SpikingParams())
+    for lever in COMPACT_LEVERS:
+        r = lever.apply(r)
+    return r
+
+
+RECIPES: dict[str, Recipe] = {
+    "default": Recipe("default", "the model as published: 10 levels 1/sqrt(2) apart, 8 orientations, R0 = 8 px",
+                      ModelParams(), SpikingParams()),
+    "compact": _compact(),
+}
+
+
+def is_recipe(network) -> bool:
+    """Whether ``network`` names a recipe (rather than a file or a Network)."""
+    return isinstance(network, str) and network in RECIPES
+
+
+def network_for(network, sensor_shape) -> tuple[Network, dict]:
+    """The description for a sensor of ``sensor_shape`` (rows, cols) from a
+    recipe name, a stored description (path) or a :class:`Network`, and how
+    it was obtained (for the record). A stored description is resized to
+    the sensor (its pooled frame when its ``input_pool > 1``)."""
+    if is_recipe(network):
+        return RECIPES[network].build(sensor_shape), {"origin": "recipe", "recipe": network}
+    origin = {"origin": "given"}
+    if isinstance(network, (str, Path)):
+        origin = {"origin": str(network)}
+        network = Network.load(network)
+    if not isinstance(network, Network):
+        check.fail("network", None, type(network).__name__,
+                   f"must be a recipe name ({', '.join(RECIPES)}), a Network or a path to its JSON")
+    shape = pooled_shape(check.shape2("network", "sensor_shape", sensor_shape), network.params.input_pool)
+    if network.frame_shape != tuple(shape):
+        origin["resized_from"] = list(network.frame_shape)
+        network = network.resized(shape)
+    return network, origin
+
+
+def model_params_of(network) -> ModelParams:
+    """The model parameters a recipe or a stored description carries (for the rate model)."""
+    if is_recipe(network):
+        return RECIPES[network].params
+    if isinstance(network, Network):
+        return network.params
+    return Network.load(network).params

@@ -87,6 +87,30 @@ def _throughput(data):
               f"peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]")
 
 
+#: the real-time budget: one 85 ms window of events per 85 ms of wall time
+REAL_TIME_S = 0.085
+
+
+def _stream(data):
+    print("\n== snn-fg run dvs.es --start-ms 100 --no-figures: seconds per 85 ms window, beyond the first ==")
+    for eng, r in data.items():
+        if r.get("exit_status"):
+            print(f"  {eng:34s} FAILED (exit {r['exit_status']})")
+            continue
+        ev = ""
+        if "synaptic_events_per_window" in r:
+            ev = f", {r['synaptic_events_per_window']:.3g} synaptic events at {r['ns_per_synaptic_event']:.1f} ns"
+        print(f"  {eng:34s} median {1000 * r['median_window_s']:7.1f} ms "
+              f"({'within' if r['median_window_s'] <= REAL_TIME_S else 'over'} real time; whole run "
+              f"{1000 * r['wall_s_per_window']:.0f} ms per window{ev}), peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]")
+    for eng, r in data.items():
+        if "@compact" in eng and eng.replace("@compact", "@default") in data and "median_window_s" in r:
+            d = data[eng.replace("@compact", "@default")]
+            if "median_window_s" in d:
+                print(f"  {eng.replace('@compact', '')}: compact {d['median_window_s'] / r['median_window_s']:.1f}x "
+                      "faster than default")
+
+
 def _profile(m):
     print("\n== rate model: CPU time per stage, one thread (s per frame, share) ==")
     if "error" in m:
@@ -114,6 +138,8 @@ def print_summary(merged: dict, measured: dict) -> None:
             _synthetic(data)
         elif name == "throughput":
             _throughput(data)
+        elif name == "stream":
+            _stream(data)
         elif name == "profile" and data:
             _profile(data)
 

@@ -15,6 +15,13 @@ a backend that is not installed is skipped with a note):
   cost) per engine;
 * ``throughput`` - ``snn-fg run dvs.es --window-ms 85`` end to end (reading,
   all windows, writing maps and figures): windows per second;
+* ``stream``     - the real-time question: ``snn-fg run dvs.es --start-ms 100
+  --no-figures --network N`` for every network of ``--networks`` (default,
+  compact), both models, pinned to one core and to two (``--cores``): the
+  median of each window's own time beyond the first (the maps' params:
+  ``timings_s.window`` of a spiking run's stream, ``timings_s.run`` of the rate
+  model), the whole run's wall time per window, and for the spiking network
+  its synaptic events per window and nanoseconds per event;
 * ``profile``    - the rate model's time per stage.
 
 Every measurement runs in its own process (median of repeats after a
@@ -47,7 +54,9 @@ import numpy as np
 from .inputs import DVS, DVS_START_MS, ROOT, WINDOW_MS, bsds_names, dvs_windows
 from .report import plot_scaling, print_summary
 
-SECTIONS = ("calibrate", "frames", "dvs", "synthetic", "throughput", "profile")
+SECTIONS = ("calibrate", "frames", "dvs", "synthetic", "throughput", "stream", "profile")
+#: sections that only run when named in --sections
+ON_REQUEST = ("stream",)
 SYNTH_SIZES = (1000, 2000, 5000, 10000, 20000, 50000, 100000)
 QUICK_SIZES = (1000, 10000, 100000)
 RESULTS = ROOT / "experiments" / "results" / "bench.json"
@@ -57,9 +66,11 @@ def uptime() -> str:
     return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
 
 
-def _run_process(cmd, timeout_s) -> tuple[int, str, float]:
-    """Run ``cmd``; return ``(exit status, stdout, peak RSS in MB)`` of that process alone."""
-    p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
+def _run_process(cmd, timeout_s, cores=None) -> tuple[int, str, float]:
+    """Run ``cmd`` (on the CPUs ``cores`` only, if given); return ``(exit
+    status, stdout, peak RSS in MB)`` of that process alone."""
+    pin = None if cores is None else (lambda: os.sched_setaffinity(0, cores))
+    p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True, preexec_fn=pin)
     timer = threading.Timer(timeout_s, p.kill)
     timer.start()
     try:
@@ -202,6 +213,53 @@ def section_throughput(args, eng):
     return out
 
 
+def _stream_row(maps_path: Path, model: str) -> dict:
+    """Per-window times and the engine's counters from a run's maps.npz."""
+    from snn_fg.maps import Maps
+
+    p = Maps.load(maps_path).params
+    per = [p["timings_s"]] + [w.get("timings_s", p["timings_s"]) for w in p.get("windows", [])[1:]]
+    key = "window" if model == "spiking" else "run"
+    times = [t[key] for t in per]
+    row = {"windows": len(times), "window_s": times, "median_window_s": statistics.median(times[1:] or times)}
+    if model == "spiking":
+        st, sim = p.get("backend_stats", {}), p["timings_s"]
+        events = st.get("synaptic_events_total")
+        if events:
+            row.update(synaptic_events_per_window=events / len(times),
+                       ns_per_synaptic_event=1e9 * sim.get("run", 0.0) / events)
+    return row
+
+
+def section_stream(args, eng):
+    """``snn-fg run dvs.es --start-ms 100 --no-figures``, per network, model and core count."""
+    out = {}
+    for network in args.networks:
+        for model, backend in eng:
+            if model == "spiking" and backend != "fast":
+                continue
+            for cores in args.cores:
+                name = f"{engine_name(model, backend)}@{network} {cores} core{'s' if cores > 1 else ''}"
+                with tempfile.TemporaryDirectory() as tmp:
+                    res = Path(tmp) / "out"
+                    cmd = [sys.executable, "-c", "from snn_fg.cli import console; console()", "run", str(DVS),
+                           "--model", model, "--network", network, "--window-ms", str(WINDOW_MS), "--start-ms",
+                           "100", "--no-figures", "--no-progress", "--out", str(res)]
+                    cmd += ["--backend", backend] if backend else []
+                    print(f"[{name}] snn-fg run dvs.es --start-ms 100 --no-figures", file=sys.stderr, flush=True)
+                    before = uptime()
+                    t = time.perf_counter()
+                    code, _, rss = _run_process(cmd, args.timeout, cores=set(range(cores)))
+                    wall = time.perf_counter() - t
+                    row = {"network": network, "model": model, "cores": cores, "exit_status": code, "wall_s": wall,
+                           "peak_rss_mb": rss, "load_before": before, "load_after": uptime()}
+                    if code == 0:
+                        row.update(_stream_row(res / "maps.npz", model))
+                        row["wall_s_per_window"] = wall / row["windows"]
+                out[name] = row
+    return out
+
+
 def section_calibrate(args, eng):
     return measure({"task": "calibrate", "repeats": max(3, args.repeats)}, args.timeout)
 
@@ -218,7 +276,11 @@ def section_profile(args, eng):
 def parse_args(argv=None):
     ap = argparse.ArgumentParser(prog="python -m experiments.bench", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--sections", default=",".join(SECTIONS), help=f"comma list of {', '.join(SECTIONS)} (all)")
+    ap.add_argument("--sections", default=",".join(s for s in SECTIONS if s not in ON_REQUEST),
+                    help=f"comma list of {', '.join(SECTIONS)} (all but {', '.join(ON_REQUEST)})")
+    ap.add_argument("--networks", default="default,compact",
+                    help="stream: comma list of networks by name (default,compact)")
+    ap.add_argument("--cores", default="1,2", help="stream: comma list of how many cores a run may use (1,2)")
     ap.add_argument("--only", help="comma list of engines: rate, spiking (every backend) or backend names")
     ap.add_argument("--quick", action="store_true",
                     help="3 repeats, 2 frames, 3 dvs windows, sizes 1k/10k/100k (minutes for the rate model)")
@@ -247,6 +309,8 @@ def parse_args(argv=None):
     if bad:
         ap.error(f"unknown section(s) {', '.join(sorted(bad))}")
     args.only = None if args.only is None else set(args.only.split(","))
+    args.networks = args.networks.split(",")
+    args.cores = [int(c) for c in args.cores.split(",")]
     args.frames = args.frames.split(",") if args.frames else None
     if args.quick:
         args.repeats = min(args.repeats, 3)

@@ -1,8 +1,8 @@
 """The compact network against the default network, on every truth we have (issue 36, item 4).
 
 Both networks (``--networks``, recipes of ``snn_fg.network.recipes``) run as
-spiking networks on the fast engine, each also with the weights a board
-holds (``--weight-bits``, 8 by default: the compact network "as deployed"):
+spiking networks on the fast engine, the compact one also with the weights
+a board holds (``--weight-bits``, 8 by default: "as deployed"):
 
 * **discs** of radius 16-64 px, light on dark and dark on light, turned into
   events by the built-in ``shift4`` motion: the share of scored boundary
@@ -18,7 +18,7 @@ holds (``--weight-bits``, 8 by default: the compact network "as deployed"):
   (within 90 degrees), coverage, within 45 degrees and the mean absolute
   error (``snn_fg.evaluation.pool_stats``), pooled and per image.
 
-    python experiments/compact_accuracy.py [--every 8] [--workers 2] [--weight-bits 8]
+    python experiments/compact_accuracy.py [--every 8] [--workers 2] [--weight-bits 8 --quantised compact]
 
 Writes experiments/results/compact_accuracy.{json,md,png}.
 """
@@ -107,10 +107,10 @@ def bsds_image(job) -> dict:
     return {"image_id": image_id, "parts": parts, "seconds": time.perf_counter() - t}
 
 
-def _runs(networks, bits) -> list[tuple[str, str, int | None]]:
-    """(label, recipe, weight bits): each network exact, and with ``bits`` as deployed."""
+def _runs(networks, quantised, bits) -> list[tuple[str, str, int | None]]:
+    """(label, recipe, weight bits): each network exact, and those of ``quantised`` with ``bits`` as deployed."""
     out = [(n, n, None) for n in networks]
-    return out + [(f"{n} {bits}-bit", n, bits) for n in networks if bits]
+    return out + [(f"{n} {bits}-bit", n, bits) for n in quantised if bits]
 
 
 def main():
@@ -120,7 +120,8 @@ def main():
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--networks", default="default,compact")
-    ap.add_argument("--weight-bits", type=int, default=8, help="also run each network with B-bit weights (0: no)")
+    ap.add_argument("--weight-bits", type=int, default=8, help="also run --quantised with B-bit weights (0: no)")
+    ap.add_argument("--quantised", default="compact", help="networks also run with B-bit weights (compact)")
     ap.add_argument("--every", type=int, default=8, help="every N-th labelled BSDS image, by sorted id (8: 20 images)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--name", default="compact_accuracy")
@@ -128,7 +129,7 @@ def main():
     if not SHARED.exists():
         sys.exit(f"needs {SHARED} (../shared is absent)")
     t0, load0 = time.perf_counter(), os.getloadavg()
-    runs = _runs(a.networks.split(","), a.weight_bits)
+    runs = _runs(a.networks.split(","), [n for n in a.quantised.split(",") if n], a.weight_bits)
     ids = bsds_ids(SHARED / "bsds-fg")[::a.every]
     record = {"networks": {}, "bsds_images": ids, "bsds_threshold": BSDS_THRESHOLD}
     panels = []

@@ -205,3 +205,14 @@ def test_run_takes_a_network_by_name_for_both_models_and_can_skip_figures(tmp_pa
     assert main(["run", "demo", "--out", str(tmp_path / "x"), "--network", "compact", "--r0", "5"]) == 2
     assert main(["run", "demo", "--out", str(tmp_path / "y"), "--model", "fbfg", "--network", "compact"]) == 2
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_stored_compact_network_is_current():
+    """networks/compact_304x240.json is the compact network for the iCub's
+    sensor: it loads, validates and equals what the recipe builds today."""
+    from pathlib import Path
+
+    from snn_fg.network.graph import Network
+
+    stored = Network.load(Path(__file__).resolve().parents[1] / "networks" / "compact_304x240.json")
+    assert stored == RECIPES["compact"].build((240, 304))

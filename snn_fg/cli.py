@@ -7,6 +7,7 @@ the output folder as it was.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import signal
@@ -30,6 +31,13 @@ WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_
 RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state", "window_clock")
 #: spiking options for one frame that a recording (one continuous run) does not use
 FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
+
+
+class _Parser(argparse.ArgumentParser):
+    """A usage error is one line naming the command, the problem and where help is (no usage block)."""
+
+    def error(self, message):
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def _number(kind, lo, strict=True):
@@ -144,10 +152,10 @@ def _add_compare(sub):
 
 def build_parser() -> tuple[argparse.ArgumentParser, dict]:
     """The parser and its subcommand parsers by name."""
-    parser = argparse.ArgumentParser(prog="snn-fg", allow_abbrev=False,
-                                     description="Event-driven figure-ground organisation as a spiking neural "
-                                                 "network: run the model on events or images, compare maps, "
-                                                 "inspect event recordings, export the network.")
+    parser = _Parser(prog="snn-fg", allow_abbrev=False,
+                     description="Event-driven figure-ground organisation as a spiking neural network: run the "
+                                 "model on events or images, compare maps, inspect event recordings, export the "
+                                 "network.")
     parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     subs = {"run": _add_run(sub), "compare": _add_compare(sub), "events": add_events_command(sub),
@@ -158,26 +166,55 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
 # --------------------------------------------------------------------------
 # run
 # --------------------------------------------------------------------------
+#: what each kind of INPUT is called when an option does not apply to it
+_KIND_NAMES = {"demo": "the demo is one image", "frame": "INPUT is one event frame", "image": "INPUT is one image",
+               "recording": "INPUT is an event recording"}
+
+
+def _refused_options(args, kind) -> list[tuple[str, str]]:
+    """``(flag, why it does not apply)`` for every given option the run would ignore."""
+    model = MODELS[args.model]
+    given = lambda k: getattr(args, k) is not None       # noqa: E731
+    refused = []
+    for other in MODELS.values():
+        for k in other.options:
+            if other is not model and k not in model.options and given(k):
+                refused.append((k, f"applies to the {other.name} model only (--model {other.name})"))
+    named = {k for k, _ in refused}
+    if kind != "recording":
+        refused += [(k, f"applies to event recordings only; {_KIND_NAMES[kind]}")
+                    for k in RECORDING_OPTIONS + ("sensor_size",) if given(k) and k not in named]
+    else:
+        refused += [(k, f"applies to a single frame or image only; {_KIND_NAMES[kind]}, run as one continuous "
+                        "network") for k in FRAME_ONLY_OPTIONS if given(k) and k not in named]
+    if args.motion is not None:     # only images turned into events have a motion
+        if kind in ("recording", "frame"):
+            refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))
+        elif model.needs == "image":
+            refused.append(("motion", f"the {model.name} model reads the image itself, not events made from it"))
+    if args.network is not None:
+        refused += [(k, "a stored network (--network) carries its own model parameters")
+                    for k in MODEL_PARAMS if given(k)]
+    return refused
+
+
+def _verb(why: str, n: int) -> str:
+    return why if n == 1 else why.replace("applies", "apply", 1)
+
+
 def _model(args, kind):
     """The model the arguments ask for, refusing options that would be ignored."""
     from .params import ModelParams
 
+    refused = _refused_options(args, kind)
+    if refused:
+        reasons: dict[str, list[str]] = {}
+        for k, why in refused:
+            reasons.setdefault(why, []).append("--" + k.replace("_", "-"))
+        raise InputError(args.input, "; ".join(f"{', '.join(flags)}: {_verb(why, len(flags))}"
+                                               for why, flags in reasons.items()))
     given = {k: getattr(args, k) for k in MODEL_PARAMS if getattr(args, k) is not None}
     takes = MODELS[args.model].options
-    unused = [k for m in MODELS.values() for k in m.options if k not in takes and getattr(args, k) is not None]
-    if kind != "recording":
-        unused += [k for k in RECORDING_OPTIONS + ("sensor_size",) if getattr(args, k) is not None]
-    else:
-        unused += [k for k in FRAME_ONLY_OPTIONS if getattr(args, k) is not None]
-    if args.motion is not None and (kind in ("recording", "frame") or MODELS[args.model].needs == "image"):
-        unused.append("motion")      # only images turned into events have a motion
-    if args.network is not None and given:
-        unused += list(given)
-    if unused:
-        flags = ", ".join("--" + k.replace("_", "-") for k in unused)
-        why = "a stored network (--network) carries its own model parameters" if args.network and given else \
-            f"they do not apply to the {args.model} model on this input"
-        raise InputError(args.input, f"{flags}: {why}")
     progress = None if args.no_progress else _progress_factory()
     options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}
     for k in ("feedback", "carry_state", "window_clock"):
@@ -199,12 +236,25 @@ def _windows(args):
     opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
     windows = iter_windows(stream, **{"window_ms": 85.0, **opts})
     if not args.no_progress:
-        from tqdm import tqdm
-
-        windows = tqdm(windows, desc="windows", unit="win", file=sys.stderr, total=args.max_windows)
+        windows = _counted(windows, args.max_windows)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
     source.setdefault("stride_ms", source["window_ms"])
     return windows, source, tuple(stream.sensor_size[1::-1])
+
+
+def _counted(windows, total):
+    """``windows`` with a progress bar that appears once the first window is read
+    (a file refused on reading shows no empty bar before its error line)."""
+    from tqdm import tqdm
+
+    it = iter(windows)
+    first = next(it, None)
+    if first is None:
+        return
+    with tqdm(desc="windows", unit="win", file=sys.stderr, total=total, leave=False) as bar:
+        for w in itertools.chain([first], it):
+            yield w
+            bar.update()
 
 
 def cmd_run(args) -> int:

@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 import os
 import signal
 import sys
-from pathlib import Path
 
 from . import __version__, cancel
 from .backends import DEFAULT_BACKEND, backend_names
+from .compare_cli import add_compare_command
 from .errors import InputError, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
 from .events.esim import MOTIONS
@@ -51,6 +50,17 @@ def _number(kind, lo, strict=True):
             raise argparse.ArgumentTypeError(f"must be {'>' if strict else '>='} {lo}, got {text}")
         return v
     return parse
+
+
+def _crop_arg(text):
+    parts = text.split(",")
+    try:
+        crop = tuple(int(v) for v in parts)
+    except ValueError:
+        crop = ()
+    if len(crop) != 4:
+        raise argparse.ArgumentTypeError(f"expected four integers X0,Y0,X1,Y1, got {text!r}")
+    return crop
 
 
 #: (group title, ((flag, type, lower bound, strictly above it, help), ...)); defaults in brackets
@@ -128,25 +138,10 @@ def _add_run(sub):
                         "BSDS conversion (default shift4)")
     p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
                    help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
+    p.add_argument("--crop", type=_crop_arg, metavar="X0,Y0,X1,Y1",
+                   help="figures: draw only pixels X0 <= x < X1, Y0 <= y < Y1 (maps.npz keeps the whole frame)")
     p.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
     p.set_defaults(handler=cmd_run)
-    return p
-
-
-def _add_compare(sub):
-    p = sub.add_parser("compare", allow_abbrev=False, help="compare two maps.npz files (e.g. spiking vs rate)",
-                       description="Print, window by window, how two maps files agree: grouping Pearson r and "
-                                   "SSIM, and on the pixels where both have a figure-ground vector the angle "
-                                   "difference (mean, median, fraction within 45 degrees) and angle-map MSE "
-                                   "and SSIM.")
-    p.add_argument("a", metavar="A.npz")
-    p.add_argument("b", metavar="B.npz")
-    p.add_argument("--window", type=_number(int, 0, strict=False), metavar="I",
-                   help="compare window I of each recording (a single frame is used as it is); by default "
-                        "recordings are paired window by window, by start time when both store it")
-    p.add_argument("--json", metavar="OUT.json", default=None,
-                   help="where to save the metrics (compare.json next to A)")
-    p.set_defaults(handler=cmd_compare)
     return p
 
 
@@ -158,7 +153,7 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
                                  "network.")
     parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    subs = {"run": _add_run(sub), "compare": _add_compare(sub), "events": add_events_command(sub),
+    subs = {"run": _add_run(sub), "compare": add_compare_command(sub, _number), "events": add_events_command(sub),
             "export": add_export_command(sub, sensor_size_arg, _number)}
     return parser, subs
 
@@ -258,6 +253,7 @@ def _counted(windows, total):
 
 
 def cmd_run(args) -> int:
+    from .figures import check_crop
     from .frames.pyramid import check_levels
     from .inputs import input_kind, load_frame
     from .runner import OutputFolder, run_frame, run_recording
@@ -272,51 +268,15 @@ def cmd_run(args) -> int:
         frame, source = load_frame(args.input, model.needs, args.threshold, args.motion or "shift4")
         shape = frame.shape
     check_levels(shape, model.params.levels, args.input)
+    if args.crop is not None:
+        check_crop(args.crop, shape, owner=f"{args.input}: --crop")
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as out:
         if kind == "recording":
-            run_recording(model, windows, out.dir, source, args.input)
+            run_recording(model, windows, out.dir, source, args.input, crop=args.crop)
         else:
-            run_frame(model, frame, out.dir, source)
+            run_frame(model, frame, out.dir, source, crop=args.crop)
         written = ", ".join(sorted(p.name for p in out.dir.iterdir()))
     print(f"snn-fg: {model.name} model on {args.input}: wrote {args.out}/ ({written})")
-    return 0
-
-
-# --------------------------------------------------------------------------
-# compare
-# --------------------------------------------------------------------------
-#: compare's table: (header, row key, width, format spec); at most 100 characters wide
-_COMPARE_COLUMNS = (("A", "window_a", 3, "d"), ("B", "window_b", 3, "d"), ("t (ms)", "t_start_ms", 8, ".1f"),
-                    ("pixels", "pixels_compared", 7, "d"), ("mean°", "angle_diff_mean_deg", 6, ".1f"),
-                    ("median°", "angle_diff_median_deg", 7, ".1f"), ("<=45°", "angle_within_45_frac", 6, ".3f"),
-                    ("MSE", "angle_mse", 6, ".3f"), ("SSIM", "angle_ssim", 6, ".3f"),
-                    ("grp r", "grouping_pearson_r", 6, ".3f"), ("grp SSIM", "grouping_ssim", 8, ".3f"))
-
-
-def compare_table(rows) -> str:
-    """The rows of :func:`~snn_fg.metrics.compare_maps` as a text table."""
-    lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COMPARE_COLUMNS)]
-    lines += ["  ".join("-".rjust(w) if r[k] is None else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COMPARE_COLUMNS)
-              for r in rows]
-    lines += ["A, B: compared windows; angle columns on pixels where both maps have a figure-ground vector",
-              "(SSIM: where either has one); grouping r and SSIM on the whole map, SSIM with each map scaled to 1"]
-    return "\n".join(lines)
-
-
-def cmd_compare(args) -> int:
-    from .atomic import save_text
-    from .maps import Maps
-    from .metrics import compare_maps
-
-    a, b = Maps.load(args.a), Maps.load(args.b)
-    try:
-        rows = compare_maps(a, b, window=args.window)
-    except SnnFgError as exc:
-        raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
-    print(compare_table(rows))
-    out = Path(args.json) if args.json else Path(args.a).with_name("compare.json")
-    save_text(out, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
-    print(f"snn-fg: metrics saved to {out}")
     return 0
 
 

@@ -49,6 +49,9 @@ class EventWindow:
 
     ``events`` are the window's events (after the optional denoise and
     refractory filters); ``pos``/``neg`` come from :func:`events_to_frame`.
+    Times are in the recording's own clock (some formats stamp Unix time);
+    ``t_first_event_us``, the recording's first event, is the origin of every
+    time shown to a user (:attr:`span_ms`).
     """
 
     index: int
@@ -57,6 +60,14 @@ class EventWindow:
     events: np.ndarray
     pos: np.ndarray
     neg: np.ndarray
+    t_first_event_us: int | None = None
+
+    @property
+    def span_ms(self) -> tuple[float, float]:
+        """Start and end, ms after the recording's first event (after the
+        window's own start when that is unknown)."""
+        origin = self.t_start_us if self.t_first_event_us is None else self.t_first_event_us
+        return (self.t_start_us - origin) / 1000.0, (self.t_end_us - origin) / 1000.0
 
     @property
     def edges(self) -> np.ndarray:
@@ -150,7 +161,7 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
             warnings.warn(f"{name}: window {k} [{ws} us, {we} us) has no events; its frames are all zero",
                           EmptyWindowWarning, stacklevel=3)
         pos, neg = events_to_frame(ev, size)
-        out = EventWindow(index=k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg)
+        out = EventWindow(index=k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg, t_first_event_us=t0)
         k += 1
         return out
 

@@ -122,10 +122,14 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str, cro
 
     The windows' times (``t_start_us``, ``t_end_us``, figure titles) count
     from the recording's first event; ``params["source"]["first_event_us"]``
-    keeps that event's time in the file's own clock."""
+    keeps that event's time in the file's own clock. Each window's share of
+    pixels with an event is recorded (``pixel_share``), and a window above
+    :data:`~snn_fg.events.activity.SATURATED_SHARE` is warned about and
+    listed (``saturated_windows``)."""
     from .events import EmptyWindowWarning
+    from .events.activity import Activity, pixel_share, saturated_lines
 
-    t0, t1 = [], []
+    t0, t1, n_events, shares = [], [], [], []
     origin = None           # the recording's first event: times a user sees count from it
     n_empty = n_blank = 0
     with MapsSeriesWriter(out / "maps.npz") as sink, warnings.catch_warnings():
@@ -141,6 +145,8 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str, cro
                 origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
             t0.append(w.t_start_us - origin)
             t1.append(w.t_end_us - origin)
+            n_events.append(len(w.events))
+            shares.append(pixel_share(w))
         if sink.n == 0:
             raise InputError(name, "no window to process: the recording has no events after --start-ms")
         if n_empty:
@@ -152,7 +158,12 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str, cro
                     if model.name == "spiking" else "")
             print(f"snn-fg: warning: {n_blank} of {sink.n - n_empty} windows with events have no figure-ground "
                   f"vector{hint}", file=sys.stderr)
-        source = {**source, "first_event_us": origin}     # the file's clock: the one absolute time kept
+        act = Activity(t_start_ms=np.array(t0) / 1000, t_end_ms=np.array(t1) / 1000, events=np.array(n_events),
+                       share=np.array(shares), window_ms=source.get("window_ms", 0))
+        for line in saturated_lines(act):
+            print(f"snn-fg: warning: {line}", file=sys.stderr)
+        source = {**source, "first_event_us": origin,     # the file's clock: the one absolute time kept
+                  "pixel_share": [round(v, 4) for v in shares], "saturated_windows": act.saturated.tolist()}
         st = sink.stacked()
         maps = Maps(st["fg_x"], st["fg_y"], st["grouping"], {**sink.params, "source": source},
                     {k: v for k, v in st.items() if k not in ("fg_x", "fg_y", "grouping")})

@@ -7,15 +7,17 @@ the output folder as it was.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import itertools
 import os
 import signal
 import sys
+import warnings
 
 from . import __version__, cancel
 from .backends import DEFAULT_BACKEND, backend_names
 from .compare_cli import add_compare_command
-from .errors import InputError, SnnFgError
+from .errors import InputError, InputWarning, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
 from .events.esim import MOTIONS
 from .export.cli import add_export_command
@@ -280,6 +282,23 @@ def cmd_run(args) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _warnings_as_lines():
+    """While a command runs, an :class:`~snn_fg.errors.InputWarning` is one
+    ``snn-fg: warning:`` line (not Python's file:line form); others as usual."""
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(message, category, *rest, **kw):
+            if issubclass(category, InputWarning):
+                print(f"snn-fg: warning: {message}", file=sys.stderr)
+            else:
+                shown(message, category, *rest, **kw)
+
+        warnings.showwarning = show
+        yield
+
+
 class _Signals:
     """Ctrl-C (SIGINT) and SIGTERM while a command runs: each is remembered
     (:mod:`snn_fg.cancel`, so a run whose KeyboardInterrupt a library
@@ -327,7 +346,7 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
     args, extra = parser.parse_known_args(argv)
     if extra:       # report an unknown option under the subcommand's own usage
         subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
-    with _Signals() as signals:
+    with _Signals() as signals, _warnings_as_lines():
         args.interrupted = lambda: bool(signals.received)
         try:
             try:
@@ -355,8 +374,13 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
 
 def console():
     """The ``snn-fg`` entry point: :func:`main`, exiting with its status (at
-    once after an interrupt)."""
-    sys.exit(main(exit_on_interrupt=True))
+    once after an interrupt). Output piped into a reader that stops early
+    (``snn-fg events REC | head``) ends the command quietly."""
+    try:
+        sys.exit(main(exit_on_interrupt=True))
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())    # (no error when Python flushes it)
+        sys.exit(1)
 
 
 if __name__ == "__main__":

@@ -136,9 +136,9 @@ def run_events(args) -> int:
     lines = [("file", str(path)), ("format", f"{stream.format}" + ("" if stream.streams else " (read whole)")),
              ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}")]
     lines += _span_lines(n, n_on, t_first or 0, t_last or 0)
-    if stream.format == "es-atis":
-        lines.append(("exposure events", f"{stream.exposure_events:,} (ATIS exposure measurements, "
-                                         "not used by the model)"))
+    if stream.skipped:
+        lines.append(("skipped", ", ".join(f"{n:,} {what}" for what, n in stream.skipped.items())
+                      + " (read, not used by the model)"))
     if args.write_frame:
         w = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         save_npz(args.write_frame, pos=w.pos, neg=w.neg, t_start_us=np.int64(w.t_start_us),
@@ -153,7 +153,7 @@ def run_events(args) -> int:
         save_events(args.write_events, rec.events, rec.sensor_size)
         lines.append(("events written", _written_note(args.write_events)))
     print(_summary(lines))
-    if n:
+    if n and t_last > t_first:      # (a stream that spans no time has been warned about)
         _print_activity(stream, args)
     return 0
 

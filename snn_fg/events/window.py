@@ -9,7 +9,7 @@ import numpy as np
 from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, sensor_size_parameter
-from snn_fg.events.io import DEFAULT_CHUNK, check_format_options, iter_recording
+from snn_fg.events.io import DEFAULT_CHUNK, check_format_options, iter_recording, no_span_problem
 
 
 def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
@@ -125,8 +125,9 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
       closer than ``refractory_us`` to the pixel's previous event, dropped or
       not (and drops an event at ``t == 0``).  Both loop in Python (~1 us per
       event).
-    * A recording without events, or a start after its last event, is an
-      InputError.
+    * A recording without events, one whose events all have the same
+      timestamp (a file cut short, most likely), or a start after its last
+      event, is an InputError.
     * ``encoding``, ``codec``, ``channel`` and ``timer_bits`` are the format
       options of :mod:`snn_fg.events.io`; an option that does not apply to
       the recording's format is a ParameterError.
@@ -144,6 +145,7 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
         if v is not None:
             validate.number("iter_windows", name, v, lo=0)
     stream = iter_recording(recording_or_path, chunk_events=chunk_events, sensor_size=sensor_size, **options)
+    stream.warn_no_span = False         # (refused below)
     size = stream.sensor_size
     name = stream.path if stream.path is not None else "<array>"
 
@@ -186,6 +188,9 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
             buf = buf[keep_from:]
     if t0 is None:
         raise InputError(name, "recording contains no events")
+    if seen > 1 and prev_t == t0:
+        raise InputError(name, no_span_problem(name, seen, t0).removeprefix(f"{name}: ")
+                         .replace("spans no time", "spans no time and has no window to cut"))
     if w_start > prev_t:
         if k == 0:
             raise InputError(name, f"start_ms={start_ms} lies after the last event "

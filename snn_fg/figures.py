@@ -216,8 +216,10 @@ def raster_figure(record, window: int | None = None) -> Figure:
     from .spiking.record import RASTER_CELLS_PER_ROLE, ROLE_ORDER
 
     where = "" if window is None else f" (window {window})"
-    fig = Figure(figsize=(10, 7))
+    fig = Figure(figsize=(10, 8.6), layout="constrained")
     ax = fig.subplots()
+    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))       # below: what the roles are
+    fig.text(0.01, 0.15, role_caption(), fontsize=7, va="top")
     raster = record.raster
     if raster is not None and raster.row.size:
         cmap = mcolors.ListedColormap([f"C{i % 10}" for i in range(len(ROLE_ORDER))])
@@ -235,8 +237,17 @@ def raster_figure(record, window: int | None = None) -> Figure:
     ax.set_xlabel("time (ms); dashed: spikes after this are counted")
     ax.set_ylabel(f"sampled cells (up to {RASTER_CELLS_PER_ROLE} per role, level 1 first)")
     ax.set_title(f"Spike raster by population role{where}")
-    fig.tight_layout()
     return fig
+
+
+def role_caption(width: int = 170) -> str:
+    """What each population role's cells do, one line per family of roles."""
+    import textwrap
+
+    from .spiking.record import ROLE_MEANINGS
+
+    return "\n".join(textwrap.fill(f"{', '.join(roles)}: {meaning}", width, subsequent_indent="    ")
+                     for roles, meaning in ROLE_MEANINGS)
 
 
 def rate_histogram_figure(record, window: int | None = None) -> Figure:

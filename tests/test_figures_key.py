@@ -47,3 +47,18 @@ def test_a_crop_draws_that_part_at_its_own_coordinates(tmp_path):
                  "--no-progress"]) == 0
     assert main(["run", "demo", "--out", str(tmp_path / "p"), "--crop", "0,0,200,10", "--no-progress"]) == 2
     assert not (tmp_path / "p").exists()
+
+
+def test_the_raster_explains_every_role_and_why_feedback_cells_fire_at_2_khz():
+    from snn_fg.figures import raster_figure
+    from snn_fg.spiking.record import ROLE_ORDER, SpikingRecord
+
+    record = SpikingRecord(names=[], counts={}, sites={}, raster=None, input_on=np.zeros((4, 4), np.uint8),
+                           input_off=np.zeros((4, 4), np.uint8), count_window_ms=200.0, duration_ms=400.0,
+                           settle_ms=200.0, populations={})
+    caption = "\n".join(t.get_text() for t in raster_figure(record).texts)
+    explained = {r for line in caption.splitlines() if ": " in line
+                 for r in line.split(": ", 1)[0].split(", ")}
+    assert explained == set(ROLE_ORDER)
+    assert "bo_L1, bo_L2, bo_D1, bo_D2: border-ownership cells: a light (L) or dark (D) figure" in caption
+    assert "where z is strong they fire at up to 2 kHz, a spike every step, by design" in " ".join(caption.split())

@@ -6,7 +6,7 @@ import re
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.export.report import readable, report_table, resource_report
+from snn_fg.export.report import report_table, resource_report
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 
@@ -17,6 +17,8 @@ def report():
 
 
 def test_the_table_fits_100_columns_and_writes_ranges_and_sizes_readably(report):
+    from snn_fg.export.report import readable
+
     text = report_table(report)
     lines = text.splitlines()
     assert max(len(line) for line in lines) <= 100

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.errors import InputError, InputWarning
+from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, iter_windows, open_recording, save_events
 from snn_fg.events.writers import encode_evt2, encode_evt3
 
@@ -21,8 +21,13 @@ def _burst_es(path):
     return path
 
 
-def test_a_file_cut_at_an_event_boundary_warns_and_cannot_be_run(tmp_path, capsys):
-    whole = _burst_es(tmp_path / "whole.es").read_bytes()
+def test_a_file_cut_at_an_event_boundary_warns_and_cannot_be_run(tmp_path, capsys, recwarn):
+    from snn_fg.errors import InputWarning
+
+    rec = open_recording(_burst_es(tmp_path / "whole.es"))          # the whole file: no warning, 12 windows
+    assert len(rec) == 300 and not [w for w in recwarn if issubclass(w.category, InputWarning)]
+    assert len(list(iter_windows(rec, window_ms=85))) == 12
+    whole = (tmp_path / "whole.es").read_bytes()
     cut = tmp_path / "cut.es"
     cut.write_bytes(whole[:20 + 5 * 100])           # header, then exactly 100 whole events of the burst
     problem = f"{cut}: all 100 events have the same timestamp (0 us), so the recording spans no time"
@@ -40,12 +45,6 @@ def test_a_file_cut_at_an_event_boundary_warns_and_cannot_be_run(tmp_path, capsy
     cut.write_bytes(whole[:20 + 5 * 100 + 2])       # (cut inside an event: an error with its byte offset)
     with pytest.raises(InputError, match="file ends inside an event .* byte offset 520"):
         open_recording(cut)
-
-
-def test_the_whole_file_neither_warns_nor_fails(tmp_path, recwarn):
-    rec = open_recording(_burst_es(tmp_path / "whole.es"))
-    assert len(rec) == 300 and not [w for w in recwarn if issubclass(w.category, InputWarning)]
-    assert len(list(iter_windows(rec, window_ms=85))) == 12
 
 
 class _FakeAedat:

@@ -104,6 +104,11 @@ def plot_maps_row(axes, input_img, fg_x, fg_y, grouping, title: str = "", groupi
     a0.set_ylabel("y (px, rows down)", fontsize=7)
 
 
+def _panel_width(aspect: float) -> float:
+    """Width (inches) of a map panel of ``aspect`` = width / height; very wide frames are capped."""
+    return min(PANEL_IN * max(aspect, 0.6), 1.8 * PANEL_IN)
+
+
 def rows_shown(n: int, max_rows: int) -> np.ndarray:
     """Which of ``n`` windows a figure of at most ``max_rows`` rows draws: evenly spaced, first and last included."""
     return np.unique(np.linspace(0, n - 1, min(n, max_rows)).round().astype(int))
@@ -151,7 +156,7 @@ def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
     idx = rows_shown(n, max_rows)
     note = shown_note(idx, n)
     aspect = (x1 - x0) / (y1 - y0)
-    panel_w = min(PANEL_IN * max(aspect, 0.6), 1.8 * PANEL_IN)
+    panel_w = _panel_width(aspect)
     row_h = min(PANEL_IN, max(panel_w / aspect + 0.9, 1.8))      # (0.9 in: titles and tick labels)
     fig = Figure(figsize=(3 * panel_w + 2.4, row_h * len(idx) + 0.3 + 0.3 * bool(note)))
     axes = fig.subplots(len(idx), 3, squeeze=False)
@@ -180,16 +185,17 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6) -> Figure:
 
     idx = rows_shown(len(rows), max_rows)
     h, w = np.shape(a.fg_x)[-2:]
-    panel_w = min(PANEL_IN * max(w / h, 0.6), 1.8 * PANEL_IN)
+    panel_w = _panel_width(w / h)
     fig = Figure(figsize=(3 * panel_w + 2.4, PANEL_IN * len(idx) + 0.6), layout="constrained")
     axes = fig.subplots(len(idx), 3, squeeze=False)
     for ax, i in zip(axes, idx):
         r = rows[i]
         (ax_, ay_, _), (bx, by, _) = frame_of(a, r["window_a"]), frame_of(b, r["window_b"])
         when = "" if r["t_start_ms"] is None else f", {r['t_start_ms']:g} ms"
-        for k, (name, win, fx, fy) in enumerate(((names[0], r["window_a"], ax_, ay_), (names[1], r["window_b"], bx, by))):
-            ax[k].imshow(fg_rgb(fx, fy), interpolation="nearest")
-            ax[k].set_title(f"{name}" + ("" if win is None else f" window {win}") + when, fontsize=9)
+        sides = ((names[0], r["window_a"], ax_, ay_), (names[1], r["window_b"], bx, by))
+        for panel, (name, win, fx, fy) in zip(ax, sides):
+            panel.imshow(fg_rgb(fx, fy), interpolation="nearest")
+            panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when, fontsize=9)
         has_a, has_b = np.hypot(ax_, ay_) > 0, np.hypot(bx, by) > 0
         diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
         ax[2].imshow(np.where(has_a ^ has_b, 0.75, 1.0), cmap="gray", vmin=0, vmax=1, interpolation="nearest")

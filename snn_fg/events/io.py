@@ -253,7 +253,7 @@ class RecordingStream:
             if bar is not None:
                 bar.close()
         if self.warn_no_span and n > 1 and t_first == t_last:
-            warnings.warn(no_span_problem(name, n, t_first), InputWarning, stacklevel=2)
+            warnings.warn(f"{name}: {no_span_problem(n, t_first)}; is the file cut short?", InputWarning, stacklevel=2)
 
     def _progress_bar(self, name):
         if not self.progress:
@@ -262,10 +262,9 @@ class RecordingStream:
         return tqdm(unit="ev", unit_scale=True, desc=f"reading {Path(str(name)).name}", leave=False, disable=None)
 
 
-def no_span_problem(name, n: int, t: int) -> str:
+def no_span_problem(n: int, t: int) -> str:
     """What is wrong with a stream of ``n`` events all at time ``t``."""
-    return (f"{name}: all {n:,} events have the same timestamp ({t} us), so the recording spans no time; "
-            "is the file cut short?")
+    return f"all {n:,} events have the same timestamp ({t} us), so the recording spans no time"
 
 
 def _rechunk(raw_chunks, n: int, name, sensor_size) -> Iterator[np.ndarray]:

@@ -189,8 +189,7 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
     if t0 is None:
         raise InputError(name, "recording contains no events")
     if seen > 1 and prev_t == t0:
-        raise InputError(name, no_span_problem(name, seen, t0).removeprefix(f"{name}: ")
-                         .replace("spans no time", "spans no time and has no window to cut"))
+        raise InputError(name, f"{no_span_problem(seen, t0)} and has no window to cut; is the file cut short?")
     if w_start > prev_t:
         if k == 0:
             raise InputError(name, f"start_ms={start_ms} lies after the last event "

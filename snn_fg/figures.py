@@ -158,14 +158,16 @@ def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
     aspect = (x1 - x0) / (y1 - y0)
     panel_w = _panel_width(aspect)
     row_h = min(PANEL_IN, max(panel_w / aspect + 0.9, 1.8))      # (0.9 in: titles and tick labels)
-    fig = Figure(figsize=(3 * panel_w + 2.4, row_h * len(idx) + 0.3 + 0.3 * bool(note)))
+    note_in = 0.45 if note else 0.0           # (a strip of its own at the top, whatever the figure's height)
+    height = row_h * len(idx) + 0.3 + note_in
+    fig = Figure(figsize=(3 * panel_w + 2.4, height))
     axes = fig.subplots(len(idx), 3, squeeze=False)
     for row, i in enumerate(idx):      # (the key, on the first row, explains every row)
         plot_maps_row(axes[row], np.asarray(inputs[i])[cut], fg_x[i][cut], fg_y[i][cut], grouping[i][cut],
                       titles[i] if titles is not None else "", grouping_label, key=row == 0, extent=extent)
     if note:
-        fig.suptitle(note, fontsize=9)
-    fig.tight_layout()
+        fig.suptitle(note, fontsize=9, y=1 - 0.1 / height, va="top")
+    fig.tight_layout(rect=(0, 0, 1, 1 - note_in / height))
     return fig
 
 

@@ -18,6 +18,10 @@ def test_the_maps_figure_says_which_windows_it_shows():
     fig = maps_figure(inputs, fx, fy, g, [f"w{i}" for i in range(28)])
     assert fig._suptitle.get_text() == ("12 of 28 windows shown, evenly spaced: "
                                         "0, 2, 5, 7, 10, 12, 15, 17, 20, 22, 25, 27")
+    FigureCanvasAgg(fig).draw()
+    note = fig._suptitle.get_window_extent()
+    for ax in fig.axes:                     # the note has a strip of its own, above every panel and title
+        assert not note.overlaps(ax.get_tightbbox()), ax.get_title()
     titles = [ax.get_title() for ax in fig.axes if ax.get_title().startswith("input")]
     assert titles == ["input w0", "input w2", "input w5", "input w7", "input w10", "input w12", "input w15",
                       "input w17", "input w20", "input w22", "input w25", "input w27"]

@@ -131,6 +131,12 @@ class FastBackend(Backend):
         return t
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
+        from .fast_core import code_is_cached
+
+        if not code_is_cached():
+            settings.say(f"compiling the fast engine's code as it prepares and simulates: the first run on this "
+                         f"machine only, about {COMPILE_S} s on an idle machine (numba keeps the code beside the "
+                         "package)")
         t0 = time.perf_counter()
         tab = self.tables(network, settings.dt_ms)
         chosen, _, _ = choose_sites(network, source_masks(network, inputs.on, inputs.off), settings.sites,
@@ -143,11 +149,6 @@ class FastBackend(Backend):
         timings = {"build": time.perf_counter() - t0}
         settings.say(f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
                      f"(prepared in {timings['build']:.2f} s)")
-        from .fast_core import code_is_cached
-
-        if not code_is_cached():
-            settings.say(f"compiling the fast engine's code before it simulates: the first run on this machine "
-                         f"only, about {COMPILE_S} s on an idle machine (numba keeps the code beside the package)")
         t_run, cpu = time.perf_counter(), time.process_time()
         try:
             run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))), stream)

@@ -266,7 +266,7 @@ def code_is_cached() -> bool:
     numba's cache, so that a first run can say it compiles first. Best
     effort (numba's cache object is not public API): ``True`` when it cannot
     tell."""
-    if run_steps.signatures:
+    if getattr(run_steps, "signatures", True):      # (compiled here, or not numba's function at all)
         return True
     try:
         return bool(run_steps._cache._cache_file._load_index())     # (empty when stale or flushed)

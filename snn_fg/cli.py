@@ -7,15 +7,17 @@ the output folder as it was.
 from __future__ import annotations
 
 import argparse
-import json
+import contextlib
+import itertools
 import os
 import signal
 import sys
-from pathlib import Path
+import warnings
 
 from . import __version__, cancel
 from .backends import DEFAULT_BACKEND, backend_names
-from .errors import InputError, SnnFgError
+from .compare_cli import add_compare_command
+from .errors import InputError, InputWarning, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
 from .events.esim import MOTIONS
 from .export.cli import add_export_command
@@ -32,6 +34,13 @@ RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state", "window_c
 FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
 
 
+class _Parser(argparse.ArgumentParser):
+    """A usage error is one line naming the command, the problem and where help is (no usage block)."""
+
+    def error(self, message):
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _number(kind, lo, strict=True):
     def parse(text):
         try:
@@ -43,6 +52,17 @@ def _number(kind, lo, strict=True):
             raise argparse.ArgumentTypeError(f"must be {'>' if strict else '>='} {lo}, got {text}")
         return v
     return parse
+
+
+def _crop_arg(text):
+    parts = text.split(",")
+    try:
+        crop = tuple(int(v) for v in parts)
+    except ValueError:
+        crop = ()
+    if len(crop) != 4:
+        raise argparse.ArgumentTypeError(f"expected four integers X0,Y0,X1,Y1, got {text!r}")
+    return crop
 
 
 #: (group title, ((flag, type, lower bound, strictly above it, help), ...)); defaults in brackets
@@ -122,38 +142,23 @@ def _add_run(sub):
                         "BSDS conversion (default shift4)")
     p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
                    help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
+    p.add_argument("--crop", type=_crop_arg, metavar="X0,Y0,X1,Y1",
+                   help="figures: draw only pixels X0 <= x < X1, Y0 <= y < Y1 (maps.npz keeps the whole frame)")
     p.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
     p.add_argument("--no-figures", action="store_true", help="write maps.npz only (no figures)")
     p.set_defaults(handler=cmd_run)
     return p
 
 
-def _add_compare(sub):
-    p = sub.add_parser("compare", allow_abbrev=False, help="compare two maps.npz files (e.g. spiking vs rate)",
-                       description="Print, window by window, how two maps files agree: grouping Pearson r and "
-                                   "SSIM, and on the pixels where both have a figure-ground vector the angle "
-                                   "difference (mean, median, fraction within 45 degrees) and angle-map MSE "
-                                   "and SSIM.")
-    p.add_argument("a", metavar="A.npz")
-    p.add_argument("b", metavar="B.npz")
-    p.add_argument("--window", type=_number(int, 0, strict=False), metavar="I",
-                   help="compare window I of each recording (a single frame is used as it is); by default "
-                        "recordings are paired window by window, by start time when both store it")
-    p.add_argument("--json", metavar="OUT.json", default=None,
-                   help="where to save the metrics (compare.json next to A)")
-    p.set_defaults(handler=cmd_compare)
-    return p
-
-
 def build_parser() -> tuple[argparse.ArgumentParser, dict]:
     """The parser and its subcommand parsers by name."""
-    parser = argparse.ArgumentParser(prog="snn-fg", allow_abbrev=False,
-                                     description="Event-driven figure-ground organisation as a spiking neural "
-                                                 "network: run the model on events or images, compare maps, "
-                                                 "inspect event recordings, export the network.")
+    parser = _Parser(prog="snn-fg", allow_abbrev=False,
+                     description="Event-driven figure-ground organisation as a spiking neural network: run the "
+                                 "model on events or images, compare maps, inspect event recordings, export the "
+                                 "network.")
     parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    subs = {"run": _add_run(sub), "compare": _add_compare(sub), "events": add_events_command(sub),
+    subs = {"run": _add_run(sub), "compare": add_compare_command(sub, _number), "events": add_events_command(sub),
             "export": add_export_command(sub, sensor_size_arg, _number)}
     return parser, subs
 
@@ -161,30 +166,58 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
 # --------------------------------------------------------------------------
 # run
 # --------------------------------------------------------------------------
+#: what each kind of INPUT is called when an option does not apply to it
+_KIND_NAMES = {"demo": "the demo is one image", "frame": "INPUT is one event frame", "image": "INPUT is one image",
+               "recording": "INPUT is an event recording"}
+
+
+def _refused_options(args, kind) -> list[tuple[str, str]]:
+    """``(flag, why it does not apply)`` for every given option the run would ignore."""
+    model = MODELS[args.model]
+    given = lambda k: getattr(args, k) is not None       # noqa: E731
+    refused = []
+    for other in MODELS.values():
+        for k in other.options:
+            if other is not model and k not in model.options and k != "network" and given(k):
+                refused.append((k, f"applies to the {other.name} model only (--model {other.name})"))
+    named = {k for k, _ in refused}
+    if kind != "recording":
+        refused += [(k, f"applies to event recordings only; {_KIND_NAMES[kind]}")
+                    for k in RECORDING_OPTIONS + ("sensor_size",) if given(k) and k not in named]
+    else:
+        refused += [(k, f"applies to a single frame or image only; {_KIND_NAMES[kind]}, run as one continuous "
+                        "network") for k in FRAME_ONLY_OPTIONS if given(k) and k not in named]
+    if args.motion is not None:     # only images turned into events have a motion
+        if kind in ("recording", "frame"):
+            refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))
+        elif model.needs == "image":
+            refused.append(("motion", f"the {model.name} model reads the image itself, not events made from it"))
+    if args.network is not None:
+        refused += [(k, "a named or stored network (--network) carries its own model parameters")
+                    for k in MODEL_PARAMS if given(k)]
+        if model.needs == "image":
+            refused.append(("network", f"the {model.name} model has no network (the event models take one)"))
+    return refused
+
+
+def _verb(why: str, n: int) -> str:
+    return why if n == 1 else why.replace("applies", "apply", 1)
+
+
 def _model(args, kind):
     """The model the arguments ask for, refusing options that would be ignored."""
     from .network.recipes import model_params_of
     from .params import ModelParams
 
+    refused = _refused_options(args, kind)
+    if refused:
+        reasons: dict[str, list[str]] = {}
+        for k, why in refused:
+            reasons.setdefault(why, []).append("--" + k.replace("_", "-"))
+        raise InputError(args.input, "; ".join(f"{', '.join(flags)}: {_verb(why, len(flags))}"
+                                               for why, flags in reasons.items()))
     given = {k: getattr(args, k) for k in MODEL_PARAMS if getattr(args, k) is not None}
     takes = MODELS[args.model].options
-    unused = [k for m in MODELS.values() for k in m.options
-              if k not in takes and k != "network" and getattr(args, k) is not None]
-    if kind != "recording":
-        unused += [k for k in RECORDING_OPTIONS + ("sensor_size",) if getattr(args, k) is not None]
-    else:
-        unused += [k for k in FRAME_ONLY_OPTIONS if getattr(args, k) is not None]
-    if args.motion is not None and (kind in ("recording", "frame") or MODELS[args.model].needs == "image"):
-        unused.append("motion")      # only images turned into events have a motion
-    if args.network is not None and given:
-        unused += list(given)
-    if args.network is not None and MODELS[args.model].needs == "image":
-        unused.append("network")
-    if unused:
-        flags = ", ".join("--" + k.replace("_", "-") for k in unused)
-        why = "a stored network (--network) carries its own model parameters" if args.network and given else \
-            f"they do not apply to the {args.model} model on this input"
-        raise InputError(args.input, f"{flags}: {why}")
     progress = None if args.no_progress else _progress_factory()
     options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}
     for k in ("feedback", "carry_state", "window_clock"):
@@ -207,15 +240,29 @@ def _windows(args):
     opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
     windows = iter_windows(stream, **{"window_ms": 85.0, **opts})
     if not args.no_progress:
-        from tqdm import tqdm
-
-        windows = tqdm(windows, desc="windows", unit="win", file=sys.stderr, total=args.max_windows)
+        windows = _counted(windows, args.max_windows)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
     source.setdefault("stride_ms", source["window_ms"])
     return windows, source, tuple(stream.sensor_size[1::-1])
 
 
+def _counted(windows, total):
+    """``windows`` with a progress bar that appears once the first window is read
+    (a file refused on reading shows no empty bar before its error line)."""
+    from tqdm import tqdm
+
+    it = iter(windows)
+    first = next(it, None)
+    if first is None:
+        return
+    with tqdm(desc="windows", unit="win", file=sys.stderr, total=total, leave=False) as bar:
+        for w in itertools.chain([first], it):
+            yield w
+            bar.update()
+
+
 def cmd_run(args) -> int:
+    from .figures import check_crop
     from .frames.pool import pooled_shape
     from .frames.pyramid import check_levels
     from .inputs import input_kind, load_frame
@@ -232,52 +279,33 @@ def cmd_run(args) -> int:
         shape = frame.shape
     check_levels(pooled_shape(shape, model.params.input_pool), model.params.levels, args.input,
                  model.params.levels_per_octave)
+    if args.crop is not None:
+        check_crop(args.crop, shape, owner=f"{args.input}: --crop")
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as out:
         if kind == "recording":
-            run_recording(model, windows, out.dir, source, args.input, figures=not args.no_figures)
+            run_recording(model, windows, out.dir, source, args.input, crop=args.crop, figures=not args.no_figures)
         else:
-            run_frame(model, frame, out.dir, source, figures=not args.no_figures)
+            run_frame(model, frame, out.dir, source, crop=args.crop, figures=not args.no_figures)
         written = ", ".join(sorted(p.name for p in out.dir.iterdir()))
     print(f"snn-fg: {model.name} model on {args.input}: wrote {args.out}/ ({written})")
     return 0
 
 
-# --------------------------------------------------------------------------
-# compare
-# --------------------------------------------------------------------------
-#: compare's table: (header, row key, width, format spec); at most 100 characters wide
-_COMPARE_COLUMNS = (("A", "window_a", 3, "d"), ("B", "window_b", 3, "d"), ("t (ms)", "t_start_ms", 8, ".1f"),
-                    ("pixels", "pixels_compared", 7, "d"), ("mean°", "angle_diff_mean_deg", 6, ".1f"),
-                    ("median°", "angle_diff_median_deg", 7, ".1f"), ("<=45°", "angle_within_45_frac", 6, ".3f"),
-                    ("MSE", "angle_mse", 6, ".3f"), ("SSIM", "angle_ssim", 6, ".3f"),
-                    ("grp r", "grouping_pearson_r", 6, ".3f"), ("grp SSIM", "grouping_ssim", 8, ".3f"))
+@contextlib.contextmanager
+def _warnings_as_lines():
+    """While a command runs, an :class:`~snn_fg.errors.InputWarning` is one
+    ``snn-fg: warning:`` line (not Python's file:line form); others as usual."""
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
 
+        def show(message, category, *rest, **kw):
+            if issubclass(category, InputWarning):
+                print(f"snn-fg: warning: {message}", file=sys.stderr)
+            else:
+                shown(message, category, *rest, **kw)
 
-def compare_table(rows) -> str:
-    """The rows of :func:`~snn_fg.metrics.compare_maps` as a text table."""
-    lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COMPARE_COLUMNS)]
-    lines += ["  ".join("-".rjust(w) if r[k] is None else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COMPARE_COLUMNS)
-              for r in rows]
-    lines += ["A, B: compared windows; angle columns on pixels where both maps have a figure-ground vector",
-              "(SSIM: where either has one); grouping r and SSIM on the whole map, SSIM with each map scaled to 1"]
-    return "\n".join(lines)
-
-
-def cmd_compare(args) -> int:
-    from .atomic import save_text
-    from .maps import Maps
-    from .metrics import compare_maps
-
-    a, b = Maps.load(args.a), Maps.load(args.b)
-    try:
-        rows = compare_maps(a, b, window=args.window)
-    except SnnFgError as exc:
-        raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
-    print(compare_table(rows))
-    out = Path(args.json) if args.json else Path(args.a).with_name("compare.json")
-    save_text(out, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
-    print(f"snn-fg: metrics saved to {out}")
-    return 0
+        warnings.showwarning = show
+        yield
 
 
 class _Signals:
@@ -327,7 +355,7 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
     args, extra = parser.parse_known_args(argv)
     if extra:       # report an unknown option under the subcommand's own usage
         subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
-    with _Signals() as signals:
+    with _Signals() as signals, _warnings_as_lines():
         args.interrupted = lambda: bool(signals.received)
         try:
             try:
@@ -355,8 +383,13 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
 
 def console():
     """The ``snn-fg`` entry point: :func:`main`, exiting with its status (at
-    once after an interrupt)."""
-    sys.exit(main(exit_on_interrupt=True))
+    once after an interrupt). Output piped into a reader that stops early
+    (``snn-fg events REC | head``) ends the command quietly."""
+    try:
+        sys.exit(main(exit_on_interrupt=True))
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())    # (no error when Python flushes it)
+        sys.exit(1)
 
 
 if __name__ == "__main__":

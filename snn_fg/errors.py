@@ -33,5 +33,11 @@ class InputError(SnnFgError, ValueError):
         super().__init__(f"{self.source}: {problem}{loc}")
 
 
+class InputWarning(UserWarning):
+    """Input that can be read but looks wrong (a file cut short at an event
+    boundary, say); the message names the file. The CLI prints it as one
+    ``snn-fg: warning:`` line."""
+
+
 class ParameterError(SnnFgError, ValueError):
     """A model parameter is out of its valid range; names the parameter."""

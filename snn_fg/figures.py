@@ -22,6 +22,8 @@ from .atomic import save_figure
 GROUPING_CMAP = "magma"
 #: darkest brightness of a non-zero figure-ground vector (0: invisible)
 MIN_VALUE = 0.35
+#: height of a map panel, inches (width by the frame's aspect ratio)
+PANEL_IN = 3.4
 
 
 def fg_rgb(fg_x, fg_y) -> np.ndarray:
@@ -47,8 +49,10 @@ def event_frame_rgb(pos, neg) -> np.ndarray:
 
 
 def _wheel_inset(ax):
-    """Colour wheel with its directions labelled, and the brightness convention."""
-    inset = ax.inset_axes([0.74, 0.70, 0.26, 0.30])
+    """Colour wheel with its directions labelled, and the brightness convention:
+    outside the axes, right of their top right corner, so that it hides no data
+    (``tight_layout`` makes room for it)."""
+    inset = ax.inset_axes([1.02, 0.62, 0.38, 0.38])
     n = 101
     y, x = np.mgrid[1:-1:n * 1j, -1:1:n * 1j]
     r = np.hypot(x, y)
@@ -66,19 +70,20 @@ def _wheel_inset(ax):
 
 
 def plot_maps_row(axes, input_img, fg_x, fg_y, grouping, title: str = "", grouping_label: str = "grouping",
-                  key: bool = True):
+                  key: bool = True, extent=None):
     """Draw input, figure-ground map and grouping map into three axes.
 
     ``grouping_label`` labels the grouping colour bar (say its unit).
     ``key=False`` leaves out what repeats from row to row of a figure (the
     colour wheel, the panels' explanations and axis labels): drawing them
     on every row of a recording's figure took most of its 7 s.
+    ``extent`` (imshow's) places a crop at its own pixel coordinates.
     """
     a0, a1, a2 = axes
-    a0.imshow(input_img, cmap="gray" if np.ndim(input_img) == 2 else None, interpolation="nearest")
+    a0.imshow(input_img, cmap="gray" if np.ndim(input_img) == 2 else None, interpolation="nearest", extent=extent)
     a0.set_title(f"input {title}".strip(), fontsize=9)
-    a1.imshow(fg_rgb(fg_x, fg_y), interpolation="nearest")
-    im = a2.imshow(grouping, cmap=GROUPING_CMAP, interpolation="nearest")
+    a1.imshow(fg_rgb(fg_x, fg_y), interpolation="nearest", extent=extent)
+    im = a2.imshow(grouping, cmap=GROUPING_CMAP, interpolation="nearest", extent=extent)
     bar = a2.figure.colorbar(im, ax=a2, fraction=0.046, pad=0.02)
     bar.ax.tick_params(labelsize=7)
     for a in axes:
@@ -99,34 +104,119 @@ def plot_maps_row(axes, input_img, fg_x, fg_y, grouping, title: str = "", groupi
     a0.set_ylabel("y (px, rows down)", fontsize=7)
 
 
+def _panel_width(aspect: float) -> float:
+    """Width (inches) of a map panel of ``aspect`` = width / height; very wide frames are capped."""
+    return min(PANEL_IN * max(aspect, 0.6), 1.8 * PANEL_IN)
+
+
+def rows_shown(n: int, max_rows: int) -> np.ndarray:
+    """Which of ``n`` windows a figure of at most ``max_rows`` rows draws: evenly spaced, first and last included."""
+    return np.unique(np.linspace(0, n - 1, min(n, max_rows)).round().astype(int))
+
+
+def shown_note(shown, n: int, what: str = "windows", labels=None) -> str:
+    """What a figure of rows ``shown`` out of ``n`` leaves out, in words ("" when
+    it shows them all); ``labels`` names each row (default: its index)."""
+    if len(shown) == n:
+        return ""
+    listed = ", ".join(str(i if labels is None else labels[i]) for i in shown)
+    return f"{len(shown)} of {n} {what} shown, evenly spaced: {listed}"
+
+
+def check_crop(crop, shape, owner: str = "maps_figure") -> tuple[int, int, int, int]:
+    """``(x0, y0, x1, y1)`` of a crop of an ``(H, W)`` frame, checked (x1, y1 exclusive)."""
+    from . import validate
+
+    h, w = shape
+    x0, y0, x1, y1 = (int(v) for v in crop)
+    if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
+        validate.fail(owner, None, None, f"crop x0,y0,x1,y1 = {x0},{y0},{x1},{y1} must satisfy 0 <= x0 < x1 <= {w} "
+                                         f"and 0 <= y0 < y1 <= {h} (the frame is {w} x {h})")
+    return x0, y0, x1, y1
+
+
 def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
-                grouping_label: str = "grouping") -> Figure:
+                grouping_label: str = "grouping", crop=None) -> Figure:
     """One row per frame (input, figure-ground, grouping).
 
     ``inputs`` is a list of images (grey or RGB), one per frame; arrays of
-    ndim 2 are one frame. At most ``max_rows`` frames are drawn, evenly spaced.
+    ndim 2 are one frame. At most ``max_rows`` frames are drawn, evenly
+    spaced, and the figure's title says which. ``crop`` ``(x0, y0, x1, y1)``
+    (pixels, x1 and y1 exclusive) draws only that part of every panel, at
+    its own coordinates.
     """
     fg_x, fg_y, grouping = (np.asarray(v) for v in (fg_x, fg_y, grouping))
     if fg_x.ndim == 2:
         fg_x, fg_y, grouping = fg_x[None], fg_y[None], grouping[None]
         inputs = [inputs]
     n = fg_x.shape[0]
-    idx = np.unique(np.linspace(0, n - 1, min(n, max_rows)).round().astype(int))
-    h, w = fg_x.shape[1:]
-    width = 3 * 3.4 * max(w / h, 0.6) + 1.2
-    fig = Figure(figsize=(width, 3.4 * len(idx) + 0.3))
+    x0, y0, x1, y1 = check_crop(crop, fg_x.shape[1:]) if crop is not None else (0, 0) + fg_x.shape[:0:-1]
+    cut = (slice(y0, y1), slice(x0, x1))
+    extent = None if crop is None else (x0 - 0.5, x1 - 0.5, y1 - 0.5, y0 - 0.5)
+    idx = rows_shown(n, max_rows)
+    note = shown_note(idx, n)
+    aspect = (x1 - x0) / (y1 - y0)
+    panel_w = _panel_width(aspect)
+    row_h = min(PANEL_IN, max(panel_w / aspect + 0.9, 1.8))      # (0.9 in: titles and tick labels)
+    note_in = 0.45 if note else 0.0           # (a strip of its own at the top, whatever the figure's height)
+    height = row_h * len(idx) + 0.3 + note_in
+    fig = Figure(figsize=(3 * panel_w + 2.4, height))
     axes = fig.subplots(len(idx), 3, squeeze=False)
     for row, i in enumerate(idx):      # (the key, on the first row, explains every row)
-        plot_maps_row(axes[row], inputs[i], fg_x[i], fg_y[i], grouping[i],
-                      titles[i] if titles is not None else "", grouping_label, key=row == 0)
-    fig.tight_layout()
+        plot_maps_row(axes[row], np.asarray(inputs[i])[cut], fg_x[i][cut], fg_y[i][cut], grouping[i][cut],
+                      titles[i] if titles is not None else "", grouping_label, key=row == 0, extent=extent)
+    if note:
+        fig.suptitle(note, fontsize=9, y=1 - 0.1 / height, va="top")
+    fig.tight_layout(rect=(0, 0, 1, 1 - note_in / height))
     return fig
 
 
 def save_maps_figure(path, inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
-                     grouping_label: str = "grouping") -> Path:
+                     grouping_label: str = "grouping", crop=None) -> Path:
     """Write :func:`maps_figure` to ``path`` (atomically)."""
-    return save_figure(maps_figure(inputs, fg_x, fg_y, grouping, titles, max_rows, grouping_label), path, dpi=110)
+    return save_figure(maps_figure(inputs, fg_x, fg_y, grouping, titles, max_rows, grouping_label, crop), path,
+                       dpi=110)
+
+
+def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6) -> Figure:
+    """Two maps side by side and how they differ: per compared pair of
+    windows (``rows`` of :func:`~snn_fg.metrics.compare_maps`) the
+    figure-ground map of each and the angle between them where both have a
+    vector (grey: only one has a vector)."""
+    from .metrics import angle_difference_deg, frame_of
+
+    idx = rows_shown(len(rows), max_rows)
+    h, w = np.shape(a.fg_x)[-2:]
+    panel_w = _panel_width(w / h)
+    fig = Figure(figsize=(3 * panel_w + 2.4, PANEL_IN * len(idx) + 0.6), layout="constrained")
+    axes = fig.subplots(len(idx), 3, squeeze=False)
+    for ax, i in zip(axes, idx):
+        r = rows[i]
+        (ax_, ay_, _), (bx, by, _) = frame_of(a, r["window_a"]), frame_of(b, r["window_b"])
+        when = "" if r["t_start_ms"] is None else f", {r['t_start_ms']:g} ms"
+        sides = ((names[0], r["window_a"], ax_, ay_), (names[1], r["window_b"], bx, by))
+        for panel, (name, win, fx, fy) in zip(ax, sides):
+            panel.imshow(fg_rgb(fx, fy), interpolation="nearest")
+            panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when, fontsize=9)
+        has_a, has_b = np.hypot(ax_, ay_) > 0, np.hypot(bx, by) > 0
+        diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
+        ax[2].imshow(np.where(has_a ^ has_b, 0.75, 1.0), cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+        im = ax[2].imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
+        bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
+        bar.set_label("angle difference (deg)", fontsize=8)
+        ax[2].set_title(f"difference: mean {r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} "
+                        f"within 45° (grey: one map only)", fontsize=8)
+        for x in ax:
+            x.tick_params(labelsize=7)
+    _wheel_inset(axes[0][1])
+    note = shown_note(idx, len(rows), "compared windows", [f"A {r['window_a']}" for r in rows])
+    fig.suptitle(f"{names[0]} vs {names[1]}" + (f"; {note}" if note else ""), fontsize=9)
+    return fig
+
+
+def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6) -> Path:
+    """Write :func:`compare_figure` to ``path`` (atomically)."""
+    return save_figure(compare_figure(a, b, rows, names, max_rows), path, dpi=110)
 
 
 def raster_figure(record, window: int | None = None) -> Figure:
@@ -134,8 +224,10 @@ def raster_figure(record, window: int | None = None) -> Figure:
     from .spiking.record import RASTER_CELLS_PER_ROLE, ROLE_ORDER
 
     where = "" if window is None else f" (window {window})"
-    fig = Figure(figsize=(10, 7))
+    fig = Figure(figsize=(10, 8.6), layout="constrained")
     ax = fig.subplots()
+    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))       # below: what the roles are
+    fig.text(0.01, 0.15, role_caption(), fontsize=7, va="top")
     raster = record.raster
     if raster is not None and raster.row.size:
         cmap = mcolors.ListedColormap([f"C{i % 10}" for i in range(len(ROLE_ORDER))])
@@ -153,8 +245,17 @@ def raster_figure(record, window: int | None = None) -> Figure:
     ax.set_xlabel("time (ms); dashed: spikes after this are counted")
     ax.set_ylabel(f"sampled cells (up to {RASTER_CELLS_PER_ROLE} per role, level 1 first)")
     ax.set_title(f"Spike raster by population role{where}")
-    fig.tight_layout()
     return fig
+
+
+def role_caption(width: int = 170) -> str:
+    """What each population role's cells do, one line per family of roles."""
+    import textwrap
+
+    from .spiking.record import ROLE_MEANINGS
+
+    return "\n".join(textwrap.fill(f"{', '.join(roles)}: {meaning}", width, subsequent_indent="    ")
+                     for roles, meaning in ROLE_MEANINGS)
 
 
 def rate_histogram_figure(record, window: int | None = None) -> Figure:

@@ -106,7 +106,8 @@ def _windows(m: Maps):
     return [(i, None if t is None else int(t[i])) for i in range(m.fg_x.shape[0])]
 
 
-def _frame(m: Maps, i):
+def frame_of(m: Maps, i):
+    """``(fg_x, fg_y, grouping)`` of window ``i`` of ``m`` (``None``: ``m`` is one frame)."""
     return (m.fg_x, m.fg_y, m.grouping) if i is None else (m.fg_x[i], m.fg_y[i], m.grouping[i])
 
 
@@ -170,7 +171,7 @@ def compare_maps(a: Maps, b: Maps, window: int | None = None) -> list[dict]:
     for (ia, ta), (ib, tb) in pairs:
         t = ta if ta is not None else tb
         rows.append({"window_a": ia, "window_b": ib, "t_start_ms": None if t is None else t / 1000.0,
-                     **compare_frame(*_frame(a, ia), *_frame(b, ib))})
+                     **compare_frame(*frame_of(a, ia), *frame_of(b, ib))})
     return rows
 
 

@@ -81,10 +81,11 @@ class Model(ABC):
         """The image shown beside the maps."""
         return event_frame_rgb(frame.pos, frame.neg)
 
-    def write_figures(self, out: Path, maps: Maps, inputs, titles=None) -> list[Path]:
-        """Figures of a run into folder ``out``; ``inputs`` one image per frame."""
+    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
+        """Figures of a run into folder ``out``; ``inputs`` one image per frame;
+        ``crop`` ``(x0, y0, x1, y1)``: the maps' part to draw (all of it)."""
         return [save_maps_figure(out / "maps.png", inputs, maps.fg_x, maps.fg_y, maps.grouping, titles=titles,
-                                 grouping_label=self.grouping_label)]
+                                 grouping_label=self.grouping_label, crop=crop)]
 
 
 class RateModel(Model):
@@ -242,8 +243,8 @@ class SpikingModel(Model):
                                    **options)
         yield from zip(windows, maps)
 
-    def write_figures(self, out: Path, maps: Maps, inputs, titles=None) -> list[Path]:
-        written = super().write_figures(out, maps, inputs, titles)
+    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
+        written = super().write_figures(out, maps, inputs, titles, crop)
         return written + save_spiking_figures(maps, out, with_maps=False)
 
 

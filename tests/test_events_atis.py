@@ -129,9 +129,9 @@ def test_cli_summary_reports_exposure_events(tmp_path, capsys):
     args = ap.parse_args(["events", str(path), "--no-progress"])
     assert args.func(args) == 0
     out = capsys.readouterr().out
-    assert "format:          es-atis" in out
-    assert "events:          500 (" in out
-    assert "exposure events: 1,234 (ATIS exposure measurements, not used by the model)" in out.splitlines()[-1]
+    assert "format:     es-atis" in out
+    assert "events:     500 (" in out
+    assert "skipped:    1,234 ATIS exposure events (read, not used by the model)" in out.splitlines()
 
 
 @pytest.mark.parametrize("kind,name", [(0, "generic"), (3, "asynchronous display"), (4, "colour"),

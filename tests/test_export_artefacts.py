@@ -19,7 +19,7 @@ def test_stored_icub_artefacts_are_current_and_small():
     rep = json.loads((NETWORKS / REPORT_NAME).read_text())
     assert rep["network_sha256"] == sha, "networks/ is stale: run python experiments/spiking_export_network.py"
     assert rep["frame_shape"] == [240, 304] and rep["totals"]["neurons"] > 0
-    assert (NETWORKS / REPORT_TABLE).read_text().startswith("Whole network for a 240 x 304 frame")
+    assert (NETWORKS / REPORT_TABLE).read_text().startswith("Whole network for a 304 x 240 sensor (width x height)")
     from snn_fg.export.nir import _read_graph
 
     g = _read_graph(nir, NETWORKS / NIR_NAME)       # gunzip, then nir.read

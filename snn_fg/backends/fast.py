@@ -71,6 +71,9 @@ LOG_START = 1 << 16
 #: (side by side, load 0.9-1.1); a BSDS frame, with 1 % of them, was the same
 GATHER_BELOW = 0.05
 GATHER_TAPS_PER_ROW = 8
+#: seconds the engine's first run on a machine spends compiling (numba), as said while it does
+#: (the README's fresh clone: 13 s for the demo against 4.4 s once compiled, load 1.4-1.7)
+COMPILE_S = 10
 #: simulated time per call of the compiled loop (progress, Ctrl-C in between)
 CHUNK_MS = 25.0
 
@@ -135,6 +138,12 @@ class FastBackend(Backend):
         return t
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
+        from .fast_core import code_is_cached
+
+        if not code_is_cached():
+            settings.say(f"compiling the fast engine's code as it prepares and simulates: the first run on this "
+                         f"machine only, about {COMPILE_S} s on an idle machine (numba keeps the code beside the "
+                         "package)")
         t0 = time.perf_counter()
         tab = self.tables(network, settings.dt_ms)
         chosen, _, _ = choose_sites(network, source_masks(network, inputs.on, inputs.off), settings.sites,
@@ -373,19 +382,21 @@ def zeroed(n: int, dtype) -> np.ndarray:
 
 
 class _progress:
-    """A callable advancing a tqdm bar by simulated steps (or doing nothing)."""
+    """A callable advancing a tqdm bar by simulated steps (or doing nothing).
+    The bar appears when the first steps are done, so it never sits at 0
+    while the engine's code compiles."""
 
     def __init__(self, settings: RunSettings):
         self.settings, self.bar = settings, None
 
     def __enter__(self):
-        if self.settings.progress:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False)
         return self
 
     def __call__(self, steps: int):
+        if self.bar is None and self.settings.progress:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False)
         if self.bar is not None:
             self.bar.update(steps * self.settings.dt_ms)
 

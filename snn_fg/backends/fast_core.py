@@ -261,6 +261,19 @@ def group_by_population(ids, step_start, starts, keep, cuts, local, step_of):
                 pos[q] = j + 1
 
 
+def code_is_cached() -> bool:
+    """Whether :func:`run_steps` is compiled already, in this process or in
+    numba's cache, so that a first run can say it compiles first. Best
+    effort (numba's cache object is not public API): ``True`` when it cannot
+    tell."""
+    if getattr(run_steps, "signatures", True):      # (compiled here, or not numba's function at all)
+        return True
+    try:
+        return bool(run_steps._cache._cache_file._load_index())     # (empty when stale or flushed)
+    except Exception:       # noqa: BLE001 - whatever numba's private cache does, we cannot tell
+        return True
+
+
 def _drop_stale_caches() -> None:
     """Forget compiled code cached from older versions of the engine's files.
 

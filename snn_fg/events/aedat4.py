@@ -57,7 +57,9 @@ def _check_aedat4_header(path):
 
 
 def open_aedat4(path, sensor_size, chunk_events) -> Source:
-    """Open an AEDAT 4 file; its first event stream is read, packet by packet."""
+    """Open an AEDAT 4 file; its first event stream is read, packet by packet.
+    Frames, IMU samples, triggers and other event streams are counted in the
+    decode tally and left out."""
     import aedat
 
     _check_aedat4_header(path)
@@ -82,7 +84,23 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
                 return
             k += 1
             if packet.get("stream_id") != target or "events" not in packet:
+                _count_skipped(packet, tally)
                 continue
             e = packet["events"]
             yield pack_events(e["x"], e["y"], e["t"], e["on"])
     return Source(path, "aedat4", size, chunks)
+
+
+def _count_skipped(packet: dict, tally) -> None:
+    """Add a packet the model does not use (a frame, IMU samples, triggers,
+    another event stream) to ``tally``."""
+    if "frame" in packet:
+        tally.skip("APS frames")
+    elif "imus" in packet:
+        tally.skip("IMU samples", len(packet["imus"]))
+    elif "triggers" in packet:
+        tally.skip("trigger events", len(packet["triggers"]))
+    elif "events" in packet:
+        tally.skip(f"events of stream {packet.get('stream_id')}", len(packet["events"]))
+    else:
+        tally.skip("packets of an unknown kind")

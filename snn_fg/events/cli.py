@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,8 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("input", metavar="INPUT", help="recording or image file")
     g = p.add_argument_group("recordings")
-    g.add_argument("--window-ms", type=float, default=85.0, help="window length for --write-frame (default 85)")
+    g.add_argument("--window-ms", type=float, default=85.0,
+                   help="window length of the activity timeline and --write-frame (default 85, as snn-fg run)")
     g.add_argument("--start-ms", type=float, default=0.0,
                    help="window start, ms after the first event (default 0)")
     g.add_argument("--sensor-size", type=sensor_size_arg, default=None, metavar="WxH",
@@ -57,6 +59,8 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
                    help="write the event frame (pos, neg uint8, t_start_us, t_end_us)")
     g.add_argument("--write-events", metavar="OUT.npy", default=None,
                    help="write the events (.npy, .npz, .raw EVT2 or .es)")
+    g.add_argument("--plot", metavar="FILE.png", default=None,
+                   help="recordings: draw the events and the share of pixels they cover, window by window")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run_events, handler=run_events)
     return p
@@ -72,7 +76,7 @@ def _span_lines(n, n_on, t_first, t_last):
     rate = f"{n / (span / 1e6):,.0f} events/s" if span > 0 else "n/a"
     on = f" (ON {100 * n_on / n:.1f} %)" if n else ""
     return [("events", f"{n:,}{on}"),
-            ("time span", f"{span / 1e6:.6f} s ({t_first} us .. {t_last} us)" if n else "n/a"),
+            ("time span", f"{span / 1e6:.6f} s (file clock {t_first} .. {t_last} us)" if n else "n/a"),
             ("event rate", rate)]
 
 
@@ -95,6 +99,7 @@ def run_events(args) -> int:
             raise InputError(out, "output would overwrite the input")
     if args.write_frame is not None and Path(args.write_frame).suffix.lower() != ".npz":
         raise InputError(args.write_frame, "--write-frame needs an .npz file name")
+    _check_plot(args, path)
 
     if path.suffix.lower() in IMAGE_SUFFIXES:
         rec = image_to_events(path, threshold=args.threshold, motion=args.motion,
@@ -131,14 +136,14 @@ def run_events(args) -> int:
     lines = [("file", str(path)), ("format", f"{stream.format}" + ("" if stream.streams else " (read whole)")),
              ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}")]
     lines += _span_lines(n, n_on, t_first or 0, t_last or 0)
-    if stream.format == "es-atis":
-        lines.append(("exposure events", f"{stream.exposure_events:,} (ATIS exposure measurements, "
-                                         "not used by the model)"))
+    if stream.skipped:
+        lines.append(("skipped", ", ".join(f"{n:,} {what}" for what, n in stream.skipped.items())
+                      + " (read, not used by the model)"))
     if args.write_frame:
         w = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         save_npz(args.write_frame, pos=w.pos, neg=w.neg, t_start_us=np.int64(w.t_start_us),
                  t_end_us=np.int64(w.t_end_us))
-        lines.append(("frame written", f"{args.write_frame} (window {w.t_start_us}..{w.t_end_us} us, "
+        lines.append(("frame written", f"{args.write_frame} (window {w.span_ms[0]:g}-{w.span_ms[1]:g} ms, "
                                        f"{len(w.events):,} events, {int(w.pos.sum())} ON, "
                                        f"{int(w.neg.sum())} OFF pixels)"))
     if args.write_events:
@@ -148,4 +153,32 @@ def run_events(args) -> int:
         save_events(args.write_events, rec.events, rec.sensor_size)
         lines.append(("events written", _written_note(args.write_events)))
     print(_summary(lines))
+    if n and t_last > t_first:      # (a stream that spans no time has been warned about)
+        _print_activity(stream, args)
     return 0
+
+
+def _check_plot(args, path):
+    if args.plot is None:
+        return
+    if Path(args.plot).suffix.lower() != ".png":
+        raise InputError(args.plot, "--plot needs a .png file name")
+    if Path(args.plot).resolve() == path.resolve():
+        raise InputError(args.plot, "output would overwrite the input")
+    if path.suffix.lower() in IMAGE_SUFFIXES:
+        raise InputError(path, "--plot draws a recording's activity over time; an image has none")
+
+
+def _print_activity(stream, args):
+    """The recording's activity window by window (a second pass over the
+    file), its saturated windows, and the ``--plot`` figure."""
+    from snn_fg.atomic import save_figure
+    from snn_fg.events.activity import activity, activity_figure, saturated_lines, timeline_text
+
+    act = activity(stream, window_ms=args.window_ms)
+    print("activity:\n" + timeline_text(act))
+    for line in saturated_lines(act):
+        print(textwrap.fill(f"saturated: {line}", width=100, subsequent_indent="  ", break_on_hyphens=False))
+    if args.plot:
+        save_figure(activity_figure(act, f"{Path(args.input).name}: activity over time"), args.plot, dpi=110)
+        print(f"plot written: {args.plot}")

@@ -40,6 +40,7 @@ format is a :class:`~snn_fg.errors.ParameterError`:
 from __future__ import annotations
 
 import inspect
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator
@@ -47,7 +48,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from snn_fg import validate
-from snn_fg.errors import InputError
+from snn_fg.errors import InputError, InputWarning
 from snn_fg.events import aedat4, eventstream, nmnist, numpy_files, prophesee, yarp
 from snn_fg.events._core import Recording, as_events, check_in_sensor, check_sensor_size, empty_events, \
     infer_sensor_size, sensor_size_parameter
@@ -202,9 +203,17 @@ class RecordingStream:
     have dtype :data:`EVENT_DTYPE`.  ``streams`` tells whether the underlying
     reader works with bounded memory (see the module table).
     ``exposure_events`` counts the ATIS exposure events skipped so far in the
-    latest iteration (the file's total once an iteration has finished).
+    latest iteration (the file's total once an iteration has finished);
+    ``skipped`` names everything left out (exposure events, AEDAT4 frames,
+    IMU samples and triggers, the other camera of a YARP log...) with counts.
     The format options are described in the module docstring.
+    An iteration that ends with more than one event, all at one timestamp,
+    warns (:class:`~snn_fg.errors.InputWarning`): such a stream is most
+    likely a file cut short (``warn_no_span = False`` turns this off, for a
+    reader that refuses such a stream itself).
     """
+
+    warn_no_span = True
 
     def __init__(self, source, *, chunk_events: int = DEFAULT_CHUNK, sensor_size=None, progress: bool = False,
                  encoding: str | None = None, codec: str | None = None, channel: int | str | None = None,
@@ -223,26 +232,39 @@ class RecordingStream:
     sensor_size = property(lambda self: self._source.sensor_size)
     streams = property(lambda self: self._source.streams)
     exposure_events = property(lambda self: self._tally.exposure_events)
+    #: what the latest iteration read and left out, by kind, with counts (see DecodeTally.skipped)
+    skipped = property(lambda self: self._tally.skipped)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         src = self._source
         name = src.path if src.path is not None else "<array>"
         self._tally = tally = DecodeTally()
         bar = self._progress_bar(name)
+        n, t_first, t_last = 0, None, None
         try:
             for out in _rechunk(src.chunks(self.chunk_events, tally), self.chunk_events, name, src.sensor_size):
                 if bar is not None:
                     bar.update(len(out))
+                n += len(out)
+                t_first = int(out["t"][0]) if t_first is None else t_first
+                t_last = int(out["t"][-1])
                 yield out
         finally:
             if bar is not None:
                 bar.close()
+        if self.warn_no_span and n > 1 and t_first == t_last:
+            warnings.warn(f"{name}: {no_span_problem(n, t_first)}; is the file cut short?", InputWarning, stacklevel=2)
 
     def _progress_bar(self, name):
         if not self.progress:
             return None
         from tqdm import tqdm
         return tqdm(unit="ev", unit_scale=True, desc=f"reading {Path(str(name)).name}", leave=False, disable=None)
+
+
+def no_span_problem(n: int, t: int) -> str:
+    """What is wrong with a stream of ``n`` events all at time ``t``."""
+    return f"all {n:,} events have the same timestamp ({t} us), so the recording spans no time"
 
 
 def _rechunk(raw_chunks, n: int, name, sensor_size) -> Iterator[np.ndarray]:

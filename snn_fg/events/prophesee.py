@@ -34,10 +34,10 @@ def open_raw(path, sensor_size, chunk_events, *, encoding: str | None = None) ->
                                "VGA sensor is 640x480)")
     size = check_sensor_size(sensor_size or geom, path)
     if enc == "evt3":
-        return Source(path, "evt3", size, lambda n, tally: iter_evt3(path, off))
+        return Source(path, "evt3", size, lambda n, tally: iter_evt3(path, off, tally=tally))
 
     def chunks(n, tally):
-        check_evt2(path, off, size)  # clear errors (with byte offsets) before the C decoder runs
+        check_evt2(path, off, size, tally)  # clear errors (with byte offsets) before the C decoder runs
         yield from _expelliarmus_chunks(path, "evt2", n)
     return Source(path, "evt2", size, chunks)
 
@@ -147,8 +147,13 @@ def _iter_words(path, offset, word_bytes, read_bytes=READ_BYTES):
 EVT2_TYPES = (0x0, 0x1, 0x8, 0xA, 0xE, 0xF)
 
 
-def check_evt2(path, offset, sensor_size):
-    """Check every EVT2 word: known type, CD events inside the sensor."""
+#: word type of an external trigger event, in EVT 2.0 and EVT 3.0 alike
+EXT_TRIGGER = 0xA
+
+
+def check_evt2(path, offset, sensor_size, tally=None):
+    """Check every EVT2 word: known type, CD events inside the sensor; count
+    the trigger events (which the decoder leaves out) in ``tally``."""
     w, h = sensor_size[0], sensor_size[1]
     for pos, words in _iter_words(path, offset, 4):
         typ = words >> 28
@@ -157,6 +162,8 @@ def check_evt2(path, offset, sensor_size):
             i = int(np.argmax(bad))
             raise InputError(path, f"unknown EVT2 word type 0x{int(typ[i]):X} (file is corrupt or not EVT2)",
                              f"byte offset {pos + 4 * i}")
+        if tally is not None:
+            tally.skip("trigger events", np.count_nonzero(typ == EXT_TRIGGER))
         cd = typ <= 1  # CD_OFF, CD_ON; other word types carry no coordinates
         x = np.where(cd, (words >> 11) & 0x7FF, 0)
         y = np.where(cd, words & 0x7FF, 0)
@@ -168,7 +175,7 @@ EVT3_KNOWN[[0x0, 0x2, 0x3, 0x4, 0x5, 0x6, 0x7, 0x8, 0xA, 0xE, 0xF]] = True
 _BITS12 = np.arange(12, dtype=np.uint16)
 
 
-def iter_evt3(path, offset, read_bytes=READ_BYTES):
+def iter_evt3(path, offset, read_bytes=READ_BYTES, tally=None):
     """Decode Prophesee EVT 3.0 (16-bit words) chunk by chunk.
 
     Timestamp = (TIME_HIGH << 12) | TIME_LOW on a 24-bit counter; a TIME_HIGH
@@ -176,7 +183,8 @@ def iter_evt3(path, offset, read_bytes=READ_BYTES):
     never carry into TIME_HIGH (counting TIME_LOW wrap-arounds on top of
     TIME_HIGH is the "4096 us drift" bug some decoders have).  Events before
     the first TIME_HIGH or the first EVT_ADDR_Y have no defined time/row and
-    are dropped, as Prophesee's reference decoder does.
+    are dropped, as Prophesee's reference decoder does. External trigger
+    events are counted in ``tally`` and left out.
     """
     # state carried across chunks
     th_raw = -1      # last TIME_HIGH payload (raw 12 bits), -1 = none yet
@@ -195,6 +203,8 @@ def iter_evt3(path, offset, read_bytes=READ_BYTES):
             raise InputError(path, f"unknown EVT3 word type 0x{int(typ[i]):X} (file is corrupt or not EVT3)",
                              f"byte offset {pos + 2 * i}")
         idx = np.arange(n)
+        if tally is not None:
+            tally.skip("trigger events", np.count_nonzero(typ == EXT_TRIGGER))
 
         # --- time high, unwrapped
         is_th = typ == 0x8

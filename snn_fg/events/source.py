@@ -21,10 +21,22 @@ READ_BYTES = 1 << 22
 
 @dataclass
 class DecodeTally:
-    """Events a decoder read but did not return, counted during one pass over the file."""
+    """What a decoder read but did not return, counted during one pass over the file."""
 
     #: ATIS exposure-measurement (threshold-crossing) events: not polarity events.
     exposure_events: int = 0
+    #: everything else left out, by what it is: ``{"IMU samples": 475, "APS frames": 59}``
+    other: dict = field(default_factory=dict)
+
+    def skip(self, what: str, n: int = 1) -> None:
+        """Count ``n`` items of ``what`` left out."""
+        if n:
+            self.other[what] = self.other.get(what, 0) + int(n)
+
+    @property
+    def skipped(self) -> dict:
+        """Every kind of item left out, with its count (none: an empty dict)."""
+        return ({"ATIS exposure events": self.exposure_events} if self.exposure_events else {}) | self.other
 
 
 @dataclass(frozen=True)

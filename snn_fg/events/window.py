@@ -9,7 +9,7 @@ import numpy as np
 from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, sensor_size_parameter
-from snn_fg.events.io import DEFAULT_CHUNK, check_format_options, iter_recording
+from snn_fg.events.io import DEFAULT_CHUNK, check_format_options, iter_recording, no_span_problem
 
 
 def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
@@ -49,6 +49,9 @@ class EventWindow:
 
     ``events`` are the window's events (after the optional denoise and
     refractory filters); ``pos``/``neg`` come from :func:`events_to_frame`.
+    Times are in the recording's own clock (some formats stamp Unix time);
+    ``t_first_event_us``, the recording's first event, is the origin of every
+    time shown to a user (:attr:`span_ms`).
     """
 
     index: int
@@ -57,6 +60,14 @@ class EventWindow:
     events: np.ndarray
     pos: np.ndarray
     neg: np.ndarray
+    t_first_event_us: int | None = None
+
+    @property
+    def span_ms(self) -> tuple[float, float]:
+        """Start and end, ms after the recording's first event (after the
+        window's own start when that is unknown)."""
+        origin = self.t_start_us if self.t_first_event_us is None else self.t_first_event_us
+        return (self.t_start_us - origin) / 1000.0, (self.t_end_us - origin) / 1000.0
 
     @property
     def edges(self) -> np.ndarray:
@@ -114,8 +125,9 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
       closer than ``refractory_us`` to the pixel's previous event, dropped or
       not (and drops an event at ``t == 0``).  Both loop in Python (~1 us per
       event).
-    * A recording without events, or a start after its last event, is an
-      InputError.
+    * A recording without events, one whose events all have the same
+      timestamp (a file cut short, most likely), or a start after its last
+      event, is an InputError.
     * ``encoding``, ``codec``, ``channel`` and ``timer_bits`` are the format
       options of :mod:`snn_fg.events.io`; an option that does not apply to
       the recording's format is a ParameterError.
@@ -133,6 +145,7 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
         if v is not None:
             validate.number("iter_windows", name, v, lo=0)
     stream = iter_recording(recording_or_path, chunk_events=chunk_events, sensor_size=sensor_size, **options)
+    stream.warn_no_span = False         # (refused below)
     size = stream.sensor_size
     name = stream.path if stream.path is not None else "<array>"
 
@@ -150,7 +163,7 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
             warnings.warn(f"{name}: window {k} [{ws} us, {we} us) has no events; its frames are all zero",
                           EmptyWindowWarning, stacklevel=3)
         pos, neg = events_to_frame(ev, size)
-        out = EventWindow(index=k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg)
+        out = EventWindow(index=k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg, t_first_event_us=t0)
         k += 1
         return out
 
@@ -175,6 +188,8 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
             buf = buf[keep_from:]
     if t0 is None:
         raise InputError(name, "recording contains no events")
+    if seen > 1 and prev_t == t0:
+        raise InputError(name, f"{no_span_problem(seen, t0)} and has no window to cut; is the file cut short?")
     if w_start > prev_t:
         if k == 0:
             raise InputError(name, f"start_ms={start_ms} lies after the last event "

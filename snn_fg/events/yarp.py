@@ -13,7 +13,7 @@ import numpy as np
 from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events._core import check_sensor_size, empty_events, pack_events
-from snn_fg.events.source import Source
+from snn_fg.events.source import DecodeTally, Source
 
 #: Address codecs of event-driven ("auto": guessed from the first AE words).
 CODECS = ("auto", "24", "20")
@@ -33,7 +33,7 @@ def open_yarp(path, sensor_size, chunk_events, *, codec: str = "auto", channel: 
     size = check_sensor_size(sensor_size or SENSOR_SIZE, path)
     keep = None if channel == "both" else channel
     return Source(path, "yarp", size,
-                  lambda n, tally: iter_yarp(path, codec=codec, channel=keep, timer_bits=timer_bits))
+                  lambda n, tally: iter_yarp(path, codec=codec, channel=keep, timer_bits=timer_bits, tally=tally))
 
 
 def is_yarp_line(line: bytes) -> bool:
@@ -82,15 +82,17 @@ def guess_codec(addr: np.ndarray) -> str:
 
 
 def iter_yarp(path, codec: str = "auto", channel: int | None = 0, timer_bits: int = TIMER_BITS,
-              lines_per_chunk: int = 20000):
+              lines_per_chunk: int = 20000, tally=None):
     """Decode AE bottles of a ``yarpdatadumper`` log: ``[n t] AE (ts addr ts addr ...)``.
 
     Timestamps are the ATIS counter masked to ``timer_bits`` bits (bit 31,
     a flag in older logs, is dropped) in 80 ns ticks; counter wraps (a drop
     of more than half the counter range) are unwrapped.  Only DVS events of
     ``channel`` (0 = left, 1 = right, ``None`` = both) are returned; other
-    bottle types and non-vision samples are skipped.
+    bottle types, non-vision samples and the other camera's events are
+    skipped, and counted in ``tally`` (a :class:`~snn_fg.events.source.DecodeTally`).
     """
+    tally = tally if tally is not None else DecodeTally()
     period = 1 << timer_bits
     mask = period - 1
     validate.choice("iter_yarp", "codec", codec, CODECS)
@@ -112,6 +114,9 @@ def iter_yarp(path, codec: str = "auto", channel: int | None = 0, timer_bits: in
             state["codec"] = guess_codec(addr)
         x, y, p, ch, is_dvs = decode_addresses(addr, state["codec"])
         keep = is_dvs if channel is None else is_dvs & (ch == channel)
+        tally.skip("non-vision samples (IMU or skin)", np.count_nonzero(~is_dvs))
+        if channel is not None:
+            tally.skip(f"events of the other camera (channel {1 - channel})", np.count_nonzero(is_dvs & ~keep))
         ts, x, y, p, lines = ts[keep], x[keep], y[keep], p[keep], lines[keep]
         if not len(ts):
             return empty_events()
@@ -144,6 +149,7 @@ def iter_yarp(path, codec: str = "auto", channel: int | None = 0, timer_bits: in
                                  f"line {lineno}")
             tag = m.group(3)
             if tag not in (b"AE", b"LAE"):
+                tally.skip(f"{tag.decode(errors='replace')} bottles")
                 continue
             try:
                 vals = np.array(m.group(4).split(), dtype=np.int64)

@@ -16,7 +16,11 @@ from .. import validate as check
 from ..errors import InputError
 
 FORMATS = ("pynn", "nir", "report", "network")
-TARGETS = ("generic", "spinnaker")
+TARGETS = ("generic", "spinnaker", "loihi2")
+#: the targets each format takes (generic: none in particular) and, for the
+#: report, which of its chips each one shows
+FORMAT_TARGETS = {"pynn": ("generic", "spinnaker"), "report": TARGETS}
+REPORT_CHIPS = {"spinnaker": ("spinnaker1", "spinnaker2"), "loihi2": ("loihi2",)}
 ICUB_SENSOR = (304, 240)      # iCub ATIS, width x height
 
 
@@ -29,7 +33,8 @@ def add_export_command(sub, sensor_size_arg, number):
                                    "(--format report, JSON, also printed) or the snn-fg description (--format "
                                    "network; with --network FILE.nir this reads a NIR export back).")
     p.add_argument("--format", required=True, metavar="|".join(FORMATS))
-    p.add_argument("--out", required=True, metavar="PATH", help="output folder (pynn) or file")
+    p.add_argument("--out", metavar="PATH", help="output folder (pynn) or file; optional for --format report, "
+                                                 "which prints its table")
     p.add_argument("--force", action="store_true", help="replace PATH if it exists")
     p.add_argument("--network", metavar="NAME|FILE", help="a network by name (default, compact: the deployment "
                                                           "form) or a stored description (.json) or NIR export "
@@ -41,7 +46,8 @@ def add_export_command(sub, sensor_size_arg, number):
     p.add_argument("--r0", type=number(float, 0), help="grouping radius in px (8)")
     p.add_argument("--target", default="generic", metavar="|".join(TARGETS),
                    help="pynn: generic, or spinnaker (also writes spinnaker.json: which projections sPyNNaker's "
-                        "ConvolutionConnector can carry)")
+                        "ConvolutionConnector can carry); report: every chip (generic), SpiNNaker 1 and 2 "
+                        "(spinnaker) or Loihi 2 (loihi2)")
     p.add_argument("--weight-bits", type=int, metavar="B", help="quantise weights to B bits (2-32), one scale per "
                                                                 "projection (pynn, nir)")
     p.add_argument("--dt-ms", type=number(float, 0), default=0.5, help="time step delays are counted in (0.5)")
@@ -103,13 +109,18 @@ def cmd_export(args) -> int:
 
     check.choice("snn-fg export", "--format", args.format, FORMATS)
     check.choice("snn-fg export", "--target", args.target, TARGETS)
-    if args.target != "generic" and args.format != "pynn":
-        raise InputError(args.out, "--target applies to --format pynn only")
+    if args.target not in FORMAT_TARGETS.get(args.format, ("generic",)):
+        takes = [f for f, targets in FORMAT_TARGETS.items() if args.target in targets]
+        raise InputError(f"--target {args.target}", f"applies to --format {' and '.join(takes)}, "
+                                                    f"not {args.format}")
     bits = None if args.weight_bits is None else check_bits(args.weight_bits, "snn-fg export")
     if bits is not None and args.format not in ("pynn", "nir"):
-        raise InputError(args.out, "--weight-bits applies to --format pynn and nir only")
-    out = Path(args.out)
-    _refuse_existing(out, args.force)
+        raise InputError("--weight-bits", "applies to --format pynn and nir only")
+    if args.out is None and args.format != "report":
+        raise InputError("--out", f"--format {args.format} needs an output path")
+    out = None if args.out is None else Path(args.out)
+    if out is not None:
+        _refuse_existing(out, args.force)
     net, sensor = _network(args)
     if args.format == "pynn":
         from .pynn import export_pynn
@@ -125,12 +136,17 @@ def cmd_export(args) -> int:
         from .report import report_table, resource_report
 
         rep = resource_report(net, dt_ms=args.dt_ms, sensor_shape=sensor)
-        if sensor is not None and rep["targets"]["spinnaker1"]["boards_spinn5"] > 1:
+        if args.target != "generic":
+            rep["targets"] = {k: v for k, v in rep["targets"].items() if k in REPORT_CHIPS[args.target]}
+        sp = rep["targets"].get("spinnaker1")
+        if sensor is not None and sp is not None and sp["boards_spinn5"] > 1:
             from .report import largest_sensor
 
-            rep["targets"]["spinnaker1"]["largest_sensor_one_board"] = largest_sensor(
-                lambda shape: network_for(net, shape)[0], sensor, "spinnaker1", args.dt_ms)
+            sp["largest_sensor_one_board"] = largest_sensor(lambda shape: network_for(net, shape)[0], sensor,
+                                                            "spinnaker1", args.dt_ms)
         print(report_table(rep))
+        if out is None:
+            return 0
         save_text(out, json.dumps(rep, indent=1) + "\n")
         what = "resource report"
     else:

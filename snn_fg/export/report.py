@@ -12,6 +12,7 @@ memory is smaller, the neuron counts the same.
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
 
@@ -236,27 +237,44 @@ def _global_weights(lif) -> dict:
     return out
 
 
+#: the report table's width, in characters
+TABLE_WIDTH = 100
+
+
+def readable(v: float) -> str:
+    """A number as a reader takes it in: ``3,000``, ``399``, ``0.00215``, ``8.72e-05``, ``4.57e+06``."""
+    if 100 <= abs(v) < 1e6:
+        return f"{v:,.0f}"
+    return f"{v:.3g}"
+
+
 def report_table(rep: dict) -> str:
-    """The report's headline figures as text."""
+    """The report's headline figures as text, at most :data:`TABLE_WIDTH` characters wide."""
     t = rep["totals"]
     h, w = rep["frame_shape"]
     pool = rep.get("input_pool", 1)
-    pooled = f", the sensor pooled {pool} x {pool}" if pool > 1 else ""
-    lines = [f"Whole network for a {h} x {w} frame{pooled}, {rep['levels']} levels, {rep['n_ori']} orientations "
-             f"(dt {rep['dt_ms']} ms)",
-             f"  neurons {t['neurons']:,}  spike sources {t['sources']:,}  synapses {t['synapses']:,}",
-             f"  max fan-in {t['max_fan_in']:,}  max fan-out {t['max_fan_out']:,}  delays (steps) {t['delay_steps']}"]
+    if rep.get("sensor_shape"):
+        h, w = rep["sensor_shape"]
+    seen = f", pooled {pool} x {pool}" if pool > 1 else ""
+    lines = [f"Whole network for a {w} x {h} sensor (width x height){seen}, {rep['levels']} levels, {rep['n_ori']} "
+             f"orientations, dt {rep['dt_ms']:g} ms",
+             f"  neurons {t['neurons']:,}   spike sources {t['sources']:,}   synapses {t['synapses']:,}",
+             f"  max fan-in {t['max_fan_in']:,}   max fan-out {t['max_fan_out']:,}   delays (steps) "
+             f"{', '.join(str(d) for d in t['delay_steps'])}"]
     for rec, wr in t["weights_mv"].items():
-        lines.append(f"  {rec} weights {wr['min']:.3g}-{wr['max']:.3g} mV (range {wr['range']:.3g}; widest on one "
-                     f"population {wr['max_range_on_one_population']:.3g})")
+        lines.append(f"  {rec} weights {readable(wr['min'])} to {readable(wr['max'])} mV: range "
+                     f"{readable(wr['range'])} ({readable(wr['max_range_on_one_population'])} on one population)")
     for name, tg in rep["targets"].items():
-        size = f"cores {tg['cores']:,}  chips {tg['chips']:,}"
+        size = f"cores {tg['cores']:,}   chips {tg['chips']:,}"
         if "boards_spinn5" in tg:
-            size += f"  SpiNN-5 boards {tg['boards_spinn5']:,}"
+            size += f"   SpiNN-5 boards {tg['boards_spinn5']:,}"
         lines.append(f"{name:11s} {size}")
         for v in tg["violations"]:
-            lines.append(f"    violates {v['constraint']}: {v['value']} (limit {v['limit']}; {v['source']})")
+            value, limit = (readable(x) if isinstance(x, (int, float)) else x for x in (v["value"], v["limit"]))
+            lines.append(textwrap.fill(f"violates {v['constraint']}: {value} (limit {limit}; {v['source']})",
+                                       TABLE_WIDTH, initial_indent="  ", subsequent_indent="      ",
+                                       break_on_hyphens=False))
         one = tg.get("largest_sensor_one_board")
         if one:
-            lines.append(f"    one board holds at most a {one['width']} x {one['height']} sensor ({one['chips']} chips)")
+            lines.append(f"  one board holds at most a {one['width']} x {one['height']} sensor ({one['chips']} chips)")
     return "\n".join(lines)

@@ -1,0 +1,92 @@
+"""``snn-fg compare`` and the times a user sees: files only when asked, a
+figure of both maps and their difference, times from the recording's first event."""
+import json
+import os
+
+import numpy as np
+import pytest
+
+from snn_fg.cli import main
+from snn_fg.maps import Maps
+
+#: a recording stamped in Unix time, as AEDAT4 files are (2020-05-11, in us)
+UNIX_T0 = 1_589_163_147_368_900
+
+
+@pytest.fixture(scope="module")
+def unix_recording(tmp_path_factory):
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.scenes import disc
+
+    rec = image_to_events(disc(16).image, motion="circle")
+    ev = rec.events.copy()
+    ev["t"] += UNIX_T0 - ev["t"][0]
+    path = tmp_path_factory.mktemp("rec") / "disc.npz"
+    save_events(path, ev, rec.sensor_size)
+    return path
+
+
+def _run(path, out, *more):
+    assert main(["run", str(path), "--out", str(out), "--window-ms", "50", "--levels", "4", "--no-progress",
+                 *more]) == 0
+    return Maps.load(out / "maps.npz")
+
+
+def test_times_count_from_the_first_event_in_maps_figures_and_params(unix_recording, tmp_path, monkeypatch):
+    from snn_fg.models import Model
+
+    titles = []
+    real = Model.write_figures
+    monkeypatch.setattr(Model, "write_figures", lambda self, out, maps, inputs, t=None, crop=None:
+                        titles.append(t) or real(self, out, maps, inputs, t, crop))
+    m = _run(unix_recording, tmp_path / "a", "--start-ms", "100", "--max-windows", "3")
+    assert titles == [["100-150 ms", "150-200 ms", "200-250 ms"]]      # not "0-50 ms" (from the first window)
+    assert m.extra["t_start_us"].tolist() == [100_000, 150_000, 200_000]
+    assert m.extra["t_end_us"].tolist() == [150_000, 200_000, 250_000]
+    assert m.params["source"]["first_event_us"] == UNIX_T0 and m.params["source"]["start_ms"] == 100
+
+
+def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recording, tmp_path, capsys):
+    _run(unix_recording, tmp_path / "a", "--max-windows", "3")
+    _run(unix_recording, tmp_path / "b", "--max-windows", "3", "--r0", "6")
+    before = {d: sorted(os.listdir(tmp_path / d)) for d in ("a", "b")}
+    capsys.readouterr()
+    assert main(["compare", str(tmp_path / "a" / "maps.npz"), str(tmp_path / "b" / "maps.npz")]) == 0
+    out = capsys.readouterr().out
+    assert {d: sorted(os.listdir(tmp_path / d)) for d in ("a", "b")} == before == {"a": ["maps.npz", "maps.png"],
+                                                                                   "b": ["maps.npz", "maps.png"]}
+    assert sorted(os.listdir(tmp_path)) == ["a", "b"] and "saved" not in out
+    t_column = [line.split()[2] for line in out.splitlines()[1:4]]
+    assert t_column == ["0.0", "50.0", "100.0"] and str(UNIX_T0 // 1000)[:6] not in out
+    assert main(["compare", str(tmp_path / "a" / "maps.npz"), str(tmp_path / "b" / "maps.npz"),
+                 "--json", str(tmp_path / "c.json"), "--plot", str(tmp_path / "c.png")]) == 0
+    rows = json.loads((tmp_path / "c.json").read_text())["windows"]
+    assert [r["t_start_ms"] for r in rows] == [0.0, 50.0, 100.0]
+    assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_compare_figure_draws_both_maps_and_their_angle_difference():
+    from snn_fg.figures import compare_figure
+    from snn_fg.metrics import compare_maps
+
+    fx = np.zeros((3, 30, 40), np.float32)
+    fx[:, 10, 5:35] = 1.0                       # an edge owned by the side to its right...
+    fy = np.zeros_like(fx)
+    bx = fx.copy()
+    bx[1, 10, 5:15] = -1.0                      # ...in B's window 1 partly by the other side
+    bx[1, 20, 5:10] = 1.0                       # and five vectors A has not
+    starts = {"t_start_us": np.array([0, 50_000, 100_000])}
+    a, b = Maps(fx, fy, fx.copy(), {}, starts), Maps(bx, fy, fx.copy(), {}, starts)
+    rows = compare_maps(a, b)
+    fig = compare_figure(a, b, rows, max_rows=2)
+    axes = np.array(fig.axes[:6]).reshape(2, 3)
+    assert "2 of 3 compared windows shown" in fig._suptitle.get_text()
+    assert [ax.get_title() for ax in axes[:, 0]] == ["A window 0, 0 ms", "A window 2, 100 ms"]
+    fig = compare_figure(a, b, rows[1:2])
+    ax_a, ax_b, ax_d = fig.axes[:3]
+    grey, diff = (im.get_array() for im in ax_d.images)
+    diff = np.ma.filled(diff.astype(float), np.nan)
+    assert np.all(diff[10, 5:15] == 180) and np.all(diff[10, 15:35] == 0)
+    assert np.isnan(diff[20, 5:10]).all() and np.all(grey[20, 5:10] < 1)    # one map only: grey
+    assert np.isnan(diff).sum() == diff.size - 30
+    assert "mean 60°, 67% within 45°" in ax_d.get_title()

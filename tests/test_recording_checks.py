@@ -1,0 +1,103 @@
+"""Recordings that read but look wrong, and what a decoder leaves out:
+a file cut at an event boundary warns (and cannot be cut into windows), and
+summaries name what they skip, with counts."""
+import numpy as np
+import pytest
+
+from snn_fg.cli import main
+from snn_fg.errors import InputError
+from snn_fg.events import EVENT_DTYPE, iter_windows, open_recording, save_events
+from snn_fg.events.writers import encode_evt2, encode_evt3
+
+
+def _burst_es(path):
+    """A DVS Event Stream opening with 200 ON events at t = 0 (5 bytes each: no
+    time passes between them), then events every 10 ms."""
+    ev = np.zeros(300, EVENT_DTYPE)
+    ev["x"], ev["y"] = np.arange(300) % 40, np.arange(300) // 40
+    ev["t"][200:] = np.arange(1, 101) * 10_000
+    ev["p"][:200] = 1
+    save_events(path, ev, (40, 30))
+    return path
+
+
+def test_a_file_cut_at_an_event_boundary_warns_and_cannot_be_run(tmp_path, capsys, recwarn):
+    from snn_fg.errors import InputWarning
+
+    rec = open_recording(_burst_es(tmp_path / "whole.es"))          # the whole file: no warning, 12 windows
+    assert len(rec) == 300 and not [w for w in recwarn if issubclass(w.category, InputWarning)]
+    assert len(list(iter_windows(rec, window_ms=85))) == 12
+    whole = (tmp_path / "whole.es").read_bytes()
+    cut = tmp_path / "cut.es"
+    cut.write_bytes(whole[:20 + 5 * 100])           # header, then exactly 100 whole events of the burst
+    problem = f"{cut}: all 100 events have the same timestamp (0 us), so the recording spans no time"
+    assert main(["events", str(cut), "--no-progress"]) == 0
+    out, err = capsys.readouterr()
+    assert "events:     100 (ON 100.0 %)" in out
+    assert err == f"snn-fg: warning: {problem}; is the file cut short?\n"
+    assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("snn-fg: error: " + problem) and err.count("\n") == 1 and not (tmp_path / "o").exists()
+    with pytest.warns(InputWarning, match="all 100 events have the same timestamp"):
+        open_recording(cut)
+    with pytest.raises(InputError, match="spans no time and has no window to cut"):
+        next(iter_windows(cut))
+    cut.write_bytes(whole[:20 + 5 * 100 + 2])       # (cut inside an event: an error with its byte offset)
+    with pytest.raises(InputError, match="file ends inside an event .* byte offset 520"):
+        open_recording(cut)
+
+
+class _FakeAedat:
+    """Stands in for ``aedat.Decoder`` on a DAVIS recording: events, APS
+    frames, IMU samples, triggers and a second event stream."""
+
+    def __init__(self, path):
+        ev = np.zeros(5, [("t", "<i8"), ("x", "<u2"), ("y", "<u2"), ("on", "?")])
+        ev["t"] = np.arange(5) * 1000
+        later = ev.copy()
+        later["t"] += 5000
+        self.packets = [{"stream_id": 0, "events": ev}, {"stream_id": 1, "frame": {"width": 8, "height": 6}},
+                        {"stream_id": 2, "imus": np.zeros(7)}, {"stream_id": 1, "frame": {"width": 8, "height": 6}},
+                        {"stream_id": 3, "triggers": np.zeros(3)}, {"stream_id": 4, "events": ev[:2]},
+                        {"stream_id": 0, "events": later}]
+
+    def id_to_stream(self):
+        return {0: {"type": "events", "width": 8, "height": 6}, 1: {"type": "frame", "width": 8, "height": 6},
+                2: {"type": "imus"}, 3: {"type": "triggers"}, 4: {"type": "events", "width": 8, "height": 6}}
+
+    def __iter__(self):
+        return iter(self.packets)
+
+
+def test_summaries_name_what_they_skip(tmp_path, monkeypatch, capsys):
+    import aedat
+
+    path = tmp_path / "davis.aedat4"
+    body = b"<dv><node name='outInfo'/></dv>"
+    path.write_bytes(b"#!AER-DAT4.0\r\n" + len(body).to_bytes(4, "little") + body)
+    monkeypatch.setattr(aedat, "Decoder", _FakeAedat)
+    assert main(["events", str(path), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "events:     10 " in out
+    assert ("skipped:    2 APS frames, 7 IMU samples, 3 trigger events, 2 events of stream 4 (read, not used by "
+            "the model)") in out
+
+    ev = np.zeros(6, EVENT_DTYPE)
+    ev["x"], ev["t"] = np.arange(6), np.arange(6) * 100
+    trigger = (0xA << 28) | 5                    # an EVT2 external trigger word
+    raw = encode_evt2(ev, (8, 6))
+    (tmp_path / "t.raw").write_bytes(raw + np.array([trigger, trigger], "<u4").tobytes())
+    evt3 = encode_evt3(ev, (8, 6))
+    (tmp_path / "t3.raw").write_bytes(evt3 + np.array([(0xA << 12) | 1], "<u2").tobytes())
+    for name, n in (("t.raw", 2), ("t3.raw", 1)):
+        assert main(["events", str(tmp_path / name), "--no-progress"]) == 0
+        assert f"skipped:    {n} trigger events (read" in capsys.readouterr().out
+
+    log = tmp_path / "data.log"
+    right, imu = (1 << 22) | (3 << 1), (1 << 23) | 5
+    log.write_text("0 1.0 AE (10 2 20 4 30 %d 40 %d)\n1 1.1 IMUS (1 2 3)\n2 1.2 AE (50 6)\n" % (right, imu))
+    assert main(["events", str(log), "--no-progress"]) == 0
+    skipped, = [line for line in capsys.readouterr().out.splitlines() if line.startswith("skipped:")]
+    listed = skipped.removeprefix("skipped:").removesuffix(" (read, not used by the model)").strip()
+    assert sorted(listed.split(", ")) == ["1 IMUS bottles", "1 events of the other camera (channel 1)",
+                                          "1 non-vision samples (IMU or skin)"]

@@ -48,6 +48,7 @@ else:
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 print(base, peak, time.perf_counter() - t0, Path(sys.argv[2]).stat().st_size)
 """
+#: an export's run.py in its own folder, printing its peak resident memory at the end (bytes)
 RUN_CHILD = """
 import resource, runpy, sys
 sys.path.insert(0, ".")
@@ -125,10 +126,12 @@ def fit(out: dict, n_fit: int):
 
 
 def markdown(out: dict) -> str:
-    lines = ["# Memory of the exports", "", f"Machine: shared, 2 cores; {time.strftime('%d %b %Y %H:%M UTC', time.gmtime())}.", ""]
+    when = time.strftime("%d %b %Y %H:%M UTC", time.gmtime())
+    lines = ["# Memory of the exports", "", f"Machine: shared, 2 cores; {when}.", ""]
     if "nir_whole" in out:
         lines += ["## Writing the NIR file of the default 304 x 240 network", "",
-                  "| writer | baseline GB | peak GB | above baseline GB | write s | file MB | load |", "|---|---|---|---|---|---|---|"]
+                  "| writer | baseline GB | peak GB | above baseline GB | write s | file MB | load |",
+                  "|---|---|---|---|---|---|---|"]
         for mode in ("whole", "streaming"):
             r = out[f"nir_{mode}"]
             lines.append(f"| {mode} | {r['baseline_gb']:.2f} | {r['peak_gb']:.2f} | {r['above_gb']:.2f} | "
@@ -143,9 +146,9 @@ def markdown(out: dict) -> str:
                   "| size (WxH:levels) | cells+sources | synapses | peak GB | predicted GB | error | wall s | load |",
                   "|---|---|---|---|---|---|---|---|"]
         for r in out["nest_runs"]:
+            predicted, error = r.get("predicted_gb", float("nan")), 100 * r.get("error_frac", float("nan"))
             lines.append(f"| {r['size']} | {r['cells']:,} | {r['synapses']:,} | {r['peak_gb']:.2f} | "
-                         f"{r.get('predicted_gb', float('nan')):.2f} | {100 * r.get('error_frac', float('nan')):+.0f} % | "
-                         f"{r['wall_s']:.0f} | {r['load']} |")
+                         f"{predicted:.2f} | {error:+.0f} % | {r['wall_s']:.0f} | {r['load']} |")
     return "\n".join(lines) + "\n"
 
 

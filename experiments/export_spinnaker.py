@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
@@ -24,21 +23,13 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "experiments"))
+
+from export_memory import RUN_CHILD, load  # noqa: E402
 
 from snn_fg.atomic import save_text  # noqa: E402
 
 OUT = ROOT / "experiments" / "results"
-MEM = """
-import resource, runpy, sys
-sys.path.insert(0, ".")
-sys.argv = ["run.py"] + sys.argv[1:]
-runpy.run_path("run.py", run_name="__main__")
-print("MAXRSS", resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
-"""
-
-
-def load() -> str:
-    return " ".join(f"{v:.1f}" for v in os.getloadavg())
 
 
 def export_args(config: str) -> list:
@@ -56,7 +47,7 @@ def one(config: str, combined: bool, tmp: Path) -> dict:
                        + export_args(config), check=True, capture_output=True, text=True)
     flags = ["--simulator", "spinnaker", "--virtual-board", "--map-only"] + (["--combined-cores"] if combined else [])
     load0, t0 = load(), time.perf_counter()
-    done = subprocess.run([sys.executable, "-c", MEM] + flags, cwd=folder, capture_output=True, text=True)
+    done = subprocess.run([sys.executable, "-c", RUN_CHILD] + flags, cwd=folder, capture_output=True, text=True)
     if done.returncode:
         err = done.stderr.strip().splitlines()
         return {"config": config, "combined_cores": combined, "failed": err[-1] if err else "?",
@@ -84,8 +75,9 @@ def markdown(rows) -> str:
         k = m["cores_by_kind"]
         syn = k.get("PopulationSynapsesMachineVertexLead", 0) + k.get("PopulationSynapsesMachineVertexShared", 0)
         neu = k.get("PopulationNeuronsMachineVertex", 0) + k.get("PopulationMachineVertex", 0)
+        est = m["estimate"]
         lines.append(f"| {m['config']} | {'combined' if m['combined_cores'] else 'sPyNNaker'} | {m['chips_used']} | "
-                     f"{m['cores_used']} ({m['cores_network']}) | {m['estimate']['chips']} / {m['estimate']['cores']} | "
+                     f"{m['cores_used']} ({m['cores_network']}) | {est['chips']} / {est['cores']} | "
                      f"{m['fits']} | {neu} / {syn} / {k.get('PopulationMachineLocalOnlyCombinedVertex', 0)} | "
                      f"{m['machine_chips']} chips | {m['sPyNNaker_s']['mapping']:.0f} | {m['peak_gb']:.1f} | "
                      f"{m['load']} |")

@@ -53,9 +53,45 @@ def test_snntorch_profile_graph_has_only_the_node_kinds_snntorch_imports(tmp_pat
     assert [n for n, v in g.nodes.items() if type(v).__name__ == "Input"] == ["input"]
     nir.write(tmp_path / "g.nir", g)
     back = nir.read(tmp_path / "g.nir")
-    # the resting potential is a constant current: the bias of one Conv2d into the cells
-    simple = net.one("simple", 1)
-    into = [n for a, n in back.edges if n == "simple_1"]
-    assert into and all(np.all(back.nodes[c].v_leak == 0) for c in ("simple_1", "bo_L1_1"))
-    biased = [a for a, b in back.edges if b == "simple_1" and np.any(back.nodes[a].bias != 0)]
-    assert len(biased) == (1 if simple.neuron.v_rest_mv != 0 else 0)
+    # the resting potential is a constant current: the bias of a zero-weight Conv2d from the input,
+    # r * w_in * bias = v_rest
+    for name in ("simple_1", "bo_L1_1"):
+        cells, rest = back.nodes[name], back.nodes[f"{name}.rest"]
+        v_rest = net.population(name).neuron.v_rest_mv
+        assert np.all(cells.v_leak == 0) and not np.any(rest.weight) and ("input", f"{name}.rest") in back.edges
+        assert np.allclose(cells.r.flat[0] * cells.w_in.flat[0] * rest.bias, v_rest, rtol=1e-6, atol=1e-9)
+    assert net.one("simple", 1).neuron.v_rest_mv != 0
+
+
+@pytest.mark.slow
+def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
+    """snnTorch 1.0 (an independent NIR consumer) runs the graph read back
+    from its file on a disc; its spike counts, decoded with our decoder,
+    give the fast engine's maps of the exported network on the same input."""
+    pytest.importorskip("snntorch", reason='needs pip install "snn-fg[snntorch]"')
+    import torch
+
+    from snn_fg.backends import RunSettings, get_backend
+    from snn_fg.events import image_to_frame
+    from snn_fg.export.board import board_network
+    from snn_fg.export.nir_snntorch import export_nir_snntorch, run_snntorch, snntorch_network
+    from snn_fg.metrics import agreement
+    from snn_fg.scenes import disc
+    from snn_fg.spiking.decode import decode, decode_rates
+    from snn_fg.spiking.inputs import frame_spikes
+
+    torch.set_num_threads(1)
+    pos, neg = image_to_frame(disc(8).image)
+    cut = (slice(16, 48), slice(16, 48))           # the disc and its surround, 32 x 32
+    inp = frame_spikes(pos[cut], neg[cut], 200.0, 0.5, 150.0)
+    net = build_network(ModelParams(levels=1, r0=4), (32, 32))
+    path = export_nir_snntorch(net, tmp_path / "g.nir")
+    counts = run_snntorch(nir.read(path), net, inp, step_ms=0.5, duration_ms=150.0, count_from_ms=75.0)
+    profile = snntorch_network(net)
+    ours = decode_rates(profile, {k: np.arange(v.size) for k, v in counts.items()},
+                        {k: v / 0.075 for k, v in counts.items()})[:3]
+    ref = decode(get_backend("fast").simulate(board_network(net), inp, RunSettings(
+        duration_ms=150.0, count_from_ms=75.0, instantiate="all")))[:3]
+    a = agreement(ours, ref)
+    assert sum(int(c.sum()) for c in counts.values()) > 1000
+    assert a["grouping_r"] >= 0.9 and a["within_45"] >= 0.85 and a["coverage"] >= 0.8, a

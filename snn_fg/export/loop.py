@@ -120,6 +120,8 @@ def write_spikes(args) -> int:
 
     if args.export is None:
         raise InputError(args.write_spikes, "--write-spikes needs --export DIR (the export's frame and time step)")
+    if args.write_frame or args.write_events:
+        raise InputError(args.write_spikes, "--write-spikes goes alone: not with --write-frame or --write-events")
     if Path(args.write_spikes).suffix.lower() != ".npz":
         raise InputError(args.write_spikes, "--write-spikes needs an .npz file name")
     net, meta = export_network(args.export)

@@ -134,15 +134,23 @@ def _population_nodes(nir, p: Population) -> dict:
             f"{p.name}.inh": nir.LI(tau=full(n.tau_inh_ms * MS), r=full(-n.tau_inh_ms * MS), v_leak=full(0.0))}
 
 
-def _conv_nodes(nir, net: Network, pr: Conv, scale: float | None, bits) -> tuple[dict, list]:
-    src, tgt = net.population(pr.source), net.population(pr.target)
+def conv2d_drive(net: Network, pr: Conv, bits=None, scale: float = 0.0):
+    """The signed drive ``sign * gain * K`` (mV) of a Conv as a NIR ``Conv2d``
+    weight (pruned, cross-correlation as in PyTorch), quantised to ``bits``,
+    and how it splits between the receptors: ``(drive, excitatory mask, |weight|)``."""
     k = pr.kernel.array(net.params)
     if pr.prune > 0:
         k = np.where(np.abs(k) >= pr.prune * np.abs(k).max(), k, 0.0)
     if pr.mode == "conv":
         k = k[:, :, ::-1, ::-1]
-    drive = quantise(pr.sign * pr.gain_mv * k, bits, scale or 0.0)
-    exc, mag = split_receptors(drive, pr.sign, tgt.neuron.tau_exc_ms, tgt.neuron.tau_inh_ms)
+    drive = quantise(pr.sign * pr.gain_mv * k, bits, scale)
+    n = net.population(pr.target).neuron
+    return (drive, *split_receptors(drive, pr.sign, n.tau_exc_ms, n.tau_inh_ms))
+
+
+def _conv_nodes(nir, net: Network, pr: Conv, scale: float | None, bits) -> tuple[dict, list]:
+    src, tgt = net.population(pr.source), net.population(pr.target)
+    k, exc, mag = conv2d_drive(net, pr, bits, scale or 0.0)
     nodes, edges = {}, []
     pad = "wrap" if pr.padding == "wrap" else "zero"
     for rec, sel, sgn in (("exc", exc, 1.0), ("inh", ~exc & (mag > 0), 1.0)):

@@ -13,11 +13,13 @@ writes instead:
 * each population one ``CubaLIF`` (its one synaptic time constant; refused
   when a population's excitatory and inhibitory ones differ), ``v_leak = 0``
   and ``v_reset = 0``, its resting potential a constant current: the bias of
-  the first ``Conv2d`` into it (exact once the synaptic current has settled);
+  a 1 x 1 ``Conv2d`` ``<pop>.rest`` of zero weights from the input (exact
+  once the synaptic current has settled);
 * each projection one ``Conv2d`` of signed weights straight into its target:
   **no delays** (inside a feedback loop the consumer's one step, elsewhere
   none);
-* one ``Input`` node ``input`` of shape (2, H, W): ON and OFF pixels;
+* one ``Input`` node ``input`` of shape (2, H, W): ON and OFF pixels, and
+  one ``Output`` node (nirtorch 2.6 loops for ever on two);
 * **no refractory period** (NIR has none) and **zero padding** where ours
   wraps around;
 * snnTorch reads a spike as a one-step pulse of unit height, a current of
@@ -40,14 +42,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import ParameterError
 from ..network.graph import Network
 from ..network.nodes import Conv, Resize
-from .nir import _graph_metadata, _nir, flat_network
-from .pynn_model import split_receptors
+from .nir import _graph_metadata, _nir, conv2d_drive, flat_network
 
 #: snnTorch 1.0's fixed time step in its NIR import (s)
 SNNTORCH_DT_S = 1e-4
@@ -93,27 +95,29 @@ def _cuba(nir, p, step_s: float):
                        metadata={"snn_fg_population": p.name, "v_rest_mv": n.v_rest_mv})
 
 
-def _conv(nir, net: Network, pr: Conv, sources: list, bias_mv: float | None, step_s: float):
+def _rest(nir, p, sources: list, step_s: float):
+    """The 1 x 1 Conv2d of zero weights from the input whose bias is the
+    resting potential's constant current into ``p`` (r w_in b = v_rest, r w_in
+    = tau_syn / step). It is also every population's first input: nirtorch
+    2.6 gives an input from later in a loop a one-element zero tensor on the
+    first step, which only adds up beside an input of the population's shape."""
+    bias = np.full(p.channels, p.neuron.v_rest_mv * step_s / (p.neuron.tau_exc_ms * 1e-3), np.float32)
+    return nir.Conv2d(input_shape=p.grid, weight=np.zeros((p.channels, len(sources), 1, 1), np.float32), stride=1,
+                      padding=0, dilation=1, groups=1, bias=bias, metadata={"v_rest_mv": p.neuron.v_rest_mv})
+
+
+def _conv(nir, net: Network, pr: Conv, sources: list):
     """One Conv2d of signed weights (the inhibitory receptor's charge kept) into ``pr``'s target."""
-    src, tgt = net.population(pr.source), net.population(pr.target)
-    k = pr.kernel.array(net.params)
-    if pr.prune > 0:
-        k = np.where(np.abs(k) >= pr.prune * np.abs(k).max(), k, 0.0)
-    if pr.mode == "conv":
-        k = k[:, :, ::-1, ::-1]
-    n = tgt.neuron
-    exc, mag = split_receptors(pr.sign * pr.gain_mv * k, pr.sign, n.tau_exc_ms, n.tau_inh_ms)
+    src = net.population(pr.source)
+    k, exc, mag = conv2d_drive(net, pr)
     w = np.where(exc, mag, -mag)
     if src.is_source:           # the one Input node stacks the spike sources as channels
         full = np.zeros((w.shape[0], len(sources), *w.shape[2:]))
         full[:, sources.index(src.name)] = w[:, 0]
         w = full
-    bias = np.zeros(w.shape[0])
-    if bias_mv:         # r * w_in * b = v_rest with r w_in = tau_syn / step
-        bias[:] = bias_mv * step_s / (n.tau_exc_ms * 1e-3)
     return nir.Conv2d(input_shape=src.grid, weight=w.astype(np.float32), stride=1,
-                      padding=(k.shape[2] // 2, k.shape[3] // 2), dilation=1, groups=1, bias=bias.astype(np.float32),
-                      metadata={"projection": pr.name})
+                      padding=(k.shape[2] // 2, k.shape[3] // 2), dilation=1, groups=1,
+                      bias=np.zeros(w.shape[0], np.float32), metadata={"projection": pr.name})
 
 
 def to_nir_snntorch(network: Network, *, step_ms: float = 0.5):
@@ -126,24 +130,34 @@ def to_nir_snntorch(network: Network, *, step_ms: float = 0.5):
     h, w = net.frame_shape
     nodes = {"input": nir.Input(input_type={"input": np.array([len(sources), h, w])},
                                 metadata={"channels": json.dumps(sources)})}
-    edges, biased = [], set()
+    edges = []
     for p in net.populations:
-        if p.is_source:
-            continue
-        nodes[p.name] = _cuba(nir, p, step_s)
-        if p.role.startswith(("bo_", "group_")):
-            nodes[f"{p.name}.spikes"] = nir.Output(output_type={"output": np.array(p.shape)})
-            edges.append((p.name, f"{p.name}.spikes"))
+        if not p.is_source:
+            nodes[p.name] = _cuba(nir, p, step_s)
+            nodes[f"{p.name}.rest"] = _rest(nir, p, sources, step_s)
+            edges += [("input", f"{p.name}.rest"), (f"{p.name}.rest", p.name)]
+    # nirtorch 2.6 takes one Output node (with two, its graph builder re-queues them for ever); a consumer
+    # reads the other populations' spikes from their modules (run_snntorch)
+    out = net.one("group_L", 1)
+    nodes["output"] = nir.Output(output_type={"output": np.array(out.shape)})
+    edges.append((out.name, "output"))
     for pr in net.projections:
-        tgt = net.population(pr.target)
-        bias = None if pr.target in biased else tgt.neuron.v_rest_mv
-        biased.add(pr.target)
-        nodes[pr.name] = _conv(nir, net, pr, sources, bias, step_s)
+        nodes[pr.name] = _conv(nir, net, pr, sources)
         edges += [("input" if pr.source in sources else pr.source, pr.name), (pr.name, pr.target)]
     meta = json.loads(_graph_metadata(network, net, None)["snn_fg"])
     meta["profile"] = {"name": PROFILE, "step_s": step_s, "time_scale": SNNTORCH_DT_S / step_s,
                        "input_channels": sources}
     return nir.NIRGraph(nodes=nodes, edges=edges, metadata={"snn_fg": json.dumps(meta)})
+
+
+def export_nir_snntorch(network: Network, out, *, step_ms: float = 0.5) -> Path:
+    """Write the graph of this profile to ``out`` (atomically)."""
+    from ..atomic import atomic_path
+
+    graph = to_nir_snntorch(network, step_ms=step_ms)
+    with atomic_path(out, suffix=".nir") as tmp:
+        _nir().write(tmp, graph)
+    return Path(out)
 
 
 def _snntorch():

@@ -12,13 +12,16 @@ import sys
 import time
 
 #: peak memory of run.py on NEST: a fixed part (Python, numpy, PyNN, NEST) ...
-NEST_BASE_BYTES = 0.42e9
-#: ... plus this much per cell or spike source (the cell, its spike counter, the recorder's share) ...
-NEST_BYTES_PER_CELL = 2500.0
-#: ... plus this much per synapse (NEST's synapse and run.py's unrolled lists while one projection is connected)
-NEST_BYTES_PER_SYNAPSE = 110.0
-#: building: synapses connected per second, one thread (on a shared 2-core machine)
-NEST_SYNAPSES_PER_S = 1.0e6
+NEST_BASE_BYTES = 0.14e9
+#: ... plus this much per cell or spike source (NEST's node, the cell's spike counter and its share of the
+#: recorder, run.py's arrays) ...
+NEST_BYTES_PER_CELL = 10_100.0
+#: ... plus this much per synapse. Fitted on exports of 24x24 (1 level), 32x24 (2) and 48x36 (3); predicts
+#: 64x48 with 3 levels at 6.47 GB (measured 6.47) and with 4 at 6.92 GB (measured 7.16, -3 %)
+NEST_BYTES_PER_SYNAPSE = 35.3
+#: building: synapses connected per second, one thread: 0.8-2.1 x 10^5 measured at those sizes on a
+#: shared 2-core machine at load 15-17 (an idle machine is faster)
+NEST_SYNAPSES_PER_S = 1.0e5
 _last = [0.0]
 
 
@@ -60,7 +63,7 @@ def check_memory(meta: dict, memory_gb: float | None = None) -> float:
                  f"{need / 1e9:.1f} GB on NEST, more than the {have / 1e9:.1f} GB "
                  f"{'given (--memory-gb)' if memory_gb is not None else 'available'}: use a smaller export "
                  "(--sensor-size, --levels) or a larger machine")
-    print(f"run.py: {cells:,} cells, {synapses:,} synapses: expect about {need / 1e9:.1f} GB and "
-          f"{synapses / NEST_SYNAPSES_PER_S / 60:.0f} min to build on NEST (measured figures in fg_memory.py)",
-          flush=True)
+    print(f"run.py: {cells:,} cells, {synapses:,} synapses: expect about {need / 1e9:.1f} GB and up to "
+          f"{synapses / NEST_SYNAPSES_PER_S / 60:.0f} min to build on NEST, one thread (measured figures in "
+          "fg_memory.py); simulating takes 1-6 s per simulated ms at those sizes", flush=True)
     return need

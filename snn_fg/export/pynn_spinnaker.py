@@ -192,6 +192,7 @@ class SpiNNakerNetwork(PyNNNetwork):
         sim.set_number_of_neurons_per_core(sim.IF_curr_exp, CELLS_PER_CORE)
         self.layout, self.meta = dict(layout), populations
         self.parts: dict = {}        # split population -> one Population per channel
+        self.n_convolution_connectors = 0
 
     def _grid(self, name):
         p = self.meta[name]
@@ -263,6 +264,7 @@ class SpiNNakerNetwork(PyNNNetwork):
             b = self.parts[target][o] if target in self.parts else self.pops[target]
             conn = self.sim.ConvolutionConnector(k, strides=int(strides), padding=(pc, pr))
             self.sim.Projection(a, b, conn, dyn)
+        self.n_convolution_connectors += len(planes)
         return len(planes)
 
     def record(self, names, *, spikes: bool = True, count_edges_ms=()):

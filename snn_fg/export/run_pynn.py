@@ -175,7 +175,7 @@ def main(argv=None):
     net = build(sim, meta, tables, sources, dt_ms, args, (start, args.duration_ms), plan)
     t1 = time.perf_counter()
     if args.virtual_board:
-        return write_mapping(sim, meta, plan, args, t1 - t0)
+        return write_mapping(sim, meta, plan, args, t1 - t0, net.n_convolution_connectors)
     net.run(args.duration_ms, report=lambda done: fg_memory.progress(f"simulated {done:g}/{args.duration_ms:g} ms"))
     out = {"duration_ms": args.duration_ms, "dt_ms": dt_ms, "count_from_ms": start}
     for p in meta["populations"]:
@@ -189,7 +189,7 @@ def main(argv=None):
           f"wrote {args.out}")
 
 
-def write_mapping(sim, meta, plan, args, build_s):
+def write_mapping(sim, meta, plan, args, build_s, n_conv):
     """sPyNNaker's partitioning, placement, routing and data generation on the
     virtual board (``sim.run`` stops before loading), summarised in mapping.json."""
     import fg_spinnaker
@@ -206,7 +206,8 @@ def write_mapping(sim, meta, plan, args, build_s):
     out = {"tool": {"name": "sPyNNaker", "version": _version.__version__},
            "board": "SpiNN-5 (48 chips), virtual", **used,
            "estimate": {k: est.get(k) for k in ("cores", "chips", "boards_spinn5")},
-           "connectors": {"ConvolutionConnector": len(conv), "FromListConnector": len(plan["projections"]) - len(conv)},
+           "connectors": {"ConvolutionConnector": len(conv), "FromListConnector": len(plan["projections"]) - len(conv),
+                          "ConvolutionConnector_instances": n_conv},
            "duration_ms": args.duration_ms, "data_generation": not args.map_only,
            "combined_cores": args.combined_cores,
            "build_s": round(build_s, 1), "sPyNNaker_s": {k: round(v, 1) for k, v in spent.items()},

@@ -67,7 +67,7 @@ def disc_input(radius: float, duration_ms: float):
 
 def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0):
     from snn_fg.events import iter_recording, iter_windows
-    from snn_fg.export.loop import busiest_crop
+    from snn_fg.export.loop import busiest_crop, crop_events
     from snn_fg.spiking.inputs import event_spikes
 
     path = SHARED / "events" / "dvs.es"
@@ -75,10 +75,7 @@ def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0):
         sys.exit(f"nir_consumer.py: needs {path} (the project's shared data)")
     win = next(iter(iter_windows(iter_recording(path), window_ms=window_ms, start_ms=start_ms, max_windows=1)))
     r0, c0 = busiest_crop((win.pos > 0) | (win.neg > 0), shape)
-    ev = win.events
-    ev = ev[(ev["y"] >= r0) & (ev["y"] < r0 + shape[0]) & (ev["x"] >= c0) & (ev["x"] < c0 + shape[1])].copy()
-    ev["x"] -= c0
-    ev["y"] -= r0
+    ev = crop_events(win.events, (r0, c0), shape)
     inp = event_spikes(ev, (shape[1], shape[0]), DT_MS, replay=True, t0_us=win.t_start_us)
     return inp, f"dvs.es {win.t_start_us}..{win.t_end_us} us, {shape[1]} x {shape[0]} crop at x={c0}, y={r0}"
 

@@ -67,7 +67,13 @@ def test_snntorch_profile_graph_has_only_the_node_kinds_snntorch_imports(tmp_pat
 def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
     """snnTorch 1.0 (an independent NIR consumer) runs the graph read back
     from its file on a disc; its spike counts, decoded with our decoder,
-    give the fast engine's maps of the exported network on the same input."""
+    give the fast engine's maps of the network the graph holds
+    (:func:`snntorch_network`) on the same input. Measured: r 0.980, 98 %
+    within 45 deg, 4.4 deg. Against the exported network itself the
+    profile's encoding (no delays, no refractoriness, zero padding) costs
+    more, and the same with snnTorch or the fast engine (r 0.953, 85 %,
+    28 deg on this 32 x 32 disc): experiments/nir_consumer.py measures it on
+    the larger inputs."""
     pytest.importorskip("snntorch", reason='needs pip install "snn-fg[snntorch]"')
     import torch
 
@@ -90,8 +96,11 @@ def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
     profile = snntorch_network(net)
     ours = decode_rates(profile, {k: np.arange(v.size) for k, v in counts.items()},
                         {k: v / 0.075 for k, v in counts.items()})[:3]
-    ref = decode(get_backend("fast").simulate(board_network(net), inp, RunSettings(
-        duration_ms=150.0, count_from_ms=75.0, instantiate="all")))[:3]
-    a = agreement(ours, ref)
+    settings = RunSettings(duration_ms=150.0, count_from_ms=75.0, instantiate="all")
+    same = decode(get_backend("fast").simulate(profile, inp, settings))[:3]
+    exported = decode(get_backend("fast").simulate(board_network(net), inp, settings))[:3]
     assert sum(int(c.sum()) for c in counts.values()) > 1000
-    assert a["grouping_r"] >= 0.9 and a["within_45"] >= 0.85 and a["coverage"] >= 0.8, a
+    a = agreement(ours, same)
+    assert a["grouping_r"] >= 0.95 and a["within_45"] >= 0.9 and a["coverage"] >= 0.9, a
+    b = agreement(ours, exported)
+    assert b["grouping_r"] >= 0.9 and b["coverage"] >= 0.9, b

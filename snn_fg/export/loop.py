@@ -64,6 +64,15 @@ def busiest_crop(active: np.ndarray, want) -> tuple:
     return int(rows[best]), int(cols[best])
 
 
+def crop_events(events, top_left, shape):
+    """The events inside the ``shape`` (rows, cols) box at ``top_left`` (row, col), in its coordinates."""
+    (r0, c0), (h, w) = top_left, shape
+    ev = events[(events["y"] >= r0) & (events["y"] < r0 + h) & (events["x"] >= c0) & (events["x"] < c0 + w)].copy()
+    ev["x"] -= c0
+    ev["y"] -= r0
+    return ev
+
+
 def _crop_box(active, want, crop_at, source):
     (h, w), (eh, ew) = active.shape, want
     if h < eh or w < ew:
@@ -90,14 +99,10 @@ def _input_spikes(args, shape, dt_ms):
         stream = iter_recording(args.input, sensor_size=args.sensor_size)
         win = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         r0, c0 = _crop_box((win.pos > 0) | (win.neg > 0), shape, args.crop_at, args.input)
-        ev = win.events
-        keep = (ev["y"] >= r0) & (ev["y"] < r0 + shape[0]) & (ev["x"] >= c0) & (ev["x"] < c0 + shape[1])
-        ev = ev[keep].copy()
+        ev = crop_events(win.events, (r0, c0), shape)
         if ev.size == 0:
             raise InputError(args.input, f"no event in the crop at x={c0}, y={r0} of window "
                                          f"{win.t_start_us}..{win.t_end_us} us")
-        ev["x"] -= c0
-        ev["y"] -= r0
         inp = event_spikes(ev, (shape[1], shape[0]), dt_ms, replay=True, source=str(args.input),
                            t0_us=win.t_start_us)
         what = f"window {win.t_start_us}..{win.t_end_us} us, {ev.size:,} events"

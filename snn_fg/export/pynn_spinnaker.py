@@ -96,7 +96,7 @@ def skip_data_generation():
     SpiNNaker._do_load = lambda self: None
 
 
-def sPyNNaker_timings() -> dict:
+def spynnaker_timings() -> dict:
     """Seconds sPyNNaker spent mapping and generating data (its provenance database)."""
     from spinn_front_end_common.interface.provenance import GlobalProvenance, TimerCategory
 

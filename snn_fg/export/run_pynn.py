@@ -199,7 +199,7 @@ def write_mapping(sim, meta, plan, args, build_s, n_conv):
     sim.run(args.duration_ms)
     names = [p["name"] for p in meta["populations"]]
     used = fg_spinnaker.mapping_summary(names)
-    spent = fg_spinnaker.sPyNNaker_timings()
+    spent = fg_spinnaker.spynnaker_timings()
     sim.end()
     conv = [e for e in plan["projections"] if e["connector"] == "ConvolutionConnector"]
     est = plan.get("estimate", {})

@@ -21,6 +21,7 @@ from .errors import InputError, InputWarning, SnnFgError
 from .events.cli import add_events_command, sensor_size_arg
 from .events.esim import MOTIONS
 from .export.cli import add_export_command
+from .export.loop import add_decode_command
 from .models import MODELS
 from .rate.fbfg import EDGE_OPERATORS
 
@@ -159,7 +160,7 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
     parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     subs = {"run": _add_run(sub), "compare": add_compare_command(sub, _number), "events": add_events_command(sub),
-            "export": add_export_command(sub, sensor_size_arg, _number)}
+            "export": add_export_command(sub, sensor_size_arg, _number), "decode": add_decode_command(sub)}
     return parser, subs
 
 

@@ -62,6 +62,9 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     g.add_argument("--plot", metavar="FILE.png", default=None,
                    help="recordings: draw the events and the share of pixels they cover, window by window")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    from snn_fg.export.loop import add_spike_options
+
+    add_spike_options(p)
     p.set_defaults(func=run_events, handler=run_events)
     return p
 
@@ -94,6 +97,10 @@ def run_events(args) -> int:
     path = Path(args.input)
     if not path.exists():
         raise InputError(path, "no such file")
+    if args.write_spikes is not None:
+        from snn_fg.export.loop import write_spikes
+
+        return write_spikes(args)
     for out in (args.write_frame, args.write_events):
         if out is not None and Path(out).resolve() == path.resolve():
             raise InputError(out, "output would overwrite the input")

@@ -21,6 +21,7 @@ TARGETS = ("generic", "spinnaker", "loihi2")
 #: report, which of its chips each one shows
 FORMAT_TARGETS = {"pynn": ("generic", "spinnaker"), "report": TARGETS}
 REPORT_CHIPS = {"spinnaker": ("spinnaker1", "spinnaker2"), "loihi2": ("loihi2",)}
+NIR_PROFILES = ("exact", "snntorch")
 ICUB_SENSOR = (304, 240)      # iCub ATIS, width x height
 
 
@@ -51,6 +52,9 @@ def add_export_command(sub, sensor_size_arg, number):
     p.add_argument("--weight-bits", type=int, metavar="B", help="quantise weights to B bits (2-32), one scale per "
                                                                 "projection (pynn, nir)")
     p.add_argument("--dt-ms", type=number(float, 0), default=0.5, help="time step delays are counted in (0.5)")
+    p.add_argument("--nir-profile", default="exact", metavar="|".join(NIR_PROFILES),
+                   help="nir: exact (every mechanism NIR can hold), or snntorch (the node kinds snnTorch imports: "
+                        "one-level networks, no delays, no refractoriness; see snn_fg/export/nir_snntorch.py)")
     p.set_defaults(handler=cmd_export)
     return p
 
@@ -113,6 +117,9 @@ def cmd_export(args) -> int:
         takes = [f for f, targets in FORMAT_TARGETS.items() if args.target in targets]
         raise InputError(f"--target {args.target}", f"applies to --format {' and '.join(takes)}, "
                                                     f"not {args.format}")
+    check.choice("snn-fg export", "--nir-profile", args.nir_profile, NIR_PROFILES)
+    if args.nir_profile != "exact" and (args.format != "nir" or args.weight_bits is not None):
+        raise InputError("--nir-profile", "applies to --format nir without --weight-bits")
     bits = None if args.weight_bits is None else check_bits(args.weight_bits, "snn-fg export")
     if bits is not None and args.format not in ("pynn", "nir"):
         raise InputError("--weight-bits", "applies to --format pynn and nir only")
@@ -127,6 +134,11 @@ def cmd_export(args) -> int:
 
         export_pynn(net, out, dt_ms=args.dt_ms, weight_bits=bits, target=args.target, force=args.force)
         what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
+    elif args.format == "nir" and args.nir_profile == "snntorch":
+        from .nir_snntorch import export_nir_snntorch
+
+        export_nir_snntorch(net, out, step_ms=args.dt_ms)
+        what = f"NIR graph, snntorch profile ({out.stat().st_size / 1e6:.1f} MB)"
     elif args.format == "nir":
         from .nir import export_nir
 

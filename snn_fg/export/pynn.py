@@ -8,12 +8,18 @@ The export folder holds
   :mod:`snn_fg.export.pynn_model`, which the NEST backend also runs);
 * ``fg_tables.py`` - explicit synapses from the weight-shared tables (a
   verbatim copy of :mod:`snn_fg.export.pynn_tables`);
+* ``fg_spinnaker.py`` - the network on sPyNNaker with its
+  ``ConvolutionConnector`` s, and its mapping on a virtual board
+  (:mod:`snn_fg.export.pynn_spinnaker`); ``fg_memory.py`` - what a NEST run
+  will cost, from measurement (:mod:`snn_fg.export.pynn_memory`);
 * ``network.json`` - populations (grids, neuron constants), projections
-  (ends, sign, gain, delay, per-projection weight scale) and the snn-fg
+  (ends, sign, gain, delay, per-projection weight scale, synapse count) and the snn-fg
   description it was made from; ``tables.npz`` - the weight-shared tables
   (kernel taps, interpolation matrices; identical tables stored once);
-* ``spinnaker.json`` - for ``--target spinnaker``, which projections
-  sPyNNaker's ``ConvolutionConnector`` can carry and why the others cannot;
+* ``spinnaker.json`` - which projections sPyNNaker's ``ConvolutionConnector``
+  carries on SpiNNaker and why the others cannot, and the resource report's
+  estimate of the cores and chips (set beside sPyNNaker's own mapping by
+  ``run.py --simulator spinnaker --virtual-board``);
 * ``README.md`` - how to run it.
 
 Every projection is unrolled by ``run.py`` at build time: the files stay a
@@ -33,9 +39,13 @@ from ..network.graph import Network
 from .board import ConvTable, board_network, geometry, table
 from .quantise import projection_scales
 from .spinnaker import spinnaker_plan
+from .synapses import projection_counts
 
 HERE = Path(__file__).resolve().parent
 SCHEMA = "snn-fg.pynn/1"
+#: the standalone modules every export holds: snn_fg module -> name in the export
+COPIED = {"pynn_model.py": "fg_network.py", "pynn_tables.py": "fg_tables.py", "pynn_spinnaker.py": "fg_spinnaker.py",
+          "pynn_memory.py": "fg_memory.py", "run_pynn.py": "run.py"}
 TARGETS = ("generic", "spinnaker")
 
 
@@ -57,7 +67,8 @@ def _tables(network: Network):
             arrays.update({f"{seen[digest]}_{k}": v for k, v in parts.items()})
         key = seen[digest]
         entries.append({"name": pr.name, "source": pr.source, "target": pr.target, "sign": pr.sign,
-                        "gain_mv": pr.gain_mv, "delay_ms": pr.delay_ms, "table": key, **extra})
+                        "gain_mv": pr.gain_mv, "delay_ms": pr.delay_ms, "table": key,
+                        "synapses": projection_counts(network, pr, tab).synapses, **extra})
     return entries, arrays
 
 
@@ -83,17 +94,22 @@ Made by `snn-fg export --format pynn` (snn-fg {version}) for a {h} x {w} sensor,
 {levels} pyramid levels: {cells:,} neurons, {sources:,} spike sources, {prj} projections
 (target: {target}; weights: {bits}). Needs PyNN, numpy and a PyNN simulator; no snn-fg.
 
-    python run.py --input input.npz --out counts.npz --simulator nest --duration-ms 400 [--count-from-ms 200]
+1. Input: `snn-fg events RECORDING --start-ms 100 --window-ms 85 --write-spikes input.npz --export .`
+   (a recording's window, an image or an event frame, cut to {w} x {h}, on {dt} ms steps).
+2. Run: `python run.py --input input.npz --out counts.npz --simulator nest --duration-ms 400`
+   (`--count-from-ms`, default half the run). It says first how much memory and time
+   to expect (the measured figures are in `fg_memory.py`) and stops with one line when
+   the network will not fit the machine's memory.
+3. Maps: `snn-fg decode counts.npz --export . --out maps` writes `maps/maps.npz` and
+   `maps/maps.png`, as `snn-fg run` does.
 
-`input.npz`: `indices` (ON pixel y*W+x, OFF pixel H*W + y*W+x), `steps`, `dt_ms`
-({dt} ms), `period_steps` (-1: no repetition), `shape`; `snn_fg.export.pynn.save_input`
-writes one from events or an event frame. `counts.npz` has `count_<population>` (spikes of
-every cell in the counting window; `--spikes` adds every spike time);
-`snn_fg.export.pynn.read_counts` and `snn_fg.spiking.decode.decode` turn it into maps.
-
-On SpiNNaker: `--simulator spiNNaker` (sPyNNaker). The synapses go through
-`FromListConnector`; `spinnaker.json` lists the projections sPyNNaker's
-`ConvolutionConnector` could carry instead and why the others cannot.
+On SpiNNaker: `python run.py ... --simulator spinnaker` (sPyNNaker,
+`pip install "snn-fg[spinnaker]"` or `sPyNNaker==1!7.4.1`). The projections
+`spinnaker.json` gives to `ConvolutionConnector` go through it, the others
+through `FromListConnector`. Without a board, `python run.py --simulator spinnaker
+--virtual-board [--map-only]` has sPyNNaker map the network onto virtual SpiNN-5
+boards (its configuration and reports in `spinnaker/`) and writes `mapping.json`:
+chips and cores used beside the export's estimate.
 
 Approximations (see `network.json` notes): {notes}
 """
@@ -115,7 +131,7 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
     weight_bits : int, optional
         Quantise weights to this many bits (one scale per projection).
     target : {"generic", "spinnaker"}
-        ``spinnaker`` also writes ``spinnaker.json``.
+        Recorded in ``network.json`` (every export holds ``spinnaker.json``).
 
     Examples
     --------
@@ -123,8 +139,10 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
     >>> from snn_fg.network import build_network
     >>> from snn_fg.params import ModelParams
     >>> d = export_pynn(build_network(ModelParams(levels=2), (40, 52)), pathlib.Path(tempfile.mkdtemp()) / "m")
-    >>> sorted(p.name for p in d.iterdir())
-    ['README.md', 'fg_network.py', 'fg_tables.py', 'network.json', 'run.py', 'tables.npz']
+    >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
+    ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
+    >>> sorted(p.name for p in d.glob("*.py"))
+    ['fg_memory.py', 'fg_network.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
     """
     from ..runner import OutputFolder
 
@@ -133,11 +151,10 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
         tmp = folder.dir
         (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
         np.savez_compressed(tmp / "tables.npz", **arrays)
-        shutil.copyfile(HERE / "pynn_model.py", tmp / "fg_network.py")
-        shutil.copyfile(HERE / "pynn_tables.py", tmp / "fg_tables.py")
-        shutil.copyfile(HERE / "run_pynn.py", tmp / "run.py")
-        if target == "spinnaker":
-            (tmp / "spinnaker.json").write_text(json.dumps(spinnaker_plan(board_network(network)), indent=1) + "\n")
+        for src, dst in COPIED.items():
+            shutil.copyfile(HERE / src, tmp / dst)
+        (tmp / "spinnaker.json").write_text(json.dumps(spinnaker_plan(board_network(network), estimate=True,
+                                                                      dt_ms=dt_ms), indent=1) + "\n")
         pops = meta["populations"]
         (tmp / "README.md").write_text(README.format(
             version=__version__, h=meta["frame_shape"][0], w=meta["frame_shape"][1],
@@ -153,6 +170,25 @@ def save_input(inputs, path, dt_ms: float) -> Path:
              period_steps=-1 if inputs.period_steps is None else int(inputs.period_steps),
              shape=np.array(inputs.shape))
     return Path(path)
+
+
+def read_input(path):
+    """``run.py``'s input file as :class:`~snn_fg.spiking.inputs.InputSpikes`
+    (what :func:`save_input` wrote; the active-pixel masks and the mean rate
+    are recomputed from the spikes)."""
+    from ..spiking.inputs import InputSpikes
+
+    d = np.load(path)
+    h, w = (int(v) for v in d["shape"])
+    idx, steps, period = d["indices"].astype(np.int64), d["steps"].astype(np.int64), int(d["period_steps"])
+    n = h * w
+    on, off = np.zeros(n, bool), np.zeros(n, bool)
+    on[idx[idx < n]] = True
+    off[idx[(idx >= n) & (idx < 2 * n)] - n] = True
+    span_s = ((period if period > 0 else int(steps.max(initial=0)) + 1) * float(d["dt_ms"])) / 1000.0
+    rate = idx.size / max(int(on.sum() + off.sum()), 1) / span_s
+    return InputSpikes((h, w), idx, steps, period if period > 0 else None, on.reshape(h, w), off.reshape(h, w),
+                       float(rate), 0, "pynn-input")
 
 
 def read_counts(network: Network, path):

@@ -282,11 +282,15 @@ class PyNNNetwork:
             if self.native:
                 self._connect_nest(source, target, pre[keep], post[keep], w, 0, delay)
             else:
-                rows = np.column_stack([pre[keep], post[keep], w, np.full(int(keep.sum()), delay)])
-                conn = self.sim.FromListConnector(rows, column_names=["weight", "delay"])
-                self.sim.Projection(self.pops[source], self.pops[target], conn, self.sim.StaticSynapse(),
-                                    receptor_type=receptor)
+                self._from_list(source, target, pre[keep], post[keep], w, delay, receptor)
             self.n_synapses[target] = self.n_synapses.get(target, 0) + int(keep.sum())
+
+    def _from_list(self, source, target, pre, post, w, delay, receptor):
+        """PyNN's own synapses ``pre[i] -> post[i]`` of weight ``w`` on ``receptor``."""
+        rows = list_rows(pre, post, w, delay)
+        conn = self.sim.FromListConnector(rows, column_names=["weight", "delay"])
+        self.sim.Projection(self.pops[source], self.pops[target], conn, self.sim.StaticSynapse(),
+                            receptor_type=receptor)
 
     def _connect_nest(self, source, target, pre, post, w_mv, port, delay):
         """NEST synapses of weight ``w_mv`` (nA = mV, signed) on receptor
@@ -392,15 +396,15 @@ class PyNNNetwork:
             keep = (cell >= 0) & (cell < size)
             cell, t = cell[keep], t[keep]
         else:
-            trains = self.pops[name].get_data("spikes").segments[0].spiketrains
-            cell = np.concatenate([np.full(len(s), i, np.int64) for i, s in enumerate(trains)] or
-                                  [np.zeros(0, np.int64)])
-            t = np.concatenate([np.asarray(s.magnitude, np.float64) for s in trains] or [np.zeros(0)])
+            cell, t = self._portable_spikes(name)
         t = np.round(t / self.dt - TIME_SHIFT_STEPS - 1) * self.dt
         keep = (cell < size) & (t < self.duration_ms - 1e-9)     # NEST may run past the end
         cell, t = cell[keep], t[keep]
         order = np.lexsort((cell, t))
         return cell[order], t[order]
+
+    def _portable_spikes(self, name: str):
+        return population_spikes(self.pops[name])
 
     def record_state(self, names, variables, end_ms: float):
         """Record the final ``variables`` (``v``, ``I_exc``, ``I_inh``) of the populations ``names``."""
@@ -446,6 +450,26 @@ class PyNNNetwork:
 
     def end(self):
         self.sim.end()
+
+
+def list_rows(pre, post, w, delay) -> np.ndarray:
+    """``FromListConnector`` rows ``(pre, post, weight, delay)`` sorted by
+    source, then target: sPyNNaker 7.4.1 sizes its synaptic rows by grouping
+    the list by source and target, and splits the list as given at the group
+    boundaries of the sorted one (``FromListConnector.__numpy_group``), so an
+    unsorted list gets wrong row lengths (846 synapses in a row of at most
+    152 on a 32 x 24 export, refused as over sPyNNaker's 256)."""
+    pre, post = np.asarray(pre, np.int64), np.asarray(post, np.int64)
+    order = np.lexsort((post, pre))
+    return np.column_stack([pre[order], post[order], np.asarray(w)[order], np.full(pre.size, delay)])
+
+
+def population_spikes(pop):
+    """``(cell, t_ms)`` of every spike a PyNN population recorded, as the simulator stamped them."""
+    trains = pop.get_data("spikes").segments[0].spiketrains
+    cell = np.concatenate([np.full(len(s), i, np.int64) for i, s in enumerate(trains)] or [np.zeros(0, np.int64)])
+    t = np.concatenate([np.asarray(s.magnitude, np.float64) for s in trains] or [np.zeros(0)])
+    return cell, t
 
 
 def counts_in(cell: np.ndarray, t_ms: np.ndarray, size: int, start_ms: float, end_ms: float) -> np.ndarray:

@@ -3,15 +3,24 @@
 Needs only PyNN, numpy and a PyNN simulator; run it from its own folder:
 
     python run.py --input input.npz --out counts.npz [--simulator nest] [--threads 2] [--count-from-ms 200]
+    python run.py --simulator spinnaker --virtual-board      # sPyNNaker's mapping, no board needed
 
 ``input.npz`` holds ``indices`` (source of each spike: ON pixel y*W+x, OFF
 pixel H*W + y*W+x), ``steps`` (time step of each spike), ``dt_ms``,
 ``period_steps`` (the pattern repeats with this period; -1: it does not) and
-``shape`` (H, W); ``snn_fg.export.pynn.save_input`` writes one.
-The output gets, per population, ``count_<name>``: every cell's spikes from
-``--count-from-ms`` (default: half the run) to the end; with ``--spikes`` also
-``cell_<name>`` and ``t_<name>`` (ms) of every spike (on NEST a recorded cell
-costs 32 KB: use it on small networks).
+``shape`` (H, W); ``snn-fg events INPUT --write-spikes input.npz --export .``
+writes one. The output gets, per population, ``count_<name>``: every cell's
+spikes from ``--count-from-ms`` (default: half the run) to the end; with
+``--spikes`` also ``cell_<name>`` and ``t_<name>`` (ms) of every spike (on
+NEST a recorded cell costs 32 KB: use it on small networks);
+``snn-fg decode counts.npz --export . --out maps`` turns it into maps.
+
+On SpiNNaker (``--simulator spinnaker``, sPyNNaker) the projections that
+``spinnaker.json`` gives to ``ConvolutionConnector`` go through it (see
+``fg_spinnaker.py``); with ``--virtual-board`` sPyNNaker maps the network
+onto virtual SpiNN-5 boards with a configuration of its own in
+``spinnaker/`` (the user's is not read) and ``mapping.json`` says what it used,
+beside the export's own estimate.
 """
 import argparse
 import importlib
@@ -21,8 +30,11 @@ import time
 
 import numpy as np
 
+import fg_memory
 import fg_network as fg
 import fg_tables
+
+SIMULATORS = {"spinnaker": "spiNNaker"}     # our name -> pyNN module
 
 
 def load_tables(meta, tables):
@@ -53,24 +65,44 @@ def input_steps(path, n_steps, n_sources):
     return [steps[a:b] for a, b in zip(bounds[:-1], bounds[1:])], float(d["dt_ms"])
 
 
-def build(sim, meta, tables, sources, dt_ms, threads, portable, spikes, edges):
-    pops = {p["name"]: p for p in meta["populations"]}
-    delays = [pr["delay_ms"] for pr in meta["projections"]] + [dt_ms]
+def make_network(sim, meta, tables, dt_ms, args, plan):
+    """The simulator's network object, and the projections that are convolutions on SpiNNaker."""
     cells = [p for p in meta["populations"] if p["neuron"] is not None]
     inputs = [p for p in meta["populations"] if p["neuron"] is None]
-    net = fg.PyNNNetwork(sim, dt_ms=dt_ms, max_delay_ms=max(delays), threads=threads, portable=portable,
-                         n_cells=sum(p["size"] for p in cells), n_sources=sum(p["size"] for p in inputs))
-    if net.threads > threads:
-        print(f"run.py: {net.threads} threads, not {threads}: NEST addresses at most "
+    kw = dict(dt_ms=dt_ms, max_delay_ms=max([pr["delay_ms"] for pr in meta["projections"]] + [dt_ms]),
+              threads=args.threads, n_cells=sum(p["size"] for p in cells), n_sources=sum(p["size"] for p in inputs))
+    if plan is None:
+        return fg.PyNNNetwork(sim, portable=args.portable, **kw), {}
+    import fg_spinnaker
+
+    conv = fg_spinnaker.plan_kernels(meta, tables, plan)
+    lay = fg_spinnaker.layout({p["name"]: p for p in meta["populations"]}, conv.values())
+    return fg_spinnaker.SpiNNakerNetwork(sim, layout=lay, populations={p["name"]: p for p in meta["populations"]},
+                                         combined_cores=args.combined_cores, **kw), conv
+
+
+def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
+    pops = {p["name"]: p for p in meta["populations"]}
+    net, conv = make_network(sim, meta, tables, dt_ms, args, plan)
+    if net.threads > args.threads:
+        print(f"run.py: {net.threads} threads, not {args.threads}: NEST addresses at most "
               f"{fg.NEST_MAX_LOCAL_SENDERS:,} spike-sending cells per thread")
+    cells = [p for p in meta["populations"] if p["neuron"] is not None]
     for p in cells:             # cells before sources: NEST's spike generators would take room on every thread
         net.add_cells(p["name"], p["size"], p["neuron"])
     offset = 0
-    for p in inputs:
-        net.add_sources(p["name"], sources[offset:offset + p["size"]])
-        offset += p["size"]
-    for pr in meta["projections"]:
+    for p in meta["populations"]:
+        if p["neuron"] is None:
+            net.add_sources(p["name"], sources[offset:offset + p["size"]])
+            offset += p["size"]
+    for i, pr in enumerate(meta["projections"]):
         src, tgt = pops[pr["source"]], pops[pr["target"]]
+        taus = dict(tau_exc_ms=tgt["neuron"]["tau_exc_ms"], tau_inh_ms=tgt["neuron"]["tau_inh_ms"])
+        if pr["name"] in conv:
+            net.convolve(pr["source"], pr["target"], conv[pr["name"]][2], sign=pr["sign"], gain_mv=pr["gain_mv"],
+                         delay_ms=pr["delay_ms"], strides=tgt["stride"] // src["stride"], bits=meta["weight_bits"],
+                         scale_mv=pr["scale_mv"], **taus)
+            continue
         if pr["type"] == "conv":
             taps, values = tables[pr["name"]]
             pre, post, k = fg_tables.conv_pairs(taps, values, src, tgt, pr["wrap"])
@@ -78,38 +110,73 @@ def build(sim, meta, tables, sources, dt_ms, threads, portable, spikes, edges):
             rows, cols = tables[pr["name"]]
             pre, post, k = fg_tables.resize_pairs(rows, cols, src["channels"], src, tgt, pr["k_min"])
         drive = fg.quantise(pr["sign"] * pr["gain_mv"] * k, meta["weight_bits"], pr["scale_mv"])
-        net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"],
-                    tau_exc_ms=tgt["neuron"]["tau_exc_ms"], tau_inh_ms=tgt["neuron"]["tau_inh_ms"])
-    net.record([p["name"] for p in meta["populations"] if p["neuron"] is not None], spikes=spikes,
-               count_edges_ms=edges)
+        net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"], **taus)
+        fg_memory.progress(f"built {i + 1}/{len(meta['projections'])} projections")
+    net.record([p["name"] for p in cells], spikes=args.spikes, count_edges_ms=edges)
     return net
 
 
-def main(argv=None):
+def parse(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--input", required=True)
-    ap.add_argument("--out", required=True)
-    ap.add_argument("--simulator", default="nest", help="the pyNN.<simulator> module (nest, spiNNaker...)")
+    ap.add_argument("--input", help="input spike file (required but with --virtual-board)")
+    ap.add_argument("--out", help="output counts file (required but with --virtual-board)")
+    ap.add_argument("--simulator", default="nest", help="nest, spinnaker (sPyNNaker) or another pyNN.<module>")
+    ap.add_argument("--virtual-board", action="store_true",
+                    help="spinnaker: map onto virtual SpiNN-5 boards (no hardware) and write mapping.json")
+    ap.add_argument("--map-only", action="store_true",
+                    help="--virtual-board: stop after sPyNNaker's partitioning, placement and routing (skip its "
+                         "data generation, which writes every explicit synapse in Python: hours for 40 M)")
+    ap.add_argument("--combined-cores", action="store_true",
+                    help="spinnaker: each population's synapses on the core that updates its cells (sPyNNaker "
+                         "otherwise adds synapse cores as it sees fit)")
     ap.add_argument("--duration-ms", type=float, default=400.0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--portable", action="store_true", help="PyNN's own connectors and recording on NEST too")
     ap.add_argument("--count-from-ms", type=float, default=None, help="start of the counting window (half the run)")
     ap.add_argument("--spikes", action="store_true", help="also write every spike")
+    ap.add_argument("--memory-gb", type=float, default=None,
+                    help="memory the run may use (default: what the machine has available)")
     args = ap.parse_args(argv)
+    args.simulator = SIMULATORS.get(args.simulator.lower(), args.simulator)
+    if args.virtual_board and args.simulator != "spiNNaker":
+        ap.error("--virtual-board needs --simulator spinnaker")
+    if args.map_only and not args.virtual_board:
+        ap.error("--map-only needs --virtual-board")
+    if not args.virtual_board and not (args.input and args.out):
+        ap.error("--input and --out are required (but with --virtual-board)")
+    return args
+
+
+def main(argv=None):
+    args = parse(argv)
     with open("network.json") as fh:
         meta = json.load(fh)
     tables = load_tables(meta, np.load("tables.npz"))
     n_src = sum(p["size"] for p in meta["populations"] if p["neuron"] is None)
-    sources, dt_ms = input_steps(args.input, int(round(args.duration_ms / meta["dt_ms"])), n_src)
+    n_steps = int(round(args.duration_ms / meta["dt_ms"]))
+    sources, dt_ms = input_steps(args.input, n_steps, n_src) if args.input else ([[]] * n_src, meta["dt_ms"])
     if abs(dt_ms - meta["dt_ms"]) > 1e-9:
         sys.exit(f"run.py: error: {args.input}: dt_ms={dt_ms} differs from the network's {meta['dt_ms']}")
+    plan = None
+    if args.simulator == "spiNNaker":
+        with open("spinnaker.json") as fh:
+            plan = json.load(fh)
+        if args.virtual_board:
+            import fg_spinnaker
+
+            fg_spinnaker.use_virtual_board("spinnaker")
+            if args.map_only:
+                fg_spinnaker.skip_data_generation()
+    elif args.simulator == "nest":
+        fg_memory.check_memory(meta, args.memory_gb)
     sim = importlib.import_module(f"pyNN.{args.simulator}")
     t0 = time.perf_counter()
     start = args.duration_ms / 2 if args.count_from_ms is None else args.count_from_ms
-    net = build(sim, meta, tables, sources, dt_ms, args.threads, args.portable, args.spikes,
-                (start, args.duration_ms))
+    net = build(sim, meta, tables, sources, dt_ms, args, (start, args.duration_ms), plan)
     t1 = time.perf_counter()
-    net.run(args.duration_ms)
+    if args.virtual_board:
+        return write_mapping(sim, meta, plan, args, t1 - t0, net.n_convolution_connectors)
+    net.run(args.duration_ms, report=lambda done: fg_memory.progress(f"simulated {done:g}/{args.duration_ms:g} ms"))
     out = {"duration_ms": args.duration_ms, "dt_ms": dt_ms, "count_from_ms": start}
     for p in meta["populations"]:
         if p["neuron"] is not None:
@@ -120,6 +187,36 @@ def main(argv=None):
     np.savez(args.out, **out)
     print(f"run.py: built in {t1 - t0:.1f} s, simulated {args.duration_ms:g} ms in {time.perf_counter() - t1:.1f} s; "
           f"wrote {args.out}")
+
+
+def write_mapping(sim, meta, plan, args, build_s, n_conv):
+    """sPyNNaker's partitioning, placement, routing and data generation on the
+    virtual board (``sim.run`` stops before loading), summarised in mapping.json."""
+    import fg_spinnaker
+    from spynnaker import _version
+
+    t0 = time.perf_counter()
+    sim.run(args.duration_ms)
+    names = [p["name"] for p in meta["populations"]]
+    used = fg_spinnaker.mapping_summary(names)
+    spent = fg_spinnaker.spynnaker_timings()
+    sim.end()
+    conv = [e for e in plan["projections"] if e["connector"] == "ConvolutionConnector"]
+    est = plan.get("estimate", {})
+    out = {"tool": {"name": "sPyNNaker", "version": _version.__version__},
+           "board": "SpiNN-5 (48 chips), virtual", **used,
+           "estimate": {k: est.get(k) for k in ("cores", "chips", "boards_spinn5")},
+           "connectors": {"ConvolutionConnector": len(conv), "FromListConnector": len(plan["projections"]) - len(conv),
+                          "ConvolutionConnector_instances": n_conv},
+           "duration_ms": args.duration_ms, "data_generation": not args.map_only,
+           "combined_cores": args.combined_cores,
+           "build_s": round(build_s, 1), "sPyNNaker_s": {k: round(v, 1) for k, v in spent.items()},
+           "run_s": round(time.perf_counter() - t0, 1)}
+    with open("mapping.json", "w") as fh:
+        json.dump(out, fh, indent=1)
+    print(f"run.py: sPyNNaker {out['tool']['version']} mapped the network onto {used['chips_used']} chips, "
+          f"{used['cores_used']} cores (estimate: {est.get('chips')} chips, {est.get('cores')} cores); "
+          f"fits one SpiNN-5 board: {used['fits']}; wrote mapping.json")
 
 
 if __name__ == "__main__":

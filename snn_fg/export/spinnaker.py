@@ -46,9 +46,11 @@ def _lattice_kernel(network: Network, pr: Conv) -> np.ndarray:
     return k if pr.mode == "conv" else k[:, :, ::-1, ::-1]
 
 
-def spinnaker_plan(network: Network) -> dict:
+def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float = 0.5) -> dict:
     """Per projection: ``ConvolutionConnector`` (with its kernels, strides
-    and padding) or ``FromListConnector`` and why."""
+    and padding) or ``FromListConnector`` and why; with ``estimate`` also the
+    resource report's SpiNNaker 1 figures (cores, chips, boards) for
+    ``dt_ms`` steps, which ``run.py --virtual-board`` sets beside sPyNNaker's."""
     reasons = {pr.name: _conv_reason(network, pr) for pr in network.projections}
     for name in {p.name for p in network.populations}:
         into = [pr for pr in network.incoming(name)]
@@ -75,6 +77,12 @@ def spinnaker_plan(network: Network) -> dict:
                      weight_scale_mv=pr.sign * pr.gain_mv, delay_ms=pr.delay_ms)
         entries.append(e)
     conv = [e for e in entries if e["connector"] == "ConvolutionConnector"]
-    return {"schema": "snn-fg.spinnaker-plan/1", "convolution": len(conv),
-            "connector_instances": sum(e["kernel_planes"] for e in conv),
-            "from_list": len(entries) - len(conv), "projections": entries}
+    out = {"schema": "snn-fg.spinnaker-plan/1", "convolution": len(conv),
+           "connector_instances": sum(e["kernel_planes"] for e in conv),
+           "from_list": len(entries) - len(conv), "projections": entries}
+    if estimate:
+        from .report import resource_report
+
+        out["estimate"] = {k: v for k, v in resource_report(network, dt_ms)["targets"]["spinnaker1"].items()
+                           if k in ("cores", "chips", "boards_spinn5", "note")}
+    return out

@@ -1,0 +1,217 @@
+"""Both ends of a board run: input spikes for an export, and maps from its counts.
+
+* ``snn-fg events INPUT --write-spikes input.npz --export DIR``
+  (:func:`write_spikes`): a recording window (the ``--start-ms`` /
+  ``--window-ms`` of ``snn-fg events``; its events at their own times,
+  repeated as ``snn-fg run`` presents one window), an image (its simulated
+  camera's event frame) or an event frame (regular trains, as ``snn-fg
+  run``), cut to the export's frame (``--crop-at``; by default the crop
+  with the most event pixels), on the export's time
+  step: the file ``DIR/run.py --input`` reads;
+* ``snn-fg decode counts.npz --export DIR --out OUT`` (:func:`cmd_decode`):
+  ``run.py``'s counts decoded as ``snn-fg run`` decodes a spiking run, into
+  ``OUT/maps.npz`` and ``OUT/maps.png``.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+#: regular trains of an event frame: the rate ``snn-fg run`` uses (Hz)
+FRAME_RATE_HZ = 200.0
+
+
+def add_spike_options(parser):
+    """``--write-spikes`` and its options on ``snn-fg events``'s parser."""
+    g = parser.add_argument_group("input spikes for an exported network (snn-fg export --format pynn)")
+    g.add_argument("--write-spikes", metavar="OUT.npz", default=None,
+                   help="write the spike file the export's run.py --input reads (needs --export)")
+    g.add_argument("--export", metavar="DIR", default=None, help="the export folder: its frame size and time step")
+    g.add_argument("--crop-at", metavar="X,Y", default=None,
+                   help="top-left pixel of the export-sized crop (default: the crop with the most event pixels)")
+    g.add_argument("--duration-ms", type=float, default=400.0,
+                   help="frames and images: length of the regular trains (400, as snn-fg run)")
+
+
+def export_network(folder):
+    """The snn-fg description a PyNN export was made from (its board network)."""
+    from ..network.graph import Network
+
+    path = Path(folder) / "network.json"
+    try:
+        meta = json.loads(path.read_text())
+        return Network.from_dict(meta["snn_fg_network"]), meta
+    except FileNotFoundError:
+        raise InputError(path, "no such file: --export needs a folder written by snn-fg export --format pynn") \
+            from None
+    except (ValueError, KeyError, TypeError) as e:
+        raise InputError(path, f"not a PyNN export's network.json ({type(e).__name__}: {e})") from None
+
+
+def busiest_crop(active: np.ndarray, want) -> tuple:
+    """Top-left ``(row, col)`` of the ``want``-sized crop with the most
+    active pixels; of several such, the one nearest the input's centre."""
+    eh, ew = want
+    s = np.pad(np.cumsum(np.cumsum(active.astype(np.int64), 0), 1), ((1, 0), (1, 0)))
+    inside = s[eh:, ew:] - s[:-eh, ew:] - s[eh:, :-ew] + s[:-eh, :-ew]
+    rows, cols = np.nonzero(inside == inside.max())
+    centre = ((active.shape[0] - eh) / 2, (active.shape[1] - ew) / 2)
+    best = int(np.argmin(np.hypot(rows - centre[0], cols - centre[1])))
+    return int(rows[best]), int(cols[best])
+
+
+def crop_events(events, top_left, shape):
+    """The events inside the ``shape`` (rows, cols) box at ``top_left`` (row, col), in its coordinates."""
+    (r0, c0), (h, w) = top_left, shape
+    ev = events[(events["y"] >= r0) & (events["y"] < r0 + h) & (events["x"] >= c0) & (events["x"] < c0 + w)].copy()
+    ev["x"] -= c0
+    ev["y"] -= r0
+    return ev
+
+
+def _crop_box(active, want, crop_at, source):
+    (h, w), (eh, ew) = active.shape, want
+    if h < eh or w < ew:
+        raise InputError(source, f"{w} x {h} input is smaller than the export's {ew} x {eh} frame")
+    if crop_at is None:
+        return busiest_crop(active, want)
+    try:
+        x, y = (int(v) for v in crop_at.split(","))
+    except ValueError:
+        raise InputError(source, f"--crop-at {crop_at!r}: expected X,Y") from None
+    if not (0 <= x <= w - ew and 0 <= y <= h - eh):
+        raise InputError(source, f"--crop-at {x},{y}: an {ew} x {eh} crop must lie inside the {w} x {h} input")
+    return y, x
+
+
+def _input_spikes(args, net, dt_ms):
+    """InputSpikes of the input cut to the network's frame, and a description. A
+    network that pools its input (``params.input_pool``) sees the input's blocks,
+    and its input adapter's refractory period applies to a recording's events."""
+    from ..events import iter_recording, iter_windows
+    from ..frames.pool import pool_events, pool_frame
+    from ..inputs import input_kind, load_frame
+    from ..spiking.inputs import event_spikes, frame_spikes
+
+    shape, pool = tuple(net.frame_shape), net.params.input_pool
+    kind = input_kind(args.input)
+    if kind == "recording":
+        stream = iter_recording(args.input, sensor_size=args.sensor_size)
+        win = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
+        on, off = pool_frame(win.pos, win.neg, pool)
+        r0, c0 = _crop_box((on > 0) | (off > 0), shape, args.crop_at, args.input)
+        ev = crop_events(pool_events(win.events, pool), (r0, c0), shape)
+        if ev.size == 0:
+            raise InputError(args.input, f"no event in the crop at x={c0}, y={r0} of window "
+                                         f"{win.t_start_us}..{win.t_end_us} us")
+        inp = event_spikes(ev, (shape[1], shape[0]), dt_ms, replay=True, source=str(args.input),
+                           t0_us=win.t_start_us, refractory_ms=net.input_refractory_ms)
+        what = f"window {win.t_start_us}..{win.t_end_us} us, {ev.size:,} events"
+    else:
+        frame, _ = load_frame(args.input, "events", args.threshold, args.motion)
+        on, off = pool_frame(frame.pos, frame.neg, pool)
+        r0, c0 = _crop_box((on > 0) | (off > 0), shape, args.crop_at, args.input)
+        cut = (slice(r0, r0 + shape[0]), slice(c0, c0 + shape[1]))
+        pos, neg = on[cut], off[cut]
+        if not (pos.any() or neg.any()):
+            raise InputError(args.input, f"no event pixel in the crop at x={c0}, y={r0}")
+        inp = frame_spikes(pos, neg, FRAME_RATE_HZ, dt_ms, args.duration_ms)
+        what = f"{kind}, regular trains at {FRAME_RATE_HZ:g} Hz for {args.duration_ms:g} ms"
+    return inp, f"{what}; crop at x={c0}, y={r0}"
+
+
+def write_spikes(args) -> int:
+    """``snn-fg events INPUT --write-spikes OUT --export DIR``; prints one line, returns 0."""
+    from ..atomic import atomic_path
+    from .pynn import save_input
+
+    if args.export is None:
+        raise InputError(args.write_spikes, "--write-spikes needs --export DIR (the export's frame and time step)")
+    if args.write_frame or args.write_events:
+        raise InputError(args.write_spikes, "--write-spikes goes alone: not with --write-frame or --write-events")
+    if Path(args.write_spikes).suffix.lower() != ".npz":
+        raise InputError(args.write_spikes, "--write-spikes needs an .npz file name")
+    net, meta = export_network(args.export)
+    inp, what = _input_spikes(args, net, float(meta["dt_ms"]))
+    with atomic_path(args.write_spikes, suffix=".npz") as part:
+        save_input(inp, part, float(meta["dt_ms"]))
+    h, w = net.frame_shape
+    print(f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active pixel; "
+          f"the export's gains are set for {net.input_rate_hz:g} Hz) for the {w} x {h} export {args.export} "
+          f"at dt {meta['dt_ms']} ms; {what}")
+    return 0
+
+
+def add_decode_command(sub):
+    """Register ``decode`` on an ``argparse`` subparsers object; returns the parser."""
+    p = sub.add_parser("decode", allow_abbrev=False, help="decode an exported network's spike counts into maps",
+                       description="Turn the counts an exported network's run.py wrote (counts.npz) into the maps "
+                                   "snn-fg run writes for a spiking run: OUT/maps.npz and OUT/maps.png.")
+    p.add_argument("counts", metavar="COUNTS", help="run.py's output (counts.npz)")
+    p.add_argument("--export", required=True, metavar="DIR", help="the export folder run.py ran")
+    p.add_argument("--out", required=True, metavar="OUT", help="output folder")
+    p.add_argument("--input", metavar="SPIKES.npz", default=None,
+                   help="the input spike file, for the figure's input panel (default: input.npz beside COUNTS)")
+    p.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    p.set_defaults(handler=cmd_decode)
+    return p
+
+
+def _input_frame(path, shape):
+    """(pos, neg) pixels that get spikes in a run.py input file of ``shape`` (None: no such file)."""
+    from .pynn import read_input
+
+    if path is None or not Path(path).exists():
+        return None
+    try:
+        inp = read_input(path)
+    except (OSError, ValueError, KeyError) as e:
+        raise InputError(path, f"not a run.py input file ({type(e).__name__}: {e})") from None
+    if inp.shape != tuple(shape):
+        raise InputError(path, f"input of {inp.shape[1]} x {inp.shape[0]} pixels, the export's frame is "
+                               f"{shape[1]} x {shape[0]}")
+    return inp.on, inp.off
+
+
+def decode_counts(network, counts_path):
+    """:class:`~snn_fg.maps.Maps` of ``run.py``'s counts for the export of ``network``."""
+    from ..maps import Maps
+    from ..spiking.decode import decode
+    from .pynn import read_counts
+
+    try:
+        result = read_counts(network, counts_path)
+    except (OSError, ValueError, KeyError) as e:
+        raise InputError(counts_path, f"not a run.py counts file of this export ({type(e).__name__}: {e})") \
+            from None
+    fg_x, fg_y, grouping, _ = decode(result)
+    params = {"model": "spiking", **network.params.to_dict(),
+              "network": {"origin": "pynn-export", "frame_shape": list(network.frame_shape),
+                          "input_rate_hz": network.input_rate_hz},
+              "backend": {"name": "pynn-export", "counts": str(counts_path)},
+              "simulation": {"dt_ms": result.dt_ms, "duration_ms": result.simulated_ms,
+                             "count_window_ms": result.count_window_ms},
+              "notes": list(network.notes)}
+    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params)
+
+
+def cmd_decode(args) -> int:
+    from ..figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure
+    from ..runner import OutputFolder
+
+    net, _ = export_network(args.export)
+    if not Path(args.counts).exists():
+        raise InputError(args.counts, "no such file")
+    maps = decode_counts(net, args.counts)
+    frame = _input_frame(args.input or Path(args.counts).with_name("input.npz"), net.frame_shape)
+    shown = event_frame_rgb(*frame) if frame is not None else np.zeros((*net.frame_shape, 3))
+    with OutputFolder(args.out, force=args.force) as out:
+        maps.save(out.dir / "maps.npz")
+        save_maps_figure(out.dir / "maps.png", shown, maps.fg_x, maps.fg_y, maps.grouping,
+                         grouping_label=SPIKING_GROUPING_LABEL)
+    print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ (maps.npz, maps.png)")
+    return 0

@@ -1,0 +1,119 @@
+"""A user's loop around an exported network: ``snn-fg events --write-spikes``
+makes run.py's input from a recording window, run.py simulates it on NEST
+(as the export's folder runs it, without snn_fg), ``snn-fg decode`` turns its
+counts into maps; and run.py's memory check."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from snn_fg.backends import RunSettings, available_backends, get_backend
+from snn_fg.cli import main
+from snn_fg.events import image_to_events, save_events
+from snn_fg.export.board import board_network
+from snn_fg.export.loop import busiest_crop, export_network
+from snn_fg.export.pynn import export_pynn, read_input
+from snn_fg.maps import Maps
+from snn_fg.metrics import compare_frame
+from snn_fg.network import build_network
+from snn_fg.params import ModelParams
+from snn_fg.scenes import disc
+from snn_fg.spiking.decode import decode
+
+NEST_OK, NEST_WHY = available_backends()["nest"]
+needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
+
+
+def _run_py(folder, *args):
+    """run.py as a user runs it, in its folder, with any snn_fg import failing."""
+    code = ("import sys; sys.modules['snn_fg'] = None; "
+            f"sys.argv = ['run.py'] + {list(args)!r}; exec(open('run.py').read())")
+    return subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=900)
+
+
+@pytest.fixture(scope="module")
+def disc_recording(tmp_path_factory):
+    """A simulated camera's events of a disc of radius 8 (64 x 64 sensor), as a .es recording."""
+    rec = image_to_events(disc(8).image)
+    path = tmp_path_factory.mktemp("rec") / "disc.es"
+    save_events(path, rec.events, rec.sensor_size)
+    return path
+
+
+def test_busiest_crop_finds_the_densest_box():
+    active = np.zeros((10, 12), bool)
+    active[6:9, 1:4] = True
+    assert busiest_crop(active, (3, 3)) == (6, 1)
+    assert busiest_crop(active, (10, 12)) == (0, 0)
+    active[:] = False
+    active[4:6, 5:7] = True       # every 6 x 6 crop around it holds it all: the centred one
+    assert busiest_crop(active, (6, 6)) == (2, 3)
+
+
+@needs_nest
+def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recording, capsys):
+    net = build_network(ModelParams(levels=1, r0=4), (32, 32))
+    folder = export_pynn(net, tmp_path / "model")
+    spikes = folder / "input.npz"
+    assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(folder),
+                 "--window-ms", "85", "--no-progress"]) == 0
+    assert "crop at x=16, y=16" in capsys.readouterr().out        # the disc: centred in the 64 x 64 sensor
+    done = _run_py(folder, "--input", "input.npz", "--out", "counts.npz", "--duration-ms", "150",
+                   "--count-from-ms", "75")
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "expect about" in done.stdout and "simulated 150/150 ms" in done.stderr
+    assert main(["decode", str(folder / "counts.npz"), "--export", str(folder), "--out", str(tmp_path / "maps")]) == 0
+    assert sorted(p.name for p in (tmp_path / "maps").iterdir()) == ["maps.npz", "maps.png"]
+    ours = Maps.load(tmp_path / "maps" / "maps.npz")
+    # the NEST backend on the same input file and the board network
+    inp = read_input(spikes)
+    backend = get_backend("nest").simulate(board_network(net), inp, RunSettings(
+        duration_ms=150.0, count_from_ms=75.0, instantiate="all"))
+    fx, fy, g, _ = decode(backend)
+    assert np.abs(ours.grouping).max() > 0
+    assert np.array_equal(ours.fg_x, fx.astype(np.float32)) and np.array_equal(ours.fg_y, fy.astype(np.float32))
+    assert np.array_equal(ours.grouping, g.astype(np.float32))
+
+
+def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
+    folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (32, 32)), tmp_path / "model")
+    out = tmp_path / "in.npz"
+    cases = [([], "--write-spikes needs --export"),
+             (["--export", str(tmp_path)], "network.json: no such file"),
+             (["--export", str(folder), "--crop-at", "40,0"], "must lie inside the 64 x 64 input"),
+             (["--export", str(folder), "--crop-at", "a,b"], "--crop-at 'a,b': expected X,Y"),
+             (["--export", str(folder), "--start-ms", "5000"], "disc.es")]
+    for extra, fragment in cases:
+        assert main(["events", str(disc_recording), "--write-spikes", str(out), "--no-progress"] + extra) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and fragment in err[0], err
+        assert not out.exists()
+    small = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 80)), tmp_path / "wide")
+    assert main(["events", str(disc_recording), "--write-spikes", str(out), "--export", str(small)]) == 2
+    assert "smaller than the export's 80 x 24 frame" in capsys.readouterr().err
+
+
+def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
+    folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
+    net, _ = export_network(folder)
+    bogus = tmp_path / "counts.npz"
+    np.savez(bogus, duration_ms=100.0, count_from_ms=50.0, dt_ms=0.5, count_nothing=np.zeros(3))
+    assert main(["decode", str(bogus), "--export", str(folder), "--out", str(tmp_path / "maps")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "counts.npz: not a run.py counts file of this export" in err[0]
+    assert not (tmp_path / "maps").exists() and net.frame_shape == (24, 24)
+
+
+@needs_nest
+def test_run_py_refuses_a_network_that_will_not_fit_before_building(tmp_path):
+    folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
+    np.savez(folder / "input.npz", indices=np.zeros(1, np.int64), steps=np.zeros(1, np.int64), dt_ms=0.5,
+             period_steps=-1, shape=np.array([24, 24]))
+    done = _run_py(folder, "--input", "input.npz", "--out", "counts.npz", "--memory-gb", "0.01")
+    assert done.returncode == 1 and not (folder / "counts.npz").exists()
+    last = done.stderr.strip().splitlines()
+    assert len(last) == 1 and "needs about" in last[0] and "more than the 0.0 GB given (--memory-gb)" in last[0]
+    meta = json.loads((folder / "network.json").read_text())
+    assert sum(pr["synapses"] for pr in meta["projections"]) > 0

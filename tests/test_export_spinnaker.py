@@ -1,0 +1,113 @@
+"""The export on SpiNNaker: the kernels its ConvolutionConnectors get, the 2-D
+layout of the populations they join, sPyNNaker's synaptic-row sizing of our
+FromListConnector lists, and (with sPyNNaker installed) its mapping of a
+small export onto a virtual SpiNN-5 board."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from snn_fg.export.board import board_network, table
+from snn_fg.export.pynn import export_pynn
+from snn_fg.export.pynn_model import list_rows
+from snn_fg.export.pynn_spinnaker import conv_kernels, core_tile, layout, stackable
+from snn_fg.export.spinnaker import _lattice_kernel, spinnaker_plan
+from snn_fg.network import build_network
+from snn_fg.params import ModelParams
+
+
+@pytest.fixture(scope="module")
+def two_levels():
+    return board_network(build_network(ModelParams(levels=2, r0=4), (24, 28)))
+
+
+def _geometry(p):
+    return {"channels": p.channels, "stride": p.stride, "grid": p.grid}
+
+
+def test_convolution_kernels_from_the_tables_are_the_plans_lattice_kernels(two_levels):
+    """Two derivations: the plan's (the description's kernel on the source
+    lattice, oriented as sPyNNaker convolves) and run.py's (the export's
+    kernel taps placed at K[pad - offset]). They must agree tap for tap."""
+    net = two_levels
+    plan = [e for e in spinnaker_plan(net)["projections"] if e["connector"] == "ConvolutionConnector"]
+    shapes = set()
+    for e in plan:
+        pr = next(p for p in net.projections if p.name == e["name"])
+        tab = table(net, pr)
+        got = conv_kernels(tab.taps, tab.values, _geometry(net.population(pr.source)),
+                           _geometry(net.population(pr.target)), e["padding"])
+        want = _lattice_kernel(net, pr)
+        assert got.shape == want.shape and np.allclose(got, want), e["name"]
+        shapes.add(want.shape[2:])
+    assert (1, 1) in shapes and any(s[0] > 1 for s in shapes)     # channel-wise and spatial kernels both met
+
+
+def test_layout_stacks_channel_wise_convolutions_and_splits_the_others(two_levels):
+    net = two_levels
+    plan = spinnaker_plan(net)["projections"]
+    conv = []
+    for e in plan:
+        if e["connector"] == "ConvolutionConnector":
+            pr = next(p for p in net.projections if p.name == e["name"])
+            conv.append((pr.source, pr.target, _lattice_kernel(net, pr)))
+    pops = {p.name: {"channels": p.channels} for p in net.populations}
+    lay = layout(pops, conv)
+    assert lay["bo_L1_1"] == lay["excess_L1_1"] == "stacked"       # 1 x 1, one weight per channel
+    assert lay["group_L_2"] == "grid" and lay["feedback_1p_2"] == "split"     # one channel; 8 distinct kernels
+    k = np.zeros((3, 3, 1, 1))
+    k[[0, 1, 2], [0, 1, 2]] = 2.0
+    assert stackable(k)
+    k[2, 2] = 1.0
+    assert not stackable(k)
+    # a stacked end meeting a split end of one convolution splits too
+    assert layout({"a": {"channels": 2}, "b": {"channels": 2}, "c": {"channels": 2}},
+                  [("a", "b", np.ones((2, 2, 1, 1))), ("b", "c", np.ones((2, 2, 3, 3)))]) == \
+        {"a": "split", "b": "split", "c": "split"}
+
+
+def test_core_tiles_divide_the_grid():
+    for cols, rows in ((64, 384), (23, 136), (46, 272), (12, 9), (17, 23), (1, 1)):
+        a, b = core_tile(cols, rows)
+        assert cols % a == 0 and rows % b == 0 and a * b <= 256
+        assert all(a * b >= x * y for x in range(1, cols + 1) for y in range(1, rows + 1)
+                   if cols % x == 0 and rows % y == 0 and x * y <= 256)
+    assert core_tile(23, 136) == (23, 8)
+
+
+def test_from_list_rows_are_sorted_by_source_then_target():
+    """sPyNNaker 7.4.1 sizes its synaptic rows from the list grouped as given (FromListConnector.__numpy_group)."""
+    rows = list_rows(np.array([3, 1, 3, 1]), np.array([5, 9, 2, 4]), np.array([0.1, 0.2, 0.3, 0.4]), 1.5)
+    assert rows[:, 0].tolist() == [1, 1, 3, 3] and rows[:, 1].tolist() == [4, 9, 2, 5]
+    assert rows[:, 2].tolist() == [0.4, 0.2, 0.3, 0.1] and np.all(rows[:, 3] == 1.5)
+
+
+@pytest.mark.slow
+def test_spynnaker_maps_a_small_export_onto_a_virtual_board(tmp_path, monkeypatch):
+    """run.py --simulator spinnaker --virtual-board --map-only, as a user runs
+    it: sPyNNaker partitions, places and routes the network with the
+    ConvolutionConnectors of the plan, and mapping.json says what it used.
+    Its configuration stays in the export folder: without one sPyNNaker
+    writes a template into the user's home and stops (HOME is a fresh
+    folder here)."""
+    pytest.importorskip("spynnaker", reason='needs pip install "snn-fg[spinnaker]"')
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    folder = export_pynn(build_network(ModelParams(levels=2, r0=4), (24, 28)), tmp_path / "model")
+    done = subprocess.run([sys.executable, "run.py", "--simulator", "spinnaker", "--virtual-board", "--map-only",
+                           "--duration-ms", "50"], cwd=folder, capture_output=True, text=True, timeout=1200)
+    assert done.returncode == 0, done.stderr[-3000:]
+    m = json.loads((folder / "mapping.json").read_text())
+    plan = json.loads((folder / "spinnaker.json").read_text())
+    assert m["tool"]["name"] == "sPyNNaker" and m["tool"]["version"].startswith("1!7.")
+    assert m["fits"] and 1 <= m["chips_used"] <= 48 and m["cores_network"] > 0
+    assert m["estimate"]["cores"] == plan["estimate"]["cores"] and m["connectors"]["ConvolutionConnector"] == \
+        plan["convolution"] > 0
+    assert m["cores_by_kind"].get("PopulationMachineLocalOnlyCombinedVertex", 0) > 0    # convolution targets
+    assert set(m["cores_by_population"]) == {p["name"] for p in json.loads(
+        (folder / "network.json").read_text())["populations"]}
+    assert (folder / "spinnaker" / "config" / ".spynnaker.cfg").exists()
+    assert not (home / ".spynnaker.cfg").exists() and not (home / ".config" / ".spynnaker.cfg").exists()

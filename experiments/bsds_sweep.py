@@ -63,8 +63,11 @@ def select_ids(n: int | None) -> list[str]:
 def settings_key(settings: dict) -> str:
     """Cache directory name of one set of settings. Runs of the spiking model
     also key on the default network's constants, so a cache made before a
-    change of ``SpikingParams`` is not read back as the new network's."""
-    text = json.dumps(settings, sort_keys=True)
+    change of ``SpikingParams`` is not read back as the new network's; all
+    key on the version of what an image's result holds."""
+    from snn_fg.evaluation import RESULT_VERSION
+
+    text = json.dumps(settings, sort_keys=True) + ("" if RESULT_VERSION == 1 else f"v{RESULT_VERSION}")
     if "spiking" in settings.get("event_models", ()):
         from snn_fg.network import SpikingParams
 

@@ -10,16 +10,24 @@ that :func:`snn_fg.sweep.run_sweep` can cache it per image.
 
 Angle errors are kept as sums and a histogram of absolute errors
 (:data:`HIST_BIN_DEG` bins), so that pooled means are exact and the pooled
-median is good to half a bin, without storing every pixel.
+median is good to half a bin, without storing every pixel. The scores
+(:data:`SCORES`): **side accuracy**, the field's own metric (the share of
+scored pixels whose direction is within 90 degrees of the labelled one, i.e.
+on the figure's side; chance 50 %); **coverage** (labelled pixels that get a
+vector, over all labelled pixels); the share within 45 degrees; the mean
+absolute and the mean signed error (the paper's). :func:`bootstrap_scores`
+gives each, pooled over pixels and as a mean over images, with an interval
+from resampling the images.
 """
 from __future__ import annotations
 
+import warnings
 from itertools import combinations
 
 import numpy as np
 from skimage.metrics import structural_similarity
 
-from .groundtruth import WITHIN_DEG, angle_errors, boundary_directions, load_bsds_fg
+from .groundtruth import SIDE_DEG, WITHIN_DEG, angle_errors, boundary_directions, load_bsds_fg
 
 #: Width (degrees) of the bins of the absolute-error histogram.
 HIST_BIN_DEG = 0.5
@@ -28,34 +36,124 @@ _N_BINS = int(round(180 / HIST_BIN_DEG))
 SSIM_WINDOW = 11
 #: The threshold of the Fig. 6 comparisons (the paper's best).
 FIG6_THRESHOLD = 0.10
+#: What an :func:`evaluate_image` result holds, for caches keyed on it (2: the
+#: side-accuracy count and the labelled-pixel count of every score).
+RESULT_VERSION = 2
 
 
-def error_stats(signed) -> dict:
-    """Sums and histogram of signed errors (degrees), to pool over images with :func:`pool_stats`."""
+def error_stats(signed, n_truth: int | None = None) -> dict:
+    """Sums and histogram of signed errors (degrees), to pool over images with :func:`pool_stats`.
+
+    ``n_truth``: the labelled pixels the errors were taken on (with or without
+    a model vector), so that the pooled coverage can be formed."""
     signed = np.asarray(signed, np.float64)
     a = np.abs(signed)
     hist = np.bincount(np.minimum((a / HIST_BIN_DEG).astype(int), _N_BINS - 1), minlength=_N_BINS)
-    return {"n": int(a.size), "sum_signed": float(signed.sum()), "sum_abs": float(a.sum()),
-            "n_within45": int((a <= WITHIN_DEG).sum()), "hist_abs": hist.tolist()}
+    out = {"n": int(a.size), "sum_signed": float(signed.sum()), "sum_abs": float(a.sum()),
+           "n_within45": int((a <= WITHIN_DEG).sum()), "n_side": int((a < SIDE_DEG).sum()),
+           "hist_abs": hist.tolist()}
+    if n_truth is not None:
+        out["n_truth"] = int(n_truth)
+    return out
 
 
-#: the pooled scores that are a sum of :func:`error_stats` over pixels divided
-#: by their count, and the sum each divides
-_MEAN_OF = {"mean_signed_deg": "sum_signed", "mean_abs_deg": "sum_abs", "within45": "n_within45"}
+#: the pooled scores that are one sum of :func:`error_stats` divided by another:
+#: ``score: (numerator, denominator)``
+RATIO_OF = {"mean_signed_deg": ("sum_signed", "n"), "mean_abs_deg": ("sum_abs", "n"),
+            "within45": ("n_within45", "n"), "side_accuracy": ("n_side", "n"), "coverage": ("n", "n_truth")}
+#: the scores of :data:`RATIO_OF` that a table reports, in its order
+SCORES = ("side_accuracy", "coverage", "within45", "mean_abs_deg", "mean_signed_deg")
+
+
+def _field(p: dict, name: str) -> float:
+    """One sum of an :func:`error_stats` part (nan for a coverage denominator it was made without)."""
+    return p.get(name, float("nan"))
 
 
 def pool_stats(parts) -> dict:
-    """Pooled mean signed / absolute error, median, fraction within 45 degrees, pixel count."""
+    """Pooled scores of :data:`RATIO_OF` (over every pixel of every part), the median
+    absolute error (to half a histogram bin), the pixel count and labelled-pixel count."""
     parts = list(parts)
     n = sum(p["n"] for p in parts)
-    if n == 0:
-        nan = float("nan")
-        return {"mean_signed_deg": nan, "mean_abs_deg": nan, "median_abs_deg": nan, "within45": nan, "n_pixels": 0}
-    hist = np.sum([p["hist_abs"] for p in parts], axis=0)
-    k = int(np.searchsorted(np.cumsum(hist), n / 2))
-    means = {key: sum(p[field] for p in parts) / n for key, field in _MEAN_OF.items()}
-    return {"mean_signed_deg": means["mean_signed_deg"], "mean_abs_deg": means["mean_abs_deg"],
-            "median_abs_deg": (k + 0.5) * HIST_BIN_DEG, "within45": means["within45"], "n_pixels": n}
+    sums = {f: sum(_field(p, f) for p in parts) for pair in RATIO_OF.values() for f in pair}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = {key: float(np.float64(sums[a]) / sums[b]) if sums[b] else float("nan")
+               for key, (a, b) in RATIO_OF.items()}
+    if n:
+        hist = np.sum([p["hist_abs"] for p in parts], axis=0)
+        out["median_abs_deg"] = (int(np.searchsorted(np.cumsum(hist), n / 2)) + 0.5) * HIST_BIN_DEG
+    else:
+        out["median_abs_deg"] = float("nan")
+    out["n_pixels"] = n
+    out["n_truth"] = sums["n_truth"] if np.isnan(sums["n_truth"]) else int(sums["n_truth"])
+    return out
+
+
+def _check_bootstrap(n_resamples, level, keys, what):
+    if not (isinstance(n_resamples, int) and n_resamples >= 1):
+        raise ValueError(f"n_resamples must be a positive integer, got {n_resamples!r}")
+    if not 0 < level < 1:
+        raise ValueError(f"level must lie between 0 and 1, got {level!r}")
+    unknown = [k for k in keys if k not in RATIO_OF]
+    if unknown:
+        raise ValueError(f"{what} has no score {unknown[0]!r}; it knows {', '.join(RATIO_OF)}")
+
+
+class _ImageSums:
+    """Per image, every sum behind the scores of :data:`RATIO_OF`, so that a
+    resample of images pools by adding rows."""
+
+    fields = tuple(dict.fromkeys(f for pair in RATIO_OF.values() for f in pair))
+
+    def __init__(self, parts):
+        self.table = np.array([[sum(_field(p, f) for p in ps) for f in self.fields] for ps in parts], np.float64)
+
+    def pooled(self, key, rows=None):
+        """The pooled score over all images, or over each resample of ``rows`` (resamples x images)."""
+        t = self.table if rows is None else self.table[rows]
+        tot = t.sum(axis=-2)
+        a, b = (self.fields.index(f) for f in RATIO_OF[key])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return tot[..., a] / tot[..., b]
+
+    def image_mean(self, key, rows=None):
+        """The mean over images of each image's own score (images without pixels left out)."""
+        a, b = (self.fields.index(f) for f in RATIO_OF[key])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            per = self.table[:, a] / self.table[:, b]
+        return np.nanmean(per if rows is None else per[rows], axis=-1)
+
+
+def _interval(values, level):
+    lo, hi = np.nanquantile(values, [(1 - level) / 2, (1 + level) / 2])
+    return float(lo), float(hi)
+
+
+def bootstrap_scores(parts, n_resamples: int = 2000, seed: int = 0, keys=SCORES, level: float = 0.95) -> dict:
+    """Each score pooled over the images, and the mean of the per-image scores,
+    with the central ``level`` interval of a bootstrap over images.
+
+    ``parts[i]`` lists image ``i``'s :func:`error_stats` parts (one per
+    labeller, say). Each resample draws as many images as there are, with
+    replacement. Pixels within one image are not independent, so resampling
+    images, not pixels, says how much a score owes to which images were picked.
+
+    Returns ``{key: {"pooled", "low", "high", "image_mean", "image_low", "image_high"}}``.
+    """
+    if not parts:
+        raise ValueError("bootstrap_scores needs a non-empty list of images")
+    _check_bootstrap(n_resamples, level, keys, "bootstrap_scores")
+    s = _ImageSums(parts)
+    pick = np.random.default_rng(seed).integers(0, len(parts), size=(n_resamples, len(parts)))
+    out = {}
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)        # a resample whose images have no pixels: nan
+        for key in keys:
+            lo, hi = _interval(s.pooled(key, pick), level)
+            ilo, ihi = _interval(s.image_mean(key, pick), level)
+            out[key] = {"pooled": float(s.pooled(key)), "low": lo, "high": hi,
+                        "image_mean": float(s.image_mean(key)), "image_low": ilo, "image_high": ihi}
+    return out
 
 
 def bootstrap_difference(parts_a, parts_b, n_resamples: int = 2000, seed: int = 0,
@@ -64,46 +162,21 @@ def bootstrap_difference(parts_a, parts_b, n_resamples: int = 2000, seed: int = 
     the choice of images: a paired bootstrap over images.
 
     ``parts_a[i]`` and ``parts_b[i]`` are the :func:`error_stats` parts of
-    image ``i`` (each a list of parts, pooled with :func:`pool_stats`: one per
-    labeller, say) for the two models. Each resample draws as many images as
-    there are, with replacement, the same images for both models, and pools
-    them as :func:`pool_stats` does. Pixels within one image are not
-    independent, so resampling images, not pixels, is what says how much a
-    pooled score owes to which images were picked.
+    image ``i`` for the two models; each resample draws the same images for
+    both (see :func:`bootstrap_scores`).
 
     Returns ``{key: {"difference", "low", "high"}}`` (the observed pooled
     difference and the central ``level`` interval of the resampled ones).
     """
     if len(parts_a) != len(parts_b) or not parts_a:
         raise ValueError("bootstrap_difference needs the same, non-empty list of images for both models")
-    if not (isinstance(n_resamples, int) and n_resamples >= 1):
-        raise ValueError(f"n_resamples must be a positive integer, got {n_resamples!r}")
-    if not 0 < level < 1:
-        raise ValueError(f"level must lie between 0 and 1, got {level!r}")
-    unknown = [k for k in keys if k not in _MEAN_OF]
-    if unknown:
-        raise ValueError(f"bootstrap_difference has no score {unknown[0]!r}; it knows {', '.join(_MEAN_OF)}")
-    fields = ("n", *_MEAN_OF.values())
-    col = {key: 1 + k for k, key in enumerate(_MEAN_OF)}
-
-    def sums(parts):        # per image: the pixel count, then the sum behind each score
-        return np.array([[sum(p[f] for p in ps) for f in fields] for ps in parts], np.float64)
-
-    a, b = sums(parts_a), sums(parts_b)
-    rng = np.random.default_rng(seed)
-    pick = rng.integers(0, len(a), size=(n_resamples, len(a)))
-
-    def pooled(s, key, rows=None):
-        t = s if rows is None else s[rows]
-        tot = t.sum(axis=-2)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return tot[..., col[key]] / tot[..., 0]
-
+    _check_bootstrap(n_resamples, level, keys, "bootstrap_difference")
+    a, b = _ImageSums(parts_a), _ImageSums(parts_b)
+    pick = np.random.default_rng(seed).integers(0, len(parts_a), size=(n_resamples, len(parts_a)))
     out = {}
     for key in keys:
-        d = pooled(b, key, pick) - pooled(a, key, pick)
-        lo, hi = np.nanquantile(d, [(1 - level) / 2, (1 + level) / 2])
-        out[key] = {"difference": float(pooled(b, key) - pooled(a, key)), "low": float(lo), "high": float(hi)}
+        lo, hi = _interval(b.pooled(key, pick) - a.pooled(key, pick), level)
+        out[key] = {"difference": float(b.pooled(key) - a.pooled(key)), "low": lo, "high": hi}
     return out
 
 
@@ -145,9 +218,7 @@ def _similarity(va, vb) -> dict:
 def _scores(fx, fy, truths) -> dict:
     """Error stats of a field against every labeller's directions, pooled."""
     signed = np.concatenate([angle_errors(fx, fy, *t) for t in truths])
-    out = error_stats(signed)
-    out["n_truth"] = int(sum(t[2].sum() for t in truths))
-    return out
+    return error_stats(signed, n_truth=sum(int(t[2].sum()) for t in truths))
 
 
 def _event_maps(model, image, threshold, motion, params, spiking_options):
@@ -204,7 +275,8 @@ def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thres
     truths = [boundary_directions(m) for m in gt.fg]
     a, b = truths[0], truths[1] if len(truths) > 1 else truths[0]
     out = {"image_id": str(image_id), "shape": list(gt.fg.shape[1:]), "units": [],
-           "ceiling": error_stats(angle_errors(np.where(b[2], b[0], 0), np.where(b[2], b[1], 0), *a))}
+           "ceiling": error_stats(angle_errors(np.where(b[2], b[0], 0), np.where(b[2], b[1], 0), *a),
+                                  n_truth=int(a[2].sum()))}
     fields = {"GT": a[:2], "GT2": (np.where(b[2], b[0], 0), np.where(b[2], b[1], 0))}
     runs = [(m, "paper", t) for m in event_models for t in thresholds]
     runs += [(m, "shift4", t) for m in event_models for t in shift4_thresholds]

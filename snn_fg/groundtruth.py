@@ -11,8 +11,9 @@
   (principal axis of the +1 pixels), so vertical lines need no special case.
 * :func:`score_directions` compares a model's figure-ground field with those
   directions pixel by pixel: the mean *signed* difference (the number the
-  paper reports), and the mean absolute difference, median and fraction within
-  45 degrees (the numbers that show the error).
+  paper reports), and the mean absolute difference, median, fraction within
+  45 degrees (the numbers that show the error) and the side accuracy: the
+  fraction within 90 degrees, i.e. with the figure on the labelled side.
 
 Directions are unit vectors, x right and y up, like the models' ``fg_x``,
 ``fg_y``.
@@ -36,6 +37,10 @@ MIN_POINTS = 3
 MAX_ANISOTROPY = 0.5
 #: Angle error (degrees) counted as "right" in :func:`score_directions`.
 WITHIN_DEG = 45.0
+#: Angle errors below this (degrees) put the figure on the labelled side: the
+#: occlusion-boundary literature's binary side accuracy (a vector exactly
+#: along the boundary names no side and counts as wrong).
+SIDE_DEG = 90.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -186,16 +191,17 @@ def angle_errors(fg_x, fg_y, truth_x, truth_y, valid) -> np.ndarray:
 
 
 def summarise_errors(signed) -> dict:
-    """Mean signed and absolute error, median absolute error, fraction within 45 degrees, pixel count."""
+    """Mean signed and absolute error, median absolute error, fraction within 45 degrees,
+    side accuracy (fraction below :data:`SIDE_DEG`), pixel count."""
     signed = np.asarray(signed, np.float64)
     if not signed.size:
         nan = float("nan")
         return {"mean_signed_deg": nan, "mean_abs_deg": nan, "median_abs_deg": nan, "within45": nan,
-                "n_pixels": 0}
+                "side_accuracy": nan, "n_pixels": 0}
     a = np.abs(signed)
     return {"mean_signed_deg": float(signed.mean()), "mean_abs_deg": float(a.mean()),
             "median_abs_deg": float(np.median(a)), "within45": float(np.mean(a <= WITHIN_DEG)),
-            "n_pixels": int(signed.size)}
+            "side_accuracy": float(np.mean(a < SIDE_DEG)), "n_pixels": int(signed.size)}
 
 
 def score_directions(fg_x, fg_y, truth) -> dict:

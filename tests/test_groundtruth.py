@@ -56,6 +56,9 @@ def test_signed_and_absolute_means_differ_when_errors_cancel():
     s = summarise_errors([90.0, -90.0, 10.0, -10.0])
     assert s["mean_signed_deg"] == 0.0 and s["mean_abs_deg"] == 50.0
     assert s["within45"] == 0.5 and s["median_abs_deg"] == 50.0 and s["n_pixels"] == 4
+    # a vector exactly along the boundary names no side: the two at 90 deg count as wrong
+    assert s["side_accuracy"] == 0.5
+    assert summarise_errors([89.9, -120.0, 179.0, 0.0])["side_accuracy"] == 0.5
     assert signed_angle_deg(np.cos(np.radians(170)), np.sin(np.radians(170)), np.cos(np.radians(-170)),
                             np.sin(np.radians(-170))) == pytest.approx(-20.0)
 
@@ -72,6 +75,7 @@ def test_score_counts_only_pixels_with_a_model_vector():
     s = score_directions(fx, fy, (truth_x, truth_y, valid))
     assert s["n_pixels"] == 3 and s["coverage"] == 0.75
     assert s["mean_abs_deg"] == pytest.approx(30.0) and s["mean_signed_deg"] == pytest.approx(-30.0)
+    assert s["side_accuracy"] == pytest.approx(2 / 3)
 
 
 def test_loader_names_the_file_on_bad_input(tmp_path):
@@ -130,3 +134,35 @@ def test_bootstrap_over_images_separates_a_steady_shift_from_one_image_s_outlier
         bootstrap_difference(a, one[:-1])
     with pytest.raises(ValueError, match="no score 'median_abs_deg'"):
         bootstrap_difference(a, one, keys=("median_abs_deg",))
+
+
+def test_pooled_scores_add_pixels_over_images_and_coverage_counts_labelled_pixels():
+    from snn_fg.evaluation import error_stats, pool_stats
+
+    # image 1: 3 scored of 4 labelled, sides right, wrong, right; image 2: 1 scored of 6, wrong
+    a = error_stats([10.0, 100.0, -30.0], n_truth=4)
+    b = error_stats([-170.0], n_truth=6)
+    s = pool_stats([a, b])
+    assert s["n_pixels"] == 4 and s["n_truth"] == 10 and s["coverage"] == pytest.approx(0.4)
+    assert s["side_accuracy"] == pytest.approx(0.5) and s["within45"] == pytest.approx(0.5)
+    assert s["mean_abs_deg"] == pytest.approx(77.5) and s["mean_signed_deg"] == pytest.approx(-22.5)
+    # parts made without the labelled count (a labeller against another) have no coverage
+    assert np.isnan(pool_stats([error_stats([5.0])])["coverage"])
+    assert np.isnan(pool_stats([])["side_accuracy"])
+
+
+def test_bootstrap_scores_pool_over_images_and_the_image_mean_weighs_images_alike():
+    from snn_fg.evaluation import bootstrap_scores, error_stats
+
+    # 10 images all right on 100 pixels each, one image all wrong on 1000 pixels
+    parts = [[error_stats(np.zeros(100), n_truth=200)] for _ in range(10)]
+    parts.append([error_stats(np.full(1000, 180.0), n_truth=1000)])
+    s = bootstrap_scores(parts, n_resamples=400)
+    side = s["side_accuracy"]
+    assert side["pooled"] == pytest.approx(0.5) and side["image_mean"] == pytest.approx(10 / 11)
+    # resamples without the big image are all right, those with it twice mostly wrong
+    assert side["high"] == 1.0 and side["low"] < 0.4 and side["image_low"] < side["image_mean"] <= side["image_high"]
+    assert s["coverage"]["pooled"] == pytest.approx(2000 / 3000)
+    assert bootstrap_scores(parts, n_resamples=400) == s       # seeded
+    with pytest.raises(ValueError, match="no score 'median_abs_deg'"):
+        bootstrap_scores(parts, keys=("median_abs_deg",))

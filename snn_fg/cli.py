@@ -105,7 +105,8 @@ def _add_run(sub):
     p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
     p.add_argument("--model", choices=tuple(MODELS), default="rate",
                    help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image; "
-                        "spiking: the spiking network (default: rate)")
+                        "spiking: the spiking network; natural, natural-spiking: the variant for natural "
+                        "scenes (contrast-invariant grouping, docs/model.md), rate and spiking (default: rate)")
     for title, options in _RUN_OPTIONS:
         g = p.add_argument_group(title)
         for flag, kind, lo, strict, text in options:
@@ -160,8 +161,6 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
 # --------------------------------------------------------------------------
 def _model(args, kind):
     """The model the arguments ask for, refusing options that would be ignored."""
-    from .params import ModelParams
-
     given = {k: getattr(args, k) for k in MODEL_PARAMS if getattr(args, k) is not None}
     takes = MODELS[args.model].options
     unused = [k for m in MODELS.values() for k in m.options if k not in takes and getattr(args, k) is not None]
@@ -183,7 +182,7 @@ def _model(args, kind):
     for k in ("feedback", "carry_state", "window_clock"):
         if k in options:
             options[k] = options[k] == "on"
-    return MODELS[args.model](ModelParams(**given), progress, **options)
+    return MODELS[args.model](MODELS[args.model].base_params.replace(**given), progress, **options)
 
 
 def _progress_factory():

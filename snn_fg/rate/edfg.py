@@ -166,7 +166,9 @@ def border_ownership_grouping(s_levels, params: ModelParams = ModelParams(), pro
     """Stages 5-8: iterate grouping cells and feedback on the S pyramid (dense in, dense out)."""
     entries = [Entries.from_dense(s) for s in s_levels]
     shapes = [s.shape[1:] for s in s_levels]
-    return SparseGrouping(entries, shapes, params).run(progress).dense()
+    from .natural import grouping_engine
+
+    return grouping_engine(params)(entries, shapes, params).run(progress).dense()
 
 
 def readout(g: GroupingResult, params: ModelParams, full_shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -232,9 +234,11 @@ def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
     with the fraction ``carry`` of its grouping maps
     (:meth:`~snn_fg.rate.grouping.SparseGrouping.continue_from`).
     """
+    from .natural import grouping_engine
+
     check_levels(np.shape(pos), params.levels)
     entries, shapes = event_entries(pos, neg, params)
-    engine = SparseGrouping(entries, shapes, params)
+    engine = grouping_engine(params)(entries, shapes, params)
     if previous is not None:
         engine.continue_from(previous.engine, carry)
     engine.run(progress)

@@ -99,3 +99,19 @@ def test_spiking_form_owns_the_disc_of_both_polarities():
         assert maps.params["model"] == "natural-spiking"
         t = truth_scores(maps.fg_x, maps.fg_y, scene)
         assert t["frac_within_45"] >= 0.95 and t["coverage"] > 0.6
+
+
+def test_exporters_write_the_pooled_network(tmp_path):
+    pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
+    from snn_fg.export.nir import export_nir, read_nir
+    from snn_fg.export.pynn import export_pynn
+
+    net = build_network(NATURAL_PARAMS.replace(levels=2), (32, 40))
+    back = read_nir(export_nir(net, tmp_path / "n.nir"))
+    # (NIR carries each signed kernel as an excitatory and an inhibitory part)
+    into = sorted((p.source, p.sign) for p in back.projections if p.target == "feedback_1p_1")
+    assert into == [("feedback_1n_2", -1), ("feedback_1p_2", 1), ("group_D_1", -1), ("group_D_1", 1),
+                    ("group_L_1", -1), ("group_L_1", 1)]
+    folder = export_pynn(net, tmp_path / "pynn")
+    written = "".join(p.read_text(errors="ignore") for p in folder.rglob("*.json"))
+    assert "group_D_1_to_feedback_1p_1" in written

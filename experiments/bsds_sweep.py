@@ -60,50 +60,64 @@ def select_ids(n: int | None) -> list[str]:
     return [ids[i] for i in pick]
 
 
-def settings_key(settings: dict) -> str:
+def settings_key(settings: dict, spiking: bool | None = None) -> str:
     """Cache directory name of one set of settings. Runs of the spiking model
-    also key on the default network's constants, so a cache made before a
+    (``spiking``; by default: when ``settings["event_models"]`` names it)
+    also key on the default network's constants, so that a cache made before a
     change of ``SpikingParams`` is not read back as the new network's; all
     key on the version of what an image's result holds."""
     from snn_fg.evaluation import RESULT_VERSION
 
     text = json.dumps(settings, sort_keys=True) + ("" if RESULT_VERSION == 1 else f"v{RESULT_VERSION}")
-    if "spiking" in settings.get("event_models", ()):
+    if spiking is None:
+        spiking = "spiking" in settings.get("event_models", ())
+    if spiking:
         from snn_fg.network import SpikingParams
 
         text += json.dumps(SpikingParams().to_dict(), sort_keys=True)
     return "bsds-" + hashlib.sha1(text.encode()).hexdigest()[:10]
 
 
-def evaluate(args, settings: dict | None = None) -> dict:
-    """Per-image results ``{image_id: dict}`` of the selected images (cached)."""
+def sweep(func, ids, settings: dict, args, spiking: bool = False) -> dict:
+    """``func(root=..., image_id=..., **settings)`` for every image id, on Dask, cached per image."""
     from snn_fg.errors import SnnFgError
-    from snn_fg.evaluation import evaluate_image
     from snn_fg.sweep import SweepTask, run_sweep
 
-    settings = dict(SETTINGS if settings is None else settings)
-    ids = args.ids or select_ids(QUICK_IMAGES if args.quick and args.images is None else args.images)
     tasks = [SweepTask(i, {"root": str(BSDS_FG), "image_id": i, **settings}) for i in ids]
     try:
-        return run_sweep(evaluate_image, tasks, CACHE / settings_key(settings), scheduler=args.scheduler,
+        return run_sweep(func, tasks, CACHE / settings_key(settings, spiking), scheduler=args.scheduler,
                          workers=args.workers, progress=not args.no_progress,
-                         preload=("brian2",) if "spiking" in settings["event_models"] else ())
+                         preload=("brian2",) if spiking else ())
     except SnnFgError as exc:
         fail(str(exc))
 
 
-def write_table(name: str, rows: list[dict]) -> list[Path]:
-    """``results/<name>.json`` (a list of rows) and ``results/<name>.csv``."""
+def evaluate(args, settings: dict | None = None) -> dict:
+    """Per-image results ``{image_id: dict}`` of :func:`snn_fg.evaluation.evaluate_image` on the selected
+    images (cached)."""
+    from snn_fg.evaluation import evaluate_image
+
+    settings = dict(SETTINGS if settings is None else settings)
+    ids = args.ids or select_ids(QUICK_IMAGES if args.quick and args.images is None else args.images)
+    return sweep(evaluate_image, ids, settings, args, "spiking" in settings["event_models"])
+
+
+def write_table(name: str, rows: list[dict], formats=("json", "csv")) -> list[Path]:
+    """``results/<name>.json`` (a list of rows) and/or ``results/<name>.csv``."""
     from snn_fg.atomic import save_text
 
     RESULTS.mkdir(parents=True, exist_ok=True)
-    buf = io.StringIO()
-    if rows:
-        w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
-        w.writeheader()
-        w.writerows(rows)
-    return [save_text(RESULTS / f"{name}.json", json.dumps(rows, indent=1)),
-            save_text(RESULTS / f"{name}.csv", buf.getvalue())]
+    written = []
+    if "json" in formats:
+        written.append(save_text(RESULTS / f"{name}.json", json.dumps(rows, indent=1)))
+    if "csv" in formats:
+        buf = io.StringIO()
+        if rows:
+            w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+            w.writeheader()
+            w.writerows(rows)
+        written.append(save_text(RESULTS / f"{name}.csv", buf.getvalue()))
+    return written
 
 
 def save_figure(fig, name: str) -> Path:

@@ -158,7 +158,8 @@ def _bars(rows, key):
     return np.array([[r[key] - r[f"{key}_low"] for r in rows], [r[f"{key}_high"] - r[key] for r in rows]])
 
 
-def _pct(r, key):
+def percent_with_interval(r, key) -> str:
+    """A row's score in percent with its bootstrap interval: ``61.2 [58.0, 64.1]``."""
     return f"{100 * r[key]:.1f} [{100 * r[f'{key}_low']:.1f}, {100 * r[f'{key}_high']:.1f}]"
 
 
@@ -170,8 +171,9 @@ def markdown(named, ceiling, header: str) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, r in named:
         c = "-" if r.get("threshold") is None else f"{r['threshold']:.2f}"
-        lines.append(f"| {name} | {c} | {_pct(r, 'side_accuracy')} | {100 * r['side_accuracy_image_mean']:.1f} | "
-                     f"{100 * r['coverage']:.1f} | {_pct(r, 'within45')} | "
+        side, within45 = percent_with_interval(r, "side_accuracy"), percent_with_interval(r, "within45")
+        lines.append(f"| {name} | {c} | {side} | {100 * r['side_accuracy_image_mean']:.1f} | "
+                     f"{100 * r['coverage']:.1f} | {within45} | "
                      f"{r['mean_abs_deg']:.1f} [{r['mean_abs_deg_low']:.1f}, {r['mean_abs_deg_high']:.1f}] | "
                      f"{r['mean_signed_deg']:.1f} | {r['median_abs_deg']:.1f} | {r['n_images']} | "
                      f"{r['n_pixels']:,} |")

@@ -128,7 +128,8 @@ def _add_run(sub):
     p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
     p.add_argument("--model", choices=tuple(MODELS), default="rate",
                    help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image; "
-                        "spiking: the spiking network (default: rate)")
+                        "spiking: the spiking network; natural, natural-spiking: the variant for natural "
+                        "scenes (contrast-invariant grouping, docs/model.md), rate and spiking (default: rate)")
     for title, options in _RUN_OPTIONS:
         g = p.add_argument_group(title)
         for flag, kind, lo, strict, text in options:
@@ -208,7 +209,6 @@ def _verb(why: str, n: int) -> str:
 def _model(args, kind):
     """The model the arguments ask for, refusing options that would be ignored."""
     from .network.recipes import model_params_of
-    from .params import ModelParams
 
     refused = _refused_options(args, kind)
     if refused:
@@ -224,7 +224,8 @@ def _model(args, kind):
     for k in ("feedback", "carry_state", "window_clock"):
         if k in options:
             options[k] = options[k] == "on"
-    params = ModelParams(**given) if args.network is None else model_params_of(args.network)
+    params = MODELS[args.model].base_params.replace(**given) if args.network is None else \
+        model_params_of(args.network)
     return MODELS[args.model](params, progress, **options)
 
 

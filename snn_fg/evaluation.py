@@ -333,3 +333,48 @@ def evaluate_disc(*, model: str, r0: float, diameter: float, threshold: float = 
     return {"model": model, "r0": r0, "diameter": diameter, "peak_distance_px": dist,
             "hit": bool(dist <= max(HIT_MIN_PX, HIT_RADIUS_FRACTION * diameter / 2)),
             **truth_scores(maps.fg_x, maps.fg_y, scene), **map_similarity((maps.fg_x, maps.fg_y), truth)}
+
+
+def evaluate_models(*, root: str, image_id: str, models: dict, threshold: float = 0.10,
+                    motion: str = "paper") -> dict:
+    """Named models (variants) on one image, each scored against both labellers.
+
+    Parameters
+    ----------
+    root : str
+        The ``bsds-fg`` folder.
+    image_id : str
+    models : dict
+        ``{name: {"model": a name of snn_fg.models.MODELS, "params": changes to
+        that model's own parameters, "options": its options}}``; ``params`` and
+        ``options`` may be left out.
+    threshold, motion : float, str
+        How the image becomes events (:func:`snn_fg.events.image_to_frame`);
+        the frame-based models see the image.
+
+    Returns
+    -------
+    dict
+        ``units``: one entry per name with its :func:`error_stats` against both
+        labellers (and ``seconds``, the model's run time).
+    """
+    import time
+
+    from .events import image_to_frame
+    from .images import read_image
+    from .models import MODELS, Frame, get_model
+
+    gt = load_bsds_fg(root, image_id)
+    truths = [boundary_directions(m) for m in gt.fg]
+    pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion=motion)
+    frame = Frame(pos, neg, read_image(gt.image_path, grey=False))
+    out = {"image_id": str(image_id), "shape": list(gt.fg.shape[1:]), "event_pixels": int((pos | neg).sum()),
+           "units": []}
+    for name, spec in models.items():
+        kind = spec["model"]
+        params = MODELS[kind].base_params.replace(**spec.get("params", {}))
+        t0 = time.perf_counter()
+        maps = get_model(kind, params, **spec.get("options", {})).run_frame(frame)
+        out["units"].append({"name": name, "seconds": time.perf_counter() - t0,
+                             **_scores(maps.fg_x, maps.fg_y, truths)})
+    return out

@@ -21,6 +21,7 @@ from .errors import InputError
 from .figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure, save_spiking_figures
 from .maps import Maps
 from .params import ModelParams
+from .rate.natural import NATURAL_PARAMS
 
 
 @dataclass
@@ -48,6 +49,8 @@ class Model(ABC):
     """
 
     name: ClassVar[str]
+    #: the parameters the command line's model flags change (the paper's, or a variant's)
+    base_params: ClassVar[ModelParams] = ModelParams()
     needs: ClassVar[str] = "events"
     #: keyword options of the constructor besides params and progress (CLI flags of the same name)
     options: ClassVar[tuple] = ()
@@ -72,6 +75,11 @@ class Model(ABC):
         default one window at a time (:meth:`run_window`)."""
         for w in windows:
             yield w, self.run_window(w)
+
+    def named(self, maps: Maps) -> Maps:
+        """``maps`` with this model's name in their parameters."""
+        maps.params["model"] = self.name
+        return maps
 
     def empty_maps(self, shape) -> Maps:
         z = np.zeros(shape, np.float32)
@@ -110,7 +118,7 @@ class RateModel(Model):
         from .rate.edfg import run_edfg
 
         t = time.perf_counter()
-        maps = run_edfg(frame.pos, frame.neg, self.params, progress=self.progress)
+        maps = self.named(run_edfg(frame.pos, frame.neg, self.params, progress=self.progress))
         maps.params["timings_s"] = {"run": time.perf_counter() - t}
         return maps
 
@@ -129,8 +137,8 @@ class RateModel(Model):
             continued = previous is not None
             t = time.perf_counter()
             previous = run_edfg_state(w.pos, w.neg, self.params, progress=self.progress, previous=previous)
-            yield w, previous.maps(carry_state=True, continued_from_previous_window=continued,
-                                   timings_s={"run": time.perf_counter() - t})
+            yield w, self.named(previous.maps(carry_state=True, continued_from_previous_window=continued,
+                                              timings_s={"run": time.perf_counter() - t}))
 
 
 class FbfgModel(Model):
@@ -210,7 +218,8 @@ class SpikingModel(Model):
         from .spiking import run_spiking
 
         options = {k: v for k, v in self.run_options.items() if k not in ("readout_lag_ms", "window_clock")}
-        return run_spiking(**inputs, **self._net(), backend=self._sim(), progress=self.progress is not None, **options)
+        return self.named(run_spiking(**inputs, **self._net(), backend=self._sim(), progress=self.progress is not None,
+                                      **options))
 
     def run_frame(self, frame: Frame) -> Maps:
         if self.spike_input == "events":
@@ -241,17 +250,35 @@ class SpikingModel(Model):
                    if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate", "window_clock")}
         maps = run_spiking_windows(windows, **self._net(), backend=self._sim(), progress=self.progress is not None,
                                    **options)
-        yield from zip(windows, maps)
+        yield from zip(windows, map(self.named, maps))
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
         written = super().write_figures(out, maps, inputs, titles, crop)
         return written + save_spiking_figures(maps, out, with_maps=False)
 
 
-MODELS: dict[str, type[Model]] = {m.name: m for m in (RateModel, FbfgModel, SpikingModel)}
+class NaturalModel(RateModel):
+    """The natural-scene variant (:mod:`snn_fg.rate.natural`): the rate model
+    with contrast-invariant grouping and the parameters chosen on natural images."""
+
+    name = "natural"
+    base_params = NATURAL_PARAMS
 
 
-def get_model(name: str, params: ModelParams = ModelParams(), progress=None, **options) -> Model:
-    """The model ``name`` (one of :data:`MODELS`) with its options."""
+class NaturalSpikingModel(SpikingModel):
+    """The natural-scene variant as a spiking network: the default network's
+    construction with :data:`~snn_fg.rate.natural.NATURAL_PARAMS` (pooled
+    grouping polarities, no rival inhibition), on a backend."""
+
+    name = "natural-spiking"
+    base_params = NATURAL_PARAMS
+
+
+MODELS: dict[str, type[Model]] = {m.name: m for m in (RateModel, FbfgModel, SpikingModel, NaturalModel,
+                                                       NaturalSpikingModel)}
+
+
+def get_model(name: str, params: ModelParams | None = None, progress=None, **options) -> Model:
+    """The model ``name`` (one of :data:`MODELS`) with its options (``params``: its own by default)."""
     check.choice("model", "name", name, tuple(MODELS))
-    return MODELS[name](params, progress, **options)
+    return MODELS[name](MODELS[name].base_params if params is None else params, progress, **options)

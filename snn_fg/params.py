@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 from . import validate as check
 
+#: How grouping cells treat the two contrast polarities (``ModelParams.grouping_polarity``).
+GROUPING_POLARITIES = ("compete", "pool")
+
 
 @dataclass(frozen=True, kw_only=True)
 class ModelParams:
@@ -43,6 +46,11 @@ class ModelParams:
     fbfg_edge_sigma: FBFG only: scale (px) of the Gaussian-derivative edge operator.
     fbfg_edge_floor: FBFG only: edge strengths below this fraction of the level-1
         maximum are zeroed.
+    grouping_polarity: ``"compete"`` (the paper's): light-figure and
+        dark-figure grouping cells compete per pixel, winner takes all;
+        ``"pool"``: no competition, and the feedback reads the sum of both,
+        so that a figure is grouped whatever the sign of its contrast along
+        the outline (the natural-scene variant, :mod:`snn_fg.rate.natural`).
     """
 
     levels: int = 10
@@ -63,6 +71,7 @@ class ModelParams:
     grouping_floor: float = 0.1
     fbfg_edge_sigma: float = 1.0
     fbfg_edge_floor: float = 0.1
+    grouping_polarity: str = "compete"
 
     def __post_init__(self):
         owner = "ModelParams"
@@ -77,6 +86,7 @@ class ModelParams:
                                  ("grouping_floor", None, False), ("fbfg_edge_sigma", 0, True),
                                  ("fbfg_edge_floor", None, False)):
             object.__setattr__(self, name, check.number(owner, name, getattr(self, name), lo=lo, lo_open=strict))
+        check.choice(owner, "grouping_polarity", self.grouping_polarity, GROUPING_POLARITIES)
         for name in ("dog_s1", "dog_s2"):
             v = getattr(self, name)
             try:

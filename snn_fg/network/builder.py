@@ -338,8 +338,9 @@ class _Builder:
             gain = self.gains.bo_to_group * (1.0 if sign > 0 else w * sparse * Gains.balance(self.neurons["group"]))
             self.conv((b if sign > 0 else rivals)[fam], g[pol], _von_mises(half, "gather"), sign=sign, gain=gain,
                       prune=self.sp.prune_vm)
-        for a, c in (("L", "D"), ("D", "L")):
-            self.conv(g[a], g[c], _channel_map(1, 1, [(0, 0)]), sign=-1, gain=self.gains.group_inh_group)
+        if self.params.grouping_polarity == "compete":
+            for a, c in (("L", "D"), ("D", "L")):
+                self.conv(g[a], g[c], _channel_map(1, 1, [(0, 0)]), sign=-1, gain=self.gains.group_inh_group)
         return g
 
     def feedback_cells(self, level, b, g):
@@ -361,6 +362,22 @@ class _Builder:
                 if gain > 0:
                     self.resize(z[k], b[fam], sign=sign, gain=gain, interpolation=self.sp.feedback_interpolation,
                                 delay=self.sp.delay_feedback_ms)
+
+    def pooled_feedback(self, level, g):
+        """Stage 8 with pooled grouping polarities (``grouping_polarity="pool"``):
+        besides the wiring of :meth:`feedback_cells` (z1 = GL (*) m1 - GD (*) m2),
+        each feedback cell reads the other polarity through the same halves
+        (+ GD (*) m1 - GL (*) m2), so that it carries z1 = G (*) m1 - G (*) m2
+        with G = GL + GD (likewise z2 and the negative halves)."""
+        st = self.sp.grouping_stride
+        gain = self.gains.group_to_feedback * st * st
+        other = {"L": "D", "D": "L"}
+        for k in FEEDBACK_HALVES:
+            (pol_for, half_for), (pol_against, half_against) = FEEDBACK_INPUTS[k]
+            z = f"feedback_{k}_{level}"
+            self.conv(g[other[pol_for]], z, _von_mises(half_for, "scatter"), gain=gain, prune=self.sp.prune_vm)
+            self.conv(g[other[pol_against]], z, _von_mises(half_against, "scatter"), sign=-1,
+                      gain=gain * Gains.balance(self.neurons["feedback"]), prune=self.sp.prune_vm)
 
     def window_clock(self):
         """The window clock: one spike source that fires as each window of a
@@ -438,6 +455,8 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
         b = bld.border_ownership(level, s, u)
         g = bld.grouping_cells(level, b)
         bld.feedback_cells(level, b, g)
+        if params.grouping_polarity == "pool":
+            bld.pooled_feedback(level, g)
     bld.pooling()
     if spiking.clock_inh_group > 0:
         bld.window_clock()

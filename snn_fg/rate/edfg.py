@@ -168,7 +168,9 @@ def border_ownership_grouping(s_levels, params: ModelParams = ModelParams(), pro
     """Stages 5-8: iterate grouping cells and feedback on the S pyramid (dense in, dense out)."""
     entries = [Entries.from_dense(s) for s in s_levels]
     shapes = [s.shape[1:] for s in s_levels]
-    return SparseGrouping(entries, shapes, params).run(progress).dense()
+    from .natural import grouping_engine
+
+    return grouping_engine(params)(entries, shapes, params).run(progress).dense()
 
 
 def readout(g: GroupingResult, params: ModelParams, full_shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -237,11 +239,13 @@ def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
     With ``params.input_pool > 1`` the model runs on the pooled frame
     (:mod:`snn_fg.frames.pool`) and its maps come back at the sensor's size.
     """
+    from .natural import grouping_engine
+
     sensor_edges = (np.asarray(pos) != 0) | (np.asarray(neg) != 0)
     pos, neg = pool_frame(pos, neg, params.input_pool)
     check_levels(np.shape(pos), params.levels, per_octave=params.levels_per_octave)
     entries, shapes = event_entries(pos, neg, params)
-    engine = SparseGrouping(entries, shapes, params)
+    engine = grouping_engine(params)(entries, shapes, params)
     if previous is not None:
         engine.continue_from(previous.engine, carry)
     engine.run(progress)

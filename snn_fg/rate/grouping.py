@@ -216,6 +216,11 @@ class SparseGrouping:
             (kl, lol, hil), (kd, lod, hid) = self.scatter_k
             nbk.scatter(lv.a_l, lv.a_d, lv.e.rows, lv.e.cols, lv.e.ch, d_l, d_d, kl, kd, lol, hil, lod, hid)
         lv.v_l, lv.v_d = v_l, v_d
+        self._compete(lv)
+
+    def _compete(self, lv: _Level) -> None:
+        """The grouping maps from their linear inputs: rectified, and light
+        against dark winner-take-all per pixel."""
         nbk.winner_take_all(lv.g_l, lv.g_d, lv.a_l, lv.a_d, lv.pad)
 
     def _group_dense(self, lv: _Level, v_l, v_d) -> None:

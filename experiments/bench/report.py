@@ -76,11 +76,17 @@ def _synthetic(data):
                       f"{fit['slope_us_per_event']:.3f} us x events (R^2 {fit['r2']:.3f})")
 
 
+def _failed(eng: str, r: dict, width: int) -> bool:
+    """Print a failed command run's line; whether it failed."""
+    if r.get("exit_status"):
+        print(f"  {eng:{width}s} FAILED (exit {r['exit_status']})")
+    return bool(r.get("exit_status"))
+
+
 def _throughput(data):
     print("\n== snn-fg run dvs.es --window-ms 85, end to end ==")
     for eng, r in data.items():
-        if r.get("exit_status"):
-            print(f"  {eng:16s} FAILED (exit {r['exit_status']})")
+        if _failed(eng, r, 16):
             continue
         print(f"  {eng:16s} {r['windows']} of {r['windows_in_recording']} windows in {r['wall_s']:.1f} s: "
               f"{r['windows_per_s']:.3g} windows/s ({r['s_per_window']:.3g} s per window), "
@@ -94,8 +100,7 @@ REAL_TIME_S = 0.085
 def _stream(data):
     print("\n== snn-fg run dvs.es --start-ms 100 --no-figures: seconds per 85 ms window, beyond the first ==")
     for eng, r in data.items():
-        if r.get("exit_status"):
-            print(f"  {eng:34s} FAILED (exit {r['exit_status']})")
+        if _failed(eng, r, 34):
             continue
         ev = ""
         if "synaptic_events_per_window" in r:

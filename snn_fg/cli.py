@@ -178,10 +178,14 @@ def _refused_options(args, kind) -> list[tuple[str, str]]:
     model = MODELS[args.model]
     given = lambda k: getattr(args, k) is not None       # noqa: E731
     refused = []
+    takers: dict[str, list[str]] = {}       # an option the chosen model does not take -> the models that do
     for other in MODELS.values():
         for k in other.options:
-            if other is not model and k not in model.options and k != "network" and given(k):
-                refused.append((k, f"applies to the {other.name} model only (--model {other.name})"))
+            if k not in model.options and k != "network" and given(k):
+                takers.setdefault(k, []).append(other.name)
+    for k, names in takers.items():
+        which = f"the {names[0]} model" if len(names) == 1 else f"the {', '.join(names[:-1])} and {names[-1]} models"
+        refused.append((k, f"applies to {which} only (--model {names[0]})"))
     named = {k for k, _ in refused}
     if kind != "recording":
         refused += [(k, f"applies to event recordings only; {_KIND_NAMES[kind]}")

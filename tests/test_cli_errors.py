@@ -28,11 +28,11 @@ def test_a_usage_error_is_one_line_without_the_usage_block(tmp_path, args, says)
 
 
 @pytest.mark.parametrize("args, says, not_says", [
-    (["--seed", "3"], "--seed: applies to the spiking model only (--model spiking)", "they do not apply"),
+    (["--seed", "3"], "--seed: applies to the spiking and natural-spiking models only (--model spiking)", "they do not apply"),
     (["--window-ms", "20"], "--window-ms: applies to event recordings only; the demo is one image", "rate model"),
     (["--model", "spiking", "--window-ms", "20"], "event recordings only", "spiking model"),
     (["--model", "fbfg", "--motion", "circle"], "reads the image itself", "rate model"),
-    (["--duration-ms", "5", "--dt-ms", "1"], "--duration-ms, --dt-ms: apply to the spiking model only", "they"),
+    (["--duration-ms", "5", "--dt-ms", "1"], "--duration-ms, --dt-ms: apply to the spiking and natural-spiking models only", "they"),
 ])
 def test_a_refused_option_names_the_real_reason(tmp_path, args, says, not_says):
     res = run_cli("run", "demo", "--out", tmp_path / "o", *args, "--no-progress")

@@ -171,7 +171,7 @@ def test_errors_name_what_is_wrong(frame):
     with pytest.raises(InputError, match="sensor_size"):
         run_spiking(events=ev.events, progress=False)
     with pytest.raises(InputError, match="no pixel"):
-        run_spiking(np.zeros((20, 20), np.uint8), np.zeros((20, 20), np.uint8), progress=False)
+        run_spiking(np.zeros_like(pos), np.zeros_like(neg), progress=False)
     with pytest.raises(ParameterError, match="settle_ms"):
         run_spiking(pos, neg, duration_ms=100, settle_ms=100, progress=False)
     with pytest.raises(ParameterError, match="dt_ms"):

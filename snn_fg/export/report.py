@@ -255,12 +255,15 @@ def report_table(rep: dict) -> str:
     pool = rep.get("input_pool", 1)
     if rep.get("sensor_shape"):
         h, w = rep["sensor_shape"]
-    seen = f", pooled {pool} x {pool}" if pool > 1 else ""
-    lines = [f"Whole network for a {w} x {h} sensor (width x height){seen}, {rep['levels']} levels, {rep['n_ori']} "
-             f"orientations, dt {rep['dt_ms']:g} ms",
-             f"  neurons {t['neurons']:,}   spike sources {t['sources']:,}   synapses {t['synapses']:,}",
-             f"  max fan-in {t['max_fan_in']:,}   max fan-out {t['max_fan_out']:,}   delays (steps) "
-             f"{', '.join(str(d) for d in t['delay_steps'])}"]
+    lines = [f"Whole network for a {w} x {h} sensor (width x height), {rep['levels']} levels, "
+             f"{rep['n_ori']} orientations, dt {rep['dt_ms']:g} ms"]
+    if pool > 1:
+        lines.append(f"  the sensor seen in {pool} x {pool} blocks: a {rep['frame_shape'][1]} x "
+                     f"{rep['frame_shape'][0]} frame")
+    lines += [
+              f"  neurons {t['neurons']:,}   spike sources {t['sources']:,}   synapses {t['synapses']:,}",
+              f"  max fan-in {t['max_fan_in']:,}   max fan-out {t['max_fan_out']:,}   delays (steps) "
+              f"{', '.join(str(d) for d in t['delay_steps'])}"]
     for rec, wr in t["weights_mv"].items():
         lines.append(f"  {rec} weights {readable(wr['min'])} to {readable(wr['max'])} mV: range "
                      f"{readable(wr['range'])} ({readable(wr['max_range_on_one_population'])} on one population)")

@@ -9,7 +9,8 @@ synapses, is skipped), once as sPyNNaker chooses its cores and once with
 cells, as the report counts). ``mapping.json`` of each run is kept.
 
 Writes experiments/results/export_spinnaker.{json,md}.
-Usage: python experiments/export_spinnaker.py [--configs 64x48:4 NETWORK.json ...] [--no-combined]
+Usage: python experiments/export_spinnaker.py [--configs 64x48:4 NETWORK.json ...] [--no-combined] [--keep]
+(--keep: the stored rows of other configurations stay in the results)
 """
 from __future__ import annotations
 
@@ -88,8 +89,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--configs", nargs="+", default=["64x48:4"], help="WxH:levels or a stored network file")
     ap.add_argument("--no-combined", action="store_true", help="only sPyNNaker's own choice of cores")
+    ap.add_argument("--keep", action="store_true", help="keep the stored rows of other configurations")
     args = ap.parse_args(argv)
-    rows = []
+    stored = OUT / "export_spinnaker.json"
+    rows = [m for m in json.loads(stored.read_text()) if m["config"] not in args.configs] \
+        if args.keep and stored.exists() else []
     with tempfile.TemporaryDirectory() as tmp:
         for config in args.configs:
             for combined in (False,) if args.no_combined else (False, True):

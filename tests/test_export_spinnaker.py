@@ -111,3 +111,26 @@ def test_spynnaker_maps_a_small_export_onto_a_virtual_board(tmp_path, monkeypatc
         (folder / "network.json").read_text())["populations"]}
     assert (folder / "spinnaker" / "config" / ".spynnaker.cfg").exists()
     assert not (home / ".spynnaker.cfg").exists() and not (home / ".config" / ".spynnaker.cfg").exists()
+
+
+def test_every_convolution_connector_gets_the_target_shape_spynnaker_requires():
+    """sPyNNaker counts (n + 2 pad - k + 1) // stride target cells, one fewer
+    than a stride-2 lattice on an odd row or column count (the compact
+    network's level 2 at 304 x 240 is 41 x 52; sPyNNaker refused its
+    41 x 52 -> 21 x 26 convolutions). Such projections go to lists; every
+    ConvolutionConnector left must pass sPyNNaker's own shape check."""
+    pytest.importorskip("spynnaker", reason='needs pip install "snn-fg[spinnaker]"')
+    from spynnaker.pyNN.models.neural_projections.connectors.convolution_connector import ConvolutionConnector
+
+    from snn_fg.network.recipes import network_for
+
+    net = board_network(network_for("compact", (60, 78))[0])      # pooled 20 x 26; level 2 10 x 13
+    plan = spinnaker_plan(net)["projections"]
+    conv = [e for e in plan if e["connector"] == "ConvolutionConnector"]
+    assert any(e["strides"] > 1 for e in conv)
+    assert any("sPyNNaker would give" in e.get("why", "") for e in plan)
+    for e in conv:
+        pr = next(p for p in net.projections if p.name == e["name"])
+        k = _lattice_kernel(net, pr)[0, 0]
+        connector = ConvolutionConnector(k, strides=e["strides"], padding=tuple(e["padding"]))
+        assert connector.get_post_shape(net.population(pr.source).grid) == net.population(pr.target).grid, e["name"]

@@ -33,7 +33,20 @@ def _conv_reason(network: Network, pr) -> str | None:
     k = pr.kernel.array(network.params)
     if (k.shape[2] // 2) % src.stride or (k.shape[3] // 2) % src.stride:
         return "kernel centre off the source lattice"
+    post = spynnaker_post_shape(src.grid, _lattice_kernel(network, pr).shape[2:], tgt.stride // src.stride)
+    if post != tgt.grid:
+        return (f"sPyNNaker would give a {post[0]} x {post[1]} target (rows x cols) for the "
+                f"{src.grid[0]} x {src.grid[1]} source, not the lattice's {tgt.grid[0]} x {tgt.grid[1]}: it counts "
+                "(n + 2 pad - k + 1) // stride cells, one fewer than our lattice on an odd row or column count")
     return None
+
+
+def spynnaker_post_shape(grid: tuple[int, int], kernel: tuple[int, int], strides: int) -> tuple[int, int]:
+    """The target shape sPyNNaker's ``ConvolutionConnector`` requires (its
+    ``get_post_shape``: ``(n - (k - 1) + 2 pad) // stride``, at least 1) for
+    a source ``grid`` and a lattice ``kernel`` padded by ``k // 2``, as the
+    export pads it."""
+    return tuple(max(1, (n - (k - 1) + 2 * (k // 2)) // strides) for n, k in zip(grid, kernel))
 
 
 def _lattice_kernel(network: Network, pr: Conv) -> np.ndarray:

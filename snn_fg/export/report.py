@@ -260,8 +260,7 @@ def report_table(rep: dict) -> str:
     if pool > 1:
         lines.append(f"  the sensor seen in {pool} x {pool} blocks: a {rep['frame_shape'][1]} x "
                      f"{rep['frame_shape'][0]} frame")
-    lines += [
-              f"  neurons {t['neurons']:,}   spike sources {t['sources']:,}   synapses {t['synapses']:,}",
+    lines += [f"  neurons {t['neurons']:,}   spike sources {t['sources']:,}   synapses {t['synapses']:,}",
               f"  max fan-in {t['max_fan_in']:,}   max fan-out {t['max_fan_out']:,}   delays (steps) "
               f"{', '.join(str(d) for d in t['delay_steps'])}"]
     for rec, wr in t["weights_mv"].items():

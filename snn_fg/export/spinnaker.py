@@ -33,7 +33,7 @@ def _conv_reason(network: Network, pr) -> str | None:
     k = pr.kernel.array(network.params)
     if (k.shape[2] // 2) % src.stride or (k.shape[3] // 2) % src.stride:
         return "kernel centre off the source lattice"
-    post = spynnaker_post_shape(src.grid, _lattice_kernel(network, pr).shape[2:], tgt.stride // src.stride)
+    post = spynnaker_post_shape(src.grid, k[:, :, ::src.stride, ::src.stride].shape[2:], tgt.stride // src.stride)
     if post != tgt.grid:
         return (f"sPyNNaker would give a {post[0]} x {post[1]} target (rows x cols) for the "
                 f"{src.grid[0]} x {src.grid[1]} source, not the lattice's {tgt.grid[0]} x {tgt.grid[1]}: it counts "

@@ -104,7 +104,9 @@ def bsds_image(job) -> dict:
     m = run_spiking(pos, neg, network=network, backend=_backend(bits), progress=False)
     parts = [error_stats(angle_errors(m.fg_x, m.fg_y, *truth), n_truth=int(truth[2].sum()))
              for truth in (boundary_directions(f) for f in gt.fg)]
-    return {"image_id": image_id, "parts": parts, "seconds": time.perf_counter() - t}
+    seconds = time.perf_counter() - t
+    print(f"  [{network}{f' {bits}-bit' if bits else ''}] BSDS {image_id}: {seconds:.0f} s", file=sys.stderr, flush=True)
+    return {"image_id": image_id, "parts": parts, "seconds": seconds}
 
 
 def _runs(networks, quantised, bits) -> list[tuple[str, str, int | None]]:
@@ -138,7 +140,9 @@ def main():
             print(f"[{label}] discs, dvs.es, {len(ids)} BSDS images", file=sys.stderr, flush=True)
             images = list(pool.map(bsds_image, [(i, network, bits) for i in ids]))
             d = discs(network, bits)
+            print(f"  [{label}] discs done", file=sys.stderr, flush=True)
             v, shown = dvs(network, bits)
+            print(f"  [{label}] dvs.es done", file=sys.stderr, flush=True)
             panels.append((label, shown))
             parts = [p for im in images for p in im["parts"]]
             record["networks"][label] = {

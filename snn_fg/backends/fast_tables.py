@@ -25,7 +25,7 @@ import numpy as np
 
 from ..network.graph import Network
 from ..network.nodes import Conv
-from ..export.pynn_model import quantise
+from ..pynn.network import quantise
 from ..spiking.connect import kernel_taps, resize_factors, resize_kept_mass
 from .base import receptor, receptor_weights
 

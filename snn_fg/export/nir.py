@@ -54,7 +54,7 @@ from ..network.graph import Network
 from ..network.nodes import Conv, Kernel, Neuron, Population, Resize
 from ..params import ModelParams
 from .board import board_network, fingerprint
-from .pynn_model import quantise, split_receptors
+from ..pynn.network import quantise, split_receptors
 from .quantise import projection_scales
 
 MS = 1e-3

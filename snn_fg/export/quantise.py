@@ -14,7 +14,7 @@ from .. import validate as check
 from ..network.graph import Network
 from ..network.nodes import Conv, Projection
 from ..spiking.interp import interp_matrix
-from .pynn_model import quantise
+from ..pynn.network import quantise
 
 BITS_RANGE = (2, 32)
 

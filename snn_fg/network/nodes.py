@@ -125,7 +125,7 @@ class Neuron(Node):
 
     Excitation and inhibition decay alike by default (``tau_exc_ms ==
     tau_inh_ms``): a kernel with negative lobes split between the two
-    currents, as a board must (:func:`snn_fg.export.pynn_model.split_receptors`),
+    currents, as a board must (:func:`snn_fg.pynn.network.split_receptors`),
     then acts exactly as its signed sum, so the export computes what the
     simulators compute."""
 

@@ -22,8 +22,8 @@ from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 from snn_fg.spiking.decode import decode
-from snn_fg.spiking.inputs import frame_spikes
-from snn_fg.spiking.unroll import unroll
+from snn_fg.lowering.input_spikes import frame_spikes
+from snn_fg.lowering.unroll import unroll
 
 NEST_OK, NEST_WHY = available_backends()["nest"]
 needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")

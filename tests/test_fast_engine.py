@@ -12,7 +12,7 @@ from snn_fg.events import image_to_events, image_to_frame
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
-from snn_fg.spiking.inputs import event_spikes, frame_spikes
+from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 

@@ -22,8 +22,8 @@ import numpy as np
 
 from .. import cancel
 from .. import validate as check
+from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
-from ..spiking.unroll import Unrolled, unroll
 from .base import (Backend, RunSettings, SimulationResult, lif_populations, receptor, receptor_weights, segments,
                    source_masks, source_offsets)
 

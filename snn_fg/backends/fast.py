@@ -11,8 +11,8 @@ neither:
 
 * **Weight-shared propagation.** A spike goes through its projection's kernel
   footprint when it is delivered: a Conv's kept taps (pruned exactly as
-  :func:`~snn_fg.spiking.connect.kernel_taps` prunes them), a Resize's
-  interpolation weights (:func:`~snn_fg.spiking.connect.resize_factors`).
+  :func:`~snn_fg.lowering.connect.kernel_taps` prunes them), a Resize's
+  interpolation weights (:func:`~snn_fg.lowering.connect.resize_factors`).
   Memory is proportional to cells (about 40 bytes each), not synapses, so
   the whole network (``instantiate="all"``) of a 320 x 240 sensor over ten
   levels, 9 million cells, fits in a few hundred megabytes.
@@ -53,8 +53,8 @@ import time
 import numpy as np
 
 from .. import cancel
+from ..lowering.unroll import choose_sites
 from ..network.graph import Network
-from ..spiking.unroll import choose_sites
 from . import fast_tables as ft
 from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
 from .fast_results import BinStream, simulation_result

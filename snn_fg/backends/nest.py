@@ -1,7 +1,7 @@
 """The NEST backend: the network unrolled for one input, built with PyNN
 (``pyNN.nest``) and simulated by NEST.
 
-The same cells and synapses as the Brian2 backend (:mod:`snn_fg.spiking.unroll`),
+The same cells and synapses as the Brian2 backend (:mod:`snn_fg.lowering.unroll`),
 built by :class:`snn_fg.pynn.network.PyNNNetwork`, the code every PyNN
 export runs: ``IF_curr_exp`` cells with ``cm = tau_m`` (so nA = our mV),
 synapses split between the two receptors by the sign of their drive
@@ -33,9 +33,9 @@ import numpy as np
 
 from .. import cancel
 from .. import validate as check
+from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
-from ..spiking.unroll import Unrolled, unroll
 from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
@@ -82,7 +82,7 @@ class NestBackend(Backend):
     weight_bits : int, optional
         Quantise every projection's weights to signed integers of this many
         bits with one scale factor per projection
-        (:func:`snn_fg.export.quantise.projection_scales`).
+        (:func:`snn_fg.lowering.quantise.projection_scales`).
     """
 
     fixed_summation_order = False
@@ -116,7 +116,7 @@ class NestBackend(Backend):
         un = unroll(network, source_masks(network, inputs.on, inputs.off), sites=settings.sites,
                     instantiate=settings.instantiate)
         if self.weight_bits is not None:
-            from ..export.quantise import quantise_unrolled
+            from ..lowering.quantise import quantise_unrolled
 
             quantise_unrolled(un, self.weight_bits)
         stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}

@@ -7,8 +7,9 @@
   also runs, with the network's tables);
 * :mod:`.nir` - ``--format nir``: a NIR graph, and the reader back into a Network;
 * :mod:`.report` - ``--format report``: neurons, synapses, delays, weights and
-  the hardware each target needs (:mod:`.hardware` holds the documented limits);
-* :mod:`.quantise` - weights as signed integers with one scale per projection.
+  the hardware each target needs (:mod:`.hardware` holds the documented limits).
+
+Weights are quantised by :mod:`snn_fg.lowering.quantise`.
 
 Nothing here is imported with :mod:`snn_fg`; optional dependencies (``nir``)
 are imported when used.

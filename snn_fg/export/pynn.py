@@ -37,9 +37,9 @@ import numpy as np
 
 from .. import __version__
 from .. import pynn as standalone
+from ..lowering.quantise import projection_scales
 from ..network.graph import Network
 from .board import ConvTable, board_network, geometry, table
-from .quantise import projection_scales
 from .spinnaker import spinnaker_plan
 from .synapses import projection_counts
 
@@ -163,7 +163,7 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
 
 
 def save_input(inputs, path, dt_ms: float) -> Path:
-    """Write :class:`~snn_fg.spiking.inputs.InputSpikes` as ``run.py``'s input file."""
+    """Write :class:`~snn_fg.lowering.input_spikes.InputSpikes` as ``run.py``'s input file."""
     np.savez(path, indices=inputs.indices.astype(np.int64), steps=inputs.steps.astype(np.int64), dt_ms=dt_ms,
              period_steps=-1 if inputs.period_steps is None else int(inputs.period_steps),
              shape=np.array(inputs.shape))
@@ -171,10 +171,10 @@ def save_input(inputs, path, dt_ms: float) -> Path:
 
 
 def read_input(path):
-    """``run.py``'s input file as :class:`~snn_fg.spiking.inputs.InputSpikes`
+    """``run.py``'s input file as :class:`~snn_fg.lowering.input_spikes.InputSpikes`
     (what :func:`save_input` wrote; the active-pixel masks and the mean rate
     are recomputed from the spikes)."""
-    from ..spiking.inputs import InputSpikes
+    from ..lowering.input_spikes import InputSpikes
 
     d = np.load(path)
     h, w = (int(v) for v in d["shape"])

@@ -61,7 +61,7 @@ SOURCE_ROLES = ("input_on", "input_off", "clock")
 #: Which cells a simulator needs to instantiate for one input. This is an
 #: optimisation hint for backends that unroll the network for an input, not
 #: part of the model: cells it leaves out are cells that input cannot make
-#: fire (see :mod:`snn_fg.spiking.sites`). A backend may instantiate every
+#: fire (see :mod:`snn_fg.lowering.sites`). A backend may instantiate every
 #: cell instead and must then compute the same spikes.
 #:
 #: ``all``          every cell (spike sources);

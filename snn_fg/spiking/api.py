@@ -20,6 +20,7 @@ from ..backends import DEFAULT_BACKEND, RunSettings, SimulationResult, as_backen
 from ..errors import InputError
 from ..events.window import events_to_frame
 from ..frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
+from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ..maps import Maps
 from ..network.builder import build_network
 from ..network.graph import Network
@@ -27,7 +28,6 @@ from ..network.recipes import network_for
 from ..network.spiking_params import SpikingParams
 from ..params import ModelParams
 from .decode import decode
-from .inputs import InputSpikes, event_spikes, frame_spikes
 from .record import SpikingRecord
 
 

@@ -31,10 +31,10 @@ from ..backends import DEFAULT_BACKEND, RunSettings, as_backend
 from ..backends.base import each_bin
 from ..errors import InputError
 from ..frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
+from ..lowering.input_spikes import event_spikes
 from ..maps import Maps
 from .api import default_instantiate, resolve_network, run_params, stderr_log
 from .decode import decode
-from .inputs import event_spikes
 from .record import SpikingRecord
 
 #: Default read-out lag (ms): see the module docstring and

@@ -120,7 +120,7 @@ def test_resize_kept_mass_equals_the_sum_over_every_product():
 
 
 def test_the_fast_engine_runs_the_weights_a_board_holds():
-    from snn_fg.backends import fast_tables as ft
+    from snn_fg.backends.fast import tables as ft
 
     net = build_network(ModelParams(levels=2, n_ori=4), (20, 24), SpikingParams(prune_resize=0.01))
     exact, q = ft.build_tables(net, 0.5), ft.build_tables(net, 0.5, weight_bits=4)

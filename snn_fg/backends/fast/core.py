@@ -16,7 +16,7 @@ steps. Each step follows Brian2's schedule as our Brian2 backend uses it
 An active cell that can no longer reach threshold without new input is
 *parked* (at the start of the next step): it is not touched until input
 reaches it, and is then brought up to date in closed form (the update is
-linear between spikes, see :func:`snn_fg.backends.fast_tables.advance_tables`).
+linear between spikes, see :func:`snn_fg.backends.fast.tables.advance_tables`).
 Parking is safe because, with no input, the potential stays under a bound
 computed from the current state (:func:`_safe`).
 
@@ -44,10 +44,10 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from .fast_deliver import (AHEAD, C_BITS, C_FLAT, C_MAP, C_N, C_OFF, C_ROW, EXC, N_ACTIVE_STEPS,  # noqa: F401
+from .deliver import (AHEAD, C_BITS, C_FLAT, C_MAP, C_N, C_OFF, C_ROW, EXC, N_ACTIVE_STEPS,  # noqa: F401
                            N_ADVANCES, N_EVENTS, N_FRESH, STATE, U, _advanced, _conv, _conv_gather, _flush, _resize,
                            _safe, prefetch)
-from .fast_tables import (CONV, DE, DI, DM, J_COL, J_DELAY, J_KIND, J_SRC, J_TGT, PE, PI, P_TYPE, SOURCE_TYPE,
+from .tables import (CONV, DE, DI, DM, J_COL, J_DELAY, J_KIND, J_SRC, J_TGT, PE, PI, P_TYPE, SOURCE_TYPE,
                           V_RESET, V_REST, V_TH)
 
 
@@ -279,21 +279,21 @@ def _drop_stale_caches() -> None:
 
     numba checks a cached function against the file that defines it, and no
     other. :func:`run_steps` compiles in the functions and constants of
-    ``fast_deliver.py`` and ``fast_tables.py``, so after an edit there it kept
+    ``deliver.py`` and ``tables.py``, so after an edit there it kept
     running the old code. The caches of both modules' functions are therefore
     dropped whenever the three files change. Best effort: numba's cache
     object is not public API, and if it changes this check is skipped.
     """
-    from . import fast_deliver
+    from . import deliver
 
     here = Path(__file__).parent
     digest = hashlib.sha256(b"".join((here / name).read_bytes()
-                                     for name in ("fast_core.py", "fast_deliver.py", "fast_tables.py"))).hexdigest()
+                                     for name in ("core.py", "deliver.py", "tables.py"))).hexdigest()
     try:
         stamp = Path(run_steps._cache._cache_path) / "snn_fg_fast_engine.sources"
         if stamp.exists() and stamp.read_text() == digest:
             return
-        for f in [*vars(fast_deliver).values(), *globals().values()]:
+        for f in [*vars(deliver).values(), *globals().values()]:
             if hasattr(f, "_cache") and hasattr(f._cache, "flush"):
                 f._cache.flush()
         stamp.write_text(digest)

@@ -23,11 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..lowering.connect import kernel_taps, resize_factors, resize_kept_mass
-from ..network.graph import Network
-from ..network.nodes import Conv
-from ..pynn.network import quantise
-from .base import receptor, receptor_weights
+from ...lowering.connect import kernel_taps, resize_factors, resize_kept_mass
+from ...network.graph import Network
+from ...network.nodes import Conv
+from ...pynn.network import quantise
+from ..base import receptor, receptor_weights
 
 #: volts per millivolt (Brian2's ``mV``): weights and potentials are scaled
 #: by it exactly as Brian2 scales them

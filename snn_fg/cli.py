@@ -268,11 +268,12 @@ def _counted(windows, total):
 
 
 def cmd_run(args) -> int:
+    from .atomic import OutputFolder
     from .figures import check_crop
     from .frames.pool import pooled_shape
     from .frames.pyramid import check_levels
     from .inputs import input_kind, load_frame
-    from .runner import OutputFolder, run_frame, run_recording
+    from .runner import run_frame, run_recording
 
     kind = input_kind(args.input)
     model = _model(args, kind)

@@ -201,7 +201,7 @@ def decode_counts(network, counts_path):
 
 def cmd_decode(args) -> int:
     from ..figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure
-    from ..runner import OutputFolder
+    from ..atomic import OutputFolder
 
     net, _ = export_network(args.export)
     if not Path(args.counts).exists():

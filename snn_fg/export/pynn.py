@@ -142,7 +142,7 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
     >>> sorted(p.name for p in d.glob("*.py"))
     ['fg_memory.py', 'fg_network.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
     """
-    from ..runner import OutputFolder
+    from ..atomic import OutputFolder
 
     meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target)
     with OutputFolder(out, force=force) as folder:

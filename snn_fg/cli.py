@@ -18,8 +18,8 @@ from . import __version__, cancel
 from .backends import DEFAULT_BACKEND, backend_names
 from .compare_cli import add_compare_command
 from .errors import InputError, InputWarning, SnnFgError
-from .events.cli import add_events_command, sensor_size_arg
 from .events.esim import MOTIONS
+from .events_cli import add_events_command, sensor_size_arg
 from .export.cli import add_export_command
 from .export.loop import add_decode_command
 from .models import MODELS

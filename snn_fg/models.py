@@ -1,15 +1,14 @@
 """The models ``snn-fg run`` can run, behind one interface: :class:`Model`.
 
-A model runs one frame (an event frame, or an image for the frame-based
-model) or one window of a recording, and draws its figures. The command line
-and the experiments pick a model by name from :data:`MODELS` and never branch
-on which one it is. To add a model, subclass :class:`Model` and register it.
+A model runs one frame (a :class:`~snn_fg.inputs.Frame`: an event frame, or
+an image for the frame-based model) or one window of a recording, and draws
+its figures. The command line and the experiments pick a model by name from
+:data:`MODELS` and never branch on which one it is. To add a model, subclass :class:`Model` and register it.
 """
 from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
@@ -19,25 +18,10 @@ from . import validate as check
 from .backends import DEFAULT_BACKEND
 from .errors import InputError
 from .figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure, save_spiking_figures
+from .inputs import Frame
 from .maps import Maps
 from .params import ModelParams
 from .rate.natural import NATURAL_PARAMS
-
-
-@dataclass
-class Frame:
-    """One input frame: an event frame (``pos``, ``neg``) and/or an image, and
-    for an image turned into events, the simulated camera's timed events
-    (``recording``, a :class:`~snn_fg.events.Recording`) the frame was made of."""
-
-    pos: np.ndarray | None = None
-    neg: np.ndarray | None = None
-    image: np.ndarray | None = None
-    recording: object | None = None
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return (self.pos if self.pos is not None else self.image).shape[:2]
 
 
 class Model(ABC):

@@ -11,8 +11,9 @@ import numpy as np
 
 from . import cancel
 from .errors import InputError
+from .inputs import Frame
 from .maps import Maps, MapsSeriesWriter
-from .models import Frame, Model
+from .models import Model
 
 
 def run_frame(model: Model, frame: Frame, out: Path, source: dict, crop=None, figures: bool = True) -> Maps:

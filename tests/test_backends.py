@@ -11,7 +11,7 @@ from snn_fg.params import ModelParams
 from snn_fg.rate.edfg import run_edfg
 from snn_fg.scenes import demo, disc
 from snn_fg.spiking import SpikingRecord, run_spiking_result
-from snn_fg.spiking.record import ROLE_ORDER
+from snn_fg.network.roles import ROLE_ORDER
 
 AVAILABLE = available_backends()
 

@@ -15,28 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..network.nodes import ROLES, SOURCE_ROLES
+from ..network.roles import ROLE_ORDER
 from ..validate import integer
 
-#: non-source roles in display order (figures, summaries)
-ROLE_ORDER = tuple(r for r in ROLES if r not in SOURCE_ROLES)
+#: cells of each role whose spike times the raster sample keeps
 RASTER_CELLS_PER_ROLE = 30
-#: what the cells of each role do, for figure captions: (roles, meaning), in ROLE_ORDER
-ROLE_MEANINGS = (
-    (("relay_on", "relay_off"), "the ON and OFF event frame resized to a coarser pyramid level (stage 2)"),
-    (("simple",), "oriented edge cells, 16 directions per pixel (stages 3-4)"),
-    (("untuned",), "event pixels without an oriented response (stage 4)"),
-    (("bo_L1", "bo_L2", "bo_D1", "bo_D2"), "border-ownership cells: a light (L) or dark (D) figure on side 1 or "
-                                           "2 of the edge (stage 5)"),
-    (("excess_L1", "excess_L2", "excess_D1", "excess_D2"), "a border-ownership family's excess over its rival, "
-                                                           "which inhibits the rival's grouping (stage 7)"),
-    (("group_L", "group_D"), "grouping cells of light and dark figures: proto-object centres (stage 7)"),
-    (("feedback_1p", "feedback_1n", "feedback_2p", "feedback_2n"),
-     "feedback cells: z1 = VL1 - VD2 and z2 = VL2 - VD1 as positive (p) and negative (n) halves (stage 8). "
-     "They carry z as a rate and have a refractory period of one 0.5 ms step so that the rate stays "
-     "proportional to z; where z is strong they fire at up to 2 kHz, a spike every step, by design "
-     "(snn_fg.network.SpikingParams)"),
-)
 _NAMES = "population_names"
 _RASTER = ("raster_cell", "raster_t_ms", "raster_role")
 
@@ -44,7 +27,8 @@ _RASTER = ("raster_cell", "raster_t_ms", "raster_role")
 @dataclass
 class Raster:
     """Spikes of up to :data:`RASTER_CELLS_PER_ROLE` cells per role: row of
-    the sampled cell, time (ms) and role (index into :data:`ROLE_ORDER`)."""
+    the sampled cell, time (ms) and role (index into
+    :data:`~snn_fg.network.roles.ROLE_ORDER`)."""
 
     row: np.ndarray
     t_ms: np.ndarray

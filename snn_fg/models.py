@@ -175,35 +175,36 @@ class SpikingModel(Model):
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
                  backend=DEFAULT_BACKEND, spike_input: str = "regular", **run_options):
+        from .spiking.options import SpikingOptions
+
         super().__init__(params, progress)
         self.network = network       # a stored description (its own ModelParams), or None: build from params
-        self.backend = backend
         self._backend = None         # the backend object, made on first use and kept (see _sim)
         self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
-        self.run_options = run_options
+        built = {"params": params} if network is None else {"network": network}
+        #: every option of the runs, checked here once: a frame uses its frame part, a recording its recording part
+        self.run_options = SpikingOptions.from_keywords(
+            "run_spiking", {**built, "backend": backend, "progress": progress is not None, **run_options})
+
+    @property
+    def backend(self):
+        """The backend asked for (a name or a Backend object)."""
+        return self.run_options.simulator.backend
 
     def _sim(self):
         """The backend, one object for every input this model runs: the
         fast engine keeps its tables and cell arrays from one run to the next."""
-        from .backends import as_backend
-
         if self._backend is None:
-            self._backend = as_backend(self.backend)
+            self._backend = self.run_options.simulator.backend_object()
         return self._backend
 
     def __getstate__(self):
         return {**self.__dict__, "_backend": None}    # (a copy elsewhere makes its own: the arrays stay here)
 
-    def _net(self) -> dict:
-        """The stored description to run, or the parameters to build it from."""
-        return {"params": self.params} if self.network is None else {"network": self.network}
-
     def _run(self, **inputs) -> Maps:
         from .spiking import run_spiking
 
-        options = {k: v for k, v in self.run_options.items() if k not in ("readout_lag_ms", "window_clock")}
-        return self.named(run_spiking(**inputs, **self._net(), backend=self._sim(), progress=self.progress is not None,
-                                      **options))
+        return self.named(run_spiking(**inputs, options=self.run_options.on(self._sim())))
 
     def run_frame(self, frame: Frame) -> Maps:
         if self.spike_input == "events":
@@ -230,10 +231,7 @@ class SpikingModel(Model):
         from .spiking.continuous import run_spiking_windows
 
         windows = list(windows)
-        options = {k: v for k, v in self.run_options.items()
-                   if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate", "window_clock")}
-        maps = run_spiking_windows(windows, **self._net(), backend=self._sim(), progress=self.progress is not None,
-                                   **options)
+        maps = run_spiking_windows(windows, options=self.run_options.on(self._sim()))
         yield from zip(windows, map(self.named, maps))
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:

@@ -4,6 +4,7 @@
   decoded from spike counts (:func:`run_spiking_result` returns the internals);
 * :func:`run_spiking_windows` - a recording's windows through one continuous
   network -> one :class:`~snn_fg.maps.Maps` per window (:mod:`.continuous`);
+* :class:`SpikingOptions` - every option of a run, checked once (:mod:`.options`);
 * :mod:`.decode` - firing rates -> the rate model's readout;
 * :mod:`.record` - the spike counts kept beside the maps;
 * :mod:`.twin` - the unrolled network iterated like the rate model.
@@ -15,7 +16,8 @@ and synapses by :mod:`snn_fg.lowering` and simulated by a backend of
 from ..network import SpikingParams, build_network
 from .api import SpikingResult, run_spiking, run_spiking_result
 from .continuous import run_spiking_windows
+from .options import SpikingOptions
 from .record import SpikingRecord
 
-__all__ = ["SpikingParams", "SpikingRecord", "SpikingResult", "build_network", "run_spiking",
+__all__ = ["SpikingOptions", "SpikingParams", "SpikingRecord", "SpikingResult", "build_network", "run_spiking",
            "run_spiking_result", "run_spiking_windows"]

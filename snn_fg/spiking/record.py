@@ -1,4 +1,5 @@
-"""What a spiking run keeps beside its maps: :class:`SpikingRecord`.
+"""What a spiking run keeps beside its maps: :class:`SpikingRecord`, and its
+parameters (:func:`run_params`).
 
 Per simulated population the spike count of every cell that fired and
 where that cell sits (a silent cell is only counted, in the summary: a
@@ -10,11 +11,14 @@ part), strictly: a missing key is an error, not a default.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..backends.base import SimulationResult
 from ..errors import InputError
+from ..network.graph import Network
 from ..network.roles import ROLE_ORDER
 from ..validate import integer
 
@@ -165,3 +169,28 @@ def _sample_raster(result) -> Raster:
         return Raster(np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(0, np.int16))
     return Raster(np.concatenate(rows).astype(np.int32), np.concatenate(times).astype(np.float32),
                   np.concatenate(roles).astype(np.int16))
+
+
+def run_params(net: Network, origin: dict, backend, result: SimulationResult, populations: dict,
+               simulation: dict, t_start: float) -> dict:
+    """``Maps.params`` of a spiking run: model parameters, where the network
+    came from, the backend, the simulation settings, cell and synapse counts,
+    per-population summaries, timings and the network's notes."""
+    syn = result.stats.get("synapses_in", {})
+    return {
+        "model": "spiking",
+        **net.params.to_dict(),
+        "network": {**origin, "frame_shape": list(net.frame_shape), "input_rate_hz": net.input_rate_hz},
+        "backend": backend.describe(),
+        "simulation": simulation,
+        "counts": {"cells": {n: int(s.size) for n, s in result.sites.items()},
+                   "synapses_in": {n: int(syn.get(n, 0)) for n in result.sites},
+                   "total_cells": result.total_cells, "total_synapses": int(sum(syn.values())),
+                   "backend_objects": result.stats.get("brian2_synapse_objects", {})},
+        "kept_kernel_mass": result.stats.get("kept_kernel_mass", {}),
+        # the backend's own counters (fast: synaptic events, spikes, cells updated)
+        "backend_stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float))},
+        "populations": populations,
+        "timings_s": {**result.timings_s, "total": time.perf_counter() - t_start},
+        "notes": list(net.notes),
+    }

@@ -40,7 +40,7 @@ class FastBackend(Backend):
     #: unrolling in Python, longer than simulating the cells it leaves out), and
     #: no cell that bursts of events can make fire is left out. An event
     #: frame's regular trains get the hinted cells on every backend instead
-    #: (:func:`snn_fg.spiking.api.default_instantiate`)
+    #: (:meth:`snn_fg.spiking.options.SimulatorOptions.cells_for`)
     default_instantiate = "all"
 
     def __init__(self, *, chunk_ms: float = CHUNK_MS, weight_bits: int | None = None):

@@ -111,9 +111,10 @@ class Run:
     def simulate(self, settings: RunSettings, chunk: int, stream: "BinStream | None" = None):
         """Run every step; with ``stream``, stop at each counting-bin edge
         for it to hand the bin over and drop the spikes no delay reaches."""
-        from .core import run_steps
+        from .core import CellNumbering, KernelTables, RunArrays, run_steps
 
-        tab = self.tab
+        tables = KernelTables(*(getattr(self.tab, name) for name in KernelTables._fields))
+        numbering = CellNumbering(*(getattr(self, name) for name in CellNumbering._fields))
         with _progress(settings) as bar:
             n = 0
             if stream is not None:
@@ -122,15 +123,8 @@ class Run:
                 end = min(n + chunk, self.n_steps)
                 if stream is not None:
                     end = min(end, stream.next_stop(n))
-                reached = run_steps(n, end, self.state, self.ctype, self.inact, self.act, self.new, self.tmp,
-                                    self.fresh, self.scalars, self.log, self.step_start, self.in_ptr, self.in_ids, tab.pops,
-                                    self.cells, self.cmap, self.flat_of, self.column_of, self.row_ptr, self.bits,
-                                    self.gather,
-                                    tab.nrn, tab.ref_steps, tab.adv, tab.prj, tab.prj_w, tab.ch_ptr, tab.tap_co,
-                                    tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off, tab.dense, tab.pair_ptr,
-                                    tab.pair_co, tab.pair_rlo, tab.pair_rhi, tab.csr_ptr, tab.csr_idx, tab.csr_val,
-                                    tab.grp_ptr, tab.grp_prj, self.acc, self.touched, self.counters,
-                                    self.prj_events)
+                run = RunArrays(*(getattr(self, name) for name in RunArrays._fields))     # (the log may have grown)
+                reached = run_steps(n, end, run, numbering, tables)
                 if reached < end:         # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
                 bar(reached - n)

@@ -86,9 +86,7 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str, cro
             print(f"snn-fg: warning: {n_empty} of {sink.n} windows had no events; their maps are zero",
                   file=sys.stderr)
         if n_blank:
-            hint = (" (the spiking network needs tens of ms of input before its feedback orders the "
-                    "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle)"
-                    if model.name == "spiking" else "")
+            hint = f" ({model.blank_window_hint})" if model.blank_window_hint else ""
             print(f"snn-fg: warning: {n_blank} of {sink.n - n_empty} windows with events have no figure-ground "
                   f"vector{hint}", file=sys.stderr)
         act = Activity(t_start_ms=np.array(t0) / 1000, t_end_ms=np.array(t1) / 1000, events=np.array(n_events),

@@ -96,6 +96,21 @@ def _ms_to_us(name, value, positive=True) -> int:
     return int(us)
 
 
+def _window_times(window_ms, start_ms, stride_ms) -> tuple[int, int, int]:
+    """Window length, start and stride of :func:`iter_windows` in microseconds, checked."""
+    win = _ms_to_us("window_ms", window_ms)
+    start = _ms_to_us("start_ms", start_ms, positive=False)
+    return win, start, win if stride_ms is None else _ms_to_us("stride_ms", stride_ms)
+
+
+def _check_window_options(max_windows, denoise_us, refractory_us) -> None:
+    if max_windows is not None:
+        validate.integer("iter_windows", "max_windows", max_windows, lo=1)
+    for name, v in (("denoise_us", denoise_us), ("refractory_us", refractory_us)):
+        if v is not None:
+            validate.number("iter_windows", name, v, lo=0)
+
+
 def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 0, stride_ms: float | None = None,
                  max_windows: int | None = None, denoise_us: int | None = None, refractory_us: int | None = None,
                  **read_options):
@@ -134,14 +149,8 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
       to the recording's format is a ParameterError.
     """
     read_options = check_read_options("iter_windows", read_options)
-    win = _ms_to_us("window_ms", window_ms)
-    start = _ms_to_us("start_ms", start_ms, positive=False)
-    stride = win if stride_ms is None else _ms_to_us("stride_ms", stride_ms)
-    if max_windows is not None:
-        validate.integer("iter_windows", "max_windows", max_windows, lo=1)
-    for name, v in (("denoise_us", denoise_us), ("refractory_us", refractory_us)):
-        if v is not None:
-            validate.number("iter_windows", name, v, lo=0)
+    win, start, stride = _window_times(window_ms, start_ms, stride_ms)
+    _check_window_options(max_windows, denoise_us, refractory_us)
     stream = iter_recording(recording_or_path, **read_options)
     stream.warn_no_span = False         # (refused below)
     size = stream.sensor_size

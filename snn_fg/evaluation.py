@@ -227,7 +227,8 @@ def _model(name: str, params, spiking_options: dict):
     option ``backend``)."""
     from .models import MODELS, get_model
 
-    return get_model(name, params, **(spiking_options if "backend" in MODELS[name].options else {}))
+    takes_backend = "backend" in getattr(MODELS.get(name), "options", ())
+    return get_model(name, params, **(spiking_options if takes_backend else {}))
 
 
 def _event_maps(unit, image, threshold, motion):

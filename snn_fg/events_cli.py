@@ -18,7 +18,6 @@ from snn_fg.events.esim import MOTIONS
 from snn_fg.images import IMAGE_SUFFIXES
 
 
-
 def sensor_size_arg(text):
     """argparse type for ``WxH`` sensor sizes."""
     m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)

@@ -3,7 +3,8 @@
 A model runs one frame (a :class:`~snn_fg.inputs.Frame`: an event frame, or
 an image for the frame-based model) or one window of a recording, and draws
 its figures. The command line and the experiments pick a model by name from
-:data:`MODELS` and never branch on which one it is. To add a model, subclass :class:`Model` and register it.
+:data:`MODELS` and never branch on which one it is. To add a model, subclass
+:class:`Model` and register it.
 """
 from __future__ import annotations
 

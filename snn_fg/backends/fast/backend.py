@@ -18,7 +18,6 @@ COMPILE_S = 10
 CHUNK_MS = 25.0
 
 
-
 class FastBackend(Backend):
     """Event-driven engine over weight-shared kernels (numba).
 

@@ -62,8 +62,9 @@ RunArrays = namedtuple("RunArrays", "state inact act new tmp fresh scalars log s
 #: between grid and number, and which projections gather (:func:`_conv_gather`)
 CellNumbering = namedtuple("CellNumbering", "ctype cells cmap flat_of column_of row_ptr bits gather")
 #: the network at one time step (:class:`~snn_fg.backends.fast.tables.EngineTables`)
-KernelTables = namedtuple("KernelTables", "pops nrn ref_steps adv prj prj_w ch_ptr tap_co tap_qr tap_qc tap_w tap_off dense "
-                                          "pair_ptr pair_co pair_rlo pair_rhi csr_ptr csr_idx csr_val grp_ptr grp_prj")
+KernelTables = namedtuple("KernelTables", "pops nrn ref_steps adv prj prj_w ch_ptr tap_co tap_qr tap_qc tap_w tap_off "
+                                          "dense pair_ptr pair_co pair_rlo pair_rhi csr_ptr csr_idx csr_val grp_ptr "
+                                          "grp_prj")
 
 
 @njit(cache=True)

@@ -12,7 +12,7 @@ weight quantisation at 8 and 16 bits.
   the same crop (what the fewer levels and orientations alone lose).
 * ``fidelity``: only the fidelity of the configurations ``fit`` stored.
 * ``quant``: Brian2 runs with every projection's weights rounded to 8 and 16
-  bits (one scale per projection, snn_fg.export.quantise) against float, on
+  bits (one scale per projection, snn_fg.lowering.quantise) against float, on
   discs (radius 16-48, both polarities), the occlusion scene, the demo scene
   and (``--bsds``) the six shared BSDS frames.
 
@@ -36,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 from snn_fg.atomic import save_text  # noqa: E402
 from snn_fg.backends import RunSettings  # noqa: E402
 from snn_fg.backends.brian2 import Brian2Backend  # noqa: E402
-from snn_fg.export.quantise import quantise_unrolled  # noqa: E402
+from snn_fg.lowering.quantise import quantise_unrolled  # noqa: E402
 from snn_fg.export.report import report_table, resource_report  # noqa: E402
 from snn_fg.frames.pyramid import max_levels  # noqa: E402
 from snn_fg.metrics import compare_frame  # noqa: E402
@@ -166,7 +166,7 @@ def _scenes(bsds: bool):
 
 
 def quant(out, bsds: bool):
-    from snn_fg.spiking.inputs import frame_spikes
+    from snn_fg.lowering.input_spikes import frame_spikes
 
     rows = []
     for name, (pos, neg) in _scenes(bsds):

@@ -80,7 +80,7 @@ def _export(tmp: Path, w: int, h: int, levels: int):
     from snn_fg.network import build_network
     from snn_fg.params import ModelParams
     from snn_fg.scenes import disc
-    from snn_fg.spiking.inputs import frame_spikes
+    from snn_fg.lowering.input_spikes import frame_spikes
 
     folder = export_pynn(build_network(ModelParams(levels=levels), (h, w)), tmp / f"{w}x{h}_{levels}")
     pos, neg = image_to_frame(disc(min(w, h) / 3).image)

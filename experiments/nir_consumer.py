@@ -59,7 +59,7 @@ def load() -> str:
 def disc_input(radius: float, duration_ms: float):
     from snn_fg.events import image_to_frame
     from snn_fg.scenes import disc
-    from snn_fg.spiking.inputs import frame_spikes
+    from snn_fg.lowering.input_spikes import frame_spikes
 
     pos, neg = image_to_frame(disc(radius).image)
     return frame_spikes(pos, neg, 200.0, DT_MS, duration_ms), f"disc r{radius:g} ({pos.shape[1]} x {pos.shape[0]})"
@@ -68,7 +68,7 @@ def disc_input(radius: float, duration_ms: float):
 def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0):
     from snn_fg.events import iter_recording, iter_windows
     from snn_fg.export.loop import busiest_crop, crop_events
-    from snn_fg.spiking.inputs import event_spikes
+    from snn_fg.lowering.input_spikes import event_spikes
 
     path = SHARED / "events" / "dvs.es"
     if not path.exists():

@@ -37,7 +37,7 @@ from snn_fg.params import ModelParams  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking_result  # noqa: E402
 from snn_fg.spiking.twin import run_twin  # noqa: E402
-from snn_fg.spiking.unroll import unroll  # noqa: E402
+from snn_fg.lowering.unroll import unroll  # noqa: E402
 
 BSDS = ROOT.parent / "shared" / "data" / "bsds-edfg"
 OUT = ROOT / "experiments" / "results"

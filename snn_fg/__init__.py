@@ -3,11 +3,15 @@ spiking neural network.
 
 The data flow is the package layout: :mod:`snn_fg.events` (recordings,
 windows, event-camera simulation) -> event frames and :mod:`snn_fg.frames` ->
-:mod:`snn_fg.network` (the network description) -> a simulator of
-:mod:`snn_fg.backends` (or the rate models of :mod:`snn_fg.rate`) ->
-:mod:`snn_fg.maps` (decoded maps) -> :mod:`snn_fg.metrics` and
-:mod:`snn_fg.figures`. :mod:`snn_fg.models` puts every model behind one
-interface for the command line (:mod:`snn_fg.cli`).
+:mod:`snn_fg.network` (the network description) -> :mod:`snn_fg.lowering`
+(input spikes and synapses) -> a simulator of :mod:`snn_fg.backends` (or the
+rate models of :mod:`snn_fg.rate`) -> :mod:`snn_fg.maps` (decoded maps) ->
+:mod:`snn_fg.metrics` and :mod:`snn_fg.figures`. :mod:`snn_fg.spiking` is the
+spiking model's Python API, :mod:`snn_fg.export` writes the description for
+boards and other simulators (with the standalone PyNN program of
+:mod:`snn_fg.pynn`, which the NEST backend runs too), and :mod:`snn_fg.models`
+puts every model behind one interface for the command line (:mod:`snn_fg.cli`).
+Each layer imports only those below it.
 """
 from importlib.metadata import PackageNotFoundError, version
 

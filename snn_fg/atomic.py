@@ -1,8 +1,11 @@
-"""Atomic file writes: a result file is either complete or absent.
+"""Atomic writes: a result file, or a whole output folder, is either complete or absent.
 
 Data is written to a temporary file in the destination folder and moved into
 place with :func:`os.replace` (atomic on POSIX and Windows), so a crash or
-Ctrl-C never leaves a half-written output behind.
+Ctrl-C never leaves a half-written output behind. :class:`OutputFolder` does
+the same for a folder: files are written into a staging folder beside the
+destination, which replaces the destination as a whole only when the run
+succeeds; an error, Ctrl-C or SIGTERM leaves the destination exactly as it was.
 """
 from __future__ import annotations
 
@@ -15,6 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .errors import InputError
 
 
 @contextlib.contextmanager
@@ -29,10 +34,7 @@ def atomic_path(path, suffix: str | None = None):
     suffix = path.suffix if suffix is None else suffix
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".part{suffix}", dir=path.parent)
     os.close(fd)
-    # mkstemp creates 0600; give the result the permissions a plain open() would.
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
+    os.chmod(tmp, 0o666 & ~_umask())      # (mkstemp creates 0600: give what a plain open() would)
     try:
         yield Path(tmp)
         os.replace(tmp, path)
@@ -40,6 +42,12 @@ def atomic_path(path, suffix: str | None = None):
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 @dataclass(frozen=True)
@@ -92,3 +100,59 @@ def save_figure(fig, path, **kwargs) -> Path:
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", **kwargs)
     return path
+
+
+class OutputFolder:
+    """A run's output folder, replaced as a whole on success.
+
+    ``force=False`` refuses a destination that exists and is not empty (so an
+    earlier run is never mixed with this one); ``force=True`` replaces it.
+    ``cancelled`` (a callable) is asked once more before committing: a run
+    that was cancelled (an interrupt swallowed by a library) leaves nothing.
+    Use as a context manager; write into :attr:`dir` inside the block.
+    """
+
+    def __init__(self, path, force: bool = False, cancelled=None):
+        self.path = Path(path)
+        self.cancelled = cancelled or (lambda: False)
+        if self.path.exists() and not self.path.is_dir():
+            raise InputError(self.path, "--out must be a folder, but a file of that name exists")
+        if self.path.is_dir() and any(self.path.iterdir()) and not force:
+            held = ", ".join(sorted(p.name for p in self.path.iterdir())[:4])
+            raise InputError(self.path, f"output folder is not empty (holds {held}...); choose another folder "
+                                        "or pass --force to replace it")
+        self.dir: Path | None = None
+        self._made: list[Path] = []
+
+    def __enter__(self) -> "OutputFolder":
+        parent = self.path.parent
+        missing = []
+        while not parent.exists():
+            missing.append(parent)
+            parent = parent.parent
+        for p in reversed(missing):
+            p.mkdir()
+            self._made.append(p)
+        self.dir = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".staging", dir=self.path.parent))
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None and self.cancelled():
+            exc_type = KeyboardInterrupt
+        if exc_type is not None:
+            shutil.rmtree(self.dir, ignore_errors=True)
+            for p in reversed(self._made):
+                with contextlib.suppress(OSError):
+                    p.rmdir()
+            if exc is None:
+                raise KeyboardInterrupt("cancelled")
+            return False
+        os.chmod(self.dir, 0o777 & ~_umask())
+        if self.path.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".old", dir=self.path.parent))
+            os.replace(self.path, old / "previous")
+            os.replace(self.dir, self.path)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(self.dir, self.path)
+        return False

@@ -18,8 +18,8 @@ from . import __version__, cancel
 from .backends import DEFAULT_BACKEND, backend_names
 from .compare_cli import add_compare_command
 from .errors import InputError, InputWarning, SnnFgError
-from .events.cli import add_events_command, sensor_size_arg
 from .events.esim import MOTIONS
+from .events_cli import add_events_command, sensor_size_arg
 from .export.cli import add_export_command
 from .export.loop import add_decode_command
 from .models import MODELS
@@ -268,11 +268,12 @@ def _counted(windows, total):
 
 
 def cmd_run(args) -> int:
+    from .atomic import OutputFolder
     from .figures import check_crop
     from .frames.pool import pooled_shape
     from .frames.pyramid import check_levels
     from .inputs import input_kind, load_frame
-    from .runner import OutputFolder, run_frame, run_recording
+    from .runner import run_frame, run_recording
 
     kind = input_kind(args.input)
     model = _model(args, kind)

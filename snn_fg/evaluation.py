@@ -221,20 +221,23 @@ def _scores(fx, fy, truths) -> dict:
     return error_stats(signed, n_truth=sum(int(t[2].sum()) for t in truths))
 
 
-def _event_maps(model, image, threshold, motion, params, spiking_options):
-    """Maps of an event model on ``image`` (array or path) turned into events, and the event pixel count."""
+def _model(name: str, params, spiking_options: dict):
+    """The registered model ``name`` with ``params``; ``spiking_options`` go
+    to a model that simulates a network on a backend (one that takes the
+    option ``backend``)."""
+    from .models import MODELS, get_model
+
+    takes_backend = "backend" in getattr(MODELS.get(name), "options", ())
+    return get_model(name, params, **(spiking_options if takes_backend else {}))
+
+
+def _event_maps(unit, image, threshold, motion):
+    """Maps of an event model ``unit`` on ``image`` (array or path) turned into events, and the event pixel count."""
     from .events import image_to_frame
+    from .inputs import Frame
 
     pos, neg = image_to_frame(image, threshold=threshold, motion=motion)
-    if model == "rate":
-        from .rate.edfg import run_edfg
-
-        maps = run_edfg(pos, neg, params)
-    else:
-        from .spiking import run_spiking
-
-        maps = run_spiking(pos, neg, params=params, progress=False, **spiking_options)
-    return maps, int((pos | neg).sum())
+    return unit.run_frame(Frame(pos, neg)), int((pos | neg).sum())
 
 
 def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thresholds=(),
@@ -281,7 +284,8 @@ def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thres
     runs = [(m, "paper", t) for m in event_models for t in thresholds]
     runs += [(m, "shift4", t) for m in event_models for t in shift4_thresholds]
     for model, motion, threshold in runs:
-        maps, n_events = _event_maps(model, str(gt.image_path), threshold, motion, params, spiking_options or {})
+        maps, n_events = _event_maps(_model(model, params, spiking_options or {}), str(gt.image_path), threshold,
+                                     motion)
         out["units"].append({"model": model, "motion": motion, "threshold": threshold, "event_pixels": n_events,
                              **_scores(maps.fg_x, maps.fg_y, truths)})
         if motion == "paper" and np.isclose(threshold, FIG6_THRESHOLD):
@@ -320,12 +324,13 @@ def evaluate_disc(*, model: str, r0: float, diameter: float, threshold: float = 
 
     params = ModelParams(r0=r0)
     scene = disc(radius=diameter / 2, light_on_dark=False, margin=1.5)
-    if model == "fbfg":
-        from .rate.fbfg import run_fbfg
+    unit = _model(model, params, spiking_options or {})
+    if unit.needs == "image":
+        from .inputs import Frame
 
-        maps = run_fbfg(scene.image, params)
+        maps = unit.run_frame(Frame(image=scene.image))
     else:
-        maps, _ = _event_maps(model, scene.image, threshold, "shift4", params, spiking_options or {})
+        maps, _ = _event_maps(unit, scene.image, threshold, "shift4")
     row, col = grouping_peak(maps.grouping)
     cr, cc = scene.shapes[0].centre
     dist = float(np.hypot(row - cr, col - cc))

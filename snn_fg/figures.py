@@ -221,7 +221,8 @@ def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6) -
 
 def raster_figure(record, window: int | None = None) -> Figure:
     """Spike raster of a :class:`~snn_fg.spiking.record.SpikingRecord`'s sample."""
-    from .spiking.record import RASTER_CELLS_PER_ROLE, ROLE_ORDER
+    from .network.roles import ROLE_ORDER
+    from .spiking.record import RASTER_CELLS_PER_ROLE
 
     where = "" if window is None else f" (window {window})"
     fig = Figure(figsize=(10, 8.6), layout="constrained")
@@ -252,7 +253,7 @@ def role_caption(width: int = 170) -> str:
     """What each population role's cells do, one line per family of roles."""
     import textwrap
 
-    from .spiking.record import ROLE_MEANINGS
+    from .network.roles import ROLE_MEANINGS
 
     return "\n".join(textwrap.fill(f"{', '.join(roles)}: {meaning}", width, subsequent_indent="    ")
                      for roles, meaning in ROLE_MEANINGS)
@@ -260,7 +261,7 @@ def role_caption(width: int = 170) -> str:
 
 def rate_histogram_figure(record, window: int | None = None) -> Figure:
     """Firing-rate histograms per population role (all levels pooled)."""
-    from .spiking.record import ROLE_ORDER
+    from .network.roles import ROLE_ORDER
 
     where = "" if window is None else f" (window {window})"
     by_role: dict = {}

@@ -5,17 +5,35 @@
 * an image file (png, jpg, bmp, tif);
 * an event recording in any format :mod:`snn_fg.events` reads.
 
-Every problem raises :class:`~snn_fg.errors.InputError` naming the file.
+Every problem raises :class:`~snn_fg.errors.InputError` naming the file;
+what a model runs on is a :class:`Frame`.
 """
 from __future__ import annotations
 
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError
 from .images import IMAGE_SUFFIXES
+
+
+@dataclass
+class Frame:
+    """One input frame: an event frame (``pos``, ``neg``) and/or an image, and
+    for an image turned into events, the simulated camera's timed events
+    (``recording``, a :class:`~snn_fg.events.Recording`) the frame was made of."""
+
+    pos: np.ndarray | None = None
+    neg: np.ndarray | None = None
+    image: np.ndarray | None = None
+    recording: object | None = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.pos if self.pos is not None else self.image).shape[:2]
 
 
 def input_kind(spec: str) -> str:
@@ -115,7 +133,6 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
     """
     from .events import events_to_frame, image_to_events
     from .images import read_image
-    from .models import Frame
 
     kind = input_kind(spec)
     source = {"input": str(spec), "kind": kind}

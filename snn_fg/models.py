@@ -1,15 +1,15 @@
 """The models ``snn-fg run`` can run, behind one interface: :class:`Model`.
 
-A model runs one frame (an event frame, or an image for the frame-based
-model) or one window of a recording, and draws its figures. The command line
-and the experiments pick a model by name from :data:`MODELS` and never branch
-on which one it is. To add a model, subclass :class:`Model` and register it.
+A model runs one frame (a :class:`~snn_fg.inputs.Frame`: an event frame, or
+an image for the frame-based model) or one window of a recording, and draws
+its figures. The command line and the experiments pick a model by name from
+:data:`MODELS` and never branch on which one it is. To add a model, subclass
+:class:`Model` and register it.
 """
 from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
@@ -19,25 +19,10 @@ from . import validate as check
 from .backends import DEFAULT_BACKEND
 from .errors import InputError
 from .figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure, save_spiking_figures
+from .inputs import Frame
 from .maps import Maps
 from .params import ModelParams
 from .rate.natural import NATURAL_PARAMS
-
-
-@dataclass
-class Frame:
-    """One input frame: an event frame (``pos``, ``neg``) and/or an image, and
-    for an image turned into events, the simulated camera's timed events
-    (``recording``, a :class:`~snn_fg.events.Recording`) the frame was made of."""
-
-    pos: np.ndarray | None = None
-    neg: np.ndarray | None = None
-    image: np.ndarray | None = None
-    recording: object | None = None
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return (self.pos if self.pos is not None else self.image).shape[:2]
 
 
 class Model(ABC):
@@ -55,6 +40,8 @@ class Model(ABC):
     #: keyword options of the constructor besides params and progress (CLI flags of the same name)
     options: ClassVar[tuple] = ()
     grouping_label: ClassVar[str] = "grouping"
+    #: why a recording's window with events can give no figure-ground vector, said with the warning that some did
+    blank_window_hint: ClassVar[str] = ""
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None):
         self.params = params
@@ -186,40 +173,43 @@ class SpikingModel(Model):
 
     name = "spiking"
     grouping_label = SPIKING_GROUPING_LABEL
+    blank_window_hint = ("the spiking network needs tens of ms of input before its feedback orders the "
+                         "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle")
     options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed", "feedback", "readout_lag_ms",
                "window_clock", "spike_input", "instantiate")
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
                  backend=DEFAULT_BACKEND, spike_input: str = "regular", **run_options):
+        from .spiking.options import SpikingOptions
+
         super().__init__(params, progress)
         self.network = network       # a stored description (its own ModelParams), or None: build from params
-        self.backend = backend
         self._backend = None         # the backend object, made on first use and kept (see _sim)
         self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
-        self.run_options = run_options
+        built = {"params": params} if network is None else {"network": network}
+        #: every option of the runs, checked here once: a frame uses its frame part, a recording its recording part
+        self.run_options = SpikingOptions.from_keywords(
+            "run_spiking", {**built, "backend": backend, "progress": progress is not None, **run_options})
+
+    @property
+    def backend(self):
+        """The backend asked for (a name or a Backend object)."""
+        return self.run_options.simulator.backend
 
     def _sim(self):
         """The backend, one object for every input this model runs: the
         fast engine keeps its tables and cell arrays from one run to the next."""
-        from .backends import as_backend
-
         if self._backend is None:
-            self._backend = as_backend(self.backend)
+            self._backend = self.run_options.simulator.backend_object()
         return self._backend
 
     def __getstate__(self):
         return {**self.__dict__, "_backend": None}    # (a copy elsewhere makes its own: the arrays stay here)
 
-    def _net(self) -> dict:
-        """The stored description to run, or the parameters to build it from."""
-        return {"params": self.params} if self.network is None else {"network": self.network}
-
     def _run(self, **inputs) -> Maps:
         from .spiking import run_spiking
 
-        options = {k: v for k, v in self.run_options.items() if k not in ("readout_lag_ms", "window_clock")}
-        return self.named(run_spiking(**inputs, **self._net(), backend=self._sim(), progress=self.progress is not None,
-                                      **options))
+        return self.named(run_spiking(**inputs, options=self.run_options.on(self._sim())))
 
     def run_frame(self, frame: Frame) -> Maps:
         if self.spike_input == "events":
@@ -246,10 +236,7 @@ class SpikingModel(Model):
         from .spiking.continuous import run_spiking_windows
 
         windows = list(windows)
-        options = {k: v for k, v in self.run_options.items()
-                   if k in ("dt_ms", "readout_lag_ms", "feedback", "instantiate", "window_clock")}
-        maps = run_spiking_windows(windows, **self._net(), backend=self._sim(), progress=self.progress is not None,
-                                   **options)
+        maps = run_spiking_windows(windows, options=self.run_options.on(self._sim()))
         yield from zip(windows, map(self.named, maps))
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:

@@ -1,17 +1,9 @@
-"""Running a model on an input into an output folder, as ``snn-fg run`` does.
-
-:class:`OutputFolder` makes a run all-or-nothing: files are written into a
-staging folder beside the destination, which replaces the destination as a
-whole only when the run succeeds. An error, Ctrl-C or SIGTERM leaves the
-destination exactly as it was.
+"""Running a model on an input into an output folder, as ``snn-fg run`` does
+(the folder is an :class:`~snn_fg.atomic.OutputFolder`: all or nothing).
 """
 from __future__ import annotations
 
-import contextlib
-import os
-import shutil
 import sys
-import tempfile
 import warnings
 from pathlib import Path
 
@@ -19,70 +11,9 @@ import numpy as np
 
 from . import cancel
 from .errors import InputError
+from .inputs import Frame
 from .maps import Maps, MapsSeriesWriter
-from .models import Frame, Model
-
-
-class OutputFolder:
-    """A run's output folder, replaced as a whole on success.
-
-    ``force=False`` refuses a destination that exists and is not empty (so an
-    earlier run is never mixed with this one); ``force=True`` replaces it.
-    ``cancelled`` (a callable) is asked once more before committing: a run
-    that was cancelled (an interrupt swallowed by a library) leaves nothing.
-    Use as a context manager; write into :attr:`dir` inside the block.
-    """
-
-    def __init__(self, path, force: bool = False, cancelled=None):
-        self.path = Path(path)
-        self.cancelled = cancelled or (lambda: False)
-        if self.path.exists() and not self.path.is_dir():
-            raise InputError(self.path, "--out must be a folder, but a file of that name exists")
-        if self.path.is_dir() and any(self.path.iterdir()) and not force:
-            held = ", ".join(sorted(p.name for p in self.path.iterdir())[:4])
-            raise InputError(self.path, f"output folder is not empty (holds {held}...); choose another folder "
-                                        "or pass --force to replace it")
-        self.dir: Path | None = None
-        self._made: list[Path] = []
-
-    def __enter__(self) -> "OutputFolder":
-        parent = self.path.parent
-        missing = []
-        while not parent.exists():
-            missing.append(parent)
-            parent = parent.parent
-        for p in reversed(missing):
-            p.mkdir()
-            self._made.append(p)
-        self.dir = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".staging", dir=self.path.parent))
-        return self
-
-    def __exit__(self, exc_type, exc, tb):
-        if exc_type is None and self.cancelled():
-            exc_type = KeyboardInterrupt
-        if exc_type is not None:
-            shutil.rmtree(self.dir, ignore_errors=True)
-            for p in reversed(self._made):
-                with contextlib.suppress(OSError):
-                    p.rmdir()
-            if exc is None:
-                raise KeyboardInterrupt("cancelled")
-            return False
-        os.chmod(self.dir, 0o777 & ~_umask())
-        if self.path.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".old", dir=self.path.parent))
-            os.replace(self.path, old / "previous")
-            os.replace(self.dir, self.path)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(self.dir, self.path)
-        return False
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+from .models import Model
 
 
 def run_frame(model: Model, frame: Frame, out: Path, source: dict, crop=None, figures: bool = True) -> Maps:
@@ -155,9 +86,7 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str, cro
             print(f"snn-fg: warning: {n_empty} of {sink.n} windows had no events; their maps are zero",
                   file=sys.stderr)
         if n_blank:
-            hint = (" (the spiking network needs tens of ms of input before its feedback orders the "
-                    "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle)"
-                    if model.name == "spiking" else "")
+            hint = f" ({model.blank_window_hint})" if model.blank_window_hint else ""
             print(f"snn-fg: warning: {n_blank} of {sink.n - n_empty} windows with events have no figure-ground "
                   f"vector{hint}", file=sys.stderr)
         act = Activity(t_start_ms=np.array(t0) / 1000, t_end_ms=np.array(t1) / 1000, events=np.array(n_events),

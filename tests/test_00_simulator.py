@@ -7,7 +7,7 @@ from snn_fg.events import image_to_frame
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
-from snn_fg.spiking.inputs import frame_spikes
+from snn_fg.lowering.input_spikes import frame_spikes
 
 
 def test_brian2_compiles_and_runs_every_kind_of_projection_of_the_default_network():

@@ -11,7 +11,7 @@ from snn_fg.params import ModelParams
 from snn_fg.rate.edfg import run_edfg
 from snn_fg.scenes import demo, disc
 from snn_fg.spiking import SpikingRecord, run_spiking_result
-from snn_fg.spiking.record import ROLE_ORDER
+from snn_fg.network.roles import ROLE_ORDER
 
 AVAILABLE = available_backends()
 
@@ -146,7 +146,7 @@ def test_binned_counts_split_the_spike_trains_by_time(backend):
     """Counting bins (one map per window of a continuous run): each bin holds
     exactly the spikes whose time falls inside it, and bins ending with the
     counting window add up to its counts."""
-    from snn_fg.spiking.inputs import frame_spikes
+    from snn_fg.lowering.input_spikes import frame_spikes
 
     pos, neg = image_to_frame(disc(12).image)
     net = run_spiking_result(pos, neg, params=ModelParams(levels=2), duration_ms=10, progress=False).network
@@ -194,7 +194,7 @@ def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(ba
 
     pos, neg = image_to_frame(disc(16).image)
     sim = get_backend(backend)
-    from snn_fg.spiking.inputs import frame_spikes
+    from snn_fg.lowering.input_spikes import frame_spikes
     net = run_spiking_result(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False).network
     # the same run, short, first: the signal must reach the simulation, not a
     # first compilation of its code (a cold Brian2 compile can take minutes)

@@ -31,7 +31,7 @@ def test_a_requested_stop_ends_a_simulation_on_every_backend(stop_requested, bac
 
 
 def test_the_fast_engine_stops_after_the_chunk_it_is_in(stop_requested, monkeypatch):
-    from snn_fg.backends import fast_core
+    from snn_fg.backends.fast import core as fast_core
 
     calls = []
     real = fast_core.run_steps

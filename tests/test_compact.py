@@ -78,7 +78,7 @@ def _events(rows):
 
 
 def test_the_input_adapter_passes_one_event_per_refractory_period_and_source():
-    from snn_fg.spiking.inputs import event_spikes
+    from snn_fg.lowering.input_spikes import event_spikes
 
     ev = _events([(0, 1000 * k) for k in range(10)] + [(1, 0), (1, 500)])      # pixel 0 every ms
     ev = ev[np.argsort(ev["t"], kind="stable")]
@@ -106,8 +106,8 @@ def test_strided_excess_cells_sit_on_the_grouping_lattice():
 
 
 def test_resize_kept_mass_equals_the_sum_over_every_product():
-    from snn_fg.spiking.connect import resize_kept_mass
-    from snn_fg.spiking.interp import interp_matrix
+    from snn_fg.lowering.connect import resize_kept_mass
+    from snn_fg.lowering.interp import interp_matrix
 
     ar, ac = interp_matrix(40, 29, 1, 1, "cubic"), interp_matrix(52, 37, 1, 1, "cubic")
     peak = np.abs(ar).max() * np.abs(ac).max()
@@ -120,7 +120,7 @@ def test_resize_kept_mass_equals_the_sum_over_every_product():
 
 
 def test_the_fast_engine_runs_the_weights_a_board_holds():
-    from snn_fg.backends import fast_tables as ft
+    from snn_fg.backends.fast import tables as ft
 
     net = build_network(ModelParams(levels=2, n_ori=4), (20, 24), SpikingParams(prune_resize=0.01))
     exact, q = ft.build_tables(net, 0.5), ft.build_tables(net, 0.5, weight_bits=4)

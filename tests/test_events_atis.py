@@ -12,7 +12,7 @@ import pytest
 
 from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, iter_recording, open_recording
-from snn_fg.events.cli import add_events_command
+from snn_fg.events_cli import add_events_command
 from snn_fg.events.eventstream import iter_atis, read_header
 from snn_fg.events.source import DecodeTally
 from snn_fg.events.writers import encode_es_atis

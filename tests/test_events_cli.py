@@ -8,7 +8,7 @@ import pytest
 
 from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, events_to_frame, image_to_frame, open_recording, save_events
-from snn_fg.events.cli import add_events_command
+from snn_fg.events_cli import add_events_command
 
 EVENTS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events"
 

@@ -15,15 +15,15 @@ from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_frame
 from snn_fg.export import synapses
 from snn_fg.export.board import board_network, whole_pairs
-from snn_fg.export.pynn_model import (NEST_LOCAL_MARGIN, NEST_MAX_LOCAL_SENDERS, PyNNNetwork, nest_threads,
+from snn_fg.pynn.network import (NEST_LOCAL_MARGIN, NEST_MAX_LOCAL_SENDERS, PyNNNetwork, nest_threads,
                                        quantise, split_receptors)
 from snn_fg.metrics import compare_frame
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 from snn_fg.spiking.decode import decode
-from snn_fg.spiking.inputs import frame_spikes
-from snn_fg.spiking.unroll import unroll
+from snn_fg.lowering.input_spikes import frame_spikes
+from snn_fg.lowering.unroll import unroll
 
 NEST_OK, NEST_WHY = available_backends()["nest"]
 needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")

@@ -84,7 +84,7 @@ def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
     from snn_fg.metrics import agreement
     from snn_fg.scenes import disc
     from snn_fg.spiking.decode import decode, decode_rates
-    from snn_fg.spiking.inputs import frame_spikes
+    from snn_fg.lowering.input_spikes import frame_spikes
 
     torch.set_num_threads(1)
     pos, neg = image_to_frame(disc(8).image)

@@ -6,13 +6,13 @@ import pytest
 
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.backends.base import STATE_VARIABLES
-from snn_fg.backends.fast_core import _advanced, _safe
-from snn_fg.backends.fast_tables import DE, DI, DM, PE, PI, V_RESET, V_REST, V_TH, build_tables
+from snn_fg.backends.fast.core import _advanced, _safe
+from snn_fg.backends.fast.tables import DE, DI, DM, PE, PI, V_RESET, V_REST, V_TH, build_tables
 from snn_fg.events import image_to_events, image_to_frame
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
-from snn_fg.spiking.inputs import event_spikes, frame_spikes
+from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 
@@ -202,7 +202,7 @@ def test_tables_made_again_for_other_gains_equal_a_fresh_build():
     and they must be exactly (bit for bit) those a fresh build gives."""
     import dataclasses
 
-    from snn_fg.backends.fast_tables import gains_only
+    from snn_fg.backends.fast.tables import gains_only
 
     net = build_network(ModelParams(levels=3), (40, 56))
     other = net.calibrated(net.input_rate_hz * 1.7)
@@ -239,8 +239,8 @@ def test_a_backend_keeps_its_tables_across_calibrated_runs():
 
 def test_large_cell_arrays_start_at_zero():
     """Cell arrays from the huge-page map are zeroed like np.zeros, writable, any dtype."""
-    from snn_fg.backends.fast import HUGE_FROM, zeroed
-    from snn_fg.backends.fast_core import STATE
+    from snn_fg.backends.fast.run import HUGE_FROM, zeroed
+    from snn_fg.backends.fast.core import STATE
 
     for dtype in (STATE, np.int32, np.float64):
         n = 2 * HUGE_FROM // np.dtype(dtype).itemsize + 3

@@ -56,7 +56,8 @@ def test_a_crop_draws_that_part_at_its_own_coordinates(tmp_path):
 
 def test_the_raster_explains_every_role_and_why_feedback_cells_fire_at_2_khz():
     from snn_fg.figures import raster_figure
-    from snn_fg.spiking.record import ROLE_ORDER, SpikingRecord
+    from snn_fg.network.roles import ROLE_ORDER
+    from snn_fg.spiking.record import SpikingRecord
 
     record = SpikingRecord(names=[], counts={}, sites={}, raster=None, input_on=np.zeros((4, 4), np.uint8),
                            input_off=np.zeros((4, 4), np.uint8), count_window_ms=200.0, duration_ms=400.0,

@@ -3,7 +3,7 @@ progress bar appears only once simulating has begun (it sat at 0 % for the
 compile, with an ETA of minutes)."""
 import numpy as np
 
-from snn_fg.backends import fast_core
+from snn_fg.backends.fast import core as fast_core
 from snn_fg.events import image_to_frame
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc

@@ -35,7 +35,7 @@ def test_pooled_polarities_own_a_figure_whose_contrast_flips_along_its_outline()
 
 
 def test_pooled_grouping_is_the_sum_of_both_polarities_without_competition():
-    from snn_fg.rate.natural import PooledGrouping, grouping_engine
+    from snn_fg.rate.pooled import PooledGrouping, grouping_engine
     from snn_fg.rate.grouping import SparseGrouping
 
     assert grouping_engine(ModelParams()) is SparseGrouping

@@ -14,7 +14,7 @@ def _markdown() -> str:
 
 
 def test_the_spiking_section_names_the_backend_that_runs_and_its_compile_time():
-    from snn_fg.backends.fast import COMPILE_S      # what the engine says while it compiles
+    from snn_fg.backends.fast.backend import COMPILE_S      # what the engine says while it compiles
 
     text = " ".join(_markdown().split())
     spiking = text[text.index("## The spiking network"):text.index("## Against ground truth")]

@@ -9,7 +9,7 @@ from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.network import Conv, Kernel, Network, Neuron, Population
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
-from snn_fg.spiking.inputs import InputSpikes, frame_spikes
+from snn_fg.lowering.input_spikes import InputSpikes, frame_spikes
 
 P1 = ModelParams(levels=1)
 BACKENDS = [pytest.param(name, marks=pytest.mark.skipif(not ok, reason=f"backend {name}: {why}"))

@@ -14,7 +14,7 @@ from snn_fg.network import Network, SpikingParams, build_network
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 from snn_fg.spiking import SpikingRecord, run_spiking, run_spiking_result
-from snn_fg.spiking.inputs import event_spikes, frame_spikes
+from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 
 SMALL = ModelParams(levels=2)
 

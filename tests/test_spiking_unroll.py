@@ -16,8 +16,8 @@ from snn_fg.network import SpikingParams, build_network
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
-from snn_fg.spiking.interp import interp_matrix, resize_matrix
-from snn_fg.spiking.unroll import dense_drive, to_grid, unroll
+from snn_fg.lowering.interp import interp_matrix, resize_matrix
+from snn_fg.lowering.unroll import dense_drive, to_grid, unroll
 
 EXACT = SpikingParams(prune_dog=0.0, prune_vm=0.0)
 
@@ -216,7 +216,7 @@ def test_source_and_target_enumeration_give_the_same_synapses(frame):
     pairs; both sides must give the same set, on every kind of Conv (DoG with
     wrap-around, channel maps, von Mises gather and scatter across lattices)."""
     from snn_fg.network import Conv
-    from snn_fg.spiking.connect import conv_pairs
+    from snn_fg.lowering.connect import conv_pairs
     pos, neg = frame
     net = build_network(ModelParams(levels=2), pos.shape, SpikingParams())
     un = unroll(net, {"input_on_1": pos, "input_off_1": neg})

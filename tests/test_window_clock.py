@@ -13,7 +13,7 @@ from snn_fg.outline import inward_score
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc, flipping_disc_recording
 from snn_fg.spiking.continuous import run_spiking_windows
-from snn_fg.spiking.inputs import event_spikes
+from snn_fg.lowering.input_spikes import event_spikes
 
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 

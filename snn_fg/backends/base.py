@@ -3,7 +3,7 @@
 Everything above it (decoding, figures, the command line, experiments)
 speaks only of :class:`SimulationResult`; everything below it (a backend)
 consumes only a :class:`~snn_fg.network.Network` and the input spikes
-(:class:`~snn_fg.spiking.inputs.InputSpikes`). A backend subclasses
+(:class:`~snn_fg.lowering.input_spikes.InputSpikes`). A backend subclasses
 :class:`Backend`, implements :meth:`Backend.simulate`, and is registered by
 name in :mod:`snn_fg.backends` - the way PyNN keeps one neutral model in
 ``pyNN.common`` and one package per simulator.
@@ -195,7 +195,7 @@ def bin_result(template: "SimulationResult", counts: dict, a_ms: float, b_ms: fl
 
 def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:
     """Spike-source name -> bool mask of pixels with input, by role (the
-    window clock needs none: :func:`~snn_fg.spiking.unroll.choose_sites`
+    window clock needs none: :func:`~snn_fg.lowering.unroll.choose_sites`
     keeps its one cell)."""
     return {network.one("input_on", 1).name: np.asarray(on, bool),
             network.one("input_off", 1).name: np.asarray(off, bool)}
@@ -204,7 +204,7 @@ def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:
 def source_offsets(network: Network) -> dict:
     """Spike-source name -> first input index: inputs number the ON pixels
     ``0..H*W-1``, the OFF pixels ``H*W..2*H*W-1`` (row-major) and the
-    window clock ``2*H*W`` (:data:`~snn_fg.spiking.inputs.InputSpikes.clock_index`)."""
+    window clock ``2*H*W`` (:data:`~snn_fg.lowering.input_spikes.InputSpikes.clock_index`)."""
     h, w = network.frame_shape
     out = {network.one("input_on", 1).name: 0, network.one("input_off", 1).name: h * w}
     out.update({p.name: 2 * h * w for p in network.by_role("clock")})

@@ -22,8 +22,8 @@ import numpy as np
 
 from .. import cancel
 from .. import validate as check
+from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
-from ..spiking.unroll import Unrolled, unroll
 from .base import (Backend, RunSettings, SimulationResult, lif_populations, receptor, receptor_weights, segments,
                    source_masks, source_offsets)
 
@@ -157,23 +157,7 @@ class Brian2Backend(Backend):
         offsets.update(source_offsets(net))
         pop_of = np.repeat(np.arange(len(pops)), [un.n_cells(p.name) for p in pops])
         dt = settings.dt_ms * ms
-
-        def per_cell(attr):
-            return np.array([getattr(p.neuron, attr) for p in pops], dtype=np.float64)[pop_of]
-
-        lif = b2.NeuronGroup(max(n_lif, 1), _EQS, threshold="v > v_th",
-                             reset="v = v_reset\nn_spikes += int(t >= t_count)\nn_all += 1", refractory="t_ref", dt=dt,
-                             name="lif", namespace={"t_count": settings.count_from_ms * ms})
-        lif.run_regularly(_STEP, when="groups", name="lif_step")
-        if n_lif:
-            factors = [p.neuron.propagators(settings.dt_ms) for p in pops]
-            for var in ("d_m", "d_exc", "d_inh", "p_exc", "p_inh"):
-                setattr(lif, var, np.array([f[var] for f in factors], dtype=np.float64)[pop_of])
-            lif.v_rest = per_cell("v_rest_mv") * mV
-            lif.v_reset = per_cell("v_reset_mv") * mV
-            lif.v_th = per_cell("v_th_mv") * mV
-            lif.t_ref = per_cell("t_ref_ms") * ms
-            lif.v = per_cell("v_rest_mv") * mV
+        lif = _neuron_group(pops, pop_of, n_lif, settings)
         gen = b2.SpikeGeneratorGroup(inputs.n_sources, inputs.indices.astype(np.int64), inputs.steps * dt,
                                      period=(inputs.period_steps * dt if inputs.period_steps else 0 * ms),
                                      dt=dt, name="inp", sorted=False)
@@ -189,19 +173,7 @@ class Brian2Backend(Backend):
         settings.say("compiling and simulating (Brian2 compiles its code once per machine: the first run "
                      "takes a minute or two longer)")
         t_run = time.perf_counter()
-        snapshots = []
-        with _progress_bar(settings) as bar:
-            done = 0
-            for end, snapshot in segments(settings):
-                if end > done:
-                    network.run((end - done) * dt, report=bar(done, end), report_period=2 * b2.second,
-                                namespace={})
-                    if int(round(float(network.t / dt))) < end:
-                        raise KeyboardInterrupt(f"the simulation stopped at {float(network.t / ms):g} ms")
-                    cancel.check()
-                done = end
-                if snapshot:
-                    snapshots.append(np.asarray(lif.n_all[:], dtype=np.int64)[:n_lif])
+        snapshots = _simulate(network, lif, n_lif, settings)
         timings["run"] = time.perf_counter() - t_run
         all_counts = np.asarray(lif.n_spikes[:], dtype=np.int64)[:n_lif]
         counts = {p.name: all_counts[offsets[p.name]:offsets[p.name] + un.n_cells(p.name)] for p in pops}
@@ -280,3 +252,51 @@ def _progress_bar(settings: RunSettings):
     finally:
         if state["bar"] is not None:
             state["bar"].close()
+
+
+def _neuron_group(pops, pop_of, n_lif: int, settings: RunSettings):
+    """Every LIF cell of ``pops`` in one ``NeuronGroup`` (``pop_of``: each
+    cell's population), with its population's constants and propagators."""
+    import brian2 as b2
+    from brian2 import ms, mV
+
+    def per_cell(attr):
+        return np.array([getattr(p.neuron, attr) for p in pops], dtype=np.float64)[pop_of]
+
+    lif = b2.NeuronGroup(max(n_lif, 1), _EQS, threshold="v > v_th",
+                         reset="v = v_reset\nn_spikes += int(t >= t_count)\nn_all += 1", refractory="t_ref",
+                         dt=settings.dt_ms * ms, name="lif", namespace={"t_count": settings.count_from_ms * ms})
+    lif.run_regularly(_STEP, when="groups", name="lif_step")
+    if n_lif:
+        factors = [p.neuron.propagators(settings.dt_ms) for p in pops]
+        for var in ("d_m", "d_exc", "d_inh", "p_exc", "p_inh"):
+            setattr(lif, var, np.array([f[var] for f in factors], dtype=np.float64)[pop_of])
+        lif.v_rest = per_cell("v_rest_mv") * mV
+        lif.v_reset = per_cell("v_reset_mv") * mV
+        lif.v_th = per_cell("v_th_mv") * mV
+        lif.t_ref = per_cell("t_ref_ms") * ms
+        lif.v = per_cell("v_rest_mv") * mV
+    return lif
+
+
+def _simulate(network, lif, n_lif: int, settings: RunSettings) -> list:
+    """Run ``network`` segment by segment (:func:`~snn_fg.backends.base.segments`),
+    with the progress bar and Ctrl-C checked in between; returns every
+    cell's spike count at each counting-bin edge."""
+    import brian2 as b2
+    from brian2 import ms
+
+    dt = settings.dt_ms * ms
+    snapshots = []
+    with _progress_bar(settings) as bar:
+        done = 0
+        for end, snapshot in segments(settings):
+            if end > done:
+                network.run((end - done) * dt, report=bar(done, end), report_period=2 * b2.second, namespace={})
+                if int(round(float(network.t / dt))) < end:
+                    raise KeyboardInterrupt(f"the simulation stopped at {float(network.t / ms):g} ms")
+                cancel.check()
+            done = end
+            if snapshot:
+                snapshots.append(np.asarray(lif.n_all[:], dtype=np.int64)[:n_lif])
+    return snapshots

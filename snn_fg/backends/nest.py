@@ -1,8 +1,8 @@
 """The NEST backend: the network unrolled for one input, built with PyNN
 (``pyNN.nest``) and simulated by NEST.
 
-The same cells and synapses as the Brian2 backend (:mod:`snn_fg.spiking.unroll`),
-built by :class:`snn_fg.export.pynn_model.PyNNNetwork`, the code every PyNN
+The same cells and synapses as the Brian2 backend (:mod:`snn_fg.lowering.unroll`),
+built by :class:`snn_fg.pynn.network.PyNNNetwork`, the code every PyNN
 export runs: ``IF_curr_exp`` cells with ``cm = tau_m`` (so nA = our mV),
 synapses split between the two receptors by the sign of their drive
 (charge-preserving), delays on the time grid (at least one step), NEST's
@@ -19,7 +19,7 @@ what a board runs.
 Install with ``pip install "snn-fg[nest]"`` (PyNN and the ``nest-simulator``
 wheel). ``threads`` sets NEST's ``local_num_threads``, raised where the
 network has more cells than NEST can address on one thread (524,223 per
-thread: :func:`~snn_fg.export.pynn_model.nest_threads`); the wheel has no MPI.
+thread: :func:`~snn_fg.pynn.network.nest_threads`); the wheel has no MPI.
 """
 from __future__ import annotations
 
@@ -33,9 +33,9 @@ import numpy as np
 
 from .. import cancel
 from .. import validate as check
+from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
-from ..export.pynn_model import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
-from ..spiking.unroll import Unrolled, unroll
+from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
@@ -75,14 +75,14 @@ class NestBackend(Backend):
         ``split`` (default): what every PyNN export runs, ``IF_curr_exp``
         cells whose two receptors each take one sign, so a kernel's lobes of
         the other sign move to the other receptor with the same charge
-        (:func:`~snn_fg.export.pynn_model.split_receptors`); ``signed``: the
+        (:func:`~snn_fg.pynn.network.split_receptors`); ``signed``: the
         description exactly (NEST's ``iaf_psc_exp_multisynapse``, signed
         weights on each projection's own receptor), Brian2's network in
         another simulator. Not with ``portable``.
     weight_bits : int, optional
         Quantise every projection's weights to signed integers of this many
         bits with one scale factor per projection
-        (:func:`snn_fg.export.quantise.projection_scales`).
+        (:func:`snn_fg.lowering.quantise.projection_scales`).
     """
 
     fixed_summation_order = False
@@ -116,7 +116,7 @@ class NestBackend(Backend):
         un = unroll(network, source_masks(network, inputs.on, inputs.off), sites=settings.sites,
                     instantiate=settings.instantiate)
         if self.weight_bits is not None:
-            from ..export.quantise import quantise_unrolled
+            from ..lowering.quantise import quantise_unrolled
 
             quantise_unrolled(un, self.weight_bits)
         stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}

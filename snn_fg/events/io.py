@@ -157,6 +157,24 @@ def check_format_options(owner: str, *, encoding=None, codec=None, channel=None,
     return given
 
 
+#: how a recording is read, besides the source: what :func:`check_read_options` takes
+READ_OPTIONS = ("sensor_size", "chunk_events", "encoding", "codec", "channel", "timer_bits")
+
+
+def check_read_options(owner: str, options: dict) -> dict:
+    """The options of how a recording is read (:data:`READ_OPTIONS`) that
+    were passed to ``owner`` as keywords, checked (:func:`check_format_options`,
+    the sensor size); any other keyword is a ``TypeError``, as Python's own."""
+    for k in options:
+        if k not in READ_OPTIONS:
+            raise TypeError(f"{owner}() got an unexpected keyword argument {k!r}")
+    given = {k: v for k, v in options.items() if k in ("sensor_size", "chunk_events")}
+    given.update(check_format_options(owner, **{k: v for k, v in options.items() if k not in given}))
+    if given.get("sensor_size") is not None:
+        sensor_size_parameter(owner, given["sensor_size"])
+    return given
+
+
 def _refuse_options(options: dict, owner: str, label: str) -> None:
     """ParameterError for the first of ``options``, none of which applies to ``label``."""
     for name, value in options.items():

@@ -9,7 +9,7 @@ import numpy as np
 from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, sensor_size_parameter
-from snn_fg.events.io import DEFAULT_CHUNK, check_format_options, iter_recording, no_span_problem
+from snn_fg.events.io import check_read_options, iter_recording, no_span_problem
 
 
 def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
@@ -96,10 +96,24 @@ def _ms_to_us(name, value, positive=True) -> int:
     return int(us)
 
 
+def _window_times(window_ms, start_ms, stride_ms) -> tuple[int, int, int]:
+    """Window length, start and stride of :func:`iter_windows` in microseconds, checked."""
+    win = _ms_to_us("window_ms", window_ms)
+    start = _ms_to_us("start_ms", start_ms, positive=False)
+    return win, start, win if stride_ms is None else _ms_to_us("stride_ms", stride_ms)
+
+
+def _check_window_options(max_windows, denoise_us, refractory_us) -> None:
+    if max_windows is not None:
+        validate.integer("iter_windows", "max_windows", max_windows, lo=1)
+    for name, v in (("denoise_us", denoise_us), ("refractory_us", refractory_us)):
+        if v is not None:
+            validate.number("iter_windows", name, v, lo=0)
+
+
 def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 0, stride_ms: float | None = None,
                  max_windows: int | None = None, denoise_us: int | None = None, refractory_us: int | None = None,
-                 sensor_size=None, chunk_events: int = DEFAULT_CHUNK, encoding: str | None = None,
-                 codec: str | None = None, channel: int | str | None = None, timer_bits: int | None = None):
+                 **read_options):
     """Cut a recording into time windows and yield :class:`EventWindow` s.
 
     Window ``k`` covers ``[t0 + start + k * stride, ... + window)`` where ``t0``
@@ -128,23 +142,16 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
     * A recording without events, one whose events all have the same
       timestamp (a file cut short, most likely), or a start after its last
       event, is an InputError.
-    * ``encoding``, ``codec``, ``channel`` and ``timer_bits`` are the format
-      options of :mod:`snn_fg.events.io`; an option that does not apply to
-      the recording's format is a ParameterError.
+    * ``read_options`` say how the recording is read, as for
+      :func:`~snn_fg.events.iter_recording`: ``sensor_size``, ``chunk_events``
+      and the format options of :mod:`snn_fg.events.io` (``encoding``,
+      ``codec``, ``channel``, ``timer_bits``); an option that does not apply
+      to the recording's format is a ParameterError.
     """
-    options = check_format_options("iter_windows", encoding=encoding, codec=codec, channel=channel,
-                                   timer_bits=timer_bits)
-    if sensor_size is not None:
-        sensor_size_parameter("iter_windows", sensor_size)
-    win = _ms_to_us("window_ms", window_ms)
-    start = _ms_to_us("start_ms", start_ms, positive=False)
-    stride = win if stride_ms is None else _ms_to_us("stride_ms", stride_ms)
-    if max_windows is not None:
-        validate.integer("iter_windows", "max_windows", max_windows, lo=1)
-    for name, v in (("denoise_us", denoise_us), ("refractory_us", refractory_us)):
-        if v is not None:
-            validate.number("iter_windows", name, v, lo=0)
-    stream = iter_recording(recording_or_path, chunk_events=chunk_events, sensor_size=sensor_size, **options)
+    read_options = check_read_options("iter_windows", read_options)
+    win, start, stride = _window_times(window_ms, start_ms, stride_ms)
+    _check_window_options(max_windows, denoise_us, refractory_us)
+    stream = iter_recording(recording_or_path, **read_options)
     stream.warn_no_span = False         # (refused below)
     size = stream.sensor_size
     name = stream.path if stream.path is not None else "<array>"

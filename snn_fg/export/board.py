@@ -29,11 +29,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..lowering.connect import kernel_taps
+from ..lowering.interp import interp_matrix, sparse_rows
 from ..network.graph import Network
 from ..network.nodes import Conv, Population, Projection
-from ..spiking.connect import kernel_taps
-from ..spiking.interp import interp_matrix, sparse_rows
-from .pynn_tables import conv_pairs, resize_pairs
+from ..pynn.tables import conv_pairs, resize_pairs
 
 BOARD_NOTE = ("Export: the board network has every cell of every population; the coarse levels' edge mask "
               "(cells only where the input's resized edge map >= support_min) depends on the input and is "

@@ -109,7 +109,7 @@ def _refuse_existing(out: Path, force: bool):
 def cmd_export(args) -> int:
     from ..atomic import save_text
     from ..network.recipes import network_for
-    from .quantise import check_bits
+    from ..lowering.quantise import check_bits
 
     check.choice("snn-fg export", "--format", args.format, FORMATS)
     check.choice("snn-fg export", "--target", args.target, TARGETS)

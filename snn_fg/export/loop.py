@@ -95,7 +95,7 @@ def _input_spikes(args, net, dt_ms):
     from ..events import iter_recording, iter_windows
     from ..frames.pool import pool_events, pool_frame
     from ..inputs import input_kind, load_frame
-    from ..spiking.inputs import event_spikes, frame_spikes
+    from ..lowering.input_spikes import event_spikes, frame_spikes
 
     shape, pool = tuple(net.frame_shape), net.params.input_pool
     kind = input_kind(args.input)
@@ -201,7 +201,7 @@ def decode_counts(network, counts_path):
 
 def cmd_decode(args) -> int:
     from ..figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure
-    from ..runner import OutputFolder
+    from ..atomic import OutputFolder
 
     net, _ = export_network(args.export)
     if not Path(args.counts).exists():

@@ -50,12 +50,12 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError, ParameterError
+from ..lowering.quantise import projection_scales
 from ..network.graph import Network
 from ..network.nodes import Conv, Kernel, Neuron, Population, Resize
 from ..params import ModelParams
+from ..pynn.network import quantise, split_receptors
 from .board import board_network, fingerprint
-from .pynn_model import quantise, split_receptors
-from .quantise import projection_scales
 
 MS = 1e-3
 SCHEMA = "snn-fg.nir/1"
@@ -173,7 +173,7 @@ def _resize_nodes(nir, net: Network, pr: Resize) -> tuple[dict, list]:
     rec = "exc" if pr.sign > 0 else "inh"
     meta = {"snn_fg_projection": _js(pr.to_dict()), "receptor": rec,
             "semantics": "target(c,i,j) += sign*gain_mv*sum A_r[i,i'] A_c[j,j'] spikes(c,i',j') (half-pixel "
-                         "centres, OpenCV interpolation, clamped); see snn_fg.spiking.interp"}
+                         "centres, OpenCV interpolation, clamped); see snn_fg.lowering.interp"}
     nodes = {f"{pr.name}.out": nir.Output(output_type={"output": np.array(src.shape)}, metadata=meta),
              f"{pr.name}.in": nir.Input(input_type={"input": np.array(tgt.shape)}, metadata=meta),
              f"{pr.name}.delay": nir.Delay(delay=np.full(tgt.shape, pr.delay_ms * MS, np.float32))}

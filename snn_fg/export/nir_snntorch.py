@@ -174,7 +174,7 @@ def run_snntorch(graph, network: Network, inputs, *, step_ms: float, duration_ms
                  count_from_ms: float) -> dict:
     """Simulate a graph of this profile made from ``network`` for a step of
     ``step_ms`` with snnTorch (through nirtorch) on ``inputs``
-    (:class:`~snn_fg.spiking.inputs.InputSpikes` on that step), counting
+    (:class:`~snn_fg.lowering.input_spikes.InputSpikes` on that step), counting
     every population's spikes from ``count_from_ms`` on: population name ->
     counts per cell (flat order)."""
     import contextlib

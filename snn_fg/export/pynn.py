@@ -3,15 +3,16 @@
 The export folder holds
 
 * ``run.py`` - the script (PyNN and numpy only) that builds the network,
-  reads an input spike file, simulates and writes every population's spikes;
+  reads an input spike file, simulates and writes every population's spikes
+  (:mod:`snn_fg.pynn.run`);
 * ``fg_network.py`` - the network in PyNN (a verbatim copy of
-  :mod:`snn_fg.export.pynn_model`, which the NEST backend also runs);
+  :mod:`snn_fg.pynn.network`, which the NEST backend also runs);
 * ``fg_tables.py`` - explicit synapses from the weight-shared tables (a
-  verbatim copy of :mod:`snn_fg.export.pynn_tables`);
+  verbatim copy of :mod:`snn_fg.pynn.tables`);
 * ``fg_spinnaker.py`` - the network on sPyNNaker with its
   ``ConvolutionConnector`` s, and its mapping on a virtual board
-  (:mod:`snn_fg.export.pynn_spinnaker`); ``fg_memory.py`` - what a NEST run
-  will cost, from measurement (:mod:`snn_fg.export.pynn_memory`);
+  (:mod:`snn_fg.pynn.spinnaker`); ``fg_memory.py`` - what a NEST run
+  will cost, from measurement (:mod:`snn_fg.pynn.memory`);
 * ``network.json`` - populations (grids, neuron constants), projections
   (ends, sign, gain, delay, per-projection weight scale, synapse count) and the snn-fg
   description it was made from; ``tables.npz`` - the weight-shared tables
@@ -35,17 +36,14 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from .. import pynn as standalone
+from ..lowering.quantise import projection_scales
 from ..network.graph import Network
 from .board import ConvTable, board_network, geometry, table
-from .quantise import projection_scales
 from .spinnaker import spinnaker_plan
 from .synapses import projection_counts
 
-HERE = Path(__file__).resolve().parent
 SCHEMA = "snn-fg.pynn/1"
-#: the standalone modules every export holds: snn_fg module -> name in the export
-COPIED = {"pynn_model.py": "fg_network.py", "pynn_tables.py": "fg_tables.py", "pynn_spinnaker.py": "fg_spinnaker.py",
-          "pynn_memory.py": "fg_memory.py", "run_pynn.py": "run.py"}
 TARGETS = ("generic", "spinnaker")
 
 
@@ -144,15 +142,15 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
     >>> sorted(p.name for p in d.glob("*.py"))
     ['fg_memory.py', 'fg_network.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
     """
-    from ..runner import OutputFolder
+    from ..atomic import OutputFolder
 
     meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target)
     with OutputFolder(out, force=force) as folder:
         tmp = folder.dir
         (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
         np.savez_compressed(tmp / "tables.npz", **arrays)
-        for src, dst in COPIED.items():
-            shutil.copyfile(HERE / src, tmp / dst)
+        for src, dst in standalone.COPIED.items():
+            shutil.copyfile(standalone.HERE / src, tmp / dst)
         (tmp / "spinnaker.json").write_text(json.dumps(spinnaker_plan(board_network(network), estimate=True,
                                                                       dt_ms=dt_ms), indent=1) + "\n")
         pops = meta["populations"]
@@ -165,7 +163,7 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
 
 
 def save_input(inputs, path, dt_ms: float) -> Path:
-    """Write :class:`~snn_fg.spiking.inputs.InputSpikes` as ``run.py``'s input file."""
+    """Write :class:`~snn_fg.lowering.input_spikes.InputSpikes` as ``run.py``'s input file."""
     np.savez(path, indices=inputs.indices.astype(np.int64), steps=inputs.steps.astype(np.int64), dt_ms=dt_ms,
              period_steps=-1 if inputs.period_steps is None else int(inputs.period_steps),
              shape=np.array(inputs.shape))
@@ -173,10 +171,10 @@ def save_input(inputs, path, dt_ms: float) -> Path:
 
 
 def read_input(path):
-    """``run.py``'s input file as :class:`~snn_fg.spiking.inputs.InputSpikes`
+    """``run.py``'s input file as :class:`~snn_fg.lowering.input_spikes.InputSpikes`
     (what :func:`save_input` wrote; the active-pixel masks and the mean rate
     are recomputed from the spikes)."""
-    from ..spiking.inputs import InputSpikes
+    from ..lowering.input_spikes import InputSpikes
 
     d = np.load(path)
     h, w = (int(v) for v in d["shape"])

@@ -2,6 +2,7 @@
 simulator or exporter.
 
 * :mod:`.nodes` - neurons, populations, kernels, projections;
+* :mod:`.roles` - what each population's cells compute;
 * :mod:`.graph` - :class:`Network`, the validated graph (JSON in and out);
 * :mod:`.spiking_params` - :class:`SpikingParams`, the spiking constants;
 * :mod:`.builder` - :func:`build_network`, the figure-ground network;
@@ -9,7 +10,8 @@ simulator or exporter.
 """
 from .builder import build_network
 from .graph import Network
-from .nodes import ROLES, SITE_RULES, Conv, Kernel, Neuron, Population, Projection, Resize
+from .nodes import SITE_RULES, Conv, Kernel, Neuron, Population, Projection, Resize
+from .roles import ROLES
 from .spiking_params import SpikingParams
 
 __all__ = ["ROLES", "SITE_RULES", "Conv", "Kernel", "Network", "Neuron", "Population", "Projection", "Resize",

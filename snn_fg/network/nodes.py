@@ -41,27 +41,12 @@ import numpy as np
 from .. import validate as check
 from ..params import ModelParams
 from .kernels import dog_kernels, von_mises_masks
-
-#: What a population computes. The decoder and every backend find
-#: populations by role (and level), never by name.
-ROLES = (
-    "input_on", "input_off",            # spike sources, one per pixel and polarity (level 1)
-    "relay_on", "relay_off",            # the event frame resized to a coarser level (stage 2)
-    "simple",                           # oriented simple cells, 2 * n_ori directions (stages 3-4)
-    "untuned",                          # event pixels without an oriented response (stage 4)
-    "bo_L1", "bo_L2", "bo_D1", "bo_D2",  # border-ownership cells, n_ori orientations (stage 5)
-    "excess_L1", "excess_L2", "excess_D1", "excess_D2",  # a family's excess over its rival (stage 7)
-    "group_L", "group_D",               # grouping cells (stage 7)
-    "feedback_1p", "feedback_1n",       # feedback cells: the signal z1 = VL1 - VD2 as a rectified pair
-    "feedback_2p", "feedback_2n",       # and z2 = VL2 - VD1 (stage 8)
-    "clock",                            # one spike source marking where each window of a recording starts
-)
-SOURCE_ROLES = ("input_on", "input_off", "clock")
+from .roles import ROLES, SOURCE_ROLES
 
 #: Which cells a simulator needs to instantiate for one input. This is an
 #: optimisation hint for backends that unroll the network for an input, not
 #: part of the model: cells it leaves out are cells that input cannot make
-#: fire (see :mod:`snn_fg.spiking.sites`). A backend may instantiate every
+#: fire (see :mod:`snn_fg.lowering.sites`). A backend may instantiate every
 #: cell instead and must then compute the same spikes.
 #:
 #: ``all``          every cell (spike sources);
@@ -125,7 +110,7 @@ class Neuron(Node):
 
     Excitation and inhibition decay alike by default (``tau_exc_ms ==
     tau_inh_ms``): a kernel with negative lobes split between the two
-    currents, as a board must (:func:`snn_fg.export.pynn_model.split_receptors`),
+    currents, as a board must (:func:`snn_fg.pynn.network.split_receptors`),
     then acts exactly as its signed sum, so the export computes what the
     simulators compute."""
 

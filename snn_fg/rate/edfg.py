@@ -26,6 +26,7 @@ from ..params import ModelParams
 from ._sparse_kernels import dog_at
 from .fourier import irfft, padded_shape, place, rfft
 from .grouping import Entries, GroupingResult, SparseGrouping
+from .pooled import grouping_engine
 
 __all__ = ["GroupingResult", "RateState", "border_ownership_grouping", "event_simple_cells",
            "orientation_index", "oriented_responses", "readout", "run_edfg", "run_edfg_state"]
@@ -168,8 +169,6 @@ def border_ownership_grouping(s_levels, params: ModelParams = ModelParams(), pro
     """Stages 5-8: iterate grouping cells and feedback on the S pyramid (dense in, dense out)."""
     entries = [Entries.from_dense(s) for s in s_levels]
     shapes = [s.shape[1:] for s in s_levels]
-    from .natural import grouping_engine
-
     return grouping_engine(params)(entries, shapes, params).run(progress).dense()
 
 
@@ -239,8 +238,6 @@ def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
     With ``params.input_pool > 1`` the model runs on the pooled frame
     (:mod:`snn_fg.frames.pool`) and its maps come back at the sensor's size.
     """
-    from .natural import grouping_engine
-
     sensor_edges = (np.asarray(pos) != 0) | (np.asarray(neg) != 0)
     pos, neg = pool_frame(pos, neg, params.input_pool)
     check_levels(np.shape(pos), params.levels, per_octave=params.levels_per_octave)

@@ -12,7 +12,8 @@ contrast. On the BSDS labels the competing form assigns sides at chance
 
 This variant changes stage 7 and the parameters, nothing else:
 
-* **pooled polarities** (``ModelParams.grouping_polarity = "pool"``): no
+* **pooled polarities** (``ModelParams.grouping_polarity = "pool"``,
+  :class:`~snn_fg.rate.pooled.PooledGrouping`): no
   light/dark competition; each grouping cell keeps its own rectified input,
   and the feedback of stage 8 reads the sum of the light and dark grouping
   maps on both sides, ``z1 = z2 = G (*) m1 - G (*) m2`` with ``G = GL + GD``
@@ -35,41 +36,13 @@ cells, feedback gain, read-out) is the reference's.
 """
 from __future__ import annotations
 
-import numpy as np
-
 from ..maps import Maps
 from ..params import ModelParams
-from .grouping import SparseGrouping
+from .edfg import run_edfg_state
 
 #: The variant's parameters: the paper's, with the grouping polarities pooled,
 #: no rival inhibition and a grouping radius of 4 px (see the module docstring).
 NATURAL_PARAMS = ModelParams(grouping_polarity="pool", w_inh=0.0, r0=4.0)
-
-
-class PooledGrouping(SparseGrouping):
-    """Stages 5-8 with pooled grouping polarities (``grouping_polarity="pool"``).
-
-    Both padded grouping maps of a level hold ``G = max(AL, 0) + max(AD, 0)``,
-    so the feedback correlation of stage 8, ``GL (*) m1 - GD (*) m2``, reads
-    ``G (*) m1 - G (*) m2``. :meth:`grouping_maps` gives ``(G, 0)``, so the
-    grouping map of the read-out is ``G`` once, as the spiking form's light
-    plus dark grouping rates are.
-    """
-
-    def _compete(self, lv) -> None:
-        p, (h, w) = lv.pad, lv.shape
-        inner = (slice(p, p + h), slice(p, p + w))
-        g = np.maximum(lv.a_l[inner], 0.0) + np.maximum(lv.a_d[inner], 0.0)
-        lv.g_l[inner] = g
-        lv.g_d[inner] = g
-
-    def grouping_maps(self) -> list[tuple[np.ndarray, np.ndarray]]:
-        return [(gl, np.zeros_like(gl)) for gl, _ in super().grouping_maps()]
-
-
-def grouping_engine(params: ModelParams) -> type[SparseGrouping]:
-    """The stages 5-8 engine for ``params.grouping_polarity``."""
-    return PooledGrouping if params.grouping_polarity == "pool" else SparseGrouping
 
 
 def run_natural(pos, neg, params: ModelParams = NATURAL_PARAMS, progress=None) -> Maps:
@@ -89,8 +62,6 @@ def run_natural(pos, neg, params: ModelParams = NATURAL_PARAMS, progress=None) -
     >>> truth_scores(maps.fg_x, maps.fg_y, scene)["frac_within_45"] > 0.95
     True
     """
-    from .edfg import run_edfg_state
-
     maps = run_edfg_state(pos, neg, params, progress).maps()
     maps.params["model"] = "natural"
     return maps

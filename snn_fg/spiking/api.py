@@ -8,27 +8,21 @@ parameters, or a stored one) -> calibration to the input rate -> a backend
 """
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from .. import validate as check
-from ..backends import DEFAULT_BACKEND, RunSettings, SimulationResult, as_backend
+from ..backends import RunSettings, SimulationResult
 from ..errors import InputError
 from ..events.window import events_to_frame
 from ..frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
+from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ..maps import Maps
-from ..network.builder import build_network
 from ..network.graph import Network
-from ..network.recipes import network_for
-from ..network.spiking_params import SpikingParams
-from ..params import ModelParams
 from .decode import decode
-from .inputs import InputSpikes, event_spikes, frame_spikes
-from .record import SpikingRecord
+from .options import FrameOptions, SpikingOptions
+from .record import SpikingRecord, run_params
 
 
 @dataclass
@@ -41,32 +35,6 @@ class SpikingResult:
     result: SimulationResult
     inputs: InputSpikes
     record: SpikingRecord
-
-
-def stderr_log(message: str):
-    print(f"snn-fg: {message}", file=sys.stderr, flush=True)
-
-
-def resolve_network(network, params, spiking, shape, feedback: bool = True) -> tuple[Network, dict]:
-    """The description to run for a sensor of ``shape`` (rows, cols), and
-    how it was obtained (for the record): built from ``params`` and
-    ``spiking``, or ``network``, a recipe name, a stored description or a
-    :class:`Network` (:func:`~snn_fg.network.recipes.network_for`). Its frame
-    is the pooled sensor when its ``params.input_pool > 1``.
-
-    ``feedback=False`` removes the feedback onto border-ownership cells
-    (:meth:`Network.without_feedback`), the model's ablation."""
-    if network is None:
-        params = ModelParams() if params is None else params
-        spiking = SpikingParams() if spiking is None else spiking
-        network = build_network(params, pooled_shape(shape, params.input_pool), spiking)
-        origin = {"origin": "built", "spiking_params": spiking.to_dict()}
-    else:
-        if params is not None or spiking is not None:
-            check.fail("run_spiking", None, None, "give either a network or params/spiking to build one, not both")
-        network, origin = network_for(network, shape)
-    origin["feedback"] = check.flag("run_spiking", "feedback", feedback)
-    return (network if feedback else network.without_feedback()), origin
 
 
 def _sensor_shape(pos, events, sensor_size) -> tuple[int, int]:
@@ -94,110 +62,59 @@ def _pooled(pos, neg, events, sensor_size, pool: int):
     return None, None, pool_events(events, pool), pooled_shape(sensor.shape, pool)[::-1], sensor
 
 
-def _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, input_process, replay,
-            net: Network | None = None):
+def _inputs(pos, neg, events, sensor_size, frame: FrameOptions, dt_ms: float, net: Network):
     if events is not None:
         if pos is not None or neg is not None:
             raise InputError("<input>", "give either events or a frame (pos, neg), not both")
         if sensor_size is None:
             raise InputError("<events>", "sensor_size (width, height) is needed with events")
-        inp = event_spikes(events, sensor_size, dt_ms, replay=replay,
-                           refractory_ms=0.0 if net is None else net.input_refractory_ms)
+        inp = event_spikes(events, sensor_size, dt_ms, replay=frame.replay, refractory_ms=net.input_refractory_ms)
     else:
         if pos is None or neg is None:
             raise InputError("<input>", "give events (with sensor_size) or both pos and neg")
-        inp = frame_spikes(pos, neg, rate_hz, dt_ms, duration_ms, seed, input_process)
+        inp = frame_spikes(pos, neg, frame.rate_hz, dt_ms, frame.duration_ms, frame.seed, frame.input_process)
     if not (inp.on.any() or inp.off.any()):
         raise InputError("<input>", "no pixel has an event: nothing to simulate")
     return inp
 
 
-def default_instantiate(backend, inp) -> str:
-    """The cells to create when the caller does not say: for an event frame
-    presented as regular trains, those the populations' hints choose
-    (``"input"``), on every backend; otherwise the backend's own default.
-
-    The hints judge a cell by the nominal input rate, which regular trains
-    keep exactly: on the six shared BSDS frames the fast engine's maps with
-    them are bit for bit those with every cell, and take 1.2-2.4x less time
-    (24 Nov). Timed events and Poisson trains come in bursts, where a cell
-    the hints leave out can fire (a ``dvs.es`` window's feedback cells fire
-    17 % fewer spikes with them), so there each backend keeps its default."""
-    if inp.kind == "frame-regular":
-        return "input"
-    return backend.default_instantiate
-
-
-def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, params: ModelParams | None = None,
-                       spiking: SpikingParams | None = None, network: Network | str | Path | None = None,
-                       backend=DEFAULT_BACKEND, backend_options: dict | None = None,
-                       duration_ms: float = 400.0, dt_ms: float = 0.5, settle_ms: float | None = None,
-                       seed: int = 0, rate_hz: float = 200.0, input_process: str = "regular",
-                       replay: bool = True, calibrate: bool = True, instantiate: str | None = None, feedback: bool = True,
-                       record_spikes: bool = True, record_state: tuple = (), sites: dict | None = None,
-                       progress: bool = True, log=None) -> SpikingResult:
-    """:func:`run_spiking`, returning a :class:`SpikingResult` with the internals."""
+def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, options: SpikingOptions | None = None,
+                       **keywords) -> SpikingResult:
+    """:func:`run_spiking`, returning a :class:`SpikingResult` with the
+    internals. The options are :func:`run_spiking`'s keywords, or a
+    :class:`~snn_fg.spiking.options.SpikingOptions` made once (``options``)."""
     t_start = time.perf_counter()
-    duration_ms = check.number("run_spiking", "duration_ms", duration_ms, lo=0, lo_open=True)
-    dt_ms = check.number("run_spiking", "dt_ms", dt_ms, lo=0, lo_open=True)
-    settle_ms = duration_ms / 2 if settle_ms is None else check.number(
-        "run_spiking", "settle_ms", settle_ms, lo=0, hi=duration_ms, hi_open=True)
-    check.integer("run_spiking", "seed", seed)
-    net, origin = resolve_network(network, params, spiking, _sensor_shape(pos, events, sensor_size), feedback)
+    opts = SpikingOptions.of("run_spiking", options, keywords, recording=False)
+    frame, sim = opts.frame, opts.simulator
+    net, origin = opts.network.resolve(_sensor_shape(pos, events, sensor_size))
     pool = net.params.input_pool
     sensor = None
     if pool > 1:
         pos, neg, events, sensor_size, sensor = _pooled(pos, neg, events, sensor_size, pool)
-    inp = _inputs(pos, neg, events, sensor_size, rate_hz, dt_ms, duration_ms, seed, input_process, replay, net)
-    if calibrate and not np.isclose(net.input_rate_hz, inp.rate_hz, rtol=1e-12, atol=0):
+    inp = _inputs(pos, neg, events, sensor_size, frame, sim.dt_ms, net)
+    if opts.network.calibrate and not np.isclose(net.input_rate_hz, inp.rate_hz, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": inp.rate_hz}
         net = net.calibrated(inp.rate_hz)
-    sim_backend = as_backend(backend, backend_options)
-    instantiate = instantiate or default_instantiate(sim_backend, inp)
-    say = log if log is not None else (stderr_log if progress else None)
-    settings = RunSettings(duration_ms=duration_ms, dt_ms=dt_ms, count_from_ms=settle_ms,
-                           record_spikes=record_spikes, record_state=tuple(record_state),
-                           instantiate=instantiate, sites=sites, log=say, progress=progress)
-    result = sim_backend.simulate(net, inp, settings)
+    backend = sim.backend_object()
+    instantiate = sim.cells_for(backend, inp)
+    settings = RunSettings(duration_ms=frame.duration_ms, dt_ms=sim.dt_ms, count_from_ms=frame.settle_ms,
+                           record_spikes=sim.record_spikes, record_state=frame.record_state,
+                           instantiate=instantiate, sites=frame.sites, log=sim.say, progress=sim.progress)
+    result = backend.simulate(net, inp, settings)
     fg_x, fg_y, grouping, _ = decode(result)
     if sensor is not None:
         fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, sensor, pool)
-    rec = SpikingRecord.from_result(result, inp, settle_ms)
-    simulation = {**rec.timing(), "dt_ms": dt_ms, "seed": int(seed), "input": inp.kind,
-                  "rate_hz_requested": float(rate_hz), "rate_hz_used": inp.rate_hz,
-                  "input_process": input_process if events is None else "events",
-                  "replay": bool(replay) if events is not None else None,
+    rec = SpikingRecord.from_result(result, inp, frame.settle_ms)
+    simulation = {**rec.timing(), "dt_ms": sim.dt_ms, "seed": int(frame.seed), "input": inp.kind,
+                  "rate_hz_requested": float(frame.rate_hz), "rate_hz_used": inp.rate_hz,
+                  "input_process": frame.input_process if events is None else "events",
+                  "replay": bool(frame.replay) if events is not None else None,
                   "merged_input_spikes": inp.merged, "instantiate": instantiate,
-                  "record_spikes": bool(record_spikes)}
-    record = run_params(net, origin, sim_backend, result, rec.populations, simulation, t_start)
+                  "record_spikes": bool(sim.record_spikes)}
+    record = run_params(net, origin, backend, result, rec.populations, simulation, t_start)
     maps = Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), record,
                 rec.arrays())
     return SpikingResult(maps, net, result, inp, rec)
-
-
-def run_params(net: Network, origin: dict, backend, result: SimulationResult, populations: dict,
-               simulation: dict, t_start: float) -> dict:
-    """``Maps.params`` of a spiking run: model parameters, where the network
-    came from, the backend, the simulation settings, cell and synapse counts,
-    per-population summaries, timings and the network's notes."""
-    syn = result.stats.get("synapses_in", {})
-    return {
-        "model": "spiking",
-        **net.params.to_dict(),
-        "network": {**origin, "frame_shape": list(net.frame_shape), "input_rate_hz": net.input_rate_hz},
-        "backend": backend.describe(),
-        "simulation": simulation,
-        "counts": {"cells": {n: int(s.size) for n, s in result.sites.items()},
-                   "synapses_in": {n: int(syn.get(n, 0)) for n in result.sites},
-                   "total_cells": result.total_cells, "total_synapses": int(sum(syn.values())),
-                   "backend_objects": result.stats.get("brian2_synapse_objects", {})},
-        "kept_kernel_mass": result.stats.get("kept_kernel_mass", {}),
-        # the backend's own counters (fast: synaptic events, spikes, cells updated)
-        "backend_stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float))},
-        "populations": populations,
-        "timings_s": {**result.timings_s, "total": time.perf_counter() - t_start},
-        "notes": list(net.notes),
-    }
 
 
 def run_spiking(pos=None, neg=None, **options) -> Maps:
@@ -236,14 +153,18 @@ def run_spiking(pos=None, neg=None, **options) -> Maps:
         map loses its direction).
     instantiate : {"input", "all"}, optional
         Create only the cells this input can use, or every cell (default:
-        :func:`default_instantiate`, ``"input"`` for an event frame's regular
-        trains, else the backend's ``default_instantiate``; recorded in
-        ``params``).
+        :meth:`~snn_fg.spiking.options.SimulatorOptions.cells_for`, ``"input"``
+        for an event frame's regular trains, else the backend's
+        ``default_instantiate``; recorded in ``params``).
     record_spikes : bool
         Keep spike times for the raster figure.
     progress, log
         ``progress`` prints one-line stage messages and a progress bar on
         stderr; ``log`` receives the messages instead.
+    options : SpikingOptions, optional
+        All of the above made once (:mod:`snn_fg.spiking.options`), instead
+        of keywords: for a caller that runs many inputs. An unknown keyword
+        is a ``TypeError``.
 
     Returns
     -------

@@ -26,20 +26,15 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from .. import validate as check
-from ..backends import DEFAULT_BACKEND, RunSettings, as_backend
+from ..backends import RunSettings
 from ..backends.base import each_bin
 from ..errors import InputError
 from ..frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
+from ..lowering.input_spikes import event_spikes
 from ..maps import Maps
-from .api import default_instantiate, resolve_network, run_params, stderr_log
 from .decode import decode
-from .inputs import event_spikes
-from .record import SpikingRecord
-
-#: Default read-out lag (ms): see the module docstring and
-#: ``experiments/dvs_latency.py`` for how long the network takes to answer.
-READOUT_LAG_MS = 20.0
+from .options import SpikingOptions
+from .record import SpikingRecord, run_params
 
 
 def _window_rate(windows, dt_ms: float) -> float:
@@ -79,11 +74,8 @@ def _all_events(windows):
     return ev
 
 
-def run_spiking_windows(windows, *, params=None, spiking=None, network=None, backend=DEFAULT_BACKEND,
-                        backend_options: dict | None = None, dt_ms: float = 0.5,
-                        readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
-                        instantiate: str | None = None, record_spikes: bool = True, window_clock: bool = True,
-                        progress: bool = True, log=None, source: str = "<recording>") -> list[Maps]:
+def run_spiking_windows(windows, *, source: str = "<recording>", options: SpikingOptions | None = None,
+                        **keywords) -> list[Maps]:
     """Run the spiking network once over consecutive windows of a recording.
 
     Parameters
@@ -104,6 +96,11 @@ def run_spiking_windows(windows, *, params=None, spiking=None, network=None, bac
         and the network carries its state from window to window.
     progress, log
         Stage messages and a progress bar on stderr, or ``log`` receiving them.
+    options : SpikingOptions, optional
+        All of the above made once, instead of keywords (its frame part is
+        not used).
+    source : str
+        What the windows come from, for error messages.
 
     Returns
     -------
@@ -123,11 +120,8 @@ def run_spiking_windows(windows, *, params=None, spiking=None, network=None, bac
     >>> len(maps) == len(wins), maps[0].params["simulation"]["network_builds"]
     (True, 1)
     """
-    run = simulate_windows(windows, params=params, spiking=spiking, network=network, backend=backend,
-                           backend_options=backend_options, dt_ms=dt_ms, readout_lag_ms=readout_lag_ms,
-                           calibrate=calibrate, feedback=feedback, instantiate=instantiate,
-                           record_spikes=record_spikes, window_clock=window_clock, progress=progress, log=log,
-                           source=source, keep_run=False)
+    run = simulate_windows(windows, source=source, keep_run=False,
+                           options=SpikingOptions.of("run_spiking_windows", options, keywords, frame=False))
     return window_maps(run)
 
 
@@ -154,12 +148,8 @@ class ContinuousRun:
     decoded_at: list
 
 
-def simulate_windows(windows, *, params=None, spiking=None, network=None, backend=DEFAULT_BACKEND,
-                     backend_options: dict | None = None, dt_ms: float = 0.5,
-                     readout_lag_ms: float = READOUT_LAG_MS, calibrate: bool = True, feedback: bool = True,
-                     instantiate: str | None = None, record_spikes: bool = True, window_clock: bool = True,
-                     progress: bool = True, log=None, source: str = "<recording>",
-                     keep_run: bool = True) -> ContinuousRun:
+def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = True,
+                     options: SpikingOptions | None = None, **keywords) -> ContinuousRun:
     """The simulation half of :func:`run_spiking_windows` (same parameters):
     one run over every window, each window decoded as the run passes the
     end of its read-out span; :func:`window_maps` makes their maps.
@@ -170,47 +160,53 @@ def simulate_windows(windows, *, params=None, spiking=None, network=None, backen
     ``True`` keeps them in ``ContinuousRun.result`` (for analyses of the
     whole run's spikes)."""
     t_start = time.perf_counter()
+    opts = SpikingOptions.of("simulate_windows", options, keywords, frame=False)
+    sim, lag = opts.simulator, opts.recording.readout_lag_ms
     windows = list(windows)
     if not windows:
         raise InputError(source, "no window to process")
-    lag = check.number("run_spiking_windows", "readout_lag_ms", readout_lag_ms, lo=0)
-    h, w = windows[0].pos.shape
-    t0 = windows[0].t_start_us
     events = _all_events(windows)
     if not len(events):
         raise InputError(source, "no window has an event: nothing to simulate")
-    net, origin = resolve_network(network, params, spiking, (h, w), feedback)
-    pool = net.params.input_pool
-    inp = event_spikes(pool_events(events, pool), (*pooled_shape((h, w), pool)[::-1], 2), dt_ms, replay=False,
-                       source=source, t0_us=t0, refractory_ms=net.input_refractory_ms)
-    clock = bool(check.flag("run_spiking_windows", "window_clock", window_clock) and net.by_role("clock"))
-    if clock:      # the window clock fires as every window starts
-        inp = inp.with_clock([int(np.floor((x.t_start_us - t0) / (dt_ms * 1000.0))) for x in windows])
-    adapted = pool > 1 or net.input_refractory_ms > 0
-    rate = _spike_rate(inp, windows, t0, dt_ms) if adapted else _window_rate(windows, dt_ms)
-    if calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
+    net, origin = opts.network.resolve(windows[0].pos.shape)
+    inp, clock = _window_input(windows, events, net, sim.dt_ms, opts.recording.window_clock, source)
+    t0 = windows[0].t_start_us
+    adapted = net.params.input_pool > 1 or net.input_refractory_ms > 0
+    rate = _spike_rate(inp, windows, t0, sim.dt_ms) if adapted else _window_rate(windows, sim.dt_ms)
+    if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
         net = net.calibrated(rate)
-    spans = [_read_out_span(x, t0, lag, dt_ms) for x in windows]
+    spans = [_read_out_span(x, t0, lag, sim.dt_ms) for x in windows]
     edges = sorted({t for span in spans for t in span})
-    duration = edges[-1]
-    say = log if log is not None else (stderr_log if progress else None)
-    sim_backend = as_backend(backend, backend_options)
-    instantiate = instantiate or default_instantiate(sim_backend, inp)
-    reader = _WindowReader(windows, spans, edges, pool)
-    settings = RunSettings(duration_ms=duration, dt_ms=dt_ms, count_from_ms=edges[0], record_spikes=record_spikes,
-                           instantiate=instantiate, count_bins_ms=tuple(edges), log=say, progress=progress,
-                           on_bin=None if keep_run else reader)
-    result = sim_backend.simulate(net, inp, settings)
+    backend = sim.backend_object()
+    instantiate = sim.cells_for(backend, inp)
+    reader = _WindowReader(windows, spans, edges, net.params.input_pool)
+    settings = RunSettings(duration_ms=edges[-1], dt_ms=sim.dt_ms, count_from_ms=edges[0],
+                           record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
+                           log=sim.say, progress=sim.progress, on_bin=None if keep_run else reader)
+    result = backend.simulate(net, inp, settings)
     if result.binned_counts is not None:        # (a backend that kept its bins)
         for k, bin_result in each_bin(result):
             reader(k, bin_result)
-    simulation = {"mode": "continuous", "simulated_ms": duration, "network_builds": 1, "readout_lag_ms": lag,
-                  "dt_ms": dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": inp.merged,
-                  "instantiate": instantiate, "record_spikes": bool(record_spikes),
+    simulation = {"mode": "continuous", "simulated_ms": edges[-1], "network_builds": 1, "readout_lag_ms": lag,
+                  "dt_ms": sim.dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": inp.merged,
+                  "instantiate": instantiate, "record_spikes": bool(sim.record_spikes),
                   "window_clock": clock}
-    return ContinuousRun(windows, net, origin, sim_backend, result, edges, spans, simulation, t_start,
+    return ContinuousRun(windows, net, origin, backend, result, edges, spans, simulation, t_start,
                          reader.decoded, reader.decoded_at)
+
+
+def _window_input(windows, events, net, dt_ms: float, window_clock: bool, source: str):
+    """The input spikes of the windows' ``events`` on the network's (pooled)
+    grid, with the window clock firing as each window starts when
+    ``window_clock`` is on and the network has one; and whether it does."""
+    pool, t0 = net.params.input_pool, windows[0].t_start_us
+    inp = event_spikes(pool_events(events, pool), (*pooled_shape(windows[0].pos.shape, pool)[::-1], 2), dt_ms,
+                       replay=False, source=source, t0_us=t0, refractory_ms=net.input_refractory_ms)
+    clock = bool(window_clock and net.by_role("clock"))
+    if clock:
+        inp = inp.with_clock([int(np.floor((x.t_start_us - t0) / (dt_ms * 1000.0))) for x in windows])
+    return inp, clock
 
 
 def _read_out_span(window, t0_us: float, lag_ms: float, dt_ms: float) -> tuple[float, float]:

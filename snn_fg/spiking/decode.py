@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..lowering.interp import interp_matrix
 from ..network.builder import FAMILIES
 from ..network.graph import Network
 from ..rate.edfg import GroupingResult, readout
-from .interp import interp_matrix
 
 
 def _grid(network: Network, sites: dict, rates: dict, name: str) -> np.ndarray:

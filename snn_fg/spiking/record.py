@@ -1,4 +1,5 @@
-"""What a spiking run keeps beside its maps: :class:`SpikingRecord`.
+"""What a spiking run keeps beside its maps: :class:`SpikingRecord`, and its
+parameters (:func:`run_params`).
 
 Per simulated population the spike count of every cell that fired and
 where that cell sits (a silent cell is only counted, in the summary: a
@@ -10,33 +11,19 @@ part), strictly: a missing key is an error, not a default.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..backends.base import SimulationResult
 from ..errors import InputError
-from ..network.nodes import ROLES, SOURCE_ROLES
+from ..network.graph import Network
+from ..network.roles import ROLE_ORDER
 from ..validate import integer
 
-#: non-source roles in display order (figures, summaries)
-ROLE_ORDER = tuple(r for r in ROLES if r not in SOURCE_ROLES)
+#: cells of each role whose spike times the raster sample keeps
 RASTER_CELLS_PER_ROLE = 30
-#: what the cells of each role do, for figure captions: (roles, meaning), in ROLE_ORDER
-ROLE_MEANINGS = (
-    (("relay_on", "relay_off"), "the ON and OFF event frame resized to a coarser pyramid level (stage 2)"),
-    (("simple",), "oriented edge cells, 16 directions per pixel (stages 3-4)"),
-    (("untuned",), "event pixels without an oriented response (stage 4)"),
-    (("bo_L1", "bo_L2", "bo_D1", "bo_D2"), "border-ownership cells: a light (L) or dark (D) figure on side 1 or "
-                                           "2 of the edge (stage 5)"),
-    (("excess_L1", "excess_L2", "excess_D1", "excess_D2"), "a border-ownership family's excess over its rival, "
-                                                           "which inhibits the rival's grouping (stage 7)"),
-    (("group_L", "group_D"), "grouping cells of light and dark figures: proto-object centres (stage 7)"),
-    (("feedback_1p", "feedback_1n", "feedback_2p", "feedback_2n"),
-     "feedback cells: z1 = VL1 - VD2 and z2 = VL2 - VD1 as positive (p) and negative (n) halves (stage 8). "
-     "They carry z as a rate and have a refractory period of one 0.5 ms step so that the rate stays "
-     "proportional to z; where z is strong they fire at up to 2 kHz, a spike every step, by design "
-     "(snn_fg.network.SpikingParams)"),
-)
 _NAMES = "population_names"
 _RASTER = ("raster_cell", "raster_t_ms", "raster_role")
 
@@ -44,7 +31,8 @@ _RASTER = ("raster_cell", "raster_t_ms", "raster_role")
 @dataclass
 class Raster:
     """Spikes of up to :data:`RASTER_CELLS_PER_ROLE` cells per role: row of
-    the sampled cell, time (ms) and role (index into :data:`ROLE_ORDER`)."""
+    the sampled cell, time (ms) and role (index into
+    :data:`~snn_fg.network.roles.ROLE_ORDER`)."""
 
     row: np.ndarray
     t_ms: np.ndarray
@@ -181,3 +169,28 @@ def _sample_raster(result) -> Raster:
         return Raster(np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(0, np.int16))
     return Raster(np.concatenate(rows).astype(np.int32), np.concatenate(times).astype(np.float32),
                   np.concatenate(roles).astype(np.int16))
+
+
+def run_params(net: Network, origin: dict, backend, result: SimulationResult, populations: dict,
+               simulation: dict, t_start: float) -> dict:
+    """``Maps.params`` of a spiking run: model parameters, where the network
+    came from, the backend, the simulation settings, cell and synapse counts,
+    per-population summaries, timings and the network's notes."""
+    syn = result.stats.get("synapses_in", {})
+    return {
+        "model": "spiking",
+        **net.params.to_dict(),
+        "network": {**origin, "frame_shape": list(net.frame_shape), "input_rate_hz": net.input_rate_hz},
+        "backend": backend.describe(),
+        "simulation": simulation,
+        "counts": {"cells": {n: int(s.size) for n, s in result.sites.items()},
+                   "synapses_in": {n: int(syn.get(n, 0)) for n in result.sites},
+                   "total_cells": result.total_cells, "total_synapses": int(sum(syn.values())),
+                   "backend_objects": result.stats.get("brian2_synapse_objects", {})},
+        "kept_kernel_mass": result.stats.get("kept_kernel_mass", {}),
+        # the backend's own counters (fast: synaptic events, spikes, cells updated)
+        "backend_stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float))},
+        "populations": populations,
+        "timings_s": {**result.timings_s, "total": time.perf_counter() - t_start},
+        "notes": list(net.notes),
+    }

@@ -25,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from ..lowering.unroll import Unrolled, to_grid
 from ..network.builder import FAMILIES, FEEDBACK_TO_FAMILY, PARTNER
 from .decode import decode_rates
-from .unroll import Unrolled, to_grid
 
 
 def _matrix(un: Unrolled, conn) -> sp.csr_matrix:

@@ -16,7 +16,7 @@ steps. Each step follows Brian2's schedule as our Brian2 backend uses it
 An active cell that can no longer reach threshold without new input is
 *parked* (at the start of the next step): it is not touched until input
 reaches it, and is then brought up to date in closed form (the update is
-linear between spikes, see :func:`snn_fg.backends.fast_tables.advance_tables`).
+linear between spikes, see :func:`snn_fg.backends.fast.tables.advance_tables`).
 Parking is safe because, with no input, the potential stays under a bound
 computed from the current state (:func:`_safe`).
 
@@ -39,16 +39,32 @@ step of the last spike, plus one; 0: none).
 from __future__ import annotations
 
 import hashlib
+from collections import namedtuple
 from pathlib import Path
 
 import numpy as np
 from numba import njit
 
-from .fast_deliver import (AHEAD, C_BITS, C_FLAT, C_MAP, C_N, C_OFF, C_ROW, EXC, N_ACTIVE_STEPS,  # noqa: F401
+from .deliver import (AHEAD, C_BITS, C_FLAT, C_MAP, C_N, C_OFF, C_ROW, EXC, N_ACTIVE_STEPS,  # noqa: F401
                            N_ADVANCES, N_EVENTS, N_FRESH, STATE, U, _advanced, _conv, _conv_gather, _flush, _resize,
                            _safe, prefetch)
-from .fast_tables import (CONV, DE, DI, DM, J_COL, J_DELAY, J_KIND, J_SRC, J_TGT, PE, PI, P_TYPE, SOURCE_TYPE,
+from .tables import (CONV, DE, DI, DM, J_COL, J_DELAY, J_KIND, J_SRC, J_TGT, PE, PI, P_TYPE, SOURCE_TYPE,
                           V_RESET, V_REST, V_TH)
+
+
+#: the arrays :func:`run_steps` changes: cell state, active set, newly
+#: active and touched cells, spike log (``log``, ``step_start``), the input
+#: spikes (``in_ptr``, ``in_ids``), the delivery buffers and the counters
+RunArrays = namedtuple("RunArrays", "state inact act new tmp fresh scalars log step_start in_ptr in_ids acc touched "
+                                    "counters prj_events")
+#: how one run numbers its cells (module docstring): the neuron type of each
+#: cell, the per-population table ``cells`` (columns ``C_*``), the maps
+#: between grid and number, and which projections gather (:func:`_conv_gather`)
+CellNumbering = namedtuple("CellNumbering", "ctype cells cmap flat_of column_of row_ptr bits gather")
+#: the network at one time step (:class:`~snn_fg.backends.fast.tables.EngineTables`)
+KernelTables = namedtuple("KernelTables", "pops nrn ref_steps adv prj prj_w ch_ptr tap_co tap_qr tap_qc tap_w tap_off "
+                                          "dense pair_ptr pair_co pair_rlo pair_rhi csr_ptr csr_idx csr_val grp_ptr "
+                                          "grp_prj")
 
 
 @njit(cache=True)
@@ -110,18 +126,22 @@ def _merge(act, n_act, new, n_new, tmp):
 
 
 @njit(cache=True)
-def run_steps(n0, n1, state, ctype, inact, act, new, tmp, fresh, scalars, log, step_start, in_ptr, in_ids,
-              pops, cells, cmap, flat_of, column_of, row_ptr, bits, gather, nrn, ref, adv, prj, prj_w, ch_ptr, tap_co,
-              tap_qr, tap_qc, tap_w, tap_off, dense, pair_ptr, pair_co, pair_rlo, pair_rhi, csr_ptr, csr_idx,
-              csr_val, grp_ptr, grp_prj, acc, touched, counters, prj_events):
+def run_steps(n0, n1, run, numbering, tables):
     """Simulate steps ``n0 .. n1-1``; returns the step reached (less than
     ``n1`` when the spike log is too small for the next step: grow it and
-    call again from there). ``scalars`` holds (active cells, log length).
+    call again from there). ``run`` (:class:`RunArrays`), ``numbering``
+    (:class:`CellNumbering`) and ``tables`` (:class:`KernelTables`) hold the
+    arrays; ``run.scalars`` holds (active cells, log length).
 
     Synaptic input is delivered per group of projections sharing a target
     population and current (``grp_prj[grp_ptr[k]:grp_ptr[k+1]]``): summed
     per target cell in ``acc`` first, then added to each touched cell once.
     """
+    (state, inact, act, new, tmp, fresh, scalars, log, step_start, in_ptr, in_ids, acc, touched, counters,
+     prj_events) = run
+    ctype, cells, cmap, flat_of, column_of, row_ptr, bits, gather = numbering
+    (pops, nrn, ref_steps, adv, prj, prj_w, ch_ptr, tap_co, tap_qr, tap_qc, tap_w, tap_off, dense, pair_ptr, pair_co,
+     pair_rlo, pair_rhi, csr_ptr, csr_idx, csr_val, grp_ptr, grp_prj) = tables
     n_act, log_n = scalars[0], scalars[1]
     for n in range(n0, n1):
         s = n % (in_ptr.size - 1)     # input spikes repeat with the period of in_ptr (if shorter than the run)
@@ -130,7 +150,7 @@ def run_steps(n0, n1, state, ctype, inact, act, new, tmp, fresh, scalars, log, s
             return n
         start = log_n
         counters[N_ACTIVE_STEPS] += n_act
-        n_act, log_n = _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
+        n_act, log_n = _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref_steps, log, log_n)
         mid = log_n
         for x in range(in_ptr[s], in_ptr[s + 1]):
             log[log_n] = in_ids[x]
@@ -279,21 +299,21 @@ def _drop_stale_caches() -> None:
 
     numba checks a cached function against the file that defines it, and no
     other. :func:`run_steps` compiles in the functions and constants of
-    ``fast_deliver.py`` and ``fast_tables.py``, so after an edit there it kept
+    ``deliver.py`` and ``tables.py``, so after an edit there it kept
     running the old code. The caches of both modules' functions are therefore
     dropped whenever the three files change. Best effort: numba's cache
     object is not public API, and if it changes this check is skipped.
     """
-    from . import fast_deliver
+    from . import deliver
 
     here = Path(__file__).parent
     digest = hashlib.sha256(b"".join((here / name).read_bytes()
-                                     for name in ("fast_core.py", "fast_deliver.py", "fast_tables.py"))).hexdigest()
+                                     for name in ("core.py", "deliver.py", "tables.py"))).hexdigest()
     try:
         stamp = Path(run_steps._cache._cache_path) / "snn_fg_fast_engine.sources"
         if stamp.exists() and stamp.read_text() == digest:
             return
-        for f in [*vars(fast_deliver).values(), *globals().values()]:
+        for f in [*vars(deliver).values(), *globals().values()]:
             if hasattr(f, "_cache") and hasattr(f._cache, "flush"):
                 f._cache.flush()
         stamp.write_text(digest)

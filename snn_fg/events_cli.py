@@ -18,7 +18,6 @@ from snn_fg.events.esim import MOTIONS
 from snn_fg.images import IMAGE_SUFFIXES
 
 
-
 def sensor_size_arg(text):
     """argparse type for ``WxH`` sensor sizes."""
     m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)
@@ -91,9 +90,6 @@ def _written_note(out):
 
 def run_events(args) -> int:
     """Handler of ``snn-fg events``; prints a summary, returns 0."""
-    from snn_fg.events import image_to_events, iter_recording, iter_windows, save_events
-    from snn_fg.events.window import events_to_frame
-
     path = Path(args.input)
     if not path.exists():
         raise InputError(path, "no such file")
@@ -107,29 +103,47 @@ def run_events(args) -> int:
     if args.write_frame is not None and Path(args.write_frame).suffix.lower() != ".npz":
         raise InputError(args.write_frame, "--write-frame needs an .npz file name")
     _check_plot(args, path)
-
     if path.suffix.lower() in IMAGE_SUFFIXES:
-        rec = image_to_events(path, threshold=args.threshold, motion=args.motion,
-                              amplitude_px=args.amplitude_px, seed=args.seed,
-                              threshold_sigma=args.threshold_sigma)
-        ev = rec.events
-        n = len(ev)
-        motion = args.motion if args.motion == "paper" else f"{args.motion}, amplitude {args.amplitude_px:g} px"
-        lines = [("file", str(path)), ("format", f"image, simulated (ESIM, {motion}, threshold {args.threshold:g})"),
-                 ("sensor", f"{rec.sensor_size[0]} x {rec.sensor_size[1]}")]
-        t_first, t_last = (int(ev["t"][0]), int(ev["t"][-1])) if n else (0, 0)
-        lines += _span_lines(n, int((ev["p"] > 0).sum()), t_first, t_last)
-        if args.write_frame:
-            pos, neg = events_to_frame(ev, rec.sensor_size)
-            t_end = t_last + 1 if n else 0
-            save_npz(args.write_frame, pos=pos, neg=neg, t_start_us=np.int64(0), t_end_us=np.int64(t_end))
-            lines.append(("frame written", f"{args.write_frame} (whole motion, {int(pos.sum())} ON, "
-                                           f"{int(neg.sum())} OFF pixels)"))
-        if args.write_events:
-            save_events(args.write_events, ev, rec.sensor_size)
-            lines.append(("events written", _written_note(args.write_events)))
-        print(_summary(lines))
+        print(_summary(_image_lines(path, args)))
         return 0
+    stream, lines, spans_time = _recording_lines(path, args)
+    print(_summary(lines))
+    if spans_time:      # (a stream that spans no time has been warned about)
+        _print_activity(stream, args)
+    return 0
+
+
+def _image_lines(path, args) -> list:
+    """The summary of an image's simulated events, writing the frame and
+    events asked for."""
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.events.window import events_to_frame
+
+    rec = image_to_events(path, threshold=args.threshold, motion=args.motion, amplitude_px=args.amplitude_px,
+                          seed=args.seed, threshold_sigma=args.threshold_sigma)
+    ev = rec.events
+    n = len(ev)
+    motion = args.motion if args.motion == "paper" else f"{args.motion}, amplitude {args.amplitude_px:g} px"
+    lines = [("file", str(path)), ("format", f"image, simulated (ESIM, {motion}, threshold {args.threshold:g})"),
+             ("sensor", f"{rec.sensor_size[0]} x {rec.sensor_size[1]}")]
+    t_first, t_last = (int(ev["t"][0]), int(ev["t"][-1])) if n else (0, 0)
+    lines += _span_lines(n, int((ev["p"] > 0).sum()), t_first, t_last)
+    if args.write_frame:
+        pos, neg = events_to_frame(ev, rec.sensor_size)
+        t_end = t_last + 1 if n else 0
+        save_npz(args.write_frame, pos=pos, neg=neg, t_start_us=np.int64(0), t_end_us=np.int64(t_end))
+        lines.append(("frame written", f"{args.write_frame} (whole motion, {int(pos.sum())} ON, "
+                                       f"{int(neg.sum())} OFF pixels)"))
+    if args.write_events:
+        save_events(args.write_events, ev, rec.sensor_size)
+        lines.append(("events written", _written_note(args.write_events)))
+    return lines
+
+
+def _recording_lines(path, args):
+    """The recording's stream, its summary (writing the frame and events
+    asked for), and whether its events span any time."""
+    from snn_fg.events import iter_recording, iter_windows, save_events
 
     stream = iter_recording(path, sensor_size=args.sensor_size, progress=not args.no_progress)
     n = n_on = 0
@@ -159,10 +173,7 @@ def run_events(args) -> int:
         rec = open_recording(stream)
         save_events(args.write_events, rec.events, rec.sensor_size)
         lines.append(("events written", _written_note(args.write_events)))
-    print(_summary(lines))
-    if n and t_last > t_first:      # (a stream that spans no time has been warned about)
-        _print_activity(stream, args)
-    return 0
+    return stream, lines, bool(n and t_last > t_first)
 
 
 def _check_plot(args, path):

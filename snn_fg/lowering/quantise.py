@@ -13,8 +13,8 @@ import numpy as np
 from .. import validate as check
 from ..network.graph import Network
 from ..network.nodes import Conv, Projection
-from ..spiking.interp import interp_matrix
-from .pynn_model import quantise
+from ..pynn.network import quantise
+from .interp import interp_matrix
 
 BITS_RANGE = (2, 32)
 
@@ -44,7 +44,7 @@ def projection_scales(network: Network, bits: int) -> dict:
 
 
 def quantise_unrolled(un, bits: int):
-    """Quantise the weights of an :class:`~snn_fg.spiking.unroll.Unrolled`
+    """Quantise the weights of an :class:`~snn_fg.lowering.unroll.Unrolled`
     network in place (synapses rounded to 0 are removed)."""
     scales = projection_scales(un.network, bits)
     for conn in un.connections:

@@ -1,9 +1,9 @@
 """What a run of the fast engine hands back: its spike trains
 (:class:`SpikeTrains`), each counting bin as the run passes it
 (:class:`BinStream`, for ``RunSettings.on_bin``) and the
-:class:`~.base.SimulationResult` (:func:`simulation_result`). The engine
-itself is :mod:`.fast`; the numbering of cells and the spike log it keeps are
-described in :mod:`.fast_core`."""
+:class:`~snn_fg.backends.base.SimulationResult` (:func:`simulation_result`). The engine
+itself is :mod:`.backend`; the numbering of cells and the spike log it keeps are
+described in :mod:`.core`."""
 from __future__ import annotations
 
 import time
@@ -11,9 +11,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..network.graph import Network
-from . import fast_tables as ft
-from .base import RunSettings, SimulationResult, bin_result, lif_populations, segments
+from ...network.graph import Network
+from . import tables as ft
+from ..base import RunSettings, SimulationResult, bin_result, lif_populations, segments
 
 
 def first_step_at(t_ms: float, dt_ms: float) -> int:
@@ -28,7 +28,7 @@ def first_step_at(t_ms: float, dt_ms: float) -> int:
 
 class SpikeTrains(Mapping):
     """Every spike of a run's LIF populations, ``name -> (cell, t_ms)`` as
-    :class:`~.base.SimulationResult` documents it, ``cell`` int32.
+    :class:`~snn_fg.backends.base.SimulationResult` documents it, ``cell`` int32.
 
     The log is regrouped by population once, into two int32 arrays (8 bytes
     a spike), and the times are made on access. A BSDS frame's run has
@@ -37,7 +37,7 @@ class SpikeTrains(Mapping):
 
     def __init__(self, network: Network, ids, step_start, starts, dt_ms: float, first_step: int = 0):
         """``first_step``: the step of ``step_start[0]`` (a part of a run)."""
-        from .fast_core import group_by_population, population_totals
+        from .core import group_by_population, population_totals
 
         per_pop = np.zeros(starts.size, dtype=np.int64)
         population_totals(ids, starts, per_pop)
@@ -115,7 +115,7 @@ class BinStream:
         return self.edges[self.j] if self.j < len(self.edges) else self.run.n_steps
 
     def reached(self, n: int):
-        from .fast_core import count_cells
+        from .core import count_cells
 
         while self.j < len(self.edges) and self.edges[self.j] <= n:
             if self.j:
@@ -129,7 +129,7 @@ class BinStream:
             self.dropped += self.run.forget_before(keep, n)
 
     def _hand_over(self, k: int):
-        from .fast_core import count_cells
+        from .core import count_cells
 
         ids, step_start = self.run.spikes()
         a, b = self.edges[k], self.edges[k + 1]
@@ -148,7 +148,7 @@ class BinStream:
 
     def final_counts(self) -> np.ndarray:
         """Each cell's spikes in the counting window, once the run is over."""
-        from .fast_core import count_cells
+        from .core import count_cells
 
         ids, step_start = self.run.spikes()
         count_cells(ids, step_start[self.counted_to], ids.size, self.counts)
@@ -157,7 +157,7 @@ class BinStream:
 
 def simulation_result(name: str, tab: ft.EngineTables, chosen: dict, run, settings: RunSettings,
             stream: "BinStream | None" = None) -> SimulationResult:
-    from .fast_core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells
+    from .core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells
 
     ids, step_start = run.spikes()
     n = run.state.size

@@ -1,69 +1,20 @@
-"""The fast backend: an event-driven engine of our own, verified against Brian2.
-
-Why this design
----------------
-The network is a few weight-shared kernels applied on pyramid grids of
-millions of cells, and at any moment only a small part of it is doing
-anything. Brian2 (and any simulator that wants explicit synapses) must
-first unroll the kernels into per-synapse arrays (1e8-1e9 at full scale)
-and then update every instantiated cell at every step. This engine does
-neither:
-
-* **Weight-shared propagation.** A spike goes through its projection's kernel
-  footprint when it is delivered: a Conv's kept taps (pruned exactly as
-  :func:`~snn_fg.spiking.connect.kernel_taps` prunes them), a Resize's
-  interpolation weights (:func:`~snn_fg.spiking.connect.resize_factors`).
-  Memory is proportional to cells (about 40 bytes each), not synapses, so
-  the whole network (``instantiate="all"``) of a 320 x 240 sensor over ten
-  levels, 9 million cells, fits in a few hundred megabytes.
-* **Active cells only.** A cell is updated step by step only while it might
-  fire (or is refractory); otherwise it is *parked* and brought up to date
-  in closed form when input next reaches it (:mod:`.fast_core`). Cost then
-  follows synaptic events and active cells, not network size times steps.
-* **Brian2's step, bit for bit where it can be.** Each step runs the slots of
-  Brian2's schedule as our Brian2 backend uses them (state update, then
-  threshold with refractoriness by time steps, then synaptic delivery
-  after the projection's delay rounded to steps, then reset), with the same
-  update expression, potentials and weights in volts, the same decay
-  factors, delays, refractory periods and spike and counting times. What
-  may differ is the order in which simultaneous synaptic inputs are summed
-  and the rounding of the closed-form advance: a spike train can only
-  differ where the potential comes within rounding error of threshold.
-  ``tests/test_fast_engine.py`` checks identical spike trains on small
-  networks.
-* **Compiled with numba**, a maintained JIT compiler for numerical Python:
-  the inner loops are plain loops over integers, which numpy cannot
-  vectorise (every event depends on the state the previous one left).
-
-The engine honours the instantiation hints like Brian2 (``instantiate=
-"input"`` marks the cells the hints leave out as absent) so that both
-backends simulate the same cells; with ``instantiate="all"`` it needs no
-per-input preparation beyond the edge masks.
-
-Example
--------
->>> from snn_fg.backends import get_backend
->>> get_backend("fast").name
-'fast'
-"""
+"""One simulation of the fast engine: its cells, active set and spike log
+(:class:`Run`), fed by the compiled loop of :mod:`.core`, and the cell
+arrays kept from one run to the next (:class:`Pool`)."""
 from __future__ import annotations
-
-import time
 
 import numpy as np
 
-from .. import cancel
-from ..network.graph import Network
-from ..spiking.unroll import choose_sites
-from . import fast_tables as ft
-from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
-from .fast_results import BinStream, simulation_result
+from ... import cancel
+from ..base import RunSettings, lif_populations, source_offsets
+from . import tables as ft
+from .results import BinStream  # noqa: F401 - (named in an annotation)
 
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16
 #: a Conv into a population with fewer than this fraction of its cells
 #: instantiated, whose kernel has at least this many taps per row it covers,
-#: finds its synapses from the targets' side (fast_core._conv_gather): visiting
+#: finds its synapses from the targets' side (deliver._conv_gather): visiting
 #: a row costs about as much as following that many taps. 0.05: with the
 #: level-1 simple cells masked to the event pixels, a dvs.es window has 9.9 %
 #: of them, and gathering their DoG input made windows 0 and 5 (from 100 ms)
@@ -71,109 +22,6 @@ LOG_START = 1 << 16
 #: (side by side, load 0.9-1.1); a BSDS frame, with 1 % of them, was the same
 GATHER_BELOW = 0.05
 GATHER_TAPS_PER_ROW = 8
-#: seconds the engine's first run on a machine spends compiling (numba), as said while it does
-#: (the README's fresh clone: 13 s for the demo against 4.4 s once compiled, load 1.4-1.7)
-COMPILE_S = 10
-#: simulated time per call of the compiled loop (progress, Ctrl-C in between)
-CHUNK_MS = 25.0
-
-
-class FastBackend(Backend):
-    """Event-driven engine over weight-shared kernels (numba).
-
-    Parameters
-    ----------
-    chunk_ms : float
-        Simulated time per call of the compiled loop; between calls the
-        progress bar moves and Ctrl-C is honoured.
-    weight_bits : int, optional
-        Run with every weight as the ``weight_bits``-bit integer times one
-        scale per projection that a board holds (as ``snn-fg export
-        --weight-bits`` writes them; weights that round to 0 are dropped).
-    """
-
-    name = "fast"
-    requires = "numba (a core dependency: reinstall snn-fg)"
-    #: every cell, for timed events: the engine needs no per-input preparation
-    #: then (choosing the cells a recording's window can use takes seconds of
-    #: unrolling in Python, longer than simulating the cells it leaves out), and
-    #: no cell that bursts of events can make fire is left out. An event
-    #: frame's regular trains get the hinted cells on every backend instead
-    #: (:func:`snn_fg.spiking.api.default_instantiate`)
-    default_instantiate = "all"
-
-    def __init__(self, *, chunk_ms: float = CHUNK_MS, weight_bits: int | None = None):
-        from .. import validate as check
-
-        self.chunk_ms = check.number("FastBackend", "chunk_ms", chunk_ms, lo=0, lo_open=True)
-        self.weight_bits = None if weight_bits is None else check.integer("FastBackend", "weight_bits",
-                                                                          weight_bits, lo=2, hi=32)
-        self._tables: ft.EngineTables | None = None
-        self._pool = _Pool()
-
-    @classmethod
-    def available(cls):
-        try:
-            import numba  # noqa: F401
-        except ImportError:
-            return False, "pip install numba"
-        return True, ""
-
-    def describe(self) -> dict:
-        import numba
-
-        return {"name": self.name, "engine": "event-driven, weight-shared kernels", "numba": numba.__version__,
-                "weight_bits": self.weight_bits}
-
-    def tables(self, network: Network, dt_ms: float) -> ft.EngineTables:
-        """The engine's arrays for ``network`` at ``dt_ms``, built once and
-        kept while the same description is simulated again (or the same
-        with other gains: a recording's window, or a frame, calibrated for
-        its own input rate)."""
-        t = self._tables
-        if t is not None and t.network is not network and t.dt_ms == dt_ms and ft.gains_only(t.network, network):
-            t = self._tables = t.with_gains(network)      # (e.g. calibrated for the next window's input rate)
-        if t is None or t.network is not network or t.dt_ms != dt_ms:
-            t = self._tables = ft.build_tables(network, dt_ms, self.weight_bits)
-        return t
-
-    def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
-        from .fast_core import code_is_cached
-
-        if not code_is_cached():
-            settings.say(f"compiling the fast engine's code as it prepares and simulates: the first run on this "
-                         f"machine only, about {COMPILE_S} s on an idle machine (numba keeps the code beside the "
-                         "package)")
-        t0 = time.perf_counter()
-        tab = self.tables(network, settings.dt_ms)
-        chosen, _, _ = choose_sites(network, source_masks(network, inputs.on, inputs.off), settings.sites,
-                                    settings.instantiate)
-        n_steps = int(round(settings.duration_ms / settings.dt_ms))
-        run = _Run(tab, chosen, inputs, n_steps, self._pool)
-        stream = None
-        if settings.on_bin is not None and settings.count_bins_ms is not None:
-            stream = BinStream(self.name, tab, chosen, run, settings)
-        timings = {"build": time.perf_counter() - t0}
-        settings.say(f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
-                     f"(prepared in {timings['build']:.2f} s)")
-        t_run, cpu = time.perf_counter(), time.process_time()
-        try:
-            run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))), stream)
-            timings["run"] = time.perf_counter() - t_run
-            timings["run_cpu"] = time.process_time() - cpu     # (wall time on a shared machine overstates the work)
-            if stream is not None:      # (the caller's reading of the bins, done while the run paused)
-                timings["run"] -= stream.seconds
-                timings["run_cpu"] -= stream.cpu_seconds
-                timings["read_bins"] = stream.seconds
-            result = simulation_result(self.name, tab, chosen, run, settings, stream)
-            run.release()
-        except BaseException:
-            self._pool.clear()          # (e.g. interrupted mid-step: the arrays are not at rest)
-            raise
-        timings["total"] = time.perf_counter() - t0
-        result.timings_s = timings
-        return result
-
 
 def _input_events(tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
     """Input spikes as cell numbers (``first_cell``: population -> its first
@@ -199,15 +47,15 @@ def _input_events(tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
     return np.searchsorted(steps, np.arange(length + 1)).astype(np.int64), ids.astype(np.int32)
 
 
-class _Run:
+class Run:
     """The mutable state of one simulation: cells, active set and spike log.
 
     Only the chosen cells exist, numbered population after population
-    (:mod:`.fast_core` describes the numbering and the maps between grid and
+    (:mod:`.core` describes the numbering and the maps between grid and
     number)."""
 
-    def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: "_Pool"):
-        from .fast_core import N_FRESH, STATE
+    def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: "Pool"):
+        from .core import N_FRESH, STATE
 
         self.tab, self.n_steps, self.pool = tab, n_steps, pool
         off = self._number(chosen)
@@ -230,8 +78,8 @@ class _Run:
         self.prj_events = np.zeros(len(tab.network.projections), dtype=np.int64)
 
     def _number(self, chosen: dict) -> int:
-        """Number the chosen cells (see :mod:`.fast_core`); returns how many."""
-        from .fast_core import C_BITS, C_FLAT, C_MAP, C_ROW
+        """Number the chosen cells (see :mod:`.core`); returns how many."""
+        from .core import C_BITS, C_FLAT, C_MAP, C_ROW
 
         pops = self.tab.network.populations
         self.cells = np.full((len(pops), 6), -1, dtype=np.int64)
@@ -263,9 +111,10 @@ class _Run:
     def simulate(self, settings: RunSettings, chunk: int, stream: "BinStream | None" = None):
         """Run every step; with ``stream``, stop at each counting-bin edge
         for it to hand the bin over and drop the spikes no delay reaches."""
-        from .fast_core import run_steps
+        from .core import CellNumbering, KernelTables, RunArrays, run_steps
 
-        tab = self.tab
+        tables = KernelTables(*(getattr(self.tab, name) for name in KernelTables._fields))
+        numbering = CellNumbering(*(getattr(self, name) for name in CellNumbering._fields))
         with _progress(settings) as bar:
             n = 0
             if stream is not None:
@@ -274,15 +123,8 @@ class _Run:
                 end = min(n + chunk, self.n_steps)
                 if stream is not None:
                     end = min(end, stream.next_stop(n))
-                reached = run_steps(n, end, self.state, self.ctype, self.inact, self.act, self.new, self.tmp,
-                                    self.fresh, self.scalars, self.log, self.step_start, self.in_ptr, self.in_ids, tab.pops,
-                                    self.cells, self.cmap, self.flat_of, self.column_of, self.row_ptr, self.bits,
-                                    self.gather,
-                                    tab.nrn, tab.ref_steps, tab.adv, tab.prj, tab.prj_w, tab.ch_ptr, tab.tap_co,
-                                    tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off, tab.dense, tab.pair_ptr,
-                                    tab.pair_co, tab.pair_rlo, tab.pair_rhi, tab.csr_ptr, tab.csr_idx, tab.csr_val,
-                                    tab.grp_ptr, tab.grp_prj, self.acc, self.touched, self.counters,
-                                    self.prj_events)
+                run = RunArrays(*(getattr(self, name) for name in RunArrays._fields))     # (the log may have grown)
+                reached = run_steps(n, end, run, numbering, tables)
                 if reached < end:         # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
                 bar(reached - n)
@@ -293,7 +135,7 @@ class _Run:
 
     def release(self):
         """Hand the cell arrays back to the pool, at rest again."""
-        from .fast_core import N_FRESH, reset
+        from .core import N_FRESH, reset
 
         reset(self.state, self.inact, self.act, int(self.scalars[0]), self.fresh, int(self.counters[N_FRESH]))
 
@@ -325,18 +167,18 @@ class _Run:
 
     def final_state(self) -> np.ndarray:
         """Every cell's ``(v, I_exc, I_inh)`` at the end of the run (volts, one row per cell)."""
-        from .fast_core import final_state
+        from .core import final_state
 
         out = np.zeros((self.state.size, 3))
         final_state(self.state, self.ctype, self.tab.nrn, self.tab.adv, self.n_steps, out)
         return out
 
 
-class _Pool:
+class Pool:
     """Cell arrays kept from one run to the next (a run over a recording,
     window after window, or the next frame): allocating them anew would
     fault in hundreds of megabytes of fresh memory per run. Arrays handed
-    out by :meth:`zeros` come back at rest (:meth:`_Run.release`).
+    out by :meth:`zeros` come back at rest (:meth:`Run.release`).
 
     Large arrays are mapped in 2 MB pages where the system offers them
     (:func:`zeroed`): a run touches cells all over its state array, and

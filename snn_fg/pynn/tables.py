@@ -1,6 +1,6 @@
 """The whole network's synapses from its weight-shared tables.
 
-STANDALONE like :mod:`snn_fg.export.pynn_model`: numpy only, copied verbatim
+STANDALONE like :mod:`snn_fg.pynn.network`: numpy only, copied verbatim
 into every PyNN export (as ``fg_tables.py``), where ``run.py`` unrolls each
 projection's kernel taps or interpolation matrices into explicit synapse
 lists at build time; :mod:`snn_fg.export.board` uses the same code in

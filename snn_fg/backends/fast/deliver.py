@@ -3,7 +3,7 @@ weight-shared taps (:func:`_conv`, :func:`_conv_gather`) or a resize's sparse
 rows (:func:`_resize`), summed per target cell and current and handed over
 once per cell (:func:`_flush`), which brings each touched cell up to the
 present in closed form first. The numbering and state are described in
-:mod:`.fast_core`."""
+:mod:`.core`."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,7 +12,7 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from .fast_tables import (GAP, J_BASE, J_COLBASE, J_DENSE, J_GBASE, J_INH, J_KR, J_PRUNE, J_RADIUS, J_SRC, J_TGT,
+from .tables import (GAP, J_BASE, J_COLBASE, J_DENSE, J_GBASE, J_INH, J_KR, J_PRUNE, J_RADIUS, J_SRC, J_TGT,
                           J_WRAP, MV, P_CH, P_GC, P_GR, P_LC, P_LR, P_STRIDE, PEAK, TIGHT, V_REST)
 
 #: one cell's state (32 bytes, one half cache line)

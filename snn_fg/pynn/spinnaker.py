@@ -1,6 +1,6 @@
 """The exported network on SpiNNaker with sPyNNaker, and its mapping on a virtual board.
 
-STANDALONE like :mod:`snn_fg.export.pynn_model` (numpy and the standard
+STANDALONE like :mod:`snn_fg.pynn.network` (numpy and the standard
 library; copied into every PyNN export as ``fg_spinnaker.py``). ``run.py
 --simulator spinnaker`` builds the network with :class:`SpiNNakerNetwork`;
 ``--virtual-board`` (:func:`use_virtual_board`) has sPyNNaker partition,
@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 try:                                    # inside snn_fg
-    from .pynn_model import (TIME_SHIFT_STEPS, PyNNNetwork, cell_parameters, grid_delay, list_rows,
+    from .network import (TIME_SHIFT_STEPS, PyNNNetwork, cell_parameters, grid_delay, list_rows,
                              population_spikes, quantise, split_receptors)
 except ImportError:                     # inside an export folder
     from fg_network import (TIME_SHIFT_STEPS, PyNNNetwork, cell_parameters, grid_delay, list_rows,

@@ -9,8 +9,8 @@ description and time step (:func:`build_tables`), never one per synapse.
   (per-step decay factors, potentials in volts, refractory steps) and the
   tables of the closed-form advance over ``k`` silent steps;
 * projections: a Conv is its kept kernel taps per input channel (exactly
-  those :func:`~snn_fg.spiking.connect.kernel_taps` keeps), a Resize its two
-  interpolation matrices transposed (:func:`~snn_fg.spiking.connect.resize_factors`),
+  those :func:`~snn_fg.lowering.connect.kernel_taps` keeps), a Resize its two
+  interpolation matrices transposed (:func:`~snn_fg.lowering.connect.resize_factors`),
   the weight of a synapse being computed when a spike passes.
 
 Potentials and weights are held in volts, as Brian2 holds them, so that the
@@ -23,11 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..network.graph import Network
-from ..network.nodes import Conv
-from ..export.pynn_model import quantise
-from ..spiking.connect import kernel_taps, resize_factors, resize_kept_mass
-from .base import receptor, receptor_weights
+from ...lowering.connect import kernel_taps, resize_factors, resize_kept_mass
+from ...network.graph import Network
+from ...network.nodes import Conv
+from ...pynn.network import quantise
+from ..base import receptor, receptor_weights
 
 #: volts per millivolt (Brian2's ``mV``): weights and potentials are scaled
 #: by it exactly as Brian2 scales them
@@ -272,7 +272,7 @@ class _Collector:
 def quantised_values(k: np.ndarray, peak: float, weight_bits: int | None) -> np.ndarray:
     """Kernel values as the ``weight_bits``-bit weights a board holds: one
     scale per projection, its largest |value| ``peak`` over ``2**(bits-1) - 1``
-    (:func:`snn_fg.export.quantise.projection_scales`); unchanged for None."""
+    (:func:`snn_fg.lowering.quantise.projection_scales`); unchanged for None."""
     if weight_bits is None:
         return k
     return quantise(k, weight_bits, peak / (2 ** (weight_bits - 1) - 1))
@@ -288,7 +288,7 @@ def _conv(network, pr, src, tgt, out: _Collector, weight_bits=None):
 
     A wrap-around kernel larger than the level folds onto it: its taps are
     taken modulo the level and those landing on the same cell add up, as
-    the unrolled synapses do (:func:`~snn_fg.spiking.connect.conv_pairs`)."""
+    the unrolled synapses do (:func:`~snn_fg.lowering.connect.conv_pairs`)."""
     co, ci, dr, dc, k, kept = kernel_taps(pr, network)
     if weight_bits is not None:
         k = quantised_values(k, float(np.abs(pr.kernel.array(network.params)).max()), weight_bits)

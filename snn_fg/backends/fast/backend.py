@@ -1,0 +1,115 @@
+"""The fast engine behind the backend interface: :class:`FastBackend`
+(its design: :mod:`snn_fg.backends.fast`)."""
+from __future__ import annotations
+
+import time
+
+from ...lowering.unroll import choose_sites
+from ...network.graph import Network
+from ..base import Backend, RunSettings, SimulationResult, source_masks
+from . import tables as ft
+from .results import BinStream, simulation_result
+from .run import Pool, Run
+
+#: seconds the engine's first run on a machine spends compiling (numba), as said while it does
+#: (the README's fresh clone: 13 s for the demo against 4.4 s once compiled, load 1.4-1.7)
+COMPILE_S = 10
+#: simulated time per call of the compiled loop (progress, Ctrl-C in between)
+CHUNK_MS = 25.0
+
+
+class FastBackend(Backend):
+    """Event-driven engine over weight-shared kernels (numba).
+
+    Parameters
+    ----------
+    chunk_ms : float
+        Simulated time per call of the compiled loop; between calls the
+        progress bar moves and Ctrl-C is honoured.
+    weight_bits : int, optional
+        Run with every weight as the ``weight_bits``-bit integer times one
+        scale per projection that a board holds (as ``snn-fg export
+        --weight-bits`` writes them; weights that round to 0 are dropped).
+    """
+
+    name = "fast"
+    requires = "numba (a core dependency: reinstall snn-fg)"
+    #: every cell, for timed events: the engine needs no per-input preparation
+    #: then (choosing the cells a recording's window can use takes seconds of
+    #: unrolling in Python, longer than simulating the cells it leaves out), and
+    #: no cell that bursts of events can make fire is left out. An event
+    #: frame's regular trains get the hinted cells on every backend instead
+    #: (:meth:`snn_fg.spiking.options.SimulatorOptions.cells_for`)
+    default_instantiate = "all"
+
+    def __init__(self, *, chunk_ms: float = CHUNK_MS, weight_bits: int | None = None):
+        from ... import validate as check
+
+        self.chunk_ms = check.number("FastBackend", "chunk_ms", chunk_ms, lo=0, lo_open=True)
+        self.weight_bits = None if weight_bits is None else check.integer("FastBackend", "weight_bits",
+                                                                          weight_bits, lo=2, hi=32)
+        self._tables: ft.EngineTables | None = None
+        self._pool = Pool()
+
+    @classmethod
+    def available(cls):
+        try:
+            import numba  # noqa: F401
+        except ImportError:
+            return False, "pip install numba"
+        return True, ""
+
+    def describe(self) -> dict:
+        import numba
+
+        return {"name": self.name, "engine": "event-driven, weight-shared kernels", "numba": numba.__version__,
+                "weight_bits": self.weight_bits}
+
+    def tables(self, network: Network, dt_ms: float) -> ft.EngineTables:
+        """The engine's arrays for ``network`` at ``dt_ms``, built once and
+        kept while the same description is simulated again (or the same
+        with other gains: a recording's window, or a frame, calibrated for
+        its own input rate)."""
+        t = self._tables
+        if t is not None and t.network is not network and t.dt_ms == dt_ms and ft.gains_only(t.network, network):
+            t = self._tables = t.with_gains(network)      # (e.g. calibrated for the next window's input rate)
+        if t is None or t.network is not network or t.dt_ms != dt_ms:
+            t = self._tables = ft.build_tables(network, dt_ms, self.weight_bits)
+        return t
+
+    def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
+        from .core import code_is_cached
+
+        if not code_is_cached():
+            settings.say(f"compiling the fast engine's code as it prepares and simulates: the first run on this "
+                         f"machine only, about {COMPILE_S} s on an idle machine (numba keeps the code beside the "
+                         "package)")
+        t0 = time.perf_counter()
+        tab = self.tables(network, settings.dt_ms)
+        chosen, _, _ = choose_sites(network, source_masks(network, inputs.on, inputs.off), settings.sites,
+                                    settings.instantiate)
+        n_steps = int(round(settings.duration_ms / settings.dt_ms))
+        run = Run(tab, chosen, inputs, n_steps, self._pool)
+        stream = None
+        if settings.on_bin is not None and settings.count_bins_ms is not None:
+            stream = BinStream(self.name, tab, chosen, run, settings)
+        timings = {"build": time.perf_counter() - t0}
+        settings.say(f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
+                     f"(prepared in {timings['build']:.2f} s)")
+        t_run, cpu = time.perf_counter(), time.process_time()
+        try:
+            run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))), stream)
+            timings["run"] = time.perf_counter() - t_run
+            timings["run_cpu"] = time.process_time() - cpu     # (wall time on a shared machine overstates the work)
+            if stream is not None:      # (the caller's reading of the bins, done while the run paused)
+                timings["run"] -= stream.seconds
+                timings["run_cpu"] -= stream.cpu_seconds
+                timings["read_bins"] = stream.seconds
+            result = simulation_result(self.name, tab, chosen, run, settings, stream)
+            run.release()
+        except BaseException:
+            self._pool.clear()          # (e.g. interrupted mid-step: the arrays are not at rest)
+            raise
+        timings["total"] = time.perf_counter() - t0
+        result.timings_s = timings
+        return result

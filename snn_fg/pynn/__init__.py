@@ -1,0 +1,22 @@
+"""The network in PyNN: the standalone program every PyNN export carries.
+
+These modules import only numpy and the standard library (PyNN is passed
+in as the ``sim`` module), so that ``snn-fg export --format pynn``
+(:mod:`snn_fg.export.pynn`) can copy them verbatim into an export folder,
+where they run on a machine without snn_fg; inside snn_fg the NEST backend
+(:mod:`snn_fg.backends.nest`) builds its network with the same code, so the
+exported model and the backend are one implementation.
+
+* :mod:`.network` - populations, synapses, input and run (``fg_network.py``);
+* :mod:`.tables` - explicit synapses from the weight-shared tables (``fg_tables.py``);
+* :mod:`.spinnaker` - the network on sPyNNaker and its mapping (``fg_spinnaker.py``);
+* :mod:`.memory` - what a NEST run of the export costs (``fg_memory.py``);
+* :mod:`.run` - the export's ``run.py`` (not importable inside snn_fg).
+"""
+from pathlib import Path
+
+#: this package's folder, whose modules an export copies
+HERE = Path(__file__).resolve().parent
+#: module -> its name in an export folder
+COPIED = {"network.py": "fg_network.py", "tables.py": "fg_tables.py", "spinnaker.py": "fg_spinnaker.py",
+          "memory.py": "fg_memory.py", "run.py": "run.py"}

@@ -13,6 +13,8 @@ from snn_fg.scenes import demo, disc
 from snn_fg.spiking import SpikingRecord, run_spiking_result
 from snn_fg.spiking.record import ROLE_ORDER
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 AVAILABLE = available_backends()
 
 

@@ -11,6 +11,8 @@ from snn_fg.rate.edfg import run_edfg
 from snn_fg.scenes import disc
 from snn_fg.spiking import run_spiking_result
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 AVAILABLE = available_backends()
 
 

@@ -12,6 +12,8 @@ from snn_fg.cli import main
 from snn_fg.maps import Maps
 from snn_fg.params import ModelParams
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 
 def run_cli(*args):
     """Run the real console entry point in a subprocess (as a user would)."""

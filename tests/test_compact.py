@@ -16,6 +16,8 @@ from snn_fg.network.nodes import Kernel
 from snn_fg.network.recipes import RECIPES, model_params_of, network_for
 from snn_fg.params import ModelParams
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 
 def test_a_block_is_on_where_any_of_its_pixels_is_and_a_partial_block_counts():
     pos = np.zeros((5, 7), np.uint8)

@@ -5,6 +5,8 @@ import importlib
 
 import pytest
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 MODULES = ["snn_fg.backends", "snn_fg.events.io", "snn_fg.metrics", "snn_fg.network.builder", "snn_fg.rate.edfg",
            "snn_fg.spiking.api", "snn_fg.events.paper_motion", "snn_fg.groundtruth", "snn_fg.rate.corf",
            "snn_fg.rate.fbfg", "snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.report", "snn_fg.cancel"]

@@ -8,8 +8,6 @@ import pytest
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.events import EVENT_DTYPE, EmptyWindowWarning, events_to_frame, iter_windows, save_events
 
-EVENTS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events"
-
 
 def ev_at(times, xs=None, ys=None, ps=None):
     n = len(times)
@@ -114,10 +112,8 @@ def test_file_input_streams(tmp_path):
     np.testing.assert_array_equal(np.concatenate([w.events for w in wins]), ev)
 
 
-@pytest.mark.skipif(not EVENTS.is_dir(), reason="../shared/data/events is absent (fresh clone)")
-@pytest.mark.shared
-def test_shared_dvs_es_windows():
-    wins = list(iter_windows(EVENTS / "dvs.es", window_ms=85, start_ms=1, chunk_events=50_000))
+def test_shared_dvs_es_windows(dataset):
+    wins = list(iter_windows(dataset("events", "dvs.es"), window_ms=85, start_ms=1, chunk_events=50_000))
     assert sum(len(w.events) for w in wins) == 396_440  # everything after the 1 ms reset burst
     assert all(w.pos.shape == (240, 320) for w in wins)
     assert all((w.pos | w.neg).any() for w in wins)

@@ -25,6 +25,8 @@ from snn_fg.spiking.decode import decode
 from snn_fg.spiking.inputs import frame_spikes
 from snn_fg.spiking.unroll import unroll
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 NEST_OK, NEST_WHY = available_backends()["nest"]
 needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
 SMALL = ModelParams(levels=2, r0=4)

@@ -14,6 +14,8 @@ from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 from snn_fg.spiking.inputs import event_spikes, frame_spikes
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 
 

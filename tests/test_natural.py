@@ -13,6 +13,8 @@ from snn_fg.rate.edfg import run_edfg
 from snn_fg.rate.natural import NATURAL_PARAMS, run_natural
 from snn_fg.scenes import disc
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 
 def _two_tone_disc(radius=20):
     """A disc lighter than the grey ground on its left half and darker on its right."""

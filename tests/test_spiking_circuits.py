@@ -11,6 +11,8 @@ from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
 from snn_fg.spiking.inputs import InputSpikes, frame_spikes
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 P1 = ModelParams(levels=1)
 BACKENDS = [pytest.param(name, marks=pytest.mark.skipif(not ok, reason=f"backend {name}: {why}"))
             for name, (ok, why) in available_backends().items()]   # every registered backend

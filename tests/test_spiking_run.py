@@ -16,6 +16,8 @@ from snn_fg.scenes import disc
 from snn_fg.spiking import SpikingRecord, run_spiking, run_spiking_result
 from snn_fg.spiking.inputs import event_spikes, frame_spikes
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 SMALL = ModelParams(levels=2)
 
 

@@ -15,6 +15,8 @@ from snn_fg.scenes import disc, flipping_disc_recording
 from snn_fg.spiking.continuous import run_spiking_windows
 from snn_fg.spiking.inputs import event_spikes
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 
 

@@ -124,10 +124,11 @@ def test_streaming_memory_experiment_small(tmp_path):
     import subprocess
     import sys
 
-    script = Path(__file__).resolve().parents[1] / "experiments" / "events_streaming_memory.py"
+    root = Path(__file__).resolve().parents[1]
     report = tmp_path / "r.json"
-    res = subprocess.run([sys.executable, str(script), "--events", "200000", "--duration-s", "2",
-                          "--report", str(report)], capture_output=True, text=True, timeout=120)
+    res = subprocess.run([sys.executable, "-m", "experiments.bench.events_streaming_memory", "--events", "200000",
+                          "--duration-s", "2", "--report", str(report)], capture_output=True, text=True, timeout=120,
+                         cwd=root)
     assert res.returncode == 0, res.stderr
     out = json.loads(report.read_text())
     assert out["events_streamed"] == 200_000

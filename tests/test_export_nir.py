@@ -7,6 +7,8 @@ from snn_fg.errors import ParameterError
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 nir = pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
 
 
@@ -72,7 +74,7 @@ def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
     within 45 deg, 4.4 deg. Against the exported network itself the
     profile's encoding (no delays, no refractoriness, zero padding) costs
     more, and the same with snnTorch or the fast engine (r 0.953, 85 %,
-    28 deg on this 32 x 32 disc): experiments/nir_consumer.py measures it on
+    28 deg on this 32 x 32 disc): experiments.validation.nir_consumer measures it on
     the larger inputs."""
     pytest.importorskip("snntorch", reason='needs pip install "snn-fg[snntorch]"')
     import torch

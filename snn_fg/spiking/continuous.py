@@ -38,7 +38,7 @@ from .inputs import event_spikes
 from .record import SpikingRecord
 
 #: Default read-out lag (ms): see the module docstring and
-#: ``experiments/dvs_latency.py`` for how long the network takes to answer.
+#: ``experiments.validation.dvs_latency`` for how long the network takes to answer.
 READOUT_LAG_MS = 20.0
 
 

@@ -23,6 +23,7 @@ def stop_requested():
     cancel.clear()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", [pytest.param(n, marks=pytest.mark.skipif(not ok, reason=f"backend {n}: {why}"))
                                      for n, (ok, why) in AVAILABLE.items()])
 def test_a_requested_stop_ends_a_simulation_on_every_backend(stop_requested, backend):
@@ -32,6 +33,7 @@ def test_a_requested_stop_ends_a_simulation_on_every_backend(stop_requested, bac
                            progress=False)
 
 
+@pytest.mark.slow
 def test_the_fast_engine_stops_after_the_chunk_it_is_in(stop_requested, monkeypatch):
     from snn_fg.backends import fast_core
 

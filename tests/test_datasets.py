@@ -16,7 +16,7 @@ from snn_fg import datasets
 from snn_fg.cli import main
 from snn_fg.datasets import convert
 from snn_fg.datasets.catalogue import DataFile, Dataset
-from snn_fg.datasets.transfer import DatasetError, arrays_sha256, download
+from snn_fg.datasets.transfer import DatasetError, arrays_sha256, download, npz_sha256
 
 GOOD = b"event bytes " * 50_000          # 600 kB: several read chunks
 OTHER = b"something else entirely" * 10
@@ -156,7 +156,7 @@ def test_arrays_checksum_ignores_the_container_and_sees_dtype_shape_and_values(t
     np.savez(tmp_path / "plain.npz", **a)
     np.savez_compressed(tmp_path / "packed.npz", **a)
     ref = arrays_sha256(a)
-    assert datasets.npz_sha256(tmp_path / "plain.npz") == datasets.npz_sha256(tmp_path / "packed.npz") == ref
+    assert npz_sha256(tmp_path / "plain.npz") == npz_sha256(tmp_path / "packed.npz") == ref
     assert arrays_sha256({**a, "x": a["x"].astype(np.float64)}) != ref
     assert arrays_sha256({**a, "x": a["x"].reshape(3, 2)}) != ref
     assert arrays_sha256({**a, "m": np.array([1, 1], np.uint8)}) != ref

@@ -123,6 +123,7 @@ def mutate(data, base):
     return bytes(buf)
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::snn_fg.events.EmptyWindowWarning")
 @pytest.mark.parametrize("case", sorted(CASES))
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])

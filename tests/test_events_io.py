@@ -94,6 +94,7 @@ def test_write_read_round_trip_identical(tmp_path, suffix, enc):
     np.testing.assert_array_equal(np.concatenate(chunks), ev)
 
 
+@pytest.mark.slow
 def test_es_decoder_state_carries_across_reads(tmp_path):
     from snn_fg.events.eventstream import iter_dvs, read_header
 
@@ -311,6 +312,7 @@ def test_mislabelled_files_are_refused(tmp_path):
     assert detect_format(es) == "es"
 
 
+@pytest.mark.slow      # reads through tonic, whose import brings torch (3 s on an idle core)
 def test_nmnist_synthetic_and_truncated(tmp_path):
     # N-MNIST record: x, y, p<<7 | t[22:16], t[15:8], t[7:0]
     recs = [(1, 2, 1, 100), (33, 33, 0, 70000), (0, 0, 1, 80000)]

@@ -91,6 +91,7 @@ def test_empty_recording_and_late_start_are_errors(tmp_path):
             list(iter_windows(ev_at([0, 10]), sensor_size=(8, 1), **bad))
 
 
+@pytest.mark.slow      # reads through tonic, whose import brings torch (3 s on an idle core)
 def test_denoise_and_refractory_filters_use_tonic():
     # tonic's Denoise is causal: an event survives if a 4-neighbour fired within filter_time
     # before it, so isolated events and the first event of a cluster are dropped
@@ -119,6 +120,7 @@ def test_shared_dvs_es_windows(dataset):
     assert all((w.pos | w.neg).any() for w in wins)
 
 
+@pytest.mark.slow
 def test_streaming_memory_experiment_small(tmp_path):
     import json
     import subprocess

@@ -16,6 +16,7 @@ def _arrays(node) -> dict:
     return {k: np.asarray(v) for k, v in vars(node).items() if isinstance(v, np.ndarray)}
 
 
+@pytest.mark.slow
 def test_streamed_file_reads_back_as_the_whole_graph_written_by_nir(tmp_path):
     """write_streaming (one node in memory at a time) against nir.write of the
     whole graph: nir.read gives the same nodes, arrays and edges."""
@@ -45,6 +46,7 @@ def test_snntorch_profile_refuses_what_it_cannot_write():
     assert all(p.neuron.t_ref_ms == 0.5 for p in net.populations if p.neuron is not None)
 
 
+@pytest.mark.slow
 def test_snntorch_profile_graph_has_only_the_node_kinds_snntorch_imports(tmp_path):
     from snn_fg.export.nir_snntorch import to_nir_snntorch
 

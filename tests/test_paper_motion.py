@@ -62,6 +62,7 @@ def test_paper_motion_against_the_authors_frames(dataset, image_id):
     assert 0.05 <= iou < 0.8
 
 
+@pytest.mark.slow
 def test_cli_motion_paper_is_recorded_and_refused_where_no_image_becomes_events(tmp_path, capsys):
     import json
 

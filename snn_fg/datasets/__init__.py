@@ -32,7 +32,7 @@ from snn_fg.datasets.catalogue import DATASETS, DataFile, Dataset
 from snn_fg.datasets.transfer import DatasetError, file_sha256, npz_sha256
 
 __all__ = ["DATASETS", "DataFile", "Dataset", "DatasetError", "ENV_VAR", "data_root", "fetch", "find",
-           "get", "missing", "require", "root_and_origin", "verify"]
+           "get", "missing", "require", "root_and_origin", "user_data_dir", "verify"]
 
 #: the environment variable that names the data folder
 ENV_VAR = "SNN_FG_DATA"

@@ -89,16 +89,16 @@ def extract_bsds300_images(archive: Path, folder: Path, files) -> None:
     """Copy the BSDS300 images ``files`` (``.../<id>.jpg``) out of the archive, each checked by SHA-256."""
     try:
         with tarfile.open(archive) as tar:
-            for f in files:
-                data = _bsds300_member(tar, Path(f.path).stem)
-                got = hashlib.sha256(data).hexdigest()
-                if got != f.sha256:
-                    raise DatasetError(f"{BSDS300_IMAGES_URL}: {Path(f.path).name} differs from the reference "
-                                       f"(sha256 {got[:16]}..., expected {f.sha256[:16]}...); nothing was written")
-                with atomic_path(folder / f.path) as tmp:
-                    tmp.write_bytes(data)
-    except (tarfile.TarError, EOFError, OSError) as exc:
+            found = [(f, _bsds300_member(tar, Path(f.path).stem)) for f in files]
+    except (tarfile.TarError, EOFError) as exc:
         raise DatasetError(f"{BSDS300_IMAGES_URL}: not a readable tar archive ({exc})") from None
+    for f, data in found:
+        got = hashlib.sha256(data).hexdigest()
+        if got != f.sha256:
+            raise DatasetError(f"{BSDS300_IMAGES_URL}: {Path(f.path).name} differs from the reference "
+                               f"(sha256 {got[:16]}..., expected {f.sha256[:16]}...); nothing was written")
+        with atomic_path(folder / f.path) as tmp:
+            tmp.write_bytes(data)
 
 
 def fetch_bsds_edfg(folder: Path, files, progress: bool) -> None:

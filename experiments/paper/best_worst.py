@@ -12,11 +12,9 @@ Writes experiments/results/best_worst.json / .csv and best_worst.png.
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
-from experiments.common import dataset, save_figure
+from experiments.common import Run, dataset, save_figure
 from experiments.paper.bsds import evaluate, parser, write_table
 
 MIN_PIXELS = 200
@@ -93,18 +91,18 @@ def main():
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--show", type=int, default=3, metavar="K", help="best and worst images to show (3)")
     args = p.parse_args()
-    t0 = time.perf_counter()
+    run = Run()
     rows = ranking(evaluate(args))
     k = min(args.show, len(rows) // 2 or 1)
     picks = [("best", r) for r in rows[:k]] + [("worst", r) for r in rows[-k:][::-1]]
     by_id = {r["image_id"]: r for r in rows}
     picks += [(f"paper's {kind}", by_id[i]) for kind, ids in (("best", PAPER_BEST), ("worst", PAPER_WORST))
               for i in ids if i in by_id and all(i != r["image_id"] for _, r in picks)]
-    written = write_table("best_worst", rows) + [save_figure(figure(picks), "best_worst")]
+    written = write_table("best_worst", rows, run=run.record()) + [save_figure(figure(picks), "best_worst")]
     for label, r in picks:
         print(f"{label:14s} #{r['image_id']:>7s} rank {r['rank']:3d}/{len(rows)}  ED mean|err| "
               f"{r['ed_mean_abs_deg']:.1f} ({r['ed_within45']:.2f} <= 45)  FB {r['fb_mean_abs_deg']:.1f}")
-    print(f"runtime {time.perf_counter() - t0:.0f} s; wrote " + ", ".join(str(w) for w in written))
+    print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w) for w in written))
 
 
 if __name__ == "__main__":

@@ -90,13 +90,15 @@ def evaluate(args, settings: dict | None = None) -> dict:
     return sweep(evaluate_image, ids, settings, args, "spiking" in settings["event_models"])
 
 
-def write_table(name: str, rows: list[dict], formats=("json", "csv")) -> list[Path]:
-    """``results/<name>.json`` (a list of rows) and/or ``results/<name>.csv``."""
+def write_table(name: str, rows: list[dict], formats=("json", "csv"), run: dict | None = None) -> list[Path]:
+    """``results/<name>.json`` (``{"rows": rows, "run": run}``, or the list of rows without a run record) and/or
+    ``results/<name>.csv``."""
     from snn_fg.atomic import save_text
 
     written = []
     if "json" in formats:
-        written.append(save_text(RESULTS / f"{name}.json", json.dumps(rows, indent=1)))
+        written.append(save_text(RESULTS / f"{name}.json",
+                                 json.dumps(rows if run is None else {"rows": rows, "run": run}, indent=1)))
     if "csv" in formats:
         buf = io.StringIO()
         if rows:

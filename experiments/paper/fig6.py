@@ -14,11 +14,9 @@ table1. Writes experiments/results/fig6.json / .csv and fig6.png.
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
-from experiments.common import save_figure
+from experiments.common import Run, save_figure
 from experiments.paper.bsds import evaluate, parser, write_table
 
 #: (label, pair key of snn_fg.evaluation.evaluate_image)
@@ -58,13 +56,13 @@ def figure(rows):
 
 def main():
     args = parser(__doc__.splitlines()[0]).parse_args()
-    t0 = time.perf_counter()
+    run = Run()
     results = evaluate(args)
     rows = rows_of(results)
-    written = write_table("fig6", rows) + [save_figure(figure(rows), "fig6")]
+    written = write_table("fig6", rows, run=run.record()) + [save_figure(figure(rows), "fig6")]
     for r in rows:
         print(f"{r['comparison']:18s} {r['metric']:12s} {r['mean']:.4f} +- {r['sd']:.4f}  (n={r['n_images']})")
-    print(f"runtime {time.perf_counter() - t0:.0f} s; wrote " + ", ".join(str(w) for w in written))
+    print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w) for w in written))
 
 
 if __name__ == "__main__":

@@ -12,11 +12,9 @@ and the pixel's brightness. Writes experiments/results/paper_motion.json /
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
-from experiments.common import dataset, save_figure, save_json
+from experiments.common import Run, dataset, save_figure, save_json
 from experiments.paper.bsds import write_table
 
 IDS = ("12003", "35070", "105053", "159091", "22090", "41004")
@@ -38,7 +36,7 @@ def main():
     from snn_fg.events.paper_motion import paper_frames
 
     frames = dataset("bsds-edfg")
-    t0 = time.perf_counter()
+    run = Run()
     rows, dlog, kept, bright = [], [], [], []
     for image_id in IDS:
         ref = np.load(frames / f"{image_id}.npz")
@@ -61,7 +59,7 @@ def main():
                       "kept": float(kept[m].mean()) if m.any() else None,
                       "kept_dark": float(kept[dark].mean()) if dark.sum() > 20 else None,
                       "kept_light": float(kept[light].mean()) if light.sum() > 20 else None})
-    written = write_table("paper_motion", rows)
+    written = write_table("paper_motion", rows, run=run.record())
     written.append(save_json("paper_motion_curve", curve))
     written.append(save_figure(figure(curve), "paper_motion"))
     for r in rows:
@@ -71,7 +69,7 @@ def main():
         fmt = lambda v: "-" if v is None else f"{v:.3f}"      # noqa: E731
         print(f"|dlog I| {c['dlog_lo']:.2f}-{c['dlog_hi']:.2f}: kept {fmt(c['kept'])} (dark {fmt(c['kept_dark'])}, "
               f"light {fmt(c['kept_light'])}) of {c['pixels']}")
-    print(f"runtime {time.perf_counter() - t0:.0f} s; wrote " + ", ".join(str(w.name) for w in written))
+    print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w.name) for w in written))
 
 
 def figure(curve):

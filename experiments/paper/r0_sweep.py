@@ -13,11 +13,9 @@ Writes experiments/results/r0_sweep.json / .csv, r0_sweep_summary.json and r0_sw
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
-from experiments.common import CACHE, fail, save_figure, save_json
+from experiments.common import CACHE, Run, fail, save_figure, save_json
 from experiments.paper.bsds import parser, write_table
 
 R0S = (2, 4, 8, 10, 12)
@@ -81,7 +79,7 @@ def main():
     from snn_fg.evaluation import evaluate_disc
     from snn_fg.sweep import SweepTask, run_sweep
 
-    t0 = time.perf_counter()
+    run = Run()
     tasks = [SweepTask(f"{m}-r{r0:g}-d{d:g}", {"model": m, "r0": r0, "diameter": d})
              for m in args.models for r0 in R0S for d in args.diameters
              if m != "spiking" or d in args.spiking_diameters]
@@ -93,13 +91,13 @@ def main():
         fail(str(exc))
     rows = [{k: res[t.key][k] for k in KEYS} for t in tasks]
     summ = summary(rows)
-    written = write_table("r0_sweep", rows)
+    written = write_table("r0_sweep", rows, run=run.record())
     written.append(save_json("r0_sweep_summary", summ))
     written.append(save_figure(figure(rows), "r0_sweep"))
     for s in summ:
         print(f"{s['model']:8s} R0={s['r0']:<3d} hits {s['hit_rate']:.2f} diameters {s['hit_diameters']}  "
               f"SSIM {s['mean_ssim_angle']:.3f} MSE {s['mean_mse_angle']:.4f} within45 {s['mean_within45']:.3f}")
-    print(f"runtime {time.perf_counter() - t0:.0f} s; wrote " + ", ".join(str(w) for w in written))
+    print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w) for w in written))
 
 
 if __name__ == "__main__":

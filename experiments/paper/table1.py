@@ -211,7 +211,8 @@ def main():
              "authors_outputs": authors_outputs(), "run": run.record()}
     if args.spiking_images:
         extra["rate_on_the_spiking_images"] = same_images
-    written = write_table("table1", rows) + write_table("table1_per_image", image_rows)
+    written = (write_table("table1", rows, run=extra["run"])
+               + write_table("table1_per_image", image_rows, run=extra["run"]))
     written.append(save_json("table1_extra", extra))
     written.append(save_figure(figure(rows, shift4, same_images), "table1"))
     named = ([(r["model"], r) for r in rows] + [("rate, `shift4` events", r) for r in shift4]

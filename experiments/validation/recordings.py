@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import RESULTS, dataset, fail, save_figure
+from experiments.common import RESULTS, Run, dataset, fail, save_figure
 from experiments.paper.bsds import write_table
 
 #: name -> (file, window_ms, start_ms, sensor size or None); dvs.es starts with a 1 ms reset burst
@@ -96,7 +96,7 @@ def main():
     p.add_argument("--spiking", action="store_true", help="also run the spiking network on every window")
     p.add_argument("--only", nargs="+", choices=tuple(RECORDINGS), help="these recordings only")
     args = p.parse_args()
-    t0 = time.perf_counter()
+    run = Run()
     rows, written = [], []
     for name in args.only or RECORDINGS:
         for model in ("rate", "spiking") if args.spiking else ("rate",):
@@ -104,8 +104,8 @@ def main():
             rows += r
             written += w
             print(f"{name:12s} {model:8s} {len(r)} windows, {sum(x['runtime_s'] for x in r):.1f} s", flush=True)
-    written += write_table("recordings", rows)
-    print(f"runtime {time.perf_counter() - t0:.0f} s; wrote " + ", ".join(str(w.name) for w in written))
+    written += write_table("recordings", rows, run=run.record())
+    print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w.name) for w in written))
 
 
 if __name__ == "__main__":

@@ -1,13 +1,10 @@
 """Readers: the sample recordings (dataset ``events``), round trips, spec-encoded synthetic files,
 mislabelled files."""
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from snn_fg.errors import InputError
 from snn_fg.events import (EVENT_DTYPE, Recording, detect_format, iter_recording, open_recording, save_events)
-
 
 
 def random_events(n=2000, w=64, h=48, t_max=200_000, seed=0):

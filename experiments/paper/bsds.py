@@ -107,4 +107,3 @@ def write_table(name: str, rows: list[dict], formats=("json", "csv"), run: dict 
             w.writerows(rows)
         written.append(save_text(RESULTS / f"{name}.csv", buf.getvalue()))
     return written
-

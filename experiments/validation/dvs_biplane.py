@@ -36,7 +36,6 @@ from snn_fg.outline import filled_outline, outline_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 
 
-
 def _maps(model: str, windows, backend: str, instantiate=None):
     """Each window's maps, what to record about the run, and the run (spiking)."""
     if model == "rate":

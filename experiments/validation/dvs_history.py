@@ -49,7 +49,6 @@ from snn_fg.outline import filled_outline, inward_score  # noqa: E402
 from snn_fg.rate.edfg import run_edfg_state  # noqa: E402
 
 
-
 def _centroid(region) -> np.ndarray:
     return np.argwhere(region).mean(axis=0)
 

@@ -26,7 +26,7 @@ def dataset_path(name: str, *parts):
     """Path of dataset ``name`` (or of a file in it); skips the calling test when the dataset is absent."""
     path = datasets.find(name, *parts)
     if path is None:
-        pytest.skip(f"needs the {name} dataset, absent from {datasets.data_root()}: snn-fg data fetch {name}")
+        pytest.skip(f"needs the {name} dataset, absent from {datasets.data_root()}: {datasets.how_to_get(name)}")
     return path
 
 

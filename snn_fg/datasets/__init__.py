@@ -32,7 +32,7 @@ from snn_fg.datasets.catalogue import DATASETS, DataFile, Dataset
 from snn_fg.datasets.transfer import DatasetError, file_sha256, npz_sha256
 
 __all__ = ["DATASETS", "DataFile", "Dataset", "DatasetError", "ENV_VAR", "data_root", "fetch", "find",
-           "get", "missing", "require", "root_and_origin", "user_data_dir", "verify"]
+           "get", "how_to_get", "missing", "require", "root_and_origin", "user_data_dir", "verify"]
 
 #: the environment variable that names the data folder
 ENV_VAR = "SNN_FG_DATA"
@@ -108,12 +108,17 @@ def find(name: str, *parts, root=None) -> Path | None:
     return _folder(name, root).joinpath(*parts)
 
 
+def how_to_get(name: str) -> str:
+    """The command that gets the dataset, or says how to (when no fetch is offered)."""
+    return f"snn-fg data {'fetch' if get(name).fetch else 'info'} {name}"
+
+
 def require(name: str, *parts, root=None) -> Path:
-    """As :func:`find`, but an absent dataset raises :class:`DatasetError` saying how to fetch it."""
+    """As :func:`find`, but an absent dataset raises :class:`DatasetError` saying how to get it."""
     path = find(name, *parts, root=root)
     if path is None:
         raise DatasetError(f"needs the {name} dataset, which is not in {_folder(name, root)}: "
-                           f"run `snn-fg data fetch {name}` (or set ${ENV_VAR} to the folder that holds it)")
+                           f"run `{how_to_get(name)}` (or set ${ENV_VAR} to the folder that holds it)")
     return path
 
 

@@ -6,15 +6,17 @@ networks/default_321x481.json is the description ``build_network(ModelParams(),
 (321, 481), SpikingParams())`` produces: every population, projection (kernel
 references, gains, delays) and neuron constant. Re-run after changing the
 defaults (tests/test_network_description.py checks the stored file is current).
+
+    python experiments/spiking_export_network.py      (or python -m experiments.spiking_export_network)
+
+Not an experiment: it measures nothing, it regenerates files the tests check.
 """
-import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from snn_fg.network import SpikingParams, build_network
+from snn_fg.params import ModelParams
 
-from snn_fg.network import SpikingParams, build_network  # noqa: E402
-from snn_fg.params import ModelParams  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def main():

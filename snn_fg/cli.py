@@ -1,4 +1,4 @@
-"""The ``snn-fg`` command line: ``run``, ``compare``, ``events`` and ``export``.
+"""The ``snn-fg`` command line: ``run``, ``compare``, ``events``, ``export`` and ``data``.
 
 Bad input ends with one line ``snn-fg: error: <file>: <problem>`` and exit
 status 2; an interrupted run (Ctrl-C, SIGTERM) exits 130 or 143 and leaves
@@ -17,6 +17,7 @@ import warnings
 from . import __version__, cancel
 from .backends import DEFAULT_BACKEND, backend_names
 from .compare_cli import add_compare_command
+from .datasets.cli import add_data_command
 from .errors import InputError, InputWarning, SnnFgError
 from .events.esim import MOTIONS
 from .events_cli import add_events_command, sensor_size_arg
@@ -161,7 +162,8 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
     parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     subs = {"run": _add_run(sub), "compare": add_compare_command(sub, _number), "events": add_events_command(sub),
-            "export": add_export_command(sub, sensor_size_arg, _number), "decode": add_decode_command(sub)}
+            "export": add_export_command(sub, sensor_size_arg, _number), "decode": add_decode_command(sub),
+            "data": add_data_command(sub)}
     return parser, subs
 
 

@@ -1,7 +1,7 @@
 """The paper's evaluation on one BSDS image: models against human figure/ground labels.
 
 :func:`evaluate_image` is the unit of work of the Table 1 / Fig. 6 sweeps
-(``experiments/table1.py``, ``fig6.py``, ``best_worst.py``): it turns the
+(``experiments.paper.table1``, ``fig6``, ``best_worst``): it turns the
 image into events at every contrast threshold, runs the event model(s) and
 the frame-based model with each edge operator through their public entry
 points, scores every figure-ground map against both labellers, and compares

@@ -63,7 +63,7 @@ def load_bsds_fg(root, image_id) -> GroundTruth:
 
     Examples
     --------
-    >>> gt = load_bsds_fg("../shared/data/bsds-fg", "12003")     # doctest: +SKIP
+    >>> gt = load_bsds_fg(datasets.require("bsds-fg"), "12003")   # doctest: +SKIP
     >>> gt.fg.shape                                              # doctest: +SKIP
     (2, 321, 481)
     """

@@ -193,7 +193,7 @@ def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: flo
     Each window must be grouped by the other family than the one before, so
     a network that carries its decision from one window into the next can
     get the flipped windows wrong (the spiking network without its window
-    clock does: ``experiments/window_clock.py``). Returns ``(scenes,
+    clock does: ``experiments.validation.window_clock``). Returns ``(scenes,
     recording)``: one :class:`Scene` per window (its ``labels`` give the
     disc) and the :class:`~snn_fg.events.Recording`, whose events of window
     ``k`` start at ``k * window_ms`` ms and end before ``(k + 1) * window_ms``

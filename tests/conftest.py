@@ -1,31 +1,64 @@
 """Shared test fixtures.
 
-* ``shared`` - path of the read-only ``../shared`` folder; tests that need it
-  skip with a reason when it is absent (a user's fresh clone has none).
+* ``dataset`` - ``dataset(name, *parts)``: the path of a dataset of
+  :mod:`snn_fg.datasets` (or of a file in it); the test skips, naming the
+  fetch command, when the dataset is absent. Every test that uses it is
+  marked ``shared``, so ``-m "not shared"`` leaves them all out.
+* ``warm_simulators`` (session) - Brian2 and the fast engine run once on a
+  network with every kind of projection, which compiles their code (Brian2's
+  Cython, numba's loops) once per test process before the first test that
+  asks for it; modules that run a simulator ask for it, so no behavioural
+  test's time is a cold compile, whatever order ``-n 2`` runs them in.
 * an autouse fixture that resets Brian2's global state around every test, so
   that one test's magic network or device settings never leak into another.
 """
 from __future__ import annotations
 
 import sys
-from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
+from snn_fg import datasets
 
 
-def shared_path(*parts) -> Path:
-    """Path under ../shared, skipping the calling test if it is absent."""
-    p = SHARED.joinpath(*parts)
-    if not p.exists():
-        pytest.skip(f"needs {p} (the project's ../shared data), which is absent on this machine")
-    return p
+def dataset_path(name: str, *parts):
+    """Path of dataset ``name`` (or of a file in it); skips the calling test when the dataset is absent."""
+    path = datasets.find(name, *parts)
+    if path is None:
+        pytest.skip(f"needs the {name} dataset, absent from {datasets.data_root()}: {datasets.how_to_get(name)}")
+    return path
 
 
 @pytest.fixture
-def shared():
-    return shared_path
+def dataset():
+    return dataset_path
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if "dataset" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.shared)
+
+
+@pytest.fixture(scope="session")
+def warm_simulators():
+    """The level-1 default network on a radius-8 disc (every delay and receptor) run 40 ms on both engines."""
+    from snn_fg.backends import RunSettings, get_backend
+    from snn_fg.events import image_to_frame
+    from snn_fg.network import build_network
+    from snn_fg.params import ModelParams
+    from snn_fg.scenes import disc
+    from snn_fg.lowering.input_spikes import frame_spikes
+
+    pos, neg = image_to_frame(disc(8).image)
+    net = build_network(ModelParams(levels=1), pos.shape)
+    spikes = frame_spikes(pos, neg, 200.0, 0.5, 40.0)
+    settings = RunSettings(duration_ms=40.0, record_spikes=False)
+    brian2 = get_backend("brian2")
+    return SimpleNamespace(network=net, brian2=brian2.simulate(net, spikes, settings),
+                           brian2_codegen=brian2.describe()["codegen"],
+                           fast=get_backend("fast").simulate(net, spikes, settings))
 
 
 @pytest.fixture(autouse=True)

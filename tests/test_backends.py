@@ -13,6 +13,8 @@ from snn_fg.scenes import demo, disc
 from snn_fg.spiking import SpikingRecord, run_spiking_result
 from snn_fg.network.roles import ROLE_ORDER
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 AVAILABLE = available_backends()
 
 
@@ -24,7 +26,8 @@ def _skip(name):
 BACKENDS = [pytest.param(name, marks=_skip(name)) for name in AVAILABLE]
 
 
-@pytest.fixture(scope="module", params=[pytest.param((name, light), marks=_skip(name),
+# a 400 ms run per backend and polarity, seconds each: every test that reads it is slow
+@pytest.fixture(scope="module", params=[pytest.param((name, light), marks=[_skip(name), pytest.mark.slow],
                                                      id=f"{name}-{'light' if light else 'dark'}")
                                         for name in AVAILABLE for light in (True, False)])
 def disc_run(request):
@@ -97,6 +100,7 @@ def test_result_is_consistent(disc_run):
             np.testing.assert_array_equal(counted, r.counts[name])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_same_seed_same_spikes_other_seed_other_spikes(backend):
     pos, neg = image_to_frame(disc(16).image)
@@ -141,6 +145,7 @@ def test_every_cell_gives_the_same_spikes_as_the_cells_the_input_can_use(backend
             assert outside.sum() == 0, name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_binned_counts_split_the_spike_trains_by_time(backend):
     """Counting bins (one map per window of a continuous run): each bin holds
@@ -174,6 +179,7 @@ def test_count_bins_must_increase_inside_the_run():
             RunSettings(duration_ms=100.0, count_bins_ms=bad)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_timed_events_drive_the_network(backend):
     sc = disc(16)
@@ -186,6 +192,7 @@ def test_timed_events_drive_the_network(backend):
     assert grouping_peak_inside(res.maps.grouping, sc)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(backend, monkeypatch):
     """Ctrl-C during a run must not come back as a shorter simulation."""

@@ -11,6 +11,8 @@ from snn_fg.rate.edfg import run_edfg
 from snn_fg.scenes import disc
 from snn_fg.spiking import run_spiking_result
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 AVAILABLE = available_backends()
 
 
@@ -21,6 +23,7 @@ def stop_requested():
     cancel.clear()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", [pytest.param(n, marks=pytest.mark.skipif(not ok, reason=f"backend {n}: {why}"))
                                      for n, (ok, why) in AVAILABLE.items()])
 def test_a_requested_stop_ends_a_simulation_on_every_backend(stop_requested, backend):
@@ -30,6 +33,7 @@ def test_a_requested_stop_ends_a_simulation_on_every_backend(stop_requested, bac
                            progress=False)
 
 
+@pytest.mark.slow
 def test_the_fast_engine_stops_after_the_chunk_it_is_in(stop_requested, monkeypatch):
     from snn_fg.backends.fast import core as fast_core
 

@@ -12,6 +12,8 @@ from snn_fg.cli import main
 from snn_fg.maps import Maps
 from snn_fg.params import ModelParams
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 
 def run_cli(*args):
     """Run the real console entry point in a subprocess (as a user would)."""
@@ -19,6 +21,7 @@ def run_cli(*args):
                           capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_demo_rate_writes_maps_and_figure(tmp_path):
     res = run_cli("run", "demo", "--out", tmp_path, "--no-progress")
     assert res.returncode == 0, res.stderr
@@ -34,6 +37,7 @@ def test_demo_rate_writes_maps_and_figure(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["maps.npz", "maps.png"]
 
 
+@pytest.mark.slow
 def test_parameters_reach_the_model(tmp_path):
     assert main(["run", "demo", "--out", str(tmp_path), "--r0", "6", "--levels", "4",
                  "--iterations", "3", "--no-progress"]) == 0
@@ -41,6 +45,7 @@ def test_parameters_reach_the_model(tmp_path):
     assert (p["r0"], p["levels"], p["iterations"]) == (6, 4, 3)
 
 
+@pytest.mark.slow
 def test_fbfg_on_image(tmp_path):
     import cv2
 
@@ -79,6 +84,7 @@ def _bad_inputs(tmp_path):
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["missing", "keys", "dtype", "shape", "ndim", "empty", "nan", "zip", "image"])
 def test_bad_input_gives_one_clear_line(tmp_path, case):
     path, expect = _bad_inputs(tmp_path)[case]
@@ -103,6 +109,7 @@ def test_interrupted_write_leaves_nothing(tmp_path, monkeypatch):
     assert os.listdir(tmp_path) == []
 
 
+@pytest.mark.slow
 def test_compare_prints_and_saves_metrics(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     assert main(["run", "demo", "--out", str(a), "--no-progress"]) == 0
@@ -119,6 +126,7 @@ def test_compare_prints_and_saves_metrics(tmp_path):
     assert 0 <= diff["angle_within_45_frac"] <= 1 and same["angle_within_45_frac"] == 1
 
 
+@pytest.mark.slow
 def test_recording_gives_windows(tmp_path):
     from snn_fg.events import image_to_events, save_events
     from snn_fg.scenes import disc
@@ -140,6 +148,7 @@ def test_recording_gives_windows(tmp_path):
     assert sorted(os.listdir(out)) == ["maps.npz", "maps.png"]   # no temporary parts left
 
 
+@pytest.mark.slow
 def test_rate_model_can_carry_its_state_from_window_to_window(tmp_path):
     from snn_fg.events import image_to_events, save_events
     from snn_fg.scenes import disc
@@ -269,6 +278,7 @@ def test_a_stored_network_runs_from_the_command_line_and_an_edit_changes_it(tmp_
     assert res.returncode == 2 and "--levels" in res.stderr and not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 def test_output_folder_is_never_mixed_with_an_earlier_run(tmp_path):
     out = tmp_path / "out"
     assert main(["run", "demo", "--out", str(out), "--no-progress"]) == 0
@@ -283,6 +293,7 @@ def test_output_folder_is_never_mixed_with_an_earlier_run(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["out"]                       # no staging left
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, message", [
     (["--window-ms", "50"], "--window-ms"),                # a recording option for a frame
     (["--carry-state", "on"], "--carry-state"),            # another one
@@ -299,6 +310,7 @@ def test_invalid_arguments_create_nothing(tmp_path, args, message):
     assert not (tmp_path / "a").exists()
 
 
+@pytest.mark.slow
 def test_usage_errors_are_reported_under_the_subcommand(tmp_path):
     res = run_cli("run", "demo", "--out", tmp_path / "o", "--leves", "3")
     assert res.returncode == 2
@@ -310,6 +322,7 @@ def test_usage_errors_are_reported_under_the_subcommand(tmp_path):
     assert res.returncode == 0 and res.stdout.strip() == f"snn-fg {__version__}" and __version__[0].isdigit()
 
 
+@pytest.mark.slow
 def test_compare_pairs_windows_by_time_and_reads_at_100_columns(tmp_path):
     from snn_fg.events import image_to_events, save_events
     from snn_fg.scenes import disc
@@ -365,6 +378,7 @@ def test_agreement_scores_a_against_b_and_reads_maps_or_tuples():
     assert agreement(Maps(fx, fy, g), a)["coverage"] == 1.0       # every vector of a is in b
 
 
+@pytest.mark.slow
 def test_a_recording_whose_windows_give_no_vector_says_so(tmp_path, capsys):
     """A window with events but an empty figure-ground map (here a stand-in
     model that returns empty maps) is counted and reported in one line; a

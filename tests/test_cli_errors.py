@@ -10,6 +10,7 @@ def run_cli(*args):
                           timeout=300)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, says", [
     (["run", "demo", "--out", "o", "--window-ms", "-5"], "--window-ms: must be > 0"),
     (["run", "demo", "--out", "o", "--max-windows", "0"], "--max-windows: must be >= 1"),
@@ -27,6 +28,7 @@ def test_a_usage_error_is_one_line_without_the_usage_block(tmp_path, args, says)
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, says, not_says", [
     (["--seed", "3"], "--seed: applies to the spiking and natural-spiking models only (--model spiking)", "they do not apply"),
     (["--window-ms", "20"], "--window-ms: applies to event recordings only; the demo is one image", "rate model"),
@@ -40,6 +42,7 @@ def test_a_refused_option_names_the_real_reason(tmp_path, args, says, not_says):
     assert says in res.stderr and not_says not in res.stderr, res.stderr
 
 
+@pytest.mark.slow
 def test_a_read_error_is_not_preceded_by_an_empty_progress_bar(tmp_path):
     bad = tmp_path / "bad.es"      # a DVS Event Stream whose first event lies far outside its 320 x 240 sensor
     bad.write_bytes(b"Event Stream\x02\x00\x00\x01\x40\x01\xf0\x00" + bytes([0x02, 0x51, 0x4c, 0x3d, 0x20]))

@@ -16,6 +16,8 @@ from snn_fg.network.nodes import Kernel
 from snn_fg.network.recipes import RECIPES, model_params_of, network_for
 from snn_fg.params import ModelParams
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 
 def test_a_block_is_on_where_any_of_its_pixels_is_and_a_partial_block_counts():
     pos = np.zeros((5, 7), np.uint8)
@@ -164,6 +166,7 @@ def test_the_compact_network_fits_one_loihi2_chip_at_the_icub_size(tmp_path):
     assert rep["totals"]["neurons"] < 1_000_000
 
 
+@pytest.mark.slow
 def test_a_recording_runs_through_the_compact_network_all_or_nothing(tmp_path):
     """snn-fg run REC --model spiking --network compact: one continuous run on
     the pooled sensor, maps at the sensor's size with each window's own
@@ -191,6 +194,7 @@ def test_a_recording_runs_through_the_compact_network_all_or_nothing(tmp_path):
     assert not bad.exists()
 
 
+@pytest.mark.slow
 def test_run_takes_a_network_by_name_for_both_models_and_can_skip_figures(tmp_path):
     for model in ("rate", "spiking"):
         out = tmp_path / model

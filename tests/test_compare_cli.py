@@ -32,6 +32,7 @@ def _run(path, out, *more):
     return Maps.load(out / "maps.npz")
 
 
+@pytest.mark.slow
 def test_times_count_from_the_first_event_in_maps_figures_and_params(unix_recording, tmp_path, monkeypatch):
     from snn_fg.models import Model
 
@@ -46,6 +47,7 @@ def test_times_count_from_the_first_event_in_maps_figures_and_params(unix_record
     assert m.params["source"]["first_event_us"] == UNIX_T0 and m.params["source"]["start_ms"] == 100
 
 
+@pytest.mark.slow
 def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recording, tmp_path, capsys):
     _run(unix_recording, tmp_path / "a", "--max-windows", "3")
     _run(unix_recording, tmp_path / "b", "--max-windows", "3", "--r0", "6")

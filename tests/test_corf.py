@@ -55,6 +55,7 @@ def test_fbfg_with_corf_finds_the_disc():
         get_model("fbfg", edge_operator="sobel")
 
 
+@pytest.mark.slow
 def test_cli_edge_operator_is_for_the_frame_based_model_only(tmp_path, capsys):
     assert main(["run", "demo", "--model", "fbfg", "--edge-operator", "corf", "--out", str(tmp_path / "a"),
                  "--no-progress"]) == 0

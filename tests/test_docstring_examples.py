@@ -5,12 +5,17 @@ import importlib
 
 import pytest
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 MODULES = ["snn_fg.backends", "snn_fg.events.io", "snn_fg.metrics", "snn_fg.network.builder", "snn_fg.rate.edfg",
            "snn_fg.spiking.api", "snn_fg.events.paper_motion", "snn_fg.groundtruth", "snn_fg.rate.corf",
-           "snn_fg.rate.fbfg", "snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.report", "snn_fg.cancel"]
+           "snn_fg.rate.fbfg", "snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.report", "snn_fg.cancel",
+           "snn_fg.datasets"]
+#: examples that build and export whole networks (several seconds each)
+SLOW = {"snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.report"}
 
 
-@pytest.mark.parametrize("name", MODULES)
+@pytest.mark.parametrize("name", [pytest.param(m, marks=pytest.mark.slow) if m in SLOW else m for m in MODULES])
 def test_docstring_examples(name):
     result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
     assert result.attempted > 0, f"{name} has no examples"

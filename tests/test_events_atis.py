@@ -71,6 +71,7 @@ def random_atis(n_change=3000, n_exposure=2000, seed=0):
     return ev[~is_exposure], ev[is_exposure]
 
 
+@pytest.mark.slow
 def test_writer_round_trip_with_reset_and_overflow_bytes(tmp_path):
     change, exposure = random_atis()
     data = encode_es_atis(change, (W, H), exposure)

@@ -1,6 +1,5 @@
 """`snn-fg events` sub-command (registered on a local parser; the main CLI wires it in)."""
 import argparse
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -9,8 +8,6 @@ import pytest
 from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, events_to_frame, image_to_frame, open_recording, save_events
 from snn_fg.events_cli import add_events_command
-
-EVENTS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events"
 
 
 def run(argv):
@@ -92,10 +89,8 @@ def test_bad_inputs_raise_input_error(tmp_path, recording):
     assert not (tmp_path / "f.npz").exists()  # no half-written output
 
 
-@pytest.mark.skipif(not EVENTS.is_dir(), reason="../shared/data/events is absent (fresh clone)")
-@pytest.mark.shared
-def test_raw_sensor_size_option(capsys):
-    raw = EVENTS / "expelliarmus_evt2_spinner.raw"
+def test_raw_sensor_size_option(dataset, capsys):
+    raw = dataset("events", "expelliarmus_evt2_spinner.raw")
     with pytest.raises(InputError, match="geometry"):
         run([raw])
     run([raw, "--sensor-size", "640x480"])

@@ -1,15 +1,10 @@
-"""Readers: shared real recordings, round trips, spec-encoded synthetic files, mislabelled files."""
-from pathlib import Path
-
+"""Readers: the sample recordings (dataset ``events``), round trips, spec-encoded synthetic files,
+mislabelled files."""
 import numpy as np
 import pytest
 
 from snn_fg.errors import InputError
 from snn_fg.events import (EVENT_DTYPE, Recording, detect_format, iter_recording, open_recording, save_events)
-
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-EVENTS = SHARED / "data" / "events"
-needs_shared = pytest.mark.skipif(not EVENTS.is_dir(), reason="../shared/data/events is absent (fresh clone)")
 
 
 def random_events(n=2000, w=64, h=48, t_max=200_000, seed=0):
@@ -22,7 +17,7 @@ def random_events(n=2000, w=64, h=48, t_max=200_000, seed=0):
     return ev
 
 
-# ------------------------------------------------------------------ shared recordings (README table)
+# ------------------------------------------------------------------ the sample recordings (their README table)
 README_TABLE = [
     # file, sensor (W, H), span s (1 decimal or 2 decimals as printed), events, extra kwargs
     ("dvs.es", (320, 240), 1.0, 473_225, {}),
@@ -32,11 +27,9 @@ README_TABLE = [
 ]
 
 
-@needs_shared
-@pytest.mark.shared
 @pytest.mark.parametrize("name,size,span_s,count,kw", README_TABLE)
-def test_shared_recordings_match_readme(name, size, span_s, count, kw):
-    rec = open_recording(EVENTS / name, **kw)
+def test_shared_recordings_match_readme(dataset, name, size, span_s, count, kw):
+    rec = open_recording(dataset("events", name), **kw)
     assert isinstance(rec, Recording)
     assert rec.events.dtype == EVENT_DTYPE
     assert len(rec.events) == count
@@ -48,10 +41,8 @@ def test_shared_recordings_match_readme(name, size, span_s, count, kw):
     assert set(np.unique(rec.events["p"])) == {0, 1}
 
 
-@needs_shared
-@pytest.mark.shared
-def test_dvs_es_count_includes_reset_burst():
-    rec = open_recording(EVENTS / "dvs.es")
+def test_dvs_es_count_includes_reset_burst(dataset):
+    rec = open_recording(dataset("events", "dvs.es"))
     burst = int((rec.events["t"] < 1000).sum())
     # README: 473,225 events, of which the first 1 ms is a ~77k-event reset burst
     assert len(rec.events) == 473_225
@@ -60,30 +51,25 @@ def test_dvs_es_count_includes_reset_burst():
     assert len(rec.events) - burst == 396_440
 
 
-@needs_shared
-@pytest.mark.shared
-def test_shared_es_matches_event_stream_package():
+def test_shared_es_matches_event_stream_package(dataset):
     import event_stream  # a test extra: an independent decoder to check ours against
-    ours = open_recording(EVENTS / "dvs.es").events
-    ref = np.concatenate(list(event_stream.Decoder(str(EVENTS / "dvs.es"))))
+    path = dataset("events", "dvs.es")
+    ours = open_recording(path).events
+    ref = np.concatenate(list(event_stream.Decoder(str(path))))
     for ko, kr in (("t", "t"), ("x", "x"), ("y", "y"), ("p", "on")):
         np.testing.assert_array_equal(ours[ko], ref[kr].astype(np.int64))
 
 
-@needs_shared
-@pytest.mark.shared
-def test_evt2_without_geometry_needs_sensor_size():
+def test_evt2_without_geometry_needs_sensor_size(dataset):
     with pytest.raises(InputError, match="no geometry"):
-        open_recording(EVENTS / "expelliarmus_evt2_spinner.raw")
+        open_recording(dataset("events", "expelliarmus_evt2_spinner.raw"))
 
 
-@needs_shared
-@pytest.mark.shared
 @pytest.mark.parametrize("name,kw", [("dvs.es", {}), ("expelliarmus_evt2_spinner.raw", {"sensor_size": (640, 480)}),
                                      ("tonic_sample_person.aedat4", {})])
-def test_streaming_equals_whole(name, kw):
-    whole = open_recording(EVENTS / name, **kw).events
-    stream = iter_recording(EVENTS / name, chunk_events=33_333, **kw)
+def test_streaming_equals_whole(dataset, name, kw):
+    whole = open_recording(dataset("events", name), **kw).events
+    stream = iter_recording(dataset("events", name), chunk_events=33_333, **kw)
     assert stream.streams
     chunks = list(stream)
     assert all(len(c) <= 33_333 for c in chunks)
@@ -105,6 +91,7 @@ def test_write_read_round_trip_identical(tmp_path, suffix, enc):
     np.testing.assert_array_equal(np.concatenate(chunks), ev)
 
 
+@pytest.mark.slow
 def test_es_decoder_state_carries_across_reads(tmp_path):
     from snn_fg.events.eventstream import iter_dvs, read_header
 
@@ -322,6 +309,7 @@ def test_mislabelled_files_are_refused(tmp_path):
     assert detect_format(es) == "es"
 
 
+@pytest.mark.slow      # reads through tonic, whose import brings torch (3 s on an idle core)
 def test_nmnist_synthetic_and_truncated(tmp_path):
     # N-MNIST record: x, y, p<<7 | t[22:16], t[15:8], t[7:0]
     recs = [(1, 2, 1, 100), (33, 33, 0, 70000), (0, 0, 1, 80000)]

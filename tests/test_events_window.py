@@ -8,8 +8,6 @@ import pytest
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.events import EVENT_DTYPE, EmptyWindowWarning, events_to_frame, iter_windows, save_events
 
-EVENTS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "events"
-
 
 def ev_at(times, xs=None, ys=None, ps=None):
     n = len(times)
@@ -93,6 +91,7 @@ def test_empty_recording_and_late_start_are_errors(tmp_path):
             list(iter_windows(ev_at([0, 10]), sensor_size=(8, 1), **bad))
 
 
+@pytest.mark.slow      # reads through tonic, whose import brings torch (3 s on an idle core)
 def test_denoise_and_refractory_filters_use_tonic():
     # tonic's Denoise is causal: an event survives if a 4-neighbour fired within filter_time
     # before it, so isolated events and the first event of a cluster are dropped
@@ -114,24 +113,24 @@ def test_file_input_streams(tmp_path):
     np.testing.assert_array_equal(np.concatenate([w.events for w in wins]), ev)
 
 
-@pytest.mark.skipif(not EVENTS.is_dir(), reason="../shared/data/events is absent (fresh clone)")
-@pytest.mark.shared
-def test_shared_dvs_es_windows():
-    wins = list(iter_windows(EVENTS / "dvs.es", window_ms=85, start_ms=1, chunk_events=50_000))
+def test_shared_dvs_es_windows(dataset):
+    wins = list(iter_windows(dataset("events", "dvs.es"), window_ms=85, start_ms=1, chunk_events=50_000))
     assert sum(len(w.events) for w in wins) == 396_440  # everything after the 1 ms reset burst
     assert all(w.pos.shape == (240, 320) for w in wins)
     assert all((w.pos | w.neg).any() for w in wins)
 
 
+@pytest.mark.slow
 def test_streaming_memory_experiment_small(tmp_path):
     import json
     import subprocess
     import sys
 
-    script = Path(__file__).resolve().parents[1] / "experiments" / "events_streaming_memory.py"
+    root = Path(__file__).resolve().parents[1]
     report = tmp_path / "r.json"
-    res = subprocess.run([sys.executable, str(script), "--events", "200000", "--duration-s", "2",
-                          "--report", str(report)], capture_output=True, text=True, timeout=120)
+    res = subprocess.run([sys.executable, "-m", "experiments.bench.events_streaming_memory", "--events", "200000",
+                          "--duration-s", "2", "--report", str(report)], capture_output=True, text=True, timeout=120,
+                         cwd=root)
     assert res.returncode == 0, res.stderr
     out = json.loads(report.read_text())
     assert out["events_streamed"] == 200_000

@@ -25,6 +25,8 @@ from snn_fg.spiking.decode import decode
 from snn_fg.lowering.input_spikes import frame_spikes
 from snn_fg.lowering.unroll import unroll
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 NEST_OK, NEST_WHY = available_backends()["nest"]
 needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
 SMALL = ModelParams(levels=2, r0=4)
@@ -40,6 +42,7 @@ def _sorted(pre, post, w):
     return np.stack([pre[order], post[order]]), np.round(w[order], 9)
 
 
+@pytest.mark.slow
 def test_whole_network_tables_give_the_unrolled_synapses_and_their_counts(small_net, monkeypatch):
     """Every projection unrolled from its weight-shared table (the code the
     PyNN export runs) has exactly the synapses snn_fg's own unrolling gives
@@ -80,6 +83,7 @@ def _disc_input(radius=8, duration=150.0):
     return pos, neg, frame_spikes(pos, neg, 200.0, 0.5, duration)
 
 
+@pytest.mark.slow
 @needs_nest
 def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend(tmp_path):
     from snn_fg.export.pynn import export_pynn, read_counts, save_input
@@ -104,6 +108,7 @@ def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend
     assert total[0] > 1000 and abs(total[0] - total[1]) <= 0.02 * total[1]
 
 
+@pytest.mark.slow
 @needs_nest
 def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
     """PyNN's own Population/FromListConnector/record (what SpiNNaker runs)
@@ -122,6 +127,7 @@ def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
         assert np.array_equal(fast.counts[name], portable.counts[name]), name
 
 
+@pytest.mark.slow
 def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
     nir = pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
     from snn_fg.export.nir import export_nir, read_nir
@@ -159,6 +165,7 @@ def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
     assert back.one("group_L", 1).stride == 1 and back.one("simple", 1).neuron == net.one("simple", 1).neuron
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("light", [True, False])
 def test_nir_round_trip_keeps_the_maps(tmp_path, light):
     pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
@@ -179,6 +186,7 @@ def test_nir_round_trip_keeps_the_maps(tmp_path, light):
     assert c["grouping_pearson_r"] >= 0.95 and c["angle_within_45_frac"] >= 0.9
 
 
+@pytest.mark.slow
 def test_resource_report_counts_and_limits(small_net):
     from snn_fg.export.report import resource_report
 
@@ -224,6 +232,7 @@ def test_export_refuses_an_existing_output_and_a_foreign_nir_file(tmp_path, caps
     assert not (tmp_path / "n.json").exists()
 
 
+@pytest.mark.slow
 def test_export_report_writes_json_and_prints_the_table(tmp_path, capsys):
     out = tmp_path / "r.json"
     assert main(["export", "--format", "report", "--out", str(out), "--sensor-size", "32x24", "--levels", "2"]) == 0
@@ -232,6 +241,7 @@ def test_export_report_writes_json_and_prints_the_table(tmp_path, capsys):
     assert rep["frame_shape"] == [24, 32] and "spinnaker1" in printed and "loihi2" in printed
 
 
+@pytest.mark.slow
 @needs_nest
 def test_nest_gives_brian2s_spikes_with_signed_receptors_and_with_the_export_split():
     """Issue 10: NEST against Brian2 on a disc. With ``receptors="signed"``
@@ -286,6 +296,7 @@ def test_nest_threads_keep_every_sender_inside_nests_19_bit_local_index():
         nest_threads(10, devices_first=NEST_MAX_LOCAL_SENDERS)
 
 
+@pytest.mark.slow
 @needs_nest
 def test_a_cell_past_nests_local_index_limit_still_sends_its_spikes():
     """The last of 524,300 cells fires and drives a probe cell. On one NEST

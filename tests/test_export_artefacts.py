@@ -13,6 +13,7 @@ NETWORKS = Path(__file__).resolve().parents[1] / "networks"
 MAX_BYTES = 8_000_000
 
 
+@pytest.mark.slow
 def test_stored_icub_artefacts_are_current_and_small():
     nir = pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
     sha = fingerprint(default_icub_network())

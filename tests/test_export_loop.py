@@ -52,6 +52,7 @@ def test_busiest_crop_finds_the_densest_box():
     assert busiest_crop(active, (6, 6)) == (2, 3)
 
 
+@pytest.mark.slow
 @needs_nest
 def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recording, capsys):
     net = build_network(ModelParams(levels=1, r0=4), (32, 32))
@@ -77,6 +78,7 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     assert np.array_equal(ours.grouping, g.astype(np.float32))
 
 
+@pytest.mark.slow
 def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (32, 32)), tmp_path / "model")
     out = tmp_path / "in.npz"
@@ -95,6 +97,7 @@ def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
     assert "smaller than the export's 80 x 24 frame" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
     net, _ = export_network(folder)
@@ -106,6 +109,7 @@ def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
     assert not (tmp_path / "maps").exists() and net.frame_shape == (24, 24)
 
 
+@pytest.mark.slow
 @needs_nest
 def test_run_py_refuses_a_network_that_will_not_fit_before_building(tmp_path):
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")

@@ -7,6 +7,8 @@ from snn_fg.errors import ParameterError
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 nir = pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
 
 
@@ -14,6 +16,7 @@ def _arrays(node) -> dict:
     return {k: np.asarray(v) for k, v in vars(node).items() if isinstance(v, np.ndarray)}
 
 
+@pytest.mark.slow
 def test_streamed_file_reads_back_as_the_whole_graph_written_by_nir(tmp_path):
     """write_streaming (one node in memory at a time) against nir.write of the
     whole graph: nir.read gives the same nodes, arrays and edges."""
@@ -43,6 +46,7 @@ def test_snntorch_profile_refuses_what_it_cannot_write():
     assert all(p.neuron.t_ref_ms == 0.5 for p in net.populations if p.neuron is not None)
 
 
+@pytest.mark.slow
 def test_snntorch_profile_graph_has_only_the_node_kinds_snntorch_imports(tmp_path):
     from snn_fg.export.nir_snntorch import to_nir_snntorch
 
@@ -72,7 +76,7 @@ def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
     within 45 deg, 4.4 deg. Against the exported network itself the
     profile's encoding (no delays, no refractoriness, zero padding) costs
     more, and the same with snnTorch or the fast engine (r 0.953, 85 %,
-    28 deg on this 32 x 32 disc): experiments/nir_consumer.py measures it on
+    28 deg on this 32 x 32 disc): experiments.validation.nir_consumer measures it on
     the larger inputs."""
     pytest.importorskip("snntorch", reason='needs pip install "snn-fg[snntorch]"')
     import torch

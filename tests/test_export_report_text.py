@@ -16,6 +16,7 @@ def report():
     return resource_report(build_network(ModelParams(levels=2), (24, 32)))
 
 
+@pytest.mark.slow
 def test_the_table_fits_100_columns_and_writes_ranges_and_sizes_readably(report):
     from snn_fg.export.report import readable
 
@@ -32,6 +33,7 @@ def test_the_table_fits_100_columns_and_writes_ranges_and_sizes_readably(report)
         "9.01e-07", "0.00215", "42.5", "400", "3,000", "65,535", "4.43e+08"]
 
 
+@pytest.mark.slow
 def test_the_report_prints_without_out_and_takes_a_target(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     args = ["export", "--format", "report", "--sensor-size", "32x24", "--levels", "2"]

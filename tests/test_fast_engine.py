@@ -14,6 +14,8 @@ from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 
 
@@ -57,6 +59,7 @@ def _assert_identical(runs, min_spikes):
     assert total >= min_spikes
 
 
+@pytest.mark.slow
 @BRIAN2
 def test_spike_trains_are_identical_to_brian2s(disc_runs):
     """Every population's spike cells and times, and the counts, equal."""
@@ -71,6 +74,7 @@ def test_spike_trains_are_identical_to_brian2s(disc_runs):
     assert all(n.v_rest_mv < n.v_reset_mv for n in gated)       # the gate: rest far below reset
 
 
+@pytest.mark.slow
 @BRIAN2
 def test_binned_counts_are_identical_to_brian2s(disc_runs):
     fast, ref = disc_runs["fast"], disc_runs["brian2"]
@@ -84,6 +88,7 @@ def test_binned_counts_are_identical_to_brian2s(disc_runs):
     np.testing.assert_array_equal(ref.binned_counts[ref.populations[-1]].sum(axis=1), in_bin)
 
 
+@pytest.mark.slow
 @BRIAN2
 def test_spikes_between_two_times_are_those_the_times_select(disc_runs):
     """``SpikeTrains.between`` (bisection, used for each window of a
@@ -103,6 +108,7 @@ def test_spikes_between_two_times_are_those_the_times_select(disc_runs):
             checked += int(inside.sum())
     assert checked > 40_000
 
+@pytest.mark.slow
 @BRIAN2
 def test_final_state_is_brian2s_up_to_rounding(disc_runs):
     fast, ref = disc_runs["fast"], disc_runs["brian2"]
@@ -112,6 +118,7 @@ def test_final_state_is_brian2s_up_to_rounding(disc_runs):
                                        err_msg=f"{name}.{var}")
 
 
+@pytest.mark.slow
 @BRIAN2
 def test_timed_events_on_every_cell_are_identical_to_brian2s():
     """Replayed timed events (a periodic input), instantiate='all', and four
@@ -137,6 +144,7 @@ def _brian2_steps(v, e, i, row, k):
     return v, e, i, top
 
 
+@pytest.mark.slow
 def test_a_parked_cell_cannot_reach_threshold_without_input():
     """Random states of every neuron type: whenever the parking bound says
     safe, 400 steps of the update stay below threshold; and the bound is not
@@ -196,6 +204,7 @@ def test_a_reused_engine_gives_the_spikes_of_a_fresh_one():
         np.testing.assert_array_equal(again.state[name]["v"], fresh.state[name]["v"], err_msg=name)
 
 
+@pytest.mark.slow
 def test_tables_made_again_for_other_gains_equal_a_fresh_build():
     """A recording's window (or a frame) is calibrated for its own input
     rate: the engine then remakes only the weights of the tables it holds,
@@ -251,6 +260,7 @@ def test_large_cell_arrays_start_at_zero():
         assert a.view(np.uint8).min() == 7
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("timed", [False, True])
 def test_the_cells_left_out_by_the_edge_masks_never_fire(timed):
     """Level-1 simple and untuned cells outside the event pixels, and

@@ -1,6 +1,7 @@
 """What the maps figure tells its reader: which windows it shows, a colour
 wheel that hides no data, and a crop drawn at its own pixel coordinates."""
 import numpy as np
+import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from snn_fg.cli import main
@@ -13,6 +14,7 @@ def _windows(n, h=40, w=60):
     return [event_frame_rgb(fx[0] > 0, fx[0] < 0)] * n, fx, np.zeros_like(fx), fx.copy()
 
 
+@pytest.mark.slow
 def test_the_maps_figure_says_which_windows_it_shows():
     inputs, fx, fy, g = _windows(28)
     fig = maps_figure(inputs, fx, fy, g, [f"w{i}" for i in range(28)])
@@ -29,6 +31,7 @@ def test_the_maps_figure_says_which_windows_it_shows():
     assert fig._suptitle is None                # all shown: nothing to say
 
 
+@pytest.mark.slow
 def test_the_colour_wheel_lies_outside_every_panel():
     fig = maps_figure(*_windows(2))
     FigureCanvasAgg(fig).draw()
@@ -40,6 +43,7 @@ def test_the_colour_wheel_lies_outside_every_panel():
         assert not box.overlaps(ax.get_window_extent()), ax.get_title()
 
 
+@pytest.mark.slow
 def test_a_crop_draws_that_part_at_its_own_coordinates(tmp_path):
     inputs, fx, fy, g = _windows(1)
     fig = maps_figure(inputs[0], fx[0], fy[0], g[0], crop=(5, 8, 25, 14))

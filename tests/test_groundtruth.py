@@ -89,8 +89,8 @@ def test_loader_names_the_file_on_bad_input(tmp_path):
     assert bsds_ids(tmp_path) == ["1", "2", "3"]
 
 
-def test_bsds_fg_labels_load_and_the_labellers_mostly_agree(shared):
-    root = shared("data", "bsds-fg")
+def test_bsds_fg_labels_load_and_the_labellers_mostly_agree(dataset):
+    root = dataset("bsds-fg")
     ids = bsds_ids(root)
     assert len(ids) == 160
     gt = load_bsds_fg(root, "8143")

@@ -13,6 +13,8 @@ import pytest
 from snn_fg.events import image_to_events, save_events
 from snn_fg.scenes import demo
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):

@@ -13,6 +13,8 @@ from snn_fg.rate.edfg import run_edfg
 from snn_fg.rate.natural import NATURAL_PARAMS, run_natural
 from snn_fg.scenes import disc
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 
 def _two_tone_disc(radius=20):
     """A disc lighter than the grey ground on its left half and darker on its right."""
@@ -76,6 +78,7 @@ def test_pooled_network_reads_both_polarities_into_every_feedback_cell_and_drops
     assert {p.sign for p in net.incoming("group_L_1") if p.source.startswith("bo_")} == {1}
 
 
+@pytest.mark.slow
 def test_natural_models_run_from_the_command_line_with_their_own_parameters(tmp_path):
     assert main(["run", "demo", "--model", "natural", "--out", str(tmp_path / "a"), "--no-progress"]) == 0
     params = Maps.load(tmp_path / "a" / "maps.npz").params
@@ -101,6 +104,7 @@ def test_spiking_form_owns_the_disc_of_both_polarities():
         assert t["frac_within_45"] >= 0.95 and t["coverage"] > 0.6
 
 
+@pytest.mark.slow
 def test_exporters_write_the_pooled_network(tmp_path):
     pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
     from snn_fg.export.nir import export_nir, read_nir

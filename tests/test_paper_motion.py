@@ -46,9 +46,9 @@ def test_a_vertical_edge_moved_right_gives_one_polarity_band():
 
 
 @pytest.mark.parametrize("image_id", BSDS_IDS)
-def test_paper_motion_against_the_authors_frames(shared, image_id):
-    ref = np.load(shared("data", "bsds-edfg", f"{image_id}.npz"))
-    pos, neg = image_to_frame(shared("data", "bsds-edfg", "images", f"{image_id}.jpg"), threshold=0.10,
+def test_paper_motion_against_the_authors_frames(dataset, image_id):
+    ref = np.load(dataset("bsds-edfg", f"{image_id}.npz"))
+    pos, neg = image_to_frame(dataset("bsds-edfg", "images", f"{image_id}.jpg"), threshold=0.10,
                               motion="paper")
     ours, theirs = (pos | neg) > 0, (ref["pos"] | ref["neg"]) > 0
     both = ours & theirs
@@ -62,6 +62,7 @@ def test_paper_motion_against_the_authors_frames(shared, image_id):
     assert 0.05 <= iou < 0.8
 
 
+@pytest.mark.slow
 def test_cli_motion_paper_is_recorded_and_refused_where_no_image_becomes_events(tmp_path, capsys):
     import json
 

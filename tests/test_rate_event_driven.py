@@ -69,6 +69,7 @@ def reference():
     return s_levels, _dense_reference(s_levels, PARAMS)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", ["scatter+gather", "fourier"])
 def test_grouping_matches_dense_transcription(monkeypatch, reference, path):
     s_levels, (bl1, bd2, gl, gd) = reference

@@ -1,11 +1,10 @@
-"""The rate model reproduces the authors' published outputs (../shared/data/bsds-edfg)."""
+"""The rate model reproduces the authors' published outputs (dataset ``bsds-edfg``)."""
 import numpy as np
 import pytest
 
 from snn_fg.cli import main
 from snn_fg.maps import Maps
 from snn_fg.rate.edfg import run_edfg_state
-from tests.conftest import shared_path
 
 FRAMES = ["12003", "35070", "105053", "159091", "22090", "41004"]
 
@@ -16,8 +15,8 @@ def _angle_median_deg(ax, ay, bx, by, mask):
 
 
 @pytest.mark.parametrize("name", FRAMES)
-def test_reproduces_published_frame(name):
-    ref = np.load(shared_path("data", "bsds-edfg", f"{name}.npz"))
+def test_reproduces_published_frame(dataset, name):
+    ref = np.load(dataset("bsds-edfg", f"{name}.npz"))
     st = run_edfg_state(ref["pos"], ref["neg"])
     for key in ("grouping", "fg_x", "fg_y"):
         r = np.corrcoef(getattr(st, key).ravel(), ref[key].ravel())[0, 1]
@@ -30,8 +29,8 @@ def test_reproduces_published_frame(name):
     assert _angle_median_deg(st.fg_x, st.fg_y, ref["fg_x"], ref["fg_y"], mask) <= 1.0
 
 
-def test_cli_run_reproduces_published_frame(tmp_path):
-    src = shared_path("data", "bsds-edfg", "35070.npz")
+def test_cli_run_reproduces_published_frame(dataset, tmp_path):
+    src = dataset("bsds-edfg", "35070.npz")
     ref = np.load(src)
     assert main(["run", str(src), "--out", str(tmp_path), "--model", "rate", "--no-progress"]) == 0
     m = Maps.load(tmp_path / "maps.npz")

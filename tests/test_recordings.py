@@ -1,15 +1,14 @@
-"""The rate model on a real recording (../shared/data/events/dvs.es: a toy biplane)."""
+"""The rate model on a real recording (dvs.es of the dataset ``events``: a toy biplane)."""
 import numpy as np
 
 from snn_fg.cli import main
 from snn_fg.maps import Maps
 from snn_fg.metrics import grouping_peak
 from snn_fg.outline import filled_outline, inward_score
-from tests.conftest import shared_path
 
 
-def test_biplane_windows(tmp_path):
-    rec = shared_path("data", "events", "dvs.es")
+def test_biplane_windows(dataset, tmp_path):
+    rec = dataset("events", "dvs.es")
     out = tmp_path / "out"
     assert main(["run", str(rec), "--out", str(out), "--model", "rate", "--window-ms", "85",
                  "--start-ms", "1", "--no-progress"]) == 0

@@ -54,6 +54,7 @@ def test_events_shows_the_timeline_flags_the_burst_and_plots_it(burst_es, tmp_pa
     assert "rows: 8 windows of 1 ms each" in out and "--start-ms 1 skips window 0" in out
 
 
+@pytest.mark.slow
 def test_run_warns_per_saturated_window_and_records_the_shares(burst_es, tmp_path, capsys):
     assert main(["run", str(burst_es), "--out", str(tmp_path / "a"), "--levels", "3", "--no-progress"]) == 0
     err = capsys.readouterr().err

@@ -11,9 +11,14 @@ from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
 from snn_fg.lowering.input_spikes import InputSpikes, frame_spikes
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 P1 = ModelParams(levels=1)
-BACKENDS = [pytest.param(name, marks=pytest.mark.skipif(not ok, reason=f"backend {name}: {why}"))
-            for name, (ok, why) in available_backends().items()]   # every registered backend
+#: every registered backend; Brian2 and NEST build their networks for seconds, so only the fast engine's runs
+#: are in the quick loop (-m "not slow")
+BACKENDS = [pytest.param(name, marks=[pytest.mark.skipif(not ok, reason=f"backend {name}: {why}"),
+                                      *([] if name == "fast" else [pytest.mark.slow])])
+            for name, (ok, why) in available_backends().items()]
 
 
 def _sources(shape):

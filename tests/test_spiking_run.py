@@ -16,6 +16,8 @@ from snn_fg.scenes import disc
 from snn_fg.spiking import SpikingRecord, run_spiking, run_spiking_result
 from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 SMALL = ModelParams(levels=2)
 
 
@@ -30,6 +32,7 @@ def small_run(frame):
     return run_spiking_result(pos, neg, params=SMALL, duration_ms=120, progress=False)
 
 
+@pytest.mark.slow
 def test_maps_record_counts_rates_and_parameters(small_run, frame, tmp_path):
     pos, _ = frame
     m = small_run.maps
@@ -57,6 +60,7 @@ def test_maps_record_counts_rates_and_parameters(small_run, frame, tmp_path):
     assert all(f.read_bytes()[:4] == b"\x89PNG" and f.stat().st_size > 10_000 for f in files)
 
 
+@pytest.mark.slow
 def test_a_frame_gets_the_hinted_cells_by_default_and_every_cell_s_maps(frame):
     """Regular trains keep the nominal rate the site hints assume, so by
     default a frame creates only the cells the hints choose, on the fast
@@ -79,6 +83,7 @@ def test_a_frame_gets_the_hinted_cells_by_default_and_every_cell_s_maps(frame):
     assert timed.maps.params["simulation"]["instantiate"] == "all"
 
 
+@pytest.mark.slow
 def test_a_stored_description_runs_and_an_edited_gain_changes_the_result(small_run, frame, tmp_path):
     pos, neg = frame
     path = small_run.network.save(tmp_path / "net.json")
@@ -102,6 +107,7 @@ def test_a_stored_description_runs_and_an_edited_gain_changes_the_result(small_r
         run_spiking(pos, neg, network=path, params=SMALL, progress=False)
 
 
+@pytest.mark.slow
 def test_the_run_is_silent_unless_asked(frame, capfd):
     pos, neg = frame
     run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False)
@@ -115,6 +121,7 @@ def test_the_run_is_silent_unless_asked(frame, capfd):
     assert capfd.readouterr().err == ""
 
 
+@pytest.mark.slow
 def test_brian2_records_its_code_generation_and_synapses(frame):
     pos, neg = frame
     m = run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False, backend="brian2")
@@ -187,6 +194,7 @@ def test_errors_name_what_is_wrong(frame):
         run_spiking(pos, neg, durration_ms=10)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("light", [True, False], ids=["light", "dark"])
 def test_ownership_comes_from_the_feedback(light):
     """The feedback ablation: with feedback the rim of a disc points inwards
@@ -210,6 +218,7 @@ def test_ownership_comes_from_the_feedback(light):
     assert sum(int(rec.counts[n].sum()) for n in rec.names if n.startswith("bo_")) > 100
 
 
+@pytest.mark.slow
 def test_a_model_keeps_one_backend_and_gives_a_fresh_models_maps():
     """The spiking model runs every input on one backend object (so the fast
     engine's tables and cell arrays serve them all); a frame run after

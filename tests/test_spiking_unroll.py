@@ -68,6 +68,7 @@ def test_lattice_interpolation_is_hand_computable():
     np.testing.assert_allclose(c.sum(1), 1.0)
 
 
+@pytest.mark.slow
 def test_dog_projection_is_the_wraparound_convolution(unrolled, frame):
     pos, neg = frame
     k = dog_kernels(ModelParams())
@@ -96,6 +97,7 @@ def test_simple_cells_exist_where_excitation_alone_can_reach_threshold(unrolled,
     np.testing.assert_array_equal(unrolled.sites["simple_1"], want)
 
 
+@pytest.mark.slow
 def test_von_mises_gather_onto_the_grouping_lattice(frame):
     pos, neg = frame
     net = build_network(ModelParams(levels=1), pos.shape, EXACT)     # grouping stride 2
@@ -116,6 +118,7 @@ def test_von_mises_gather_onto_the_grouping_lattice(frame):
     np.testing.assert_array_equal(g_sites.reshape(want.shape), support > 0)
 
 
+@pytest.mark.slow
 def test_von_mises_scatter_between_lattices(frame):
     pos, neg = frame
     net = build_network(ModelParams(levels=1), pos.shape, EXACT)
@@ -180,6 +183,7 @@ def test_missing_input_mask_names_the_population():
         unroll(net, {"input_on_1": np.zeros((5, 5), bool), "input_off_1": np.zeros((20, 20), bool)})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("light", [True, False])
 def test_unrolled_network_iterated_like_the_rate_model_reproduces_it(light):
     """The rate twin (the unrolled cells and synapses, iterated with the rate
@@ -211,6 +215,7 @@ def test_synapse_counts_survive_freeing_the_arrays(unrolled):
     assert un.synapses_in() == before
 
 
+@pytest.mark.slow
 def test_source_and_target_enumeration_give_the_same_synapses(frame):
     """Conv synapses are enumerated from whichever side has fewer (tap, cell)
     pairs; both sides must give the same set, on every kind of Conv (DoG with

@@ -16,6 +16,7 @@ def square_task(*, x: int) -> dict:
     return {"x": x, "square": x * x, "pid": os.getpid()}
 
 
+@pytest.mark.slow
 def test_tiny_sweep_on_a_local_cluster_caches_and_resumes(tmp_path):
     from dask.distributed import LocalCluster
 
@@ -59,6 +60,7 @@ def main_thread_task(*, x: int) -> dict:
     return {"x": x, "preloaded": "tabnanny" in sys.modules}
 
 
+@pytest.mark.slow
 def test_preload_imports_modules_on_every_worker_first(tmp_path):
     plain = run_sweep(main_thread_task, [SweepTask("p", {"x": 1})], tmp_path / "a", workers=1, progress=False)
     out = run_sweep(main_thread_task, [SweepTask("p", {"x": 1})], tmp_path / "b", workers=1, progress=False,
@@ -72,6 +74,7 @@ def environ_task(*, name: str) -> dict:
     return {"value": os.environ.get(name)}
 
 
+@pytest.mark.slow
 def test_local_workers_keep_glibcs_adaptive_malloc(tmp_path, monkeypatch):
     """Dask's default MALLOC_TRIM_THRESHOLD_ for workers made a Table 1 image 1.5x slower."""
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)

@@ -15,6 +15,8 @@ from snn_fg.scenes import disc, flipping_disc_recording
 from snn_fg.spiking.continuous import run_spiking_windows
 from snn_fg.lowering.input_spikes import event_spikes
 
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 
 
@@ -44,6 +46,7 @@ def flip_runs():
     return scenes, runs
 
 
+@pytest.mark.slow
 def test_one_window_of_a_recording_runs_as_a_recording_of_that_window():
     """The spiking model's ``run_window`` simulates the window and the
     read-out lag once, events at their own times (no replay up to a frame's
@@ -84,6 +87,7 @@ def _inward(scenes, maps):
     return [inward_score(m.fg_x, m.fg_y, sc.labels > 0) for sc, m in zip(scenes, maps)]
 
 
+@pytest.mark.slow
 def test_with_the_clock_every_window_groups_its_own_figure(flip_runs):
     """With the clock, every window of the polarity-flipping disc points
     inwards (the discs differ only in polarity, so each window must pick the
@@ -95,6 +99,7 @@ def test_with_the_clock_every_window_groups_its_own_figure(flip_runs):
     assert runs[False][0].params["simulation"]["window_clock"] is False
 
 
+@pytest.mark.slow
 def test_without_the_clock_a_window_inherits_the_previous_family(flip_runs):
     """The hysteresis the clock removes: without it, a dark-disc window that
     follows a light-disc one has its vectors pointing inwards markedly less."""
@@ -113,6 +118,7 @@ def _clocked_input(window_ms=60.0):
     return _disc_input().with_clock([0, int(window_ms / 0.5)])
 
 
+@pytest.mark.slow
 @BRIAN2
 def test_clock_spikes_are_identical_to_brian2s_and_silence_the_grouping_cells():
     """On a small network whose clock fires at 0 and 60 ms, the fast engine
@@ -140,6 +146,7 @@ def test_clock_spikes_are_identical_to_brian2s_and_silence_the_grouping_cells():
     assert np.count_nonzero((t > 60 + delay) & (t <= 70 + delay)) == 0
 
 
+@pytest.mark.slow
 def test_a_network_without_a_clock_ignores_clock_spikes():
     """Clock spikes given to a network without a clock change nothing."""
     inp = _clocked_input()
@@ -158,6 +165,7 @@ def test_a_repeating_input_has_no_windows_to_mark():
         inp.with_clock([0])
 
 
+@pytest.mark.slow
 def test_a_frame_gives_the_same_maps_with_or_without_a_clock():
     """A frame never fires the clock: the default network (with one) gives
     the maps of the network without it, on both engines."""
@@ -174,6 +182,7 @@ def test_a_frame_gives_the_same_maps_with_or_without_a_clock():
         assert np.abs(runs[0].fg_x).sum() > 0
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not available_backends()["nest"][0], reason="needs NEST (pip install 'snn-fg[nest]')")
 def test_nest_receives_the_clock_too():
     """The NEST backend wires the clock like the others: its grouping cells
@@ -202,6 +211,7 @@ def _same_maps(a, b):
         assert px == py
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["fast", pytest.param("brian2", marks=BRIAN2)])
 def test_a_run_that_forgets_each_bin_once_read_gives_the_kept_runs_maps(backend):
     """``keep_run=False`` (what ``snn-fg run`` does: the backend hands each

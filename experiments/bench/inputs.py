@@ -1,8 +1,8 @@
 """The benchmark's inputs, rebuilt from a small spec in every measuring process.
 
-* ``bsds:<id>`` - a shared BSDS event frame (../shared/data/bsds-edfg/<id>.npz);
-* ``dvs:<k>[@<start_ms>]`` - the k-th 85 ms window of
-  ../shared/data/events/dvs.es from ``start_ms`` (default 1: the first
+* ``bsds:<id>`` - a BSDS event frame of the dataset ``bsds-edfg`` (``<id>.npz``);
+* ``dvs:<k>[@<start_ms>]`` - the k-th 85 ms window of dvs.es (dataset
+  ``events``) from ``start_ms`` (default 1: the first
   millisecond, a full-frame reset burst, dropped);
 * ``synth:<n>`` - a synthetic 85 ms window of ``n`` events on a 320 x 240
   sensor: edge events of random discs and bars, a few events per pixel, as a
@@ -16,10 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
-SHARED = ROOT.parent / "shared" / "data"
-BSDS = SHARED / "bsds-edfg"
-DVS = SHARED / "events" / "dvs.es"
 WINDOW_MS = 85.0
 DVS_START_MS = 1.0          # dvs.es opens with a ~77k-event reset burst in its first ms
 SENSOR = (320, 240)         # width, height of dvs.es and of the synthetic windows
@@ -62,7 +58,18 @@ class BenchInput:
 
 
 def bsds_names() -> list[str]:
-    return sorted(p.stem for p in BSDS.glob("*.npz")) if BSDS.exists() else []
+    """The BSDS reference frames' ids (none when the dataset ``bsds-edfg`` is absent)."""
+    from snn_fg import datasets
+
+    folder = datasets.find("bsds-edfg")
+    return sorted(p.stem for p in folder.glob("*.npz")) if folder is not None else []
+
+
+def dvs_path() -> Path:
+    """dvs.es; ends the benchmark with the fetch command when the dataset ``events`` is absent."""
+    from experiments.common import dataset
+
+    return dataset("events", "dvs.es")
 
 
 def dvs_windows(max_windows=None, start_ms: float = DVS_START_MS):
@@ -71,7 +78,7 @@ def dvs_windows(max_windows=None, start_ms: float = DVS_START_MS):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)
-        return list(iter_windows(DVS, window_ms=WINDOW_MS, start_ms=start_ms, max_windows=max_windows))
+        return list(iter_windows(dvs_path(), window_ms=WINDOW_MS, start_ms=start_ms, max_windows=max_windows))
 
 
 def _contour_pixels(rng, width, height, want):
@@ -117,7 +124,9 @@ def load(spec: str) -> BenchInput:
     """The input named by ``spec`` (see the module docstring)."""
     kind, _, arg = spec.partition(":")
     if kind == "bsds":
-        d = np.load(BSDS / f"{arg}.npz")
+        from experiments.common import dataset
+
+        d = np.load(dataset("bsds-edfg", f"{arg}.npz"))
         return BenchInput(spec, d["pos"], d["neg"])
     if kind == "dvs":
         k, _, start = arg.partition("@")

@@ -4,12 +4,12 @@ One command times, in one run and on the same inputs, the rate model and the
 spiking model on every registered backend (``snn_fg.backends.backend_names()``;
 a backend that is not installed is skipped with a note):
 
-* ``frames``     - the six shared BSDS event frames (rate: ratio to the
+* ``frames``     - the six BSDS reference frames (dataset ``bsds-edfg``; rate: ratio to the
   authors' code, calibrated in the same process: their frame time is 955 x one
   ``scipy.ndimage.correlate`` of a 321 x 481 float64 array with a 49 x 49
   kernel, timed right before each repeat). Spiking backends on frames take
   minutes each with Brian2: only with ``--spiking-frames``;
-* ``dvs``        - 85 ms windows of ../shared/data/events/dvs.es (first ms dropped);
+* ``dvs``        - 85 ms windows of dvs.es (dataset ``events``; first ms dropped);
 * ``synthetic``  - synthetic 85 ms windows of 1k to 100k events, and the
   scaling of time per window with event count (least-squares slope and fixed
   cost) per engine;
@@ -51,7 +51,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .inputs import DVS, DVS_START_MS, ROOT, WINDOW_MS, bsds_names, dvs_windows
+from experiments.common import ROOT, git_commit
+
+from .inputs import DVS_START_MS, WINDOW_MS, bsds_names, dvs_path, dvs_windows
 from .report import plot_scaling, print_summary
 
 SECTIONS = ("calibrate", "frames", "dvs", "synthetic", "throughput", "stream", "profile")
@@ -132,7 +134,7 @@ def section_frames(args, eng):
     out = {}
     frames = args.frames or bsds_names()
     if not frames:
-        return {"note": "no ../shared/data/bsds-edfg here"}
+        return {"note": "the dataset bsds-edfg is absent (snn-fg data fetch bsds-edfg)"}
     for model, backend in eng:
         if model == "spiking" and not args.spiking_frames:
             continue
@@ -193,7 +195,7 @@ def section_throughput(args, eng):
     n_all = len(dvs_windows())
     for model, backend in eng:
         with tempfile.TemporaryDirectory() as tmp:
-            cmd = [sys.executable, "-c", "from snn_fg.cli import console; console()", "run", str(DVS),
+            cmd = [sys.executable, "-c", "from snn_fg.cli import console; console()", "run", str(dvs_path()),
                    "--model", model, "--window-ms", str(WINDOW_MS), "--start-ms", str(DVS_START_MS),
                    "--out", str(Path(tmp) / "out"), "--no-progress"]
             n = n_all
@@ -242,8 +244,8 @@ def section_stream(args, eng):
                 name = f"{engine_name(model, backend)}@{network} {cores} core{'s' if cores > 1 else ''}"
                 with tempfile.TemporaryDirectory() as tmp:
                     res = Path(tmp) / "out"
-                    cmd = [sys.executable, "-c", "from snn_fg.cli import console; console()", "run", str(DVS),
-                           "--model", model, "--network", network, "--window-ms", str(WINDOW_MS), "--start-ms",
+                    cmd = [sys.executable, "-c", "from snn_fg.cli import console; console()", "run",
+                           str(dvs_path()), "--model", model, "--network", network, "--window-ms", str(WINDOW_MS), "--start-ms",
                            "100", "--no-figures", "--no-progress", "--out", str(res)]
                     cmd += ["--backend", backend] if backend else []
                     print(f"[{name}] snn-fg run dvs.es --start-ms 100 --no-figures", file=sys.stderr, flush=True)
@@ -352,8 +354,8 @@ def main(argv=None) -> int:
     eng, notes = engines(args.only)
     for n in notes:
         print(f"note: {n}", file=sys.stderr)
-    run = {"started": datetime.datetime.now().isoformat(timespec="seconds"), "command": sys.argv,
-           "cpus": os.cpu_count(), "load_at_start": uptime(), "engines": [engine_name(*e) for e in eng],
+    run = {"started": datetime.datetime.now().isoformat(timespec="seconds"), "commit": git_commit(),
+           "command": sys.argv, "cpus": os.cpu_count(), "load_at_start": uptime(), "engines": [engine_name(*e) for e in eng],
            "notes": notes}
     measured = {}
     for name in args.sections:

@@ -88,7 +88,7 @@ class SpikingParams(Node):
         thresholds from a pair at 600 Hz, the 90th percentile on a BSDS
         frame, decaying with the border-ownership cells' ``tau_inh``, 5 ms:
         about 27 ms to half a threshold); otherwise the family that won one window
-        wins the next whatever its input (``experiments/window_clock.py``).
+        wins the next whatever its input (``experiments.validation.window_clock``).
         A frame never fires it.
     Neurons
         One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
@@ -104,7 +104,7 @@ class SpikingParams(Node):
         as it is. The untuned cells had 50 ms inhibition until 24 Nov 2026;
         with 5 ms the maps moved by at most 0.4 deg against the rate model
         on held-out images and the synthetic scenes, 2.1 deg on the demo
-        scene (``experiments/spiking_heldout.py``). The feedback
+        scene (``experiments.validation.spiking_heldout``). The feedback
         cells carry ``z`` as a rate through the top-down chain of stage 8, so
         their rate must stay proportional to their drive over the range
         ``z`` takes (a rectified pair at 100-600 Hz, a tail to 2 kHz on BSDS

@@ -2,7 +2,7 @@
 
 STANDALONE (standard library only; copied into every PyNN export as
 ``fg_memory.py``). The figures are measured by
-``experiments/export_memory.py`` (``experiments/results/export_memory.md``):
+``experiments.bench.export_memory`` (``experiments/results/export_memory.md``):
 ``run.py`` on NEST 3.10 (PyNN 0.13, one thread) for exports of several sizes,
 peak resident memory and wall times against the cells and synapses built.
 """

@@ -29,7 +29,7 @@ This variant changes stage 7 and the parameters, nothing else:
   coarser objects are still reached through the pyramid.
 
 The choices were made on the tuning half of the shared BSDS images
-(``experiments/natural_scenes.py``, ``docs/model.md``).
+(``experiments.validation.natural_scenes``, ``docs/model.md``).
 
 Everything else (events, pyramid, oriented responses, border-ownership
 cells, feedback gain, read-out) is the reference's.

@@ -36,7 +36,7 @@ from ..network.spiking_params import SpikingParams
 from ..params import ModelParams
 
 #: Default read-out lag (ms) of a recording's windows: see
-#: :mod:`snn_fg.spiking.continuous` and ``experiments/dvs_latency.py`` for how
+#: :mod:`snn_fg.spiking.continuous` and ``experiments/validation/dvs_latency.py`` for how
 #: long the network takes to answer.
 READOUT_LAG_MS = 20.0
 

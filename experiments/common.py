@@ -1,0 +1,132 @@
+"""What every experiment shares: where things are, the record each result carries, markdown tables.
+
+Experiments run from the repository's root as modules,
+``python -m experiments.<tier>.<name>``; their data come from
+:mod:`snn_fg.datasets` (``snn-fg data list``), their results go to
+``experiments/results/``.
+
+A result records how it was made (:class:`Run`): the commit, the command
+line, the date and the machine's load average before and after, so a number
+in a table can be traced to the code and the conditions that produced it.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Iterable, NoReturn, Sequence
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "experiments" / "results"
+CACHE = RESULTS / "cache"
+
+
+def fail(message: str) -> NoReturn:
+    """End the experiment with one line on stderr and exit status 2."""
+    print(f"{Path(sys.argv[0]).stem}: error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def dataset(name: str, *parts) -> Path:
+    """Path of a dataset (or of a file in it); ends the experiment with the fetch command when it is absent."""
+    from snn_fg import datasets
+
+    try:
+        return datasets.require(name, *parts)
+    except datasets.DatasetError as exc:
+        fail(str(exc))
+
+
+def load() -> list[float]:
+    """The 1, 5 and 15 minute load averages, rounded."""
+    return [round(v, 2) for v in os.getloadavg()]
+
+
+def load_change(before: Sequence[float]) -> str:
+    """``"1.2 -> 3.4"``: the 1-minute load average ``before`` (a :func:`load`) and now."""
+    return f"{before[0]:.1f} -> {load()[0]:.1f}"
+
+
+def git_commit() -> str:
+    """The checkout's commit, with ``-dirty`` when files differ from it (``unknown`` outside git)."""
+    def git(*args):
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=30).stdout.strip()
+
+    try:
+        head = git("rev-parse", "--short=10", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return (head + ("-dirty" if dirty else "")) if head else "unknown"
+
+
+def command_line() -> str:
+    """The command as typed from the repository root: ``python -m experiments.<tier>.<name> ARGS``."""
+    main = sys.modules.get("__main__")
+    spec = getattr(main, "__spec__", None)
+    what = f"-m {spec.name}" if spec is not None and spec.name else Path(sys.argv[0]).as_posix()
+    return " ".join(["python", what, *sys.argv[1:]])
+
+
+class Run:
+    """How a result is made; create it before the work, take :meth:`record` after."""
+
+    def __init__(self):
+        self.date = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+        self.load_before = load()
+        self._t0 = time.perf_counter()
+
+    @property
+    def seconds(self) -> float:
+        return time.perf_counter() - self._t0
+
+    def record(self) -> dict:
+        """``commit``, ``command``, ``date`` (start), ``seconds``, ``load_before``, ``load_after``."""
+        return {"commit": git_commit(), "command": command_line(), "date": self.date,
+                "seconds": round(self.seconds, 1), "load_before": self.load_before, "load_after": load()}
+
+
+def describe(run: dict) -> str:
+    """One line for a results page from a :meth:`Run.record`."""
+    minutes = run["seconds"] / 60
+    took = f"{minutes:.1f} min" if minutes >= 1 else f"{run['seconds']:.0f} s"
+    return (f"`{run['command']}` at {run['commit']}, {run['date']}: {took}, load average "
+            f"{run['load_before'][0]:.1f} before, {run['load_after'][0]:.1f} after.")
+
+
+def markdown_table(header: Sequence, rows: Iterable[Sequence]) -> list[str]:
+    """A markdown table's lines: the header, the rule, one line per row (cells as given, through ``str``)."""
+    lines = ["| " + " | ".join(str(h) for h in header) + " |", "|" + " --- |" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return lines
+
+
+def _plain(value):
+    """numpy scalars and arrays as JSON numbers and lists."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def save_json(name: str, record) -> Path:
+    """``results/<name>.json`` (numpy values as plain numbers), written atomically."""
+    from snn_fg.atomic import save_text
+
+    return save_text(RESULTS / f"{name}.json", json.dumps(record, indent=1, default=_plain) + "\n")
+
+
+def save_markdown(name: str, lines: Sequence[str]) -> Path:
+    """``results/<name>.md`` from its lines, written atomically."""
+    from snn_fg.atomic import save_text
+
+    return save_text(RESULTS / f"{name}.md", "\n".join(lines).rstrip("\n") + "\n")
+
+
+def save_figure(fig, name: str, **kwargs) -> Path:
+    """``results/<name>.png`` (``dpi=110, bbox_inches="tight"`` unless given), written atomically."""
+    from snn_fg.atomic import save_figure as save
+
+    return save(fig, RESULTS / f"{name}.png", **{"dpi": 110, "bbox_inches": "tight", **kwargs})

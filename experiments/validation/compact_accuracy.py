@@ -1,0 +1,207 @@
+"""The compact network against the default network, on every truth we have (issue 36, item 4).
+
+Both networks (``--networks``, recipes of ``snn_fg.network.recipes``) run as
+spiking networks on the fast engine, the compact one also with the weights
+a board holds (``--weight-bits``, 8 by default: "as deployed"):
+
+* **discs** of radius 16-64 px, light on dark and dark on light, turned into
+  events by the built-in ``shift4`` motion: the share of scored boundary
+  pixels within 45 degrees of the analytic direction, the mean absolute
+  error, coverage, and whether the grouping peak lies inside the disc;
+* **dvs.es** from 100 ms in 85 ms windows, one continuous run: per window,
+  whether the grouping peak lies on the plane (inside the filled outline of
+  the window's events), and the share of outline vectors pointing inward
+  (``snn_fg.outline``), as ``experiments.validation.dvs_biplane`` scores them;
+* **labelled BSDS images** (every ``--every``-th of the 160 of the dataset
+  ``bsds-fg``, sorted by id; the paper's event conversion at
+  contrast 0.10): against both labellers pooled, binary side accuracy
+  (within 90 degrees), coverage, within 45 degrees and the mean absolute
+  error (``snn_fg.evaluation.pool_stats``), pooled and per image.
+
+    python -m experiments.validation.compact_accuracy [--every 8] [--workers 2] [--weight-bits 8 --quantised compact]
+
+Writes experiments/results/compact_accuracy.{json,md,png}.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from experiments.common import (Run, dataset, describe, markdown_table, save_figure, save_json,  # noqa: E402
+                                save_markdown)
+
+RADII = (16, 24, 32, 48, 64)
+DVS_START_MS, WINDOW_MS = 100.0, 85.0
+BSDS_THRESHOLD = 0.10
+
+
+def _backend(bits):
+    from snn_fg.backends import get_backend
+
+    return get_backend("fast", **({"weight_bits": bits} if bits else {}))
+
+
+def discs(network: str, bits) -> list[dict]:
+    from snn_fg.events import image_to_frame
+    from snn_fg.metrics import grouping_peak_inside, truth_scores
+    from snn_fg.scenes import disc
+    from snn_fg.spiking import run_spiking
+
+    rows, backend = [], _backend(bits)
+    for radius in RADII:
+        for light in (True, False):
+            scene = disc(radius=radius, light_on_dark=light)
+            pos, neg = image_to_frame(scene.image)
+            m = run_spiking(pos, neg, network=network, backend=backend, progress=False)
+            t = truth_scores(m.fg_x, m.fg_y, scene)
+            rows.append({"radius": radius, "light_on_dark": light, "within45": t["frac_within_45"],
+                         "mean_abs_deg": t["mean_err_deg"], "coverage": t["coverage"],
+                         "peak_inside": bool(grouping_peak_inside(m.grouping, scene))})
+    return rows
+
+
+def dvs(network: str, bits) -> tuple[list[dict], list]:
+    from snn_fg.events import iter_windows
+    from snn_fg.metrics import grouping_peak
+    from snn_fg.outline import filled_outline, outline_scores
+    from snn_fg.spiking.continuous import run_spiking_windows
+
+    windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=WINDOW_MS, start_ms=DVS_START_MS))
+    maps = run_spiking_windows(windows, network=network, backend=_backend(bits), progress=False)
+    rows = []
+    for w, m in zip(windows, maps):
+        region = filled_outline(w.pos | w.neg)
+        r, c = grouping_peak(m.grouping)
+        o = outline_scores(m.fg_x, m.fg_y, region)
+        rows.append({"t_start_ms": (w.t_start_us - windows[0].t_start_us) / 1000 + DVS_START_MS,
+                     "plane_found": bool(region[r, c]), "inward": o["inward"], "vectors": o["vectors"],
+                     "within45": o["within45"], "mean_abs_deg": o["mean_deg"]})
+    return rows, [(w, m) for w, m in zip(windows, maps)][8:9]
+
+
+def bsds_image(job) -> dict:
+    """One labelled image through one network: its error parts against both labellers."""
+    image_id, network, bits = job
+    from snn_fg.evaluation import error_stats
+    from snn_fg.events import image_to_frame
+    from snn_fg.groundtruth import angle_errors, boundary_directions, load_bsds_fg
+    from snn_fg.spiking import run_spiking
+
+    gt = load_bsds_fg(dataset("bsds-fg"), image_id)
+    pos, neg = image_to_frame(str(gt.image_path), threshold=BSDS_THRESHOLD, motion="paper")
+    t = time.perf_counter()
+    m = run_spiking(pos, neg, network=network, backend=_backend(bits), progress=False)
+    parts = [error_stats(angle_errors(m.fg_x, m.fg_y, *truth), n_truth=int(truth[2].sum()))
+             for truth in (boundary_directions(f) for f in gt.fg)]
+    seconds = time.perf_counter() - t
+    print(f"  [{network}{f' {bits}-bit' if bits else ''}] BSDS {image_id}: {seconds:.0f} s", file=sys.stderr, flush=True)
+    return {"image_id": image_id, "parts": parts, "seconds": seconds}
+
+
+def _runs(networks, quantised, bits) -> list[tuple[str, str, int | None]]:
+    """(label, recipe, weight bits): each network exact, and those of ``quantised`` with ``bits`` as deployed."""
+    out = [(n, n, None) for n in networks]
+    return out + [(f"{n} {bits}-bit", n, bits) for n in quantised if bits]
+
+
+def main():
+    from snn_fg.evaluation import SCORES, pool_stats
+    from snn_fg.groundtruth import bsds_ids
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--networks", default="default,compact")
+    ap.add_argument("--weight-bits", type=int, default=8, help="also run --quantised with B-bit weights (0: no)")
+    ap.add_argument("--quantised", default="compact", help="networks also run with B-bit weights (compact)")
+    ap.add_argument("--every", type=int, default=8, help="every N-th labelled BSDS image, by sorted id (8: 20 images)")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--name", default="compact_accuracy")
+    a = ap.parse_args()
+    dataset("events")
+    run = Run()
+    runs = _runs(a.networks.split(","), [n for n in a.quantised.split(",") if n], a.weight_bits)
+    ids = bsds_ids(dataset("bsds-fg"))[::a.every]
+    record = {"networks": {}, "bsds_images": ids, "bsds_threshold": BSDS_THRESHOLD}
+    panels = []
+    with ProcessPoolExecutor(a.workers) as pool:
+        for label, network, bits in runs:
+            print(f"[{label}] discs, dvs.es, {len(ids)} BSDS images", file=sys.stderr, flush=True)
+            images = list(pool.map(bsds_image, [(i, network, bits) for i in ids]))
+            d = discs(network, bits)
+            print(f"  [{label}] discs done", file=sys.stderr, flush=True)
+            v, shown = dvs(network, bits)
+            print(f"  [{label}] dvs.es done", file=sys.stderr, flush=True)
+            panels.append((label, shown))
+            parts = [p for im in images for p in im["parts"]]
+            record["networks"][label] = {
+                "recipe": network, "weight_bits": bits, "discs": d, "dvs": v,
+                "bsds": {"pooled": pool_stats(parts),
+                         "per_image": [{"image_id": im["image_id"], "seconds": im["seconds"],
+                                        **pool_stats(im["parts"])} for im in images]}}
+    record["run"] = run.record()
+    save_json(a.name, record)
+    save_markdown(a.name, table(record, SCORES))
+    save_figure(figure(panels), a.name, dpi=70, bbox_inches=None)
+    print("\n".join(table(record, SCORES)))
+
+
+def summary(net: dict) -> dict:
+    d, v, b = net["discs"], net["dvs"], net["bsds"]["pooled"]
+    return {"discs_within45_min": min(r["within45"] for r in d), "discs_mean_abs_max": max(r["mean_abs_deg"] for r in d),
+            "discs_peak_inside": sum(r["peak_inside"] for r in d), "discs": len(d),
+            "dvs_plane_found": sum(r["plane_found"] for r in v), "dvs_windows": len(v),
+            "dvs_inward_min": min(r["inward"] for r in v), "dvs_inward_median": float(np.median([r["inward"] for r in v])),
+            "dvs_within45_median": float(np.median([r["within45"] for r in v])),
+            "bsds_side_accuracy": b["side_accuracy"], "bsds_coverage": b["coverage"], "bsds_within45": b["within45"],
+            "bsds_mean_abs_deg": b["mean_abs_deg"]}
+
+
+def table(record: dict, scores) -> list[str]:
+    nets = record["networks"]
+    s = {k: summary(v) for k, v in nets.items()}
+    cols = list(nets)
+    rows = [("discs r 16-64, both polarities: least share within 45 deg", "discs_within45_min", "{:.3f}"),
+            ("discs: largest mean absolute error (deg)", "discs_mean_abs_max", "{:.1f}"),
+            ("discs: grouping peak inside", "discs_peak_inside", "{:d} of " + str(s[cols[0]]["discs"])),
+            ("dvs.es: windows with the plane found", "dvs_plane_found", "{:d} of " + str(s[cols[0]]["dvs_windows"])),
+            ("dvs.es: least share of outline vectors inward", "dvs_inward_min", "{:.2f}"),
+            ("dvs.es: median share inward", "dvs_inward_median", "{:.2f}"),
+            ("dvs.es: median share within 45 deg of the inward normal", "dvs_within45_median", "{:.2f}"),
+            (f"BSDS ({len(record['bsds_images'])} images): side accuracy", "bsds_side_accuracy", "{:.3f}"),
+            ("BSDS: coverage", "bsds_coverage", "{:.3f}"), ("BSDS: within 45 deg", "bsds_within45", "{:.3f}"),
+            ("BSDS: mean absolute error (deg)", "bsds_mean_abs_deg", "{:.1f}")]
+    lines = [f"# Compact network against the default network ({record['run']['date']})", "",
+             f"{describe(record['run'])} Spiking networks on the fast engine; \"B-bit\": every weight as a B-bit "
+             "integer times one scale per projection.", ""]
+    lines += markdown_table(["measure", *cols], [[text, *(fmt.format(s[c][key]) for c in cols)]
+                                                  for text, key, fmt in rows])
+    lines += ["", "Per dvs.es window (share of outline vectors inward):", ""]
+
+    def window(k, r):
+        return [f"{r['t_start_ms']:.0f}", *(f"{nets[c]['dvs'][k]['inward']:.2f}"
+                                            f"{'' if nets[c]['dvs'][k]['plane_found'] else ' (plane missed)'}"
+                                            for c in cols)]
+
+    return lines + markdown_table(["window (ms)", *cols], [window(k, r) for k, r in enumerate(nets[cols[0]]["dvs"])])
+
+
+def figure(panels):
+    from snn_fg.figures import event_frame_rgb, plot_maps_row
+
+    fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
+    for ax, (label, shown) in zip(axes, panels):
+        (w, m), = shown
+        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), m.fg_x, m.fg_y, m.grouping, f"{label}: dvs.es window 8")
+    fig.tight_layout()
+    return fig
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,141 @@
+"""An independent NIR consumer (snnTorch 1.0.0 through nirtorch 2.6) executes the exported graph.
+
+The exact graph (``snn-fg export --format nir``) is refused by snnTorch at
+its first LIF node (``v_leak`` must be 0) and has LI, Delay and several
+Input nodes it cannot map; the ``snntorch`` profile
+(``snn_fg.export.nir_snntorch``) writes what it imports. On each input:
+
+* **consumer**: snnTorch running the profile's graph (read back from its
+  file), decoded with our decoder, against the fast engine running the
+  exported network (the board network) on the same input spikes;
+* **encoding**: the fast engine running the profile's network (no delays
+  beyond one step, no refractoriness, zero padding; what the graph holds)
+  against the same reference: the cost of the encoding alone;
+* **consumer vs encoding**: snnTorch against the fast engine on the
+  profile's network: what snnTorch's own arithmetic changes.
+
+Inputs: a disc of radius 16 (regular trains, 200 Hz) and a 64 x 48 crop of a
+``dvs.es`` window (the crop with the most event pixels of the window from
+100 ms, 85 ms; its events at their own times, replayed as ``snn-fg run``
+presents one window). One-level networks (the profile cannot interpolate
+between pyramid levels); 400 ms, counting from 200 ms, 0.5 ms steps.
+
+Writes experiments/results/nir_consumer.{json,md}.
+Usage: python -m experiments.validation.nir_consumer [--inputs disc dvs] [--duration-ms 400] [--radius 16]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from experiments.common import RESULTS, Run, dataset, markdown_table, save_json, save_markdown
+from snn_fg.backends import RunSettings, get_backend
+from snn_fg.export.board import board_network
+from snn_fg.export.nir_snntorch import run_snntorch, snntorch_network, to_nir_snntorch
+from snn_fg.metrics import agreement
+from snn_fg.network import build_network
+from snn_fg.params import ModelParams
+from snn_fg.spiking.decode import decode, decode_rates
+
+DT_MS = 0.5
+
+
+def disc_input(radius: float, duration_ms: float):
+    from snn_fg.events import image_to_frame
+    from snn_fg.scenes import disc
+    from snn_fg.lowering.input_spikes import frame_spikes
+
+    pos, neg = image_to_frame(disc(radius).image)
+    return frame_spikes(pos, neg, 200.0, DT_MS, duration_ms), f"disc r{radius:g} ({pos.shape[1]} x {pos.shape[0]})"
+
+
+def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0):
+    from snn_fg.events import iter_recording, iter_windows
+    from snn_fg.export.loop import busiest_crop, crop_events
+    from snn_fg.lowering.input_spikes import event_spikes
+
+    path = dataset("events", "dvs.es")
+    win = next(iter(iter_windows(iter_recording(path), window_ms=window_ms, start_ms=start_ms, max_windows=1)))
+    r0, c0 = busiest_crop((win.pos > 0) | (win.neg > 0), shape)
+    ev = crop_events(win.events, (r0, c0), shape)
+    inp = event_spikes(ev, (shape[1], shape[0]), DT_MS, replay=True, t0_us=win.t_start_us)
+    return inp, f"dvs.es {win.t_start_us}..{win.t_end_us} us, {shape[1]} x {shape[0]} crop at x={c0}, y={r0}"
+
+
+def compare(net, inp, duration_ms: float, tmp: Path) -> dict:
+    import nir
+    import torch
+
+    torch.set_num_threads(1)
+    profile = snntorch_network(net, DT_MS)
+    path = tmp / "graph.nir"
+    nir.write(path, to_nir_snntorch(net, step_ms=DT_MS))
+    settings = RunSettings(duration_ms=duration_ms, count_from_ms=duration_ms / 2, instantiate="all")
+    fast = get_backend("fast")
+    t0 = time.perf_counter()
+    ref = decode(fast.simulate(board_network(net), inp, settings))[:3]
+    enc_run = fast.simulate(profile, inp, settings)
+    enc = decode(enc_run)[:3]
+    t1 = time.perf_counter()
+    counts = run_snntorch(nir.read(path), net, inp, step_ms=DT_MS, duration_ms=duration_ms,
+                          count_from_ms=duration_ms / 2)
+    t2 = time.perf_counter()
+    window_s = duration_ms / 2 / 1e3
+    ours = decode_rates(profile, {k: np.arange(v.size) for k, v in counts.items()},
+                        {k: v / window_s for k, v in counts.items()})[:3]
+    spikes = {"snntorch": int(sum(v.sum() for v in counts.values())),
+              "fast_profile": int(sum(v.sum() for v in enc_run.counts.values()))}
+    return {"consumer": agreement(ours, ref), "encoding": agreement(enc, ref),
+            "consumer_vs_encoding": agreement(ours, enc), "spikes_counted": spikes,
+            "fast_s": t1 - t0, "snntorch_s": t2 - t1}
+
+
+def _load(r) -> str:
+    """The load average when the input ran (a record from before the run records: as stored)."""
+    if "run" not in r:
+        return r["load"]
+    return f"{r['run']['load_before'][0]:.1f} -> {r['run']['load_after'][0]:.1f}"
+
+
+def markdown(out: dict) -> list[str]:
+    comparisons = (("consumer", "snnTorch vs fast"), ("encoding", "profile network (fast) vs fast"),
+                   ("consumer_vs_encoding", "snnTorch vs profile network (fast)"))
+    rows = [[r["what"], label, f"{r[key]['grouping_r']:.3f}", f"{r[key]['within_45']:.3f}",
+             f"{r[key]['mean_deg']:.1f}", f"{r[key]['coverage']:.3f}", f"{r['snntorch_s']:.0f}", _load(r)]
+            for r in out["inputs"].values() for key, label in comparisons]
+    return ["# An independent NIR consumer runs the export (snnTorch 1.0.0, nirtorch 2.6)", "",
+            "One-level network, `snn-fg export --format nir --nir-profile snntorch`; decoded with snn-fg's "
+            "decoder. Reference: the fast engine on the exported (board) network, same input spikes. Each input's "
+            "run (commit, command, date) is in `nir_consumer.json`.", ""] + markdown_table(
+        ["input", "comparison", "grouping r", "within 45°", "mean angle °", "coverage", "snnTorch s", "load"], rows)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--inputs", nargs="+", default=["disc", "dvs"], choices=["disc", "dvs"])
+    ap.add_argument("--duration-ms", type=float, default=400.0)
+    ap.add_argument("--radius", type=float, default=16.0)
+    args = ap.parse_args(argv)
+    path = RESULTS / "nir_consumer.json"
+    out = json.loads(path.read_text()) if path.exists() else {"inputs": {}}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in args.inputs:
+            inp, what = disc_input(args.radius, args.duration_ms) if name == "disc" else dvs_input()
+            net = build_network(ModelParams(levels=1), inp.shape)
+            run = Run()
+            r = compare(net, inp, args.duration_ms, Path(tmp))
+            r.update(what=what, duration_ms=args.duration_ms, run=run.record())
+            out["inputs"][name] = r
+            print(name, json.dumps(r, default=float), flush=True)
+            save_json("nir_consumer", out)
+    save_markdown("nir_consumer", markdown(out))
+    print("\n".join(markdown(out)))
+
+
+if __name__ == "__main__":
+    main()

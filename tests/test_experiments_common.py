@@ -1,0 +1,65 @@
+"""experiments.common: the record every result carries, the markdown tables, the data an experiment needs;
+and every experiment module imports (run from the repository root as ``python -m experiments...``)."""
+import importlib
+import pkgutil
+import sys
+import types
+from pathlib import Path
+
+import pytest
+
+import experiments
+from experiments import common
+from snn_fg import datasets
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_a_markdown_table_has_a_header_a_rule_and_one_line_per_row():
+    lines = common.markdown_table(["a", "b"], [[1, "x"], [2.5, ""]])
+    assert lines == ["| a | b |", "| --- | --- |", "| 1 | x |", "| 2.5 |  |"]
+
+
+def test_the_command_line_is_the_module_as_typed(monkeypatch):
+    main = types.ModuleType("__main__")
+    main.__spec__ = importlib.util.find_spec("experiments.paper.table1")
+    monkeypatch.setitem(sys.modules, "__main__", main)
+    monkeypatch.setattr(sys, "argv", [str(ROOT / "experiments" / "paper" / "table1.py"), "--quick"])
+    assert common.command_line() == "python -m experiments.paper.table1 --quick"
+
+
+def test_a_run_record_names_the_commit_the_command_the_date_and_the_load():
+    run = common.Run()
+    rec = run.record()
+    assert set(rec) == {"commit", "command", "date", "seconds", "load_before", "load_after"}
+    head = rec["commit"].removesuffix("-dirty")
+    assert len(head) == 10 and int(head, 16) >= 0           # a short hash of this checkout
+    assert rec["command"].startswith("python ")
+    assert len(rec["load_before"]) == len(rec["load_after"]) == 3
+    assert 0 <= rec["seconds"] < 60
+    line = common.describe(rec)
+    assert rec["commit"] in line and rec["date"] in line and "load average" in line
+
+
+def test_an_absent_dataset_ends_the_experiment_with_the_fetch_command(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv(datasets.ENV_VAR, str(tmp_path))
+    with pytest.raises(SystemExit) as stop:
+        common.dataset("events", "dvs.es")
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "snn-fg data fetch events" in err[0]
+
+
+def _experiment_modules():
+    names = []
+    for info in pkgutil.walk_packages(experiments.__path__, "experiments."):
+        if info.name != "experiments.bench.__main__":        # (it runs the bench)
+            names.append(info.name)
+    return sorted(names)
+
+
+@pytest.mark.slow
+def test_every_experiment_module_imports():
+    assert len(_experiment_modules()) > 40
+    for name in _experiment_modules():
+        importlib.import_module(name)

@@ -25,6 +25,7 @@ Writes experiments/results/compact_accuracy.{json,md,png}.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -35,7 +36,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.common import (Run, dataset, describe, markdown_table, save_figure, save_json,  # noqa: E402
+from experiments.common import (CACHE, Run, dataset, describe, markdown_table, save_figure, save_json,  # noqa: E402
                                 save_markdown)
 
 RADII = (16, 24, 32, 48, 64)
@@ -92,6 +93,10 @@ def dvs(network: str, bits) -> tuple[list[dict], list]:
 def bsds_image(job) -> dict:
     """One labelled image through one network: its error parts against both labellers."""
     image_id, network, bits, threshold = job
+    cached = CACHE / "compact_accuracy" / f"{image_id}_{network}_{bits or 'float'}_{threshold:g}.json"
+    if cached.exists():     # an interrupted run keeps the images it finished
+        return json.loads(cached.read_text())
+    from snn_fg.atomic import save_text
     from snn_fg.evaluation import error_stats
     from snn_fg.events import image_to_frame
     from snn_fg.groundtruth import angle_errors, boundary_directions, load_bsds_fg
@@ -105,7 +110,10 @@ def bsds_image(job) -> dict:
              for truth in (boundary_directions(f) for f in gt.fg)]
     seconds = time.perf_counter() - t
     print(f"  [{network}{f' {bits}-bit' if bits else ''}] BSDS {image_id}: {seconds:.0f} s", file=sys.stderr, flush=True)
-    return {"image_id": image_id, "parts": parts, "seconds": seconds}
+    record = {"image_id": image_id, "parts": parts, "seconds": seconds}
+    cached.parent.mkdir(parents=True, exist_ok=True)
+    save_text(cached, json.dumps(record))
+    return record
 
 
 def _runs(networks, quantised, bits) -> list[tuple[str, str, int | None]]:

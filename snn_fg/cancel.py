@@ -3,8 +3,9 @@
 Python runs a signal handler wherever the main thread happens to be. When that
 is a finalizer run by the garbage collector, or an import, the
 KeyboardInterrupt it raises is swallowed there and the run goes on: a long
-simulation would then run to its end. The command line records every signal
-here (:func:`request`), and the long loops (the windows of a recording, the
+simulation would then run to its end. The command line catches SIGINT and SIGTERM
+with :class:`Signals`, which records each
+(:func:`request`), and the long loops (the windows of a recording, the
 chunks and segments of a simulation, the iterations of the rate model) call
 :func:`check` between steps.
 
@@ -21,6 +22,9 @@ stopped by SIGTERM
 >>> cancel.clear()
 """
 from __future__ import annotations
+
+import signal
+import sys
 
 _requested: list[str] = []
 
@@ -40,3 +44,38 @@ def check() -> None:
     KeyboardInterrupt was swallowed since)."""
     if _requested:
         raise KeyboardInterrupt(_requested[-1])
+
+
+class Signals:
+    """Ctrl-C (SIGINT) and SIGTERM while a command runs: each is remembered
+    (:func:`request`, so a run whose KeyboardInterrupt a library
+    swallowed still stops at its next check and never commits its output)
+    and raised as KeyboardInterrupt. A swallowed one is not printed ("Exception
+    ignored..."): the one-line message follows."""
+
+    def __init__(self):
+        self.received: list[str] = []
+        self.previous = {}
+        self.previous_hook = None
+
+    def __call__(self, signum, frame):      # noqa: ARG002 - signal handler signature
+        self.received.append(signal.Signals(signum).name)
+        request(self.received[-1])
+        raise KeyboardInterrupt(self.received[-1])
+
+    def _unraisable(self, info):
+        if not (issubclass(info.exc_type, KeyboardInterrupt) and self.received):
+            self.previous_hook(info)
+
+    def __enter__(self):
+        clear()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self.previous[sig] = signal.signal(sig, self)
+        self.previous_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
+        return self
+
+    def __exit__(self, *exc):
+        for sig, handler in self.previous.items():
+            signal.signal(sig, handler)
+        sys.unraisablehook = self.previous_hook
+        clear()

@@ -10,7 +10,6 @@ import argparse
 import contextlib
 import itertools
 import os
-import signal
 import sys
 import warnings
 
@@ -317,41 +316,6 @@ def _warnings_as_lines():
         yield
 
 
-class _Signals:
-    """Ctrl-C (SIGINT) and SIGTERM while a command runs: each is remembered
-    (:mod:`snn_fg.cancel`, so a run whose KeyboardInterrupt a library
-    swallowed still stops at its next check and never commits its output)
-    and raised as KeyboardInterrupt. A swallowed one is not printed ("Exception
-    ignored..."): the one-line message follows."""
-
-    def __init__(self):
-        self.received: list[str] = []
-        self.previous = {}
-        self.previous_hook = None
-
-    def __call__(self, signum, frame):      # noqa: ARG002 - signal handler signature
-        self.received.append(signal.Signals(signum).name)
-        cancel.request(self.received[-1])
-        raise KeyboardInterrupt(self.received[-1])
-
-    def _unraisable(self, info):
-        if not (issubclass(info.exc_type, KeyboardInterrupt) and self.received):
-            self.previous_hook(info)
-
-    def __enter__(self):
-        cancel.clear()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            self.previous[sig] = signal.signal(sig, self)
-        self.previous_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
-        return self
-
-    def __exit__(self, *exc):
-        for sig, handler in self.previous.items():
-            signal.signal(sig, handler)
-        sys.unraisablehook = self.previous_hook
-        cancel.clear()
-
-
 def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
     """Run one ``snn-fg`` command; returns the exit status.
 
@@ -364,7 +328,7 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
     args, extra = parser.parse_known_args(argv)
     if extra:       # report an unknown option under the subcommand's own usage
         subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
-    with _Signals() as signals, _warnings_as_lines():
+    with cancel.Signals() as signals, _warnings_as_lines():
         args.interrupted = lambda: bool(signals.received)
         try:
             try:

@@ -15,8 +15,8 @@ from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_frame
 from snn_fg.export import synapses
 from snn_fg.export.board import board_network, whole_pairs
-from snn_fg.pynn.network import (NEST_LOCAL_MARGIN, NEST_MAX_LOCAL_SENDERS, PyNNNetwork, nest_threads,
-                                       quantise, split_receptors)
+from snn_fg.pynn.cells import quantise, split_receptors
+from snn_fg.pynn.network import NEST_LOCAL_MARGIN, NEST_MAX_LOCAL_SENDERS, PyNNNetwork, nest_threads
 from snn_fg.metrics import compare_frame
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams

@@ -11,7 +11,7 @@ import pytest
 
 from snn_fg.export.board import board_network, table
 from snn_fg.export.pynn import export_pynn
-from snn_fg.pynn.network import list_rows
+from snn_fg.pynn.cells import list_rows
 from snn_fg.pynn.spinnaker import conv_kernels, core_tile, layout, stackable
 from snn_fg.export.spinnaker import _lattice_kernel, spinnaker_plan
 from snn_fg.network import build_network

@@ -15,7 +15,8 @@ from snn_fg.network.kernels import von_mises_masks
 from snn_fg.params import ModelParams
 from snn_fg.rate import edfg, grouping
 from snn_fg.rate.edfg import event_simple_cells, oriented_responses, responses_at
-from snn_fg.rate.grouping import Entries, SparseGrouping, cubic_taps
+from snn_fg.rate.grouping import SparseGrouping
+from snn_fg.rate.grouping_tables import Entries, cubic_taps
 
 PARAMS = ModelParams(levels=2, iterations=2, n_ori=4)
 

@@ -32,7 +32,8 @@ import numpy as np
 from ..lowering.connect import kernel_taps
 from ..lowering.interp import interp_matrix, sparse_rows
 from ..network.graph import Network
-from ..network.nodes import Conv, Population, Projection
+from ..network.nodes import Population
+from ..network.projections import Conv, Projection
 from ..pynn.tables import conv_pairs, resize_pairs
 
 BOARD_NOTE = ("Export: the board network has every cell of every population; the coarse levels' edge mask "

@@ -52,9 +52,10 @@ from .. import __version__
 from ..errors import InputError, ParameterError
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
-from ..network.nodes import Conv, Kernel, Neuron, Population, Resize
+from ..network.nodes import Kernel, Neuron, Population
+from ..network.projections import Conv, Resize
 from ..params import ModelParams
-from ..pynn.network import quantise, split_receptors
+from ..pynn.cells import quantise, split_receptors
 from .board import board_network, fingerprint
 
 MS = 1e-3

@@ -48,7 +48,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..network.graph import Network
-from ..network.nodes import Conv, Resize
+from ..network.projections import Conv, Resize
 from .nir import _graph_metadata, _nir, conv2d_drive, flat_network
 
 #: snnTorch 1.0's fixed time step in its NIR import (s)

@@ -6,7 +6,8 @@ The export folder holds
   reads an input spike file, simulates and writes every population's spikes
   (:mod:`snn_fg.pynn.run`);
 * ``fg_network.py`` - the network in PyNN (a verbatim copy of
-  :mod:`snn_fg.pynn.network`, which the NEST backend also runs);
+  :mod:`snn_fg.pynn.network`, which the NEST backend also runs), and
+  ``fg_cells.py``, its cells and synapses in PyNN's terms (:mod:`snn_fg.pynn.cells`);
 * ``fg_tables.py`` - explicit synapses from the weight-shared tables (a
   verbatim copy of :mod:`snn_fg.pynn.tables`);
 * ``fg_spinnaker.py`` - the network on sPyNNaker with its
@@ -140,7 +141,7 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
     ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
     >>> sorted(p.name for p in d.glob("*.py"))
-    ['fg_memory.py', 'fg_network.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
+    ['fg_cells.py', 'fg_memory.py', 'fg_network.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
     """
     from ..atomic import OutputFolder
 

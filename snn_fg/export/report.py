@@ -19,7 +19,7 @@ import numpy as np
 from ..network.graph import Network
 from .board import board_network, table, table_values
 from .hardware import LOIHI2, SPINNAKER1, SPINNAKER2
-from ..pynn.network import grid_delay, quantise, split_receptors
+from ..pynn.cells import grid_delay, quantise, split_receptors
 from .synapses import projection_counts
 
 SCHEMA = "snn-fg.resources/1"

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..network.graph import Network
-from ..network.nodes import Conv
+from ..network.projections import Conv
 
 
 def _conv_reason(network: Network, pr) -> str | None:

@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..network.graph import Network
-from ..network.nodes import Population, Projection
+from ..network.nodes import Population
+from ..network.projections import Projection
 from .board import ConvTable, table, whole_pairs
 
 #: projections with fewer (tap, cell) pairs than this are counted by unrolling them

@@ -12,7 +12,8 @@ import numpy as np
 
 from .. import validate as check
 from ..network.graph import Network
-from ..network.nodes import Conv, Population, Resize
+from ..network.nodes import Population
+from ..network.projections import Conv, Resize
 from .interp import interp_matrix, sparse_rows
 
 _CHUNK = 1 << 22     # elements per vectorised block when following kernel taps

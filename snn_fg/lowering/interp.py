@@ -1,5 +1,5 @@
 """Interpolation matrices of the pyramid's resizes, for unrolling
-:class:`~snn_fg.network.nodes.Resize` projections and for decoding strided
+:class:`~snn_fg.network.projections.Resize` projections and for decoding strided
 lattices. OpenCV's resize is separable, so a 2-D resize is one matrix per axis.
 """
 from __future__ import annotations

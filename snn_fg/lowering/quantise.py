@@ -12,8 +12,8 @@ import numpy as np
 
 from .. import validate as check
 from ..network.graph import Network
-from ..network.nodes import Conv, Projection
-from ..pynn.network import quantise
+from ..network.projections import Conv, Projection
+from ..pynn.cells import quantise
 from .interp import interp_matrix
 
 BITS_RANGE = (2, 32)

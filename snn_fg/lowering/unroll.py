@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import validate as check
 from ..network.graph import Network
-from ..network.nodes import Projection
+from ..network.projections import Projection
 from .connect import pairs
 from .sites import all_sites, edge_maps, edge_sites, input_edges, resolve_sites
 

@@ -10,7 +10,8 @@ simulator or exporter.
 """
 from .builder import build_network
 from .graph import Network
-from .nodes import SITE_RULES, Conv, Kernel, Neuron, Population, Projection, Resize
+from .nodes import SITE_RULES, Kernel, Neuron, Population
+from .projections import Conv, Projection, Resize
 from .roles import ROLES
 from .spiking_params import SpikingParams
 

@@ -16,7 +16,8 @@ from .. import validate as check
 from ..errors import InputError, ParameterError
 from ..frames.pyramid import level_shape
 from ..params import ModelParams
-from .nodes import Conv, Population, Projection, projection_from_dict
+from .nodes import Population
+from .projections import Conv, Projection, projection_from_dict
 
 SCHEMA = "snn-fg.network/2"
 

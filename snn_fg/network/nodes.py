@@ -1,10 +1,9 @@
-"""The nodes of a network description: neurons, populations, kernels and
-projections.
+"""The nodes of a network description: neurons, populations and kernels (the
+projections between populations: :mod:`snn_fg.network.projections`).
 
 Modelled on NIR's node family: frozen, keyword-only dataclasses, each
 validated on construction with errors that name the node at fault, and
-serialisation written once (:class:`Node`), with a registry that rebuilds a
-projection from its ``type`` name.
+serialisation written once (:class:`Node`).
 
 * :class:`Neuron` - a current-based leaky integrate-and-fire (CUBA LIF)
   neuron::
@@ -20,13 +19,6 @@ projection from its ``type`` name.
   every point of a grid that samples the level every ``stride`` pixels.
 * :class:`Kernel` - a weight-shared kernel ``(C_out, C_in, kh, kw)`` named by
   reference to the model's own kernel functions, materialised on demand.
-* :class:`Conv`, :class:`Resize` - weight-shared projections between
-  populations (:class:`Projection` holds what they share).
-
-Sign convention: a connection's weight is ``sign * gain_mv * K`` with ``K``
-the kernel (or interpolation) value, so a kernel with negative lobes (the
-DoG, bicubic interpolation) is split between the two currents while its
-balance is kept.
 """
 from __future__ import annotations
 
@@ -34,7 +26,7 @@ import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -61,7 +53,7 @@ from .roles import ROLES, SOURCE_ROLES
 SITE_RULES = ("all", "edges", "edges&drive", "reachable", "needed")
 
 
-def _finite(owner, name, v, lo=None, lo_open=False):
+def finite(owner, name, v, lo=None, lo_open=False):
     return check.number(owner, name, v, lo=lo, lo_open=lo_open)
 
 
@@ -127,10 +119,10 @@ class Neuron(Node):
         owner = "Neuron"
         check.choice(owner, "model", self.model, ("cuba_lif",))
         for name in ("tau_m_ms", "tau_exc_ms", "tau_inh_ms"):
-            object.__setattr__(self, name, _finite(owner, name, getattr(self, name), 0, lo_open=True))
-        object.__setattr__(self, "t_ref_ms", _finite(owner, "t_ref_ms", self.t_ref_ms, 0))
+            object.__setattr__(self, name, finite(owner, name, getattr(self, name), 0, lo_open=True))
+        object.__setattr__(self, "t_ref_ms", finite(owner, "t_ref_ms", self.t_ref_ms, 0))
         for name in ("v_rest_mv", "v_reset_mv", "v_th_mv"):
-            object.__setattr__(self, name, _finite(owner, name, getattr(self, name)))
+            object.__setattr__(self, name, finite(owner, name, getattr(self, name)))
         if self.v_th_mv <= self.v_rest_mv or self.v_th_mv <= self.v_reset_mv:
             check.fail(owner, "v_th_mv", self.v_th_mv, "must lie above v_rest_mv and v_reset_mv")
 
@@ -379,112 +371,3 @@ class Kernel(Node):
             out[np.arange(a["channels"]), np.arange(a["channels"])] = np.outer(tent, tent) / st ** 2
             return out
         return np.asarray(a["data"], dtype=float)
-
-
-#: projection type name -> class, filled by :class:`Projection` subclasses
-PROJECTION_TYPES: dict[str, type] = {}
-
-
-@dataclass(frozen=True, kw_only=True)
-class Projection(Node):
-    """What every projection has: its ends, the current it feeds (``sign``
-    +1 excitatory, -1 inhibitory), ``gain_mv`` (the weight of a unit kernel
-    value), ``delay_ms``, ``prune`` (kernel taps under this fraction of the
-    largest |value| are left out) and ``calibrated``: the gain is set for the
-    network's ``input_rate_hz`` and is rescaled when the network is
-    calibrated to another input rate (:meth:`Network.calibrated`)."""
-
-    type_name: ClassVar[str] = ""
-
-    name: str
-    source: str
-    target: str
-    sign: int = 1
-    gain_mv: float = 1.0
-    delay_ms: float = 1.0
-    prune: float = 0.0
-    calibrated: bool = False
-
-    def __init_subclass__(cls, **kw):
-        super().__init_subclass__(**kw)
-        if cls.type_name:
-            PROJECTION_TYPES[cls.type_name] = cls
-
-    @property
-    def _owner(self) -> str:
-        return f"{type(self).__name__} '{self.name}'"
-
-    def __post_init__(self):
-        if not isinstance(self.name, str) or not self.name:
-            check.fail(type(self).__name__, "name", self.name, "must be a non-empty string")
-        owner = self._owner
-        check.choice(owner, "sign", self.sign, (1, -1))
-        object.__setattr__(self, "gain_mv", _finite(owner, "gain_mv", self.gain_mv, 0))
-        object.__setattr__(self, "delay_ms", _finite(owner, "delay_ms", self.delay_ms, 0))
-        object.__setattr__(self, "prune", check.number(owner, "prune", self.prune, lo=0, hi=1, hi_open=True))
-        check.flag(owner, "calibrated", self.calibrated)
-
-    def to_dict(self) -> dict:
-        return {"type": self.type_name, **super().to_dict()}
-
-
-def projection_from_dict(d: dict) -> Projection:
-    """Rebuild a projection from :meth:`Projection.to_dict` output (by its ``type``)."""
-    if not isinstance(d, dict):
-        check.fail("projection", None, None, f"expected a mapping, got {type(d).__name__}")
-    d = dict(d)
-    kind = d.pop("type", None)
-    if kind not in PROJECTION_TYPES:
-        check.fail(f"projection {d.get('name')!r}", "type", kind, f"must be one of {sorted(PROJECTION_TYPES)}")
-    return PROJECTION_TYPES[kind].from_dict(d)
-
-
-@dataclass(frozen=True, kw_only=True)
-class Conv(Projection):
-    """Weight-shared projection between two populations of the same level.
-
-    For a target cell at level pixel ``P`` and a kernel tap at offset ``d``
-    (kernel index minus centre), the source cell sits at ``P + d`` for a
-    correlation (``mode='corr'``) and at ``P - d`` for a convolution. With
-    ``padding='wrap'`` positions are taken modulo the level shape (taps that
-    fold onto the same source add up); with ``'zero'`` positions outside the
-    level are dropped, as are positions off the source's stride lattice.
-    """
-
-    type_name: ClassVar[str] = "conv"
-    _nested: ClassVar[dict] = {"kernel": Kernel}
-
-    kernel: Kernel
-    mode: str = "corr"
-    padding: str = "zero"
-
-    def __post_init__(self):
-        super().__post_init__()
-        owner = self._owner
-        check.choice(owner, "mode", self.mode, ("conv", "corr"))
-        check.choice(owner, "padding", self.padding, ("zero", "wrap"))
-        if not isinstance(self.kernel, Kernel):
-            check.fail(owner, "kernel", type(self.kernel).__name__, "must be a Kernel")
-
-
-@dataclass(frozen=True, kw_only=True)
-class Resize(Projection):
-    """Interpolation from one population's grid onto another's, channel by channel.
-
-    Target cell ``(c, i, j)`` receives from source cell ``(c, i', j')`` with
-    weight ``A_r[i, i'] * A_c[j, j']``: the target grid point at level pixel
-    ``x = stride_t * i`` maps to source level coordinate
-    ``(x + 0.5) * N_src / N_tgt - 0.5`` (half-pixel centres), interpolated on
-    the source lattice (``cubic``: Keys a = -0.75; ``linear``) with clamped
-    indices. Between two stride-1 grids this is exactly OpenCV's resize
-    (stages 2 and 8). Source and target may share a level (resampling
-    between strides).
-    """
-
-    type_name: ClassVar[str] = "resize"
-
-    interpolation: str = "cubic"
-
-    def __post_init__(self):
-        super().__post_init__()
-        check.choice(self._owner, "interpolation", self.interpolation, ("cubic", "linear"))

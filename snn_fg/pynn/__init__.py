@@ -7,6 +7,7 @@ where they run on a machine without snn_fg; inside snn_fg the NEST backend
 (:mod:`snn_fg.backends.nest`) builds its network with the same code, so the
 exported model and the backend are one implementation.
 
+* :mod:`.cells` - a cell's and a synapse's PyNN parameters (``fg_cells.py``);
 * :mod:`.network` - populations, synapses, input and run (``fg_network.py``);
 * :mod:`.tables` - explicit synapses from the weight-shared tables (``fg_tables.py``);
 * :mod:`.spinnaker` - the network on sPyNNaker and its mapping (``fg_spinnaker.py``);
@@ -18,5 +19,5 @@ from pathlib import Path
 #: this package's folder, whose modules an export copies
 HERE = Path(__file__).resolve().parent
 #: module -> its name in an export folder
-COPIED = {"network.py": "fg_network.py", "tables.py": "fg_tables.py", "spinnaker.py": "fg_spinnaker.py",
+COPIED = {"cells.py": "fg_cells.py", "network.py": "fg_network.py", "tables.py": "fg_tables.py", "spinnaker.py": "fg_spinnaker.py",
           "memory.py": "fg_memory.py", "run.py": "run.py"}

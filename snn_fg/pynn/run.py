@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 
+import fg_cells
 import fg_memory
 import fg_network as fg
 import fg_tables
@@ -109,7 +110,7 @@ def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
         else:
             rows, cols = tables[pr["name"]]
             pre, post, k = fg_tables.resize_pairs(rows, cols, src["channels"], src, tgt, pr["k_min"])
-        drive = fg.quantise(pr["sign"] * pr["gain_mv"] * k, meta["weight_bits"], pr["scale_mv"])
+        drive = fg_cells.quantise(pr["sign"] * pr["gain_mv"] * k, meta["weight_bits"], pr["scale_mv"])
         net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"], **taus)
         fg_memory.progress(f"built {i + 1}/{len(meta['projections'])} projections")
     net.record([p["name"] for p in cells], spikes=args.spikes, count_edges_ms=edges)

@@ -39,11 +39,11 @@ from pathlib import Path
 import numpy as np
 
 try:                                    # inside snn_fg
-    from .network import (TIME_SHIFT_STEPS, PyNNNetwork, cell_parameters, grid_delay, list_rows,
-                             population_spikes, quantise, split_receptors)
+    from .cells import cell_parameters, grid_delay, list_rows, population_spikes, quantise, split_receptors
+    from .network import TIME_SHIFT_STEPS, PyNNNetwork
 except ImportError:                     # inside an export folder
-    from fg_network import (TIME_SHIFT_STEPS, PyNNNetwork, cell_parameters, grid_delay, list_rows,
-                            population_spikes, quantise, split_receptors)
+    from fg_cells import cell_parameters, grid_delay, list_rows, population_spikes, quantise, split_receptors
+    from fg_network import TIME_SHIFT_STEPS, PyNNNetwork
 
 #: sPyNNaker's default cells per core for IF_curr_exp
 CELLS_PER_CORE = 256

@@ -29,20 +29,18 @@ digits.
 """
 from __future__ import annotations
 
-import functools
 import os
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
-import cv2
 import numpy as np
 
 from .. import cancel
 from ..frames.pyramid import resize
-from ..network.kernels import von_mises_masks
 from ..params import ModelParams
 from . import _sparse_kernels as nbk
-from .fourier import irfft_crop, padded_shape, place, rfft, rfft_rows
+from .fourier import irfft_crop, padded_shape, rfft_rows
+from .grouping_tables import Entries, GroupingResult, cubic_taps, kernel_tables, vm_hat, vm_hat_single
 
 # np.allclose's tolerances: the reference leaves inhibition out for an
 # orientation whose BL1 and BD2 maps are allclose.
@@ -57,84 +55,6 @@ _FFT_COST_PER_CELL = 24.0
 _FFT_COST_PER_CELL_SINGLE = 12.0     # the same in single precision
 # Threads sharing the levels (this project's machines have 2 cores).
 _THREADS = min(2, os.cpu_count() or 1)
-
-
-@dataclass
-class GroupingResult:
-    """Border-ownership and grouping maps per level after the iterations (dense)."""
-
-    s: list     # (2n, h, w) per level
-    bl1: list   # (n, h, w) per level; likewise bl2, bd1, bd2
-    bl2: list
-    bd1: list
-    bd2: list
-    gl: list    # (h, w) per level; likewise gd
-    gd: list
-
-
-@dataclass(frozen=True)
-class Entries:
-    """The active pixels of one level: entry ``e`` is ``S[ch[e]][rows[e], cols[e]] = s[e]``."""
-
-    rows: np.ndarray
-    cols: np.ndarray
-    ch: np.ndarray
-    s: np.ndarray
-
-    @classmethod
-    def from_dense(cls, s_map: np.ndarray) -> "Entries":
-        """Entries of a dense ``(2n, h, w)`` S map (its non-zero values)."""
-        ch, r, c = np.nonzero(s_map)
-        return cls(r.astype(np.int64), c.astype(np.int64), ch.astype(np.int64), s_map[ch, r, c].astype(np.float64))
-
-
-@functools.lru_cache(maxsize=8)
-def _kernel_tables(r0: float, n_ori: int):
-    """Scatter and gather kernels per channel (``lo`` = orientations ``0..n-1``,
-    ``hi`` = ``n..2n-1``), each with its row ranges.
-
-    Gather (feedback, correlation at the entry): lo ``d1 = GL*m1 - GD*m2``,
-    hi ``d2 = GL*m2 - GD*m1``. Scatter (grouping, the transpose, so kernels
-    flipped): lo adds into ``AL`` through ``m2`` and ``AD`` through ``m1``,
-    hi the other way round.
-    """
-    m1, m2 = von_mises_masks(ModelParams(r0=r0, n_ori=n_ori))
-    lo_hi = (np.concatenate([m2, m1]), np.concatenate([m1, m2]))
-    scatter = [np.ascontiguousarray(k[:, ::-1, ::-1]) for k in lo_hi]
-    gather = [np.ascontiguousarray(k) for k in lo_hi[::-1]]
-    return tuple((k, *nbk.row_ranges(k)) for k in scatter + gather)
-
-
-@functools.lru_cache(maxsize=64)
-def _vm_hat(r0: float, n_ori: int, fshape: tuple[int, int]):
-    m1, m2 = von_mises_masks(ModelParams(r0=r0, n_ori=n_ori))
-    return rfft(place(m1, fshape, flip=True), fshape), rfft(place(m2, fshape, flip=True), fshape)
-
-
-@functools.lru_cache(maxsize=64)
-def _vm_hat_single(r0: float, n_ori: int, fshape: tuple[int, int]):
-    """:func:`_vm_hat` in single precision, for the dense feedback correlation."""
-    return tuple(k.astype(np.complex64) for k in _vm_hat(r0, n_ori, fshape))
-
-
-@functools.lru_cache(maxsize=512)
-def cubic_taps(n_src: int, n_dst: int) -> tuple[np.ndarray, np.ndarray]:
-    """OpenCV's bicubic resize of one axis from ``n_src`` to ``n_dst`` samples
-    as ``(start, weights)``: target ``t`` is ``sum_a weights[t, a] * src[start[t] + a]``.
-
-    The weights are read off ``cv2.resize`` itself (it is linear), so border
-    handling and coefficient rounding are OpenCV's.
-    """
-    m = cv2.resize(np.eye(n_src), (n_src, n_dst), interpolation=cv2.INTER_CUBIC)
-    taps = min(4, n_src)
-    nz = m != 0
-    first = nz.argmax(axis=1)
-    last = n_src - 1 - nz[:, ::-1].argmax(axis=1)
-    if np.any(last - first >= taps):
-        raise AssertionError("OpenCV's bicubic resize reached beyond 4 taps")
-    start = np.clip(first, 0, n_src - taps).astype(np.int64)
-    weights = np.take_along_axis(m, start[:, None] + np.arange(taps), axis=1)
-    return start, np.ascontiguousarray(weights)
 
 
 def _feedback_gain(z, alpha):
@@ -182,7 +102,7 @@ class SparseGrouping:
     def __init__(self, entries, shapes, params: ModelParams = ModelParams()):
         self.params = params
         self.n = params.n_ori
-        tables = _kernel_tables(float(params.r0), params.n_ori)
+        tables = kernel_tables(float(params.r0), params.n_ori)
         self.scatter_k, self.gather_k = tables[:2], tables[2:]
         self.ksize = tables[0][0].shape[-1]
         # mean multiply-adds of one scatter or gather (both kernels' supports)
@@ -229,7 +149,7 @@ class SparseGrouping:
         ``m2`` and ``AD`` through ``m1``, hi channels the other way round."""
         n, e = self.n, lv.e
         fs = padded_shape(lv.shape, self.ksize // 2, self.ksize)
-        k1, k2 = _vm_hat(float(self.params.r0), n, fs)
+        k1, k2 = vm_hat(float(self.params.r0), n, fs)
 
         def spectrum(v):
             maps = np.zeros((2 * n,) + lv.shape)
@@ -289,7 +209,7 @@ class SparseGrouping:
 
     def _correlate_dense(self, lv: _Level) -> np.ndarray:
         fs = padded_shape(lv.shape, self.ksize // 2, self.ksize)
-        k1, k2 = _vm_hat_single(float(self.params.r0), self.n, fs)
+        k1, k2 = vm_hat_single(float(self.params.r0), self.n, fs)
         g = rfft_rows(np.stack([lv.interior(lv.g_l), lv.interior(lv.g_d)]).astype(np.float32), fs)
         d = np.concatenate([g[0] * k1 - g[1] * k2, g[0] * k2 - g[1] * k1])
         return irfft_crop(d, fs, lv.shape)

@@ -25,8 +25,8 @@ import numpy as np
 
 from ...lowering.connect import kernel_taps, resize_factors, resize_kept_mass
 from ...network.graph import Network
-from ...network.nodes import Conv
-from ...pynn.network import quantise
+from ...network.projections import Conv
+from ...pynn.cells import quantise
 from ..base import receptor, receptor_weights
 
 #: volts per millivolt (Brian2's ``mV``): weights and potentials are scaled

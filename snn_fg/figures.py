@@ -171,11 +171,9 @@ def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
     return fig
 
 
-def save_maps_figure(path, inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
-                     grouping_label: str = "grouping", crop=None) -> Path:
-    """Write :func:`maps_figure` to ``path`` (atomically)."""
-    return save_figure(maps_figure(inputs, fg_x, fg_y, grouping, titles, max_rows, grouping_label, crop), path,
-                       dpi=110)
+def save_maps_figure(path, inputs, fg_x, fg_y, grouping, **options) -> Path:
+    """Write :func:`maps_figure` to ``path`` (atomically); ``options``: its keywords."""
+    return save_figure(maps_figure(inputs, fg_x, fg_y, grouping, **options), path, dpi=110)
 
 
 def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6) -> Figure:
@@ -304,7 +302,7 @@ def save_spiking_figures(maps, out_dir, window: int | None = None, with_maps: bo
     pick = (lambda a: a) if window is None else (lambda a: a[window])
     title = "" if window is None else f"(window {window})"
     written = [save_maps_figure(out / "maps.png", event_frame_rgb(record.input_on, record.input_off),
-                                pick(maps.fg_x), pick(maps.fg_y), pick(maps.grouping), [title],
+                                pick(maps.fg_x), pick(maps.fg_y), pick(maps.grouping), titles=[title],
                                 grouping_label=SPIKING_GROUPING_LABEL)] if with_maps else []
     written.append(save_figure(raster_figure(record, window), out / "spike_raster.png", dpi=120))
     written.append(save_figure(rate_histogram_figure(record, window), out / "rate_histograms.png", dpi=110))

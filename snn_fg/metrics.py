@@ -111,6 +111,28 @@ def frame_of(m: Maps, i):
     return (m.fg_x, m.fg_y, m.grouping) if i is None else (m.fg_x[i], m.fg_y[i], m.grouping[i])
 
 
+def _window_pairs(wa, wb, window):
+    """The ``((index, start), (index, start))`` pairs of windows ``wa``, ``wb`` that :func:`compare_maps` compares."""
+    if window is not None:
+        for w in (wa, wb):
+            if len(w) > 1 and not 0 <= window < len(w):
+                check.fail("compare_maps", "window", window, f"is not among the {len(w)} windows of a map")
+        wa, wb = ([w[window]] if len(w) > 1 else w for w in (wa, wb))
+    if window is None and all(t is not None for _, t in wa + wb):
+        starts = {t: i for i, t in wb}
+        pairs = [((i, t), (starts[t], t)) for i, t in wa if t in starts]
+    elif len(wa) == 1 or len(wb) == 1:
+        pairs = [(x, y) for x in wa for y in wb]
+    elif len(wa) == len(wb):
+        pairs = list(zip(wa, wb))
+    else:
+        check.fail("compare_maps", None, None, f"the maps hold {len(wa)} and {len(wb)} windows and no start "
+                                               "times to pair them by; pick one with window=")
+    if not pairs:
+        check.fail("compare_maps", None, None, "the two recordings share no window start time")
+    return pairs
+
+
 def compare_maps(a: Maps, b: Maps, window: int | None = None) -> list[dict]:
     """Compare two Maps; one dict per compared pair of windows.
 
@@ -149,24 +171,7 @@ def compare_maps(a: Maps, b: Maps, window: int | None = None) -> list[dict]:
     """
     if a.fg_x.shape[-2:] != b.fg_x.shape[-2:]:
         check.fail("compare_maps", None, None, f"frames differ in size: {a.fg_x.shape[-2:]} vs {b.fg_x.shape[-2:]}")
-    wa, wb = _windows(a), _windows(b)
-    if window is not None:
-        for w in (wa, wb):
-            if len(w) > 1 and not 0 <= window < len(w):
-                check.fail("compare_maps", "window", window, f"is not among the {len(w)} windows of a map")
-        wa, wb = ([w[window]] if len(w) > 1 else w for w in (wa, wb))
-    if window is None and all(t is not None for _, t in wa + wb):
-        starts = {t: i for i, t in wb}
-        pairs = [((i, t), (starts[t], t)) for i, t in wa if t in starts]
-    elif len(wa) == 1 or len(wb) == 1:
-        pairs = [(x, y) for x in wa for y in wb]
-    elif len(wa) == len(wb):
-        pairs = list(zip(wa, wb))
-    else:
-        check.fail("compare_maps", None, None, f"the maps hold {len(wa)} and {len(wb)} windows and no start "
-                                               "times to pair them by; pick one with window=")
-    if not pairs:
-        check.fail("compare_maps", None, None, "the two recordings share no window start time")
+    pairs = _window_pairs(_windows(a), _windows(b), window)
     rows = []
     for (ia, ta), (ib, tb) in pairs:
         t = ta if ta is not None else tb

@@ -115,8 +115,8 @@ def run_sweep(func: Callable[..., dict], tasks, cache_dir, *, scheduler: str | N
     results = {t.key: cached(cache_dir, t.key) for t in tasks}
     todo = [t for t in tasks if results[t.key] is None]
     if todo:
-        _run(func, todo, cache_dir, results, scheduler, workers, progress, desc, done=len(tasks) - len(todo),
-             preload=tuple(preload))
+        bar = {"total": len(tasks), "initial": len(tasks) - len(todo), "desc": desc, "disable": not progress}
+        _run(func, todo, cache_dir, results, client=(scheduler, workers), bar=bar, preload=tuple(preload))
     return results
 
 
@@ -127,12 +127,14 @@ def _import_all(modules):
         importlib.import_module(name)
 
 
-def _run(func, todo, cache_dir, results, scheduler, workers, progress, desc, done, preload):
+def _run(func, todo, cache_dir, results, *, client, bar, preload):
+    """Run ``todo`` on a Dask client (``client``: scheduler address, local workers), filling ``results``
+    and the cache as tasks end; ``bar``: the progress bar's settings."""
     from tqdm import tqdm
 
     dd = _dask()
-    client, cluster = _client(scheduler, workers)
-    bar = tqdm(total=len(todo) + done, initial=done, desc=desc, unit="img", file=sys.stderr, disable=not progress)
+    client, cluster = _client(*client)
+    bar = tqdm(unit="img", file=sys.stderr, **bar)
     try:
         if preload:
             client.run(_import_all, preload)        # client.run executes in each worker's main thread

@@ -128,12 +128,18 @@ def _add_run(sub):
                                    "an event recording (.es .raw .dat .aedat4 .bin data.log .npy .npz) or 'demo' "
                                    "(a built-in synthetic scene). Writes DIR/maps.npz (fg_x, fg_y, grouping, "
                                    "params; a recording: DIR/maps.zarr, window by window) and figures.")
-    p.add_argument("input", metavar="INPUT")
+    p.add_argument("input", metavar="INPUT", help="a frame, an image, a recording or demo; several recordings: a "
+                                                  "folder, a glob (quoted) or a .txt list of paths, each into "
+                                                  "DIR/NAME with DIR/summary.csv")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
     p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
     p.add_argument("--resume", action="store_const", const=True,
                    help="recordings: continue the run in --out from its last complete window (same INPUT and "
                         "options)")
+    p.add_argument("--workers", type=_number(int, 1, strict=False), metavar="N",
+                   help="several recordings (INPUT a folder, a glob or a .txt list): local processes (one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="several recordings: run them on the Dask cluster at ADDRESS (pip install -e '.[sweep]')")
     p.add_argument("--model", choices=tuple(MODELS), default="rate",
                    help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image; "
                         "spiking: the spiking network; natural, natural-spiking: the variant for natural "
@@ -280,6 +286,7 @@ def _counted(windows, total):
 
 def cmd_run(args) -> int:
     from .atomic import OutputFolder, growing_folder
+    from .batch import is_dataset, run_dataset
     from .store import windows_complete
     from .figures import check_crop
     from .frames.pool import pooled_shape
@@ -287,6 +294,12 @@ def cmd_run(args) -> int:
     from .inputs import input_kind, load_frame
     from .runner import run_frame, run_recording
 
+    if is_dataset(args.input):
+        return run_dataset(args)
+    if args.workers is not None or args.scheduler is not None:
+        given = "--workers" if args.workers is not None else "--scheduler"
+        raise InputError(args.input, f"{given}: applies to several recordings only (INPUT a folder, a glob or a "
+                                     ".txt list)")
     kind = input_kind(args.input)
     model = _model(args, kind)
     if kind == "recording":
@@ -322,7 +335,7 @@ def cmd_run(args) -> int:
 
 #: run options that do not change a recording's maps (a run may be continued with others)
 _NOT_IN_RUN_KEY = ("out", "force", "resume", "no_progress", "no_figures", "crop", "handler", "command",
-                   "interrupted", "interrupt_note")
+                   "interrupted", "interrupt_note", "workers", "scheduler")
 
 
 def _run_key(args) -> dict:

@@ -54,9 +54,7 @@ def _write_npy(fh, value):
 
 
 def save_npz(path, **arrays) -> Path:
-    """Write an uncompressed ``.npz`` atomically and return its path.
-
-    """
+    """Write an uncompressed ``.npz`` atomically and return its path."""
     path = Path(path)
     with atomic_path(path, suffix=".npz") as tmp:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:

@@ -73,7 +73,7 @@ def run_job(options: dict) -> dict:
     and the rest); a row of the summary, whatever happens (an interrupt ends
     the job as it ends a run)."""
     from .cli import cmd_run
-    from .store import read_attrs, windows_complete, STORE_NAME
+    from .store import STORE_NAME, read_attrs, windows_complete
 
     out = Path(options["out"])
     row = {"recording": options["input"], "output": str(out), "status": "done", "windows": 0, "seconds": 0.0,

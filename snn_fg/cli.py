@@ -287,12 +287,12 @@ def _counted(windows, total):
 def cmd_run(args) -> int:
     from .atomic import OutputFolder, growing_folder
     from .batch import is_dataset, run_dataset
-    from .store import windows_complete
     from .figures import check_crop
     from .frames.pool import pooled_shape
     from .frames.pyramid import check_levels
     from .inputs import input_kind, load_frame
     from .runner import run_frame, run_recording
+    from .store import windows_complete
 
     if is_dataset(args.input):
         return run_dataset(args)

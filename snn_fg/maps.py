@@ -77,7 +77,7 @@ def window_part(extra: dict, key: str, window: int) -> np.ndarray:
     """Window ``window``'s part of a per-window array of a recording's Maps:
     a slice of a ragged array (``key`` with ``key_offsets``, see
     :mod:`snn_fg.store`) or one row of a stacked one."""
-    if f"{key}_offsets" in extra:
-        off = np.asarray(extra[f"{key}_offsets"])
-        return np.asarray(extra[key])[off[window]:off[window + 1]]
-    return np.asarray(extra[key])[window]
+    if f"{key}_offsets" in extra:       # (only that part is read from a store's lazy arrays)
+        off = extra[f"{key}_offsets"]
+        return np.asarray(extra[key][int(off[window]):int(off[window + 1])])
+    return np.asarray(extra[key][window])

@@ -24,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import ROOT, Run, describe, fail, load, markdown_table, save_json, save_markdown
+from experiments.common import (ROOT, Run, describe, fail, load, markdown_table, peak_rss_mb, save_json,
+                                save_markdown)
 
 #: each copy of the scene's events starts this long after the one before (us)
 COPY_SPAN_US = 400_000
@@ -54,9 +55,8 @@ def _child(argv: list[str]) -> dict:
         wall = time.perf_counter() - t0
         n = windows_complete(out)
         store_kb = sum(p.stat().st_size for p in (Path(out) / "maps.zarr").rglob("*") if p.is_file()) / 1024
-    status = Path("/proc/self/status").read_text()
     return {"exit_code": rc, "windows": n, "wall_s": round(wall, 1), "store_kb_per_window": round(store_kb / n, 1),
-            "peak_rss_mb": round(int(status.split("VmHWM:")[1].split()[0]) / 1024, 1)}
+            "peak_rss_mb": peak_rss_mb()}
 
 
 def _markdown(rec) -> list[str]:

@@ -45,6 +45,12 @@ def load() -> list[float]:
     return [round(v, 2) for v in os.getloadavg()]
 
 
+def peak_rss_mb() -> float:
+    """This process's peak resident memory so far (MB): ``VmHWM`` from /proc (Linux)."""
+    status = Path("/proc/self/status").read_text()
+    return round(int(status.split("VmHWM:")[1].split()[0]) / 1024, 1)
+
+
 def load_change(before: Sequence[float]) -> str:
     """``"1.2 -> 3.4"``: the 1-minute load average ``before`` (a :func:`load`) and now."""
     return f"{before[0]:.1f} -> {load()[0]:.1f}"

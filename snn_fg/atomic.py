@@ -14,7 +14,6 @@ import os
 import shutil
 import tempfile
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -50,33 +49,12 @@ def _umask() -> int:
     return mask
 
 
-@dataclass(frozen=True)
-class RawArrayFile:
-    """An array stored as raw C-order bytes in a file (no header), for
-    :func:`save_npz` to copy into the archive without loading or mapping it."""
-
-    path: Path
-    dtype: np.dtype
-    shape: tuple
-
-
 def _write_npy(fh, value):
-    if isinstance(value, RawArrayFile):
-        header = {"descr": np.lib.format.dtype_to_descr(np.dtype(value.dtype)), "fortran_order": False,
-                  "shape": tuple(value.shape)}
-        np.lib.format.write_array_header_2_0(fh, header)
-        with open(value.path, "rb") as src:
-            shutil.copyfileobj(src, fh, 1 << 20)
-    else:
-        np.lib.format.write_array(fh, np.asanyarray(value), allow_pickle=False)
+    np.lib.format.write_array(fh, np.asanyarray(value), allow_pickle=False)
 
 
 def save_npz(path, **arrays) -> Path:
-    """Write an uncompressed ``.npz`` atomically and return its path.
-
-    Values are arrays or :class:`RawArrayFile` (streamed from disk in 1 MB
-    blocks, so writing a recording's maps needs no memory for them).
-    """
+    """Write an uncompressed ``.npz`` atomically and return its path."""
     path = Path(path)
     with atomic_path(path, suffix=".npz") as tmp:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
@@ -156,3 +134,20 @@ class OutputFolder:
         else:
             os.replace(self.dir, self.path)
         return False
+
+
+def growing_folder(path, force: bool = False, resume: bool = False) -> Path:
+    """A recording's output folder, written in place as windows complete
+    (:mod:`snn_fg.store`): made when new; an earlier run in it is refused,
+    removed (``force``) or continued (``resume``)."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(path, "--out must be a folder, but a file of that name exists")
+    if path.is_dir() and any(path.iterdir()) and not resume:
+        if not force:
+            held = ", ".join(sorted(p.name for p in path.iterdir())[:4])
+            raise InputError(path, f"output folder is not empty (holds {held}...); choose another folder, pass "
+                                   "--resume to continue its run or --force to replace it")
+        shutil.rmtree(path)
+    path.mkdir(parents=True, exist_ok=True)
+    return path

@@ -2,22 +2,22 @@
 
 Bad input ends with one line ``snn-fg: error: <file>: <problem>`` and exit
 status 2; an interrupted run (Ctrl-C, SIGTERM) exits 130 or 143 and leaves
-the output folder as it was.
+the output folder as it was (a frame), or with the windows completed so far
+(a recording, which ``--resume`` continues).
 """
 from __future__ import annotations
 
 import argparse
-import contextlib
 import itertools
 import os
+import shutil
 import sys
-import warnings
 
 from . import __version__, cancel
 from .backends import DEFAULT_BACKEND, backend_names
 from .compare_cli import add_compare_command
 from .datasets.cli import add_data_command
-from .errors import InputError, InputWarning, SnnFgError
+from .errors import InputError, SnnFgError, warnings_as_lines
 from .events.esim import MOTIONS
 from .events_cli import add_events_command, sensor_size_arg
 from .export.cli import add_export_command
@@ -30,7 +30,7 @@ MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
 #: how a recording is cut into windows (snn_fg.events.iter_windows)
 WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
 #: options that only a recording uses
-RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state", "window_clock")
+RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state", "window_clock", "save_spikes", "resume")
 #: spiking options for one frame that a recording (one continuous run) does not use
 FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
 
@@ -105,7 +105,9 @@ _RUN_OPTIONS = (
                                                       "the network carries its state into the next window) (on)"),
         ("--instantiate", ("input", "all"), None, None, "cells to create: those this input can use, or every "
                                                         "cell of the network (the backend's choice: brian2 input, "
-                                                        "fast all)"))),
+                                                        "fast all)"),
+        ("--save-spikes", True, None, None, "recordings: also keep each window's spike count of every cell that "
+                                            "fired (about 2 MB a dvs.es window; a frame always keeps them)"))),
     ("rate model", (
         ("--carry-state", ("on", "off"), None, None, "recordings: start each window's grouping and feedback where "
                                                      "the previous window's stopped, as a network that is never "
@@ -122,10 +124,19 @@ def _add_run(sub):
                        description="Run a model on INPUT: an .npz event frame (pos, neg), an image (png/jpg/...), "
                                    "an event recording (.es .raw .dat .aedat4 .bin data.log .npy .npz) or 'demo' "
                                    "(a built-in synthetic scene). Writes DIR/maps.npz (fg_x, fg_y, grouping, "
-                                   "params) and figures.")
-    p.add_argument("input", metavar="INPUT")
+                                   "params; a recording: DIR/maps.zarr, window by window) and figures.")
+    p.add_argument("input", metavar="INPUT", help="a frame, an image, a recording or demo; several recordings: a "
+                                                  "folder, a glob (quoted) or a .txt list of paths, each into "
+                                                  "DIR/NAME with DIR/summary.csv")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
     p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
+    p.add_argument("--resume", action="store_const", const=True,
+                   help="recordings: continue the run in --out from its last complete window (same INPUT and "
+                        "options)")
+    p.add_argument("--workers", type=_number(int, 1, strict=False), metavar="N",
+                   help="several recordings (INPUT a folder, a glob or a .txt list): local processes (one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="several recordings: run them on the Dask cluster at ADDRESS (pip install -e '.[sweep]')")
     p.add_argument("--model", choices=tuple(MODELS), default="rate",
                    help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image; "
                         "spiking: the spiking network; natural, natural-spiking: the variant for natural "
@@ -133,7 +144,9 @@ def _add_run(sub):
     for title, options in _RUN_OPTIONS:
         g = p.add_argument_group(title)
         for flag, kind, lo, strict, text in options:
-            if isinstance(kind, tuple):
+            if kind is True:
+                g.add_argument(flag, action="store_const", const=True, help=text)
+            elif isinstance(kind, tuple):
                 g.add_argument(flag, choices=kind, help=text)
             else:
                 g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
@@ -145,9 +158,9 @@ def _add_run(sub):
     p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
                    help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
     p.add_argument("--crop", type=_crop_arg, metavar="X0,Y0,X1,Y1",
-                   help="figures: draw only pixels X0 <= x < X1, Y0 <= y < Y1 (maps.npz keeps the whole frame)")
+                   help="figures: draw only pixels X0 <= x < X1, Y0 <= y < Y1 (the maps keep the whole frame)")
     p.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
-    p.add_argument("--no-figures", action="store_true", help="write maps.npz only (no figures)")
+    p.add_argument("--no-figures", action="store_true", help="write the maps only (no figures)")
     p.set_defaults(handler=cmd_run)
     return p
 
@@ -269,13 +282,21 @@ def _counted(windows, total):
 
 
 def cmd_run(args) -> int:
-    from .atomic import OutputFolder
+    from .atomic import OutputFolder, growing_folder
+    from .batch import is_dataset, run_dataset
     from .figures import check_crop
     from .frames.pool import pooled_shape
     from .frames.pyramid import check_levels
     from .inputs import input_kind, load_frame
     from .runner import run_frame, run_recording
+    from .store import windows_complete
 
+    if is_dataset(args.input):
+        return run_dataset(args)
+    if args.workers is not None or args.scheduler is not None:
+        given = "--workers" if args.workers is not None else "--scheduler"
+        raise InputError(args.input, f"{given}: applies to several recordings only (INPUT a folder, a glob or a "
+                                     ".txt list)")
     kind = input_kind(args.input)
     model = _model(args, kind)
     if kind == "recording":
@@ -289,31 +310,34 @@ def cmd_run(args) -> int:
                  model.params.levels_per_octave)
     if args.crop is not None:
         check_crop(args.crop, shape, owner=f"{args.input}: --crop")
-    with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as out:
-        if kind == "recording":
-            run_recording(model, windows, out.dir, source, args.input, crop=args.crop, figures=not args.no_figures)
-        else:
-            run_frame(model, frame, out.dir, source, crop=args.crop, figures=not args.no_figures)
-        written = ", ".join(sorted(p.name for p in out.dir.iterdir()))
+    if kind == "recording":
+        out = growing_folder(args.out, force=args.force, resume=bool(args.resume))
+        args.interrupt_note = (f"the windows completed so far are in {args.out}/; the same command with --resume "
+                               "continues from the last one")
+        try:
+            n = run_recording(model, windows, out, source, args.input, crop=args.crop, figures=not args.no_figures,
+                              resume=bool(args.resume), run_key=_run_key(args))
+        except BaseException:
+            if not windows_complete(out):       # (refused before its first window: nothing to keep)
+                shutil.rmtree(out, ignore_errors=True)
+            raise
+        written = f"{n} windows, " + ", ".join(sorted(p.name for p in out.iterdir()))
+    else:
+        with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:
+            run_frame(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures)
+            written = ", ".join(sorted(p.name for p in folder.dir.iterdir()))
     print(f"snn-fg: {model.name} model on {args.input}: wrote {args.out}/ ({written})")
     return 0
 
 
-@contextlib.contextmanager
-def _warnings_as_lines():
-    """While a command runs, an :class:`~snn_fg.errors.InputWarning` is one
-    ``snn-fg: warning:`` line (not Python's file:line form); others as usual."""
-    with warnings.catch_warnings():
-        shown = warnings.showwarning
+#: run options that do not change a recording's maps (a run may be continued with others)
+_NOT_IN_RUN_KEY = ("out", "force", "resume", "no_progress", "no_figures", "crop", "handler", "command",
+                   "interrupted", "interrupt_note", "workers", "scheduler")
 
-        def show(message, category, *rest, **kw):
-            if issubclass(category, InputWarning):
-                print(f"snn-fg: warning: {message}", file=sys.stderr)
-            else:
-                shown(message, category, *rest, **kw)
 
-        warnings.showwarning = show
-        yield
+def _run_key(args) -> dict:
+    """What a continued run (--resume) must share with the run it continues."""
+    return {k: v for k, v in sorted(vars(args).items()) if k not in _NOT_IN_RUN_KEY}
 
 
 def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
@@ -328,7 +352,7 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
     args, extra = parser.parse_known_args(argv)
     if extra:       # report an unknown option under the subcommand's own usage
         subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
-    with cancel.Signals() as signals, _warnings_as_lines():
+    with cancel.Signals() as signals, warnings_as_lines():
         args.interrupted = lambda: bool(signals.received)
         try:
             try:
@@ -344,8 +368,8 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
                 return EXIT_INPUT
         except KeyboardInterrupt:
             term = "SIGTERM" in signals.received
-            print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); the output was left as it was before "
-                  "the run", file=sys.stderr)
+            note = getattr(args, "interrupt_note", "the output was left as it was before the run")
+            print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); {note}", file=sys.stderr)
             code = 143 if term else 130
             if exit_on_interrupt:
                 sys.stdout.flush()

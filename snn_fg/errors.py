@@ -7,6 +7,10 @@ line and exits non-zero; nothing else should escape to the user.
 """
 from __future__ import annotations
 
+import contextlib
+import sys
+import warnings
+
 
 class SnnFgError(Exception):
     """Base class of every error this package raises on purpose."""
@@ -41,3 +45,20 @@ class InputWarning(UserWarning):
 
 class ParameterError(SnnFgError, ValueError):
     """A model parameter is out of its valid range; names the parameter."""
+
+
+@contextlib.contextmanager
+def warnings_as_lines():
+    """While a command runs, an :class:`InputWarning` is one
+    ``snn-fg: warning:`` line (not Python's file:line form); others as usual."""
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(message, category, *rest, **kw):
+            if issubclass(category, InputWarning):
+                print(f"snn-fg: warning: {message}", file=sys.stderr)
+            else:
+                shown(message, category, *rest, **kw)
+
+        warnings.showwarning = show
+        yield

@@ -145,7 +145,8 @@ def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
     (pixels, x1 and y1 exclusive) draws only that part of every panel, at
     its own coordinates.
     """
-    fg_x, fg_y, grouping = (np.asarray(v) for v in (fg_x, fg_y, grouping))
+    # (a recording's maps may be read on indexing, snn_fg.store.ZarrArray: only the rows drawn are read)
+    fg_x, fg_y, grouping = (v if hasattr(v, "ndim") else np.asarray(v) for v in (fg_x, fg_y, grouping))
     if fg_x.ndim == 2:
         fg_x, fg_y, grouping = fg_x[None], fg_y[None], grouping[None]
         inputs = [inputs]

@@ -57,11 +57,24 @@ class Model(ABC):
             return self.empty_maps(window.pos.shape)
         return self.run_frame(Frame(window.pos, window.neg))
 
-    def run_windows(self, windows):
-        """``(window, Maps)`` for every window of a recording, in order; by
-        default one window at a time (:meth:`run_window`)."""
+    def run_windows(self, windows, start: int = 0):
+        """``(window, Maps)`` for every window of a recording from window
+        ``start`` on (a run continued), in order; by default one window at a
+        time (:meth:`run_window`), the windows before ``start`` skipped. A
+        model whose windows carry state runs those too, and yields them not."""
         for w in windows:
-            yield w, self.run_window(w)
+            if w.index >= start:
+                yield w, self.run_window(w)
+
+    def run_windows_into(self, windows, emit, start: int = 0) -> dict:
+        """:meth:`run_windows` handing each ``(window, maps)`` to ``emit`` as
+        soon as it is done (the spiking model's windows come out of one
+        simulation while it runs). Returns parameters of the whole run
+        known only at its end (none by default; a run's store keeps them as
+        ``params["whole_run"]``)."""
+        for w, maps in self.run_windows(windows, start):
+            emit(w, maps)
+        return {}
 
     def named(self, maps: Maps) -> Maps:
         """``maps`` with this model's name in their parameters."""
@@ -109,9 +122,11 @@ class RateModel(Model):
         maps.params["timings_s"] = {"run": time.perf_counter() - t}
         return maps
 
-    def run_windows(self, windows):
+    def run_windows(self, windows, start: int = 0):
+        """As :meth:`Model.run_windows`; with ``carry_state`` the windows
+        before ``start`` are run again (the state they pass on is not stored)."""
         if not self.carry_state:
-            yield from super().run_windows(windows)
+            yield from super().run_windows(windows, start)
             return
         from .rate.edfg import run_edfg_state
 
@@ -119,13 +134,15 @@ class RateModel(Model):
         for w in windows:
             if not (w.pos.any() or w.neg.any()):
                 previous = None
-                yield w, self.empty_maps(w.pos.shape)
+                if w.index >= start:
+                    yield w, self.empty_maps(w.pos.shape)
                 continue
             continued = previous is not None
             t = time.perf_counter()
             previous = run_edfg_state(w.pos, w.neg, self.params, progress=self.progress, previous=previous)
-            yield w, self.named(previous.maps(carry_state=True, continued_from_previous_window=continued,
-                                              timings_s={"run": time.perf_counter() - t}))
+            if w.index >= start:
+                yield w, self.named(previous.maps(carry_state=True, continued_from_previous_window=continued,
+                                                  timings_s={"run": time.perf_counter() - t}))
 
 
 class FbfgModel(Model):
@@ -166,7 +183,9 @@ class SpikingModel(Model):
     Options: ``network`` (a stored description), ``backend``, ``feedback``,
     ``dt_ms``, ``instantiate``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
     ``spike_input`` (:data:`SPIKE_INPUTS`); for a
-    recording ``readout_lag_ms`` and ``window_clock``: a recording runs as one
+    recording ``readout_lag_ms``, ``window_clock`` and ``save_spikes`` (keep
+    each window's per-cell spike counts, :class:`~snn_fg.spiking.SpikingRecord`;
+    a frame always keeps them): a recording runs as one
     continuous network, every event at its own time, its window clock firing
     as each window starts (:mod:`snn_fg.spiking.continuous`).
     """
@@ -176,16 +195,17 @@ class SpikingModel(Model):
     blank_window_hint = ("the spiking network needs tens of ms of input before its feedback orders the "
                          "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle")
     options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed", "feedback", "readout_lag_ms",
-               "window_clock", "spike_input", "instantiate")
+               "window_clock", "spike_input", "instantiate", "save_spikes")
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
-                 backend=DEFAULT_BACKEND, spike_input: str = "regular", **run_options):
+                 backend=DEFAULT_BACKEND, spike_input: str = "regular", save_spikes: bool = False, **run_options):
         from .spiking.options import SpikingOptions
 
         super().__init__(params, progress)
         self.network = network       # a stored description (its own ModelParams), or None: build from params
         self._backend = None         # the backend object, made on first use and kept (see _sim)
         self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
+        self.save_spikes = check.flag("spiking model", "save_spikes", save_spikes)
         built = {"params": params} if network is None else {"network": network}
         #: every option of the runs, checked here once: a frame uses its frame part, a recording its recording part
         self.run_options = SpikingOptions.from_keywords(
@@ -230,17 +250,38 @@ class SpikingModel(Model):
         (_, maps), = self.run_windows([window])
         return maps
 
-    def run_windows(self, windows):
+    def run_windows(self, windows, start: int = 0):
         """One network over the whole recording (:func:`~snn_fg.spiking.run_spiking_windows`):
-        every event at its own time, each window read from its own spikes."""
-        from .spiking.continuous import run_spiking_windows
+        every event at its own time, each window read from its own spikes.
+        A run continued from window ``start`` simulates the windows before
+        it again (the network's state at a window's start comes from every
+        event before it), and yields them not. Each window's per-cell spike
+        counts are kept only with ``save_spikes``."""
+        out = []
+        self.run_windows_into(windows, lambda w, m: out.append((w, m)), start)
+        yield from out
+
+    def run_windows_into(self, windows, emit, start: int = 0) -> dict:
+        """As :meth:`run_windows`, each window handed to ``emit`` while the
+        simulation runs (:func:`~snn_fg.spiking.continuous.stream_spiking_windows`)."""
+        from .spiking.continuous import stream_spiking_windows
 
         windows = list(windows)
-        maps = run_spiking_windows(windows, options=self.run_options.on(self._sim()))
-        yield from zip(windows, map(self.named, maps))
+
+        def done(k, maps):
+            if windows[k].index >= start:
+                if not self.save_spikes:
+                    maps.extra = {}
+                emit(windows[k], self.named(maps))
+
+        return stream_spiking_windows(windows, done, options=self.run_options.on(self._sim()))
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
+        """``maps.png``; and the spike raster and rate histograms where the
+        spike counts were kept (a frame, or a recording with ``save_spikes``)."""
         written = super().write_figures(out, maps, inputs, titles, crop)
+        if maps.fg_x.ndim == 3 and not self.save_spikes:
+            return written
         return written + save_spiking_figures(maps, out, with_maps=False)
 
 

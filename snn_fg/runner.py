@@ -1,5 +1,7 @@
-"""Running a model on an input into an output folder, as ``snn-fg run`` does
-(the folder is an :class:`~snn_fg.atomic.OutputFolder`: all or nothing).
+"""Running a model on an input into an output folder, as ``snn-fg run`` does:
+a frame all or nothing (an :class:`~snn_fg.atomic.OutputFolder`), a
+recording window by window into a store that a run can continue
+(:mod:`snn_fg.store`).
 """
 from __future__ import annotations
 
@@ -12,8 +14,9 @@ import numpy as np
 from . import cancel
 from .errors import InputError
 from .inputs import Frame
-from .maps import Maps, MapsSeriesWriter
+from .maps import Maps
 from .models import Model
+from .store import STORE_NAME, MapsStore, read_maps, store_arrays
 
 
 def run_frame(model: Model, frame: Frame, out: Path, source: dict, crop=None, figures: bool = True) -> Maps:
@@ -47,11 +50,17 @@ def model_input_rgb(frame):
     return event_frame_rgb(frame > 0, frame < 0)
 
 
-def run_recording(model: Model, windows, out: Path, source: dict, name: str, crop=None, figures: bool = True) -> int:
-    """Every window of a recording through ``model``; one ``maps.npz`` (one
-    map per window, streamed to disk) and (with ``figures``) its figures into
-    ``out``. Returns the number of windows (``crop``: see
+def run_recording(model: Model, windows, out: Path, source: dict, name: str, crop=None, figures: bool = True,
+                  *, resume: bool = False, run_key: dict | None = None) -> int:
+    """Every window of a recording through ``model`` into ``out/maps.zarr``
+    (:mod:`snn_fg.store`: each window written as it completes) and, at the
+    end, its figures. Returns the number of windows (``crop``: see
     :meth:`Model.write_figures`).
+
+    ``resume``: continue the store in ``out`` from its last complete window
+    (it must have been made with the same ``run_key``: by default the
+    ``source`` and the model's name and parameters); a complete store is
+    left as it is.
 
     The windows' times (``t_start_us``, ``t_end_us``, figure titles) count
     from the recording's first event; ``params["source"]["first_event_us"]``
@@ -60,46 +69,71 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str, cro
     :data:`~snn_fg.events.activity.SATURATED_SHARE` is warned about and
     listed (``saturated_windows``)."""
     from .events import EmptyWindowWarning
-    from .events.activity import Activity, pixel_share, saturated_lines
 
-    t0, t1, n_events, shares = [], [], [], []
-    origin = None           # the recording's first event: times a user sees count from it
+    path = out / STORE_NAME
+    run_key = {"source": source, "model": model.name, **model.params.to_dict()} if run_key is None else run_key
+    store = MapsStore.reopen(path, run_key) if resume and path.is_dir() else MapsStore.create(path, run_key)
+    if store.complete:
+        return store.n
     n_empty = n_blank = 0
-    with MapsSeriesWriter(out / "maps.npz") as sink, warnings.catch_warnings():
+
+    def emit(w, maps):
+        nonlocal n_empty, n_blank
+        cancel.check()          # (an interrupt swallowed inside the window stops the run here)
+        has_events = bool(w.pos.any() or w.neg.any())
+        n_empty += not has_events
+        n_blank += has_events and not (maps.fg_x.any() or maps.fg_y.any())
+        _append_window(store, w, maps)
+
+    with warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)     # counted and reported once below
-        for w, maps in model.run_windows(windows):
-            cancel.check()          # (an interrupt swallowed inside the window stops the run here)
-            has_events = bool(w.pos.any() or w.neg.any())
-            n_empty += not has_events
-            n_blank += has_events and not (maps.fg_x.any() or maps.fg_y.any())
-            # the window's event frame (+1 ON, -1 OFF) is kept with its maps
-            sink.append(maps, event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8))
-            if origin is None:
-                origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
-            t0.append(w.t_start_us - origin)
-            t1.append(w.t_end_us - origin)
-            n_events.append(len(w.events))
-            shares.append(pixel_share(w))
-        if sink.n == 0:
-            raise InputError(name, "no window to process: the recording has no events after --start-ms")
-        if n_empty:
-            print(f"snn-fg: warning: {n_empty} of {sink.n} windows had no events; their maps are zero",
-                  file=sys.stderr)
-        if n_blank:
-            hint = f" ({model.blank_window_hint})" if model.blank_window_hint else ""
-            print(f"snn-fg: warning: {n_blank} of {sink.n - n_empty} windows with events have no figure-ground "
-                  f"vector{hint}", file=sys.stderr)
-        act = Activity(t_start_ms=np.array(t0) / 1000, t_end_ms=np.array(t1) / 1000, events=np.array(n_events),
-                       share=np.array(shares), window_ms=source.get("window_ms", 0))
-        for line in saturated_lines(act):
-            print(f"snn-fg: warning: {line}", file=sys.stderr)
-        source = {**source, "first_event_us": origin,     # the file's clock: the one absolute time kept
-                  "pixel_share": [round(v, 4) for v in shares], "saturated_windows": act.saturated.tolist()}
-        st = sink.stacked()
-        maps = Maps(st["fg_x"], st["fg_y"], st["grouping"], {**sink.params, "source": source},
-                    {k: v for k, v in st.items() if k not in ("fg_x", "fg_y", "grouping")})
-        titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(t0, t1)]
-        sink.finish(maps.params, t_start_us=np.array(t0, dtype=np.int64), t_end_us=np.array(t1, dtype=np.int64))
-        if figures:
-            model.write_figures(out, maps, _LazyFrames(st["event_frame"]), titles, crop)
-        return sink.n
+        whole = model.run_windows_into(windows, emit, start=store.n)
+    if store.n == 0:
+        raise InputError(name, "no window to process: the recording has no events after --start-ms")
+    if n_empty:
+        print(f"snn-fg: warning: {n_empty} of {store.n} windows had no events; their maps are zero", file=sys.stderr)
+    if n_blank:
+        hint = f" ({model.blank_window_hint})" if model.blank_window_hint else ""
+        print(f"snn-fg: warning: {n_blank} of {store.n - n_empty} windows with events have no figure-ground "
+              f"vector{hint}", file=sys.stderr)
+    final = {**store.attrs["params"], "source": _source_summary(store, source)}
+    if whole:           # (kept apart: each window's own parameters are told against the first window's)
+        final["whole_run"] = whole
+    store.finish(final)
+    if figures:
+        maps = read_maps(path, lazy=True)
+        titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(maps.extra["t_start_us"],
+                                                                        maps.extra["t_end_us"])]
+        model.write_figures(out, maps, _LazyFrames(maps.extra["event_frame"]), titles, crop)
+    return store.n
+
+
+def _append_window(store: MapsStore, w, maps: Maps) -> None:
+    """One window's maps into the store, with its event frame (+1 ON, -1 OFF),
+    times (from the recording's first event), event count and pixel share."""
+    from .events.activity import pixel_share
+
+    origin = store.attrs["snn_fg"].get("first_event_us")
+    if origin is None:
+        origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
+        store.attrs["snn_fg"]["first_event_us"] = int(origin)
+    store.append(maps, event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8),
+                 t_start_us=np.int64(w.t_start_us - origin), t_end_us=np.int64(w.t_end_us - origin),
+                 event_count=np.int64(len(w.events)), pixel_share=np.float64(pixel_share(w)))
+
+
+def _source_summary(store: MapsStore, source: dict) -> dict:
+    """``params["source"]`` of a finished recording: ``source``, the first
+    event's time, every window's pixel share and the saturated windows (each
+    warned about)."""
+    from .events.activity import Activity, saturated_lines
+
+    arrays = store_arrays(store.path, store.n)
+    t0, t1 = (np.asarray(arrays[k]) for k in ("t_start_us", "t_end_us"))
+    shares = np.asarray(arrays["pixel_share"])
+    act = Activity(t_start_ms=t0 / 1000, t_end_ms=t1 / 1000, events=np.asarray(arrays["event_count"]), share=shares,
+                   window_ms=source.get("window_ms", 0))
+    for line in saturated_lines(act):
+        print(f"snn-fg: warning: {line}", file=sys.stderr)
+    return {**source, "first_event_us": store.attrs["snn_fg"]["first_event_us"],
+            "pixel_share": [round(float(v), 4) for v in shares], "saturated_windows": act.saturated.tolist()}

@@ -137,15 +137,17 @@ def test_recording_gives_windows(tmp_path):
     out = tmp_path / "out"
     assert main(["run", str(path), "--out", str(out), "--window-ms", "100", "--max-windows", "3", "--sensor-size", "64x64",
                  "--no-progress"]) == 0
-    with np.load(out / "maps.npz") as d:
-        n = d["fg_x"].shape[0]
-        assert d["fg_x"].shape[1:] == (64, 64) and 1 <= n <= 3
-        assert np.all(np.diff(d["t_start_us"]) == 100_000)
-        assert np.all(d["t_end_us"] - d["t_start_us"] == 100_000)
-        # each window's event frame is stored beside its maps: +1 ON, -1 OFF
-        assert d["event_frame"].shape == d["fg_x"].shape and set(np.unique(d["event_frame"])) <= {-1, 0, 1}
-        assert np.all((d["fg_x"] != 0) <= (d["event_frame"] != 0))
-    assert sorted(os.listdir(out)) == ["maps.npz", "maps.png"]   # no temporary parts left
+    m = Maps.load(out / "maps.zarr")
+    d = m.extra
+    n = m.fg_x.shape[0]
+    assert m.fg_x.shape[1:] == (64, 64) and 1 <= n <= 3
+    assert np.all(np.diff(d["t_start_us"]) == 100_000)
+    assert np.all(d["t_end_us"] - d["t_start_us"] == 100_000)
+    # each window's event frame is stored beside its maps: +1 ON, -1 OFF
+    assert d["event_frame"].shape == m.fg_x.shape and set(np.unique(d["event_frame"])) <= {-1, 0, 1}
+    assert np.all((m.fg_x != 0) <= (d["event_frame"] != 0))
+    assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr"]
+    assert not list(out.rglob("*.part"))        # no temporary parts left
 
 
 @pytest.mark.slow
@@ -159,7 +161,7 @@ def test_rate_model_can_carry_its_state_from_window_to_window(tmp_path):
     opts = ["--window-ms", "100", "--max-windows", "3", "--sensor-size", "64x64", "--no-progress"]
     assert main(["run", str(path), "--out", str(tmp_path / "fresh"), *opts]) == 0
     assert main(["run", str(path), "--out", str(tmp_path / "carried"), "--carry-state", "on", *opts]) == 0
-    fresh, carried = Maps.load(tmp_path / "fresh" / "maps.npz"), Maps.load(tmp_path / "carried" / "maps.npz")
+    fresh, carried = Maps.load(tmp_path / "fresh" / "maps.zarr"), Maps.load(tmp_path / "carried" / "maps.zarr")
     assert carried.params["carry_state"] is True and "carry_state" not in fresh.params
     assert fresh.grouping.shape == carried.grouping.shape == (3, 64, 64)
     # the first window has nothing to carry; the next ones start from the one before
@@ -170,28 +172,48 @@ def test_rate_model_can_carry_its_state_from_window_to_window(tmp_path):
     assert res.returncode == 2 and "--carry-state" in res.stderr
 
 
-def test_interrupted_recording_run_leaves_nothing(tmp_path, monkeypatch):
+@pytest.mark.slow
+@pytest.mark.parametrize("carry", ["off", "on"])
+def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes_it(tmp_path, monkeypatch, carry):
+    """Interrupted in its third window, a run leaves two windows readable
+    (marked incomplete); --resume runs the rest (with --carry-state, the
+    windows before again, for their state) and gives the maps of a run never
+    interrupted, bit for bit."""
     from snn_fg.events import image_to_events, save_events
     from snn_fg.rate import edfg
     from snn_fg.scenes import disc
+    from snn_fg.store import read_attrs
 
     rec = image_to_events(disc(16).image, motion="circle")
     path = tmp_path / "disc.npy"
     save_events(path, rec.events, rec.sensor_size)
+    opts = ["--window-ms", "50", "--max-windows", "4", "--levels", "3", "--carry-state", carry, "--no-figures",
+            "--no-progress"]
+    assert main(["run", str(path), "--out", str(tmp_path / "whole"), *opts]) == 0
     calls = []
-    real = edfg.run_edfg
+    real = edfg.run_edfg_state        # (each window of either mode runs it once)
 
-    def second_window_interrupted(*a, **k):
+    def interrupted_at_the_third(*a, **k):
         calls.append(1)
-        if len(calls) == 2:
+        if len(calls) == 3:
             raise KeyboardInterrupt
         return real(*a, **k)
 
-    monkeypatch.setattr(edfg, "run_edfg", second_window_interrupted)
+    monkeypatch.setattr(edfg, "run_edfg_state", interrupted_at_the_third)
     out = tmp_path / "out"
-    assert main(["run", str(path), "--out", str(out), "--window-ms", "50", "--no-progress"]) == 130
-    assert len(calls) == 2
-    assert not out.exists() and sorted(os.listdir(tmp_path)) == ["disc.npy"]
+    assert main(["run", str(path), "--out", str(out), *opts]) == 130
+    early = Maps.load(out)
+    assert early.fg_x.shape[0] == 2 and not read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
+    monkeypatch.setattr(edfg, "run_edfg_state", real)
+    assert main(["run", str(path), "--out", str(out), *opts]) == 2          # not without --resume
+    assert main(["run", str(path), "--out", str(out), *opts[:-1], "--resume"]) == 0
+    done, whole = Maps.load(out), Maps.load(tmp_path / "whole")
+    assert done.fg_x.shape[0] == 4 and read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
+    for key in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(done, key), getattr(whole, key))
+    np.testing.assert_array_equal(done.extra["event_frame"], whole.extra["event_frame"])
+    assert done.params["source"] == whole.params["source"]
+    assert main(["run", str(path), "--out", str(out), *opts, "--resume", "--r0", "6"]) == 2    # another run
 
 
 @pytest.mark.slow
@@ -211,9 +233,9 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
     save_events(path, rec.events, rec.sensor_size)
     out = tmp_path / "out"
     opts = ["--window-ms", "60", "--max-windows", "3", "--levels", "3", "--sensor-size", "64x64",
-            "--readout-lag-ms", "10"]
+            "--readout-lag-ms", "10", "--save-spikes"]
     assert main(["run", str(path), "--out", str(out), "--model", "spiking", *opts, "--no-progress"]) == 0
-    m = Maps.load(out / "maps.npz")
+    m = Maps.load(out / "maps.zarr")
     assert m.fg_x.shape[0] == 3
     sim = m.params["simulation"]
     assert sim["mode"] == "continuous" and sim["network_builds"] == 1 and sim["readout_lag_ms"] == 10
@@ -228,11 +250,11 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
         w = m.params["windows"][i] if i else {}
         assert w.get("simulation", sim)["count_from_ms"] == pytest.approx(60 * i + 10)
     assert sum(int(window_part(m.extra, "spikes_bo_L1_1", i).sum()) for i in range(3)) > 0
-    assert sorted(os.listdir(out)) == ["maps.npz", "maps.png", "rate_histograms.png", "spike_raster.png"]
+    assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr", "rate_histograms.png", "spike_raster.png"]
     quiet = tmp_path / "quiet"
     assert main(["run", str(path), "--out", str(quiet), "--model", "spiking", *opts, "--window-clock", "off",
                  "--no-progress"]) == 0
-    m_off = Maps.load(quiet / "maps.npz")
+    m_off = Maps.load(quiet / "maps.zarr")
     assert m_off.params["simulation"]["window_clock"] is False
     second = [window_part(x.extra, "spikes_group_L_1", 1) for x in (m, m_off)]
     assert not np.array_equal(*second)          # the pulse changed the second window's grouping
@@ -333,7 +355,7 @@ def test_compare_pairs_windows_by_time_and_reads_at_100_columns(tmp_path):
     opts = ["--window-ms", "100", "--sensor-size", "64x64", "--no-progress"]
     assert main(["run", str(path), "--out", str(tmp_path / "all"), *opts]) == 0
     assert main(["run", str(path), "--out", str(tmp_path / "one"), "--max-windows", "1", *opts]) == 0
-    a, b = tmp_path / "all" / "maps.npz", tmp_path / "one" / "maps.npz"
+    a, b = tmp_path / "all" / "maps.zarr", tmp_path / "one" / "maps.zarr"
     res = run_cli("compare", a, b, "--json", tmp_path / "c.json")
     assert res.returncode == 0, res.stderr
     # the table and its legend; the last line names the JSON file, as long as its path

@@ -29,7 +29,7 @@ def unix_recording(tmp_path_factory):
 def _run(path, out, *more):
     assert main(["run", str(path), "--out", str(out), "--window-ms", "50", "--levels", "4", "--no-progress",
                  *more]) == 0
-    return Maps.load(out / "maps.npz")
+    return Maps.load(out / "maps.zarr")
 
 
 @pytest.mark.slow
@@ -53,14 +53,14 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
     _run(unix_recording, tmp_path / "b", "--max-windows", "3", "--r0", "6")
     before = {d: sorted(os.listdir(tmp_path / d)) for d in ("a", "b")}
     capsys.readouterr()
-    assert main(["compare", str(tmp_path / "a" / "maps.npz"), str(tmp_path / "b" / "maps.npz")]) == 0
+    assert main(["compare", str(tmp_path / "a"), str(tmp_path / "b" / "maps.zarr")]) == 0
     out = capsys.readouterr().out
-    assert {d: sorted(os.listdir(tmp_path / d)) for d in ("a", "b")} == before == {"a": ["maps.npz", "maps.png"],
-                                                                                   "b": ["maps.npz", "maps.png"]}
+    assert {d: sorted(os.listdir(tmp_path / d)) for d in ("a", "b")} == before == {"a": ["maps.png", "maps.zarr"],
+                                                                                   "b": ["maps.png", "maps.zarr"]}
     assert sorted(os.listdir(tmp_path)) == ["a", "b"] and "saved" not in out
     t_column = [line.split()[2] for line in out.splitlines()[1:4]]
     assert t_column == ["0.0", "50.0", "100.0"] and str(UNIX_T0 // 1000)[:6] not in out
-    assert main(["compare", str(tmp_path / "a" / "maps.npz"), str(tmp_path / "b" / "maps.npz"),
+    assert main(["compare", str(tmp_path / "a"), str(tmp_path / "b" / "maps.zarr"),
                  "--json", str(tmp_path / "c.json"), "--plot", str(tmp_path / "c.png")]) == 0
     rows = json.loads((tmp_path / "c.json").read_text())["windows"]
     assert [r["t_start_ms"] for r in rows] == [0.0, 50.0, 100.0]

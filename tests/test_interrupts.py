@@ -1,6 +1,8 @@
 """Interrupting a run with a real signal (Ctrl-C's SIGINT, or SIGTERM) exits
-non-zero, says so in one line, and leaves the output folder exactly as it
-was before the run: an earlier run in it stays whole."""
+non-zero and says so in one line. A frame's run leaves the output folder
+exactly as it was before the run (an earlier run in it stays whole); a
+recording's leaves the windows completed so far, which --resume continues."""
+import os
 import signal
 import subprocess
 import sys
@@ -11,6 +13,7 @@ import numpy as np
 import pytest
 
 from snn_fg.events import image_to_events, save_events
+from snn_fg.maps import Maps
 from snn_fg.scenes import demo
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
@@ -36,7 +39,6 @@ CASES = {
     "rate-image": lambda d: ["texture.png"],
     "fbfg-image": lambda d: ["texture.png", "--model", "fbfg"],
     "spiking-frame": lambda d: ["demo", "--model", "spiking", "--duration-ms", "60000"],
-    "rate-recording": lambda d: ["long.npz", "--window-ms", "50"],
 }
 
 
@@ -45,8 +47,7 @@ CASES = {
     ("rate-image", signal.SIGINT, 1.0), ("fbfg-image", signal.SIGTERM, 1.0),
     ("spiking-frame", signal.SIGINT, 1.0), ("spiking-frame", signal.SIGTERM, 1.0),
     # at once: while the simulator is still being imported (an interrupt there can be swallowed by importlib)
-    ("spiking-frame", signal.SIGINT, 0.0), ("spiking-frame", signal.SIGINT, 0.1),
-    ("rate-recording", signal.SIGTERM, 1.0), ("rate-recording", signal.SIGINT, 1.0)])
+    ("spiking-frame", signal.SIGINT, 0.0), ("spiking-frame", signal.SIGINT, 0.1)])
 def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path, case, sig, after_s):
     out = tmp_path / "out"
     out.mkdir()
@@ -72,6 +73,34 @@ def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path,
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]              # no staging folder left
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_an_interrupted_recording_keeps_its_complete_windows_and_resumes(inputs, tmp_path, sig):
+    from snn_fg.store import read_attrs, windows_complete
+
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "snn_fg.cli", "run", str(inputs / "long.npz"), "--window-ms", "50",
+           "--max-windows", "40", "--no-figures", "--no-progress", "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while windows_complete(out) < 2:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.02)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == (130 if sig == signal.SIGINT else 143), err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "interrupted" in lines[0] and "--resume" in lines[0], err
+    n = windows_complete(out)
+    assert 2 <= n < 40 and Maps.load(out).fg_x.shape[0] == n
+    assert not read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
+    done = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    m = Maps.load(out)
+    assert m.fg_x.shape[0] == 40 and np.all(np.diff(m.extra["t_start_us"]) == 50_000)
+
+
 class _SwallowsAnInterrupt:
     """Receives Ctrl-C inside its finalizer, where Python can only print the
     KeyboardInterrupt and go on (as when a signal lands in garbage collection)."""
@@ -91,7 +120,7 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_ne
     from snn_fg import cli, runner
 
     appended = []
-    real_append = runner.MapsSeriesWriter.append
+    real_append = runner.MapsStore.append
 
     def append(self, *a, **kw):
         appended.append(1)
@@ -101,7 +130,7 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_ne
                 raise RuntimeError("a library left in a broken state by the interrupt")
         return real_append(self, *a, **kw)
 
-    monkeypatch.setattr(runner.MapsSeriesWriter, "append", append)
+    monkeypatch.setattr(runner.MapsStore, "append", append)
     out = tmp_path / "out"
     out.mkdir()
     (out / "maps.npz").write_bytes(b"an earlier run's maps")
@@ -113,6 +142,7 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_ne
     assert len(appended) == 2, f"the run went on for {len(appended)} windows after the interrupt"
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and "interrupted" in lines[0], err          # no "Exception ignored" report
-    assert {p.name: p.read_bytes() for p in out.iterdir()} == {"maps.npz": b"an earlier run's maps"}
+    # the windows completed: the second too when the run went on through it
+    assert os.listdir(out) == ["maps.zarr"] and Maps.load(out).fg_x.shape[0] == (2 if then == "goes_on" else 1)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     assert (signal.getsignal(signal.SIGINT), sys.unraisablehook) == before       # both restored

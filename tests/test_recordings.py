@@ -12,7 +12,7 @@ def test_biplane_windows(dataset, tmp_path):
     out = tmp_path / "out"
     assert main(["run", str(rec), "--out", str(out), "--model", "rate", "--window-ms", "85",
                  "--start-ms", "1", "--no-progress"]) == 0
-    m = Maps.load(out / "maps.npz")
+    m = Maps.load(out / "maps.zarr")
     n = m.fg_x.shape[0]
     # 1.0 s recording, first ms dropped: windows start every 85 ms until the last event.
     assert n == 12 and m.fg_x.shape[1:] == (240, 320)

@@ -60,10 +60,10 @@ def test_run_warns_per_saturated_window_and_records_the_shares(burst_es, tmp_pat
     err = capsys.readouterr().err
     assert "snn-fg: warning: window 0 (0-85 ms): events on 100.0% of the sensor's pixels" in err
     assert "1 of 3 windows" in err and "--start-ms 85 skips window 0" in err
-    src = Maps.load(tmp_path / "a" / "maps.npz").params["source"]
+    src = Maps.load(tmp_path / "a" / "maps.zarr").params["source"]
     assert src["pixel_share"] == [1.0, round(17 / W, 4), round(11 / W, 4)] and src["saturated_windows"] == [0]
     assert main(["run", str(burst_es), "--out", str(tmp_path / "b"), "--levels", "3", "--start-ms", "1",
                  "--no-progress"]) == 0
     err = capsys.readouterr().err
     assert "warning" not in err and "more than 50%" not in err
-    assert Maps.load(tmp_path / "b" / "maps.npz").params["source"]["saturated_windows"] == []
+    assert Maps.load(tmp_path / "b" / "maps.zarr").params["source"]["saturated_windows"] == []

@@ -14,7 +14,7 @@ Python/numpy allocations (``tracemalloc``, optional) and the wall time.
 
 ``--through-cli`` measures the whole product path instead: the child runs
 ``snn-fg run FILE --model rate`` (every window through the rate model, maps
-streamed to ``maps.npz``, figures), and reports its peak memory and the size
+streamed to ``maps.zarr``, figures), and reports its peak memory and the size
 of what it wrote.
 
 Target: peak memory under 1 GB for 10 million events.
@@ -96,6 +96,7 @@ def stream(path: Path, window_ms: float, chunk_events: int, trace: bool) -> dict
 def through_cli(path: Path, window_ms: float, max_windows: int | None) -> dict:
     """Run ``snn-fg run path --model rate`` in this process; time, peak memory, output size."""
     from snn_fg.cli import main as cli
+    from snn_fg.store import windows_complete
 
     with tempfile.TemporaryDirectory() as out:
         argv = ["run", str(path), "--out", out, "--model", "rate", "--window-ms", str(window_ms),
@@ -105,9 +106,8 @@ def through_cli(path: Path, window_ms: float, max_windows: int | None) -> dict:
         t0 = time.perf_counter()
         rc = cli(argv)
         wall = time.perf_counter() - t0
-        with np.load(Path(out) / "maps.npz") as d:
-            n_win = int(d["fg_x"].shape[0])
-        out_mb = sum(p.stat().st_size for p in Path(out).iterdir()) / 2**20
+        n_win = windows_complete(out)
+        out_mb = sum(p.stat().st_size for p in Path(out).rglob("*") if p.is_file()) / 2**20
     status = Path("/proc/self/status").read_text()
     return {"exit_code": rc, "windows": n_win, "wall_s": round(wall, 1), "s_per_window": round(wall / n_win, 3),
             "output_mb": round(out_mb, 1),

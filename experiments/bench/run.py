@@ -216,7 +216,7 @@ def section_throughput(args, eng):
 
 
 def _stream_row(maps_path: Path, model: str) -> dict:
-    """Per-window times and the engine's counters from a run's maps.npz."""
+    """Per-window times and the engine's counters from a run's maps (its output folder)."""
     from snn_fg.maps import Maps
 
     p = Maps.load(maps_path).params
@@ -225,7 +225,8 @@ def _stream_row(maps_path: Path, model: str) -> dict:
     times = [t[key] for t in per]
     row = {"windows": len(times), "window_s": times, "median_window_s": statistics.median(times[1:] or times)}
     if model == "spiking":
-        st, sim = p.get("backend_stats", {}), p["timings_s"]
+        whole = p.get("whole_run", p)        # (a recording's store keeps the whole run's apart)
+        st, sim = whole.get("backend_stats", {}), whole["timings_s"]
         events = st.get("synaptic_events_total")
         if events:
             row.update(synaptic_events_per_window=events / len(times),
@@ -256,7 +257,7 @@ def section_stream(args, eng):
                     row = {"network": network, "model": model, "cores": cores, "exit_status": code, "wall_s": wall,
                            "peak_rss_mb": rss, "load_before": before, "load_after": uptime()}
                     if code == 0:
-                        row.update(_stream_row(res / "maps.npz", model))
+                        row.update(_stream_row(res, model))
                         row["wall_s_per_window"] = wall / row["windows"]
                 out[name] = row
     return out

@@ -49,14 +49,14 @@ def _repeated(rec: Path, path: Path, times: int) -> None:
 def _child(argv: list[str]) -> dict:
     """Run ``snn-fg run`` with ``argv`` in this process: time, windows, peak memory."""
     from snn_fg.cli import main as cli
+    from snn_fg.store import windows_complete
 
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
         rc = cli(["run", *argv, "--out", out, "--model", "spiking", "--no-progress"])
         wall = time.perf_counter() - t0
-        with np.load(Path(out) / "maps.npz") as d:
-            n_win = int(d["fg_x"].shape[0])
-        out_mb = sum(p.stat().st_size for p in Path(out).iterdir()) / 2**20
+        n_win = windows_complete(out)
+        out_mb = sum(p.stat().st_size for p in Path(out).rglob("*") if p.is_file()) / 2**20
     status = Path("/proc/self/status").read_text()
     return {"exit_code": rc, "windows": n_win, "wall_s": round(wall, 1), "output_mb": round(out_mb, 1),
             "peak_rss_mb": round(int(status.split("VmHWM:")[1].split()[0]) / 1024, 1)}

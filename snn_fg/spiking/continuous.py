@@ -125,6 +125,22 @@ def run_spiking_windows(windows, *, source: str = "<recording>", options: Spikin
     return window_maps(run)
 
 
+def stream_spiking_windows(windows, on_window, *, source: str = "<recording>",
+                           options: SpikingOptions | None = None, **keywords) -> dict:
+    """:func:`run_spiking_windows` handing each window's maps to
+    ``on_window(k, maps)`` as soon as the run has passed the end of its
+    read-out span, instead of returning them all at the end: nothing of a
+    window is kept once handed over. Each window's ``params`` are those
+    known then (a backend that streams its bins, such as the fast engine,
+    has no statistics or timings of the whole run yet); returns the whole
+    run's, to update the run's parameters with (``counts``,
+    ``backend_stats``, ``kept_kernel_mass``, ``timings_s``)."""
+    opts = SpikingOptions.of("stream_spiking_windows", options, keywords, frame=False)
+    run = simulate_windows(windows, source=source, keep_run=False, options=opts, on_window=on_window)
+    whole = run_params(run.network, run.origin, run.backend, run.result, {}, run.simulation, run.t_start)
+    return {k: whole[k] for k in ("counts", "backend_stats", "kept_kernel_mass", "timings_s")}
+
+
 @dataclasses.dataclass
 class ContinuousRun:
     """One simulation over a recording's windows (:func:`simulate_windows`):
@@ -149,7 +165,7 @@ class ContinuousRun:
 
 
 def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = True,
-                     options: SpikingOptions | None = None, **keywords) -> ContinuousRun:
+                     options: SpikingOptions | None = None, on_window=None, **keywords) -> ContinuousRun:
     """The simulation half of :func:`run_spiking_windows` (same parameters):
     one run over every window, each window decoded as the run passes the
     end of its read-out span; :func:`window_maps` makes their maps.
@@ -158,7 +174,8 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     read (``RunSettings.on_bin``): the result then has no per-bin counts
     and no spike trains, and the memory need not grow with the recording.
     ``True`` keeps them in ``ContinuousRun.result`` (for analyses of the
-    whole run's spikes)."""
+    whole run's spikes). ``on_window(k, maps)``: each window's maps as it
+    is decoded (:func:`stream_spiking_windows`), none kept in the result."""
     t_start = time.perf_counter()
     opts = SpikingOptions.of("simulate_windows", options, keywords, frame=False)
     sim, lag = opts.simulator, opts.recording.readout_lag_ms
@@ -180,20 +197,21 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     edges = sorted({t for span in spans for t in span})
     backend = sim.backend_object()
     instantiate = sim.cells_for(backend, inp)
-    reader = _WindowReader(windows, spans, edges, net.params.input_pool)
-    settings = RunSettings(duration_ms=edges[-1], dt_ms=sim.dt_ms, count_from_ms=edges[0],
-                           record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
-                           log=sim.say, progress=sim.progress, on_bin=None if keep_run else reader)
-    result = backend.simulate(net, inp, settings)
-    if result.binned_counts is not None:        # (a backend that kept its bins)
-        for k, bin_result in each_bin(result):
-            reader(k, bin_result)
     simulation = {"mode": "continuous", "simulated_ms": edges[-1], "network_builds": 1, "readout_lag_ms": lag,
                   "dt_ms": sim.dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": inp.merged,
                   "instantiate": instantiate, "record_spikes": bool(sim.record_spikes),
                   "window_clock": clock}
-    return ContinuousRun(windows, net, origin, backend, result, edges, spans, simulation, t_start,
-                         reader.decoded, reader.decoded_at)
+    run = ContinuousRun(windows, net, origin, backend, None, edges, spans, simulation, t_start,
+                        [None] * len(windows), [None] * len(windows))
+    reader = _WindowReader(windows, spans, edges, net.params.input_pool, run, on_window)
+    settings = RunSettings(duration_ms=edges[-1], dt_ms=sim.dt_ms, count_from_ms=edges[0],
+                           record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
+                           log=sim.say, progress=sim.progress, on_bin=None if keep_run else reader)
+    run.result = backend.simulate(net, inp, settings)
+    if run.result.binned_counts is not None:        # (a backend that kept its bins)
+        for k, bin_result in each_bin(run.result):
+            reader(k, bin_result)
+    return run
 
 
 def _window_input(windows, events, net, dt_ms: float, window_clock: bool, source: str):
@@ -228,15 +246,15 @@ def _bins_of(span, edges) -> tuple[int, int]:
 class _WindowReader:
     """Receives a run's counting bins in order (``RunSettings.on_bin``) and
     decodes each window as soon as the last bin of its read-out span is in:
-    ``decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``. Only the windows
-    still being read hold their counts and spikes."""
+    into ``run.decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``, or as
+    its maps to ``on_window(k, maps)``. Only the windows still being read
+    hold their counts and spikes."""
 
-    def __init__(self, windows, spans, edges, pool: int = 1):
-        self.windows, self.edges, self.pool = windows, edges, pool
+    def __init__(self, windows, spans, edges, pool: int, run: ContinuousRun, on_window=None):
+        self.windows, self.edges, self.pool, self.run, self.on_window = windows, edges, pool, run, on_window
         self.bins = [_bins_of(span, edges) for span in spans]
         self.reading: dict = {}
-        self.decoded: list = [None] * len(windows)
-        self.decoded_at: list = [None] * len(windows)      # perf_counter() when each window was decoded
+        self.last_at = run.t_start          # perf_counter() when the last window was decoded
 
     def __call__(self, k: int, result):
         for i, (k0, k1) in enumerate(self.bins):
@@ -249,8 +267,12 @@ class _WindowReader:
                 spikes.append(result.spikes)
             if k == k1 - 1:
                 del self.reading[i]
-                self.decoded[i] = self._decode(i, result, counts, spikes)
-                self.decoded_at[i] = time.perf_counter()
+                decoded, before, self.last_at = self._decode(i, result, counts, spikes), self.last_at, \
+                    time.perf_counter()
+                if self.on_window is None:
+                    self.run.decoded[i], self.run.decoded_at[i] = decoded, self.last_at
+                else:
+                    self.on_window(i, _maps_of(self.run, i, decoded, result, self.last_at - before))
 
     def _decode(self, i, result, counts, spikes):
         k0, k1 = self.bins[i]
@@ -272,15 +294,17 @@ def window_maps(run: ContinuousRun) -> list[Maps]:
     span, with the whole run's parameters; ``timings_s["window"]`` is the
     wall time from the previous window's decoding (the first: from the
     run's start) to this one's, what the stream spent on the window."""
-    out = []
     before = [run.t_start] + run.decoded_at[:-1]
-    for span, (fg_x, fg_y, grouping, rec), t0, t1 in zip(run.spans, run.decoded, before, run.decoded_at):
-        k0, k1 = _bins_of(span, run.edges)
-        simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0],
-                      "count_to_ms": run.edges[k1]}
-        params = run_params(run.network, run.origin, run.backend, run.result, rec.populations, simulation,
-                            run.t_start)
-        params["timings_s"]["window"] = t1 - t0
-        out.append(Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params,
-                        rec.arrays()))
-    return out
+    return [_maps_of(run, k, decoded, run.result, t1 - t0)
+            for k, (decoded, t0, t1) in enumerate(zip(run.decoded, before, run.decoded_at))]
+
+
+def _maps_of(run: ContinuousRun, k: int, decoded, result, window_s: float) -> Maps:
+    """Window ``k``'s maps from its ``decoded`` tuple, with the parameters
+    of ``result`` (the whole run's, or the bin's while it runs)."""
+    fg_x, fg_y, grouping, rec = decoded
+    k0, k1 = _bins_of(run.spans[k], run.edges)
+    simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0], "count_to_ms": run.edges[k1]}
+    params = run_params(run.network, run.origin, run.backend, result, rec.populations, simulation, run.t_start)
+    params["timings_s"]["window"] = window_s
+    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params, rec.arrays())

@@ -1,0 +1,159 @@
+"""Many recordings in one ``snn-fg run``: a folder, a glob or a list file.
+
+Each recording is one job, run as ``snn-fg run RECORDING --out DIR/NAME``
+would run it, on local processes (``workers``) or on a Dask cluster
+(``scheduler``, an address). A recording that fails is reported in the
+summary with its one-line error and does not stop the others; a recording
+whose run is complete is skipped, and one cut short is continued
+(:mod:`snn_fg.store`). ``DIR/summary.csv`` lists every recording: its
+status (``done``, ``skipped``, ``failed``), windows, seconds and error.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import csv
+import glob
+import io
+import os
+import sys
+import time
+from pathlib import Path
+
+from .errors import InputError, SnnFgError
+from .events.io import SUFFIX_FORMAT
+
+#: the summary table's name in the output folder, and its columns
+SUMMARY_NAME = "summary.csv"
+SUMMARY_COLUMNS = ("recording", "output", "status", "windows", "seconds", "error")
+_GLOB = set("*?[")
+
+
+def is_dataset(spec: str) -> bool:
+    """Whether INPUT names several recordings: a folder, a glob pattern or a ``.txt`` list of paths."""
+    path = Path(spec)
+    return path.is_dir() or path.suffix.lower() == ".txt" or (not path.exists() and bool(_GLOB & set(spec)))
+
+
+def recordings_of(spec: str) -> list[Path]:
+    """The recordings INPUT names: a folder's files with a recording's suffix
+    (sorted), a glob's matches, or a list file's lines (blank lines and
+    ``#`` comments skipped, relative paths from the list's folder)."""
+    path = Path(spec)
+    if path.is_dir():
+        found = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in SUFFIX_FORMAT)
+    elif path.suffix.lower() == ".txt":
+        if not path.is_file():
+            raise InputError(path, "no such list file")
+        lines = [line.strip() for line in path.read_text().splitlines()]
+        found = [p if p.is_absolute() else path.parent / p
+                 for p in (Path(line) for line in lines if line and not line.startswith("#"))]
+    else:
+        found = sorted(Path(p) for p in glob.glob(spec))
+    if not found:
+        raise InputError(path, "names no recording (a folder of recordings, a glob or a .txt list of paths)")
+    return found
+
+
+def output_names(recordings: list[Path]) -> list[str]:
+    """One output folder name per recording: its file name without suffix,
+    with its parent folder's name too where two would clash (then a number)."""
+    stems = [p.stem for p in recordings]
+    names = [f"{p.parent.name}_{p.stem}" if stems.count(p.stem) > 1 else p.stem for p in recordings]
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:
+        seen[n] = seen.get(n, 0) + 1
+        out.append(f"{n}_{seen[n]}" if names.count(n) > 1 else n)
+    return out
+
+
+def run_job(options: dict) -> dict:
+    """One recording: ``options`` are ``snn-fg run``'s (``input``, ``out``
+    and the rest); a row of the summary, whatever happens (an interrupt ends
+    the job as it ends a run)."""
+    from .cli import cmd_run
+    from .store import STORE_NAME, read_attrs, windows_complete
+
+    out = Path(options["out"])
+    row = {"recording": options["input"], "output": str(out), "status": "done", "windows": 0, "seconds": 0.0,
+           "error": ""}
+    store = out / STORE_NAME
+    with contextlib.suppress(SnnFgError):
+        if store.is_dir() and not options["force"] and read_attrs(store)["snn_fg"]["complete"]:
+            return {**row, "status": "skipped", "windows": windows_complete(out)}
+    t = time.perf_counter()
+    args = argparse.Namespace(**{**options, "resume": True if store.is_dir() and not options["force"] else None})
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            cmd_run(args)
+    except Exception as exc:           # (every failure is one line in the summary)
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        row.update(status="failed", error=first if isinstance(exc, SnnFgError) else f"{type(exc).__name__}: {first}")
+    row.update(windows=windows_complete(out), seconds=round(time.perf_counter() - t, 2))
+    return row
+
+
+def _jobs(args) -> list[dict]:
+    recordings = recordings_of(args.input)
+    base = {k: v for k, v in vars(args).items() if k not in ("handler", "interrupted", "interrupt_note")}
+    return [{**base, "input": str(p), "out": str(Path(args.out) / name), "no_progress": True, "workers": None,
+             "scheduler": None}
+            for p, name in zip(recordings, output_names(recordings))]
+
+
+def _run_all(jobs: list[dict], workers: int, scheduler: str | None, progress: bool):
+    """``run_job`` over ``jobs``: rows in completion order."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=len(jobs), desc="recordings", unit="rec", file=sys.stderr, disable=not progress, leave=False)
+    if scheduler is not None:
+        try:
+            from dask.distributed import Client, as_completed
+        except ImportError:
+            raise InputError(scheduler, "--scheduler needs Dask: pip install -e '.[sweep]'") from None
+        with Client(scheduler) as client:
+            for future in as_completed(client.map(run_job, jobs, pure=False)):
+                bar.update()
+                yield future.result()
+    elif workers == 1:
+        for job in jobs:
+            yield run_job(job)
+            bar.update()
+    else:
+        from concurrent.futures import ProcessPoolExecutor, as_completed as done
+        import multiprocessing
+
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+            for future in done([pool.submit(run_job, job) for job in jobs]):
+                bar.update()
+                yield future.result()
+    bar.close()
+
+
+def run_dataset(args) -> int:
+    """``snn-fg run`` on several recordings (:func:`is_dataset`): one output
+    folder per recording in ``args.out``, ``summary.csv`` beside them, a
+    table on stdout. ``args.workers`` local processes (default: one per
+    core, at most one per recording) or the Dask cluster at
+    ``args.scheduler``. ``--force`` runs complete recordings again. Returns
+    0, or 1 when a recording failed."""
+    from .atomic import save_text
+
+    jobs = _jobs(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    workers = min(args.workers or os.cpu_count() or 1, len(jobs))
+    rows = sorted(_run_all(jobs, workers, args.scheduler, not args.no_progress),
+                  key=lambda r: [j["input"] for j in jobs].index(r["recording"]))
+    text = io.StringIO()
+    writer = csv.DictWriter(text, SUMMARY_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    save_text(out / SUMMARY_NAME, text.getvalue())
+    for r in rows:
+        print(f"{r['status']:>8}  {r['windows']:5d} windows  {r['seconds']:8.1f} s  {r['recording']}"
+              + (f": {r['error']}" if r["error"] else ""))
+    failed = sum(r["status"] == "failed" for r in rows)
+    print(f"snn-fg: {len(rows)} recordings, {failed} failed; summary in {out / SUMMARY_NAME}")
+    return 1 if failed else 0

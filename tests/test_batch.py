@@ -1,0 +1,68 @@
+"""snn-fg run on several recordings: one output each plus summary.csv, on a
+Dask LocalCluster; a broken recording is reported with its one-line error and
+stops nothing; a rerun skips the recordings already complete."""
+import csv
+
+import numpy as np
+import pytest
+
+from snn_fg.batch import output_names, recordings_of
+from snn_fg.cli import main
+from snn_fg.maps import Maps
+
+
+@pytest.fixture()
+def folder(tmp_path):
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.scenes import disc
+
+    d = tmp_path / "recs"
+    d.mkdir()
+    for name, r in (("a", 10), ("c", 14)):
+        rec = image_to_events(disc(r).image, motion="circle")
+        save_events(d / f"{name}.npy", rec.events, rec.sensor_size)
+    (d / "b.npy").write_bytes(b"not a recording at all")
+    (d / "notes.md").write_text("not a recording either: skipped by its suffix")
+    return d
+
+
+def _summary(out):
+    with open(out / "summary.csv") as fh:
+        return {r["recording"].rsplit("/", 1)[-1]: r for r in csv.DictReader(fh)}
+
+
+@pytest.mark.slow
+def test_three_recordings_on_a_local_cluster_one_broken(folder, tmp_path, capsys):
+    distributed = pytest.importorskip("dask.distributed", reason="Dask is in the test extra")
+    out = tmp_path / "out"
+    opts = ["--window-ms", "60", "--max-windows", "2", "--levels", "3", "--sensor-size", "64x64", "--no-figures",
+            "--no-progress"]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        code = main(["run", str(folder), "--out", str(out), "--scheduler", cluster.scheduler_address, *opts])
+    printed = capsys.readouterr().out
+    assert code == 1 and "3 recordings, 1 failed" in printed
+    rows = _summary(out)
+    assert sorted(rows) == ["a.npy", "b.npy", "c.npy"]
+    assert rows["b.npy"]["status"] == "failed" and "b.npy" in rows["b.npy"]["error"]
+    assert "\n" not in rows["b.npy"]["error"] and "Traceback" not in rows["b.npy"]["error"]
+    for name in ("a", "c"):
+        assert rows[f"{name}.npy"]["status"] == "done" and rows[f"{name}.npy"]["windows"] == "2"
+        m = Maps.load(out / name)
+        assert m.fg_x.shape == (2, 64, 64) and np.count_nonzero(m.fg_x) > 0
+    assert sorted(p.name for p in out.iterdir()) == ["a", "c", "summary.csv"]
+    # a rerun (here on one local process) skips what is complete and tries the broken one again
+    assert main(["run", str(folder), "--out", str(out), "--workers", "1", *opts]) == 1
+    again = _summary(out)
+    assert [again[k]["status"] for k in sorted(again)] == ["skipped", "failed", "skipped"]
+
+
+def test_inputs_a_folder_a_glob_or_a_list_name(folder, tmp_path):
+    listed = tmp_path / "list.txt"
+    listed.write_text("# two of them\nrecs/c.npy\n\n" + str(folder / "a.npy") + "\n")
+    assert [p.name for p in recordings_of(str(folder))] == ["a.npy", "b.npy", "c.npy"]
+    assert [p.name for p in recordings_of(str(folder / "[ac].npy"))] == ["a.npy", "c.npy"]
+    assert recordings_of(str(listed)) == [tmp_path / "recs" / "c.npy", folder / "a.npy"]
+    assert output_names([tmp_path / "x" / "r.es", tmp_path / "y" / "r.es", tmp_path / "q.raw"]) == ["x_r", "y_r", "q"]
+    assert main(["run", str(folder / "*.es"), "--out", str(tmp_path / "o")]) == 2       # names nothing
+    assert main(["run", str(folder / "a.npy"), "--out", str(tmp_path / "p"), "--workers", "2"]) == 2

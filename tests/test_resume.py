@@ -1,0 +1,77 @@
+"""A spiking run over a recording, cut short and continued: its windows are
+written while the one simulation runs, the windows completed before the cut
+are readable, and --resume gives the maps of a run never cut, bit for bit."""
+import numpy as np
+import pytest
+
+from snn_fg.events import image_to_events, iter_windows
+from snn_fg.maps import Maps
+from snn_fg.models import get_model
+from snn_fg.params import ModelParams
+from snn_fg.scenes import disc
+from snn_fg.store import read_attrs, windows_complete
+
+pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+
+
+@pytest.fixture(scope="module")
+def recording():
+    return image_to_events(disc(12).image, motion="circle")
+
+
+def _run(rec, out, **kw):
+    from snn_fg.runner import run_recording
+
+    model = get_model("spiking", ModelParams(levels=3), readout_lag_ms=10.0)
+    windows = iter_windows(rec, window_ms=40, max_windows=5)
+    return run_recording(model, windows, out, {"input": "disc"}, "disc", figures=False, **kw)
+
+
+@pytest.mark.slow
+def test_a_cut_spiking_run_keeps_its_windows_and_resume_gives_the_uncut_maps(recording, tmp_path, monkeypatch):
+    from snn_fg import runner
+    from snn_fg.backends.fast.run import Run
+
+    simulating = []
+    real_simulate = Run.simulate
+
+    def watched(self, *a, **k):
+        simulating.append(True)
+        try:
+            return real_simulate(self, *a, **k)
+        finally:
+            simulating.append(False)
+
+    monkeypatch.setattr(Run, "simulate", watched)
+    whole = tmp_path / "whole"
+    whole.mkdir()
+    assert _run(recording, whole) == 5
+    seen = []           # windows complete in the store each time a window comes out of the simulation
+    real = runner._append_window
+
+    def cut_at_the_fourth(store, w, maps):
+        seen.append((windows_complete(store.path.parent), simulating[-1]))
+        if len(seen) == 4:
+            raise KeyboardInterrupt
+        real(store, w, maps)
+
+    monkeypatch.setattr(runner, "_append_window", cut_at_the_fourth)
+    out = tmp_path / "out"
+    out.mkdir()
+    with pytest.raises(KeyboardInterrupt):
+        _run(recording, out)
+    # each window came out while the one simulation ran, the ones before it already in the store
+    assert seen == [(0, True), (1, True), (2, True), (3, True)]
+    cut = Maps.load(out)
+    assert cut.fg_x.shape[0] == 3 and not read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
+    monkeypatch.setattr(runner, "_append_window", real)
+    assert _run(recording, out, resume=True) == 5
+    a, b = Maps.load(out), Maps.load(whole)
+    assert read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
+    for key in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+    np.testing.assert_array_equal(a.extra["event_frame"], b.extra["event_frame"])
+    assert np.count_nonzero(a.fg_x) > 0           # (equal and not empty)
+    # each window's own parameters besides its timing: the same cells, rates and read-out spans
+    strip = lambda p: {k: v for k, v in p.items() if k != "timings_s"}      # noqa: E731
+    assert [strip(w) for w in a.params["windows"]] == [strip(w) for w in b.params["windows"]]

@@ -1,0 +1,104 @@
+"""The store a recording's maps grow in (snn_fg.store): stacked, ragged and
+missing per-window arrays, read back by Maps.load and by zarr-python (an
+independent Zarr reader), only complete windows visible, continued after a
+window cut short."""
+import numpy as np
+import pytest
+
+from snn_fg.errors import InputError
+from snn_fg.maps import Maps, window_part
+from snn_fg.store import FLAT_CHUNK, MapsStore, read_attrs
+
+
+def _maps(value, **extra):
+    z = np.full((3, 4), value, np.float32)
+    return Maps(z, z + 1, z + 2, {"model": "spiking", "counts": {"cells": int(value)}}, extra)
+
+
+WINDOWS = [
+    lambda: _maps(1, spikes_S=np.array([1, 2, 3], np.int32), names=np.array(["a", "b"]),
+                  frame=np.ones((3, 4), np.uint8)),
+    lambda: _maps(2),   # an empty window: no spike data at all
+    lambda: _maps(3, spikes_S=np.array([7], np.int32), names=np.array(["a", "b"]), frame=np.full((3, 4), 5, np.uint8)),
+]
+
+
+def _write(path, windows, **more):
+    store = MapsStore.create(path, {"input": "x"})
+    for i, m in enumerate(windows):
+        store.append(m(), t_start_us=np.int64(10 * i))
+    return store
+
+
+def test_stacked_ragged_and_missing_arrays_read_back_by_us_and_by_zarr(tmp_path):
+    zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
+    path = tmp_path / "maps.zarr"
+    _write(path, WINDOWS).finish({"model": "spiking", "final": True})
+    back = Maps.load(path)
+    assert back.fg_x.shape == (3, 3, 4) and np.all(back.fg_x[2] == 3) and np.all(back.grouping[1] == 4)
+    np.testing.assert_array_equal(back.extra["spikes_S_offsets"], [0, 3, 3, 4])
+    np.testing.assert_array_equal(window_part(back.extra, "spikes_S", 0), [1, 2, 3])
+    assert window_part(back.extra, "spikes_S", 1).size == 0
+    np.testing.assert_array_equal(window_part(back.extra, "names", 2), ["a", "b"])
+    assert not back.extra["frame"][1].any() and np.all(back.extra["frame"][2] == 5)     # absent: zeros
+    assert back.params["final"] is True
+    # what differs from the first window's parameters is kept per window
+    assert [w.get("counts") for w in back.params["windows"]] == [None, {"cells": 2}, {"cells": 3}]
+    g = zarr.open_group(str(path), mode="r")
+    assert g.attrs["snn_fg"]["windows_complete"] == 3 and g.attrs["snn_fg"]["complete"] is True
+    for key in ("fg_x", "grouping", "frame", "spikes_S", "spikes_S_offsets", "names", "t_start_us"):
+        np.testing.assert_array_equal(g[key][:], back.extra.get(key, getattr(back, key, None)))
+    assert g["window_params"][1] == '{"counts": {"cells": 2}}'
+
+
+def test_flat_arrays_span_chunks(tmp_path):
+    """A ragged array longer than one chunk, filled across chunk edges."""
+    path = tmp_path / "maps.zarr"
+    parts = [np.arange(n, dtype=np.int64) + 1000 * n for n in (FLAT_CHUNK - 3, 5, 2 * FLAT_CHUNK + 1)]
+    _write(path, [lambda p=p: _maps(0, spikes_S=p) for p in parts])
+    back = Maps.load(path)
+    for i, p in enumerate(parts):
+        np.testing.assert_array_equal(window_part(back.extra, "spikes_S", i), p)
+
+
+def test_a_reader_sees_complete_windows_only_and_a_cut_window_is_written_again(tmp_path, monkeypatch):
+    from snn_fg import store as st
+
+    path = tmp_path / "maps.zarr"
+    _write(path, WINDOWS[:2])
+    real = st.GrowingArray.append
+
+    def cut(self, values):
+        if self.path.name == "grouping":       # the window is cut short after its fg_x and fg_y
+            raise KeyboardInterrupt
+        real(self, values)
+
+    monkeypatch.setattr(st.GrowingArray, "append", cut)
+    with pytest.raises(KeyboardInterrupt):
+        MapsStore.reopen(path, {"input": "x"}).append(_maps(9))
+    monkeypatch.setattr(st.GrowingArray, "append", real)
+    seen = Maps.load(path)
+    assert seen.fg_x.shape[0] == 2 and not read_attrs(path)["snn_fg"]["complete"]
+    store = MapsStore.reopen(path, {"input": "x"})
+    assert store.n == 2
+    store.append(WINDOWS[2](), t_start_us=np.int64(20))
+    whole = tmp_path / "whole.zarr"
+    _write(whole, WINDOWS)
+    a, b = Maps.load(path), Maps.load(whole)
+    assert a.fg_x.shape[0] == 3
+    for key in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+    for key in b.extra:
+        np.testing.assert_array_equal(a.extra[key], b.extra[key])
+
+
+def test_another_run_and_a_changing_shape_are_refused(tmp_path):
+    path = tmp_path / "maps.zarr"
+    store = _write(path, WINDOWS[:1])
+    with pytest.raises(ValueError, match="'frame' changes its shape between windows"):
+        store.append(_maps(1, frame=np.zeros((2, 3))))
+    with pytest.raises(InputError, match="these differ: input"):
+        MapsStore.reopen(path, {"input": "y"})
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(InputError, match="not a maps store"):
+        Maps.load(tmp_path / "empty")

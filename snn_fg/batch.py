@@ -68,11 +68,10 @@ def output_names(recordings: list[Path]) -> list[str]:
     return out
 
 
-def run_job(options: dict) -> dict:
-    """One recording: ``options`` are ``snn-fg run``'s (``input``, ``out``
-    and the rest); a row of the summary, whatever happens (an interrupt ends
-    the job as it ends a run)."""
-    from .cli import cmd_run
+def run_job(options: dict, command) -> dict:
+    """One recording: ``command`` (``snn-fg run``'s handler) with ``options``
+    (``input``, ``out`` and the rest); a row of the summary, whatever happens
+    (an interrupt ends the job as it ends a run)."""
     from .store import STORE_NAME, read_attrs, windows_complete
 
     out = Path(options["out"])
@@ -86,7 +85,7 @@ def run_job(options: dict) -> dict:
     args = argparse.Namespace(**{**options, "resume": True if store.is_dir() and not options["force"] else None})
     try:
         with contextlib.redirect_stdout(io.StringIO()):
-            cmd_run(args)
+            command(args)
     except Exception as exc:           # (every failure is one line in the summary)
         first = str(exc).splitlines()[0] if str(exc) else ""
         row.update(status="failed", error=first if isinstance(exc, SnnFgError) else f"{type(exc).__name__}: {first}")
@@ -102,9 +101,13 @@ def _jobs(args) -> list[dict]:
             for p, name in zip(recordings, output_names(recordings))]
 
 
-def _run_all(jobs: list[dict], workers: int, scheduler: str | None, progress: bool):
-    """``run_job`` over ``jobs``: rows in completion order."""
+def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, progress: bool):
+    """``run_job`` of ``command`` over ``jobs``: rows in completion order."""
+    import functools
+
     from tqdm import tqdm
+
+    run_one = functools.partial(run_job, command=command)
 
     bar = tqdm(total=len(jobs), desc="recordings", unit="rec", file=sys.stderr, disable=not progress, leave=False)
     if scheduler is not None:
@@ -113,26 +116,26 @@ def _run_all(jobs: list[dict], workers: int, scheduler: str | None, progress: bo
         except ImportError:
             raise InputError(scheduler, "--scheduler needs Dask: pip install -e '.[sweep]'") from None
         with Client(scheduler) as client:
-            for future in as_completed(client.map(run_job, jobs, pure=False)):
+            for future in as_completed(client.map(run_one, jobs, pure=False)):
                 bar.update()
                 yield future.result()
     elif workers == 1:
         for job in jobs:
-            yield run_job(job)
+            yield run_one(job)
             bar.update()
     else:
         from concurrent.futures import ProcessPoolExecutor, as_completed as done
         import multiprocessing
 
         with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            for future in done([pool.submit(run_job, job) for job in jobs]):
+            for future in done([pool.submit(run_one, job) for job in jobs]):
                 bar.update()
                 yield future.result()
     bar.close()
 
 
-def run_dataset(args) -> int:
-    """``snn-fg run`` on several recordings (:func:`is_dataset`): one output
+def run_dataset(args, command) -> int:
+    """``snn-fg run`` (its handler ``command``) on several recordings (:func:`is_dataset`): one output
     folder per recording in ``args.out``, ``summary.csv`` beside them, a
     table on stdout. ``args.workers`` local processes (default: one per
     core, at most one per recording) or the Dask cluster at
@@ -144,7 +147,7 @@ def run_dataset(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     workers = min(args.workers or os.cpu_count() or 1, len(jobs))
-    rows = sorted(_run_all(jobs, workers, args.scheduler, not args.no_progress),
+    rows = sorted(_run_all(jobs, command, workers, args.scheduler, not args.no_progress),
                   key=lambda r: [j["input"] for j in jobs].index(r["recording"]))
     text = io.StringIO()
     writer = csv.DictWriter(text, SUMMARY_COLUMNS, lineterminator="\n")

@@ -292,7 +292,7 @@ def cmd_run(args) -> int:
     from .store import windows_complete
 
     if is_dataset(args.input):
-        return run_dataset(args)
+        return run_dataset(args, cmd_run)
     if args.workers is not None or args.scheduler is not None:
         given = "--workers" if args.workers is not None else "--scheduler"
         raise InputError(args.input, f"{given}: applies to several recordings only (INPUT a folder, a glob or a "

@@ -56,7 +56,7 @@ class Maps:
         if path.is_dir() and (path / "maps.npz").is_file():
             path = path / "maps.npz"
         elif path.is_dir():
-            return read_maps(path / STORE_NAME if (path / STORE_NAME).is_dir() else path)
+            return cls(*read_maps(path / STORE_NAME if (path / STORE_NAME).is_dir() else path))
         try:
             with np.load(path, allow_pickle=False) as d:
                 missing = [k for k in ("fg_x", "fg_y", "grouping") if k not in d.files]

@@ -101,7 +101,7 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str, cro
         final["whole_run"] = whole
     store.finish(final)
     if figures:
-        maps = read_maps(path, lazy=True)
+        maps = Maps(*read_maps(path, lazy=True))
         titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(maps.extra["t_start_us"],
                                                                         maps.extra["t_end_us"])]
         model.write_figures(out, maps, _LazyFrames(maps.extra["event_frame"]), titles, crop)

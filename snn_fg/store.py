@@ -28,7 +28,6 @@ Nothing here keeps more than one chunk per array in memory.
 from __future__ import annotations
 
 import json
-import os
 import struct
 import zlib
 from pathlib import Path
@@ -312,14 +311,13 @@ class MapsStore:
         _write_json(self.path / ".zattrs", self.attrs)
 
 
-def read_maps(path, lazy: bool = False):
-    """The :class:`~snn_fg.maps.Maps` of a store: its complete windows (all
+def read_maps(path, lazy: bool = False) -> tuple:
+    """The fields of the :class:`~snn_fg.maps.Maps` of a store (``fg_x``,
+    ``fg_y``, ``grouping``, ``params``, the other arrays): its complete windows (all
     of them once the run has ended). ``lazy``: arrays are
     :class:`ZarrArray` read on indexing (a long recording's figures draw
     a few windows), else numpy arrays. ``params["windows"]`` lists each
     window's own parameters when any window has some, as in ``maps.npz``."""
-    from .maps import Maps
-
     path = Path(path)
     attrs = read_attrs(path)
     n = int(attrs["snn_fg"]["windows_complete"])
@@ -333,4 +331,4 @@ def read_maps(path, lazy: bool = False):
     if not lazy:
         arrays = {k: np.asarray(v) for k, v in arrays.items()}
     maps = [arrays.pop(k) for k in ("fg_x", "fg_y", "grouping")]
-    return Maps(*maps, params, arrays)
+    return (*maps, params, arrays)

@@ -9,7 +9,8 @@ synapses, is skipped), once as sPyNNaker chooses its cores and once with
 cells, as the report counts). ``mapping.json`` of each run is kept.
 
 Writes experiments/results/export_spinnaker.{json,md}.
-Usage: python -m experiments.validation.export_spinnaker [--configs 64x48:4 compact:159x126 NETWORK.json ...] [--no-combined] [--keep]
+Usage: python -m experiments.validation.export_spinnaker [--configs 64x48:4 compact:159x126 NETWORK.json ...]
+       [--no-combined] [--keep]
 (--keep: the stored rows of other configurations stay in the results)
 """
 from __future__ import annotations

@@ -118,14 +118,18 @@ def _load(r) -> str:
 def markdown(out: dict) -> list[str]:
     comparisons = (("consumer", "snnTorch vs fast"), ("encoding", "profile network (fast) vs fast"),
                    ("consumer_vs_encoding", "snnTorch vs profile network (fast)"))
-    rows = [[r.get("network", "default, 1 level"), r["what"], label, f"{r[key]['grouping_r']:.3f}", f"{r[key]['within_45']:.3f}",
-             f"{r[key]['mean_deg']:.1f}", f"{r[key]['coverage']:.3f}", f"{r['snntorch_s']:.0f}", _load(r)]
+    rows = [[r.get("network", "default, 1 level"), r["what"], label, f"{r[key]['grouping_r']:.3f}",
+             f"{r[key]['within_45']:.3f}", f"{r[key]['mean_deg']:.1f}", f"{r[key]['coverage']:.3f}",
+             f"{r['snntorch_s']:.0f}", _load(r)]
             for r in out["inputs"].values() for key, label in comparisons]
     return ["# An independent NIR consumer runs the export (snnTorch 1.0.0, nirtorch 2.6)", "",
             "`snn-fg export --format nir --nir-profile snntorch` (the default network with one level; the compact "
-            "network with `--nir-one-grid`, its three levels on one grid); decoded with snn-fg's decoder. Reference: the fast engine on the exported (board) network, same input spikes. Each input's "
-            "run (commit, command, date) is in `nir_consumer.json`.", ""] + markdown_table(
-        ["network", "input", "comparison", "grouping r", "within 45°", "mean angle °", "coverage", "snnTorch s", "load"], rows)
+            "network with `--nir-one-grid`, its three levels on one grid); decoded with snn-fg's decoder. "
+            "Reference: the fast engine on the exported (board) network, same input spikes. Each input's "
+            "run (commit, command, date) is in `nir_consumer.json`. An empty comparison (nan): the reference has "
+            "no border-ownership vector.", ""] + markdown_table(
+        ["network", "input", "comparison", "grouping r", "within 45°", "mean angle °", "coverage", "snnTorch s",
+         "load"], rows)
 
 
 def main(argv=None):

@@ -44,9 +44,10 @@ reads its inputs at the level's spacing. Levels must be octaves apart
 cell of the frame, read with the ``dilation`` that skips the zeros between
 them (:func:`reaching_taps`; the same sums, 14x fewer weights for the
 compact network at 64 x 64). The window clock (it fires only between the
-windows of a recording) is left out. :func:`snntorch_network` is the same network for our own engines
-(delays of one step, refractoriness of one step, zero padding, no clock),
-so the encoding's cost is measured apart from the consumer's.
+windows of a recording) is left out. :func:`snntorch_network` is the same
+network for our own engines (delays of one step, refractoriness of one
+step, zero padding, no clock), so the encoding's cost is measured apart
+from the consumer's.
 """
 from __future__ import annotations
 

@@ -9,13 +9,15 @@ synapses, is skipped), once as sPyNNaker chooses its cores and once with
 cells, as the report counts). ``mapping.json`` of each run is kept.
 
 Writes experiments/results/export_spinnaker.{json,md}.
-Usage: python -m experiments.validation.export_spinnaker [--configs 64x48:4 NETWORK.json ...] [--no-combined] [--keep]
+Usage: python -m experiments.validation.export_spinnaker [--configs 64x48:4 compact:159x126 NETWORK.json ...]
+       [--no-combined] [--keep]
 (--keep: the stored rows of other configurations stay in the results)
 """
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import subprocess
 import sys
 import tempfile
@@ -24,14 +26,19 @@ from pathlib import Path
 
 from experiments.bench.export_memory import RUN_CHILD
 from experiments.common import RESULTS, Run, describe, load, load_change, markdown_table, save_json, save_markdown
+from snn_fg.network.recipes import RECIPES
+from snn_fg.pynn.spinnaker import CELLS_PER_CORE
 
 
 def export_args(config: str) -> list:
-    """``snn-fg export`` arguments of a configuration: WxH:levels, or a stored network file."""
+    """``snn-fg export`` arguments of a configuration: WxH:levels (the default
+    network), NAME:WxH (a named network, e.g. compact:159x126), or a stored network file."""
     if config.endswith(".json") or config.endswith(".nir"):
         return ["--network", config]
-    wh, levels = config.split(":")
-    return ["--sensor-size", wh, "--levels", levels]
+    a, b = config.split(":")
+    if a in RECIPES:
+        return ["--network", a, "--sensor-size", b]
+    return ["--sensor-size", a, "--levels", b]
 
 
 def one(config: str, combined: bool, tmp: Path) -> dict:
@@ -47,23 +54,47 @@ def one(config: str, combined: bool, tmp: Path) -> dict:
         return {"config": config, "combined_cores": combined, "failed": err[-1] if err else "?",
                 "load": load_change(load0)}
     m = json.loads((folder / "mapping.json").read_text())
+    pops = json.loads((folder / "network.json").read_text())["populations"]
+    m["estimate_by_population"] = {p["name"]: math.ceil(p["size"] / CELLS_PER_CORE) for p in pops}
     m.update(config=config, wall_s=time.perf_counter() - t0, peak_gb=float(done.stdout.split("MAXRSS")[1]) / 1e9,
              load=load_change(load0))
     print(config, combined, {k: m[k] for k in ("chips_used", "cores_used", "fits", "estimate")}, flush=True)
     return m
 
 
+def _synapse_cores(m) -> int:
+    k = m["cores_by_kind"]
+    return k.get("PopulationSynapsesMachineVertexLead", 0) + k.get("PopulationSynapsesMachineVertexShared", 0)
+
+
+def why(m) -> str:
+    """Where sPyNNaker's network cores and chips part from the report's
+    estimate (256 cells per core in every population, 17 cores per chip):
+    separate synapse cores, populations cut into more cores than 256 cells
+    each (a 2-D population per channel, tiles whose sides divide the grid's),
+    and the network cores per used chip."""
+    if "estimate_by_population" not in m:
+        return ""
+    est, syn = m["estimate_by_population"], _synapse_cores(m)
+    extra = {n: c - est.get(n, 0) for n, c in m["cores_by_population"].items()}
+    cut = sum(extra.values()) - syn
+    top = max(extra, key=lambda n: extra[n])
+    most = "" if syn else f" (most: {top} {extra[top]:+d})"     # with synapse cores, extra counts those too
+    return (f"{m['cores_network'] - m['estimate']['cores']:+d} cores: synapse cores +{syn}, populations cut finer "
+            f"{cut:+d}{most}; {m['cores_network'] / m['chips_used']:.1f} network cores per chip (report: 17)")
+
+
 def _row(m) -> list:
     cores = "combined" if m["combined_cores"] else "sPyNNaker"
     if "failed" in m:
-        return [m["config"], cores, f"failed: {m['failed']}", "", "", "", "", "", "", "", m["load"]]
+        return [m["config"], cores, f"failed: {m['failed']}", "", "", "", "", "", "", "", m["load"], ""]
     k, est = m["cores_by_kind"], m["estimate"]
-    syn = k.get("PopulationSynapsesMachineVertexLead", 0) + k.get("PopulationSynapsesMachineVertexShared", 0)
+    syn = _synapse_cores(m)
     neu = k.get("PopulationNeuronsMachineVertex", 0) + k.get("PopulationMachineVertex", 0)
     return [m["config"], cores, m["chips_used"], f"{m['cores_used']} ({m['cores_network']})",
             f"{est['chips']} / {est['cores']}", m["fits"],
             f"{neu} / {syn} / {k.get('PopulationMachineLocalOnlyCombinedVertex', 0)}", f"{m['machine_chips']} chips",
-            f"{m['sPyNNaker_s']['mapping']:.0f}", f"{m['peak_gb']:.1f}", m["load"]]
+            f"{m['sPyNNaker_s']['mapping']:.0f}", f"{m['peak_gb']:.1f}", m["load"], why(m)]
 
 
 def markdown(rows, run) -> list[str]:
@@ -71,12 +102,13 @@ def markdown(rows, run) -> list[str]:
             f"{describe(run)} sPyNNaker {rows[0]['tool']['version'] if rows and 'tool' in rows[0] else '?'}, "
             "`run.py --simulator spinnaker --virtual-board --map-only`; shared 2-core machine.", ""] + markdown_table(
         ["export", "cores", "chips used", "cores used (network)", "estimate chips / cores", "fits one SpiNN-5",
-         "neuron / synapse / local-only cores", "machine", "map s", "peak GB", "load"], map(_row, rows))
+         "neuron / synapse / local-only cores", "machine", "map s", "peak GB", "load",
+         "against the estimate"], map(_row, rows))
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--configs", nargs="+", default=["64x48:4"], help="WxH:levels or a stored network file")
+    ap.add_argument("--configs", nargs="+", default=["64x48:4"], help="WxH:levels, NAME:WxH or a stored network file")
     ap.add_argument("--no-combined", action="store_true", help="only sPyNNaker's own choice of cores")
     ap.add_argument("--keep", action="store_true", help="keep the stored rows of other configurations")
     args = ap.parse_args(argv)

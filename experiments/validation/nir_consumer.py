@@ -17,11 +17,15 @@ Input nodes it cannot map; the ``snntorch`` profile
 Inputs: a disc of radius 16 (regular trains, 200 Hz) and a 64 x 48 crop of a
 ``dvs.es`` window (the crop with the most event pixels of the window from
 100 ms, 85 ms; its events at their own times, replayed as ``snn-fg run``
-presents one window). One-level networks (the profile cannot interpolate
-between pyramid levels); 400 ms, counting from 200 ms, 0.5 ms steps.
+presents one window). The default network with one level (the profile cannot
+interpolate between pyramid levels), or with ``--network compact`` the
+compact network's three octave levels on one grid (``--nir-one-grid``), its
+input the sensor's 3 x 3 blocks behind a 40 ms refractory period per
+block; 400 ms, counting from 200 ms, 0.5 ms steps.
 
 Writes experiments/results/nir_consumer.{json,md}.
 Usage: python -m experiments.validation.nir_consumer [--inputs disc dvs] [--duration-ms 400] [--radius 16]
+       [--network default|compact]
 """
 from __future__ import annotations
 
@@ -39,42 +43,51 @@ from snn_fg.export.board import board_network
 from snn_fg.export.nir_snntorch import run_snntorch, snntorch_network, to_nir_snntorch
 from snn_fg.metrics import agreement
 from snn_fg.network import build_network
+from snn_fg.network.recipes import RECIPES
 from snn_fg.params import ModelParams
 from snn_fg.spiking.decode import decode, decode_rates
 
 DT_MS = 0.5
 
 
-def disc_input(radius: float, duration_ms: float):
+def disc_input(radius: float, duration_ms: float, pool: int = 1):
     from snn_fg.events import image_to_frame
-    from snn_fg.scenes import disc
+    from snn_fg.frames.pool import pool_frame
     from snn_fg.lowering.input_spikes import frame_spikes
+    from snn_fg.scenes import disc
 
-    pos, neg = image_to_frame(disc(radius).image)
-    return frame_spikes(pos, neg, 200.0, DT_MS, duration_ms), f"disc r{radius:g} ({pos.shape[1]} x {pos.shape[0]})"
+    pos, neg = pool_frame(*image_to_frame(disc(radius).image), pool)
+    what = f"disc r{radius:g} ({pos.shape[1] * pool} x {pos.shape[0] * pool}" + (f", {pool} x {pool} blocks)"
+                                                                            if pool > 1 else ")")
+    return frame_spikes(pos, neg, 200.0, DT_MS, duration_ms), what, disc(radius).image.shape
 
 
-def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0):
+def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0, pool: int = 1, refractory_ms: float = 0.0):
+    """The sensor's ``shape`` crop (rows, cols) with the most event pixels, its
+    events pooled into ``pool`` x ``pool`` blocks as the network's input adapter does."""
     from snn_fg.events import iter_recording, iter_windows
     from snn_fg.export.loop import busiest_crop, crop_events
+    from snn_fg.frames.pool import pool_events, pooled_shape
     from snn_fg.lowering.input_spikes import event_spikes
 
     path = dataset("events", "dvs.es")
     win = next(iter(iter_windows(iter_recording(path), window_ms=window_ms, start_ms=start_ms, max_windows=1)))
     r0, c0 = busiest_crop((win.pos > 0) | (win.neg > 0), shape)
-    ev = crop_events(win.events, (r0, c0), shape)
-    inp = event_spikes(ev, (shape[1], shape[0]), DT_MS, replay=True, t0_us=win.t_start_us)
-    return inp, f"dvs.es {win.t_start_us}..{win.t_end_us} us, {shape[1]} x {shape[0]} crop at x={c0}, y={r0}"
+    ev = pool_events(crop_events(win.events, (r0, c0), shape), pool)
+    h, w = pooled_shape(shape, pool)
+    inp = event_spikes(ev, (w, h), DT_MS, replay=True, t0_us=win.t_start_us, refractory_ms=refractory_ms)
+    return inp, (f"dvs.es {win.t_start_us}..{win.t_end_us} us, {shape[1]} x {shape[0]} crop at x={c0}, y={r0}"
+                 + (f", {pool} x {pool} blocks" if pool > 1 else "")), shape
 
 
-def compare(net, inp, duration_ms: float, tmp: Path) -> dict:
+def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False) -> dict:
     import nir
     import torch
 
     torch.set_num_threads(1)
-    profile = snntorch_network(net, DT_MS)
+    profile = snntorch_network(net, DT_MS, one_grid=one_grid)
     path = tmp / "graph.nir"
-    nir.write(path, to_nir_snntorch(net, step_ms=DT_MS))
+    nir.write(path, to_nir_snntorch(net, step_ms=DT_MS, one_grid=one_grid))
     settings = RunSettings(duration_ms=duration_ms, count_from_ms=duration_ms / 2, instantiate="all")
     fast = get_backend("fast")
     t0 = time.perf_counter()
@@ -83,7 +96,7 @@ def compare(net, inp, duration_ms: float, tmp: Path) -> dict:
     enc = decode(enc_run)[:3]
     t1 = time.perf_counter()
     counts = run_snntorch(nir.read(path), net, inp, step_ms=DT_MS, duration_ms=duration_ms,
-                          count_from_ms=duration_ms / 2)
+                          count_from_ms=duration_ms / 2, one_grid=one_grid)
     t2 = time.perf_counter()
     window_s = duration_ms / 2 / 1e3
     ours = decode_rates(profile, {k: np.arange(v.size) for k, v in counts.items()},
@@ -105,14 +118,18 @@ def _load(r) -> str:
 def markdown(out: dict) -> list[str]:
     comparisons = (("consumer", "snnTorch vs fast"), ("encoding", "profile network (fast) vs fast"),
                    ("consumer_vs_encoding", "snnTorch vs profile network (fast)"))
-    rows = [[r["what"], label, f"{r[key]['grouping_r']:.3f}", f"{r[key]['within_45']:.3f}",
-             f"{r[key]['mean_deg']:.1f}", f"{r[key]['coverage']:.3f}", f"{r['snntorch_s']:.0f}", _load(r)]
+    rows = [[r.get("network", "default, 1 level"), r["what"], label, f"{r[key]['grouping_r']:.3f}",
+             f"{r[key]['within_45']:.3f}", f"{r[key]['mean_deg']:.1f}", f"{r[key]['coverage']:.3f}",
+             f"{r['snntorch_s']:.0f}", _load(r)]
             for r in out["inputs"].values() for key, label in comparisons]
     return ["# An independent NIR consumer runs the export (snnTorch 1.0.0, nirtorch 2.6)", "",
-            "One-level network, `snn-fg export --format nir --nir-profile snntorch`; decoded with snn-fg's "
-            "decoder. Reference: the fast engine on the exported (board) network, same input spikes. Each input's "
-            "run (commit, command, date) is in `nir_consumer.json`.", ""] + markdown_table(
-        ["input", "comparison", "grouping r", "within 45°", "mean angle °", "coverage", "snnTorch s", "load"], rows)
+            "`snn-fg export --format nir --nir-profile snntorch` (the default network with one level; the compact "
+            "network with `--nir-one-grid`, its three levels on one grid); decoded with snn-fg's decoder. "
+            "Reference: the fast engine on the exported (board) network, same input spikes. Each input's "
+            "run (commit, command, date) is in `nir_consumer.json`. An empty comparison (nan): the reference has "
+            "no border-ownership vector.", ""] + markdown_table(
+        ["network", "input", "comparison", "grouping r", "within 45°", "mean angle °", "coverage", "snnTorch s",
+         "load"], rows)
 
 
 def main(argv=None):
@@ -120,17 +137,24 @@ def main(argv=None):
     ap.add_argument("--inputs", nargs="+", default=["disc", "dvs"], choices=["disc", "dvs"])
     ap.add_argument("--duration-ms", type=float, default=400.0)
     ap.add_argument("--radius", type=float, default=16.0)
+    ap.add_argument("--network", default="default", choices=["default", "compact"],
+                    help="default: one level; compact: its three levels on one grid (--nir-one-grid)")
     args = ap.parse_args(argv)
+    compact = args.network == "compact"
+    recipe = RECIPES["compact"]
+    pool, refractory = (recipe.params.input_pool, recipe.spiking.input_refractory_ms) if compact else (1, 0.0)
     path = RESULTS / "nir_consumer.json"
     out = json.loads(path.read_text()) if path.exists() else {"inputs": {}}
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.inputs:
-            inp, what = disc_input(args.radius, args.duration_ms) if name == "disc" else dvs_input()
-            net = build_network(ModelParams(levels=1), inp.shape)
+            inp, what, sensor = (disc_input(args.radius, args.duration_ms, pool) if name == "disc" else
+                                 dvs_input(pool=pool, refractory_ms=refractory))
+            net = recipe.build(sensor) if compact else build_network(ModelParams(levels=1), inp.shape)
             run = Run()
-            r = compare(net, inp, args.duration_ms, Path(tmp))
-            r.update(what=what, duration_ms=args.duration_ms, run=run.record())
-            out["inputs"][name] = r
+            r = compare(net, inp, args.duration_ms, Path(tmp), one_grid=compact)
+            r.update(what=what, duration_ms=args.duration_ms, run=run.record(),
+                     network="compact, 3 levels on one grid" if compact else "default, 1 level")
+            out["inputs"][f"compact {name}" if compact else name] = r
             print(name, json.dumps(r, default=float), flush=True)
             save_json("nir_consumer", out)
     save_markdown("nir_consumer", markdown(out))

@@ -55,6 +55,9 @@ def add_export_command(sub, sensor_size_arg, number):
     p.add_argument("--nir-profile", default="exact", metavar="|".join(NIR_PROFILES),
                    help="nir: exact (every mechanism NIR can hold), or snntorch (the node kinds snnTorch imports: "
                         "one-level networks, no delays, no refractoriness; see snn_fg/export/nir_snntorch.py)")
+    p.add_argument("--nir-one-grid", action="store_true",
+                   help="nir, snntorch profile: every pyramid level on the frame's grid (dilated kernels, identity "
+                        "between levels), so a network of octave levels (--network compact) goes through")
     p.set_defaults(handler=cmd_export)
     return p
 
@@ -120,6 +123,8 @@ def cmd_export(args) -> int:
     check.choice("snn-fg export", "--nir-profile", args.nir_profile, NIR_PROFILES)
     if args.nir_profile != "exact" and (args.format != "nir" or args.weight_bits is not None):
         raise InputError("--nir-profile", "applies to --format nir without --weight-bits")
+    if args.nir_one_grid and args.nir_profile != "snntorch":
+        raise InputError("--nir-one-grid", "applies to --format nir --nir-profile snntorch")
     bits = None if args.weight_bits is None else check_bits(args.weight_bits, "snn-fg export")
     if bits is not None and args.format not in ("pynn", "nir"):
         raise InputError("--weight-bits", "applies to --format pynn and nir only")
@@ -137,7 +142,7 @@ def cmd_export(args) -> int:
     elif args.format == "nir" and args.nir_profile == "snntorch":
         from .nir_snntorch import export_nir_snntorch
 
-        export_nir_snntorch(net, out, step_ms=args.dt_ms)
+        export_nir_snntorch(net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid)
         what = f"NIR graph, snntorch profile ({out.stat().st_size / 1e6:.1f} MB)"
     elif args.format == "nir":
         from .nir import export_nir

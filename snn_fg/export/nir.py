@@ -94,10 +94,7 @@ def flat_network(network: Network) -> Network:
         src, tgt = net.population(pr.source), net.population(pr.target)
         if isinstance(pr, Resize) and src.level_shape == tgt.level_shape:
             # between two lattices of one level: at stride 1 the interpolation is the identity
-            ident = Kernel(ref="channel_map", args={"n_out": src.channels, "n_in": src.channels,
-                                                    "entries": [[c, c, 1.0] for c in range(src.channels)]})
-            pr = Conv(name=pr.name, source=pr.source, target=pr.target, kernel=ident, sign=pr.sign,
-                      gain_mv=pr.gain_mv, delay_ms=pr.delay_ms, calibrated=pr.calibrated)
+            pr = identity_conv(pr, src.channels)
         if isinstance(pr, Conv) and s > 1:
             k = pr.kernel.array(net.params)
             keep = np.abs(k) >= pr.prune * np.abs(k).max() if pr.prune > 0 else k != 0
@@ -105,6 +102,14 @@ def flat_network(network: Network) -> Network:
                                      prune=0.0)
         prjs.append(pr)
     return dataclasses.replace(net, populations=pops, projections=tuple(prjs))
+
+
+def identity_conv(pr: Resize, channels: int) -> Conv:
+    """Resize ``pr`` as a Conv passing each of ``channels`` on at the same pixel (same gain and delay)."""
+    ident = Kernel(ref="channel_map", args={"n_out": channels, "n_in": channels,
+                                            "entries": [[c, c, 1.0] for c in range(channels)]})
+    return Conv(name=pr.name, source=pr.source, target=pr.target, kernel=ident, sign=pr.sign,
+                gain_mv=pr.gain_mv, delay_ms=pr.delay_ms, calibrated=pr.calibrated)
 
 
 def _dilate(k: np.ndarray, s: int) -> np.ndarray:

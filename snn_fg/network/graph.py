@@ -22,10 +22,13 @@ from .projections import Conv, Projection, projection_from_dict
 SCHEMA = "snn-fg.network/2"
 
 
-def _grid_shape(pop, frame_shape, per_octave: int) -> tuple[int, int]:
+def _grid_shape(pop, frame_shape, per_octave: int, one_grid: bool = False) -> tuple[int, int]:
     """The ``level_shape`` a population must have for frames of
-    ``frame_shape``: its pyramid level's, except the one-cell window clock's."""
-    return (1, 1) if pop.role == "clock" else level_shape(frame_shape, pop.level, per_octave)
+    ``frame_shape``: its pyramid level's (the frame's on one grid), except
+    the one-cell window clock's."""
+    if pop.role == "clock":
+        return (1, 1)
+    return tuple(frame_shape) if one_grid else level_shape(frame_shape, pop.level, per_octave)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -40,8 +43,11 @@ class Network:
     ``input_refractory_ms``: the input adapter passes an event of a spike
     source (a pixel, or a block of them, and a polarity) on only this long
     after the last one it passed on (0: every event is a spike), so that a
-    busy source fires like a quiet one. ``notes`` document the network (its
-    departures from the rate model).
+    busy source fires like a quiet one. ``one_grid``: every pyramid level
+    lies on the frame's grid (its kernels dilated by the level's scale; a
+    form for NIR consumers that cannot interpolate between levels,
+    :func:`~snn_fg.export.nir_snntorch.one_grid_network`). ``notes``
+    document the network (its departures from the rate model).
     """
 
     params: ModelParams
@@ -52,6 +58,7 @@ class Network:
     support_min: float = 0.3
     drive_min: float = 0.85
     input_refractory_ms: float = 0.0
+    one_grid: bool = False
     notes: tuple[str, ...] = ()
     _by_name: dict = field(init=False, repr=False, compare=False, hash=False)
 
@@ -68,6 +75,7 @@ class Network:
         object.__setattr__(self, "drive_min", check.number(owner, "drive_min", self.drive_min, lo=0))
         object.__setattr__(self, "input_refractory_ms",
                            check.number(owner, "input_refractory_ms", self.input_refractory_ms, lo=0))
+        object.__setattr__(self, "one_grid", check.flag(owner, "one_grid", self.one_grid))
         object.__setattr__(self, "_by_name", self._check_populations())
         self._check_projections()
 
@@ -81,7 +89,7 @@ class Network:
                 check.fail(owner, None, None, "name used twice")
             if p.level > self.params.levels:
                 check.fail(owner, "level", p.level, f"exceeds params.levels={self.params.levels}")
-            want = _grid_shape(p, self.frame_shape, self.params.levels_per_octave)
+            want = _grid_shape(p, self.frame_shape, self.params.levels_per_octave, self.one_grid)
             if p.level_shape != want:
                 check.fail(owner, "level_shape", p.level_shape,
                            f"differs from level {p.level} of a {self.frame_shape} frame, {want}")
@@ -115,7 +123,7 @@ class Network:
 
     def _check_conv(self, pr: Conv, src: Population, tgt: Population):
         owner = pr._owner
-        if src.level != tgt.level:
+        if src.level != tgt.level and not self.one_grid:      # on one grid every level has the frame's pixels
             check.fail(owner, None, None, f"source '{src.name}' (level {src.level}) and target '{tgt.name}' "
                                           f"(level {tgt.level}) must share a level; use a Resize between levels")
         k = pr.kernel.array(self.params)
@@ -182,15 +190,17 @@ class Network:
         shared, so only the populations' level shapes change)."""
         shape = check.shape2("Network.resized", "frame_shape", frame_shape)
         per_octave = self.params.levels_per_octave
-        pops = tuple(dataclasses.replace(p, level_shape=_grid_shape(p, shape, per_octave)) for p in self.populations)
+        pops = tuple(dataclasses.replace(p, level_shape=_grid_shape(p, shape, per_octave, self.one_grid))
+                     for p in self.populations)
         return dataclasses.replace(self, frame_shape=shape, populations=pops)
 
     # -- serialisation -----------------------------------------------------
     def to_dict(self) -> dict:
+        # one_grid only when set: the stored descriptions (and their fingerprints) stay as they were
         return {"schema": SCHEMA, "params": self.params.to_dict(), "frame_shape": list(self.frame_shape),
                 "input_rate_hz": self.input_rate_hz, "support_min": self.support_min,
                 "drive_min": self.drive_min, "input_refractory_ms": self.input_refractory_ms,
-                "notes": list(self.notes),
+                **({"one_grid": True} if self.one_grid else {}), "notes": list(self.notes),
                 "populations": [p.to_dict() for p in self.populations],
                 "projections": [pr.to_dict() for pr in self.projections]}
 
@@ -201,7 +211,7 @@ class Network:
         if d.get("schema") != SCHEMA:
             check.fail("Network", "schema", d.get("schema"), f"is not {SCHEMA!r}")
         fields = {"params", "frame_shape", "input_rate_hz", "support_min", "drive_min", "input_refractory_ms",
-                  "notes", "populations", "projections"}
+                  "one_grid", "notes", "populations", "projections"}
         check.known_keys("Network", set(d) - {"schema"}, fields)
         missing = sorted({"params", "frame_shape", "populations", "projections"} - set(d))
         if missing:

@@ -114,8 +114,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     run = Run()
     stored = RESULTS / "export_spinnaker.json"
-    kept = json.loads(stored.read_text()) if args.keep and stored.exists() else []
-    rows = [m for m in (kept["rows"] if isinstance(kept, dict) else kept) if m["config"] not in args.configs]
+    kept = json.loads(stored.read_text())["rows"] if args.keep and stored.exists() else []
+    rows = [m for m in kept if m["config"] not in args.configs]
     with tempfile.TemporaryDirectory() as tmp:
         for config in args.configs:
             for combined in (False,) if args.no_combined else (False, True):

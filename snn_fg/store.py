@@ -194,8 +194,8 @@ def read_attrs(path) -> dict:
 def windows_complete(folder) -> int:
     """How many windows the store in a run's output ``folder`` holds whole (0: none, or no store)."""
     try:
-        return int(json.loads((Path(folder) / STORE_NAME / ".zattrs").read_text())["snn_fg"]["windows_complete"])
-    except (OSError, ValueError, KeyError):
+        return int(read_attrs(Path(folder) / STORE_NAME)["snn_fg"]["windows_complete"])
+    except (InputError, OSError, KeyError):
         return 0
 
 

@@ -315,7 +315,7 @@ def cmd_run(args) -> int:
         args.interrupt_note = (f"the windows completed so far are in {args.out}/; the same command with --resume "
                                "continues from the last one")
         try:
-            n = run_recording(model, windows, out, source, args.input, crop=args.crop, figures=not args.no_figures,
+            n = run_recording(model, windows, out, source, crop=args.crop, figures=not args.no_figures,
                               resume=bool(args.resume), run_key=_run_key(args))
         except BaseException:
             if not windows_complete(out):       # (refused before its first window: nothing to keep)

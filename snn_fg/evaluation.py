@@ -22,6 +22,7 @@ from resampling the images.
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
@@ -240,9 +241,27 @@ def _event_maps(unit, image, threshold, motion):
     return unit.run_frame(Frame(pos, neg)), int((pos | neg).sum())
 
 
-def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thresholds=(),
-                   event_models=("rate",), fbfg_operators=("gaussian", "corf"), r0: float | None = None,
-                   spiking_options: dict | None = None, fig6: bool = True) -> dict:
+@dataclass(frozen=True, kw_only=True)
+class ImageEvaluation:
+    """What :func:`evaluate_image` runs on each image: the event models
+    (``event_models``, of "rate" and "spiking", with ``spiking_options``) on
+    ``--motion paper`` events at each of ``thresholds`` and on the built-in
+    ``shift4`` events at each of ``shift4_thresholds``; the frame-based model
+    on the image once per edge operator (``fbfg_operators``, of "gaussian" and
+    "corf"); grouping radius ``r0`` (default: the paper's 8 px); with ``fig6``
+    the maps compared with each other (needs threshold 0.10 and both kinds
+    of model)."""
+
+    thresholds: tuple = (0.10,)
+    shift4_thresholds: tuple = ()
+    event_models: tuple = ("rate",)
+    fbfg_operators: tuple = ("gaussian", "corf")
+    r0: float | None = None
+    spiking_options: dict | None = None
+    fig6: bool = True
+
+
+def evaluate_image(*, root: str, image_id: str, settings: ImageEvaluation | None = None) -> dict:
     """Everything the Table 1 / Fig. 6 sweeps need from one image.
 
     Parameters
@@ -250,17 +269,8 @@ def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thres
     root : str
         The ``bsds-fg`` folder.
     image_id : str
-    thresholds : sequence of float
-        Contrast thresholds at which the event models see ``--motion paper`` events.
-    shift4_thresholds : sequence of float
-        Thresholds at which they also see the built-in ``shift4`` events.
-    event_models : sequence of {"rate", "spiking"}
-    fbfg_operators : sequence of {"gaussian", "corf"}
-        The frame-based model runs once per operator (it sees the image itself).
-    r0 : float, optional
-        Grouping radius (the paper's 8 px by default).
-    fig6 : bool
-        Also compare the maps with each other (needs threshold 0.10 and both kinds of model).
+    settings : ImageEvaluation
+        Which models run, on which events (default: the rate model at 0.10 and both frame-based operators).
 
     Returns
     -------
@@ -273,7 +283,8 @@ def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thres
     from .params import ModelParams
     from .rate.fbfg import run_fbfg
 
-    params = ModelParams() if r0 is None else ModelParams(r0=r0)
+    opts = settings or ImageEvaluation()
+    params = ModelParams() if opts.r0 is None else ModelParams(r0=opts.r0)
     gt = load_bsds_fg(root, image_id)
     truths = [boundary_directions(m) for m in gt.fg]
     a, b = truths[0], truths[1] if len(truths) > 1 else truths[0]
@@ -281,23 +292,23 @@ def evaluate_image(*, root: str, image_id: str, thresholds=(0.10,), shift4_thres
            "ceiling": error_stats(angle_errors(np.where(b[2], b[0], 0), np.where(b[2], b[1], 0), *a),
                                   n_truth=int(a[2].sum()))}
     fields = {"GT": a[:2], "GT2": (np.where(b[2], b[0], 0), np.where(b[2], b[1], 0))}
-    runs = [(m, "paper", t) for m in event_models for t in thresholds]
-    runs += [(m, "shift4", t) for m in event_models for t in shift4_thresholds]
+    runs = [(m, "paper", t) for m in opts.event_models for t in opts.thresholds]
+    runs += [(m, "shift4", t) for m in opts.event_models for t in opts.shift4_thresholds]
     for model, motion, threshold in runs:
-        maps, n_events = _event_maps(_model(model, params, spiking_options or {}), str(gt.image_path), threshold,
+        maps, n_events = _event_maps(_model(model, params, opts.spiking_options or {}), str(gt.image_path), threshold,
                                      motion)
         out["units"].append({"model": model, "motion": motion, "threshold": threshold, "event_pixels": n_events,
                              **_scores(maps.fg_x, maps.fg_y, truths)})
         if motion == "paper" and np.isclose(threshold, FIG6_THRESHOLD):
             fields[f"ED-{model}"] = (maps.fg_x, maps.fg_y)
     image = read_image(gt.image_path, grey=False)
-    for op in fbfg_operators:
+    for op in opts.fbfg_operators:
         maps = run_fbfg(image, params, edge_operator=op)
         name = "fbfg" if op == "gaussian" else f"fbfg-{op}"
         out["units"].append({"model": name, "motion": "image", "threshold": None, "event_pixels": None,
                              **_scores(maps.fg_x, maps.fg_y, truths)})
         fields[f"FB-{name}"] = (maps.fg_x, maps.fg_y)
-    if fig6:
+    if opts.fig6:
         views = {k: _views(f) for k, f in fields.items()}      # each field rendered once, not once per pair
         out["fig6"] = {f"{p}|{q}": _similarity(views[p], views[q]) for p, q in combinations(sorted(fields), 2)}
     return out

@@ -69,10 +69,11 @@ def _wheel_inset(ax):
     inset.set_axis_off()
 
 
-def plot_maps_row(axes, input_img, fg_x, fg_y, grouping, title: str = "", grouping_label: str = "grouping",
-                  key: bool = True, extent=None):
+def plot_maps_row(axes, input_img, fields, title: str = "", *, grouping_label: str = "grouping", key: bool = True,
+                  extent=None):
     """Draw input, figure-ground map and grouping map into three axes.
 
+    ``fields`` is ``(fg_x, fg_y, grouping)`` of one frame.
     ``grouping_label`` labels the grouping colour bar (say its unit).
     ``key=False`` leaves out what repeats from row to row of a figure (the
     colour wheel, the panels' explanations and axis labels): drawing them
@@ -80,6 +81,7 @@ def plot_maps_row(axes, input_img, fg_x, fg_y, grouping, title: str = "", groupi
     ``extent`` (imshow's) places a crop at its own pixel coordinates.
     """
     a0, a1, a2 = axes
+    fg_x, fg_y, grouping = fields
     a0.imshow(input_img, cmap="gray" if np.ndim(input_img) == 2 else None, interpolation="nearest", extent=extent)
     a0.set_title(f"input {title}".strip(), fontsize=9)
     a1.imshow(fg_rgb(fg_x, fg_y), interpolation="nearest", extent=extent)
@@ -164,8 +166,9 @@ def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
     fig = Figure(figsize=(3 * panel_w + 2.4, height))
     axes = fig.subplots(len(idx), 3, squeeze=False)
     for row, i in enumerate(idx):      # (the key, on the first row, explains every row)
-        plot_maps_row(axes[row], np.asarray(inputs[i])[cut], fg_x[i][cut], fg_y[i][cut], grouping[i][cut],
-                      titles[i] if titles is not None else "", grouping_label, key=row == 0, extent=extent)
+        plot_maps_row(axes[row], np.asarray(inputs[i])[cut], (fg_x[i][cut], fg_y[i][cut], grouping[i][cut]),
+                      titles[i] if titles is not None else "", grouping_label=grouping_label, key=row == 0,
+                      extent=extent)
     if note:
         fig.suptitle(note, fontsize=9, y=1 - 0.1 / height, va="top")
     fig.tight_layout(rect=(0, 0, 1, 1 - note_in / height))

@@ -50,12 +50,13 @@ def model_input_rgb(frame):
     return event_frame_rgb(frame > 0, frame < 0)
 
 
-def run_recording(model: Model, windows, out: Path, source: dict, name: str, crop=None, figures: bool = True,
-                  *, resume: bool = False, run_key: dict | None = None) -> int:
+def run_recording(model: Model, windows, out: Path, source: dict, *, crop=None, figures: bool = True,
+                  resume: bool = False, run_key: dict | None = None) -> int:
     """Every window of a recording through ``model`` into ``out/maps.zarr``
     (:mod:`snn_fg.store`: each window written as it completes) and, at the
     end, its figures. Returns the number of windows (``crop``: see
-    :meth:`Model.write_figures`).
+    :meth:`Model.write_figures`). ``source`` describes the input (its
+    ``"input"``, the name errors give, and the window options).
 
     ``resume``: continue the store in ``out`` from its last complete window
     (it must have been made with the same ``run_key``: by default the
@@ -89,7 +90,7 @@ def run_recording(model: Model, windows, out: Path, source: dict, name: str, cro
         warnings.simplefilter("ignore", EmptyWindowWarning)     # counted and reported once below
         whole = model.run_windows_into(windows, emit, start=store.n)
     if store.n == 0:
-        raise InputError(name, "no window to process: the recording has no events after --start-ms")
+        raise InputError(source.get("input", "the recording"), "no window to process: the recording has no events after --start-ms")
     if n_empty:
         print(f"snn-fg: warning: {n_empty} of {store.n} windows had no events; their maps are zero", file=sys.stderr)
     if n_blank:

@@ -417,7 +417,7 @@ def test_a_recording_whose_windows_give_no_vector_says_so(tmp_path, capsys):
     rec = image_to_events(disc(12).image, motion="circle")
     for model, name in ((Blank(ModelParams(levels=3)), "blank"), (RateModel(ModelParams(levels=3)), "rate")):
         (tmp_path / name).mkdir()
-        n = run_recording(model, iter_windows(rec, window_ms=120), tmp_path / name, {}, "disc")
+        n = run_recording(model, iter_windows(rec, window_ms=120), tmp_path / name, {"input": "disc"})
         err = capsys.readouterr().err
         if name == "blank":
             assert n >= 2 and f"{n} of {n} windows with events have no figure-ground vector" in err

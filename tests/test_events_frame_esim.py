@@ -4,7 +4,7 @@ import pytest
 
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.events import EVENT_DTYPE, events_to_frame, image_to_events, image_to_frame, motion_frames
-from snn_fg.events.esim import LOG_EPS
+from snn_fg.events.esim import LOG_EPS, PixelOptions
 
 
 def make_events(rows):
@@ -122,9 +122,9 @@ def test_multiple_crossings_get_distinct_increasing_times():
 
 def test_time_sorted_and_deterministic_with_noise_seed():
     img = disc()
-    a = image_to_events(img, motion="circle", threshold_sigma=0.03, seed=7).events
-    b = image_to_events(img, motion="circle", threshold_sigma=0.03, seed=7).events
-    c = image_to_events(img, motion="circle", threshold_sigma=0.03, seed=8).events
+    a = image_to_events(img, motion="circle", pixels=PixelOptions(threshold_sigma=0.03), seed=7).events
+    b = image_to_events(img, motion="circle", pixels=PixelOptions(threshold_sigma=0.03), seed=7).events
+    c = image_to_events(img, motion="circle", pixels=PixelOptions(threshold_sigma=0.03), seed=8).events
     assert (np.diff(a["t"]) >= 0).all()
     np.testing.assert_array_equal(a, b)
     assert len(a) != len(c) or not np.array_equal(a, c)
@@ -145,7 +145,7 @@ def test_circle_motion_positions_and_timing():
 
 def test_refractory_limits_rate_per_pixel():
     img = disc()
-    ev = image_to_events(img, refractory_us=1000).events
+    ev = image_to_events(img, pixels=PixelOptions(refractory_us=1000)).events
     for (x, y) in {(int(e["x"]), int(e["y"])) for e in ev[:50]}:
         t = ev["t"][(ev["x"] == x) & (ev["y"] == y)]
         assert (np.diff(t) >= 1000).all()
@@ -181,3 +181,6 @@ def test_bad_parameters_raise_parameter_error():
         image_to_events(disc(), threshold=0)
     with pytest.raises(ParameterError):
         image_to_events(disc(), motion="zigzag")
+    for bad in ({"threshold_sigma": -0.1}, {"refractory_us": -1}, {"eps": 0}, {"threshold_off": 0}):
+        with pytest.raises(ParameterError):
+            PixelOptions(**bad)

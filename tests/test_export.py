@@ -316,7 +316,7 @@ def test_a_cell_past_nests_local_index_limit_still_sends_its_spikes():
         net.add_cells("big", big, neuron)
         net.add_cells("probe", 1, neuron)
         net.add_sources("input", [np.array([4, 24])])
-        kw = {"sign": 1, "delay_ms": 1.0, "tau_exc_ms": 2.0, "tau_inh_ms": 2.0}
+        kw = {"sign": 1, "delay_ms": 1.0}
         net.connect("input", "big", [0], [big - 1], [200.0], **kw)
         net.connect("big", "probe", [big - 1], [0], [200.0], **kw)
         net.record(["probe"], spikes=True)

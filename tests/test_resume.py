@@ -24,7 +24,7 @@ def _run(rec, out, **kw):
 
     model = get_model("spiking", ModelParams(levels=3), readout_lag_ms=10.0)
     windows = iter_windows(rec, window_ms=40, max_windows=5)
-    return run_recording(model, windows, out, {"input": "disc"}, "disc", figures=False, **kw)
+    return run_recording(model, windows, out, {"input": "disc"}, figures=False, **kw)
 
 
 @pytest.mark.slow

@@ -80,14 +80,20 @@ def sweep(func, ids, settings: dict, args, spiking: bool = False) -> dict:
         fail(str(exc))
 
 
+def evaluate_settings(*, root: str, image_id: str, **settings) -> dict:
+    """The sweep's unit of work: :func:`snn_fg.evaluation.evaluate_image` with the flat settings the cache is
+    keyed on (:func:`settings_key`)."""
+    from snn_fg.evaluation import ImageEvaluation, evaluate_image
+
+    return evaluate_image(root=root, image_id=image_id, settings=ImageEvaluation(**settings))
+
+
 def evaluate(args, settings: dict | None = None) -> dict:
     """Per-image results ``{image_id: dict}`` of :func:`snn_fg.evaluation.evaluate_image` on the selected
     images (cached)."""
-    from snn_fg.evaluation import evaluate_image
-
     settings = dict(SETTINGS if settings is None else settings)
     ids = args.ids or select_ids(QUICK_IMAGES if args.quick and args.images is None else args.images)
-    return sweep(evaluate_image, ids, settings, args, "spiking" in settings["event_models"])
+    return sweep(evaluate_settings, ids, settings, args, "spiking" in settings["event_models"])
 
 
 def write_table(name: str, rows: list[dict], formats=("json", "csv"), run: dict | None = None) -> list[Path]:

@@ -209,7 +209,7 @@ def figure(panels):
     fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
     for ax, (label, shown) in zip(axes, panels):
         (w, m), = shown
-        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), m.fg_x, m.fg_y, m.grouping, f"{label}: dvs.es window 8")
+        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), (m.fg_x, m.fg_y, m.grouping), f"{label}: dvs.es window 8")
     fig.tight_layout()
     return fig
 

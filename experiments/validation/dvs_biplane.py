@@ -112,7 +112,7 @@ def main():
               f"peak on plane: {row['peak_on_plane']}  inward {frac:.2f} of {n}", flush=True)
     fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
     for ax, (w, m, region, (r, c)) in zip(axes, panels):
-        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), m.fg_x, m.fg_y, m.grouping,
+        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), (m.fg_x, m.fg_y, m.grouping),
                       f"{w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms")
         ax[2].contour(region, levels=[0.5], colors="white", linewidths=0.8)
         ax[2].plot(c, r, "w+", ms=12, mew=2)

@@ -110,7 +110,7 @@ def _spiking_each_alone(windows, backend, run_windows) -> list[dict]:
     return rows
 
 
-def main():
+def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--window", type=int, default=8, help="the window studied, counted from --start-ms (8)")
     ap.add_argument("--start-ms", type=float, default=100.0)
@@ -124,7 +124,27 @@ def main():
                          "window starts from (1,0.1; afresh is always run)")
     ap.add_argument("--window-clock", choices=("on", "off"), default="off",
                     help="fire the network's window clock as each window starts (off: the network's own memory)")
-    a = ap.parse_args()
+    return ap
+
+
+def _figure(w, panels, rows, region, previous):
+    """One row per map studied, the window's outline (white) and the previous window's (cyan) on the grouping."""
+    fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
+    for ax, (label, m), row in zip(axes, panels, rows):
+        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), (m.fg_x, m.fg_y, m.grouping),
+                      f"{w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms; {label}")
+        ax[2].contour(region, levels=[0.5], colors="white", linewidths=0.8)
+        if previous is not None:
+            ax[2].contour(previous, levels=[0.5], colors="cyan", linewidths=0.6, linestyles="dashed")
+        ax[2].plot(row["peak"][1], row["peak"][0], "w+", ms=12, mew=2)
+        ax[1].set_xlabel(f"x (px); inward {row['inward_fraction']:.2f}", fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, "dvs_history", dpi=80, bbox_inches=None)
+    plt.close(fig)
+
+
+def main():
+    a = _parser().parse_args()
     rec = dataset("events", "dvs.es")
     from functools import partial
 
@@ -155,18 +175,7 @@ def main():
               f"{rows[-1]['light_share']:.2f}", flush=True)
     recording = _rate_over_recording(windows, [float(c) for c in a.carry.split(",")])
     alone = _spiking_each_alone(windows, a.backend, run_windows) if a.each_alone else None
-    fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
-    for ax, (label, m), row in zip(axes, panels, rows):
-        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), m.fg_x, m.fg_y, m.grouping,
-                      f"{w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms; {label}")
-        ax[2].contour(region, levels=[0.5], colors="white", linewidths=0.8)
-        if previous is not None:
-            ax[2].contour(previous, levels=[0.5], colors="cyan", linewidths=0.6, linestyles="dashed")
-        ax[2].plot(row["peak"][1], row["peak"][0], "w+", ms=12, mew=2)
-        ax[1].set_xlabel(f"x (px); inward {row['inward_fraction']:.2f}", fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, "dvs_history", dpi=80, bbox_inches=None)
-    plt.close(fig)
+    _figure(w, panels, rows, region, previous)
     summary = {"recording": rec.name, "window": a.window, "start_ms": a.start_ms, "window_ms": 85,
                "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000], "backend": a.backend, "rows": rows,
                "rate_over_recording": recording, "spiking_each_window_alone": alone, "run": run.record()}

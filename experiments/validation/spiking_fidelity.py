@@ -118,7 +118,7 @@ def _agreement(res, first):
             "cells_same_count_frac": equal / max(cells, 1), "spikes": total_a, "spikes_first": total_b}
 
 
-def main(argv=None):
+def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="synthetic scenes only (no BSDS frames)")
     ap.add_argument("--only", nargs="*", help="run only rows whose name contains one of these")
@@ -129,24 +129,25 @@ def main(argv=None):
     ap.add_argument("--seeds", nargs="+", type=int, default=[0],
                     help="seeds of the input trains' random phase; each input runs once per seed (default 0)")
     ap.add_argument("--out", default=str(RESULTS))
-    args = ap.parse_args(argv)
-    run_record = Run()
-    rows = []
+    return ap
 
-    def want(name):
-        return not args.only or any(o in name for o in args.only)
 
-    def log(msg):
-        print(msg, flush=True)
+class _Table:
+    """The rows of the run: each input on every backend and seed, the later
+    backends compared with the first and the later seeds with the first seed."""
 
-    def run(name, kind, simulate, ref, scene=None, extra=None):
-        """One input on every backend and seed: a row each, the later backends
-        compared with the first and the later seeds with the first seed."""
+    def __init__(self, args):
+        self.args, self.rows, self.last = args, [], None
+
+    def want(self, name: str) -> bool:
+        return not self.args.only or any(o in name for o in self.args.only)
+
+    def run(self, name, kind, simulate, ref, scene=None, extra=None):
         first = None
         seed0 = {}
-        for seed in args.seeds:
+        for seed in self.args.seeds:
             first_here = None
-            for backend in args.backend:
+            for backend in self.args.backend:
                 t0 = time.perf_counter()
                 res = simulate(backend, seed)
                 row = fidelity_row(name, kind, res.maps, ref, time.perf_counter() - t0, scene,
@@ -160,48 +161,59 @@ def main(argv=None):
                     row["vs_first_seed"] = agreement(res.maps, seed0[backend].maps)
                 else:
                     seed0[backend] = res
-                rows.append(row)
-                log(_fmt(row))
+                self.rows.append(row)
+                print(_fmt(row), flush=True)
             first = first if first is not None else first_here
-        return first
+        self.last = first
 
-    res = None
+
+def _bsds_rows(table: _Table, instantiate: str) -> None:
     bsds = datasets.find("bsds-edfg")
-    if not args.quick and bsds is not None:
-        for path in sorted(bsds.glob("*.npz")):
-            name = f"bsds-{path.stem}"
-            if not want(name):
-                continue
-            d = np.load(path)
-            res = run(name, "bsds", lambda b, seed: run_spiking_result(d["pos"], d["neg"], backend=b, seed=seed,
-                                                                       instantiate=args.instantiate, progress=False),
-                      d)
-    elif not args.quick:
-        log("skipping BSDS frames: the dataset bsds-edfg is absent (snn-fg data fetch bsds-edfg)")
+    if bsds is None:
+        print("skipping BSDS frames: the dataset bsds-edfg is absent (snn-fg data fetch bsds-edfg)", flush=True)
+        return
+    for path in sorted(bsds.glob("*.npz")):
+        name = f"bsds-{path.stem}"
+        if not table.want(name):
+            continue
+        d = np.load(path)
+        table.run(name, "bsds", lambda b, seed: run_spiking_result(d["pos"], d["neg"], backend=b, seed=seed,
+                                                                   instantiate=instantiate, progress=False), d)
 
+
+def _synthetic_rows(table: _Table, instantiate: str) -> None:
     synth = [scenes.disc(r, light) for r in (16, 24, 32, 48, 64) for light in (True, False)]
     synth += [scenes.square(24, True), scenes.occlusion(), scenes.demo()]
     for sc in synth:
-        if not want(sc.name):
+        if not table.want(sc.name):
             continue
         pos, neg = image_to_frame(sc.image)
-        res = run(sc.name, "synthetic-frame",
-                  lambda b, seed: run_spiking_result(pos, neg, backend=b, seed=seed, instantiate=args.instantiate,
+        table.run(sc.name, "synthetic-frame",
+                  lambda b, seed: run_spiking_result(pos, neg, backend=b, seed=seed, instantiate=instantiate,
                                                      progress=False),
                   run_edfg(pos, neg), sc)
     for sc in (scenes.disc(24, True), scenes.disc(40, False)):
         name = sc.name + "-timed-events"
-        if not want(name):
+        if not table.want(name):
             continue
         rec = image_to_events(sc.image)
         pos, neg = events_to_frame(rec.events, rec.sensor_size)      # the frame of these very events
-        res = run(name, "synthetic-events",
+        table.run(name, "synthetic-events",
                   lambda b, seed: run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, backend=b,
-                                                     seed=seed, instantiate=args.instantiate, progress=False),
+                                                     seed=seed, instantiate=instantiate, progress=False),
                   run_edfg(pos, neg), sc,
                   lambda r: {"events": int(len(rec.events)), "input_rate_hz": r.inputs.rate_hz,
                              "merged_spikes": r.inputs.merged})
 
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    run_record = Run()
+    table = _Table(args)
+    if not args.quick:
+        _bsds_rows(table, args.instantiate)
+    _synthetic_rows(table, args.instantiate)
+    rows, res = table.rows, table.last
     out = Path(args.out)
     record = {"rows": rows, "backends": args.backend, "seeds": args.seeds, "instantiate": args.instantiate,
               "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
@@ -209,7 +221,7 @@ def main(argv=None):
               "simulation": res.maps.params["simulation"] if res else None, "run": run_record.record()}
     save_text(out / "spiking_fidelity.json", json.dumps(record, indent=1, default=float))
     save_text(out / "spiking_fidelity.md", "\n".join(_markdown(rows, record["run"], args.seeds)) + "\n")
-    log(f"wrote {out / 'spiking_fidelity.json'} and .md")
+    print(f"wrote {out / 'spiking_fidelity.json'} and .md", flush=True)
 
 
 def _fmt(r):

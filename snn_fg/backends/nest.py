@@ -167,10 +167,8 @@ def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBacken
         if conn.n == 0:
             continue
         pr = conn.projection
-        tgt = net_d.population(pr.target).neuron
         pre = used[pr.source][conn.pre] if pr.source in used else conn.pre
-        net.connect(pr.source, pr.target, pre, conn.post, conn.w, sign=pr.sign, delay_ms=pr.delay_ms,
-                    tau_exc_ms=tgt.tau_exc_ms, tau_inh_ms=tgt.tau_inh_ms)
+        net.connect(pr.source, pr.target, pre, conn.post, conn.w, sign=pr.sign, delay_ms=pr.delay_ms)
         conn.free()
     names = [p.name for p in cells]
     spikes = settings.record_spikes and n_cells <= SPIKE_RECORD_MAX_CELLS

@@ -18,7 +18,7 @@
   (:func:`snn_fg.events.writers.encode_es_atis` encodes ATIS streams).
 """
 from snn_fg.events._core import EVENT_DTYPE, Recording
-from snn_fg.events.esim import image_to_events, image_to_frame, motion_frames
+from snn_fg.events.esim import PixelOptions, image_to_events, image_to_frame, motion_frames
 from snn_fg.events.io import STREAMING_FORMATS, RecordingStream, detect_format, iter_recording, open_recording
 from snn_fg.events.window import EmptyWindowWarning, EventWindow, events_to_frame, iter_windows
 from snn_fg.events.writers import save_events
@@ -32,6 +32,7 @@ __all__ = [
     "STREAMING_FORMATS",
     "detect_format",
     "events_to_frame",
+    "PixelOptions",
     "image_to_events",
     "image_to_frame",
     "iter_recording",

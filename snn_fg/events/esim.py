@@ -12,7 +12,8 @@ Model (after Rebecq et al. 2018, "ESIM: an open event camera simulator"):
   time it crosses ``ref + C_on`` (ON) or ``ref - C_off`` (OFF) an event is
   emitted at the interpolated crossing time and the reference moves by one
   threshold, so one interval can produce several events per pixel.
-* Thresholds default to 0.10 for both polarities; ``threshold_sigma`` adds
+* Thresholds default to 0.10 for both polarities; ``threshold_sigma``
+  (:class:`PixelOptions`, as are the next options) adds
   per-pixel Gaussian noise to them (drawn once, from ``seed``; clipped below
   at 0.01).
 * ``refractory_us``: an event closer than this to the previous *emitted*
@@ -36,6 +37,7 @@ positions use bilinear interpolation (``cv2.warpAffine``, ``INTER_LINEAR``,
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -116,19 +118,41 @@ def _thresholds(value, sigma, shape, rng, name):
     return np.maximum(value + sigma * rng.standard_normal(shape), MIN_THRESHOLD)
 
 
-def simulate_frames(frames, times_us, threshold_on=0.10, threshold_off=None, threshold_sigma=0.0,
-                    seed=0, refractory_us=0, eps=LOG_EPS) -> np.ndarray:
+@dataclass(frozen=True, kw_only=True)
+class PixelOptions:
+    """How the simulated pixels differ from ideal ones (checked once, here).
+
+    ``threshold_off``: the OFF threshold (default: the ON one);
+    ``threshold_sigma``: per-pixel Gaussian noise on both thresholds;
+    ``refractory_us``: least time between two emitted events of a pixel;
+    ``eps``: the offset in ``log(I + eps)``.
+    """
+
+    threshold_off: float | None = None
+    threshold_sigma: float = 0.0
+    refractory_us: int = 0
+    eps: float = LOG_EPS
+
+    def __post_init__(self):
+        if self.threshold_off is not None:
+            validate.number("PixelOptions", "threshold_off", self.threshold_off, lo=0, lo_open=True)
+        validate.number("PixelOptions", "threshold_sigma", self.threshold_sigma, lo=0)
+        validate.number("PixelOptions", "refractory_us", self.refractory_us, lo=0)
+        validate.number("PixelOptions", "eps", self.eps, lo=0, lo_open=True)
+
+
+def simulate_frames(frames, times_us, threshold_on=0.10, *, pixels: PixelOptions | None = None,
+                    seed=0) -> np.ndarray:
     """Simulate events from grey frames in [0, 1] (N x H x W) at ``times_us``."""
+    px_opts = pixels or PixelOptions()
     frames = np.asarray(frames, dtype=np.float64)
     times = np.asarray(times_us, dtype=np.int64)
     if frames.ndim != 3 or len(frames) != len(times) or len(frames) < 1:
         validate.fail("simulate_frames", None, None, "frames must be N x H x W with one time per frame")
     if len(times) > 1 and (np.diff(times) <= 0).any():
         validate.fail("simulate_frames", None, None, "frame times must increase strictly")
-    validate.number("simulate_frames", "threshold_sigma", threshold_sigma, lo=0)
-    validate.number("simulate_frames", "refractory_us", refractory_us, lo=0)
-    validate.number("simulate_frames", "eps", eps, lo=0, lo_open=True)
-    threshold_off = threshold_on if threshold_off is None else threshold_off
+    threshold_off = threshold_on if px_opts.threshold_off is None else px_opts.threshold_off
+    threshold_sigma, refractory_us, eps = px_opts.threshold_sigma, px_opts.refractory_us, px_opts.eps
     _, h, w = frames.shape
     rng = np.random.default_rng(seed)
     c_on = _thresholds(threshold_on, threshold_sigma, h * w, rng, "threshold_on")
@@ -178,21 +202,20 @@ def simulate_frames(frames, times_us, threshold_on=0.10, threshold_off=None, thr
     return ev
 
 
-def image_to_events(image, threshold: float = 0.10, motion: str = "shift4", amplitude_px: float = 1.0,
-                    threshold_off: float | None = None, threshold_sigma: float = 0.0, seed: int = 0,
-                    refractory_us: int = 0, frame_interval_us: int = 5000,
-                    eps: float = LOG_EPS) -> Recording:
+def image_to_events(image, threshold: float = 0.10, motion: str = "shift4", *, amplitude_px: float = 1.0,
+                    frame_interval_us: int = 5000, seed: int = 0, pixels: PixelOptions | None = None) -> Recording:
     """Simulate an event camera looking at ``image`` under ``motion``.
 
     ``image`` is an array (see :func:`to_grey`) or an image file path.
     ``threshold`` is the ON threshold (and the OFF one unless
-    ``threshold_off`` is given).  Returns a :class:`Recording` with
+    ``pixels.threshold_off`` is given; :class:`PixelOptions` holds the
+    pixels' noise, refractory period and log offset).  Returns a :class:`Recording` with
     ``format="esim"``: ``.events`` (tonic-style structured array) and
     ``.sensor_size`` ``(W, H, 2)``.  Deterministic for a given ``seed``.
     """
     src = Path(image) if isinstance(image, (str, Path)) else None
     frames, times = motion_frames(image, motion, amplitude_px, frame_interval_us)
-    ev = simulate_frames(frames, times, threshold, threshold_off, threshold_sigma, seed, refractory_us, eps)
+    ev = simulate_frames(frames, times, threshold, pixels=pixels, seed=seed)
     h, w = frames.shape[1:]
     return Recording(events=ev, sensor_size=(int(w), int(h), 2), format="esim", path=src)
 

@@ -109,9 +109,8 @@ def _refuse_existing(out: Path, force: bool):
         raise InputError(out, "exists; pass --force to replace it")
 
 
-def cmd_export(args) -> int:
-    from ..atomic import save_text
-    from ..network.recipes import network_for
+def _checked_bits(args) -> int | None:
+    """The options that go together checked (one line naming the option that does not apply), and the weight bits."""
     from ..lowering.quantise import check_bits
 
     check.choice("snn-fg export", "--format", args.format, FORMATS)
@@ -130,6 +129,14 @@ def cmd_export(args) -> int:
         raise InputError("--weight-bits", "applies to --format pynn and nir only")
     if args.out is None and args.format != "report":
         raise InputError("--out", f"--format {args.format} needs an output path")
+    return bits
+
+
+def cmd_export(args) -> int:
+    from ..atomic import save_text
+    from ..network.recipes import network_for
+
+    bits = _checked_bits(args)
     out = None if args.out is None else Path(args.out)
     if out is not None:
         _refuse_existing(out, args.force)

@@ -8,6 +8,8 @@ under ``prune`` times the largest |value| are left out; the kept fraction of
 """
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 
 from .. import validate as check
@@ -81,14 +83,14 @@ def conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_site
     src_map = index_map(src, src_sites)
     if side == "sources" or (side == "auto" and n_src_ch[ci].sum() < n_tgt_ch[co].sum()):
         # a source at level pixel p reaches the target at p - (dr, dc)
-        post, pre, w = _walk_taps(src, live, src_map[live], ci, co, -dr, -dc, kv, tgt,
+        post, pre, w = _walk_taps(src, live, src_map[live], Taps(ci, co, -dr, -dc, kv), tgt,
                                   index_map(tgt, tgt_sites), wrap)
     else:
         # a target at level pixel p reads the source at p + (dr, dc)
         if src_active is not None:
             src_map[src_sites[~src_active]] = -1
-        pre, post, w = _walk_taps(tgt, tgt_sites, np.arange(tgt_sites.size), co, ci, dr, dc, kv, src, src_map,
-                                  wrap)
+        pre, post, w = _walk_taps(tgt, tgt_sites, np.arange(tgt_sites.size), Taps(co, ci, dr, dc, kv), src,
+                                  src_map, wrap)
     if wrap and pre.size:
         lr, lc = tgt.level_shape
         kh = 2 * int(np.abs(dr).max()) + 1 if dr.size else 1
@@ -98,17 +100,23 @@ def conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_site
     return pre, post, w, kept, int(co.size)
 
 
-def _walk_taps(pop, cells, local, ch_from, ch_to, dr, dc, kv, other: Population, other_map, wrap: bool):
-    """Follow every tap from the cells ``cells`` of ``pop`` (flat indices;
-    ``local`` their numbers in the result) to the cells of ``other`` (same
-    level; ``other_map`` gives their numbers, -1 where none): a tap leads from
-    channel ``ch_from`` at level pixel p to channel ``ch_to`` at p + (dr, dc).
+#: a kernel's taps as walked from one side: tap ``i`` leads from channel
+#: ``ch_from[i]`` at level pixel p to channel ``ch_to[i]`` at p + (``dr[i]``,
+#: ``dc[i]``), with kernel value ``value[i]``
+Taps = namedtuple("Taps", "ch_from ch_to dr dc value")
+
+
+def _walk_taps(pop, cells, local, taps: Taps, other: Population, other_map, wrap: bool):
+    """Follow every tap (:data:`Taps`) from the cells ``cells`` of ``pop``
+    (flat indices; ``local`` their numbers in the result) to the cells of
+    ``other`` (same level; ``other_map`` gives their numbers, -1 where none).
 
     Returns ``(other's numbers, local numbers, kernel values)`` of the hits.
     """
     lr, lc = pop.level_shape
     s_to = other.stride
     g_r, g_c = other.grid
+    ch_from, ch_to, dr, dc, kv = taps
     p_c, p_r, p_col = positions(pop, cells)
     order = np.argsort(p_c, kind="stable")
     bounds = np.searchsorted(p_c[order], np.arange(pop.channels + 1))
@@ -117,11 +125,11 @@ def _walk_taps(pop, cells, local, ch_from, ch_to, dr, dc, kv, other: Population,
         loc = order[bounds[ch]:bounds[ch + 1]]
         if loc.size == 0:
             continue
-        taps = np.nonzero(ch_from == ch)[0]
+        of_ch = np.nonzero(ch_from == ch)[0]
         r0, c0 = p_r[loc], p_col[loc]
         step = max(1, _CHUNK // loc.size)
-        for a0 in range(0, taps.size, step):
-            ta = taps[a0:a0 + step]
+        for a0 in range(0, of_ch.size, step):
+            ta = of_ch[a0:a0 + step]
             r = r0[None, :] + dr[ta, None]
             c = c0[None, :] + dc[ta, None]
             if wrap:

@@ -104,8 +104,8 @@ class PyNNNetwork:
     simulators run; the tests check both give the same spikes).
     """
 
-    def __init__(self, sim, *, dt_ms: float, max_delay_ms: float, threads: int = 1, seed: int = 0,
-                 portable: bool = False, signed_receptors: bool = False, n_cells: int = 0, n_sources: int = 0):
+    def __init__(self, sim, *, dt_ms: float, max_delay_ms: float, threads: int = 1, portable: bool = False,
+                 signed_receptors: bool = False, n_cells: int = 0, n_sources: int = 0):
         self.sim = sim
         self.dt = float(dt_ms)
         self.native = (sim.__name__ == "pyNN.nest") and not portable
@@ -126,18 +126,20 @@ class PyNNNetwork:
             # on_grid: PyNN's default on NEST is off-grid spiking, which swaps
             # IF_curr_exp for iaf_psc_exp_ps (spike times and refractoriness
             # between steps): not the time-stepped cell the description means
-            opts = {"threads": self.threads, "rng_seed": int(seed) + 1, "spike_precision": "on_grid"}
+            # (the network draws no random numbers: NEST's seed is fixed)
+            opts = {"threads": self.threads, "rng_seed": 1, "spike_precision": "on_grid"}
         sim.setup(timestep=self.dt, min_delay=self.dt, max_delay=max_delay, **opts)
         self.pops: dict = {}       # name -> PyNN Population (portable) or NEST NodeCollection (native)
         self.first: dict = {}      # native: name -> NEST id of its first node
         self.recorders: dict = {}
         self.n_synapses: dict = {}
+        self.taus: dict = {}       # cells' name -> (tau_exc_ms, tau_inh_ms): how a synapse is split between receptors
         self.shift_ms = TIME_SHIFT_STEPS * self.dt
         self.duration_ms = 0.0
 
     def add_cells(self, name: str, size: int, neuron: dict):
         """``size`` LIF cells, starting at rest."""
-        p = cell_parameters(neuron, self.dt)
+        p = self._cell_parameters(name, neuron)
         size = max(int(size), 1)
         self._count_senders(name, size)
         if self.signed:
@@ -163,6 +165,12 @@ class PyNNNetwork:
             pop = self.sim.Population(size, self.sim.IF_curr_exp(**p), label=name)
             pop.initialize(v=p["v_rest"])
             self.pops[name] = pop
+
+    def _cell_parameters(self, name: str, neuron: dict) -> dict:
+        """``IF_curr_exp`` parameters of population ``name``, whose synaptic time constants :meth:`connect` reads."""
+        p = cell_parameters(neuron, self.dt)
+        self.taus[name] = (p["tau_syn_E"], p["tau_syn_I"])
+        return p
 
     def add_sources(self, name: str, steps_per_cell: list):
         """Spike sources, one per entry of ``steps_per_cell`` (time steps of its spikes)."""
@@ -199,10 +207,9 @@ class PyNNNetwork:
         self.pops[name] = nodes
         self.first[name] = int(nodes[0].tolist()[0])
 
-    def connect(self, source: str, target: str, pre, post, drive, *, sign: int, delay_ms: float,
-                tau_exc_ms: float, tau_inh_ms: float):
+    def connect(self, source: str, target: str, pre, post, drive, *, sign: int, delay_ms: float):
         """Synapses ``pre[i] -> post[i]`` (cell indices) with signed drive in
-        mV, split between the two receptors (see the module docstring)."""
+        mV, split between the target's two receptors (see the module docstring)."""
         delay = grid_delay(delay_ms, self.dt)
         pre, post = np.asarray(pre, np.int64), np.asarray(post, np.int64)
         if self.signed:         # the projection's own receptor (1: excitatory, 2: inhibitory)
@@ -215,7 +222,7 @@ class PyNNNetwork:
                 self._connect_nest(source, target, pre[keep], post[keep], w[keep], 1 if sign > 0 else 2, delay)
                 self.n_synapses[target] = self.n_synapses.get(target, 0) + int(keep.sum())
             return
-        exc, mag = split_receptors(drive, sign, tau_exc_ms, tau_inh_ms)
+        exc, mag = split_receptors(drive, sign, *self.taus[target])
         for receptor, mask in (("excitatory", exc), ("inhibitory", ~exc)):
             keep = mask & (mag > 0)
             if not keep.any():

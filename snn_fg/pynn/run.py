@@ -98,11 +98,11 @@ def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
             offset += p["size"]
     for i, pr in enumerate(meta["projections"]):
         src, tgt = pops[pr["source"]], pops[pr["target"]]
-        taus = dict(tau_exc_ms=tgt["neuron"]["tau_exc_ms"], tau_inh_ms=tgt["neuron"]["tau_inh_ms"])
         if pr["name"] in conv:
-            net.convolve(pr["source"], pr["target"], conv[pr["name"]][2], sign=pr["sign"], gain_mv=pr["gain_mv"],
-                         delay_ms=pr["delay_ms"], strides=tgt["stride"] // src["stride"], bits=meta["weight_bits"],
-                         scale_mv=pr["scale_mv"], **taus)
+            drive = fg_cells.quantise(pr["sign"] * pr["gain_mv"] * conv[pr["name"]][2], meta["weight_bits"],
+                                      pr["scale_mv"])
+            net.convolve(pr["source"], pr["target"], drive, sign=pr["sign"], delay_ms=pr["delay_ms"],
+                         strides=tgt["stride"] // src["stride"])
             continue
         if pr["type"] == "conv":
             taps, values = tables[pr["name"]]
@@ -111,7 +111,7 @@ def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
             rows, cols = tables[pr["name"]]
             pre, post, k = fg_tables.resize_pairs(rows, cols, src["channels"], src, tgt, pr["k_min"])
         drive = fg_cells.quantise(pr["sign"] * pr["gain_mv"] * k, meta["weight_bits"], pr["scale_mv"])
-        net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"], **taus)
+        net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"])
         fg_memory.progress(f"built {i + 1}/{len(meta['projections'])} projections")
     net.record([p["name"] for p in cells], spikes=args.spikes, count_edges_ms=edges)
     return net

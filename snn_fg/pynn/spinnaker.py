@@ -39,10 +39,10 @@ from pathlib import Path
 import numpy as np
 
 try:                                    # inside snn_fg
-    from .cells import cell_parameters, grid_delay, list_rows, population_spikes, quantise, split_receptors
+    from .cells import grid_delay, list_rows, population_spikes, split_receptors
     from .network import TIME_SHIFT_STEPS, PyNNNetwork
 except ImportError:                     # inside an export folder
-    from fg_cells import cell_parameters, grid_delay, list_rows, population_spikes, quantise, split_receptors
+    from fg_cells import grid_delay, list_rows, population_spikes, split_receptors
     from fg_network import TIME_SHIFT_STEPS, PyNNNetwork
 
 #: sPyNNaker's default cells per core for IF_curr_exp
@@ -215,7 +215,7 @@ class SpiNNakerNetwork(PyNNNetwork):
         return pops if kind == "split" else pops[0]
 
     def add_cells(self, name: str, size: int, neuron: dict):
-        p = cell_parameters(neuron, self.dt)
+        p = self._cell_parameters(name, neuron)
         self.pops[name] = self._make(name, self.sim.IF_curr_exp(**p))
         for pop in self.parts.get(name, [self.pops[name]]):
             pop.initialize(v=p["v_rest"])
@@ -242,13 +242,12 @@ class SpiNNakerNetwork(PyNNNetwork):
             self.sim.Projection(a, b, self.sim.FromListConnector(rows, column_names=["weight", "delay"]),
                                 self.sim.StaticSynapse(), receptor_type=receptor)
 
-    def convolve(self, source: str, target: str, kernels: np.ndarray, *, sign: int, gain_mv: float,
-                 delay_ms: float, strides: int, tau_exc_ms: float, tau_inh_ms: float, bits=None,
-                 scale_mv: float = 0.0) -> int:
-        """ConvolutionConnector projections of ``kernels`` (:func:`conv_kernels`)
-        scaled by ``sign * gain_mv``; returns how many connectors."""
-        drive = quantise(sign * gain_mv * kernels, bits, scale_mv)
-        exc, mag = split_receptors(drive, sign, tau_exc_ms, tau_inh_ms)
+    def convolve(self, source: str, target: str, drive: np.ndarray, *, sign: int, delay_ms: float,
+                 strides: int) -> int:
+        """ConvolutionConnector projections of the kernels ``drive`` (mV:
+        :func:`conv_kernels` times ``sign * gain_mv``, quantised as deployed);
+        returns how many connectors."""
+        exc, mag = split_receptors(drive, sign, *self.taus[target])
         w = np.where(exc, mag, -mag)
         dyn = self.sim.Convolution(delay=grid_delay(delay_ms, self.dt))
         pr, pc = (s // 2 for s in w.shape[2:])

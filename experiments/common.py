@@ -131,6 +131,13 @@ def save_markdown(name: str, lines: Sequence[str]) -> Path:
     return save_text(RESULTS / f"{name}.md", "\n".join(lines).rstrip("\n") + "\n")
 
 
+def save_results(name: str, record, lines: Sequence[str]) -> list[Path]:
+    """``results/<name>.json`` (the record) and ``results/<name>.md`` (its ``lines``), and the lines printed."""
+    written = [save_json(name, record), save_markdown(name, lines)]
+    print("\n".join(lines))
+    return written
+
+
 def save_figure(fig, name: str, **kwargs) -> Path:
     """``results/<name>.png`` (``dpi=110, bbox_inches="tight"`` unless given), written atomically."""
     from snn_fg.atomic import save_figure as save

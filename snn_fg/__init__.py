@@ -2,7 +2,7 @@
 spiking neural network.
 
 The data flow is the package layout: :mod:`snn_fg.events` (recordings,
-windows, event-camera simulation) -> event frames and :mod:`snn_fg.frames` ->
+windows, event-camera simulation) -> event frames and :mod:`snn_fg.pyramid` ->
 :mod:`snn_fg.network` (the network description) -> :mod:`snn_fg.lowering`
 (input spikes and synapses) -> a simulator of :mod:`snn_fg.backends` (or the
 rate models of :mod:`snn_fg.rate`) -> :mod:`snn_fg.maps` (decoded maps) ->

@@ -285,10 +285,10 @@ def cmd_run(args) -> int:
     from .atomic import OutputFolder, growing_folder
     from .batch import is_dataset, run_dataset
     from .figures import check_crop
-    from .frames.pool import pooled_shape
-    from .frames.pyramid import check_levels
+    from .pyramid.pool import pooled_shape
+    from .pyramid.levels import check_levels
     from .inputs import input_kind, load_frame
-    from .runner import run_frame, run_recording
+    from .runner import run_still, run_recording
     from .store import windows_complete
 
     if is_dataset(args.input):
@@ -324,7 +324,7 @@ def cmd_run(args) -> int:
         written = f"{n} windows, " + ", ".join(sorted(p.name for p in out.iterdir()))
     else:
         with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:
-            run_frame(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures)
+            run_still(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures)
             written = ", ".join(sorted(p.name for p in folder.dir.iterdir()))
     print(f"snn-fg: {model.name} model on {args.input}: wrote {args.out}/ ({written})")
     return 0

@@ -235,10 +235,10 @@ def _model(name: str, params, spiking_options: dict):
 def _event_maps(unit, image, threshold, motion):
     """Maps of an event model ``unit`` on ``image`` (array or path) turned into events, and the event pixel count."""
     from .events import image_to_frame
-    from .inputs import Frame
+    from .inputs import Still
 
     pos, neg = image_to_frame(image, threshold=threshold, motion=motion)
-    return unit.run_frame(Frame(pos, neg)), int((pos | neg).sum())
+    return unit.run_still(Still(pos, neg)), int((pos | neg).sum())
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -337,9 +337,9 @@ def evaluate_disc(*, model: str, r0: float, diameter: float, threshold: float = 
     scene = disc(radius=diameter / 2, light_on_dark=False, margin=1.5)
     unit = _model(model, params, spiking_options or {})
     if unit.needs == "image":
-        from .inputs import Frame
+        from .inputs import Still
 
-        maps = unit.run_frame(Frame(image=scene.image))
+        maps = unit.run_still(Still(image=scene.image))
     else:
         maps, _ = _event_maps(unit, scene.image, threshold, "shift4")
     row, col = grouping_peak(maps.grouping)
@@ -378,19 +378,19 @@ def evaluate_models(*, root: str, image_id: str, models: dict, threshold: float 
 
     from .events import image_to_frame
     from .images import read_image
-    from .models import MODELS, Frame, get_model
+    from .models import MODELS, Still, get_model
 
     gt = load_bsds_fg(root, image_id)
     truths = [boundary_directions(m) for m in gt.fg]
     pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion=motion)
-    frame = Frame(pos, neg, read_image(gt.image_path, grey=False))
+    frame = Still(pos, neg, read_image(gt.image_path, grey=False))
     out = {"image_id": str(image_id), "shape": list(gt.fg.shape[1:]), "event_pixels": int((pos | neg).sum()),
            "units": []}
     for name, spec in models.items():
         kind = spec["model"]
         params = MODELS[kind].base_params.replace(**spec.get("params", {}))
         t0 = time.perf_counter()
-        maps = get_model(kind, params, **spec.get("options", {})).run_frame(frame)
+        maps = get_model(kind, params, **spec.get("options", {})).run_still(frame)
         out["units"].append({"name": name, "seconds": time.perf_counter() - t0,
                              **_scores(maps.fg_x, maps.fg_y, truths)})
     return out

@@ -116,11 +116,11 @@ def run_events(args) -> int:
 def _image_lines(path, args) -> list:
     """The summary of an image's simulated events, writing the frame and
     events asked for."""
-    from snn_fg.events import image_to_events, save_events
+    from snn_fg.events import PixelOptions, image_to_events, save_events
     from snn_fg.events.window import events_to_frame
 
     rec = image_to_events(path, threshold=args.threshold, motion=args.motion, amplitude_px=args.amplitude_px,
-                          seed=args.seed, threshold_sigma=args.threshold_sigma)
+                          seed=args.seed, pixels=PixelOptions(threshold_sigma=args.threshold_sigma))
     ev = rec.events
     n = len(ev)
     motion = args.motion if args.motion == "paper" else f"{args.motion}, amplitude {args.amplitude_px:g} px"

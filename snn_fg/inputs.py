@@ -6,7 +6,7 @@
 * an event recording in any format :mod:`snn_fg.events` reads.
 
 Every problem raises :class:`~snn_fg.errors.InputError` naming the file;
-what a model runs on is a :class:`Frame`.
+what a model runs on is a :class:`Still`.
 """
 from __future__ import annotations
 
@@ -21,10 +21,11 @@ from .images import IMAGE_SUFFIXES
 
 
 @dataclass
-class Frame:
-    """One input frame: an event frame (``pos``, ``neg``) and/or an image, and
-    for an image turned into events, the simulated camera's timed events
-    (``recording``, a :class:`~snn_fg.events.Recording`) the frame was made of."""
+class Still:
+    """A still input, what a model runs on once (a recording is run window by
+    window): an event frame (``pos``, ``neg``) and/or an image, and for an
+    image turned into events, the simulated camera's timed events
+    (``recording``, a :class:`~snn_fg.events.Recording`) the event frame was made of."""
 
     pos: np.ndarray | None = None
     neg: np.ndarray | None = None
@@ -129,7 +130,7 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
     ``needs`` is ``"events"`` (an event frame; images are turned into events
     by the simulated event camera at contrast ``threshold`` under ``motion``,
     see :data:`snn_fg.events.esim.MOTIONS`) or ``"image"``.
-    Returns ``(Frame, source)``.
+    Returns ``(Still, source)``.
     """
     from .events import events_to_frame, image_to_events
     from .images import read_image
@@ -142,7 +143,7 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
         if needs == "image":
             raise InputError(spec, "the fbfg model needs an image, not an event frame")
         pos, neg = load_event_frame(spec)
-        return Frame(pos, neg), source
+        return Still(pos, neg), source
     if kind == "demo":
         from .scenes import demo
 
@@ -150,10 +151,10 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
     else:
         image = read_image(spec, grey=needs != "image" and motion != "paper")
     if needs == "image":
-        return Frame(image=image), source
+        return Still(image=image), source
     recording = image_to_events(image, threshold=threshold, motion=motion)
     pos, neg = events_to_frame(recording.events, recording.sensor_size)
     if not (pos.any() or neg.any()):
         raise InputError(spec, f"the image gives no events at contrast threshold {threshold}")
     source.update(threshold=threshold, motion=motion)
-    return Frame(pos, neg, image, recording), source
+    return Still(pos, neg, image, recording), source

@@ -1,7 +1,7 @@
 """The models ``snn-fg run`` can run, behind one interface: :class:`Model`.
 
-A model runs one frame (a :class:`~snn_fg.inputs.Frame`: an event frame, or
-an image for the frame-based model) or one window of a recording, and draws
+A model runs one still input (a :class:`~snn_fg.inputs.Still`: an event
+frame, or an image for the frame-based model) or one window of a recording, and draws
 its figures. The command line and the experiments pick a model by name from
 :data:`MODELS` and never branch on which one it is. To add a model, subclass
 :class:`Model` and register it.
@@ -19,16 +19,16 @@ from . import validate as check
 from .backends import DEFAULT_BACKEND
 from .errors import InputError
 from .figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure, save_spiking_figures
-from .inputs import Frame
+from .inputs import Still
 from .maps import Maps
 from .params import ModelParams
 from .rate.natural import NATURAL_PARAMS
 
 
 class Model(ABC):
-    """A figure-ground model: frames and windows in, :class:`Maps` out.
+    """A figure-ground model: still inputs and windows in, :class:`Maps` out.
 
-    ``needs`` says what a frame must hold (``"events"``: ``pos``/``neg``;
+    ``needs`` says what a still input must hold (``"events"``: ``pos``/``neg``;
     ``"image"``: an image); ``grouping_label`` labels the grouping map's
     colour bar with its unit.
     """
@@ -48,14 +48,14 @@ class Model(ABC):
         self.progress = progress      # a factory wrapping iterables in a progress bar, or None
 
     @abstractmethod
-    def run_frame(self, frame: Frame) -> Maps:
-        """Maps of one frame."""
+    def run_still(self, still: Still) -> Maps:
+        """Maps of one still input."""
 
     def run_window(self, window) -> Maps:
         """Maps of one window of a recording (an :class:`~snn_fg.events.EventWindow`)."""
         if not (window.pos.any() or window.neg.any()):
             return self.empty_maps(window.pos.shape)
-        return self.run_frame(Frame(window.pos, window.neg))
+        return self.run_still(Still(window.pos, window.neg))
 
     def run_windows(self, windows, start: int = 0):
         """``(window, Maps)`` for every window of a recording from window
@@ -85,9 +85,9 @@ class Model(ABC):
         z = np.zeros(shape, np.float32)
         return Maps(z, z.copy(), z.copy(), {"model": self.name, **self.params.to_dict()})
 
-    def figure_input(self, frame: Frame) -> np.ndarray:
+    def figure_input(self, still: Still) -> np.ndarray:
         """The image shown beside the maps."""
-        return event_frame_rgb(frame.pos, frame.neg)
+        return event_frame_rgb(still.pos, still.neg)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
         """Figures of a run into folder ``out``; ``inputs`` one image per frame;
@@ -114,11 +114,11 @@ class RateModel(Model):
         super().__init__(params, progress)
         self.carry_state = check.flag("rate", "carry_state", carry_state)
 
-    def run_frame(self, frame: Frame) -> Maps:
+    def run_still(self, still: Still) -> Maps:
         from .rate.edfg import run_edfg
 
         t = time.perf_counter()
-        maps = self.named(run_edfg(frame.pos, frame.neg, self.params, progress=self.progress))
+        maps = self.named(run_edfg(still.pos, still.neg, self.params, progress=self.progress))
         maps.params["timings_s"] = {"run": time.perf_counter() - t}
         return maps
 
@@ -160,16 +160,16 @@ class FbfgModel(Model):
         super().__init__(params, progress)
         self.edge_operator = check.choice("fbfg", "edge_operator", edge_operator, EDGE_OPERATORS)
 
-    def run_frame(self, frame: Frame) -> Maps:
+    def run_still(self, still: Still) -> Maps:
         from .rate.fbfg import run_fbfg
 
-        return run_fbfg(frame.image, self.params, progress=self.progress, edge_operator=self.edge_operator)
+        return run_fbfg(still.image, self.params, progress=self.progress, edge_operator=self.edge_operator)
 
     def run_window(self, window) -> Maps:
         raise InputError("<recording>", "the fbfg model needs an image, not an event recording")
 
-    def figure_input(self, frame: Frame) -> np.ndarray:
-        return frame.image
+    def figure_input(self, still: Still) -> np.ndarray:
+        return still.image
 
 
 #: how a frame becomes input spikes: regular trains at every event pixel, or
@@ -231,14 +231,14 @@ class SpikingModel(Model):
 
         return self.named(run_spiking(**inputs, options=self.run_options.on(self._sim())))
 
-    def run_frame(self, frame: Frame) -> Maps:
+    def run_still(self, still: Still) -> Maps:
         if self.spike_input == "events":
-            if frame.recording is None:
+            if still.recording is None:
                 raise InputError("<frame>", "spike input 'events' needs an image (its simulated events carry "
                                             "their timing); an event frame has none: use 'regular'")
-            rec = frame.recording
+            rec = still.recording
             return self._run(events=rec.events, sensor_size=rec.sensor_size)
-        return self._run(pos=frame.pos, neg=frame.neg)
+        return self._run(pos=still.pos, neg=still.neg)
 
     def run_window(self, window) -> Maps:
         """One window, run as a recording of that one window

@@ -27,7 +27,7 @@ class ModelParams:
         coarse levels, for the compact network).
     input_pool: stage 0: blocks of ``input_pool x input_pool`` sensor pixels
         become one pixel of the event frame the model sees (1: none); the
-        maps come back at the sensor's size (:mod:`snn_fg.frames.pool`).
+        maps come back at the sensor's size (:mod:`snn_fg.pyramid.pool`).
     n_ori: orientations per half-turn (border-ownership orientations); the
         simple cells have ``2 * n_ori`` directions.
     r0: radius in pixels of the von Mises grouping ring (object size grouped).

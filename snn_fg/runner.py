@@ -13,20 +13,20 @@ import numpy as np
 
 from . import cancel
 from .errors import InputError
-from .inputs import Frame
+from .inputs import Still
 from .maps import Maps
 from .models import Model
 from .store import STORE_NAME, MapsStore, read_maps, store_arrays
 
 
-def run_frame(model: Model, frame: Frame, out: Path, source: dict, crop=None, figures: bool = True) -> Maps:
-    """One frame through ``model``; ``maps.npz`` and (with ``figures``) its
+def run_still(model: Model, still: Still, out: Path, source: dict, crop=None, figures: bool = True) -> Maps:
+    """One still input through ``model``; ``maps.npz`` and (with ``figures``) its
     figures into ``out`` (``crop``: see :meth:`Model.write_figures`)."""
-    maps = model.run_frame(frame)
+    maps = model.run_still(still)
     maps.params = {**maps.params, "source": source}
     maps.save(out / "maps.npz")
     if figures:
-        model.write_figures(out, maps, model.figure_input(frame), crop=crop)
+        model.write_figures(out, maps, model.figure_input(still), crop=crop)
     return maps
 
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
-from snn_fg.frames.pyramid import level_shape, max_levels
+from snn_fg.pyramid.pool import pool_events, pool_frame, pooled_shape, unpool_maps
+from snn_fg.pyramid.levels import level_shape, max_levels
 from snn_fg.maps import Maps
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.network.nodes import Kernel

@@ -194,7 +194,7 @@ def test_snntorch_executes_the_compact_network_on_one_grid(tmp_path):
     runs the network the graph holds. Measured: r 0.981, 100 % within 45
     deg, 9.6 deg; against the exported network r 0.941, 90 %, 21 deg."""
     from snn_fg.events import image_to_frame
-    from snn_fg.frames.pool import pool_frame
+    from snn_fg.pyramid.pool import pool_frame
     from snn_fg.lowering.input_spikes import frame_spikes
     from snn_fg.metrics import agreement
     from snn_fg.network.recipes import RECIPES

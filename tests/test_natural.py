@@ -93,12 +93,12 @@ def test_natural_models_run_from_the_command_line_with_their_own_parameters(tmp_
 
 @pytest.mark.slow
 def test_spiking_form_owns_the_disc_of_both_polarities():
-    from snn_fg.models import Frame, get_model
+    from snn_fg.models import Still, get_model
 
     model = get_model("natural-spiking", NATURAL_PARAMS.replace(levels=5), backend="fast")
     for light in (True, False):
         scene = disc(radius=16, light_on_dark=light)
-        maps = model.run_frame(Frame(*image_to_frame(scene.image)))
+        maps = model.run_still(Still(*image_to_frame(scene.image)))
         assert maps.params["model"] == "natural-spiking"
         t = truth_scores(maps.fg_x, maps.fg_y, scene)
         assert t["frac_within_45"] >= 0.95 and t["coverage"] > 0.6

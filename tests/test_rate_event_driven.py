@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from snn_fg.frames.pyramid import level_shape, resize
+from snn_fg.pyramid.levels import level_shape, resize
 from snn_fg.network.kernels import von_mises_masks
 from snn_fg.params import ModelParams
 from snn_fg.rate import edfg, grouping

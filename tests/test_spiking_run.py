@@ -223,15 +223,15 @@ def test_a_model_keeps_one_backend_and_gives_a_fresh_models_maps():
     """The spiking model runs every input on one backend object (so the fast
     engine's tables and cell arrays serve them all); a frame run after
     another must give exactly what a fresh model gives."""
-    from snn_fg.models import Frame, get_model
+    from snn_fg.models import Still, get_model
 
     first, second = (image_to_frame(disc(r).image) for r in (12, 9))
     kept = get_model("spiking", SMALL, duration_ms=80)
-    kept.run_frame(Frame(*first))
+    kept.run_still(Still(*first))
     backend = kept._sim()
-    again = kept.run_frame(Frame(*second))
+    again = kept.run_still(Still(*second))
     assert kept._sim() is backend and backend._tables is not None
-    fresh = get_model("spiking", SMALL, duration_ms=80).run_frame(Frame(*second))
+    fresh = get_model("spiking", SMALL, duration_ms=80).run_still(Still(*second))
     assert np.abs(fresh.fg_x).sum() > 0
     for k in ("fg_x", "fg_y", "grouping"):
         np.testing.assert_array_equal(getattr(again, k), getattr(fresh, k), err_msg=k)

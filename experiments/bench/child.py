@@ -47,13 +47,13 @@ def _runner(mdl, inp):
     """The model on one input. A spiking window runs as a recording of one
     window does (one continuous run, every event at its own time, the window
     plus the read-out lag simulated, no replay)."""
-    from snn_fg.models import Frame
+    from snn_fg.models import Still
 
     if inp.events is None:
-        frame = Frame(inp.pos, inp.neg)
+        frame = Still(inp.pos, inp.neg)
         if mdl.name == "spiking":
-            return lambda: _spiking_record(mdl.run_frame(frame))
-        return lambda: mdl.run_frame(frame)
+            return lambda: _spiking_record(mdl.run_still(frame))
+        return lambda: mdl.run_still(frame)
     win = inp.window()
     if mdl.name == "spiking":
         return lambda: _spiking_window(mdl, win)

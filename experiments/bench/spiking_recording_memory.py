@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import (ROOT, Run, dataset, describe, fail, load, markdown_table, save_json,
-                                save_markdown)
+from experiments.common import (ROOT, Run, dataset, describe, fail, load, markdown_table,
+                                save_results)
 
 SENSOR = "320x240"
 
@@ -112,9 +112,7 @@ def main():
            "max_residual_mb": float(np.max(np.abs(fixed + slope * x - y))),
            "windows_in_24gb": float((24 * 1024 - fixed) / slope)}
     record = {"cases": cases, "fit": fit, "run": run.record()}
-    save_json("spiking_recording_memory", record)
-    save_markdown("spiking_recording_memory", _markdown(record))
-    print("\n".join(_markdown(record)))
+    save_results("spiking_recording_memory", record, _markdown(record))
 
 
 if __name__ == "__main__":

@@ -47,7 +47,7 @@ def _load() -> str:
     return f"{load()[0]:.2f}"
 
 
-def run_frame(path: Path, backend: str, instantiate: str | None = None) -> dict:
+def run_still(path: Path, backend: str, instantiate: str | None = None) -> dict:
     code = CHILD.format(path=str(path), backend=backend, instantiate=instantiate)
     load_before = _load()
     t0 = time.perf_counter()
@@ -79,7 +79,7 @@ def main(argv=None):
         paths = [p for p in paths if p.stem in args.frames]
     rows = []
     for p in paths:
-        r = run_frame(p, args.backend, args.instantiate)
+        r = run_still(p, args.backend, args.instantiate)
         rows.append(r)
         t = ", ".join(f"{k} {v:.1f}" for k, v in r["timings_s"].items())
         print(f"{r['frame']}: {r['counts']['total_cells']:,} cells, wall {r['process_wall_s']:.1f} s ({t}), "

@@ -39,8 +39,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.common import (Run, dataset, describe, fail, markdown_table, save_figure, save_json,  # noqa: E402
-                                save_markdown)
+from experiments.common import (Run, dataset, describe, fail, markdown_table, save_figure,  # noqa: E402
+                                save_results)
 from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
@@ -179,10 +179,7 @@ def main():
     summary = {"recording": rec.name, "window": a.window, "start_ms": a.start_ms, "window_ms": 85,
                "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000], "backend": a.backend, "rows": rows,
                "rate_over_recording": recording, "spiking_each_window_alone": alone, "run": run.record()}
-    save_json("dvs_history", summary)
-    lines = _markdown(summary)
-    save_markdown("dvs_history", lines)
-    print("\n".join(lines))
+    save_results("dvs_history", summary, _markdown(summary))
 
 
 def _markdown(s) -> list[str]:

@@ -32,7 +32,7 @@ from snn_fg.backends import RunSettings
 from snn_fg.backends.brian2 import Brian2Backend
 from snn_fg.lowering.quantise import quantise_unrolled
 from snn_fg.export.report import report_table, resource_report
-from snn_fg.frames.pyramid import max_levels
+from snn_fg.pyramid.levels import max_levels
 from snn_fg.metrics import compare_frame
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.params import ModelParams

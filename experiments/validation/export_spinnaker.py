@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 from experiments.bench.export_memory import RUN_CHILD
-from experiments.common import RESULTS, Run, describe, load, load_change, markdown_table, save_json, save_markdown
+from experiments.common import RESULTS, Run, describe, load, load_change, markdown_table, save_results
 from snn_fg.network.recipes import RECIPES
 from snn_fg.pynn.spinnaker import CELLS_PER_CORE
 
@@ -121,9 +121,7 @@ def main(argv=None):
             for combined in (False,) if args.no_combined else (False, True):
                 rows.append(one(config, combined, Path(tmp)))
     record = {"rows": rows, "run": run.record()}
-    save_json("export_spinnaker", record)
-    save_markdown("export_spinnaker", markdown(rows, record["run"]))
-    print("\n".join(markdown(rows, record["run"])))
+    save_results("export_spinnaker", record, markdown(rows, record["run"]))
 
 
 if __name__ == "__main__":

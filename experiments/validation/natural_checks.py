@@ -30,14 +30,14 @@ def _model(name):
 def disc_checks(name) -> list[dict]:
     from snn_fg.events import image_to_frame
     from snn_fg.metrics import grouping_peak_inside, truth_scores
-    from snn_fg.models import Frame
+    from snn_fg.models import Still
     from snn_fg.scenes import disc
 
     model, out = _model(name), []
     for radius in RADII:
         for light in (True, False):
             scene = disc(radius=radius, light_on_dark=light)
-            maps = model.run_frame(Frame(*image_to_frame(scene.image)))
+            maps = model.run_still(Still(*image_to_frame(scene.image)))
             t = truth_scores(maps.fg_x, maps.fg_y, scene)
             out.append({"radius": radius, "light_on_dark": light, "within45": t["frac_within_45"],
                         "coverage": t["coverage"], "peak_inside": grouping_peak_inside(maps.grouping, scene)})
@@ -46,11 +46,11 @@ def disc_checks(name) -> list[dict]:
 
 def demo_check(name) -> dict:
     from snn_fg.events import image_to_frame
-    from snn_fg.models import Frame
+    from snn_fg.models import Still
     from snn_fg.scenes import demo, shared_border_ownership
 
     scene = demo()
-    maps = _model(name).run_frame(Frame(*image_to_frame(scene.image)))
+    maps = _model(name).run_still(Still(*image_to_frame(scene.image)))
     side, n = shared_border_ownership(scene, maps.fg_x, maps.fg_y, front=0, back=-1)
     within45, _ = shared_border_ownership(scene, maps.fg_x, maps.fg_y, front=0, back=-1, tol_deg=45.0)
     return {"square_outline_owned": side, "square_outline_within45": within45, "vectors": n}

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.common import (CACHE as RESULTS_CACHE, RESULTS, ROOT, Run, dataset, describe, markdown_table,
-                                save_figure, save_json, save_markdown)
+                                save_figure, save_json, save_markdown, save_results)
 from snn_fg.atomic import save_text
 
 CACHE = RESULTS_CACHE / "nest_vs_brian2"
@@ -161,10 +161,7 @@ def seed_spread():
                          "nest_inside_brian2_seed_range": bool(0.98 * lo <= n_rates[role] <= 1.02 * hi)})
         print(name, flush=True)
     out = {"seeds": SEEDS, "rows": rows, "maps": maps_rows, "run": run.record()}
-    save_json("nest_vs_brian2_seeds", out)
-    lines = _seeds_markdown(out)
-    save_markdown("nest_vs_brian2_seeds", lines)
-    print("\n".join(lines))
+    save_results("nest_vs_brian2_seeds", out, _seeds_markdown(out))
 
 
 def _seeds_markdown(out) -> list[str]:

@@ -52,7 +52,7 @@ DT_MS = 0.5
 
 def disc_input(radius: float, duration_ms: float, pool: int = 1):
     from snn_fg.events import image_to_frame
-    from snn_fg.frames.pool import pool_frame
+    from snn_fg.pyramid.pool import pool_frame
     from snn_fg.lowering.input_spikes import frame_spikes
     from snn_fg.scenes import disc
 
@@ -67,7 +67,7 @@ def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0, pool: int = 1, ref
     events pooled into ``pool`` x ``pool`` blocks as the network's input adapter does."""
     from snn_fg.events import iter_recording, iter_windows
     from snn_fg.export.loop import busiest_crop, crop_events
-    from snn_fg.frames.pool import pool_events, pooled_shape
+    from snn_fg.pyramid.pool import pool_events, pooled_shape
     from snn_fg.lowering.input_spikes import event_spikes
 
     path = dataset("events", "dvs.es")

@@ -47,7 +47,7 @@ import dataclasses
 import numpy as np
 
 from experiments.common import Run, dataset, describe, markdown_table, save_figure, save_json, save_markdown
-from snn_fg.frames.pyramid import resize
+from snn_fg.pyramid.levels import resize
 from snn_fg.metrics import agreement
 from snn_fg.network import SpikingParams
 from snn_fg.params import ModelParams

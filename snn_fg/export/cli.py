@@ -87,8 +87,8 @@ def _network(args):
 
 
 def _check_sensor(params, shape, source: str):
-    from ..frames.pool import pooled_shape
-    from ..frames.pyramid import check_levels
+    from ..pyramid.pool import pooled_shape
+    from ..pyramid.levels import check_levels
 
     check_levels(pooled_shape(shape, params.input_pool), params.levels, source, params.levels_per_octave)
 

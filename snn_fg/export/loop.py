@@ -93,7 +93,7 @@ def _input_spikes(args, net, dt_ms):
     network that pools its input (``params.input_pool``) sees the input's blocks,
     and its input adapter's refractory period applies to a recording's events."""
     from ..events import iter_recording, iter_windows
-    from ..frames.pool import pool_events, pool_frame
+    from ..pyramid.pool import pool_events, pool_frame
     from ..inputs import input_kind, load_frame
     from ..lowering.input_spikes import event_spikes, frame_spikes
 

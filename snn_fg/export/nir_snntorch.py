@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError
-from ..frames.pyramid import level_scale
+from ..pyramid.levels import level_scale
 from ..network.graph import Network
 from ..network.nodes import Kernel
 from ..network.projections import Conv, Resize

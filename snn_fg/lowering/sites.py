@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import validate as check
-from ..frames.pyramid import level_shape, resize
+from ..pyramid.levels import level_shape, resize
 from ..network.graph import Network
 from ..network.nodes import Population
 from .connect import pairs

@@ -14,7 +14,7 @@ import dataclasses
 import numpy as np
 
 from .. import validate as check
-from ..frames.pyramid import check_levels, level_shape
+from ..pyramid.levels import check_levels, level_shape
 from ..params import ModelParams
 from .graph import Network
 from .nodes import Kernel, Population

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError, ParameterError
-from ..frames.pyramid import level_shape
+from ..pyramid.levels import level_shape
 from ..params import ModelParams
 from .nodes import Population
 from .projections import Conv, Projection, projection_from_dict

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .. import validate as check
-from ..frames.pool import pooled_shape
-from ..frames.pyramid import check_levels
+from ..pyramid.pool import pooled_shape
+from ..pyramid.levels import check_levels
 from ..params import ModelParams
 from .builder import build_network
 from .graph import Network

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..frames.pool import pool_frame, unpool_maps
-from ..frames.pyramid import check_levels, level_shape, pyramid, resize
+from ..pyramid.pool import pool_frame, unpool_maps
+from ..pyramid.levels import check_levels, level_shape, pyramid, resize
 from ..maps import Maps
 from ..network.kernels import dog_kernels
 from ..params import ModelParams
@@ -236,7 +236,7 @@ def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
     with the fraction ``carry`` of its grouping maps
     (:meth:`~snn_fg.rate.grouping.SparseGrouping.continue_from`).
     With ``params.input_pool > 1`` the model runs on the pooled frame
-    (:mod:`snn_fg.frames.pool`) and its maps come back at the sensor's size.
+    (:mod:`snn_fg.pyramid.pool`) and its maps come back at the sensor's size.
     """
     sensor_edges = (np.asarray(pos) != 0) | (np.asarray(neg) != 0)
     pos, neg = pool_frame(pos, neg, params.input_pool)

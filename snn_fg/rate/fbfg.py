@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage as ndi
 
-from ..frames.pyramid import check_levels, pyramid
+from ..pyramid.levels import check_levels, pyramid
 from ..maps import Maps
 from ..params import ModelParams
 from .. import validate

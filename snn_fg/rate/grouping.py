@@ -36,7 +36,7 @@ from dataclasses import replace
 import numpy as np
 
 from .. import cancel
-from ..frames.pyramid import resize
+from ..pyramid.levels import resize
 from ..params import ModelParams
 from . import _sparse_kernels as nbk
 from .fourier import irfft_crop, padded_shape, rfft_rows

@@ -16,13 +16,13 @@ import numpy as np
 from ..backends import RunSettings, SimulationResult
 from ..errors import InputError
 from ..events.window import events_to_frame
-from ..frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
+from ..pyramid.pool import pool_events, pool_frame, pooled_shape, unpool_maps
 from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ..maps import Maps
 from ..network.graph import Network
 from .decode import decode
 from .options import FrameOptions, SpikingOptions
-from .record import SpikingRecord, run_params
+from .record import SpikingRecord, run_provenance
 
 
 @dataclass
@@ -111,7 +111,7 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, opt
                   "replay": bool(frame.replay) if events is not None else None,
                   "merged_input_spikes": inp.merged, "instantiate": instantiate,
                   "record_spikes": bool(sim.record_spikes)}
-    record = run_params(net, origin, backend, result, rec.populations, simulation, t_start)
+    record = run_provenance(net, origin, backend, result, rec.populations, simulation, t_start)
     maps = Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), record,
                 rec.arrays())
     return SpikingResult(maps, net, result, inp, rec)

@@ -29,12 +29,12 @@ import numpy as np
 from ..backends import RunSettings
 from ..backends.base import each_bin
 from ..errors import InputError
-from ..frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
+from ..pyramid.pool import pool_events, pool_frame, pooled_shape, unpool_maps
 from ..lowering.input_spikes import event_spikes
 from ..maps import Maps
 from .decode import decode
 from .options import SpikingOptions
-from .record import SpikingRecord, run_params
+from .record import SpikingRecord, run_provenance
 
 
 def _window_rate(windows, dt_ms: float) -> float:
@@ -137,7 +137,7 @@ def stream_spiking_windows(windows, on_window, *, source: str = "<recording>",
     ``backend_stats``, ``kept_kernel_mass``, ``timings_s``)."""
     opts = SpikingOptions.of("stream_spiking_windows", options, keywords, frame=False)
     run = simulate_windows(windows, source=source, keep_run=False, options=opts, on_window=on_window)
-    whole = run_params(run.network, run.origin, run.backend, run.result, {}, run.simulation, run.t_start)
+    whole = run_provenance(run.network, run.origin, run.backend, run.result, {}, run.simulation, run.t_start)
     return {k: whole[k] for k in ("counts", "backend_stats", "kept_kernel_mass", "timings_s")}
 
 
@@ -305,6 +305,6 @@ def _maps_of(run: ContinuousRun, k: int, decoded, result, window_s: float) -> Ma
     fg_x, fg_y, grouping, rec = decoded
     k0, k1 = _bins_of(run.spans[k], run.edges)
     simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0], "count_to_ms": run.edges[k1]}
-    params = run_params(run.network, run.origin, run.backend, result, rec.populations, simulation, run.t_start)
+    params = run_provenance(run.network, run.origin, run.backend, result, rec.populations, simulation, run.t_start)
     params["timings_s"]["window"] = window_s
     return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params, rec.arrays())

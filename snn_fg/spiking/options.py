@@ -28,7 +28,7 @@ from pathlib import Path
 
 from .. import validate as check
 from ..backends import DEFAULT_BACKEND, Backend, as_backend
-from ..frames.pool import pooled_shape
+from ..pyramid.pool import pooled_shape
 from ..network.builder import build_network
 from ..network.graph import Network
 from ..network.recipes import network_for

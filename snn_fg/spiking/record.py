@@ -1,5 +1,5 @@
 """What a spiking run keeps beside its maps: :class:`SpikingRecord`, and its
-parameters (:func:`run_params`).
+run provenance (:func:`run_provenance`).
 
 Per simulated population the spike count of every cell that fired and
 where that cell sits (a silent cell is only counted, in the summary: a
@@ -171,10 +171,10 @@ def _sample_raster(result) -> Raster:
                   np.concatenate(roles).astype(np.int16))
 
 
-def run_params(net: Network, origin: dict, backend, result: SimulationResult, populations: dict,
-               simulation: dict, t_start: float) -> dict:
-    """``Maps.params`` of a spiking run: model parameters, where the network
-    came from, the backend, the simulation settings, cell and synapse counts,
+def run_provenance(net: Network, origin: dict, backend, result: SimulationResult, populations: dict,
+                   simulation: dict, t_start: float) -> dict:
+    """The run provenance (``Maps.params``) of a spiking run: model
+    parameters, where the network came from, the backend, the simulation settings, cell and synapse counts,
     per-population summaries, timings and the network's notes."""
     syn = result.stats.get("synapses_in", {})
     return {

@@ -1,4 +1,5 @@
-"""Rate twin: the unrolled network run as the rate model's iteration.
+"""The rate model on the network's connectivity (the *twin*): the unrolled
+network run as the rate model's iteration.
 
 It uses the unrolled connectivity (the same cells, kernel taps, lattices and
 interpolations a simulator gets) but replaces the spiking dynamics by the

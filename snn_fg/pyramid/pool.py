@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .pyramid import resize
+from .levels import resize
 
 
 def pooled_shape(shape: tuple[int, int], pool: int) -> tuple[int, int]:

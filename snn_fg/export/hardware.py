@@ -21,7 +21,8 @@ class Limit:
 
 SPINNAKER1 = {
     "neurons_per_core": Limit(256, "IF_curr_exp neurons", "sPyNNaker default max atoms per core (IF_curr_exp)"),
-    "cores_per_chip": Limit(17, "application cores", "SpiNNMachine: 18 cores per chip, one is the monitor"),
+    "cores_per_chip": Limit(16, "application cores", "SpiNNMachine: 18 cores per chip; sPyNNaker keeps one for "
+                                                     "the monitor and one for its extra monitor"),
     "chips_per_board": Limit(48, "chips", "SpiNNMachine: SpiNN-5 board"),
     "sdram_per_chip": Limit(123e6, "bytes", "SpiNNMachine: about 123 MB SDRAM per chip", True),
     "bytes_per_synapse": Limit(4, "bytes", "sPyNNaker synaptic matrix: one 32-bit word per synapse", True),

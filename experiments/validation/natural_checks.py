@@ -15,7 +15,7 @@ its rate and spiking forms (``natural_scenes --checks`` runs these).
 """
 from __future__ import annotations
 
-from experiments.common import markdown_table, save_json
+from experiments.common import Run, describe, markdown_table, save_results
 
 RADII = (16, 24, 32, 48, 64)
 FORMS = {"natural": {}, "natural-spiking": {"backend": "fast"}}
@@ -101,13 +101,11 @@ def checks_markdown(c: dict) -> list[str]:
 
 
 def main():
-    import json
-
+    run = Run()
     c = checks()
-    save_json("natural_checks", c)
-    print("\n".join(checks_markdown(c)))
-    print(json.dumps({k: {"discs_within45": [round(x["within45"], 3) for x in v["discs"]],
-                          "dvs_inward": [round(w["inward"], 2) for w in v.get("dvs", [])]} for k, v in c.items()}))
+    record = {"forms": c, "run": run.record()}
+    save_results("natural_checks", record, ["# The natural-scene variant on inputs with an analytic answer", "",
+                                            describe(record["run"]), "", *checks_markdown(c)])
 
 
 if __name__ == "__main__":

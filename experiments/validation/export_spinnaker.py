@@ -69,7 +69,7 @@ def _synapse_cores(m) -> int:
 
 def why(m) -> str:
     """Where sPyNNaker's network cores and chips part from the report's
-    estimate (256 cells per core in every population, 17 cores per chip):
+    estimate (256 cells per core in every population, 15 cores per chip):
     separate synapse cores, populations cut into more cores than 256 cells
     each (a 2-D population per channel, tiles whose sides divide the grid's),
     and the network cores per used chip."""
@@ -81,7 +81,7 @@ def why(m) -> str:
     top = max(extra, key=lambda n: extra[n])
     most = "" if syn else f" (most: {top} {extra[top]:+d})"     # with synapse cores, extra counts those too
     return (f"{m['cores_network'] - m['estimate']['cores']:+d} cores: synapse cores +{syn}, populations cut finer "
-            f"{cut:+d}{most}; {m['cores_network'] / m['chips_used']:.1f} network cores per chip (report: 17)")
+            f"{cut:+d}{most}; {m['cores_network'] / m['chips_used']:.1f} network cores per chip (report: 15)")
 
 
 def _row(m) -> list:

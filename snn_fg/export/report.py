@@ -85,7 +85,7 @@ def _spinnaker1(pops, prows, totals) -> dict:
     long_src = {r["source"] for r in prows if r["delay_steps"] > slots}
     cores += sum(math.ceil(p["cells"] / per_core) for p in pops if p["name"] in long_src)   # delay extensions
     mem_chips = math.ceil(totals["synapses"] * lim["bytes_per_synapse"].value / lim["sdram_per_chip"].value)
-    chips = max(math.ceil(cores / lim["cores_per_chip"].value), mem_chips)
+    chips = max(math.ceil(cores / lim["cores_placed_per_chip"].value), mem_chips)
     bad = []
     top = slots * lim["delay_extension"].value
     if totals["max_delay_steps"] > top:
@@ -99,7 +99,8 @@ def _spinnaker1(pops, prows, totals) -> dict:
     return {"cores": cores, "chips": chips, "boards_spinn5": math.ceil(chips / lim["chips_per_board"].value),
             "delay_extension_sources": sorted(long_src), "violations": bad,
             "note": "cores: 256 neurons per core plus one delay-extension core per 256 sources of delays over "
-                    "32 steps; chips: the larger of cores/17 and synaptic memory at 4 bytes per synapse"}
+                    "32 steps; chips: the larger of cores/15 (the cores sPyNNaker places on a chip of 16 free) "
+                    "and synaptic memory at 4 bytes per synapse"}
 
 
 def _spinnaker2(pops, prows, totals) -> dict:

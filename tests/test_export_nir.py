@@ -1,5 +1,8 @@
 """The NIR file written node by node, and the snnTorch profile of the graph:
 what it changes (measured on our own engine), and snnTorch executing it."""
+import dataclasses
+import json
+
 import numpy as np
 import pytest
 
@@ -44,6 +47,44 @@ def test_snntorch_profile_refuses_what_it_cannot_write():
     assert all(pr.delay_ms == 0.5 and pr.padding == "zero" for pr in net.projections)
     assert all(p.stride == 1 and p.role != "clock" for p in net.populations)
     assert all(p.neuron.t_ref_ms == 0.5 for p in net.populations if p.neuron is not None)
+
+
+def test_deeper_reset_holds_a_cell_driven_at_the_reset_drive_for_its_refractory_period():
+    """A bo cell (t_ref 5 ms, tau_m 10 ms, threshold 10 mV above its reset 0)
+    at a 0.5 ms step resets 4 x 10 x (e^0.45 - 1) = 22.7 mV lower; driven
+    towards 40 mV it climbs back to 0 in tau_m ln((40 + 22.7) / 40) = 4.5 ms,
+    its refractory period less the step the consumer holds it anyway."""
+    from snn_fg.export.nir_snntorch import RESET_DRIVE, reset_depth_mv, snntorch_network
+    from snn_fg.network.nodes import Neuron
+
+    n = Neuron(tau_m_ms=10.0, v_rest_mv=-30.0, v_reset_mv=0.0, v_th_mv=10.0, t_ref_ms=5.0)
+    depth = reset_depth_mv(n, 0.5)
+    assert RESET_DRIVE == 4 and depth == pytest.approx(40 * (np.exp(0.45) - 1))
+    drive = RESET_DRIVE * 10.0
+    assert 10.0 * np.log((drive + depth) / drive) == pytest.approx(4.5)
+    assert reset_depth_mv(dataclasses.replace(n, t_ref_ms=0.5), 0.5) == 0      # one step: nothing to add
+    base = build_network(ModelParams(levels=1, r0=4), (24, 28))
+    net = snntorch_network(base, deeper_reset=True)
+    for p in net.populations:
+        if p.neuron is not None:
+            want = base.population(p.name).neuron
+            assert p.neuron.v_reset_mv == pytest.approx(-reset_depth_mv(want, 0.5)) and p.neuron.t_ref_ms == 0.5
+
+
+def test_deeper_reset_graph_writes_potentials_relative_to_the_reset():
+    """snnTorch resets to 0: the graph's threshold is v_th - v_reset and its
+    resting current holds the cell at v_rest - v_reset (r w_in bias)."""
+    from snn_fg.export.nir_snntorch import snntorch_network, to_nir_snntorch
+
+    base = build_network(ModelParams(levels=1, r0=4), (24, 28))
+    net = snntorch_network(base, deeper_reset=True)
+    g = to_nir_snntorch(base, deeper_reset=True)
+    for name in ("simple_1", "bo_L1_1", "group_L_1"):
+        n, cells, rest = net.population(name).neuron, g.nodes[name], g.nodes[f"{name}.rest"]
+        assert n.v_reset_mv < 0 and np.all(cells.v_reset == 0)
+        assert np.allclose(cells.v_threshold, n.v_th_mv - n.v_reset_mv)
+        assert np.allclose(cells.r.flat[0] * cells.w_in.flat[0] * rest.bias, n.v_rest_mv - n.v_reset_mv, rtol=1e-6)
+    assert json.loads(g.metadata["snn_fg"])["profile"]["refractory"] == "deeper reset, drive 4"
 
 
 def test_one_grid_puts_every_level_on_the_frame_grid_with_dilated_kernels():

@@ -173,7 +173,7 @@ def test_snntorch_profile_graph_has_only_the_node_kinds_snntorch_imports(tmp_pat
     assert net.one("simple", 1).neuron.v_rest_mv != 0
 
 
-def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = False):
+def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = False, deeper_reset: bool = False):
     """Maps of snnTorch running the profile's graph read back from its file,
     of the fast engine running the network the graph holds, and of the fast
     engine running the exported network; and snnTorch's spike count."""
@@ -187,10 +187,10 @@ def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = 
 
     torch.set_num_threads(1)
     half = duration_ms / 2
-    path = export_nir_snntorch(net, tmp_path / "g.nir", one_grid=one_grid)
+    path = export_nir_snntorch(net, tmp_path / "g.nir", one_grid=one_grid, deeper_reset=deeper_reset)
     counts = run_snntorch(nir.read(path), net, inp, step_ms=0.5, duration_ms=duration_ms, count_from_ms=half,
                           one_grid=one_grid)
-    profile = snntorch_network(net, one_grid=one_grid)
+    profile = snntorch_network(net, one_grid=one_grid, deeper_reset=deeper_reset)
     ours = decode_rates(profile, {k: np.arange(v.size) for k, v in counts.items()},
                         {k: v / (half / 1e3) for k, v in counts.items()})[:3]
     settings = RunSettings(duration_ms=duration_ms, count_from_ms=half, instantiate="all")
@@ -230,10 +230,13 @@ def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
 @pytest.mark.slow
 def test_snntorch_executes_the_compact_network_on_one_grid(tmp_path):
     """The compact network (three octave levels, 3 x 3 blocks) written with
-    its levels on one grid: snnTorch runs the graph read back from its file
-    on a disc of radius 16 (16 x 16 blocks around it) like the fast engine
-    runs the network the graph holds. Measured: r 0.981, 100 % within 45
-    deg, 9.6 deg; against the exported network r 0.941, 90 %, 21 deg."""
+    its levels on one grid and its refractory periods as deeper resets:
+    snnTorch runs the graph read back from its file on a disc of radius 16
+    (16 x 16 blocks around it) like the fast engine runs the network the
+    graph holds, and meets the acceptance bar (r >= 0.9, >= 85 % within 45
+    deg) against the exported network. Measured: r 0.994, 100 %, 7.7 deg;
+    against the exported network r 0.933, 90 %, 19 deg (one-step
+    refractoriness: 0.981 / 100 % and 0.941 / 90 %)."""
     from snn_fg.events import image_to_frame
     from snn_fg.frames.pool import pool_frame
     from snn_fg.lowering.input_spikes import frame_spikes
@@ -246,8 +249,8 @@ def test_snntorch_executes_the_compact_network_on_one_grid(tmp_path):
     cut = (slice(3, 19), slice(3, 19))              # 22 x 22 blocks -> the disc and its surround, 16 x 16
     assert net.params.levels == 3 and pos[cut].shape == net.frame_shape
     inp = frame_spikes(pos[cut], neg[cut], 200.0, 0.5, 100.0)
-    ours, same, exported, spikes = _snntorch_and_fast(net, inp, tmp_path, 100.0, one_grid=True)
+    ours, same, exported, spikes = _snntorch_and_fast(net, inp, tmp_path, 100.0, one_grid=True, deeper_reset=True)
     assert spikes > 1000
     a, b = agreement(ours, same), agreement(ours, exported)
     assert a["grouping_r"] >= 0.95 and a["within_45"] >= 0.9 and a["coverage"] >= 0.9, a
-    assert b["grouping_r"] >= 0.85 and b["within_45"] >= 0.8 and b["coverage"] >= 0.9, b
+    assert b["grouping_r"] >= 0.9 and b["within_45"] >= 0.85 and b["coverage"] >= 0.9, b

@@ -39,7 +39,7 @@ block; 400 ms, counting from 200 ms, 0.5 ms steps.
 
 Writes experiments/results/nir_consumer.{json,md}.
 Usage: python -m experiments.validation.nir_consumer [--inputs disc dvs] [--duration-ms 400] [--radius 16]
-       [--network default|compact] [--refractory one-step|deeper-reset]
+       [--network default|compact] [--refractory one-step|deeper-reset [--reset-drive 4]]
 """
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ import numpy as np
 from experiments.common import RESULTS, Run, dataset, markdown_table, save_json, save_markdown
 from snn_fg.backends import RunSettings, get_backend
 from snn_fg.export.board import board_network
-from snn_fg.export.nir_snntorch import run_snntorch, snntorch_network, to_nir_snntorch
+from snn_fg.export.nir_snntorch import RESET_DRIVE, run_snntorch, snntorch_network, to_nir_snntorch
 from snn_fg.metrics import agreement
 from snn_fg.network import build_network
 from snn_fg.network.recipes import RECIPES
@@ -110,6 +110,12 @@ def timing_kept(profile, board, *, delays: bool, refractory: bool):
 DRIVES = (1.0, 2.0, 4.0, 8.0, 16.0)
 
 
+def _reference(net, inp, duration_ms: float):
+    """The run settings (counting the second half) and the fast engine's maps of the exported network."""
+    settings = RunSettings(duration_ms=duration_ms, count_from_ms=duration_ms / 2, instantiate="all")
+    return settings, decode(get_backend("fast").simulate(board_network(net), inp, settings))[:3]
+
+
 def encoding_choices(net, inp, settings, ref, one_grid: bool) -> dict:
     """Label -> agreement with ``ref`` of the fast engine on the profile's
     network for each way of standing in for the refractory period, and with
@@ -126,19 +132,19 @@ def encoding_choices(net, inp, settings, ref, one_grid: bool) -> dict:
     return {label: agreement(decode(fast.simulate(n, inp, settings))[:3], ref) for label, n in nets.items()}
 
 
-def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False, deeper_reset: bool = False) -> dict:
+def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False, deeper_reset: bool = False,
+            reset_drive: float = RESET_DRIVE) -> dict:
     import nir
     import torch
 
     torch.set_num_threads(1)
-    profile = snntorch_network(net, DT_MS, one_grid=one_grid, deeper_reset=deeper_reset)
+    profile = snntorch_network(net, DT_MS, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
     path = tmp / "graph.nir"
-    nir.write(path, to_nir_snntorch(net, step_ms=DT_MS, one_grid=one_grid, deeper_reset=deeper_reset))
-    settings = RunSettings(duration_ms=duration_ms, count_from_ms=duration_ms / 2, instantiate="all")
-    fast = get_backend("fast")
+    nir.write(path, to_nir_snntorch(net, step_ms=DT_MS, one_grid=one_grid, deeper_reset=deeper_reset,
+                                    reset_drive=reset_drive))
     t0 = time.perf_counter()
-    ref = decode(fast.simulate(board_network(net), inp, settings))[:3]
-    enc_run = fast.simulate(profile, inp, settings)
+    settings, ref = _reference(net, inp, duration_ms)
+    enc_run = get_backend("fast").simulate(profile, inp, settings)
     enc = decode(enc_run)[:3]
     choices = encoding_choices(net, inp, settings, ref, one_grid)
     t1 = time.perf_counter()
@@ -155,6 +161,11 @@ def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False, dee
             "fast_s": t1 - t0, "snntorch_s": t2 - t1}
 
 
+def choices_only(net, inp, duration_ms: float, one_grid: bool) -> dict:
+    """:func:`encoding_choices` against the fast engine on the exported network, without snnTorch."""
+    return encoding_choices(net, inp, *_reference(net, inp, duration_ms), one_grid)
+
+
 def _load(r) -> str:
     """The load average when the input ran (a record from before the run records: as stored)."""
     if "run" not in r:
@@ -168,7 +179,7 @@ def markdown(out: dict) -> list[str]:
     rows = [[r.get("network", "default, 1 level"), r["what"], label, f"{r[key]['grouping_r']:.3f}",
              f"{r[key]['within_45']:.3f}", f"{r[key]['mean_deg']:.1f}", f"{r[key]['coverage']:.3f}",
              f"{r['snntorch_s']:.0f}", _load(r)]
-            for r in out["inputs"].values() for key, label in comparisons]
+            for r in out["inputs"].values() if "consumer" in r for key, label in comparisons]
     choices = [[r["what"], label, f"{a['grouping_r']:.3f}", f"{a['within_45']:.3f}", f"{a['mean_deg']:.1f}"]
                for key, r in out["inputs"].items() if "deeper" not in key
                for label, a in r.get("encoding_choices", {}).items()]
@@ -194,6 +205,11 @@ def main(argv=None):
     ap.add_argument("--refractory", default="one-step", choices=["one-step", "deeper-reset"],
                     help="one-step: a cell may fire again the step after it spikes (the profile's default); "
                          "deeper-reset: its reset stands in for its refractory period (--nir-refractory-as-deeper-reset)")
+    ap.add_argument("--reset-drive", type=float, default=RESET_DRIVE,
+                    help=f"deeper-reset: the drive it is reckoned for (the export's: {RESET_DRIVE:g})")
+    ap.add_argument("--dvs-start-ms", type=float, default=100.0, help="dvs: where its 85 ms window starts")
+    ap.add_argument("--choices-only", action="store_true",
+                    help="only the encoding choices on the fast engine (no snnTorch): a check on other inputs")
     ap.add_argument("--network", default="default", choices=["default", "compact"],
                     help="default: one level; compact: its three levels on one grid (--nir-one-grid)")
     args = ap.parse_args(argv)
@@ -205,16 +221,23 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.inputs:
             inp, what, sensor = (disc_input(args.radius, args.duration_ms, pool) if name == "disc" else
-                                 dvs_input(pool=pool, refractory_ms=refractory))
+                                 dvs_input(start_ms=args.dvs_start_ms, pool=pool, refractory_ms=refractory))
             net = recipe.build(sensor) if compact else build_network(ModelParams(levels=1), inp.shape)
             net = net.calibrated(inp.rate_hz)           # as snn-fg run calibrates it
             run = Run()
             deeper = args.refractory == "deeper-reset"
-            r = compare(net, inp, args.duration_ms, Path(tmp), one_grid=compact, deeper_reset=deeper)
+            if args.choices_only:
+                r = {"encoding_choices": choices_only(net, inp, args.duration_ms, compact)}
+            else:
+                r = compare(net, inp, args.duration_ms, Path(tmp), one_grid=compact, deeper_reset=deeper,
+                            reset_drive=args.reset_drive)
             r.update(what=what, duration_ms=args.duration_ms, run=run.record(),
                      network=("compact, 3 levels on one grid" if compact else "default, 1 level")
-                     + (", refractory as deeper reset" if deeper else ""))
-            out["inputs"][(f"compact {name}" if compact else name) + (" deeper reset" if deeper else "")] = r
+                     + (f", refractory as deeper reset (drive {args.reset_drive:g})" if deeper else ""))
+            key = (f"compact {name}" if compact else name) + (f" from {args.dvs_start_ms:g} ms" if name == "dvs"
+                                                             and args.dvs_start_ms != 100 else "")
+            out["inputs"][key + (" choices only" if args.choices_only else
+                                 f" deeper reset {args.reset_drive:g}" if deeper else "")] = r
             print(name, json.dumps(r, default=float), flush=True)
             save_json("nir_consumer", out)
     save_markdown("nir_consumer", markdown(out))

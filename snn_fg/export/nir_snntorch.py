@@ -72,9 +72,10 @@ from .nir import _graph_metadata, _nir, conv2d_drive, flat_network, identity_con
 #: snnTorch 1.0's fixed time step in its NIR import (s)
 SNNTORCH_DT_S = 1e-4
 #: the drive (in multiples of a cell's threshold above its reset) at which a
-#: deeper reset holds a cell for its refractory period (reset_depth_mv);
-#: of 1, 2, 4, 8 and 16, the least that reaches grouping r 0.9 against the
-#: exported network on both inputs of experiments.validation.nir_consumer
+#: deeper reset holds a cell for its refractory period (reset_depth_mv): of
+#: 1, 2, 4, 8 and 16, the one closest to the exported network (fast engine)
+#: over a disc and three dvs.es windows, two of them not the acceptance
+#: crop's (experiments/results/nir_consumer.md)
 RESET_DRIVE = 4.0
 PROFILE = "snntorch"
 
@@ -162,6 +163,7 @@ def snntorch_network(network: Network, dt_ms: float = 0.5, *, one_grid: bool = F
     if reset:
         raise ParameterError(f"NIR profile {PROFILE}: population {reset[0]} resets to a potential other than 0; "
                              "snnTorch resets to 0")
+
     def neuron(n):
         return dataclasses.replace(n, t_ref_ms=dt_ms, v_reset_mv=n.v_reset_mv - (
             reset_depth_mv(n, dt_ms, reset_drive) if deeper_reset else 0.0))
@@ -190,9 +192,10 @@ def _cuba(nir, p, step_s: float):
 def _rest(nir, p, sources: list, step_s: float):
     """The 1 x 1 Conv2d of zero weights from the input whose bias is the
     resting potential's constant current into ``p`` (r w_in b = v_rest -
-    v_reset, r w_in = tau_syn / step). It is also every population's first input: nirtorch
-    2.6 gives an input from later in a loop a one-element zero tensor on the
-    first step, which only adds up beside an input of the population's shape."""
+    v_reset, r w_in = tau_syn / step). It is also every population's first
+    input: nirtorch 2.6 gives an input from later in a loop a one-element
+    zero tensor on the first step, which only adds up beside an input of the
+    population's shape."""
     rest = p.neuron.v_rest_mv - p.neuron.v_reset_mv      # relative to the reset, as _cuba writes it
     bias = np.full(p.channels, rest * step_s / (p.neuron.tau_exc_ms * 1e-3), np.float32)
     return nir.Conv2d(input_shape=p.grid, weight=np.zeros((p.channels, len(sources), 1, 1), np.float32), stride=1,

@@ -87,6 +87,16 @@ def test_deeper_reset_graph_writes_potentials_relative_to_the_reset():
     assert json.loads(g.metadata["snn_fg"])["profile"]["refractory"] == "deeper reset, drive 4"
 
 
+def test_snntorch_profile_options_are_refused_without_the_profile(capsys, tmp_path, monkeypatch):
+    from snn_fg.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", "--format", "nir", "--out", "g.nir", "--nir-refractory-as-deeper-reset"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "snn-fg: error: --nir-refractory-as-deeper-reset: applies to --format nir --nir-profile snntorch"]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_one_grid_puts_every_level_on_the_frame_grid_with_dilated_kernels():
     """--nir-one-grid: the compact network's three octave levels on the
     16 x 16 frame; a level-l kernel's taps 2**(l-1) pixels apart, the

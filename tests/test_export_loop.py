@@ -13,7 +13,7 @@ from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.cli import main
 from snn_fg.events import image_to_events, save_events
 from snn_fg.export.board import board_network
-from snn_fg.export.loop import busiest_crop, export_network
+from snn_fg.export.loop import busiest_crop, centroid_crop, export_network
 from snn_fg.export.pynn import export_pynn, read_input
 from snn_fg.maps import Maps
 from snn_fg.metrics import compare_frame
@@ -50,6 +50,16 @@ def test_busiest_crop_finds_the_densest_box():
     active[:] = False
     active[4:6, 5:7] = True       # every 6 x 6 crop around it holds it all: the centred one
     assert busiest_crop(active, (6, 6)) == (2, 3)
+
+
+def test_centroid_crop_centres_the_box_on_the_mean_event_inside_the_sensor():
+    ev = np.zeros(4, dtype=[("x", "<i4"), ("y", "<i4")])
+    ev["x"], ev["y"] = [10, 12, 10, 12], [5, 5, 7, 7]          # mean position x 11, y 6
+    assert centroid_crop(ev, (5, 7), (20, 30)) == (4, 8)       # rows 4..8, columns 8..14: centred on it
+    assert centroid_crop(ev, (4, 6), (20, 30)) == (5, 9)       # even sizes: the centre rounds up
+    assert centroid_crop(ev, (16, 7), (20, 30)) == (0, 8)      # would start above the sensor: moved down
+    ev["x"] = [28, 29, 29, 29]
+    assert centroid_crop(ev, (5, 7), (20, 30)) == (4, 23)      # would end past the right edge: moved left
 
 
 @pytest.mark.slow

@@ -1,5 +1,8 @@
 """The NIR file written node by node, and the snnTorch profile of the graph:
 what it changes (measured on our own engine), and snnTorch executing it."""
+import dataclasses
+import json
+
 import numpy as np
 import pytest
 
@@ -44,6 +47,54 @@ def test_snntorch_profile_refuses_what_it_cannot_write():
     assert all(pr.delay_ms == 0.5 and pr.padding == "zero" for pr in net.projections)
     assert all(p.stride == 1 and p.role != "clock" for p in net.populations)
     assert all(p.neuron.t_ref_ms == 0.5 for p in net.populations if p.neuron is not None)
+
+
+def test_deeper_reset_holds_a_cell_driven_at_the_reset_drive_for_its_refractory_period():
+    """A bo cell (t_ref 5 ms, tau_m 10 ms, threshold 10 mV above its reset 0)
+    at a 0.5 ms step resets 4 x 10 x (e^0.45 - 1) = 22.7 mV lower; driven
+    towards 40 mV it climbs back to 0 in tau_m ln((40 + 22.7) / 40) = 4.5 ms,
+    its refractory period less the step the consumer holds it anyway."""
+    from snn_fg.export.nir_snntorch import RESET_DRIVE, reset_depth_mv, snntorch_network
+    from snn_fg.network.nodes import Neuron
+
+    n = Neuron(tau_m_ms=10.0, v_rest_mv=-30.0, v_reset_mv=0.0, v_th_mv=10.0, t_ref_ms=5.0)
+    depth = reset_depth_mv(n, 0.5)
+    assert RESET_DRIVE == 4 and depth == pytest.approx(40 * (np.exp(0.45) - 1))
+    drive = RESET_DRIVE * 10.0
+    assert 10.0 * np.log((drive + depth) / drive) == pytest.approx(4.5)
+    assert reset_depth_mv(dataclasses.replace(n, t_ref_ms=0.5), 0.5) == 0      # one step: nothing to add
+    base = build_network(ModelParams(levels=1, r0=4), (24, 28))
+    net = snntorch_network(base, deeper_reset=True)
+    for p in net.populations:
+        if p.neuron is not None:
+            want = base.population(p.name).neuron
+            assert p.neuron.v_reset_mv == pytest.approx(-reset_depth_mv(want, 0.5)) and p.neuron.t_ref_ms == 0.5
+
+
+def test_deeper_reset_graph_writes_potentials_relative_to_the_reset():
+    """snnTorch resets to 0: the graph's threshold is v_th - v_reset and its
+    resting current holds the cell at v_rest - v_reset (r w_in bias)."""
+    from snn_fg.export.nir_snntorch import snntorch_network, to_nir_snntorch
+
+    base = build_network(ModelParams(levels=1, r0=4), (24, 28))
+    net = snntorch_network(base, deeper_reset=True)
+    g = to_nir_snntorch(base, deeper_reset=True)
+    for name in ("simple_1", "bo_L1_1", "group_L_1"):
+        n, cells, rest = net.population(name).neuron, g.nodes[name], g.nodes[f"{name}.rest"]
+        assert n.v_reset_mv < 0 and np.all(cells.v_reset == 0)
+        assert np.allclose(cells.v_threshold, n.v_th_mv - n.v_reset_mv)
+        assert np.allclose(cells.r.flat[0] * cells.w_in.flat[0] * rest.bias, n.v_rest_mv - n.v_reset_mv, rtol=1e-6)
+    assert json.loads(g.metadata["snn_fg"])["profile"]["refractory"] == "deeper reset, drive 4"
+
+
+def test_snntorch_profile_options_are_refused_without_the_profile(capsys, tmp_path, monkeypatch):
+    from snn_fg.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", "--format", "nir", "--out", "g.nir", "--nir-refractory-as-deeper-reset"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "snn-fg: error: --nir-refractory-as-deeper-reset: applies to --format nir --nir-profile snntorch"]
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_one_grid_puts_every_level_on_the_frame_grid_with_dilated_kernels():
@@ -132,7 +183,7 @@ def test_snntorch_profile_graph_has_only_the_node_kinds_snntorch_imports(tmp_pat
     assert net.one("simple", 1).neuron.v_rest_mv != 0
 
 
-def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = False):
+def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = False, deeper_reset: bool = False):
     """Maps of snnTorch running the profile's graph read back from its file,
     of the fast engine running the network the graph holds, and of the fast
     engine running the exported network; and snnTorch's spike count."""
@@ -146,10 +197,10 @@ def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = 
 
     torch.set_num_threads(1)
     half = duration_ms / 2
-    path = export_nir_snntorch(net, tmp_path / "g.nir", one_grid=one_grid)
+    path = export_nir_snntorch(net, tmp_path / "g.nir", one_grid=one_grid, deeper_reset=deeper_reset)
     counts = run_snntorch(nir.read(path), net, inp, step_ms=0.5, duration_ms=duration_ms, count_from_ms=half,
                           one_grid=one_grid)
-    profile = snntorch_network(net, one_grid=one_grid)
+    profile = snntorch_network(net, one_grid=one_grid, deeper_reset=deeper_reset)
     ours = decode_rates(profile, {k: np.arange(v.size) for k, v in counts.items()},
                         {k: v / (half / 1e3) for k, v in counts.items()})[:3]
     settings = RunSettings(duration_ms=duration_ms, count_from_ms=half, instantiate="all")
@@ -189,10 +240,13 @@ def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
 @pytest.mark.slow
 def test_snntorch_executes_the_compact_network_on_one_grid(tmp_path):
     """The compact network (three octave levels, 3 x 3 blocks) written with
-    its levels on one grid: snnTorch runs the graph read back from its file
-    on a disc of radius 16 (16 x 16 blocks around it) like the fast engine
-    runs the network the graph holds. Measured: r 0.981, 100 % within 45
-    deg, 9.6 deg; against the exported network r 0.941, 90 %, 21 deg."""
+    its levels on one grid and its refractory periods as deeper resets:
+    snnTorch runs the graph read back from its file on a disc of radius 16
+    (16 x 16 blocks around it) like the fast engine runs the network the
+    graph holds, and meets the acceptance bar (r >= 0.9, >= 85 % within 45
+    deg) against the exported network. Measured: r 0.994, 100 %, 7.7 deg;
+    against the exported network r 0.933, 90 %, 19 deg (one-step
+    refractoriness: 0.981 / 100 % and 0.941 / 90 %)."""
     from snn_fg.events import image_to_frame
     from snn_fg.pyramid.pool import pool_frame
     from snn_fg.lowering.input_spikes import frame_spikes
@@ -205,8 +259,8 @@ def test_snntorch_executes_the_compact_network_on_one_grid(tmp_path):
     cut = (slice(3, 19), slice(3, 19))              # 22 x 22 blocks -> the disc and its surround, 16 x 16
     assert net.params.levels == 3 and pos[cut].shape == net.frame_shape
     inp = frame_spikes(pos[cut], neg[cut], 200.0, 0.5, 100.0)
-    ours, same, exported, spikes = _snntorch_and_fast(net, inp, tmp_path, 100.0, one_grid=True)
+    ours, same, exported, spikes = _snntorch_and_fast(net, inp, tmp_path, 100.0, one_grid=True, deeper_reset=True)
     assert spikes > 1000
     a, b = agreement(ours, same), agreement(ours, exported)
     assert a["grouping_r"] >= 0.95 and a["within_45"] >= 0.9 and a["coverage"] >= 0.9, a
-    assert b["grouping_r"] >= 0.85 and b["within_45"] >= 0.8 and b["coverage"] >= 0.9, b
+    assert b["grouping_r"] >= 0.9 and b["within_45"] >= 0.85 and b["coverage"] >= 0.9, b

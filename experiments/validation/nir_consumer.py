@@ -12,12 +12,26 @@ Input nodes it cannot map; the ``snntorch`` profile
   beyond one step, no refractoriness, zero padding; what the graph holds)
   against the same reference: the cost of the encoding alone;
 * **consumer vs encoding**: snnTorch against the fast engine on the
-  profile's network: what snnTorch's own arithmetic changes.
+  profile's network: what snnTorch's own arithmetic changes;
+* **encoding choices** (fast engine only, against the same reference): the
+  profile's network with each way of standing in for the refractory period
+  (one step; a deeper reset, ``--nir-refractory-as-deeper-reset``, for
+  drives 1 to 16, :func:`~snn_fg.export.nir_snntorch.reset_depth_mv`), and
+  with the exported network's own delays and/or refractory periods, which
+  no NIR consumer tried can run (what they would be worth).
+
+``--refractory deeper-reset`` runs snnTorch on the graph written with the
+deeper reset (drive ``RESET_DRIVE``) instead of the one-step default.
 
 Inputs: a disc of radius 16 (regular trains, 200 Hz) and a 64 x 48 crop of a
-``dvs.es`` window (the crop with the most event pixels of the window from
-100 ms, 85 ms; its events at their own times, replayed as ``snn-fg run``
-presents one window). The default network with one level (the profile cannot
+``dvs.es`` window (the window from 100 ms, 85 ms, as the compact network's
+accuracy run starts; the crop centred on the window's mean event position,
+:func:`~snn_fg.export.loop.centroid_crop`, so the plane is in view; its
+events at their own times, replayed as ``snn-fg run`` presents one window).
+The network is calibrated to the input's rate as ``snn-fg run`` calibrates
+it (the disc's 200 Hz is the default; the crop's events are some 20 Hz per
+active block, and uncalibrated the compact network's simple cells stay
+silent on them). The default network with one level (the profile cannot
 interpolate between pyramid levels), or with ``--network compact`` the
 compact network's three octave levels on one grid (``--nir-one-grid``), its
 input the sensor's 3 x 3 blocks behind a 40 ms refractory period per
@@ -25,11 +39,12 @@ block; 400 ms, counting from 200 ms, 0.5 ms steps.
 
 Writes experiments/results/nir_consumer.{json,md}.
 Usage: python -m experiments.validation.nir_consumer [--inputs disc dvs] [--duration-ms 400] [--radius 16]
-       [--network default|compact]
+       [--network default|compact] [--refractory one-step|deeper-reset [--reset-drive 4]]
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import tempfile
 import time
@@ -40,7 +55,7 @@ import numpy as np
 from experiments.common import RESULTS, Run, dataset, markdown_table, save_json, save_markdown
 from snn_fg.backends import RunSettings, get_backend
 from snn_fg.export.board import board_network
-from snn_fg.export.nir_snntorch import run_snntorch, snntorch_network, to_nir_snntorch
+from snn_fg.export.nir_snntorch import RESET_DRIVE, run_snntorch, snntorch_network, to_nir_snntorch
 from snn_fg.metrics import agreement
 from snn_fg.network import build_network
 from snn_fg.network.recipes import RECIPES
@@ -63,16 +78,17 @@ def disc_input(radius: float, duration_ms: float, pool: int = 1):
 
 
 def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0, pool: int = 1, refractory_ms: float = 0.0):
-    """The sensor's ``shape`` crop (rows, cols) with the most event pixels, its
-    events pooled into ``pool`` x ``pool`` blocks as the network's input adapter does."""
+    """The sensor's ``shape`` crop (rows, cols) centred on the window's mean
+    event position, its events pooled into ``pool`` x ``pool`` blocks as the
+    network's input adapter does."""
     from snn_fg.events import iter_recording, iter_windows
-    from snn_fg.export.loop import busiest_crop, crop_events
+    from snn_fg.export.loop import centroid_crop, crop_events
     from snn_fg.pyramid.pool import pool_events, pooled_shape
     from snn_fg.lowering.input_spikes import event_spikes
 
     path = dataset("events", "dvs.es")
     win = next(iter(iter_windows(iter_recording(path), window_ms=window_ms, start_ms=start_ms, max_windows=1)))
-    r0, c0 = busiest_crop((win.pos > 0) | (win.neg > 0), shape)
+    r0, c0 = centroid_crop(win.events, shape, win.pos.shape)
     ev = pool_events(crop_events(win.events, (r0, c0), shape), pool)
     h, w = pooled_shape(shape, pool)
     inp = event_spikes(ev, (w, h), DT_MS, replay=True, t0_us=win.t_start_us, refractory_ms=refractory_ms)
@@ -80,20 +96,57 @@ def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0, pool: int = 1, ref
                  + (f", {pool} x {pool} blocks" if pool > 1 else "")), shape
 
 
-def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False) -> dict:
+def timing_kept(profile, board, *, delays: bool, refractory: bool):
+    """``profile`` (the network the graph holds) with ``board``'s own delays and/or refractory periods."""
+    t_ref = {p.name: p.neuron.t_ref_ms for p in board.populations if p.neuron is not None}
+    delay = {pr.name: pr.delay_ms for pr in board.projections}
+    pops = tuple(p if p.neuron is None or not refractory else dataclasses.replace(p, neuron=dataclasses.replace(
+        p.neuron, t_ref_ms=t_ref[p.name])) for p in profile.populations)
+    prjs = tuple(dataclasses.replace(pr, delay_ms=delay[pr.name]) if delays else pr for pr in profile.projections)
+    return dataclasses.replace(profile, populations=pops, projections=prjs)
+
+
+#: the drives of the deeper reset the encoding choices try
+DRIVES = (1.0, 2.0, 4.0, 8.0, 16.0)
+
+
+def _reference(net, inp, duration_ms: float):
+    """The run settings (counting the second half) and the fast engine's maps of the exported network."""
+    settings = RunSettings(duration_ms=duration_ms, count_from_ms=duration_ms / 2, instantiate="all")
+    return settings, decode(get_backend("fast").simulate(board_network(net), inp, settings))[:3]
+
+
+def encoding_choices(net, inp, settings, ref, one_grid: bool) -> dict:
+    """Label -> agreement with ``ref`` of the fast engine on the profile's
+    network for each way of standing in for the refractory period, and with
+    the exported network's own timing (which the graph cannot hold)."""
+    fast, board = get_backend("fast"), board_network(net)
+    one_step = snntorch_network(net, DT_MS, one_grid=one_grid)
+    nets = {"one step (default)": one_step}
+    nets.update({f"deeper reset, drive {k:g}": snntorch_network(net, DT_MS, one_grid=one_grid, deeper_reset=True,
+                                                               reset_drive=k) for k in DRIVES})
+    for label, d, r in (("own delays (no NIR consumer runs them)", True, False),
+                        ("own refractory periods (no NIR node has them)", False, True),
+                        ("own delays and refractory periods", True, True)):
+        nets[label] = timing_kept(one_step, board, delays=d, refractory=r)
+    return {label: agreement(decode(fast.simulate(n, inp, settings))[:3], ref) for label, n in nets.items()}
+
+
+def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False, deeper_reset: bool = False,
+            reset_drive: float = RESET_DRIVE) -> dict:
     import nir
     import torch
 
     torch.set_num_threads(1)
-    profile = snntorch_network(net, DT_MS, one_grid=one_grid)
+    profile = snntorch_network(net, DT_MS, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
     path = tmp / "graph.nir"
-    nir.write(path, to_nir_snntorch(net, step_ms=DT_MS, one_grid=one_grid))
-    settings = RunSettings(duration_ms=duration_ms, count_from_ms=duration_ms / 2, instantiate="all")
-    fast = get_backend("fast")
+    nir.write(path, to_nir_snntorch(net, step_ms=DT_MS, one_grid=one_grid, deeper_reset=deeper_reset,
+                                    reset_drive=reset_drive))
     t0 = time.perf_counter()
-    ref = decode(fast.simulate(board_network(net), inp, settings))[:3]
-    enc_run = fast.simulate(profile, inp, settings)
+    settings, ref = _reference(net, inp, duration_ms)
+    enc_run = get_backend("fast").simulate(profile, inp, settings)
     enc = decode(enc_run)[:3]
+    choices = encoding_choices(net, inp, settings, ref, one_grid)
     t1 = time.perf_counter()
     counts = run_snntorch(nir.read(path), net, inp, step_ms=DT_MS, duration_ms=duration_ms,
                           count_from_ms=duration_ms / 2, one_grid=one_grid)
@@ -104,8 +157,13 @@ def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False) -> 
     spikes = {"snntorch": int(sum(v.sum() for v in counts.values())),
               "fast_profile": int(sum(v.sum() for v in enc_run.counts.values()))}
     return {"consumer": agreement(ours, ref), "encoding": agreement(enc, ref),
-            "consumer_vs_encoding": agreement(ours, enc), "spikes_counted": spikes,
+            "consumer_vs_encoding": agreement(ours, enc), "encoding_choices": choices, "spikes_counted": spikes,
             "fast_s": t1 - t0, "snntorch_s": t2 - t1}
+
+
+def choices_only(net, inp, duration_ms: float, one_grid: bool) -> dict:
+    """:func:`encoding_choices` against the fast engine on the exported network, without snnTorch."""
+    return encoding_choices(net, inp, *_reference(net, inp, duration_ms), one_grid)
 
 
 def _load(r) -> str:
@@ -121,7 +179,10 @@ def markdown(out: dict) -> list[str]:
     rows = [[r.get("network", "default, 1 level"), r["what"], label, f"{r[key]['grouping_r']:.3f}",
              f"{r[key]['within_45']:.3f}", f"{r[key]['mean_deg']:.1f}", f"{r[key]['coverage']:.3f}",
              f"{r['snntorch_s']:.0f}", _load(r)]
-            for r in out["inputs"].values() for key, label in comparisons]
+            for r in out["inputs"].values() if "consumer" in r for key, label in comparisons]
+    choices = [[r["what"], label, f"{a['grouping_r']:.3f}", f"{a['within_45']:.3f}", f"{a['mean_deg']:.1f}"]
+               for key, r in out["inputs"].items() if "deeper" not in key
+               for label, a in r.get("encoding_choices", {}).items()]
     return ["# An independent NIR consumer runs the export (snnTorch 1.0.0, nirtorch 2.6)", "",
             "`snn-fg export --format nir --nir-profile snntorch` (the default network with one level; the compact "
             "network with `--nir-one-grid`, its three levels on one grid); decoded with snn-fg's decoder. "
@@ -129,7 +190,11 @@ def markdown(out: dict) -> list[str]:
             "run (commit, command, date) is in `nir_consumer.json`. An empty comparison (nan): the reference has "
             "no border-ownership vector.", ""] + markdown_table(
         ["network", "input", "comparison", "grouping r", "within 45°", "mean angle °", "coverage", "snnTorch s",
-         "load"], rows)
+         "load"], rows) + ["", "## Standing in for the refractory period (fast engine, against the exported network)",
+                           "", "A deeper reset costs no node and no neuron (the CubaLIF's threshold and resting "
+                           "current change); the exported network's own delays and refractory periods are what "
+                           "no consumer tried can run.", ""] + markdown_table(
+        ["input", "profile network with", "grouping r", "within 45°", "mean angle °"], choices)
 
 
 def main(argv=None):
@@ -137,6 +202,14 @@ def main(argv=None):
     ap.add_argument("--inputs", nargs="+", default=["disc", "dvs"], choices=["disc", "dvs"])
     ap.add_argument("--duration-ms", type=float, default=400.0)
     ap.add_argument("--radius", type=float, default=16.0)
+    ap.add_argument("--refractory", default="one-step", choices=["one-step", "deeper-reset"],
+                    help="one-step: a cell may fire again the step after it spikes (the profile's default); "
+                         "deeper-reset: its reset stands in for its refractory period (--nir-refractory-as-deeper-reset)")
+    ap.add_argument("--reset-drive", type=float, default=RESET_DRIVE,
+                    help=f"deeper-reset: the drive it is reckoned for (the export's: {RESET_DRIVE:g})")
+    ap.add_argument("--dvs-start-ms", type=float, default=100.0, help="dvs: where its 85 ms window starts")
+    ap.add_argument("--choices-only", action="store_true",
+                    help="only the encoding choices on the fast engine (no snnTorch): a check on other inputs")
     ap.add_argument("--network", default="default", choices=["default", "compact"],
                     help="default: one level; compact: its three levels on one grid (--nir-one-grid)")
     args = ap.parse_args(argv)
@@ -148,13 +221,23 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.inputs:
             inp, what, sensor = (disc_input(args.radius, args.duration_ms, pool) if name == "disc" else
-                                 dvs_input(pool=pool, refractory_ms=refractory))
+                                 dvs_input(start_ms=args.dvs_start_ms, pool=pool, refractory_ms=refractory))
             net = recipe.build(sensor) if compact else build_network(ModelParams(levels=1), inp.shape)
+            net = net.calibrated(inp.rate_hz)           # as snn-fg run calibrates it
             run = Run()
-            r = compare(net, inp, args.duration_ms, Path(tmp), one_grid=compact)
+            deeper = args.refractory == "deeper-reset"
+            if args.choices_only:
+                r = {"encoding_choices": choices_only(net, inp, args.duration_ms, compact)}
+            else:
+                r = compare(net, inp, args.duration_ms, Path(tmp), one_grid=compact, deeper_reset=deeper,
+                            reset_drive=args.reset_drive)
             r.update(what=what, duration_ms=args.duration_ms, run=run.record(),
-                     network="compact, 3 levels on one grid" if compact else "default, 1 level")
-            out["inputs"][f"compact {name}" if compact else name] = r
+                     network=("compact, 3 levels on one grid" if compact else "default, 1 level")
+                     + (f", refractory as deeper reset (drive {args.reset_drive:g})" if deeper else ""))
+            key = (f"compact {name}" if compact else name) + (f" from {args.dvs_start_ms:g} ms" if name == "dvs"
+                                                             and args.dvs_start_ms != 100 else "")
+            out["inputs"][key + (" choices only" if args.choices_only else
+                                 f" deeper reset {args.reset_drive:g}" if deeper else "")] = r
             print(name, json.dumps(r, default=float), flush=True)
             save_json("nir_consumer", out)
     save_markdown("nir_consumer", markdown(out))

@@ -58,6 +58,10 @@ def add_export_command(sub, sensor_size_arg, number):
     p.add_argument("--nir-one-grid", action="store_true",
                    help="nir, snntorch profile: every pyramid level on the frame's grid (dilated kernels, identity "
                         "between levels), so a network of octave levels (--network compact) goes through")
+    p.add_argument("--nir-refractory-as-deeper-reset", action="store_true",
+                   help="nir, snntorch profile: NIR neurons have no refractory period; each cell resets lower "
+                        "instead, by as much as holds it for its refractory period when driven 4x its threshold "
+                        "above the reset (without: it may fire again one step later)")
     p.set_defaults(handler=cmd_export)
     return p
 
@@ -122,8 +126,9 @@ def _checked_bits(args) -> int | None:
     check.choice("snn-fg export", "--nir-profile", args.nir_profile, NIR_PROFILES)
     if args.nir_profile != "exact" and (args.format != "nir" or args.weight_bits is not None):
         raise InputError("--nir-profile", "applies to --format nir without --weight-bits")
-    if args.nir_one_grid and args.nir_profile != "snntorch":
-        raise InputError("--nir-one-grid", "applies to --format nir --nir-profile snntorch")
+    for flag in ("nir_one_grid", "nir_refractory_as_deeper_reset"):
+        if getattr(args, flag) and args.nir_profile != "snntorch":
+            raise InputError("--" + flag.replace("_", "-"), "applies to --format nir --nir-profile snntorch")
     bits = None if args.weight_bits is None else check_bits(args.weight_bits, "snn-fg export")
     if bits is not None and args.format not in ("pynn", "nir"):
         raise InputError("--weight-bits", "applies to --format pynn and nir only")
@@ -149,7 +154,8 @@ def cmd_export(args) -> int:
     elif args.format == "nir" and args.nir_profile == "snntorch":
         from .nir_snntorch import export_nir_snntorch
 
-        export_nir_snntorch(net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid)
+        export_nir_snntorch(net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid,
+                            deeper_reset=args.nir_refractory_as_deeper_reset)
         what = f"NIR graph, snntorch profile ({out.stat().st_size / 1e6:.1f} MB)"
     elif args.format == "nir":
         from .nir import export_nir

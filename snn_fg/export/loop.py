@@ -64,6 +64,17 @@ def busiest_crop(active: np.ndarray, want) -> tuple:
     return int(rows[best]), int(cols[best])
 
 
+def centroid_crop(events, want, sensor_shape) -> tuple:
+    """Top-left ``(row, col)`` of the ``want``-sized (rows, cols) crop
+    centred on the mean event position of ``events``, moved inside a sensor
+    of ``sensor_shape`` (rows, cols): a moving object stays in view however
+    the events are spread, with no look at what the network makes of them."""
+    (eh, ew), (h, w) = want, sensor_shape
+    r0 = int(np.floor(np.mean(events["y"]) - (eh - 1) / 2 + 0.5))
+    c0 = int(np.floor(np.mean(events["x"]) - (ew - 1) / 2 + 0.5))
+    return min(max(r0, 0), h - eh), min(max(c0, 0), w - ew)
+
+
 def crop_events(events, top_left, shape):
     """The events inside the ``shape`` (rows, cols) box at ``top_left`` (row, col), in its coordinates."""
     (r0, c0), (h, w) = top_left, shape

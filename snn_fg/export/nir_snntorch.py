@@ -20,8 +20,13 @@ writes instead:
   none);
 * one ``Input`` node ``input`` of shape (2, H, W): ON and OFF pixels, and
   one ``Output`` node (nirtorch 2.6 loops for ever on two);
-* **no refractory period** (NIR has none) and **zero padding** where ours
-  wraps around;
+* **no refractory period** (NIR has none; a cell may fire again on the
+  step after it spikes) and **zero padding** where ours wraps around; with
+  ``deeper_reset`` (``--nir-refractory-as-deeper-reset``) a cell's reset
+  stands in for its refractory period instead (:func:`reset_depth_mv`);
+  snnTorch resets to 0, so every potential is written relative to the
+  reset (threshold ``v_th - v_reset``, resting current for ``v_rest -
+  v_reset``), which a current-based membrane computes alike;
 * snnTorch reads a spike as a one-step pulse of unit height, a current of
   area ``dt`` (its fixed 1e-4 s) where NIR's spike is a unit impulse
   (measured: one spike into one cell moved snnTorch's membrane by 1e-4 of
@@ -66,6 +71,12 @@ from .nir import _graph_metadata, _nir, conv2d_drive, flat_network, identity_con
 
 #: snnTorch 1.0's fixed time step in its NIR import (s)
 SNNTORCH_DT_S = 1e-4
+#: the drive (in multiples of a cell's threshold above its reset) at which a
+#: deeper reset holds a cell for its refractory period (reset_depth_mv): of
+#: 1, 2, 4, 8 and 16, the one closest to the exported network (fast engine)
+#: over a disc and three dvs.es windows, two of them not the acceptance
+#: crop's (experiments/results/nir_consumer.md)
+RESET_DRIVE = 4.0
 PROFILE = "snntorch"
 
 
@@ -115,11 +126,26 @@ def one_grid_network(network: Network) -> Network:
                                                       "frame's grid, kernels dilated, identity between levels.",))
 
 
-def snntorch_network(network: Network, dt_ms: float = 0.5, *, one_grid: bool = False) -> Network:
+def reset_depth_mv(neuron, step_ms: float, drive: float = RESET_DRIVE) -> float:
+    """How far below its reset level a cell must reset so that, driven
+    towards ``drive`` times its threshold's height above the reset, it takes
+    its refractory period to climb back to the reset level:
+    ``drive * (v_th - v_reset) * (exp((t_ref - step) / tau_m) - 1)`` (the
+    consumer already holds it for one step). A cell driven harder climbs
+    back sooner, one driven less later: a relative refractory period in
+    place of an absolute one, which no NIR neuron node has."""
+    hold = max(neuron.t_ref_ms - step_ms, 0.0)
+    return float(drive * (neuron.v_th_mv - neuron.v_reset_mv) * np.expm1(hold / neuron.tau_m_ms))
+
+
+def snntorch_network(network: Network, dt_ms: float = 0.5, *, one_grid: bool = False,
+                     deeper_reset: bool = False, reset_drive: float = RESET_DRIVE) -> Network:
     """``network`` as the profile writes it, for our own engines at ``dt_ms``:
     flat (every population at stride 1), no clock, zero padding, every delay
     and refractory period one step; with ``one_grid`` every level on the
-    frame's grid (:func:`one_grid_network`). Refuses what the profile cannot write."""
+    frame's grid (:func:`one_grid_network`); with ``deeper_reset`` each
+    cell resets :func:`reset_depth_mv` (at ``reset_drive``) lower instead of
+    its refractory period. Refuses what the profile cannot write."""
     net = flat_network(network)
     if one_grid:
         net = one_grid_network(net)
@@ -137,13 +163,18 @@ def snntorch_network(network: Network, dt_ms: float = 0.5, *, one_grid: bool = F
     if reset:
         raise ParameterError(f"NIR profile {PROFILE}: population {reset[0]} resets to a potential other than 0; "
                              "snnTorch resets to 0")
-    pops = tuple(p if p.neuron is None else dataclasses.replace(p, neuron=dataclasses.replace(p.neuron,
-                 t_ref_ms=dt_ms)) for p in net.populations if p.role != "clock")
+
+    def neuron(n):
+        return dataclasses.replace(n, t_ref_ms=dt_ms, v_reset_mv=n.v_reset_mv - (
+            reset_depth_mv(n, dt_ms, reset_drive) if deeper_reset else 0.0))
+    pops = tuple(p if p.neuron is None else dataclasses.replace(p, neuron=neuron(p.neuron))
+                 for p in net.populations if p.role != "clock")
     prjs = tuple(dataclasses.replace(pr, delay_ms=dt_ms, padding="zero") for pr in net.projections
                  if isinstance(pr, Conv))
     return dataclasses.replace(net, populations=pops, projections=prjs,
-                               notes=net.notes + (f"NIR profile {PROFILE}: delays and refractory periods one step, "
-                                                  "zero padding, no window clock.",))
+                               notes=net.notes + (f"NIR profile {PROFILE}: delays and refractory periods one step"
+                                                  + (", resets deeper for the rest" if deeper_reset else "")
+                                                  + ", zero padding, no window clock.",))
 
 
 def _cuba(nir, p, step_s: float):
@@ -154,17 +185,19 @@ def _cuba(nir, p, step_s: float):
     def full(v):
         return np.full(p.shape, v, dtype=np.float64)
     return nir.CubaLIF(tau_mem=full(tau_m), tau_syn=full(tau_s), r=full(tau_m / SNNTORCH_DT_S), v_leak=full(0.0),
-                       v_threshold=full(n.v_th_mv), v_reset=full(0.0), w_in=full(tau_s / tau_m),
-                       metadata={"snn_fg_population": p.name, "v_rest_mv": n.v_rest_mv})
+                       v_threshold=full(n.v_th_mv - n.v_reset_mv), v_reset=full(0.0), w_in=full(tau_s / tau_m),
+                       metadata={"snn_fg_population": p.name, "v_rest_mv": n.v_rest_mv, "v_reset_mv": n.v_reset_mv})
 
 
 def _rest(nir, p, sources: list, step_s: float):
     """The 1 x 1 Conv2d of zero weights from the input whose bias is the
-    resting potential's constant current into ``p`` (r w_in b = v_rest, r w_in
-    = tau_syn / step). It is also every population's first input: nirtorch
-    2.6 gives an input from later in a loop a one-element zero tensor on the
-    first step, which only adds up beside an input of the population's shape."""
-    bias = np.full(p.channels, p.neuron.v_rest_mv * step_s / (p.neuron.tau_exc_ms * 1e-3), np.float32)
+    resting potential's constant current into ``p`` (r w_in b = v_rest -
+    v_reset, r w_in = tau_syn / step). It is also every population's first
+    input: nirtorch 2.6 gives an input from later in a loop a one-element
+    zero tensor on the first step, which only adds up beside an input of the
+    population's shape."""
+    rest = p.neuron.v_rest_mv - p.neuron.v_reset_mv      # relative to the reset, as _cuba writes it
+    bias = np.full(p.channels, rest * step_s / (p.neuron.tau_exc_ms * 1e-3), np.float32)
     return nir.Conv2d(input_shape=p.grid, weight=np.zeros((p.channels, len(sources), 1, 1), np.float32), stride=1,
                       padding=0, dilation=1, groups=1, bias=bias, metadata={"v_rest_mv": p.neuron.v_rest_mv})
 
@@ -202,12 +235,13 @@ def _conv(nir, net: Network, pr: Conv, sources: list):
                       metadata={"projection": pr.name})
 
 
-def to_nir_snntorch(network: Network, *, step_ms: float = 0.5, one_grid: bool = False):
+def to_nir_snntorch(network: Network, *, step_ms: float = 0.5, one_grid: bool = False, deeper_reset: bool = False,
+                    reset_drive: float = RESET_DRIVE):
     """The NIR graph of ``network`` in this profile (module docstring), for
     a consumer step of ``step_ms`` of the network's time."""
     step_s = step_ms * 1e-3
     nir = _nir()
-    net = snntorch_network(network, one_grid=one_grid)
+    net = snntorch_network(network, step_ms, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
     sources = [p.name for p in net.populations if p.is_source]
     h, w = net.frame_shape
     nodes = {"input": nir.Input(input_type={"input": np.array([len(sources), h, w])},
@@ -228,15 +262,18 @@ def to_nir_snntorch(network: Network, *, step_ms: float = 0.5, one_grid: bool = 
         edges += [("input" if pr.source in sources else pr.source, pr.name), (pr.name, pr.target)]
     meta = json.loads(_graph_metadata(network, net, None)["snn_fg"])
     meta["profile"] = {"name": PROFILE, "step_s": step_s, "time_scale": SNNTORCH_DT_S / step_s,
-                       "input_channels": sources, "one_grid": one_grid}
+                       "input_channels": sources, "one_grid": one_grid,
+                       "refractory": f"deeper reset, drive {reset_drive:g}" if deeper_reset else "one step"}
     return nir.NIRGraph(nodes=nodes, edges=edges, metadata={"snn_fg": json.dumps(meta)})
 
 
-def export_nir_snntorch(network: Network, out, *, step_ms: float = 0.5, one_grid: bool = False) -> Path:
-    """Write the graph of this profile (levels on one grid with ``one_grid``) to ``out`` (atomically)."""
+def export_nir_snntorch(network: Network, out, *, step_ms: float = 0.5, one_grid: bool = False,
+                        deeper_reset: bool = False) -> Path:
+    """Write the graph of this profile (levels on one grid with ``one_grid``,
+    refractory periods as deeper resets with ``deeper_reset``) to ``out`` (atomically)."""
     from ..atomic import atomic_path
 
-    graph = to_nir_snntorch(network, step_ms=step_ms, one_grid=one_grid)
+    graph = to_nir_snntorch(network, step_ms=step_ms, one_grid=one_grid, deeper_reset=deeper_reset)
     with atomic_path(out, suffix=".nir") as tmp:
         _nir().write(tmp, graph)
     return Path(out)

@@ -82,9 +82,6 @@ def nest_threads(senders: int, devices_first: int = 0, threads: int = 1) -> int:
     return max(int(threads), -(-int(senders) // room), 1)
 
 
-# --------------------------------------------------------------------------
-# the network in a PyNN simulator
-# --------------------------------------------------------------------------
 class PyNNNetwork:
     """Populations of ``IF_curr_exp`` cells and spike sources in one PyNN
     simulator, connected by explicit synapse lists.
@@ -123,10 +120,9 @@ class PyNNNetwork:
             # neuron each; native ones are generators only
             senders = int(n_cells) + (0 if self.native else int(n_sources))
             self.threads = nest_threads(senders, 0 if self.native else int(n_sources), self.threads)
-            # on_grid: PyNN's default on NEST is off-grid spiking, which swaps
-            # IF_curr_exp for iaf_psc_exp_ps (spike times and refractoriness
-            # between steps): not the time-stepped cell the description means
-            # (the network draws no random numbers: NEST's seed is fixed)
+            # on_grid: PyNN's default on NEST is off-grid spiking, which swaps IF_curr_exp for iaf_psc_exp_ps
+            # (spike times and refractoriness between steps): not the time-stepped cell the description means.
+            # The network draws no random numbers: NEST's seed is fixed
             opts = {"threads": self.threads, "rng_seed": 1, "spike_precision": "on_grid"}
         sim.setup(timestep=self.dt, min_delay=self.dt, max_delay=max_delay, **opts)
         self.pops: dict = {}       # name -> PyNN Population (portable) or NEST NodeCollection (native)

@@ -254,16 +254,26 @@ def _progress_factory():
 
 
 def _windows(args):
-    from .events import iter_recording, iter_windows
+    from .events import RecordingWindows, iter_recording
 
     stream = iter_recording(args.input, sensor_size=args.sensor_size)
     opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
-    windows = iter_windows(stream, **{"window_ms": 85.0, **opts})
+    windows = RecordingWindows(stream, **{"window_ms": 85.0, **opts})
     if not args.no_progress:
-        windows = _counted(windows, args.max_windows)
+        windows = _Counted(windows, args.max_windows)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
     source.setdefault("stride_ms", source["window_ms"])
     return windows, source, tuple(stream.sensor_size[1::-1])
+
+
+class _Counted:
+    """``windows`` (read again on every iteration) with a progress bar on each reading."""
+
+    def __init__(self, windows, total):
+        self.windows, self.total = windows, total
+
+    def __iter__(self):
+        return _counted(self.windows, self.total)
 
 
 def _counted(windows, total):

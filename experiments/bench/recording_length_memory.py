@@ -15,7 +15,8 @@ resident memory: the child's ``VmHWM`` from /proc, Linux), with the load.
         [--cases rate:default:1w spiking:compact:60s ...]
 
 ``--cases`` runs only those (model:network:length, length ``1w`` or ``Ns``)
-and keeps the other cases already in the results (long runs can go apart).
+and keeps the other cases already in the results (long runs can go apart;
+each case records its commit).
 Writes experiments/results/recording_length_memory.{json,md} after every case.
 """
 from __future__ import annotations
@@ -30,8 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import (RESULTS, ROOT, Run, describe, fail, load, markdown_table, peak_rss_mb, save_json,
-                                save_markdown)
+from experiments.common import (RESULTS, ROOT, Run, describe, fail, git_commit, load, markdown_table, peak_rss_mb,
+                                save_json, save_markdown)
 
 NAME = "recording_length_memory"
 #: each copy of dvs.es starts this long after the one before (us): its events span 0-999 ms
@@ -96,10 +97,11 @@ def _markdown(rec) -> list[str]:
              "memory is the process's `VmHWM`; output is `maps.zarr` per window.", ""]
     rows = [[c["model"], c["network"], c["length"], c["windows"], f"{c['peak_rss_mb']:.0f}",
              f"{c['peak_rss_mb'] / c['one_window_mb']:.3f}" if c.get("one_window_mb") else "",
-             f"{c['store_kb_per_window']:.0f}", f"{c['wall_s']:.0f}", f"{c['load']:.1f}", c["date"]]
+             f"{c['store_kb_per_window']:.0f}", f"{c['wall_s']:.0f}", f"{c['load']:.1f}", c["date"],
+             c.get("commit", "")]
             for c in rec["cases"]]
     lines += markdown_table(["model", "network", "length", "windows", "peak memory (MB)", "/ 1 window",
-                             "maps.zarr per window (kB)", "time (s)", "load before", "started (UTC)"], rows)
+                             "maps.zarr per window (kB)", "time (s)", "load before", "started (UTC)", "commit"], rows)
     return lines + [""]
 
 
@@ -117,8 +119,8 @@ def _kept(cases) -> list[dict]:
     if not path.exists():
         return []
     run = {tuple(c) for c in cases}
-    return [c for c in json.loads(path.read_text()).get("cases", []) if (c["model"], c["network"], c["length"])
-            not in run]
+    return [c for c in json.loads(path.read_text()).get("cases", [])
+            if "length" in c and (c["model"], c["network"], c["length"]) not in run]     # (older results: none)
 
 
 def main():
@@ -150,6 +152,7 @@ def main():
             if p.returncode:
                 fail(f"{model} {network} {length}: {p.stderr.strip().splitlines()[-1] if p.stderr.strip() else '?'}")
             case = {"model": model, "network": network, "length": length, "load": before, "date": date,
+                    "commit": git_commit(),
                     **json.loads(p.stdout.strip().splitlines()[-1])}
             measured.append(case)
             print(f"{model:<8} {network:<8} {length:>4} {case['windows']:4d} windows  {case['peak_rss_mb']:7.0f} MB "

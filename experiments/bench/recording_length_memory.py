@@ -94,7 +94,8 @@ def _markdown(rec) -> list[str]:
              "`dvs.es` (320 x 240, 1 s, 473,225 events) played again and again with shifted timestamps into "
              "`.npy` recordings; `snn-fg run REC --model M [--network N] --no-figures`, 85 ms windows, each run "
              "a fresh process; `1w` is the first window of the longest recording (`--max-windows 1`). Peak "
-             "memory is the process's `VmHWM`; output is `maps.zarr` per window.", ""]
+             "memory is the process's `VmHWM`; output is `maps.zarr` per window. Rows may come from separate `--cases` "
+             "runs (the line above names the last): each gives its start and commit.", ""]
     rows = [[c["model"], c["network"], c["length"], c["windows"], f"{c['peak_rss_mb']:.0f}",
              f"{c['peak_rss_mb'] / c['one_window_mb']:.3f}" if c.get("one_window_mb") else "",
              f"{c['store_kb_per_window']:.0f}", f"{c['wall_s']:.0f}", f"{c['load']:.1f}", c["date"],

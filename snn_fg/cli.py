@@ -8,7 +8,6 @@ the output folder as it was (a frame), or with the windows completed so far
 from __future__ import annotations
 
 import argparse
-import itertools
 import os
 import shutil
 import sys
@@ -254,31 +253,14 @@ def _progress_factory():
 
 
 def _windows(args):
-    from .events import iter_recording, iter_windows
+    from .runner import recording_windows
 
-    stream = iter_recording(args.input, sensor_size=args.sensor_size)
     opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
-    windows = iter_windows(stream, **{"window_ms": 85.0, **opts})
-    if not args.no_progress:
-        windows = _counted(windows, args.max_windows)
+    windows, sensor_size = recording_windows(args.input, sensor_size=args.sensor_size, window_options=opts,
+                                             progress=not args.no_progress)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
     source.setdefault("stride_ms", source["window_ms"])
-    return windows, source, tuple(stream.sensor_size[1::-1])
-
-
-def _counted(windows, total):
-    """``windows`` with a progress bar that appears once the first window is read
-    (a file refused on reading shows no empty bar before its error line)."""
-    from tqdm import tqdm
-
-    it = iter(windows)
-    first = next(it, None)
-    if first is None:
-        return
-    with tqdm(desc="windows", unit="win", file=sys.stderr, total=total, leave=False) as bar:
-        for w in itertools.chain([first], it):
-            yield w
-            bar.update()
+    return windows, source, tuple(sensor_size[1::-1])
 
 
 def cmd_run(args) -> int:

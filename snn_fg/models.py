@@ -266,13 +266,11 @@ class SpikingModel(Model):
         simulation runs (:func:`~snn_fg.spiking.continuous.stream_spiking_windows`)."""
         from .spiking.continuous import stream_spiking_windows
 
-        windows = list(windows)
-
-        def done(k, maps):
-            if windows[k].index >= start:
+        def done(window, maps):
+            if window.index >= start:
                 if not self.save_spikes:
                     maps.extra = {}
-                emit(windows[k], self.named(maps))
+                emit(window, self.named(maps))
 
         return stream_spiking_windows(windows, done, options=self.run_options.on(self._sim()))
 

@@ -256,6 +256,10 @@ class Backend(ABC):
     #: whatever this says): ``input`` where cells cost per synapse (unrolled),
     #: ``all`` where choosing them per input would cost more than they do
     default_instantiate: ClassVar[str] = "input"
+    #: whether :meth:`simulate` takes a recording's input a segment at a time
+    #: (a :class:`~snn_fg.lowering.input_stream.SegmentedInput`); otherwise
+    #: it is handed the whole run's :class:`~snn_fg.lowering.input_spikes.InputSpikes`
+    streams_input: ClassVar[bool] = False
 
     @classmethod
     def available(cls) -> tuple[bool, str]:
@@ -264,7 +268,8 @@ class Backend(ABC):
 
     @abstractmethod
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
-        """Simulate ``network`` fed by ``inputs`` (InputSpikes) as ``settings`` say."""
+        """Simulate ``network`` fed by ``inputs`` (InputSpikes, or a
+        SegmentedInput where :attr:`streams_input`) as ``settings`` say."""
 
     def describe(self) -> dict:
         """What to record about this backend in a run's parameters."""

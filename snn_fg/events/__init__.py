@@ -9,7 +9,8 @@
   (:mod:`~snn_fg.events.eventstream`, :mod:`~snn_fg.events.prophesee`,
   :mod:`~snn_fg.events.yarp`, :mod:`~snn_fg.events.aedat4`,
   :mod:`~snn_fg.events.nmnist`, :mod:`~snn_fg.events.numpy_files`).
-* :func:`events_to_frame` (model stage 1) and :func:`iter_windows`.
+* :func:`events_to_frame` (model stage 1), :func:`iter_windows` and
+  :class:`RecordingWindows` (windows read again on every iteration).
 * :func:`image_to_events` / :func:`image_to_frame`: an ESIM-style simulator
   for still images under the paper's described ``shift4`` motion, the iCub's
   ``circle`` microsaccade, or ``paper``, the authors' own BSDS conversion
@@ -20,7 +21,7 @@
 from snn_fg.events._core import EVENT_DTYPE, Recording
 from snn_fg.events.esim import PixelOptions, image_to_events, image_to_frame, motion_frames
 from snn_fg.events.io import STREAMING_FORMATS, RecordingStream, detect_format, iter_recording, open_recording
-from snn_fg.events.window import EmptyWindowWarning, EventWindow, events_to_frame, iter_windows
+from snn_fg.events.window import EmptyWindowWarning, EventWindow, RecordingWindows, events_to_frame, iter_windows
 from snn_fg.events.writers import save_events
 
 __all__ = [
@@ -29,6 +30,7 @@ __all__ = [
     "EventWindow",
     "Recording",
     "RecordingStream",
+    "RecordingWindows",
     "STREAMING_FORMATS",
     "detect_format",
     "events_to_frame",

@@ -103,6 +103,21 @@ def _window_times(window_ms, start_ms, stride_ms) -> tuple[int, int, int]:
     return win, start, win if stride_ms is None else _ms_to_us("stride_ms", stride_ms)
 
 
+class RecordingWindows:
+    """A recording's windows that can be read more than once: each
+    iteration is a fresh :func:`iter_windows` over ``recording_or_path``
+    with ``options`` (a file is read again from its start), so that a
+    reader that needs two passes (the spiking model calibrates its input
+    on the whole recording first) holds one window at a time, not the
+    recording."""
+
+    def __init__(self, recording_or_path, **options):
+        self.recording, self.options = recording_or_path, options
+
+    def __iter__(self):
+        return iter_windows(self.recording, **self.options)
+
+
 def _check_window_options(max_windows, denoise_us, refractory_us) -> None:
     if max_windows is not None:
         validate.integer("iter_windows", "max_windows", max_windows, lo=1)

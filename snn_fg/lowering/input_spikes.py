@@ -139,22 +139,27 @@ def _field(events, name):
         raise InputError("<events>", f"structured array needs fields x, y, t, p; missing {name!r}") from None
 
 
-def _refractory(step: np.ndarray, idx: np.ndarray, gap: int):
-    """The events of every source at least ``gap`` steps after the one it last kept."""
-    order = np.lexsort((step, idx))
+def keep_after_refractory(step: np.ndarray, idx: np.ndarray, gap: int, last: np.ndarray | None = None):
+    """The events ``(step, idx)`` of every source at least ``gap`` steps
+    after the one it last kept, in their own order. ``last[source]``: the
+    step each source last kept an event at (updated; default: none yet), so
+    that a recording's events can be handed over chunk by chunk
+    (:class:`~snn_fg.lowering.input_stream.SpikeStream`)."""
+    if last is None:
+        last = np.full(int(idx.max(initial=0)) + 1, -gap, dtype=np.int64)
+    order = np.argsort(step, kind="stable")
     keep = np.zeros(idx.size, bool)
-    _keep_after_gap(idx[order], step[order], gap, keep)
+    _keep_after_gap(idx[order], step[order], gap, last, keep)
     keep = np.sort(order[keep])
     return step[keep], idx[keep]
 
 
 @nb.njit(cache=True)
-def _keep_after_gap(idx, step, gap, keep):
-    last_idx, last_step = -1, 0
+def _keep_after_gap(idx, step, gap, last, keep):
     for e in range(idx.size):
-        if idx[e] != last_idx or step[e] - last_step >= gap:
+        if step[e] - last[idx[e]] >= gap:
             keep[e] = True
-            last_idx, last_step = idx[e], step[e]
+            last[idx[e]] = step[e]
 
 
 def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source: str = "<events>",
@@ -195,7 +200,7 @@ def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source:
     pol_on = p > 0
     idx = (y.astype(np.int64) * w + x.astype(np.int64)) + np.where(pol_on, 0, h * w)
     if refractory_ms > 0:
-        step, idx = _refractory(step, idx, int(round(refractory_ms / dt_ms)))
+        step, idx = keep_after_refractory(step, idx, int(round(refractory_ms / dt_ms)))
     key = np.unique(step * (2 * h * w) + idx)
     merged = int(idx.size - key.size)
     idx_u = key % (2 * h * w)

@@ -16,7 +16,13 @@ recording does not need the memory of all its spikes.
 
 The input gains are calibrated once, to the mean event rate of an active
 pixel inside a window (events per active pixel per window length, averaged
-over the windows that have events), the counterpart of a frame's rate.
+over the windows that have events), the counterpart of a frame's rate. So
+the windows are read twice (:mod:`.recording_input`): once for that rate,
+then while the network runs, their events handed to a backend that streams
+its input (the fast engine) a segment of steps at a time. Windows that can
+be iterated again (a list, or :class:`~snn_fg.events.RecordingWindows`,
+which reads the file again) are never all in memory; a one-shot iterator
+is made a list first.
 """
 from __future__ import annotations
 
@@ -28,50 +34,12 @@ import numpy as np
 
 from ..backends import RunSettings
 from ..backends.base import each_bin
-from ..errors import InputError
-from ..pyramid.pool import pool_events, pool_frame, pooled_shape, unpool_maps
-from ..lowering.input_spikes import event_spikes
+from ..pyramid.pool import pool_frame, unpool_maps
 from ..maps import Maps
 from .decode import decode
 from .options import SpikingOptions
 from .record import SpikingRecord, run_provenance
-
-
-def _window_rate(windows, dt_ms: float) -> float:
-    """Mean rate (Hz) of an active pixel inside a window, over windows with events."""
-    rates = []
-    for w in windows:
-        ev = w.events
-        if not len(ev):
-            continue
-        active = int(np.count_nonzero(w.pos) + np.count_nonzero(w.neg))
-        span_s = max((w.t_end_us - w.t_start_us) / 1e6, dt_ms / 1000.0)
-        rates.append(len(ev) / max(active, 1) / span_s)
-    return float(np.mean(rates)) if rates else 0.0
-
-
-def _spike_rate(inp, windows, t0_us: float, dt_ms: float) -> float:
-    """Mean rate (Hz) of an active spike source inside a window, over windows
-    with spikes: what the input adapter (pooling, refractory period) passes
-    on, counted as :func:`_window_rate` counts events."""
-    rates = []
-    for w in windows:
-        a = int(np.floor((w.t_start_us - t0_us) / (dt_ms * 1000.0)))
-        b = max(int(np.floor((w.t_end_us - t0_us) / (dt_ms * 1000.0))), a + 1)
-        lo, hi = np.searchsorted(inp.steps, [a, b])
-        idx = inp.indices[lo:hi]
-        idx = idx[idx < inp.clock_index]          # (not the window clock)
-        if idx.size:
-            rates.append(idx.size / np.unique(idx).size / ((b - a) * dt_ms / 1000.0))
-    return float(np.mean(rates)) if rates else 0.0
-
-
-def _all_events(windows):
-    """The events of every window once (overlapping windows share events)."""
-    ev = np.concatenate([w.events for w in windows]) if windows else np.zeros(0)
-    if len(windows) > 1 and any(b.t_start_us < a.t_end_us for a, b in zip(windows, windows[1:])):
-        ev = np.unique(ev)
-    return ev
+from .recording_input import WindowFeed, plan_recording
 
 
 def run_spiking_windows(windows, *, source: str = "<recording>", options: SpikingOptions | None = None,
@@ -80,9 +48,11 @@ def run_spiking_windows(windows, *, source: str = "<recording>", options: Spikin
 
     Parameters
     ----------
-    windows : sequence of EventWindow
+    windows : iterable of EventWindow
         The recording cut into windows (:func:`snn_fg.events.iter_windows`),
-        all from one sensor, in time order.
+        all from one sensor, in time order; read twice (a one-shot iterator
+        is made a list: :class:`~snn_fg.events.RecordingWindows` reads a file
+        again instead, so that memory does not grow with the recording).
     params, spiking, network, backend, backend_options, dt_ms, calibrate, feedback, instantiate, record_spikes
         As for :func:`~snn_fg.spiking.run_spiking`.
     readout_lag_ms : float
@@ -128,7 +98,7 @@ def run_spiking_windows(windows, *, source: str = "<recording>", options: Spikin
 def stream_spiking_windows(windows, on_window, *, source: str = "<recording>",
                            options: SpikingOptions | None = None, **keywords) -> dict:
     """:func:`run_spiking_windows` handing each window's maps to
-    ``on_window(k, maps)`` as soon as the run has passed the end of its
+    ``on_window(window, maps)`` as soon as the run has passed the end of its
     read-out span, instead of returning them all at the end: nothing of a
     window is kept once handed over. Each window's ``params`` are those
     known then (a backend that streams its bins, such as the fast engine,
@@ -151,7 +121,7 @@ class ContinuousRun:
     (``decoded[k]``: ``fg_x, fg_y, grouping, SpikingRecord``) with the
     ``perf_counter()`` time it was decoded at (``decoded_at[k]``)."""
 
-    windows: list
+    n_windows: int
     network: object
     origin: dict
     backend: object
@@ -174,36 +144,30 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     read (``RunSettings.on_bin``): the result then has no per-bin counts
     and no spike trains, and the memory need not grow with the recording.
     ``True`` keeps them in ``ContinuousRun.result`` (for analyses of the
-    whole run's spikes). ``on_window(k, maps)``: each window's maps as it
+    whole run's spikes). ``on_window(window, maps)``: each window's maps as it
     is decoded (:func:`stream_spiking_windows`), none kept in the result."""
     t_start = time.perf_counter()
     opts = SpikingOptions.of("simulate_windows", options, keywords, frame=False)
     sim, lag = opts.simulator, opts.recording.readout_lag_ms
-    windows = list(windows)
-    if not windows:
-        raise InputError(source, "no window to process")
-    events = _all_events(windows)
-    if not len(events):
-        raise InputError(source, "no window has an event: nothing to simulate")
-    net, origin = opts.network.resolve(windows[0].pos.shape)
-    inp, clock = _window_input(windows, events, net, sim.dt_ms, opts.recording.window_clock, source)
-    t0 = windows[0].t_start_us
-    adapted = net.params.input_pool > 1 or net.input_refractory_ms > 0
-    rate = _spike_rate(inp, windows, t0, sim.dt_ms) if adapted else _window_rate(windows, sim.dt_ms)
+    if iter(windows) is windows:            # (read once only: kept, to be read twice)
+        windows = list(windows)
+    plan = plan_recording(windows, opts.network, sim.dt_ms, lag, opts.recording.window_clock, source)
+    net, origin, rate = plan.network, plan.origin, plan.rate_hz
     if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
         net = net.calibrated(rate)
-    spans = [_read_out_span(x, t0, lag, sim.dt_ms) for x in windows]
-    edges = sorted({t for span in spans for t in span})
+    edges = sorted({t for span in plan.spans for t in span})
     backend = sim.backend_object()
+    feed = WindowFeed(windows, plan, sim.dt_ms, keep=keep_run)
+    inp = feed.input if backend.streams_input else feed.input.whole()
     instantiate = sim.cells_for(backend, inp)
     simulation = {"mode": "continuous", "simulated_ms": edges[-1], "network_builds": 1, "readout_lag_ms": lag,
-                  "dt_ms": sim.dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": inp.merged,
+                  "dt_ms": sim.dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": plan.merged,
                   "instantiate": instantiate, "record_spikes": bool(sim.record_spikes),
-                  "window_clock": clock}
-    run = ContinuousRun(windows, net, origin, backend, None, edges, spans, simulation, t_start,
-                        [None] * len(windows), [None] * len(windows))
-    reader = _WindowReader(windows, spans, edges, net.params.input_pool, run, on_window)
+                  "window_clock": plan.clock_steps is not None}
+    run = ContinuousRun(len(plan.spans), net, origin, backend, None, edges, plan.spans, simulation, t_start,
+                        [None] * len(plan.spans), [None] * len(plan.spans))
+    reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window)
     settings = RunSettings(duration_ms=edges[-1], dt_ms=sim.dt_ms, count_from_ms=edges[0],
                            record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
                            log=sim.say, progress=sim.progress, on_bin=None if keep_run else reader)
@@ -212,29 +176,6 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
         for k, bin_result in each_bin(run.result):
             reader(k, bin_result)
     return run
-
-
-def _window_input(windows, events, net, dt_ms: float, window_clock: bool, source: str):
-    """The input spikes of the windows' ``events`` on the network's (pooled)
-    grid, with the window clock firing as each window starts when
-    ``window_clock`` is on and the network has one; and whether it does."""
-    pool, t0 = net.params.input_pool, windows[0].t_start_us
-    inp = event_spikes(pool_events(events, pool), (*pooled_shape(windows[0].pos.shape, pool)[::-1], 2), dt_ms,
-                       replay=False, source=source, t0_us=t0, refractory_ms=net.input_refractory_ms)
-    clock = bool(window_clock and net.by_role("clock"))
-    if clock:
-        inp = inp.with_clock([int(np.floor((x.t_start_us - t0) / (dt_ms * 1000.0))) for x in windows])
-    return inp, clock
-
-
-def _read_out_span(window, t0_us: float, lag_ms: float, dt_ms: float) -> tuple[float, float]:
-    """A window's read-out span (ms from the first window's start, lag
-    included) on the step grid, at least one step long: a recording's last
-    window can be shorter than a step (it ends 1 us after the last event),
-    and a span of no steps would count no spikes."""
-    a = round(((window.t_start_us - t0_us) / 1000.0 + lag_ms) / dt_ms)
-    b = round(((window.t_end_us - t0_us) / 1000.0 + lag_ms) / dt_ms)
-    return a * dt_ms, max(b, a + 1) * dt_ms
 
 
 def _bins_of(span, edges) -> tuple[int, int]:
@@ -247,34 +188,43 @@ class _WindowReader:
     """Receives a run's counting bins in order (``RunSettings.on_bin``) and
     decodes each window as soon as the last bin of its read-out span is in:
     into ``run.decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``, or as
-    its maps to ``on_window(k, maps)``. Only the windows still being read
-    hold their counts and spikes."""
+    its maps to ``on_window(window, maps)``. Only the windows still being
+    read hold their counts and spikes; the windows themselves come from
+    ``feed`` (:class:`~snn_fg.spiking.recording_input.WindowFeed`)."""
 
-    def __init__(self, windows, spans, edges, pool: int, run: ContinuousRun, on_window=None):
-        self.windows, self.edges, self.pool, self.run, self.on_window = windows, edges, pool, run, on_window
+    def __init__(self, feed: WindowFeed, spans, edges, pool: int, run: ContinuousRun, on_window=None):
+        self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
         self.bins = [_bins_of(span, edges) for span in spans]
+        self.first = 0          # the first window not decoded yet (spans start and end in order)
         self.reading: dict = {}
         self.last_at = run.t_start          # perf_counter() when the last window was decoded
 
     def __call__(self, k: int, result):
-        for i, (k0, k1) in enumerate(self.bins):
-            if not k0 <= k < k1:
-                continue
-            counts, spikes = self.reading.setdefault(i, ({}, []))
-            for name, c in result.counts.items():
-                counts[name] = counts[name] + c if name in counts else c.astype(np.int64)
-            if result.spikes is not None:
-                spikes.append(result.spikes)
-            if k == k1 - 1:
-                del self.reading[i]
-                decoded, before, self.last_at = self._decode(i, result, counts, spikes), self.last_at, \
-                    time.perf_counter()
-                if self.on_window is None:
-                    self.run.decoded[i], self.run.decoded_at[i] = decoded, self.last_at
-                else:
-                    self.on_window(i, _maps_of(self.run, i, decoded, result, self.last_at - before))
+        i = self.first
+        while i < len(self.bins) and self.bins[i][0] <= k:
+            if k < self.bins[i][1]:
+                self._add(i, k, self.bins[i][1], result)
+            i += 1
+        while self.first < len(self.bins) and self.bins[self.first][1] <= k + 1:
+            self.first += 1
 
-    def _decode(self, i, result, counts, spikes):
+    def _add(self, i: int, k: int, k1: int, result):
+        counts, spikes = self.reading.setdefault(i, ({}, []))
+        for name, c in result.counts.items():
+            counts[name] = counts[name] + c if name in counts else c.astype(np.int64)
+        if result.spikes is not None:
+            spikes.append(result.spikes)
+        if k == k1 - 1:
+            del self.reading[i]
+            w = self.feed.window(i)
+            decoded, before, self.last_at = self._decode(i, w, result, counts, spikes), self.last_at, \
+                time.perf_counter()
+            if self.on_window is None:
+                self.run.decoded[i], self.run.decoded_at[i] = decoded, self.last_at
+            else:
+                self.on_window(w, _maps_of(self.run, i, decoded, result, self.last_at - before))
+
+    def _decode(self, i, w, result, counts, spikes):
         k0, k1 = self.bins[i]
         trains = None
         if spikes:
@@ -282,7 +232,6 @@ class _WindowReader:
                       for n in spikes[0]}
         window_result = dataclasses.replace(result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0],
                                             spikes=trains)
-        w = self.windows[i]
         fg_x, fg_y, grouping = unpool_maps(*decode(window_result)[:3], w.pos | w.neg, self.pool)
         on, off = pool_frame(w.pos, w.neg, self.pool)
         masks = SimpleNamespace(on=on != 0, off=off != 0)

@@ -23,16 +23,13 @@ LOG_START = 1 << 16
 GATHER_BELOW = 0.05
 GATHER_TAPS_PER_ROW = 8
 
-def _input_events(tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
-    """Input spikes as cell numbers (``first_cell``: population -> its first
-    number) grouped by step, ``(ptr, ids)``:
-    the spikes of step ``s`` are ``ids[ptr[s]:ptr[s + 1]]``, the pattern
-    repeating every ``ptr.size - 1`` steps (the input's period, kept
-    unexpanded, or the whole run)."""
-    periodic = inputs.period_steps is not None and inputs.period_steps < n_steps
-    length = int(inputs.period_steps) if periodic else max(n_steps, 1)
-    idx, steps = np.asarray(inputs.indices, dtype=np.int64), np.asarray(inputs.steps, dtype=np.int64)
-    keep = steps < length
+def _input_events(tab: ft.EngineTables, first_cell: dict, idx, steps, length: int, first_step: int = 0):
+    """Input spikes ``(idx, steps)`` as cell numbers (``first_cell``:
+    population -> its first number) grouped by step, ``(ptr, ids)``: the
+    spikes of step ``first_step + s`` are ``ids[ptr[s]:ptr[s + 1]]``, for
+    ``s`` below ``length``."""
+    idx, steps = np.asarray(idx, dtype=np.int64), np.asarray(steps, dtype=np.int64) - first_step
+    keep = (steps >= 0) & (steps < length)
     idx, steps = idx[keep], steps[keep]
     first = source_offsets(tab.network)
     ids = np.empty(idx.size, dtype=np.int64)
@@ -45,6 +42,51 @@ def _input_events(tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
     order = np.lexsort((ids, steps))
     ids, steps = ids[order], steps[order]
     return np.searchsorted(steps, np.arange(length + 1)).astype(np.int64), ids.astype(np.int32)
+
+
+class _InputFeed:
+    """The input of a run as the compiled loop reads it: ``ptr``/``ids``
+    (:func:`_input_events`) of one period of steps, the loop taking step
+    ``n``'s spikes from ``n % period``. A repeating input (or a whole
+    run's) is one period loaded once; a
+    :class:`~snn_fg.lowering.input_stream.SegmentedInput` is loaded a
+    segment at a time, each a period the run must stop at the end of
+    (:meth:`stop_after`) for the next to be loaded (:meth:`reached`)."""
+
+    def __init__(self, tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
+        self.tab, self.first_cell, self.inputs, self.n_steps = tab, first_cell, inputs, n_steps
+        self.segmented = hasattr(inputs, "segment")
+        self.total = 0          # input spikes of the segments loaded before the current one
+        if self.segmented:
+            self.period, self.loaded = int(inputs.segment_steps), -1
+            self.reached(0)
+        else:
+            periodic = inputs.period_steps is not None and inputs.period_steps < n_steps
+            self.period = int(inputs.period_steps) if periodic else max(n_steps, 1)
+            self.ptr, self.ids = _input_events(tab, first_cell, inputs.indices, inputs.steps, self.period)
+
+    def stop_after(self, n: int) -> int:
+        """The last step (exclusive) a call of the loop from step ``n`` may reach."""
+        return (n // self.period + 1) * self.period if self.segmented else self.n_steps
+
+    def reached(self, n: int) -> None:
+        """The run is at step ``n``: load its segment if it is a new one."""
+        j = n // self.period
+        if self.segmented and j != self.loaded and n < self.n_steps:
+            if self.loaded >= 0:
+                self.total += int(self.ptr[-1])
+            idx, steps = self.inputs.segment(j)
+            keep = steps < self.n_steps        # (the last segment may reach past the run's end)
+            self.ptr, self.ids = _input_events(self.tab, self.first_cell, idx[keep], steps[keep], self.period,
+                                               j * self.period)
+            self.loaded = j
+
+    def spikes_fed(self) -> int:
+        """How many input spikes the run fed, without a pass over the spike log."""
+        if self.segmented:
+            return self.total + int(self.ptr[-1])
+        periods, rest = divmod(self.n_steps, self.ptr.size - 1)
+        return int(periods * self.ptr[-1] + self.ptr[rest])
 
 
 class Run:
@@ -62,7 +104,7 @@ class Run:
         sparse = self.cells[tab.prj[:, ft.J_TGT], 1] < GATHER_BELOW * tab.pops[tab.prj[:, ft.J_TGT], ft.P_SIZE]
         self.gather = (sparse & (tab.taps_per_row >= GATHER_TAPS_PER_ROW)).astype(np.uint8)
         self.ctype = np.repeat(tab.pops[:, ft.P_TYPE], self.cells[:, 1]).astype(np.uint8)
-        self.in_ptr, self.in_ids = _input_events(tab, self.first, inputs, n_steps)
+        self.feed = _InputFeed(tab, self.first, inputs, n_steps)
         self.n_present = int(sum(chosen[p.name].size for p in lif_populations(tab.network)))
         self.state = pool.zeros("state", off, STATE)          # all at rest: never touched
         self.inact = pool.zeros("inact", off, np.uint8)
@@ -121,6 +163,7 @@ class Run:
                 stream.reached(0)
             while n < self.n_steps:
                 end = min(n + chunk, self.n_steps)
+                end = min(end, self.feed.stop_after(n))
                 if stream is not None:
                     end = min(end, stream.next_stop(n))
                 run = RunArrays(*(getattr(self, name) for name in RunArrays._fields))     # (the log may have grown)
@@ -130,6 +173,7 @@ class Run:
                 bar(reached - n)
                 cancel.check()
                 n = reached
+                self.feed.reached(n)
                 if stream is not None:
                     stream.reached(n)
 
@@ -160,10 +204,11 @@ class Run:
         return k
 
     def input_spikes(self) -> int:
-        """How many input spikes the run fed (``in_ptr`` repeats every
-        ``in_ptr.size - 1`` steps), without a pass over the spike log."""
-        periods, rest = divmod(self.n_steps, self.in_ptr.size - 1)
-        return int(periods * self.in_ptr[-1] + self.in_ptr[rest])
+        """How many input spikes the run fed."""
+        return self.feed.spikes_fed()
+
+    in_ptr = property(lambda self: self.feed.ptr)
+    in_ids = property(lambda self: self.feed.ids)
 
     def final_state(self) -> np.ndarray:
         """Every cell's ``(v, I_exc, I_inh)`` at the end of the run (volts, one row per cell)."""

@@ -1,0 +1,137 @@
+"""A recording's input spikes made as the simulation needs them.
+
+:func:`~snn_fg.lowering.input_spikes.event_spikes` turns a whole set of
+timed events into spikes at once; over a long recording that holds every
+event and every spike of the run. :class:`SpikeStream` makes the same spikes
+from events handed to it in time order, chunk by chunk, and gives them out
+step range by step range (:meth:`SpikeStream.take_until`): the input
+adapter's refractory period carries over from one chunk to the next (the
+step each source last passed an event on), and two events of one source in
+one step merge however the chunks cut them, since a step is given out only
+once every event before its end has been added. :class:`SegmentedInput`
+hands such a stream to a backend in segments of a fixed number of steps
+(:meth:`SegmentedInput.segment`), so that the backend holds one segment of
+the input, not the whole run's.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .input_spikes import InputSpikes, keep_after_refractory
+
+
+class SpikeStream:
+    """Input spikes of timed events added in time order (:meth:`add`).
+
+    Parameters
+    ----------
+    shape : (int, int)
+        The input grid, ``(H, W)``: ON sources ``y * W + x``, OFF sources
+        ``H * W + y * W + x``.
+    dt_ms : float
+        The simulation step.
+    t0_us : float
+        The time of step 0.
+    refractory_ms : float
+        A source passes on an event only this long after the last one it
+        passed on (0: every event).
+
+    ``merged`` counts the events that fell in a step their source already
+    fired in; ``on`` and ``off`` mark the sources that have fired so far.
+    """
+
+    def __init__(self, shape, dt_ms: float, t0_us: float, refractory_ms: float = 0.0):
+        self.h, self.w = shape
+        self.step_us, self.t0_us = dt_ms * 1000.0, float(t0_us)
+        self.gap = int(round(refractory_ms / dt_ms))
+        self.last = np.full(2 * self.h * self.w, -max(self.gap, 1), dtype=np.int64)   # (every first event passes)
+        self.steps = np.zeros(0, np.int64)
+        self.indices = np.zeros(0, np.int64)
+        self.fired = np.zeros(2 * self.h * self.w, bool)
+        self.merged = 0
+
+    def add(self, events) -> None:
+        """Events (fields ``x``, ``y``, ``t`` in microseconds, ``p``) later
+        than every step already taken."""
+        if not len(events):
+            return
+        step = np.floor((events["t"].astype(np.float64) - self.t0_us) / self.step_us).astype(np.int64)
+        idx = events["y"].astype(np.int64) * self.w + events["x"].astype(np.int64)
+        idx += np.where(events["p"] > 0, 0, self.h * self.w)
+        self.steps, self.indices = np.concatenate([self.steps, step]), np.concatenate([self.indices, idx])
+
+    def take_until(self, end_step: int) -> tuple[np.ndarray, np.ndarray]:
+        """The spikes ``(indices, steps)`` of the steps before ``end_step``
+        not taken yet, in step order and by source within a step; every
+        event before that step's end must have been added."""
+        now = self.steps < end_step
+        step, idx = self.steps[now], self.indices[now]
+        self.steps, self.indices = self.steps[~now], self.indices[~now]
+        if self.gap > 0:
+            step, idx = keep_after_refractory(step, idx, self.gap, self.last)
+        n = 2 * self.h * self.w
+        key = np.unique(step * n + idx)
+        self.merged += int(idx.size - key.size)
+        self.fired[key % n] = True
+        return key % n, key // n
+
+    @property
+    def on(self) -> np.ndarray:
+        return self.fired[:self.h * self.w].reshape(self.h, self.w)
+
+    @property
+    def off(self) -> np.ndarray:
+        return self.fired[self.h * self.w:].reshape(self.h, self.w)
+
+
+@dataclasses.dataclass
+class SegmentedInput:
+    """A recording's input spikes handed to a backend a segment at a time.
+
+    Segment ``j`` holds the spikes of steps ``j * segment_steps`` to
+    ``(j + 1) * segment_steps - 1`` (:meth:`segment`), asked for in order;
+    ``spikes_until(end_step)`` gives the spikes not given yet of the steps
+    before ``end_step``, as :meth:`SpikeStream.take_until`. ``on``,
+    ``off``, ``merged`` and ``rate_hz`` are those of the whole run, known
+    before it starts (from a first pass over the recording). The clock
+    fires at ``clock_steps`` (index :attr:`clock_index`).
+    """
+
+    shape: tuple
+    on: np.ndarray
+    off: np.ndarray
+    rate_hz: float
+    merged: int
+    segment_steps: int
+    spikes_until: object
+    clock_steps: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
+    kind: str = "events"
+    period_steps = None       # (never repeats)
+
+    clock_index = InputSpikes.clock_index
+    n_sources = InputSpikes.n_sources
+
+    def segment(self, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """The spikes ``(indices, steps)`` of segment ``j``, steps counted
+        from the run's start, sorted by step and index."""
+        return self._until(j * self.segment_steps, (j + 1) * self.segment_steps)
+
+    def whole(self) -> InputSpikes:
+        """Every spike as one :class:`InputSpikes`, for a backend that takes
+        the whole run's input at once."""
+        idx, steps = self._until(0, np.iinfo(np.int64).max // (2 * self.clock_index + 2))
+        return InputSpikes(self.shape, idx, steps, None, self.on, self.off, self.rate_hz, self.merged, self.kind)
+
+    def _until(self, a: int, b: int):
+        """The spikes not given yet of the steps before ``b``, with the
+        clock's of the steps from ``a`` on."""
+        idx, steps = self.spikes_until(b)
+        clock = self.clock_steps[(self.clock_steps >= a) & (self.clock_steps < b)]
+        if clock.size:
+            idx = np.concatenate([idx, np.full(clock.size, self.clock_index, dtype=np.int64)])
+            steps = np.concatenate([steps, clock])
+            order = np.lexsort((idx, steps))
+            idx, steps = idx[order], steps[order]
+        return idx, steps

@@ -24,7 +24,7 @@ SPINNAKER1 = {
     "cores_per_chip": Limit(16, "application cores", "SpiNNMachine: 18 cores per chip; sPyNNaker keeps one for "
                                                      "the monitor and one for its extra monitor"),
     "cores_placed_per_chip": Limit(15, "network cores", "sPyNNaker 1!7.4.1 mapping our exports onto a virtual "
-                                                        "SpiNN-5 board: 14.4-15.7 of a chip's 16 free cores used "
+                                                        "SpiNN-5 board: 14.0-15.8 of a chip's 16 free cores used "
                                                         "(experiments/results/export_spinnaker.md)", True),
     "chips_per_board": Limit(48, "chips", "SpiNNMachine: SpiNN-5 board"),
     "sdram_per_chip": Limit(123e6, "bytes", "SpiNNMachine: about 123 MB SDRAM per chip", True),

@@ -90,8 +90,9 @@ _RUN_OPTIONS = (
                                         "the one used is recorded in the maps' params)"),
         ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
         ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
-        ("--dt-ms", float, 0, True, "simulation time step (0.5; 1 takes about 3/4 of the time, and moves the "
-                                    "maps of natural images by 5-14 deg: experiments/results/spiking_dt.md)"),
+        ("--dt-ms", float, 0, True, "simulation time step (the network's: 0.5 ms, the compact network 1 ms; 1 "
+                                    "ms on the default network takes about 3/4 of the time and moves the maps "
+                                    "of natural images by 5-14 deg: experiments/results/spiking_dt.md)"),
         ("--seed", int, -2**63, False, "seed of the input spike phases (0)"),
         ("--spike-input", ("regular", "events"), None, None, "images: regular trains at every event pixel, or the "
                                                             "simulated camera's events with their timing (regular)"),

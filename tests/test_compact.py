@@ -147,6 +147,32 @@ def test_recipes_build_for_any_sensor_and_carry_their_model_parameters():
     assert stored.frame_shape == pooled_shape((240, 304), c.input_pool) and how["resized_from"] == [87, 116]
 
 
+def test_a_network_carries_its_time_step_into_runs_and_exports():
+    """A network names the time step it is made for: a stored description
+    keeps it (and omits the default 0.5 ms, so older files read the same), a
+    run and an export use it unless given another, and 0 is refused."""
+    from snn_fg.errors import ParameterError
+    from snn_fg.events import image_to_frame
+    from snn_fg.export.pynn import pynn_model
+    from snn_fg.export.report import resource_report
+    from snn_fg.network.graph import Network
+    from snn_fg.scenes import disc
+    from snn_fg.spiking import run_spiking
+
+    net = RECIPES["compact"].build((64, 64))
+    assert net.dt_ms == 1.0 and net.to_dict()["dt_ms"] == 1.0 and Network.from_dict(net.to_dict()) == net
+    assert "dt_ms" not in RECIPES["default"].build((40, 52)).to_dict()
+    with pytest.raises(ParameterError, match="dt_ms"):
+        Network.from_dict({**net.to_dict(), "dt_ms": 0})
+    assert resource_report(net)["dt_ms"] == 1.0 and resource_report(net, dt_ms=0.5)["dt_ms"] == 0.5
+    assert pynn_model(net)[0]["dt_ms"] == 1.0
+    pos, neg = image_to_frame(disc(radius=16).image)             # (a 64 x 64 frame)
+    own = run_spiking(pos, neg, network=net, duration_ms=60, settle_ms=30, progress=False)
+    half = run_spiking(pos, neg, network=net, duration_ms=60, settle_ms=30, dt_ms=0.5, progress=False)
+    assert own.params["simulation"]["dt_ms"] == 1.0 and half.params["simulation"]["dt_ms"] == 0.5
+    assert own.params["backend_stats"]["active_cell_steps"] < half.params["backend_stats"]["active_cell_steps"]
+
+
 @pytest.mark.slow
 def test_the_compact_network_fits_one_loihi2_chip_at_the_icub_size(tmp_path):
     """Acceptance of the compact network's size (issue 36 item 2): the
@@ -185,6 +211,7 @@ def test_a_recording_runs_through_the_compact_network_all_or_nothing(tmp_path):
     p = m.params
     assert p["network"]["origin"] == "recipe" and p["network"]["frame_shape"] == [24, 24]
     assert p["simulation"]["network_builds"] == 1
+    assert p["simulation"]["dt_ms"] == RECIPES["compact"].spiking.dt_ms == 1.0     # (the network's own step)
     times = [p["timings_s"]["window"]] + [w["timings_s"]["window"] for w in p["windows"][1:]]
     assert len(times) == 3 and all(t > 0 for t in times)
     assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr"]     # (spike figures need --save-spikes)

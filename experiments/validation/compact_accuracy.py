@@ -90,10 +90,23 @@ def dvs(network: str, bits) -> tuple[list[dict], list]:
     return rows, [(w, m) for w, m in zip(windows, maps)][8:9]
 
 
+def recipe_digest(name: str) -> str:
+    """A short digest of recipe ``name``'s parameters: cached results of a
+    recipe that has changed since are not read back."""
+    import hashlib
+
+    from snn_fg.network.recipes import RECIPES
+
+    r = RECIPES[name]
+    text = json.dumps([r.params.to_dict(), r.spiking.to_dict()], sort_keys=True, default=str)
+    return hashlib.sha1(text.encode()).hexdigest()[:8]
+
+
 def bsds_image(job) -> dict:
     """One labelled image through one network: its error parts against both labellers."""
     image_id, network, bits, threshold = job
-    cached = CACHE / "compact_accuracy" / f"{image_id}_{network}_{bits or 'float'}_{threshold:g}.json"
+    key = f"{image_id}_{network}-{recipe_digest(network)}_{bits or 'float'}_{threshold:g}"
+    cached = CACHE / "compact_accuracy" / f"{key}.json"
     if cached.exists():     # an interrupted run keeps the images it finished
         return json.loads(cached.read_text())
     from snn_fg.atomic import save_text

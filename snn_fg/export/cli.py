@@ -51,7 +51,8 @@ def add_export_command(sub, sensor_size_arg, number):
                         "(spinnaker) or Loihi 2 (loihi2)")
     p.add_argument("--weight-bits", type=int, metavar="B", help="quantise weights to B bits (2-32), one scale per "
                                                                 "projection (pynn, nir)")
-    p.add_argument("--dt-ms", type=number(float, 0), default=0.5, help="time step delays are counted in (0.5)")
+    p.add_argument("--dt-ms", type=number(float, 0), help="time step delays are counted in (the network's: 0.5 ms, "
+                                                          "the compact network 1 ms)")
     p.add_argument("--nir-profile", default="exact", metavar="|".join(NIR_PROFILES),
                    help="nir: exact (every mechanism NIR can hold), or snntorch (the node kinds snnTorch imports: "
                         "one-level networks, no delays, no refractoriness; see snn_fg/export/nir_snntorch.py)")

@@ -51,7 +51,7 @@ import numpy as np
 from .. import __version__
 from ..errors import InputError, ParameterError
 from ..lowering.quantise import projection_scales
-from ..network.graph import Network
+from ..network.graph import DEFAULT_DT_MS, Network
 from ..network.nodes import Kernel, Neuron, Population
 from ..network.projections import Conv, Resize
 from ..params import ModelParams
@@ -218,7 +218,7 @@ def _graph_metadata(network: Network, net: Network, weight_bits) -> dict:
     meta = {"schema": SCHEMA, "model": "snn-fg figure-ground network (D'Angelo et al. 2025)",
             "snn_fg_version": __version__, "network_sha256": fingerprint(network),
             "frame_shape": list(net.frame_shape), "params": net.params.to_dict(),
-            "input_rate_hz": net.input_rate_hz, "weight_bits": weight_bits or 0, "time_unit": "s",
+            "input_rate_hz": net.input_rate_hz, "dt_ms": net.dt_ms, "weight_bits": weight_bits or 0, "time_unit": "s",
             "approximations": APPROXIMATIONS, "notes": list(net.notes)}
     return {"snn_fg": json.dumps(meta)}
 
@@ -365,5 +365,6 @@ def _network_from(g, meta) -> Network:
             prjs.append(Resize.from_dict(d))
     return Network(params=ModelParams.from_dict(meta["params"]), frame_shape=tuple(meta["frame_shape"]),
                    populations=tuple(pops), projections=tuple(prjs), input_rate_hz=meta["input_rate_hz"],
+                   dt_ms=meta.get("dt_ms", DEFAULT_DT_MS),
                    notes=tuple(meta["notes"]) + ("Read from NIR: " + "; ".join(
                        f"{k}: {v}" for k, v in meta["approximations"].items()),))

@@ -138,7 +138,7 @@ def reset_depth_mv(neuron, step_ms: float, drive: float = RESET_DRIVE) -> float:
     return float(drive * (neuron.v_th_mv - neuron.v_reset_mv) * np.expm1(hold / neuron.tau_m_ms))
 
 
-def snntorch_network(network: Network, dt_ms: float = 0.5, *, one_grid: bool = False,
+def snntorch_network(network: Network, dt_ms: float | None = None, *, one_grid: bool = False,
                      deeper_reset: bool = False, reset_drive: float = RESET_DRIVE) -> Network:
     """``network`` as the profile writes it, for our own engines at ``dt_ms``:
     flat (every population at stride 1), no clock, zero padding, every delay
@@ -146,6 +146,7 @@ def snntorch_network(network: Network, dt_ms: float = 0.5, *, one_grid: bool = F
     frame's grid (:func:`one_grid_network`); with ``deeper_reset`` each
     cell resets :func:`reset_depth_mv` (at ``reset_drive``) lower instead of
     its refractory period. Refuses what the profile cannot write."""
+    dt_ms = network.dt_ms if dt_ms is None else dt_ms
     net = flat_network(network)
     if one_grid:
         net = one_grid_network(net)
@@ -235,10 +236,11 @@ def _conv(nir, net: Network, pr: Conv, sources: list):
                       metadata={"projection": pr.name})
 
 
-def to_nir_snntorch(network: Network, *, step_ms: float = 0.5, one_grid: bool = False, deeper_reset: bool = False,
-                    reset_drive: float = RESET_DRIVE):
+def to_nir_snntorch(network: Network, *, step_ms: float | None = None, one_grid: bool = False,
+                    deeper_reset: bool = False, reset_drive: float = RESET_DRIVE):
     """The NIR graph of ``network`` in this profile (module docstring), for
     a consumer step of ``step_ms`` of the network's time."""
+    step_ms = network.dt_ms if step_ms is None else step_ms
     step_s = step_ms * 1e-3
     nir = _nir()
     net = snntorch_network(network, step_ms, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
@@ -267,10 +269,11 @@ def to_nir_snntorch(network: Network, *, step_ms: float = 0.5, one_grid: bool = 
     return nir.NIRGraph(nodes=nodes, edges=edges, metadata={"snn_fg": json.dumps(meta)})
 
 
-def export_nir_snntorch(network: Network, out, *, step_ms: float = 0.5, one_grid: bool = False,
+def export_nir_snntorch(network: Network, out, *, step_ms: float | None = None, one_grid: bool = False,
                         deeper_reset: bool = False) -> Path:
     """Write the graph of this profile (levels on one grid with ``one_grid``,
     refractory periods as deeper resets with ``deeper_reset``) to ``out`` (atomically)."""
+    step_ms = network.dt_ms if step_ms is None else step_ms
     from ..atomic import atomic_path
 
     graph = to_nir_snntorch(network, step_ms=step_ms, one_grid=one_grid, deeper_reset=deeper_reset)

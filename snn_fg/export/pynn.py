@@ -71,9 +71,10 @@ def _tables(network: Network):
     return entries, arrays
 
 
-def pynn_model(network: Network, *, dt_ms: float = 0.5, weight_bits: int | None = None,
+def pynn_model(network: Network, *, dt_ms: float | None = None, weight_bits: int | None = None,
                target: str = "generic") -> tuple[dict, dict]:
     """``(network.json data, tables.npz arrays)`` of the board network."""
+    dt_ms = network.dt_ms if dt_ms is None else dt_ms
     net = board_network(network)
     entries, arrays = _tables(net)
     scales = projection_scales(net, weight_bits) if weight_bits else {}
@@ -114,7 +115,7 @@ Approximations (see `network.json` notes): {notes}
 """
 
 
-def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int | None = None,
+def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bits: int | None = None,
                 target: str = "generic", force: bool = False) -> Path:
     """Write the PyNN model of ``network`` into the new folder ``out``.
 
@@ -125,8 +126,8 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
     out : path
         Folder to write (written whole via a staging folder; an existing
         non-empty folder is replaced only with ``force``).
-    dt_ms : float
-        Simulation time step of the model.
+    dt_ms : float, optional
+        Simulation time step of the model (default: the network's own).
     weight_bits : int, optional
         Quantise weights to this many bits (one scale per projection).
     target : {"generic", "spinnaker"}
@@ -143,6 +144,7 @@ def export_pynn(network: Network, out, *, dt_ms: float = 0.5, weight_bits: int |
     >>> sorted(p.name for p in d.glob("*.py"))
     ['fg_cells.py', 'fg_memory.py', 'fg_network.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
     """
+    dt_ms = network.dt_ms if dt_ms is None else dt_ms
     from ..atomic import OutputFolder
 
     meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target)

@@ -144,15 +144,15 @@ def _loihi2(pops, prows, totals, two_taus: list) -> dict:
                     "core); weight-shared convolutions need less synaptic memory"}
 
 
-def resource_report(network: Network, dt_ms: float = 0.5, sensor_shape=None) -> dict:
+def resource_report(network: Network, dt_ms: float | None = None, sensor_shape=None) -> dict:
     """What the whole network needs and which documented limits it breaks.
 
     Parameters
     ----------
     network : Network
         A description (the report is of its board network).
-    dt_ms : float
-        The time step delays are counted in.
+    dt_ms : float, optional
+        The time step delays are counted in (default: the network's own).
     sensor_shape : (int, int), optional
         The sensor (rows, cols) the network was made for, recorded beside
         its frame (they differ where the network pools its input).
@@ -172,6 +172,7 @@ def resource_report(network: Network, dt_ms: float = 0.5, sensor_shape=None) -> 
     >>> rep["totals"]["neurons"] > 0 and rep["targets"]["spinnaker1"]["chips"] >= 1
     True
     """
+    dt_ms = network.dt_ms if dt_ms is None else dt_ms
     net = board_network(network)
     prows = _projection_rows(net, dt_ms)
     pops = _population_rows(net, prows)
@@ -195,7 +196,7 @@ def resource_report(network: Network, dt_ms: float = 0.5, sensor_shape=None) -> 
             "populations": pops, "projections": prows}
 
 
-def largest_sensor(make, sensor_shape, target: str = "spinnaker1", dt_ms: float = 0.5):
+def largest_sensor(make, sensor_shape, target: str = "spinnaker1", dt_ms: float | None = None):
     """The largest sensor of the same aspect as ``sensor_shape`` (rows,
     cols) whose network (``make(shape)``) fits one board of ``target``
     (:data:`~.hardware.TARGETS`: at most ``chips_per_board`` chips, no

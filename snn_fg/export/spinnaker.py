@@ -59,11 +59,12 @@ def _lattice_kernel(network: Network, pr: Conv) -> np.ndarray:
     return k if pr.mode == "conv" else k[:, :, ::-1, ::-1]
 
 
-def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float = 0.5) -> dict:
+def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float | None = None) -> dict:
     """Per projection: ``ConvolutionConnector`` (with its kernels, strides
     and padding) or ``FromListConnector`` and why; with ``estimate`` also the
     resource report's SpiNNaker 1 figures (cores, chips, boards) for
     ``dt_ms`` steps, which ``run.py --virtual-board`` sets beside sPyNNaker's."""
+    dt_ms = network.dt_ms if dt_ms is None else dt_ms
     reasons = {pr.name: _conv_reason(network, pr) for pr in network.projections}
     for name in {p.name for p in network.populations}:
         into = [pr for pr in network.incoming(name)]

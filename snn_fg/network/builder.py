@@ -397,4 +397,4 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
     return Network(params=params, frame_shape=frame_shape, populations=tuple(bld.pops),
                    projections=tuple(bld.prjs), input_rate_hz=spiking.input_rate_hz,
                    support_min=spiking.support_min, drive_min=spiking.drive_min,
-                   input_refractory_ms=spiking.input_refractory_ms, notes=NOTES)
+                   input_refractory_ms=spiking.input_refractory_ms, dt_ms=spiking.dt_ms, notes=NOTES)

@@ -20,6 +20,8 @@ from .nodes import Population
 from .projections import Conv, Projection, projection_from_dict
 
 SCHEMA = "snn-fg.network/2"
+#: the time step of a network that does not name one (ms)
+DEFAULT_DT_MS = 0.5
 
 
 def _grid_shape(pop, frame_shape, per_octave: int, one_grid: bool = False) -> tuple[int, int]:
@@ -46,8 +48,10 @@ class Network:
     busy source fires like a quiet one. ``one_grid``: every pyramid level
     lies on the frame's grid (its kernels dilated by the level's scale; a
     form for NIR consumers that cannot interpolate between levels,
-    :func:`~snn_fg.export.nir_snntorch.one_grid_network`). ``notes``
-    document the network (its departures from the rate model).
+    :func:`~snn_fg.export.nir_snntorch.one_grid_network`). ``dt_ms``: the
+    time step the network is made for, which runs and exports use unless
+    told otherwise (its delays and refractory periods are whole steps of
+    it). ``notes`` document the network (its departures from the rate model).
     """
 
     params: ModelParams
@@ -59,6 +63,7 @@ class Network:
     drive_min: float = 0.85
     input_refractory_ms: float = 0.0
     one_grid: bool = False
+    dt_ms: float = DEFAULT_DT_MS
     notes: tuple[str, ...] = ()
     _by_name: dict = field(init=False, repr=False, compare=False, hash=False)
 
@@ -76,6 +81,7 @@ class Network:
         object.__setattr__(self, "input_refractory_ms",
                            check.number(owner, "input_refractory_ms", self.input_refractory_ms, lo=0))
         object.__setattr__(self, "one_grid", check.flag(owner, "one_grid", self.one_grid))
+        object.__setattr__(self, "dt_ms", check.number(owner, "dt_ms", self.dt_ms, lo=0, lo_open=True))
         object.__setattr__(self, "_by_name", self._check_populations())
         self._check_projections()
 
@@ -196,11 +202,13 @@ class Network:
 
     # -- serialisation -----------------------------------------------------
     def to_dict(self) -> dict:
-        # one_grid only when set: the stored descriptions (and their fingerprints) stay as they were
+        # one_grid and dt_ms only when not the default: the stored descriptions (and their fingerprints)
+        # stay as they were
         return {"schema": SCHEMA, "params": self.params.to_dict(), "frame_shape": list(self.frame_shape),
                 "input_rate_hz": self.input_rate_hz, "support_min": self.support_min,
                 "drive_min": self.drive_min, "input_refractory_ms": self.input_refractory_ms,
-                **({"one_grid": True} if self.one_grid else {}), "notes": list(self.notes),
+                **({"one_grid": True} if self.one_grid else {}),
+                **({"dt_ms": self.dt_ms} if self.dt_ms != DEFAULT_DT_MS else {}), "notes": list(self.notes),
                 "populations": [p.to_dict() for p in self.populations],
                 "projections": [pr.to_dict() for pr in self.projections]}
 
@@ -211,7 +219,7 @@ class Network:
         if d.get("schema") != SCHEMA:
             check.fail("Network", "schema", d.get("schema"), f"is not {SCHEMA!r}")
         fields = {"params", "frame_shape", "input_rate_hz", "support_min", "drive_min", "input_refractory_ms",
-                  "one_grid", "notes", "populations", "projections"}
+                  "one_grid", "dt_ms", "notes", "populations", "projections"}
         check.known_keys("Network", set(d) - {"schema"}, fields)
         missing = sorted({"params", "frame_shape", "populations", "projections"} - set(d))
         if missing:

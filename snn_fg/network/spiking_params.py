@@ -52,7 +52,9 @@ class SpikingParams(Node):
         on fluctuations either; 0.85 keeps the spikes of every instantiated
         cell equal to those of the whole network in the tests);
         ``input_refractory_ms``: the input adapter's refractory period per
-        spike source (:attr:`Network.input_refractory_ms`; 0: every event).
+        spike source (:attr:`Network.input_refractory_ms`; 0: every event);
+        ``dt_ms``: the time step the network is made for
+        (:attr:`Network.dt_ms`).
     Geometry
         ``grouping_stride``: grouping and feedback cells sit on every
         ``grouping_stride``-th level pixel along each axis; ``excess_stride``:
@@ -146,6 +148,7 @@ class SpikingParams(Node):
     support_min: float = 0.3
     drive_min: float = 0.85
     input_refractory_ms: float = 0.0
+    dt_ms: float = 0.5
     gate_margin: float = 1.0
     gate_copies: int = 5
     gate_spread_ms: float = 1.0
@@ -199,7 +202,7 @@ class SpikingParams(Node):
             elif f.name.startswith("prune_"):
                 object.__setattr__(self, f.name, check.number(owner, f.name, v, lo=0, hi=1, hi_open=True))
             else:
-                strict = f.name == "input_rate_hz"
+                strict = f.name in ("input_rate_hz", "dt_ms")
                 object.__setattr__(self, f.name, check.number(owner, f.name, v, lo=0, lo_open=strict))
 
     def replace(self, **changes) -> "SpikingParams":

@@ -91,13 +91,14 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, opt
     sensor = None
     if pool > 1:
         pos, neg, events, sensor_size, sensor = _pooled(pos, neg, events, sensor_size, pool)
-    inp = _inputs(pos, neg, events, sensor_size, frame, sim.dt_ms, net)
+    dt_ms = sim.step_for(net)
+    inp = _inputs(pos, neg, events, sensor_size, frame, dt_ms, net)
     if opts.network.calibrate and not np.isclose(net.input_rate_hz, inp.rate_hz, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": inp.rate_hz}
         net = net.calibrated(inp.rate_hz)
     backend = sim.backend_object()
     instantiate = sim.cells_for(backend, inp)
-    settings = RunSettings(duration_ms=frame.duration_ms, dt_ms=sim.dt_ms, count_from_ms=frame.settle_ms,
+    settings = RunSettings(duration_ms=frame.duration_ms, dt_ms=dt_ms, count_from_ms=frame.settle_ms,
                            record_spikes=sim.record_spikes, record_state=frame.record_state,
                            instantiate=instantiate, sites=frame.sites, log=sim.say, progress=sim.progress)
     result = backend.simulate(net, inp, settings)
@@ -105,7 +106,7 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, opt
     if sensor is not None:
         fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, sensor, pool)
     rec = SpikingRecord.from_result(result, inp, frame.settle_ms)
-    simulation = {**rec.timing(), "dt_ms": sim.dt_ms, "seed": int(frame.seed), "input": inp.kind,
+    simulation = {**rec.timing(), "dt_ms": dt_ms, "seed": int(frame.seed), "input": inp.kind,
                   "rate_hz_requested": float(frame.rate_hz), "rate_hz_used": inp.rate_hz,
                   "input_process": frame.input_process if events is None else "events",
                   "replay": bool(frame.replay) if events is not None else None,

@@ -151,24 +151,24 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     sim, lag = opts.simulator, opts.recording.readout_lag_ms
     if iter(windows) is windows:            # (read once only: kept, to be read twice)
         windows = list(windows)
-    plan = plan_recording(windows, opts.network, sim.dt_ms, lag, opts.recording.window_clock, source)
+    plan = plan_recording(windows, opts.network, sim, lag, opts.recording.window_clock, source)
     net, origin, rate = plan.network, plan.origin, plan.rate_hz
     if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
         net = net.calibrated(rate)
     edges = sorted({t for span in plan.spans for t in span})
     backend = sim.backend_object()
-    feed = WindowFeed(windows, plan, sim.dt_ms, keep=keep_run)
+    feed = WindowFeed(windows, plan, keep=keep_run)
     inp = feed.input if backend.streams_input else feed.input.whole()
     instantiate = sim.cells_for(backend, inp)
     simulation = {"mode": "continuous", "simulated_ms": edges[-1], "network_builds": 1, "readout_lag_ms": lag,
-                  "dt_ms": sim.dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": plan.merged,
+                  "dt_ms": plan.dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": plan.merged,
                   "instantiate": instantiate, "record_spikes": bool(sim.record_spikes),
                   "window_clock": plan.clock_steps is not None}
     run = ContinuousRun(len(plan.spans), net, origin, backend, None, edges, plan.spans, simulation, t_start,
                         [None] * len(plan.spans), [None] * len(plan.spans))
     reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window)
-    settings = RunSettings(duration_ms=edges[-1], dt_ms=sim.dt_ms, count_from_ms=edges[0],
+    settings = RunSettings(duration_ms=edges[-1], dt_ms=plan.dt_ms, count_from_ms=edges[0],
                            record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
                            log=sim.say, progress=sim.progress, on_bin=None if keep_run else reader)
     run.result = backend.simulate(net, inp, settings)

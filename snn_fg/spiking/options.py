@@ -92,7 +92,8 @@ class SimulatorOptions:
 
     ``backend`` is a name or a :class:`~snn_fg.backends.Backend` object (one
     object serves many runs: what it prepares is kept), ``backend_options``
-    the name's constructor options; ``dt_ms`` the time step; ``instantiate``
+    the name's constructor options; ``dt_ms`` the time step (``None``: the
+    network's own, :attr:`~snn_fg.network.Network.dt_ms`); ``instantiate``
     the cells to create (``None``: :meth:`cells_for`); ``record_spikes``
     keeps spike times; ``progress`` prints stage messages and a progress bar
     on stderr, ``log`` receives the messages instead.
@@ -100,7 +101,7 @@ class SimulatorOptions:
 
     backend: str | Backend = DEFAULT_BACKEND
     backend_options: dict | None = None
-    dt_ms: float = 0.5
+    dt_ms: float | None = None
     instantiate: str | None = None
     record_spikes: bool = True
     progress: bool = True
@@ -108,9 +109,14 @@ class SimulatorOptions:
     owner: InitVar[str] = "run_spiking"
 
     def __post_init__(self, owner):
-        object.__setattr__(self, "dt_ms", check.number(owner, "dt_ms", self.dt_ms, lo=0, lo_open=True))
+        if self.dt_ms is not None:
+            object.__setattr__(self, "dt_ms", check.number(owner, "dt_ms", self.dt_ms, lo=0, lo_open=True))
         if self.instantiate is not None:
             check.choice(owner, "instantiate", self.instantiate, ("input", "all"))
+
+    def step_for(self, network: Network) -> float:
+        """The time step of a run of ``network``: ``dt_ms``, or the network's own."""
+        return self.dt_ms if self.dt_ms is not None else network.dt_ms
 
     def backend_object(self) -> Backend:
         return as_backend(self.backend, self.backend_options)

@@ -37,7 +37,7 @@ class RecordingPlan:
     sources that fire (``on``, ``off``), the events merged in a step, and
     the mean rate of an active pixel (``event_rate_hz``, of the events) and
     of an active input source (``spike_rate_hz``, after the input adapter's
-    pooling and refractory period)."""
+    pooling and refractory period), and the run's time step ``dt_ms``."""
 
     network: object
     origin: dict
@@ -50,6 +50,7 @@ class RecordingPlan:
     merged: int
     event_rate_hz: float
     spike_rate_hz: float
+    dt_ms: float
 
     @property
     def adapted(self) -> bool:
@@ -137,20 +138,22 @@ def _event_rate(w, dt_ms: float) -> float | None:
     return len(w.events) / max(active, 1) / span_s
 
 
-def plan_recording(windows, network_options, dt_ms: float, lag_ms: float, window_clock: bool,
+def plan_recording(windows, network_options, simulator, lag_ms: float, window_clock: bool,
                    source: str) -> RecordingPlan:
     """The first pass over ``windows`` (an iterable read once): the network
-    for the first window's frame (``network_options.resolve``) and what the
-    run needs to know before it starts (:class:`RecordingPlan`)."""
+    for the first window's frame (``network_options.resolve``), stepped at
+    ``simulator.step_for(network)``, and what the run needs to know before
+    it starts (:class:`RecordingPlan`)."""
     plan, feed, rates, event_rates, n_events, clock = None, None, None, [], 0, []
     for w in windows:
         if plan is None:
             net, origin = network_options.resolve(w.pos.shape)
-            pool, t0 = net.params.input_pool, w.t_start_us
+            pool, t0, dt_ms = net.params.input_pool, w.t_start_us, simulator.step_for(net)
             stream = SpikeStream(pooled_shape(w.pos.shape, pool), dt_ms, t0, net.input_refractory_ms)
             feed, rates = _NewEvents(stream, pool, t0, dt_ms), _SpikeRates(dt_ms)
             plan = RecordingPlan(network=net, origin=origin, t0_us=t0, shape=w.pos.shape, spans=[],
-                                 clock_steps=None, on=None, off=None, merged=0, event_rate_hz=0.0, spike_rate_hz=0.0)
+                                 clock_steps=None, on=None, off=None, merged=0, event_rate_hz=0.0, spike_rate_hz=0.0,
+                                 dt_ms=dt_ms)
         plan.spans.append(read_out_span(w, plan.t0_us, lag_ms, dt_ms))
         clock.append(_window_steps(w, plan.t0_us, dt_ms)[0])
         rate = _event_rate(w, dt_ms)
@@ -180,8 +183,8 @@ class WindowFeed:
     held until :meth:`window` gives it out (``keep``: held to the end, for a
     run decoded once it is over)."""
 
-    def __init__(self, windows, plan: RecordingPlan, dt_ms: float, *, keep: bool = False):
-        net = plan.network
+    def __init__(self, windows, plan: RecordingPlan, *, keep: bool = False):
+        net, dt_ms = plan.network, plan.dt_ms
         stream = SpikeStream(pooled_shape(plan.shape, net.params.input_pool), dt_ms, plan.t0_us,
                              net.input_refractory_ms)
         self.it, self.keep, self.held, self.done = iter(windows), keep, {}, False

@@ -8,6 +8,7 @@ its figures. The command line and the experiments pick a model by name from
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from abc import ABC, abstractmethod
 from pathlib import Path
@@ -272,7 +273,11 @@ class SpikingModel(Model):
                     maps.extra = {}
                 emit(window, self.named(maps))
 
-        return stream_spiking_windows(windows, done, options=self.run_options.on(self._sim()))
+        options = self.run_options.on(self._sim())
+        if not self.save_spikes:        # (the counts and spike trains would be dropped unread: not made)
+            options = dataclasses.replace(options, simulator=dataclasses.replace(options.simulator,
+                                                                                 record_spikes=False))
+        return stream_spiking_windows(windows, done, options=options)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
         """``maps.png``; and the spike raster and rate histograms where the

@@ -51,6 +51,12 @@ def ladder(alternatives: bool):
         rows.append(("compact with 4 orientations", Lever("", "", {"n_ori": 4}, {}).apply(r)))
         rows.append(("compact without the input refractory period",
                      Lever("", "", {}, {"input_refractory_ms": 0.0}).apply(r)))
+        rows.append(("compact with the input refractory period at 80 ms",
+                     Lever("", "", {}, {"input_refractory_ms": 80.0}).apply(r)))
+        # the two levers taken last, each undone on its own
+        rows.append(("compact at a 0.5 ms time step", Lever("", "", {}, {"dt_ms": 0.5}).apply(r)))
+        rows.append(("compact with kernels pruned at 5 %",
+                     Lever("", "", {}, {"prune_dog": 0.05, "prune_vm": 0.05}).apply(r)))
     return rows
 
 

@@ -35,7 +35,8 @@ silent on them). The default network with one level (the profile cannot
 interpolate between pyramid levels), or with ``--network compact`` the
 compact network's three octave levels on one grid (``--nir-one-grid``), its
 input the sensor's 3 x 3 blocks behind a 40 ms refractory period per
-block; 400 ms, counting from 200 ms, 0.5 ms steps.
+block; 400 ms, counting from 200 ms, in steps of the network's own time
+step (0.5 ms; the compact network 1 ms) in every engine.
 
 Writes experiments/results/nir_consumer.{json,md}.
 Usage: python -m experiments.validation.nir_consumer [--inputs disc dvs] [--duration-ms 400] [--radius 16]
@@ -62,10 +63,7 @@ from snn_fg.network.recipes import RECIPES
 from snn_fg.params import ModelParams
 from snn_fg.spiking.decode import decode, decode_rates
 
-DT_MS = 0.5
-
-
-def disc_input(radius: float, duration_ms: float, pool: int = 1):
+def disc_input(radius: float, duration_ms: float, pool: int, dt_ms: float):
     from snn_fg.events import image_to_frame
     from snn_fg.pyramid.pool import pool_frame
     from snn_fg.lowering.input_spikes import frame_spikes
@@ -74,10 +72,11 @@ def disc_input(radius: float, duration_ms: float, pool: int = 1):
     pos, neg = pool_frame(*image_to_frame(disc(radius).image), pool)
     what = f"disc r{radius:g} ({pos.shape[1] * pool} x {pos.shape[0] * pool}" + (f", {pool} x {pool} blocks)"
                                                                             if pool > 1 else ")")
-    return frame_spikes(pos, neg, 200.0, DT_MS, duration_ms), what, disc(radius).image.shape
+    return frame_spikes(pos, neg, 200.0, dt_ms, duration_ms), what, disc(radius).image.shape
 
 
-def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0, pool: int = 1, refractory_ms: float = 0.0):
+def dvs_input(dt_ms: float, shape=(48, 64), start_ms=100.0, window_ms=85.0, pool: int = 1,
+              refractory_ms: float = 0.0):
     """The sensor's ``shape`` crop (rows, cols) centred on the window's mean
     event position, its events pooled into ``pool`` x ``pool`` blocks as the
     network's input adapter does."""
@@ -91,7 +90,7 @@ def dvs_input(shape=(48, 64), start_ms=100.0, window_ms=85.0, pool: int = 1, ref
     r0, c0 = centroid_crop(win.events, shape, win.pos.shape)
     ev = pool_events(crop_events(win.events, (r0, c0), shape), pool)
     h, w = pooled_shape(shape, pool)
-    inp = event_spikes(ev, (w, h), DT_MS, replay=True, t0_us=win.t_start_us, refractory_ms=refractory_ms)
+    inp = event_spikes(ev, (w, h), dt_ms, replay=True, t0_us=win.t_start_us, refractory_ms=refractory_ms)
     return inp, (f"dvs.es {win.t_start_us}..{win.t_end_us} us, {shape[1]} x {shape[0]} crop at x={c0}, y={r0}"
                  + (f", {pool} x {pool} blocks" if pool > 1 else "")), shape
 
@@ -112,7 +111,8 @@ DRIVES = (1.0, 2.0, 4.0, 8.0, 16.0)
 
 def _reference(net, inp, duration_ms: float):
     """The run settings (counting the second half) and the fast engine's maps of the exported network."""
-    settings = RunSettings(duration_ms=duration_ms, count_from_ms=duration_ms / 2, instantiate="all")
+    settings = RunSettings(duration_ms=duration_ms, dt_ms=net.dt_ms, count_from_ms=duration_ms / 2,
+                           instantiate="all")
     return settings, decode(get_backend("fast").simulate(board_network(net), inp, settings))[:3]
 
 
@@ -121,9 +121,9 @@ def encoding_choices(net, inp, settings, ref, one_grid: bool) -> dict:
     network for each way of standing in for the refractory period, and with
     the exported network's own timing (which the graph cannot hold)."""
     fast, board = get_backend("fast"), board_network(net)
-    one_step = snntorch_network(net, DT_MS, one_grid=one_grid)
+    one_step = snntorch_network(net, one_grid=one_grid)
     nets = {"one step (default)": one_step}
-    nets.update({f"deeper reset, drive {k:g}": snntorch_network(net, DT_MS, one_grid=one_grid, deeper_reset=True,
+    nets.update({f"deeper reset, drive {k:g}": snntorch_network(net, one_grid=one_grid, deeper_reset=True,
                                                                reset_drive=k) for k in DRIVES})
     for label, d, r in (("own delays (no NIR consumer runs them)", True, False),
                         ("own refractory periods (no NIR node has them)", False, True),
@@ -138,9 +138,9 @@ def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False, dee
     import torch
 
     torch.set_num_threads(1)
-    profile = snntorch_network(net, DT_MS, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
+    profile = snntorch_network(net, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
     path = tmp / "graph.nir"
-    nir.write(path, to_nir_snntorch(net, step_ms=DT_MS, one_grid=one_grid, deeper_reset=deeper_reset,
+    nir.write(path, to_nir_snntorch(net, one_grid=one_grid, deeper_reset=deeper_reset,
                                     reset_drive=reset_drive))
     t0 = time.perf_counter()
     settings, ref = _reference(net, inp, duration_ms)
@@ -148,7 +148,7 @@ def compare(net, inp, duration_ms: float, tmp: Path, one_grid: bool = False, dee
     enc = decode(enc_run)[:3]
     choices = encoding_choices(net, inp, settings, ref, one_grid)
     t1 = time.perf_counter()
-    counts = run_snntorch(nir.read(path), net, inp, step_ms=DT_MS, duration_ms=duration_ms,
+    counts = run_snntorch(nir.read(path), net, inp, step_ms=net.dt_ms, duration_ms=duration_ms,
                           count_from_ms=duration_ms / 2, one_grid=one_grid)
     t2 = time.perf_counter()
     window_s = duration_ms / 2 / 1e3
@@ -216,12 +216,13 @@ def main(argv=None):
     compact = args.network == "compact"
     recipe = RECIPES["compact"]
     pool, refractory = (recipe.params.input_pool, recipe.spiking.input_refractory_ms) if compact else (1, 0.0)
+    dt_ms = (recipe if compact else RECIPES["default"]).spiking.dt_ms
     path = RESULTS / "nir_consumer.json"
     out = json.loads(path.read_text()) if path.exists() else {"inputs": {}}
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.inputs:
-            inp, what, sensor = (disc_input(args.radius, args.duration_ms, pool) if name == "disc" else
-                                 dvs_input(start_ms=args.dvs_start_ms, pool=pool, refractory_ms=refractory))
+            inp, what, sensor = (disc_input(args.radius, args.duration_ms, pool, dt_ms) if name == "disc" else
+                                 dvs_input(dt_ms, start_ms=args.dvs_start_ms, pool=pool, refractory_ms=refractory))
             net = recipe.build(sensor) if compact else build_network(ModelParams(levels=1), inp.shape)
             net = net.calibrated(inp.rate_hz)           # as snn-fg run calibrates it
             run = Run()
@@ -233,6 +234,7 @@ def main(argv=None):
                             reset_drive=args.reset_drive)
             r.update(what=what, duration_ms=args.duration_ms, run=run.record(),
                      network=("compact, 3 levels on one grid" if compact else "default, 1 level")
+                     + f", {net.dt_ms:g} ms steps"
                      + (f", refractory as deeper reset (drive {args.reset_drive:g})" if deeper else ""))
             key = (f"compact {name}" if compact else name) + (f" from {args.dvs_start_ms:g} ms" if name == "dvs"
                                                              and args.dvs_start_ms != 100 else "")

@@ -9,7 +9,7 @@ a 346 x 260 DAVIS or an image alike.
   ``SpikingParams()``), the network every fidelity result is about.
 * ``compact``: the same stages in a form that fits one Loihi 2 chip at the
   iCub's 304 x 240 and aims at real time on one CPU core: the sensor pooled
-  3 x 3, an input that passes on one event of a block per 80 ms,
+  3 x 3, an input that passes on one event of a block per 40 ms,
   octave-spaced levels, excess cells on the grouping lattice, a stronger
   window clock, a 1 ms time step and kernels pruned at 20 % of their peak.
   ``docs/model.md`` ("The compact network") gives each choice with what it
@@ -66,8 +66,8 @@ class Lever:
 COMPACT_LEVERS = (
     Lever("pooled input", "the sensor pooled 3 x 3 before stage 1 (the model sees blocks), R0 = 4 blocks (12 px)",
           {"input_pool": 3, "r0": 4.0, "levels": 7}, {}),
-    Lever("input refractory period", "a block and polarity passes on one event per 80 ms",
-          {}, {"input_refractory_ms": 80.0}),
+    Lever("input refractory period", "a block and polarity passes on one event per 40 ms",
+          {}, {"input_refractory_ms": 40.0}),
     Lever("octave levels", "3 levels an octave apart (1/2, not 1/sqrt(2))", {"levels_per_octave": 1, "levels": 3}, {}),
     Lever("excess cells on the grouping lattice", "one excess cell per 2 x 2 block of border-ownership cells",
           {}, {"excess_stride": 2}),

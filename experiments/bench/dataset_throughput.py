@@ -67,8 +67,9 @@ def _markdown(rec) -> list[str]:
                      f"{min(loads):.1f}-{max(loads):.1f}"])
     runs = [[r["model"], r["workers"], r["round"], r["windows"], f"{r['wall_s']:.1f}", f"{r['windows_per_s']:.2f}",
              f"{r['load']:.1f}"] for r in rec["runs"]]
+    per = rec["runs"][0]["windows"] // rec["recordings"]
     return ["# Windows per second over a folder of recordings, 1 and 2 local workers", "", describe(rec["run"]), "",
-            f"{rec['recordings']} copies of `dvs.es` (320 x 240, 1 s, 11 windows of 85 ms each) as `.npy` "
+            f"{rec['recordings']} copies of `dvs.es` (320 x 240, 1 s: {per} windows of 85 ms each) as `.npy` "
             "recordings; `snn-fg run FOLDER --workers N --no-figures`, a fresh process and output folder per run, "
             "the worker counts alternating. Windows per second: the summary's windows over the command's wall "
             "time. Medians over the rounds:", ""] + markdown_table(

@@ -162,6 +162,25 @@ def _keep_after_gap(idx, step, gap, last, keep):
             last[idx[e]] = step[e]
 
 
+def source_index(x, y, p, shape) -> np.ndarray:
+    """The input source of events at ``(x, y)`` with polarity ``p`` on a
+    grid of ``shape`` ``(H, W)``: ON ``y * W + x``, OFF ``H * W + y * W + x``."""
+    h, w = shape
+    return (np.asarray(y).astype(np.int64) * w + np.asarray(x).astype(np.int64)) + np.where(np.asarray(p) > 0, 0, h * w)
+
+
+def step_spikes(step: np.ndarray, idx: np.ndarray, n_sources: int, gap: int, last: np.ndarray | None = None):
+    """Spikes ``(indices, steps, merged)`` of events ``(step, idx)``: each
+    source's events ``gap`` steps apart at least (:func:`keep_after_refractory`,
+    ``last`` as there), then one spike per source and step, sorted by step
+    and source; ``merged`` counts the events that fell in a step their
+    source already fired in."""
+    if gap > 0:
+        step, idx = keep_after_refractory(step, idx, gap, last)
+    key = np.unique(step * n_sources + idx)
+    return key % n_sources, key // n_sources, int(idx.size - key.size)
+
+
 def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source: str = "<events>",
                  t0_us: float | None = None, refractory_ms: float = 0.0) -> InputSpikes:
     """Spike trains from timed events (tonic-style: x, y, t in microseconds, p).
@@ -197,14 +216,8 @@ def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source:
         raise InputError(source, f"an event at t={t.min():g} us lies before the start t0={t0:g} us",
                          f"event {int(np.argmin(t))}")
     step = np.floor((t - t0) / (dt_ms * 1000.0)).astype(np.int64)
-    pol_on = p > 0
-    idx = (y.astype(np.int64) * w + x.astype(np.int64)) + np.where(pol_on, 0, h * w)
-    if refractory_ms > 0:
-        step, idx = keep_after_refractory(step, idx, int(round(refractory_ms / dt_ms)))
-    key = np.unique(step * (2 * h * w) + idx)
-    merged = int(idx.size - key.size)
-    idx_u = key % (2 * h * w)
-    st_u = key // (2 * h * w)
+    gap = int(round(refractory_ms / dt_ms)) if refractory_ms > 0 else 0
+    idx_u, st_u, merged = step_spikes(step, source_index(x, y, p, (h, w)), 2 * h * w, gap)
     period = int(st_u.max()) + 1 if replay else None
     on = np.zeros(h * w, bool)
     off = np.zeros(h * w, bool)
@@ -212,6 +225,6 @@ def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source:
     off[idx_u[idx_u >= h * w] - h * w] = True
     n_active = int(on.sum() + off.sum())
     span_s = (period if period else int(st_u.max()) + 1) * dt_ms / 1000.0
-    rate = key.size / max(n_active, 1) / span_s
+    rate = idx_u.size / max(n_active, 1) / span_s
     return InputSpikes((h, w), idx_u, st_u, period, on.reshape(h, w), off.reshape(h, w), float(rate), merged,
                        "events")

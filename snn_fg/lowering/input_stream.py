@@ -19,7 +19,7 @@ import dataclasses
 
 import numpy as np
 
-from .input_spikes import InputSpikes, keep_after_refractory
+from .input_spikes import InputSpikes, source_index, step_spikes
 
 
 class SpikeStream:
@@ -58,8 +58,7 @@ class SpikeStream:
         if not len(events):
             return
         step = np.floor((events["t"].astype(np.float64) - self.t0_us) / self.step_us).astype(np.int64)
-        idx = events["y"].astype(np.int64) * self.w + events["x"].astype(np.int64)
-        idx += np.where(events["p"] > 0, 0, self.h * self.w)
+        idx = source_index(events["x"], events["y"], events["p"], (self.h, self.w))
         self.steps, self.indices = np.concatenate([self.steps, step]), np.concatenate([self.indices, idx])
 
     def take_until(self, end_step: int) -> tuple[np.ndarray, np.ndarray]:
@@ -69,13 +68,10 @@ class SpikeStream:
         now = self.steps < end_step
         step, idx = self.steps[now], self.indices[now]
         self.steps, self.indices = self.steps[~now], self.indices[~now]
-        if self.gap > 0:
-            step, idx = keep_after_refractory(step, idx, self.gap, self.last)
-        n = 2 * self.h * self.w
-        key = np.unique(step * n + idx)
-        self.merged += int(idx.size - key.size)
-        self.fired[key % n] = True
-        return key % n, key // n
+        idx, step, merged = step_spikes(step, idx, 2 * self.h * self.w, self.gap, self.last)
+        self.merged += merged
+        self.fired[idx] = True
+        return idx, step
 
     @property
     def on(self) -> np.ndarray:

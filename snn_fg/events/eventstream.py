@@ -33,6 +33,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from snn_fg.errors import InputError
 from snn_fg.events._core import check_sensor_size, pack_events
@@ -48,9 +49,6 @@ _TYPE_OFFSET = _VERSION_OFFSET + 3
 _SIZE_OFFSET = _TYPE_OFFSET + 1  # width, height: little-endian uint16
 _BODY_OFFSET = _SIZE_OFFSET + 4
 _EVENT_BYTES = 5
-_FIRST_WINDOW = 256        # events cut out per numpy step at first ...
-_MAX_WINDOW = 1 << 20      # ... growing up to this while no special byte interrupts
-_SCALAR_STEPS = 1024       # bytes or events walked one by one where special bytes are frequent
 
 
 @dataclass(frozen=True)
@@ -169,51 +167,34 @@ def iter_records(path, header: Header, read_bytes: int = READ_BYTES):
                          f"byte offset {base}")
 
 
+@njit(cache=True, nogil=True)
 def _scan(buf: np.ndarray, special: int):
     """Walk the byte state machine over ``buf`` from idle.
 
     Returns the start offsets of the whole events, the offsets of the special
     bytes, and how many bytes were used (the rest is an incomplete event).
-    Where events follow each other without special bytes (busy recordings)
-    they are cut out with numpy, ``window`` at a time; where special bytes are
-    frequent (time gaps longer than the time field holds, common in sparse
-    ATIS recordings) a plain loop over the bytes is faster than numpy calls.
+    A byte at an event boundary is either special (``>= special``: a time
+    overflow, one byte) or the first of a 5-byte event. Compiled: the walk is
+    one test per event, which in Python took about a fifth of a second per
+    second of a busy DVS recording.
     """
-    data = buf.tobytes()
-    n = len(data)
+    n = buf.size
+    starts = np.empty(n // _EVENT_BYTES + 1, dtype=np.int64)
+    specials = np.empty(n, dtype=np.int64)
+    n_starts = n_specials = 0
     pos = 0
-    starts, specials = [], []
-    window = _FIRST_WINDOW
     while pos < n:
-        m = min((n - pos) // _EVENT_BYTES, window)
-        if m >= _FIRST_WINDOW and data[pos] < special:
-            # assume m whole events from pos; they end at the first byte 0 that is special
-            hit = buf[pos:pos + _EVENT_BYTES * m:_EVENT_BYTES] >= special
-            k = int(np.argmax(hit)) if hit.any() else m
-            starts.append(pos + _EVENT_BYTES * np.arange(k))
-            pos += _EVENT_BYTES * k
-            window = min(window * 4, _MAX_WINDOW) if k == m else _FIRST_WINDOW
-            if k >= _FIRST_WINDOW:
-                continue
-        one_by_one, gaps = [], []
-        for _ in range(_SCALAR_STEPS):
-            if pos >= n:
-                break
-            if data[pos] >= special:
-                gaps.append(pos)
-                pos += 1
-            elif pos + _EVENT_BYTES <= n:
-                one_by_one.append(pos)
-                pos += _EVENT_BYTES
-            else:
-                break  # an event cut by the end of the buffer
-        starts.append(np.array(one_by_one, dtype=np.int64))
-        specials.append(np.array(gaps, dtype=np.int64))
-        if pos < n and data[pos] < special and pos + _EVENT_BYTES > n:
-            break
-    empty = np.zeros(0, dtype=np.int64)
-    return (np.concatenate(starts) if starts else empty,
-            np.concatenate(specials) if specials else empty, pos)
+        if buf[pos] >= special:
+            specials[n_specials] = pos
+            n_specials += 1
+            pos += 1
+        elif pos + _EVENT_BYTES <= n:
+            starts[n_starts] = pos
+            n_starts += 1
+            pos += _EVENT_BYTES
+        else:
+            break  # an event cut by the end of the buffer
+    return starts[:n_starts].copy(), specials[:n_specials].copy(), pos
 
 
 def _check_coordinates(path, header: Header, x, y, starts, base):

@@ -90,7 +90,7 @@ class ZarrArray:
 
     def __init__(self, path: Path, length: int | None = None):
         self.path = Path(path)
-        meta = json.loads((self.path / ".zarray").read_text())
+        self.meta = meta = json.loads((self.path / ".zarray").read_text())
         self.dtype = np.dtype(meta["dtype"]) if meta["dtype"] != "|O" else _TEXT
         self.chunks = tuple(meta["chunks"])
         shape = tuple(meta["shape"])
@@ -171,10 +171,9 @@ class GrowingArray(ZarrArray):
 
     def resize(self, n: int) -> None:
         """Declare ``n`` rows (rows past ``n`` are written again as the array grows)."""
-        meta = json.loads((self.path / ".zarray").read_text())
-        meta["shape"][0] = self.n = n
+        self.meta["shape"][0] = self.n = n
         self.shape = (n,) + self.shape[1:]
-        _write_json(self.path / ".zarray", meta)
+        _write_json(self.path / ".zarray", self.meta)
 
 
 def read_attrs(path) -> dict:

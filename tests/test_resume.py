@@ -60,8 +60,11 @@ def test_a_cut_spiking_run_keeps_its_windows_and_resume_gives_the_uncut_maps(rec
     out.mkdir()
     with pytest.raises(KeyboardInterrupt):
         _run(recording, out)
-    # each window came out while the one simulation ran, the ones before it already in the store
-    assert seen == [(0, True), (1, True), (2, True), (3, True)]
+    # each window came out with the ones before it already in the store, and while the one simulation
+    # ran: at most two behind it when they are decoded on a second thread (then window k is written
+    # before window k + 2 leaves the simulation)
+    assert [n for n, _ in seen] == [0, 1, 2, 3]
+    assert seen[0][1] and seen[1][1]
     cut = Maps.load(out)
     assert cut.fg_x.shape[0] == 3 and not read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
     monkeypatch.setattr(runner, "_append_window", real)

@@ -27,7 +27,10 @@ is made a list first.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from types import SimpleNamespace
 
 import numpy as np
@@ -168,14 +171,24 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     run = ContinuousRun(len(plan.spans), net, origin, backend, None, edges, plan.spans, simulation, t_start,
                         [None] * len(plan.spans), [None] * len(plan.spans))
     reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window)
+    simulation["decode_thread"] = reader.threaded
     settings = RunSettings(duration_ms=edges[-1], dt_ms=plan.dt_ms, count_from_ms=edges[0],
                            record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
                            log=sim.say, progress=sim.progress, on_bin=None if keep_run else reader)
-    run.result = backend.simulate(net, inp, settings)
-    if run.result.binned_counts is not None:        # (a backend that kept its bins)
-        for k, bin_result in each_bin(run.result):
-            reader(k, bin_result)
+    with reader:
+        run.result = backend.simulate(net, inp, settings)
+        if run.result.binned_counts is not None:        # (a backend that kept its bins)
+            for k, bin_result in each_bin(run.result):
+                reader(k, bin_result)
     return run
+
+
+def usable_cores() -> int:
+    """How many cores this process may run on (its affinity, where the system says)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:          # (not Linux)
+        return os.cpu_count() or 1
 
 
 def _bins_of(span, edges) -> tuple[int, int]:
@@ -190,14 +203,47 @@ class _WindowReader:
     into ``run.decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``, or as
     its maps to ``on_window(window, maps)``. Only the windows still being
     read hold their counts and spikes; the windows themselves come from
-    ``feed`` (:class:`~snn_fg.spiking.recording_input.WindowFeed`)."""
+    ``feed`` (:class:`~snn_fg.spiking.recording_input.WindowFeed`).
 
-    def __init__(self, feed: WindowFeed, spans, edges, pool: int, run: ContinuousRun, on_window=None):
+    Where the process may use more than one core, a window is decoded and
+    handed to ``on_window`` on a second thread while the simulation goes
+    on (the fast engine's loop runs without the interpreter lock): windows
+    still leave in order, at most :attr:`AHEAD` wait, and an error raised
+    there is raised again here. Used as a context manager, which waits for
+    the last window (or, on an error, for the one being written)."""
+
+    #: windows handed to the decoding thread and not yet finished
+    AHEAD = 2
+
+    def __init__(self, feed: WindowFeed, spans, edges, pool: int, run: ContinuousRun, on_window=None,
+                 threaded: bool | None = None):
         self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
         self.bins = [_bins_of(span, edges) for span in spans]
         self.first = 0          # the first window not decoded yet (spans start and end in order)
         self.reading: dict = {}
         self.last_at = run.t_start          # perf_counter() when the last window was decoded
+        self.threaded = usable_cores() > 1 if threaded is None else threaded
+        self.worker = None
+        self.pending: deque = deque()
+        self.failed = False
+
+    def __enter__(self):
+        if self.threaded:
+            self.worker = ThreadPoolExecutor(1, thread_name_prefix="snn-fg-decode")
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        if self.worker is None:
+            return
+        if kind is None:
+            self._wait(0)
+        self.worker.shutdown(wait=True, cancel_futures=True)
+        self.worker = None
+
+    def _wait(self, most: int):
+        """Wait until at most ``most`` windows are pending, raising their errors."""
+        while len(self.pending) > most:
+            self.pending.popleft().result()
 
     def __call__(self, k: int, result):
         i = self.first
@@ -217,19 +263,34 @@ class _WindowReader:
         if k == k1 - 1:
             del self.reading[i]
             w = self.feed.window(i)
-            decoded, before, self.last_at = self._decode(i, w, result, counts, spikes), self.last_at, \
-                time.perf_counter()
-            if self.on_window is None:
-                self.run.decoded[i], self.run.decoded_at[i] = decoded, self.last_at
+            if self.worker is None:
+                self._finish(i, w, result, counts, spikes)
             else:
-                self.on_window(w, _maps_of(self.run, i, decoded, result, self.last_at - before))
+                self._wait(self.AHEAD - 1)
+                self.pending.append(self.worker.submit(self._finish, i, w, result, counts, spikes))
+
+    def _finish(self, i, w, result, counts, spikes):
+        if self.failed:             # (an earlier window failed on the thread: none after it)
+            return
+        try:
+            self._hand(i, w, result, counts, spikes)
+        except BaseException:
+            self.failed = True
+            raise
+
+    def _hand(self, i, w, result, counts, spikes):
+        decoded, before = self._decode(i, w, result, counts, spikes), self.last_at
+        self.last_at = time.perf_counter()
+        if self.on_window is None:
+            self.run.decoded[i], self.run.decoded_at[i] = decoded, self.last_at
+        else:
+            self.on_window(w, _maps_of(self.run, i, decoded, result, self.last_at - before))
 
     def _decode(self, i, w, result, counts, spikes):
         k0, k1 = self.bins[i]
         trains = None
         if spikes:
-            trains = {n: (np.concatenate([s[n][0] for s in spikes]), np.concatenate([s[n][1] for s in spikes]))
-                      for n in spikes[0]}
+            trains = {n: tuple(np.concatenate([s[n][j] for s in spikes]) for j in range(2)) for n in spikes[0]}
         window_result = dataclasses.replace(result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0],
                                             spikes=trains)
         fg_x, fg_y, grouping = unpool_maps(*decode(window_result)[:3], w.pos | w.neg, self.pool)

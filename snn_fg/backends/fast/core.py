@@ -125,7 +125,7 @@ def _merge(act, n_act, new, n_new, tmp):
     return k
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def run_steps(n0, n1, run, numbering, tables):
     """Simulate steps ``n0 .. n1-1``; returns the step reached (less than
     ``n1`` when the spike log is too small for the next step: grow it and

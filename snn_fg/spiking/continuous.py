@@ -154,14 +154,16 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     sim, lag = opts.simulator, opts.recording.readout_lag_ms
     if iter(windows) is windows:            # (read once only: kept, to be read twice)
         windows = list(windows)
-    plan = plan_recording(windows, opts.network, sim, lag, opts.recording.window_clock, source)
+    threaded = usable_cores() > 1
+    plan = plan_recording(read_ahead(windows) if threaded else windows, opts.network, sim, lag,
+                          opts.recording.window_clock, source)
     net, origin, rate = plan.network, plan.origin, plan.rate_hz
     if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
         net = net.calibrated(rate)
     edges = sorted({t for span in plan.spans for t in span})
     backend = sim.backend_object()
-    feed = WindowFeed(windows, plan, keep=keep_run)
+    feed = WindowFeed(read_ahead(windows) if threaded else windows, plan, keep=keep_run)
     inp = feed.input if backend.streams_input else feed.input.whole()
     instantiate = sim.cells_for(backend, inp)
     simulation = {"mode": "continuous", "simulated_ms": edges[-1], "network_builds": 1, "readout_lag_ms": lag,
@@ -170,7 +172,7 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
                   "window_clock": plan.clock_steps is not None}
     run = ContinuousRun(len(plan.spans), net, origin, backend, None, edges, plan.spans, simulation, t_start,
                         [None] * len(plan.spans), [None] * len(plan.spans))
-    reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window)
+    reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window, threaded)
     simulation["decode_thread"] = reader.threaded
     settings = RunSettings(duration_ms=edges[-1], dt_ms=plan.dt_ms, count_from_ms=edges[0],
                            record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
@@ -191,6 +193,21 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
+def read_ahead(windows):
+    """Iterate ``windows`` with the next one read on a second thread
+    meanwhile (decoding a recording's file releases the interpreter lock in
+    its compiled byte walk and in numpy)."""
+    it, end = iter(windows), object()
+    with ThreadPoolExecutor(1, thread_name_prefix="snn-fg-read") as ahead:
+        coming = ahead.submit(next, it, end)
+        while True:
+            w = coming.result()
+            if w is end:
+                return
+            coming = ahead.submit(next, it, end)
+            yield w
+
+
 def _bins_of(span, edges) -> tuple[int, int]:
     """The counting bins ``k0 .. k1 - 1`` that make up a read-out span (spans
     are made of edges)."""
@@ -205,10 +222,10 @@ class _WindowReader:
     read hold their counts and spikes; the windows themselves come from
     ``feed`` (:class:`~snn_fg.spiking.recording_input.WindowFeed`).
 
-    Where the process may use more than one core, a window is decoded and
-    handed to ``on_window`` on a second thread while the simulation goes
-    on (the fast engine's loop runs without the interpreter lock): windows
-    still leave in order, at most :attr:`AHEAD` wait, and an error raised
+    ``threaded`` (where the process may use more than one core): a window
+    is decoded and handed to ``on_window`` on a second thread while the
+    simulation goes on (the fast engine's loop runs without the interpreter
+    lock): windows still leave in order, at most :attr:`AHEAD` wait, and an error raised
     there is raised again here. Used as a context manager, which waits for
     the last window (or, on an error, for the one being written)."""
 
@@ -216,13 +233,13 @@ class _WindowReader:
     AHEAD = 2
 
     def __init__(self, feed: WindowFeed, spans, edges, pool: int, run: ContinuousRun, on_window=None,
-                 threaded: bool | None = None):
+                 threaded: bool = False):
         self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
         self.bins = [_bins_of(span, edges) for span in spans]
         self.first = 0          # the first window not decoded yet (spans start and end in order)
         self.reading: dict = {}
         self.last_at = run.t_start          # perf_counter() when the last window was decoded
-        self.threaded = usable_cores() > 1 if threaded is None else threaded
+        self.threaded = threaded
         self.worker = None
         self.pending: deque = deque()
         self.failed = False

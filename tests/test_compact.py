@@ -41,10 +41,31 @@ def test_maps_come_back_at_the_sensor_size_on_its_event_pixels_only():
     fx[0, 0], fx[2, 3] = 2.0, -1.0
     g = np.arange(12, dtype=np.float32).reshape(3, 4)
     ux, uy, ug = unpool_maps(fx, fx, g, edges, 2)
-    assert ux.shape == ug.shape == (5, 7)
-    assert ux[0, 1] == ux[1, 0] == 2.0 and ux[4, 6] == -1.0
-    assert ux[0, 0] == 0.0 and np.count_nonzero(ux) == 3        # only the event pixels
+    assert ux.shape == uy.shape == ug.shape == (5, 7)
+    # every event pixel keeps its block's vector's length; no other pixel gets one
+    length = np.hypot(ux, uy)
+    np.testing.assert_allclose(length[[0, 1, 4], [1, 0, 6]], [2 * np.sqrt(2), 2 * np.sqrt(2), np.sqrt(2)], rtol=1e-6)
+    assert np.count_nonzero(length) == 3
     assert ug.min() >= g.min() and ug.max() <= g.max()
+
+
+def test_a_blocks_vector_turns_onto_the_edge_normal_and_keeps_its_side():
+    """On a straight line of events a block's vector, 30 degrees off the
+    line's normal, comes back along the normal, on the side it pointed to
+    and as long; a lone event (no direction around it) keeps the block's."""
+    edges = np.zeros((24, 36), bool)
+    edges[:, 10] = True                     # a vertical edge: normal along x
+    edges[12, 31] = True                    # a lone event, 7 blocks from it
+    for side in (1, -1):
+        angle = np.radians(30 if side > 0 else 210)
+        fx = np.full((8, 12), 0.5 * np.cos(angle), np.float32)
+        fy = np.full((8, 12), 0.5 * np.sin(angle), np.float32)
+        ux, uy, _ = unpool_maps(fx, fy, np.zeros((8, 12), np.float32), edges, 3)
+        line = np.degrees(np.arctan2(uy[4:20, 10], ux[4:20, 10]))
+        np.testing.assert_allclose(np.abs(line), 0 if side > 0 else 180, atol=1.0)
+        np.testing.assert_allclose(np.hypot(ux, uy)[edges], 0.5, rtol=1e-5)
+        lone = np.degrees(np.arctan2(uy[12, 31], ux[12, 31])) % 360
+        assert abs(lone - np.degrees(angle) % 360) < 1.0
 
 
 def test_octave_levels_halve_the_frame_and_the_default_steps_are_unchanged():

@@ -6,8 +6,10 @@ model pixel ``(x // p, y // p)``, and a block of an event frame is ON (OFF)
 where any of its pixels is (a block can be both, as a pixel of a recording
 with ON and OFF events in one window drives both of its spike sources). A
 partial block at the right or bottom edge counts as a whole one. The maps
-come back at the sensor's size: every event pixel takes its block's
-figure-ground vector, and the grouping map is resized bilinearly.
+come back at the sensor's size (:func:`unpool_maps`): every event pixel
+takes its block's figure-ground vector, turned towards the pixel's own edge
+normal (the network decides the side, the sensor's pixels say where the
+edge runs), and the grouping map is resized bilinearly.
 
 On a board this is the input adapter's job (an FPGA or host binning the
 camera's events), so the network's spike sources are the blocks.
@@ -52,18 +54,67 @@ def pool_events(events: np.ndarray, pool: int) -> np.ndarray:
     return out
 
 
+#: scale (sensor pixels) over which the event frame is smoothed before its
+#: gradients are taken for the edge normals of :func:`edge_normals`
+NORMAL_SIGMA = 1.0
+
+
+def edge_normals(edges: np.ndarray, pool: int):
+    """The edge normal at every pixel of a sensor's event frame ``edges``
+    (H x W) and how line-like the events around it are: ``(nx, ny,
+    coherence)``, ``(nx, ny)`` a unit vector (x right, y up) of arbitrary
+    sign, ``coherence`` in [0, 1] (1: a straight line of events; 0: no
+    direction, such as a lone event or a corner).
+
+    From the structure tensor: the gradients of the frame smoothed over
+    :data:`NORMAL_SIGMA`, their products averaged over a block (``pool``
+    pixels); the normal is its leading eigenvector, the coherence
+    ``(l1 - l2) / (l1 + l2)`` of its eigenvalues."""
+    from scipy.ndimage import gaussian_filter
+
+    e = gaussian_filter(np.asarray(edges, dtype=np.float64), NORMAL_SIGMA)
+    d_row, d_col = np.gradient(e)
+    gx, gy = d_col, -d_row
+    jxx, jyy, jxy = (gaussian_filter(a, float(pool)) for a in (gx * gx, gy * gy, gx * gy))
+    phi = 0.5 * np.arctan2(2.0 * jxy, jxx - jyy)
+    trace = jxx + jyy
+    spread = np.hypot(jxx - jyy, 2.0 * jxy)
+    coherence = np.divide(spread, trace, out=np.zeros_like(trace), where=trace > 1e-12)
+    return np.cos(phi), np.sin(phi), np.clip(coherence, 0.0, 1.0)
+
+
 def unpool_maps(fg_x, fg_y, grouping, edges: np.ndarray, pool: int):
     """Maps on the block grid back at the sensor's size (``edges``: H x W,
-    the sensor's event pixels): each event pixel takes its block's vector;
-    the grouping map is resized bilinearly."""
+    the sensor's event pixels); the grouping map is resized bilinearly.
+
+    Each event pixel takes its block's vector ``v``, turned towards the
+    pixel's own edge normal ``n`` (:func:`edge_normals`), on the side ``v``
+    points to: the vector becomes ``|v|`` times the unit vector along
+    ``c s n + (1 - c) v / |v|``, with ``s = sign(v . n)`` and ``c`` the
+    coherence. A block's vector has the block's angle, which on a curved
+    or slanted edge is off the edge's own normal by up to the block's
+    width; the side is the network's decision and is kept. Where the
+    events around a pixel make no line (``c`` near 0) the block's vector
+    stays as it is."""
     if pool == 1:
         return fg_x, fg_y, grouping
     h, w = edges.shape
     on = np.asarray(edges) != 0
 
     def up(a):
-        return np.where(on, np.repeat(np.repeat(a, pool, axis=0), pool, axis=1)[:h, :w], 0).astype(a.dtype)
+        return np.where(on, np.repeat(np.repeat(np.asarray(a, np.float64), pool, axis=0), pool, axis=1)[:h, :w], 0)
 
+    bx, by = up(fg_x), up(fg_y)
+    mag = np.hypot(bx, by)
+    nx, ny, c = edge_normals(on, pool)
+    s = np.where(bx * nx + by * ny >= 0, 1.0, -1.0)
+    unit_x = np.divide(bx, mag, out=np.zeros_like(mag), where=mag > 0)
+    unit_y = np.divide(by, mag, out=np.zeros_like(mag), where=mag > 0)
+    tx, ty = c * s * nx + (1 - c) * unit_x, c * s * ny + (1 - c) * unit_y
+    t = np.hypot(tx, ty)
+    ok = mag > 0
+    ux = np.divide(mag * tx, t, out=np.zeros_like(mag), where=ok & (t > 0))
+    uy = np.divide(mag * ty, t, out=np.zeros_like(mag), where=ok & (t > 0))
     g = np.asarray(grouping)
     whole = resize(g.astype(np.float64), (g.shape[0] * pool, g.shape[1] * pool), "linear")
-    return up(fg_x), up(fg_y), whole[:h, :w].astype(g.dtype)
+    return ux.astype(np.asarray(fg_x).dtype), uy.astype(np.asarray(fg_y).dtype), whole[:h, :w].astype(g.dtype)

@@ -91,14 +91,21 @@ def dvs(network: str, bits) -> tuple[list[dict], list]:
 
 
 def recipe_digest(name: str) -> str:
-    """A short digest of recipe ``name``'s parameters: cached results of a
-    recipe that has changed since are not read back."""
+    """A short digest of recipe ``name``'s parameters, and for a pooled
+    network of the code that brings its maps back to the sensor's size:
+    cached results of a recipe or read-out that has changed since are not
+    read back."""
     import hashlib
+    import inspect
 
+    import snn_fg.pyramid.pool as pool
     from snn_fg.network.recipes import RECIPES
 
     r = RECIPES[name]
-    text = json.dumps([r.params.to_dict(), r.spiking.to_dict()], sort_keys=True, default=str)
+    parts = [r.params.to_dict(), r.spiking.to_dict()]
+    if r.params.input_pool > 1:
+        parts.append(inspect.getsource(pool))
+    text = json.dumps(parts, sort_keys=True, default=str)
     return hashlib.sha1(text.encode()).hexdigest()[:8]
 
 

@@ -105,7 +105,10 @@ def _stream(data):
         ev = ""
         if "synaptic_events_per_window" in r:
             ev = f", {r['synaptic_events_per_window']:.3g} synaptic events at {r['ns_per_synaptic_event']:.1f} ns"
-        print(f"  {eng:34s} median {1000 * r['median_window_s']:7.1f} ms "
+        rounds, each = "", r.get("rounds_median_window_s", [])
+        if len(each) > 1:
+            rounds = f" (rounds {1000 * min(each):.0f}-{1000 * max(each):.0f} ms)"
+        print(f"  {eng:34s} median {1000 * r['median_window_s']:7.1f} ms{rounds} "
               f"({'within' if r['median_window_s'] <= REAL_TIME_S else 'over'} real time; whole run "
               f"{1000 * r['wall_s_per_window']:.0f} ms per window{ev}), peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]")
     for eng, r in data.items():

@@ -59,23 +59,25 @@ def pool_events(events: np.ndarray, pool: int) -> np.ndarray:
 NORMAL_SIGMA = 1.0
 
 
-def edge_normals(edges: np.ndarray, pool: int):
-    """The edge normal at every pixel of a sensor's event frame ``edges``
-    (H x W) and how line-like the events around it are: ``(nx, ny,
-    coherence)``, ``(nx, ny)`` a unit vector (x right, y up) of arbitrary
-    sign, ``coherence`` in [0, 1] (1: a straight line of events; 0: no
-    direction, such as a lone event or a corner).
+def edge_normals(edges: np.ndarray, pool: int, at=None):
+    """The edge normal at pixels of a sensor's event frame ``edges`` (H x W)
+    and how line-like the events around them are: ``(nx, ny, coherence)``
+    at the pixels ``at`` (a tuple of index arrays, as ``np.nonzero`` gives;
+    every pixel if None), ``(nx, ny)`` a unit vector (x right, y up) of
+    arbitrary sign, ``coherence`` in [0, 1] (1: a straight line of events;
+    0: no direction, such as a lone event or a corner).
 
     From the structure tensor: the gradients of the frame smoothed over
-    :data:`NORMAL_SIGMA`, their products averaged over a block (``pool``
-    pixels); the normal is its leading eigenvector, the coherence
-    ``(l1 - l2) / (l1 + l2)`` of its eigenvalues."""
+    :data:`NORMAL_SIGMA`, their products averaged over a block (a Gaussian
+    of ``pool`` pixels); the normal is its leading eigenvector, the
+    coherence ``(l1 - l2) / (l1 + l2)`` of its eigenvalues."""
     from scipy.ndimage import gaussian_filter
 
     e = gaussian_filter(np.asarray(edges, dtype=np.float64), NORMAL_SIGMA)
     d_row, d_col = np.gradient(e)
     gx, gy = d_col, -d_row
-    jxx, jyy, jxy = (gaussian_filter(a, float(pool)) for a in (gx * gx, gy * gy, gx * gy))
+    at = np.nonzero(np.ones(e.shape, bool)) if at is None else at
+    jxx, jyy, jxy = (gaussian_filter(a, float(pool))[at] for a in (gx * gx, gy * gy, gx * gy))
     phi = 0.5 * np.arctan2(2.0 * jxy, jxx - jyy)
     trace = jxx + jyy
     spread = np.hypot(jxx - jyy, 2.0 * jxy)
@@ -100,21 +102,19 @@ def unpool_maps(fg_x, fg_y, grouping, edges: np.ndarray, pool: int):
         return fg_x, fg_y, grouping
     h, w = edges.shape
     on = np.asarray(edges) != 0
-
-    def up(a):
-        return np.where(on, np.repeat(np.repeat(np.asarray(a, np.float64), pool, axis=0), pool, axis=1)[:h, :w], 0)
-
-    bx, by = up(fg_x), up(fg_y)
+    at = np.nonzero(on)
+    bx, by = (np.asarray(a, np.float64)[at[0] // pool, at[1] // pool] for a in (fg_x, fg_y))
     mag = np.hypot(bx, by)
-    nx, ny, c = edge_normals(on, pool)
+    nx, ny, c = edge_normals(on, pool, at)
     s = np.where(bx * nx + by * ny >= 0, 1.0, -1.0)
     unit_x = np.divide(bx, mag, out=np.zeros_like(mag), where=mag > 0)
     unit_y = np.divide(by, mag, out=np.zeros_like(mag), where=mag > 0)
     tx, ty = c * s * nx + (1 - c) * unit_x, c * s * ny + (1 - c) * unit_y
     t = np.hypot(tx, ty)
-    ok = mag > 0
-    ux = np.divide(mag * tx, t, out=np.zeros_like(mag), where=ok & (t > 0))
-    uy = np.divide(mag * ty, t, out=np.zeros_like(mag), where=ok & (t > 0))
+    ok = (mag > 0) & (t > 0)
+    ux, uy = np.zeros((h, w), np.asarray(fg_x).dtype), np.zeros((h, w), np.asarray(fg_y).dtype)
+    ux[at] = np.divide(mag * tx, t, out=np.zeros_like(mag), where=ok)
+    uy[at] = np.divide(mag * ty, t, out=np.zeros_like(mag), where=ok)
     g = np.asarray(grouping)
     whole = resize(g.astype(np.float64), (g.shape[0] * pool, g.shape[1] * pool), "linear")
-    return ux.astype(np.asarray(fg_x).dtype), uy.astype(np.asarray(fg_y).dtype), whole[:h, :w].astype(g.dtype)
+    return ux, uy, whole[:h, :w].astype(g.dtype)

@@ -63,7 +63,7 @@ def edge_normals(edges: np.ndarray, pool: int, at=None):
     """The edge normal at pixels of a sensor's event frame ``edges`` (H x W)
     and how line-like the events around them are: ``(nx, ny, coherence)``
     at the pixels ``at`` (a tuple of index arrays, as ``np.nonzero`` gives;
-    every pixel if None), ``(nx, ny)`` a unit vector (x right, y up) of
+    every pixel, as H x W arrays, if None), ``(nx, ny)`` a unit vector (x right, y up) of
     arbitrary sign, ``coherence`` in [0, 1] (1: a straight line of events;
     0: no direction, such as a lone event or a corner).
 
@@ -76,7 +76,7 @@ def edge_normals(edges: np.ndarray, pool: int, at=None):
     e = gaussian_filter(np.asarray(edges, dtype=np.float64), NORMAL_SIGMA)
     d_row, d_col = np.gradient(e)
     gx, gy = d_col, -d_row
-    at = np.nonzero(np.ones(e.shape, bool)) if at is None else at
+    at = (slice(None), slice(None)) if at is None else at
     jxx, jyy, jxy = (gaussian_filter(a, float(pool))[at] for a in (gx * gx, gy * gy, gx * gy))
     phi = 0.5 * np.arctan2(2.0 * jxy, jxx - jyy)
     trace = jxx + jyy

@@ -225,9 +225,10 @@ class _WindowReader:
     ``threaded`` (where the process may use more than one core): a window
     is decoded and handed to ``on_window`` on a second thread while the
     simulation goes on (the fast engine's loop runs without the interpreter
-    lock): windows still leave in order, at most :attr:`AHEAD` wait, and an error raised
-    there is raised again here. Used as a context manager, which waits for
-    the last window (or, on an error, for the one being written)."""
+    lock): windows still leave in order, at most :attr:`AHEAD` wait, and
+    an error raised there is raised again here. Used as a context manager,
+    which waits for the last window (or, on an error, for the one being
+    written)."""
 
     #: windows handed to the decoding thread and not yet finished
     AHEAD = 2
@@ -252,10 +253,12 @@ class _WindowReader:
     def __exit__(self, kind, exc, tb):
         if self.worker is None:
             return
-        if kind is None:
-            self._wait(0)
-        self.worker.shutdown(wait=True, cancel_futures=True)
-        self.worker = None
+        try:
+            if kind is None:
+                self._wait(0)
+        finally:
+            self.worker.shutdown(wait=True, cancel_futures=True)
+            self.worker = None
 
     def _wait(self, most: int):
         """Wait until at most ``most`` windows are pending, raising their errors."""

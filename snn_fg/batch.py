@@ -15,11 +15,11 @@ import contextlib
 import csv
 import glob
 import io
-import os
 import sys
 import time
 from pathlib import Path
 
+from .cores import usable_cores
 from .errors import InputError, SnnFgError
 from .events.io import SUFFIX_FORMAT
 
@@ -146,7 +146,7 @@ def run_dataset(args, command) -> int:
     jobs = _jobs(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    workers = min(args.workers or os.cpu_count() or 1, len(jobs))
+    workers = min(args.workers or usable_cores(), len(jobs))
     rows = sorted(_run_all(jobs, command, workers, args.scheduler, not args.no_progress),
                   key=lambda r: [j["input"] for j in jobs].index(r["recording"]))
     text = io.StringIO()

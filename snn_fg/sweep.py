@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Callable
 
 from .atomic import save_text
+from .cores import usable_cores
 from .errors import SnnFgError
 
 #: What to install when Dask is missing.
@@ -66,7 +67,7 @@ def _client(scheduler, workers):
         return dd.Client(scheduler), None
     import dask
 
-    n = workers or os.cpu_count() or 1
+    n = workers or usable_cores()
     # Dask's nanny starts workers with MALLOC_TRIM_THRESHOLD_=65536, which
     # also turns off glibc's adaptive mmap threshold: every large temporary
     # array is then mapped fresh and faulted in page by page. Our tasks make

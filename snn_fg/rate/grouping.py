@@ -29,13 +29,13 @@ digits.
 """
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
 import numpy as np
 
 from .. import cancel
+from ..cores import usable_cores
 from ..pyramid.levels import resize
 from ..params import ModelParams
 from . import _sparse_kernels as nbk
@@ -54,7 +54,7 @@ _ATOL = 1e-8
 _FFT_COST_PER_CELL = 24.0
 _FFT_COST_PER_CELL_SINGLE = 12.0     # the same in single precision
 # Threads sharing the levels (this project's machines have 2 cores).
-_THREADS = min(2, os.cpu_count() or 1)
+_THREADS = min(2, usable_cores())
 
 
 def _feedback_gain(z, alpha):

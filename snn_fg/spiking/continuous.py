@@ -27,7 +27,6 @@ is made a list first.
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
@@ -37,6 +36,7 @@ import numpy as np
 
 from ..backends import RunSettings
 from ..backends.base import each_bin
+from ..cores import usable_cores
 from ..pyramid.pool import pool_frame, unpool_maps
 from ..maps import Maps
 from .decode import decode
@@ -183,14 +183,6 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
             for k, bin_result in each_bin(run.result):
                 reader(k, bin_result)
     return run
-
-
-def usable_cores() -> int:
-    """How many cores this process may run on (its affinity, where the system says)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:          # (not Linux)
-        return os.cpu_count() or 1
 
 
 def read_ahead(windows):

@@ -64,6 +64,23 @@ def save_npz(path, **arrays) -> Path:
     return path
 
 
+def write_bytes(path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically, into a folder that exists: the
+    :func:`atomic_path` promise in fewer system calls, for files written
+    many times a second (a recording's store writes about 20 a window)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            os.fchmod(fd, 0o666 & ~_umask())
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
 def save_text(path, text: str) -> Path:
     """Write a text file atomically."""
     path = Path(path)

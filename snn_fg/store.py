@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from . import validate as check
-from .atomic import atomic_path
+from .atomic import write_bytes
 from .errors import InputError
 
 #: the store's name in a run's output folder
@@ -46,14 +46,15 @@ FORMAT = "snn-fg maps 1"
 ZLIB_LEVEL = 1
 #: elements per chunk of a growing 1-D array (scalars per window, ragged spike counts)
 FLAT_CHUNK = 1 << 14
+#: windows per chunk of a per-window scalar (the chunk being filled is written again every window)
+SCALAR_CHUNK = 1024
 #: windows per chunk of ``window_params``
 PARAMS_CHUNK = 64
 _TEXT = np.dtype(object)
 
 
 def _write_json(path: Path, value) -> None:
-    with atomic_path(path, suffix="") as tmp:
-        tmp.write_text(json.dumps(value, sort_keys=True, allow_nan=True))
+    write_bytes(path, json.dumps(value, sort_keys=True, allow_nan=True).encode())
 
 
 def _encode(block: np.ndarray) -> bytes:
@@ -164,8 +165,7 @@ class GrowingArray(ZarrArray):
             take = min(c - r, len(values) - at)
             self._last[1][r:r + take] = values[at:at + take]
             key = ".".join([str(k)] + ["0"] * (len(self.chunks) - 1))
-            with atomic_path(self.path / key, suffix="") as tmp:
-                tmp.write_bytes(_encode(self._last[1]))
+            write_bytes(self.path / key, _encode(self._last[1]))
             self.n, at = self.n + take, at + take
         self.resize(self.n)
 
@@ -277,7 +277,7 @@ class MapsStore:
                 self._array(f"{key}_offsets", np.int64, (), FLAT_CHUNK)
                 self._array(key, v.dtype, (), FLAT_CHUNK).append(v)
             else:
-                a = self._array(key, v.dtype, v.shape, 1 if v.ndim else FLAT_CHUNK)
+                a = self._array(key, v.dtype, v.shape, 1 if v.ndim else SCALAR_CHUNK)
                 if a.chunks[1:] != v.shape:
                     check.fail("MapsStore", None, None, f"array {key!r} changes its shape between windows "
                                f"({a.chunks[1:]} before, {v.shape} in window {self.n}); cannot store it")

@@ -37,6 +37,19 @@ def test_last_means_latest_timestamp_even_if_unsorted():
     assert pos[0, 0] == 0 and neg[0, 0] == 1
 
 
+def test_last_event_wins_on_random_streams_with_ties():
+    rng = np.random.default_rng(7)
+    for n in (1, 50, 3000):
+        ev = make_events(list(zip(rng.integers(0, 9, n), rng.integers(0, 6, n), rng.integers(0, 40, n),
+                                  rng.integers(0, 2, n))))
+        want = {}
+        for k in sorted(range(n), key=lambda k: (ev["t"][k], k)):      # time order, ties in array order
+            want[(int(ev["y"][k]), int(ev["x"][k]))] = int(ev["p"][k])
+        pos, neg = events_to_frame(ev, (9, 6))
+        assert {(r, c): 1 for r, c in zip(*np.nonzero(pos))} == {k: 1 for k, p in want.items() if p == 1}
+        assert {(r, c): 0 for r, c in zip(*np.nonzero(neg))} == {k: 0 for k, p in want.items() if p == 0}
+
+
 def test_frame_empty_and_bool_polarity():
     pos, neg = events_to_frame(np.zeros(0, EVENT_DTYPE), (5, 4))
     assert pos.shape == (4, 5) and not pos.any() and not neg.any()

@@ -61,6 +61,29 @@ def test_flat_arrays_span_chunks(tmp_path):
         np.testing.assert_array_equal(window_part(back.extra, "spikes_S", i), p)
 
 
+def test_per_window_scalars_span_chunks(tmp_path, monkeypatch):
+    from snn_fg import store as st
+
+    monkeypatch.setattr(st, "SCALAR_CHUNK", 4)
+    path = tmp_path / "maps.zarr"
+    _write(path, [lambda i=i: _maps(i) for i in range(10)])
+    assert sorted(p.name for p in (path / "t_start_us").iterdir()) == [".zarray", "0", "1", "2"]
+    back = Maps.load(path)
+    np.testing.assert_array_equal(back.extra["t_start_us"], 10 * np.arange(10))
+    zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
+    np.testing.assert_array_equal(zarr.open_group(str(path), mode="r")["t_start_us"][:], 10 * np.arange(10))
+
+
+def test_a_failed_write_leaves_the_file_as_it_was_and_no_part(tmp_path):
+    from snn_fg.atomic import write_bytes
+
+    target = tmp_path / "chunk"
+    write_bytes(target, b"first")
+    with pytest.raises(TypeError):
+        write_bytes(target, "not bytes")
+    assert target.read_bytes() == b"first" and [p.name for p in tmp_path.iterdir()] == ["chunk"]
+
+
 def test_a_reader_sees_complete_windows_only_and_a_cut_window_is_written_again(tmp_path, monkeypatch):
     from snn_fg import store as st
 

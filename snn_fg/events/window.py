@@ -5,6 +5,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from snn_fg import validate
 from snn_fg.errors import InputError
@@ -30,13 +31,18 @@ def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
         t = ev["t"]
         if len(t) > 1 and (np.diff(t) < 0).any():
             ev = ev[np.argsort(t, kind="stable")]
-        idx = ev["y"].astype(np.int64) * w + ev["x"].astype(np.int64)
-        # last occurrence of each pixel = first occurrence in the reversed array
-        uniq, first_rev = np.unique(idx[::-1], return_index=True)
-        last_p = ev["p"][::-1][first_rev] > 0
-        pos[uniq[last_p]] = 1
-        neg[uniq[~last_p]] = 1
+        _last_polarity(ev["x"], ev["y"], ev["p"], w, pos, neg)
     return pos.reshape(h, w), neg.reshape(h, w)
+
+
+@njit(cache=True, nogil=True)
+def _last_polarity(x, y, p, w, pos, neg):
+    """Each pixel's last event in array order sets it in ``pos`` (ON) or ``neg`` (OFF)."""
+    for k in range(x.size):
+        i = np.int64(y[k]) * w + np.int64(x[k])
+        on = p[k] > 0
+        pos[i] = on
+        neg[i] = not on
 
 
 class EmptyWindowWarning(UserWarning):

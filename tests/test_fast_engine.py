@@ -6,7 +6,7 @@ import pytest
 
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.backends.base import STATE_VARIABLES
-from snn_fg.backends.fast.core import _advanced, _safe
+from snn_fg.backends.fast.core import _advanced, _merge, _merge_runs, _radix_sort, _safe
 from snn_fg.backends.fast.tables import DE, DI, DM, PE, PI, V_RESET, V_REST, V_TH, build_tables
 from snn_fg.events import image_to_events, image_to_frame
 from snn_fg.network import build_network
@@ -175,6 +175,29 @@ def test_the_closed_form_advance_is_the_step_by_step_update():
             want = _brian2_steps(v0, e0, i0, row, k)[:3]
             got = _advanced(v0, e0, i0, row[V_REST], tab.adv[t], k)
             np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-15)
+
+
+@pytest.mark.parametrize("n_cells", [100, 340_000, 13_000_000])
+def test_the_step_lists_come_out_sorted_as_a_comparison_sort_puts_them(n_cells):
+    rng = np.random.default_rng(n_cells)
+    tmp, counts = np.zeros(n_cells, np.int32), np.zeros(2048, np.int64)
+    for n in (0, 1, 63, 64, 5000):
+        cells = rng.choice(n_cells, size=min(n, n_cells), replace=False).astype(np.int32)
+        a = np.concatenate([cells, rng.integers(0, n_cells, 7, dtype=np.int32)])     # (a tail left as it is)
+        want = a.copy()
+        want[:cells.size] = np.sort(cells)
+        _radix_sort(a, cells.size, tmp, counts)
+        np.testing.assert_array_equal(a, want)
+        # the active list and the new cells, disjoint, merged into one sorted list
+        act = np.zeros(n_cells, np.int32)
+        old, new = np.sort(cells[: cells.size // 2]), cells[cells.size // 2:].copy()
+        act[:old.size] = old
+        k = _merge(act, old.size, new, new.size, tmp, counts)
+        np.testing.assert_array_equal(act[:k], np.sort(cells))
+        # a step's spikes: two sorted runs (cells that fired, then input spikes) merged in place
+        log = np.concatenate([[-5, -4], np.sort(cells[::2]), np.sort(cells[1::2]), [-3]]).astype(np.int32)
+        _merge_runs(log, 2, 2 + cells[::2].size, log.size - 1, tmp)
+        np.testing.assert_array_equal(log, np.concatenate([[-5, -4], np.sort(cells), [-3]]))
 
 
 def test_memory_follows_cells_not_synapses():

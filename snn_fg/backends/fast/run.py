@@ -110,6 +110,7 @@ class Run:
         self.inact = pool.zeros("inact", off, np.uint8)
         self.act, self.new, self.tmp, self.fresh = (pool.zeros(name, off, np.int32)
                                                     for name in ("act", "new", "tmp", "fresh"))
+        self.radix = np.zeros(2048, dtype=np.int64)
         self.scalars = np.zeros(2, dtype=np.int64)
         self.log = np.empty(LOG_START, dtype=np.int32)
         self.step_start = np.zeros(n_steps + 1, dtype=np.int64)

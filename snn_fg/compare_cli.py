@@ -7,6 +7,7 @@ with :func:`add_compare_command`.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 from .errors import InputError, SnnFgError
 
@@ -52,8 +53,6 @@ def compare_table(rows) -> str:
 
 
 def cmd_compare(args) -> int:
-    from pathlib import Path
-
     from .atomic import save_text
     from .maps import Maps
     from .metrics import compare_maps
@@ -75,7 +74,14 @@ def cmd_compare(args) -> int:
     if args.plot:
         from .figures import save_compare_figure
 
-        names = tuple(f"{k} ({Path(f).parent.name or f})" for k, f in (("A", args.a), ("B", args.b)))
+        names = tuple(f"{k} ({_run_name(f)})" for k, f in (("A", args.a), ("B", args.b)))
         save_compare_figure(args.plot, a, b, rows, names=names)
         print(f"snn-fg: figure saved to {args.plot}")
     return 0
+
+
+def _run_name(path) -> str:
+    """The name of the run a maps argument belongs to: its output folder's
+    (``out/a``, ``out/a/maps.npz`` and ``out/a/maps.zarr`` are all run ``a``)."""
+    p = Path(path).resolve()
+    return p.parent.name if p.is_file() or p.suffix in (".npz", ".zarr") else p.name

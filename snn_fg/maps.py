@@ -32,6 +32,17 @@ class Maps:
         if len(shapes) != 1:
             check.fail("Maps", None, None, f"fg_x, fg_y and grouping differ in shape: {sorted(shapes)}")
 
+    def __repr__(self) -> str:
+        """One line: what the maps cover and which model made them (the
+        parameters and extra arrays by name only; they can run to megabytes)."""
+        shape = self.fg_x.shape
+        size = f"{shape[-1]} x {shape[-2]}"
+        what = f"{shape[0]} windows of {size}" if len(shape) == 3 else size
+        model = self.params.get("model")
+        extra = ", ".join(sorted(self.extra)[:8]) + (", ..." if len(self.extra) > 8 else "")
+        return (f"Maps({what}{f', model {model!r}' if model else ''}; fg_x, fg_y, grouping; "
+                f"params: {len(self.params)} entries; extra: {extra or 'none'})")
+
     @property
     def angle(self) -> np.ndarray:
         """Direction towards the owning object, radians (``atan2(fg_y, fg_x)``)."""

@@ -67,6 +67,21 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
     assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypatch):
+    import snn_fg.figures as figures
+
+    for name in ("run-a", "run-b"):
+        z = np.zeros((4, 5), np.float32)
+        (tmp_path / "out" / name).mkdir(parents=True)
+        Maps(z, z, z, {"model": "rate"}).save(tmp_path / "out" / name / "maps.npz")
+    seen = []
+    monkeypatch.setattr(figures, "save_compare_figure", lambda path, a, b, rows, names: seen.append(names))
+    for b in ("run-b", "run-b/maps.npz"):
+        assert main(["compare", str(tmp_path / "out" / "run-a"), str(tmp_path / "out" / b),
+                     "--plot", str(tmp_path / "c.png")]) == 0
+    assert seen == [("A (run-a)", "B (run-b)")] * 2
+
+
 def test_the_compare_figure_draws_both_maps_and_their_angle_difference():
     from snn_fg.figures import compare_figure
     from snn_fg.metrics import compare_maps

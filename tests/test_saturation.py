@@ -67,3 +67,8 @@ def test_run_warns_per_saturated_window_and_records_the_shares(burst_es, tmp_pat
     err = capsys.readouterr().err
     assert "warning" not in err and "more than 50%" not in err
     assert Maps.load(tmp_path / "b" / "maps.zarr").params["source"]["saturated_windows"] == []
+    # only the burst: the warning still says how to get past it
+    assert main(["run", str(burst_es), "--out", str(tmp_path / "c"), "--levels", "3", "--max-windows", "1",
+                 "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert "1 of 1 window has events on more than 50%" in err and "start later with --start-ms" in err

@@ -125,3 +125,17 @@ def test_another_run_and_a_changing_shape_are_refused(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputError, match="not a maps store"):
         Maps.load(tmp_path / "empty")
+
+
+def test_maps_come_from_the_package_and_print_as_one_short_line(tmp_path):
+    import snn_fg
+
+    path = tmp_path / "maps.zarr"
+    _write(path, [lambda i=i: _maps(i, **{f"spikes_{k}": np.arange(k + 1, dtype=np.int32) for k in range(40)})
+                  for i in range(3)])
+    m = snn_fg.Maps.load(path)
+    assert snn_fg.Maps is Maps
+    text = repr(m)
+    assert "\n" not in text and len(text) < 300
+    assert text.startswith("Maps(3 windows of 4 x 3, model 'spiking'") and "spikes_0" in text
+    assert str(m) == text

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from snn_fg import datasets
-from snn_fg.errors import SnnFgError
+from snn_fg.errors import InputError, SnnFgError
 from snn_fg.events import EVENT_DTYPE, events_to_frame, iter_windows, open_recording, save_events
 from snn_fg.events.writers import encode_es_atis
 
@@ -168,3 +168,21 @@ def test_aedat4_garbage_after_magic_is_refused():
             path.write_bytes(blob)
             with pytest.raises(SnnFgError):
                 open_recording(path)
+
+
+@pytest.mark.skipif(not EVENTS, reason="needs the shared sample recordings (../shared/data/events)")
+def test_an_aedat4_file_cut_inside_a_packet_says_where_and_why():
+    base = _shared("tonic_sample_person.aedat4")
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "cut.aedat4"
+        path.write_bytes(base[:100_000])
+        with pytest.raises(InputError) as err:
+            open_recording(path)
+    # the packet table walked by hand: each packet a stream id and a size (uint32 each), then its bytes
+    at = 18 + int.from_bytes(base[14:18], "little")
+    k = 0
+    while at + 8 + int.from_bytes(base[at + 4:at + 8], "little") <= 100_000:
+        at, k = at + 8 + int.from_bytes(base[at + 4:at + 8], "little"), k + 1
+    assert str(err.value) == (f"{path}: file ends inside AEDAT4 packet {k} ({100_000 - at} of "
+                              f"{8 + int.from_bytes(base[at + 4:at + 8], 'little')} bytes); is the file cut short? "
+                              f"(at byte offset {at})")

@@ -79,7 +79,10 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
         it = iter(d)
         k = 0
         while True:
-            packet = _panic_safe(path, f"AEDAT4 packet {k} could not be decoded", next, it, None)
+            try:
+                packet = _panic_safe(path, f"AEDAT4 packet {k} could not be decoded", next, it, None)
+            except InputError as exc:
+                raise _packet_error(path, k) or exc from None
             if packet is None:
                 return
             k += 1
@@ -89,6 +92,28 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
             e = packet["events"]
             yield pack_events(e["x"], e["y"], e["t"], e["on"])
     return Source(path, "aedat4", size, chunks)
+
+
+def _packet_error(path, k: int) -> InputError | None:
+    """Where packet ``k`` lies, for a decoder error: each packet is a stream
+    id and a size (little-endian uint32 each), then that many bytes. The
+    error when the file ends inside it (a recording cut short), else None."""
+    with open(path, "rb") as fh:
+        fh.seek(len(MAGIC))
+        at = _BODY_OFFSET + int.from_bytes(fh.read(4), "little")
+        end = fh.seek(0, 2)
+        for j in range(k + 1):
+            fh.seek(at)
+            head = fh.read(8)
+            size = int.from_bytes(head[4:], "little") if len(head) == 8 else 0
+            if len(head) < 8 or at + 8 + size > end:
+                if j < k:
+                    return None         # (the decoder read past this one: not a cut in the packet table)
+                whole = f"{8 + size} bytes" if len(head) == 8 else "its 8 header bytes"
+                return InputError(path, f"file ends inside AEDAT4 packet {k} ({end - at} of {whole}); is the file "
+                                        "cut short?", f"byte offset {at}")
+            at += 8 + size
+    return None
 
 
 def _count_skipped(packet: dict, tally) -> None:

@@ -53,6 +53,8 @@ def test_maps_record_counts_rates_and_parameters(small_run, frame, tmp_path):
     assert m.params["model"] == "spiking" and m.params["levels"] == 2
     assert m.params["network"]["origin"] == "built"
     assert m.params["counts"]["total_cells"] == sum(m.params["counts"]["cells"].values()) > 0
+    # the fast engine makes no synapses (it follows shared kernels): not counted, rather than counted as 0
+    assert m.params["counts"]["total_synapses"] is None and set(m.params["counts"]["synapses_in"].values()) == {None}
     assert set(m.params["kept_kernel_mass"]) == {pr.name for pr in small_run.network.projections}
     assert all(0 < v <= 1 + 1e-9 for v in m.params["kept_kernel_mass"].values())
     files = save_spiking_figures(Maps.load(m.save(tmp_path / "spk.npz")), tmp_path / "figs")

@@ -79,7 +79,8 @@ class SpikingRecord:
                              "mean_rate_hz": float(r.mean()) if r.size else 0.0,
                              "active_frac": float((r > 0).mean()) if r.size else 0.0,
                              "max_rate_hz": float(r.max()) if r.size else 0.0,
-                             "refractory_max_hz": p.neuron.max_rate_hz, "synapses_in": int(syn.get(name, 0))}
+                             "refractory_max_hz": p.neuron.max_rate_hz,
+                             "synapses_in": int(syn.get(name, 0)) if syn else None}
         fired = {n: np.flatnonzero(result.counts[n]) for n in names}
         return cls(names=names, counts={n: result.counts[n][fired[n]].astype(np.int32) for n in names},
                    sites={n: result.sites[n][fired[n]].astype(np.int64) for n in names},
@@ -184,8 +185,9 @@ def run_provenance(net: Network, origin: dict, backend, result: SimulationResult
         "backend": backend.describe(),
         "simulation": simulation,
         "counts": {"cells": {n: int(s.size) for n, s in result.sites.items()},
-                   "synapses_in": {n: int(syn.get(n, 0)) for n in result.sites},
-                   "total_cells": result.total_cells, "total_synapses": int(sum(syn.values())),
+                   # (None where the backend makes no synapses: the fast engine follows shared kernels)
+                   "synapses_in": {n: int(syn.get(n, 0)) if syn else None for n in result.sites},
+                   "total_cells": result.total_cells, "total_synapses": int(sum(syn.values())) if syn else None,
                    "backend_objects": result.stats.get("brian2_synapse_objects", {})},
         "kept_kernel_mass": result.stats.get("kept_kernel_mass", {}),
         # the backend's own counters (fast: synaptic events, spikes, cells updated)

@@ -139,20 +139,27 @@ def _radix_sort(a, n, tmp, counts):
 
 
 @njit(cache=True)
+def _merge_into(x, y, out):
+    """Merge the sorted arrays ``x`` and ``y`` into ``out``; returns the length."""
+    a = b = k = 0
+    while a < x.size or b < y.size:
+        if b == y.size or (a < x.size and x[U(a)] < y[U(b)]):
+            out[U(k)] = x[U(a)]
+            a += 1
+        else:
+            out[U(k)] = y[U(b)]
+            b += 1
+        k += 1
+    return k
+
+
+@njit(cache=True)
 def _merge(act, n_act, new, n_new, tmp, counts):
     """Merge the newly active cells into the sorted active list."""
     if n_new == 0:
         return n_act
     _radix_sort(new, n_new, tmp, counts)
-    a = b = k = 0
-    while a < n_act or b < n_new:
-        if b == n_new or (a < n_act and act[U(a)] < new[U(b)]):
-            tmp[U(k)] = act[U(a)]
-            a += 1
-        else:
-            tmp[U(k)] = new[U(b)]
-            b += 1
-        k += 1
+    k = _merge_into(act[:n_act], new[:n_new], tmp)
     act[:k] = tmp[:k]
     return k
 
@@ -162,15 +169,7 @@ def _merge_runs(log, start, mid, end, tmp):
     """Sort ``log[start:end]``, made of two sorted runs split at ``mid``
     (the cells that fired, in number order, then the step's input spikes,
     also in number order), by merging them through ``tmp``."""
-    a, b, k = start, mid, 0
-    while a < mid or b < end:
-        if b == end or (a < mid and log[U(a)] < log[U(b)]):
-            tmp[U(k)] = log[U(a)]
-            a += 1
-        else:
-            tmp[U(k)] = log[U(b)]
-            b += 1
-        k += 1
+    k = _merge_into(log[start:mid], log[mid:end], tmp)
     log[start:end] = tmp[:k]
 
 

@@ -13,8 +13,10 @@ from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.cli import main
 from snn_fg.events import image_to_events, save_events
 from snn_fg.export.board import board_network
-from snn_fg.export.loop import busiest_crop, centroid_crop, export_network
-from snn_fg.export.pynn import export_pynn, read_input
+from snn_fg.events.window import events_to_frame
+from snn_fg.export.loop import busiest_crop, centroid_crop, export_network, input_frame
+from snn_fg.export.pynn import export_pynn, read_input, save_input
+from snn_fg.lowering.input_spikes import event_spikes
 from snn_fg.maps import Maps
 from snn_fg.metrics import compare_frame
 from snn_fg.network import build_network
@@ -60,6 +62,29 @@ def test_centroid_crop_centres_the_box_on_the_mean_event_inside_the_sensor():
     assert centroid_crop(ev, (16, 7), (20, 30)) == (0, 8)      # would start above the sensor: moved down
     ev["x"] = [28, 29, 29, 29]
     assert centroid_crop(ev, (5, 7), (20, 30)) == (4, 23)      # would end past the right edge: moved left
+
+
+def test_decode_input_panel_is_each_pixels_last_spike_as_the_event_frame(tmp_path):
+    """The panel ``snn-fg decode`` draws: each pixel the polarity of its last
+    input spike, as ``snn-fg run`` draws each pixel's last event, not every
+    pixel that ever had an OFF spike drawn OFF."""
+    ev = np.zeros(7, dtype=[("x", "<i4"), ("y", "<i4"), ("t", "<i8"), ("p", "<i4")])
+    # pixel (x, y): (0, 0) OFF then ON; (1, 0) ON then OFF; (2, 1) ON only; (3, 2) ON, OFF, ON
+    ev["x"], ev["y"] = [0, 1, 0, 1, 2, 3, 3], [0, 0, 0, 0, 1, 2, 2]
+    ev["t"], ev["p"] = [0, 1000, 2000, 3000, 4000, 5000, 6000], [0, 1, 1, 0, 1, 0, 1]
+    ev = np.concatenate([ev[:5], np.array([(3, 2, 500, 1)], ev.dtype), ev[5:]])
+    save_input(event_spikes(ev, (4, 3), 0.5, replay=True), tmp_path / "input.npz", 0.5)
+    pos, neg = input_frame(tmp_path / "input.npz", (3, 4))
+    want_pos, want_neg = events_to_frame(np.sort(ev, order="t"), (4, 3))
+    assert np.array_equal(pos, want_pos) and np.array_equal(neg, want_neg)
+    assert pos[0, 0] == 1 and neg[0, 0] == 0 and neg[0, 1] == 1 and pos[2, 3] == 1 and neg[2, 3] == 0
+    assert not (pos | neg)[1, 0]
+    # ON and OFF of one pixel in the same step: drawn OFF
+    np.savez(tmp_path / "tie.npz", indices=np.array([5, 12 + 5]), steps=np.array([3, 3]), dt_ms=0.5,
+             period_steps=-1, shape=np.array([3, 4]))
+    pos, neg = input_frame(tmp_path / "tie.npz", (3, 4))
+    assert neg.sum() == 1 and neg[1, 1] == 1 and pos.sum() == 0
+    assert input_frame(tmp_path / "absent.npz", (3, 4)) is None
 
 
 @pytest.mark.slow

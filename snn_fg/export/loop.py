@@ -172,8 +172,28 @@ def add_decode_command(sub):
     return p
 
 
-def _input_frame(path, shape):
-    """(pos, neg) pixels that get spikes in a run.py input file of ``shape`` (None: no such file)."""
+def last_spike_frame(inputs):
+    """``(pos, neg)`` uint8 event frame of run.py input spikes
+    (:class:`~snn_fg.lowering.input_spikes.InputSpikes`): each pixel the
+    polarity of its last input spike (within the first period of a
+    repeating pattern), as :func:`~snn_fg.events.window.events_to_frame`
+    gives each pixel the polarity of its last event. A pixel whose ON and
+    OFF sources last fire in the same step is OFF (an input file holds no
+    order within a step; the figures draw OFF over ON too)."""
+    h, w = inputs.shape
+    n = h * w
+    idx, steps = inputs.indices, inputs.steps
+    last = np.full(2 * n, -1, np.int64)
+    keep = idx < 2 * n                      # (the clock source, if any, is no pixel)
+    np.maximum.at(last, idx[keep], steps[keep])
+    on, off = last[:n], last[n:]
+    pos = (on > off).astype(np.uint8)
+    neg = ((off >= on) & (off >= 0)).astype(np.uint8)
+    return pos.reshape(h, w), neg.reshape(h, w)
+
+
+def input_frame(path, shape):
+    """The event frame (:func:`last_spike_frame`) of a run.py input file of ``shape`` (None: no such file)."""
     from .pynn import read_input
 
     if path is None or not Path(path).exists():
@@ -185,7 +205,7 @@ def _input_frame(path, shape):
     if inp.shape != tuple(shape):
         raise InputError(path, f"input of {inp.shape[1]} x {inp.shape[0]} pixels, the export's frame is "
                                f"{shape[1]} x {shape[0]}")
-    return inp.on, inp.off
+    return last_spike_frame(inp)
 
 
 def decode_counts(network, counts_path):
@@ -218,7 +238,7 @@ def cmd_decode(args) -> int:
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")
     maps = decode_counts(net, args.counts)
-    frame = _input_frame(args.input or Path(args.counts).with_name("input.npz"), net.frame_shape)
+    frame = input_frame(args.input or Path(args.counts).with_name("input.npz"), net.frame_shape)
     shown = event_frame_rgb(*frame) if frame is not None else np.zeros((*net.frame_shape, 3))
     with OutputFolder(args.out, force=args.force) as out:
         maps.save(out.dir / "maps.npz")

@@ -156,3 +156,33 @@ def test_run_py_refuses_a_network_that_will_not_fit_before_building(tmp_path):
     assert len(last) == 1 and "needs about" in last[0] and "more than the 0.0 GB given (--memory-gb)" in last[0]
     meta = json.loads((folder / "network.json").read_text())
     assert sum(pr["synapses"] for pr in meta["projections"]) > 0
+
+
+def test_export_input_rate_hz_sets_the_gains_network_calibrated_sets(tmp_path, capsys):
+    from snn_fg.network.recipes import RECIPES
+
+    out = tmp_path / "model"
+    assert main(["export", "--format", "pynn", "--out", str(out), "--sensor-size", "24x20", "--levels", "1",
+                 "--input-rate-hz", "35"]) == 0
+    meta = json.loads((out / "network.json").read_text())
+    base = RECIPES["default"].params.replace(levels=1)
+    net = board_network(build_network(base, (20, 24)))
+    want = {pr.name: pr.gain_mv for pr in net.calibrated(35.0).projections}
+    got = {pr["name"]: pr["gain_mv"] for pr in meta["projections"]}
+    assert got.keys() == want.keys()
+    assert all(got[k] == pytest.approx(want[k], rel=1e-12) for k in want)
+    uncalibrated = {pr.name: pr.gain_mv for pr in net.projections}
+    moved = [k for k in want if got[k] != pytest.approx(uncalibrated[k], rel=1e-9)]
+    assert moved and all(got[k] == pytest.approx(200.0 / 35.0 * uncalibrated[k], rel=1e-12) for k in moved)
+    assert meta["input_rate_hz"] == 35.0 and export_network(out)[0].input_rate_hz == 35.0
+    assert meta["export_command"] == f"snn-fg export --format pynn --out {out} --sensor-size 24x20 --levels 1"
+
+
+def test_write_spikes_says_how_to_re_export_for_the_inputs_rate():
+    from snn_fg.export.loop import recalibration_hint
+
+    hint = recalibration_hint(35.24, 200.0, "snn-fg export --format pynn --out m --levels 2")
+    assert "re-export: snn-fg export --format pynn --out m --levels 2 --input-rate-hz 35.2 --force" in hint
+    assert recalibration_hint(239.0, 200.0, "x") is None and recalibration_hint(166.7, 200.0, "x") is None
+    assert "--input-rate-hz 241" in recalibration_hint(241.0, 200.0, "x")
+    assert "with --input-rate-hz 35.2" in recalibration_hint(35.24, 200.0, None)

@@ -23,6 +23,9 @@ from ..errors import InputError
 
 #: regular trains of an event frame: the rate ``snn-fg run`` uses (Hz)
 FRAME_RATE_HZ = 200.0
+#: an input whose rate differs from the one the export's gains are set for by more than this factor
+#: is driven noticeably differently from how ``snn-fg run`` (which calibrates to its input) drives it
+RATE_MISMATCH = 1.2
 
 
 def add_spike_options(parser):
@@ -154,7 +157,24 @@ def write_spikes(args) -> int:
     print(f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active pixel; "
           f"the export's gains are set for {net.input_rate_hz:g} Hz) for the {w} x {h} export {args.export} "
           f"at dt {meta['dt_ms']} ms; {what}")
+    hint = recalibration_hint(inp.rate_hz, net.input_rate_hz, meta.get("export_command"))
+    if hint:
+        print(hint)
     return 0
+
+
+def recalibration_hint(input_hz: float, export_hz: float, command: str | None) -> str | None:
+    """What to do when an input's rate is far from the one the export's gains
+    are set for (``snn-fg run`` calibrates its network to its input's rate):
+    the command to re-export with (``command``: the export's own, if known)."""
+    if max(input_hz, export_hz) <= RATE_MISMATCH * min(input_hz, export_hz):
+        return None
+    redo = f"{command} --input-rate-hz {input_hz:.3g} --force" if command else \
+        f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
+    return (f"snn-fg: note: this input is {input_hz:.3g} Hz per active pixel, {input_hz / export_hz:.2g} times the "
+            f"{export_hz:g} Hz the export's gains are set for; snn-fg run calibrates its network to its input's "
+            f"rate. To drive the export as snn-fg run drives the network, re-export: {redo} (this replaces the "
+            "folder: write the input again after it)")
 
 
 def add_decode_command(sub):

@@ -72,8 +72,9 @@ def _tables(network: Network):
 
 
 def pynn_model(network: Network, *, dt_ms: float | None = None, weight_bits: int | None = None,
-               target: str = "generic") -> tuple[dict, dict]:
-    """``(network.json data, tables.npz arrays)`` of the board network."""
+               target: str = "generic", command: str | None = None) -> tuple[dict, dict]:
+    """``(network.json data, tables.npz arrays)`` of the board network; ``command``:
+    the ``snn-fg export`` command that made it, recorded (without ``--input-rate-hz``)."""
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     net = board_network(network)
     entries, arrays = _tables(net)
@@ -83,7 +84,8 @@ def pynn_model(network: Network, *, dt_ms: float | None = None, weight_bits: int
     pops = [{"name": p.name, "role": p.role, "level": p.level, "size": p.size, **geometry(p),
              "neuron": None if p.neuron is None else p.neuron.to_dict()} for p in net.populations]
     meta = {"schema": SCHEMA, "snn_fg_version": __version__, "target": target, "dt_ms": dt_ms,
-            "weight_bits": weight_bits, "frame_shape": list(net.frame_shape), "populations": pops,
+            "weight_bits": weight_bits, "input_rate_hz": net.input_rate_hz, "export_command": command,
+            "frame_shape": list(net.frame_shape), "populations": pops,
             "projections": entries, "notes": list(net.notes), "snn_fg_network": net.to_dict()}
     return meta, arrays
 
@@ -116,7 +118,7 @@ Approximations (see `network.json` notes): {notes}
 
 
 def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bits: int | None = None,
-                target: str = "generic", force: bool = False) -> Path:
+                target: str = "generic", force: bool = False, command: str | None = None) -> Path:
     """Write the PyNN model of ``network`` into the new folder ``out``.
 
     Parameters
@@ -132,6 +134,12 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
         Quantise weights to this many bits (one scale per projection).
     target : {"generic", "spinnaker"}
         Recorded in ``network.json`` (every export holds ``spinnaker.json``).
+    command : str, optional
+        The ``snn-fg export`` command that made it, recorded in ``network.json``
+        (``snn-fg events --write-spikes`` says how to re-export it calibrated
+        to an input's rate). The gains are the network's: calibrate it first
+        (:meth:`~snn_fg.network.Network.calibrated`) for another input rate;
+        ``network.json``'s ``input_rate_hz`` says which.
 
     Examples
     --------
@@ -147,7 +155,7 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     from ..atomic import OutputFolder
 
-    meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target)
+    meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command)
     with OutputFolder(out, force=force) as folder:
         tmp = folder.dir
         (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")

@@ -186,3 +186,34 @@ def test_write_spikes_says_how_to_re_export_for_the_inputs_rate():
     assert recalibration_hint(239.0, 200.0, "x") is None and recalibration_hint(166.7, 200.0, "x") is None
     assert "--input-rate-hz 241" in recalibration_hint(241.0, 200.0, "x")
     assert "with --input-rate-hz 35.2" in recalibration_hint(35.24, 200.0, None)
+
+
+@pytest.mark.slow
+@needs_nest
+def test_run_py_imports_nest_without_pynns_extension_build_output(tmp_path):
+    """PyNN warns, with cmake's output, each time it fails to build its optional
+    NEST extensions (which the network does not use); an export's
+    fg_simulator.py imports pyNN.nest without that and without NEST's banner."""
+    import os
+    import shutil
+    from pathlib import Path
+
+    from snn_fg.pynn import HERE
+
+    shutil.copyfile(HERE / "simulator.py", tmp_path / "fg_simulator.py")
+    env = {k: v for k, v in os.environ.items() if k != "PYNEST_QUIET"}
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"    # (its nest-config, if any)
+    noise = ("nest-config", "cmake", "Configuring incomplete", "NEST extensions")
+
+    def imported(code):
+        done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                              timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return done.stdout + done.stderr
+
+    plain = imported("import pyNN.nest")
+    if not any(w in plain for w in noise):
+        pytest.skip("PyNN loads or builds its NEST extensions here: it prints nothing to leave out")
+    quiet = imported("import fg_simulator; sim = fg_simulator.import_simulator('nest'); print(sim.__name__)")
+    assert not any(w in quiet for w in noise) and "N E S T" in plain and "N E S T" not in quiet
+    assert quiet.strip().splitlines()[-1] == "pyNN.nest"

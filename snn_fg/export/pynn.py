@@ -14,6 +14,8 @@ The export folder holds
   ``ConvolutionConnector`` s, and its mapping on a virtual board
   (:mod:`snn_fg.pynn.spinnaker`); ``fg_memory.py`` - what a NEST run
   will cost, from measurement (:mod:`snn_fg.pynn.memory`);
+  ``fg_simulator.py`` - PyNN's simulator module imported without PyNN's
+  warnings about its optional NEST extensions (:mod:`snn_fg.pynn.simulator`);
 * ``network.json`` - populations (grids, neuron constants), projections
   (ends, sign, gain, delay, per-projection weight scale, synapse count) and the snn-fg
   description it was made from; ``tables.npz`` - the weight-shared tables
@@ -150,7 +152,7 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
     ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
     >>> sorted(p.name for p in d.glob("*.py"))
-    ['fg_cells.py', 'fg_memory.py', 'fg_network.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
+    ['fg_cells.py', 'fg_memory.py', 'fg_network.py', 'fg_simulator.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
     """
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     from ..atomic import OutputFolder

@@ -95,7 +95,9 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     spikes = folder / "input.npz"
     assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(folder),
                  "--window-ms", "85", "--no-progress"]) == 0
-    assert "crop at x=16, y=16" in capsys.readouterr().out        # the disc: centred in the 64 x 64 sensor
+    said = capsys.readouterr().out
+    assert "crop at x=16, y=16" in said                           # the disc: centred in the 64 x 64 sensor
+    assert "export " + str(folder) + " (a 32 x 32 sensor)" in said
     done = _run_py(folder, "--input", "input.npz", "--out", "counts.npz", "--duration-ms", "150",
                    "--count-from-ms", "75")
     assert done.returncode == 0, done.stderr[-2000:]
@@ -119,7 +121,7 @@ def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
     out = tmp_path / "in.npz"
     cases = [([], "--write-spikes needs --export"),
              (["--export", str(tmp_path)], "network.json: no such file"),
-             (["--export", str(folder), "--crop-at", "40,0"], "must lie inside the 64 x 64 input"),
+             (["--export", str(folder), "--crop-at", "40,0"], "must lie inside the input's 64 x 64"),
              (["--export", str(folder), "--crop-at", "a,b"], "--crop-at 'a,b': expected X,Y"),
              (["--export", str(folder), "--start-ms", "5000"], "disc.es")]
     for extra, fragment in cases:
@@ -129,7 +131,7 @@ def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
         assert not out.exists()
     small = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 80)), tmp_path / "wide")
     assert main(["events", str(disc_recording), "--write-spikes", str(out), "--export", str(small)]) == 2
-    assert "smaller than the export's 80 x 24 frame" in capsys.readouterr().err
+    assert "an input of 64 x 64 is smaller than the export's frame of 80 x 24" in capsys.readouterr().err
 
 
 @pytest.mark.slow
@@ -217,3 +219,24 @@ def test_run_py_imports_nest_without_pynns_extension_build_output(tmp_path):
     quiet = imported("import fg_simulator; sim = fg_simulator.import_simulator('nest'); print(sim.__name__)")
     assert not any(w in quiet for w in noise) and "N E S T" in plain and "N E S T" not in quiet
     assert quiet.strip().splitlines()[-1] == "pyNN.nest"
+
+
+def test_sizes_are_width_by_height_and_blocks_are_called_blocks(tmp_path, disc_recording, capsys):
+    """A compact export (3 x 3 pooling) of a 57 x 48 sensor: 19 x 16 blocks; the
+    disc's 64 x 64 recording is 22 x 22 blocks, its busiest crop at block (1, 3)."""
+    out = tmp_path / "model"
+    assert main(["export", "--format", "pynn", "--network", "compact", "--sensor-size", "57x48",
+                 "--out", str(out)]) == 0
+    readme = (out / "README.md").read_text()
+    assert "for a 57 x 48 sensor as 19 x 16 blocks of 3 x 3 pixels," in readme
+    assert "cut to 19 x 16 blocks," in readme
+    capsys.readouterr()
+    spikes = tmp_path / "in.npz"
+    assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out),
+                 "--no-progress"]) == 0
+    said = capsys.readouterr().out
+    assert "(a 57 x 48 sensor as 19 x 16 blocks of 3 x 3 pixels)" in said and "per active block" in said
+    assert "crop at block x=1, y=3" in said and read_input(spikes).shape == (16, 19)
+    assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out),
+                 "--crop-at", "4,0", "--no-progress"]) == 2
+    assert "--crop-at 4,0: a crop of 19 x 16 blocks must lie inside the input's 22 x 22 blocks" in capsys.readouterr().err

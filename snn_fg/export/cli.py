@@ -182,7 +182,7 @@ def cmd_export(args) -> int:
         from .pynn import export_pynn
 
         export_pynn(net, out, dt_ms=args.dt_ms, weight_bits=bits, target=args.target, force=args.force,
-                    command=export_command(args))
+                    command=export_command(args), sensor_shape=sensor)
         what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
     elif args.format == "nir" and args.nir_profile == "snntorch":
         from .nir_snntorch import export_nir_snntorch

@@ -240,3 +240,21 @@ def test_sizes_are_width_by_height_and_blocks_are_called_blocks(tmp_path, disc_r
     assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out),
                  "--crop-at", "4,0", "--no-progress"]) == 2
     assert "--crop-at 4,0: a crop of 19 x 16 blocks must lie inside the input's 22 x 22 blocks" in capsys.readouterr().err
+
+
+def test_run_py_predicts_its_time_from_the_measured_rates_scaled_by_the_exports_synapses(capsys):
+    from snn_fg.pynn import memory
+
+    def said(synapses, duration_ms):
+        meta = {"populations": [{"size": 1000}], "projections": [{"synapses": synapses}]}
+        memory.check_memory(meta, memory_gb=1000.0, duration_ms=duration_ms)
+        return capsys.readouterr().out
+
+    small, large = said(10 ** 6, 400.0), said(10 ** 8, 100.0)
+    per_ms = 10 ** 6 * memory.NEST_S_PER_MS_PER_SYNAPSE
+    assert f"{per_ms:.2g} s per simulated ms ({memory.duration_text(400 * per_ms)} for 400 ms)" in small
+    assert f"{100 * per_ms:.2g} s per simulated ms ({memory.duration_text(10_000 * per_ms)} for 100 ms)" in large
+    assert f"{memory.duration_text(1e8 / memory.NEST_SYNAPSES_PER_S)} to build" in large
+    assert memory.TIMES_MEASURED in small and "load" in memory.TIMES_MEASURED
+    assert [memory.duration_text(s) for s in (0.052, 7.23, 57.8, 119, 150, 7100, 7300)] == [
+        "0.052 s", "7.2 s", "58 s", "119 s", "2 min", "118 min", "2.0 h"]

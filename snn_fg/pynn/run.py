@@ -169,7 +169,7 @@ def main(argv=None):
             if args.map_only:
                 fg_spinnaker.skip_data_generation()
     elif args.simulator == "nest":
-        fg_memory.check_memory(meta, args.memory_gb)
+        fg_memory.check_memory(meta, args.memory_gb, args.duration_ms)
     sim = fg_simulator.import_simulator(args.simulator)
     t0 = time.perf_counter()
     start = args.duration_ms / 2 if args.count_from_ms is None else args.count_from_ms

@@ -70,12 +70,12 @@ def _ours(backend: str, net, inp):
 
 def main():
     run = Run()
-    rec = dataset("events", "dvs.es")
+    rec = dataset("events", "dvs.es").resolve()
     out = {"export": " ".join(EXPORT), "window": " ".join(WINDOW), "duration_ms": DURATION_MS,
            "count_from_ms": COUNT_FROM_MS}
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        plain, calibrated = tmp / "plain", tmp / "calibrated"
+    with tempfile.TemporaryDirectory() as tmp, contextlib.chdir(tmp):    # (folder names as a user types them)
+        tmp = Path(".")
+        plain, calibrated = Path("plain"), Path("calibrated")
         _cli("export", *EXPORT, "--out", plain)
         said = _cli("events", rec, *WINDOW, "--write-spikes", plain / "input.npz", "--export", plain, "--no-progress")
         out["write_spikes"] = said.strip().splitlines()

@@ -6,7 +6,7 @@
   ``snn_fg.export.nir.export_nir`` (node by node). Each in a fresh process.
 * ``nest``: ``run.py`` of PyNN exports of several sizes on NEST (one thread,
   a disc as input), peak resident memory and wall times, each in a fresh
-  process. The model of ``snn_fg/export/pynn_memory.py`` (a fixed part, a
+  process. The model of ``snn_fg/pynn/memory.py`` (a fixed part, a
   part per cell and one per synapse) is fitted on the sizes given by
   ``--fit`` and judged on the others: predicted against measured. The
   sizes run replace their rows; the others' rows are kept. The times of

@@ -110,8 +110,7 @@ def pynn_model(network: Network, *, dt_ms: float | None = None, weight_bits: int
     meta = {"schema": SCHEMA, "snn_fg_version": __version__, "target": target, "dt_ms": dt_ms,
             "weight_bits": weight_bits, "input_rate_hz": net.input_rate_hz, "export_command": command,
             "frame_shape": list(net.frame_shape), "sensor_shape": None if sensor_shape is None else list(sensor_shape),
-            "populations": pops,
-            "projections": entries, "notes": list(net.notes), "snn_fg_network": net.to_dict()}
+            "populations": pops, "projections": entries, "notes": list(net.notes), "snn_fg_network": net.to_dict()}
     return meta, arrays
 
 

@@ -304,9 +304,9 @@ def test_a_cell_past_nests_local_index_limit_still_sends_its_spikes():
     would stay silent (nest-simulator issue #1211; the dvs.es window's
     level-2 relays met it); PyNNNetwork takes two threads instead, and
     refuses the cells when it is not told they are coming."""
-    from snn_fg.backends.nest import import_pynn_nest
+    from snn_fg.pynn.simulator import import_simulator
 
-    sim = import_pynn_nest()
+    sim = import_simulator("nest")
     neuron = {"tau_m_ms": 10.0, "tau_exc_ms": 2.0, "tau_inh_ms": 2.0, "v_rest_mv": 0.0, "v_reset_mv": 0.0,
               "v_th_mv": 10.0, "t_ref_ms": 2.0}
     big = NEST_MAX_LOCAL_SENDERS + 13

@@ -13,8 +13,10 @@ from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.cli import main
 from snn_fg.events import image_to_events, save_events
 from snn_fg.export.board import board_network
-from snn_fg.export.loop import busiest_crop, centroid_crop, export_network
-from snn_fg.export.pynn import export_pynn, read_input
+from snn_fg.events.window import events_to_frame
+from snn_fg.export.loop import busiest_crop, centroid_crop, export_network, input_frame
+from snn_fg.export.pynn import export_pynn, read_input, save_input
+from snn_fg.lowering.input_spikes import event_spikes
 from snn_fg.maps import Maps
 from snn_fg.metrics import compare_frame
 from snn_fg.network import build_network
@@ -62,6 +64,29 @@ def test_centroid_crop_centres_the_box_on_the_mean_event_inside_the_sensor():
     assert centroid_crop(ev, (5, 7), (20, 30)) == (4, 23)      # would end past the right edge: moved left
 
 
+def test_decode_input_panel_is_each_pixels_last_spike_as_the_event_frame(tmp_path):
+    """The panel ``snn-fg decode`` draws: each pixel the polarity of its last
+    input spike, as ``snn-fg run`` draws each pixel's last event, not every
+    pixel that ever had an OFF spike drawn OFF."""
+    ev = np.zeros(7, dtype=[("x", "<i4"), ("y", "<i4"), ("t", "<i8"), ("p", "<i4")])
+    # pixel (x, y): (0, 0) OFF then ON; (1, 0) ON then OFF; (2, 1) ON only; (3, 2) ON, OFF, ON
+    ev["x"], ev["y"] = [0, 1, 0, 1, 2, 3, 3], [0, 0, 0, 0, 1, 2, 2]
+    ev["t"], ev["p"] = [0, 1000, 2000, 3000, 4000, 5000, 6000], [0, 1, 1, 0, 1, 0, 1]
+    ev = np.concatenate([ev[:5], np.array([(3, 2, 500, 1)], ev.dtype), ev[5:]])
+    save_input(event_spikes(ev, (4, 3), 0.5, replay=True), tmp_path / "input.npz", 0.5)
+    pos, neg = input_frame(tmp_path / "input.npz", (3, 4))
+    want_pos, want_neg = events_to_frame(np.sort(ev, order="t"), (4, 3))
+    assert np.array_equal(pos, want_pos) and np.array_equal(neg, want_neg)
+    assert pos[0, 0] == 1 and neg[0, 0] == 0 and neg[0, 1] == 1 and pos[2, 3] == 1 and neg[2, 3] == 0
+    assert not (pos | neg)[1, 0]
+    # ON and OFF of one pixel in the same step: drawn OFF
+    np.savez(tmp_path / "tie.npz", indices=np.array([5, 12 + 5]), steps=np.array([3, 3]), dt_ms=0.5,
+             period_steps=-1, shape=np.array([3, 4]))
+    pos, neg = input_frame(tmp_path / "tie.npz", (3, 4))
+    assert neg.sum() == 1 and neg[1, 1] == 1 and pos.sum() == 0
+    assert input_frame(tmp_path / "absent.npz", (3, 4)) is None
+
+
 @pytest.mark.slow
 @needs_nest
 def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recording, capsys):
@@ -70,7 +95,9 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     spikes = folder / "input.npz"
     assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(folder),
                  "--window-ms", "85", "--no-progress"]) == 0
-    assert "crop at x=16, y=16" in capsys.readouterr().out        # the disc: centred in the 64 x 64 sensor
+    said = capsys.readouterr().out
+    assert "crop at x=16, y=16" in said                           # the disc: centred in the 64 x 64 sensor
+    assert "export " + str(folder) + " (a 32 x 32 sensor)" in said
     done = _run_py(folder, "--input", "input.npz", "--out", "counts.npz", "--duration-ms", "150",
                    "--count-from-ms", "75")
     assert done.returncode == 0, done.stderr[-2000:]
@@ -94,7 +121,7 @@ def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
     out = tmp_path / "in.npz"
     cases = [([], "--write-spikes needs --export"),
              (["--export", str(tmp_path)], "network.json: no such file"),
-             (["--export", str(folder), "--crop-at", "40,0"], "must lie inside the 64 x 64 input"),
+             (["--export", str(folder), "--crop-at", "40,0"], "must lie inside the input's 64 x 64"),
              (["--export", str(folder), "--crop-at", "a,b"], "--crop-at 'a,b': expected X,Y"),
              (["--export", str(folder), "--start-ms", "5000"], "disc.es")]
     for extra, fragment in cases:
@@ -104,7 +131,7 @@ def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
         assert not out.exists()
     small = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 80)), tmp_path / "wide")
     assert main(["events", str(disc_recording), "--write-spikes", str(out), "--export", str(small)]) == 2
-    assert "smaller than the export's 80 x 24 frame" in capsys.readouterr().err
+    assert "an input of 64 x 64 is smaller than the export's frame of 80 x 24" in capsys.readouterr().err
 
 
 @pytest.mark.slow
@@ -131,3 +158,103 @@ def test_run_py_refuses_a_network_that_will_not_fit_before_building(tmp_path):
     assert len(last) == 1 and "needs about" in last[0] and "more than the 0.0 GB given (--memory-gb)" in last[0]
     meta = json.loads((folder / "network.json").read_text())
     assert sum(pr["synapses"] for pr in meta["projections"]) > 0
+
+
+def test_export_input_rate_hz_sets_the_gains_network_calibrated_sets(tmp_path, capsys):
+    from snn_fg.network.recipes import RECIPES
+
+    out = tmp_path / "model"
+    assert main(["export", "--format", "pynn", "--out", str(out), "--sensor-size", "24x20", "--levels", "1",
+                 "--input-rate-hz", "35"]) == 0
+    meta = json.loads((out / "network.json").read_text())
+    base = RECIPES["default"].params.replace(levels=1)
+    net = board_network(build_network(base, (20, 24)))
+    want = {pr.name: pr.gain_mv for pr in net.calibrated(35.0).projections}
+    got = {pr["name"]: pr["gain_mv"] for pr in meta["projections"]}
+    assert got.keys() == want.keys()
+    assert all(got[k] == pytest.approx(want[k], rel=1e-12) for k in want)
+    uncalibrated = {pr.name: pr.gain_mv for pr in net.projections}
+    moved = [k for k in want if got[k] != pytest.approx(uncalibrated[k], rel=1e-9)]
+    assert moved and all(got[k] == pytest.approx(200.0 / 35.0 * uncalibrated[k], rel=1e-12) for k in moved)
+    assert meta["input_rate_hz"] == 35.0 and export_network(out)[0].input_rate_hz == 35.0
+    assert meta["export_command"] == f"snn-fg export --format pynn --out {out} --sensor-size 24x20 --levels 1"
+
+
+def test_write_spikes_says_how_to_re_export_for_the_inputs_rate():
+    from snn_fg.export.loop import recalibration_hint
+
+    hint = recalibration_hint(35.24, 200.0, "snn-fg export --format pynn --out m --levels 2")
+    assert "re-export: snn-fg export --format pynn --out m --levels 2 --input-rate-hz 35.2 --force" in hint
+    assert recalibration_hint(239.0, 200.0, "x") is None and recalibration_hint(166.7, 200.0, "x") is None
+    assert "--input-rate-hz 241" in recalibration_hint(241.0, 200.0, "x")
+    assert "with --input-rate-hz 35.2" in recalibration_hint(35.24, 200.0, None)
+
+
+@pytest.mark.slow
+@needs_nest
+def test_run_py_imports_nest_without_pynns_extension_build_output(tmp_path):
+    """PyNN warns, with cmake's output, each time it fails to build its optional
+    NEST extensions (which the network does not use); an export's
+    fg_simulator.py imports pyNN.nest without that and without NEST's banner."""
+    import os
+    import shutil
+    from pathlib import Path
+
+    from snn_fg.pynn import HERE
+
+    shutil.copyfile(HERE / "simulator.py", tmp_path / "fg_simulator.py")
+    env = {k: v for k, v in os.environ.items() if k != "PYNEST_QUIET"}
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"    # (its nest-config, if any)
+    noise = ("nest-config", "cmake", "Configuring incomplete", "NEST extensions")
+
+    def imported(code):
+        done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                              timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return done.stdout + done.stderr
+
+    plain = imported("import pyNN.nest")
+    if not any(w in plain for w in noise):
+        pytest.skip("PyNN loads or builds its NEST extensions here: it prints nothing to leave out")
+    quiet = imported("import fg_simulator; sim = fg_simulator.import_simulator('nest'); print(sim.__name__)")
+    assert not any(w in quiet for w in noise) and "N E S T" in plain and "N E S T" not in quiet
+    assert quiet.strip().splitlines()[-1] == "pyNN.nest"
+
+
+def test_sizes_are_width_by_height_and_blocks_are_called_blocks(tmp_path, disc_recording, capsys):
+    """A compact export (3 x 3 pooling) of a 57 x 48 sensor: 19 x 16 blocks; the
+    disc's 64 x 64 recording is 22 x 22 blocks, its busiest crop at block (1, 3)."""
+    out = tmp_path / "model"
+    assert main(["export", "--format", "pynn", "--network", "compact", "--sensor-size", "57x48",
+                 "--out", str(out)]) == 0
+    readme = (out / "README.md").read_text()
+    assert "for a 57 x 48 sensor as 19 x 16 blocks of 3 x 3 pixels," in readme
+    assert "cut to 19 x 16 blocks," in readme
+    capsys.readouterr()
+    spikes = tmp_path / "in.npz"
+    assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out),
+                 "--no-progress"]) == 0
+    said = capsys.readouterr().out
+    assert "(a 57 x 48 sensor as 19 x 16 blocks of 3 x 3 pixels)" in said and "per active block" in said
+    assert "crop at block x=1, y=3" in said and read_input(spikes).shape == (16, 19)
+    assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out),
+                 "--crop-at", "4,0", "--no-progress"]) == 2
+    assert "--crop-at 4,0: a crop of 19 x 16 blocks must lie inside the input's 22 x 22 blocks" in capsys.readouterr().err
+
+
+def test_run_py_predicts_its_time_from_the_measured_rates_scaled_by_the_exports_synapses(capsys):
+    from snn_fg.pynn import memory
+
+    def said(synapses, duration_ms):
+        meta = {"populations": [{"size": 1000}], "projections": [{"synapses": synapses}]}
+        memory.check_memory(meta, memory_gb=1000.0, duration_ms=duration_ms)
+        return capsys.readouterr().out
+
+    small, large = said(10 ** 6, 400.0), said(10 ** 8, 100.0)
+    per_ms = 10 ** 6 * memory.NEST_S_PER_MS_PER_SYNAPSE
+    assert f"{per_ms:.2g} s per simulated ms ({memory.duration_text(400 * per_ms)} for 400 ms)" in small
+    assert f"{100 * per_ms:.2g} s per simulated ms ({memory.duration_text(10_000 * per_ms)} for 100 ms)" in large
+    assert f"{memory.duration_text(1e8 / memory.NEST_SYNAPSES_PER_S)} to build" in large
+    assert memory.TIMES_MEASURED in small and "load" in memory.TIMES_MEASURED
+    assert [memory.duration_text(s) for s in (0.052, 7.23, 57.8, 119, 150, 7100, 7300)] == [
+        "0.052 s", "7.2 s", "58 s", "119 s", "2 min", "118 min", "2.0 h"]

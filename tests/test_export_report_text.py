@@ -54,3 +54,14 @@ def test_the_report_prints_without_out_and_takes_a_target(tmp_path, monkeypatch,
     assert err == ["snn-fg: error: --target loihi2: applies to --format report, not pynn",
                    "snn-fg: error: --out: --format nir needs an output path"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
+
+
+def test_a_pooled_network_of_unknown_sensor_is_named_by_its_blocks():
+    from snn_fg.network.recipes import RECIPES
+
+    net = RECIPES["compact"].build((48, 57))                      # 3 x 3 blocks: 19 x 16
+    lines = report_table(resource_report(net)).splitlines()
+    assert lines[0].startswith("Whole network for 19 x 16 blocks of a sensor (width x height)")
+    assert lines[1] == "  the sensor seen in 3 x 3 blocks: a 19 x 16 frame"
+    given = report_table(resource_report(net, sensor_shape=(48, 57))).splitlines()[0]
+    assert given.startswith("Whole network for a 57 x 48 sensor (width x height)")

@@ -6,9 +6,15 @@
   ``snn_fg.export.nir.export_nir`` (node by node). Each in a fresh process.
 * ``nest``: ``run.py`` of PyNN exports of several sizes on NEST (one thread,
   a disc as input), peak resident memory and wall times, each in a fresh
-  process. The model of ``snn_fg/export/pynn_memory.py`` (a fixed part, a
+  process. The model of ``snn_fg/pynn/memory.py`` (a fixed part, a
   part per cell and one per synapse) is fitted on the sizes given by
-  ``--fit`` and judged on the others: predicted against measured.
+  ``--fit`` and judged on the others: predicted against measured. The
+  sizes run replace their rows; the others' rows are kept. The times of
+  the sizes run give ``run.py``'s time figures (``snn_fg/pynn/memory.py``):
+  synapses built per second, and seconds per simulated ms per synapse (a
+  run's spike deliveries grow with its synapses at the rates the export's
+  gains are set for; the disc's trains run at 200 Hz, the rate the
+  gains are set for).
 
 Writes experiments/results/export_memory.{json,md}.
 Usage: python -m experiments.bench.export_memory [nir] [nest] [--sizes 24x24:1 32x24:2 ...] [--fit 3]
@@ -17,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -98,10 +105,27 @@ def nest_runs(out: dict, sizes):
                                   text=True, check=True)
             peak = float(done.stdout.split("MAXRSS")[1])
             built = [line for line in done.stdout.splitlines() if line.startswith("run.py: built")][0]
+            build_s, ms, sim_s = (float(v) for v in re.search(r"built in ([0-9.]+) s, simulated ([0-9.]+) ms in "
+                                                               r"([0-9.]+) s", built).groups())
             rows.append({"size": spec, "cells": cells, "synapses": synapses, "peak_gb": peak / 1e9,
-                         "wall_s": time.perf_counter() - t0, "run_py": built, "load": load_change(load0)})
+                         "wall_s": time.perf_counter() - t0, "build_s": build_s, "simulate_s_per_ms": sim_s / ms,
+                         "run_py": built, "load": load_change(load0), "load_before": load0,
+                         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())})
             print(rows[-1], flush=True)
-    out["nest_runs"] = rows
+    kept = {r["size"]: r for r in out.get("nest_runs", [])}
+    out["nest_runs"] = list({**kept, **{r["size"]: r for r in rows}}.values())    # (in place, new sizes last)
+    time_fit(out, rows)
+
+
+def time_fit(out: dict, rows):
+    """Synapses built per second and seconds per simulated ms per synapse (least squares through 0) of ``rows``."""
+    syn = np.array([r["synapses"] for r in rows], float)
+    build = np.array([r["build_s"] for r in rows])
+    sim = np.array([r["simulate_s_per_ms"] for r in rows])
+    out["nest_time_model"] = {"synapses_per_s": float(syn @ syn / (syn @ build)),
+                              "s_per_ms_per_synapse": float(syn @ sim / (syn @ syn)),
+                              "fitted_on": [r["size"] for r in rows], "date": rows[0]["date"],
+                              "load": " / ".join(r["load"] for r in rows)}
 
 
 def fit(out: dict, n_fit: int):
@@ -139,6 +163,17 @@ def markdown(out: dict) -> list[str]:
                                 [[r["size"], f"{r['cells']:,}", f"{r['synapses']:,}", f"{r['peak_gb']:.2f}",
                                   f"{r.get('predicted_gb', nan):.2f}", f"{100 * r.get('error_frac', nan):+.0f} %",
                                   f"{r['wall_s']:.0f}", r["load"]] for r in out["nest_runs"]])
+    if "nest_time_model" in out:
+        t = out["nest_time_model"]
+        lines += ["", f"## run.py's time on NEST (one thread; {t['date']}, load {t['load']})", "",
+                  f"Fitted on {', '.join(t['fitted_on'])}: {t['synapses_per_s']:.3g} synapses built per s, "
+                  f"{t['s_per_ms_per_synapse']:.3g} s per simulated ms per synapse.", ""]
+        rows = [r for r in out["nest_runs"] if r["size"] in t["fitted_on"]]
+        lines += markdown_table(["size (WxH:levels)", "synapses", "build s", "predicted", "s per simulated ms",
+                                 "predicted", "load"],
+                                [[r["size"], f"{r['synapses']:,}", f"{r['build_s']:.1f}",
+                                  f"{r['synapses'] / t['synapses_per_s']:.1f}", f"{r['simulate_s_per_ms']:.3f}",
+                                  f"{r['synapses'] * t['s_per_ms_per_synapse']:.3f}", r["load"]] for r in rows])
     return lines
 
 
@@ -146,7 +181,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("what", nargs="*", default=["nir", "nest"])
     ap.add_argument("--sizes", nargs="+", default=["24x24:1", "32x24:2", "48x36:3", "64x48:3", "64x48:4"])
-    ap.add_argument("--fit", type=int, default=3, help="fit the model on the first N sizes")
+    ap.add_argument("--fit", type=int, default=3, help="fit the memory model on the first N sizes of the results")
     args = ap.parse_args(argv)
     run = Run()
     path = RESULTS / "export_memory.json"

@@ -196,9 +196,9 @@ def _seeds_markdown(out) -> list[str]:
 def nest_memory(n_nodes=200_000, n_synapses=10_000_000):
     """NEST's memory per node and per synapse (random one-to-one synapses
     with weights and delays, as the backend connects them), from the process's RSS."""
-    from snn_fg.backends.nest import import_pynn_nest
+    from snn_fg.pynn.simulator import import_simulator
 
-    import_pynn_nest()
+    import_simulator("nest")
     import nest
 
     def rss_gb():

@@ -25,9 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
-import os
 import time
-import warnings
 
 import numpy as np
 
@@ -36,25 +34,13 @@ from .. import validate as check
 from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
+from ..pynn.simulator import import_simulator
 from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
 CHUNK_MS = 25.0
 #: spike trains are recorded up to this many cells (NEST: 32 KB per recorded cell)
 SPIKE_RECORD_MAX_CELLS = 30_000
-
-
-def import_pynn_nest():
-    """``pyNN.nest``, imported without NEST's banner and PyNN's warning about
-    its optional compiled extensions (``nest-config``)."""
-    os.environ.setdefault("PYNEST_QUIET", "1")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        import pyNN.nest as sim
-    import nest
-
-    nest.set_verbosity("M_ERROR")
-    return sim
 
 
 class NestBackend(Backend):
@@ -123,7 +109,7 @@ class NestBackend(Backend):
         timings = {"unroll": time.perf_counter() - t0}
         settings.say(f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
                      f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)")
-        sim = import_pynn_nest()
+        sim = import_simulator("nest")        # (quietly, as an export's run.py)
         net = _build(sim, un, inputs, settings, self, timings)
         try:
             settings.say("simulating in NEST")

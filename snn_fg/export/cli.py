@@ -51,6 +51,10 @@ def add_export_command(sub, sensor_size_arg, number):
                         "(spinnaker) or Loihi 2 (loihi2)")
     p.add_argument("--weight-bits", type=int, metavar="B", help="quantise weights to B bits (2-32), one scale per "
                                                                 "projection (pynn, nir)")
+    p.add_argument("--input-rate-hz", type=number(float, 0), metavar="HZ",
+                   help="gains calibrated for input spikes at HZ per active pixel, as snn-fg run calibrates its "
+                        "network to its input's rate (Network.calibrated; snn-fg events --write-spikes prints the "
+                        "input's rate); default: the network's own (200 Hz; a stored network keeps its own)")
     p.add_argument("--dt-ms", type=number(float, 0), help="time step delays are counted in (the network's: 0.5 ms, "
                                                           "the compact network 1 ms)")
     p.add_argument("--nir-profile", default="exact", metavar="|".join(NIR_PROFILES),
@@ -68,6 +72,33 @@ def add_export_command(sub, sensor_size_arg, number):
 
 
 def _network(args):
+    """The network to export, for the sensor size asked for and calibrated to ``--input-rate-hz``,
+    and that sensor size (rows, cols)."""
+    net, sensor = _sized_network(args)
+    if args.input_rate_hz is not None:
+        net = net.calibrated(args.input_rate_hz)
+    return net, sensor
+
+
+def export_command(args) -> str:
+    """The ``snn-fg export`` command line of ``args`` without ``--input-rate-hz``
+    and ``--force``: what a PyNN export records, to say how to re-export it calibrated."""
+    import shlex
+
+    words = ["snn-fg", "export", "--format", args.format, "--out", str(args.out)]
+    if args.network:
+        words += ["--network", args.network]
+    if args.sensor_size:
+        words += ["--sensor-size", f"{args.sensor_size[0]}x{args.sensor_size[1]}"]
+    for flag in ("levels", "n_ori", "r0", "weight_bits", "dt_ms"):
+        if getattr(args, flag) is not None:
+            words += ["--" + flag.replace("_", "-"), f"{getattr(args, flag):g}"]
+    if args.target != "generic":
+        words += ["--target", args.target]
+    return " ".join(shlex.quote(w) for w in words)
+
+
+def _sized_network(args):
     """The network to export, for the sensor size asked for, and that sensor size (rows, cols)."""
     from ..network.recipes import RECIPES, is_recipe, network_for
 
@@ -150,7 +181,8 @@ def cmd_export(args) -> int:
     if args.format == "pynn":
         from .pynn import export_pynn
 
-        export_pynn(net, out, dt_ms=args.dt_ms, weight_bits=bits, target=args.target, force=args.force)
+        export_pynn(net, out, dt_ms=args.dt_ms, weight_bits=bits, target=args.target, force=args.force,
+                    command=export_command(args), sensor_shape=sensor)
         what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
     elif args.format == "nir" and args.nir_profile == "snntorch":
         from .nir_snntorch import export_nir_snntorch

@@ -23,6 +23,9 @@ from ..errors import InputError
 
 #: regular trains of an event frame: the rate ``snn-fg run`` uses (Hz)
 FRAME_RATE_HZ = 200.0
+#: an input whose rate differs from the one the export's gains are set for by more than this factor
+#: is driven noticeably differently from how ``snn-fg run`` (which calibrates to its input) drives it
+RATE_MISMATCH = 1.2
 
 
 def add_spike_options(parser):
@@ -32,7 +35,8 @@ def add_spike_options(parser):
                    help="write the spike file the export's run.py --input reads (needs --export)")
     g.add_argument("--export", metavar="DIR", default=None, help="the export folder: its frame size and time step")
     g.add_argument("--crop-at", metavar="X,Y", default=None,
-                   help="top-left pixel of the export-sized crop (default: the crop with the most event pixels)")
+                   help="top-left pixel of the export-sized crop, or block for an export that pools its input "
+                        "(--network compact: 3 x 3 blocks; default: the crop with the most event pixels or blocks)")
     g.add_argument("--duration-ms", type=float, default=400.0,
                    help="frames and images: length of the regular trains (400, as snn-fg run)")
 
@@ -84,10 +88,23 @@ def crop_events(events, top_left, shape):
     return ev
 
 
-def _crop_box(active, want, crop_at, source):
-    (h, w), (eh, ew) = active.shape, want
+def _pixel(net) -> str:
+    """What one of the network's input sources sees: a pixel, or a block of pixels."""
+    return "block" if net.params.input_pool > 1 else "pixel"
+
+
+def _at(net, r0, c0) -> str:
+    return f"{'block ' if net.params.input_pool > 1 else ''}x={c0}, y={r0}"
+
+
+def _crop_box(active, net, crop_at, source):
+    """Top-left (row, col) of the crop of the network's frame from the (pooled) input's ``active`` sources."""
+    from .pynn import frame_size
+
+    (h, w), want = active.shape, tuple(net.frame_shape)
+    (eh, ew), size = want, frame_size(net, active.shape)
     if h < eh or w < ew:
-        raise InputError(source, f"{w} x {h} input is smaller than the export's {ew} x {eh} frame")
+        raise InputError(source, f"an input of {size} is smaller than the export's frame of {frame_size(net)}")
     if crop_at is None:
         return busiest_crop(active, want)
     try:
@@ -95,7 +112,7 @@ def _crop_box(active, want, crop_at, source):
     except ValueError:
         raise InputError(source, f"--crop-at {crop_at!r}: expected X,Y") from None
     if not (0 <= x <= w - ew and 0 <= y <= h - eh):
-        raise InputError(source, f"--crop-at {x},{y}: an {ew} x {eh} crop must lie inside the {w} x {h} input")
+        raise InputError(source, f"--crop-at {x},{y}: a crop of {frame_size(net)} must lie inside the input's {size}")
     return y, x
 
 
@@ -114,10 +131,10 @@ def _input_spikes(args, net, dt_ms):
         stream = iter_recording(args.input, sensor_size=args.sensor_size)
         win = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         on, off = pool_frame(win.pos, win.neg, pool)
-        r0, c0 = _crop_box((on > 0) | (off > 0), shape, args.crop_at, args.input)
+        r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)
         ev = crop_events(pool_events(win.events, pool), (r0, c0), shape)
         if ev.size == 0:
-            raise InputError(args.input, f"no event in the crop at x={c0}, y={r0} of window "
+            raise InputError(args.input, f"no event in the crop at {_at(net, r0, c0)} of window "
                                          f"{win.t_start_us}..{win.t_end_us} us")
         inp = event_spikes(ev, (shape[1], shape[0]), dt_ms, replay=True, source=str(args.input),
                            t0_us=win.t_start_us, refractory_ms=net.input_refractory_ms)
@@ -125,20 +142,21 @@ def _input_spikes(args, net, dt_ms):
     else:
         frame, _ = load_frame(args.input, "events", args.threshold, args.motion)
         on, off = pool_frame(frame.pos, frame.neg, pool)
-        r0, c0 = _crop_box((on > 0) | (off > 0), shape, args.crop_at, args.input)
+        r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)
         cut = (slice(r0, r0 + shape[0]), slice(c0, c0 + shape[1]))
         pos, neg = on[cut], off[cut]
         if not (pos.any() or neg.any()):
-            raise InputError(args.input, f"no event pixel in the crop at x={c0}, y={r0}")
+            raise InputError(args.input, f"no event {_pixel(net)} in the crop at {_at(net, r0, c0)}")
         inp = frame_spikes(pos, neg, FRAME_RATE_HZ, dt_ms, args.duration_ms)
         what = f"{kind}, regular trains at {FRAME_RATE_HZ:g} Hz for {args.duration_ms:g} ms"
-    return inp, f"{what}; crop at x={c0}, y={r0}"
+    return inp, f"{what}; crop at {_at(net, r0, c0)}"
 
 
 def write_spikes(args) -> int:
-    """``snn-fg events INPUT --write-spikes OUT --export DIR``; prints one line, returns 0."""
+    """``snn-fg events INPUT --write-spikes OUT --export DIR``; prints what it wrote (and how to
+    re-export calibrated to the input's rate when that is far from the export's), returns 0."""
     from ..atomic import atomic_path
-    from .pynn import save_input
+    from .pynn import frame_text, save_input
 
     if args.export is None:
         raise InputError(args.write_spikes, "--write-spikes needs --export DIR (the export's frame and time step)")
@@ -150,11 +168,27 @@ def write_spikes(args) -> int:
     inp, what = _input_spikes(args, net, float(meta["dt_ms"]))
     with atomic_path(args.write_spikes, suffix=".npz") as part:
         save_input(inp, part, float(meta["dt_ms"]))
-    h, w = net.frame_shape
-    print(f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active pixel; "
-          f"the export's gains are set for {net.input_rate_hz:g} Hz) for the {w} x {h} export {args.export} "
-          f"at dt {meta['dt_ms']} ms; {what}")
+    print(f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active "
+          f"{_pixel(net)}; the export's gains are set for {net.input_rate_hz:g} Hz) for the export {args.export} "
+          f"({frame_text(net, meta.get('sensor_shape'))}) at dt {meta['dt_ms']} ms; {what}")
+    hint = recalibration_hint(inp.rate_hz, net.input_rate_hz, meta.get("export_command"), _pixel(net))
+    if hint:
+        print(hint)
     return 0
+
+
+def recalibration_hint(input_hz: float, export_hz: float, command: str | None, pixel: str = "pixel") -> str | None:
+    """What to do when an input's rate is far from the one the export's gains
+    are set for (``snn-fg run`` calibrates its network to its input's rate):
+    the command to re-export with (``command``: the export's own, if known)."""
+    if max(input_hz, export_hz) <= RATE_MISMATCH * min(input_hz, export_hz):
+        return None
+    redo = f"{command} --input-rate-hz {input_hz:.3g} --force" if command else \
+        f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
+    return (f"snn-fg: note: this input is {input_hz:.3g} Hz per active {pixel}, {input_hz / export_hz:.2g} times the "
+            f"{export_hz:g} Hz the export's gains are set for; snn-fg run calibrates its network to its input's "
+            f"rate. To drive the export as snn-fg run drives the network, re-export: {redo} (this replaces the "
+            "folder: write the input again after it)")
 
 
 def add_decode_command(sub):
@@ -172,8 +206,28 @@ def add_decode_command(sub):
     return p
 
 
-def _input_frame(path, shape):
-    """(pos, neg) pixels that get spikes in a run.py input file of ``shape`` (None: no such file)."""
+def last_spike_frame(inputs):
+    """``(pos, neg)`` uint8 event frame of run.py input spikes
+    (:class:`~snn_fg.lowering.input_spikes.InputSpikes`): each pixel the
+    polarity of its last input spike (within the first period of a
+    repeating pattern), as :func:`~snn_fg.events.window.events_to_frame`
+    gives each pixel the polarity of its last event. A pixel whose ON and
+    OFF sources last fire in the same step is OFF (an input file holds no
+    order within a step; the figures draw OFF over ON too)."""
+    h, w = inputs.shape
+    n = h * w
+    idx, steps = inputs.indices, inputs.steps
+    last = np.full(2 * n, -1, np.int64)
+    keep = idx < 2 * n                      # (the clock source, if any, is no pixel)
+    np.maximum.at(last, idx[keep], steps[keep])
+    on, off = last[:n], last[n:]
+    pos = (on > off).astype(np.uint8)
+    neg = ((off >= on) & (off >= 0)).astype(np.uint8)
+    return pos.reshape(h, w), neg.reshape(h, w)
+
+
+def input_frame(path, shape):
+    """The event frame (:func:`last_spike_frame`) of a run.py input file of ``shape`` (None: no such file)."""
     from .pynn import read_input
 
     if path is None or not Path(path).exists():
@@ -183,9 +237,9 @@ def _input_frame(path, shape):
     except (OSError, ValueError, KeyError) as e:
         raise InputError(path, f"not a run.py input file ({type(e).__name__}: {e})") from None
     if inp.shape != tuple(shape):
-        raise InputError(path, f"input of {inp.shape[1]} x {inp.shape[0]} pixels, the export's frame is "
-                               f"{shape[1]} x {shape[0]}")
-    return inp.on, inp.off
+        raise InputError(path, f"an input of {inp.shape[1]} x {inp.shape[0]}, the export's frame is "
+                               f"{shape[1]} x {shape[0]} (width x height)")
+    return last_spike_frame(inp)
 
 
 def decode_counts(network, counts_path):
@@ -218,7 +272,7 @@ def cmd_decode(args) -> int:
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")
     maps = decode_counts(net, args.counts)
-    frame = _input_frame(args.input or Path(args.counts).with_name("input.npz"), net.frame_shape)
+    frame = input_frame(args.input or Path(args.counts).with_name("input.npz"), net.frame_shape)
     shown = event_frame_rgb(*frame) if frame is not None else np.zeros((*net.frame_shape, 3))
     with OutputFolder(args.out, force=args.force) as out:
         maps.save(out.dir / "maps.npz")

@@ -14,6 +14,8 @@ The export folder holds
   ``ConvolutionConnector`` s, and its mapping on a virtual board
   (:mod:`snn_fg.pynn.spinnaker`); ``fg_memory.py`` - what a NEST run
   will cost, from measurement (:mod:`snn_fg.pynn.memory`);
+  ``fg_simulator.py`` - PyNN's simulator module imported without PyNN's
+  warnings about its optional NEST extensions (:mod:`snn_fg.pynn.simulator`);
 * ``network.json`` - populations (grids, neuron constants), projections
   (ends, sign, gain, delay, per-projection weight scale, synapse count) and the snn-fg
   description it was made from; ``tables.npz`` - the weight-shared tables
@@ -71,9 +73,32 @@ def _tables(network: Network):
     return entries, arrays
 
 
+def frame_size(network: Network, shape=None) -> str:
+    """``shape`` (rows, cols; default: the network's frame) in words, width x
+    height as ``--sensor-size`` takes them: ``"32 x 24"``, or for a network that
+    pools its input ``"102 x 80 blocks"``."""
+    h, w = network.frame_shape if shape is None else shape
+    return f"{w} x {h}" + (" blocks" if network.params.input_pool > 1 else "")
+
+
+def frame_text(network: Network, sensor_shape=None) -> str:
+    """The frame an export takes, in words: ``"a 32 x 24 sensor"``, or for a
+    network that pools its input ``"a 304 x 240 sensor as 102 x 80 blocks of 3
+    x 3 pixels"`` (without the sensor when ``sensor_shape``, rows and cols, is
+    not known)."""
+    pool = network.params.input_pool
+    if pool == 1:
+        return f"a {frame_size(network)} sensor"
+    blocks = f"{frame_size(network)} of {pool} x {pool} pixels"
+    return blocks if sensor_shape is None else f"a {sensor_shape[1]} x {sensor_shape[0]} sensor as {blocks}"
+
+
 def pynn_model(network: Network, *, dt_ms: float | None = None, weight_bits: int | None = None,
-               target: str = "generic") -> tuple[dict, dict]:
-    """``(network.json data, tables.npz arrays)`` of the board network."""
+               target: str = "generic", command: str | None = None,
+               sensor_shape=None) -> tuple[dict, dict]:
+    """``(network.json data, tables.npz arrays)`` of the board network; ``command``:
+    the ``snn-fg export`` command that made it, recorded (without ``--input-rate-hz``);
+    ``sensor_shape`` (rows, cols): the sensor it was made for, if known."""
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     net = board_network(network)
     entries, arrays = _tables(net)
@@ -83,19 +108,21 @@ def pynn_model(network: Network, *, dt_ms: float | None = None, weight_bits: int
     pops = [{"name": p.name, "role": p.role, "level": p.level, "size": p.size, **geometry(p),
              "neuron": None if p.neuron is None else p.neuron.to_dict()} for p in net.populations]
     meta = {"schema": SCHEMA, "snn_fg_version": __version__, "target": target, "dt_ms": dt_ms,
-            "weight_bits": weight_bits, "frame_shape": list(net.frame_shape), "populations": pops,
-            "projections": entries, "notes": list(net.notes), "snn_fg_network": net.to_dict()}
+            "weight_bits": weight_bits, "input_rate_hz": net.input_rate_hz, "export_command": command,
+            "frame_shape": list(net.frame_shape), "sensor_shape": None if sensor_shape is None else list(sensor_shape),
+            "populations": pops, "projections": entries, "notes": list(net.notes), "snn_fg_network": net.to_dict()}
     return meta, arrays
 
 
 README = """# PyNN model of the snn-fg figure-ground network
 
-Made by `snn-fg export --format pynn` (snn-fg {version}) for a {h} x {w} sensor,
+Made by `snn-fg export --format pynn` (snn-fg {version}) for {frame},
 {levels} pyramid levels: {cells:,} neurons, {sources:,} spike sources, {prj} projections
 (target: {target}; weights: {bits}). Needs PyNN, numpy and a PyNN simulator; no snn-fg.
 
 1. Input: `snn-fg events RECORDING --start-ms 100 --window-ms 85 --write-spikes input.npz --export .`
-   (a recording's window, an image or an event frame, cut to {w} x {h}, on {dt} ms steps).
+   (a recording's window, an image or an event frame, cut to {size}, on {dt} ms steps;
+   sizes are width x height).
 2. Run: `python run.py --input input.npz --out counts.npz --simulator nest --duration-ms 400`
    (`--count-from-ms`, default half the run). It says first how much memory and time
    to expect (the measured figures are in `fg_memory.py`) and stops with one line when
@@ -116,7 +143,8 @@ Approximations (see `network.json` notes): {notes}
 
 
 def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bits: int | None = None,
-                target: str = "generic", force: bool = False) -> Path:
+                target: str = "generic", force: bool = False, command: str | None = None,
+                sensor_shape=None) -> Path:
     """Write the PyNN model of ``network`` into the new folder ``out``.
 
     Parameters
@@ -132,6 +160,15 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
         Quantise weights to this many bits (one scale per projection).
     target : {"generic", "spinnaker"}
         Recorded in ``network.json`` (every export holds ``spinnaker.json``).
+    command : str, optional
+        The ``snn-fg export`` command that made it, recorded in ``network.json``
+        (``snn-fg events --write-spikes`` says how to re-export it calibrated
+        to an input's rate). The gains are the network's: calibrate it first
+        (:meth:`~snn_fg.network.Network.calibrated`) for another input rate;
+        ``network.json``'s ``input_rate_hz`` says which.
+    sensor_shape : (rows, cols), optional
+        The sensor it is made for (a network that pools its input has a
+        smaller frame), recorded in ``network.json`` and named in its README.
 
     Examples
     --------
@@ -142,12 +179,13 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
     ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
     >>> sorted(p.name for p in d.glob("*.py"))
-    ['fg_cells.py', 'fg_memory.py', 'fg_network.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
+    ['fg_cells.py', 'fg_memory.py', 'fg_network.py', 'fg_simulator.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
     """
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     from ..atomic import OutputFolder
 
-    meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target)
+    meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command,
+                              sensor_shape=sensor_shape)
     with OutputFolder(out, force=force) as folder:
         tmp = folder.dir
         (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
@@ -158,7 +196,7 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
                                                                       dt_ms=dt_ms), indent=1) + "\n")
         pops = meta["populations"]
         (tmp / "README.md").write_text(README.format(
-            version=__version__, h=meta["frame_shape"][0], w=meta["frame_shape"][1],
+            version=__version__, frame=frame_text(network, sensor_shape), size=frame_size(network),
             levels=network.params.levels, cells=sum(p["size"] for p in pops if p["neuron"]),
             sources=sum(p["size"] for p in pops if not p["neuron"]), prj=len(meta["projections"]), target=target,
             bits=f"{weight_bits}-bit" if weight_bits else "float", dt=dt_ms, notes=" ".join(meta["notes"])))

@@ -257,7 +257,8 @@ def report_table(rep: dict) -> str:
     pool = rep.get("input_pool", 1)
     if rep.get("sensor_shape"):
         h, w = rep["sensor_shape"]
-    lines = [f"Whole network for a {w} x {h} sensor (width x height), {rep['levels']} levels, "
+    what = f"a {w} x {h} sensor" if pool == 1 or rep.get("sensor_shape") else f"{w} x {h} blocks of a sensor"
+    lines = [f"Whole network for {what} (width x height), {rep['levels']} levels, "
              f"{rep['n_ori']} orientations, dt {rep['dt_ms']:g} ms"]
     if pool > 1:
         lines.append(f"  the sensor seen in {pool} x {pool} blocks: a {rep['frame_shape'][1]} x "

@@ -12,6 +12,7 @@ exported model and the backend are one implementation.
 * :mod:`.tables` - explicit synapses from the weight-shared tables (``fg_tables.py``);
 * :mod:`.spinnaker` - the network on sPyNNaker and its mapping (``fg_spinnaker.py``);
 * :mod:`.memory` - what a NEST run of the export costs (``fg_memory.py``);
+* :mod:`.simulator` - PyNN's simulator module, imported quietly (``fg_simulator.py``);
 * :mod:`.run` - the export's ``run.py`` (not importable inside snn_fg).
 """
 from pathlib import Path
@@ -20,4 +21,4 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 #: module -> its name in an export folder
 COPIED = {"cells.py": "fg_cells.py", "network.py": "fg_network.py", "tables.py": "fg_tables.py", "spinnaker.py": "fg_spinnaker.py",
-          "memory.py": "fg_memory.py", "run.py": "run.py"}
+          "memory.py": "fg_memory.py", "simulator.py": "fg_simulator.py", "run.py": "run.py"}

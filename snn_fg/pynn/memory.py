@@ -4,7 +4,8 @@ STANDALONE (standard library only; copied into every PyNN export as
 ``fg_memory.py``). The figures are measured by
 ``experiments.bench.export_memory`` (``experiments/results/export_memory.md``):
 ``run.py`` on NEST 3.10 (PyNN 0.13, one thread) for exports of several sizes,
-peak resident memory and wall times against the cells and synapses built.
+peak resident memory against the cells and synapses built, and the time to
+build and to simulate against the synapses.
 """
 from __future__ import annotations
 
@@ -12,16 +13,21 @@ import sys
 import time
 
 #: peak memory of run.py on NEST: a fixed part (Python, numpy, PyNN, NEST) ...
-NEST_BASE_BYTES = 0.14e9
+NEST_BASE_BYTES = 0.144e9
 #: ... plus this much per cell or spike source (NEST's node, the cell's spike counter and its share of the
 #: recorder, run.py's arrays) ...
-NEST_BYTES_PER_CELL = 10_100.0
+NEST_BYTES_PER_CELL = 9_640.0
 #: ... plus this much per synapse. Fitted on exports of 24x24 (1 level), 32x24 (2) and 48x36 (3); predicts
-#: 64x48 with 3 levels at 6.47 GB (measured 6.47) and with 4 at 6.92 GB (measured 7.16, -3 %)
-NEST_BYTES_PER_SYNAPSE = 35.3
-#: building: synapses connected per second, one thread: 0.8-2.1 x 10^5 measured at those sizes on a
-#: shared 2-core machine at load 15-17 (an idle machine is faster)
-NEST_SYNAPSES_PER_S = 1.0e5
+#: 64x48 with 3 levels at 6.48 GB (measured 6.47) and with 4 at 6.92 GB (measured 7.16, -3 %)
+NEST_BYTES_PER_SYNAPSE = 41.7
+#: building: synapses connected per second, one thread ...
+NEST_SYNAPSES_PER_S = 1.2e6
+#: ... and simulating: seconds per simulated ms per synapse, one thread, at the input rate the export's
+#: gains are set for (a run's spike deliveries grow with its synapses at given rates): 0.072, 0.144 and
+#: 0.413 s per ms for those three sizes (a disc at 200 Hz), 1.99e-8 per synapse
+NEST_S_PER_MS_PER_SYNAPSE = 2.0e-8
+#: where and when the two time figures were measured (a busier machine is slower)
+TIMES_MEASURED = "on a shared 2-core machine on 27 Nov 2026 at load 0.6-0.9"
 _last = [0.0]
 
 
@@ -50,10 +56,18 @@ def available_bytes() -> float | None:
     return None
 
 
-def check_memory(meta: dict, memory_gb: float | None = None) -> float:
-    """Say what the NEST run of the export ``meta`` (network.json) will take,
-    and stop with one line if its memory will not fit (``memory_gb``, else
-    what the machine has available). Returns the predicted bytes."""
+def duration_text(seconds: float) -> str:
+    """``seconds`` in words a person reads at a glance: s below 2 min, min below 2 h, else h."""
+    if seconds < 120:
+        return f"{seconds:.2g} s" if seconds < 10 else f"{seconds:.0f} s"
+    return f"{seconds / 60:.0f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h"
+
+
+def check_memory(meta: dict, memory_gb: float | None = None, duration_ms: float = 400.0) -> float:
+    """Say what the NEST run of ``duration_ms`` of the export ``meta``
+    (network.json) will take, and stop with one line if its memory will not
+    fit (``memory_gb``, else what the machine has available). Returns the
+    predicted bytes."""
     cells = sum(p["size"] for p in meta["populations"])
     synapses = sum(pr.get("synapses", 0) for pr in meta["projections"])
     need = nest_memory_bytes(cells, synapses)
@@ -63,7 +77,9 @@ def check_memory(meta: dict, memory_gb: float | None = None) -> float:
                  f"{need / 1e9:.1f} GB on NEST, more than the {have / 1e9:.1f} GB "
                  f"{'given (--memory-gb)' if memory_gb is not None else 'available'}: use a smaller export "
                  "(--sensor-size, --levels) or a larger machine")
-    print(f"run.py: {cells:,} cells, {synapses:,} synapses: expect about {need / 1e9:.1f} GB and up to "
-          f"{synapses / NEST_SYNAPSES_PER_S / 60:.0f} min to build on NEST, one thread (measured figures in "
-          "fg_memory.py); simulating takes 1-6 s per simulated ms at those sizes", flush=True)
+    per_ms = synapses * NEST_S_PER_MS_PER_SYNAPSE
+    print(f"run.py: {cells:,} cells, {synapses:,} synapses: expect about {need / 1e9:.1f} GB on NEST, "
+          f"{duration_text(synapses / NEST_SYNAPSES_PER_S)} to build and {per_ms:.2g} s per simulated ms "
+          f"({duration_text(per_ms * duration_ms)} for {duration_ms:g} ms) on one thread, as measured "
+          f"{TIMES_MEASURED} (fg_memory.py)", flush=True)
     return need

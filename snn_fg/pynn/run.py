@@ -23,7 +23,6 @@ onto virtual SpiNN-5 boards with a configuration of its own in
 beside the export's own estimate.
 """
 import argparse
-import importlib
 import json
 import sys
 import time
@@ -33,6 +32,7 @@ import numpy as np
 import fg_cells
 import fg_memory
 import fg_network as fg
+import fg_simulator
 import fg_tables
 
 SIMULATORS = {"spinnaker": "spiNNaker"}     # our name -> pyNN module
@@ -169,8 +169,8 @@ def main(argv=None):
             if args.map_only:
                 fg_spinnaker.skip_data_generation()
     elif args.simulator == "nest":
-        fg_memory.check_memory(meta, args.memory_gb)
-    sim = importlib.import_module(f"pyNN.{args.simulator}")
+        fg_memory.check_memory(meta, args.memory_gb, args.duration_ms)
+    sim = fg_simulator.import_simulator(args.simulator)
     t0 = time.perf_counter()
     start = args.duration_ms / 2 if args.count_from_ms is None else args.count_from_ms
     net = build(sim, meta, tables, sources, dt_ms, args, (start, args.duration_ms), plan)

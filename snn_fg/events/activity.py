@@ -76,12 +76,15 @@ def saturated_lines(act: Activity, most: int = 5) -> list[str]:
     lead = 0
     while lead < len(sat) and sat[lead] == lead:
         lead += 1
-    which = "window 0" if lead == 1 else f"windows 0-{lead - 1}"
-    skip = (f"; --start-ms {act.t_start_ms[lead]:g} skips {which} (a shorter --window-ms in snn-fg events finds "
-            "the burst's end more closely)" if 0 < lead < len(act.share) else
-            "; every window here is in it: start later with --start-ms (snn-fg events INPUT shows where it ends)"
-            if lead == len(act.share) else "")
     n = len(act.share)
+    if lead == n:
+        skip = "; every window here is in it: start later with --start-ms (snn-fg events INPUT shows where it ends)"
+    elif lead:
+        which = "window 0" if lead == 1 else f"windows 0-{lead - 1}"
+        skip = (f"; --start-ms {act.t_start_ms[lead]:g} skips {which} (a shorter --window-ms in snn-fg events "
+                "finds the burst's end more closely)")
+    else:
+        skip = ""
     lines.append(f"{len(sat)} of {n} window{'s' if n > 1 else ''} {'have' if len(sat) > 1 else 'has'} events on more "
                  f"than {SATURATED_SHARE:.0%} of the "
                  "sensor's pixels: a sensor-wide burst (camera start-up, flicker or a change of light), not a "

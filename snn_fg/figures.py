@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import NullLocator
 
 from .atomic import save_figure
+from .maps import SPIKING_GROUPING_LABEL
 
 GROUPING_CMAP = "magma"
 #: darkest brightness of a non-zero figure-ground vector (0: invisible)
@@ -312,5 +313,3 @@ def save_spiking_figures(maps, out_dir, window: int | None = None, with_maps: bo
     written.append(save_figure(rate_histogram_figure(record, window), out / "rate_histograms.png", dpi=110))
     return written
 
-
-SPIKING_GROUPING_LABEL = "grouping rate (Hz, summed over levels)"

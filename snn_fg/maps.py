@@ -11,6 +11,9 @@ from .atomic import save_npz
 from . import validate as check
 from .errors import InputError
 
+#: what a spiking run's grouping map is (figure labels)
+SPIKING_GROUPING_LABEL = "grouping rate (Hz, summed over levels)"
+
 
 @dataclass
 class Maps:

@@ -19,9 +19,8 @@ import numpy as np
 from . import validate as check
 from .backends import DEFAULT_BACKEND
 from .errors import InputError
-from .figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure, save_spiking_figures
 from .inputs import Still
-from .maps import Maps
+from .maps import SPIKING_GROUPING_LABEL, Maps
 from .params import ModelParams
 from .rate.natural import NATURAL_PARAMS
 
@@ -88,11 +87,15 @@ class Model(ABC):
 
     def figure_input(self, still: Still) -> np.ndarray:
         """The image shown beside the maps."""
+        from .figures import event_frame_rgb        # (matplotlib: only for runs that draw)
+
         return event_frame_rgb(still.pos, still.neg)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
         """Figures of a run into folder ``out``; ``inputs`` one image per frame;
         ``crop`` ``(x0, y0, x1, y1)``: the maps' part to draw (all of it)."""
+        from .figures import save_maps_figure
+
         return [save_maps_figure(out / "maps.png", inputs, maps.fg_x, maps.fg_y, maps.grouping, titles=titles,
                                  grouping_label=self.grouping_label, crop=crop)]
 
@@ -285,6 +288,8 @@ class SpikingModel(Model):
         written = super().write_figures(out, maps, inputs, titles, crop)
         if maps.fg_x.ndim == 3 and not self.save_spikes:
             return written
+        from .figures import save_spiking_figures
+
         return written + save_spiking_figures(maps, out, with_maps=False)
 
 

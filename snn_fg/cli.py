@@ -22,7 +22,7 @@ from .events_cli import add_events_command, sensor_size_arg
 from .export.cli import add_export_command
 from .export.loop import add_decode_command
 from .models import MODELS
-from .rate.fbfg import EDGE_OPERATORS
+from .params import EDGE_OPERATORS
 
 EXIT_INPUT = 2
 MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")

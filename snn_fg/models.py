@@ -21,8 +21,7 @@ from .backends import DEFAULT_BACKEND
 from .errors import InputError
 from .inputs import Still
 from .maps import SPIKING_GROUPING_LABEL, Maps
-from .params import ModelParams
-from .rate.natural import NATURAL_PARAMS
+from .params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
 
 
 class Model(ABC):
@@ -159,8 +158,6 @@ class FbfgModel(Model):
     grouping_label = "grouping (normalised to 1)"
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, edge_operator="gaussian"):
-        from .rate.fbfg import EDGE_OPERATORS
-
         super().__init__(params, progress)
         self.edge_operator = check.choice("fbfg", "edge_operator", edge_operator, EDGE_OPERATORS)
 

@@ -126,3 +126,13 @@ class ModelParams:
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), sort_keys=True)
+
+
+#: The natural-scene variant's parameters (:mod:`snn_fg.rate.natural`,
+#: ``--model natural``): the paper's, with the grouping polarities pooled, no
+#: rival inhibition and a grouping radius of 4 px. Here rather than there, so
+#: that naming the models does not load the rate model's code.
+NATURAL_PARAMS = ModelParams(grouping_polarity="pool", w_inh=0.0, r0=4.0)
+
+#: The frame-based model's edge operators for its simple cells (:mod:`snn_fg.rate.fbfg`, ``--edge-operator``).
+EDGE_OPERATORS = ("gaussian", "corf")

@@ -34,12 +34,10 @@ from scipy import ndimage as ndi
 
 from ..pyramid.levels import check_levels, pyramid
 from ..maps import Maps
-from ..params import ModelParams
+from ..params import EDGE_OPERATORS, ModelParams
 from .. import validate
 from .edfg import border_ownership_grouping, readout
 
-#: Edge operators of the simple cells (see the module docstring).
-EDGE_OPERATORS = ("gaussian", "corf")
 
 
 def _channels(image: np.ndarray) -> list[tuple[float, np.ndarray]]:

@@ -37,12 +37,8 @@ cells, feedback gain, read-out) is the reference's.
 from __future__ import annotations
 
 from ..maps import Maps
-from ..params import ModelParams
+from ..params import NATURAL_PARAMS, ModelParams
 from .edfg import run_edfg_state
-
-#: The variant's parameters: the paper's, with the grouping polarities pooled,
-#: no rival inhibition and a grouping radius of 4 px (see the module docstring).
-NATURAL_PARAMS = ModelParams(grouping_polarity="pool", w_inh=0.0, r0=4.0)
 
 
 def run_natural(pos, neg, params: ModelParams = NATURAL_PARAMS, progress=None) -> Maps:

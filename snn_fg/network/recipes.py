@@ -9,9 +9,10 @@ a 346 x 260 DAVIS or an image alike.
   ``SpikingParams()``), the network every fidelity result is about.
 * ``compact``: the same stages in a form that fits one Loihi 2 chip at the
   iCub's 304 x 240 and aims at real time on one CPU core: the sensor pooled
-  3 x 3, an input that passes on one event of a block per 40 ms,
+  3 x 3, an input that passes on one event of a block per 60 ms,
   octave-spaced levels, excess cells on the grouping lattice, a stronger
-  window clock, a 1 ms time step and kernels pruned at 20 % of their peak.
+  window clock, a 1 ms time step and kernels pruned at 30 % (DoG) and 20 % (von Mises)
+  of their peak.
   ``docs/model.md`` ("The compact network") gives each choice with what it
   saves and costs.
 """
@@ -66,8 +67,8 @@ class Lever:
 COMPACT_LEVERS = (
     Lever("pooled input", "the sensor pooled 3 x 3 before stage 1 (the model sees blocks), R0 = 4 blocks (12 px)",
           {"input_pool": 3, "r0": 4.0, "levels": 7}, {}),
-    Lever("input refractory period", "a block and polarity passes on one event per 40 ms",
-          {}, {"input_refractory_ms": 40.0}),
+    Lever("input refractory period", "a block and polarity passes on one event per 60 ms",
+          {}, {"input_refractory_ms": 60.0}),
     Lever("octave levels", "3 levels an octave apart (1/2, not 1/sqrt(2))", {"levels_per_octave": 1, "levels": 3}, {}),
     Lever("excess cells on the grouping lattice", "one excess cell per 2 x 2 block of border-ownership cells",
           {}, {"excess_stride": 2}),
@@ -76,8 +77,8 @@ COMPACT_LEVERS = (
     Lever("stronger window clock", "the window clock puts 1400 thresholds on the grouping cells (300)", {},
           {"clock_inh_group": 1400.0}),
     Lever("1 ms time step", "stepped at 1 ms, SpiNNaker's own time step (0.5 ms)", {}, {"dt_ms": 1.0}),
-    Lever("pruned kernels", "DoG and von Mises taps under 20 % of the kernel's peak left out (5 %)", {},
-          {"prune_dog": 0.2, "prune_vm": 0.2}),
+    Lever("pruned kernels", "DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out (5 %)",
+          {}, {"prune_dog": 0.3, "prune_vm": 0.2}),
 )
 
 

@@ -277,7 +277,7 @@ class SpikingModel(Model):
         if not self.save_spikes:        # (the counts and spike trains would be dropped unread: not made)
             options = dataclasses.replace(options, simulator=dataclasses.replace(options.simulator,
                                                                                  record_spikes=False))
-        return stream_spiking_windows(windows, done, options=options)
+        return stream_spiking_windows(windows, done, options=options, cells=self.save_spikes)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
         """``maps.png``; and the spike raster and rate histograms where the

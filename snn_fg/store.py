@@ -18,10 +18,17 @@ array per kind of per-window result, all growing along their first axis:
 
 The group's attributes hold the run's ``params`` and ``snn_fg``:
 ``windows_complete`` (the windows a reader may use: every array holds at
-least that many) and ``complete`` (the run has ended). Every file is
-replaced atomically, chunks before shapes before attributes, so a reader
-never sees a window that is not whole. Chunks are zlib-compressed (a
-codec every Zarr reader has); a map that is mostly zero compresses well.
+least that many) and ``complete`` (the run has ended). Chunks are written
+before the attributes, so a reader never sees a window that is not whole:
+a chunk that holds complete windows is replaced atomically, and a chunk
+that holds only the window being written (a map's, a new one) is written
+in place, as no reader looks at it before the attributes say the window is
+complete. The arrays' shapes (``.zarray``) are written again at most once a
+second while the run writes (each is a file to replace, and a window has
+about ten arrays): a Zarr reader opening the store during a run sees the
+windows up to a second late, snn-fg's reader (from ``windows_complete``)
+at once; at the end of the run they are exact. Chunks are zlib-compressed
+(a codec every Zarr reader has); a map that is mostly zero compresses well.
 
 Nothing here keeps more than one chunk per array in memory.
 """
@@ -29,6 +36,7 @@ from __future__ import annotations
 
 import json
 import struct
+import time
 import zlib
 from pathlib import Path
 
@@ -48,8 +56,10 @@ ZLIB_LEVEL = 1
 FLAT_CHUNK = 1 << 14
 #: windows per chunk of a per-window scalar (the chunk being filled is written again every window)
 SCALAR_CHUNK = 1024
-#: windows per chunk of ``window_params``
-PARAMS_CHUNK = 64
+#: windows per chunk of ``window_params`` (each window's text written once, not again with the next)
+PARAMS_CHUNK = 1
+#: seconds between writes of the arrays' shapes while a run writes (module docstring)
+SHAPES_EVERY_S = 1.0
 _TEXT = np.dtype(object)
 
 
@@ -95,7 +105,9 @@ class ZarrArray:
         self.dtype = np.dtype(meta["dtype"]) if meta["dtype"] != "|O" else _TEXT
         self.chunks = tuple(meta["chunks"])
         shape = tuple(meta["shape"])
-        self.shape = shape if length is None else (min(length, shape[0]),) + shape[1:]
+        # (a length from the attributes' windows_complete may run ahead of the
+        # stored shape, written at most once a second while a run writes)
+        self.shape = shape if length is None else (length,) + shape[1:]
 
     ndim = property(lambda self: len(self.shape))
 
@@ -153,9 +165,11 @@ class GrowingArray(ZarrArray):
         super().__init__(path, length)
         self.n = self.shape[0]
         self._last: tuple[int, np.ndarray] | None = None     # (number, values) of the chunk being filled
+        self.shape_written = True
 
     def append(self, values) -> None:
-        """Add rows (``values``: ``(k,) + tail``, cast to this array's dtype)."""
+        """Add rows (``values``: ``(k,) + tail``, cast to this array's dtype);
+        the new shape is written by :meth:`write_shape`."""
         values = np.asarray(values, dtype=self.dtype).reshape((-1,) + self.chunks[1:])
         c, at = self.chunks[0], 0
         while at < len(values):
@@ -165,15 +179,25 @@ class GrowingArray(ZarrArray):
             take = min(c - r, len(values) - at)
             self._last[1][r:r + take] = values[at:at + take]
             key = ".".join([str(k)] + ["0"] * (len(self.chunks) - 1))
-            write_bytes(self.path / key, _encode(self._last[1]))
+            if r:           # (holds rows of complete windows)
+                write_bytes(self.path / key, _encode(self._last[1]))
+            else:           # (holds none: no reader looks at it yet)
+                (self.path / key).write_bytes(_encode(self._last[1]))
             self.n, at = self.n + take, at + take
-        self.resize(self.n)
+        self.shape = (self.n,) + self.shape[1:]
+        self.shape_written = False
+
+    def write_shape(self) -> None:
+        """Write the shape, if it changed since it was last written."""
+        if not self.shape_written:
+            self.resize(self.n)
 
     def resize(self, n: int) -> None:
         """Declare ``n`` rows (rows past ``n`` are written again as the array grows)."""
         self.meta["shape"][0] = self.n = n
         self.shape = (n,) + self.shape[1:]
         _write_json(self.path / ".zarray", self.meta)
+        self.shape_written = True
 
 
 def read_attrs(path) -> dict:
@@ -205,7 +229,7 @@ def _lengths(path: Path, n: int) -> dict:
     out = {name: n + 1 for name in names if name.endswith("_offsets")}
     for name in names:
         if name not in out:
-            out[name] = int(ZarrArray(path / f"{name}_offsets")[n]) if f"{name}_offsets" in out else n
+            out[name] = int(ZarrArray(path / f"{name}_offsets", n + 1)[n]) if f"{name}_offsets" in out else n
     return out
 
 
@@ -236,6 +260,7 @@ class MapsStore:
         for name, length in _lengths(self.path, self.n).items():       # back to the last complete window
             self.arrays[name] = GrowingArray(self.path / name)
             self.arrays[name].resize(length)
+        self.shapes_at = time.monotonic()       # when the arrays' shapes were last written
 
     @classmethod
     def create(cls, path, run_key: dict) -> "MapsStore":
@@ -288,7 +313,14 @@ class MapsStore:
             elif a.n == self.n and f"{key}_offsets" not in self.arrays:
                 a.append(np.zeros((1,) + a.chunks[1:], a.dtype))      # absent from this window: zeros
         self.n += 1
+        if self.n == 1 or time.monotonic() - self.shapes_at >= SHAPES_EVERY_S:
+            self._write_shapes()
         self._status(windows_complete=self.n)
+
+    def _write_shapes(self) -> None:
+        for a in self.arrays.values():
+            a.write_shape()
+        self.shapes_at = time.monotonic()
 
     def _array(self, key: str, dtype, tail: tuple, chunk: int) -> GrowingArray:
         """The array ``key``, made when first met (the windows before it: fill values, or no part)."""
@@ -303,6 +335,7 @@ class MapsStore:
     def finish(self, params: dict) -> None:
         """The run's final parameters, and the store marked complete."""
         self.attrs["params"] = params
+        self._write_shapes()
         self._status(complete=True)
 
     def _status(self, **changes) -> None:

@@ -66,12 +66,37 @@ def test_per_window_scalars_span_chunks(tmp_path, monkeypatch):
 
     monkeypatch.setattr(st, "SCALAR_CHUNK", 4)
     path = tmp_path / "maps.zarr"
-    _write(path, [lambda i=i: _maps(i) for i in range(10)])
+    _write(path, [lambda i=i: _maps(i) for i in range(10)]).finish({})
     assert sorted(p.name for p in (path / "t_start_us").iterdir()) == [".zarray", "0", "1", "2"]
     back = Maps.load(path)
     np.testing.assert_array_equal(back.extra["t_start_us"], 10 * np.arange(10))
     zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
     np.testing.assert_array_equal(zarr.open_group(str(path), mode="r")["t_start_us"][:], 10 * np.arange(10))
+
+
+def test_during_a_run_zarr_sees_whole_windows_up_to_a_second_late_and_all_at_the_end(tmp_path, monkeypatch):
+    """The arrays' shapes are written at the first window, then at most once
+    a second (SHAPES_EVERY_S), and at the end: between, a Zarr reader sees
+    a prefix of whole windows and snn-fg's reader every complete one."""
+    zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
+    from snn_fg import store as st
+
+    path = tmp_path / "maps.zarr"
+    now = [0.0]
+    monkeypatch.setattr(st.time, "monotonic", lambda: now[0])
+    store = _write(path, [lambda i=i: _maps(i) for i in range(4)])
+    assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == 1       # written at the first window only
+    assert Maps.load(path).fg_x.shape[0] == 4 and read_attrs(path)["snn_fg"]["windows_complete"] == 4
+    now[0] = st.SHAPES_EVERY_S
+    store.append(_maps(4), t_start_us=np.int64(40))
+    g = zarr.open_group(str(path), mode="r")
+    assert g["fg_x"].shape[0] == g["t_start_us"].shape[0] == 5 and np.all(g["fg_x"][4] == 4)
+    store.append(_maps(5), t_start_us=np.int64(50))         # (under a second later)
+    assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == 5
+    store.finish({"model": "spiking"})
+    g = zarr.open_group(str(path), mode="r")
+    np.testing.assert_array_equal(g["t_start_us"][:], 10 * np.arange(6))
+    assert g["fg_x"].shape[0] == g["window_params"].shape[0] == 6
 
 
 def test_a_failed_write_leaves_the_file_as_it_was_and_no_part(tmp_path):

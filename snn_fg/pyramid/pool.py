@@ -17,6 +17,7 @@ camera's events), so the network's spike sources are the blocks.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from .levels import resize
 
@@ -27,21 +28,26 @@ def pooled_shape(shape: tuple[int, int], pool: int) -> tuple[int, int]:
     return (-(-h // pool), -(-w // pool))
 
 
-def _blocks(a: np.ndarray, pool: int) -> np.ndarray:
-    """``a`` (H x W) zero-padded to whole blocks, as (rows, pool, cols, pool)."""
-    h, w = pooled_shape(a.shape, pool)
-    padded = np.zeros((h * pool, w * pool), dtype=a.dtype)
-    padded[:a.shape[0], :a.shape[1]] = a
-    return padded.reshape(h, pool, w, pool)
-
-
 def pool_frame(pos: np.ndarray, neg: np.ndarray, pool: int) -> tuple[np.ndarray, np.ndarray]:
     """The event frame the model sees: a block is ON (OFF) where any of its pixels is."""
     if pool == 1:
         return pos, neg
-    on = _blocks(np.asarray(pos) != 0, pool).any(axis=(1, 3))
-    off = _blocks(np.asarray(neg) != 0, pool).any(axis=(1, 3))
-    return on.astype(np.uint8), off.astype(np.uint8)
+    out = []
+    for frame in (pos, neg):
+        frame = np.asarray(frame)
+        blocks = np.zeros(pooled_shape(frame.shape, pool), np.uint8)
+        _any_in_block(frame, pool, blocks)
+        out.append(blocks)
+    return out[0], out[1]
+
+
+@njit(cache=True)
+def _any_in_block(frame, pool, out):
+    """``out[block] = 1`` where any pixel of the block is non-zero."""
+    for i in range(frame.shape[0]):
+        for j in range(frame.shape[1]):
+            if frame[i, j] != 0:
+                out[i // pool, j // pool] = 1
 
 
 def pool_events(events: np.ndarray, pool: int) -> np.ndarray:
@@ -70,19 +76,136 @@ def edge_normals(edges: np.ndarray, pool: int, at=None):
     From the structure tensor: the gradients of the frame smoothed over
     :data:`NORMAL_SIGMA`, their products averaged over a block (a Gaussian
     of ``pool`` pixels); the normal is its leading eigenvector, the
-    coherence ``(l1 - l2) / (l1 + l2)`` of its eigenvalues."""
-    from scipy.ndimage import gaussian_filter
-
-    e = gaussian_filter(np.asarray(edges, dtype=np.float64), NORMAL_SIGMA)
-    d_row, d_col = np.gradient(e)
-    gx, gy = d_col, -d_row
-    at = (slice(None), slice(None)) if at is None else at
-    jxx, jyy, jxy = (gaussian_filter(a, float(pool))[at] for a in (gx * gx, gy * gy, gx * gy))
+    coherence ``(l1 - l2) / (l1 + l2)`` of its eigenvalues. The Gaussians
+    are ``scipy.ndimage.gaussian_filter``'s (radius 4 sigma, mirrored edges)
+    and give its values to the last bit; the block average is taken only
+    at the pixels asked for (a window's maps ask for its event pixels)."""
+    e0 = np.asarray(edges, dtype=np.float64)
+    shape = e0.shape
+    if at is None:
+        rows, cols = (a.ravel() for a in np.indices(shape))
+    else:
+        rows, cols = (np.asarray(a, dtype=np.int64) for a in at)
+    if min(shape) < 2:          # (no gradient across a line one pixel wide: no direction)
+        out = np.ones(rows.size), np.zeros(rows.size), np.zeros(rows.size)
+        return out if at is not None else tuple(a.reshape(shape) for a in out)
+    w1 = _gaussian_weights(NORMAL_SIGMA)
+    smooth = np.empty_like(e0)
+    _smooth_rows(e0, w1, smooth)
+    e = np.empty_like(e0)
+    _smooth_cols(smooth, w1, e)
+    j = np.empty((3, rows.size))
+    _block_tensor(e, _gaussian_weights(float(pool)), rows, cols, j)
+    jxx, jyy, jxy = j
     phi = 0.5 * np.arctan2(2.0 * jxy, jxx - jyy)
     trace = jxx + jyy
     spread = np.hypot(jxx - jyy, 2.0 * jxy)
     coherence = np.divide(spread, trace, out=np.zeros_like(trace), where=trace > 1e-12)
-    return np.cos(phi), np.sin(phi), np.clip(coherence, 0.0, 1.0)
+    out = np.cos(phi), np.sin(phi), np.clip(coherence, 0.0, 1.0)
+    return out if at is not None else tuple(a.reshape(shape) for a in out)
+
+
+def _gaussian_weights(sigma: float) -> np.ndarray:
+    """A normalised Gaussian of radius ``int(4 sigma + 0.5)``, computed as
+    ``scipy.ndimage.gaussian_filter`` computes its own."""
+    x = np.arange(-int(4.0 * sigma + 0.5), int(4.0 * sigma + 0.5) + 1)
+    phi = np.exp(-0.5 / (sigma * sigma) * x ** 2)
+    return phi / phi.sum()
+
+
+@njit(cache=True, inline="always")
+def _mirror(i, n):
+    """Index ``i`` of a line of ``n`` extended by mirroring (``d c b a | a b c d``),
+    again and again where the kernel is wider than the line."""
+    if 0 <= i < n:
+        return i
+    m = i % (2 * n)
+    return m if m < n else 2 * n - 1 - m
+
+
+# The three passes below add a symmetric kernel's products in
+# scipy.ndimage's order (the centre, then pairs from the outermost in),
+# so their sums are its sums bit for bit.
+
+@njit(cache=True)
+def _smooth_rows(x, w, out):
+    """``x`` smoothed along axis 0 by the symmetric kernel ``w``."""
+    h = x.shape[0]
+    r = (w.size - 1) // 2
+    for i in range(h):
+        o = out[i]
+        o[:] = x[i] * w[r]
+        for j in range(r, 0, -1):
+            a, b, wj = x[_mirror(i - j, h)], x[_mirror(i + j, h)], w[r - j]
+            for c in range(o.size):
+                o[c] += (a[c] + b[c]) * wj
+
+
+@njit(cache=True)
+def _smooth_cols(x, w, out):
+    """``x`` smoothed along axis 1 by the symmetric kernel ``w``."""
+    n = x.shape[1]
+    r = (w.size - 1) // 2
+    line = np.empty(n + 2 * r)
+    for i in range(x.shape[0]):
+        for c in range(n + 2 * r):
+            line[c] = x[i, _mirror(c - r, n)]
+        o = out[i]
+        for c in range(n):
+            o[c] = line[c + r] * w[r]
+        for j in range(r, 0, -1):
+            wj = w[r - j]
+            for c in range(n):
+                o[c] += (line[c + r - j] + line[c + r + j]) * wj
+
+
+@njit(cache=True)
+def _block_tensor(e, w, rows, cols, out):
+    """The structure tensor ``(jxx, jyy, jxy)`` of the smoothed frame ``e``
+    at the pixels ``(rows, cols)`` into ``out`` (3 x pixels): the products of
+    ``np.gradient``'s derivatives (x right, y up), smoothed by ``w`` along
+    axis 0 on the rows holding a pixel, then along axis 1 at the pixels."""
+    h, n = e.shape
+    r = (w.size - 1) // 2
+    gx, gy = np.empty_like(e), np.empty_like(e)
+    for i in range(h):
+        for c in range(n):
+            if c == 0:
+                gx[i, c] = (e[i, 1] - e[i, 0]) / 1.0
+            elif c == n - 1:
+                gx[i, c] = (e[i, n - 1] - e[i, n - 2]) / 1.0
+            else:
+                gx[i, c] = (e[i, c + 1] - e[i, c - 1]) / 2.0
+            if i == 0:
+                gy[i, c] = -((e[1, c] - e[0, c]) / 1.0)
+            elif i == h - 1:
+                gy[i, c] = -((e[h - 1, c] - e[h - 2, c]) / 1.0)
+            else:
+                gy[i, c] = -((e[i + 1, c] - e[i - 1, c]) / 2.0)
+    txx, tyy, txy = np.zeros_like(e), np.zeros_like(e), np.zeros_like(e)
+    need = np.zeros(h, np.bool_)
+    for k in range(rows.size):
+        need[rows[k]] = True
+    for i in range(h):
+        if not need[i]:
+            continue
+        for c in range(n):
+            txx[i, c] = (gx[i, c] * gx[i, c]) * w[r]
+            tyy[i, c] = (gy[i, c] * gy[i, c]) * w[r]
+            txy[i, c] = (gx[i, c] * gy[i, c]) * w[r]
+        for j in range(r, 0, -1):
+            a, b, wj = _mirror(i - j, h), _mirror(i + j, h), w[r - j]
+            for c in range(n):
+                txx[i, c] += (gx[a, c] * gx[a, c] + gx[b, c] * gx[b, c]) * wj
+                tyy[i, c] += (gy[a, c] * gy[a, c] + gy[b, c] * gy[b, c]) * wj
+                txy[i, c] += (gx[a, c] * gy[a, c] + gx[b, c] * gy[b, c]) * wj
+    for q, t in enumerate((txx, tyy, txy)):
+        for k in range(rows.size):
+            i, c = rows[k], cols[k]
+            acc = t[i, c] * w[r]
+            for j in range(r, 0, -1):
+                acc += (t[i, _mirror(c - j, n)] + t[i, _mirror(c + j, n)]) * w[r - j]
+            out[q, k] = acc
 
 
 def unpool_maps(fg_x, fg_y, grouping, edges: np.ndarray, pool: int):

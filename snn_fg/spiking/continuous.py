@@ -99,7 +99,7 @@ def run_spiking_windows(windows, *, source: str = "<recording>", options: Spikin
 
 
 def stream_spiking_windows(windows, on_window, *, source: str = "<recording>",
-                           options: SpikingOptions | None = None, **keywords) -> dict:
+                           options: SpikingOptions | None = None, cells: bool = True, **keywords) -> dict:
     """:func:`run_spiking_windows` handing each window's maps to
     ``on_window(window, maps)`` as soon as the run has passed the end of its
     read-out span, instead of returning them all at the end: nothing of a
@@ -107,9 +107,11 @@ def stream_spiking_windows(windows, on_window, *, source: str = "<recording>",
     known then (a backend that streams its bins, such as the fast engine,
     has no statistics or timings of the whole run yet); returns the whole
     run's, to update the run's parameters with (``counts``,
-    ``backend_stats``, ``kept_kernel_mass``, ``timings_s``)."""
+    ``backend_stats``, ``kept_kernel_mass``, ``timings_s``). ``cells=False``:
+    the maps' ``extra`` holds no per-cell spike counts (nor is time spent
+    gathering them)."""
     opts = SpikingOptions.of("stream_spiking_windows", options, keywords, frame=False)
-    run = simulate_windows(windows, source=source, keep_run=False, options=opts, on_window=on_window)
+    run = simulate_windows(windows, source=source, keep_run=False, options=opts, on_window=on_window, cells=cells)
     whole = run_provenance(run.network, run.origin, run.backend, run.result, {}, run.simulation, run.t_start)
     return {k: whole[k] for k in ("counts", "backend_stats", "kept_kernel_mass", "timings_s")}
 
@@ -138,7 +140,8 @@ class ContinuousRun:
 
 
 def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = True,
-                     options: SpikingOptions | None = None, on_window=None, **keywords) -> ContinuousRun:
+                     options: SpikingOptions | None = None, on_window=None, cells: bool = True,
+                     **keywords) -> ContinuousRun:
     """The simulation half of :func:`run_spiking_windows` (same parameters):
     one run over every window, each window decoded as the run passes the
     end of its read-out span; :func:`window_maps` makes their maps.
@@ -148,7 +151,8 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     and no spike trains, and the memory need not grow with the recording.
     ``True`` keeps them in ``ContinuousRun.result`` (for analyses of the
     whole run's spikes). ``on_window(window, maps)``: each window's maps as it
-    is decoded (:func:`stream_spiking_windows`), none kept in the result."""
+    is decoded (:func:`stream_spiking_windows`), none kept in the result;
+    ``cells=False``: the windows' records leave out the per-cell counts."""
     t_start = time.perf_counter()
     opts = SpikingOptions.of("simulate_windows", options, keywords, frame=False)
     sim, lag = opts.simulator, opts.recording.readout_lag_ms
@@ -172,7 +176,7 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
                   "window_clock": plan.clock_steps is not None}
     run = ContinuousRun(len(plan.spans), net, origin, backend, None, edges, plan.spans, simulation, t_start,
                         [None] * len(plan.spans), [None] * len(plan.spans))
-    reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window, threaded)
+    reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window, threaded, cells)
     simulation["decode_thread"] = reader.threaded
     settings = RunSettings(duration_ms=edges[-1], dt_ms=plan.dt_ms, count_from_ms=edges[0],
                            record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
@@ -226,13 +230,13 @@ class _WindowReader:
     AHEAD = 2
 
     def __init__(self, feed: WindowFeed, spans, edges, pool: int, run: ContinuousRun, on_window=None,
-                 threaded: bool = False):
+                 threaded: bool = False, cells: bool = True):
         self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
         self.bins = [_bins_of(span, edges) for span in spans]
         self.first = 0          # the first window not decoded yet (spans start and end in order)
         self.reading: dict = {}
         self.last_at = run.t_start          # perf_counter() when the last window was decoded
-        self.threaded = threaded
+        self.threaded, self.cells = threaded, cells
         self.worker = None
         self.pending: deque = deque()
         self.failed = False
@@ -308,7 +312,7 @@ class _WindowReader:
         fg_x, fg_y, grouping = unpool_maps(*decode(window_result)[:3], w.pos | w.neg, self.pool)
         on, off = pool_frame(w.pos, w.neg, self.pool)
         masks = SimpleNamespace(on=on != 0, off=off != 0)
-        return fg_x, fg_y, grouping, SpikingRecord.from_result(window_result, masks, self.edges[k0])
+        return fg_x, fg_y, grouping, SpikingRecord.from_result(window_result, masks, self.edges[k0], self.cells)
 
 
 def window_maps(run: ContinuousRun) -> list[Maps]:

@@ -67,30 +67,35 @@ class SpikingRecord:
         return np.concatenate([r[r > 0], np.zeros(silent)])
 
     @classmethod
-    def from_result(cls, result, inputs, settle_ms: float) -> "SpikingRecord":
-        """Summarise a :class:`~snn_fg.backends.SimulationResult` fed by ``inputs``."""
+    def from_result(cls, result, inputs, settle_ms: float, cells: bool = True) -> "SpikingRecord":
+        """Summarise a :class:`~snn_fg.backends.SimulationResult` fed by
+        ``inputs``; ``cells=False`` leaves the per-cell counts out (a
+        recording's windows whose counts are not kept), the summary in."""
         names = result.populations
         syn = result.stats.get("synapses_in", {})
+        per_s = 1000.0 / result.count_window_ms
         summary = {}
         for name in names:
             p = result.network.population(name)
-            r = result.rates(name)
-            summary[name] = {"role": p.role, "level": p.level, "cells": int(r.size),
-                             "mean_rate_hz": float(r.mean()) if r.size else 0.0,
-                             "active_frac": float((r > 0).mean()) if r.size else 0.0,
-                             "max_rate_hz": float(r.max()) if r.size else 0.0,
+            c = result.counts[name]
+            summary[name] = {"role": p.role, "level": p.level, "cells": int(c.size),
+                             "mean_rate_hz": float(c.sum()) / c.size * per_s if c.size else 0.0,
+                             "active_frac": np.count_nonzero(c) / c.size if c.size else 0.0,
+                             "max_rate_hz": float(c.max()) * per_s if c.size else 0.0,
                              "refractory_max_hz": p.neuron.max_rate_hz,
                              "synapses_in": int(syn.get(name, 0)) if syn else None}
-        fired = {n: np.flatnonzero(result.counts[n]) for n in names}
-        return cls(names=names, counts={n: result.counts[n][fired[n]].astype(np.int32) for n in names},
-                   sites={n: result.sites[n][fired[n]].astype(np.int64) for n in names},
+        fired = {n: np.flatnonzero(result.counts[n]) for n in names} if cells else {}
+        return cls(names=names, counts={n: result.counts[n][f].astype(np.int32) for n, f in fired.items()},
+                   sites={n: result.sites[n][f].astype(np.int64) for n, f in fired.items()},
                    raster=_sample_raster(result) if result.spikes is not None else None,
                    input_on=inputs.on.astype(np.uint8), input_off=inputs.off.astype(np.uint8),
                    count_window_ms=result.count_window_ms, duration_ms=result.simulated_ms,
                    settle_ms=settle_ms, populations=summary)
 
     def arrays(self) -> dict:
-        """The record's part of ``maps.npz``."""
+        """The record's part of ``maps.npz`` (none where the cells were left out)."""
+        if self.names and not self.counts:
+            return {}
         out = {_NAMES: np.array(self.names), "input_on": self.input_on, "input_off": self.input_off}
         for n in self.names:
             out[f"spikes_{n}"] = self.counts[n]

@@ -267,12 +267,12 @@ def _windows(args):
 def cmd_run(args) -> int:
     from .atomic import OutputFolder, growing_folder
     from .batch import is_dataset, run_dataset
-    from .figures import check_crop
     from .pyramid.pool import pooled_shape
     from .pyramid.levels import check_levels
     from .inputs import input_kind, load_frame
     from .runner import run_still, run_recording
     from .store import windows_complete
+    from .validate import check_crop
 
     if is_dataset(args.input):
         return run_dataset(args, cmd_run)

@@ -19,6 +19,7 @@ from matplotlib.ticker import NullLocator
 
 from .atomic import save_figure
 from .maps import SPIKING_GROUPING_LABEL
+from .validate import check_crop
 
 GROUPING_CMAP = "magma"
 #: darkest brightness of a non-zero figure-ground vector (0: invisible)
@@ -124,18 +125,6 @@ def shown_note(shown, n: int, what: str = "windows", labels=None) -> str:
         return ""
     listed = ", ".join(str(i if labels is None else labels[i]) for i in shown)
     return f"{len(shown)} of {n} {what} shown, evenly spaced: {listed}"
-
-
-def check_crop(crop, shape, owner: str = "maps_figure") -> tuple[int, int, int, int]:
-    """``(x0, y0, x1, y1)`` of a crop of an ``(H, W)`` frame, checked (x1, y1 exclusive)."""
-    from . import validate
-
-    h, w = shape
-    x0, y0, x1, y1 = (int(v) for v in crop)
-    if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
-        validate.fail(owner, None, None, f"crop x0,y0,x1,y1 = {x0},{y0},{x1},{y1} must satisfy 0 <= x0 < x1 <= {w} "
-                                         f"and 0 <= y0 < y1 <= {h} (the frame is {w} x {h})")
-    return x0, y0, x1, y1
 
 
 def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,

@@ -87,3 +87,13 @@ def known_keys(owner: str, given: Iterable[str], allowed: Iterable[str]) -> None
     if unknown:
         fail(owner, None, None, f"unknown field(s) {', '.join(unknown)} "
                                 f"(known: {', '.join(sorted(allowed))})")
+
+
+def check_crop(crop, shape, owner: str = "maps_figure") -> tuple[int, int, int, int]:
+    """``(x0, y0, x1, y1)`` of a crop of an ``(H, W)`` frame, checked (x1, y1 exclusive)."""
+    h, w = shape
+    x0, y0, x1, y1 = (int(v) for v in crop)
+    if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
+        fail(owner, None, None, f"crop x0,y0,x1,y1 = {x0},{y0},{x1},{y1} must satisfy 0 <= x0 < x1 <= {w} "
+                                f"and 0 <= y0 < y1 <= {h} (the frame is {w} x {h})")
+    return x0, y0, x1, y1

@@ -57,7 +57,7 @@ def ladder(alternatives: bool):
         rows.append(("compact at a 0.5 ms time step", Lever("", "", {}, {"dt_ms": 0.5}).apply(r)))
         rows.append(("compact with kernels pruned at 5 %",
                      Lever("", "", {}, {"prune_dog": 0.05, "prune_vm": 0.05}).apply(r)))
-        rows.append(("compact with von Mises taps pruned at 20 %", Lever("", "", {}, {"prune_vm": 0.2}).apply(r)))
+        rows.append(("compact with von Mises taps pruned at 40 %", Lever("", "", {}, {"prune_vm": 0.4}).apply(r)))
     return rows
 
 

@@ -77,8 +77,8 @@ COMPACT_LEVERS = (
     Lever("stronger window clock", "the window clock puts 1400 thresholds on the grouping cells (300)", {},
           {"clock_inh_group": 1400.0}),
     Lever("1 ms time step", "stepped at 1 ms, SpiNNaker's own time step (0.5 ms)", {}, {"dt_ms": 1.0}),
-    Lever("pruned kernels", "DoG taps under 30 % and von Mises taps under 40 % of the kernel's peak left out (5 %)",
-          {}, {"prune_dog": 0.3, "prune_vm": 0.4}),
+    Lever("pruned kernels", "DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out (5 %)",
+          {}, {"prune_dog": 0.3, "prune_vm": 0.2}),
 )
 
 

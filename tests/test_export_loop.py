@@ -180,6 +180,33 @@ def test_export_input_rate_hz_sets_the_gains_network_calibrated_sets(tmp_path, c
     assert meta["export_command"] == f"snn-fg export --format pynn --out {out} --sensor-size 24x20 --levels 1"
 
 
+def test_the_recorded_export_command_gives_back_every_option_but_the_rate_and_force():
+    """export_command: the options given, parsed again from the command it
+    writes, are the options given (less --input-rate-hz and --force); the
+    command line below sets every option the export parser has, so an option
+    added to the parser fails here until it is set below too."""
+    import shlex
+
+    from snn_fg.cli import build_parser
+    from snn_fg.export.cli import export_command
+
+    argv = ["export", "--format", "pynn", "--out", "dir with space", "--force", "--network", "compact",
+            "--sensor-size", "64x48", "--levels", "2", "--n-ori", "4", "--r0", "5.5", "--target", "spinnaker",
+            "--weight-bits", "8", "--input-rate-hz", "35", "--dt-ms", "0.25", "--nir-profile", "snntorch",
+            "--nir-one-grid", "--nir-refractory-as-deeper-reset"]
+    parser, subs = build_parser()
+    flags = {f for a in subs["export"]._actions for f in a.option_strings if f.startswith("--")} - {"--help"}
+    assert flags <= set(argv)
+    given = parser.parse_args(argv)
+    command = export_command(given)
+    assert command.startswith("snn-fg export --format pynn --out 'dir with space' --network compact")
+    again = parser.parse_args(shlex.split(command)[1:])
+    left_out = {"force", "input_rate_hz", "handler", "export_options"}
+    assert {k: v for k, v in vars(again).items() if k not in left_out} == \
+        {k: v for k, v in vars(given).items() if k not in left_out}
+    assert again.input_rate_hz is None and again.force is False
+
+
 def test_write_spikes_says_how_to_re_export_for_the_inputs_rate():
     from snn_fg.export.loop import recalibration_hint
 

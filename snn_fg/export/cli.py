@@ -67,8 +67,19 @@ def add_export_command(sub, sensor_size_arg, number):
                    help="nir, snntorch profile: NIR neurons have no refractory period; each cell resets lower "
                         "instead, by as much as holds it for its refractory period when driven 4x its threshold "
                         "above the reset (without: it may fire again one step later)")
-    p.set_defaults(handler=cmd_export)
+    p.set_defaults(handler=cmd_export, export_options=_options(p))
     return p
+
+
+#: what a re-export command leaves out of the export's own options (it adds --input-rate-hz and --force itself)
+_NOT_REPEATED = ("help", "force", "input_rate_hz")
+
+
+def _options(parser) -> tuple:
+    """``(flag, dest, default, takes a value)`` of each option of ``parser``, in its order
+    (argparse keeps them in ``_actions``, its only list of them)."""
+    return tuple((a.option_strings[-1], a.dest, a.default, a.nargs != 0)
+                 for a in parser._actions if a.option_strings and a.dest not in _NOT_REPEATED)
 
 
 def _network(args):
@@ -82,19 +93,22 @@ def _network(args):
 
 def export_command(args) -> str:
     """The ``snn-fg export`` command line of ``args`` without ``--input-rate-hz``
-    and ``--force``: what a PyNN export records, to say how to re-export it calibrated."""
+    and ``--force``: what a PyNN export records, to say how to re-export it
+    calibrated. Every option given a value other than its default is in it,
+    in the parser's order (so an option added to the parser is too)."""
     import shlex
 
-    words = ["snn-fg", "export", "--format", args.format, "--out", str(args.out)]
-    if args.network:
-        words += ["--network", args.network]
-    if args.sensor_size:
-        words += ["--sensor-size", f"{args.sensor_size[0]}x{args.sensor_size[1]}"]
-    for flag in ("levels", "n_ori", "r0", "weight_bits", "dt_ms"):
-        if getattr(args, flag) is not None:
-            words += ["--" + flag.replace("_", "-"), f"{getattr(args, flag):g}"]
-    if args.target != "generic":
-        words += ["--target", args.target]
+    words = ["snn-fg", "export"]
+    for flag, dest, default, takes_value in args.export_options:
+        value = getattr(args, dest)
+        if value is None or value is False or value == default:
+            continue
+        if not takes_value:
+            words.append(flag)
+        elif isinstance(value, tuple):          # (--sensor-size: width, height)
+            words += [flag, "x".join(str(v) for v in value)]
+        else:
+            words += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
     return " ".join(shlex.quote(w) for w in words)
 
 

@@ -269,8 +269,6 @@ class SpikingModel(Model):
 
         def done(window, maps):
             if window.index >= start:
-                if not self.save_spikes:
-                    maps.extra = {}
                 emit(window, self.named(maps))
 
         options = self.run_options.on(self._sim())

@@ -39,7 +39,6 @@ from .. import validate
 from .edfg import border_ownership_grouping, readout
 
 
-
 def _channels(image: np.ndarray) -> list[tuple[float, np.ndarray]]:
     img = np.asarray(image, dtype=np.float64)
     if img.ndim == 2:

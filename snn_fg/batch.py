@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from .cores import usable_cores
-from .errors import InputError, SnnFgError
+from .errors import InputError, SnnFgError, install_hint
 from .events.io import SUFFIX_FORMAT
 
 #: the summary table's name in the output folder, and its columns
@@ -114,7 +114,7 @@ def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, pro
         try:
             from dask.distributed import Client, as_completed
         except ImportError:
-            raise InputError(scheduler, "--scheduler needs Dask: pip install -e '.[sweep]'") from None
+            raise InputError(scheduler, f"--scheduler needs Dask: {install_hint('sweep')}") from None
         with Client(scheduler) as client:
             for future in as_completed(client.map(run_one, jobs, pure=False)):
                 bar.update()

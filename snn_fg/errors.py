@@ -47,6 +47,13 @@ class ParameterError(SnnFgError, ValueError):
     """A model parameter is out of its valid range; names the parameter."""
 
 
+def install_hint(extra: str) -> str:
+    """What to run for an optional extra: snn-fg is installed from its
+    folder (the README's setup), not from a package index, so the extra is
+    named the way ``pip`` finds it there."""
+    return f'pip install -e ".[{extra}]" in the snn-fg folder'
+
+
 @contextlib.contextmanager
 def warnings_as_lines():
     """While a command runs, an :class:`InputWarning` is one

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import validate as check
 from .errors import InputError
 from .images import IMAGE_SUFFIXES
 
@@ -51,7 +52,7 @@ def input_kind(spec: str) -> str:
         return "image"
     if suffix == ".npz":
         try:
-            with np.load(path, allow_pickle=False) as d:
+            with check.load_npz(path, "an event frame (pos, neg) or a recording (x, y, t, p)") as d:
                 if "pos" in d.files or "neg" in d.files:
                     return "frame"
                 if "events" not in d.files and not {"x", "y", "t", "p"} <= set(d.files):
@@ -88,7 +89,7 @@ def read_npz_arrays(path, required, optional=(), what: str = "file") -> dict:
     """
     path = Path(path)
     try:
-        with np.load(path, allow_pickle=False) as d:
+        with check.load_npz(path, what) as d:
             missing = [k for k in required if k not in d.files]
             if missing:
                 raise InputError(path, f"{what} lacks key(s) {', '.join(missing)} "

@@ -72,7 +72,7 @@ class Maps:
         elif path.is_dir():
             return cls(*read_maps(path / STORE_NAME if (path / STORE_NAME).is_dir() else path))
         try:
-            with np.load(path, allow_pickle=False) as d:
+            with check.load_npz(path, "maps.npz or a run's output folder") as d:
                 missing = [k for k in ("fg_x", "fg_y", "grouping") if k not in d.files]
                 if missing:
                     raise InputError(path, f"not a maps file: missing {', '.join(missing)}")

@@ -8,7 +8,7 @@ default, or on an existing cluster given by its scheduler address
 sweep resumes where it stopped: tasks whose file exists are not run again.
 A progress bar (tqdm, on stderr) counts tasks done.
 
-Dask is an optional dependency: ``pip install "snn-fg[sweep]"``.
+Dask is an optional dependency: ``pip install -e ".[sweep]"``.
 """
 from __future__ import annotations
 
@@ -22,10 +22,10 @@ from typing import Callable
 
 from .atomic import save_text
 from .cores import usable_cores
-from .errors import SnnFgError
+from .errors import SnnFgError, install_hint
 
 #: What to install when Dask is missing.
-DASK_HINT = 'the sweeps need Dask: pip install "snn-fg[sweep]"'
+DASK_HINT = f"the sweeps need Dask: {install_hint('sweep')}"
 _SAFE_KEY = re.compile(r"^[A-Za-z0-9_.=+-]+$")
 
 

@@ -16,7 +16,10 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .errors import ParameterError
+from .errors import InputError, ParameterError
+
+#: how every .npz file (a zip archive) starts; an empty archive starts with its end record
+_ZIP_STARTS = (b"PK\x03\x04", b"PK\x05\x06")
 
 
 def fail(owner: str, name: str | None, value, problem: str):
@@ -97,3 +100,15 @@ def check_crop(crop, shape, owner: str = "maps_figure") -> tuple[int, int, int, 
         fail(owner, None, None, f"crop x0,y0,x1,y1 = {x0},{y0},{x1},{y1} must satisfy 0 <= x0 < x1 <= {w} "
                                 f"and 0 <= y0 < y1 <= {h} (the frame is {w} x {h})")
     return x0, y0, x1, y1
+
+
+def load_npz(path, expected: str):
+    """``np.load`` of an ``.npz`` file, refused with one line naming the file
+    when it is not a zip archive: numpy reads anything else as a pickle and
+    says so, advice a user should not follow. ``expected`` says what the
+    file should be (``"maps.npz or a run's output folder"``)."""
+    with open(path, "rb") as fh:
+        head = fh.read(4)
+    if head not in _ZIP_STARTS:
+        raise InputError(path, f"not an .npz file (expected {expected})")
+    return np.load(path, allow_pickle=False)

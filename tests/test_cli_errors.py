@@ -50,3 +50,57 @@ def test_a_read_error_is_not_preceded_by_an_empty_progress_bar(tmp_path):
     assert res.returncode == 2
     assert res.stderr.count("\n") == 1 and "windows" not in res.stderr, res.stderr
     assert res.stderr.startswith(f"snn-fg: error: {bad}: event at (x=19537") and "byte offset 20" in res.stderr
+
+
+def test_a_file_that_is_not_an_npz_is_refused_as_such_not_as_a_pickle(tmp_path):
+    """numpy reads a file that is not a zip archive as a pickle and says
+    "allow_pickle"; each reader of a user's .npz says what the file is not
+    and what it should be instead (the text appears nowhere in the file)."""
+    from snn_fg.errors import InputError
+    from snn_fg.export.loop import decode_counts, input_frame
+    from snn_fg.inputs import read_npz_arrays
+    from snn_fg.maps import Maps
+    from snn_fg.network import build_network
+    from snn_fg.params import ModelParams
+
+    fake = tmp_path / "fake.npz"
+    fake.write_text("fg_x fg_y grouping\n")
+    net = build_network(ModelParams(levels=1, r0=4), (16, 16))
+    readers = {"maps": lambda: Maps.load(fake), "counts": lambda: decode_counts(net, fake),
+               "input": lambda: input_frame(fake, (16, 16)),
+               "frame": lambda: read_npz_arrays(fake, ("pos", "neg"), what="an event frame")}
+    for name, read in readers.items():
+        with pytest.raises(InputError) as err:
+            read()
+        text = str(err.value)
+        assert text.startswith(f"{fake}: not an .npz file (expected ") and "pickle" not in text, (name, text)
+
+
+def test_a_missing_extra_names_the_install_command_from_the_folder(tmp_path, monkeypatch, capsys):
+    """snn-fg is installed from its folder, not from a package index, so the
+    hint is pip install -e ".[nir]" there (pip install "snn-fg[nir]" would
+    look for snn-fg on the index)."""
+    from snn_fg.cli import main
+
+    monkeypatch.setitem(sys.modules, "nir", None)          # import fails as if not installed
+    status = main(["export", "--format", "nir", "--network", "compact", "--sensor-size", "32x24",
+                   "--out", str(tmp_path / "g.nir")])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1, err
+    assert 'pip install -e ".[nir]" in the snn-fg folder' in err
+    assert not (tmp_path / "g.nir").exists()
+
+
+def test_an_unknown_network_name_lists_the_recipes(tmp_path, capsys):
+    """A mistyped --network is neither a recipe nor a file: the line says so
+    and names the recipes (it said only "no such file")."""
+    from snn_fg.cli import main
+
+    for argv in (["run", "demo", "--out", str(tmp_path / "o"), "--network", "compcat", "--no-progress"],
+                 ["run", "demo", "--out", str(tmp_path / "o"), "--network", "compcat", "--model", "spiking",
+                  "--no-progress"],
+                 ["export", "--format", "report", "--network", "compcat"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "compcat: neither a network name (default, compact) nor a stored" in err, err
+    assert not (tmp_path / "o").exists()

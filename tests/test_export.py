@@ -129,7 +129,7 @@ def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
 
 @pytest.mark.slow
 def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
-    nir = pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
+    nir = pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
     from snn_fg.export.nir import export_nir, read_nir
 
     net = build_network(SMALL, (48, 48))
@@ -168,7 +168,7 @@ def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("light", [True, False])
 def test_nir_round_trip_keeps_the_maps(tmp_path, light):
-    pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
+    pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
     from snn_fg.export.nir import export_nir, read_nir
     from snn_fg.spiking import run_spiking
 

@@ -15,7 +15,7 @@ MAX_BYTES = 8_000_000
 
 @pytest.mark.slow
 def test_stored_icub_artefacts_are_current_and_small():
-    nir = pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
+    nir = pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
     sha = fingerprint(default_icub_network())
     rep = json.loads((NETWORKS / REPORT_NAME).read_text())
     assert rep["network_sha256"] == sha, "networks/ is stale: run python experiments/spiking_export_network.py"

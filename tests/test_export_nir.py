@@ -12,7 +12,7 @@ from snn_fg.params import ModelParams
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
 
-nir = pytest.importorskip("nir", reason='needs pip install "snn-fg[nir]"')
+nir = pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
 
 
 def _arrays(node) -> dict:
@@ -187,7 +187,7 @@ def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = 
     """Maps of snnTorch running the profile's graph read back from its file,
     of the fast engine running the network the graph holds, and of the fast
     engine running the exported network; and snnTorch's spike count."""
-    pytest.importorskip("snntorch", reason='needs pip install "snn-fg[snntorch]"')
+    pytest.importorskip("snntorch", reason='needs pip install -e ".[snntorch]"')
     import torch
 
     from snn_fg.backends import RunSettings, get_backend

@@ -92,7 +92,7 @@ def test_spynnaker_maps_a_small_export_onto_a_virtual_board(tmp_path, monkeypatc
     Its configuration stays in the export folder: without one sPyNNaker
     writes a template into the user's home and stops (HOME is a fresh
     folder here)."""
-    pytest.importorskip("spynnaker", reason='needs pip install "snn-fg[spinnaker]"')
+    pytest.importorskip("spynnaker", reason='needs pip install -e ".[spinnaker]"')
     home = tmp_path / "home"
     home.mkdir()
     monkeypatch.setenv("HOME", str(home))
@@ -119,7 +119,7 @@ def test_every_convolution_connector_gets_the_target_shape_spynnaker_requires():
     network's level 2 at 304 x 240 is 41 x 52; sPyNNaker refused its
     41 x 52 -> 21 x 26 convolutions). Such projections go to lists; every
     ConvolutionConnector left must pass sPyNNaker's own shape check."""
-    pytest.importorskip("spynnaker", reason='needs pip install "snn-fg[spinnaker]"')
+    pytest.importorskip("spynnaker", reason='needs pip install -e ".[spinnaker]"')
     from spynnaker.pyNN.models.neural_projections.connectors.convolution_connector import ConvolutionConnector
 
     from snn_fg.network.recipes import network_for

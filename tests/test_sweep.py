@@ -6,7 +6,7 @@ import pytest
 from snn_fg.errors import SnnFgError
 from snn_fg.sweep import SweepTask, run_sweep
 
-pytest.importorskip("dask.distributed", reason='needs the sweep extra: pip install "snn-fg[sweep]"')
+pytest.importorskip("dask.distributed", reason='needs the sweep extra: pip install -e ".[sweep]"')
 
 
 def square_task(*, x: int) -> dict:
@@ -50,7 +50,7 @@ def test_missing_dask_says_what_to_install(tmp_path, monkeypatch):
     from snn_fg.sweep import MissingExtraError
 
     monkeypatch.setitem(sys.modules, "dask.distributed", None)      # import fails as if not installed
-    with pytest.raises(MissingExtraError, match=r'pip install "snn-fg\[sweep\]"'):
+    with pytest.raises(MissingExtraError, match=r'pip install -e "\.\[sweep\]" in the snn-fg folder'):
         run_sweep(square_task, [SweepTask("a", {"x": 0})], tmp_path, progress=False)
 
 

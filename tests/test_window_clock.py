@@ -183,7 +183,7 @@ def test_a_frame_gives_the_same_maps_with_or_without_a_clock():
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not available_backends()["nest"][0], reason="needs NEST (pip install 'snn-fg[nest]')")
+@pytest.mark.skipif(not available_backends()["nest"][0], reason="needs NEST (pip install -e '.[nest]')")
 def test_nest_receives_the_clock_too():
     """The NEST backend wires the clock like the others: its grouping cells
     fire before the 60 ms pulse and not in the 10 ms after it arrives."""

@@ -16,7 +16,7 @@ projection on its own receptor of ``iaf_psc_exp_multisynapse``, signed
 weights) and gives Brian2's spike counts on the synthetic discs; it is not
 what a board runs.
 
-Install with ``pip install "snn-fg[nest]"`` (PyNN and the ``nest-simulator``
+Install with ``pip install -e ".[nest]"`` (PyNN and the ``nest-simulator``
 wheel). ``threads`` sets NEST's ``local_num_threads``, raised where the
 network has more cells than NEST can address on one thread (524,223 per
 thread: :func:`~snn_fg.pynn.network.nest_threads`); the wheel has no MPI.
@@ -31,6 +31,7 @@ import numpy as np
 
 from .. import cancel
 from .. import validate as check
+from ..errors import install_hint
 from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
@@ -73,7 +74,7 @@ class NestBackend(Backend):
 
     fixed_summation_order = False
     name = "nest"
-    requires = 'pip install "snn-fg[nest]"'
+    requires = install_hint("nest")
 
     def __init__(self, *, threads: int = 1, portable: bool = False, receptors: str = "split",
                  weight_bits: int | None = None):

@@ -145,13 +145,13 @@ def _check_sensor(params, shape, source: str):
 
 def read_network_file(path: Path):
     """A description from ``.json`` or a NIR export (``.nir``)."""
-    from ..network.graph import Network
+    from ..network.recipes import load_description
 
     if path.suffix.lower() == ".nir" or path.name.lower().endswith(".nir.gz"):
         from .nir import read_nir
 
         return read_nir(path)
-    return Network.load(path)
+    return load_description(path)
 
 
 def _refuse_existing(out: Path, force: bool):

@@ -234,6 +234,8 @@ def input_frame(path, shape):
         return None
     try:
         inp = read_input(path)
+    except InputError:
+        raise
     except (OSError, ValueError, KeyError) as e:
         raise InputError(path, f"not a run.py input file ({type(e).__name__}: {e})") from None
     if inp.shape != tuple(shape):
@@ -250,6 +252,8 @@ def decode_counts(network, counts_path):
 
     try:
         result = read_counts(network, counts_path)
+    except InputError:
+        raise
     except (OSError, ValueError, KeyError) as e:
         raise InputError(counts_path, f"not a run.py counts file of this export ({type(e).__name__}: {e})") \
             from None

@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..errors import InputError, ParameterError
+from ..errors import InputError, ParameterError, install_hint
 from ..lowering.quantise import projection_scales
 from ..network.graph import DEFAULT_DT_MS, Network
 from ..network.nodes import Kernel, Neuron, Population
@@ -78,7 +78,7 @@ def _nir():
     try:
         import nir
     except ImportError:
-        raise ParameterError('NIR export needs the nir package: pip install "snn-fg[nir]"') from None
+        raise ParameterError(f"NIR export needs the nir package: {install_hint('nir')}") from None
     return nir
 
 

@@ -62,7 +62,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, install_hint
 from ..pyramid.levels import level_scale
 from ..network.graph import Network
 from ..network.nodes import Kernel
@@ -287,8 +287,8 @@ def _snntorch():
         import torch
         from snntorch.import_nir import import_from_nir
     except ImportError:
-        raise ParameterError('running a NIR graph with snnTorch needs torch and snntorch: pip install '
-                             '"snn-fg[snntorch]"') from None
+        raise ParameterError("running a NIR graph with snnTorch needs torch and snntorch: "
+                             f"{install_hint('snntorch')}") from None
     return torch, import_from_nir
 
 

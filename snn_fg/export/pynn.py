@@ -40,6 +40,7 @@ import numpy as np
 
 from .. import __version__
 from .. import pynn as standalone
+from .. import validate as check
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
 from .board import ConvTable, board_network, geometry, table
@@ -131,7 +132,7 @@ Made by `snn-fg export --format pynn` (snn-fg {version}) for {frame},
    `maps/maps.png`, as `snn-fg run` does.
 
 On SpiNNaker: `python run.py ... --simulator spinnaker` (sPyNNaker,
-`pip install "snn-fg[spinnaker]"` or `sPyNNaker==1!7.4.1`). The projections
+`pip install -e ".[spinnaker]"` or `sPyNNaker==1!7.4.1`). The projections
 `spinnaker.json` gives to `ConvolutionConnector` go through it, the others
 through `FromListConnector`. Without a board, `python run.py --simulator spinnaker
 --virtual-board [--map-only]` has sPyNNaker map the network onto virtual SpiNN-5
@@ -217,7 +218,7 @@ def read_input(path):
     are recomputed from the spikes)."""
     from ..lowering.input_spikes import InputSpikes
 
-    d = np.load(path)
+    d = check.load_npz(path, "the input.npz of snn-fg events --write-spikes")
     h, w = (int(v) for v in d["shape"])
     idx, steps, period = d["indices"].astype(np.int64), d["steps"].astype(np.int64), int(d["period_steps"])
     n = h * w
@@ -236,7 +237,7 @@ def read_counts(network: Network, path):
     from ..backends.base import SimulationResult, lif_populations
 
     net = board_network(network)
-    d = np.load(path)
+    d = check.load_npz(path, "the counts.npz an export's run.py writes")
     duration, start = float(d["duration_ms"]), float(d["count_from_ms"])
     pops = lif_populations(net)
     spikes = {p.name: (d[f"cell_{p.name}"], d[f"t_{p.name}"]) for p in pops} if f"cell_{pops[0].name}" in d else None

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .. import validate as check
+from ..errors import InputError
 from ..pyramid.pool import pooled_shape
 from ..pyramid.levels import check_levels
 from ..params import ModelParams
@@ -112,7 +113,7 @@ def network_for(network, sensor_shape) -> tuple[Network, dict]:
     origin = {"origin": "given"}
     if isinstance(network, (str, Path)):
         origin = {"origin": str(network)}
-        network = Network.load(network)
+        network = load_description(network)
     if not isinstance(network, Network):
         check.fail("network", None, type(network).__name__,
                    f"must be a recipe name ({', '.join(RECIPES)}), a Network or a path to its JSON")
@@ -129,4 +130,12 @@ def model_params_of(network) -> ModelParams:
         return RECIPES[network].params
     if isinstance(network, Network):
         return network.params
-    return Network.load(network).params
+    return load_description(network).params
+
+
+def load_description(path) -> Network:
+    """A stored description; a name that is neither a recipe nor a file is
+    refused with the recipes' names (a mistyped ``--network compcat``)."""
+    if not Path(path).exists():
+        raise InputError(path, f"neither a network name ({', '.join(RECIPES)}) nor a stored description (.json)")
+    return Network.load(path)

@@ -12,7 +12,8 @@ from .results import BinStream, simulation_result
 from .run import Pool, Run
 
 #: seconds the engine's first run on a machine spends compiling (numba), as said while it does
-#: (the README's fresh clone: 13 s for the demo against 4.4 s once compiled, load 1.4-1.7)
+#: (the README's fresh clone: 13 s for the demo against 4.4 s once compiled, load 1.4-1.7; a first
+#: compact run on 2 dvs.es windows took 47 s against 3.9 s, load 1.8, 27 Nov)
 COMPILE_S = 10
 #: simulated time per call of the compiled loop (progress, Ctrl-C in between)
 CHUNK_MS = 25.0
@@ -84,8 +85,8 @@ class FastBackend(Backend):
 
         if not code_is_cached():
             settings.say(f"compiling the fast engine's code as it prepares and simulates: the first run on this "
-                         f"machine only, about {COMPILE_S} s on an idle machine (numba keeps the code beside the "
-                         "package)")
+                         f"machine only, about {COMPILE_S} s on an idle machine for an image, up to a minute for a "
+                         "recording (numba keeps the code beside the package)")
         t0 = time.perf_counter()
         tab = self.tables(network, settings.dt_ms)
         chosen, _, _ = choose_sites(network, source_masks(network, inputs.on, inputs.off), settings.sites,

@@ -33,6 +33,11 @@ def add_compare_command(sub, number):
     p.add_argument("--window", type=number(int, 0, strict=False), metavar="I",
                    help="compare window I of each recording (a single frame is used as it is); by default "
                         "recordings are paired window by window, by start time when both store it")
+    p.add_argument("--outline", type=number(int, 1, strict=False), metavar="PX", default=None,
+                   help="compare the vectors only within PX pixels of the outline of each window's largest "
+                        "filled event region (a recording whose objects fill with events: the pixels inside "
+                        "carry no border, and their vectors, noise in both maps, swamp the outline's "
+                        "agreement; 3 is what the validation uses)")
     p.add_argument("--json", metavar="FILE.json", default=None, help="also save the metrics to FILE.json")
     p.add_argument("--plot", metavar="FILE.png", default=None,
                    help="also draw both figure-ground maps and their angle difference, one row per compared "
@@ -41,14 +46,15 @@ def add_compare_command(sub, number):
     return p
 
 
-def compare_table(rows) -> str:
+def compare_table(rows, outline_px: int | None = None) -> str:
     """The rows of :func:`~snn_fg.metrics.compare_maps` as a text table."""
     lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COLUMNS)]
     lines += ["  ".join("-".rjust(w) if r[k] is None else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COLUMNS)
               for r in rows]
+    where = "" if outline_px is None else f" within {outline_px} px of the event region's outline"
     lines += ["A, B: compared windows; t: window start after the recording's first event; angle columns on",
-              "pixels where both maps have a figure-ground vector (SSIM: where either has one); grouping r and",
-              "SSIM on the whole map, SSIM with each map scaled to 1"]
+              f"pixels{where} where both maps have a figure-ground vector (SSIM: where either has one);",
+              "grouping r and SSIM on the whole map, SSIM with each map scaled to 1"]
     return "\n".join(lines)
 
 
@@ -64,10 +70,10 @@ def cmd_compare(args) -> int:
         raise InputError(args.plot, "--plot needs a .png file name")
     a, b = Maps.load(args.a), Maps.load(args.b)
     try:
-        rows = compare_maps(a, b, window=args.window)
+        rows = compare_maps(a, b, window=args.window, outline_px=args.outline)
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
-    print(compare_table(rows))
+    print(compare_table(rows, args.outline))
     if args.json:
         save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
         print(f"snn-fg: metrics saved to {args.json}")

@@ -26,10 +26,15 @@ def filled_outline(edges: np.ndarray, close_px: int = 4, min_fraction: float = 0
     return keep if keep.mean() >= min_fraction else np.zeros_like(keep)
 
 
+def outline_band(region: np.ndarray, band_px: int) -> np.ndarray:
+    """The pixels of ``region`` within ``band_px`` of its outline."""
+    return region & ~ndi.binary_erosion(region, iterations=band_px)
+
+
 def _outline_vectors(fg_x, fg_y, region, band_px, sigma):
     """Model vectors within ``band_px`` of the region's outline (inside it)
     and the inward normal there: ``(fx, fy, nx, ny)`` of the selected pixels."""
-    inner = region & ~ndi.binary_erosion(region, iterations=band_px)
+    inner = outline_band(region, band_px)
     smooth = ndi.gaussian_filter(region.astype(float), sigma)
     gy_rows, gx = np.gradient(smooth)
     nx, ny = gx, -gy_rows                     # y up

@@ -107,3 +107,36 @@ def test_the_compare_figure_draws_both_maps_and_their_angle_difference():
     assert np.isnan(diff[20, 5:10]).all() and np.all(grey[20, 5:10] < 1)    # one map only: grey
     assert np.isnan(diff).sum() == diff.size - 30
     assert "mean 60°, 67% within 45°" in ax_d.get_title()
+
+
+def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path, capsys):
+    """Two maps that agree on a filled disc's outline and disagree inside it
+    (a recording whose object fills with events): on every pixel they look
+    unrelated, within 2 px of the outline they are the same, and the
+    grouping columns do not change."""
+    from snn_fg.metrics import compare_maps
+    from snn_fg.outline import outline_band
+
+    yy, xx = np.mgrid[:32, :32]
+    region = np.hypot(yy - 16, xx - 16) < 10
+    band = outline_band(region, 2)
+    inward_x, inward_y = (16 - xx) * region, (yy - 16) * region        # y up
+    rng = np.random.default_rng(0)
+    a = [np.where(band, v, rng.normal(size=v.shape) * region) for v in (inward_x, inward_y)]
+    b = [np.where(band, v, rng.normal(size=v.shape) * region) for v in (inward_x, inward_y)]
+    g = region.astype(float)
+    ma = Maps(*a, g, extra={"event_frame": region.astype(np.int8)})
+    mb = Maps(*b, g)
+    whole, = compare_maps(ma, mb)
+    outline, = compare_maps(ma, mb, outline_px=2)
+    assert whole["angle_diff_mean_deg"] > 40 and whole["pixels_compared"] == region.sum()
+    assert outline["pixels_compared"] == band.sum() < region.sum() / 2
+    assert outline["angle_diff_mean_deg"] == 0.0 and outline["angle_within_45_frac"] == 1.0
+    assert outline["grouping_pearson_r"] == whole["grouping_pearson_r"]
+
+    ma.save(tmp_path / "a.npz"), mb.save(tmp_path / "b.npz")
+    assert main(["compare", str(tmp_path / "a.npz"), str(tmp_path / "b.npz"), "--outline", "2"]) == 0
+    assert "within 2 px of the event region's outline" in capsys.readouterr().out
+    mb.save(tmp_path / "c.npz")
+    assert main(["compare", str(tmp_path / "b.npz"), str(tmp_path / "c.npz"), "--outline", "2"]) == 2
+    assert "needs the event frame" in capsys.readouterr().err

@@ -65,3 +65,17 @@ def test_a_pooled_network_of_unknown_sensor_is_named_by_its_blocks():
     assert lines[1] == "  the sensor seen in 3 x 3 blocks: a 19 x 16 frame"
     given = report_table(resource_report(net, sensor_shape=(48, 57))).splitlines()[0]
     assert given.startswith("Whole network for a 57 x 48 sensor (width x height)")
+
+
+def test_each_chip_family_says_whether_a_limit_is_broken():
+    """A family line ends "no limit broken" exactly when the report lists no
+    violation for it; one with violations lists them beneath instead."""
+    from snn_fg.network.recipes import RECIPES
+
+    rep = resource_report(RECIPES["compact"].build((48, 64)))
+    lines = report_table(rep).splitlines()
+    for name, tg in rep["targets"].items():
+        line, = (x for x in lines if x.startswith(name + " "))
+        assert line.endswith("no limit broken") == (not tg["violations"]), (line, tg["violations"])
+    assert any(tg["violations"] for tg in rep["targets"].values())          # (both kinds of line are met)
+    assert any(not tg["violations"] for tg in rep["targets"].values())

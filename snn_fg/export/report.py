@@ -273,6 +273,8 @@ def report_table(rep: dict) -> str:
         size = f"cores {tg['cores']:,}   chips {tg['chips']:,}"
         if "boards_spinn5" in tg:
             size += f"   SpiNN-5 boards {tg['boards_spinn5']:,}"
+        if not tg["violations"]:
+            size += "   no limit broken"
         lines.append(f"{name:11s} {size}")
         for v in tg["violations"]:
             value, limit = (readable(x) if isinstance(x, (int, float)) else x for x in (v["value"], v["limit"]))

@@ -42,7 +42,11 @@ READOUT_LAG_MS = 20.0
 
 
 def stderr_log(message: str):
-    print(f"snn-fg: {message}", file=sys.stderr, flush=True)
+    """A stage message on its own line of stderr, above any progress bar
+    (a plain print landed on the bar's line: "windows read: 0%| 0/3 ...snn-fg: fast engine: ...")."""
+    from tqdm import tqdm
+
+    tqdm.write(f"snn-fg: {message}", file=sys.stderr)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -285,3 +285,28 @@ def test_run_py_predicts_its_time_from_the_measured_rates_scaled_by_the_exports_
     assert memory.TIMES_MEASURED in small and "load" in memory.TIMES_MEASURED
     assert [memory.duration_text(s) for s in (0.052, 7.23, 57.8, 119, 150, 7100, 7300)] == [
         "0.052 s", "7.2 s", "58 s", "119 s", "2 min", "118 min", "2.0 h"]
+
+
+def test_a_forced_re_export_for_another_rate_keeps_the_folders_input(tmp_path, capsys):
+    """The README's loop writes input.npz into the export; re-exporting with
+    --input-rate-hz and --force (what --write-spikes advises) keeps it, since
+    its spikes depend on the frame and time step only; an export of another
+    frame drops it."""
+    from snn_fg.events import image_to_frame
+    from snn_fg.export.pynn import save_input
+    from snn_fg.lowering.input_spikes import frame_spikes
+    from snn_fg.scenes import disc
+
+    out = tmp_path / "model"
+    export = ["export", "--format", "pynn", "--out", str(out), "--sensor-size", "24x20", "--levels", "1"]
+    assert main(export) == 0
+    pos, neg = image_to_frame(disc(6).image[:20, :24])
+    save_input(frame_spikes(pos, neg, 200.0, 0.5, 20.0), out / "input.npz", 0.5)
+    written = (out / "input.npz").read_bytes()
+    capsys.readouterr()
+    assert main([*export, "--input-rate-hz", "35", "--force"]) == 0
+    assert (out / "input.npz").read_bytes() == written
+    assert "input.npz kept" in capsys.readouterr().out
+    assert json.loads((out / "network.json").read_text())["input_rate_hz"] == 35.0
+    assert main([*export[:-4], "--sensor-size", "28x20", "--levels", "1", "--force"]) == 0
+    assert not (out / "input.npz").exists() and "kept" not in capsys.readouterr().out

@@ -187,8 +187,8 @@ def recalibration_hint(input_hz: float, export_hz: float, command: str | None, p
         f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
     return (f"snn-fg: note: this input is {input_hz:.3g} Hz per active {pixel}, {input_hz / export_hz:.2g} times the "
             f"{export_hz:g} Hz the export's gains are set for; snn-fg run calibrates its network to its input's "
-            f"rate. To drive the export as snn-fg run drives the network, re-export: {redo} (this replaces the "
-            "folder: write the input again after it)")
+            f"rate. To drive the export as snn-fg run drives the network, re-export: {redo} (it keeps the "
+            "folder's input.npz, whose spikes do not depend on the gains)")
 
 
 def add_decode_command(sub):

@@ -187,8 +187,11 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
 
     meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command,
                               sensor_shape=sensor_shape)
+    kept = _input_for(Path(out) / INPUT_NAME, network.frame_shape, dt_ms) if force else None
     with OutputFolder(out, force=force) as folder:
         tmp = folder.dir
+        if kept is not None:
+            (tmp / INPUT_NAME).write_bytes(kept)
         (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
         np.savez_compressed(tmp / "tables.npz", **arrays)
         for src, dst in standalone.COPIED.items():
@@ -202,6 +205,23 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
             sources=sum(p["size"] for p in pops if not p["neuron"]), prj=len(meta["projections"]), target=target,
             bits=f"{weight_bits}-bit" if weight_bits else "float", dt=dt_ms, notes=" ".join(meta["notes"])))
     return Path(out)
+
+
+#: the input file ``snn-fg events --write-spikes`` writes into an export by the README's loop
+INPUT_NAME = "input.npz"
+
+
+def _input_for(path: Path, frame_shape, dt_ms: float) -> bytes | None:
+    """The bytes of an export's input file, if it serves an export of
+    ``frame_shape`` at ``dt_ms`` too (a re-export with ``--force`` that only
+    recalibrates the gains keeps it); ``None`` otherwise. The input's spikes
+    depend on the frame and the time step only, not on the gains."""
+    try:
+        with check.load_npz(path, "run.py's input") as d:
+            same = tuple(int(v) for v in d["shape"]) == tuple(frame_shape) and float(d["dt_ms"]) == float(dt_ms)
+        return path.read_bytes() if same else None
+    except (OSError, ValueError, KeyError):        # (none, or not one we can read: it goes with the folder)
+        return None
 
 
 def save_input(inputs, path, dt_ms: float) -> Path:

@@ -62,6 +62,7 @@ def cmd_compare(args) -> int:
     from .atomic import save_text
     from .maps import Maps
     from .metrics import compare_maps
+    from .outline import event_outlines
 
     for out in (args.json, args.plot):
         if out is not None and Path(out).resolve() in (Path(args.a).resolve(), Path(args.b).resolve()):
@@ -70,7 +71,8 @@ def cmd_compare(args) -> int:
         raise InputError(args.plot, "--plot needs a .png file name")
     a, b = Maps.load(args.a), Maps.load(args.b)
     try:
-        rows = compare_maps(a, b, window=args.window, outline_px=args.outline)
+        where = None if args.outline is None else event_outlines(a, b, args.outline)
+        rows = compare_maps(a, b, window=args.window, where=where)
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
     print(compare_table(rows, args.outline))

@@ -133,21 +133,7 @@ def _window_pairs(wa, wb, window):
     return pairs
 
 
-def _outline_of(a: Maps, b: Maps, ia, ib, band_px: int) -> np.ndarray:
-    """The outline band (:func:`snn_fg.outline.outline_band`) of the largest
-    filled event region of the window compared: A's event frame, else B's."""
-    from .outline import filled_outline, outline_band
-
-    for m, i in ((a, ia), (b, ib)):
-        ef = m.extra.get("event_frame")
-        if ef is not None:
-            ef = np.asarray(ef if i is None or np.ndim(ef) == 2 else ef[i])
-            return outline_band(filled_outline(ef != 0), band_px)
-    check.fail("compare_maps", "outline_px", band_px, "needs the event frame a run stores with its maps "
-                                                      "(event_frame); neither map has one")
-
-
-def compare_maps(a: Maps, b: Maps, window: int | None = None, outline_px: int | None = None) -> list[dict]:
+def compare_maps(a: Maps, b: Maps, window: int | None = None, where=None) -> list[dict]:
     """Compare two Maps; one dict per compared pair of windows.
 
     Parameters
@@ -156,13 +142,11 @@ def compare_maps(a: Maps, b: Maps, window: int | None = None, outline_px: int | 
         One frame each, or one map per window of a recording.
     window : int, optional
         Compare only this window of each map that has several.
-    outline_px : int, optional
-        Compare the vectors only within this many pixels of the outline of
-        the window's largest filled event region (the event frame a run
-        stores, A's or else B's): on a recording whose objects fill with
-        events, the pixels inside carry no border, and both maps' vectors
-        there are noise that swamps the outline's agreement. The grouping
-        metrics stay on the whole map.
+    where : callable, optional
+        ``where(window_a, window_b)``: the pixels whose vectors are compared
+        (a boolean map), e.g. the outline of the window's event region
+        (:func:`snn_fg.outline.event_outlines`). The grouping metrics stay on
+        the whole map.
 
     Returns
     -------
@@ -192,15 +176,13 @@ def compare_maps(a: Maps, b: Maps, window: int | None = None, outline_px: int | 
     """
     if a.fg_x.shape[-2:] != b.fg_x.shape[-2:]:
         check.fail("compare_maps", None, None, f"frames differ in size: {a.fg_x.shape[-2:]} vs {b.fg_x.shape[-2:]}")
-    if outline_px is not None:
-        outline_px = check.integer("compare_maps", "outline_px", outline_px, lo=1)
     pairs = _window_pairs(_windows(a), _windows(b), window)
     rows = []
     for (ia, ta), (ib, tb) in pairs:
         t = ta if ta is not None else tb
         (ax, ay, ag), (bx, by, bg) = frame_of(a, ia), frame_of(b, ib)
-        if outline_px is not None:
-            keep = _outline_of(a, b, ia, ib, outline_px)
+        if where is not None:
+            keep = where(ia, ib)
             ax, ay, bx, by = (np.where(keep, v, 0) for v in (ax, ay, bx, by))
         rows.append({"window_a": ia, "window_b": ib, "t_start_ms": None if t is None else t / 1000.0,
                      **compare_frame(ax, ay, ag, bx, by, bg)})

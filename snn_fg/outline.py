@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage as ndi
 
+from . import validate as check
+
 
 def filled_outline(edges: np.ndarray, close_px: int = 4, min_fraction: float = 0.0) -> np.ndarray:
     """Boolean mask of the largest filled event region of ``edges`` (H x W)."""
@@ -29,6 +31,28 @@ def filled_outline(edges: np.ndarray, close_px: int = 4, min_fraction: float = 0
 def outline_band(region: np.ndarray, band_px: int) -> np.ndarray:
     """The pixels of ``region`` within ``band_px`` of its outline."""
     return region & ~ndi.binary_erosion(region, iterations=band_px)
+
+
+def event_outlines(a, b, band_px: int):
+    """For comparing two maps of a recording (:func:`snn_fg.metrics.compare_maps`'s
+    ``where``): ``(window_a, window_b) ->`` the pixels within ``band_px`` of
+    the outline of that window's largest filled event region, from the event
+    frame a run stores with its maps (A's, else B's). On a recording whose
+    objects fill with events the pixels inside carry no border, and both
+    maps' vectors there are noise that swamps the outline's agreement."""
+    band_px = check.integer("compare_maps", "outline_px", band_px, lo=1)
+    frames = [(m.extra.get("event_frame"), k) for k, m in enumerate((a, b))]
+    frames = [(ef, k) for ef, k in frames if ef is not None]
+    if not frames:
+        check.fail("compare_maps", "outline_px", band_px, "needs the event frame a run stores with its maps "
+                                                          "(event_frame); neither map has one")
+    ef, k = frames[0]
+
+    def where(ia, ib):
+        i = (ia, ib)[k]
+        frame = np.asarray(ef if i is None or np.ndim(ef) == 2 else ef[i])
+        return outline_band(filled_outline(frame != 0), band_px)
+    return where
 
 
 def _outline_vectors(fg_x, fg_y, region, band_px, sigma):

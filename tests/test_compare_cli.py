@@ -115,7 +115,7 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
     unrelated, within 2 px of the outline they are the same, and the
     grouping columns do not change."""
     from snn_fg.metrics import compare_maps
-    from snn_fg.outline import outline_band
+    from snn_fg.outline import event_outlines, outline_band
 
     yy, xx = np.mgrid[:32, :32]
     region = np.hypot(yy - 16, xx - 16) < 10
@@ -128,7 +128,7 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
     ma = Maps(*a, g, extra={"event_frame": region.astype(np.int8)})
     mb = Maps(*b, g)
     whole, = compare_maps(ma, mb)
-    outline, = compare_maps(ma, mb, outline_px=2)
+    outline, = compare_maps(ma, mb, where=event_outlines(ma, mb, 2))
     assert whole["angle_diff_mean_deg"] > 40 and whole["pixels_compared"] == region.sum()
     assert outline["pixels_compared"] == band.sum() < region.sum() / 2
     assert outline["angle_diff_mean_deg"] == 0.0 and outline["angle_within_45_frac"] == 1.0

@@ -141,6 +141,19 @@ def _add_run(sub):
                    help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image; "
                         "spiking: the spiking network; natural, natural-spiking: the variant for natural "
                         "scenes (contrast-invariant grouping, docs/model.md), rate and spiking (default: rate)")
+    g = p.add_argument_group("input")
+    g.add_argument("--threshold", type=_number(float, 0), default=0.10, metavar="C",
+                   help="images turned into events: contrast threshold of the simulated event camera (0.10)")
+    g.add_argument("--motion", choices=MOTIONS, default=None,
+                   help="images turned into events: motion of the simulated event camera; paper: the authors' "
+                        "BSDS conversion (default shift4)")
+    g.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
+                   help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
+    g = p.add_argument_group("output")
+    g.add_argument("--crop", type=_crop_arg, metavar="X0,Y0,X1,Y1",
+                   help="figures: draw only pixels X0 <= x < X1, Y0 <= y < Y1 (the maps keep the whole frame)")
+    g.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
+    g.add_argument("--no-figures", action="store_true", help="write the maps only (no figures)")
     for title, options in _RUN_OPTIONS:
         g = p.add_argument_group(title)
         for flag, kind, lo, strict, text in options:
@@ -150,17 +163,6 @@ def _add_run(sub):
                 g.add_argument(flag, choices=kind, help=text)
             else:
                 g.add_argument(flag, type=_number(kind, lo, strict) if kind else None, help=text)
-    p.add_argument("--threshold", type=_number(float, 0), default=0.10, metavar="C",
-                   help="images turned into events: contrast threshold of the simulated event camera (0.10)")
-    p.add_argument("--motion", choices=MOTIONS, default=None,
-                   help="images turned into events: motion of the simulated event camera; paper: the authors' "
-                        "BSDS conversion (default shift4)")
-    p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
-                   help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
-    p.add_argument("--crop", type=_crop_arg, metavar="X0,Y0,X1,Y1",
-                   help="figures: draw only pixels X0 <= x < X1, Y0 <= y < Y1 (the maps keep the whole frame)")
-    p.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
-    p.add_argument("--no-figures", action="store_true", help="write the maps only (no figures)")
     p.set_defaults(handler=cmd_run)
     return p
 

@@ -193,13 +193,13 @@ def cmd_export(args) -> int:
         _refuse_existing(out, args.force)
     net, sensor = _network(args)
     if args.format == "pynn":
-        from .pynn import export_pynn
+        from .pynn import INPUT_NAME, export_pynn
 
         export_pynn(net, out, dt_ms=args.dt_ms, weight_bits=bits, target=args.target, force=args.force,
                     command=export_command(args), sensor_shape=sensor)
         what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
-        if (out / "input.npz").exists():
-            what += "; input.npz kept from the folder it replaced (the same frame and time step)"
+        if (out / INPUT_NAME).exists():
+            what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
     elif args.format == "nir" and args.nir_profile == "snntorch":
         from .nir_snntorch import export_nir_snntorch
 

@@ -6,8 +6,9 @@ Experiments run from the repository's root as modules,
 ``experiments/results/``.
 
 A result records how it was made (:class:`Run`): the commit, the command
-line, the date and the machine's load average before and after, so a number
-in a table can be traced to the code and the conditions that produced it.
+line, the date, the processor and the machine's load average before and
+after, so a number in a table can be traced to the code and the conditions
+that produced it.
 """
 from __future__ import annotations
 
@@ -77,6 +78,21 @@ def command_line() -> str:
     return " ".join(["python", what, *sys.argv[1:]])
 
 
+def processor(cpuinfo: str = "/proc/cpuinfo") -> str:
+    """The processor's name, family and model, and its cache, from Linux's
+    ``/proc/cpuinfo`` (empty where there is none): the shared machines these
+    experiments run on change between sessions (one core's time for the same
+    ``dvs.es`` window moved by 1.7x between two of them), so a timing says
+    which processor it was taken on."""
+    try:
+        first = Path(cpuinfo).read_text().split("\n\n")[0]
+    except OSError:
+        return ""
+    info = {k.strip(): v.strip() for k, v in (line.split(":", 1) for line in first.splitlines() if ":" in line)}
+    return (f"{info.get('model name', '?')}, family {info.get('cpu family', '?')} model {info.get('model', '?')}, "
+            f"cache {info.get('cache size', '?')}")
+
+
 class Run:
     """How a result is made; create it before the work, take :meth:`record` after."""
 
@@ -90,16 +106,18 @@ class Run:
         return time.perf_counter() - self._t0
 
     def record(self) -> dict:
-        """``commit``, ``command``, ``date`` (start), ``seconds``, ``load_before``, ``load_after``."""
+        """``commit``, ``command``, ``date`` (start), ``seconds``, ``processor``, ``load_before``, ``load_after``."""
         return {"commit": git_commit(), "command": command_line(), "date": self.date,
-                "seconds": round(self.seconds, 1), "load_before": self.load_before, "load_after": load()}
+                "seconds": round(self.seconds, 1), "processor": processor(), "load_before": self.load_before,
+                "load_after": load()}
 
 
 def describe(run: dict) -> str:
     """One line for a results page from a :meth:`Run.record`."""
     minutes = run["seconds"] / 60
     took = f"{minutes:.1f} min" if minutes >= 1 else f"{run['seconds']:.0f} s"
-    return (f"`{run['command']}` at {run['commit']}, {run['date']}: {took}, load average "
+    on = f" on {run['processor']}" if run.get("processor") else ""
+    return (f"`{run['command']}` at {run['commit']}, {run['date']}{on}: {took}, load average "
             f"{run['load_before'][0]:.1f} before, {run['load_after'][0]:.1f} after.")
 
 

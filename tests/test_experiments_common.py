@@ -28,10 +28,10 @@ def test_the_command_line_is_the_module_as_typed(monkeypatch):
     assert common.command_line() == "python -m experiments.paper.table1 --quick"
 
 
-def test_a_run_record_names_the_commit_the_command_the_date_and_the_load():
+def test_a_run_record_names_the_commit_the_command_the_date_the_processor_and_the_load():
     run = common.Run()
     rec = run.record()
-    assert set(rec) == {"commit", "command", "date", "seconds", "load_before", "load_after"}
+    assert set(rec) == {"commit", "command", "date", "seconds", "processor", "load_before", "load_after"}
     head = rec["commit"].removesuffix("-dirty")
     assert len(head) == 10 and int(head, 16) >= 0           # a short hash of this checkout
     assert rec["command"].startswith("python ")
@@ -39,6 +39,15 @@ def test_a_run_record_names_the_commit_the_command_the_date_and_the_load():
     assert 0 <= rec["seconds"] < 60
     line = common.describe(rec)
     assert rec["commit"] in line and rec["date"] in line and "load average" in line
+    assert rec["processor"] in line
+
+
+def test_the_processor_is_read_from_the_first_cpu_of_cpuinfo(tmp_path):
+    info = tmp_path / "cpuinfo"
+    info.write_text("processor\t: 0\ncpu family\t: 6\nmodel\t\t: 207\nmodel name\t: Some Xeon\n"
+                    "cache size\t: 266240 KB\n\nprocessor\t: 1\nmodel name\t: Other\n")
+    assert common.processor(str(info)) == "Some Xeon, family 6 model 207, cache 266240 KB"
+    assert common.processor(str(tmp_path / "absent")) == ""
 
 
 def test_an_absent_dataset_ends_the_experiment_with_the_fetch_command(tmp_path, monkeypatch, capsys):

@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import ROOT, git_commit
+from experiments.common import ROOT, git_commit, processor
 
 from .inputs import DVS_START_MS, WINDOW_MS, bsds_names, dvs_path, dvs_windows
 from .report import plot_scaling, print_summary
@@ -365,6 +365,8 @@ def main(argv=None) -> int:
             other = json.loads(args.merge.read_text())
             _merge(merged, other.get("sections", {}), other.get("last_run", {}).get("started"))
             merged.setdefault("runs", []).extend(other.get("runs", []))
+            if other.get("last_run", {}).get("started", "") > merged.get("last_run", {}).get("started", ""):
+                merged["last_run"] = other["last_run"]
             from snn_fg.atomic import save_text
 
             save_text(args.out, json.dumps(merged, indent=1))
@@ -376,8 +378,8 @@ def main(argv=None) -> int:
     for n in notes:
         print(f"note: {n}", file=sys.stderr)
     run = {"started": datetime.datetime.now().isoformat(timespec="seconds"), "commit": git_commit(),
-           "command": sys.argv, "cpus": os.cpu_count(), "load_at_start": uptime(), "engines": [engine_name(*e) for e in eng],
-           "notes": notes}
+           "command": sys.argv, "cpus": os.cpu_count(), "processor": processor(), "load_at_start": uptime(),
+           "engines": [engine_name(*e) for e in eng], "notes": notes}
     measured = {}
     for name in args.sections:
         got = globals()[f"section_{name}"](args, eng)

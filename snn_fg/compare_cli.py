@@ -83,7 +83,7 @@ def cmd_compare(args) -> int:
         from .figures import save_compare_figure
 
         names = tuple(f"{k} ({_run_name(f)})" for k, f in (("A", args.a), ("B", args.b)))
-        save_compare_figure(args.plot, a, b, rows, names=names)
+        save_compare_figure(args.plot, a, b, rows, names=names, where=where)
         print(f"snn-fg: figure saved to {args.plot}")
     return 0
 

@@ -170,11 +170,14 @@ def save_maps_figure(path, inputs, fg_x, fg_y, grouping, **options) -> Path:
     return save_figure(maps_figure(inputs, fg_x, fg_y, grouping, **options), path, dpi=110)
 
 
-def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6) -> Figure:
+def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) -> Figure:
     """Two maps side by side and how they differ: per compared pair of
     windows (``rows`` of :func:`~snn_fg.metrics.compare_maps`) the
     figure-ground map of each and the angle between them where both have a
-    vector (grey: only one has a vector)."""
+    vector (grey: only one has a vector). ``where`` (as ``compare_maps``
+    takes it: ``(window_a, window_b) ->`` the pixels compared): the
+    difference is drawn on those pixels only, as its numbers were taken,
+    the rest of the frame pale."""
     from .metrics import angle_difference_deg, frame_of
 
     idx = rows_shown(len(rows), max_rows)
@@ -190,14 +193,17 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6) -> Figure:
         for panel, (name, win, fx, fy) in zip(ax, sides):
             panel.imshow(fg_rgb(fx, fy), interpolation="nearest")
             panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when, fontsize=9)
-        has_a, has_b = np.hypot(ax_, ay_) > 0, np.hypot(bx, by) > 0
+        inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
+        has_a, has_b = (np.hypot(ax_, ay_) > 0) & inside, (np.hypot(bx, by) > 0) & inside
         diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
-        ax[2].imshow(np.where(has_a ^ has_b, 0.75, 1.0), cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+        ax[2].imshow(np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92)), cmap="gray", vmin=0, vmax=1,
+                     interpolation="nearest")
         im = ax[2].imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
         bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
         bar.set_label("angle difference (deg)", fontsize=8)
-        ax[2].set_title(f"difference: mean {r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} "
-                        f"within 45° (grey: one map only)", fontsize=8)
+        ax[2].set_title(f"difference{'' if where is None else ' on the compared pixels'}: mean "
+                        f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45° (grey: one map "
+                        f"only{'' if where is None else '; pale: not compared'})", fontsize=8)
         for x in ax:
             x.tick_params(labelsize=7)
     _wheel_inset(axes[0][1])
@@ -206,9 +212,9 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6) -> Figure:
     return fig
 
 
-def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6) -> Path:
+def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) -> Path:
     """Write :func:`compare_figure` to ``path`` (atomically)."""
-    return save_figure(compare_figure(a, b, rows, names, max_rows), path, dpi=110)
+    return save_figure(compare_figure(a, b, rows, names, max_rows, where), path, dpi=110)
 
 
 def raster_figure(record, window: int | None = None) -> Figure:

@@ -75,7 +75,7 @@ def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypa
         (tmp_path / "out" / name).mkdir(parents=True)
         Maps(z, z, z, {"model": "rate"}).save(tmp_path / "out" / name / "maps.npz")
     seen = []
-    monkeypatch.setattr(figures, "save_compare_figure", lambda path, a, b, rows, names: seen.append(names))
+    monkeypatch.setattr(figures, "save_compare_figure", lambda path, a, b, rows, names, where: seen.append(names))
     for b in ("run-b", "run-b/maps.npz"):
         assert main(["compare", str(tmp_path / "out" / "run-a"), str(tmp_path / "out" / b),
                      "--plot", str(tmp_path / "c.png")]) == 0
@@ -140,3 +140,25 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
     mb.save(tmp_path / "c.npz")
     assert main(["compare", str(tmp_path / "b.npz"), str(tmp_path / "c.npz"), "--outline", "2"]) == 2
     assert "needs the event frame" in capsys.readouterr().err
+
+
+def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken():
+    """The figure of ``compare --outline`` shows the angle difference on the
+    outline band only, as its numbers were taken, and says so."""
+    from snn_fg.figures import compare_figure
+    from snn_fg.metrics import compare_maps
+    from snn_fg.outline import event_outlines, outline_band
+
+    yy, xx = np.mgrid[:32, :32]
+    region = np.hypot(yy - 16, xx - 16) < 10
+    band = outline_band(region, 2)
+    a = Maps(region * 1.0, region * 0.0, region * 1.0, extra={"event_frame": region.astype(np.int8)})
+    b = Maps(np.where(band, 1.0, -1.0) * region, region * 0.0, region * 1.0)
+    where = event_outlines(a, b, 2)
+    rows = compare_maps(a, b, where=where)
+    ax_d = compare_figure(a, b, rows, where=where).axes[2]
+    grey, diff = (np.ma.filled(im.get_array().astype(float), np.nan) for im in ax_d.images)
+    assert np.all(diff[band] == 0) and np.isnan(diff[~band]).all()         # the inside's 180 deg left out
+    assert np.all(grey[region & ~band] < 1) and "on the compared pixels" in ax_d.get_title()
+    whole = compare_figure(a, b, compare_maps(a, b)).axes[2]
+    assert np.nanmax(np.ma.filled(whole.images[1].get_array().astype(float), np.nan)) == 180

@@ -154,6 +154,17 @@ def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
         return False
     assert reaches("bo_L1_1", "group_L_1") and reaches("group_L_1", "feedback_1n_1") and \
         reaches("feedback_1n_1", "bo_L1_1")
+    # the export's last line counts the file's nodes by kind (nir.read adds an
+    # Input or Output node at each node no edge enters or leaves)
+    from snn_fg.export.nir import node_kinds
+    kinds_read = {}
+    for n in g.nodes.values():
+        kinds_read[type(n).__name__] = kinds_read.get(type(n).__name__, 0) + 1
+    written = node_kinds(path)
+    assert list(written.values()) == sorted(written.values(), reverse=True)
+    assert {k: v for k, v in written.items() if k not in ("Input", "Output")} == \
+        {k: v for k, v in kinds_read.items() if k not in ("Input", "Output")}
+    assert sum(written.values()) <= len(g.nodes) and written["Input"] <= kinds_read["Input"]
     meta = json.loads(g.metadata["snn_fg"])
     assert {"refractory_period", "stride_2_lattices", "resize_between_levels"} <= set(meta["approximations"])
     assert g.nodes["bo_L1_1"].metadata["t_ref_s"] == pytest.approx(net.one("bo_L1", 1).neuron.t_ref_ms / 1000)

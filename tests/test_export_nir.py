@@ -265,3 +265,21 @@ def test_snntorch_executes_the_compact_network_on_one_grid(tmp_path):
     a, b = agreement(ours, same), agreement(ours, exported)
     assert a["grouping_r"] >= 0.95 and a["within_45"] >= 0.9 and a["coverage"] >= 0.9, a
     assert b["grouping_r"] >= 0.9 and b["within_45"] >= 0.85 and b["coverage"] >= 0.9, b
+
+
+def test_the_nir_export_says_how_many_nodes_of_each_kind_it_wrote(capsys, tmp_path, monkeypatch):
+    """What a consumer must accept, on the export's last line: the file's
+    nodes counted by kind, most first, adding up to the file's node count."""
+    import h5py
+
+    from snn_fg.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", "--format", "nir", "--network", "compact", "--sensor-size", "24x24", "--out", "g.nir"]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    with h5py.File(tmp_path / "g.nir") as f:
+        kinds = [n["type"][()].decode() for n in f["node/nodes"].values()]
+    listed = line.split(" nodes: ")[1].split(")")[0].split(", ")
+    counts = {k: int(n) for n, k in (item.split() for item in listed)}
+    assert counts == {k: kinds.count(k) for k in set(kinds)} and f"; {len(kinds)} nodes: " in line
+    assert list(counts.values()) == sorted(counts.values(), reverse=True) and "Delay" in counts

@@ -201,16 +201,17 @@ def cmd_export(args) -> int:
         if (out / INPUT_NAME).exists():
             what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
     elif args.format == "nir" and args.nir_profile == "snntorch":
+        from .nir import describe_nir
         from .nir_snntorch import export_nir_snntorch
 
         export_nir_snntorch(net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid,
                             deeper_reset=args.nir_refractory_as_deeper_reset)
-        what = f"NIR graph, snntorch profile ({out.stat().st_size / 1e6:.1f} MB)"
+        what = f"NIR graph, snntorch profile ({describe_nir(out)})"
     elif args.format == "nir":
-        from .nir import export_nir
+        from .nir import describe_nir, export_nir
 
         export_nir(net, out, weight_bits=bits, force=True)
-        what = f"NIR graph ({out.stat().st_size / 1e6:.1f} MB)"
+        what = f"NIR graph ({describe_nir(out)})"
     elif args.format == "report":
         from .report import report_table, resource_report
 

@@ -55,6 +55,12 @@ def compare_table(rows, outline_px: int | None = None) -> str:
     lines += ["A, B: compared windows; t: window start after the recording's first event; angle columns on",
               f"pixels{where} where both maps have a figure-ground vector (SSIM: where either has one);",
               "grouping r and SSIM on the whole map, SSIM with each map scaled to 1"]
+    for side in ("a", "b"):
+        empty = [r[f"window_{side}"] for r in rows if r.get(f"pixels_{side}") == 0]
+        if empty:
+            shown = ", ".join("-" if k is None else str(k) for k in empty[:8]) + (", ..." if len(empty) > 8 else "")
+            lines.append(f"{side.upper()} has no figure-ground vector in {len(empty)} of {len(rows)} compared "
+                         f"window{'s' if len(rows) > 1 else ''} ({shown}): nothing to compare there (nan)")
     return "\n".join(lines)
 
 

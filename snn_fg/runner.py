@@ -125,13 +125,17 @@ def run_recording(model: Model, windows, out: Path, source: dict, *, crop=None, 
     if store.complete:
         return store.n
     n_empty = n_blank = 0
+    blank_spans_ms: list = []          # how long the events of each window without a vector last
 
     def emit(w, maps):
         nonlocal n_empty, n_blank
         cancel.check()          # (an interrupt swallowed inside the window stops the run here)
         has_events = bool(w.pos.any() or w.neg.any())
         n_empty += not has_events
-        n_blank += has_events and not (maps.fg_x.any() or maps.fg_y.any())
+        if has_events and not (maps.fg_x.any() or maps.fg_y.any()):
+            n_blank += 1
+            t = w.events["t"]
+            blank_spans_ms.append((int(t.max()) - int(t.min())) / 1000 if len(t) else 0.0)
         _append_window(store, w, maps)
 
     with warnings.catch_warnings():
@@ -142,9 +146,11 @@ def run_recording(model: Model, windows, out: Path, source: dict, *, crop=None, 
     if n_empty:
         print(f"snn-fg: warning: {n_empty} of {store.n} windows had no events; their maps are zero", file=sys.stderr)
     if n_blank:
-        hint = f" ({model.blank_window_hint})" if model.blank_window_hint else ""
+        lo, hi = min(blank_spans_ms), max(blank_spans_ms)
+        span = f"{lo:.0f} ms" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f} ms"
+        hint = f"; {model.blank_window_hint}" if model.blank_window_hint else ""
         print(f"snn-fg: warning: {n_blank} of {store.n - n_empty} windows with events have no figure-ground "
-              f"vector{hint}", file=sys.stderr)
+              f"vector (their events last {span}{hint})", file=sys.stderr)
     final = {**store.attrs["params"], "source": _source_summary(store, source)}
     if whole:           # (kept apart: each window's own parameters are told against the first window's)
         final["whole_run"] = whole

@@ -421,5 +421,8 @@ def test_a_recording_whose_windows_give_no_vector_says_so(tmp_path, capsys):
         err = capsys.readouterr().err
         if name == "blank":
             assert n >= 2 and f"{n} of {n} windows with events have no figure-ground vector" in err
+            spans = [(int(w.events["t"].max()) - int(w.events["t"].min())) / 1000
+                     for w in iter_windows(rec, window_ms=120)]
+            assert f"(their events last {min(spans):.0f}-{max(spans):.0f} ms)" in err        # (no hint: a rate model)
         else:
             assert "no figure-ground vector" not in err

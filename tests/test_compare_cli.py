@@ -162,3 +162,21 @@ def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken
     assert np.all(grey[region & ~band] < 1) and "on the compared pixels" in ax_d.get_title()
     whole = compare_figure(a, b, compare_maps(a, b)).axes[2]
     assert np.nanmax(np.ma.filled(whole.images[1].get_array().astype(float), np.nan)) == 180
+
+
+def test_a_map_without_any_vector_is_named_under_the_table():
+    """A window where one map has no vector compares nothing (nan in the
+    angle columns); the table says which map is empty, in which windows."""
+    from snn_fg.compare_cli import compare_table
+    from snn_fg.metrics import compare_maps
+
+    fx = np.zeros((2, 20, 20), np.float32)
+    fx[:, 5, 5:15] = 1.0
+    empty = fx.copy()
+    empty[1] = 0.0
+    starts = {"t_start_us": np.array([0, 85_000])}
+    rows = compare_maps(Maps(fx, fx * 0, fx, {}, starts), Maps(empty, fx * 0, fx, {}, starts))
+    text = compare_table(rows)
+    assert rows[1]["pixels_b"] == 0 and np.isnan(rows[1]["angle_diff_mean_deg"])
+    assert text.splitlines()[-1] == "B has no figure-ground vector in 1 of 2 compared windows (1): nothing to compare there (nan)"
+    assert "has no figure-ground vector" not in compare_table(rows[:1])

@@ -310,3 +310,34 @@ def test_a_forced_re_export_for_another_rate_keeps_the_folders_input(tmp_path, c
     assert json.loads((out / "network.json").read_text())["input_rate_hz"] == 35.0
     assert main([*export[:-4], "--sensor-size", "28x20", "--levels", "1", "--force"]) == 0
     assert not (out / "input.npz").exists() and "kept" not in capsys.readouterr().out
+
+
+def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path):
+    """What a user gets wrong with run.py ends in one line naming the file
+    or option and the problem, exit status 1, no traceback and no output."""
+    folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
+    np.savez(folder / "small.npz", indices=np.zeros(1, np.int64), steps=np.zeros(1, np.int64), dt_ms=0.5,
+             period_steps=-1, shape=np.array([20, 20]))
+    # (sources: 24 x 24 ON, as many OFF, and the clock: 1153)
+    np.savez(folder / "far.npz", indices=np.array([0, 2 * 24 * 24 + 5]), steps=np.zeros(2, np.int64), dt_ms=0.5,
+             period_steps=-1, shape=np.array([24, 24]))
+    (folder / "text.npz").write_text("not an archive")
+    np.savez(folder / "other.npz", counts=np.zeros(3))
+    cases = [(["--input", "nope.npz"], "nope.npz: no such file"),
+             (["--input", "text.npz"], "text.npz: not an .npz file"),
+             (["--input", "other.npz"], "other.npz: not an input spike file: no indices, steps, dt_ms"),
+             (["--input", "small.npz"], "small.npz: spikes of a 20 x 20 frame; this network's frame is 24 x 24"),
+             (["--input", "far.npz"], "far.npz: spike 1 comes from source 1157; the network has 1153 sources"),
+             (["--input", "small.npz", "--simulator", "nset"], "--simulator nset: PyNN has no simulator module")]
+    for args, said in cases:
+        done = _run_py(folder, *args, "--out", "counts.npz")
+        err = done.stderr.strip().splitlines()
+        assert done.returncode == 1 and err == [f"run.py: error: {err[0].removeprefix('run.py: error: ')}"], args
+        assert said in err[0] and "Traceback" not in done.stderr and not (folder / "counts.npz").exists(), args
+    code = ("import sys, importlib.util; real = importlib.util.find_spec; "
+            "importlib.util.find_spec = lambda n, *a: None if n == 'pyNN' else real(n, *a); sys.modules['snn_fg'] = None; "
+            "sys.argv = ['run.py', '--input', 'small.npz', '--out', 'c.npz']; exec(open('run.py').read())")
+    done = subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1 and done.stderr.strip().splitlines() == [
+        'run.py: error: PyNN is not installed: pip install -e ".[nest]" in the snn-fg folder, or pip install '
+        'PyNN==0.13.0 nest-simulator==3.10.0']

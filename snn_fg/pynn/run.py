@@ -50,9 +50,45 @@ def load_tables(meta, tables):
     return out
 
 
-def input_steps(path, n_steps, n_sources):
+#: what an input spike file holds (``snn-fg events INPUT --write-spikes`` writes one)
+INPUT_KEYS = ("indices", "steps", "dt_ms", "period_steps", "shape")
+
+
+def read_input(path, frame_shape, n_sources):
+    """The arrays of an input spike file, or exit with one line naming the
+    file and what is wrong with it (missing, not an .npz, a key missing, a
+    frame other than the network's, a source the network does not have)."""
+    import os
+    import zipfile
+
+    if not os.path.isfile(path):
+        sys.exit(f"run.py: error: {path}: no such file (snn-fg events INPUT --write-spikes {path} --export . "
+                 f"writes one)")
+    try:
+        with np.load(path) as d:
+            missing = [k for k in INPUT_KEYS if k not in d.files]
+            if missing:
+                sys.exit(f"run.py: error: {path}: not an input spike file: no {', '.join(missing)} (it needs "
+                         f"{', '.join(INPUT_KEYS)}; snn-fg events INPUT --write-spikes writes one)")
+            d = {k: d[k] for k in INPUT_KEYS}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError):
+        sys.exit(f"run.py: error: {path}: not an .npz file (expected the input spike file that "
+                 f"snn-fg events INPUT --write-spikes writes)")
+    shape = tuple(int(v) for v in d["shape"])
+    if frame_shape is not None and shape != tuple(frame_shape):
+        sys.exit(f"run.py: error: {path}: spikes of a {shape[1]} x {shape[0]} frame; this network's frame is "
+                 f"{frame_shape[1]} x {frame_shape[0]} (width x height): write them with --export . from this folder")
+    idx = d["indices"]
+    if idx.size and (idx.min() < 0 or idx.max() >= n_sources):
+        bad = int(np.flatnonzero((idx < 0) | (idx >= n_sources))[0])
+        sys.exit(f"run.py: error: {path}: spike {bad} comes from source {int(idx[bad])}; the network has "
+                 f"{n_sources} sources")
+    return d
+
+
+def input_steps(path, n_steps, n_sources, frame_shape=None):
     """Spike steps of every source (periodic patterns repeated up to n_steps)."""
-    d = np.load(path)
+    d = read_input(path, frame_shape, n_sources)
     idx, steps, period = d["indices"].astype(np.int64), d["steps"].astype(np.int64), int(d["period_steps"])
     if period > 0:
         reps = -(-n_steps // period)
@@ -117,6 +153,25 @@ def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
     return net
 
 
+def check_simulator(name):
+    """Exit with one line saying what to install unless ``pyNN.<name>`` and
+    the simulator under it can be imported (before anything is built)."""
+    from importlib.util import find_spec
+
+    extra = "spinnaker" if name == "spiNNaker" else "nest"
+    install = (f'pip install -e ".[{extra}]" in the snn-fg folder, or pip install '
+               + ("sPyNNaker==1!7.4.1 PyNN==0.13.0" if extra == "spinnaker" else "PyNN==0.13.0 nest-simulator==3.10.0"))
+    if find_spec("pyNN") is None:
+        sys.exit(f"run.py: error: PyNN is not installed: {install}")
+    if find_spec(f"pyNN.{name}") is None:
+        sys.exit(f"run.py: error: --simulator {name}: PyNN has no simulator module pyNN.{name} (nest, spinnaker, or "
+                 f"another PyNN backend such as neuron or brian2)")
+    needs = {"nest": "nest", "spiNNaker": "spynnaker"}.get(name)
+    if needs and find_spec(needs) is None:
+        sys.exit(f"run.py: error: --simulator {name}: pyNN.{name} needs the module {needs!r}, which is not "
+                 f"installed: {install}")
+
+
 def parse(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--input", help="input spike file (required but with --virtual-board)")
@@ -150,12 +205,20 @@ def parse(argv):
 
 def main(argv=None):
     args = parse(argv)
+    check_simulator(args.simulator)
+    import os
+
+    for name in ("network.json", "tables.npz"):
+        if not os.path.isfile(name):
+            sys.exit(f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py "
+                     f"...)")
     with open("network.json") as fh:
         meta = json.load(fh)
     tables = load_tables(meta, np.load("tables.npz"))
     n_src = sum(p["size"] for p in meta["populations"] if p["neuron"] is None)
     n_steps = int(round(args.duration_ms / meta["dt_ms"]))
-    sources, dt_ms = input_steps(args.input, n_steps, n_src) if args.input else ([[]] * n_src, meta["dt_ms"])
+    sources, dt_ms = (input_steps(args.input, n_steps, n_src, meta.get("frame_shape")) if args.input
+                      else ([[]] * n_src, meta["dt_ms"]))
     if abs(dt_ms - meta["dt_ms"]) > 1e-9:
         sys.exit(f"run.py: error: {args.input}: dt_ms={dt_ms} differs from the network's {meta['dt_ms']}")
     plan = None

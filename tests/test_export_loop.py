@@ -142,8 +142,15 @@ def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
     np.savez(bogus, duration_ms=100.0, count_from_ms=50.0, dt_ms=0.5, count_nothing=np.zeros(3))
     assert main(["decode", str(bogus), "--export", str(folder), "--out", str(tmp_path / "maps")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "counts.npz: not a run.py counts file of this export" in err[0]
-    assert not (tmp_path / "maps").exists() and net.frame_shape == (24, 24)
+    assert len(err) == 1 and "counts.npz: not a run.py counts file of this export: no count_" in err[0]
+    assert "Error" not in err[0] and not (tmp_path / "maps").exists() and net.frame_shape == (24, 24)
+    # run.py's input handed to decode instead of its output: said so, with the step between
+    np.savez(tmp_path / "input.npz", indices=np.zeros(1, np.int64), steps=np.zeros(1, np.int64), dt_ms=0.5,
+             period_steps=-1, shape=np.array([24, 24]))
+    assert main(["decode", str(tmp_path / "input.npz"), "--export", str(folder), "--out", str(tmp_path / "maps")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "input.npz: an input spike file (run.py's --input), not the counts" in err[0]
+    assert not (tmp_path / "maps").exists()
 
 
 @pytest.mark.slow

@@ -41,6 +41,7 @@ import numpy as np
 from .. import __version__
 from .. import pynn as standalone
 from .. import validate as check
+from ..errors import InputError
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
 from .board import ConvTable, board_network, geometry, table
@@ -258,8 +259,17 @@ def read_counts(network: Network, path):
 
     net = board_network(network)
     d = check.load_npz(path, "the counts.npz an export's run.py writes")
-    duration, start = float(d["duration_ms"]), float(d["count_from_ms"])
     pops = lif_populations(net)
+    if "indices" in d.files and "steps" in d.files:
+        raise InputError(path, "an input spike file (run.py's --input), not the counts run.py writes: run "
+                               "python run.py --input FILE --out counts.npz in the export's folder, then decode "
+                               "counts.npz")
+    missing = [k for k in ("duration_ms", "dt_ms", "count_from_ms", *(f"count_{q.name}" for q in pops))
+               if k not in d.files]
+    if missing:
+        raise InputError(path, f"not a run.py counts file of this export: no {', '.join(missing[:3])}"
+                               + (f" and {len(missing) - 3} more" if len(missing) > 3 else ""))
+    duration, start = float(d["duration_ms"]), float(d["count_from_ms"])
     spikes = {p.name: (d[f"cell_{p.name}"], d[f"t_{p.name}"]) for p in pops} if f"cell_{pops[0].name}" in d else None
     return SimulationResult(network=net, backend="pynn-export", sites={p.name: np.arange(p.size) for p in pops},
                             counts={p.name: d[f"count_{p.name}"].astype(np.int64) for p in pops},

@@ -302,6 +302,17 @@ def cmd_run(args) -> int:
         try:
             n = run_recording(model, windows, out, source, crop=args.crop, figures=not args.no_figures,
                               resume=bool(args.resume), run_key=_run_key(args))
+        except InputError as exc:
+            # bad input part way through (a file cut short, say): no half-written output
+            # (an interrupted run, below, keeps its windows for --resume)
+            done = windows_complete(out)
+            if args.resume:
+                raise
+            shutil.rmtree(out, ignore_errors=True)
+            if not done:
+                raise
+            raise InputError(exc.source, f"{exc.problem}; nothing written (--max-windows {done} runs the {done} "
+                                         f"window{'s' if done > 1 else ''} before it)", exc.where) from None
         except BaseException:
             if not windows_complete(out):       # (refused before its first window: nothing to keep)
                 shutil.rmtree(out, ignore_errors=True)

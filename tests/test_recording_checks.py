@@ -101,3 +101,29 @@ def test_summaries_name_what_they_skip(tmp_path, monkeypatch, capsys):
     listed = skipped.removeprefix("skipped:").removesuffix(" (read, not used by the model)").strip()
     assert sorted(listed.split(", ")) == ["1 IMUS bottles", "1 events of the other camera (channel 1)",
                                           "1 non-vision samples (IMU or skin)"]
+
+
+def test_a_file_cut_inside_an_event_part_way_leaves_nothing_half_written(tmp_path, capsys):
+    """A recording cut short inside an event is refused when the reading
+    gets there, windows already run or not: the output folder goes, and the
+    error says how to run the complete windows before the cut."""
+    import re
+
+    from snn_fg.maps import Maps
+
+    n = 400_000                                     # (2 MB: read in several chunks, windows finish before the cut)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["x"], ev["y"], ev["p"] = np.arange(n) % 40, (np.arange(n) // 40) % 30, np.arange(n) % 2
+    ev["t"] = np.arange(n) * 2                      # 0.8 s: nine 85 ms windows and a part
+    save_events(tmp_path / "whole.es", ev, (40, 30))
+    cut = tmp_path / "cut.es"
+    cut.write_bytes((tmp_path / "whole.es").read_bytes()[:-3])
+    assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "file ends inside an event (2 of 5 bytes); nothing written (--max-windows" in err[0]
+    assert not (tmp_path / "o").exists()
+    done = int(re.search(r"--max-windows (\d+) runs", err[0]).group(1))
+    assert 1 <= done < 10
+    assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures",
+                 "--max-windows", str(done)]) == 0
+    assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done

@@ -14,6 +14,7 @@ import numpy as np
 
 from snn_fg.atomic import save_npz
 from snn_fg.errors import InputError
+from snn_fg.events import MAX_SENSOR_SIDE
 from snn_fg.events.esim import MOTIONS
 from snn_fg.images import IMAGE_SUFFIXES
 
@@ -23,7 +24,10 @@ def sensor_size_arg(text):
     m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)
     if not m:
         raise argparse.ArgumentTypeError(f"sensor size must look like 640x480, got {text!r}")
-    return int(m.group(1)), int(m.group(2))
+    w, h = int(m.group(1)), int(m.group(2))
+    if not (0 < w <= MAX_SENSOR_SIDE and 0 < h <= MAX_SENSOR_SIDE):
+        raise argparse.ArgumentTypeError(f"width and height must be 1 to {MAX_SENSOR_SIDE} pixels, got {text!r}")
+    return w, h
 
 
 def add_events_command(subparsers) -> argparse.ArgumentParser:

@@ -87,7 +87,9 @@ def plot_maps_row(axes, input_img, fields, title: str = "", *, grouping_label: s
     a0.imshow(input_img, cmap="gray" if np.ndim(input_img) == 2 else None, interpolation="nearest", extent=extent)
     a0.set_title(f"input {title}".strip(), fontsize=9)
     a1.imshow(fg_rgb(fg_x, fg_y), interpolation="nearest", extent=extent)
-    im = a2.imshow(grouping, cmap=GROUPING_CMAP, interpolation="nearest", extent=extent)
+    silent = not np.any(grouping)           # (drawn dark, not at the middle of an autoscaled range)
+    im = a2.imshow(grouping, cmap=GROUPING_CMAP, interpolation="nearest", extent=extent,
+                   **({"vmin": 0.0, "vmax": 1.0} if silent else {}))
     bar = a2.figure.colorbar(im, ax=a2, fraction=0.046, pad=0.02)
     bar.ax.tick_params(labelsize=7)
     for a in axes:
@@ -96,12 +98,12 @@ def plot_maps_row(axes, input_img, fields, title: str = "", *, grouping_label: s
         for a in axes:
             a.locator_params(nbins=3)
         a1.set_title(f"figure-ground {title}".strip(), fontsize=9)
-        a2.set_title(f"grouping {title}".strip(), fontsize=9)
+        a2.set_title(f"grouping {title}".strip() + (": none" if silent else ""), fontsize=9)
         return
     a1.set_title("figure-ground: hue = direction to the owner,\nbrightness = strength (wheel: 0° right, 90° up)",
                  fontsize=8)
     _wheel_inset(a1)
-    a2.set_title("grouping (proto-object centres are bright)", fontsize=9)
+    a2.set_title("grouping: no activity" if silent else "grouping (proto-object centres are bright)", fontsize=9)
     bar.set_label(grouping_label, fontsize=8)
     for a in axes:
         a.set_xlabel("x (px)", fontsize=7)

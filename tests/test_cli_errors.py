@@ -19,6 +19,7 @@ def run_cli(*args):
     (["compare", "a.npz"], "required: B.npz"),
     (["events"], "required: INPUT"),
     (["export", "--format", "report", "--levels", "x"], "--levels: expected an integer"),
+    (["run", "demo", "--out", "o", "--sensor-size", "0x0"], "--sensor-size: width and height must be 1 to 32768"),
 ])
 def test_a_usage_error_is_one_line_without_the_usage_block(tmp_path, args, says):
     res = run_cli(*args)

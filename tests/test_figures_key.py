@@ -72,3 +72,20 @@ def test_the_raster_explains_every_role_and_why_feedback_cells_fire_at_2_khz():
     assert explained == set(ROLE_ORDER)
     assert "bo_L1, bo_L2, bo_D1, bo_D2: border-ownership cells: a light (L) or dark (D) figure" in caption
     assert "where z is strong they fire at up to 2 kHz, a spike every step, by design" in " ".join(caption.split())
+
+
+def test_a_window_without_grouping_activity_is_drawn_dark_and_said_so():
+    """An all-zero grouping map would sit at the middle of an autoscaled
+    colour range (a flat mid colour that reads as activity everywhere): it
+    is drawn at the bottom of the scale, and its title says there is none."""
+    inputs, fx, fy, g = _windows(2)
+    g[1] = 0.0
+    fig = maps_figure(inputs, fx, fy, g, ["w0", "w1"])
+    grouping = [ax for ax in fig.axes if ax.get_title().startswith("grouping")]
+    assert [ax.get_title() for ax in grouping] == ["grouping (proto-object centres are bright)", "grouping w1: none"]
+    busy, silent = (ax.images[0] for ax in grouping)
+    assert silent.get_clim() == (0.0, 1.0) and np.all(silent.to_rgba(silent.get_array())[..., :3] < 0.05)
+    assert busy.get_clim() == (0.0, 1.0) and busy.to_rgba(np.array([[1.0]]))[0, 0, :3].max() > 0.9
+    g[0] = 0.0
+    first = [ax for ax in maps_figure(inputs, fx, fy, g).axes if ax.get_title().startswith("grouping")][0]
+    assert first.get_title() == "grouping: no activity"

@@ -14,6 +14,8 @@ from snn_fg.errors import InputError
 EVENT_DTYPE = np.dtype([("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "i1")])
 
 _COORD_MAX = np.iinfo(np.int16).max
+#: the largest sensor side, in pixels, that event coordinates can address
+MAX_SENSOR_SIDE = _COORD_MAX + 1
 
 
 @dataclass(frozen=True)

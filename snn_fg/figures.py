@@ -130,14 +130,17 @@ def shown_note(shown, n: int, what: str = "windows", labels=None) -> str:
 
 
 def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
-                grouping_label: str = "grouping", crop=None) -> Figure:
+                grouping_label: str = "grouping", crop=None, placed=None) -> Figure:
     """One row per frame (input, figure-ground, grouping).
 
     ``inputs`` is a list of images (grey or RGB), one per frame; arrays of
     ndim 2 are one frame. At most ``max_rows`` frames are drawn, evenly
     spaced, and the figure's title says which. ``crop`` ``(x0, y0, x1, y1)``
     (pixels, x1 and y1 exclusive) draws only that part of every panel, at
-    its own coordinates.
+    its own coordinates. ``placed`` ``(x0, y0, scale)``: the maps are a
+    part of a sensor, their pixel ``(0, 0)`` its ``scale x scale`` pixels
+    from ``(x0, y0)`` on (an export's crop, of blocks where it pools), drawn
+    at the sensor's coordinates.
     """
     # (a recording's maps may be read on indexing, snn_fg.store.ZarrArray: only the rows drawn are read)
     fg_x, fg_y, grouping = (v if hasattr(v, "ndim") else np.asarray(v) for v in (fg_x, fg_y, grouping))
@@ -148,9 +151,14 @@ def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
     x0, y0, x1, y1 = check_crop(crop, fg_x.shape[1:]) if crop is not None else (0, 0) + fg_x.shape[:0:-1]
     cut = (slice(y0, y1), slice(x0, x1))
     extent = None if crop is None else (x0 - 0.5, x1 - 0.5, y1 - 0.5, y0 - 0.5)
+    if placed is not None:
+        if crop is not None:
+            raise ValueError("maps_figure: crop and placed go alone")
+        px, py, k = placed
+        extent = (px - 0.5, px + k * (x1 - x0) - 0.5, py + k * (y1 - y0) - 0.5, py - 0.5)
     idx = rows_shown(n, max_rows)
     note = shown_note(idx, n)
-    aspect = (x1 - x0) / (y1 - y0)
+    aspect = (x1 - x0) / (y1 - y0)          # (the same for a placed frame: its pixels are square)
     panel_w = _panel_width(aspect)
     row_h = min(PANEL_IN, max(panel_w / aspect + 0.9, 1.8))      # (0.9 in: titles and tick labels)
     note_in = 0.45 if note else 0.0           # (a strip of its own at the top, whatever the figure's height)

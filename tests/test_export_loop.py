@@ -271,6 +271,16 @@ def test_sizes_are_width_by_height_and_blocks_are_called_blocks(tmp_path, disc_r
     said = capsys.readouterr().out
     assert "(a 57 x 48 sensor as 19 x 16 blocks of 3 x 3 pixels)" in said and "per active block" in said
     assert "crop at block x=1, y=3" in said and read_input(spikes).shape == (16, 19)
+    # the input file keeps where its crop lies on the sensor: decode's params and figure place the maps there
+    from snn_fg.export.pynn import input_origin
+    from snn_fg.figures import maps_figure
+
+    origin = input_origin(spikes)
+    assert (origin["crop_x_px"], origin["crop_y_px"], origin["pool"]) == (3, 9, 3)
+    assert origin["input"] == str(disc_recording) and origin["made_from"].startswith("window ")
+    z = np.zeros((16, 19))
+    fig = maps_figure(np.zeros((16, 19, 3)), z, z, z, placed=(3, 9, 3))
+    assert fig.axes[0].images[0].get_extent() == [2.5, 3 + 57 - 0.5, 9 + 48 - 0.5, 8.5]
     assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out),
                  "--crop-at", "4,0", "--no-progress"]) == 2
     assert "--crop-at 4,0: a crop of 19 x 16 blocks must lie inside the input's 22 x 22 blocks" in capsys.readouterr().err

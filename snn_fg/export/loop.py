@@ -149,7 +149,9 @@ def _input_spikes(args, net, dt_ms):
             raise InputError(args.input, f"no event {_pixel(net)} in the crop at {_at(net, r0, c0)}")
         inp = frame_spikes(pos, neg, FRAME_RATE_HZ, dt_ms, args.duration_ms)
         what = f"{kind}, regular trains at {FRAME_RATE_HZ:g} Hz for {args.duration_ms:g} ms"
-    return inp, f"{what}; crop at {_at(net, r0, c0)}"
+    origin = {"input": str(args.input), "made_from": what, "pool": pool,
+              "crop_x_px": int(c0 * pool), "crop_y_px": int(r0 * pool)}
+    return inp, f"{what}; crop at {_at(net, r0, c0)}", origin
 
 
 def write_spikes(args) -> int:
@@ -165,9 +167,9 @@ def write_spikes(args) -> int:
     if Path(args.write_spikes).suffix.lower() != ".npz":
         raise InputError(args.write_spikes, "--write-spikes needs an .npz file name")
     net, meta = export_network(args.export)
-    inp, what = _input_spikes(args, net, float(meta["dt_ms"]))
+    inp, what, origin = _input_spikes(args, net, float(meta["dt_ms"]))
     with atomic_path(args.write_spikes, suffix=".npz") as part:
-        save_input(inp, part, float(meta["dt_ms"]))
+        save_input(inp, part, float(meta["dt_ms"]), origin)
     print(f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active "
           f"{_pixel(net)}; the export's gains are set for {net.input_rate_hz:g} Hz) for the export {args.export} "
           f"({frame_text(net, meta.get('sensor_shape'))}) at dt {meta['dt_ms']} ms; {what}")
@@ -275,12 +277,19 @@ def cmd_decode(args) -> int:
     net, _ = export_network(args.export)
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")
+    from .pynn import input_origin
+
     maps = decode_counts(net, args.counts)
-    frame = input_frame(args.input or Path(args.counts).with_name("input.npz"), net.frame_shape)
+    spikes = args.input or Path(args.counts).with_name("input.npz")
+    frame = input_frame(spikes, net.frame_shape)
     shown = event_frame_rgb(*frame) if frame is not None else np.zeros((*net.frame_shape, 3))
+    origin = input_origin(spikes) if frame is not None else None
+    if origin is not None:          # (maps on the export's frame: blocks of the sensor where it pools)
+        maps.params["source"] = origin
+    placed = None if origin is None else (origin["crop_x_px"], origin["crop_y_px"], origin["pool"])
     with OutputFolder(args.out, force=args.force) as out:
         maps.save(out.dir / "maps.npz")
         save_maps_figure(out.dir / "maps.png", shown, maps.fg_x, maps.fg_y, maps.grouping,
-                         grouping_label=SPIKING_GROUPING_LABEL)
+                         grouping_label=SPIKING_GROUPING_LABEL, placed=placed)
     print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ (maps.npz, maps.png)")
     return 0

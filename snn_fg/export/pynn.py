@@ -225,12 +225,26 @@ def _input_for(path: Path, frame_shape, dt_ms: float) -> bytes | None:
         return None
 
 
-def save_input(inputs, path, dt_ms: float) -> Path:
-    """Write :class:`~snn_fg.lowering.input_spikes.InputSpikes` as ``run.py``'s input file."""
+def save_input(inputs, path, dt_ms: float, origin: dict | None = None) -> Path:
+    """Write :class:`~snn_fg.lowering.input_spikes.InputSpikes` as ``run.py``'s
+    input file; ``origin`` (what the spikes were made from: input, window,
+    where the crop lies on the sensor) goes with them as JSON text, for
+    ``snn-fg decode`` to tell (:func:`input_origin`)."""
+    extra = {} if origin is None else {"origin": np.array(json.dumps(origin))}
     np.savez(path, indices=inputs.indices.astype(np.int64), steps=inputs.steps.astype(np.int64), dt_ms=dt_ms,
              period_steps=-1 if inputs.period_steps is None else int(inputs.period_steps),
-             shape=np.array(inputs.shape))
+             shape=np.array(inputs.shape), **extra)
     return Path(path)
+
+
+def input_origin(path) -> dict | None:
+    """What :func:`save_input` kept of where an input file's spikes come
+    from (None: an input file written without it, or no such file)."""
+    try:
+        with np.load(path) as d:
+            return json.loads(str(d["origin"])) if "origin" in d.files else None
+    except (OSError, ValueError):
+        return None
 
 
 def read_input(path):

@@ -97,6 +97,10 @@ def open_es(path, sensor_size, chunk_events) -> Source:
     """
     header = read_header(path)
     size = check_sensor_size(sensor_size or (header.width, header.height), path)
+    if size[0] < header.width or size[1] < header.height:
+        raise InputError(path, f"the sensor size given, {size[0]} x {size[1]}, is smaller than the file's own "
+                               f"{header.width} x {header.height} (its header), whose events may lie anywhere in "
+                               f"it: leave the size out for this file")
     if header.stream == "DVS":
         return Source(path, "es", size, lambda n, tally: iter_dvs(path, header))
     return Source(path, "es-atis", size, lambda n, tally: iter_atis(path, header, tally))

@@ -312,7 +312,7 @@ def node_kinds(path) -> dict[str, int]:
 
 
 def describe_nir(path) -> str:
-    """``NIR graph (5.6 MB; 558 nodes: 180 Delay, 154 Conv2d, ...)`` for the export's last line."""
+    """``5.6 MB; 553 nodes: 180 Delay, 154 Conv2d, ...``: the file's size and nodes, for the export's last line."""
     kinds = node_kinds(path)
     listed = ", ".join(f"{n} {k}" for k, n in kinds.items())
     return f"{Path(path).stat().st_size / 1e6:.1f} MB; {sum(kinds.values())} nodes: {listed}"

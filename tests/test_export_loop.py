@@ -358,3 +358,24 @@ def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path):
     assert done.returncode == 1 and done.stderr.strip().splitlines() == [
         'run.py: error: PyNN is not installed: pip install -e ".[nest]" in the snn-fg folder, or pip install '
         'PyNN==0.13.0 nest-simulator==3.10.0']
+
+
+def test_write_spikes_notes_a_crop_that_lies_inside_a_filled_object(tmp_path, capsys):
+    """A crop whose pixels nearly all carry events (inside a filled object)
+    holds texture, not an outline: --write-spikes says so and names
+    --crop-at; a crop across an outline gets no such note. The share goes
+    into the input file's origin."""
+    from snn_fg.export.pynn import input_origin
+
+    folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
+    filled, edges = np.zeros((40, 40), np.uint8), np.zeros((40, 40), np.uint8)
+    filled[5:35, 5:35] = 1
+    edges[10, 5:35] = edges[30, 5:35] = 1
+    for name, pos, noted in (("filled", filled, True), ("edges", edges, False)):
+        np.savez(tmp_path / f"{name}.npz", pos=pos, neg=np.zeros_like(pos))
+        spikes = tmp_path / f"in_{name}.npz"
+        assert main(["events", str(tmp_path / f"{name}.npz"), "--write-spikes", str(spikes), "--export",
+                     str(folder)]) == 0
+        out = capsys.readouterr().out
+        assert ("events cover 100% of the crop's pixels" in out and "--crop-at X,Y" in out) == noted, name
+        assert (input_origin(spikes)["event_share"] > 0.5) == noted

@@ -97,6 +97,10 @@ def _at(net, r0, c0) -> str:
     return f"{'block ' if net.params.input_pool > 1 else ''}x={c0}, y={r0}"
 
 
+#: share of a crop's pixels (or blocks) with events above which --write-spikes notes it may lie inside an object
+CROP_FILLED = 0.5
+
+
 def _crop_box(active, net, crop_at, source):
     """Top-left (row, col) of the crop of the network's frame from the (pooled) input's ``active`` sources."""
     from .pynn import frame_size
@@ -149,8 +153,9 @@ def _input_spikes(args, net, dt_ms):
             raise InputError(args.input, f"no event {_pixel(net)} in the crop at {_at(net, r0, c0)}")
         inp = frame_spikes(pos, neg, FRAME_RATE_HZ, dt_ms, args.duration_ms)
         what = f"{kind}, regular trains at {FRAME_RATE_HZ:g} Hz for {args.duration_ms:g} ms"
+    share = float(((on > 0) | (off > 0))[r0:r0 + shape[0], c0:c0 + shape[1]].mean())
     origin = {"input": str(args.input), "made_from": what, "pool": pool,
-              "crop_x_px": int(c0 * pool), "crop_y_px": int(r0 * pool)}
+              "crop_x_px": int(c0 * pool), "crop_y_px": int(r0 * pool), "event_share": round(share, 4)}
     return inp, f"{what}; crop at {_at(net, r0, c0)}", origin
 
 
@@ -173,6 +178,10 @@ def write_spikes(args) -> int:
     print(f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active "
           f"{_pixel(net)}; the export's gains are set for {net.input_rate_hz:g} Hz) for the export {args.export} "
           f"({frame_text(net, meta.get('sensor_shape'))}) at dt {meta['dt_ms']} ms; {what}")
+    if origin["event_share"] > CROP_FILLED:
+        print(f"snn-fg: note: events cover {origin['event_share']:.0%} of the crop's {_pixel(net)}s: a crop that "
+              f"lies inside a filled object holds its texture, not its outline, and its maps show little of the "
+              f"object's figure-ground; --crop-at X,Y places the crop elsewhere")
     hint = recalibration_hint(inp.rate_hz, net.input_rate_hz, meta.get("export_command"), _pixel(net))
     if hint:
         print(hint)

@@ -158,5 +158,6 @@ def run_dataset(args, command) -> int:
         print(f"{r['status']:>8}  {r['windows']:5d} windows  {r['seconds']:8.1f} s  {r['recording']}"
               + (f": {r['error']}" if r["error"] else ""))
     failed = sum(r["status"] == "failed" for r in rows)
-    print(f"snn-fg: {len(rows)} recordings, {failed} failed; summary in {out / SUMMARY_NAME}")
+    print(f"snn-fg: {len(rows)} recording{'' if len(rows) == 1 else 's'}, {failed} failed; "
+          f"summary in {out / SUMMARY_NAME}")
     return 1 if failed else 0

@@ -273,7 +273,7 @@ def cmd_run(args) -> int:
     from .pyramid.levels import check_levels
     from .inputs import input_kind, load_frame
     from .runner import run_still, run_recording
-    from .store import windows_complete
+    from .store import STORE_NAME, finished_run, windows_complete
     from .validate import check_crop
 
     if is_dataset(args.input):
@@ -297,6 +297,11 @@ def cmd_run(args) -> int:
         check_crop(args.crop, shape, owner=f"{args.input}: --crop")
     if kind == "recording":
         out = growing_folder(args.out, force=args.force, resume=bool(args.resume))
+        finished = finished_run(out / STORE_NAME, _run_key(args)) if args.resume else None
+        if finished is not None:
+            print(f"snn-fg: the run in {args.out}/ is finished already ({finished} windows): nothing to resume, "
+                  "nothing written")
+            return 0
         args.interrupt_note = (f"the windows completed so far are in {args.out}/; the same command with --resume "
                                "continues from the last one")
         try:

@@ -214,6 +214,27 @@ def read_attrs(path) -> dict:
     return attrs
 
 
+def _same_run(path, run_key: dict) -> dict:
+    """The attributes of the store at ``path``; refused when it was made with another ``run_key``."""
+    attrs = read_attrs(path)
+    stored = attrs["snn_fg"].get("run_key")
+    if json.loads(json.dumps(run_key)) != stored:
+        differ = sorted(k for k in set(stored or {}) | set(run_key) if (stored or {}).get(k) != run_key.get(k))
+        raise InputError(path, f"--resume needs the same input and options as the run being continued; "
+                               f"these differ: {', '.join(differ)}")
+    return attrs
+
+
+def finished_run(path, run_key: dict) -> int | None:
+    """The windows of the finished run in the store at ``path``, made with
+    ``run_key`` (None: no store there, or its run has not ended; refused
+    when made with another ``run_key``); reads only its attributes."""
+    if not Path(path).is_dir():
+        return None
+    attrs = _same_run(path, run_key)["snn_fg"]
+    return int(attrs["windows_complete"]) if attrs.get("complete") else None
+
+
 def windows_complete(folder) -> int:
     """How many windows the store in a run's output ``folder`` holds whole (0: none, or no store)."""
     try:
@@ -274,12 +295,7 @@ class MapsStore:
     @classmethod
     def reopen(cls, path, run_key: dict) -> "MapsStore":
         """The store at ``path`` to continue; refused when it was made with another ``run_key``."""
-        attrs = read_attrs(path)
-        stored = attrs["snn_fg"].get("run_key")
-        if json.loads(json.dumps(run_key)) != stored:
-            differ = sorted(k for k in set(stored or {}) | set(run_key) if (stored or {}).get(k) != run_key.get(k))
-            raise InputError(path, f"--resume needs the same input and options as the run being continued; "
-                                   f"these differ: {', '.join(differ)}")
+        attrs = _same_run(path, run_key)
         for stray in Path(path).rglob("*.part"):       # (atomic writes cut short by a kill)
             stray.unlink()
         return cls(path, attrs)

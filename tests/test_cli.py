@@ -174,7 +174,8 @@ def test_rate_model_can_carry_its_state_from_window_to_window(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("carry", ["off", "on"])
-def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes_it(tmp_path, monkeypatch, carry):
+def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes_it(tmp_path, monkeypatch, capsys,
+                                                                                     carry):
     """Interrupted in its third window, a run leaves two windows readable
     (marked incomplete); --resume runs the rest (with --carry-state, the
     windows before again, for their state) and gives the maps of a run never
@@ -214,6 +215,12 @@ def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes
     np.testing.assert_array_equal(done.extra["event_frame"], whole.extra["event_frame"])
     assert done.params["source"] == whole.params["source"]
     assert main(["run", str(path), "--out", str(out), *opts, "--resume", "--r0", "6"]) == 2    # another run
+    # --resume on the finished run: says so and writes nothing
+    stamp = [(p, p.stat().st_mtime_ns) for p in sorted(out.rglob("*"))]
+    capsys.readouterr()
+    assert main(["run", str(path), "--out", str(out), *opts, "--resume"]) == 0
+    assert "is finished already (4 windows): nothing to resume, nothing written" in capsys.readouterr().out
+    assert [(p, p.stat().st_mtime_ns) for p in sorted(out.rglob("*"))] == stamp
 
 
 @pytest.mark.slow

@@ -309,10 +309,10 @@ def cmd_run(args) -> int:
                               resume=bool(args.resume), run_key=_run_key(args))
         except InputError as exc:
             # bad input part way through (a file cut short, say): no half-written output
-            # (an interrupted run, below, keeps its windows for --resume)
-            done = windows_complete(out)
+            # (an interrupted run, below, keeps its windows for --resume; a resumed one keeps the earlier run's)
             if args.resume:
                 raise
+            done = windows_complete(out)
             shutil.rmtree(out, ignore_errors=True)
             if not done:
                 raise

@@ -178,5 +178,6 @@ def test_a_map_without_any_vector_is_named_under_the_table():
     rows = compare_maps(Maps(fx, fx * 0, fx, {}, starts), Maps(empty, fx * 0, fx, {}, starts))
     text = compare_table(rows)
     assert rows[1]["pixels_b"] == 0 and np.isnan(rows[1]["angle_diff_mean_deg"])
-    assert text.splitlines()[-1] == "B has no figure-ground vector in 1 of 2 compared windows (1): nothing to compare there (nan)"
+    assert text.splitlines()[-1] == ("B has no figure-ground vector in 1 of 2 compared windows (1): nothing to "
+                                     "compare there (nan)")
     assert "has no figure-ground vector" not in compare_table(rows[:1])

@@ -352,7 +352,8 @@ def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path):
         assert done.returncode == 1 and err == [f"run.py: error: {err[0].removeprefix('run.py: error: ')}"], args
         assert said in err[0] and "Traceback" not in done.stderr and not (folder / "counts.npz").exists(), args
     code = ("import sys, importlib.util; real = importlib.util.find_spec; "
-            "importlib.util.find_spec = lambda n, *a: None if n == 'pyNN' else real(n, *a); sys.modules['snn_fg'] = None; "
+            "importlib.util.find_spec = lambda n, *a: None if n == 'pyNN' else real(n, *a); "
+            "sys.modules['snn_fg'] = None; "
             "sys.argv = ['run.py', '--input', 'small.npz', '--out', 'c.npz']; exec(open('run.py').read())")
     done = subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=300)
     assert done.returncode == 1 and done.stderr.strip().splitlines() == [

@@ -24,8 +24,10 @@ beside the export's own estimate.
 """
 import argparse
 import json
+import os
 import sys
 import time
+import zipfile
 
 import numpy as np
 
@@ -58,9 +60,6 @@ def read_input(path, frame_shape, n_sources):
     """The arrays of an input spike file, or exit with one line naming the
     file and what is wrong with it (missing, not an .npz, a key missing, a
     frame other than the network's, a source the network does not have)."""
-    import os
-    import zipfile
-
     if not os.path.isfile(path):
         sys.exit(f"run.py: error: {path}: no such file (snn-fg events INPUT --write-spikes {path} --export . "
                  f"writes one)")
@@ -159,8 +158,8 @@ def check_simulator(name):
     from importlib.util import find_spec
 
     extra = "spinnaker" if name == "spiNNaker" else "nest"
-    install = (f'pip install -e ".[{extra}]" in the snn-fg folder, or pip install '
-               + ("sPyNNaker==1!7.4.1 PyNN==0.13.0" if extra == "spinnaker" else "PyNN==0.13.0 nest-simulator==3.10.0"))
+    packages = "sPyNNaker==1!7.4.1 PyNN==0.13.0" if extra == "spinnaker" else "PyNN==0.13.0 nest-simulator==3.10.0"
+    install = f'pip install -e ".[{extra}]" in the snn-fg folder, or pip install {packages}'
     if find_spec("pyNN") is None:
         sys.exit(f"run.py: error: PyNN is not installed: {install}")
     if find_spec(f"pyNN.{name}") is None:
@@ -206,8 +205,6 @@ def parse(argv):
 def main(argv=None):
     args = parse(argv)
     check_simulator(args.simulator)
-    import os
-
     for name in ("network.json", "tables.npz"):
         if not os.path.isfile(name):
             sys.exit(f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py "

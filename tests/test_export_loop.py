@@ -349,7 +349,7 @@ def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path):
     for args, said in cases:
         done = _run_py(folder, *args, "--out", "counts.npz")
         err = done.stderr.strip().splitlines()
-        assert done.returncode == 1 and err == [f"run.py: error: {err[0].removeprefix('run.py: error: ')}"], args
+        assert done.returncode == 1 and len(err) == 1 and err[0].startswith("run.py: error: "), args
         assert said in err[0] and "Traceback" not in done.stderr and not (folder / "counts.npz").exists(), args
     code = ("import sys, importlib.util; real = importlib.util.find_spec; "
             "importlib.util.find_spec = lambda n, *a: None if n == 'pyNN' else real(n, *a); "

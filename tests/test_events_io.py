@@ -418,11 +418,13 @@ def test_bad_sensor_size_argument_is_a_parameter_error(tmp_path):
         save_events(tmp_path / "b.raw", ev, (64, 48), encoding="evt4")
 
 
-def test_an_event_stream_refuses_a_sensor_smaller_than_its_header_says(tmp_path):
-    """An .es file's header gives its sensor; a size given that is smaller
-    is refused up front, naming both (not at the first event outside it)."""
+@pytest.mark.parametrize("suffix", [".es", ".raw"])
+def test_a_file_refuses_a_sensor_smaller_than_its_header_says(tmp_path, suffix):
+    """A file whose header gives its sensor (.es; .raw with its geometry) and
+    a size given that is smaller: refused up front, naming both (not at the
+    first event outside it); a larger one pads."""
     ev = random_events(50)
-    path = tmp_path / "a.es"
+    path = tmp_path / f"a{suffix}"
     save_events(path, ev, (64, 48))
     with pytest.raises(InputError, match=r"the sensor size given, 32 x 48, is smaller than the file's own 64 x 48"):
         open_recording(path, sensor_size=(32, 48))

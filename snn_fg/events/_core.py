@@ -93,6 +93,21 @@ def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, in
     return size
 
 
+def file_sensor_size(path, given, header) -> tuple[int, int, int]:
+    """``(W, H, 2)`` a file is read with: the size ``given``, else its
+    header's. A size given smaller than the header's is refused, naming both:
+    the file's events may lie anywhere in the header's sensor (a larger one
+    pads). ``header`` may be ``None`` or hold ``None`` where the file says no
+    size (the opener then needs one given)."""
+    size = check_sensor_size(given or header, path)
+    if given is not None and header is not None and None not in tuple(header)[:2] and \
+            (size[0] < header[0] or size[1] < header[1]):
+        raise InputError(path, f"the sensor size given, {size[0]} x {size[1]}, is smaller than the file's own "
+                               f"{header[0]} x {header[1]} (its header), whose events may lie anywhere in it: "
+                               f"leave the size out for this file")
+    return size
+
+
 def sensor_size_parameter(owner: str, sensor_size) -> tuple[int, int, int]:
     """``(W, H, 2)`` from a sensor size a caller passed to ``owner``; ParameterError if it is nonsense."""
     size, problem = _parse_sensor_size(sensor_size)

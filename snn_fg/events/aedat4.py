@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from snn_fg.errors import InputError, SnnFgError
-from snn_fg.events._core import check_sensor_size, pack_events
+from snn_fg.events._core import file_sensor_size, pack_events
 from snn_fg.events.source import Source
 
 MAGIC = b"#!AER-DAT4.0\r\n"
@@ -72,7 +72,7 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
     geom = (streams[target].get("width"), streams[target].get("height"))
     if sensor_size is None and None in geom:
         raise InputError(path, "AEDAT4 event stream has no width/height; pass sensor_size=(W, H)")
-    size = check_sensor_size(sensor_size or geom, path)
+    size = file_sensor_size(path, sensor_size, geom)
 
     def chunks(n, tally):
         d = _panic_safe(path, "AEDAT4 decoder rejected the file", aedat.Decoder, str(path))

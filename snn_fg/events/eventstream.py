@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit
 
 from snn_fg.errors import InputError
-from snn_fg.events._core import check_sensor_size, pack_events
+from snn_fg.events._core import check_sensor_size, file_sensor_size, pack_events
 from snn_fg.events.source import READ_BYTES, DecodeTally, Source
 
 MAGIC = b"Event Stream"
@@ -92,15 +92,11 @@ def read_header(path) -> Header:
 def open_es(path, sensor_size, chunk_events) -> Source:
     """Open a DVS (decoder ``"es"``) or ATIS (``"es-atis"``) Event Stream file.
 
-    ``sensor_size`` overrides the header's, but events must still lie inside
-    the header's sensor, as the specification requires.
+    ``sensor_size`` overrides the header's if no smaller (events may lie
+    anywhere inside the header's sensor, as the specification says).
     """
     header = read_header(path)
-    size = check_sensor_size(sensor_size or (header.width, header.height), path)
-    if size[0] < header.width or size[1] < header.height:
-        raise InputError(path, f"the sensor size given, {size[0]} x {size[1]}, is smaller than the file's own "
-                               f"{header.width} x {header.height} (its header), whose events may lie anywhere in "
-                               f"it: leave the size out for this file")
+    size = file_sensor_size(path, sensor_size, (header.width, header.height))
     if header.stream == "DVS":
         return Source(path, "es", size, lambda n, tally: iter_dvs(path, header))
     return Source(path, "es-atis", size, lambda n, tally: iter_atis(path, header, tally))

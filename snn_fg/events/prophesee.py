@@ -13,7 +13,7 @@ import re
 import numpy as np
 
 from snn_fg.errors import InputError
-from snn_fg.events._core import check_sensor_size, pack_events
+from snn_fg.events._core import file_sensor_size, pack_events
 from snn_fg.events.source import READ_BYTES, Source
 
 ENCODINGS = ("evt2", "evt3")
@@ -32,7 +32,7 @@ def open_raw(path, sensor_size, chunk_events, *, encoding: str | None = None) ->
         raise InputError(path, f"{enc.upper()} file has no geometry in its header; pass the sensor size "
                                "explicitly (sensor_size=(W, H), CLI --sensor-size WxH; a Prophesee Gen3 "
                                "VGA sensor is 640x480)")
-    size = check_sensor_size(sensor_size or geom, path)
+    size = file_sensor_size(path, sensor_size, geom)
     if enc == "evt3":
         return Source(path, "evt3", size, lambda n, tally: iter_evt3(path, off, tally=tally))
 
@@ -56,7 +56,7 @@ def open_dat(path, sensor_size, chunk_events) -> Source:
     geom = header_geometry(info)
     if sensor_size is None and geom is None:
         raise InputError(path, "DAT file has no Width/Height in its header; pass sensor_size=(W, H)")
-    size = check_sensor_size(sensor_size or geom, path)
+    size = file_sensor_size(path, sensor_size, geom)
 
     def chunks(n, tally):
         check_dat(path, off + 2, size)

@@ -153,18 +153,36 @@ class OutputFolder:
         return False
 
 
-def growing_folder(path, force: bool = False, resume: bool = False) -> Path:
+def growing_folder(path, force: bool = False, resume: bool = False) -> tuple[Path, Path | None]:
     """A recording's output folder, written in place as windows complete
     (:mod:`snn_fg.store`): made when new; an earlier run in it is refused,
-    removed (``force``) or continued (``resume``)."""
+    set aside to be replaced (``force``) or continued (``resume``).
+
+    Returns ``(folder, previous)``: ``previous`` is where a replaced run waits
+    (a hidden sibling) until the new one has a window to show; give it to
+    :func:`settle_previous`, which drops it or puts it back.
+    """
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise InputError(path, "--out must be a folder, but a file of that name exists")
+    previous = None
     if path.is_dir() and any(path.iterdir()) and not resume:
         if not force:
             held = ", ".join(sorted(p.name for p in path.iterdir())[:4])
             raise InputError(path, f"output folder is not empty (holds {held}...); choose another folder, pass "
                                    "--resume to continue its run or --force to replace it")
-        shutil.rmtree(path)
+        previous = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".previous", dir=path.parent))
+        os.replace(path, previous / "run")
     path.mkdir(parents=True, exist_ok=True)
-    return path
+    return path, previous
+
+
+def settle_previous(path, previous: Path | None, keep_new: bool) -> None:
+    """After a run with ``--force``: drop the replaced run (``keep_new``: the new run has windows), or
+    remove what the new one wrote and put the earlier run back where it was."""
+    if previous is None:
+        return
+    if not keep_new:
+        shutil.rmtree(path, ignore_errors=True)
+        os.replace(previous / "run", path)
+    shutil.rmtree(previous, ignore_errors=True)

@@ -267,7 +267,7 @@ def _windows(args):
 
 
 def cmd_run(args) -> int:
-    from .atomic import OutputFolder, growing_folder
+    from .atomic import OutputFolder, growing_folder, settle_previous
     from .batch import is_dataset, run_dataset
     from .pyramid.pool import pooled_shape
     from .pyramid.levels import check_levels
@@ -296,7 +296,7 @@ def cmd_run(args) -> int:
     if args.crop is not None:
         check_crop(args.crop, shape, owner=f"{args.input}: --crop")
     if kind == "recording":
-        out = growing_folder(args.out, force=args.force, resume=bool(args.resume))
+        out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
         finished = finished_run(out / STORE_NAME, _run_key(args)) if args.resume else None
         if finished is not None:
             print(f"snn-fg: the run in {args.out}/ is finished already ({finished} windows): nothing to resume, "
@@ -314,14 +314,21 @@ def cmd_run(args) -> int:
                 raise
             done = windows_complete(out)
             shutil.rmtree(out, ignore_errors=True)
+            settle_previous(out, previous, keep_new=False)
+            kept = f"; the earlier run in {args.out}/ is kept" if previous is not None else ""
             if not done:
+                if kept:
+                    raise InputError(exc.source, exc.problem + kept, exc.where) from None
                 raise
-            raise InputError(exc.source, f"{exc.problem}; nothing written (--max-windows {done} runs the {done} "
-                                         f"window{'s' if done > 1 else ''} before it)", exc.where) from None
+            raise InputError(exc.source, f"{exc.problem}; nothing written{kept} (--max-windows {done} runs the "
+                                         f"{done} window{'s' if done > 1 else ''} before it)", exc.where) from None
         except BaseException:
-            if not windows_complete(out):       # (refused before its first window: nothing to keep)
+            done = windows_complete(out)
+            if not done:                        # (refused before its first window: nothing to keep)
                 shutil.rmtree(out, ignore_errors=True)
+            settle_previous(out, previous, keep_new=bool(done))
             raise
+        settle_previous(out, previous, keep_new=True)
         written = f"{n} windows, " + ", ".join(sorted(p.name for p in out.iterdir()))
     else:
         with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:

@@ -127,3 +127,17 @@ def test_a_file_cut_inside_an_event_part_way_leaves_nothing_half_written(tmp_pat
     assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures",
                  "--max-windows", str(done)]) == 0
     assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done
+    # --force with the same cut file: the run it would replace is still there when the new one fails
+    before = sorted(p.name for p in (tmp_path / "o").iterdir())
+    capsys.readouterr()
+    assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures", "--force"]) == 2
+    err = [line for line in capsys.readouterr().err.strip().splitlines() if "warning" not in line]
+    assert len(err) == 1 and f"nothing written; the earlier run in {tmp_path / 'o'}/ is kept" in err[0]
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == before
+    assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []     # nothing set aside is left
+    # and a --force run that succeeds replaces it
+    assert main(["run", str(tmp_path / "whole.es"), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures",
+                 "--force", "--max-windows", str(done + 1)]) == 0
+    assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done + 1
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []

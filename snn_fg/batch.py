@@ -155,8 +155,9 @@ def run_dataset(args, command) -> int:
     writer.writerows(rows)
     save_text(out / SUMMARY_NAME, text.getvalue())
     for r in rows:
+        error = r["error"].removeprefix(f"{r['recording']}: ")       # (an input error names its file already)
         print(f"{r['status']:>8}  {r['windows']:5d} windows  {r['seconds']:8.1f} s  {r['recording']}"
-              + (f": {r['error']}" if r["error"] else ""))
+              + (f": {error}" if error else ""))
     failed = sum(r["status"] == "failed" for r in rows)
     print(f"snn-fg: {len(rows)} recording{'' if len(rows) == 1 else 's'}, {failed} failed; "
           f"summary in {out / SUMMARY_NAME}")

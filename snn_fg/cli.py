@@ -148,7 +148,8 @@ def _add_run(sub):
                    help="images turned into events: motion of the simulated event camera; paper: the authors' "
                         "BSDS conversion (default shift4)")
     g.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
-                   help="recordings: sensor size for RAW files without geometry, or .npy arrays (from the file)")
+                   help="recordings: sensor size for RAW files without geometry and for .npy/.npz arrays (without it an "
+                        "array's sensor is its events' extent, with a warning), or a larger one than a file's")
     g = p.add_argument_group("output")
     g.add_argument("--crop", type=_crop_arg, metavar="X0,Y0,X1,Y1",
                    help="figures: draw only pixels X0 <= x < X1, Y0 <= y < Y1 (the maps keep the whole frame)")
@@ -329,7 +330,7 @@ def cmd_run(args) -> int:
             settle_previous(out, previous, keep_new=bool(done))
             raise
         settle_previous(out, previous, keep_new=True)
-        written = f"{n} windows, " + ", ".join(sorted(p.name for p in out.iterdir()))
+        written = f"{n} window{'s' if n != 1 else ''}, " + ", ".join(sorted(p.name for p in out.iterdir()))
     else:
         with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:
             run_still(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures)

@@ -46,6 +46,8 @@ def test_three_recordings_on_a_local_cluster_one_broken(folder, tmp_path, capsys
     assert sorted(rows) == ["a.npy", "b.npy", "c.npy"]
     assert rows["b.npy"]["status"] == "failed" and "b.npy" in rows["b.npy"]["error"]
     assert "\n" not in rows["b.npy"]["error"] and "Traceback" not in rows["b.npy"]["error"]
+    line, = (x for x in printed.splitlines() if x.lstrip().startswith("failed"))
+    assert line.count("b.npy") == 1, line                 # (the error's own file name is not said twice)
     for name in ("a", "c"):
         assert rows[f"{name}.npy"]["status"] == "done" and rows[f"{name}.npy"]["windows"] == "2"
         m = Maps.load(out / name)

@@ -105,3 +105,15 @@ def test_an_unknown_network_name_lists_the_recipes(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "compcat: neither a network name (default, compact) nor a stored" in err, err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_stored_description_that_is_not_there_is_named_as_a_missing_file(tmp_path, capsys, monkeypatch):
+    """docs/usage.md's networks/default_321x481.json run from another folder: the line says the file is not
+    there, from which folder (it said "neither a network name nor a stored description (.json)")."""
+    from snn_fg.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", "--format", "report", "--network", "networks/default_321x481.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert f"networks/default_321x481.json: no such file (from {tmp_path})" in err

@@ -429,3 +429,44 @@ def test_a_file_refuses_a_sensor_smaller_than_its_header_says(tmp_path, suffix):
     with pytest.raises(InputError, match=r"the sensor size given, 32 x 48, is smaller than the file's own 64 x 48"):
         open_recording(path, sensor_size=(32, 48))
     assert open_recording(path, sensor_size=(80, 60)).sensor_size == (80, 60, 2)
+
+
+def _tonic_like(n=100_000):
+    ev = np.zeros(n, [("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "?")])
+    ev["x"], ev["y"], ev["t"], ev["p"] = np.arange(n) % 320, np.arange(n) % 240, np.arange(n), np.arange(n) % 2
+    return ev
+
+
+def test_an_array_without_a_sensor_size_says_the_size_it_takes_from_its_events(tmp_path):
+    np.save(tmp_path / "a.npy", _tonic_like())
+    with pytest.warns(UserWarning, match=r"a\.npy: no sensor size given; 320 x 240 from the events' extent"):
+        rec = open_recording(tmp_path / "a.npy")
+    assert rec.sensor_size[:2] == (320, 240)
+
+
+def test_a_few_far_out_events_do_not_set_the_sensor_size(tmp_path):
+    """One stray x = 30000 among a 320 x 240 sensor's events would make a frame of 30001 columns
+    (gigabytes for the model's tables); it is refused naming the event, and a given size refuses it too."""
+    ev = _tonic_like()
+    ev["x"][500] = 30000
+    np.save(tmp_path / "far.npy", ev)
+    with pytest.raises(InputError, match=r"far\.npy: no sensor size given, and a few events lie far beyond the "
+                                         r"others \(x = 30000 at event 500; 1 of 100000 events outside the "
+                                         r"320 x 240 the others fill\)"):
+        open_recording(tmp_path / "far.npy")
+    with pytest.raises(InputError, match=r"lies outside the 320 x 240 sensor \(at event 500\)"):
+        list(iter_recording(tmp_path / "far.npy", sensor_size=(320, 240)))
+    ev["x"][500] = 600                              # within twice the others' extent: a sensor that size
+    np.save(tmp_path / "near.npy", ev)
+    with pytest.warns(UserWarning, match="601 x 240 from the events' extent"):
+        assert open_recording(tmp_path / "near.npy").sensor_size[:2] == (601, 240)
+
+
+@pytest.mark.parametrize("p, shown", [(0.7, "0.7"), (5, "5"), (-2, "-2")])
+def test_a_polarity_other_than_on_or_off_is_refused_naming_the_event(tmp_path, p, shown):
+    ev = np.zeros(10, [("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "<f8")])
+    ev["t"], ev["p"] = np.arange(10), [1, 0, -1, 1, 0, 1, p, 1, 0, 1]
+    np.save(tmp_path / "p.npy", ev)
+    with pytest.raises(InputError, match=rf"p\.npy: field p must be 1 \(ON\) and 0 or -1 \(OFF\), or boolean, "
+                                         rf"got {shown}(\.0)? \(at event 6\)"):
+        list(iter_recording(tmp_path / "p.npy", sensor_size=(4, 4)))

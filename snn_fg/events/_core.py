@@ -1,13 +1,14 @@
 """Event dtype, the :class:`Recording` container and array validation."""
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from snn_fg import validate
-from snn_fg.errors import InputError
+from snn_fg.errors import InputError, InputWarning
 
 #: Structured dtype of every event array this package returns (tonic-style
 #: field names; ``t`` in microseconds; ``p`` is 1 for ON, 0 for OFF).
@@ -116,23 +117,61 @@ def sensor_size_parameter(owner: str, sensor_size) -> tuple[int, int, int]:
     return size
 
 
+#: Events that may lie outside the bulk's extent before an inferred sensor size is refused (a share of all).
+FAR_SHARE = 1e-4
+
+
 def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
-    """Sensor size ``(max x + 1, max y + 1, 2)`` over event arrays, for inputs that give none."""
-    mx = my = -1
+    """Sensor size ``(max x + 1, max y + 1, 2)`` over event arrays, for inputs that give none.
+
+    Says so in an :class:`~snn_fg.errors.InputWarning`: a sensor larger than
+    the events' extent gives other maps. Refused when a few far-out events set
+    it: more than twice (plus 64 px) the extent that holds all events but
+    :data:`FAR_SHARE` of them (a stray x = 30000 among a 320 x 240 sensor's
+    events would make a frame of 30001 columns)."""
+    counts = {"x": np.zeros(1, np.int64), "y": np.zeros(1, np.int64)}
+    far = {"x": (-1, -1), "y": (-1, -1)}                   # (largest value, its event index)
+    n = 0
     for a in arrays:
-        if len(a):
-            mx = max(mx, int(a["x"].max()))
-            my = max(my, int(a["y"].max()))
+        for axis in "xy":
+            if not len(a):
+                continue
+            col = np.asarray(a[axis], np.int64)
+            i = int(np.argmax(col))
+            if col[i] > far[axis][0]:
+                far[axis] = (int(col[i]), n + i)
+            c = np.bincount(np.maximum(col, 0))
+            if len(c) > len(counts[axis]):
+                c[:len(counts[axis])] += counts[axis]
+                counts[axis] = c
+            else:
+                counts[axis][:len(c)] += c
+        n += len(a)
+    (mx, _), (my, _) = far["x"], far["y"]
     if mx < 0 or my < 0:
         raise InputError(source, "cannot infer the sensor size (no events, or negative coordinates); "
                                  "pass sensor_size=(W, H)")
-    return check_sensor_size((mx + 1, my + 1), source)
+    keep = n - int(FAR_SHARE * n)
+    bulk = {axis: int(np.searchsorted(np.cumsum(counts[axis]), keep)) + 1 for axis in "xy"}
+    for axis in "xy":
+        value, index = far[axis]
+        if value + 1 > 2 * bulk[axis] + 64:
+            outside = n - int(counts[axis][:bulk[axis]].sum())
+            raise InputError(source, f"no sensor size given, and a few events lie far beyond the others "
+                                     f"({axis} = {value} at event {index}; {outside} of {n} events outside the "
+                                     f"{bulk['x']} x {bulk['y']} the others fill): give the sensor size "
+                                     f"(--sensor-size W x H, or sensor_size in an .npz) and remove those events")
+    size = check_sensor_size((mx + 1, my + 1), source)
+    warnings.warn(f"{source}: no sensor size given; {size[0]} x {size[1]} from the events' extent (a larger "
+                  "sensor gives other maps: --sensor-size W x H, or sensor_size in an .npz)", InputWarning,
+                  stacklevel=2)
+    return size
 
 
 def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:
     """Convert a structured array with fields x, y, t, p to :data:`EVENT_DTYPE`.
 
-    ``p`` > 0 becomes ON (1), anything else OFF (0); a boolean ``p`` is kept.
+    ``p`` of 1 becomes ON (1), 0 or -1 OFF (0); a boolean ``p`` is kept; any other value is refused.
     Timestamps must be integers (or integral floats) in microseconds.
     ``offset`` is added to event indices in error messages.
     """
@@ -168,6 +207,12 @@ def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:
     pcol = arr["p"]
     if pcol.dtype.kind not in "iubf":
         raise InputError(source, f"field p has non-numeric dtype {pcol.dtype}")
+    if pcol.dtype.kind != "b" and len(pcol):
+        bad = (pcol != 0) & (pcol != 1) & (pcol != -1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InputError(source, f"field p must be 1 (ON) and 0 or -1 (OFF), or boolean, got {pcol[i]}",
+                             f"event {i + offset}")
     out["p"] = pcol > 0
     return out
 

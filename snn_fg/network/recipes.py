@@ -137,5 +137,8 @@ def load_description(path) -> Network:
     """A stored description; a name that is neither a recipe nor a file is
     refused with the recipes' names (a mistyped ``--network compcat``)."""
     if not Path(path).exists():
+        if str(path).endswith(".json"):
+            raise InputError(path, f"no such file (from {Path.cwd()}); a stored description's path is taken from "
+                                   "the current folder")
         raise InputError(path, f"neither a network name ({', '.join(RECIPES)}) nor a stored description (.json)")
     return Network.load(path)

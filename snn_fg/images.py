@@ -10,7 +10,7 @@ import numpy as np
 
 from snn_fg.errors import InputError
 
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"}
+IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"}
 #: ITU-R BT.601 luma weights for RGB -> grey.
 GREY_WEIGHTS = np.array([0.299, 0.587, 0.114])
 

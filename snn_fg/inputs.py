@@ -18,6 +18,7 @@ import numpy as np
 
 from . import validate as check
 from .errors import InputError
+from .events.io import SUFFIX_FORMAT
 from .images import IMAGE_SUFFIXES
 
 
@@ -50,6 +51,10 @@ def input_kind(spec: str) -> str:
     suffix = path.suffix.lower()
     if suffix in IMAGE_SUFFIXES:
         return "image"
+    if suffix != ".npz" and suffix not in SUFFIX_FORMAT:
+        raise InputError(path, f"unknown extension '{suffix or '(none)'}': INPUT is an image "
+                               f"({', '.join(sorted(IMAGE_SUFFIXES))}), an .npz event frame, a recording "
+                               f"({', '.join(sorted(SUFFIX_FORMAT))}) or 'demo'")
     if suffix == ".npz":
         try:
             with check.load_npz(path, "an event frame (pos, neg) or a recording (x, y, t, p)") as d:

@@ -2,6 +2,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 
@@ -117,3 +118,25 @@ def test_a_stored_description_that_is_not_there_is_named_as_a_missing_file(tmp_p
     err = capsys.readouterr().err
     assert err.count("\n") == 1, err
     assert f"networks/default_321x481.json: no such file (from {tmp_path})" in err
+
+
+def test_run_names_every_kind_of_input_for_an_unknown_extension_and_reads_webp(tmp_path, capsys):
+    """A .webp photo was refused as an 'unknown event file extension' whose list left out the images."""
+    import cv2
+
+    from snn_fg.cli import main
+
+    image = np.zeros((48, 64, 3), np.uint8)
+    image[12:36, 16:48] = 255
+    assert cv2.imwrite(str(tmp_path / "sq.webp"), image, [cv2.IMWRITE_WEBP_QUALITY, 101])
+    (tmp_path / "sq.xyz").write_bytes(b"?")
+    assert main(["run", str(tmp_path / "sq.xyz"), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "sq.xyz: unknown extension '.xyz': INPUT is an image (" in err
+    assert ".webp" in err and ".aedat4" in err and "'demo'" in err
+    assert main(["run", str(tmp_path / "sq.webp"), "--out", str(tmp_path / "o"), "--no-progress",
+                 "--no-figures", "--levels", "4"]) == 0
+    from snn_fg.maps import Maps
+
+    maps = Maps.load(tmp_path / "o")
+    assert maps.fg_x.shape == (48, 64) and np.hypot(maps.fg_x, maps.fg_y).max() > 0

@@ -470,3 +470,9 @@ def test_a_polarity_other_than_on_or_off_is_refused_naming_the_event(tmp_path, p
     with pytest.raises(InputError, match=rf"p\.npy: field p must be 1 \(ON\) and 0 or -1 \(OFF\), or boolean, "
                                          rf"got {shown}(\.0)? \(at event 6\)"):
         list(iter_recording(tmp_path / "p.npy", sensor_size=(4, 4)))
+
+
+def test_an_event_frame_given_as_a_recording_is_named_as_a_frame(tmp_path):
+    np.savez(tmp_path / "f.npz", pos=np.zeros((4, 4), np.uint8), neg=np.zeros((4, 4), np.uint8))
+    with pytest.raises(InputError, match=r"f\.npz: holds an event frame \(pos, neg\), not a recording's events"):
+        open_recording(tmp_path / "f.npz")

@@ -114,6 +114,8 @@ def detect_format(path) -> str:
     """Format name from the extension, checked against the file's first bytes."""
     path = Path(path)
     fmt = SUFFIX_FORMAT.get(path.suffix.lower())
+    if path.is_dir():
+        raise InputError(path, "is a folder, not a recording's file")
     if fmt is None:
         raise InputError(path, f"unknown event file extension '{path.suffix or '(none)'}' "
                                f"(supported: {', '.join(sorted(SUFFIX_FORMAT))})")

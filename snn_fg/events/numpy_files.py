@@ -61,6 +61,9 @@ def open_npz(path, sensor_size, chunk_events) -> Source:
                     arr[k] = cols[k]
             else:
                 structured = [k for k in keys if z[k].dtype.names]
+                if "pos" in keys or "neg" in keys:
+                    raise InputError(path, "holds an event frame (pos, neg), not a recording's events: "
+                                           "snn-fg run takes it as it is")
                 if len(structured) != 1:
                     raise InputError(path, f".npz needs an 'events' structured array or x, y, t, p arrays "
                                            f"(found keys {', '.join(keys) or 'none'})")

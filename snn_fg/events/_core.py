@@ -160,10 +160,10 @@ def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
             raise InputError(source, f"no sensor size given, and a few events lie far beyond the others "
                                      f"({axis} = {value} at event {index}; {outside} of {n} events outside the "
                                      f"{bulk['x']} x {bulk['y']} the others fill): give the sensor size "
-                                     f"(--sensor-size W x H, or sensor_size in an .npz) and remove those events")
+                                     f"(--sensor-size WxH, or sensor_size in an .npz) and remove those events")
     size = check_sensor_size((mx + 1, my + 1), source)
     warnings.warn(f"{source}: no sensor size given; {size[0]} x {size[1]} from the events' extent (a larger "
-                  "sensor gives other maps: --sensor-size W x H, or sensor_size in an .npz)", InputWarning,
+                  "sensor gives other maps: --sensor-size WxH, or sensor_size in an .npz)", InputWarning,
                   stacklevel=2)
     return size
 

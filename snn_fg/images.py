@@ -23,14 +23,37 @@ def read_image(path, grey: bool = True) -> np.ndarray:
     if not path.is_file():
         raise InputError(path, "no such file")
     data = np.fromfile(path, dtype=np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if len(data) else None
+    if not len(data):
+        raise InputError(path, "file is empty", "byte offset 0")
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)   # a damaged file: one line, ours
+    try:
+        img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    finally:
+        cv2.utils.logging.setLogLevel(level)
     if img is None:
-        raise InputError(path, "not a readable image (OpenCV could not decode it)")
+        kind = image_format(data[:16].tobytes())
+        if kind is None:
+            raise InputError(path, "not an image: its first bytes are no image format's", "byte offset 0")
+        raise InputError(path, f"a {kind} file that OpenCV cannot decode: damaged or cut short "
+                               f"({len(data):,} bytes)")
     if img.ndim == 3:
         if img.shape[2] == 4:
             img = img[:, :, :3]
         img = img[:, :, ::-1]  # OpenCV decodes to BGR
     return as_float_image(img, path, grey)
+
+
+#: First bytes of each image format OpenCV reads here.
+_MAGIC = ((b"\x89PNG\r\n\x1a\n", "PNG"), (b"\xff\xd8\xff", "JPEG"), (b"BM", "BMP"), (b"II*\x00", "TIFF"),
+          (b"MM\x00*", "TIFF"), (b"P5", "PGM"), (b"P6", "PPM"))
+
+
+def image_format(head: bytes) -> str | None:
+    """The image format a file's first bytes announce (``"PNG"``, ``"JPEG"``, ...), or None."""
+    if head[:4] == b"RIFF" and head[8:12] == b"WEBP":
+        return "WebP"
+    return next((name for magic, name in _MAGIC if head.startswith(magic)), None)
 
 
 def as_float_image(image, source="<image>", grey: bool = True) -> np.ndarray:

@@ -71,6 +71,13 @@ def _bad_inputs(tmp_path):
     nan[3, 4] = np.nan
     (tmp_path / "broken.npz").write_bytes(b"PK\x03\x04 this is not a zip")
     (tmp_path / "text.png").write_text("not an image")
+    (tmp_path / "zero.png").write_bytes(b"")
+    import cv2
+
+    square = np.zeros((40, 60), np.uint8)
+    square[10:30, 15:45] = 255
+    whole = cv2.imencode(".png", square)[1].tobytes()
+    (tmp_path / "cut.png").write_bytes(whole[:len(whole) // 2])     # (libpng warns of it on stderr itself)
     return {
         "missing": (tmp_path / "nope.npz", "no such file"),
         "keys": (_frame(tmp_path, "keys.npz", on=ok, off=ok), "lacks key"),
@@ -80,12 +87,15 @@ def _bad_inputs(tmp_path):
         "empty": (_frame(tmp_path, "empty.npz", pos=ok * 0, neg=ok * 0), "empty"),
         "nan": (_frame(tmp_path, "nan.npz", pos=nan, neg=nan), "NaN"),
         "zip": (tmp_path / "broken.npz", "npz"),
-        "image": (tmp_path / "text.png", "not a readable image"),
+        "image": (tmp_path / "text.png", "not an image: its first bytes are no image format's"),
+        "empty_image": (tmp_path / "zero.png", "file is empty (at byte offset 0)"),
+        "cut_image": (tmp_path / "cut.png", "a PNG file that OpenCV cannot decode: damaged or cut short"),
     }
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", ["missing", "keys", "dtype", "shape", "ndim", "empty", "nan", "zip", "image"])
+@pytest.mark.parametrize("case", ["missing", "keys", "dtype", "shape", "ndim", "empty", "nan", "zip", "image",
+                                  "empty_image", "cut_image"])
 def test_bad_input_gives_one_clear_line(tmp_path, case):
     path, expect = _bad_inputs(tmp_path)[case]
     out = tmp_path / "out"

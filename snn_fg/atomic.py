@@ -160,7 +160,7 @@ def growing_folder(path, force: bool = False, resume: bool = False) -> tuple[Pat
 
     Returns ``(folder, previous)``: ``previous`` is where a replaced run waits
     (a hidden sibling) until the new one has a window to show; give it to
-    :func:`settle_previous`, which drops it or puts it back.
+    :func:`settle_folder`, which drops it or puts it back.
     """
     path = Path(path)
     if path.exists() and not path.is_dir():
@@ -177,12 +177,13 @@ def growing_folder(path, force: bool = False, resume: bool = False) -> tuple[Pat
     return path, previous
 
 
-def settle_previous(path, previous: Path | None, keep_new: bool) -> None:
-    """After a run with ``--force``: drop the replaced run (``keep_new``: the new run has windows), or
-    remove what the new one wrote and put the earlier run back where it was."""
-    if previous is None:
-        return
+def settle_folder(path, previous: Path | None, keep_new: bool) -> None:
+    """After a recording's run into :func:`growing_folder` ``path``: keep what it
+    wrote (``keep_new``) and drop the run it replaced, if any; or remove what it
+    wrote and put the replaced run back where it was."""
     if not keep_new:
         shutil.rmtree(path, ignore_errors=True)
-        os.replace(previous / "run", path)
-    shutil.rmtree(previous, ignore_errors=True)
+        if previous is not None:
+            os.replace(previous / "run", path)
+    if previous is not None:
+        shutil.rmtree(previous, ignore_errors=True)

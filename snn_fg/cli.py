@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import sys
 
 from . import __version__, cancel
@@ -268,7 +267,7 @@ def _windows(args):
 
 
 def cmd_run(args) -> int:
-    from .atomic import OutputFolder, growing_folder, settle_previous
+    from .atomic import OutputFolder, growing_folder, settle_folder
     from .batch import is_dataset, run_dataset
     from .pyramid.pool import pooled_shape
     from .pyramid.levels import check_levels
@@ -314,22 +313,18 @@ def cmd_run(args) -> int:
             if args.resume:
                 raise
             done = windows_complete(out)
-            shutil.rmtree(out, ignore_errors=True)
-            settle_previous(out, previous, keep_new=False)
-            kept = f"; the earlier run in {args.out}/ is kept" if previous is not None else ""
-            if not done:
-                if kept:
-                    raise InputError(exc.source, exc.problem + kept, exc.where) from None
+            settle_folder(out, previous, keep_new=False)
+            if not done and previous is None:
                 raise
-            raise InputError(exc.source, f"{exc.problem}; nothing written{kept} (--max-windows {done} runs the "
-                                         f"{done} window{'s' if done > 1 else ''} before it)", exc.where) from None
-        except BaseException:
-            done = windows_complete(out)
-            if not done:                        # (refused before its first window: nothing to keep)
-                shutil.rmtree(out, ignore_errors=True)
-            settle_previous(out, previous, keep_new=bool(done))
+            said = f"; the earlier run in {args.out}/ is kept" if previous is not None else ""
+            if done:
+                said = (f"; nothing written{said} (--max-windows {done} runs the {done} "
+                        f"window{'s' if done > 1 else ''} before it)")
+            raise InputError(exc.source, exc.problem + said, exc.where) from None
+        except BaseException:               # (refused before its first window: nothing to keep)
+            settle_folder(out, previous, keep_new=bool(windows_complete(out)))
             raise
-        settle_previous(out, previous, keep_new=True)
+        settle_folder(out, previous, keep_new=True)
         written = f"{n} window{'s' if n != 1 else ''}, " + ", ".join(sorted(p.name for p in out.iterdir()))
     else:
         with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:

@@ -51,7 +51,7 @@ def input_kind(spec: str) -> str:
     suffix = path.suffix.lower()
     if suffix in IMAGE_SUFFIXES:
         return "image"
-    if suffix != ".npz" and suffix not in SUFFIX_FORMAT:
+    if suffix not in SUFFIX_FORMAT:                 # (.npz is one: a recording's arrays or an event frame)
         raise InputError(path, f"unknown extension '{suffix or '(none)'}': INPUT is an image "
                                f"({', '.join(sorted(IMAGE_SUFFIXES))}), an .npz event frame, a recording "
                                f"({', '.join(sorted(SUFFIX_FORMAT))}) or 'demo'")

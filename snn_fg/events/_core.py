@@ -133,19 +133,16 @@ def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
     far = {"x": (-1, -1), "y": (-1, -1)}                   # (largest value, its event index)
     n = 0
     for a in arrays:
+        if not len(a):
+            continue
         for axis in "xy":
-            if not len(a):
-                continue
             col = np.asarray(a[axis], np.int64)
             i = int(np.argmax(col))
             if col[i] > far[axis][0]:
                 far[axis] = (int(col[i]), n + i)
-            c = np.bincount(np.maximum(col, 0))
-            if len(c) > len(counts[axis]):
-                c[:len(counts[axis])] += counts[axis]
-                counts[axis] = c
-            else:
-                counts[axis][:len(c)] += c
+            c = np.bincount(np.maximum(col, 0), minlength=len(counts[axis]))
+            c[:len(counts[axis])] += counts[axis]
+            counts[axis] = c
         n += len(a)
     (mx, _), (my, _) = far["x"], far["y"]
     if mx < 0 or my < 0:

@@ -50,6 +50,13 @@ class ModelParams:
         ``"pool"``: no competition, and the feedback reads the sum of both,
         so that a figure is grouped whatever the sign of its contrast along
         the outline (the natural-scene variant, :mod:`snn_fg.rate.natural`).
+    side_cue: gain of the side cue (0: none; the natural-scene variant,
+        :mod:`snn_fg.rate.side_cue`): at level 1, each border-ownership pair's
+        feedback signal ``z`` gains ``side_cue`` times the event density in
+        the half disc on its side minus that on the other side.
+    side_cue_radius: radius (level-1 pixels) of the side cue's half discs.
+    side_cue_level: the pyramid level whose event density the side cue reads
+        (the coarsest level if there are fewer).
     """
 
     levels: int = 10
@@ -71,6 +78,9 @@ class ModelParams:
     fbfg_edge_sigma: float = 1.0
     fbfg_edge_floor: float = 0.1
     grouping_polarity: str = "compete"
+    side_cue: float = 0.0
+    side_cue_radius: float = 160.0
+    side_cue_level: int = 9
 
     def __post_init__(self):
         owner = "ModelParams"
@@ -79,11 +89,13 @@ class ModelParams:
         check.integer(owner, "input_pool", self.input_pool, lo=1)
         check.integer(owner, "n_ori", self.n_ori, lo=1)
         check.integer(owner, "iterations", self.iterations, lo=0)
+        check.integer(owner, "side_cue_level", self.side_cue_level, lo=1)
         for name, lo, strict in (("r0", 0, True), ("alpha", 0, False), ("w_inh", None, False),
                                  ("dog_half_width", 0, True), ("dog_step", 0, True), ("edge_threshold", None, False),
                                  ("sum_threshold", None, False), ("pyramid_decay", None, False),
                                  ("grouping_floor", None, False), ("fbfg_edge_sigma", 0, True),
-                                 ("fbfg_edge_floor", None, False)):
+                                 ("fbfg_edge_floor", None, False), ("side_cue", 0, False),
+                                 ("side_cue_radius", 0, True)):
             object.__setattr__(self, name, check.number(owner, name, getattr(self, name), lo=lo, lo_open=strict))
         check.choice(owner, "grouping_polarity", self.grouping_polarity, GROUPING_POLARITIES)
         for name in ("dog_s1", "dog_s2"):
@@ -100,6 +112,11 @@ class ModelParams:
     def n_dir(self) -> int:
         """Number of simple-cell directions (a full turn)."""
         return 2 * self.n_ori
+
+    @property
+    def cue_level(self) -> int:
+        """The level the side cue reads: ``side_cue_level``, or the coarsest if there are fewer."""
+        return min(self.side_cue_level, self.levels)
 
     @property
     def dog_size(self) -> int:
@@ -130,9 +147,9 @@ class ModelParams:
 
 #: The natural-scene variant's parameters (:mod:`snn_fg.rate.natural`,
 #: ``--model natural``): the paper's, with the grouping polarities pooled, no
-#: rival inhibition and a grouping radius of 4 px. Here rather than there, so
-#: that naming the models does not load the rate model's code.
-NATURAL_PARAMS = ModelParams(grouping_polarity="pool", w_inh=0.0, r0=4.0)
+#: rival inhibition, a grouping radius of 4 px and the side cue. Here rather
+#: than there, so that naming the models does not load the rate model's code.
+NATURAL_PARAMS = ModelParams(grouping_polarity="pool", w_inh=0.0, r0=4.0, side_cue=1e4)
 
 #: The frame-based model's edge operators for its simple cells (:mod:`snn_fg.rate.fbfg`, ``--edge-operator``).
 EDGE_OPERATORS = ("gaussian", "corf")

@@ -115,7 +115,7 @@ def test_exporters_write_the_pooled_network(tmp_path):
     # (NIR carries each signed kernel as an excitatory and an inhibitory part)
     into = sorted((p.source, p.sign) for p in back.projections if p.target == "feedback_1p_1")
     assert into == [("feedback_1n_2", -1), ("feedback_1p_2", 1), ("group_D_1", -1), ("group_D_1", 1),
-                    ("group_L_1", -1), ("group_L_1", 1)]
+                    ("group_L_1", -1), ("group_L_1", 1), ("side_n_2", -1), ("side_p_2", 1)]
     folder = export_pynn(net, tmp_path / "pynn")
     written = "".join(p.read_text(errors="ignore") for p in folder.rglob("*.json"))
-    assert "group_D_1_to_feedback_1p_1" in written
+    assert "group_D_1_to_feedback_1p_1" in written and "side_p_2_to_feedback_1p_1" in written

@@ -4,7 +4,8 @@ natural-scene variant could reach on the labelled BSDS images, alone and combine
     python -m experiments.validation.natural_cues [--workers N] [--scheduler ADDRESS]
 
 Issue 38 asks for >= 70 % binary side accuracy. The variant (``--model
-natural``) decides the side of a boundary by its grouping cells. This
+natural`` as it was before its side cue, ``side_cue = 0``: the cue was
+chosen by this analysis) decides the side of a boundary by its grouping cells. This
 experiment asks what else around a boundary pixel says which side is the
 figure, and how much all of it together is worth, before any of it is built
 into a network.
@@ -43,6 +44,7 @@ import numpy as np
 from experiments.common import CACHE, Run, dataset, describe, fail, markdown_table, save_figure, save_results
 from experiments.paper.bsds import parser
 from experiments.paper.table1 import BOOTSTRAP_RESAMPLES
+from snn_fg.network.kernels import half_disc
 
 #: Radii (px) of the half discs of the event cue and of the grouping cue.
 EVENT_RADII = (6, 12, 24, 48, 96, 160)
@@ -63,16 +65,6 @@ TO_BUILD = ("events 160", "lower")
 VERSION = 2
 
 
-def _half_disc(radius: float, theta: float) -> np.ndarray:
-    """Kernel: +1 / area on the half disc towards ``theta`` (x right, y up), -1 / area on the other half;
-    pixels within 1 px of the dividing line are left out."""
-    k = int(np.ceil(radius))
-    rows, cols = np.mgrid[-k:k + 1, -k:k + 1]
-    along = cols * np.cos(theta) - rows * np.sin(theta)
-    inside = (rows ** 2 + cols ** 2 <= radius ** 2) & (np.abs(along) >= 1)
-    return np.where(inside, np.sign(along), 0.0) / max(inside.sum() / 2, 1)
-
-
 def side_difference(image, radius: float, rows, cols, direction) -> np.ndarray:
     """``image``'s mean over the half disc of ``radius`` on the side of ``direction`` (radians, x right, y up)
     minus its mean over the other half, at the pixels ``(rows, cols)``."""
@@ -86,7 +78,7 @@ def side_difference(image, radius: float, rows, cols, direction) -> np.ndarray:
         sel = nearest % half == b
         if not sel.any():
             continue
-        kernel = _half_disc(radius, b * step)
+        kernel = half_disc(radius, b * step)
         # correlation with the kernel: its value at a pixel is the kernel laid on the image there
         conv = fftconvolve(np.asarray(image, np.float64), kernel[::-1, ::-1], mode="same")
         out[sel] = np.where(nearest[sel] < half, 1.0, -1.0) * conv[rows[sel], cols[sel]]
@@ -99,13 +91,14 @@ def image_cues(*, root: str, image_id: str, cache: str) -> dict:
     from pathlib import Path
 
     from snn_fg.atomic import save_npz
+    from snn_fg.params import NATURAL_PARAMS
     from snn_fg.events import image_to_frame
     from snn_fg.groundtruth import SIDE_DEG, boundary_directions, load_bsds_fg, signed_angle_deg
     from snn_fg.rate.natural import run_natural
 
     gt = load_bsds_fg(root, image_id)
     pos, neg = image_to_frame(str(gt.image_path), threshold=THRESHOLD, motion=MOTION)
-    maps = run_natural(pos, neg)
+    maps = run_natural(pos, neg, NATURAL_PARAMS.replace(side_cue=0.0))      # the variant the cues were read on
     fx, fy = maps.fg_x.astype(np.float64), maps.fg_y.astype(np.float64)
     rows, cols, tx, ty = [], [], [], []
     for labels in gt.fg:

@@ -41,6 +41,7 @@ MODELS = {
     "FBFG, Gaussian edges": {"model": "fbfg"},
     "FBFG, CORF edges": {"model": "fbfg", "options": {"edge_operator": "corf"}},
     "natural": {"model": "natural"},
+    "natural, without the side cue": {"model": "natural", "params": {"side_cue": 0.0}},
     "natural, light and dark grouping competing (paper)": {"model": "natural",
                                                            "params": {"grouping_polarity": "compete"}},
     "natural, with rival inhibition (w_inh 1, paper)": {"model": "natural", "params": {"w_inh": 1.0}},

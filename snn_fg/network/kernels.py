@@ -4,6 +4,9 @@
   simple cells (stage 3 of ``docs/model.md``), one per direction.
 * :func:`von_mises_masks` - the pair of half-ring kernels that connect
   border-ownership cells to grouping cells (stage 6).
+* :func:`side_cue_kernels` - half discs that weigh the event density on one
+  side of a border against the other (the side cue of the natural-scene
+  variant).
 
 These are the weight-shared convolutions of the network description; the rate
 model applies them as convolutions/correlations, the spiking simulator unrolls
@@ -18,6 +21,7 @@ import numpy as np
 from scipy.special import i0
 
 from ..params import ModelParams
+from ..pyramid.levels import level_scale
 
 
 def _gauss2d(u_r, u_c, var_r, var_c):
@@ -86,3 +90,29 @@ def von_mises_masks(params: ModelParams = ModelParams()) -> tuple[np.ndarray, np
     (y up), ``m2[o]`` the opposite side; the two are disjoint.
     """
     return _von_mises_cached(float(params.r0), params.n_ori)
+
+
+def half_disc(radius: float, theta: float) -> np.ndarray:
+    """A square kernel (rows down, columns right) holding ``+1 / area`` on the
+    half disc of ``radius`` towards angle ``theta`` (radians; x right, y up)
+    and ``-1 / area`` on the other half; pixels within 1 px of the dividing
+    line are left out, ``area`` is one half's pixel count. Correlated with a
+    map, it gives the map's mean on ``theta``'s side minus its mean on the other."""
+    k = int(np.ceil(radius))
+    rows, cols = np.mgrid[-k:k + 1, -k:k + 1]
+    along = cols * np.cos(theta) - rows * np.sin(theta)
+    inside = (rows ** 2 + cols ** 2 <= radius ** 2) & (np.abs(along) >= 1)
+    return np.where(inside, np.sign(along), 0.0) / max(inside.sum() / 2, 1)
+
+
+def side_cue_radius(params: ModelParams) -> float:
+    """The side cue's half-disc radius in pixels of the level it reads (``params.cue_level``)."""
+    return params.side_cue_radius * level_scale(params.cue_level, params.levels_per_octave)
+
+
+def side_cue_kernels(params: ModelParams = ModelParams()) -> np.ndarray:
+    """Half discs ``(n_ori, n, n)`` for the side cue at ``params.cue_level``:
+    orientation ``o``'s is positive on side 1, the side ``m1[o]`` of
+    :func:`von_mises_masks` weights (angle ``pi*o/n_ori + pi/2``, y up)."""
+    r = side_cue_radius(params)
+    return np.stack([half_disc(r, np.pi * o / params.n_ori + np.pi / 2) for o in range(params.n_ori)])

@@ -15,6 +15,7 @@ ROLES = (
     "group_L", "group_D",               # grouping cells (stage 7)
     "feedback_1p", "feedback_1n",       # feedback cells: the signal z1 = VL1 - VD2 as a rectified pair
     "feedback_2p", "feedback_2n",       # and z2 = VL2 - VD1 (stage 8)
+    "side_p", "side_n",                 # the side cue of the natural-scene variant, a rectified pair (stage 8)
     "clock",                            # one spike source marking where each window of a recording starts
 )
 SOURCE_ROLES = ("input_on", "input_off", "clock")
@@ -36,4 +37,7 @@ ROLE_MEANINGS = (
      "They carry z as a rate and have a refractory period of one 0.5 ms step so that the rate stays "
      "proportional to z; where z is strong they fire at up to 2 kHz, a spike every step, by design "
      "(snn_fg.network.SpikingParams)"),
+    (("side_p", "side_n"), "side-cue cells: the event density on side 1 of an orientation's border minus side 2, "
+                           "within a wide half disc, as positive (p) and negative (n) halves; they feed the "
+                           "level-1 feedback cells (the natural-scene variant)"),
 )

@@ -21,6 +21,8 @@ from .nodes import Neuron, Node
 SIMPLE_RATE_HZ = 50.0     # a simple cell that wins at its pixel
 UNTUNED_RATE_HZ = 150.0   # untuned cells fire faster than simple cells
 CELL_RATE_HZ = 100.0      # border-ownership, grouping and feedback cells
+#: The side cue's value (a half disc's mean event density minus the other's) at which its cells fire CELL_RATE_HZ.
+SIDE_CUE_REF = 0.02
 
 INTERPOLATIONS = ("cubic", "linear")
 #: how the rival border-ownership family inhibits grouping cells (see the builder)
@@ -92,6 +94,12 @@ class SpikingParams(Node):
         about 27 ms to half a threshold); otherwise the family that won one window
         wins the next whatever its input (``experiments.validation.window_clock``).
         A frame never fires it.
+    Side cue (``ModelParams.side_cue``, the natural-scene variant)
+        ``z_hz``: Hz by which a level-1 feedback pair (``p - n``) moves per
+        unit of the rate model's pooled feedback signal ``z``, where the pair
+        is below 400 Hz (measured on a tuning-half BSDS image,
+        ``docs/model.md``); the side cue's cells hand the feedback cells
+        ``side_cue`` units of it per unit of the cue.
     Neurons
         One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
         (:data:`CELL_KINDS`): ``simple``, ``untuned``, ``relay``, ``bo``
@@ -185,6 +193,7 @@ class SpikingParams(Node):
     bo_to_excess: float = 2.0
     pool_gain: float = 1.0
     clock_inh_group: float = 300.0
+    z_hz: float = 1.0
 
     def __post_init__(self):
         owner = "SpikingParams"

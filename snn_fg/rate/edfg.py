@@ -20,6 +20,7 @@ import numpy as np
 
 from ..pyramid.pool import pool_frame, unpool_maps
 from ..pyramid.levels import check_levels, level_shape, pyramid, resize
+from .. import validate as check
 from ..maps import Maps
 from ..network.kernels import dog_kernels
 from ..params import ModelParams
@@ -27,6 +28,7 @@ from ._sparse_kernels import dog_at
 from .fourier import irfft, padded_shape, place, rfft
 from .grouping import Entries, GroupingResult, SparseGrouping
 from .pooled import grouping_engine
+from .side_cue import side_cue_bias
 
 __all__ = ["GroupingResult", "RateState", "border_ownership_grouping", "event_simple_cells",
            "orientation_index", "oriented_responses", "readout", "run_edfg", "run_edfg_state"]
@@ -166,7 +168,11 @@ def event_simple_cells(pos, neg, params: ModelParams = ModelParams()):
 
 
 def border_ownership_grouping(s_levels, params: ModelParams = ModelParams(), progress=None) -> GroupingResult:
-    """Stages 5-8: iterate grouping cells and feedback on the S pyramid (dense in, dense out)."""
+    """Stages 5-8: iterate grouping cells and feedback on the S pyramid (dense in, dense out); no side cue
+    (it reads events, which the S pyramid no longer holds)."""
+    if params.side_cue:
+        check.fail("border_ownership_grouping", "params.side_cue", params.side_cue,
+                   "must be 0: the side cue reads an event frame (run_edfg_state)")
     entries = [Entries.from_dense(s) for s in s_levels]
     shapes = [s.shape[1:] for s in s_levels]
     return grouping_engine(params)(entries, shapes, params).run(progress).dense()
@@ -243,6 +249,9 @@ def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
     check_levels(np.shape(pos), params.levels, per_octave=params.levels_per_octave)
     entries, shapes = event_entries(pos, neg, params)
     engine = grouping_engine(params)(entries, shapes, params)
+    if params.side_cue:
+        e = entries[0]
+        engine.z_bias = side_cue_bias(pos, neg, e.rows, e.cols, e.ch, params)
     if previous is not None:
         engine.continue_from(previous.engine, carry)
     engine.run(progress)

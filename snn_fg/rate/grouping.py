@@ -109,6 +109,8 @@ class SparseGrouping:
         self.support = sum(float((hi - lo).sum()) for _, lo, hi in self.gather_k) / (2 * self.n)
         pad = self.ksize // 2
         self.levels = [_Level(e, s, pad, params.alpha) for e, s in zip(entries, shapes)]
+        #: added to the pooled feedback signal of the finest level's entries (the side cue; None: nothing)
+        self.z_bias = None
 
     # -- stage 7 --------------------------------------------------------
     def _inhibition(self, lv: _Level) -> np.ndarray:
@@ -225,6 +227,8 @@ class SparseGrouping:
             rs, rw = cubic_taps(self.levels[k].shape[0], lv.shape[0])
             cs, cw = cubic_taps(self.levels[k].shape[1], lv.shape[1])
             nbk.pool_add(acc, rows, cols, ch, x[k], rs, rw, cs, cw, p.pyramid_decay ** (k - i))
+        if i == 0 and self.z_bias is not None:
+            acc += self.z_bias[need]
         f = _feedback_gain(acc, p.alpha)
         s = e.s[need]
         lv.bl = np.zeros_like(e.s)
@@ -327,7 +331,8 @@ class SparseGrouping:
     def pooled_z(self) -> np.ndarray:
         """The pooled feedback input ``z`` of stage 8 at the finest level's
         entries (``z1`` for channels below ``n_ori``, ``z2`` above; ``S`` is 1
-        at every one of them), from the current grouping maps."""
+        at every one of them), from the current grouping maps, with
+        :attr:`z_bias`."""
         self._plan_feedback()
         x = [self._correlate(lv) for lv in self.levels]
         lv, p = self.levels[0], self.params
@@ -337,7 +342,7 @@ class SparseGrouping:
             rs, rw = cubic_taps(self.levels[k].shape[0], lv.shape[0])
             cs, cw = cubic_taps(self.levels[k].shape[1], lv.shape[1])
             nbk.pool_add(z, e.rows, e.cols, e.ch, x[k], rs, rw, cs, cw, p.pyramid_decay ** k)
-        return z
+        return z if self.z_bias is None else z + self.z_bias
 
     def run(self, progress=None) -> "SparseGrouping":
         """Iterate stages 7 and 8 ``params.iterations`` times (``progress`` wraps the range)."""

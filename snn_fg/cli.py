@@ -24,7 +24,7 @@ from .models import MODELS
 from .params import EDGE_OPERATORS
 
 EXIT_INPUT = 2
-MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh")
+MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh", "side_cue")
 #: how a recording is cut into windows (snn_fg.events.iter_windows)
 WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
 #: options that only a recording uses
@@ -76,7 +76,8 @@ _RUN_OPTIONS = (
         ("--r0", float, 0, True, "grouping radius in px: sets the object size grouped (8)"),
         ("--iterations", int, 0, False, "grouping/feedback iterations (10)"),
         ("--alpha", float, 0, False, "feedback gain (2)"),
-        ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1)"))),
+        ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1)"),
+        ("--side-cue", float, 0, False, "gain of the side cue, the busier side within 160 px (0; natural: 1e4)"))),
     ("recordings (not for frames or images)", (
         ("--window-ms", float, 0, True, "window length (85, the iCub microsaccade period)"),
         ("--start-ms", float, 0, False, "start of the first window, ms after the first event (0)"),
@@ -214,6 +215,8 @@ def _refused_options(args, kind) -> list[tuple[str, str]]:
             refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))
         elif model.needs == "image":
             refused.append(("motion", f"the {model.name} model reads the image itself, not events made from it"))
+    if given("side_cue") and model.needs == "image":
+        refused.append(("side_cue", f"the {model.name} model reads the image itself; the side cue counts events"))
     if args.network is not None:
         refused += [(k, "a named or stored network (--network) carries its own model parameters")
                     for k in MODEL_PARAMS if given(k)]

@@ -84,11 +84,12 @@ def test_natural_models_run_from_the_command_line_with_their_own_parameters(tmp_
     params = Maps.load(tmp_path / "a" / "maps.npz").params
     assert params["model"] == "natural" and params["grouping_polarity"] == "pool"
     assert params["w_inh"] == NATURAL_PARAMS.w_inh and params["iterations"] == NATURAL_PARAMS.iterations
+    assert params["side_cue"] == NATURAL_PARAMS.side_cue > 0
     # a flag changes the variant's parameters, not the paper's
-    assert main(["run", "demo", "--model", "natural", "--r0", "6", "--out", str(tmp_path / "b"),
+    assert main(["run", "demo", "--model", "natural", "--r0", "6", "--side-cue", "0", "--out", str(tmp_path / "b"),
                  "--no-progress"]) == 0
     params = Maps.load(tmp_path / "b" / "maps.npz").params
-    assert params["r0"] == 6 and params["grouping_polarity"] == "pool"
+    assert params["r0"] == 6 and params["side_cue"] == 0 and params["grouping_polarity"] == "pool"
 
 
 @pytest.mark.slow

@@ -171,8 +171,8 @@ def border_ownership_grouping(s_levels, params: ModelParams = ModelParams(), pro
     """Stages 5-8: iterate grouping cells and feedback on the S pyramid (dense in, dense out); no side cue
     (it reads events, which the S pyramid no longer holds)."""
     if params.side_cue:
-        check.fail("border_ownership_grouping", "params.side_cue", params.side_cue,
-                   "must be 0: the side cue reads an event frame (run_edfg_state)")
+        check.fail("border_ownership_grouping", "side_cue", params.side_cue,
+                   "must be 0: the side cue reads events, and the frame-based model (fbfg) has none")
     entries = [Entries.from_dense(s) for s in s_levels]
     shapes = [s.shape[1:] for s in s_levels]
     return grouping_engine(params)(entries, shapes, params).run(progress).dense()

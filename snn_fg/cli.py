@@ -77,7 +77,7 @@ _RUN_OPTIONS = (
         ("--iterations", int, 0, False, "grouping/feedback iterations (10)"),
         ("--alpha", float, 0, False, "feedback gain (2)"),
         ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1)"),
-        ("--side-cue", float, 0, False, "gain of the side cue, the busier side within 160 px (0; natural: 1e4)"))),
+        ("--side-cue", float, 0, False, "gain of the side cue, the busier side within 160 px (0; natural: 3000)"))),
     ("recordings (not for frames or images)", (
         ("--window-ms", float, 0, True, "window length (85, the iCub microsaccade period)"),
         ("--start-ms", float, 0, False, "start of the first window, ms after the first event (0)"),

@@ -149,7 +149,7 @@ class ModelParams:
 #: ``--model natural``): the paper's, with the grouping polarities pooled, no
 #: rival inhibition, a grouping radius of 4 px and the side cue. Here rather
 #: than there, so that naming the models does not load the rate model's code.
-NATURAL_PARAMS = ModelParams(grouping_polarity="pool", w_inh=0.0, r0=4.0, side_cue=1e4)
+NATURAL_PARAMS = ModelParams(grouping_polarity="pool", w_inh=0.0, r0=4.0, side_cue=3e3)
 
 #: The frame-based model's edge operators for its simple cells (:mod:`snn_fg.rate.fbfg`, ``--edge-operator``).
 EDGE_OPERATORS = ("gaussian", "corf")

@@ -12,8 +12,8 @@ from snn_fg.rate.natural import run_natural
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
 
-#: small frames: five levels, the cue read at the coarsest
-SMALL = NATURAL_PARAMS.replace(levels=5, side_cue_radius=40.0)
+#: small frames: five levels, the cue read at the coarsest, over 40 px, at three times the variant's gain
+SMALL = NATURAL_PARAMS.replace(levels=5, side_cue_radius=40.0, side_cue=1e4)
 
 
 def _box_beside_texture(texture_right: bool, shape=(64, 97), seed=0):

@@ -330,14 +330,14 @@ class _Builder:
         ``CELL_RATE_HZ``)."""
         p, sp = self.params, self.sp
         level, n = p.cue_level, p.n_ori
-        cell, fb = self.neurons["feedback"], self.neurons["feedback"]
-        per_hz = fb.drive_for_rate(CELL_RATE_HZ) / CELL_RATE_HZ        # mV of drive per Hz of a feedback cell
-        gain_in = cell.drive_for_rate(CELL_RATE_HZ) / (SIDE_CUE_REF * sp.input_rate_hz * cell.tau_exc_ms / 1000.0)
+        fb = self.neurons["feedback"]          # the side cells are feedback cells too: a rate that follows the drive
+        per_hz = fb.drive_for_rate(CELL_RATE_HZ) / CELL_RATE_HZ        # mV of drive per Hz of such a cell
+        gain_in = per_hz * CELL_RATE_HZ / (SIDE_CUE_REF * sp.input_rate_hz * fb.tau_exc_ms / 1000.0)
         gain_out = p.side_cue * SIDE_CUE_REF * sp.z_hz * per_hz / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0)
         kernel = side_cue_kernels(p)[:, None]
         cues = {}
         for half, sign in (("p", 1), ("n", -1)):
-            cues[half] = self.pop(f"side_{half}", level, channels=n, neuron=cell, sites="all")
+            cues[half] = self.pop(f"side_{half}", level, channels=n, neuron=fb, sites="all")
             for src in self.sources[level]:
                 self.conv(src, cues[half], Kernel(ref="array", args={"data": sign * kernel}), gain=gain_in,
                           calibrated=True)

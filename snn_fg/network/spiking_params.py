@@ -95,11 +95,11 @@ class SpikingParams(Node):
         wins the next whatever its input (``experiments.validation.window_clock``).
         A frame never fires it.
     Side cue (``ModelParams.side_cue``, the natural-scene variant)
-        ``z_hz``: Hz by which a level-1 feedback pair (``p - n``) moves per
-        unit of the rate model's pooled feedback signal ``z``, where the pair
-        is below 400 Hz (measured on a tuning-half BSDS image,
-        ``docs/model.md``); the side cue's cells hand the feedback cells
-        ``side_cue`` units of it per unit of the cue.
+        ``z_hz``: Hz of a level-1 feedback pair (``p - n``) per unit of the
+        rate model's pooled feedback signal ``z`` (1: the two have the same
+        quartiles at the level-1 entries of a tuning-half BSDS image,
+        ``docs/model.md``); the side cue's cells hand the feedback pairs
+        ``side_cue * z_hz`` Hz per unit of the cue.
     Neurons
         One :class:`~snn_fg.network.nodes.Neuron` per kind of cell
         (:data:`CELL_KINDS`): ``simple``, ``untuned``, ``relay``, ``bo``

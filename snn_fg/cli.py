@@ -21,7 +21,7 @@ from .events_cli import add_events_command, sensor_size_arg
 from .export.cli import add_export_command
 from .export.loop import add_decode_command
 from .models import MODELS
-from .params import EDGE_OPERATORS
+from .params import EDGE_OPERATORS, ModelParams
 
 EXIT_INPUT = 2
 MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh", "side_cue")
@@ -210,18 +210,18 @@ def _refused_options(args, kind) -> list[tuple[str, str]]:
     else:
         refused += [(k, f"applies to a single frame or image only; {_KIND_NAMES[kind]}, run as one continuous "
                         "network") for k in FRAME_ONLY_OPTIONS if given(k) and k not in named]
-    if args.motion is not None:     # only images turned into events have a motion
-        if kind in ("recording", "frame"):
-            refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))
-        elif model.needs == "image":
-            refused.append(("motion", f"the {model.name} model reads the image itself, not events made from it"))
-    if given("side_cue") and model.needs == "image":
-        refused.append(("side_cue", f"the {model.name} model reads the image itself; the side cue counts events"))
+    if args.motion is not None and kind in ("recording", "frame") and model.needs != "image":   # images only
+        refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))
+    if model.needs == "image":      # the frame-based model: no events, no network
+        refused += [(k, f"the {model.name} model {why}") for k, why in (
+            ("motion", "reads the image itself, not events made from it"), ("network", "has no network (the event "
+             "models take one)"), ("side_cue", "reads the image itself; the side cue counts events")) if given(k)]
     if args.network is not None:
         refused += [(k, "a named or stored network (--network) carries its own model parameters")
                     for k in MODEL_PARAMS if given(k)]
-        if model.needs == "image":
-            refused.append(("network", f"the {model.name} model has no network (the event models take one)"))
+        if model.needs != "image" and model.base_params != ModelParams():      # the natural models
+            refused.append(("network", f"the {model.name} model has its own parameters, and a network carries "
+                                       "others (--model spiking --network runs a network as it is)"))
     return refused
 
 

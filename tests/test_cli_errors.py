@@ -38,6 +38,9 @@ def test_a_usage_error_is_one_line_without_the_usage_block(tmp_path, args, says)
     (["--model", "fbfg", "--motion", "circle"], "reads the image itself", "rate model"),
     (["--model", "fbfg", "--side-cue", "1"], "--side-cue: the fbfg model reads the image itself; the side cue "
                                               "counts events", "border_ownership_grouping"),
+    (["--model", "natural", "--network", "default"], "--network: the natural model has its own parameters, and a "
+                                                     "network carries others", "wrote"),
+    (["--model", "fbfg", "--network", "compact"], "--network: the fbfg model has no network", "rate model"),
     (["--duration-ms", "5", "--dt-ms", "1"], "--duration-ms, --dt-ms: apply to the spiking and natural-spiking models only", "they"),
 ])
 def test_a_refused_option_names_the_real_reason(tmp_path, args, says, not_says):

@@ -54,6 +54,10 @@ def test_the_half_discs_weigh_the_side_the_grouping_ring_m1_weighs():
         assert (np.sign(crop) * m1[o]).sum() > 0.5 * m1[o].sum()
         assert (np.sign(crop) * m2[o]).sum() < -0.5 * m2[o].sum()
         assert abs(k[o].sum()) < 1e-12 and np.isclose(k[o][k[o] > 0].sum(), 1.0)   # mean minus mean
+        assert np.array_equal(k[o], -k[o][::-1, ::-1])        # the two halves are one another turned round
+    # a border along an axis: mirrored along the border, its half disc is itself (no pixel row of the
+    # dividing line kept on one side only)
+    assert np.array_equal(k[0], k[0][:, ::-1]) and np.array_equal(k[SMALL.n_ori // 2], k[SMALL.n_ori // 2][::-1])
 
 
 def test_the_side_cue_gives_a_border_to_its_textured_side():

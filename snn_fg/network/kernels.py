@@ -100,7 +100,8 @@ def half_disc(radius: float, theta: float) -> np.ndarray:
     map, it gives the map's mean on ``theta``'s side minus its mean on the other."""
     k = int(np.ceil(radius))
     rows, cols = np.mgrid[-k:k + 1, -k:k + 1]
-    along = cols * np.cos(theta) - rows * np.sin(theta)
+    # rounded: cos(pi/2) is 6e-17, not 0, which would keep one pixel row of the line on each side by its sign
+    along = np.round(cols * np.cos(theta) - rows * np.sin(theta), 9)
     inside = (rows ** 2 + cols ** 2 <= radius ** 2) & (np.abs(along) >= 1)
     return np.where(inside, np.sign(along), 0.0) / max(inside.sum() / 2, 1)
 
@@ -112,7 +113,9 @@ def side_cue_radius(params: ModelParams) -> float:
 
 def side_cue_kernels(params: ModelParams = ModelParams()) -> np.ndarray:
     """Half discs ``(n_ori, n, n)`` for the side cue at ``params.cue_level``:
-    orientation ``o``'s is positive on side 1, the side ``m1[o]`` of
-    :func:`von_mises_masks` weights (angle ``pi*o/n_ori + pi/2``, y up)."""
+    orientation ``o``'s is positive on side 1, the side that ``m1[o]`` of
+    :func:`von_mises_masks` covers (angle ``pi*o/n_ori + pi/2``, y up).
+    Correlated with a map (zero outside it), each gives the map's mean on
+    side 1 minus its mean on side 2, counting outside the map as empty."""
     r = side_cue_radius(params)
     return np.stack([half_disc(r, np.pi * o / params.n_ori + np.pi / 2) for o in range(params.n_ori)])

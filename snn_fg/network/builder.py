@@ -20,9 +20,8 @@ from .graph import Network
 from .nodes import Kernel, Population
 from .projections import Conv, Resize
 from .gains import Gains
-from .kernels import side_cue_kernels
-from .spiking_params import (CELL_KINDS, CELL_RATE_HZ, SIDE_CUE_REF, SIMPLE_RATE_HZ, UNTUNED_RATE_HZ,
-                             SpikingParams)
+from .side_cells import side_cue
+from .spiking_params import CELL_KINDS, SIMPLE_RATE_HZ, UNTUNED_RATE_HZ, SpikingParams
 
 FAMILIES = ("L1", "L2", "D1", "D2")
 #: Stage 5: the half of the simple cells each family reads (0: directions
@@ -93,7 +92,6 @@ class _Builder:
         self.pops: list[Population] = []
         self.prjs: list = []
         self.neurons = {kind: getattr(sp, kind) for kind in CELL_KINDS}
-        self.sources: dict[int, tuple] = {}     # level -> its ON and OFF inputs (sources or relays)
 
     def pop(self, role, level, *, shape=None, site_sources=(), **fields) -> str:
         """Add population ``<role>_<level>`` (``fields``: those of :class:`Population`)."""
@@ -133,19 +131,16 @@ class _Builder:
 
     # -- stages ------------------------------------------------------------
     def inputs(self, level):
-        """Level 1: spike sources; coarser levels: relays whose rate follows
-        the bicubic-resized event frame (stage 2)."""
+        """Level 1: spike sources; coarser levels: relays following the bicubic-resized frame (stage 2)."""
         if level == 1:
-            self.sources[1] = (self.pop("input_on", 1), self.pop("input_off", 1))
-            return self.sources[1]
+            return self.pop("input_on", 1), self.pop("input_off", 1)
         relays = []
         for polarity in ("on", "off"):
             name = self.pop(f"relay_{polarity}", level, neuron=self.neurons["relay"], sites="reachable")
             self.resize(f"input_{polarity}_1", name, gain=self.gains.relay, interpolation="cubic",
                         prune=self.sp.prune_resize)
             relays.append(name)
-        self.sources[level] = tuple(relays)
-        return self.sources[level]
+        return tuple(relays)
 
     def simple_cells(self, level, on, off):
         """Stages 3-4: DoG convolution (wrap-around) from ON for directions
@@ -318,35 +313,6 @@ class _Builder:
             self.conv(g[other[pol_against]], z, _von_mises(half_against, "scatter"), sign=-1,
                       gain=gain * Gains.balance(self.neurons["feedback"]), prune=self.sp.prune_vm)
 
-    def side_cue(self):
-        """The side cue (``ModelParams.side_cue``, :mod:`snn_fg.rate.side_cue`):
-        at the cue's level, a rectified pair of cells per orientation,
-        ``side_p`` = rect(Q) and ``side_n`` = rect(-Q), Q the half-disc
-        difference of the level's event density (its ON and OFF relays), each
-        firing ``CELL_RATE_HZ`` at ``Q = SIDE_CUE_REF``; resized onto the
-        level-1 feedback cells, Q adds to z1 and subtracts from z2 by
-        ``side_cue`` units of the model's z, at ``z_hz`` Hz of a feedback
-        pair per unit (read through the feedback cells' rate curve at
-        ``CELL_RATE_HZ``)."""
-        p, sp = self.params, self.sp
-        level, n = p.cue_level, p.n_ori
-        fb = self.neurons["feedback"]          # the side cells are feedback cells too: a rate that follows the drive
-        per_hz = fb.drive_for_rate(CELL_RATE_HZ) / CELL_RATE_HZ        # mV of drive per Hz of such a cell
-        gain_in = per_hz * CELL_RATE_HZ / (SIDE_CUE_REF * sp.input_rate_hz * fb.tau_exc_ms / 1000.0)
-        gain_out = p.side_cue * SIDE_CUE_REF * sp.z_hz * per_hz / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0)
-        kernel = side_cue_kernels(p)[:, None]
-        cues = {}
-        for half, sign in (("p", 1), ("n", -1)):
-            cues[half] = self.pop(f"side_{half}", level, channels=n, neuron=fb, sites="all")
-            for src in self.sources[level]:
-                self.conv(src, cues[half], Kernel(ref="array", args={"data": sign * kernel}), gain=gain_in,
-                          calibrated=True)
-        # z1 = 1p - 1n gains Q, z2 = 2p - 2n loses it
-        for half, into in (("p", {"1p": 1, "1n": -1, "2p": -1, "2n": 1}), ("n", {"1p": -1, "1n": 1, "2p": 1, "2n": -1})):
-            for k, sign in into.items():
-                self.resize(cues[half], f"feedback_{k}_1", sign=sign, interpolation="linear",
-                            gain=gain_out * (1.0 if sign > 0 else Gains.balance(fb)))
-
     def window_clock(self):
         """The window clock: one spike source that fires as each window of a
         recording starts and inhibits every grouping cell, so that the light
@@ -359,7 +325,6 @@ class _Builder:
             for pol in ("L", "D"):
                 self.resize(clock, f"group_{pol}_{level}", sign=-1, interpolation="linear",
                             gain=self.sp.clock_inh_group * self.sp.group.v_th_mv)
-
 
     def pooling(self):
         """Stage 8 across levels, top-down: z_l += decay * resize(z_{l+1}), for
@@ -426,8 +391,7 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
         if params.grouping_polarity == "pool":
             bld.pooled_feedback(level, g)
     bld.pooling()
-    if params.side_cue:
-        bld.side_cue()
+    side_cue(bld)
     if spiking.clock_inh_group > 0:
         bld.window_clock()
     return Network(params=params, frame_shape=frame_shape, populations=tuple(bld.pops),

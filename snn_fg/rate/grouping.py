@@ -109,8 +109,7 @@ class SparseGrouping:
         self.support = sum(float((hi - lo).sum()) for _, lo, hi in self.gather_k) / (2 * self.n)
         pad = self.ksize // 2
         self.levels = [_Level(e, s, pad, params.alpha) for e, s in zip(entries, shapes)]
-        #: added to the pooled feedback signal of the finest level's entries (the side cue; None: nothing)
-        self.z_bias = None
+        self.z_bias = None      #: added to the finest level's pooled feedback signal (the side cue; None: none)
 
     # -- stage 7 --------------------------------------------------------
     def _inhibition(self, lv: _Level) -> np.ndarray:
@@ -331,8 +330,7 @@ class SparseGrouping:
     def pooled_z(self) -> np.ndarray:
         """The pooled feedback input ``z`` of stage 8 at the finest level's
         entries (``z1`` for channels below ``n_ori``, ``z2`` above; ``S`` is 1
-        at every one of them), from the current grouping maps, with
-        :attr:`z_bias`."""
+        at every one of them), from the current grouping maps, with :attr:`z_bias`."""
         self._plan_feedback()
         x = [self._correlate(lv) for lv in self.levels]
         lv, p = self.levels[0], self.params

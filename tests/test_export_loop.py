@@ -380,3 +380,14 @@ def test_write_spikes_notes_a_crop_that_lies_inside_a_filled_object(tmp_path, ca
         out = capsys.readouterr().out
         assert ("events cover 100% of the crop's pixels" in out and "--crop-at X,Y" in out) == noted, name
         assert (input_origin(spikes)["event_share"] > 0.5) == noted
+
+
+def test_run_py_progress_is_throttled_but_always_says_the_last_step(capsys):
+    """run.py reports at most every 5 s, so a short run's "simulated 150/150 ms"
+    used to vanish when it fell within 5 s of the line before."""
+    import time
+    from snn_fg.pynn import memory
+    memory._last[0] = time.monotonic()
+    memory.progress("simulated 100/150 ms")
+    memory.progress("simulated 150/150 ms", last=True)
+    assert capsys.readouterr().err == "run.py: simulated 150/150 ms\n"

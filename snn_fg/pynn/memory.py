@@ -31,10 +31,10 @@ TIMES_MEASURED = "on a shared 2-core machine on 27 Nov 2026 at load 0.6-0.9"
 _last = [0.0]
 
 
-def progress(message: str, every_s: float = 5.0):
-    """Print ``message`` to stderr, at most once every ``every_s`` seconds."""
+def progress(message: str, every_s: float = 5.0, last: bool = False):
+    """Print ``message`` to stderr, at most once every ``every_s`` seconds; the ``last`` one always."""
     now = time.monotonic()
-    if now - _last[0] >= every_s:
+    if last or now - _last[0] >= every_s:
         _last[0] = now
         print(f"run.py: {message}", file=sys.stderr, flush=True)
 

@@ -147,7 +147,8 @@ def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
             pre, post, k = fg_tables.resize_pairs(rows, cols, src["channels"], src, tgt, pr["k_min"])
         drive = fg_cells.quantise(pr["sign"] * pr["gain_mv"] * k, meta["weight_bits"], pr["scale_mv"])
         net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"])
-        fg_memory.progress(f"built {i + 1}/{len(meta['projections'])} projections")
+        fg_memory.progress(f"built {i + 1}/{len(meta['projections'])} projections",
+                           last=i + 1 == len(meta['projections']))
     net.record([p["name"] for p in cells], spikes=args.spikes, count_edges_ms=edges)
     return net
 
@@ -237,7 +238,8 @@ def main(argv=None):
     t1 = time.perf_counter()
     if args.virtual_board:
         return write_mapping(sim, meta, plan, args, t1 - t0, net.n_convolution_connectors)
-    net.run(args.duration_ms, report=lambda done: fg_memory.progress(f"simulated {done:g}/{args.duration_ms:g} ms"))
+    net.run(args.duration_ms, report=lambda done: fg_memory.progress(f"simulated {done:g}/{args.duration_ms:g} ms",
+                                                                         last=done >= args.duration_ms))
     out = {"duration_ms": args.duration_ms, "dt_ms": dt_ms, "count_from_ms": start}
     for p in meta["populations"]:
         if p["neuron"] is not None:

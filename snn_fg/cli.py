@@ -47,16 +47,17 @@ def _number(kind, lo, strict=True):
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}, "
                                              f"got {text!r}") from None
-        if not (v > lo if strict else v >= lo) or v != v or v in (float("inf"), float("-inf")):
-            raise argparse.ArgumentTypeError(f"must be {'>' if strict else '>='} {lo}, got {text}")
+        finite = v - v == 0                                 # False for inf and nan
+        if not finite or not (v > lo if strict else v >= lo):
+            raise argparse.ArgumentTypeError(f"must be {'' if finite else 'a finite number '}"
+                                             f"{'>' if strict else '>='} {lo}, got {text}")
         return v
     return parse
 
 
 def _crop_arg(text):
-    parts = text.split(",")
     try:
-        crop = tuple(int(v) for v in parts)
+        crop = tuple(int(v) for v in text.split(","))
     except ValueError:
         crop = ()
     if len(crop) != 4:

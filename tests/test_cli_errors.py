@@ -15,6 +15,8 @@ def run_cli(*args):
 @pytest.mark.parametrize("args, says", [
     (["run", "demo", "--out", "o", "--window-ms", "-5"], "--window-ms: must be > 0"),
     (["run", "demo", "--out", "o", "--max-windows", "0"], "--max-windows: must be >= 1"),
+    (["run", "demo", "--out", "o", "--window-ms", "inf"], "--window-ms: must be a finite number > 0, got inf"),
+    (["run", "demo", "--out", "o", "--side-cue", "nan"], "--side-cue: must be a finite number >= 0, got nan"),
     (["run", "demo", "--out", "o", "--leves", "3"], "unrecognized arguments: --leves 3"),
     (["run", "demo"], "required: --out"),
     (["compare", "a.npz"], "required: B.npz"),

@@ -267,8 +267,8 @@ def main():
                         for part in (comb, two))
     lines = ["# How far local cues go (issue 38)", "", describe(result["run"]) + " (Images in the cache are "
              "read back.)", "",
-             f"Binary side accuracy (%) on the labelled boundary pixels where `--model natural` has a vector "
-             f"(both labellers; {result['pixels']['tune']:,} pixels on the tuning half, "
+             f"Binary side accuracy (%) on the labelled boundary pixels where `--model natural --side-cue 0` has a "
+             f"vector (both labellers; {result['pixels']['tune']:,} pixels on the tuning half, "
              f"{result['pixels']['report']:,} on the reporting half). A cue alone keeps the variant's side "
              "where it is positive and turns it round where it is negative; the combination is a logistic "
              f"regression over all {len(CUES)} cues, {FOLDS}-fold cross-validated over the tuning half's images, "

@@ -202,7 +202,7 @@ def analyse(tune: list, report: list) -> dict:
 def _figure(result: dict):
     import matplotlib.pyplot as plt
 
-    names = ["natural (as is)"] + CUES + ["all cues combined", " + ".join(TO_BUILD)]
+    names = ["natural, no side cue"] + CUES + ["all cues combined", " + ".join(TO_BUILD)]
     combos = (result["combined"], result["to_build"])
     tune = [result["variant"]["tune"]] + [result["cues"][c]["tune"] for c in CUES] + [
         c["tune_cross_validated"] for c in combos]

@@ -131,9 +131,8 @@ def _add_run(sub):
                                                   "DIR/NAME with DIR/summary.csv")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
     p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
-    p.add_argument("--resume", action="store_const", const=True,
-                   help="recordings: continue the run in --out from its last complete window (same INPUT and "
-                        "options)")
+    p.add_argument("--resume", action="store_const", const=True, help="recordings: continue the run in --out "
+                   "from its last complete window (same INPUT and options)")
     p.add_argument("--workers", type=_number(int, 1, strict=False), metavar="N",
                    help="several recordings (INPUT a folder, a glob or a .txt list): local processes (one per core)")
     p.add_argument("--scheduler", metavar="ADDRESS",

@@ -44,8 +44,9 @@ def event_outlines(a, b, band_px: int):
     frames = [(m.extra.get("event_frame"), k) for k, m in enumerate((a, b))]
     frames = [(ef, k) for ef, k in frames if ef is not None]
     if not frames:
-        check.fail("compare_maps", "outline_px", band_px, "needs the event frame a run stores with its maps "
-                                                          "(event_frame); neither map has one")
+        check.fail("compare_maps", "outline_px", band_px, "(--outline) needs the event frame a recording's run "
+                                                          "stores with its maps; neither map has one (a still "
+                                                          "image's run stores none)")
     ef, k = frames[0]
 
     def where(ia, ib):

@@ -37,7 +37,7 @@ def number(owner: str, name: str, value, *, lo: float | None = None, lo_open: bo
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
             or not math.isfinite(value):
         fail(owner, name, value, "must be a finite number")
-    v = float(value)
+    v = float(value) + 0.0                  # -0.0 as 0.0
     if lo is not None and (v < lo or (lo_open and v == lo)):
         fail(owner, name, value, f"must be {'>' if lo_open else '>='} {lo:g}")
     if hi is not None and (v > hi or (hi_open and v == hi)):

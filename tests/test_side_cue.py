@@ -112,3 +112,11 @@ def test_the_network_feeds_the_cue_into_z1_and_against_z2_at_level_1():
     assert sources == ["relay_off_5", "relay_on_5"]
     assert not [p for p in build_network(SMALL.replace(side_cue=0.0), (64, 97)).populations
                 if p.role.startswith("side_")]
+
+
+def test_a_negative_zero_gain_is_stored_as_zero_and_a_non_finite_one_refused():
+    """`--side-cue -0` was kept as -0.0 in a run's params (a new user's find)."""
+    assert str(ModelParams(side_cue=-0.0).side_cue) == "0.0"
+    for bad in (float("inf"), float("nan"), -1.0):
+        with pytest.raises(ParameterError, match="side_cue"):
+            ModelParams(side_cue=bad)

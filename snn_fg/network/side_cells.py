@@ -27,7 +27,8 @@ def side_cue(bld) -> None:
     gain_in = per_hz * CELL_RATE_HZ / (SIDE_CUE_REF * sp.input_rate_hz * fb.tau_exc_ms / 1000.0)
     gain_out = p.side_cue * SIDE_CUE_REF * sp.z_hz * per_hz / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0)
     kernel = side_cue_kernels(p)[:, None]
-    sources = [f"input_{pol}_1" if level == 1 else f"relay_{pol}_{level}" for pol in ("on", "off")]
+    inputs = ("input_on", "input_off", "relay_on", "relay_off")     # the level's ON and OFF inputs, as built
+    sources = [q.name for q in bld.pops if q.level == level and q.role in inputs]
     cues = {}
     for half, sign in (("p", 1), ("n", -1)):
         cues[half] = bld.pop(f"side_{half}", level, channels=n, neuron=fb, sites="all")

@@ -10,6 +10,7 @@ line, the date, the processor and the machine's load average before and
 after, so a number in a table can be traced to the code and the conditions
 that produced it.
 """
+
 from __future__ import annotations
 
 import json
@@ -59,6 +60,7 @@ def load_change(before: Sequence[float]) -> str:
 
 def git_commit() -> str:
     """The checkout's commit, with ``-dirty`` when files differ from it (``unknown`` outside git)."""
+
     def git(*args):
         return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=30).stdout.strip()
 
@@ -89,8 +91,10 @@ def processor(cpuinfo: str = "/proc/cpuinfo") -> str:
     except OSError:
         return ""
     info = {k.strip(): v.strip() for k, v in (line.split(":", 1) for line in first.splitlines() if ":" in line)}
-    return (f"{info.get('model name', '?')}, family {info.get('cpu family', '?')} model {info.get('model', '?')}, "
-            f"cache {info.get('cache size', '?')}")
+    return (
+        f"{info.get('model name', '?')}, family {info.get('cpu family', '?')} model {info.get('model', '?')}, "
+        f"cache {info.get('cache size', '?')}"
+    )
 
 
 class Run:
@@ -107,9 +111,15 @@ class Run:
 
     def record(self) -> dict:
         """``commit``, ``command``, ``date`` (start), ``seconds``, ``processor``, ``load_before``, ``load_after``."""
-        return {"commit": git_commit(), "command": command_line(), "date": self.date,
-                "seconds": round(self.seconds, 1), "processor": processor(), "load_before": self.load_before,
-                "load_after": load()}
+        return {
+            "commit": git_commit(),
+            "command": command_line(),
+            "date": self.date,
+            "seconds": round(self.seconds, 1),
+            "processor": processor(),
+            "load_before": self.load_before,
+            "load_after": load(),
+        }
 
 
 def describe(run: dict) -> str:
@@ -117,8 +127,10 @@ def describe(run: dict) -> str:
     minutes = run["seconds"] / 60
     took = f"{minutes:.1f} min" if minutes >= 1 else f"{run['seconds']:.0f} s"
     on = f" on {run['processor']}" if run.get("processor") else ""
-    return (f"`{run['command']}` at {run['commit']}, {run['date']}{on}: {took}, load average "
-            f"{run['load_before'][0]:.1f} before, {run['load_after'][0]:.1f} after.")
+    return (
+        f"`{run['command']}` at {run['commit']}, {run['date']}{on}: {took}, load average "
+        f"{run['load_before'][0]:.1f} before, {run['load_after'][0]:.1f} after."
+    )
 
 
 def markdown_table(header: Sequence, rows: Iterable[Sequence]) -> list[str]:

@@ -11,6 +11,7 @@ defaults (tests/test_network_description.py checks the stored file is current).
 
 Not an experiment: it measures nothing, it regenerates files the tests check.
 """
+
 from pathlib import Path
 
 from snn_fg.network import SpikingParams, build_network

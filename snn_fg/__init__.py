@@ -16,19 +16,21 @@ Each layer imports only those below it.
 ``snn_fg.Maps`` is :class:`snn_fg.maps.Maps`, what every run writes and
 ``Maps.load(folder)`` reads back.
 """
+
 from importlib.metadata import PackageNotFoundError, version
 
 try:
     __version__ = version("snn-fg")
-except PackageNotFoundError:     # running from a source tree that was not installed
+except PackageNotFoundError:  # running from a source tree that was not installed
     __version__ = "0+unknown"
 
 
 __all__ = ["Maps", "__version__"]
 
 
-def __getattr__(name):          # (imported when first asked for: ``import snn_fg`` stays light)
+def __getattr__(name):  # (imported when first asked for: ``import snn_fg`` stays light)
     if name == "Maps":
         from .maps import Maps
+
         return Maps
     raise AttributeError(f"module 'snn_fg' has no attribute {name!r}")

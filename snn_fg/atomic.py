@@ -7,6 +7,7 @@ the same for a folder: files are written into a staging folder beside the
 destination, which replaces the destination as a whole only when the run
 succeeds; an error, Ctrl-C or SIGTERM leaves the destination exactly as it was.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -33,7 +34,7 @@ def atomic_path(path, suffix: str | None = None):
     suffix = path.suffix if suffix is None else suffix
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".part{suffix}", dir=path.parent)
     os.close(fd)
-    os.chmod(tmp, 0o666 & ~_umask())      # (mkstemp creates 0600: give what a plain open() would)
+    os.chmod(tmp, 0o666 & ~_umask())  # (mkstemp creates 0600: give what a plain open() would)
     try:
         yield Path(tmp)
         os.replace(tmp, path)
@@ -114,8 +115,10 @@ class OutputFolder:
             raise InputError(self.path, "--out must be a folder, but a file of that name exists")
         if self.path.is_dir() and any(self.path.iterdir()) and not force:
             held = ", ".join(sorted(p.name for p in self.path.iterdir())[:4])
-            raise InputError(self.path, f"output folder is not empty (holds {held}...); choose another folder "
-                                        "or pass --force to replace it")
+            raise InputError(
+                self.path,
+                f"output folder is not empty (holds {held}...); choose another folder or pass --force to replace it",
+            )
         self.dir: Path | None = None
         self._made: list[Path] = []
 
@@ -169,8 +172,11 @@ def growing_folder(path, force: bool = False, resume: bool = False) -> tuple[Pat
     if path.is_dir() and any(path.iterdir()) and not resume:
         if not force:
             held = ", ".join(sorted(p.name for p in path.iterdir())[:4])
-            raise InputError(path, f"output folder is not empty (holds {held}...); choose another folder, pass "
-                                   "--resume to continue its run or --force to replace it")
+            raise InputError(
+                path,
+                f"output folder is not empty (holds {held}...); choose another folder, pass "
+                "--resume to continue its run or --force to replace it",
+            )
         previous = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".previous", dir=path.parent))
         os.replace(path, previous / "run")
     path.mkdir(parents=True, exist_ok=True)

@@ -8,6 +8,7 @@ whose run is complete is skipped, and one cut short is continued
 (:mod:`snn_fg.store`). ``DIR/summary.csv`` lists every recording: its
 status (``done``, ``skipped``, ``failed``), windows, seconds and error.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -46,8 +47,10 @@ def recordings_of(spec: str) -> list[Path]:
         if not path.is_file():
             raise InputError(path, "no such list file")
         lines = [line.strip() for line in path.read_text().splitlines()]
-        found = [p if p.is_absolute() else path.parent / p
-                 for p in (Path(line) for line in lines if line and not line.startswith("#"))]
+        found = [
+            p if p.is_absolute() else path.parent / p
+            for p in (Path(line) for line in lines if line and not line.startswith("#"))
+        ]
     else:
         found = sorted(Path(p) for p in glob.glob(spec))
     if not found:
@@ -75,8 +78,14 @@ def run_job(options: dict, command) -> dict:
     from .store import STORE_NAME, read_attrs, windows_complete
 
     out = Path(options["out"])
-    row = {"recording": options["input"], "output": str(out), "status": "done", "windows": 0, "seconds": 0.0,
-           "error": ""}
+    row = {
+        "recording": options["input"],
+        "output": str(out),
+        "status": "done",
+        "windows": 0,
+        "seconds": 0.0,
+        "error": "",
+    }
     store = out / STORE_NAME
     with contextlib.suppress(SnnFgError):
         if store.is_dir() and not options["force"] and read_attrs(store)["snn_fg"]["complete"]:
@@ -86,7 +95,7 @@ def run_job(options: dict, command) -> dict:
     try:
         with contextlib.redirect_stdout(io.StringIO()):
             command(args)
-    except Exception as exc:           # (every failure is one line in the summary)
+    except Exception as exc:  # (every failure is one line in the summary)
         first = str(exc).splitlines()[0] if str(exc) else ""
         row.update(status="failed", error=first if isinstance(exc, SnnFgError) else f"{type(exc).__name__}: {first}")
     row.update(windows=windows_complete(out), seconds=round(time.perf_counter() - t, 2))
@@ -96,9 +105,17 @@ def run_job(options: dict, command) -> dict:
 def _jobs(args) -> list[dict]:
     recordings = recordings_of(args.input)
     base = {k: v for k, v in vars(args).items() if k not in ("handler", "interrupted", "interrupt_note")}
-    return [{**base, "input": str(p), "out": str(Path(args.out) / name), "no_progress": True, "workers": None,
-             "scheduler": None}
-            for p, name in zip(recordings, output_names(recordings))]
+    return [
+        {
+            **base,
+            "input": str(p),
+            "out": str(Path(args.out) / name),
+            "no_progress": True,
+            "workers": None,
+            "scheduler": None,
+        }
+        for p, name in zip(recordings, output_names(recordings))
+    ]
 
 
 def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, progress: bool):
@@ -124,8 +141,9 @@ def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, pro
             yield run_one(job)
             bar.update()
     else:
-        from concurrent.futures import ProcessPoolExecutor, as_completed as done
         import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures import as_completed as done
 
         with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
             for future in done([pool.submit(run_one, job) for job in jobs]):
@@ -147,18 +165,24 @@ def run_dataset(args, command) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     workers = min(args.workers or usable_cores(), len(jobs))
-    rows = sorted(_run_all(jobs, command, workers, args.scheduler, not args.no_progress),
-                  key=lambda r: [j["input"] for j in jobs].index(r["recording"]))
+    rows = sorted(
+        _run_all(jobs, command, workers, args.scheduler, not args.no_progress),
+        key=lambda r: [j["input"] for j in jobs].index(r["recording"]),
+    )
     text = io.StringIO()
     writer = csv.DictWriter(text, SUMMARY_COLUMNS, lineterminator="\n")
     writer.writeheader()
     writer.writerows(rows)
     save_text(out / SUMMARY_NAME, text.getvalue())
     for r in rows:
-        error = r["error"].removeprefix(f"{r['recording']}: ")       # (an input error names its file already)
-        print(f"{r['status']:>8}  {r['windows']:5d} windows  {r['seconds']:8.1f} s  {r['recording']}"
-              + (f": {error}" if error else ""))
+        error = r["error"].removeprefix(f"{r['recording']}: ")  # (an input error names its file already)
+        print(
+            f"{r['status']:>8}  {r['windows']:5d} windows  {r['seconds']:8.1f} s  {r['recording']}"
+            + (f": {error}" if error else "")
+        )
     failed = sum(r["status"] == "failed" for r in rows)
-    print(f"snn-fg: {len(rows)} recording{'' if len(rows) == 1 else 's'}, {failed} failed; "
-          f"summary in {out / SUMMARY_NAME}")
+    print(
+        f"snn-fg: {len(rows)} recording{'' if len(rows) == 1 else 's'}, {failed} failed; "
+        f"summary in {out / SUMMARY_NAME}"
+    )
     return 1 if failed else 0

@@ -21,6 +21,7 @@ Examples
 stopped by SIGTERM
 >>> cancel.clear()
 """
+
 from __future__ import annotations
 
 import signal
@@ -58,7 +59,7 @@ class Signals:
         self.previous = {}
         self.previous_hook = None
 
-    def __call__(self, signum, frame):      # noqa: ARG002 - signal handler signature
+    def __call__(self, signum, frame):  # noqa: ARG002 - signal handler signature
         self.received.append(signal.Signals(signum).name)
         request(self.received[-1])
         raise KeyboardInterrupt(self.received[-1])

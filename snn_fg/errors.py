@@ -5,6 +5,7 @@ subclass), which names the file, the problem and, where it applies, the place
 in the file (byte offset or event index).  The CLI prints ``str(error)`` as one
 line and exits non-zero; nothing else should escape to the user.
 """
+
 from __future__ import annotations
 
 import contextlib

@@ -19,6 +19,7 @@ absolute and the mean signed error (the paper's). :func:`bootstrap_scores`
 gives each, pooled over pixels and as a mean over images, with an interval
 from resampling the images.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -50,9 +51,14 @@ def error_stats(signed, n_truth: int | None = None) -> dict:
     signed = np.asarray(signed, np.float64)
     a = np.abs(signed)
     hist = np.bincount(np.minimum((a / HIST_BIN_DEG).astype(int), _N_BINS - 1), minlength=_N_BINS)
-    out = {"n": int(a.size), "sum_signed": float(signed.sum()), "sum_abs": float(a.sum()),
-           "n_within45": int((a <= WITHIN_DEG).sum()), "n_side": int((a < SIDE_DEG).sum()),
-           "hist_abs": hist.tolist()}
+    out = {
+        "n": int(a.size),
+        "sum_signed": float(signed.sum()),
+        "sum_abs": float(a.sum()),
+        "n_within45": int((a <= WITHIN_DEG).sum()),
+        "n_side": int((a < SIDE_DEG).sum()),
+        "hist_abs": hist.tolist(),
+    }
     if n_truth is not None:
         out["n_truth"] = int(n_truth)
     return out
@@ -60,8 +66,13 @@ def error_stats(signed, n_truth: int | None = None) -> dict:
 
 #: the pooled scores that are one sum of :func:`error_stats` divided by another:
 #: ``score: (numerator, denominator)``
-RATIO_OF = {"mean_signed_deg": ("sum_signed", "n"), "mean_abs_deg": ("sum_abs", "n"),
-            "within45": ("n_within45", "n"), "side_accuracy": ("n_side", "n"), "coverage": ("n", "n_truth")}
+RATIO_OF = {
+    "mean_signed_deg": ("sum_signed", "n"),
+    "mean_abs_deg": ("sum_abs", "n"),
+    "within45": ("n_within45", "n"),
+    "side_accuracy": ("n_side", "n"),
+    "coverage": ("n", "n_truth"),
+}
 #: the scores of :data:`RATIO_OF` that a table reports, in its order
 SCORES = ("side_accuracy", "coverage", "within45", "mean_abs_deg", "mean_signed_deg")
 
@@ -78,8 +89,9 @@ def pool_stats(parts) -> dict:
     n = sum(p["n"] for p in parts)
     sums = {f: sum(_field(p, f) for p in parts) for pair in RATIO_OF.values() for f in pair}
     with np.errstate(invalid="ignore", divide="ignore"):
-        out = {key: float(np.float64(sums[a]) / sums[b]) if sums[b] else float("nan")
-               for key, (a, b) in RATIO_OF.items()}
+        out = {
+            key: float(np.float64(sums[a]) / sums[b]) if sums[b] else float("nan") for key, (a, b) in RATIO_OF.items()
+        }
     if n:
         hist = np.sum([p["hist_abs"] for p in parts], axis=0)
         out["median_abs_deg"] = (int(np.searchsorted(np.cumsum(hist), n / 2)) + 0.5) * HIST_BIN_DEG
@@ -148,17 +160,29 @@ def bootstrap_scores(parts, n_resamples: int = 2000, seed: int = 0, keys=SCORES,
     pick = np.random.default_rng(seed).integers(0, len(parts), size=(n_resamples, len(parts)))
     out = {}
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)        # a resample whose images have no pixels: nan
+        warnings.simplefilter("ignore", RuntimeWarning)  # a resample whose images have no pixels: nan
         for key in keys:
             lo, hi = _interval(s.pooled(key, pick), level)
             ilo, ihi = _interval(s.image_mean(key, pick), level)
-            out[key] = {"pooled": float(s.pooled(key)), "low": lo, "high": hi,
-                        "image_mean": float(s.image_mean(key)), "image_low": ilo, "image_high": ihi}
+            out[key] = {
+                "pooled": float(s.pooled(key)),
+                "low": lo,
+                "high": hi,
+                "image_mean": float(s.image_mean(key)),
+                "image_low": ilo,
+                "image_high": ihi,
+            }
     return out
 
 
-def bootstrap_difference(parts_a, parts_b, n_resamples: int = 2000, seed: int = 0,
-                         keys=("mean_signed_deg", "mean_abs_deg", "within45"), level: float = 0.95) -> dict:
+def bootstrap_difference(
+    parts_a,
+    parts_b,
+    n_resamples: int = 2000,
+    seed: int = 0,
+    keys=("mean_signed_deg", "mean_abs_deg", "within45"),
+    level: float = 0.95,
+) -> dict:
     """How far the pooled difference ``b - a`` of each score could move with
     the choice of images: a paired bootstrap over images.
 
@@ -209,11 +233,12 @@ def _views(field):
 def _similarity(va, vb) -> dict:
     """:func:`map_similarity` of two fields given by their :func:`_views`."""
     (ia, ra), (ib, rb) = va, vb
-    return {"ssim_angle": float(structural_similarity(ia, ib, win_size=SSIM_WINDOW, data_range=1.0)),
-            "mse_angle": float(np.mean((ia - ib) ** 2)),
-            "ssim_render": float(structural_similarity(ra, rb, win_size=SSIM_WINDOW, data_range=1.0,
-                                                       channel_axis=-1)),
-            "mse_render": float(np.mean((ra - rb) ** 2))}
+    return {
+        "ssim_angle": float(structural_similarity(ia, ib, win_size=SSIM_WINDOW, data_range=1.0)),
+        "mse_angle": float(np.mean((ia - ib) ** 2)),
+        "ssim_render": float(structural_similarity(ra, rb, win_size=SSIM_WINDOW, data_range=1.0, channel_axis=-1)),
+        "mse_render": float(np.mean((ra - rb) ** 2)),
+    }
 
 
 def _scores(fx, fy, truths) -> dict:
@@ -288,28 +313,48 @@ def evaluate_image(*, root: str, image_id: str, settings: ImageEvaluation | None
     gt = load_bsds_fg(root, image_id)
     truths = [boundary_directions(m) for m in gt.fg]
     a, b = truths[0], truths[1] if len(truths) > 1 else truths[0]
-    out = {"image_id": str(image_id), "shape": list(gt.fg.shape[1:]), "units": [],
-           "ceiling": error_stats(angle_errors(np.where(b[2], b[0], 0), np.where(b[2], b[1], 0), *a),
-                                  n_truth=int(a[2].sum()))}
+    out = {
+        "image_id": str(image_id),
+        "shape": list(gt.fg.shape[1:]),
+        "units": [],
+        "ceiling": error_stats(
+            angle_errors(np.where(b[2], b[0], 0), np.where(b[2], b[1], 0), *a), n_truth=int(a[2].sum())
+        ),
+    }
     fields = {"GT": a[:2], "GT2": (np.where(b[2], b[0], 0), np.where(b[2], b[1], 0))}
     runs = [(m, "paper", t) for m in opts.event_models for t in opts.thresholds]
     runs += [(m, "shift4", t) for m in opts.event_models for t in opts.shift4_thresholds]
     for model, motion, threshold in runs:
-        maps, n_events = _event_maps(_model(model, params, opts.spiking_options or {}), str(gt.image_path), threshold,
-                                     motion)
-        out["units"].append({"model": model, "motion": motion, "threshold": threshold, "event_pixels": n_events,
-                             **_scores(maps.fg_x, maps.fg_y, truths)})
+        maps, n_events = _event_maps(
+            _model(model, params, opts.spiking_options or {}), str(gt.image_path), threshold, motion
+        )
+        out["units"].append(
+            {
+                "model": model,
+                "motion": motion,
+                "threshold": threshold,
+                "event_pixels": n_events,
+                **_scores(maps.fg_x, maps.fg_y, truths),
+            }
+        )
         if motion == "paper" and np.isclose(threshold, FIG6_THRESHOLD):
             fields[f"ED-{model}"] = (maps.fg_x, maps.fg_y)
     image = read_image(gt.image_path, grey=False)
     for op in opts.fbfg_operators:
         maps = run_fbfg(image, params, edge_operator=op)
         name = "fbfg" if op == "gaussian" else f"fbfg-{op}"
-        out["units"].append({"model": name, "motion": "image", "threshold": None, "event_pixels": None,
-                             **_scores(maps.fg_x, maps.fg_y, truths)})
+        out["units"].append(
+            {
+                "model": name,
+                "motion": "image",
+                "threshold": None,
+                "event_pixels": None,
+                **_scores(maps.fg_x, maps.fg_y, truths),
+            }
+        )
         fields[f"FB-{name}"] = (maps.fg_x, maps.fg_y)
     if opts.fig6:
-        views = {k: _views(f) for k, f in fields.items()}      # each field rendered once, not once per pair
+        views = {k: _views(f) for k, f in fields.items()}  # each field rendered once, not once per pair
         out["fig6"] = {f"{p}|{q}": _similarity(views[p], views[q]) for p, q in combinations(sorted(fields), 2)}
     return out
 
@@ -320,8 +365,9 @@ HIT_RADIUS_FRACTION = 0.25
 HIT_MIN_PX = 3.0
 
 
-def evaluate_disc(*, model: str, r0: float, diameter: float, threshold: float = 0.10,
-                  spiking_options: dict | None = None) -> dict:
+def evaluate_disc(
+    *, model: str, r0: float, diameter: float, threshold: float = 0.10, spiking_options: dict | None = None
+) -> dict:
     """One dark disc of ``diameter`` px on a white canvas (the paper's Fig. S3 stimulus) through
     ``model`` (``rate`` / ``spiking`` on shift4 events, ``fbfg`` on the image) with grouping radius ``r0``.
 
@@ -346,13 +392,18 @@ def evaluate_disc(*, model: str, r0: float, diameter: float, threshold: float = 
     cr, cc = scene.shapes[0].centre
     dist = float(np.hypot(row - cr, col - cc))
     truth = (np.where(scene.boundary, scene.truth_x, 0), np.where(scene.boundary, scene.truth_y, 0))
-    return {"model": model, "r0": r0, "diameter": diameter, "peak_distance_px": dist,
-            "hit": bool(dist <= max(HIT_MIN_PX, HIT_RADIUS_FRACTION * diameter / 2)),
-            **truth_scores(maps.fg_x, maps.fg_y, scene), **map_similarity((maps.fg_x, maps.fg_y), truth)}
+    return {
+        "model": model,
+        "r0": r0,
+        "diameter": diameter,
+        "peak_distance_px": dist,
+        "hit": bool(dist <= max(HIT_MIN_PX, HIT_RADIUS_FRACTION * diameter / 2)),
+        **truth_scores(maps.fg_x, maps.fg_y, scene),
+        **map_similarity((maps.fg_x, maps.fg_y), truth),
+    }
 
 
-def evaluate_models(*, root: str, image_id: str, models: dict, threshold: float = 0.10,
-                    motion: str = "paper") -> dict:
+def evaluate_models(*, root: str, image_id: str, models: dict, threshold: float = 0.10, motion: str = "paper") -> dict:
     """Named models (variants) on one image, each scored against both labellers.
 
     Parameters
@@ -384,13 +435,18 @@ def evaluate_models(*, root: str, image_id: str, models: dict, threshold: float 
     truths = [boundary_directions(m) for m in gt.fg]
     pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion=motion)
     frame = Still(pos, neg, read_image(gt.image_path, grey=False))
-    out = {"image_id": str(image_id), "shape": list(gt.fg.shape[1:]), "event_pixels": int((pos | neg).sum()),
-           "units": []}
+    out = {
+        "image_id": str(image_id),
+        "shape": list(gt.fg.shape[1:]),
+        "event_pixels": int((pos | neg).sum()),
+        "units": [],
+    }
     for name, spec in models.items():
         kind = spec["model"]
         params = MODELS[kind].base_params.replace(**spec.get("params", {}))
         t0 = time.perf_counter()
         maps = get_model(kind, params, **spec.get("options", {})).run_still(frame)
-        out["units"].append({"name": name, "seconds": time.perf_counter() - t0,
-                             **_scores(maps.fg_x, maps.fg_y, truths)})
+        out["units"].append(
+            {"name": name, "seconds": time.perf_counter() - t0, **_scores(maps.fg_x, maps.fg_y, truths)}
+        )
     return out

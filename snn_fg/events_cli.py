@@ -3,6 +3,7 @@
 Wire it in with :func:`add_events_command`; the handler raises
 :class:`~snn_fg.errors.InputError` for bad input (the main CLI prints it).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,34 +37,54 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         "events",
         help="summarise an event recording or simulate one from an image; write event frames",
         description="Print format, sensor size, event count, time span and rate of an event recording "
-                    "(.es .raw .dat .aedat4 .bin data.log .npy .npz). For an image (png/jpg/...) simulate "
-                    "an event camera (ESIM) under a small motion instead. Optionally write the event frame "
-                    "of one window (.npz with pos, neg, t_start_us, t_end_us) and/or the events.",
+        "(.es .raw .dat .aedat4 .bin data.log .npy .npz). For an image (png/jpg/...) simulate "
+        "an event camera (ESIM) under a small motion instead. Optionally write the event frame "
+        "of one window (.npz with pos, neg, t_start_us, t_end_us) and/or the events.",
     )
     p.add_argument("input", metavar="INPUT", help="recording or image file")
     g = p.add_argument_group("recordings")
-    g.add_argument("--window-ms", type=float, default=85.0,
-                   help="window length of the activity timeline and --write-frame (default 85, as snn-fg run)")
-    g.add_argument("--start-ms", type=float, default=0.0,
-                   help="window start, ms after the first event (default 0)")
-    g.add_argument("--sensor-size", type=sensor_size_arg, default=None, metavar="WxH",
-                   help="sensor size, needed for RAW files without geometry (e.g. 640x480)")
+    g.add_argument(
+        "--window-ms",
+        type=float,
+        default=85.0,
+        help="window length of the activity timeline and --write-frame (default 85, as snn-fg run)",
+    )
+    g.add_argument("--start-ms", type=float, default=0.0, help="window start, ms after the first event (default 0)")
+    g.add_argument(
+        "--sensor-size",
+        type=sensor_size_arg,
+        default=None,
+        metavar="WxH",
+        help="sensor size, needed for RAW files without geometry (e.g. 640x480)",
+    )
     g = p.add_argument_group("images (event-camera simulation)")
     g.add_argument("--threshold", type=float, default=0.10, metavar="C", help="contrast threshold (default 0.10)")
-    g.add_argument("--motion", choices=MOTIONS, default="shift4",
-                   help="shift4: 1-px shift up, right, down, left; circle: iCub microsaccade; paper: the authors' "
-                        "BSDS conversion (2-px copies down and right, through JPEG)")
+    g.add_argument(
+        "--motion",
+        choices=MOTIONS,
+        default="shift4",
+        help="shift4: 1-px shift up, right, down, left; circle: iCub microsaccade; paper: the authors' "
+        "BSDS conversion (2-px copies down and right, through JPEG)",
+    )
     g.add_argument("--amplitude-px", type=float, default=1.0, metavar="A", help="motion amplitude (default 1)")
     g.add_argument("--seed", type=int, default=0, help="seed for threshold noise (default 0)")
-    g.add_argument("--threshold-sigma", type=float, default=0.0,
-                   help="per-pixel threshold noise (std, default 0)")
+    g.add_argument("--threshold-sigma", type=float, default=0.0, help="per-pixel threshold noise (std, default 0)")
     g = p.add_argument_group("outputs")
-    g.add_argument("--write-frame", metavar="OUT.npz", default=None,
-                   help="write the event frame (pos, neg uint8, t_start_us, t_end_us)")
-    g.add_argument("--write-events", metavar="OUT.npy", default=None,
-                   help="write the events (.npy, .npz, .raw EVT2 or .es)")
-    g.add_argument("--plot", metavar="FILE.png", default=None,
-                   help="recordings: draw the events and the share of pixels they cover, window by window")
+    g.add_argument(
+        "--write-frame",
+        metavar="OUT.npz",
+        default=None,
+        help="write the event frame (pos, neg uint8, t_start_us, t_end_us)",
+    )
+    g.add_argument(
+        "--write-events", metavar="OUT.npy", default=None, help="write the events (.npy, .npz, .raw EVT2 or .es)"
+    )
+    g.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        default=None,
+        help="recordings: draw the events and the share of pixels they cover, window by window",
+    )
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
     from snn_fg.export.loop import add_spike_options
 
@@ -81,9 +102,11 @@ def _span_lines(n, n_on, t_first, t_last):
     span = (t_last - t_first) if n else 0
     rate = f"{n / (span / 1e6):,.0f} events/s" if span > 0 else "n/a"
     on = f" (ON {100 * n_on / n:.1f} %)" if n else ""
-    return [("events", f"{n:,}{on}"),
-            ("time span", f"{span / 1e6:.6f} s (file clock {t_first} .. {t_last} us)" if n else "n/a"),
-            ("event rate", rate)]
+    return [
+        ("events", f"{n:,}{on}"),
+        ("time span", f"{span / 1e6:.6f} s (file clock {t_first} .. {t_last} us)" if n else "n/a"),
+        ("event rate", rate),
+    ]
 
 
 def _written_note(out):
@@ -112,7 +135,7 @@ def run_events(args) -> int:
         return 0
     stream, lines, spans_time = _recording_lines(path, args)
     print(_summary(lines))
-    if spans_time:      # (a stream that spans no time has been warned about)
+    if spans_time:  # (a stream that spans no time has been warned about)
         _print_activity(stream, args)
     return 0
 
@@ -123,21 +146,31 @@ def _image_lines(path, args) -> list:
     from snn_fg.events import PixelOptions, image_to_events, save_events
     from snn_fg.events.window import events_to_frame
 
-    rec = image_to_events(path, threshold=args.threshold, motion=args.motion, amplitude_px=args.amplitude_px,
-                          seed=args.seed, pixels=PixelOptions(threshold_sigma=args.threshold_sigma))
+    rec = image_to_events(
+        path,
+        threshold=args.threshold,
+        motion=args.motion,
+        amplitude_px=args.amplitude_px,
+        seed=args.seed,
+        pixels=PixelOptions(threshold_sigma=args.threshold_sigma),
+    )
     ev = rec.events
     n = len(ev)
     motion = args.motion if args.motion == "paper" else f"{args.motion}, amplitude {args.amplitude_px:g} px"
-    lines = [("file", str(path)), ("format", f"image, simulated (ESIM, {motion}, threshold {args.threshold:g})"),
-             ("sensor", f"{rec.sensor_size[0]} x {rec.sensor_size[1]}")]
+    lines = [
+        ("file", str(path)),
+        ("format", f"image, simulated (ESIM, {motion}, threshold {args.threshold:g})"),
+        ("sensor", f"{rec.sensor_size[0]} x {rec.sensor_size[1]}"),
+    ]
     t_first, t_last = (int(ev["t"][0]), int(ev["t"][-1])) if n else (0, 0)
     lines += _span_lines(n, int((ev["p"] > 0).sum()), t_first, t_last)
     if args.write_frame:
         pos, neg = events_to_frame(ev, rec.sensor_size)
         t_end = t_last + 1 if n else 0
         save_npz(args.write_frame, pos=pos, neg=neg, t_start_us=np.int64(0), t_end_us=np.int64(t_end))
-        lines.append(("frame written", f"{args.write_frame} (whole motion, {int(pos.sum())} ON, "
-                                       f"{int(neg.sum())} OFF pixels)"))
+        lines.append(
+            ("frame written", f"{args.write_frame} (whole motion, {int(pos.sum())} ON, {int(neg.sum())} OFF pixels)")
+        )
     if args.write_events:
         save_events(args.write_events, ev, rec.sensor_size)
         lines.append(("events written", _written_note(args.write_events)))
@@ -158,19 +191,32 @@ def _recording_lines(path, args):
         if t_first is None:
             t_first = int(chunk["t"][0])
         t_last = int(chunk["t"][-1])
-    lines = [("file", str(path)), ("format", f"{stream.format}" + ("" if stream.streams else " (read whole)")),
-             ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}")]
+    lines = [
+        ("file", str(path)),
+        ("format", f"{stream.format}" + ("" if stream.streams else " (read whole)")),
+        ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}"),
+    ]
     lines += _span_lines(n, n_on, t_first or 0, t_last or 0)
     if stream.skipped:
-        lines.append(("skipped", ", ".join(f"{n:,} {what}" for what, n in stream.skipped.items())
-                      + " (read, not used by the model)"))
+        lines.append(
+            (
+                "skipped",
+                ", ".join(f"{n:,} {what}" for what, n in stream.skipped.items()) + " (read, not used by the model)",
+            )
+        )
     if args.write_frame:
         w = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
-        save_npz(args.write_frame, pos=w.pos, neg=w.neg, t_start_us=np.int64(w.t_start_us),
-                 t_end_us=np.int64(w.t_end_us))
-        lines.append(("frame written", f"{args.write_frame} (window {w.span_ms[0]:g}-{w.span_ms[1]:g} ms, "
-                                       f"{len(w.events):,} events, {int(w.pos.sum())} ON, "
-                                       f"{int(w.neg.sum())} OFF pixels)"))
+        save_npz(
+            args.write_frame, pos=w.pos, neg=w.neg, t_start_us=np.int64(w.t_start_us), t_end_us=np.int64(w.t_end_us)
+        )
+        lines.append(
+            (
+                "frame written",
+                f"{args.write_frame} (window {w.span_ms[0]:g}-{w.span_ms[1]:g} ms, "
+                f"{len(w.events):,} events, {int(w.pos.sum())} ON, "
+                f"{int(w.neg.sum())} OFF pixels)",
+            )
+        )
     if args.write_events:
         from snn_fg.events import open_recording
 

@@ -8,6 +8,7 @@ itself. Conventions: hue is the direction towards the owning object (0 deg
 right, 90 deg up, as the colour wheel shows), brightness the vector's
 strength; grouping maps use a perceptual colour map with a labelled colour bar.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -56,23 +57,32 @@ def _wheel_inset(ax):
     (``tight_layout`` makes room for it)."""
     inset = ax.inset_axes([1.02, 0.62, 0.38, 0.38])
     n = 101
-    y, x = np.mgrid[1:-1:n * 1j, -1:1:n * 1j]
+    y, x = np.mgrid[1 : -1 : n * 1j, -1 : 1 : n * 1j]
     r = np.hypot(x, y)
     hue = (np.arctan2(y, x) % (2 * np.pi)) / (2 * np.pi)
-    val = MIN_VALUE + (1 - MIN_VALUE) * np.clip(r, 0, 1)     # brightness grows with strength
+    val = MIN_VALUE + (1 - MIN_VALUE) * np.clip(r, 0, 1)  # brightness grows with strength
     rgb = mcolors.hsv_to_rgb(np.stack([hue, np.ones_like(r), val], -1))
     inset.imshow(np.concatenate([rgb, (r <= 1)[..., None].astype(float)], -1), extent=(-1, 1, -1, 1))
     for angle, label in ((0, "0°"), (90, "90°"), (180, "180°"), (270, "270°")):
         a = np.radians(angle)
-        inset.text(1.25 * np.cos(a), 1.25 * np.sin(a), label, ha="center", va="center", fontsize=6,
-                   color="white", bbox={"facecolor": "black", "alpha": 0.5, "pad": 0.5, "lw": 0})
+        inset.text(
+            1.25 * np.cos(a),
+            1.25 * np.sin(a),
+            label,
+            ha="center",
+            va="center",
+            fontsize=6,
+            color="white",
+            bbox={"facecolor": "black", "alpha": 0.5, "pad": 0.5, "lw": 0},
+        )
     inset.set_xlim(-1.6, 1.6)
     inset.set_ylim(-1.6, 1.6)
     inset.set_axis_off()
 
 
-def plot_maps_row(axes, input_img, fields, title: str = "", *, grouping_label: str = "grouping", key: bool = True,
-                  extent=None):
+def plot_maps_row(
+    axes, input_img, fields, title: str = "", *, grouping_label: str = "grouping", key: bool = True, extent=None
+):
     """Draw input, figure-ground map and grouping map into three axes.
 
     ``fields`` is ``(fg_x, fg_y, grouping)`` of one frame.
@@ -87,9 +97,14 @@ def plot_maps_row(axes, input_img, fields, title: str = "", *, grouping_label: s
     a0.imshow(input_img, cmap="gray" if np.ndim(input_img) == 2 else None, interpolation="nearest", extent=extent)
     a0.set_title(f"input {title}".strip(), fontsize=9)
     a1.imshow(fg_rgb(fg_x, fg_y), interpolation="nearest", extent=extent)
-    silent = not np.any(grouping)           # (drawn dark, not at the middle of an autoscaled range)
-    im = a2.imshow(grouping, cmap=GROUPING_CMAP, interpolation="nearest", extent=extent,
-                   **({"vmin": 0.0, "vmax": 1.0} if silent else {}))
+    silent = not np.any(grouping)  # (drawn dark, not at the middle of an autoscaled range)
+    im = a2.imshow(
+        grouping,
+        cmap=GROUPING_CMAP,
+        interpolation="nearest",
+        extent=extent,
+        **({"vmin": 0.0, "vmax": 1.0} if silent else {}),
+    )
     bar = a2.figure.colorbar(im, ax=a2, fraction=0.046, pad=0.02)
     bar.ax.tick_params(labelsize=7)
     for a in axes:
@@ -100,8 +115,9 @@ def plot_maps_row(axes, input_img, fields, title: str = "", *, grouping_label: s
         a1.set_title(f"figure-ground {title}".strip(), fontsize=9)
         a2.set_title(f"grouping {title}".strip() + (": none" if silent else ""), fontsize=9)
         return
-    a1.set_title("figure-ground: hue = direction to the owner,\nbrightness = strength (wheel: 0° right, 90° up)",
-                 fontsize=8)
+    a1.set_title(
+        "figure-ground: hue = direction to the owner,\nbrightness = strength (wheel: 0° right, 90° up)", fontsize=8
+    )
     _wheel_inset(a1)
     a2.set_title("grouping: no activity" if silent else "grouping (proto-object centres are bright)", fontsize=9)
     bar.set_label(grouping_label, fontsize=8)
@@ -129,8 +145,17 @@ def shown_note(shown, n: int, what: str = "windows", labels=None) -> str:
     return f"{len(shown)} of {n} {what} shown, evenly spaced: {listed}"
 
 
-def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
-                grouping_label: str = "grouping", crop=None, placed=None) -> Figure:
+def maps_figure(
+    inputs,
+    fg_x,
+    fg_y,
+    grouping,
+    titles=None,
+    max_rows: int = 12,
+    grouping_label: str = "grouping",
+    crop=None,
+    placed=None,
+) -> Figure:
     """One row per frame (input, figure-ground, grouping).
 
     ``inputs`` is a list of images (grey or RGB), one per frame; arrays of
@@ -158,17 +183,23 @@ def maps_figure(inputs, fg_x, fg_y, grouping, titles=None, max_rows: int = 12,
         extent = (px - 0.5, px + k * (x1 - x0) - 0.5, py + k * (y1 - y0) - 0.5, py - 0.5)
     idx = rows_shown(n, max_rows)
     note = shown_note(idx, n)
-    aspect = (x1 - x0) / (y1 - y0)          # (the same for a placed frame: its pixels are square)
+    aspect = (x1 - x0) / (y1 - y0)  # (the same for a placed frame: its pixels are square)
     panel_w = _panel_width(aspect)
-    row_h = min(PANEL_IN, max(panel_w / aspect + 0.9, 1.8))      # (0.9 in: titles and tick labels)
-    note_in = 0.45 if note else 0.0           # (a strip of its own at the top, whatever the figure's height)
+    row_h = min(PANEL_IN, max(panel_w / aspect + 0.9, 1.8))  # (0.9 in: titles and tick labels)
+    note_in = 0.45 if note else 0.0  # (a strip of its own at the top, whatever the figure's height)
     height = row_h * len(idx) + 0.3 + note_in
     fig = Figure(figsize=(3 * panel_w + 2.4, height))
     axes = fig.subplots(len(idx), 3, squeeze=False)
-    for row, i in enumerate(idx):      # (the key, on the first row, explains every row)
-        plot_maps_row(axes[row], np.asarray(inputs[i])[cut], (fg_x[i][cut], fg_y[i][cut], grouping[i][cut]),
-                      titles[i] if titles is not None else "", grouping_label=grouping_label, key=row == 0,
-                      extent=extent)
+    for row, i in enumerate(idx):  # (the key, on the first row, explains every row)
+        plot_maps_row(
+            axes[row],
+            np.asarray(inputs[i])[cut],
+            (fg_x[i][cut], fg_y[i][cut], grouping[i][cut]),
+            titles[i] if titles is not None else "",
+            grouping_label=grouping_label,
+            key=row == 0,
+            extent=extent,
+        )
     if note:
         fig.suptitle(note, fontsize=9, y=1 - 0.1 / height, va="top")
     fig.tight_layout(rect=(0, 0, 1, 1 - note_in / height))
@@ -206,14 +237,22 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) 
         inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
         has_a, has_b = (np.hypot(ax_, ay_) > 0) & inside, (np.hypot(bx, by) > 0) & inside
         diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
-        ax[2].imshow(np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92)), cmap="gray", vmin=0, vmax=1,
-                     interpolation="nearest")
+        ax[2].imshow(
+            np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92)),
+            cmap="gray",
+            vmin=0,
+            vmax=1,
+            interpolation="nearest",
+        )
         im = ax[2].imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
         bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
         bar.set_label("angle difference (deg)", fontsize=8)
-        ax[2].set_title(f"difference{'' if where is None else ' on the compared pixels'}: mean "
-                        f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45° (grey: one map "
-                        f"only{'' if where is None else '; pale: not compared'})", fontsize=8)
+        ax[2].set_title(
+            f"difference{'' if where is None else ' on the compared pixels'}: mean "
+            f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45° (grey: one map "
+            f"only{'' if where is None else '; pale: not compared'})",
+            fontsize=8,
+        )
         for x in ax:
             x.tick_params(labelsize=7)
     _wheel_inset(axes[0][1])
@@ -235,7 +274,7 @@ def raster_figure(record, window: int | None = None) -> Figure:
     where = "" if window is None else f" (window {window})"
     fig = Figure(figsize=(10, 8.6), layout="constrained")
     ax = fig.subplots()
-    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))       # below: what the roles are
+    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))  # below: what the roles are
     fig.text(0.01, 0.15, role_caption(), fontsize=7, va="top")
     raster = record.raster
     if raster is not None and raster.row.size:
@@ -243,12 +282,23 @@ def raster_figure(record, window: int | None = None) -> Figure:
         for ri in np.unique(raster.role):
             m = raster.role == ri
             ax.scatter(raster.t_ms[m], raster.row[m], s=2, color=cmap(int(ri)), marker="|")
-            ax.text(1.01, float(np.median(raster.row[m])), ROLE_ORDER[int(ri)], transform=ax.get_yaxis_transform(),
-                    fontsize=7, va="center")
+            ax.text(
+                1.01,
+                float(np.median(raster.row[m])),
+                ROLE_ORDER[int(ri)],
+                transform=ax.get_yaxis_transform(),
+                fontsize=7,
+                va="center",
+            )
         ax.set_ylim(raster.row.max() + 1, -1)
     else:
-        ax.text(0.5, 0.5, "spike times were not recorded (record_spikes=False) or no cell fired",
-                ha="center", transform=ax.transAxes)
+        ax.text(
+            0.5,
+            0.5,
+            "spike times were not recorded (record_spikes=False) or no cell fired",
+            ha="center",
+            transform=ax.transAxes,
+        )
     ax.axvline(record.settle_ms, color="k", lw=0.8, ls="--")
     ax.set_xlim(0, record.duration_ms)
     ax.set_xlabel("time (ms); dashed: spikes after this are counted")
@@ -263,8 +313,10 @@ def role_caption(width: int = 170) -> str:
 
     from .network.roles import ROLE_MEANINGS
 
-    return "\n".join(textwrap.fill(f"{', '.join(roles)}: {meaning}", width, subsequent_indent="    ")
-                     for roles, meaning in ROLE_MEANINGS)
+    return "\n".join(
+        textwrap.fill(f"{', '.join(roles)}: {meaning}", width, subsequent_indent="    ")
+        for roles, meaning in ROLE_MEANINGS
+    )
 
 
 def rate_histogram_figure(record, window: int | None = None) -> Figure:
@@ -291,7 +343,7 @@ def rate_histogram_figure(record, window: int | None = None) -> Figure:
         ax.tick_params(labelsize=7)
         ax.set_xlabel("rate (Hz)", fontsize=7)
         ax.set_ylabel("cells", fontsize=7)
-    for ax in axes.ravel()[len(roles):]:
+    for ax in axes.ravel()[len(roles) :]:
         ax.axis("off")
     fig.suptitle(f"Firing rates per population role, counting window of {record.count_window_ms:g} ms{where}")
     fig.tight_layout()
@@ -306,15 +358,26 @@ def save_spiking_figures(maps, out_dir, window: int | None = None, with_maps: bo
     leaves ``maps.png`` out (for a caller that drew its own)."""
     from .spiking.record import SpikingRecord
 
-    maps = getattr(maps, "maps", maps)       # a SpikingResult is accepted too
+    maps = getattr(maps, "maps", maps)  # a SpikingResult is accepted too
     record, window = SpikingRecord.from_maps(maps, window)
     out = Path(out_dir)
     pick = (lambda a: a) if window is None else (lambda a: a[window])
     title = "" if window is None else f"(window {window})"
-    written = [save_maps_figure(out / "maps.png", event_frame_rgb(record.input_on, record.input_off),
-                                pick(maps.fg_x), pick(maps.fg_y), pick(maps.grouping), titles=[title],
-                                grouping_label=SPIKING_GROUPING_LABEL)] if with_maps else []
+    written = (
+        [
+            save_maps_figure(
+                out / "maps.png",
+                event_frame_rgb(record.input_on, record.input_off),
+                pick(maps.fg_x),
+                pick(maps.fg_y),
+                pick(maps.grouping),
+                titles=[title],
+                grouping_label=SPIKING_GROUPING_LABEL,
+            )
+        ]
+        if with_maps
+        else []
+    )
     written.append(save_figure(raster_figure(record, window), out / "spike_raster.png", dpi=120))
     written.append(save_figure(rate_histogram_figure(record, window), out / "rate_histograms.png", dpi=110))
     return written
-

@@ -18,6 +18,7 @@
 Directions are unit vectors, x right and y up, like the models' ``fg_x``,
 ``fg_y``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -76,8 +77,9 @@ def load_bsds_fg(root, image_id) -> GroundTruth:
     if fg.ndim != 3 or not np.isin(fg, (-1, 0, 1)).all():
         raise InputError(path, f"'fg' must be (labellers, H, W) with values -1, 0, 1; got shape {fg.shape}")
     image = Path(root, "images", f"{image_id}.jpg")
-    return GroundTruth(image_id=str(image_id), fg=fg.astype(np.int8), labellers=labellers,
-                       image_path=image if image.exists() else None)
+    return GroundTruth(
+        image_id=str(image_id), fg=fg.astype(np.int8), labellers=labellers, image_path=image if image.exists() else None
+    )
 
 
 def _window_sums(mask, side):
@@ -85,7 +87,7 @@ def _window_sums(mask, side):
     h, w = mask.shape
     r, c = np.mgrid[0:h, 0:w].astype(np.float64)
     m = mask.astype(np.float64)
-    box = lambda a: ndi.uniform_filter(a, side, mode="constant") * side * side   # noqa: E731 - a window sum
+    box = lambda a: ndi.uniform_filter(a, side, mode="constant") * side * side  # noqa: E731 - a window sum
     n, sr, sc = box(m), box(m * r), box(m * c)
     srr, scc, src = box(m * r * r), box(m * c * c), box(m * r * c)
     # moments about the window's centre pixel (dx right, dy down)
@@ -105,7 +107,7 @@ def _fit_normals(fig, side):
         cxx, cyy, cxy = dxx / n - mx * mx, dyy / n - my * my, dxy / n - mx * my
         # eigenvalues of the 2 x 2 scatter; the normal is the eigenvector of the smaller one
         half_tr = (cxx + cyy) / 2
-        root = np.sqrt(np.maximum(((cxx - cyy) / 2) ** 2 + cxy ** 2, 0))
+        root = np.sqrt(np.maximum(((cxx - cyy) / 2) ** 2 + cxy**2, 0))
         big, small = half_tr + root, half_tr - root
         tangent = 0.5 * np.arctan2(2 * cxy, cxx - cyy)
     ok = (n >= MIN_POINTS) & (big > 0) & (small <= MAX_ANISOTROPY * big)
@@ -172,7 +174,7 @@ def boundary_directions(fg_map) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         keep = g != 0
         rows, cols, flip = rows[keep], cols[keep], np.where(g[keep] > 0, -1.0, 1.0)
         out_x[rows, cols] = nx[keep] * flip
-        out_y[rows, cols] = -ny[keep] * flip          # rows grow downwards; y points up
+        out_y[rows, cols] = -ny[keep] * flip  # rows grow downwards; y points up
         todo[rows, cols] = False
     return out_x, out_y, fig & ~todo
 
@@ -196,12 +198,23 @@ def summarise_errors(signed) -> dict:
     signed = np.asarray(signed, np.float64)
     if not signed.size:
         nan = float("nan")
-        return {"mean_signed_deg": nan, "mean_abs_deg": nan, "median_abs_deg": nan, "within45": nan,
-                "side_accuracy": nan, "n_pixels": 0}
+        return {
+            "mean_signed_deg": nan,
+            "mean_abs_deg": nan,
+            "median_abs_deg": nan,
+            "within45": nan,
+            "side_accuracy": nan,
+            "n_pixels": 0,
+        }
     a = np.abs(signed)
-    return {"mean_signed_deg": float(signed.mean()), "mean_abs_deg": float(a.mean()),
-            "median_abs_deg": float(np.median(a)), "within45": float(np.mean(a <= WITHIN_DEG)),
-            "side_accuracy": float(np.mean(a < SIDE_DEG)), "n_pixels": int(signed.size)}
+    return {
+        "mean_signed_deg": float(signed.mean()),
+        "mean_abs_deg": float(a.mean()),
+        "median_abs_deg": float(np.median(a)),
+        "within45": float(np.mean(a <= WITHIN_DEG)),
+        "side_accuracy": float(np.mean(a < SIDE_DEG)),
+        "n_pixels": int(signed.size),
+    }
 
 
 def score_directions(fg_x, fg_y, truth) -> dict:

@@ -2,6 +2,7 @@
 
 Shared by the event-camera simulator (grey) and the frame-based model (RGB).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -26,7 +27,7 @@ def read_image(path, grey: bool = True) -> np.ndarray:
     if not len(data):
         raise InputError(path, "file is empty", "byte offset 0")
     level = cv2.utils.logging.getLogLevel()
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)   # a damaged file: one line, ours
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)  # a damaged file: one line, ours
     try:
         img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
     finally:
@@ -35,8 +36,7 @@ def read_image(path, grey: bool = True) -> np.ndarray:
         kind = image_format(data[:16].tobytes())
         if kind is None:
             raise InputError(path, "not an image: its first bytes are no image format's", "byte offset 0")
-        raise InputError(path, f"a {kind} file that OpenCV cannot decode: damaged or cut short "
-                               f"({len(data):,} bytes)")
+        raise InputError(path, f"a {kind} file that OpenCV cannot decode: damaged or cut short ({len(data):,} bytes)")
     if img.ndim == 3:
         if img.shape[2] == 4:
             img = img[:, :, :3]
@@ -45,8 +45,15 @@ def read_image(path, grey: bool = True) -> np.ndarray:
 
 
 #: First bytes of each image format OpenCV reads here.
-_MAGIC = ((b"\x89PNG\r\n\x1a\n", "PNG"), (b"\xff\xd8\xff", "JPEG"), (b"BM", "BMP"), (b"II*\x00", "TIFF"),
-          (b"MM\x00*", "TIFF"), (b"P5", "PGM"), (b"P6", "PPM"))
+_MAGIC = (
+    (b"\x89PNG\r\n\x1a\n", "PNG"),
+    (b"\xff\xd8\xff", "JPEG"),
+    (b"BM", "BMP"),
+    (b"II*\x00", "TIFF"),
+    (b"MM\x00*", "TIFF"),
+    (b"P5", "PGM"),
+    (b"P6", "PPM"),
+)
 
 
 def image_format(head: bytes) -> str | None:
@@ -86,8 +93,9 @@ def as_float_image(image, source="<image>", grey: bool = True) -> np.ndarray:
         f = img.astype(np.float64) / 65535.0
     elif kind in "iu":
         if img.size and (img.min() < 0 or img.max() > 255):
-            raise InputError(source, f"integer image of dtype {img.dtype} must hold values 0..255 "
-                                     f"(found {img.min()}..{img.max()})")
+            raise InputError(
+                source, f"integer image of dtype {img.dtype} must hold values 0..255 (found {img.min()}..{img.max()})"
+            )
         f = img.astype(np.float64) / 255.0
     elif kind == "f":
         f = img.astype(np.float64)

@@ -8,6 +8,7 @@
 Every problem raises :class:`~snn_fg.errors.InputError` naming the file;
 what a model runs on is a :class:`Still`.
 """
+
 from __future__ import annotations
 
 import zipfile
@@ -51,18 +52,24 @@ def input_kind(spec: str) -> str:
     suffix = path.suffix.lower()
     if suffix in IMAGE_SUFFIXES:
         return "image"
-    if suffix not in SUFFIX_FORMAT:                 # (.npz is one: a recording's arrays or an event frame)
-        raise InputError(path, f"unknown extension '{suffix or '(none)'}': INPUT is an image "
-                               f"({', '.join(sorted(IMAGE_SUFFIXES))}), an .npz event frame, a recording "
-                               f"({', '.join(sorted(SUFFIX_FORMAT))}) or 'demo'")
+    if suffix not in SUFFIX_FORMAT:  # (.npz is one: a recording's arrays or an event frame)
+        raise InputError(
+            path,
+            f"unknown extension '{suffix or '(none)'}': INPUT is an image "
+            f"({', '.join(sorted(IMAGE_SUFFIXES))}), an .npz event frame, a recording "
+            f"({', '.join(sorted(SUFFIX_FORMAT))}) or 'demo'",
+        )
     if suffix == ".npz":
         try:
             with check.load_npz(path, "an event frame (pos, neg) or a recording (x, y, t, p)") as d:
                 if "pos" in d.files or "neg" in d.files:
                     return "frame"
                 if "events" not in d.files and not {"x", "y", "t", "p"} <= set(d.files):
-                    raise InputError(path, "lacks keys pos, neg (an event frame) and x, y, t, p or "
-                                           f"'events' (a recording); found keys {', '.join(d.files) or 'none'}")
+                    raise InputError(
+                        path,
+                        "lacks keys pos, neg (an event frame) and x, y, t, p or "
+                        f"'events' (a recording); found keys {', '.join(d.files) or 'none'}",
+                    )
         except InputError:
             raise
         except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
@@ -97,8 +104,9 @@ def read_npz_arrays(path, required, optional=(), what: str = "file") -> dict:
         with check.load_npz(path, what) as d:
             missing = [k for k in required if k not in d.files]
             if missing:
-                raise InputError(path, f"{what} lacks key(s) {', '.join(missing)} "
-                                       f"(found: {', '.join(d.files) or 'nothing'})")
+                raise InputError(
+                    path, f"{what} lacks key(s) {', '.join(missing)} (found: {', '.join(d.files) or 'nothing'})"
+                )
             return {k: d[k] for k in (*required, *optional) if k in d.files}
     except InputError:
         raise
@@ -124,8 +132,11 @@ def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
     both = (pos > 0) & (neg > 0)
     if both.any():
         r, c = np.argwhere(both)[0]
-        raise InputError(path, "a pixel is both ON and OFF; stage 1 keeps only the last event's polarity",
-                         f"pixel row {r}, column {c}")
+        raise InputError(
+            path,
+            "a pixel is both ON and OFF; stage 1 keeps only the last event's polarity",
+            f"pixel row {r}, column {c}",
+        )
     return pos, neg
 
 

@@ -1,4 +1,5 @@
 """Decoded model output: the figure-ground vector field and the grouping map."""
+
 from __future__ import annotations
 
 import json
@@ -7,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import save_npz
 from . import validate as check
+from .atomic import save_npz
 from .errors import InputError
 
 #: what a spiking run's grouping map is (figure labels)
@@ -43,8 +44,10 @@ class Maps:
         what = f"{shape[0]} windows of {size}" if len(shape) == 3 else size
         model = self.params.get("model")
         extra = ", ".join(sorted(self.extra)[:8]) + (", ..." if len(self.extra) > 8 else "")
-        return (f"Maps({what}{f', model {model!r}' if model else ''}; fg_x, fg_y, grouping; "
-                f"params: {len(self.params)} entries; extra: {extra or 'none'})")
+        return (
+            f"Maps({what}{f', model {model!r}' if model else ''}; fg_x, fg_y, grouping; "
+            f"params: {len(self.params)} entries; extra: {extra or 'none'})"
+        )
 
     @property
     def angle(self) -> np.ndarray:
@@ -56,8 +59,14 @@ class Maps:
         return np.hypot(self.fg_x, self.fg_y)
 
     def save(self, path) -> Path:
-        return save_npz(path, fg_x=self.fg_x, fg_y=self.fg_y, grouping=self.grouping,
-                        params=np.array(json.dumps(self.params, sort_keys=True)), **self.extra)
+        return save_npz(
+            path,
+            fg_x=self.fg_x,
+            fg_y=self.fg_y,
+            grouping=self.grouping,
+            params=np.array(json.dumps(self.params, sort_keys=True)),
+            **self.extra,
+        )
 
     @classmethod
     def load(cls, path) -> "Maps":
@@ -91,7 +100,7 @@ def window_part(extra: dict, key: str, window: int) -> np.ndarray:
     """Window ``window``'s part of a per-window array of a recording's Maps:
     a slice of a ragged array (``key`` with ``key_offsets``, see
     :mod:`snn_fg.store`) or one row of a stacked one."""
-    if f"{key}_offsets" in extra:       # (only that part is read from a store's lazy arrays)
+    if f"{key}_offsets" in extra:  # (only that part is read from a store's lazy arrays)
         off = extra[f"{key}_offsets"]
-        return np.asarray(extra[key][int(off[window]):int(off[window + 1])])
+        return np.asarray(extra[key][int(off[window]) : int(off[window + 1])])
     return np.asarray(extra[key][window])

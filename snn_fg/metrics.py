@@ -17,6 +17,7 @@ Grouping maps are dense and compared whole: Pearson r, and SSIM after scaling
 each map by its own maximum (the spiking model's grouping is in Hz, the rate
 model's in its own units).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,7 +29,7 @@ from .maps import Maps
 
 def angle_difference_deg(ax, ay, bx, by) -> np.ndarray:
     """Absolute circular difference between two direction fields, degrees (float64)."""
-    f = lambda v: np.asarray(v, dtype=np.float64)    # noqa: E731 - float32 maps lose 1e-5 deg here
+    f = lambda v: np.asarray(v, dtype=np.float64)  # noqa: E731 - float32 maps lose 1e-5 deg here
     d = np.arctan2(f(ay), f(ax)) - np.arctan2(f(by), f(bx))
     return np.abs(np.degrees(np.angle(np.exp(1j * d))))
 
@@ -94,8 +95,12 @@ def agreement(a, b) -> dict:
     fraction of ``b``'s vectors that ``a`` has at all (``coverage``)."""
     a, b = (m if isinstance(m, tuple) else (m.fg_x, m.fg_y, m.grouping) for m in (a, b))
     c = compare_frame(*a, *b)
-    return {"mean_deg": c["angle_diff_mean_deg"], "within_45": c["angle_within_45_frac"],
-            "grouping_r": c["grouping_pearson_r"], "coverage": c["coverage_of_b"]}
+    return {
+        "mean_deg": c["angle_diff_mean_deg"],
+        "within_45": c["angle_within_45_frac"],
+        "grouping_r": c["grouping_pearson_r"],
+        "coverage": c["coverage_of_b"],
+    }
 
 
 def _windows(m: Maps):
@@ -126,8 +131,12 @@ def _window_pairs(wa, wb, window):
     elif len(wa) == len(wb):
         pairs = list(zip(wa, wb))
     else:
-        check.fail("compare_maps", None, None, f"the maps hold {len(wa)} and {len(wb)} windows and no start "
-                                               "times to pair them by; pick one with window=")
+        check.fail(
+            "compare_maps",
+            None,
+            None,
+            f"the maps hold {len(wa)} and {len(wb)} windows and no start times to pair them by; pick one with window=",
+        )
     if not pairs:
         check.fail("compare_maps", None, None, "the two recordings share no window start time")
     return pairs
@@ -184,8 +193,14 @@ def compare_maps(a: Maps, b: Maps, window: int | None = None, where=None) -> lis
         if where is not None:
             keep = where(ia, ib)
             ax, ay, bx, by = (np.where(keep, v, 0) for v in (ax, ay, bx, by))
-        rows.append({"window_a": ia, "window_b": ib, "t_start_ms": None if t is None else t / 1000.0,
-                     **compare_frame(ax, ay, ag, bx, by, bg)})
+        rows.append(
+            {
+                "window_a": ia,
+                "window_b": ib,
+                "t_start_ms": None if t is None else t / 1000.0,
+                **compare_frame(ax, ay, ag, bx, by, bg),
+            }
+        )
     return rows
 
 

@@ -6,6 +6,7 @@ its figures. The command line and the experiments pick a model by name from
 :data:`MODELS` and never branch on which one it is. To add a model, subclass
 :class:`Model` and register it.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -44,7 +45,7 @@ class Model(ABC):
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None):
         self.params = params
-        self.progress = progress      # a factory wrapping iterables in a progress bar, or None
+        self.progress = progress  # a factory wrapping iterables in a progress bar, or None
 
     @abstractmethod
     def run_still(self, still: Still) -> Maps:
@@ -86,7 +87,7 @@ class Model(ABC):
 
     def figure_input(self, still: Still) -> np.ndarray:
         """The image shown beside the maps."""
-        from .figures import event_frame_rgb        # (matplotlib: only for runs that draw)
+        from .figures import event_frame_rgb  # (matplotlib: only for runs that draw)
 
         return event_frame_rgb(still.pos, still.neg)
 
@@ -95,8 +96,18 @@ class Model(ABC):
         ``crop`` ``(x0, y0, x1, y1)``: the maps' part to draw (all of it)."""
         from .figures import save_maps_figure
 
-        return [save_maps_figure(out / "maps.png", inputs, maps.fg_x, maps.fg_y, maps.grouping, titles=titles,
-                                 grouping_label=self.grouping_label, crop=crop)]
+        return [
+            save_maps_figure(
+                out / "maps.png",
+                inputs,
+                maps.fg_x,
+                maps.fg_y,
+                maps.grouping,
+                titles=titles,
+                grouping_label=self.grouping_label,
+                crop=crop,
+            )
+        ]
 
 
 class RateModel(Model):
@@ -144,8 +155,16 @@ class RateModel(Model):
             t = time.perf_counter()
             previous = run_edfg_state(w.pos, w.neg, self.params, progress=self.progress, previous=previous)
             if w.index >= start:
-                yield w, self.named(previous.maps(carry_state=True, continued_from_previous_window=continued,
-                                                  timings_s={"run": time.perf_counter() - t}))
+                yield (
+                    w,
+                    self.named(
+                        previous.maps(
+                            carry_state=True,
+                            continued_from_previous_window=continued,
+                            timings_s={"run": time.perf_counter() - t},
+                        )
+                    ),
+                )
 
 
 class FbfgModel(Model):
@@ -193,26 +212,50 @@ class SpikingModel(Model):
 
     name = "spiking"
     grouping_label = SPIKING_GROUPING_LABEL
-    blank_window_hint = ("the spiking network needs tens of ms of input before its feedback orders the "
-                         "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle. "
-                         "A clip that short can run as its event frame, which the network sees for as long as it "
-                         "needs: snn-fg events REC --write-frame F.npz, then snn-fg run F.npz --model spiking")
-    options = ("network", "backend", "duration_ms", "settle_ms", "dt_ms", "seed", "feedback", "readout_lag_ms",
-               "window_clock", "spike_input", "instantiate", "save_spikes")
+    blank_window_hint = (
+        "the spiking network needs tens of ms of input before its feedback orders the "
+        "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle. "
+        "A clip that short can run as its event frame, which the network sees for as long as it "
+        "needs: snn-fg events REC --write-frame F.npz, then snn-fg run F.npz --model spiking"
+    )
+    options = (
+        "network",
+        "backend",
+        "duration_ms",
+        "settle_ms",
+        "dt_ms",
+        "seed",
+        "feedback",
+        "readout_lag_ms",
+        "window_clock",
+        "spike_input",
+        "instantiate",
+        "save_spikes",
+    )
 
-    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, network=None,
-                 backend=DEFAULT_BACKEND, spike_input: str = "regular", save_spikes: bool = False, **run_options):
+    def __init__(
+        self,
+        params: ModelParams = ModelParams(),
+        progress=None,
+        *,
+        network=None,
+        backend=DEFAULT_BACKEND,
+        spike_input: str = "regular",
+        save_spikes: bool = False,
+        **run_options,
+    ):
         from .spiking.options import SpikingOptions
 
         super().__init__(params, progress)
-        self.network = network       # a stored description (its own ModelParams), or None: build from params
-        self._backend = None         # the backend object, made on first use and kept (see _sim)
+        self.network = network  # a stored description (its own ModelParams), or None: build from params
+        self._backend = None  # the backend object, made on first use and kept (see _sim)
         self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
         self.save_spikes = check.flag("spiking model", "save_spikes", save_spikes)
         built = {"params": params} if network is None else {"network": network}
         #: every option of the runs, checked here once: a frame uses its frame part, a recording its recording part
         self.run_options = SpikingOptions.from_keywords(
-            "run_spiking", {**built, "backend": backend, "progress": progress is not None, **run_options})
+            "run_spiking", {**built, "backend": backend, "progress": progress is not None, **run_options}
+        )
 
     @property
     def backend(self):
@@ -227,7 +270,7 @@ class SpikingModel(Model):
         return self._backend
 
     def __getstate__(self):
-        return {**self.__dict__, "_backend": None}    # (a copy elsewhere makes its own: the arrays stay here)
+        return {**self.__dict__, "_backend": None}  # (a copy elsewhere makes its own: the arrays stay here)
 
     def _run(self, **inputs) -> Maps:
         from .spiking import run_spiking
@@ -237,8 +280,11 @@ class SpikingModel(Model):
     def run_still(self, still: Still) -> Maps:
         if self.spike_input == "events":
             if still.recording is None:
-                raise InputError("<frame>", "spike input 'events' needs an image (its simulated events carry "
-                                            "their timing); an event frame has none: use 'regular'")
+                raise InputError(
+                    "<frame>",
+                    "spike input 'events' needs an image (its simulated events carry "
+                    "their timing); an event frame has none: use 'regular'",
+                )
             rec = still.recording
             return self._run(events=rec.events, sensor_size=rec.sensor_size)
         return self._run(pos=still.pos, neg=still.neg)
@@ -250,7 +296,7 @@ class SpikingModel(Model):
         window of a longer recording."""
         if not (window.pos.any() or window.neg.any()):
             return self.empty_maps(window.pos.shape)
-        (_, maps), = self.run_windows([window])
+        ((_, maps),) = self.run_windows([window])
         return maps
 
     def run_windows(self, windows, start: int = 0):
@@ -274,9 +320,10 @@ class SpikingModel(Model):
                 emit(window, self.named(maps))
 
         options = self.run_options.on(self._sim())
-        if not self.save_spikes:        # (the counts and spike trains would be dropped unread: not made)
-            options = dataclasses.replace(options, simulator=dataclasses.replace(options.simulator,
-                                                                                 record_spikes=False))
+        if not self.save_spikes:  # (the counts and spike trains would be dropped unread: not made)
+            options = dataclasses.replace(
+                options, simulator=dataclasses.replace(options.simulator, record_spikes=False)
+            )
         return stream_spiking_windows(windows, done, options=options, cells=self.save_spikes)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
@@ -307,8 +354,9 @@ class NaturalSpikingModel(SpikingModel):
     base_params = NATURAL_PARAMS
 
 
-MODELS: dict[str, type[Model]] = {m.name: m for m in (RateModel, FbfgModel, SpikingModel, NaturalModel,
-                                                       NaturalSpikingModel)}
+MODELS: dict[str, type[Model]] = {
+    m.name: m for m in (RateModel, FbfgModel, SpikingModel, NaturalModel, NaturalSpikingModel)
+}
 
 
 def get_model(name: str, params: ModelParams | None = None, progress=None, **options) -> Model:

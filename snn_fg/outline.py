@@ -5,6 +5,7 @@ largest connected region after closing small gaps and filling holes. The
 inward direction along that outline comes from the gradient of the smoothed
 filled mask.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,7 +21,8 @@ def filled_outline(edges: np.ndarray, close_px: int = 4, min_fraction: float = 0
         return m
     st = ndi.generate_binary_structure(2, 2)
     closed = ndi.binary_closing(np.pad(m, close_px), structure=st, iterations=close_px)[
-        close_px:-close_px, close_px:-close_px]
+        close_px:-close_px, close_px:-close_px
+    ]
     filled = ndi.binary_fill_holes(closed)
     lab, n = ndi.label(filled)
     sizes = ndi.sum(filled, lab, range(1, n + 1))
@@ -44,15 +46,21 @@ def event_outlines(a, b, band_px: int):
     frames = [(m.extra.get("event_frame"), k) for k, m in enumerate((a, b))]
     frames = [(ef, k) for ef, k in frames if ef is not None]
     if not frames:
-        check.fail("compare_maps", "outline_px", band_px, "(--outline) needs the event frame a recording's run "
-                                                          "stores with its maps; neither map has one (a still "
-                                                          "image's run stores none)")
+        check.fail(
+            "compare_maps",
+            "outline_px",
+            band_px,
+            "(--outline) needs the event frame a recording's run "
+            "stores with its maps; neither map has one (a still "
+            "image's run stores none)",
+        )
     ef, k = frames[0]
 
     def where(ia, ib):
         i = (ia, ib)[k]
         frame = np.asarray(ef if i is None or np.ndim(ef) == 2 else ef[i])
         return outline_band(filled_outline(frame != 0), band_px)
+
     return where
 
 
@@ -62,7 +70,7 @@ def _outline_vectors(fg_x, fg_y, region, band_px, sigma):
     inner = outline_band(region, band_px)
     smooth = ndi.gaussian_filter(region.astype(float), sigma)
     gy_rows, gx = np.gradient(smooth)
-    nx, ny = gx, -gy_rows                     # y up
+    nx, ny = gx, -gy_rows  # y up
     mag = np.hypot(fg_x, fg_y)
     sel = inner & (mag > 0) & (np.hypot(nx, ny) > 1e-6)
     return fg_x[sel], fg_y[sel], nx[sel], ny[sel]

@@ -2,6 +2,7 @@
 
 Defaults are the paper's Table T1 values (see ``docs/model.md``, "Default parameters").
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -90,12 +91,21 @@ class ModelParams:
         check.integer(owner, "n_ori", self.n_ori, lo=1)
         check.integer(owner, "iterations", self.iterations, lo=0)
         check.integer(owner, "side_cue_level", self.side_cue_level, lo=1)
-        for name, lo, strict in (("r0", 0, True), ("alpha", 0, False), ("w_inh", None, False),
-                                 ("dog_half_width", 0, True), ("dog_step", 0, True), ("edge_threshold", None, False),
-                                 ("sum_threshold", None, False), ("pyramid_decay", None, False),
-                                 ("grouping_floor", None, False), ("fbfg_edge_sigma", 0, True),
-                                 ("fbfg_edge_floor", None, False), ("side_cue", 0, False),
-                                 ("side_cue_radius", 0, True)):
+        for name, lo, strict in (
+            ("r0", 0, True),
+            ("alpha", 0, False),
+            ("w_inh", None, False),
+            ("dog_half_width", 0, True),
+            ("dog_step", 0, True),
+            ("edge_threshold", None, False),
+            ("sum_threshold", None, False),
+            ("pyramid_decay", None, False),
+            ("grouping_floor", None, False),
+            ("fbfg_edge_sigma", 0, True),
+            ("fbfg_edge_floor", None, False),
+            ("side_cue", 0, False),
+            ("side_cue_radius", 0, True),
+        ):
             object.__setattr__(self, name, check.number(owner, name, getattr(self, name), lo=lo, lo_open=strict))
         check.choice(owner, "grouping_polarity", self.grouping_polarity, GROUPING_POLARITIES)
         for name in ("dog_s1", "dog_s2"):

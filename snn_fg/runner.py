@@ -3,6 +3,7 @@ a frame all or nothing (an :class:`~snn_fg.atomic.OutputFolder`), a
 recording window by window into a store that a run can continue
 (:mod:`snn_fg.store`).
 """
+
 from __future__ import annotations
 
 import itertools
@@ -18,7 +19,6 @@ from .inputs import Still
 from .maps import Maps
 from .models import Model
 from .store import STORE_NAME, MapsStore, read_maps, store_arrays
-
 
 #: events read at a time from a recording a model runs on (1.6 MB): the
 #: spiking model reads the recording while the network runs, and the copies
@@ -98,8 +98,17 @@ def model_input_rgb(frame):
     return event_frame_rgb(frame > 0, frame < 0)
 
 
-def run_recording(model: Model, windows, out: Path, source: dict, *, crop=None, figures: bool = True,
-                  resume: bool = False, run_key: dict | None = None) -> int:
+def run_recording(
+    model: Model,
+    windows,
+    out: Path,
+    source: dict,
+    *,
+    crop=None,
+    figures: bool = True,
+    resume: bool = False,
+    run_key: dict | None = None,
+) -> int:
     """Every window of a recording through ``model`` into ``out/maps.zarr``
     (:mod:`snn_fg.store`: each window written as it completes) and, at the
     end, its figures. Returns the number of windows (``crop``: see
@@ -125,11 +134,11 @@ def run_recording(model: Model, windows, out: Path, source: dict, *, crop=None, 
     if store.complete:
         return store.n
     n_empty = n_blank = 0
-    blank_spans_ms: list = []          # how long the events of each window without a vector last
+    blank_spans_ms: list = []  # how long the events of each window without a vector last
 
     def emit(w, maps):
         nonlocal n_empty, n_blank
-        cancel.check()          # (an interrupt swallowed inside the window stops the run here)
+        cancel.check()  # (an interrupt swallowed inside the window stops the run here)
         has_events = bool(w.pos.any() or w.neg.any())
         n_empty += not has_events
         if has_events and not (maps.fg_x.any() or maps.fg_y.any()):
@@ -139,26 +148,30 @@ def run_recording(model: Model, windows, out: Path, source: dict, *, crop=None, 
         _append_window(store, w, maps)
 
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", EmptyWindowWarning)     # counted and reported once below
+        warnings.simplefilter("ignore", EmptyWindowWarning)  # counted and reported once below
         whole = model.run_windows_into(windows, emit, start=store.n)
     if store.n == 0:
-        raise InputError(source.get("input", "the recording"), "no window to process: the recording has no events after --start-ms")
+        raise InputError(
+            source.get("input", "the recording"), "no window to process: the recording has no events after --start-ms"
+        )
     if n_empty:
         print(f"snn-fg: warning: {n_empty} of {store.n} windows had no events; their maps are zero", file=sys.stderr)
     if n_blank:
         lo, hi = min(blank_spans_ms), max(blank_spans_ms)
         span = f"{lo:.0f} ms" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f} ms"
         hint = f"; {model.blank_window_hint}" if model.blank_window_hint else ""
-        print(f"snn-fg: warning: {n_blank} of {store.n - n_empty} windows with events have no figure-ground "
-              f"vector (their events last {span}{hint})", file=sys.stderr)
+        print(
+            f"snn-fg: warning: {n_blank} of {store.n - n_empty} windows with events have no figure-ground "
+            f"vector (their events last {span}{hint})",
+            file=sys.stderr,
+        )
     final = {**store.attrs["params"], "source": _source_summary(store, source)}
-    if whole:           # (kept apart: each window's own parameters are told against the first window's)
+    if whole:  # (kept apart: each window's own parameters are told against the first window's)
         final["whole_run"] = whole
     store.finish(final)
     if figures:
         maps = Maps(*read_maps(path, lazy=True))
-        titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(maps.extra["t_start_us"],
-                                                                        maps.extra["t_end_us"])]
+        titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(maps.extra["t_start_us"], maps.extra["t_end_us"])]
         model.write_figures(out, maps, _LazyFrames(maps.extra["event_frame"]), titles, crop)
     return store.n
 
@@ -172,9 +185,14 @@ def _append_window(store: MapsStore, w, maps: Maps) -> None:
     if origin is None:
         origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
         store.attrs["snn_fg"]["first_event_us"] = int(origin)
-    store.append(maps, event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8),
-                 t_start_us=np.int64(w.t_start_us - origin), t_end_us=np.int64(w.t_end_us - origin),
-                 event_count=np.int64(len(w.events)), pixel_share=np.float64(pixel_share(w)))
+    store.append(
+        maps,
+        event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8),
+        t_start_us=np.int64(w.t_start_us - origin),
+        t_end_us=np.int64(w.t_end_us - origin),
+        event_count=np.int64(len(w.events)),
+        pixel_share=np.float64(pixel_share(w)),
+    )
 
 
 def _source_summary(store: MapsStore, source: dict) -> dict:
@@ -186,9 +204,18 @@ def _source_summary(store: MapsStore, source: dict) -> dict:
     arrays = store_arrays(store.path, store.n)
     t0, t1 = (np.asarray(arrays[k]) for k in ("t_start_us", "t_end_us"))
     shares = np.asarray(arrays["pixel_share"])
-    act = Activity(t_start_ms=t0 / 1000, t_end_ms=t1 / 1000, events=np.asarray(arrays["event_count"]), share=shares,
-                   window_ms=source.get("window_ms", 0))
+    act = Activity(
+        t_start_ms=t0 / 1000,
+        t_end_ms=t1 / 1000,
+        events=np.asarray(arrays["event_count"]),
+        share=shares,
+        window_ms=source.get("window_ms", 0),
+    )
     for line in saturated_lines(act):
         print(f"snn-fg: warning: {line}", file=sys.stderr)
-    return {**source, "first_event_us": store.attrs["snn_fg"]["first_event_us"],
-            "pixel_share": [round(float(v), 4) for v in shares], "saturated_windows": act.saturated.tolist()}
+    return {
+        **source,
+        "first_event_us": store.attrs["snn_fg"]["first_event_us"],
+        "pixel_share": [round(float(v), 4) for v in shares],
+        "saturated_windows": act.saturated.tolist(),
+    }

@@ -6,6 +6,7 @@ pointing into the shape that owns that boundary: the front-most shape among
 the regions that meet there. Shapes are rendered with 4x4 supersampling so
 their edges are anti-aliased like a camera image.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -62,8 +63,9 @@ class Square(_Shape):
         """Inward normal of the nearest side (diagonal exactly at corners)."""
         dr, dc = r - self.row, c - self.col
         ar, ac = np.abs(dr), np.abs(dc)
-        return _unit(np.where(ac >= ar, -np.sign(dc), 0.0),
-                     np.where(ar >= ac, np.sign(dr), 0.0))   # row below centre -> point up
+        return _unit(
+            np.where(ac >= ar, -np.sign(dc), 0.0), np.where(ar >= ac, np.sign(dr), 0.0)
+        )  # row below centre -> point up
 
     @property
     def half(self) -> float:
@@ -75,12 +77,12 @@ class Scene:
     """A synthetic image and its figure-ground ground truth."""
 
     name: str
-    image: np.ndarray            # float64 (H, W) in [0, 1]
-    shapes: tuple                # back to front
+    image: np.ndarray  # float64 (H, W) in [0, 1]
+    shapes: tuple  # back to front
     background: float
-    labels: np.ndarray = field(repr=False)        # 0 background, i+1 for shapes[i] (visible)
-    boundary: np.ndarray = field(repr=False)      # bool, pixels where labels change (3x3)
-    owner: np.ndarray = field(repr=False)         # label of the owning shape at boundary pixels, else 0
+    labels: np.ndarray = field(repr=False)  # 0 background, i+1 for shapes[i] (visible)
+    boundary: np.ndarray = field(repr=False)  # bool, pixels where labels change (3x3)
+    owner: np.ndarray = field(repr=False)  # label of the owning shape at boundary pixels, else 0
     truth_x: np.ndarray = field(repr=False)
     truth_y: np.ndarray = field(repr=False)
 
@@ -93,7 +95,7 @@ def _neighbours(labels: np.ndarray) -> np.ndarray:
     """The 3 x 3 neighbourhood of every pixel, stacked: shape (9, H, W)."""
     h, w = labels.shape
     pad = np.pad(labels, 1, mode="edge")
-    return np.stack([pad[1 + dr:h + 1 + dr, 1 + dc:w + 1 + dc] for dr in (-1, 0, 1) for dc in (-1, 0, 1)])
+    return np.stack([pad[1 + dr : h + 1 + dr, 1 + dc : w + 1 + dc] for dr in (-1, 0, 1) for dc in (-1, 0, 1)])
 
 
 def render(shapes, size, background, name="scene") -> Scene:

@@ -32,6 +32,7 @@ at once; at the end of the run they are exact. Chunks are zlib-compressed
 
 Nothing here keeps more than one chunk per array in memory.
 """
+
 from __future__ import annotations
 
 import json
@@ -81,11 +82,11 @@ def _decode(data: bytes, dtype: np.dtype, shape) -> np.ndarray:
     raw = zlib.decompress(data)
     if dtype != _TEXT:
         return np.frombuffer(raw, dtype=dtype).reshape(shape).copy()
-    n, = struct.unpack_from("<I", raw)
+    (n,) = struct.unpack_from("<I", raw)
     items, at = [], 4
     for _ in range(n):
-        k, = struct.unpack_from("<I", raw, at)
-        items.append(raw[at + 4:at + 4 + k].decode())
+        (k,) = struct.unpack_from("<I", raw, at)
+        items.append(raw[at + 4 : at + 4 + k].decode())
         at += 4 + k
     return np.array(items, dtype=object).reshape(shape)
 
@@ -125,7 +126,7 @@ class ZarrArray:
     def rows(self, a: int, b: int) -> np.ndarray:
         """Rows ``a .. b - 1``."""
         c = self.chunks[0]
-        parts = [self.chunk(k)[max(a - k * c, 0):b - k * c] for k in range(a // c, -(-b // c))]
+        parts = [self.chunk(k)[max(a - k * c, 0) : b - k * c] for k in range(a // c, -(-b // c))]
         return np.concatenate(parts) if parts else np.zeros((0,) + self.shape[1:], self.dtype)
 
     def __getitem__(self, index):
@@ -153,18 +154,24 @@ class GrowingArray(ZarrArray):
     def create(cls, path: Path, dtype, tail: tuple, chunk: int) -> "GrowingArray":
         path.mkdir(parents=True)
         text = np.dtype(dtype) == _TEXT
-        meta = {"zarr_format": 2, "shape": [0, *tail], "chunks": [chunk, *tail], "order": "C",
-                "dtype": "|O" if text else np.dtype(dtype).str,
-                "fill_value": None if text else "" if np.dtype(dtype).kind in "US" else 0,
-                "filters": [{"id": "vlen-utf8"}] if text else None, "dimension_separator": ".",
-                "compressor": {"id": "zlib", "level": ZLIB_LEVEL}}
+        meta = {
+            "zarr_format": 2,
+            "shape": [0, *tail],
+            "chunks": [chunk, *tail],
+            "order": "C",
+            "dtype": "|O" if text else np.dtype(dtype).str,
+            "fill_value": None if text else "" if np.dtype(dtype).kind in "US" else 0,
+            "filters": [{"id": "vlen-utf8"}] if text else None,
+            "dimension_separator": ".",
+            "compressor": {"id": "zlib", "level": ZLIB_LEVEL},
+        }
         _write_json(path / ".zarray", meta)
         return cls(path)
 
     def __init__(self, path: Path, length: int | None = None):
         super().__init__(path, length)
         self.n = self.shape[0]
-        self._last: tuple[int, np.ndarray] | None = None     # (number, values) of the chunk being filled
+        self._last: tuple[int, np.ndarray] | None = None  # (number, values) of the chunk being filled
         self.shape_written = True
 
     def append(self, values) -> None:
@@ -177,11 +184,11 @@ class GrowingArray(ZarrArray):
             if self._last is None or self._last[0] != k:
                 self._last = (k, self.chunk(k) if r else _blank(self.chunks, self.dtype))
             take = min(c - r, len(values) - at)
-            self._last[1][r:r + take] = values[at:at + take]
+            self._last[1][r : r + take] = values[at : at + take]
             key = ".".join([str(k)] + ["0"] * (len(self.chunks) - 1))
-            if r:           # (holds rows of complete windows)
+            if r:  # (holds rows of complete windows)
                 write_bytes(self.path / key, _encode(self._last[1]))
-            else:           # (holds none: no reader looks at it yet)
+            else:  # (holds none: no reader looks at it yet)
                 (self.path / key).write_bytes(_encode(self._last[1]))
             self.n, at = self.n + take, at + take
         self.shape = (self.n,) + self.shape[1:]
@@ -220,8 +227,10 @@ def _same_run(path, run_key: dict) -> dict:
     stored = attrs["snn_fg"].get("run_key")
     if json.loads(json.dumps(run_key)) != stored:
         differ = sorted(k for k in set(stored or {}) | set(run_key) if (stored or {}).get(k) != run_key.get(k))
-        raise InputError(path, f"--resume needs the same input and options as the run being continued; "
-                               f"these differ: {', '.join(differ)}")
+        raise InputError(
+            path,
+            f"--resume needs the same input and options as the run being continued; these differ: {', '.join(differ)}",
+        )
     return attrs
 
 
@@ -278,25 +287,27 @@ class MapsStore:
         self.attrs = attrs
         self.n = int(attrs["snn_fg"]["windows_complete"])
         self.arrays: dict[str, GrowingArray] = {}
-        for name, length in _lengths(self.path, self.n).items():       # back to the last complete window
+        for name, length in _lengths(self.path, self.n).items():  # back to the last complete window
             self.arrays[name] = GrowingArray(self.path / name)
             self.arrays[name].resize(length)
-        self.shapes_at = time.monotonic()       # when the arrays' shapes were last written
+        self.shapes_at = time.monotonic()  # when the arrays' shapes were last written
 
     @classmethod
     def create(cls, path, run_key: dict) -> "MapsStore":
         path = Path(path)
         path.mkdir(parents=True)
         _write_json(path / ".zgroup", {"zarr_format": 2})
-        _write_json(path / ".zattrs", {"snn_fg": {"format": FORMAT, "windows_complete": 0, "complete": False,
-                                                  "run_key": run_key}, "params": {}})
+        _write_json(
+            path / ".zattrs",
+            {"snn_fg": {"format": FORMAT, "windows_complete": 0, "complete": False, "run_key": run_key}, "params": {}},
+        )
         return cls(path, read_attrs(path))
 
     @classmethod
     def reopen(cls, path, run_key: dict) -> "MapsStore":
         """The store at ``path`` to continue; refused when it was made with another ``run_key``."""
         attrs = _same_run(path, run_key)
-        for stray in Path(path).rglob("*.part"):       # (atomic writes cut short by a kill)
+        for stray in Path(path).rglob("*.part"):  # (atomic writes cut short by a kill)
             stray.unlink()
         return cls(path, attrs)
 
@@ -314,20 +325,25 @@ class MapsStore:
         arrays = {"fg_x": maps.fg_x, "fg_y": maps.fg_y, "grouping": maps.grouping, **maps.extra, **more}
         for key, v in arrays.items():
             v = np.asarray(v)
-            if v.ndim == 1:         # ragged: its length may vary from window to window
+            if v.ndim == 1:  # ragged: its length may vary from window to window
                 self._array(f"{key}_offsets", np.int64, (), FLAT_CHUNK)
                 self._array(key, v.dtype, (), FLAT_CHUNK).append(v)
             else:
                 a = self._array(key, v.dtype, v.shape, 1 if v.ndim else SCALAR_CHUNK)
                 if a.chunks[1:] != v.shape:
-                    check.fail("MapsStore", None, None, f"array {key!r} changes its shape between windows "
-                               f"({a.chunks[1:]} before, {v.shape} in window {self.n}); cannot store it")
+                    check.fail(
+                        "MapsStore",
+                        None,
+                        None,
+                        f"array {key!r} changes its shape between windows "
+                        f"({a.chunks[1:]} before, {v.shape} in window {self.n}); cannot store it",
+                    )
                 a.append(v[None])
         for key, a in self.arrays.items():
             if key.endswith("_offsets"):
                 a.append([self.arrays[key.removesuffix("_offsets")].n])
             elif a.n == self.n and f"{key}_offsets" not in self.arrays:
-                a.append(np.zeros((1,) + a.chunks[1:], a.dtype))      # absent from this window: zeros
+                a.append(np.zeros((1,) + a.chunks[1:], a.dtype))  # absent from this window: zeros
         self.n += 1
         if self.n == 1 or time.monotonic() - self.shapes_at >= SHAPES_EVERY_S:
             self._write_shapes()

@@ -10,6 +10,7 @@ A progress bar (tqdm, on stderr) counts tasks done.
 
 Dask is an optional dependency: ``pip install -e ".[sweep]"``.
 """
+
 from __future__ import annotations
 
 import json
@@ -78,8 +79,17 @@ def _client(scheduler, workers):
     return dd.Client(cluster), cluster
 
 
-def run_sweep(func: Callable[..., dict], tasks, cache_dir, *, scheduler: str | None = None,
-              workers: int | None = None, progress: bool = True, desc: str = "images", preload=()) -> dict:
+def run_sweep(
+    func: Callable[..., dict],
+    tasks,
+    cache_dir,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+    desc: str = "images",
+    preload=(),
+) -> dict:
     """Run ``func(**task.kwargs)`` for every task not yet cached; return ``{key: result}`` for all.
 
     Parameters
@@ -138,7 +148,7 @@ def _run(func, todo, cache_dir, results, *, client, bar, preload):
     bar = tqdm(unit="img", file=sys.stderr, **bar)
     try:
         if preload:
-            client.run(_import_all, preload)        # client.run executes in each worker's main thread
+            client.run(_import_all, preload)  # client.run executes in each worker's main thread
         futures = {client.submit(func, **t.kwargs, key=f"{t.key}-{os.getpid()}", pure=False): t.key for t in todo}
         for fut in dd.as_completed(futures):
             key = futures[fut]

@@ -9,6 +9,7 @@ called, as a user would recognise it: ``"ModelParams"``, ``"Population 'S_1'"``,
 ``"run_spiking"``), the parameter ``name`` and its ``value``, and returns the
 value converted to its canonical type.
 """
+
 from __future__ import annotations
 
 import math
@@ -31,13 +32,24 @@ def fail(owner: str, name: str | None, value, problem: str):
     raise ParameterError(f"{what}{problem}")
 
 
-def number(owner: str, name: str, value, *, lo: float | None = None, lo_open: bool = False,
-           hi: float | None = None, hi_open: bool = False) -> float:
+def number(
+    owner: str,
+    name: str,
+    value,
+    *,
+    lo: float | None = None,
+    lo_open: bool = False,
+    hi: float | None = None,
+    hi_open: bool = False,
+) -> float:
     """A finite real number within optional bounds, as ``float``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float, np.integer, np.floating))
+        or not math.isfinite(value)
+    ):
         fail(owner, name, value, "must be a finite number")
-    v = float(value) + 0.0                  # -0.0 as 0.0
+    v = float(value) + 0.0  # -0.0 as 0.0
     if lo is not None and (v < lo or (lo_open and v == lo)):
         fail(owner, name, value, f"must be {'>' if lo_open else '>='} {lo:g}")
     if hi is not None and (v > hi or (hi_open and v == hi)):
@@ -88,8 +100,7 @@ def known_keys(owner: str, given: Iterable[str], allowed: Iterable[str]) -> None
     """Refuse keys (keyword options, mapping fields) that ``owner`` does not take."""
     unknown = sorted(set(given) - set(allowed))
     if unknown:
-        fail(owner, None, None, f"unknown field(s) {', '.join(unknown)} "
-                                f"(known: {', '.join(sorted(allowed))})")
+        fail(owner, None, None, f"unknown field(s) {', '.join(unknown)} (known: {', '.join(sorted(allowed))})")
 
 
 def check_crop(crop, shape, owner: str = "maps_figure") -> tuple[int, int, int, int]:
@@ -97,8 +108,13 @@ def check_crop(crop, shape, owner: str = "maps_figure") -> tuple[int, int, int, 
     h, w = shape
     x0, y0, x1, y1 = (int(v) for v in crop)
     if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
-        fail(owner, None, None, f"crop x0,y0,x1,y1 = {x0},{y0},{x1},{y1} must satisfy 0 <= x0 < x1 <= {w} "
-                                f"and 0 <= y0 < y1 <= {h} (the frame is {w} x {h})")
+        fail(
+            owner,
+            None,
+            None,
+            f"crop x0,y0,x1,y1 = {x0},{y0},{x1},{y1} must satisfy 0 <= x0 < x1 <= {w} "
+            f"and 0 <= y0 < y1 <= {h} (the frame is {w} x {h})",
+        )
     return x0, y0, x1, y1
 
 

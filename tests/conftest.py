@@ -12,6 +12,7 @@
 * an autouse fixture that resets Brian2's global state around every test, so
   that one test's magic network or device settings never leak into another.
 """
+
 from __future__ import annotations
 
 import sys
@@ -46,19 +47,22 @@ def warm_simulators():
     """The level-1 default network on a radius-8 disc (every delay and receptor) run 40 ms on both engines."""
     from snn_fg.backends import RunSettings, get_backend
     from snn_fg.events import image_to_frame
+    from snn_fg.lowering.input_spikes import frame_spikes
     from snn_fg.network import build_network
     from snn_fg.params import ModelParams
     from snn_fg.scenes import disc
-    from snn_fg.lowering.input_spikes import frame_spikes
 
     pos, neg = image_to_frame(disc(8).image)
     net = build_network(ModelParams(levels=1), pos.shape)
     spikes = frame_spikes(pos, neg, 200.0, 0.5, 40.0)
     settings = RunSettings(duration_ms=40.0, record_spikes=False)
     brian2 = get_backend("brian2")
-    return SimpleNamespace(network=net, brian2=brian2.simulate(net, spikes, settings),
-                           brian2_codegen=brian2.describe()["codegen"],
-                           fast=get_backend("fast").simulate(net, spikes, settings))
+    return SimpleNamespace(
+        network=net,
+        brian2=brian2.simulate(net, spikes, settings),
+        brian2_codegen=brian2.describe()["codegen"],
+        fast=get_backend("fast").simulate(net, spikes, settings),
+    )
 
 
 @pytest.fixture(autouse=True)

@@ -1,6 +1,7 @@
 """Backend-agnostic tests: every registered simulator backend runs the same
 description and must pass the same checks. A new backend (NEST, a fast
 engine) is tested here as soon as it is registered in snn_fg.backends."""
+
 import numpy as np
 import pytest
 
@@ -8,13 +9,13 @@ from snn_fg import cancel
 from snn_fg.backends import RunSettings, available_backends, backend_class, get_backend
 from snn_fg.events import image_to_events, image_to_frame
 from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores
+from snn_fg.network.roles import ROLE_ORDER
 from snn_fg.params import ModelParams
 from snn_fg.rate.edfg import run_edfg
 from snn_fg.scenes import demo, disc
 from snn_fg.spiking import SpikingRecord, run_spiking_result
-from snn_fg.network.roles import ROLE_ORDER
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 AVAILABLE = available_backends()
 
@@ -28,9 +29,14 @@ BACKENDS = [pytest.param(name, marks=_skip(name)) for name in AVAILABLE]
 
 
 # a 400 ms run per backend and polarity, seconds each: every test that reads it is slow
-@pytest.fixture(scope="module", params=[pytest.param((name, light), marks=[_skip(name), pytest.mark.slow],
-                                                     id=f"{name}-{'light' if light else 'dark'}")
-                                        for name in AVAILABLE for light in (True, False)])
+@pytest.fixture(
+    scope="module",
+    params=[
+        pytest.param((name, light), marks=[_skip(name), pytest.mark.slow], id=f"{name}-{'light' if light else 'dark'}")
+        for name in AVAILABLE
+        for light in (True, False)
+    ],
+)
 def disc_run(request):
     backend, light = request.param
     sc = disc(16, light_on_dark=light)
@@ -86,7 +92,7 @@ def test_result_is_consistent(disc_run):
         assert s.dtype.kind == "i" and np.all(np.diff(s) > 0) and (s.size == 0 or (s[0] >= 0 and s[-1] < pop.size))
         assert r.counts[name].shape == s.shape
         np.testing.assert_allclose(r.rates(name), r.counts[name] / (r.count_window_ms / 1000))
-        fired = r.counts[name] > 0        # the record keeps the cells that fired, and counts the rest
+        fired = r.counts[name] > 0  # the record keeps the cells that fired, and counts the rest
         np.testing.assert_array_equal(res.record.counts[name], r.counts[name][fired])
         np.testing.assert_array_equal(res.record.sites[name], s[fired])
         assert res.record.populations[name]["cells"] == s.size
@@ -94,7 +100,7 @@ def test_result_is_consistent(disc_run):
     assert r.simulated_ms == 400 and r.count_window_ms == 200
     total = sum(int(c.sum()) for c in r.counts.values())
     assert total > 1000
-    if r.spikes is not None:      # spike trains agree with the counts inside the window
+    if r.spikes is not None:  # spike trains agree with the counts inside the window
         for name in r.populations:
             cell, t = r.spikes[name]
             counted = np.bincount(cell[t >= 200], minlength=r.sites[name].size)
@@ -105,8 +111,10 @@ def test_result_is_consistent(disc_run):
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_same_seed_same_spikes_other_seed_other_spikes(backend):
     pos, neg = image_to_frame(disc(16).image)
-    runs = [run_spiking_result(pos, neg, duration_ms=120, settle_ms=20, seed=s, backend=backend, progress=False)
-            for s in (5, 5, 6)]
+    runs = [
+        run_spiking_result(pos, neg, duration_ms=120, settle_ms=20, seed=s, backend=backend, progress=False)
+        for s in (5, 5, 6)
+    ]
     a, b, c = (r.result for r in runs)
     assert sum(int(v.sum()) for v in a.counts.values()) > 1000
     for name in a.populations:
@@ -119,8 +127,7 @@ def test_same_seed_same_spikes_other_seed_other_spikes(backend):
 # float rounding moves 1-2 % of a population's cells by 1-2 spikes between the
 # two networks, and its full network takes 5-7 minutes here) cannot give the
 # same spikes by construction; the check is for the others.
-FIXED_ORDER = [pytest.param(name, marks=_skip(name)) for name in AVAILABLE
-               if backend_class(name).fixed_summation_order]
+FIXED_ORDER = [pytest.param(name, marks=_skip(name)) for name in AVAILABLE if backend_class(name).fixed_summation_order]
 
 
 @pytest.mark.slow
@@ -158,8 +165,7 @@ def test_binned_counts_split_the_spike_trains_by_time(backend):
     net = run_spiking_result(pos, neg, params=ModelParams(levels=2), duration_ms=10, progress=False).network
     inp = frame_spikes(pos, neg, 200.0, 0.5, 90.0)
     edges = (10.0, 30.0, 50.5, 90.0)
-    r = get_backend(backend).simulate(net, inp, RunSettings(duration_ms=90.0, count_from_ms=30.0,
-                                                            count_bins_ms=edges))
+    r = get_backend(backend).simulate(net, inp, RunSettings(duration_ms=90.0, count_from_ms=30.0, count_bins_ms=edges))
     assert r.count_bins_ms == edges
     assert sum(int(b.sum()) for b in r.binned_counts.values()) > 500
     for name in r.populations:
@@ -203,11 +209,12 @@ def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(ba
     pos, neg = image_to_frame(disc(16).image)
     sim = get_backend(backend)
     from snn_fg.lowering.input_spikes import frame_spikes
+
     net = run_spiking_result(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False).network
     # the same run, short, first: the signal must reach the simulation, not a
     # first compilation of its code (a cold Brian2 compile can take minutes)
     sim.simulate(net, frame_spikes(pos, neg, 200.0, 0.5, 10.0), RunSettings(duration_ms=10.0, record_spikes=False))
-    inp = frame_spikes(pos, neg, 200.0, 0.5, 20.0)      # regular trains: one period, repeated
+    inp = frame_spikes(pos, neg, 200.0, 0.5, 20.0)  # regular trains: one period, repeated
     timer = threading.Timer(2.0, signal.raise_signal, (signal.SIGINT,))
     # Ctrl-C as the command line receives it (a test process started in the
     # background ignores SIGINT, and Brian2's handler hands it on to that)

@@ -1,6 +1,7 @@
 """snn-fg run on several recordings: one output each plus summary.csv, on a
 Dask LocalCluster; a broken recording is reported with its one-line error and
 stops nothing; a rerun skips the recordings already complete."""
+
 import csv
 
 import numpy as np
@@ -35,10 +36,21 @@ def _summary(out):
 def test_three_recordings_on_a_local_cluster_one_broken(folder, tmp_path, capsys):
     distributed = pytest.importorskip("dask.distributed", reason="Dask is in the test extra")
     out = tmp_path / "out"
-    opts = ["--window-ms", "60", "--max-windows", "2", "--levels", "3", "--sensor-size", "64x64", "--no-figures",
-            "--no-progress"]
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
+    opts = [
+        "--window-ms",
+        "60",
+        "--max-windows",
+        "2",
+        "--levels",
+        "3",
+        "--sensor-size",
+        "64x64",
+        "--no-figures",
+        "--no-progress",
+    ]
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
         code = main(["run", str(folder), "--out", str(out), "--scheduler", cluster.scheduler_address, *opts])
     printed = capsys.readouterr().out
     assert code == 1 and "3 recordings, 1 failed" in printed
@@ -46,8 +58,8 @@ def test_three_recordings_on_a_local_cluster_one_broken(folder, tmp_path, capsys
     assert sorted(rows) == ["a.npy", "b.npy", "c.npy"]
     assert rows["b.npy"]["status"] == "failed" and "b.npy" in rows["b.npy"]["error"]
     assert "\n" not in rows["b.npy"]["error"] and "Traceback" not in rows["b.npy"]["error"]
-    line, = (x for x in printed.splitlines() if x.lstrip().startswith("failed"))
-    assert line.count("b.npy") == 1, line                 # (the error's own file name is not said twice)
+    (line,) = (x for x in printed.splitlines() if x.lstrip().startswith("failed"))
+    assert line.count("b.npy") == 1, line  # (the error's own file name is not said twice)
     for name in ("a", "c"):
         assert rows[f"{name}.npy"]["status"] == "done" and rows[f"{name}.npy"]["windows"] == "2"
         m = Maps.load(out / name)
@@ -66,5 +78,5 @@ def test_inputs_a_folder_a_glob_or_a_list_name(folder, tmp_path):
     assert [p.name for p in recordings_of(str(folder / "[ac].npy"))] == ["a.npy", "c.npy"]
     assert recordings_of(str(listed)) == [tmp_path / "recs" / "c.npy", folder / "a.npy"]
     assert output_names([tmp_path / "x" / "r.es", tmp_path / "y" / "r.es", tmp_path / "q.raw"]) == ["x_r", "y_r", "q"]
-    assert main(["run", str(folder / "*.es"), "--out", str(tmp_path / "o")]) == 2       # names nothing
+    assert main(["run", str(folder / "*.es"), "--out", str(tmp_path / "o")]) == 2  # names nothing
     assert main(["run", str(folder / "a.npy"), "--out", str(tmp_path / "p"), "--workers", "2"]) == 2

@@ -1,6 +1,7 @@
 """A requested stop (snn_fg.cancel, set by the CLI's signal handler) ends the
 long loops at their next check, even when the KeyboardInterrupt the signal
 raised was swallowed by a library."""
+
 import numpy as np
 import pytest
 
@@ -11,7 +12,7 @@ from snn_fg.rate.edfg import run_edfg
 from snn_fg.scenes import disc
 from snn_fg.spiking import run_spiking_result
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 AVAILABLE = available_backends()
 
@@ -24,13 +25,17 @@ def stop_requested():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("backend", [pytest.param(n, marks=pytest.mark.skipif(not ok, reason=f"backend {n}: {why}"))
-                                     for n, (ok, why) in AVAILABLE.items()])
+@pytest.mark.parametrize(
+    "backend",
+    [
+        pytest.param(n, marks=pytest.mark.skipif(not ok, reason=f"backend {n}: {why}"))
+        for n, (ok, why) in AVAILABLE.items()
+    ],
+)
 def test_a_requested_stop_ends_a_simulation_on_every_backend(stop_requested, backend):
     pos, neg = image_to_frame(disc(16).image)
     with pytest.raises(KeyboardInterrupt, match="SIGTERM"):
-        run_spiking_result(pos, neg, backend=backend, instantiate="input", duration_ms=60, settle_ms=20,
-                           progress=False)
+        run_spiking_result(pos, neg, backend=backend, instantiate="input", duration_ms=60, settle_ms=20, progress=False)
 
 
 @pytest.mark.slow
@@ -43,7 +48,7 @@ def test_the_fast_engine_stops_after_the_chunk_it_is_in(stop_requested, monkeypa
     pos, neg = image_to_frame(disc(16).image)
     with pytest.raises(KeyboardInterrupt):
         run_spiking_result(pos, neg, backend="fast", duration_ms=400, progress=False)
-    assert calls == [(0, calls[0][1])] and calls[0][1] < 800       # one chunk of the 800 steps
+    assert calls == [(0, calls[0][1])] and calls[0][1] < 800  # one chunk of the 800 steps
 
 
 def test_the_rate_model_stops_after_the_iteration_it_is_in(stop_requested, monkeypatch):

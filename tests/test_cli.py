@@ -1,4 +1,5 @@
 """The CLI contract: outputs, one-line errors for bad input, atomic writes."""
+
 import json
 import os
 import subprocess
@@ -12,13 +13,14 @@ from snn_fg.cli import main
 from snn_fg.maps import Maps
 from snn_fg.params import ModelParams
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 
 def run_cli(*args):
     """Run the real console entry point in a subprocess (as a user would)."""
-    return subprocess.run([sys.executable, "-m", "snn_fg.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "snn_fg.cli", *map(str, args)], capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.mark.slow
@@ -39,8 +41,12 @@ def test_demo_rate_writes_maps_and_figure(tmp_path):
 
 @pytest.mark.slow
 def test_parameters_reach_the_model(tmp_path):
-    assert main(["run", "demo", "--out", str(tmp_path), "--r0", "6", "--levels", "4",
-                 "--iterations", "3", "--no-progress"]) == 0
+    assert (
+        main(
+            ["run", "demo", "--out", str(tmp_path), "--r0", "6", "--levels", "4", "--iterations", "3", "--no-progress"]
+        )
+        == 0
+    )
     p = Maps.load(tmp_path / "maps.npz").params
     assert (p["r0"], p["levels"], p["iterations"]) == (6, 4, 3)
 
@@ -77,7 +83,7 @@ def _bad_inputs(tmp_path):
     square = np.zeros((40, 60), np.uint8)
     square[10:30, 15:45] = 255
     whole = cv2.imencode(".png", square)[1].tobytes()
-    (tmp_path / "cut.png").write_bytes(whole[:len(whole) // 2])     # (libpng warns of it on stderr itself)
+    (tmp_path / "cut.png").write_bytes(whole[: len(whole) // 2])  # (libpng warns of it on stderr itself)
     return {
         "missing": (tmp_path / "nope.npz", "no such file"),
         "keys": (_frame(tmp_path, "keys.npz", on=ok, off=ok), "lacks key"),
@@ -94,8 +100,9 @@ def _bad_inputs(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", ["missing", "keys", "dtype", "shape", "ndim", "empty", "nan", "zip", "image",
-                                  "empty_image", "cut_image"])
+@pytest.mark.parametrize(
+    "case", ["missing", "keys", "dtype", "shape", "ndim", "empty", "nan", "zip", "image", "empty_image", "cut_image"]
+)
 def test_bad_input_gives_one_clear_line(tmp_path, case):
     path, expect = _bad_inputs(tmp_path)[case]
     out = tmp_path / "out"
@@ -109,7 +116,7 @@ def test_bad_input_gives_one_clear_line(tmp_path, case):
 
 
 def test_interrupted_write_leaves_nothing(tmp_path, monkeypatch):
-    def explode(fh, value):     # Ctrl-C halfway through writing an array
+    def explode(fh, value):  # Ctrl-C halfway through writing an array
         fh.write(b"\x93NUMPY partial")
         raise KeyboardInterrupt
 
@@ -145,8 +152,24 @@ def test_recording_gives_windows(tmp_path):
     path = tmp_path / "disc.npy"
     save_events(path, rec.events, rec.sensor_size)
     out = tmp_path / "out"
-    assert main(["run", str(path), "--out", str(out), "--window-ms", "100", "--max-windows", "3", "--sensor-size", "64x64",
-                 "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(path),
+                "--out",
+                str(out),
+                "--window-ms",
+                "100",
+                "--max-windows",
+                "3",
+                "--sensor-size",
+                "64x64",
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     m = Maps.load(out / "maps.zarr")
     d = m.extra
     n = m.fg_x.shape[0]
@@ -157,7 +180,7 @@ def test_recording_gives_windows(tmp_path):
     assert d["event_frame"].shape == m.fg_x.shape and set(np.unique(d["event_frame"])) <= {-1, 0, 1}
     assert np.all((m.fg_x != 0) <= (d["event_frame"] != 0))
     assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr"]
-    assert not list(out.rglob("*.part"))        # no temporary parts left
+    assert not list(out.rglob("*.part"))  # no temporary parts left
 
 
 @pytest.mark.slow
@@ -184,8 +207,9 @@ def test_rate_model_can_carry_its_state_from_window_to_window(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("carry", ["off", "on"])
-def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes_it(tmp_path, monkeypatch, capsys,
-                                                                                     carry):
+def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes_it(
+    tmp_path, monkeypatch, capsys, carry
+):
     """Interrupted in its third window, a run leaves two windows readable
     (marked incomplete); --resume runs the rest (with --carry-state, the
     windows before again, for their state) and gives the maps of a run never
@@ -198,11 +222,21 @@ def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes
     rec = image_to_events(disc(16).image, motion="circle")
     path = tmp_path / "disc.npy"
     save_events(path, rec.events, rec.sensor_size)
-    opts = ["--window-ms", "50", "--max-windows", "4", "--levels", "3", "--carry-state", carry, "--no-figures",
-            "--no-progress"]
+    opts = [
+        "--window-ms",
+        "50",
+        "--max-windows",
+        "4",
+        "--levels",
+        "3",
+        "--carry-state",
+        carry,
+        "--no-figures",
+        "--no-progress",
+    ]
     assert main(["run", str(path), "--out", str(tmp_path / "whole"), *opts]) == 0
     calls = []
-    real = edfg.run_edfg_state        # (each window of either mode runs it once)
+    real = edfg.run_edfg_state  # (each window of either mode runs it once)
 
     def interrupted_at_the_third(*a, **k):
         calls.append(1)
@@ -216,7 +250,7 @@ def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes
     early = Maps.load(out)
     assert early.fg_x.shape[0] == 2 and not read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
     monkeypatch.setattr(edfg, "run_edfg_state", real)
-    assert main(["run", str(path), "--out", str(out), *opts]) == 2          # not without --resume
+    assert main(["run", str(path), "--out", str(out), *opts]) == 2  # not without --resume
     assert main(["run", str(path), "--out", str(out), *opts[:-1], "--resume"]) == 0
     done, whole = Maps.load(out), Maps.load(tmp_path / "whole")
     assert done.fg_x.shape[0] == 4 and read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
@@ -224,7 +258,7 @@ def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes
         np.testing.assert_array_equal(getattr(done, key), getattr(whole, key))
     np.testing.assert_array_equal(done.extra["event_frame"], whole.extra["event_frame"])
     assert done.params["source"] == whole.params["source"]
-    assert main(["run", str(path), "--out", str(out), *opts, "--resume", "--r0", "6"]) == 2    # another run
+    assert main(["run", str(path), "--out", str(out), *opts, "--resume", "--r0", "6"]) == 2  # another run
     # --resume on the finished run: says so and writes nothing
     stamp = [(p, p.stat().st_mtime_ns) for p in sorted(out.rglob("*"))]
     capsys.readouterr()
@@ -249,8 +283,19 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
     path = tmp_path / "disc.npy"
     save_events(path, rec.events, rec.sensor_size)
     out = tmp_path / "out"
-    opts = ["--window-ms", "60", "--max-windows", "3", "--levels", "3", "--sensor-size", "64x64",
-            "--readout-lag-ms", "10", "--save-spikes"]
+    opts = [
+        "--window-ms",
+        "60",
+        "--max-windows",
+        "3",
+        "--levels",
+        "3",
+        "--sensor-size",
+        "64x64",
+        "--readout-lag-ms",
+        "10",
+        "--save-spikes",
+    ]
     assert main(["run", str(path), "--out", str(out), "--model", "spiking", *opts, "--no-progress"]) == 0
     m = Maps.load(out / "maps.zarr")
     assert m.fg_x.shape[0] == 3
@@ -269,14 +314,30 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
     assert sum(int(window_part(m.extra, "spikes_bo_L1_1", i).sum()) for i in range(3)) > 0
     assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr", "rate_histograms.png", "spike_raster.png"]
     quiet = tmp_path / "quiet"
-    assert main(["run", str(path), "--out", str(quiet), "--model", "spiking", *opts, "--window-clock", "off",
-                 "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(path),
+                "--out",
+                str(quiet),
+                "--model",
+                "spiking",
+                *opts,
+                "--window-clock",
+                "off",
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     m_off = Maps.load(quiet / "maps.zarr")
     assert m_off.params["simulation"]["window_clock"] is False
     second = [window_part(x.extra, "spikes_group_L_1", 1) for x in (m, m_off)]
-    assert not np.array_equal(*second)          # the pulse changed the second window's grouping
-    res = run_cli("run", path, "--out", tmp_path / "x", "--model", "spiking", "--duration-ms", "80",
-                  "--sensor-size", "64x64")
+    assert not np.array_equal(*second)  # the pulse changed the second window's grouping
+    res = run_cli(
+        "run", path, "--out", tmp_path / "x", "--model", "spiking", "--duration-ms", "80", "--sensor-size", "64x64"
+    )
     assert res.returncode == 2 and "--duration-ms" in res.stderr and not (tmp_path / "x").exists()
 
 
@@ -309,8 +370,12 @@ def test_a_stored_network_runs_from_the_command_line_and_an_edit_changes_it(tmp_
     edited = next(p for p in d["projections"] if p["name"] == "bo_L1_1_to_group_L_1")
     edited["gain_mv"] *= 3
     (tmp_path / "edited.json").write_text(json.dumps(d))
-    assert main(["run", str(disc_npz), "--out", str(tmp_path / "edited"), "--network",
-                 str(tmp_path / "edited.json"), *opts]) == 0
+    assert (
+        main(
+            ["run", str(disc_npz), "--out", str(tmp_path / "edited"), "--network", str(tmp_path / "edited.json"), *opts]
+        )
+        == 0
+    )
     assert not np.array_equal(Maps.load(tmp_path / "edited" / "maps.npz").grouping, a.grouping)
     # a stored network carries its own model parameters
     res = run_cli("run", disc_npz, "--out", tmp_path / "x", "--network", stored, "--levels", "3", *opts)
@@ -327,21 +392,24 @@ def test_output_folder_is_never_mixed_with_an_earlier_run(tmp_path):
     assert res.returncode == 2 and "--force" in res.stderr
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     assert main(["run", "demo", "--out", str(out), "--r0", "6", "--force", "--no-progress"]) == 0
-    assert sorted(os.listdir(out)) == ["maps.npz", "maps.png"]          # replaced as a whole
+    assert sorted(os.listdir(out)) == ["maps.npz", "maps.png"]  # replaced as a whole
     assert Maps.load(out / "maps.npz").params["r0"] == 6
-    assert sorted(os.listdir(tmp_path)) == ["out"]                       # no staging left
+    assert sorted(os.listdir(tmp_path)) == ["out"]  # no staging left
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("args, message", [
-    (["--window-ms", "50"], "--window-ms"),                # a recording option for a frame
-    (["--carry-state", "on"], "--carry-state"),            # another one
-    (["--window-clock", "off"], "--window-clock"),         # and the spiking model's
-    (["--duration-ms", "50"], "--duration-ms"),            # a spiking option for the rate model
-    (["--levels", "0"], "--levels"),                       # argparse range check
-    (["--r0", "nan"], "--r0"),
-    (["--levels", "50"], "at most 14 pyramid levels"),    # the 120 x 160 demo has 14 levels of >= 2 x 2 px
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--window-ms", "50"], "--window-ms"),  # a recording option for a frame
+        (["--carry-state", "on"], "--carry-state"),  # another one
+        (["--window-clock", "off"], "--window-clock"),  # and the spiking model's
+        (["--duration-ms", "50"], "--duration-ms"),  # a spiking option for the rate model
+        (["--levels", "0"], "--levels"),  # argparse range check
+        (["--r0", "nan"], "--r0"),
+        (["--levels", "50"], "at most 14 pyramid levels"),  # the 120 x 160 demo has 14 levels of >= 2 x 2 px
+    ],
+)
 def test_invalid_arguments_create_nothing(tmp_path, args, message):
     out = tmp_path / "a" / "b" / "out"
     res = run_cli("run", "demo", "--out", out, *args, "--no-progress")
@@ -354,10 +422,11 @@ def test_usage_errors_are_reported_under_the_subcommand(tmp_path):
     res = run_cli("run", "demo", "--out", tmp_path / "o", "--leves", "3")
     assert res.returncode == 2
     assert res.stderr.startswith("snn-fg run: error:") and "--leves" in res.stderr
-    res = run_cli("run", "demo", "--out", tmp_path / "o", "--window", "3")      # no abbreviations
+    res = run_cli("run", "demo", "--out", tmp_path / "o", "--window", "3")  # no abbreviations
     assert res.returncode == 2 and "--window" in res.stderr
     res = run_cli("--version")
     from snn_fg import __version__
+
     assert res.returncode == 0 and res.stdout.strip() == f"snn-fg {__version__}" and __version__[0].isdigit()
 
 
@@ -379,11 +448,11 @@ def test_compare_pairs_windows_by_time_and_reads_at_100_columns(tmp_path):
     table = [line for line in res.stdout.splitlines() if "saved to" not in line]
     assert len(table) >= 4 and max(len(line) for line in table) <= 100
     rows = json.loads((tmp_path / "c.json").read_text())["windows"]
-    assert [(r["window_a"], r["window_b"], r["t_start_ms"]) for r in rows] == [(0, 0, 0.0)]   # paired by start time
+    assert [(r["window_a"], r["window_b"], r["t_start_ms"]) for r in rows] == [(0, 0, 0.0)]  # paired by start time
     assert rows[0]["angle_mse"] == 0 and rows[0]["angle_within_45_frac"] == 1
     res = run_cli("compare", a, b, "--window", "2", "--json", tmp_path / "w.json")
     assert res.returncode == 0, res.stderr
-    row, = json.loads((tmp_path / "w.json").read_text())["windows"]
+    (row,) = json.loads((tmp_path / "w.json").read_text())["windows"]
     assert (row["window_a"], row["window_b"]) == (2, 0) and row["angle_within_45_frac"] < 1
     res = run_cli("compare", a, b, "--window", "9")
     assert res.returncode == 2 and "window=9" in res.stderr and "Traceback" not in res.stderr
@@ -394,11 +463,11 @@ def test_angle_metrics_ignore_the_empty_background():
 
     fx = np.zeros((40, 40))
     fy = np.zeros((40, 40))
-    fx[20, 5:35] = 1.0                      # one edge pointing right...
-    c = compare_frame(fx, fy, fx, -fx, fy, fx)                 # ...against the same edge pointing left
+    fx[20, 5:35] = 1.0  # one edge pointing right...
+    c = compare_frame(fx, fy, fx, -fx, fy, fx)  # ...against the same edge pointing left
     assert c["pixels_compared"] == 30 and c["angle_diff_mean_deg"] == 180
     assert c["angle_mse"] == 1.0 and c["angle_within_45_frac"] == 0.0
-    assert c["angle_ssim"] < 0.5          # over the whole image it would be ~0.99 (background agrees)
+    assert c["angle_ssim"] < 0.5  # over the whole image it would be ~0.99 (background agrees)
 
 
 def test_agreement_scores_a_against_b_and_reads_maps_or_tuples():
@@ -406,15 +475,15 @@ def test_agreement_scores_a_against_b_and_reads_maps_or_tuples():
     from snn_fg.metrics import agreement
 
     fx, fy, g = np.zeros((30, 30)), np.zeros((30, 30)), np.zeros((30, 30))
-    fx[10, 0:20] = 1.0                      # b: 20 vectors pointing right
+    fx[10, 0:20] = 1.0  # b: 20 vectors pointing right
     ax = fx.copy()
-    ax[10, 10:20] = 0.0                     # a: only the first 10 of them...
-    ax[10, 5:10] = -1.0                     # ...5 of which point left
+    ax[10, 10:20] = 0.0  # a: only the first 10 of them...
+    ax[10, 5:10] = -1.0  # ...5 of which point left
     g[10, 10] = 1.0
     a = (ax, fy, g)
     s = agreement(a, Maps(fx, fy, g))
     assert s["coverage"] == 0.5 and s["within_45"] == 0.5 and s["mean_deg"] == 90.0 and s["grouping_r"] == 1.0
-    assert agreement(Maps(fx, fy, g), a)["coverage"] == 1.0       # every vector of a is in b
+    assert agreement(Maps(fx, fy, g), a)["coverage"] == 1.0  # every vector of a is in b
 
 
 @pytest.mark.slow
@@ -438,8 +507,9 @@ def test_a_recording_whose_windows_give_no_vector_says_so(tmp_path, capsys):
         err = capsys.readouterr().err
         if name == "blank":
             assert n >= 2 and f"{n} of {n} windows with events have no figure-ground vector" in err
-            spans = [(int(w.events["t"].max()) - int(w.events["t"].min())) / 1000
-                     for w in iter_windows(rec, window_ms=120)]
-            assert f"(their events last {min(spans):.0f}-{max(spans):.0f} ms)" in err        # (no hint: a rate model)
+            spans = [
+                (int(w.events["t"].max()) - int(w.events["t"].min())) / 1000 for w in iter_windows(rec, window_ms=120)
+            ]
+            assert f"(their events last {min(spans):.0f}-{max(spans):.0f} ms)" in err  # (no hint: a rate model)
         else:
             assert "no figure-ground vector" not in err

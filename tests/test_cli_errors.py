@@ -1,4 +1,5 @@
 """Usage errors and refused options: one line each, naming the real reason."""
+
 import subprocess
 import sys
 
@@ -7,23 +8,27 @@ import pytest
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "snn_fg.cli", *map(str, args)], capture_output=True, text=True,
-                          timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "snn_fg.cli", *map(str, args)], capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("args, says", [
-    (["run", "demo", "--out", "o", "--window-ms", "-5"], "--window-ms: must be > 0"),
-    (["run", "demo", "--out", "o", "--max-windows", "0"], "--max-windows: must be >= 1"),
-    (["run", "demo", "--out", "o", "--window-ms", "inf"], "--window-ms: must be a finite number > 0, got inf"),
-    (["run", "demo", "--out", "o", "--side-cue", "nan"], "--side-cue: must be a finite number >= 0, got nan"),
-    (["run", "demo", "--out", "o", "--leves", "3"], "unrecognized arguments: --leves 3"),
-    (["run", "demo"], "required: --out"),
-    (["compare", "a.npz"], "required: B.npz"),
-    (["events"], "required: INPUT"),
-    (["export", "--format", "report", "--levels", "x"], "--levels: expected an integer"),
-    (["run", "demo", "--out", "o", "--sensor-size", "0x0"], "--sensor-size: width and height must be 1 to 32768"),
-])
+@pytest.mark.parametrize(
+    "args, says",
+    [
+        (["run", "demo", "--out", "o", "--window-ms", "-5"], "--window-ms: must be > 0"),
+        (["run", "demo", "--out", "o", "--max-windows", "0"], "--max-windows: must be >= 1"),
+        (["run", "demo", "--out", "o", "--window-ms", "inf"], "--window-ms: must be a finite number > 0, got inf"),
+        (["run", "demo", "--out", "o", "--side-cue", "nan"], "--side-cue: must be a finite number >= 0, got nan"),
+        (["run", "demo", "--out", "o", "--leves", "3"], "unrecognized arguments: --leves 3"),
+        (["run", "demo"], "required: --out"),
+        (["compare", "a.npz"], "required: B.npz"),
+        (["events"], "required: INPUT"),
+        (["export", "--format", "report", "--levels", "x"], "--levels: expected an integer"),
+        (["run", "demo", "--out", "o", "--sensor-size", "0x0"], "--sensor-size: width and height must be 1 to 32768"),
+    ],
+)
 def test_a_usage_error_is_one_line_without_the_usage_block(tmp_path, args, says):
     res = run_cli(*args)
     assert res.returncode == 2
@@ -33,18 +38,35 @@ def test_a_usage_error_is_one_line_without_the_usage_block(tmp_path, args, says)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("args, says, not_says", [
-    (["--seed", "3"], "--seed: applies to the spiking and natural-spiking models only (--model spiking)", "they do not apply"),
-    (["--window-ms", "20"], "--window-ms: applies to event recordings only; the demo is one image", "rate model"),
-    (["--model", "spiking", "--window-ms", "20"], "event recordings only", "spiking model"),
-    (["--model", "fbfg", "--motion", "circle"], "reads the image itself", "rate model"),
-    (["--model", "fbfg", "--side-cue", "1"], "--side-cue: the fbfg model reads the image itself; the side cue "
-                                              "counts events", "border_ownership_grouping"),
-    (["--model", "natural", "--network", "default"], "--network: the natural model has its own parameters, and a "
-                                                     "network carries others", "wrote"),
-    (["--model", "fbfg", "--network", "compact"], "--network: the fbfg model has no network", "rate model"),
-    (["--duration-ms", "5", "--dt-ms", "1"], "--duration-ms, --dt-ms: apply to the spiking and natural-spiking models only", "they"),
-])
+@pytest.mark.parametrize(
+    "args, says, not_says",
+    [
+        (
+            ["--seed", "3"],
+            "--seed: applies to the spiking and natural-spiking models only (--model spiking)",
+            "they do not apply",
+        ),
+        (["--window-ms", "20"], "--window-ms: applies to event recordings only; the demo is one image", "rate model"),
+        (["--model", "spiking", "--window-ms", "20"], "event recordings only", "spiking model"),
+        (["--model", "fbfg", "--motion", "circle"], "reads the image itself", "rate model"),
+        (
+            ["--model", "fbfg", "--side-cue", "1"],
+            "--side-cue: the fbfg model reads the image itself; the side cue counts events",
+            "border_ownership_grouping",
+        ),
+        (
+            ["--model", "natural", "--network", "default"],
+            "--network: the natural model has its own parameters, and a network carries others",
+            "wrote",
+        ),
+        (["--model", "fbfg", "--network", "compact"], "--network: the fbfg model has no network", "rate model"),
+        (
+            ["--duration-ms", "5", "--dt-ms", "1"],
+            "--duration-ms, --dt-ms: apply to the spiking and natural-spiking models only",
+            "they",
+        ),
+    ],
+)
 def test_a_refused_option_names_the_real_reason(tmp_path, args, says, not_says):
     res = run_cli("run", "demo", "--out", tmp_path / "o", *args, "--no-progress")
     assert res.returncode == 2 and res.stderr.count("\n") == 1
@@ -53,9 +75,9 @@ def test_a_refused_option_names_the_real_reason(tmp_path, args, says, not_says):
 
 @pytest.mark.slow
 def test_a_read_error_is_not_preceded_by_an_empty_progress_bar(tmp_path):
-    bad = tmp_path / "bad.es"      # a DVS Event Stream whose first event lies far outside its 320 x 240 sensor
-    bad.write_bytes(b"Event Stream\x02\x00\x00\x01\x40\x01\xf0\x00" + bytes([0x02, 0x51, 0x4c, 0x3d, 0x20]))
-    res = run_cli("run", bad, "--out", tmp_path / "o")           # with progress bars
+    bad = tmp_path / "bad.es"  # a DVS Event Stream whose first event lies far outside its 320 x 240 sensor
+    bad.write_bytes(b"Event Stream\x02\x00\x00\x01\x40\x01\xf0\x00" + bytes([0x02, 0x51, 0x4C, 0x3D, 0x20]))
+    res = run_cli("run", bad, "--out", tmp_path / "o")  # with progress bars
     assert res.returncode == 2
     assert res.stderr.count("\n") == 1 and "windows" not in res.stderr, res.stderr
     assert res.stderr.startswith(f"snn-fg: error: {bad}: event at (x=19537") and "byte offset 20" in res.stderr
@@ -75,9 +97,12 @@ def test_a_file_that_is_not_an_npz_is_refused_as_such_not_as_a_pickle(tmp_path):
     fake = tmp_path / "fake.npz"
     fake.write_text("fg_x fg_y grouping\n")
     net = build_network(ModelParams(levels=1, r0=4), (16, 16))
-    readers = {"maps": lambda: Maps.load(fake), "counts": lambda: decode_counts(net, fake),
-               "input": lambda: input_frame(fake, (16, 16)),
-               "frame": lambda: read_npz_arrays(fake, ("pos", "neg"), what="an event frame")}
+    readers = {
+        "maps": lambda: Maps.load(fake),
+        "counts": lambda: decode_counts(net, fake),
+        "input": lambda: input_frame(fake, (16, 16)),
+        "frame": lambda: read_npz_arrays(fake, ("pos", "neg"), what="an event frame"),
+    }
     for name, read in readers.items():
         with pytest.raises(InputError) as err:
             read()
@@ -91,9 +116,20 @@ def test_a_missing_extra_names_the_install_command_from_the_folder(tmp_path, mon
     look for snn-fg on the index)."""
     from snn_fg.cli import main
 
-    monkeypatch.setitem(sys.modules, "nir", None)          # import fails as if not installed
-    status = main(["export", "--format", "nir", "--network", "compact", "--sensor-size", "32x24",
-                   "--out", str(tmp_path / "g.nir")])
+    monkeypatch.setitem(sys.modules, "nir", None)  # import fails as if not installed
+    status = main(
+        [
+            "export",
+            "--format",
+            "nir",
+            "--network",
+            "compact",
+            "--sensor-size",
+            "32x24",
+            "--out",
+            str(tmp_path / "g.nir"),
+        ]
+    )
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1, err
     assert 'pip install -e ".[nir]" in the snn-fg folder' in err
@@ -105,10 +141,11 @@ def test_an_unknown_network_name_lists_the_recipes(tmp_path, capsys):
     and names the recipes (it said only "no such file")."""
     from snn_fg.cli import main
 
-    for argv in (["run", "demo", "--out", str(tmp_path / "o"), "--network", "compcat", "--no-progress"],
-                 ["run", "demo", "--out", str(tmp_path / "o"), "--network", "compcat", "--model", "spiking",
-                  "--no-progress"],
-                 ["export", "--format", "report", "--network", "compcat"]):
+    for argv in (
+        ["run", "demo", "--out", str(tmp_path / "o"), "--network", "compcat", "--no-progress"],
+        ["run", "demo", "--out", str(tmp_path / "o"), "--network", "compcat", "--model", "spiking", "--no-progress"],
+        ["export", "--format", "report", "--network", "compcat"],
+    ):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "compcat: neither a network name (default, compact) nor a stored" in err, err
@@ -141,8 +178,21 @@ def test_run_names_every_kind_of_input_for_an_unknown_extension_and_reads_webp(t
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "sq.xyz: unknown extension '.xyz': INPUT is an image (" in err
     assert ".webp" in err and ".aedat4" in err and "'demo'" in err
-    assert main(["run", str(tmp_path / "sq.webp"), "--out", str(tmp_path / "o"), "--no-progress",
-                 "--no-figures", "--levels", "4"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(tmp_path / "sq.webp"),
+                "--out",
+                str(tmp_path / "o"),
+                "--no-progress",
+                "--no-figures",
+                "--levels",
+                "4",
+            ]
+        )
+        == 0
+    )
     from snn_fg.maps import Maps
 
     maps = Maps.load(tmp_path / "o")

@@ -1,6 +1,7 @@
 """The compact network's parts: input pooling, octave levels, the input
 adapter, strided excess cells, quantised weights in the fast engine, and
 the recipes by name on the command line and in the export report."""
+
 import json
 import os
 
@@ -8,23 +9,23 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.pyramid.pool import NORMAL_SIGMA, edge_normals, pool_events, pool_frame, pooled_shape, unpool_maps
-from snn_fg.pyramid.levels import level_shape, max_levels
 from snn_fg.maps import Maps
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.network.nodes import Kernel
 from snn_fg.network.recipes import RECIPES, model_params_of, network_for
 from snn_fg.params import ModelParams
+from snn_fg.pyramid.levels import level_shape, max_levels
+from snn_fg.pyramid.pool import NORMAL_SIGMA, edge_normals, pool_events, pool_frame, pooled_shape, unpool_maps
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 
 def test_a_block_is_on_where_any_of_its_pixels_is_and_a_partial_block_counts():
     pos = np.zeros((5, 7), np.uint8)
     neg = np.zeros_like(pos)
-    pos[0, 0] = 1          # block (0, 0)
-    neg[1, 1] = 1          # block (0, 0) too: both polarities
-    pos[4, 6] = 1          # the partial block at the corner
+    pos[0, 0] = 1  # block (0, 0)
+    neg[1, 1] = 1  # block (0, 0) too: both polarities
+    pos[4, 6] = 1  # the partial block at the corner
     on, off = pool_frame(pos, neg, 2)
     assert on.shape == off.shape == pooled_shape(pos.shape, 2) == (3, 4)
     assert on[0, 0] == 1 and off[0, 0] == 1 and on[2, 3] == 1
@@ -55,8 +56,8 @@ def test_a_blocks_vector_turns_onto_the_edge_normal_and_keeps_its_side():
     line's normal, comes back along the normal, on the side it pointed to
     and as long; a lone event (no direction around it) keeps the block's."""
     edges = np.zeros((24, 36), bool)
-    edges[:, 10] = True                     # a vertical edge: normal along x
-    edges[12, 31] = True                    # a lone event, 7 blocks from it
+    edges[:, 10] = True  # a vertical edge: normal along x
+    edges[12, 31] = True  # a lone event, 7 blocks from it
     for side in (1, -1):
         angle = np.radians(30 if side > 0 else 210)
         fx = np.full((8, 12), 0.5 * np.cos(angle), np.float32)
@@ -99,7 +100,7 @@ def test_edge_normals_are_scipys_gaussians_bit_for_bit_at_the_pixels_asked_for(s
 def test_octave_levels_halve_the_frame_and_the_default_steps_are_unchanged():
     assert level_shape((240, 304), 2, per_octave=1) == (121, 153)
     assert level_shape((240, 304), 3, per_octave=1) == (61, 77)
-    assert level_shape((321, 481), 2) == (227, 341)          # 1/sqrt(2), as before
+    assert level_shape((321, 481), 2) == (227, 341)  # 1/sqrt(2), as before
     assert max_levels((80, 102), per_octave=1) < max_levels((80, 102))
     net = build_network(ModelParams(levels=3, levels_per_octave=1, n_ori=4), (40, 52))
     assert net.one("simple", 3).level_shape == (11, 14)
@@ -116,7 +117,7 @@ def test_the_rate_model_pools_its_input_and_answers_at_the_sensor_size():
     maps = run_edfg(pos, neg, ModelParams(input_pool=2, levels=3, levels_per_octave=1, r0=4))
     assert maps.fg_x.shape == pos.shape
     has = np.hypot(maps.fg_x, maps.fg_y) > 0
-    assert not (has & ~((pos | neg) > 0)).any()              # vectors only at event pixels
+    assert not (has & ~((pos | neg) > 0)).any()  # vectors only at event pixels
     assert truth_scores(maps.fg_x, maps.fg_y, scene)["frac_within_45"] >= 0.9
     assert grouping_peak_inside(maps.grouping, scene)
 
@@ -131,12 +132,12 @@ def _events(rows):
 def test_the_input_adapter_passes_one_event_per_refractory_period_and_source():
     from snn_fg.lowering.input_spikes import event_spikes
 
-    ev = _events([(0, 1000 * k) for k in range(10)] + [(1, 0), (1, 500)])      # pixel 0 every ms
+    ev = _events([(0, 1000 * k) for k in range(10)] + [(1, 0), (1, 500)])  # pixel 0 every ms
     ev = ev[np.argsort(ev["t"], kind="stable")]
     every = event_spikes(ev, (2, 1), 0.5, replay=False)
     assert every.steps[every.indices == 0].tolist() == list(range(0, 20, 2))
     gap = event_spikes(ev, (2, 1), 0.5, replay=False, refractory_ms=2.5)
-    assert gap.steps[gap.indices == 0].tolist() == [0, 6, 12, 18]          # 0, 3, 6, 9 ms
+    assert gap.steps[gap.indices == 0].tolist() == [0, 6, 12, 18]  # 0, 3, 6, 9 ms
     assert gap.steps[gap.indices == 1].tolist() == [0]
 
 
@@ -166,7 +167,7 @@ def test_resize_kept_mass_equals_the_sum_over_every_product():
     for prune in (0.01, 0.1, 0.3):
         want = (prod * (prod >= prune * peak)).sum() / prod.sum()
         assert resize_kept_mass(ar, ac, prune, peak) == pytest.approx(want, rel=1e-12)
-    big = interp_matrix(480, 340, 1, 1, "cubic")      # once recursed without end (4e6 products and more)
+    big = interp_matrix(480, 340, 1, 1, "cubic")  # once recursed without end (4e6 products and more)
     assert 0.9 < resize_kept_mass(big, big, 0.01, np.abs(big).max() ** 2) < 1.0
 
 
@@ -181,18 +182,18 @@ def test_the_fast_engine_runs_the_weights_a_board_holds():
             k = np.abs(pr.kernel.array(net.params)).max()
             steps = q.tap_k[a:b] / (k / 7)
             assert np.allclose(steps, np.round(steps)) and np.abs(steps).max() <= 7
-    assert q.tap_k.size < exact.tap_k.size                     # taps that round to 0 are gone
+    assert q.tap_k.size < exact.tap_k.size  # taps that round to 0 are gone
     assert (q.prj_w[:, 2] > 0).sum() == sum(1 for pr in net.projections if pr.type_name == "resize")
 
 
 def test_recipes_build_for_any_sensor_and_carry_their_model_parameters():
-    net, origin = network_for("compact", (260, 346))           # a DAVIS346
+    net, origin = network_for("compact", (260, 346))  # a DAVIS346
     c = RECIPES["compact"].params
     assert origin == {"origin": "recipe", "recipe": "compact"}
     assert net.frame_shape == pooled_shape((260, 346), c.input_pool) and net.params == c
     assert model_params_of("compact") == c and model_params_of("default") == ModelParams()
     assert network_for("default", (40, 52))[0] == build_network(ModelParams(), (40, 52))
-    stored, how = network_for(net, (240, 304))                 # a description resized to another sensor
+    stored, how = network_for(net, (240, 304))  # a description resized to another sensor
     assert stored.frame_shape == pooled_shape((240, 304), c.input_pool) and how["resized_from"] == [87, 116]
 
 
@@ -215,7 +216,7 @@ def test_a_network_carries_its_time_step_into_runs_and_exports():
         Network.from_dict({**net.to_dict(), "dt_ms": 0})
     assert resource_report(net)["dt_ms"] == 1.0 and resource_report(net, dt_ms=0.5)["dt_ms"] == 0.5
     assert pynn_model(net)[0]["dt_ms"] == 1.0
-    pos, neg = image_to_frame(disc(radius=16).image)             # (a 64 x 64 frame)
+    pos, neg = image_to_frame(disc(radius=16).image)  # (a 64 x 64 frame)
     own = run_spiking(pos, neg, network=net, duration_ms=60, settle_ms=30, progress=False)
     half = run_spiking(pos, neg, network=net, duration_ms=60, settle_ms=30, dt_ms=0.5, progress=False)
     assert own.params["simulation"]["dt_ms"] == 1.0 and half.params["simulation"]["dt_ms"] == 0.5
@@ -229,8 +230,10 @@ def test_the_compact_network_fits_one_loihi2_chip_at_the_icub_size(tmp_path):
     SpiNNaker limit; SpiNNaker needs more than one board, so the report says
     how large a sensor one board holds."""
     out = tmp_path / "r.json"
-    assert main(["export", "--format", "report", "--network", "compact", "--sensor-size", "304x240",
-                 "--out", str(out)]) == 0
+    assert (
+        main(["export", "--format", "report", "--network", "compact", "--sensor-size", "304x240", "--out", str(out)])
+        == 0
+    )
     rep = json.loads(out.read_text())
     assert rep["sensor_shape"] == [240, 304] and rep["input_pool"] == 3
     lo, sp = rep["targets"]["loihi2"], rep["targets"]["spinnaker1"]
@@ -253,20 +256,57 @@ def test_a_recording_runs_through_the_compact_network_all_or_nothing(tmp_path):
     path = tmp_path / "disc.npy"
     save_events(path, rec.events, rec.sensor_size)
     out = tmp_path / "out"
-    assert main(["run", str(path), "--out", str(out), "--model", "spiking", "--network", "compact",
-                 "--window-ms", "60", "--max-windows", "3", "--sensor-size", "72x72", "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(path),
+                "--out",
+                str(out),
+                "--model",
+                "spiking",
+                "--network",
+                "compact",
+                "--window-ms",
+                "60",
+                "--max-windows",
+                "3",
+                "--sensor-size",
+                "72x72",
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     m = Maps.load(out / "maps.zarr")
     assert m.fg_x.shape == (3, 72, 72)
     p = m.params
     assert p["network"]["origin"] == "recipe" and p["network"]["frame_shape"] == [24, 24]
     assert p["simulation"]["network_builds"] == 1
-    assert p["simulation"]["dt_ms"] == RECIPES["compact"].spiking.dt_ms == 1.0     # (the network's own step)
+    assert p["simulation"]["dt_ms"] == RECIPES["compact"].spiking.dt_ms == 1.0  # (the network's own step)
     times = [p["timings_s"]["window"]] + [w["timings_s"]["window"] for w in p["windows"][1:]]
     assert len(times) == 3 and all(t > 0 for t in times)
-    assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr"]     # (spike figures need --save-spikes)
+    assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr"]  # (spike figures need --save-spikes)
     bad = tmp_path / "bad"
-    assert main(["run", str(path), "--out", str(bad), "--model", "spiking", "--network", "compact",
-                 "--duration-ms", "50", "--sensor-size", "72x72"]) == 2
+    assert (
+        main(
+            [
+                "run",
+                str(path),
+                "--out",
+                str(bad),
+                "--model",
+                "spiking",
+                "--network",
+                "compact",
+                "--duration-ms",
+                "50",
+                "--sensor-size",
+                "72x72",
+            ]
+        )
+        == 2
+    )
     assert not bad.exists()
 
 
@@ -274,8 +314,23 @@ def test_a_recording_runs_through_the_compact_network_all_or_nothing(tmp_path):
 def test_run_takes_a_network_by_name_for_both_models_and_can_skip_figures(tmp_path):
     for model in ("rate", "spiking"):
         out = tmp_path / model
-        assert main(["run", "demo", "--out", str(out), "--model", model, "--network", "compact", "--no-figures",
-                     "--no-progress"]) == 0
+        assert (
+            main(
+                [
+                    "run",
+                    "demo",
+                    "--out",
+                    str(out),
+                    "--model",
+                    model,
+                    "--network",
+                    "compact",
+                    "--no-figures",
+                    "--no-progress",
+                ]
+            )
+            == 0
+        )
         assert os.listdir(out) == ["maps.npz"]
         m = Maps.load(out / "maps.npz")
         assert m.fg_x.shape == (120, 160)

@@ -1,5 +1,6 @@
 """``snn-fg compare`` and the times a user sees: files only when asked, a
 figure of both maps and their difference, times from the recording's first event."""
+
 import json
 import os
 
@@ -27,8 +28,9 @@ def unix_recording(tmp_path_factory):
 
 
 def _run(path, out, *more):
-    assert main(["run", str(path), "--out", str(out), "--window-ms", "50", "--levels", "4", "--no-progress",
-                 *more]) == 0
+    assert (
+        main(["run", str(path), "--out", str(out), "--window-ms", "50", "--levels", "4", "--no-progress", *more]) == 0
+    )
     return Maps.load(out / "maps.zarr")
 
 
@@ -38,10 +40,13 @@ def test_times_count_from_the_first_event_in_maps_figures_and_params(unix_record
 
     titles = []
     real = Model.write_figures
-    monkeypatch.setattr(Model, "write_figures", lambda self, out, maps, inputs, t=None, crop=None:
-                        titles.append(t) or real(self, out, maps, inputs, t, crop))
+    monkeypatch.setattr(
+        Model,
+        "write_figures",
+        lambda self, out, maps, inputs, t=None, crop=None: titles.append(t) or real(self, out, maps, inputs, t, crop),
+    )
     m = _run(unix_recording, tmp_path / "a", "--start-ms", "100", "--max-windows", "3")
-    assert titles == [["100-150 ms", "150-200 ms", "200-250 ms"]]      # not "0-50 ms" (from the first window)
+    assert titles == [["100-150 ms", "150-200 ms", "200-250 ms"]]  # not "0-50 ms" (from the first window)
     assert m.extra["t_start_us"].tolist() == [100_000, 150_000, 200_000]
     assert m.extra["t_end_us"].tolist() == [150_000, 200_000, 250_000]
     assert m.params["source"]["first_event_us"] == UNIX_T0 and m.params["source"]["start_ms"] == 100
@@ -55,13 +60,28 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
     capsys.readouterr()
     assert main(["compare", str(tmp_path / "a"), str(tmp_path / "b" / "maps.zarr")]) == 0
     out = capsys.readouterr().out
-    assert {d: sorted(os.listdir(tmp_path / d)) for d in ("a", "b")} == before == {"a": ["maps.png", "maps.zarr"],
-                                                                                   "b": ["maps.png", "maps.zarr"]}
+    assert (
+        {d: sorted(os.listdir(tmp_path / d)) for d in ("a", "b")}
+        == before
+        == {"a": ["maps.png", "maps.zarr"], "b": ["maps.png", "maps.zarr"]}
+    )
     assert sorted(os.listdir(tmp_path)) == ["a", "b"] and "saved" not in out
     t_column = [line.split()[2] for line in out.splitlines()[1:4]]
     assert t_column == ["0.0", "50.0", "100.0"] and str(UNIX_T0 // 1000)[:6] not in out
-    assert main(["compare", str(tmp_path / "a"), str(tmp_path / "b" / "maps.zarr"),
-                 "--json", str(tmp_path / "c.json"), "--plot", str(tmp_path / "c.png")]) == 0
+    assert (
+        main(
+            [
+                "compare",
+                str(tmp_path / "a"),
+                str(tmp_path / "b" / "maps.zarr"),
+                "--json",
+                str(tmp_path / "c.json"),
+                "--plot",
+                str(tmp_path / "c.png"),
+            ]
+        )
+        == 0
+    )
     rows = json.loads((tmp_path / "c.json").read_text())["windows"]
     assert [r["t_start_ms"] for r in rows] == [0.0, 50.0, 100.0]
     assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
@@ -77,8 +97,18 @@ def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypa
     seen = []
     monkeypatch.setattr(figures, "save_compare_figure", lambda path, a, b, rows, names, where: seen.append(names))
     for b in ("run-b", "run-b/maps.npz"):
-        assert main(["compare", str(tmp_path / "out" / "run-a"), str(tmp_path / "out" / b),
-                     "--plot", str(tmp_path / "c.png")]) == 0
+        assert (
+            main(
+                [
+                    "compare",
+                    str(tmp_path / "out" / "run-a"),
+                    str(tmp_path / "out" / b),
+                    "--plot",
+                    str(tmp_path / "c.png"),
+                ]
+            )
+            == 0
+        )
     assert seen == [("A (run-a)", "B (run-b)")] * 2
 
 
@@ -87,11 +117,11 @@ def test_the_compare_figure_draws_both_maps_and_their_angle_difference():
     from snn_fg.metrics import compare_maps
 
     fx = np.zeros((3, 30, 40), np.float32)
-    fx[:, 10, 5:35] = 1.0                       # an edge owned by the side to its right...
+    fx[:, 10, 5:35] = 1.0  # an edge owned by the side to its right...
     fy = np.zeros_like(fx)
     bx = fx.copy()
-    bx[1, 10, 5:15] = -1.0                      # ...in B's window 1 partly by the other side
-    bx[1, 20, 5:10] = 1.0                       # and five vectors A has not
+    bx[1, 10, 5:15] = -1.0  # ...in B's window 1 partly by the other side
+    bx[1, 20, 5:10] = 1.0  # and five vectors A has not
     starts = {"t_start_us": np.array([0, 50_000, 100_000])}
     a, b = Maps(fx, fy, fx.copy(), {}, starts), Maps(bx, fy, fx.copy(), {}, starts)
     rows = compare_maps(a, b)
@@ -104,7 +134,7 @@ def test_the_compare_figure_draws_both_maps_and_their_angle_difference():
     grey, diff = (im.get_array() for im in ax_d.images)
     diff = np.ma.filled(diff.astype(float), np.nan)
     assert np.all(diff[10, 5:15] == 180) and np.all(diff[10, 15:35] == 0)
-    assert np.isnan(diff[20, 5:10]).all() and np.all(grey[20, 5:10] < 1)    # one map only: grey
+    assert np.isnan(diff[20, 5:10]).all() and np.all(grey[20, 5:10] < 1)  # one map only: grey
     assert np.isnan(diff).sum() == diff.size - 30
     assert "mean 60°, 67% within 45°" in ax_d.get_title()
 
@@ -120,15 +150,15 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
     yy, xx = np.mgrid[:32, :32]
     region = np.hypot(yy - 16, xx - 16) < 10
     band = outline_band(region, 2)
-    inward_x, inward_y = (16 - xx) * region, (yy - 16) * region        # y up
+    inward_x, inward_y = (16 - xx) * region, (yy - 16) * region  # y up
     rng = np.random.default_rng(0)
     a = [np.where(band, v, rng.normal(size=v.shape) * region) for v in (inward_x, inward_y)]
     b = [np.where(band, v, rng.normal(size=v.shape) * region) for v in (inward_x, inward_y)]
     g = region.astype(float)
     ma = Maps(*a, g, extra={"event_frame": region.astype(np.int8)})
     mb = Maps(*b, g)
-    whole, = compare_maps(ma, mb)
-    outline, = compare_maps(ma, mb, where=event_outlines(ma, mb, 2))
+    (whole,) = compare_maps(ma, mb)
+    (outline,) = compare_maps(ma, mb, where=event_outlines(ma, mb, 2))
     assert whole["angle_diff_mean_deg"] > 40 and whole["pixels_compared"] == region.sum()
     assert outline["pixels_compared"] == band.sum() < region.sum() / 2
     assert outline["angle_diff_mean_deg"] == 0.0 and outline["angle_within_45_frac"] == 1.0
@@ -159,7 +189,7 @@ def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken
     rows = compare_maps(a, b, where=where)
     ax_d = compare_figure(a, b, rows, where=where).axes[2]
     grey, diff = (np.ma.filled(im.get_array().astype(float), np.nan) for im in ax_d.images)
-    assert np.all(diff[band] == 0) and np.isnan(diff[~band]).all()         # the inside's 180 deg left out
+    assert np.all(diff[band] == 0) and np.isnan(diff[~band]).all()  # the inside's 180 deg left out
     assert np.all(grey[region & ~band] < 1) and "on the compared pixels" in ax_d.get_title()
     whole = compare_figure(a, b, compare_maps(a, b)).axes[2]
     assert np.nanmax(np.ma.filled(whole.images[1].get_array().astype(float), np.nan)) == 180
@@ -179,6 +209,7 @@ def test_a_map_without_any_vector_is_named_under_the_table():
     rows = compare_maps(Maps(fx, fx * 0, fx, {}, starts), Maps(empty, fx * 0, fx, {}, starts))
     text = compare_table(rows)
     assert rows[1]["pixels_b"] == 0 and np.isnan(rows[1]["angle_diff_mean_deg"])
-    assert text.splitlines()[-1] == ("B has no figure-ground vector in 1 of 2 compared windows (1): nothing to "
-                                     "compare there (nan)")
+    assert text.splitlines()[-1] == (
+        "B has no figure-ground vector in 1 of 2 compared windows (1): nothing to compare there (nan)"
+    )
     assert "has no figure-ground vector" not in compare_table(rows[:1])

@@ -1,4 +1,5 @@
 """The CORF push-pull edge operator and the frame-based model's choice of edge operator."""
+
 import numpy as np
 import pytest
 
@@ -14,8 +15,8 @@ from snn_fg.validate import ParameterError
 @pytest.mark.parametrize("turns", [0, 1, 2, 3])
 def test_step_edge_peaks_on_the_edge_pointing_to_the_light_side(turns):
     img = np.zeros((64, 64))
-    img[:, :32] = 1.0                                  # light on the left: direction 180
-    img = np.rot90(img, turns)                         # rot90 turns the picture counter-clockwise
+    img[:, :32] = 1.0  # light on the left: direction 180
+    img = np.rot90(img, turns)  # rot90 turns the picture counter-clockwise
     strength, direction = corf_edges(img)
     want = (180 + 90 * turns) % 360
     mid = strength[16:48, 16:48]
@@ -57,7 +58,11 @@ def test_fbfg_with_corf_finds_the_disc():
 
 @pytest.mark.slow
 def test_cli_edge_operator_is_for_the_frame_based_model_only(tmp_path, capsys):
-    assert main(["run", "demo", "--model", "fbfg", "--edge-operator", "corf", "--out", str(tmp_path / "a"),
-                 "--no-progress"]) == 0
+    assert (
+        main(
+            ["run", "demo", "--model", "fbfg", "--edge-operator", "corf", "--out", str(tmp_path / "a"), "--no-progress"]
+        )
+        == 0
+    )
     assert main(["run", "demo", "--edge-operator", "corf", "--out", str(tmp_path / "b"), "--no-progress"]) == 2
     assert "--edge-operator" in capsys.readouterr().err

@@ -3,6 +3,7 @@
 The server runs in a thread and serves fixture files made here; one path
 promises more bytes than it sends and closes the connection mid-body.
 """
+
 import hashlib
 import http.server
 import io
@@ -18,21 +19,21 @@ from snn_fg.datasets import convert
 from snn_fg.datasets.catalogue import DataFile, Dataset
 from snn_fg.datasets.transfer import DatasetError, arrays_sha256, download, npz_sha256
 
-GOOD = b"event bytes " * 50_000          # 600 kB: several read chunks
+GOOD = b"event bytes " * 50_000  # 600 kB: several read chunks
 OTHER = b"something else entirely" * 10
 
 
 class _Handler(http.server.BaseHTTPRequestHandler):
     files: dict = {}
 
-    def do_GET(self):                      # noqa: N802 - http.server's name
+    def do_GET(self):  # noqa: N802 - http.server's name
         if self.path == "/dropped":
             self.send_response(200)
             self.send_header("Content-Length", str(len(GOOD)))
             self.end_headers()
             self.wfile.write(GOOD[: len(GOOD) // 3])
             self.wfile.flush()
-            self.connection.shutdown(2)      # the server goes away mid-body
+            self.connection.shutdown(2)  # the server goes away mid-body
             self.close_connection = True
             return
         body = self.files.get(self.path)
@@ -69,10 +70,19 @@ def fixture_set(server, monkeypatch, tmp_path):
     _Handler.files = {"/a.bin": GOOD, "/b.bin": OTHER, "/wrong.bin": OTHER}
 
     def make(path_b="/b.bin", sha_b=_sha(OTHER)):
-        files = (DataFile(path="a.bin", size=len(GOOD), digest="bytes", sha256=_sha(GOOD), url=server + "/a.bin"),
-                 DataFile(path="sub/b.bin", size=len(OTHER), digest="bytes", sha256=sha_b, url=server + path_b))
-        ds = Dataset(name="fixture", description="test", source=server, licence="none", download="1 MB",
-                     files=files, fetch=convert.fetch_direct)
+        files = (
+            DataFile(path="a.bin", size=len(GOOD), digest="bytes", sha256=_sha(GOOD), url=server + "/a.bin"),
+            DataFile(path="sub/b.bin", size=len(OTHER), digest="bytes", sha256=sha_b, url=server + path_b),
+        )
+        ds = Dataset(
+            name="fixture",
+            description="test",
+            source=server,
+            licence="none",
+            download="1 MB",
+            files=files,
+            fetch=convert.fetch_direct,
+        )
         monkeypatch.setitem(datasets.DATASETS, "fixture", ds)
         return ds
 
@@ -101,7 +111,7 @@ def test_fetch_downloads_verifies_and_then_keeps_what_is_there(fixture_set, tmp_
     assert (tmp_path / "fixture" / "sub" / "b.bin").read_bytes() == OTHER
     assert "2 files fetched" in capsys.readouterr().out
     assert datasets.verify("fixture") == []
-    (tmp_path / "fixture" / "a.bin").write_bytes(b"damaged")    # only the damaged file is fetched again
+    (tmp_path / "fixture" / "a.bin").write_bytes(b"damaged")  # only the damaged file is fetched again
     assert [f.path for f in datasets.fetch("fixture", progress=False)] == ["a.bin"]
     assert datasets.fetch("fixture", progress=False) == []
 
@@ -117,7 +127,7 @@ def test_a_checksum_mismatch_ends_with_one_line_and_no_partial_file(fixture_set,
     assert main(["data", "fetch", "fixture", "--no-progress"]) == 2
     line = _one_error_line(capsys)
     assert "/b.bin: checksum mismatch" in line and "nothing was written" in line
-    assert _files_under(tmp_path / "fixture") == ["a.bin"]      # the good file stays, verified
+    assert _files_under(tmp_path / "fixture") == ["a.bin"]  # the good file stays, verified
 
 
 def test_a_dropped_connection_ends_with_one_line_and_no_partial_file(fixture_set, tmp_path, capsys):
@@ -190,12 +200,12 @@ def _jpeg_archive(members: dict) -> bytes:
     return buf.getvalue()
 
 
-def test_the_authors_csvs_become_the_reference_npz_and_the_image_comes_from_the_archive(server, monkeypatch,
-                                                                                           tmp_path):
+def test_the_authors_csvs_become_the_reference_npz_and_the_image_comes_from_the_archive(server, monkeypatch, tmp_path):
     files, want = _authors_csvs("7", np.random.default_rng(0))
     jpeg = b"\xff\xd8 a jpeg \xff\xd9"
-    files["/BSDS300-images.tgz"] = _jpeg_archive({"BSDS300/images/test/7.jpg": jpeg,
-                                                  "BSDS300/images/train/8.jpg": b"other"})
+    files["/BSDS300-images.tgz"] = _jpeg_archive(
+        {"BSDS300/images/test/7.jpg": jpeg, "BSDS300/images/train/8.jpg": b"other"}
+    )
     _Handler.files = files
     monkeypatch.setattr(convert, "EDFG_CSV_URL", server + "/data/{id}/{name}_test.csv")
     monkeypatch.setattr(convert, "BSDS300_IMAGES_URL", server + "/BSDS300-images.tgz")

@@ -1,6 +1,7 @@
 """A recording's windows decoded on a second thread while the simulation
 goes on (where the process has a second core): the same maps, in the same
 order, as decoding in line, and an error on that thread still stops the run."""
+
 import numpy as np
 import pytest
 
@@ -9,7 +10,7 @@ from snn_fg.events import image_to_events, iter_windows
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 
 @pytest.fixture(scope="module")
@@ -38,7 +39,7 @@ def test_decoding_on_a_second_thread_gives_the_same_maps_in_order(windows, monke
     assert all(m.params["simulation"]["decode_thread"] is False for _, m in inline)
     assert all(m.params["simulation"]["decode_thread"] is True for _, m in threaded)
     with_vectors = [int((np.hypot(m.fg_x, m.fg_y) > 0).sum()) for _, m in inline]
-    assert sum(with_vectors) >= 30, with_vectors     # (not empty maps compared)
+    assert sum(with_vectors) >= 30, with_vectors  # (not empty maps compared)
     for (_, a), (_, b) in zip(inline, threaded):
         for k in ("fg_x", "fg_y", "grouping"):
             np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)

@@ -2,6 +2,7 @@
 exists, and a #fragment names a heading of the page it points to, with
 GitHub's heading anchors), and the README stays a front door of at most 200
 lines."""
+
 from __future__ import annotations
 
 import re
@@ -42,7 +43,7 @@ def broken_links(page: Path) -> list[str]:
     text = page.read_text(encoding="utf-8")
     broken = []
     for target in _LINK.findall(_prose(text)):
-        if re.match(r"[a-z][a-z0-9+.-]*:", target):      # http:, https:, mailto: ...
+        if re.match(r"[a-z][a-z0-9+.-]*:", target):  # http:, https:, mailto: ...
             continue
         path_part, _, fragment = target.partition("#")
         dest = (page.parent / path_part).resolve() if path_part else page

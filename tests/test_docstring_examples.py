@@ -1,16 +1,30 @@
 """The Examples sections of the public entry points' docstrings run and give
 what they show."""
+
 import doctest
 import importlib
 
 import pytest
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
-MODULES = ["snn_fg.backends", "snn_fg.events.io", "snn_fg.metrics", "snn_fg.network.builder", "snn_fg.rate.edfg",
-           "snn_fg.spiking.api", "snn_fg.events.paper_motion", "snn_fg.groundtruth", "snn_fg.rate.corf",
-           "snn_fg.rate.fbfg", "snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.report", "snn_fg.cancel",
-           "snn_fg.datasets"]
+MODULES = [
+    "snn_fg.backends",
+    "snn_fg.events.io",
+    "snn_fg.metrics",
+    "snn_fg.network.builder",
+    "snn_fg.rate.edfg",
+    "snn_fg.spiking.api",
+    "snn_fg.events.paper_motion",
+    "snn_fg.groundtruth",
+    "snn_fg.rate.corf",
+    "snn_fg.rate.fbfg",
+    "snn_fg.export.pynn",
+    "snn_fg.export.nir",
+    "snn_fg.export.report",
+    "snn_fg.cancel",
+    "snn_fg.datasets",
+]
 #: examples that build and export whole networks (several seconds each)
 SLOW = {"snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.report"}
 

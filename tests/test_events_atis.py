@@ -5,6 +5,7 @@ stream type 2).  Byte 0 of an ATIS event is ``t[5:0] << 2 | polarity << 1 |
 is_tc``; idle bytes 0xFC (reset) and 0xFD-0xFF (overflow of 63 us x
 ``byte & 3``) are special.
 """
+
 import argparse
 
 import numpy as np
@@ -12,10 +13,10 @@ import pytest
 
 from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, iter_recording, open_recording
-from snn_fg.events_cli import add_events_command
 from snn_fg.events.eventstream import iter_atis, read_header
 from snn_fg.events.source import DecodeTally
 from snn_fg.events.writers import encode_es_atis
+from snn_fg.events_cli import add_events_command
 
 W, H = 304, 240
 HEADER = b"Event Stream" + bytes([2, 0, 0, 2]) + W.to_bytes(2, "little") + H.to_bytes(2, "little")
@@ -34,15 +35,17 @@ def events(rows):
 
 
 def test_hand_encoded_stream(tmp_path):
-    body = (bytes([RESET])
-            + atis_event(5, 300, 2, 1, 0)                     # t = 5: change detection, ON
-            + bytes([OVERFLOW_3, OVERFLOW_1])                 # + 3 * 63 + 63 us
-            + atis_event(10, 1, 1, 0, 1)                      # t = 267: exposure, first crossing
-            + atis_event(0, 1, 1, 1, 1)                       # t = 267: exposure, second crossing
-            + bytes([OVERFLOW_2])                             # + 2 * 63 us
-            + atis_event(62, 0, 239, 0, 0)                    # t = 455: change detection, OFF
-            + bytes([RESET] * 5)                              # resets add no time
-            + atis_event(0, 255, 0, 1, 0))                    # t = 455: x = 255, a 0xFF data byte
+    body = (
+        bytes([RESET])
+        + atis_event(5, 300, 2, 1, 0)  # t = 5: change detection, ON
+        + bytes([OVERFLOW_3, OVERFLOW_1])  # + 3 * 63 + 63 us
+        + atis_event(10, 1, 1, 0, 1)  # t = 267: exposure, first crossing
+        + atis_event(0, 1, 1, 1, 1)  # t = 267: exposure, second crossing
+        + bytes([OVERFLOW_2])  # + 2 * 63 us
+        + atis_event(62, 0, 239, 0, 0)  # t = 455: change detection, OFF
+        + bytes([RESET] * 5)  # resets add no time
+        + atis_event(0, 255, 0, 1, 0)
+    )  # t = 455: x = 255, a 0xFF data byte
     path = tmp_path / "hand.es"
     path.write_bytes(HEADER + body)
     rec = open_recording(path)
@@ -51,8 +54,7 @@ def test_hand_encoded_stream(tmp_path):
     np.testing.assert_array_equal(rec.events, want)
     assert rec.exposure_events == 2
     tally = DecodeTally()  # one byte per read: every state carries across reads
-    np.testing.assert_array_equal(np.concatenate(list(iter_atis(path, read_header(path), tally, read_bytes=1))),
-                                  want)
+    np.testing.assert_array_equal(np.concatenate(list(iter_atis(path, read_header(path), tally, read_bytes=1))), want)
     assert tally.exposure_events == 2
 
 
@@ -135,8 +137,7 @@ def test_cli_summary_reports_exposure_events(tmp_path, capsys):
     assert "skipped:    1,234 ATIS exposure events (read, not used by the model)" in out.splitlines()
 
 
-@pytest.mark.parametrize("kind,name", [(0, "generic"), (3, "asynchronous display"), (4, "colour"),
-                                       (9, "unknown")])
+@pytest.mark.parametrize("kind,name", [(0, "generic"), (3, "asynchronous display"), (4, "colour"), (9, "unknown")])
 def test_other_stream_types_are_refused_by_name(tmp_path, kind, name):
     path = tmp_path / "o.es"
     path.write_bytes(b"Event Stream" + bytes([2, 0, 0, kind]) + bytes(20))

@@ -1,4 +1,5 @@
 """`snn-fg events` sub-command (registered on a local parser; the main CLI wires it in)."""
+
 import argparse
 
 import cv2
@@ -71,6 +72,7 @@ def test_image_simulation_and_outputs(tmp_path, capsys):
     assert "keeps no sensor size" in out
     rec = open_recording(evs, sensor_size=(40, 30))
     from snn_fg.events import image_to_events
+
     np.testing.assert_array_equal(rec.events, image_to_events(img, threshold=0.2).events)
 
 

@@ -1,4 +1,5 @@
 """events_to_frame (model stage 1) and the ESIM-style simulator."""
+
 import numpy as np
 import pytest
 
@@ -18,8 +19,19 @@ def make_events(rows):
 def test_last_event_wins_hand_made():
     # pixel (1,0): ON then OFF -> neg; pixel (2,1): OFF then ON -> pos;
     # pixel (0,2): single ON; pixel (3,2): ON, ON, OFF, ON -> pos
-    ev = make_events([(1, 0, 10, 1), (2, 1, 11, 0), (1, 0, 12, 0), (0, 2, 13, 1), (3, 2, 14, 1),
-                      (2, 1, 15, 1), (3, 2, 16, 1), (3, 2, 17, 0), (3, 2, 18, 1)])
+    ev = make_events(
+        [
+            (1, 0, 10, 1),
+            (2, 1, 11, 0),
+            (1, 0, 12, 0),
+            (0, 2, 13, 1),
+            (3, 2, 14, 1),
+            (2, 1, 15, 1),
+            (3, 2, 16, 1),
+            (3, 2, 17, 0),
+            (3, 2, 18, 1),
+        ]
+    )
     pos, neg = events_to_frame(ev, (4, 3))
     want_pos = np.zeros((3, 4), np.uint8)
     want_neg = np.zeros((3, 4), np.uint8)
@@ -40,10 +52,11 @@ def test_last_means_latest_timestamp_even_if_unsorted():
 def test_last_event_wins_on_random_streams_with_ties():
     rng = np.random.default_rng(7)
     for n in (1, 50, 3000):
-        ev = make_events(list(zip(rng.integers(0, 9, n), rng.integers(0, 6, n), rng.integers(0, 40, n),
-                                  rng.integers(0, 2, n))))
+        ev = make_events(
+            list(zip(rng.integers(0, 9, n), rng.integers(0, 6, n), rng.integers(0, 40, n), rng.integers(0, 2, n)))
+        )
         want = {}
-        for k in sorted(range(n), key=lambda k: (ev["t"][k], k)):      # time order, ties in array order
+        for k in sorted(range(n), key=lambda k: (ev["t"][k], k)):  # time order, ties in array order
             want[(int(ev["y"][k]), int(ev["x"][k]))] = int(ev["p"][k])
         pos, neg = events_to_frame(ev, (9, 6))
         assert {(r, c): 1 for r, c in zip(*np.nonzero(pos))} == {k: 1 for k, p in want.items() if p == 1}
@@ -110,7 +123,7 @@ def test_shift4_on_leading_off_trailing_none_inside():
     # nothing inside uniform regions: interior and background far from the rim never fire
     yy, xx = np.mgrid[:48, :64]
     r2 = (yy - 24) ** 2 + (xx - 32) ** 2
-    quiet = (r2 < 9 ** 2) | (r2 > 15 ** 2)
+    quiet = (r2 < 9**2) | (r2 > 15**2)
     assert not quiet[ev["y"], ev["x"]].any()
 
 
@@ -159,7 +172,7 @@ def test_circle_motion_positions_and_timing():
 def test_refractory_limits_rate_per_pixel():
     img = disc()
     ev = image_to_events(img, pixels=PixelOptions(refractory_us=1000)).events
-    for (x, y) in {(int(e["x"]), int(e["y"])) for e in ev[:50]}:
+    for x, y in {(int(e["x"]), int(e["y"])) for e in ev[:50]}:
         t = ev["t"][(ev["x"] == x) & (ev["y"] == y)]
         assert (np.diff(t) >= 1000).all()
     assert len(ev) < len(image_to_events(img).events)
@@ -182,8 +195,9 @@ def test_rgb_and_float_inputs_and_frame():
     assert cols.mean() > 32
 
 
-@pytest.mark.parametrize("bad", [np.full((4, 4), np.nan), np.full((4, 4), 2.0), np.zeros((2, 2, 2, 2)),
-                                 np.zeros((0, 5)), np.array([["a"]])])
+@pytest.mark.parametrize(
+    "bad", [np.full((4, 4), np.nan), np.full((4, 4), 2.0), np.zeros((2, 2, 2, 2)), np.zeros((0, 5)), np.array([["a"]])]
+)
 def test_bad_images_raise_input_error(bad):
     with pytest.raises(InputError):
         image_to_events(bad)

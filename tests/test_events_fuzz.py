@@ -6,6 +6,7 @@ properties are exercised on a fresh clone as well.  Every property test first
 checks that its unmodified base file decodes to the expected number of events,
 so a decoder that refused everything could not pass.
 """
+
 import functools
 import tempfile
 from pathlib import Path
@@ -20,7 +21,7 @@ from snn_fg.errors import InputError, SnnFgError
 from snn_fg.events import EVENT_DTYPE, events_to_frame, iter_windows, open_recording, save_events
 from snn_fg.events.writers import encode_es_atis
 
-EVENTS = datasets.find("events")        # None on a machine without the sample recordings
+EVENTS = datasets.find("events")  # None on a machine without the sample recordings
 SIZE = (64, 48)
 
 
@@ -45,15 +46,19 @@ def _dat_bytes():
     ev = synthetic()
     data = (ev["p"].astype(np.uint64) << 28) | (ev["y"].astype(np.uint64) << 14) | ev["x"].astype(np.uint64)
     words = (data << np.uint64(32)) | ev["t"].astype(np.uint64)
-    return (b"% Data file containing CD events.\n% Version 2\n% Width 64\n% Height 48\n"
-            + bytes([0x0C, 8]) + words.astype("<u8").tobytes())
+    return (
+        b"% Data file containing CD events.\n% Version 2\n% Width 64\n% Height 48\n"
+        + bytes([0x0C, 8])
+        + words.astype("<u8").tobytes()
+    )
 
 
 def _nmnist_bytes():
     ev = synthetic()
     t = ev["t"].astype(np.int64)
-    rec = np.stack([ev["x"] % 34, ev["y"] % 34, (ev["p"].astype(np.int64) << 7) | (t >> 16),
-                    (t >> 8) & 0xFF, t & 0xFF], axis=1).astype(np.uint8)
+    rec = np.stack(
+        [ev["x"] % 34, ev["y"] % 34, (ev["p"].astype(np.int64) << 7) | (t >> 16), (t >> 8) & 0xFF, t & 0xFF], axis=1
+    ).astype(np.uint8)
     return rec.tobytes()
 
 
@@ -61,8 +66,10 @@ def _yarp_bytes():
     ev = synthetic()
     addr = ev["p"].astype(np.int64) | (ev["x"].astype(np.int64) << 1) | (ev["y"].astype(np.int64) << 12)
     ticks = ev["t"].astype(np.int64) * 1000 // 80
-    lines = [f"{i} {i * 0.001:.6f} AE ({' '.join(f'{a} {b}' for a, b in zip(ticks[i:i + 20], addr[i:i + 20]))})"
-             for i in range(0, len(ev), 20)]
+    lines = [
+        f"{i} {i * 0.001:.6f} AE ({' '.join(f'{a} {b}' for a, b in zip(ticks[i : i + 20], addr[i : i + 20]))})"
+        for i in range(0, len(ev), 20)
+    ]
     return ("\n".join(lines) + "\n").encode()
 
 
@@ -82,15 +89,16 @@ CASES = {
     # name: (suffix, base bytes, open kwargs, events the base decodes to)
     # real files are cut at an event boundary; their counts agree with event_stream 1.6.3 (es),
     # expelliarmus 1.1.12 (evt2) and the README (aedat4, whole file)
-    "es": (".es", _shared("dvs.es", 20 + 5 * 5996), {}, 5996) if EVENTS else
-          (".es", _written(".es"), {}, N),
+    "es": (".es", _shared("dvs.es", 20 + 5 * 5996), {}, 5996) if EVENTS else (".es", _written(".es"), {}, N),
     "es-atis": (".es", _atis_bytes(), {}, N),
     "evt2": (".raw", _shared("expelliarmus_evt2_spinner.raw", 30_000), {"sensor_size": (640, 480)}, 7417)
-            if EVENTS else (".raw", _written(".raw"), {}, N),
+    if EVENTS
+    else (".raw", _written(".raw"), {}, N),
     "evt3": (".raw", _written(".raw", encoding="evt3"), {}, N),
     "dat": (".dat", _dat_bytes(), {}, N),
-    "nmnist": (".bin", _shared("tonic_sample_nmnist.bin", 20_000), {}, 4000) if EVENTS else
-              (".bin", _nmnist_bytes(), {}, N),
+    "nmnist": (".bin", _shared("tonic_sample_nmnist.bin", 20_000), {}, 4000)
+    if EVENTS
+    else (".bin", _nmnist_bytes(), {}, N),
     "yarp": (".log", _yarp_bytes(), {}, N),
     "npy": (".npy", _written(".npy"), {}, N),
     "npz": (".npz", _written(".npz"), {}, N),
@@ -112,11 +120,11 @@ def decoded_count(case):
 
 def mutate(data, base):
     # half the cases keep the whole file (flips only), the rest are cut anywhere
-    cut = data.draw(st.one_of(st.just(len(base)), st.integers(min_value=0, max_value=len(base))),
-                    label="truncate_at")
+    cut = data.draw(st.one_of(st.just(len(base)), st.integers(min_value=0, max_value=len(base))), label="truncate_at")
     buf = bytearray(base[:cut])
-    flips = data.draw(st.lists(st.tuples(st.integers(0, max(len(buf) - 1, 0)), st.integers(0, 255)), max_size=6),
-                      label="flips")
+    flips = data.draw(
+        st.lists(st.tuples(st.integers(0, max(len(buf) - 1, 0)), st.integers(0, 255)), max_size=6), label="flips"
+    )
     for i, b in flips:
         if buf:
             buf[i] = b
@@ -181,8 +189,10 @@ def test_an_aedat4_file_cut_inside_a_packet_says_where_and_why():
     # the packet table walked by hand: each packet a stream id and a size (uint32 each), then its bytes
     at = 18 + int.from_bytes(base[14:18], "little")
     k = 0
-    while at + 8 + int.from_bytes(base[at + 4:at + 8], "little") <= 100_000:
-        at, k = at + 8 + int.from_bytes(base[at + 4:at + 8], "little"), k + 1
-    assert str(err.value) == (f"{path}: file ends inside AEDAT4 packet {k} ({100_000 - at} of "
-                              f"{8 + int.from_bytes(base[at + 4:at + 8], 'little')} bytes); is the file cut short? "
-                              f"(at byte offset {at})")
+    while at + 8 + int.from_bytes(base[at + 4 : at + 8], "little") <= 100_000:
+        at, k = at + 8 + int.from_bytes(base[at + 4 : at + 8], "little"), k + 1
+    assert str(err.value) == (
+        f"{path}: file ends inside AEDAT4 packet {k} ({100_000 - at} of "
+        f"{8 + int.from_bytes(base[at + 4 : at + 8], 'little')} bytes); is the file cut short? "
+        f"(at byte offset {at})"
+    )

@@ -1,10 +1,11 @@
 """Readers: the sample recordings (dataset ``events``), round trips, spec-encoded synthetic files,
 mislabelled files."""
+
 import numpy as np
 import pytest
 
 from snn_fg.errors import InputError
-from snn_fg.events import (EVENT_DTYPE, Recording, detect_format, iter_recording, open_recording, save_events)
+from snn_fg.events import EVENT_DTYPE, Recording, detect_format, iter_recording, open_recording, save_events
 
 
 def random_events(n=2000, w=64, h=48, t_max=200_000, seed=0):
@@ -53,6 +54,7 @@ def test_dvs_es_count_includes_reset_burst(dataset):
 
 def test_shared_es_matches_event_stream_package(dataset):
     import event_stream  # a test extra: an independent decoder to check ours against
+
     path = dataset("events", "dvs.es")
     ours = open_recording(path).events
     ref = np.concatenate(list(event_stream.Decoder(str(path))))
@@ -65,8 +67,14 @@ def test_evt2_without_geometry_needs_sensor_size(dataset):
         open_recording(dataset("events", "expelliarmus_evt2_spinner.raw"))
 
 
-@pytest.mark.parametrize("name,kw", [("dvs.es", {}), ("expelliarmus_evt2_spinner.raw", {"sensor_size": (640, 480)}),
-                                     ("tonic_sample_person.aedat4", {})])
+@pytest.mark.parametrize(
+    "name,kw",
+    [
+        ("dvs.es", {}),
+        ("expelliarmus_evt2_spinner.raw", {"sensor_size": (640, 480)}),
+        ("tonic_sample_person.aedat4", {}),
+    ],
+)
 def test_streaming_equals_whole(dataset, name, kw):
     whole = open_recording(dataset("events", name), **kw).events
     stream = iter_recording(dataset("events", name), chunk_events=33_333, **kw)
@@ -77,8 +85,9 @@ def test_streaming_equals_whole(dataset, name, kw):
 
 
 # ------------------------------------------------------------------ round trips
-@pytest.mark.parametrize("suffix,enc", [(".npy", None), (".npz", None), (".raw", "evt2"), (".raw", "evt3"),
-                                        (".es", None)])
+@pytest.mark.parametrize(
+    "suffix,enc", [(".npy", None), (".npz", None), (".raw", "evt2"), (".raw", "evt3"), (".es", None)]
+)
 def test_write_read_round_trip_identical(tmp_path, suffix, enc):
     ev = random_events(seed=3, t_max=20_000_000)  # > 2**24 us: crosses an EVT3 counter wrap
     path = tmp_path / f"rec{suffix}"
@@ -140,19 +149,43 @@ def evt3_file(tmp_path, words, header=True):
 def test_evt3_vectors_and_time_words(tmp_path):
     TH, TL, Y, X, BX, V12, V8 = 0x8000, 0x6000, 0x0000, 0x2000, 0x3000, 0x4000, 0x5000
     words = [
-        Y | 5, X | 3,                       # before any TIME_HIGH: dropped
-        TH | 1, TL | 7, Y | 10, X | (1 << 11) | 20,   # t = 4096 + 7, ON event at (20, 10)
-        BX | 30,                            # base x 30, OFF
-        V12 | 0b000000000101,               # x = 30, 32
-        V8 | 0b10000001,                    # x = 42, 49
-        TL | 9, Y | 11, BX | (1 << 11) | 2, V8 | 0b00000011,  # t = 4096 + 9, ON x = 2, 3 at y 11
-        TH | 2, X | 1,                      # t = 8192 (TIME_LOW reset by TIME_HIGH)
-        TH | 3, TL | 4000, TH | 4, TL | 5, X | 2,   # t = 4*4096 + 5: no 4096 drift from TIME_LOW wraps
-        0xA000 | 1, 0xE000, 0x7000, 0xF000,  # trigger / others / continued words are ignored
+        Y | 5,
+        X | 3,  # before any TIME_HIGH: dropped
+        TH | 1,
+        TL | 7,
+        Y | 10,
+        X | (1 << 11) | 20,  # t = 4096 + 7, ON event at (20, 10)
+        BX | 30,  # base x 30, OFF
+        V12 | 0b000000000101,  # x = 30, 32
+        V8 | 0b10000001,  # x = 42, 49
+        TL | 9,
+        Y | 11,
+        BX | (1 << 11) | 2,
+        V8 | 0b00000011,  # t = 4096 + 9, ON x = 2, 3 at y 11
+        TH | 2,
+        X | 1,  # t = 8192 (TIME_LOW reset by TIME_HIGH)
+        TH | 3,
+        TL | 4000,
+        TH | 4,
+        TL | 5,
+        X | 2,  # t = 4*4096 + 5: no 4096 drift from TIME_LOW wraps
+        0xA000 | 1,
+        0xE000,
+        0x7000,
+        0xF000,  # trigger / others / continued words are ignored
     ]
     ev = open_recording(evt3_file(tmp_path, words)).events
-    want = [(20, 10, 4103, 1), (30, 10, 4103, 0), (32, 10, 4103, 0), (42, 10, 4103, 0), (49, 10, 4103, 0),
-            (2, 11, 4105, 1), (3, 11, 4105, 1), (1, 11, 8192, 0), (2, 11, 4 * 4096 + 5, 0)]
+    want = [
+        (20, 10, 4103, 1),
+        (30, 10, 4103, 0),
+        (32, 10, 4103, 0),
+        (42, 10, 4103, 0),
+        (49, 10, 4103, 0),
+        (2, 11, 4105, 1),
+        (3, 11, 4105, 1),
+        (1, 11, 8192, 0),
+        (2, 11, 4 * 4096 + 5, 0),
+    ]
     got = [(int(e["x"]), int(e["y"]), int(e["t"]), int(e["p"])) for e in ev]
     assert got == want
 
@@ -173,13 +206,22 @@ def test_evt3_unknown_word_names_byte_offset(tmp_path):
 
 def test_evt2_spec_words(tmp_path):
     # EVT2: type<<28 | t_low(6)<<22 | x(11)<<11 | y(11); TIME_HIGH 0x8<<28 | t>>6
-    words = [(0x8 << 28) | 100, (0x1 << 28) | (5 << 22) | (7 << 11) | 3, (0x0 << 28) | (63 << 22) | (1 << 11) | 2,
-             (0xA << 28), (0x8 << 28) | 101, (0x1 << 28) | (0 << 22) | (0 << 11) | 0]
+    words = [
+        (0x8 << 28) | 100,
+        (0x1 << 28) | (5 << 22) | (7 << 11) | 3,
+        (0x0 << 28) | (63 << 22) | (1 << 11) | 2,
+        (0xA << 28),
+        (0x8 << 28) | 101,
+        (0x1 << 28) | (0 << 22) | (0 << 11) | 0,
+    ]
     path = tmp_path / "e.raw"
     path.write_bytes(b"% evt 2.0\n% geometry 16x8\n% end\n" + np.array(words, "<u4").tobytes())
     ev = open_recording(path).events
-    assert [(int(e["x"]), int(e["y"]), int(e["t"]), int(e["p"])) for e in ev] == \
-        [(7, 3, 100 * 64 + 5, 1), (1, 2, 100 * 64 + 63, 0), (0, 0, 101 * 64, 1)]
+    assert [(int(e["x"]), int(e["y"]), int(e["t"]), int(e["p"])) for e in ev] == [
+        (7, 3, 100 * 64 + 5, 1),
+        (1, 2, 100 * 64 + 63, 0),
+        (0, 0, 101 * 64, 1),
+    ]
     bad = tmp_path / "bad.raw"
     bad.write_bytes(b"% evt 2.0\n% geometry 16x8\n% end\n" + np.array(words[:2] + [0x3 << 28], "<u4").tobytes())
     with pytest.raises(InputError, match="unknown EVT2 word type 0x3.*byte offset"):
@@ -195,8 +237,11 @@ def dat_file(tmp_path, ts, xs, ys, ps, w=64, h=48):
     data = (np.asarray(ps, np.uint64) << 28) | (np.asarray(ys, np.uint64) << 14) | np.asarray(xs, np.uint64)
     words = (data << np.uint64(32)) | np.asarray(ts, np.uint64)
     path = tmp_path / "c.dat"
-    path.write_bytes(f"% Data file containing CD events.\n% Version 2\n% Width {w}\n% Height {h}\n".encode()
-                     + bytes([0x0C, 8]) + words.astype("<u8").tobytes())
+    path.write_bytes(
+        f"% Data file containing CD events.\n% Version 2\n% Width {w}\n% Height {h}\n".encode()
+        + bytes([0x0C, 8])
+        + words.astype("<u8").tobytes()
+    )
     return path
 
 
@@ -225,7 +270,7 @@ def yarp_addr20(x, y, p, ch=0):
 def yarp_log(path, pairs, numbered=True):
     lines = []
     for k in range(0, len(pairs), 3):
-        vals = " ".join(f"{ts} {a}" for ts, a in pairs[k:k + 3])
+        vals = " ".join(f"{ts} {a}" for ts, a in pairs[k : k + 3])
         lines.append((f"{k} {1000.5 + k:.6f} " if numbered else "") + f"AE ({vals})")
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -253,9 +298,9 @@ def test_yarp_wrap_flag_bit_channels_and_samples(tmp_path):
     period = 1 << 30
     pairs = [
         ((period - 100) | (1 << 31), yarp_addr24(1, 1, 1)),  # bit 31 flag set (older logs): ignored
-        (period - 50, yarp_addr24(2, 1, 0, ch=1)),           # right camera: skipped by default
-        (30, yarp_addr24(3, 2, 1)),                          # counter wrapped
-        (40, (1 << 23) | 5),                                 # non-vision sample: skipped
+        (period - 50, yarp_addr24(2, 1, 0, ch=1)),  # right camera: skipped by default
+        (30, yarp_addr24(3, 2, 1)),  # counter wrapped
+        (40, (1 << 23) | 5),  # non-vision sample: skipped
         (60, yarp_addr24(4, 2, 0)),
     ]
     path = yarp_log(tmp_path / "data.log", pairs, numbered=False)
@@ -309,7 +354,7 @@ def test_mislabelled_files_are_refused(tmp_path):
     assert detect_format(es) == "es"
 
 
-@pytest.mark.slow      # reads through tonic, whose import brings torch (3 s on an idle core)
+@pytest.mark.slow  # reads through tonic, whose import brings torch (3 s on an idle core)
 def test_nmnist_synthetic_and_truncated(tmp_path):
     # N-MNIST record: x, y, p<<7 | t[22:16], t[15:8], t[7:0]
     recs = [(1, 2, 1, 100), (33, 33, 0, 70000), (0, 0, 1, 80000)]
@@ -319,8 +364,9 @@ def test_nmnist_synthetic_and_truncated(tmp_path):
     path = tmp_path / "d.bin"
     path.write_bytes(bytes(raw))
     rec = open_recording(path)
-    assert [(int(e["x"]), int(e["y"]), int(e["t"]), int(e["p"])) for e in rec.events] == \
-        [(x, y, t, p) for x, y, p, t in recs]
+    assert [(int(e["x"]), int(e["y"]), int(e["t"]), int(e["p"])) for e in rec.events] == [
+        (x, y, t, p) for x, y, p, t in recs
+    ]
     path.write_bytes(bytes(raw[:-2]))
     with pytest.raises(InputError, match="byte offset 10"):
         open_recording(path)
@@ -354,9 +400,15 @@ def test_option_typos_are_type_errors(tmp_path):
             call(path, encodng="evt3")
 
 
-@pytest.mark.parametrize("option,value,applies_to", [("encoding", "evt3", "Prophesee RAW"),
-                                                     ("codec", "24", "YARP"), ("channel", 1, "YARP"),
-                                                     ("timer_bits", 24, "YARP")])
+@pytest.mark.parametrize(
+    "option,value,applies_to",
+    [
+        ("encoding", "evt3", "Prophesee RAW"),
+        ("codec", "24", "YARP"),
+        ("channel", 1, "YARP"),
+        ("timer_bits", 24, "YARP"),
+    ],
+)
 def test_option_of_another_format_is_a_parameter_error(tmp_path, option, value, applies_to):
     from snn_fg.errors import ParameterError
     from snn_fg.events import iter_windows
@@ -378,9 +430,16 @@ def test_option_values_are_checked(tmp_path):
 
     path = tmp_path / "a.raw"
     save_events(path, random_events(20), (64, 48))
-    for bad in ({"encoding": "evt21"}, {"encoding": 3}, {"codec": 24}, {"channel": 2}, {"channel": True},
-                {"timer_bits": 0}, {"timer_bits": 30.0}):
-        (name, value), = bad.items()
+    for bad in (
+        {"encoding": "evt21"},
+        {"encoding": 3},
+        {"codec": 24},
+        {"channel": 2},
+        {"channel": True},
+        {"timer_bits": 0},
+        {"timer_bits": 30.0},
+    ):
+        ((name, value),) = bad.items()
         with pytest.raises(ParameterError, match=f"open_recording: {name}="):
             open_recording(path, **bad)
     with pytest.raises(ParameterError, match="chunk_events"):
@@ -392,7 +451,7 @@ def test_encoding_option_reads_headerless_raw(tmp_path):
     path = tmp_path / "h.raw"
     save_events(path, ev, (64, 48), encoding="evt3")
     data = path.read_bytes()
-    path.write_bytes(data[data.index(b"% end\n") + len(b"% end\n"):])
+    path.write_bytes(data[data.index(b"% end\n") + len(b"% end\n") :])
     rec = open_recording(path, encoding="EVT3", sensor_size=(64, 48))
     assert rec.format == "evt3"
     np.testing.assert_array_equal(rec.events, ev)
@@ -450,13 +509,16 @@ def test_a_few_far_out_events_do_not_set_the_sensor_size(tmp_path):
     ev = _tonic_like()
     ev["x"][500] = 30000
     np.save(tmp_path / "far.npy", ev)
-    with pytest.raises(InputError, match=r"far\.npy: no sensor size given, and a few events lie far beyond the "
-                                         r"others \(x = 30000 at event 500; 1 of 100000 events outside the "
-                                         r"320 x 240 the others fill\)"):
+    with pytest.raises(
+        InputError,
+        match=r"far\.npy: no sensor size given, and a few events lie far beyond the "
+        r"others \(x = 30000 at event 500; 1 of 100000 events outside the "
+        r"320 x 240 the others fill\)",
+    ):
         open_recording(tmp_path / "far.npy")
     with pytest.raises(InputError, match=r"lies outside the 320 x 240 sensor \(at event 500\)"):
         list(iter_recording(tmp_path / "far.npy", sensor_size=(320, 240)))
-    ev["x"][500] = 600                              # within twice the others' extent: a sensor that size
+    ev["x"][500] = 600  # within twice the others' extent: a sensor that size
     np.save(tmp_path / "near.npy", ev)
     with pytest.warns(UserWarning, match="601 x 240 from the events' extent"):
         assert open_recording(tmp_path / "near.npy").sensor_size[:2] == (601, 240)
@@ -467,8 +529,11 @@ def test_a_polarity_other_than_on_or_off_is_refused_naming_the_event(tmp_path, p
     ev = np.zeros(10, [("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "<f8")])
     ev["t"], ev["p"] = np.arange(10), [1, 0, -1, 1, 0, 1, p, 1, 0, 1]
     np.save(tmp_path / "p.npy", ev)
-    with pytest.raises(InputError, match=rf"p\.npy: field p must be 1 \(ON\) and 0 or -1 \(OFF\), or boolean, "
-                                         rf"got {shown}(\.0)? \(at event 6\)"):
+    with pytest.raises(
+        InputError,
+        match=rf"p\.npy: field p must be 1 \(ON\) and 0 or -1 \(OFF\), or boolean, "
+        rf"got {shown}(\.0)? \(at event 6\)",
+    ):
         list(iter_recording(tmp_path / "p.npy", sensor_size=(4, 4)))
 
 

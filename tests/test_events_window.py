@@ -1,4 +1,5 @@
 """iter_windows edge cases and streaming behaviour."""
+
 import warnings
 from pathlib import Path
 
@@ -61,7 +62,7 @@ def test_window_longer_than_recording_gives_one_window():
         warnings.simplefilter("error")
         wins = list(iter_windows(ev, window_ms=10_000, sensor_size=(8, 1)))
     assert len(wins) == 1
-    assert len(wins[0].events) == 50 and wins[0].t_end_us == 49 * 100 + 1     # not 10 s past the data
+    assert len(wins[0].events) == 50 and wins[0].t_end_us == 49 * 100 + 1  # not 10 s past the data
 
 
 def test_backwards_timestamp_names_event_index():
@@ -84,14 +85,22 @@ def test_empty_recording_and_late_start_are_errors(tmp_path):
         list(iter_windows(np.zeros(0, EVENT_DTYPE), sensor_size=(8, 1)))
     with pytest.raises(InputError, match="after the last event"):
         list(iter_windows(ev_at([0, 10]), start_ms=5, sensor_size=(8, 1)))
-    for bad in ({"window_ms": 0}, {"window_ms": -1}, {"start_ms": -1}, {"window_ms": float("nan")},
-                {"max_windows": 0}, {"max_windows": "2"}, {"stride_ms": "x"}, {"denoise_us": "5"},
-                {"refractory_us": -1}):
+    for bad in (
+        {"window_ms": 0},
+        {"window_ms": -1},
+        {"start_ms": -1},
+        {"window_ms": float("nan")},
+        {"max_windows": 0},
+        {"max_windows": "2"},
+        {"stride_ms": "x"},
+        {"denoise_us": "5"},
+        {"refractory_us": -1},
+    ):
         with pytest.raises(ParameterError):
             list(iter_windows(ev_at([0, 10]), sensor_size=(8, 1), **bad))
 
 
-@pytest.mark.slow      # reads through tonic, whose import brings torch (3 s on an idle core)
+@pytest.mark.slow  # reads through tonic, whose import brings torch (3 s on an idle core)
 def test_denoise_and_refractory_filters_use_tonic():
     # tonic's Denoise is causal: an event survives if a 4-neighbour fired within filter_time
     # before it, so isolated events and the first event of a cluster are dropped
@@ -128,9 +137,23 @@ def test_streaming_memory_experiment_small(tmp_path):
 
     root = Path(__file__).resolve().parents[1]
     report = tmp_path / "r.json"
-    res = subprocess.run([sys.executable, "-m", "experiments.bench.events_streaming_memory", "--events", "200000",
-                          "--duration-s", "2", "--report", str(report)], capture_output=True, text=True, timeout=120,
-                         cwd=root)
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "experiments.bench.events_streaming_memory",
+            "--events",
+            "200000",
+            "--duration-s",
+            "2",
+            "--report",
+            str(report),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=root,
+    )
     assert res.returncode == 0, res.stderr
     out = json.loads(report.read_text())
     assert out["events_streamed"] == 200_000

@@ -1,5 +1,6 @@
 """experiments.common: the record every result carries, the markdown tables, the data an experiment needs;
 and every experiment module imports (run from the repository root as ``python -m experiments...``)."""
+
 import importlib
 import pkgutil
 import sys
@@ -33,7 +34,7 @@ def test_a_run_record_names_the_commit_the_command_the_date_the_processor_and_th
     rec = run.record()
     assert set(rec) == {"commit", "command", "date", "seconds", "processor", "load_before", "load_after"}
     head = rec["commit"].removesuffix("-dirty")
-    assert len(head) == 10 and int(head, 16) >= 0           # a short hash of this checkout
+    assert len(head) == 10 and int(head, 16) >= 0  # a short hash of this checkout
     assert rec["command"].startswith("python ")
     assert len(rec["load_before"]) == len(rec["load_after"]) == 3
     assert 0 <= rec["seconds"] < 60
@@ -44,8 +45,10 @@ def test_a_run_record_names_the_commit_the_command_the_date_the_processor_and_th
 
 def test_the_processor_is_read_from_the_first_cpu_of_cpuinfo(tmp_path):
     info = tmp_path / "cpuinfo"
-    info.write_text("processor\t: 0\ncpu family\t: 6\nmodel\t\t: 207\nmodel name\t: Some Xeon\n"
-                    "cache size\t: 266240 KB\n\nprocessor\t: 1\nmodel name\t: Other\n")
+    info.write_text(
+        "processor\t: 0\ncpu family\t: 6\nmodel\t\t: 207\nmodel name\t: Some Xeon\n"
+        "cache size\t: 266240 KB\n\nprocessor\t: 1\nmodel name\t: Other\n"
+    )
     assert common.processor(str(info)) == "Some Xeon, family 6 model 207, cache 266240 KB"
     assert common.processor(str(tmp_path / "absent")) == ""
 
@@ -62,7 +65,7 @@ def test_an_absent_dataset_ends_the_experiment_with_the_fetch_command(tmp_path, 
 def _experiment_modules():
     names = []
     for info in pkgutil.walk_packages(experiments.__path__, "experiments."):
-        if info.name != "experiments.bench.__main__":        # (it runs the bench)
+        if info.name != "experiments.bench.__main__":  # (it runs the bench)
             names.append(info.name)
     return sorted(names)
 

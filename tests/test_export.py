@@ -2,6 +2,7 @@
 PyNN model (run on NEST from its own folder, without snn_fg), the NIR graph
 and its round trip, the resource report, weight quantisation and the
 ``snn-fg export`` command's refusals."""
+
 import json
 import subprocess
 import sys
@@ -15,17 +16,17 @@ from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_frame
 from snn_fg.export import synapses
 from snn_fg.export.board import board_network, whole_pairs
-from snn_fg.pynn.cells import quantise, split_receptors
-from snn_fg.pynn.network import NEST_LOCAL_MARGIN, NEST_MAX_LOCAL_SENDERS, PyNNNetwork, nest_threads
+from snn_fg.lowering.input_spikes import frame_spikes
+from snn_fg.lowering.unroll import unroll
 from snn_fg.metrics import compare_frame
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
+from snn_fg.pynn.cells import quantise, split_receptors
+from snn_fg.pynn.network import NEST_LOCAL_MARGIN, NEST_MAX_LOCAL_SENDERS, PyNNNetwork, nest_threads
 from snn_fg.scenes import disc
 from snn_fg.spiking.decode import decode
-from snn_fg.lowering.input_spikes import frame_spikes
-from snn_fg.lowering.unroll import unroll
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 NEST_OK, NEST_WHY = available_backends()["nest"]
 needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
@@ -49,8 +50,7 @@ def test_whole_network_tables_give_the_unrolled_synapses_and_their_counts(small_
     with every cell; the analytic counts (used at full size) agree."""
     net = small_net
     h, w = net.frame_shape
-    un = unroll(net, {"input_on_1": np.ones((h, w), bool), "input_off_1": np.ones((h, w), bool)},
-                instantiate="all")
+    un = unroll(net, {"input_on_1": np.ones((h, w), bool), "input_off_1": np.ones((h, w), bool)}, instantiate="all")
     for c in un.connections:
         pr = c.projection
         src, tgt = net.population(pr.source), net.population(pr.target)
@@ -92,15 +92,18 @@ def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend
     net = build_network(ModelParams(levels=1, r0=4), pos.shape)
     folder = export_pynn(net, tmp_path / "model")
     save_input(inp, folder / "input.npz", 0.5)
-    code = ("import sys; sys.modules['snn_fg'] = None; "     # any snn_fg import inside would fail
-            "sys.argv = ['run.py', '--input', 'input.npz', '--out', 'counts.npz', '--duration-ms', '150', "
-            "'--count-from-ms', '75']; "
-            "exec(open('run.py').read())")
+    code = (
+        "import sys; sys.modules['snn_fg'] = None; "  # any snn_fg import inside would fail
+        "sys.argv = ['run.py', '--input', 'input.npz', '--out', 'counts.npz', '--duration-ms', '150', "
+        "'--count-from-ms', '75']; "
+        "exec(open('run.py').read())"
+    )
     done = subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     exported = read_counts(net, folder / "counts.npz")
-    backend = get_backend("nest").simulate(board_network(net), inp, RunSettings(duration_ms=150.0, count_from_ms=75.0,
-                                                                               instantiate="all"))
+    backend = get_backend("nest").simulate(
+        board_network(net), inp, RunSettings(duration_ms=150.0, count_from_ms=75.0, instantiate="all")
+    )
     a, b = decode(exported), decode(backend)
     c = compare_frame(a[0], a[1], a[2], b[0], b[1], b[2])
     assert c["grouping_pearson_r"] >= 0.99 and c["angle_within_45_frac"] >= 0.95
@@ -152,18 +155,24 @@ def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
                     seen.add(n)
                     todo.append(n)
         return False
-    assert reaches("bo_L1_1", "group_L_1") and reaches("group_L_1", "feedback_1n_1") and \
-        reaches("feedback_1n_1", "bo_L1_1")
+
+    assert (
+        reaches("bo_L1_1", "group_L_1")
+        and reaches("group_L_1", "feedback_1n_1")
+        and reaches("feedback_1n_1", "bo_L1_1")
+    )
     # the export's last line counts the file's nodes by kind (nir.read adds an
     # Input or Output node at each node no edge enters or leaves)
     from snn_fg.export.nir import node_kinds
+
     kinds_read = {}
     for n in g.nodes.values():
         kinds_read[type(n).__name__] = kinds_read.get(type(n).__name__, 0) + 1
     written = node_kinds(path)
     assert list(written.values()) == sorted(written.values(), reverse=True)
-    assert {k: v for k, v in written.items() if k not in ("Input", "Output")} == \
-        {k: v for k, v in kinds_read.items() if k not in ("Input", "Output")}
+    assert {k: v for k, v in written.items() if k not in ("Input", "Output")} == {
+        k: v for k, v in kinds_read.items() if k not in ("Input", "Output")
+    }
     assert sum(written.values()) <= len(g.nodes) and written["Input"] <= kinds_read["Input"]
     meta = json.loads(g.metadata["snn_fg"])
     assert {"refractory_period", "stride_2_lattices", "resize_between_levels"} <= set(meta["approximations"])
@@ -208,24 +217,28 @@ def test_resource_report_counts_and_limits(small_net):
     assert t["max_delay_steps"] == round(max(pr.delay_ms for pr in small_net.projections) / 0.5)
     loihi = rep["targets"]["loihi2"]
     # today's 70 ms delay is 140 steps: over Loihi 2's 62, and named with its source
-    assert any(v["constraint"].startswith("delay") and v["limit"] == 62 for v in loihi["violations"]) == \
-        (t["max_delay_steps"] > 62)
+    assert any(v["constraint"].startswith("delay") and v["limit"] == 62 for v in loihi["violations"]) == (
+        t["max_delay_steps"] > 62
+    )
     assert rep["targets"]["spinnaker1"]["chips"] >= 1 and rep["targets"]["spinnaker1"]["boards_spinn5"] >= 1
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["--format", "bogus"], "--format='bogus'"),
-    (["--format", "pynn", "--target", "loihi"], "--target='loihi'"),
-    (["--format", "nir", "--weight-bits", "1"], "weight_bits=1"),
-    (["--format", "nir", "--weight-bits", "33"], "weight_bits=33"),
-    (["--format", "report", "--sensor-size", "20x20"], "at most 9 pyramid levels"),
-    (["--format", "report", "--sensor-size", "0x5"], "--sensor-size: width and height must be 1 to 32768 pixels"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--format", "bogus"], "--format='bogus'"),
+        (["--format", "pynn", "--target", "loihi"], "--target='loihi'"),
+        (["--format", "nir", "--weight-bits", "1"], "weight_bits=1"),
+        (["--format", "nir", "--weight-bits", "33"], "weight_bits=33"),
+        (["--format", "report", "--sensor-size", "20x20"], "at most 9 pyramid levels"),
+        (["--format", "report", "--sensor-size", "0x5"], "--sensor-size: width and height must be 1 to 32768 pixels"),
+    ],
+)
 def test_export_refuses_bad_arguments_in_one_line(tmp_path, capsys, args, fragment):
     out = tmp_path / "out"
     try:
         status = main(["export", "--out", str(out)] + args)
-    except SystemExit as stop:          # (refused by the argument parser itself)
+    except SystemExit as stop:  # (refused by the argument parser itself)
         status = stop.code
     assert status == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -236,8 +249,9 @@ def test_export_refuses_bad_arguments_in_one_line(tmp_path, capsys, args, fragme
 def test_export_refuses_an_existing_output_and_a_foreign_nir_file(tmp_path, capsys):
     existing = tmp_path / "r.json"
     existing.write_text("keep")
-    assert main(["export", "--format", "report", "--out", str(existing), "--sensor-size", "32x24",
-                 "--levels", "2"]) == 2
+    assert (
+        main(["export", "--format", "report", "--out", str(existing), "--sensor-size", "32x24", "--levels", "2"]) == 2
+    )
     assert existing.read_text() == "keep" and "exists" in capsys.readouterr().err
     foreign = tmp_path / "x.nir"
     foreign.write_bytes(b"not hdf5 at all")
@@ -270,9 +284,14 @@ def test_nest_gives_brian2s_spikes_with_signed_receptors_and_with_the_export_spl
 
     pos, neg = image_to_frame(disc(16).image)
     kw = dict(duration_ms=100.0, settle_ms=20.0, instantiate="input", record_spikes=False, progress=False)
-    runs = {label: run_spiking_result(pos, neg, backend=backend, backend_options=opts, **kw).result
-            for label, backend, opts in (("brian2", "brian2", {}), ("split", "nest", {}),
-                                         ("signed", "nest", {"receptors": "signed"}))}
+    runs = {
+        label: run_spiking_result(pos, neg, backend=backend, backend_options=opts, **kw).result
+        for label, backend, opts in (
+            ("brian2", "brian2", {}),
+            ("split", "nest", {}),
+            ("signed", "nest", {"receptors": "signed"}),
+        )
+    }
     b2 = runs["brian2"]
     total = sum(int(c.sum()) for c in b2.counts.values())
     for label in ("signed", "split"):
@@ -322,8 +341,15 @@ def test_a_cell_past_nests_local_index_limit_still_sends_its_spikes():
     from snn_fg.pynn.simulator import import_simulator
 
     sim = import_simulator("nest")
-    neuron = {"tau_m_ms": 10.0, "tau_exc_ms": 2.0, "tau_inh_ms": 2.0, "v_rest_mv": 0.0, "v_reset_mv": 0.0,
-              "v_th_mv": 10.0, "t_ref_ms": 2.0}
+    neuron = {
+        "tau_m_ms": 10.0,
+        "tau_exc_ms": 2.0,
+        "tau_inh_ms": 2.0,
+        "v_rest_mv": 0.0,
+        "v_reset_mv": 0.0,
+        "v_th_mv": 10.0,
+        "t_ref_ms": 2.0,
+    }
     big = NEST_MAX_LOCAL_SENDERS + 13
     net = PyNNNetwork(sim, dt_ms=0.5, max_delay_ms=1.0, n_cells=big + 1)
     try:

@@ -1,6 +1,7 @@
 """networks/ keeps the default iCub-size (304 x 240) network as a NIR graph and
 its resource report; both must have been made from the network the code builds
 today (python experiments/spiking_export_network.py regenerates them)."""
+
 import json
 from pathlib import Path
 
@@ -23,7 +24,7 @@ def test_stored_icub_artefacts_are_current_and_small():
     assert (NETWORKS / REPORT_TABLE).read_text().startswith("Whole network for a 304 x 240 sensor (width x height)")
     from snn_fg.export.nir import _read_graph
 
-    g = _read_graph(nir, NETWORKS / NIR_NAME)       # gunzip, then nir.read
+    g = _read_graph(nir, NETWORKS / NIR_NAME)  # gunzip, then nir.read
     assert json.loads(g.metadata["snn_fg"])["network_sha256"] == sha
     assert {"Conv2d", "LIF", "LI", "Delay"} <= {type(n).__name__ for n in g.nodes.values()}
     for name in (NIR_NAME, REPORT_NAME, REPORT_TABLE):

@@ -2,6 +2,7 @@
 makes run.py's input from a recording window, run.py simulates it on NEST
 (as the export's folder runs it, without snn_fg), ``snn-fg decode`` turns its
 counts into maps; and run.py's memory check."""
+
 import json
 import subprocess
 import sys
@@ -12,8 +13,8 @@ import pytest
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.cli import main
 from snn_fg.events import image_to_events, save_events
-from snn_fg.export.board import board_network
 from snn_fg.events.window import events_to_frame
+from snn_fg.export.board import board_network
 from snn_fg.export.loop import busiest_crop, centroid_crop, export_network, input_frame
 from snn_fg.export.pynn import export_pynn, read_input, save_input
 from snn_fg.lowering.input_spikes import event_spikes
@@ -30,8 +31,9 @@ needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
 
 def _run_py(folder, *args):
     """run.py as a user runs it, in its folder, with any snn_fg import failing."""
-    code = ("import sys; sys.modules['snn_fg'] = None; "
-            f"sys.argv = ['run.py'] + {list(args)!r}; exec(open('run.py').read())")
+    code = (
+        f"import sys; sys.modules['snn_fg'] = None; sys.argv = ['run.py'] + {list(args)!r}; exec(open('run.py').read())"
+    )
     return subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=900)
 
 
@@ -50,18 +52,18 @@ def test_busiest_crop_finds_the_densest_box():
     assert busiest_crop(active, (3, 3)) == (6, 1)
     assert busiest_crop(active, (10, 12)) == (0, 0)
     active[:] = False
-    active[4:6, 5:7] = True       # every 6 x 6 crop around it holds it all: the centred one
+    active[4:6, 5:7] = True  # every 6 x 6 crop around it holds it all: the centred one
     assert busiest_crop(active, (6, 6)) == (2, 3)
 
 
 def test_centroid_crop_centres_the_box_on_the_mean_event_inside_the_sensor():
     ev = np.zeros(4, dtype=[("x", "<i4"), ("y", "<i4")])
-    ev["x"], ev["y"] = [10, 12, 10, 12], [5, 5, 7, 7]          # mean position x 11, y 6
-    assert centroid_crop(ev, (5, 7), (20, 30)) == (4, 8)       # rows 4..8, columns 8..14: centred on it
-    assert centroid_crop(ev, (4, 6), (20, 30)) == (5, 9)       # even sizes: the centre rounds up
-    assert centroid_crop(ev, (16, 7), (20, 30)) == (0, 8)      # would start above the sensor: moved down
+    ev["x"], ev["y"] = [10, 12, 10, 12], [5, 5, 7, 7]  # mean position x 11, y 6
+    assert centroid_crop(ev, (5, 7), (20, 30)) == (4, 8)  # rows 4..8, columns 8..14: centred on it
+    assert centroid_crop(ev, (4, 6), (20, 30)) == (5, 9)  # even sizes: the centre rounds up
+    assert centroid_crop(ev, (16, 7), (20, 30)) == (0, 8)  # would start above the sensor: moved down
     ev["x"] = [28, 29, 29, 29]
-    assert centroid_crop(ev, (5, 7), (20, 30)) == (4, 23)      # would end past the right edge: moved left
+    assert centroid_crop(ev, (5, 7), (20, 30)) == (4, 23)  # would end past the right edge: moved left
 
 
 def test_decode_input_panel_is_each_pixels_last_spike_as_the_event_frame(tmp_path):
@@ -80,8 +82,14 @@ def test_decode_input_panel_is_each_pixels_last_spike_as_the_event_frame(tmp_pat
     assert pos[0, 0] == 1 and neg[0, 0] == 0 and neg[0, 1] == 1 and pos[2, 3] == 1 and neg[2, 3] == 0
     assert not (pos | neg)[1, 0]
     # ON and OFF of one pixel in the same step: drawn OFF
-    np.savez(tmp_path / "tie.npz", indices=np.array([5, 12 + 5]), steps=np.array([3, 3]), dt_ms=0.5,
-             period_steps=-1, shape=np.array([3, 4]))
+    np.savez(
+        tmp_path / "tie.npz",
+        indices=np.array([5, 12 + 5]),
+        steps=np.array([3, 3]),
+        dt_ms=0.5,
+        period_steps=-1,
+        shape=np.array([3, 4]),
+    )
     pos, neg = input_frame(tmp_path / "tie.npz", (3, 4))
     assert neg.sum() == 1 and neg[1, 1] == 1 and pos.sum() == 0
     assert input_frame(tmp_path / "absent.npz", (3, 4)) is None
@@ -93,13 +101,28 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     net = build_network(ModelParams(levels=1, r0=4), (32, 32))
     folder = export_pynn(net, tmp_path / "model")
     spikes = folder / "input.npz"
-    assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(folder),
-                 "--window-ms", "85", "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "events",
+                str(disc_recording),
+                "--write-spikes",
+                str(spikes),
+                "--export",
+                str(folder),
+                "--window-ms",
+                "85",
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     said = capsys.readouterr().out
-    assert "crop at x=16, y=16" in said                           # the disc: centred in the 64 x 64 sensor
+    assert "crop at x=16, y=16" in said  # the disc: centred in the 64 x 64 sensor
     assert "export " + str(folder) + " (a 32 x 32 sensor)" in said
-    done = _run_py(folder, "--input", "input.npz", "--out", "counts.npz", "--duration-ms", "150",
-                   "--count-from-ms", "75")
+    done = _run_py(
+        folder, "--input", "input.npz", "--out", "counts.npz", "--duration-ms", "150", "--count-from-ms", "75"
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     assert "expect about" in done.stdout and "simulated 150/150 ms" in done.stderr
     assert main(["decode", str(folder / "counts.npz"), "--export", str(folder), "--out", str(tmp_path / "maps")]) == 0
@@ -107,8 +130,9 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     ours = Maps.load(tmp_path / "maps" / "maps.npz")
     # the NEST backend on the same input file and the board network
     inp = read_input(spikes)
-    backend = get_backend("nest").simulate(board_network(net), inp, RunSettings(
-        duration_ms=150.0, count_from_ms=75.0, instantiate="all"))
+    backend = get_backend("nest").simulate(
+        board_network(net), inp, RunSettings(duration_ms=150.0, count_from_ms=75.0, instantiate="all")
+    )
     fx, fy, g, _ = decode(backend)
     assert np.abs(ours.grouping).max() > 0
     assert np.array_equal(ours.fg_x, fx.astype(np.float32)) and np.array_equal(ours.fg_y, fy.astype(np.float32))
@@ -119,11 +143,13 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
 def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (32, 32)), tmp_path / "model")
     out = tmp_path / "in.npz"
-    cases = [([], "--write-spikes needs --export"),
-             (["--export", str(tmp_path)], "network.json: no such file"),
-             (["--export", str(folder), "--crop-at", "40,0"], "must lie inside the input's 64 x 64"),
-             (["--export", str(folder), "--crop-at", "a,b"], "--crop-at 'a,b': expected X,Y"),
-             (["--export", str(folder), "--start-ms", "5000"], "disc.es")]
+    cases = [
+        ([], "--write-spikes needs --export"),
+        (["--export", str(tmp_path)], "network.json: no such file"),
+        (["--export", str(folder), "--crop-at", "40,0"], "must lie inside the input's 64 x 64"),
+        (["--export", str(folder), "--crop-at", "a,b"], "--crop-at 'a,b': expected X,Y"),
+        (["--export", str(folder), "--start-ms", "5000"], "disc.es"),
+    ]
     for extra, fragment in cases:
         assert main(["events", str(disc_recording), "--write-spikes", str(out), "--no-progress"] + extra) == 2
         err = capsys.readouterr().err.strip().splitlines()
@@ -145,8 +171,14 @@ def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
     assert len(err) == 1 and "counts.npz: not a run.py counts file of this export: no count_" in err[0]
     assert "Error" not in err[0] and not (tmp_path / "maps").exists() and net.frame_shape == (24, 24)
     # run.py's input handed to decode instead of its output: said so, with the step between
-    np.savez(tmp_path / "input.npz", indices=np.zeros(1, np.int64), steps=np.zeros(1, np.int64), dt_ms=0.5,
-             period_steps=-1, shape=np.array([24, 24]))
+    np.savez(
+        tmp_path / "input.npz",
+        indices=np.zeros(1, np.int64),
+        steps=np.zeros(1, np.int64),
+        dt_ms=0.5,
+        period_steps=-1,
+        shape=np.array([24, 24]),
+    )
     assert main(["decode", str(tmp_path / "input.npz"), "--export", str(folder), "--out", str(tmp_path / "maps")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "input.npz: an input spike file (run.py's --input), not the counts" in err[0]
@@ -157,8 +189,14 @@ def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
 @needs_nest
 def test_run_py_refuses_a_network_that_will_not_fit_before_building(tmp_path):
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
-    np.savez(folder / "input.npz", indices=np.zeros(1, np.int64), steps=np.zeros(1, np.int64), dt_ms=0.5,
-             period_steps=-1, shape=np.array([24, 24]))
+    np.savez(
+        folder / "input.npz",
+        indices=np.zeros(1, np.int64),
+        steps=np.zeros(1, np.int64),
+        dt_ms=0.5,
+        period_steps=-1,
+        shape=np.array([24, 24]),
+    )
     done = _run_py(folder, "--input", "input.npz", "--out", "counts.npz", "--memory-gb", "0.01")
     assert done.returncode == 1 and not (folder / "counts.npz").exists()
     last = done.stderr.strip().splitlines()
@@ -171,8 +209,24 @@ def test_export_input_rate_hz_sets_the_gains_network_calibrated_sets(tmp_path, c
     from snn_fg.network.recipes import RECIPES
 
     out = tmp_path / "model"
-    assert main(["export", "--format", "pynn", "--out", str(out), "--sensor-size", "24x20", "--levels", "1",
-                 "--input-rate-hz", "35"]) == 0
+    assert (
+        main(
+            [
+                "export",
+                "--format",
+                "pynn",
+                "--out",
+                str(out),
+                "--sensor-size",
+                "24x20",
+                "--levels",
+                "1",
+                "--input-rate-hz",
+                "35",
+            ]
+        )
+        == 0
+    )
     meta = json.loads((out / "network.json").read_text())
     base = RECIPES["default"].params.replace(levels=1)
     net = board_network(build_network(base, (20, 24)))
@@ -197,10 +251,36 @@ def test_the_recorded_export_command_gives_back_every_option_but_the_rate_and_fo
     from snn_fg.cli import build_parser
     from snn_fg.export.cli import export_command
 
-    argv = ["export", "--format", "pynn", "--out", "dir with space", "--force", "--network", "compact",
-            "--sensor-size", "64x48", "--levels", "2", "--n-ori", "4", "--r0", "5.5", "--target", "spinnaker",
-            "--weight-bits", "8", "--input-rate-hz", "35", "--dt-ms", "0.25", "--nir-profile", "snntorch",
-            "--nir-one-grid", "--nir-refractory-as-deeper-reset"]
+    argv = [
+        "export",
+        "--format",
+        "pynn",
+        "--out",
+        "dir with space",
+        "--force",
+        "--network",
+        "compact",
+        "--sensor-size",
+        "64x48",
+        "--levels",
+        "2",
+        "--n-ori",
+        "4",
+        "--r0",
+        "5.5",
+        "--target",
+        "spinnaker",
+        "--weight-bits",
+        "8",
+        "--input-rate-hz",
+        "35",
+        "--dt-ms",
+        "0.25",
+        "--nir-profile",
+        "snntorch",
+        "--nir-one-grid",
+        "--nir-refractory-as-deeper-reset",
+    ]
     parser, subs = build_parser()
     flags = {f for a in subs["export"]._actions for f in a.option_strings if f.startswith("--")} - {"--help"}
     assert flags <= set(argv)
@@ -209,8 +289,9 @@ def test_the_recorded_export_command_gives_back_every_option_but_the_rate_and_fo
     assert command.startswith("snn-fg export --format pynn --out 'dir with space' --network compact")
     again = parser.parse_args(shlex.split(command)[1:])
     left_out = {"force", "input_rate_hz", "handler", "export_options"}
-    assert {k: v for k, v in vars(again).items() if k not in left_out} == \
-        {k: v for k, v in vars(given).items() if k not in left_out}
+    assert {k: v for k, v in vars(again).items() if k not in left_out} == {
+        k: v for k, v in vars(given).items() if k not in left_out
+    }
     assert again.input_rate_hz is None and again.force is False
 
 
@@ -238,12 +319,13 @@ def test_run_py_imports_nest_without_pynns_extension_build_output(tmp_path):
 
     shutil.copyfile(HERE / "simulator.py", tmp_path / "fg_simulator.py")
     env = {k: v for k, v in os.environ.items() if k != "PYNEST_QUIET"}
-    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"    # (its nest-config, if any)
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"  # (its nest-config, if any)
     noise = ("nest-config", "cmake", "Configuring incomplete", "NEST extensions")
 
     def imported(code):
-        done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
-                              timeout=300)
+        done = subprocess.run(
+            [sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+        )
         assert done.returncode == 0, done.stderr[-2000:]
         return done.stdout + done.stderr
 
@@ -259,15 +341,17 @@ def test_sizes_are_width_by_height_and_blocks_are_called_blocks(tmp_path, disc_r
     """A compact export (3 x 3 pooling) of a 57 x 48 sensor: 19 x 16 blocks; the
     disc's 64 x 64 recording is 22 x 22 blocks, its busiest crop at block (1, 3)."""
     out = tmp_path / "model"
-    assert main(["export", "--format", "pynn", "--network", "compact", "--sensor-size", "57x48",
-                 "--out", str(out)]) == 0
+    assert (
+        main(["export", "--format", "pynn", "--network", "compact", "--sensor-size", "57x48", "--out", str(out)]) == 0
+    )
     readme = (out / "README.md").read_text()
     assert "for a 57 x 48 sensor as 19 x 16 blocks of 3 x 3 pixels," in readme
     assert "cut to 19 x 16 blocks," in readme
     capsys.readouterr()
     spikes = tmp_path / "in.npz"
-    assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out),
-                 "--no-progress"]) == 0
+    assert (
+        main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out), "--no-progress"]) == 0
+    )
     said = capsys.readouterr().out
     assert "(a 57 x 48 sensor as 19 x 16 blocks of 3 x 3 pixels)" in said and "per active block" in said
     assert "crop at block x=1, y=3" in said and read_input(spikes).shape == (16, 19)
@@ -281,9 +365,25 @@ def test_sizes_are_width_by_height_and_blocks_are_called_blocks(tmp_path, disc_r
     z = np.zeros((16, 19))
     fig = maps_figure(np.zeros((16, 19, 3)), z, z, z, placed=(3, 9, 3))
     assert fig.axes[0].images[0].get_extent() == [2.5, 3 + 57 - 0.5, 9 + 48 - 0.5, 8.5]
-    assert main(["events", str(disc_recording), "--write-spikes", str(spikes), "--export", str(out),
-                 "--crop-at", "4,0", "--no-progress"]) == 2
-    assert "--crop-at 4,0: a crop of 19 x 16 blocks must lie inside the input's 22 x 22 blocks" in capsys.readouterr().err
+    assert (
+        main(
+            [
+                "events",
+                str(disc_recording),
+                "--write-spikes",
+                str(spikes),
+                "--export",
+                str(out),
+                "--crop-at",
+                "4,0",
+                "--no-progress",
+            ]
+        )
+        == 2
+    )
+    assert (
+        "--crop-at 4,0: a crop of 19 x 16 blocks must lie inside the input's 22 x 22 blocks" in capsys.readouterr().err
+    )
 
 
 def test_run_py_predicts_its_time_from_the_measured_rates_scaled_by_the_exports_synapses(capsys):
@@ -294,14 +394,21 @@ def test_run_py_predicts_its_time_from_the_measured_rates_scaled_by_the_exports_
         memory.check_memory(meta, memory_gb=1000.0, duration_ms=duration_ms)
         return capsys.readouterr().out
 
-    small, large = said(10 ** 6, 400.0), said(10 ** 8, 100.0)
-    per_ms = 10 ** 6 * memory.NEST_S_PER_MS_PER_SYNAPSE
+    small, large = said(10**6, 400.0), said(10**8, 100.0)
+    per_ms = 10**6 * memory.NEST_S_PER_MS_PER_SYNAPSE
     assert f"{per_ms:.2g} s per simulated ms ({memory.duration_text(400 * per_ms)} for 400 ms)" in small
     assert f"{100 * per_ms:.2g} s per simulated ms ({memory.duration_text(10_000 * per_ms)} for 100 ms)" in large
     assert f"{memory.duration_text(1e8 / memory.NEST_SYNAPSES_PER_S)} to build" in large
     assert memory.TIMES_MEASURED in small and "load" in memory.TIMES_MEASURED
     assert [memory.duration_text(s) for s in (0.052, 7.23, 57.8, 119, 150, 7100, 7300)] == [
-        "0.052 s", "7.2 s", "58 s", "119 s", "2 min", "118 min", "2.0 h"]
+        "0.052 s",
+        "7.2 s",
+        "58 s",
+        "119 s",
+        "2 min",
+        "118 min",
+        "2.0 h",
+    ]
 
 
 def test_a_forced_re_export_for_another_rate_keeps_the_folders_input(tmp_path, capsys):
@@ -333,32 +440,49 @@ def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path):
     """What a user gets wrong with run.py ends in one line naming the file
     or option and the problem, exit status 1, no traceback and no output."""
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
-    np.savez(folder / "small.npz", indices=np.zeros(1, np.int64), steps=np.zeros(1, np.int64), dt_ms=0.5,
-             period_steps=-1, shape=np.array([20, 20]))
+    np.savez(
+        folder / "small.npz",
+        indices=np.zeros(1, np.int64),
+        steps=np.zeros(1, np.int64),
+        dt_ms=0.5,
+        period_steps=-1,
+        shape=np.array([20, 20]),
+    )
     # (sources: 24 x 24 ON, as many OFF, and the clock: 1153)
-    np.savez(folder / "far.npz", indices=np.array([0, 2 * 24 * 24 + 5]), steps=np.zeros(2, np.int64), dt_ms=0.5,
-             period_steps=-1, shape=np.array([24, 24]))
+    np.savez(
+        folder / "far.npz",
+        indices=np.array([0, 2 * 24 * 24 + 5]),
+        steps=np.zeros(2, np.int64),
+        dt_ms=0.5,
+        period_steps=-1,
+        shape=np.array([24, 24]),
+    )
     (folder / "text.npz").write_text("not an archive")
     np.savez(folder / "other.npz", counts=np.zeros(3))
-    cases = [(["--input", "nope.npz"], "nope.npz: no such file"),
-             (["--input", "text.npz"], "text.npz: not an .npz file"),
-             (["--input", "other.npz"], "other.npz: not an input spike file: no indices, steps, dt_ms"),
-             (["--input", "small.npz"], "small.npz: spikes of a 20 x 20 frame; this network's frame is 24 x 24"),
-             (["--input", "far.npz"], "far.npz: spike 1 comes from source 1157; the network has 1153 sources"),
-             (["--input", "small.npz", "--simulator", "nset"], "--simulator nset: PyNN has no simulator module")]
+    cases = [
+        (["--input", "nope.npz"], "nope.npz: no such file"),
+        (["--input", "text.npz"], "text.npz: not an .npz file"),
+        (["--input", "other.npz"], "other.npz: not an input spike file: no indices, steps, dt_ms"),
+        (["--input", "small.npz"], "small.npz: spikes of a 20 x 20 frame; this network's frame is 24 x 24"),
+        (["--input", "far.npz"], "far.npz: spike 1 comes from source 1157; the network has 1153 sources"),
+        (["--input", "small.npz", "--simulator", "nset"], "--simulator nset: PyNN has no simulator module"),
+    ]
     for args, said in cases:
         done = _run_py(folder, *args, "--out", "counts.npz")
         err = done.stderr.strip().splitlines()
         assert done.returncode == 1 and len(err) == 1 and err[0].startswith("run.py: error: "), args
         assert said in err[0] and "Traceback" not in done.stderr and not (folder / "counts.npz").exists(), args
-    code = ("import sys, importlib.util; real = importlib.util.find_spec; "
-            "importlib.util.find_spec = lambda n, *a: None if n == 'pyNN' else real(n, *a); "
-            "sys.modules['snn_fg'] = None; "
-            "sys.argv = ['run.py', '--input', 'small.npz', '--out', 'c.npz']; exec(open('run.py').read())")
+    code = (
+        "import sys, importlib.util; real = importlib.util.find_spec; "
+        "importlib.util.find_spec = lambda n, *a: None if n == 'pyNN' else real(n, *a); "
+        "sys.modules['snn_fg'] = None; "
+        "sys.argv = ['run.py', '--input', 'small.npz', '--out', 'c.npz']; exec(open('run.py').read())"
+    )
     done = subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=300)
     assert done.returncode == 1 and done.stderr.strip().splitlines() == [
         'run.py: error: PyNN is not installed: pip install -e ".[nest]" in the snn-fg folder, or pip install '
-        'PyNN==0.13.0 nest-simulator==3.10.0']
+        "PyNN==0.13.0 nest-simulator==3.10.0"
+    ]
 
 
 def test_write_spikes_notes_a_crop_that_lies_inside_a_filled_object(tmp_path, capsys):
@@ -375,8 +499,9 @@ def test_write_spikes_notes_a_crop_that_lies_inside_a_filled_object(tmp_path, ca
     for name, pos, noted in (("filled", filled, True), ("edges", edges, False)):
         np.savez(tmp_path / f"{name}.npz", pos=pos, neg=np.zeros_like(pos))
         spikes = tmp_path / f"in_{name}.npz"
-        assert main(["events", str(tmp_path / f"{name}.npz"), "--write-spikes", str(spikes), "--export",
-                     str(folder)]) == 0
+        assert (
+            main(["events", str(tmp_path / f"{name}.npz"), "--write-spikes", str(spikes), "--export", str(folder)]) == 0
+        )
         out = capsys.readouterr().out
         assert ("events cover 100% of the crop's pixels" in out and "--crop-at X,Y" in out) == noted, name
         assert (input_origin(spikes)["event_share"] > 0.5) == noted
@@ -386,7 +511,9 @@ def test_run_py_progress_is_throttled_but_always_says_the_last_step(capsys):
     """run.py reports at most every 5 s, so a short run's "simulated 150/150 ms"
     used to vanish when it fell within 5 s of the line before."""
     import time
+
     from snn_fg.pynn import memory
+
     memory._last[0] = time.monotonic()
     memory.progress("simulated 100/150 ms")
     memory.progress("simulated 150/150 ms", last=True)

@@ -1,5 +1,6 @@
 """The NIR file written node by node, and the snnTorch profile of the graph:
 what it changes (measured on our own engine), and snnTorch executing it."""
+
 import dataclasses
 import json
 
@@ -10,7 +11,7 @@ from snn_fg.errors import ParameterError
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 nir = pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
 
@@ -62,7 +63,7 @@ def test_deeper_reset_holds_a_cell_driven_at_the_reset_drive_for_its_refractory_
     assert RESET_DRIVE == 4 and depth == pytest.approx(40 * (np.exp(0.45) - 1))
     drive = RESET_DRIVE * 10.0
     assert 10.0 * np.log((drive + depth) / drive) == pytest.approx(4.5)
-    assert reset_depth_mv(dataclasses.replace(n, t_ref_ms=0.5), 0.5) == 0      # one step: nothing to add
+    assert reset_depth_mv(dataclasses.replace(n, t_ref_ms=0.5), 0.5) == 0  # one step: nothing to add
     base = build_network(ModelParams(levels=1, r0=4), (24, 28))
     net = snntorch_network(base, deeper_reset=True)
     for p in net.populations:
@@ -93,7 +94,8 @@ def test_snntorch_profile_options_are_refused_without_the_profile(capsys, tmp_pa
     monkeypatch.chdir(tmp_path)
     assert main(["export", "--format", "nir", "--out", "g.nir", "--nir-refractory-as-deeper-reset"]) == 2
     assert capsys.readouterr().err.splitlines() == [
-        "snn-fg: error: --nir-refractory-as-deeper-reset: applies to --format nir --nir-profile snntorch"]
+        "snn-fg: error: --nir-refractory-as-deeper-reset: applies to --format nir --nir-profile snntorch"
+    ]
     assert list(tmp_path.iterdir()) == []
 
 
@@ -114,8 +116,12 @@ def test_one_grid_puts_every_level_on_the_frame_grid_with_dilated_kernels():
     assert all(p.level_shape == (16, 16) and p.stride == 1 for p in g.populations)
     assert not any(isinstance(pr, Resize) for pr in g.projections)
     flat, by_name = flat_network(net), {pr.name: pr for pr in g.projections}
-    for name, spacing in (("relay_on_2_to_simple_2", 2), ("relay_on_3_to_simple_3", 4),
-                          ("bo_L1_3_to_group_L_3", 4), ("input_on_1_to_simple_1", 1)):
+    for name, spacing in (
+        ("relay_on_2_to_simple_2", 2),
+        ("relay_on_3_to_simple_3", 4),
+        ("bo_L1_3_to_group_L_3", 4),
+        ("input_on_1_to_simple_1", 1),
+    ):
         pr = next(p for p in flat.projections if p.name == name)
         k = pr.kernel.array(net.params)
         k = np.where(np.abs(k) >= pr.prune * np.abs(k).max(), k, 0.0)
@@ -141,8 +147,9 @@ def _correlate(k, x, dilation, padding):
     out = np.zeros((k.shape[0], h, w))
     for a in range(k.shape[2]):
         for b in range(k.shape[3]):
-            out += np.einsum("oc,cij->oij", k[:, :, a, b], xp[:, a * dilation:a * dilation + h,
-                                                               b * dilation:b * dilation + w])
+            out += np.einsum(
+                "oc,cij->oij", k[:, :, a, b], xp[:, a * dilation : a * dilation + h, b * dilation : b * dilation + w]
+            )
     return out
 
 
@@ -158,7 +165,7 @@ def test_reaching_taps_computes_what_the_whole_kernel_computes():
     assert (dilation, padding, got.shape) == (4, (8, 8), (2, 3, 5, 5))
     x = rng.normal(size=(3, 9, 10))
     assert np.allclose(_correlate(got, x, dilation, padding), _correlate(k, x, 1, (12, 12)))
-    same, one, pad = reaching_taps(k[:, :, 10:15, 10:15], (9, 30))    # a 5 x 5 kernel of one tap: kept whole
+    same, one, pad = reaching_taps(k[:, :, 10:15, 10:15], (9, 30))  # a 5 x 5 kernel of one tap: kept whole
     assert one == 1 and pad == (2, 2) and np.array_equal(same, k[:, :, 10:15, 10:15])
 
 
@@ -198,11 +205,13 @@ def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = 
     torch.set_num_threads(1)
     half = duration_ms / 2
     path = export_nir_snntorch(net, tmp_path / "g.nir", one_grid=one_grid, deeper_reset=deeper_reset)
-    counts = run_snntorch(nir.read(path), net, inp, step_ms=net.dt_ms, duration_ms=duration_ms, count_from_ms=half,
-                          one_grid=one_grid)
+    counts = run_snntorch(
+        nir.read(path), net, inp, step_ms=net.dt_ms, duration_ms=duration_ms, count_from_ms=half, one_grid=one_grid
+    )
     profile = snntorch_network(net, one_grid=one_grid, deeper_reset=deeper_reset)
-    ours = decode_rates(profile, {k: np.arange(v.size) for k, v in counts.items()},
-                        {k: v / (half / 1e3) for k, v in counts.items()})[:3]
+    ours = decode_rates(
+        profile, {k: np.arange(v.size) for k, v in counts.items()}, {k: v / (half / 1e3) for k, v in counts.items()}
+    )[:3]
     settings = RunSettings(duration_ms=duration_ms, dt_ms=net.dt_ms, count_from_ms=half, instantiate="all")
     same = decode(get_backend("fast").simulate(profile, inp, settings))[:3]
     exported = decode(get_backend("fast").simulate(board_network(net), inp, settings))[:3]
@@ -226,7 +235,7 @@ def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
     from snn_fg.scenes import disc
 
     pos, neg = image_to_frame(disc(8).image)
-    cut = (slice(16, 48), slice(16, 48))           # the disc and its surround, 32 x 32
+    cut = (slice(16, 48), slice(16, 48))  # the disc and its surround, 32 x 32
     inp = frame_spikes(pos[cut], neg[cut], 200.0, 0.5, 150.0)
     net = build_network(ModelParams(levels=1, r0=4), (32, 32))
     ours, same, exported, spikes = _snntorch_and_fast(net, inp, tmp_path, 150.0)
@@ -249,17 +258,17 @@ def test_snntorch_executes_the_compact_network_on_one_grid(tmp_path):
     r 0.903, 94 %, 12.6 deg (one-step refractoriness: 0.978 / 100 % and
     0.927 / 96 %)."""
     from snn_fg.events import image_to_frame
-    from snn_fg.pyramid.pool import pool_frame
     from snn_fg.lowering.input_spikes import frame_spikes
     from snn_fg.metrics import agreement
     from snn_fg.network.recipes import RECIPES
+    from snn_fg.pyramid.pool import pool_frame
     from snn_fg.scenes import disc
 
     net = RECIPES["compact"].build((48, 48))
     pos, neg = pool_frame(*image_to_frame(disc(16).image), net.params.input_pool)
-    cut = (slice(3, 19), slice(3, 19))              # 22 x 22 blocks -> the disc and its surround, 16 x 16
+    cut = (slice(3, 19), slice(3, 19))  # 22 x 22 blocks -> the disc and its surround, 16 x 16
     assert net.params.levels == 3 and pos[cut].shape == net.frame_shape
-    inp = frame_spikes(pos[cut], neg[cut], 200.0, net.dt_ms, 100.0)        # (at the network's own 1 ms step)
+    inp = frame_spikes(pos[cut], neg[cut], 200.0, net.dt_ms, 100.0)  # (at the network's own 1 ms step)
     ours, same, exported, spikes = _snntorch_and_fast(net, inp, tmp_path, 100.0, one_grid=True, deeper_reset=True)
     assert spikes > 1000
     a, b = agreement(ours, same), agreement(ours, exported)

@@ -2,6 +2,7 @@
 layout of the populations they join, sPyNNaker's synaptic-row sizing of our
 FromListConnector lists, and (with sPyNNaker installed) its mapping of a
 small export onto a virtual SpiNN-5 board."""
+
 import json
 import subprocess
 import sys
@@ -11,11 +12,11 @@ import pytest
 
 from snn_fg.export.board import board_network, table
 from snn_fg.export.pynn import export_pynn
-from snn_fg.pynn.cells import list_rows
-from snn_fg.pynn.spinnaker import conv_kernels, core_tile, layout, stackable
 from snn_fg.export.spinnaker import _lattice_kernel, spinnaker_plan
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
+from snn_fg.pynn.cells import list_rows
+from snn_fg.pynn.spinnaker import conv_kernels, core_tile, layout, stackable
 
 
 @pytest.fixture(scope="module")
@@ -37,12 +38,17 @@ def test_convolution_kernels_from_the_tables_are_the_plans_lattice_kernels(two_l
     for e in plan:
         pr = next(p for p in net.projections if p.name == e["name"])
         tab = table(net, pr)
-        got = conv_kernels(tab.taps, tab.values, _geometry(net.population(pr.source)),
-                           _geometry(net.population(pr.target)), e["padding"])
+        got = conv_kernels(
+            tab.taps,
+            tab.values,
+            _geometry(net.population(pr.source)),
+            _geometry(net.population(pr.target)),
+            e["padding"],
+        )
         want = _lattice_kernel(net, pr)
         assert got.shape == want.shape and np.allclose(got, want), e["name"]
         shapes.add(want.shape[2:])
-    assert (1, 1) in shapes and any(s[0] > 1 for s in shapes)     # channel-wise and spatial kernels both met
+    assert (1, 1) in shapes and any(s[0] > 1 for s in shapes)  # channel-wise and spatial kernels both met
 
 
 def test_layout_stacks_channel_wise_convolutions_and_splits_the_others(two_levels):
@@ -55,25 +61,30 @@ def test_layout_stacks_channel_wise_convolutions_and_splits_the_others(two_level
             conv.append((pr.source, pr.target, _lattice_kernel(net, pr)))
     pops = {p.name: {"channels": p.channels} for p in net.populations}
     lay = layout(pops, conv)
-    assert lay["bo_L1_1"] == lay["excess_L1_1"] == "stacked"       # 1 x 1, one weight per channel
-    assert lay["group_L_2"] == "grid" and lay["feedback_1p_2"] == "split"     # one channel; 8 distinct kernels
+    assert lay["bo_L1_1"] == lay["excess_L1_1"] == "stacked"  # 1 x 1, one weight per channel
+    assert lay["group_L_2"] == "grid" and lay["feedback_1p_2"] == "split"  # one channel; 8 distinct kernels
     k = np.zeros((3, 3, 1, 1))
     k[[0, 1, 2], [0, 1, 2]] = 2.0
     assert stackable(k)
     k[2, 2] = 1.0
     assert not stackable(k)
     # a stacked end meeting a split end of one convolution splits too
-    assert layout({"a": {"channels": 2}, "b": {"channels": 2}, "c": {"channels": 2}},
-                  [("a", "b", np.ones((2, 2, 1, 1))), ("b", "c", np.ones((2, 2, 3, 3)))]) == \
-        {"a": "split", "b": "split", "c": "split"}
+    assert layout(
+        {"a": {"channels": 2}, "b": {"channels": 2}, "c": {"channels": 2}},
+        [("a", "b", np.ones((2, 2, 1, 1))), ("b", "c", np.ones((2, 2, 3, 3)))],
+    ) == {"a": "split", "b": "split", "c": "split"}
 
 
 def test_core_tiles_divide_the_grid():
     for cols, rows in ((64, 384), (23, 136), (46, 272), (12, 9), (17, 23), (1, 1)):
         a, b = core_tile(cols, rows)
         assert cols % a == 0 and rows % b == 0 and a * b <= 256
-        assert all(a * b >= x * y for x in range(1, cols + 1) for y in range(1, rows + 1)
-                   if cols % x == 0 and rows % y == 0 and x * y <= 256)
+        assert all(
+            a * b >= x * y
+            for x in range(1, cols + 1)
+            for y in range(1, rows + 1)
+            if cols % x == 0 and rows % y == 0 and x * y <= 256
+        )
     assert core_tile(23, 136) == (23, 8)
 
 
@@ -97,18 +108,26 @@ def test_spynnaker_maps_a_small_export_onto_a_virtual_board(tmp_path, monkeypatc
     home.mkdir()
     monkeypatch.setenv("HOME", str(home))
     folder = export_pynn(build_network(ModelParams(levels=2, r0=4), (24, 28)), tmp_path / "model")
-    done = subprocess.run([sys.executable, "run.py", "--simulator", "spinnaker", "--virtual-board", "--map-only",
-                           "--duration-ms", "50"], cwd=folder, capture_output=True, text=True, timeout=1200)
+    done = subprocess.run(
+        [sys.executable, "run.py", "--simulator", "spinnaker", "--virtual-board", "--map-only", "--duration-ms", "50"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=1200,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     m = json.loads((folder / "mapping.json").read_text())
     plan = json.loads((folder / "spinnaker.json").read_text())
     assert m["tool"]["name"] == "sPyNNaker" and m["tool"]["version"].startswith("1!7.")
     assert m["fits"] and 1 <= m["chips_used"] <= 48 and m["cores_network"] > 0
-    assert m["estimate"]["cores"] == plan["estimate"]["cores"] and m["connectors"]["ConvolutionConnector"] == \
-        plan["convolution"] > 0
-    assert m["cores_by_kind"].get("PopulationMachineLocalOnlyCombinedVertex", 0) > 0    # convolution targets
-    assert set(m["cores_by_population"]) == {p["name"] for p in json.loads(
-        (folder / "network.json").read_text())["populations"]}
+    assert (
+        m["estimate"]["cores"] == plan["estimate"]["cores"]
+        and m["connectors"]["ConvolutionConnector"] == plan["convolution"] > 0
+    )
+    assert m["cores_by_kind"].get("PopulationMachineLocalOnlyCombinedVertex", 0) > 0  # convolution targets
+    assert set(m["cores_by_population"]) == {
+        p["name"] for p in json.loads((folder / "network.json").read_text())["populations"]
+    }
     assert (folder / "spinnaker" / "config" / ".spynnaker.cfg").exists()
     assert not (home / ".spynnaker.cfg").exists() and not (home / ".config" / ".spynnaker.cfg").exists()
 
@@ -124,7 +143,7 @@ def test_every_convolution_connector_gets_the_target_shape_spynnaker_requires():
 
     from snn_fg.network.recipes import network_for
 
-    net = board_network(network_for("compact", (60, 78))[0])      # pooled 20 x 26; level 2 10 x 13
+    net = board_network(network_for("compact", (60, 78))[0])  # pooled 20 x 26; level 2 10 x 13
     plan = spinnaker_plan(net)["projections"]
     conv = [e for e in plan if e["connector"] == "ConvolutionConnector"]
     assert any(e["strides"] > 1 for e in conv)

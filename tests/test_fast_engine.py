@@ -1,6 +1,7 @@
 """The fast engine (snn_fg.backends.fast) verified against Brian2, and its
 own guarantees: parked cells cannot fire, the closed-form advance is the
 step-by-step update, and memory follows cells, not synapses."""
+
 import numpy as np
 import pytest
 
@@ -9,12 +10,12 @@ from snn_fg.backends.base import STATE_VARIABLES
 from snn_fg.backends.fast.core import _advanced, _merge, _merge_runs, _radix_sort, _safe
 from snn_fg.backends.fast.tables import DE, DI, DM, PE, PI, V_RESET, V_REST, V_TH, build_tables
 from snn_fg.events import image_to_events, image_to_frame
+from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
-from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 
@@ -42,8 +43,11 @@ def disc_runs():
     pos, neg = image_to_frame(disc(16).image)
     inp = frame_spikes(pos, neg, 200.0, 0.5, 150.0, seed=1)
     net = build_network(ModelParams(levels=2), pos.shape).calibrated(inp.rate_hz)
-    return _both(net, inp, RunSettings(duration_ms=150.0, count_from_ms=50.0, record_state=STATE_VARIABLES,
-                                       count_bins_ms=BINS_MS))
+    return _both(
+        net,
+        inp,
+        RunSettings(duration_ms=150.0, count_from_ms=50.0, record_state=STATE_VARIABLES, count_bins_ms=BINS_MS),
+    )
 
 
 def _assert_identical(runs, min_spikes):
@@ -65,13 +69,16 @@ def test_spike_trains_are_identical_to_brian2s(disc_runs):
     """Every population's spike cells and times, and the counts, equal."""
     _assert_identical(disc_runs, min_spikes=40_000)
     net = disc_runs["brian2"].network
-    fired = {p.role for p in net.populations
-             if p.name in disc_runs["brian2"].counts and disc_runs["brian2"].counts[p.name].sum() > 0}
+    fired = {
+        p.role
+        for p in net.populations
+        if p.name in disc_runs["brian2"].counts and disc_runs["brian2"].counts[p.name].sum() > 0
+    }
     roles = {p.role for p in net.populations if not p.is_source}
     assert any(r.startswith("excess_") for r in roles) and any(r.startswith("feedback_") for r in roles)
     assert roles <= fired, f"roles that never fired: {sorted(roles - fired)}"
     gated = [p.neuron for p in net.populations if p.role.startswith("bo_")]
-    assert all(n.v_rest_mv < n.v_reset_mv for n in gated)       # the gate: rest far below reset
+    assert all(n.v_rest_mv < n.v_reset_mv for n in gated)  # the gate: rest far below reset
 
 
 @pytest.mark.slow
@@ -96,8 +103,7 @@ def test_spikes_between_two_times_are_those_the_times_select(disc_runs):
     whose ends fall on a step, between steps and outside the run."""
     trains = disc_runs["fast"].spikes
     checked = 0
-    for a, b in ((0.0, 150.0), (20.0, 37.5), (37.25, 37.75), (37.5, 60.0), (49.9, 50.1), (140.0, 400.0),
-                 (60.0, 60.0)):
+    for a, b in ((0.0, 150.0), (20.0, 37.5), (37.25, 37.75), (37.5, 60.0), (49.9, 50.1), (140.0, 400.0), (60.0, 60.0)):
         got = trains.between(a, b)
         assert set(got) == set(trains)
         for name in trains:
@@ -108,14 +114,16 @@ def test_spikes_between_two_times_are_those_the_times_select(disc_runs):
             checked += int(inside.sum())
     assert checked > 40_000
 
+
 @pytest.mark.slow
 @BRIAN2
 def test_final_state_is_brian2s_up_to_rounding(disc_runs):
     fast, ref = disc_runs["fast"], disc_runs["brian2"]
     for name in ref.populations:
         for var in STATE_VARIABLES:
-            np.testing.assert_allclose(fast.state[name][var], ref.state[name][var], rtol=1e-9, atol=1e-9,
-                                       err_msg=f"{name}.{var}")
+            np.testing.assert_allclose(
+                fast.state[name][var], ref.state[name][var], rtol=1e-9, atol=1e-9, err_msg=f"{name}.{var}"
+            )
 
 
 @pytest.mark.slow
@@ -129,8 +137,11 @@ def test_timed_events_on_every_cell_are_identical_to_brian2s():
     net = build_network(ModelParams(levels=4), inp.shape).calibrated(inp.rate_hz)
     runs = _both(net, inp, RunSettings(duration_ms=60.0, instantiate="all"))
     # (every cell outside the edge masks: the grouping and feedback cells of level 1 are all there)
-    assert all(runs["fast"].sites[p.name].size == p.size for p in net.populations
-               if p.level == 1 and not p.is_source and not p.edge_mask)
+    assert all(
+        runs["fast"].sites[p.name].size == p.size
+        for p in net.populations
+        if p.level == 1 and not p.is_source and not p.edge_mask
+    )
     _assert_identical(runs, min_spikes=5_000)
 
 
@@ -150,13 +161,14 @@ def test_a_parked_cell_cannot_reach_threshold_without_input():
     safe, 400 steps of the update stay below threshold; and the bound is not
     vacuous (some unsafe states do cross)."""
     tab = build_tables(build_network(ModelParams(levels=1), (20, 20)), 0.5)
-    assert (tab.nrn[:, V_RESET] - tab.nrn[:, V_REST] > 0.5 * (tab.nrn[:, V_TH] - tab.nrn[:, V_REST])).any(), \
+    assert (tab.nrn[:, V_RESET] - tab.nrn[:, V_REST] > 0.5 * (tab.nrn[:, V_TH] - tab.nrn[:, V_REST])).any(), (
         "no gated neuron (rest far below reset) to check the bound on"
+    )
     rng = np.random.default_rng(4)
     crossed_unsafe = 0
     for row in tab.nrn:
         gap = row[V_TH] - row[V_REST]
-        for k in range(300):        # every third state just after a reset
+        for k in range(300):  # every third state just after a reset
             v = row[V_RESET] if k % 3 == 0 else row[V_REST] + gap * rng.uniform(-2, 1.2)
             e, i = gap * rng.uniform(-1, 4), gap * rng.uniform(0, 3) * rng.integers(0, 2)
             top = _brian2_steps(v, e, i, row, 400)[3]
@@ -183,15 +195,15 @@ def test_the_step_lists_come_out_sorted_as_a_comparison_sort_puts_them(n_cells):
     tmp, counts = np.zeros(n_cells, np.int32), np.zeros(2048, np.int64)
     for n in (0, 1, 63, 64, 5000):
         cells = rng.choice(n_cells, size=min(n, n_cells), replace=False).astype(np.int32)
-        a = np.concatenate([cells, rng.integers(0, n_cells, 7, dtype=np.int32)])     # (a tail left as it is)
+        a = np.concatenate([cells, rng.integers(0, n_cells, 7, dtype=np.int32)])  # (a tail left as it is)
         want = a.copy()
-        want[:cells.size] = np.sort(cells)
+        want[: cells.size] = np.sort(cells)
         _radix_sort(a, cells.size, tmp, counts)
         np.testing.assert_array_equal(a, want)
         # the active list and the new cells, disjoint, merged into one sorted list
         act = np.zeros(n_cells, np.int32)
-        old, new = np.sort(cells[: cells.size // 2]), cells[cells.size // 2:].copy()
-        act[:old.size] = old
+        old, new = np.sort(cells[: cells.size // 2]), cells[cells.size // 2 :].copy()
+        act[: old.size] = old
         k = _merge(act, old.size, new, new.size, tmp, counts)
         np.testing.assert_array_equal(act[:k], np.sort(cells))
         # a step's spikes: two sorted runs (cells that fired, then input spikes) merged in place
@@ -205,8 +217,20 @@ def test_memory_follows_cells_not_synapses():
     than 1e9 synapses) is held as kernel taps and interpolation factors."""
     tab = build_tables(build_network(ModelParams(), (240, 320)), 0.5)
     assert tab.n_cells > 9_000_000
-    held = sum(a.nbytes for a in (tab.ch_ptr, tab.tap_co, tab.tap_qr, tab.tap_qc, tab.tap_w, tab.tap_off,
-                                  tab.csr_ptr, tab.csr_idx, tab.csr_val))
+    held = sum(
+        a.nbytes
+        for a in (
+            tab.ch_ptr,
+            tab.tap_co,
+            tab.tap_qr,
+            tab.tap_qc,
+            tab.tap_w,
+            tab.tap_off,
+            tab.csr_ptr,
+            tab.csr_idx,
+            tab.csr_val,
+        )
+    )
     assert held < 20e6
 
 
@@ -249,7 +273,7 @@ def test_tables_made_again_for_other_gains_equal_a_fresh_build():
         if isinstance(want, np.ndarray):
             assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), f.name
             changed += not np.array_equal(got, getattr(build_tables(net, 0.5), f.name))
-    assert changed >= 3          # tap weights, dense kernels and gains did change
+    assert changed >= 3  # tap weights, dense kernels and gains did change
 
 
 def test_a_backend_keeps_its_tables_across_calibrated_runs():
@@ -262,7 +286,7 @@ def test_a_backend_keeps_its_tables_across_calibrated_runs():
     backend.simulate(net.calibrated(a.rate_hz), a, settings)
     first = backend._tables
     again = backend.simulate(net.calibrated(b.rate_hz), b, settings)
-    assert backend._tables is not first and backend._tables.tap_co is first.tap_co      # remade, not rebuilt
+    assert backend._tables is not first and backend._tables.tap_co is first.tap_co  # remade, not rebuilt
     fresh = get_backend("fast").simulate(net.calibrated(b.rate_hz), b, settings)
     assert sum(int(c.sum()) for c in fresh.counts.values()) > 500
     for name in fresh.populations:
@@ -271,14 +295,14 @@ def test_a_backend_keeps_its_tables_across_calibrated_runs():
 
 def test_large_cell_arrays_start_at_zero():
     """Cell arrays from the huge-page map are zeroed like np.zeros, writable, any dtype."""
-    from snn_fg.backends.fast.run import HUGE_FROM, zeroed
     from snn_fg.backends.fast.core import STATE
+    from snn_fg.backends.fast.run import HUGE_FROM, zeroed
 
     for dtype in (STATE, np.int32, np.float64):
         n = 2 * HUGE_FROM // np.dtype(dtype).itemsize + 3
         a = zeroed(n, dtype)
         assert a.shape == (n,) and a.dtype == np.dtype(dtype) and not a.view(np.uint8).any()
-        a[-1] = a[-1]                 # writable
+        a[-1] = a[-1]  # writable
         a.view(np.uint8)[:] = 7
         assert a.view(np.uint8).min() == 7
 
@@ -303,11 +327,16 @@ def test_the_cells_left_out_by_the_edge_masks_never_fire(timed):
         pos, neg = image_to_frame(sc.image)
         inp = frame_spikes(pos, neg, 200.0, 0.5, 120.0, seed=2)
     net = build_network(ModelParams(levels=3), inp.shape).calibrated(inp.rate_hz)
-    gated = {p.name for p in net.populations
-             if p.role.startswith(("bo_", "excess_")) or (p.level == 1 and p.role in ("simple", "untuned"))}
+    gated = {
+        p.name
+        for p in net.populations
+        if p.role.startswith(("bo_", "excess_")) or (p.level == 1 and p.role in ("simple", "untuned"))
+    }
     assert all(net.population(n).edge_mask for n in gated)
-    whole = dataclasses.replace(net, populations=tuple(
-        dataclasses.replace(p, edge_mask=False) if p.name in gated else p for p in net.populations))
+    whole = dataclasses.replace(
+        net,
+        populations=tuple(dataclasses.replace(p, edge_mask=False) if p.name in gated else p for p in net.populations),
+    )
     settings = RunSettings(duration_ms=120.0, count_from_ms=40.0, instantiate="all")
     masked, full = (get_backend("fast").simulate(n, inp, settings) for n in (net, whole))
     total = 0

@@ -1,6 +1,7 @@
 """The fast engine's first run on a machine says that it compiles, and its
 progress bar appears only once simulating has begun (it sat at 0 % for the
 compile, with an ETA of minutes)."""
+
 import numpy as np
 import pytest
 
@@ -10,7 +11,7 @@ from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 from snn_fg.spiking import run_spiking
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 
 def _run(**kw):
@@ -21,13 +22,14 @@ def _run(**kw):
 def test_a_first_run_says_that_it_compiles(monkeypatch):
     said = []
     _run(progress=False, log=said.append)
-    assert fast_core.code_is_cached()            # compiled by now, in this process at least
+    assert fast_core.code_is_cached()  # compiled by now, in this process at least
     assert not any("compiling" in s for s in said)
     monkeypatch.setattr(fast_core, "code_is_cached", lambda: False)
     said.clear()
     _run(progress=False, log=said.append)
-    assert said[0].startswith("compiling the fast engine's code as it prepares and simulates: the first run on "
-                              "this machine only"), said           # (said first: preparing compiles too)
+    assert said[0].startswith(
+        "compiling the fast engine's code as it prepares and simulates: the first run on this machine only"
+    ), said  # (said first: preparing compiles too)
 
 
 def test_the_progress_bar_appears_once_the_first_steps_are_done(monkeypatch):

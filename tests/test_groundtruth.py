@@ -1,12 +1,20 @@
 """Ground truth: the boundary-to-direction converter on shapes with analytic normals,
 the scores, and the bsds-fg loader."""
+
 import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
 from snn_fg.errors import InputError
-from snn_fg.groundtruth import (bsds_ids, boundary_directions, labeller_agreement, load_bsds_fg,
-                                score_directions, signed_angle_deg, summarise_errors)
+from snn_fg.groundtruth import (
+    boundary_directions,
+    bsds_ids,
+    labeller_agreement,
+    load_bsds_fg,
+    score_directions,
+    signed_angle_deg,
+    summarise_errors,
+)
 from snn_fg.scenes import disc, square
 
 
@@ -18,8 +26,9 @@ def _labels(scene):
     return fig.astype(np.int8) - ground.astype(np.int8), fig
 
 
-@pytest.mark.parametrize("scene", [disc(20), disc(45), disc(60, light_on_dark=False), square(50), square(70)],
-                         ids=lambda s: s.name)
+@pytest.mark.parametrize(
+    "scene", [disc(20), disc(45), disc(60, light_on_dark=False), square(50), square(70)], ids=lambda s: s.name
+)
 def test_converter_recovers_analytic_normals(scene):
     # measured within 10 deg: discs r 20, 45, 60: 100 %, 100 %, >= 95 %; squares h 50, 70: 96 %, 97 %
     # (the misses are the 2 px next to each corner). Discs of radius 80-120 give 94.7-95.3 %: near the axes
@@ -37,11 +46,11 @@ def test_converter_recovers_analytic_normals(scene):
 def test_direction_points_to_the_figure_side_whichever_side_it_is():
     fg = np.zeros((30, 30), np.int8)
     fg[:, 12] = -1
-    fg[:, 13] = 1                       # figure on the right of a vertical boundary
+    fg[:, 13] = 1  # figure on the right of a vertical boundary
     x, y, valid = boundary_directions(fg)
     assert valid[:, 13].all()
     assert np.allclose(x[:, 13], 1) and np.allclose(y[:, 13], 0, atol=1e-12)
-    x2, _, _ = boundary_directions(-fg)     # now the figure is the left strip
+    x2, _, _ = boundary_directions(-fg)  # now the figure is the left strip
     assert np.allclose(x2[:, 12], -1)
 
 
@@ -59,8 +68,9 @@ def test_signed_and_absolute_means_differ_when_errors_cancel():
     # a vector exactly along the boundary names no side: the two at 90 deg count as wrong
     assert s["side_accuracy"] == 0.5
     assert summarise_errors([89.9, -120.0, 179.0, 0.0])["side_accuracy"] == 0.5
-    assert signed_angle_deg(np.cos(np.radians(170)), np.sin(np.radians(170)), np.cos(np.radians(-170)),
-                            np.sin(np.radians(-170))) == pytest.approx(-20.0)
+    assert signed_angle_deg(
+        np.cos(np.radians(170)), np.sin(np.radians(170)), np.cos(np.radians(-170)), np.sin(np.radians(-170))
+    ) == pytest.approx(-20.0)
 
 
 def test_score_counts_only_pixels_with_a_model_vector():
@@ -70,8 +80,8 @@ def test_score_counts_only_pixels_with_a_model_vector():
     valid[1, :] = True
     fx = np.zeros((4, 4))
     fy = np.zeros((4, 4))
-    fy[1, :2] = 1.0                     # right on two pixels
-    fx[1, 2] = 1.0                      # 90 degrees off on one
+    fy[1, :2] = 1.0  # right on two pixels
+    fx[1, 2] = 1.0  # 90 degrees off on one
     s = score_directions(fx, fy, (truth_x, truth_y, valid))
     assert s["n_pixels"] == 3 and s["coverage"] == 0.75
     assert s["mean_abs_deg"] == pytest.approx(30.0) and s["mean_signed_deg"] == pytest.approx(-30.0)
@@ -96,7 +106,7 @@ def test_bsds_fg_labels_load_and_the_labellers_mostly_agree(dataset):
     gt = load_bsds_fg(root, "8143")
     assert gt.fg.shape == (2, 321, 481) and gt.image_path is not None and len(gt.labellers) == 2
     ceiling = labeller_agreement(gt)
-    assert ceiling["n_pixels"] > 5000 and ceiling["within45"] > 0.95    # measured 0.988
+    assert ceiling["n_pixels"] > 5000 and ceiling["within45"] > 0.95  # measured 0.988
 
 
 def test_map_similarity_is_perfect_only_for_the_same_field():
@@ -107,7 +117,7 @@ def test_map_similarity_is_perfect_only_for_the_same_field():
     same = map_similarity((x, y), (x.copy(), y.copy()))
     assert same["ssim_angle"] == pytest.approx(1.0) and same["ssim_render"] == pytest.approx(1.0)
     assert same["mse_angle"] == 0.0 and same["mse_render"] == 0.0
-    flipped = map_similarity((x, y), (-x, -y))           # every vector turned by half a turn
+    flipped = map_similarity((x, y), (-x, -y))  # every vector turned by half a turn
     assert flipped["ssim_angle"] < 0.9 and flipped["ssim_render"] < 0.9
     # in turns, every vector moved by 0.5 (either way round the wheel): 0.25 per vector pixel
     assert flipped["mse_angle"] == pytest.approx(0.25 * valid.mean())
@@ -163,6 +173,6 @@ def test_bootstrap_scores_pool_over_images_and_the_image_mean_weighs_images_alik
     # resamples without the big image are all right, those with it twice mostly wrong
     assert side["high"] == 1.0 and side["low"] < 0.4 and side["image_low"] < side["image_mean"] <= side["image_high"]
     assert s["coverage"]["pooled"] == pytest.approx(2000 / 3000)
-    assert bootstrap_scores(parts, n_resamples=400) == s       # seeded
+    assert bootstrap_scores(parts, n_resamples=400) == s  # seeded
     with pytest.raises(ValueError, match="no score 'median_abs_deg'"):
         bootstrap_scores(parts, keys=("median_abs_deg",))

@@ -2,6 +2,7 @@
 non-zero and says so in one line. A frame's run leaves the output folder
 exactly as it was before the run (an earlier run in it stays whole); a
 recording's leaves the windows completed so far, which --resume continues."""
+
 import os
 import signal
 import subprocess
@@ -16,7 +17,7 @@ from snn_fg.events import image_to_events, save_events
 from snn_fg.maps import Maps
 from snn_fg.scenes import demo
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +31,7 @@ def inputs(tmp_path_factory):
     cv2.imwrite(str(d / "texture.png"), (np.clip(texture, 0, 1) * 255).astype(np.uint8))
     rec = image_to_events(demo().image, motion="circle")
     ev = np.concatenate([rec.events] + [rec.events.copy() for _ in range(29)])
-    ev["t"] += np.repeat(np.arange(30) * 400_000, len(rec.events))          # 12 s of saccades
+    ev["t"] += np.repeat(np.arange(30) * 400_000, len(rec.events))  # 12 s of saccades
     save_events(d / "long.npz", ev, rec.sensor_size)
     return d
 
@@ -43,11 +44,18 @@ CASES = {
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case, sig, after_s", [
-    ("rate-image", signal.SIGINT, 1.0), ("fbfg-image", signal.SIGTERM, 1.0),
-    ("spiking-frame", signal.SIGINT, 1.0), ("spiking-frame", signal.SIGTERM, 1.0),
-    # at once: while the simulator is still being imported (an interrupt there can be swallowed by importlib)
-    ("spiking-frame", signal.SIGINT, 0.0), ("spiking-frame", signal.SIGINT, 0.1)])
+@pytest.mark.parametrize(
+    "case, sig, after_s",
+    [
+        ("rate-image", signal.SIGINT, 1.0),
+        ("fbfg-image", signal.SIGTERM, 1.0),
+        ("spiking-frame", signal.SIGINT, 1.0),
+        ("spiking-frame", signal.SIGTERM, 1.0),
+        # at once: while the simulator is still being imported (an interrupt there can be swallowed by importlib)
+        ("spiking-frame", signal.SIGINT, 0.0),
+        ("spiking-frame", signal.SIGINT, 0.1),
+    ],
+)
 def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path, case, sig, after_s):
     out = tmp_path / "out"
     out.mkdir()
@@ -56,10 +64,14 @@ def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path,
         (out / name).write_bytes(data)
     args = CASES[case](inputs)
     args[0] = args[0] if args[0] == "demo" else str(inputs / args[0])
-    proc = subprocess.Popen([sys.executable, "-m", "snn_fg.cli", "run", *args, "--out", str(out), "--force",
-                             "--no-progress"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "snn_fg.cli", "run", *args, "--out", str(out), "--force", "--no-progress"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + 120
-    while not list(tmp_path.glob(".out.*.staging")):          # the run has started writing
+    while not list(tmp_path.glob(".out.*.staging")):  # the run has started writing
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline
         time.sleep(0.05)
@@ -70,7 +82,7 @@ def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path,
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and "interrupted" in lines[0] and "left as it was" in lines[0], err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == earlier
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]              # no staging folder left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging folder left
 
 
 @pytest.mark.slow
@@ -79,8 +91,21 @@ def test_an_interrupted_recording_keeps_its_complete_windows_and_resumes(inputs,
     from snn_fg.store import read_attrs, windows_complete
 
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "snn_fg.cli", "run", str(inputs / "long.npz"), "--window-ms", "50",
-           "--max-windows", "40", "--no-figures", "--no-progress", "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "snn_fg.cli",
+        "run",
+        str(inputs / "long.npz"),
+        "--window-ms",
+        "50",
+        "--max-windows",
+        "40",
+        "--no-figures",
+        "--no-progress",
+        "--out",
+        str(out),
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while windows_complete(out) < 2:
@@ -107,13 +132,14 @@ class _SwallowsAnInterrupt:
 
     def __del__(self):
         signal.raise_signal(signal.SIGINT)
-        for _ in range(10):         # the handler runs at the next check of the eval loop
+        for _ in range(10):  # the handler runs at the next check of the eval loop
             pass
 
 
 @pytest.mark.parametrize("then", ["goes_on", "fails"])
 def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_next_window(
-        inputs, tmp_path, monkeypatch, capsys, then):
+    inputs, tmp_path, monkeypatch, capsys, then
+):
     """The run goes on after the swallowed interrupt (and stops at the next
     window), or fails because of it (and the interrupt is reported, not the
     error)."""
@@ -125,7 +151,7 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_ne
     def append(self, *a, **kw):
         appended.append(1)
         if len(appended) == 2:
-            _SwallowsAnInterrupt()       # made and dropped at once: its finalizer runs here
+            _SwallowsAnInterrupt()  # made and dropped at once: its finalizer runs here
             if then == "fails":
                 raise RuntimeError("a library left in a broken state by the interrupt")
         return real_append(self, *a, **kw)
@@ -135,14 +161,15 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_ne
     out.mkdir()
     (out / "maps.npz").write_bytes(b"an earlier run's maps")
     before = signal.getsignal(signal.SIGINT), sys.unraisablehook
-    code = cli.main(["run", str(inputs / "long.npz"), "--window-ms", "50", "--out", str(out), "--force",
-                     "--no-progress"])
+    code = cli.main(
+        ["run", str(inputs / "long.npz"), "--window-ms", "50", "--out", str(out), "--force", "--no-progress"]
+    )
     err = capsys.readouterr().err
     assert code == 130
     assert len(appended) == 2, f"the run went on for {len(appended)} windows after the interrupt"
     lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1 and "interrupted" in lines[0], err          # no "Exception ignored" report
+    assert len(lines) == 1 and "interrupted" in lines[0], err  # no "Exception ignored" report
     # the windows completed: the second too when the run went on through it
     assert os.listdir(out) == ["maps.zarr"] and Maps.load(out).fg_x.shape[0] == (2 if then == "goes_on" else 1)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
-    assert (signal.getsignal(signal.SIGINT), sys.unraisablehook) == before       # both restored
+    assert (signal.getsignal(signal.SIGINT), sys.unraisablehook) == before  # both restored

@@ -1,11 +1,12 @@
 """Unit tests of the model's parts: von Mises masks, DoG orientation, pyramid."""
+
 import numpy as np
 import pytest
 
 from snn_fg.errors import ParameterError
-from snn_fg.pyramid.levels import level_shape, pyramid
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
+from snn_fg.pyramid.levels import level_shape, pyramid
 from snn_fg.rate.edfg import orientation_index, oriented_responses
 
 
@@ -13,7 +14,7 @@ from snn_fg.rate.edfg import orientation_index, oriented_responses
 def test_von_mises_ring_peaks_at_r0(r0):
     m1, m2 = von_mises_masks(ModelParams(r0=r0))
     half = m1.shape[-1] // 2
-    y, x = np.mgrid[half:-half - 1:-1, -half:half + 1]
+    y, x = np.mgrid[half : -half - 1 : -1, -half : half + 1]
     r = np.hypot(x, y)
     for o in range(8):
         for m in (m1[o], m2[o]):
@@ -24,7 +25,7 @@ def test_von_mises_ring_peaks_at_r0(r0):
 def test_von_mises_masks_are_disjoint_and_on_preferred_side():
     m1, m2 = von_mises_masks()
     half = m1.shape[-1] // 2
-    y, x = np.mgrid[half:-half - 1:-1, -half:half + 1]
+    y, x = np.mgrid[half : -half - 1 : -1, -half : half + 1]
     assert m1[:, half, half].max() == 0 and m2[:, half, half].max() == 0
     for o in range(8):
         assert not np.any((m1[o] > 0) & (m2[o] > 0))

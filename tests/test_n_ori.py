@@ -9,6 +9,7 @@ entries (channel ``c`` as ``2c``) give the 4-orientation maps bit for bit.
 (What 4 orientations do lose on discs, docs/model.md, "Measured and not
 taken", comes from that rounding, not from code written for 8.)
 """
+
 import numpy as np
 
 from snn_fg.events import image_to_frame
@@ -37,7 +38,7 @@ def test_four_orientations_are_eight_restricted_to_even_directions():
     assert np.array_equal(oriented_responses(pos.astype(float), neg.astype(float), P4), even)
     rows, cols = e4[0].rows, e4[0].cols
     assert np.array_equal(e4[0].ch, orientation_index(even[:, rows, cols], P4)[1])
-    step = (2 * e4[0].ch - e8[0].ch + 8) % 16 - 8       # most pixels: the nearest even direction
+    step = (2 * e4[0].ch - e8[0].ch + 8) % 16 - 8  # most pixels: the nearest even direction
     assert np.mean(np.abs(step) <= 1) > 0.9
     state4 = run_edfg_state(pos, neg, P4)
     engine8 = SparseGrouping([Entries(e.rows, e.cols, 2 * e.ch, e.s) for e in e4], shapes, P8).run()

@@ -1,5 +1,6 @@
 """The natural-scene variant (model ``natural``): pooled grouping polarities,
 its spiking form's wiring, and the command line."""
+
 import numpy as np
 import pytest
 
@@ -13,7 +14,7 @@ from snn_fg.rate.edfg import run_edfg
 from snn_fg.rate.natural import NATURAL_PARAMS, run_natural
 from snn_fg.scenes import disc
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 
 def _two_tone_disc(radius=20):
@@ -32,13 +33,13 @@ def test_pooled_polarities_own_a_figure_whose_contrast_flips_along_its_outline()
     scene, (pos, neg) = _two_tone_disc()
     ref = truth_scores(*(lambda m: (m.fg_x, m.fg_y))(run_edfg(pos, neg)), scene)
     nat = truth_scores(*(lambda m: (m.fg_x, m.fg_y))(run_natural(pos, neg)), scene)
-    assert nat["coverage"] == ref["coverage"] > 0.4      # the same vectors, other directions
+    assert nat["coverage"] == ref["coverage"] > 0.4  # the same vectors, other directions
     assert nat["frac_within_45"] >= 0.9 > 0.8 > ref["frac_within_45"]
 
 
 def test_pooled_grouping_is_the_sum_of_both_polarities_without_competition():
-    from snn_fg.rate.pooled import PooledGrouping, grouping_engine
     from snn_fg.rate.grouping import SparseGrouping
+    from snn_fg.rate.pooled import PooledGrouping, grouping_engine
 
     assert grouping_engine(ModelParams()) is SparseGrouping
     assert grouping_engine(NATURAL_PARAMS) is PooledGrouping
@@ -51,7 +52,7 @@ def test_pooled_grouping_is_the_sum_of_both_polarities_without_competition():
     inner = lv.interior
     expect = np.maximum(inner(lv.a_l), 0) + np.maximum(inner(lv.a_d), 0)
     assert np.array_equal(inner(lv.g_l), expect) and np.array_equal(inner(lv.g_d), expect)
-    assert (inner(lv.a_l) > 0).any() and (inner(lv.a_d) > 0).any()     # both polarities take part
+    assert (inner(lv.a_l) > 0).any() and (inner(lv.a_d) > 0).any()  # both polarities take part
     # the read-out's grouping map counts G once
     assert np.allclose(state.grouping_result.gd[0], 0) and np.array_equal(state.grouping_result.gl[0], expect)
 
@@ -69,8 +70,12 @@ def test_pooled_network_reads_both_polarities_into_every_feedback_cell_and_drops
     net = build_network(NATURAL_PARAMS.replace(levels=2), (40, 52))
     paper = build_network(ModelParams(levels=2), (40, 52))
     inputs = sorted(p.name for p in net.incoming("feedback_1p_1") if p.source.startswith("group_"))
-    assert inputs == ["group_D_1_inh_feedback_1p_1", "group_D_1_to_feedback_1p_1",
-                      "group_L_1_inh_feedback_1p_1", "group_L_1_to_feedback_1p_1"]
+    assert inputs == [
+        "group_D_1_inh_feedback_1p_1",
+        "group_D_1_to_feedback_1p_1",
+        "group_L_1_inh_feedback_1p_1",
+        "group_L_1_to_feedback_1p_1",
+    ]
     assert [p for p in net.projections if p.source.startswith("group_") and p.target.startswith("group_")] == []
     assert any(p.name == "group_L_1_inh_group_D_1" for p in paper.projections)
     # no rival inhibition (w_inh 0): no excess cells, grouping cells only excited by their own families
@@ -86,8 +91,24 @@ def test_natural_models_run_from_the_command_line_with_their_own_parameters(tmp_
     assert params["w_inh"] == NATURAL_PARAMS.w_inh and params["iterations"] == NATURAL_PARAMS.iterations
     assert params["side_cue"] == NATURAL_PARAMS.side_cue > 0
     # a flag changes the variant's parameters, not the paper's
-    assert main(["run", "demo", "--model", "natural", "--r0", "6", "--side-cue", "0", "--out", str(tmp_path / "b"),
-                 "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "demo",
+                "--model",
+                "natural",
+                "--r0",
+                "6",
+                "--side-cue",
+                "0",
+                "--out",
+                str(tmp_path / "b"),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     params = Maps.load(tmp_path / "b" / "maps.npz").params
     assert params["r0"] == 6 and params["side_cue"] == 0 and params["grouping_polarity"] == "pool"
 
@@ -115,8 +136,16 @@ def test_exporters_write_the_pooled_network(tmp_path):
     back = read_nir(export_nir(net, tmp_path / "n.nir"))
     # (NIR carries each signed kernel as an excitatory and an inhibitory part)
     into = sorted((p.source, p.sign) for p in back.projections if p.target == "feedback_1p_1")
-    assert into == [("feedback_1n_2", -1), ("feedback_1p_2", 1), ("group_D_1", -1), ("group_D_1", 1),
-                    ("group_L_1", -1), ("group_L_1", 1), ("side_n_2", -1), ("side_p_2", 1)]
+    assert into == [
+        ("feedback_1n_2", -1),
+        ("feedback_1p_2", 1),
+        ("group_D_1", -1),
+        ("group_D_1", 1),
+        ("group_L_1", -1),
+        ("group_L_1", 1),
+        ("side_n_2", -1),
+        ("side_p_2", 1),
+    ]
     folder = export_pynn(net, tmp_path / "pynn")
     written = "".join(p.read_text(errors="ignore") for p in folder.rglob("*.json"))
     assert "group_D_1_to_feedback_1p_1" in written and "side_p_2_to_feedback_1p_1" in written

@@ -1,4 +1,5 @@
 """experiments.validation.natural_cues: the half-disc side cue and the combination of cues (issue 38)."""
+
 import numpy as np
 import pytest
 
@@ -8,14 +9,14 @@ from experiments.validation.natural_cues import N_DIRECTIONS, analyse, fit_logis
 @pytest.mark.parametrize("radius", [6, 24])
 def test_the_side_cue_points_to_the_half_with_the_events(radius):
     image = np.zeros((80, 80))
-    image[40:, :] = 1.0                                   # events fill the lower half (rows grow downwards)
+    image[40:, :] = 1.0  # events fill the lower half (rows grow downwards)
     angles = np.arange(N_DIRECTIONS) * 2 * np.pi / N_DIRECTIONS
     rows, cols = np.full(len(angles), 39), np.full(len(angles), 40)
     cue = side_difference(image, radius, rows, cols, angles)
-    down = -np.sin(angles)                                # y is up: the filled half lies at -y
+    down = -np.sin(angles)  # y is up: the filled half lies at -y
     assert np.all(np.sign(cue[np.abs(down) > 0.5]) == np.sign(down[np.abs(down) > 0.5]))
-    assert cue[np.argmin(np.sin(angles))] == pytest.approx(1.0, abs=0.1)     # straight down: all of one side
-    assert abs(cue[0]) < 0.1 and abs(cue[N_DIRECTIONS // 2]) < 0.1          # along the border: no side
+    assert cue[np.argmin(np.sin(angles))] == pytest.approx(1.0, abs=0.1)  # straight down: all of one side
+    assert abs(cue[0]) < 0.1 and abs(cue[N_DIRECTIONS // 2]) < 0.1  # along the border: no side
 
 
 def test_the_logistic_combination_learns_which_cues_say_the_side():
@@ -36,7 +37,7 @@ def test_a_cue_that_knows_the_side_turns_every_wrong_vector_round():
         knows = np.where(right, 1.0, -1.0)
         images.append((np.column_stack([knows] + [rng.normal(size=200)] * 9), right))
     out = analyse(images[:5], images[5:])
-    assert out["cues"]["events 6"]["report"] == 1.0       # the first cue is the one that knows
+    assert out["cues"]["events 6"]["report"] == 1.0  # the first cue is the one that knows
     assert 0.4 < out["cues"]["events 12"]["report"] < 0.7
     assert out["combined"]["report"] > 0.95
     assert out["variant"]["report"] == pytest.approx(np.mean(np.concatenate([r for _, r in images[5:]])))

@@ -1,6 +1,7 @@
 """The network description: built from ModelParams, faithful to the model's
 wiring, round-trips through dict/JSON/files, derives calibrated and resized
 networks, and names what is wrong."""
+
 import json
 from pathlib import Path
 
@@ -8,11 +9,11 @@ import numpy as np
 import pytest
 
 from snn_fg.errors import InputError, ParameterError
-from snn_fg.pyramid.levels import level_shape
 from snn_fg.network import Conv, Kernel, Network, Neuron, Population, Resize, SpikingParams, build_network
 from snn_fg.network.builder import FAMILIES, FEEDBACK_HALVES
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
+from snn_fg.pyramid.levels import level_shape
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -34,21 +35,27 @@ def test_round_trip(net, small, tmp_path):
     # the JSON is plain data: kernels stay references, not unrolled arrays
     text = small.to_json()
     assert len(text) < 300_000
-    assert {p["kernel"]["ref"] for p in json.loads(text)["projections"] if p["type"] == "conv"} == \
-        {"dog", "von_mises", "channel_map"}
+    assert {p["kernel"]["ref"] for p in json.loads(text)["projections"] if p["type"] == "conv"} == {
+        "dog",
+        "von_mises",
+        "channel_map",
+    }
 
 
 def test_every_level_has_every_stage(small):
     for level in (1, 2, 3):
         roles = {p.role for p in small.populations if p.level == level}
-        want = {"simple", "untuned", "group_L", "group_D"} | {f"bo_{f}" for f in FAMILIES} | \
-            {f"feedback_{k}" for k in FEEDBACK_HALVES}
+        want = (
+            {"simple", "untuned", "group_L", "group_D"}
+            | {f"bo_{f}" for f in FAMILIES}
+            | {f"feedback_{k}" for k in FEEDBACK_HALVES}
+        )
         assert want <= roles, want - roles
         assert {"relay_on", "relay_off"} <= roles if level > 1 else {"input_on", "input_off"} <= roles
         for p in small.populations:
             if p.level == level and p.role != "clock":
                 assert p.level_shape == level_shape((40, 52), level)
-                assert p.name == f"{p.role}_{level}"       # one name per concept
+                assert p.name == f"{p.role}_{level}"  # one name per concept
 
 
 def test_simple_cells_get_the_dog_kernels(net):
@@ -103,7 +110,7 @@ def test_grouping_wiring_follows_stage_7(net, level):
             src = net.population(p.source)
             if src.role.startswith(("bo_", "excess_")):
                 assert isinstance(p, Conv) and p.mode == "corr" and p.padding == "zero"
-                a = p.kernel.array(net.params)[0]                   # (n_ori, 49, 49)
+                a = p.kernel.array(net.params)[0]  # (n_ori, 49, 49)
                 half = 1 if np.allclose(a, m1) else 2 if np.allclose(a, m2) else None
                 got.add((src.role, half, p.sign))
         assert got == want, g
@@ -121,7 +128,7 @@ def test_excess_cells_are_a_family_minus_its_partner(net):
         for pr in inc.values():
             np.testing.assert_array_equal(pr.kernel.array(net.params)[:, :, 0, 0], np.eye(net.params.n_ori))
         exc, inh = inc[(f"bo_{f}", 1)], inc[(f"bo_{p}", -1)]
-        g = net.one("group_L", 2).neuron          # the network's balance: the grouping cells' tau_exc / tau_inh
+        g = net.one("group_L", 2).neuron  # the network's balance: the grouping cells' tau_exc / tau_inh
         assert inh.gain_mv == pytest.approx(exc.gain_mv * g.tau_exc_ms / g.tau_inh_ms)
 
 
@@ -165,7 +172,8 @@ def test_calibration_scales_only_the_input_gains(small):
     # the DoG projections of every level, the level-1 gates, the input -> untuned ones
     assert changed == 2 * 3 + 2 * SpikingParams().gate_copies + 2 * 3
     assert half.calibrated(200.0) == small or np.allclose(
-        [p.gain_mv for p in half.calibrated(200.0).projections], [p.gain_mv for p in small.projections])
+        [p.gain_mv for p in half.calibrated(200.0).projections], [p.gain_mv for p in small.projections]
+    )
     # the same network as building it for that input rate
     built = build_network(small.params, small.frame_shape, SpikingParams(input_rate_hz=100.0))
     np.testing.assert_allclose([p.gain_mv for p in half.projections], [p.gain_mv for p in built.projections])
@@ -196,28 +204,37 @@ def _cmap():
     return Kernel(ref="channel_map", args={"n_out": 1, "n_in": 1, "entries": []})
 
 
-@pytest.mark.parametrize("make, fragment", [
-    (lambda: Neuron(tau_m_ms=-1), "Neuron: tau_m_ms=-1"),
-    (lambda: Neuron(v_th_mv=-5), "v_th_mv"),
-    (lambda: Population(name="S 1", role="simple", level=1, level_shape=(4, 4), neuron=Neuron()),
-     "Population('S 1')"),
-    (lambda: Population(name="S1", role="nonsense", level=1, level_shape=(4, 4), neuron=Neuron()),
-     "Population 'S1': role='nonsense'"),
-    (lambda: Population(name="S1", role="simple", level=1, level_shape=(4, 4)), "is needed by role"),
-    (lambda: Population(name="inp", role="input_on", level=1, level_shape=(4, 4), neuron=Neuron()),
-     "Population 'inp'"),
-    (lambda: Kernel(ref="dog", args={"directions": []}), "Kernel(ref='dog')"),
-    (lambda: Kernel(ref="von_mises", args={"half": 3, "layout": "gather"}), "half=3"),
-    (lambda: Kernel(ref="channel_map", args={"n_out": 1, "n_in": 1, "entries": [[0, 5, 1.0]]}), "entry"),
-    (lambda: Kernel(ref="bogus", args={}), "Kernel(ref='bogus')"),
-    (lambda: Conv(name="c1", source="a", target="b", kernel=_cmap(), mode="x"), "Conv 'c1': mode='x'"),
-    (lambda: Resize(name="r1", source="a", target="b", interpolation="nearest"), "Resize 'r1'"),
-    (lambda: Conv(name="c2", source="a", target="b", kernel=_cmap(), prune=1.5), "prune=1.5"),
-    (lambda: SpikingParams(grouping_stride=0), "grouping_stride"),
-    (lambda: SpikingParams(group=Neuron(tau_m_ms=0)), "Neuron: tau_m_ms=0"),
-    (lambda: SpikingParams(group=20.0), "SpikingParams: group=20.0 must be a Neuron"),
-    (lambda: SpikingParams(pool_interpolation="area"), "SpikingParams: pool_interpolation='area'"),
-])
+@pytest.mark.parametrize(
+    "make, fragment",
+    [
+        (lambda: Neuron(tau_m_ms=-1), "Neuron: tau_m_ms=-1"),
+        (lambda: Neuron(v_th_mv=-5), "v_th_mv"),
+        (
+            lambda: Population(name="S 1", role="simple", level=1, level_shape=(4, 4), neuron=Neuron()),
+            "Population('S 1')",
+        ),
+        (
+            lambda: Population(name="S1", role="nonsense", level=1, level_shape=(4, 4), neuron=Neuron()),
+            "Population 'S1': role='nonsense'",
+        ),
+        (lambda: Population(name="S1", role="simple", level=1, level_shape=(4, 4)), "is needed by role"),
+        (
+            lambda: Population(name="inp", role="input_on", level=1, level_shape=(4, 4), neuron=Neuron()),
+            "Population 'inp'",
+        ),
+        (lambda: Kernel(ref="dog", args={"directions": []}), "Kernel(ref='dog')"),
+        (lambda: Kernel(ref="von_mises", args={"half": 3, "layout": "gather"}), "half=3"),
+        (lambda: Kernel(ref="channel_map", args={"n_out": 1, "n_in": 1, "entries": [[0, 5, 1.0]]}), "entry"),
+        (lambda: Kernel(ref="bogus", args={}), "Kernel(ref='bogus')"),
+        (lambda: Conv(name="c1", source="a", target="b", kernel=_cmap(), mode="x"), "Conv 'c1': mode='x'"),
+        (lambda: Resize(name="r1", source="a", target="b", interpolation="nearest"), "Resize 'r1'"),
+        (lambda: Conv(name="c2", source="a", target="b", kernel=_cmap(), prune=1.5), "prune=1.5"),
+        (lambda: SpikingParams(grouping_stride=0), "grouping_stride"),
+        (lambda: SpikingParams(group=Neuron(tau_m_ms=0)), "Neuron: tau_m_ms=0"),
+        (lambda: SpikingParams(group=20.0), "SpikingParams: group=20.0 must be a Neuron"),
+        (lambda: SpikingParams(pool_interpolation="area"), "SpikingParams: pool_interpolation='area'"),
+    ],
+)
 def test_invalid_nodes_name_the_object_at_fault(make, fragment):
     with pytest.raises(ParameterError) as err:
         make()
@@ -226,30 +243,45 @@ def test_invalid_nodes_name_the_object_at_fault(make, fragment):
 
 def test_constructors_take_keywords_only():
     with pytest.raises(TypeError):
-        Conv("c", "a", "b", _cmap())           # nobody can tell what positional numbers would mean
+        Conv("c", "a", "b", _cmap())  # nobody can tell what positional numbers would mean
 
 
 def _two_pop_network(kernel, tgt_channels=1, tgt_level=1):
     p = ModelParams(levels=2)
-    pops = (Population(name="on", role="input_on", level=1, level_shape=(20, 20)),
-            Population(name="T", role="simple", level=tgt_level, level_shape=level_shape((20, 20), tgt_level),
-                       channels=tgt_channels, neuron=Neuron()))
-    return Network(params=p, frame_shape=(20, 20), populations=pops,
-                   projections=(Conv(name="on_to_T", source="on", target="T", kernel=kernel),))
+    pops = (
+        Population(name="on", role="input_on", level=1, level_shape=(20, 20)),
+        Population(
+            name="T",
+            role="simple",
+            level=tgt_level,
+            level_shape=level_shape((20, 20), tgt_level),
+            channels=tgt_channels,
+            neuron=Neuron(),
+        ),
+    )
+    return Network(
+        params=p,
+        frame_shape=(20, 20),
+        populations=pops,
+        projections=(Conv(name="on_to_T", source="on", target="T", kernel=kernel),),
+    )
 
 
 def test_network_checks_name_the_projection():
     one = Kernel(ref="channel_map", args={"n_out": 1, "n_in": 1, "entries": [[0, 0, 1.0]]})
     with pytest.raises(ParameterError, match="Conv 'on_to_T'.*output channels"):
-        _two_pop_network(Kernel(ref="channel_map", args={"n_out": 2, "n_in": 1, "entries": [[0, 0, 1.0]]}),
-                         tgt_channels=3)
+        _two_pop_network(
+            Kernel(ref="channel_map", args={"n_out": 2, "n_in": 1, "entries": [[0, 0, 1.0]]}), tgt_channels=3
+        )
     with pytest.raises(ParameterError, match="Conv 'on_to_T'.*share a level"):
         _two_pop_network(one, tgt_level=2)
     ok = _two_pop_network(one)
-    for path, value, pattern in ((("projections", 0, "target"), "nowhere", "Conv 'on_to_T': target='nowhere'"),
-                                 (("populations", 1, "level_shape"), [5, 5], "Population 'T'.*level_shape"),
-                                 (("schema",), "other/9", "schema"),
-                                 (("populations", 1, "colour"), "red", "unknown field.*colour")):
+    for path, value, pattern in (
+        (("projections", 0, "target"), "nowhere", "Conv 'on_to_T': target='nowhere'"),
+        (("populations", 1, "level_shape"), [5, 5], "Population 'T'.*level_shape"),
+        (("schema",), "other/9", "schema"),
+        (("populations", 1, "colour"), "red", "unknown field.*colour"),
+    ):
         d = ok.to_dict()
         node = d
         for key in path[:-1]:
@@ -303,8 +335,10 @@ def _lif_rate(neuron: Neuron, drive_mv: float, seconds=2.0, dt_ms=0.005) -> floa
     return spikes / seconds
 
 
-@pytest.mark.parametrize("neuron", [SpikingParams().feedback, Neuron(tau_m_ms=20, t_ref_ms=4),
-                                    Neuron(tau_m_ms=10, t_ref_ms=5, v_rest_mv=-2.0)])
+@pytest.mark.parametrize(
+    "neuron",
+    [SpikingParams().feedback, Neuron(tau_m_ms=20, t_ref_ms=4), Neuron(tau_m_ms=10, t_ref_ms=5, v_rest_mv=-2.0)],
+)
 @pytest.mark.parametrize("rate_hz", [40.0, 100.0])
 def test_drive_for_rate_is_the_drive_that_gives_the_rate(neuron, rate_hz):
     """The top-down pooling weight reads a feedback cell's rate back as its
@@ -325,6 +359,7 @@ def test_feedback_cells_rate_is_proportional_to_drive_over_their_range():
     between 100 and 400 Hz (the bulk of what the pairs fire at on BSDS
     frames). The earlier cell (4 ms refractory) fails this: its rate per
     unit drive halves between 100 and 200 Hz."""
+
     def spread(neuron, rates):
         drives = [neuron.drive_for_rate(r) for r in rates]
         per_drive = [_lif_rate(neuron, d, seconds=0.5) / d for d in drives]

@@ -1,4 +1,5 @@
 """Scoring figure-ground vectors along an object's outline (snn_fg.outline)."""
+
 import numpy as np
 
 from snn_fg.outline import inward_angles, inward_score
@@ -8,8 +9,8 @@ def _disc(turn_deg):
     """A disc region and unit vectors at every pixel pointing to its centre,
     turned by ``turn_deg`` (counter-clockwise, y up)."""
     r, c = np.mgrid[0:64, 0:64].astype(float)
-    region = (r - 32) ** 2 + (c - 32) ** 2 <= 20 ** 2
-    ang = np.arctan2(r - 32, 32 - c) + np.radians(turn_deg)     # towards the centre, y up
+    region = (r - 32) ** 2 + (c - 32) ** 2 <= 20**2
+    ang = np.arctan2(r - 32, 32 - c) + np.radians(turn_deg)  # towards the centre, y up
     return np.cos(ang), np.sin(ang), region
 
 
@@ -18,7 +19,7 @@ def test_vectors_to_the_centre_are_inward_and_turned_ones_are_not():
     mean, within = inward_angles(fx, fy, region)
     assert mean < 5 and within == 1.0
     assert inward_score(fx, fy, region)[0] == 1.0
-    fx, fy, region = _disc(80)         # along the outline: the sign test still calls most of them inward
+    fx, fy, region = _disc(80)  # along the outline: the sign test still calls most of them inward
     mean, within = inward_angles(fx, fy, region)
     assert 75 < mean < 85 and within == 0.0
     assert inward_score(fx, fy, region)[0] > 0.9

@@ -5,14 +5,15 @@ scipy.ndimage.correlate and cv2.resize, independently of snn_fg.rate; every
 path the event-driven code can choose (scatter or Fourier grouping input,
 gathered or dense feedback, sparse or Fourier responses) is forced in turn.
 """
+
 import cv2
 import numpy as np
 import pytest
 from scipy import ndimage
 
-from snn_fg.pyramid.levels import level_shape, resize
 from snn_fg.network.kernels import von_mises_masks
 from snn_fg.params import ModelParams
+from snn_fg.pyramid.levels import level_shape, resize
 from snn_fg.rate import edfg, grouping
 from snn_fg.rate.edfg import event_simple_cells, oriented_responses, responses_at
 from snn_fg.rate.grouping import SparseGrouping
@@ -24,7 +25,7 @@ PARAMS = ModelParams(levels=2, iterations=2, n_ori=4)
 def _frame(shape=(36, 44), seed=3):
     rng = np.random.default_rng(seed)
     img = np.zeros(shape)
-    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    yy, xx = np.mgrid[0 : shape[0], 0 : shape[1]]
     img[np.hypot(yy - 18, xx - 20) < 10] = 1.0
     img[4:10, 30:40] = 0.5
     pos = ((np.abs(np.diff(img, axis=1, prepend=0)) > 0) & (rng.random(shape) < 0.9)).astype(np.uint8)
@@ -54,10 +55,16 @@ def _dense_reference(s_levels, p):
             gl[l], gd[l] = np.where(L > D, L, 0.0), np.where(D > L, D, 0.0)
         for l, s in enumerate(s_levels):
             shape = s.shape[1:]
-            v1 = sum(0.5 ** (k - l) * resize(np.stack([corr(gl[k], m1[o]) - corr(gd[k], m2[o]) for o in range(n)], -1),
-                                             shape) for k in range(l, len(s_levels)))
-            v2 = sum(0.5 ** (k - l) * resize(np.stack([corr(gl[k], m2[o]) - corr(gd[k], m1[o]) for o in range(n)], -1),
-                                             shape) for k in range(l, len(s_levels)))
+            v1 = sum(
+                0.5 ** (k - l)
+                * resize(np.stack([corr(gl[k], m1[o]) - corr(gd[k], m2[o]) for o in range(n)], -1), shape)
+                for k in range(l, len(s_levels))
+            )
+            v2 = sum(
+                0.5 ** (k - l)
+                * resize(np.stack([corr(gl[k], m2[o]) - corr(gd[k], m1[o]) for o in range(n)], -1), shape)
+                for k in range(l, len(s_levels))
+            )
             f1, f2 = f(np.moveaxis(v1, -1, 0)), f(np.moveaxis(v2, -1, 0))
             bl1[l], bd2[l] = np.maximum(s[:n] * f1, 0), np.maximum(s[:n] * (2 - f1), 0)
             bl2[l], bd1[l] = np.maximum(s[n:] * f2, 0), np.maximum(s[n:] * (2 - f2), 0)
@@ -74,14 +81,15 @@ def reference():
 @pytest.mark.parametrize("path", ["scatter+gather", "fourier"])
 def test_grouping_matches_dense_transcription(monkeypatch, reference, path):
     s_levels, (bl1, bd2, gl, gd) = reference
-    if path == "scatter+gather":       # every level sparse
+    if path == "scatter+gather":  # every level sparse
         monkeypatch.setattr(grouping, "_FFT_COST_PER_CELL", 1e9)
         monkeypatch.setattr(grouping, "_FFT_COST_PER_CELL_SINGLE", 1e9)
-    elif path == "fourier":            # every level dense
+    elif path == "fourier":  # every level dense
         monkeypatch.setattr(grouping, "_FFT_COST_PER_CELL", 0.0)
         monkeypatch.setattr(grouping, "_FFT_COST_PER_CELL_SINGLE", 0.0)
-    got = SparseGrouping([Entries.from_dense(s) for s in s_levels], [s.shape[1:] for s in s_levels],
-                         PARAMS).run().dense()
+    got = (
+        SparseGrouping([Entries.from_dense(s) for s in s_levels], [s.shape[1:] for s in s_levels], PARAMS).run().dense()
+    )
     # The dense feedback correlation runs in single precision: 1e-4 relative.
     tol = 1e-9 if path == "scatter+gather" else 1e-4
     for l in range(PARAMS.levels):
@@ -90,7 +98,7 @@ def test_grouping_matches_dense_transcription(monkeypatch, reference, path):
         assert np.abs(got.gd[l] - gd[l]).max() <= tol * scale
         assert np.abs(got.bl1[l] - bl1[l]).max() <= tol * 2
         assert np.abs(got.bd2[l] - bd2[l]).max() <= tol * 2
-    assert max(g.max() for g in gl) > 1.0      # the scene does group
+    assert max(g.max() for g in gl) > 1.0  # the scene does group
 
 
 def test_cubic_taps_reproduce_opencv_resize():
@@ -101,8 +109,8 @@ def test_cubic_taps_reproduce_opencv_resize():
     rs, rw = cubic_taps(src.shape[0], dst_shape[0])
     cs, cw = cubic_taps(src.shape[1], dst_shape[1])
     # interpolate columns, then rows (OpenCV's order), with the taps
-    cols = (src[:, cs[:, None] + np.arange(4)] * cw[None]).sum(-1)            # (h_src, w_dst)
-    ours = (cols[rs[:, None] + np.arange(4)] * rw[:, :, None]).sum(1)        # (h_dst, w_dst)
+    cols = (src[:, cs[:, None] + np.arange(4)] * cw[None]).sum(-1)  # (h_src, w_dst)
+    ours = (cols[rs[:, None] + np.arange(4)] * rw[:, :, None]).sum(1)  # (h_dst, w_dst)
     ref = cv2.resize(src, dst_shape[::-1], interpolation=cv2.INTER_CUBIC)
     assert np.abs(ours - ref).max() < 1e-12
 
@@ -114,7 +122,7 @@ def test_sparse_responses_equal_fourier_ones(level):
     p_l = resize(pos.astype(float), shape)
     n_l = resize(neg.astype(float), shape)
     rows, cols = np.nonzero(resize(((pos | neg) > 0).astype(float), shape))
-    low = ModelParams(edge_threshold=0.05, sum_threshold=0.0)     # keep the weaker coarse responses
+    low = ModelParams(edge_threshold=0.05, sum_threshold=0.0)  # keep the weaker coarse responses
     dense = oriented_responses(p_l, n_l, low)[:, rows, cols]
     sparse = responses_at(p_l, n_l, rows.astype(np.int64), cols.astype(np.int64), low)
     assert dense.any()
@@ -180,7 +188,9 @@ def test_loading_a_dense_state_and_stepping_each_stage_is_one_more_iteration():
     assert np.allclose(fresh.readout(pos.shape)[0], three.readout(pos.shape)[0])
     fresh.group_step()
     for (gl, gd), (wl, wd) in zip(fresh.grouping_maps(), four.grouping_maps()):
-        assert np.allclose(gl, wl, atol=1e-9 * max(np.abs(wl).max(), 1)) and np.allclose(gd, wd, atol=1e-9 * max(np.abs(wd).max(), 1))
+        assert np.allclose(gl, wl, atol=1e-9 * max(np.abs(wl).max(), 1)) and np.allclose(
+            gd, wd, atol=1e-9 * max(np.abs(wd).max(), 1)
+        )
     z = fresh.pooled_z()
     fresh.feedback_step()
     for got, want in zip(fresh.readout(pos.shape), four.readout(pos.shape)):

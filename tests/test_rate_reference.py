@@ -1,4 +1,5 @@
 """The rate model reproduces the authors' published outputs (dataset ``bsds-edfg``)."""
+
 import numpy as np
 import pytest
 

@@ -1,6 +1,7 @@
 """Recordings that read but look wrong, and what a decoder leaves out:
 a file cut at an event boundary warns (and cannot be cut into windows), and
 summaries name what they skip, with counts."""
+
 import numpy as np
 import pytest
 
@@ -24,12 +25,12 @@ def _burst_es(path):
 def test_a_file_cut_at_an_event_boundary_warns_and_cannot_be_run(tmp_path, capsys, recwarn):
     from snn_fg.errors import InputWarning
 
-    rec = open_recording(_burst_es(tmp_path / "whole.es"))          # the whole file: no warning, 12 windows
+    rec = open_recording(_burst_es(tmp_path / "whole.es"))  # the whole file: no warning, 12 windows
     assert len(rec) == 300 and not [w for w in recwarn if issubclass(w.category, InputWarning)]
     assert len(list(iter_windows(rec, window_ms=85))) == 12
     whole = (tmp_path / "whole.es").read_bytes()
     cut = tmp_path / "cut.es"
-    cut.write_bytes(whole[:20 + 5 * 100])           # header, then exactly 100 whole events of the burst
+    cut.write_bytes(whole[: 20 + 5 * 100])  # header, then exactly 100 whole events of the burst
     problem = f"{cut}: all 100 events have the same timestamp (0 us), so the recording spans no time"
     assert main(["events", str(cut), "--no-progress"]) == 0
     out, err = capsys.readouterr()
@@ -42,7 +43,7 @@ def test_a_file_cut_at_an_event_boundary_warns_and_cannot_be_run(tmp_path, capsy
         open_recording(cut)
     with pytest.raises(InputError, match="spans no time and has no window to cut"):
         next(iter_windows(cut))
-    cut.write_bytes(whole[:20 + 5 * 100 + 2])       # (cut inside an event: an error with its byte offset)
+    cut.write_bytes(whole[: 20 + 5 * 100 + 2])  # (cut inside an event: an error with its byte offset)
     with pytest.raises(InputError, match="file ends inside an event .* byte offset 520"):
         open_recording(cut)
 
@@ -56,14 +57,24 @@ class _FakeAedat:
         ev["t"] = np.arange(5) * 1000
         later = ev.copy()
         later["t"] += 5000
-        self.packets = [{"stream_id": 0, "events": ev}, {"stream_id": 1, "frame": {"width": 8, "height": 6}},
-                        {"stream_id": 2, "imus": np.zeros(7)}, {"stream_id": 1, "frame": {"width": 8, "height": 6}},
-                        {"stream_id": 3, "triggers": np.zeros(3)}, {"stream_id": 4, "events": ev[:2]},
-                        {"stream_id": 0, "events": later}]
+        self.packets = [
+            {"stream_id": 0, "events": ev},
+            {"stream_id": 1, "frame": {"width": 8, "height": 6}},
+            {"stream_id": 2, "imus": np.zeros(7)},
+            {"stream_id": 1, "frame": {"width": 8, "height": 6}},
+            {"stream_id": 3, "triggers": np.zeros(3)},
+            {"stream_id": 4, "events": ev[:2]},
+            {"stream_id": 0, "events": later},
+        ]
 
     def id_to_stream(self):
-        return {0: {"type": "events", "width": 8, "height": 6}, 1: {"type": "frame", "width": 8, "height": 6},
-                2: {"type": "imus"}, 3: {"type": "triggers"}, 4: {"type": "events", "width": 8, "height": 6}}
+        return {
+            0: {"type": "events", "width": 8, "height": 6},
+            1: {"type": "frame", "width": 8, "height": 6},
+            2: {"type": "imus"},
+            3: {"type": "triggers"},
+            4: {"type": "events", "width": 8, "height": 6},
+        }
 
     def __iter__(self):
         return iter(self.packets)
@@ -79,12 +90,13 @@ def test_summaries_name_what_they_skip(tmp_path, monkeypatch, capsys):
     assert main(["events", str(path), "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "events:     10 " in out
-    assert ("skipped:    2 APS frames, 7 IMU samples, 3 trigger events, 2 events of stream 4 (read, not used by "
-            "the model)") in out
+    assert (
+        "skipped:    2 APS frames, 7 IMU samples, 3 trigger events, 2 events of stream 4 (read, not used by the model)"
+    ) in out
 
     ev = np.zeros(6, EVENT_DTYPE)
     ev["x"], ev["t"] = np.arange(6), np.arange(6) * 100
-    trigger = (0xA << 28) | 5                    # an EVT2 external trigger word
+    trigger = (0xA << 28) | 5  # an EVT2 external trigger word
     raw = encode_evt2(ev, (8, 6))
     (tmp_path / "t.raw").write_bytes(raw + np.array([trigger, trigger], "<u4").tobytes())
     evt3 = encode_evt3(ev, (8, 6))
@@ -97,10 +109,13 @@ def test_summaries_name_what_they_skip(tmp_path, monkeypatch, capsys):
     right, imu = (1 << 22) | (3 << 1), (1 << 23) | 5
     log.write_text("0 1.0 AE (10 2 20 4 30 %d 40 %d)\n1 1.1 IMUS (1 2 3)\n2 1.2 AE (50 6)\n" % (right, imu))
     assert main(["events", str(log), "--no-progress"]) == 0
-    skipped, = [line for line in capsys.readouterr().out.splitlines() if line.startswith("skipped:")]
+    (skipped,) = [line for line in capsys.readouterr().out.splitlines() if line.startswith("skipped:")]
     listed = skipped.removeprefix("skipped:").removesuffix(" (read, not used by the model)").strip()
-    assert sorted(listed.split(", ")) == ["1 IMUS bottles", "1 events of the other camera (channel 1)",
-                                          "1 non-vision samples (IMU or skin)"]
+    assert sorted(listed.split(", ")) == [
+        "1 IMUS bottles",
+        "1 events of the other camera (channel 1)",
+        "1 non-vision samples (IMU or skin)",
+    ]
 
 
 def test_a_file_cut_inside_an_event_part_way_leaves_nothing_half_written(tmp_path, capsys):
@@ -111,10 +126,10 @@ def test_a_file_cut_inside_an_event_part_way_leaves_nothing_half_written(tmp_pat
 
     from snn_fg.maps import Maps
 
-    n = 400_000                                     # (2 MB: read in several chunks, windows finish before the cut)
+    n = 400_000  # (2 MB: read in several chunks, windows finish before the cut)
     ev = np.zeros(n, EVENT_DTYPE)
     ev["x"], ev["y"], ev["p"] = np.arange(n) % 40, (np.arange(n) // 40) % 30, np.arange(n) % 2
-    ev["t"] = np.arange(n) * 2                      # 0.8 s: nine 85 ms windows and a part
+    ev["t"] = np.arange(n) * 2  # 0.8 s: nine 85 ms windows and a part
     save_events(tmp_path / "whole.es", ev, (40, 30))
     cut = tmp_path / "cut.es"
     cut.write_bytes((tmp_path / "whole.es").read_bytes()[:-3])
@@ -124,8 +139,12 @@ def test_a_file_cut_inside_an_event_part_way_leaves_nothing_half_written(tmp_pat
     assert not (tmp_path / "o").exists()
     done = int(re.search(r"--max-windows (\d+) runs", err[0]).group(1))
     assert 1 <= done < 10
-    assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures",
-                 "--max-windows", str(done)]) == 0
+    assert (
+        main(
+            ["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures", "--max-windows", str(done)]
+        )
+        == 0
+    )
     assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done
     # --force with the same cut file: the run it would replace is still there when the new one fails
     before = sorted(p.name for p in (tmp_path / "o").iterdir())
@@ -135,9 +154,23 @@ def test_a_file_cut_inside_an_event_part_way_leaves_nothing_half_written(tmp_pat
     assert len(err) == 1 and f"nothing written; the earlier run in {tmp_path / 'o'}/ is kept" in err[0]
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == before
     assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done
-    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []     # nothing set aside is left
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # nothing set aside is left
     # and a --force run that succeeds replaces it
-    assert main(["run", str(tmp_path / "whole.es"), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures",
-                 "--force", "--max-windows", str(done + 1)]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(tmp_path / "whole.es"),
+                "--out",
+                str(tmp_path / "o"),
+                "--no-progress",
+                "--no-figures",
+                "--force",
+                "--max-windows",
+                str(done + 1),
+            ]
+        )
+        == 0
+    )
     assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done + 1
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []

@@ -1,6 +1,7 @@
 """A recording's input made as the run needs it: spikes from events handed
 over chunk by chunk, and the fast engine fed a segment of steps at a time,
 give what the whole recording's input at once gives, bit for bit."""
+
 import numpy as np
 import pytest
 
@@ -14,7 +15,7 @@ from snn_fg.scenes import flipping_disc_recording
 from snn_fg.spiking import recording_input
 from snn_fg.spiking.continuous import simulate_windows, window_maps
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 
 def _events(n=4000, w=9, h=7, span_us=40_000, seed=3):
@@ -40,14 +41,14 @@ def test_spikes_of_events_added_in_chunks_are_those_of_all_the_events_at_once(re
     parts = []
     for a, b in zip(cuts, cuts[1:]):
         stream.add(ev[a:b])
-        complete = int(ev["t"][b - 1] // 500)          # (later events may still fall in this step)
+        complete = int(ev["t"][b - 1] // 500)  # (later events may still fall in this step)
         parts.append(stream.take_until(complete - 3))
-    parts.append(stream.take_until(10 ** 9))
+    parts.append(stream.take_until(10**9))
     idx, steps = (np.concatenate([p[k] for p in parts]) for k in (0, 1))
     np.testing.assert_array_equal(idx, whole.indices)
     np.testing.assert_array_equal(steps, whole.steps)
     assert stream.merged == whole.merged
-    assert whole.merged > 0 if refractory_ms == 0 else idx.size < len(ev) - 1000    # (each case does something)
+    assert whole.merged > 0 if refractory_ms == 0 else idx.size < len(ev) - 1000  # (each case does something)
     np.testing.assert_array_equal(stream.on, whole.on)
     np.testing.assert_array_equal(stream.off, whole.off)
 

@@ -1,4 +1,5 @@
 """The rate model on a real recording (dvs.es of the dataset ``events``: a toy biplane)."""
+
 import numpy as np
 
 from snn_fg.cli import main
@@ -10,8 +11,24 @@ from snn_fg.outline import filled_outline, inward_score
 def test_biplane_windows(dataset, tmp_path):
     rec = dataset("events", "dvs.es")
     out = tmp_path / "out"
-    assert main(["run", str(rec), "--out", str(out), "--model", "rate", "--window-ms", "85",
-                 "--start-ms", "1", "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(rec),
+                "--out",
+                str(out),
+                "--model",
+                "rate",
+                "--window-ms",
+                "85",
+                "--start-ms",
+                "1",
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     m = Maps.load(out / "maps.zarr")
     n = m.fg_x.shape[0]
     # 1.0 s recording, first ms dropped: windows start every 85 ms until the last event.

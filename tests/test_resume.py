@@ -1,6 +1,7 @@
 """A spiking run over a recording, cut short and continued: its windows are
 written while the one simulation runs, the windows completed before the cut
 are readable, and --resume gives the maps of a run never cut, bit for bit."""
+
 import numpy as np
 import pytest
 
@@ -11,7 +12,7 @@ from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 from snn_fg.store import read_attrs, windows_complete
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +47,7 @@ def test_a_cut_spiking_run_keeps_its_windows_and_resume_gives_the_uncut_maps(rec
     whole = tmp_path / "whole"
     whole.mkdir()
     assert _run(recording, whole) == 5
-    seen = []           # windows complete in the store each time a window comes out of the simulation
+    seen = []  # windows complete in the store each time a window comes out of the simulation
     real = runner._append_window
 
     def cut_at_the_fourth(store, w, maps):
@@ -74,7 +75,7 @@ def test_a_cut_spiking_run_keeps_its_windows_and_resume_gives_the_uncut_maps(rec
     for key in ("fg_x", "fg_y", "grouping"):
         np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
     np.testing.assert_array_equal(a.extra["event_frame"], b.extra["event_frame"])
-    assert np.count_nonzero(a.fg_x) > 0           # (equal and not empty)
+    assert np.count_nonzero(a.fg_x) > 0  # (equal and not empty)
     # each window's own parameters besides its timing: the same cells, rates and read-out spans
-    strip = lambda p: {k: v for k, v in p.items() if k != "timings_s"}      # noqa: E731
+    strip = lambda p: {k: v for k, v in p.items() if k != "timings_s"}  # noqa: E731
     assert [strip(w) for w in a.params["windows"]] == [strip(w) for w in b.params["windows"]]

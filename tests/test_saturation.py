@@ -1,5 +1,6 @@
 """Windows whose events cover the whole sensor (a start-up burst) are shown
 and warned about: the events timeline, its plot, and run's warning and params."""
+
 import numpy as np
 import pytest
 
@@ -62,13 +63,19 @@ def test_run_warns_per_saturated_window_and_records_the_shares(burst_es, tmp_pat
     assert "1 of 3 windows" in err and "--start-ms 85 skips window 0" in err
     src = Maps.load(tmp_path / "a" / "maps.zarr").params["source"]
     assert src["pixel_share"] == [1.0, round(17 / W, 4), round(11 / W, 4)] and src["saturated_windows"] == [0]
-    assert main(["run", str(burst_es), "--out", str(tmp_path / "b"), "--levels", "3", "--start-ms", "1",
-                 "--no-progress"]) == 0
+    assert (
+        main(["run", str(burst_es), "--out", str(tmp_path / "b"), "--levels", "3", "--start-ms", "1", "--no-progress"])
+        == 0
+    )
     err = capsys.readouterr().err
     assert "warning" not in err and "more than 50%" not in err
     assert Maps.load(tmp_path / "b" / "maps.zarr").params["source"]["saturated_windows"] == []
     # only the burst: the warning still says how to get past it
-    assert main(["run", str(burst_es), "--out", str(tmp_path / "c"), "--levels", "3", "--max-windows", "1",
-                 "--no-progress"]) == 0
+    assert (
+        main(
+            ["run", str(burst_es), "--out", str(tmp_path / "c"), "--levels", "3", "--max-windows", "1", "--no-progress"]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "1 of 1 window has events on more than 50%" in err and "start later with --start-ms" in err

@@ -1,6 +1,7 @@
 """The side cue of the natural-scene variant (``ModelParams.side_cue``): the
 busier side of a border within a wide half disc is taken for the figure's,
 in the rate model and in its spiking form."""
+
 import numpy as np
 import pytest
 
@@ -10,7 +11,7 @@ from snn_fg.network.kernels import side_cue_kernels, von_mises_masks
 from snn_fg.params import NATURAL_PARAMS, ModelParams
 from snn_fg.rate.natural import run_natural
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 #: small frames: five levels, the cue read at the coarsest, over 40 px, at three times the variant's gain
 SMALL = NATURAL_PARAMS.replace(levels=5, side_cue_radius=40.0, side_cue=1e4)
@@ -25,7 +26,7 @@ def _box_beside_texture(texture_right: bool, shape=(64, 97), seed=0):
     pos, neg = np.zeros(shape), np.zeros(shape)
     mid = shape[1] // 2
     pos[12:-12, mid] = pos[12:-12, mid - 24] = 1.0
-    pos[12, mid - 24:mid + 1] = pos[-13, mid - 24:mid + 1] = 1.0
+    pos[12, mid - 24 : mid + 1] = pos[-13, mid - 24 : mid + 1] = 1.0
     rows, cols = np.arange(shape[0])[:, None], np.arange(shape[1])[None, :]
     neg[(rng.random(shape) < 0.03) & (cols > mid + 8) & (rows > 4) & (rows < shape[0] - 4)] = 1.0
     if not texture_right:
@@ -50,11 +51,11 @@ def test_the_half_discs_weigh_the_side_the_grouping_ring_m1_weighs():
         pad = max(h - k.shape[-1] // 2, 0)
         big = np.pad(k[o], pad)
         c = big.shape[-1] // 2
-        crop = big[c - h:c + h + 1, c - h:c + h + 1]
+        crop = big[c - h : c + h + 1, c - h : c + h + 1]
         assert (np.sign(crop) * m1[o]).sum() > 0.5 * m1[o].sum()
         assert (np.sign(crop) * m2[o]).sum() < -0.5 * m2[o].sum()
-        assert abs(k[o].sum()) < 1e-12 and np.isclose(k[o][k[o] > 0].sum(), 1.0)   # mean minus mean
-        assert np.array_equal(k[o], -k[o][::-1, ::-1])        # the two halves are one another turned round
+        assert abs(k[o].sum()) < 1e-12 and np.isclose(k[o][k[o] > 0].sum(), 1.0)  # mean minus mean
+        assert np.array_equal(k[o], -k[o][::-1, ::-1])  # the two halves are one another turned round
     # a border along an axis: mirrored along the border, its half disc is itself (no pixel row of the
     # dividing line kept on one side only)
     assert np.array_equal(k[0], k[0][:, ::-1]) and np.array_equal(k[SMALL.n_ori // 2], k[SMALL.n_ori // 2][::-1])
@@ -95,8 +96,10 @@ def test_the_spiking_side_cells_carry_the_cue_and_turn_the_border():
         assert 0.7 < np.median(ratio) < 1.3
         assert np.mean(np.sign(rate[mid_range]) == np.sign(q[mid_range])) > 0.95
         # the spiking form turns most of the border (measured 0.70-0.71; 0.75 at three times the gain), none without
-        spiking = {gain: get_model("natural-spiking", SMALL.replace(side_cue=gain), backend="fast").run_still(
-            Still(pos, neg)) for gain in (SMALL.side_cue, 0.0)}
+        spiking = {
+            gain: get_model("natural-spiking", SMALL.replace(side_cue=gain), backend="fast").run_still(Still(pos, neg))
+            for gain in (SMALL.side_cue, 0.0)
+        }
         assert _share_towards_texture(spiking[SMALL.side_cue].fg_x, mid, right) >= 0.6
         assert _share_towards_texture(spiking[0.0].fg_x, mid, right) <= 0.1
 
@@ -104,14 +107,21 @@ def test_the_spiking_side_cells_carry_the_cue_and_turn_the_border():
 def test_the_network_feeds_the_cue_into_z1_and_against_z2_at_level_1():
     net = build_network(SMALL, (64, 97))
     into = {(p.source, p.target): p.sign for p in net.projections if p.source.startswith("side_")}
-    assert into == {("side_p_5", "feedback_1p_1"): 1, ("side_p_5", "feedback_1n_1"): -1,
-                    ("side_p_5", "feedback_2p_1"): -1, ("side_p_5", "feedback_2n_1"): 1,
-                    ("side_n_5", "feedback_1p_1"): -1, ("side_n_5", "feedback_1n_1"): 1,
-                    ("side_n_5", "feedback_2p_1"): 1, ("side_n_5", "feedback_2n_1"): -1}
+    assert into == {
+        ("side_p_5", "feedback_1p_1"): 1,
+        ("side_p_5", "feedback_1n_1"): -1,
+        ("side_p_5", "feedback_2p_1"): -1,
+        ("side_p_5", "feedback_2n_1"): 1,
+        ("side_n_5", "feedback_1p_1"): -1,
+        ("side_n_5", "feedback_1n_1"): 1,
+        ("side_n_5", "feedback_2p_1"): 1,
+        ("side_n_5", "feedback_2n_1"): -1,
+    }
     sources = sorted(p.source for p in net.projections if p.target == "side_p_5")
     assert sources == ["relay_off_5", "relay_on_5"]
-    assert not [p for p in build_network(SMALL.replace(side_cue=0.0), (64, 97)).populations
-                if p.role.startswith("side_")]
+    assert not [
+        p for p in build_network(SMALL.replace(side_cue=0.0), (64, 97)).populations if p.role.startswith("side_")
+    ]
 
 
 def test_a_negative_zero_gain_is_stored_as_zero_and_a_non_finite_one_refused():

@@ -1,11 +1,13 @@
 """Both engines on a network with every kind of projection (the session's
 warm-up run, ``conftest.warm_simulators``, which compiles their code)."""
+
 import numpy as np
 
 
 def test_brian2_compiles_and_runs_every_kind_of_projection_of_the_default_network(warm_simulators):
     try:
         from brian2.codegen.runtime.cython_rt import CythonCodeObject
+
         want = "cython" if CythonCodeObject.is_available() else "numpy"
     except ImportError:
         want = "numpy"

@@ -1,45 +1,69 @@
 """Hand-built circuits from the description, simulated by every registered
 backend, with hand-computable outcomes: the footprint of one input spike, and
 a ring of border-ownership cells driving the grouping cell at its centre."""
+
 import numpy as np
 import pytest
 from scipy import ndimage
 
 from snn_fg.backends import RunSettings, available_backends, get_backend
+from snn_fg.lowering.input_spikes import InputSpikes, frame_spikes
 from snn_fg.network import Conv, Kernel, Network, Neuron, Population
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
-from snn_fg.lowering.input_spikes import InputSpikes, frame_spikes
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 P1 = ModelParams(levels=1)
 #: every registered backend; Brian2 and NEST build their networks for seconds, so only the fast engine's runs
 #: are in the quick loop (-m "not slow")
-BACKENDS = [pytest.param(name, marks=[pytest.mark.skipif(not ok, reason=f"backend {name}: {why}"),
-                                      *([] if name == "fast" else [pytest.mark.slow])])
-            for name, (ok, why) in available_backends().items()]
+BACKENDS = [
+    pytest.param(
+        name,
+        marks=[
+            pytest.mark.skipif(not ok, reason=f"backend {name}: {why}"),
+            *([] if name == "fast" else [pytest.mark.slow]),
+        ],
+    )
+    for name, (ok, why) in available_backends().items()
+]
 
 
 def _sources(shape):
-    return (Population(name="on", role="input_on", level=1, level_shape=shape),
-            Population(name="off", role="input_off", level=1, level_shape=shape))
+    return (
+        Population(name="on", role="input_on", level=1, level_shape=shape),
+        Population(name="off", role="input_off", level=1, level_shape=shape),
+    )
 
 
-NEST_SIGNED = [pytest.param("nest", {"receptors": "signed"}, id="nest-signed", marks=p.marks)
-               for p in BACKENDS if p.values[0] == "nest"]
+NEST_SIGNED = [
+    pytest.param("nest", {"receptors": "signed"}, id="nest-signed", marks=p.marks)
+    for p in BACKENDS
+    if p.values[0] == "nest"
+]
 
 
-@pytest.mark.parametrize("backend, options", [pytest.param(p.values[0], {}, id=p.values[0], marks=p.marks)
-                                              for p in BACKENDS] + NEST_SIGNED)
+@pytest.mark.parametrize(
+    "backend, options", [pytest.param(p.values[0], {}, id=p.values[0], marks=p.marks) for p in BACKENDS] + NEST_SIGNED
+)
 @pytest.mark.parametrize("direction, prune", [(2, 0.05), (11, 0.2)])
 def test_one_input_spike_reaches_exactly_the_dog_footprint(backend, options, direction, prune):
     shape = (41, 41)
     c = (20, 20)
     pops = _sources(shape) + (Population(name="T", role="simple", level=1, level_shape=shape, neuron=Neuron()),)
     src = "on" if direction < 8 else "off"
-    prj = (Conv(name="in_to_T", source=src, target="T", kernel=Kernel(ref="dog", args={"directions": [direction]}),
-                mode="conv", padding="wrap", gain_mv=500.0, prune=prune),)
+    prj = (
+        Conv(
+            name="in_to_T",
+            source=src,
+            target="T",
+            kernel=Kernel(ref="dog", args={"directions": [direction]}),
+            mode="conv",
+            padding="wrap",
+            gain_mv=500.0,
+            prune=prune,
+        ),
+    )
     net = Network(params=P1, frame_shape=shape, populations=pops, projections=prj)
     mask = np.zeros(shape, bool)
     mask[c] = True
@@ -59,10 +83,10 @@ def test_one_input_spike_reaches_exactly_the_dog_footprint(backend, options, dir
     k = np.where(np.abs(k) >= prune * np.abs(k).max(), k, 0.0)
     want = np.zeros(shape)
     h = k.shape[0] // 2
-    want[c[0] - h:c[0] + h + 1, c[1] - h:c[1] + h + 1] = k
+    want[c[0] - h : c[0] + h + 1, c[1] - h : c[1] + h + 1] = k
     assert np.array_equal(current != 0, want != 0)
     assert np.array_equal(np.sign(current), np.sign(want))
-    for lobe in (want > 0, want < 0):      # one factor per lobe (each may decay with its own tau)
+    for lobe in (want > 0, want < 0):  # one factor per lobe (each may decay with its own tau)
         ratio = current[lobe] / want[lobe]
         np.testing.assert_allclose(ratio, ratio[0], rtol=1e-9)
         assert ratio[0] > 0
@@ -75,14 +99,14 @@ def test_a_ring_of_border_ownership_cells_drives_the_grouping_cell_at_its_centre
     m2 = von_mises_masks(P1)[1]
     h = m2.shape[-1] // 2
     r0 = P1.r0
-    y, x = np.mgrid[:shape[0], :shape[1]]
+    y, x = np.mgrid[: shape[0], : shape[1]]
     dist = np.hypot(y - c[0], x - c[1])
     ring = (dist >= r0 - 0.5) & (dist < r0 + 0.5)
     # each ring pixel: the orientation whose half ring (m2) reaches the centre most
     b_cells = []
     pattern = np.zeros((8,) + shape)
     for i, j in zip(*np.nonzero(ring)):
-        o = int(np.argmax(m2[:, i - c[0] + h, j - c[1] + h]))   # G(c) sees B(c + d) through m2(d)
+        o = int(np.argmax(m2[:, i - c[0] + h, j - c[1] + h]))  # G(c) sees B(c + d) through m2(d)
         b_cells.append((o * shape[0] + i) * shape[1] + j)
         pattern[o, i, j] = 1
     drive = sum(ndimage.correlate(pattern[o], m2[o], mode="constant") for o in range(8))
@@ -92,18 +116,33 @@ def test_a_ring_of_border_ownership_cells_drives_the_grouping_cell_at_its_centre
     g_bg = 3 * 10.0 / (100 * 0.005 * drive[c])
     pops = _sources(shape) + (
         Population(name="B", role="bo_L1", level=1, level_shape=shape, channels=8, neuron=Neuron(t_ref_ms=5)),
-        Population(name="G", role="group_L", level=1, level_shape=shape, stride=2,
-                   neuron=Neuron(tau_m_ms=20, t_ref_ms=1)))
-    prj = (Conv(name="on_to_B", source="on", target="B", gain_mv=g_in,
-                kernel=Kernel(ref="channel_map", args={"n_out": 8, "n_in": 1, "entries": [[o, 0, 1.0] for o in range(8)]})),
-           Conv(name="B_to_G", source="B", target="G", gain_mv=g_bg,
-                kernel=Kernel(ref="von_mises", args={"half": 2, "layout": "gather"})))
+        Population(
+            name="G", role="group_L", level=1, level_shape=shape, stride=2, neuron=Neuron(tau_m_ms=20, t_ref_ms=1)
+        ),
+    )
+    prj = (
+        Conv(
+            name="on_to_B",
+            source="on",
+            target="B",
+            gain_mv=g_in,
+            kernel=Kernel(ref="channel_map", args={"n_out": 8, "n_in": 1, "entries": [[o, 0, 1.0] for o in range(8)]}),
+        ),
+        Conv(
+            name="B_to_G",
+            source="B",
+            target="G",
+            gain_mv=g_bg,
+            kernel=Kernel(ref="von_mises", args={"half": 2, "layout": "gather"}),
+        ),
+    )
     net = Network(params=P1, frame_shape=shape, populations=pops, projections=prj)
     inp = frame_spikes(ring.astype(np.uint8), np.zeros(shape, np.uint8), 200.0, 0.5, 200.0, seed=3)
-    res = get_backend(backend).simulate(net, inp, RunSettings(duration_ms=200.0, count_from_ms=50.0,
-                                                              record_spikes=False, sites={"B": b_cells}))
+    res = get_backend(backend).simulate(
+        net, inp, RunSettings(duration_ms=200.0, count_from_ms=50.0, record_spikes=False, sites={"B": b_cells})
+    )
     assert res.sites["B"].size == ring.sum()
-    assert np.all(res.rates("B") > 50)                       # the ring is active
+    assert np.all(res.rates("B") > 50)  # the ring is active
     g = res.grid("G", res.counts["G"])[0]
     d_lat = dist[::2, ::2]
     centre = (c[0] // 2, c[1] // 2)
@@ -128,11 +167,22 @@ def test_one_cell_driven_hard_fires_on_the_steps_the_time_conventions_give(backe
     ``tau_refrac = t_ref - dt`` and on-grid spiking; it brought every
     role's mean rate to within 3 % of Brian2's, issue 10.)"""
     shape = (3, 3)
-    pops = _sources(shape) + (Population(name="T", role="simple", level=1, level_shape=shape,
-                                         neuron=Neuron(t_ref_ms=2.0)),)
+    pops = _sources(shape) + (
+        Population(name="T", role="simple", level=1, level_shape=shape, neuron=Neuron(t_ref_ms=2.0)),
+    )
     one = Kernel(ref="channel_map", args={"n_out": 1, "n_in": 1, "entries": [[0, 0, 1.0]]})
-    prj = (Conv(name="on_to_T", source="on", target="T", kernel=one, mode="conv", padding="wrap",
-                gain_mv=1000.0, delay_ms=1.0),)
+    prj = (
+        Conv(
+            name="on_to_T",
+            source="on",
+            target="T",
+            kernel=one,
+            mode="conv",
+            padding="wrap",
+            gain_mv=1000.0,
+            delay_ms=1.0,
+        ),
+    )
     net = Network(params=P1, frame_shape=shape, populations=pops, projections=prj)
     on = np.zeros(shape, bool)
     on[1, 1] = True

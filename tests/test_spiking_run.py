@@ -1,5 +1,6 @@
 """The spiking model's Python API: inputs, what a run records, running a
 stored (and edited) network description, and errors."""
+
 import json
 
 import numpy as np
@@ -9,14 +10,14 @@ from snn_fg.backends import DEFAULT_BACKEND
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.events import image_to_events, image_to_frame
 from snn_fg.figures import save_spiking_figures
+from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 from snn_fg.maps import Maps
 from snn_fg.network import Network, SpikingParams, build_network
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
 from snn_fg.spiking import SpikingRecord, run_spiking, run_spiking_result
-from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 SMALL = ModelParams(levels=2)
 
@@ -42,7 +43,7 @@ def test_maps_record_counts_rates_and_parameters(small_run, frame, tmp_path):
     for n in rec.names:
         assert rec.counts[n].shape == rec.sites[n].shape and rec.counts[n].dtype == np.int32
         res = small_run.result
-        fired = res.counts[n] > 0          # only cells that fired are stored; the summary counts all
+        fired = res.counts[n] > 0  # only cells that fired are stored; the summary counts all
         assert np.all(rec.counts[n] > 0) and rec.populations[n]["cells"] == res.sites[n].size
         np.testing.assert_array_equal(rec.sites[n], res.sites[n][fired])
         np.testing.assert_allclose(res.rates(n)[fired], rec.rates(n))
@@ -70,9 +71,18 @@ def test_a_frame_gets_the_hinted_cells_by_default_and_every_cell_s_maps(frame):
     those of every cell. Timed events keep the backend's default."""
     pos, neg = frame
     params = ModelParams(levels=3)
-    runs = {inst: run_spiking_result(pos, neg, params=params, backend="fast", duration_ms=120, progress=False,
-                                     **({"instantiate": inst} if inst else {}))
-            for inst in (None, "all")}
+    runs = {
+        inst: run_spiking_result(
+            pos,
+            neg,
+            params=params,
+            backend="fast",
+            duration_ms=120,
+            progress=False,
+            **({"instantiate": inst} if inst else {}),
+        )
+        for inst in (None, "all")
+    }
     default, every = runs[None], runs["all"]
     assert default.maps.params["simulation"]["instantiate"] == "input"
     assert default.maps.params["counts"]["total_cells"] < 0.7 * every.maps.params["counts"]["total_cells"]
@@ -80,8 +90,9 @@ def test_a_frame_gets_the_hinted_cells_by_default_and_every_cell_s_maps(frame):
     for key in ("fg_x", "fg_y", "grouping"):
         np.testing.assert_array_equal(getattr(default.maps, key), getattr(every.maps, key), err_msg=key)
     rec = image_to_events(disc(12).image)
-    timed = run_spiking_result(events=rec.events, sensor_size=rec.sensor_size, params=SMALL, backend="fast",
-                               duration_ms=60, progress=False)
+    timed = run_spiking_result(
+        events=rec.events, sensor_size=rec.sensor_size, params=SMALL, backend="fast", duration_ms=60, progress=False
+    )
     assert timed.maps.params["simulation"]["instantiate"] == "all"
 
 
@@ -116,8 +127,9 @@ def test_the_run_is_silent_unless_asked(frame, capfd):
     assert capfd.readouterr().err == ""
     for backend, says in (("brian2", ("unrolling", "compiling")), ("fast", ("cells",))):
         lines = []
-        run_spiking(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False, log=lines.append,
-                    backend=backend)
+        run_spiking(
+            pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False, log=lines.append, backend=backend
+        )
         assert all(any(word in m for m in lines) for word in says), lines
         assert len(lines) < 10
     assert capfd.readouterr().err == ""
@@ -135,7 +147,7 @@ def test_event_spike_times_come_from_the_timestamps():
     ev = np.zeros(5, dtype=[("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "i1")])
     ev["x"] = [1, 2, 1, 3, 1]
     ev["y"] = [0, 0, 0, 2, 0]
-    ev["t"] = [1000, 1400, 1100, 3600, 2000]     # us; the first and third share a 0.5 ms step
+    ev["t"] = [1000, 1400, 1100, 3600, 2000]  # us; the first and third share a 0.5 ms step
     ev["p"] = [1, 0, 1, 1, 1]
     inp = event_spikes(ev, (4, 3), dt_ms=0.5)
     w, h = 4, 3
@@ -143,10 +155,10 @@ def test_event_spike_times_come_from_the_timestamps():
     want = sorted([(0 * w + 1, 0), (h * w + 0 * w + 2, 0), (2 * w + 3, 5), (0 * w + 1, 2)])
     assert got == want
     assert inp.merged == 1
-    assert inp.period_steps == 6                 # window 0 .. 2.6 ms, replayed
+    assert inp.period_steps == 6  # window 0 .. 2.6 ms, replayed
     assert inp.on[0, 1] and inp.off[0, 2] and inp.on[2, 3] and not inp.off[0, 1]
     idx, st = inp.spike_times_steps(13)
-    assert st.max() == 12 and (idx == 1).sum() == 5          # steps 0, 2, 6, 8, 12
+    assert st.max() == 12 and (idx == 1).sum() == 5  # steps 0, 2, 6, 8, 12
     ev["x"][3] = 9
     with pytest.raises(InputError, match="event 3"):
         event_spikes(ev, (4, 3), dt_ms=0.5)
@@ -161,12 +173,13 @@ def test_frame_spike_trains_are_regular_or_poisson_and_seeded():
     assert reg.period_steps == 10 and reg.rate_hz == 200.0
     assert sorted(reg.indices.tolist()) == [1 * 7 + 2, 4 * 7 + 4, 42 + 3 * 7]
     idx, st = reg.spike_times_steps(200)
-    assert np.all(np.bincount(idx)[np.bincount(idx) > 0] == 20)     # 200 Hz for 100 ms
+    assert np.all(np.bincount(idx)[np.bincount(idx) > 0] == 20)  # 200 Hz for 100 ms
     again = frame_spikes(pos, neg, 200.0, 0.5, 100.0, seed=1)
     np.testing.assert_array_equal(reg.steps, again.steps)
     poi = frame_spikes(pos, neg, 200.0, 0.5, 2000.0, seed=2, process="poisson")
-    np.testing.assert_array_equal(poi.steps, frame_spikes(pos, neg, 200.0, 0.5, 2000.0, seed=2,
-                                                          process="poisson").steps)
+    np.testing.assert_array_equal(
+        poi.steps, frame_spikes(pos, neg, 200.0, 0.5, 2000.0, seed=2, process="poisson").steps
+    )
     assert abs(poi.indices.size / 3 / 2.0 - 200) < 20
     with pytest.raises(ParameterError, match="input_process"):
         frame_spikes(pos, neg, 200.0, 0.5, 100.0, process="burst")
@@ -186,9 +199,10 @@ def test_errors_name_what_is_wrong(frame):
     with pytest.raises(ParameterError, match="dt_ms"):
         run_spiking(pos, neg, dt_ms=0, progress=False)
     with pytest.raises(ParameterError, match="codegen"):
-        run_spiking(pos, neg, backend="brian2", backend_options={"codegen": "gpu"}, duration_ms=10, settle_ms=0,
-                    progress=False)
-    with pytest.raises(TypeError, match="codegen"):      # an option the backend does not have
+        run_spiking(
+            pos, neg, backend="brian2", backend_options={"codegen": "gpu"}, duration_ms=10, settle_ms=0, progress=False
+        )
+    with pytest.raises(TypeError, match="codegen"):  # an option the backend does not have
         run_spiking(pos, neg, backend="fast", backend_options={"codegen": "cython"}, progress=False)
     with pytest.raises(ParameterError, match="backend: name='nest2'"):
         run_spiking(pos, neg, backend="nest2", progress=False)

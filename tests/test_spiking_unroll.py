@@ -5,19 +5,20 @@ computations of the model's own operations: DoG convolution with wrap-around
 (stage 3), von Mises correlation with zero padding (stage 7), the pyramid's
 bicubic resize (stage 2).
 """
+
 import cv2
 import numpy as np
 import pytest
 from scipy import ndimage
 
-from snn_fg.events import image_to_frame
 from snn_fg.errors import ParameterError
+from snn_fg.events import image_to_frame
+from snn_fg.lowering.interp import interp_matrix, resize_matrix
+from snn_fg.lowering.unroll import dense_drive, to_grid, unroll
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc
-from snn_fg.lowering.interp import interp_matrix, resize_matrix
-from snn_fg.lowering.unroll import dense_drive, to_grid, unroll
 
 EXACT = SpikingParams(prune_dog=0.0, prune_vm=0.0)
 
@@ -39,8 +40,7 @@ def _conn(un, name):
     return next(c for c in un.connections if c.projection.name == name)
 
 
-@pytest.mark.parametrize("shape_in, shape_out", [((321, 481), (227, 341)), ((40, 52), (15, 22)),
-                                                 ((15, 22), (40, 52))])
+@pytest.mark.parametrize("shape_in, shape_out", [((321, 481), (227, 341)), ((40, 52), (15, 22)), ((15, 22), (40, 52))])
 def test_resize_matrices_reproduce_opencv(shape_in, shape_out):
     x = np.random.default_rng(0).random(shape_in)
     for interp, flag in (("cubic", cv2.INTER_CUBIC), ("linear", cv2.INTER_LINEAR)):
@@ -54,7 +54,7 @@ def test_resize_matrices_reproduce_opencv(shape_in, shape_out):
 def test_lattice_interpolation_is_hand_computable():
     # stride-2 lattice -> full grid of the same level, linear: even pixels copy
     # their lattice point, odd pixels average the two neighbours (last one clamps).
-    a = interp_matrix(7, 7, 2, 1, "linear")      # lattice points at 0, 2, 4, 6
+    a = interp_matrix(7, 7, 2, 1, "linear")  # lattice points at 0, 2, 4, 6
     assert a.shape == (7, 4)
     want = np.zeros((7, 4))
     for x in range(7):
@@ -72,12 +72,14 @@ def test_lattice_interpolation_is_hand_computable():
 def test_dog_projection_is_the_wraparound_convolution(unrolled, frame):
     pos, neg = frame
     k = dog_kernels(ModelParams())
-    want = np.stack([ndimage.convolve(pos.astype(float) if d < 8 else neg.astype(float), k[d], mode="wrap")
-                     for d in range(16)])
+    want = np.stack(
+        [ndimage.convolve(pos.astype(float) if d < 8 else neg.astype(float), k[d], mode="wrap") for d in range(16)]
+    )
     on, off = _conn(unrolled, "input_on_1_to_simple_1"), _conn(unrolled, "input_off_1_to_simple_1")
     g = on.projection.gain_mv
-    got = (dense_drive(unrolled, on, pos.ravel().astype(float)) +
-           dense_drive(unrolled, off, neg.ravel().astype(float))) / g
+    got = (
+        dense_drive(unrolled, on, pos.ravel().astype(float)) + dense_drive(unrolled, off, neg.ravel().astype(float))
+    ) / g
     sites = unrolled.sites["simple_1"]
     assert sites.size > 100
     np.testing.assert_allclose(got, want.ravel()[sites], atol=1e-12)
@@ -89,8 +91,9 @@ def test_simple_cells_exist_where_excitation_alone_can_reach_threshold(unrolled,
     # drive_min of the way to threshold (the gate cancels the bias at event pixels)
     pos, neg = frame
     kp = np.maximum(dog_kernels(ModelParams()), 0)
-    bound = np.stack([ndimage.convolve(pos.astype(float) if d < 8 else neg.astype(float), kp[d], mode="wrap")
-                      for d in range(16)])
+    bound = np.stack(
+        [ndimage.convolve(pos.astype(float) if d < 8 else neg.astype(float), kp[d], mode="wrap") for d in range(16)]
+    )
     edges = pos | neg
     reach = bound >= unrolled.network.drive_min * ModelParams().edge_threshold - 1e-12
     want = np.flatnonzero((reach & edges[None]).ravel())
@@ -100,7 +103,7 @@ def test_simple_cells_exist_where_excitation_alone_can_reach_threshold(unrolled,
 @pytest.mark.slow
 def test_von_mises_gather_onto_the_grouping_lattice(frame):
     pos, neg = frame
-    net = build_network(ModelParams(levels=1), pos.shape, EXACT)     # grouping stride 2
+    net = build_network(ModelParams(levels=1), pos.shape, EXACT)  # grouping stride 2
     un = unroll(net, {"input_on_1": pos, "input_off_1": neg})
     m1, m2 = von_mises_masks(ModelParams())
     b = np.zeros(net.population("bo_L1_1").size)
@@ -113,8 +116,9 @@ def test_von_mises_gather_onto_the_grouping_lattice(frame):
     # every lattice point with input exists, and none without
     g_sites = np.zeros(want.size, bool)
     g_sites[un.sites["group_L_1"]] = True
-    support = sum(ndimage.correlate((b[o] > 0).astype(float), (m2[o] > 0) | (m1[o] > 0), mode="constant")
-                  for o in range(8))[::2, ::2]
+    support = sum(
+        ndimage.correlate((b[o] > 0).astype(float), (m2[o] > 0) | (m1[o] > 0), mode="constant") for o in range(8)
+    )[::2, ::2]
     np.testing.assert_array_equal(g_sites.reshape(want.shape), support > 0)
 
 
@@ -132,7 +136,9 @@ def test_von_mises_scatter_between_lattices(frame):
     got = to_grid(un, "feedback_1p_1", dense_drive(un, c, gl[un.sites["group_L_1"]]) / c.projection.gain_mv)
     sp = SpikingParams()
     fb = sp.feedback
-    assert c.projection.gain_mv == pytest.approx(st * st * sp.group_to_feedback * fb.v_th_mv / (100 * fb.tau_exc_ms / 1000))
+    assert c.projection.gain_mv == pytest.approx(
+        st * st * sp.group_to_feedback * fb.v_th_mv / (100 * fb.tau_exc_ms / 1000)
+    )
     full = np.zeros(pos.shape)
     full[::2, ::2] = gl.reshape(net.population("group_L_1").grid)
     want = np.stack([ndimage.correlate(full, m1[o], mode="constant")[::2, ::2] for o in range(8)])
@@ -189,16 +195,19 @@ def test_unrolled_network_iterated_like_the_rate_model_reproduces_it(light):
     """The rate twin (the unrolled cells and synapses, iterated with the rate
     model's stages 4-8) against run_edfg: the whole structure - pruning,
     lattices, site rules, top-down pooling - changes little."""
-    from snn_fg.rate.edfg import run_edfg
     from snn_fg.metrics import compare_frame
+    from snn_fg.rate.edfg import run_edfg
     from snn_fg.spiking.twin import run_twin
+
     pos, neg = image_to_frame(disc(16, light).image)
-    un = unroll(build_network(ModelParams(), pos.shape, SpikingParams()), {"input_on_1": pos > 0, "input_off_1": neg > 0})
+    un = unroll(
+        build_network(ModelParams(), pos.shape, SpikingParams()), {"input_on_1": pos > 0, "input_off_1": neg > 0}
+    )
     fx, fy, g, _ = run_twin(un)
     ref = run_edfg(pos, neg)
     c = compare_frame(fx, fy, g, ref.fg_x, ref.fg_y, ref.grouping)
     assert c["pixels_compared"] > 150
-    assert c["angle_diff_median_deg"] < 1e-3       # float rounding of the unrolled weights only
+    assert c["angle_diff_median_deg"] < 1e-3  # float rounding of the unrolled weights only
     assert c["grouping_pearson_r"] > 0.98
 
 
@@ -206,6 +215,7 @@ def test_synapse_counts_survive_freeing_the_arrays(unrolled):
     """A simulator frees each projection's arrays once it holds them; the
     counts table must still report the synapses."""
     import copy
+
     un = copy.deepcopy(unrolled)
     before = un.synapses_in()
     assert before["simple_1"] > 0
@@ -220,8 +230,9 @@ def test_source_and_target_enumeration_give_the_same_synapses(frame):
     """Conv synapses are enumerated from whichever side has fewer (tap, cell)
     pairs; both sides must give the same set, on every kind of Conv (DoG with
     wrap-around, channel maps, von Mises gather and scatter across lattices)."""
-    from snn_fg.network import Conv
     from snn_fg.lowering.connect import conv_pairs
+    from snn_fg.network import Conv
+
     pos, neg = frame
     net = build_network(ModelParams(levels=2), pos.shape, SpikingParams())
     un = unroll(net, {"input_on_1": pos, "input_off_1": neg})

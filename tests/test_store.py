@@ -2,6 +2,7 @@
 missing per-window arrays, read back by Maps.load and by zarr-python (an
 independent Zarr reader), only complete windows visible, continued after a
 window cut short."""
+
 import numpy as np
 import pytest
 
@@ -16,9 +17,10 @@ def _maps(value, **extra):
 
 
 WINDOWS = [
-    lambda: _maps(1, spikes_S=np.array([1, 2, 3], np.int32), names=np.array(["a", "b"]),
-                  frame=np.ones((3, 4), np.uint8)),
-    lambda: _maps(2),   # an empty window: no spike data at all
+    lambda: _maps(
+        1, spikes_S=np.array([1, 2, 3], np.int32), names=np.array(["a", "b"]), frame=np.ones((3, 4), np.uint8)
+    ),
+    lambda: _maps(2),  # an empty window: no spike data at all
     lambda: _maps(3, spikes_S=np.array([7], np.int32), names=np.array(["a", "b"]), frame=np.full((3, 4), 5, np.uint8)),
 ]
 
@@ -40,7 +42,7 @@ def test_stacked_ragged_and_missing_arrays_read_back_by_us_and_by_zarr(tmp_path)
     np.testing.assert_array_equal(window_part(back.extra, "spikes_S", 0), [1, 2, 3])
     assert window_part(back.extra, "spikes_S", 1).size == 0
     np.testing.assert_array_equal(window_part(back.extra, "names", 2), ["a", "b"])
-    assert not back.extra["frame"][1].any() and np.all(back.extra["frame"][2] == 5)     # absent: zeros
+    assert not back.extra["frame"][1].any() and np.all(back.extra["frame"][2] == 5)  # absent: zeros
     assert back.params["final"] is True
     # what differs from the first window's parameters is kept per window
     assert [w.get("counts") for w in back.params["windows"]] == [None, {"cells": 2}, {"cells": 3}]
@@ -85,13 +87,13 @@ def test_during_a_run_zarr_sees_whole_windows_up_to_a_second_late_and_all_at_the
     now = [0.0]
     monkeypatch.setattr(st.time, "monotonic", lambda: now[0])
     store = _write(path, [lambda i=i: _maps(i) for i in range(4)])
-    assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == 1       # written at the first window only
+    assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == 1  # written at the first window only
     assert Maps.load(path).fg_x.shape[0] == 4 and read_attrs(path)["snn_fg"]["windows_complete"] == 4
     now[0] = st.SHAPES_EVERY_S
     store.append(_maps(4), t_start_us=np.int64(40))
     g = zarr.open_group(str(path), mode="r")
     assert g["fg_x"].shape[0] == g["t_start_us"].shape[0] == 5 and np.all(g["fg_x"][4] == 4)
-    store.append(_maps(5), t_start_us=np.int64(50))         # (under a second later)
+    store.append(_maps(5), t_start_us=np.int64(50))  # (under a second later)
     assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == 5
     store.finish({"model": "spiking"})
     g = zarr.open_group(str(path), mode="r")
@@ -117,7 +119,7 @@ def test_a_reader_sees_complete_windows_only_and_a_cut_window_is_written_again(t
     real = st.GrowingArray.append
 
     def cut(self, values):
-        if self.path.name == "grouping":       # the window is cut short after its fg_x and fg_y
+        if self.path.name == "grouping":  # the window is cut short after its fg_x and fg_y
             raise KeyboardInterrupt
         real(self, values)
 
@@ -156,8 +158,13 @@ def test_maps_come_from_the_package_and_print_as_one_short_line(tmp_path):
     import snn_fg
 
     path = tmp_path / "maps.zarr"
-    _write(path, [lambda i=i: _maps(i, **{f"spikes_{k}": np.arange(k + 1, dtype=np.int32) for k in range(40)})
-                  for i in range(3)])
+    _write(
+        path,
+        [
+            lambda i=i: _maps(i, **{f"spikes_{k}": np.arange(k + 1, dtype=np.int32) for k in range(40)})
+            for i in range(3)
+        ],
+    )
     m = snn_fg.Maps.load(path)
     assert snn_fg.Maps is Maps
     text = repr(m)

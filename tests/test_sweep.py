@@ -1,4 +1,5 @@
 """The Dask sweep runner: a tiny sweep on a LocalCluster, the per-task cache, resuming."""
+
 import json
 
 import pytest
@@ -35,8 +36,9 @@ def test_tiny_sweep_on_a_local_cluster_caches_and_resumes(tmp_path):
 
 def test_fully_cached_sweep_needs_no_cluster(tmp_path):
     (tmp_path / "a.json").write_text('{"v": 1}')
-    assert run_sweep(square_task, [SweepTask("a", {"x": 0})], tmp_path, scheduler="tcp://127.0.0.1:1",
-                     progress=False) == {"a": {"v": 1}}
+    assert run_sweep(
+        square_task, [SweepTask("a", {"x": 0})], tmp_path, scheduler="tcp://127.0.0.1:1", progress=False
+    ) == {"a": {"v": 1}}
 
 
 def test_task_keys_are_plain_file_names():
@@ -49,7 +51,7 @@ def test_missing_dask_says_what_to_install(tmp_path, monkeypatch):
 
     from snn_fg.sweep import MissingExtraError
 
-    monkeypatch.setitem(sys.modules, "dask.distributed", None)      # import fails as if not installed
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)  # import fails as if not installed
     with pytest.raises(MissingExtraError, match=r'pip install -e "\.\[sweep\]" in the snn-fg folder'):
         run_sweep(square_task, [SweepTask("a", {"x": 0})], tmp_path, progress=False)
 
@@ -63,8 +65,9 @@ def main_thread_task(*, x: int) -> dict:
 @pytest.mark.slow
 def test_preload_imports_modules_on_every_worker_first(tmp_path):
     plain = run_sweep(main_thread_task, [SweepTask("p", {"x": 1})], tmp_path / "a", workers=1, progress=False)
-    out = run_sweep(main_thread_task, [SweepTask("p", {"x": 1})], tmp_path / "b", workers=1, progress=False,
-                    preload=("tabnanny",))
+    out = run_sweep(
+        main_thread_task, [SweepTask("p", {"x": 1})], tmp_path / "b", workers=1, progress=False, preload=("tabnanny",)
+    )
     assert out["p"]["preloaded"] and not plain["p"]["preloaded"]
 
 
@@ -78,6 +81,7 @@ def environ_task(*, name: str) -> dict:
 def test_local_workers_keep_glibcs_adaptive_malloc(tmp_path, monkeypatch):
     """Dask's default MALLOC_TRIM_THRESHOLD_ for workers made a Table 1 image 1.5x slower."""
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
-    out = run_sweep(environ_task, [SweepTask("e", {"name": "MALLOC_TRIM_THRESHOLD_"})], tmp_path, workers=1,
-                    progress=False)
+    out = run_sweep(
+        environ_task, [SweepTask("e", {"name": "MALLOC_TRIM_THRESHOLD_"})], tmp_path, workers=1, progress=False
+    )
     assert out["e"]["value"] is None

@@ -1,4 +1,5 @@
 """Rate and frame-based models against the analytic ground truth of synthetic scenes."""
+
 import numpy as np
 import pytest
 
@@ -16,14 +17,15 @@ def test_rate_model_on_discs(radius, light):
     pos, neg = image_to_frame(sc.image, threshold=0.10)
     m = run_edfg(pos, neg)
     s = truth_scores(m.fg_x, m.fg_y, sc)
-    assert s["scored_pixels"] > 4 * radius          # most of the rim carries a vector
+    assert s["scored_pixels"] > 4 * radius  # most of the rim carries a vector
     assert s["frac_within_45"] >= 0.80, s
     assert s["median_err_deg"] <= 10, s
     assert grouping_peak_inside(m.grouping, sc)
 
 
-@pytest.mark.parametrize("scene", [scenes.disc(28, True), scenes.disc(40, False), scenes.square(24, True)],
-                         ids=lambda s: s.name)
+@pytest.mark.parametrize(
+    "scene", [scenes.disc(28, True), scenes.disc(40, False), scenes.square(24, True)], ids=lambda s: s.name
+)
 def test_fbfg_on_shapes(scene):
     m = run_fbfg(scene.image)
     s = truth_scores(m.fg_x, m.fg_y, scene)
@@ -66,6 +68,7 @@ def test_grouping_comparison_ignores_the_maps_units():
     """Spiking grouping maps are in Hz, the rate model's in its own units:
     a map and a scaled copy of it compare as identical, on r and on SSIM."""
     from snn_fg.metrics import compare_frame
+
     sc = scenes.disc(20)
     pos, neg = image_to_frame(sc.image)
     m = run_edfg(pos, neg)

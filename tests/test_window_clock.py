@@ -1,21 +1,22 @@
 """The window clock of a continuous run over a recording: one spike source
 that fires as each window starts and inhibits every grouping cell, so that
 each window's light and dark grouping cells compete afresh."""
+
 import numpy as np
 import pytest
 
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_events, iter_windows
+from snn_fg.lowering.input_spikes import event_spikes
 from snn_fg.models import get_model
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.outline import inward_score
 from snn_fg.params import ModelParams
 from snn_fg.scenes import disc, flipping_disc_recording
 from snn_fg.spiking.continuous import run_spiking_windows
-from snn_fg.lowering.input_spikes import event_spikes
 
-pytestmark = pytest.mark.usefixtures("warm_simulators")     # compiles the engines first (conftest)
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
 BRIAN2 = pytest.mark.skipif(not available_backends()["brian2"][0], reason="needs Brian2 to compare with")
 
@@ -40,9 +41,12 @@ def _flip_recording(window_ms=85.0):
 @pytest.fixture(scope="module")
 def flip_runs():
     scenes, windows = _flip_recording()
-    runs = {clock: run_spiking_windows(windows, params=ModelParams(levels=4), backend="fast", window_clock=clock,
-                                       progress=False)
-            for clock in (True, False)}
+    runs = {
+        clock: run_spiking_windows(
+            windows, params=ModelParams(levels=4), backend="fast", window_clock=clock, progress=False
+        )
+        for clock in (True, False)
+    }
     return scenes, runs
 
 
@@ -71,7 +75,7 @@ def test_a_last_window_shorter_than_a_step_is_read_out_over_one_step():
 
     _, rec = flipping_disc_recording(24, windows=2, window_ms=60.0)
     last = rec.events[-1:].copy()
-    last["t"] = 120_000                      # on the boundary after the second window
+    last["t"] = 120_000  # on the boundary after the second window
     rec = Recording(events=np.concatenate([rec.events, last]), sensor_size=rec.sensor_size, format="synthetic")
     windows = list(iter_windows(rec, window_ms=60.0))
     assert len(windows) == 3 and windows[-1].t_end_us - windows[-1].t_start_us == 1
@@ -174,8 +178,18 @@ def test_a_frame_gives_the_same_maps_with_or_without_a_clock():
 
     pos, neg = image_to_frame(disc(12).image)
     for backend in ("fast", "brian2") if available_backends()["brian2"][0] else ("fast",):
-        runs = [run_spiking(pos, neg, params=ModelParams(levels=2), spiking=SpikingParams(clock_inh_group=g),
-                            backend=backend, duration_ms=120.0, progress=False) for g in (300.0, 0.0)]
+        runs = [
+            run_spiking(
+                pos,
+                neg,
+                params=ModelParams(levels=2),
+                spiking=SpikingParams(clock_inh_group=g),
+                backend=backend,
+                duration_ms=120.0,
+                progress=False,
+            )
+            for g in (300.0, 0.0)
+        ]
         assert [r.params["network"]["spiking_params"]["clock_inh_group"] for r in runs] == [300.0, 0.0]
         for k in ("fg_x", "fg_y", "grouping"):
             np.testing.assert_array_equal(getattr(runs[0], k), getattr(runs[1], k), err_msg=f"{backend} {k}")

@@ -4,6 +4,7 @@
 timings of the task described by SPEC (see :func:`run_task`). The parent
 (:mod:`experiments.bench.run`) reads the process's peak RSS from ``wait4``.
 """
+
 from __future__ import annotations
 
 import json
@@ -15,8 +16,8 @@ import numpy as np
 
 from .inputs import load
 
-AUTHORS_SHAPE = (321, 481)      # the reference frames' size
-AUTHORS_KERNEL = 49             # their von Mises kernels at R0 = 8: 49 x 49
+AUTHORS_SHAPE = (321, 481)  # the reference frames' size
+AUTHORS_KERNEL = 49  # their von Mises kernels at R0 = 8: 49 x 49
 # One scipy.ndimage.correlate of a 321 x 481 float64 array with a 49 x 49
 # kernel took 1/955 of the authors' frame time, same machine, same hour
 # (issue 13); their pipeline is dominated by such calls.
@@ -65,7 +66,7 @@ LAST_RUN: dict = {}
 
 
 def _spiking_window(mdl, win):
-    (_, maps), = mdl.run_windows([win])
+    ((_, maps),) = mdl.run_windows([win])
     return _spiking_record(maps)
 
 
@@ -75,9 +76,13 @@ def _spiking_record(maps):
     p = maps.params
     sim = p["simulation"]
     LAST_RUN.clear()
-    LAST_RUN.update(simulated_ms=sim.get("simulated_ms", sim.get("duration_ms")), instantiate=sim["instantiate"],
-                    cells=p["counts"]["total_cells"], timings_s=p["timings_s"],
-                    backend_stats=p.get("backend_stats", {}))
+    LAST_RUN.update(
+        simulated_ms=sim.get("simulated_ms", sim.get("duration_ms")),
+        instantiate=sim["instantiate"],
+        cells=p["counts"]["total_cells"],
+        timings_s=p["timings_s"],
+        backend_stats=p.get("backend_stats", {}),
+    )
     return maps
 
 
@@ -105,18 +110,32 @@ def time_model(spec: dict) -> list[dict]:
             cpu.append(time.process_time() - c)
         # CPU time (all threads of this process) is reported beside wall time:
         # on a shared machine it moves much less with the load.
-        row = {**inp.describe(), "times_s": times, "median_s": statistics.median(times), "min_s": min(times),
-               "cpu_s": cpu, "cpu_median_s": statistics.median(cpu), "warmup_s": warm_s}
+        row = {
+            **inp.describe(),
+            "times_s": times,
+            "median_s": statistics.median(times),
+            "min_s": min(times),
+            "cpu_s": cpu,
+            "cpu_median_s": statistics.median(cpu),
+            "warmup_s": warm_s,
+        }
         if LAST_RUN:
             row["spiking_run"] = dict(LAST_RUN)
         if corr:
             ratios = [AUTHORS_CORRELATES_PER_FRAME * c / s for c, s in zip(corr, times)]
-            row.update(correlate_s=corr, correlate_median_s=statistics.median(corr),
-                       authors_frame_s=AUTHORS_CORRELATES_PER_FRAME * statistics.median(corr),
-                       ratio_vs_authors=statistics.median(ratios))
+            row.update(
+                correlate_s=corr,
+                correlate_median_s=statistics.median(corr),
+                authors_frame_s=AUTHORS_CORRELATES_PER_FRAME * statistics.median(corr),
+                ratio_vs_authors=statistics.median(ratios),
+            )
         rows.append(row)
-        print(f"  {spec['model']}{'/' + spec['backend'] if spec.get('backend') else ''} {inp.name}: "
-              f"{row['median_s']:.3f} s", file=sys.stderr, flush=True)
+        print(
+            f"  {spec['model']}{'/' + spec['backend'] if spec.get('backend') else ''} {inp.name}: "
+            f"{row['median_s']:.3f} s",
+            file=sys.stderr,
+            flush=True,
+        )
     return rows
 
 

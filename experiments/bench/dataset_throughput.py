@@ -12,6 +12,7 @@ included). The machine's load is recorded with every run.
 
 Writes experiments/results/dataset_throughput.{json,md}.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -40,8 +41,21 @@ def _folder(path: Path, n: int) -> None:
 
 def _run(folder: Path, out: Path, workers: int, model: str) -> dict:
     name, _, network = model.partition(":")
-    argv = [sys.executable, "-m", "snn_fg.cli", "run", str(folder), "--out", str(out), "--workers", str(workers),
-            "--model", name, "--no-figures", "--no-progress"] + (["--network", network] if network else [])
+    argv = [
+        sys.executable,
+        "-m",
+        "snn_fg.cli",
+        "run",
+        str(folder),
+        "--out",
+        str(out),
+        "--workers",
+        str(workers),
+        "--model",
+        name,
+        "--no-figures",
+        "--no-progress",
+    ] + (["--network", network] if network else [])
     before = load()[0]
     t = time.perf_counter()
     p = subprocess.run(argv, capture_output=True, text=True, cwd=ROOT)
@@ -53,37 +67,70 @@ def _run(folder: Path, out: Path, workers: int, model: str) -> dict:
     windows = sum(int(r["windows"]) for r in rows)
     if any(r["status"] != "done" for r in rows):
         fail(f"{model} on {workers} worker(s): not every recording is done ({[r['status'] for r in rows]})")
-    return {"model": model, "workers": workers, "recordings": len(rows), "windows": windows,
-            "wall_s": round(wall, 2), "windows_per_s": round(windows / wall, 3), "load": before}
+    return {
+        "model": model,
+        "workers": workers,
+        "recordings": len(rows),
+        "windows": windows,
+        "wall_s": round(wall, 2),
+        "windows_per_s": round(windows / wall, 3),
+        "load": before,
+    }
 
 
 def _markdown(rec) -> list[str]:
     rows = []
     for model in rec["models"]:
-        med = {w: statistics.median(r["windows_per_s"] for r in rec["runs"] if r["model"] == model
-                                    and r["workers"] == w) for w in (1, 2)}
+        med = {
+            w: statistics.median(r["windows_per_s"] for r in rec["runs"] if r["model"] == model and r["workers"] == w)
+            for w in (1, 2)
+        }
         loads = [r["load"] for r in rec["runs"] if r["model"] == model]
-        rows.append([model, f"{med[1]:.2f}", f"{med[2]:.2f}", f"{med[2] / med[1]:.2f}",
-                     f"{min(loads):.1f}-{max(loads):.1f}"])
-    runs = [[r["model"], r["workers"], r["round"], r["windows"], f"{r['wall_s']:.1f}", f"{r['windows_per_s']:.2f}",
-             f"{r['load']:.1f}"] for r in rec["runs"]]
+        rows.append(
+            [model, f"{med[1]:.2f}", f"{med[2]:.2f}", f"{med[2] / med[1]:.2f}", f"{min(loads):.1f}-{max(loads):.1f}"]
+        )
+    runs = [
+        [
+            r["model"],
+            r["workers"],
+            r["round"],
+            r["windows"],
+            f"{r['wall_s']:.1f}",
+            f"{r['windows_per_s']:.2f}",
+            f"{r['load']:.1f}",
+        ]
+        for r in rec["runs"]
+    ]
     per = rec["runs"][0]["windows"] // rec["recordings"]
-    return ["# Windows per second over a folder of recordings, 1 and 2 local workers", "", describe(rec["run"]), "",
+    return (
+        [
+            "# Windows per second over a folder of recordings, 1 and 2 local workers",
+            "",
+            describe(rec["run"]),
+            "",
             f"{rec['recordings']} copies of `dvs.es` (320 x 240, 1 s: {per} windows of 85 ms each) as `.npy` "
             "recordings; `snn-fg run FOLDER --workers N --no-figures`, a fresh process and output folder per run, "
             "the worker counts alternating. Windows per second: the summary's windows over the command's wall "
-            "time. Medians over the rounds:", ""] + markdown_table(
-        ["model", "1 worker (windows/s)", "2 workers (windows/s)", "2 / 1", "load"], rows) + [
-        "", "Every run:", ""] + markdown_table(
-        ["model", "workers", "round", "windows", "wall (s)", "windows/s", "load before"], runs) + [""]
+            "time. Medians over the rounds:",
+            "",
+        ]
+        + markdown_table(["model", "1 worker (windows/s)", "2 workers (windows/s)", "2 / 1", "load"], rows)
+        + ["", "Every run:", ""]
+        + markdown_table(["model", "workers", "round", "windows", "wall (s)", "windows/s", "load before"], runs)
+        + [""]
+    )
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--recordings", type=int, default=4)
     ap.add_argument("--rounds", type=int, default=2)
-    ap.add_argument("--models", nargs="+", default=["rate", "spiking:compact"],
-                    help="model[:network] to run (rate, spiking:compact, ...)")
+    ap.add_argument(
+        "--models",
+        nargs="+",
+        default=["rate", "spiking:compact"],
+        help="model[:network] to run (rate, spiking:compact, ...)",
+    )
     a = ap.parse_args()
     if a.recordings < 2 or a.rounds < 1:
         fail("--recordings must be at least 2 and --rounds at least 1")
@@ -93,13 +140,15 @@ def main():
         _folder(folder, a.recordings)
         for model in a.models:
             for r in range(a.rounds):
-                for workers in ((1, 2) if r % 2 == 0 else (2, 1)):
+                for workers in (1, 2) if r % 2 == 0 else (2, 1):
                     out = Path(d) / f"out_{len(runs)}"
                     row = {**_run(folder, out, workers, model), "round": r + 1}
                     runs.append(row)
-                    print(f"{model:<16} {workers} worker(s)  round {r + 1}  {row['windows']} windows  "
-                          f"{row['wall_s']:6.1f} s  {row['windows_per_s']:.2f} windows/s  (load {row['load']:.2f})",
-                          flush=True)
+                    print(
+                        f"{model:<16} {workers} worker(s)  round {r + 1}  {row['windows']} windows  "
+                        f"{row['wall_s']:6.1f} s  {row['windows_per_s']:.2f} windows/s  (load {row['load']:.2f})",
+                        flush=True,
+                    )
     record = {"recordings": a.recordings, "models": a.models, "runs": runs, "run": run.record()}
     lines = _markdown(record)
     save_results(NAME, record, lines)

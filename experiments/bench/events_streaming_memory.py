@@ -19,6 +19,7 @@ of what it wrote.
 
 Target: peak memory under 1 GB for 10 million events.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -55,7 +56,7 @@ def build(path: Path, n: int, duration_s: float, seed: int = 0, chunk: int = 1_0
             c["x"] = rng.integers(0, SENSOR[0], m)
             c["y"] = rng.integers(0, SENSOR[1], m)
             c["p"] = rng.integers(0, 2, m)
-            mm[i:i + m] = c
+            mm[i : i + m] = c
         mm.flush()
         del mm
 
@@ -99,8 +100,19 @@ def through_cli(path: Path, window_ms: float, max_windows: int | None) -> dict:
     from snn_fg.store import windows_complete
 
     with tempfile.TemporaryDirectory() as out:
-        argv = ["run", str(path), "--out", out, "--model", "rate", "--window-ms", str(window_ms),
-                "--sensor-size", f"{SENSOR[0]}x{SENSOR[1]}", "--no-progress"]
+        argv = [
+            "run",
+            str(path),
+            "--out",
+            out,
+            "--model",
+            "rate",
+            "--window-ms",
+            str(window_ms),
+            "--sensor-size",
+            f"{SENSOR[0]}x{SENSOR[1]}",
+            "--no-progress",
+        ]
         if max_windows:
             argv += ["--max-windows", str(max_windows)]
         t0 = time.perf_counter()
@@ -109,9 +121,14 @@ def through_cli(path: Path, window_ms: float, max_windows: int | None) -> dict:
         n_win = windows_complete(out)
         out_mb = sum(p.stat().st_size for p in Path(out).rglob("*") if p.is_file()) / 2**20
     status = Path("/proc/self/status").read_text()
-    return {"exit_code": rc, "windows": n_win, "wall_s": round(wall, 1), "s_per_window": round(wall / n_win, 3),
-            "output_mb": round(out_mb, 1),
-            "peak_rss_mb": round(int(status.split("VmHWM:")[1].split()[0]) / 1024, 1)}
+    return {
+        "exit_code": rc,
+        "windows": n_win,
+        "wall_s": round(wall, 1),
+        "s_per_window": round(wall / n_win, 3),
+        "output_mb": round(out_mb, 1),
+        "peak_rss_mb": round(int(status.split("VmHWM:")[1].split()[0]) / 1024, 1),
+    }
 
 
 def main(argv=None) -> int:
@@ -145,25 +162,38 @@ def main(argv=None) -> int:
         path = args.keep or Path(d) / "synthetic_10M.npy"
         t0 = time.perf_counter()
         if not path.exists():
-            subprocess.run(me + ["--build-only", str(path), "--events", str(args.events),
-                                 "--duration-s", str(args.duration_s)], check=True, cwd=ROOT)
+            subprocess.run(
+                me + ["--build-only", str(path), "--events", str(args.events), "--duration-s", str(args.duration_s)],
+                check=True,
+                cwd=ROOT,
+            )
         build_s = time.perf_counter() - t0
-        cmd = me + ["--child", str(path), "--window-ms", str(args.window_ms),
-               "--chunk-events", str(args.chunk_events)] + (["--tracemalloc"] if args.tracemalloc else []) + \
-            (["--through-cli"] if args.through_cli else []) + \
-            (["--max-windows", str(args.max_windows)] if args.max_windows else [])
+        cmd = (
+            me
+            + ["--child", str(path), "--window-ms", str(args.window_ms), "--chunk-events", str(args.chunk_events)]
+            + (["--tracemalloc"] if args.tracemalloc else [])
+            + (["--through-cli"] if args.through_cli else [])
+            + (["--max-windows", str(args.max_windows)] if args.max_windows else [])
+        )
         res = subprocess.run(cmd, capture_output=True, text=True, check=False, cwd=ROOT)
         if res.returncode != 0:
             print(res.stderr, file=sys.stderr)
             return res.returncode
         result = json.loads(res.stdout.strip().splitlines()[-1])
-        result.update({
-            "events": args.events, "duration_s": args.duration_s, "window_ms": args.window_ms,
-            "chunk_events": args.chunk_events, "file_mb": round(path.stat().st_size / 2**20, 1),
-            "build_s": round(build_s, 1), "target_peak_mb": 1024,
-            "measured": "snn-fg run --model rate (all stages, maps written)" if args.through_cli else
-            "iter_windows + events_to_frame",
-        })
+        result.update(
+            {
+                "events": args.events,
+                "duration_s": args.duration_s,
+                "window_ms": args.window_ms,
+                "chunk_events": args.chunk_events,
+                "file_mb": round(path.stat().st_size / 2**20, 1),
+                "build_s": round(build_s, 1),
+                "target_peak_mb": 1024,
+                "measured": "snn-fg run --model rate (all stages, maps written)"
+                if args.through_cli
+                else "iter_windows + events_to_frame",
+            }
+        )
         result["within_target"] = result["peak_rss_mb"] < 1024
         result["run"] = run.record()
     text = json.dumps(result, indent=2)

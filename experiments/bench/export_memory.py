@@ -19,6 +19,7 @@
 Writes experiments/results/export_memory.{json,md}.
 Usage: python -m experiments.bench.export_memory [nir] [nest] [--sizes 24x24:1 32x24:2 ...] [--fit 3]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -65,28 +66,38 @@ def nir_peaks(out: dict):
     with tempfile.TemporaryDirectory() as tmp:
         for mode in ("whole", "streaming"):
             load0 = load()
-            done = subprocess.run([sys.executable, "-c", NIR_CHILD, mode, str(Path(tmp) / f"{mode}.nir")],
-                                  capture_output=True, text=True, check=True)
+            done = subprocess.run(
+                [sys.executable, "-c", NIR_CHILD, mode, str(Path(tmp) / f"{mode}.nir")],
+                capture_output=True,
+                text=True,
+                check=True,
+            )
             base, peak, secs, size = (float(v) for v in done.stdout.split())
-            out[f"nir_{mode}"] = {"baseline_gb": base / 1e9, "peak_gb": peak / 1e9, "above_gb": (peak - base) / 1e9,
-                                  "write_s": secs, "file_mb": size / 1e6, "load": load_change(load0)}
+            out[f"nir_{mode}"] = {
+                "baseline_gb": base / 1e9,
+                "peak_gb": peak / 1e9,
+                "above_gb": (peak - base) / 1e9,
+                "write_s": secs,
+                "file_mb": size / 1e6,
+                "load": load_change(load0),
+            }
             print(mode, out[f"nir_{mode}"], flush=True)
 
 
 def _export(tmp: Path, w: int, h: int, levels: int):
     from snn_fg.events import image_to_frame
     from snn_fg.export.pynn import export_pynn, save_input
+    from snn_fg.lowering.input_spikes import frame_spikes
     from snn_fg.network import build_network
     from snn_fg.params import ModelParams
     from snn_fg.scenes import disc
-    from snn_fg.lowering.input_spikes import frame_spikes
 
     folder = export_pynn(build_network(ModelParams(levels=levels), (h, w)), tmp / f"{w}x{h}_{levels}")
     pos, neg = image_to_frame(disc(min(w, h) / 3).image)
     r0, c0 = (pos.shape[0] - h) // 2, (pos.shape[1] - w) // 2
     cut = (slice(max(r0, 0), max(r0, 0) + h), slice(max(c0, 0), max(c0, 0) + w))
     frame = np.zeros((2, h, w), np.uint8)
-    frame[:, :pos[cut].shape[0], :pos[cut].shape[1]] = pos[cut], neg[cut]
+    frame[:, : pos[cut].shape[0], : pos[cut].shape[1]] = pos[cut], neg[cut]
     save_input(frame_spikes(frame[0], frame[1], 200.0, 0.5, 100.0), folder / "input.npz", 0.5)
     meta = json.loads((folder / "network.json").read_text())
     return folder, sum(p["size"] for p in meta["populations"]), sum(pr["synapses"] for pr in meta["projections"])
@@ -100,20 +111,53 @@ def nest_runs(out: dict, sizes):
             w, h = (int(v) for v in wh.split("x"))
             folder, cells, synapses = _export(Path(tmp), w, h, int(levels))
             load0, t0 = load(), time.perf_counter()
-            done = subprocess.run([sys.executable, "-c", RUN_CHILD, "--input", "input.npz", "--out", "counts.npz",
-                                   "--duration-ms", "100", "--memory-gb", "1000"], cwd=folder, capture_output=True,
-                                  text=True, check=True)
+            done = subprocess.run(
+                [
+                    sys.executable,
+                    "-c",
+                    RUN_CHILD,
+                    "--input",
+                    "input.npz",
+                    "--out",
+                    "counts.npz",
+                    "--duration-ms",
+                    "100",
+                    "--memory-gb",
+                    "1000",
+                ],
+                cwd=folder,
+                capture_output=True,
+                text=True,
+                check=True,
+            )
             peak = float(done.stdout.split("MAXRSS")[1])
             built = [line for line in done.stdout.splitlines() if line.startswith("run.py: built")][0]
-            build_s, ms, sim_s = (float(v) for v in re.search(r"built in ([0-9.]+) s, simulated ([0-9.]+) ms in "
-                                                               r"([0-9.]+) s", built).groups())
-            rows.append({"size": spec, "cells": cells, "synapses": synapses, "peak_gb": peak / 1e9,
-                         "wall_s": time.perf_counter() - t0, "build_s": build_s, "simulate_s_per_ms": sim_s / ms,
-                         "run_py": built, "load": load_change(load0), "load_before": load0,
-                         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())})
+            build_s, ms, sim_s = (
+                float(v)
+                for v in re.search(
+                    r"built in ([0-9.]+) s, simulated ([0-9.]+) ms in "
+                    r"([0-9.]+) s",
+                    built,
+                ).groups()
+            )
+            rows.append(
+                {
+                    "size": spec,
+                    "cells": cells,
+                    "synapses": synapses,
+                    "peak_gb": peak / 1e9,
+                    "wall_s": time.perf_counter() - t0,
+                    "build_s": build_s,
+                    "simulate_s_per_ms": sim_s / ms,
+                    "run_py": built,
+                    "load": load_change(load0),
+                    "load_before": load0,
+                    "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                }
+            )
             print(rows[-1], flush=True)
     kept = {r["size"]: r for r in out.get("nest_runs", [])}
-    out["nest_runs"] = list({**kept, **{r["size"]: r for r in rows}}.values())    # (in place, new sizes last)
+    out["nest_runs"] = list({**kept, **{r["size"]: r for r in rows}}.values())  # (in place, new sizes last)
     time_fit(out, rows)
 
 
@@ -122,10 +166,13 @@ def time_fit(out: dict, rows):
     syn = np.array([r["synapses"] for r in rows], float)
     build = np.array([r["build_s"] for r in rows])
     sim = np.array([r["simulate_s_per_ms"] for r in rows])
-    out["nest_time_model"] = {"synapses_per_s": float(syn @ syn / (syn @ build)),
-                              "s_per_ms_per_synapse": float(syn @ sim / (syn @ syn)),
-                              "fitted_on": [r["size"] for r in rows], "date": rows[0]["date"],
-                              "load": " / ".join(r["load"] for r in rows)}
+    out["nest_time_model"] = {
+        "synapses_per_s": float(syn @ syn / (syn @ build)),
+        "s_per_ms_per_synapse": float(syn @ sim / (syn @ syn)),
+        "fitted_on": [r["size"] for r in rows],
+        "date": rows[0]["date"],
+        "load": " / ".join(r["load"] for r in rows),
+    }
 
 
 def fit(out: dict, n_fit: int):
@@ -134,46 +181,97 @@ def fit(out: dict, n_fit: int):
     a = np.array([[1.0, r["cells"], r["synapses"]] for r in rows[:n_fit]])
     y = np.array([r["peak_gb"] * 1e9 for r in rows[:n_fit]])
     coef = np.linalg.lstsq(a, y, rcond=None)[0]
-    out["nest_model"] = {"base_bytes": coef[0], "bytes_per_cell": coef[1], "bytes_per_synapse": coef[2],
-                         "fitted_on": [r["size"] for r in rows[:n_fit]]}
+    out["nest_model"] = {
+        "base_bytes": coef[0],
+        "bytes_per_cell": coef[1],
+        "bytes_per_synapse": coef[2],
+        "fitted_on": [r["size"] for r in rows[:n_fit]],
+    }
     for r in rows:
         r["predicted_gb"] = float(coef @ [1.0, r["cells"], r["synapses"]]) / 1e9
         r["error_frac"] = r["predicted_gb"] / r["peak_gb"] - 1
 
 
 def markdown(out: dict) -> list[str]:
-    lines = ["# Memory of the exports", "", f"The latest part run: {describe(out['run'])} (2 shared cores.)"
-             if "run" in out else "Machine: shared, 2 cores.", ""]
+    lines = [
+        "# Memory of the exports",
+        "",
+        f"The latest part run: {describe(out['run'])} (2 shared cores.)"
+        if "run" in out
+        else "Machine: shared, 2 cores.",
+        "",
+    ]
     if "nir_whole" in out:
         lines += ["## Writing the NIR file of the default 304 x 240 network", ""]
-        lines += markdown_table(["writer", "baseline GB", "peak GB", "above baseline GB", "write s", "file MB", "load"],
-                                [[mode, f"{r['baseline_gb']:.2f}", f"{r['peak_gb']:.2f}", f"{r['above_gb']:.2f}",
-                                  f"{r['write_s']:.0f}", f"{r['file_mb']:.1f}", r["load"]]
-                                 for mode, r in ((m, out[f"nir_{m}"]) for m in ("whole", "streaming"))])
+        lines += markdown_table(
+            ["writer", "baseline GB", "peak GB", "above baseline GB", "write s", "file MB", "load"],
+            [
+                [
+                    mode,
+                    f"{r['baseline_gb']:.2f}",
+                    f"{r['peak_gb']:.2f}",
+                    f"{r['above_gb']:.2f}",
+                    f"{r['write_s']:.0f}",
+                    f"{r['file_mb']:.1f}",
+                    r["load"],
+                ]
+                for mode, r in ((m, out[f"nir_{m}"]) for m in ("whole", "streaming"))
+            ],
+        )
         lines.append("")
     if "nest_runs" in out:
         m = out.get("nest_model", {})
-        lines += ["## run.py on NEST (one thread, 100 ms)", "",
-                  f"Model fitted on {', '.join(m.get('fitted_on', []))}: {m.get('base_bytes', 0) / 1e9:.2f} GB + "
-                  f"{m.get('bytes_per_cell', 0):.0f} B per cell or source + {m.get('bytes_per_synapse', 0):.1f} B per "
-                  "synapse.", ""]
+        lines += [
+            "## run.py on NEST (one thread, 100 ms)",
+            "",
+            f"Model fitted on {', '.join(m.get('fitted_on', []))}: {m.get('base_bytes', 0) / 1e9:.2f} GB + "
+            f"{m.get('bytes_per_cell', 0):.0f} B per cell or source + {m.get('bytes_per_synapse', 0):.1f} B per "
+            "synapse.",
+            "",
+        ]
         nan = float("nan")
-        lines += markdown_table(["size (WxH:levels)", "cells+sources", "synapses", "peak GB", "predicted GB", "error",
-                                 "wall s", "load"],
-                                [[r["size"], f"{r['cells']:,}", f"{r['synapses']:,}", f"{r['peak_gb']:.2f}",
-                                  f"{r.get('predicted_gb', nan):.2f}", f"{100 * r.get('error_frac', nan):+.0f} %",
-                                  f"{r['wall_s']:.0f}", r["load"]] for r in out["nest_runs"]])
+        lines += markdown_table(
+            ["size (WxH:levels)", "cells+sources", "synapses", "peak GB", "predicted GB", "error", "wall s", "load"],
+            [
+                [
+                    r["size"],
+                    f"{r['cells']:,}",
+                    f"{r['synapses']:,}",
+                    f"{r['peak_gb']:.2f}",
+                    f"{r.get('predicted_gb', nan):.2f}",
+                    f"{100 * r.get('error_frac', nan):+.0f} %",
+                    f"{r['wall_s']:.0f}",
+                    r["load"],
+                ]
+                for r in out["nest_runs"]
+            ],
+        )
     if "nest_time_model" in out:
         t = out["nest_time_model"]
-        lines += ["", f"## run.py's time on NEST (one thread; {t['date']}, load {t['load']})", "",
-                  f"Fitted on {', '.join(t['fitted_on'])}: {t['synapses_per_s']:.3g} synapses built per s, "
-                  f"{t['s_per_ms_per_synapse']:.3g} s per simulated ms per synapse.", ""]
+        lines += [
+            "",
+            f"## run.py's time on NEST (one thread; {t['date']}, load {t['load']})",
+            "",
+            f"Fitted on {', '.join(t['fitted_on'])}: {t['synapses_per_s']:.3g} synapses built per s, "
+            f"{t['s_per_ms_per_synapse']:.3g} s per simulated ms per synapse.",
+            "",
+        ]
         rows = [r for r in out["nest_runs"] if r["size"] in t["fitted_on"]]
-        lines += markdown_table(["size (WxH:levels)", "synapses", "build s", "predicted", "s per simulated ms",
-                                 "predicted", "load"],
-                                [[r["size"], f"{r['synapses']:,}", f"{r['build_s']:.1f}",
-                                  f"{r['synapses'] / t['synapses_per_s']:.1f}", f"{r['simulate_s_per_ms']:.3f}",
-                                  f"{r['synapses'] * t['s_per_ms_per_synapse']:.3f}", r["load"]] for r in rows])
+        lines += markdown_table(
+            ["size (WxH:levels)", "synapses", "build s", "predicted", "s per simulated ms", "predicted", "load"],
+            [
+                [
+                    r["size"],
+                    f"{r['synapses']:,}",
+                    f"{r['build_s']:.1f}",
+                    f"{r['synapses'] / t['synapses_per_s']:.1f}",
+                    f"{r['simulate_s_per_ms']:.3f}",
+                    f"{r['synapses'] * t['s_per_ms_per_synapse']:.3f}",
+                    r["load"],
+                ]
+                for r in rows
+            ],
+        )
     return lines
 
 

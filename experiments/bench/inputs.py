@@ -8,6 +8,7 @@
   sensor: edge events of random discs and bars, a few events per pixel, as a
   moving scene gives. Deterministic for ``n``.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -17,9 +18,9 @@ from pathlib import Path
 import numpy as np
 
 WINDOW_MS = 85.0
-DVS_START_MS = 1.0          # dvs.es opens with a ~77k-event reset burst in its first ms
-SENSOR = (320, 240)         # width, height of dvs.es and of the synthetic windows
-EVENTS_PER_PIXEL = 3        # a moving edge makes a pixel fire a few times per window
+DVS_START_MS = 1.0  # dvs.es opens with a ~77k-event reset burst in its first ms
+SENSOR = (320, 240)  # width, height of dvs.es and of the synthetic windows
+EVENTS_PER_PIXEL = 3  # a moving edge makes a pixel fire a few times per window
 SEED = 13
 
 
@@ -31,7 +32,7 @@ class BenchInput:
     pos: np.ndarray
     neg: np.ndarray
     events: np.ndarray | None = None
-    t_start_us: int | None = None      # a window's own span (else its events')
+    t_start_us: int | None = None  # a window's own span (else its events')
     t_end_us: int | None = None
 
     @property
@@ -48,13 +49,22 @@ class BenchInput:
         from snn_fg.events import EventWindow
 
         t = self.events["t"]
-        return EventWindow(index=0, t_start_us=self.t_start_us if self.t_start_us is not None else int(t[0]),
-                           t_end_us=self.t_end_us if self.t_end_us is not None else int(t[-1]) + 1,
-                           events=self.events, pos=self.pos, neg=self.neg)
+        return EventWindow(
+            index=0,
+            t_start_us=self.t_start_us if self.t_start_us is not None else int(t[0]),
+            t_end_us=self.t_end_us if self.t_end_us is not None else int(t[-1]) + 1,
+            events=self.events,
+            pos=self.pos,
+            neg=self.neg,
+        )
 
     def describe(self) -> dict:
-        return {"input": self.name, "shape": list(self.pos.shape), "n_events": self.n_events,
-                "active_pixels": self.active_pixels}
+        return {
+            "input": self.name,
+            "shape": list(self.pos.shape),
+            "n_events": self.n_events,
+            "active_pixels": self.active_pixels,
+        }
 
 
 def bsds_names() -> list[str]:

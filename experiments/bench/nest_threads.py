@@ -5,6 +5,7 @@ experiments/results/nest_threads.json. The nest-simulator wheel has no MPI
 (nest.build_info["have_mpi"] is False), so processes cannot be measured here.
 Usage: python -m experiments.bench.nest_threads
 """
+
 import json
 import time
 
@@ -20,10 +21,12 @@ def main():
     rows = []
     for threads in (1, 2, 1, 2):
         t0 = time.perf_counter()
-        r = run_spiking_result(pos, neg, backend="nest", backend_options={"threads": threads}, progress=False,
-                               record_spikes=False)
-        rows.append({"threads": threads, "wall_s": time.perf_counter() - t0, "timings_s": r.result.timings_s,
-                     "load": load()})
+        r = run_spiking_result(
+            pos, neg, backend="nest", backend_options={"threads": threads}, progress=False, record_spikes=False
+        )
+        rows.append(
+            {"threads": threads, "wall_s": time.perf_counter() - t0, "timings_s": r.result.timings_s, "load": load()}
+        )
         print(json.dumps(rows[-1]), flush=True)
     import nest
 

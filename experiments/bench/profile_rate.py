@@ -5,6 +5,7 @@ runs on one thread, so stages add up; nothing else in the model changes.
 CPU time (``time.process_time``) rather than wall time, so that the shares
 hold on a loaded machine. Shares are of the whole ``run_edfg`` call.
 """
+
 from __future__ import annotations
 
 import collections
@@ -58,7 +59,7 @@ def profile(specs, repeats: int) -> dict:
             owner = getattr(owner, p)
         _wrap(acc, owner, name, label)
     inputs = [load(s) for s in specs]
-    run_edfg(inputs[0].pos, inputs[0].neg)       # warm-up (compilation, caches)
+    run_edfg(inputs[0].pos, inputs[0].neg)  # warm-up (compilation, caches)
     acc.clear()
     t = time.process_time()
     for _ in range(repeats):
@@ -67,6 +68,10 @@ def profile(specs, repeats: int) -> dict:
     total = time.process_time() - t
     n = repeats * len(inputs)
     stages = {label: acc[label] / n for _, _, label in STAGES}
-    return {"inputs": list(specs), "clock": "cpu (process_time), one thread", "total_s_per_frame": total / n,
-            "stages_s_per_frame": stages,
-            "shares": {k: v / (total / n) for k, v in stages.items()}}
+    return {
+        "inputs": list(specs),
+        "clock": "cpu (process_time), one thread",
+        "total_s_per_frame": total / n,
+        "stages_s_per_frame": stages,
+        "shares": {k: v / (total / n) for k, v in stages.items()},
+    }

@@ -19,6 +19,7 @@ and keeps the other cases already in the results (long runs can go apart;
 each case records its commit).
 Writes experiments/results/recording_length_memory.{json,md} after every case.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -29,8 +30,19 @@ import tempfile
 import time
 from pathlib import Path
 
-from experiments.common import (RESULTS, ROOT, Run, describe, fail, git_commit, load, markdown_table, peak_rss_mb,
-                                save_json, save_markdown)
+from experiments.common import (
+    RESULTS,
+    ROOT,
+    Run,
+    describe,
+    fail,
+    git_commit,
+    load,
+    markdown_table,
+    peak_rss_mb,
+    save_json,
+    save_markdown,
+)
 
 NAME = "recording_length_memory"
 #: each copy of dvs.es starts this long after the one before (us): its events span 0-999 ms
@@ -42,9 +54,8 @@ def _recording(path: Path, seconds: int) -> str:
     written a copy at a time); returns its sensor size (WxH)."""
     from numpy.lib.format import open_memmap
 
-    from snn_fg.events import EVENT_DTYPE, open_recording
-
     from experiments.common import dataset
+    from snn_fg.events import EVENT_DTYPE, open_recording
 
     rec = open_recording(dataset("events", "dvs.es"))
     ev = rec.events
@@ -52,7 +63,7 @@ def _recording(path: Path, seconds: int) -> str:
         fail(f"dvs.es spans {int(ev['t'][-1] - ev['t'][0])} us, more than a copy's {COPY_SPAN_US} us")
     out = open_memmap(path, mode="w+", dtype=EVENT_DTYPE, shape=(len(ev) * seconds,))
     for k in range(seconds):
-        part = out[k * len(ev):(k + 1) * len(ev)]
+        part = out[k * len(ev) : (k + 1) * len(ev)]
         part[:] = ev
         part["t"] += k * COPY_SPAN_US - int(ev["t"][0])
     out.flush()
@@ -71,8 +82,13 @@ def _child(argv: list[str]) -> dict:
         wall = time.perf_counter() - t0
         n = windows_complete(out)
         store_kb = sum(p.stat().st_size for p in (Path(out) / "maps.zarr").rglob("*") if p.is_file()) / 1024
-    return {"exit_code": rc, "windows": n, "wall_s": round(wall, 1), "store_kb_per_window": round(store_kb / n, 1),
-            "peak_rss_mb": peak_rss_mb()}
+    return {
+        "exit_code": rc,
+        "windows": n,
+        "wall_s": round(wall, 1),
+        "store_kb_per_window": round(store_kb / n, 1),
+        "peak_rss_mb": peak_rss_mb(),
+    }
 
 
 def _cases(a) -> list[tuple[str, str, str]]:
@@ -83,24 +99,54 @@ def _cases(a) -> list[tuple[str, str, str]]:
             fail("--cases: each is model:network:length, e.g. spiking:compact:60s")
         return out
     lengths = ["1w"] + [f"{s}s" for s in a.seconds]
-    return [("rate", "default", n) for n in lengths] + \
-        [("spiking", net, n) for net in a.networks for n in lengths]
+    return [("rate", "default", n) for n in lengths] + [("spiking", net, n) for net in a.networks for n in lengths]
 
 
 def _markdown(rec) -> list[str]:
-    lines = ["# Peak memory and output size over recordings of 1 window to 60 s", "", describe(rec["run"]), "",
-             "`dvs.es` (320 x 240, 1 s, 473,225 events) played again and again with shifted timestamps into "
-             "`.npy` recordings; `snn-fg run REC --model M [--network N] --no-figures`, 85 ms windows, each run "
-             "a fresh process; `1w` is the first window of the longest recording (`--max-windows 1`). Peak "
-             "memory is the process's `VmHWM`; output is `maps.zarr` per window. Rows may come from separate `--cases` "
-             "runs (the line above names the last): each gives its start and commit.", ""]
-    rows = [[c["model"], c["network"], c["length"], c["windows"], f"{c['peak_rss_mb']:.0f}",
-             f"{c['peak_rss_mb'] / c['one_window_mb']:.3f}" if c.get("one_window_mb") else "",
-             f"{c['store_kb_per_window']:.0f}", f"{c['wall_s']:.0f}", f"{c['load']:.1f}", c["date"],
-             c.get("commit", "")]
-            for c in rec["cases"]]
-    lines += markdown_table(["model", "network", "length", "windows", "peak memory (MB)", "/ 1 window",
-                             "maps.zarr per window (kB)", "time (s)", "load before", "started (UTC)", "commit"], rows)
+    lines = [
+        "# Peak memory and output size over recordings of 1 window to 60 s",
+        "",
+        describe(rec["run"]),
+        "",
+        "`dvs.es` (320 x 240, 1 s, 473,225 events) played again and again with shifted timestamps into "
+        "`.npy` recordings; `snn-fg run REC --model M [--network N] --no-figures`, 85 ms windows, each run "
+        "a fresh process; `1w` is the first window of the longest recording (`--max-windows 1`). Peak "
+        "memory is the process's `VmHWM`; output is `maps.zarr` per window. Rows may come from separate `--cases` "
+        "runs (the line above names the last): each gives its start and commit.",
+        "",
+    ]
+    rows = [
+        [
+            c["model"],
+            c["network"],
+            c["length"],
+            c["windows"],
+            f"{c['peak_rss_mb']:.0f}",
+            f"{c['peak_rss_mb'] / c['one_window_mb']:.3f}" if c.get("one_window_mb") else "",
+            f"{c['store_kb_per_window']:.0f}",
+            f"{c['wall_s']:.0f}",
+            f"{c['load']:.1f}",
+            c["date"],
+            c.get("commit", ""),
+        ]
+        for c in rec["cases"]
+    ]
+    lines += markdown_table(
+        [
+            "model",
+            "network",
+            "length",
+            "windows",
+            "peak memory (MB)",
+            "/ 1 window",
+            "maps.zarr per window (kB)",
+            "time (s)",
+            "load before",
+            "started (UTC)",
+            "commit",
+        ],
+        rows,
+    )
     return lines + [""]
 
 
@@ -108,8 +154,10 @@ def _with_ratios(cases: list[dict]) -> list[dict]:
     """Each case with its model and network's 1-window peak (``one_window_mb``), where measured."""
     one = {(c["model"], c["network"]): c["peak_rss_mb"] for c in cases if c["length"] == "1w"}
     order = {"1w": 0}
-    return sorted([{**c, "one_window_mb": one.get((c["model"], c["network"]))} for c in cases],
-                  key=lambda c: (c["model"], c["network"], order.get(c["length"], int(c["length"][:-1]))))
+    return sorted(
+        [{**c, "one_window_mb": one.get((c["model"], c["network"]))} for c in cases],
+        key=lambda c: (c["model"], c["network"], order.get(c["length"], int(c["length"][:-1]))),
+    )
 
 
 def _kept(cases) -> list[dict]:
@@ -118,8 +166,11 @@ def _kept(cases) -> list[dict]:
     if not path.exists():
         return []
     run = {tuple(c) for c in cases}
-    return [c for c in json.loads(path.read_text()).get("cases", [])
-            if "length" in c and (c["model"], c["network"], c["length"]) not in run]     # (older results: none)
+    return [
+        c
+        for c in json.loads(path.read_text()).get("cases", [])
+        if "length" in c and (c["model"], c["network"], c["length"]) not in run
+    ]  # (older results: none)
 
 
 def main():
@@ -146,17 +197,26 @@ def main():
             argv += ["--max-windows", "1"] if length == "1w" else []
             argv += ["--network", network] if model == "spiking" and network != "default" else []
             before, date = load()[0], time.strftime("%H:%M", time.gmtime())
-            p = subprocess.run([sys.executable, "-m", __spec__.name, "--child", *argv], capture_output=True,
-                               text=True, cwd=ROOT)
+            p = subprocess.run(
+                [sys.executable, "-m", __spec__.name, "--child", *argv], capture_output=True, text=True, cwd=ROOT
+            )
             if p.returncode:
                 fail(f"{model} {network} {length}: {p.stderr.strip().splitlines()[-1] if p.stderr.strip() else '?'}")
-            case = {"model": model, "network": network, "length": length, "load": before, "date": date,
-                    "commit": git_commit(),
-                    **json.loads(p.stdout.strip().splitlines()[-1])}
+            case = {
+                "model": model,
+                "network": network,
+                "length": length,
+                "load": before,
+                "date": date,
+                "commit": git_commit(),
+                **json.loads(p.stdout.strip().splitlines()[-1]),
+            }
             measured.append(case)
-            print(f"{model:<8} {network:<8} {length:>4} {case['windows']:4d} windows  {case['peak_rss_mb']:7.0f} MB "
-                  f"peak  {case['wall_s']:7.1f} s  {case['store_kb_per_window']:6.0f} kB/window  (load {before:.2f})",
-                  flush=True)
+            print(
+                f"{model:<8} {network:<8} {length:>4} {case['windows']:4d} windows  {case['peak_rss_mb']:7.0f} MB "
+                f"peak  {case['wall_s']:7.1f} s  {case['store_kb_per_window']:6.0f} kB/window  (load {before:.2f})",
+                flush=True,
+            )
             record = {"cases": _with_ratios((_kept(cases) if a.cases else []) + measured), "run": run.record()}
             save_json(NAME, record)
             save_markdown(NAME, _markdown(record))

@@ -1,4 +1,5 @@
 """Printing the benchmark's results: tables and the ratios between engines."""
+
 from __future__ import annotations
 
 import statistics
@@ -8,7 +9,7 @@ from .child import AUTHORS_CORRELATES_PER_FRAME
 
 def _load(entry) -> str:
     text = entry.get("load_before", "")
-    return text[text.find("load average"):] if "load average" in text else text
+    return text[text.find("load average") :] if "load average" in text else text
 
 
 def _rows(m):
@@ -27,17 +28,23 @@ def _frames(data):
             for r in m.get("result", []):
                 extra = ""
                 if "ratio_vs_authors" in r:
-                    extra = (f"  authors {r['authors_frame_s']:.0f} s (955 x correlate {r['correlate_median_s']:.3f} s)"
-                             f"  -> {r['ratio_vs_authors']:.0f}x faster")
+                    extra = (
+                        f"  authors {r['authors_frame_s']:.0f} s (955 x correlate {r['correlate_median_s']:.3f} s)"
+                        f"  -> {r['ratio_vs_authors']:.0f}x faster"
+                    )
                 elif r["input"] in rate:
                     extra = f"  = {r['median_s'] / rate[r['input']]['median_s']:.0f}x the rate model"
-                print(f"  {eng:16s} {r['input']:12s} {r['median_s']:8.3f} s  peak {m['peak_rss_mb']:6.0f} MB{extra}"
-                      f"   [{_load(m)}]")
+                print(
+                    f"  {eng:16s} {r['input']:12s} {r['median_s']:8.3f} s  peak {m['peak_rss_mb']:6.0f} MB{extra}"
+                    f"   [{_load(m)}]"
+                )
     if rate:
         ratios = [r["ratio_vs_authors"] for r in rate.values()]
-        print(f"  rate model vs the authors' code, median over {len(ratios)} frames: "
-              f"{statistics.median(ratios):.0f}x (authors' frame time = {AUTHORS_CORRELATES_PER_FRAME} x one "
-              f"scipy.ndimage.correlate 321x481 * 49x49, timed in the same process before each repeat)")
+        print(
+            f"  rate model vs the authors' code, median over {len(ratios)} frames: "
+            f"{statistics.median(ratios):.0f}x (authors' frame time = {AUTHORS_CORRELATES_PER_FRAME} x one "
+            f"scipy.ndimage.correlate 321x481 * 49x49, timed in the same process before each repeat)"
+        )
 
 
 def _per_window(title, data):
@@ -53,8 +60,10 @@ def _per_window(title, data):
         med[eng] = statistics.median(r["median_s"] for r in rows)
         by_input[eng] = {r["input"]: r["median_s"] for r in rows}
         ev = [r["n_events"] for r in rows]
-        print(f"  {eng:16s} {len(rows)} windows ({min(ev)}-{max(ev)} events): median {med[eng]:.3f} s per window, "
-              f"peak {m['peak_rss_mb']:.0f} MB   [{_load(m)}]")
+        print(
+            f"  {eng:16s} {len(rows)} windows ({min(ev)}-{max(ev)} events): median {med[eng]:.3f} s per window, "
+            f"peak {m['peak_rss_mb']:.0f} MB   [{_load(m)}]"
+        )
     for eng, times in by_input.items():
         common = sorted(set(times) & set(by_input.get("rate", {})))
         if eng != "rate" and common:
@@ -72,8 +81,10 @@ def _synthetic(data):
         for key, clock in (("scaling", "wall"), ("scaling_cpu", "CPU")):
             fit = m.get(key)
             if fit:
-                print(f"  {eng}: {clock} time per window = {fit['fixed_ms']:.1f} ms + "
-                      f"{fit['slope_us_per_event']:.3f} us x events (R^2 {fit['r2']:.3f})")
+                print(
+                    f"  {eng}: {clock} time per window = {fit['fixed_ms']:.1f} ms + "
+                    f"{fit['slope_us_per_event']:.3f} us x events (R^2 {fit['r2']:.3f})"
+                )
 
 
 def _failed(eng: str, r: dict, width: int) -> bool:
@@ -88,9 +99,11 @@ def _throughput(data):
     for eng, r in data.items():
         if _failed(eng, r, 16):
             continue
-        print(f"  {eng:16s} {r['windows']} of {r['windows_in_recording']} windows in {r['wall_s']:.1f} s: "
-              f"{r['windows_per_s']:.3g} windows/s ({r['s_per_window']:.3g} s per window), "
-              f"peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]")
+        print(
+            f"  {eng:16s} {r['windows']} of {r['windows_in_recording']} windows in {r['wall_s']:.1f} s: "
+            f"{r['windows_per_s']:.3g} windows/s ({r['s_per_window']:.3g} s per window), "
+            f"peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]"
+        )
 
 
 #: the real-time budget: one 85 ms window of events per 85 ms of wall time
@@ -108,15 +121,19 @@ def _stream(data):
         rounds, each = "", r.get("rounds_median_window_s", [])
         if len(each) > 1:
             rounds = f" (rounds {1000 * min(each):.0f}-{1000 * max(each):.0f} ms)"
-        print(f"  {eng:34s} median {1000 * r['median_window_s']:7.1f} ms{rounds} "
-              f"({'within' if r['median_window_s'] <= REAL_TIME_S else 'over'} real time; whole run "
-              f"{1000 * r['wall_s_per_window']:.0f} ms per window{ev}), peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]")
+        print(
+            f"  {eng:34s} median {1000 * r['median_window_s']:7.1f} ms{rounds} "
+            f"({'within' if r['median_window_s'] <= REAL_TIME_S else 'over'} real time; whole run "
+            f"{1000 * r['wall_s_per_window']:.0f} ms per window{ev}), peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]"
+        )
     for eng, r in data.items():
         if "@compact" in eng and eng.replace("@compact", "@default") in data and "median_window_s" in r:
             d = data[eng.replace("@compact", "@default")]
             if "median_window_s" in d:
-                print(f"  {eng.replace('@compact', '')}: compact {d['median_window_s'] / r['median_window_s']:.1f}x "
-                      "faster than default")
+                print(
+                    f"  {eng.replace('@compact', '')}: compact {d['median_window_s'] / r['median_window_s']:.1f}x "
+                    "faster than default"
+                )
 
 
 def _profile(m):
@@ -136,8 +153,10 @@ def print_summary(merged: dict, measured: dict) -> None:
         data = sec["data"]
         if name == "calibrate" and "result" in data:
             c = data["result"]["median_s"]
-            print(f"\n== calibration: scipy.ndimage.correlate 321x481 * 49x49: {c:.3f} s -> authors' frame "
-                  f"{AUTHORS_CORRELATES_PER_FRAME * c:.0f} s   [{_load(data)}]")
+            print(
+                f"\n== calibration: scipy.ndimage.correlate 321x481 * 49x49: {c:.3f} s -> authors' frame "
+                f"{AUTHORS_CORRELATES_PER_FRAME * c:.0f} s   [{_load(data)}]"
+            )
         elif name == "frames":
             _frames(data)
         elif name == "dvs":
@@ -168,13 +187,18 @@ def plot_scaling(merged: dict, path) -> bool:
     for eng, m in series.items():
         n = [r["n_events"] for r in m["result"]]
         t = [r["median_s"] for r in m["result"]]
-        line, = ax.plot(n, t, "o", label=eng)
+        (line,) = ax.plot(n, t, "o", label=eng)
         fit = m.get("scaling")
         if fit:
-            xs = [min(n) * (max(n) / min(n)) ** (i / 40) for i in range(41)]   # a line is curved on log axes
-            ax.plot(xs, [(fit["fixed_ms"] + fit["slope_us_per_event"] * x / 1e3) / 1e3 for x in xs], "-",
-                    color=line.get_color(), alpha=0.5,
-                    label=f"{eng} fit: {fit['fixed_ms']:.0f} ms + {fit['slope_us_per_event']:.1f} us/event")
+            xs = [min(n) * (max(n) / min(n)) ** (i / 40) for i in range(41)]  # a line is curved on log axes
+            ax.plot(
+                xs,
+                [(fit["fixed_ms"] + fit["slope_us_per_event"] * x / 1e3) / 1e3 for x in xs],
+                "-",
+                color=line.get_color(),
+                alpha=0.5,
+                label=f"{eng} fit: {fit['fixed_ms']:.0f} ms + {fit['slope_us_per_event']:.1f} us/event",
+            )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("events in the 85 ms window")

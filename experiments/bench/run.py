@@ -36,6 +36,7 @@ engine) it measured, each stamped with its time and load.
     python -m experiments.bench --quick --only rate   # a few minutes
     python -m experiments.bench --sections frames --spiking-frames --frames 105053
 """
+
 from __future__ import annotations
 
 import argparse
@@ -90,10 +91,17 @@ def measure(spec: dict, timeout_s: float):
     before = uptime()
     code, out, rss = _run_process([sys.executable, "-m", "experiments.bench.child", json.dumps(spec)], timeout_s)
     if code != 0:
-        return {"error": f"exit status {code} (timeout {timeout_s:.0f} s?)", "load_before": before,
-                "load_after": uptime()}
-    return {"result": json.loads(out.strip().splitlines()[-1]), "peak_rss_mb": rss, "load_before": before,
-            "load_after": uptime()}
+        return {
+            "error": f"exit status {code} (timeout {timeout_s:.0f} s?)",
+            "load_before": before,
+            "load_after": uptime(),
+        }
+    return {
+        "result": json.loads(out.strip().splitlines()[-1]),
+        "peak_rss_mb": rss,
+        "load_before": before,
+        "load_after": uptime(),
+    }
 
 
 def engines(only) -> tuple[list[tuple[str, str | None]], list[str]]:
@@ -125,8 +133,16 @@ def engine_name(model, backend) -> str:
 
 
 def _time(model, backend, inputs, args, *, repeats, calibrate=False, warmup=None):
-    spec = {"task": "model", "model": model, "backend": backend, "inputs": inputs, "repeats": repeats,
-            "calibrate": calibrate, "warmup": warmup, "instantiate": args.instantiate if backend else None}
+    spec = {
+        "task": "model",
+        "model": model,
+        "backend": backend,
+        "inputs": inputs,
+        "repeats": repeats,
+        "calibrate": calibrate,
+        "warmup": warmup,
+        "instantiate": args.instantiate if backend else None,
+    }
     print(f"[{engine_name(model, backend)}] {len(inputs)} input(s) x {repeats}", file=sys.stderr, flush=True)
     return measure(spec, args.timeout)
 
@@ -142,8 +158,10 @@ def section_frames(args, eng):
         reps = args.repeats if model == "rate" else args.spiking_repeats
         # Spiking warms up on a small synthetic window (absorbs compilation only).
         warm = None if model == "rate" else "synth:1000"
-        rows = [_time(model, backend, [f"bsds:{f}"], args, repeats=reps, calibrate=(model == "rate"),
-                      warmup=warm) for f in frames]
+        rows = [
+            _time(model, backend, [f"bsds:{f}"], args, repeats=reps, calibrate=(model == "rate"), warmup=warm)
+            for f in frames
+        ]
         out[engine_name(model, backend)] = rows
     return out
 
@@ -156,8 +174,9 @@ def section_dvs(args, eng):
         reps = args.repeats if model == "rate" else args.spiking_repeats
         warm = "dvs:0" if model == "rate" else "synth:1000"
         start = "" if model == "rate" or args.dvs_start_ms is None else f"@{args.dvs_start_ms:g}"
-        out[engine_name(model, backend)] = _time(model, backend, [f"dvs:{k}{start}" for k in range(n)], args,
-                                                 repeats=reps, warmup=warm)
+        out[engine_name(model, backend)] = _time(
+            model, backend, [f"dvs:{k}{start}" for k in range(n)], args, repeats=reps, warmup=warm
+        )
     return out
 
 
@@ -172,8 +191,13 @@ def fit_line(n_events, seconds) -> dict:
     pred = fixed + slope * n
     ss = float(((t - t.mean()) ** 2).sum())
     r2 = 1.0 - float(((t - pred) ** 2).sum()) / ss if ss > 0 else 1.0
-    return {"fixed_ms": 1e3 * fixed, "slope_us_per_event": 1e6 * slope, "r2": r2,
-            "per_1k_events_ms": 1e3 * (fixed + slope * 1000), "per_100k_events_ms": 1e3 * (fixed + slope * 1e5)}
+    return {
+        "fixed_ms": 1e3 * fixed,
+        "slope_us_per_event": 1e6 * slope,
+        "r2": r2,
+        "per_1k_events_ms": 1e3 * (fixed + slope * 1000),
+        "per_100k_events_ms": 1e3 * (fixed + slope * 1e5),
+    }
 
 
 def section_synthetic(args, eng):
@@ -196,9 +220,22 @@ def section_throughput(args, eng):
     n_all = len(dvs_windows())
     for model, backend in eng:
         with tempfile.TemporaryDirectory() as tmp:
-            cmd = [sys.executable, "-c", "from snn_fg.cli import console; console()", "run", str(dvs_path()),
-                   "--model", model, "--window-ms", str(WINDOW_MS), "--start-ms", str(DVS_START_MS),
-                   "--out", str(Path(tmp) / "out"), "--no-progress"]
+            cmd = [
+                sys.executable,
+                "-c",
+                "from snn_fg.cli import console; console()",
+                "run",
+                str(dvs_path()),
+                "--model",
+                model,
+                "--window-ms",
+                str(WINDOW_MS),
+                "--start-ms",
+                str(DVS_START_MS),
+                "--out",
+                str(Path(tmp) / "out"),
+                "--no-progress",
+            ]
             n = n_all
             if model == "spiking":
                 n = min(n_all, args.spiking_windows)
@@ -208,8 +245,15 @@ def section_throughput(args, eng):
             t = time.perf_counter()
             code, _, rss = _run_process(cmd, args.timeout)
             wall = time.perf_counter() - t
-        row = {"windows": n, "windows_in_recording": n_all, "wall_s": wall, "exit_status": code,
-               "peak_rss_mb": rss, "load_before": before, "load_after": uptime()}
+        row = {
+            "windows": n,
+            "windows_in_recording": n_all,
+            "wall_s": wall,
+            "exit_status": code,
+            "peak_rss_mb": rss,
+            "load_before": before,
+            "load_after": uptime(),
+        }
         if code == 0:
             row.update(windows_per_s=n / wall, s_per_window=wall / n)
         out[engine_name(model, backend)] = row
@@ -226,12 +270,13 @@ def _stream_row(maps_path: Path, model: str) -> dict:
     times = [t[key] for t in per]
     row = {"windows": len(times), "window_s": times, "median_window_s": statistics.median(times[1:] or times)}
     if model == "spiking":
-        whole = p.get("whole_run", p)        # (a recording's store keeps the whole run's apart)
+        whole = p.get("whole_run", p)  # (a recording's store keeps the whole run's apart)
         st, sim = whole.get("backend_stats", {}), whole["timings_s"]
         events = st.get("synaptic_events_total")
         if events:
-            row.update(synaptic_events_per_window=events / len(times),
-                       ns_per_synaptic_event=1e9 * sim.get("run", 0.0) / events)
+            row.update(
+                synaptic_events_per_window=events / len(times), ns_per_synaptic_event=1e9 * sim.get("run", 0.0) / events
+            )
     return row
 
 
@@ -239,16 +284,40 @@ def _stream_run(network: str, model: str, backend, cores: int, timeout) -> dict:
     """One ``snn-fg run dvs.es --start-ms 100 --no-figures`` on ``cores`` cores."""
     with tempfile.TemporaryDirectory() as tmp:
         res = Path(tmp) / "out"
-        cmd = [sys.executable, "-c", "from snn_fg.cli import console; console()", "run",
-               str(dvs_path()), "--model", model, "--network", network, "--window-ms", str(WINDOW_MS), "--start-ms",
-               "100", "--no-figures", "--no-progress", "--out", str(res)]
+        cmd = [
+            sys.executable,
+            "-c",
+            "from snn_fg.cli import console; console()",
+            "run",
+            str(dvs_path()),
+            "--model",
+            model,
+            "--network",
+            network,
+            "--window-ms",
+            str(WINDOW_MS),
+            "--start-ms",
+            "100",
+            "--no-figures",
+            "--no-progress",
+            "--out",
+            str(res),
+        ]
         cmd += ["--backend", backend] if backend else []
         before = uptime()
         t = time.perf_counter()
         code, _, rss = _run_process(cmd, timeout, cores=set(range(cores)))
         wall = time.perf_counter() - t
-        row = {"network": network, "model": model, "cores": cores, "exit_status": code, "wall_s": wall,
-               "peak_rss_mb": rss, "load_before": before, "load_after": uptime()}
+        row = {
+            "network": network,
+            "model": model,
+            "cores": cores,
+            "exit_status": code,
+            "wall_s": wall,
+            "peak_rss_mb": rss,
+            "load_before": before,
+            "load_after": uptime(),
+        }
         if code == 0:
             row.update(_stream_row(res, model))
             row["wall_s_per_window"] = wall / row["windows"]
@@ -260,14 +329,22 @@ def section_stream(args, eng):
     ``--stream-rounds`` rounds that alternate every configuration (this machine's speed moves by a
     third between runs minutes apart): each entry is the round with the median time per window,
     with every round's median beside it (``rounds_median_window_s``)."""
-    configs = [(network, model, backend, cores) for network in args.networks for model, backend in eng
-               if not (model == "spiking" and backend != "fast") for cores in args.cores]
+    configs = [
+        (network, model, backend, cores)
+        for network in args.networks
+        for model, backend in eng
+        if not (model == "spiking" and backend != "fast")
+        for cores in args.cores
+    ]
     runs: dict = {}
     for k in range(args.stream_rounds):
         for network, model, backend, cores in configs:
             name = f"{engine_name(model, backend)}@{network} {cores} core{'s' if cores > 1 else ''}"
-            print(f"[{name}] round {k + 1} of {args.stream_rounds}: snn-fg run dvs.es --start-ms 100 --no-figures",
-                  file=sys.stderr, flush=True)
+            print(
+                f"[{name}] round {k + 1} of {args.stream_rounds}: snn-fg run dvs.es --start-ms 100 --no-figures",
+                file=sys.stderr,
+                flush=True,
+            )
             runs.setdefault(name, []).append(_stream_run(network, model, backend, cores, args.timeout))
     out = {}
     for name, rows in runs.items():
@@ -275,9 +352,13 @@ def section_stream(args, eng):
         if not good:
             out[name] = rows[0]
             continue
-        out[name] = {**good[(len(good) - 1) // 2], "rounds": len(rows),
-                     "rounds_median_window_s": [r["median_window_s"] for r in good],
-                     "load_first": rows[0]["load_before"], "load_last": rows[-1]["load_after"]}
+        out[name] = {
+            **good[(len(good) - 1) // 2],
+            "rounds": len(rows),
+            "rounds_median_window_s": [r["median_window_s"] for r in good],
+            "load_first": rows[0]["load_before"],
+            "load_last": rows[-1]["load_after"],
+        }
     return out
 
 
@@ -290,42 +371,71 @@ def section_profile(args, eng):
     if not any(m == "rate" for m, _ in eng) or not frames:
         return None
     print("[profile] rate model stages", file=sys.stderr, flush=True)
-    return measure({"task": "profile", "inputs": [f"bsds:{f}" for f in frames], "repeats": args.repeats},
-                   args.timeout)
+    return measure({"task": "profile", "inputs": [f"bsds:{f}" for f in frames], "repeats": args.repeats}, args.timeout)
 
 
 def parse_args(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m experiments.bench", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--sections", default=",".join(s for s in SECTIONS if s not in ON_REQUEST),
-                    help=f"comma list of {', '.join(SECTIONS)} (all but {', '.join(ON_REQUEST)})")
-    ap.add_argument("--networks", default="default,compact",
-                    help="stream: comma list of networks by name (default,compact)")
+    ap = argparse.ArgumentParser(
+        prog="python -m experiments.bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument(
+        "--sections",
+        default=",".join(s for s in SECTIONS if s not in ON_REQUEST),
+        help=f"comma list of {', '.join(SECTIONS)} (all but {', '.join(ON_REQUEST)})",
+    )
+    ap.add_argument(
+        "--networks", default="default,compact", help="stream: comma list of networks by name (default,compact)"
+    )
     ap.add_argument("--cores", default="1,2", help="stream: comma list of how many cores a run may use (1,2)")
-    ap.add_argument("--stream-rounds", type=int, default=3,
-                    help="stream: rounds alternating every configuration; the median round is reported (3)")
+    ap.add_argument(
+        "--stream-rounds",
+        type=int,
+        default=3,
+        help="stream: rounds alternating every configuration; the median round is reported (3)",
+    )
     ap.add_argument("--only", help="comma list of engines: rate, spiking (every backend) or backend names")
-    ap.add_argument("--quick", action="store_true",
-                    help="3 repeats, 2 frames, 3 dvs windows, sizes 1k/10k/100k (minutes for the rate model)")
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help="3 repeats, 2 frames, 3 dvs windows, sizes 1k/10k/100k (minutes for the rate model)",
+    )
     ap.add_argument("--repeats", type=int, default=5, help="timed repeats after the warm-up (5)")
     ap.add_argument("--frames", help="comma list of BSDS frame ids (all six)")
-    ap.add_argument("--spiking-frames", action="store_true",
-                    help="also time the spiking backends on the BSDS frames (minutes per frame with Brian2)")
+    ap.add_argument(
+        "--spiking-frames",
+        action="store_true",
+        help="also time the spiking backends on the BSDS frames (minutes per frame with Brian2)",
+    )
     ap.add_argument("--spiking-repeats", type=int, default=1, help="timed repeats for spiking runs (1)")
     ap.add_argument("--dvs-windows", type=int, default=None, help="dvs.es windows timed for the rate model (all)")
-    ap.add_argument("--spiking-windows", type=int, default=1,
-                    help="dvs.es windows for spiking runs, timed and in the throughput run (1)")
-    ap.add_argument("--dvs-start-ms", type=float, default=None,
-                    help="spiking runs: dvs.es windows from this time (ms; default 1, as the rate model's)")
-    ap.add_argument("--instantiate", choices=("input", "all"), default=None,
-                    help="cells spiking backends create (each backend's default: brian2 input, fast all)")
+    ap.add_argument(
+        "--spiking-windows",
+        type=int,
+        default=1,
+        help="dvs.es windows for spiking runs, timed and in the throughput run (1)",
+    )
+    ap.add_argument(
+        "--dvs-start-ms",
+        type=float,
+        default=None,
+        help="spiking runs: dvs.es windows from this time (ms; default 1, as the rate model's)",
+    )
+    ap.add_argument(
+        "--instantiate",
+        choices=("input", "all"),
+        default=None,
+        help="cells spiking backends create (each backend's default: brian2 input, fast all)",
+    )
     ap.add_argument("--sizes", help="synthetic event counts for the rate model (1k..100k)")
-    ap.add_argument("--spiking-sizes", default="1000,10000",
-                    help="synthetic event counts for spiking runs (1000,10000)")
+    ap.add_argument(
+        "--spiking-sizes", default="1000,10000", help="synthetic event counts for spiking runs (1000,10000)"
+    )
     ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per measuring process (3600)")
     ap.add_argument("--out", type=Path, default=RESULTS, help=f"JSON file ({RESULTS.relative_to(ROOT)})")
     ap.add_argument("--report", action="store_true", help="print the tables of the JSON file; measure nothing")
-    ap.add_argument("--merge", type=Path, metavar="JSON", help="merge another run's JSON file into --out; measure nothing")
+    ap.add_argument(
+        "--merge", type=Path, metavar="JSON", help="merge another run's JSON file into --out; measure nothing"
+    )
     args = ap.parse_args(argv)
     args.sections = [s for s in args.sections.split(",") if s]
     bad = set(args.sections) - set(SECTIONS)
@@ -377,9 +487,16 @@ def main(argv=None) -> int:
     eng, notes = engines(args.only)
     for n in notes:
         print(f"note: {n}", file=sys.stderr)
-    run = {"started": datetime.datetime.now().isoformat(timespec="seconds"), "commit": git_commit(),
-           "command": sys.argv, "cpus": os.cpu_count(), "processor": processor(), "load_at_start": uptime(),
-           "engines": [engine_name(*e) for e in eng], "notes": notes}
+    run = {
+        "started": datetime.datetime.now().isoformat(timespec="seconds"),
+        "commit": git_commit(),
+        "command": sys.argv,
+        "cpus": os.cpu_count(),
+        "processor": processor(),
+        "load_at_start": uptime(),
+        "engines": [engine_name(*e) for e in eng],
+        "notes": notes,
+    }
     measured = {}
     for name in args.sections:
         got = globals()[f"section_{name}"](args, eng)

@@ -14,6 +14,7 @@ resident memory is the child's ``VmHWM``, read from /proc (Linux).
 Writes experiments/results/spiking_recording_memory.{json,md}, with the
 least-squares line of peak memory against windows.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,8 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import (ROOT, Run, dataset, describe, fail, load, markdown_table,
-                                save_results)
+from experiments.common import ROOT, Run, dataset, describe, fail, load, markdown_table, save_results
 
 SENSOR = "320x240"
 
@@ -58,30 +58,47 @@ def _child(argv: list[str]) -> dict:
         n_win = windows_complete(out)
         out_mb = sum(p.stat().st_size for p in Path(out).rglob("*") if p.is_file()) / 2**20
     status = Path("/proc/self/status").read_text()
-    return {"exit_code": rc, "windows": n_win, "wall_s": round(wall, 1), "output_mb": round(out_mb, 1),
-            "peak_rss_mb": round(int(status.split("VmHWM:")[1].split()[0]) / 1024, 1)}
+    return {
+        "exit_code": rc,
+        "windows": n_win,
+        "wall_s": round(wall, 1),
+        "output_mb": round(out_mb, 1),
+        "peak_rss_mb": round(int(status.split("VmHWM:")[1].split()[0]) / 1024, 1),
+    }
 
 
 def _markdown(rec) -> list[str]:
     fit = rec["fit"]
-    lines = ["# The spiking model's peak memory over recordings of growing length", "",
-             f"{describe(rec['run'])} Fast engine.", ""]
-    lines += markdown_table(["recording", "windows", "peak memory (GB)", "time (s)", "output (MB)"],
-                            [[c["case"], c["windows"], f"{c['peak_rss_mb'] / 1024:.2f}", f"{c['wall_s']:.0f}",
-                              f"{c['output_mb']:.0f}"] for c in rec["cases"]])
-    lines += ["", f"Peak memory = {fit['fixed_mb'] / 1024:.2f} GB + {fit['mb_per_window']:.0f} MB per window "
-              f"(least squares over the {len(rec['cases'])} runs, largest residual {fit['max_residual_mb']:.0f} MB): "
-              f"a 24 GB machine holds about {fit['windows_in_24gb']:.0f} windows "
-              f"({fit['windows_in_24gb'] * 0.085:.0f} s of 85 ms windows).", ""]
+    lines = [
+        "# The spiking model's peak memory over recordings of growing length",
+        "",
+        f"{describe(rec['run'])} Fast engine.",
+        "",
+    ]
+    lines += markdown_table(
+        ["recording", "windows", "peak memory (GB)", "time (s)", "output (MB)"],
+        [
+            [c["case"], c["windows"], f"{c['peak_rss_mb'] / 1024:.2f}", f"{c['wall_s']:.0f}", f"{c['output_mb']:.0f}"]
+            for c in rec["cases"]
+        ],
+    )
+    lines += [
+        "",
+        f"Peak memory = {fit['fixed_mb'] / 1024:.2f} GB + {fit['mb_per_window']:.0f} MB per window "
+        f"(least squares over the {len(rec['cases'])} runs, largest residual {fit['max_residual_mb']:.0f} MB): "
+        f"a 24 GB machine holds about {fit['windows_in_24gb']:.0f} windows "
+        f"({fit['windows_in_24gb'] * 0.085:.0f} s of 85 ms windows).",
+        "",
+    ]
     return lines
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--windows", type=int, nargs="*", default=[4, 8, 12],
-                    help="runs on the first N windows of dvs.es (4 8 12)")
-    ap.add_argument("--repeats", type=int, nargs="*", default=[5],
-                    help="runs on dvs.es played N times in a row (5)")
+    ap.add_argument(
+        "--windows", type=int, nargs="*", default=[4, 8, 12], help="runs on the first N windows of dvs.es (4 8 12)"
+    )
+    ap.add_argument("--repeats", type=int, nargs="*", default=[5], help="runs on dvs.es played N times in a row (5)")
     ap.add_argument("--child", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.child is not None:
@@ -97,20 +114,27 @@ def main():
             _repeated(rec, path, times)
             runs.append((f"dvs.es x {times}", [str(path), "--sensor-size", SENSOR]))
         for name, argv in runs:
-            p = subprocess.run([sys.executable, "-m", __spec__.name, "--child", *argv], capture_output=True,
-                               text=True, cwd=ROOT)
+            p = subprocess.run(
+                [sys.executable, "-m", __spec__.name, "--child", *argv], capture_output=True, text=True, cwd=ROOT
+            )
             if p.returncode:
                 fail(f"{name}: snn-fg run failed: {p.stderr.strip().splitlines()[-1] if p.stderr.strip() else '?'}")
             case = {"case": name, **json.loads(p.stdout.strip().splitlines()[-1])}
             cases.append(case)
-            print(f"{name:<26} {case['windows']:4d} windows  {case['peak_rss_mb'] / 1024:6.2f} GB peak  "
-                  f"{case['wall_s']:6.1f} s  (load {load()[0]:.2f})", flush=True)
+            print(
+                f"{name:<26} {case['windows']:4d} windows  {case['peak_rss_mb'] / 1024:6.2f} GB peak  "
+                f"{case['wall_s']:6.1f} s  (load {load()[0]:.2f})",
+                flush=True,
+            )
     x = np.array([c["windows"] for c in cases], float)
     y = np.array([c["peak_rss_mb"] for c in cases], float)
     slope, fixed = np.polyfit(x, y, 1)
-    fit = {"fixed_mb": float(fixed), "mb_per_window": float(slope),
-           "max_residual_mb": float(np.max(np.abs(fixed + slope * x - y))),
-           "windows_in_24gb": float((24 * 1024 - fixed) / slope)}
+    fit = {
+        "fixed_mb": float(fixed),
+        "mb_per_window": float(slope),
+        "max_residual_mb": float(np.max(np.abs(fixed + slope * x - y))),
+        "windows_in_24gb": float((24 * 1024 - fixed) / slope),
+    }
     record = {"cases": cases, "fit": fit, "run": run.record()}
     save_results("spiking_recording_memory", record, _markdown(record))
 

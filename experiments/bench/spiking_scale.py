@@ -12,6 +12,7 @@ Usage: python -m experiments.bench.spiking_scale [--backend NAME] [--instantiate
 (default: all six frames of the dataset ``bsds-edfg``).
 Writes experiments/results/spiking_scale.json and .md.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -56,10 +57,10 @@ def run_still(path: Path, backend: str, instantiate: str | None = None) -> dict:
     if proc.returncode != 0:
         raise RuntimeError(f"{path.name}: child failed\n{proc.stderr[-3000:]}")
     line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("@@RESULT@@"))
-    res = json.loads(line[len("@@RESULT@@"):])
+    res = json.loads(line[len("@@RESULT@@") :])
     res.update(frame=path.stem, load_before=load_before, load_after=_load())
-    res["process_wall_s"] = wall       # includes Python start-up and imports
-    res["peak_rss_mb"] = res["peak_rss_mb_self"]     # the child's own maximum resident memory
+    res["process_wall_s"] = wall  # includes Python start-up and imports
+    res["peak_rss_mb"] = res["peak_rss_mb_self"]  # the child's own maximum resident memory
     return res
 
 
@@ -68,10 +69,15 @@ def main(argv=None):
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("frames", nargs="*", help="BSDS frame ids (default: all six)")
-    ap.add_argument("--backend", default=DEFAULT_BACKEND, choices=backend_names(),
-                    help=f"simulator (default {DEFAULT_BACKEND})")
-    ap.add_argument("--instantiate", choices=("input", "all"), default=None,
-                    help="cells to create (default: the backend's own default, as snn-fg run does)")
+    ap.add_argument(
+        "--backend", default=DEFAULT_BACKEND, choices=backend_names(), help=f"simulator (default {DEFAULT_BACKEND})"
+    )
+    ap.add_argument(
+        "--instantiate",
+        choices=("input", "all"),
+        default=None,
+        help="cells to create (default: the backend's own default, as snn-fg run does)",
+    )
     args = ap.parse_args(argv)
     paths = sorted(dataset("bsds-edfg").glob("*.npz"))
     run = Run()
@@ -82,8 +88,11 @@ def main(argv=None):
         r = run_still(p, args.backend, args.instantiate)
         rows.append(r)
         t = ", ".join(f"{k} {v:.1f}" for k, v in r["timings_s"].items())
-        print(f"{r['frame']}: {r['counts']['total_cells']:,} cells, wall {r['process_wall_s']:.1f} s ({t}), "
-              f"peak {r['peak_rss_mb']:.0f} MB (load {r['load_before']})", flush=True)
+        print(
+            f"{r['frame']}: {r['counts']['total_cells']:,} cells, wall {r['process_wall_s']:.1f} s ({t}), "
+            f"peak {r['peak_rss_mb']:.0f} MB (load {r['load_before']})",
+            flush=True,
+        )
     record = {"rows": rows, "run": run.record()}
     save_json("spiking_scale", record)
     save_markdown("spiking_scale", markdown(rows, record["run"]))
@@ -91,37 +100,70 @@ def main(argv=None):
 
 
 def _population_table(pops: dict) -> str:
-    lines = [f"{'population':16s} {'role':12s} {'level':>5s} {'cells':>10s} {'mean rate (Hz)':>15s} {'synapses in':>12s}"]
-    lines += [f"{name:16s} {p['role']:12s} {p['level']:5d} {p['cells']:10,d} {p['mean_rate_hz']:15.1f} "
-              f"{p['synapses_in']:12,d}" for name, p in pops.items()]
+    lines = [
+        f"{'population':16s} {'role':12s} {'level':>5s} {'cells':>10s} {'mean rate (Hz)':>15s} {'synapses in':>12s}"
+    ]
+    lines += [
+        f"{name:16s} {p['role']:12s} {p['level']:5d} {p['cells']:10,d} {p['mean_rate_hz']:15.1f} "
+        f"{p['synapses_in']:12,d}"
+        for name, p in pops.items()
+    ]
     return "\n".join(lines)
 
 
 def _row(r) -> list:
     st = r.get("backend_stats", {})
-    return [r["frame"], r["backend"]["name"], f"{r['counts']['total_cells']:,} ({r['instantiate']})",
-            f"{r['counts']['total_synapses']:,}" if r["counts"]["total_synapses"] else "-",
-            f"{st['synaptic_events_total']:,}" if "synaptic_events_total" in st else "-",
-            f"{st['spikes']:,}" if "spikes" in st else "-",
-            ", ".join(f"{k} {v:.1f}" for k, v in r["timings_s"].items()), f"{r['process_wall_s']:.1f}",
-            f"{r['peak_rss_mb']:.0f}", f"{r['load_before']} / {r['load_after']}"]
+    return [
+        r["frame"],
+        r["backend"]["name"],
+        f"{r['counts']['total_cells']:,} ({r['instantiate']})",
+        f"{r['counts']['total_synapses']:,}" if r["counts"]["total_synapses"] else "-",
+        f"{st['synaptic_events_total']:,}" if "synaptic_events_total" in st else "-",
+        f"{st['spikes']:,}" if "spikes" in st else "-",
+        ", ".join(f"{k} {v:.1f}" for k, v in r["timings_s"].items()),
+        f"{r['process_wall_s']:.1f}",
+        f"{r['peak_rss_mb']:.0f}",
+        f"{r['load_before']} / {r['load_after']}",
+    ]
 
 
 def markdown(rows, run) -> list[str]:
     backends = sorted({r["backend"]["name"] for r in rows})
-    lines = ["# Spiking network at full size (321 x 481, 10 levels)", "",
-             f"{describe(run)} Backend: {', '.join(backends)}; one child process per frame, run one after another; "
-             "default parameters (400 ms simulated, dt 0.5 ms, spikes recorded). Peak = the child's maximum "
-             "resident memory; wall includes Python start-up and imports. Synapses are those an unrolling backend "
-             "creates; the fast engine never unrolls the kernels and counts synaptic events (one per tap a spike "
-             "is delivered through) instead.", ""]
-    lines += markdown_table(["frame", "backend", "cells (instantiated)", "synapses", "synaptic events", "spikes",
-                             "timings (s)", "wall incl. start-up (s)", "peak memory (MB)",
-                             "load before / after (1 min)"], map(_row, rows))
+    lines = [
+        "# Spiking network at full size (321 x 481, 10 levels)",
+        "",
+        f"{describe(run)} Backend: {', '.join(backends)}; one child process per frame, run one after another; "
+        "default parameters (400 ms simulated, dt 0.5 ms, spikes recorded). Peak = the child's maximum "
+        "resident memory; wall includes Python start-up and imports. Synapses are those an unrolling backend "
+        "creates; the fast engine never unrolls the kernels and counts synaptic events (one per tap a spike "
+        "is delivered through) instead.",
+        "",
+    ]
+    lines += markdown_table(
+        [
+            "frame",
+            "backend",
+            "cells (instantiated)",
+            "synapses",
+            "synaptic events",
+            "spikes",
+            "timings (s)",
+            "wall incl. start-up (s)",
+            "peak memory (MB)",
+            "load before / after (1 min)",
+        ],
+        map(_row, rows),
+    )
     if rows:
         big = max(rows, key=lambda r: r["counts"]["total_cells"])
-        lines += ["", f"## Cells per population ({big['frame']}, the most cells)", "", "```",
-                  _population_table(big["populations"]), "```"]
+        lines += [
+            "",
+            f"## Cells per population ({big['frame']}, the most cells)",
+            "",
+            "```",
+            _population_table(big["populations"]),
+            "```",
+        ]
     return lines
 
 

@@ -30,6 +30,7 @@ first window's counters. The stored ``spiking_frontier`` comes from::
 ``alternate`` is the side-by-side timing itself, which
 ``experiments.validation.spiking_dt`` also uses (the same network at several time steps).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -54,15 +55,24 @@ def _worker(js: str, specs: list[str], dt_ms: float):
     sp = variant_params("variant", js)
     backend = as_backend("fast")
     wins = [inputs.load(s).window() for s in specs]
-    run_spiking_windows(wins[:1], spiking=sp, backend=backend, dt_ms=dt_ms, progress=False)      # warm-up
+    run_spiking_windows(wins[:1], spiking=sp, backend=backend, dt_ms=dt_ms, progress=False)  # warm-up
     for spec, w in zip(specs, wins):
         t = time.perf_counter()
         (maps,) = run_spiking_windows([w], spiking=sp, backend=backend, dt_ms=dt_ms, progress=False)
         st = maps.params.get("backend_stats", {})
-        print(json.dumps({"input": spec, "wall_s": time.perf_counter() - t,
-                          "synaptic_events": st.get("synaptic_events_total"), "spikes": st.get("spikes"),
-                          "closed_form_advances": st.get("closed_form_advances"),
-                          "active_cell_steps": st.get("active_cell_steps")}), flush=True)
+        print(
+            json.dumps(
+                {
+                    "input": spec,
+                    "wall_s": time.perf_counter() - t,
+                    "synaptic_events": st.get("synaptic_events_total"),
+                    "spikes": st.get("spikes"),
+                    "closed_form_advances": st.get("closed_form_advances"),
+                    "active_cell_steps": st.get("active_cell_steps"),
+                }
+            ),
+            flush=True,
+        )
 
 
 def alternate(runs, specs: list[str], rounds: int, log=print) -> list[dict]:
@@ -74,8 +84,12 @@ def alternate(runs, specs: list[str], rounds: int, log=print) -> list[dict]:
     for r in range(rounds):
         for label, js, dt_ms in runs:
             now = load()[0]
-            proc = subprocess.run([sys.executable, "-m", __spec__.name, "--worker", js, ",".join(specs), str(dt_ms)],
-                                  capture_output=True, text=True, cwd=ROOT)
+            proc = subprocess.run(
+                [sys.executable, "-m", __spec__.name, "--worker", js, ",".join(specs), str(dt_ms)],
+                capture_output=True,
+                text=True,
+                cwd=ROOT,
+            )
             if proc.returncode:
                 err = proc.stderr.strip().splitlines()
                 fail(f"timing worker ({label}) failed: {err[-1] if err else '?'}")
@@ -83,8 +97,10 @@ def alternate(runs, specs: list[str], rounds: int, log=print) -> list[dict]:
                 if line.startswith("{"):
                     row = {"round": r + 1, "label": label, "dt_ms": dt_ms, "load": now, **json.loads(line)}
                     rows.append(row)
-                    log(f"round {r + 1}  {label:>16}  {row['input']:<10} {row['wall_s']:.3f} s  "
-                        f"{row['synaptic_events']:,} synaptic events  {row['spikes']:,} spikes  (load {now:.2f})")
+                    log(
+                        f"round {r + 1}  {label:>16}  {row['input']:<10} {row['wall_s']:.3f} s  "
+                        f"{row['synaptic_events']:,} synaptic events  {row['spikes']:,} spikes  (load {now:.2f})"
+                    )
     return rows
 
 
@@ -105,17 +121,44 @@ def _variant(text: str):
 def _markdown(rec) -> list[str]:
     def row(v):
         c = v["first_window"]
-        return [v["label"], f"{v['dt_ms']:g}", f"`{v['changes']}`", f"{v['median_s']:.3f}", f"{v['relative']:.2f}",
-                f"{c['synaptic_events']:,}", f"{c['closed_form_advances']:,}", f"{c['active_cell_steps']:,}",
-                f"{c['spikes']:,}"]
+        return [
+            v["label"],
+            f"{v['dt_ms']:g}",
+            f"`{v['changes']}`",
+            f"{v['median_s']:.3f}",
+            f"{v['relative']:.2f}",
+            f"{c['synaptic_events']:,}",
+            f"{c['closed_form_advances']:,}",
+            f"{c['active_cell_steps']:,}",
+            f"{c['spikes']:,}",
+        ]
 
-    return ["# The fast engine's time per dvs.es window: variants side by side", "",
+    return (
+        [
+            "# The fast engine's time per dvs.es window: variants side by side",
+            "",
             f"{describe(rec['run'])} Windows {', '.join(map(str, rec['windows']))} from {rec['start_ms']:g} ms, "
             f"{rec['rounds']} rounds of fresh processes alternating between the runs (load "
             f"{rec['load'][0]:.2f}-{rec['load'][1]:.2f} as each started). The counters are those of the first "
-            "window; they do not depend on the machine.", ""] + markdown_table(
-        ["run", "dt (ms)", "changes", "median s per window", "relative to default", "synaptic events",
-         "closed-form catch-ups", "active cell-steps", "spikes"], map(row, rec["variants"])) + [""]
+            "window; they do not depend on the machine.",
+            "",
+        ]
+        + markdown_table(
+            [
+                "run",
+                "dt (ms)",
+                "changes",
+                "median s per window",
+                "relative to default",
+                "synaptic events",
+                "closed-form catch-ups",
+                "active cell-steps",
+                "spikes",
+            ],
+            map(row, rec["variants"]),
+        )
+        + [""]
+    )
 
 
 def main():
@@ -137,18 +180,34 @@ def main():
     rows = alternate(runs, specs, args.rounds, lambda m: print(m, flush=True))
     med = {lab: statistics.median(x["wall_s"] for x in rows if x["label"] == lab) for lab, _, _ in runs}
     for lab, _, _ in runs[1:]:
-        print(f"median per window: default {med['default']:.3f} s, {lab} {med[lab]:.3f} s; "
-              f"{lab} / default = {med[lab] / med['default']:.2f}")
+        print(
+            f"median per window: default {med['default']:.3f} s, {lab} {med[lab]:.3f} s; "
+            f"{lab} / default = {med[lab] / med['default']:.2f}"
+        )
     span = [min([run.load_before[0]] + [x["load"] for x in rows]), max([load()[0]] + [x["load"] for x in rows])]
     print(f"load {span[0]:.2f}-{span[1]:.2f}")
     if args.save:
         first = {lab: next(x for x in rows if x["label"] == lab and x["input"] == specs[0]) for lab, _, _ in runs}
         keys = ("synaptic_events", "closed_form_advances", "active_cell_steps", "spikes")
-        rec = {"windows": args.windows, "start_ms": args.start_ms, "rounds": args.rounds, "load": span, "rows": rows,
-               "variants": [{"label": lab, "changes": js, "dt_ms": dt, "median_s": med[lab],
-                             "relative": med[lab] / med["default"],
-                             "first_window": {k: first[lab][k] for k in keys}} for lab, js, dt in runs],
-               "run": run.record()}
+        rec = {
+            "windows": args.windows,
+            "start_ms": args.start_ms,
+            "rounds": args.rounds,
+            "load": span,
+            "rows": rows,
+            "variants": [
+                {
+                    "label": lab,
+                    "changes": js,
+                    "dt_ms": dt,
+                    "median_s": med[lab],
+                    "relative": med[lab] / med["default"],
+                    "first_window": {k: first[lab][k] for k in keys},
+                }
+                for lab, js, dt in runs
+            ],
+            "run": run.record(),
+        }
         save_json(args.save, rec)
         save_markdown(args.save, _markdown(rec))
         print(f"wrote experiments/results/{args.save}.json and .md")

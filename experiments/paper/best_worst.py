@@ -10,6 +10,7 @@ picks (best 135069, 105019, 118035; worst 8143) when they are among the
 evaluated images. Shares the per-image cache of table1.
 Writes experiments/results/best_worst.json / .csv and best_worst.png.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -30,9 +31,17 @@ def ranking(results: dict) -> list[dict]:
         by = {(u["model"], u["motion"], u["threshold"]): u for u in res["units"]}
         ed = pool_stats([by[("rate", "paper", 0.10)]])
         fb = pool_stats([by[("fbfg", "image", None)]])
-        rows.append({"image_id": image_id, "ed_mean_abs_deg": ed["mean_abs_deg"], "ed_within45": ed["within45"],
-                     "ed_pixels": ed["n_pixels"], "fb_mean_abs_deg": fb["mean_abs_deg"],
-                     "fb_within45": fb["within45"], "fb_pixels": fb["n_pixels"]})
+        rows.append(
+            {
+                "image_id": image_id,
+                "ed_mean_abs_deg": ed["mean_abs_deg"],
+                "ed_within45": ed["within45"],
+                "ed_pixels": ed["n_pixels"],
+                "fb_mean_abs_deg": fb["mean_abs_deg"],
+                "fb_within45": fb["within45"],
+                "fb_pixels": fb["n_pixels"],
+            }
+        )
     rows = [r for r in rows if r["ed_pixels"] >= MIN_PIXELS]
     rows.sort(key=lambda r: r["ed_mean_abs_deg"])
     for rank, r in enumerate(rows, 1):
@@ -68,18 +77,26 @@ def figure(picks):
     axes = np.atleast_2d(fig.subplots(len(picks), 5))
     for ax_row, (label, row) in zip(axes, picks):
         image, gt, fb, ed, err = _panels(row["image_id"])
-        unit = lambda f: (np.sign(np.hypot(*f)) * f[0] / np.maximum(np.hypot(*f), 1e-12),   # noqa: E731
-                          np.sign(np.hypot(*f)) * f[1] / np.maximum(np.hypot(*f), 1e-12))
+        unit = lambda f: (
+            np.sign(np.hypot(*f)) * f[0] / np.maximum(np.hypot(*f), 1e-12),  # noqa: E731
+            np.sign(np.hypot(*f)) * f[1] / np.maximum(np.hypot(*f), 1e-12),
+        )
         ax_row[0].imshow(image)
         for ax, field in zip(ax_row[1:4], (gt, fb, ed)):
             ax.imshow(fg_rgb(*unit(field)))
         im = ax_row[4].imshow(err, cmap="inferno_r", vmin=0, vmax=180)
         fig.colorbar(im, ax=ax_row[4], fraction=0.035, label="|error| (deg)")
         ax_row[0].set_ylabel(f"{label}\n#{row['image_id']}", fontsize=9)
-        for ax, title in zip(ax_row, ("image", "ground truth (labeller 1)",
-                                      f"FB: mean |err| {row['fb_mean_abs_deg']:.0f} deg",
-                                      f"ED: mean |err| {row['ed_mean_abs_deg']:.0f} deg, "
-                                      f"{100 * row['ed_within45']:.0f} % <= 45", "ED error at GT pixels")):
+        for ax, title in zip(
+            ax_row,
+            (
+                "image",
+                "ground truth (labeller 1)",
+                f"FB: mean |err| {row['fb_mean_abs_deg']:.0f} deg",
+                f"ED: mean |err| {row['ed_mean_abs_deg']:.0f} deg, {100 * row['ed_within45']:.0f} % <= 45",
+                "ED error at GT pixels",
+            ),
+        ):
             ax.set_title(title, fontsize=9)
             ax.set_xticks([])
             ax.set_yticks([])
@@ -96,12 +113,18 @@ def main():
     k = min(args.show, len(rows) // 2 or 1)
     picks = [("best", r) for r in rows[:k]] + [("worst", r) for r in rows[-k:][::-1]]
     by_id = {r["image_id"]: r for r in rows}
-    picks += [(f"paper's {kind}", by_id[i]) for kind, ids in (("best", PAPER_BEST), ("worst", PAPER_WORST))
-              for i in ids if i in by_id and all(i != r["image_id"] for _, r in picks)]
+    picks += [
+        (f"paper's {kind}", by_id[i])
+        for kind, ids in (("best", PAPER_BEST), ("worst", PAPER_WORST))
+        for i in ids
+        if i in by_id and all(i != r["image_id"] for _, r in picks)
+    ]
     written = write_table("best_worst", rows, run=run.record()) + [save_figure(figure(picks), "best_worst")]
     for label, r in picks:
-        print(f"{label:14s} #{r['image_id']:>7s} rank {r['rank']:3d}/{len(rows)}  ED mean|err| "
-              f"{r['ed_mean_abs_deg']:.1f} ({r['ed_within45']:.2f} <= 45)  FB {r['fb_mean_abs_deg']:.1f}")
+        print(
+            f"{label:14s} #{r['image_id']:>7s} rank {r['rank']:3d}/{len(rows)}  ED mean|err| "
+            f"{r['ed_mean_abs_deg']:.1f} ({r['ed_within45']:.2f} <= 45)  FB {r['fb_mean_abs_deg']:.1f}"
+        )
     print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w) for w in written))
 
 

@@ -5,6 +5,7 @@ The three run the same per-image evaluation with the same settings, so they
 share one cache (``experiments/results/cache/bsds-<settings>/``): whichever
 runs first computes, the others read. The labels are the dataset ``bsds-fg``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -21,14 +22,22 @@ THRESHOLDS = (0.10, 0.15, 0.20, 0.30, 0.40)
 #: Images of --quick (evenly spaced over the sorted ids).
 QUICK_IMAGES = 12
 #: The per-image settings every BSDS experiment uses.
-SETTINGS = {"thresholds": THRESHOLDS, "shift4_thresholds": (0.10,), "event_models": ("rate",),
-            "fbfg_operators": ("gaussian", "corf"), "fig6": True}
+SETTINGS = {
+    "thresholds": THRESHOLDS,
+    "shift4_thresholds": (0.10,),
+    "event_models": ("rate",),
+    "fbfg_operators": ("gaussian", "corf"),
+    "fig6": True,
+}
 
 
 def parser(description: str) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=description)
-    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler of a running cluster "
-                                                          "(default: local worker processes, one per core)")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Dask scheduler of a running cluster (default: local worker processes, one per core)",
+    )
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
     p.add_argument("--images", type=int, metavar="N", help="evaluate N images evenly spaced over the 160 (all)")
     p.add_argument("--quick", action="store_true", help=f"the --images {QUICK_IMAGES} subset")
@@ -73,9 +82,15 @@ def sweep(func, ids, settings: dict, args, spiking: bool = False) -> dict:
 
     tasks = [SweepTask(i, {"root": str(dataset("bsds-fg")), "image_id": i, **settings}) for i in ids]
     try:
-        return run_sweep(func, tasks, CACHE / settings_key(settings, spiking), scheduler=args.scheduler,
-                         workers=args.workers, progress=not args.no_progress,
-                         preload=("brian2",) if spiking else ())
+        return run_sweep(
+            func,
+            tasks,
+            CACHE / settings_key(settings, spiking),
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=not args.no_progress,
+            preload=("brian2",) if spiking else (),
+        )
     except SnnFgError as exc:
         fail(str(exc))
 
@@ -103,8 +118,11 @@ def write_table(name: str, rows: list[dict], formats=("json", "csv"), run: dict 
 
     written = []
     if "json" in formats:
-        written.append(save_text(RESULTS / f"{name}.json",
-                                 json.dumps(rows if run is None else {"rows": rows, "run": run}, indent=1)))
+        written.append(
+            save_text(
+                RESULTS / f"{name}.json", json.dumps(rows if run is None else {"rows": rows, "run": run}, indent=1)
+            )
+        )
     if "csv" in formats:
         buf = io.StringIO()
         if rows:

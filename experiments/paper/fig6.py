@@ -12,6 +12,7 @@ elsewhere) and on the **rendered colour-wheel images** (unit vectors, black
 background), which is what the authors compared. Shares the per-image cache of
 table1. Writes experiments/results/fig6.json / .csv and fig6.png.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,9 +21,14 @@ from experiments.common import Run, save_figure
 from experiments.paper.bsds import evaluate, parser, write_table
 
 #: (label, pair key of snn_fg.evaluation.evaluate_image)
-COMPARISONS = (("EDvsFB", "ED-rate|FB-fbfg"), ("EDvsFB-corf", "ED-rate|FB-fbfg-corf"),
-               ("FBvsGT", "FB-fbfg|GT"), ("FB-corfvsGT", "FB-fbfg-corf|GT"), ("EDvsGT", "ED-rate|GT"),
-               ("GTvsGT (ceiling)", "GT|GT2"))
+COMPARISONS = (
+    ("EDvsFB", "ED-rate|FB-fbfg"),
+    ("EDvsFB-corf", "ED-rate|FB-fbfg-corf"),
+    ("FBvsGT", "FB-fbfg|GT"),
+    ("FB-corfvsGT", "FB-fbfg-corf|GT"),
+    ("EDvsGT", "ED-rate|GT"),
+    ("GTvsGT (ceiling)", "GT|GT2"),
+)
 METRICS = ("ssim_angle", "mse_angle", "ssim_render", "mse_render")
 
 
@@ -31,9 +37,16 @@ def rows_of(results: dict) -> list[dict]:
     for label, key in COMPARISONS:
         for metric in METRICS:
             v = np.array([r["fig6"][key][metric] for r in results.values() if key in r.get("fig6", {})])
-            rows.append({"comparison": label, "metric": metric, "on": "angle maps" if "angle" in metric else
-                         "rendered images", "mean": float(v.mean()) if v.size else float("nan"),
-                         "sd": float(v.std(ddof=1)) if v.size > 1 else float("nan"), "n_images": int(v.size)})
+            rows.append(
+                {
+                    "comparison": label,
+                    "metric": metric,
+                    "on": "angle maps" if "angle" in metric else "rendered images",
+                    "mean": float(v.mean()) if v.size else float("nan"),
+                    "sd": float(v.std(ddof=1)) if v.size > 1 else float("nan"),
+                    "n_images": int(v.size),
+                }
+            )
     return rows
 
 
@@ -45,8 +58,13 @@ def figure(rows):
     labels = [c for c, _ in COMPARISONS]
     for ax, metric in zip(axes.flat, ("ssim_angle", "mse_angle", "ssim_render", "mse_render")):
         sel = {r["comparison"]: r for r in rows if r["metric"] == metric}
-        ax.bar(range(len(labels)), [sel[c]["mean"] for c in labels], yerr=[sel[c]["sd"] for c in labels],
-               color=["tab:blue", "tab:cyan", "tab:green", "tab:olive", "tab:orange", "tab:gray"], capsize=4)
+        ax.bar(
+            range(len(labels)),
+            [sel[c]["mean"] for c in labels],
+            yerr=[sel[c]["sd"] for c in labels],
+            color=["tab:blue", "tab:cyan", "tab:green", "tab:olive", "tab:orange", "tab:gray"],
+            capsize=4,
+        )
         ax.set_xticks(range(len(labels)), labels, rotation=20, fontsize=8)
         kind = "angle maps" if "angle" in metric else "rendered colour-wheel images"
         ax.set_title(f"{metric.split('_')[0].upper()} on {kind}", fontsize=10)

@@ -10,6 +10,7 @@ kept, against the log-intensity change |delta log I| between the two frames
 and the pixel's brightness. Writes experiments/results/paper_motion.json /
 .csv and paper_motion.png (the curve, and a crop of both frames).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,8 +28,13 @@ def frame_scores(pos, neg, ref) -> dict:
     ours, theirs = (pos | neg) > 0, (ref["pos"] | ref["neg"]) > 0
     both = ours & theirs
     agree = ((pos > 0) & (ref["pos"] > 0)) | ((neg > 0) & (ref["neg"] > 0))
-    return {"ours": int(ours.sum()), "theirs": int(theirs.sum()), "iou": float(both.sum() / (ours | theirs).sum()),
-            "recall": float(both.sum() / theirs.sum()), "polarity_agreement": float(agree[both].mean())}
+    return {
+        "ours": int(ours.sum()),
+        "theirs": int(theirs.sum()),
+        "iou": float(both.sum() / (ours | theirs).sum()),
+        "recall": float(both.sum() / theirs.sum()),
+        "polarity_agreement": float(agree[both].mean()),
+    }
 
 
 def main():
@@ -55,20 +61,30 @@ def main():
     for lo, hi in zip(DLOG_BINS[:-1], DLOG_BINS[1:]):
         m = (dlog >= lo) & (dlog < hi)
         dark, light = m & (bright < 0.3), m & (bright >= 0.6)
-        curve.append({"dlog_lo": float(lo), "dlog_hi": float(hi), "pixels": int(m.sum()),
-                      "kept": float(kept[m].mean()) if m.any() else None,
-                      "kept_dark": float(kept[dark].mean()) if dark.sum() > 20 else None,
-                      "kept_light": float(kept[light].mean()) if light.sum() > 20 else None})
+        curve.append(
+            {
+                "dlog_lo": float(lo),
+                "dlog_hi": float(hi),
+                "pixels": int(m.sum()),
+                "kept": float(kept[m].mean()) if m.any() else None,
+                "kept_dark": float(kept[dark].mean()) if dark.sum() > 20 else None,
+                "kept_light": float(kept[light].mean()) if light.sum() > 20 else None,
+            }
+        )
     written = write_table("paper_motion", rows, run=run.record())
     written.append(save_json("paper_motion_curve", curve))
     written.append(save_figure(figure(curve), "paper_motion"))
     for r in rows:
-        print(f"{r['image_id']:>7s} {r['motion']:7s} ours {r['ours']:6d} theirs {r['theirs']:6d} IoU {r['iou']:.3f} "
-              f"recall {r['recall']:.3f} polarity {r['polarity_agreement']:.3f}")
+        print(
+            f"{r['image_id']:>7s} {r['motion']:7s} ours {r['ours']:6d} theirs {r['theirs']:6d} IoU {r['iou']:.3f} "
+            f"recall {r['recall']:.3f} polarity {r['polarity_agreement']:.3f}"
+        )
     for c in curve:
-        fmt = lambda v: "-" if v is None else f"{v:.3f}"      # noqa: E731
-        print(f"|dlog I| {c['dlog_lo']:.2f}-{c['dlog_hi']:.2f}: kept {fmt(c['kept'])} (dark {fmt(c['kept_dark'])}, "
-              f"light {fmt(c['kept_light'])}) of {c['pixels']}")
+        fmt = lambda v: "-" if v is None else f"{v:.3f}"  # noqa: E731
+        print(
+            f"|dlog I| {c['dlog_lo']:.2f}-{c['dlog_hi']:.2f}: kept {fmt(c['kept'])} (dark {fmt(c['kept_dark'])}, "
+            f"light {fmt(c['kept_light'])}) of {c['pixels']}"
+        )
     print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w.name) for w in written))
 
 
@@ -81,8 +97,11 @@ def figure(curve):
     fig = Figure(figsize=(15, 3.8))
     ax = fig.add_subplot(1, 3, 1)
     mid = [(c["dlog_lo"] + min(c["dlog_hi"], 3.0)) / 2 for c in curve]
-    for key, style, label in (("kept", "o-", "all"), ("kept_dark", "v--", "dark (max I < 0.3)"),
-                              ("kept_light", "^--", "light (max I >= 0.6)")):
+    for key, style, label in (
+        ("kept", "o-", "all"),
+        ("kept_dark", "v--", "dark (max I < 0.3)"),
+        ("kept_light", "^--", "light (max I >= 0.6)"),
+    ):
         ax.plot(mid, [np.nan if c[key] is None else c[key] for c in curve], style, label=label)
     ax.set_xlim(0, 2.5)
     ax.set_xlabel("|delta log I| between the two frames (C = 0.10 makes an event from 0.10)")
@@ -90,8 +109,13 @@ def figure(curve):
     ax.legend(fontsize=8)
     ref = np.load(dataset("bsds-edfg", "12003.npz"))
     pos, neg = image_to_frame(dataset("bsds-edfg", "images", "12003.jpg"), threshold=0.10, motion="paper")
-    for k, (title, img) in enumerate((("authors' frame (12003, crop)", event_frame_rgb(ref["pos"], ref["neg"])),
-                                      ("--motion paper, C = 0.10", event_frame_rgb(pos, neg))), start=2):
+    for k, (title, img) in enumerate(
+        (
+            ("authors' frame (12003, crop)", event_frame_rgb(ref["pos"], ref["neg"])),
+            ("--motion paper, C = 0.10", event_frame_rgb(pos, neg)),
+        ),
+        start=2,
+    ):
         a = fig.add_subplot(1, 3, k)
         a.imshow(img[CROP])
         a.set_title(title, fontsize=10)

@@ -11,6 +11,7 @@ degrees, mean), and SSIM / MSE of the figure-ground map against the ideal map
 ``--spiking-diameters`` (8, 16, 32, 64 px by default: its frames grow with the disc).
 Writes experiments/results/r0_sweep.json / .csv, r0_sweep_summary.json and r0_sweep.png.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,8 +22,20 @@ from experiments.paper.bsds import parser, write_table
 R0S = (2, 4, 8, 10, 12)
 DIAMETERS = (4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 160, 200)
 SPIKING_DIAMETERS = (8, 16, 32, 64)
-KEYS = ("model", "r0", "diameter", "hit", "peak_distance_px", "frac_within_45", "mean_err_deg", "coverage",
-        "ssim_angle", "mse_angle", "ssim_render", "mse_render")
+KEYS = (
+    "model",
+    "r0",
+    "diameter",
+    "hit",
+    "peak_distance_px",
+    "frac_within_45",
+    "mean_err_deg",
+    "coverage",
+    "ssim_angle",
+    "mse_angle",
+    "ssim_render",
+    "mse_render",
+)
 
 
 def summary(rows):
@@ -32,11 +45,17 @@ def summary(rows):
         for r0 in R0S:
             sel = [r for r in rows if r["model"] == model and r["r0"] == r0]
             if sel:
-                out.append({"model": model, "r0": r0, "hit_diameters": [r["diameter"] for r in sel if r["hit"]],
-                            "hit_rate": float(np.mean([r["hit"] for r in sel])),
-                            "mean_ssim_angle": float(np.mean([r["ssim_angle"] for r in sel])),
-                            "mean_mse_angle": float(np.mean([r["mse_angle"] for r in sel])),
-                            "mean_within45": float(np.nanmean([r["frac_within_45"] for r in sel]))})
+                out.append(
+                    {
+                        "model": model,
+                        "r0": r0,
+                        "hit_diameters": [r["diameter"] for r in sel if r["hit"]],
+                        "hit_rate": float(np.mean([r["hit"] for r in sel])),
+                        "mean_ssim_angle": float(np.mean([r["ssim_angle"] for r in sel])),
+                        "mean_mse_angle": float(np.mean([r["mse_angle"] for r in sel])),
+                        "mean_within45": float(np.nanmean([r["frac_within_45"] for r in sel])),
+                    }
+                )
     return out
 
 
@@ -56,8 +75,14 @@ def figure(rows):
             ax_row[1].plot(d, [r["frac_within_45"] for r in sel], "o-", label=f"R0={r0}")
             ax_row[2].plot(d, [r["ssim_angle"] for r in sel], "o-", label=f"R0={r0}")
         ax_row[0].axhline(0.25, color="k", lw=0.8)
-        for ax, title in zip(ax_row, ("grouping peak distance / radius (line: r/4; a hit is within max(3 px, r/4))",
-                                      "rim pixels within 45 deg", "SSIM vs ideal map (angle maps)")):
+        for ax, title in zip(
+            ax_row,
+            (
+                "grouping peak distance / radius (line: r/4; a hit is within max(3 px, r/4))",
+                "rim pixels within 45 deg",
+                "SSIM vs ideal map (angle maps)",
+            ),
+        ):
             ax.set_xscale("log")
             ax.set_title(f"{model}: {title}", fontsize=9)
             ax.set_xlabel("disc diameter (px)")
@@ -70,23 +95,46 @@ def figure(rows):
 def main():
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--models", nargs="+", default=["rate", "fbfg", "spiking"], choices=("rate", "fbfg", "spiking"))
-    p.add_argument("--spiking-diameters", type=float, nargs="+", default=SPIKING_DIAMETERS, metavar="D",
-                   help="diameters the spiking network runs on (8 16 32 64: its frames grow with the disc)")
-    p.add_argument("--diameters", type=float, nargs="+", default=DIAMETERS, metavar="D",
-                   help="disc diameters in px (4 to 200 in 13 steps)")
+    p.add_argument(
+        "--spiking-diameters",
+        type=float,
+        nargs="+",
+        default=SPIKING_DIAMETERS,
+        metavar="D",
+        help="diameters the spiking network runs on (8 16 32 64: its frames grow with the disc)",
+    )
+    p.add_argument(
+        "--diameters",
+        type=float,
+        nargs="+",
+        default=DIAMETERS,
+        metavar="D",
+        help="disc diameters in px (4 to 200 in 13 steps)",
+    )
     args = p.parse_args()
     from snn_fg.errors import SnnFgError
     from snn_fg.evaluation import evaluate_disc
     from snn_fg.sweep import SweepTask, run_sweep
 
     run = Run()
-    tasks = [SweepTask(f"{m}-r{r0:g}-d{d:g}", {"model": m, "r0": r0, "diameter": d})
-             for m in args.models for r0 in R0S for d in args.diameters
-             if m != "spiking" or d in args.spiking_diameters]
+    tasks = [
+        SweepTask(f"{m}-r{r0:g}-d{d:g}", {"model": m, "r0": r0, "diameter": d})
+        for m in args.models
+        for r0 in R0S
+        for d in args.diameters
+        if m != "spiking" or d in args.spiking_diameters
+    ]
     try:
-        res = run_sweep(evaluate_disc, tasks, CACHE / "r0_sweep", scheduler=args.scheduler, workers=args.workers,
-                        progress=not args.no_progress, desc="discs",
-                        preload=("brian2",) if "spiking" in args.models else ())
+        res = run_sweep(
+            evaluate_disc,
+            tasks,
+            CACHE / "r0_sweep",
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=not args.no_progress,
+            desc="discs",
+            preload=("brian2",) if "spiking" in args.models else (),
+        )
     except SnnFgError as exc:
         fail(str(exc))
     rows = [{k: res[t.key][k] for k in KEYS} for t in tasks]
@@ -95,8 +143,10 @@ def main():
     written.append(save_json("r0_sweep_summary", summ))
     written.append(save_figure(figure(rows), "r0_sweep"))
     for s in summ:
-        print(f"{s['model']:8s} R0={s['r0']:<3d} hits {s['hit_rate']:.2f} diameters {s['hit_diameters']}  "
-              f"SSIM {s['mean_ssim_angle']:.3f} MSE {s['mean_mse_angle']:.4f} within45 {s['mean_within45']:.3f}")
+        print(
+            f"{s['model']:8s} R0={s['r0']:<3d} hits {s['hit_rate']:.2f} diameters {s['hit_diameters']}  "
+            f"SSIM {s['mean_ssim_angle']:.3f} MSE {s['mean_mse_angle']:.4f} within45 {s['mean_within45']:.3f}"
+        )
     print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w) for w in written))
 
 

@@ -26,6 +26,7 @@ table1_per_image.json / .csv (every image's scores per model and threshold),
 table1_extra.json (shift4 rows, the human ceiling, the authors' stored outputs
 scored the same way) and table1.png.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -54,10 +55,20 @@ def scored_row(per_image_parts: list, **label) -> dict:
         row.update({key: boot[key]["pooled"], f"{key}_low": boot[key]["low"], f"{key}_high": boot[key]["high"]})
     for key in ("side_accuracy", "within45"):
         b = boot[key]
-        row.update({f"{key}_image_mean": b["image_mean"], f"{key}_image_low": b["image_low"],
-                    f"{key}_image_high": b["image_high"]})
-    return {**row, "median_abs_deg": pooled["median_abs_deg"], "n_images": len(per_image_parts),
-            "n_pixels": pooled["n_pixels"], "n_truth": pooled["n_truth"]}
+        row.update(
+            {
+                f"{key}_image_mean": b["image_mean"],
+                f"{key}_image_low": b["image_low"],
+                f"{key}_image_high": b["image_high"],
+            }
+        )
+    return {
+        **row,
+        "median_abs_deg": pooled["median_abs_deg"],
+        "n_images": len(per_image_parts),
+        "n_pixels": pooled["n_pixels"],
+        "n_truth": pooled["n_truth"],
+    }
 
 
 def _groups(results: dict, motion: str) -> dict:
@@ -72,8 +83,10 @@ def _groups(results: dict, motion: str) -> dict:
 
 def rows_of(results: dict, motion: str = "paper") -> list[dict]:
     """Pooled rows per (model, threshold) of the per-image results."""
-    return [scored_row([[u] for u in units.values()], model=m, threshold=t)
-            for (m, t), units in _groups(results, motion).items()]
+    return [
+        scored_row([[u] for u in units.values()], model=m, threshold=t)
+        for (m, t), units in _groups(results, motion).items()
+    ]
 
 
 def per_image_rows(results: dict, motion: str = "paper") -> list[dict]:
@@ -97,7 +110,7 @@ def authors_outputs() -> list[dict]:
     labels = dataset("bsds-fg")
     for path in sorted(dataset("bsds-edfg").glob("*.npz")):
         if not (labels / "labels" / path.name).exists():
-            continue                      # two of the six are among the labels kept back
+            continue  # two of the six are among the labels kept back
         ref = np.load(path)
         gt = load_bsds_fg(labels, path.stem)
         truths = [boundary_directions(m) for m in gt.fg]
@@ -108,9 +121,13 @@ def authors_outputs() -> list[dict]:
 
 
 #: the panels of table1.png: (score, title, chance level or None)
-PANELS = (("side_accuracy", "side accuracy (within 90 deg)", 0.5), ("coverage", "coverage", None),
-          ("within45", "fraction within 45 deg", 0.25), ("mean_abs_deg", "mean absolute error (deg)", 90.0),
-          ("mean_signed_deg", "mean signed error (deg)", None))
+PANELS = (
+    ("side_accuracy", "side accuracy (within 90 deg)", 0.5),
+    ("coverage", "coverage", None),
+    ("within45", "fraction within 45 deg", 0.25),
+    ("mean_abs_deg", "mean absolute error (deg)", 90.0),
+    ("mean_signed_deg", "mean signed error (deg)", None),
+)
 
 
 def figure(rows, shift4, same_images=()):
@@ -124,11 +141,24 @@ def figure(rows, shift4, same_images=()):
             if sel:
                 n = sorted({r["n_images"] for r in sel})
                 t = [r["threshold"] for r in sel]
-                ax.errorbar(t, [r[key] for r in sel], yerr=_bars(sel, key), fmt=style, capsize=2,
-                            label=f"EDFG {model} (paper events, {'/'.join(map(str, n))} images)")
-        if same_images:       # the rate model on the spiking subset: the like-for-like comparison
-            ax.plot([r["threshold"] for r in same_images], [r[key] for r in same_images], "o", mfc="none",
-                    color="tab:orange", ms=9, label=f"EDFG rate on the {same_images[0]['n_images']} spiking images")
+                ax.errorbar(
+                    t,
+                    [r[key] for r in sel],
+                    yerr=_bars(sel, key),
+                    fmt=style,
+                    capsize=2,
+                    label=f"EDFG {model} (paper events, {'/'.join(map(str, n))} images)",
+                )
+        if same_images:  # the rate model on the spiking subset: the like-for-like comparison
+            ax.plot(
+                [r["threshold"] for r in same_images],
+                [r[key] for r in same_images],
+                "o",
+                mfc="none",
+                color="tab:orange",
+                ms=9,
+                label=f"EDFG rate on the {same_images[0]['n_images']} spiking images",
+            )
         pts = [(r["threshold"], r[key]) for r in shift4]
         if pts:
             ax.plot(*zip(*pts), "x", ms=9, label="EDFG rate (shift4 events)")
@@ -146,10 +176,11 @@ def figure(rows, shift4, same_images=()):
     handles = {}
     for ax in axes:
         handles.update(zip(*reversed(ax.get_legend_handles_labels())))
-    fig.legend(list(handles.values()), list(handles), fontsize=8, loc="upper center", ncol=4,
-               bbox_to_anchor=(0.5, 0.0))
-    fig.suptitle("Against the human labels: pooled over pixels, bars and bands the 95 % bootstrap interval "
-                 "over images", fontsize=10)
+    fig.legend(list(handles.values()), list(handles), fontsize=8, loc="upper center", ncol=4, bbox_to_anchor=(0.5, 0.0))
+    fig.suptitle(
+        "Against the human labels: pooled over pixels, bars and bands the 95 % bootstrap interval over images",
+        fontsize=10,
+    )
     return fig
 
 
@@ -164,41 +195,99 @@ def percent_with_interval(r, key) -> str:
 
 def markdown(named, ceiling, header: str) -> list[str]:
     """The table's lines: ``named`` is ``[(name, row)]`` of :func:`scored_row` rows."""
+
     def cells(name, r):
         c = "-" if r.get("threshold") is None else f"{r['threshold']:.2f}"
-        return [name, c, percent_with_interval(r, "side_accuracy"), f"{100 * r['side_accuracy_image_mean']:.1f}",
-                f"{100 * r['coverage']:.1f}", percent_with_interval(r, "within45"),
-                f"{r['mean_abs_deg']:.1f} [{r['mean_abs_deg_low']:.1f}, {r['mean_abs_deg_high']:.1f}]",
-                f"{r['mean_signed_deg']:.1f}", f"{r['median_abs_deg']:.1f}", r["n_images"], f"{r['n_pixels']:,}"]
+        return [
+            name,
+            c,
+            percent_with_interval(r, "side_accuracy"),
+            f"{100 * r['side_accuracy_image_mean']:.1f}",
+            f"{100 * r['coverage']:.1f}",
+            percent_with_interval(r, "within45"),
+            f"{r['mean_abs_deg']:.1f} [{r['mean_abs_deg_low']:.1f}, {r['mean_abs_deg_high']:.1f}]",
+            f"{r['mean_signed_deg']:.1f}",
+            f"{r['median_abs_deg']:.1f}",
+            r["n_images"],
+            f"{r['n_pixels']:,}",
+        ]
 
-    ceiling_row = ["human ceiling (labeller 2 vs 1)", "", f"{100 * ceiling['side_accuracy']:.1f}", "",
-                   f"{100 * ceiling['coverage']:.1f}", f"{100 * ceiling['within45']:.1f}",
-                   f"{ceiling['mean_abs_deg']:.1f}", f"{ceiling['mean_signed_deg']:.1f}",
-                   f"{ceiling['median_abs_deg']:.1f}", "", f"{ceiling['n_pixels']:,}"]
+    ceiling_row = [
+        "human ceiling (labeller 2 vs 1)",
+        "",
+        f"{100 * ceiling['side_accuracy']:.1f}",
+        "",
+        f"{100 * ceiling['coverage']:.1f}",
+        f"{100 * ceiling['within45']:.1f}",
+        f"{ceiling['mean_abs_deg']:.1f}",
+        f"{ceiling['mean_signed_deg']:.1f}",
+        f"{ceiling['median_abs_deg']:.1f}",
+        "",
+        f"{ceiling['n_pixels']:,}",
+    ]
     return [header, ""] + markdown_table(
-        ["model", "C", "side accuracy % [95 %]", "per-image mean %", "coverage %", "within 45 % [95 %]",
-         "mean abs [95 %]", "mean signed", "median abs", "images", "pixels"],
-        [cells(name, r) for name, r in named] + [ceiling_row])
+        [
+            "model",
+            "C",
+            "side accuracy % [95 %]",
+            "per-image mean %",
+            "coverage %",
+            "within 45 % [95 %]",
+            "mean abs [95 %]",
+            "mean signed",
+            "median abs",
+            "images",
+            "pixels",
+        ],
+        [cells(name, r) for name, r in named] + [ceiling_row],
+    )
 
 
 def main():
     p = parser(__doc__.splitlines()[0])
-    p.add_argument("--spiking-images", type=int, default=0, metavar="N",
-                   help="also run the spiking network on N images (evenly spaced; default 0)")
-    p.add_argument("--spiking-threshold", type=float, default=0.40, metavar="C",
-                   help="contrast threshold of the spiking runs (0.40: the smallest event frames)")
+    p.add_argument(
+        "--spiking-images",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also run the spiking network on N images (evenly spaced; default 0)",
+    )
+    p.add_argument(
+        "--spiking-threshold",
+        type=float,
+        default=0.40,
+        metavar="C",
+        help="contrast threshold of the spiking runs (0.40: the smallest event frames)",
+    )
     args = p.parse_args()
     run = Run()
     results = evaluate(args)
     rows = rows_of(results)
     image_rows = per_image_rows(results) + per_image_rows(results, "shift4")
-    same_images = []        # the rate model on the spiking subset: like for like, in the extra file
+    same_images = []  # the rate model on the spiking subset: like for like, in the extra file
     if args.spiking_images:
-        sub = p.parse_args([*(["--scheduler", args.scheduler] if args.scheduler else []), "--workers", "1",
-                            "--images", str(args.spiking_images)] + (["--no-progress"] if args.no_progress else []))
+        sub = p.parse_args(
+            [
+                *(["--scheduler", args.scheduler] if args.scheduler else []),
+                "--workers",
+                "1",
+                "--images",
+                str(args.spiking_images),
+            ]
+            + (["--no-progress"] if args.no_progress else [])
+        )
         # the settings of experiments.validation.spiking_groundtruth, so that the two share their cache
-        spk = evaluate(sub, {**SETTINGS, "thresholds": (args.spiking_threshold,), "shift4_thresholds": (),
-                             "event_models": ("rate", "spiking"), "fbfg_operators": (), "fig6": False})
+        spk = evaluate(
+            sub,
+            {
+                **SETTINGS,
+                "thresholds": (args.spiking_threshold,),
+                "shift4_thresholds": (),
+                "event_models": ("rate", "spiking"),
+                "fbfg_operators": (),
+                "fig6": False,
+            },
+        )
         spk_rows = rows_of(spk)
         rows += [r for r in spk_rows if r["model"] == "spiking"]
         same_images = [r for r in spk_rows if r["model"] == "rate"]
@@ -207,21 +296,32 @@ def main():
     from snn_fg.evaluation import pool_stats
 
     ceiling = pool_stats([r["ceiling"] for r in results.values()])
-    extra = {"images": sorted(results, key=int), "shift4": shift4, "human_ceiling": ceiling,
-             "authors_outputs": authors_outputs(), "run": run.record()}
+    extra = {
+        "images": sorted(results, key=int),
+        "shift4": shift4,
+        "human_ceiling": ceiling,
+        "authors_outputs": authors_outputs(),
+        "run": run.record(),
+    }
     if args.spiking_images:
         extra["rate_on_the_spiking_images"] = same_images
-    written = (write_table("table1", rows, run=extra["run"])
-               + write_table("table1_per_image", image_rows, run=extra["run"]))
+    written = write_table("table1", rows, run=extra["run"]) + write_table(
+        "table1_per_image", image_rows, run=extra["run"]
+    )
     written.append(save_json("table1_extra", extra))
     written.append(save_figure(figure(rows, shift4, same_images), "table1"))
-    named = ([(r["model"], r) for r in rows] + [("rate, `shift4` events", r) for r in shift4]
-             + [(f"rate, the same {r['n_images']} images", r) for r in same_images])
-    header = (f"# Table 1 against the human labels\n\n{describe(extra['run'])} {len(results)} images (those in "
-              f"the cache read back). Both labellers' figure pixels pooled; "
-              f"intervals: 95 % of {BOOTSTRAP_RESAMPLES} bootstrap resamples of the images. Side accuracy: "
-              "pixels within 90 deg of the labelled direction (chance 50 %); coverage: labelled pixels with a "
-              "vector over all labelled pixels; the other scores count scored pixels only.")
+    named = (
+        [(r["model"], r) for r in rows]
+        + [("rate, `shift4` events", r) for r in shift4]
+        + [(f"rate, the same {r['n_images']} images", r) for r in same_images]
+    )
+    header = (
+        f"# Table 1 against the human labels\n\n{describe(extra['run'])} {len(results)} images (those in "
+        f"the cache read back). Both labellers' figure pixels pooled; "
+        f"intervals: 95 % of {BOOTSTRAP_RESAMPLES} bootstrap resamples of the images. Side accuracy: "
+        "pixels within 90 deg of the labelled direction (chance 50 %); coverage: labelled pixels with a "
+        "vector over all labelled pixels; the other scores count scored pixels only."
+    )
     lines = markdown(named, ceiling, header)
     written.append(save_markdown("table1", lines))
     print("\n".join(lines))

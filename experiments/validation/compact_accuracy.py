@@ -22,6 +22,7 @@ a board holds (``--weight-bits``, 8 by default: "as deployed"):
 
 Writes experiments/results/compact_accuracy.{json,md,png}.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,8 +37,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.common import (CACHE, Run, dataset, describe, markdown_table, save_figure, save_json,  # noqa: E402
-                                save_markdown)
+from experiments.common import (
+    CACHE,
+    Run,
+    dataset,
+    describe,
+    markdown_table,
+    save_figure,
+    save_json,  # noqa: E402
+    save_markdown,
+)
 
 RADII = (16, 24, 32, 48, 64)
 DVS_START_MS, WINDOW_MS = 100.0, 85.0
@@ -65,9 +74,16 @@ def discs(network: str, bits) -> list[dict]:
             pos, neg = image_to_frame(scene.image)
             m = run_spiking(pos, neg, network=network, backend=backend, progress=False)
             t = truth_scores(m.fg_x, m.fg_y, scene)
-            rows.append({"radius": radius, "light_on_dark": light, "within45": t["frac_within_45"],
-                         "mean_abs_deg": t["mean_err_deg"], "coverage": t["coverage"],
-                         "peak_inside": bool(grouping_peak_inside(m.grouping, scene))})
+            rows.append(
+                {
+                    "radius": radius,
+                    "light_on_dark": light,
+                    "within45": t["frac_within_45"],
+                    "mean_abs_deg": t["mean_err_deg"],
+                    "coverage": t["coverage"],
+                    "peak_inside": bool(grouping_peak_inside(m.grouping, scene)),
+                }
+            )
     return rows
 
 
@@ -84,9 +100,16 @@ def dvs(network: str, bits) -> tuple[list[dict], list]:
         region = filled_outline(w.pos | w.neg)
         r, c = grouping_peak(m.grouping)
         o = outline_scores(m.fg_x, m.fg_y, region)
-        rows.append({"t_start_ms": (w.t_start_us - windows[0].t_start_us) / 1000 + DVS_START_MS,
-                     "plane_found": bool(region[r, c]), "inward": o["inward"], "vectors": o["vectors"],
-                     "within45": o["within45"], "mean_abs_deg": o["mean_deg"]})
+        rows.append(
+            {
+                "t_start_ms": (w.t_start_us - windows[0].t_start_us) / 1000 + DVS_START_MS,
+                "plane_found": bool(region[r, c]),
+                "inward": o["inward"],
+                "vectors": o["vectors"],
+                "within45": o["within45"],
+                "mean_abs_deg": o["mean_deg"],
+            }
+        )
     return rows, [(w, m) for w, m in zip(windows, maps)][8:9]
 
 
@@ -114,7 +137,7 @@ def bsds_image(job) -> dict:
     image_id, network, bits, threshold = job
     key = f"{image_id}_{network}-{recipe_digest(network)}_{bits or 'float'}_{threshold:g}"
     cached = CACHE / "compact_accuracy" / f"{key}.json"
-    if cached.exists():     # an interrupted run keeps the images it finished
+    if cached.exists():  # an interrupted run keeps the images it finished
         return json.loads(cached.read_text())
     from snn_fg.atomic import save_text
     from snn_fg.evaluation import error_stats
@@ -126,10 +149,14 @@ def bsds_image(job) -> dict:
     pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion="paper")
     t = time.perf_counter()
     m = run_spiking(pos, neg, network=network, backend=_backend(bits), progress=False)
-    parts = [error_stats(angle_errors(m.fg_x, m.fg_y, *truth), n_truth=int(truth[2].sum()))
-             for truth in (boundary_directions(f) for f in gt.fg)]
+    parts = [
+        error_stats(angle_errors(m.fg_x, m.fg_y, *truth), n_truth=int(truth[2].sum()))
+        for truth in (boundary_directions(f) for f in gt.fg)
+    ]
     seconds = time.perf_counter() - t
-    print(f"  [{network}{f' {bits}-bit' if bits else ''}] BSDS {image_id}: {seconds:.0f} s", file=sys.stderr, flush=True)
+    print(
+        f"  [{network}{f' {bits}-bit' if bits else ''}] BSDS {image_id}: {seconds:.0f} s", file=sys.stderr, flush=True
+    )
     record = {"image_id": image_id, "parts": parts, "seconds": seconds}
     cached.parent.mkdir(parents=True, exist_ok=True)
     save_text(cached, json.dumps(record))
@@ -158,7 +185,7 @@ def main():
     dataset("events")
     run = Run()
     runs = _runs(a.networks.split(","), [n for n in a.quantised.split(",") if n], a.weight_bits)
-    ids = bsds_ids(dataset("bsds-fg"))[::a.every]
+    ids = bsds_ids(dataset("bsds-fg"))[:: a.every]
     record = {"networks": {}, "bsds_images": ids, "bsds_threshold": a.threshold}
     panels = []
     with ProcessPoolExecutor(a.workers) as pool:
@@ -172,10 +199,18 @@ def main():
             panels.append((label, shown))
             parts = [p for im in images for p in im["parts"]]
             record["networks"][label] = {
-                "recipe": network, "weight_bits": bits, "discs": d, "dvs": v,
-                "bsds": {"pooled": pool_stats(parts),
-                         "per_image": [{"image_id": im["image_id"], "seconds": im["seconds"],
-                                        **pool_stats(im["parts"])} for im in images]}}
+                "recipe": network,
+                "weight_bits": bits,
+                "discs": d,
+                "dvs": v,
+                "bsds": {
+                    "pooled": pool_stats(parts),
+                    "per_image": [
+                        {"image_id": im["image_id"], "seconds": im["seconds"], **pool_stats(im["parts"])}
+                        for im in images
+                    ],
+                },
+            }
     record["run"] = run.record()
     save_json(a.name, record)
     save_markdown(a.name, table(record, SCORES))
@@ -185,40 +220,60 @@ def main():
 
 def summary(net: dict) -> dict:
     d, v, b = net["discs"], net["dvs"], net["bsds"]["pooled"]
-    return {"discs_within45_min": min(r["within45"] for r in d), "discs_mean_abs_max": max(r["mean_abs_deg"] for r in d),
-            "discs_peak_inside": sum(r["peak_inside"] for r in d), "discs": len(d),
-            "dvs_plane_found": sum(r["plane_found"] for r in v), "dvs_windows": len(v),
-            "dvs_inward_min": min(r["inward"] for r in v), "dvs_inward_median": float(np.median([r["inward"] for r in v])),
-            "dvs_within45_median": float(np.median([r["within45"] for r in v])),
-            "bsds_side_accuracy": b["side_accuracy"], "bsds_coverage": b["coverage"], "bsds_within45": b["within45"],
-            "bsds_mean_abs_deg": b["mean_abs_deg"]}
+    return {
+        "discs_within45_min": min(r["within45"] for r in d),
+        "discs_mean_abs_max": max(r["mean_abs_deg"] for r in d),
+        "discs_peak_inside": sum(r["peak_inside"] for r in d),
+        "discs": len(d),
+        "dvs_plane_found": sum(r["plane_found"] for r in v),
+        "dvs_windows": len(v),
+        "dvs_inward_min": min(r["inward"] for r in v),
+        "dvs_inward_median": float(np.median([r["inward"] for r in v])),
+        "dvs_within45_median": float(np.median([r["within45"] for r in v])),
+        "bsds_side_accuracy": b["side_accuracy"],
+        "bsds_coverage": b["coverage"],
+        "bsds_within45": b["within45"],
+        "bsds_mean_abs_deg": b["mean_abs_deg"],
+    }
 
 
 def table(record: dict, scores) -> list[str]:
     nets = record["networks"]
     s = {k: summary(v) for k, v in nets.items()}
     cols = list(nets)
-    rows = [("discs r 16-64, both polarities: least share within 45 deg", "discs_within45_min", "{:.3f}"),
-            ("discs: largest mean absolute error (deg)", "discs_mean_abs_max", "{:.1f}"),
-            ("discs: grouping peak inside", "discs_peak_inside", "{:d} of " + str(s[cols[0]]["discs"])),
-            ("dvs.es: windows with the plane found", "dvs_plane_found", "{:d} of " + str(s[cols[0]]["dvs_windows"])),
-            ("dvs.es: least share of outline vectors inward", "dvs_inward_min", "{:.2f}"),
-            ("dvs.es: median share inward", "dvs_inward_median", "{:.2f}"),
-            ("dvs.es: median share within 45 deg of the inward normal", "dvs_within45_median", "{:.2f}"),
-            (f"BSDS ({len(record['bsds_images'])} images): side accuracy", "bsds_side_accuracy", "{:.3f}"),
-            ("BSDS: coverage", "bsds_coverage", "{:.3f}"), ("BSDS: within 45 deg", "bsds_within45", "{:.3f}"),
-            ("BSDS: mean absolute error (deg)", "bsds_mean_abs_deg", "{:.1f}")]
-    lines = [f"# Compact network against the default network ({record['run']['date']})", "",
-             f"{describe(record['run'])} Spiking networks on the fast engine; \"B-bit\": every weight as a B-bit "
-             "integer times one scale per projection.", ""]
-    lines += markdown_table(["measure", *cols], [[text, *(fmt.format(s[c][key]) for c in cols)]
-                                                  for text, key, fmt in rows])
+    rows = [
+        ("discs r 16-64, both polarities: least share within 45 deg", "discs_within45_min", "{:.3f}"),
+        ("discs: largest mean absolute error (deg)", "discs_mean_abs_max", "{:.1f}"),
+        ("discs: grouping peak inside", "discs_peak_inside", "{:d} of " + str(s[cols[0]]["discs"])),
+        ("dvs.es: windows with the plane found", "dvs_plane_found", "{:d} of " + str(s[cols[0]]["dvs_windows"])),
+        ("dvs.es: least share of outline vectors inward", "dvs_inward_min", "{:.2f}"),
+        ("dvs.es: median share inward", "dvs_inward_median", "{:.2f}"),
+        ("dvs.es: median share within 45 deg of the inward normal", "dvs_within45_median", "{:.2f}"),
+        (f"BSDS ({len(record['bsds_images'])} images): side accuracy", "bsds_side_accuracy", "{:.3f}"),
+        ("BSDS: coverage", "bsds_coverage", "{:.3f}"),
+        ("BSDS: within 45 deg", "bsds_within45", "{:.3f}"),
+        ("BSDS: mean absolute error (deg)", "bsds_mean_abs_deg", "{:.1f}"),
+    ]
+    lines = [
+        f"# Compact network against the default network ({record['run']['date']})",
+        "",
+        f'{describe(record["run"])} Spiking networks on the fast engine; "B-bit": every weight as a B-bit '
+        "integer times one scale per projection.",
+        "",
+    ]
+    lines += markdown_table(
+        ["measure", *cols], [[text, *(fmt.format(s[c][key]) for c in cols)] for text, key, fmt in rows]
+    )
     lines += ["", "Per dvs.es window (share of outline vectors inward):", ""]
 
     def window(k, r):
-        return [f"{r['t_start_ms']:.0f}", *(f"{nets[c]['dvs'][k]['inward']:.2f}"
-                                            f"{'' if nets[c]['dvs'][k]['plane_found'] else ' (plane missed)'}"
-                                            for c in cols)]
+        return [
+            f"{r['t_start_ms']:.0f}",
+            *(
+                f"{nets[c]['dvs'][k]['inward']:.2f}{'' if nets[c]['dvs'][k]['plane_found'] else ' (plane missed)'}"
+                for c in cols
+            ),
+        ]
 
     return lines + markdown_table(["window (ms)", *cols], [window(k, r) for k, r in enumerate(nets[cols[0]]["dvs"])])
 
@@ -228,7 +283,7 @@ def figure(panels):
 
     fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
     for ax, (label, shown) in zip(axes, panels):
-        (w, m), = shown
+        ((w, m),) = shown
         plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), (m.fg_x, m.fg_y, m.grouping), f"{label}: dvs.es window 8")
     fig.tight_layout()
     return fig

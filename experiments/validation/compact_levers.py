@@ -23,6 +23,7 @@ Writes experiments/results/compact_levers.{json,md}. Timings are of one process
 on a shared machine: the load is recorded, and the bench (``python -m
 experiments.bench --sections stream``) is the measurement of speed.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -49,14 +50,20 @@ def ladder(alternatives: bool):
         rows.append((f"+ {lever.name}", r))
     if alternatives:
         rows.append(("compact with 4 orientations", Lever("", "", {"n_ori": 4}, {}).apply(r)))
-        rows.append(("compact without the input refractory period",
-                     Lever("", "", {}, {"input_refractory_ms": 0.0}).apply(r)))
-        rows.append(("compact with the input refractory period at 80 ms",
-                     Lever("", "", {}, {"input_refractory_ms": 80.0}).apply(r)))
+        rows.append(
+            ("compact without the input refractory period", Lever("", "", {}, {"input_refractory_ms": 0.0}).apply(r))
+        )
+        rows.append(
+            (
+                "compact with the input refractory period at 80 ms",
+                Lever("", "", {}, {"input_refractory_ms": 80.0}).apply(r),
+            )
+        )
         # the two levers taken last, each undone on its own
         rows.append(("compact at a 0.5 ms time step", Lever("", "", {}, {"dt_ms": 0.5}).apply(r)))
-        rows.append(("compact with kernels pruned at 5 %",
-                     Lever("", "", {}, {"prune_dog": 0.05, "prune_vm": 0.05}).apply(r)))
+        rows.append(
+            ("compact with kernels pruned at 5 %", Lever("", "", {}, {"prune_dog": 0.05, "prune_vm": 0.05}).apply(r))
+        )
         rows.append(("compact with von Mises taps pruned at 40 %", Lever("", "", {}, {"prune_vm": 0.4}).apply(r)))
     return rows
 
@@ -66,9 +73,14 @@ def size(recipe) -> dict:
 
     rep = resource_report(recipe.build(ICUB))
     t, tg = rep["totals"], rep["targets"]
-    return {"neurons": t["neurons"], "synapses": t["synapses"], "loihi2_cores": tg["loihi2"]["cores"],
-            "loihi2_chips": tg["loihi2"]["chips"], "spinnaker1_chips": tg["spinnaker1"]["chips"],
-            "violations": {k: [v["constraint"] for v in x["violations"]] for k, x in tg.items()}}
+    return {
+        "neurons": t["neurons"],
+        "synapses": t["synapses"],
+        "loihi2_cores": tg["loihi2"]["cores"],
+        "loihi2_chips": tg["loihi2"]["chips"],
+        "spinnaker1_chips": tg["spinnaker1"]["chips"],
+        "violations": {k: [v["constraint"] for v in x["violations"]] for k, x in tg.items()},
+    }
 
 
 def dvs(recipe) -> dict:
@@ -79,8 +91,9 @@ def dvs(recipe) -> dict:
     from snn_fg.spiking.continuous import run_spiking_windows
 
     windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=85, start_ms=100))
-    maps = run_spiking_windows(windows, network=recipe.build(windows[0].pos.shape), backend=get_backend("fast"),
-                               progress=False)
+    maps = run_spiking_windows(
+        windows, network=recipe.build(windows[0].pos.shape), backend=get_backend("fast"), progress=False
+    )
     inward, found = [], []
     for w, m in zip(windows, maps):
         region = filled_outline(w.pos | w.neg)
@@ -89,8 +102,13 @@ def dvs(recipe) -> dict:
         found.append(bool(region[r, c]))
     p = maps[-1].params
     per = [m.params["timings_s"]["window"] for m in maps]
-    return {"inward": inward, "plane_found": found, "window_s": per, "median_window_s": statistics.median(per[1:]),
-            "synaptic_events_per_window": p["backend_stats"]["synaptic_events_total"] / len(maps)}
+    return {
+        "inward": inward,
+        "plane_found": found,
+        "window_s": per,
+        "median_window_s": statistics.median(per[1:]),
+        "synaptic_events_per_window": p["backend_stats"]["synaptic_events_total"] / len(maps),
+    }
 
 
 def discs(recipe) -> dict:
@@ -128,27 +146,57 @@ def flipping(recipe) -> dict:
 def _row(row) -> list:
     s, d, c, f = row["size"], row["dvs"], row["discs"], row["flipping"]
     flips = [x for v in f.values() for x in v]
-    blank = sum(x != x for x in flips)          # windows without a vector (nan)
+    blank = sum(x != x for x in flips)  # windows without a vector (nan)
     flip = f"{np.nanmin(flips):.2f}" if blank < len(flips) else "-"
     flip += f", {blank} of {len(flips)} windows without a vector" if blank else ""
-    return [row["label"], f"{s['neurons']:,}", f"{s['synapses']:,}", f"{s['loihi2_cores']} ({s['loihi2_chips']})",
-            s["spinnaker1_chips"], f"{d['synaptic_events_per_window']:.3g}", f"{d['median_window_s']:.3f}",
-            f"{sum(d['plane_found'])} of {len(d['plane_found'])}",
-            f"{min(d['inward']):.2f} / {np.median(d['inward']):.2f}", f"{min(c['within45']):.2f}", flip]
+    return [
+        row["label"],
+        f"{s['neurons']:,}",
+        f"{s['synapses']:,}",
+        f"{s['loihi2_cores']} ({s['loihi2_chips']})",
+        s["spinnaker1_chips"],
+        f"{d['synaptic_events_per_window']:.3g}",
+        f"{d['median_window_s']:.3f}",
+        f"{sum(d['plane_found'])} of {len(d['plane_found'])}",
+        f"{min(d['inward']):.2f} / {np.median(d['inward']):.2f}",
+        f"{min(c['within45']):.2f}",
+        flip,
+    ]
 
 
 def table(record) -> list[str]:
     # (a record written before the run records carried its date, time and load at the top level)
-    run = record.get("run") or {"command": "python -m experiments.validation.compact_levers", "commit": "unknown",
-                                "date": record["date"], "seconds": record["runtime_s"],
-                                "load_before": record["load_before"], "load_after": record["load_after"]}
-    return [f"# The compact network's levers, one after the other ({run['date']})", "",
-            f"{describe(run)} Sizes at 304 x 240; dvs.es from 100 ms, 85 ms windows, one continuous run (fast "
-            "engine); discs r 16-64 both polarities; the flipping disc: r 16 and 32, 6 windows, polarity flipping "
-            "every window. A missing vector scores nan.", ""] + markdown_table(
-        ["network", "neurons", "synapses", "Loihi 2 cores (chips)", "SpiNNaker chips",
-         "synaptic events per dvs.es window", "s per window", "plane found", "inward: least / median",
-         "discs: least within 45 deg", "flipping disc: least within 45 deg"], map(_row, record["rows"]))
+    run = record.get("run") or {
+        "command": "python -m experiments.validation.compact_levers",
+        "commit": "unknown",
+        "date": record["date"],
+        "seconds": record["runtime_s"],
+        "load_before": record["load_before"],
+        "load_after": record["load_after"],
+    }
+    return [
+        f"# The compact network's levers, one after the other ({run['date']})",
+        "",
+        f"{describe(run)} Sizes at 304 x 240; dvs.es from 100 ms, 85 ms windows, one continuous run (fast "
+        "engine); discs r 16-64 both polarities; the flipping disc: r 16 and 32, 6 windows, polarity flipping "
+        "every window. A missing vector scores nan.",
+        "",
+    ] + markdown_table(
+        [
+            "network",
+            "neurons",
+            "synapses",
+            "Loihi 2 cores (chips)",
+            "SpiNNaker chips",
+            "synaptic events per dvs.es window",
+            "s per window",
+            "plane found",
+            "inward: least / median",
+            "discs: least within 45 deg",
+            "flipping disc: least within 45 deg",
+        ],
+        map(_row, record["rows"]),
+    )
 
 
 def main():
@@ -165,8 +213,17 @@ def main():
     rows = []
     for label, recipe in ladder(a.alternatives):
         print(f"[{label}]", file=sys.stderr, flush=True)
-        rows.append({"label": label, "params": recipe.params.to_dict(), "spiking": recipe.spiking.to_dict(),
-                     "size": size(recipe), "dvs": dvs(recipe), "discs": discs(recipe), "flipping": flipping(recipe)})
+        rows.append(
+            {
+                "label": label,
+                "params": recipe.params.to_dict(),
+                "spiking": recipe.spiking.to_dict(),
+                "size": size(recipe),
+                "dvs": dvs(recipe),
+                "discs": discs(recipe),
+                "flipping": flipping(recipe),
+            }
+        )
     record = {"rows": rows, "run": run.record()}
     save_json(a.name, record)
     save_markdown(a.name, table(record))

@@ -29,6 +29,7 @@ Writes ``experiments/results/dvs_history.{json,md,png}``.
     python -m experiments.validation.dvs_history [--window 8] [--before 0,1,3,8] [--backend fast] [--carry 1,0.1]
                                                  [--each-alone] [--window-clock off]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,8 +40,15 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.common import (Run, dataset, describe, fail, markdown_table, save_figure,  # noqa: E402
-                                save_results)
+from experiments.common import (
+    Run,
+    dataset,
+    describe,
+    fail,
+    markdown_table,
+    save_figure,  # noqa: E402
+    save_results,
+)
 from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
@@ -57,10 +65,16 @@ def _row(label, maps, region, previous, light_share) -> dict:
     r, c = grouping_peak(maps.grouping)
     frac, n = inward_score(maps.fg_x, maps.fg_y, region)
     peak = np.array([r, c], float)
-    return {"run": label, "peak": [r, c], "peak_on_plane": bool(region[r, c]), "outline_vectors": n,
-            "inward_fraction": frac, "peak_to_plane_px": float(np.hypot(*(peak - _centroid(region)))),
-            "peak_to_previous_plane_px": None if previous is None else float(np.hypot(*(peak - _centroid(previous)))),
-            "light_share": light_share}
+    return {
+        "run": label,
+        "peak": [r, c],
+        "peak_on_plane": bool(region[r, c]),
+        "outline_vectors": n,
+        "inward_fraction": frac,
+        "peak_to_plane_px": float(np.hypot(*(peak - _centroid(region)))),
+        "peak_to_previous_plane_px": None if previous is None else float(np.hypot(*(peak - _centroid(previous)))),
+        "light_share": light_share,
+    }
 
 
 def _rate_light_share(state) -> float:
@@ -73,8 +87,7 @@ def _rate_light_share(state) -> float:
 def spiking_light_share(maps) -> float:
     """Spikes of the light family's grouping cells over both families', all
     levels, in the window's read-out span (the counts stored with its maps)."""
-    counts = {f: sum(int(c.sum()) for k, c in maps.extra.items() if k.startswith(f"spikes_group_{f}_"))
-              for f in "LD"}
+    counts = {f: sum(int(c.sum()) for k, c in maps.extra.items() if k.startswith(f"spikes_group_{f}_")) for f in "LD"}
     total = counts["L"] + counts["D"]
     return counts["L"] / total if total else float("nan")
 
@@ -89,12 +102,17 @@ def _rate_over_recording(windows, carries) -> list[dict]:
         for c in carries:
             previous[c] = run_edfg_state(w.pos, w.neg, previous=previous[c], carry=c)
             runs[f"carry {c:g}"] = previous[c]
-        row = {"window": k, "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000],
-               "inward_fraction": {name: inward_score(st.fg_x, st.fg_y, region)[0] for name, st in runs.items()},
-               "light_share": {name: _rate_light_share(st) for name, st in runs.items()}}
+        row = {
+            "window": k,
+            "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000],
+            "inward_fraction": {name: inward_score(st.fg_x, st.fg_y, region)[0] for name, st in runs.items()},
+            "light_share": {name: _rate_light_share(st) for name, st in runs.items()},
+        }
         rows.append(row)
-        print(f"rate, window {k}: inward " + ", ".join(f"{v:.2f} {n}" for n, v in row["inward_fraction"].items()),
-              flush=True)
+        print(
+            f"rate, window {k}: inward " + ", ".join(f"{v:.2f} {n}" for n, v in row["inward_fraction"].items()),
+            flush=True,
+        )
     return rows
 
 
@@ -104,8 +122,9 @@ def _spiking_each_alone(windows, backend, run_windows) -> list[dict]:
     rows = []
     for k, w in enumerate(windows):
         m = run_windows([w], backend=backend, progress=False)[-1]
-        rows.append({"window": k, **_row(f"window {k} alone", m, filled_outline(w.pos | w.neg), None,
-                                         spiking_light_share(m))})
+        rows.append(
+            {"window": k, **_row(f"window {k} alone", m, filled_outline(w.pos | w.neg), None, spiking_light_share(m))}
+        )
         print(f"spiking, window {k} alone: inward {rows[-1]['inward_fraction']:.2f}", flush=True)
     return rows
 
@@ -114,16 +133,29 @@ def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--window", type=int, default=8, help="the window studied, counted from --start-ms (8)")
     ap.add_argument("--start-ms", type=float, default=100.0)
-    ap.add_argument("--before", default="0,1,3,8",
-                    help="how many windows each continuous run simulates before the studied one (0,1,3,8)")
+    ap.add_argument(
+        "--before",
+        default="0,1,3,8",
+        help="how many windows each continuous run simulates before the studied one (0,1,3,8)",
+    )
     ap.add_argument("--backend", default=DEFAULT_BACKEND, choices=backend_names())
-    ap.add_argument("--each-alone", action="store_true",
-                    help="also simulate every window of the recording on its own, from rest (about 7 s each)")
-    ap.add_argument("--carry", default="1,0.1",
-                    help="rate model over the recording: fractions of the previous window's grouping maps each "
-                         "window starts from (1,0.1; afresh is always run)")
-    ap.add_argument("--window-clock", choices=("on", "off"), default="off",
-                    help="fire the network's window clock as each window starts (off: the network's own memory)")
+    ap.add_argument(
+        "--each-alone",
+        action="store_true",
+        help="also simulate every window of the recording on its own, from rest (about 7 s each)",
+    )
+    ap.add_argument(
+        "--carry",
+        default="1,0.1",
+        help="rate model over the recording: fractions of the previous window's grouping maps each "
+        "window starts from (1,0.1; afresh is always run)",
+    )
+    ap.add_argument(
+        "--window-clock",
+        choices=("on", "off"),
+        default="off",
+        help="fire the network's window clock as each window starts (off: the network's own memory)",
+    )
     return ap
 
 
@@ -131,8 +163,12 @@ def _figure(w, panels, rows, region, previous):
     """One row per map studied, the window's outline (white) and the previous window's (cyan) on the grouping."""
     fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
     for ax, (label, m), row in zip(axes, panels, rows):
-        plot_maps_row(ax, event_frame_rgb(w.pos, w.neg), (m.fg_x, m.fg_y, m.grouping),
-                      f"{w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms; {label}")
+        plot_maps_row(
+            ax,
+            event_frame_rgb(w.pos, w.neg),
+            (m.fg_x, m.fg_y, m.grouping),
+            f"{w.t_start_us / 1000:.0f}-{w.t_end_us / 1000:.0f} ms; {label}",
+        )
         ax[2].contour(region, levels=[0.5], colors="white", linewidths=0.8)
         if previous is not None:
             ax[2].contour(previous, levels=[0.5], colors="cyan", linewidths=0.6, linestyles="dashed")
@@ -166,53 +202,118 @@ def main():
     panels.append(("rate model", rate))
     for b in befores:
         first = a.window - b
-        maps = run_windows(windows[first:a.window + 1], backend=a.backend, progress=False)[-1]
+        maps = run_windows(windows[first : a.window + 1], backend=a.backend, progress=False)[-1]
         label = f"spiking, from window {first} ({b} before)"
-        rows.append({**_row(label, maps, region, previous, spiking_light_share(maps)), "first_window": first,
-                     "simulated_ms": maps.params["simulation"]["simulated_ms"]})
+        rows.append(
+            {
+                **_row(label, maps, region, previous, spiking_light_share(maps)),
+                "first_window": first,
+                "simulated_ms": maps.params["simulation"]["simulated_ms"],
+            }
+        )
         panels.append((label, maps))
-        print(f"{label}: inward {rows[-1]['inward_fraction']:.2f} of {rows[-1]['outline_vectors']}, light share "
-              f"{rows[-1]['light_share']:.2f}", flush=True)
+        print(
+            f"{label}: inward {rows[-1]['inward_fraction']:.2f} of {rows[-1]['outline_vectors']}, light share "
+            f"{rows[-1]['light_share']:.2f}",
+            flush=True,
+        )
     recording = _rate_over_recording(windows, [float(c) for c in a.carry.split(",")])
     alone = _spiking_each_alone(windows, a.backend, run_windows) if a.each_alone else None
     _figure(w, panels, rows, region, previous)
-    summary = {"recording": rec.name, "window": a.window, "start_ms": a.start_ms, "window_ms": 85,
-               "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000], "backend": a.backend, "rows": rows,
-               "rate_over_recording": recording, "spiking_each_window_alone": alone, "run": run.record()}
+    summary = {
+        "recording": rec.name,
+        "window": a.window,
+        "start_ms": a.start_ms,
+        "window_ms": 85,
+        "t_ms": [w.t_start_us / 1000, w.t_end_us / 1000],
+        "backend": a.backend,
+        "rows": rows,
+        "rate_over_recording": recording,
+        "spiking_each_window_alone": alone,
+        "run": run.record(),
+    }
     save_results("dvs_history", summary, _markdown(summary))
 
 
 def _markdown(s) -> list[str]:
     rows, recording, alone = s["rows"], s["rate_over_recording"], s["spiking_each_window_alone"]
-    lines = [f"# dvs.es window {s['window']} ({s['t_ms'][0]:.0f}-{s['t_ms'][1]:.0f} ms): "
-             "what the continuous network carries in", "",
-             f"{describe(s['run'])} Figure: `dvs_history.png` (white: this window's plane outline; dashed cyan: the "
-             "previous window's).", ""]
-    lines += markdown_table(["run", "inward fraction (vectors)", "light share of grouping", "peak on plane",
-                             "peak to this plane's centroid (px)", "peak to the previous plane's centroid (px)"],
-                            [[r["run"], f"{r['inward_fraction']:.2f} ({r['outline_vectors']})",
-                              f"{r['light_share']:.2f}", "yes" if r["peak_on_plane"] else "no",
-                              f"{r['peak_to_plane_px']:.0f}", "" if r["peak_to_previous_plane_px"] is None
-                              else f"{r['peak_to_previous_plane_px']:.0f}"] for r in rows])
+    lines = [
+        f"# dvs.es window {s['window']} ({s['t_ms'][0]:.0f}-{s['t_ms'][1]:.0f} ms): "
+        "what the continuous network carries in",
+        "",
+        f"{describe(s['run'])} Figure: `dvs_history.png` (white: this window's plane outline; dashed cyan: the "
+        "previous window's).",
+        "",
+    ]
+    lines += markdown_table(
+        [
+            "run",
+            "inward fraction (vectors)",
+            "light share of grouping",
+            "peak on plane",
+            "peak to this plane's centroid (px)",
+            "peak to the previous plane's centroid (px)",
+        ],
+        [
+            [
+                r["run"],
+                f"{r['inward_fraction']:.2f} ({r['outline_vectors']})",
+                f"{r['light_share']:.2f}",
+                "yes" if r["peak_on_plane"] else "no",
+                f"{r['peak_to_plane_px']:.0f}",
+                "" if r["peak_to_previous_plane_px"] is None else f"{r['peak_to_previous_plane_px']:.0f}",
+            ]
+            for r in rows
+        ],
+    )
     names = list(recording[0]["inward_fraction"])
-    lines += ["", "The rate model over every window: afresh (each window from no feedback, the paper's model) and "
-              "continued (each window from the previous window's grouping state, `run_edfg_state(..., "
-              "previous=..., carry=c)`, with the fraction c of its grouping maps). Inward fraction / light share "
-              "of the grouping.", ""]
-    lines += markdown_table(["window", "ms", *names],
-                            [[r["window"], f"{r['t_ms'][0]:.0f}-{r['t_ms'][1]:.0f}",
-                              *(f"{r['inward_fraction'][n]:.2f} / {r['light_share'][n]:.2f}" for n in names)]
-                             for r in recording]
-                            + [["lowest inward", "", *(f"{min(r['inward_fraction'][n] for r in recording):.2f}"
-                                                       for n in names)]])
+    lines += [
+        "",
+        "The rate model over every window: afresh (each window from no feedback, the paper's model) and "
+        "continued (each window from the previous window's grouping state, `run_edfg_state(..., "
+        "previous=..., carry=c)`, with the fraction c of its grouping maps). Inward fraction / light share "
+        "of the grouping.",
+        "",
+    ]
+    lines += markdown_table(
+        ["window", "ms", *names],
+        [
+            [
+                r["window"],
+                f"{r['t_ms'][0]:.0f}-{r['t_ms'][1]:.0f}",
+                *(f"{r['inward_fraction'][n]:.2f} / {r['light_share'][n]:.2f}" for n in names),
+            ]
+            for r in recording
+        ]
+        + [["lowest inward", "", *(f"{min(r['inward_fraction'][n] for r in recording):.2f}" for n in names)]],
+    )
     if alone:
-        lines += ["", "The spiking network with every window simulated on its own, from rest (what a network "
-                  "reset between windows would give; `--each-alone`):", ""]
-        lines += markdown_table(["window", "inward", "light share", "peak on plane"],
-                                [[r["window"], f"{r['inward_fraction']:.2f}", f"{r['light_share']:.2f}",
-                                  "yes" if r["peak_on_plane"] else "no"] for r in alone]
-                                + [["lowest inward", f"{min(r['inward_fraction'] for r in alone):.2f}", "",
-                                    f"{sum(r['peak_on_plane'] for r in alone)} of {len(alone)}"]])
+        lines += [
+            "",
+            "The spiking network with every window simulated on its own, from rest (what a network "
+            "reset between windows would give; `--each-alone`):",
+            "",
+        ]
+        lines += markdown_table(
+            ["window", "inward", "light share", "peak on plane"],
+            [
+                [
+                    r["window"],
+                    f"{r['inward_fraction']:.2f}",
+                    f"{r['light_share']:.2f}",
+                    "yes" if r["peak_on_plane"] else "no",
+                ]
+                for r in alone
+            ]
+            + [
+                [
+                    "lowest inward",
+                    f"{min(r['inward_fraction'] for r in alone):.2f}",
+                    "",
+                    f"{sum(r['peak_on_plane'] for r in alone)} of {len(alone)}",
+                ]
+            ],
+        )
     return lines
 
 

@@ -13,6 +13,7 @@ maps decoded from spike counts accumulated in steps of ``step_ms``:
   the plane (inside the filled outline of the events of the window holding
   that time).
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -23,6 +23,7 @@ The spiking maps are kept in experiments/results/cache/dvs_rate_vs_spiking/
 and read back on a second run (the frame runs take about 6 s per window on
 an idle core, an hour at load 15). Writes experiments/results/dvs_rate_vs_spiking.{json,md}.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,8 +43,9 @@ def _cached(path: Path, make):
         return [(z[f"x{k}"], z[f"y{k}"]) for k in range(len(z.files) // 2)]
     maps = make()
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path, **{f"x{k}": m.fg_x for k, m in enumerate(maps)},
-                        **{f"y{k}": m.fg_y for k, m in enumerate(maps)})
+    np.savez_compressed(
+        path, **{f"x{k}": m.fg_x for k, m in enumerate(maps)}, **{f"y{k}": m.fg_y for k, m in enumerate(maps)}
+    )
     return [(m.fg_x, m.fg_y) for m in maps]
 
 
@@ -57,8 +59,13 @@ def _score(fields, regions, masks=None) -> dict:
         o = outline_scores(fx, fy, region)
         inward.append(o["inward"])
         vectors += o["vectors"]
-    return {"inward_min": float(np.nanmin(inward)), "inward_max": float(np.nanmax(inward)),
-            "inward_median": float(np.nanmedian(inward)), "vectors": int(vectors), "per_window": inward}
+    return {
+        "inward_min": float(np.nanmin(inward)),
+        "inward_max": float(np.nanmax(inward)),
+        "inward_median": float(np.nanmedian(inward)),
+        "vectors": int(vectors),
+        "per_window": inward,
+    }
 
 
 def _busy(window) -> np.ndarray:
@@ -84,38 +91,57 @@ def main():
     windows = list(iter_windows(rec, window_ms=85, start_ms=a.start_ms))
     regions = [filled_outline(w.pos | w.neg) for w in windows]
     cache = CACHE / "dvs_rate_vs_spiking"
-    rate = {it: [(m.fg_x, m.fg_y) for m in (run_edfg(w.pos, w.neg, ModelParams(iterations=it)) for w in windows)]
-            for it in ITERATIONS}
-    timed = _cached(cache / f"timed_{a.start_ms:g}.npz",
-                    lambda: run_spiking_windows(windows, backend="fast", progress=False))
+    rate = {
+        it: [(m.fg_x, m.fg_y) for m in (run_edfg(w.pos, w.neg, ModelParams(iterations=it)) for w in windows)]
+        for it in ITERATIONS
+    }
+    timed = _cached(
+        cache / f"timed_{a.start_ms:g}.npz", lambda: run_spiking_windows(windows, backend="fast", progress=False)
+    )
     backend = as_backend("fast")
-    frame = _cached(cache / f"frame_{a.start_ms:g}.npz",
-                    lambda: [run_spiking(w.pos, w.neg, backend=backend, progress=False, seed=0) for w in windows])
+    frame = _cached(
+        cache / f"frame_{a.start_ms:g}.npz",
+        lambda: [run_spiking(w.pos, w.neg, backend=backend, progress=False, seed=0) for w in windows],
+    )
     blank = [np.hypot(*f) > 0 for f in timed]
     busy = [_busy(w) for w in windows]
     rows = {f"rate, {it} iterations": _score(rate[it], regions) for it in ITERATIONS}
     rows["spiking, each window's event frame"] = _score(frame, regions)
     rows["spiking, the recording (timed events, window clock)"] = _score(timed, regions)
-    for name, fields in (("rate, 10 iterations", rate[10]), ("rate, 3 iterations", rate[3]),
-                         ("spiking, each window's event frame", frame)):
+    for name, fields in (
+        ("rate, 10 iterations", rate[10]),
+        ("rate, 3 iterations", rate[3]),
+        ("spiking, each window's event frame", frame),
+    ):
         rows[f"{name}, on the recording run's vector pixels"] = _score(fields, regions, blank)
-    for name, fields in (("rate, 10 iterations", rate[10]), ("spiking, each window's event frame", frame),
-                         ("spiking, the recording (timed events, window clock)", timed)):
+    for name, fields in (
+        ("rate, 10 iterations", rate[10]),
+        ("spiking, each window's event frame", frame),
+        ("spiking, the recording (timed events, window clock)", timed),
+    ):
         rows[f"{name}, on busy pixels"] = _score(fields, regions, busy)
-    record = {"recording": rec.name, "start_ms": a.start_ms, "windows": len(windows), "rows": rows,
-              "run": run.record()}
+    record = {"recording": rec.name, "start_ms": a.start_ms, "windows": len(windows), "rows": rows, "run": run.record()}
     save_json("dvs_rate_vs_spiking", record)
-    lines = [f"# Why the spiking network beats the rate model on {rec.name}", "",
-             f"{describe(record['run'])} {len(windows)} windows of 85 ms (spiking maps from the cache when there). "
-             "Inward: the share of outline vectors pointing into the plane, per window.", "", *_table(rows)]
+    lines = [
+        f"# Why the spiking network beats the rate model on {rec.name}",
+        "",
+        f"{describe(record['run'])} {len(windows)} windows of 85 ms (spiking maps from the cache when there). "
+        "Inward: the share of outline vectors pointing into the plane, per window.",
+        "",
+        *_table(rows),
+    ]
     save_markdown("dvs_rate_vs_spiking", lines)
     print("\n".join(lines))
 
 
 def _table(rows) -> list[str]:
-    return markdown_table(["map", "inward, median over windows", "range", "outline vectors"],
-                          [[name, f"{r['inward_median']:.2f}", f"{r['inward_min']:.2f}-{r['inward_max']:.2f}",
-                            f"{r['vectors']:,}"] for name, r in rows.items()])
+    return markdown_table(
+        ["map", "inward, median over windows", "range", "outline vectors"],
+        [
+            [name, f"{r['inward_median']:.2f}", f"{r['inward_min']:.2f}-{r['inward_max']:.2f}", f"{r['vectors']:,}"]
+            for name, r in rows.items()
+        ],
+    )
 
 
 if __name__ == "__main__":

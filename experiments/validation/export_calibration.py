@@ -15,6 +15,7 @@ calibrates the same way).
 Writes experiments/results/export_calibration.{json,md}.
 Usage: python -m experiments.validation.export_calibration
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -54,16 +55,34 @@ def _cli(*args) -> str:
 def _run_py(folder: Path) -> dict:
     """The export's run.py on NEST, as a user runs it from its folder; its wall time and load."""
     load0, t0 = load(), time.perf_counter()
-    done = subprocess.run([sys.executable, "run.py", "--input", "input.npz", "--out", "counts.npz", "--simulator",
-                           "nest", "--duration-ms", f"{DURATION_MS:g}", "--count-from-ms", f"{COUNT_FROM_MS:g}"],
-                          cwd=folder, capture_output=True, text=True, check=True)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "run.py",
+            "--input",
+            "input.npz",
+            "--out",
+            "counts.npz",
+            "--simulator",
+            "nest",
+            "--duration-ms",
+            f"{DURATION_MS:g}",
+            "--count-from-ms",
+            f"{COUNT_FROM_MS:g}",
+        ],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     last = [line for line in done.stdout.splitlines() if line.startswith("run.py: built")][0]
     return {"wall_s": round(time.perf_counter() - t0, 1), "load": load_change(load0), "run_py": last}
 
 
 def _ours(backend: str, net, inp):
-    result = get_backend(backend).simulate(net, inp, RunSettings(duration_ms=DURATION_MS, count_from_ms=COUNT_FROM_MS,
-                                                                 instantiate="all"))
+    result = get_backend(backend).simulate(
+        net, inp, RunSettings(duration_ms=DURATION_MS, count_from_ms=COUNT_FROM_MS, instantiate="all")
+    )
     fx, fy, g, _ = decode(result)
     return fx, fy, g
 
@@ -71,9 +90,13 @@ def _ours(backend: str, net, inp):
 def main():
     run = Run()
     rec = dataset("events", "dvs.es").resolve()
-    out = {"export": " ".join(EXPORT), "window": " ".join(WINDOW), "duration_ms": DURATION_MS,
-           "count_from_ms": COUNT_FROM_MS}
-    with tempfile.TemporaryDirectory() as tmp, contextlib.chdir(tmp):    # (folder names as a user types them)
+    out = {
+        "export": " ".join(EXPORT),
+        "window": " ".join(WINDOW),
+        "duration_ms": DURATION_MS,
+        "count_from_ms": COUNT_FROM_MS,
+    }
+    with tempfile.TemporaryDirectory() as tmp, contextlib.chdir(tmp):  # (folder names as a user types them)
         tmp = Path(".")
         plain, calibrated = Path("plain"), Path("calibrated")
         _cli("export", *EXPORT, "--out", plain)
@@ -98,17 +121,44 @@ def main():
             load0, t0 = load(), time.perf_counter()
             refs[backend] = _ours(backend, net, inp)
             out[f"ours_{backend}"] = {"wall_s": round(time.perf_counter() - t0, 1), "load": load_change(load0)}
-    out["rows"] = [{"export": name, "against": f"ours, {backend}, calibrated to {inp.rate_hz:.3g} Hz",
-                    **agreement(m, refs[backend])} for name, m in maps.items() for backend in refs]
+    out["rows"] = [
+        {
+            "export": name,
+            "against": f"ours, {backend}, calibrated to {inp.rate_hz:.3g} Hz",
+            **agreement(m, refs[backend]),
+        }
+        for name, m in maps.items()
+        for backend in refs
+    ]
     out["run"] = run.record()
-    lines = ["# An export calibrated to its input's rate", "", describe(out["run"]), "",
-             f"`snn-fg export {out['export']}`; `snn-fg events dvs.es {out['window']} --write-spikes` said:", ""]
+    lines = [
+        "# An export calibrated to its input's rate",
+        "",
+        describe(out["run"]),
+        "",
+        f"`snn-fg export {out['export']}`; `snn-fg events dvs.es {out['window']} --write-spikes` said:",
+        "",
+    ]
     lines += [f"    {line}" for line in out["write_spikes"]] + [""]
-    lines += markdown_table(["export run on NEST", "against", "grouping r", "within 45°", "mean angle", "coverage"],
-                            [[r["export"], r["against"], f"{r['grouping_r']:.3f}", f"{100 * r['within_45']:.0f} %",
-                              f"{r['mean_deg']:.1f}°", f"{100 * r['coverage']:.0f} %"] for r in out["rows"]])
-    lines += ["", "run.py on NEST: " + "; ".join(f"{k[4:]}: {v['run_py']} ({v['load']})"
-                                               for k, v in out.items() if k.startswith("run_"))]
+    lines += markdown_table(
+        ["export run on NEST", "against", "grouping r", "within 45°", "mean angle", "coverage"],
+        [
+            [
+                r["export"],
+                r["against"],
+                f"{r['grouping_r']:.3f}",
+                f"{100 * r['within_45']:.0f} %",
+                f"{r['mean_deg']:.1f}°",
+                f"{100 * r['coverage']:.0f} %",
+            ]
+            for r in out["rows"]
+        ],
+    )
+    lines += [
+        "",
+        "run.py on NEST: "
+        + "; ".join(f"{k[4:]}: {v['run_py']} ({v['load']})" for k, v in out.items() if k.startswith("run_")),
+    ]
     save_results("export_calibration", out, lines)
 
 

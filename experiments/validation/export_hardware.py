@@ -19,6 +19,7 @@ weight quantisation at 8 and 16 bits.
 Writes experiments/results/export_hardware.json and .md.
 Usage: python -m experiments.validation.export_hardware [reports] [fit] [fidelity] [quant] [--bsds]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -30,12 +31,12 @@ import numpy as np
 from experiments.common import RESULTS, Run, dataset, describe, markdown_table, save_json, save_markdown
 from snn_fg.backends import RunSettings
 from snn_fg.backends.brian2 import Brian2Backend
-from snn_fg.lowering.quantise import quantise_unrolled
 from snn_fg.export.report import report_table, resource_report
-from snn_fg.pyramid.levels import max_levels
+from snn_fg.lowering.quantise import quantise_unrolled
 from snn_fg.metrics import compare_frame
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.params import ModelParams
+from snn_fg.pyramid.levels import max_levels
 from snn_fg.spiking.decode import decode
 
 #: the quantisation table's row of the float network on input trains of seed 1
@@ -70,9 +71,17 @@ def _fits(rep):
 def _config(w, h, n_ori, levels):
     rep = resource_report(build_network(ModelParams(levels=levels, n_ori=n_ori), (h, w), SpikingParams()))
     t = rep["totals"]
-    row = {"sensor": [w, h], "levels": levels, "n_ori": n_ori, "neurons": t["neurons"], "synapses": t["synapses"],
-           "spinnaker_chips": rep["targets"]["spinnaker1"]["chips"], "loihi2_chips": rep["targets"]["loihi2"]["chips"],
-           "loihi2_cores": rep["targets"]["loihi2"]["cores"], **_fits(rep)}
+    row = {
+        "sensor": [w, h],
+        "levels": levels,
+        "n_ori": n_ori,
+        "neurons": t["neurons"],
+        "synapses": t["synapses"],
+        "spinnaker_chips": rep["targets"]["spinnaker1"]["chips"],
+        "loihi2_chips": rep["targets"]["loihi2"]["chips"],
+        "loihi2_cores": rep["targets"]["loihi2"]["cores"],
+        **_fits(rep),
+    }
     print(json.dumps(row), flush=True)
     return row
 
@@ -125,15 +134,15 @@ def _crop_fidelity(cfg):
     crop["x"] -= c0
     crop["y"] -= r0
     full = run_spiking(events=ev, sensor_size=(W, H, 2), progress=False)
-    small = run_spiking(events=crop, sensor_size=(w, h, 2), progress=False,
-                        params=ModelParams(levels=cfg["levels"], n_ori=cfg["n_ori"]))
+    small = run_spiking(
+        events=crop, sensor_size=(w, h, 2), progress=False, params=ModelParams(levels=cfg["levels"], n_ori=cfg["n_ori"])
+    )
     same_crop = run_spiking(events=crop, sensor_size=(w, h, 2), progress=False)
     sl = (slice(r0, r0 + h), slice(c0, c0 + w))
     keys = ("grouping_pearson_r", "angle_within_45_frac", "angle_diff_mean_deg", "pixels_compared")
     c = compare_frame(small.fg_x, small.fg_y, small.grouping, full.fg_x[sl], full.fg_y[sl], full.grouping[sl])
     d = compare_frame(small.fg_x, small.fg_y, small.grouping, same_crop.fg_x, same_crop.fg_y, same_crop.grouping)
-    return {"crop_origin": [c0, r0], **{k: c[k] for k in keys},
-            "against_default_on_crop": {k: d[k] for k in keys}}
+    return {"crop_origin": [c0, r0], **{k: c[k] for k in keys}, "against_default_on_crop": {k: d[k] for k in keys}}
 
 
 def fidelity(out):
@@ -176,8 +185,21 @@ def quant(out, bsds: bool):
         maps[SEED_1] = decode(Brian2Backend().simulate(net, other, s))[:3]
         for bits in (16, 8, SEED_1):
             c = compare_frame(*maps[bits], *maps[None])
-            rows.append({"input": name, "bits": bits, **{k: c[k] for k in (
-                "grouping_pearson_r", "angle_within_45_frac", "angle_diff_mean_deg", "pixels_compared")}})
+            rows.append(
+                {
+                    "input": name,
+                    "bits": bits,
+                    **{
+                        k: c[k]
+                        for k in (
+                            "grouping_pearson_r",
+                            "angle_within_45_frac",
+                            "angle_diff_mean_deg",
+                            "pixels_compared",
+                        )
+                    },
+                }
+            )
             print(json.dumps(rows[-1]), flush=True)
     out["quantisation"] = rows
     out["quantisation_bsds"] = bool(bsds)
@@ -204,43 +226,102 @@ def _fit_rows(fit) -> list:
     for t, c in fit["largest"].items():
         f = fit["fidelity"].get(t, {})
         for label, x in (("(a) whole window", f), ("(b) same crop", f.get("against_default_on_crop", {}))):
-            rows.append([t, f"{c['sensor'][0]}x{c['sensor'][1]}", c["levels"], c["n_ori"], f"{c['neurons']:,}",
-                         f"{c['synapses']:,}", label, f"{x.get('grouping_pearson_r', nan):.3f}",
-                         f"{x.get('angle_within_45_frac', nan):.3f}", f"{x.get('angle_diff_mean_deg', nan):.1f}",
-                         f"{x.get('pixels_compared', 0):,}"])
+            rows.append(
+                [
+                    t,
+                    f"{c['sensor'][0]}x{c['sensor'][1]}",
+                    c["levels"],
+                    c["n_ori"],
+                    f"{c['neurons']:,}",
+                    f"{c['synapses']:,}",
+                    label,
+                    f"{x.get('grouping_pearson_r', nan):.3f}",
+                    f"{x.get('angle_within_45_frac', nan):.3f}",
+                    f"{x.get('angle_diff_mean_deg', nan):.1f}",
+                    f"{x.get('pixels_compared', 0):,}",
+                ]
+            )
     return rows
 
 
 def _markdown(merged) -> list[str]:
-    lines = ["# Export: hardware resources, fitting configurations, quantisation", "",
-             f"The latest part run: {describe(merged['run'])} (2 shared cores.)", ""]
+    lines = [
+        "# Export: hardware resources, fitting configurations, quantisation",
+        "",
+        f"The latest part run: {describe(merged['run'])} (2 shared cores.)",
+        "",
+    ]
     for key in ("report_304x240", "report_481x321"):
         if key in merged:
             t = merged[key]["totals"]
-            lines += [f"## {key}", "", f"neurons {t['neurons']:,}, synapses {t['synapses']:,}, max fan-in "
-                      f"{t['max_fan_in']:,}, max fan-out {t['max_fan_out']:,}, delays (steps) {t['delay_steps']}", ""]
-            lines += markdown_table(["target", "cores", "chips", "violations"],
-                                    [_target_row(name, x) for name, x in merged[key]["targets"].items()])
+            lines += [
+                f"## {key}",
+                "",
+                f"neurons {t['neurons']:,}, synapses {t['synapses']:,}, max fan-in "
+                f"{t['max_fan_in']:,}, max fan-out {t['max_fan_out']:,}, delays (steps) {t['delay_steps']}",
+                "",
+            ]
+            lines += markdown_table(
+                ["target", "cores", "chips", "violations"],
+                [_target_row(name, x) for name, x in merged[key]["targets"].items()],
+            )
             lines.append("")
     if "fit" in merged:
-        lines += ["## Largest configuration that fits", "", "Its maps on the crop of the dvs.es window against "
-                  "(a) the default network's maps of the whole window inside the crop, (b) the default network run "
-                  "on the same crop (only the fewer levels and orientations differ).", ""]
-        lines += markdown_table(["target", "sensor", "levels", "n_ori", "neurons", "synapses", "against",
-                                 "grouping r", "within 45°", "mean angle °", "pixels"], _fit_rows(merged["fit"]))
+        lines += [
+            "## Largest configuration that fits",
+            "",
+            "Its maps on the crop of the dvs.es window against "
+            "(a) the default network's maps of the whole window inside the crop, (b) the default network run "
+            "on the same crop (only the fewer levels and orientations differ).",
+            "",
+        ]
+        lines += markdown_table(
+            [
+                "target",
+                "sensor",
+                "levels",
+                "n_ori",
+                "neurons",
+                "synapses",
+                "against",
+                "grouping r",
+                "within 45°",
+                "mean angle °",
+                "pixels",
+            ],
+            _fit_rows(merged["fit"]),
+        )
         lines.append("")
     if "quantisation" in merged:
-        scope = ("synthetic scenes and the six BSDS frames" if merged.get("quantisation_bsds")
-                 else "synthetic scenes only; the BSDS frames need `quant --bsds`")
-        lines += ["## Weight quantisation (Brian2, against float)", "", f"Inputs: {scope}.",
-                  f"Each input's row `{SEED_1}` is no quantisation at all: the float network on input trains of "
-                  "another random phase (seed 1 against 0). It is the network's own seed-to-seed spread, the scale "
-                  "on which the quantised rows are to be read." if any(r["bits"] == SEED_1 for r in merged[
-                      "quantisation"]) else "Rows without the seed-to-seed spread: re-run `quant` to add it.", ""]
-        lines += markdown_table(["input", "bits", "grouping r", "within 45°", "mean angle °"],
-                                [[r["input"], r["bits"], f"{r['grouping_pearson_r']:.3f}",
-                                  f"{r['angle_within_45_frac']:.3f}", f"{r['angle_diff_mean_deg']:.1f}"]
-                                 for r in merged["quantisation"]])
+        scope = (
+            "synthetic scenes and the six BSDS frames"
+            if merged.get("quantisation_bsds")
+            else "synthetic scenes only; the BSDS frames need `quant --bsds`"
+        )
+        lines += [
+            "## Weight quantisation (Brian2, against float)",
+            "",
+            f"Inputs: {scope}.",
+            f"Each input's row `{SEED_1}` is no quantisation at all: the float network on input trains of "
+            "another random phase (seed 1 against 0). It is the network's own seed-to-seed spread, the scale "
+            "on which the quantised rows are to be read."
+            if any(r["bits"] == SEED_1 for r in merged["quantisation"])
+            else "Rows without the seed-to-seed spread: re-run `quant` to add it.",
+            "",
+        ]
+        lines += markdown_table(
+            ["input", "bits", "grouping r", "within 45°", "mean angle °"],
+            [
+                [
+                    r["input"],
+                    r["bits"],
+                    f"{r['grouping_pearson_r']:.3f}",
+                    f"{r['angle_within_45_frac']:.3f}",
+                    f"{r['angle_diff_mean_deg']:.1f}",
+                ]
+                for r in merged["quantisation"]
+            ],
+        )
     return lines
 
 

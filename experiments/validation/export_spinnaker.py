@@ -13,6 +13,7 @@ Usage: python -m experiments.validation.export_spinnaker [--configs 64x48:4 comp
        [--no-combined] [--keep]
 (--keep: the stored rows of other configurations stay in the results)
 """
+
 from __future__ import annotations
 
 import argparse
@@ -44,20 +45,33 @@ def export_args(config: str) -> list:
 def one(config: str, combined: bool, tmp: Path) -> dict:
     folder = tmp / (Path(config).stem if "." in config else config.replace(":", "_"))
     if not folder.exists():
-        subprocess.run([sys.executable, "-m", "snn_fg.cli", "export", "--format", "pynn", "--out", str(folder)]
-                       + export_args(config), check=True, capture_output=True, text=True)
+        subprocess.run(
+            [sys.executable, "-m", "snn_fg.cli", "export", "--format", "pynn", "--out", str(folder)]
+            + export_args(config),
+            check=True,
+            capture_output=True,
+            text=True,
+        )
     flags = ["--simulator", "spinnaker", "--virtual-board", "--map-only"] + (["--combined-cores"] if combined else [])
     load0, t0 = load(), time.perf_counter()
     done = subprocess.run([sys.executable, "-c", RUN_CHILD] + flags, cwd=folder, capture_output=True, text=True)
     if done.returncode:
         err = done.stderr.strip().splitlines()
-        return {"config": config, "combined_cores": combined, "failed": err[-1] if err else "?",
-                "load": load_change(load0)}
+        return {
+            "config": config,
+            "combined_cores": combined,
+            "failed": err[-1] if err else "?",
+            "load": load_change(load0),
+        }
     m = json.loads((folder / "mapping.json").read_text())
     pops = json.loads((folder / "network.json").read_text())["populations"]
     m["estimate_by_population"] = {p["name"]: math.ceil(p["size"] / CELLS_PER_CORE) for p in pops}
-    m.update(config=config, wall_s=time.perf_counter() - t0, peak_gb=float(done.stdout.split("MAXRSS")[1]) / 1e9,
-             load=load_change(load0))
+    m.update(
+        config=config,
+        wall_s=time.perf_counter() - t0,
+        peak_gb=float(done.stdout.split("MAXRSS")[1]) / 1e9,
+        load=load_change(load0),
+    )
     print(config, combined, {k: m[k] for k in ("chips_used", "cores_used", "fits", "estimate")}, flush=True)
     return m
 
@@ -79,9 +93,11 @@ def why(m) -> str:
     extra = {n: c - est.get(n, 0) for n, c in m["cores_by_population"].items()}
     cut = sum(extra.values()) - syn
     top = max(extra, key=lambda n: extra[n])
-    most = "" if syn else f" (most: {top} {extra[top]:+d})"     # with synapse cores, extra counts those too
-    return (f"{m['cores_network'] - m['estimate']['cores']:+d} cores: synapse cores +{syn}, populations cut finer "
-            f"{cut:+d}{most}; {m['cores_network'] / m['chips_used']:.1f} network cores per chip (report: 15)")
+    most = "" if syn else f" (most: {top} {extra[top]:+d})"  # with synapse cores, extra counts those too
+    return (
+        f"{m['cores_network'] - m['estimate']['cores']:+d} cores: synapse cores +{syn}, populations cut finer "
+        f"{cut:+d}{most}; {m['cores_network'] / m['chips_used']:.1f} network cores per chip (report: 15)"
+    )
 
 
 def _row(m) -> list:
@@ -91,19 +107,46 @@ def _row(m) -> list:
     k, est = m["cores_by_kind"], m["estimate"]
     syn = _synapse_cores(m)
     neu = k.get("PopulationNeuronsMachineVertex", 0) + k.get("PopulationMachineVertex", 0)
-    return [m["config"], cores, m["chips_used"], f"{m['cores_used']} ({m['cores_network']})",
-            f"{est['chips']} / {est['cores']}", m["fits"],
-            f"{neu} / {syn} / {k.get('PopulationMachineLocalOnlyCombinedVertex', 0)}", f"{m['machine_chips']} chips",
-            f"{m['sPyNNaker_s']['mapping']:.0f}", f"{m['peak_gb']:.1f}", m["load"], why(m)]
+    return [
+        m["config"],
+        cores,
+        m["chips_used"],
+        f"{m['cores_used']} ({m['cores_network']})",
+        f"{est['chips']} / {est['cores']}",
+        m["fits"],
+        f"{neu} / {syn} / {k.get('PopulationMachineLocalOnlyCombinedVertex', 0)}",
+        f"{m['machine_chips']} chips",
+        f"{m['sPyNNaker_s']['mapping']:.0f}",
+        f"{m['peak_gb']:.1f}",
+        m["load"],
+        why(m),
+    ]
 
 
 def markdown(rows, run) -> list[str]:
-    return ["# sPyNNaker's mapping of the PyNN export (virtual SpiNN-5 boards)", "",
-            f"{describe(run)} sPyNNaker {rows[0]['tool']['version'] if rows and 'tool' in rows[0] else '?'}, "
-            "`run.py --simulator spinnaker --virtual-board --map-only`; shared 2-core machine.", ""] + markdown_table(
-        ["export", "cores", "chips used", "cores used (network)", "estimate chips / cores", "fits one SpiNN-5",
-         "neuron / synapse / local-only cores", "machine", "map s", "peak GB", "load",
-         "against the estimate"], map(_row, rows))
+    return [
+        "# sPyNNaker's mapping of the PyNN export (virtual SpiNN-5 boards)",
+        "",
+        f"{describe(run)} sPyNNaker {rows[0]['tool']['version'] if rows and 'tool' in rows[0] else '?'}, "
+        "`run.py --simulator spinnaker --virtual-board --map-only`; shared 2-core machine.",
+        "",
+    ] + markdown_table(
+        [
+            "export",
+            "cores",
+            "chips used",
+            "cores used (network)",
+            "estimate chips / cores",
+            "fits one SpiNN-5",
+            "neuron / synapse / local-only cores",
+            "machine",
+            "map s",
+            "peak GB",
+            "load",
+            "against the estimate",
+        ],
+        map(_row, rows),
+    )
 
 
 def main(argv=None):

@@ -13,6 +13,7 @@ its rate and spiking forms (``natural_scenes --checks`` runs these).
   on the plane and the share of outline vectors pointing inward (the spiking
   form as one network over the recording, as ``snn-fg run`` runs it).
 """
+
 from __future__ import annotations
 
 from experiments.common import Run, describe, markdown_table, save_results
@@ -39,8 +40,15 @@ def disc_checks(name) -> list[dict]:
             scene = disc(radius=radius, light_on_dark=light)
             maps = model.run_still(Still(*image_to_frame(scene.image)))
             t = truth_scores(maps.fg_x, maps.fg_y, scene)
-            out.append({"radius": radius, "light_on_dark": light, "within45": t["frac_within_45"],
-                        "coverage": t["coverage"], "peak_inside": grouping_peak_inside(maps.grouping, scene)})
+            out.append(
+                {
+                    "radius": radius,
+                    "light_on_dark": light,
+                    "within45": t["frac_within_45"],
+                    "coverage": t["coverage"],
+                    "peak_inside": grouping_peak_inside(maps.grouping, scene),
+                }
+            )
     return out
 
 
@@ -67,8 +75,15 @@ def dvs_check(name, recording) -> list[dict]:
         region = filled_outline(w.pos | w.neg)
         r, c = grouping_peak(maps.grouping)
         o = outline_scores(maps.fg_x, maps.fg_y, region)
-        out.append({"t_start_ms": w.t_start_us / 1000, "peak_on_plane": bool(region[r, c]),
-                    "inward": o["inward"], "within45": o["within45"], "vectors": o["vectors"]})
+        out.append(
+            {
+                "t_start_ms": w.t_start_us / 1000,
+                "peak_on_plane": bool(region[r, c]),
+                "inward": o["inward"],
+                "within45": o["within45"],
+                "vectors": o["vectors"],
+            }
+        )
     return out
 
 
@@ -89,23 +104,43 @@ def checks_markdown(c: dict) -> list[str]:
     def row(name, r):
         d, dv = r["discs"], r.get("dvs", [])
         inward = [w["inward"] for w in dv]
-        return [name, f"{min(x['within45'] for x in d):.3f}", f"{sum(x['peak_inside'] for x in d)}/{len(d)}",
-                f"{r['demo']['square_outline_owned']:.3f} / {r['demo']['square_outline_within45']:.3f}",
-                f"{sum(w['peak_on_plane'] for w in dv)}/{len(dv)}" if dv else "-",
-                f"{min(inward):.2f}-{max(inward):.2f}" if dv else "-"]
+        return [
+            name,
+            f"{min(x['within45'] for x in d):.3f}",
+            f"{sum(x['peak_inside'] for x in d)}/{len(d)}",
+            f"{r['demo']['square_outline_owned']:.3f} / {r['demo']['square_outline_within45']:.3f}",
+            f"{sum(w['peak_on_plane'] for w in dv)}/{len(dv)}" if dv else "-",
+            f"{min(inward):.2f}-{max(inward):.2f}" if dv else "-",
+        ]
 
     return ["## Synthetic scenes and dvs.es", ""] + markdown_table(
-        ["form", "discs r 16-64, both polarities: within 45 deg (min)", "grouping peak inside",
-         "demo square: outline owned by the square (within 90 / 45 deg)", "dvs.es from 100 ms: plane found",
-         "inward share (min-max)"], [row(name, r) for name, r in c.items()])
+        [
+            "form",
+            "discs r 16-64, both polarities: within 45 deg (min)",
+            "grouping peak inside",
+            "demo square: outline owned by the square (within 90 / 45 deg)",
+            "dvs.es from 100 ms: plane found",
+            "inward share (min-max)",
+        ],
+        [row(name, r) for name, r in c.items()],
+    )
 
 
 def main():
     run = Run()
     c = checks()
     record = {"forms": c, "run": run.record()}
-    save_results("natural_checks", record, ["# The natural-scene variant on inputs with an analytic answer", "",
-                                            describe(record["run"]), "", *checks_markdown(c)])
+    save_results(
+        "natural_checks",
+        record,
+        [
+            "# The natural-scene variant on inputs with an analytic answer",
+            "",
+            describe(record["run"]),
+            "",
+            *checks_markdown(c),
+        ],
+    )
 
 
 if __name__ == "__main__":

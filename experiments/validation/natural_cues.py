@@ -37,6 +37,7 @@ ids).
 Side accuracy is pooled over pixels; the reporting half's has a 95 %
 bootstrap interval over images. Writes experiments/results/natural_cues.{json,md,png}.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -56,8 +57,7 @@ FOLDS = 5
 #: L2 penalty of the logistic regression, per pixel, on standardised cues.
 L2 = 1e-4
 THRESHOLD, MOTION = 0.10, "paper"
-CUES = ([f"events {r}" for r in EVENT_RADII] + [f"grouping {r}" for r in GROUPING_RADII]
-        + ["lower", "towards centre"])
+CUES = [f"events {r}" for r in EVENT_RADII] + [f"grouping {r}" for r in GROUPING_RADII] + ["lower", "towards centre"]
 #: The fewest cues that carry the combination on the tuning half (cross-validated there: events within 160 px
 #: and the lower region 60.3 %, all ten 60.1 %; chosen among 8 subsets on that half only).
 TO_BUILD = ("events 160", "lower")
@@ -74,7 +74,7 @@ def side_difference(image, radius: float, rows, cols, direction) -> np.ndarray:
     nearest = np.round(np.mod(direction, 2 * np.pi) / step).astype(int) % N_DIRECTIONS
     out = np.zeros(len(rows))
     half = N_DIRECTIONS // 2
-    for b in range(half):          # direction b + half is direction b with the sign turned
+    for b in range(half):  # direction b + half is direction b with the sign turned
         sel = nearest % half == b
         if not sel.any():
             continue
@@ -91,14 +91,14 @@ def image_cues(*, root: str, image_id: str, cache: str) -> dict:
     from pathlib import Path
 
     from snn_fg.atomic import save_npz
-    from snn_fg.params import NATURAL_PARAMS
     from snn_fg.events import image_to_frame
     from snn_fg.groundtruth import SIDE_DEG, boundary_directions, load_bsds_fg, signed_angle_deg
+    from snn_fg.params import NATURAL_PARAMS
     from snn_fg.rate.natural import run_natural
 
     gt = load_bsds_fg(root, image_id)
     pos, neg = image_to_frame(str(gt.image_path), threshold=THRESHOLD, motion=MOTION)
-    maps = run_natural(pos, neg, NATURAL_PARAMS.replace(side_cue=0.0))      # the variant the cues were read on
+    maps = run_natural(pos, neg, NATURAL_PARAMS.replace(side_cue=0.0))  # the variant the cues were read on
     fx, fy = maps.fg_x.astype(np.float64), maps.fg_y.astype(np.float64)
     rows, cols, tx, ty = [], [], [], []
     for labels in gt.fg:
@@ -114,9 +114,9 @@ def image_cues(*, root: str, image_id: str, cache: str) -> dict:
     cues = [side_difference(events, rad, r, c, direction) for rad in EVENT_RADII]
     cues += [side_difference(maps.grouping, rad, r, c, direction) for rad in GROUPING_RADII]
     h, w = events.shape
-    to_x, to_y = (w - 1) / 2 - c, r - (h - 1) / 2             # towards the centre, y up
+    to_x, to_y = (w - 1) / 2 - c, r - (h - 1) / 2  # towards the centre, y up
     cues += [-ny, (nx * to_x + ny * to_y) / np.hypot(h, w)]
-    right = np.abs(signed_angle_deg(nx, ny, tx, ty)) < SIDE_DEG       # as the side accuracy of every table
+    right = np.abs(signed_angle_deg(nx, ny, tx, ty)) < SIDE_DEG  # as the side accuracy of every table
     save_npz(Path(cache, f"{image_id}.npz"), cues=np.stack(cues, 1).astype(np.float32), right=right)
     return {"pixels": int(len(right)), "right": int(right.sum()), "version": VERSION}
 
@@ -175,24 +175,38 @@ def _combination(tune: list, report: list, columns) -> dict:
     model = fit_logistic(np.concatenate([x[:, columns] for x, _ in tune]), np.concatenate([r for _, r in tune]))
     held = [predict(model, x[:, columns]) == r for x, r in report]
     names = [CUES[k] for k in columns]
-    return {"cues": names, "tune_cross_validated": _pooled(cv), "report": _pooled(held),
-            "report_interval": _interval(held), "weights": dict(zip(names, (model[2] / model[1]).tolist())),
-            "standardised_weights": dict(zip(names, model[2].tolist())), "intercept": float(model[3])}
+    return {
+        "cues": names,
+        "tune_cross_validated": _pooled(cv),
+        "report": _pooled(held),
+        "report_interval": _interval(held),
+        "weights": dict(zip(names, (model[2] / model[1]).tolist())),
+        "standardised_weights": dict(zip(names, model[2].tolist())),
+        "intercept": float(model[3]),
+    }
 
 
 def analyse(tune: list, report: list) -> dict:
     """Side accuracies of the variant, each cue alone, all cues combined and the cues of :data:`TO_BUILD`
     combined (see the module docstring). ``tune`` / ``report``: per image ``(cues, right)`` arrays."""
+
     def as_is(images):
         return [r for _, r in images]
 
-    def cue_rule(images, k):           # keep the variant's side where the cue is positive, turn it round elsewhere
+    def cue_rule(images, k):  # keep the variant's side where the cue is positive, turn it round elsewhere
         return [np.where(x[:, k] > 0, r, np.where(x[:, k] < 0, ~r, r)) for x, r in images]
 
-    out = {"variant": {"tune": _pooled(as_is(tune)), "report": _pooled(as_is(report)),
-                       "report_interval": _interval(as_is(report))}}
-    out["cues"] = {name: {"tune": _pooled(cue_rule(tune, k)), "report": _pooled(cue_rule(report, k))}
-                   for k, name in enumerate(CUES)}
+    out = {
+        "variant": {
+            "tune": _pooled(as_is(tune)),
+            "report": _pooled(as_is(report)),
+            "report_interval": _interval(as_is(report)),
+        }
+    }
+    out["cues"] = {
+        name: {"tune": _pooled(cue_rule(tune, k)), "report": _pooled(cue_rule(report, k))}
+        for k, name in enumerate(CUES)
+    }
     out["combined"] = _combination(tune, report, range(len(CUES)))
     out["to_build"] = _combination(tune, report, [CUES.index(c) for c in TO_BUILD])
     out["pixels"] = {"tune": int(sum(len(r) for _, r in tune)), "report": int(sum(len(r) for _, r in report))}
@@ -204,8 +218,11 @@ def _figure(result: dict):
 
     names = ["natural, no side cue"] + CUES + ["all cues combined", " + ".join(TO_BUILD)]
     combos = (result["combined"], result["to_build"])
-    tune = [result["variant"]["tune"]] + [result["cues"][c]["tune"] for c in CUES] + [
-        c["tune_cross_validated"] for c in combos]
+    tune = (
+        [result["variant"]["tune"]]
+        + [result["cues"][c]["tune"] for c in CUES]
+        + [c["tune_cross_validated"] for c in combos]
+    )
     report = [result["variant"]["report"]] + [result["cues"][c]["report"] for c in CUES] + [c["report"] for c in combos]
     fig, ax = plt.subplots(figsize=(9, 4.2))
     at = np.arange(len(names))
@@ -223,9 +240,8 @@ def _figure(result: dict):
 
 
 def main():
-    from snn_fg.sweep import SweepTask, run_sweep
-
     from experiments.validation.natural_scenes import halves
+    from snn_fg.sweep import SweepTask, run_sweep
 
     args = parser(__doc__.splitlines()[0]).parse_args()
     run = Run()
@@ -235,12 +251,13 @@ def main():
     ids = split["tune"] + split["report"]
     root = str(dataset("bsds-fg"))
     tasks = [SweepTask(i, {"root": root, "image_id": i, "cache": str(cache)}) for i in ids]
-    run_sweep(image_cues, tasks, cache, scheduler=args.scheduler, workers=args.workers,
-              progress=not args.no_progress)
+    run_sweep(image_cues, tasks, cache, scheduler=args.scheduler, workers=args.workers, progress=not args.no_progress)
     missing = [i for i in ids if not (cache / f"{i}.npz").exists()]
     if missing:
-        fail(f"{cache} holds results without their cue files ({', '.join(missing[:3])}...): delete the folder "
-             "and run again")
+        fail(
+            f"{cache} holds results without their cue files ({', '.join(missing[:3])}...): delete the folder "
+            "and run again"
+        )
 
     def read(part):
         images = []
@@ -252,31 +269,55 @@ def main():
     result = analyse(read("tune"), read("report"))
     result["run"] = run.record()
     v, comb = result["variant"], result["combined"]
-    rows = [["natural without the side cue", f"{100 * v['tune']:.1f}", f"{100 * v['report']:.1f} "
-             f"[{100 * v['report_interval'][0]:.1f}, {100 * v['report_interval'][1]:.1f}]"]]
-    rows += [[f"cue alone: {c}", f"{100 * result['cues'][c]['tune']:.1f}", f"{100 * result['cues'][c]['report']:.1f}"]
-             for c in CUES]
-    rows += [["all cues, logistic regression", f"{100 * comb['tune_cross_validated']:.1f} (cross-validated)",
-              f"{100 * comb['report']:.1f} [{100 * comb['report_interval'][0]:.1f}, "
-              f"{100 * comb['report_interval'][1]:.1f}]"]]
+    rows = [
+        [
+            "natural without the side cue",
+            f"{100 * v['tune']:.1f}",
+            f"{100 * v['report']:.1f} [{100 * v['report_interval'][0]:.1f}, {100 * v['report_interval'][1]:.1f}]",
+        ]
+    ]
+    rows += [
+        [f"cue alone: {c}", f"{100 * result['cues'][c]['tune']:.1f}", f"{100 * result['cues'][c]['report']:.1f}"]
+        for c in CUES
+    ]
+    rows += [
+        [
+            "all cues, logistic regression",
+            f"{100 * comb['tune_cross_validated']:.1f} (cross-validated)",
+            f"{100 * comb['report']:.1f} [{100 * comb['report_interval'][0]:.1f}, "
+            f"{100 * comb['report_interval'][1]:.1f}]",
+        ]
+    ]
     two = result["to_build"]
-    rows += [[f"{' and '.join(TO_BUILD)}, logistic regression", f"{100 * two['tune_cross_validated']:.1f} "
-              "(cross-validated)", f"{100 * two['report']:.1f} [{100 * two['report_interval'][0]:.1f}, "
-              f"{100 * two['report_interval'][1]:.1f}]"]]
-    weights = "; ".join(", ".join(f"{c} {w:+.2f}" for c, w in part["standardised_weights"].items())
-                        for part in (comb, two))
-    lines = ["# How far local cues go (issue 38)", "", describe(result["run"]) + " (Images in the cache are "
-             "read back.)", "",
-             f"Binary side accuracy (%) on the labelled boundary pixels where `--model natural --side-cue 0` has a "
-             f"vector (both labellers; {result['pixels']['tune']:,} pixels on the tuning half, "
-             f"{result['pixels']['report']:,} on the reporting half). A cue alone keeps the variant's side "
-             "where it is positive and turns it round where it is negative; the combination is a logistic "
-             f"regression over all {len(CUES)} cues, {FOLDS}-fold cross-validated over the tuning half's images, "
-             "then fitted on that half and scored once on the reporting half. Intervals: 95 % of "
-             f"{BOOTSTRAP_RESAMPLES} bootstrap resamples of the images.", "",
-             *markdown_table(["rule", "tuning half", "reporting half"], rows), "",
-             f"Weights of the combinations (standardised cues): {weights}.", "",
-             "![side accuracy of each cue](natural_cues.png)"]
+    rows += [
+        [
+            f"{' and '.join(TO_BUILD)}, logistic regression",
+            f"{100 * two['tune_cross_validated']:.1f} (cross-validated)",
+            f"{100 * two['report']:.1f} [{100 * two['report_interval'][0]:.1f}, {100 * two['report_interval'][1]:.1f}]",
+        ]
+    ]
+    weights = "; ".join(
+        ", ".join(f"{c} {w:+.2f}" for c, w in part["standardised_weights"].items()) for part in (comb, two)
+    )
+    lines = [
+        "# How far local cues go (issue 38)",
+        "",
+        describe(result["run"]) + " (Images in the cache are read back.)",
+        "",
+        f"Binary side accuracy (%) on the labelled boundary pixels where `--model natural --side-cue 0` has a "
+        f"vector (both labellers; {result['pixels']['tune']:,} pixels on the tuning half, "
+        f"{result['pixels']['report']:,} on the reporting half). A cue alone keeps the variant's side "
+        "where it is positive and turns it round where it is negative; the combination is a logistic "
+        f"regression over all {len(CUES)} cues, {FOLDS}-fold cross-validated over the tuning half's images, "
+        "then fitted on that half and scored once on the reporting half. Intervals: 95 % of "
+        f"{BOOTSTRAP_RESAMPLES} bootstrap resamples of the images.",
+        "",
+        *markdown_table(["rule", "tuning half", "reporting half"], rows),
+        "",
+        f"Weights of the combinations (standardised cues): {weights}.",
+        "",
+        "![side accuracy of each cue](natural_cues.png)",
+    ]
     save_figure(_figure(result), "natural_cues")
     save_results("natural_cues", result, lines)
 

@@ -24,6 +24,7 @@ both polarities, the demo scene's square, and the plane of dvs.es from 100 ms
 Writes experiments/results/natural_scenes[_tune].{json,md} and
 natural_scenes[_tune]_per_image.csv.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -42,14 +43,18 @@ MODELS = {
     "FBFG, CORF edges": {"model": "fbfg", "options": {"edge_operator": "corf"}},
     "natural": {"model": "natural"},
     "natural, without the side cue": {"model": "natural", "params": {"side_cue": 0.0}},
-    "natural, light and dark grouping competing (paper)": {"model": "natural",
-                                                           "params": {"grouping_polarity": "compete"}},
+    "natural, light and dark grouping competing (paper)": {
+        "model": "natural",
+        "params": {"grouping_polarity": "compete"},
+    },
     "natural, with rival inhibition (w_inh 1, paper)": {"model": "natural", "params": {"w_inh": 1.0}},
     "natural, grouping radius 8 px (paper)": {"model": "natural", "params": {"r0": 8.0}},
 }
 #: The spiking form beside the rate form.
-SPIKING = {"natural": {"model": "natural"},
-           "natural-spiking": {"model": "natural-spiking", "options": {"backend": "fast"}}}
+SPIKING = {
+    "natural": {"model": "natural"},
+    "natural-spiking": {"model": "natural-spiking", "options": {"backend": "fast"}},
+}
 
 
 def halves() -> dict:
@@ -70,11 +75,21 @@ def _rows(results: dict, names) -> tuple[list, list]:
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}
-    rows = [scored_row([[by[i][n]] for i in ids], model=n,
-                       seconds_per_image=float(np.mean([by[i][n]["seconds"] for i in ids]))) for n in names]
-    per_image = [{"image_id": i, "model": n, **{k: pool_stats([by[i][n]])[k] for k in
-                                                ("side_accuracy", "coverage", "within45", "mean_abs_deg")}}
-                 for n in names for i in ids]
+    rows = [
+        scored_row(
+            [[by[i][n]] for i in ids], model=n, seconds_per_image=float(np.mean([by[i][n]["seconds"] for i in ids]))
+        )
+        for n in names
+    ]
+    per_image = [
+        {
+            "image_id": i,
+            "model": n,
+            **{k: pool_stats([by[i][n]])[k] for k in ("side_accuracy", "coverage", "within45", "mean_abs_deg")},
+        }
+        for n in names
+        for i in ids
+    ]
     return rows, per_image
 
 
@@ -83,17 +98,42 @@ def _difference(results: dict, a: str, b: str) -> dict:
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}
-    return bootstrap_difference([[by[i][a]] for i in ids], [[by[i][b]] for i in ids],
-                                n_resamples=BOOTSTRAP_RESAMPLES, keys=("side_accuracy", "within45", "coverage"))
+    return bootstrap_difference(
+        [[by[i][a]] for i in ids],
+        [[by[i][b]] for i in ids],
+        n_resamples=BOOTSTRAP_RESAMPLES,
+        keys=("side_accuracy", "within45", "coverage"),
+    )
 
 
 def _table(rows) -> list[str]:
     return markdown_table(
-        ["model", "side accuracy % [95 %]", "per-image mean %", "coverage %", "within 45 % [95 %]", "mean abs (deg)",
-         "images", "pixels", "s per image"],
-        [[r["model"], percent_with_interval(r, "side_accuracy"), f"{100 * r['side_accuracy_image_mean']:.1f}",
-          f"{100 * r['coverage']:.1f}", percent_with_interval(r, "within45"), f"{r['mean_abs_deg']:.1f}",
-          r["n_images"], f"{r['n_pixels']:,}", f"{r['seconds_per_image']:.1f}"] for r in rows])
+        [
+            "model",
+            "side accuracy % [95 %]",
+            "per-image mean %",
+            "coverage %",
+            "within 45 % [95 %]",
+            "mean abs (deg)",
+            "images",
+            "pixels",
+            "s per image",
+        ],
+        [
+            [
+                r["model"],
+                percent_with_interval(r, "side_accuracy"),
+                f"{100 * r['side_accuracy_image_mean']:.1f}",
+                f"{100 * r['coverage']:.1f}",
+                percent_with_interval(r, "within45"),
+                f"{r['mean_abs_deg']:.1f}",
+                r["n_images"],
+                f"{r['n_pixels']:,}",
+                f"{r['seconds_per_image']:.1f}",
+            ]
+            for r in rows
+        ],
+    )
 
 
 def main():
@@ -111,12 +151,17 @@ def main():
     rows, per_image = _rows(results, MODELS)
     record = {"half": args.half, "images": ids, "threshold": THRESHOLD, "motion": MOTION, "rows": rows}
     stem = "natural_scenes" + ("" if args.half == "report" else "_tune")
-    lines = [f"# The natural-scene variant against the human labels ({args.half} half)", "",
-             f"{len(ids)} images of the "
-             f"{args.half} half (odd positions of the sorted ids: report; even: tune), events from `--motion "
-             f"{MOTION}` at C = {THRESHOLD}; both labellers pooled; intervals: 95 % of {BOOTSTRAP_RESAMPLES} "
-             "bootstrap resamples of the images. Side accuracy: within 90 deg of the labelled direction "
-             "(chance 50 %).", "", *_table(rows)]
+    lines = [
+        f"# The natural-scene variant against the human labels ({args.half} half)",
+        "",
+        f"{len(ids)} images of the "
+        f"{args.half} half (odd positions of the sorted ids: report; even: tune), events from `--motion "
+        f"{MOTION}` at C = {THRESHOLD}; both labellers pooled; intervals: 95 % of {BOOTSTRAP_RESAMPLES} "
+        "bootstrap resamples of the images. Side accuracy: within 90 deg of the labelled direction "
+        "(chance 50 %).",
+        "",
+        *_table(rows),
+    ]
     if args.spiking_images:
         sub = _evenly(ids, args.spiking_images)
         spk = sweep(evaluate_models, sub, {**settings, "models": SPIKING}, args, spiking=True)
@@ -125,11 +170,18 @@ def main():
         record.update(spiking_images=sub, spiking_rows=srows, spiking_minus_rate=diff)
         per_image += [{**r, "model": r["model"] + " (spiking subset)"} for r in sper]
         d = diff["side_accuracy"]
-        lines += ["", f"## The spiking form on {len(sub)} of these images", "",
-                  f"Images {', '.join(sub)} (evenly spaced over the half); fast engine, regular input trains, "
-                  "seed 0, counted over 200-400 ms.", "", *_table(srows), "",
-                  f"Side accuracy, spiking minus rate: {100 * d['difference']:+.1f} points, 95 % of paired "
-                  f"bootstrap resamples in [{100 * d['low']:+.1f}, {100 * d['high']:+.1f}]."]
+        lines += [
+            "",
+            f"## The spiking form on {len(sub)} of these images",
+            "",
+            f"Images {', '.join(sub)} (evenly spaced over the half); fast engine, regular input trains, "
+            "seed 0, counted over 200-400 ms.",
+            "",
+            *_table(srows),
+            "",
+            f"Side accuracy, spiking minus rate: {100 * d['difference']:+.1f} points, 95 % of paired "
+            f"bootstrap resamples in [{100 * d['low']:+.1f}, {100 * d['high']:+.1f}].",
+        ]
     if args.checks:
         from experiments.validation.natural_checks import checks, checks_markdown
 

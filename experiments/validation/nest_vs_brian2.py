@@ -21,6 +21,7 @@ on its own receptor, signed weights) instead of the export's receptor split.
 Usage: python -m experiments.validation.nest_vs_brian2 [--only frame|dvs|nmnist|synthetic] [--no-threads]
        [--figure] [--receptors split|signed] [--seed-spread] [--nest-memory]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,12 +36,25 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import (CACHE as RESULTS_CACHE, RESULTS, ROOT, Run, dataset, describe, markdown_table,
-                                save_figure, save_json, save_markdown, save_results)
+from experiments.common import (
+    CACHE as RESULTS_CACHE,
+)
+from experiments.common import (
+    RESULTS,
+    ROOT,
+    Run,
+    dataset,
+    describe,
+    markdown_table,
+    save_figure,
+    save_json,
+    save_markdown,
+    save_results,
+)
 from snn_fg.atomic import save_text
 
 CACHE = RESULTS_CACHE / "nest_vs_brian2"
-WINDOW = (100.0, 85.0)     # start, length (ms) of the dvs.es window
+WINDOW = (100.0, 85.0)  # start, length (ms) of the dvs.es window
 #: NEST needs about 2 KB per node (each cell and its spike counter) and 80 bytes per
 #: synapse (39 to connect, 43 more to prepare the run; ``--nest-memory``):
 #: the dvs window (1.4 M cells the input can use, 98 M synapses) peaked at 19.0 GB (it was
@@ -67,8 +81,11 @@ def _inputs(name):
         return {"pos": d["pos"], "neg": d["neg"]}
     from snn_fg.events import iter_windows
 
-    path, start = (dataset("events", "dvs.es"), WINDOW[0]) if name == "dvs" else \
-        (dataset("events", "tonic_sample_nmnist.bin"), 0.0)
+    path, start = (
+        (dataset("events", "dvs.es"), WINDOW[0])
+        if name == "dvs"
+        else (dataset("events", "tonic_sample_nmnist.bin"), 0.0)
+    )
     win = next(iter_windows(path, window_ms=WINDOW[1], start_ms=start))
     return {"events": win.events, "sensor_size": (win.pos.shape[1], win.pos.shape[0], 2)}
 
@@ -95,18 +112,32 @@ def one(name, backend, threads, out, receptors="split"):
     maps = {"fg_x": res.maps.fg_x, "fg_y": res.maps.fg_y, "grouping": res.maps.grouping}
     CACHE.mkdir(parents=True, exist_ok=True)
     tag = "_signed" if backend == "nest" and receptors == "signed" else ""
-    np.savez(CACHE / f"{name}_{backend}_{threads}{tag}.npz", **maps)      # for --figure
-    np.savez(out, **maps,
-             meta=json.dumps({"wall_s": wall, "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
-                              "timings_s": r.timings_s, "cells": r.total_cells,
-                              "synapses": int(sum(r.stats["synapses_in"].values())),
-                              "role_rates_hz": _role_rates(r), "threads_used": r.stats.get("nest_threads")}))
+    np.savez(CACHE / f"{name}_{backend}_{threads}{tag}.npz", **maps)  # for --figure
+    np.savez(
+        out,
+        **maps,
+        meta=json.dumps(
+            {
+                "wall_s": wall,
+                "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6,
+                "timings_s": r.timings_s,
+                "cells": r.total_cells,
+                "synapses": int(sum(r.stats["synapses_in"].values())),
+                "role_rates_hz": _role_rates(r),
+                "threads_used": r.stats.get("nest_threads"),
+            }
+        ),
+    )
 
 
 def _run(name, backend, threads, tmp, receptors="split"):
     out = Path(tmp) / f"{name}_{backend}_{threads}.npz"
-    subprocess.run([sys.executable, "-m", __spec__.name, "--one", name, backend, str(threads), str(out),
-                    "--receptors", receptors], check=True, cwd=ROOT, env={**os.environ, "PYNEST_QUIET": "1"})
+    subprocess.run(
+        [sys.executable, "-m", __spec__.name, "--one", name, backend, str(threads), str(out), "--receptors", receptors],
+        check=True,
+        cwd=ROOT,
+        env={**os.environ, "PYNEST_QUIET": "1"},
+    )
     d = np.load(out)
     return d, json.loads(str(d["meta"]))
 
@@ -142,23 +173,36 @@ def seed_spread():
         per_seed, maps = [], []
         inputs = _inputs(name)
         for seed in SEEDS:
-            res = run_spiking_result(**inputs, backend="fast", seed=seed, instantiate="input",
-                                     record_spikes=False, progress=False)
+            res = run_spiking_result(
+                **inputs, backend="fast", seed=seed, instantiate="input", record_spikes=False, progress=False
+            )
             per_seed.append(_role_rates(res.result))
             maps.append(res.maps)
         vs = [agreement(m, maps[0]) for m in maps[1:]]
-        maps_rows.append({"input": name, "nest": {k: nest[name][k] for k in ("grouping_r", "within_45",
-                                                                              "mean_angle_deg")},
-                          "brian2_seeds_vs_seed0": vs})
+        maps_rows.append(
+            {
+                "input": name,
+                "nest": {k: nest[name][k] for k in ("grouping_r", "within_45", "mean_angle_deg")},
+                "brian2_seeds_vs_seed0": vs,
+            }
+        )
         n_rates = nest[name]["nest"]["role_rates_hz"]
         for role in per_seed[0]:
             v = [d[role] for d in per_seed]
             if v[0] <= 0:
                 continue
             lo, hi = min(v), max(v)
-            rows.append({"input": name, "role": role, "brian2_hz_seeds": v, "nest_hz_seed0": n_rates[role],
-                         "nest_over_brian2": n_rates[role] / v[0], "brian2_seed_spread": hi / lo if lo else None,
-                         "nest_inside_brian2_seed_range": bool(0.98 * lo <= n_rates[role] <= 1.02 * hi)})
+            rows.append(
+                {
+                    "input": name,
+                    "role": role,
+                    "brian2_hz_seeds": v,
+                    "nest_hz_seed0": n_rates[role],
+                    "nest_over_brian2": n_rates[role] / v[0],
+                    "brian2_seed_spread": hi / lo if lo else None,
+                    "nest_inside_brian2_seed_range": bool(0.98 * lo <= n_rates[role] <= 1.02 * hi),
+                }
+            )
         print(name, flush=True)
     out = {"seeds": SEEDS, "rows": rows, "maps": maps_rows, "run": run.record()}
     save_results("nest_vs_brian2_seeds", out, _seeds_markdown(out))
@@ -167,30 +211,60 @@ def seed_spread():
 def _seeds_markdown(out) -> list[str]:
     rows, maps_rows = out["rows"], out["maps"]
     off = [r for r in rows if abs(r["nest_over_brian2"] - 1) > 0.10]
-    lines = ["# NEST against Brian2, beside Brian2 against itself over input seeds", "",
-             f"{describe(out['run'])} Seeds {tuple(out['seeds'])} (phases of the regular input spikes), fast engine "
-             "(Brian2's spikes).", "",
-             "## Maps", "",
-             "NEST (seed 0) against Brian2 (seed 0), and Brian2 with seeds 1-3 against its seed 0 (lowest - "
-             "highest): grouping r / fraction of shared edge pixels within 45 deg / mean absolute angle (deg).", ""]
-    lines += markdown_table(["input", "NEST vs Brian2", "Brian2 seeds vs seed 0"],
-                            [[m["input"], f"{m['nest']['grouping_r']:.3f} / {m['nest']['within_45']:.3f} / "
-                                          f"{m['nest']['mean_angle_deg']:.1f}",
-                              f"{_span(m['brian2_seeds_vs_seed0'], 'grouping_r', '{:.3f}')} / "
-                              f"{_span(m['brian2_seeds_vs_seed0'], 'within_45', '{:.3f}')} / "
-                              f"{_span(m['brian2_seeds_vs_seed0'], 'mean_deg', '{:.1f}')}"] for m in maps_rows])
-    lines += ["", "## Per-role rates", "",
-              f"Roles whose NEST/Brian2 ratio (seed 0) is outside 0.9-1.1: {len(off)} of {len(rows)}; of those, "
-              f"NEST's rate lies within Brian2's own seed range (2 % margin) for "
-              f"{sum(r['nest_inside_brian2_seed_range'] for r in off)}.", ""]
-    lines += markdown_table(["input", "role", "NEST/Brian2 (seed 0)", "Brian2 max/min over seeds",
-                             "NEST inside Brian2's seed range"],
-                            [[r["input"], r["role"], f"{r['nest_over_brian2']:.3f}", f"{r['brian2_seed_spread']:.3f}",
-                              "yes" if r["nest_inside_brian2_seed_range"] else "no"] for r in off])
+    lines = [
+        "# NEST against Brian2, beside Brian2 against itself over input seeds",
+        "",
+        f"{describe(out['run'])} Seeds {tuple(out['seeds'])} (phases of the regular input spikes), fast engine "
+        "(Brian2's spikes).",
+        "",
+        "## Maps",
+        "",
+        "NEST (seed 0) against Brian2 (seed 0), and Brian2 with seeds 1-3 against its seed 0 (lowest - "
+        "highest): grouping r / fraction of shared edge pixels within 45 deg / mean absolute angle (deg).",
+        "",
+    ]
+    lines += markdown_table(
+        ["input", "NEST vs Brian2", "Brian2 seeds vs seed 0"],
+        [
+            [
+                m["input"],
+                f"{m['nest']['grouping_r']:.3f} / {m['nest']['within_45']:.3f} / {m['nest']['mean_angle_deg']:.1f}",
+                f"{_span(m['brian2_seeds_vs_seed0'], 'grouping_r', '{:.3f}')} / "
+                f"{_span(m['brian2_seeds_vs_seed0'], 'within_45', '{:.3f}')} / "
+                f"{_span(m['brian2_seeds_vs_seed0'], 'mean_deg', '{:.1f}')}",
+            ]
+            for m in maps_rows
+        ],
+    )
+    lines += [
+        "",
+        "## Per-role rates",
+        "",
+        f"Roles whose NEST/Brian2 ratio (seed 0) is outside 0.9-1.1: {len(off)} of {len(rows)}; of those, "
+        f"NEST's rate lies within Brian2's own seed range (2 % margin) for "
+        f"{sum(r['nest_inside_brian2_seed_range'] for r in off)}.",
+        "",
+    ]
+    lines += markdown_table(
+        ["input", "role", "NEST/Brian2 (seed 0)", "Brian2 max/min over seeds", "NEST inside Brian2's seed range"],
+        [
+            [
+                r["input"],
+                r["role"],
+                f"{r['nest_over_brian2']:.3f}",
+                f"{r['brian2_seed_spread']:.3f}",
+                "yes" if r["nest_inside_brian2_seed_range"] else "no",
+            ]
+            for r in off
+        ],
+    )
     spread = [r["brian2_seed_spread"] for r in rows if r["brian2_seed_spread"]]
-    return lines + ["", f"Brian2's own seed spread over all {len(rows)} (input, role) pairs: median "
-                    f"{np.median(spread):.3f}, max {max(spread):.3f}; pairs over 1.10: "
-                    f"{sum(x > 1.10 for x in spread)}."]
+    return lines + [
+        "",
+        f"Brian2's own seed spread over all {len(rows)} (input, role) pairs: median "
+        f"{np.median(spread):.3f}, max {max(spread):.3f}; pairs over 1.10: "
+        f"{sum(x > 1.10 for x in spread)}.",
+    ]
 
 
 def nest_memory(n_nodes=200_000, n_synapses=10_000_000):
@@ -214,14 +288,22 @@ def nest_memory(n_nodes=200_000, n_synapses=10_000_000):
     step = 1 << 22
     for i in range(0, n_synapses, step):
         k = min(step, n_synapses - i)
-        nest.Connect(rng.integers(1, n_nodes + 1, k), rng.integers(1, n_nodes + 1, k), "one_to_one",
-                     syn_spec={"synapse_model": "static_synapse", "weight": rng.random(k) * 100,
-                               "delay": np.full(k, 1.0)})
+        nest.Connect(
+            rng.integers(1, n_nodes + 1, k),
+            rng.integers(1, n_nodes + 1, k),
+            "one_to_one",
+            syn_spec={"synapse_model": "static_synapse", "weight": rng.random(k) * 100, "delay": np.full(k, 1.0)},
+        )
     c = rss_gb()
     nest.Simulate(1.0)
     d = rss_gb()
-    out = {"bytes_per_node": (b - a) * 1e9 / n_nodes, "bytes_per_synapse_connect": (c - b) * 1e9 / n_synapses,
-           "bytes_per_synapse_prepare": (d - c) * 1e9 / n_synapses, "nodes": n_nodes, "synapses": n_synapses}
+    out = {
+        "bytes_per_node": (b - a) * 1e9 / n_nodes,
+        "bytes_per_synapse_connect": (c - b) * 1e9 / n_synapses,
+        "bytes_per_synapse_prepare": (d - c) * 1e9 / n_synapses,
+        "nodes": n_nodes,
+        "synapses": n_synapses,
+    }
     save_json("nest_memory", out)
     print(json.dumps(out))
 
@@ -233,8 +315,11 @@ def figure():
     from snn_fg.figures import GROUPING_CMAP, fg_rgb
     from snn_fg.metrics import compare_frame
 
-    names = [n for n in ("frame", "dvs", "nmnist", *SYNTHETIC) if (CACHE / f"{n}_nest_1.npz").exists()
-             and (CACHE / f"{n}_brian2_1.npz").exists()]
+    names = [
+        n
+        for n in ("frame", "dvs", "nmnist", *SYNTHETIC)
+        if (CACHE / f"{n}_nest_1.npz").exists() and (CACHE / f"{n}_brian2_1.npz").exists()
+    ]
     if not names:
         raise SystemExit(f"no cached maps in {CACHE}: run the comparison first")
     fig = Figure(figsize=(16, 3.3 * len(names)))
@@ -249,8 +334,11 @@ def figure():
         for ax, (label, d) in zip(row[2:], (("Brian2", b2), ("NEST", ne))):
             ax.imshow(d["grouping"], cmap=GROUPING_CMAP, vmin=0, vmax=top, interpolation="nearest")
             ax.set_title(f"grouping, {label}", fontsize=9)
-        row[3].set_title(f"grouping, NEST (r {c['grouping_pearson_r']:.3f}; FG {c['angle_within_45_frac']:.1%} "
-                         f"within 45°, mean {c['angle_diff_mean_deg']:.1f}°)", fontsize=8)
+        row[3].set_title(
+            f"grouping, NEST (r {c['grouping_pearson_r']:.3f}; FG {c['angle_within_45_frac']:.1%} "
+            f"within 45°, mean {c['angle_diff_mean_deg']:.1f}°)",
+            fontsize=8,
+        )
         for ax in row:
             ax.set_xticks([])
             ax.set_yticks([])
@@ -264,13 +352,20 @@ def main():
     ap.add_argument("--one", nargs=4, metavar=("INPUT", "BACKEND", "THREADS", "OUT"))
     ap.add_argument("--only", choices=("frame", "dvs", "nmnist", "synthetic"))
     ap.add_argument("--no-threads", action="store_true")
-    ap.add_argument("--receptors", choices=("split", "signed"), default="split",
-                    help="NEST's receptors: split (what a board runs, default) or signed (the description "
-                         "exactly); signed results go to nest_vs_brian2_<input>_signed.*")
+    ap.add_argument(
+        "--receptors",
+        choices=("split", "signed"),
+        default="split",
+        help="NEST's receptors: split (what a board runs, default) or signed (the description "
+        "exactly); signed results go to nest_vs_brian2_<input>_signed.*",
+    )
     ap.add_argument("--figure", action="store_true", help="only draw the cached maps")
     ap.add_argument("--nest-memory", action="store_true", help="only measure NEST's bytes per node and synapse")
-    ap.add_argument("--seed-spread", action="store_true",
-                    help="per-role rates of Brian2 over input seeds beside NEST/Brian2 (after --only synthetic)")
+    ap.add_argument(
+        "--seed-spread",
+        action="store_true",
+        help="per-role rates of Brian2 over input seeds beside NEST/Brian2 (after --only synthetic)",
+    )
     args = ap.parse_args()
     if args.figure:
         figure()
@@ -299,20 +394,37 @@ def main():
             for threads, (ne, mn) in runs:
                 c = compare_frame(ne["fg_x"], ne["fg_y"], ne["grouping"], b2["fg_x"], b2["fg_y"], b2["grouping"])
                 ratio = {k: (mn["role_rates_hz"][k] / v if v else None) for k, v in mb["role_rates_hz"].items()}
-                threads = mn.get("threads_used") or threads     # raised where the cells need it
-                rows.append({"input": name, "nest_threads": threads, "grouping_r": c["grouping_pearson_r"],
-                             "within_45": c["angle_within_45_frac"], "mean_angle_deg": c["angle_diff_mean_deg"],
-                             "pixels": c["pixels_compared"], "rate_ratio_nest_over_brian2": ratio,
-                             "brian2": mb, "nest": mn})
+                threads = mn.get("threads_used") or threads  # raised where the cells need it
+                rows.append(
+                    {
+                        "input": name,
+                        "nest_threads": threads,
+                        "grouping_r": c["grouping_pearson_r"],
+                        "within_45": c["angle_within_45_frac"],
+                        "mean_angle_deg": c["angle_diff_mean_deg"],
+                        "pixels": c["pixels_compared"],
+                        "rate_ratio_nest_over_brian2": ratio,
+                        "brian2": mb,
+                        "nest": mn,
+                    }
+                )
                 save_text(RESULTS / f"{stem}.partial.json", json.dumps(rows, indent=1))
-                print(json.dumps({k: rows[-1][k] for k in ("input", "nest_threads", "grouping_r", "within_45")}),
-                      f"brian2 {mb['wall_s']:.1f} s {mb['peak_rss_gb']:.2f} GB, nest {mn['wall_s']:.1f} s "
-                      f"{mn['peak_rss_gb']:.2f} GB", flush=True)
+                print(
+                    json.dumps({k: rows[-1][k] for k in ("input", "nest_threads", "grouping_r", "within_45")}),
+                    f"brian2 {mb['wall_s']:.1f} s {mb['peak_rss_gb']:.2f} GB, nest {mn['wall_s']:.1f} s "
+                    f"{mn['peak_rss_gb']:.2f} GB",
+                    flush=True,
+                )
     result = {"window_ms": WINDOW, "rows": rows, "run": run.record()}
     save_json(stem, result)
     (RESULTS / f"{stem}.partial.json").unlink(missing_ok=True)
-    lines = [f"# NEST (PyNN, receptors {args.receptors}) against Brian2", "",
-             f"{describe(result['run'])} (2 shared cores: timings are noisy.)", "", *_comparison_table(rows)]
+    lines = [
+        f"# NEST (PyNN, receptors {args.receptors}) against Brian2",
+        "",
+        f"{describe(result['run'])} (2 shared cores: timings are noisy.)",
+        "",
+        *_comparison_table(rows),
+    ]
     save_markdown(stem, lines)
     print("\n".join(lines))
 
@@ -320,13 +432,32 @@ def main():
 def _comparison_table(rows) -> list[str]:
     def row(r):
         vals = [v for v in r["rate_ratio_nest_over_brian2"].values() if v]
-        return [r["input"], r["nest_threads"], f"{r['grouping_r']:.3f}", f"{r['within_45']:.3f}",
-                f"{r['mean_angle_deg']:.1f}", f"{r['brian2']['wall_s']:.0f} / {r['brian2']['peak_rss_gb']:.2f}",
-                f"{r['nest']['wall_s']:.0f} / {r['nest']['peak_rss_gb']:.2f}",
-                f"{r['nest']['timings_s'].get('run', 0):.1f}", f"{min(vals):.2f}-{max(vals):.2f}"]
+        return [
+            r["input"],
+            r["nest_threads"],
+            f"{r['grouping_r']:.3f}",
+            f"{r['within_45']:.3f}",
+            f"{r['mean_angle_deg']:.1f}",
+            f"{r['brian2']['wall_s']:.0f} / {r['brian2']['peak_rss_gb']:.2f}",
+            f"{r['nest']['wall_s']:.0f} / {r['nest']['peak_rss_gb']:.2f}",
+            f"{r['nest']['timings_s'].get('run', 0):.1f}",
+            f"{min(vals):.2f}-{max(vals):.2f}",
+        ]
 
-    return markdown_table(["input", "NEST threads", "grouping r", "within 45°", "mean angle °", "Brian2 s / GB",
-                           "NEST s / GB", "NEST run s", "rate ratio range (NEST/Brian2, per role)"], map(row, rows))
+    return markdown_table(
+        [
+            "input",
+            "NEST threads",
+            "grouping r",
+            "within 45°",
+            "mean angle °",
+            "Brian2 s / GB",
+            "NEST s / GB",
+            "NEST run s",
+            "rate ratio range (NEST/Brian2, per role)",
+        ],
+        map(row, rows),
+    )
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ unless it copies the iteration count.
 Writes experiments/results/rate_iterations.{json,md,png}.
 Usage: python -m experiments.validation.rate_iterations [--iterations 1 2 3 5 10 15 20 30 40]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -40,19 +41,35 @@ def main():
         for it in a.iterations:
             m = maps[it]
             c = compare_frame(m.fg_x, m.fg_y, m.grouping, ref.fg_x, ref.fg_y, ref.grouping)
-            rows.append({"frame": path.stem, "iterations": it, "angle_diff_mean_deg": c["angle_diff_mean_deg"],
-                         "angle_within_45_frac": c["angle_within_45_frac"],
-                         "grouping_pearson_r": c["grouping_pearson_r"]})
-            print(f"{path.stem} {it:3d}: mean {c['angle_diff_mean_deg']:5.1f} deg, "
-                  f"{100 * c['angle_within_45_frac']:5.1f} % within 45, r {c['grouping_pearson_r']:.3f}", flush=True)
+            rows.append(
+                {
+                    "frame": path.stem,
+                    "iterations": it,
+                    "angle_diff_mean_deg": c["angle_diff_mean_deg"],
+                    "angle_within_45_frac": c["angle_within_45_frac"],
+                    "grouping_pearson_r": c["grouping_pearson_r"],
+                }
+            )
+            print(
+                f"{path.stem} {it:3d}: mean {c['angle_diff_mean_deg']:5.1f} deg, "
+                f"{100 * c['angle_within_45_frac']:5.1f} % within 45, r {c['grouping_pearson_r']:.3f}",
+                flush=True,
+            )
     record = {"rows": rows, "reference": "the rate model with the paper's 10 iterations", "run": run.record()}
     save_json("rate_iterations", record)
     frames = sorted({r["frame"] for r in rows})
-    save_markdown("rate_iterations", [
-        "# The rate reference after n iterations, against its own 10-iteration maps", "",
-        f"{describe(record['run'])} Per BSDS frame: mean absolute angle difference (deg) / percentage of shared "
-        "edge pixels within 45 deg / grouping Pearson r, of the rate model after n iterations against the same "
-        "model after the paper's 10.", "", *_table(rows, frames, a.iterations)])
+    save_markdown(
+        "rate_iterations",
+        [
+            "# The rate reference after n iterations, against its own 10-iteration maps",
+            "",
+            f"{describe(record['run'])} Per BSDS frame: mean absolute angle difference (deg) / percentage of shared "
+            "edge pixels within 45 deg / grouping Pearson r, of the rate model after n iterations against the same "
+            "model after the paper's 10.",
+            "",
+            *_table(rows, frames, a.iterations),
+        ],
+    )
     _figure(rows, frames, a.iterations)
     print(f"wrote experiments/results/rate_iterations.md ({record['run']['seconds']:.0f} s)")
 
@@ -60,8 +77,7 @@ def main():
 def _table(rows, frames, its) -> list[str]:
     def cell(f, i):
         r = next(x for x in rows if x["frame"] == f and x["iterations"] == i)
-        return (f"{r['angle_diff_mean_deg']:.1f} / {100 * r['angle_within_45_frac']:.0f} / "
-                f"{r['grouping_pearson_r']:.3f}")
+        return f"{r['angle_diff_mean_deg']:.1f} / {100 * r['angle_within_45_frac']:.0f} / {r['grouping_pearson_r']:.3f}"
 
     return markdown_table(["frame"] + [f"n = {i}" for i in its], [[f] + [cell(f, i) for i in its] for f in frames])
 

@@ -3,6 +3,7 @@ on the built-in synthetic scenes. Writes experiments/results/rate_reference.json
 
     python -m experiments.validation.rate_reference
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,6 +15,7 @@ from snn_fg.metrics import angle_difference_deg, grouping_peak_inside, pearson, 
 from snn_fg.rate.edfg import run_edfg, run_edfg_state
 from snn_fg.rate.fbfg import run_fbfg
 
+
 def main():
     run = Run()
     out = {"bsds": [], "discs": [], "occlusion": {}}
@@ -22,12 +24,15 @@ def main():
         st = run_edfg_state(ref["pos"], ref["neg"])
         mag = np.hypot(ref["fg_x"], ref["fg_y"])
         sel = mag > 0.01 * mag.max()
-        row = {"frame": p.stem,
-               **{f"r_{k}": pearson(getattr(st, k), ref[k]) for k in ("grouping", "fg_x", "fg_y")},
-               "orientation_equal": float(np.mean((st.winner * np.pi / 8).astype(np.float32) == ref["orientation"])),
-               "median_angle_diff_deg": float(np.median(angle_difference_deg(st.fg_x, st.fg_y, ref["fg_x"],
-                                                                             ref["fg_y"])[sel])),
-               "max_abs_diff_grouping": float(np.abs(st.grouping - ref["grouping"]).max())}
+        row = {
+            "frame": p.stem,
+            **{f"r_{k}": pearson(getattr(st, k), ref[k]) for k in ("grouping", "fg_x", "fg_y")},
+            "orientation_equal": float(np.mean((st.winner * np.pi / 8).astype(np.float32) == ref["orientation"])),
+            "median_angle_diff_deg": float(
+                np.median(angle_difference_deg(st.fg_x, st.fg_y, ref["fg_x"], ref["fg_y"])[sel])
+            ),
+            "max_abs_diff_grouping": float(np.abs(st.grouping - ref["grouping"]).max()),
+        }
         out["bsds"].append(row)
         print(" ".join(f"{k}={v:.7g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()), flush=True)
     for radius in (16, 28, 40, 64):
@@ -36,19 +41,28 @@ def main():
             pos, neg = image_to_frame(sc.image, threshold=0.10)
             m = run_edfg(pos, neg)
             f = run_fbfg(sc.image)
-            row = {"scene": sc.name, "rate": truth_scores(m.fg_x, m.fg_y, sc),
-                   "rate_peak_inside": grouping_peak_inside(m.grouping, sc),
-                   "fbfg": truth_scores(f.fg_x, f.fg_y, sc), "fbfg_peak_inside": grouping_peak_inside(f.grouping, sc)}
+            row = {
+                "scene": sc.name,
+                "rate": truth_scores(m.fg_x, m.fg_y, sc),
+                "rate_peak_inside": grouping_peak_inside(m.grouping, sc),
+                "fbfg": truth_scores(f.fg_x, f.fg_y, sc),
+                "fbfg_peak_inside": grouping_peak_inside(f.grouping, sc),
+            }
             out["discs"].append(row)
-            print(f"{sc.name:18s} rate {row['rate']['frac_within_45']:.3f} / {row['rate']['median_err_deg']:.1f} deg "
-                  f"peak-in {row['rate_peak_inside']}   fbfg {row['fbfg']['frac_within_45']:.3f} / "
-                  f"{row['fbfg']['median_err_deg']:.1f} deg peak-in {row['fbfg_peak_inside']}", flush=True)
+            print(
+                f"{sc.name:18s} rate {row['rate']['frac_within_45']:.3f} / {row['rate']['median_err_deg']:.1f} deg "
+                f"peak-in {row['rate_peak_inside']}   fbfg {row['fbfg']['frac_within_45']:.3f} / "
+                f"{row['fbfg']['median_err_deg']:.1f} deg peak-in {row['fbfg_peak_inside']}",
+                flush=True,
+            )
     sc = scenes.occlusion()
     pos, neg = image_to_frame(sc.image, threshold=0.10)
     m = run_edfg(pos, neg)
     f = run_fbfg(sc.image)
-    out["occlusion"] = {"rate": scenes.shared_border_ownership(sc, m.fg_x, m.fg_y, 1, 0),
-                        "fbfg": scenes.shared_border_ownership(sc, f.fg_x, f.fg_y, 1, 0)}
+    out["occlusion"] = {
+        "rate": scenes.shared_border_ownership(sc, m.fg_x, m.fg_y, 1, 0),
+        "fbfg": scenes.shared_border_ownership(sc, f.fg_x, f.fg_y, 1, 0),
+    }
     print("occlusion: fraction of the shared border owned by the occluder (fraction, pixels):", out["occlusion"])
     save_json("rate_reference", {**out, "run": run.record()})
 

@@ -14,6 +14,7 @@ events, figure-ground map, grouping map) and ``recordings_<name>_<model>.gif``
 (per window: event count, vector pixels, grouping peak and its value, and
 ``runtime_s``, the recording's time divided by its windows).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -62,30 +63,45 @@ def run_recording(name, model, max_windows):
     m = get_model(model)
     rows, maps, inputs, titles = [], [], [], []
     path = dataset("events", file)
-    windows = list(iter_windows(path, window_ms=window_ms, start_ms=start_ms, max_windows=max_windows,
-                                sensor_size=sensor))
+    windows = list(
+        iter_windows(path, window_ms=window_ms, start_ms=start_ms, max_windows=max_windows, sensor_size=sensor)
+    )
     if not windows:
         fail(f"{path}: no {window_ms:g} ms window from {start_ms:g} ms")
     t_first = windows[0].t_start_us
     t = time.perf_counter()
-    results = list(m.run_windows(windows))     # (the spiking network: one continuous run over them all)
+    results = list(m.run_windows(windows))  # (the spiking network: one continuous run over them all)
     seconds_each = (time.perf_counter() - t) / len(windows)
     for i, (w, mp) in enumerate(results):
         r, c = grouping_peak(mp.grouping)
-        rows.append({"recording": name, "model": model, "window": i, "t_start_ms": (w.t_start_us - t_first) / 1000,
-                     "events": int(len(w.events)), "vector_pixels": int((mp.magnitude > 0).sum()),
-                     "grouping_peak_row": r, "grouping_peak_col": c,
-                     "grouping_peak": float(mp.grouping.max()), "runtime_s": seconds_each})
+        rows.append(
+            {
+                "recording": name,
+                "model": model,
+                "window": i,
+                "t_start_ms": (w.t_start_us - t_first) / 1000,
+                "events": int(len(w.events)),
+                "vector_pixels": int((mp.magnitude > 0).sum()),
+                "grouping_peak_row": r,
+                "grouping_peak_col": c,
+                "grouping_peak": float(mp.grouping.max()),
+                "runtime_s": seconds_each,
+            }
+        )
         maps.append(mp)
         inputs.append(event_frame_rgb(w.pos, w.neg))
-        titles.append(f"{name} {(w.t_start_us - t_first) / 1000:.0f}-{(w.t_end_us - t_first) / 1000:.0f} ms "
-                      "(from the first window)")
-    stack = lambda k: np.stack([getattr(mp, k) for mp in maps])      # noqa: E731
+        titles.append(
+            f"{name} {(w.t_start_us - t_first) / 1000:.0f}-{(w.t_end_us - t_first) / 1000:.0f} ms "
+            "(from the first window)"
+        )
+    stack = lambda k: np.stack([getattr(mp, k) for mp in maps])  # noqa: E731
     label = m.grouping_label
     seq = maps_figure(inputs, stack("fg_x"), stack("fg_y"), stack("grouping"), titles, grouping_label=label)
     written = [save_figure(seq, f"recordings_{name}_{model}")]
-    per_window = [maps_figure(inputs[i], maps[i].fg_x, maps[i].fg_y, maps[i].grouping, [titles[i]],
-                              grouping_label=label) for i in range(len(maps))]
+    per_window = [
+        maps_figure(inputs[i], maps[i].fg_x, maps[i].fg_y, maps[i].grouping, [titles[i]], grouping_label=label)
+        for i in range(len(maps))
+    ]
     written.append(_frames_gif(per_window, RESULTS / f"recordings_{name}_{model}.gif"))
     return rows, written
 

@@ -12,6 +12,7 @@ uncut run's.
 Default recording: ``dvs.es`` of the dataset ``events``. Writes
 experiments/results/resume_after_kill.{json,md}.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,8 +40,11 @@ def _kill_and_resume(cmd: list[str], out: Path, kill_at: int) -> dict:
         time.sleep(0.05)
     os.kill(p.pid, signal.SIGKILL)
     p.wait()
-    row = {"killed_at_windows": windows_complete(out), "readable_windows": int(Maps.load(out).fg_x.shape[0]),
-           "marked_complete": bool(read_attrs(out / "maps.zarr")["snn_fg"]["complete"])}
+    row = {
+        "killed_at_windows": windows_complete(out),
+        "readable_windows": int(Maps.load(out).fg_x.shape[0]),
+        "marked_complete": bool(read_attrs(out / "maps.zarr")["snn_fg"]["complete"]),
+    }
     t = time.perf_counter()
     r = subprocess.run(cmd + ["--out", str(out), "--resume"], capture_output=True, text=True, cwd=ROOT)
     if r.returncode:
@@ -59,8 +63,21 @@ def main():
 
     rec = a.recording or dataset("events", "dvs.es")
     run = Run()
-    cmd = [sys.executable, "-m", "snn_fg.cli", "run", str(rec), "--model", "spiking", "--no-figures",
-           "--no-progress", "--max-windows", str(a.max_windows), "--start-ms", str(a.start_ms)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "snn_fg.cli",
+        "run",
+        str(rec),
+        "--model",
+        "spiking",
+        "--no-figures",
+        "--no-progress",
+        "--max-windows",
+        str(a.max_windows),
+        "--start-ms",
+        str(a.start_ms),
+    ]
     with tempfile.TemporaryDirectory() as d:
         t = time.perf_counter()
         subprocess.run(cmd + ["--out", f"{d}/uncut"], check=True, capture_output=True, cwd=ROOT)
@@ -69,16 +86,46 @@ def main():
         x, y = Maps.load(f"{d}/cut"), Maps.load(f"{d}/uncut")
         equal = {k: bool(np.array_equal(getattr(x, k), getattr(y, k))) for k in ("fg_x", "fg_y", "grouping")}
         with_vectors = int((np.abs(y.fg_x).sum(axis=(1, 2)) > 0).sum())
-    record = {"recording": str(rec), "uncut_s": uncut_s, **row, "equal": equal, "windows_with_vectors": with_vectors,
-              "run": run.record()}
+    record = {
+        "recording": str(rec),
+        "uncut_s": uncut_s,
+        **row,
+        "equal": equal,
+        "windows_with_vectors": with_vectors,
+        "run": run.record(),
+    }
     save_json("resume_after_kill", record)
-    lines = ["# A spiking run killed with SIGKILL, then --resume", "", describe(record["run"]), "",
-             f"Recording `{Path(rec).name}`, {a.max_windows} windows from {a.start_ms:g} ms, killed as soon as "
-             f"{a.kill_at} were complete.", ""]
-    lines += markdown_table(["uncut run (s)", "complete at the kill", "readable then", "marked complete",
-                             "resume (s)", "windows after", "maps equal bit for bit"],
-                            [[uncut_s, row["killed_at_windows"], row["readable_windows"], row["marked_complete"],
-                              row["resume_s"], row["windows_after_resume"], all(equal.values())]])
+    lines = [
+        "# A spiking run killed with SIGKILL, then --resume",
+        "",
+        describe(record["run"]),
+        "",
+        f"Recording `{Path(rec).name}`, {a.max_windows} windows from {a.start_ms:g} ms, killed as soon as "
+        f"{a.kill_at} were complete.",
+        "",
+    ]
+    lines += markdown_table(
+        [
+            "uncut run (s)",
+            "complete at the kill",
+            "readable then",
+            "marked complete",
+            "resume (s)",
+            "windows after",
+            "maps equal bit for bit",
+        ],
+        [
+            [
+                uncut_s,
+                row["killed_at_windows"],
+                row["readable_windows"],
+                row["marked_complete"],
+                row["resume_s"],
+                row["windows_after_resume"],
+                all(equal.values()),
+            ]
+        ],
+    )
     save_markdown("resume_after_kill", lines + [""])
     print("\n".join(lines))
 

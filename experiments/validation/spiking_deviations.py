@@ -20,6 +20,7 @@ Writes experiments/results/spiking_deviations.json and .md.
 
     python -m experiments.validation.spiking_deviations
 """
+
 from __future__ import annotations
 
 import time
@@ -27,13 +28,13 @@ import time
 import numpy as np
 
 from experiments.common import Run, dataset, describe, markdown_table, save_json, save_markdown
+from snn_fg.lowering.unroll import unroll
 from snn_fg.metrics import compare_frame
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.params import ModelParams
 from snn_fg.rate.edfg import run_edfg
 from snn_fg.spiking import run_spiking_result
 from snn_fg.spiking.twin import run_twin
-from snn_fg.lowering.unroll import unroll
 
 CROP = (slice(60, 188), slice(100, 260))
 KNOBS = {
@@ -48,8 +49,11 @@ KNOBS = {
 
 def _cmp(fx, fy, g, ref):
     c = compare_frame(fx, fy, g, ref["fg_x"], ref["fg_y"], ref["grouping"])
-    return {"grouping_pearson_r": c["grouping_pearson_r"], "angle_diff_median_deg": c["angle_diff_median_deg"],
-            "angle_diff_mean_deg": c["angle_diff_mean_deg"]}
+    return {
+        "grouping_pearson_r": c["grouping_pearson_r"],
+        "angle_diff_median_deg": c["angle_diff_median_deg"],
+        "angle_diff_mean_deg": c["angle_diff_mean_deg"],
+    }
 
 
 def twin_row(pos, neg, ref, knobs):
@@ -57,9 +61,12 @@ def twin_row(pos, neg, ref, knobs):
     t0 = time.perf_counter()
     un = unroll(net, {"input_on_1": pos > 0, "input_off_1": neg > 0})
     fx, fy, g, _ = run_twin(un)
-    return {**_cmp(fx, fy, g, ref), "synapses": int(sum(c.n for c in un.connections)),
-            "cells": int(sum(un.n_cells(p.name) for p in net.populations if p.neuron is not None)),
-            "seconds": time.perf_counter() - t0}
+    return {
+        **_cmp(fx, fy, g, ref),
+        "synapses": int(sum(c.n for c in un.connections)),
+        "cells": int(sum(un.n_cells(p.name) for p in net.populations if p.neuron is not None)),
+        "seconds": time.perf_counter() - t0,
+    }
 
 
 def main():
@@ -75,8 +82,11 @@ def main():
         for label, knobs in KNOBS.items():
             row = {"frame": path.stem, "variant": label, **twin_row(pos, neg, ref, knobs)}
             record["crops"].append(row)
-            print(f"crop {path.stem:7s} {label:28s} r {row['grouping_pearson_r']:.3f} "
-                  f"mean dAngle {row['angle_diff_mean_deg']:5.1f}  {row['synapses']:,} synapses", flush=True)
+            print(
+                f"crop {path.stem:7s} {label:28s} r {row['grouping_pearson_r']:.3f} "
+                f"mean dAngle {row['angle_diff_mean_deg']:5.1f}  {row['synapses']:,} synapses",
+                flush=True,
+            )
     # 1b + 2. full frames: twin (structure) and spiking (structure + dynamics)
     for path in frames:
         d = np.load(path)
@@ -90,26 +100,40 @@ def main():
         tw_vs_sp = _cmp(m.fg_x, m.fg_y, m.grouping, {"fg_x": tfx, "fg_y": tfy, "grouping": tg})
         row = {"frame": path.stem, "twin_vs_ref": tw, "spiking_vs_ref": sp, "spiking_vs_twin": tw_vs_sp}
         record["full"].append(row)
-        print(f"full {path.stem:7s} twin r {tw['grouping_pearson_r']:.3f}  spiking r {sp['grouping_pearson_r']:.3f}  "
-              f"spiking vs twin r {tw_vs_sp['grouping_pearson_r']:.3f}", flush=True)
+        print(
+            f"full {path.stem:7s} twin r {tw['grouping_pearson_r']:.3f}  spiking r {sp['grouping_pearson_r']:.3f}  "
+            f"spiking vs twin r {tw_vs_sp['grouping_pearson_r']:.3f}",
+            flush=True,
+        )
     # 2b. mechanisms switched off one at a time
     for path in frames[:2]:
         d = np.load(path)
         ref = {k: d[k] for k in ("fg_x", "fg_y", "grouping")}
-        for label, knobs, feedback in (("default (excess cells, feedback on)", {}, True),
-                                       ("rival inhibition direct (no excess cells)", {"rival_inhibition": "direct"},
-                                        True),
-                                       ("feedback off", {}, False)):
-            res = run_spiking_result(d["pos"], d["neg"], progress=False, spiking=SpikingParams(**knobs),
-                                     feedback=feedback)
+        for label, knobs, feedback in (
+            ("default (excess cells, feedback on)", {}, True),
+            ("rival inhibition direct (no excess cells)", {"rival_inhibition": "direct"}, True),
+            ("feedback off", {}, False),
+        ):
+            res = run_spiking_result(
+                d["pos"], d["neg"], progress=False, spiking=SpikingParams(**knobs), feedback=feedback
+            )
             m = res.maps
-            row = {"frame": path.stem, "variant": label, **_cmp(m.fg_x, m.fg_y, m.grouping, ref),
-                   "group_mean_rate_hz": float(np.mean([s["mean_rate_hz"] for s in m.params["populations"].values()
-                                                        if s["role"].startswith("group")]))}
+            row = {
+                "frame": path.stem,
+                "variant": label,
+                **_cmp(m.fg_x, m.fg_y, m.grouping, ref),
+                "group_mean_rate_hz": float(
+                    np.mean(
+                        [s["mean_rate_hz"] for s in m.params["populations"].values() if s["role"].startswith("group")]
+                    )
+                ),
+            }
             record["dynamics"].append(row)
-            print(f"dyn  {path.stem:7s} {label:42s} r {row['grouping_pearson_r']:.3f} "
-                  f"mean dAngle {row['angle_diff_mean_deg']:5.1f} grouping cells {row['group_mean_rate_hz']:.1f} Hz",
-                  flush=True)
+            print(
+                f"dyn  {path.stem:7s} {label:42s} r {row['grouping_pearson_r']:.3f} "
+                f"mean dAngle {row['angle_diff_mean_deg']:5.1f} grouping cells {row['group_mean_rate_hz']:.1f} Hz",
+                flush=True,
+            )
     record["run"] = run.record()
     save_json("spiking_deviations", record)
     save_markdown("spiking_deviations", _markdown(record))
@@ -119,28 +143,69 @@ def main():
 def _markdown(rec) -> list[str]:
     def mean_deg(r):
         mean = r["angle_diff_mean_deg"]
-        return "no vectors" if mean != mean else f"{mean:.1f}"       # NaN: the figure-ground map is zero
+        return "no vectors" if mean != mean else f"{mean:.1f}"  # NaN: the figure-ground map is zero
 
-    return (["# Deviations of the spiking network from the rate model, measured", "",
-             f"{describe(rec['run'])} *Twin* = the unrolled network run as the rate model's iteration (structure "
-             "only); *spiking* = the Brian2 network (structure + dynamics).", "",
-             "## Structural knobs, one at a time (twin vs reference, 128 x 160 crops)", ""]
-            + markdown_table(["frame", "variant", "grouping r", "median dAngle", "mean dAngle", "synapses"],
-                             [[r["frame"], r["variant"], f"{r['grouping_pearson_r']:.3f}",
-                               f"{r['angle_diff_median_deg']:.1f}", f"{r['angle_diff_mean_deg']:.1f}",
-                               f"{r['synapses']:,}"] for r in rec["crops"]])
-            + ["", "## Full frames: structure vs dynamics", ""]
-            + markdown_table(["frame", "twin vs ref r", "twin mean dAngle", "spiking vs ref r", "spiking mean dAngle",
-                              "spiking vs twin r"],
-                             [[r["frame"], f"{r['twin_vs_ref']['grouping_pearson_r']:.3f}",
-                               f"{r['twin_vs_ref']['angle_diff_mean_deg']:.1f}",
-                               f"{r['spiking_vs_ref']['grouping_pearson_r']:.3f}",
-                               f"{r['spiking_vs_ref']['angle_diff_mean_deg']:.1f}",
-                               f"{r['spiking_vs_twin']['grouping_pearson_r']:.3f}"] for r in rec["full"]])
-            + ["", "## Mechanisms switched off (spiking vs reference)", ""]
-            + markdown_table(["frame", "variant", "grouping r", "mean dAngle", "grouping cells mean rate (Hz)"],
-                             [[r["frame"], r["variant"], f"{r['grouping_pearson_r']:.3f}", mean_deg(r),
-                               f"{r['group_mean_rate_hz']:.1f}"] for r in rec["dynamics"]]))
+    return (
+        [
+            "# Deviations of the spiking network from the rate model, measured",
+            "",
+            f"{describe(rec['run'])} *Twin* = the unrolled network run as the rate model's iteration (structure "
+            "only); *spiking* = the Brian2 network (structure + dynamics).",
+            "",
+            "## Structural knobs, one at a time (twin vs reference, 128 x 160 crops)",
+            "",
+        ]
+        + markdown_table(
+            ["frame", "variant", "grouping r", "median dAngle", "mean dAngle", "synapses"],
+            [
+                [
+                    r["frame"],
+                    r["variant"],
+                    f"{r['grouping_pearson_r']:.3f}",
+                    f"{r['angle_diff_median_deg']:.1f}",
+                    f"{r['angle_diff_mean_deg']:.1f}",
+                    f"{r['synapses']:,}",
+                ]
+                for r in rec["crops"]
+            ],
+        )
+        + ["", "## Full frames: structure vs dynamics", ""]
+        + markdown_table(
+            [
+                "frame",
+                "twin vs ref r",
+                "twin mean dAngle",
+                "spiking vs ref r",
+                "spiking mean dAngle",
+                "spiking vs twin r",
+            ],
+            [
+                [
+                    r["frame"],
+                    f"{r['twin_vs_ref']['grouping_pearson_r']:.3f}",
+                    f"{r['twin_vs_ref']['angle_diff_mean_deg']:.1f}",
+                    f"{r['spiking_vs_ref']['grouping_pearson_r']:.3f}",
+                    f"{r['spiking_vs_ref']['angle_diff_mean_deg']:.1f}",
+                    f"{r['spiking_vs_twin']['grouping_pearson_r']:.3f}",
+                ]
+                for r in rec["full"]
+            ],
+        )
+        + ["", "## Mechanisms switched off (spiking vs reference)", ""]
+        + markdown_table(
+            ["frame", "variant", "grouping r", "mean dAngle", "grouping cells mean rate (Hz)"],
+            [
+                [
+                    r["frame"],
+                    r["variant"],
+                    f"{r['grouping_pearson_r']:.3f}",
+                    mean_deg(r),
+                    f"{r['group_mean_rate_hz']:.1f}",
+                ]
+                for r in rec["dynamics"]
+            ],
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -39,6 +39,7 @@ spiking_dt_pruned``.
 
 ``--quick`` leaves out the BSDS frames (about 5 of the 8 minutes).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -52,8 +53,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.common import (RESULTS, Run, dataset, describe, load, markdown_table,  # noqa: E402
-                                save_json, save_markdown)
+from experiments.common import (
+    RESULTS,
+    Run,
+    dataset,
+    describe,
+    load,
+    markdown_table,  # noqa: E402
+    save_json,
+    save_markdown,
+)
 from experiments.validation.spiking_fidelity import fidelity_row  # noqa: E402
 from experiments.validation.spiking_heldout import variant_params  # noqa: E402
 from snn_fg import datasets, scenes  # noqa: E402
@@ -64,7 +73,7 @@ from snn_fg.outline import filled_outline, outline_scores  # noqa: E402
 from snn_fg.rate.edfg import run_edfg  # noqa: E402
 from snn_fg.spiking import run_spiking_result  # noqa: E402
 
-START_MS = 100.0        # dvs.es opens with a reset burst; issue 11 measures from 100 ms
+START_MS = 100.0  # dvs.es opens with a reset burst; issue 11 measures from 100 ms
 WINDOW_MS = 85.0
 TIMED_WINDOWS = (0, 1, 2)
 
@@ -90,8 +99,9 @@ def _frames(dts, quick, sp, log):
         for dt in dts:
             t0 = time.perf_counter()
             res = run_spiking_result(pos, neg, spiking=sp, backend="fast", seed=0, dt_ms=dt, progress=False)
-            row = fidelity_row(name, "bsds" if scene is None else "synthetic", res.maps, ref,
-                               time.perf_counter() - t0, scene)
+            row = fidelity_row(
+                name, "bsds" if scene is None else "synthetic", res.maps, ref, time.perf_counter() - t0, scene
+            )
             row.pop("roles")
             row["dt_ms"] = dt
             row["run_s"] = res.maps.params["timings_s"].get("run")
@@ -100,11 +110,13 @@ def _frames(dts, quick, sp, log):
             else:
                 row["vs_first_dt"] = agreement(res.maps, first)
             rows.append(row)
-            log(f"{name:<18} dt {dt:g} ms: {row['angle_diff_mean_deg']:5.1f} deg, "
+            log(
+                f"{name:<18} dt {dt:g} ms: {row['angle_diff_mean_deg']:5.1f} deg, "
                 f"{row['angle_within_45_frac']:.3f} within 45, r {row['grouping_pearson_r']:.3f}"
                 + (f", truth {row['truth_frac_within_45']:.2f}" if scene is not None else "")
                 + (f"; vs dt {dts[0]:g}: {row['vs_first_dt']['mean_deg']:.1f} deg" if "vs_first_dt" in row else "")
-                + f"  ({row['seconds']:.0f} s)")
+                + f"  ({row['seconds']:.0f} s)"
+            )
     return rows
 
 
@@ -122,20 +134,32 @@ def _recording(dts, sp, log):
             region = filled_outline(w.pos | w.neg)
             r, c = grouping_peak(m.grouping)
             o = outline_scores(m.fg_x, m.fg_y, region)
-            row = {"window": w.index, "peak_on_plane": bool(region[r, c]), "outline_vectors": o["vectors"],
-                   "inward": o["inward"], "within45": o["within45"], "mean_deg": o["mean_deg"]}
+            row = {
+                "window": w.index,
+                "peak_on_plane": bool(region[r, c]),
+                "outline_vectors": o["vectors"],
+                "inward": o["inward"],
+                "within45": o["within45"],
+                "mean_deg": o["mean_deg"],
+            }
             if first is not None:
                 row["vs_first_dt"] = agreement(m, first[k])
             rows.append(row)
         first = first or maps
         run = maps[-1].params["timings_s"]
-        out[str(dt)] = {"windows": rows, "seconds": time.perf_counter() - t0, "run_s": run.get("run"),
-                        "synaptic_events": maps[0].params.get("backend_stats", {}).get("synaptic_events_total"),
-                        "spikes": maps[0].params.get("backend_stats", {}).get("spikes"),
-                        "peak_on_plane": sum(r["peak_on_plane"] for r in rows),
-                        "inward_min": float(np.nanmin([r["inward"] for r in rows]))}
-        log(f"dvs.es dt {dt:g} ms: peak on the plane in {out[str(dt)]['peak_on_plane']} of {len(rows)} windows, "
-            f"inward >= {out[str(dt)]['inward_min']:.2f}, run {run.get('run', 0):.1f} s")
+        out[str(dt)] = {
+            "windows": rows,
+            "seconds": time.perf_counter() - t0,
+            "run_s": run.get("run"),
+            "synaptic_events": maps[0].params.get("backend_stats", {}).get("synaptic_events_total"),
+            "spikes": maps[0].params.get("backend_stats", {}).get("spikes"),
+            "peak_on_plane": sum(r["peak_on_plane"] for r in rows),
+            "inward_min": float(np.nanmin([r["inward"] for r in rows])),
+        }
+        log(
+            f"dvs.es dt {dt:g} ms: peak on the plane in {out[str(dt)]['peak_on_plane']} of {len(rows)} windows, "
+            f"inward >= {out[str(dt)]['inward_min']:.2f}, run {run.get('run', 0):.1f} s"
+        )
     return out
 
 
@@ -144,8 +168,9 @@ def _timing(dts, rounds, changes, log):
     (``experiments.bench.spiking_variant_speed.alternate``, with the network ``changes``)."""
     from experiments.bench.spiking_variant_speed import alternate
 
-    runs = alternate([(f"dt {dt:g} ms", changes, dt) for dt in dts], [f"dvs:{k}@{START_MS:g}" for k in TIMED_WINDOWS],
-                     rounds, log)
+    runs = alternate(
+        [(f"dt {dt:g} ms", changes, dt) for dt in dts], [f"dvs:{k}@{START_MS:g}" for k in TIMED_WINDOWS], rounds, log
+    )
     med = {str(dt): statistics.median(x["wall_s"] for x in runs if x["dt_ms"] == dt) for dt in dts}
     return {"runs": runs, "median_s": med, "windows": list(TIMED_WINDOWS), "load_end": load()}
 
@@ -159,32 +184,64 @@ def _timing_table(t, dts, base) -> list[str]:
 
     def row(dt):
         first = next(x for x in t["runs"] if x["dt_ms"] == dt and x["input"].startswith("dvs:0@"))
-        return [f"{dt:g}", f"{m[str(dt)]:.3f}", f"{m[str(dt)] / m[str(base)]:.2f}", f"{first['synaptic_events']:,}",
-                f"{first['closed_form_advances']:,}", f"{first['active_cell_steps']:,}"]
+        return [
+            f"{dt:g}",
+            f"{m[str(dt)]:.3f}",
+            f"{m[str(dt)] / m[str(base)]:.2f}",
+            f"{first['synaptic_events']:,}",
+            f"{first['closed_form_advances']:,}",
+            f"{first['active_cell_steps']:,}",
+        ]
 
-    return markdown_table(["dt (ms)", "median s per window", f"relative to dt {base:g}", "synaptic events",
-                           "closed-form catch-ups", "active cell-steps"], map(row, dts))
+    return markdown_table(
+        [
+            "dt (ms)",
+            "median s per window",
+            f"relative to dt {base:g}",
+            "synaptic events",
+            "closed-form catch-ups",
+            "active cell-steps",
+        ],
+        map(row, dts),
+    )
 
 
 def _frame_row(r) -> list:
     v = r.get("vs_first_dt")
-    return [r["name"], f"{r['dt_ms']:g}",
-            _triple(r["angle_diff_mean_deg"], r["angle_within_45_frac"], r["grouping_pearson_r"]),
-            f"{r['rate_covered_frac']:.2f}", "yes" if r["pass_fidelity"] else "NO",
-            f"{r['truth_frac_within_45']:.2f} / {r['ref_truth_frac_within_45']:.2f}"
-            if "truth_frac_within_45" in r else "",
-            "" if "peak_inside" not in r else ("yes" if r["peak_inside"] else "NO"),
-            "" if v is None else _triple(v["mean_deg"], v["within_45"], v["grouping_r"]), f"{r['run_s']:.1f}"]
+    return [
+        r["name"],
+        f"{r['dt_ms']:g}",
+        _triple(r["angle_diff_mean_deg"], r["angle_within_45_frac"], r["grouping_pearson_r"]),
+        f"{r['rate_covered_frac']:.2f}",
+        "yes" if r["pass_fidelity"] else "NO",
+        f"{r['truth_frac_within_45']:.2f} / {r['ref_truth_frac_within_45']:.2f}" if "truth_frac_within_45" in r else "",
+        "" if "peak_inside" not in r else ("yes" if r["peak_inside"] else "NO"),
+        "" if v is None else _triple(v["mean_deg"], v["within_45"], v["grouping_r"]),
+        f"{r['run_s']:.1f}",
+    ]
 
 
 def _dvs_row(dt, d) -> list:
     ws = d["windows"]
     vs = [w["vs_first_dt"] for w in ws if "vs_first_dt" in w]
-    versus = ([f"{np.median([v['mean_deg'] for v in vs]):.1f}", f"{min(v['within_45'] for v in vs):.2f}",
-               f"{min(v['grouping_r'] for v in vs):.3f}"] if vs else ["", "", ""])
-    return [f"{dt:g}", f"{d['peak_on_plane']} of {len(ws)}", f"{d['inward_min']:.2f}",
-            f"{np.nanmedian([w['inward'] for w in ws]):.2f}", f"{np.nanmedian([w['within45'] for w in ws]):.2f}",
-            *versus, f"{d['run_s']:.1f}"]
+    versus = (
+        [
+            f"{np.median([v['mean_deg'] for v in vs]):.1f}",
+            f"{min(v['within_45'] for v in vs):.2f}",
+            f"{min(v['grouping_r'] for v in vs):.3f}",
+        ]
+        if vs
+        else ["", "", ""]
+    )
+    return [
+        f"{dt:g}",
+        f"{d['peak_on_plane']} of {len(ws)}",
+        f"{d['inward_min']:.2f}",
+        f"{np.nanmedian([w['inward'] for w in ws]):.2f}",
+        f"{np.nanmedian([w['within45'] for w in ws]):.2f}",
+        *versus,
+        f"{d['run_s']:.1f}",
+    ]
 
 
 def _markdown(rec) -> list[str]:
@@ -192,32 +249,68 @@ def _markdown(rec) -> list[str]:
     names = [f"{d:g}" for d in dts]
     steps = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
     changed = f"; network changes `{json.dumps(rec['changes'])}`" if rec.get("changes") else ""
-    lines = ["# The spiking network at dt = " + steps + " ms", "",
-             f"{describe(rec['run'])} Fast engine, input seed 0{changed}. Angles: mean absolute difference (deg) / "
-             "fraction of shared edge pixels within 45 deg / grouping Pearson r. Figure: "
-             f"`{rec.get('name', 'spiking_dt')}.png`.", ""]
+    lines = [
+        "# The spiking network at dt = " + steps + " ms",
+        "",
+        f"{describe(rec['run'])} Fast engine, input seed 0{changed}. Angles: mean absolute difference (deg) / "
+        "fraction of shared edge pixels within 45 deg / grouping Pearson r. Figure: "
+        f"`{rec.get('name', 'spiking_dt')}.png`.",
+        "",
+    ]
     t = rec.get("timing")
     if t:
-        lines += ["## Time per dvs.es window (side by side)", "",
-                  f"Windows {', '.join(map(str, t['windows']))} from {START_MS:g} ms, each run as a recording of "
-                  f"one window, in fresh processes alternating between the time steps, {rec['rounds']} rounds "
-                  f"(load {min(x['load'] for x in t['runs']):.1f}-{max(x['load'] for x in t['runs']):.1f}).", "",
-                  *_timing_table(t, dts, base), "", "(counters of window 0)", ""]
+        lines += [
+            "## Time per dvs.es window (side by side)",
+            "",
+            f"Windows {', '.join(map(str, t['windows']))} from {START_MS:g} ms, each run as a recording of "
+            f"one window, in fresh processes alternating between the time steps, {rec['rounds']} rounds "
+            f"(load {min(x['load'] for x in t['runs']):.1f}-{max(x['load'] for x in t['runs']):.1f}).",
+            "",
+            *_timing_table(t, dts, base),
+            "",
+            "(counters of window 0)",
+            "",
+        ]
     if rec["frames"]:
         lines += [f"## Frames against the rate model (and against dt {base:g})", ""]
-        lines += markdown_table(["input", "dt (ms)", "vs rate", "covered", "pass (issue 11)",
-                                 "truth within 45 (spk / rate)", "peak inside", f"vs dt {base:g}", "run (s)"],
-                                map(_frame_row, rec["frames"]))
+        lines += markdown_table(
+            [
+                "input",
+                "dt (ms)",
+                "vs rate",
+                "covered",
+                "pass (issue 11)",
+                "truth within 45 (spk / rate)",
+                "peak inside",
+                f"vs dt {base:g}",
+                "run (s)",
+            ],
+            map(_frame_row, rec["frames"]),
+        )
         lines.append("")
     dvs = rec.get("dvs")
     if dvs:
-        lines += ["## dvs.es, one continuous run, 85 ms windows from 100 ms", "",
-                  "Outline vectors against the plane's inward normal: inward fraction / within 45 deg / mean "
-                  f"angle; the last columns compare each window's maps with dt {base:g}'s.", ""]
-        lines += markdown_table(["dt (ms)", "peak on plane", "inward, lowest window", "inward, median",
-                                 "within 45, median", f"vs dt {base:g}: mean angle (median over windows)",
-                                 "within 45 (lowest)", "grouping r (lowest)", "run (s)"],
-                                [_dvs_row(dt, dvs[str(dt)]) for dt in dts])
+        lines += [
+            "## dvs.es, one continuous run, 85 ms windows from 100 ms",
+            "",
+            "Outline vectors against the plane's inward normal: inward fraction / within 45 deg / mean "
+            f"angle; the last columns compare each window's maps with dt {base:g}'s.",
+            "",
+        ]
+        lines += markdown_table(
+            [
+                "dt (ms)",
+                "peak on plane",
+                "inward, lowest window",
+                "inward, median",
+                "within 45, median",
+                f"vs dt {base:g}: mean angle (median over windows)",
+                "within 45 (lowest)",
+                "grouping r (lowest)",
+                "run (s)",
+            ],
+            [_dvs_row(dt, dvs[str(dt)]) for dt in dts],
+        )
         lines.append("")
     return lines
 
@@ -228,8 +321,9 @@ def _figure(rec, path):
     bsds = sorted({r["name"] for r in rec["frames"] if r["kind"] == "bsds"})
     width = 0.8 / len(dts)
     for j, dt in enumerate(dts):
-        val = [next(r["angle_diff_mean_deg"] for r in rec["frames"] if r["name"] == n and r["dt_ms"] == dt)
-               for n in bsds]
+        val = [
+            next(r["angle_diff_mean_deg"] for r in rec["frames"] if r["name"] == n and r["dt_ms"] == dt) for n in bsds
+        ]
         ax[0].bar(np.arange(len(bsds)) + j * width, val, width, label=f"dt {dt:g} ms")
     ax[0].axhline(15, color="k", ls=":", lw=1)
     ax[0].set_xticks(np.arange(len(bsds)) + width * (len(dts) - 1) / 2, [n[5:] for n in bsds], rotation=30)
@@ -240,8 +334,12 @@ def _figure(rec, path):
             ws = rec["dvs"][str(dt)]["windows"]
             ax[1].plot([w["window"] for w in ws], [w["inward"] for w in ws], "o-", label=f"dt {dt:g} ms")
         ax[1].axhline(0.6, color="k", ls=":", lw=1)
-        ax[1].set(xlabel="dvs.es window (85 ms, from 100 ms)", ylabel="outline vectors pointing inwards",
-                  ylim=(0, 1.02), title="dvs.es, one continuous run (0.6: issue 11)")
+        ax[1].set(
+            xlabel="dvs.es window (85 ms, from 100 ms)",
+            ylabel="outline vectors pointing inwards",
+            ylim=(0, 1.02),
+            title="dvs.es, one continuous run (0.6: issue 11)",
+        )
         ax[1].legend(fontsize=8)
     if rec.get("timing"):
         for j, dt in enumerate(dts):
@@ -259,8 +357,13 @@ def _figure(rec, path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dt", type=float, nargs="+", default=[0.5, 1.0],
-                    help="time steps in ms; the first is the one the others are compared with (0.5 1.0)")
+    ap.add_argument(
+        "--dt",
+        type=float,
+        nargs="+",
+        default=[0.5, 1.0],
+        help="time steps in ms; the first is the one the others are compared with (0.5 1.0)",
+    )
     ap.add_argument("--quick", action="store_true", help="leave out the BSDS frames")
     ap.add_argument("--rounds", type=int, default=3, help="timing rounds (3)")
     ap.add_argument("--changes", default="{}", metavar="JSON", help="SpikingParams fields to change ({})")
@@ -269,7 +372,7 @@ def main():
     sp = variant_params("--changes", a.changes)
     dataset("events", "dvs.es")
     run = Run()
-    log = lambda msg: print(msg, flush=True)   # noqa: E731
+    log = lambda msg: print(msg, flush=True)  # noqa: E731
     rec = {"dt_ms": a.dt, "rounds": a.rounds, "changes": json.loads(a.changes), "name": a.name}
     rec["timing"] = _timing(a.dt, a.rounds, a.changes, log)
     rec["frames"] = _frames(a.dt, a.quick, sp, log)

@@ -22,6 +22,7 @@ untuned cells' inhibition as it was until then. Earlier uses: the feedback cells
 Writes experiments/results/spiking_heldout.{json,md}.
 Usage: python -m experiments.validation.spiking_heldout [--images 6] [--variant NAME=JSON ...]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -41,8 +42,13 @@ from snn_fg.spiking import run_spiking
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--images", type=int, default=6)
-    ap.add_argument("--variant", action="append", default=None, metavar="NAME=JSON",
-                    help="SpikingParams fields to change (repeatable); default: inhibition with 10 ms")
+    ap.add_argument(
+        "--variant",
+        action="append",
+        default=None,
+        metavar="NAME=JSON",
+        help="SpikingParams fields to change (repeatable); default: inhibition with 10 ms",
+    )
     a = ap.parse_args()
     variants = {"default": SpikingParams()}
     for v in a.variant or [EARLIER]:
@@ -51,7 +57,7 @@ def main():
     images = dataset("bsds-fg", "images")
     names = sorted(p.stem for p in images.glob("*.jpg"))
     step = max(len(names) // a.images, 1)
-    ids = names[step // 2::step][:a.images]
+    ids = names[step // 2 :: step][: a.images]
     run = Run()
     rows = []
     for i in ids:
@@ -69,12 +75,18 @@ def main():
         for name, sp in variants.items():
             m = run_spiking(pos, neg, spiking=sp, progress=False)
             t = truth_scores(m.fg_x, m.fg_y, sc)
-            rows.append({"input": sc.name, "kind": "synthetic", "variant": name, **agreement(m, ref),
-                         "truth_within_45": t["frac_within_45"],
-                         "peak_inside": bool(grouping_peak_inside(m.grouping, sc, None))})
+            rows.append(
+                {
+                    "input": sc.name,
+                    "kind": "synthetic",
+                    "variant": name,
+                    **agreement(m, ref),
+                    "truth_within_45": t["frac_within_45"],
+                    "peak_inside": bool(grouping_peak_inside(m.grouping, sc, None)),
+                }
+            )
             print(f"{sc.name} {name}: {rows[-1]}", flush=True)
-    rec = {"rows": rows, "images": ids, "variants": {k: v.to_dict() for k, v in variants.items()},
-           "run": run.record()}
+    rec = {"rows": rows, "images": ids, "variants": {k: v.to_dict() for k, v in variants.items()}, "run": run.record()}
     save_json("spiking_heldout", rec)
     save_markdown("spiking_heldout", _markdown(rec, list(variants)))
     print(f"wrote experiments/results/spiking_heldout.md ({rec['run']['seconds']:.0f} s)")
@@ -83,8 +95,9 @@ def main():
 #: the default variant: inhibition decaying with 10 ms in every kind but the
 #: untuned cells, as before 24 Nov 2026 (every kind now has tau_inh = tau_exc
 #: = 5 ms; the untuned cells, 50 ms then, keep the default's 5 ms here)
-EARLIER = 'tau_inh 10 ms=' + json.dumps({k: {**getattr(SpikingParams(), k).to_dict(), "tau_inh_ms": 10.0}
-                                         for k in CELL_KINDS if k != "untuned"})
+EARLIER = "tau_inh 10 ms=" + json.dumps(
+    {k: {**getattr(SpikingParams(), k).to_dict(), "tau_inh_ms": 10.0} for k in CELL_KINDS if k != "untuned"}
+)
 
 
 def variant_params(name, js) -> SpikingParams:
@@ -103,19 +116,31 @@ def variant_params(name, js) -> SpikingParams:
 def _markdown(rec, names) -> list[str]:
     def row(name):
         rs = {r["variant"]: r for r in rec["rows"] if r["input"] == name}
-        vs = [f"{rs[n]['mean_deg']:.1f} / {100 * rs[n]['within_45']:.0f} / {rs[n]['grouping_r']:.3f} / "
-              f"{rs[n]['coverage']:.2f}" for n in names]
-        tr = [f"{100 * rs[n]['truth_within_45']:.0f} %, {'in' if rs[n]['peak_inside'] else 'OUT'}"
-              if "truth_within_45" in rs[n] else "" for n in names]
+        vs = [
+            f"{rs[n]['mean_deg']:.1f} / {100 * rs[n]['within_45']:.0f} / {rs[n]['grouping_r']:.3f} / "
+            f"{rs[n]['coverage']:.2f}"
+            for n in names
+        ]
+        tr = [
+            f"{100 * rs[n]['truth_within_45']:.0f} %, {'in' if rs[n]['peak_inside'] else 'OUT'}"
+            if "truth_within_45" in rs[n]
+            else ""
+            for n in names
+        ]
         return [name, rs[names[0]]["kind"], *vs, *tr]
 
-    return ["# Network variants on inputs they were not chosen on", "",
-            f"{describe(rec['run'])} Fast engine. Per input and network: spiking against the rate model on the "
-            "same events (mean angle difference / % within 45 deg / grouping r / coverage of the rate model's "
-            "vectors); synthetic scenes also against the analytic truth (% within 45 deg, grouping peak inside). "
-            "Variants (changes to the default `SpikingParams`): " + "; ".join(f"**{n}**" for n in names) + ".", ""
-            ] + markdown_table(["input", "kind"] + [f"{n}: vs rate" for n in names] + [f"{n}: truth" for n in names],
-                               map(row, dict.fromkeys(r["input"] for r in rec["rows"])))
+    return [
+        "# Network variants on inputs they were not chosen on",
+        "",
+        f"{describe(rec['run'])} Fast engine. Per input and network: spiking against the rate model on the "
+        "same events (mean angle difference / % within 45 deg / grouping r / coverage of the rate model's "
+        "vectors); synthetic scenes also against the analytic truth (% within 45 deg, grouping peak inside). "
+        "Variants (changes to the default `SpikingParams`): " + "; ".join(f"**{n}**" for n in names) + ".",
+        "",
+    ] + markdown_table(
+        ["input", "kind"] + [f"{n}: vs rate" for n in names] + [f"{n}: truth" for n in names],
+        map(row, dict.fromkeys(r["input"] for r in rec["rows"])),
+    )
 
 
 if __name__ == "__main__":

@@ -39,6 +39,7 @@ frame, with the fast engine and the default network:
 Writes experiments/results/spiking_stages.{json,md,png}.
 Usage: python -m experiments.validation.spiking_stages [--frames 105053 ...] [--gain-frames ...]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -47,14 +48,15 @@ import dataclasses
 import numpy as np
 
 from experiments.common import Run, dataset, describe, markdown_table, save_figure, save_json, save_markdown
-from snn_fg.pyramid.levels import resize
 from snn_fg.metrics import agreement
 from snn_fg.network import SpikingParams
 from snn_fg.params import ModelParams
+from snn_fg.pyramid.levels import resize
 from snn_fg.rate.edfg import event_entries, run_edfg
 from snn_fg.rate.grouping import SparseGrouping
 from snn_fg.spiking import run_spiking_result
 from snn_fg.spiking.decode import decode, to_level_grid
+
 ITERATIONS = (1, 2, 3, 5, 10, 20, 40)
 #: (end of the counting window, its length) in ms
 WINDOWS = ((60, 30), (100, 30), (150, 30), (200, 30), (400, 200), (700, 500), (700, 300))
@@ -101,9 +103,12 @@ def _stages(result, pos, neg, params: ModelParams) -> dict:
     o = np.where(hi, e.ch - n, e.ch)
     z_spk = np.where(hi, z2[o, e.rows, e.cols], z1[o, e.rows, e.cols])
     decided = z_spk != 0
-    out["z_level1"] = {"entries": int(e.ch.size), "ties": float(np.mean(~decided)),
-                       "sign_agrees": float(np.mean(np.sign(z_spk[decided]) == np.sign(z_model[decided]))),
-                       "pearson_r": float(np.corrcoef(z_spk, z_model)[0, 1])}
+    out["z_level1"] = {
+        "entries": int(e.ch.size),
+        "ties": float(np.mean(~decided)),
+        "sign_agrees": float(np.mean(np.sign(z_spk[decided]) == np.sign(z_model[decided]))),
+        "pearson_r": float(np.corrcoef(z_spk, z_model)[0, 1]),
+    }
     out["coarse_share"] = _coarse_share(result, eng, params)
     return out
 
@@ -116,12 +121,19 @@ def _coarse_share(result, eng: SparseGrouping, params: ModelParams) -> list:
     own = eng.feedback_correlations()
     pooled = [None] * len(own)
     for k in range(len(own) - 1, -1, -1):
-        pooled[k] = own[k] if k + 1 == len(own) else own[k] + params.pyramid_decay * np.stack(
-            [resize(c, own[k].shape[1:], "cubic") for c in pooled[k + 1]])
+        pooled[k] = (
+            own[k]
+            if k + 1 == len(own)
+            else own[k] + params.pyramid_decay * np.stack([resize(c, own[k].shape[1:], "cubic") for c in pooled[k + 1]])
+        )
     net, shares = result.network, []
     for k in range(len(own)):
-        zs = np.concatenate([result.grid(net.one(f"feedback_{a}p", k + 1).name)
-                             - result.grid(net.one(f"feedback_{a}n", k + 1).name) for a in (1, 2)])
+        zs = np.concatenate(
+            [
+                result.grid(net.one(f"feedback_{a}p", k + 1).name) - result.grid(net.one(f"feedback_{a}n", k + 1).name)
+                for a in (1, 2)
+            ]
+        )
         st = net.one("feedback_1p", k + 1).stride
         mo, mc = own[k][:, ::st, ::st], (pooled[k] - own[k])[:, ::st, ::st]
         h, w = min(zs.shape[1], mo.shape[1]), min(zs.shape[2], mo.shape[2])
@@ -175,18 +187,27 @@ def main():
                 default_entry = len(row["trajectory"])
             spiking_maps.append(maps)
             versus = {k: agreement(maps, refs[k]) for k in ITERATIONS}
-            row["trajectory"].append({"window_ms": [end - length, end], "coverage": versus[10]["coverage"],
-                                      "vs_iterations": versus})
-            print(f"{f} counts {end - length}-{end} ms: " + " ".join(
-                f"n{k} {v['mean_deg']:.1f}" for k, v in row["trajectory"][-1]["vs_iterations"].items()), flush=True)
+            row["trajectory"].append(
+                {"window_ms": [end - length, end], "coverage": versus[10]["coverage"], "vs_iterations": versus}
+            )
+            print(
+                f"{f} counts {end - length}-{end} ms: "
+                + " ".join(f"n{k} {v['mean_deg']:.1f}" for k, v in row["trajectory"][-1]["vs_iterations"].items()),
+                flush=True,
+            )
         for t, maps in zip(row["trajectory"], spiking_maps):
             t["vs_default_readout"] = agreement(maps, default_maps)
         row["stages"] = _stages(default_result, pos, neg, params)
         print(f"{f} stages: {row['stages']}", flush=True)
-        row["noise"] = {s: [agreement(_noisy_reference(pos, neg, params, s, seed), ref) for seed in range(3)]
-                        for s in NOISE}
-        row["share"] = {c: agreement(_maps(run_edfg(pos, neg, dataclasses.replace(
-            params, pyramid_decay=c * params.pyramid_decay))), ref) for c in SHARES}
+        row["noise"] = {
+            s: [agreement(_noisy_reference(pos, neg, params, s, seed), ref) for seed in range(3)] for s in NOISE
+        }
+        row["share"] = {
+            c: agreement(
+                _maps(run_edfg(pos, neg, dataclasses.replace(params, pyramid_decay=c * params.pyramid_decay))), ref
+            )
+            for c in SHARES
+        }
         if f in a.gain_frames:
             row["gain"].append({"variant": "default", **row["trajectory"][default_entry]["vs_iterations"][10]})
             for name, change in _variants().items():
@@ -206,10 +227,14 @@ def _maps(m):
 
 def _variants() -> dict:
     fb = SpikingParams().feedback
-    return {"the earlier feedback: 4 ms refractory period, feedback_to_bo 1.0": {
-                "feedback": dataclasses.replace(fb, t_ref_ms=4.0), "feedback_to_bo": 1.0},
-            "group_to_feedback 0.2": {"group_to_feedback": 0.2},
-            "group_to_feedback 1.0": {"group_to_feedback": 1.0}}
+    return {
+        "the earlier feedback: 4 ms refractory period, feedback_to_bo 1.0": {
+            "feedback": dataclasses.replace(fb, t_ref_ms=4.0),
+            "feedback_to_bo": 1.0,
+        },
+        "group_to_feedback 0.2": {"group_to_feedback": 0.2},
+        "group_to_feedback 1.0": {"group_to_feedback": 1.0},
+    }
 
 
 def _agreement(m) -> str:
@@ -221,54 +246,112 @@ def _trajectory_rows(fr) -> list:
     rows = []
     for f, row in fr.items():
         for t in row["trajectory"]:
-            v = {int(k): m for k, m in t["vs_iterations"].items()}      # (keys are strings when read back)
+            v = {int(k): m for k, m in t["vs_iterations"].items()}  # (keys are strings when read back)
             d = t.get("vs_default_readout")
-            rows.append([f, f"{t['window_ms'][0]}-{t['window_ms'][1]}", f"{t['coverage']:.2f}",
-                         *(_agreement(v[k]) for k in ITERATIONS), "" if d is None else _agreement(d)])
+            rows.append(
+                [
+                    f,
+                    f"{t['window_ms'][0]}-{t['window_ms'][1]}",
+                    f"{t['coverage']:.2f}",
+                    *(_agreement(v[k]) for k in ITERATIONS),
+                    "" if d is None else _agreement(d),
+                ]
+            )
     return rows
 
 
 def _stage_row(f, s) -> list:
     fb, z = s["feedback_rule"], s["z_level1"]
-    return [f, " ".join(f"{r:.2f}" for r in s["grouping_r_per_level"]),
-            f"{fb['mean_deg']:.1f} / {100 * fb['within_45']:.0f} %", f"{100 * z['ties']:.0f} %",
-            f"{100 * z['sign_agrees']:.1f} %", f"{z['pearson_r']:.2f}",
-            " ".join("-" if c is None else f"{c:.2f}" for c in s["coarse_share"][:-1])]
+    return [
+        f,
+        " ".join(f"{r:.2f}" for r in s["grouping_r_per_level"]),
+        f"{fb['mean_deg']:.1f} / {100 * fb['within_45']:.0f} %",
+        f"{100 * z['ties']:.0f} %",
+        f"{100 * z['sign_agrees']:.1f} %",
+        f"{z['pearson_r']:.2f}",
+        " ".join("-" if c is None else f"{c:.2f}" for c in s["coarse_share"][:-1]),
+    ]
 
 
 def _markdown(rec) -> list[str]:
     fr = rec["frames"]
-    lines = ["# Where the spiking maps part from the rate reference", "",
-             f"{describe(rec['run'])} Fast engine, default network. Angles: mean absolute difference (deg) / % of "
-             "shared edge pixels within 45 deg / grouping Pearson r.", "",
-             "## 1. Spiking maps by counting window, against the rate model after n iterations", ""]
-    lines += markdown_table(["frame", "counts (ms)", "coverage", *(f"n = {k}" for k in ITERATIONS),
-                             "vs the 200-400 ms maps"], _trajectory_rows(fr))
-    lines += ["", "Coverage: fraction of the 10-iteration reference's vectors that the spiking map also has. "
-              "The last column: the same maps against the spiking network's own default read-out (counts in "
-              "200-400 ms), i.e. how far the network moves before and after it.", "",
-              "## 2. Each spiking stage against the model's rule on the spiking network's own state", ""]
-    lines += markdown_table(["frame", "stage 7 on spiking B: r with spiking G, levels 1..L",
-                             "stage 8 on spiking G vs spiking map", "level-1 z: ties", "sign agrees (decided)", "r",
-                             "coarse share, levels 1..L-1"], [_stage_row(f, row["stages"]) for f, row in fr.items()])
-    lines += ["", "## 3. The reference with relative noise on its feedback correlation at every iteration "
-              "(3 seeds), against itself", ""]
+    lines = [
+        "# Where the spiking maps part from the rate reference",
+        "",
+        f"{describe(rec['run'])} Fast engine, default network. Angles: mean absolute difference (deg) / % of "
+        "shared edge pixels within 45 deg / grouping Pearson r.",
+        "",
+        "## 1. Spiking maps by counting window, against the rate model after n iterations",
+        "",
+    ]
+    lines += markdown_table(
+        ["frame", "counts (ms)", "coverage", *(f"n = {k}" for k in ITERATIONS), "vs the 200-400 ms maps"],
+        _trajectory_rows(fr),
+    )
+    lines += [
+        "",
+        "Coverage: fraction of the 10-iteration reference's vectors that the spiking map also has. "
+        "The last column: the same maps against the spiking network's own default read-out (counts in "
+        "200-400 ms), i.e. how far the network moves before and after it.",
+        "",
+        "## 2. Each spiking stage against the model's rule on the spiking network's own state",
+        "",
+    ]
+    lines += markdown_table(
+        [
+            "frame",
+            "stage 7 on spiking B: r with spiking G, levels 1..L",
+            "stage 8 on spiking G vs spiking map",
+            "level-1 z: ties",
+            "sign agrees (decided)",
+            "r",
+            "coarse share, levels 1..L-1",
+        ],
+        [_stage_row(f, row["stages"]) for f, row in fr.items()],
+    )
+    lines += [
+        "",
+        "## 3. The reference with relative noise on its feedback correlation at every iteration "
+        "(3 seeds), against itself",
+        "",
+    ]
     noise = [{float(k): ms for k, ms in row["noise"].items()} for row in fr.values()]
-    lines += markdown_table(["frame", *(f"sigma = {s}" for s in NOISE)],
-                            [[f, *(", ".join(f"{m['mean_deg']:.1f} / {100 * m['within_45']:.0f}" for m in n[s])
-                                   for s in NOISE)] for f, n in zip(fr, noise)])
+    lines += markdown_table(
+        ["frame", *(f"sigma = {s}" for s in NOISE)],
+        [
+            [f, *(", ".join(f"{m['mean_deg']:.1f} / {100 * m['within_45']:.0f}" for m in n[s]) for s in NOISE)]
+            for f, n in zip(fr, noise)
+        ],
+    )
     if all("share" in row for row in fr.values()):
-        lines += ["", "The reference with `pyramid_decay` scaled (the coarse levels' share in the pooled feedback; "
-                  "the network's is measured in section 2), against itself:", ""]
+        lines += [
+            "",
+            "The reference with `pyramid_decay` scaled (the coarse levels' share in the pooled feedback; "
+            "the network's is measured in section 2), against itself:",
+            "",
+        ]
         shares = [{float(k): v for k, v in row["share"].items()} for row in fr.values()]
-        lines += markdown_table(["frame", *(f"share x {c}" for c in SHARES)],
-                                [[f, *(_agreement(sh[c]) for c in SHARES)] for f, sh in zip(fr, shares)])
+        lines += markdown_table(
+            ["frame", *(f"share x {c}" for c in SHARES)],
+            [[f, *(_agreement(sh[c]) for c in SHARES)] for f, sh in zip(fr, shares)],
+        )
     gain_rows = [(f, g) for f, row in fr.items() for g in row["gain"]]
     if gain_rows:
         lines += ["", "## 4. Feedback variants, spiking vs the 10-iteration reference", ""]
-        lines += markdown_table(["frame", "variant", "mean dAngle", "within 45", "grouping r", "coverage"],
-                                [[f, g["variant"], f"{g['mean_deg']:.1f}", f"{100 * g['within_45']:.0f} %",
-                                  f"{g['grouping_r']:.3f}", f"{g['coverage']:.2f}"] for f, g in gain_rows])
+        lines += markdown_table(
+            ["frame", "variant", "mean dAngle", "within 45", "grouping r", "coverage"],
+            [
+                [
+                    f,
+                    g["variant"],
+                    f"{g['mean_deg']:.1f}",
+                    f"{100 * g['within_45']:.0f} %",
+                    f"{g['grouping_r']:.3f}",
+                    f"{g['coverage']:.2f}",
+                ]
+                for f, g in gain_rows
+            ],
+        )
     return lines
 
 
@@ -283,8 +366,13 @@ def _figure(rec):
     for ax, f in zip(axes, frames):
         for t in rec["frames"][f]["trajectory"]:
             v = t["vs_iterations"]
-            ax.plot(ITERATIONS, [v[k]["mean_deg"] if k in v else v[str(k)]["mean_deg"] for k in ITERATIONS],
-                    marker="o", ms=3, label=f"counts {t['window_ms'][0]}-{t['window_ms'][1]} ms")
+            ax.plot(
+                ITERATIONS,
+                [v[k]["mean_deg"] if k in v else v[str(k)]["mean_deg"] for k in ITERATIONS],
+                marker="o",
+                ms=3,
+                label=f"counts {t['window_ms'][0]}-{t['window_ms'][1]} ms",
+            )
         ax.axvline(10, color="grey", lw=0.8, ls="--")
         ax.axhline(15, color="red", lw=0.8, ls=":")
         ax.set_xscale("log")
@@ -293,10 +381,12 @@ def _figure(rec):
         ax.set_xlabel("rate model iterations n")
     axes[0].set_ylabel("mean |angle difference| (deg)")
     axes[0].legend(fontsize=6)
-    for ax in axes[len(frames):]:
+    for ax in axes[len(frames) :]:
         ax.set_visible(False)
-    fig.suptitle("Spiking maps against the rate model after n iterations (red: issue 11's 15 deg; "
-                 "grey: the paper's n = 10)", fontsize=9)
+    fig.suptitle(
+        "Spiking maps against the rate model after n iterations (red: issue 11's 15 deg; grey: the paper's n = 10)",
+        fontsize=9,
+    )
     save_figure(fig, "spiking_stages", dpi=100, bbox_inches=None)
 
 

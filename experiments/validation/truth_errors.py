@@ -12,6 +12,7 @@ pixels red in both panels are the model's.
 Writes experiments/results/truth_errors.{json,md,png}.
 Usage: python -m experiments.validation.truth_errors
 """
+
 from __future__ import annotations
 
 import matplotlib
@@ -32,9 +33,14 @@ def _per_owner(err, sc) -> list:
     out = []
     for i, shape in enumerate(sc.shapes):
         e = err[(sc.owner == i + 1) & np.isfinite(err)]
-        out.append({"shape": f"{type(shape).__name__.lower()} {i + 1}", "scored": int(e.size),
-                    "within_45": float(np.mean(e <= 45)) if e.size else float("nan"),
-                    "mean_deg": float(np.mean(e)) if e.size else float("nan")})
+        out.append(
+            {
+                "shape": f"{type(shape).__name__.lower()} {i + 1}",
+                "scored": int(e.size),
+                "within_45": float(np.mean(e <= 45)) if e.size else float("nan"),
+                "mean_deg": float(np.mean(e)) if e.size else float("nan"),
+            }
+        )
     return out
 
 
@@ -44,13 +50,22 @@ def main():
     fig, axes = plt.subplots(2, 2, figsize=(13, 10))
     for ax_row, sc in zip(axes, (scenes.occlusion(), scenes.demo())):
         pos, neg = image_to_frame(sc.image)
-        for ax, (model, maps) in zip(ax_row, (("spiking", run_spiking(pos, neg, progress=False)),
-                                              ("rate", run_edfg(pos, neg)))):
+        for ax, (model, maps) in zip(
+            ax_row, (("spiking", run_spiking(pos, neg, progress=False)), ("rate", run_edfg(pos, neg)))
+        ):
             fx, fy = maps.fg_x, maps.fg_y
             err = truth_errors(fx, fy, sc)
             t = truth_scores(fx, fy, sc)
-            rows.append({"scene": sc.name, "model": model, "within_45": t["frac_within_45"],
-                         "mean_deg": t["mean_err_deg"], "coverage": t["coverage"], "shapes": _per_owner(err, sc)})
+            rows.append(
+                {
+                    "scene": sc.name,
+                    "model": model,
+                    "within_45": t["frac_within_45"],
+                    "mean_deg": t["mean_err_deg"],
+                    "coverage": t["coverage"],
+                    "shapes": _per_owner(err, sc),
+                }
+            )
             mag = np.hypot(fx, fy)
             rr, cc = np.nonzero(np.isfinite(err))
             ux, uy = fx[rr, cc] / mag[rr, cc], fy[rr, cc] / mag[rr, cc]
@@ -59,8 +74,9 @@ def main():
             # (the maps are x right, y up; quiver's default draws v up on screen)
             ax.quiver(cc[~bad], rr[~bad], ux[~bad], uy[~bad], color="lime", scale=40, width=0.002)
             ax.quiver(cc[bad], rr[bad], ux[bad], uy[bad], color="red", scale=40, width=0.003)
-            ax.set_title(f"{sc.name}, {model}: {100 * t['frac_within_45']:.0f} % within 45 deg, "
-                         f"mean {t['mean_err_deg']:.1f} deg")
+            ax.set_title(
+                f"{sc.name}, {model}: {100 * t['frac_within_45']:.0f} % within 45 deg, mean {t['mean_err_deg']:.1f} deg"
+            )
             ax.set_axis_off()
             print(f"{sc.name} {model}: {rows[-1]}", flush=True)
     fig.suptitle("Figure-ground vectors on the scored boundary pixels: green within 45 deg of the truth, red beyond")
@@ -68,17 +84,28 @@ def main():
     save_figure(fig, "truth_errors", dpi=90, bbox_inches=None)
     rec = {"rows": rows, "run": run.record()}
     save_json("truth_errors", rec)
-    save_markdown("truth_errors", ["# Where the models miss the truth on the multi-shape scenes", "",
-                                   f"{describe(rec['run'])} Fast engine. Per scene, model and owning shape: % of "
-                                   "scored boundary pixels within 45 deg of the analytic direction / mean absolute "
-                                   "angle (deg) / scored pixels. Figure: `truth_errors.png`.", ""]
-                  + markdown_table(["scene", "model", "all", "shape 1", "shape 2", "shape 3"], map(_row, rows)))
+    save_markdown(
+        "truth_errors",
+        [
+            "# Where the models miss the truth on the multi-shape scenes",
+            "",
+            f"{describe(rec['run'])} Fast engine. Per scene, model and owning shape: % of "
+            "scored boundary pixels within 45 deg of the analytic direction / mean absolute "
+            "angle (deg) / scored pixels. Figure: `truth_errors.png`.",
+            "",
+        ]
+        + markdown_table(["scene", "model", "all", "shape 1", "shape 2", "shape 3"], map(_row, rows)),
+    )
     print(f"wrote experiments/results/truth_errors.md ({rec['run']['seconds']:.0f} s)")
 
 
 def _row(r) -> list:
     cells = [f"{s['shape']}: {100 * s['within_45']:.0f} % / {s['mean_deg']:.1f} / {s['scored']}" for s in r["shapes"]]
-    return [r["scene"], r["model"], f"{100 * r['within_45']:.0f} % / {r['mean_deg']:.1f}"] + cells + [""] * (3 - len(cells))
+    return (
+        [r["scene"], r["model"], f"{100 * r['within_45']:.0f} % / {r['mean_deg']:.1f}"]
+        + cells
+        + [""] * (3 - len(cells))
+    )
 
 
 if __name__ == "__main__":

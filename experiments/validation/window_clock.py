@@ -26,6 +26,7 @@ Writes ``experiments/results/window_clock.{json,md,png}``; with ``--no-dvs``
 
     python -m experiments.validation.window_clock [--gains 0,100,300,1000] [--no-dvs]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,8 +37,15 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.common import (Run, dataset, describe, markdown_table, save_figure, save_json,  # noqa: E402
-                                save_markdown)
+from experiments.common import (
+    Run,
+    dataset,
+    describe,
+    markdown_table,
+    save_figure,
+    save_json,  # noqa: E402
+    save_markdown,
+)
 from experiments.validation.dvs_history import spiking_light_share as light_share  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.metrics import grouping_peak  # noqa: E402
@@ -74,46 +82,83 @@ def _onset_ms(run, share: float = 0.05) -> list:
 
 
 def sweep_one(windows, regions, gain: float, params=None) -> dict:
-    run = simulate_windows(windows, params=params, spiking=SpikingParams(clock_inh_group=gain), backend="fast",
-                           progress=False)
+    run = simulate_windows(
+        windows, params=params, spiking=SpikingParams(clock_inh_group=gain), backend="fast", progress=False
+    )
     rows = []
     for m, region in zip(window_maps(run), regions):
         r, c = grouping_peak(m.grouping)
         o = outline_scores(m.fg_x, m.fg_y, region)
-        rows.append({"inward_fraction": o["inward"], "outline_vectors": o["vectors"], "mean_abs_deg": o["mean_deg"],
-                     "within_45": o["within45"], "peak_on_figure": bool(region[r, c]), "light_share": light_share(m)})
-    return {"gain": gain, "windows": rows, "onset_ms": _onset_ms(run),
-            "min_inward": float(np.nanmin([r["inward_fraction"] for r in rows])),
-            "min_within_45": float(np.nanmin([r["within_45"] for r in rows])),
-            "max_mean_abs_deg": float(np.nanmax([r["mean_abs_deg"] for r in rows])),
-            "peak_on_figure": sum(r["peak_on_figure"] for r in rows),
-            "vectors": int(sum(r["outline_vectors"] for r in rows))}
+        rows.append(
+            {
+                "inward_fraction": o["inward"],
+                "outline_vectors": o["vectors"],
+                "mean_abs_deg": o["mean_deg"],
+                "within_45": o["within45"],
+                "peak_on_figure": bool(region[r, c]),
+                "light_share": light_share(m),
+            }
+        )
+    return {
+        "gain": gain,
+        "windows": rows,
+        "onset_ms": _onset_ms(run),
+        "min_inward": float(np.nanmin([r["inward_fraction"] for r in rows])),
+        "min_within_45": float(np.nanmin([r["within_45"] for r in rows])),
+        "max_mean_abs_deg": float(np.nanmax([r["mean_abs_deg"] for r in rows])),
+        "peak_on_figure": sum(r["peak_on_figure"] for r in rows),
+        "vectors": int(sum(r["outline_vectors"] for r in rows)),
+    }
 
 
 def _sweep_row(r) -> list:
     onsets = [x for x in r["onset_ms"] if x is not None]
-    return [f"{r['gain']:g}", f"{r['min_inward']:.2f}", f"{r['min_within_45']:.2f}", f"{r['max_mean_abs_deg']:.0f}°",
-            ", ".join(f"{w['inward_fraction']:.2f} ({w['outline_vectors']})" for w in r["windows"]),
-            ", ".join(f"{w['within_45']:.2f} / {w['mean_abs_deg']:.0f}°" for w in r["windows"]),
-            ", ".join(f"{w['light_share']:.2f}" for w in r["windows"]),
-            f"{r['peak_on_figure']}/{len(r['windows'])}", r["vectors"], np.median(onsets) if onsets else "-"]
+    return [
+        f"{r['gain']:g}",
+        f"{r['min_inward']:.2f}",
+        f"{r['min_within_45']:.2f}",
+        f"{r['max_mean_abs_deg']:.0f}°",
+        ", ".join(f"{w['inward_fraction']:.2f} ({w['outline_vectors']})" for w in r["windows"]),
+        ", ".join(f"{w['within_45']:.2f} / {w['mean_abs_deg']:.0f}°" for w in r["windows"]),
+        ", ".join(f"{w['light_share']:.2f}" for w in r["windows"]),
+        f"{r['peak_on_figure']}/{len(r['windows'])}",
+        r["vectors"],
+        np.median(onsets) if onsets else "-",
+    ]
 
 
 def _markdown(s: dict) -> list[str]:
-    out = ["# Window clock: strength sweep", "",
-           f"{describe(s['run'])} Default `clock_inh_group` = {s['default_gain']:g}.", "",
-           "Per input and clock strength (thresholds of inhibitory current onto every grouping cell): the lowest "
-           "fraction of outline vectors pointing inwards (within 90° of the inward normal) over the windows, the "
-           "lowest fraction within 45° of it and the largest mean absolute angle to it, each window's values (and "
-           "vector "
-           "count), the windows whose grouping peak is on the figure, and the grouping onset: the median over "
-           "windows 1.. of the time from a window's start until its grouping cells have fired 5 % of the "
-           "spikes they fire before the next window starts.", ""]
+    out = [
+        "# Window clock: strength sweep",
+        "",
+        f"{describe(s['run'])} Default `clock_inh_group` = {s['default_gain']:g}.",
+        "",
+        "Per input and clock strength (thresholds of inhibitory current onto every grouping cell): the lowest "
+        "fraction of outline vectors pointing inwards (within 90° of the inward normal) over the windows, the "
+        "lowest fraction within 45° of it and the largest mean absolute angle to it, each window's values (and "
+        "vector "
+        "count), the windows whose grouping peak is on the figure, and the grouping onset: the median over "
+        "windows 1.. of the time from a window's start until its grouping cells have fired 5 % of the "
+        "spikes they fire before the next window starts.",
+        "",
+    ]
     for name, runs in s["inputs"].items():
         out += [f"## {name}", ""]
-        out += markdown_table(["clock", "lowest inward", "lowest within 45°", "largest mean angle",
-                               "per window: inward (vectors)", "per window: within 45° / mean angle", "light share",
-                               "peak on figure", "vectors", "grouping onset (median ms)"], map(_sweep_row, runs))
+        out += markdown_table(
+            [
+                "clock",
+                "lowest inward",
+                "lowest within 45°",
+                "largest mean angle",
+                "per window: inward (vectors)",
+                "per window: within 45° / mean angle",
+                "light share",
+                "peak on figure",
+                "vectors",
+                "grouping onset (median ms)",
+            ],
+            map(_sweep_row, runs),
+        )
         out.append("")
     return out
 
@@ -138,12 +183,17 @@ def main():
         for g in gains:
             r = sweep_one(windows, regions, g, params)
             results[name].append(r)
-            print(f"{name}, clock {g:g}: inward " + " ".join(f"{w['inward_fraction']:.2f}" for w in r["windows"])
-                  + f"  vectors {r['vectors']}  onset {r['onset_ms']}", flush=True)
+            print(
+                f"{name}, clock {g:g}: inward "
+                + " ".join(f"{w['inward_fraction']:.2f}" for w in r["windows"])
+                + f"  vectors {r['vectors']}  onset {r['onset_ms']}",
+                flush=True,
+            )
     fig, axes = plt.subplots(2, len(results), figsize=(4.2 * len(results), 6.4), squeeze=False)
     for col, (name, runs) in enumerate(results.items()):
-        for row, (key, label) in enumerate((("inward_fraction", "inward fraction (< 90°)"),
-                                            ("within_45", "fraction within 45° of inward"))):
+        for row, (key, label) in enumerate(
+            (("inward_fraction", "inward fraction (< 90°)"), ("within_45", "fraction within 45° of inward"))
+        ):
             ax = axes[row, col]
             for r in runs:
                 ax.plot([w[key] for w in r["windows"]], "o-", ms=3, label=f"clock {r['gain']:g}")
@@ -152,7 +202,7 @@ def main():
             ax.title.set_fontsize(8)
             ax.legend(fontsize=7)
     fig.tight_layout()
-    stem = "window_clock_synthetic" if a.no_dvs else "window_clock"      # (a partial run keeps off the full files)
+    stem = "window_clock_synthetic" if a.no_dvs else "window_clock"  # (a partial run keeps off the full files)
     save_figure(fig, stem, dpi=90, bbox_inches=None)
     plt.close(fig)
     summary = {"default_gain": SpikingParams().clock_inh_group, "inputs": results, "run": run.record()}

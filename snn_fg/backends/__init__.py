@@ -16,6 +16,7 @@ description from :mod:`snn_fg.export`.
 >>> DEFAULT_BACKEND
 'fast'
 """
+
 from __future__ import annotations
 
 import importlib
@@ -67,8 +68,9 @@ def as_backend(backend: "str | Backend" = DEFAULT_BACKEND, options: dict | None 
     of that name with ``options``."""
     if isinstance(backend, Backend):
         if options:
-            raise SnnFgError(f"backend options {sorted(options)} were given with a backend object: "
-                             "set them when constructing it")
+            raise SnnFgError(
+                f"backend options {sorted(options)} were given with a backend object: set them when constructing it"
+            )
         return backend
     return get_backend(backend, **(options or {}))
 
@@ -78,5 +80,15 @@ def available_backends() -> dict[str, tuple[bool, str]]:
     return {name: backend_class(name).available() for name in BACKENDS}
 
 
-__all__ = ["BACKENDS", "DEFAULT_BACKEND", "Backend", "RunSettings", "SimulationResult", "as_backend",
-           "available_backends", "backend_class", "backend_names", "get_backend"]
+__all__ = [
+    "BACKENDS",
+    "DEFAULT_BACKEND",
+    "Backend",
+    "RunSettings",
+    "SimulationResult",
+    "as_backend",
+    "available_backends",
+    "backend_class",
+    "backend_names",
+    "get_backend",
+]

@@ -8,6 +8,7 @@ consumes only a :class:`~snn_fg.network.Network` and the input spikes
 name in :mod:`snn_fg.backends` - the way PyNN keeps one neutral model in
 ``pyNN.common`` and one package per simulator.
 """
+
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
@@ -80,15 +81,20 @@ class RunSettings:
 
     def __post_init__(self):
         owner = "RunSettings"
-        object.__setattr__(self, "duration_ms", check.number(owner, "duration_ms", self.duration_ms,
-                                                             lo=0, lo_open=True))
+        object.__setattr__(
+            self, "duration_ms", check.number(owner, "duration_ms", self.duration_ms, lo=0, lo_open=True)
+        )
         object.__setattr__(self, "dt_ms", check.number(owner, "dt_ms", self.dt_ms, lo=0, lo_open=True))
-        object.__setattr__(self, "count_from_ms", check.number(owner, "count_from_ms", self.count_from_ms, lo=0,
-                                                               hi=self.duration_ms, hi_open=True))
+        object.__setattr__(
+            self,
+            "count_from_ms",
+            check.number(owner, "count_from_ms", self.count_from_ms, lo=0, hi=self.duration_ms, hi_open=True),
+        )
         check.choice(owner, "instantiate", self.instantiate, ("input", "all"))
         if self.count_bins_ms is not None:
-            edges = tuple(check.number(owner, "count_bins_ms", t, lo=0, hi=self.duration_ms)
-                          for t in self.count_bins_ms)
+            edges = tuple(
+                check.number(owner, "count_bins_ms", t, lo=0, hi=self.duration_ms) for t in self.count_bins_ms
+            )
             if len(edges) < 2 or any(b <= a for a, b in zip(edges, edges[1:])):
                 check.fail(owner, "count_bins_ms", self.count_bins_ms, "must be two or more increasing times")
             object.__setattr__(self, "count_bins_ms", edges)
@@ -129,7 +135,7 @@ class SimulationResult:
     count_window_ms: float
     simulated_ms: float
     dt_ms: float
-    spikes: Mapping | None = None      # a dict, or the fast engine's read-only SpikeTrains
+    spikes: Mapping | None = None  # a dict, or the fast engine's read-only SpikeTrains
     state: dict = field(default_factory=dict)
     binned_counts: dict | None = None
     count_bins_ms: tuple | None = None
@@ -166,7 +172,7 @@ def spikes_between(spikes, a_ms: float, b_ms: float):
     (``name -> (cell, t_ms)``; ``None`` stays ``None``)."""
     if spikes is None:
         return None
-    if hasattr(spikes, "between"):      # (trains that find a span without a pass over every spike)
+    if hasattr(spikes, "between"):  # (trains that find a span without a pass over every spike)
         return spikes.between(a_ms, b_ms)
     out = {}
     for n, (c, t) in spikes.items():
@@ -181,24 +187,42 @@ def each_bin(result: "SimulationResult"):
     ``RunSettings.on_bin`` as it goes."""
     edges = result.count_bins_ms
     for k in range(len(edges) - 1):
-        yield k, bin_result(result, {n: c[k] for n, c in result.binned_counts.items()}, edges[k], edges[k + 1],
-                            spikes_between(result.spikes, edges[k], edges[k + 1]))
+        yield (
+            k,
+            bin_result(
+                result,
+                {n: c[k] for n, c in result.binned_counts.items()},
+                edges[k],
+                edges[k + 1],
+                spikes_between(result.spikes, edges[k], edges[k + 1]),
+            ),
+        )
 
 
 def bin_result(template: "SimulationResult", counts: dict, a_ms: float, b_ms: float, spikes) -> "SimulationResult":
     """The result of one counting bin ``[a_ms, b_ms)``: ``template``'s
     network, cells and backend with the bin's counts and spikes."""
-    return SimulationResult(network=template.network, backend=template.backend, sites=template.sites,
-                            counts=counts, count_window_ms=b_ms - a_ms, simulated_ms=template.simulated_ms,
-                            dt_ms=template.dt_ms, spikes=spikes, stats=template.stats)
+    return SimulationResult(
+        network=template.network,
+        backend=template.backend,
+        sites=template.sites,
+        counts=counts,
+        count_window_ms=b_ms - a_ms,
+        simulated_ms=template.simulated_ms,
+        dt_ms=template.dt_ms,
+        spikes=spikes,
+        stats=template.stats,
+    )
 
 
 def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:
     """Spike-source name -> bool mask of pixels with input, by role (the
     window clock needs none: :func:`~snn_fg.lowering.unroll.choose_sites`
     keeps its one cell)."""
-    return {network.one("input_on", 1).name: np.asarray(on, bool),
-            network.one("input_off", 1).name: np.asarray(off, bool)}
+    return {
+        network.one("input_on", 1).name: np.asarray(on, bool),
+        network.one("input_off", 1).name: np.asarray(off, bool),
+    }
 
 
 def source_offsets(network: Network) -> dict:
@@ -230,8 +254,10 @@ def receptor_weights(sign: int, w_mv: np.ndarray) -> np.ndarray:
 def segments(settings: RunSettings) -> list[tuple[int, bool]]:
     """``(end_step, snapshot)`` of each run segment: a simulation stops at
     every counting-bin edge (to read its spike counters) and at the end."""
+
     def step(t_ms):
         return int(round(t_ms / settings.dt_ms))
+
     edges = sorted({step(t) for t in settings.count_bins_ms or ()})
     ends = sorted(set(edges) | {step(settings.duration_ms)})
     return [(e, e in edges) for e in ends]

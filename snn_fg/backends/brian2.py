@@ -12,6 +12,7 @@ A projection's ``sign`` picks the receptor (+1 ``I_exc``, -1 ``I_inh``); the
 kernel's own signs are kept, so a kernel with negative lobes keeps its
 balance under one time constant.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -24,8 +25,17 @@ from .. import cancel
 from .. import validate as check
 from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
-from .base import (Backend, RunSettings, SimulationResult, lif_populations, receptor, receptor_weights, segments,
-                   source_masks, source_offsets)
+from .base import (
+    Backend,
+    RunSettings,
+    SimulationResult,
+    lif_populations,
+    receptor,
+    receptor_weights,
+    segments,
+    source_masks,
+    source_offsets,
+)
 
 #: CUBA LIF state, advanced once per step by :data:`_STEP` with the exact
 #: per-cell propagators of :meth:`~snn_fg.network.nodes.Neuron.propagators`,
@@ -63,14 +73,19 @@ def _brian2_session(codegen: str):
     from brian2 import prefs
 
     logger = logging.getLogger("brian2")
-    saved = (prefs.codegen.target, prefs.codegen.runtime.cython.multiprocess_safe,
-             prefs.core.stop_on_keyboard_interrupt, logger.level)
+    saved = (
+        prefs.codegen.target,
+        prefs.codegen.runtime.cython.multiprocess_safe,
+        prefs.core.stop_on_keyboard_interrupt,
+        logger.level,
+    )
     target = codegen
     if target == "auto":
         try:
             from brian2.codegen.runtime.cython_rt import CythonCodeObject
+
             target = "cython" if CythonCodeObject.is_available() else "numpy"
-        except Exception:   # no Cython or no compiler
+        except Exception:  # no Cython or no compiler
             target = "numpy"
     try:
         prefs.codegen.target = target
@@ -80,8 +95,11 @@ def _brian2_session(codegen: str):
         logger.setLevel(logging.WARNING)
         yield target
     finally:
-        (prefs.codegen.target, prefs.codegen.runtime.cython.multiprocess_safe,
-         prefs.core.stop_on_keyboard_interrupt) = saved[:3]
+        (
+            prefs.codegen.target,
+            prefs.codegen.runtime.cython.multiprocess_safe,
+            prefs.core.stop_on_keyboard_interrupt,
+        ) = saved[:3]
         logger.setLevel(saved[3])
         # A run left by an exception (Ctrl-C) leaves Brian2's class-wide
         # "running" flag set; its SIGINT handler (installed at import) would
@@ -127,22 +145,39 @@ class Brian2Backend(Backend):
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
         t0 = time.perf_counter()
         settings.say("unrolling the network for this input")
-        un = unroll(network, source_masks(network, inputs.on, inputs.off), sites=settings.sites,
-                    instantiate=settings.instantiate)
+        un = unroll(
+            network,
+            source_masks(network, inputs.on, inputs.off),
+            sites=settings.sites,
+            instantiate=settings.instantiate,
+        )
         stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
         timings = {"unroll": time.perf_counter() - t0}
-        settings.say(f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
-                     f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)")
+        settings.say(
+            f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
+            f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)"
+        )
         with _brian2_session(self.codegen) as target:
             self.used_codegen = target
             counts, spikes, state, binned, objects = self._run(un, inputs, settings, timings)
         stats["brian2_synapse_objects"] = objects
         timings["total"] = time.perf_counter() - t0
         sites = {p.name: un.sites[p.name] for p in lif_populations(network)}
-        return SimulationResult(network=network, backend=self.name, sites=sites, counts=counts,
-                                count_window_ms=settings.count_window_ms, simulated_ms=settings.duration_ms,
-                                dt_ms=settings.dt_ms, spikes=spikes, state=state, timings_s=timings, stats=stats,
-                                binned_counts=binned, count_bins_ms=settings.count_bins_ms)
+        return SimulationResult(
+            network=network,
+            backend=self.name,
+            sites=sites,
+            counts=counts,
+            count_window_ms=settings.count_window_ms,
+            simulated_ms=settings.duration_ms,
+            dt_ms=settings.dt_ms,
+            spikes=spikes,
+            state=state,
+            timings_s=timings,
+            stats=stats,
+            binned_counts=binned,
+            count_bins_ms=settings.count_bins_ms,
+        )
 
     def _run(self, un: Unrolled, inputs, settings: RunSettings, timings: dict):
         import brian2 as b2
@@ -158,9 +193,15 @@ class Brian2Backend(Backend):
         pop_of = np.repeat(np.arange(len(pops)), [un.n_cells(p.name) for p in pops])
         dt = settings.dt_ms * ms
         lif = _neuron_group(pops, pop_of, n_lif, settings)
-        gen = b2.SpikeGeneratorGroup(inputs.n_sources, inputs.indices.astype(np.int64), inputs.steps * dt,
-                                     period=(inputs.period_steps * dt if inputs.period_steps else 0 * ms),
-                                     dt=dt, name="inp", sorted=False)
+        gen = b2.SpikeGeneratorGroup(
+            inputs.n_sources,
+            inputs.indices.astype(np.int64),
+            inputs.steps * dt,
+            period=(inputs.period_steps * dt if inputs.period_steps else 0 * ms),
+            dt=dt,
+            name="inp",
+            sorted=False,
+        )
         t_build = time.perf_counter()
         synapses, n_syn = self._synapses(un, offsets, lif, gen, dt, settings)
         timings["build"] = time.perf_counter() - t_build
@@ -170,13 +211,15 @@ class Brian2Backend(Backend):
             monitor = b2.SpikeMonitor(lif, name="spikes")
             objects.append(monitor)
         network = b2.Network(*objects)
-        settings.say("compiling and simulating (Brian2 compiles its code once per machine: the first run "
-                     "takes a minute or two longer)")
+        settings.say(
+            "compiling and simulating (Brian2 compiles its code once per machine: the first run "
+            "takes a minute or two longer)"
+        )
         t_run = time.perf_counter()
         snapshots = _simulate(network, lif, n_lif, settings)
         timings["run"] = time.perf_counter() - t_run
         all_counts = np.asarray(lif.n_spikes[:], dtype=np.int64)[:n_lif]
-        counts = {p.name: all_counts[offsets[p.name]:offsets[p.name] + un.n_cells(p.name)] for p in pops}
+        counts = {p.name: all_counts[offsets[p.name] : offsets[p.name] + un.n_cells(p.name)] for p in pops}
         spikes = None
         if monitor is not None:
             cell = np.asarray(monitor.i[:], dtype=np.int64)
@@ -186,12 +229,12 @@ class Brian2Backend(Backend):
         binned = None
         if snapshots:
             per_bin = np.diff(np.stack(snapshots), axis=0)
-            binned = {p.name: per_bin[:, offsets[p.name]:offsets[p.name] + un.n_cells(p.name)] for p in pops}
+            binned = {p.name: per_bin[:, offsets[p.name] : offsets[p.name] + un.n_cells(p.name)] for p in pops}
         state = {}
         for var in settings.record_state:
             values = np.asarray(getattr(lif, var)[:] / mV, dtype=np.float64)[:n_lif]
             for p in pops:
-                state.setdefault(p.name, {})[var] = values[offsets[p.name]:offsets[p.name] + un.n_cells(p.name)]
+                state.setdefault(p.name, {})[var] = values[offsets[p.name] : offsets[p.name] + un.n_cells(p.name)]
         return counts, spikes, state, binned, n_syn
 
     def _synapses(self, un: Unrolled, offsets, lif, gen, dt, settings):
@@ -216,8 +259,15 @@ class Brian2Backend(Backend):
             if self.free:
                 for c in conns:
                     c.free()
-            syn = b2.Synapses(gen if src_group == "inp" else lif, lif, "w : volt",
-                              on_pre=f"I_{current}_post += w", delay=delay * ms, dt=dt, name=name)
+            syn = b2.Synapses(
+                gen if src_group == "inp" else lif,
+                lif,
+                "w : volt",
+                on_pre=f"I_{current}_post += w",
+                delay=delay * ms,
+                dt=dt,
+                name=name,
+            )
             syn.connect(i=pre, j=post)
             syn.w = w * mV
             n_syn[name] = int(pre.size)
@@ -240,13 +290,15 @@ def _progress_bar(settings: RunSettings):
     state = {"bar": None, "ms": 0}
 
     def segment(start, end):
-        def report(elapsed, completed, t_start, duration):    # noqa: ARG001 - Brian2's signature
+        def report(elapsed, completed, t_start, duration):  # noqa: ARG001 - Brian2's signature
             if state["bar"] is None:
                 state["bar"] = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False)
             now = int(round((start + float(completed) * (end - start)) * settings.dt_ms))
             state["bar"].update(now - state["ms"])
             state["ms"] = now
+
         return report
+
     try:
         yield segment
     finally:
@@ -263,9 +315,16 @@ def _neuron_group(pops, pop_of, n_lif: int, settings: RunSettings):
     def per_cell(attr):
         return np.array([getattr(p.neuron, attr) for p in pops], dtype=np.float64)[pop_of]
 
-    lif = b2.NeuronGroup(max(n_lif, 1), _EQS, threshold="v > v_th",
-                         reset="v = v_reset\nn_spikes += int(t >= t_count)\nn_all += 1", refractory="t_ref",
-                         dt=settings.dt_ms * ms, name="lif", namespace={"t_count": settings.count_from_ms * ms})
+    lif = b2.NeuronGroup(
+        max(n_lif, 1),
+        _EQS,
+        threshold="v > v_th",
+        reset="v = v_reset\nn_spikes += int(t >= t_count)\nn_all += 1",
+        refractory="t_ref",
+        dt=settings.dt_ms * ms,
+        name="lif",
+        namespace={"t_count": settings.count_from_ms * ms},
+    )
     lif.run_regularly(_STEP, when="groups", name="lif_step")
     if n_lif:
         factors = [p.neuron.propagators(settings.dt_ms) for p in pops]

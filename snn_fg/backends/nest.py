@@ -21,6 +21,7 @@ wheel). ``threads`` sets NEST's ``local_num_threads``, raised where the
 network has more cells than NEST can address on one thread (524,223 per
 thread: :func:`~snn_fg.pynn.network.nest_threads`); the wheel has no MPI.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -76,15 +77,17 @@ class NestBackend(Backend):
     name = "nest"
     requires = install_hint("nest")
 
-    def __init__(self, *, threads: int = 1, portable: bool = False, receptors: str = "split",
-                 weight_bits: int | None = None):
+    def __init__(
+        self, *, threads: int = 1, portable: bool = False, receptors: str = "split", weight_bits: int | None = None
+    ):
         self.threads = check.integer("NestBackend", "threads", threads, lo=1)
         self.portable = bool(portable)
         self.receptors = check.choice("NestBackend", "receptors", receptors, ("split", "signed"))
         if self.portable and self.receptors == "signed":
             check.fail("NestBackend", "receptors", receptors, "needs NEST's own calls: not with portable=True")
-        self.weight_bits = None if weight_bits is None else check.integer("NestBackend", "weight_bits",
-                                                                          weight_bits, lo=2, hi=32)
+        self.weight_bits = (
+            None if weight_bits is None else check.integer("NestBackend", "weight_bits", weight_bits, lo=2, hi=32)
+        )
 
     @classmethod
     def available(cls):
@@ -94,31 +97,44 @@ class NestBackend(Backend):
         return True, ""
 
     def describe(self) -> dict:
-        return {"name": self.name, "threads": self.threads, "portable": self.portable, "receptors": self.receptors,
-                "weight_bits": self.weight_bits}
+        return {
+            "name": self.name,
+            "threads": self.threads,
+            "portable": self.portable,
+            "receptors": self.receptors,
+            "weight_bits": self.weight_bits,
+        }
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
         t0 = time.perf_counter()
         settings.say("unrolling the network for this input")
-        un = unroll(network, source_masks(network, inputs.on, inputs.off), sites=settings.sites,
-                    instantiate=settings.instantiate)
+        un = unroll(
+            network,
+            source_masks(network, inputs.on, inputs.off),
+            sites=settings.sites,
+            instantiate=settings.instantiate,
+        )
         if self.weight_bits is not None:
             from ..lowering.quantise import quantise_unrolled
 
             quantise_unrolled(un, self.weight_bits)
         stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
         timings = {"unroll": time.perf_counter() - t0}
-        settings.say(f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
-                     f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)")
-        sim = import_simulator("nest")        # (quietly, as an export's run.py)
+        settings.say(
+            f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
+            f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)"
+        )
+        sim = import_simulator("nest")  # (quietly, as an export's run.py)
         net = _build(sim, un, inputs, settings, self, timings)
         try:
             settings.say("simulating in NEST")
             with _progress(settings) as report:
+
                 def each_chunk(done_ms):
                     if report is not None:
                         report(done_ms)
                     cancel.check()
+
                 timings["run"] = net.run(settings.duration_ms, CHUNK_MS, each_chunk)
             counts, spikes, binned, state = _collect(net, un, settings)
             stats["nest_synapses"] = dict(net.n_synapses)
@@ -127,11 +143,21 @@ class NestBackend(Backend):
             net.end()
         timings["total"] = time.perf_counter() - t0
         sites = {p.name: un.sites[p.name] for p in lif_populations(network)}
-        return SimulationResult(network=network, backend=self.name, sites=sites, counts=counts,
-                                count_window_ms=settings.count_window_ms, simulated_ms=settings.duration_ms,
-                                dt_ms=settings.dt_ms, spikes=spikes if settings.record_spikes else None,
-                                state=state, binned_counts=binned, count_bins_ms=settings.count_bins_ms,
-                                timings_s=timings, stats=stats)
+        return SimulationResult(
+            network=network,
+            backend=self.name,
+            sites=sites,
+            counts=counts,
+            count_window_ms=settings.count_window_ms,
+            simulated_ms=settings.duration_ms,
+            dt_ms=settings.dt_ms,
+            spikes=spikes if settings.record_spikes else None,
+            state=state,
+            binned_counts=binned,
+            count_bins_ms=settings.count_bins_ms,
+            timings_s=timings,
+            stats=stats,
+        )
 
 
 def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBackend, timings: dict):
@@ -141,12 +167,21 @@ def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBacken
     pixels = _source_pixels(un)
     cells = lif_populations(net_d)
     n_cells = sum(un.n_cells(p.name) for p in cells)
-    net = PyNNNetwork(sim, dt_ms=settings.dt_ms, max_delay_ms=max_delay, threads=backend.threads,
-                      portable=backend.portable, signed_receptors=backend.receptors == "signed",
-                      n_cells=n_cells, n_sources=sum(px.size for px in pixels.values()))
+    net = PyNNNetwork(
+        sim,
+        dt_ms=settings.dt_ms,
+        max_delay_ms=max_delay,
+        threads=backend.threads,
+        portable=backend.portable,
+        signed_receptors=backend.receptors == "signed",
+        n_cells=n_cells,
+        n_sources=sum(px.size for px in pixels.values()),
+    )
     if net.threads > backend.threads:
-        settings.say(f"NEST on {net.threads} threads, not {backend.threads}: it addresses at most "
-                     f"{NEST_MAX_LOCAL_SENDERS:,} spike-sending cells per thread and this network has {n_cells:,}")
+        settings.say(
+            f"NEST on {net.threads} threads, not {backend.threads}: it addresses at most "
+            f"{NEST_MAX_LOCAL_SENDERS:,} spike-sending cells per thread and this network has {n_cells:,}"
+        )
     for p in cells:
         net.add_cells(p.name, un.n_cells(p.name), p.neuron.to_dict())
     used = _add_sources(net, un, inputs, settings, pixels)
@@ -160,8 +195,7 @@ def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBacken
     names = [p.name for p in cells]
     spikes = settings.record_spikes and n_cells <= SPIKE_RECORD_MAX_CELLS
     if settings.record_spikes and not spikes:
-        settings.say(f"spike trains not recorded ({n_cells:,} cells; NEST keeps 32 KB per recorded cell): "
-                     "counts only")
+        settings.say(f"spike trains not recorded ({n_cells:,} cells; NEST keeps 32 KB per recorded cell): counts only")
     edges = {settings.count_from_ms, settings.duration_ms} | set(settings.count_bins_ms or ())
     net.record(names, spikes=spikes, count_edges_ms=edges)
     net.record_state(names, settings.record_state, settings.duration_ms)
@@ -171,9 +205,14 @@ def _build(sim, un: Unrolled, inputs, settings: RunSettings, backend: NestBacken
 
 def _source_pixels(un: Unrolled) -> dict:
     """Per spike-source population, the pixels with outgoing synapses (sorted)."""
-    return {name: np.unique(np.concatenate([c.pre for c in un.connections if c.projection.source == name] +
-                                           [np.zeros(0, np.int32)]).astype(np.int64))
-            for name in source_offsets(un.network)}
+    return {
+        name: np.unique(
+            np.concatenate(
+                [c.pre for c in un.connections if c.projection.source == name] + [np.zeros(0, np.int32)]
+            ).astype(np.int64)
+        )
+        for name in source_offsets(un.network)
+    }
 
 
 def _add_sources(net, un: Unrolled, inputs, settings: RunSettings, pixels: dict) -> dict:
@@ -228,6 +267,7 @@ def _progress(settings: RunSettings):
         now = int(round(done_ms))
         bar.update(now - seen["ms"])
         seen["ms"] = now
+
     try:
         yield report
     finally:

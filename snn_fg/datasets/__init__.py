@@ -22,6 +22,7 @@ Examples
 ['bsds-edfg', 'bsds-fg', 'events']
 >>> rec = datasets.find("events", "dvs.es")      # None when absent
 """
+
 from __future__ import annotations
 
 import os
@@ -31,8 +32,23 @@ from pathlib import Path
 from snn_fg.datasets.catalogue import DATASETS, DataFile, Dataset
 from snn_fg.datasets.transfer import DatasetError, file_sha256, npz_sha256
 
-__all__ = ["DATASETS", "DataFile", "Dataset", "DatasetError", "ENV_VAR", "data_root", "fetch", "find",
-           "get", "how_to_get", "missing", "require", "root_and_origin", "user_data_dir", "verify"]
+__all__ = [
+    "DATASETS",
+    "DataFile",
+    "Dataset",
+    "DatasetError",
+    "ENV_VAR",
+    "data_root",
+    "fetch",
+    "find",
+    "get",
+    "how_to_get",
+    "missing",
+    "require",
+    "root_and_origin",
+    "user_data_dir",
+    "verify",
+]
 
 #: the environment variable that names the data folder
 ENV_VAR = "SNN_FG_DATA"
@@ -117,8 +133,10 @@ def require(name: str, *parts, root=None) -> Path:
     """As :func:`find`, but an absent dataset raises :class:`DatasetError` saying how to get it."""
     path = find(name, *parts, root=root)
     if path is None:
-        raise DatasetError(f"needs the {name} dataset, which is not in {_folder(name, root)}: "
-                           f"run `{how_to_get(name)}` (or set ${ENV_VAR} to the folder that holds it)")
+        raise DatasetError(
+            f"needs the {name} dataset, which is not in {_folder(name, root)}: "
+            f"run `{how_to_get(name)}` (or set ${ENV_VAR} to the folder that holds it)"
+        )
     return path
 
 
@@ -137,6 +155,6 @@ def fetch(name: str, *, root=None, progress: bool = True) -> list[DataFile]:
     if todo:
         try:
             ds.fetch(folder, todo, progress)
-        except OSError as exc:      # the folder cannot be written (network errors arrive as DatasetError)
+        except OSError as exc:  # the folder cannot be written (network errors arrive as DatasetError)
             raise DatasetError(f"{folder}: cannot write the {name} dataset ({exc.strerror or exc})") from None
     return todo

@@ -4,6 +4,7 @@ Wire it in with :func:`add_data_command`; a failure raises
 :class:`~snn_fg.datasets.DatasetError` (the main CLI prints it as one line
 and exits non-zero).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -29,8 +30,9 @@ def cmd_list(args) -> int:
     root, origin = datasets.root_and_origin()
     print(f"data folder: {root} ({origin}; ${datasets.ENV_VAR} chooses another)")
     rows = [("name", "size", "status", "folder")]
-    rows += [(name, _mb(ds.size), _status(name, args.verify), str(root / name))
-             for name, ds in datasets.DATASETS.items()]
+    rows += [
+        (name, _mb(ds.size), _status(name, args.verify), str(root / name)) for name, ds in datasets.DATASETS.items()
+    ]
     widths = [max(len(r[i]) for r in rows) for i in range(3)]
     for r in rows:
         print("  ".join(c.ljust(w) for c, w in zip(r, widths)) + "  " + r[3])
@@ -40,9 +42,16 @@ def cmd_list(args) -> int:
 def cmd_info(args) -> int:
     ds = datasets.get(args.name)
     fetch = f"snn-fg data fetch {ds.name}" if ds.fetch else f"not available: {ds.unavailable}"
-    for key, value in (("dataset", ds.name), ("what", ds.description), ("files", f"{len(ds.files)}, {_mb(ds.size)}"),
-                       ("source", ds.source), ("licence", ds.licence), ("download", ds.download),
-                       ("fetch", fetch), ("folder", str(datasets.data_root() / ds.name))):
+    for key, value in (
+        ("dataset", ds.name),
+        ("what", ds.description),
+        ("files", f"{len(ds.files)}, {_mb(ds.size)}"),
+        ("source", ds.source),
+        ("licence", ds.licence),
+        ("download", ds.download),
+        ("fetch", fetch),
+        ("folder", str(datasets.data_root() / ds.name)),
+    ):
         print(f"{key + ':':<10}{value}")
     return 0
 
@@ -50,16 +59,22 @@ def cmd_info(args) -> int:
 def cmd_fetch(args) -> int:
     made = datasets.fetch(args.name, progress=not args.no_progress)
     folder = datasets.data_root() / args.name
-    print(f"{args.name}: {len(made)} files fetched and verified into {folder}" if made
-          else f"{args.name}: already present in {folder}, checksums match")
+    print(
+        f"{args.name}: {len(made)} files fetched and verified into {folder}"
+        if made
+        else f"{args.name}: already present in {folder}, checksums match"
+    )
     return 0
 
 
 def add_data_command(subparsers) -> argparse.ArgumentParser:
     """Register ``data`` on an ``argparse`` subparsers object; returns the parser."""
-    p = subparsers.add_parser("data", help="list, describe and fetch the datasets (recordings, BSDS references)",
-                              description="The datasets live in one data folder: $SNN_FG_DATA, else the shared "
-                                          "data beside a source checkout, else the user data folder.")
+    p = subparsers.add_parser(
+        "data",
+        help="list, describe and fetch the datasets (recordings, BSDS references)",
+        description="The datasets live in one data folder: $SNN_FG_DATA, else the shared "
+        "data beside a source checkout, else the user data folder.",
+    )
     sub = p.add_subparsers(dest="data_command", required=True, metavar="ACTION")
     q = sub.add_parser("list", help="each dataset: size, whether it is present, where")
     q.add_argument("--verify", action="store_true", help="check every file's checksum (slower)")

@@ -12,6 +12,7 @@
 A fetcher takes ``(folder, files, progress)``: the dataset's folder and the
 :class:`~snn_fg.datasets.catalogue.DataFile` entries still to make.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -27,16 +28,24 @@ from snn_fg.datasets.transfer import DatasetError, arrays_sha256, download
 
 #: the authors' repository at the commit that last changed its BSDS outputs
 EDFG_COMMIT = "b6eef865dcbaac5f94c785b00b0b21d232c3373e"
-EDFG_CSV_URL = ("https://raw.githubusercontent.com/event-driven-robotics/figure-ground-organisation/"
-                f"{EDFG_COMMIT}/Berkleyresults/data/{{id}}/{{name}}_test.csv")
+EDFG_CSV_URL = (
+    "https://raw.githubusercontent.com/event-driven-robotics/figure-ground-organisation/"
+    f"{EDFG_COMMIT}/Berkleyresults/data/{{id}}/{{name}}_test.csv"
+)
 #: the BSDS300 images (200 train + 100 test, ``BSDS300/images/{train,test}/<id>.jpg``), 22 MB
 BSDS300_IMAGES_URL = "https://www2.eecs.berkeley.edu/Research/Projects/CS/vision/bsds/BSDS300-images.tgz"
 #: the authors' oriented responses: one CSV per direction, 0, 22.5, ..., 337.5 degrees
 EDFG_DIRECTIONS = 16
 #: npz key -> (the authors' CSV name, dtype stored)
-EDFG_ARRAYS = {"pos": ("img_pos", np.uint8), "neg": ("img_neg", np.uint8), "edges": ("frame", np.float32),
-               "orientation": ("oriens", np.float32), "fg_x": ("X", np.float32), "fg_y": ("Y", np.float32),
-               "grouping": ("grouping", np.float32)}
+EDFG_ARRAYS = {
+    "pos": ("img_pos", np.uint8),
+    "neg": ("img_neg", np.uint8),
+    "edges": ("frame", np.float32),
+    "orientation": ("oriens", np.float32),
+    "fg_x": ("X", np.float32),
+    "fg_y": ("Y", np.float32),
+    "grouping": ("grouping", np.float32),
+}
 
 
 def fetch_direct(folder: Path, files, progress: bool) -> None:
@@ -54,6 +63,7 @@ def _csv_matrix(url: str, path: Path) -> np.ndarray:
 
 def edfg_arrays(image_id: str, workdir: Path, progress: bool) -> dict[str, np.ndarray]:
     """Download the authors' CSVs of one image into ``workdir``; the ``.npz`` arrays."""
+
     def matrix(name):
         url = EDFG_CSV_URL.format(id=image_id, name=name)
         return _csv_matrix(url, download(url, workdir / f"{name}.csv", sha256=None, progress=progress))
@@ -62,8 +72,9 @@ def edfg_arrays(image_id: str, workdir: Path, progress: bool) -> dict[str, np.nd
     resp = [matrix(f"resp{k * 360 / EDFG_DIRECTIONS:.1f}") for k in range(EDFG_DIRECTIONS)]
     shapes = {a.shape for a in arrays.values()} | {r.shape for r in resp}
     if len(shapes) != 1:
-        raise DatasetError(f"{EDFG_CSV_URL.format(id=image_id, name='*')}: the CSV files differ in shape "
-                           f"({sorted(shapes)})")
+        raise DatasetError(
+            f"{EDFG_CSV_URL.format(id=image_id, name='*')}: the CSV files differ in shape ({sorted(shapes)})"
+        )
     arrays["resp"] = np.stack(resp, axis=-1).astype(np.float32)
     return arrays
 
@@ -71,8 +82,10 @@ def edfg_arrays(image_id: str, workdir: Path, progress: bool) -> dict[str, np.nd
 def _save_checked_npz(folder: Path, file, arrays, source: str) -> None:
     got = arrays_sha256(arrays)
     if got != file.sha256:
-        raise DatasetError(f"{source}: the converted arrays differ from the reference {file.path} "
-                           f"(sha256 {got[:16]}..., expected {file.sha256[:16]}...); nothing was written")
+        raise DatasetError(
+            f"{source}: the converted arrays differ from the reference {file.path} "
+            f"(sha256 {got[:16]}..., expected {file.sha256[:16]}...); nothing was written"
+        )
     with atomic_path(folder / file.path) as tmp:
         np.savez_compressed(tmp, **arrays)
 
@@ -95,8 +108,10 @@ def extract_bsds300_images(archive: Path, folder: Path, files) -> None:
     for f, data in found:
         got = hashlib.sha256(data).hexdigest()
         if got != f.sha256:
-            raise DatasetError(f"{BSDS300_IMAGES_URL}: {Path(f.path).name} differs from the reference "
-                               f"(sha256 {got[:16]}..., expected {f.sha256[:16]}...); nothing was written")
+            raise DatasetError(
+                f"{BSDS300_IMAGES_URL}: {Path(f.path).name} differs from the reference "
+                f"(sha256 {got[:16]}..., expected {f.sha256[:16]}...); nothing was written"
+            )
         with atomic_path(folder / f.path) as tmp:
             tmp.write_bytes(data)
 
@@ -112,6 +127,5 @@ def fetch_bsds_edfg(folder: Path, files, progress: bool) -> None:
                 arrays = edfg_arrays(image_id, Path(work), progress)
             _save_checked_npz(folder, f, arrays, EDFG_CSV_URL.format(id=image_id, name="*"))
         if images:
-            archive = download(BSDS300_IMAGES_URL, Path(tmp) / "BSDS300-images.tgz", sha256=None,
-                               progress=progress)
+            archive = download(BSDS300_IMAGES_URL, Path(tmp) / "BSDS300-images.tgz", sha256=None, progress=progress)
             extract_bsds300_images(archive, folder, images)

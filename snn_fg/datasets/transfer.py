@@ -6,6 +6,7 @@ the SHA-256 matches; a checksum mismatch, a dropped connection or Ctrl-C
 leaves nothing behind (:func:`snn_fg.atomic.atomic_path`) and raises
 :class:`DatasetError` with one line naming the URL and what went wrong.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -64,8 +65,16 @@ def _progress(total, label, show):
     from tqdm import tqdm
 
     # disable=None: a bar only when stderr is a terminal
-    return tqdm(total=total, desc=label, unit="B", unit_scale=True, unit_divisor=1024, leave=False,
-                file=sys.stderr, disable=None if show else True)
+    return tqdm(
+        total=total,
+        desc=label,
+        unit="B",
+        unit_scale=True,
+        unit_divisor=1024,
+        leave=False,
+        file=sys.stderr,
+        disable=None if show else True,
+    )
 
 
 def _why(exc) -> str:
@@ -89,8 +98,10 @@ def _stream(url: str, out: Path, *, label: str, progress: bool) -> str:
     except urllib.error.HTTPError as exc:
         raise DatasetError(f"{url}: HTTP {exc.code} {exc.reason}; nothing was written") from None
     except (OSError, http.client.HTTPException) as exc:
-        raise DatasetError(f"{url}: download failed after {done:,}{f' of {total:,}' if total else ''} bytes "
-                           f"({_why(exc)}); nothing was written") from None
+        raise DatasetError(
+            f"{url}: download failed after {done:,}{f' of {total:,}' if total else ''} bytes "
+            f"({_why(exc)}); nothing was written"
+        ) from None
     if total is not None and done != total:
         raise DatasetError(f"{url}: the connection closed after {done:,} of {total:,} bytes; nothing was written")
     return h.hexdigest()
@@ -106,6 +117,7 @@ def download(url: str, dest, *, sha256: str | None, progress: bool = True) -> Pa
     with atomic_path(dest) as tmp:
         got = _stream(url, tmp, label=dest.name, progress=progress)
         if sha256 is not None and got != sha256:
-            raise DatasetError(f"{url}: checksum mismatch (sha256 {got[:16]}..., expected {sha256[:16]}...); "
-                               "nothing was written")
+            raise DatasetError(
+                f"{url}: checksum mismatch (sha256 {got[:16]}..., expected {sha256[:16]}...); nothing was written"
+            )
     return dest

@@ -18,6 +18,7 @@
 * :func:`save_events`: write ``.npy``/``.npz``/EVT2/EVT3/``.es`` atomically
   (:func:`snn_fg.events.writers.encode_es_atis` encodes ATIS streams).
 """
+
 from snn_fg.events._core import EVENT_DTYPE, MAX_SENSOR_SIDE, Recording
 from snn_fg.events.esim import PixelOptions, image_to_events, image_to_frame, motion_frames
 from snn_fg.events.io import STREAMING_FORMATS, RecordingStream, detect_format, iter_recording, open_recording

@@ -1,4 +1,5 @@
 """Event dtype, the :class:`Recording` container and array validation."""
+
 from __future__ import annotations
 
 import warnings
@@ -101,11 +102,18 @@ def file_sensor_size(path, given, header) -> tuple[int, int, int]:
     pads). ``header`` may be ``None`` or hold ``None`` where the file says no
     size (the opener then needs one given)."""
     size = check_sensor_size(given or header, path)
-    if given is not None and header is not None and None not in tuple(header)[:2] and \
-            (size[0] < header[0] or size[1] < header[1]):
-        raise InputError(path, f"the sensor size given, {size[0]} x {size[1]}, is smaller than the file's own "
-                               f"{header[0]} x {header[1]} (its header), whose events may lie anywhere in it: "
-                               f"leave the size out for this file")
+    if (
+        given is not None
+        and header is not None
+        and None not in tuple(header)[:2]
+        and (size[0] < header[0] or size[1] < header[1])
+    ):
+        raise InputError(
+            path,
+            f"the sensor size given, {size[0]} x {size[1]}, is smaller than the file's own "
+            f"{header[0]} x {header[1]} (its header), whose events may lie anywhere in it: "
+            f"leave the size out for this file",
+        )
     return size
 
 
@@ -130,7 +138,7 @@ def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
     :data:`FAR_SHARE` of them (a stray x = 30000 among a 320 x 240 sensor's
     events would make a frame of 30001 columns)."""
     counts = {"x": np.zeros(1, np.int64), "y": np.zeros(1, np.int64)}
-    far = {"x": (-1, -1), "y": (-1, -1)}                   # (largest value, its event index)
+    far = {"x": (-1, -1), "y": (-1, -1)}  # (largest value, its event index)
     n = 0
     for a in arrays:
         if not len(a):
@@ -141,27 +149,34 @@ def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
             if col[i] > far[axis][0]:
                 far[axis] = (int(col[i]), n + i)
             c = np.bincount(np.maximum(col, 0), minlength=len(counts[axis]))
-            c[:len(counts[axis])] += counts[axis]
+            c[: len(counts[axis])] += counts[axis]
             counts[axis] = c
         n += len(a)
     (mx, _), (my, _) = far["x"], far["y"]
     if mx < 0 or my < 0:
-        raise InputError(source, "cannot infer the sensor size (no events, or negative coordinates); "
-                                 "pass sensor_size=(W, H)")
+        raise InputError(
+            source, "cannot infer the sensor size (no events, or negative coordinates); pass sensor_size=(W, H)"
+        )
     keep = n - int(FAR_SHARE * n)
     bulk = {axis: int(np.searchsorted(np.cumsum(counts[axis]), keep)) + 1 for axis in "xy"}
     for axis in "xy":
         value, index = far[axis]
         if value + 1 > 2 * bulk[axis] + 64:
-            outside = n - int(counts[axis][:bulk[axis]].sum())
-            raise InputError(source, f"no sensor size given, and a few events lie far beyond the others "
-                                     f"({axis} = {value} at event {index}; {outside} of {n} events outside the "
-                                     f"{bulk['x']} x {bulk['y']} the others fill): give the sensor size "
-                                     f"(--sensor-size WxH, or sensor_size in an .npz) and remove those events")
+            outside = n - int(counts[axis][: bulk[axis]].sum())
+            raise InputError(
+                source,
+                f"no sensor size given, and a few events lie far beyond the others "
+                f"({axis} = {value} at event {index}; {outside} of {n} events outside the "
+                f"{bulk['x']} x {bulk['y']} the others fill): give the sensor size "
+                f"(--sensor-size WxH, or sensor_size in an .npz) and remove those events",
+            )
     size = check_sensor_size((mx + 1, my + 1), source)
-    warnings.warn(f"{source}: no sensor size given; {size[0]} x {size[1]} from the events' extent (a larger "
-                  "sensor gives other maps: --sensor-size WxH, or sensor_size in an .npz)", InputWarning,
-                  stacklevel=2)
+    warnings.warn(
+        f"{source}: no sensor size given; {size[0]} x {size[1]} from the events' extent (a larger "
+        "sensor gives other maps: --sensor-size WxH, or sensor_size in an .npz)",
+        InputWarning,
+        stacklevel=2,
+    )
     return size
 
 
@@ -176,8 +191,9 @@ def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:
         raise InputError(source, "expected a structured array with fields x, y, t, p")
     missing = [f for f in "xytp" if f not in arr.dtype.names]
     if missing:
-        raise InputError(source, f"structured array lacks field(s) {', '.join(missing)} "
-                                 f"(has {', '.join(arr.dtype.names)})")
+        raise InputError(
+            source, f"structured array lacks field(s) {', '.join(missing)} (has {', '.join(arr.dtype.names)})"
+        )
     if arr.ndim != 1:
         arr = arr.reshape(-1)
     if arr.dtype == EVENT_DTYPE:
@@ -191,15 +207,13 @@ def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:
             bad = ~np.isfinite(col) | (col != np.round(col))
             if bad.any():
                 i = int(np.argmax(bad))
-                raise InputError(source, f"field {name} must hold integers, got {col[i]!r}",
-                                 f"event {i + offset}")
+                raise InputError(source, f"field {name} must hold integers, got {col[i]!r}", f"event {i + offset}")
         lim = (-_COORD_MAX - 1, _COORD_MAX) if name in "xy" else (np.iinfo(np.int64).min, np.iinfo(np.int64).max)
         if len(col) and col.dtype.kind != "b":
             bad = (col < lim[0]) | (col > lim[1])
             if bad.any():
                 i = int(np.argmax(bad))
-                raise InputError(source, f"field {name} value {col[i]!r} is out of range",
-                                 f"event {i + offset}")
+                raise InputError(source, f"field {name} value {col[i]!r} is out of range", f"event {i + offset}")
         out[name] = col
     pcol = arr["p"]
     if pcol.dtype.kind not in "iubf":
@@ -208,8 +222,9 @@ def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:
         bad = (pcol != 0) & (pcol != 1) & (pcol != -1)
         if bad.any():
             i = int(np.argmax(bad))
-            raise InputError(source, f"field p must be 1 (ON) and 0 or -1 (OFF), or boolean, got {pcol[i]}",
-                             f"event {i + offset}")
+            raise InputError(
+                source, f"field p must be 1 (ON) and 0 or -1 (OFF), or boolean, got {pcol[i]}", f"event {i + offset}"
+            )
     out["p"] = pcol > 0
     return out
 
@@ -224,8 +239,9 @@ def check_in_sensor(events: np.ndarray, sensor_size, source="<array>", offset: i
     bad = (x < 0) | (x >= w) | (y < 0) | (y >= h)
     if bad.any():
         i = int(np.argmax(bad))
-        raise InputError(source, f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the "
-                                 f"{w} x {h} sensor", f"event {i + offset}")
+        raise InputError(
+            source, f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the {w} x {h} sensor", f"event {i + offset}"
+        )
 
 
 def check_monotonic(events: np.ndarray, source="<array>", offset: int = 0, prev_t: int | None = None) -> None:
@@ -234,12 +250,12 @@ def check_monotonic(events: np.ndarray, source="<array>", offset: int = 0, prev_
     if not len(t):
         return
     if prev_t is not None and t[0] < prev_t:
-        raise InputError(source, f"timestamp goes backwards ({int(t[0])} us after {int(prev_t)} us)",
-                         f"event {offset}")
+        raise InputError(source, f"timestamp goes backwards ({int(t[0])} us after {int(prev_t)} us)", f"event {offset}")
     if len(t) > 1:
         d = np.diff(t)
         bad = d < 0
         if bad.any():
             i = int(np.argmax(bad)) + 1
-            raise InputError(source, f"timestamp goes backwards ({int(t[i])} us after {int(t[i - 1])} us)",
-                             f"event {i + offset}")
+            raise InputError(
+                source, f"timestamp goes backwards ({int(t[i])} us after {int(t[i - 1])} us)", f"event {i + offset}"
+            )

@@ -8,6 +8,7 @@ such a window as solid colour everywhere, so ``snn-fg events`` shows where
 they are (:func:`activity`, :func:`timeline_text`, :func:`activity_figure`)
 and ``snn-fg run`` warns about each one (:func:`saturated_lines`).
 """
+
 from __future__ import annotations
 
 import math
@@ -54,7 +55,7 @@ def activity(recording, *, window_ms: float = 85.0, sensor_size=None) -> Activit
 
     rows = []
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", EmptyWindowWarning)    # an empty window is a row of zeros
+        warnings.simplefilter("ignore", EmptyWindowWarning)  # an empty window is a row of zeros
         for w in iter_windows(recording, window_ms=window_ms, sensor_size=sensor_size):
             a, b = w.span_ms
             rows.append((a, b, len(w.events), pixel_share(w)))
@@ -69,8 +70,11 @@ def saturated_lines(act: Activity, most: int = 5) -> list[str]:
     sat = act.saturated
     if not len(sat):
         return []
-    lines = [f"window {i} ({act.t_start_ms[i]:g}-{act.t_end_ms[i]:g} ms): events on {100 * act.share[i]:.1f}% of "
-             "the sensor's pixels" for i in sat[:most]]
+    lines = [
+        f"window {i} ({act.t_start_ms[i]:g}-{act.t_end_ms[i]:g} ms): events on {100 * act.share[i]:.1f}% of "
+        "the sensor's pixels"
+        for i in sat[:most]
+    ]
     if len(sat) > most:
         lines.append(f"and {len(sat) - most} more windows above {SATURATED_SHARE:.0%}")
     lead = 0
@@ -81,14 +85,18 @@ def saturated_lines(act: Activity, most: int = 5) -> list[str]:
         skip = "; every window here is in it: start later with --start-ms (snn-fg events INPUT shows where it ends)"
     elif lead:
         which = "window 0" if lead == 1 else f"windows 0-{lead - 1}"
-        skip = (f"; --start-ms {act.t_start_ms[lead]:g} skips {which} (a shorter --window-ms in snn-fg events "
-                "finds the burst's end more closely)")
+        skip = (
+            f"; --start-ms {act.t_start_ms[lead]:g} skips {which} (a shorter --window-ms in snn-fg events "
+            "finds the burst's end more closely)"
+        )
     else:
         skip = ""
-    lines.append(f"{len(sat)} of {n} window{'s' if n > 1 else ''} {'have' if len(sat) > 1 else 'has'} events on more "
-                 f"than {SATURATED_SHARE:.0%} of the "
-                 "sensor's pixels: a sensor-wide burst (camera start-up, flicker or a change of light), not a "
-                 f"scene, which maps as solid colour{skip}")
+    lines.append(
+        f"{len(sat)} of {n} window{'s' if n > 1 else ''} {'have' if len(sat) > 1 else 'has'} events on more "
+        f"than {SATURATED_SHARE:.0%} of the "
+        "sensor's pixels: a sensor-wide burst (camera start-up, flicker or a change of light), not a "
+        f"scene, which maps as solid colour{skip}"
+    )
     return lines
 
 
@@ -99,9 +107,11 @@ def timeline_text(act: Activity) -> str:
     group = math.ceil(n / TIMELINE_ROWS)
     top = max(int(act.events.max()), 1)
     per = f"{act.window_ms:g} ms windows" if group == 1 else f"{group} windows of {act.window_ms:g} ms each"
-    lines = [f"rows: {per} from the first event; bar: events; share: pixels with an event"
-             + ("" if group == 1 else " (largest of the row)"),
-             f"{'t (ms)':>13}  {'events':>11}  {'share':>7}"]
+    lines = [
+        f"rows: {per} from the first event; bar: events; share: pixels with an event"
+        + ("" if group == 1 else " (largest of the row)"),
+        f"{'t (ms)':>13}  {'events':>11}  {'share':>7}",
+    ]
     for k in range(0, n, group):
         sl = slice(k, k + group)
         events, share = int(act.events[sl].sum()), float(act.share[sl].max())
@@ -125,8 +135,15 @@ def activity_figure(act: Activity, title: str = ""):
     ax_n.set_ylabel("events per window")
     ax_s.bar(mid, 100 * act.share, width=width, color=colour)
     ax_s.axhline(100 * SATURATED_SHARE, color="k", ls="--", lw=0.8)
-    ax_s.text(0.995, 100 * SATURATED_SHARE, f"saturated above {SATURATED_SHARE:.0%} (red)", ha="right",
-              va="bottom", fontsize=8, transform=ax_s.get_yaxis_transform())
+    ax_s.text(
+        0.995,
+        100 * SATURATED_SHARE,
+        f"saturated above {SATURATED_SHARE:.0%} (red)",
+        ha="right",
+        va="bottom",
+        fontsize=8,
+        transform=ax_s.get_yaxis_transform(),
+    )
     ax_s.set_ylim(0, 100)
     ax_s.set_ylabel("pixels with an event (%)")
     ax_s.set_xlabel(f"time after the first event (ms); {act.window_ms:g} ms windows")

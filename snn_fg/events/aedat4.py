@@ -5,6 +5,7 @@ into an :class:`~snn_fg.errors.InputError`, and the XML description in the
 header is checked here first so that its corruption is reported with a byte
 offset.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -40,20 +41,26 @@ def _check_aedat4_header(path):
         head = fh.read(_BODY_OFFSET)
         if len(head) < _BODY_OFFSET:
             raise InputError(path, "AEDAT4 header is truncated", f"byte offset {len(head)}")
-        n = int.from_bytes(head[len(MAGIC):], "little")
+        n = int.from_bytes(head[len(MAGIC) :], "little")
         body = fh.read(min(n, 1 << 24))
     if len(body) < n:
-        raise InputError(path, f"AEDAT4 header announces {n} bytes but the file ends first",
-                         f"byte offset {_BODY_OFFSET + len(body)}")
+        raise InputError(
+            path,
+            f"AEDAT4 header announces {n} bytes but the file ends first",
+            f"byte offset {_BODY_OFFSET + len(body)}",
+        )
     start = body.find(b"<")
     end = body.rfind(b">")
     if start < 0 or end < start:
         raise InputError(path, "AEDAT4 header holds no XML description", f"byte offset {_BODY_OFFSET}")
-    xml = np.frombuffer(body[start:end + 1], dtype=np.uint8)
+    xml = np.frombuffer(body[start : end + 1], dtype=np.uint8)
     bad = xml >= 128
     if bad.any():
-        raise InputError(path, "AEDAT4 header description is corrupt (non-ASCII byte)",
-                         f"byte offset {_BODY_OFFSET + start + int(np.argmax(bad))}")
+        raise InputError(
+            path,
+            "AEDAT4 header description is corrupt (non-ASCII byte)",
+            f"byte offset {_BODY_OFFSET + start + int(np.argmax(bad))}",
+        )
 
 
 def open_aedat4(path, sensor_size, chunk_events) -> Source:
@@ -91,6 +98,7 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
                 continue
             e = packet["events"]
             yield pack_events(e["x"], e["y"], e["t"], e["on"])
+
     return Source(path, "aedat4", size, chunks)
 
 
@@ -108,10 +116,13 @@ def _packet_error(path, k: int) -> InputError | None:
             size = int.from_bytes(head[4:], "little") if len(head) == 8 else 0
             if len(head) < 8 or at + 8 + size > end:
                 if j < k:
-                    return None         # (the decoder read past this one: not a cut in the packet table)
+                    return None  # (the decoder read past this one: not a cut in the packet table)
                 whole = f"{8 + size} bytes" if len(head) == 8 else "its 8 header bytes"
-                return InputError(path, f"file ends inside AEDAT4 packet {k} ({end - at} of {whole}); is the file "
-                                        "cut short?", f"byte offset {at}")
+                return InputError(
+                    path,
+                    f"file ends inside AEDAT4 packet {k} ({end - at} of {whole}); is the file cut short?",
+                    f"byte offset {at}",
+                )
             at += 8 + size
     return None
 

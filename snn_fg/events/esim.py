@@ -35,6 +35,7 @@ do not produce spurious events); integer shifts are exact, sub-pixel
 positions use bilinear interpolation (``cv2.warpAffine``, ``INTER_LINEAR``,
 ``BORDER_REPLICATE``).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -66,8 +67,7 @@ def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
     import cv2
 
     m = np.array([[1.0, 0.0, dx], [0.0, 1.0, dy]])
-    return cv2.warpAffine(img, m, (img.shape[1], img.shape[0]), flags=cv2.INTER_LINEAR,
-                          borderMode=cv2.BORDER_REPLICATE)
+    return cv2.warpAffine(img, m, (img.shape[1], img.shape[0]), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
 def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndarray:
@@ -80,8 +80,7 @@ def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndar
     a = validate.number("motion_offsets", "amplitude_px", amplitude_px, lo=0, lo_open=True)
     if motion == "shift4":
         if a != int(a):
-            validate.fail("motion_offsets", "amplitude_px", amplitude_px, "must be a whole number of pixels "
-                                                                          "for shift4")
+            validate.fail("motion_offsets", "amplitude_px", amplitude_px, "must be a whole number of pixels for shift4")
         return np.array([(0, 0), (0, -a), (a, -a), (a, 0), (0, 0)], dtype=np.float64)
     k = np.arange(CIRCLE_STEPS + 1) % CIRCLE_STEPS
     ang = 2 * np.pi * k / CIRCLE_STEPS
@@ -89,8 +88,7 @@ def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndar
     return np.round(off, 12)  # exact integers where the circle meets the axes
 
 
-def motion_frames(image, motion: str = "shift4", amplitude_px: float = 1.0,
-                  frame_interval_us: int = 5000):
+def motion_frames(image, motion: str = "shift4", amplitude_px: float = 1.0, frame_interval_us: int = 5000):
     """Return ``(frames, times_us)``: grey frames (N x H x W float64) and their times.
 
     ``paper`` ignores ``amplitude_px`` (its shift is the authors' 2 px) and
@@ -141,8 +139,7 @@ class PixelOptions:
         validate.number("PixelOptions", "eps", self.eps, lo=0, lo_open=True)
 
 
-def simulate_frames(frames, times_us, threshold_on=0.10, *, pixels: PixelOptions | None = None,
-                    seed=0) -> np.ndarray:
+def simulate_frames(frames, times_us, threshold_on=0.10, *, pixels: PixelOptions | None = None, seed=0) -> np.ndarray:
     """Simulate events from grey frames in [0, 1] (N x H x W) at ``times_us``."""
     px_opts = pixels or PixelOptions()
     frames = np.asarray(frames, dtype=np.float64)
@@ -202,8 +199,16 @@ def simulate_frames(frames, times_us, threshold_on=0.10, *, pixels: PixelOptions
     return ev
 
 
-def image_to_events(image, threshold: float = 0.10, motion: str = "shift4", *, amplitude_px: float = 1.0,
-                    frame_interval_us: int = 5000, seed: int = 0, pixels: PixelOptions | None = None) -> Recording:
+def image_to_events(
+    image,
+    threshold: float = 0.10,
+    motion: str = "shift4",
+    *,
+    amplitude_px: float = 1.0,
+    frame_interval_us: int = 5000,
+    seed: int = 0,
+    pixels: PixelOptions | None = None,
+) -> Recording:
     """Simulate an event camera looking at ``image`` under ``motion``.
 
     ``image`` is an array (see :func:`to_grey`) or an image file path.

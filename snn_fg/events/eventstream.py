@@ -28,6 +28,7 @@ Decoders read :data:`~snn_fg.events.source.READ_BYTES` at a time and keep
 their state across reads, so memory does not grow with the file; every
 problem is an :class:`~snn_fg.errors.InputError` with a byte offset.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -44,7 +45,7 @@ MAGIC = b"Event Stream"
 STREAM_TYPES = {0: "generic", 1: "DVS", 2: "ATIS", 3: "asynchronous display", 4: "colour"}
 #: Flag bits in byte 0 of an event, per supported stream type.
 FLAG_BITS = {"DVS": 1, "ATIS": 2}
-_VERSION_OFFSET = len(MAGIC)   # major, minor, patch
+_VERSION_OFFSET = len(MAGIC)  # major, minor, patch
 _TYPE_OFFSET = _VERSION_OFFSET + 3
 _SIZE_OFFSET = _TYPE_OFFSET + 1  # width, height: little-endian uint16
 _BODY_OFFSET = _SIZE_OFFSET + 4
@@ -55,7 +56,7 @@ _EVENT_BYTES = 5
 class Header:
     """What the 20-byte header of a DVS or ATIS Event Stream says."""
 
-    stream: str   # "DVS" or "ATIS"
+    stream: str  # "DVS" or "ATIS"
     width: int
     height: int
     body_offset: int = _BODY_OFFSET
@@ -71,20 +72,25 @@ def read_header(path) -> Header:
         raise InputError(path, "Event Stream header is truncated", f"byte offset {len(head)}")
     major, minor, patch = head[_VERSION_OFFSET:_TYPE_OFFSET]
     if major != 2:
-        raise InputError(path, f"Event Stream version {major}.{minor}.{patch} is not supported (only 2.x)",
-                         f"byte offset {_VERSION_OFFSET}")
+        raise InputError(
+            path,
+            f"Event Stream version {major}.{minor}.{patch} is not supported (only 2.x)",
+            f"byte offset {_VERSION_OFFSET}",
+        )
     kind = head[_TYPE_OFFSET]
     name = STREAM_TYPES.get(kind, "unknown")
     if name not in FLAG_BITS:
-        raise InputError(path, f"Event Stream holds {name} events (stream type {kind}); only DVS and ATIS "
-                               "event streams are supported", f"byte offset {_TYPE_OFFSET}")
+        raise InputError(
+            path,
+            f"Event Stream holds {name} events (stream type {kind}); only DVS and ATIS event streams are supported",
+            f"byte offset {_TYPE_OFFSET}",
+        )
     if len(head) < _BODY_OFFSET:
         raise InputError(path, "Event Stream header is truncated (no sensor size)", f"byte offset {len(head)}")
-    w = int.from_bytes(head[_SIZE_OFFSET:_SIZE_OFFSET + 2], "little")
-    h = int.from_bytes(head[_SIZE_OFFSET + 2:_BODY_OFFSET], "little")
+    w = int.from_bytes(head[_SIZE_OFFSET : _SIZE_OFFSET + 2], "little")
+    h = int.from_bytes(head[_SIZE_OFFSET + 2 : _BODY_OFFSET], "little")
     if w == 0 or h == 0:
-        raise InputError(path, f"Event Stream header gives an empty sensor ({w} x {h})",
-                         f"byte offset {_SIZE_OFFSET}")
+        raise InputError(path, f"Event Stream header gives an empty sensor ({w} x {h})", f"byte offset {_SIZE_OFFSET}")
     check_sensor_size((w, h), path)  # coordinates must fit EVENT_DTYPE whatever size the caller asks for
     return Header(name, w, h)
 
@@ -131,8 +137,8 @@ def iter_records(path, header: Header, read_bytes: int = READ_BYTES):
     special = 256 - (1 << flag_bits)
     overflow_unit = (256 >> flag_bits) - 1
     t_prev = 0
-    pending_us = 0          # overflow time read but not yet given to an event
-    carry = b""             # bytes of an event cut by the end of a read
+    pending_us = 0  # overflow time read but not yet given to an event
+    carry = b""  # bytes of an event cut by the end of a read
     base = header.body_offset  # file offset of the first byte of ``buf``
     with open(path, "rb") as fh:
         fh.seek(base)
@@ -144,8 +150,9 @@ def iter_records(path, header: Header, read_bytes: int = READ_BYTES):
             if len(starts):
                 over = (buf[specials].astype(np.int64) - special) * overflow_unit
                 # the overflow before event i is in the slots up to i; the last slot carries over
-                per_event = np.bincount(np.searchsorted(starts, specials), weights=over,
-                                        minlength=len(starts) + 1).astype(np.int64)
+                per_event = np.bincount(
+                    np.searchsorted(starts, specials), weights=over, minlength=len(starts) + 1
+                ).astype(np.int64)
                 head = buf[starts]
                 delta = (head >> flag_bits).astype(np.int64) + per_event[:-1]
                 delta[0] += pending_us
@@ -163,8 +170,9 @@ def iter_records(path, header: Header, read_bytes: int = READ_BYTES):
             if eof:
                 break
     if carry:
-        raise InputError(path, f"file ends inside an event ({len(carry)} of {_EVENT_BYTES} bytes)",
-                         f"byte offset {base}")
+        raise InputError(
+            path, f"file ends inside an event ({len(carry)} of {_EVENT_BYTES} bytes)", f"byte offset {base}"
+        )
 
 
 @njit(cache=True, nogil=True)
@@ -201,5 +209,9 @@ def _check_coordinates(path, header: Header, x, y, starts, base):
     bad = (x >= header.width) | (y >= header.height)
     if bad.any():
         i = int(np.argmax(bad))
-        raise InputError(path, f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the {header.width} x "
-                               f"{header.height} sensor of the header", f"byte offset {base + int(starts[i])}")
+        raise InputError(
+            path,
+            f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the {header.width} x "
+            f"{header.height} sensor of the header",
+            f"byte offset {base + int(starts[i])}",
+        )

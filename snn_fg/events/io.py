@@ -37,6 +37,7 @@ format is a :class:`~snn_fg.errors.ParameterError`:
 * ``channel`` (``.log``): camera, 0 (left, default), 1 (right) or ``"both"``;
 * ``timer_bits`` (``.log``): bits of the timestamp counter (default 30).
 """
+
 from __future__ import annotations
 
 import inspect
@@ -50,28 +51,40 @@ import numpy as np
 from snn_fg import validate
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events import aedat4, eventstream, nmnist, numpy_files, prophesee, yarp
-from snn_fg.events._core import Recording, as_events, check_in_sensor, check_sensor_size, empty_events, \
-    infer_sensor_size, sensor_size_parameter
+from snn_fg.events._core import (
+    Recording,
+    as_events,
+    check_in_sensor,
+    check_sensor_size,
+    empty_events,
+    infer_sensor_size,
+    sensor_size_parameter,
+)
 from snn_fg.events.source import STREAMING_FORMATS, DecodeTally, Source  # STREAMING_FORMATS: re-exported
 
 SUFFIX_FORMAT = {
-    ".es": "es", ".raw": "raw", ".dat": "dat", ".aedat4": "aedat4", ".bin": "nmnist",
-    ".log": "yarp", ".npy": "npy", ".npz": "npz",
+    ".es": "es",
+    ".raw": "raw",
+    ".dat": "dat",
+    ".aedat4": "aedat4",
+    ".bin": "nmnist",
+    ".log": "yarp",
+    ".npy": "npy",
+    ".npz": "npz",
 }
 DEFAULT_CHUNK = 1_000_000
 
 
 @dataclass(frozen=True)
 class _Format:
-    label: str                    # what a file of this format is, for messages
+    label: str  # what a file of this format is, for messages
     opener: Callable[..., Source]  # (path, sensor_size, chunk_events, *, its options) -> Source
-    looks_like: tuple             # what _sniff may call a file of this format (None: nothing known)
+    looks_like: tuple  # what _sniff may call a file of this format (None: nothing known)
 
     @property
     def options(self) -> tuple[str, ...]:
         """The format options this format takes: its opener's keyword-only parameters."""
-        return tuple(name for name, p in inspect.signature(self.opener).parameters.items()
-                     if p.kind is p.KEYWORD_ONLY)
+        return tuple(name for name, p in inspect.signature(self.opener).parameters.items() if p.kind is p.KEYWORD_ONLY)
 
 
 _FORMATS = {
@@ -117,8 +130,10 @@ def detect_format(path) -> str:
     if path.is_dir():
         raise InputError(path, "is a folder, not a recording's file")
     if fmt is None:
-        raise InputError(path, f"unknown event file extension '{path.suffix or '(none)'}' "
-                               f"(supported: {', '.join(sorted(SUFFIX_FORMAT))})")
+        raise InputError(
+            path,
+            f"unknown event file extension '{path.suffix or '(none)'}' (supported: {', '.join(sorted(SUFFIX_FORMAT))})",
+        )
     if not path.exists():
         raise InputError(path, "no such file")
     if not path.is_file():
@@ -132,8 +147,12 @@ def detect_format(path) -> str:
         raise InputError(path, "file is empty", "byte offset 0")
     seen = _sniff(head)
     if seen not in _FORMATS[fmt].looks_like:
-        raise InputError(path, f"extension says {_FORMATS[fmt].label} but the content looks like "
-                               f"{seen or 'unrecognised binary data'}; is the file mislabelled?", "byte offset 0")
+        raise InputError(
+            path,
+            f"extension says {_FORMATS[fmt].label} but the content looks like "
+            f"{seen or 'unrecognised binary data'}; is the file mislabelled?",
+            "byte offset 0",
+        )
     return fmt
 
 
@@ -150,8 +169,9 @@ def check_format_options(owner: str, *, encoding=None, codec=None, channel=None,
     if codec is not None:
         given["codec"] = validate.choice(owner, "codec", codec, yarp.CODECS)
     if channel is not None:
-        if channel != "both" and (isinstance(channel, bool) or not isinstance(channel, (int, np.integer))
-                                  or channel not in (0, 1)):
+        if channel != "both" and (
+            isinstance(channel, bool) or not isinstance(channel, (int, np.integer)) or channel not in (0, 1)
+        ):
             validate.fail(owner, "channel", channel, "must be 0 (left camera), 1 (right camera) or 'both'")
         given["channel"] = channel if channel == "both" else int(channel)
     if timer_bits is not None:
@@ -188,7 +208,8 @@ def _chunks_of(events: np.ndarray, exposure_events: int = 0):
     def chunks(n, tally):
         tally.exposure_events = exposure_events
         for i in range(0, max(len(events), 1), n):
-            yield events[i:i + n]
+            yield events[i : i + n]
+
     return chunks
 
 
@@ -235,11 +256,21 @@ class RecordingStream:
 
     warn_no_span = True
 
-    def __init__(self, source, *, chunk_events: int = DEFAULT_CHUNK, sensor_size=None, progress: bool = False,
-                 encoding: str | None = None, codec: str | None = None, channel: int | str | None = None,
-                 timer_bits: int | None = None):
-        options = check_format_options("RecordingStream", encoding=encoding, codec=codec, channel=channel,
-                                       timer_bits=timer_bits)
+    def __init__(
+        self,
+        source,
+        *,
+        chunk_events: int = DEFAULT_CHUNK,
+        sensor_size=None,
+        progress: bool = False,
+        encoding: str | None = None,
+        codec: str | None = None,
+        channel: int | str | None = None,
+        timer_bits: int | None = None,
+    ):
+        options = check_format_options(
+            "RecordingStream", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits
+        )
         if sensor_size is not None:
             sensor_size = sensor_size_parameter("RecordingStream", sensor_size)
         self.chunk_events = validate.integer("RecordingStream", "chunk_events", chunk_events, lo=1)
@@ -279,6 +310,7 @@ class RecordingStream:
         if not self.progress:
             return None
         from tqdm import tqdm
+
         return tqdm(unit="ev", unit_scale=True, desc=f"reading {Path(str(name)).name}", leave=False, disable=None)
 
 
@@ -309,9 +341,17 @@ def _rechunk(raw_chunks, n: int, name, sensor_size) -> Iterator[np.ndarray]:
         yield np.concatenate(pending) if len(pending) > 1 else pending[0]
 
 
-def iter_recording(source, *, chunk_events: int = DEFAULT_CHUNK, sensor_size=None, progress: bool = False,
-                   encoding: str | None = None, codec: str | None = None, channel: int | str | None = None,
-                   timer_bits: int | None = None) -> RecordingStream:
+def iter_recording(
+    source,
+    *,
+    chunk_events: int = DEFAULT_CHUNK,
+    sensor_size=None,
+    progress: bool = False,
+    encoding: str | None = None,
+    codec: str | None = None,
+    channel: int | str | None = None,
+    timer_bits: int | None = None,
+) -> RecordingStream:
     """Stream a recording in chunks of at most ``chunk_events`` events.
 
     ``source`` is a path, a :class:`Recording` or a structured array.  The
@@ -331,17 +371,24 @@ def iter_recording(source, *, chunk_events: int = DEFAULT_CHUNK, sensor_size=Non
     >>> stream.format, [len(chunk) for chunk in stream]
     ('array', [100, 100, 50])
     """
-    options = check_format_options("iter_recording", encoding=encoding, codec=codec, channel=channel,
-                                   timer_bits=timer_bits)
+    options = check_format_options(
+        "iter_recording", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits
+    )
     if sensor_size is not None:
         sensor_size_parameter("iter_recording", sensor_size)
-    return RecordingStream(source, chunk_events=chunk_events, sensor_size=sensor_size, progress=progress,
-                           **options)
+    return RecordingStream(source, chunk_events=chunk_events, sensor_size=sensor_size, progress=progress, **options)
 
 
-def open_recording(path, *, sensor_size=None, progress: bool = False, encoding: str | None = None,
-                   codec: str | None = None, channel: int | str | None = None,
-                   timer_bits: int | None = None) -> Recording:
+def open_recording(
+    path,
+    *,
+    sensor_size=None,
+    progress: bool = False,
+    encoding: str | None = None,
+    codec: str | None = None,
+    channel: int | str | None = None,
+    timer_bits: int | None = None,
+) -> Recording:
     """Read a whole recording (any supported format, or a structured array).
 
     Parameters
@@ -384,13 +431,18 @@ def open_recording(path, *, sensor_size=None, progress: bool = False, encoding: 
     >>> rec.format, len(rec), rec.sensor_size, rec.duration_us
     ('array', 3, (4, 3, 2), 20)
     """
-    options = check_format_options("open_recording", encoding=encoding, codec=codec, channel=channel,
-                                   timer_bits=timer_bits)
+    options = check_format_options(
+        "open_recording", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits
+    )
     if sensor_size is not None:
         sensor_size_parameter("open_recording", sensor_size)
-    stream = RecordingStream(path, chunk_events=DEFAULT_CHUNK, sensor_size=sensor_size, progress=progress,
-                             **options)
+    stream = RecordingStream(path, chunk_events=DEFAULT_CHUNK, sensor_size=sensor_size, progress=progress, **options)
     parts = list(stream)
     events = np.concatenate(parts) if len(parts) > 1 else (parts[0] if parts else empty_events())
-    return Recording(events=events, sensor_size=stream.sensor_size, format=stream.format, path=stream.path,
-                     exposure_events=stream.exposure_events)
+    return Recording(
+        events=events,
+        sensor_size=stream.sensor_size,
+        format=stream.format,
+        path=stream.path,
+        exposure_events=stream.exposure_events,
+    )

@@ -4,6 +4,7 @@ A record is x, y, ``p << 7 | t[22:16]``, ``t[15:8]``, ``t[7:0]``; a record
 with y = 240 marks a timer overflow.  Coordinates are checked here so that
 bad records are reported with their byte offset.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,8 +25,11 @@ def open_nmnist(path, sensor_size, chunk_events) -> Source:
     nbytes = path.stat().st_size
     if nbytes % RECORD_BYTES:
         whole = nbytes - nbytes % RECORD_BYTES
-        raise InputError(path, f"N-MNIST files hold {RECORD_BYTES}-byte events; {nbytes} bytes leaves "
-                               f"{nbytes - whole} trailing", f"byte offset {whole}")
+        raise InputError(
+            path,
+            f"N-MNIST files hold {RECORD_BYTES}-byte events; {nbytes} bytes leaves {nbytes - whole} trailing",
+            f"byte offset {whole}",
+        )
     size = check_sensor_size(sensor_size or SENSOR_SIZE, path)
 
     def chunks(n, tally):
@@ -33,7 +37,11 @@ def open_nmnist(path, sensor_size, chunk_events) -> Source:
         bad = (raw[:, 1] != _OVERFLOW_Y) & ((raw[:, 0] >= size[0]) | (raw[:, 1] >= size[1]))
         if bad.any():
             i = int(np.argmax(bad))
-            raise InputError(path, f"event at (x={int(raw[i, 0])}, y={int(raw[i, 1])}) lies outside the "
-                                   f"{size[0]} x {size[1]} sensor", f"byte offset {RECORD_BYTES * i}")
+            raise InputError(
+                path,
+                f"event at (x={int(raw[i, 0])}, y={int(raw[i, 1])}) lies outside the {size[0]} x {size[1]} sensor",
+                f"byte offset {RECORD_BYTES * i}",
+            )
         yield read_mnist_file(str(path), dtype=EVENT_DTYPE)
+
     return Source(path, "nmnist", size, chunks)

@@ -1,4 +1,5 @@
 """Event arrays saved by numpy: ``.npy`` (streamed) and ``.npz`` (read whole)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,16 +21,21 @@ def open_npy(path, sensor_size, chunk_events) -> Source:
     """Open a ``.npy`` structured array; a plain file is read one memory-mapped chunk at a time."""
     arr = _load_npy(path)
     if arr.dtype.names is None or arr.ndim != 1:
-        raise InputError(path, f".npy must hold a 1-D structured array with fields x, y, t, p "
-                               f"(found dtype {arr.dtype}, shape {arr.shape})")
+        raise InputError(
+            path,
+            f".npy must hold a 1-D structured array with fields x, y, t, p "
+            f"(found dtype {arr.dtype}, shape {arr.shape})",
+        )
     as_events(arr[:0], path)  # field check
 
     total, dtype, base = len(arr), arr.dtype, int(getattr(arr, "offset", 0))
     if not isinstance(arr, np.memmap) or not (arr.flags.c_contiguous or arr.flags.f_contiguous):
+
         def slices(n, tally=None):
             for i in range(0, total, n):
-                yield as_events(np.asarray(arr[i:i + n]), path, offset=i)
+                yield as_events(np.asarray(arr[i : i + n]), path, offset=i)
     else:
+
         def slices(n, tally=None):
             # one short-lived mapping per chunk, copied and unmapped, so resident
             # memory stays at one chunk however large the file is
@@ -39,8 +45,12 @@ def open_npy(path, sensor_size, chunk_events) -> Source:
                 chunk = np.array(view)
                 del view
                 yield as_events(chunk, path, offset=i)
-    size = check_sensor_size(sensor_size, path) if sensor_size is not None else \
-        infer_sensor_size(path, slices(chunk_events))
+
+    size = (
+        check_sensor_size(sensor_size, path)
+        if sensor_size is not None
+        else infer_sensor_size(path, slices(chunk_events))
+    )
     return Source(path, "npy", size, slices)
 
 
@@ -62,11 +72,15 @@ def open_npz(path, sensor_size, chunk_events) -> Source:
             else:
                 structured = [k for k in keys if z[k].dtype.names]
                 if "pos" in keys or "neg" in keys:
-                    raise InputError(path, "holds an event frame (pos, neg), not a recording's events: "
-                                           "snn-fg run takes it as it is")
+                    raise InputError(
+                        path, "holds an event frame (pos, neg), not a recording's events: snn-fg run takes it as it is"
+                    )
                 if len(structured) != 1:
-                    raise InputError(path, f".npz needs an 'events' structured array or x, y, t, p arrays "
-                                           f"(found keys {', '.join(keys) or 'none'})")
+                    raise InputError(
+                        path,
+                        f".npz needs an 'events' structured array or x, y, t, p arrays "
+                        f"(found keys {', '.join(keys) or 'none'})",
+                    )
                 arr = z[structured[0]]
             file_size = tuple(int(v) for v in z["sensor_size"]) if "sensor_size" in keys else None
     except SnnFgError:

@@ -28,6 +28,7 @@ window applied to the ROS bag of events) cannot be reproduced; see
 ``experiments/README.md`` for how close the result comes to the authors'
 stored frames.
 """
+
 from __future__ import annotations
 
 import io
@@ -61,7 +62,7 @@ def shifted_copy(rgb: np.ndarray, axis: int, shift: int = PAPER_SHIFT_PX) -> np.
     src = np.moveaxis(np.asarray(rgb, dtype=np.float64), axis, 0)
     out = np.zeros_like(src)
     out[:shift] = src[:shift]
-    out[shift:-1] = src[:-(shift + 1)]
+    out[shift:-1] = src[: -(shift + 1)]
     return np.moveaxis(out, 0, axis)
 
 

@@ -6,6 +6,7 @@ DAT are decoded by expelliarmus after every word has been checked here, so
 corrupt files give an :class:`~snn_fg.errors.InputError` with a byte offset
 instead of reaching the C decoder.
 """
+
 from __future__ import annotations
 
 import re
@@ -29,9 +30,12 @@ def open_raw(path, sensor_size, chunk_events, *, encoding: str | None = None) ->
         raise InputError(path, f"RAW encoding '{enc}' is not supported (only EVT 2.0 and EVT 3.0)")
     geom = header_geometry(info)
     if sensor_size is None and geom is None:
-        raise InputError(path, f"{enc.upper()} file has no geometry in its header; pass the sensor size "
-                               "explicitly (sensor_size=(W, H), CLI --sensor-size WxH; a Prophesee Gen3 "
-                               "VGA sensor is 640x480)")
+        raise InputError(
+            path,
+            f"{enc.upper()} file has no geometry in its header; pass the sensor size "
+            "explicitly (sensor_size=(W, H), CLI --sensor-size WxH; a Prophesee Gen3 "
+            "VGA sensor is 640x480)",
+        )
     size = file_sensor_size(path, sensor_size, geom)
     if enc == "evt3":
         return Source(path, "evt3", size, lambda n, tally: iter_evt3(path, off, tally=tally))
@@ -39,6 +43,7 @@ def open_raw(path, sensor_size, chunk_events, *, encoding: str | None = None) ->
     def chunks(n, tally):
         check_evt2(path, off, size, tally)  # clear errors (with byte offsets) before the C decoder runs
         yield from _expelliarmus_chunks(path, "evt2", n)
+
     return Source(path, "evt2", size, chunks)
 
 
@@ -51,8 +56,9 @@ def open_dat(path, sensor_size, chunk_events) -> Source:
     if len(td) < 2:
         raise InputError(path, "DAT file ends before its event type/size bytes", f"byte offset {off + len(td)}")
     if td[1] != DAT_EVENT_BYTES:
-        raise InputError(path, f"DAT events are {td[1]} bytes, expected {DAT_EVENT_BYTES} (CD events)",
-                         f"byte offset {off + 1}")
+        raise InputError(
+            path, f"DAT events are {td[1]} bytes, expected {DAT_EVENT_BYTES} (CD events)", f"byte offset {off + 1}"
+        )
     geom = header_geometry(info)
     if sensor_size is None and geom is None:
         raise InputError(path, "DAT file has no Width/Height in its header; pass sensor_size=(W, H)")
@@ -61,6 +67,7 @@ def open_dat(path, sensor_size, chunk_events) -> Source:
     def chunks(n, tally):
         check_dat(path, off + 2, size)
         yield from _expelliarmus_chunks(path, "dat", n)
+
     return Source(path, "dat", size, chunks)
 
 
@@ -79,8 +86,7 @@ def read_header(path, max_header: int = 1 << 20):
                 break
             line = peek + fh.readline(4096)
             if not line.endswith(b"\n"):
-                raise InputError(path, "header line is unterminated or longer than 4 KiB",
-                                 f"byte offset {offset}")
+                raise InputError(path, "header line is unterminated or longer than 4 KiB", f"byte offset {offset}")
             try:
                 text = line[1:].decode("ascii").strip()
             except UnicodeDecodeError:
@@ -138,8 +144,11 @@ def _iter_words(path, offset, word_bytes, read_bytes=READ_BYTES):
                 return
             usable = len(raw) - len(raw) % word_bytes
             if usable != len(raw):
-                raise InputError(path, f"file ends inside a {8 * word_bytes}-bit word "
-                                       f"({len(raw) - usable} trailing bytes)", f"byte offset {pos + usable}")
+                raise InputError(
+                    path,
+                    f"file ends inside a {8 * word_bytes}-bit word ({len(raw) - usable} trailing bytes)",
+                    f"byte offset {pos + usable}",
+                )
             yield pos, np.frombuffer(raw, dtype=dtype)
             pos += len(raw)
 
@@ -160,8 +169,11 @@ def check_evt2(path, offset, sensor_size, tally=None):
         bad = ~np.isin(typ, EVT2_TYPES)
         if bad.any():
             i = int(np.argmax(bad))
-            raise InputError(path, f"unknown EVT2 word type 0x{int(typ[i]):X} (file is corrupt or not EVT2)",
-                             f"byte offset {pos + 4 * i}")
+            raise InputError(
+                path,
+                f"unknown EVT2 word type 0x{int(typ[i]):X} (file is corrupt or not EVT2)",
+                f"byte offset {pos + 4 * i}",
+            )
         if tally is not None:
             tally.skip("trigger events", np.count_nonzero(typ == EXT_TRIGGER))
         cd = typ <= 1  # CD_OFF, CD_ON; other word types carry no coordinates
@@ -187,11 +199,11 @@ def iter_evt3(path, offset, read_bytes=READ_BYTES, tally=None):
     events are counted in ``tally`` and left out.
     """
     # state carried across chunks
-    th_raw = -1      # last TIME_HIGH payload (raw 12 bits), -1 = none yet
-    th_abs = -1      # unwrapped TIME_HIGH counter (in units of 4096 us)
-    tl = 0           # TIME_LOW payload valid after the last TIME_HIGH (0 if none)
+    th_raw = -1  # last TIME_HIGH payload (raw 12 bits), -1 = none yet
+    th_abs = -1  # unwrapped TIME_HIGH counter (in units of 4096 us)
+    tl = 0  # TIME_LOW payload valid after the last TIME_HIGH (0 if none)
     y_cur = -1
-    bx_cur = -1      # base x for vectors
+    bx_cur = -1  # base x for vectors
     pol_cur = 0
     for pos, w in _iter_words(path, offset, 2, read_bytes):
         n = len(w)
@@ -200,8 +212,11 @@ def iter_evt3(path, offset, read_bytes=READ_BYTES, tally=None):
         bad = ~EVT3_KNOWN[typ]
         if bad.any():
             i = int(np.argmax(bad))
-            raise InputError(path, f"unknown EVT3 word type 0x{int(typ[i]):X} (file is corrupt or not EVT3)",
-                             f"byte offset {pos + 2 * i}")
+            raise InputError(
+                path,
+                f"unknown EVT3 word type 0x{int(typ[i]):X} (file is corrupt or not EVT3)",
+                f"byte offset {pos + 2 * i}",
+            )
         idx = np.arange(n)
         if tally is not None:
             tally.skip("trigger events", np.count_nonzero(typ == EXT_TRIGGER))
@@ -223,8 +238,7 @@ def iter_evt3(path, offset, read_bytes=READ_BYTES, tally=None):
         # --- time low: valid only after the last TIME_HIGH
         is_tl = typ == 0x6
         last_tl = np.maximum.accumulate(np.where(is_tl, idx, -1))
-        tl_at = np.where(last_tl > last_th, pay[np.maximum(last_tl, 0)],
-                         np.where(last_th >= 0, 0, tl))
+        tl_at = np.where(last_tl > last_th, pay[np.maximum(last_tl, 0)], np.where(last_th >= 0, 0, tl))
         t_at = th_at * 4096 + tl_at
         t_ok = th_at >= 0
 
@@ -308,8 +322,11 @@ def _refuse_outside(path, x, y, w, h, pos, word_bytes):
     bad = (x >= w) | (y >= h)
     if bad.any():
         i = int(np.argmax(bad))
-        raise InputError(path, f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the {w} x {h} sensor",
-                         f"byte offset {pos + word_bytes * i}")
+        raise InputError(
+            path,
+            f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the {w} x {h} sensor",
+            f"byte offset {pos + word_bytes * i}",
+        )
 
 
 def _expelliarmus_chunks(path, encoding, n):

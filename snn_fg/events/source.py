@@ -5,6 +5,7 @@ Every per-format module (:mod:`~snn_fg.events.eventstream`,
 the file's header and returns a :class:`Source`: the sensor size, the decoder
 name and a ``chunks(n, tally)`` function that decodes the file from its start.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

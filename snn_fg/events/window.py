@@ -1,4 +1,5 @@
 """Stage 1 of the model: event frames, and cutting a recording into time windows."""
+
 from __future__ import annotations
 
 import warnings
@@ -132,9 +133,17 @@ def _check_window_options(max_windows, denoise_us, refractory_us) -> None:
             validate.number("iter_windows", name, v, lo=0)
 
 
-def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 0, stride_ms: float | None = None,
-                 max_windows: int | None = None, denoise_us: int | None = None, refractory_us: int | None = None,
-                 **read_options):
+def iter_windows(
+    recording_or_path,
+    *,
+    window_ms: float = 85,
+    start_ms: float = 0,
+    stride_ms: float | None = None,
+    max_windows: int | None = None,
+    denoise_us: int | None = None,
+    refractory_us: int | None = None,
+    **read_options,
+):
     """Cut a recording into time windows and yield :class:`EventWindow` s.
 
     Window ``k`` covers ``[t0 + start + k * stride, ... + window)`` where ``t0``
@@ -173,7 +182,7 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
     win, start, stride = _window_times(window_ms, start_ms, stride_ms)
     _check_window_options(max_windows, denoise_us, refractory_us)
     stream = iter_recording(recording_or_path, **read_options)
-    stream.warn_no_span = False         # (refused below)
+    stream.warn_no_span = False  # (refused below)
     size = stream.sensor_size
     name = stream.path if stream.path is not None else "<array>"
 
@@ -188,8 +197,11 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
         nonlocal k
         ev = _filter(events, denoise_us, refractory_us)
         if not len(ev):
-            warnings.warn(f"{name}: window {k} [{ws} us, {we} us) has no events; its frames are all zero",
-                          EmptyWindowWarning, stacklevel=3)
+            warnings.warn(
+                f"{name}: window {k} [{ws} us, {we} us) has no events; its frames are all zero",
+                EmptyWindowWarning,
+                stacklevel=3,
+            )
         pos, neg = events_to_frame(ev, size)
         out = EventWindow(index=k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg, t_first_event_us=t0)
         k += 1
@@ -220,9 +232,9 @@ def iter_windows(recording_or_path, *, window_ms: float = 85, start_ms: float = 
         raise InputError(name, f"{no_span_problem(seen, t0)} and has no window to cut; is the file cut short?")
     if w_start > prev_t:
         if k == 0:
-            raise InputError(name, f"start_ms={start_ms} lies after the last event "
-                                   f"({(prev_t - t0) / 1000:g} ms after the first)")
+            raise InputError(
+                name, f"start_ms={start_ms} lies after the last event ({(prev_t - t0) / 1000:g} ms after the first)"
+            )
         return
     # the last window ends with the recording: its nominal end may lie far beyond
     yield emit(buf, w_start, min(w_end, prev_t + 1))
-

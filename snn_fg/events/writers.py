@@ -1,6 +1,7 @@
 """Writers for event arrays: ``.npy``, ``.npz``, Prophesee EVT2/EVT3 ``.raw`` and
 Event Stream ``.es`` (DVS; :func:`encode_es_atis` makes ATIS streams).  Every file
 is written atomically (complete or absent)."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -47,8 +48,12 @@ def encode_evt2(events, sensor_size) -> bytes:
         raise InputError("<array>", "timestamps beyond 2**34 us do not fit EVT2's counter")
     new_th = np.ones(len(t), dtype=bool)
     new_th[1:] = th[1:] != th[:-1]
-    cd = ((ev["p"].astype(np.uint32) & 1) << 28) | ((t & 63).astype(np.uint32) << 22) | \
-         (ev["x"].astype(np.uint32) << 11) | ev["y"].astype(np.uint32)
+    cd = (
+        ((ev["p"].astype(np.uint32) & 1) << 28)
+        | ((t & 63).astype(np.uint32) << 22)
+        | (ev["x"].astype(np.uint32) << 11)
+        | ev["y"].astype(np.uint32)
+    )
     thw = (np.uint32(0x8) << np.uint32(28)) | th.astype(np.uint32)
     slots = np.stack([thw, cd], axis=1)
     keep = np.stack([new_th, np.ones(len(t), dtype=bool)], axis=1)
@@ -70,8 +75,9 @@ def encode_evt3(events, sensor_size) -> bytes:
     y = ev["y"].astype(np.int64)
     new_y = np.ones(n, dtype=bool)
     new_y[1:] = y[1:] != y[:-1]
-    slots = np.stack([0x8000 | hi, 0x6000 | lo, y,
-                      0x2000 | (ev["p"].astype(np.int64) << 11) | ev["x"].astype(np.int64)], axis=1)
+    slots = np.stack(
+        [0x8000 | hi, 0x6000 | lo, y, 0x2000 | (ev["p"].astype(np.int64) << 11) | ev["x"].astype(np.int64)], axis=1
+    )
     keep = np.stack([new_hi, new_lo, new_y, np.ones(n, dtype=bool)], axis=1)
     # a block of 2**24 us skipped entirely would look like no wrap: add TIME_HIGH words in between
     if n > 1 and (np.diff(blk) >= 4096).any():
@@ -95,8 +101,9 @@ def encode_es_atis(events, sensor_size, exposures=None) -> bytes:
     written first.  The file uses overflow bytes but no reset bytes.
     """
     ev, size = _prepare("encode_es_atis", events, sensor_size, need_sorted=True, need_nonneg_t=True)
-    exp = _prepare("encode_es_atis", exposures if exposures is not None else ev[:0], size, need_sorted=True,
-                   need_nonneg_t=True)[0]
+    exp = _prepare(
+        "encode_es_atis", exposures if exposures is not None else ev[:0], size, need_sorted=True, need_nonneg_t=True
+    )[0]
     both = np.concatenate([ev, exp])
     is_tc = np.concatenate([np.zeros(len(ev), np.uint8), np.ones(len(exp), np.uint8)])
     order = np.argsort(both["t"], kind="stable")
@@ -121,8 +128,8 @@ def _es_body(t, flags, x, y, flag_bits: int) -> bytes:
     (see :mod:`snn_fg.events.eventstream`).
     """
     unit = (256 >> flag_bits) - 1
-    per_byte = (1 << flag_bits) - 1          # units one overflow byte can hold
-    first_special = 256 - (1 << flag_bits)   # its value with 0 units: the reset byte
+    per_byte = (1 << flag_bits) - 1  # units one overflow byte can hold
+    first_special = 256 - (1 << flag_bits)  # its value with 0 units: the reset byte
     t = np.asarray(t, dtype=np.int64)
     delta = np.diff(np.concatenate([[0], t]))
     units, rem = delta // unit, delta % unit
@@ -171,6 +178,5 @@ def save_events(path, events, sensor_size, encoding: str | None = None) -> Path:
         with atomic_path(path) as tmp:
             tmp.write_bytes(data)
     else:
-        raise InputError(path, f"cannot write events as '{suffix or '(no extension)'}' "
-                               "(use .npy, .npz, .raw or .es)")
+        raise InputError(path, f"cannot write events as '{suffix or '(no extension)'}' (use .npy, .npz, .raw or .es)")
     return path

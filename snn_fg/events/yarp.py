@@ -4,6 +4,7 @@ event-driven library, one text line each: ``[n t] AE (ts addr ts addr ...)``.
 Decoded line by line with bounded memory; problems are
 :class:`~snn_fg.errors.InputError` naming the line.
 """
+
 from __future__ import annotations
 
 import re
@@ -27,13 +28,18 @@ TIMER_BITS = 30
 LINE_PATTERN = re.compile(rb"^\s*(?:(\d+)\s+(-?[0-9.eE+-]+)\s+)?([A-Za-z_]+)\s*\((.*)\)\s*$")
 
 
-def open_yarp(path, sensor_size, chunk_events, *, codec: str = "auto", channel: int | str = 0,
-              timer_bits: int = TIMER_BITS) -> Source:
+def open_yarp(
+    path, sensor_size, chunk_events, *, codec: str = "auto", channel: int | str = 0, timer_bits: int = TIMER_BITS
+) -> Source:
     """Open a ``data.log``; ``channel`` is 0 (left camera), 1 (right) or ``"both"``."""
     size = check_sensor_size(sensor_size or SENSOR_SIZE, path)
     keep = None if channel == "both" else channel
-    return Source(path, "yarp", size,
-                  lambda n, tally: iter_yarp(path, codec=codec, channel=keep, timer_bits=timer_bits, tally=tally))
+    return Source(
+        path,
+        "yarp",
+        size,
+        lambda n, tally: iter_yarp(path, codec=codec, channel=keep, timer_bits=timer_bits, tally=tally),
+    )
 
 
 def is_yarp_line(line: bytes) -> bool:
@@ -81,8 +87,14 @@ def guess_codec(addr: np.ndarray) -> str:
     return "24"
 
 
-def iter_yarp(path, codec: str = "auto", channel: int | None = 0, timer_bits: int = TIMER_BITS,
-              lines_per_chunk: int = 20000, tally=None):
+def iter_yarp(
+    path,
+    codec: str = "auto",
+    channel: int | None = 0,
+    timer_bits: int = TIMER_BITS,
+    lines_per_chunk: int = 20000,
+    tally=None,
+):
     """Decode AE bottles of a ``yarpdatadumper`` log: ``[n t] AE (ts addr ts addr ...)``.
 
     Timestamps are the ATIS counter masked to ``timer_bits`` bits (bit 31,
@@ -105,11 +117,15 @@ def iter_yarp(path, codec: str = "auto", channel: int | None = 0, timer_bits: in
         ts = np.concatenate(pending_ts)
         addr = np.concatenate(pending_addr)
         lines = np.concatenate(pending_line)
-        pending_ts.clear(); pending_addr.clear(); pending_line.clear()
+        pending_ts.clear()
+        pending_addr.clear()
+        pending_line.clear()
         if state["codec"] is None:
             if len(addr) < 1000 and not final:
                 # not enough evidence yet: keep for the next batch
-                pending_ts.append(ts); pending_addr.append(addr); pending_line.append(lines)
+                pending_ts.append(ts)
+                pending_addr.append(addr)
+                pending_line.append(lines)
                 return None
             state["codec"] = guess_codec(addr)
         x, y, p, ch, is_dvs = decode_addresses(addr, state["codec"])
@@ -131,9 +147,13 @@ def iter_yarp(path, codec: str = "auto", channel: int | None = 0, timer_bits: in
         bad = (x >= SENSOR_SIZE[0]) | (y >= SENSOR_SIZE[1])
         if bad.any():
             i = int(np.argmax(bad))
-            raise InputError(path, f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the ATIS "
-                                   f"{SENSOR_SIZE[0]} x {SENSOR_SIZE[1]} sensor (wrong codec? "
-                                   f"decoded with the {state['codec']}-bit codec)", f"line {int(lines[i])}")
+            raise InputError(
+                path,
+                f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the ATIS "
+                f"{SENSOR_SIZE[0]} x {SENSOR_SIZE[1]} sensor (wrong codec? "
+                f"decoded with the {state['codec']}-bit codec)",
+                f"line {int(lines[i])}",
+            )
         return pack_events(x, y, t_us, p)
 
     n_lines = 0
@@ -145,8 +165,7 @@ def iter_yarp(path, codec: str = "auto", channel: int | None = 0, timer_bits: in
                 continue
             m = LINE_PATTERN.match(line)
             if m is None:
-                raise InputError(path, "not a YARP data.log line (expected '[n t] TAG (values ...)')",
-                                 f"line {lineno}")
+                raise InputError(path, "not a YARP data.log line (expected '[n t] TAG (values ...)')", f"line {lineno}")
             tag = m.group(3)
             if tag not in (b"AE", b"LAE"):
                 tally.skip(f"{tag.decode(errors='replace')} bottles")
@@ -157,8 +176,9 @@ def iter_yarp(path, codec: str = "auto", channel: int | None = 0, timer_bits: in
                 raise InputError(path, "AE bottle holds a non-integer value", f"line {lineno}")
             step = 3 if tag == b"LAE" else 2
             if len(vals) % step:
-                raise InputError(path, f"{tag.decode()} bottle has {len(vals)} values, not a multiple of {step}",
-                                 f"line {lineno}")
+                raise InputError(
+                    path, f"{tag.decode()} bottle has {len(vals)} values, not a multiple of {step}", f"line {lineno}"
+                )
             if len(vals) and ((vals < -(1 << 31)) | (vals >= (1 << 32))).any():
                 raise InputError(path, "AE bottle value does not fit in 32 bits", f"line {lineno}")
             vals = vals & 0xFFFFFFFF

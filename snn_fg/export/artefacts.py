@@ -6,6 +6,7 @@ writes every file of ``networks/``); :func:`fingerprint` identifies the
 description they were made from, so a test can check they are current
 without regenerating them.
 """
+
 from __future__ import annotations
 
 import json
@@ -15,8 +16,8 @@ from ..network import SpikingParams, build_network
 from ..params import ModelParams
 from .board import fingerprint
 
-ICUB_SHAPE = (240, 304)            # rows, cols of the iCub ATIS
-NIR_NAME = "icub_304x240.nir.gz"     # gzip: the HDF5 file is 18 MB, mostly per-dataset headers
+ICUB_SHAPE = (240, 304)  # rows, cols of the iCub ATIS
+NIR_NAME = "icub_304x240.nir.gz"  # gzip: the HDF5 file is 18 MB, mostly per-dataset headers
 REPORT_NAME = "icub_304x240_resources.json"
 REPORT_TABLE = "icub_304x240_resources.txt"
 
@@ -35,8 +36,11 @@ def _gzipped_nir(net, path: Path) -> Path:
 
     with tempfile.TemporaryDirectory() as tmp:
         raw = export_nir(net, Path(tmp) / "net.nir")
-        with atomic_path(path, suffix=".gz") as part, open(raw, "rb") as src, \
-                gzip.GzipFile(part, "wb", compresslevel=9, mtime=0) as dst:
+        with (
+            atomic_path(path, suffix=".gz") as part,
+            open(raw, "rb") as src,
+            gzip.GzipFile(part, "wb", compresslevel=9, mtime=0) as dst,
+        ):
             shutil.copyfileobj(src, dst)
     return path
 
@@ -50,7 +54,9 @@ def write_artefacts(folder) -> list[Path]:
     net = default_icub_network()
     rep = resource_report(net)
     rep["network_sha256"] = fingerprint(net)
-    written = [_gzipped_nir(net, folder / NIR_NAME),
-               save_text(folder / REPORT_NAME, json.dumps(rep, indent=1) + "\n"),
-               save_text(folder / REPORT_TABLE, report_table(rep) + "\n")]
+    written = [
+        _gzipped_nir(net, folder / NIR_NAME),
+        save_text(folder / REPORT_NAME, json.dumps(rep, indent=1) + "\n"),
+        save_text(folder / REPORT_TABLE, report_table(rep) + "\n"),
+    ]
     return written

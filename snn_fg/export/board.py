@@ -22,6 +22,7 @@ Each projection becomes a table that needs no unrolling to store:
 :func:`whole_pairs` unrolls a table into explicit synapses with the
 standalone code the PyNN export runs (:mod:`.pynn_tables`).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -36,9 +37,11 @@ from ..network.nodes import Population
 from ..network.projections import Conv, Projection
 from ..pynn.tables import conv_pairs, resize_pairs
 
-BOARD_NOTE = ("Export: the board network has every cell of every population; the coarse levels' edge mask "
-              "(cells only where the input's resized edge map >= support_min) depends on the input and is "
-              "left out.")
+BOARD_NOTE = (
+    "Export: the board network has every cell of every population; the coarse levels' edge mask "
+    "(cells only where the input's resized edge map >= support_min) depends on the input and is "
+    "left out."
+)
 
 
 def fingerprint(network: Network) -> str:
@@ -58,8 +61,12 @@ def board_network(network: Network) -> Network:
 
 def geometry(pop: Population) -> dict:
     """What the standalone unroller needs to know of a population."""
-    return {"level_shape": tuple(pop.level_shape), "grid": tuple(pop.grid), "stride": pop.stride,
-            "channels": pop.channels}
+    return {
+        "level_shape": tuple(pop.level_shape),
+        "grid": tuple(pop.grid),
+        "stride": pop.stride,
+        "channels": pop.channels,
+    }
 
 
 @dataclass(frozen=True)
@@ -85,11 +92,13 @@ def table(network: Network, pr: Projection):
     """The weight-shared table of projection ``pr``."""
     if isinstance(pr, Conv):
         co, ci, dr, dc, kv, kept = kernel_taps(pr, network)
-        return ConvTable(np.stack([co, ci, dr, dc], axis=1).astype(np.int64), kv.astype(np.float64),
-                         pr.padding == "wrap", kept)
+        return ConvTable(
+            np.stack([co, ci, dr, dc], axis=1).astype(np.int64), kv.astype(np.float64), pr.padding == "wrap", kept
+        )
     src, tgt = network.population(pr.source), network.population(pr.target)
-    mats = [interp_matrix(src.level_shape[a], tgt.level_shape[a], src.stride, tgt.stride, pr.interpolation)
-            for a in (0, 1)]
+    mats = [
+        interp_matrix(src.level_shape[a], tgt.level_shape[a], src.stride, tgt.stride, pr.interpolation) for a in (0, 1)
+    ]
     peak = float(np.abs(mats[0]).max() * np.abs(mats[1]).max())
     return ResizeTable(sparse_rows(mats[0]), sparse_rows(mats[1]), pr.prune * peak if pr.prune > 0 else 0.0)
 

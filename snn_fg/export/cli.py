@@ -6,6 +6,7 @@ graph file), ``report`` (hardware resource report, JSON, also printed) and
 is the NIR import). Bad arguments end with one line and exit status 2;
 nothing partial is written.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -22,51 +23,91 @@ TARGETS = ("generic", "spinnaker", "loihi2")
 FORMAT_TARGETS = {"pynn": ("generic", "spinnaker"), "report": TARGETS}
 REPORT_CHIPS = {"spinnaker": ("spinnaker1", "spinnaker2"), "loihi2": ("loihi2",)}
 NIR_PROFILES = ("exact", "snntorch")
-ICUB_SENSOR = (304, 240)      # iCub ATIS, width x height
+ICUB_SENSOR = (304, 240)  # iCub ATIS, width x height
 
 
 def add_export_command(sub, sensor_size_arg, number):
     """Register ``export`` on an ``argparse`` subparsers object; returns the parser."""
-    p = sub.add_parser("export", allow_abbrev=False, help="export the network (PyNN, NIR, resource report)",
-                       description="Export the whole spiking network (every cell: a board holds one fixed network) "
-                                   "as a self-contained PyNN model (--format pynn, a folder), a NIR graph "
-                                   "(--format nir), a hardware resource report for SpiNNaker 1/2 and Loihi 2 "
-                                   "(--format report, JSON, also printed) or the snn-fg description (--format "
-                                   "network; with --network FILE.nir this reads a NIR export back).")
+    p = sub.add_parser(
+        "export",
+        allow_abbrev=False,
+        help="export the network (PyNN, NIR, resource report)",
+        description="Export the whole spiking network (every cell: a board holds one fixed network) "
+        "as a self-contained PyNN model (--format pynn, a folder), a NIR graph "
+        "(--format nir), a hardware resource report for SpiNNaker 1/2 and Loihi 2 "
+        "(--format report, JSON, also printed) or the snn-fg description (--format "
+        "network; with --network FILE.nir this reads a NIR export back).",
+    )
     p.add_argument("--format", required=True, metavar="|".join(FORMATS))
-    p.add_argument("--out", metavar="PATH", help="output folder (pynn) or file; optional for --format report, "
-                                                 "which prints its table")
+    p.add_argument(
+        "--out",
+        metavar="PATH",
+        help="output folder (pynn) or file; optional for --format report, which prints its table",
+    )
     p.add_argument("--force", action="store_true", help="replace PATH if it exists")
-    p.add_argument("--network", metavar="NAME|FILE", help="a network by name (default, compact: the deployment "
-                                                          "form) or a stored description (.json) or NIR export "
-                                                          "(.nir) (default)")
-    p.add_argument("--sensor-size", type=sensor_size_arg, metavar="WxH",
-                   help="sensor size (default 304x240, the iCub ATIS; a stored network keeps its own unless given)")
+    p.add_argument(
+        "--network",
+        metavar="NAME|FILE",
+        help="a network by name (default, compact: the deployment "
+        "form) or a stored description (.json) or NIR export "
+        "(.nir) (default)",
+    )
+    p.add_argument(
+        "--sensor-size",
+        type=sensor_size_arg,
+        metavar="WxH",
+        help="sensor size (default 304x240, the iCub ATIS; a stored network keeps its own unless given)",
+    )
     p.add_argument("--levels", type=number(int, 1, False), help="pyramid levels (10)")
     p.add_argument("--n-ori", type=number(int, 2, False), help="orientations per half-turn (8)")
     p.add_argument("--r0", type=number(float, 0), help="grouping radius in px (8)")
-    p.add_argument("--target", default="generic", metavar="|".join(TARGETS),
-                   help="pynn: generic, or spinnaker (also writes spinnaker.json: which projections sPyNNaker's "
-                        "ConvolutionConnector can carry); report: every chip (generic), SpiNNaker 1 and 2 "
-                        "(spinnaker) or Loihi 2 (loihi2)")
-    p.add_argument("--weight-bits", type=int, metavar="B", help="quantise weights to B bits (2-32), one scale per "
-                                                                "projection (pynn, nir)")
-    p.add_argument("--input-rate-hz", type=number(float, 0), metavar="HZ",
-                   help="gains calibrated for input spikes at HZ per active pixel, as snn-fg run calibrates its "
-                        "network to its input's rate (Network.calibrated; snn-fg events --write-spikes prints the "
-                        "input's rate); default: the network's own (200 Hz; a stored network keeps its own)")
-    p.add_argument("--dt-ms", type=number(float, 0), help="time step delays are counted in (the network's: 0.5 ms, "
-                                                          "the compact network 1 ms)")
-    p.add_argument("--nir-profile", default="exact", metavar="|".join(NIR_PROFILES),
-                   help="nir: exact (every mechanism NIR can hold), or snntorch (the node kinds snnTorch imports: "
-                        "one-level networks, no delays, no refractoriness; see snn_fg/export/nir_snntorch.py)")
-    p.add_argument("--nir-one-grid", action="store_true",
-                   help="nir, snntorch profile: every pyramid level on the frame's grid (dilated kernels, identity "
-                        "between levels), so a network of octave levels (--network compact) goes through")
-    p.add_argument("--nir-refractory-as-deeper-reset", action="store_true",
-                   help="nir, snntorch profile: NIR neurons have no refractory period; each cell resets lower "
-                        "instead, by as much as holds it for its refractory period when driven 4x its threshold "
-                        "above the reset (without: it may fire again one step later)")
+    p.add_argument(
+        "--target",
+        default="generic",
+        metavar="|".join(TARGETS),
+        help="pynn: generic, or spinnaker (also writes spinnaker.json: which projections sPyNNaker's "
+        "ConvolutionConnector can carry); report: every chip (generic), SpiNNaker 1 and 2 "
+        "(spinnaker) or Loihi 2 (loihi2)",
+    )
+    p.add_argument(
+        "--weight-bits",
+        type=int,
+        metavar="B",
+        help="quantise weights to B bits (2-32), one scale per projection (pynn, nir)",
+    )
+    p.add_argument(
+        "--input-rate-hz",
+        type=number(float, 0),
+        metavar="HZ",
+        help="gains calibrated for input spikes at HZ per active pixel, as snn-fg run calibrates its "
+        "network to its input's rate (Network.calibrated; snn-fg events --write-spikes prints the "
+        "input's rate); default: the network's own (200 Hz; a stored network keeps its own)",
+    )
+    p.add_argument(
+        "--dt-ms",
+        type=number(float, 0),
+        help="time step delays are counted in (the network's: 0.5 ms, the compact network 1 ms)",
+    )
+    p.add_argument(
+        "--nir-profile",
+        default="exact",
+        metavar="|".join(NIR_PROFILES),
+        help="nir: exact (every mechanism NIR can hold), or snntorch (the node kinds snnTorch imports: "
+        "one-level networks, no delays, no refractoriness; see snn_fg/export/nir_snntorch.py)",
+    )
+    p.add_argument(
+        "--nir-one-grid",
+        action="store_true",
+        help="nir, snntorch profile: every pyramid level on the frame's grid (dilated kernels, identity "
+        "between levels), so a network of octave levels (--network compact) goes through",
+    )
+    p.add_argument(
+        "--nir-refractory-as-deeper-reset",
+        action="store_true",
+        help="nir, snntorch profile: NIR neurons have no refractory period; each cell resets lower "
+        "instead, by as much as holds it for its refractory period when driven 4x its threshold "
+        "above the reset (without: it may fire again one step later)",
+    )
     p.set_defaults(handler=cmd_export, export_options=_options(p))
     return p
 
@@ -78,8 +119,11 @@ _NOT_REPEATED = ("help", "force", "input_rate_hz")
 def _options(parser) -> tuple:
     """``(flag, dest, default, takes a value)`` of each option of ``parser``, in its order
     (argparse keeps them in ``_actions``, its only list of them)."""
-    return tuple((a.option_strings[-1], a.dest, a.default, a.nargs != 0)
-                 for a in parser._actions if a.option_strings and a.dest not in _NOT_REPEATED)
+    return tuple(
+        (a.option_strings[-1], a.dest, a.default, a.nargs != 0)
+        for a in parser._actions
+        if a.option_strings and a.dest not in _NOT_REPEATED
+    )
 
 
 def _network(args):
@@ -105,7 +149,7 @@ def export_command(args) -> str:
             continue
         if not takes_value:
             words.append(flag)
-        elif isinstance(value, tuple):          # (--sensor-size: width, height)
+        elif isinstance(value, tuple):  # (--sensor-size: width, height)
             words += [flag, "x".join(str(v) for v in value)]
         else:
             words += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
@@ -120,8 +164,9 @@ def _sized_network(args):
     if args.sensor_size and min(args.sensor_size) < 1:
         raise InputError(f"--sensor-size {args.sensor_size[0]}x{args.sensor_size[1]}", "width and height must be >= 1")
     if args.network and given:
-        raise InputError(args.network, "--levels/--n-ori/--r0: a named or stored network carries its own model "
-                                       "parameters")
+        raise InputError(
+            args.network, "--levels/--n-ori/--r0: a named or stored network carries its own model parameters"
+        )
     if args.network and not is_recipe(args.network):
         net = read_network_file(Path(args.network))
         if not args.sensor_size:
@@ -137,8 +182,8 @@ def _sized_network(args):
 
 
 def _check_sensor(params, shape, source: str):
-    from ..pyramid.pool import pooled_shape
     from ..pyramid.levels import check_levels
+    from ..pyramid.pool import pooled_shape
 
     check_levels(pooled_shape(shape, params.input_pool), params.levels, source, params.levels_per_octave)
 
@@ -167,8 +212,7 @@ def _checked_bits(args) -> int | None:
     check.choice("snn-fg export", "--target", args.target, TARGETS)
     if args.target not in FORMAT_TARGETS.get(args.format, ("generic",)):
         takes = [f for f, targets in FORMAT_TARGETS.items() if args.target in targets]
-        raise InputError(f"--target {args.target}", f"applies to --format {' and '.join(takes)}, "
-                                                    f"not {args.format}")
+        raise InputError(f"--target {args.target}", f"applies to --format {' and '.join(takes)}, not {args.format}")
     check.choice("snn-fg export", "--nir-profile", args.nir_profile, NIR_PROFILES)
     if args.nir_profile != "exact" and (args.format != "nir" or args.weight_bits is not None):
         raise InputError("--nir-profile", "applies to --format nir without --weight-bits")
@@ -195,8 +239,16 @@ def cmd_export(args) -> int:
     if args.format == "pynn":
         from .pynn import INPUT_NAME, export_pynn
 
-        export_pynn(net, out, dt_ms=args.dt_ms, weight_bits=bits, target=args.target, force=args.force,
-                    command=export_command(args), sensor_shape=sensor)
+        export_pynn(
+            net,
+            out,
+            dt_ms=args.dt_ms,
+            weight_bits=bits,
+            target=args.target,
+            force=args.force,
+            command=export_command(args),
+            sensor_shape=sensor,
+        )
         what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
         if (out / INPUT_NAME).exists():
             what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
@@ -204,8 +256,9 @@ def cmd_export(args) -> int:
         from .nir import describe_nir
         from .nir_snntorch import export_nir_snntorch
 
-        export_nir_snntorch(net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid,
-                            deeper_reset=args.nir_refractory_as_deeper_reset)
+        export_nir_snntorch(
+            net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid, deeper_reset=args.nir_refractory_as_deeper_reset
+        )
         what = f"NIR graph, snntorch profile ({describe_nir(out)})"
     elif args.format == "nir":
         from .nir import describe_nir, export_nir
@@ -222,8 +275,9 @@ def cmd_export(args) -> int:
         if sensor is not None and sp is not None and sp["boards_spinn5"] > 1:
             from .report import largest_sensor
 
-            sp["largest_sensor_one_board"] = largest_sensor(lambda shape: network_for(net, shape)[0], sensor,
-                                                            "spinnaker1", args.dt_ms)
+            sp["largest_sensor_one_board"] = largest_sensor(
+                lambda shape: network_for(net, shape)[0], sensor, "spinnaker1", args.dt_ms
+            )
         print(report_table(rep))
         if out is None:
             return 0

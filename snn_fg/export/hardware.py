@@ -4,6 +4,7 @@ The figures are those of ``docs/neuromorphic-targets.md`` (checked against
 the packages' own code); figures marked approximate are secondary.
 :mod:`.report` measures a network against them.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,19 +22,29 @@ class Limit:
 
 SPINNAKER1 = {
     "neurons_per_core": Limit(256, "IF_curr_exp neurons", "sPyNNaker default max atoms per core (IF_curr_exp)"),
-    "cores_per_chip": Limit(16, "application cores", "SpiNNMachine: 18 cores per chip; sPyNNaker keeps one for "
-                                                     "the monitor and one for its extra monitor"),
-    "cores_placed_per_chip": Limit(15, "network cores", "sPyNNaker 1!7.4.1 mapping our exports onto a virtual "
-                                                        "SpiNN-5 board: 14.0-15.8 of a chip's 16 free cores used "
-                                                        "(experiments/results/export_spinnaker.md)", True),
+    "cores_per_chip": Limit(
+        16,
+        "application cores",
+        "SpiNNMachine: 18 cores per chip; sPyNNaker keeps one for the monitor and one for its extra monitor",
+    ),
+    "cores_placed_per_chip": Limit(
+        15,
+        "network cores",
+        "sPyNNaker 1!7.4.1 mapping our exports onto a virtual "
+        "SpiNN-5 board: 14.0-15.8 of a chip's 16 free cores used "
+        "(experiments/results/export_spinnaker.md)",
+        True,
+    ),
     "chips_per_board": Limit(48, "chips", "SpiNNMachine: SpiNN-5 board"),
     "sdram_per_chip": Limit(123e6, "bytes", "SpiNNMachine: about 123 MB SDRAM per chip", True),
     "bytes_per_synapse": Limit(4, "bytes", "sPyNNaker synaptic matrix: one 32-bit word per synapse", True),
-    "delay_slots": Limit(32, "time steps", "sPyNNaker: 2^(14 - (8 neuron index bits + 1 synapse type bit)) "
-                                           "for 256 neurons and 2 receptors"),
+    "delay_slots": Limit(
+        32,
+        "time steps",
+        "sPyNNaker: 2^(14 - (8 neuron index bits + 1 synapse type bit)) for 256 neurons and 2 receptors",
+    ),
     "delay_extension": Limit(8, "x on-core slots", "sPyNNaker delay_support_adder.py: delay extensions"),
-    "weight_bits": Limit(16, "bits per receptor", "sPyNNaker get_weight_scales: 16-bit weights scaled per "
-                                                  "receptor"),
+    "weight_bits": Limit(16, "bits per receptor", "sPyNNaker get_weight_scales: 16-bit weights scaled per receptor"),
 }
 
 SPINNAKER2 = {

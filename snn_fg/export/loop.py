@@ -12,6 +12,7 @@
   ``run.py``'s counts decoded as ``snn-fg run`` decodes a spiking run, into
   ``OUT/maps.npz`` and ``OUT/maps.png``.
 """
+
 from __future__ import annotations
 
 import json
@@ -31,14 +32,26 @@ RATE_MISMATCH = 1.2
 def add_spike_options(parser):
     """``--write-spikes`` and its options on ``snn-fg events``'s parser."""
     g = parser.add_argument_group("input spikes for an exported network (snn-fg export --format pynn)")
-    g.add_argument("--write-spikes", metavar="OUT.npz", default=None,
-                   help="write the spike file the export's run.py --input reads (needs --export)")
+    g.add_argument(
+        "--write-spikes",
+        metavar="OUT.npz",
+        default=None,
+        help="write the spike file the export's run.py --input reads (needs --export)",
+    )
     g.add_argument("--export", metavar="DIR", default=None, help="the export folder: its frame size and time step")
-    g.add_argument("--crop-at", metavar="X,Y", default=None,
-                   help="top-left pixel of the export-sized crop, or block for an export that pools its input "
-                        "(--network compact: 3 x 3 blocks; default: the crop with the most event pixels or blocks)")
-    g.add_argument("--duration-ms", type=float, default=400.0,
-                   help="frames and images: length of the regular trains (400, as snn-fg run)")
+    g.add_argument(
+        "--crop-at",
+        metavar="X,Y",
+        default=None,
+        help="top-left pixel of the export-sized crop, or block for an export that pools its input "
+        "(--network compact: 3 x 3 blocks; default: the crop with the most event pixels or blocks)",
+    )
+    g.add_argument(
+        "--duration-ms",
+        type=float,
+        default=400.0,
+        help="frames and images: length of the regular trains (400, as snn-fg run)",
+    )
 
 
 def export_network(folder):
@@ -50,8 +63,7 @@ def export_network(folder):
         meta = json.loads(path.read_text())
         return Network.from_dict(meta["snn_fg_network"]), meta
     except FileNotFoundError:
-        raise InputError(path, "no such file: --export needs a folder written by snn-fg export --format pynn") \
-            from None
+        raise InputError(path, "no such file: --export needs a folder written by snn-fg export --format pynn") from None
     except (ValueError, KeyError, TypeError) as e:
         raise InputError(path, f"not a PyNN export's network.json ({type(e).__name__}: {e})") from None
 
@@ -125,9 +137,9 @@ def _input_spikes(args, net, dt_ms):
     network that pools its input (``params.input_pool``) sees the input's blocks,
     and its input adapter's refractory period applies to a recording's events."""
     from ..events import iter_recording, iter_windows
-    from ..pyramid.pool import pool_events, pool_frame
     from ..inputs import input_kind, load_frame
     from ..lowering.input_spikes import event_spikes, frame_spikes
+    from ..pyramid.pool import pool_events, pool_frame
 
     shape, pool = tuple(net.frame_shape), net.params.input_pool
     kind = input_kind(args.input)
@@ -138,10 +150,18 @@ def _input_spikes(args, net, dt_ms):
         r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)
         ev = crop_events(pool_events(win.events, pool), (r0, c0), shape)
         if ev.size == 0:
-            raise InputError(args.input, f"no event in the crop at {_at(net, r0, c0)} of window "
-                                         f"{win.t_start_us}..{win.t_end_us} us")
-        inp = event_spikes(ev, (shape[1], shape[0]), dt_ms, replay=True, source=str(args.input),
-                           t0_us=win.t_start_us, refractory_ms=net.input_refractory_ms)
+            raise InputError(
+                args.input, f"no event in the crop at {_at(net, r0, c0)} of window {win.t_start_us}..{win.t_end_us} us"
+            )
+        inp = event_spikes(
+            ev,
+            (shape[1], shape[0]),
+            dt_ms,
+            replay=True,
+            source=str(args.input),
+            t0_us=win.t_start_us,
+            refractory_ms=net.input_refractory_ms,
+        )
         what = f"window {win.t_start_us}..{win.t_end_us} us, {ev.size:,} events"
     else:
         frame, _ = load_frame(args.input, "events", args.threshold, args.motion)
@@ -153,9 +173,15 @@ def _input_spikes(args, net, dt_ms):
             raise InputError(args.input, f"no event {_pixel(net)} in the crop at {_at(net, r0, c0)}")
         inp = frame_spikes(pos, neg, FRAME_RATE_HZ, dt_ms, args.duration_ms)
         what = f"{kind}, regular trains at {FRAME_RATE_HZ:g} Hz for {args.duration_ms:g} ms"
-    share = float(((on > 0) | (off > 0))[r0:r0 + shape[0], c0:c0 + shape[1]].mean())
-    origin = {"input": str(args.input), "made_from": what, "pool": pool,
-              "crop_x_px": int(c0 * pool), "crop_y_px": int(r0 * pool), "event_share": round(share, 4)}
+    share = float(((on > 0) | (off > 0))[r0 : r0 + shape[0], c0 : c0 + shape[1]].mean())
+    origin = {
+        "input": str(args.input),
+        "made_from": what,
+        "pool": pool,
+        "crop_x_px": int(c0 * pool),
+        "crop_y_px": int(r0 * pool),
+        "event_share": round(share, 4),
+    }
     return inp, f"{what}; crop at {_at(net, r0, c0)}", origin
 
 
@@ -175,13 +201,17 @@ def write_spikes(args) -> int:
     inp, what, origin = _input_spikes(args, net, float(meta["dt_ms"]))
     with atomic_path(args.write_spikes, suffix=".npz") as part:
         save_input(inp, part, float(meta["dt_ms"]), origin)
-    print(f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active "
-          f"{_pixel(net)}; the export's gains are set for {net.input_rate_hz:g} Hz) for the export {args.export} "
-          f"({frame_text(net, meta.get('sensor_shape'))}) at dt {meta['dt_ms']} ms; {what}")
+    print(
+        f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active "
+        f"{_pixel(net)}; the export's gains are set for {net.input_rate_hz:g} Hz) for the export {args.export} "
+        f"({frame_text(net, meta.get('sensor_shape'))}) at dt {meta['dt_ms']} ms; {what}"
+    )
     if origin["event_share"] > CROP_FILLED:
-        print(f"snn-fg: note: events cover {origin['event_share']:.0%} of the crop's {_pixel(net)}s: a crop that "
-              f"lies inside a filled object holds its texture, not its outline, and its maps show little of the "
-              f"object's figure-ground; --crop-at X,Y places the crop elsewhere")
+        print(
+            f"snn-fg: note: events cover {origin['event_share']:.0%} of the crop's {_pixel(net)}s: a crop that "
+            f"lies inside a filled object holds its texture, not its outline, and its maps show little of the "
+            f"object's figure-ground; --crop-at X,Y places the crop elsewhere"
+        )
     hint = recalibration_hint(inp.rate_hz, net.input_rate_hz, meta.get("export_command"), _pixel(net))
     if hint:
         print(hint)
@@ -194,24 +224,37 @@ def recalibration_hint(input_hz: float, export_hz: float, command: str | None, p
     the command to re-export with (``command``: the export's own, if known)."""
     if max(input_hz, export_hz) <= RATE_MISMATCH * min(input_hz, export_hz):
         return None
-    redo = f"{command} --input-rate-hz {input_hz:.3g} --force" if command else \
-        f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
-    return (f"snn-fg: note: this input is {input_hz:.3g} Hz per active {pixel}, {input_hz / export_hz:.2g} times the "
-            f"{export_hz:g} Hz the export's gains are set for; snn-fg run calibrates its network to its input's "
-            f"rate. To drive the export as snn-fg run drives the network, re-export: {redo} (it keeps the "
-            "folder's input.npz, whose spikes do not depend on the gains)")
+    redo = (
+        f"{command} --input-rate-hz {input_hz:.3g} --force"
+        if command
+        else f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
+    )
+    return (
+        f"snn-fg: note: this input is {input_hz:.3g} Hz per active {pixel}, {input_hz / export_hz:.2g} times the "
+        f"{export_hz:g} Hz the export's gains are set for; snn-fg run calibrates its network to its input's "
+        f"rate. To drive the export as snn-fg run drives the network, re-export: {redo} (it keeps the "
+        "folder's input.npz, whose spikes do not depend on the gains)"
+    )
 
 
 def add_decode_command(sub):
     """Register ``decode`` on an ``argparse`` subparsers object; returns the parser."""
-    p = sub.add_parser("decode", allow_abbrev=False, help="decode an exported network's spike counts into maps",
-                       description="Turn the counts an exported network's run.py wrote (counts.npz) into the maps "
-                                   "snn-fg run writes for a spiking run: OUT/maps.npz and OUT/maps.png.")
+    p = sub.add_parser(
+        "decode",
+        allow_abbrev=False,
+        help="decode an exported network's spike counts into maps",
+        description="Turn the counts an exported network's run.py wrote (counts.npz) into the maps "
+        "snn-fg run writes for a spiking run: OUT/maps.npz and OUT/maps.png.",
+    )
     p.add_argument("counts", metavar="COUNTS", help="run.py's output (counts.npz)")
     p.add_argument("--export", required=True, metavar="DIR", help="the export folder run.py ran")
     p.add_argument("--out", required=True, metavar="OUT", help="output folder")
-    p.add_argument("--input", metavar="SPIKES.npz", default=None,
-                   help="the input spike file, for the figure's input panel (default: input.npz beside COUNTS)")
+    p.add_argument(
+        "--input",
+        metavar="SPIKES.npz",
+        default=None,
+        help="the input spike file, for the figure's input panel (default: input.npz beside COUNTS)",
+    )
     p.add_argument("--force", action="store_true", help="replace OUT if it exists")
     p.set_defaults(handler=cmd_decode)
     return p
@@ -229,7 +272,7 @@ def last_spike_frame(inputs):
     n = h * w
     idx, steps = inputs.indices, inputs.steps
     last = np.full(2 * n, -1, np.int64)
-    keep = idx < 2 * n                      # (the clock source, if any, is no pixel)
+    keep = idx < 2 * n  # (the clock source, if any, is no pixel)
     np.maximum.at(last, idx[keep], steps[keep])
     on, off = last[:n], last[n:]
     pos = (on > off).astype(np.uint8)
@@ -250,8 +293,11 @@ def input_frame(path, shape):
     except (OSError, ValueError, KeyError) as e:
         raise InputError(path, f"not a run.py input file ({type(e).__name__}: {e})") from None
     if inp.shape != tuple(shape):
-        raise InputError(path, f"an input of {inp.shape[1]} x {inp.shape[0]}, the export's frame is "
-                               f"{shape[1]} x {shape[0]} (width x height)")
+        raise InputError(
+            path,
+            f"an input of {inp.shape[1]} x {inp.shape[0]}, the export's frame is "
+            f"{shape[1]} x {shape[0]} (width x height)",
+        )
     return last_spike_frame(inp)
 
 
@@ -266,22 +312,30 @@ def decode_counts(network, counts_path):
     except InputError:
         raise
     except (OSError, ValueError, KeyError) as e:
-        raise InputError(counts_path, f"not a run.py counts file of this export ({type(e).__name__}: {e})") \
-            from None
+        raise InputError(counts_path, f"not a run.py counts file of this export ({type(e).__name__}: {e})") from None
     fg_x, fg_y, grouping, _ = decode(result)
-    params = {"model": "spiking", **network.params.to_dict(),
-              "network": {"origin": "pynn-export", "frame_shape": list(network.frame_shape),
-                          "input_rate_hz": network.input_rate_hz},
-              "backend": {"name": "pynn-export", "counts": str(counts_path)},
-              "simulation": {"dt_ms": result.dt_ms, "duration_ms": result.simulated_ms,
-                             "count_window_ms": result.count_window_ms},
-              "notes": list(network.notes)}
+    params = {
+        "model": "spiking",
+        **network.params.to_dict(),
+        "network": {
+            "origin": "pynn-export",
+            "frame_shape": list(network.frame_shape),
+            "input_rate_hz": network.input_rate_hz,
+        },
+        "backend": {"name": "pynn-export", "counts": str(counts_path)},
+        "simulation": {
+            "dt_ms": result.dt_ms,
+            "duration_ms": result.simulated_ms,
+            "count_window_ms": result.count_window_ms,
+        },
+        "notes": list(network.notes),
+    }
     return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params)
 
 
 def cmd_decode(args) -> int:
-    from ..figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure
     from ..atomic import OutputFolder
+    from ..figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure
 
     net, _ = export_network(args.export)
     if not Path(args.counts).exists():
@@ -293,12 +347,19 @@ def cmd_decode(args) -> int:
     frame = input_frame(spikes, net.frame_shape)
     shown = event_frame_rgb(*frame) if frame is not None else np.zeros((*net.frame_shape, 3))
     origin = input_origin(spikes) if frame is not None else None
-    if origin is not None:          # (maps on the export's frame: blocks of the sensor where it pools)
+    if origin is not None:  # (maps on the export's frame: blocks of the sensor where it pools)
         maps.params["source"] = origin
     placed = None if origin is None else (origin["crop_x_px"], origin["crop_y_px"], origin["pool"])
     with OutputFolder(args.out, force=args.force) as out:
         maps.save(out.dir / "maps.npz")
-        save_maps_figure(out.dir / "maps.png", shown, maps.fg_x, maps.fg_y, maps.grouping,
-                         grouping_label=SPIKING_GROUPING_LABEL, placed=placed)
+        save_maps_figure(
+            out.dir / "maps.png",
+            shown,
+            maps.fg_x,
+            maps.fg_y,
+            maps.grouping,
+            grouping_label=SPIKING_GROUPING_LABEL,
+            placed=placed,
+        )
     print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ (maps.npz, maps.png)")
     return 0

@@ -40,6 +40,7 @@ named in the graph's ``metadata["approximations"]``):
 :class:`~snn_fg.network.Network` (NIR semantics: stride-1 lattices, split
 receptors, array kernels), so a round trip can be simulated and measured.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -66,7 +67,7 @@ APPROXIMATIONS = {
     "negative_kernel_lobes": "moved to the other receptor, magnitude scaled by tau_own/tau_other (same charge)",
     "wrap_padding": "written as zero padding with metadata padding='wrap'",
     "stride_2_lattices": "written at stride 1 (4x the cells); kernels from a strided source keep their lattice "
-                         "taps; interpolation between lattices of one level becomes the identity",
+    "taps; interpolation between lattices of one level becomes the identity",
     "resize_between_levels": "graph cut: Output <proj>.out and Input <proj>.in with the interpolation in metadata",
     "edge_mask": "dropped: every cell of every population (a fixed network)",
     "delays": "one Delay node per projection (uniform), seconds",
@@ -98,18 +99,28 @@ def flat_network(network: Network) -> Network:
         if isinstance(pr, Conv) and s > 1:
             k = pr.kernel.array(net.params)
             keep = np.abs(k) >= pr.prune * np.abs(k).max() if pr.prune > 0 else k != 0
-            pr = dataclasses.replace(pr, kernel=Kernel(ref="array", args={"data": _dilate(np.where(keep, k, 0.0), s)}),
-                                     prune=0.0)
+            pr = dataclasses.replace(
+                pr, kernel=Kernel(ref="array", args={"data": _dilate(np.where(keep, k, 0.0), s)}), prune=0.0
+            )
         prjs.append(pr)
     return dataclasses.replace(net, populations=pops, projections=tuple(prjs))
 
 
 def identity_conv(pr: Resize, channels: int) -> Conv:
     """Resize ``pr`` as a Conv passing each of ``channels`` on at the same pixel (same gain and delay)."""
-    ident = Kernel(ref="channel_map", args={"n_out": channels, "n_in": channels,
-                                            "entries": [[c, c, 1.0] for c in range(channels)]})
-    return Conv(name=pr.name, source=pr.source, target=pr.target, kernel=ident, sign=pr.sign,
-                gain_mv=pr.gain_mv, delay_ms=pr.delay_ms, calibrated=pr.calibrated)
+    ident = Kernel(
+        ref="channel_map", args={"n_out": channels, "n_in": channels, "entries": [[c, c, 1.0] for c in range(channels)]}
+    )
+    return Conv(
+        name=pr.name,
+        source=pr.source,
+        target=pr.target,
+        kernel=ident,
+        sign=pr.sign,
+        gain_mv=pr.gain_mv,
+        delay_ms=pr.delay_ms,
+        calibrated=pr.calibrated,
+    )
 
 
 def _dilate(k: np.ndarray, s: int) -> np.ndarray:
@@ -117,7 +128,7 @@ def _dilate(k: np.ndarray, s: int) -> np.ndarray:
     taps are already at level-pixel offsets, only those on the lattice count."""
     out = np.zeros_like(k)
     c0, c1 = k.shape[2] // 2, k.shape[3] // 2
-    out[:, :, c0 % s::s, c1 % s::s] = k[:, :, c0 % s::s, c1 % s::s]
+    out[:, :, c0 % s :: s, c1 % s :: s] = k[:, :, c0 % s :: s, c1 % s :: s]
     return out
 
 
@@ -130,14 +141,26 @@ def _population_nodes(nir, p: Population) -> dict:
     shape = p.shape
     n = p.neuron
 
-    def full(v):        # float64: the values read back exactly (constant arrays compress to nothing)
+    def full(v):  # float64: the values read back exactly (constant arrays compress to nothing)
         return np.full(shape, v, dtype=np.float64)
-    meta = {"snn_fg_population": _js({k: v for k, v in p.to_dict().items() if k != "neuron"}),
-            "t_ref_s": n.t_ref_ms * MS, "refractory": "membrane held at v_reset; currents keep decaying"}
-    return {p.name: nir.LIF(tau=full(n.tau_m_ms * MS), r=full(1.0), v_leak=full(n.v_rest_mv),
-                            v_threshold=full(n.v_th_mv), v_reset=full(n.v_reset_mv), metadata=meta),
-            f"{p.name}.exc": nir.LI(tau=full(n.tau_exc_ms * MS), r=full(n.tau_exc_ms * MS), v_leak=full(0.0)),
-            f"{p.name}.inh": nir.LI(tau=full(n.tau_inh_ms * MS), r=full(-n.tau_inh_ms * MS), v_leak=full(0.0))}
+
+    meta = {
+        "snn_fg_population": _js({k: v for k, v in p.to_dict().items() if k != "neuron"}),
+        "t_ref_s": n.t_ref_ms * MS,
+        "refractory": "membrane held at v_reset; currents keep decaying",
+    }
+    return {
+        p.name: nir.LIF(
+            tau=full(n.tau_m_ms * MS),
+            r=full(1.0),
+            v_leak=full(n.v_rest_mv),
+            v_threshold=full(n.v_th_mv),
+            v_reset=full(n.v_reset_mv),
+            metadata=meta,
+        ),
+        f"{p.name}.exc": nir.LI(tau=full(n.tau_exc_ms * MS), r=full(n.tau_exc_ms * MS), v_leak=full(0.0)),
+        f"{p.name}.inh": nir.LI(tau=full(n.tau_inh_ms * MS), r=full(-n.tau_inh_ms * MS), v_leak=full(0.0)),
+    }
 
 
 def conv2d_drive(net: Network, pr: Conv, bits=None, scale: float = 0.0):
@@ -164,11 +187,22 @@ def _conv_nodes(nir, net: Network, pr: Conv, scale: float | None, bits) -> tuple
         if not w.any():
             continue
         conv = f"{pr.name}.{rec}"
-        nodes[conv] = nir.Conv2d(input_shape=src.grid, weight=w, stride=1,
-                                 padding=(k.shape[2] // 2, k.shape[3] // 2), dilation=1, groups=1,
-                                 bias=np.zeros(w.shape[0], np.float32),
-                                 metadata={"padding": pad, "projection": pr.name, "receptor": rec,
-                                           "sign": pr.sign, "scale_mv": scale or 0.0})
+        nodes[conv] = nir.Conv2d(
+            input_shape=src.grid,
+            weight=w,
+            stride=1,
+            padding=(k.shape[2] // 2, k.shape[3] // 2),
+            dilation=1,
+            groups=1,
+            bias=np.zeros(w.shape[0], np.float32),
+            metadata={
+                "padding": pad,
+                "projection": pr.name,
+                "receptor": rec,
+                "sign": pr.sign,
+                "scale_mv": scale or 0.0,
+            },
+        )
         nodes[f"{conv}.delay"] = nir.Delay(delay=np.full(tgt.shape, pr.delay_ms * MS, np.float32))
         edges += [(pr.source, conv), (conv, f"{conv}.delay"), (f"{conv}.delay", f"{pr.target}.{rec}")]
     return nodes, edges
@@ -177,13 +211,18 @@ def _conv_nodes(nir, net: Network, pr: Conv, scale: float | None, bits) -> tuple
 def _resize_nodes(nir, net: Network, pr: Resize) -> tuple[dict, list]:
     src, tgt = net.population(pr.source), net.population(pr.target)
     rec = "exc" if pr.sign > 0 else "inh"
-    meta = {"snn_fg_projection": _js(pr.to_dict()), "receptor": rec,
-            "semantics": "target(c,i,j) += sign*gain_mv*sum A_r[i,i'] A_c[j,j'] spikes(c,i',j') (half-pixel "
-                         "centres, OpenCV interpolation, clamped); see snn_fg.lowering.interp"}
-    nodes = {f"{pr.name}.out": nir.Output(output_type={"output": np.array(src.shape)}, metadata=meta),
-             f"{pr.name}.in": nir.Input(input_type={"input": np.array(tgt.shape)}, metadata=meta),
-             f"{pr.name}.delay": nir.Delay(delay=np.full(tgt.shape, pr.delay_ms * MS, np.float32))}
-    if src.is_source:      # the spike source's own Input node feeds the cut
+    meta = {
+        "snn_fg_projection": _js(pr.to_dict()),
+        "receptor": rec,
+        "semantics": "target(c,i,j) += sign*gain_mv*sum A_r[i,i'] A_c[j,j'] spikes(c,i',j') (half-pixel "
+        "centres, OpenCV interpolation, clamped); see snn_fg.lowering.interp",
+    }
+    nodes = {
+        f"{pr.name}.out": nir.Output(output_type={"output": np.array(src.shape)}, metadata=meta),
+        f"{pr.name}.in": nir.Input(input_type={"input": np.array(tgt.shape)}, metadata=meta),
+        f"{pr.name}.delay": nir.Delay(delay=np.full(tgt.shape, pr.delay_ms * MS, np.float32)),
+    }
+    if src.is_source:  # the spike source's own Input node feeds the cut
         nodes.pop(f"{pr.name}.out")
         edges = []
     else:
@@ -199,27 +238,41 @@ def _parts(nir, network: Network, net: Network, weight_bits, edges: list):
     scales = projection_scales(net, weight_bits) if weight_bits else {}
     for p in net.populations:
         if p.is_source:
-            yield p.name, nir.Input(input_type={"input": np.array(p.shape)},
-                                    metadata={"snn_fg_population": _js(p.to_dict())})
+            yield (
+                p.name,
+                nir.Input(input_type={"input": np.array(p.shape)}, metadata={"snn_fg_population": _js(p.to_dict())}),
+            )
             continue
         yield from _population_nodes(nir, p).items()
         edges += [(f"{p.name}.exc", p.name), (f"{p.name}.inh", p.name)]
-        if p.role.startswith(("bo_", "group_")):     # what the maps are decoded from
+        if p.role.startswith(("bo_", "group_")):  # what the maps are decoded from
             yield f"{p.name}.spikes", nir.Output(output_type={"output": np.array(p.shape)})
             edges.append((p.name, f"{p.name}.spikes"))
     for pr in net.projections:
-        n, e = (_conv_nodes(nir, net, pr, scales.get(pr.name), weight_bits) if isinstance(pr, Conv)
-                else _resize_nodes(nir, net, pr))
+        n, e = (
+            _conv_nodes(nir, net, pr, scales.get(pr.name), weight_bits)
+            if isinstance(pr, Conv)
+            else _resize_nodes(nir, net, pr)
+        )
         edges += e
         yield from n.items()
 
 
 def _graph_metadata(network: Network, net: Network, weight_bits) -> dict:
-    meta = {"schema": SCHEMA, "model": "snn-fg figure-ground network (D'Angelo et al. 2025)",
-            "snn_fg_version": __version__, "network_sha256": fingerprint(network),
-            "frame_shape": list(net.frame_shape), "params": net.params.to_dict(),
-            "input_rate_hz": net.input_rate_hz, "dt_ms": net.dt_ms, "weight_bits": weight_bits or 0, "time_unit": "s",
-            "approximations": APPROXIMATIONS, "notes": list(net.notes)}
+    meta = {
+        "schema": SCHEMA,
+        "model": "snn-fg figure-ground network (D'Angelo et al. 2025)",
+        "snn_fg_version": __version__,
+        "network_sha256": fingerprint(network),
+        "frame_shape": list(net.frame_shape),
+        "params": net.params.to_dict(),
+        "input_rate_hz": net.input_rate_hz,
+        "dt_ms": net.dt_ms,
+        "weight_bits": weight_bits or 0,
+        "time_unit": "s",
+        "approximations": APPROXIMATIONS,
+        "notes": list(net.notes),
+    }
     return {"snn_fg": json.dumps(meta)}
 
 
@@ -267,8 +320,7 @@ def write_streaming(path, network: Network, *, weight_bits: int | None = None) -
         nodes = root.create_group("nodes")
         for name, node in _parts(nir, network, net, weight_bits, edges):
             _write_hdf5(nodes.create_group(name), node.to_dict())
-        _write_hdf5(root, {"type": "NIRGraph", "edges": edges,
-                           "metadata": _graph_metadata(network, net, weight_bits)})
+        _write_hdf5(root, {"type": "NIRGraph", "edges": edges, "metadata": _graph_metadata(network, net, weight_bits)})
     return Path(path)
 
 
@@ -357,7 +409,7 @@ def _read_graph(nir, path: Path):
 
 def _network_from(g, meta) -> Network:
     pops, prjs = [], []
-    into = {dst: src for src, dst in g.edges}     # a Conv2d has one source
+    into = {dst: src for src, dst in g.edges}  # a Conv2d has one source
     for name, node in g.nodes.items():
         m = getattr(node, "metadata", None) or {}
         if "snn_fg_population" not in m:
@@ -365,10 +417,15 @@ def _network_from(g, meta) -> Network:
         d = json.loads(m["snn_fg_population"])
         if type(node).__name__ == "LIF":
             exc, inh = g.nodes[f"{name}.exc"], g.nodes[f"{name}.inh"]
-            d["neuron"] = Neuron(tau_m_ms=float(node.tau.flat[0]) / MS, tau_exc_ms=float(exc.tau.flat[0]) / MS,
-                                 tau_inh_ms=float(inh.tau.flat[0]) / MS, v_rest_mv=float(node.v_leak.flat[0]),
-                                 v_reset_mv=float(node.v_reset.flat[0]), v_th_mv=float(node.v_threshold.flat[0]),
-                                 t_ref_ms=float(m["t_ref_s"]) / MS).to_dict()
+            d["neuron"] = Neuron(
+                tau_m_ms=float(node.tau.flat[0]) / MS,
+                tau_exc_ms=float(exc.tau.flat[0]) / MS,
+                tau_inh_ms=float(inh.tau.flat[0]) / MS,
+                v_rest_mv=float(node.v_leak.flat[0]),
+                v_reset_mv=float(node.v_reset.flat[0]),
+                v_th_mv=float(node.v_threshold.flat[0]),
+                t_ref_ms=float(m["t_ref_s"]) / MS,
+            ).to_dict()
         d["stride"], d["edge_mask"] = 1, False
         pops.append(Population.from_dict(d))
     for name, node in g.nodes.items():
@@ -378,15 +435,30 @@ def _network_from(g, meta) -> Network:
             sign = 1 if m["receptor"] == "exc" else -1
             w = np.asarray(node.weight, np.float64)
             synapse = next(dst for src, dst in g.edges if src == f"{name}.delay")
-            prjs.append(Conv(name=name.replace(".", "_"), source=into[name], target=synapse.rsplit(".", 1)[0],
-                             kernel=Kernel(ref="array", args={"data": np.abs(w)}), mode="corr", padding=m["padding"],
-                             sign=sign, gain_mv=1.0, delay_ms=float(delay)))
+            prjs.append(
+                Conv(
+                    name=name.replace(".", "_"),
+                    source=into[name],
+                    target=synapse.rsplit(".", 1)[0],
+                    kernel=Kernel(ref="array", args={"data": np.abs(w)}),
+                    mode="corr",
+                    padding=m["padding"],
+                    sign=sign,
+                    gain_mv=1.0,
+                    delay_ms=float(delay),
+                )
+            )
         elif type(node).__name__ == "Input" and "snn_fg_projection" in m:
             d = json.loads(m["snn_fg_projection"])
             d.pop("type")
             prjs.append(Resize.from_dict(d))
-    return Network(params=ModelParams.from_dict(meta["params"]), frame_shape=tuple(meta["frame_shape"]),
-                   populations=tuple(pops), projections=tuple(prjs), input_rate_hz=meta["input_rate_hz"],
-                   dt_ms=meta.get("dt_ms", DEFAULT_DT_MS),
-                   notes=tuple(meta["notes"]) + ("Read from NIR: " + "; ".join(
-                       f"{k}: {v}" for k, v in meta["approximations"].items()),))
+    return Network(
+        params=ModelParams.from_dict(meta["params"]),
+        frame_shape=tuple(meta["frame_shape"]),
+        populations=tuple(pops),
+        projections=tuple(prjs),
+        input_rate_hz=meta["input_rate_hz"],
+        dt_ms=meta.get("dt_ms", DEFAULT_DT_MS),
+        notes=tuple(meta["notes"])
+        + ("Read from NIR: " + "; ".join(f"{k}: {v}" for k, v in meta["approximations"].items()),),
+    )

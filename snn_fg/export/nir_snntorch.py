@@ -54,6 +54,7 @@ network for our own engines (delays of one step, refractoriness of one
 step, zero padding, no clock), so the encoding's cost is measured apart
 from the consumer's.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -63,10 +64,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError, install_hint
-from ..pyramid.levels import level_scale
 from ..network.graph import Network
 from ..network.nodes import Kernel
 from ..network.projections import Conv, Resize
+from ..pyramid.levels import level_scale
 from .nir import _graph_metadata, _nir, conv2d_drive, flat_network, identity_conv
 
 #: snnTorch 1.0's fixed time step in its NIR import (s)
@@ -94,9 +95,11 @@ def level_spacing(network: Network, level: int) -> int:
     octave levels); refused for levels that are not an integer scale apart."""
     f = 1.0 / level_scale(level, network.params.levels_per_octave)
     if abs(f - round(f)) > 1e-9:
-        raise ParameterError(f"NIR profile {PROFILE}, one grid: level {level} is {f:.3f} frame pixels per pixel; "
-                             "only levels an integer scale apart (octaves: levels_per_octave 1, --network compact) "
-                             "lie on the frame's grid")
+        raise ParameterError(
+            f"NIR profile {PROFILE}, one grid: level {level} is {f:.3f} frame pixels per pixel; "
+            "only levels an integer scale apart (octaves: levels_per_octave 1, --network compact) "
+            "lie on the frame's grid"
+        )
     return int(round(f))
 
 
@@ -117,13 +120,26 @@ def one_grid_network(network: Network) -> Network:
             if k.shape[2] % 2 == 0 or k.shape[3] % 2 == 0:
                 raise ParameterError(f"NIR profile {PROFILE}, one grid: {pr.name} has a kernel of even size")
             k = np.where(np.abs(k) >= pr.prune * np.abs(k).max(), k, 0.0) if pr.prune > 0 else k
-            prjs.append(dataclasses.replace(pr, prune=0.0, kernel=Kernel(
-                ref="array", args={"data": _dilated(k, level_spacing(network, src.level))})))
+            prjs.append(
+                dataclasses.replace(
+                    pr,
+                    prune=0.0,
+                    kernel=Kernel(ref="array", args={"data": _dilated(k, level_spacing(network, src.level))}),
+                )
+            )
     shape = tuple(network.frame_shape)
     pops = tuple(p if p.role == "clock" else dataclasses.replace(p, level_shape=shape) for p in network.populations)
-    return dataclasses.replace(network, one_grid=True, populations=pops, projections=tuple(prjs),
-                               notes=network.notes + (f"NIR profile {PROFILE}, one grid: every level on the "
-                                                      "frame's grid, kernels dilated, identity between levels.",))
+    return dataclasses.replace(
+        network,
+        one_grid=True,
+        populations=pops,
+        projections=tuple(prjs),
+        notes=network.notes
+        + (
+            f"NIR profile {PROFILE}, one grid: every level on the "
+            "frame's grid, kernels dilated, identity between levels.",
+        ),
+    )
 
 
 def reset_depth_mv(neuron, step_ms: float, drive: float = RESET_DRIVE) -> float:
@@ -138,8 +154,14 @@ def reset_depth_mv(neuron, step_ms: float, drive: float = RESET_DRIVE) -> float:
     return float(drive * (neuron.v_th_mv - neuron.v_reset_mv) * np.expm1(hold / neuron.tau_m_ms))
 
 
-def snntorch_network(network: Network, dt_ms: float | None = None, *, one_grid: bool = False,
-                     deeper_reset: bool = False, reset_drive: float = RESET_DRIVE) -> Network:
+def snntorch_network(
+    network: Network,
+    dt_ms: float | None = None,
+    *,
+    one_grid: bool = False,
+    deeper_reset: bool = False,
+    reset_drive: float = RESET_DRIVE,
+) -> Network:
     """``network`` as the profile writes it, for our own engines at ``dt_ms``:
     flat (every population at stride 1), no clock, zero padding, every delay
     and refractory period one step; with ``one_grid`` every level on the
@@ -150,44 +172,72 @@ def snntorch_network(network: Network, dt_ms: float | None = None, *, one_grid: 
     net = flat_network(network)
     if one_grid:
         net = one_grid_network(net)
-    bad = [pr.name for pr in net.projections if isinstance(pr, Resize)
-           and not net.population(pr.source).role == "clock"]
+    bad = [
+        pr.name for pr in net.projections if isinstance(pr, Resize) and not net.population(pr.source).role == "clock"
+    ]
     if bad:
-        raise ParameterError(f"NIR profile {PROFILE}: no NIR node interpolates between pyramid levels "
-                             f"({bad[0]}); export a one-level network (--levels 1) or the levels on one "
-                             "grid (--nir-one-grid)")
+        raise ParameterError(
+            f"NIR profile {PROFILE}: no NIR node interpolates between pyramid levels "
+            f"({bad[0]}); export a one-level network (--levels 1) or the levels on one "
+            "grid (--nir-one-grid)"
+        )
     two = [p.name for p in net.populations if p.neuron is not None and p.neuron.tau_exc_ms != p.neuron.tau_inh_ms]
     if two:
-        raise ParameterError(f"NIR profile {PROFILE}: population {two[0]} has two synaptic time constants; "
-                             "CubaLIF has one")
+        raise ParameterError(
+            f"NIR profile {PROFILE}: population {two[0]} has two synaptic time constants; CubaLIF has one"
+        )
     reset = [p.name for p in net.populations if p.neuron is not None and p.neuron.v_reset_mv != 0]
     if reset:
-        raise ParameterError(f"NIR profile {PROFILE}: population {reset[0]} resets to a potential other than 0; "
-                             "snnTorch resets to 0")
+        raise ParameterError(
+            f"NIR profile {PROFILE}: population {reset[0]} resets to a potential other than 0; snnTorch resets to 0"
+        )
 
     def neuron(n):
-        return dataclasses.replace(n, t_ref_ms=dt_ms, v_reset_mv=n.v_reset_mv - (
-            reset_depth_mv(n, dt_ms, reset_drive) if deeper_reset else 0.0))
-    pops = tuple(p if p.neuron is None else dataclasses.replace(p, neuron=neuron(p.neuron))
-                 for p in net.populations if p.role != "clock")
-    prjs = tuple(dataclasses.replace(pr, delay_ms=dt_ms, padding="zero") for pr in net.projections
-                 if isinstance(pr, Conv))
-    return dataclasses.replace(net, populations=pops, projections=prjs,
-                               notes=net.notes + (f"NIR profile {PROFILE}: delays and refractory periods one step"
-                                                  + (", resets deeper for the rest" if deeper_reset else "")
-                                                  + ", zero padding, no window clock.",))
+        return dataclasses.replace(
+            n,
+            t_ref_ms=dt_ms,
+            v_reset_mv=n.v_reset_mv - (reset_depth_mv(n, dt_ms, reset_drive) if deeper_reset else 0.0),
+        )
+
+    pops = tuple(
+        p if p.neuron is None else dataclasses.replace(p, neuron=neuron(p.neuron))
+        for p in net.populations
+        if p.role != "clock"
+    )
+    prjs = tuple(
+        dataclasses.replace(pr, delay_ms=dt_ms, padding="zero") for pr in net.projections if isinstance(pr, Conv)
+    )
+    return dataclasses.replace(
+        net,
+        populations=pops,
+        projections=prjs,
+        notes=net.notes
+        + (
+            f"NIR profile {PROFILE}: delays and refractory periods one step"
+            + (", resets deeper for the rest" if deeper_reset else "")
+            + ", zero padding, no window clock.",
+        ),
+    )
 
 
 def _cuba(nir, p, step_s: float):
     n = p.neuron
-    scale = SNNTORCH_DT_S / step_s          # snnTorch's 1e-4 s step stands for step_s of the network's time
+    scale = SNNTORCH_DT_S / step_s  # snnTorch's 1e-4 s step stands for step_s of the network's time
     tau_m, tau_s = n.tau_m_ms * 1e-3 * scale, n.tau_exc_ms * 1e-3 * scale
 
     def full(v):
         return np.full(p.shape, v, dtype=np.float64)
-    return nir.CubaLIF(tau_mem=full(tau_m), tau_syn=full(tau_s), r=full(tau_m / SNNTORCH_DT_S), v_leak=full(0.0),
-                       v_threshold=full(n.v_th_mv - n.v_reset_mv), v_reset=full(0.0), w_in=full(tau_s / tau_m),
-                       metadata={"snn_fg_population": p.name, "v_rest_mv": n.v_rest_mv, "v_reset_mv": n.v_reset_mv})
+
+    return nir.CubaLIF(
+        tau_mem=full(tau_m),
+        tau_syn=full(tau_s),
+        r=full(tau_m / SNNTORCH_DT_S),
+        v_leak=full(0.0),
+        v_threshold=full(n.v_th_mv - n.v_reset_mv),
+        v_reset=full(0.0),
+        w_in=full(tau_s / tau_m),
+        metadata={"snn_fg_population": p.name, "v_rest_mv": n.v_rest_mv, "v_reset_mv": n.v_reset_mv},
+    )
 
 
 def _rest(nir, p, sources: list, step_s: float):
@@ -197,10 +247,18 @@ def _rest(nir, p, sources: list, step_s: float):
     input: nirtorch 2.6 gives an input from later in a loop a one-element
     zero tensor on the first step, which only adds up beside an input of the
     population's shape."""
-    rest = p.neuron.v_rest_mv - p.neuron.v_reset_mv      # relative to the reset, as _cuba writes it
+    rest = p.neuron.v_rest_mv - p.neuron.v_reset_mv  # relative to the reset, as _cuba writes it
     bias = np.full(p.channels, rest * step_s / (p.neuron.tau_exc_ms * 1e-3), np.float32)
-    return nir.Conv2d(input_shape=p.grid, weight=np.zeros((p.channels, len(sources), 1, 1), np.float32), stride=1,
-                      padding=0, dilation=1, groups=1, bias=bias, metadata={"v_rest_mv": p.neuron.v_rest_mv})
+    return nir.Conv2d(
+        input_shape=p.grid,
+        weight=np.zeros((p.channels, len(sources), 1, 1), np.float32),
+        stride=1,
+        padding=0,
+        dilation=1,
+        groups=1,
+        bias=bias,
+        metadata={"v_rest_mv": p.neuron.v_rest_mv},
+    )
 
 
 def reaching_taps(w: np.ndarray, grid) -> tuple[np.ndarray, int, tuple[int, int]]:
@@ -212,13 +270,13 @@ def reaching_taps(w: np.ndarray, grid) -> tuple[np.ndarray, int, tuple[int, int]
     spacing that holds every non-zero tap, as on one grid)."""
     c = np.array(w.shape[2:]) // 2
     reach = np.minimum(c, max(grid) - 1)
-    w = w[:, :, c[0] - reach[0]:c[0] + reach[0] + 1, c[1] - reach[1]:c[1] + reach[1] + 1]
+    w = w[:, :, c[0] - reach[0] : c[0] + reach[0] + 1, c[1] - reach[1] : c[1] + reach[1] + 1]
     offsets = np.nonzero(np.abs(w).sum((0, 1)))
     spacing = int(np.gcd.reduce(np.concatenate([offsets[0] - reach[0], offsets[1] - reach[1], [0]])))
     if spacing > 1:
         reach = reach // spacing * spacing
         c = np.array(w.shape[2:]) // 2
-        w = w[:, :, c[0] - reach[0]:c[0] + reach[0] + 1:spacing, c[1] - reach[1]:c[1] + reach[1] + 1:spacing]
+        w = w[:, :, c[0] - reach[0] : c[0] + reach[0] + 1 : spacing, c[1] - reach[1] : c[1] + reach[1] + 1 : spacing]
     return w, max(spacing, 1), (int(reach[0]), int(reach[1]))
 
 
@@ -227,17 +285,30 @@ def _conv(nir, net: Network, pr: Conv, sources: list):
     src = net.population(pr.source)
     _, exc, mag = conv2d_drive(net, pr)
     w, dilation, padding = reaching_taps(np.where(exc, mag, -mag), net.population(pr.target).grid)
-    if src.is_source:           # the one Input node stacks the spike sources as channels
+    if src.is_source:  # the one Input node stacks the spike sources as channels
         full = np.zeros((w.shape[0], len(sources), *w.shape[2:]))
         full[:, sources.index(src.name)] = w[:, 0]
         w = full
-    return nir.Conv2d(input_shape=src.grid, weight=w.astype(np.float32), stride=1, padding=padding,
-                      dilation=dilation, groups=1, bias=np.zeros(w.shape[0], np.float32),
-                      metadata={"projection": pr.name})
+    return nir.Conv2d(
+        input_shape=src.grid,
+        weight=w.astype(np.float32),
+        stride=1,
+        padding=padding,
+        dilation=dilation,
+        groups=1,
+        bias=np.zeros(w.shape[0], np.float32),
+        metadata={"projection": pr.name},
+    )
 
 
-def to_nir_snntorch(network: Network, *, step_ms: float | None = None, one_grid: bool = False,
-                    deeper_reset: bool = False, reset_drive: float = RESET_DRIVE):
+def to_nir_snntorch(
+    network: Network,
+    *,
+    step_ms: float | None = None,
+    one_grid: bool = False,
+    deeper_reset: bool = False,
+    reset_drive: float = RESET_DRIVE,
+):
     """The NIR graph of ``network`` in this profile (module docstring), for
     a consumer step of ``step_ms`` of the network's time."""
     step_ms = network.dt_ms if step_ms is None else step_ms
@@ -246,8 +317,11 @@ def to_nir_snntorch(network: Network, *, step_ms: float | None = None, one_grid:
     net = snntorch_network(network, step_ms, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
     sources = [p.name for p in net.populations if p.is_source]
     h, w = net.frame_shape
-    nodes = {"input": nir.Input(input_type={"input": np.array([len(sources), h, w])},
-                                metadata={"channels": json.dumps(sources)})}
+    nodes = {
+        "input": nir.Input(
+            input_type={"input": np.array([len(sources), h, w])}, metadata={"channels": json.dumps(sources)}
+        )
+    }
     edges = []
     for p in net.populations:
         if not p.is_source:
@@ -263,14 +337,20 @@ def to_nir_snntorch(network: Network, *, step_ms: float | None = None, one_grid:
         nodes[pr.name] = _conv(nir, net, pr, sources)
         edges += [("input" if pr.source in sources else pr.source, pr.name), (pr.name, pr.target)]
     meta = json.loads(_graph_metadata(network, net, None)["snn_fg"])
-    meta["profile"] = {"name": PROFILE, "step_s": step_s, "time_scale": SNNTORCH_DT_S / step_s,
-                       "input_channels": sources, "one_grid": one_grid,
-                       "refractory": f"deeper reset, drive {reset_drive:g}" if deeper_reset else "one step"}
+    meta["profile"] = {
+        "name": PROFILE,
+        "step_s": step_s,
+        "time_scale": SNNTORCH_DT_S / step_s,
+        "input_channels": sources,
+        "one_grid": one_grid,
+        "refractory": f"deeper reset, drive {reset_drive:g}" if deeper_reset else "one step",
+    }
     return nir.NIRGraph(nodes=nodes, edges=edges, metadata={"snn_fg": json.dumps(meta)})
 
 
-def export_nir_snntorch(network: Network, out, *, step_ms: float | None = None, one_grid: bool = False,
-                        deeper_reset: bool = False) -> Path:
+def export_nir_snntorch(
+    network: Network, out, *, step_ms: float | None = None, one_grid: bool = False, deeper_reset: bool = False
+) -> Path:
     """Write the graph of this profile (levels on one grid with ``one_grid``,
     refractory periods as deeper resets with ``deeper_reset``) to ``out`` (atomically)."""
     step_ms = network.dt_ms if step_ms is None else step_ms
@@ -287,13 +367,15 @@ def _snntorch():
         import torch
         from snntorch.import_nir import import_from_nir
     except ImportError:
-        raise ParameterError("running a NIR graph with snnTorch needs torch and snntorch: "
-                             f"{install_hint('snntorch')}") from None
+        raise ParameterError(
+            f"running a NIR graph with snnTorch needs torch and snntorch: {install_hint('snntorch')}"
+        ) from None
     return torch, import_from_nir
 
 
-def run_snntorch(graph, network: Network, inputs, *, step_ms: float, duration_ms: float,
-                 count_from_ms: float, one_grid: bool = False) -> dict:
+def run_snntorch(
+    graph, network: Network, inputs, *, step_ms: float, duration_ms: float, count_from_ms: float, one_grid: bool = False
+) -> dict:
     """Simulate a graph of this profile made from ``network`` for a step of
     ``step_ms`` with snnTorch (through nirtorch) on ``inputs``
     (:class:`~snn_fg.lowering.input_spikes.InputSpikes` on that step), counting
@@ -304,7 +386,7 @@ def run_snntorch(graph, network: Network, inputs, *, step_ms: float, duration_ms
 
     torch, import_from_nir = _snntorch()
     net = snntorch_network(network, one_grid=one_grid)
-    with contextlib.redirect_stdout(io.StringIO()):        # snnTorch prints its weight-scaling notes
+    with contextlib.redirect_stdout(io.StringIO()):  # snnTorch prints its weight-scaling notes
         module = import_from_nir(graph)
     mods = dict(module.named_modules())
     counts, live = {}, [False]
@@ -313,7 +395,9 @@ def run_snntorch(graph, network: Network, inputs, *, step_ms: float, duration_ms
         def count(_mod, _inp, out):
             if live[0]:
                 counts[name] += (out[0] if isinstance(out, tuple) else out).reshape(-1).numpy().astype(np.int64)
+
         return count
+
     for p in net.populations:
         if p.neuron is not None:
             counts[p.name] = np.zeros(p.size, np.int64)
@@ -329,7 +413,7 @@ def run_snntorch(graph, network: Network, inputs, *, step_ms: float, duration_ms
     with torch.no_grad():
         for k in range(n_steps):
             frame[:] = 0
-            frame[idx[bounds[k]:bounds[k + 1]]] = 1.0
+            frame[idx[bounds[k] : bounds[k + 1]]] = 1.0
             live[0] = k * step_ms >= count_from_ms - 1e-9
             _, state = module(torch.from_numpy(frame.reshape(1, 2, h, w)), state)
     return counts

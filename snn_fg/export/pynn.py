@@ -29,6 +29,7 @@ The export folder holds
 Every projection is unrolled by ``run.py`` at build time: the files stay a
 few MB for any sensor size.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -61,17 +62,30 @@ def _tables(network: Network):
             parts = {"taps": tab.taps.astype(np.int32), "values": tab.values}
             extra = {"type": "conv", "wrap": tab.wrap}
         else:
-            parts = {f"{a}_{b}": arr for a, m in (("rows", tab.rows), ("cols", tab.cols))
-                     for b, arr in (("idx", m[0].astype(np.int32)), ("val", m[1]))}
+            parts = {
+                f"{a}_{b}": arr
+                for a, m in (("rows", tab.rows), ("cols", tab.cols))
+                for b, arr in (("idx", m[0].astype(np.int32)), ("val", m[1]))
+            }
             extra = {"type": "resize", "k_min": tab.k_min}
         digest = hashlib.sha1(b"".join(np.ascontiguousarray(a).tobytes() for a in parts.values())).hexdigest()
         if digest not in seen:
             seen[digest] = f"t{len(seen)}"
             arrays.update({f"{seen[digest]}_{k}": v for k, v in parts.items()})
         key = seen[digest]
-        entries.append({"name": pr.name, "source": pr.source, "target": pr.target, "sign": pr.sign,
-                        "gain_mv": pr.gain_mv, "delay_ms": pr.delay_ms, "table": key,
-                        "synapses": projection_counts(network, pr, tab).synapses, **extra})
+        entries.append(
+            {
+                "name": pr.name,
+                "source": pr.source,
+                "target": pr.target,
+                "sign": pr.sign,
+                "gain_mv": pr.gain_mv,
+                "delay_ms": pr.delay_ms,
+                "table": key,
+                "synapses": projection_counts(network, pr, tab).synapses,
+                **extra,
+            }
+        )
     return entries, arrays
 
 
@@ -95,9 +109,15 @@ def frame_text(network: Network, sensor_shape=None) -> str:
     return blocks if sensor_shape is None else f"a {sensor_shape[1]} x {sensor_shape[0]} sensor as {blocks}"
 
 
-def pynn_model(network: Network, *, dt_ms: float | None = None, weight_bits: int | None = None,
-               target: str = "generic", command: str | None = None,
-               sensor_shape=None) -> tuple[dict, dict]:
+def pynn_model(
+    network: Network,
+    *,
+    dt_ms: float | None = None,
+    weight_bits: int | None = None,
+    target: str = "generic",
+    command: str | None = None,
+    sensor_shape=None,
+) -> tuple[dict, dict]:
     """``(network.json data, tables.npz arrays)`` of the board network; ``command``:
     the ``snn-fg export`` command that made it, recorded (without ``--input-rate-hz``);
     ``sensor_shape`` (rows, cols): the sensor it was made for, if known."""
@@ -107,12 +127,32 @@ def pynn_model(network: Network, *, dt_ms: float | None = None, weight_bits: int
     scales = projection_scales(net, weight_bits) if weight_bits else {}
     for e in entries:
         e["scale_mv"] = scales.get(e["name"], 0.0)
-    pops = [{"name": p.name, "role": p.role, "level": p.level, "size": p.size, **geometry(p),
-             "neuron": None if p.neuron is None else p.neuron.to_dict()} for p in net.populations]
-    meta = {"schema": SCHEMA, "snn_fg_version": __version__, "target": target, "dt_ms": dt_ms,
-            "weight_bits": weight_bits, "input_rate_hz": net.input_rate_hz, "export_command": command,
-            "frame_shape": list(net.frame_shape), "sensor_shape": None if sensor_shape is None else list(sensor_shape),
-            "populations": pops, "projections": entries, "notes": list(net.notes), "snn_fg_network": net.to_dict()}
+    pops = [
+        {
+            "name": p.name,
+            "role": p.role,
+            "level": p.level,
+            "size": p.size,
+            **geometry(p),
+            "neuron": None if p.neuron is None else p.neuron.to_dict(),
+        }
+        for p in net.populations
+    ]
+    meta = {
+        "schema": SCHEMA,
+        "snn_fg_version": __version__,
+        "target": target,
+        "dt_ms": dt_ms,
+        "weight_bits": weight_bits,
+        "input_rate_hz": net.input_rate_hz,
+        "export_command": command,
+        "frame_shape": list(net.frame_shape),
+        "sensor_shape": None if sensor_shape is None else list(sensor_shape),
+        "populations": pops,
+        "projections": entries,
+        "notes": list(net.notes),
+        "snn_fg_network": net.to_dict(),
+    }
     return meta, arrays
 
 
@@ -144,9 +184,17 @@ Approximations (see `network.json` notes): {notes}
 """
 
 
-def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bits: int | None = None,
-                target: str = "generic", force: bool = False, command: str | None = None,
-                sensor_shape=None) -> Path:
+def export_pynn(
+    network: Network,
+    out,
+    *,
+    dt_ms: float | None = None,
+    weight_bits: int | None = None,
+    target: str = "generic",
+    force: bool = False,
+    command: str | None = None,
+    sensor_shape=None,
+) -> Path:
     """Write the PyNN model of ``network`` into the new folder ``out``.
 
     Parameters
@@ -186,8 +234,9 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     from ..atomic import OutputFolder
 
-    meta, arrays = pynn_model(network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command,
-                              sensor_shape=sensor_shape)
+    meta, arrays = pynn_model(
+        network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape
+    )
     kept = _input_for(Path(out) / INPUT_NAME, network.frame_shape, dt_ms) if force else None
     with OutputFolder(out, force=force) as folder:
         tmp = folder.dir
@@ -197,14 +246,25 @@ def export_pynn(network: Network, out, *, dt_ms: float | None = None, weight_bit
         np.savez_compressed(tmp / "tables.npz", **arrays)
         for src, dst in standalone.COPIED.items():
             shutil.copyfile(standalone.HERE / src, tmp / dst)
-        (tmp / "spinnaker.json").write_text(json.dumps(spinnaker_plan(board_network(network), estimate=True,
-                                                                      dt_ms=dt_ms), indent=1) + "\n")
+        (tmp / "spinnaker.json").write_text(
+            json.dumps(spinnaker_plan(board_network(network), estimate=True, dt_ms=dt_ms), indent=1) + "\n"
+        )
         pops = meta["populations"]
-        (tmp / "README.md").write_text(README.format(
-            version=__version__, frame=frame_text(network, sensor_shape), size=frame_size(network),
-            levels=network.params.levels, cells=sum(p["size"] for p in pops if p["neuron"]),
-            sources=sum(p["size"] for p in pops if not p["neuron"]), prj=len(meta["projections"]), target=target,
-            bits=f"{weight_bits}-bit" if weight_bits else "float", dt=dt_ms, notes=" ".join(meta["notes"])))
+        (tmp / "README.md").write_text(
+            README.format(
+                version=__version__,
+                frame=frame_text(network, sensor_shape),
+                size=frame_size(network),
+                levels=network.params.levels,
+                cells=sum(p["size"] for p in pops if p["neuron"]),
+                sources=sum(p["size"] for p in pops if not p["neuron"]),
+                prj=len(meta["projections"]),
+                target=target,
+                bits=f"{weight_bits}-bit" if weight_bits else "float",
+                dt=dt_ms,
+                notes=" ".join(meta["notes"]),
+            )
+        )
     return Path(out)
 
 
@@ -221,7 +281,7 @@ def _input_for(path: Path, frame_shape, dt_ms: float) -> bytes | None:
         with check.load_npz(path, "run.py's input") as d:
             same = tuple(int(v) for v in d["shape"]) == tuple(frame_shape) and float(d["dt_ms"]) == float(dt_ms)
         return path.read_bytes() if same else None
-    except (OSError, ValueError, KeyError):        # (none, or not one we can read: it goes with the folder)
+    except (OSError, ValueError, KeyError):  # (none, or not one we can read: it goes with the folder)
         return None
 
 
@@ -231,9 +291,15 @@ def save_input(inputs, path, dt_ms: float, origin: dict | None = None) -> Path:
     where the crop lies on the sensor) goes with them as JSON text, for
     ``snn-fg decode`` to tell (:func:`input_origin`)."""
     extra = {} if origin is None else {"origin": np.array(json.dumps(origin))}
-    np.savez(path, indices=inputs.indices.astype(np.int64), steps=inputs.steps.astype(np.int64), dt_ms=dt_ms,
-             period_steps=-1 if inputs.period_steps is None else int(inputs.period_steps),
-             shape=np.array(inputs.shape), **extra)
+    np.savez(
+        path,
+        indices=inputs.indices.astype(np.int64),
+        steps=inputs.steps.astype(np.int64),
+        dt_ms=dt_ms,
+        period_steps=-1 if inputs.period_steps is None else int(inputs.period_steps),
+        shape=np.array(inputs.shape),
+        **extra,
+    )
     return Path(path)
 
 
@@ -262,8 +328,17 @@ def read_input(path):
     off[idx[(idx >= n) & (idx < 2 * n)] - n] = True
     span_s = ((period if period > 0 else int(steps.max(initial=0)) + 1) * float(d["dt_ms"])) / 1000.0
     rate = idx.size / max(int(on.sum() + off.sum()), 1) / span_s
-    return InputSpikes((h, w), idx, steps, period if period > 0 else None, on.reshape(h, w), off.reshape(h, w),
-                       float(rate), 0, "pynn-input")
+    return InputSpikes(
+        (h, w),
+        idx,
+        steps,
+        period if period > 0 else None,
+        on.reshape(h, w),
+        off.reshape(h, w),
+        float(rate),
+        0,
+        "pynn-input",
+    )
 
 
 def read_counts(network: Network, path):
@@ -275,17 +350,30 @@ def read_counts(network: Network, path):
     d = check.load_npz(path, "the counts.npz an export's run.py writes")
     pops = lif_populations(net)
     if "indices" in d.files and "steps" in d.files:
-        raise InputError(path, "an input spike file (run.py's --input), not the counts run.py writes: run "
-                               "python run.py --input FILE --out counts.npz in the export's folder, then decode "
-                               "counts.npz")
-    missing = [k for k in ("duration_ms", "dt_ms", "count_from_ms", *(f"count_{q.name}" for q in pops))
-               if k not in d.files]
+        raise InputError(
+            path,
+            "an input spike file (run.py's --input), not the counts run.py writes: run "
+            "python run.py --input FILE --out counts.npz in the export's folder, then decode "
+            "counts.npz",
+        )
+    missing = [
+        k for k in ("duration_ms", "dt_ms", "count_from_ms", *(f"count_{q.name}" for q in pops)) if k not in d.files
+    ]
     if missing:
-        raise InputError(path, f"not a run.py counts file of this export: no {', '.join(missing[:3])}"
-                               + (f" and {len(missing) - 3} more" if len(missing) > 3 else ""))
+        raise InputError(
+            path,
+            f"not a run.py counts file of this export: no {', '.join(missing[:3])}"
+            + (f" and {len(missing) - 3} more" if len(missing) > 3 else ""),
+        )
     duration, start = float(d["duration_ms"]), float(d["count_from_ms"])
     spikes = {p.name: (d[f"cell_{p.name}"], d[f"t_{p.name}"]) for p in pops} if f"cell_{pops[0].name}" in d else None
-    return SimulationResult(network=net, backend="pynn-export", sites={p.name: np.arange(p.size) for p in pops},
-                            counts={p.name: d[f"count_{p.name}"].astype(np.int64) for p in pops},
-                            count_window_ms=duration - start, simulated_ms=duration, dt_ms=float(d["dt_ms"]),
-                            spikes=spikes)
+    return SimulationResult(
+        network=net,
+        backend="pynn-export",
+        sites={p.name: np.arange(p.size) for p in pops},
+        counts={p.name: d[f"count_{p.name}"].astype(np.int64) for p in pops},
+        count_window_ms=duration - start,
+        simulated_ms=duration,
+        dt_ms=float(d["dt_ms"]),
+        spikes=spikes,
+    )

@@ -9,6 +9,7 @@ as a PyNN connection list would hold them); on a chip with weight-shared
 convolutions (Loihi 2, sPyNNaker's ``ConvolutionConnector``) the synaptic
 memory is smaller, the neuron counts the same.
 """
+
 from __future__ import annotations
 
 import math
@@ -17,9 +18,9 @@ import textwrap
 import numpy as np
 
 from ..network.graph import Network
+from ..pynn.cells import grid_delay, quantise, split_receptors
 from .board import board_network, table, table_values
 from .hardware import LOIHI2, SPINNAKER1, SPINNAKER2
-from ..pynn.cells import grid_delay, quantise, split_receptors
 from .synapses import projection_counts
 
 SCHEMA = "snn-fg.resources/1"
@@ -29,8 +30,9 @@ def _weights(network: Network, pr, tab) -> dict:
     """Receptor -> (min, max) |weight| (mV = nA) the projection puts on it."""
     tgt = network.population(pr.target).neuron
     exc, mag = split_receptors(pr.sign * pr.gain_mv * table_values(tab), pr.sign, tgt.tau_exc_ms, tgt.tau_inh_ms)
-    return {r: (float(mag[m].min()), float(mag[m].max())) for r, m in (("excitatory", exc), ("inhibitory", ~exc))
-            if m.any()}
+    return {
+        r: (float(mag[m].min()), float(mag[m].max())) for r, m in (("excitatory", exc), ("inhibitory", ~exc)) if m.any()
+    }
 
 
 def _lost_at(bits: int, network: Network, pr, tab) -> float:
@@ -45,11 +47,23 @@ def _projection_rows(network: Network, dt_ms: float) -> list:
     for pr in network.projections:
         tab = table(network, pr)
         c = projection_counts(network, pr, tab)
-        rows.append({"name": pr.name, "type": pr.type_name, "source": pr.source, "target": pr.target,
-                     "synapses": c.synapses, "max_fan_in": c.max_fan_in, "max_fan_out": c.max_fan_out,
-                     "delay_ms": pr.delay_ms, "delay_steps": int(round(grid_delay(pr.delay_ms, dt_ms) / dt_ms)),
-                     "weights_mv": _weights(network, pr, tab), "lost_at_8_bits": _lost_at(8, network, pr, tab),
-                     "_fan_in": c.fan_in_by_channel, "_fan_out": c.fan_out_by_channel})
+        rows.append(
+            {
+                "name": pr.name,
+                "type": pr.type_name,
+                "source": pr.source,
+                "target": pr.target,
+                "synapses": c.synapses,
+                "max_fan_in": c.max_fan_in,
+                "max_fan_out": c.max_fan_out,
+                "delay_ms": pr.delay_ms,
+                "delay_steps": int(round(grid_delay(pr.delay_ms, dt_ms) / dt_ms)),
+                "weights_mv": _weights(network, pr, tab),
+                "lost_at_8_bits": _lost_at(8, network, pr, tab),
+                "_fan_in": c.fan_in_by_channel,
+                "_fan_out": c.fan_out_by_channel,
+            }
+        )
     return rows
 
 
@@ -67,9 +81,18 @@ def _population_rows(network: Network, prows: list) -> list:
                     weights[rec] = (min(a, lo), max(b, hi))
             if r["source"] == p.name:
                 fout += r["_fan_out"]
-        out.append({"name": p.name, "role": p.role, "level": p.level, "cells": p.size, "source": p.is_source,
-                    "max_fan_in": int(fin.max()), "max_fan_out": int(fout.max()),
-                    "weights_mv": {k: {"min": lo, "max": hi, "range": hi / lo} for k, (lo, hi) in weights.items()}})
+        out.append(
+            {
+                "name": p.name,
+                "role": p.role,
+                "level": p.level,
+                "cells": p.size,
+                "source": p.is_source,
+                "max_fan_in": int(fin.max()),
+                "max_fan_out": int(fout.max()),
+                "weights_mv": {k: {"min": lo, "max": hi, "range": hi / lo} for k, (lo, hi) in weights.items()},
+            }
+        )
     return out
 
 
@@ -83,7 +106,7 @@ def _spinnaker1(pops, prows, totals) -> dict:
     cores = sum(math.ceil(p["cells"] / per_core) for p in pops)
     slots = lim["delay_slots"].value
     long_src = {r["source"] for r in prows if r["delay_steps"] > slots}
-    cores += sum(math.ceil(p["cells"] / per_core) for p in pops if p["name"] in long_src)   # delay extensions
+    cores += sum(math.ceil(p["cells"] / per_core) for p in pops if p["name"] in long_src)  # delay extensions
     mem_chips = math.ceil(totals["synapses"] * lim["bytes_per_synapse"].value / lim["sdram_per_chip"].value)
     chips = max(math.ceil(cores / lim["cores_placed_per_chip"].value), mem_chips)
     bad = []
@@ -91,16 +114,29 @@ def _spinnaker1(pops, prows, totals) -> dict:
     if totals["max_delay_steps"] > top:
         bad.append(_violation("delay", totals["max_delay_steps"], top, lim["delay_extension"].source))
     top16 = 2 ** lim["weight_bits"].value - 1
-    wide = sorted(((w["range"], f"{p['name']} {rec}") for p in pops for rec, w in p["weights_mv"].items()
-                   if w["range"] > top16), reverse=True)
+    wide = sorted(
+        ((w["range"], f"{p['name']} {rec}") for p in pops for rec, w in p["weights_mv"].items() if w["range"] > top16),
+        reverse=True,
+    )
     if wide:
-        bad.append(_violation(f"weight range (largest/smallest |w|) on one receptor, {len(wide)} receptors "
-                              f"(widest: {wide[0][1]})", f"{wide[0][0]:.3g}", top16, lim["weight_bits"].source))
-    return {"cores": cores, "chips": chips, "boards_spinn5": math.ceil(chips / lim["chips_per_board"].value),
-            "delay_extension_sources": sorted(long_src), "violations": bad,
-            "note": "cores: 256 neurons per core plus one delay-extension core per 256 sources of delays over "
-                    "32 steps; chips: the larger of cores/15 (the cores sPyNNaker places on a chip of 16 free) "
-                    "and synaptic memory at 4 bytes per synapse"}
+        bad.append(
+            _violation(
+                f"weight range (largest/smallest |w|) on one receptor, {len(wide)} receptors (widest: {wide[0][1]})",
+                f"{wide[0][0]:.3g}",
+                top16,
+                lim["weight_bits"].source,
+            )
+        )
+    return {
+        "cores": cores,
+        "chips": chips,
+        "boards_spinn5": math.ceil(chips / lim["chips_per_board"].value),
+        "delay_extension_sources": sorted(long_src),
+        "violations": bad,
+        "note": "cores: 256 neurons per core plus one delay-extension core per 256 sources of delays over "
+        "32 steps; chips: the larger of cores/15 (the cores sPyNNaker places on a chip of 16 free) "
+        "and synaptic memory at 4 bytes per synapse",
+    }
 
 
 def _spinnaker2(pops, prows, totals) -> dict:
@@ -111,37 +147,61 @@ def _spinnaker2(pops, prows, totals) -> dict:
     if totals["distinct_delays"] > 1:
         bad.append(_violation("distinct delays", totals["distinct_delays"], 1, lim["delays"].source))
     bad += _eight_bit(prows, lim["weight_bits"].source)
-    return {"cores": cores, "chips": math.ceil(cores / lim["cores_per_chip"].value), "violations": bad,
-            "note": "cores from memory: 4 bytes per explicit synapse and 32 per neuron in 128 KB (assumed figures)"}
+    return {
+        "cores": cores,
+        "chips": math.ceil(cores / lim["cores_per_chip"].value),
+        "violations": bad,
+        "note": "cores from memory: 4 bytes per explicit synapse and 32 per neuron in 128 KB (assumed figures)",
+    }
 
 
 def _eight_bit(prows, source: str) -> list:
     lossy = sorted(((r["lost_at_8_bits"], r["name"]) for r in prows if r["lost_at_8_bits"] > 0), reverse=True)
     if not lossy:
         return []
-    return [_violation(f"8-bit weights (one scale per projection): {len(lossy)} projections lose weights "
-                       f"(worst: {lossy[0][1]})", f"{100 * lossy[0][0]:.0f} % of its distinct weights round to 0",
-                       "none lost", source)]
+    return [
+        _violation(
+            f"8-bit weights (one scale per projection): {len(lossy)} projections lose weights (worst: {lossy[0][1]})",
+            f"{100 * lossy[0][0]:.0f} % of its distinct weights round to 0",
+            "none lost",
+            source,
+        )
+    ]
 
 
 def _loihi2(pops, prows, totals, two_taus: list) -> dict:
     lim = LOIHI2
     cores = sum(math.ceil(p["cells"] / lim["neurons_per_core"].value) for p in pops if not p["source"])
-    chips = max(math.ceil(totals["neurons"] / lim["neurons_per_chip"].value),
-                math.ceil(totals["synapses"] / lim["synapses_per_chip"].value),
-                math.ceil(cores / lim["cores_per_chip"].value))
+    chips = max(
+        math.ceil(totals["neurons"] / lim["neurons_per_chip"].value),
+        math.ceil(totals["synapses"] / lim["synapses_per_chip"].value),
+        math.ceil(cores / lim["cores_per_chip"].value),
+    )
     bad = []
     if totals["max_delay_steps"] > lim["delay_steps"].value:
         long = sorted({r["name"] for r in prows if r["delay_steps"] > lim["delay_steps"].value})
-        bad.append(_violation(f"delay ({', '.join(long[:4])}{'...' if len(long) > 4 else ''})",
-                              totals["max_delay_steps"], lim["delay_steps"].value, lim["delay_steps"].source))
+        bad.append(
+            _violation(
+                f"delay ({', '.join(long[:4])}{'...' if len(long) > 4 else ''})",
+                totals["max_delay_steps"],
+                lim["delay_steps"].value,
+                lim["delay_steps"].source,
+            )
+        )
     if two_taus:
-        bad.append(_violation("two synaptic time constants", f"{len(two_taus)} populations",
-                              1, lim["synaptic_time_constants"].source))
+        bad.append(
+            _violation(
+                "two synaptic time constants", f"{len(two_taus)} populations", 1, lim["synaptic_time_constants"].source
+            )
+        )
     bad += _eight_bit(prows, lim["weight_bits"].source)
-    return {"cores": cores, "chips": chips, "violations": bad,
-            "note": "chips: the largest of neurons/1 M, explicit synapses/120 M and cores/128 (8 k neurons per "
-                    "core); weight-shared convolutions need less synaptic memory"}
+    return {
+        "cores": cores,
+        "chips": chips,
+        "violations": bad,
+        "note": "chips: the largest of neurons/1 M, explicit synapses/120 M and cores/128 (8 k neurons per "
+        "core); weight-shared convolutions need less synaptic memory",
+    }
 
 
 def resource_report(network: Network, dt_ms: float | None = None, sensor_shape=None) -> dict:
@@ -178,22 +238,38 @@ def resource_report(network: Network, dt_ms: float | None = None, sensor_shape=N
     pops = _population_rows(net, prows)
     lif = [p for p in pops if not p["source"]]
     steps = sorted({r["delay_steps"] for r in prows})
-    totals = {"neurons": sum(p["cells"] for p in lif), "sources": sum(p["cells"] for p in pops if p["source"]),
-              "synapses": sum(r["synapses"] for r in prows),
-              "max_fan_in": max((p["max_fan_in"] for p in lif), default=0),
-              "max_fan_out": max((p["max_fan_out"] for p in pops), default=0),
-              "delay_steps": steps, "max_delay_steps": max(steps, default=0), "distinct_delays": len(steps),
-              "weights_mv": _global_weights(lif)}
+    totals = {
+        "neurons": sum(p["cells"] for p in lif),
+        "sources": sum(p["cells"] for p in pops if p["source"]),
+        "synapses": sum(r["synapses"] for r in prows),
+        "max_fan_in": max((p["max_fan_in"] for p in lif), default=0),
+        "max_fan_out": max((p["max_fan_out"] for p in pops), default=0),
+        "delay_steps": steps,
+        "max_delay_steps": max(steps, default=0),
+        "distinct_delays": len(steps),
+        "weights_mv": _global_weights(lif),
+    }
     two_taus = [p.name for p in net.populations if p.neuron is not None and p.neuron.tau_exc_ms != p.neuron.tau_inh_ms]
     for r in prows:
         del r["_fan_in"], r["_fan_out"]
-    return {"schema": SCHEMA, "frame_shape": list(net.frame_shape),
-            "sensor_shape": None if sensor_shape is None else [int(v) for v in sensor_shape],
-            "input_pool": net.params.input_pool, "levels": net.params.levels,
-            "n_ori": net.params.n_ori, "dt_ms": dt_ms, "notes": list(net.notes[-1:]), "totals": totals,
-            "targets": {"spinnaker1": _spinnaker1(pops, prows, totals), "spinnaker2": _spinnaker2(pops, prows, totals),
-                        "loihi2": _loihi2(pops, prows, totals, two_taus)},
-            "populations": pops, "projections": prows}
+    return {
+        "schema": SCHEMA,
+        "frame_shape": list(net.frame_shape),
+        "sensor_shape": None if sensor_shape is None else [int(v) for v in sensor_shape],
+        "input_pool": net.params.input_pool,
+        "levels": net.params.levels,
+        "n_ori": net.params.n_ori,
+        "dt_ms": dt_ms,
+        "notes": list(net.notes[-1:]),
+        "totals": totals,
+        "targets": {
+            "spinnaker1": _spinnaker1(pops, prows, totals),
+            "spinnaker2": _spinnaker2(pops, prows, totals),
+            "loihi2": _loihi2(pops, prows, totals, two_taus),
+        },
+        "populations": pops,
+        "projections": prows,
+    }
 
 
 def largest_sensor(make, sensor_shape, target: str = "spinnaker1", dt_ms: float | None = None):
@@ -211,7 +287,7 @@ def largest_sensor(make, sensor_shape, target: str = "spinnaker1", dt_ms: float 
         shape = (max(1, round(width * h / w)), width)
         try:
             tg = resource_report(make(shape), dt_ms)["targets"][target]
-        except SnnFgError:      # too small for the network's levels
+        except SnnFgError:  # too small for the network's levels
             return None
         return tg["chips"] if not tg["violations"] else None
 
@@ -221,7 +297,7 @@ def largest_sensor(make, sensor_shape, target: str = "spinnaker1", dt_ms: float 
         c = chips(mid)
         if c is not None and c <= per_board:
             best, lo = {"width": mid, "height": max(1, round(mid * h / w)), "chips": int(c)}, mid + 1
-        elif c is None and mid < w // 8:      # below the smallest buildable size: look larger
+        elif c is None and mid < w // 8:  # below the smallest buildable size: look larger
             lo = mid + 1
         else:
             hi = mid - 1
@@ -234,8 +310,12 @@ def _global_weights(lif) -> dict:
         ws = [p["weights_mv"][rec] for p in lif if rec in p["weights_mv"]]
         if ws:
             lo, hi = min(w["min"] for w in ws), max(w["max"] for w in ws)
-            out[rec] = {"min": lo, "max": hi, "range": hi / lo,
-                        "max_range_on_one_population": max(w["range"] for w in ws)}
+            out[rec] = {
+                "min": lo,
+                "max": hi,
+                "range": hi / lo,
+                "max_range_on_one_population": max(w["range"] for w in ws),
+            }
     return out
 
 
@@ -258,17 +338,24 @@ def report_table(rep: dict) -> str:
     if rep.get("sensor_shape"):
         h, w = rep["sensor_shape"]
     what = f"a {w} x {h} sensor" if pool == 1 or rep.get("sensor_shape") else f"{w} x {h} blocks of a sensor"
-    lines = [f"Whole network for {what} (width x height), {rep['levels']} levels, "
-             f"{rep['n_ori']} orientations, dt {rep['dt_ms']:g} ms"]
+    lines = [
+        f"Whole network for {what} (width x height), {rep['levels']} levels, "
+        f"{rep['n_ori']} orientations, dt {rep['dt_ms']:g} ms"
+    ]
     if pool > 1:
-        lines.append(f"  the sensor seen in {pool} x {pool} blocks: a {rep['frame_shape'][1]} x "
-                     f"{rep['frame_shape'][0]} frame")
-    lines += [f"  neurons {t['neurons']:,}   spike sources {t['sources']:,}   synapses {t['synapses']:,}",
-              f"  max fan-in {t['max_fan_in']:,}   max fan-out {t['max_fan_out']:,}   delays (steps) "
-              f"{', '.join(str(d) for d in t['delay_steps'])}"]
+        lines.append(
+            f"  the sensor seen in {pool} x {pool} blocks: a {rep['frame_shape'][1]} x {rep['frame_shape'][0]} frame"
+        )
+    lines += [
+        f"  neurons {t['neurons']:,}   spike sources {t['sources']:,}   synapses {t['synapses']:,}",
+        f"  max fan-in {t['max_fan_in']:,}   max fan-out {t['max_fan_out']:,}   delays (steps) "
+        f"{', '.join(str(d) for d in t['delay_steps'])}",
+    ]
     for rec, wr in t["weights_mv"].items():
-        lines.append(f"  {rec} weights {readable(wr['min'])} to {readable(wr['max'])} mV: range "
-                     f"{readable(wr['range'])} ({readable(wr['max_range_on_one_population'])} on one population)")
+        lines.append(
+            f"  {rec} weights {readable(wr['min'])} to {readable(wr['max'])} mV: range "
+            f"{readable(wr['range'])} ({readable(wr['max_range_on_one_population'])} on one population)"
+        )
     for name, tg in rep["targets"].items():
         size = f"cores {tg['cores']:,}   chips {tg['chips']:,}"
         if "boards_spinn5" in tg:
@@ -278,9 +365,15 @@ def report_table(rep: dict) -> str:
         lines.append(f"{name:11s} {size}")
         for v in tg["violations"]:
             value, limit = (readable(x) if isinstance(x, (int, float)) else x for x in (v["value"], v["limit"]))
-            lines.append(textwrap.fill(f"violates {v['constraint']}: {value} (limit {limit}; {v['source']})",
-                                       TABLE_WIDTH, initial_indent="  ", subsequent_indent="      ",
-                                       break_on_hyphens=False))
+            lines.append(
+                textwrap.fill(
+                    f"violates {v['constraint']}: {value} (limit {limit}; {v['source']})",
+                    TABLE_WIDTH,
+                    initial_indent="  ",
+                    subsequent_indent="      ",
+                    break_on_hyphens=False,
+                )
+            )
         one = tg.get("largest_sensor_one_board")
         if one:
             lines.append(f"  one board holds at most a {one['width']} x {one['height']} sensor ({one['chips']} chips)")

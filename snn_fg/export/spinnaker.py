@@ -13,6 +13,7 @@ Our populations hold ``channels`` cells per grid point, so one of our Conv
 projections becomes one ``ConvolutionConnector`` per non-zero
 ``(c_out, c_in)`` kernel plane between per-channel 2-D populations.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -33,11 +34,13 @@ def _conv_reason(network: Network, pr) -> str | None:
     k = pr.kernel.array(network.params)
     if (k.shape[2] // 2) % src.stride or (k.shape[3] // 2) % src.stride:
         return "kernel centre off the source lattice"
-    post = spynnaker_post_shape(src.grid, k[:, :, ::src.stride, ::src.stride].shape[2:], tgt.stride // src.stride)
+    post = spynnaker_post_shape(src.grid, k[:, :, :: src.stride, :: src.stride].shape[2:], tgt.stride // src.stride)
     if post != tgt.grid:
-        return (f"sPyNNaker would give a {post[0]} x {post[1]} target (rows x cols) for the "
-                f"{src.grid[0]} x {src.grid[1]} source, not the lattice's {tgt.grid[0]} x {tgt.grid[1]}: it counts "
-                "(n + 2 pad - k + 1) // stride cells, one fewer than our lattice on an odd row or column count")
+        return (
+            f"sPyNNaker would give a {post[0]} x {post[1]} target (rows x cols) for the "
+            f"{src.grid[0]} x {src.grid[1]} source, not the lattice's {tgt.grid[0]} x {tgt.grid[1]}: it counts "
+            "(n + 2 pad - k + 1) // stride cells, one fewer than our lattice on an odd row or column count"
+        )
     return None
 
 
@@ -70,13 +73,16 @@ def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float | N
         into = [pr for pr in network.incoming(name)]
         if any(reasons[pr.name] for pr in into):
             for pr in into:
-                reasons[pr.name] = reasons[pr.name] or ("its target also receives projections that are not "
-                                                        "convolutions (a local-only population takes only "
-                                                        "convolutions; sPyNNaker issue 1224)")
+                reasons[pr.name] = reasons[pr.name] or (
+                    "its target also receives projections that are not "
+                    "convolutions (a local-only population takes only "
+                    "convolutions; sPyNNaker issue 1224)"
+                )
         elif len({pr.delay_ms for pr in into}) > 1:
             for pr in into:
-                reasons[pr.name] = "its target's convolutions have different delays (one delay per local-only " \
-                                   "population)"
+                reasons[pr.name] = (
+                    "its target's convolutions have different delays (one delay per local-only population)"
+                )
     entries = []
     for pr in network.projections:
         e = {"name": pr.name, "source": pr.source, "target": pr.target}
@@ -86,17 +92,29 @@ def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float | N
             k = _lattice_kernel(network, pr)
             planes = [(int(o), int(i)) for o, i in zip(*np.nonzero(np.abs(k).sum((2, 3))))]
             tgt, src = network.population(pr.target), network.population(pr.source)
-            e.update(connector="ConvolutionConnector", strides=tgt.stride // src.stride,
-                     padding=[k.shape[2] // 2, k.shape[3] // 2], kernel_planes=len(planes),
-                     weight_scale_mv=pr.sign * pr.gain_mv, delay_ms=pr.delay_ms)
+            e.update(
+                connector="ConvolutionConnector",
+                strides=tgt.stride // src.stride,
+                padding=[k.shape[2] // 2, k.shape[3] // 2],
+                kernel_planes=len(planes),
+                weight_scale_mv=pr.sign * pr.gain_mv,
+                delay_ms=pr.delay_ms,
+            )
         entries.append(e)
     conv = [e for e in entries if e["connector"] == "ConvolutionConnector"]
-    out = {"schema": "snn-fg.spinnaker-plan/1", "convolution": len(conv),
-           "connector_instances": sum(e["kernel_planes"] for e in conv),
-           "from_list": len(entries) - len(conv), "projections": entries}
+    out = {
+        "schema": "snn-fg.spinnaker-plan/1",
+        "convolution": len(conv),
+        "connector_instances": sum(e["kernel_planes"] for e in conv),
+        "from_list": len(entries) - len(conv),
+        "projections": entries,
+    }
     if estimate:
         from .report import resource_report
 
-        out["estimate"] = {k: v for k, v in resource_report(network, dt_ms)["targets"]["spinnaker1"].items()
-                           if k in ("cores", "chips", "boards_spinn5", "note")}
+        out["estimate"] = {
+            k: v
+            for k, v in resource_report(network, dt_ms)["targets"]["spinnaker1"].items()
+            if k in ("cores", "chips", "boards_spinn5", "note")
+        }
     return out

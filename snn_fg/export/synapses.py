@@ -8,6 +8,7 @@ source row ``r + dr`` lies inside the level (and on the source lattice)
 with every such column. ``tests/test_export.py`` checks the numbers against
 an explicit unrolling at small size.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -31,8 +32,8 @@ class ProjectionCounts:
     synapses: int
     max_fan_in: int
     max_fan_out: int
-    fan_in_by_channel: np.ndarray      # max fan-in of each target channel
-    fan_out_by_channel: np.ndarray     # max fan-out of each source channel
+    fan_in_by_channel: np.ndarray  # max fan-in of each target channel
+    fan_out_by_channel: np.ndarray  # max fan-out of each source channel
 
 
 def _valid(n_from: int, s_from: int, n_level: int, s_to: int, offsets: np.ndarray) -> np.ndarray:
@@ -45,7 +46,7 @@ def _valid(n_from: int, s_from: int, n_level: int, s_to: int, offsets: np.ndarra
 def _conv_counts(tab: ConvTable, src: Population, tgt: Population) -> ProjectionCounts:
     co, ci, dr, dc = tab.taps.T
     lr, lc = tgt.level_shape
-    if tab.wrap:                 # stride 1 both ends: every tap lands on every cell
+    if tab.wrap:  # stride 1 both ends: every tap lands on every cell
         vr_in = np.ones((co.size, tgt.grid[0]), bool)
         vc_in = np.ones((co.size, tgt.grid[1]), bool)
         vr_out = np.ones((co.size, src.grid[0]), bool)
@@ -86,8 +87,13 @@ def _resize_counts(tab, src: Population, tgt: Population) -> ProjectionCounts:
             ti, tj = np.nonzero(ok)
             np.add.at(fout, (ri[ti, a], cj[tj, b]), 1)
     ch = src.channels
-    return ProjectionCounts(int(fin.sum()) * ch, int(fin.max(initial=0)), int(fout.max(initial=0)),
-                            np.full(ch, fin.max(initial=0)), np.full(ch, fout.max(initial=0)))
+    return ProjectionCounts(
+        int(fin.sum()) * ch,
+        int(fin.max(initial=0)),
+        int(fout.max(initial=0)),
+        np.full(ch, fin.max(initial=0)),
+        np.full(ch, fout.max(initial=0)),
+    )
 
 
 def projection_counts(network: Network, pr: Projection, tab=None) -> ProjectionCounts:
@@ -96,9 +102,10 @@ def projection_counts(network: Network, pr: Projection, tab=None) -> ProjectionC
     src, tgt = network.population(pr.source), network.population(pr.target)
     if isinstance(tab, ConvTable):
         small = tab.values.size * tgt.grid[0] * tgt.grid[1] <= _EXPLICIT_MAX
-        folds = tab.wrap and any(2 * int(np.abs(tab.taps[:, 2 + a]).max(initial=0)) + 1 > tgt.level_shape[a]
-                                 for a in (0, 1))
-        if small or folds:       # taps folding onto one source add up: count them explicitly
+        folds = tab.wrap and any(
+            2 * int(np.abs(tab.taps[:, 2 + a]).max(initial=0)) + 1 > tgt.level_shape[a] for a in (0, 1)
+        )
+        if small or folds:  # taps folding onto one source add up: count them explicitly
             return _explicit_counts(network, pr, tab, src, tgt)
         return _conv_counts(tab, src, tgt)
     return _resize_counts(tab, src, tgt)

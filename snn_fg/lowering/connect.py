@@ -6,6 +6,7 @@ index and kernel (or interpolation) value of every synapse. Kernel taps
 under ``prune`` times the largest |value| are left out; the kept fraction of
 ``sum |K|`` is reported.
 """
+
 from __future__ import annotations
 
 from collections import namedtuple
@@ -18,7 +19,7 @@ from ..network.nodes import Population
 from ..network.projections import Conv, Resize
 from .interp import interp_matrix, sparse_rows
 
-_CHUNK = 1 << 22     # elements per vectorised block when following kernel taps
+_CHUNK = 1 << 22  # elements per vectorised block when following kernel taps
 
 
 def positions(pop: Population, flat: np.ndarray):
@@ -61,8 +62,16 @@ def kernel_taps(proj: Conv, network: Network):
     return co, ci, dr, dc, k[co, ci, r, c], float(ab[keep].sum() / total)
 
 
-def conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_sites, network: Network,
-                src_active=None, side: str = "auto"):
+def conv_pairs(
+    proj: Conv,
+    src: Population,
+    tgt: Population,
+    src_sites,
+    tgt_sites,
+    network: Network,
+    src_active=None,
+    side: str = "auto",
+):
     """Synapses (pre, post, K) of a Conv between the given cell sets.
 
     ``src_active`` (optional, bool over src sites) restricts sources to those
@@ -83,19 +92,21 @@ def conv_pairs(proj: Conv, src: Population, tgt: Population, src_sites, tgt_site
     src_map = index_map(src, src_sites)
     if side == "sources" or (side == "auto" and n_src_ch[ci].sum() < n_tgt_ch[co].sum()):
         # a source at level pixel p reaches the target at p - (dr, dc)
-        post, pre, w = _walk_taps(src, live, src_map[live], Taps(ci, co, -dr, -dc, kv), tgt,
-                                  index_map(tgt, tgt_sites), wrap)
+        post, pre, w = _walk_taps(
+            src, live, src_map[live], Taps(ci, co, -dr, -dc, kv), tgt, index_map(tgt, tgt_sites), wrap
+        )
     else:
         # a target at level pixel p reads the source at p + (dr, dc)
         if src_active is not None:
             src_map[src_sites[~src_active]] = -1
-        pre, post, w = _walk_taps(tgt, tgt_sites, np.arange(tgt_sites.size), Taps(co, ci, dr, dc, kv), src,
-                                  src_map, wrap)
+        pre, post, w = _walk_taps(
+            tgt, tgt_sites, np.arange(tgt_sites.size), Taps(co, ci, dr, dc, kv), src, src_map, wrap
+        )
     if wrap and pre.size:
         lr, lc = tgt.level_shape
         kh = 2 * int(np.abs(dr).max()) + 1 if dr.size else 1
         kw = 2 * int(np.abs(dc).max()) + 1 if dc.size else 1
-        if kh > lr or kw > lc:      # taps fold onto the same source: add them up
+        if kh > lr or kw > lc:  # taps fold onto the same source: add them up
             pre, post, w = _merge(pre, post, w, src_sites.size)
     return pre, post, w, kept, int(co.size)
 
@@ -122,14 +133,14 @@ def _walk_taps(pop, cells, local, taps: Taps, other: Population, other_map, wrap
     bounds = np.searchsorted(p_c[order], np.arange(pop.channels + 1))
     to_l, from_l, w_l = [], [], []
     for ch in np.unique(ch_from):
-        loc = order[bounds[ch]:bounds[ch + 1]]
+        loc = order[bounds[ch] : bounds[ch + 1]]
         if loc.size == 0:
             continue
         of_ch = np.nonzero(ch_from == ch)[0]
         r0, c0 = p_r[loc], p_col[loc]
         step = max(1, _CHUNK // loc.size)
         for a0 in range(0, of_ch.size, step):
-            ta = of_ch[a0:a0 + step]
+            ta = of_ch[a0 : a0 + step]
             r = r0[None, :] + dr[ta, None]
             c = c0[None, :] + dc[ta, None]
             if wrap:
@@ -168,7 +179,7 @@ def resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_
     src_map = index_map(src, src_sites)
     if src_active is not None:
         src_map[src_sites[~src_active]] = -1
-    t_c, t_r, t_col = np.unravel_index(tgt_sites, tgt.shape)   # lattice indices
+    t_c, t_r, t_col = np.unravel_index(tgt_sites, tgt.shape)  # lattice indices
     pre_l, post_l, w_l = [], [], []
     kept_w = 0
     for a in range(ri.shape[1]):
@@ -180,8 +191,7 @@ def resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_
             if proj.prune > 0:
                 ok &= np.abs(val) >= proj.prune * peak
             kept_w += int(ok.sum())
-            idx = np.where(ok, src_map[(t_c * src.grid[0] + np.maximum(i_s, 0)) * src.grid[1]
-                                       + np.maximum(j_s, 0)], -1)
+            idx = np.where(ok, src_map[(t_c * src.grid[0] + np.maximum(i_s, 0)) * src.grid[1] + np.maximum(j_s, 0)], -1)
             hit = idx >= 0
             pre_l.append(idx[hit])
             post_l.append(np.nonzero(hit)[0])
@@ -199,7 +209,7 @@ def resize_kept_mass(ar, ac, prune, peak):
     # matrix, so the sums run over the two lists of entries.
     a = np.abs(ar[ar != 0])
     c = np.sort(np.abs(ac[ac != 0]))
-    above = np.concatenate([np.cumsum(c[::-1])[::-1], [0.0]])   # sum of c[k:]
+    above = np.concatenate([np.cumsum(c[::-1])[::-1], [0.0]])  # sum of c[k:]
     first = np.searchsorted(c, prune * peak / a, side="left")
     return float((a * above[first]).sum() / (a.sum() * c.sum()))
 
@@ -207,8 +217,11 @@ def resize_kept_mass(ar, ac, prune, peak):
 def _cat(pre_l, post_l, w_l):
     if not pre_l:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    return (np.concatenate(pre_l).astype(np.int64), np.concatenate(post_l).astype(np.int64),
-            np.concatenate(w_l).astype(np.float64))
+    return (
+        np.concatenate(pre_l).astype(np.int64),
+        np.concatenate(post_l).astype(np.int64),
+        np.concatenate(w_l).astype(np.float64),
+    )
 
 
 def _merge(pre, post, w, n_pre):
@@ -217,5 +230,3 @@ def _merge(pre, post, w, n_pre):
     ws = np.bincount(inv, weights=w, minlength=uniq.size)
     keep = ws != 0
     return (uniq % n_pre)[keep], (uniq // n_pre)[keep], ws[keep]
-
-

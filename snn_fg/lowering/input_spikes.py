@@ -16,6 +16,7 @@ neuron ``2*H*W`` is the window clock of a recording, see
 Spike times are put on the simulation grid (multiples of ``dt``); two spikes
 of one neuron in the same step are merged (Brian2 allows one per step).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -45,7 +46,7 @@ class InputSpikes:
     on: np.ndarray
     off: np.ndarray
     rate_hz: float
-    merged: int = 0        # spikes dropped because they fell in an occupied step
+    merged: int = 0  # spikes dropped because they fell in an occupied step
     kind: str = "frame"
 
     @property
@@ -61,8 +62,12 @@ class InputSpikes:
         """The same input plus window-clock spikes at ``steps`` (a network
         without a clock ignores them). Only for an input that does not repeat."""
         if self.period_steps is not None:
-            check.fail("InputSpikes.with_clock", "period_steps", self.period_steps,
-                       "must be None: a repeating input has no windows to mark")
+            check.fail(
+                "InputSpikes.with_clock",
+                "period_steps",
+                self.period_steps,
+                "must be None: a repeating input has no windows to mark",
+            )
         steps = np.unique(np.asarray(steps, dtype=np.int64))
         idx = np.concatenate([self.indices, np.full(steps.size, self.clock_index, dtype=np.int64)])
         st = np.concatenate([self.steps, steps])
@@ -86,8 +91,9 @@ def _check_dt(dt_ms):
         check.fail("input spikes", "dt_ms", dt_ms, "must be a positive number")
 
 
-def frame_spikes(pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, seed: int = 0,
-                 process: str = "regular") -> InputSpikes:
+def frame_spikes(
+    pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, seed: int = 0, process: str = "regular"
+) -> InputSpikes:
     """Spike trains for an event frame without timing.
 
     ``regular``: each active pixel fires every ``round(1000 / rate_hz / dt)``
@@ -112,7 +118,9 @@ def frame_spikes(pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, see
     if process == "regular":
         k = max(1, int(round(1000.0 / rate_hz / dt_ms)))
         if 1000.0 / (k * dt_ms) > 1.5 * rate_hz or 1000.0 / (k * dt_ms) < rate_hz / 1.5:
-            check.fail("frame_spikes", "rate_hz", rate_hz, f"is not representable as a regular train with dt={dt_ms} ms")
+            check.fail(
+                "frame_spikes", "rate_hz", rate_hz, f"is not representable as a regular train with dt={dt_ms} ms"
+            )
         phase = rng.integers(0, k, size=src.size)
         order = np.lexsort((src, phase))
         return InputSpikes((h, w), src[order], phase[order], k, on, off, 1000.0 / (k * dt_ms), 0, "frame-regular")
@@ -120,7 +128,7 @@ def frame_spikes(pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, see
     if p >= 1:
         check.fail("frame_spikes", "rate_hz", rate_hz, f"means at least one spike per step at dt={dt_ms} ms")
     idx_l, st_l = [], []
-    for s0 in range(0, n_steps, 1000):      # bounded memory for long presentations
+    for s0 in range(0, n_steps, 1000):  # bounded memory for long presentations
         block = min(1000, n_steps - s0)
         hit = rng.random((block, src.size)) < p
         st, j = np.nonzero(hit)
@@ -128,8 +136,9 @@ def frame_spikes(pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, see
         st_l.append(st + s0)
     idx = np.concatenate(idx_l) if idx_l else np.zeros(0, np.int64)
     st = np.concatenate(st_l) if st_l else np.zeros(0, np.int64)
-    return InputSpikes((h, w), idx.astype(np.int64), st.astype(np.int64), None, on, off, float(rate_hz), 0,
-                       "frame-poisson")
+    return InputSpikes(
+        (h, w), idx.astype(np.int64), st.astype(np.int64), None, on, off, float(rate_hz), 0, "frame-poisson"
+    )
 
 
 def _field(events, name):
@@ -181,8 +190,15 @@ def step_spikes(step: np.ndarray, idx: np.ndarray, n_sources: int, gap: int, las
     return key % n_sources, key // n_sources, int(idx.size - key.size)
 
 
-def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source: str = "<events>",
-                 t0_us: float | None = None, refractory_ms: float = 0.0) -> InputSpikes:
+def event_spikes(
+    events,
+    sensor_size,
+    dt_ms: float,
+    replay: bool = True,
+    source: str = "<events>",
+    t0_us: float | None = None,
+    refractory_ms: float = 0.0,
+) -> InputSpikes:
     """Spike trains from timed events (tonic-style: x, y, t in microseconds, p).
 
     ``sensor_size`` is ``(W, H)`` or ``(W, H, 2)``. Times are taken relative to
@@ -206,15 +222,17 @@ def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source:
         raise InputError(source, "no events in the window")
     bad = np.flatnonzero((x < 0) | (x >= w) | (y < 0) | (y >= h))
     if bad.size:
-        raise InputError(source, f"event at x={x[bad[0]]}, y={y[bad[0]]} outside the {w} x {h} sensor",
-                         f"event {bad[0]}")
+        raise InputError(
+            source, f"event at x={x[bad[0]]}, y={y[bad[0]]} outside the {w} x {h} sensor", f"event {bad[0]}"
+        )
     if not np.issubdtype(t.dtype, np.number) or not np.all(np.isfinite(t)):
         raise InputError(source, "timestamps t must be finite numbers (microseconds)")
     t = t.astype(np.float64)
     t0 = t.min() if t0_us is None else float(t0_us)
     if t.min() < t0:
-        raise InputError(source, f"an event at t={t.min():g} us lies before the start t0={t0:g} us",
-                         f"event {int(np.argmin(t))}")
+        raise InputError(
+            source, f"an event at t={t.min():g} us lies before the start t0={t0:g} us", f"event {int(np.argmin(t))}"
+        )
     step = np.floor((t - t0) / (dt_ms * 1000.0)).astype(np.int64)
     gap = int(round(refractory_ms / dt_ms)) if refractory_ms > 0 else 0
     idx_u, st_u, merged = step_spikes(step, source_index(x, y, p, (h, w)), 2 * h * w, gap)
@@ -226,5 +244,4 @@ def event_spikes(events, sensor_size, dt_ms: float, replay: bool = True, source:
     n_active = int(on.sum() + off.sum())
     span_s = (period if period else int(st_u.max()) + 1) * dt_ms / 1000.0
     rate = idx_u.size / max(n_active, 1) / span_s
-    return InputSpikes((h, w), idx_u, st_u, period, on.reshape(h, w), off.reshape(h, w), float(rate), merged,
-                       "events")
+    return InputSpikes((h, w), idx_u, st_u, period, on.reshape(h, w), off.reshape(h, w), float(rate), merged, "events")

@@ -13,6 +13,7 @@ hands such a stream to a backend in segments of a fixed number of steps
 (:meth:`SegmentedInput.segment`), so that the backend holds one segment of
 the input, not the whole run's.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -46,7 +47,7 @@ class SpikeStream:
         self.h, self.w = shape
         self.step_us, self.t0_us = dt_ms * 1000.0, float(t0_us)
         self.gap = int(round(refractory_ms / dt_ms))
-        self.last = np.full(2 * self.h * self.w, -max(self.gap, 1), dtype=np.int64)   # (every first event passes)
+        self.last = np.full(2 * self.h * self.w, -max(self.gap, 1), dtype=np.int64)  # (every first event passes)
         self.steps = np.zeros(0, np.int64)
         self.indices = np.zeros(0, np.int64)
         self.fired = np.zeros(2 * self.h * self.w, bool)
@@ -75,11 +76,11 @@ class SpikeStream:
 
     @property
     def on(self) -> np.ndarray:
-        return self.fired[:self.h * self.w].reshape(self.h, self.w)
+        return self.fired[: self.h * self.w].reshape(self.h, self.w)
 
     @property
     def off(self) -> np.ndarray:
-        return self.fired[self.h * self.w:].reshape(self.h, self.w)
+        return self.fired[self.h * self.w :].reshape(self.h, self.w)
 
 
 @dataclasses.dataclass
@@ -104,7 +105,7 @@ class SegmentedInput:
     spikes_until: object
     clock_steps: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
     kind: str = "events"
-    period_steps = None       # (never repeats)
+    period_steps = None  # (never repeats)
 
     clock_index = InputSpikes.clock_index
     n_sources = InputSpikes.n_sources

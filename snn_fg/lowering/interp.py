@@ -2,6 +2,7 @@
 :class:`~snn_fg.network.projections.Resize` projections and for decoding strided
 lattices. OpenCV's resize is separable, so a 2-D resize is one matrix per axis.
 """
+
 from __future__ import annotations
 
 import functools
@@ -31,13 +32,13 @@ def resize_matrix(n_in: int, n_out: int, interpolation: str = "cubic") -> np.nda
 
 def _keys_cubic(t, a=-0.75):
     t = np.abs(t)
-    return np.where(t <= 1, (a + 2) * t**3 - (a + 3) * t**2 + 1,
-                    np.where(t < 2, a * t**3 - 5 * a * t**2 + 8 * a * t - 4 * a, 0.0))
+    return np.where(
+        t <= 1, (a + 2) * t**3 - (a + 3) * t**2 + 1, np.where(t < 2, a * t**3 - 5 * a * t**2 + 8 * a * t - 4 * a, 0.0)
+    )
 
 
 @functools.lru_cache(maxsize=512)
-def interp_matrix(n_src: int, n_tgt: int, s_src: int = 1, s_tgt: int = 1,
-                  interpolation: str = "cubic") -> np.ndarray:
+def interp_matrix(n_src: int, n_tgt: int, s_src: int = 1, s_tgt: int = 1, interpolation: str = "cubic") -> np.ndarray:
     """1-D interpolation matrix from a source lattice onto a target lattice.
 
     ``n_src``, ``n_tgt`` are the level sizes along the axis, ``s_src``,
@@ -57,8 +58,7 @@ def interp_matrix(n_src: int, n_tgt: int, s_src: int = 1, s_tgt: int = 1,
     t = u - f
     a = np.zeros((l_tgt, l_src))
     rows = np.arange(l_tgt)
-    taps = ((k, _keys_cubic(t - k)) for k in range(-1, 3)) if interpolation == "cubic" else \
-        ((0, 1.0 - t), (1, t))
+    taps = ((k, _keys_cubic(t - k)) for k in range(-1, 3)) if interpolation == "cubic" else ((0, 1.0 - t), (1, t))
     for k, w in taps:
         np.add.at(a, (rows, np.clip(f + k, 0, l_src - 1).astype(int)), w)
     a.setflags(write=False)
@@ -74,8 +74,6 @@ def sparse_rows(a: np.ndarray):
     val = np.zeros((a.shape[0], width))
     for r in range(a.shape[0]):
         c = np.nonzero(nz[r])[0]
-        idx[r, :len(c)] = c
-        val[r, :len(c)] = a[r, c]
+        idx[r, : len(c)] = c
+        val[r, : len(c)] = a[r, c]
     return idx, val
-
-

@@ -6,6 +6,7 @@ The scale is a property of the input-independent description: the largest
 kept |kernel value|, or times the largest interpolation product of a
 Resize) over ``2**(bits-1) - 1``. Weights that round to 0 are dropped.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -17,14 +17,15 @@ dependency order:
   cell that can fire;
 * ``needed``: cells with a connection onto an instantiated cell.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 from .. import validate as check
-from ..pyramid.levels import level_shape, resize
 from ..network.graph import Network
 from ..network.nodes import Population
+from ..pyramid.levels import level_shape, resize
 from .connect import pairs
 
 
@@ -36,8 +37,10 @@ def edge_maps(network: Network, edges1: np.ndarray) -> dict:
     """Edge map of every level: the level-1 map resized bicubically (stage 2)."""
     levels = sorted({p.level for p in network.populations})
     per_octave = network.params.levels_per_octave
-    return {lv: edges1 if lv == 1 else resize(edges1, level_shape(network.frame_shape, lv, per_octave), "cubic")
-            for lv in levels}
+    return {
+        lv: edges1 if lv == 1 else resize(edges1, level_shape(network.frame_shape, lv, per_octave), "cubic")
+        for lv in levels
+    }
 
 
 def input_edges(network: Network, active: dict) -> np.ndarray:
@@ -52,7 +55,7 @@ def input_edges(network: Network, active: dict) -> np.ndarray:
 
 
 def edge_sites(pop: Population, emap: np.ndarray, support_min: float) -> np.ndarray:
-    e = emap[::pop.stride, ::pop.stride]
+    e = emap[:: pop.stride, :: pop.stride]
     mask = e > 0 if pop.level == 1 else e >= support_min
     where = np.flatnonzero(mask.ravel())
     return (np.arange(pop.channels)[:, None] * e.size + where[None]).ravel()
@@ -68,7 +71,7 @@ def _counts_for(pop: Population, proj) -> bool:
 class _Resolver:
     def __init__(self, network: Network, active: dict, fixed: dict):
         self.net = network
-        self.active = active                       # source name -> bool over its pixels (flat)
+        self.active = active  # source name -> bool over its pixels (flat)
         self.sites = {p.name: all_sites(p) for p in network.sources}
         self.sites.update(fixed)
         self.rates = {name: network.input_rate_hz * a for name, a in active.items()}
@@ -76,8 +79,15 @@ class _Resolver:
 
     def pairs(self, proj, src_sites=None, tgt_sites=None):
         src, tgt = self.net.population(proj.source), self.net.population(proj.target)
-        return pairs(self.net, proj, src, tgt, self.sites[src.name] if src_sites is None else src_sites,
-                     self.sites[tgt.name] if tgt_sites is None else tgt_sites, self.active.get(src.name))
+        return pairs(
+            self.net,
+            proj,
+            src,
+            tgt,
+            self.sites[src.name] if src_sites is None else src_sites,
+            self.sites[tgt.name] if tgt_sites is None else tgt_sites,
+            self.active.get(src.name),
+        )
 
     def ready(self, pop: Population, incoming, outgoing) -> bool:
         if pop.sites in ("reachable", "edges&drive"):
@@ -94,8 +104,11 @@ class _Resolver:
             return edge_sites(pop, self.emaps[pop.level], self.net.support_min)
         if rule == "reachable":
             full = all_sites(pop)
-            got = [full[post[pr.sign * k > 0]] for pr in incoming
-                   for pre, post, k, _, _ in [self.pairs(pr, tgt_sites=full)]]
+            got = [
+                full[post[pr.sign * k > 0]]
+                for pr in incoming
+                for pre, post, k, _, _ in [self.pairs(pr, tgt_sites=full)]
+            ]
             return np.unique(np.concatenate([np.zeros(0, np.int64)] + got))
         if rule == "needed":
             full = all_sites(pop)
@@ -126,9 +139,12 @@ class _Resolver:
         if pop.name in self.rates:
             return self.rates[pop.name]
         if not pop.role.startswith("relay"):
-            check.fail(f"Population '{pop.name}'", None, None,
-                       "the edges&drive hint can only use spike sources and relays as sources, not role "
-                       f"{pop.role!r}")
+            check.fail(
+                f"Population '{pop.name}'",
+                None,
+                None,
+                f"the edges&drive hint can only use spike sources and relays as sources, not role {pop.role!r}",
+            )
         val = np.zeros(self.sites[pop.name].size)
         for q in self.net.incoming(pop.name):
             pre, post, k, _, _ = self.pairs(q)
@@ -157,6 +173,10 @@ def resolve_sites(network: Network, active: dict, fixed: dict | None = None) -> 
             pending.remove(p)
             progressed = True
         if not progressed:
-            check.fail("Network", None, None, f"cannot resolve the cells of {', '.join(p.name for p in pending)} "
-                                              "(circular instantiation hints)")
+            check.fail(
+                "Network",
+                None,
+                None,
+                f"cannot resolve the cells of {', '.join(p.name for p in pending)} (circular instantiation hints)",
+            )
     return res.sites, res.emaps

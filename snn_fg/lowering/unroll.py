@@ -10,6 +10,7 @@ tests check it at small size).
 Everything here is numpy; nothing depends on a simulator, so the unrolled
 graph can be checked against the rate model's own convolutions.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -30,12 +31,12 @@ class Connections:
     """Explicit synapses of one projection: local cell indices and weights (mV)."""
 
     projection: Projection
-    pre: np.ndarray        # index into the source's sites
-    post: np.ndarray       # index into the target's sites
-    w: np.ndarray          # float64, signed weight in mV
-    kept_mass: float       # kept fraction of sum |K| after pruning (1.0 if none)
-    taps: int              # kernel taps (Conv) or interpolation weights (Resize) kept
-    n: int = field(init=False)   # synapses; survives free()
+    pre: np.ndarray  # index into the source's sites
+    post: np.ndarray  # index into the target's sites
+    w: np.ndarray  # float64, signed weight in mV
+    kept_mass: float  # kept fraction of sum |K| after pruning (1.0 if none)
+    taps: int  # kernel taps (Conv) or interpolation weights (Resize) kept
+    n: int = field(init=False)  # synapses; survives free()
 
     def __post_init__(self):
         self.n = int(self.pre.size)
@@ -50,10 +51,10 @@ class Unrolled:
     """Cells and synapses of a network for one input."""
 
     network: Network
-    sites: dict                                  # population -> sorted flat indices into its shape
-    connections: list                            # Connections, in network.projections order
-    active: dict = field(default_factory=dict)   # spike source -> bool (rows, cols): pixels with input
-    edges: dict = field(default_factory=dict)    # level -> edge map of the 'edges' hint
+    sites: dict  # population -> sorted flat indices into its shape
+    connections: list  # Connections, in network.projections order
+    active: dict = field(default_factory=dict)  # spike source -> bool (rows, cols): pixels with input
+    edges: dict = field(default_factory=dict)  # level -> edge map of the 'edges' hint
 
     def n_cells(self, name: str) -> int:
         return int(self.sites[name].size)
@@ -74,10 +75,13 @@ class Unrolled:
         syn = self.synapses_in()
         rows = [f"{'population':14s} {'role':12s} {'lvl':>3s} {'cells':>10s} {'full grid':>10s} {'synapses in':>12s}"]
         for p in self.network.populations:
-            rows.append(f"{p.name:14s} {p.role:12s} {p.level:3d} {self.n_cells(p.name):10d} {p.size:10d} "
-                        f"{syn[p.name]:12d}")
-        rows.append(f"{'total':14s} {'':12s} {'':3s} {sum(map(self.n_cells, self.sites)):10d} "
-                    f"{sum(p.size for p in self.network.populations):10d} {sum(syn.values()):12d}")
+            rows.append(
+                f"{p.name:14s} {p.role:12s} {p.level:3d} {self.n_cells(p.name):10d} {p.size:10d} {syn[p.name]:12d}"
+            )
+        rows.append(
+            f"{'total':14s} {'':12s} {'':3s} {sum(map(self.n_cells, self.sites)):10d} "
+            f"{sum(p.size for p in self.network.populations):10d} {sum(syn.values()):12d}"
+        )
         return "\n".join(rows)
 
 
@@ -94,7 +98,7 @@ def choose_sites(network: Network, active: dict, sites: dict | None = None, inst
     act = {}
     for p in network.sources:
         if p.role == "clock" and p.name not in active:
-            active = {**active, p.name: np.ones(p.grid, bool)}     # one cell, always there
+            active = {**active, p.name: np.ones(p.grid, bool)}  # one cell, always there
         if p.name not in active:
             check.fail(f"Population '{p.name}'", None, None, "no input mask given for this spike source")
         a = np.asarray(active[p.name], dtype=bool)
@@ -105,7 +109,7 @@ def choose_sites(network: Network, active: dict, sites: dict | None = None, inst
     for name, idx in (sites or {}).items():
         pop = network.population(name)
         if pop.is_source:
-            continue     # a spike source keeps every pixel
+            continue  # a spike source keeps every pixel
         idx = np.unique(np.asarray(idx, dtype=np.int64))
         if idx.size and (idx[0] < 0 or idx[-1] >= pop.size):
             check.fail(f"Population '{name}'", None, None, f"fixed site index outside its {pop.size} cells")
@@ -113,15 +117,19 @@ def choose_sites(network: Network, active: dict, sites: dict | None = None, inst
     flat = {k: v.ravel() for k, v in act.items()}
     if instantiate == "all":
         emaps = edge_maps(network, input_edges(network, act))
-        whole = {p.name: edge_sites(p, emaps[p.level], network.support_min) if p.edge_mask else all_sites(p)
-                 for p in network.populations if not p.is_source}
+        whole = {
+            p.name: edge_sites(p, emaps[p.level], network.support_min) if p.edge_mask else all_sites(p)
+            for p in network.populations
+            if not p.is_source
+        }
         fixed = whole | fixed
     chosen, emaps = resolve_sites(network, flat, fixed)
     return chosen, act, emaps
 
 
-def unroll(network: Network, active: dict, progress=None, sites: dict | None = None,
-           instantiate: str = "input") -> Unrolled:
+def unroll(
+    network: Network, active: dict, progress=None, sites: dict | None = None, instantiate: str = "input"
+) -> Unrolled:
     """Instantiate the cells and synapses of ``network`` for one input.
 
     Parameters
@@ -146,10 +154,8 @@ def unroll(network: Network, active: dict, progress=None, sites: dict | None = N
     items = network.projections if progress is None else progress(network.projections)
     for pr in items:
         src, tgt = network.population(pr.source), network.population(pr.target)
-        pre, post, k, kept, taps = pairs(network, pr, src, tgt, chosen[src.name], chosen[tgt.name],
-                                         flat.get(src.name))
-        conns.append(Connections(pr, pre.astype(np.int32), post.astype(np.int32),
-                                 pr.sign * pr.gain_mv * k, kept, taps))
+        pre, post, k, kept, taps = pairs(network, pr, src, tgt, chosen[src.name], chosen[tgt.name], flat.get(src.name))
+        conns.append(Connections(pr, pre.astype(np.int32), post.astype(np.int32), pr.sign * pr.gain_mv * k, kept, taps))
     return Unrolled(network, chosen, conns, act, emaps)
 
 

@@ -8,6 +8,7 @@ simulator or exporter.
 * :mod:`.builder` - :func:`build_network`, the figure-ground network;
 * :mod:`.kernels` - the model's DoG and von Mises kernels.
 """
+
 from .builder import build_network
 from .graph import Network
 from .nodes import SITE_RULES, Kernel, Neuron, Population
@@ -15,5 +16,16 @@ from .projections import Conv, Projection, Resize
 from .roles import ROLES
 from .spiking_params import SpikingParams
 
-__all__ = ["ROLES", "SITE_RULES", "Conv", "Kernel", "Network", "Neuron", "Population", "Projection", "Resize",
-           "SpikingParams", "build_network"]
+__all__ = [
+    "ROLES",
+    "SITE_RULES",
+    "Conv",
+    "Kernel",
+    "Network",
+    "Neuron",
+    "Population",
+    "Projection",
+    "Resize",
+    "SpikingParams",
+    "build_network",
+]

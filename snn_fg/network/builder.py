@@ -7,6 +7,7 @@ Every population is named ``<role>_<level>`` and every projection
 projections, and where the network departs from the rate model, is written
 out in ``docs/model.md``.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -14,12 +15,12 @@ import dataclasses
 import numpy as np
 
 from .. import validate as check
-from ..pyramid.levels import check_levels, level_shape
 from ..params import ModelParams
+from ..pyramid.levels import check_levels, level_shape
+from .gains import Gains
 from .graph import Network
 from .nodes import Kernel, Population
 from .projections import Conv, Resize
-from .gains import Gains
 from .side_cells import side_cue
 from .spiking_params import CELL_KINDS, SIMPLE_RATE_HZ, UNTUNED_RATE_HZ, SpikingParams
 
@@ -37,13 +38,25 @@ OPPOSITE_HALF = {"1p": "1n", "1n": "1p", "2p": "2n", "2n": "2p"}
 #: Stage 7: (border-ownership family, grouping polarity, von Mises half,
 #: sign): gL1 = (BL1 - w BD2) (*) m2, gL2 = (BL2 - w BD1) (*) m1,
 #: gD1 = (BD1 - w BL2) (*) m2, gD2 = (BD2 - w BL1) (*) m1.
-GROUPING_INPUTS = (("L1", "L", 2, 1), ("L2", "L", 1, 1), ("D2", "L", 2, -1), ("D1", "L", 1, -1),
-                   ("D1", "D", 2, 1), ("D2", "D", 1, 1), ("L2", "D", 2, -1), ("L1", "D", 1, -1))
+GROUPING_INPUTS = (
+    ("L1", "L", 2, 1),
+    ("L2", "L", 1, 1),
+    ("D2", "L", 2, -1),
+    ("D1", "L", 1, -1),
+    ("D1", "D", 2, 1),
+    ("D2", "D", 1, 1),
+    ("L2", "D", 2, -1),
+    ("L1", "D", 1, -1),
+)
 #: Stage 8: each feedback half as (grouping polarity, half) excitatory minus
 #: (grouping polarity, half) inhibitory: z1 = GL (*) m1 - GD (*) m2,
 #: z2 = GL (*) m2 - GD (*) m1, and their negatives.
-FEEDBACK_INPUTS = {"1p": (("L", 1), ("D", 2)), "1n": (("D", 2), ("L", 1)),
-                   "2p": (("L", 2), ("D", 1)), "2n": (("D", 1), ("L", 2))}
+FEEDBACK_INPUTS = {
+    "1p": (("L", 1), ("D", 2)),
+    "1n": (("D", 2), ("L", 1)),
+    "2p": (("L", 2), ("D", 1)),
+    "2n": (("D", 1), ("L", 2)),
+}
 #: Stage 8: the feedback half (for, against) each border-ownership family:
 #: z1 favours BL1 and opposes BD2, z2 favours BL2 and opposes BD1.
 FEEDBACK_TO_FAMILY = {"L1": ("1p", "1n"), "D2": ("1n", "1p"), "L2": ("2p", "2n"), "D1": ("2n", "2p")}
@@ -68,15 +81,15 @@ NOTES = (
 
 
 def _channel_map(n_out: int, n_in: int, pairs, weight: float = 1.0) -> Kernel:
-    return Kernel(ref="channel_map", args={"n_out": n_out, "n_in": n_in,
-                                           "entries": [[o, i, weight] for o, i in pairs]})
+    return Kernel(ref="channel_map", args={"n_out": n_out, "n_in": n_in, "entries": [[o, i, weight] for o, i in pairs]})
 
 
 def _dog_half(polarity: int, n: int) -> Kernel:
     """DoG kernels from one input polarity to all ``2n`` directions; only the
     polarity's own half (ON: ``0..n-1``, OFF: ``n..2n-1``) is non-zero."""
-    return Kernel(ref="dog", args={"directions": [k if polarity * n <= k < (polarity + 1) * n else None
-                                                  for k in range(2 * n)]})
+    return Kernel(
+        ref="dog", args={"directions": [k if polarity * n <= k < (polarity + 1) * n else None for k in range(2 * n)]}
+    )
 
 
 def _von_mises(half: int, layout: str) -> Kernel:
@@ -97,16 +110,25 @@ class _Builder:
         """Add population ``<role>_<level>`` (``fields``: those of :class:`Population`)."""
         name = f"{role}_{level}"
         shape = shape or level_shape(self.frame_shape, level, self.params.levels_per_octave)
-        self.pops.append(Population(name=name, role=role, level=level, level_shape=shape,
-                                    site_sources=tuple(site_sources), **fields))
+        self.pops.append(
+            Population(name=name, role=role, level=level, level_shape=shape, site_sources=tuple(site_sources), **fields)
+        )
         return name
 
     def _projection(self, kind, src, dst, *, gain, delay=None, verb=None, **fields):
         """Add projection ``<src>_<verb>_<dst>`` (``to`` or ``inh`` by its sign) at the network's delay
         unless ``delay`` is given; ``fields``: those of ``kind``."""
         verb = verb or ("to" if fields.get("sign", 1) > 0 else "inh")
-        self.prjs.append(kind(name=f"{src}_{verb}_{dst}", source=src, target=dst, gain_mv=gain,
-                              delay_ms=self.sp.delay_ms if delay is None else delay, **fields))
+        self.prjs.append(
+            kind(
+                name=f"{src}_{verb}_{dst}",
+                source=src,
+                target=dst,
+                gain_mv=gain,
+                delay_ms=self.sp.delay_ms if delay is None else delay,
+                **fields,
+            )
+        )
 
     def conv(self, src, dst, kernel, **fields):
         """Add a :class:`Conv` of ``kernel`` (``fields``: see :meth:`_projection`)."""
@@ -137,8 +159,9 @@ class _Builder:
         relays = []
         for polarity in ("on", "off"):
             name = self.pop(f"relay_{polarity}", level, neuron=self.neurons["relay"], sites="reachable")
-            self.resize(f"input_{polarity}_1", name, gain=self.gains.relay, interpolation="cubic",
-                        prune=self.sp.prune_resize)
+            self.resize(
+                f"input_{polarity}_1", name, gain=self.gains.relay, interpolation="cubic", prune=self.sp.prune_resize
+            )
             relays.append(name)
         return tuple(relays)
 
@@ -159,16 +182,29 @@ class _Builder:
             neuron = dataclasses.replace(neuron, v_rest_mv=neuron.v_rest_mv - gate)
         s = self.pop("simple", level, channels=n_dir, neuron=neuron, sites="edges&drive", edge_mask=True)
         for kernel, src in zip(kernels, (on, off)):
-            self.conv(src, s, kernel, gain=self.gains.dog, mode="conv", padding="wrap", prune=self.sp.prune_dog,
-                      calibrated=True)
+            self.conv(
+                src,
+                s,
+                kernel,
+                gain=self.gains.dog,
+                mode="conv",
+                padding="wrap",
+                prune=self.sp.prune_dog,
+                calibrated=True,
+            )
         if gate:
             copies = self.sp.gate_copies
             for src in (on, off):
                 for i in range(copies):
-                    self.conv(src, s, _channel_map(n_dir, 1, [(k, 0) for k in range(n_dir)]),
-                              verb="gates" if i == 0 else f"gates{i}",
-                              gain=gate / copies / (self.sp.input_rate_hz * neuron.tau_exc_ms / 1000.0),
-                              delay=self.sp.delay_ms + i * self.sp.gate_spread_ms, calibrated=True)
+                    self.conv(
+                        src,
+                        s,
+                        _channel_map(n_dir, 1, [(k, 0) for k in range(n_dir)]),
+                        verb="gates" if i == 0 else f"gates{i}",
+                        gain=gate / copies / (self.sp.input_rate_hz * neuron.tau_exc_ms / 1000.0),
+                        delay=self.sp.delay_ms + i * self.sp.gate_spread_ms,
+                        calibrated=True,
+                    )
         others = [(a, b) for a in range(n_dir) for b in range(n_dir) if a != b]
         self.conv(s, s, _channel_map(n_dir, n_dir, others), sign=-1, gain=self.gains.simple_inh_simple)
         return s
@@ -180,11 +216,11 @@ class _Builder:
         u = self.pop("untuned", level, neuron=self.neurons["untuned"], sites="edges", edge_mask=True)
         g_u = self.gains.input_to_untuned(self.sp, level)
         for src in (on, off):
-            self.conv(src, u, _channel_map(1, 1, [(0, 0)]), gain=g_u, delay=self.sp.delay_untuned_ms,
-                      calibrated=True)
+            self.conv(src, u, _channel_map(1, 1, [(0, 0)]), gain=g_u, delay=self.sp.delay_untuned_ms, calibrated=True)
         n_dir = self.params.n_dir
-        self.conv(s, u, _channel_map(1, n_dir, [(0, k) for k in range(n_dir)]), sign=-1,
-                  gain=self.gains.simple_inh_untuned)
+        self.conv(
+            s, u, _channel_map(1, n_dir, [(0, k) for k in range(n_dir)]), sign=-1, gain=self.gains.simple_inh_untuned
+        )
         return u
 
     def bo_gate_mv(self) -> float:
@@ -213,16 +249,28 @@ class _Builder:
         if gate:
             neuron = dataclasses.replace(neuron, v_rest_mv=neuron.v_rest_mv - gate)
         tau_s = neuron.tau_exc_ms / 1000.0
-        b = {f: self.pop(f"bo_{f}", level, channels=n, neuron=neuron, sites="reachable",
-                         site_sources=(s, u), edge_mask=True) for f in FAMILIES}
+        b = {
+            f: self.pop(
+                f"bo_{f}", level, channels=n, neuron=neuron, sites="reachable", site_sources=(s, u), edge_mask=True
+            )
+            for f in FAMILIES
+        }
         same = [(o, o) for o in range(n)]
         for f in FAMILIES:
             half = FAMILY_HALF[f] * n
-            self.conv(s, b[f], _channel_map(n, n_dir, [(o, (o + half - n // 2) % n_dir) for o in range(n)]),
-                      gain=self.gains.simple_to_bo + gate / (SIMPLE_RATE_HZ * tau_s))
+            self.conv(
+                s,
+                b[f],
+                _channel_map(n, n_dir, [(o, (o + half - n // 2) % n_dir) for o in range(n)]),
+                gain=self.gains.simple_to_bo + gate / (SIMPLE_RATE_HZ * tau_s),
+            )
             if half == 0:
-                self.conv(u, b[f], _channel_map(n, 1, [(n // 2, 0)]),
-                          gain=self.gains.untuned_to_bo + gate / (UNTUNED_RATE_HZ * tau_s))
+                self.conv(
+                    u,
+                    b[f],
+                    _channel_map(n, 1, [(n // 2, 0)]),
+                    gain=self.gains.untuned_to_bo + gate / (UNTUNED_RATE_HZ * tau_s),
+                )
             if self.gains.bo_inh_bo > 0:
                 self.conv(b[PARTNER[f]], b[f], _channel_map(n, n, same), sign=-1, gain=self.gains.bo_inh_bo)
         return b
@@ -237,10 +285,24 @@ class _Builder:
         B_partner)`` (a ``block_mean`` kernel): s**2 times fewer cells, read
         by the grouping cells through every s-th tap of their kernel."""
         n, st = self.params.n_ori, self.sp.excess_stride
-        same = _channel_map(n, n, [(o, o) for o in range(n)]) if st == 1 else \
-            Kernel(ref="block_mean", args={"channels": n, "stride": st})
-        x = {f: self.pop(f"excess_{f}", level, channels=n, stride=st, neuron=self.neurons["excess"],
-                         sites="reachable", site_sources=(b[f],), edge_mask=st == 1) for f in FAMILIES}
+        same = (
+            _channel_map(n, n, [(o, o) for o in range(n)])
+            if st == 1
+            else Kernel(ref="block_mean", args={"channels": n, "stride": st})
+        )
+        x = {
+            f: self.pop(
+                f"excess_{f}",
+                level,
+                channels=n,
+                stride=st,
+                neuron=self.neurons["excess"],
+                sites="reachable",
+                site_sources=(b[f],),
+                edge_mask=st == 1,
+            )
+            for f in FAMILIES
+        }
         gain = self.gains.bo_to_excess * st
         for f in FAMILIES:
             self.conv(b[f], x[f], same, gain=gain)
@@ -258,8 +320,17 @@ class _Builder:
         model's first iteration does, and with the model's inhibition once
         feedback has chosen. ``"direct"``: the rival cells inhibit as they are."""
         st = self.sp.grouping_stride
-        g = {pol: self.pop(f"group_{pol}", level, stride=st, neuron=self.neurons["group"], sites="reachable",
-                           site_sources=tuple(b.values())) for pol in ("L", "D")}
+        g = {
+            pol: self.pop(
+                f"group_{pol}",
+                level,
+                stride=st,
+                neuron=self.neurons["group"],
+                sites="reachable",
+                site_sources=tuple(b.values()),
+            )
+            for pol in ("L", "D")
+        }
         w = self.params.w_inh
         by_excess = w > 0 and self.sp.rival_inhibition == "excess"
         rivals = self.excess_cells(level, b) if by_excess else b
@@ -270,8 +341,14 @@ class _Builder:
             if sign < 0 and w == 0:
                 continue
             gain = self.gains.bo_to_group * (1.0 if sign > 0 else w * sparse * Gains.balance(self.neurons["group"]))
-            self.conv((b if sign > 0 else rivals)[fam], g[pol], _von_mises(half, "gather"), sign=sign, gain=gain,
-                      prune=self.sp.prune_vm)
+            self.conv(
+                (b if sign > 0 else rivals)[fam],
+                g[pol],
+                _von_mises(half, "gather"),
+                sign=sign,
+                gain=gain,
+                prune=self.sp.prune_vm,
+            )
         if self.params.grouping_polarity == "compete":
             for a, c in (("L", "D"), ("D", "L")):
                 self.conv(g[a], g[c], _channel_map(1, 1, [(0, 0)]), sign=-1, gain=self.gains.group_inh_group)
@@ -284,18 +361,39 @@ class _Builder:
         border-ownership cell inhibits it, the half for it excites it."""
         st = self.sp.grouping_stride
         gain = self.gains.group_to_feedback * st * st
-        z = {k: self.pop(f"feedback_{k}", level, channels=self.params.n_ori, stride=st,
-                         neuron=self.neurons["feedback"], sites="needed") for k in FEEDBACK_HALVES}
+        z = {
+            k: self.pop(
+                f"feedback_{k}",
+                level,
+                channels=self.params.n_ori,
+                stride=st,
+                neuron=self.neurons["feedback"],
+                sites="needed",
+            )
+            for k in FEEDBACK_HALVES
+        }
         for k in FEEDBACK_HALVES:
             (pol_for, half_for), (pol_against, half_against) = FEEDBACK_INPUTS[k]
             self.conv(g[pol_for], z[k], _von_mises(half_for, "scatter"), gain=gain, prune=self.sp.prune_vm)
-            self.conv(g[pol_against], z[k], _von_mises(half_against, "scatter"), sign=-1,
-                      gain=gain * Gains.balance(self.neurons["feedback"]), prune=self.sp.prune_vm)
+            self.conv(
+                g[pol_against],
+                z[k],
+                _von_mises(half_against, "scatter"),
+                sign=-1,
+                gain=gain * Gains.balance(self.neurons["feedback"]),
+                prune=self.sp.prune_vm,
+            )
         for fam, (k_for, k_against) in FEEDBACK_TO_FAMILY.items():
             for k, sign, gain in ((k_for, 1, self.gains.feedback_to_bo), (k_against, -1, self.gains.feedback_inh_bo)):
                 if gain > 0:
-                    self.resize(z[k], b[fam], sign=sign, gain=gain, interpolation=self.sp.feedback_interpolation,
-                                delay=self.sp.delay_feedback_ms)
+                    self.resize(
+                        z[k],
+                        b[fam],
+                        sign=sign,
+                        gain=gain,
+                        interpolation=self.sp.feedback_interpolation,
+                        delay=self.sp.delay_feedback_ms,
+                    )
 
     def pooled_feedback(self, level, g):
         """Stage 8 with pooled grouping polarities (``grouping_polarity="pool"``):
@@ -310,8 +408,14 @@ class _Builder:
             (pol_for, half_for), (pol_against, half_against) = FEEDBACK_INPUTS[k]
             z = f"feedback_{k}_{level}"
             self.conv(g[other[pol_for]], z, _von_mises(half_for, "scatter"), gain=gain, prune=self.sp.prune_vm)
-            self.conv(g[other[pol_against]], z, _von_mises(half_against, "scatter"), sign=-1,
-                      gain=gain * Gains.balance(self.neurons["feedback"]), prune=self.sp.prune_vm)
+            self.conv(
+                g[other[pol_against]],
+                z,
+                _von_mises(half_against, "scatter"),
+                sign=-1,
+                gain=gain * Gains.balance(self.neurons["feedback"]),
+                prune=self.sp.prune_vm,
+            )
 
     def window_clock(self):
         """The window clock: one spike source that fires as each window of a
@@ -323,8 +427,13 @@ class _Builder:
         clock = self.pop("clock", 1, shape=(1, 1))
         for level in range(1, self.params.levels + 1):
             for pol in ("L", "D"):
-                self.resize(clock, f"group_{pol}_{level}", sign=-1, interpolation="linear",
-                            gain=self.sp.clock_inh_group * self.sp.group.v_th_mv)
+                self.resize(
+                    clock,
+                    f"group_{pol}_{level}",
+                    sign=-1,
+                    interpolation="linear",
+                    gain=self.sp.clock_inh_group * self.sp.group.v_th_mv,
+                )
 
     def pooling(self):
         """Stage 8 across levels, top-down: z_l += decay * resize(z_{l+1}), for
@@ -332,16 +441,26 @@ class _Builder:
         for level in range(1, self.params.levels):
             for k in FEEDBACK_HALVES:
                 dst = f"feedback_{k}_{level}"
-                self.resize(f"feedback_{k}_{level + 1}", dst, gain=self.gains.pool,
-                            interpolation=self.sp.pool_interpolation, prune=self.sp.prune_resize)
-                self.resize(f"feedback_{OPPOSITE_HALF[k]}_{level + 1}", dst, sign=-1,
-                            gain=self.gains.pool * Gains.balance(self.neurons["feedback"]),
-                            interpolation=self.sp.pool_interpolation,
-                            prune=self.sp.prune_resize)
+                self.resize(
+                    f"feedback_{k}_{level + 1}",
+                    dst,
+                    gain=self.gains.pool,
+                    interpolation=self.sp.pool_interpolation,
+                    prune=self.sp.prune_resize,
+                )
+                self.resize(
+                    f"feedback_{OPPOSITE_HALF[k]}_{level + 1}",
+                    dst,
+                    sign=-1,
+                    gain=self.gains.pool * Gains.balance(self.neurons["feedback"]),
+                    interpolation=self.sp.pool_interpolation,
+                    prune=self.sp.prune_resize,
+                )
 
 
-def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
-                  spiking: SpikingParams = SpikingParams()) -> Network:
+def build_network(
+    params: ModelParams = ModelParams(), frame_shape=(321, 481), spiking: SpikingParams = SpikingParams()
+) -> Network:
     """The spiking figure-ground network for frames of ``frame_shape``.
 
     Parameters
@@ -378,8 +497,12 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
     frame_shape = check.shape2("build_network", "frame_shape", frame_shape)
     check_levels(frame_shape, params.levels, "build_network", params.levels_per_octave)
     if params.n_ori % 2:
-        check.fail("build_network", "params.n_ori", params.n_ori,
-                   "must be even (index n_ori/2 is the untuned cells' orientation)")
+        check.fail(
+            "build_network",
+            "params.n_ori",
+            params.n_ori,
+            "must be even (index n_ori/2 is the untuned cells' orientation)",
+        )
     bld = _Builder(params, frame_shape, spiking)
     for level in range(1, params.levels + 1):
         on, off = bld.inputs(level)
@@ -394,7 +517,15 @@ def build_network(params: ModelParams = ModelParams(), frame_shape=(321, 481),
     side_cue(bld)
     if spiking.clock_inh_group > 0:
         bld.window_clock()
-    return Network(params=params, frame_shape=frame_shape, populations=tuple(bld.pops),
-                   projections=tuple(bld.prjs), input_rate_hz=spiking.input_rate_hz,
-                   support_min=spiking.support_min, drive_min=spiking.drive_min,
-                   input_refractory_ms=spiking.input_refractory_ms, dt_ms=spiking.dt_ms, notes=NOTES)
+    return Network(
+        params=params,
+        frame_shape=frame_shape,
+        populations=tuple(bld.pops),
+        projections=tuple(bld.prjs),
+        input_rate_hz=spiking.input_rate_hz,
+        support_min=spiking.support_min,
+        drive_min=spiking.drive_min,
+        input_refractory_ms=spiking.input_refractory_ms,
+        dt_ms=spiking.dt_ms,
+        notes=NOTES,
+    )

@@ -2,6 +2,7 @@
 of its target cells' threshold and synaptic time constant: a gain of ``g``
 thresholds of mean current at the reference rate of its source
 (:mod:`snn_fg.network.spiking_params`)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -15,8 +16,8 @@ from .spiking_params import CELL_RATE_HZ, SIMPLE_RATE_HZ, UNTUNED_RATE_HZ, Spiki
 class Gains:
     """Millivolts per spike (per unit kernel value) of each kind of projection."""
 
-    dog: float                   # input (or relay) -> simple cells, per unit DoG weight
-    relay: float                 # input -> relay, per unit interpolation weight
+    dog: float  # input (or relay) -> simple cells, per unit DoG weight
+    relay: float  # input -> relay, per unit interpolation weight
     simple_to_bo: float
     untuned_to_bo: float
     feedback_to_bo: float
@@ -28,7 +29,7 @@ class Gains:
     bo_inh_bo: float
     group_inh_group: float
     simple_inh_untuned: float
-    pool: float                  # feedback cells of level l+1 -> level l
+    pool: float  # feedback cells of level l+1 -> level l
 
     @classmethod
     def of(cls, params: ModelParams, sp: SpikingParams) -> "Gains":
@@ -60,7 +61,9 @@ class Gains:
             # CELL_RATE_HZ is under the drive drive_for_rate(CELL_RATE_HZ) (2.6 thresholds for the
             # default cell, leak and refractoriness included; reading it as I / (tau_m v_th), 2
             # thresholds, passed on 0.23-0.41 of the coarse levels' share, docs/model.md stage 8)
-            pool=sp.pool_gain * params.pyramid_decay * fb.drive_for_rate(CELL_RATE_HZ)
+            pool=sp.pool_gain
+            * params.pyramid_decay
+            * fb.drive_for_rate(CELL_RATE_HZ)
             / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0),
         )
 

@@ -5,6 +5,7 @@ what ``networks/*.json`` stores: a user can edit a stored description (a gain,
 a delay, a time constant) and run it with ``snn-fg run INPUT --model spiking
 --network FILE.json``.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -14,8 +15,8 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError, ParameterError
-from ..pyramid.levels import level_shape
 from ..params import ModelParams
+from ..pyramid.levels import level_shape
 from .nodes import Population
 from .projections import Conv, Projection, projection_from_dict
 
@@ -74,12 +75,14 @@ class Network:
         object.__setattr__(self, "frame_shape", check.shape2(owner, "frame_shape", self.frame_shape))
         for name in ("populations", "projections", "notes"):
             object.__setattr__(self, name, tuple(getattr(self, name)))
-        object.__setattr__(self, "input_rate_hz",
-                           check.number(owner, "input_rate_hz", self.input_rate_hz, lo=0, lo_open=True))
+        object.__setattr__(
+            self, "input_rate_hz", check.number(owner, "input_rate_hz", self.input_rate_hz, lo=0, lo_open=True)
+        )
         object.__setattr__(self, "support_min", check.number(owner, "support_min", self.support_min, lo=0))
         object.__setattr__(self, "drive_min", check.number(owner, "drive_min", self.drive_min, lo=0))
-        object.__setattr__(self, "input_refractory_ms",
-                           check.number(owner, "input_refractory_ms", self.input_refractory_ms, lo=0))
+        object.__setattr__(
+            self, "input_refractory_ms", check.number(owner, "input_refractory_ms", self.input_refractory_ms, lo=0)
+        )
         object.__setattr__(self, "one_grid", check.flag(owner, "one_grid", self.one_grid))
         object.__setattr__(self, "dt_ms", check.number(owner, "dt_ms", self.dt_ms, lo=0, lo_open=True))
         object.__setattr__(self, "_by_name", self._check_populations())
@@ -97,8 +100,12 @@ class Network:
                 check.fail(owner, "level", p.level, f"exceeds params.levels={self.params.levels}")
             want = _grid_shape(p, self.frame_shape, self.params.levels_per_octave, self.one_grid)
             if p.level_shape != want:
-                check.fail(owner, "level_shape", p.level_shape,
-                           f"differs from level {p.level} of a {self.frame_shape} frame, {want}")
+                check.fail(
+                    owner,
+                    "level_shape",
+                    p.level_shape,
+                    f"differs from level {p.level} of a {self.frame_shape} frame, {want}",
+                )
             pops[p.name] = p
         for p in self.populations:
             for q in p.site_sources:
@@ -124,19 +131,30 @@ class Network:
             if isinstance(pr, Conv):
                 self._check_conv(pr, src, tgt)
             elif src.channels != tgt.channels:
-                check.fail(owner, None, None, f"source '{src.name}' has {src.channels} channels, target "
-                                              f"'{tgt.name}' {tgt.channels}; a Resize maps channel to channel")
+                check.fail(
+                    owner,
+                    None,
+                    None,
+                    f"source '{src.name}' has {src.channels} channels, target "
+                    f"'{tgt.name}' {tgt.channels}; a Resize maps channel to channel",
+                )
 
     def _check_conv(self, pr: Conv, src: Population, tgt: Population):
         owner = pr._owner
-        if src.level != tgt.level and not self.one_grid:      # on one grid every level has the frame's pixels
-            check.fail(owner, None, None, f"source '{src.name}' (level {src.level}) and target '{tgt.name}' "
-                                          f"(level {tgt.level}) must share a level; use a Resize between levels")
+        if src.level != tgt.level and not self.one_grid:  # on one grid every level has the frame's pixels
+            check.fail(
+                owner,
+                None,
+                None,
+                f"source '{src.name}' (level {src.level}) and target '{tgt.name}' "
+                f"(level {tgt.level}) must share a level; use a Resize between levels",
+            )
         k = pr.kernel.array(self.params)
         for axis, pop, end in ((0, tgt, "output"), (1, src, "input")):
             if k.shape[axis] != pop.channels:
-                check.fail(owner, None, None, f"kernel has {k.shape[axis]} {end} channels but "
-                                              f"'{pop.name}' has {pop.channels}")
+                check.fail(
+                    owner, None, None, f"kernel has {k.shape[axis]} {end} channels but '{pop.name}' has {pop.channels}"
+                )
         if pr.padding == "wrap" and (src.stride != 1 or tgt.stride != 1):
             check.fail(owner, "padding", "wrap", "needs stride 1 on both ends")
 
@@ -154,8 +172,9 @@ class Network:
         """The population of ``role`` at ``level`` (exactly one must exist)."""
         found = self.by_role(role, level)
         if len(found) != 1:
-            check.fail("Network", None, None, f"level {level} has {len(found)} populations of role "
-                                              f"{role!r}, need exactly 1")
+            check.fail(
+                "Network", None, None, f"level {level} has {len(found)} populations of role {role!r}, need exactly 1"
+            )
         return found[0]
 
     def incoming(self, name: str) -> list[Projection]:
@@ -179,16 +198,20 @@ class Network:
         """
         rate = check.number("Network.calibrated", "input_rate_hz", input_rate_hz, lo=0, lo_open=True)
         factor = self.input_rate_hz / rate
-        prjs = tuple(dataclasses.replace(pr, gain_mv=pr.gain_mv * factor) if pr.calibrated else pr
-                     for pr in self.projections)
+        prjs = tuple(
+            dataclasses.replace(pr, gain_mv=pr.gain_mv * factor) if pr.calibrated else pr for pr in self.projections
+        )
         return dataclasses.replace(self, projections=prjs, input_rate_hz=rate)
 
     def without_feedback(self) -> "Network":
         """The same network without the feedback onto border-ownership cells
         (the ablation of stage 8: both sides of every border stay equal)."""
+
         def feedback(pr):
-            return self.population(pr.source).role.startswith("feedback") and \
-                self.population(pr.target).role.startswith("bo_")
+            return self.population(pr.source).role.startswith("feedback") and self.population(
+                pr.target
+            ).role.startswith("bo_")
+
         return dataclasses.replace(self, projections=tuple(pr for pr in self.projections if not feedback(pr)))
 
     def resized(self, frame_shape) -> "Network":
@@ -196,21 +219,30 @@ class Network:
         shared, so only the populations' level shapes change)."""
         shape = check.shape2("Network.resized", "frame_shape", frame_shape)
         per_octave = self.params.levels_per_octave
-        pops = tuple(dataclasses.replace(p, level_shape=_grid_shape(p, shape, per_octave, self.one_grid))
-                     for p in self.populations)
+        pops = tuple(
+            dataclasses.replace(p, level_shape=_grid_shape(p, shape, per_octave, self.one_grid))
+            for p in self.populations
+        )
         return dataclasses.replace(self, frame_shape=shape, populations=pops)
 
     # -- serialisation -----------------------------------------------------
     def to_dict(self) -> dict:
         # one_grid and dt_ms only when not the default: the stored descriptions (and their fingerprints)
         # stay as they were
-        return {"schema": SCHEMA, "params": self.params.to_dict(), "frame_shape": list(self.frame_shape),
-                "input_rate_hz": self.input_rate_hz, "support_min": self.support_min,
-                "drive_min": self.drive_min, "input_refractory_ms": self.input_refractory_ms,
-                **({"one_grid": True} if self.one_grid else {}),
-                **({"dt_ms": self.dt_ms} if self.dt_ms != DEFAULT_DT_MS else {}), "notes": list(self.notes),
-                "populations": [p.to_dict() for p in self.populations],
-                "projections": [pr.to_dict() for pr in self.projections]}
+        return {
+            "schema": SCHEMA,
+            "params": self.params.to_dict(),
+            "frame_shape": list(self.frame_shape),
+            "input_rate_hz": self.input_rate_hz,
+            "support_min": self.support_min,
+            "drive_min": self.drive_min,
+            "input_refractory_ms": self.input_refractory_ms,
+            **({"one_grid": True} if self.one_grid else {}),
+            **({"dt_ms": self.dt_ms} if self.dt_ms != DEFAULT_DT_MS else {}),
+            "notes": list(self.notes),
+            "populations": [p.to_dict() for p in self.populations],
+            "projections": [pr.to_dict() for pr in self.projections],
+        }
 
     @classmethod
     def from_dict(cls, d: dict) -> "Network":
@@ -218,8 +250,19 @@ class Network:
             check.fail("Network", None, None, f"expected a mapping, got {type(d).__name__}")
         if d.get("schema") != SCHEMA:
             check.fail("Network", "schema", d.get("schema"), f"is not {SCHEMA!r}")
-        fields = {"params", "frame_shape", "input_rate_hz", "support_min", "drive_min", "input_refractory_ms",
-                  "one_grid", "dt_ms", "notes", "populations", "projections"}
+        fields = {
+            "params",
+            "frame_shape",
+            "input_rate_hz",
+            "support_min",
+            "drive_min",
+            "input_refractory_ms",
+            "one_grid",
+            "dt_ms",
+            "notes",
+            "populations",
+            "projections",
+        }
         check.known_keys("Network", set(d) - {"schema"}, fields)
         missing = sorted({"params", "frame_shape", "populations", "projections"} - set(d))
         if missing:
@@ -265,10 +308,14 @@ class Network:
             raise InputError(path, f"invalid network description: {exc}") from None
 
     def summary(self) -> str:
-        lines = [f"Network for a {self.frame_shape[0]} x {self.frame_shape[1]} frame, "
-                 f"{self.params.levels} levels: {len(self.populations)} populations, "
-                 f"{len(self.projections)} projections"]
+        lines = [
+            f"Network for a {self.frame_shape[0]} x {self.frame_shape[1]} frame, "
+            f"{self.params.levels} levels: {len(self.populations)} populations, "
+            f"{len(self.projections)} projections"
+        ]
         for p in self.populations:
-            lines.append(f"  {p.name:14s} {p.role:12s} level {p.level:2d} grid {p.grid} x{p.channels} "
-                         f"stride {p.stride} sites={p.sites}")
+            lines.append(
+                f"  {p.name:14s} {p.role:12s} level {p.level:2d} grid {p.grid} x{p.channels} "
+                f"stride {p.stride} sites={p.sites}"
+            )
         return "\n".join(lines)

@@ -12,6 +12,7 @@ These are the weight-shared convolutions of the network description; the rate
 model applies them as convolutions/correlations, the spiking simulator unrolls
 them into synapses.
 """
+
 from __future__ import annotations
 
 import functools
@@ -38,8 +39,7 @@ def _dog_kernels_cached(s1, s2, half_width, step, n_dir):
     out = np.empty((n_dir, n, n))
     for k in range(n_dir):
         m = cv2.getRotationMatrix2D((c, c), 360.0 * k / n_dir, 1.0)
-        out[k] = cv2.warpAffine(base, m, (n, n), flags=cv2.INTER_LINEAR,
-                                borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        out[k] = cv2.warpAffine(base, m, (n, n), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     out.setflags(write=False)
     return out
 
@@ -51,8 +51,7 @@ def dog_kernels(params: ModelParams = ModelParams()) -> np.ndarray:
     ``360*k/(2*n_ori)`` degrees counter-clockwise as displayed, about the
     centre pixel, with bilinear interpolation and zeros outside.
     """
-    return _dog_kernels_cached(params.dog_s1, params.dog_s2, params.dog_half_width,
-                               params.dog_step, params.n_dir)
+    return _dog_kernels_cached(params.dog_s1, params.dog_s2, params.dog_half_width, params.dog_step, params.n_dir)
 
 
 @functools.lru_cache(maxsize=16)
@@ -99,10 +98,10 @@ def half_disc(radius: float, theta: float) -> np.ndarray:
     line are left out, ``area`` is one half's pixel count. Correlated with a
     map, it gives the map's mean on ``theta``'s side minus its mean on the other."""
     k = int(np.ceil(radius))
-    rows, cols = np.mgrid[-k:k + 1, -k:k + 1]
+    rows, cols = np.mgrid[-k : k + 1, -k : k + 1]
     # rounded: cos(pi/2) is 6e-17, not 0, which would keep one pixel row of the line on each side by its sign
     along = np.round(cols * np.cos(theta) - rows * np.sin(theta), 9)
-    inside = (rows ** 2 + cols ** 2 <= radius ** 2) & (np.abs(along) >= 1)
+    inside = (rows**2 + cols**2 <= radius**2) & (np.abs(along) >= 1)
     return np.where(inside, np.sign(along), 0.0) / max(inside.sum() / 2, 1)
 
 

@@ -20,6 +20,7 @@ serialisation written once (:class:`Node`).
 * :class:`Kernel` - a weight-shared kernel ``(C_out, C_in, kh, kw)`` named by
   reference to the model's own kernel functions, materialised on demand.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -159,8 +160,9 @@ class Neuron(Node):
         """The steady drive (mV above ``v_rest`` that a constant current holds
         the membrane at, ``R I``) under which the cell fires at ``rate_hz``:
         the inverse of ``1 / (t_ref + tau_m ln((v_inf - v_reset) / (v_inf - v_th)))``."""
-        rate_hz = check.number("Neuron.drive_for_rate", "rate_hz", rate_hz, lo=0, lo_open=True,
-                               hi=self.max_rate_hz, hi_open=True)
+        rate_hz = check.number(
+            "Neuron.drive_for_rate", "rate_hz", rate_hz, lo=0, lo_open=True, hi=self.max_rate_hz, hi_open=True
+        )
         grow = math.exp((1000.0 / rate_hz - self.t_ref_ms) / self.tau_m_ms)
         v_inf = (grow * self.v_th_mv - self.v_reset_mv) / (grow - 1.0)
         return v_inf - self.v_rest_mv
@@ -245,12 +247,14 @@ class Population(Node):
 
 def _json_plain(value, owner):
     """``value`` as plain JSON data (lists, dicts, numbers), rejecting what JSON cannot hold."""
+
     def default(x):
         if isinstance(x, np.ndarray):
             return x.tolist()
         if isinstance(x, np.generic):
             return x.item()
         raise TypeError(type(x).__name__)
+
     try:
         return json.loads(json.dumps(value, sort_keys=True, default=default, allow_nan=False))
     except (TypeError, ValueError) as exc:
@@ -368,6 +372,6 @@ class Kernel(Node):
             st = a["stride"]
             tent = 1.0 - np.abs(np.arange(1 - st, st)) / st
             out = np.zeros((a["channels"], a["channels"], 2 * st - 1, 2 * st - 1))
-            out[np.arange(a["channels"]), np.arange(a["channels"])] = np.outer(tent, tent) / st ** 2
+            out[np.arange(a["channels"]), np.arange(a["channels"])] = np.outer(tent, tent) / st**2
             return out
         return np.asarray(a["data"], dtype=float)

@@ -8,6 +8,7 @@ the kernel (or interpolation) value, so a kernel with negative lobes (the
 DoG, bicubic interpolation) is split between the two currents while its
 balance is kept.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -16,6 +16,7 @@ a 346 x 260 DAVIS or an image alike.
   ``docs/model.md`` ("The compact network") gives each choice with what it
   saves and costs.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -23,9 +24,9 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError
-from ..pyramid.pool import pooled_shape
-from ..pyramid.levels import check_levels
 from ..params import ModelParams
+from ..pyramid.levels import check_levels
+from ..pyramid.pool import pooled_shape
 from .builder import build_network
 from .graph import Network
 from .spiking_params import SpikingParams
@@ -42,8 +43,9 @@ class Recipe:
 
     def build(self, sensor_shape) -> Network:
         """The network for a sensor (or image) of ``sensor_shape`` (rows, cols)."""
-        shape = pooled_shape(check.shape2(f"recipe {self.name!r}", "sensor_shape", sensor_shape),
-                             self.params.input_pool)
+        shape = pooled_shape(
+            check.shape2(f"recipe {self.name!r}", "sensor_shape", sensor_shape), self.params.input_pool
+        )
         check_levels(shape, self.params.levels, f"recipe {self.name!r}", self.params.levels_per_octave)
         return build_network(self.params, shape, self.spiking)
 
@@ -59,41 +61,68 @@ class Lever:
     spiking: dict
 
     def apply(self, recipe: Recipe) -> Recipe:
-        return Recipe(recipe.name, recipe.summary, recipe.params.replace(**self.params),
-                      recipe.spiking.replace(**self.spiking))
+        return Recipe(
+            recipe.name, recipe.summary, recipe.params.replace(**self.params), recipe.spiking.replace(**self.spiking)
+        )
 
 
 #: The compact network's departures from the default, in the order
 #: ``docs/model.md`` ("The compact network") measures them one after the other.
 COMPACT_LEVERS = (
-    Lever("pooled input", "the sensor pooled 3 x 3 before stage 1 (the model sees blocks), R0 = 4 blocks (12 px)",
-          {"input_pool": 3, "r0": 4.0, "levels": 7}, {}),
-    Lever("input refractory period", "a block and polarity passes on one event per 60 ms",
-          {}, {"input_refractory_ms": 60.0}),
+    Lever(
+        "pooled input",
+        "the sensor pooled 3 x 3 before stage 1 (the model sees blocks), R0 = 4 blocks (12 px)",
+        {"input_pool": 3, "r0": 4.0, "levels": 7},
+        {},
+    ),
+    Lever(
+        "input refractory period",
+        "a block and polarity passes on one event per 60 ms",
+        {},
+        {"input_refractory_ms": 60.0},
+    ),
     Lever("octave levels", "3 levels an octave apart (1/2, not 1/sqrt(2))", {"levels_per_octave": 1, "levels": 3}, {}),
-    Lever("excess cells on the grouping lattice", "one excess cell per 2 x 2 block of border-ownership cells",
-          {}, {"excess_stride": 2}),
-    Lever("8-bit interpolation weights", "Resize products under 1 % of their peak left out", {},
-          {"prune_resize": 0.01}),
-    Lever("stronger window clock", "the window clock puts 1400 thresholds on the grouping cells (300)", {},
-          {"clock_inh_group": 1400.0}),
+    Lever(
+        "excess cells on the grouping lattice",
+        "one excess cell per 2 x 2 block of border-ownership cells",
+        {},
+        {"excess_stride": 2},
+    ),
+    Lever(
+        "8-bit interpolation weights", "Resize products under 1 % of their peak left out", {}, {"prune_resize": 0.01}
+    ),
+    Lever(
+        "stronger window clock",
+        "the window clock puts 1400 thresholds on the grouping cells (300)",
+        {},
+        {"clock_inh_group": 1400.0},
+    ),
     Lever("1 ms time step", "stepped at 1 ms, SpiNNaker's own time step (0.5 ms)", {}, {"dt_ms": 1.0}),
-    Lever("pruned kernels", "DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out (5 %)",
-          {}, {"prune_dog": 0.3, "prune_vm": 0.2}),
+    Lever(
+        "pruned kernels",
+        "DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out (5 %)",
+        {},
+        {"prune_dog": 0.3, "prune_vm": 0.2},
+    ),
 )
 
 
 def _compact() -> Recipe:
-    r = Recipe("compact", "deployment form: " + "; ".join(lv.does for lv in COMPACT_LEVERS), ModelParams(),
-               SpikingParams())
+    r = Recipe(
+        "compact", "deployment form: " + "; ".join(lv.does for lv in COMPACT_LEVERS), ModelParams(), SpikingParams()
+    )
     for lever in COMPACT_LEVERS:
         r = lever.apply(r)
     return r
 
 
 RECIPES: dict[str, Recipe] = {
-    "default": Recipe("default", "the model as published: 10 levels 1/sqrt(2) apart, 8 orientations, R0 = 8 px",
-                      ModelParams(), SpikingParams()),
+    "default": Recipe(
+        "default",
+        "the model as published: 10 levels 1/sqrt(2) apart, 8 orientations, R0 = 8 px",
+        ModelParams(),
+        SpikingParams(),
+    ),
     "compact": _compact(),
 }
 
@@ -115,8 +144,12 @@ def network_for(network, sensor_shape) -> tuple[Network, dict]:
         origin = {"origin": str(network)}
         network = load_description(network)
     if not isinstance(network, Network):
-        check.fail("network", None, type(network).__name__,
-                   f"must be a recipe name ({', '.join(RECIPES)}), a Network or a path to its JSON")
+        check.fail(
+            "network",
+            None,
+            type(network).__name__,
+            f"must be a recipe name ({', '.join(RECIPES)}), a Network or a path to its JSON",
+        )
     shape = pooled_shape(check.shape2("network", "sensor_shape", sensor_shape), network.params.input_pool)
     if network.frame_shape != tuple(shape):
         origin["resized_from"] = list(network.frame_shape)
@@ -138,7 +171,8 @@ def load_description(path) -> Network:
     refused with the recipes' names (a mistyped ``--network compcat``)."""
     if not Path(path).exists():
         if str(path).endswith(".json"):
-            raise InputError(path, f"no such file (from {Path.cwd()}); a stored description's path is taken from "
-                                   "the current folder")
+            raise InputError(
+                path, f"no such file (from {Path.cwd()}); a stored description's path is taken from the current folder"
+            )
         raise InputError(path, f"neither a network name ({', '.join(RECIPES)}) nor a stored description (.json)")
     return Network.load(path)

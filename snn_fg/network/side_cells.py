@@ -1,5 +1,6 @@
 """The side cue's cells (``ModelParams.side_cue``, :mod:`snn_fg.rate.side_cue`),
 added to a network by the builder (:func:`side_cue`)."""
+
 from __future__ import annotations
 
 from .gains import Gains
@@ -22,12 +23,12 @@ def side_cue(bld) -> None:
     if not p.side_cue:
         return
     level, n = p.cue_level, p.n_ori
-    fb = bld.neurons["feedback"]          # the side cells are feedback cells too: a rate that follows the drive
-    per_hz = fb.drive_for_rate(CELL_RATE_HZ) / CELL_RATE_HZ        # mV of drive per Hz of such a cell
+    fb = bld.neurons["feedback"]  # the side cells are feedback cells too: a rate that follows the drive
+    per_hz = fb.drive_for_rate(CELL_RATE_HZ) / CELL_RATE_HZ  # mV of drive per Hz of such a cell
     gain_in = per_hz * CELL_RATE_HZ / (SIDE_CUE_REF * sp.input_rate_hz * fb.tau_exc_ms / 1000.0)
     gain_out = p.side_cue * SIDE_CUE_REF * sp.z_hz * per_hz / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0)
     kernel = side_cue_kernels(p)[:, None]
-    inputs = ("input_on", "input_off", "relay_on", "relay_off")     # the level's ON and OFF inputs, as built
+    inputs = ("input_on", "input_off", "relay_on", "relay_off")  # the level's ON and OFF inputs, as built
     sources = [q.name for q in bld.pops if q.level == level and q.role in inputs]
     cues = {}
     for half, sign in (("p", 1), ("n", -1)):
@@ -37,5 +38,10 @@ def side_cue(bld) -> None:
     # z1 = 1p - 1n gains Q, z2 = 2p - 2n loses it
     for half, into in (("p", {"1p": 1, "1n": -1, "2p": -1, "2n": 1}), ("n", {"1p": -1, "1n": 1, "2p": 1, "2n": -1})):
         for k, sign in into.items():
-            bld.resize(cues[half], f"feedback_{k}_1", sign=sign, interpolation="linear",
-                       gain=gain_out * (1.0 if sign > 0 else Gains.balance(fb)))
+            bld.resize(
+                cues[half],
+                f"feedback_{k}_1",
+                sign=sign,
+                interpolation="linear",
+                gain=gain_out * (1.0 if sign > 0 else Gains.balance(fb)),
+            )

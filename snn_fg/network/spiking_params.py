@@ -8,6 +8,7 @@ them into millivolts per spike. Projection-shaped gains are named after the
 projection they set: ``<source>_to_<target>`` for excitation and
 ``<source>_inh_<target>`` for inhibition.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -18,9 +19,9 @@ from .. import validate as check
 from .nodes import Neuron, Node
 
 #: Reference presynaptic rates (Hz) of the dimensionless gains.
-SIMPLE_RATE_HZ = 50.0     # a simple cell that wins at its pixel
-UNTUNED_RATE_HZ = 150.0   # untuned cells fire faster than simple cells
-CELL_RATE_HZ = 100.0      # border-ownership, grouping and feedback cells
+SIMPLE_RATE_HZ = 50.0  # a simple cell that wins at its pixel
+UNTUNED_RATE_HZ = 150.0  # untuned cells fire faster than simple cells
+CELL_RATE_HZ = 100.0  # border-ownership, grouping and feedback cells
 #: The side cue's value (a half disc's mean event density minus the other's) at which its cells fire CELL_RATE_HZ.
 SIDE_CUE_REF = 0.02
 

@@ -15,10 +15,18 @@ exported model and the backend are one implementation.
 * :mod:`.simulator` - PyNN's simulator module, imported quietly (``fg_simulator.py``);
 * :mod:`.run` - the export's ``run.py`` (not importable inside snn_fg).
 """
+
 from pathlib import Path
 
 #: this package's folder, whose modules an export copies
 HERE = Path(__file__).resolve().parent
 #: module -> its name in an export folder
-COPIED = {"cells.py": "fg_cells.py", "network.py": "fg_network.py", "tables.py": "fg_tables.py", "spinnaker.py": "fg_spinnaker.py",
-          "memory.py": "fg_memory.py", "simulator.py": "fg_simulator.py", "run.py": "run.py"}
+COPIED = {
+    "cells.py": "fg_cells.py",
+    "network.py": "fg_network.py",
+    "tables.py": "fg_tables.py",
+    "spinnaker.py": "fg_spinnaker.py",
+    "memory.py": "fg_memory.py",
+    "simulator.py": "fg_simulator.py",
+    "run.py": "run.py",
+}

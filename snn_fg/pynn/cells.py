@@ -27,6 +27,7 @@ next spike is one step later than ours; ``tau_refrac`` is therefore
 STANDALONE, as the rest of :mod:`snn_fg.pynn`: numpy and the standard library
 only; an export carries it as ``fg_cells.py``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -38,10 +39,17 @@ def cell_parameters(neuron: dict, dt_ms: float) -> dict:
     ``v_reset_mv``, ``v_th_mv``, ``t_ref_ms``) simulated with time step
     ``dt_ms`` (the refractory period is one step shorter: module docstring)."""
     ref_steps = max(int(round(float(neuron["t_ref_ms"]) / dt_ms)) - 1, 0)
-    return {"cm": float(neuron["tau_m_ms"]), "tau_m": float(neuron["tau_m_ms"]),
-            "tau_syn_E": float(neuron["tau_exc_ms"]), "tau_syn_I": float(neuron["tau_inh_ms"]),
-            "v_rest": float(neuron["v_rest_mv"]), "v_reset": float(neuron["v_reset_mv"]),
-            "v_thresh": float(neuron["v_th_mv"]), "tau_refrac": ref_steps * dt_ms, "i_offset": 0.0}
+    return {
+        "cm": float(neuron["tau_m_ms"]),
+        "tau_m": float(neuron["tau_m_ms"]),
+        "tau_syn_E": float(neuron["tau_exc_ms"]),
+        "tau_syn_I": float(neuron["tau_inh_ms"]),
+        "v_rest": float(neuron["v_rest_mv"]),
+        "v_reset": float(neuron["v_reset_mv"]),
+        "v_thresh": float(neuron["v_th_mv"]),
+        "tau_refrac": ref_steps * dt_ms,
+        "i_offset": 0.0,
+    }
 
 
 def split_receptors(drive: np.ndarray, sign: int, tau_exc_ms: float, tau_inh_ms: float):

@@ -7,6 +7,7 @@ STANDALONE (standard library only; copied into every PyNN export as
 peak resident memory against the cells and synapses built, and the time to
 build and to simulate against the synapses.
 """
+
 from __future__ import annotations
 
 import sys
@@ -73,13 +74,18 @@ def check_memory(meta: dict, memory_gb: float | None = None, duration_ms: float 
     need = nest_memory_bytes(cells, synapses)
     have = memory_gb * 1e9 if memory_gb is not None else available_bytes()
     if have is not None and need > have:
-        sys.exit(f"run.py: error: the network ({cells:,} cells, {synapses:,} synapses) needs about "
-                 f"{need / 1e9:.1f} GB on NEST, more than the {have / 1e9:.1f} GB "
-                 f"{'given (--memory-gb)' if memory_gb is not None else 'available'}: use a smaller export "
-                 "(--sensor-size, --levels) or a larger machine")
+        sys.exit(
+            f"run.py: error: the network ({cells:,} cells, {synapses:,} synapses) needs about "
+            f"{need / 1e9:.1f} GB on NEST, more than the {have / 1e9:.1f} GB "
+            f"{'given (--memory-gb)' if memory_gb is not None else 'available'}: use a smaller export "
+            "(--sensor-size, --levels) or a larger machine"
+        )
     per_ms = synapses * NEST_S_PER_MS_PER_SYNAPSE
-    print(f"run.py: {cells:,} cells, {synapses:,} synapses: expect about {need / 1e9:.1f} GB on NEST, "
-          f"{duration_text(synapses / NEST_SYNAPSES_PER_S)} to build and {per_ms:.2g} s per simulated ms "
-          f"({duration_text(per_ms * duration_ms)} for {duration_ms:g} ms) on one thread, as measured "
-          f"{TIMES_MEASURED} (fg_memory.py)", flush=True)
+    print(
+        f"run.py: {cells:,} cells, {synapses:,} synapses: expect about {need / 1e9:.1f} GB on NEST, "
+        f"{duration_text(synapses / NEST_SYNAPSES_PER_S)} to build and {per_ms:.2g} s per simulated ms "
+        f"({duration_text(per_ms * duration_ms)} for {duration_ms:g} ms) on one thread, as measured "
+        f"{TIMES_MEASURED} (fg_memory.py)",
+        flush=True,
+    )
     return need

@@ -36,15 +36,16 @@ drives stays silent), and the run goes on with a wrong network. :class:`PyNNNetw
 spike-sending cells need (:func:`nest_threads`) and refuses to create a cell
 past the limit.
 """
+
 from __future__ import annotations
 
 import time
 
 import numpy as np
 
-try:                                    # inside snn_fg
+try:  # inside snn_fg
     from .cells import cell_parameters, counts_in, grid_delay, list_rows, population_spikes, split_receptors
-except ImportError:                     # inside an export folder
+except ImportError:  # inside an export folder
     from fg_cells import cell_parameters, counts_in, grid_delay, list_rows, population_spikes, split_receptors
 
 #: input spikes are presented this many time steps late (NEST refuses a
@@ -55,15 +56,27 @@ TIME_SHIFT_STEPS = 2
 NEST_UNIT = 1000.0
 #: state variable -> (NEST recordable, PyNN recordable, factor to nA = mV from NEST's unit)
 #: a spike counter: no leak to speak of, no threshold, each input of weight 1 adds 1 mV
-COUNTER = {"tau_m": 1e12, "C_m": 1.0, "E_L": 0.0, "V_reset": 0.0, "V_th": 1e30, "V_m": 0.0, "t_ref": 0.0,
-           "V_min": -1e30, "I_e": 0.0}
+COUNTER = {
+    "tau_m": 1e12,
+    "C_m": 1.0,
+    "E_L": 0.0,
+    "V_reset": 0.0,
+    "V_th": 1e30,
+    "V_m": 0.0,
+    "t_ref": 0.0,
+    "V_min": -1e30,
+    "I_e": 0.0,
+}
 #: NEST addresses a spike-sending neuron by its index among its thread's
 #: nodes in 19 bits (module docstring); the last index is a marker
-NEST_MAX_LOCAL_SENDERS = 2 ** 19 - 1
+NEST_MAX_LOCAL_SENDERS = 2**19 - 1
 #: headroom for threads that get one or two nodes more than their share
 NEST_LOCAL_MARGIN = 64
-STATE_NAMES = {"v": ("V_m", "v", 1.0), "I_exc": ("I_syn_ex", "isyn_exc", 1 / NEST_UNIT),
-               "I_inh": ("I_syn_in", "isyn_inh", 1 / NEST_UNIT)}
+STATE_NAMES = {
+    "v": ("V_m", "v", 1.0),
+    "I_exc": ("I_syn_ex", "isyn_exc", 1 / NEST_UNIT),
+    "I_inh": ("I_syn_in", "isyn_inh", 1 / NEST_UNIT),
+}
 #: the NEST recordables of iaf_psc_exp_multisynapse (``signed_receptors``): one current per receptor
 SIGNED_STATE_NAMES = {"v": "V_m", "I_exc": "I_syn_1", "I_inh": "I_syn_2"}
 
@@ -77,8 +90,9 @@ def nest_threads(senders: int, devices_first: int = 0, threads: int = 1) -> int:
     thread (``devices_first``)."""
     room = NEST_MAX_LOCAL_SENDERS - NEST_LOCAL_MARGIN - int(devices_first)
     if room <= 0:
-        raise ValueError(f"{devices_first:,} NEST devices created before the cells leave no room for them: "
-                         "create the cells first")
+        raise ValueError(
+            f"{devices_first:,} NEST devices created before the cells leave no room for them: create the cells first"
+        )
     return max(int(threads), -(-int(senders) // room), 1)
 
 
@@ -101,8 +115,18 @@ class PyNNNetwork:
     simulators run; the tests check both give the same spikes).
     """
 
-    def __init__(self, sim, *, dt_ms: float, max_delay_ms: float, threads: int = 1, portable: bool = False,
-                 signed_receptors: bool = False, n_cells: int = 0, n_sources: int = 0):
+    def __init__(
+        self,
+        sim,
+        *,
+        dt_ms: float,
+        max_delay_ms: float,
+        threads: int = 1,
+        portable: bool = False,
+        signed_receptors: bool = False,
+        n_cells: int = 0,
+        n_sources: int = 0,
+    ):
         self.sim = sim
         self.dt = float(dt_ms)
         self.native = (sim.__name__ == "pyNN.nest") and not portable
@@ -113,8 +137,8 @@ class PyNNNetwork:
         opts = {}
         self.on_nest = sim.__name__ == "pyNN.nest"
         self.threads = int(threads)
-        self._senders = 0       # spike-sending neurons created (cells; parrots of portable sources)
-        self._devices = 0       # devices created before the last of them
+        self._senders = 0  # spike-sending neurons created (cells; parrots of portable sources)
+        self._devices = 0  # devices created before the last of them
         if self.on_nest:
             # portable sources are a spike generator (a device) plus a parrot
             # neuron each; native ones are generators only
@@ -125,11 +149,11 @@ class PyNNNetwork:
             # The network draws no random numbers: NEST's seed is fixed
             opts = {"threads": self.threads, "rng_seed": 1, "spike_precision": "on_grid"}
         sim.setup(timestep=self.dt, min_delay=self.dt, max_delay=max_delay, **opts)
-        self.pops: dict = {}       # name -> PyNN Population (portable) or NEST NodeCollection (native)
-        self.first: dict = {}      # native: name -> NEST id of its first node
+        self.pops: dict = {}  # name -> PyNN Population (portable) or NEST NodeCollection (native)
+        self.first: dict = {}  # native: name -> NEST id of its first node
         self.recorders: dict = {}
         self.n_synapses: dict = {}
-        self.taus: dict = {}       # cells' name -> (tau_exc_ms, tau_inh_ms): how a synapse is split between receptors
+        self.taus: dict = {}  # cells' name -> (tau_exc_ms, tau_inh_ms): how a synapse is split between receptors
         self.shift_ms = TIME_SHIFT_STEPS * self.dt
         self.duration_ms = 0.0
 
@@ -143,9 +167,21 @@ class PyNNNetwork:
 
             taus = [t * (1 + 1e-6) if t == p["tau_m"] else t for t in (p["tau_syn_E"], p["tau_syn_I"])]
             model = f"snnfg_{name}"
-            nest.CopyModel("iaf_psc_exp_multisynapse", model, {
-                "C_m": p["cm"] * NEST_UNIT, "tau_m": p["tau_m"], "t_ref": p["tau_refrac"], "E_L": p["v_rest"],
-                "V_reset": p["v_reset"], "V_th": p["v_thresh"], "tau_syn": taus, "I_e": 0.0, "V_m": p["v_rest"]})
+            nest.CopyModel(
+                "iaf_psc_exp_multisynapse",
+                model,
+                {
+                    "C_m": p["cm"] * NEST_UNIT,
+                    "tau_m": p["tau_m"],
+                    "t_ref": p["tau_refrac"],
+                    "E_L": p["v_rest"],
+                    "V_reset": p["v_reset"],
+                    "V_th": p["v_thresh"],
+                    "tau_syn": taus,
+                    "I_e": 0.0,
+                    "V_m": p["v_rest"],
+                },
+            )
             self._native_nodes(name, nest.Create(model, size))
         elif self.native:
             import nest
@@ -154,8 +190,7 @@ class PyNNNetwork:
             ps.shape = (1,)
             ps.evaluate(simplify=True)
             model = f"snnfg_{name}"
-            nest.CopyModel("iaf_psc_exp", model,
-                           {**{k: float(v) for k, v in ps.items()}, "V_m": p["v_rest"]})
+            nest.CopyModel("iaf_psc_exp", model, {**{k: float(v) for k, v in ps.items()}, "V_m": p["v_rest"]})
             self._native_nodes(name, nest.Create(model, size))
         else:
             pop = self.sim.Population(size, self.sim.IF_curr_exp(**p), label=name)
@@ -173,7 +208,7 @@ class PyNNNetwork:
         times = [(np.asarray(s, dtype=np.float64) + 1 + TIME_SHIFT_STEPS) * self.dt for s in steps_per_cell]
         if self.on_nest:
             self._devices += max(len(times), 1)
-            if not self.native:        # PyNN's parrot neurons, which send
+            if not self.native:  # PyNN's parrot neurons, which send
                 self._count_senders(name, max(len(times), 1))
         if self.native:
             import nest
@@ -185,8 +220,11 @@ class PyNNNetwork:
                 nodes.set([{"spike_times": t.tolist()} for t in times])
             self._native_nodes(name, nodes)
         else:
-            self.pops[name] = self.sim.Population(max(len(times), 1), self.sim.SpikeSourceArray(
-                spike_times=[self.sim.Sequence(t) for t in times] or [self.sim.Sequence([])]), label=name)
+            self.pops[name] = self.sim.Population(
+                max(len(times), 1),
+                self.sim.SpikeSourceArray(spike_times=[self.sim.Sequence(t) for t in times] or [self.sim.Sequence([])]),
+                label=name,
+            )
 
     def _count_senders(self, name: str, size: int):
         """Refuse cells that NEST could not address on ``self.threads`` threads."""
@@ -195,9 +233,11 @@ class PyNNNetwork:
         self._senders += int(size)
         need = nest_threads(self._senders, self._devices, self.threads)
         if need > self.threads:
-            raise ValueError(f"population '{name}': {self._senders:,} spike-sending cells need at least {need} NEST "
-                             f"threads (NEST addresses {NEST_MAX_LOCAL_SENDERS:,} per thread and silently mixes "
-                             f"them up beyond), not {self.threads}: give n_cells/n_sources or more threads")
+            raise ValueError(
+                f"population '{name}': {self._senders:,} spike-sending cells need at least {need} NEST "
+                f"threads (NEST addresses {NEST_MAX_LOCAL_SENDERS:,} per thread and silently mixes "
+                f"them up beyond), not {self.threads}: give n_cells/n_sources or more threads"
+            )
 
     def _native_nodes(self, name, nodes):
         self.pops[name] = nodes
@@ -208,7 +248,7 @@ class PyNNNetwork:
         mV, split between the target's two receptors (see the module docstring)."""
         delay = grid_delay(delay_ms, self.dt)
         pre, post = np.asarray(pre, np.int64), np.asarray(post, np.int64)
-        if self.signed:         # the projection's own receptor (1: excitatory, 2: inhibitory)
+        if self.signed:  # the projection's own receptor (1: excitatory, 2: inhibitory)
             # as Brian2 adds them (snn_fg.backends.base.receptor_weights): the
             # excitatory current takes the signed drive, the inhibitory one its magnitude
             drive = np.asarray(drive, np.float64)
@@ -235,8 +275,9 @@ class PyNNNetwork:
         """PyNN's own synapses ``pre[i] -> post[i]`` of weight ``w`` on ``receptor``."""
         rows = list_rows(pre, post, w, delay)
         conn = self.sim.FromListConnector(rows, column_names=["weight", "delay"])
-        self.sim.Projection(self.pops[source], self.pops[target], conn, self.sim.StaticSynapse(),
-                            receptor_type=receptor)
+        self.sim.Projection(
+            self.pops[source], self.pops[target], conn, self.sim.StaticSynapse(), receptor_type=receptor
+        )
 
     def _connect_nest(self, source, target, pre, post, w_mv, port, delay):
         """NEST synapses of weight ``w_mv`` (nA = mV, signed) on receptor
@@ -248,9 +289,12 @@ class PyNNNetwork:
         step = 1 << 22
         for a in range(0, pre.size, step):
             b = min(a + step, pre.size)
-            nest.Connect(self.first[source] + pre[a:b], self.first[target] + post[a:b], "one_to_one",
-                         syn_spec={"synapse_model": "static_synapse", "weight": w[a:b],
-                                   "delay": np.full(b - a, delay), **spec})
+            nest.Connect(
+                self.first[source] + pre[a:b],
+                self.first[target] + post[a:b],
+                "one_to_one",
+                syn_spec={"synapse_model": "static_synapse", "weight": w[a:b], "delay": np.full(b - a, delay), **spec},
+            )
 
     def record(self, names, *, spikes: bool = True, count_edges_ms=()):
         """Record the populations ``names``: every spike (``spikes``), and on
@@ -281,9 +325,16 @@ class PyNNNetwork:
             return
         self._meters = []
         for e in edges:
-            at = e + (TIME_SHIFT_STEPS + 1) * self.dt       # a spike reported before e has reached its counter
-            self._meters.append((e, nest.Create("multimeter", params={
-                "record_from": ["V_m"], "interval": self.dt, "start": at - self.dt, "stop": at})))
+            at = e + (TIME_SHIFT_STEPS + 1) * self.dt  # a spike reported before e has reached its counter
+            self._meters.append(
+                (
+                    e,
+                    nest.Create(
+                        "multimeter",
+                        params={"record_from": ["V_m"], "interval": self.dt, "start": at - self.dt, "stop": at},
+                    ),
+                )
+            )
         self._counters = {}
         for name in names:
             n = len(self.pops[name])
@@ -319,7 +370,7 @@ class PyNNNetwork:
         ``report(done_ms)`` after each. Returns the wall time in seconds."""
         t0 = time.perf_counter()
         self.duration_ms = float(duration_ms)
-        total = duration_ms + self.shift_ms + self.dt     # the last count edge is read one step later
+        total = duration_ms + self.shift_ms + self.dt  # the last count edge is read one step later
         done = 0.0
         while done < total - 1e-9:
             step = min(chunk_ms, total - done)
@@ -344,7 +395,7 @@ class PyNNNetwork:
         else:
             cell, t = self._portable_spikes(name)
         t = np.round(t / self.dt - TIME_SHIFT_STEPS - 1) * self.dt
-        keep = (cell < size) & (t < self.duration_ms - 1e-9)     # NEST may run past the end
+        keep = (cell < size) & (t < self.duration_ms - 1e-9)  # NEST may run past the end
         cell, t = cell[keep], t[keep]
         order = np.lexsort((cell, t))
         return cell[order], t[order]
@@ -360,9 +411,14 @@ class PyNNNetwork:
         if self.native:
             import nest
 
-            mm = nest.Create("multimeter", params={
-                "record_from": [self._nest_key(v) for v in variables], "interval": self.dt,
-                "start": end_ms + self.shift_ms - self.dt})
+            mm = nest.Create(
+                "multimeter",
+                params={
+                    "record_from": [self._nest_key(v) for v in variables],
+                    "interval": self.dt,
+                    "start": end_ms + self.shift_ms - self.dt,
+                },
+            )
             for name in names:
                 nest.Connect(mm, self.pops[name])
             self._multimeter = mm
@@ -384,13 +440,13 @@ class PyNNNetwork:
             cell = np.asarray(ev["senders"], np.int64) - self.first[name]
             keep = (cell >= 0) & (cell < size)
             vals = np.zeros(size)
-            vals[cell[keep]] = np.asarray(ev[nest_key], np.float64)[keep]     # the last sample wins
+            vals[cell[keep]] = np.asarray(ev[nest_key], np.float64)[keep]  # the last sample wins
         else:
             sig = next(a for a in self.pops[name].get_data(pynn_key).segments[0].analogsignals if a.name == pynn_key)
             vals = np.asarray(sig.magnitude, np.float64)[-1, :size] * (NEST_UNIT if variable != "v" else 1.0)
         if variable == "v":
             return vals
-        if self.signed:         # signed currents: I_exc as it is, I_inh the inhibitory receptor's, negated
+        if self.signed:  # signed currents: I_exc as it is, I_inh the inhibitory receptor's, negated
             return vals * scale * (1.0 if variable == "I_exc" else -1.0)
         return np.abs(vals) * scale
 

@@ -22,6 +22,7 @@ onto virtual SpiNN-5 boards with a configuration of its own in
 ``spinnaker/`` (the user's is not read) and ``mapping.json`` says what it used,
 beside the export's own estimate.
 """
+
 import argparse
 import json
 import os
@@ -29,15 +30,14 @@ import sys
 import time
 import zipfile
 
-import numpy as np
-
 import fg_cells
 import fg_memory
 import fg_network as fg
 import fg_simulator
 import fg_tables
+import numpy as np
 
-SIMULATORS = {"spinnaker": "spiNNaker"}     # our name -> pyNN module
+SIMULATORS = {"spinnaker": "spiNNaker"}  # our name -> pyNN module
 
 
 def load_tables(meta, tables):
@@ -61,27 +61,35 @@ def read_input(path, frame_shape, n_sources):
     file and what is wrong with it (missing, not an .npz, a key missing, a
     frame other than the network's, a source the network does not have)."""
     if not os.path.isfile(path):
-        sys.exit(f"run.py: error: {path}: no such file (snn-fg events INPUT --write-spikes {path} --export . "
-                 f"writes one)")
+        sys.exit(
+            f"run.py: error: {path}: no such file (snn-fg events INPUT --write-spikes {path} --export . writes one)"
+        )
     try:
         with np.load(path) as d:
             missing = [k for k in INPUT_KEYS if k not in d.files]
             if missing:
-                sys.exit(f"run.py: error: {path}: not an input spike file: no {', '.join(missing)} (it needs "
-                         f"{', '.join(INPUT_KEYS)}; snn-fg events INPUT --write-spikes writes one)")
+                sys.exit(
+                    f"run.py: error: {path}: not an input spike file: no {', '.join(missing)} (it needs "
+                    f"{', '.join(INPUT_KEYS)}; snn-fg events INPUT --write-spikes writes one)"
+                )
             d = {k: d[k] for k in INPUT_KEYS}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError):
-        sys.exit(f"run.py: error: {path}: not an .npz file (expected the input spike file that "
-                 f"snn-fg events INPUT --write-spikes writes)")
+        sys.exit(
+            f"run.py: error: {path}: not an .npz file (expected the input spike file that "
+            f"snn-fg events INPUT --write-spikes writes)"
+        )
     shape = tuple(int(v) for v in d["shape"])
     if frame_shape is not None and shape != tuple(frame_shape):
-        sys.exit(f"run.py: error: {path}: spikes of a {shape[1]} x {shape[0]} frame; this network's frame is "
-                 f"{frame_shape[1]} x {frame_shape[0]} (width x height): write them with --export . from this folder")
+        sys.exit(
+            f"run.py: error: {path}: spikes of a {shape[1]} x {shape[0]} frame; this network's frame is "
+            f"{frame_shape[1]} x {frame_shape[0]} (width x height): write them with --export . from this folder"
+        )
     idx = d["indices"]
     if idx.size and (idx.min() < 0 or idx.max() >= n_sources):
         bad = int(np.flatnonzero((idx < 0) | (idx >= n_sources))[0])
-        sys.exit(f"run.py: error: {path}: spike {bad} comes from source {int(idx[bad])}; the network has "
-                 f"{n_sources} sources")
+        sys.exit(
+            f"run.py: error: {path}: spike {bad} comes from source {int(idx[bad])}; the network has {n_sources} sources"
+        )
     return d
 
 
@@ -105,39 +113,58 @@ def make_network(sim, meta, tables, dt_ms, args, plan):
     """The simulator's network object, and the projections that are convolutions on SpiNNaker."""
     cells = [p for p in meta["populations"] if p["neuron"] is not None]
     inputs = [p for p in meta["populations"] if p["neuron"] is None]
-    kw = dict(dt_ms=dt_ms, max_delay_ms=max([pr["delay_ms"] for pr in meta["projections"]] + [dt_ms]),
-              threads=args.threads, n_cells=sum(p["size"] for p in cells), n_sources=sum(p["size"] for p in inputs))
+    kw = dict(
+        dt_ms=dt_ms,
+        max_delay_ms=max([pr["delay_ms"] for pr in meta["projections"]] + [dt_ms]),
+        threads=args.threads,
+        n_cells=sum(p["size"] for p in cells),
+        n_sources=sum(p["size"] for p in inputs),
+    )
     if plan is None:
         return fg.PyNNNetwork(sim, portable=args.portable, **kw), {}
     import fg_spinnaker
 
     conv = fg_spinnaker.plan_kernels(meta, tables, plan)
     lay = fg_spinnaker.layout({p["name"]: p for p in meta["populations"]}, conv.values())
-    return fg_spinnaker.SpiNNakerNetwork(sim, layout=lay, populations={p["name"]: p for p in meta["populations"]},
-                                         combined_cores=args.combined_cores, **kw), conv
+    return fg_spinnaker.SpiNNakerNetwork(
+        sim,
+        layout=lay,
+        populations={p["name"]: p for p in meta["populations"]},
+        combined_cores=args.combined_cores,
+        **kw,
+    ), conv
 
 
 def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
     pops = {p["name"]: p for p in meta["populations"]}
     net, conv = make_network(sim, meta, tables, dt_ms, args, plan)
     if net.threads > args.threads:
-        print(f"run.py: {net.threads} threads, not {args.threads}: NEST addresses at most "
-              f"{fg.NEST_MAX_LOCAL_SENDERS:,} spike-sending cells per thread")
+        print(
+            f"run.py: {net.threads} threads, not {args.threads}: NEST addresses at most "
+            f"{fg.NEST_MAX_LOCAL_SENDERS:,} spike-sending cells per thread"
+        )
     cells = [p for p in meta["populations"] if p["neuron"] is not None]
-    for p in cells:             # cells before sources: NEST's spike generators would take room on every thread
+    for p in cells:  # cells before sources: NEST's spike generators would take room on every thread
         net.add_cells(p["name"], p["size"], p["neuron"])
     offset = 0
     for p in meta["populations"]:
         if p["neuron"] is None:
-            net.add_sources(p["name"], sources[offset:offset + p["size"]])
+            net.add_sources(p["name"], sources[offset : offset + p["size"]])
             offset += p["size"]
     for i, pr in enumerate(meta["projections"]):
         src, tgt = pops[pr["source"]], pops[pr["target"]]
         if pr["name"] in conv:
-            drive = fg_cells.quantise(pr["sign"] * pr["gain_mv"] * conv[pr["name"]][2], meta["weight_bits"],
-                                      pr["scale_mv"])
-            net.convolve(pr["source"], pr["target"], drive, sign=pr["sign"], delay_ms=pr["delay_ms"],
-                         strides=tgt["stride"] // src["stride"])
+            drive = fg_cells.quantise(
+                pr["sign"] * pr["gain_mv"] * conv[pr["name"]][2], meta["weight_bits"], pr["scale_mv"]
+            )
+            net.convolve(
+                pr["source"],
+                pr["target"],
+                drive,
+                sign=pr["sign"],
+                delay_ms=pr["delay_ms"],
+                strides=tgt["stride"] // src["stride"],
+            )
             continue
         if pr["type"] == "conv":
             taps, values = tables[pr["name"]]
@@ -147,8 +174,9 @@ def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
             pre, post, k = fg_tables.resize_pairs(rows, cols, src["channels"], src, tgt, pr["k_min"])
         drive = fg_cells.quantise(pr["sign"] * pr["gain_mv"] * k, meta["weight_bits"], pr["scale_mv"])
         net.connect(pr["source"], pr["target"], pre, post, drive, sign=pr["sign"], delay_ms=pr["delay_ms"])
-        fg_memory.progress(f"built {i + 1}/{len(meta['projections'])} projections",
-                           last=i + 1 == len(meta['projections']))
+        fg_memory.progress(
+            f"built {i + 1}/{len(meta['projections'])} projections", last=i + 1 == len(meta["projections"])
+        )
     net.record([p["name"] for p in cells], spikes=args.spikes, count_edges_ms=edges)
     return net
 
@@ -164,12 +192,16 @@ def check_simulator(name):
     if find_spec("pyNN") is None:
         sys.exit(f"run.py: error: PyNN is not installed: {install}")
     if find_spec(f"pyNN.{name}") is None:
-        sys.exit(f"run.py: error: --simulator {name}: PyNN has no simulator module pyNN.{name} (nest, spinnaker, or "
-                 f"another PyNN backend such as neuron or brian2)")
+        sys.exit(
+            f"run.py: error: --simulator {name}: PyNN has no simulator module pyNN.{name} (nest, spinnaker, or "
+            f"another PyNN backend such as neuron or brian2)"
+        )
     needs = {"nest": "nest", "spiNNaker": "spynnaker"}.get(name)
     if needs and find_spec(needs) is None:
-        sys.exit(f"run.py: error: --simulator {name}: pyNN.{name} needs the module {needs!r}, which is not "
-                 f"installed: {install}")
+        sys.exit(
+            f"run.py: error: --simulator {name}: pyNN.{name} needs the module {needs!r}, which is not "
+            f"installed: {install}"
+        )
 
 
 def parse(argv):
@@ -177,21 +209,31 @@ def parse(argv):
     ap.add_argument("--input", help="input spike file (required but with --virtual-board)")
     ap.add_argument("--out", help="output counts file (required but with --virtual-board)")
     ap.add_argument("--simulator", default="nest", help="nest, spinnaker (sPyNNaker) or another pyNN.<module>")
-    ap.add_argument("--virtual-board", action="store_true",
-                    help="spinnaker: map onto virtual SpiNN-5 boards (no hardware) and write mapping.json")
-    ap.add_argument("--map-only", action="store_true",
-                    help="--virtual-board: stop after sPyNNaker's partitioning, placement and routing (skip its "
-                         "data generation, which writes every explicit synapse in Python: hours for 40 M)")
-    ap.add_argument("--combined-cores", action="store_true",
-                    help="spinnaker: each population's synapses on the core that updates its cells (sPyNNaker "
-                         "otherwise adds synapse cores as it sees fit)")
+    ap.add_argument(
+        "--virtual-board",
+        action="store_true",
+        help="spinnaker: map onto virtual SpiNN-5 boards (no hardware) and write mapping.json",
+    )
+    ap.add_argument(
+        "--map-only",
+        action="store_true",
+        help="--virtual-board: stop after sPyNNaker's partitioning, placement and routing (skip its "
+        "data generation, which writes every explicit synapse in Python: hours for 40 M)",
+    )
+    ap.add_argument(
+        "--combined-cores",
+        action="store_true",
+        help="spinnaker: each population's synapses on the core that updates its cells (sPyNNaker "
+        "otherwise adds synapse cores as it sees fit)",
+    )
     ap.add_argument("--duration-ms", type=float, default=400.0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--portable", action="store_true", help="PyNN's own connectors and recording on NEST too")
     ap.add_argument("--count-from-ms", type=float, default=None, help="start of the counting window (half the run)")
     ap.add_argument("--spikes", action="store_true", help="also write every spike")
-    ap.add_argument("--memory-gb", type=float, default=None,
-                    help="memory the run may use (default: what the machine has available)")
+    ap.add_argument(
+        "--memory-gb", type=float, default=None, help="memory the run may use (default: what the machine has available)"
+    )
     args = ap.parse_args(argv)
     args.simulator = SIMULATORS.get(args.simulator.lower(), args.simulator)
     if args.virtual_board and args.simulator != "spiNNaker":
@@ -208,15 +250,19 @@ def main(argv=None):
     check_simulator(args.simulator)
     for name in ("network.json", "tables.npz"):
         if not os.path.isfile(name):
-            sys.exit(f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py "
-                     f"...)")
+            sys.exit(
+                f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py ...)"
+            )
     with open("network.json") as fh:
         meta = json.load(fh)
     tables = load_tables(meta, np.load("tables.npz"))
     n_src = sum(p["size"] for p in meta["populations"] if p["neuron"] is None)
     n_steps = int(round(args.duration_ms / meta["dt_ms"]))
-    sources, dt_ms = (input_steps(args.input, n_steps, n_src, meta.get("frame_shape")) if args.input
-                      else ([[]] * n_src, meta["dt_ms"]))
+    sources, dt_ms = (
+        input_steps(args.input, n_steps, n_src, meta.get("frame_shape"))
+        if args.input
+        else ([[]] * n_src, meta["dt_ms"])
+    )
     if abs(dt_ms - meta["dt_ms"]) > 1e-9:
         sys.exit(f"run.py: error: {args.input}: dt_ms={dt_ms} differs from the network's {meta['dt_ms']}")
     plan = None
@@ -238,8 +284,12 @@ def main(argv=None):
     t1 = time.perf_counter()
     if args.virtual_board:
         return write_mapping(sim, meta, plan, args, t1 - t0, net.n_convolution_connectors)
-    net.run(args.duration_ms, report=lambda done: fg_memory.progress(f"simulated {done:g}/{args.duration_ms:g} ms",
-                                                                         last=done >= args.duration_ms))
+    net.run(
+        args.duration_ms,
+        report=lambda done: fg_memory.progress(
+            f"simulated {done:g}/{args.duration_ms:g} ms", last=done >= args.duration_ms
+        ),
+    )
     out = {"duration_ms": args.duration_ms, "dt_ms": dt_ms, "count_from_ms": start}
     for p in meta["populations"]:
         if p["neuron"] is not None:
@@ -248,8 +298,10 @@ def main(argv=None):
                 out[f"cell_{p['name']}"], out[f"t_{p['name']}"] = net.spikes(p["name"], p["size"])
     net.end()
     np.savez(args.out, **out)
-    print(f"run.py: built in {t1 - t0:.1f} s, simulated {args.duration_ms:g} ms in {time.perf_counter() - t1:.1f} s; "
-          f"wrote {args.out}")
+    print(
+        f"run.py: built in {t1 - t0:.1f} s, simulated {args.duration_ms:g} ms in {time.perf_counter() - t1:.1f} s; "
+        f"wrote {args.out}"
+    )
 
 
 def write_mapping(sim, meta, plan, args, build_s, n_conv):
@@ -266,20 +318,30 @@ def write_mapping(sim, meta, plan, args, build_s, n_conv):
     sim.end()
     conv = [e for e in plan["projections"] if e["connector"] == "ConvolutionConnector"]
     est = plan.get("estimate", {})
-    out = {"tool": {"name": "sPyNNaker", "version": _version.__version__},
-           "board": "SpiNN-5 (48 chips), virtual", **used,
-           "estimate": {k: est.get(k) for k in ("cores", "chips", "boards_spinn5")},
-           "connectors": {"ConvolutionConnector": len(conv), "FromListConnector": len(plan["projections"]) - len(conv),
-                          "ConvolutionConnector_instances": n_conv},
-           "duration_ms": args.duration_ms, "data_generation": not args.map_only,
-           "combined_cores": args.combined_cores,
-           "build_s": round(build_s, 1), "sPyNNaker_s": {k: round(v, 1) for k, v in spent.items()},
-           "run_s": round(time.perf_counter() - t0, 1)}
+    out = {
+        "tool": {"name": "sPyNNaker", "version": _version.__version__},
+        "board": "SpiNN-5 (48 chips), virtual",
+        **used,
+        "estimate": {k: est.get(k) for k in ("cores", "chips", "boards_spinn5")},
+        "connectors": {
+            "ConvolutionConnector": len(conv),
+            "FromListConnector": len(plan["projections"]) - len(conv),
+            "ConvolutionConnector_instances": n_conv,
+        },
+        "duration_ms": args.duration_ms,
+        "data_generation": not args.map_only,
+        "combined_cores": args.combined_cores,
+        "build_s": round(build_s, 1),
+        "sPyNNaker_s": {k: round(v, 1) for k, v in spent.items()},
+        "run_s": round(time.perf_counter() - t0, 1),
+    }
     with open("mapping.json", "w") as fh:
         json.dump(out, fh, indent=1)
-    print(f"run.py: sPyNNaker {out['tool']['version']} mapped the network onto {used['chips_used']} chips, "
-          f"{used['cores_used']} cores (estimate: {est.get('chips')} chips, {est.get('cores')} cores); "
-          f"fits one SpiNN-5 board: {used['fits']}; wrote mapping.json")
+    print(
+        f"run.py: sPyNNaker {out['tool']['version']} mapped the network onto {used['chips_used']} chips, "
+        f"{used['cores_used']} cores (estimate: {est.get('chips')} chips, {est.get('cores')} cores); "
+        f"fits one SpiNN-5 board: {used['fits']}; wrote mapping.json"
+    )
 
 
 if __name__ == "__main__":

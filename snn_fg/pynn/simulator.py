@@ -12,6 +12,7 @@ left out (every other warning still shows), as are NEST's start-up banner
 and the deprecation warning NEST 3.10 gives PyNN 0.13's ``set_verbosity``
 call.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -20,9 +21,13 @@ import warnings
 
 #: the start of PyNN's warnings that it could not build or install its optional NEST extensions
 #: (pyNN/nest/simulator.py, build_extensions)
-EXTENSION_WARNINGS = ("Cannot find nest-config", "Cannot create build directory for nest extensions",
-                      "Problem running cmake", "Unable to compile NEST extensions",
-                      "Unable to install NEST extensions")
+EXTENSION_WARNINGS = (
+    "Cannot find nest-config",
+    "Cannot create build directory for nest extensions",
+    "Problem running cmake",
+    "Unable to compile NEST extensions",
+    "Unable to install NEST extensions",
+)
 #: NEST 3.10's warning when PyNN 0.13 sets its verbosity the old way
 VERBOSITY_WARNING = r"\s*Provided for backward compatibility only"
 

@@ -31,6 +31,7 @@ and every other population is one 1-D population. sPyNNaker cuts a 2-D
 population into cores by tiles whose sides divide the grid's sides
 (:func:`core_tile`).
 """
+
 from __future__ import annotations
 
 import os
@@ -38,10 +39,10 @@ from pathlib import Path
 
 import numpy as np
 
-try:                                    # inside snn_fg
+try:  # inside snn_fg
     from .cells import grid_delay, list_rows, population_spikes, split_receptors
     from .network import TIME_SHIFT_STEPS, PyNNNetwork
-except ImportError:                     # inside an export folder
+except ImportError:  # inside an export folder
     from fg_cells import grid_delay, list_rows, population_spikes, split_receptors
     from fg_network import TIME_SHIFT_STEPS, PyNNNetwork
 
@@ -79,8 +80,7 @@ def use_virtual_board(folder) -> Path:
     for sub in ("config", "home", "site"):
         (root / sub).mkdir(parents=True, exist_ok=True)
     (root / "config" / ".spynnaker.cfg").write_text(VIRTUAL_CFG.format(reports=root))
-    os.environ.update(XDG_CONFIG_HOME=str(root / "config"), XDG_CONFIG_DIRS=str(root / "site"),
-                      HOME=str(root / "home"))
+    os.environ.update(XDG_CONFIG_HOME=str(root / "config"), XDG_CONFIG_DIRS=str(root / "site"), HOME=str(root / "home"))
     return root
 
 
@@ -101,8 +101,10 @@ def spynnaker_timings() -> dict:
     from spinn_front_end_common.interface.provenance import GlobalProvenance, TimerCategory
 
     with GlobalProvenance() as db:
-        return {"mapping": db.get_category_timer_sum(TimerCategory.MAPPING) / 1e3,
-                "data_generation": db.get_timer_sum_by_algorithm("Graph data specification writer") / 1e3}
+        return {
+            "mapping": db.get_category_timer_sum(TimerCategory.MAPPING) / 1e3,
+            "data_generation": db.get_timer_sum_by_algorithm("Graph data specification writer") / 1e3,
+        }
 
 
 def core_tile(cols: int, rows: int, most: int = CELLS_PER_CORE) -> tuple:
@@ -154,7 +156,7 @@ def layout(populations: dict, conv) -> dict:
             if out.get(name) != "split":
                 out[name] = want
     changed = True
-    while changed:         # a stacked end meeting a split end of one projection splits too
+    while changed:  # a stacked end meeting a split end of one projection splits too
         changed = False
         for a, b, _ in conv:
             if {out[a], out[b]} == {"stacked", "split"}:
@@ -171,8 +173,11 @@ def plan_kernels(meta: dict, tables: dict, plan: dict) -> dict:
     for e in plan["projections"]:
         if e["connector"] == "ConvolutionConnector":
             taps, values = tables[e["name"]]
-            out[e["name"]] = (e["source"], e["target"],
-                              conv_kernels(taps, values, pops[e["source"]], pops[e["target"]], e["padding"]))
+            out[e["name"]] = (
+                e["source"],
+                e["target"],
+                conv_kernels(taps, values, pops[e["source"]], pops[e["target"]], e["padding"]),
+            )
     return out
 
 
@@ -185,13 +190,13 @@ class SpiNNakerNetwork(PyNNNetwork):
 
     def __init__(self, sim, *, layout: dict, populations: dict, combined_cores: bool = False, **kw):
         super().__init__(sim, portable=True, **kw)
-        if combined_cores:      # neurons and their synapses on one core, as the resource report counts them
+        if combined_cores:  # neurons and their synapses on one core, as the resource report counts them
             sim.set_number_of_synapse_cores(sim.IF_curr_exp, 0)
         # sPyNNaker 7 sizes cores itself unless told; a synaptic row (one source
         # cell's synapses onto one core) then outgrows its 256-synapse limit
         sim.set_number_of_neurons_per_core(sim.IF_curr_exp, CELLS_PER_CORE)
         self.layout, self.meta = dict(layout), populations
-        self.parts: dict = {}        # split population -> one Population per channel
+        self.parts: dict = {}  # split population -> one Population per channel
         self.n_convolution_connectors = 0
 
     def _grid(self, name):
@@ -206,8 +211,12 @@ class SpiNNakerNetwork(PyNNNetwork):
         cols, rows = self._grid(name)
         pops = []
         for c in range(self.meta[name]["channels"] if kind == "split" else 1):
-            pop = self.sim.Population(cols * rows, celltype, structure=self.sim.Grid2D(cols / rows),
-                                      label=f"{name}_c{c}" if kind == "split" else name)
+            pop = self.sim.Population(
+                cols * rows,
+                celltype,
+                structure=self.sim.Grid2D(cols / rows),
+                label=f"{name}_c{c}" if kind == "split" else name,
+            )
             pop.set_max_atoms_per_core(core_tile(cols, rows))
             pops.append(pop)
         if kind == "split":
@@ -230,8 +239,10 @@ class SpiNNakerNetwork(PyNNNetwork):
     def _from_list(self, source, target, pre, post, w, delay, receptor):
         if source not in self.parts and target not in self.parts:
             return super()._from_list(source, target, pre, post, w, delay, receptor)
-        n_pre, n_post = (self.meta[n]["size"] // self.meta[n]["channels"] if n in self.parts else self.meta[n]["size"]
-                         for n in (source, target))
+        n_pre, n_post = (
+            self.meta[n]["size"] // self.meta[n]["channels"] if n in self.parts else self.meta[n]["size"]
+            for n in (source, target)
+        )
         cp, cq = pre // n_pre, post // n_post
         key = cp * (cq.max() + 1) + cq
         for k in np.unique(key):
@@ -239,11 +250,15 @@ class SpiNNakerNetwork(PyNNNetwork):
             a = self.parts[source][cp[sel][0]] if source in self.parts else self.pops[source]
             b = self.parts[target][cq[sel][0]] if target in self.parts else self.pops[target]
             rows = list_rows(pre[sel] % n_pre, post[sel] % n_post, w[sel], delay)
-            self.sim.Projection(a, b, self.sim.FromListConnector(rows, column_names=["weight", "delay"]),
-                                self.sim.StaticSynapse(), receptor_type=receptor)
+            self.sim.Projection(
+                a,
+                b,
+                self.sim.FromListConnector(rows, column_names=["weight", "delay"]),
+                self.sim.StaticSynapse(),
+                receptor_type=receptor,
+            )
 
-    def convolve(self, source: str, target: str, drive: np.ndarray, *, sign: int, delay_ms: float,
-                 strides: int) -> int:
+    def convolve(self, source: str, target: str, drive: np.ndarray, *, sign: int, delay_ms: float, strides: int) -> int:
         """ConvolutionConnector projections of the kernels ``drive`` (mV:
         :func:`conv_kernels` times ``sign * gain_mv``, quantised as deployed);
         returns how many connectors."""
@@ -251,9 +266,11 @@ class SpiNNakerNetwork(PyNNNetwork):
         w = np.where(exc, mag, -mag)
         dyn = self.sim.Convolution(delay=grid_delay(delay_ms, self.dt))
         pr, pc = (s // 2 for s in w.shape[2:])
-        if pr != pc:        # sPyNNaker orders a kernel's weights by (x, y) in Python and (row, col) on the chip
-            raise ValueError(f"{source} -> {target}: a {w.shape[2]} x {w.shape[3]} kernel; only square kernels "
-                             "have one weight order in sPyNNaker")
+        if pr != pc:  # sPyNNaker orders a kernel's weights by (x, y) in Python and (row, col) on the chip
+            raise ValueError(
+                f"{source} -> {target}: a {w.shape[2]} x {w.shape[3]} kernel; only square kernels "
+                "have one weight order in sPyNNaker"
+            )
         if self.layout[source] == "stacked" or self.layout[target] == "stacked":
             planes = [(None, None, w[0, 0])]
         else:
@@ -277,8 +294,7 @@ class SpiNNakerNetwork(PyNNNetwork):
             return super()._portable_spikes(name)
         n = self.meta[name]["size"] // self.meta[name]["channels"]
         got = [population_spikes(pop) for pop in self.parts[name]]
-        return (np.concatenate([cell + c * n for c, (cell, _) in enumerate(got)]),
-                np.concatenate([t for _, t in got]))
+        return (np.concatenate([cell + c * n for c, (cell, _) in enumerate(got)]), np.concatenate([t for _, t in got]))
 
 
 def mapping_summary(names) -> dict:
@@ -297,15 +313,22 @@ def mapping_summary(names) -> dict:
         kind = type(pl.vertex).__name__
         if owner is None:
             system[kind] = system.get(kind, 0) + 1
-            if kind == "ExtraMonitorSupportMachineVertex":      # one on every chip of the machine
+            if kind == "ExtraMonitorSupportMachineVertex":  # one on every chip of the machine
                 continue
         else:
             by_pop[owner] = by_pop.get(owner, 0) + 1
             by_kind[kind] = by_kind.get(kind, 0) + 1
         chips.add((pl.x, pl.y))
     machine = FecDataView.get_machine()
-    return {"chips_used": len(chips), "cores_used": sum(by_pop.values()) + sum(system.values()),
-            "cores_network": sum(by_pop.values()), "fits": len(chips) <= SPINN5_CHIPS,
-            "machine_chips": machine.n_chips, "machine_boards": -(-machine.n_chips // SPINN5_CHIPS),
-            "cores_by_kind": by_kind, "cores_system": system, "cores_by_population": by_pop,
-            "reports": FecDataView.get_run_dir_path()}
+    return {
+        "chips_used": len(chips),
+        "cores_used": sum(by_pop.values()) + sum(system.values()),
+        "cores_network": sum(by_pop.values()),
+        "fits": len(chips) <= SPINN5_CHIPS,
+        "machine_chips": machine.n_chips,
+        "machine_boards": -(-machine.n_chips // SPINN5_CHIPS),
+        "cores_by_kind": by_kind,
+        "cores_system": system,
+        "cores_by_population": by_pop,
+        "reports": FecDataView.get_run_dir_path(),
+    }

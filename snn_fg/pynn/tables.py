@@ -7,6 +7,7 @@ lists at build time; :mod:`snn_fg.export.board` uses the same code in
 snn_fg. Populations are described by plain dicts (``grid``, ``stride``,
 ``level_shape``, ``channels``).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -80,5 +81,8 @@ def resize_pairs(rows: tuple, cols: tuple, channels: int, src: dict, tgt: dict, 
 def _cat(pre_l, post_l, k_l):
     if not pre_l:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    return (np.concatenate(pre_l).astype(np.int64), np.concatenate(post_l).astype(np.int64),
-            np.concatenate(k_l).astype(np.float64))
+    return (
+        np.concatenate(pre_l).astype(np.int64),
+        np.concatenate(post_l).astype(np.int64),
+        np.concatenate(k_l).astype(np.float64),
+    )

@@ -3,6 +3,7 @@
 ``per_octave`` (``ModelParams.levels_per_octave``) sets the step: 2 levels
 per halving of the scale (the paper's ``1/sqrt 2``), or 1 (octaves).
 """
+
 from __future__ import annotations
 
 import cv2
@@ -43,8 +44,11 @@ def check_levels(shape: tuple[int, int], levels: int, source="<frame>", per_octa
     if levels > most:
         from ..errors import InputError
 
-        raise InputError(source, f"a {shape[0]} x {shape[1]} frame has at most {most} pyramid levels of at least "
-                                 f"2 x 2 pixels; --levels {levels} asks for more")
+        raise InputError(
+            source,
+            f"a {shape[0]} x {shape[1]} frame has at most {most} pyramid levels of at least "
+            f"2 x 2 pixels; --levels {levels} asks for more",
+        )
 
 
 def resize(img: np.ndarray, shape: tuple[int, int], interpolation: str = "cubic") -> np.ndarray:
@@ -58,8 +62,9 @@ def resize(img: np.ndarray, shape: tuple[int, int], interpolation: str = "cubic"
     flag = {"cubic": cv2.INTER_CUBIC, "linear": cv2.INTER_LINEAR}[interpolation]
     # OpenCV handles at most 512 channels per call.
     if img.ndim == 3 and img.shape[2] > 512:
-        return np.concatenate([resize(img[..., i:i + 512], shape, interpolation)
-                               for i in range(0, img.shape[2], 512)], axis=2)
+        return np.concatenate(
+            [resize(img[..., i : i + 512], shape, interpolation) for i in range(0, img.shape[2], 512)], axis=2
+        )
     out = cv2.resize(img, (shape[1], shape[0]), interpolation=flag)
     if img.ndim == 3 and out.ndim == 2:
         out = out[..., None]

@@ -14,6 +14,7 @@ edge runs), and the grouping map is resized bilinearly.
 On a board this is the input adapter's job (an FPGA or host binning the
 camera's events), so the network's spike sources are the blocks.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -86,7 +87,7 @@ def edge_normals(edges: np.ndarray, pool: int, at=None):
         rows, cols = (a.ravel() for a in np.indices(shape))
     else:
         rows, cols = (np.asarray(a, dtype=np.int64) for a in at)
-    if min(shape) < 2:          # (no gradient across a line one pixel wide: no direction)
+    if min(shape) < 2:  # (no gradient across a line one pixel wide: no direction)
         out = np.ones(rows.size), np.zeros(rows.size), np.zeros(rows.size)
         return out if at is not None else tuple(a.reshape(shape) for a in out)
     w1 = _gaussian_weights(NORMAL_SIGMA)
@@ -109,7 +110,7 @@ def _gaussian_weights(sigma: float) -> np.ndarray:
     """A normalised Gaussian of radius ``int(4 sigma + 0.5)``, computed as
     ``scipy.ndimage.gaussian_filter`` computes its own."""
     x = np.arange(-int(4.0 * sigma + 0.5), int(4.0 * sigma + 0.5) + 1)
-    phi = np.exp(-0.5 / (sigma * sigma) * x ** 2)
+    phi = np.exp(-0.5 / (sigma * sigma) * x**2)
     return phi / phi.sum()
 
 
@@ -126,6 +127,7 @@ def _mirror(i, n):
 # The three passes below add a symmetric kernel's products in
 # scipy.ndimage's order (the centre, then pairs from the outermost in),
 # so their sums are its sums bit for bit.
+
 
 @njit(cache=True)
 def _smooth_rows(x, w, out):

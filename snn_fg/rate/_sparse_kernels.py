@@ -6,6 +6,7 @@ the half-open column range ``[lo, hi)`` of its non-zero entries, so a row costs
 its support, not its width. The inner loops run over contiguous memory with
 unsigned offsets, which lets LLVM vectorise them.
 """
+
 from __future__ import annotations
 
 import numba as nb
@@ -90,8 +91,11 @@ def winner_take_all(g_l, g_d, a_l, a_d, pad):
 #: meet its float32 and float64 callers in different orders and save each
 #: other's machine code under the wrong type in numba's cache index: the next
 #: process then failed with "can't unbox array" (or worse).
-POOL_ADD_SIGNATURES = [f"void({acc}[::1], i8[::1], i8[::1], i8[::1], {x}[:, :, :], i8[::1], f8[:, ::1], i8[::1], "
-                       "f8[:, ::1], f8)" for acc in ("f8", "f4") for x in ("f8", "f4")]
+POOL_ADD_SIGNATURES = [
+    f"void({acc}[::1], i8[::1], i8[::1], i8[::1], {x}[:, :, :], i8[::1], f8[:, ::1], i8[::1], f8[:, ::1], f8)"
+    for acc in ("f8", "f4")
+    for x in ("f8", "f4")
+]
 
 
 @nb.njit(POOL_ADD_SIGNATURES, cache=True, nogil=True)

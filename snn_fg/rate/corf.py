@@ -32,6 +32,7 @@ Parameters are those of Hu et al.'s FBFG (``sigma`` 2.2, ``BETA`` 4 px,
 ``INHIBITION`` 1.8) and of the published CORF configuration (inner/outer
 sigma ratio 0.5, ``SIGMA0`` 2, ``ALPHA`` 0.9, radii for sigma 2.2).
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -63,7 +64,8 @@ _EDGE_HALF = 60
 def _rectified_dog(image, sigma):
     """(on, off): rectified centre-on and centre-off DoG responses."""
     dog = ndi.gaussian_filter(image, sigma * SIGMA_RATIO, mode="reflect") - ndi.gaussian_filter(
-        image, sigma, mode="reflect")
+        image, sigma, mode="reflect"
+    )
     return np.maximum(dog, 0.0), np.maximum(-dog, 0.0)
 
 
@@ -89,7 +91,7 @@ def configuration(sigma: float = SIGMA, rho=RHO) -> tuple:
     (direction 180 degrees); polarity 1 = centre-on, 0 = centre-off; x right, y up, px."""
     side = 2 * _EDGE_HALF + 1
     edge = np.zeros((side, side))
-    edge[:, :_EDGE_HALF + 1] = 1.0                      # light up to and including the centre column
+    edge[:, : _EDGE_HALF + 1] = 1.0  # light up to and including the centre column
     on, off = _rectified_dog(edge, sigma)
     top = max(on.max(), off.max())
     units = []
@@ -123,7 +125,7 @@ class _Blurred:
         self.cache = {}
 
     def weight(self, rho):
-        return float(np.exp(-rho ** 2 / (2 * self.weight_sigma ** 2)))
+        return float(np.exp(-(rho**2) / (2 * self.weight_sigma**2)))
 
     def shifted(self, polarity, rho, dx, dy):
         """The map seen ``dx`` px right and ``dy`` px up of every pixel."""
@@ -136,7 +138,7 @@ class _Blurred:
             self.cache[key] = np.pad(np.maximum(m, 0.0) ** self.weight(rho), self.pad, mode="edge")
         h, w = self.maps[0].shape
         r0, c0 = self.pad - dy, self.pad + dx
-        return self.cache[key][r0:r0 + h, c0:c0 + w]
+        return self.cache[key][r0 : r0 + h, c0 : c0 + w]
 
 
 def _cell(blurred, units, psi):
@@ -153,8 +155,9 @@ def _cell(blurred, units, psi):
     return out ** (1.0 / total)
 
 
-def corf_responses(image, sigma: float = SIGMA, beta: float = BETA, inhibition: float = INHIBITION,
-                   n_directions: int = N_DIRECTIONS) -> np.ndarray:
+def corf_responses(
+    image, sigma: float = SIGMA, beta: float = BETA, inhibition: float = INHIBITION, n_directions: int = N_DIRECTIONS
+) -> np.ndarray:
     """Push-pull responses (n_directions, H, W) of a grey image; direction k prefers a light side at
     ``2 pi k / n_directions`` (x right, y up). The image is rescaled to [0, 1] first."""
     img = np.asarray(image, dtype=np.float64)

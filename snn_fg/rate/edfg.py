@@ -11,6 +11,7 @@ with it. It is written for speed without changing the maths:
   follows the pixels that carry events and the changes between iterations,
   not the frame size.
 """
+
 from __future__ import annotations
 
 import functools
@@ -18,20 +19,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..pyramid.pool import pool_frame, unpool_maps
-from ..pyramid.levels import check_levels, level_shape, pyramid, resize
 from .. import validate as check
 from ..maps import Maps
 from ..network.kernels import dog_kernels
 from ..params import ModelParams
+from ..pyramid.levels import check_levels, level_shape, pyramid, resize
+from ..pyramid.pool import pool_frame, unpool_maps
 from ._sparse_kernels import dog_at
 from .fourier import irfft, padded_shape, place, rfft
 from .grouping import Entries, GroupingResult, SparseGrouping
 from .pooled import grouping_engine
 from .side_cue import side_cue_bias
 
-__all__ = ["GroupingResult", "RateState", "border_ownership_grouping", "event_simple_cells",
-           "orientation_index", "oriented_responses", "readout", "run_edfg", "run_edfg_state"]
+__all__ = [
+    "GroupingResult",
+    "RateState",
+    "border_ownership_grouping",
+    "event_simple_cells",
+    "orientation_index",
+    "oriented_responses",
+    "readout",
+    "run_edfg",
+    "run_edfg_state",
+]
 
 
 # --------------------------------------------------------------------------
@@ -55,8 +65,7 @@ def oriented_responses(pos: np.ndarray, neg: np.ndarray, params: ModelParams = M
     # A linear convolution of the periodically padded input equals the
     # circular one on the frame, and runs on a fast FFT grid.
     fshape = padded_shape(shape, 2 * half)
-    k_hat = _dog_hat(params.dog_s1, params.dog_s2, params.dog_half_width, params.dog_step,
-                     params.n_ori, fshape)
+    k_hat = _dog_hat(params.dog_s1, params.dog_s2, params.dog_half_width, params.dog_step, params.n_ori, fshape)
     n = params.n_ori
     src = np.pad(np.stack([pos, neg]).astype(np.float64), ((0, 0), (half, half), (half, half)), mode="wrap")
     src = rfft(src, fshape)
@@ -106,8 +115,9 @@ def responses_at(pos, neg, rows, cols, params: ModelParams = ModelParams()) -> n
     """
     table = _dog_table(params.dog_s1, params.dog_s2, params.dog_half_width, params.dog_step, params.n_ori)
     out = np.zeros((rows.size, params.n_dir))
-    dog_at(out, rows, cols, np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(neg, dtype=np.float64),
-           table)
+    dog_at(
+        out, rows, cols, np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(neg, dtype=np.float64), table
+    )
     out[out < params.edge_threshold] = 0.0
     out[out < params.sum_threshold] = 0.0
     return out.T
@@ -171,8 +181,12 @@ def border_ownership_grouping(s_levels, params: ModelParams = ModelParams(), pro
     """Stages 5-8: iterate grouping cells and feedback on the S pyramid (dense in, dense out); no side cue
     (it reads events, which the S pyramid no longer holds)."""
     if params.side_cue:
-        check.fail("border_ownership_grouping", "side_cue", params.side_cue,
-                   "must be 0: the side cue reads events, and the frame-based model (fbfg) has none")
+        check.fail(
+            "border_ownership_grouping",
+            "side_cue",
+            params.side_cue,
+            "must be 0: the side cue reads events, and the frame-based model (fbfg) has none",
+        )
     entries = [Entries.from_dense(s) for s in s_levels]
     shapes = [s.shape[1:] for s in s_levels]
     return grouping_engine(params)(entries, shapes, params).run(progress).dense()
@@ -206,7 +220,7 @@ class RateState:
     pos: np.ndarray
     neg: np.ndarray
     params: ModelParams
-    engine: SparseGrouping       # stages 5-8 state after the iterations
+    engine: SparseGrouping  # stages 5-8 state after the iterations
     fg_x: np.ndarray
     fg_y: np.ndarray
     grouping: np.ndarray
@@ -228,13 +242,17 @@ class RateState:
 
     def maps(self, **extra_params) -> Maps:
         """The model's output: float32 maps and the parameters (plus ``extra_params``)."""
-        return Maps(fg_x=self.fg_x.astype(np.float32), fg_y=self.fg_y.astype(np.float32),
-                    grouping=self.grouping.astype(np.float32),
-                    params={"model": "rate", **self.params.to_dict(), **extra_params})
+        return Maps(
+            fg_x=self.fg_x.astype(np.float32),
+            fg_y=self.fg_y.astype(np.float32),
+            grouping=self.grouping.astype(np.float32),
+            params={"model": "rate", **self.params.to_dict(), **extra_params},
+        )
 
 
-def run_edfg_state(pos, neg, params: ModelParams = ModelParams(), progress=None,
-                   previous: RateState | None = None, carry: float = 1.0) -> RateState:
+def run_edfg_state(
+    pos, neg, params: ModelParams = ModelParams(), progress=None, previous: RateState | None = None, carry: float = 1.0
+) -> RateState:
     """Run stages 1-9 on an event frame and return every intermediate map.
 
     With ``previous`` (the state of the frame before, same shape) the

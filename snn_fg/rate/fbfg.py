@@ -27,15 +27,16 @@ fixed scale. The direction index is the quantised gradient direction (towards
 the brighter side) shifted by a quarter turn, the same convention stage 4 gives
 for events, so that the border-ownership families receive the same polarity.
 """
+
 from __future__ import annotations
 
 import numpy as np
 from scipy import ndimage as ndi
 
-from ..pyramid.levels import check_levels, pyramid
+from .. import validate
 from ..maps import Maps
 from ..params import EDGE_OPERATORS, ModelParams
-from .. import validate
+from ..pyramid.levels import check_levels, pyramid
 from .edfg import border_ownership_grouping, readout
 
 
@@ -84,7 +85,7 @@ def image_edges(image, sigma: float = 1.0, operator: str = "gaussian") -> tuple[
             gr = gc = None
         else:
             mag, gr, gc = _gaussian_channel(ch, sigma)
-            ang = np.arctan2(-gr, gc)           # rows grow downwards; y points up
+            ang = np.arctan2(-gr, gc)  # rows grow downwards; y points up
         mag = weight * mag
         if strength is None:
             strength, best, direction, gr_i, gc_i = mag, mag, ang, gr, gc
@@ -150,8 +151,12 @@ def run_fbfg(image, params: ModelParams = ModelParams(), progress=None, edge_ope
     """
     img = np.asarray(image, dtype=np.float64)
     if params.input_pool != 1:
-        validate.fail("run_fbfg", "params.input_pool", params.input_pool,
-                   "must be 1: input pooling is a stage of the event models, not of the frame-based one")
+        validate.fail(
+            "run_fbfg",
+            "params.input_pool",
+            params.input_pool,
+            "must be 1: input pooling is a stage of the event models, not of the frame-based one",
+        )
     check_levels(img.shape[:2], params.levels, "<image>", params.levels_per_octave)
     s_levels = frame_simple_cells(img, params, edge_operator)
     g = border_ownership_grouping(s_levels, params, progress)
@@ -160,5 +165,9 @@ def run_fbfg(image, params: ModelParams = ModelParams(), progress=None, edge_ope
     if top > 0:
         grouping = grouping / top
     grouping[grouping < params.grouping_floor] = 0.0
-    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32),
-                params={"model": "fbfg", "edge_operator": edge_operator, **params.to_dict()})
+    return Maps(
+        fg_x.astype(np.float32),
+        fg_y.astype(np.float32),
+        grouping.astype(np.float32),
+        params={"model": "fbfg", "edge_operator": edge_operator, **params.to_dict()},
+    )

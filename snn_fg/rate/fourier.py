@@ -1,4 +1,5 @@
 """Fourier-domain convolution helpers of the rate model (float64, ``scipy.fft``)."""
+
 from __future__ import annotations
 
 import numpy as np

@@ -27,6 +27,7 @@ saturating sigmoid: on the six shared BSDS frames the outputs move by at most
 the all-float64 form, and Pearson r to the authors' outputs is the same to 10
 digits.
 """
+
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
@@ -36,8 +37,8 @@ import numpy as np
 
 from .. import cancel
 from ..cores import usable_cores
-from ..pyramid.levels import resize
 from ..params import ModelParams
+from ..pyramid.levels import resize
 from . import _sparse_kernels as nbk
 from .fourier import irfft_crop, padded_shape, rfft_rows
 from .grouping_tables import Entries, GroupingResult, cubic_taps, kernel_tables, vm_hat, vm_hat_single
@@ -52,13 +53,13 @@ _ATOL = 1e-8
 # the feedback correlation is gathered at the sites that need it or computed
 # everywhere.
 _FFT_COST_PER_CELL = 24.0
-_FFT_COST_PER_CELL_SINGLE = 12.0     # the same in single precision
+_FFT_COST_PER_CELL_SINGLE = 12.0  # the same in single precision
 # Threads sharing the levels (this project's machines have 2 cores).
 _THREADS = min(2, usable_cores())
 
 
 def _feedback_gain(z, alpha):
-    with np.errstate(over="ignore"):   # exp overflow -> sigmoid 0, as intended
+    with np.errstate(over="ignore"):  # exp overflow -> sigmoid 0, as intended
         return 1.0 + alpha * (1.0 / (1.0 + np.exp(-z)) - 0.5)
 
 
@@ -79,12 +80,12 @@ class _Level:
         padded = (shape[0] + 2 * pad, shape[1] + 2 * pad)
         self.a_l, self.a_d = np.zeros(padded), np.zeros(padded)
         self.g_l, self.g_d = np.zeros(padded), np.zeros(padded)
-        self.sites = None       # where the feedback correlation is gathered (None: dense)
-        self.x = None           # feedback correlation at the sites (dense array, sites filled)
+        self.sites = None  # where the feedback correlation is gathered (None: dense)
+        self.x = None  # feedback correlation at the sites (dense array, sites filled)
 
     def interior(self, a):
         p = self.pad
-        return a[p:p + self.shape[0], p:p + self.shape[1]]
+        return a[p : p + self.shape[0], p : p + self.shape[1]]
 
 
 class SparseGrouping:
@@ -109,7 +110,7 @@ class SparseGrouping:
         self.support = sum(float((hi - lo).sum()) for _, lo, hi in self.gather_k) / (2 * self.n)
         pad = self.ksize // 2
         self.levels = [_Level(e, s, pad, params.alpha) for e, s in zip(entries, shapes)]
-        self.z_bias = None      #: added to the finest level's pooled feedback signal (the side cue; None: none)
+        self.z_bias = None  #: added to the finest level's pooled feedback signal (the side cue; None: none)
 
     # -- stage 7 --------------------------------------------------------
     def _inhibition(self, lv: _Level) -> np.ndarray:
@@ -179,7 +180,7 @@ class SparseGrouping:
             lv.sites = None
             if lv.need.size * support >= dense:
                 continue
-            if k == 0:      # nothing finer pools from the finest level: its own entries
+            if k == 0:  # nothing finer pools from the finest level: its own entries
                 need = lv.need
                 lv.sites = (lv.e.rows[need], lv.e.cols[need], lv.e.ch[need])
                 lv.x = np.zeros((2 * self.n,) + lv.shape)
@@ -275,12 +276,20 @@ class SparseGrouping:
         carry = check.number("SparseGrouping.continue_from", "carry", carry, lo=0, hi=1)
 
         if [lv.shape for lv in previous.levels] != [lv.shape for lv in self.levels]:
-            check.fail("SparseGrouping.continue_from", None, None,
-                       "the previous frame's levels have other shapes "
-                       f"({[lv.shape for lv in previous.levels]} against {[lv.shape for lv in self.levels]})")
+            check.fail(
+                "SparseGrouping.continue_from",
+                None,
+                None,
+                "the previous frame's levels have other shapes "
+                f"({[lv.shape for lv in previous.levels]} against {[lv.shape for lv in self.levels]})",
+            )
         if replace(previous.params, iterations=self.params.iterations) != self.params:
-            check.fail("SparseGrouping.continue_from", None, None,
-                       "the previous frame ran with other parameters (only the iteration count may differ)")
+            check.fail(
+                "SparseGrouping.continue_from",
+                None,
+                None,
+                "the previous frame ran with other parameters (only the iteration count may differ)",
+            )
         for lv, old in zip(self.levels, previous.levels):
             np.multiply(old.g_l, carry, out=lv.g_l)
             np.multiply(old.g_d, carry, out=lv.g_d)
@@ -339,7 +348,7 @@ class SparseGrouping:
         for k in range(1, len(self.levels)):
             rs, rw = cubic_taps(self.levels[k].shape[0], lv.shape[0])
             cs, cw = cubic_taps(self.levels[k].shape[1], lv.shape[1])
-            nbk.pool_add(z, e.rows, e.cols, e.ch, x[k], rs, rw, cs, cw, p.pyramid_decay ** k)
+            nbk.pool_add(z, e.rows, e.cols, e.ch, x[k], rs, rw, cs, cw, p.pyramid_decay**k)
         return z if self.z_bias is None else z + self.z_bias
 
     def run(self, progress=None) -> "SparseGrouping":

@@ -2,6 +2,7 @@
 its per-level state (:class:`Entries`, :class:`GroupingResult`) and its
 kernels, computed once per size: the von Mises scatter and gather tables,
 their Fourier transforms, and OpenCV's bicubic resize as taps."""
+
 from __future__ import annotations
 
 import functools
@@ -20,12 +21,12 @@ from .fourier import place, rfft
 class GroupingResult:
     """Border-ownership and grouping maps per level after the iterations (dense)."""
 
-    s: list     # (2n, h, w) per level
-    bl1: list   # (n, h, w) per level; likewise bl2, bd1, bd2
+    s: list  # (2n, h, w) per level
+    bl1: list  # (n, h, w) per level; likewise bl2, bd1, bd2
     bl2: list
     bd1: list
     bd2: list
-    gl: list    # (h, w) per level; likewise gd
+    gl: list  # (h, w) per level; likewise gd
     gd: list
 
 

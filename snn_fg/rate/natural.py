@@ -37,6 +37,7 @@ The choices were made on the tuning half of the shared BSDS images
 Everything else (events, pyramid, oriented responses, border-ownership
 cells, feedback gain, read-out) is the reference's.
 """
+
 from __future__ import annotations
 
 from ..maps import Maps

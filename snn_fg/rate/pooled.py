@@ -7,6 +7,7 @@ grouping maps. :func:`grouping_engine` picks it or the paper's
 :class:`~snn_fg.rate.grouping.SparseGrouping` from the parameters, for every
 model that runs stages 5-8 (:mod:`snn_fg.rate.edfg`).
 """
+
 from __future__ import annotations
 
 import numpy as np

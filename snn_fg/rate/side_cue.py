@@ -16,6 +16,7 @@ level 1. ``z1`` favours side 1 (``BL1``), ``z2`` side 2 (``BL2``). The
 spiking form carries ``Q`` in a rectified pair of cells at level ``L``
 (``side_p``, ``side_n``) that feed the level-1 feedback cells.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -13,11 +13,20 @@ The network is described in :mod:`snn_fg.network`, lowered to input spikes
 and synapses by :mod:`snn_fg.lowering` and simulated by a backend of
 :mod:`snn_fg.backends`.
 """
+
 from ..network import SpikingParams, build_network
 from .api import SpikingResult, run_spiking, run_spiking_result
 from .continuous import run_spiking_windows
 from .options import SpikingOptions
 from .record import SpikingRecord
 
-__all__ = ["SpikingOptions", "SpikingParams", "SpikingRecord", "SpikingResult", "build_network", "run_spiking",
-           "run_spiking_result", "run_spiking_windows"]
+__all__ = [
+    "SpikingOptions",
+    "SpikingParams",
+    "SpikingRecord",
+    "SpikingResult",
+    "build_network",
+    "run_spiking",
+    "run_spiking_result",
+    "run_spiking_windows",
+]

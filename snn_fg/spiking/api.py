@@ -6,6 +6,7 @@ parameters, or a stored one) -> calibration to the input rate -> a backend
 (by name) -> :class:`~snn_fg.backends.SimulationResult` -> rate decoding ->
 :class:`~snn_fg.maps.Maps` with a :class:`~snn_fg.spiking.record.SpikingRecord`.
 """
+
 from __future__ import annotations
 
 import time
@@ -16,10 +17,10 @@ import numpy as np
 from ..backends import RunSettings, SimulationResult
 from ..errors import InputError
 from ..events.window import events_to_frame
-from ..pyramid.pool import pool_events, pool_frame, pooled_shape, unpool_maps
 from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ..maps import Maps
 from ..network.graph import Network
+from ..pyramid.pool import pool_events, pool_frame, pooled_shape, unpool_maps
 from .decode import decode
 from .options import FrameOptions, SpikingOptions
 from .record import SpikingRecord, run_provenance
@@ -78,8 +79,9 @@ def _inputs(pos, neg, events, sensor_size, frame: FrameOptions, dt_ms: float, ne
     return inp
 
 
-def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, options: SpikingOptions | None = None,
-                       **keywords) -> SpikingResult:
+def run_spiking_result(
+    pos=None, neg=None, *, events=None, sensor_size=None, options: SpikingOptions | None = None, **keywords
+) -> SpikingResult:
     """:func:`run_spiking`, returning a :class:`SpikingResult` with the
     internals. The options are :func:`run_spiking`'s keywords, or a
     :class:`~snn_fg.spiking.options.SpikingOptions` made once (``options``)."""
@@ -98,23 +100,37 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, opt
         net = net.calibrated(inp.rate_hz)
     backend = sim.backend_object()
     instantiate = sim.cells_for(backend, inp)
-    settings = RunSettings(duration_ms=frame.duration_ms, dt_ms=dt_ms, count_from_ms=frame.settle_ms,
-                           record_spikes=sim.record_spikes, record_state=frame.record_state,
-                           instantiate=instantiate, sites=frame.sites, log=sim.say, progress=sim.progress)
+    settings = RunSettings(
+        duration_ms=frame.duration_ms,
+        dt_ms=dt_ms,
+        count_from_ms=frame.settle_ms,
+        record_spikes=sim.record_spikes,
+        record_state=frame.record_state,
+        instantiate=instantiate,
+        sites=frame.sites,
+        log=sim.say,
+        progress=sim.progress,
+    )
     result = backend.simulate(net, inp, settings)
     fg_x, fg_y, grouping, _ = decode(result)
     if sensor is not None:
         fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, sensor, pool)
     rec = SpikingRecord.from_result(result, inp, frame.settle_ms)
-    simulation = {**rec.timing(), "dt_ms": dt_ms, "seed": int(frame.seed), "input": inp.kind,
-                  "rate_hz_requested": float(frame.rate_hz), "rate_hz_used": inp.rate_hz,
-                  "input_process": frame.input_process if events is None else "events",
-                  "replay": bool(frame.replay) if events is not None else None,
-                  "merged_input_spikes": inp.merged, "instantiate": instantiate,
-                  "record_spikes": bool(sim.record_spikes)}
+    simulation = {
+        **rec.timing(),
+        "dt_ms": dt_ms,
+        "seed": int(frame.seed),
+        "input": inp.kind,
+        "rate_hz_requested": float(frame.rate_hz),
+        "rate_hz_used": inp.rate_hz,
+        "input_process": frame.input_process if events is None else "events",
+        "replay": bool(frame.replay) if events is not None else None,
+        "merged_input_spikes": inp.merged,
+        "instantiate": instantiate,
+        "record_spikes": bool(sim.record_spikes),
+    }
     record = run_provenance(net, origin, backend, result, rec.populations, simulation, t_start)
-    maps = Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), record,
-                rec.arrays())
+    maps = Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), record, rec.arrays())
     return SpikingResult(maps, net, result, inp, rec)
 
 

@@ -24,6 +24,7 @@ be iterated again (a list, or :class:`~snn_fg.events.RecordingWindows`,
 which reads the file again) are never all in memory; a one-shot iterator
 is made a list first.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -37,16 +38,17 @@ import numpy as np
 from ..backends import RunSettings
 from ..backends.base import each_bin
 from ..cores import usable_cores
-from ..pyramid.pool import pool_frame, unpool_maps
 from ..maps import Maps
+from ..pyramid.pool import pool_frame, unpool_maps
 from .decode import decode
 from .options import SpikingOptions
 from .record import SpikingRecord, run_provenance
 from .recording_input import WindowFeed, plan_recording
 
 
-def run_spiking_windows(windows, *, source: str = "<recording>", options: SpikingOptions | None = None,
-                        **keywords) -> list[Maps]:
+def run_spiking_windows(
+    windows, *, source: str = "<recording>", options: SpikingOptions | None = None, **keywords
+) -> list[Maps]:
     """Run the spiking network once over consecutive windows of a recording.
 
     Parameters
@@ -93,13 +95,24 @@ def run_spiking_windows(windows, *, source: str = "<recording>", options: Spikin
     >>> len(maps) == len(wins), maps[0].params["simulation"]["network_builds"]
     (True, 1)
     """
-    run = simulate_windows(windows, source=source, keep_run=False,
-                           options=SpikingOptions.of("run_spiking_windows", options, keywords, frame=False))
+    run = simulate_windows(
+        windows,
+        source=source,
+        keep_run=False,
+        options=SpikingOptions.of("run_spiking_windows", options, keywords, frame=False),
+    )
     return window_maps(run)
 
 
-def stream_spiking_windows(windows, on_window, *, source: str = "<recording>",
-                           options: SpikingOptions | None = None, cells: bool = True, **keywords) -> dict:
+def stream_spiking_windows(
+    windows,
+    on_window,
+    *,
+    source: str = "<recording>",
+    options: SpikingOptions | None = None,
+    cells: bool = True,
+    **keywords,
+) -> dict:
     """:func:`run_spiking_windows` handing each window's maps to
     ``on_window(window, maps)`` as soon as the run has passed the end of its
     read-out span, instead of returning them all at the end: nothing of a
@@ -139,9 +152,16 @@ class ContinuousRun:
     decoded_at: list
 
 
-def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = True,
-                     options: SpikingOptions | None = None, on_window=None, cells: bool = True,
-                     **keywords) -> ContinuousRun:
+def simulate_windows(
+    windows,
+    *,
+    source: str = "<recording>",
+    keep_run: bool = True,
+    options: SpikingOptions | None = None,
+    on_window=None,
+    cells: bool = True,
+    **keywords,
+) -> ContinuousRun:
     """The simulation half of :func:`run_spiking_windows` (same parameters):
     one run over every window, each window decoded as the run passes the
     end of its read-out span; :func:`window_maps` makes their maps.
@@ -156,11 +176,12 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     t_start = time.perf_counter()
     opts = SpikingOptions.of("simulate_windows", options, keywords, frame=False)
     sim, lag = opts.simulator, opts.recording.readout_lag_ms
-    if iter(windows) is windows:            # (read once only: kept, to be read twice)
+    if iter(windows) is windows:  # (read once only: kept, to be read twice)
         windows = list(windows)
     threaded = usable_cores() > 1
-    plan = plan_recording(read_ahead(windows) if threaded else windows, opts.network, sim, lag,
-                          opts.recording.window_clock, source)
+    plan = plan_recording(
+        read_ahead(windows) if threaded else windows, opts.network, sim, lag, opts.recording.window_clock, source
+    )
     net, origin, rate = plan.network, plan.origin, plan.rate_hz
     if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
         origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
@@ -170,20 +191,48 @@ def simulate_windows(windows, *, source: str = "<recording>", keep_run: bool = T
     feed = WindowFeed(read_ahead(windows) if threaded else windows, plan, keep=keep_run)
     inp = feed.input if backend.streams_input else feed.input.whole()
     instantiate = sim.cells_for(backend, inp)
-    simulation = {"mode": "continuous", "simulated_ms": edges[-1], "network_builds": 1, "readout_lag_ms": lag,
-                  "dt_ms": plan.dt_ms, "input": "events", "rate_hz_used": rate, "merged_input_spikes": plan.merged,
-                  "instantiate": instantiate, "record_spikes": bool(sim.record_spikes),
-                  "window_clock": plan.clock_steps is not None}
-    run = ContinuousRun(len(plan.spans), net, origin, backend, None, edges, plan.spans, simulation, t_start,
-                        [None] * len(plan.spans), [None] * len(plan.spans))
+    simulation = {
+        "mode": "continuous",
+        "simulated_ms": edges[-1],
+        "network_builds": 1,
+        "readout_lag_ms": lag,
+        "dt_ms": plan.dt_ms,
+        "input": "events",
+        "rate_hz_used": rate,
+        "merged_input_spikes": plan.merged,
+        "instantiate": instantiate,
+        "record_spikes": bool(sim.record_spikes),
+        "window_clock": plan.clock_steps is not None,
+    }
+    run = ContinuousRun(
+        len(plan.spans),
+        net,
+        origin,
+        backend,
+        None,
+        edges,
+        plan.spans,
+        simulation,
+        t_start,
+        [None] * len(plan.spans),
+        [None] * len(plan.spans),
+    )
     reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window, threaded, cells)
     simulation["decode_thread"] = reader.threaded
-    settings = RunSettings(duration_ms=edges[-1], dt_ms=plan.dt_ms, count_from_ms=edges[0],
-                           record_spikes=sim.record_spikes, instantiate=instantiate, count_bins_ms=tuple(edges),
-                           log=sim.say, progress=sim.progress, on_bin=None if keep_run else reader)
+    settings = RunSettings(
+        duration_ms=edges[-1],
+        dt_ms=plan.dt_ms,
+        count_from_ms=edges[0],
+        record_spikes=sim.record_spikes,
+        instantiate=instantiate,
+        count_bins_ms=tuple(edges),
+        log=sim.say,
+        progress=sim.progress,
+        on_bin=None if keep_run else reader,
+    )
     with reader:
         run.result = backend.simulate(net, inp, settings)
-        if run.result.binned_counts is not None:        # (a backend that kept its bins)
+        if run.result.binned_counts is not None:  # (a backend that kept its bins)
             for k, bin_result in each_bin(run.result):
                 reader(k, bin_result)
     return run
@@ -229,13 +278,22 @@ class _WindowReader:
     #: windows handed to the decoding thread and not yet finished
     AHEAD = 2
 
-    def __init__(self, feed: WindowFeed, spans, edges, pool: int, run: ContinuousRun, on_window=None,
-                 threaded: bool = False, cells: bool = True):
+    def __init__(
+        self,
+        feed: WindowFeed,
+        spans,
+        edges,
+        pool: int,
+        run: ContinuousRun,
+        on_window=None,
+        threaded: bool = False,
+        cells: bool = True,
+    ):
         self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
         self.bins = [_bins_of(span, edges) for span in spans]
-        self.first = 0          # the first window not decoded yet (spans start and end in order)
+        self.first = 0  # the first window not decoded yet (spans start and end in order)
         self.reading: dict = {}
-        self.last_at = run.t_start          # perf_counter() when the last window was decoded
+        self.last_at = run.t_start  # perf_counter() when the last window was decoded
         self.threaded, self.cells = threaded, cells
         self.worker = None
         self.pending: deque = deque()
@@ -286,7 +344,7 @@ class _WindowReader:
                 self.pending.append(self.worker.submit(self._finish, i, w, result, counts, spikes))
 
     def _finish(self, i, w, result, counts, spikes):
-        if self.failed:             # (an earlier window failed on the thread: none after it)
+        if self.failed:  # (an earlier window failed on the thread: none after it)
             return
         try:
             self._hand(i, w, result, counts, spikes)
@@ -307,8 +365,9 @@ class _WindowReader:
         trains = None
         if spikes:
             trains = {n: tuple(np.concatenate([s[n][j] for s in spikes]) for j in range(2)) for n in spikes[0]}
-        window_result = dataclasses.replace(result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0],
-                                            spikes=trains)
+        window_result = dataclasses.replace(
+            result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0], spikes=trains
+        )
         fg_x, fg_y, grouping = unpool_maps(*decode(window_result)[:3], w.pos | w.neg, self.pool)
         on, off = pool_frame(w.pos, w.neg, self.pool)
         masks = SimpleNamespace(on=on != 0, off=off != 0)
@@ -321,8 +380,10 @@ def window_maps(run: ContinuousRun) -> list[Maps]:
     wall time from the previous window's decoding (the first: from the
     run's start) to this one's, what the stream spent on the window."""
     before = [run.t_start] + run.decoded_at[:-1]
-    return [_maps_of(run, k, decoded, run.result, t1 - t0)
-            for k, (decoded, t0, t1) in enumerate(zip(run.decoded, before, run.decoded_at))]
+    return [
+        _maps_of(run, k, decoded, run.result, t1 - t0)
+        for k, (decoded, t0, t1) in enumerate(zip(run.decoded, before, run.decoded_at))
+    ]
 
 
 def _maps_of(run: ContinuousRun, k: int, decoded, result, window_s: float) -> Maps:

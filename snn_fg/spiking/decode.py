@@ -7,6 +7,7 @@ rate model's own :func:`~snn_fg.rate.edfg.readout` turns it into ``fg_x``,
 interpolated (bilinear) onto their level's whole grid. Populations are found
 by role, so this works for any backend and any network with the model's roles.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -18,6 +18,7 @@ once and hands it over as ``options=``.
 * :class:`RecordingOptions` - a recording run as one network: read-out lag
   and window clock.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -28,12 +29,12 @@ from pathlib import Path
 
 from .. import validate as check
 from ..backends import DEFAULT_BACKEND, Backend, as_backend
-from ..pyramid.pool import pooled_shape
 from ..network.builder import build_network
 from ..network.graph import Network
 from ..network.recipes import network_for
 from ..network.spiking_params import SpikingParams
 from ..params import ModelParams
+from ..pyramid.pool import pooled_shape
 
 #: Default read-out lag (ms) of a recording's windows: see
 #: :mod:`snn_fg.spiking.continuous` and ``experiments/validation/dvs_latency.py`` for how
@@ -168,8 +169,13 @@ class FrameOptions:
     def __post_init__(self, owner):
         duration = check.number(owner, "duration_ms", self.duration_ms, lo=0, lo_open=True)
         object.__setattr__(self, "duration_ms", duration)
-        object.__setattr__(self, "settle_ms", duration / 2 if self.settle_ms is None else check.number(
-            owner, "settle_ms", self.settle_ms, lo=0, hi=duration, hi_open=True))
+        object.__setattr__(
+            self,
+            "settle_ms",
+            duration / 2
+            if self.settle_ms is None
+            else check.number(owner, "settle_ms", self.settle_ms, lo=0, hi=duration, hi_open=True),
+        )
         check.integer(owner, "seed", self.seed)
         object.__setattr__(self, "record_state", tuple(self.record_state))
 
@@ -200,8 +206,9 @@ class SpikingOptions:
     recording: RecordingOptions = field(default_factory=RecordingOptions)
 
     @classmethod
-    def from_keywords(cls, owner: str, keywords: dict, *, frame: bool = True,
-                      recording: bool = True) -> "SpikingOptions":
+    def from_keywords(
+        cls, owner: str, keywords: dict, *, frame: bool = True, recording: bool = True
+    ) -> "SpikingOptions":
         """The keyword options of ``owner`` as parts; the frame or recording
         part only where ``owner`` takes it. A keyword no part has is a
         ``TypeError`` naming it."""
@@ -214,12 +221,17 @@ class SpikingOptions:
         for k in keywords:
             if not any(k in n for n in names.values()):
                 raise TypeError(f"{owner}() got an unexpected keyword argument {k!r}")
-        return cls(**{part: kind(owner=owner, **{k: v for k, v in keywords.items() if k in names[part]})
-                      for part, kind in kinds.items()})
+        return cls(
+            **{
+                part: kind(owner=owner, **{k: v for k, v in keywords.items() if k in names[part]})
+                for part, kind in kinds.items()
+            }
+        )
 
     @classmethod
-    def of(cls, owner: str, options: "SpikingOptions | None", keywords: dict, *, frame: bool = True,
-           recording: bool = True) -> "SpikingOptions":
+    def of(
+        cls, owner: str, options: "SpikingOptions | None", keywords: dict, *, frame: bool = True, recording: bool = True
+    ) -> "SpikingOptions":
         """``options`` as given (then with no keyword options beside it), or
         ``keywords`` made into options (:meth:`from_keywords`)."""
         if options is None:
@@ -227,11 +239,11 @@ class SpikingOptions:
         if not isinstance(options, SpikingOptions):
             check.fail(owner, "options", options, "must be a SpikingOptions")
         if keywords:
-            check.fail(owner, None, None, f"give options= or keyword options ({', '.join(sorted(keywords))}), "
-                                          "not both")
+            check.fail(owner, None, None, f"give options= or keyword options ({', '.join(sorted(keywords))}), not both")
         return options
 
     def on(self, backend: Backend) -> "SpikingOptions":
         """These options on the backend object ``backend`` (one that a caller keeps for many runs)."""
-        return dataclasses.replace(self, simulator=dataclasses.replace(self.simulator, backend=backend,
-                                                                       backend_options=None))
+        return dataclasses.replace(
+            self, simulator=dataclasses.replace(self.simulator, backend=backend, backend_options=None)
+        )

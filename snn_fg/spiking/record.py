@@ -9,6 +9,7 @@ synapses). :meth:`SpikingRecord.arrays` is its part of ``maps.npz``;
 :meth:`SpikingRecord.from_maps` reads it back (for a recording, one window's
 part), strictly: a missing key is an error, not a default.
 """
+
 from __future__ import annotations
 
 import time
@@ -44,16 +45,16 @@ class SpikingRecord:
     """Spike counts and cells of one spiking run (or one window of a recording)."""
 
     names: list
-    counts: dict               # population -> int32 spikes of each cell that fired (maps saved by
+    counts: dict  # population -> int32 spikes of each cell that fired (maps saved by
     #                            earlier versions hold every instantiated cell, silent ones with 0)
-    sites: dict                # population -> int64 flat index of each in its (channels, rows, cols)
+    sites: dict  # population -> int64 flat index of each in its (channels, rows, cols)
     raster: Raster | None
-    input_on: np.ndarray       # uint8 (H, W): pixels that received ON input
+    input_on: np.ndarray  # uint8 (H, W): pixels that received ON input
     input_off: np.ndarray
     count_window_ms: float
     duration_ms: float
     settle_ms: float
-    populations: dict          # population -> summary (role, level, cells, rates, synapses)
+    populations: dict  # population -> summary (role, level, cells, rates, synapses)
 
     def rates(self, name: str) -> np.ndarray:
         """Firing rate (Hz) of each cell in :attr:`counts`."""
@@ -78,19 +79,29 @@ class SpikingRecord:
         for name in names:
             p = result.network.population(name)
             c = result.counts[name]
-            summary[name] = {"role": p.role, "level": p.level, "cells": int(c.size),
-                             "mean_rate_hz": float(c.sum()) / c.size * per_s if c.size else 0.0,
-                             "active_frac": np.count_nonzero(c) / c.size if c.size else 0.0,
-                             "max_rate_hz": float(c.max()) * per_s if c.size else 0.0,
-                             "refractory_max_hz": p.neuron.max_rate_hz,
-                             "synapses_in": int(syn.get(name, 0)) if syn else None}
+            summary[name] = {
+                "role": p.role,
+                "level": p.level,
+                "cells": int(c.size),
+                "mean_rate_hz": float(c.sum()) / c.size * per_s if c.size else 0.0,
+                "active_frac": np.count_nonzero(c) / c.size if c.size else 0.0,
+                "max_rate_hz": float(c.max()) * per_s if c.size else 0.0,
+                "refractory_max_hz": p.neuron.max_rate_hz,
+                "synapses_in": int(syn.get(name, 0)) if syn else None,
+            }
         fired = {n: np.flatnonzero(result.counts[n]) for n in names} if cells else {}
-        return cls(names=names, counts={n: result.counts[n][f].astype(np.int32) for n, f in fired.items()},
-                   sites={n: result.sites[n][f].astype(np.int64) for n, f in fired.items()},
-                   raster=_sample_raster(result) if result.spikes is not None else None,
-                   input_on=inputs.on.astype(np.uint8), input_off=inputs.off.astype(np.uint8),
-                   count_window_ms=result.count_window_ms, duration_ms=result.simulated_ms,
-                   settle_ms=settle_ms, populations=summary)
+        return cls(
+            names=names,
+            counts={n: result.counts[n][f].astype(np.int32) for n, f in fired.items()},
+            sites={n: result.sites[n][f].astype(np.int64) for n, f in fired.items()},
+            raster=_sample_raster(result) if result.spikes is not None else None,
+            input_on=inputs.on.astype(np.uint8),
+            input_off=inputs.off.astype(np.uint8),
+            count_window_ms=result.count_window_ms,
+            duration_ms=result.simulated_ms,
+            settle_ms=settle_ms,
+            populations=summary,
+        )
 
     def arrays(self) -> dict:
         """The record's part of ``maps.npz`` (none where the cells were left out)."""
@@ -106,8 +117,7 @@ class SpikingRecord:
 
     def timing(self) -> dict:
         """The record's entries of ``params["simulation"]``."""
-        return {"duration_ms": self.duration_ms, "settle_ms": self.settle_ms,
-                "count_window_ms": self.count_window_ms}
+        return {"duration_ms": self.duration_ms, "settle_ms": self.settle_ms, "count_window_ms": self.count_window_ms}
 
     @classmethod
     def from_maps(cls, maps, window: int | None = None) -> tuple["SpikingRecord", int | None]:
@@ -136,11 +146,18 @@ class SpikingRecord:
             sim = params["simulation"]
             names = [str(x) for x in np.atleast_1d(ex[_NAMES])]
             raster = Raster(*(np.asarray(ex[k]) for k in _RASTER)) if _RASTER[0] in ex else None
-            rec = cls(names=names, counts={n: np.asarray(ex[f"spikes_{n}"]) for n in names},
-                      sites={n: np.asarray(ex[f"sites_{n}"]) for n in names}, raster=raster,
-                      input_on=np.asarray(ex["input_on"]), input_off=np.asarray(ex["input_off"]),
-                      count_window_ms=float(sim["count_window_ms"]), duration_ms=float(sim["duration_ms"]),
-                      settle_ms=float(sim["settle_ms"]), populations=params["populations"])
+            rec = cls(
+                names=names,
+                counts={n: np.asarray(ex[f"spikes_{n}"]) for n in names},
+                sites={n: np.asarray(ex[f"sites_{n}"]) for n in names},
+                raster=raster,
+                input_on=np.asarray(ex["input_on"]),
+                input_off=np.asarray(ex["input_off"]),
+                count_window_ms=float(sim["count_window_ms"]),
+                duration_ms=float(sim["duration_ms"]),
+                settle_ms=float(sim["settle_ms"]),
+                populations=params["populations"],
+            )
         except KeyError as exc:
             raise InputError("<maps>", f"spiking record is incomplete: {exc.args[0]!r} is missing") from None
         return rec, (window if maps.fg_x.ndim == 3 else None)
@@ -162,8 +179,11 @@ def _sample_raster(result) -> Raster:
             fired = np.flatnonzero(counts > 0)
             if fired.size == 0:
                 fired = np.arange(min(counts.size, RASTER_CELLS_PER_ROLE))
-            cells = np.unique(fired[np.linspace(0, fired.size - 1, min(need, fired.size)).astype(int)]) \
-                if fired.size else fired
+            cells = (
+                np.unique(fired[np.linspace(0, fired.size - 1, min(need, fired.size)).astype(int)])
+                if fired.size
+                else fired
+            )
             cell, t_ms = result.spikes[name]
             keep = np.isin(cell, cells)
             rows.append(row0 + taken + np.searchsorted(cells, cell[keep]))
@@ -173,12 +193,16 @@ def _sample_raster(result) -> Raster:
         row0 += taken
     if not rows:
         return Raster(np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(0, np.int16))
-    return Raster(np.concatenate(rows).astype(np.int32), np.concatenate(times).astype(np.float32),
-                  np.concatenate(roles).astype(np.int16))
+    return Raster(
+        np.concatenate(rows).astype(np.int32),
+        np.concatenate(times).astype(np.float32),
+        np.concatenate(roles).astype(np.int16),
+    )
 
 
-def run_provenance(net: Network, origin: dict, backend, result: SimulationResult, populations: dict,
-                   simulation: dict, t_start: float) -> dict:
+def run_provenance(
+    net: Network, origin: dict, backend, result: SimulationResult, populations: dict, simulation: dict, t_start: float
+) -> dict:
     """The run provenance (``Maps.params``) of a spiking run: model
     parameters, where the network came from, the backend, the simulation settings, cell and synapse counts,
     per-population summaries, timings and the network's notes."""
@@ -189,11 +213,14 @@ def run_provenance(net: Network, origin: dict, backend, result: SimulationResult
         "network": {**origin, "frame_shape": list(net.frame_shape), "input_rate_hz": net.input_rate_hz},
         "backend": backend.describe(),
         "simulation": simulation,
-        "counts": {"cells": {n: int(s.size) for n, s in result.sites.items()},
-                   # (None where the backend makes no synapses: the fast engine follows shared kernels)
-                   "synapses_in": {n: int(syn.get(n, 0)) if syn else None for n in result.sites},
-                   "total_cells": result.total_cells, "total_synapses": int(sum(syn.values())) if syn else None,
-                   "backend_objects": result.stats.get("brian2_synapse_objects", {})},
+        "counts": {
+            "cells": {n: int(s.size) for n, s in result.sites.items()},
+            # (None where the backend makes no synapses: the fast engine follows shared kernels)
+            "synapses_in": {n: int(syn.get(n, 0)) if syn else None for n in result.sites},
+            "total_cells": result.total_cells,
+            "total_synapses": int(sum(syn.values())) if syn else None,
+            "backend_objects": result.stats.get("brian2_synapse_objects", {}),
+        },
         "kept_kernel_mass": result.stats.get("kept_kernel_mass", {}),
         # the backend's own counters (fast: synaptic events, spikes, cells updated)
         "backend_stats": {k: v for k, v in result.stats.items() if isinstance(v, (int, float))},

@@ -14,6 +14,7 @@ spikes: memory is bounded by a few windows, whatever the length.
 Each event is fed once: where windows overlap, a window adds only its
 events from the previous window's end on.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -21,8 +22,8 @@ import dataclasses
 import numpy as np
 
 from ..errors import InputError
-from ..pyramid.pool import pool_events, pooled_shape
 from ..lowering.input_stream import SegmentedInput, SpikeStream
+from ..pyramid.pool import pool_events, pooled_shape
 
 #: simulated time per segment of input handed to a backend that streams it (ms)
 SEGMENT_MS = 100.0
@@ -123,7 +124,7 @@ class _SpikeRates:
             sel = self.idx[lo:hi]
             if sel.size:
                 self.rates.append(sel.size / np.unique(sel).size / ((b - a) * self.dt_ms / 1000.0))
-        first = min([a for a, _ in self.pending] + [self.last_a])     # (the next window starts after the last)
+        first = min([a for a, _ in self.pending] + [self.last_a])  # (the next window starts after the last)
         cut = int(np.searchsorted(self.steps, first))
         self.idx, self.steps = self.idx[cut:], self.steps[cut:]
 
@@ -138,8 +139,9 @@ def _event_rate(w, dt_ms: float) -> float | None:
     return len(w.events) / max(active, 1) / span_s
 
 
-def plan_recording(windows, network_options, simulator, lag_ms: float, window_clock: bool,
-                   source: str) -> RecordingPlan:
+def plan_recording(
+    windows, network_options, simulator, lag_ms: float, window_clock: bool, source: str
+) -> RecordingPlan:
     """The first pass over ``windows`` (an iterable read once): the network
     for the first window's frame (``network_options.resolve``), stepped at
     ``simulator.step_for(network)``, and what the run needs to know before
@@ -151,9 +153,20 @@ def plan_recording(windows, network_options, simulator, lag_ms: float, window_cl
             pool, t0, dt_ms = net.params.input_pool, w.t_start_us, simulator.step_for(net)
             stream = SpikeStream(pooled_shape(w.pos.shape, pool), dt_ms, t0, net.input_refractory_ms)
             feed, rates = _NewEvents(stream, pool, t0, dt_ms), _SpikeRates(dt_ms)
-            plan = RecordingPlan(network=net, origin=origin, t0_us=t0, shape=w.pos.shape, spans=[],
-                                 clock_steps=None, on=None, off=None, merged=0, event_rate_hz=0.0, spike_rate_hz=0.0,
-                                 dt_ms=dt_ms)
+            plan = RecordingPlan(
+                network=net,
+                origin=origin,
+                t0_us=t0,
+                shape=w.pos.shape,
+                spans=[],
+                clock_steps=None,
+                on=None,
+                off=None,
+                merged=0,
+                event_rate_hz=0.0,
+                spike_rate_hz=0.0,
+                dt_ms=dt_ms,
+            )
         plan.spans.append(read_out_span(w, plan.t0_us, lag_ms, dt_ms))
         clock.append(_window_steps(w, plan.t0_us, dt_ms)[0])
         rate = _event_rate(w, dt_ms)
@@ -185,14 +198,23 @@ class WindowFeed:
 
     def __init__(self, windows, plan: RecordingPlan, *, keep: bool = False):
         net, dt_ms = plan.network, plan.dt_ms
-        stream = SpikeStream(pooled_shape(plan.shape, net.params.input_pool), dt_ms, plan.t0_us,
-                             net.input_refractory_ms)
+        stream = SpikeStream(
+            pooled_shape(plan.shape, net.params.input_pool), dt_ms, plan.t0_us, net.input_refractory_ms
+        )
         self.it, self.keep, self.held, self.done = iter(windows), keep, {}, False
         self.events = _NewEvents(stream, net.params.input_pool, plan.t0_us, dt_ms)
         self.n = 0
         clock = plan.clock_steps if plan.clock_steps is not None else np.zeros(0, np.int64)
-        self.input = SegmentedInput((stream.h, stream.w), plan.on, plan.off, plan.rate_hz, plan.merged,
-                                    max(1, int(round(SEGMENT_MS / dt_ms))), self._spikes_until, clock)
+        self.input = SegmentedInput(
+            (stream.h, stream.w),
+            plan.on,
+            plan.off,
+            plan.rate_hz,
+            plan.merged,
+            max(1, int(round(SEGMENT_MS / dt_ms))),
+            self._spikes_until,
+            clock,
+        )
         self.stream = stream
 
     def _pull(self) -> bool:

@@ -21,6 +21,7 @@ Comparing the twin with the reference measures what the network's structure
 (pruning, lattices, site hints, pooling) changes; comparing a spiking run
 with the twin measures what the spiking dynamics change.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -56,11 +57,17 @@ class _Matrices:
         one sign or both, of projections with one kernel reference or all."""
         key = (src, tgt, sign, kernel)
         if key not in self.cache:
-            cs = [c for s in ((1, -1) if sign is None else (sign,)) for c in self.by.get((src, tgt, s), [])
-                  if kernel is None or getattr(c.projection, "kernel", None) is not None
-                  and c.projection.kernel.ref == kernel]
-            self.cache[key] = sum((_matrix(self.un, c) for c in cs),
-                                  sp.csr_matrix((self.un.n_cells(tgt), self.un.n_cells(src))))
+            cs = [
+                c
+                for s in ((1, -1) if sign is None else (sign,))
+                for c in self.by.get((src, tgt, s), [])
+                if kernel is None
+                or getattr(c.projection, "kernel", None) is not None
+                and c.projection.kernel.ref == kernel
+            ]
+            self.cache[key] = sum(
+                (_matrix(self.un, c) for c in cs), sp.csr_matrix((self.un.n_cells(tgt), self.un.n_cells(src)))
+            )
         return self.cache[key]
 
 
@@ -88,7 +95,7 @@ def _simple_stage(un, mats, level, s_index):
     best = np.full(u_sites.size, -1)
     where = np.searchsorted(u_sites, pos_idx)
     seen = np.zeros(u_sites.size, bool)
-    for i in np.lexsort((c, -drive)):      # strongest first; ties -> lowest direction
+    for i in np.lexsort((c, -drive)):  # strongest first; ties -> lowest direction
         w = where[i]
         if w < u_sites.size and u_sites[w] == pos_idx[i] and not seen[w] and drive[i] > 0:
             best[w] = c[i]
@@ -100,9 +107,16 @@ def _simple_stage(un, mats, level, s_index):
     return (u_sites, index, best < 0), {s_name: s_rate, **relays}
 
 
-def run_twin(un: Unrolled, iterations: int | None = None, relax: float = 1.0, uninhibited: int = 1,
-             s_index: dict | None = None, z_gain: float = 1.0, untuned_scale: float = 1.0,
-             g_transfer=None):
+def run_twin(
+    un: Unrolled,
+    iterations: int | None = None,
+    relax: float = 1.0,
+    uninhibited: int = 1,
+    s_index: dict | None = None,
+    z_gain: float = 1.0,
+    untuned_scale: float = 1.0,
+    g_transfer=None,
+):
     """Iterate the reference's stages 4-8 on the unrolled network.
 
     ``relax`` < 1 turns the synchronous update into a damped one
@@ -122,7 +136,7 @@ def run_twin(un: Unrolled, iterations: int | None = None, relax: float = 1.0, un
     mats = _Matrices(un)
     levels = range(1, p.levels + 1)
     rates = {}
-    b_s = {}      # simple-cell value feeding each border-ownership cell
+    b_s = {}  # simple-cell value feeding each border-ownership cell
     for level in levels:
         (u_sites, index, untuned), level_rates = _simple_stage(un, mats, level, s_index)
         rates.update(level_rates)
@@ -142,7 +156,7 @@ def run_twin(un: Unrolled, iterations: int | None = None, relax: float = 1.0, un
         for level in levels:
             for f, (k_for, _) in FEEDBACK_TO_FAMILY.items():
                 name = mats.name(f"bo_{f}", level)
-                half, sgn = k_for[0], 1 if k_for[1] == "p" else -1    # z for L1/L2, -z for D2/D1
+                half, sgn = k_for[0], 1 if k_for[1] == "p" else -1  # z for L1/L2, -z for D2/D1
                 zb = _interp_to_bo(mats, half, level, name, z[(half, level)])
                 with np.errstate(over="ignore"):
                     fz = 1.0 + p.alpha * (1.0 / (1.0 + np.exp(-sgn * zb * z_gain)) - 0.5)

@@ -51,6 +51,7 @@ Example
 >>> get_backend("fast").name
 'fast'
 """
+
 from .backend import FastBackend
 
 __all__ = ["FastBackend"]

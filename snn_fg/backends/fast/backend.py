@@ -1,5 +1,6 @@
 """The fast engine behind the backend interface: :class:`FastBackend`
 (its design: :mod:`snn_fg.backends.fast`)."""
+
 from __future__ import annotations
 
 import time
@@ -49,8 +50,9 @@ class FastBackend(Backend):
         from ... import validate as check
 
         self.chunk_ms = check.number("FastBackend", "chunk_ms", chunk_ms, lo=0, lo_open=True)
-        self.weight_bits = None if weight_bits is None else check.integer("FastBackend", "weight_bits",
-                                                                          weight_bits, lo=2, hi=32)
+        self.weight_bits = (
+            None if weight_bits is None else check.integer("FastBackend", "weight_bits", weight_bits, lo=2, hi=32)
+        )
         self._tables: ft.EngineTables | None = None
         self._pool = Pool()
 
@@ -65,8 +67,12 @@ class FastBackend(Backend):
     def describe(self) -> dict:
         import numba
 
-        return {"name": self.name, "engine": "event-driven, weight-shared kernels", "numba": numba.__version__,
-                "weight_bits": self.weight_bits}
+        return {
+            "name": self.name,
+            "engine": "event-driven, weight-shared kernels",
+            "numba": numba.__version__,
+            "weight_bits": self.weight_bits,
+        }
 
     def tables(self, network: Network, dt_ms: float) -> ft.EngineTables:
         """The engine's arrays for ``network`` at ``dt_ms``, built once and
@@ -75,7 +81,7 @@ class FastBackend(Backend):
         its own input rate)."""
         t = self._tables
         if t is not None and t.network is not network and t.dt_ms == dt_ms and ft.gains_only(t.network, network):
-            t = self._tables = t.with_gains(network)      # (e.g. calibrated for the next window's input rate)
+            t = self._tables = t.with_gains(network)  # (e.g. calibrated for the next window's input rate)
         if t is None or t.network is not network or t.dt_ms != dt_ms:
             t = self._tables = ft.build_tables(network, dt_ms, self.weight_bits)
         return t
@@ -84,34 +90,39 @@ class FastBackend(Backend):
         from .core import code_is_cached
 
         if not code_is_cached():
-            settings.say(f"compiling the fast engine's code as it prepares and simulates: the first run on this "
-                         f"machine only, about {COMPILE_S} s on an idle machine for an image, up to a minute for a "
-                         "recording (numba keeps the code beside the package)")
+            settings.say(
+                f"compiling the fast engine's code as it prepares and simulates: the first run on this "
+                f"machine only, about {COMPILE_S} s on an idle machine for an image, up to a minute for a "
+                "recording (numba keeps the code beside the package)"
+            )
         t0 = time.perf_counter()
         tab = self.tables(network, settings.dt_ms)
-        chosen, _, _ = choose_sites(network, source_masks(network, inputs.on, inputs.off), settings.sites,
-                                    settings.instantiate)
+        chosen, _, _ = choose_sites(
+            network, source_masks(network, inputs.on, inputs.off), settings.sites, settings.instantiate
+        )
         n_steps = int(round(settings.duration_ms / settings.dt_ms))
         run = Run(tab, chosen, inputs, n_steps, self._pool)
         stream = None
         if settings.on_bin is not None and settings.count_bins_ms is not None:
             stream = BinStream(self.name, tab, chosen, run, settings)
         timings = {"build": time.perf_counter() - t0}
-        settings.say(f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
-                     f"(prepared in {timings['build']:.2f} s)")
+        settings.say(
+            f"fast engine: {run.n_present:,} cells, {len(network.projections)} weight-shared projections "
+            f"(prepared in {timings['build']:.2f} s)"
+        )
         t_run, cpu = time.perf_counter(), time.process_time()
         try:
             run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))), stream)
             timings["run"] = time.perf_counter() - t_run
-            timings["run_cpu"] = time.process_time() - cpu     # (wall time on a shared machine overstates the work)
-            if stream is not None:      # (the caller's reading of the bins, done while the run paused)
+            timings["run_cpu"] = time.process_time() - cpu  # (wall time on a shared machine overstates the work)
+            if stream is not None:  # (the caller's reading of the bins, done while the run paused)
                 timings["run"] -= stream.seconds
                 timings["run_cpu"] -= stream.cpu_seconds
                 timings["read_bins"] = stream.seconds
             result = simulation_result(self.name, tab, chosen, run, settings, stream)
             run.release()
         except BaseException:
-            self._pool.clear()          # (e.g. interrupted mid-step: the arrays are not at rest)
+            self._pool.clear()  # (e.g. interrupted mid-step: the arrays are not at rest)
             raise
         timings["total"] = time.perf_counter() - t0
         result.timings_s = timings

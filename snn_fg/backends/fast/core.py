@@ -36,6 +36,7 @@ cell). State per cell (:data:`STATE`): ``v``,
 belong to, plus one; 0: never touched, i.e. at rest) and ``spike`` (the
 step of the last spike, plus one; 0: none).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -45,26 +46,66 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from .deliver import (AHEAD, C_BITS, C_FLAT, C_MAP, C_N, C_OFF, C_ROW, EXC, N_ACTIVE_STEPS,  # noqa: F401
-                           N_ADVANCES, N_EVENTS, N_FRESH, STATE, U, _advanced, _conv, _conv_gather, _flush, _resize,
-                           _safe, prefetch)
-from .tables import (CONV, DE, DI, DM, J_COL, J_DELAY, J_KIND, J_SRC, J_TGT, PE, PI, P_TYPE, SOURCE_TYPE,
-                          V_RESET, V_REST, V_TH)
-
+from .deliver import (
+    AHEAD,
+    C_BITS,
+    C_FLAT,
+    C_MAP,
+    C_N,
+    C_OFF,
+    C_ROW,
+    EXC,
+    N_ACTIVE_STEPS,  # noqa: F401
+    N_ADVANCES,
+    N_EVENTS,
+    N_FRESH,
+    STATE,
+    U,
+    _advanced,
+    _conv,
+    _conv_gather,
+    _flush,
+    _resize,
+    _safe,
+    prefetch,
+)
+from .tables import (
+    CONV,
+    DE,
+    DI,
+    DM,
+    J_COL,
+    J_DELAY,
+    J_KIND,
+    J_SRC,
+    J_TGT,
+    P_TYPE,
+    PE,
+    PI,
+    SOURCE_TYPE,
+    V_RESET,
+    V_REST,
+    V_TH,
+)
 
 #: the arrays :func:`run_steps` changes: cell state, active set, newly
 #: active and touched cells, spike log (``log``, ``step_start``), the input
 #: spikes (``in_ptr``, ``in_ids``), the delivery buffers and the counters
-RunArrays = namedtuple("RunArrays", "state inact act new tmp radix fresh scalars log step_start in_ptr in_ids acc "
-                                    "touched counters prj_events")
+RunArrays = namedtuple(
+    "RunArrays",
+    "state inact act new tmp radix fresh scalars log step_start in_ptr in_ids acc touched counters prj_events",
+)
 #: how one run numbers its cells (module docstring): the neuron type of each
 #: cell, the per-population table ``cells`` (columns ``C_*``), the maps
 #: between grid and number, and which projections gather (:func:`_conv_gather`)
 CellNumbering = namedtuple("CellNumbering", "ctype cells cmap flat_of column_of row_ptr bits gather")
 #: the network at one time step (:class:`~snn_fg.backends.fast.tables.EngineTables`)
-KernelTables = namedtuple("KernelTables", "pops nrn ref_steps adv prj prj_w ch_ptr tap_co tap_qr tap_qc tap_w tap_off "
-                                          "dense pair_ptr pair_co pair_rlo pair_rhi csr_ptr csr_idx csr_val grp_ptr "
-                                          "grp_prj")
+KernelTables = namedtuple(
+    "KernelTables",
+    "pops nrn ref_steps adv prj prj_w ch_ptr tap_co tap_qr tap_qc tap_w tap_off "
+    "dense pair_ptr pair_co pair_rlo pair_rhi csr_ptr csr_idx csr_val grp_ptr "
+    "grp_prj",
+)
 
 
 @njit(cache=True)
@@ -79,7 +120,7 @@ def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
     for a in range(n_act):
         if a + AHEAD < n_act:
             prefetch(state, U(act[U(a + AHEAD)]))
-            prefetch(inact, U(act[U(a + AHEAD)]))      # (written when the cell is parked)
+            prefetch(inact, U(act[U(a + AHEAD)]))  # (written when the cell is parked)
         g = act[U(a)]
         while g >= end:
             q += 1
@@ -91,7 +132,7 @@ def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
             inact[U(g)] = 0
             continue
         v, e, i = r.v, r.e, r.i
-        if ready:       # (Brian2's generated expression, operation for operation)
+        if ready:  # (Brian2's generated expression, operation for operation)
             v += ((e * nrn[t, PE]) + ((1.0 - nrn[t, DM]) * ((-v) + nrn[t, V_REST]))) - (i * nrn[t, PI])
         r.v = v
         r.e = e * nrn[t, DE]
@@ -185,14 +226,52 @@ def run_steps(n0, n1, run, numbering, tables):
     population and current (``grp_prj[grp_ptr[k]:grp_ptr[k+1]]``): summed
     per target cell in ``acc`` first, then added to each touched cell once.
     """
-    (state, inact, act, new, tmp, radix, fresh, scalars, log, step_start, in_ptr, in_ids, acc, touched, counters,
-     prj_events) = run
+    (
+        state,
+        inact,
+        act,
+        new,
+        tmp,
+        radix,
+        fresh,
+        scalars,
+        log,
+        step_start,
+        in_ptr,
+        in_ids,
+        acc,
+        touched,
+        counters,
+        prj_events,
+    ) = run
     ctype, cells, cmap, flat_of, column_of, row_ptr, bits, gather = numbering
-    (pops, nrn, ref_steps, adv, prj, prj_w, ch_ptr, tap_co, tap_qr, tap_qc, tap_w, tap_off, dense, pair_ptr, pair_co,
-     pair_rlo, pair_rhi, csr_ptr, csr_idx, csr_val, grp_ptr, grp_prj) = tables
+    (
+        pops,
+        nrn,
+        ref_steps,
+        adv,
+        prj,
+        prj_w,
+        ch_ptr,
+        tap_co,
+        tap_qr,
+        tap_qc,
+        tap_w,
+        tap_off,
+        dense,
+        pair_ptr,
+        pair_co,
+        pair_rlo,
+        pair_rhi,
+        csr_ptr,
+        csr_idx,
+        csr_val,
+        grp_ptr,
+        grp_prj,
+    ) = tables
     n_act, log_n = scalars[0], scalars[1]
     for n in range(n0, n1):
-        s = n % (in_ptr.size - 1)     # input spikes repeat with the period of in_ptr (if shorter than the run)
+        s = n % (in_ptr.size - 1)  # input spikes repeat with the period of in_ptr (if shorter than the run)
         if log_n + n_act + (in_ptr[s + 1] - in_ptr[s]) > log.size:
             scalars[0], scalars[1] = n_act, log_n
             return n
@@ -217,32 +296,88 @@ def run_steps(n0, n1, run, numbering, tables):
                 if m < 0 or step_start[m] == step_start[m + 1]:
                     continue
                 q = prj[p, J_SRC]
-                spikes = log[step_start[m]:step_start[m + 1]]
-                spikes = spikes[np.searchsorted(spikes, cells[q, C_OFF]):
-                                np.searchsorted(spikes, cells[q, C_OFF] + cells[q, C_N])]
+                spikes = log[step_start[m] : step_start[m + 1]]
+                spikes = spikes[
+                    np.searchsorted(spikes, cells[q, C_OFF]) : np.searchsorted(spikes, cells[q, C_OFF] + cells[q, C_N])
+                ]
                 before = counters[N_EVENTS]
                 x = 0
                 while True:
                     if gather[p]:
-                        n_touched, x = _conv_gather(p, spikes, x, pops, cells, flat_of, column_of, row_ptr, prj,
-                                                    dense, pair_ptr, pair_co, pair_rlo, pair_rhi, acc, touched,
-                                                    n_touched, counters)
+                        n_touched, x = _conv_gather(
+                            p,
+                            spikes,
+                            x,
+                            pops,
+                            cells,
+                            flat_of,
+                            column_of,
+                            row_ptr,
+                            prj,
+                            dense,
+                            pair_ptr,
+                            pair_co,
+                            pair_rlo,
+                            pair_rhi,
+                            acc,
+                            touched,
+                            n_touched,
+                            counters,
+                        )
                     elif prj[p, J_KIND] == CONV:
-                        n_touched, x = _conv(p, spikes, x, pops, cells, cmap, flat_of, bits, prj, ch_ptr, tap_co,
-                                             tap_qr, tap_qc, tap_w, tap_off, acc, touched, n_touched, counters)
+                        n_touched, x = _conv(
+                            p,
+                            spikes,
+                            x,
+                            pops,
+                            cells,
+                            cmap,
+                            flat_of,
+                            bits,
+                            prj,
+                            ch_ptr,
+                            tap_co,
+                            tap_qr,
+                            tap_qc,
+                            tap_w,
+                            tap_off,
+                            acc,
+                            touched,
+                            n_touched,
+                            counters,
+                        )
                     else:
-                        n_touched, x = _resize(p, spikes, x, pops, cells, cmap, flat_of, bits, prj, prj_w, csr_ptr,
-                                               csr_idx, csr_val, acc, touched, n_touched, counters)
+                        n_touched, x = _resize(
+                            p,
+                            spikes,
+                            x,
+                            pops,
+                            cells,
+                            cmap,
+                            flat_of,
+                            bits,
+                            prj,
+                            prj_w,
+                            csr_ptr,
+                            csr_idx,
+                            csr_val,
+                            acc,
+                            touched,
+                            n_touched,
+                            counters,
+                        )
                     if x >= spikes.size:
                         break
                     # the touched list is full: deliver what it holds, then go on
-                    n_new = _flush(acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, fresh,
-                                   nrn, adv, counters)
+                    n_new = _flush(
+                        acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, fresh, nrn, adv, counters
+                    )
                     n_touched = 0
                 prj_events[p] += counters[N_EVENTS] - before
             if n_touched:
-                n_new = _flush(acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, fresh, nrn,
-                               adv, counters)
+                n_new = _flush(
+                    acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, fresh, nrn, adv, counters
+                )
         for x in range(start, log_n):
             g = log[x]
             if ctype[g] < SOURCE_TYPE:
@@ -334,11 +469,11 @@ def code_is_cached() -> bool:
     numba's cache, so that a first run can say it compiles first. Best
     effort (numba's cache object is not public API): ``True`` when it cannot
     tell."""
-    if getattr(run_steps, "signatures", True):      # (compiled here, or not numba's function at all)
+    if getattr(run_steps, "signatures", True):  # (compiled here, or not numba's function at all)
         return True
     try:
-        return bool(run_steps._cache._cache_file._load_index())     # (empty when stale or flushed)
-    except Exception:       # noqa: BLE001 - whatever numba's private cache does, we cannot tell
+        return bool(run_steps._cache._cache_file._load_index())  # (empty when stale or flushed)
+    except Exception:  # noqa: BLE001 - whatever numba's private cache does, we cannot tell
         return True
 
 
@@ -355,8 +490,9 @@ def _drop_stale_caches() -> None:
     from . import deliver
 
     here = Path(__file__).parent
-    digest = hashlib.sha256(b"".join((here / name).read_bytes()
-                                     for name in ("core.py", "deliver.py", "tables.py"))).hexdigest()
+    digest = hashlib.sha256(
+        b"".join((here / name).read_bytes() for name in ("core.py", "deliver.py", "tables.py"))
+    ).hexdigest()
     try:
         stamp = Path(run_steps._cache._cache_path) / "snn_fg_fast_engine.sources"
         if stamp.exists() and stamp.read_text() == digest:

@@ -4,6 +4,7 @@ rows (:func:`_resize`), summed per target cell and current and handed over
 once per cell (:func:`_flush`), which brings each touched cell up to the
 present in closed form first. The numbering and state are described in
 :mod:`.core`."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -12,8 +13,30 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from .tables import (GAP, J_BASE, J_COLBASE, J_DENSE, J_GBASE, J_INH, J_KR, J_PRUNE, J_RADIUS, J_SRC, J_TGT,
-                          J_WRAP, MV, P_CH, P_GC, P_GR, P_LC, P_LR, P_STRIDE, PEAK, TIGHT, V_REST)
+from .tables import (
+    GAP,
+    J_BASE,
+    J_COLBASE,
+    J_DENSE,
+    J_GBASE,
+    J_INH,
+    J_KR,
+    J_PRUNE,
+    J_RADIUS,
+    J_SRC,
+    J_TGT,
+    J_WRAP,
+    MV,
+    P_CH,
+    P_GC,
+    P_GR,
+    P_LC,
+    P_LR,
+    P_STRIDE,
+    PEAK,
+    TIGHT,
+    V_REST,
+)
 
 #: one cell's state (32 bytes, one half cache line)
 STATE = np.dtype([("v", "f8"), ("e", "f8"), ("i", "f8"), ("last", "i4"), ("spike", "i4")], align=True)
@@ -39,21 +62,31 @@ AHEAD = 24
 def prefetch(typingctx, arr, idx):
     """Ask the CPU to bring ``arr[idx]`` into cache, to be written (LLVM's
     ``prefetch`` intrinsic: a hint, with no effect on any result)."""
+
     def codegen(context, builder, signature, args):
         aty = signature.args[0]
         ary = context.make_array(aty)(context, builder, args[0])
-        ptr = cgutils.get_item_pointer2(context, builder, data=ary.data,
-                                        shape=cgutils.unpack_tuple(builder, ary.shape),
-                                        strides=cgutils.unpack_tuple(builder, ary.strides), layout=aty.layout,
-                                        inds=[args[1]], wraparound=False, boundscheck=False)
+        ptr = cgutils.get_item_pointer2(
+            context,
+            builder,
+            data=ary.data,
+            shape=cgutils.unpack_tuple(builder, ary.shape),
+            strides=cgutils.unpack_tuple(builder, ary.strides),
+            layout=aty.layout,
+            inds=[args[1]],
+            wraparound=False,
+            boundscheck=False,
+        )
         i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
         # (the name without its pointer-type suffix: LLVM renames it to its own
         # version's, p0i8 before opaque pointers and p0 after)
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
-                                            "llvm.prefetch")
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]), "llvm.prefetch"
+        )
         # (address, 1: for writing, 3: keep in every cache level, 1: data)
         builder.call(fn, [builder.bitcast(ptr, i8p), ir.Constant(i32, 1), ir.Constant(i32, 3), ir.Constant(i32, 1)])
         return context.get_dummy_value()
+
     return types.void(arr, idx), codegen
 
 
@@ -109,11 +142,11 @@ def _flush(acc, touched, n_touched, off, col, n, t, state, inact, new, n_new, fr
             later = touched[U(x + AHEAD)]
             prefetch(state, U(off + later))
             prefetch(inact, U(off + later))
-            prefetch(acc, U(later))     # (its summed input: 10 MB for dvs.es simple cells)
+            prefetch(acc, U(later))  # (its summed input: 10 MB for dvs.es simple cells)
         loc = touched[U(x)]
         w = acc[U(loc)]
         if w == 0.0:
-            continue          # (a cell listed twice after its input summed to zero)
+            continue  # (a cell listed twice after its input summed to zero)
         acc[U(loc)] = 0.0
         g = off + loc
         r = state[U(g)]
@@ -146,8 +179,27 @@ def _flat(g, q, cells, flat_of):
 
 
 @njit(cache=True)
-def _conv(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, ch_ptr, tap_co, tap_qr, tap_qc, tap_w, tap_off,
-          acc, touched, n_touched, counters):
+def _conv(
+    p,
+    spikes,
+    x0,
+    pops,
+    cells,
+    cmap,
+    flat_of,
+    bits,
+    prj,
+    ch_ptr,
+    tap_co,
+    tap_qr,
+    tap_qc,
+    tap_w,
+    tap_off,
+    acc,
+    touched,
+    n_touched,
+    counters,
+):
     """Accumulate what ``spikes[x0:]`` (cell numbers) send through the taps
     of Conv ``p`` into ``acc`` (indexed by target cell within its
     population), listing newly touched cells in ``touched``. Returns the
@@ -178,7 +230,7 @@ def _conv(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, ch_ptr, tap_co, 
         # (the delivery below is written out in both branches on purpose: an
         # inlined helper shared by them made a dvs.es window 4.5x slower, 4.4 -> 21 s)
         if row >= rad and column >= rad and row + rad < gr and column + rad < gc:
-            base = row * gc + column          # the whole footprint lies inside the level
+            base = row * gc + column  # the whole footprint lies inside the level
             for k in range(k0, k1):
                 lt = base + tap_off[U(k)]
                 if not whole:
@@ -212,7 +264,7 @@ def _conv(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, ch_ptr, tap_co, 
         for k in range(k0, k1):
             r = row - tap_qr[U(k)]
             cc = column - tap_qc[U(k)]
-            if wrap:            # offsets lie within one level size (folded if the kernel is larger)
+            if wrap:  # offsets lie within one level size (folded if the kernel is larger)
                 r += gr if r < 0 else (-gr if r >= gr else 0)
                 cc += gc if cc < 0 else (-gc if cc >= gc else 0)
             elif cc < 0 or cc >= gc:
@@ -232,8 +284,26 @@ def _conv(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, ch_ptr, tap_co, 
 
 
 @njit(cache=True)
-def _conv_gather(p, spikes, x0, pops, cells, flat_of, column_of, row_ptr, prj, dense, pair_ptr, pair_co, pair_rlo,
-                 pair_rhi, acc, touched, n_touched, counters):
+def _conv_gather(
+    p,
+    spikes,
+    x0,
+    pops,
+    cells,
+    flat_of,
+    column_of,
+    row_ptr,
+    prj,
+    dense,
+    pair_ptr,
+    pair_co,
+    pair_rlo,
+    pair_rhi,
+    acc,
+    touched,
+    n_touched,
+    counters,
+):
     """Like :func:`_conv`, for a target population with few cells: instead
     of following every tap, each spike visits the target's cells on the
     rows its kernel covers and reads the weight of each by its offset (the
@@ -274,7 +344,7 @@ def _conv_gather(p, spikes, x0, pops, cells, flat_of, column_of, row_ptr, prj, d
                 if a == b:
                     continue
                 kr = kc + (dr + rad) * size + rad
-                if fold:            # every cell of the row, each through all its folded offsets
+                if fold:  # every cell of the row, each through all its folded offsets
                     for lt in range(a, b):
                         d = (pc - column_of[U(fbase + lt)]) % lc
                         d -= lc * ((d + rad) // lc)
@@ -304,7 +374,7 @@ def _conv_gather(p, spikes, x0, pops, cells, flat_of, column_of, row_ptr, prj, d
                     a = row_ptr[U(rbase + co * gr + tr // st)]
                     b = row_ptr[U(rbase + co * gr + tr // st + 1)]
                     end = b
-                    while a < b:        # first cell at or after lo
+                    while a < b:  # first cell at or after lo
                         h = (a + b) // 2
                         if column_of[U(fbase + h)] * st < lo:
                             a = h + 1
@@ -326,8 +396,25 @@ def _conv_gather(p, spikes, x0, pops, cells, flat_of, column_of, row_ptr, prj, d
 
 
 @njit(cache=True)
-def _resize(p, spikes, x0, pops, cells, cmap, flat_of, bits, prj, prj_w, csr_ptr, csr_idx, csr_val, acc, touched,
-            n_touched, counters):
+def _resize(
+    p,
+    spikes,
+    x0,
+    pops,
+    cells,
+    cmap,
+    flat_of,
+    bits,
+    prj,
+    prj_w,
+    csr_ptr,
+    csr_idx,
+    csr_val,
+    acc,
+    touched,
+    n_touched,
+    counters,
+):
     """Like :func:`_conv` for Resize ``p``: weight ``sign * gain * A_r[i, i'] * A_c[j, j']``, the
     product rounded to the projection's quantisation step where it has one."""
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]

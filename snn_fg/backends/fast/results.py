@@ -4,6 +4,7 @@
 :class:`~snn_fg.backends.base.SimulationResult` (:func:`simulation_result`). The engine
 itself is :mod:`.backend`; the numbering of cells and the spike log it keeps are
 described in :mod:`.core`."""
+
 from __future__ import annotations
 
 import time
@@ -12,8 +13,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from ...network.graph import Network
-from . import tables as ft
 from ..base import RunSettings, SimulationResult, bin_result, lif_populations, segments
+from . import tables as ft
 
 
 def first_step_at(t_ms: float, dt_ms: float) -> int:
@@ -55,7 +56,7 @@ class SpikeTrains(Mapping):
     def __getitem__(self, name):
         q = self._index[name]
         a, b = self._cuts[q], self._cuts[q + 1]
-        return self._local[a:b], (self._step[a:b] * self._dt_s) / ft.MS     # Brian2's t = n * dt, in ms
+        return self._local[a:b], (self._step[a:b] * self._dt_s) / ft.MS  # Brian2's t = n * dt, in ms
 
     def between(self, a_ms: float, b_ms: float) -> dict:
         """``name -> (cell, t_ms)`` of the spikes with ``a_ms <= t < b_ms``
@@ -66,7 +67,7 @@ class SpikeTrains(Mapping):
         s_a, s_b = self._first_step(a_ms), self._first_step(b_ms)
         out = {}
         for name, q in self._index.items():
-            steps = self._step[self._cuts[q]:self._cuts[q + 1]]
+            steps = self._step[self._cuts[q] : self._cuts[q + 1]]
             lo = self._cuts[q] + np.searchsorted(steps, s_a)
             hi = self._cuts[q] + np.searchsorted(steps, s_b)
             out[name] = self._local[lo:hi], (self._step[lo:hi] * self._dt_s) / ft.MS
@@ -100,16 +101,22 @@ class BinStream:
         self.reach = int(tab.prj[:, ft.J_DELAY].max()) if len(tab.prj) else 0
         pops = lif_populations(tab.network)
         self.cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
-        self.template = SimulationResult(network=tab.network, backend=name, sites=chosen, counts={},
-                                         count_window_ms=0.0, simulated_ms=settings.duration_ms,
-                                         dt_ms=settings.dt_ms)
+        self.template = SimulationResult(
+            network=tab.network,
+            backend=name,
+            sites=chosen,
+            counts={},
+            count_window_ms=0.0,
+            simulated_ms=settings.duration_ms,
+            dt_ms=settings.dt_ms,
+        )
         self.starts = np.ascontiguousarray(run.cells[:, 0])
         self.scratch = np.zeros(run.state.size, dtype=np.int32)
-        self.counts = np.zeros(run.state.size, dtype=np.int64)     # the whole counting window's
+        self.counts = np.zeros(run.state.size, dtype=np.int64)  # the whole counting window's
         self.counted_to = first_step_at(settings.count_from_ms, settings.dt_ms)
         self.dropped = 0
-        self.j = 0            # the next edge to reach
-        self.seconds = self.cpu_seconds = 0.0   # spent by on_bin (reading the bins), not simulating
+        self.j = 0  # the next edge to reach
+        self.seconds = self.cpu_seconds = 0.0  # spent by on_bin (reading the bins), not simulating
 
     def next_stop(self, n: int) -> int:
         return self.edges[self.j] if self.j < len(self.edges) else self.run.n_steps
@@ -121,7 +128,7 @@ class BinStream:
             if self.j:
                 self._hand_over(self.j - 1)
             self.j += 1
-            keep = max(0, n - self.reach)     # (the next bin starts at n: its spikes are all still to come)
+            keep = max(0, n - self.reach)  # (the next bin starts at n: its spikes are all still to come)
             if keep > self.counted_to:
                 ids, step_start = self.run.spikes()
                 count_cells(ids, step_start[self.counted_to], step_start[keep], self.counts)
@@ -139,8 +146,14 @@ class BinStream:
         self.scratch[ids[lo:hi]] = 0
         spikes = None
         if self.settings.record_spikes:
-            spikes = SpikeTrains(self.template.network, ids[lo:hi], step_start[a:b + 1] - lo, self.starts,
-                                 self.settings.dt_ms, first_step=a)
+            spikes = SpikeTrains(
+                self.template.network,
+                ids[lo:hi],
+                step_start[a : b + 1] - lo,
+                self.starts,
+                self.settings.dt_ms,
+                first_step=a,
+            )
         t, cpu = time.perf_counter(), time.process_time()
         self.on_bin(k, bin_result(self.template, counts, self.edges_ms[k], self.edges_ms[k + 1], spikes))
         self.seconds += time.perf_counter() - t
@@ -155,8 +168,9 @@ class BinStream:
         return self.counts
 
 
-def simulation_result(name: str, tab: ft.EngineTables, chosen: dict, run, settings: RunSettings,
-            stream: "BinStream | None" = None) -> SimulationResult:
+def simulation_result(
+    name: str, tab: ft.EngineTables, chosen: dict, run, settings: RunSettings, stream: "BinStream | None" = None
+) -> SimulationResult:
     from .core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells
 
     ids, step_start = run.spikes()
@@ -181,22 +195,44 @@ def simulation_result(name: str, tab: ft.EngineTables, chosen: dict, run, settin
         per_bin = np.zeros((max(cuts.size - 1, 0), n), dtype=np.uint16 if fits else np.int32)
         bin_counts(ids, cuts.astype(np.int64), per_bin)
         binned = {p.name: per_bin[:, cells[p.name]] for p in pops}
-    spikes = SpikeTrains(tab.network, ids, step_start, np.ascontiguousarray(run.cells[:, 0]), settings.dt_ms) \
-        if settings.record_spikes and stream is None else None
+    spikes = (
+        SpikeTrains(tab.network, ids, step_start, np.ascontiguousarray(run.cells[:, 0]), settings.dt_ms)
+        if settings.record_spikes and stream is None
+        else None
+    )
     state = {}
     if settings.record_state:
         values = run.final_state()
         for p in pops:
-            state[p.name] = {var: values[cells[p.name], k] / ft.MV
-                             for k, var in enumerate(("v", "I_exc", "I_inh")) if var in settings.record_state}
+            state[p.name] = {
+                var: values[cells[p.name], k] / ft.MV
+                for k, var in enumerate(("v", "I_exc", "I_inh"))
+                if var in settings.record_state
+            }
     events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
     n_input = run.input_spikes()
-    stats = {"kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()}, "taps": dict(tab.taps),
-             "synaptic_events": events, "synaptic_events_total": int(run.counters[N_EVENTS]),
-             "closed_form_advances": int(run.counters[N_ADVANCES]),
-             "active_cell_steps": int(run.counters[N_ACTIVE_STEPS]), "cells": run.n_present,
-             "input_spikes": n_input, "spikes": int(ids.size + (stream.dropped if stream else 0) - n_input)}
-    return SimulationResult(network=tab.network, backend=name, sites={p.name: chosen[p.name] for p in pops},
-                            counts=counts, count_window_ms=settings.count_window_ms,
-                            simulated_ms=settings.duration_ms, dt_ms=settings.dt_ms, spikes=spikes, state=state,
-                            binned_counts=binned, count_bins_ms=settings.count_bins_ms, stats=stats)
+    stats = {
+        "kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()},
+        "taps": dict(tab.taps),
+        "synaptic_events": events,
+        "synaptic_events_total": int(run.counters[N_EVENTS]),
+        "closed_form_advances": int(run.counters[N_ADVANCES]),
+        "active_cell_steps": int(run.counters[N_ACTIVE_STEPS]),
+        "cells": run.n_present,
+        "input_spikes": n_input,
+        "spikes": int(ids.size + (stream.dropped if stream else 0) - n_input),
+    }
+    return SimulationResult(
+        network=tab.network,
+        backend=name,
+        sites={p.name: chosen[p.name] for p in pops},
+        counts=counts,
+        count_window_ms=settings.count_window_ms,
+        simulated_ms=settings.duration_ms,
+        dt_ms=settings.dt_ms,
+        spikes=spikes,
+        state=state,
+        binned_counts=binned,
+        count_bins_ms=settings.count_bins_ms,
+        stats=stats,
+    )

@@ -1,6 +1,7 @@
 """One simulation of the fast engine: its cells, active set and spike log
 (:class:`Run`), fed by the compiled loop of :mod:`.core`, and the cell
 arrays kept from one run to the next (:class:`Pool`)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,6 +24,7 @@ LOG_START = 1 << 16
 GATHER_BELOW = 0.05
 GATHER_TAPS_PER_ROW = 8
 
+
 def _input_events(tab: ft.EngineTables, first_cell: dict, idx, steps, length: int, first_step: int = 0):
     """Input spikes ``(idx, steps)`` as cell numbers (``first_cell``:
     population -> its first number) grouped by step, ``(ptr, ids)``: the
@@ -38,7 +40,7 @@ def _input_events(tab: ft.EngineTables, first_cell: dict, idx, steps, length: in
         sel = (idx >= start) & (idx < start + tab.network.population(name).size)
         ids[sel] = first_cell[name] + idx[sel] - start
         known |= sel
-    ids, steps = ids[known], steps[known]      # (clock spikes for a network without a clock)
+    ids, steps = ids[known], steps[known]  # (clock spikes for a network without a clock)
     order = np.lexsort((ids, steps))
     ids, steps = ids[order], steps[order]
     return np.searchsorted(steps, np.arange(length + 1)).astype(np.int64), ids.astype(np.int32)
@@ -56,7 +58,7 @@ class _InputFeed:
     def __init__(self, tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
         self.tab, self.first_cell, self.inputs, self.n_steps = tab, first_cell, inputs, n_steps
         self.segmented = hasattr(inputs, "segment")
-        self.total = 0          # input spikes of the segments loaded before the current one
+        self.total = 0  # input spikes of the segments loaded before the current one
         if self.segmented:
             self.period, self.loaded = int(inputs.segment_steps), -1
             self.reached(0)
@@ -76,9 +78,10 @@ class _InputFeed:
             if self.loaded >= 0:
                 self.total += int(self.ptr[-1])
             idx, steps = self.inputs.segment(j)
-            keep = steps < self.n_steps        # (the last segment may reach past the run's end)
-            self.ptr, self.ids = _input_events(self.tab, self.first_cell, idx[keep], steps[keep], self.period,
-                                               j * self.period)
+            keep = steps < self.n_steps  # (the last segment may reach past the run's end)
+            self.ptr, self.ids = _input_events(
+                self.tab, self.first_cell, idx[keep], steps[keep], self.period, j * self.period
+            )
             self.loaded = j
 
     def spikes_fed(self) -> int:
@@ -106,10 +109,11 @@ class Run:
         self.ctype = np.repeat(tab.pops[:, ft.P_TYPE], self.cells[:, 1]).astype(np.uint8)
         self.feed = _InputFeed(tab, self.first, inputs, n_steps)
         self.n_present = int(sum(chosen[p.name].size for p in lif_populations(tab.network)))
-        self.state = pool.zeros("state", off, STATE)          # all at rest: never touched
+        self.state = pool.zeros("state", off, STATE)  # all at rest: never touched
         self.inact = pool.zeros("inact", off, np.uint8)
-        self.act, self.new, self.tmp, self.fresh = (pool.zeros(name, off, np.int32)
-                                                    for name in ("act", "new", "tmp", "fresh"))
+        self.act, self.new, self.tmp, self.fresh = (
+            pool.zeros(name, off, np.int32) for name in ("act", "new", "tmp", "fresh")
+        )
         self.radix = np.zeros(2048, dtype=np.int64)
         self.scalars = np.zeros(2, dtype=np.int64)
         self.log = np.empty(LOG_START, dtype=np.int32)
@@ -167,9 +171,9 @@ class Run:
                 end = min(end, self.feed.stop_after(n))
                 if stream is not None:
                     end = min(end, stream.next_stop(n))
-                run = RunArrays(*(getattr(self, name) for name in RunArrays._fields))     # (the log may have grown)
+                run = RunArrays(*(getattr(self, name) for name in RunArrays._fields))  # (the log may have grown)
                 reached = run_steps(n, end, run, numbering, tables)
-                if reached < end:         # the next step may not fit in the spike log
+                if reached < end:  # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
                 bar(reached - n)
                 cancel.check()
@@ -188,7 +192,7 @@ class Run:
         """Every spike of the run: the cell numbers (int32, a view of the log)
         and where each step's spikes start in them (``step_start[s]``, with
         ``step_start[n_steps]`` the total)."""
-        return self.log[:int(self.scalars[1])], self.step_start
+        return self.log[: int(self.scalars[1])], self.step_start
 
     def forget_before(self, step: int, now: int) -> int:
         """Drop the spikes of the steps before ``step`` from the log (no
@@ -199,9 +203,9 @@ class Run:
         k = int(self.step_start[step])
         if k:
             log_n = int(self.scalars[1])
-            self.log[:log_n - k] = self.log[k:log_n]
+            self.log[: log_n - k] = self.log[k:log_n]
             self.scalars[1] = log_n - k
-            self.step_start[step:now + 1] -= k
+            self.step_start[step : now + 1] -= k
         return k
 
     def input_spikes(self) -> int:
@@ -266,7 +270,7 @@ def zeroed(n: int, dtype) -> np.ndarray:
         m.madvise(advice)
     except (OSError, ValueError, AttributeError):
         return np.zeros(n, dtype)
-    return np.frombuffer(m, dtype=dtype, count=n)      # (writable; the array keeps the map alive)
+    return np.frombuffer(m, dtype=dtype, count=n)  # (writable; the array keeps the map alive)
 
 
 class _progress:

@@ -16,6 +16,7 @@ description and time step (:func:`build_tables`), never one per synapse.
 Potentials and weights are held in volts, as Brian2 holds them, so that the
 two simulators round the same numbers the same way.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -53,8 +54,9 @@ ADVANCE_STEPS = 512
 #: columns of the population table
 P_OFF, P_CH, P_GR, P_GC, P_STRIDE, P_LR, P_LC, P_TYPE, P_SIZE = range(9)
 #: columns of the projection table
-(J_KIND, J_SRC, J_TGT, J_COL, J_DELAY, J_WRAP, J_BASE, J_COLBASE, J_PRUNE, J_INH, J_RADIUS, J_DENSE, J_KR,
- J_GBASE) = range(14)
+(J_KIND, J_SRC, J_TGT, J_COL, J_DELAY, J_WRAP, J_BASE, J_COLBASE, J_PRUNE, J_INH, J_RADIUS, J_DENSE, J_KR, J_GBASE) = (
+    range(14)
+)
 CONV, RESIZE = 0, 1
 
 
@@ -64,37 +66,37 @@ class EngineTables:
 
     network: Network
     dt_ms: float
-    offsets: dict            # population name -> first global cell number
-    pops: np.ndarray         # int64 (n_populations, 9), columns P_*
+    offsets: dict  # population name -> first global cell number
+    pops: np.ndarray  # int64 (n_populations, 9), columns P_*
     n_cells: int
-    nrn: np.ndarray          # float64 (n_types, N_NRN), columns DM..PEAK, volts
-    ref_steps: np.ndarray    # int64 (n_types,)
-    adv: np.ndarray          # float64 (n_types, 5, ADVANCE_STEPS + 1): d_m^k, d_e^k, d_i^k, P_e(k), P_i(k)
-    prj: np.ndarray          # int64 (n_projections, 14), columns J_*
-    prj_w: np.ndarray        # float64 (n_projections, 3): sign * gain (mV), prune threshold of a Resize,
+    nrn: np.ndarray  # float64 (n_types, N_NRN), columns DM..PEAK, volts
+    ref_steps: np.ndarray  # int64 (n_types,)
+    adv: np.ndarray  # float64 (n_types, 5, ADVANCE_STEPS + 1): d_m^k, d_e^k, d_i^k, P_e(k), P_i(k)
+    prj: np.ndarray  # int64 (n_projections, 14), columns J_*
+    prj_w: np.ndarray  # float64 (n_projections, 3): sign * gain (mV), prune threshold of a Resize,
     #                          and its quantisation step (interpolation products rounded to it; 0: exact)
-    ch_ptr: np.ndarray       # int64: Conv taps of input channel c, residues (a, b) modulo the target
-    tap_co: np.ndarray       #   stride s, of projection p are ch_ptr[i] .. ch_ptr[i + 1], i = base + (c s + a) s
-    tap_qr: np.ndarray       #   + b, of tap_co (output channel), tap_qr, tap_qc (the target lattice point is
-    tap_qc: np.ndarray       #   the source's level pixel // s - (qr, qc)), tap_w (volts added to the
-    tap_w: np.ndarray        #   receptor) and tap_off (flat offset, for sources whose whole footprint lies
-    tap_off: np.ndarray      #   inside the level)
-    dense: np.ndarray        # float64: a Conv's weights by level offset, (C_out, C_in, 2R+1, 2R+1) from
+    ch_ptr: np.ndarray  # int64: Conv taps of input channel c, residues (a, b) modulo the target
+    tap_co: np.ndarray  #   stride s, of projection p are ch_ptr[i] .. ch_ptr[i + 1], i = base + (c s + a) s
+    tap_qr: np.ndarray  #   + b, of tap_co (output channel), tap_qr, tap_qc (the target lattice point is
+    tap_qc: np.ndarray  #   the source's level pixel // s - (qr, qc)), tap_w (volts added to the
+    tap_w: np.ndarray  #   receptor) and tap_off (flat offset, for sources whose whole footprint lies
+    tap_off: np.ndarray  #   inside the level)
+    dense: np.ndarray  # float64: a Conv's weights by level offset, (C_out, C_in, 2R+1, 2R+1) from
     #                          dense[J_DENSE], R = J_KR (0 where there is no tap)
-    pair_ptr: np.ndarray     # int64: the output channels input channel c reaches, with their row offset
-    pair_co: np.ndarray      #   ranges: pair_ptr[J_GBASE + c] .. [+1] of pair_co, pair_rlo, pair_rhi
+    pair_ptr: np.ndarray  # int64: the output channels input channel c reaches, with their row offset
+    pair_co: np.ndarray  #   ranges: pair_ptr[J_GBASE + c] .. [+1] of pair_co, pair_rlo, pair_rhi
     pair_rlo: np.ndarray
     pair_rhi: np.ndarray
-    csr_ptr: np.ndarray      # int64: Resize rows/cols: source index s of a factor starting at
-    csr_idx: np.ndarray      #   base has targets csr_idx[csr_ptr[base + s]:csr_ptr[base + s + 1]]
-    csr_val: np.ndarray      #   with interpolation weights csr_val
-    grp_ptr: np.ndarray      # int64: projections feeding one (target population, current) are
-    grp_prj: np.ndarray      #   grp_prj[grp_ptr[k]:grp_ptr[k + 1]] (their input is summed, then delivered)
-    kept_mass: dict          # projection name -> kept fraction of its kernel mass
-    taps: dict               # projection name -> kept taps (Conv) or interpolation weights (Resize)
-    tap_k: np.ndarray        # float64: each tap's kernel value before the gain (tap_w is made from it)
-    dense_k: np.ndarray      # float64: the same for ``dense``
-    spans: np.ndarray        # int64 (n_projections, 4): a Conv's taps tap_*[a:b] and dense[c:d]
+    csr_ptr: np.ndarray  # int64: Resize rows/cols: source index s of a factor starting at
+    csr_idx: np.ndarray  #   base has targets csr_idx[csr_ptr[base + s]:csr_ptr[base + s + 1]]
+    csr_val: np.ndarray  #   with interpolation weights csr_val
+    grp_ptr: np.ndarray  # int64: projections feeding one (target population, current) are
+    grp_prj: np.ndarray  #   grp_prj[grp_ptr[k]:grp_ptr[k + 1]] (their input is summed, then delivered)
+    kept_mass: dict  # projection name -> kept fraction of its kernel mass
+    taps: dict  # projection name -> kept taps (Conv) or interpolation weights (Resize)
+    tap_k: np.ndarray  # float64: each tap's kernel value before the gain (tap_w is made from it)
+    dense_k: np.ndarray  # float64: the same for ``dense``
+    spans: np.ndarray  # int64 (n_projections, 4): a Conv's taps tap_*[a:b] and dense[c:d]
 
     def with_gains(self, network: Network) -> "EngineTables":
         """These tables for ``network``, which must differ from
@@ -121,9 +123,12 @@ class EngineTables:
                 continue
             g0 = self.prj[p, J_GBASE]
             c_in, st = self.pops[self.prj[p, J_SRC], P_CH], self.pops[self.prj[p, J_TGT], P_STRIDE]
-            rows = self.pair_rhi[self.pair_ptr[g0]:self.pair_ptr[g0 + c_in]] - \
-                self.pair_rlo[self.pair_ptr[g0]:self.pair_ptr[g0 + c_in]] + 1
-            out[p] = self.taps[pr.name] / st ** 2 / max(rows.sum() / st, 1)
+            rows = (
+                self.pair_rhi[self.pair_ptr[g0] : self.pair_ptr[g0 + c_in]]
+                - self.pair_rlo[self.pair_ptr[g0] : self.pair_ptr[g0 + c_in]]
+                + 1
+            )
+            out[p] = self.taps[pr.name] / st**2 / max(rows.sum() / st, 1)
         return out
 
     @property
@@ -151,7 +156,7 @@ def _neuron_types(network: Network, dt_ms: float):
     for t, x in enumerate(neurons):
         f = x.propagators(dt_ms)
         nrn[t, [DM, DE, DI, PE, PI]] = [f["d_m"], f["d_exc"], f["d_inh"], f["p_exc"], f["p_inh"]]
-        nrn[t, V_REST:V_TH + 1] = np.array([x.v_rest_mv, x.v_reset_mv, x.v_th_mv]) * MV
+        nrn[t, V_REST : V_TH + 1] = np.array([x.v_rest_mv, x.v_reset_mv, x.v_th_mv]) * MV
     nrn[:, GAP] = nrn[:, V_TH] - nrn[:, V_REST] - PARK_MARGIN_V
     adv = advance_tables(nrn)
     nrn[:, TIGHT] = nrn[:, DI] >= nrn[:, DE]
@@ -175,9 +180,9 @@ def advance_tables(nrn: np.ndarray) -> np.ndarray:
     adv[:, 0:3, 0] = 1.0
     d_m = nrn[:, DM]
     for k in range(ADVANCE_STEPS):
-        adv[:, 0:3, k + 1] = adv[:, 0:3, k] * nrn[:, DM:DI + 1]
+        adv[:, 0:3, k + 1] = adv[:, 0:3, k] * nrn[:, DM : DI + 1]
         # P_x(k+1) = d_m P_x(k) + p_x d_x^k, for x = exc (rows 1, 3) and inh (rows 2, 4)
-        adv[:, 3:5, k + 1] = d_m[:, None] * adv[:, 3:5, k] + nrn[:, PE:PI + 1] * adv[:, 1:3, k]
+        adv[:, 3:5, k + 1] = d_m[:, None] * adv[:, 3:5, k] + nrn[:, PE : PI + 1] * adv[:, 1:3, k]
     return adv
 
 
@@ -257,16 +262,24 @@ class _Collector:
         taps = [np.concatenate([t[i] for t in self.taps]) if self.taps else np.zeros(0) for i in range(6)]
         csr = [np.concatenate(x) if x else np.zeros(0) for x in self.csr]
         pairs = np.concatenate(self.pairs) if self.pairs else np.zeros((0, 3), np.int64)
-        return {"ch_ptr": np.concatenate(self.ch_ptr).astype(np.int64), "tap_co": taps[0].astype(np.int32),
-                "tap_qr": taps[1].astype(np.int32), "tap_qc": taps[2].astype(np.int32),
-                "tap_w": taps[3].astype(np.float64), "tap_off": taps[4].astype(np.int64),
-                "tap_k": taps[5].astype(np.float64),
-                "dense": np.concatenate(self.dense) if self.dense else np.zeros(1),
-                "dense_k": np.concatenate(self.dense_k) if self.dense_k else np.zeros(1),
-                "pair_ptr": np.concatenate(self.pair_ptr).astype(np.int64), "pair_co": pairs[:, 0].copy(),
-                "pair_rlo": pairs[:, 1].copy(), "pair_rhi": pairs[:, 2].copy(),
-                "csr_ptr": csr[0].astype(np.int64), "csr_idx": csr[1].astype(np.int32),
-                "csr_val": csr[2].astype(np.float64)}
+        return {
+            "ch_ptr": np.concatenate(self.ch_ptr).astype(np.int64),
+            "tap_co": taps[0].astype(np.int32),
+            "tap_qr": taps[1].astype(np.int32),
+            "tap_qc": taps[2].astype(np.int32),
+            "tap_w": taps[3].astype(np.float64),
+            "tap_off": taps[4].astype(np.int64),
+            "tap_k": taps[5].astype(np.float64),
+            "dense": np.concatenate(self.dense) if self.dense else np.zeros(1),
+            "dense_k": np.concatenate(self.dense_k) if self.dense_k else np.zeros(1),
+            "pair_ptr": np.concatenate(self.pair_ptr).astype(np.int64),
+            "pair_co": pairs[:, 0].copy(),
+            "pair_rlo": pairs[:, 1].copy(),
+            "pair_rhi": pairs[:, 2].copy(),
+            "csr_ptr": csr[0].astype(np.int64),
+            "csr_idx": csr[1].astype(np.int32),
+            "csr_val": csr[2].astype(np.float64),
+        }
 
 
 def quantised_values(k: np.ndarray, peak: float, weight_bits: int | None) -> np.ndarray:
@@ -300,9 +313,9 @@ def _conv(network, pr, src, tgt, out: _Collector, weight_bits=None):
     qr, qc = (dr - rr) // st, (dc - rc) // st
     cls = (ci * st + rr) * st + rc
     radius = int(max(np.abs(qr).max(), np.abs(qc).max())) if qr.size else 0
-    if pr.padding == "wrap" and 2 * radius + 1 > min(gr, gc):     # (wrap-around: stride 1, cls = ci)
+    if pr.padding == "wrap" and 2 * radius + 1 > min(gr, gc):  # (wrap-around: stride 1, cls = ci)
         co, cls, qr, qc, k = _fold(co, cls, qr % gr, qc % gc, k)
-        radius = max(gr, gc)           # never entirely inside the level
+        radius = max(gr, gc)  # never entirely inside the level
     order = np.lexsort((qc, qr, cls))
     co, qr, qc, k, cls = co[order], qr[order], qc[order], k[order], cls[order]
     ch_ptr = np.searchsorted(cls, np.arange(src.channels * st * st + 1))
@@ -320,11 +333,17 @@ def gains_only(a: Network, b: Network) -> bool:
     """Whether two networks differ at most in projection gains (and the
     input rate they are calibrated for): then the engine's tables of one
     serve the other after :meth:`EngineTables.with_gains`."""
+
     def rest(pr):
         return type(pr), {k: v for k, v in vars(pr).items() if k != "gain_mv"}
-    return (a.params == b.params and a.frame_shape == b.frame_shape and a.populations == b.populations
-            and len(a.projections) == len(b.projections)
-            and all(x is y or rest(x) == rest(y) for x, y in zip(a.projections, b.projections)))
+
+    return (
+        a.params == b.params
+        and a.frame_shape == b.frame_shape
+        and a.populations == b.populations
+        and len(a.projections) == len(b.projections)
+        and all(x is y or rest(x) == rest(y) for x, y in zip(a.projections, b.projections))
+    )
 
 
 def _fold(co, ci, qr, qc, k):
@@ -373,16 +392,28 @@ def build_tables(network: Network, dt_ms: float, weight_bits: int | None = None)
         src, tgt = network.population(pr.source), network.population(pr.target)
         spans.append([out.n_taps, out.n_taps, out.n_dense, out.n_dense])
         if isinstance(pr, Conv):
-            base, colbase, kept[pr.name], taps[pr.name], radius, dense = _conv(network, pr, src, tgt, out,
-                                                                               weight_bits)
+            base, colbase, kept[pr.name], taps[pr.name], radius, dense = _conv(network, pr, src, tgt, out, weight_bits)
             kind, wrap, thr, step = CONV, int(pr.padding == "wrap"), 0.0, 0.0
         else:
             base, colbase, kept[pr.name], taps[pr.name], thr, step = _resize(pr, src, tgt, out, weight_bits)
             kind, wrap, radius, dense = RESIZE, 0, 0, (0, 0, 0)
         spans[-1][1], spans[-1][3] = out.n_taps, out.n_dense
-        rows.append([kind, index[src.name], index[tgt.name], 1 if receptor(pr.sign) == "exc" else 2,
-                     _delay_steps(pr.delay_ms, dt_ms), wrap, base, colbase, int(pr.prune > 0),
-                     int(pr.sign < 0), radius, *dense])
+        rows.append(
+            [
+                kind,
+                index[src.name],
+                index[tgt.name],
+                1 if receptor(pr.sign) == "exc" else 2,
+                _delay_steps(pr.delay_ms, dt_ms),
+                wrap,
+                base,
+                colbase,
+                int(pr.prune > 0),
+                int(pr.sign < 0),
+                radius,
+                *dense,
+            ]
+        )
         wrow.append([pr.sign * pr.gain_mv, thr, step])
     arrays = out.arrays()
     prj = np.array(rows, dtype=np.int64).reshape(-1, 14)
@@ -391,7 +422,21 @@ def build_tables(network: Network, dt_ms: float, weight_bits: int | None = None)
         groups.setdefault((int(prj[p, J_TGT]), int(prj[p, J_COL])), []).append(p)
     grp_prj = np.array([p for members in groups.values() for p in members], dtype=np.int64)
     grp_ptr = np.cumsum([0] + [len(members) for members in groups.values()]).astype(np.int64)
-    return EngineTables(network=network, dt_ms=float(dt_ms), offsets=offsets, pops=pops, n_cells=int(n_cells),
-                        nrn=nrn, ref_steps=ref, adv=adv, prj=prj,
-                        prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 3), grp_ptr=grp_ptr, grp_prj=grp_prj,
-                        kept_mass=kept, taps=taps, spans=np.array(spans, dtype=np.int64).reshape(-1, 4), **arrays)
+    return EngineTables(
+        network=network,
+        dt_ms=float(dt_ms),
+        offsets=offsets,
+        pops=pops,
+        n_cells=int(n_cells),
+        nrn=nrn,
+        ref_steps=ref,
+        adv=adv,
+        prj=prj,
+        prj_w=np.array(wrow, dtype=np.float64).reshape(-1, 3),
+        grp_ptr=grp_ptr,
+        grp_prj=grp_prj,
+        kept_mass=kept,
+        taps=taps,
+        spans=np.array(spans, dtype=np.int64).reshape(-1, 4),
+        **arrays,
+    )

@@ -149,14 +149,14 @@ def _plain(value):
 
 def save_json(name: str, record) -> Path:
     """``results/<name>.json`` (numpy values as plain numbers), written atomically."""
-    from snn_fg.atomic import save_text
+    from snn_fg.results.atomic import save_text
 
     return save_text(RESULTS / f"{name}.json", json.dumps(record, indent=1, default=_plain) + "\n")
 
 
 def save_markdown(name: str, lines: Sequence[str]) -> Path:
     """``results/<name>.md`` from its lines, written atomically."""
-    from snn_fg.atomic import save_text
+    from snn_fg.results.atomic import save_text
 
     return save_text(RESULTS / f"{name}.md", "\n".join(lines).rstrip("\n") + "\n")
 
@@ -170,6 +170,6 @@ def save_results(name: str, record, lines: Sequence[str]) -> list[Path]:
 
 def save_figure(fig, name: str, **kwargs) -> Path:
     """``results/<name>.png`` (``dpi=110, bbox_inches="tight"`` unless given), written atomically."""
-    from snn_fg.atomic import save_figure as save
+    from snn_fg.results.atomic import save_figure as save
 
     return save(fig, RESULTS / f"{name}.png", **{"dpi": 110, "bbox_inches": "tight", **kwargs})

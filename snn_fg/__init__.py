@@ -2,18 +2,18 @@
 spiking neural network.
 
 The data flow is the package layout: :mod:`snn_fg.events` (recordings,
-windows, event-camera simulation) -> event frames and :mod:`snn_fg.pyramid` ->
+windows, event-camera simulation) -> event frames and :mod:`snn_fg.frames` ->
 :mod:`snn_fg.network` (the network description) -> :mod:`snn_fg.lowering`
 (input spikes and synapses) -> a simulator of :mod:`snn_fg.backends` (or the
-rate models of :mod:`snn_fg.rate`) -> :mod:`snn_fg.maps` (decoded maps) ->
-:mod:`snn_fg.metrics` and :mod:`snn_fg.figures`. :mod:`snn_fg.spiking` is the
+rate models of :mod:`snn_fg.models.rate`) -> :mod:`snn_fg.results.maps` (decoded maps) ->
+:mod:`snn_fg.scoring.metrics` and :mod:`snn_fg.results.figures`. :mod:`snn_fg.models.spiking` is the
 spiking model's Python API, :mod:`snn_fg.export` writes the description for
 boards and other simulators (with the standalone PyNN program of
 :mod:`snn_fg.pynn`, which the NEST backend runs too), and :mod:`snn_fg.models`
 puts every model behind one interface for the command line (:mod:`snn_fg.cli`).
 Each layer imports only those below it.
 
-``snn_fg.Maps`` is :class:`snn_fg.maps.Maps`, what every run writes and
+``snn_fg.Maps`` is :class:`snn_fg.results.maps.Maps`, what every run writes and
 ``Maps.load(folder)`` reads back.
 """
 
@@ -30,7 +30,7 @@ __all__ = ["Maps", "__version__"]
 
 def __getattr__(name):  # (imported when first asked for: ``import snn_fg`` stays light)
     if name == "Maps":
-        from .maps import Maps
+        from .results.maps import Maps
 
         return Maps
     raise AttributeError(f"module 'snn_fg' has no attribute {name!r}")

@@ -5,7 +5,7 @@ would run it, on local processes (``workers``) or on a Dask cluster
 (``scheduler``, an address). A recording that fails is reported in the
 summary with its one-line error and does not stop the others; a recording
 whose run is complete is skipped, and one cut short is continued
-(:mod:`snn_fg.store`). ``DIR/summary.csv`` lists every recording: its
+(:mod:`snn_fg.results.store`). ``DIR/summary.csv`` lists every recording: its
 status (``done``, ``skipped``, ``failed``), windows, seconds and error.
 """
 
@@ -20,9 +20,9 @@ import sys
 import time
 from pathlib import Path
 
-from .cores import usable_cores
 from .errors import InputError, SnnFgError, install_hint
 from .events.io import SUFFIX_FORMAT
+from .models.cores import usable_cores
 
 #: the summary table's name in the output folder, and its columns
 SUMMARY_NAME = "summary.csv"
@@ -75,7 +75,7 @@ def run_job(options: dict, command) -> dict:
     """One recording: ``command`` (``snn-fg run``'s handler) with ``options``
     (``input``, ``out`` and the rest); a row of the summary, whatever happens
     (an interrupt ends the job as it ends a run)."""
-    from .store import STORE_NAME, read_attrs, windows_complete
+    from .results.store import STORE_NAME, read_attrs, windows_complete
 
     out = Path(options["out"])
     row = {
@@ -159,7 +159,7 @@ def run_dataset(args, command) -> int:
     core, at most one per recording) or the Dask cluster at
     ``args.scheduler``. ``--force`` runs complete recordings again. Returns
     0, or 1 when a recording failed."""
-    from .atomic import save_text
+    from .results.atomic import save_text
 
     jobs = _jobs(args)
     out = Path(args.out)

@@ -425,13 +425,13 @@ def _windows(args):
 
 
 def cmd_run(args) -> int:
-    from .atomic import OutputFolder, growing_folder, settle_folder
     from .batch import is_dataset, run_dataset
-    from .inputs import input_kind, load_frame
-    from .pyramid.levels import check_levels
-    from .pyramid.pool import pooled_shape
+    from .frames.pool import pooled_shape
+    from .frames.pyramid import check_levels
+    from .frames.still import input_kind, load_frame
+    from .results.atomic import OutputFolder, growing_folder, settle_folder
+    from .results.store import STORE_NAME, finished_run, windows_complete
     from .runner import run_recording, run_still
-    from .store import STORE_NAME, finished_run, windows_complete
     from .validate import check_crop
 
     if is_dataset(args.input):

@@ -73,7 +73,7 @@ def add_compare_command(sub, number):
 
 
 def compare_table(rows, outline_px: int | None = None) -> str:
-    """The rows of :func:`~snn_fg.metrics.compare_maps` as a text table."""
+    """The rows of :func:`~snn_fg.scoring.metrics.compare_maps` as a text table."""
     lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COLUMNS)]
     lines += [
         "  ".join("-".rjust(w) if r[k] is None else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COLUMNS) for r in rows
@@ -96,10 +96,10 @@ def compare_table(rows, outline_px: int | None = None) -> str:
 
 
 def cmd_compare(args) -> int:
-    from .atomic import save_text
-    from .maps import Maps
-    from .metrics import compare_maps
-    from .outline import event_outlines
+    from .results.atomic import save_text
+    from .results.maps import Maps
+    from .scoring.metrics import compare_maps
+    from .scoring.outline import event_outlines
 
     for out in (args.json, args.plot):
         if out is not None and Path(out).resolve() in (Path(args.a).resolve(), Path(args.b).resolve()):
@@ -117,7 +117,7 @@ def cmd_compare(args) -> int:
         save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
         print(f"snn-fg: metrics saved to {args.json}")
     if args.plot:
-        from .figures import save_compare_figure
+        from .results.figures import save_compare_figure
 
         names = tuple(f"{k} ({_run_name(f)})" for k, f in (("A", args.a), ("B", args.b)))
         save_compare_figure(args.plot, a, b, rows, names=names, where=where)

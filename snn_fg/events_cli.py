@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from snn_fg.atomic import save_npz
 from snn_fg.errors import InputError
 from snn_fg.events import MAX_SENSOR_SIDE
 from snn_fg.events.esim import MOTIONS
-from snn_fg.images import IMAGE_SUFFIXES
+from snn_fg.events.images import IMAGE_SUFFIXES
+from snn_fg.results.atomic import save_npz
 
 
 def sensor_size_arg(text):
@@ -240,8 +240,8 @@ def _check_plot(args, path):
 def _print_activity(stream, args):
     """The recording's activity window by window (a second pass over the
     file), its saturated windows, and the ``--plot`` figure."""
-    from snn_fg.atomic import save_figure
     from snn_fg.events.activity import activity, activity_figure, saturated_lines, timeline_text
+    from snn_fg.results.atomic import save_figure
 
     act = activity(stream, window_ms=args.window_ms)
     print("activity:\n" + timeline_text(act))

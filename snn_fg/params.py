@@ -28,7 +28,7 @@ class ModelParams:
         coarse levels, for the compact network).
     input_pool: stage 0: blocks of ``input_pool x input_pool`` sensor pixels
         become one pixel of the event frame the model sees (1: none); the
-        maps come back at the sensor's size (:mod:`snn_fg.pyramid.pool`).
+        maps come back at the sensor's size (:mod:`snn_fg.frames.pool`).
     n_ori: orientations per half-turn (border-ownership orientations); the
         simple cells have ``2 * n_ori`` directions.
     r0: radius in pixels of the von Mises grouping ring (object size grouped).
@@ -50,9 +50,9 @@ class ModelParams:
         dark-figure grouping cells compete per pixel, winner takes all;
         ``"pool"``: no competition, and the feedback reads the sum of both,
         so that a figure is grouped whatever the sign of its contrast along
-        the outline (the natural-scene variant, :mod:`snn_fg.rate.natural`).
+        the outline (the natural-scene variant, :mod:`snn_fg.models.rate.natural`).
     side_cue: gain of the side cue (0: none; the natural-scene variant,
-        :mod:`snn_fg.rate.side_cue`): at level 1, each border-ownership pair's
+        :mod:`snn_fg.models.rate.side_cue`): at level 1, each border-ownership pair's
         feedback signal ``z`` gains ``side_cue`` times the event density in
         the half disc on its side minus that on the other side.
     side_cue_radius: radius (level-1 pixels) of the side cue's half discs.
@@ -155,11 +155,11 @@ class ModelParams:
         return json.dumps(self.to_dict(), sort_keys=True)
 
 
-#: The natural-scene variant's parameters (:mod:`snn_fg.rate.natural`,
+#: The natural-scene variant's parameters (:mod:`snn_fg.models.rate.natural`,
 #: ``--model natural``): the paper's, with the grouping polarities pooled, no
 #: rival inhibition, a grouping radius of 4 px and the side cue. Here rather
 #: than there, so that naming the models does not load the rate model's code.
 NATURAL_PARAMS = ModelParams(grouping_polarity="pool", w_inh=0.0, r0=4.0, side_cue=3e3)
 
-#: The frame-based model's edge operators for its simple cells (:mod:`snn_fg.rate.fbfg`, ``--edge-operator``).
+#: The frame-based model's edge operators for its simple cells (:mod:`snn_fg.models.rate.fbfg`, ``--edge-operator``).
 EDGE_OPERATORS = ("gaussian", "corf")

@@ -1,7 +1,7 @@
 """Running a model on an input into an output folder, as ``snn-fg run`` does:
-a frame all or nothing (an :class:`~snn_fg.atomic.OutputFolder`), a
+a frame all or nothing (an :class:`~snn_fg.results.atomic.OutputFolder`), a
 recording window by window into a store that a run can continue
-(:mod:`snn_fg.store`).
+(:mod:`snn_fg.results.store`).
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ import numpy as np
 
 from . import cancel
 from .errors import InputError
-from .inputs import Still
-from .maps import Maps
+from .frames.still import Still
 from .models import Model
-from .store import STORE_NAME, MapsStore, read_maps, store_arrays
+from .results.maps import Maps
+from .results.store import STORE_NAME, MapsStore, read_maps, store_arrays
 
 #: events read at a time from a recording a model runs on (1.6 MB): the
 #: spiking model reads the recording while the network runs, and the copies
@@ -93,7 +93,7 @@ class _LazyFrames:
 
 
 def model_input_rgb(frame):
-    from .figures import event_frame_rgb
+    from .results.figures import event_frame_rgb
 
     return event_frame_rgb(frame > 0, frame < 0)
 
@@ -110,7 +110,7 @@ def run_recording(
     run_key: dict | None = None,
 ) -> int:
     """Every window of a recording through ``model`` into ``out/maps.zarr``
-    (:mod:`snn_fg.store`: each window written as it completes) and, at the
+    (:mod:`snn_fg.results.store`: each window written as it completes) and, at the
     end, its figures. Returns the number of windows (``crop``: see
     :meth:`Model.write_figures`). ``source`` describes the input (its
     ``"input"``, the name errors give, and the window options).

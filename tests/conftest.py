@@ -47,10 +47,10 @@ def warm_simulators():
     """The level-1 default network on a radius-8 disc (every delay and receptor) run 40 ms on both engines."""
     from snn_fg.backends import RunSettings, get_backend
     from snn_fg.events import image_to_frame
+    from snn_fg.frames.scenes import disc
     from snn_fg.lowering.input_spikes import frame_spikes
     from snn_fg.network import build_network
     from snn_fg.params import ModelParams
-    from snn_fg.scenes import disc
 
     pos, neg = image_to_frame(disc(8).image)
     net = build_network(ModelParams(levels=1), pos.shape)

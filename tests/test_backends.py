@@ -8,12 +8,12 @@ import pytest
 from snn_fg import cancel
 from snn_fg.backends import RunSettings, available_backends, backend_class, get_backend
 from snn_fg.events import image_to_events, image_to_frame
-from snn_fg.metrics import compare_frame, grouping_peak_inside, truth_scores
+from snn_fg.frames.scenes import demo, disc
+from snn_fg.models.rate.edfg import run_edfg
+from snn_fg.models.spiking import SpikingRecord, run_spiking_result
 from snn_fg.network.roles import ROLE_ORDER
 from snn_fg.params import ModelParams
-from snn_fg.rate.edfg import run_edfg
-from snn_fg.scenes import demo, disc
-from snn_fg.spiking import SpikingRecord, run_spiking_result
+from snn_fg.scoring.metrics import compare_frame, grouping_peak_inside, truth_scores
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -229,7 +229,7 @@ def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(ba
 
 
 def test_record_reads_back_from_a_saved_file(disc_run, tmp_path):
-    from snn_fg.maps import Maps
+    from snn_fg.results.maps import Maps
 
     _, _, _, res = disc_run
     back = Maps.load(res.maps.save(tmp_path / "m.npz"))

@@ -9,13 +9,13 @@ import pytest
 
 from snn_fg.batch import output_names, recordings_of
 from snn_fg.cli import main
-from snn_fg.maps import Maps
+from snn_fg.results.maps import Maps
 
 
 @pytest.fixture()
 def folder(tmp_path):
     from snn_fg.events import image_to_events, save_events
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     d = tmp_path / "recs"
     d.mkdir()

@@ -8,9 +8,9 @@ import pytest
 from snn_fg import cancel
 from snn_fg.backends import available_backends
 from snn_fg.events import image_to_frame
-from snn_fg.rate.edfg import run_edfg
-from snn_fg.scenes import disc
-from snn_fg.spiking import run_spiking_result
+from snn_fg.frames.scenes import disc
+from snn_fg.models.rate.edfg import run_edfg
+from snn_fg.models.spiking import run_spiking_result
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -52,7 +52,7 @@ def test_the_fast_engine_stops_after_the_chunk_it_is_in(stop_requested, monkeypa
 
 
 def test_the_rate_model_stops_after_the_iteration_it_is_in(stop_requested, monkeypatch):
-    from snn_fg.rate.grouping import SparseGrouping
+    from snn_fg.models.rate.grouping import SparseGrouping
 
     steps = []
     real = SparseGrouping._step

@@ -8,10 +8,10 @@ import sys
 import numpy as np
 import pytest
 
-from snn_fg import atomic
 from snn_fg.cli import main
-from snn_fg.maps import Maps
 from snn_fg.params import ModelParams
+from snn_fg.results import atomic
+from snn_fg.results.maps import Maps
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -55,7 +55,7 @@ def test_parameters_reach_the_model(tmp_path):
 def test_fbfg_on_image(tmp_path):
     import cv2
 
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     img = tmp_path / "disc.png"
     cv2.imwrite(str(img), (disc(20).image * 255).astype(np.uint8))
@@ -146,7 +146,7 @@ def test_compare_prints_and_saves_metrics(tmp_path):
 @pytest.mark.slow
 def test_recording_gives_windows(tmp_path):
     from snn_fg.events import image_to_events, save_events
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     rec = image_to_events(disc(16).image, motion="circle")
     path = tmp_path / "disc.npy"
@@ -186,7 +186,7 @@ def test_recording_gives_windows(tmp_path):
 @pytest.mark.slow
 def test_rate_model_can_carry_its_state_from_window_to_window(tmp_path):
     from snn_fg.events import image_to_events, save_events
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     rec = image_to_events(disc(16).image, motion="circle")
     path = tmp_path / "disc.npy"
@@ -215,9 +215,9 @@ def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes
     windows before again, for their state) and gives the maps of a run never
     interrupted, bit for bit."""
     from snn_fg.events import image_to_events, save_events
-    from snn_fg.rate import edfg
-    from snn_fg.scenes import disc
-    from snn_fg.store import read_attrs
+    from snn_fg.frames.scenes import disc
+    from snn_fg.models.rate import edfg
+    from snn_fg.results.store import read_attrs
 
     rec = image_to_events(disc(16).image, motion="circle")
     path = tmp_path / "disc.npy"
@@ -275,9 +275,9 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
     spikes inside the window shifted by the lag, and equal run_spiking_windows
     called directly; frame-only options are refused for a recording."""
     from snn_fg.events import image_to_events, iter_windows, save_events
-    from snn_fg.maps import window_part
-    from snn_fg.scenes import disc
-    from snn_fg.spiking.continuous import run_spiking_windows
+    from snn_fg.frames.scenes import disc
+    from snn_fg.models.spiking.continuous import run_spiking_windows
+    from snn_fg.results.maps import window_part
 
     rec = image_to_events(disc(12).image, motion="circle")
     path = tmp_path / "disc.npy"
@@ -343,7 +343,7 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
 
 def _disc_frame(tmp_path, radius=16):
     from snn_fg.events import image_to_frame
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     pos, neg = image_to_frame(disc(radius).image)
     path = tmp_path / "disc.npz"
@@ -433,7 +433,7 @@ def test_usage_errors_are_reported_under_the_subcommand(tmp_path):
 @pytest.mark.slow
 def test_compare_pairs_windows_by_time_and_reads_at_100_columns(tmp_path):
     from snn_fg.events import image_to_events, save_events
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     rec = image_to_events(disc(16).image, motion="circle")
     path = tmp_path / "disc.npy"
@@ -459,7 +459,7 @@ def test_compare_pairs_windows_by_time_and_reads_at_100_columns(tmp_path):
 
 
 def test_angle_metrics_ignore_the_empty_background():
-    from snn_fg.metrics import compare_frame
+    from snn_fg.scoring.metrics import compare_frame
 
     fx = np.zeros((40, 40))
     fy = np.zeros((40, 40))
@@ -471,8 +471,8 @@ def test_angle_metrics_ignore_the_empty_background():
 
 
 def test_agreement_scores_a_against_b_and_reads_maps_or_tuples():
-    from snn_fg.maps import Maps
-    from snn_fg.metrics import agreement
+    from snn_fg.results.maps import Maps
+    from snn_fg.scoring.metrics import agreement
 
     fx, fy, g = np.zeros((30, 30)), np.zeros((30, 30)), np.zeros((30, 30))
     fx[10, 0:20] = 1.0  # b: 20 vectors pointing right
@@ -492,9 +492,9 @@ def test_a_recording_whose_windows_give_no_vector_says_so(tmp_path, capsys):
     model that returns empty maps) is counted and reported in one line; a
     model that finds the disc's outline draws no such line."""
     from snn_fg.events import image_to_events, iter_windows
-    from snn_fg.models import RateModel
+    from snn_fg.frames.scenes import disc
+    from snn_fg.models.interface import RateModel
     from snn_fg.runner import run_recording
-    from snn_fg.scenes import disc
 
     class Blank(RateModel):
         def run_window(self, window):

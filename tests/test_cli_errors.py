@@ -89,10 +89,10 @@ def test_a_file_that_is_not_an_npz_is_refused_as_such_not_as_a_pickle(tmp_path):
     and what it should be instead (the text appears nowhere in the file)."""
     from snn_fg.errors import InputError
     from snn_fg.export.loop import decode_counts, input_frame
-    from snn_fg.inputs import read_npz_arrays
-    from snn_fg.maps import Maps
+    from snn_fg.frames.still import read_npz_arrays
     from snn_fg.network import build_network
     from snn_fg.params import ModelParams
+    from snn_fg.results.maps import Maps
 
     fake = tmp_path / "fake.npz"
     fake.write_text("fg_x fg_y grouping\n")
@@ -193,7 +193,7 @@ def test_run_names_every_kind_of_input_for_an_unknown_extension_and_reads_webp(t
         )
         == 0
     )
-    from snn_fg.maps import Maps
+    from snn_fg.results.maps import Maps
 
     maps = Maps.load(tmp_path / "o")
     assert maps.fg_x.shape == (48, 64) and np.hypot(maps.fg_x, maps.fg_y).max() > 0

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.maps import Maps
+from snn_fg.frames.pool import NORMAL_SIGMA, edge_normals, pool_events, pool_frame, pooled_shape, unpool_maps
+from snn_fg.frames.pyramid import level_shape, max_levels
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.network.nodes import Kernel
 from snn_fg.network.recipes import RECIPES, model_params_of, network_for
 from snn_fg.params import ModelParams
-from snn_fg.pyramid.levels import level_shape, max_levels
-from snn_fg.pyramid.pool import NORMAL_SIGMA, edge_normals, pool_events, pool_frame, pooled_shape, unpool_maps
+from snn_fg.results.maps import Maps
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -108,9 +108,9 @@ def test_octave_levels_halve_the_frame_and_the_default_steps_are_unchanged():
 
 def test_the_rate_model_pools_its_input_and_answers_at_the_sensor_size():
     from snn_fg.events import image_to_frame
-    from snn_fg.metrics import grouping_peak_inside, truth_scores
-    from snn_fg.rate.edfg import run_edfg
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
+    from snn_fg.models.rate.edfg import run_edfg
+    from snn_fg.scoring.metrics import grouping_peak_inside, truth_scores
 
     scene = disc(radius=24)
     pos, neg = image_to_frame(scene.image)
@@ -205,9 +205,9 @@ def test_a_network_carries_its_time_step_into_runs_and_exports():
     from snn_fg.events import image_to_frame
     from snn_fg.export.pynn import pynn_model
     from snn_fg.export.report import resource_report
+    from snn_fg.frames.scenes import disc
+    from snn_fg.models.spiking import run_spiking
     from snn_fg.network.graph import Network
-    from snn_fg.scenes import disc
-    from snn_fg.spiking import run_spiking
 
     net = RECIPES["compact"].build((64, 64))
     assert net.dt_ms == 1.0 and net.to_dict()["dt_ms"] == 1.0 and Network.from_dict(net.to_dict()) == net
@@ -250,7 +250,7 @@ def test_a_recording_runs_through_the_compact_network_all_or_nothing(tmp_path):
     the pooled sensor, maps at the sensor's size with each window's own
     time, the input adapter recorded; a bad option leaves no folder."""
     from snn_fg.events import image_to_events, save_events
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     rec = image_to_events(disc(20).image, motion="circle")
     path = tmp_path / "disc.npy"

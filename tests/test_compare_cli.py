@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.maps import Maps
+from snn_fg.results.maps import Maps
 
 #: a recording stamped in Unix time, as AEDAT4 files are (2020-05-11, in us)
 UNIX_T0 = 1_589_163_147_368_900
@@ -17,7 +17,7 @@ UNIX_T0 = 1_589_163_147_368_900
 @pytest.fixture(scope="module")
 def unix_recording(tmp_path_factory):
     from snn_fg.events import image_to_events, save_events
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     rec = image_to_events(disc(16).image, motion="circle")
     ev = rec.events.copy()
@@ -88,7 +88,7 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
 
 
 def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypatch):
-    import snn_fg.figures as figures
+    import snn_fg.results.figures as figures
 
     for name in ("run-a", "run-b"):
         z = np.zeros((4, 5), np.float32)
@@ -113,8 +113,8 @@ def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypa
 
 
 def test_the_compare_figure_draws_both_maps_and_their_angle_difference():
-    from snn_fg.figures import compare_figure
-    from snn_fg.metrics import compare_maps
+    from snn_fg.results.figures import compare_figure
+    from snn_fg.scoring.metrics import compare_maps
 
     fx = np.zeros((3, 30, 40), np.float32)
     fx[:, 10, 5:35] = 1.0  # an edge owned by the side to its right...
@@ -144,8 +144,8 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
     (a recording whose object fills with events): on every pixel they look
     unrelated, within 2 px of the outline they are the same, and the
     grouping columns do not change."""
-    from snn_fg.metrics import compare_maps
-    from snn_fg.outline import event_outlines, outline_band
+    from snn_fg.scoring.metrics import compare_maps
+    from snn_fg.scoring.outline import event_outlines, outline_band
 
     yy, xx = np.mgrid[:32, :32]
     region = np.hypot(yy - 16, xx - 16) < 10
@@ -176,9 +176,9 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
 def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken():
     """The figure of ``compare --outline`` shows the angle difference on the
     outline band only, as its numbers were taken, and says so."""
-    from snn_fg.figures import compare_figure
-    from snn_fg.metrics import compare_maps
-    from snn_fg.outline import event_outlines, outline_band
+    from snn_fg.results.figures import compare_figure
+    from snn_fg.scoring.metrics import compare_maps
+    from snn_fg.scoring.outline import event_outlines, outline_band
 
     yy, xx = np.mgrid[:32, :32]
     region = np.hypot(yy - 16, xx - 16) < 10
@@ -199,7 +199,7 @@ def test_a_map_without_any_vector_is_named_under_the_table():
     """A window where one map has no vector compares nothing (nan in the
     angle columns); the table says which map is empty, in which windows."""
     from snn_fg.compare_cli import compare_table
-    from snn_fg.metrics import compare_maps
+    from snn_fg.scoring.metrics import compare_maps
 
     fx = np.zeros((2, 20, 20), np.float32)
     fx[:, 5, 5:15] = 1.0

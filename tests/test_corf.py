@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.metrics import truth_scores
+from snn_fg.frames.scenes import disc
 from snn_fg.models import get_model
-from snn_fg.rate.corf import configuration, corf_edges, corf_responses
-from snn_fg.rate.fbfg import run_fbfg
-from snn_fg.scenes import disc
+from snn_fg.models.rate.corf import configuration, corf_edges, corf_responses
+from snn_fg.models.rate.fbfg import run_fbfg
+from snn_fg.scoring.metrics import truth_scores
 from snn_fg.validate import ParameterError
 
 

@@ -5,10 +5,10 @@ order, as decoding in line, and an error on that thread still stops the run."""
 import numpy as np
 import pytest
 
-import snn_fg.spiking.continuous as continuous
+import snn_fg.models.spiking.continuous as continuous
 from snn_fg.events import image_to_events, iter_windows
+from snn_fg.frames.scenes import disc
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 

@@ -16,15 +16,15 @@ from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_frame
 from snn_fg.export import synapses
 from snn_fg.export.board import board_network, whole_pairs
+from snn_fg.frames.scenes import disc
 from snn_fg.lowering.input_spikes import frame_spikes
 from snn_fg.lowering.unroll import unroll
-from snn_fg.metrics import compare_frame
+from snn_fg.models.spiking.decode import decode
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.pynn.cells import quantise, split_receptors
 from snn_fg.pynn.network import NEST_LOCAL_MARGIN, NEST_MAX_LOCAL_SENDERS, PyNNNetwork, nest_threads
-from snn_fg.scenes import disc
-from snn_fg.spiking.decode import decode
+from snn_fg.scoring.metrics import compare_frame
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -190,7 +190,7 @@ def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
 def test_nir_round_trip_keeps_the_maps(tmp_path, light):
     pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
     from snn_fg.export.nir import export_nir, read_nir
-    from snn_fg.spiking import run_spiking
+    from snn_fg.models.spiking import run_spiking
 
     # a disc the one-level network solves (all its vectors within 45 degrees of
     # the truth): on a radius-8 disc with r0 = 4 it gets 71-93 %, and which
@@ -280,7 +280,7 @@ def test_nest_gives_brian2s_spikes_with_signed_receptors_and_with_the_export_spl
     default network, whose cells have one synaptic time constant; each role's
     mean rate is checked too (within 10 %: a network with two time constants
     kept 0.97-1.02)."""
-    from snn_fg.spiking import run_spiking_result
+    from snn_fg.models.spiking import run_spiking_result
 
     pos, neg = image_to_frame(disc(16).image)
     kw = dict(duration_ms=100.0, settle_ms=20.0, instantiate="input", record_spikes=False, progress=False)

@@ -17,13 +17,13 @@ from snn_fg.events.window import events_to_frame
 from snn_fg.export.board import board_network
 from snn_fg.export.loop import busiest_crop, centroid_crop, export_network, input_frame
 from snn_fg.export.pynn import export_pynn, read_input, save_input
+from snn_fg.frames.scenes import disc
 from snn_fg.lowering.input_spikes import event_spikes
-from snn_fg.maps import Maps
-from snn_fg.metrics import compare_frame
+from snn_fg.models.spiking.decode import decode
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc
-from snn_fg.spiking.decode import decode
+from snn_fg.results.maps import Maps
+from snn_fg.scoring.metrics import compare_frame
 
 NEST_OK, NEST_WHY = available_backends()["nest"]
 needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
@@ -357,7 +357,7 @@ def test_sizes_are_width_by_height_and_blocks_are_called_blocks(tmp_path, disc_r
     assert "crop at block x=1, y=3" in said and read_input(spikes).shape == (16, 19)
     # the input file keeps where its crop lies on the sensor: decode's params and figure place the maps there
     from snn_fg.export.pynn import input_origin
-    from snn_fg.figures import maps_figure
+    from snn_fg.results.figures import maps_figure
 
     origin = input_origin(spikes)
     assert (origin["crop_x_px"], origin["crop_y_px"], origin["pool"]) == (3, 9, 3)
@@ -418,8 +418,8 @@ def test_a_forced_re_export_for_another_rate_keeps_the_folders_input(tmp_path, c
     frame drops it."""
     from snn_fg.events import image_to_frame
     from snn_fg.export.pynn import save_input
+    from snn_fg.frames.scenes import disc
     from snn_fg.lowering.input_spikes import frame_spikes
-    from snn_fg.scenes import disc
 
     out = tmp_path / "model"
     export = ["export", "--format", "pynn", "--out", str(out), "--sensor-size", "24x20", "--levels", "1"]

@@ -200,7 +200,7 @@ def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = 
     from snn_fg.backends import RunSettings, get_backend
     from snn_fg.export.board import board_network
     from snn_fg.export.nir_snntorch import export_nir_snntorch, run_snntorch, snntorch_network
-    from snn_fg.spiking.decode import decode, decode_rates
+    from snn_fg.models.spiking.decode import decode, decode_rates
 
     torch.set_num_threads(1)
     half = duration_ms / 2
@@ -230,9 +230,9 @@ def test_snntorch_executes_the_profile_graph_like_the_fast_engine(tmp_path):
     28 deg on this 32 x 32 disc): experiments.validation.nir_consumer measures it on
     the larger inputs."""
     from snn_fg.events import image_to_frame
+    from snn_fg.frames.scenes import disc
     from snn_fg.lowering.input_spikes import frame_spikes
-    from snn_fg.metrics import agreement
-    from snn_fg.scenes import disc
+    from snn_fg.scoring.metrics import agreement
 
     pos, neg = image_to_frame(disc(8).image)
     cut = (slice(16, 48), slice(16, 48))  # the disc and its surround, 32 x 32
@@ -258,11 +258,11 @@ def test_snntorch_executes_the_compact_network_on_one_grid(tmp_path):
     r 0.903, 94 %, 12.6 deg (one-step refractoriness: 0.978 / 100 % and
     0.927 / 96 %)."""
     from snn_fg.events import image_to_frame
+    from snn_fg.frames.pool import pool_frame
+    from snn_fg.frames.scenes import disc
     from snn_fg.lowering.input_spikes import frame_spikes
-    from snn_fg.metrics import agreement
     from snn_fg.network.recipes import RECIPES
-    from snn_fg.pyramid.pool import pool_frame
-    from snn_fg.scenes import disc
+    from snn_fg.scoring.metrics import agreement
 
     net = RECIPES["compact"].build((48, 48))
     pos, neg = pool_frame(*image_to_frame(disc(16).image), net.params.input_pool)

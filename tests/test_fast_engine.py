@@ -10,10 +10,10 @@ from snn_fg.backends.base import STATE_VARIABLES
 from snn_fg.backends.fast.core import _advanced, _merge, _merge_runs, _radix_sort, _safe
 from snn_fg.backends.fast.tables import DE, DI, DM, PE, PI, V_RESET, V_REST, V_TH, build_tables
 from snn_fg.events import image_to_events, image_to_frame
+from snn_fg.frames.scenes import disc
 from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 

@@ -6,7 +6,7 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from snn_fg.cli import main
-from snn_fg.figures import event_frame_rgb, maps_figure
+from snn_fg.results.figures import event_frame_rgb, maps_figure
 
 
 def _windows(n, h=40, w=60):
@@ -75,9 +75,9 @@ def test_a_crop_draws_that_part_at_its_own_coordinates(tmp_path):
 
 
 def test_the_raster_explains_every_role_and_why_feedback_cells_fire_at_2_khz():
-    from snn_fg.figures import raster_figure
+    from snn_fg.models.spiking.record import SpikingRecord
     from snn_fg.network.roles import ROLE_ORDER
-    from snn_fg.spiking.record import SpikingRecord
+    from snn_fg.results.figures import raster_figure
 
     record = SpikingRecord(
         names=[],

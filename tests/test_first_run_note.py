@@ -7,9 +7,9 @@ import pytest
 
 from snn_fg.backends.fast import core as fast_core
 from snn_fg.events import image_to_frame
+from snn_fg.frames.scenes import disc
+from snn_fg.models.spiking import run_spiking
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc
-from snn_fg.spiking import run_spiking
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 

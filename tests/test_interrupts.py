@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from snn_fg.events import image_to_events, save_events
-from snn_fg.maps import Maps
-from snn_fg.scenes import demo
+from snn_fg.frames.scenes import demo
+from snn_fg.results.maps import Maps
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -88,7 +88,7 @@ def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path,
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_an_interrupted_recording_keeps_its_complete_windows_and_resumes(inputs, tmp_path, sig):
-    from snn_fg.store import read_attrs, windows_complete
+    from snn_fg.results.store import read_attrs, windows_complete
 
     out = tmp_path / "out"
     cmd = [

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from snn_fg.errors import ParameterError
+from snn_fg.frames.pyramid import level_shape, pyramid
+from snn_fg.models.rate.edfg import orientation_index, oriented_responses
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
-from snn_fg.pyramid.levels import level_shape, pyramid
-from snn_fg.rate.edfg import orientation_index, oriented_responses
 
 
 @pytest.mark.parametrize("r0", [4, 8, 12])

@@ -13,12 +13,12 @@ taken", comes from that rounding, not from code written for 8.)
 import numpy as np
 
 from snn_fg.events import image_to_frame
+from snn_fg.frames.scenes import disc
+from snn_fg.models.rate.edfg import event_entries, orientation_index, oriented_responses, run_edfg_state
+from snn_fg.models.rate.grouping import SparseGrouping
+from snn_fg.models.rate.grouping_tables import Entries
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
-from snn_fg.rate.edfg import event_entries, orientation_index, oriented_responses, run_edfg_state
-from snn_fg.rate.grouping import SparseGrouping
-from snn_fg.rate.grouping_tables import Entries
-from snn_fg.scenes import disc
 
 P4, P8 = ModelParams(n_ori=4), ModelParams(n_ori=8)
 

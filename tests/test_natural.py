@@ -6,13 +6,13 @@ import pytest
 
 from snn_fg.cli import main
 from snn_fg.events import image_to_frame
-from snn_fg.maps import Maps
-from snn_fg.metrics import truth_scores
+from snn_fg.frames.scenes import disc
+from snn_fg.models.rate.edfg import run_edfg
+from snn_fg.models.rate.natural import NATURAL_PARAMS, run_natural
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
-from snn_fg.rate.edfg import run_edfg
-from snn_fg.rate.natural import NATURAL_PARAMS, run_natural
-from snn_fg.scenes import disc
+from snn_fg.results.maps import Maps
+from snn_fg.scoring.metrics import truth_scores
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -38,14 +38,14 @@ def test_pooled_polarities_own_a_figure_whose_contrast_flips_along_its_outline()
 
 
 def test_pooled_grouping_is_the_sum_of_both_polarities_without_competition():
-    from snn_fg.rate.grouping import SparseGrouping
-    from snn_fg.rate.pooled import PooledGrouping, grouping_engine
+    from snn_fg.models.rate.grouping import SparseGrouping
+    from snn_fg.models.rate.pooled import PooledGrouping, grouping_engine
 
     assert grouping_engine(ModelParams()) is SparseGrouping
     assert grouping_engine(NATURAL_PARAMS) is PooledGrouping
     scene = disc(radius=12)
     pos, neg = image_to_frame(scene.image)
-    from snn_fg.rate.edfg import run_edfg_state
+    from snn_fg.models.rate.edfg import run_edfg_state
 
     state = run_edfg_state(pos, neg, NATURAL_PARAMS.replace(iterations=1))
     lv = state.engine.levels[0]

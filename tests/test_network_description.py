@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from snn_fg.errors import InputError, ParameterError
+from snn_fg.frames.pyramid import level_shape
 from snn_fg.network import Conv, Kernel, Network, Neuron, Population, Resize, SpikingParams, build_network
 from snn_fg.network.builder import FAMILIES, FEEDBACK_HALVES
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
-from snn_fg.pyramid.levels import level_shape
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -11,7 +11,7 @@ test, so this checks the property that rules it out."""
 import numpy as np
 import pytest
 
-from snn_fg.rate import _sparse_kernels as nbk
+from snn_fg.models.rate import _sparse_kernels as nbk
 
 
 def test_pool_add_is_compiled_for_its_types_at_import_and_never_on_demand():

@@ -1,8 +1,8 @@
-"""Scoring figure-ground vectors along an object's outline (snn_fg.outline)."""
+"""Scoring figure-ground vectors along an object's outline (snn_fg.scoring.outline)."""
 
 import numpy as np
 
-from snn_fg.outline import inward_angles, inward_score
+from snn_fg.scoring.outline import inward_angles, inward_score
 
 
 def _disc(turn_deg):
@@ -36,7 +36,7 @@ def test_no_vectors_scores_nan():
 
 
 def test_outline_scores_gives_both_scores_from_one_pass():
-    from snn_fg.outline import outline_scores
+    from snn_fg.scoring.outline import outline_scores
 
     fx, fy, region = _disc(80)
     o = outline_scores(fx, fy, region)

@@ -67,7 +67,7 @@ def test_cli_motion_paper_is_recorded_and_refused_where_no_image_becomes_events(
     import json
 
     from snn_fg.cli import main
-    from snn_fg.maps import Maps
+    from snn_fg.results.maps import Maps
 
     assert main(["run", "demo", "--motion", "paper", "--out", str(tmp_path / "a"), "--no-progress"]) == 0
     assert json.loads(json.dumps(Maps.load(tmp_path / "a" / "maps.npz").params))["source"]["motion"] == "paper"

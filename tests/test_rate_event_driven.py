@@ -1,7 +1,7 @@
 """The event-driven rate model against a direct, dense transcription of docs/model.md.
 
 The reference below is written from the model description with
-scipy.ndimage.correlate and cv2.resize, independently of snn_fg.rate; every
+scipy.ndimage.correlate and cv2.resize, independently of snn_fg.models.rate; every
 path the event-driven code can choose (scatter or Fourier grouping input,
 gathered or dense feedback, sparse or Fourier responses) is forced in turn.
 """
@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from snn_fg.frames.pyramid import level_shape, resize
+from snn_fg.models.rate import edfg, grouping
+from snn_fg.models.rate.edfg import event_simple_cells, oriented_responses, responses_at
+from snn_fg.models.rate.grouping import SparseGrouping
+from snn_fg.models.rate.grouping_tables import Entries, cubic_taps
 from snn_fg.network.kernels import von_mises_masks
 from snn_fg.params import ModelParams
-from snn_fg.pyramid.levels import level_shape, resize
-from snn_fg.rate import edfg, grouping
-from snn_fg.rate.edfg import event_simple_cells, oriented_responses, responses_at
-from snn_fg.rate.grouping import SparseGrouping
-from snn_fg.rate.grouping_tables import Entries, cubic_taps
 
 PARAMS = ModelParams(levels=2, iterations=2, n_ori=4)
 

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.maps import Maps
-from snn_fg.rate.edfg import run_edfg_state
+from snn_fg.models.rate.edfg import run_edfg_state
+from snn_fg.results.maps import Maps
 
 FRAMES = ["12003", "35070", "105053", "159091", "22090", "41004"]
 

@@ -124,7 +124,7 @@ def test_a_file_cut_inside_an_event_part_way_leaves_nothing_half_written(tmp_pat
     error says how to run the complete windows before the cut."""
     import re
 
-    from snn_fg.maps import Maps
+    from snn_fg.results.maps import Maps
 
     n = 400_000  # (2 MB: read in several chunks, windows finish before the cut)
     ev = np.zeros(n, EVENT_DTYPE)

@@ -7,13 +7,13 @@ import pytest
 
 from snn_fg.backends.fast import FastBackend
 from snn_fg.events import EVENT_DTYPE, RecordingWindows, iter_windows
+from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.lowering.input_spikes import event_spikes
 from snn_fg.lowering.input_stream import SpikeStream
+from snn_fg.models.spiking import recording_input
+from snn_fg.models.spiking.continuous import simulate_windows, window_maps
 from snn_fg.network import SpikingParams
 from snn_fg.params import ModelParams
-from snn_fg.scenes import flipping_disc_recording
-from snn_fg.spiking import recording_input
-from snn_fg.spiking.continuous import simulate_windows, window_maps
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 

@@ -3,9 +3,9 @@
 import numpy as np
 
 from snn_fg.cli import main
-from snn_fg.maps import Maps
-from snn_fg.metrics import grouping_peak
-from snn_fg.outline import filled_outline, inward_score
+from snn_fg.results.maps import Maps
+from snn_fg.scoring.metrics import grouping_peak
+from snn_fg.scoring.outline import filled_outline, inward_score
 
 
 def test_biplane_windows(dataset, tmp_path):

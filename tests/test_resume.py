@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from snn_fg.events import image_to_events, iter_windows
-from snn_fg.maps import Maps
+from snn_fg.frames.scenes import disc
 from snn_fg.models import get_model
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc
-from snn_fg.store import read_attrs, windows_complete
+from snn_fg.results.maps import Maps
+from snn_fg.results.store import read_attrs, windows_complete
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 

@@ -6,7 +6,7 @@ import pytest
 
 from snn_fg.cli import main
 from snn_fg.events import EVENT_DTYPE, save_events
-from snn_fg.maps import Maps
+from snn_fg.results.maps import Maps
 
 W, H = 48, 32
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from snn_fg.errors import ParameterError
+from snn_fg.models.rate.natural import run_natural
 from snn_fg.network import build_network
 from snn_fg.network.kernels import side_cue_kernels, von_mises_masks
 from snn_fg.params import NATURAL_PARAMS, ModelParams
-from snn_fg.rate.natural import run_natural
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -80,8 +80,8 @@ def test_the_side_cue_is_checked():
 
 def test_the_spiking_side_cells_carry_the_cue_and_turn_the_border():
     from snn_fg.models import Still, get_model
-    from snn_fg.rate.side_cue import side_cue_maps
-    from snn_fg.spiking import run_spiking_result
+    from snn_fg.models.rate.side_cue import side_cue_maps
+    from snn_fg.models.spiking import run_spiking_result
 
     for right in (True, False):
         pos, neg, mid = _box_beside_texture(right)

@@ -9,13 +9,13 @@ import pytest
 from snn_fg.backends import DEFAULT_BACKEND
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.events import image_to_events, image_to_frame
-from snn_fg.figures import save_spiking_figures
+from snn_fg.frames.scenes import disc
 from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
-from snn_fg.maps import Maps
+from snn_fg.models.spiking import SpikingRecord, run_spiking, run_spiking_result
 from snn_fg.network import Network, SpikingParams, build_network
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc
-from snn_fg.spiking import SpikingRecord, run_spiking, run_spiking_result
+from snn_fg.results.figures import save_spiking_figures
+from snn_fg.results.maps import Maps
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -217,7 +217,7 @@ def test_ownership_comes_from_the_feedback(light):
     (>= 95 % of the boundary pixels that have a vector); without it the two
     sides of every border stay equal, as in the model with f = 1, and no
     boundary pixel keeps an inward vector."""
-    from snn_fg.metrics import truth_scores
+    from snn_fg.scoring.metrics import truth_scores
 
     sc = disc(20, light_on_dark=light)
     pos, neg = image_to_frame(sc.image)

@@ -13,12 +13,12 @@ from scipy import ndimage
 
 from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_frame
+from snn_fg.frames.scenes import disc
 from snn_fg.lowering.interp import interp_matrix, resize_matrix
 from snn_fg.lowering.unroll import dense_drive, to_grid, unroll
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc
 
 EXACT = SpikingParams(prune_dog=0.0, prune_vm=0.0)
 
@@ -195,9 +195,9 @@ def test_unrolled_network_iterated_like_the_rate_model_reproduces_it(light):
     """The rate twin (the unrolled cells and synapses, iterated with the rate
     model's stages 4-8) against run_edfg: the whole structure - pruning,
     lattices, site rules, top-down pooling - changes little."""
-    from snn_fg.metrics import compare_frame
-    from snn_fg.rate.edfg import run_edfg
-    from snn_fg.spiking.twin import run_twin
+    from snn_fg.models.rate.edfg import run_edfg
+    from snn_fg.models.spiking.twin import run_twin
+    from snn_fg.scoring.metrics import compare_frame
 
     pos, neg = image_to_frame(disc(16, light).image)
     un = unroll(

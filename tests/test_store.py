@@ -1,4 +1,4 @@
-"""The store a recording's maps grow in (snn_fg.store): stacked, ragged and
+"""The store a recording's maps grow in (snn_fg.results.store): stacked, ragged and
 missing per-window arrays, read back by Maps.load and by zarr-python (an
 independent Zarr reader), only complete windows visible, continued after a
 window cut short."""
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from snn_fg.errors import InputError
-from snn_fg.maps import Maps, window_part
-from snn_fg.store import FLAT_CHUNK, MapsStore, read_attrs
+from snn_fg.results.maps import Maps, window_part
+from snn_fg.results.store import FLAT_CHUNK, MapsStore, read_attrs
 
 
 def _maps(value, **extra):
@@ -64,7 +64,7 @@ def test_flat_arrays_span_chunks(tmp_path):
 
 
 def test_per_window_scalars_span_chunks(tmp_path, monkeypatch):
-    from snn_fg import store as st
+    from snn_fg.results import store as st
 
     monkeypatch.setattr(st, "SCALAR_CHUNK", 4)
     path = tmp_path / "maps.zarr"
@@ -81,7 +81,7 @@ def test_during_a_run_zarr_sees_whole_windows_up_to_a_second_late_and_all_at_the
     a second (SHAPES_EVERY_S), and at the end: between, a Zarr reader sees
     a prefix of whole windows and snn-fg's reader every complete one."""
     zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
-    from snn_fg import store as st
+    from snn_fg.results import store as st
 
     path = tmp_path / "maps.zarr"
     now = [0.0]
@@ -102,7 +102,7 @@ def test_during_a_run_zarr_sees_whole_windows_up_to_a_second_late_and_all_at_the
 
 
 def test_a_failed_write_leaves_the_file_as_it_was_and_no_part(tmp_path):
-    from snn_fg.atomic import write_bytes
+    from snn_fg.results.atomic import write_bytes
 
     target = tmp_path / "chunk"
     write_bytes(target, b"first")
@@ -112,7 +112,7 @@ def test_a_failed_write_leaves_the_file_as_it_was_and_no_part(tmp_path):
 
 
 def test_a_reader_sees_complete_windows_only_and_a_cut_window_is_written_again(tmp_path, monkeypatch):
-    from snn_fg import store as st
+    from snn_fg.results import store as st
 
     path = tmp_path / "maps.zarr"
     _write(path, WINDOWS[:2])

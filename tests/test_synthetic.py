@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from snn_fg import scenes
 from snn_fg.events import image_to_frame
-from snn_fg.metrics import grouping_peak_inside, truth_scores
-from snn_fg.rate.edfg import run_edfg
-from snn_fg.rate.fbfg import run_fbfg
+from snn_fg.frames import scenes
+from snn_fg.models.rate.edfg import run_edfg
+from snn_fg.models.rate.fbfg import run_fbfg
+from snn_fg.scoring.metrics import grouping_peak_inside, truth_scores
 
 
 @pytest.mark.parametrize("radius", [16, 28, 40, 64])
@@ -67,7 +67,7 @@ def test_rate_model_is_deterministic():
 def test_grouping_comparison_ignores_the_maps_units():
     """Spiking grouping maps are in Hz, the rate model's in its own units:
     a map and a scaled copy of it compare as identical, on r and on SSIM."""
-    from snn_fg.metrics import compare_frame
+    from snn_fg.scoring.metrics import compare_frame
 
     sc = scenes.disc(20)
     pos, neg = image_to_frame(sc.image)

@@ -8,13 +8,13 @@ import pytest
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_events, iter_windows
+from snn_fg.frames.scenes import disc, flipping_disc_recording
 from snn_fg.lowering.input_spikes import event_spikes
 from snn_fg.models import get_model
+from snn_fg.models.spiking.continuous import run_spiking_windows
 from snn_fg.network import SpikingParams, build_network
-from snn_fg.outline import inward_score
 from snn_fg.params import ModelParams
-from snn_fg.scenes import disc, flipping_disc_recording
-from snn_fg.spiking.continuous import run_spiking_windows
+from snn_fg.scoring.outline import inward_score
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -174,7 +174,7 @@ def test_a_frame_gives_the_same_maps_with_or_without_a_clock():
     """A frame never fires the clock: the default network (with one) gives
     the maps of the network without it, on both engines."""
     from snn_fg.events import image_to_frame
-    from snn_fg.spiking import run_spiking
+    from snn_fg.models.spiking import run_spiking
 
     pos, neg = image_to_frame(disc(12).image)
     for backend in ("fast", "brian2") if available_backends()["brian2"][0] else ("fast",):
@@ -233,7 +233,7 @@ def test_a_run_that_forgets_each_bin_once_read_gives_the_kept_runs_maps(backend)
     recording) gives the maps, records and parameters of the run that keeps
     every bin, with overlapping windows (each read from two bins) and the
     spike log cut between bins by the fast engine."""
-    from snn_fg.spiking.continuous import simulate_windows, window_maps
+    from snn_fg.models.spiking.continuous import simulate_windows, window_maps
 
     _, rec = flipping_disc_recording(24, windows=3, window_ms=40.0)
     windows = list(iter_windows(rec, window_ms=40.0, stride_ms=20.0))

@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from experiments.common import ROOT, Run
-from snn_fg.atomic import atomic_path, save_text
 from snn_fg.events import EVENT_DTYPE
+from snn_fg.results.atomic import atomic_path, save_text
 
 SENSOR = (304, 240)
 
@@ -97,7 +97,7 @@ def stream(path: Path, window_ms: float, chunk_events: int, trace: bool) -> dict
 def through_cli(path: Path, window_ms: float, max_windows: int | None) -> dict:
     """Run ``snn-fg run path --model rate`` in this process; time, peak memory, output size."""
     from snn_fg.cli import main as cli
-    from snn_fg.store import windows_complete
+    from snn_fg.results.store import windows_complete
 
     with tempfile.TemporaryDirectory() as out:
         argv = [

@@ -87,10 +87,10 @@ def nir_peaks(out: dict):
 def _export(tmp: Path, w: int, h: int, levels: int):
     from snn_fg.events import image_to_frame
     from snn_fg.export.pynn import export_pynn, save_input
+    from snn_fg.frames.scenes import disc
     from snn_fg.lowering.input_spikes import frame_spikes
     from snn_fg.network import build_network
     from snn_fg.params import ModelParams
-    from snn_fg.scenes import disc
 
     folder = export_pynn(build_network(ModelParams(levels=levels), (h, w)), tmp / f"{w}x{h}_{levels}")
     pos, neg = image_to_frame(disc(min(w, h) / 3).image)

@@ -11,8 +11,8 @@ import time
 
 from experiments.common import Run, load, save_json
 from snn_fg.events import image_to_frame
-from snn_fg.scenes import disc
-from snn_fg.spiking import run_spiking_result
+from snn_fg.frames.scenes import disc
+from snn_fg.models.spiking import run_spiking_result
 
 
 def main():

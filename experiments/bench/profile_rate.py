@@ -15,17 +15,21 @@ from .inputs import load
 
 # (module, attribute, label): the parts of run_edfg that take time.
 STAGES = (
-    ("snn_fg.rate.edfg", "event_entries", "stages 1-4 (pyramid, DoG, orientation)"),
-    ("snn_fg.rate.edfg", "oriented_responses", "  of which DoG responses, Fourier levels"),
-    ("snn_fg.rate._sparse_kernels", "scatter", "stage 7 grouping input (scatter)"),
-    ("snn_fg.rate._sparse_kernels", "winner_take_all", "stage 7 rectify + compete"),
-    ("snn_fg.rate._sparse_kernels", "gather", "stage 8 feedback correlation, sparse levels (gather)"),
-    ("snn_fg.rate.grouping", "SparseGrouping._correlate_dense", "stage 8 feedback correlation, dense levels (FFT)"),
-    ("snn_fg.rate._sparse_kernels", "pool_add", "stage 8 cross-level pooling (bicubic at entries)"),
-    ("snn_fg.rate.grouping", "SparseGrouping._group_dense", "stage 7 grouping input (FFT, when most changed)"),
-    ("snn_fg.rate.grouping", "SparseGrouping._inhibition", "stage 7 inhibition test"),
-    ("snn_fg.rate.grouping", "SparseGrouping._plan_feedback", "stage 8 planning (sites)"),
-    ("snn_fg.rate.grouping", "SparseGrouping.readout", "stage 9 readout"),
+    ("snn_fg.models.rate.edfg", "event_entries", "stages 1-4 (pyramid, DoG, orientation)"),
+    ("snn_fg.models.rate.edfg", "oriented_responses", "  of which DoG responses, Fourier levels"),
+    ("snn_fg.models.rate._sparse_kernels", "scatter", "stage 7 grouping input (scatter)"),
+    ("snn_fg.models.rate._sparse_kernels", "winner_take_all", "stage 7 rectify + compete"),
+    ("snn_fg.models.rate._sparse_kernels", "gather", "stage 8 feedback correlation, sparse levels (gather)"),
+    (
+        "snn_fg.models.rate.grouping",
+        "SparseGrouping._correlate_dense",
+        "stage 8 feedback correlation, dense levels (FFT)",
+    ),
+    ("snn_fg.models.rate._sparse_kernels", "pool_add", "stage 8 cross-level pooling (bicubic at entries)"),
+    ("snn_fg.models.rate.grouping", "SparseGrouping._group_dense", "stage 7 grouping input (FFT, when most changed)"),
+    ("snn_fg.models.rate.grouping", "SparseGrouping._inhibition", "stage 7 inhibition test"),
+    ("snn_fg.models.rate.grouping", "SparseGrouping._plan_feedback", "stage 8 planning (sites)"),
+    ("snn_fg.models.rate.grouping", "SparseGrouping.readout", "stage 9 readout"),
 )
 
 
@@ -46,8 +50,8 @@ def profile(specs, repeats: int) -> dict:
     """Per-stage seconds per frame (median input order), summed over ``specs``."""
     import importlib
 
-    from snn_fg.rate import grouping
-    from snn_fg.rate.edfg import run_edfg
+    from snn_fg.models.rate import grouping
+    from snn_fg.models.rate.edfg import run_edfg
 
     grouping._THREADS = 1
 

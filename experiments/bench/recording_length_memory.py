@@ -74,7 +74,7 @@ def _recording(path: Path, seconds: int) -> str:
 def _child(argv: list[str]) -> dict:
     """``snn-fg run`` with ``argv`` in this process: windows, time, peak memory, output size."""
     from snn_fg.cli import main as cli
-    from snn_fg.store import windows_complete
+    from snn_fg.results.store import windows_complete
 
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()

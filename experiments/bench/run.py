@@ -262,7 +262,7 @@ def section_throughput(args, eng):
 
 def _stream_row(maps_path: Path, model: str) -> dict:
     """Per-window times and the engine's counters from a run's maps (its output folder)."""
-    from snn_fg.maps import Maps
+    from snn_fg.results.maps import Maps
 
     p = Maps.load(maps_path).params
     per = [p["timings_s"]] + [w.get("timings_s", p["timings_s"]) for w in p.get("windows", [])[1:]]
@@ -477,7 +477,7 @@ def main(argv=None) -> int:
             merged.setdefault("runs", []).extend(other.get("runs", []))
             if other.get("last_run", {}).get("started", "") > merged.get("last_run", {}).get("started", ""):
                 merged["last_run"] = other["last_run"]
-            from snn_fg.atomic import save_text
+            from snn_fg.results.atomic import save_text
 
             save_text(args.out, json.dumps(merged, indent=1))
         print_summary(merged, merged.get("sections", {}))
@@ -508,7 +508,7 @@ def main(argv=None) -> int:
     merged["last_run"] = run
     merged.setdefault("runs", []).append(run)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    from snn_fg.atomic import save_text
+    from snn_fg.results.atomic import save_text
 
     save_text(args.out, json.dumps(merged, indent=1))
     print_summary(merged, measured)

@@ -49,7 +49,7 @@ def _repeated(rec: Path, path: Path, times: int) -> None:
 def _child(argv: list[str]) -> dict:
     """Run ``snn-fg run`` with ``argv`` in this process: time, windows, peak memory."""
     from snn_fg.cli import main as cli
-    from snn_fg.store import windows_complete
+    from snn_fg.results.store import windows_complete
 
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()

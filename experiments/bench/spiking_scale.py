@@ -27,7 +27,7 @@ from experiments.common import Run, dataset, describe, load, markdown_table, sav
 CHILD = r"""
 import json, sys, time, resource
 import numpy as np
-from snn_fg.spiking import run_spiking_result
+from snn_fg.models.spiking import run_spiking_result
 t0 = time.perf_counter()
 d = np.load({path!r})
 res = run_spiking_result(d["pos"], d["neg"], backend={backend!r}, instantiate={instantiate!r}, progress=False,

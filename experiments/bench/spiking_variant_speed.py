@@ -50,7 +50,7 @@ def _worker(js: str, specs: list[str], dt_ms: float):
     ``snn-fg run`` and the bench."""
     from experiments.bench import inputs
     from snn_fg.backends import as_backend
-    from snn_fg.spiking.continuous import run_spiking_windows
+    from snn_fg.models.spiking.continuous import run_spiking_windows
 
     sp = variant_params("variant", js)
     backend = as_backend("fast")

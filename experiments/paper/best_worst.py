@@ -24,7 +24,7 @@ PAPER_WORST = ("8143",)
 
 
 def ranking(results: dict) -> list[dict]:
-    from snn_fg.evaluation import pool_stats
+    from snn_fg.scoring.evaluation import pool_stats
 
     rows = []
     for image_id, res in results.items():
@@ -52,10 +52,10 @@ def ranking(results: dict) -> list[dict]:
 def _panels(image_id):
     """Image, GT field, FB field, ED field and ED's absolute error at the GT pixels."""
     from snn_fg.events import image_to_frame
-    from snn_fg.groundtruth import boundary_directions, load_bsds_fg, signed_angle_deg
-    from snn_fg.images import read_image
-    from snn_fg.rate.edfg import run_edfg
-    from snn_fg.rate.fbfg import run_fbfg
+    from snn_fg.events.images import read_image
+    from snn_fg.models.rate.edfg import run_edfg
+    from snn_fg.models.rate.fbfg import run_fbfg
+    from snn_fg.scoring.groundtruth import boundary_directions, load_bsds_fg, signed_angle_deg
 
     gt = load_bsds_fg(dataset("bsds-fg"), image_id)
     tx, ty, valid = boundary_directions(gt.fg[0])
@@ -71,7 +71,7 @@ def _panels(image_id):
 def figure(picks):
     from matplotlib.figure import Figure
 
-    from snn_fg.figures import fg_rgb
+    from snn_fg.results.figures import fg_rgb
 
     fig = Figure(figsize=(16, 2.6 * len(picks)))
     axes = np.atleast_2d(fig.subplots(len(picks), 5))

@@ -92,7 +92,7 @@ def figure(curve):
     from matplotlib.figure import Figure
 
     from snn_fg.events import image_to_frame
-    from snn_fg.figures import event_frame_rgb
+    from snn_fg.results.figures import event_frame_rgb
 
     fig = Figure(figsize=(15, 3.8))
     ax = fig.add_subplot(1, 3, 1)

@@ -113,8 +113,8 @@ def main():
     )
     args = p.parse_args()
     from snn_fg.errors import SnnFgError
-    from snn_fg.evaluation import evaluate_disc
-    from snn_fg.sweep import SweepTask, run_sweep
+    from snn_fg.scoring.evaluation import evaluate_disc
+    from snn_fg.scoring.sweep import SweepTask, run_sweep
 
     run = Run()
     tasks = [

@@ -11,12 +11,12 @@ a board holds (``--weight-bits``, 8 by default: "as deployed"):
 * **dvs.es** from 100 ms in 85 ms windows, one continuous run: per window,
   whether the grouping peak lies on the plane (inside the filled outline of
   the window's events), and the share of outline vectors pointing inward
-  (``snn_fg.outline``), as ``experiments.validation.dvs_biplane`` scores them;
+  (``snn_fg.scoring.outline``), as ``experiments.validation.dvs_biplane`` scores them;
 * **labelled BSDS images** (every ``--every``-th of the 160 of the dataset
   ``bsds-fg``, sorted by id; the paper's event conversion at
   contrast --threshold, 0.4 by default): against both labellers pooled, binary side accuracy
   (within 90 degrees), coverage, within 45 degrees and the mean absolute
-  error (``snn_fg.evaluation.pool_stats``), pooled and per image.
+  error (``snn_fg.scoring.evaluation.pool_stats``), pooled and per image.
 
     python -m experiments.validation.compact_accuracy [--every 8] [--workers 2] [--weight-bits 8 --quantised compact]
 
@@ -63,9 +63,9 @@ def _backend(bits):
 
 def discs(network: str, bits) -> list[dict]:
     from snn_fg.events import image_to_frame
-    from snn_fg.metrics import grouping_peak_inside, truth_scores
-    from snn_fg.scenes import disc
-    from snn_fg.spiking import run_spiking
+    from snn_fg.frames.scenes import disc
+    from snn_fg.models.spiking import run_spiking
+    from snn_fg.scoring.metrics import grouping_peak_inside, truth_scores
 
     rows, backend = [], _backend(bits)
     for radius in RADII:
@@ -89,9 +89,9 @@ def discs(network: str, bits) -> list[dict]:
 
 def dvs(network: str, bits) -> tuple[list[dict], list]:
     from snn_fg.events import iter_windows
-    from snn_fg.metrics import grouping_peak
-    from snn_fg.outline import filled_outline, outline_scores
-    from snn_fg.spiking.continuous import run_spiking_windows
+    from snn_fg.models.spiking.continuous import run_spiking_windows
+    from snn_fg.scoring.metrics import grouping_peak
+    from snn_fg.scoring.outline import filled_outline, outline_scores
 
     windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=WINDOW_MS, start_ms=DVS_START_MS))
     maps = run_spiking_windows(windows, network=network, backend=_backend(bits), progress=False)
@@ -121,7 +121,7 @@ def recipe_digest(name: str) -> str:
     import hashlib
     import inspect
 
-    import snn_fg.pyramid.pool as pool
+    import snn_fg.frames.pool as pool
     from snn_fg.network.recipes import RECIPES
 
     r = RECIPES[name]
@@ -139,11 +139,11 @@ def bsds_image(job) -> dict:
     cached = CACHE / "compact_accuracy" / f"{key}.json"
     if cached.exists():  # an interrupted run keeps the images it finished
         return json.loads(cached.read_text())
-    from snn_fg.atomic import save_text
-    from snn_fg.evaluation import error_stats
     from snn_fg.events import image_to_frame
-    from snn_fg.groundtruth import angle_errors, boundary_directions, load_bsds_fg
-    from snn_fg.spiking import run_spiking
+    from snn_fg.models.spiking import run_spiking
+    from snn_fg.results.atomic import save_text
+    from snn_fg.scoring.evaluation import error_stats
+    from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
 
     gt = load_bsds_fg(dataset("bsds-fg"), image_id)
     pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion="paper")
@@ -170,8 +170,8 @@ def _runs(networks, quantised, bits) -> list[tuple[str, str, int | None]]:
 
 
 def main():
-    from snn_fg.evaluation import SCORES, pool_stats
-    from snn_fg.groundtruth import bsds_ids
+    from snn_fg.scoring.evaluation import SCORES, pool_stats
+    from snn_fg.scoring.groundtruth import bsds_ids
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--networks", default="default,compact")
@@ -279,7 +279,7 @@ def table(record: dict, scores) -> list[str]:
 
 
 def figure(panels):
-    from snn_fg.figures import event_frame_rgb, plot_maps_row
+    from snn_fg.results.figures import event_frame_rgb, plot_maps_row
 
     fig, axes = plt.subplots(len(panels), 3, figsize=(11, 3.0 * len(panels)), squeeze=False)
     for ax, (label, shown) in zip(axes, panels):

@@ -13,7 +13,7 @@ alternatives that were measured and not taken (``--alternatives``). For each:
 * discs of radius 16-64 px, both polarities (event frames): the least share
   of scored boundary pixels within 45 degrees, grouping peaks inside;
 * a synthetic recording whose disc flips polarity every window
-  (``snn_fg.scenes.flipping_disc_recording``, radius 16 and 32, 6 windows):
+  (``snn_fg.frames.scenes.flipping_disc_recording``, radius 16 and 32, 6 windows):
   the least share within 45 degrees over its windows, the test of the window
   clock on input the project did not record.
 
@@ -86,9 +86,9 @@ def size(recipe) -> dict:
 def dvs(recipe) -> dict:
     from snn_fg.backends import get_backend
     from snn_fg.events import iter_windows
-    from snn_fg.metrics import grouping_peak
-    from snn_fg.outline import filled_outline, outline_scores
-    from snn_fg.spiking.continuous import run_spiking_windows
+    from snn_fg.models.spiking.continuous import run_spiking_windows
+    from snn_fg.scoring.metrics import grouping_peak
+    from snn_fg.scoring.outline import filled_outline, outline_scores
 
     windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=85, start_ms=100))
     maps = run_spiking_windows(
@@ -113,9 +113,9 @@ def dvs(recipe) -> dict:
 
 def discs(recipe) -> dict:
     from snn_fg.events import image_to_frame
-    from snn_fg.metrics import grouping_peak_inside, truth_scores
-    from snn_fg.scenes import disc
-    from snn_fg.spiking import run_spiking
+    from snn_fg.frames.scenes import disc
+    from snn_fg.models.spiking import run_spiking
+    from snn_fg.scoring.metrics import grouping_peak_inside, truth_scores
 
     within, inside = [], 0
     for radius in RADII:
@@ -130,9 +130,9 @@ def discs(recipe) -> dict:
 
 def flipping(recipe) -> dict:
     from snn_fg.events import iter_windows
-    from snn_fg.metrics import truth_scores
-    from snn_fg.scenes import flipping_disc_recording
-    from snn_fg.spiking.continuous import run_spiking_windows
+    from snn_fg.frames.scenes import flipping_disc_recording
+    from snn_fg.models.spiking.continuous import run_spiking_windows
+    from snn_fg.scoring.metrics import truth_scores
 
     out = {}
     for radius in (16, 32):

@@ -38,17 +38,17 @@ from experiments.common import (
 from experiments.validation.dvs_latency import R_WITHIN, plane_latency, window_latencies  # noqa: E402
 from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
-from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
-from snn_fg.metrics import grouping_peak  # noqa: E402
-from snn_fg.outline import filled_outline, outline_scores  # noqa: E402
-from snn_fg.rate.edfg import run_edfg  # noqa: E402
+from snn_fg.models.rate.edfg import run_edfg  # noqa: E402
+from snn_fg.results.figures import event_frame_rgb, plot_maps_row  # noqa: E402
+from snn_fg.scoring.metrics import grouping_peak  # noqa: E402
+from snn_fg.scoring.outline import filled_outline, outline_scores  # noqa: E402
 
 
 def _maps(model: str, windows, backend: str, instantiate=None):
     """Each window's maps, what to record about the run, and the run (spiking)."""
     if model == "rate":
         return [run_edfg(w.pos, w.neg) for w in windows], {}, None
-    from snn_fg.spiking.continuous import simulate_windows, window_maps
+    from snn_fg.models.spiking.continuous import simulate_windows, window_maps
 
     run = simulate_windows(windows, backend=backend, instantiate=instantiate)
     maps = window_maps(run)

@@ -51,10 +51,10 @@ from experiments.common import (
 )
 from snn_fg.backends import DEFAULT_BACKEND, backend_names  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
-from snn_fg.figures import event_frame_rgb, plot_maps_row  # noqa: E402
-from snn_fg.metrics import grouping_peak  # noqa: E402
-from snn_fg.outline import filled_outline, inward_score  # noqa: E402
-from snn_fg.rate.edfg import run_edfg_state  # noqa: E402
+from snn_fg.models.rate.edfg import run_edfg_state  # noqa: E402
+from snn_fg.results.figures import event_frame_rgb, plot_maps_row  # noqa: E402
+from snn_fg.scoring.metrics import grouping_peak  # noqa: E402
+from snn_fg.scoring.outline import filled_outline, inward_score  # noqa: E402
 
 
 def _centroid(region) -> np.ndarray:
@@ -184,7 +184,7 @@ def main():
     rec = dataset("events", "dvs.es")
     from functools import partial
 
-    from snn_fg.spiking import continuous
+    from snn_fg.models.spiking import continuous
 
     run_windows = partial(continuous.run_spiking_windows, window_clock=a.window_clock == "on")
 

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from snn_fg.metrics import grouping_peak
-from snn_fg.spiking.decode import decode_rates
+from snn_fg.models.spiking.decode import decode_rates
+from snn_fg.scoring.metrics import grouping_peak
 
 #: r a window's running grouping map must reach against its final one
 R_WITHIN = 0.9

@@ -50,7 +50,7 @@ def _cached(path: Path, make):
 
 
 def _score(fields, regions, masks=None) -> dict:
-    from snn_fg.outline import outline_scores
+    from snn_fg.scoring.outline import outline_scores
 
     inward, vectors = [], 0
     for k, (region, (fx, fy)) in enumerate(zip(regions, fields)):
@@ -81,11 +81,11 @@ def main():
     rec = dataset("events", "dvs.es")
     from snn_fg.backends import as_backend
     from snn_fg.events import iter_windows
-    from snn_fg.outline import filled_outline
+    from snn_fg.models.rate.edfg import run_edfg
+    from snn_fg.models.spiking import run_spiking
+    from snn_fg.models.spiking.continuous import run_spiking_windows
     from snn_fg.params import ModelParams
-    from snn_fg.rate.edfg import run_edfg
-    from snn_fg.spiking import run_spiking
-    from snn_fg.spiking.continuous import run_spiking_windows
+    from snn_fg.scoring.outline import filled_outline
 
     run = Run()
     windows = list(iter_windows(rec, window_ms=85, start_ms=a.start_ms))

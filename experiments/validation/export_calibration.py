@@ -34,9 +34,9 @@ from snn_fg.cli import main as snn_fg
 from snn_fg.export.board import board_network
 from snn_fg.export.loop import export_network
 from snn_fg.export.pynn import read_input
-from snn_fg.maps import Maps
-from snn_fg.metrics import agreement
-from snn_fg.spiking.decode import decode
+from snn_fg.models.spiking.decode import decode
+from snn_fg.results.maps import Maps
+from snn_fg.scoring.metrics import agreement
 
 EXPORT = ["--format", "pynn", "--sensor-size", "32x24", "--levels", "2"]
 WINDOW = ["--start-ms", "100", "--window-ms", "85"]

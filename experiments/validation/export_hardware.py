@@ -32,12 +32,12 @@ from experiments.common import RESULTS, Run, dataset, describe, markdown_table, 
 from snn_fg.backends import RunSettings
 from snn_fg.backends.brian2 import Brian2Backend
 from snn_fg.export.report import report_table, resource_report
+from snn_fg.frames.pyramid import max_levels
 from snn_fg.lowering.quantise import quantise_unrolled
-from snn_fg.metrics import compare_frame
+from snn_fg.models.spiking.decode import decode
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.params import ModelParams
-from snn_fg.pyramid.levels import max_levels
-from snn_fg.spiking.decode import decode
+from snn_fg.scoring.metrics import compare_frame
 
 #: the quantisation table's row of the float network on input trains of seed 1
 SEED_1 = "float, input seed 1"
@@ -120,7 +120,7 @@ def _dvs_window():
 def _crop_fidelity(cfg):
     """The fitting configuration on a crop of the dvs.es window against the
     full default network on the whole window, compared inside the crop."""
-    from snn_fg.spiking import run_spiking
+    from snn_fg.models.spiking import run_spiking
 
     win = _dvs_window()
     H, W = win.pos.shape
@@ -152,8 +152,8 @@ def fidelity(out):
 
 
 def _scenes(bsds: bool):
-    from snn_fg import scenes
     from snn_fg.events import image_to_frame
+    from snn_fg.frames import scenes
 
     for r in (16, 32, 48):
         for light in (True, False):

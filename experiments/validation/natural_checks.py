@@ -30,9 +30,9 @@ def _model(name):
 
 def disc_checks(name) -> list[dict]:
     from snn_fg.events import image_to_frame
-    from snn_fg.metrics import grouping_peak_inside, truth_scores
+    from snn_fg.frames.scenes import disc
     from snn_fg.models import Still
-    from snn_fg.scenes import disc
+    from snn_fg.scoring.metrics import grouping_peak_inside, truth_scores
 
     model, out = _model(name), []
     for radius in RADII:
@@ -54,8 +54,8 @@ def disc_checks(name) -> list[dict]:
 
 def demo_check(name) -> dict:
     from snn_fg.events import image_to_frame
+    from snn_fg.frames.scenes import demo, shared_border_ownership
     from snn_fg.models import Still
-    from snn_fg.scenes import demo, shared_border_ownership
 
     scene = demo()
     maps = _model(name).run_still(Still(*image_to_frame(scene.image)))
@@ -66,8 +66,8 @@ def demo_check(name) -> dict:
 
 def dvs_check(name, recording) -> list[dict]:
     from snn_fg.events import iter_windows
-    from snn_fg.metrics import grouping_peak
-    from snn_fg.outline import filled_outline, outline_scores
+    from snn_fg.scoring.metrics import grouping_peak
+    from snn_fg.scoring.outline import filled_outline, outline_scores
 
     windows = list(iter_windows(recording, window_ms=85, start_ms=100))
     out = []

@@ -90,11 +90,11 @@ def image_cues(*, root: str, image_id: str, cache: str) -> dict:
     where the variant has a vector; written to ``cache/<image_id>.npz`` (the sweep's result is its summary)."""
     from pathlib import Path
 
-    from snn_fg.atomic import save_npz
     from snn_fg.events import image_to_frame
-    from snn_fg.groundtruth import SIDE_DEG, boundary_directions, load_bsds_fg, signed_angle_deg
+    from snn_fg.models.rate.natural import run_natural
     from snn_fg.params import NATURAL_PARAMS
-    from snn_fg.rate.natural import run_natural
+    from snn_fg.results.atomic import save_npz
+    from snn_fg.scoring.groundtruth import SIDE_DEG, boundary_directions, load_bsds_fg, signed_angle_deg
 
     gt = load_bsds_fg(root, image_id)
     pos, neg = image_to_frame(str(gt.image_path), threshold=THRESHOLD, motion=MOTION)
@@ -241,7 +241,7 @@ def _figure(result: dict):
 
 def main():
     from experiments.validation.natural_scenes import halves
-    from snn_fg.sweep import SweepTask, run_sweep
+    from snn_fg.scoring.sweep import SweepTask, run_sweep
 
     args = parser(__doc__.splitlines()[0]).parse_args()
     run = Run()

@@ -5,7 +5,7 @@ reference, FBFG and the ablations beside it, on one half of the labelled images 
                                                     [--checks] [--workers N] [--scheduler ADDRESS]
 
 The split is fixed by the images' sorted ids (numerically, as
-``snn_fg.groundtruth.bsds_ids`` gives them): the 80 at even positions (0, 2,
+``snn_fg.scoring.groundtruth.bsds_ids`` gives them): the 80 at even positions (0, 2,
 ...) are the tuning half, the 80 at odd positions the reporting half. It was
 fixed before any variant was scored; every choice of the variant was made on
 the tuning half (``docs/model.md``, "A variant for natural scenes"), and the
@@ -70,8 +70,8 @@ def _evenly(ids, n):
 
 
 def _rows(results: dict, names) -> tuple[list, list]:
-    """Pooled rows and per-image rows of :func:`snn_fg.evaluation.evaluate_models` results."""
-    from snn_fg.evaluation import pool_stats
+    """Pooled rows and per-image rows of :func:`snn_fg.scoring.evaluation.evaluate_models` results."""
+    from snn_fg.scoring.evaluation import pool_stats
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}
@@ -94,7 +94,7 @@ def _rows(results: dict, names) -> tuple[list, list]:
 
 
 def _difference(results: dict, a: str, b: str) -> dict:
-    from snn_fg.evaluation import bootstrap_difference
+    from snn_fg.scoring.evaluation import bootstrap_difference
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}
@@ -145,7 +145,7 @@ def main():
     run = Run()
     ids = args.ids or _evenly(halves()[args.half], args.images)
     settings = {"models": MODELS, "threshold": THRESHOLD, "motion": MOTION}
-    from snn_fg.evaluation import evaluate_models
+    from snn_fg.scoring.evaluation import evaluate_models
 
     results = sweep(evaluate_models, ids, settings, args)
     rows, per_image = _rows(results, MODELS)

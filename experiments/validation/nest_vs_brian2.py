@@ -51,7 +51,7 @@ from experiments.common import (
     save_markdown,
     save_results,
 )
-from snn_fg.atomic import save_text
+from snn_fg.results.atomic import save_text
 
 CACHE = RESULTS_CACHE / "nest_vs_brian2"
 WINDOW = (100.0, 85.0)  # start, length (ms) of the dvs.es window
@@ -67,8 +67,8 @@ SYNTHETIC = ("disc16", "disc16dark", "occlusion", "demo", "disc32", "disc32dark"
 
 def _inputs(name):
     if name in SYNTHETIC:
-        from snn_fg import scenes
         from snn_fg.events import image_to_frame
+        from snn_fg.frames import scenes
 
         if name.startswith("disc"):
             sc = scenes.disc(int(name[4:6]), light_on_dark=not name.endswith("dark"))
@@ -102,7 +102,7 @@ def _role_rates(r):
 
 def one(name, backend, threads, out, receptors="split"):
     """Run one simulation in this process; save rates and maps."""
-    from snn_fg.spiking import run_spiking_result
+    from snn_fg.models.spiking import run_spiking_result
 
     t0 = time.perf_counter()
     opts = {"threads": threads, "receptors": receptors} if backend == "nest" else {}
@@ -159,8 +159,8 @@ def seed_spread():
     rate moves by more than 10 % between Brian2 seeds cannot be held to 10 %
     between simulators, nor maps to a closer agreement than the seeds give.
     Events (nmnist) have no seed: their row shows none."""
-    from snn_fg.metrics import agreement
-    from snn_fg.spiking import run_spiking_result
+    from snn_fg.models.spiking import run_spiking_result
+    from snn_fg.scoring.metrics import agreement
 
     nest = {}
     for part in ("synthetic", "frame", "nmnist"):
@@ -312,8 +312,8 @@ def figure():
     """Brian2 and NEST maps of every cached input, one row each."""
     from matplotlib.figure import Figure
 
-    from snn_fg.figures import GROUPING_CMAP, fg_rgb
-    from snn_fg.metrics import compare_frame
+    from snn_fg.results.figures import GROUPING_CMAP, fg_rgb
+    from snn_fg.scoring.metrics import compare_frame
 
     names = [
         n
@@ -379,7 +379,7 @@ def main():
     if args.one:
         one(args.one[0], args.one[1], int(args.one[2]), args.one[3], args.receptors)
         return
-    from snn_fg.metrics import compare_frame
+    from snn_fg.scoring.metrics import compare_frame
 
     rows = []
     run = Run()

@@ -58,18 +58,18 @@ from experiments.common import RESULTS, Run, dataset, markdown_table, save_json,
 from snn_fg.backends import RunSettings, get_backend
 from snn_fg.export.board import board_network
 from snn_fg.export.nir_snntorch import RESET_DRIVE, run_snntorch, snntorch_network, to_nir_snntorch
-from snn_fg.metrics import agreement
+from snn_fg.models.spiking.decode import decode, decode_rates
 from snn_fg.network import build_network
 from snn_fg.network.recipes import RECIPES
 from snn_fg.params import ModelParams
-from snn_fg.spiking.decode import decode, decode_rates
+from snn_fg.scoring.metrics import agreement
 
 
 def disc_input(radius: float, duration_ms: float, pool: int, dt_ms: float):
     from snn_fg.events import image_to_frame
+    from snn_fg.frames.pool import pool_frame
+    from snn_fg.frames.scenes import disc
     from snn_fg.lowering.input_spikes import frame_spikes
-    from snn_fg.pyramid.pool import pool_frame
-    from snn_fg.scenes import disc
 
     pos, neg = pool_frame(*image_to_frame(disc(radius).image), pool)
     what = f"disc r{radius:g} ({pos.shape[1] * pool} x {pos.shape[0] * pool}" + (
@@ -84,8 +84,8 @@ def dvs_input(dt_ms: float, shape=(48, 64), start_ms=100.0, window_ms=85.0, pool
     network's input adapter does."""
     from snn_fg.events import iter_recording, iter_windows
     from snn_fg.export.loop import centroid_crop, crop_events
+    from snn_fg.frames.pool import pool_events, pooled_shape
     from snn_fg.lowering.input_spikes import event_spikes
-    from snn_fg.pyramid.pool import pool_events, pooled_shape
 
     path = dataset("events", "dvs.es")
     win = next(iter(iter_windows(iter_recording(path), window_ms=window_ms, start_ms=start_ms, max_windows=1)))

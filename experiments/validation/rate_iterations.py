@@ -21,9 +21,9 @@ import argparse
 import numpy as np
 
 from experiments.common import Run, dataset, describe, markdown_table, save_figure, save_json, save_markdown
-from snn_fg.metrics import compare_frame
+from snn_fg.models.rate.edfg import run_edfg
 from snn_fg.params import ModelParams
-from snn_fg.rate.edfg import run_edfg
+from snn_fg.scoring.metrics import compare_frame
 
 
 def main():

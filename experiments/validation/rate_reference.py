@@ -9,11 +9,11 @@ from __future__ import annotations
 import numpy as np
 
 from experiments.common import Run, dataset, save_json
-from snn_fg import scenes
 from snn_fg.events import image_to_frame
-from snn_fg.metrics import angle_difference_deg, grouping_peak_inside, pearson, truth_scores
-from snn_fg.rate.edfg import run_edfg, run_edfg_state
-from snn_fg.rate.fbfg import run_fbfg
+from snn_fg.frames import scenes
+from snn_fg.models.rate.edfg import run_edfg, run_edfg_state
+from snn_fg.models.rate.fbfg import run_fbfg
+from snn_fg.scoring.metrics import angle_difference_deg, grouping_peak_inside, pearson, truth_scores
 
 
 def main():

@@ -41,7 +41,7 @@ def _frames_gif(fig_rows, path: Path):
     """An animated GIF from a list of matplotlib Figures (one per window)."""
     from PIL import Image
 
-    from snn_fg.atomic import atomic_path
+    from snn_fg.results.atomic import atomic_path
 
     images = []
     for fig in fig_rows:
@@ -55,9 +55,9 @@ def _frames_gif(fig_rows, path: Path):
 
 def run_recording(name, model, max_windows):
     from snn_fg.events import iter_windows
-    from snn_fg.figures import event_frame_rgb, maps_figure
-    from snn_fg.metrics import grouping_peak
     from snn_fg.models import get_model
+    from snn_fg.results.figures import event_frame_rgb, maps_figure
+    from snn_fg.scoring.metrics import grouping_peak
 
     file, window_ms, start_ms, sensor = RECORDINGS[name]
     m = get_model(model)

@@ -30,8 +30,8 @@ from experiments.common import ROOT, Run, dataset, describe, fail, markdown_tabl
 
 
 def _kill_and_resume(cmd: list[str], out: Path, kill_at: int) -> dict:
-    from snn_fg.maps import Maps
-    from snn_fg.store import read_attrs, windows_complete
+    from snn_fg.results.maps import Maps
+    from snn_fg.results.store import read_attrs, windows_complete
 
     p = subprocess.Popen(cmd + ["--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=ROOT)
     while windows_complete(out) < kill_at:
@@ -59,7 +59,7 @@ def main():
     ap.add_argument("--kill-at", type=int, default=4)
     ap.add_argument("--start-ms", type=float, default=100.0)
     a = ap.parse_args()
-    from snn_fg.maps import Maps
+    from snn_fg.results.maps import Maps
 
     rec = a.recording or dataset("events", "dvs.es")
     run = Run()

@@ -5,7 +5,7 @@ Two kinds of deviation, measured separately:
 1. Structural (pruned kernels, stride-2 grouping/feedback lattices, linear
    instead of bicubic pooling, binarised coarse levels above ``support_min``,
    the ``edges&drive`` site rule, top-down pooling). Measured with the *rate
-   twin* (``snn_fg.spiking.twin``): the unrolled network run as the rate
+   twin* (``snn_fg.models.spiking.twin``): the unrolled network run as the rate
    model's own iteration, compared with the rate reference. One knob at a
    time is set back to the rate model's value on 128 x 160 crops (the exact
    structure does not fit in memory at full size), and the default structure
@@ -29,12 +29,12 @@ import numpy as np
 
 from experiments.common import Run, dataset, describe, markdown_table, save_json, save_markdown
 from snn_fg.lowering.unroll import unroll
-from snn_fg.metrics import compare_frame
+from snn_fg.models.rate.edfg import run_edfg
+from snn_fg.models.spiking import run_spiking_result
+from snn_fg.models.spiking.twin import run_twin
 from snn_fg.network import SpikingParams, build_network
 from snn_fg.params import ModelParams
-from snn_fg.rate.edfg import run_edfg
-from snn_fg.spiking import run_spiking_result
-from snn_fg.spiking.twin import run_twin
+from snn_fg.scoring.metrics import compare_frame
 
 CROP = (slice(60, 188), slice(100, 260))
 KNOBS = {

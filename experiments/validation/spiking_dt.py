@@ -65,13 +65,14 @@ from experiments.common import (
 )
 from experiments.validation.spiking_fidelity import fidelity_row  # noqa: E402
 from experiments.validation.spiking_heldout import variant_params  # noqa: E402
-from snn_fg import datasets, scenes  # noqa: E402
-from snn_fg.atomic import save_figure  # noqa: E402
+from snn_fg import datasets
 from snn_fg.events import image_to_frame, iter_windows  # noqa: E402
-from snn_fg.metrics import agreement, grouping_peak  # noqa: E402
-from snn_fg.outline import filled_outline, outline_scores  # noqa: E402
-from snn_fg.rate.edfg import run_edfg  # noqa: E402
-from snn_fg.spiking import run_spiking_result  # noqa: E402
+from snn_fg.frames import scenes  # noqa: E402
+from snn_fg.models.rate.edfg import run_edfg  # noqa: E402
+from snn_fg.models.spiking import run_spiking_result  # noqa: E402
+from snn_fg.results.atomic import save_figure  # noqa: E402
+from snn_fg.scoring.metrics import agreement, grouping_peak  # noqa: E402
+from snn_fg.scoring.outline import filled_outline, outline_scores  # noqa: E402
 
 START_MS = 100.0  # dvs.es opens with a reset burst; issue 11 measures from 100 ms
 WINDOW_MS = 85.0
@@ -122,7 +123,7 @@ def _frames(dts, quick, sp, log):
 
 def _recording(dts, sp, log):
     """Section 3: dvs.es as one continuous run per dt."""
-    from snn_fg.spiking.continuous import run_spiking_windows
+    from snn_fg.models.spiking.continuous import run_spiking_windows
 
     windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=WINDOW_MS, start_ms=START_MS))
     out, first = {}, None

@@ -39,14 +39,15 @@ from pathlib import Path
 import numpy as np
 
 from experiments.common import RESULTS, Run, describe, markdown_table
-from snn_fg import datasets, scenes
-from snn_fg.atomic import save_text
+from snn_fg import datasets
 from snn_fg.backends import DEFAULT_BACKEND, backend_names
 from snn_fg.events import events_to_frame, image_to_events, image_to_frame
-from snn_fg.metrics import agreement, compare_frame, grouping_peak_inside, truth_scores
-from snn_fg.rate.edfg import run_edfg
-from snn_fg.spiking import run_spiking_result
-from snn_fg.spiking.record import ROLE_ORDER
+from snn_fg.frames import scenes
+from snn_fg.models.rate.edfg import run_edfg
+from snn_fg.models.spiking import run_spiking_result
+from snn_fg.models.spiking.record import ROLE_ORDER
+from snn_fg.results.atomic import save_text
+from snn_fg.scoring.metrics import agreement, compare_frame, grouping_peak_inside, truth_scores
 
 
 def _roles(maps):

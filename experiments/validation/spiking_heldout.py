@@ -29,14 +29,14 @@ import argparse
 import json
 
 from experiments.common import Run, dataset, describe, fail, markdown_table, save_json, save_markdown
-from snn_fg import scenes
 from snn_fg.events import image_to_frame
-from snn_fg.metrics import agreement, grouping_peak_inside, truth_scores
+from snn_fg.frames import scenes
+from snn_fg.models.rate.edfg import run_edfg
+from snn_fg.models.spiking import run_spiking
 from snn_fg.network import SpikingParams
 from snn_fg.network.nodes import Neuron
 from snn_fg.network.spiking_params import CELL_KINDS
-from snn_fg.rate.edfg import run_edfg
-from snn_fg.spiking import run_spiking
+from snn_fg.scoring.metrics import agreement, grouping_peak_inside, truth_scores
 
 
 def main():

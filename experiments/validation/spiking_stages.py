@@ -48,14 +48,14 @@ import dataclasses
 import numpy as np
 
 from experiments.common import Run, dataset, describe, markdown_table, save_figure, save_json, save_markdown
-from snn_fg.metrics import agreement
+from snn_fg.frames.pyramid import resize
+from snn_fg.models.rate.edfg import event_entries, run_edfg
+from snn_fg.models.rate.grouping import SparseGrouping
+from snn_fg.models.spiking import run_spiking_result
+from snn_fg.models.spiking.decode import decode, to_level_grid
 from snn_fg.network import SpikingParams
 from snn_fg.params import ModelParams
-from snn_fg.pyramid.levels import resize
-from snn_fg.rate.edfg import event_entries, run_edfg
-from snn_fg.rate.grouping import SparseGrouping
-from snn_fg.spiking import run_spiking_result
-from snn_fg.spiking.decode import decode, to_level_grid
+from snn_fg.scoring.metrics import agreement
 
 ITERATIONS = (1, 2, 3, 5, 10, 20, 40)
 #: (end of the counting window, its length) in ms

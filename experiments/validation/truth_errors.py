@@ -1,7 +1,7 @@
 """Where the spiking and rate models miss the analytic truth on the synthetic
 scenes with more than one shape (issue 11's second acceptance item).
 
-For the occlusion and demo scenes (``snn_fg.scenes``, made here, not shared
+For the occlusion and demo scenes (``snn_fg.frames.scenes``, made here, not shared
 data): both models' figure-ground vectors on the scored boundary pixels,
 green within 45 degrees of the analytic direction (towards the centre of the
 front shape that owns the pixel), red beyond, and per owning shape the
@@ -22,11 +22,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from experiments.common import Run, describe, markdown_table, save_figure, save_json, save_markdown  # noqa: E402
-from snn_fg import scenes  # noqa: E402
 from snn_fg.events import image_to_frame  # noqa: E402
-from snn_fg.metrics import truth_errors, truth_scores  # noqa: E402
-from snn_fg.rate.edfg import run_edfg  # noqa: E402
-from snn_fg.spiking import run_spiking  # noqa: E402
+from snn_fg.frames import scenes  # noqa: E402
+from snn_fg.models.rate.edfg import run_edfg  # noqa: E402
+from snn_fg.models.spiking import run_spiking  # noqa: E402
+from snn_fg.scoring.metrics import truth_errors, truth_scores  # noqa: E402
 
 
 def _per_owner(err, sc) -> list:

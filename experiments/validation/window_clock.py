@@ -48,12 +48,12 @@ from experiments.common import (
 )
 from experiments.validation.dvs_history import spiking_light_share as light_share  # noqa: E402
 from snn_fg.events import iter_windows  # noqa: E402
-from snn_fg.metrics import grouping_peak  # noqa: E402
+from snn_fg.frames.scenes import flipping_disc_recording  # noqa: E402
+from snn_fg.models.spiking.continuous import simulate_windows, window_maps  # noqa: E402
 from snn_fg.network import SpikingParams  # noqa: E402
-from snn_fg.outline import filled_outline, outline_scores  # noqa: E402
 from snn_fg.params import ModelParams  # noqa: E402
-from snn_fg.scenes import flipping_disc_recording  # noqa: E402
-from snn_fg.spiking.continuous import simulate_windows, window_maps  # noqa: E402
+from snn_fg.scoring.metrics import grouping_peak  # noqa: E402
+from snn_fg.scoring.outline import filled_outline, outline_scores  # noqa: E402
 
 WINDOW_MS = 85.0
 

@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from snn_fg.atomic import atomic_path
 from snn_fg.datasets.transfer import DatasetError, arrays_sha256, download
+from snn_fg.results.atomic import atomic_path
 
 #: the authors' repository at the commit that last changed its BSDS outputs
 EDFG_COMMIT = "b6eef865dcbaac5f94c785b00b0b21d232c3373e"

@@ -3,7 +3,7 @@
 :func:`download` streams a URL into a temporary file beside the destination,
 hashing as it goes, and moves it into place only when every byte arrived and
 the SHA-256 matches; a checksum mismatch, a dropped connection or Ctrl-C
-leaves nothing behind (:func:`snn_fg.atomic.atomic_path`) and raises
+leaves nothing behind (:func:`snn_fg.results.atomic.atomic_path`) and raises
 :class:`DatasetError` with one line naming the URL and what went wrong.
 """
 
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from snn_fg.atomic import atomic_path
 from snn_fg.errors import SnnFgError
+from snn_fg.results.atomic import atomic_path
 
 #: bytes read per step of a download or a checksum
 CHUNK_BYTES = 1 << 20

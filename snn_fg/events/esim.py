@@ -45,7 +45,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.events._core import EVENT_DTYPE, Recording
-from snn_fg.images import to_grey
+from snn_fg.events.images import to_grey
 
 #: eps in ``log(I + eps)``, intensities in [0, 1].
 LOG_EPS = 1e-3

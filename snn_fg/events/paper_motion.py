@@ -35,7 +35,7 @@ import io
 
 import numpy as np
 
-from snn_fg.images import as_float_image
+from snn_fg.events.images import as_float_image
 
 #: How far the content moves in each copy (the script's ``shift = 1`` slices ``shift + 1`` rows).
 PAPER_SHIFT_PX = 2
@@ -91,7 +91,7 @@ def paper_frames(image) -> np.ndarray:
     Parameters
     ----------
     image : array or path
-        Colour or grey image (see :func:`snn_fg.images.as_float_image`).
+        Colour or grey image (see :func:`snn_fg.events.images.as_float_image`).
 
     Returns
     -------

@@ -31,7 +31,7 @@ def _gzipped_nir(net, path: Path) -> Path:
     import shutil
     import tempfile
 
-    from ..atomic import atomic_path
+    from ..results.atomic import atomic_path
     from .nir import export_nir
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -47,7 +47,7 @@ def _gzipped_nir(net, path: Path) -> Path:
 
 def write_artefacts(folder) -> list[Path]:
     """Write the NIR graph, the resource report (JSON) and its table into ``folder``."""
-    from ..atomic import save_text
+    from ..results.atomic import save_text
     from .report import report_table, resource_report
 
     folder = Path(folder)

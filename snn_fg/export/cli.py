@@ -182,8 +182,8 @@ def _sized_network(args):
 
 
 def _check_sensor(params, shape, source: str):
-    from ..pyramid.levels import check_levels
-    from ..pyramid.pool import pooled_shape
+    from ..frames.pool import pooled_shape
+    from ..frames.pyramid import check_levels
 
     check_levels(pooled_shape(shape, params.input_pool), params.levels, source, params.levels_per_octave)
 
@@ -228,8 +228,8 @@ def _checked_bits(args) -> int | None:
 
 
 def cmd_export(args) -> int:
-    from ..atomic import save_text
     from ..network.recipes import network_for
+    from ..results.atomic import save_text
 
     bits = _checked_bits(args)
     out = None if args.out is None else Path(args.out)

@@ -137,9 +137,9 @@ def _input_spikes(args, net, dt_ms):
     network that pools its input (``params.input_pool``) sees the input's blocks,
     and its input adapter's refractory period applies to a recording's events."""
     from ..events import iter_recording, iter_windows
-    from ..inputs import input_kind, load_frame
+    from ..frames.pool import pool_events, pool_frame
+    from ..frames.still import input_kind, load_frame
     from ..lowering.input_spikes import event_spikes, frame_spikes
-    from ..pyramid.pool import pool_events, pool_frame
 
     shape, pool = tuple(net.frame_shape), net.params.input_pool
     kind = input_kind(args.input)
@@ -188,7 +188,7 @@ def _input_spikes(args, net, dt_ms):
 def write_spikes(args) -> int:
     """``snn-fg events INPUT --write-spikes OUT --export DIR``; prints what it wrote (and how to
     re-export calibrated to the input's rate when that is far from the export's), returns 0."""
-    from ..atomic import atomic_path
+    from ..results.atomic import atomic_path
     from .pynn import frame_text, save_input
 
     if args.export is None:
@@ -302,9 +302,9 @@ def input_frame(path, shape):
 
 
 def decode_counts(network, counts_path):
-    """:class:`~snn_fg.maps.Maps` of ``run.py``'s counts for the export of ``network``."""
-    from ..maps import Maps
-    from ..spiking.decode import decode
+    """:class:`~snn_fg.results.maps.Maps` of ``run.py``'s counts for the export of ``network``."""
+    from ..models.spiking.decode import decode
+    from ..results.maps import Maps
     from .pynn import read_counts
 
     try:
@@ -334,8 +334,8 @@ def decode_counts(network, counts_path):
 
 
 def cmd_decode(args) -> int:
-    from ..atomic import OutputFolder
-    from ..figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure
+    from ..results.atomic import OutputFolder
+    from ..results.figures import SPIKING_GROUPING_LABEL, event_frame_rgb, save_maps_figure
 
     net, _ = export_network(args.export)
     if not Path(args.counts).exists():

@@ -338,7 +338,7 @@ def export_nir(network: Network, out, *, weight_bits: int | None = None, force: 
     >>> sorted({type(n).__name__ for n in g.nodes.values()})
     ['Conv2d', 'Delay', 'Input', 'LI', 'LIF', 'Output']
     """
-    from ..atomic import atomic_path
+    from ..results.atomic import atomic_path
 
     out = Path(out)
     if out.exists() and not force:

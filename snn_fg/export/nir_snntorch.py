@@ -64,10 +64,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError, install_hint
+from ..frames.pyramid import level_scale
 from ..network.graph import Network
 from ..network.nodes import Kernel
 from ..network.projections import Conv, Resize
-from ..pyramid.levels import level_scale
 from .nir import _graph_metadata, _nir, conv2d_drive, flat_network, identity_conv
 
 #: snnTorch 1.0's fixed time step in its NIR import (s)
@@ -354,7 +354,7 @@ def export_nir_snntorch(
     """Write the graph of this profile (levels on one grid with ``one_grid``,
     refractory periods as deeper resets with ``deeper_reset``) to ``out`` (atomically)."""
     step_ms = network.dt_ms if step_ms is None else step_ms
-    from ..atomic import atomic_path
+    from ..results.atomic import atomic_path
 
     graph = to_nir_snntorch(network, step_ms=step_ms, one_grid=one_grid, deeper_reset=deeper_reset)
     with atomic_path(out, suffix=".nir") as tmp:

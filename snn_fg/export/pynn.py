@@ -232,7 +232,7 @@ def export_pynn(
     ['fg_cells.py', 'fg_memory.py', 'fg_network.py', 'fg_simulator.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
     """
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
-    from ..atomic import OutputFolder
+    from ..results.atomic import OutputFolder
 
     meta, arrays = pynn_model(
         network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape
@@ -343,7 +343,7 @@ def read_input(path):
 
 def read_counts(network: Network, path):
     """``run.py``'s output as a :class:`~snn_fg.backends.SimulationResult`
-    of the board network (every cell), ready for :func:`snn_fg.spiking.decode.decode`."""
+    of the board network (every cell), ready for :func:`snn_fg.models.spiking.decode.decode`."""
     from ..backends.base import SimulationResult, lif_populations
 
     net = board_network(network)

@@ -23,9 +23,9 @@ from __future__ import annotations
 import numpy as np
 
 from .. import validate as check
+from ..frames.pyramid import level_shape, resize
 from ..network.graph import Network
 from ..network.nodes import Population
-from ..pyramid.levels import level_shape, resize
 from .connect import pairs
 
 

@@ -15,8 +15,8 @@ import dataclasses
 import numpy as np
 
 from .. import validate as check
+from ..frames.pyramid import check_levels, level_shape
 from ..params import ModelParams
-from ..pyramid.levels import check_levels, level_shape
 from .gains import Gains
 from .graph import Network
 from .nodes import Kernel, Population

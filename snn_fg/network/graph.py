@@ -15,8 +15,8 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError, ParameterError
+from ..frames.pyramid import level_shape
 from ..params import ModelParams
-from ..pyramid.levels import level_shape
 from .nodes import Population
 from .projections import Conv, Projection, projection_from_dict
 
@@ -282,7 +282,7 @@ class Network:
 
     def save(self, path) -> Path:
         """Write the description as JSON (atomically)."""
-        from ..atomic import save_text
+        from ..results.atomic import save_text
 
         return save_text(path, self.to_json() + "\n")
 

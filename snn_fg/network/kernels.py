@@ -21,8 +21,8 @@ import cv2
 import numpy as np
 from scipy.special import i0
 
+from ..frames.pyramid import level_scale
 from ..params import ModelParams
-from ..pyramid.levels import level_scale
 
 
 def _gauss2d(u_r, u_c, var_r, var_c):

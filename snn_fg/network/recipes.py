@@ -24,9 +24,9 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError
+from ..frames.pool import pooled_shape
+from ..frames.pyramid import check_levels
 from ..params import ModelParams
-from ..pyramid.levels import check_levels
-from ..pyramid.pool import pooled_shape
 from .builder import build_network
 from .graph import Network
 from .spiking_params import SpikingParams

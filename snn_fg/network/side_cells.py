@@ -1,4 +1,4 @@
-"""The side cue's cells (``ModelParams.side_cue``, :mod:`snn_fg.rate.side_cue`),
+"""The side cue's cells (``ModelParams.side_cue``, :mod:`snn_fg.models.rate.side_cue`),
 added to a network by the builder (:func:`side_cue`)."""
 
 from __future__ import annotations

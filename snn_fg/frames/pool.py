@@ -1,0 +1,245 @@
+"""Stage 0 of the compact network: sensor pixels pooled into blocks before stage 1.
+
+With ``ModelParams.input_pool = p`` the model sees the sensor through blocks
+of ``p x p`` pixels: an event at sensor pixel ``(x, y)`` is an event at
+model pixel ``(x // p, y // p)``, and a block of an event frame is ON (OFF)
+where any of its pixels is (a block can be both, as a pixel of a recording
+with ON and OFF events in one window drives both of its spike sources). A
+partial block at the right or bottom edge counts as a whole one. The maps
+come back at the sensor's size (:func:`unpool_maps`): every event pixel
+takes its block's figure-ground vector, turned towards the pixel's own edge
+normal (the network decides the side, the sensor's pixels say where the
+edge runs), and the grouping map is resized bilinearly.
+
+On a board this is the input adapter's job (an FPGA or host binning the
+camera's events), so the network's spike sources are the blocks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .pyramid import resize
+
+
+def pooled_shape(shape: tuple[int, int], pool: int) -> tuple[int, int]:
+    """``(rows, cols)`` of the model's frame for a sensor frame of ``shape``."""
+    h, w = shape
+    return (-(-h // pool), -(-w // pool))
+
+
+def pool_frame(pos: np.ndarray, neg: np.ndarray, pool: int) -> tuple[np.ndarray, np.ndarray]:
+    """The event frame the model sees: a block is ON (OFF) where any of its pixels is."""
+    if pool == 1:
+        return pos, neg
+    out = []
+    for frame in (pos, neg):
+        frame = np.asarray(frame)
+        blocks = np.zeros(pooled_shape(frame.shape, pool), np.uint8)
+        _any_in_block(frame, pool, blocks)
+        out.append(blocks)
+    return out[0], out[1]
+
+
+@njit(cache=True)
+def _any_in_block(frame, pool, out):
+    """``out[block] = 1`` where any pixel of the block is non-zero."""
+    for i in range(frame.shape[0]):
+        for j in range(frame.shape[1]):
+            if frame[i, j] != 0:
+                out[i // pool, j // pool] = 1
+
+
+def pool_events(events: np.ndarray, pool: int) -> np.ndarray:
+    """A copy of ``events`` (:data:`~snn_fg.events.EVENT_DTYPE`) on the block grid."""
+    if pool == 1:
+        return events
+    out = events.copy()
+    out["x"] //= pool
+    out["y"] //= pool
+    return out
+
+
+#: scale (sensor pixels) over which the event frame is smoothed before its
+#: gradients are taken for the edge normals of :func:`edge_normals`
+NORMAL_SIGMA = 1.0
+
+
+def edge_normals(edges: np.ndarray, pool: int, at=None):
+    """The edge normal at pixels of a sensor's event frame ``edges`` (H x W)
+    and how line-like the events around them are: ``(nx, ny, coherence)``
+    at the pixels ``at`` (a tuple of index arrays, as ``np.nonzero`` gives;
+    every pixel, as H x W arrays, if None), ``(nx, ny)`` a unit vector (x right, y up) of
+    arbitrary sign, ``coherence`` in [0, 1] (1: a straight line of events;
+    0: no direction, such as a lone event or a corner).
+
+    From the structure tensor: the gradients of the frame smoothed over
+    :data:`NORMAL_SIGMA`, their products averaged over a block (a Gaussian
+    of ``pool`` pixels); the normal is its leading eigenvector, the
+    coherence ``(l1 - l2) / (l1 + l2)`` of its eigenvalues. The Gaussians
+    are ``scipy.ndimage.gaussian_filter``'s (radius 4 sigma, mirrored edges)
+    and give its values to the last bit; the block average is taken only
+    at the pixels asked for (a window's maps ask for its event pixels)."""
+    e0 = np.asarray(edges, dtype=np.float64)
+    shape = e0.shape
+    if at is None:
+        rows, cols = (a.ravel() for a in np.indices(shape))
+    else:
+        rows, cols = (np.asarray(a, dtype=np.int64) for a in at)
+    if min(shape) < 2:  # (no gradient across a line one pixel wide: no direction)
+        out = np.ones(rows.size), np.zeros(rows.size), np.zeros(rows.size)
+        return out if at is not None else tuple(a.reshape(shape) for a in out)
+    w1 = _gaussian_weights(NORMAL_SIGMA)
+    smooth = np.empty_like(e0)
+    _smooth_rows(e0, w1, smooth)
+    e = np.empty_like(e0)
+    _smooth_cols(smooth, w1, e)
+    j = np.empty((3, rows.size))
+    _block_tensor(e, _gaussian_weights(float(pool)), rows, cols, j)
+    jxx, jyy, jxy = j
+    phi = 0.5 * np.arctan2(2.0 * jxy, jxx - jyy)
+    trace = jxx + jyy
+    spread = np.hypot(jxx - jyy, 2.0 * jxy)
+    coherence = np.divide(spread, trace, out=np.zeros_like(trace), where=trace > 1e-12)
+    out = np.cos(phi), np.sin(phi), np.clip(coherence, 0.0, 1.0)
+    return out if at is not None else tuple(a.reshape(shape) for a in out)
+
+
+def _gaussian_weights(sigma: float) -> np.ndarray:
+    """A normalised Gaussian of radius ``int(4 sigma + 0.5)``, computed as
+    ``scipy.ndimage.gaussian_filter`` computes its own."""
+    x = np.arange(-int(4.0 * sigma + 0.5), int(4.0 * sigma + 0.5) + 1)
+    phi = np.exp(-0.5 / (sigma * sigma) * x**2)
+    return phi / phi.sum()
+
+
+@njit(cache=True, inline="always")
+def _mirror(i, n):
+    """Index ``i`` of a line of ``n`` extended by mirroring (``d c b a | a b c d``),
+    again and again where the kernel is wider than the line."""
+    if 0 <= i < n:
+        return i
+    m = i % (2 * n)
+    return m if m < n else 2 * n - 1 - m
+
+
+# The three passes below add a symmetric kernel's products in
+# scipy.ndimage's order (the centre, then pairs from the outermost in),
+# so their sums are its sums bit for bit.
+
+
+@njit(cache=True)
+def _smooth_rows(x, w, out):
+    """``x`` smoothed along axis 0 by the symmetric kernel ``w``."""
+    h = x.shape[0]
+    r = (w.size - 1) // 2
+    for i in range(h):
+        o = out[i]
+        o[:] = x[i] * w[r]
+        for j in range(r, 0, -1):
+            a, b, wj = x[_mirror(i - j, h)], x[_mirror(i + j, h)], w[r - j]
+            for c in range(o.size):
+                o[c] += (a[c] + b[c]) * wj
+
+
+@njit(cache=True)
+def _smooth_cols(x, w, out):
+    """``x`` smoothed along axis 1 by the symmetric kernel ``w``."""
+    n = x.shape[1]
+    r = (w.size - 1) // 2
+    line = np.empty(n + 2 * r)
+    for i in range(x.shape[0]):
+        for c in range(n + 2 * r):
+            line[c] = x[i, _mirror(c - r, n)]
+        o = out[i]
+        for c in range(n):
+            o[c] = line[c + r] * w[r]
+        for j in range(r, 0, -1):
+            wj = w[r - j]
+            for c in range(n):
+                o[c] += (line[c + r - j] + line[c + r + j]) * wj
+
+
+@njit(cache=True)
+def _block_tensor(e, w, rows, cols, out):
+    """The structure tensor ``(jxx, jyy, jxy)`` of the smoothed frame ``e``
+    at the pixels ``(rows, cols)`` into ``out`` (3 x pixels): the products of
+    ``np.gradient``'s derivatives (x right, y up), smoothed by ``w`` along
+    axis 0 on the rows holding a pixel, then along axis 1 at the pixels."""
+    h, n = e.shape
+    r = (w.size - 1) // 2
+    gx, gy = np.empty_like(e), np.empty_like(e)
+    for i in range(h):
+        for c in range(n):
+            if c == 0:
+                gx[i, c] = (e[i, 1] - e[i, 0]) / 1.0
+            elif c == n - 1:
+                gx[i, c] = (e[i, n - 1] - e[i, n - 2]) / 1.0
+            else:
+                gx[i, c] = (e[i, c + 1] - e[i, c - 1]) / 2.0
+            if i == 0:
+                gy[i, c] = -((e[1, c] - e[0, c]) / 1.0)
+            elif i == h - 1:
+                gy[i, c] = -((e[h - 1, c] - e[h - 2, c]) / 1.0)
+            else:
+                gy[i, c] = -((e[i + 1, c] - e[i - 1, c]) / 2.0)
+    txx, tyy, txy = np.zeros_like(e), np.zeros_like(e), np.zeros_like(e)
+    need = np.zeros(h, np.bool_)
+    for k in range(rows.size):
+        need[rows[k]] = True
+    for i in range(h):
+        if not need[i]:
+            continue
+        for c in range(n):
+            txx[i, c] = (gx[i, c] * gx[i, c]) * w[r]
+            tyy[i, c] = (gy[i, c] * gy[i, c]) * w[r]
+            txy[i, c] = (gx[i, c] * gy[i, c]) * w[r]
+        for j in range(r, 0, -1):
+            a, b, wj = _mirror(i - j, h), _mirror(i + j, h), w[r - j]
+            for c in range(n):
+                txx[i, c] += (gx[a, c] * gx[a, c] + gx[b, c] * gx[b, c]) * wj
+                tyy[i, c] += (gy[a, c] * gy[a, c] + gy[b, c] * gy[b, c]) * wj
+                txy[i, c] += (gx[a, c] * gy[a, c] + gx[b, c] * gy[b, c]) * wj
+    for q, t in enumerate((txx, tyy, txy)):
+        for k in range(rows.size):
+            i, c = rows[k], cols[k]
+            acc = t[i, c] * w[r]
+            for j in range(r, 0, -1):
+                acc += (t[i, _mirror(c - j, n)] + t[i, _mirror(c + j, n)]) * w[r - j]
+            out[q, k] = acc
+
+
+def unpool_maps(fg_x, fg_y, grouping, edges: np.ndarray, pool: int):
+    """Maps on the block grid back at the sensor's size (``edges``: H x W,
+    the sensor's event pixels); the grouping map is resized bilinearly.
+
+    Each event pixel takes its block's vector ``v``, turned towards the
+    pixel's own edge normal ``n`` (:func:`edge_normals`), on the side ``v``
+    points to: the vector becomes ``|v|`` times the unit vector along
+    ``c s n + (1 - c) v / |v|``, with ``s = sign(v . n)`` and ``c`` the
+    coherence. A block's vector has the block's angle, which on a curved
+    or slanted edge is off the edge's own normal by up to the block's
+    width; the side is the network's decision and is kept. Where the
+    events around a pixel make no line (``c`` near 0) the block's vector
+    stays as it is."""
+    if pool == 1:
+        return fg_x, fg_y, grouping
+    h, w = edges.shape
+    on = np.asarray(edges) != 0
+    at = np.nonzero(on)
+    bx, by = (np.asarray(a, np.float64)[at[0] // pool, at[1] // pool] for a in (fg_x, fg_y))
+    mag = np.hypot(bx, by)
+    nx, ny, c = edge_normals(on, pool, at)
+    s = np.where(bx * nx + by * ny >= 0, 1.0, -1.0)
+    unit_x = np.divide(bx, mag, out=np.zeros_like(mag), where=mag > 0)
+    unit_y = np.divide(by, mag, out=np.zeros_like(mag), where=mag > 0)
+    tx, ty = c * s * nx + (1 - c) * unit_x, c * s * ny + (1 - c) * unit_y
+    t = np.hypot(tx, ty)
+    ok = (mag > 0) & (t > 0)
+    ux, uy = np.zeros((h, w), np.asarray(fg_x).dtype), np.zeros((h, w), np.asarray(fg_y).dtype)
+    ux[at] = np.divide(mag * tx, t, out=np.zeros_like(mag), where=ok)
+    uy[at] = np.divide(mag * ty, t, out=np.zeros_like(mag), where=ok)
+    g = np.asarray(grouping)
+    whole = resize(g.astype(np.float64), (g.shape[0] * pool, g.shape[1] * pool), "linear")
+    return ux, uy, whole[:h, :w].astype(g.dtype)

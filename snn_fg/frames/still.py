@@ -1,0 +1,177 @@
+"""What ``snn-fg run INPUT`` accepts, checked before any model runs.
+
+* ``demo`` - the built-in synthetic scene (:func:`snn_fg.frames.scenes.demo`);
+* an event frame ``.npz`` holding ``pos`` and ``neg`` (uint8 or bool, H x W, 0/1);
+* an image file (png, jpg, bmp, tif);
+* an event recording in any format :mod:`snn_fg.events` reads.
+
+Every problem raises :class:`~snn_fg.errors.InputError` naming the file;
+what a model runs on is a :class:`Still`.
+"""
+
+from __future__ import annotations
+
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import validate as check
+from ..errors import InputError
+from ..events.images import IMAGE_SUFFIXES
+from ..events.io import SUFFIX_FORMAT
+
+
+@dataclass
+class Still:
+    """A still input, what a model runs on once (a recording is run window by
+    window): an event frame (``pos``, ``neg``) and/or an image, and for an
+    image turned into events, the simulated camera's timed events
+    (``recording``, a :class:`~snn_fg.events.Recording`) the event frame was made of."""
+
+    pos: np.ndarray | None = None
+    neg: np.ndarray | None = None
+    image: np.ndarray | None = None
+    recording: object | None = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.pos if self.pos is not None else self.image).shape[:2]
+
+
+def input_kind(spec: str) -> str:
+    """One of ``demo``, ``frame``, ``image``, ``recording``."""
+    if spec == "demo":
+        return "demo"
+    path = Path(spec)
+    if not path.exists():
+        raise InputError(path, "no such file (INPUT is an .npz event frame, an image, a recording or 'demo')")
+    if path.is_dir():
+        raise InputError(path, "is a folder, not a file")
+    suffix = path.suffix.lower()
+    if suffix in IMAGE_SUFFIXES:
+        return "image"
+    if suffix not in SUFFIX_FORMAT:  # (.npz is one: a recording's arrays or an event frame)
+        raise InputError(
+            path,
+            f"unknown extension '{suffix or '(none)'}': INPUT is an image "
+            f"({', '.join(sorted(IMAGE_SUFFIXES))}), an .npz event frame, a recording "
+            f"({', '.join(sorted(SUFFIX_FORMAT))}) or 'demo'",
+        )
+    if suffix == ".npz":
+        try:
+            with check.load_npz(path, "an event frame (pos, neg) or a recording (x, y, t, p)") as d:
+                if "pos" in d.files or "neg" in d.files:
+                    return "frame"
+                if "events" not in d.files and not {"x", "y", "t", "p"} <= set(d.files):
+                    raise InputError(
+                        path,
+                        "lacks keys pos, neg (an event frame) and x, y, t, p or "
+                        f"'events' (a recording); found keys {', '.join(d.files) or 'none'}",
+                    )
+        except InputError:
+            raise
+        except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
+            raise InputError(path, f"not a readable .npz archive ({exc})") from None
+    return "recording"
+
+
+def _check_binary(path, key, a) -> np.ndarray:
+    if a.ndim != 2:
+        raise InputError(path, f"'{key}' must be a 2-D H x W array, got shape {a.shape}")
+    if a.dtype.kind == "f":
+        bad = ~np.isfinite(a)
+        if bad.any():
+            r, c = np.argwhere(bad)[0]
+            raise InputError(path, f"'{key}' contains NaN or infinite values", f"pixel row {r}, column {c}")
+    if a.dtype != np.uint8 and a.dtype != np.bool_:
+        raise InputError(path, f"'{key}' has dtype {a.dtype}; an event frame needs uint8 (or bool) 0/1 values")
+    if a.dtype == np.uint8 and a.max(initial=0) > 1:
+        r, c = np.argwhere(a > 1)[0]
+        raise InputError(path, f"'{key}' holds values other than 0 and 1 (max {a.max()})", f"pixel row {r}, column {c}")
+    return a.astype(np.uint8)
+
+
+def read_npz_arrays(path, required, optional=(), what: str = "file") -> dict:
+    """The arrays ``required`` (and those of ``optional`` that are present) of an ``.npz`` file.
+
+    A missing file, an unreadable archive or a missing key is an
+    :class:`InputError` naming the file (``what`` says what it should be).
+    """
+    path = Path(path)
+    try:
+        with check.load_npz(path, what) as d:
+            missing = [k for k in required if k not in d.files]
+            if missing:
+                raise InputError(
+                    path, f"{what} lacks key(s) {', '.join(missing)} (found: {', '.join(d.files) or 'nothing'})"
+                )
+            return {k: d[k] for k in (*required, *optional) if k in d.files}
+    except InputError:
+        raise
+    except FileNotFoundError:
+        raise InputError(path, "no such file") from None
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
+        raise InputError(path, f"cannot read the .npz archive ({exc})") from None
+
+
+def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
+    """``(pos, neg)`` from an ``.npz`` event frame, validated."""
+    path = Path(path)
+    arrays = read_npz_arrays(path, ("pos", "neg"), what="event frame")
+    pos, neg = arrays["pos"], arrays["neg"]
+    pos = _check_binary(path, "pos", pos)
+    neg = _check_binary(path, "neg", neg)
+    if pos.shape != neg.shape:
+        raise InputError(path, f"'pos' and 'neg' differ in shape: {pos.shape} vs {neg.shape}")
+    if min(pos.shape) < 2:
+        raise InputError(path, f"frame of shape {pos.shape} is too small")
+    if not (pos.any() or neg.any()):
+        raise InputError(path, "the event frame is empty: no pixel has an event")
+    both = (pos > 0) & (neg > 0)
+    if both.any():
+        r, c = np.argwhere(both)[0]
+        raise InputError(
+            path,
+            "a pixel is both ON and OFF; stage 1 keeps only the last event's polarity",
+            f"pixel row {r}, column {c}",
+        )
+    return pos, neg
+
+
+def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "shift4"):
+    """The frame a model needs from ``INPUT`` (``demo``, an image or an event
+    frame), and what to record about where it came from.
+
+    ``needs`` is ``"events"`` (an event frame; images are turned into events
+    by the simulated event camera at contrast ``threshold`` under ``motion``,
+    see :data:`snn_fg.events.esim.MOTIONS`) or ``"image"``.
+    Returns ``(Still, source)``.
+    """
+    from ..events import events_to_frame, image_to_events
+    from ..events.images import read_image
+
+    kind = input_kind(spec)
+    source = {"input": str(spec), "kind": kind}
+    if kind == "recording":
+        raise InputError(spec, "is an event recording, not a frame")
+    if kind == "frame":
+        if needs == "image":
+            raise InputError(spec, "the fbfg model needs an image, not an event frame")
+        pos, neg = load_event_frame(spec)
+        return Still(pos, neg), source
+    if kind == "demo":
+        from .scenes import demo
+
+        image = demo().image
+    else:
+        image = read_image(spec, grey=needs != "image" and motion != "paper")
+    if needs == "image":
+        return Still(image=image), source
+    recording = image_to_events(image, threshold=threshold, motion=motion)
+    pos, neg = events_to_frame(recording.events, recording.sensor_size)
+    if not (pos.any() or neg.any()):
+        raise InputError(spec, f"the image gives no events at contrast threshold {threshold}")
+    source.update(threshold=threshold, motion=motion)
+    return Still(pos, neg, image, recording), source

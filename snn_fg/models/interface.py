@@ -1,0 +1,365 @@
+"""The models ``snn-fg run`` can run, behind one interface: :class:`Model`.
+
+A model runs one still input (a :class:`~snn_fg.frames.still.Still`: an event
+frame, or an image for the frame-based model) or one window of a recording, and draws
+its figures. The command line and the experiments pick a model by name from
+:data:`MODELS` and never branch on which one it is. To add a model, subclass
+:class:`Model` and register it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from abc import ABC, abstractmethod
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+from .. import validate as check
+from ..backends import DEFAULT_BACKEND
+from ..errors import InputError
+from ..frames.still import Still
+from ..params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
+from ..results.maps import SPIKING_GROUPING_LABEL, Maps
+
+
+class Model(ABC):
+    """A figure-ground model: still inputs and windows in, :class:`Maps` out.
+
+    ``needs`` says what a still input must hold (``"events"``: ``pos``/``neg``;
+    ``"image"``: an image); ``grouping_label`` labels the grouping map's
+    colour bar with its unit.
+    """
+
+    name: ClassVar[str]
+    #: the parameters the command line's model flags change (the paper's, or a variant's)
+    base_params: ClassVar[ModelParams] = ModelParams()
+    needs: ClassVar[str] = "events"
+    #: keyword options of the constructor besides params and progress (CLI flags of the same name)
+    options: ClassVar[tuple] = ()
+    grouping_label: ClassVar[str] = "grouping"
+    #: why a recording's window with events can give no figure-ground vector, said with the warning that some did
+    blank_window_hint: ClassVar[str] = ""
+
+    def __init__(self, params: ModelParams = ModelParams(), progress=None):
+        self.params = params
+        self.progress = progress  # a factory wrapping iterables in a progress bar, or None
+
+    @abstractmethod
+    def run_still(self, still: Still) -> Maps:
+        """Maps of one still input."""
+
+    def run_window(self, window) -> Maps:
+        """Maps of one window of a recording (an :class:`~snn_fg.events.EventWindow`)."""
+        if not (window.pos.any() or window.neg.any()):
+            return self.empty_maps(window.pos.shape)
+        return self.run_still(Still(window.pos, window.neg))
+
+    def run_windows(self, windows, start: int = 0):
+        """``(window, Maps)`` for every window of a recording from window
+        ``start`` on (a run continued), in order; by default one window at a
+        time (:meth:`run_window`), the windows before ``start`` skipped. A
+        model whose windows carry state runs those too, and yields them not."""
+        for w in windows:
+            if w.index >= start:
+                yield w, self.run_window(w)
+
+    def run_windows_into(self, windows, emit, start: int = 0) -> dict:
+        """:meth:`run_windows` handing each ``(window, maps)`` to ``emit`` as
+        soon as it is done (the spiking model's windows come out of one
+        simulation while it runs). Returns parameters of the whole run
+        known only at its end (none by default; a run's store keeps them as
+        ``params["whole_run"]``)."""
+        for w, maps in self.run_windows(windows, start):
+            emit(w, maps)
+        return {}
+
+    def named(self, maps: Maps) -> Maps:
+        """``maps`` with this model's name in their parameters."""
+        maps.params["model"] = self.name
+        return maps
+
+    def empty_maps(self, shape) -> Maps:
+        z = np.zeros(shape, np.float32)
+        return Maps(z, z.copy(), z.copy(), {"model": self.name, **self.params.to_dict()})
+
+    def figure_input(self, still: Still) -> np.ndarray:
+        """The image shown beside the maps."""
+        from ..results.figures import event_frame_rgb  # (matplotlib: only for runs that draw)
+
+        return event_frame_rgb(still.pos, still.neg)
+
+    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
+        """Figures of a run into folder ``out``; ``inputs`` one image per frame;
+        ``crop`` ``(x0, y0, x1, y1)``: the maps' part to draw (all of it)."""
+        from ..results.figures import save_maps_figure
+
+        return [
+            save_maps_figure(
+                out / "maps.png",
+                inputs,
+                maps.fg_x,
+                maps.fg_y,
+                maps.grouping,
+                titles=titles,
+                grouping_label=self.grouping_label,
+                crop=crop,
+            )
+        ]
+
+
+class RateModel(Model):
+    """The rate reference (EDFG, stages 1-9) on an event frame.
+
+    Option ``carry_state`` (recordings): each window's grouping and feedback
+    start where the previous window's stopped
+    (:meth:`~snn_fg.models.rate.grouping.SparseGrouping.continue_from`), as in a
+    network that is never reset, instead of afresh as in the paper. A window
+    without events carries nothing on.
+    """
+
+    name = "rate"
+    options = ("carry_state",)
+    grouping_label = "grouping activity (rate-model units)"
+
+    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, carry_state: bool = False):
+        super().__init__(params, progress)
+        self.carry_state = check.flag("rate", "carry_state", carry_state)
+
+    def run_still(self, still: Still) -> Maps:
+        from .rate.edfg import run_edfg
+
+        t = time.perf_counter()
+        maps = self.named(run_edfg(still.pos, still.neg, self.params, progress=self.progress))
+        maps.params["timings_s"] = {"run": time.perf_counter() - t}
+        return maps
+
+    def run_windows(self, windows, start: int = 0):
+        """As :meth:`Model.run_windows`; with ``carry_state`` the windows
+        before ``start`` are run again (the state they pass on is not stored)."""
+        if not self.carry_state:
+            yield from super().run_windows(windows, start)
+            return
+        from .rate.edfg import run_edfg_state
+
+        previous = None
+        for w in windows:
+            if not (w.pos.any() or w.neg.any()):
+                previous = None
+                if w.index >= start:
+                    yield w, self.empty_maps(w.pos.shape)
+                continue
+            continued = previous is not None
+            t = time.perf_counter()
+            previous = run_edfg_state(w.pos, w.neg, self.params, progress=self.progress, previous=previous)
+            if w.index >= start:
+                yield (
+                    w,
+                    self.named(
+                        previous.maps(
+                            carry_state=True,
+                            continued_from_previous_window=continued,
+                            timings_s={"run": time.perf_counter() - t},
+                        )
+                    ),
+                )
+
+
+class FbfgModel(Model):
+    """The frame-based model (FBFG) on a grey or RGB image; option ``edge_operator``
+    (``"gaussian"`` or ``"corf"``, see :mod:`snn_fg.models.rate.fbfg`)."""
+
+    name = "fbfg"
+    needs = "image"
+    options = ("edge_operator",)
+    grouping_label = "grouping (normalised to 1)"
+
+    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, edge_operator="gaussian"):
+        super().__init__(params, progress)
+        self.edge_operator = check.choice("fbfg", "edge_operator", edge_operator, EDGE_OPERATORS)
+
+    def run_still(self, still: Still) -> Maps:
+        from .rate.fbfg import run_fbfg
+
+        return run_fbfg(still.image, self.params, progress=self.progress, edge_operator=self.edge_operator)
+
+    def run_window(self, window) -> Maps:
+        raise InputError("<recording>", "the fbfg model needs an image, not an event recording")
+
+    def figure_input(self, still: Still) -> np.ndarray:
+        return still.image
+
+
+#: how a frame becomes input spikes: regular trains at every event pixel, or
+#: (for an image) the simulated camera's events with their own timing, replayed
+SPIKE_INPUTS = ("regular", "events")
+
+
+class SpikingModel(Model):
+    """The spiking network (:func:`snn_fg.models.spiking.run_spiking`) on a backend.
+
+    Options: ``network`` (a stored description), ``backend``, ``feedback``,
+    ``dt_ms``, ``instantiate``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
+    ``spike_input`` (:data:`SPIKE_INPUTS`); for a
+    recording ``readout_lag_ms``, ``window_clock`` and ``save_spikes`` (keep
+    each window's per-cell spike counts, :class:`~snn_fg.models.spiking.SpikingRecord`;
+    a frame always keeps them): a recording runs as one
+    continuous network, every event at its own time, its window clock firing
+    as each window starts (:mod:`snn_fg.models.spiking.continuous`).
+    """
+
+    name = "spiking"
+    grouping_label = SPIKING_GROUPING_LABEL
+    blank_window_hint = (
+        "the spiking network needs tens of ms of input before its feedback orders the "
+        "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle. "
+        "A clip that short can run as its event frame, which the network sees for as long as it "
+        "needs: snn-fg events REC --write-frame F.npz, then snn-fg run F.npz --model spiking"
+    )
+    options = (
+        "network",
+        "backend",
+        "duration_ms",
+        "settle_ms",
+        "dt_ms",
+        "seed",
+        "feedback",
+        "readout_lag_ms",
+        "window_clock",
+        "spike_input",
+        "instantiate",
+        "save_spikes",
+    )
+
+    def __init__(
+        self,
+        params: ModelParams = ModelParams(),
+        progress=None,
+        *,
+        network=None,
+        backend=DEFAULT_BACKEND,
+        spike_input: str = "regular",
+        save_spikes: bool = False,
+        **run_options,
+    ):
+        from .spiking.options import SpikingOptions
+
+        super().__init__(params, progress)
+        self.network = network  # a stored description (its own ModelParams), or None: build from params
+        self._backend = None  # the backend object, made on first use and kept (see _sim)
+        self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
+        self.save_spikes = check.flag("spiking model", "save_spikes", save_spikes)
+        built = {"params": params} if network is None else {"network": network}
+        #: every option of the runs, checked here once: a frame uses its frame part, a recording its recording part
+        self.run_options = SpikingOptions.from_keywords(
+            "run_spiking", {**built, "backend": backend, "progress": progress is not None, **run_options}
+        )
+
+    @property
+    def backend(self):
+        """The backend asked for (a name or a Backend object)."""
+        return self.run_options.simulator.backend
+
+    def _sim(self):
+        """The backend, one object for every input this model runs: the
+        fast engine keeps its tables and cell arrays from one run to the next."""
+        if self._backend is None:
+            self._backend = self.run_options.simulator.backend_object()
+        return self._backend
+
+    def __getstate__(self):
+        return {**self.__dict__, "_backend": None}  # (a copy elsewhere makes its own: the arrays stay here)
+
+    def _run(self, **inputs) -> Maps:
+        from .spiking import run_spiking
+
+        return self.named(run_spiking(**inputs, options=self.run_options.on(self._sim())))
+
+    def run_still(self, still: Still) -> Maps:
+        if self.spike_input == "events":
+            if still.recording is None:
+                raise InputError(
+                    "<frame>",
+                    "spike input 'events' needs an image (its simulated events carry "
+                    "their timing); an event frame has none: use 'regular'",
+                )
+            rec = still.recording
+            return self._run(events=rec.events, sensor_size=rec.sensor_size)
+        return self._run(pos=still.pos, neg=still.neg)
+
+    def run_window(self, window) -> Maps:
+        """One window, run as a recording of that one window
+        (:meth:`run_windows`): its events at their own times, the window
+        clock, and the window plus the read-out lag simulated, as for every
+        window of a longer recording."""
+        if not (window.pos.any() or window.neg.any()):
+            return self.empty_maps(window.pos.shape)
+        ((_, maps),) = self.run_windows([window])
+        return maps
+
+    def run_windows(self, windows, start: int = 0):
+        """One network over the whole recording (:func:`~snn_fg.models.spiking.run_spiking_windows`):
+        every event at its own time, each window read from its own spikes.
+        A run continued from window ``start`` simulates the windows before
+        it again (the network's state at a window's start comes from every
+        event before it), and yields them not. Each window's per-cell spike
+        counts are kept only with ``save_spikes``."""
+        out = []
+        self.run_windows_into(windows, lambda w, m: out.append((w, m)), start)
+        yield from out
+
+    def run_windows_into(self, windows, emit, start: int = 0) -> dict:
+        """As :meth:`run_windows`, each window handed to ``emit`` while the
+        simulation runs (:func:`~snn_fg.models.spiking.continuous.stream_spiking_windows`)."""
+        from .spiking.continuous import stream_spiking_windows
+
+        def done(window, maps):
+            if window.index >= start:
+                emit(window, self.named(maps))
+
+        options = self.run_options.on(self._sim())
+        if not self.save_spikes:  # (the counts and spike trains would be dropped unread: not made)
+            options = dataclasses.replace(
+                options, simulator=dataclasses.replace(options.simulator, record_spikes=False)
+            )
+        return stream_spiking_windows(windows, done, options=options, cells=self.save_spikes)
+
+    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
+        """``maps.png``; and the spike raster and rate histograms where the
+        spike counts were kept (a frame, or a recording with ``save_spikes``)."""
+        written = super().write_figures(out, maps, inputs, titles, crop)
+        if maps.fg_x.ndim == 3 and not self.save_spikes:
+            return written
+        from ..results.figures import save_spiking_figures
+
+        return written + save_spiking_figures(maps, out, with_maps=False)
+
+
+class NaturalModel(RateModel):
+    """The natural-scene variant (:mod:`snn_fg.models.rate.natural`): the rate model
+    with contrast-invariant grouping and the parameters chosen on natural images."""
+
+    name = "natural"
+    base_params = NATURAL_PARAMS
+
+
+class NaturalSpikingModel(SpikingModel):
+    """The natural-scene variant as a spiking network: the default network's
+    construction with :data:`~snn_fg.models.rate.natural.NATURAL_PARAMS` (pooled
+    grouping polarities, no rival inhibition), on a backend."""
+
+    name = "natural-spiking"
+    base_params = NATURAL_PARAMS
+
+
+MODELS: dict[str, type[Model]] = {
+    m.name: m for m in (RateModel, FbfgModel, SpikingModel, NaturalModel, NaturalSpikingModel)
+}
+
+
+def get_model(name: str, params: ModelParams | None = None, progress=None, **options) -> Model:
+    """The model ``name`` (one of :data:`MODELS`) with its options (``params``: its own by default)."""
+    check.choice("model", "name", name, tuple(MODELS))
+    return MODELS[name](MODELS[name].base_params if params is None else params, progress, **options)

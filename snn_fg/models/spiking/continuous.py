@@ -1,0 +1,397 @@
+"""One network over a whole recording: :func:`run_spiking_windows`.
+
+A neuromorphic chip runs one fixed network on the event stream as it comes.
+So does this: the network is built (and, for backends that unroll it,
+instantiated) once for the whole recording, every event becomes one input
+spike at its own timestamp (no replay, no per-window rebuild), and each
+window's maps are decoded from the spikes counted inside that window,
+shifted by a read-out lag: the window ``[t_start, t_end)`` is read from the
+spikes in ``[t_start + lag, t_end + lag)``, since the network needs a few
+synaptic delays and membrane time constants to answer. The backend counts
+spikes per window through :attr:`~snn_fg.backends.RunSettings.count_bins_ms`,
+and each window is decoded as soon as the run has passed the end of its
+read-out span. :func:`run_spiking_windows` lets the backend forget each bin
+once it is read (:attr:`~snn_fg.backends.RunSettings.on_bin`), so that a long
+recording does not need the memory of all its spikes.
+
+The input gains are calibrated once, to the mean event rate of an active
+pixel inside a window (events per active pixel per window length, averaged
+over the windows that have events), the counterpart of a frame's rate. So
+the windows are read twice (:mod:`.recording_input`): once for that rate,
+then while the network runs, their events handed to a backend that streams
+its input (the fast engine) a segment of steps at a time. Windows that can
+be iterated again (a list, or :class:`~snn_fg.events.RecordingWindows`,
+which reads the file again) are never all in memory; a one-shot iterator
+is made a list first.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+from types import SimpleNamespace
+
+import numpy as np
+
+from ...backends import RunSettings
+from ...backends.base import each_bin
+from ...frames.pool import pool_frame, unpool_maps
+from ...results.maps import Maps
+from ..cores import usable_cores
+from .decode import decode
+from .options import SpikingOptions
+from .record import SpikingRecord, run_provenance
+from .recording_input import WindowFeed, plan_recording
+
+
+def run_spiking_windows(
+    windows, *, source: str = "<recording>", options: SpikingOptions | None = None, **keywords
+) -> list[Maps]:
+    """Run the spiking network once over consecutive windows of a recording.
+
+    Parameters
+    ----------
+    windows : iterable of EventWindow
+        The recording cut into windows (:func:`snn_fg.events.iter_windows`),
+        all from one sensor, in time order; read twice (a one-shot iterator
+        is made a list: :class:`~snn_fg.events.RecordingWindows` reads a file
+        again instead, so that memory does not grow with the recording).
+    params, spiking, network, backend, backend_options, dt_ms, calibrate, feedback, instantiate, record_spikes
+        As for :func:`~snn_fg.models.spiking.run_spiking`.
+    readout_lag_ms : float
+        Each window is read from the spikes ``readout_lag_ms`` later than
+        its own time span; the simulation runs that long past the last window.
+    window_clock : bool
+        Fire the network's window clock (if it has one) as every window
+        starts: its inhibitory pulse holds the grouping cells silent until
+        the previous window's feedback has faded, so each window's light and
+        dark grouping cells compete afresh. ``False``: the clock stays silent
+        and the network carries its state from window to window.
+    progress, log
+        Stage messages and a progress bar on stderr, or ``log`` receiving them.
+    options : SpikingOptions, optional
+        All of the above made once, instead of keywords (its frame part is
+        not used).
+    source : str
+        What the windows come from, for error messages.
+
+    Returns
+    -------
+    list of Maps
+        One per window, each with its own spiking record; ``params`` says
+        ``simulation.mode = "continuous"``, ``simulated_ms`` and
+        ``network_builds = 1``.
+
+    Examples
+    --------
+    >>> from snn_fg.events import image_to_events, iter_windows
+    >>> from snn_fg.params import ModelParams
+    >>> from snn_fg.frames.scenes import disc
+    >>> rec = image_to_events(disc(radius=10).image)
+    >>> wins = list(iter_windows(rec, window_ms=2))
+    >>> maps = run_spiking_windows(wins, params=ModelParams(levels=2), progress=False)
+    >>> len(maps) == len(wins), maps[0].params["simulation"]["network_builds"]
+    (True, 1)
+    """
+    run = simulate_windows(
+        windows,
+        source=source,
+        keep_run=False,
+        options=SpikingOptions.of("run_spiking_windows", options, keywords, frame=False),
+    )
+    return window_maps(run)
+
+
+def stream_spiking_windows(
+    windows,
+    on_window,
+    *,
+    source: str = "<recording>",
+    options: SpikingOptions | None = None,
+    cells: bool = True,
+    **keywords,
+) -> dict:
+    """:func:`run_spiking_windows` handing each window's maps to
+    ``on_window(window, maps)`` as soon as the run has passed the end of its
+    read-out span, instead of returning them all at the end: nothing of a
+    window is kept once handed over. Each window's ``params`` are those
+    known then (a backend that streams its bins, such as the fast engine,
+    has no statistics or timings of the whole run yet); returns the whole
+    run's, to update the run's parameters with (``counts``,
+    ``backend_stats``, ``kept_kernel_mass``, ``timings_s``). ``cells=False``:
+    the maps' ``extra`` holds no per-cell spike counts (nor is time spent
+    gathering them)."""
+    opts = SpikingOptions.of("stream_spiking_windows", options, keywords, frame=False)
+    run = simulate_windows(windows, source=source, keep_run=False, options=opts, on_window=on_window, cells=cells)
+    whole = run_provenance(run.network, run.origin, run.backend, run.result, {}, run.simulation, run.t_start)
+    return {k: whole[k] for k in ("counts", "backend_stats", "kept_kernel_mass", "timings_s")}
+
+
+@dataclasses.dataclass
+class ContinuousRun:
+    """One simulation over a recording's windows (:func:`simulate_windows`):
+    the network, the backend's result (spike counts per bin between
+    ``edges`` and spike trains if recorded, unless the run was not kept),
+    each window's read-out span ``spans[k]`` (ms from the first window's
+    start, lag included) and each window's decoded maps and record
+    (``decoded[k]``: ``fg_x, fg_y, grouping, SpikingRecord``) with the
+    ``perf_counter()`` time it was decoded at (``decoded_at[k]``)."""
+
+    n_windows: int
+    network: object
+    origin: dict
+    backend: object
+    result: object
+    edges: list
+    spans: list
+    simulation: dict
+    t_start: float
+    decoded: list
+    decoded_at: list
+
+
+def simulate_windows(
+    windows,
+    *,
+    source: str = "<recording>",
+    keep_run: bool = True,
+    options: SpikingOptions | None = None,
+    on_window=None,
+    cells: bool = True,
+    **keywords,
+) -> ContinuousRun:
+    """The simulation half of :func:`run_spiking_windows` (same parameters):
+    one run over every window, each window decoded as the run passes the
+    end of its read-out span; :func:`window_maps` makes their maps.
+
+    ``keep_run=False`` lets the backend forget each counting bin once it is
+    read (``RunSettings.on_bin``): the result then has no per-bin counts
+    and no spike trains, and the memory need not grow with the recording.
+    ``True`` keeps them in ``ContinuousRun.result`` (for analyses of the
+    whole run's spikes). ``on_window(window, maps)``: each window's maps as it
+    is decoded (:func:`stream_spiking_windows`), none kept in the result;
+    ``cells=False``: the windows' records leave out the per-cell counts."""
+    t_start = time.perf_counter()
+    opts = SpikingOptions.of("simulate_windows", options, keywords, frame=False)
+    sim, lag = opts.simulator, opts.recording.readout_lag_ms
+    if iter(windows) is windows:  # (read once only: kept, to be read twice)
+        windows = list(windows)
+    threaded = usable_cores() > 1
+    plan = plan_recording(
+        read_ahead(windows) if threaded else windows, opts.network, sim, lag, opts.recording.window_clock, source
+    )
+    net, origin, rate = plan.network, plan.origin, plan.rate_hz
+    if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
+        origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
+        net = net.calibrated(rate)
+    edges = sorted({t for span in plan.spans for t in span})
+    backend = sim.backend_object()
+    feed = WindowFeed(read_ahead(windows) if threaded else windows, plan, keep=keep_run)
+    inp = feed.input if backend.streams_input else feed.input.whole()
+    instantiate = sim.cells_for(backend, inp)
+    simulation = {
+        "mode": "continuous",
+        "simulated_ms": edges[-1],
+        "network_builds": 1,
+        "readout_lag_ms": lag,
+        "dt_ms": plan.dt_ms,
+        "input": "events",
+        "rate_hz_used": rate,
+        "merged_input_spikes": plan.merged,
+        "instantiate": instantiate,
+        "record_spikes": bool(sim.record_spikes),
+        "window_clock": plan.clock_steps is not None,
+    }
+    run = ContinuousRun(
+        len(plan.spans),
+        net,
+        origin,
+        backend,
+        None,
+        edges,
+        plan.spans,
+        simulation,
+        t_start,
+        [None] * len(plan.spans),
+        [None] * len(plan.spans),
+    )
+    reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window, threaded, cells)
+    simulation["decode_thread"] = reader.threaded
+    settings = RunSettings(
+        duration_ms=edges[-1],
+        dt_ms=plan.dt_ms,
+        count_from_ms=edges[0],
+        record_spikes=sim.record_spikes,
+        instantiate=instantiate,
+        count_bins_ms=tuple(edges),
+        log=sim.say,
+        progress=sim.progress,
+        on_bin=None if keep_run else reader,
+    )
+    with reader:
+        run.result = backend.simulate(net, inp, settings)
+        if run.result.binned_counts is not None:  # (a backend that kept its bins)
+            for k, bin_result in each_bin(run.result):
+                reader(k, bin_result)
+    return run
+
+
+def read_ahead(windows):
+    """Iterate ``windows`` with the next one read on a second thread
+    meanwhile (decoding a recording's file releases the interpreter lock in
+    its compiled byte walk and in numpy)."""
+    it, end = iter(windows), object()
+    with ThreadPoolExecutor(1, thread_name_prefix="snn-fg-read") as ahead:
+        coming = ahead.submit(next, it, end)
+        while True:
+            w = coming.result()
+            if w is end:
+                return
+            coming = ahead.submit(next, it, end)
+            yield w
+
+
+def _bins_of(span, edges) -> tuple[int, int]:
+    """The counting bins ``k0 .. k1 - 1`` that make up a read-out span (spans
+    are made of edges)."""
+    return int(np.searchsorted(edges, span[0])), int(np.searchsorted(edges, span[1]))
+
+
+class _WindowReader:
+    """Receives a run's counting bins in order (``RunSettings.on_bin``) and
+    decodes each window as soon as the last bin of its read-out span is in:
+    into ``run.decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``, or as
+    its maps to ``on_window(window, maps)``. Only the windows still being
+    read hold their counts and spikes; the windows themselves come from
+    ``feed`` (:class:`~snn_fg.models.spiking.recording_input.WindowFeed`).
+
+    ``threaded`` (where the process may use more than one core): a window
+    is decoded and handed to ``on_window`` on a second thread while the
+    simulation goes on (the fast engine's loop runs without the interpreter
+    lock): windows still leave in order, at most :attr:`AHEAD` wait, and
+    an error raised there is raised again here. Used as a context manager,
+    which waits for the last window (or, on an error, for the one being
+    written)."""
+
+    #: windows handed to the decoding thread and not yet finished
+    AHEAD = 2
+
+    def __init__(
+        self,
+        feed: WindowFeed,
+        spans,
+        edges,
+        pool: int,
+        run: ContinuousRun,
+        on_window=None,
+        threaded: bool = False,
+        cells: bool = True,
+    ):
+        self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
+        self.bins = [_bins_of(span, edges) for span in spans]
+        self.first = 0  # the first window not decoded yet (spans start and end in order)
+        self.reading: dict = {}
+        self.last_at = run.t_start  # perf_counter() when the last window was decoded
+        self.threaded, self.cells = threaded, cells
+        self.worker = None
+        self.pending: deque = deque()
+        self.failed = False
+
+    def __enter__(self):
+        if self.threaded:
+            self.worker = ThreadPoolExecutor(1, thread_name_prefix="snn-fg-decode")
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        if self.worker is None:
+            return
+        try:
+            if kind is None:
+                self._wait(0)
+        finally:
+            self.worker.shutdown(wait=True, cancel_futures=True)
+            self.worker = None
+
+    def _wait(self, most: int):
+        """Wait until at most ``most`` windows are pending, raising their errors."""
+        while len(self.pending) > most:
+            self.pending.popleft().result()
+
+    def __call__(self, k: int, result):
+        i = self.first
+        while i < len(self.bins) and self.bins[i][0] <= k:
+            if k < self.bins[i][1]:
+                self._add(i, k, self.bins[i][1], result)
+            i += 1
+        while self.first < len(self.bins) and self.bins[self.first][1] <= k + 1:
+            self.first += 1
+
+    def _add(self, i: int, k: int, k1: int, result):
+        counts, spikes = self.reading.setdefault(i, ({}, []))
+        for name, c in result.counts.items():
+            counts[name] = counts[name] + c if name in counts else c.astype(np.int64)
+        if result.spikes is not None:
+            spikes.append(result.spikes)
+        if k == k1 - 1:
+            del self.reading[i]
+            w = self.feed.window(i)
+            if self.worker is None:
+                self._finish(i, w, result, counts, spikes)
+            else:
+                self._wait(self.AHEAD - 1)
+                self.pending.append(self.worker.submit(self._finish, i, w, result, counts, spikes))
+
+    def _finish(self, i, w, result, counts, spikes):
+        if self.failed:  # (an earlier window failed on the thread: none after it)
+            return
+        try:
+            self._hand(i, w, result, counts, spikes)
+        except BaseException:
+            self.failed = True
+            raise
+
+    def _hand(self, i, w, result, counts, spikes):
+        decoded, before = self._decode(i, w, result, counts, spikes), self.last_at
+        self.last_at = time.perf_counter()
+        if self.on_window is None:
+            self.run.decoded[i], self.run.decoded_at[i] = decoded, self.last_at
+        else:
+            self.on_window(w, _maps_of(self.run, i, decoded, result, self.last_at - before))
+
+    def _decode(self, i, w, result, counts, spikes):
+        k0, k1 = self.bins[i]
+        trains = None
+        if spikes:
+            trains = {n: tuple(np.concatenate([s[n][j] for s in spikes]) for j in range(2)) for n in spikes[0]}
+        window_result = dataclasses.replace(
+            result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0], spikes=trains
+        )
+        fg_x, fg_y, grouping = unpool_maps(*decode(window_result)[:3], w.pos | w.neg, self.pool)
+        on, off = pool_frame(w.pos, w.neg, self.pool)
+        masks = SimpleNamespace(on=on != 0, off=off != 0)
+        return fg_x, fg_y, grouping, SpikingRecord.from_result(window_result, masks, self.edges[k0], self.cells)
+
+
+def window_maps(run: ContinuousRun) -> list[Maps]:
+    """Each window's maps, decoded from the spikes counted in its read-out
+    span, with the whole run's parameters; ``timings_s["window"]`` is the
+    wall time from the previous window's decoding (the first: from the
+    run's start) to this one's, what the stream spent on the window."""
+    before = [run.t_start] + run.decoded_at[:-1]
+    return [
+        _maps_of(run, k, decoded, run.result, t1 - t0)
+        for k, (decoded, t0, t1) in enumerate(zip(run.decoded, before, run.decoded_at))
+    ]
+
+
+def _maps_of(run: ContinuousRun, k: int, decoded, result, window_s: float) -> Maps:
+    """Window ``k``'s maps from its ``decoded`` tuple, with the parameters
+    of ``result`` (the whole run's, or the bin's while it runs)."""
+    fg_x, fg_y, grouping, rec = decoded
+    k0, k1 = _bins_of(run.spans[k], run.edges)
+    simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0], "count_to_ms": run.edges[k1]}
+    params = run_provenance(run.network, run.origin, run.backend, result, rec.populations, simulation, run.t_start)
+    params["timings_s"]["window"] = window_s
+    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params, rec.arrays())

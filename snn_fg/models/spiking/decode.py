@@ -1,0 +1,73 @@
+"""Rate decoding: firing rates -> the rate model's readout (stage 9).
+
+Rates (spikes per second in the counting window) of the border-ownership
+and grouping cells fill a :class:`snn_fg.models.rate.edfg.GroupingResult`, and the
+rate model's own :func:`~snn_fg.models.rate.edfg.readout` turns it into ``fg_x``,
+``fg_y`` and the grouping map. Grouping cells on a strided lattice are first
+interpolated (bilinear) onto their level's whole grid. Populations are found
+by role, so this works for any backend and any network with the model's roles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...lowering.interp import interp_matrix
+from ...network.builder import FAMILIES
+from ...network.graph import Network
+from ..rate.edfg import GroupingResult, readout
+
+
+def _grid(network: Network, sites: dict, rates: dict, name: str) -> np.ndarray:
+    pop = network.population(name)
+    out = np.zeros(pop.size)
+    out[sites[name]] = rates[name]
+    return out.reshape(pop.shape)
+
+
+def to_level_grid(network: Network, name: str, grid: np.ndarray) -> np.ndarray:
+    """Interpolate a strided population's (channels, rows, cols) map onto its level grid."""
+    p = network.population(name)
+    if p.stride == 1:
+        return grid
+    ar = interp_matrix(p.level_shape[0], p.level_shape[0], p.stride, 1, "linear")
+    ac = interp_matrix(p.level_shape[1], p.level_shape[1], p.stride, 1, "linear")
+    # (einsum("ri,cij,sj->crs", optimize=True)'s two contractions, without its path search each call)
+    return np.tensordot(ar, np.tensordot(grid, ac, axes=([2], [1])), axes=([1], [1])).transpose(1, 0, 2)
+
+
+def grouping_result(network: Network, sites: dict, rates: dict) -> GroupingResult:
+    """A GroupingResult filled with per-cell rates (population name -> values
+    over its ``sites``), level by level."""
+    fam = {f: [] for f in FAMILIES}
+    s_l, gl_l, gd_l = [], [], []
+    for level in range(1, network.params.levels + 1):
+        for f in FAMILIES:
+            fam[f].append(_grid(network, sites, rates, network.one(f"bo_{f}", level).name))
+        s_l.append(_grid(network, sites, rates, network.one("simple", level).name))
+        for role, acc in (("group_L", gl_l), ("group_D", gd_l)):
+            name = network.one(role, level).name
+            acc.append(to_level_grid(network, name, _grid(network, sites, rates, name))[0])
+    return GroupingResult(s_l, fam["L1"], fam["L2"], fam["D1"], fam["D2"], gl_l, gd_l)
+
+
+def decode_rates(network: Network, sites: dict, rates: dict):
+    """``(fg_x, fg_y, grouping, GroupingResult)`` from per-cell rates by population."""
+    g = grouping_result(network, sites, rates)
+    fg_x, fg_y, grouping = readout(g, network.params, network.frame_shape)
+    return fg_x, fg_y, grouping, g
+
+
+def decode(result):
+    """``(fg_x, fg_y, grouping, GroupingResult)`` of a :class:`~snn_fg.backends.SimulationResult`."""
+    return decode_rates(result.network, result.sites, decoded_rates(result))
+
+
+#: the roles whose rates the read-out uses
+DECODED_ROLES = ("simple", "group_L", "group_D", *(f"bo_{f}" for f in FAMILIES))
+
+
+def decoded_rates(result) -> dict:
+    """Per-cell rates of the populations the read-out uses (the others,
+    most of a network's cells, are not needed)."""
+    return {name: result.rates(name) for role in DECODED_ROLES for name in result.of_role(role)}

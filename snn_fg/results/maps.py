@@ -1,0 +1,106 @@
+"""Decoded model output: the figure-ground vector field and the grouping map."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import validate as check
+from ..errors import InputError
+from .atomic import save_npz
+
+#: what a spiking run's grouping map is (figure labels)
+SPIKING_GROUPING_LABEL = "grouping rate (Hz, summed over levels)"
+
+
+@dataclass
+class Maps:
+    """Figure-ground field (``fg_x``, ``fg_y``; x right, y up) and grouping map.
+
+    Arrays are float32, ``(H, W)`` for one frame or ``(n_windows, H, W)`` for a
+    recording. ``params`` records every parameter used (saved as JSON).
+    ``extra`` holds further arrays saved beside them (spike counts, times...).
+    """
+
+    fg_x: np.ndarray
+    fg_y: np.ndarray
+    grouping: np.ndarray
+    params: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        shapes = {self.fg_x.shape, self.fg_y.shape, self.grouping.shape}
+        if len(shapes) != 1:
+            check.fail("Maps", None, None, f"fg_x, fg_y and grouping differ in shape: {sorted(shapes)}")
+
+    def __repr__(self) -> str:
+        """One line: what the maps cover and which model made them (the
+        parameters and extra arrays by name only; they can run to megabytes)."""
+        shape = self.fg_x.shape
+        size = f"{shape[-1]} x {shape[-2]}"
+        what = f"{shape[0]} windows of {size}" if len(shape) == 3 else size
+        model = self.params.get("model")
+        extra = ", ".join(sorted(self.extra)[:8]) + (", ..." if len(self.extra) > 8 else "")
+        return (
+            f"Maps({what}{f', model {model!r}' if model else ''}; fg_x, fg_y, grouping; "
+            f"params: {len(self.params)} entries; extra: {extra or 'none'})"
+        )
+
+    @property
+    def angle(self) -> np.ndarray:
+        """Direction towards the owning object, radians (``atan2(fg_y, fg_x)``)."""
+        return np.arctan2(self.fg_y, self.fg_x)
+
+    @property
+    def magnitude(self) -> np.ndarray:
+        return np.hypot(self.fg_x, self.fg_y)
+
+    def save(self, path) -> Path:
+        return save_npz(
+            path,
+            fg_x=self.fg_x,
+            fg_y=self.fg_y,
+            grouping=self.grouping,
+            params=np.array(json.dumps(self.params, sort_keys=True)),
+            **self.extra,
+        )
+
+    @classmethod
+    def load(cls, path) -> "Maps":
+        """Read maps saved by :meth:`save` (``maps.npz``), a recording's store
+        (``maps.zarr``, :mod:`snn_fg.results.store`: its complete windows, also while
+        a run still writes it) or a run's output folder holding either."""
+        from .store import STORE_NAME, read_maps
+
+        path = Path(path)
+        if path.is_dir() and (path / "maps.npz").is_file():
+            path = path / "maps.npz"
+        elif path.is_dir():
+            return cls(*read_maps(path / STORE_NAME if (path / STORE_NAME).is_dir() else path))
+        try:
+            with check.load_npz(path, "maps.npz or a run's output folder") as d:
+                missing = [k for k in ("fg_x", "fg_y", "grouping") if k not in d.files]
+                if missing:
+                    raise InputError(path, f"not a maps file: missing {', '.join(missing)}")
+                params = json.loads(str(d["params"])) if "params" in d.files else {}
+                extra = {k: d[k] for k in d.files if k not in ("fg_x", "fg_y", "grouping", "params")}
+                return cls(d["fg_x"], d["fg_y"], d["grouping"], params, extra)
+        except InputError:
+            raise
+        except FileNotFoundError:
+            raise InputError(path, "file not found") from None
+        except Exception as exc:  # zip/pickle/format errors from numpy
+            raise InputError(path, f"cannot read maps file ({type(exc).__name__}: {exc})") from None
+
+
+def window_part(extra: dict, key: str, window: int) -> np.ndarray:
+    """Window ``window``'s part of a per-window array of a recording's Maps:
+    a slice of a ragged array (``key`` with ``key_offsets``, see
+    :mod:`snn_fg.results.store`) or one row of a stacked one."""
+    if f"{key}_offsets" in extra:  # (only that part is read from a store's lazy arrays)
+        off = extra[f"{key}_offsets"]
+        return np.asarray(extra[key][int(off[window]) : int(off[window + 1])])
+    return np.asarray(extra[key][window])

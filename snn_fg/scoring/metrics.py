@@ -1,0 +1,247 @@
+"""Comparisons between maps, and scores against ground truth.
+
+Figure-ground maps are compared only where they say something: on *vector
+pixels*. Angle differences are circular (``|a - b|`` folded into
+[0, 180] degrees) and taken on the pixels where both maps have a vector: their
+mean, median and the fraction within 45 degrees (a median of quantised
+angles alone can read 0 while a third of the pixels are wrong). ``angle_mse``
+is the mean of ``(difference / 180)**2`` on those pixels (0 = equal,
+1 = opposite everywhere). ``angle_ssim`` is the SSIM (11 x 11 window) of the
+angle maps (``atan2(fg_y, fg_x)`` in turns, 0 off the vectors), averaged over
+the pixels where either map has a vector, not over the empty background.
+Since those figures are over the shared pixels only, ``coverage_of_b`` gives
+the fraction of ``b``'s vectors that ``a`` has at all, and
+``within_45_of_b`` the fraction it has within 45 degrees: a map that leaves
+the hard pixels blank cannot look good on them.
+Grouping maps are dense and compared whole: Pearson r, and SSIM after scaling
+each map by its own maximum (the spiking model's grouping is in Hz, the rate
+model's in its own units).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from skimage.metrics import structural_similarity
+
+from .. import validate as check
+from ..results.maps import Maps
+
+
+def angle_difference_deg(ax, ay, bx, by) -> np.ndarray:
+    """Absolute circular difference between two direction fields, degrees (float64)."""
+    f = lambda v: np.asarray(v, dtype=np.float64)  # noqa: E731 - float32 maps lose 1e-5 deg here
+    d = np.arctan2(f(ay), f(ax)) - np.arctan2(f(by), f(bx))
+    return np.abs(np.degrees(np.angle(np.exp(1j * d))))
+
+
+def angle_map(fg_x, fg_y) -> np.ndarray:
+    nz = np.hypot(fg_x, fg_y) > 0
+    a = (np.degrees(np.arctan2(fg_y, fg_x)) % 360.0) / 360.0
+    return np.where(nz, a, 0.0)
+
+
+def _ssim(a, b, where=None):
+    """SSIM (11 x 11 window), averaged over the pixels ``where`` (default: all)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    rng = max(float(np.ptp(a)), float(np.ptp(b)), 1e-12)
+    if min(a.shape) < 11 or (where is not None and not where.any()):
+        return float("nan")
+    mean, full = structural_similarity(a, b, win_size=11, data_range=rng, full=True)
+    return float(mean if where is None else full[where].mean())
+
+
+def _unit(a):
+    a = np.asarray(a, dtype=np.float64)
+    peak = np.abs(a).max() if a.size else 0.0
+    return a / peak if peak > 0 else a
+
+
+def pearson(a, b) -> float:
+    a = np.asarray(a, dtype=np.float64).ravel()
+    b = np.asarray(b, dtype=np.float64).ravel()
+    if a.std() == 0 or b.std() == 0:
+        return float("nan")
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+def compare_frame(ax, ay, ag, bx, by, bg) -> dict:
+    """Metrics between two single-frame maps (see the module docstring)."""
+    has_a, has_b = np.hypot(ax, ay) > 0, np.hypot(bx, by) > 0
+    both = has_a & has_b
+    diff = angle_difference_deg(ax, ay, bx, by)[both]
+    nan = float("nan")
+    return {
+        "pixels_compared": int(both.sum()),
+        "pixels_a": int(has_a.sum()),
+        "pixels_b": int(has_b.sum()),
+        "angle_diff_mean_deg": float(np.mean(diff)) if diff.size else nan,
+        "angle_diff_median_deg": float(np.median(diff)) if diff.size else nan,
+        "angle_within_45_frac": float(np.mean(diff <= 45)) if diff.size else nan,
+        "coverage_of_b": float(both.sum() / has_b.sum()) if has_b.any() else nan,
+        "within_45_of_b": float(np.sum(diff <= 45) / has_b.sum()) if has_b.any() else nan,
+        "angle_mse": float(np.mean((diff / 180.0) ** 2)) if diff.size else nan,
+        "angle_ssim": _ssim(angle_map(ax, ay), angle_map(bx, by), has_a | has_b),
+        "grouping_pearson_r": pearson(ag, bg),
+        "grouping_ssim": _ssim(_unit(ag), _unit(bg)),
+    }
+
+
+def agreement(a, b) -> dict:
+    """The four numbers an experiment table gives for maps ``a`` against
+    maps ``b`` (each ``(fg_x, fg_y, grouping)`` or an object with those
+    attributes): mean absolute angle difference and fraction within 45 deg
+    on the pixels where both have a vector, grouping Pearson r, and the
+    fraction of ``b``'s vectors that ``a`` has at all (``coverage``)."""
+    a, b = (m if isinstance(m, tuple) else (m.fg_x, m.fg_y, m.grouping) for m in (a, b))
+    c = compare_frame(*a, *b)
+    return {
+        "mean_deg": c["angle_diff_mean_deg"],
+        "within_45": c["angle_within_45_frac"],
+        "grouping_r": c["grouping_pearson_r"],
+        "coverage": c["coverage_of_b"],
+    }
+
+
+def _windows(m: Maps):
+    """(index, start time in us or None) of each window of ``m`` (one frame: one window)."""
+    if m.fg_x.ndim == 2:
+        return [(None, None)]
+    t = m.extra.get("t_start_us")
+    return [(i, None if t is None else int(t[i])) for i in range(m.fg_x.shape[0])]
+
+
+def frame_of(m: Maps, i):
+    """``(fg_x, fg_y, grouping)`` of window ``i`` of ``m`` (``None``: ``m`` is one frame)."""
+    return (m.fg_x, m.fg_y, m.grouping) if i is None else (m.fg_x[i], m.fg_y[i], m.grouping[i])
+
+
+def _window_pairs(wa, wb, window):
+    """The ``((index, start), (index, start))`` pairs of windows ``wa``, ``wb`` that :func:`compare_maps` compares."""
+    if window is not None:
+        for w in (wa, wb):
+            if len(w) > 1 and not 0 <= window < len(w):
+                check.fail("compare_maps", "window", window, f"is not among the {len(w)} windows of a map")
+        wa, wb = ([w[window]] if len(w) > 1 else w for w in (wa, wb))
+    if window is None and all(t is not None for _, t in wa + wb):
+        starts = {t: i for i, t in wb}
+        pairs = [((i, t), (starts[t], t)) for i, t in wa if t in starts]
+    elif len(wa) == 1 or len(wb) == 1:
+        pairs = [(x, y) for x in wa for y in wb]
+    elif len(wa) == len(wb):
+        pairs = list(zip(wa, wb))
+    else:
+        check.fail(
+            "compare_maps",
+            None,
+            None,
+            f"the maps hold {len(wa)} and {len(wb)} windows and no start times to pair them by; pick one with window=",
+        )
+    if not pairs:
+        check.fail("compare_maps", None, None, "the two recordings share no window start time")
+    return pairs
+
+
+def compare_maps(a: Maps, b: Maps, window: int | None = None, where=None) -> list[dict]:
+    """Compare two Maps; one dict per compared pair of windows.
+
+    Parameters
+    ----------
+    a, b : Maps
+        One frame each, or one map per window of a recording.
+    window : int, optional
+        Compare only this window of each map that has several.
+    where : callable, optional
+        ``where(window_a, window_b)``: the pixels whose vectors are compared
+        (a boolean map), e.g. the outline of the window's event region
+        (:func:`snn_fg.scoring.outline.event_outlines`). The grouping metrics stay on
+        the whole map.
+
+    Returns
+    -------
+    list of dict
+        Per pair: ``window_a``, ``window_b``, ``t_start_ms`` and the metrics
+        of :func:`compare_frame` (see the module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from snn_fg.results.maps import Maps
+    >>> fx = np.zeros((16, 16), np.float32); fx[8, 2:14] = 1
+    >>> a = Maps(fx, 0 * fx, fx.copy())
+    >>> b = Maps(-fx, 0 * fx, fx.copy())          # the same edge, owned by the other side
+    >>> row, = compare_maps(a, b)
+    >>> row["pixels_compared"], row["angle_diff_mean_deg"], row["angle_within_45_frac"]
+    (12, 180.0, 0.0)
+
+    Two recordings are paired by window start time (in the recording's own
+    clock) when both store it, keeping the windows both have; otherwise a
+    single frame or a one-window recording is compared with every window of
+    the other, and equal numbers of windows are paired index by index.
+    ``window`` picks that window of each map that has more than one, and
+    compares them whatever their start times. Every
+    row says which windows it compared (``window_a``, ``window_b``,
+    ``t_start_ms``).
+    """
+    if a.fg_x.shape[-2:] != b.fg_x.shape[-2:]:
+        check.fail("compare_maps", None, None, f"frames differ in size: {a.fg_x.shape[-2:]} vs {b.fg_x.shape[-2:]}")
+    pairs = _window_pairs(_windows(a), _windows(b), window)
+    rows = []
+    for (ia, ta), (ib, tb) in pairs:
+        t = ta if ta is not None else tb
+        (ax, ay, ag), (bx, by, bg) = frame_of(a, ia), frame_of(b, ib)
+        if where is not None:
+            keep = where(ia, ib)
+            ax, ay, bx, by = (np.where(keep, v, 0) for v in (ax, ay, bx, by))
+        rows.append(
+            {
+                "window_a": ia,
+                "window_b": ib,
+                "t_start_ms": None if t is None else t / 1000.0,
+                **compare_frame(ax, ay, ag, bx, by, bg),
+            }
+        )
+    return rows
+
+
+def truth_errors(fg_x, fg_y, scene) -> np.ndarray:
+    """Angle (deg) between each scored pixel's vector and the analytic
+    direction: the boundary pixels where the model has a vector; NaN
+    elsewhere."""
+    m = scene.boundary & (np.hypot(fg_x, fg_y) > 0)
+    err = np.full(np.shape(fg_x), np.nan)
+    err[m] = angle_difference_deg(fg_x[m], fg_y[m], scene.truth_x[m], scene.truth_y[m])
+    return err
+
+
+def truth_scores(fg_x, fg_y, scene) -> dict:
+    """Figure-ground direction against a scene's analytic ground truth.
+
+    Scored on boundary pixels where the model vector is non-zero; ``coverage``
+    is the fraction of boundary pixels that have a model vector at all.
+    """
+    b = scene.boundary
+    err_map = truth_errors(fg_x, fg_y, scene)
+    m = np.isfinite(err_map)
+    err = err_map[m]
+    return {
+        "boundary_pixels": int(b.sum()),
+        "scored_pixels": int(m.sum()),
+        "coverage": float(m.sum() / max(b.sum(), 1)),
+        "frac_within_45": float(np.mean(err <= 45)) if err.size else float("nan"),
+        "median_err_deg": float(np.median(err)) if err.size else float("nan"),
+        "mean_err_deg": float(np.mean(err)) if err.size else float("nan"),
+    }
+
+
+def grouping_peak(grouping) -> tuple[int, int]:
+    """(row, col) of the grouping maximum."""
+    return tuple(int(v) for v in np.unravel_index(np.argmax(grouping), grouping.shape))
+
+
+def grouping_peak_inside(grouping, scene, shape_index: int | None = 0) -> bool:
+    """Whether the grouping maximum lies inside ``scene.shapes[shape_index]``
+    (inside any of the scene's shapes with ``shape_index=None``)."""
+    r, c = grouping_peak(grouping)
+    shapes = scene.shapes if shape_index is None else (scene.shapes[shape_index],)
+    return any(s.contains(float(r), float(c)) for s in shapes)

@@ -117,7 +117,7 @@ def cmd_compare(args) -> int:
         save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
         print(f"snn-fg: metrics saved to {args.json}")
     if args.plot:
-        from .results.figures import save_compare_figure
+        from .scoring.compare_figure import save_compare_figure
 
         names = tuple(f"{k} ({_run_name(f)})" for k, f in (("A", args.a), ("B", args.b)))
         save_compare_figure(args.plot, a, b, rows, names=names, where=where)

@@ -88,7 +88,7 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
 
 
 def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypatch):
-    import snn_fg.results.figures as figures
+    import snn_fg.scoring.compare_figure as figures
 
     for name in ("run-a", "run-b"):
         z = np.zeros((4, 5), np.float32)
@@ -113,7 +113,7 @@ def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypa
 
 
 def test_the_compare_figure_draws_both_maps_and_their_angle_difference():
-    from snn_fg.results.figures import compare_figure
+    from snn_fg.scoring.compare_figure import compare_figure
     from snn_fg.scoring.metrics import compare_maps
 
     fx = np.zeros((3, 30, 40), np.float32)
@@ -176,7 +176,7 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
 def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken():
     """The figure of ``compare --outline`` shows the angle difference on the
     outline band only, as its numbers were taken, and says so."""
-    from snn_fg.results.figures import compare_figure
+    from snn_fg.scoring.compare_figure import compare_figure
     from snn_fg.scoring.metrics import compare_maps
     from snn_fg.scoring.outline import event_outlines, outline_band
 

@@ -75,9 +75,9 @@ def test_a_crop_draws_that_part_at_its_own_coordinates(tmp_path):
 
 
 def test_the_raster_explains_every_role_and_why_feedback_cells_fire_at_2_khz():
+    from snn_fg.models.spiking.figures import raster_figure
     from snn_fg.models.spiking.record import SpikingRecord
     from snn_fg.network.roles import ROLE_ORDER
-    from snn_fg.results.figures import raster_figure
 
     record = SpikingRecord(
         names=[],

@@ -332,7 +332,7 @@ class SpikingModel(Model):
         written = super().write_figures(out, maps, inputs, titles, crop)
         if maps.fg_x.ndim == 3 and not self.save_spikes:
             return written
-        from ..results.figures import save_spiking_figures
+        from .spiking.figures import save_spiking_figures
 
         return written + save_spiking_figures(maps, out, with_maps=False)
 

@@ -1,5 +1,7 @@
-"""Figures people look at: the maps (input, figure-ground, grouping), and for
-the spiking model a spike raster and firing-rate histograms.
+"""Figures people look at: the maps (input, figure-ground, grouping), one row
+per frame or window, with the colour key their panels share (the figures of
+two maps compared are :mod:`snn_fg.scoring.compare_figure`'s, the spiking
+model's raster and rate histograms :mod:`snn_fg.models.spiking.figures`').
 
 Every figure is drawn on its own :class:`matplotlib.figure.Figure` (no
 pyplot state, no backend switching), so these functions work the same in a
@@ -16,11 +18,9 @@ from pathlib import Path
 import matplotlib.colors as mcolors
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.ticker import NullLocator
 
 from ..validate import check_crop
 from .atomic import save_figure
-from .maps import SPIKING_GROUPING_LABEL
 
 GROUPING_CMAP = "magma"
 #: darkest brightness of a non-zero figure-ground vector (0: invisible)
@@ -51,7 +51,7 @@ def event_frame_rgb(pos, neg) -> np.ndarray:
     return img
 
 
-def _wheel_inset(ax):
+def wheel_inset(ax):
     """Colour wheel with its directions labelled, and the brightness convention:
     outside the axes, right of their top right corner, so that it hides no data
     (``tight_layout`` makes room for it)."""
@@ -118,7 +118,7 @@ def plot_maps_row(
     a1.set_title(
         "figure-ground: hue = direction to the owner,\nbrightness = strength (wheel: 0° right, 90° up)", fontsize=8
     )
-    _wheel_inset(a1)
+    wheel_inset(a1)
     a2.set_title("grouping: no activity" if silent else "grouping (proto-object centres are bright)", fontsize=9)
     bar.set_label(grouping_label, fontsize=8)
     for a in axes:
@@ -126,7 +126,7 @@ def plot_maps_row(
     a0.set_ylabel("y (px, rows down)", fontsize=7)
 
 
-def _panel_width(aspect: float) -> float:
+def panel_width(aspect: float) -> float:
     """Width (inches) of a map panel of ``aspect`` = width / height; very wide frames are capped."""
     return min(PANEL_IN * max(aspect, 0.6), 1.8 * PANEL_IN)
 
@@ -184,7 +184,7 @@ def maps_figure(
     idx = rows_shown(n, max_rows)
     note = shown_note(idx, n)
     aspect = (x1 - x0) / (y1 - y0)  # (the same for a placed frame: its pixels are square)
-    panel_w = _panel_width(aspect)
+    panel_w = panel_width(aspect)
     row_h = min(PANEL_IN, max(panel_w / aspect + 0.9, 1.8))  # (0.9 in: titles and tick labels)
     note_in = 0.45 if note else 0.0  # (a strip of its own at the top, whatever the figure's height)
     height = row_h * len(idx) + 0.3 + note_in
@@ -209,175 +209,3 @@ def maps_figure(
 def save_maps_figure(path, inputs, fg_x, fg_y, grouping, **options) -> Path:
     """Write :func:`maps_figure` to ``path`` (atomically); ``options``: its keywords."""
     return save_figure(maps_figure(inputs, fg_x, fg_y, grouping, **options), path, dpi=110)
-
-
-def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) -> Figure:
-    """Two maps side by side and how they differ: per compared pair of
-    windows (``rows`` of :func:`~snn_fg.scoring.metrics.compare_maps`) the
-    figure-ground map of each and the angle between them where both have a
-    vector (grey: only one has a vector). ``where`` (as ``compare_maps``
-    takes it: ``(window_a, window_b) ->`` the pixels compared): the
-    difference is drawn on those pixels only, as its numbers were taken,
-    the rest of the frame pale."""
-    from ..scoring.metrics import angle_difference_deg, frame_of
-
-    idx = rows_shown(len(rows), max_rows)
-    h, w = np.shape(a.fg_x)[-2:]
-    panel_w = _panel_width(w / h)
-    fig = Figure(figsize=(3 * panel_w + 2.4, PANEL_IN * len(idx) + 0.6), layout="constrained")
-    axes = fig.subplots(len(idx), 3, squeeze=False)
-    for ax, i in zip(axes, idx):
-        r = rows[i]
-        (ax_, ay_, _), (bx, by, _) = frame_of(a, r["window_a"]), frame_of(b, r["window_b"])
-        when = "" if r["t_start_ms"] is None else f", {r['t_start_ms']:g} ms"
-        sides = ((names[0], r["window_a"], ax_, ay_), (names[1], r["window_b"], bx, by))
-        for panel, (name, win, fx, fy) in zip(ax, sides):
-            panel.imshow(fg_rgb(fx, fy), interpolation="nearest")
-            panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when, fontsize=9)
-        inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
-        has_a, has_b = (np.hypot(ax_, ay_) > 0) & inside, (np.hypot(bx, by) > 0) & inside
-        diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
-        ax[2].imshow(
-            np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92)),
-            cmap="gray",
-            vmin=0,
-            vmax=1,
-            interpolation="nearest",
-        )
-        im = ax[2].imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
-        bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
-        bar.set_label("angle difference (deg)", fontsize=8)
-        ax[2].set_title(
-            f"difference{'' if where is None else ' on the compared pixels'}: mean "
-            f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45° (grey: one map "
-            f"only{'' if where is None else '; pale: not compared'})",
-            fontsize=8,
-        )
-        for x in ax:
-            x.tick_params(labelsize=7)
-    _wheel_inset(axes[0][1])
-    note = shown_note(idx, len(rows), "compared windows", [f"A {r['window_a']}" for r in rows])
-    fig.suptitle(f"{names[0]} vs {names[1]}" + (f"; {note}" if note else ""), fontsize=9)
-    return fig
-
-
-def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) -> Path:
-    """Write :func:`compare_figure` to ``path`` (atomically)."""
-    return save_figure(compare_figure(a, b, rows, names, max_rows, where), path, dpi=110)
-
-
-def raster_figure(record, window: int | None = None) -> Figure:
-    """Spike raster of a :class:`~snn_fg.models.spiking.record.SpikingRecord`'s sample."""
-    from ..models.spiking.record import RASTER_CELLS_PER_ROLE
-    from ..network.roles import ROLE_ORDER
-
-    where = "" if window is None else f" (window {window})"
-    fig = Figure(figsize=(10, 8.6), layout="constrained")
-    ax = fig.subplots()
-    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))  # below: what the roles are
-    fig.text(0.01, 0.15, role_caption(), fontsize=7, va="top")
-    raster = record.raster
-    if raster is not None and raster.row.size:
-        cmap = mcolors.ListedColormap([f"C{i % 10}" for i in range(len(ROLE_ORDER))])
-        for ri in np.unique(raster.role):
-            m = raster.role == ri
-            ax.scatter(raster.t_ms[m], raster.row[m], s=2, color=cmap(int(ri)), marker="|")
-            ax.text(
-                1.01,
-                float(np.median(raster.row[m])),
-                ROLE_ORDER[int(ri)],
-                transform=ax.get_yaxis_transform(),
-                fontsize=7,
-                va="center",
-            )
-        ax.set_ylim(raster.row.max() + 1, -1)
-    else:
-        ax.text(
-            0.5,
-            0.5,
-            "spike times were not recorded (record_spikes=False) or no cell fired",
-            ha="center",
-            transform=ax.transAxes,
-        )
-    ax.axvline(record.settle_ms, color="k", lw=0.8, ls="--")
-    ax.set_xlim(0, record.duration_ms)
-    ax.set_xlabel("time (ms); dashed: spikes after this are counted")
-    ax.set_ylabel(f"sampled cells (up to {RASTER_CELLS_PER_ROLE} per role, level 1 first)")
-    ax.set_title(f"Spike raster by population role{where}")
-    return fig
-
-
-def role_caption(width: int = 170) -> str:
-    """What each population role's cells do, one line per family of roles."""
-    import textwrap
-
-    from ..network.roles import ROLE_MEANINGS
-
-    return "\n".join(
-        textwrap.fill(f"{', '.join(roles)}: {meaning}", width, subsequent_indent="    ")
-        for roles, meaning in ROLE_MEANINGS
-    )
-
-
-def rate_histogram_figure(record, window: int | None = None) -> Figure:
-    """Firing-rate histograms per population role (all levels pooled)."""
-    from ..network.roles import ROLE_ORDER
-
-    where = "" if window is None else f" (window {window})"
-    by_role: dict = {}
-    for name in record.names:
-        by_role.setdefault(record.populations[name]["role"], []).append(record.all_rates(name))
-    roles = [r for r in ROLE_ORDER if r in by_role]
-    ncol = 4
-    nrow = max(1, -(-len(roles) // ncol))
-    fig = Figure(figsize=(12, 2.4 * nrow + 0.5))
-    axes = fig.subplots(nrow, ncol, squeeze=False)
-    for ax, role in zip(axes.ravel(), roles):
-        r = np.concatenate(by_role[role])
-        counts, edges = np.histogram(r, bins=40)
-        ax.stairs(counts, edges, fill=True, color="C0")
-        ax.set_yscale("log")
-        # (no minor ticks: over six decades of cells they made this figure take 5 s to draw)
-        ax.yaxis.set_minor_locator(NullLocator())
-        ax.set_title(f"{role}: mean {r.mean():.1f} Hz, {100 * (r > 0).mean():.0f}% active", fontsize=8)
-        ax.tick_params(labelsize=7)
-        ax.set_xlabel("rate (Hz)", fontsize=7)
-        ax.set_ylabel("cells", fontsize=7)
-    for ax in axes.ravel()[len(roles) :]:
-        ax.axis("off")
-    fig.suptitle(f"Firing rates per population role, counting window of {record.count_window_ms:g} ms{where}")
-    fig.tight_layout()
-    return fig
-
-
-def save_spiking_figures(maps, out_dir, window: int | None = None, with_maps: bool = True) -> list[Path]:
-    """Write ``maps.png``, ``spike_raster.png`` and ``rate_histograms.png`` of a
-    spiking run's :class:`~snn_fg.results.maps.Maps` (or a saved one loaded with
-    ``Maps.load``) into ``out_dir``. For a recording's maps the figures show
-    one window (default: the one with the most spikes). ``with_maps=False``
-    leaves ``maps.png`` out (for a caller that drew its own)."""
-    from ..models.spiking.record import SpikingRecord
-
-    maps = getattr(maps, "maps", maps)  # a SpikingResult is accepted too
-    record, window = SpikingRecord.from_maps(maps, window)
-    out = Path(out_dir)
-    pick = (lambda a: a) if window is None else (lambda a: a[window])
-    title = "" if window is None else f"(window {window})"
-    written = (
-        [
-            save_maps_figure(
-                out / "maps.png",
-                event_frame_rgb(record.input_on, record.input_off),
-                pick(maps.fg_x),
-                pick(maps.fg_y),
-                pick(maps.grouping),
-                titles=[title],
-                grouping_label=SPIKING_GROUPING_LABEL,
-            )
-        ]
-        if with_maps
-        else []
-    )
-    written.append(save_figure(raster_figure(record, window), out / "spike_raster.png", dpi=120))
-    written.append(save_figure(rate_histogram_figure(record, window), out / "rate_histograms.png", dpi=110))
-    return written

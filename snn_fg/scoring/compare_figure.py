@@ -1,0 +1,66 @@
+"""The figure of two maps compared (``snn-fg compare --plot``): per compared
+pair of windows, the figure-ground map of each and the angle between them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ..results.atomic import save_figure
+from ..results.figures import PANEL_IN, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
+from .metrics import angle_difference_deg, frame_of
+
+
+def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) -> Figure:
+    """Two maps side by side and how they differ: per compared pair of
+    windows (``rows`` of :func:`~snn_fg.scoring.metrics.compare_maps`) the
+    figure-ground map of each and the angle between them where both have a
+    vector (grey: only one has a vector). ``where`` (as ``compare_maps``
+    takes it: ``(window_a, window_b) ->`` the pixels compared): the
+    difference is drawn on those pixels only, as its numbers were taken,
+    the rest of the frame pale."""
+    idx = rows_shown(len(rows), max_rows)
+    h, w = np.shape(a.fg_x)[-2:]
+    panel_w = panel_width(w / h)
+    fig = Figure(figsize=(3 * panel_w + 2.4, PANEL_IN * len(idx) + 0.6), layout="constrained")
+    axes = fig.subplots(len(idx), 3, squeeze=False)
+    for ax, i in zip(axes, idx):
+        r = rows[i]
+        (ax_, ay_, _), (bx, by, _) = frame_of(a, r["window_a"]), frame_of(b, r["window_b"])
+        when = "" if r["t_start_ms"] is None else f", {r['t_start_ms']:g} ms"
+        sides = ((names[0], r["window_a"], ax_, ay_), (names[1], r["window_b"], bx, by))
+        for panel, (name, win, fx, fy) in zip(ax, sides):
+            panel.imshow(fg_rgb(fx, fy), interpolation="nearest")
+            panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when, fontsize=9)
+        inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
+        has_a, has_b = (np.hypot(ax_, ay_) > 0) & inside, (np.hypot(bx, by) > 0) & inside
+        diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
+        ax[2].imshow(
+            np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92)),
+            cmap="gray",
+            vmin=0,
+            vmax=1,
+            interpolation="nearest",
+        )
+        im = ax[2].imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
+        bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
+        bar.set_label("angle difference (deg)", fontsize=8)
+        ax[2].set_title(
+            f"difference{'' if where is None else ' on the compared pixels'}: mean "
+            f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45° (grey: one map "
+            f"only{'' if where is None else '; pale: not compared'})",
+            fontsize=8,
+        )
+        for x in ax:
+            x.tick_params(labelsize=7)
+    wheel_inset(axes[0][1])
+    note = shown_note(idx, len(rows), "compared windows", [f"A {r['window_a']}" for r in rows])
+    fig.suptitle(f"{names[0]} vs {names[1]}" + (f"; {note}" if note else ""), fontsize=9)
+    return fig
+
+
+def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) -> Path:
+    """Write :func:`compare_figure` to ``path`` (atomically)."""
+    return save_figure(compare_figure(a, b, rows, names, max_rows, where), path, dpi=110)

@@ -8,10 +8,6 @@ line and exits non-zero; nothing else should escape to the user.
 
 from __future__ import annotations
 
-import contextlib
-import sys
-import warnings
-
 
 class SnnFgError(Exception):
     """Base class of every error this package raises on purpose."""
@@ -40,8 +36,8 @@ class InputError(SnnFgError, ValueError):
 
 class InputWarning(UserWarning):
     """Input that can be read but looks wrong (a file cut short at an event
-    boundary, say); the message names the file. The CLI prints it as one
-    ``snn-fg: warning:`` line."""
+    boundary, say); the message names the file. The command line prints it as
+    one ``snn-fg: warning:`` line (:func:`snn_fg.cli.main.warnings_as_lines`)."""
 
 
 class ParameterError(SnnFgError, ValueError):
@@ -53,20 +49,3 @@ def install_hint(extra: str) -> str:
     folder (the README's setup), not from a package index, so the extra is
     named the way ``pip`` finds it there."""
     return f'pip install -e ".[{extra}]" in the snn-fg folder'
-
-
-@contextlib.contextmanager
-def warnings_as_lines():
-    """While a command runs, an :class:`InputWarning` is one
-    ``snn-fg: warning:`` line (not Python's file:line form); others as usual."""
-    with warnings.catch_warnings():
-        shown = warnings.showwarning
-
-        def show(message, category, *rest, **kw):
-            if issubclass(category, InputWarning):
-                print(f"snn-fg: warning: {message}", file=sys.stderr)
-            else:
-                shown(message, category, *rest, **kw)
-
-        warnings.showwarning = show
-        yield

@@ -7,8 +7,8 @@ import csv
 import numpy as np
 import pytest
 
-from snn_fg.batch import output_names, recordings_of
 from snn_fg.cli import main
+from snn_fg.cli.batch import output_names, recordings_of
 from snn_fg.results.maps import Maps
 
 

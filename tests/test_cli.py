@@ -491,10 +491,10 @@ def test_a_recording_whose_windows_give_no_vector_says_so(tmp_path, capsys):
     """A window with events but an empty figure-ground map (here a stand-in
     model that returns empty maps) is counted and reported in one line; a
     model that finds the disc's outline draws no such line."""
+    from snn_fg.cli.runner import run_recording
     from snn_fg.events import image_to_events, iter_windows
     from snn_fg.frames.scenes import disc
     from snn_fg.models.interface import RateModel
-    from snn_fg.runner import run_recording
 
     class Blank(RateModel):
         def run_window(self, window):

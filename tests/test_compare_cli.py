@@ -198,7 +198,7 @@ def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken
 def test_a_map_without_any_vector_is_named_under_the_table():
     """A window where one map has no vector compares nothing (nan in the
     angle columns); the table says which map is empty, in which windows."""
-    from snn_fg.compare_cli import compare_table
+    from snn_fg.cli.compare import compare_table
     from snn_fg.scoring.metrics import compare_maps
 
     fx = np.zeros((2, 20, 20), np.float32)

@@ -11,12 +11,12 @@ import argparse
 import numpy as np
 import pytest
 
+from snn_fg.cli.events import add_events_command
 from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, iter_recording, open_recording
 from snn_fg.events.eventstream import iter_atis, read_header
 from snn_fg.events.source import DecodeTally
 from snn_fg.events.writers import encode_es_atis
-from snn_fg.events_cli import add_events_command
 
 W, H = 304, 240
 HEADER = b"Event Stream" + bytes([2, 0, 0, 2]) + W.to_bytes(2, "little") + H.to_bytes(2, "little")

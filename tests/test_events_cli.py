@@ -6,9 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
+from snn_fg.cli.events import add_events_command
 from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, events_to_frame, image_to_frame, open_recording, save_events
-from snn_fg.events_cli import add_events_command
 
 
 def run(argv):

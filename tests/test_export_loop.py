@@ -249,7 +249,7 @@ def test_the_recorded_export_command_gives_back_every_option_but_the_rate_and_fo
     import shlex
 
     from snn_fg.cli import build_parser
-    from snn_fg.export.cli import export_command
+    from snn_fg.cli.export import export_command
 
     argv = [
         "export",

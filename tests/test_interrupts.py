@@ -143,7 +143,8 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_ne
     """The run goes on after the swallowed interrupt (and stops at the next
     window), or fails because of it (and the interrupt is reported, not the
     error)."""
-    from snn_fg import cli, runner
+    from snn_fg import cli
+    from snn_fg.cli import runner
 
     appended = []
     real_append = runner.MapsStore.append

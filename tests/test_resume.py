@@ -21,7 +21,7 @@ def recording():
 
 
 def _run(rec, out, **kw):
-    from snn_fg.runner import run_recording
+    from snn_fg.cli.runner import run_recording
 
     model = get_model("spiking", ModelParams(levels=3), readout_lag_ms=10.0)
     windows = iter_windows(rec, window_ms=40, max_windows=5)
@@ -30,8 +30,8 @@ def _run(rec, out, **kw):
 
 @pytest.mark.slow
 def test_a_cut_spiking_run_keeps_its_windows_and_resume_gives_the_uncut_maps(recording, tmp_path, monkeypatch):
-    from snn_fg import runner
     from snn_fg.backends.fast.run import Run
+    from snn_fg.cli import runner
 
     simulating = []
     real_simulate = Run.simulate

@@ -7,7 +7,12 @@
   also runs, with the network's tables);
 * :mod:`.nir` - ``--format nir``: a NIR graph, and the reader back into a Network;
 * :mod:`.report` - ``--format report``: neurons, synapses, delays, weights and
-  the hardware each target needs (:mod:`.hardware` holds the documented limits).
+  the hardware each target needs (:mod:`.hardware` holds the documented limits);
+* :mod:`.loop` - both ends of a board run: where the export's frame is cut from an
+  input, and maps from ``run.py``'s counts.
+
+The commands over them (``snn-fg export``, ``snn-fg decode``, ``snn-fg events
+--write-spikes``) are in :mod:`snn_fg.cli`.
 
 Weights are quantised by :mod:`snn_fg.lowering.quantise`.
 

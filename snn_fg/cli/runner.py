@@ -12,13 +12,16 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
-from . import cancel
-from .errors import InputError
-from .frames.still import Still
-from .models import Model
-from .results.maps import Maps
-from .results.store import STORE_NAME, MapsStore, read_maps, store_arrays
+from .. import cancel
+from ..errors import InputError
+from ..events import EmptyWindowWarning, RecordingWindows, iter_recording
+from ..events.activity import Activity, pixel_share, saturated_lines
+from ..frames.still import Still
+from ..models import Model
+from ..results.maps import Maps
+from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
 
 #: events read at a time from a recording a model runs on (1.6 MB): the
 #: spiking model reads the recording while the network runs, and the copies
@@ -33,8 +36,6 @@ def recording_windows(path, *, sensor_size=None, window_options: dict, progress:
     """The windows of the recording ``path`` as ``snn-fg run`` reads them
     (85 ms unless ``window_options`` say otherwise; read again on every
     iteration, with a progress bar on each reading), and its sensor size."""
-    from .events import RecordingWindows, iter_recording
-
     stream = iter_recording(path, sensor_size=sensor_size, chunk_events=RUN_CHUNK_EVENTS)
     windows = RecordingWindows(stream, **{"window_ms": 85.0, **window_options}, chunk_events=RUN_CHUNK_EVENTS)
     if progress:
@@ -55,8 +56,6 @@ class _Counted:
 def _counted(windows, total):
     """``windows`` with a progress bar that appears once the first window is read
     (a file refused on reading shows no empty bar before its error line)."""
-    from tqdm import tqdm
-
     it = iter(windows)
     first = next(it, None)
     if first is None:
@@ -93,7 +92,7 @@ class _LazyFrames:
 
 
 def model_input_rgb(frame):
-    from .results.figures import event_frame_rgb
+    from ..results.figures import event_frame_rgb  # (matplotlib: only for runs that draw)
 
     return event_frame_rgb(frame > 0, frame < 0)
 
@@ -126,8 +125,6 @@ def run_recording(
     pixels with an event is recorded (``pixel_share``), and a window above
     :data:`~snn_fg.events.activity.SATURATED_SHARE` is warned about and
     listed (``saturated_windows``)."""
-    from .events import EmptyWindowWarning
-
     path = out / STORE_NAME
     run_key = {"source": source, "model": model.name, **model.params.to_dict()} if run_key is None else run_key
     store = MapsStore.reopen(path, run_key) if resume and path.is_dir() else MapsStore.create(path, run_key)
@@ -179,8 +176,6 @@ def run_recording(
 def _append_window(store: MapsStore, w, maps: Maps) -> None:
     """One window's maps into the store, with its event frame (+1 ON, -1 OFF),
     times (from the recording's first event), event count and pixel share."""
-    from .events.activity import pixel_share
-
     origin = store.attrs["snn_fg"].get("first_event_us")
     if origin is None:
         origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
@@ -199,8 +194,6 @@ def _source_summary(store: MapsStore, source: dict) -> dict:
     """``params["source"]`` of a finished recording: ``source``, the first
     event's time, every window's pixel share and the saturated windows (each
     warned about)."""
-    from .events.activity import Activity, saturated_lines
-
     arrays = store_arrays(store.path, store.n)
     t0, t1 = (np.asarray(arrays[k]) for k in ("t_start_us", "t_end_us"))
     shares = np.asarray(arrays["pixel_share"])

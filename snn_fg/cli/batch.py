@@ -14,15 +14,23 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import functools
 import glob
 import io
+import multiprocessing
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import as_completed as done
 from pathlib import Path
 
-from .errors import InputError, SnnFgError, install_hint
-from .events.io import SUFFIX_FORMAT
-from .models.cores import usable_cores
+from tqdm import tqdm
+
+from ..errors import InputError, SnnFgError, install_hint
+from ..events.io import SUFFIX_FORMAT
+from ..models.cores import usable_cores
+from ..results.atomic import save_text
+from ..results.store import STORE_NAME, read_attrs, windows_complete
 
 #: the summary table's name in the output folder, and its columns
 SUMMARY_NAME = "summary.csv"
@@ -75,8 +83,6 @@ def run_job(options: dict, command) -> dict:
     """One recording: ``command`` (``snn-fg run``'s handler) with ``options``
     (``input``, ``out`` and the rest); a row of the summary, whatever happens
     (an interrupt ends the job as it ends a run)."""
-    from .results.store import STORE_NAME, read_attrs, windows_complete
-
     out = Path(options["out"])
     row = {
         "recording": options["input"],
@@ -120,16 +126,12 @@ def _jobs(args) -> list[dict]:
 
 def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, progress: bool):
     """``run_job`` of ``command`` over ``jobs``: rows in completion order."""
-    import functools
-
-    from tqdm import tqdm
-
     run_one = functools.partial(run_job, command=command)
 
     bar = tqdm(total=len(jobs), desc="recordings", unit="rec", file=sys.stderr, disable=not progress, leave=False)
     if scheduler is not None:
         try:
-            from dask.distributed import Client, as_completed
+            from dask.distributed import Client, as_completed  # (an optional extra: only for --scheduler)
         except ImportError:
             raise InputError(scheduler, f"--scheduler needs Dask: {install_hint('sweep')}") from None
         with Client(scheduler) as client:
@@ -141,10 +143,6 @@ def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, pro
             yield run_one(job)
             bar.update()
     else:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-        from concurrent.futures import as_completed as done
-
         with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
             for future in done([pool.submit(run_one, job) for job in jobs]):
                 bar.update()
@@ -159,8 +157,6 @@ def run_dataset(args, command) -> int:
     core, at most one per recording) or the Dask cluster at
     ``args.scheduler``. ``--force`` runs complete recordings again. Returns
     0, or 1 when a recording failed."""
-    from .results.atomic import save_text
-
     jobs = _jobs(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

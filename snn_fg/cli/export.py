@@ -11,10 +11,21 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shlex
 from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError
+from ..export.nir import describe_nir, export_nir, read_nir
+from ..export.nir_snntorch import export_nir_snntorch
+from ..export.pynn import INPUT_NAME, export_pynn
+from ..export.report import largest_sensor, report_table, resource_report
+from ..frames.pool import pooled_shape
+from ..frames.pyramid import check_levels
+from ..lowering.quantise import check_bits
+from ..network.recipes import RECIPES, is_recipe, load_description, network_for
+from ..results.atomic import save_text
+from .options import number, refuse_existing, sensor_size
 
 FORMATS = ("pynn", "nir", "report", "network")
 TARGETS = ("generic", "spinnaker", "loihi2")
@@ -26,7 +37,7 @@ NIR_PROFILES = ("exact", "snntorch")
 ICUB_SENSOR = (304, 240)  # iCub ATIS, width x height
 
 
-def add_export_command(sub, sensor_size_arg, number):
+def add_export_command(sub):
     """Register ``export`` on an ``argparse`` subparsers object; returns the parser."""
     p = sub.add_parser(
         "export",
@@ -54,7 +65,7 @@ def add_export_command(sub, sensor_size_arg, number):
     )
     p.add_argument(
         "--sensor-size",
-        type=sensor_size_arg,
+        type=sensor_size,
         metavar="WxH",
         help="sensor size (default 304x240, the iCub ATIS; a stored network keeps its own unless given)",
     )
@@ -140,8 +151,6 @@ def export_command(args) -> str:
     and ``--force``: what a PyNN export records, to say how to re-export it
     calibrated. Every option given a value other than its default is in it,
     in the parser's order (so an option added to the parser is too)."""
-    import shlex
-
     words = ["snn-fg", "export"]
     for flag, dest, default, takes_value in args.export_options:
         value = getattr(args, dest)
@@ -158,8 +167,6 @@ def export_command(args) -> str:
 
 def _sized_network(args):
     """The network to export, for the sensor size asked for, and that sensor size (rows, cols)."""
-    from ..network.recipes import RECIPES, is_recipe, network_for
-
     given = {k: getattr(args, k) for k in ("levels", "n_ori", "r0") if getattr(args, k) is not None}
     if args.sensor_size and min(args.sensor_size) < 1:
         raise InputError(f"--sensor-size {args.sensor_size[0]}x{args.sensor_size[1]}", "width and height must be >= 1")
@@ -182,32 +189,18 @@ def _sized_network(args):
 
 
 def _check_sensor(params, shape, source: str):
-    from ..frames.pool import pooled_shape
-    from ..frames.pyramid import check_levels
-
     check_levels(pooled_shape(shape, params.input_pool), params.levels, source, params.levels_per_octave)
 
 
 def read_network_file(path: Path):
     """A description from ``.json`` or a NIR export (``.nir``)."""
-    from ..network.recipes import load_description
-
     if path.suffix.lower() == ".nir" or path.name.lower().endswith(".nir.gz"):
-        from .nir import read_nir
-
         return read_nir(path)
     return load_description(path)
 
 
-def _refuse_existing(out: Path, force: bool):
-    if out.exists() and not force:
-        raise InputError(out, "exists; pass --force to replace it")
-
-
 def _checked_bits(args) -> int | None:
     """The options that go together checked (one line naming the option that does not apply), and the weight bits."""
-    from ..lowering.quantise import check_bits
-
     check.choice("snn-fg export", "--format", args.format, FORMATS)
     check.choice("snn-fg export", "--target", args.target, TARGETS)
     if args.target not in FORMAT_TARGETS.get(args.format, ("generic",)):
@@ -228,17 +221,13 @@ def _checked_bits(args) -> int | None:
 
 
 def cmd_export(args) -> int:
-    from ..network.recipes import network_for
-    from ..results.atomic import save_text
-
+    """Handler of ``snn-fg export``; prints what it wrote (a report: its table too), returns 0."""
     bits = _checked_bits(args)
     out = None if args.out is None else Path(args.out)
     if out is not None:
-        _refuse_existing(out, args.force)
+        refuse_existing(out, args.force)
     net, sensor = _network(args)
     if args.format == "pynn":
-        from .pynn import INPUT_NAME, export_pynn
-
         export_pynn(
             net,
             out,
@@ -253,28 +242,19 @@ def cmd_export(args) -> int:
         if (out / INPUT_NAME).exists():
             what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
     elif args.format == "nir" and args.nir_profile == "snntorch":
-        from .nir import describe_nir
-        from .nir_snntorch import export_nir_snntorch
-
         export_nir_snntorch(
             net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid, deeper_reset=args.nir_refractory_as_deeper_reset
         )
         what = f"NIR graph, snntorch profile ({describe_nir(out)})"
     elif args.format == "nir":
-        from .nir import describe_nir, export_nir
-
         export_nir(net, out, weight_bits=bits, force=True)
         what = f"NIR graph ({describe_nir(out)})"
     elif args.format == "report":
-        from .report import report_table, resource_report
-
         rep = resource_report(net, dt_ms=args.dt_ms, sensor_shape=sensor)
         if args.target != "generic":
             rep["targets"] = {k: v for k, v in rep["targets"].items() if k in REPORT_CHIPS[args.target]}
         sp = rep["targets"].get("spinnaker1")
         if sensor is not None and sp is not None and sp["boards_spinn5"] > 1:
-            from .report import largest_sensor
-
             sp["largest_sensor_one_board"] = largest_sensor(
                 lambda shape: network_for(net, shape)[0], sensor, "spinnaker1", args.dt_ms
             )

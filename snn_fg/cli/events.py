@@ -2,33 +2,33 @@
 
 Wire it in with :func:`add_events_command`; the handler raises
 :class:`~snn_fg.errors.InputError` for bad input (the main CLI prints it).
+``--write-spikes`` (input spikes for an exported network) is :mod:`.spikes`.
 """
 
 from __future__ import annotations
 
 import argparse
-import re
 import textwrap
 from pathlib import Path
 
 import numpy as np
 
-from snn_fg.errors import InputError
-from snn_fg.events import MAX_SENSOR_SIDE
-from snn_fg.events.esim import MOTIONS
-from snn_fg.events.images import IMAGE_SUFFIXES
-from snn_fg.results.atomic import save_npz
-
-
-def sensor_size_arg(text):
-    """argparse type for ``WxH`` sensor sizes."""
-    m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)
-    if not m:
-        raise argparse.ArgumentTypeError(f"sensor size must look like 640x480, got {text!r}")
-    w, h = int(m.group(1)), int(m.group(2))
-    if not (0 < w <= MAX_SENSOR_SIDE and 0 < h <= MAX_SENSOR_SIDE):
-        raise argparse.ArgumentTypeError(f"width and height must be 1 to {MAX_SENSOR_SIDE} pixels, got {text!r}")
-    return w, h
+from ..errors import InputError
+from ..events import (
+    PixelOptions,
+    events_to_frame,
+    image_to_events,
+    iter_recording,
+    iter_windows,
+    open_recording,
+    save_events,
+)
+from ..events.activity import activity, activity_figure, saturated_lines, timeline_text
+from ..events.esim import MOTIONS
+from ..events.images import IMAGE_SUFFIXES
+from ..results.atomic import save_figure, save_npz
+from .options import sensor_size
+from .spikes import add_spike_options, write_spikes
 
 
 def add_events_command(subparsers) -> argparse.ArgumentParser:
@@ -52,7 +52,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     g.add_argument("--start-ms", type=float, default=0.0, help="window start, ms after the first event (default 0)")
     g.add_argument(
         "--sensor-size",
-        type=sensor_size_arg,
+        type=sensor_size,
         default=None,
         metavar="WxH",
         help="sensor size, needed for RAW files without geometry (e.g. 640x480)",
@@ -86,8 +86,6 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         help="recordings: draw the events and the share of pixels they cover, window by window",
     )
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
-    from snn_fg.export.loop import add_spike_options
-
     add_spike_options(p)
     p.set_defaults(func=run_events, handler=run_events)
     return p
@@ -121,8 +119,6 @@ def run_events(args) -> int:
     if not path.exists():
         raise InputError(path, "no such file")
     if args.write_spikes is not None:
-        from snn_fg.export.loop import write_spikes
-
         return write_spikes(args)
     for out in (args.write_frame, args.write_events):
         if out is not None and Path(out).resolve() == path.resolve():
@@ -143,9 +139,6 @@ def run_events(args) -> int:
 def _image_lines(path, args) -> list:
     """The summary of an image's simulated events, writing the frame and
     events asked for."""
-    from snn_fg.events import PixelOptions, image_to_events, save_events
-    from snn_fg.events.window import events_to_frame
-
     rec = image_to_events(
         path,
         threshold=args.threshold,
@@ -180,8 +173,6 @@ def _image_lines(path, args) -> list:
 def _recording_lines(path, args):
     """The recording's stream, its summary (writing the frame and events
     asked for), and whether its events span any time."""
-    from snn_fg.events import iter_recording, iter_windows, save_events
-
     stream = iter_recording(path, sensor_size=args.sensor_size, progress=not args.no_progress)
     n = n_on = 0
     t_first = t_last = None
@@ -218,8 +209,6 @@ def _recording_lines(path, args):
             )
         )
     if args.write_events:
-        from snn_fg.events import open_recording
-
         rec = open_recording(stream)
         save_events(args.write_events, rec.events, rec.sensor_size)
         lines.append(("events written", _written_note(args.write_events)))
@@ -240,9 +229,6 @@ def _check_plot(args, path):
 def _print_activity(stream, args):
     """The recording's activity window by window (a second pass over the
     file), its saturated windows, and the ``--plot`` figure."""
-    from snn_fg.events.activity import activity, activity_figure, saturated_lines, timeline_text
-    from snn_fg.results.atomic import save_figure
-
     act = activity(stream, window_ms=args.window_ms)
     print("activity:\n" + timeline_text(act))
     for line in saturated_lines(act):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from snn_fg import datasets
+from .. import datasets
 
 
 def _mb(n: int) -> str:

@@ -10,7 +10,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .errors import InputError, SnnFgError
+from ..errors import InputError, SnnFgError
+from ..results.atomic import save_text
+from ..results.maps import Maps
+from ..scoring.metrics import compare_maps
+from ..scoring.outline import event_outlines
+from .options import number
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide
 _COLUMNS = (
@@ -28,9 +33,8 @@ _COLUMNS = (
 )
 
 
-def add_compare_command(sub, number):
-    """Register ``compare`` on an ``argparse`` subparsers object (``number``
-    makes the checked number types); returns the parser."""
+def add_compare_command(sub):
+    """Register ``compare`` on an ``argparse`` subparsers object; returns the parser."""
     p = sub.add_parser(
         "compare",
         allow_abbrev=False,
@@ -96,11 +100,7 @@ def compare_table(rows, outline_px: int | None = None) -> str:
 
 
 def cmd_compare(args) -> int:
-    from .results.atomic import save_text
-    from .results.maps import Maps
-    from .scoring.metrics import compare_maps
-    from .scoring.outline import event_outlines
-
+    """Handler of ``snn-fg compare``; prints the table, returns 0."""
     for out in (args.json, args.plot):
         if out is not None and Path(out).resolve() in (Path(args.a).resolve(), Path(args.b).resolve()):
             raise InputError(out, "output would overwrite an input")
@@ -117,7 +117,8 @@ def cmd_compare(args) -> int:
         save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
         print(f"snn-fg: metrics saved to {args.json}")
     if args.plot:
-        from .scoring.compare_figure import save_compare_figure
+        # (matplotlib is imported only when a command draws)
+        from ..scoring.compare_figure import save_compare_figure
 
         names = tuple(f"{k} ({_run_name(f)})" for k, f in (("A", args.a), ("B", args.b)))
         save_compare_figure(args.plot, a, b, rows, names=names, where=where)

@@ -1,0 +1,5 @@
+"""``python -m snn_fg.cli``: the ``snn-fg`` command."""
+
+from .main import console
+
+console()

@@ -1,0 +1,70 @@
+"""``snn-fg decode counts.npz --export DIR --out OUT``: the counts an exported
+network's ``run.py`` wrote, decoded as ``snn-fg run`` decodes a spiking run
+(:func:`~snn_fg.export.loop.decode_counts`), into ``OUT/maps.npz`` and
+``OUT/maps.png``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..export.loop import decode_counts, export_network, input_frame
+from ..export.pynn import input_origin
+from ..results.atomic import OutputFolder
+from ..results.maps import SPIKING_GROUPING_LABEL
+
+
+def add_decode_command(sub):
+    """Register ``decode`` on an ``argparse`` subparsers object; returns the parser."""
+    p = sub.add_parser(
+        "decode",
+        allow_abbrev=False,
+        help="decode an exported network's spike counts into maps",
+        description="Turn the counts an exported network's run.py wrote (counts.npz) into the maps "
+        "snn-fg run writes for a spiking run: OUT/maps.npz and OUT/maps.png.",
+    )
+    p.add_argument("counts", metavar="COUNTS", help="run.py's output (counts.npz)")
+    p.add_argument("--export", required=True, metavar="DIR", help="the export folder run.py ran")
+    p.add_argument("--out", required=True, metavar="OUT", help="output folder")
+    p.add_argument(
+        "--input",
+        metavar="SPIKES.npz",
+        default=None,
+        help="the input spike file, for the figure's input panel (default: input.npz beside COUNTS)",
+    )
+    p.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    p.set_defaults(handler=cmd_decode)
+    return p
+
+
+def cmd_decode(args) -> int:
+    """Handler of ``snn-fg decode``; prints what it wrote, returns 0."""
+    # (matplotlib, for the figure, is imported only when a command draws one)
+    from ..results.figures import event_frame_rgb, save_maps_figure
+
+    net, _ = export_network(args.export)
+    if not Path(args.counts).exists():
+        raise InputError(args.counts, "no such file")
+    maps = decode_counts(net, args.counts)
+    spikes = args.input or Path(args.counts).with_name("input.npz")
+    frame = input_frame(spikes, net.frame_shape)
+    shown = event_frame_rgb(*frame) if frame is not None else np.zeros((*net.frame_shape, 3))
+    origin = input_origin(spikes) if frame is not None else None
+    if origin is not None:  # (maps on the export's frame: blocks of the sensor where it pools)
+        maps.params["source"] = origin
+    placed = None if origin is None else (origin["crop_x_px"], origin["crop_y_px"], origin["pool"])
+    with OutputFolder(args.out, force=args.force) as out:
+        maps.save(out.dir / "maps.npz")
+        save_maps_figure(
+            out.dir / "maps.png",
+            shown,
+            maps.fg_x,
+            maps.fg_y,
+            maps.grouping,
+            grouping_label=SPIKING_GROUPING_LABEL,
+            placed=placed,
+        )
+    print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ (maps.npz, maps.png)")
+    return 0

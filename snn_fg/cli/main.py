@@ -1,0 +1,123 @@
+"""The ``snn-fg`` command: its parser, made of one module's parser per
+subcommand, and how a command ends.
+
+Bad input ends with one line ``snn-fg: error: <file>: <problem>`` and exit
+status 2; an interrupted run (Ctrl-C, SIGTERM) exits 130 or 143 and leaves
+the output folder as it was (a frame), or with the windows completed so far
+(a recording, which ``--resume`` continues).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import sys
+import warnings
+
+from .. import __version__, cancel
+from ..errors import InputWarning, SnnFgError
+from .compare import add_compare_command
+from .data import add_data_command
+from .decode import add_decode_command
+from .events import add_events_command
+from .export import add_export_command
+from .run import add_run_command
+
+#: the exit status of bad input, a usage error included
+EXIT_INPUT = 2
+
+
+class UsageParser(argparse.ArgumentParser):
+    """A usage error is one line naming the command, the problem and where help is (no usage block)."""
+
+    def error(self, message):
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def build_parser() -> tuple[argparse.ArgumentParser, dict]:
+    """The parser and its subcommand parsers by name."""
+    parser = UsageParser(
+        prog="snn-fg",
+        allow_abbrev=False,
+        description="Event-driven figure-ground organisation as a spiking neural network: run the "
+        "model on events or images, compare maps, inspect event recordings, export the "
+        "network.",
+    )
+    parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    subs = {
+        "run": add_run_command(sub),
+        "compare": add_compare_command(sub),
+        "events": add_events_command(sub),
+        "export": add_export_command(sub),
+        "decode": add_decode_command(sub),
+        "data": add_data_command(sub),
+    }
+    return parser, subs
+
+
+@contextlib.contextmanager
+def warnings_as_lines():
+    """While a command runs, an :class:`~snn_fg.errors.InputWarning` is one
+    ``snn-fg: warning:`` line (not Python's file:line form); others as usual."""
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(message, category, *rest, **kw):
+            if issubclass(category, InputWarning):
+                print(f"snn-fg: warning: {message}", file=sys.stderr)
+            else:
+                shown(message, category, *rest, **kw)
+
+        warnings.showwarning = show
+        yield
+
+
+def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
+    """Run one ``snn-fg`` command; returns the exit status.
+
+    ``exit_on_interrupt``: after Ctrl-C or SIGTERM (and the one-line message)
+    end the process at once with 130 or 143, without unwinding: what an
+    interrupt cut short in library code (a half-loaded compiled module, say)
+    can crash the interpreter while it is torn down, or make it end itself by
+    the signal. The output folder has been restored by then."""
+    parser, subs = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # report an unknown option under the subcommand's own usage
+        subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+    with cancel.Signals() as signals, warnings_as_lines():
+        args.interrupted = lambda: bool(signals.received)
+        try:
+            try:
+                return args.handler(args)
+            except Exception as exc:
+                # after an interrupt that a library swallowed, whatever fails
+                # next is its consequence: report the interrupt, not the error
+                if signals.received:
+                    raise KeyboardInterrupt(signals.received[-1]) from None
+                if not isinstance(exc, SnnFgError):
+                    raise
+                print(f"snn-fg: error: {exc}", file=sys.stderr)
+                return EXIT_INPUT
+        except KeyboardInterrupt:
+            term = "SIGTERM" in signals.received
+            note = getattr(args, "interrupt_note", "the output was left as it was before the run")
+            print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); {note}", file=sys.stderr)
+            code = 143 if term else 130
+            if exit_on_interrupt:
+                sys.stdout.flush()
+                sys.stderr.flush()
+                os._exit(code)
+            return code
+
+
+def console():
+    """The ``snn-fg`` entry point: :func:`main`, exiting with its status (at
+    once after an interrupt). Output piped into a reader that stops early
+    (``snn-fg events REC | head``) ends the command quietly."""
+    try:
+        sys.exit(main(exit_on_interrupt=True))
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # (no error when Python flushes it)
+        sys.exit(1)

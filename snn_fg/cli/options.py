@@ -1,0 +1,73 @@
+"""What several commands share, defined once: the checked argument types
+(:func:`number`, :func:`sensor_size`, :func:`crop`), the progress bar of a
+model's iterations, and the rule for an output that exists already
+(:func:`refuse_existing`)."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from ..errors import InputError
+from ..events import MAX_SENSOR_SIDE
+
+
+def number(kind, lo, strict=True):
+    """argparse type for an ``int`` or ``float`` (``kind``) above ``lo``
+    (``strict``) or at least ``lo``; infinities and NaN are refused."""
+
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected {'an integer' if kind is int else 'a number'}, got {text!r}"
+            ) from None
+        finite = v - v == 0  # False for inf and nan
+        if not finite or not (v > lo if strict else v >= lo):
+            raise argparse.ArgumentTypeError(
+                f"must be {'' if finite else 'a finite number '}{'>' if strict else '>='} {lo}, got {text}"
+            )
+        return v
+
+    return parse
+
+
+def sensor_size(text):
+    """argparse type for ``WxH`` sensor sizes."""
+    m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", text)
+    if not m:
+        raise argparse.ArgumentTypeError(f"sensor size must look like 640x480, got {text!r}")
+    w, h = int(m.group(1)), int(m.group(2))
+    if not (0 < w <= MAX_SENSOR_SIDE and 0 < h <= MAX_SENSOR_SIDE):
+        raise argparse.ArgumentTypeError(f"width and height must be 1 to {MAX_SENSOR_SIDE} pixels, got {text!r}")
+    return w, h
+
+
+def crop(text):
+    """argparse type for ``X0,Y0,X1,Y1`` (four integers)."""
+    try:
+        box = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        box = ()
+    if len(box) != 4:
+        raise argparse.ArgumentTypeError(f"expected four integers X0,Y0,X1,Y1, got {text!r}")
+    return box
+
+
+def iterations_bar(no_progress: bool):
+    """What a model reports its iterations to: a progress bar on stderr, or
+    None with ``--no-progress``."""
+    if no_progress:
+        return None
+    return lambda it: tqdm(it, desc="iterations", leave=False, file=sys.stderr)
+
+
+def refuse_existing(out: Path, force: bool) -> None:
+    """An output path that exists is replaced only with ``--force``."""
+    if out.exists() and not force:
+        raise InputError(out, "exists; pass --force to replace it")

@@ -1,0 +1,236 @@
+"""``snn-fg run``: a model on a frame, an image, the demo or a recording,
+into an output folder; several recordings with :mod:`.batch`.
+
+:func:`cmd_run` chooses the model (:func:`~.run_options.chosen_model`),
+then runs a still input all or nothing (:func:`_run_still`) or a recording
+window by window into a folder that a run cut short keeps for ``--resume``
+(:func:`_run_recording`, with :func:`_finished_already` and
+:func:`_settled`).
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from ..events.esim import MOTIONS
+from ..frames.pool import pooled_shape
+from ..frames.pyramid import check_levels
+from ..frames.still import input_kind, load_frame
+from ..models import MODELS
+from ..results.atomic import OutputFolder, growing_folder, settle_folder
+from ..results.store import STORE_NAME, finished_run, windows_complete
+from ..validate import check_crop
+from .batch import is_dataset, run_dataset
+from .options import crop, number, sensor_size
+from .run_options import WINDOW_OPTIONS, add_option_groups, chosen_model
+from .runner import recording_windows, run_recording, run_still
+
+
+def add_run_command(sub):
+    """Register ``run`` on an ``argparse`` subparsers object; returns the parser."""
+    p = sub.add_parser(
+        "run",
+        allow_abbrev=False,
+        help="run a figure-ground model on an input and write its maps",
+        description="Run a model on INPUT: an .npz event frame (pos, neg), an image (png/jpg/...), "
+        "an event recording (.es .raw .dat .aedat4 .bin data.log .npy .npz) or 'demo' "
+        "(a built-in synthetic scene). Writes DIR/maps.npz (fg_x, fg_y, grouping, "
+        "params; a recording: DIR/maps.zarr, window by window) and figures.",
+    )
+    p.add_argument(
+        "input",
+        metavar="INPUT",
+        help="a frame, an image, a recording or demo; several recordings: a "
+        "folder, a glob (quoted) or a .txt list of paths, each into "
+        "DIR/NAME with DIR/summary.csv",
+    )
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
+    p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
+    p.add_argument(
+        "--resume",
+        action="store_const",
+        const=True,
+        help="recordings: continue the run in --out from its last complete window (same INPUT and options)",
+    )
+    p.add_argument(
+        "--workers",
+        type=number(int, 1, strict=False),
+        metavar="N",
+        help="several recordings (INPUT a folder, a glob or a .txt list): local processes (one per core)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="several recordings: run them on the Dask cluster at ADDRESS (pip install -e '.[sweep]')",
+    )
+    p.add_argument(
+        "--model",
+        choices=tuple(MODELS),
+        default="rate",
+        help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image; "
+        "spiking: the spiking network; natural, natural-spiking: the variant for natural "
+        "scenes (contrast-invariant grouping, docs/model.md), rate and spiking (default: rate)",
+    )
+    g = p.add_argument_group("input")
+    g.add_argument(
+        "--threshold",
+        type=number(float, 0),
+        default=0.10,
+        metavar="C",
+        help="images turned into events: contrast threshold of the simulated event camera (0.10)",
+    )
+    g.add_argument(
+        "--motion",
+        choices=MOTIONS,
+        default=None,
+        help="images turned into events: motion of the simulated event camera; paper: the authors' "
+        "BSDS conversion (default shift4)",
+    )
+    g.add_argument(
+        "--sensor-size",
+        type=sensor_size,
+        metavar="WxH",
+        help="recordings: sensor size for RAW files without geometry and for .npy/.npz arrays (without it an "
+        "array's sensor is its events' extent, with a warning), or a larger one than a file's",
+    )
+    g = p.add_argument_group("output")
+    g.add_argument(
+        "--crop",
+        type=crop,
+        metavar="X0,Y0,X1,Y1",
+        help="figures: draw only pixels X0 <= x < X1, Y0 <= y < Y1 (the maps keep the whole frame)",
+    )
+    g.add_argument("--no-progress", action="store_true", help="no progress messages or bars")
+    g.add_argument("--no-figures", action="store_true", help="write the maps only (no figures)")
+    add_option_groups(p)
+    p.set_defaults(handler=cmd_run)
+    return p
+
+
+def cmd_run(args) -> int:
+    """Handler of ``snn-fg run``; prints what it wrote, returns 0 (a batch: 1 when a recording failed)."""
+    if is_dataset(args.input):
+        return run_dataset(args, cmd_run)
+    if args.workers is not None or args.scheduler is not None:
+        given = "--workers" if args.workers is not None else "--scheduler"
+        raise InputError(
+            args.input, f"{given}: applies to several recordings only (INPUT a folder, a glob or a .txt list)"
+        )
+    kind = input_kind(args.input)
+    model = chosen_model(args, kind)
+    written = _run_recording(args, model) if kind == "recording" else _run_still(args, model)
+    if written is not None:
+        print(f"snn-fg: {model.name} model on {args.input}: wrote {args.out}/ ({written})")
+    return 0
+
+
+def _check_frame(args, model, shape) -> None:
+    """The input's frame of ``shape`` (rows, cols) holds the model's levels and ``--crop``."""
+    check_levels(
+        pooled_shape(shape, model.params.input_pool), model.params.levels, args.input, model.params.levels_per_octave
+    )
+    if args.crop is not None:
+        check_crop(args.crop, shape, owner=f"{args.input}: --crop")
+
+
+def _run_still(args, model) -> str:
+    """A frame, an image or the demo into ``--out``, all or nothing; what was written."""
+    frame, source = load_frame(args.input, model.needs, args.threshold, args.motion or "shift4")
+    _check_frame(args, model, frame.shape)
+    with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:
+        run_still(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures)
+        return ", ".join(sorted(p.name for p in folder.dir.iterdir()))
+
+
+def _windows(args):
+    """The recording's windows as the options cut it, its ``params["source"]`` and its frame shape (rows, cols)."""
+    opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
+    windows, sensor = recording_windows(
+        args.input, sensor_size=args.sensor_size, window_options=opts, progress=not args.no_progress
+    )
+    source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
+    source.setdefault("stride_ms", source["window_ms"])
+    return windows, source, tuple(sensor[1::-1])
+
+
+def _run_recording(args, model) -> str | None:
+    """A recording window by window into ``--out`` (continued with ``--resume``); what was
+    written, or None when a resumed run is finished already."""
+    if model.needs == "image":
+        raise InputError(args.input, f"the {model.name} model needs an image, not an event recording")
+    windows, source, shape = _windows(args)
+    _check_frame(args, model, shape)
+    out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
+    if _finished_already(args, out):
+        return None
+    args.interrupt_note = (
+        f"the windows completed so far are in {args.out}/; the same command with --resume continues from the last one"
+    )
+    options = {"crop": args.crop, "figures": not args.no_figures, "resume": bool(args.resume)}
+    n = _settled(
+        args, out, previous, lambda: run_recording(model, windows, out, source, **options, run_key=run_key(args))
+    )
+    return f"{n} window{'s' if n != 1 else ''}, " + ", ".join(sorted(p.name for p in out.iterdir()))
+
+
+def _settled(args, out, previous, run) -> int:
+    """``run()`` into the growing folder ``out`` (``previous``: the earlier run set aside, see
+    :func:`~snn_fg.results.atomic.growing_folder`), then the folder settled by how it ended: kept
+    when it completed; after bad input part way through, no half-written output (the earlier
+    run kept); after an interrupt, the windows completed so far, for ``--resume``."""
+    try:
+        n = run()
+    except InputError as exc:
+        # bad input part way through (a file cut short, say): no half-written output
+        # (an interrupted run, below, keeps its windows for --resume; a resumed one keeps the earlier run's)
+        if args.resume:
+            raise
+        done = windows_complete(out)
+        settle_folder(out, previous, keep_new=False)
+        if not done and previous is None:
+            raise
+        said = f"; the earlier run in {args.out}/ is kept" if previous is not None else ""
+        if done:
+            said = (
+                f"; nothing written{said} (--max-windows {done} runs the {done} "
+                f"window{'s' if done > 1 else ''} before it)"
+            )
+        raise InputError(exc.source, exc.problem + said, exc.where) from None
+    except BaseException:  # (refused before its first window: nothing to keep)
+        settle_folder(out, previous, keep_new=bool(windows_complete(out)))
+        raise
+    settle_folder(out, previous, keep_new=True)
+    return n
+
+
+# -- resume: a run continued must be the run it continues ---------------------------------------------------------
+#: run options that do not change a recording's maps (a run may be continued with others)
+_NOT_IN_RUN_KEY = (
+    "out",
+    "force",
+    "resume",
+    "no_progress",
+    "no_figures",
+    "crop",
+    "handler",
+    "command",
+    "interrupted",
+    "interrupt_note",
+    "workers",
+    "scheduler",
+)
+
+
+def run_key(args) -> dict:
+    """What a continued run (--resume) must share with the run it continues."""
+    return {k: v for k, v in sorted(vars(args).items()) if k not in _NOT_IN_RUN_KEY}
+
+
+def _finished_already(args, out) -> bool:
+    """With ``--resume``, whether the run in ``out`` is complete (said in one line: nothing is written)."""
+    finished = finished_run(out / STORE_NAME, run_key(args)) if args.resume else None
+    if finished is not None:
+        print(
+            f"snn-fg: the run in {args.out}/ is finished already ({finished} windows): nothing to resume, "
+            "nothing written"
+        )
+    return finished is not None

@@ -1,0 +1,255 @@
+"""``snn-fg run``'s model options: the flags of the parameters, recordings, the
+spiking, rate and frame-based models (:data:`RUN_OPTIONS`), which of them
+apply to which model and input (:func:`refused_options`), and the model they
+ask for (:func:`chosen_model`)."""
+
+from __future__ import annotations
+
+from ..backends import DEFAULT_BACKEND, backend_names
+from ..errors import InputError
+from ..models import MODELS
+from ..network.recipes import model_params_of
+from ..params import EDGE_OPERATORS, ModelParams
+from .options import iterations_bar, number
+
+MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh", "side_cue")
+#: how a recording is cut into windows (snn_fg.events.iter_windows)
+WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
+#: options that only a recording uses
+RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state", "window_clock", "save_spikes", "resume")
+#: spiking options for one frame that a recording (one continuous run) does not use
+FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
+
+#: (group title, ((flag, type, lower bound, strictly above it, help), ...)); defaults in brackets
+RUN_OPTIONS = (
+    (
+        "model parameters (defaults: the paper's)",
+        (
+            (
+                "--network",
+                None,
+                None,
+                None,
+                "a network by name (default, compact: the deployment form, "
+                "docs/model.md) or a stored description (FILE.json, see networks/); "
+                "its model parameters replace the options below, for the rate and "
+                "the spiking model (default)",
+            ),
+            ("--levels", int, 1, False, "pyramid levels (10)"),
+            ("--n-ori", int, 2, False, "orientations per half-turn (8)"),
+            ("--r0", float, 0, True, "grouping radius in px: sets the object size grouped (8)"),
+            ("--iterations", int, 0, False, "grouping/feedback iterations (10)"),
+            ("--alpha", float, 0, False, "feedback gain (2)"),
+            ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1)"),
+            ("--side-cue", float, 0, False, "gain of the side cue, the busier side within 160 px (0; natural: 3000)"),
+        ),
+    ),
+    (
+        "recordings (not for frames or images)",
+        (
+            ("--window-ms", float, 0, True, "window length (85, the iCub microsaccade period)"),
+            ("--start-ms", float, 0, False, "start of the first window, ms after the first event (0)"),
+            ("--stride-ms", float, 0, True, "window stride (the window length)"),
+            ("--max-windows", int, 1, False, "stop after this many windows (all)"),
+            ("--denoise-us", int, 0, True, "tonic Denoise filter time in us (off)"),
+            ("--refractory-us", int, 0, True, "tonic RefractoryPeriod in us (off)"),
+        ),
+    ),
+    (
+        "spiking model",
+        (
+            (
+                "--backend",
+                None,
+                None,
+                None,
+                f"simulator: {', '.join(backend_names())} ({DEFAULT_BACKEND}; "
+                "the one used is recorded in the maps' params)",
+            ),
+            ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
+            ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
+            (
+                "--dt-ms",
+                float,
+                0,
+                True,
+                "simulation time step (the network's: 0.5 ms, the compact network 1 ms; 1 "
+                "ms on the default network takes about 3/4 of the time and moves the maps "
+                "of natural images by 5-14 deg: experiments/results/spiking_dt.md)",
+            ),
+            ("--seed", int, -(2**63), False, "seed of the input spike phases (0)"),
+            (
+                "--spike-input",
+                ("regular", "events"),
+                None,
+                None,
+                "images: regular trains at every event pixel, or the "
+                "simulated camera's events with their timing (regular)",
+            ),
+            (
+                "--feedback",
+                ("on", "off"),
+                None,
+                None,
+                "off: remove the feedback onto border-ownership cells, the model's ablation (on)",
+            ),
+            ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later (20)"),
+            (
+                "--window-clock",
+                ("on", "off"),
+                None,
+                None,
+                "recordings: fire the network's window clock as each window "
+                "starts, so that its grouping cells compete afresh (off: "
+                "the network carries its state into the next window) (on)",
+            ),
+            (
+                "--instantiate",
+                ("input", "all"),
+                None,
+                None,
+                "cells to create: those this input can use, or every "
+                "cell of the network (the backend's choice: brian2 input, "
+                "fast all)",
+            ),
+            (
+                "--save-spikes",
+                True,
+                None,
+                None,
+                "recordings: also keep each window's spike count of every cell that "
+                "fired (about 2 MB a dvs.es window; a frame always keeps them)",
+            ),
+        ),
+    ),
+    (
+        "rate model",
+        (
+            (
+                "--carry-state",
+                ("on", "off"),
+                None,
+                None,
+                "recordings: start each window's grouping and feedback where "
+                "the previous window's stopped, as a network that is never "
+                "reset would (off: each window afresh, the paper's model)",
+            ),
+        ),
+    ),
+    (
+        "frame-based model",
+        (
+            (
+                "--edge-operator",
+                EDGE_OPERATORS,
+                None,
+                None,
+                "simple cells' edge operator: gaussian (a "
+                "Gaussian-derivative stand-in) or corf (Hu et al.'s "
+                "CORF push-pull, slower) (gaussian)",
+            ),
+        ),
+    ),
+)
+
+
+def add_option_groups(parser) -> None:
+    """The groups of :data:`RUN_OPTIONS` on ``snn-fg run``'s parser."""
+    for title, options in RUN_OPTIONS:
+        g = parser.add_argument_group(title)
+        for flag, kind, lo, strict, text in options:
+            if kind is True:
+                g.add_argument(flag, action="store_const", const=True, help=text)
+            elif isinstance(kind, tuple):
+                g.add_argument(flag, choices=kind, help=text)
+            else:
+                g.add_argument(flag, type=number(kind, lo, strict) if kind else None, help=text)
+
+
+#: what each kind of INPUT is called when an option does not apply to it
+_KIND_NAMES = {
+    "demo": "the demo is one image",
+    "frame": "INPUT is one event frame",
+    "image": "INPUT is one image",
+    "recording": "INPUT is an event recording",
+}
+
+
+def refused_options(args, kind) -> list[tuple[str, str]]:
+    """``(flag, why it does not apply)`` for every given option the run would ignore."""
+    model = MODELS[args.model]
+    given = lambda k: getattr(args, k) is not None  # noqa: E731
+    refused = []
+    takers: dict[str, list[str]] = {}  # an option the chosen model does not take -> the models that do
+    for other in MODELS.values():
+        for k in other.options:
+            if k not in model.options and k != "network" and given(k):
+                takers.setdefault(k, []).append(other.name)
+    for k, names in takers.items():
+        which = f"the {names[0]} model" if len(names) == 1 else f"the {', '.join(names[:-1])} and {names[-1]} models"
+        refused.append((k, f"applies to {which} only (--model {names[0]})"))
+    named = {k for k, _ in refused}
+    if kind != "recording":
+        refused += [
+            (k, f"applies to event recordings only; {_KIND_NAMES[kind]}")
+            for k in RECORDING_OPTIONS + ("sensor_size",)
+            if given(k) and k not in named
+        ]
+    else:
+        refused += [
+            (k, f"applies to a single frame or image only; {_KIND_NAMES[kind]}, run as one continuous network")
+            for k in FRAME_ONLY_OPTIONS
+            if given(k) and k not in named
+        ]
+    if args.motion is not None and kind in ("recording", "frame") and model.needs != "image":  # images only
+        refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))
+    if model.needs == "image":  # the frame-based model: no events, no network
+        refused += [
+            (k, f"the {model.name} model {why}")
+            for k, why in (
+                ("motion", "reads the image itself, not events made from it"),
+                ("network", "has no network (the event models take one)"),
+                ("side_cue", "reads the image itself; the side cue counts events"),
+            )
+            if given(k)
+        ]
+    if args.network is not None:
+        refused += [
+            (k, "a named or stored network (--network) carries its own model parameters")
+            for k in MODEL_PARAMS
+            if given(k)
+        ]
+        if model.needs != "image" and model.base_params != ModelParams():  # the natural models
+            refused.append(
+                (
+                    "network",
+                    f"the {model.name} model has its own parameters, and a network carries "
+                    "others (--model spiking --network runs a network as it is)",
+                )
+            )
+    return refused
+
+
+def _verb(why: str, n: int) -> str:
+    return why if n == 1 else why.replace("applies", "apply", 1)
+
+
+def chosen_model(args, kind):
+    """The model the arguments ask for on an input of ``kind`` (:data:`_KIND_NAMES`), refusing
+    options that would be ignored (one line naming each with why)."""
+    refused = refused_options(args, kind)
+    if refused:
+        reasons: dict[str, list[str]] = {}
+        for k, why in refused:
+            reasons.setdefault(why, []).append("--" + k.replace("_", "-"))
+        raise InputError(
+            args.input, "; ".join(f"{', '.join(flags)}: {_verb(why, len(flags))}" for why, flags in reasons.items())
+        )
+    given = {k: getattr(args, k) for k in MODEL_PARAMS if getattr(args, k) is not None}
+    takes = MODELS[args.model].options
+    options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}
+    for k in ("feedback", "carry_state", "window_clock"):
+        if k in options:
+            options[k] = options[k] == "on"
+    params = MODELS[args.model].base_params.replace(**given) if args.network is None else model_params_of(args.network)
+    return MODELS[args.model](params, iterations_bar(args.no_progress), **options)

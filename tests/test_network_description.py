@@ -11,8 +11,8 @@ import pytest
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.frames.pyramid import level_shape
 from snn_fg.network import Conv, Kernel, Network, Neuron, Population, Resize, SpikingParams, build_network
-from snn_fg.network.builder import FAMILIES, FEEDBACK_HALVES
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
+from snn_fg.network.wiring import FAMILIES, FEEDBACK_HALVES
 from snn_fg.params import ModelParams
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -388,3 +388,14 @@ def test_border_ownership_gate_covers_the_feedback_and_stays_shallow(net):
             source = net.population(p.source).neuron
             strongest = p.gain_mv * source.max_rate_hz * bo.neuron.tau_exc_ms / 1000.0
             assert strongest < gate <= 4 * bo.neuron.v_th_mv
+
+
+def test_the_builder_hands_out_the_populations_it_made_by_role_and_level():
+    """A stage reads what an earlier stage made (Builder.named); asking for one not made is a builder error."""
+    from snn_fg.network.builder import Builder
+
+    bld = Builder(ModelParams(levels=2), (24, 32), SpikingParams())
+    made = bld.pop("feedback_1p", 2, channels=8, neuron=bld.neurons["feedback"], sites="needed")
+    assert bld.named("feedback_1p", 2) == made == bld.pops[-1].name
+    with pytest.raises(KeyError, match="no 'feedback_1p' population at level 1"):
+        bld.named("feedback_1p", 1)

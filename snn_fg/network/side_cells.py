@@ -18,7 +18,7 @@ def side_cue(bld) -> None:
     ``side_cue`` units of the model's z, at ``z_hz`` Hz of a feedback pair per
     unit (read through the feedback cells' rate curve at ``CELL_RATE_HZ``).
     Nothing when ``side_cue`` is 0. ``bld``: the builder of
-    :mod:`snn_fg.network.builder`, after every level and the pooling."""
+    :class:`~snn_fg.network.builder.Builder`, after every level and the pooling."""
     p, sp = bld.params, bld.sp
     if not p.side_cue:
         return
@@ -40,7 +40,7 @@ def side_cue(bld) -> None:
         for k, sign in into.items():
             bld.resize(
                 cues[half],
-                f"feedback_{k}_1",
+                bld.named(f"feedback_{k}", 1),
                 sign=sign,
                 interpolation="linear",
                 gain=gain_out * (1.0 if sign > 0 else Gains.balance(fb)),

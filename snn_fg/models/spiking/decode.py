@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...lowering.interp import interp_matrix
-from ...network.builder import FAMILIES
 from ...network.graph import Network
+from ...network.wiring import FAMILIES
 from ..rate.edfg import GroupingResult, readout
 
 

@@ -28,7 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...lowering.unroll import Unrolled, to_grid
-from ...network.builder import FAMILIES, FEEDBACK_TO_FAMILY, PARTNER
+from ...network.wiring import FAMILIES, FEEDBACK_TO_FAMILY, PARTNER
 from .decode import decode_rates
 
 

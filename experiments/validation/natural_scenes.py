@@ -71,7 +71,7 @@ def _evenly(ids, n):
 
 def _rows(results: dict, names) -> tuple[list, list]:
     """Pooled rows and per-image rows of :func:`snn_fg.scoring.evaluation.evaluate_models` results."""
-    from snn_fg.scoring.evaluation import pool_stats
+    from snn_fg.scoring.pooled import pool_stats
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}
@@ -94,7 +94,7 @@ def _rows(results: dict, names) -> tuple[list, list]:
 
 
 def _difference(results: dict, a: str, b: str) -> dict:
-    from snn_fg.scoring.evaluation import bootstrap_difference
+    from snn_fg.scoring.pooled import bootstrap_difference
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}

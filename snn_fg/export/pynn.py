@@ -6,7 +6,8 @@ The export folder holds
   reads an input spike file, simulates and writes every population's spikes
   (:mod:`snn_fg.pynn.run`);
 * ``fg_network.py`` - the network in PyNN (a verbatim copy of
-  :mod:`snn_fg.pynn.network`, which the NEST backend also runs), and
+  :mod:`snn_fg.pynn.network`, which the NEST backend also runs), with
+  ``fg_readout.py``, its run and read-out (:mod:`snn_fg.pynn.readout`), and
   ``fg_cells.py``, its cells and synapses in PyNN's terms (:mod:`snn_fg.pynn.cells`);
 * ``fg_tables.py`` - explicit synapses from the weight-shared tables (a
   verbatim copy of :mod:`snn_fg.pynn.tables`);
@@ -228,8 +229,8 @@ def export_pynn(
     >>> d = export_pynn(build_network(ModelParams(levels=2), (40, 52)), pathlib.Path(tempfile.mkdtemp()) / "m")
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
     ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
-    >>> sorted(p.name for p in d.glob("*.py"))
-    ['fg_cells.py', 'fg_memory.py', 'fg_network.py', 'fg_simulator.py', 'fg_spinnaker.py', 'fg_tables.py', 'run.py']
+    >>> print(*sorted(p.name for p in d.glob("*.py")))
+    fg_cells.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py fg_spinnaker.py fg_tables.py run.py
     """
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     from ..results.atomic import OutputFolder

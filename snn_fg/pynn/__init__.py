@@ -8,7 +8,8 @@ where they run on a machine without snn_fg; inside snn_fg the NEST backend
 exported model and the backend are one implementation.
 
 * :mod:`.cells` - a cell's and a synapse's PyNN parameters (``fg_cells.py``);
-* :mod:`.network` - populations, synapses, input and run (``fg_network.py``);
+* :mod:`.network` - populations, synapses and input (``fg_network.py``);
+* :mod:`.readout` - recording, the run, and spikes, counts and state read back (``fg_readout.py``);
 * :mod:`.tables` - explicit synapses from the weight-shared tables (``fg_tables.py``);
 * :mod:`.spinnaker` - the network on sPyNNaker and its mapping (``fg_spinnaker.py``);
 * :mod:`.memory` - what a NEST run of the export costs (``fg_memory.py``);
@@ -24,6 +25,7 @@ HERE = Path(__file__).resolve().parent
 COPIED = {
     "cells.py": "fg_cells.py",
     "network.py": "fg_network.py",
+    "readout.py": "fg_readout.py",
     "tables.py": "fg_tables.py",
     "spinnaker.py": "fg_spinnaker.py",
     "memory.py": "fg_memory.py",

@@ -133,7 +133,8 @@ def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
 @pytest.mark.slow
 def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
     nir = pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
-    from snn_fg.export.nir import export_nir, read_nir
+    from snn_fg.export.nir import export_nir
+    from snn_fg.export.nir_import import read_nir
 
     net = build_network(SMALL, (48, 48))
     path = export_nir(net, tmp_path / "n.nir")
@@ -189,7 +190,8 @@ def test_nir_export_reads_back_with_its_mechanisms(tmp_path):
 @pytest.mark.parametrize("light", [True, False])
 def test_nir_round_trip_keeps_the_maps(tmp_path, light):
     pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
-    from snn_fg.export.nir import export_nir, read_nir
+    from snn_fg.export.nir import export_nir
+    from snn_fg.export.nir_import import read_nir
     from snn_fg.models.spiking import run_spiking
 
     # a disc the one-level network solves (all its vectors within 45 degrees of

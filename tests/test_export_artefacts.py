@@ -22,9 +22,9 @@ def test_stored_icub_artefacts_are_current_and_small():
     assert rep["network_sha256"] == sha, "networks/ is stale: run python experiments/spiking_export_network.py"
     assert rep["frame_shape"] == [240, 304] and rep["totals"]["neurons"] > 0
     assert (NETWORKS / REPORT_TABLE).read_text().startswith("Whole network for a 304 x 240 sensor (width x height)")
-    from snn_fg.export.nir import _read_graph
+    from snn_fg.export.nir_import import read_graph
 
-    g = _read_graph(nir, NETWORKS / NIR_NAME)  # gunzip, then nir.read
+    g = read_graph(nir, NETWORKS / NIR_NAME)  # gunzip, then nir.read
     assert json.loads(g.metadata["snn_fg"])["network_sha256"] == sha
     assert {"Conv2d", "LIF", "LI", "Delay"} <= {type(n).__name__ for n in g.nodes.values()}
     for name in (NIR_NAME, REPORT_NAME, REPORT_TABLE):

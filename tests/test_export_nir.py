@@ -199,7 +199,8 @@ def _snntorch_and_fast(net, inp, tmp_path, duration_ms: float, one_grid: bool = 
 
     from snn_fg.backends import RunSettings, get_backend
     from snn_fg.export.board import board_network
-    from snn_fg.export.nir_snntorch import export_nir_snntorch, run_snntorch, snntorch_network
+    from snn_fg.export.nir_snntorch import export_nir_snntorch, snntorch_network
+    from snn_fg.export.snntorch_run import run_snntorch
     from snn_fg.models.spiking.decode import decode, decode_rates
 
     torch.set_num_threads(1)

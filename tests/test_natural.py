@@ -129,7 +129,8 @@ def test_spiking_form_owns_the_disc_of_both_polarities():
 @pytest.mark.slow
 def test_exporters_write_the_pooled_network(tmp_path):
     pytest.importorskip("nir", reason='needs pip install -e ".[nir]"')
-    from snn_fg.export.nir import export_nir, read_nir
+    from snn_fg.export.nir import export_nir
+    from snn_fg.export.nir_import import read_nir
     from snn_fg.export.pynn import export_pynn
 
     net = build_network(NATURAL_PARAMS.replace(levels=2), (32, 40))

@@ -57,7 +57,8 @@ import numpy as np
 from experiments.common import RESULTS, Run, dataset, markdown_table, save_json, save_markdown
 from snn_fg.backends import RunSettings, get_backend
 from snn_fg.export.board import board_network
-from snn_fg.export.nir_snntorch import RESET_DRIVE, run_snntorch, snntorch_network, to_nir_snntorch
+from snn_fg.export.nir_snntorch import RESET_DRIVE, snntorch_network, to_nir_snntorch
+from snn_fg.export.snntorch_run import run_snntorch
 from snn_fg.models.spiking.decode import decode, decode_rates
 from snn_fg.network import build_network
 from snn_fg.network.recipes import RECIPES

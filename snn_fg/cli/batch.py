@@ -27,7 +27,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from ..errors import InputError, SnnFgError, install_hint
-from ..events.io import SUFFIX_FORMAT
+from ..events.formats import SUFFIX_FORMAT
 from ..models.cores import usable_cores
 from ..results.atomic import save_text
 from ..results.store import STORE_NAME, read_attrs, windows_complete

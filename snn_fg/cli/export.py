@@ -16,7 +16,8 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError
-from ..export.nir import describe_nir, export_nir, read_nir
+from ..export.nir import describe_nir, export_nir
+from ..export.nir_import import read_nir
 from ..export.nir_snntorch import export_nir_snntorch
 from ..export.pynn import INPUT_NAME, export_pynn
 from ..export.report import largest_sensor, report_table, resource_report

@@ -4,7 +4,7 @@
   recording (``.es`` DVS or ATIS, ``.raw`` EVT2/EVT3, ``.dat``, ``.aedat4``,
   N-MNIST ``.bin``, iCub YARP ``data.log``, ``.npy``/``.npz``, or an
   in-memory structured array) whole or in bounded chunks; see
-  :mod:`snn_fg.events.io` for the format table, which formats stream, and
+  :mod:`snn_fg.events.formats` for the format table, which formats stream, and
   the keyword-only format options.  One module per format family decodes
   (:mod:`~snn_fg.events.eventstream`, :mod:`~snn_fg.events.prophesee`,
   :mod:`~snn_fg.events.yarp`, :mod:`~snn_fg.events.aedat4`,
@@ -17,11 +17,15 @@
   (:mod:`snn_fg.events.esim`, :mod:`snn_fg.events.paper_motion`).
 * :func:`save_events`: write ``.npy``/``.npz``/EVT2/EVT3/``.es`` atomically
   (:func:`snn_fg.events.writers.encode_es_atis` encodes ATIS streams).
+* :mod:`~snn_fg.events.images`: still images read as float images, the
+  simulator's input (and the frame-based model's).
 """
 
 from snn_fg.events._core import EVENT_DTYPE, MAX_SENSOR_SIDE, Recording
 from snn_fg.events.esim import PixelOptions, image_to_events, image_to_frame, motion_frames
-from snn_fg.events.io import STREAMING_FORMATS, RecordingStream, detect_format, iter_recording, open_recording
+from snn_fg.events.formats import detect_format
+from snn_fg.events.io import RecordingStream, iter_recording, open_recording
+from snn_fg.events.source import STREAMING_FORMATS
 from snn_fg.events.window import EmptyWindowWarning, EventWindow, RecordingWindows, events_to_frame, iter_windows
 from snn_fg.events.writers import save_events
 

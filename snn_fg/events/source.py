@@ -14,7 +14,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-#: Decoder names whose reader yields bounded chunks (see the table in :mod:`snn_fg.events.io`).
+#: Decoder names whose reader yields bounded chunks (see the table in :mod:`snn_fg.events.formats`).
 STREAMING_FORMATS = frozenset({"es", "es-atis", "evt2", "evt3", "dat", "aedat4", "yarp", "npy", "array"})
 #: Bytes a binary decoder reads at a time: its memory does not grow with the file.
 READ_BYTES = 1 << 22

@@ -11,7 +11,8 @@ from numba import njit
 from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, sensor_size_parameter
-from snn_fg.events.io import check_read_options, iter_recording, no_span_problem
+from snn_fg.events.formats import check_read_options
+from snn_fg.events.io import iter_recording, no_span_problem
 
 
 def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
@@ -174,7 +175,7 @@ def iter_windows(
       event, is an InputError.
     * ``read_options`` say how the recording is read, as for
       :func:`~snn_fg.events.iter_recording`: ``sensor_size``, ``chunk_events``
-      and the format options of :mod:`snn_fg.events.io` (``encoding``,
+      and the format options of :mod:`snn_fg.events.formats` (``encoding``,
       ``codec``, ``channel``, ``timer_bits``); an option that does not apply
       to the recording's format is a ParameterError.
     """

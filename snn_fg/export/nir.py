@@ -30,15 +30,15 @@ named in the graph's ``metadata["approximations"]``):
   ``Output`` node ``<proj>.out``, the target's synapse is fed by an
   ``Input`` node ``<proj>.in`` through a ``Delay``; ``metadata`` holds the
   interpolation, gain, sign and pruning, and a consumer must connect the
-  pair itself (:func:`read_nir` does).
+  pair itself (:func:`~snn_fg.export.nir_import.read_nir` does).
 * **Outputs**: the border-ownership and grouping populations (what the maps
   are decoded from) each feed an ``Output`` node ``<pop>.spikes``.
 * **Input-dependent edge mask**: dropped (the board network, see
   :mod:`.board`).
 
-:func:`read_nir` turns such a file back into a runnable
-:class:`~snn_fg.network.Network` (NIR semantics: stride-1 lattices, split
-receptors, array kernels), so a round trip can be simulated and measured.
+:func:`~snn_fg.export.nir_import.read_nir` turns such a file back into a
+runnable :class:`~snn_fg.network.Network` (NIR semantics: stride-1 lattices,
+split receptors, array kernels), so a round trip can be simulated and measured.
 """
 
 from __future__ import annotations
@@ -52,10 +52,9 @@ import numpy as np
 from .. import __version__
 from ..errors import InputError, ParameterError, install_hint
 from ..lowering.quantise import projection_scales
-from ..network.graph import DEFAULT_DT_MS, Network
-from ..network.nodes import Kernel, Neuron, Population
+from ..network.graph import Network
+from ..network.nodes import Kernel, Population
 from ..network.projections import Conv, Resize
-from ..params import ModelParams
 from ..pynn.cells import quantise, split_receptors
 from .board import board_network, fingerprint
 
@@ -75,7 +74,8 @@ APPROXIMATIONS = {
 }
 
 
-def _nir():
+def nir_package():
+    """The ``nir`` package, or one line saying how to install it."""
     try:
         import nir
     except ImportError:
@@ -258,7 +258,7 @@ def _parts(nir, network: Network, net: Network, weight_bits, edges: list):
         yield from n.items()
 
 
-def _graph_metadata(network: Network, net: Network, weight_bits) -> dict:
+def graph_metadata(network: Network, net: Network, weight_bits) -> dict:
     meta = {
         "schema": SCHEMA,
         "model": "snn-fg figure-ground network (D'Angelo et al. 2025)",
@@ -278,11 +278,11 @@ def _graph_metadata(network: Network, net: Network, weight_bits) -> dict:
 
 def to_nir(network: Network, *, weight_bits: int | None = None):
     """The NIR graph of ``network`` (see the module docstring), whole in memory."""
-    nir = _nir()
+    nir = nir_package()
     net = flat_network(network)
     edges: list = []
     nodes = dict(_parts(nir, network, net, weight_bits, edges))
-    return nir.NIRGraph(nodes=nodes, edges=edges, metadata=_graph_metadata(network, net, weight_bits))
+    return nir.NIRGraph(nodes=nodes, edges=edges, metadata=graph_metadata(network, net, weight_bits))
 
 
 def _write_hdf5(group, d: dict):
@@ -311,7 +311,7 @@ def write_streaming(path, network: Network, *, weight_bits: int | None = None) -
     node), 5.5 GB for the default 304 x 240 network."""
     import h5py
 
-    nir = _nir()
+    nir = nir_package()
     net = flat_network(network)
     edges: list = []
     with h5py.File(path, "w") as f:
@@ -320,7 +320,7 @@ def write_streaming(path, network: Network, *, weight_bits: int | None = None) -
         nodes = root.create_group("nodes")
         for name, node in _parts(nir, network, net, weight_bits, edges):
             _write_hdf5(nodes.create_group(name), node.to_dict())
-        _write_hdf5(root, {"type": "NIRGraph", "edges": edges, "metadata": _graph_metadata(network, net, weight_bits)})
+        _write_hdf5(root, {"type": "NIRGraph", "edges": edges, "metadata": graph_metadata(network, net, weight_bits)})
     return Path(path)
 
 
@@ -368,97 +368,3 @@ def describe_nir(path) -> str:
     kinds = node_kinds(path)
     listed = ", ".join(f"{n} {k}" for k, n in kinds.items())
     return f"{Path(path).stat().st_size / 1e6:.1f} MB; {sum(kinds.values())} nodes: {listed}"
-
-
-def read_nir(path) -> Network:
-    """A runnable :class:`~snn_fg.network.Network` from a NIR file written by
-    :func:`export_nir` (NIR semantics: stride-1 lattices, receptors split,
-    array kernels). A file that is not NIR, or not one of ours, is an
-    :class:`~snn_fg.errors.InputError` naming it."""
-    nir = _nir()
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "no such file")
-    try:
-        g = _read_graph(nir, path)
-        meta = json.loads(g.metadata["snn_fg"])
-    except (OSError, EOFError, KeyError, ValueError, TypeError) as exc:
-        raise InputError(path, f"not a NIR graph written by snn-fg ({type(exc).__name__}: {exc})") from None
-    if meta.get("schema") != SCHEMA:
-        raise InputError(path, f"NIR graph of schema {meta.get('schema')!r}, not {SCHEMA!r}")
-    try:
-        return _network_from(g, meta)
-    except (KeyError, ValueError, TypeError, ParameterError) as exc:
-        raise InputError(path, f"inconsistent snn-fg NIR graph: {exc}") from None
-
-
-def _read_graph(nir, path: Path):
-    """``nir.read``, also of a gzipped file (``.nir.gz``, as networks/ keeps it)."""
-    if path.suffix != ".gz":
-        return nir.read(path)
-    import gzip
-    import shutil
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as tmp, gzip.open(path, "rb") as src:
-        raw = Path(tmp) / path.stem
-        with open(raw, "wb") as dst:
-            shutil.copyfileobj(src, dst)
-        return nir.read(raw)
-
-
-def _network_from(g, meta) -> Network:
-    pops, prjs = [], []
-    into = {dst: src for src, dst in g.edges}  # a Conv2d has one source
-    for name, node in g.nodes.items():
-        m = getattr(node, "metadata", None) or {}
-        if "snn_fg_population" not in m:
-            continue
-        d = json.loads(m["snn_fg_population"])
-        if type(node).__name__ == "LIF":
-            exc, inh = g.nodes[f"{name}.exc"], g.nodes[f"{name}.inh"]
-            d["neuron"] = Neuron(
-                tau_m_ms=float(node.tau.flat[0]) / MS,
-                tau_exc_ms=float(exc.tau.flat[0]) / MS,
-                tau_inh_ms=float(inh.tau.flat[0]) / MS,
-                v_rest_mv=float(node.v_leak.flat[0]),
-                v_reset_mv=float(node.v_reset.flat[0]),
-                v_th_mv=float(node.v_threshold.flat[0]),
-                t_ref_ms=float(m["t_ref_s"]) / MS,
-            ).to_dict()
-        d["stride"], d["edge_mask"] = 1, False
-        pops.append(Population.from_dict(d))
-    for name, node in g.nodes.items():
-        m = getattr(node, "metadata", None) or {}
-        if type(node).__name__ == "Conv2d" and "projection" in m:
-            delay = g.nodes[f"{name}.delay"].delay.flat[0] / MS
-            sign = 1 if m["receptor"] == "exc" else -1
-            w = np.asarray(node.weight, np.float64)
-            synapse = next(dst for src, dst in g.edges if src == f"{name}.delay")
-            prjs.append(
-                Conv(
-                    name=name.replace(".", "_"),
-                    source=into[name],
-                    target=synapse.rsplit(".", 1)[0],
-                    kernel=Kernel(ref="array", args={"data": np.abs(w)}),
-                    mode="corr",
-                    padding=m["padding"],
-                    sign=sign,
-                    gain_mv=1.0,
-                    delay_ms=float(delay),
-                )
-            )
-        elif type(node).__name__ == "Input" and "snn_fg_projection" in m:
-            d = json.loads(m["snn_fg_projection"])
-            d.pop("type")
-            prjs.append(Resize.from_dict(d))
-    return Network(
-        params=ModelParams.from_dict(meta["params"]),
-        frame_shape=tuple(meta["frame_shape"]),
-        populations=tuple(pops),
-        projections=tuple(prjs),
-        input_rate_hz=meta["input_rate_hz"],
-        dt_ms=meta.get("dt_ms", DEFAULT_DT_MS),
-        notes=tuple(meta["notes"])
-        + ("Read from NIR: " + "; ".join(f"{k}: {v}" for k, v in meta["approximations"].items()),),
-    )

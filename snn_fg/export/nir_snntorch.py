@@ -63,12 +63,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError, install_hint
+from ..errors import ParameterError
 from ..frames.pyramid import level_scale
 from ..network.graph import Network
 from ..network.nodes import Kernel
 from ..network.projections import Conv, Resize
-from .nir import _graph_metadata, _nir, conv2d_drive, flat_network, identity_conv
+from .nir import conv2d_drive, flat_network, graph_metadata, identity_conv, nir_package
 
 #: snnTorch 1.0's fixed time step in its NIR import (s)
 SNNTORCH_DT_S = 1e-4
@@ -313,7 +313,7 @@ def to_nir_snntorch(
     a consumer step of ``step_ms`` of the network's time."""
     step_ms = network.dt_ms if step_ms is None else step_ms
     step_s = step_ms * 1e-3
-    nir = _nir()
+    nir = nir_package()
     net = snntorch_network(network, step_ms, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
     sources = [p.name for p in net.populations if p.is_source]
     h, w = net.frame_shape
@@ -329,14 +329,14 @@ def to_nir_snntorch(
             nodes[f"{p.name}.rest"] = _rest(nir, p, sources, step_s)
             edges += [("input", f"{p.name}.rest"), (f"{p.name}.rest", p.name)]
     # nirtorch 2.6 takes one Output node (with two, its graph builder re-queues them for ever); a consumer
-    # reads the other populations' spikes from their modules (run_snntorch)
+    # reads the other populations' spikes from their modules (snn_fg.export.snntorch_run.run_snntorch)
     out = net.one("group_L", 1)
     nodes["output"] = nir.Output(output_type={"output": np.array(out.shape)})
     edges.append((out.name, "output"))
     for pr in net.projections:
         nodes[pr.name] = _conv(nir, net, pr, sources)
         edges += [("input" if pr.source in sources else pr.source, pr.name), (pr.name, pr.target)]
-    meta = json.loads(_graph_metadata(network, net, None)["snn_fg"])
+    meta = json.loads(graph_metadata(network, net, None)["snn_fg"])
     meta["profile"] = {
         "name": PROFILE,
         "step_s": step_s,
@@ -358,62 +358,5 @@ def export_nir_snntorch(
 
     graph = to_nir_snntorch(network, step_ms=step_ms, one_grid=one_grid, deeper_reset=deeper_reset)
     with atomic_path(out, suffix=".nir") as tmp:
-        _nir().write(tmp, graph)
+        nir_package().write(tmp, graph)
     return Path(out)
-
-
-def _snntorch():
-    try:
-        import torch
-        from snntorch.import_nir import import_from_nir
-    except ImportError:
-        raise ParameterError(
-            f"running a NIR graph with snnTorch needs torch and snntorch: {install_hint('snntorch')}"
-        ) from None
-    return torch, import_from_nir
-
-
-def run_snntorch(
-    graph, network: Network, inputs, *, step_ms: float, duration_ms: float, count_from_ms: float, one_grid: bool = False
-) -> dict:
-    """Simulate a graph of this profile made from ``network`` for a step of
-    ``step_ms`` with snnTorch (through nirtorch) on ``inputs``
-    (:class:`~snn_fg.lowering.input_spikes.InputSpikes` on that step), counting
-    every population's spikes from ``count_from_ms`` on: population name ->
-    counts per cell (flat order); ``one_grid`` as the graph was written."""
-    import contextlib
-    import io
-
-    torch, import_from_nir = _snntorch()
-    net = snntorch_network(network, one_grid=one_grid)
-    with contextlib.redirect_stdout(io.StringIO()):  # snnTorch prints its weight-scaling notes
-        module = import_from_nir(graph)
-    mods = dict(module.named_modules())
-    counts, live = {}, [False]
-
-    def hook(name):
-        def count(_mod, _inp, out):
-            if live[0]:
-                counts[name] += (out[0] if isinstance(out, tuple) else out).reshape(-1).numpy().astype(np.int64)
-
-        return count
-
-    for p in net.populations:
-        if p.neuron is not None:
-            counts[p.name] = np.zeros(p.size, np.int64)
-            mods[p.name.replace(".", "_")].register_forward_hook(hook(p.name))
-    n_steps = int(round(duration_ms / step_ms))
-    idx, st = inputs.spike_times_steps(n_steps)
-    order = np.argsort(st, kind="stable")
-    idx, st = idx[order], st[order]
-    bounds = np.searchsorted(st, np.arange(n_steps + 1))
-    h, w = inputs.shape
-    frame = np.zeros(2 * h * w, np.float32)
-    state = None
-    with torch.no_grad():
-        for k in range(n_steps):
-            frame[:] = 0
-            frame[idx[bounds[k] : bounds[k + 1]]] = 1.0
-            live[0] = k * step_ms >= count_from_ms - 1e-9
-            _, state = module(torch.from_numpy(frame.reshape(1, 2, h, w)), state)
-    return counts

@@ -19,8 +19,8 @@ import numpy as np
 
 from .. import validate as check
 from ..errors import InputError
+from ..events.formats import SUFFIX_FORMAT
 from ..events.images import IMAGE_SUFFIXES
-from ..events.io import SUFFIX_FORMAT
 
 
 @dataclass

@@ -27,7 +27,8 @@ from ...params import ModelParams
 from ...results.maps import Maps
 from ._sparse_kernels import dog_at
 from .fourier import irfft, padded_shape, place, rfft
-from .grouping import Entries, GroupingResult, SparseGrouping
+from .grouping import SparseGrouping
+from .grouping_tables import Entries, GroupingResult
 from .pooled import grouping_engine
 from .side_cue import side_cue_bias
 

@@ -70,6 +70,7 @@ CODEGEN = ("auto", "cython", "numpy")
 @contextlib.contextmanager
 def _brian2_session(codegen: str):
     """Brian2 preferences and log level for one run, restored afterwards."""
+    # (brian2 is imported where it is used: seconds to import, and only runs on this backend need it)
     from brian2 import prefs
 
     logger = logging.getLogger("brian2")

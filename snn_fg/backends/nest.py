@@ -29,10 +29,12 @@ import importlib.util
 import time
 
 import numpy as np
+from tqdm import tqdm
 
 from .. import cancel
 from .. import validate as check
 from ..errors import install_hint
+from ..lowering.quantise import quantise_unrolled
 from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
@@ -115,8 +117,6 @@ class NestBackend(Backend):
             instantiate=settings.instantiate,
         )
         if self.weight_bits is not None:
-            from ..lowering.quantise import quantise_unrolled
-
             quantise_unrolled(un, self.weight_bits)
         stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
         timings = {"unroll": time.perf_counter() - t0}
@@ -258,7 +258,6 @@ def _progress(settings: RunSettings):
     if not settings.progress:
         yield None
         return
-    from tqdm import tqdm
 
     bar = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating (NEST)", leave=False)
     seen = {"ms": 0}

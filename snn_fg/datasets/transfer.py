@@ -17,6 +17,7 @@ import urllib.request
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from snn_fg.errors import SnnFgError
 from snn_fg.results.atomic import atomic_path
@@ -62,8 +63,6 @@ def npz_sha256(path) -> str:
 
 
 def _progress(total, label, show):
-    from tqdm import tqdm
-
     # disable=None: a bar only when stderr is a terminal
     return tqdm(
         total=total,

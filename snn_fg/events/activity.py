@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from snn_fg.events.window import EmptyWindowWarning, iter_windows
+
 #: a window with events on more than this share of the sensor's pixels is saturated
 #: (real scenes of the project's recordings reach 0.26 at most in 85 ms windows; start-up bursts 1.0)
 SATURATED_SHARE = 0.5
@@ -51,8 +53,6 @@ def activity(recording, *, window_ms: float = 85.0, sensor_size=None) -> Activit
     """Events and pixel share of every window of ``recording`` (a path, a
     stream or an array), cut as :func:`~snn_fg.events.iter_windows` cuts it
     from the first event."""
-    from snn_fg.events.window import EmptyWindowWarning, iter_windows
-
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)  # an empty window is a row of zeros
@@ -124,7 +124,7 @@ def timeline_text(act: Activity) -> str:
 
 def activity_figure(act: Activity, title: str = ""):
     """Events per window and the share of pixels they cover, saturated windows in red."""
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # (matplotlib: only when the figure is drawn)
 
     fig = Figure(figsize=(9, 4.5), layout="constrained")
     ax_n, ax_s = fig.subplots(2, 1, sharex=True)

@@ -8,6 +8,7 @@ offset.
 
 from __future__ import annotations
 
+import aedat
 import numpy as np
 
 from snn_fg.errors import InputError, SnnFgError
@@ -67,8 +68,6 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
     """Open an AEDAT 4 file; its first event stream is read, packet by packet.
     Frames, IMU samples, triggers and other event streams are counted in the
     decode tally and left out."""
-    import aedat
-
     _check_aedat4_header(path)
     decoder = _panic_safe(path, "AEDAT4 decoder rejected the file", aedat.Decoder, str(path))
     streams = _panic_safe(path, "AEDAT4 decoder rejected the file", decoder.id_to_stream)

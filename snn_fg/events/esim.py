@@ -41,11 +41,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from snn_fg import validate
 from snn_fg.events._core import EVENT_DTYPE, Recording
 from snn_fg.events.images import to_grey
+from snn_fg.events.paper_motion import PAPER_SHIFT_PX, paper_frames
+from snn_fg.events.window import events_to_frame
 
 #: eps in ``log(I + eps)``, intensities in [0, 1].
 LOG_EPS = 1e-3
@@ -64,7 +67,6 @@ def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
         ys = np.clip(np.arange(h) - dy, 0, h - 1)
         xs = np.clip(np.arange(w) - dx, 0, w - 1)
         return img[np.ix_(ys, xs)]
-    import cv2
 
     m = np.array([[1.0, 0.0, dx], [0.0, 1.0, dy]])
     return cv2.warpAffine(img, m, (img.shape[1], img.shape[0]), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
@@ -74,8 +76,6 @@ def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndar
     """Image offsets ``(dx, dy)`` (pixels; +x right, +y down) of each frame."""
     validate.choice("motion_offsets", "motion", motion, MOTIONS)
     if motion == "paper":
-        from snn_fg.events.paper_motion import PAPER_SHIFT_PX
-
         return np.array([(0, PAPER_SHIFT_PX), (PAPER_SHIFT_PX, 0)], dtype=np.float64)
     a = validate.number("motion_offsets", "amplitude_px", amplitude_px, lo=0, lo_open=True)
     if motion == "shift4":
@@ -99,8 +99,6 @@ def motion_frames(image, motion: str = "shift4", amplitude_px: float = 1.0, fram
         validate.fail("motion_frames", "frame_interval_us", frame_interval_us, "must be a whole number")
     offs = motion_offsets(motion, amplitude_px)
     if motion == "paper":
-        from snn_fg.events.paper_motion import paper_frames
-
         frames = paper_frames(image)
     else:
         img = to_grey(image)
@@ -227,7 +225,5 @@ def image_to_events(
 
 def image_to_frame(image, threshold: float = 0.10, motion: str = "shift4", **kwargs):
     """``(pos, neg)`` event frame of the simulated events (whole motion = one window)."""
-    from snn_fg.events.window import events_to_frame
-
     rec = image_to_events(image, threshold=threshold, motion=motion, **kwargs)
     return events_to_frame(rec.events, rec.sensor_size)

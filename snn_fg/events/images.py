@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from snn_fg.errors import InputError
@@ -18,8 +19,6 @@ GREY_WEIGHTS = np.array([0.299, 0.587, 0.114])
 
 def read_image(path, grey: bool = True) -> np.ndarray:
     """Read an image file as float64 in [0, 1]: grey (H, W), or RGB (H, W, 3) if ``grey=False``."""
-    import cv2
-
     path = Path(path)
     if not path.is_file():
         raise InputError(path, "no such file")

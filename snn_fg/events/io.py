@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Iterator
 
 import numpy as np
+from tqdm import tqdm
 
 from snn_fg import validate
 from snn_fg.errors import InputError, InputWarning
@@ -141,7 +142,6 @@ class RecordingStream:
     def _progress_bar(self, name):
         if not self.progress:
             return None
-        from tqdm import tqdm
 
         return tqdm(unit="ev", unit_scale=True, desc=f"reading {Path(str(name)).name}", leave=False, disable=None)
 

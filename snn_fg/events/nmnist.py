@@ -20,7 +20,7 @@ _OVERFLOW_Y = 240
 
 def open_nmnist(path, sensor_size, chunk_events) -> Source:
     """Open an N-MNIST / N-Caltech101 ``.bin`` file (read whole by tonic)."""
-    from tonic.io import read_mnist_file
+    from tonic.io import read_mnist_file  # (tonic takes over a second to import: only for a .bin file)
 
     nbytes = path.stat().st_size
     if nbytes % RECORD_BYTES:

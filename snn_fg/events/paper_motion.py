@@ -33,7 +33,9 @@ from __future__ import annotations
 
 import io
 
+import cv2
 import numpy as np
+from PIL import Image
 
 from snn_fg.events.images import as_float_image
 
@@ -76,9 +78,6 @@ def imageio_uint8(values: np.ndarray) -> np.ndarray:
 
 def jpeg_luma(rgb8: np.ndarray, quality: int = PAPER_JPEG_QUALITY) -> np.ndarray:
     """Encode ``rgb8`` as JPEG (Pillow) and decode its grey (luma) channel as OpenCV does; float in [0, 1]."""
-    import cv2
-    from PIL import Image
-
     buf = io.BytesIO()
     Image.fromarray(rgb8).save(buf, format="JPEG", quality=quality)
     grey = cv2.imdecode(np.frombuffer(buf.getvalue(), np.uint8), cv2.IMREAD_GRAYSCALE)

@@ -85,7 +85,7 @@ class EventWindow:
 
 def _filter(events, denoise_us, refractory_us):
     if len(events) and denoise_us:
-        from tonic.transforms import Denoise
+        from tonic.transforms import Denoise  # (tonic takes over a second to import: only when a filter is asked for)
 
         events = Denoise(filter_time=denoise_us)(events)
     if len(events) and refractory_us:

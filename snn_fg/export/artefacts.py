@@ -9,12 +9,18 @@ without regenerating them.
 
 from __future__ import annotations
 
+import gzip
 import json
+import shutil
+import tempfile
 from pathlib import Path
 
 from ..network import SpikingParams, build_network
 from ..params import ModelParams
+from ..results.atomic import atomic_path, save_text
 from .board import fingerprint
+from .nir import export_nir
+from .report import report_table, resource_report
 
 ICUB_SHAPE = (240, 304)  # rows, cols of the iCub ATIS
 NIR_NAME = "icub_304x240.nir.gz"  # gzip: the HDF5 file is 18 MB, mostly per-dataset headers
@@ -27,12 +33,6 @@ def default_icub_network():
 
 
 def _gzipped_nir(net, path: Path) -> Path:
-    import gzip
-    import shutil
-    import tempfile
-
-    from ..results.atomic import atomic_path
-    from .nir import export_nir
 
     with tempfile.TemporaryDirectory() as tmp:
         raw = export_nir(net, Path(tmp) / "net.nir")
@@ -47,9 +47,6 @@ def _gzipped_nir(net, path: Path) -> Path:
 
 def write_artefacts(folder) -> list[Path]:
     """Write the NIR graph, the resource report (JSON) and its table into ``folder``."""
-    from ..results.atomic import save_text
-    from .report import report_table, resource_report
-
     folder = Path(folder)
     net = default_icub_network()
     rep = resource_report(net)

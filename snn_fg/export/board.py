@@ -26,6 +26,7 @@ standalone code the PyNN export runs (:mod:`.pynn_tables`).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,8 +47,6 @@ BOARD_NOTE = (
 
 def fingerprint(network: Network) -> str:
     """SHA-256 of a description's JSON: which network an artefact was made from."""
-    import hashlib
-
     return hashlib.sha256(network.to_json(indent=None).encode()).hexdigest()
 
 

@@ -56,6 +56,7 @@ from ..network.graph import Network
 from ..network.nodes import Kernel, Population
 from ..network.projections import Conv, Resize
 from ..pynn.cells import quantise, split_receptors
+from ..results.atomic import atomic_path
 from .board import board_network, fingerprint
 
 MS = 1e-3
@@ -289,7 +290,7 @@ def _write_hdf5(group, d: dict):
     """A node's dictionary into an HDF5 group, laid out as ``nir.write`` lays
     it out (strings as string datasets, arrays gzipped, dicts as groups,
     empty metadata left out), so that ``nir.read`` reads it."""
-    import h5py
+    import h5py  # (comes with the nir extra, as nir itself: imported only when NIR is written or read)
 
     for k, v in d.items():
         if k == "metadata" and v == {}:
@@ -338,8 +339,6 @@ def export_nir(network: Network, out, *, weight_bits: int | None = None, force: 
     >>> sorted({type(n).__name__ for n in g.nodes.values()})
     ['Conv2d', 'Delay', 'Input', 'LI', 'LIF', 'Output']
     """
-    from ..results.atomic import atomic_path
-
     out = Path(out)
     if out.exists() and not force:
         raise InputError(out, "exists; pass --force to replace it")

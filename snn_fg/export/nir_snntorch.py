@@ -68,6 +68,7 @@ from ..frames.pyramid import level_scale
 from ..network.graph import Network
 from ..network.nodes import Kernel
 from ..network.projections import Conv, Resize
+from ..results.atomic import atomic_path
 from .nir import conv2d_drive, flat_network, graph_metadata, identity_conv, nir_package
 
 #: snnTorch 1.0's fixed time step in its NIR import (s)
@@ -354,7 +355,6 @@ def export_nir_snntorch(
     """Write the graph of this profile (levels on one grid with ``one_grid``,
     refractory periods as deeper resets with ``deeper_reset``) to ``out`` (atomically)."""
     step_ms = network.dt_ms if step_ms is None else step_ms
-    from ..results.atomic import atomic_path
 
     graph = to_nir_snntorch(network, step_ms=step_ms, one_grid=one_grid, deeper_reset=deeper_reset)
     with atomic_path(out, suffix=".nir") as tmp:

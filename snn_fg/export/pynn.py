@@ -43,9 +43,12 @@ import numpy as np
 from .. import __version__
 from .. import pynn as standalone
 from .. import validate as check
+from ..backends.base import SimulationResult, lif_populations
 from ..errors import InputError
+from ..lowering.input_spikes import InputSpikes
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
+from ..results.atomic import OutputFolder
 from .board import ConvTable, board_network, geometry, table
 from .spinnaker import spinnaker_plan
 from .synapses import projection_counts
@@ -233,7 +236,6 @@ def export_pynn(
     fg_cells.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py fg_spinnaker.py fg_tables.py run.py
     """
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
-    from ..results.atomic import OutputFolder
 
     meta, arrays = pynn_model(
         network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape
@@ -318,8 +320,6 @@ def read_input(path):
     """``run.py``'s input file as :class:`~snn_fg.lowering.input_spikes.InputSpikes`
     (what :func:`save_input` wrote; the active-pixel masks and the mean rate
     are recomputed from the spikes)."""
-    from ..lowering.input_spikes import InputSpikes
-
     d = check.load_npz(path, "the input.npz of snn-fg events --write-spikes")
     h, w = (int(v) for v in d["shape"])
     idx, steps, period = d["indices"].astype(np.int64), d["steps"].astype(np.int64), int(d["period_steps"])
@@ -345,8 +345,6 @@ def read_input(path):
 def read_counts(network: Network, path):
     """``run.py``'s output as a :class:`~snn_fg.backends.SimulationResult`
     of the board network (every cell), ready for :func:`snn_fg.models.spiking.decode.decode`."""
-    from ..backends.base import SimulationResult, lif_populations
-
     net = board_network(network)
     d = check.load_npz(path, "the counts.npz an export's run.py writes")
     pops = lif_populations(net)

@@ -17,6 +17,7 @@ import textwrap
 
 import numpy as np
 
+from ..errors import SnnFgError
 from ..network.graph import Network
 from ..pynn.cells import grid_delay, quantise, split_receptors
 from .board import board_network, table, table_values
@@ -278,8 +279,6 @@ def largest_sensor(make, sensor_shape, target: str = "spinnaker1", dt_ms: float 
     (:data:`~.hardware.TARGETS`: at most ``chips_per_board`` chips, no
     violated limit), as ``{"width", "height", "chips"}``; ``None`` if even the
     smallest network that can be made does not."""
-    from ..errors import SnnFgError
-
     h, w = sensor_shape
     per_board = {"spinnaker1": SPINNAKER1["chips_per_board"].value}[target]
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..network.graph import Network
 from ..network.projections import Conv
+from .report import resource_report
 
 
 def _conv_reason(network: Network, pr) -> str | None:
@@ -110,8 +111,6 @@ def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float | N
         "projections": entries,
     }
     if estimate:
-        from .report import resource_report
-
         out["estimate"] = {
             k: v
             for k, v in resource_report(network, dt_ms)["targets"]["spinnaker1"].items()

@@ -9,6 +9,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..errors import InputError
+
 
 def level_scale(level: int, per_octave: int = 2) -> float:
     """Scale factor of 1-based pyramid ``level``, ``per_octave`` levels per halving."""
@@ -42,8 +44,6 @@ def check_levels(shape: tuple[int, int], levels: int, source="<frame>", per_octa
     """Refuse more pyramid levels than a frame of ``shape`` can have."""
     most = max_levels(shape, per_octave)
     if levels > most:
-        from ..errors import InputError
-
         raise InputError(
             source,
             f"a {shape[0]} x {shape[1]} frame has at most {most} pyramid levels of at least "

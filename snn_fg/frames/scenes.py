@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import validate as check
+from ..events import Recording, image_to_events
 
 _SUPERSAMPLE = 4
 
@@ -201,8 +202,6 @@ def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: flo
     ``k`` start at ``k * window_ms`` ms and end before ``(k + 1) * window_ms``
     (so ``iter_windows(recording, window_ms=window_ms)`` cuts it at the flips).
     """
-    from ..events import Recording, image_to_events
-
     check.integer("flipping_disc_recording", "windows", windows, lo=1)
     window_ms = check.number("flipping_disc_recording", "window_ms", window_ms, lo=0, lo_open=True)
     scenes = [disc(radius, light_on_dark=k % 2 == 0) for k in range(windows)]

@@ -19,8 +19,10 @@ import numpy as np
 
 from .. import validate as check
 from ..errors import InputError
+from ..events import events_to_frame, image_to_events
 from ..events.formats import SUFFIX_FORMAT
-from ..events.images import IMAGE_SUFFIXES
+from ..events.images import IMAGE_SUFFIXES, read_image
+from .scenes import demo
 
 
 @dataclass
@@ -149,9 +151,6 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
     see :data:`snn_fg.events.esim.MOTIONS`) or ``"image"``.
     Returns ``(Still, source)``.
     """
-    from ..events import events_to_frame, image_to_events
-    from ..events.images import read_image
-
     kind = input_kind(spec)
     source = {"input": str(spec), "kind": kind}
     if kind == "recording":
@@ -162,8 +161,6 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
         pos, neg = load_event_frame(spec)
         return Still(pos, neg), source
     if kind == "demo":
-        from .scenes import demo
-
         image = demo().image
     else:
         image = read_image(spec, grey=needs != "image" and motion != "paper")

@@ -24,6 +24,10 @@ from ..frames.still import Still
 from ..params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
 from ..results.maps import SPIKING_GROUPING_LABEL, Maps
 
+# Each model's own package is imported by the methods that run it: the rate model compiles its numba loops
+# and the spiking model loads its backends on import (seconds), and a command runs one model; the figures
+# (matplotlib) are imported only by a run that draws.
+
 
 class Model(ABC):
     """A figure-ground model: still inputs and windows in, :class:`Maps` out.

@@ -17,6 +17,7 @@ from .. import validate as check
 from ..errors import InputError, ParameterError
 from ..frames.pyramid import level_shape
 from ..params import ModelParams
+from ..results.atomic import save_text
 from .nodes import Population
 from .projections import Conv, Projection, projection_from_dict
 
@@ -282,8 +283,6 @@ class Network:
 
     def save(self, path) -> Path:
         """Write the description as JSON (atomically)."""
-        from ..results.atomic import save_text
-
         return save_text(path, self.to_json() + "\n")
 
     @classmethod

@@ -140,7 +140,7 @@ class PyNNNetwork(Readout):
         size = max(int(size), 1)
         self._count_senders(name, size)
         if self.signed:
-            import nest
+            import nest  # (NEST is the nest extra, and one simulator of several PyNN runs on: imported on NEST only)
 
             taus = [t * (1 + 1e-6) if t == p["tau_m"] else t for t in (p["tau_syn_E"], p["tau_syn_I"])]
             model = f"snnfg_{name}"

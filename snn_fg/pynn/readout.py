@@ -68,7 +68,7 @@ class Readout:
             for name in names:
                 self.pops[name].record("spikes")
             return
-        import nest
+        import nest  # (NEST is the nest extra: imported on NEST only)
 
         if spikes:
             rec = nest.Create("spike_recorder")

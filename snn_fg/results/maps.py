@@ -11,6 +11,7 @@ import numpy as np
 from .. import validate as check
 from ..errors import InputError
 from .atomic import save_npz
+from .store import STORE_NAME, read_maps
 
 #: what a spiking run's grouping map is (figure labels)
 SPIKING_GROUPING_LABEL = "grouping rate (Hz, summed over levels)"
@@ -73,8 +74,6 @@ class Maps:
         """Read maps saved by :meth:`save` (``maps.npz``), a recording's store
         (``maps.zarr``, :mod:`snn_fg.results.store`: its complete windows, also while
         a run still writes it) or a run's output folder holding either."""
-        from .store import STORE_NAME, read_maps
-
         path = Path(path)
         if path.is_dir() and (path / "maps.npz").is_file():
             path = path / "maps.npz"

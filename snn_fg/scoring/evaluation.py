@@ -12,13 +12,22 @@ scores are kept as sums to pool over images (:mod:`.pooled`).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
 from skimage.metrics import structural_similarity
 
+from ..events import image_to_frame
+from ..events.images import read_image
+from ..frames.scenes import disc
+from ..models import MODELS, Still, get_model
+from ..models.rate.fbfg import run_fbfg
+from ..params import ModelParams
+from ..results.figures import fg_rgb
 from .groundtruth import angle_errors, boundary_directions, load_bsds_fg
+from .metrics import grouping_peak, truth_scores
 from .pooled import error_stats
 
 #: SSIM window of the paper (MATLAB's default).
@@ -50,8 +59,6 @@ def map_similarity(a, b) -> dict:
 
 def _views(field):
     """The angle map and the colour-wheel rendering of a direction field ``(x, y)``."""
-    from ..results.figures import fg_rgb
-
     return angle_image(*field), fg_rgb(*_unit(*field))
 
 
@@ -76,17 +83,12 @@ def _model(name: str, params, spiking_options: dict):
     """The registered model ``name`` with ``params``; ``spiking_options`` go
     to a model that simulates a network on a backend (one that takes the
     option ``backend``)."""
-    from ..models import MODELS, get_model
-
     takes_backend = "backend" in getattr(MODELS.get(name), "options", ())
     return get_model(name, params, **(spiking_options if takes_backend else {}))
 
 
 def _event_maps(unit, image, threshold, motion):
     """Maps of an event model ``unit`` on ``image`` (array or path) turned into events, and the event pixel count."""
-    from ..events import image_to_frame
-    from ..frames.still import Still
-
     pos, neg = image_to_frame(image, threshold=threshold, motion=motion)
     return unit.run_still(Still(pos, neg)), int((pos | neg).sum())
 
@@ -129,10 +131,6 @@ def evaluate_image(*, root: str, image_id: str, settings: ImageEvaluation | None
         (:func:`error_stats`) against both labellers; ``ceiling``: labeller 2
         against labeller 1; ``fig6``: :func:`map_similarity` of the pairs.
     """
-    from ..events.images import read_image
-    from ..models.rate.fbfg import run_fbfg
-    from ..params import ModelParams
-
     opts = settings or ImageEvaluation()
     params = ModelParams() if opts.r0 is None else ModelParams(r0=opts.r0)
     gt = load_bsds_fg(root, image_id)
@@ -200,16 +198,10 @@ def evaluate_disc(
     the centre, the rim's angle errors (:func:`snn_fg.scoring.metrics.truth_scores`),
     and SSIM / MSE of the map against the ideal one (:func:`map_similarity`).
     """
-    from ..frames.scenes import disc
-    from ..params import ModelParams
-    from .metrics import grouping_peak, truth_scores
-
     params = ModelParams(r0=r0)
     scene = disc(radius=diameter / 2, light_on_dark=False, margin=1.5)
     unit = _model(model, params, spiking_options or {})
     if unit.needs == "image":
-        from ..frames.still import Still
-
         maps = unit.run_still(Still(image=scene.image))
     else:
         maps, _ = _event_maps(unit, scene.image, threshold, "shift4")
@@ -250,11 +242,6 @@ def evaluate_models(*, root: str, image_id: str, models: dict, threshold: float 
         ``units``: one entry per name with its :func:`error_stats` against both
         labellers (and ``seconds``, the model's run time).
     """
-    import time
-
-    from ..events import image_to_frame
-    from ..events.images import read_image
-    from ..models import MODELS, Still, get_model
 
     gt = load_bsds_fg(root, image_id)
     truths = [boundary_directions(m) for m in gt.fg]

@@ -12,6 +12,7 @@ import numpy as np
 from scipy import ndimage as ndi
 
 from .. import validate as check
+from .metrics import angle_difference_deg
 
 
 def filled_outline(edges: np.ndarray, close_px: int = 4, min_fraction: float = 0.0) -> np.ndarray:
@@ -107,8 +108,6 @@ def _inward(fx, fy, nx, ny) -> tuple[float, int]:
 
 
 def _angles(fx, fy, nx, ny) -> tuple[float, float]:
-    from .metrics import angle_difference_deg
-
     if not fx.size:
         return float("nan"), float("nan")
     diff = angle_difference_deg(fx, fy, nx, ny)

@@ -13,6 +13,7 @@ Dask is an optional dependency: ``pip install -e ".[sweep]"``.
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import re
@@ -20,6 +21,8 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
+
+from tqdm import tqdm
 
 from ..errors import SnnFgError, install_hint
 from ..models.cores import usable_cores
@@ -132,8 +135,6 @@ def run_sweep(
 
 
 def _import_all(modules):
-    import importlib
-
     for name in modules:
         importlib.import_module(name)
 
@@ -141,8 +142,6 @@ def _import_all(modules):
 def _run(func, todo, cache_dir, results, *, client, bar, preload):
     """Run ``todo`` on a Dask client (``client``: scheduler address, local workers), filling ``results``
     and the cache as tasks end; ``bar``: the progress bar's settings."""
-    from tqdm import tqdm
-
     dd = _dask()
     client, cluster = _client(*client)
     bar = tqdm(unit="img", file=sys.stderr, **bar)

@@ -37,6 +37,7 @@ from ... import validate
 from ...frames.pyramid import check_levels, pyramid
 from ...params import EDGE_OPERATORS, ModelParams
 from ...results.maps import Maps
+from .corf import corf_edges
 from .edfg import border_ownership_grouping, readout
 
 
@@ -79,8 +80,6 @@ def image_edges(image, sigma: float = 1.0, operator: str = "gaussian") -> tuple[
     gr_i = gc_i = None
     for weight, ch in _channels(image):
         if operator == "corf":
-            from .corf import corf_edges
-
             mag, ang = corf_edges(ch)
             gr = gc = None
         else:

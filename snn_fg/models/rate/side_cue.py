@@ -28,7 +28,7 @@ from ...params import ModelParams
 
 def side_cue_maps(pos, neg, params: ModelParams) -> np.ndarray:
     """``D (*) h[o]`` at the cue's level, ``(n_ori, h_L, w_L)``."""
-    from scipy.signal import fftconvolve
+    from scipy.signal import fftconvolve  # (scipy.signal takes about a second to import: only with the side cue)
 
     shape = level_shape(np.shape(pos), params.cue_level, params.levels_per_octave)
     density = sum(np.maximum(resize(np.asarray(a, np.float64), shape), 0.0) for a in (pos, neg))

@@ -27,6 +27,8 @@ from collections.abc import Callable
 from dataclasses import InitVar, dataclass, field
 from pathlib import Path
 
+from tqdm import tqdm
+
 from ... import validate as check
 from ...backends import DEFAULT_BACKEND, Backend, as_backend
 from ...frames.pool import pooled_shape
@@ -45,8 +47,6 @@ READOUT_LAG_MS = 20.0
 def stderr_log(message: str):
     """A stage message on its own line of stderr, above any progress bar
     (a plain print landed on the bar's line: "windows read: 0%| 0/3 ...snn-fg: fast engine: ...")."""
-    from tqdm import tqdm
-
     tqdm.write(f"snn-fg: {message}", file=sys.stderr)
 
 

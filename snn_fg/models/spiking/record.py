@@ -21,6 +21,7 @@ from ...backends.base import SimulationResult
 from ...errors import InputError
 from ...network.graph import Network
 from ...network.roles import ROLE_ORDER
+from ...results.maps import window_part
 from ...validate import integer
 
 #: cells of each role whose spike times the raster sample keeps
@@ -127,8 +128,6 @@ class SpikingRecord:
         ``(n_windows, H, W)``) it is that window's record; by default the
         window with the most spikes.
         """
-        from ...results.maps import window_part
-
         ex = maps.extra
         if _NAMES not in ex:
             raise InputError("<maps>", "holds no spiking record (was it made by the spiking model?)")

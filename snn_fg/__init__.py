@@ -2,16 +2,20 @@
 spiking neural network.
 
 The data flow is the package layout: :mod:`snn_fg.events` (recordings,
-windows, event-camera simulation) -> event frames and :mod:`snn_fg.frames` ->
-:mod:`snn_fg.network` (the network description) -> :mod:`snn_fg.lowering`
-(input spikes and synapses) -> a simulator of :mod:`snn_fg.backends` (or the
-rate models of :mod:`snn_fg.models.rate`) -> :mod:`snn_fg.results.maps` (decoded maps) ->
-:mod:`snn_fg.scoring.metrics` and :mod:`snn_fg.results.figures`. :mod:`snn_fg.models.spiking` is the
-spiking model's Python API, :mod:`snn_fg.export` writes the description for
-boards and other simulators (with the standalone PyNN program of
-:mod:`snn_fg.pynn`, which the NEST backend runs too), and :mod:`snn_fg.models`
-puts every model behind one interface for the command line (:mod:`snn_fg.cli`).
-Each layer imports only those below it.
+windows, event-camera simulation) -> :mod:`snn_fg.frames` (event frames, input
+pooling, the pyramid) -> :mod:`snn_fg.network` (the network description) ->
+:mod:`snn_fg.lowering` (input spikes and synapses) -> a simulator of
+:mod:`snn_fg.backends` -> :mod:`snn_fg.models` (the spiking model's front end
+and read-out, beside the rate models, behind one interface) ->
+:mod:`snn_fg.results` (decoded maps, their store and figures) ->
+:mod:`snn_fg.scoring` (metrics, ground truth). :mod:`snn_fg.export` writes the
+description for boards and other simulators (with the standalone PyNN
+program of :mod:`snn_fg.pynn`, which the NEST backend runs too),
+:mod:`snn_fg.datasets` fetches the data, and :mod:`snn_fg.cli` is the
+command line. Beneath them all: :mod:`snn_fg.errors`, :mod:`snn_fg.validate`
+(argument checks), :mod:`snn_fg.cancel` (stopping a run) and
+:mod:`snn_fg.params` (the model's parameters). Each layer imports only those
+below it.
 
 ``snn_fg.Maps`` is :class:`snn_fg.results.maps.Maps`, what every run writes and
 ``Maps.load(folder)`` reads back.

@@ -15,7 +15,7 @@ from ..results.atomic import save_text
 from ..results.maps import Maps
 from ..scoring.metrics import compare_maps
 from ..scoring.outline import event_outlines
-from .options import number
+from .options import number, subcommand
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide
 _COLUMNS = (
@@ -35,9 +35,9 @@ _COLUMNS = (
 
 def add_compare_command(sub):
     """Register ``compare`` on an ``argparse`` subparsers object; returns the parser."""
-    p = sub.add_parser(
+    p = subcommand(
+        sub,
         "compare",
-        allow_abbrev=False,
         help="compare two maps.npz files (e.g. spiking vs rate)",
         description="Print, window by window, how two maps files agree: grouping Pearson r and "
         "SSIM, and on the pixels where both have a figure-ground vector the angle "

@@ -14,13 +14,14 @@ from ..export.loop import decode_counts, export_network, input_frame
 from ..export.pynn import input_origin
 from ..results.atomic import OutputFolder
 from ..results.maps import SPIKING_GROUPING_LABEL
+from .options import subcommand
 
 
 def add_decode_command(sub):
     """Register ``decode`` on an ``argparse`` subparsers object; returns the parser."""
-    p = sub.add_parser(
+    p = subcommand(
+        sub,
         "decode",
-        allow_abbrev=False,
         help="decode an exported network's spike counts into maps",
         description="Turn the counts an exported network's run.py wrote (counts.npz) into the maps "
         "snn-fg run writes for a spiking run: OUT/maps.npz and OUT/maps.png.",

@@ -26,7 +26,7 @@ from ..frames.pyramid import check_levels
 from ..lowering.quantise import check_bits
 from ..network.recipes import RECIPES, is_recipe, load_description, network_for
 from ..results.atomic import save_text
-from .options import number, refuse_existing, sensor_size
+from .options import number, refuse_existing, sensor_size, subcommand
 
 FORMATS = ("pynn", "nir", "report", "network")
 TARGETS = ("generic", "spinnaker", "loihi2")
@@ -40,9 +40,9 @@ ICUB_SENSOR = (304, 240)  # iCub ATIS, width x height
 
 def add_export_command(sub):
     """Register ``export`` on an ``argparse`` subparsers object; returns the parser."""
-    p = sub.add_parser(
+    p = subcommand(
+        sub,
         "export",
-        allow_abbrev=False,
         help="export the network (PyNN, NIR, resource report)",
         description="Export the whole spiking network (every cell: a board holds one fixed network) "
         "as a self-contained PyNN model (--format pynn, a folder), a NIR graph "

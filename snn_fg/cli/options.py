@@ -1,6 +1,7 @@
-"""What several commands share, defined once: the checked argument types
-(:func:`number`, :func:`sensor_size`, :func:`crop`), the progress bar of a
-model's iterations, and the rule for an output that exists already
+"""What several commands share, defined once: a subcommand's parser
+(:func:`subcommand`), the checked argument types (:func:`number`,
+:func:`sensor_size`, :func:`crop`), the progress bar of a model's
+iterations, and the rule for an output that exists already
 (:func:`refuse_existing`)."""
 
 from __future__ import annotations
@@ -14,6 +15,13 @@ from tqdm import tqdm
 
 from ..errors import InputError
 from ..events import MAX_SENSOR_SIDE
+
+
+def subcommand(sub, name: str, *, help: str, description: str) -> argparse.ArgumentParser:
+    """The parser of subcommand ``name`` on an ``argparse`` subparsers object: its long
+    options must be typed whole (an abbreviation is refused, so that a later option
+    cannot change what an abbreviation means)."""
+    return sub.add_parser(name, allow_abbrev=False, help=help, description=description)
 
 
 def number(kind, lo, strict=True):

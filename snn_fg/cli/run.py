@@ -20,16 +20,16 @@ from ..results.atomic import OutputFolder, growing_folder, settle_folder
 from ..results.store import STORE_NAME, finished_run, windows_complete
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
-from .options import crop, number, sensor_size
+from .options import crop, number, sensor_size, subcommand
 from .run_options import WINDOW_OPTIONS, add_option_groups, chosen_model
 from .runner import recording_windows, run_recording, run_still
 
 
 def add_run_command(sub):
     """Register ``run`` on an ``argparse`` subparsers object; returns the parser."""
-    p = sub.add_parser(
+    p = subcommand(
+        sub,
         "run",
-        allow_abbrev=False,
         help="run a figure-ground model on an input and write its maps",
         description="Run a model on INPUT: an .npz event frame (pos, neg), an image (png/jpg/...), "
         "an event recording (.es .raw .dat .aedat4 .bin data.log .npy .npz) or 'demo' "

@@ -16,7 +16,14 @@ MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh", "side_c
 #: how a recording is cut into windows (snn_fg.events.iter_windows)
 WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
 #: options that only a recording uses
-RECORDING_OPTIONS = WINDOW_OPTIONS + ("readout_lag_ms", "carry_state", "window_clock", "save_spikes", "resume")
+RECORDING_OPTIONS = WINDOW_OPTIONS + (
+    "readout_lag_ms",
+    "carry_state",
+    "window_clock",
+    "input_coding",
+    "save_spikes",
+    "resume",
+)
 #: spiking options for one frame that a recording (one continuous run) does not use
 FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
 
@@ -102,6 +109,16 @@ RUN_OPTIONS = (
                 "recordings: fire the network's window clock as each window "
                 "starts, so that its grouping cells compete afresh (off: "
                 "the network carries its state into the next window) (on)",
+            ),
+            (
+                "--input-coding",
+                ("events", "window"),
+                None,
+                None,
+                "recordings: how events become input spikes: events, each a spike at its own time; "
+                "window, each pixel holds its last event's polarity in the window, firing at the input "
+                "rate, which builds the rate model's event frame as the events arrive (--seed sets "
+                "the phases) (the network's own: events)",
             ),
             (
                 "--instantiate",
@@ -196,10 +213,11 @@ def refused_options(args, kind) -> list[tuple[str, str]]:
             if given(k) and k not in named
         ]
     else:
+        held = args.input_coding == "window"  # (its held sources' phases are drawn from --seed)
         refused += [
             (k, f"applies to a single frame or image only; {_KIND_NAMES[kind]}, run as one continuous network")
             for k in FRAME_ONLY_OPTIONS
-            if given(k) and k not in named
+            if given(k) and k not in named and not (k == "seed" and held)
         ]
     if args.motion is not None and kind in ("recording", "frame") and model.needs != "image":  # images only
         refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))

@@ -13,13 +13,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
 from ..events import iter_recording, iter_windows
 from ..export.loop import FRAME_RATE_HZ, busiest_crop, crop_events, export_network, recalibration_hint
 from ..export.pynn import frame_size, frame_text, save_input
 from ..frames.pool import pool_events, pool_frame
 from ..frames.still import input_kind, load_frame
-from ..lowering.input_spikes import event_spikes, frame_spikes
+from ..lowering.held_input import held_window
+from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ..results.atomic import atomic_path
 
 
@@ -94,16 +97,20 @@ def _input_spikes(args, net, dt_ms):
             raise InputError(
                 args.input, f"no event in the crop at {_at(net, r0, c0)} of window {win.t_start_us}..{win.t_end_us} us"
             )
-        inp = event_spikes(
-            ev,
-            (shape[1], shape[0]),
-            dt_ms,
-            replay=True,
-            source=str(args.input),
-            t0_us=win.t_start_us,
-            refractory_ms=net.input_refractory_ms,
-        )
         what = f"window {win.t_start_us}..{win.t_end_us} us, {ev.size:,} events"
+        if net.input_coding == "window":  # (each pixel holds its last polarity as the window's frame)
+            inp = _held_input(ev, shape, dt_ms, win, net.input_rate_hz)
+            what += f", held as the window's frame at {net.input_rate_hz:g} Hz"
+        else:
+            inp = event_spikes(
+                ev,
+                (shape[1], shape[0]),
+                dt_ms,
+                replay=True,
+                source=str(args.input),
+                t0_us=win.t_start_us,
+                refractory_ms=net.input_refractory_ms,
+            )
     else:
         frame, _ = load_frame(args.input, "events", args.threshold, args.motion)
         on, off = pool_frame(frame.pos, frame.neg, pool)
@@ -124,6 +131,15 @@ def _input_spikes(args, net, dt_ms):
         "event_share": round(share, 4),
     }
     return inp, f"{what}; crop at {_at(net, r0, c0)}", origin
+
+
+def _held_input(ev, shape, dt_ms, win, rate_hz) -> InputSpikes:
+    """A window's events held as its frame (the ``window`` input coding), replayed every window."""
+    idx, steps, period = held_window(ev, shape, dt_ms, win.t_start_us, win.t_end_us, rate_hz)
+    fired = np.zeros(2 * shape[0] * shape[1], bool)
+    fired[idx] = True
+    on, off = fired[: shape[0] * shape[1]].reshape(shape), fired[shape[0] * shape[1] :].reshape(shape)
+    return InputSpikes(shape, idx, steps, period, on, off, float(rate_hz), 0, "events-held")
 
 
 def write_spikes(args) -> int:

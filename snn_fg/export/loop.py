@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..models.spiking.decode import decode
+from ..models.spiking.decode import decode_maps
 from ..network.graph import Network
-from ..results.maps import Maps
+from ..results.maps import CONFIDENCE, Maps
 from .pynn import read_counts, read_input
 
 #: regular trains of an event frame: the rate ``snn-fg run`` uses (Hz)
@@ -137,7 +137,7 @@ def decode_counts(network, counts_path):
         raise
     except (OSError, ValueError, KeyError) as e:
         raise InputError(counts_path, f"not a run.py counts file of this export ({type(e).__name__}: {e})") from None
-    fg_x, fg_y, grouping, _ = decode(result)
+    fg_x, fg_y, grouping, conf = decode_maps(result)
     params = {
         "model": "spiking",
         **network.params.to_dict(),
@@ -154,4 +154,5 @@ def decode_counts(network, counts_path):
         },
         "notes": list(network.notes),
     }
-    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params)
+    extra = {CONFIDENCE: conf.astype(np.float32)}
+    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params, extra)

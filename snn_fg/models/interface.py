@@ -232,6 +232,7 @@ class SpikingModel(Model):
         "feedback",
         "readout_lag_ms",
         "window_clock",
+        "input_coding",
         "spike_input",
         "instantiate",
         "save_spikes",

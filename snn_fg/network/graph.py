@@ -21,6 +21,9 @@ from ..results.atomic import save_text
 from .nodes import Population
 from .projections import Conv, Projection, projection_from_dict
 
+#: how a recording's events become input spikes (:attr:`Network.input_coding`)
+INPUT_CODINGS = ("events", "window")
+
 SCHEMA = "snn-fg.network/2"
 #: the time step of a network that does not name one (ms)
 DEFAULT_DT_MS = 0.5
@@ -47,7 +50,11 @@ class Network:
     ``input_refractory_ms``: the input adapter passes an event of a spike
     source (a pixel, or a block of them, and a polarity) on only this long
     after the last one it passed on (0: every event is a spike), so that a
-    busy source fires like a quiet one. ``one_grid``: every pyramid level
+    busy source fires like a quiet one. ``input_coding``: how a recording's
+    events become spikes, ``events`` (each event one spike at its time,
+    through the refractory period) or ``window`` (the window's event frame
+    built as they arrive: :mod:`snn_fg.lowering.held_input`); a frame's
+    pixels fire regular trains either way. ``one_grid``: every pyramid level
     lies on the frame's grid (its kernels dilated by the level's scale; a
     form for NIR consumers that cannot interpolate between levels,
     :func:`~snn_fg.export.nir_snntorch.one_grid_network`). ``dt_ms``: the
@@ -64,6 +71,7 @@ class Network:
     support_min: float = 0.3
     drive_min: float = 0.85
     input_refractory_ms: float = 0.0
+    input_coding: str = "events"
     one_grid: bool = False
     dt_ms: float = DEFAULT_DT_MS
     notes: tuple[str, ...] = ()
@@ -84,6 +92,7 @@ class Network:
         object.__setattr__(
             self, "input_refractory_ms", check.number(owner, "input_refractory_ms", self.input_refractory_ms, lo=0)
         )
+        check.choice(owner, "input_coding", self.input_coding, INPUT_CODINGS)
         object.__setattr__(self, "one_grid", check.flag(owner, "one_grid", self.one_grid))
         object.__setattr__(self, "dt_ms", check.number(owner, "dt_ms", self.dt_ms, lo=0, lo_open=True))
         object.__setattr__(self, "_by_name", self._check_populations())
@@ -228,8 +237,8 @@ class Network:
 
     # -- serialisation -----------------------------------------------------
     def to_dict(self) -> dict:
-        # one_grid and dt_ms only when not the default: the stored descriptions (and their fingerprints)
-        # stay as they were
+        # input_coding, one_grid and dt_ms only when not the default: the stored descriptions (and their
+        # fingerprints) stay as they were
         return {
             "schema": SCHEMA,
             "params": self.params.to_dict(),
@@ -238,6 +247,7 @@ class Network:
             "support_min": self.support_min,
             "drive_min": self.drive_min,
             "input_refractory_ms": self.input_refractory_ms,
+            **({"input_coding": self.input_coding} if self.input_coding != "events" else {}),
             **({"one_grid": True} if self.one_grid else {}),
             **({"dt_ms": self.dt_ms} if self.dt_ms != DEFAULT_DT_MS else {}),
             "notes": list(self.notes),
@@ -258,6 +268,7 @@ class Network:
             "support_min",
             "drive_min",
             "input_refractory_ms",
+            "input_coding",
             "one_grid",
             "dt_ms",
             "notes",

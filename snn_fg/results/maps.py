@@ -17,6 +17,12 @@ from .store import STORE_NAME, read_maps
 SPIKING_GROUPING_LABEL = "grouping rate (Hz, summed over levels)"
 
 
+#: the name of a spiking run's per-pixel confidence (``Maps.extra``), beside ``fg_x`` and ``fg_y``:
+#: how many standard errors of its spike counts each vector is long
+#: (:func:`snn_fg.models.spiking.decode.vector_confidence`)
+CONFIDENCE = "fg_confidence"
+
+
 @dataclass
 class Maps:
     """Figure-ground field (``fg_x``, ``fg_y``; x right, y up) and grouping map.

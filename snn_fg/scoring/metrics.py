@@ -24,7 +24,7 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from .. import validate as check
-from ..results.maps import Maps
+from ..results.maps import CONFIDENCE, Maps
 
 
 def angle_difference_deg(ax, ay, bx, by) -> np.ndarray:
@@ -142,7 +142,20 @@ def _window_pairs(wa, wb, window):
     return pairs
 
 
-def compare_maps(a: Maps, b: Maps, window: int | None = None, where=None) -> list[dict]:
+def confident(m: Maps, i, min_confidence: float | None) -> np.ndarray | None:
+    """Where window ``i`` of ``m`` has a vector at least ``min_confidence``
+    standard errors long (:data:`~snn_fg.results.maps.CONFIDENCE`), or
+    ``None``: no threshold, or ``m`` stores no confidence (a rate model's
+    maps, which have no spike counts)."""
+    conf = m.extra.get(CONFIDENCE)
+    if min_confidence is None or conf is None:
+        return None
+    return (conf if i is None else conf[i]) >= min_confidence
+
+
+def compare_maps(
+    a: Maps, b: Maps, window: int | None = None, where=None, min_confidence: float | None = None
+) -> list[dict]:
     """Compare two Maps; one dict per compared pair of windows.
 
     Parameters
@@ -156,6 +169,13 @@ def compare_maps(a: Maps, b: Maps, window: int | None = None, where=None) -> lis
         (a boolean map), e.g. the outline of the window's event region
         (:func:`snn_fg.scoring.outline.event_outlines`). The grouping metrics stay on
         the whole map.
+    min_confidence : float, optional
+        Compare only the vectors of a spiking run at least this many
+        standard errors of their spike counts long
+        (:data:`~snn_fg.results.maps.CONFIDENCE`; a map without it keeps
+        every vector). ``coverage_of_b`` then says how much of ``b`` is left
+        compared; ``confident_a``/``confident_b`` how much of each map's
+        vectors passed.
 
     Returns
     -------
@@ -193,12 +213,22 @@ def compare_maps(a: Maps, b: Maps, window: int | None = None, where=None) -> lis
         if where is not None:
             keep = where(ia, ib)
             ax, ay, bx, by = (np.where(keep, v, 0) for v in (ax, ay, bx, by))
+        share = {}
+        for side, m, i in (("a", a, ia), ("b", b, ib)):
+            keep = confident(m, i, min_confidence)
+            if keep is not None:
+                x, y = (ax, ay) if side == "a" else (bx, by)
+                has = np.hypot(x, y) > 0
+                share[f"confident_{side}"] = float((has & keep).sum() / has.sum()) if has.any() else float("nan")
+                x, y = np.where(keep, x, 0), np.where(keep, y, 0)
+                ax, ay, bx, by = (x, y, bx, by) if side == "a" else (ax, ay, x, y)
         rows.append(
             {
                 "window_a": ia,
                 "window_b": ib,
                 "t_start_ms": None if t is None else t / 1000.0,
                 **compare_frame(ax, ay, ag, bx, by, bg),
+                **share,
             }
         )
     return rows

@@ -17,11 +17,11 @@ import numpy as np
 from ...backends import RunSettings, SimulationResult
 from ...errors import InputError
 from ...events.window import events_to_frame
-from ...frames.pool import pool_events, pool_frame, pooled_shape, unpool_maps
+from ...frames.pool import pool_events, pool_frame, pooled_shape
 from ...lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ...network.graph import Network
-from ...results.maps import Maps
-from .decode import decode
+from ...results.maps import CONFIDENCE, Maps
+from .decode import decode_maps
 from .options import FrameOptions, SpikingOptions
 from .record import SpikingRecord, run_provenance
 
@@ -112,9 +112,7 @@ def run_spiking_result(
         progress=sim.progress,
     )
     result = backend.simulate(net, inp, settings)
-    fg_x, fg_y, grouping, _ = decode(result)
-    if sensor is not None:
-        fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, sensor, pool)
+    fg_x, fg_y, grouping, conf = decode_maps(result, sensor, pool if sensor is not None else 1)
     rec = SpikingRecord.from_result(result, inp, frame.settle_ms)
     simulation = {
         **rec.timing(),
@@ -130,7 +128,8 @@ def run_spiking_result(
         "record_spikes": bool(sim.record_spikes),
     }
     record = run_provenance(net, origin, backend, result, rec.populations, simulation, t_start)
-    maps = Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), record, rec.arrays())
+    extra = {**rec.arrays(), CONFIDENCE: conf.astype(np.float32)}
+    maps = Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), record, extra)
     return SpikingResult(maps, net, result, inp, rec)
 
 

@@ -29,21 +29,18 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections import deque
 from concurrent.futures import ThreadPoolExecutor
-from types import SimpleNamespace
 
 import numpy as np
 
 from ...backends import RunSettings
 from ...backends.base import each_bin
-from ...frames.pool import pool_frame, unpool_maps
 from ...results.maps import Maps
 from ..cores import usable_cores
-from .decode import decode
 from .options import SpikingOptions
-from .record import SpikingRecord, run_provenance
+from .record import run_provenance
 from .recording_input import WindowFeed, plan_recording
+from .window_reader import WindowReader, maps_of
 
 
 def run_spiking_windows(
@@ -180,7 +177,13 @@ def simulate_windows(
         windows = list(windows)
     threaded = usable_cores() > 1
     plan = plan_recording(
-        read_ahead(windows) if threaded else windows, opts.network, sim, lag, opts.recording.window_clock, source
+        read_ahead(windows) if threaded else windows,
+        opts.network,
+        sim,
+        lag,
+        opts.recording.window_clock,
+        source,
+        opts.recording.seed,
     )
     net, origin, rate = plan.network, plan.origin, plan.rate_hz
     if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
@@ -198,6 +201,8 @@ def simulate_windows(
         "readout_lag_ms": lag,
         "dt_ms": plan.dt_ms,
         "input": "events",
+        "input_coding": net.input_coding,
+        **({"seed": plan.seed} if plan.held else {}),
         "rate_hz_used": rate,
         "merged_input_spikes": plan.merged,
         "instantiate": instantiate,
@@ -217,7 +222,7 @@ def simulate_windows(
         [None] * len(plan.spans),
         [None] * len(plan.spans),
     )
-    reader = _WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window, threaded, cells)
+    reader = WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window, threaded, cells)
     simulation["decode_thread"] = reader.threaded
     settings = RunSettings(
         duration_ms=edges[-1],
@@ -253,127 +258,6 @@ def read_ahead(windows):
             yield w
 
 
-def _bins_of(span, edges) -> tuple[int, int]:
-    """The counting bins ``k0 .. k1 - 1`` that make up a read-out span (spans
-    are made of edges)."""
-    return int(np.searchsorted(edges, span[0])), int(np.searchsorted(edges, span[1]))
-
-
-class _WindowReader:
-    """Receives a run's counting bins in order (``RunSettings.on_bin``) and
-    decodes each window as soon as the last bin of its read-out span is in:
-    into ``run.decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``, or as
-    its maps to ``on_window(window, maps)``. Only the windows still being
-    read hold their counts and spikes; the windows themselves come from
-    ``feed`` (:class:`~snn_fg.models.spiking.recording_input.WindowFeed`).
-
-    ``threaded`` (where the process may use more than one core): a window
-    is decoded and handed to ``on_window`` on a second thread while the
-    simulation goes on (the fast engine's loop runs without the interpreter
-    lock): windows still leave in order, at most :attr:`AHEAD` wait, and
-    an error raised there is raised again here. Used as a context manager,
-    which waits for the last window (or, on an error, for the one being
-    written)."""
-
-    #: windows handed to the decoding thread and not yet finished
-    AHEAD = 2
-
-    def __init__(
-        self,
-        feed: WindowFeed,
-        spans,
-        edges,
-        pool: int,
-        run: ContinuousRun,
-        on_window=None,
-        threaded: bool = False,
-        cells: bool = True,
-    ):
-        self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
-        self.bins = [_bins_of(span, edges) for span in spans]
-        self.first = 0  # the first window not decoded yet (spans start and end in order)
-        self.reading: dict = {}
-        self.last_at = run.t_start  # perf_counter() when the last window was decoded
-        self.threaded, self.cells = threaded, cells
-        self.worker = None
-        self.pending: deque = deque()
-        self.failed = False
-
-    def __enter__(self):
-        if self.threaded:
-            self.worker = ThreadPoolExecutor(1, thread_name_prefix="snn-fg-decode")
-        return self
-
-    def __exit__(self, kind, exc, tb):
-        if self.worker is None:
-            return
-        try:
-            if kind is None:
-                self._wait(0)
-        finally:
-            self.worker.shutdown(wait=True, cancel_futures=True)
-            self.worker = None
-
-    def _wait(self, most: int):
-        """Wait until at most ``most`` windows are pending, raising their errors."""
-        while len(self.pending) > most:
-            self.pending.popleft().result()
-
-    def __call__(self, k: int, result):
-        i = self.first
-        while i < len(self.bins) and self.bins[i][0] <= k:
-            if k < self.bins[i][1]:
-                self._add(i, k, self.bins[i][1], result)
-            i += 1
-        while self.first < len(self.bins) and self.bins[self.first][1] <= k + 1:
-            self.first += 1
-
-    def _add(self, i: int, k: int, k1: int, result):
-        counts, spikes = self.reading.setdefault(i, ({}, []))
-        for name, c in result.counts.items():
-            counts[name] = counts[name] + c if name in counts else c.astype(np.int64)
-        if result.spikes is not None:
-            spikes.append(result.spikes)
-        if k == k1 - 1:
-            del self.reading[i]
-            w = self.feed.window(i)
-            if self.worker is None:
-                self._finish(i, w, result, counts, spikes)
-            else:
-                self._wait(self.AHEAD - 1)
-                self.pending.append(self.worker.submit(self._finish, i, w, result, counts, spikes))
-
-    def _finish(self, i, w, result, counts, spikes):
-        if self.failed:  # (an earlier window failed on the thread: none after it)
-            return
-        try:
-            self._hand(i, w, result, counts, spikes)
-        except BaseException:
-            self.failed = True
-            raise
-
-    def _hand(self, i, w, result, counts, spikes):
-        decoded, before = self._decode(i, w, result, counts, spikes), self.last_at
-        self.last_at = time.perf_counter()
-        if self.on_window is None:
-            self.run.decoded[i], self.run.decoded_at[i] = decoded, self.last_at
-        else:
-            self.on_window(w, _maps_of(self.run, i, decoded, result, self.last_at - before))
-
-    def _decode(self, i, w, result, counts, spikes):
-        k0, k1 = self.bins[i]
-        trains = None
-        if spikes:
-            trains = {n: tuple(np.concatenate([s[n][j] for s in spikes]) for j in range(2)) for n in spikes[0]}
-        window_result = dataclasses.replace(
-            result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0], spikes=trains
-        )
-        fg_x, fg_y, grouping = unpool_maps(*decode(window_result)[:3], w.pos | w.neg, self.pool)
-        on, off = pool_frame(w.pos, w.neg, self.pool)
-        masks = SimpleNamespace(on=on != 0, off=off != 0)
-        return fg_x, fg_y, grouping, SpikingRecord.from_result(window_result, masks, self.edges[k0], self.cells)
-
-
 def window_maps(run: ContinuousRun) -> list[Maps]:
     """Each window's maps, decoded from the spikes counted in its read-out
     span, with the whole run's parameters; ``timings_s["window"]`` is the
@@ -381,17 +265,6 @@ def window_maps(run: ContinuousRun) -> list[Maps]:
     run's start) to this one's, what the stream spent on the window."""
     before = [run.t_start] + run.decoded_at[:-1]
     return [
-        _maps_of(run, k, decoded, run.result, t1 - t0)
+        maps_of(run, k, decoded, run.result, t1 - t0)
         for k, (decoded, t0, t1) in enumerate(zip(run.decoded, before, run.decoded_at))
     ]
-
-
-def _maps_of(run: ContinuousRun, k: int, decoded, result, window_s: float) -> Maps:
-    """Window ``k``'s maps from its ``decoded`` tuple, with the parameters
-    of ``result`` (the whole run's, or the bin's while it runs)."""
-    fg_x, fg_y, grouping, rec = decoded
-    k0, k1 = _bins_of(run.spans[k], run.edges)
-    simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0], "count_to_ms": run.edges[k1]}
-    params = run_provenance(run.network, run.origin, run.backend, result, rec.populations, simulation, run.t_start)
-    params["timings_s"]["window"] = window_s
-    return Maps(fg_x.astype(np.float32), fg_y.astype(np.float32), grouping.astype(np.float32), params, rec.arrays())

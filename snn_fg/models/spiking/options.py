@@ -33,7 +33,7 @@ from ... import validate as check
 from ...backends import DEFAULT_BACKEND, Backend, as_backend
 from ...frames.pool import pooled_shape
 from ...network.builder import build_network
-from ...network.graph import Network
+from ...network.graph import INPUT_CODINGS, Network
 from ...network.recipes import network_for
 from ...network.spiking_params import SpikingParams
 from ...params import ModelParams
@@ -60,7 +60,9 @@ class NetworkOptions:
     :class:`~snn_fg.network.Network` instead (never both).
     ``feedback=False`` removes the feedback onto border-ownership cells
     (:meth:`Network.without_feedback`, the model's ablation); ``calibrate``
-    scales the input gains to the input's actual mean rate.
+    scales the input gains to the input's actual mean rate; ``input_coding``
+    (``None``: the network's own) sets how a recording's events become
+    spikes (:attr:`~snn_fg.network.Network.input_coding`).
     """
 
     params: ModelParams | None = None
@@ -68,12 +70,15 @@ class NetworkOptions:
     network: Network | str | Path | None = None
     feedback: bool = True
     calibrate: bool = True
+    input_coding: str | None = None
     owner: InitVar[str] = "run_spiking"
 
     def __post_init__(self, owner):
         if self.network is not None and (self.params is not None or self.spiking is not None):
             check.fail(owner, None, None, "give either a network or params/spiking to build one, not both")
         check.flag(owner, "feedback", self.feedback)
+        if self.input_coding is not None:
+            check.choice(owner, "input_coding", self.input_coding, INPUT_CODINGS)
 
     def resolve(self, shape) -> tuple[Network, dict]:
         """The description to run for a sensor of ``shape`` (rows, cols), and
@@ -88,6 +93,9 @@ class NetworkOptions:
         else:
             network, origin = network_for(self.network, shape)
         origin["feedback"] = self.feedback
+        if self.input_coding is not None and self.input_coding != network.input_coding:
+            origin["input_coding"] = self.input_coding
+            network = dataclasses.replace(network, input_coding=self.input_coding)
         return (network if self.feedback else network.without_feedback()), origin
 
 
@@ -184,15 +192,19 @@ class FrameOptions:
 class RecordingOptions:
     """A recording run as one network: each window is read from the spikes
     ``readout_lag_ms`` later than its own span; ``window_clock`` fires the
-    network's window clock (if it has one) as every window starts."""
+    network's window clock (if it has one) as every window starts; ``seed``
+    draws the held sources' phases of the ``window`` input coding
+    (:attr:`~snn_fg.network.Network.input_coding`)."""
 
     readout_lag_ms: float = READOUT_LAG_MS
     window_clock: bool = True
+    seed: int = 0
     owner: InitVar[str] = "run_spiking_windows"
 
     def __post_init__(self, owner):
         object.__setattr__(self, "readout_lag_ms", check.number(owner, "readout_lag_ms", self.readout_lag_ms, lo=0))
         check.flag(owner, "window_clock", self.window_clock)
+        check.integer(owner, "seed", self.seed)
 
 
 @dataclass(frozen=True)

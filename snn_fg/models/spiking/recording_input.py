@@ -23,6 +23,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...frames.pool import pool_events, pooled_shape
+from ...lowering.held_input import HeldStream
 from ...lowering.input_stream import SegmentedInput, SpikeStream
 
 #: simulated time per segment of input handed to a backend that streams it (ms)
@@ -34,7 +35,8 @@ class RecordingPlan:
     """What the first pass over a recording's windows found
     (:func:`plan_recording`): the network (its ``origin``), the first
     window's start ``t0_us`` and frame ``shape``, each window's read-out
-    ``spans`` (ms from ``t0_us``, lag included) and clock step, the input
+    ``spans`` (ms from ``t0_us``, lag included) and first step (``window_steps``;
+    ``clock_steps`` the same where the window clock fires), the input
     sources that fire (``on``, ``off``), the events merged in a step, and
     the mean rate of an active pixel (``event_rate_hz``, of the events) and
     of an active input source (``spike_rate_hz``, after the input adapter's
@@ -53,6 +55,14 @@ class RecordingPlan:
     spike_rate_hz: float
     dt_ms: float
 
+    seed: int = 0
+    window_steps: np.ndarray | None = None
+
+    @property
+    def held(self) -> bool:
+        """Whether the events are held as the window's frame (the ``window`` input coding)."""
+        return self.network.input_coding == "window"
+
     @property
     def adapted(self) -> bool:
         """Whether an input adapter stands between the events and the sources."""
@@ -60,8 +70,23 @@ class RecordingPlan:
 
     @property
     def rate_hz(self) -> float:
-        """The rate the gains are calibrated to: what reaches the sources."""
+        """The rate the gains are calibrated to: what reaches the sources
+        (a held source fires at the network's own input rate)."""
+        if self.held:
+            return self.network.input_rate_hz
         return self.spike_rate_hz if self.adapted else self.event_rate_hz
+
+
+def input_stream(net, shape, dt_ms: float, t0_us: float, seed: int = 0):
+    """The stream that turns a recording's events into ``net``'s input spikes
+    on its (pooled) input grid of ``shape``: each event a spike
+    (:class:`~snn_fg.lowering.input_stream.SpikeStream`, through the input
+    adapter's refractory period), or the window's frame held as it is built
+    (:class:`~snn_fg.lowering.held_input.HeldStream`; windows are marked with
+    :meth:`_NewEvents.add`)."""
+    if net.input_coding == "window":
+        return HeldStream(shape, dt_ms, t0_us, net.input_rate_hz, (), seed)
+    return SpikeStream(shape, dt_ms, t0_us, net.input_refractory_ms)
 
 
 def read_out_span(window, t0_us: float, lag_ms: float, dt_ms: float) -> tuple[float, float]:
@@ -87,6 +112,8 @@ class _NewEvents:
     def add(self, w) -> int:
         """Adds window ``w``'s new events; returns how many."""
         ev = w.events
+        if isinstance(self.stream, HeldStream):  # (every hold ends as a window starts or ends)
+            self.stream.resets = np.union1d(self.stream.resets, _window_steps(w, self.t0_us, self.step_us / 1000))
         if self.prev_end is not None and w.t_start_us < self.prev_end:
             ev = ev[ev["t"] >= self.prev_end]
         self.stream.add(pool_events(ev, self.pool))
@@ -140,18 +167,19 @@ def _event_rate(w, dt_ms: float) -> float | None:
 
 
 def plan_recording(
-    windows, network_options, simulator, lag_ms: float, window_clock: bool, source: str
+    windows, network_options, simulator, lag_ms: float, window_clock: bool, source: str, seed: int = 0
 ) -> RecordingPlan:
     """The first pass over ``windows`` (an iterable read once): the network
     for the first window's frame (``network_options.resolve``), stepped at
     ``simulator.step_for(network)``, and what the run needs to know before
-    it starts (:class:`RecordingPlan`)."""
+    it starts (:class:`RecordingPlan`); ``seed``: of the held sources' phases
+    (the ``window`` input coding)."""
     plan, feed, rates, event_rates, n_events, clock = None, None, None, [], 0, []
     for w in windows:
         if plan is None:
             net, origin = network_options.resolve(w.pos.shape)
             pool, t0, dt_ms = net.params.input_pool, w.t_start_us, simulator.step_for(net)
-            stream = SpikeStream(pooled_shape(w.pos.shape, pool), dt_ms, t0, net.input_refractory_ms)
+            stream = input_stream(net, pooled_shape(w.pos.shape, pool), dt_ms, t0, seed)
             feed, rates = _NewEvents(stream, pool, t0, dt_ms), _SpikeRates(dt_ms)
             plan = RecordingPlan(
                 network=net,
@@ -166,6 +194,7 @@ def plan_recording(
                 event_rate_hz=0.0,
                 spike_rate_hz=0.0,
                 dt_ms=dt_ms,
+                seed=seed,
             )
         plan.spans.append(read_out_span(w, plan.t0_us, lag_ms, dt_ms))
         clock.append(_window_steps(w, plan.t0_us, dt_ms)[0])
@@ -185,7 +214,8 @@ def plan_recording(
     plan.spike_rate_hz = float(np.mean(rates.rates)) if rates.rates else 0.0
     plan.on, plan.off, plan.merged = stream.on.copy(), stream.off.copy(), stream.merged
     has_clock = bool(window_clock and plan.network.by_role("clock"))
-    plan.clock_steps = np.unique(np.asarray(clock, dtype=np.int64)) if has_clock else None
+    plan.window_steps = np.unique(np.asarray(clock, dtype=np.int64))
+    plan.clock_steps = plan.window_steps if has_clock else None
     return plan
 
 
@@ -198,9 +228,7 @@ class WindowFeed:
 
     def __init__(self, windows, plan: RecordingPlan, *, keep: bool = False):
         net, dt_ms = plan.network, plan.dt_ms
-        stream = SpikeStream(
-            pooled_shape(plan.shape, net.params.input_pool), dt_ms, plan.t0_us, net.input_refractory_ms
-        )
+        stream = input_stream(net, pooled_shape(plan.shape, net.params.input_pool), dt_ms, plan.t0_us, plan.seed)
         self.it, self.keep, self.held, self.done = iter(windows), keep, {}, False
         self.events = _NewEvents(stream, net.params.input_pool, plan.t0_us, dt_ms)
         self.n = 0

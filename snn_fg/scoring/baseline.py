@@ -1,0 +1,92 @@
+"""How much a reference agrees with itself: the baseline a comparison needs.
+
+Two maps that agree on 60 % of their vectors say little until one knows how
+far the reference moves on its own. :func:`self_agreement` runs the model
+that made a maps file again on the same frames with twice its iterations
+and scores the file against that run, window by window (the rate model's
+10th iteration is still moving on natural images and settled on most
+recordings): what ``snn-fg compare`` prints beside each comparison.
+
+The frames come from the file itself: a recording's run stores each
+window's event frame (``event_frame``); a still input's is made again from
+the input its parameters name. A model that is not iterated on an event
+frame here (a spiking run, the frame-based model) has no baseline of this
+kind, and :func:`self_agreement` says why instead.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..errors import SnnFgError
+from ..params import ModelParams
+from ..results.maps import Maps
+from .metrics import compare_frame, frame_of
+
+#: models whose maps a second run at twice the iterations can check (they read an event frame)
+ITERATED_MODELS = ("rate", "natural")
+
+
+def model_params(params: dict) -> ModelParams:
+    """The :class:`~snn_fg.params.ModelParams` recorded in a maps file's ``params``."""
+    names = {f.name for f in dataclasses.fields(ModelParams)}
+    return ModelParams.from_dict({k: v for k, v in params.items() if k in names})
+
+
+def event_frames(m: Maps, windows) -> list[tuple[np.ndarray, np.ndarray]] | str:
+    """The event frames ``(pos, neg)`` the maps of ``windows`` were made
+    from (``None``: ``m`` is one frame), or why they are not to be had."""
+    if m.fg_x.ndim == 3:
+        frames = m.extra.get("event_frame")
+        if frames is None:
+            return "it stores no event frames (a recording's run stores them)"
+        return [(frames[i] > 0, frames[i] < 0) for i in windows]
+    from ..frames.still import load_frame  # (an image is turned into events again: the camera simulator)
+
+    source = m.params.get("source") or {}
+    if "input" not in source:
+        return "its parameters name no input"
+    try:
+        still, _ = load_frame(source["input"], "events", source.get("threshold", 0.10), source.get("motion", "shift4"))
+    except (SnnFgError, OSError) as exc:
+        return f"its input {source['input']} cannot be read again ({exc})"
+    return [(still.pos, still.neg)]
+
+
+def self_agreement(m: Maps, windows, factor: int = 2, progress=None) -> list[dict] | str:
+    """``m`` (its ``windows``: indices, or ``[None]`` for one frame) against
+    its own model run again with ``factor`` times its iterations on the same
+    frames: per window, the fraction of shared vectors within 45 degrees,
+    their mean angle difference, the grouping r and the share of the longer
+    run's vectors that ``m`` has. A string says why there is none."""
+    model = m.params.get("model")
+    if model not in ITERATED_MODELS:
+        return f"B comes from the {model or 'unknown'} model, which is not iterated on an event frame here"
+    frames = event_frames(m, windows)
+    if isinstance(frames, str):
+        return f"B {frames}"
+    from ..models import Still, get_model  # (the rate models' packages compile on first use)
+
+    params = model_params(m.params)
+    longer = get_model(model, params.replace(iterations=max(1, params.iterations) * factor), progress)
+    rows = []
+    for i, (pos, neg) in zip(windows, frames):
+        fx, fy, g = frame_of(m, i)
+        if not (pos.any() or neg.any()):
+            rows.append(None)
+            continue
+        ref = longer.run_still(Still(pos, neg))
+        c = compare_frame(fx, fy, g, ref.fg_x, ref.fg_y, ref.grouping)
+        rows.append(
+            {
+                "iterations": int(params.iterations),
+                "against_iterations": int(params.iterations) * factor,
+                "within_45": c["angle_within_45_frac"],
+                "mean_deg": c["angle_diff_mean_deg"],
+                "grouping_r": c["grouping_pearson_r"],
+                "coverage": c["coverage_of_b"],
+            }
+        )
+    return rows

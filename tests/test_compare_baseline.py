@@ -1,0 +1,86 @@
+"""What ``snn-fg compare`` prints beside a comparison: how far the reference
+moves on its own (the baseline), how much of it is compared (cover), and the
+spiking maps' per-pixel confidence it can filter on."""
+
+import numpy as np
+import pytest
+
+from snn_fg.cli import main
+from snn_fg.models.rate.edfg import GroupingResult
+from snn_fg.models.spiking.decode import vector_confidence
+from snn_fg.results.maps import CONFIDENCE, Maps
+from snn_fg.scoring.metrics import compare_maps
+
+
+def _grouping(n=8, shape=(1, 3)):
+    z = [np.zeros((n, *shape))]
+    return GroupingResult(
+        z, [a.copy() for a in z], [a.copy() for a in z], [a.copy() for a in z], [a.copy() for a in z], [], []
+    )
+
+
+def test_a_vectors_confidence_is_its_length_in_standard_errors_of_its_counts():
+    g = _grouping()
+    g.bl2[0][0, 0, 0] = 100.0  # pixel 0: 10 spikes in 100 ms, all on one side -> 10 / sqrt(10)
+    g.bl2[0][0, 0, 1] = 50.0  # pixel 1: 5 spikes a side: no vector at all
+    g.bd1[0][0, 0, 1] = 50.0
+    conf = vector_confidence(g, 100.0)
+    assert conf[0, 0] == pytest.approx(np.sqrt(10.0))
+    assert conf[0, 1] == 0.0 and conf[0, 2] == 0.0  # (pixel 2: no spike)
+    assert vector_confidence(g, 400.0)[0, 0] == pytest.approx(np.sqrt(40.0))  # 4x the spikes: 2x as sure
+
+
+def test_min_confidence_compares_only_the_confident_vectors_and_says_how_much_of_b_is_left():
+    fx = np.zeros((4, 5), np.float32)
+    fx[1, :] = 1.0
+    fx[2, :] = 1.0  # ten vectors pointing right in both maps
+    conf = np.zeros_like(fx)
+    conf[1, :] = 1.0  # five decided by a spike or two
+    conf[2, :] = 3.0
+    a = Maps(fx, 0 * fx, fx.copy(), extra={CONFIDENCE: conf})
+    b = Maps(fx.copy(), 0 * fx, fx.copy())  # a rate model's maps: no confidence, every vector kept
+    (every,) = compare_maps(a, b)
+    (sure,) = compare_maps(a, b, min_confidence=2.0)
+    assert every["pixels_compared"] == 10 and every["coverage_of_b"] == 1.0
+    assert sure["pixels_compared"] == 5 and sure["coverage_of_b"] == 0.5 and sure["confident_a"] == 0.5
+
+
+@pytest.fixture(scope="module")
+def demo_runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("runs")
+    for name, its in (("one", "1"), ("ten", "10")):
+        assert (
+            main(["run", "demo", "--out", str(root / name), "--iterations", its, "--no-figures", "--no-progress"]) == 0
+        )
+    return root
+
+
+def test_compare_prints_how_far_the_reference_moves_on_its_own(demo_runs, capsys):
+    from snn_fg.frames.still import load_frame
+    from snn_fg.models import get_model
+    from snn_fg.params import ModelParams
+    from snn_fg.scoring.metrics import agreement
+
+    main(["compare", str(demo_runs / "ten"), str(demo_runs / "one")])
+    out = capsys.readouterr().out
+    row = out.splitlines()[1].split()
+    b_within, b_r = float(row[-2]), float(row[-1])
+    # B ran 1 iteration: the baseline is B against the model at 2, which the test computes itself
+    one = Maps.load(demo_runs / "one")
+    two = get_model("rate", ModelParams(iterations=2)).run_still(load_frame("demo", "events")[0])
+    want = agreement(one, two)
+    assert b_within == pytest.approx(want["within_45"], abs=1e-3) and b_r == pytest.approx(want["grouping_r"], abs=1e-3)
+    assert b_within < 1.0  # the demo's map still moves after one iteration
+    assert "at 2 iterations instead of 1" in out
+
+
+def test_without_a_baseline_compare_says_why(demo_runs, tmp_path, capsys):
+    spiking = Maps.load(demo_runs / "one")
+    spiking.params["model"] = "spiking"
+    spiking.save(tmp_path / "s.npz")
+    main(["compare", str(demo_runs / "one"), str(tmp_path / "s.npz")])
+    out = capsys.readouterr().out
+    assert "no baseline: B comes from the spiking model" in out
+    assert out.splitlines()[1].split()[-2:] == ["-", "-"]
+    main(["compare", str(demo_runs / "ten"), str(demo_runs / "one"), "--no-baseline"])
+    assert "B against its own model" not in capsys.readouterr().out

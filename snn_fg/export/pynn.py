@@ -10,7 +10,8 @@ The export folder holds
   ``fg_readout.py``, its run and read-out (:mod:`snn_fg.pynn.readout`), and
   ``fg_cells.py``, its cells and synapses in PyNN's terms (:mod:`snn_fg.pynn.cells`);
 * ``fg_tables.py`` - explicit synapses from the weight-shared tables (a
-  verbatim copy of :mod:`snn_fg.pynn.tables`);
+  verbatim copy of :mod:`snn_fg.pynn.tables`); ``fg_inputs.py`` - the input
+  spike file's reader (:mod:`snn_fg.pynn.inputs`);
 * ``fg_spinnaker.py`` - the network on sPyNNaker with its
   ``ConvolutionConnector`` s, and its mapping on a virtual board
   (:mod:`snn_fg.pynn.spinnaker`); ``fg_memory.py`` - what a NEST run
@@ -233,7 +234,7 @@ def export_pynn(
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
     ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
     >>> print(*sorted(p.name for p in d.glob("*.py")))
-    fg_cells.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py fg_spinnaker.py fg_tables.py run.py
+    fg_cells.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py fg_spinnaker.py fg_tables.py run.py
     """
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
 

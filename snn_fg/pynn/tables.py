@@ -86,3 +86,16 @@ def _cat(pre_l, post_l, k_l):
         np.concatenate(post_l).astype(np.int64),
         np.concatenate(k_l).astype(np.float64),
     )
+
+
+def load_tables(meta, tables):
+    """Projection name -> what the unrollers above take (``tables``: an export's ``tables.npz``,
+    ``meta``: its ``network.json``)."""
+    out = {}
+    for pr in meta["projections"]:
+        key = pr["table"]
+        if pr["type"] == "conv":
+            out[pr["name"]] = (tables[f"{key}_taps"], tables[f"{key}_values"])
+        else:
+            out[pr["name"]] = tuple((tables[f"{key}_{a}_idx"], tables[f"{key}_{a}_val"]) for a in ("rows", "cols"))
+    return out

@@ -58,7 +58,7 @@ SCHEMA = "snn-fg.pynn/1"
 TARGETS = ("generic", "spinnaker")
 
 
-def _tables(network: Network):
+def weight_tables(network: Network):
     """(projection entries, table arrays) with identical tables stored once."""
     arrays, seen, entries = {}, {}, []
     for pr in network.projections:
@@ -128,7 +128,7 @@ def pynn_model(
     ``sensor_shape`` (rows, cols): the sensor it was made for, if known."""
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     net = board_network(network)
-    entries, arrays = _tables(net)
+    entries, arrays = weight_tables(net)
     scales = projection_scales(net, weight_bits) if weight_bits else {}
     for e in entries:
         e["scale_mv"] = scales.get(e["name"], 0.0)
@@ -241,7 +241,7 @@ def export_pynn(
     meta, arrays = pynn_model(
         network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape
     )
-    kept = _input_for(Path(out) / INPUT_NAME, network.frame_shape, dt_ms) if force else None
+    kept = reusable_input(Path(out) / INPUT_NAME, network.frame_shape, dt_ms) if force else None
     with OutputFolder(out, force=force) as folder:
         tmp = folder.dir
         if kept is not None:
@@ -276,7 +276,7 @@ def export_pynn(
 INPUT_NAME = "input.npz"
 
 
-def _input_for(path: Path, frame_shape, dt_ms: float) -> bytes | None:
+def reusable_input(path: Path, frame_shape, dt_ms: float) -> bytes | None:
     """The bytes of an export's input file, if it serves an export of
     ``frame_shape`` at ``dt_ms`` too (a re-export with ``--force`` that only
     recalibrates the gains keeps it); ``None`` otherwise. The input's spikes

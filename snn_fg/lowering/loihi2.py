@@ -44,7 +44,7 @@ from ..lava import fixed
 from ..network.graph import Network
 from ..network.projections import Conv
 from .connect import kernel_taps
-from .interp import interp_matrix
+from .interp import interp_matrix, sparse_rows
 from .quantise import peak_weight
 
 
@@ -100,68 +100,83 @@ def decays(neuron, dt_ms: float) -> tuple[int, int]:
     return min(max(du, 0), fixed.DECAY_MAX), min(max(dv, 0), fixed.DECAY_MAX)
 
 
-def _fan_in_drive(network: Network, pr) -> tuple[float, float]:
-    """Bounds on the summed positive and negative drive (mV) one target cell
-    of ``pr`` receives when every source of ``pr`` spikes at once."""
+def _fan_in_mantissas(network: Network, pr, factor: float) -> tuple[int, int]:
+    """The largest summed positive and negative mantissa (``sum |m|``) one
+    target cell of ``pr`` receives when every source of ``pr`` spikes at
+    once, its drives rounded to mantissas with ``factor``."""
     if isinstance(pr, Conv):
         co, _, _, _, k, _ = kernel_taps(pr, network)
-        drive = pr.sign * pr.gain_mv * k
-        pos = np.bincount(co, np.maximum(drive, 0.0)).max(initial=0.0)
-        neg = np.bincount(co, np.maximum(-drive, 0.0)).max(initial=0.0)
-        return float(pos), float(neg)
+        m = fixed.mantissas(pr.sign * pr.gain_mv * k, factor)
+        return int(np.bincount(co, np.maximum(m, 0)).max(initial=0)), int(
+            np.bincount(co, np.maximum(-m, 0)).max(initial=0)
+        )
     src, tgt = network.population(pr.source), network.population(pr.target)
-    a = [
-        interp_matrix(src.level_shape[x], tgt.level_shape[x], src.stride, tgt.stride, pr.interpolation) for x in (0, 1)
-    ]
-    (pr_, nr), (pc, nc) = ((np.maximum(m, 0).sum(1), np.maximum(-m, 0).sum(1)) for m in a)
-    same = (np.outer(pr_, pc) + np.outer(nr, nc)).max(initial=0.0)
-    other = (np.outer(pr_, nc) + np.outer(nr, pc)).max(initial=0.0)
-    pos, neg = (same, other) if pr.sign > 0 else (other, same)
-    return float(pr.gain_mv * pos), float(pr.gain_mv * neg)
+    (_, rv), (_, cv) = (
+        sparse_rows(interp_matrix(src.level_shape[x], tgt.level_shape[x], src.stride, tgt.stride, pr.interpolation))
+        for x in (0, 1)
+    )
+    m = fixed.mantissas(pr.sign * pr.gain_mv * rv[:, None, :, None] * cv[None, :, None, :], factor)
+    return int(np.maximum(m, 0).sum((2, 3)).max(initial=0)), int(np.maximum(-m, 0).sum((2, 3)).max(initial=0))
 
 
 def _source_period(network: Network, name: str) -> float:
-    """Fewest steps between two spikes of a cell of population ``name`` (inf: the window clock, once)."""
+    """Fewest steps between two spikes of a cell of population ``name``: its
+    refractory period; an input pixel every step, the window clock once (inf)."""
     pop = network.population(name)
     if pop.role == "clock":
         return math.inf
-    if pop.neuron is None:
-        return max(round(network.input_refractory_ms / network.dt_ms), 1)
-    return refractory_steps(pop.neuron.t_ref_ms, network.dt_ms)
+    return 1 if pop.neuron is None else refractory_steps(pop.neuron.t_ref_ms, network.dt_ms)
 
 
-def current_bound_mv(network: Network, target: str, du: int) -> float:
-    """The largest |current| (mV of the voltage's step, ``p * I``) population
-    ``target`` can receive: module docstring."""
+def current_bound(network: Network, target: str, du: int, synapses: dict) -> float:
+    """The largest |current| (in the target's integer units) population
+    ``target`` can receive through the mantissas and exponents ``synapses``
+    (projection name -> :class:`LavaSynapses`): every source cell firing as
+    often as its refractory period lets it, through every synapse of one sign at once."""
     d_u = (fixed.DECAY_UNITY - du - fixed.DU_OFFSET) / fixed.DECAY_UNITY
-    p = network.population(target).neuron.propagators(network.dt_ms)["p_exc"]
     pos = neg = 0.0
     for pr in network.projections:
         if pr.target != target:
             continue
         period = _source_period(network, pr.source)
         pile = 1.0 if math.isinf(period) else 1.0 / (1.0 - d_u**period)
-        a, b = _fan_in_drive(network, pr)
-        pos, neg = pos + a * pile, neg + b * pile
-    return p * max(pos, neg)
+        syn = synapses[pr.name]
+        a, b = _fan_in_mantissas(network, pr, syn.factor)
+        step = 2.0 ** (7 + syn.weight_exp)  # current units of one mantissa step
+        pos, neg = pos + a * step * pile, neg + b * step * pile
+    return max(pos, neg)
 
 
-def lava_neuron(network: Network, name: str) -> LavaNeuron:
-    """The registers of population ``name`` (module docstring)."""
+def _registers(network: Network, name: str, unit: float):
+    """``(vth, unit, synapses into name)`` for a unit of at most ``unit`` rounded to a whole threshold register."""
+    n = network.population(name).neuron
+    height = n.v_th_mv - n.v_reset_mv
+    vth = min(int(unit * height / 2**fixed.VTH_SHIFT), fixed.VTH_MAX)
+    unit = vth * 2**fixed.VTH_SHIFT / height
+    syn = {pr.name: lava_synapses(network, pr, unit) for pr in network.projections if pr.target == name}
+    return vth, unit, syn
+
+
+def lava_neuron(network: Network, name: str) -> tuple[LavaNeuron, dict]:
+    """The registers of population ``name`` and the synapses into it (module docstring)."""
     n, dt = network.population(name).neuron, network.dt_ms
     du, dv = decays(n, dt)
-    height = n.v_th_mv - n.v_reset_mv
     rest = n.v_rest_mv - n.v_reset_mv
-    bound = max(current_bound_mv(network, name, du), height, abs(rest))
-    unit = (fixed.STATE_MAX - 1) / bound
-    unit = min(unit, fixed.VTH_MAX * 2**fixed.VTH_SHIFT / height)
+    top = fixed.STATE_MAX - 1
+    unit = top / max(n.v_th_mv - n.v_reset_mv, abs(rest))
     if rest != 0 and dv:
         unit = min(unit, fixed.BIAS_MANT_MAX * 2**fixed.BIAS_EXP_MAX / (dv / fixed.DECAY_UNITY * abs(rest)))
-    vth = int(unit * height / 2**fixed.VTH_SHIFT)
-    unit = vth * 2**fixed.VTH_SHIFT / height
+    for _ in range(40):  # the largest unit whose rounded mantissas keep the current inside 24 bits
+        vth, unit, syn = _registers(network, name, unit)
+        bound = current_bound(network, name, du, syn)
+        if bound <= top:
+            break
+        unit *= top / bound * (1 - 1e-9)
+    else:
+        raise ValueError(f"population '{name}': no unit keeps its current inside {fixed.STATE_BITS} bits")
     bias = dv / fixed.DECAY_UNITY * rest * unit
     exp = next(e for e in range(fixed.BIAS_EXP_MAX + 1) if abs(round(bias / 2**e)) <= fixed.BIAS_MANT_MAX)
-    return LavaNeuron(
+    neuron = LavaNeuron(
         du=du,
         dv=dv,
         vth=vth,
@@ -169,14 +184,15 @@ def lava_neuron(network: Network, name: str) -> LavaNeuron:
         bias_exp=exp,
         refractory_steps=refractory_steps(n.t_ref_ms, dt) - 1,
         unit_per_mv=unit,
-        u_bound_mv=bound,
+        u_bound_mv=bound / unit,
     )
+    return neuron, syn
 
 
-def lava_synapses(network: Network, pr, neuron: LavaNeuron) -> LavaSynapses:
-    """The weight exponent and mantissa factor of projection ``pr`` into a population with registers ``neuron``."""
+def lava_synapses(network: Network, pr, unit_per_mv: float) -> LavaSynapses:
+    """The weight exponent and mantissa factor of projection ``pr`` into a population of unit ``unit_per_mv``."""
     tgt = network.population(pr.target).neuron
-    units = tgt.propagators(network.dt_ms)["p_exc"] * neuron.unit_per_mv  # current units per mV of drive
+    units = tgt.propagators(network.dt_ms)["p_exc"] * unit_per_mv  # current units per mV of drive
     peak = peak_weight(network, pr) * units
     e = max(-1, math.ceil(math.log2(peak / fixed.MANTISSA_MAX)) - 7) if peak > 0 else 0
     return LavaSynapses(
@@ -196,6 +212,9 @@ class LavaLowering:
 
 def lower(network: Network) -> LavaLowering:
     """The whole network in Loihi 2's integers, at its own time step."""
-    neurons = {p.name: lava_neuron(network, p.name) for p in network.populations if p.neuron is not None}
-    synapses = {pr.name: lava_synapses(network, pr, neurons[pr.target]) for pr in network.projections}
+    neurons, synapses = {}, {}
+    for p in network.populations:
+        if p.neuron is not None:
+            neurons[p.name], syn = lava_neuron(network, p.name)
+            synapses.update(syn)
     return LavaLowering(neurons, synapses)

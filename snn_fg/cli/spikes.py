@@ -25,7 +25,7 @@ from ..results.atomic import atomic_path
 
 def add_spike_options(parser):
     """``--write-spikes`` and its options on ``snn-fg events``'s parser."""
-    g = parser.add_argument_group("input spikes for an exported network (snn-fg export --format pynn)")
+    g = parser.add_argument_group("input spikes for an exported network (snn-fg export --format pynn or lava)")
     g.add_argument(
         "--write-spikes",
         metavar="OUT.npz",

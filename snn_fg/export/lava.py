@@ -32,6 +32,7 @@ our report's Loihi 2 figures.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 from pathlib import Path
@@ -124,7 +125,15 @@ Approximations (see `network.json` notes): {notes}
 """
 
 
-def export_lava(network: Network, out, *, force: bool = False, command: str | None = None, sensor_shape=None) -> Path:
+def export_lava(
+    network: Network,
+    out,
+    *,
+    force: bool = False,
+    command: str | None = None,
+    sensor_shape=None,
+    dt_ms: float | None = None,
+) -> Path:
     """Write the Lava model of ``network`` into the new folder ``out``.
 
     Parameters
@@ -140,6 +149,8 @@ def export_lava(network: Network, out, *, force: bool = False, command: str | No
         The ``snn-fg export`` command that made it, recorded in ``network.json``.
     sensor_shape : (rows, cols), optional
         The sensor it is made for, recorded and named in its README.
+    dt_ms : float, optional
+        The time step (default: the network's own); the registers are for it.
 
     Examples
     --------
@@ -152,6 +163,8 @@ def export_lava(network: Network, out, *, force: bool = False, command: str | No
     """
     from ..atomic import OutputFolder
 
+    if dt_ms is not None:
+        network = dataclasses.replace(network, dt_ms=float(dt_ms))
     meta, arrays = lava_model(network, command=command, sensor_shape=sensor_shape)
     kept = reusable_input(Path(out) / INPUT_NAME, network.frame_shape, network.dt_ms) if force else None
     with OutputFolder(out, force=force) as folder:

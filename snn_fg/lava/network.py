@@ -13,7 +13,9 @@ is in ``fg_loihi.py`` (:mod:`snn_fg.lava.fixed`).
   and each cell's spikes are counted from step ``count_from`` on, so that
   a run needs no recording process per population;
 * every projection is one Lava ``DelaySparse`` (its weights ``2 m``, its
-  weight exponent, 8 bits, its delay on every synapse);
+  weight exponent, 8 bits, its delay on every synapse), run by Lava's own
+  models except that the weights stacked by delay are kept from one step to
+  the next (:class:`_StackedOnce`);
 * the input's and the window clock's spike sources are Lava ``RingBuffer`` s.
 """
 
@@ -29,6 +31,7 @@ from lava.magma.core.sync.protocols.loihi_protocol import LoihiProtocol
 from lava.proc.io.source import RingBuffer
 from lava.proc.lif.models import PyLifModelBitAcc, PyLifModelFloat
 from lava.proc.lif.process import LIF
+from lava.proc.sparse.models import PyDelaySparseModelBitAcc, PyDelaySparseModelFloat
 from lava.proc.sparse.process import DelaySparse
 from scipy.sparse import csr_matrix
 
@@ -91,10 +94,39 @@ class PyCountingLifFloat(_RefractoryCounting, PyLifModelFloat):
     refractory_end: np.ndarray = LavaPyType(np.ndarray, np.int32)
 
 
+class _StackedOnce:
+    """Lava's DelaySparse models stack the weights by delay (``get_delay_wgts_mat``)
+    anew at every step, which for a million synapses takes about a second; the
+    weights do not change, so these models stack them once. What they compute
+    is the same (``calc_act``: the stacked matrix times the spikes)."""
+
+    def calc_act(self, s_in):
+        if getattr(self, "_stacked", None) is None:
+            self._stacked = self.get_delay_wgts_mat(self.weights, self.delays, self.a_buff.shape[-1] - 1)
+        return np.reshape(self._stacked.dot(s_in), (self.a_buff.shape[-1], self.weights.shape[0])).T
+
+
+@implements(proc=DelaySparse, protocol=LoihiProtocol)
+@requires(CPU)
+@tag("fixed_pt")
+class PyDelaySparseStackedFixed(_StackedOnce, PyDelaySparseModelBitAcc):
+    implements_process = None
+
+
+@implements(proc=DelaySparse, protocol=LoihiProtocol)
+@requires(CPU)
+@tag("floating_pt")
+class PyDelaySparseStackedFloat(_StackedOnce, PyDelaySparseModelFloat):
+    implements_process = None
+
+
 def run_config(arithmetic: str) -> Loihi2SimCfg:
-    """Lava's CPU simulation in ``fixed`` or ``float`` arithmetic, with this module's LIF models."""
-    models = {"fixed": PyCountingLifFixed, "float": PyCountingLifFloat}
-    return Loihi2SimCfg(select_tag=TAGS[arithmetic], exception_proc_model_map={CountingLIF: models[arithmetic]})
+    """Lava's CPU simulation in ``fixed`` or ``float`` arithmetic, with this module's LIF and DelaySparse models."""
+    models = {
+        "fixed": {CountingLIF: PyCountingLifFixed, DelaySparse: PyDelaySparseStackedFixed},
+        "float": {CountingLIF: PyCountingLifFloat, DelaySparse: PyDelaySparseStackedFloat},
+    }
+    return Loihi2SimCfg(select_tag=TAGS[arithmetic], exception_proc_model_map=models[arithmetic])
 
 
 def lif_process(pop: dict, arithmetic: str, count_from: int) -> CountingLIF:

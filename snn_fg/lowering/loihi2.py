@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..lava import fixed
 from ..network.graph import Network
 from ..network.projections import Conv
@@ -160,7 +161,10 @@ def _registers(network: Network, name: str, unit: float):
 def lava_neuron(network: Network, name: str) -> tuple[LavaNeuron, dict]:
     """The registers of population ``name`` and the synapses into it (module docstring)."""
     n, dt = network.population(name).neuron, network.dt_ms
-    du, dv = decays(n, dt)
+    try:
+        du, dv = decays(n, dt)
+    except ValueError as e:
+        raise InputError(f"population '{name}'", str(e)) from None
     rest = n.v_rest_mv - n.v_reset_mv
     top = fixed.STATE_MAX - 1
     unit = top / max(n.v_th_mv - n.v_reset_mv, abs(rest))

@@ -205,7 +205,9 @@ def test_loop_with_the_numpy_reference_gives_maps_near_the_fast_engines(tmp_path
     ours = Maps.load(tmp_path / "maps" / "maps.npz")
     net, _ = export_network(out)
     fast = get_backend("fast", weight_bits=8).simulate(
-        net, read_input(out / "input.npz"), RunSettings(duration_ms=80.0, count_from_ms=40.0, instantiate="all")
+        net,
+        read_input(out / "input.npz"),
+        RunSettings(duration_ms=80.0, dt_ms=net.dt_ms, count_from_ms=40.0, instantiate="all"),
     )
     a = agreement(ours, decode(fast)[:3])
     assert np.abs(ours.grouping).max() > 0 and a["grouping_r"] >= 0.9 and a["within_45"] >= 0.85, a

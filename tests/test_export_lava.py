@@ -4,36 +4,15 @@ window -> input.npz -> run.py (numpy reference here; Lava itself in its own
 Python 3.10 environment, made once and cached) -> decode -> maps."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.events import image_to_events, save_events
 from snn_fg.export.board import board_network
 from snn_fg.lava import fixed
 from snn_fg.lowering.loihi2 import current_bound, lower
 from snn_fg.network.recipes import RECIPES
-from snn_fg.scenes import disc
-
-
-def _run_py(python, folder, *args):
-    """run.py as a user runs it, in its folder, with any snn_fg import failing."""
-    code = (
-        f"import sys; sys.modules['snn_fg'] = None; sys.argv = ['run.py'] + {list(args)!r}; exec(open('run.py').read())"
-    )
-    return subprocess.run([str(python), "-c", code], cwd=folder, capture_output=True, text=True, timeout=1200)
-
-
-@pytest.fixture(scope="module")
-def disc_recording(tmp_path_factory):
-    """A simulated camera's events of a disc of radius 8 (64 x 64 sensor), as a .es recording."""
-    rec = image_to_events(disc(8).image)
-    path = tmp_path_factory.mktemp("rec") / "disc.es"
-    save_events(path, rec.events, rec.sensor_size)
-    return path
 
 
 def test_one_input_follows_lavas_integer_steps_by_hand():
@@ -175,7 +154,7 @@ def _small_export(tmp_path, disc_recording, capsys):
     return out
 
 
-def test_loop_with_the_numpy_reference_gives_maps_near_the_fast_engines(tmp_path, disc_recording, capsys):
+def test_loop_with_the_numpy_reference_gives_maps_near_the_fast_engines(tmp_path, disc_recording, capsys, run_py):
     """run.py --simulator reference needs numpy alone (it runs here, on 3.11,
     without snn_fg); its counts decode to maps that agree with the fast
     engine's 8-bit run on the same input file; and run.py asked for Lava on
@@ -183,13 +162,12 @@ def test_loop_with_the_numpy_reference_gives_maps_near_the_fast_engines(tmp_path
     from snn_fg.backends import RunSettings, get_backend
     from snn_fg.export.loop import export_network
     from snn_fg.export.pynn import read_input
-    from snn_fg.maps import Maps
-    from snn_fg.metrics import agreement
-    from snn_fg.spiking.decode import decode
+    from snn_fg.models.spiking.decode import decode
+    from snn_fg.results.maps import Maps
+    from snn_fg.scoring.metrics import agreement
 
     out = _small_export(tmp_path, disc_recording, capsys)
-    done = _run_py(
-        sys.executable,
+    done = run_py(
         out,
         "--input",
         "input.npz",
@@ -211,20 +189,20 @@ def test_loop_with_the_numpy_reference_gives_maps_near_the_fast_engines(tmp_path
     )
     a = agreement(ours, decode(fast)[:3])
     assert np.abs(ours.grouping).max() > 0 and a["grouping_r"] >= 0.9 and a["within_45"] >= 0.85, a
-    done = _run_py(sys.executable, out, "--input", "input.npz", "--out", "c2.npz")
+    done = run_py(out, "--input", "input.npz", "--out", "c2.npz")
     err = done.stderr.strip().splitlines()
     assert done.returncode == 1 and len(err) == 1 and "lava-nc 0.10 needs Python 3.8-3.10" in err[0]
     assert "pip install -r requirements.txt" in err[0] and not (out / "c2.npz").exists()
 
 
 @pytest.mark.slow
-def test_lava_fixed_point_runs_the_export_spike_for_spike_as_the_reference(tmp_path, disc_recording, capsys):
+def test_lava_fixed_point_runs_the_export_spike_for_spike_as_the_reference(tmp_path, disc_recording, capsys, run_py):
     """The loop closed in Lava: run.py in its own Python 3.10 environment
     (made once, cached by the requirements' hash) runs Lava's fixed_pt and
     gives the numpy reference's count in every cell; decode gives the same
     maps; --count-only counts what the report counts."""
     from snn_fg.export.lava_env import LavaEnvMissing, lava_python
-    from snn_fg.maps import Maps
+    from snn_fg.results.maps import Maps
 
     try:
         python = lava_python()
@@ -232,9 +210,8 @@ def test_lava_fixed_point_runs_the_export_spike_for_spike_as_the_reference(tmp_p
         pytest.skip(f"no Lava environment: {e}")
     out = _small_export(tmp_path, disc_recording, capsys)
     for simulator, name in (("lava", "lava.npz"), ("reference", "ref.npz")):
-        done = _run_py(
-            python, out, "--input", "input.npz", "--out", name, "--duration-ms", "60", "--simulator", simulator
-        )
+        args = ("--input", "input.npz", "--out", name, "--duration-ms", "60", "--simulator", simulator)
+        done = run_py(out, *args, python=python)
         assert done.returncode == 0, done.stderr[-2000:]
     lava, ref = np.load(out / "lava.npz"), np.load(out / "ref.npz")
     names = [k for k in ref.files if k.startswith("count_") and k != "count_from_ms"]
@@ -244,7 +221,7 @@ def test_lava_fixed_point_runs_the_export_spike_for_spike_as_the_reference(tmp_p
         assert main(["decode", str(out / f"{name}.npz"), "--export", str(out), "--out", str(tmp_path / name)]) == 0
     a, b = (Maps.load(tmp_path / n / "maps.npz") for n in ("lava", "ref"))
     assert np.array_equal(a.fg_x, b.fg_x) and np.array_equal(a.grouping, b.grouping)
-    done = _run_py(python, out, "--count-only")
+    done = run_py(out, "--count-only", python=python)
     assert done.returncode == 0, done.stderr[-2000:]
     res = json.loads((out / "resources.json").read_text())
     assert res["lava"]["neurons"] == res["snn_fg_report"]["neurons"]

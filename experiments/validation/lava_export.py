@@ -85,8 +85,8 @@ def fast_maps(folder: Path, bits):
     from snn_fg.backends import RunSettings, get_backend
     from snn_fg.export.loop import export_network
     from snn_fg.export.pynn import read_input
-    from snn_fg.maps import Maps
-    from snn_fg.spiking.decode import decode
+    from snn_fg.models.spiking.decode import decode
+    from snn_fg.results.maps import Maps
 
     net, _ = export_network(folder)
     settings = RunSettings(duration_ms=DURATION_MS, dt_ms=net.dt_ms, count_from_ms=COUNT_FROM_MS, instantiate="all")
@@ -101,7 +101,7 @@ def rim_inward(maps, folder: Path) -> dict:
     """Share of the disc's rim vectors (blocks within 1.5 blocks of the rim) within 90 degrees of the
     direction to its centre (the scene's own ``inward``, x right and y up)."""
     from snn_fg.export.pynn import input_origin
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
 
     shape = disc(DISC_RADIUS).shapes[0]
     o = input_origin(folder / "input.npz")
@@ -128,8 +128,8 @@ def counts_equal(folder: Path, a: str, b: str) -> dict:
 
 def one_input(python, folder: Path, name: str) -> dict:
     from snn_fg.events import image_to_frame
-    from snn_fg.metrics import agreement
-    from snn_fg.scenes import disc
+    from snn_fg.frames.scenes import disc
+    from snn_fg.scoring.metrics import agreement
 
     folder.parent.mkdir(parents=True, exist_ok=True)
     if name == "disc":
@@ -171,7 +171,7 @@ def one_input(python, folder: Path, name: str) -> dict:
 def figure(results: dict):
     from matplotlib.figure import Figure
 
-    from snn_fg.figures import fg_rgb
+    from snn_fg.results.figures import fg_rgb
 
     keys = ("lava_fixed", "fast_8bit", "fast_float")
     fig = Figure(figsize=(3.2 * len(keys), 2.6 * len(results)))

@@ -17,11 +17,12 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError
+from ..export.folder import INPUT_NAME
 from ..export.lava import export_lava
 from ..export.nir import describe_nir, export_nir
 from ..export.nir_import import read_nir
 from ..export.nir_snntorch import export_nir_snntorch
-from ..export.pynn import INPUT_NAME, export_pynn
+from ..export.pynn import export_pynn
 from ..export.report import largest_sensor, report_table, resource_report
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
@@ -243,8 +244,6 @@ def cmd_export(args) -> int:
             sensor_shape=sensor,
         )
         what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
-        if (out / INPUT_NAME).exists():
-            what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
     elif args.format == "lava":
         export_lava(net, out, force=args.force, command=export_command(args), sensor_shape=sensor, dt_ms=args.dt_ms)
         what = (
@@ -275,5 +274,7 @@ def cmd_export(args) -> int:
     else:
         net.save(out)
         what = "network description"
+    if args.format in ("pynn", "lava") and (out / INPUT_NAME).exists():
+        what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
     print(f"snn-fg: wrote {what} to {out}")
     return 0

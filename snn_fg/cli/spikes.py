@@ -15,8 +15,9 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..events import iter_recording, iter_windows
+from ..export.folder import frame_size, frame_text
 from ..export.loop import FRAME_RATE_HZ, busiest_crop, crop_events, export_network, recalibration_hint
-from ..export.pynn import frame_size, frame_text, save_input
+from ..export.pynn import save_input
 from ..frames.pool import pool_events, pool_frame
 from ..frames.still import input_kind, load_frame
 from ..lowering.input_spikes import event_spikes, frame_spikes

@@ -33,19 +33,14 @@ our report's Loihi 2 figures.
 from __future__ import annotations
 
 import dataclasses
-import json
-import shutil
 from pathlib import Path
 
-import numpy as np
-
-from .. import __version__
 from .. import lava as standalone
 from .. import pynn as pynn_standalone
 from ..lowering.loihi2 import lower
 from ..network.graph import Network
-from .board import board_network, geometry
-from .pynn import INPUT_NAME, frame_size, frame_text, reusable_input, weight_tables
+from .board import board_network
+from .folder import export_meta, readme_fields, weight_tables, write_folder
 
 SCHEMA = "snn-fg.lava/1"
 #: the PyNN export's standalone modules a Lava export carries too
@@ -69,34 +64,19 @@ def lava_model(network: Network, *, command: str | None = None, sensor_shape=Non
     entries, arrays = weight_tables(net)
     for e in entries:
         e["lava"] = low.synapses[e["name"]].to_dict()
-    pops = [
-        {
-            "name": p.name,
-            "role": p.role,
-            "level": p.level,
-            "size": p.size,
-            **geometry(p),
-            "neuron": None if p.neuron is None else p.neuron.to_dict(),
-            "lava": None if p.neuron is None else low.neurons[p.name].to_dict(),
-        }
-        for p in net.populations
-    ]
     rep = resource_report(network, sensor_shape=sensor_shape)
-    meta = {
-        "schema": SCHEMA,
-        "snn_fg_version": __version__,
-        "dt_ms": net.dt_ms,
-        "weight_bits": 8,
-        "input_rate_hz": net.input_rate_hz,
-        "export_command": command,
-        "frame_shape": list(net.frame_shape),
-        "sensor_shape": None if sensor_shape is None else list(sensor_shape),
-        "populations": pops,
-        "projections": entries,
-        "notes": [*net.notes, LAVA_NOTE],
-        "loihi2_report": {"totals": rep["totals"], "loihi2": rep["targets"]["loihi2"]},
-        "snn_fg_network": net.to_dict(),
-    }
+    meta = export_meta(
+        net,
+        entries,
+        schema=SCHEMA,
+        dt_ms=net.dt_ms,
+        command=command,
+        sensor_shape=sensor_shape,
+        population_extra=lambda p: {"lava": None if p.neuron is None else low.neurons[p.name].to_dict()},
+        weight_bits=8,
+        loihi2_report={"totals": rep["totals"], "loihi2": rep["targets"]["loihi2"]},
+    )
+    meta["notes"].append(LAVA_NOTE)
     return meta, arrays
 
 
@@ -161,36 +141,17 @@ def export_lava(
     ['README.md', 'fg_inputs.py', 'fg_lava.py', 'fg_loihi.py', 'fg_reference.py', 'fg_synapses.py',
      'fg_tables.py', 'network.json', 'requirements.txt', 'run.py', 'tables.npz']
     """
-    from ..atomic import OutputFolder
-
     if dt_ms is not None:
         network = dataclasses.replace(network, dt_ms=float(dt_ms))
     meta, arrays = lava_model(network, command=command, sensor_shape=sensor_shape)
-    kept = reusable_input(Path(out) / INPUT_NAME, network.frame_shape, network.dt_ms) if force else None
-    with OutputFolder(out, force=force) as folder:
-        tmp = folder.dir
-        if kept is not None:
-            (tmp / INPUT_NAME).write_bytes(kept)
-        (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
-        np.savez_compressed(tmp / "tables.npz", **arrays)
-        for src, dst in standalone.COPIED.items():
-            shutil.copyfile(standalone.HERE / src, tmp / dst)
-        for src, dst in SHARED.items():
-            shutil.copyfile(pynn_standalone.HERE / src, tmp / dst)
-        (tmp / "requirements.txt").write_text(REQUIREMENTS)
-        pops = meta["populations"]
-        (tmp / "README.md").write_text(
-            README.format(
-                version=__version__,
-                frame=frame_text(network, sensor_shape),
-                size=frame_size(network),
-                levels=network.params.levels,
-                cells=sum(p["size"] for p in pops if p["neuron"]),
-                lif=sum(1 for p in pops if p["neuron"]),
-                sources=sum(p["size"] for p in pops if not p["neuron"]),
-                prj=len(meta["projections"]),
-                dt=meta["dt_ms"],
-                notes=" ".join(meta["notes"]),
-            )
-        )
-    return Path(out)
+    copies = {standalone.HERE / src: dst for src, dst in standalone.COPIED.items()}
+    copies.update({pynn_standalone.HERE / src: dst for src, dst in SHARED.items()})
+    readme = README.format(
+        **readme_fields(network, meta, sensor_shape),
+        lif=sum(1 for p in meta["populations"] if p["neuron"]),
+        dt=meta["dt_ms"],
+    )
+    texts = {"requirements.txt": REQUIREMENTS, "README.md": readme}
+    return write_folder(
+        out, force=force, frame_shape=network.frame_shape, meta=meta, arrays=arrays, copies=copies, texts=texts
+    )

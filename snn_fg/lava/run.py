@@ -15,7 +15,6 @@ spikes from ``--count-from-ms`` (default: half the run) to the end;
 
 import argparse
 import json
-import os
 import sys
 import time
 import warnings
@@ -23,6 +22,7 @@ import warnings
 import fg_inputs
 import fg_reference
 import fg_synapses
+import fg_tables
 import numpy as np
 
 INSTALL = (
@@ -74,14 +74,8 @@ def parse(argv):
 
 
 def load_export():
-    for name in ("network.json", "tables.npz"):
-        if not os.path.isfile(name):
-            sys.exit(
-                f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py ...)"
-            )
-    with open("network.json") as fh:
-        meta = json.load(fh)
-    return meta, fg_synapses.connections(meta, np.load("tables.npz"))
+    meta, npz = fg_tables.load_export()
+    return meta, fg_synapses.connections(meta, npz)
 
 
 def count_only(meta, conns):

@@ -25,7 +25,6 @@ beside the export's own estimate.
 
 import argparse
 import json
-import os
 import sys
 import time
 
@@ -179,14 +178,8 @@ def parse(argv):
 def main(argv=None):
     args = parse(argv)
     check_simulator(args.simulator)
-    for name in ("network.json", "tables.npz"):
-        if not os.path.isfile(name):
-            sys.exit(
-                f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py ...)"
-            )
-    with open("network.json") as fh:
-        meta = json.load(fh)
-    tables = fg_tables.load_tables(meta, np.load("tables.npz"))
+    meta, npz = fg_tables.load_export()
+    tables = fg_tables.load_tables(meta, npz)
     n_src = sum(p["size"] for p in meta["populations"] if p["neuron"] is None)
     n_steps = int(round(args.duration_ms / meta["dt_ms"]))
     sources, dt_ms = (

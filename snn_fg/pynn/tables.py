@@ -10,6 +10,10 @@ snn_fg. Populations are described by plain dicts (``grid``, ``stride``,
 
 from __future__ import annotations
 
+import json
+import os
+import sys
+
 import numpy as np
 
 
@@ -99,3 +103,14 @@ def load_tables(meta, tables):
         else:
             out[pr["name"]] = tuple((tables[f"{key}_{a}_idx"], tables[f"{key}_{a}_val"]) for a in ("rows", "cols"))
     return out
+
+
+def load_export():
+    """``(network.json, tables.npz)`` of the export folder run.py runs in, or exit with one line."""
+    for name in ("network.json", "tables.npz"):
+        if not os.path.isfile(name):
+            sys.exit(
+                f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py ...)"
+            )
+    with open("network.json") as fh:
+        return json.load(fh), np.load("tables.npz")

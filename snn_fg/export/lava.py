@@ -49,7 +49,7 @@ SHARED = {"tables.py": "fg_tables.py", "inputs.py": "fg_inputs.py"}
 REQUIREMENTS = "# Python 3.10: lava-nc 0.10 supports Python 3.8-3.10\nlava-nc==0.10.0\n"
 LAVA_NOTE = (
     "Lava: Loihi 2's 24-bit state, 12-bit decays and 8-bit weights with one exponent per projection "
-    "(snn_fg/lava/fixed.py); each population's unit is set so that its current can never wrap around, "
+    "(fg_loihi.py); each population's unit is set so that its current can never wrap around, "
     "its voltage saturates at the same range; refractory periods by this export's LIF model (Lava 0.10 "
     "has none in fixed point)."
 )

@@ -10,7 +10,8 @@ and read-out, beside the rate models, behind one interface) ->
 :mod:`snn_fg.results` (decoded maps, their store and figures) ->
 :mod:`snn_fg.scoring` (metrics, ground truth). :mod:`snn_fg.export` writes the
 description for boards and other simulators (with the standalone PyNN
-program of :mod:`snn_fg.pynn`, which the NEST backend runs too),
+program of :mod:`snn_fg.pynn`, which the NEST backend runs too, and the
+standalone Lava program of :mod:`snn_fg.lava` for Loihi 2),
 :mod:`snn_fg.datasets` fetches the data, and :mod:`snn_fg.cli` is the
 command line. Beneath them all: :mod:`snn_fg.errors`, :mod:`snn_fg.validate`
 (argument checks), :mod:`snn_fg.cancel` (stopping a run) and

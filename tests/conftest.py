@@ -74,3 +74,32 @@ def _reset_brian2():
         b2.device.reinit()
         b2.device.activate()
         b2.prefs.reset_to_defaults()
+
+
+@pytest.fixture(scope="session")
+def run_py():
+    """``run(folder, *args, python=sys.executable)``: an export's run.py as a
+    user runs it, in its folder, with any snn_fg import failing."""
+    import subprocess
+    import sys
+
+    def run(folder, *args, python=sys.executable):
+        code = (
+            "import sys; sys.modules['snn_fg'] = None; "
+            f"sys.argv = ['run.py'] + {list(args)!r}; exec(open('run.py').read())"
+        )
+        return subprocess.run([str(python), "-c", code], cwd=folder, capture_output=True, text=True, timeout=1200)
+
+    return run
+
+
+@pytest.fixture(scope="session")
+def disc_recording(tmp_path_factory):
+    """A simulated camera's events of a disc of radius 8 (64 x 64 sensor), as a .es recording."""
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.frames.scenes import disc
+
+    rec = image_to_events(disc(8).image)
+    path = tmp_path_factory.mktemp("rec") / "disc.es"
+    save_events(path, rec.events, rec.sensor_size)
+    return path

@@ -12,7 +12,6 @@ import pytest
 
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.cli import main
-from snn_fg.events import image_to_events, save_events
 from snn_fg.events.window import events_to_frame
 from snn_fg.export.board import board_network
 from snn_fg.export.loop import busiest_crop, centroid_crop, export_network, input_frame
@@ -23,27 +22,9 @@ from snn_fg.models.spiking.decode import decode
 from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.results.maps import Maps
-from snn_fg.scoring.metrics import compare_frame
 
 NEST_OK, NEST_WHY = available_backends()["nest"]
 needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
-
-
-def _run_py(folder, *args):
-    """run.py as a user runs it, in its folder, with any snn_fg import failing."""
-    code = (
-        f"import sys; sys.modules['snn_fg'] = None; sys.argv = ['run.py'] + {list(args)!r}; exec(open('run.py').read())"
-    )
-    return subprocess.run([sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, timeout=900)
-
-
-@pytest.fixture(scope="module")
-def disc_recording(tmp_path_factory):
-    """A simulated camera's events of a disc of radius 8 (64 x 64 sensor), as a .es recording."""
-    rec = image_to_events(disc(8).image)
-    path = tmp_path_factory.mktemp("rec") / "disc.es"
-    save_events(path, rec.events, rec.sensor_size)
-    return path
 
 
 def test_busiest_crop_finds_the_densest_box():
@@ -97,7 +78,7 @@ def test_decode_input_panel_is_each_pixels_last_spike_as_the_event_frame(tmp_pat
 
 @pytest.mark.slow
 @needs_nest
-def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recording, capsys):
+def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recording, capsys, run_py):
     net = build_network(ModelParams(levels=1, r0=4), (32, 32))
     folder = export_pynn(net, tmp_path / "model")
     spikes = folder / "input.npz"
@@ -120,7 +101,7 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     said = capsys.readouterr().out
     assert "crop at x=16, y=16" in said  # the disc: centred in the 64 x 64 sensor
     assert "export " + str(folder) + " (a 32 x 32 sensor)" in said
-    done = _run_py(
+    done = run_py(
         folder, "--input", "input.npz", "--out", "counts.npz", "--duration-ms", "150", "--count-from-ms", "75"
     )
     assert done.returncode == 0, done.stderr[-2000:]
@@ -187,7 +168,7 @@ def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
 
 @pytest.mark.slow
 @needs_nest
-def test_run_py_refuses_a_network_that_will_not_fit_before_building(tmp_path):
+def test_run_py_refuses_a_network_that_will_not_fit_before_building(tmp_path, run_py):
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
     np.savez(
         folder / "input.npz",
@@ -197,7 +178,7 @@ def test_run_py_refuses_a_network_that_will_not_fit_before_building(tmp_path):
         period_steps=-1,
         shape=np.array([24, 24]),
     )
-    done = _run_py(folder, "--input", "input.npz", "--out", "counts.npz", "--memory-gb", "0.01")
+    done = run_py(folder, "--input", "input.npz", "--out", "counts.npz", "--memory-gb", "0.01")
     assert done.returncode == 1 and not (folder / "counts.npz").exists()
     last = done.stderr.strip().splitlines()
     assert len(last) == 1 and "needs about" in last[0] and "more than the 0.0 GB given (--memory-gb)" in last[0]
@@ -418,7 +399,6 @@ def test_a_forced_re_export_for_another_rate_keeps_the_folders_input(tmp_path, c
     frame drops it."""
     from snn_fg.events import image_to_frame
     from snn_fg.export.pynn import save_input
-    from snn_fg.frames.scenes import disc
     from snn_fg.lowering.input_spikes import frame_spikes
 
     out = tmp_path / "model"
@@ -436,7 +416,7 @@ def test_a_forced_re_export_for_another_rate_keeps_the_folders_input(tmp_path, c
     assert not (out / "input.npz").exists() and "kept" not in capsys.readouterr().out
 
 
-def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path):
+def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path, run_py):
     """What a user gets wrong with run.py ends in one line naming the file
     or option and the problem, exit status 1, no traceback and no output."""
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")
@@ -468,7 +448,7 @@ def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path):
         (["--input", "small.npz", "--simulator", "nset"], "--simulator nset: PyNN has no simulator module"),
     ]
     for args, said in cases:
-        done = _run_py(folder, *args, "--out", "counts.npz")
+        done = run_py(folder, *args, "--out", "counts.npz")
         err = done.stderr.strip().splitlines()
         assert done.returncode == 1 and len(err) == 1 and err[0].startswith("run.py: error: "), args
         assert said in err[0] and "Traceback" not in done.stderr and not (folder / "counts.npz").exists(), args

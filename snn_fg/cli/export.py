@@ -1,6 +1,7 @@
 """``snn-fg export``: the network for neuromorphic boards and other simulators.
 
-Formats: ``pynn`` (a folder: self-contained PyNN model), ``nir`` (a NIR
+Formats: ``pynn`` (a folder: self-contained PyNN model), ``lava`` (a
+folder: the network as Lava processes for Loihi 2, :mod:`.lava`), ``nir`` (a NIR
 graph file), ``report`` (hardware resource report, JSON, also printed) and
 ``network`` (the snn-fg JSON description; with ``--network FILE.nir`` this
 is the NIR import). Bad arguments end with one line and exit status 2;
@@ -16,10 +17,12 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError
+from ..export.folder import INPUT_NAME
+from ..export.lava import export_lava
 from ..export.nir import describe_nir, export_nir
 from ..export.nir_import import read_nir
 from ..export.nir_snntorch import export_nir_snntorch
-from ..export.pynn import INPUT_NAME, export_pynn
+from ..export.pynn import export_pynn
 from ..export.report import largest_sensor, report_table, resource_report
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
@@ -28,7 +31,7 @@ from ..network.recipes import RECIPES, is_recipe, load_description, network_for
 from ..results.atomic import save_text
 from .options import number, refuse_existing, sensor_size, subcommand
 
-FORMATS = ("pynn", "nir", "report", "network")
+FORMATS = ("pynn", "lava", "nir", "report", "network")
 TARGETS = ("generic", "spinnaker", "loihi2")
 #: the targets each format takes (generic: none in particular) and, for the
 #: report, which of its chips each one shows
@@ -43,9 +46,10 @@ def add_export_command(sub):
     p = subcommand(
         sub,
         "export",
-        help="export the network (PyNN, NIR, resource report)",
+        help="export the network (PyNN, Lava, NIR, resource report)",
         description="Export the whole spiking network (every cell: a board holds one fixed network) "
-        "as a self-contained PyNN model (--format pynn, a folder), a NIR graph "
+        "as a self-contained PyNN model (--format pynn, a folder), Lava processes in Loihi 2's "
+        "fixed-point arithmetic (--format lava, a folder; runs in Python 3.10), a NIR graph "
         "(--format nir), a hardware resource report for SpiNNaker 1/2 and Loihi 2 "
         "(--format report, JSON, also printed) or the snn-fg description (--format "
         "network; with --network FILE.nir this reads a NIR export back).",
@@ -54,7 +58,7 @@ def add_export_command(sub):
     p.add_argument(
         "--out",
         metavar="PATH",
-        help="output folder (pynn) or file; optional for --format report, which prints its table",
+        help="output folder (pynn, lava) or file; optional for --format report, which prints its table",
     )
     p.add_argument("--force", action="store_true", help="replace PATH if it exists")
     p.add_argument(
@@ -240,8 +244,11 @@ def cmd_export(args) -> int:
             sensor_shape=sensor,
         )
         what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
-        if (out / INPUT_NAME).exists():
-            what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
+    elif args.format == "lava":
+        export_lava(net, out, force=args.force, command=export_command(args), sensor_shape=sensor, dt_ms=args.dt_ms)
+        what = (
+            f"Lava model ({', '.join(sorted(p.name for p in out.iterdir()))}); its run.py needs Python 3.10 (README.md)"
+        )
     elif args.format == "nir" and args.nir_profile == "snntorch":
         export_nir_snntorch(
             net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid, deeper_reset=args.nir_refractory_as_deeper_reset
@@ -267,5 +274,7 @@ def cmd_export(args) -> int:
     else:
         net.save(out)
         what = "network description"
+    if args.format in ("pynn", "lava") and (out / INPUT_NAME).exists():
+        what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
     print(f"snn-fg: wrote {what} to {out}")
     return 0

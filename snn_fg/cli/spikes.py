@@ -17,8 +17,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..events import iter_recording, iter_windows
+from ..export.folder import frame_size, frame_text
 from ..export.loop import FRAME_RATE_HZ, busiest_crop, crop_events, export_network, recalibration_hint
-from ..export.pynn import frame_size, frame_text, save_input
+from ..export.pynn import save_input
 from ..frames.pool import pool_events, pool_frame
 from ..frames.still import input_kind, load_frame
 from ..lowering.held_input import held_window
@@ -28,7 +29,7 @@ from ..results.atomic import atomic_path
 
 def add_spike_options(parser):
     """``--write-spikes`` and its options on ``snn-fg events``'s parser."""
-    g = parser.add_argument_group("input spikes for an exported network (snn-fg export --format pynn)")
+    g = parser.add_argument_group("input spikes for an exported network (snn-fg export --format pynn or lava)")
     g.add_argument(
         "--write-spikes",
         metavar="OUT.npz",

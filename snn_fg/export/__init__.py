@@ -5,6 +5,11 @@
 * :mod:`.pynn` - ``snn-fg export --format pynn``: a self-contained PyNN model
   (the standalone program of :mod:`snn_fg.pynn`, which the NEST backend
   also runs, with the network's tables);
+* :mod:`.lava` - ``--format lava``: the network as Lava processes in Loihi 2's
+  fixed point (the standalone program of :mod:`snn_fg.lava`, registers from
+  :mod:`snn_fg.lowering.loihi2`), run in its own Python 3.10 environment
+  (:mod:`.lava_env`);
+* :mod:`.folder` - what every export folder holds (``network.json``, tables);
 * :mod:`.nir` - ``--format nir``: a NIR graph, and the reader back into a Network;
 * :mod:`.report` - ``--format report``: neurons, synapses, delays, weights and
   the hardware each target needs (:mod:`.hardware` holds the documented limits);

@@ -28,15 +28,17 @@ RATE_MISMATCH = 1.2
 
 
 def export_network(folder):
-    """The snn-fg description a PyNN export was made from (its board network)."""
+    """The snn-fg description a PyNN or Lava export was made from (its board network), and its ``network.json``."""
     path = Path(folder) / "network.json"
     try:
         meta = json.loads(path.read_text())
         return Network.from_dict(meta["snn_fg_network"]), meta
     except FileNotFoundError:
-        raise InputError(path, "no such file: --export needs a folder written by snn-fg export --format pynn") from None
+        raise InputError(
+            path, "no such file: --export needs a folder written by snn-fg export --format pynn or lava"
+        ) from None
     except (ValueError, KeyError, TypeError) as e:
-        raise InputError(path, f"not a PyNN export's network.json ({type(e).__name__}: {e})") from None
+        raise InputError(path, f"not an export's network.json ({type(e).__name__}: {e})") from None
 
 
 def busiest_crop(active: np.ndarray, want) -> tuple:

@@ -10,7 +10,8 @@ The export folder holds
   ``fg_readout.py``, its run and read-out (:mod:`snn_fg.pynn.readout`), and
   ``fg_cells.py``, its cells and synapses in PyNN's terms (:mod:`snn_fg.pynn.cells`);
 * ``fg_tables.py`` - explicit synapses from the weight-shared tables (a
-  verbatim copy of :mod:`snn_fg.pynn.tables`);
+  verbatim copy of :mod:`snn_fg.pynn.tables`); ``fg_inputs.py`` - the input
+  spike file's reader (:mod:`snn_fg.pynn.inputs`);
 * ``fg_spinnaker.py`` - the network on sPyNNaker with its
   ``ConvolutionConnector`` s, and its mapping on a virtual board
   (:mod:`snn_fg.pynn.spinnaker`); ``fg_memory.py`` - what a NEST run
@@ -33,14 +34,11 @@ few MB for any sensor size.
 
 from __future__ import annotations
 
-import hashlib
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
 from .. import pynn as standalone
 from .. import validate as check
 from ..backends.base import SimulationResult, lif_populations
@@ -48,69 +46,17 @@ from ..errors import InputError
 from ..lowering.input_spikes import InputSpikes
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
-from ..results.atomic import OutputFolder
-from .board import ConvTable, board_network, geometry, table
+from .board import board_network
+from .folder import (
+    export_meta,
+    readme_fields,
+    weight_tables,
+    write_folder,
+)
 from .spinnaker import spinnaker_plan
-from .synapses import projection_counts
 
 SCHEMA = "snn-fg.pynn/1"
 TARGETS = ("generic", "spinnaker")
-
-
-def _tables(network: Network):
-    """(projection entries, table arrays) with identical tables stored once."""
-    arrays, seen, entries = {}, {}, []
-    for pr in network.projections:
-        tab = table(network, pr)
-        if isinstance(tab, ConvTable):
-            parts = {"taps": tab.taps.astype(np.int32), "values": tab.values}
-            extra = {"type": "conv", "wrap": tab.wrap}
-        else:
-            parts = {
-                f"{a}_{b}": arr
-                for a, m in (("rows", tab.rows), ("cols", tab.cols))
-                for b, arr in (("idx", m[0].astype(np.int32)), ("val", m[1]))
-            }
-            extra = {"type": "resize", "k_min": tab.k_min}
-        digest = hashlib.sha1(b"".join(np.ascontiguousarray(a).tobytes() for a in parts.values())).hexdigest()
-        if digest not in seen:
-            seen[digest] = f"t{len(seen)}"
-            arrays.update({f"{seen[digest]}_{k}": v for k, v in parts.items()})
-        key = seen[digest]
-        entries.append(
-            {
-                "name": pr.name,
-                "source": pr.source,
-                "target": pr.target,
-                "sign": pr.sign,
-                "gain_mv": pr.gain_mv,
-                "delay_ms": pr.delay_ms,
-                "table": key,
-                "synapses": projection_counts(network, pr, tab).synapses,
-                **extra,
-            }
-        )
-    return entries, arrays
-
-
-def frame_size(network: Network, shape=None) -> str:
-    """``shape`` (rows, cols; default: the network's frame) in words, width x
-    height as ``--sensor-size`` takes them: ``"32 x 24"``, or for a network that
-    pools its input ``"102 x 80 blocks"``."""
-    h, w = network.frame_shape if shape is None else shape
-    return f"{w} x {h}" + (" blocks" if network.params.input_pool > 1 else "")
-
-
-def frame_text(network: Network, sensor_shape=None) -> str:
-    """The frame an export takes, in words: ``"a 32 x 24 sensor"``, or for a
-    network that pools its input ``"a 304 x 240 sensor as 102 x 80 blocks of 3
-    x 3 pixels"`` (without the sensor when ``sensor_shape``, rows and cols, is
-    not known)."""
-    pool = network.params.input_pool
-    if pool == 1:
-        return f"a {frame_size(network)} sensor"
-    blocks = f"{frame_size(network)} of {pool} x {pool} pixels"
-    return blocks if sensor_shape is None else f"a {sensor_shape[1]} x {sensor_shape[0]} sensor as {blocks}"
 
 
 def pynn_model(
@@ -127,36 +73,20 @@ def pynn_model(
     ``sensor_shape`` (rows, cols): the sensor it was made for, if known."""
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
     net = board_network(network)
-    entries, arrays = _tables(net)
+    entries, arrays = weight_tables(net)
     scales = projection_scales(net, weight_bits) if weight_bits else {}
     for e in entries:
         e["scale_mv"] = scales.get(e["name"], 0.0)
-    pops = [
-        {
-            "name": p.name,
-            "role": p.role,
-            "level": p.level,
-            "size": p.size,
-            **geometry(p),
-            "neuron": None if p.neuron is None else p.neuron.to_dict(),
-        }
-        for p in net.populations
-    ]
-    meta = {
-        "schema": SCHEMA,
-        "snn_fg_version": __version__,
-        "target": target,
-        "dt_ms": dt_ms,
-        "weight_bits": weight_bits,
-        "input_rate_hz": net.input_rate_hz,
-        "export_command": command,
-        "frame_shape": list(net.frame_shape),
-        "sensor_shape": None if sensor_shape is None else list(sensor_shape),
-        "populations": pops,
-        "projections": entries,
-        "notes": list(net.notes),
-        "snn_fg_network": net.to_dict(),
-    }
+    meta = export_meta(
+        net,
+        entries,
+        schema=SCHEMA,
+        dt_ms=dt_ms,
+        weight_bits=weight_bits,
+        command=command,
+        sensor_shape=sensor_shape,
+        target=target,
+    )
     return meta, arrays
 
 
@@ -233,59 +163,24 @@ def export_pynn(
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
     ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
     >>> print(*sorted(p.name for p in d.glob("*.py")))
-    fg_cells.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py fg_spinnaker.py fg_tables.py run.py
+    fg_cells.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py fg_spinnaker.py fg_tables.py run.py
     """
     dt_ms = network.dt_ms if dt_ms is None else dt_ms
-
     meta, arrays = pynn_model(
         network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape
     )
-    kept = _input_for(Path(out) / INPUT_NAME, network.frame_shape, dt_ms) if force else None
-    with OutputFolder(out, force=force) as folder:
-        tmp = folder.dir
-        if kept is not None:
-            (tmp / INPUT_NAME).write_bytes(kept)
-        (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
-        np.savez_compressed(tmp / "tables.npz", **arrays)
-        for src, dst in standalone.COPIED.items():
-            shutil.copyfile(standalone.HERE / src, tmp / dst)
-        (tmp / "spinnaker.json").write_text(
-            json.dumps(spinnaker_plan(board_network(network), estimate=True, dt_ms=dt_ms), indent=1) + "\n"
-        )
-        pops = meta["populations"]
-        (tmp / "README.md").write_text(
-            README.format(
-                version=__version__,
-                frame=frame_text(network, sensor_shape),
-                size=frame_size(network),
-                levels=network.params.levels,
-                cells=sum(p["size"] for p in pops if p["neuron"]),
-                sources=sum(p["size"] for p in pops if not p["neuron"]),
-                prj=len(meta["projections"]),
-                target=target,
-                bits=f"{weight_bits}-bit" if weight_bits else "float",
-                dt=dt_ms,
-                notes=" ".join(meta["notes"]),
-            )
-        )
-    return Path(out)
-
-
-#: the input file ``snn-fg events --write-spikes`` writes into an export by the README's loop
-INPUT_NAME = "input.npz"
-
-
-def _input_for(path: Path, frame_shape, dt_ms: float) -> bytes | None:
-    """The bytes of an export's input file, if it serves an export of
-    ``frame_shape`` at ``dt_ms`` too (a re-export with ``--force`` that only
-    recalibrates the gains keeps it); ``None`` otherwise. The input's spikes
-    depend on the frame and the time step only, not on the gains."""
-    try:
-        with check.load_npz(path, "run.py's input") as d:
-            same = tuple(int(v) for v in d["shape"]) == tuple(frame_shape) and float(d["dt_ms"]) == float(dt_ms)
-        return path.read_bytes() if same else None
-    except (OSError, ValueError, KeyError):  # (none, or not one we can read: it goes with the folder)
-        return None
+    copies = {standalone.HERE / src: dst for src, dst in standalone.COPIED.items()}
+    plan = spinnaker_plan(board_network(network), estimate=True, dt_ms=dt_ms)
+    readme = README.format(
+        **readme_fields(network, meta, sensor_shape),
+        target=target,
+        bits=f"{weight_bits}-bit" if weight_bits else "float",
+        dt=dt_ms,
+    )
+    texts = {"spinnaker.json": json.dumps(plan, indent=1) + "\n", "README.md": readme}
+    return write_folder(
+        out, force=force, frame_shape=network.frame_shape, meta=meta, arrays=arrays, copies=copies, texts=texts
+    )
 
 
 def save_input(inputs, path, dt_ms: float, origin: dict | None = None) -> Path:

@@ -11,6 +11,7 @@ exported model and the backend are one implementation.
 * :mod:`.network` - populations, synapses and input (``fg_network.py``);
 * :mod:`.readout` - recording, the run, and spikes, counts and state read back (``fg_readout.py``);
 * :mod:`.tables` - explicit synapses from the weight-shared tables (``fg_tables.py``);
+* :mod:`.inputs` - the input spike file run.py reads (``fg_inputs.py``);
 * :mod:`.spinnaker` - the network on sPyNNaker and its mapping (``fg_spinnaker.py``);
 * :mod:`.memory` - what a NEST run of the export costs (``fg_memory.py``);
 * :mod:`.simulator` - PyNN's simulator module, imported quietly (``fg_simulator.py``);
@@ -27,6 +28,7 @@ COPIED = {
     "network.py": "fg_network.py",
     "readout.py": "fg_readout.py",
     "tables.py": "fg_tables.py",
+    "inputs.py": "fg_inputs.py",
     "spinnaker.py": "fg_spinnaker.py",
     "memory.py": "fg_memory.py",
     "simulator.py": "fg_simulator.py",

@@ -25,12 +25,11 @@ beside the export's own estimate.
 
 import argparse
 import json
-import os
 import sys
 import time
-import zipfile
 
 import fg_cells
+import fg_inputs
 import fg_memory
 import fg_network as fg
 import fg_simulator
@@ -38,75 +37,6 @@ import fg_tables
 import numpy as np
 
 SIMULATORS = {"spinnaker": "spiNNaker"}  # our name -> pyNN module
-
-
-def load_tables(meta, tables):
-    """Projection name -> what fg_tables' unrollers take."""
-    out = {}
-    for pr in meta["projections"]:
-        key = pr["table"]
-        if pr["type"] == "conv":
-            out[pr["name"]] = (tables[f"{key}_taps"], tables[f"{key}_values"])
-        else:
-            out[pr["name"]] = tuple((tables[f"{key}_{a}_idx"], tables[f"{key}_{a}_val"]) for a in ("rows", "cols"))
-    return out
-
-
-#: what an input spike file holds (``snn-fg events INPUT --write-spikes`` writes one)
-INPUT_KEYS = ("indices", "steps", "dt_ms", "period_steps", "shape")
-
-
-def read_input(path, frame_shape, n_sources):
-    """The arrays of an input spike file, or exit with one line naming the
-    file and what is wrong with it (missing, not an .npz, a key missing, a
-    frame other than the network's, a source the network does not have)."""
-    if not os.path.isfile(path):
-        sys.exit(
-            f"run.py: error: {path}: no such file (snn-fg events INPUT --write-spikes {path} --export . writes one)"
-        )
-    try:
-        with np.load(path) as d:
-            missing = [k for k in INPUT_KEYS if k not in d.files]
-            if missing:
-                sys.exit(
-                    f"run.py: error: {path}: not an input spike file: no {', '.join(missing)} (it needs "
-                    f"{', '.join(INPUT_KEYS)}; snn-fg events INPUT --write-spikes writes one)"
-                )
-            d = {k: d[k] for k in INPUT_KEYS}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError):
-        sys.exit(
-            f"run.py: error: {path}: not an .npz file (expected the input spike file that "
-            f"snn-fg events INPUT --write-spikes writes)"
-        )
-    shape = tuple(int(v) for v in d["shape"])
-    if frame_shape is not None and shape != tuple(frame_shape):
-        sys.exit(
-            f"run.py: error: {path}: spikes of a {shape[1]} x {shape[0]} frame; this network's frame is "
-            f"{frame_shape[1]} x {frame_shape[0]} (width x height): write them with --export . from this folder"
-        )
-    idx = d["indices"]
-    if idx.size and (idx.min() < 0 or idx.max() >= n_sources):
-        bad = int(np.flatnonzero((idx < 0) | (idx >= n_sources))[0])
-        sys.exit(
-            f"run.py: error: {path}: spike {bad} comes from source {int(idx[bad])}; the network has {n_sources} sources"
-        )
-    return d
-
-
-def input_steps(path, n_steps, n_sources, frame_shape=None):
-    """Spike steps of every source (periodic patterns repeated up to n_steps)."""
-    d = read_input(path, frame_shape, n_sources)
-    idx, steps, period = d["indices"].astype(np.int64), d["steps"].astype(np.int64), int(d["period_steps"])
-    if period > 0:
-        reps = -(-n_steps // period)
-        idx = np.tile(idx, reps)
-        steps = (steps[None, :] + period * np.arange(reps)[:, None]).ravel()
-    keep = steps < n_steps
-    idx, steps = idx[keep], steps[keep]
-    order = np.lexsort((steps, idx))
-    idx, steps = idx[order], steps[order]
-    bounds = np.searchsorted(idx, np.arange(n_sources + 1))
-    return [steps[a:b] for a, b in zip(bounds[:-1], bounds[1:])], float(d["dt_ms"])
 
 
 def make_network(sim, meta, tables, dt_ms, args, plan):
@@ -248,18 +178,12 @@ def parse(argv):
 def main(argv=None):
     args = parse(argv)
     check_simulator(args.simulator)
-    for name in ("network.json", "tables.npz"):
-        if not os.path.isfile(name):
-            sys.exit(
-                f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py ...)"
-            )
-    with open("network.json") as fh:
-        meta = json.load(fh)
-    tables = load_tables(meta, np.load("tables.npz"))
+    meta, npz = fg_tables.load_export()
+    tables = fg_tables.load_tables(meta, npz)
     n_src = sum(p["size"] for p in meta["populations"] if p["neuron"] is None)
     n_steps = int(round(args.duration_ms / meta["dt_ms"]))
     sources, dt_ms = (
-        input_steps(args.input, n_steps, n_src, meta.get("frame_shape"))
+        fg_inputs.input_steps(args.input, n_steps, n_src, meta.get("frame_shape"))
         if args.input
         else ([[]] * n_src, meta["dt_ms"])
     )

@@ -10,6 +10,10 @@ snn_fg. Populations are described by plain dicts (``grid``, ``stride``,
 
 from __future__ import annotations
 
+import json
+import os
+import sys
+
 import numpy as np
 
 
@@ -86,3 +90,27 @@ def _cat(pre_l, post_l, k_l):
         np.concatenate(post_l).astype(np.int64),
         np.concatenate(k_l).astype(np.float64),
     )
+
+
+def load_tables(meta, tables):
+    """Projection name -> what the unrollers above take (``tables``: an export's ``tables.npz``,
+    ``meta``: its ``network.json``)."""
+    out = {}
+    for pr in meta["projections"]:
+        key = pr["table"]
+        if pr["type"] == "conv":
+            out[pr["name"]] = (tables[f"{key}_taps"], tables[f"{key}_values"])
+        else:
+            out[pr["name"]] = tuple((tables[f"{key}_{a}_idx"], tables[f"{key}_{a}_val"]) for a in ("rows", "cols"))
+    return out
+
+
+def load_export():
+    """``(network.json, tables.npz)`` of the export folder run.py runs in, or exit with one line."""
+    for name in ("network.json", "tables.npz"):
+        if not os.path.isfile(name):
+            sys.exit(
+                f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py ...)"
+            )
+    with open("network.json") as fh:
+        return json.load(fh), np.load("tables.npz")

@@ -1,0 +1,163 @@
+"""What every export folder holds, written once for the PyNN and the Lava export:
+the weight-shared tables (identical ones stored once), ``network.json`` (what
+``snn-fg events --write-spikes`` and ``snn-fg decode`` read), the README's
+common facts, and the folder written whole, keeping an ``input.npz`` that
+still serves it."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from .. import validate as check
+from ..network.graph import Network
+from .board import ConvTable, geometry, table
+from .synapses import projection_counts
+
+#: the input file ``snn-fg events --write-spikes`` writes into an export by the README's loop
+INPUT_NAME = "input.npz"
+
+
+def weight_tables(network: Network):
+    """(projection entries, table arrays) with identical tables stored once."""
+    arrays, seen, entries = {}, {}, []
+    for pr in network.projections:
+        tab = table(network, pr)
+        if isinstance(tab, ConvTable):
+            parts = {"taps": tab.taps.astype(np.int32), "values": tab.values}
+            extra = {"type": "conv", "wrap": tab.wrap}
+        else:
+            parts = {
+                f"{a}_{b}": arr
+                for a, m in (("rows", tab.rows), ("cols", tab.cols))
+                for b, arr in (("idx", m[0].astype(np.int32)), ("val", m[1]))
+            }
+            extra = {"type": "resize", "k_min": tab.k_min}
+        digest = hashlib.sha1(b"".join(np.ascontiguousarray(a).tobytes() for a in parts.values())).hexdigest()
+        if digest not in seen:
+            seen[digest] = f"t{len(seen)}"
+            arrays.update({f"{seen[digest]}_{k}": v for k, v in parts.items()})
+        key = seen[digest]
+        entries.append(
+            {
+                "name": pr.name,
+                "source": pr.source,
+                "target": pr.target,
+                "sign": pr.sign,
+                "gain_mv": pr.gain_mv,
+                "delay_ms": pr.delay_ms,
+                "table": key,
+                "synapses": projection_counts(network, pr, tab).synapses,
+                **extra,
+            }
+        )
+    return entries, arrays
+
+
+def frame_size(network: Network, shape=None) -> str:
+    """``shape`` (rows, cols; default: the network's frame) in words, width x
+    height as ``--sensor-size`` takes them: ``"32 x 24"``, or for a network that
+    pools its input ``"102 x 80 blocks"``."""
+    h, w = network.frame_shape if shape is None else shape
+    return f"{w} x {h}" + (" blocks" if network.params.input_pool > 1 else "")
+
+
+def frame_text(network: Network, sensor_shape=None) -> str:
+    """The frame an export takes, in words: ``"a 32 x 24 sensor"``, or for a
+    network that pools its input ``"a 304 x 240 sensor as 102 x 80 blocks of 3
+    x 3 pixels"`` (without the sensor when ``sensor_shape``, rows and cols, is
+    not known)."""
+    pool = network.params.input_pool
+    if pool == 1:
+        return f"a {frame_size(network)} sensor"
+    blocks = f"{frame_size(network)} of {pool} x {pool} pixels"
+    return blocks if sensor_shape is None else f"a {sensor_shape[1]} x {sensor_shape[0]} sensor as {blocks}"
+
+
+def export_meta(
+    net: Network, entries: list, *, schema: str, dt_ms: float, command, sensor_shape, population_extra=None, **fields
+) -> dict:
+    """The ``network.json`` every export folder holds (what ``snn-fg events --write-spikes`` and
+    ``snn-fg decode`` read): the board network ``net``'s populations (``population_extra(p)``
+    adds to each), the projection ``entries``, the time step, the command that made it and the
+    sensor; ``fields`` join them."""
+    pops = [
+        {
+            "name": p.name,
+            "role": p.role,
+            "level": p.level,
+            "size": p.size,
+            **geometry(p),
+            "neuron": None if p.neuron is None else p.neuron.to_dict(),
+            **(population_extra(p) if population_extra else {}),
+        }
+        for p in net.populations
+    ]
+    return {
+        "schema": schema,
+        "snn_fg_version": __version__,
+        "dt_ms": dt_ms,
+        "input_rate_hz": net.input_rate_hz,
+        "export_command": command,
+        "frame_shape": list(net.frame_shape),
+        "sensor_shape": None if sensor_shape is None else list(sensor_shape),
+        **fields,
+        "populations": pops,
+        "projections": entries,
+        "notes": list(net.notes),
+        "snn_fg_network": net.to_dict(),
+    }
+
+
+def readme_fields(network: Network, meta: dict, sensor_shape) -> dict:
+    """What every export's README names: version, frame, size, levels, cells, sources, projections, notes."""
+    pops = meta["populations"]
+    return {
+        "version": __version__,
+        "frame": frame_text(network, sensor_shape),
+        "size": frame_size(network),
+        "levels": network.params.levels,
+        "cells": sum(p["size"] for p in pops if p["neuron"]),
+        "sources": sum(p["size"] for p in pops if not p["neuron"]),
+        "prj": len(meta["projections"]),
+        "notes": " ".join(meta["notes"]),
+    }
+
+
+def write_folder(out, *, force: bool, frame_shape, meta: dict, arrays: dict, copies: dict, texts: dict) -> Path:
+    """An export folder written whole (via a staging folder): ``network.json`` (``meta``),
+    ``tables.npz`` (``arrays``), the standalone modules ``copies`` (path -> name in the
+    folder) and ``texts`` (name -> text). With ``force`` an existing folder is replaced,
+    keeping its ``input.npz`` when it serves the same frame and time step."""
+    from ..results.atomic import OutputFolder
+
+    kept = reusable_input(Path(out) / INPUT_NAME, frame_shape, meta["dt_ms"]) if force else None
+    with OutputFolder(out, force=force) as folder:
+        tmp = folder.dir
+        if kept is not None:
+            (tmp / INPUT_NAME).write_bytes(kept)
+        (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
+        np.savez_compressed(tmp / "tables.npz", **arrays)
+        for src, dst in copies.items():
+            shutil.copyfile(src, tmp / dst)
+        for name, text in texts.items():
+            (tmp / name).write_text(text)
+    return Path(out)
+
+
+def reusable_input(path: Path, frame_shape, dt_ms: float) -> bytes | None:
+    """The bytes of an export's input file, if it serves an export of
+    ``frame_shape`` at ``dt_ms`` too (a re-export with ``--force`` that only
+    recalibrates the gains keeps it); ``None`` otherwise. The input's spikes
+    depend on the frame and the time step only, not on the gains."""
+    try:
+        with check.load_npz(path, "run.py's input") as d:
+            same = tuple(int(v) for v in d["shape"]) == tuple(frame_shape) and float(d["dt_ms"]) == float(dt_ms)
+        return path.read_bytes() if same else None
+    except (OSError, ValueError, KeyError):  # (none, or not one we can read: it goes with the folder)
+        return None

@@ -133,7 +133,7 @@ class ModelParams:
         """Side of the sampled DoG kernel (31 by default)."""
         return int(round(2 * self.dog_half_width / self.dog_step)) + 1
 
-    def replace(self, **changes) -> "ModelParams":
+    def replace(self, **changes) -> ModelParams:
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict:
@@ -143,7 +143,7 @@ class ModelParams:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict) -> "ModelParams":
+    def from_dict(cls, d: dict) -> ModelParams:
         check.known_keys("ModelParams", d, [f.name for f in dataclasses.fields(cls)])
         d = dict(d)
         for k in ("dog_s1", "dog_s2"):

@@ -64,12 +64,15 @@ def _sha(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
+OTHER_SHA = _sha(OTHER)
+
+
 @pytest.fixture
 def fixture_set(server, monkeypatch, tmp_path):
     """A dataset ``fixture`` of two files served locally, the data folder ``tmp_path`` via $SNN_FG_DATA."""
     _Handler.files = {"/a.bin": GOOD, "/b.bin": OTHER, "/wrong.bin": OTHER}
 
-    def make(path_b="/b.bin", sha_b=_sha(OTHER)):
+    def make(path_b="/b.bin", sha_b=OTHER_SHA):
         files = (
             DataFile(path="a.bin", size=len(GOOD), digest="bytes", sha256=_sha(GOOD), url=server + "/a.bin"),
             DataFile(path="sub/b.bin", size=len(OTHER), digest="bytes", sha256=sha_b, url=server + path_b),

@@ -107,7 +107,7 @@ if EVENTS:  # no AEDAT4 encoder exists to make a base here
     CASES["aedat4"] = (".aedat4", _shared("tonic_sample_person.aedat4"), {}, 111_954)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def decoded_count(case):
     """Events (and ATIS exposure events) of the unmodified base of ``case``."""
     suffix, base, kw, _ = CASES[case]

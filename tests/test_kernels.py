@@ -75,7 +75,7 @@ def test_pyramid_sizes():
     assert level_shape((321, 481), 3) == (161, 241)
     assert level_shape((321, 481), 10) == (15, 22)
     levels = pyramid(np.ones((240, 304)), 10)
-    assert [l.shape for l in levels][-1] == (11, 14)
+    assert [a.shape for a in levels][-1] == (11, 14)
     assert np.allclose(levels[3], 1.0)
 
 

@@ -45,29 +45,29 @@ def _dense_reference(s_levels, p):
     bd1 = [s[n:].copy() for s in s_levels]
     gl, gd = [None] * len(s_levels), [None] * len(s_levels)
     for _ in range(p.iterations):
-        for l in range(len(s_levels)):
+        for i in range(len(s_levels)):
             L, D = 0.0, 0.0
             for o in range(n):
-                w = 0.0 if np.allclose(bl1[l][o], bd2[l][o]) else p.w_inh
-                L = L + corr(bl1[l][o] - w * bd2[l][o], m2[o]) + corr(bl2[l][o] - w * bd1[l][o], m1[o])
-                D = D + corr(bd1[l][o] - w * bl2[l][o], m2[o]) + corr(bd2[l][o] - w * bl1[l][o], m1[o])
+                w = 0.0 if np.allclose(bl1[i][o], bd2[i][o]) else p.w_inh
+                L = L + corr(bl1[i][o] - w * bd2[i][o], m2[o]) + corr(bl2[i][o] - w * bd1[i][o], m1[o])
+                D = D + corr(bd1[i][o] - w * bl2[i][o], m2[o]) + corr(bd2[i][o] - w * bl1[i][o], m1[o])
             L, D = np.maximum(L, 0), np.maximum(D, 0)
-            gl[l], gd[l] = np.where(L > D, L, 0.0), np.where(D > L, D, 0.0)
-        for l, s in enumerate(s_levels):
+            gl[i], gd[i] = np.where(L > D, L, 0.0), np.where(D > L, D, 0.0)
+        for i, s in enumerate(s_levels):
             shape = s.shape[1:]
             v1 = sum(
-                0.5 ** (k - l)
+                0.5 ** (k - i)
                 * resize(np.stack([corr(gl[k], m1[o]) - corr(gd[k], m2[o]) for o in range(n)], -1), shape)
-                for k in range(l, len(s_levels))
+                for k in range(i, len(s_levels))
             )
             v2 = sum(
-                0.5 ** (k - l)
+                0.5 ** (k - i)
                 * resize(np.stack([corr(gl[k], m2[o]) - corr(gd[k], m1[o]) for o in range(n)], -1), shape)
-                for k in range(l, len(s_levels))
+                for k in range(i, len(s_levels))
             )
             f1, f2 = f(np.moveaxis(v1, -1, 0)), f(np.moveaxis(v2, -1, 0))
-            bl1[l], bd2[l] = np.maximum(s[:n] * f1, 0), np.maximum(s[:n] * (2 - f1), 0)
-            bl2[l], bd1[l] = np.maximum(s[n:] * f2, 0), np.maximum(s[n:] * (2 - f2), 0)
+            bl1[i], bd2[i] = np.maximum(s[:n] * f1, 0), np.maximum(s[:n] * (2 - f1), 0)
+            bl2[i], bd1[i] = np.maximum(s[n:] * f2, 0), np.maximum(s[n:] * (2 - f2), 0)
     return bl1, bd2, gl, gd
 
 
@@ -92,18 +92,18 @@ def test_grouping_matches_dense_transcription(monkeypatch, reference, path):
     )
     # The dense feedback correlation runs in single precision: 1e-4 relative.
     tol = 1e-9 if path == "scatter+gather" else 1e-4
-    for l in range(PARAMS.levels):
-        scale = max(1.0, np.abs(gl[l]).max())
-        assert np.abs(got.gl[l] - gl[l]).max() <= tol * scale
-        assert np.abs(got.gd[l] - gd[l]).max() <= tol * scale
-        assert np.abs(got.bl1[l] - bl1[l]).max() <= tol * 2
-        assert np.abs(got.bd2[l] - bd2[l]).max() <= tol * 2
+    for i in range(PARAMS.levels):
+        scale = max(1.0, np.abs(gl[i]).max())
+        assert np.abs(got.gl[i] - gl[i]).max() <= tol * scale
+        assert np.abs(got.gd[i] - gd[i]).max() <= tol * scale
+        assert np.abs(got.bl1[i] - bl1[i]).max() <= tol * 2
+        assert np.abs(got.bd2[i] - bd2[i]).max() <= tol * 2
     assert max(g.max() for g in gl) > 1.0  # the scene does group
 
 
 def test_cubic_taps_reproduce_opencv_resize():
     rng = np.random.default_rng(0)
-    src = rng.random((level_shape((40, 52), 3)))
+    src = rng.random(level_shape((40, 52), 3))
     dst_shape = (40, 52)
     assert src.shape == (20, 26)
     rs, rw = cubic_taps(src.shape[0], dst_shape[0])

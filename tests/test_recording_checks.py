@@ -107,7 +107,7 @@ def test_summaries_name_what_they_skip(tmp_path, monkeypatch, capsys):
 
     log = tmp_path / "data.log"
     right, imu = (1 << 22) | (3 << 1), (1 << 23) | 5
-    log.write_text("0 1.0 AE (10 2 20 4 30 %d 40 %d)\n1 1.1 IMUS (1 2 3)\n2 1.2 AE (50 6)\n" % (right, imu))
+    log.write_text(f"0 1.0 AE (10 2 20 4 30 {right} 40 {imu})\n1 1.1 IMUS (1 2 3)\n2 1.2 AE (50 6)\n")
     assert main(["events", str(log), "--no-progress"]) == 0
     (skipped,) = [line for line in capsys.readouterr().out.splitlines() if line.startswith("skipped:")]
     listed = skipped.removeprefix("skipped:").removesuffix(" (read, not used by the model)").strip()

@@ -13,7 +13,7 @@ from snn_fg.frames.scenes import disc
 from snn_fg.lowering.input_spikes import event_spikes, frame_spikes
 from snn_fg.models.spiking import SpikingRecord, run_spiking, run_spiking_result
 from snn_fg.models.spiking.figures import save_spiking_figures
-from snn_fg.network import Network, SpikingParams, build_network
+from snn_fg.network import build_network
 from snn_fg.params import ModelParams
 from snn_fg.results.maps import Maps
 

@@ -68,6 +68,12 @@ def _panels(image_id):
     return image, (tx, ty), (fb.fg_x, fb.fg_y), (ed.fg_x, ed.fg_y), err
 
 
+def _unit(field):
+    """The vector field ``(x, y)`` scaled to unit length where it is not zero."""
+    length = np.hypot(*field)
+    return tuple(np.sign(length) * c / np.maximum(length, 1e-12) for c in field)
+
+
 def figure(picks):
     from matplotlib.figure import Figure
 
@@ -77,13 +83,9 @@ def figure(picks):
     axes = np.atleast_2d(fig.subplots(len(picks), 5))
     for ax_row, (label, row) in zip(axes, picks):
         image, gt, fb, ed, err = _panels(row["image_id"])
-        unit = lambda f: (
-            np.sign(np.hypot(*f)) * f[0] / np.maximum(np.hypot(*f), 1e-12),  # noqa: E731
-            np.sign(np.hypot(*f)) * f[1] / np.maximum(np.hypot(*f), 1e-12),
-        )
         ax_row[0].imshow(image)
         for ax, field in zip(ax_row[1:4], (gt, fb, ed)):
-            ax.imshow(fg_rgb(*unit(field)))
+            ax.imshow(fg_rgb(*_unit(field)))
         im = ax_row[4].imshow(err, cmap="inferno_r", vmin=0, vmax=180)
         fig.colorbar(im, ax=ax_row[4], fraction=0.035, label="|error| (deg)")
         ax_row[0].set_ylabel(f"{label}\n#{row['image_id']}", fontsize=9)

@@ -25,7 +25,8 @@ the first seed's (the network's own seed-to-seed spread, against which a
 difference between two variants of the network has to be read).
 
 Writes experiments/results/spiking_fidelity.json and .md.
-Usage: python -m experiments.validation.spiking_fidelity [--quick] [--only NAME ...] [--backend NAME ...] [--seeds N ...]
+Usage: python -m experiments.validation.spiking_fidelity [--quick] [--only NAME ...] [--backend NAME ...]
+       [--seeds N ...]
 """
 
 from __future__ import annotations
@@ -224,7 +225,7 @@ def _bsds_rows(table: _Table, instantiate: str) -> None:
         table.run(
             name,
             "bsds",
-            lambda b, seed: run_spiking_result(
+            lambda b, seed, d=d: run_spiking_result(
                 d["pos"], d["neg"], backend=b, seed=seed, instantiate=instantiate, progress=False
             ),
             d,
@@ -241,7 +242,9 @@ def _synthetic_rows(table: _Table, instantiate: str) -> None:
         table.run(
             sc.name,
             "synthetic-frame",
-            lambda b, seed: run_spiking_result(pos, neg, backend=b, seed=seed, instantiate=instantiate, progress=False),
+            lambda b, seed, pos=pos, neg=neg: run_spiking_result(
+                pos, neg, backend=b, seed=seed, instantiate=instantiate, progress=False
+            ),
             run_edfg(pos, neg),
             sc,
         )
@@ -254,7 +257,7 @@ def _synthetic_rows(table: _Table, instantiate: str) -> None:
         table.run(
             name,
             "synthetic-events",
-            lambda b, seed: run_spiking_result(
+            lambda b, seed, rec=rec: run_spiking_result(
                 events=rec.events,
                 sensor_size=rec.sensor_size,
                 backend=b,
@@ -264,7 +267,7 @@ def _synthetic_rows(table: _Table, instantiate: str) -> None:
             ),
             run_edfg(pos, neg),
             sc,
-            lambda r: {
+            lambda r, rec=rec: {
                 "events": int(len(rec.events)),
                 "input_rate_hz": r.inputs.rate_hz,
                 "merged_spikes": r.inputs.merged,
@@ -298,11 +301,15 @@ def main(argv=None):
 
 def _fmt(r):
     s = (
-        f"{r['name']:28s} {r['backend']:7s} seed {r.get('seed', 0)} median dAngle {r['angle_diff_median_deg']:5.1f} deg  mean {r['angle_diff_mean_deg']:5.1f}  "
+        f"{r['name']:28s} {r['backend']:7s} seed {r.get('seed', 0)} "
+        f"median dAngle {r['angle_diff_median_deg']:5.1f} deg  mean {r['angle_diff_mean_deg']:5.1f}  "
         f"r {r['grouping_pearson_r']:.3f}  {r['seconds']:6.1f} s"
     )
     if "truth_frac_within_45" in r:
-        s += f"  truth<=45: {r['truth_frac_within_45']:.2f} (ref {r['ref_truth_frac_within_45']:.2f}) peak in {r['peak_inside']}"
+        s += (
+            f"  truth<=45: {r['truth_frac_within_45']:.2f} (ref {r['ref_truth_frac_within_45']:.2f})"
+            f" peak in {r['peak_inside']}"
+        )
     if "vs_first" in r:
         v = r["vs_first"]
         s += (

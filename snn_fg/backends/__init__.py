@@ -61,7 +61,7 @@ def get_backend(name: str = DEFAULT_BACKEND, **options) -> Backend:
     return cls(**options)
 
 
-def as_backend(backend: "str | Backend" = DEFAULT_BACKEND, options: dict | None = None) -> Backend:
+def as_backend(backend: str | Backend = DEFAULT_BACKEND, options: dict | None = None) -> Backend:
     """``backend`` itself if it is a :class:`Backend` (kept by a caller
     that runs many inputs, so that what it prepares, like the fast engine's
     tables and cell arrays, serves them all), else :func:`get_backend`

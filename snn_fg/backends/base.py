@@ -181,7 +181,7 @@ def spikes_between(spikes, a_ms: float, b_ms: float):
     return out
 
 
-def each_bin(result: "SimulationResult"):
+def each_bin(result: SimulationResult):
     """``(k, bin_result)`` for each counting bin a result kept
     (``binned_counts``): what a backend that streams its bins hands to
     ``RunSettings.on_bin`` as it goes."""
@@ -199,7 +199,7 @@ def each_bin(result: "SimulationResult"):
         )
 
 
-def bin_result(template: "SimulationResult", counts: dict, a_ms: float, b_ms: float, spikes) -> "SimulationResult":
+def bin_result(template: SimulationResult, counts: dict, a_ms: float, b_ms: float, spikes) -> SimulationResult:
     """The result of one counting bin ``[a_ms, b_ms)``: ``template``'s
     network, cells and backend with the bin's counts and spikes."""
     return SimulationResult(

@@ -6,10 +6,10 @@ project's reference copies; a fetched or converted file must equal them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
-from typing import Callable
 
 from snn_fg.datasets.convert import BSDS300_IMAGES_URL, EDFG_COMMIT, fetch_bsds_edfg, fetch_direct
 
@@ -17,8 +17,10 @@ _RAW = "https://raw.githubusercontent.com"
 #: where each sample recording is published: a file of its package's test data, at a fixed commit
 RECORDING_URLS = {
     "dvs.es": f"{_RAW}/neuromorphic-paris/event_stream/cc64e09f9c9650955fac94195c71ac27b6e2509f/examples/dvs.es",
-    "tonic_sample_person.aedat4": f"{_RAW}/neuromorphs/tonic/40306d1b759b9fcca3dca2136a9b63ba05ba0e69/test/test_data/sample.aedat4",
-    "tonic_sample_nmnist.bin": f"{_RAW}/neuromorphs/tonic/1b263825786c75ca576ed738977bfffd550f6358/test/test_data/sample_nmnist.bin",
+    "tonic_sample_person.aedat4": f"{_RAW}/neuromorphs/tonic/40306d1b759b9fcca3dca2136a9b63ba05ba0e69/"
+    "test/test_data/sample.aedat4",
+    "tonic_sample_nmnist.bin": f"{_RAW}/neuromorphs/tonic/1b263825786c75ca576ed738977bfffd550f6358/"
+    "test/test_data/sample_nmnist.bin",
     "expelliarmus_evt2_spinner.raw": f"{_RAW}/open-neuromorphic/expelliarmus/9ec30714e3e70fab080ae290c084605e9f42a838/"
     "tests/sample-files/evt2_sample.raw",
 }

@@ -37,9 +37,9 @@ format is a :class:`~snn_fg.errors.ParameterError`:
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -128,7 +128,7 @@ def detect_format(path) -> str:
         with open(path, "rb") as fh:
             head = fh.read(4096)
     except OSError as exc:
-        raise InputError(path, f"cannot read file ({exc.strerror or exc})")
+        raise InputError(path, f"cannot read file ({exc.strerror or exc})") from exc
     if not head:
         raise InputError(path, "file is empty", "byte offset 0")
     seen = _sniff(head)

@@ -74,7 +74,7 @@ def as_float_image(image, source="<image>", grey: bool = True) -> np.ndarray:
     try:
         img = np.asarray(image)
     except Exception as exc:  # ragged lists and the like
-        raise InputError(source, f"not an image array ({exc})")
+        raise InputError(source, f"not an image array ({exc})") from exc
     if img.ndim == 3 and img.shape[2] in (1, 3, 4):
         pass
     elif img.ndim != 2:

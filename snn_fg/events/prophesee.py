@@ -90,7 +90,7 @@ def read_header(path, max_header: int = 1 << 20):
             try:
                 text = line[1:].decode("ascii").strip()
             except UnicodeDecodeError:
-                raise InputError(path, "header line is not ASCII text", f"byte offset {offset}")
+                raise InputError(path, "header line is not ASCII text", f"byte offset {offset}") from None
             offset += len(line)
             if offset > max_header:
                 raise InputError(path, "header is longer than 1 MiB", f"byte offset {offset}")

@@ -8,9 +8,9 @@ name and a ``chunks(n, tally)`` function that decodes the file from its start.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator
 
 import numpy as np
 

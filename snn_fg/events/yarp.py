@@ -173,7 +173,7 @@ def iter_yarp(
             try:
                 vals = np.array(m.group(4).split(), dtype=np.int64)
             except ValueError:
-                raise InputError(path, "AE bottle holds a non-integer value", f"line {lineno}")
+                raise InputError(path, "AE bottle holds a non-integer value", f"line {lineno}") from None
             step = 3 if tag == b"LAE" else 2
             if len(vals) % step:
                 raise InputError(

@@ -74,4 +74,4 @@ def resize(img: np.ndarray, shape: tuple[int, int], interpolation: str = "cubic"
 def pyramid(img: np.ndarray, levels: int, per_octave: int = 2) -> list[np.ndarray]:
     """Bicubic pyramid of ``img`` (float64), one array per level."""
     img = np.asarray(img, dtype=np.float64)
-    return [resize(img, level_shape(img.shape[:2], l, per_octave)) for l in range(1, levels + 1)]
+    return [resize(img, level_shape(img.shape[:2], level, per_octave)) for level in range(1, levels + 1)]

@@ -58,7 +58,7 @@ class InputSpikes:
     def n_sources(self) -> int:
         return self.clock_index + 1
 
-    def with_clock(self, steps) -> "InputSpikes":
+    def with_clock(self, steps) -> InputSpikes:
         """The same input plus window-clock spikes at ``steps`` (a network
         without a clock ignores them). Only for an input that does not repeat."""
         if self.period_steps is not None:

@@ -32,7 +32,7 @@ class Gains:
     pool: float  # feedback cells of level l+1 -> level l
 
     @classmethod
-    def of(cls, params: ModelParams, sp: SpikingParams) -> "Gains":
+    def of(cls, params: ModelParams, sp: SpikingParams) -> Gains:
         """Each gain in terms of its target cells' threshold and synaptic time constant."""
 
         def per_spike(gain, rate_hz, target: Neuron, receptor="exc"):

@@ -198,7 +198,7 @@ class Network:
         return [p for p in self.populations if p.is_source]
 
     # -- derived networks --------------------------------------------------
-    def calibrated(self, input_rate_hz: float) -> "Network":
+    def calibrated(self, input_rate_hz: float) -> Network:
         """The same network with its ``calibrated`` gains set for another input rate.
 
         A projection marked ``calibrated`` carries input-rate-proportional
@@ -213,7 +213,7 @@ class Network:
         )
         return dataclasses.replace(self, projections=prjs, input_rate_hz=rate)
 
-    def without_feedback(self) -> "Network":
+    def without_feedback(self) -> Network:
         """The same network without the feedback onto border-ownership cells
         (the ablation of stage 8: both sides of every border stay equal)."""
 
@@ -224,7 +224,7 @@ class Network:
 
         return dataclasses.replace(self, projections=tuple(pr for pr in self.projections if not feedback(pr)))
 
-    def resized(self, frame_shape) -> "Network":
+    def resized(self, frame_shape) -> Network:
         """The same network for frames of another shape (kernels are weight
         shared, so only the populations' level shapes change)."""
         shape = check.shape2("Network.resized", "frame_shape", frame_shape)
@@ -256,7 +256,7 @@ class Network:
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Network":
+    def from_dict(cls, d: dict) -> Network:
         if not isinstance(d, dict):
             check.fail("Network", None, None, f"expected a mapping, got {type(d).__name__}")
         if d.get("schema") != SCHEMA:
@@ -289,7 +289,7 @@ class Network:
         return json.dumps(self.to_dict(), indent=indent)
 
     @classmethod
-    def from_json(cls, text: str) -> "Network":
+    def from_json(cls, text: str) -> Network:
         return cls.from_dict(json.loads(text))
 
     def save(self, path) -> Path:
@@ -297,7 +297,7 @@ class Network:
         return save_text(path, self.to_json() + "\n")
 
     @classmethod
-    def load(cls, path) -> "Network":
+    def load(cls, path) -> Network:
         """Read a description written by :meth:`save` (or edited by hand).
 
         Any problem is an :class:`~snn_fg.errors.InputError` naming the file

@@ -215,5 +215,5 @@ class SpikingParams(Node):
                 strict = f.name in ("input_rate_hz", "dt_ms")
                 object.__setattr__(self, f.name, check.number(owner, f.name, v, lo=0, lo_open=strict))
 
-    def replace(self, **changes) -> "SpikingParams":
+    def replace(self, **changes) -> SpikingParams:
         return dataclasses.replace(self, **changes)

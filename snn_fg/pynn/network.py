@@ -32,9 +32,9 @@ among the nodes of that neuron's thread in 19 bits (``TargetData``'s
 among them, do not check it (nest-simulator issue #1211): the index of a
 neuron at 2**19 - 1 or above on its thread is cut to 19 bits, its spikes go
 out through another neuron's synapses (checked here: a probe such a neuron
-drives stays silent), and the run goes on with a wrong network. :class:`PyNNNetwork` therefore takes as many threads as the
-spike-sending cells need (:func:`nest_threads`) and refuses to create a cell
-past the limit.
+drives stays silent), and the run goes on with a wrong network.
+:class:`PyNNNetwork` therefore takes as many threads as the spike-sending
+cells need (:func:`nest_threads`) and refuses to create a cell past the limit.
 """
 
 from __future__ import annotations

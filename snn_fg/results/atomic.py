@@ -122,7 +122,7 @@ class OutputFolder:
         self.dir: Path | None = None
         self._made: list[Path] = []
 
-    def __enter__(self) -> "OutputFolder":
+    def __enter__(self) -> OutputFolder:
         parent = self.path.parent
         missing = []
         while not parent.exists():

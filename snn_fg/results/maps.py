@@ -76,7 +76,7 @@ class Maps:
         )
 
     @classmethod
-    def load(cls, path) -> "Maps":
+    def load(cls, path) -> Maps:
         """Read maps saved by :meth:`save` (``maps.npz``), a recording's store
         (``maps.zarr``, :mod:`snn_fg.results.store`: its complete windows, also while
         a run still writes it) or a run's output folder holding either."""

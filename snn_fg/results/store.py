@@ -151,7 +151,7 @@ class GrowingArray(ZarrArray):
     new shape. It keeps the last, partly filled chunk in memory."""
 
     @classmethod
-    def create(cls, path: Path, dtype, tail: tuple, chunk: int) -> "GrowingArray":
+    def create(cls, path: Path, dtype, tail: tuple, chunk: int) -> GrowingArray:
         path.mkdir(parents=True)
         text = np.dtype(dtype) == _TEXT
         meta = {
@@ -293,7 +293,7 @@ class MapsStore:
         self.shapes_at = time.monotonic()  # when the arrays' shapes were last written
 
     @classmethod
-    def create(cls, path, run_key: dict) -> "MapsStore":
+    def create(cls, path, run_key: dict) -> MapsStore:
         path = Path(path)
         path.mkdir(parents=True)
         _write_json(path / ".zgroup", {"zarr_format": 2})
@@ -304,7 +304,7 @@ class MapsStore:
         return cls(path, read_attrs(path))
 
     @classmethod
-    def reopen(cls, path, run_key: dict) -> "MapsStore":
+    def reopen(cls, path, run_key: dict) -> MapsStore:
         """The store at ``path`` to continue; refused when it was made with another ``run_key``."""
         attrs = _same_run(path, run_key)
         for stray in Path(path).rglob("*.part"):  # (atomic writes cut short by a kill)

@@ -151,12 +151,12 @@ def event_entries(pos, neg, params: ModelParams = ModelParams()):
     pyr_neg = pyramid(neg, params.levels, per_octave)
     pyr_edges = pyramid(edges, params.levels, per_octave)
     entries = []
-    for l in range(params.levels):
-        rows, cols = np.nonzero(pyr_edges[l])
+    for i in range(params.levels):
+        rows, cols = np.nonzero(pyr_edges[i])
         rows, cols = rows.astype(np.int64), cols.astype(np.int64)
-        _, index = orientation_index(_level_responses(pyr_pos[l], pyr_neg[l], rows, cols, params), params)
-        entries.append(Entries(rows, cols, index.astype(np.int64), pyr_edges[l][rows, cols]))
-    shapes = [level_shape(pos.shape, l, per_octave) for l in range(1, params.levels + 1)]
+        _, index = orientation_index(_level_responses(pyr_pos[i], pyr_neg[i], rows, cols, params), params)
+        entries.append(Entries(rows, cols, index.astype(np.int64), pyr_edges[i][rows, cols]))
+    shapes = [level_shape(pos.shape, level, per_octave) for level in range(1, params.levels + 1)]
     return entries, shapes
 
 

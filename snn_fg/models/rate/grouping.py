@@ -253,7 +253,7 @@ class SparseGrouping(GroupingState):
             x[i] = xi
         list(pool.map(lambda i: self._feedback(x, i), order))
 
-    def continue_from(self, previous: "SparseGrouping", carry: float = 1.0) -> "SparseGrouping":
+    def continue_from(self, previous: SparseGrouping, carry: float = 1.0) -> SparseGrouping:
         """Start where ``previous`` stopped instead of from no feedback.
 
         ``previous`` is the engine of the frame before (same level shapes and
@@ -294,13 +294,13 @@ class SparseGrouping(GroupingState):
             np.multiply(old.g_d, carry, out=lv.g_d)
         return self.feedback_step()
 
-    def group_step(self) -> "SparseGrouping":
+    def group_step(self) -> SparseGrouping:
         """Stage 7 alone at every level: the grouping maps from the current ``B``."""
         for lv in self.levels:
             self._group(lv)
         return self
 
-    def feedback_step(self) -> "SparseGrouping":
+    def feedback_step(self) -> SparseGrouping:
         """Stage 8 alone at every level: ``B`` from the current grouping maps."""
         self._plan_feedback()
         x = [self._correlate(lv) for lv in self.levels]
@@ -329,7 +329,7 @@ class SparseGrouping(GroupingState):
             nbk.pool_add(z, e.rows, e.cols, e.ch, x[k], rs, rw, cs, cw, p.pyramid_decay**k)
         return z if self.z_bias is None else z + self.z_bias
 
-    def run(self, progress=None) -> "SparseGrouping":
+    def run(self, progress=None) -> SparseGrouping:
         """Iterate stages 7 and 8 ``params.iterations`` times (``progress`` wraps the range)."""
         steps = range(self.params.iterations)
         if progress is not None:

@@ -16,7 +16,7 @@ class GroupingState:
     """Reading and setting the engine's state; the engine keeps its ``levels``
     (each with its entries ``e``, ``bl``, ``bd`` and padded grouping maps) and ``n``."""
 
-    def load(self, state: GroupingResult, border: bool = True, grouping: bool = True) -> "GroupingState":
+    def load(self, state: GroupingResult, border: bool = True, grouping: bool = True) -> GroupingState:
         """Set the border-ownership values ``B`` (at this engine's entries)
         and/or the grouping maps from dense maps in the form of :meth:`dense`,
         e.g. a spiking network's decoded rates, so that the model's own

@@ -40,7 +40,7 @@ class Entries:
     s: np.ndarray
 
     @classmethod
-    def from_dense(cls, s_map: np.ndarray) -> "Entries":
+    def from_dense(cls, s_map: np.ndarray) -> Entries:
         """Entries of a dense ``(2n, h, w)`` S map (its non-zero values)."""
         ch, r, c = np.nonzero(s_map)
         return cls(r.astype(np.int64), c.astype(np.int64), ch.astype(np.int64), s_map[ch, r, c].astype(np.float64))

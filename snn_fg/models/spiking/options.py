@@ -218,9 +218,7 @@ class SpikingOptions:
     recording: RecordingOptions = field(default_factory=RecordingOptions)
 
     @classmethod
-    def from_keywords(
-        cls, owner: str, keywords: dict, *, frame: bool = True, recording: bool = True
-    ) -> "SpikingOptions":
+    def from_keywords(cls, owner: str, keywords: dict, *, frame: bool = True, recording: bool = True) -> SpikingOptions:
         """The keyword options of ``owner`` as parts; the frame or recording
         part only where ``owner`` takes it. A keyword no part has is a
         ``TypeError`` naming it."""
@@ -242,8 +240,8 @@ class SpikingOptions:
 
     @classmethod
     def of(
-        cls, owner: str, options: "SpikingOptions | None", keywords: dict, *, frame: bool = True, recording: bool = True
-    ) -> "SpikingOptions":
+        cls, owner: str, options: SpikingOptions | None, keywords: dict, *, frame: bool = True, recording: bool = True
+    ) -> SpikingOptions:
         """``options`` as given (then with no keyword options beside it), or
         ``keywords`` made into options (:meth:`from_keywords`)."""
         if options is None:
@@ -254,7 +252,7 @@ class SpikingOptions:
             check.fail(owner, None, None, f"give options= or keyword options ({', '.join(sorted(keywords))}), not both")
         return options
 
-    def on(self, backend: Backend) -> "SpikingOptions":
+    def on(self, backend: Backend) -> SpikingOptions:
         """These options on the backend object ``backend`` (one that a caller keeps for many runs)."""
         return dataclasses.replace(
             self, simulator=dataclasses.replace(self.simulator, backend=backend, backend_options=None)

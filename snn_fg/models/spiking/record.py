@@ -69,7 +69,7 @@ class SpikingRecord:
         return np.concatenate([r[r > 0], np.zeros(silent)])
 
     @classmethod
-    def from_result(cls, result, inputs, settle_ms: float, cells: bool = True) -> "SpikingRecord":
+    def from_result(cls, result, inputs, settle_ms: float, cells: bool = True) -> SpikingRecord:
         """Summarise a :class:`~snn_fg.backends.SimulationResult` fed by
         ``inputs``; ``cells=False`` leaves the per-cell counts out (a
         recording's windows whose counts are not kept), the summary in."""
@@ -121,7 +121,7 @@ class SpikingRecord:
         return {"duration_ms": self.duration_ms, "settle_ms": self.settle_ms, "count_window_ms": self.count_window_ms}
 
     @classmethod
-    def from_maps(cls, maps, window: int | None = None) -> tuple["SpikingRecord", int | None]:
+    def from_maps(cls, maps, window: int | None = None) -> tuple[SpikingRecord, int | None]:
         """The record stored with ``maps`` and the window it belongs to.
 
         For one frame ``window`` is ``None``. For a recording's maps (shape

@@ -55,7 +55,7 @@ def warm_simulators():
     pos, neg = image_to_frame(disc(8).image)
     net = build_network(ModelParams(levels=1), pos.shape)
     spikes = frame_spikes(pos, neg, 200.0, 0.5, 40.0)
-    settings = RunSettings(duration_ms=40.0, record_spikes=False)
+    settings = RunSettings(duration_ms=40.0, dt_ms=net.dt_ms, record_spikes=False)
     brian2 = get_backend("brian2")
     return SimpleNamespace(
         network=net,

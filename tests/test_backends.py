@@ -165,7 +165,9 @@ def test_binned_counts_split_the_spike_trains_by_time(backend):
     net = run_spiking_result(pos, neg, params=ModelParams(levels=2), duration_ms=10, progress=False).network
     inp = frame_spikes(pos, neg, 200.0, 0.5, 90.0)
     edges = (10.0, 30.0, 50.5, 90.0)
-    r = get_backend(backend).simulate(net, inp, RunSettings(duration_ms=90.0, count_from_ms=30.0, count_bins_ms=edges))
+    r = get_backend(backend).simulate(
+        net, inp, RunSettings(duration_ms=90.0, dt_ms=net.dt_ms, count_from_ms=30.0, count_bins_ms=edges)
+    )
     assert r.count_bins_ms == edges
     assert sum(int(b.sum()) for b in r.binned_counts.values()) > 500
     for name in r.populations:
@@ -183,7 +185,7 @@ def test_count_bins_must_increase_inside_the_run():
 
     for bad in ((10.0,), (5.0, 5.0), (0.0, 120.0), (-1.0, 3.0)):
         with pytest.raises(ParameterError, match="count_bins_ms"):
-            RunSettings(duration_ms=100.0, count_bins_ms=bad)
+            RunSettings(duration_ms=100.0, dt_ms=0.5, count_bins_ms=bad)
 
 
 @pytest.mark.slow
@@ -213,7 +215,11 @@ def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(ba
     net = run_spiking_result(pos, neg, params=ModelParams(levels=1), duration_ms=20, progress=False).network
     # the same run, short, first: the signal must reach the simulation, not a
     # first compilation of its code (a cold Brian2 compile can take minutes)
-    sim.simulate(net, frame_spikes(pos, neg, 200.0, 0.5, 10.0), RunSettings(duration_ms=10.0, record_spikes=False))
+    sim.simulate(
+        net,
+        frame_spikes(pos, neg, 200.0, 0.5, 10.0),
+        RunSettings(duration_ms=10.0, dt_ms=net.dt_ms, record_spikes=False),
+    )
     inp = frame_spikes(pos, neg, 200.0, 0.5, 20.0)  # regular trains: one period, repeated
     timer = threading.Timer(2.0, signal.raise_signal, (signal.SIGINT,))
     # Ctrl-C as the command line receives it (a test process started in the
@@ -223,7 +229,7 @@ def test_an_interrupted_simulation_raises_instead_of_returning_partial_counts(ba
         try:
             with pytest.raises(KeyboardInterrupt):
                 # 1000 s: longer than any backend takes to reach the interrupt
-                sim.simulate(net, inp, RunSettings(duration_ms=1e6, record_spikes=False))
+                sim.simulate(net, inp, RunSettings(duration_ms=1e6, dt_ms=net.dt_ms, record_spikes=False))
         finally:
             timer.cancel()
 

@@ -102,7 +102,7 @@ def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend
     assert done.returncode == 0, done.stderr[-2000:]
     exported = read_counts(net, folder / "counts.npz")
     backend = get_backend("nest").simulate(
-        board_network(net), inp, RunSettings(duration_ms=150.0, count_from_ms=75.0, instantiate="all")
+        board_network(net), inp, RunSettings(duration_ms=150.0, dt_ms=net.dt_ms, count_from_ms=75.0, instantiate="all")
     )
     a, b = decode(exported), decode(backend)
     c = compare_frame(a[0], a[1], a[2], b[0], b[1], b[2])
@@ -120,7 +120,7 @@ def test_portable_pynn_path_gives_the_spikes_of_the_nest_fast_path():
     off-grid iaf_psc_exp_ps and the rates differed by about 10 %.)"""
     pos, neg, inp = _disc_input(duration=60.0)
     net = build_network(ModelParams(levels=1, r0=4), pos.shape)
-    s = RunSettings(duration_ms=60.0, count_from_ms=20.0, record_spikes=True)
+    s = RunSettings(duration_ms=60.0, dt_ms=net.dt_ms, count_from_ms=20.0, record_spikes=True)
     fast = get_backend("nest").simulate(net, inp, s)
     portable = get_backend("nest", portable=True).simulate(net, inp, s)
     assert sum(int(v.sum()) for v in fast.counts.values()) > 1000

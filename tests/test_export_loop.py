@@ -112,7 +112,7 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     # the NEST backend on the same input file and the board network
     inp = read_input(spikes)
     backend = get_backend("nest").simulate(
-        board_network(net), inp, RunSettings(duration_ms=150.0, count_from_ms=75.0, instantiate="all")
+        board_network(net), inp, RunSettings(duration_ms=150.0, dt_ms=net.dt_ms, count_from_ms=75.0, instantiate="all")
     )
     fx, fy, g, _ = decode(backend)
     assert np.abs(ours.grouping).max() > 0

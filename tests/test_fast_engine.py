@@ -46,7 +46,9 @@ def disc_runs():
     return _both(
         net,
         inp,
-        RunSettings(duration_ms=150.0, count_from_ms=50.0, record_state=STATE_VARIABLES, count_bins_ms=BINS_MS),
+        RunSettings(
+            duration_ms=150.0, dt_ms=net.dt_ms, count_from_ms=50.0, record_state=STATE_VARIABLES, count_bins_ms=BINS_MS
+        ),
     )
 
 
@@ -135,7 +137,7 @@ def test_timed_events_on_every_cell_are_identical_to_brian2s():
     rec = image_to_events(disc(10).image[16:48, 16:48])
     inp = event_spikes(rec.events, rec.sensor_size, 0.5, replay=True)
     net = build_network(ModelParams(levels=4), inp.shape).calibrated(inp.rate_hz)
-    runs = _both(net, inp, RunSettings(duration_ms=60.0, instantiate="all"))
+    runs = _both(net, inp, RunSettings(duration_ms=60.0, dt_ms=net.dt_ms, instantiate="all"))
     # (every cell outside the edge masks: the grouping and feedback cells of level 1 are all there)
     assert all(
         runs["fast"].sites[p.name].size == p.size
@@ -238,7 +240,7 @@ def test_a_reused_engine_gives_the_spikes_of_a_fresh_one():
     """The engine keeps its cell arrays from run to run (put back at rest):
     a second input on the same backend gives what a fresh backend gives."""
     net = build_network(ModelParams(levels=1), (64, 64))
-    settings = RunSettings(duration_ms=60.0, record_state=("v",))
+    settings = RunSettings(duration_ms=60.0, dt_ms=net.dt_ms, record_state=("v",))
     a, b = (frame_spikes(*image_to_frame(disc(r).image), 200.0, 0.5, 60.0) for r in (16, 12))
     reused = get_backend("fast")
     reused.simulate(net, a, settings)
@@ -280,7 +282,7 @@ def test_a_backend_keeps_its_tables_across_calibrated_runs():
     """Two frames with different input rates on one backend object: the
     second run reuses the tables (weights remade) and gives a fresh backend's spikes."""
     net = build_network(ModelParams(levels=1), (64, 64))
-    settings = RunSettings(duration_ms=60.0)
+    settings = RunSettings(duration_ms=60.0, dt_ms=net.dt_ms)
     a, b = (frame_spikes(*image_to_frame(disc(r).image), hz, 0.5, 60.0) for r, hz in ((12, 200.0), (10, 330.0)))
     backend = get_backend("fast")
     backend.simulate(net.calibrated(a.rate_hz), a, settings)
@@ -337,7 +339,7 @@ def test_the_cells_left_out_by_the_edge_masks_never_fire(timed):
         net,
         populations=tuple(dataclasses.replace(p, edge_mask=False) if p.name in gated else p for p in net.populations),
     )
-    settings = RunSettings(duration_ms=120.0, count_from_ms=40.0, instantiate="all")
+    settings = RunSettings(duration_ms=120.0, dt_ms=net.dt_ms, count_from_ms=40.0, instantiate="all")
     masked, full = (get_backend("fast").simulate(n, inp, settings) for n in (net, whole))
     total = 0
     for name in full.populations:

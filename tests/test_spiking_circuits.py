@@ -71,7 +71,7 @@ def test_one_input_spike_reaches_exactly_the_dog_footprint(backend, options, dir
     on, off = (mask, zero) if src == "on" else (zero, mask)
     idx = c[0] * shape[1] + c[1] + (0 if src == "on" else shape[0] * shape[1])
     inp = InputSpikes(shape, np.array([idx]), np.array([2]), None, on, off, 200.0)
-    settings = RunSettings(duration_ms=4.0, record_spikes=False, record_state=("I_exc", "I_inh"))
+    settings = RunSettings(duration_ms=4.0, dt_ms=net.dt_ms, record_spikes=False, record_state=("I_exc", "I_inh"))
     res = get_backend(backend, **options).simulate(net, inp, settings)
     exc, inh = (res.grid("T", res.state["T"][v])[0] for v in ("I_exc", "I_inh"))
     # the net current: a backend may carry the kernel's negative lobes on the
@@ -139,7 +139,9 @@ def test_a_ring_of_border_ownership_cells_drives_the_grouping_cell_at_its_centre
     net = Network(params=P1, frame_shape=shape, populations=pops, projections=prj)
     inp = frame_spikes(ring.astype(np.uint8), np.zeros(shape, np.uint8), 200.0, 0.5, 200.0, seed=3)
     res = get_backend(backend).simulate(
-        net, inp, RunSettings(duration_ms=200.0, count_from_ms=50.0, record_spikes=False, sites={"B": b_cells})
+        net,
+        inp,
+        RunSettings(duration_ms=200.0, dt_ms=net.dt_ms, count_from_ms=50.0, record_spikes=False, sites={"B": b_cells}),
     )
     assert res.sites["B"].size == ring.sum()
     assert np.all(res.rates("B") > 50)  # the ring is active
@@ -191,7 +193,7 @@ def test_one_cell_driven_hard_fires_on_the_steps_the_time_conventions_give(backe
     # on NEST, both the array calls and PyNN's own portable path (what SpiNNaker runs)
     runs = [get_backend(backend)] + ([get_backend(backend, portable=True)] if backend == "nest" else [])
     for sim in runs:
-        res = sim.simulate(net, inp, RunSettings(duration_ms=10.0))
+        res = sim.simulate(net, inp, RunSettings(duration_ms=10.0, dt_ms=net.dt_ms))
         cell, t = res.spikes["T"]
         assert res.sites["T"][cell].tolist() == [4] * 4
         np.testing.assert_allclose(t, [2.5, 4.5, 6.5, 8.5])

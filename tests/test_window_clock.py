@@ -130,7 +130,7 @@ def test_clock_spikes_are_identical_to_brian2s_and_silence_the_grouping_cells():
     none fires in the 10 ms after the pulse arrives."""
     inp = _clocked_input()
     net = build_network(ModelParams(levels=2), inp.shape).calibrated(inp.rate_hz)
-    settings = RunSettings(duration_ms=100.0, instantiate="all")
+    settings = RunSettings(duration_ms=100.0, dt_ms=net.dt_ms, instantiate="all")
     runs = {name: get_backend(name).simulate(net, inp, settings) for name in ("brian2", "fast")}
     group_times = []
     for name in runs["brian2"].populations:
@@ -155,7 +155,7 @@ def test_a_network_without_a_clock_ignores_clock_spikes():
     """Clock spikes given to a network without a clock change nothing."""
     inp = _clocked_input()
     net = build_network(ModelParams(levels=2), inp.shape, SpikingParams(clock_inh_group=0)).calibrated(inp.rate_hz)
-    settings = RunSettings(duration_ms=100.0)
+    settings = RunSettings(duration_ms=100.0, dt_ms=net.dt_ms)
     a, b = (get_backend("fast").simulate(net, x, settings) for x in (inp, _disc_input()))
     for name in a.populations:
         np.testing.assert_array_equal(a.counts[name], b.counts[name], err_msg=name)
@@ -203,7 +203,7 @@ def test_nest_receives_the_clock_too():
     fire before the 60 ms pulse and not in the 10 ms after it arrives."""
     inp = _clocked_input()
     net = build_network(ModelParams(levels=2), inp.shape).calibrated(inp.rate_hz)
-    res = get_backend("nest").simulate(net, inp, RunSettings(duration_ms=100.0))
+    res = get_backend("nest").simulate(net, inp, RunSettings(duration_ms=100.0, dt_ms=net.dt_ms))
     t = np.concatenate([res.spikes[n][1] for n in res.populations if n.startswith("group_")])
     delay = net.outgoing("clock_1")[0].delay_ms
     assert np.count_nonzero((t >= 40) & (t < 60)) > 0

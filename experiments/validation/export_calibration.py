@@ -81,7 +81,7 @@ def _run_py(folder: Path) -> dict:
 
 def _ours(backend: str, net, inp):
     result = get_backend(backend).simulate(
-        net, inp, RunSettings(duration_ms=DURATION_MS, count_from_ms=COUNT_FROM_MS, instantiate="all")
+        net, inp, RunSettings(duration_ms=DURATION_MS, dt_ms=net.dt_ms, count_from_ms=COUNT_FROM_MS, instantiate="all")
     )
     fx, fy, g, _ = decode(result)
     return fx, fy, g

@@ -174,7 +174,7 @@ def quant(out, bsds: bool):
         net = build_network(ModelParams(), pos.shape, SpikingParams())
         inp = frame_spikes(pos, neg, 200.0, 0.5, 400.0)
         net = net.calibrated(inp.rate_hz)
-        s = RunSettings(duration_ms=400.0, count_from_ms=200.0, record_spikes=False)
+        s = RunSettings(duration_ms=400.0, dt_ms=net.dt_ms, count_from_ms=200.0, record_spikes=False)
         maps = {}
         for bits in (None, 16, 8):
             backend = Brian2Backend() if bits is None else QuantisedBrian2(bits)

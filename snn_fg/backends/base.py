@@ -35,7 +35,9 @@ class RunSettings:
     duration_ms : float
         Simulated time.
     dt_ms : float
-        Time step.
+        Time step, given by the caller (it has no default here: a run takes
+        the network's own step unless told otherwise,
+        :meth:`~snn_fg.network.Network.time_step`).
     count_from_ms : float
         Spikes from this time on are counted (the counting window ends at
         ``duration_ms``).
@@ -68,7 +70,7 @@ class RunSettings:
     """
 
     duration_ms: float
-    dt_ms: float = 0.5
+    dt_ms: float
     count_from_ms: float = 0.0
     record_spikes: bool = True
     record_state: tuple = ()

@@ -169,7 +169,7 @@ def snntorch_network(
     frame's grid (:func:`one_grid_network`); with ``deeper_reset`` each
     cell resets :func:`reset_depth_mv` (at ``reset_drive``) lower instead of
     its refractory period. Refuses what the profile cannot write."""
-    dt_ms = network.dt_ms if dt_ms is None else dt_ms
+    dt_ms = network.time_step(dt_ms, "snntorch_network")
     net = flat_network(network)
     if one_grid:
         net = one_grid_network(net)
@@ -312,7 +312,7 @@ def to_nir_snntorch(
 ):
     """The NIR graph of ``network`` in this profile (module docstring), for
     a consumer step of ``step_ms`` of the network's time."""
-    step_ms = network.dt_ms if step_ms is None else step_ms
+    step_ms = network.time_step(step_ms, "to_nir_snntorch")
     step_s = step_ms * 1e-3
     nir = nir_package()
     net = snntorch_network(network, step_ms, one_grid=one_grid, deeper_reset=deeper_reset, reset_drive=reset_drive)
@@ -354,8 +354,6 @@ def export_nir_snntorch(
 ) -> Path:
     """Write the graph of this profile (levels on one grid with ``one_grid``,
     refractory periods as deeper resets with ``deeper_reset``) to ``out`` (atomically)."""
-    step_ms = network.dt_ms if step_ms is None else step_ms
-
     graph = to_nir_snntorch(network, step_ms=step_ms, one_grid=one_grid, deeper_reset=deeper_reset)
     with atomic_path(out, suffix=".nir") as tmp:
         nir_package().write(tmp, graph)

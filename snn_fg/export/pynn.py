@@ -71,7 +71,7 @@ def pynn_model(
     """``(network.json data, tables.npz arrays)`` of the board network; ``command``:
     the ``snn-fg export`` command that made it, recorded (without ``--input-rate-hz``);
     ``sensor_shape`` (rows, cols): the sensor it was made for, if known."""
-    dt_ms = network.dt_ms if dt_ms is None else dt_ms
+    dt_ms = network.time_step(dt_ms, "pynn_model")
     net = board_network(network)
     entries, arrays = weight_tables(net)
     scales = projection_scales(net, weight_bits) if weight_bits else {}
@@ -165,7 +165,7 @@ def export_pynn(
     >>> print(*sorted(p.name for p in d.glob("*.py")))
     fg_cells.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py fg_spinnaker.py fg_tables.py run.py
     """
-    dt_ms = network.dt_ms if dt_ms is None else dt_ms
+    dt_ms = network.time_step(dt_ms, "export_pynn")
     meta, arrays = pynn_model(
         network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape
     )

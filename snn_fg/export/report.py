@@ -233,7 +233,7 @@ def resource_report(network: Network, dt_ms: float | None = None, sensor_shape=N
     >>> rep["totals"]["neurons"] > 0 and rep["targets"]["spinnaker1"]["chips"] >= 1
     True
     """
-    dt_ms = network.dt_ms if dt_ms is None else dt_ms
+    dt_ms = network.time_step(dt_ms, "resource_report")
     net = board_network(network)
     prows = _projection_rows(net, dt_ms)
     pops = _population_rows(net, prows)

@@ -68,7 +68,7 @@ def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float | N
     and padding) or ``FromListConnector`` and why; with ``estimate`` also the
     resource report's SpiNNaker 1 figures (cores, chips, boards) for
     ``dt_ms`` steps, which ``run.py --virtual-board`` sets beside sPyNNaker's."""
-    dt_ms = network.dt_ms if dt_ms is None else dt_ms
+    dt_ms = network.time_step(dt_ms, "spinnaker_plan")
     reasons = {pr.name: _conv_reason(network, pr) for pr in network.projections}
     for name in {p.name for p in network.populations}:
         into = [pr for pr in network.incoming(name)]

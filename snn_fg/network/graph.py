@@ -25,7 +25,9 @@ from .projections import Conv, Projection, projection_from_dict
 INPUT_CODINGS = ("events", "window")
 
 SCHEMA = "snn-fg.network/2"
-#: the time step of a network that does not name one (ms)
+#: the time step (ms) of a network that does not name one: the one default of the package's time step (a
+#: recipe's ``SpikingParams.dt_ms``, a stored description without ``dt_ms``); a run or an export takes the
+#: network's own step unless told otherwise (:meth:`Network.time_step`)
 DEFAULT_DT_MS = 0.5
 
 
@@ -196,6 +198,12 @@ class Network:
     @property
     def sources(self) -> list[Population]:
         return [p for p in self.populations if p.is_source]
+
+    def time_step(self, dt_ms: float | None = None, owner: str = "Network.time_step") -> float:
+        """The time step (ms) of a run or an export of this network: ``dt_ms``
+        when given (checked: above 0; ``owner`` names the caller in the
+        error), else the network's own :attr:`dt_ms`."""
+        return self.dt_ms if dt_ms is None else check.number(owner, "dt_ms", dt_ms, lo=0, lo_open=True)
 
     # -- derived networks --------------------------------------------------
     def calibrated(self, input_rate_hz: float) -> Network:

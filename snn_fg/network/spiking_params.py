@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from .. import validate as check
+from .graph import DEFAULT_DT_MS
 from .nodes import Neuron, Node
 
 #: Reference presynaptic rates (Hz) of the dimensionless gains.
@@ -157,7 +158,7 @@ class SpikingParams(Node):
     support_min: float = 0.3
     drive_min: float = 0.85
     input_refractory_ms: float = 0.0
-    dt_ms: float = 0.5
+    dt_ms: float = DEFAULT_DT_MS
     gate_margin: float = 1.0
     gate_copies: int = 5
     gate_spread_ms: float = 1.0

@@ -129,7 +129,7 @@ class SimulatorOptions:
 
     def step_for(self, network: Network) -> float:
         """The time step of a run of ``network``: ``dt_ms``, or the network's own."""
-        return self.dt_ms if self.dt_ms is not None else network.dt_ms
+        return network.time_step(self.dt_ms)
 
     def backend_object(self) -> Backend:
         return as_backend(self.backend, self.backend_options)

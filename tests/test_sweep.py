@@ -4,8 +4,8 @@ import json
 
 import pytest
 
+from experiments.sweep import SweepTask, run_sweep
 from snn_fg.errors import SnnFgError
-from snn_fg.scoring.sweep import SweepTask, run_sweep
 
 pytest.importorskip("dask.distributed", reason='needs the sweep extra: pip install -e ".[sweep]"')
 
@@ -49,7 +49,7 @@ def test_task_keys_are_plain_file_names():
 def test_missing_dask_says_what_to_install(tmp_path, monkeypatch):
     import sys
 
-    from snn_fg.scoring.sweep import MissingExtraError
+    from experiments.sweep import MissingExtraError
 
     monkeypatch.setitem(sys.modules, "dask.distributed", None)  # import fails as if not installed
     with pytest.raises(MissingExtraError, match=r'pip install -e "\.\[sweep\]" in the snn-fg folder'):

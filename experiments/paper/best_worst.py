@@ -24,7 +24,7 @@ PAPER_WORST = ("8143",)
 
 
 def ranking(results: dict) -> list[dict]:
-    from snn_fg.scoring.pooled import pool_stats
+    from experiments.pooled import pool_stats
 
     rows = []
     for image_id, res in results.items():

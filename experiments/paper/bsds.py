@@ -1,5 +1,5 @@
 """What the BSDS experiments (table1, fig6, best_worst) share: options, the image
-selection, the sweep of :func:`snn_fg.scoring.evaluation.evaluate_image` on Dask, and writing tables.
+selection, the sweep of :func:`experiments.evaluation.evaluate_image` on Dask, and writing tables.
 
 The three run the same per-image evaluation with the same settings, so they
 share one cache (``experiments/results/cache/bsds-<settings>/``): whichever
@@ -63,7 +63,7 @@ def settings_key(settings: dict, spiking: bool | None = None) -> str:
     also key on the default network's constants, so that a cache made before a
     change of ``SpikingParams`` is not read back as the new network's; all
     key on the version of what an image's result holds."""
-    from snn_fg.scoring.evaluation import RESULT_VERSION
+    from experiments.evaluation import RESULT_VERSION
 
     text = json.dumps(settings, sort_keys=True) + ("" if RESULT_VERSION == 1 else f"v{RESULT_VERSION}")
     if spiking is None:
@@ -77,8 +77,8 @@ def settings_key(settings: dict, spiking: bool | None = None) -> str:
 
 def sweep(func, ids, settings: dict, args, spiking: bool = False) -> dict:
     """``func(root=..., image_id=..., **settings)`` for every image id, on Dask, cached per image."""
+    from experiments.sweep import SweepTask, run_sweep
     from snn_fg.errors import SnnFgError
-    from snn_fg.scoring.sweep import SweepTask, run_sweep
 
     tasks = [SweepTask(i, {"root": str(dataset("bsds-fg")), "image_id": i, **settings}) for i in ids]
     try:
@@ -96,15 +96,15 @@ def sweep(func, ids, settings: dict, args, spiking: bool = False) -> dict:
 
 
 def evaluate_settings(*, root: str, image_id: str, **settings) -> dict:
-    """The sweep's unit of work: :func:`snn_fg.scoring.evaluation.evaluate_image` with the flat settings the cache is
+    """The sweep's unit of work: :func:`experiments.evaluation.evaluate_image` with the flat settings the cache is
     keyed on (:func:`settings_key`)."""
-    from snn_fg.scoring.evaluation import ImageEvaluation, evaluate_image
+    from experiments.evaluation import ImageEvaluation, evaluate_image
 
     return evaluate_image(root=root, image_id=image_id, settings=ImageEvaluation(**settings))
 
 
 def evaluate(args, settings: dict | None = None) -> dict:
-    """Per-image results ``{image_id: dict}`` of :func:`snn_fg.scoring.evaluation.evaluate_image` on the selected
+    """Per-image results ``{image_id: dict}`` of :func:`experiments.evaluation.evaluate_image` on the selected
     images (cached)."""
     settings = dict(SETTINGS if settings is None else settings)
     ids = args.ids or select_ids(QUICK_IMAGES if args.quick and args.images is None else args.images)

@@ -20,7 +20,7 @@ import numpy as np
 from experiments.common import Run, save_figure
 from experiments.paper.bsds import evaluate, parser, write_table
 
-#: (label, pair key of snn_fg.scoring.evaluation.evaluate_image)
+#: (label, pair key of experiments.evaluation.evaluate_image)
 COMPARISONS = (
     ("EDvsFB", "ED-rate|FB-fbfg"),
     ("EDvsFB-corf", "ED-rate|FB-fbfg-corf"),

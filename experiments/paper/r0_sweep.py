@@ -112,9 +112,9 @@ def main():
         help="disc diameters in px (4 to 200 in 13 steps)",
     )
     args = p.parse_args()
+    from experiments.evaluation import evaluate_disc
+    from experiments.sweep import SweepTask, run_sweep
     from snn_fg.errors import SnnFgError
-    from snn_fg.scoring.evaluation import evaluate_disc
-    from snn_fg.scoring.sweep import SweepTask, run_sweep
 
     run = Run()
     tasks = [

@@ -20,7 +20,7 @@ the binary side accuracy (within 90 degrees of the labelled direction); the
 coverage is the share of labelled pixels that get a vector.
 
 Writes experiments/results/table1.json / .csv (rows: model, threshold, each
-score of snn_fg.scoring.pooled.SCORES with its _low / _high interval, the per-image
+score of experiments.pooled.SCORES with its _low / _high interval, the per-image
 means, median_abs_deg, n_images, n_pixels, n_truth), table1.md (the table),
 table1_per_image.json / .csv (every image's scores per model and threshold),
 table1_extra.json (shift4 rows, the human ceiling, the authors' stored outputs
@@ -46,7 +46,7 @@ def scored_row(per_image_parts: list, **label) -> dict:
     """One table row: every score pooled over pixels with its 95 % bootstrap
     interval over images, the mean of the per-image side accuracy and within-45
     share (with theirs), the median, and the image, pixel and labelled-pixel counts."""
-    from snn_fg.scoring.pooled import SCORES, bootstrap_scores, pool_stats
+    from experiments.pooled import SCORES, bootstrap_scores, pool_stats
 
     pooled = pool_stats([u for ps in per_image_parts for u in ps])
     boot = bootstrap_scores(per_image_parts, n_resamples=BOOTSTRAP_RESAMPLES)
@@ -91,7 +91,7 @@ def rows_of(results: dict, motion: str = "paper") -> list[dict]:
 
 def per_image_rows(results: dict, motion: str = "paper") -> list[dict]:
     """Every image's own scores, per (model, threshold)."""
-    from snn_fg.scoring.pooled import pool_stats
+    from experiments.pooled import pool_stats
 
     rows = []
     for (m, t), units in _groups(results, motion).items():
@@ -103,8 +103,8 @@ def per_image_rows(results: dict, motion: str = "paper") -> list[dict]:
 
 def authors_outputs() -> list[dict]:
     """The authors' stored rate-model maps (bsds-edfg) scored against the labels of the same images."""
+    from experiments.pooled import error_stats, pool_stats
     from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
-    from snn_fg.scoring.pooled import error_stats, pool_stats
 
     rows, parts = [], []
     labels = dataset("bsds-fg")
@@ -293,7 +293,7 @@ def main():
         same_images = [r for r in spk_rows if r["model"] == "rate"]
         image_rows += [r for r in per_image_rows(spk) if r["model"] == "spiking"]
     shift4 = [{**r, "motion": "shift4"} for r in rows_of(results, "shift4") if r["model"] == "rate"]
-    from snn_fg.scoring.pooled import pool_stats
+    from experiments.pooled import pool_stats
 
     ceiling = pool_stats([r["ceiling"] for r in results.values()])
     extra = {

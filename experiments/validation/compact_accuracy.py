@@ -16,7 +16,7 @@ a board holds (``--weight-bits``, 8 by default: "as deployed"):
   ``bsds-fg``, sorted by id; the paper's event conversion at
   contrast --threshold, 0.4 by default): against both labellers pooled, binary side accuracy
   (within 90 degrees), coverage, within 45 degrees and the mean absolute
-  error (``snn_fg.scoring.pooled.pool_stats``), pooled and per image.
+  error (``experiments.pooled.pool_stats``), pooled and per image.
 
     python -m experiments.validation.compact_accuracy [--every 8] [--workers 2] [--weight-bits 8 --quantised compact]
 
@@ -139,11 +139,11 @@ def bsds_image(job) -> dict:
     cached = CACHE / "compact_accuracy" / f"{key}.json"
     if cached.exists():  # an interrupted run keeps the images it finished
         return json.loads(cached.read_text())
+    from experiments.pooled import error_stats
     from snn_fg.events import image_to_frame
     from snn_fg.models.spiking import run_spiking
     from snn_fg.results.atomic import save_text
     from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
-    from snn_fg.scoring.pooled import error_stats
 
     gt = load_bsds_fg(dataset("bsds-fg"), image_id)
     pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion="paper")
@@ -170,8 +170,8 @@ def _runs(networks, quantised, bits) -> list[tuple[str, str, int | None]]:
 
 
 def main():
+    from experiments.pooled import SCORES, pool_stats
     from snn_fg.scoring.groundtruth import bsds_ids
-    from snn_fg.scoring.pooled import SCORES, pool_stats
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--networks", default="default,compact")

@@ -240,8 +240,8 @@ def _figure(result: dict):
 
 
 def main():
+    from experiments.sweep import SweepTask, run_sweep
     from experiments.validation.natural_scenes import halves
-    from snn_fg.scoring.sweep import SweepTask, run_sweep
 
     args = parser(__doc__.splitlines()[0]).parse_args()
     run = Run()

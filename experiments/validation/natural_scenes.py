@@ -70,8 +70,8 @@ def _evenly(ids, n):
 
 
 def _rows(results: dict, names) -> tuple[list, list]:
-    """Pooled rows and per-image rows of :func:`snn_fg.scoring.evaluation.evaluate_models` results."""
-    from snn_fg.scoring.pooled import pool_stats
+    """Pooled rows and per-image rows of :func:`experiments.evaluation.evaluate_models` results."""
+    from experiments.pooled import pool_stats
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}
@@ -94,7 +94,7 @@ def _rows(results: dict, names) -> tuple[list, list]:
 
 
 def _difference(results: dict, a: str, b: str) -> dict:
-    from snn_fg.scoring.pooled import bootstrap_difference
+    from experiments.pooled import bootstrap_difference
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}
@@ -145,7 +145,7 @@ def main():
     run = Run()
     ids = args.ids or _evenly(halves()[args.half], args.images)
     settings = {"models": MODELS, "threshold": THRESHOLD, "motion": MOTION}
-    from snn_fg.scoring.evaluation import evaluate_models
+    from experiments.evaluation import evaluate_models
 
     results = sweep(evaluate_models, ids, settings, args)
     rows, per_image = _rows(results, MODELS)

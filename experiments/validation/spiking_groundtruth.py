@@ -6,7 +6,7 @@ models run on the same events (``--motion paper`` at one contrast threshold,
 labellers pooled, as in Table 1: the paper's mean *signed* error, the mean
 absolute error, the median and the fraction within 45 degrees, per image and
 pooled, with the spiking-minus-rate difference of each. A paired bootstrap
-over the images (``snn_fg.scoring.pooled.bootstrap_difference``) says how far
+over the images (``experiments.pooled.bootstrap_difference``) says how far
 each pooled difference moves with the choice of images.
 
     python -m experiments.validation.spiking_groundtruth [--images 20] [--threshold 0.40] [--seed 0] [--workers 1]
@@ -30,7 +30,7 @@ BOOTSTRAP_RESAMPLES = 4000
 
 
 def main():
-    from snn_fg.scoring.pooled import bootstrap_difference, pool_stats
+    from experiments.pooled import bootstrap_difference, pool_stats
 
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--threshold", type=float, default=0.40, metavar="C")

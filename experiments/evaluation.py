@@ -6,8 +6,8 @@ image into events at every contrast threshold, runs the event model(s) and
 the frame-based model with each edge operator through their public entry
 points, scores every figure-ground map against both labellers, and compares
 the maps with each other (Fig. 6). It returns a JSON-serialisable dict, so
-that :func:`snn_fg.scoring.sweep.run_sweep` can cache it per image. The
-scores are kept as sums to pool over images (:mod:`.pooled`).
+that :func:`experiments.sweep.run_sweep` can cache it per image. The
+scores are kept as sums to pool over images (:mod:`experiments.pooled`).
 """
 
 from __future__ import annotations
@@ -19,16 +19,16 @@ from itertools import combinations
 import numpy as np
 from skimage.metrics import structural_similarity
 
-from ..events import image_to_frame
-from ..events.images import read_image
-from ..frames.scenes import disc
-from ..models import MODELS, Still, get_model
-from ..models.rate.fbfg import run_fbfg
-from ..params import ModelParams
-from ..results.figures import fg_rgb
-from .groundtruth import angle_errors, boundary_directions, load_bsds_fg
-from .metrics import grouping_peak, truth_scores
-from .pooled import error_stats
+from experiments.pooled import error_stats
+from snn_fg.events import image_to_frame
+from snn_fg.events.images import read_image
+from snn_fg.frames.scenes import disc
+from snn_fg.models import MODELS, Still, get_model
+from snn_fg.models.rate.fbfg import run_fbfg
+from snn_fg.params import ModelParams
+from snn_fg.results.figures import fg_rgb
+from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
+from snn_fg.scoring.metrics import grouping_peak, truth_scores
 
 #: SSIM window of the paper (MATLAB's default).
 SSIM_WINDOW = 11

@@ -24,9 +24,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from ..errors import SnnFgError, install_hint
-from ..models.cores import usable_cores
-from ..results.atomic import save_text
+from snn_fg.errors import SnnFgError, install_hint
+from snn_fg.models.cores import usable_cores
+from snn_fg.results.atomic import save_text
 
 #: What to install when Dask is missing.
 DASK_HINT = f"the sweeps need Dask: {install_hint('sweep')}"
@@ -114,7 +114,7 @@ def run_sweep(
 
     Examples
     --------
-    >>> from snn_fg.scoring.sweep import SweepTask, run_sweep
+    >>> from experiments.sweep import SweepTask, run_sweep
     >>> out = run_sweep(dict, [SweepTask("a", {"x": 1})], "/tmp/sweep-doc", workers=1,
     ...                 progress=False)                     # doctest: +SKIP
     >>> out["a"]                                            # doctest: +SKIP

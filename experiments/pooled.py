@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 
-from .groundtruth import SIDE_DEG, WITHIN_DEG
+from snn_fg.scoring.groundtruth import SIDE_DEG, WITHIN_DEG
 
 #: Width (degrees) of the bins of the absolute-error histogram.
 HIST_BIN_DEG = 0.5

@@ -25,10 +25,9 @@ from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
 
 #: events read at a time from a recording a model runs on (1.6 MB): the
 #: spiking model reads the recording while the network runs, and the copies
-#: a chunk goes through on its way to a window added to the run's peak. With
-#: the reader's 1,000,000 the compact network's peak on dvs.es played ten
-#: times was 22 % above its one-window peak (390 against 320 MB; 27 Nov),
-#: with 100,000 1 % on 24 windows (323.5 against 319.9 MB)
+#: a chunk goes through on its way to a window add to the run's peak; a tenth
+#: of the reader's default keeps that addition small (measured in
+#: docs/performance.md, "Long recordings")
 RUN_CHUNK_EVENTS = 100_000
 
 

@@ -18,14 +18,13 @@ NEST_BASE_BYTES = 0.144e9
 #: ... plus this much per cell or spike source (NEST's node, the cell's spike counter and its share of the
 #: recorder, run.py's arrays) ...
 NEST_BYTES_PER_CELL = 9_640.0
-#: ... plus this much per synapse. Fitted on exports of 24x24 (1 level), 32x24 (2) and 48x36 (3); predicts
-#: 64x48 with 3 levels at 6.48 GB (measured 6.47) and with 4 at 6.92 GB (measured 7.16, -3 %)
+#: ... plus this much per synapse (the fit, and how well it predicts larger exports: snn-fg's
+#: docs/performance.md, "NEST")
 NEST_BYTES_PER_SYNAPSE = 41.7
 #: building: synapses connected per second, one thread ...
 NEST_SYNAPSES_PER_S = 1.2e6
 #: ... and simulating: seconds per simulated ms per synapse, one thread, at the input rate the export's
-#: gains are set for (a run's spike deliveries grow with its synapses at given rates): 0.072, 0.144 and
-#: 0.413 s per ms for those three sizes (a disc at 200 Hz), 1.99e-8 per synapse
+#: gains are set for (a run's spike deliveries grow with its synapses at given rates)
 NEST_S_PER_MS_PER_SYNAPSE = 2.0e-8
 #: where and when the two time figures were measured (a busier machine is slower)
 TIMES_MEASURED = "on a shared 2-core machine on 27 Nov 2026 at load 0.6-0.9"

@@ -145,11 +145,10 @@ class SimulatorOptions:
         (``"input"``), on every backend; otherwise the backend's own default.
 
         The hints judge a cell by the nominal input rate, which regular trains
-        keep exactly: on the six shared BSDS frames the fast engine's maps with
-        them are bit for bit those with every cell, and take 1.2-2.4x less time
-        (24 Nov). Timed events and Poisson trains come in bursts, where a cell
-        the hints leave out can fire (a ``dvs.es`` window's feedback cells fire
-        17 % fewer spikes with them), so there each backend keeps its default."""
+        keep exactly: on an event frame the maps with them are those with every
+        cell, in less time. Timed events and Poisson trains come in bursts, where
+        a cell the hints leave out can fire, so there each backend keeps its
+        default (the measurements: ``docs/spiking-network.md``)."""
         if self.instantiate is not None:
             return self.instantiate
         return "input" if inp.kind == "frame-regular" else backend.default_instantiate

@@ -1,8 +1,10 @@
-"""The ``snn-fg`` command line: one module per command (:mod:`.run`,
-:mod:`.compare`, :mod:`.events`, :mod:`.export`, :mod:`.decode`,
-:mod:`.data`), the options they share (:mod:`.options`), and the parser and
-entry point that join them (:mod:`.main`). A run of a model into an output
-folder is :mod:`.runner`; several recordings in one run, :mod:`.batch`.
+"""The ``snn-fg`` command line: one module per command
+(:mod:`~snn_fg.cli.run`, :mod:`~snn_fg.cli.compare`, :mod:`~snn_fg.cli.events`,
+:mod:`~snn_fg.cli.export`, :mod:`~snn_fg.cli.decode`, :mod:`~snn_fg.cli.data`),
+the options they share (:mod:`~snn_fg.cli.options`), and the parser and entry
+point that join them (:mod:`~snn_fg.cli.main`). A run of a model into an output
+folder is :mod:`~snn_fg.cli.runner`; several recordings in one run,
+:mod:`~snn_fg.cli.batch`.
 """
 
 from .main import build_parser, console, main

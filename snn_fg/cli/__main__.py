@@ -2,4 +2,5 @@
 
 from .main import console
 
-console()
+if __name__ == "__main__":  # (not when a tool imports the package's modules, as the API reference's build does)
+    console()

@@ -42,15 +42,19 @@ from .roles import ROLES, SOURCE_ROLES
 #: fire (see :mod:`snn_fg.lowering.sites`). A backend may instantiate every
 #: cell instead and must then compute the same spikes.
 #:
-#: ``all``          every cell (spike sources);
-#: ``edges``        every channel at grid points where the level's edge map
-#:                  reaches ``Network.support_min`` (level 1: every event pixel);
-#: ``edges&drive``  the ``edges`` cells whose excitation alone, with every
-#:                  source at its nominal rate, reaches ``Network.drive_min``
-#:                  thresholds of mean current;
-#: ``reachable``    cells with an excitatory connection from an instantiated
-#:                  cell of ``site_sources`` (all sources if empty);
-#: ``needed``       cells with a connection onto an instantiated cell.
+#: ``all``
+#:     every cell (spike sources);
+#: ``edges``
+#:     every channel at grid points where the level's edge map reaches
+#:     ``Network.support_min`` (level 1: every event pixel);
+#: ``edges&drive``
+#:     the ``edges`` cells whose excitation alone, with every source at its
+#:     nominal rate, reaches ``Network.drive_min`` thresholds of mean current;
+#: ``reachable``
+#:     cells with an excitatory connection from an instantiated cell of
+#:     ``site_sources`` (all sources if empty);
+#: ``needed``
+#:     cells with a connection onto an instantiated cell.
 SITE_RULES = ("all", "edges", "edges&drive", "reachable", "needed")
 
 

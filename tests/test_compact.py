@@ -11,7 +11,7 @@ import pytest
 from snn_fg.cli import main
 from snn_fg.frames.pool import NORMAL_SIGMA, edge_normals, pool_events, pool_frame, pooled_shape, unpool_maps
 from snn_fg.frames.pyramid import level_shape, max_levels
-from snn_fg.network import SpikingParams, build_network
+from snn_fg.network import Connectivity, SpikingParams, build_network
 from snn_fg.network.nodes import Kernel
 from snn_fg.network.recipes import RECIPES, model_params_of, network_for
 from snn_fg.params import ModelParams
@@ -150,7 +150,9 @@ def test_block_mean_hands_each_source_pixel_one_over_stride_squared():
 
 
 def test_strided_excess_cells_sit_on_the_grouping_lattice():
-    net = build_network(ModelParams(levels=2, n_ori=4), (24, 32), SpikingParams(excess_stride=2))
+    net = build_network(
+        ModelParams(levels=2, n_ori=4), (24, 32), SpikingParams(connectivity=Connectivity(excess_stride=2))
+    )
     ex = net.one("excess_L1", 1)
     assert ex.stride == 2 and ex.size == 4 * 12 * 16
     full = build_network(ModelParams(levels=2, n_ori=4), (24, 32))
@@ -174,7 +176,9 @@ def test_resize_kept_mass_equals_the_sum_over_every_product():
 def test_the_fast_engine_runs_the_weights_a_board_holds():
     from snn_fg.backends.fast import tables as ft
 
-    net = build_network(ModelParams(levels=2, n_ori=4), (20, 24), SpikingParams(prune_resize=0.01))
+    net = build_network(
+        ModelParams(levels=2, n_ori=4), (20, 24), SpikingParams(connectivity=Connectivity(prune_resize=0.01))
+    )
     exact, q = ft.build_tables(net, 0.5), ft.build_tables(net, 0.5, weight_bits=4)
     for p, pr in enumerate(net.projections):
         a, b = q.spans[p][:2]
@@ -283,7 +287,7 @@ def test_a_recording_runs_through_the_compact_network_all_or_nothing(tmp_path):
     p = m.params
     assert p["network"]["origin"] == "recipe" and p["network"]["frame_shape"] == [24, 24]
     assert p["simulation"]["network_builds"] == 1
-    assert p["simulation"]["dt_ms"] == RECIPES["compact"].spiking.dt_ms == 1.0  # (the network's own step)
+    assert p["simulation"]["dt_ms"] == RECIPES["compact"].spiking.time.dt_ms == 1.0  # (the network's own step)
     times = [p["timings_s"]["window"]] + [w["timings_s"]["window"] for w in p["windows"][1:]]
     assert len(times) == 3 and all(t > 0 for t in times)
     assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr"]  # (spike figures need --save-spikes)

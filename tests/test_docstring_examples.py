@@ -13,6 +13,7 @@ MODULES = [
     "snn_fg.events.io",
     "snn_fg.scoring.metrics",
     "snn_fg.network.builder",
+    "snn_fg.network.spiking_params",
     "snn_fg.models.rate.edfg",
     "snn_fg.models.spiking.api",
     "snn_fg.events.paper_motion",

@@ -10,7 +10,20 @@ import pytest
 
 from snn_fg.errors import InputError, ParameterError
 from snn_fg.frames.pyramid import level_shape
-from snn_fg.network import Conv, Kernel, Network, Neuron, Population, Resize, SpikingParams, build_network
+from snn_fg.network import (
+    Connectivity,
+    Conv,
+    Gains,
+    Input,
+    Kernel,
+    Network,
+    Neuron,
+    Neurons,
+    Population,
+    Resize,
+    SpikingParams,
+    build_network,
+)
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.network.wiring import FAMILIES, FEEDBACK_HALVES
 from snn_fg.params import ModelParams
@@ -81,10 +94,10 @@ def test_level_one_simple_cells_are_gated_by_their_own_pixel(net):
     k = dog.kernel.array(net.params)
     kept = np.where(np.abs(k) >= dog.prune * np.abs(k).max(), k, 0.0)
     worst = np.clip(kept, 0, None).sum(axis=(1, 2, 3)).max() * dog.gain_mv * rate * tau
-    assert nrn.v_rest_mv + worst <= nrn.v_th_mv - SpikingParams().gate_margin * nrn.v_th_mv + 1e-9
+    assert nrn.v_rest_mv + worst <= nrn.v_th_mv - SpikingParams().input.gate_margin * nrn.v_th_mv + 1e-9
     for polarity in ("on", "off"):
         gates = [p for p in net.projections if p.name.startswith(f"input_{polarity}_1_gates")]
-        assert len(gates) == SpikingParams().gate_copies and len({p.delay_ms for p in gates}) == len(gates)
+        assert len(gates) == SpikingParams().input.gate_copies and len({p.delay_ms for p in gates}) == len(gates)
         assert all(p.kernel.array(net.params)[:, 0, 0, 0].tolist() == [1.0] * 16 for p in gates)
         assert nrn.v_rest_mv + sum(p.gain_mv for p in gates) * rate * tau == pytest.approx(0.0)
     # coarse levels are masked by the resized edge map instead; level 1 carries the
@@ -153,7 +166,9 @@ def test_simple_cell_threshold_is_the_edge_threshold():
     # A DoG response of exactly edge_threshold at the nominal input rate gives a
     # mean current of exactly one threshold above the (gated) rest (stage 3).
     for thr, rate in ((0.3, 200.0), (0.5, 100.0)):
-        net = build_network(ModelParams(levels=1, edge_threshold=thr), (32, 32), SpikingParams(input_rate_hz=rate))
+        net = build_network(
+            ModelParams(levels=1, edge_threshold=thr), (32, 32), SpikingParams(input=Input(input_rate_hz=rate))
+        )
         pr = next(p for p in net.projections if p.name == "input_on_1_to_simple_1")
         s = net.one("simple", 1).neuron
         assert pr.gain_mv * thr * rate * s.tau_exc_ms / 1000.0 == pytest.approx(s.v_th_mv - s.v_reset_mv)
@@ -170,12 +185,12 @@ def test_calibration_scales_only_the_input_gains(small):
         else:
             assert b == a
     # the DoG projections of every level, the level-1 gates, the input -> untuned ones
-    assert changed == 2 * 3 + 2 * SpikingParams().gate_copies + 2 * 3
+    assert changed == 2 * 3 + 2 * SpikingParams().input.gate_copies + 2 * 3
     assert half.calibrated(200.0) == small or np.allclose(
         [p.gain_mv for p in half.calibrated(200.0).projections], [p.gain_mv for p in small.projections]
     )
     # the same network as building it for that input rate
-    built = build_network(small.params, small.frame_shape, SpikingParams(input_rate_hz=100.0))
+    built = build_network(small.params, small.frame_shape, SpikingParams(input=Input(input_rate_hz=100.0)))
     np.testing.assert_allclose([p.gain_mv for p in half.projections], [p.gain_mv for p in built.projections])
 
 
@@ -229,10 +244,11 @@ def _cmap():
         (lambda: Conv(name="c1", source="a", target="b", kernel=_cmap(), mode="x"), "Conv 'c1': mode='x'"),
         (lambda: Resize(name="r1", source="a", target="b", interpolation="nearest"), "Resize 'r1'"),
         (lambda: Conv(name="c2", source="a", target="b", kernel=_cmap(), prune=1.5), "prune=1.5"),
-        (lambda: SpikingParams(grouping_stride=0), "grouping_stride"),
-        (lambda: SpikingParams(group=Neuron(tau_m_ms=0)), "Neuron: tau_m_ms=0"),
-        (lambda: SpikingParams(group=20.0), "SpikingParams: group=20.0 must be a Neuron"),
-        (lambda: SpikingParams(pool_interpolation="area"), "SpikingParams: pool_interpolation='area'"),
+        (lambda: Connectivity(grouping_stride=0), "Connectivity: grouping_stride=0"),
+        (lambda: Neurons(group=Neuron(tau_m_ms=0)), "Neuron: tau_m_ms=0"),
+        (lambda: Neurons(group=20.0), "Neurons: group=20.0 must be a Neuron"),
+        (lambda: Connectivity(pool_interpolation="area"), "Connectivity: pool_interpolation='area'"),
+        (lambda: SpikingParams(gains=Connectivity()), "SpikingParams: gains=Connectivity("),
     ],
 )
 def test_invalid_nodes_name_the_object_at_fault(make, fragment):
@@ -306,11 +322,19 @@ def test_loading_a_bad_file_names_the_file_and_the_place(tmp_path, small):
 
 
 def test_spiking_params_round_trip():
-    p = SpikingParams(bo_to_group=1.5, grouping_stride=3, pool_interpolation="cubic", bo=Neuron(tau_m_ms=7.0))
-    assert SpikingParams.from_dict(json.loads(json.dumps(p.to_dict()))) == p
+    p = SpikingParams(
+        gains=Gains(bo_to_group=1.5),
+        connectivity=Connectivity(grouping_stride=3, pool_interpolation="cubic"),
+        neurons=Neurons(bo=Neuron(tau_m_ms=7.0)),
+    )
+    stored = p.to_dict()
+    assert sorted(stored) == ["connectivity", "gains", "input", "neurons", "time"]
+    assert SpikingParams.from_dict(json.loads(json.dumps(stored))) == p
     assert build_network(ModelParams(levels=1), (20, 20), p).one("bo_L1", 1).neuron.tau_m_ms == 7.0
     with pytest.raises(ParameterError, match="unknown field"):
         SpikingParams.from_dict({"bogus": 1})
+    with pytest.raises(ParameterError, match="unknown field"):
+        SpikingParams.from_dict({"gains": {"dt_ms": 1.0}})
 
 
 def test_stored_default_network_is_current():
@@ -337,7 +361,11 @@ def _lif_rate(neuron: Neuron, drive_mv: float, seconds=2.0, dt_ms=0.005) -> floa
 
 @pytest.mark.parametrize(
     "neuron",
-    [SpikingParams().feedback, Neuron(tau_m_ms=20, t_ref_ms=4), Neuron(tau_m_ms=10, t_ref_ms=5, v_rest_mv=-2.0)],
+    [
+        SpikingParams().neurons.feedback,
+        Neuron(tau_m_ms=20, t_ref_ms=4),
+        Neuron(tau_m_ms=10, t_ref_ms=5, v_rest_mv=-2.0),
+    ],
 )
 @pytest.mark.parametrize("rate_hz", [40.0, 100.0])
 def test_drive_for_rate_is_the_drive_that_gives_the_rate(neuron, rate_hz):
@@ -365,7 +393,7 @@ def test_feedback_cells_rate_is_proportional_to_drive_over_their_range():
         per_drive = [_lif_rate(neuron, d, seconds=0.5) / d for d in drives]
         return max(per_drive) / min(per_drive)
 
-    assert spread(SpikingParams().feedback, (100.0, 200.0, 400.0)) < 1.10
+    assert spread(SpikingParams().neurons.feedback, (100.0, 200.0, 400.0)) < 1.10
     assert spread(Neuron(tau_m_ms=20, t_ref_ms=4), (100.0, 200.0)) > 2.0
 
 

@@ -12,7 +12,7 @@ from snn_fg.lowering.input_spikes import event_spikes
 from snn_fg.lowering.input_stream import SpikeStream
 from snn_fg.models.spiking import recording_input
 from snn_fg.models.spiking.continuous import simulate_windows, window_maps
-from snn_fg.network import SpikingParams
+from snn_fg.network import Input, SpikingParams
 from snn_fg.params import ModelParams
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
@@ -89,7 +89,9 @@ def test_the_engine_fed_segment_by_segment_gives_the_run_fed_whole(monkeypatch, 
     opts = dict(window_ms=40.0, stride_ms=25.0)
     kw = dict(params=ModelParams(levels=3), progress=False, keep_run=False)
     if adapter != "none":
-        kw.update(params=ModelParams(levels=3, input_pool=2), spiking=SpikingParams(input_refractory_ms=3.0))
+        kw.update(
+            params=ModelParams(levels=3, input_pool=2), spiking=SpikingParams(input=Input(input_refractory_ms=3.0))
+        )
     whole = simulate_windows(list(iter_windows(rec, **opts)), backend=_WholeInputFast(), **kw)
     fed = simulate_windows(RecordingWindows(rec, **opts), backend=FastBackend(), **kw)
     assert fed.n_windows == whole.n_windows >= 4

@@ -16,11 +16,11 @@ from snn_fg.events import image_to_frame
 from snn_fg.frames.scenes import disc
 from snn_fg.lowering.interp import interp_matrix, resize_matrix
 from snn_fg.lowering.unroll import dense_drive, to_grid, unroll
-from snn_fg.network import SpikingParams, build_network
+from snn_fg.network import Connectivity, SpikingParams, build_network
 from snn_fg.network.kernels import dog_kernels, von_mises_masks
 from snn_fg.params import ModelParams
 
-EXACT = SpikingParams(prune_dog=0.0, prune_vm=0.0)
+EXACT = SpikingParams(connectivity=Connectivity(prune_dog=0.0, prune_vm=0.0))
 
 
 @pytest.fixture(scope="module")
@@ -135,9 +135,9 @@ def test_von_mises_scatter_between_lattices(frame):
     # the gain holds the stride**2 density compensation; divide it out
     got = to_grid(un, "feedback_1p_1", dense_drive(un, c, gl[un.sites["group_L_1"]]) / c.projection.gain_mv)
     sp = SpikingParams()
-    fb = sp.feedback
+    fb = sp.neurons.feedback
     assert c.projection.gain_mv == pytest.approx(
-        st * st * sp.group_to_feedback * fb.v_th_mv / (100 * fb.tau_exc_ms / 1000)
+        st * st * sp.gains.group_to_feedback * fb.v_th_mv / (100 * fb.tau_exc_ms / 1000)
     )
     full = np.zeros(pos.shape)
     full[::2, ::2] = gl.reshape(net.population("group_L_1").grid)
@@ -160,7 +160,9 @@ def test_relays_carry_the_bicubic_pyramid(unrolled, frame):
 
 def test_pruning_drops_small_taps_and_reports_the_kept_mass(frame):
     pos, neg = frame
-    net = build_network(ModelParams(levels=1), pos.shape, SpikingParams(prune_dog=0.1, prune_vm=0.2))
+    net = build_network(
+        ModelParams(levels=1), pos.shape, SpikingParams(connectivity=Connectivity(prune_dog=0.1, prune_vm=0.2))
+    )
     un = unroll(net, {"input_on_1": pos, "input_off_1": neg})
     k = dog_kernels(ModelParams())[:8]
     keep = np.abs(k) >= 0.1 * np.abs(k).max()

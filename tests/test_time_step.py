@@ -9,7 +9,7 @@ from snn_fg.errors import ParameterError
 from snn_fg.export.pynn import pynn_model
 from snn_fg.export.report import resource_report
 from snn_fg.export.spinnaker import spinnaker_plan
-from snn_fg.network import SpikingParams, build_network
+from snn_fg.network import SpikingParams, Timing, build_network
 from snn_fg.network.graph import DEFAULT_DT_MS
 from snn_fg.params import ModelParams
 
@@ -19,11 +19,11 @@ SMALL = ModelParams(levels=1)
 @pytest.fixture(scope="module")
 def coarse():
     """A network made for a 1 ms step (not the default)."""
-    return build_network(SMALL, (16, 20), SpikingParams(dt_ms=1.0))
+    return build_network(SMALL, (16, 20), SpikingParams(time=Timing(dt_ms=1.0)))
 
 
 def test_a_network_built_with_defaults_has_the_one_default_step():
-    assert build_network(SMALL, (16, 20)).dt_ms == SpikingParams().dt_ms == DEFAULT_DT_MS
+    assert build_network(SMALL, (16, 20)).dt_ms == SpikingParams().time.dt_ms == DEFAULT_DT_MS
 
 
 def test_the_given_step_else_the_networks(coarse):

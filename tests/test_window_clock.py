@@ -12,7 +12,7 @@ from snn_fg.frames.scenes import disc, flipping_disc_recording
 from snn_fg.lowering.input_spikes import event_spikes
 from snn_fg.models import get_model
 from snn_fg.models.spiking.continuous import run_spiking_windows
-from snn_fg.network import SpikingParams, build_network
+from snn_fg.network import Gains, SpikingParams, build_network
 from snn_fg.params import ModelParams
 from snn_fg.scoring.outline import inward_score
 
@@ -28,7 +28,9 @@ def test_the_network_has_one_clock_onto_every_grouping_population():
     targets = sorted(pr.target for pr in net.outgoing(clock.name))
     assert targets == sorted(p.name for p in net.populations if p.role in ("group_L", "group_D"))
     assert all(pr.sign == -1 for pr in net.outgoing(clock.name))
-    assert not build_network(ModelParams(levels=3), (40, 52), SpikingParams(clock_inh_group=0)).by_role("clock")
+    assert not build_network(ModelParams(levels=3), (40, 52), SpikingParams(gains=Gains(clock_inh_group=0))).by_role(
+        "clock"
+    )
     # a resized network keeps its one-cell clock
     assert net.resized((64, 48)).one("clock", 1).level_shape == (1, 1)
 
@@ -154,7 +156,9 @@ def test_clock_spikes_are_identical_to_brian2s_and_silence_the_grouping_cells():
 def test_a_network_without_a_clock_ignores_clock_spikes():
     """Clock spikes given to a network without a clock change nothing."""
     inp = _clocked_input()
-    net = build_network(ModelParams(levels=2), inp.shape, SpikingParams(clock_inh_group=0)).calibrated(inp.rate_hz)
+    net = build_network(ModelParams(levels=2), inp.shape, SpikingParams(gains=Gains(clock_inh_group=0))).calibrated(
+        inp.rate_hz
+    )
     settings = RunSettings(duration_ms=100.0, dt_ms=net.dt_ms)
     a, b = (get_backend("fast").simulate(net, x, settings) for x in (inp, _disc_input()))
     for name in a.populations:
@@ -183,14 +187,14 @@ def test_a_frame_gives_the_same_maps_with_or_without_a_clock():
                 pos,
                 neg,
                 params=ModelParams(levels=2),
-                spiking=SpikingParams(clock_inh_group=g),
+                spiking=SpikingParams(gains=Gains(clock_inh_group=g)),
                 backend=backend,
                 duration_ms=120.0,
                 progress=False,
             )
             for g in (300.0, 0.0)
         ]
-        assert [r.params["network"]["spiking_params"]["clock_inh_group"] for r in runs] == [300.0, 0.0]
+        assert [r.params["network"]["spiking_params"]["gains"]["clock_inh_group"] for r in runs] == [300.0, 0.0]
         for k in ("fg_x", "fg_y", "grouping"):
             np.testing.assert_array_equal(getattr(runs[0], k), getattr(runs[1], k), err_msg=f"{backend} {k}")
         assert np.abs(runs[0].fg_x).sum() > 0

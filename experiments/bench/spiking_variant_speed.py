@@ -7,7 +7,7 @@ continuous network, every event at its own time, the window clock, the
 read-out lag). A process warms up on the first window, then times every
 window once and reports its synaptic events, spikes and cell updates, which
 do not depend on the machine; the ratio of the medians is the speed cost of
-a variant. A variant is ``NAME=JSON`` (``SpikingParams`` fields to change)
+a variant. A variant is ``NAME=JSON`` (``SpikingParams`` to change, stored form)
 or ``NAME@DT=JSON`` to step it at ``DT`` ms instead of 0.5 ms; ``--variant``
 repeats. Without one, the variant is ``experiments.validation.spiking_heldout.EARLIER``
 (inhibition with 10 ms in every kind of cell but the untuned cells, the

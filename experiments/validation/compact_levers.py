@@ -49,22 +49,22 @@ def ladder(alternatives: bool):
         r = lever.apply(r)
         rows.append((f"+ {lever.name}", r))
     if alternatives:
-        rows.append(("compact with 4 orientations", Lever("", "", {"n_ori": 4}, {}).apply(r)))
-        rows.append(
-            ("compact without the input refractory period", Lever("", "", {}, {"input_refractory_ms": 0.0}).apply(r))
-        )
-        rows.append(
-            (
-                "compact with the input refractory period at 80 ms",
-                Lever("", "", {}, {"input_refractory_ms": 80.0}).apply(r),
-            )
-        )
+
+        def refractory(ms):
+            return Lever(name="", does="", spiking=lambda s: s.replace(input=s.input.replace(input_refractory_ms=ms)))
+
+        def pruned(**taps):
+            return Lever(name="", does="", spiking=lambda s: s.replace(connectivity=s.connectivity.replace(**taps)))
+
+        four = Lever(name="", does="", params=lambda p: p.replace(n_ori=4))
+        rows.append(("compact with 4 orientations", four.apply(r)))
+        rows.append(("compact without the input refractory period", refractory(0.0).apply(r)))
+        rows.append(("compact with the input refractory period at 80 ms", refractory(80.0).apply(r)))
         # the two levers taken last, each undone on its own
-        rows.append(("compact at a 0.5 ms time step", Lever("", "", {}, {"dt_ms": 0.5}).apply(r)))
-        rows.append(
-            ("compact with kernels pruned at 5 %", Lever("", "", {}, {"prune_dog": 0.05, "prune_vm": 0.05}).apply(r))
-        )
-        rows.append(("compact with von Mises taps pruned at 40 %", Lever("", "", {}, {"prune_vm": 0.4}).apply(r)))
+        half_ms = Lever(name="", does="", spiking=lambda s: s.replace(time=s.time.replace(dt_ms=0.5)))
+        rows.append(("compact at a 0.5 ms time step", half_ms.apply(r)))
+        rows.append(("compact with kernels pruned at 5 %", pruned(prune_dog=0.05, prune_vm=0.05).apply(r)))
+        rows.append(("compact with von Mises taps pruned at 40 %", pruned(prune_vm=0.4).apply(r)))
     return rows
 
 

@@ -312,8 +312,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     compact = args.network == "compact"
     recipe = RECIPES["compact"]
-    pool, refractory = (recipe.params.input_pool, recipe.spiking.input_refractory_ms) if compact else (1, 0.0)
-    dt_ms = (recipe if compact else RECIPES["default"]).spiking.dt_ms
+    pool, refractory = (recipe.params.input_pool, recipe.spiking.input.input_refractory_ms) if compact else (1, 0.0)
+    dt_ms = (recipe if compact else RECIPES["default"]).spiking.time.dt_ms
     path = RESULTS / "nir_consumer.json"
     out = json.loads(path.read_text()) if path.exists() else {"inputs": {}}
     with tempfile.TemporaryDirectory() as tmp:

@@ -32,18 +32,20 @@ from snn_fg.lowering.unroll import unroll
 from snn_fg.models.rate.edfg import run_edfg
 from snn_fg.models.spiking import run_spiking_result
 from snn_fg.models.spiking.twin import run_twin
-from snn_fg.network import SpikingParams, build_network
+from snn_fg.network import Connectivity, Input, SpikingParams, build_network
 from snn_fg.params import ModelParams
 from snn_fg.scoring.metrics import compare_frame
 
 CROP = (slice(60, 188), slice(100, 260))
 KNOBS = {
-    "defaults": {},
-    "no pruning": {"prune_dog": 0.0, "prune_vm": 0.0},
-    "grouping stride 1": {"grouping_stride": 1},
-    "bicubic pooling + feedback": {"pool_interpolation": "cubic", "feedback_interpolation": "cubic"},
-    "support_min 0.1": {"support_min": 0.1},
-    "no drive hint (drive_min 0)": {"drive_min": 0.0},
+    "defaults": SpikingParams(),
+    "no pruning": SpikingParams(connectivity=Connectivity(prune_dog=0.0, prune_vm=0.0)),
+    "grouping stride 1": SpikingParams(connectivity=Connectivity(grouping_stride=1)),
+    "bicubic pooling + feedback": SpikingParams(
+        connectivity=Connectivity(pool_interpolation="cubic", feedback_interpolation="cubic")
+    ),
+    "support_min 0.1": SpikingParams(input=Input(support_min=0.1)),
+    "no drive hint (drive_min 0)": SpikingParams(input=Input(drive_min=0.0)),
 }
 
 
@@ -57,7 +59,7 @@ def _cmp(fx, fy, g, ref):
 
 
 def twin_row(pos, neg, ref, knobs):
-    net = build_network(ModelParams(), pos.shape, SpikingParams(**knobs))
+    net = build_network(ModelParams(), pos.shape, knobs)
     t0 = time.perf_counter()
     un = unroll(net, {"input_on_1": pos > 0, "input_off_1": neg > 0})
     fx, fy, g, _ = run_twin(un)
@@ -110,13 +112,15 @@ def main():
         d = np.load(path)
         ref = {k: d[k] for k in ("fg_x", "fg_y", "grouping")}
         for label, knobs, feedback in (
-            ("default (excess cells, feedback on)", {}, True),
-            ("rival inhibition direct (no excess cells)", {"rival_inhibition": "direct"}, True),
-            ("feedback off", {}, False),
+            ("default (excess cells, feedback on)", SpikingParams(), True),
+            (
+                "rival inhibition direct (no excess cells)",
+                SpikingParams(connectivity=Connectivity(rival_inhibition="direct")),
+                True,
+            ),
+            ("feedback off", SpikingParams(), False),
         ):
-            res = run_spiking_result(
-                d["pos"], d["neg"], progress=False, spiking=SpikingParams(**knobs), feedback=feedback
-            )
+            res = run_spiking_result(d["pos"], d["neg"], progress=False, spiking=knobs, feedback=feedback)
             m = res.maps
             row = {
                 "frame": path.stem,

@@ -27,8 +27,8 @@ For each ``--dt`` (the first is the one the others are compared with):
    medians is the speed gain.
 
 Writes experiments/results/spiking_dt.json, .md and .png (``--name``: another
-stem). ``--changes JSON`` runs a changed network (``SpikingParams`` fields, as
-``experiments.bench.spiking_variant_speed`` takes them) at every dt, to be compared with
+stem). ``--changes JSON`` runs a changed network (``SpikingParams`` to change in
+their stored form, as ``experiments.bench.spiking_variant_speed`` takes them) at every dt, to be compared with
 the default network's scores in ``spiking_dt.md``.
 
     python -m experiments.validation.spiking_dt [--dt 0.5 1.0] [--quick] [--rounds 3] [--changes JSON --name STEM]

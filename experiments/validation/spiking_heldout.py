@@ -11,8 +11,9 @@ hold elsewhere. This runs the default network and each ``--variant`` on:
   acceptance item: >= 95 % of scored boundary pixels within 45 degrees of the
   truth, grouping peak inside).
 
-A variant is ``NAME=JSON``, the JSON giving ``SpikingParams`` fields (a
-neuron as a dict of its fields). The default variant is inhibition decaying
+A variant is ``NAME=JSON``, the JSON giving the ``SpikingParams`` to change
+in their stored form (parts: ``{"gains": {"feedback_to_bo": 1.0}}``, a neuron
+as a dict of its fields; the flat form of earlier runs reads too). The default variant is inhibition decaying
 with 10 ms instead of 5 ms in every kind of cell but the untuned cells (the
 network before 24 Nov 2026). Later on 24 Nov it ran ``untuned 50 ms``: the
 untuned cells' inhibition as it was until then. Earlier uses: the feedback cells' 4 ms refractory period with
@@ -29,13 +30,12 @@ import argparse
 import json
 
 from experiments.common import Run, dataset, describe, fail, markdown_table, save_json, save_markdown
+from snn_fg.errors import SnnFgError
 from snn_fg.events import image_to_frame
 from snn_fg.frames import scenes
 from snn_fg.models.rate.edfg import run_edfg
 from snn_fg.models.spiking import run_spiking
-from snn_fg.network import SpikingParams
-from snn_fg.network.nodes import Neuron
-from snn_fg.network.spiking_params import CELL_KINDS
+from snn_fg.network import Neurons, SpikingParams
 from snn_fg.scoring.metrics import agreement, grouping_peak_inside, truth_scores
 
 
@@ -96,20 +96,20 @@ def main():
 #: untuned cells, as before 24 Nov 2026 (every kind now has tau_inh = tau_exc
 #: = 5 ms; the untuned cells, 50 ms then, keep the default's 5 ms here)
 EARLIER = "tau_inh 10 ms=" + json.dumps(
-    {k: {**getattr(SpikingParams(), k).to_dict(), "tau_inh_ms": 10.0} for k in CELL_KINDS if k != "untuned"}
+    {"neurons": {k: {**v, "tau_inh_ms": 10.0} for k, v in Neurons().to_dict().items() if k != "untuned"}}
 )
 
 
 def variant_params(name, js) -> SpikingParams:
-    """``SpikingParams`` with the fields of ``js`` changed; a bad variant ends
-    the run with one line naming it."""
+    """``SpikingParams`` with the fields of ``js`` changed (its stored form,
+    :meth:`SpikingParams.from_dict`: parts, or the flat form of earlier
+    variants); a bad variant ends the run with one line naming it."""
     try:
         change = json.loads(js)
         if not isinstance(change, dict):
             raise ValueError("not a JSON object")
-        change = {k: Neuron(**v) if isinstance(v, dict) else v for k, v in change.items()}
-        return SpikingParams(**change)
-    except (ValueError, TypeError) as e:
+        return SpikingParams.from_dict(change)
+    except (ValueError, SnnFgError) as e:
         fail(f"--variant {name}: {e}")
 
 

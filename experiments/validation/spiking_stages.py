@@ -53,7 +53,7 @@ from snn_fg.models.rate.edfg import event_entries, run_edfg
 from snn_fg.models.rate.grouping import SparseGrouping
 from snn_fg.models.spiking import run_spiking_result
 from snn_fg.models.spiking.decode import decode, to_level_grid
-from snn_fg.network import SpikingParams
+from snn_fg.network import Gains, Neurons, SpikingParams
 from snn_fg.params import ModelParams
 from snn_fg.scoring.metrics import agreement
 
@@ -211,7 +211,7 @@ def main():
         if f in a.gain_frames:
             row["gain"].append({"variant": "default", **row["trajectory"][default_entry]["vs_iterations"][10]})
             for name, change in _variants().items():
-                _, maps = _spiking(pos, neg, spiking=SpikingParams(**change))
+                _, maps = _spiking(pos, neg, spiking=change)
                 row["gain"].append({"variant": name, **agreement(maps, ref)})
         record["frames"][f] = row
     record["run"] = run.record()
@@ -226,14 +226,13 @@ def _maps(m):
 
 
 def _variants() -> dict:
-    fb = SpikingParams().feedback
+    fb = Neurons().feedback
     return {
-        "the earlier feedback: 4 ms refractory period, feedback_to_bo 1.0": {
-            "feedback": dataclasses.replace(fb, t_ref_ms=4.0),
-            "feedback_to_bo": 1.0,
-        },
-        "group_to_feedback 0.2": {"group_to_feedback": 0.2},
-        "group_to_feedback 1.0": {"group_to_feedback": 1.0},
+        "the earlier feedback: 4 ms refractory period, feedback_to_bo 1.0": SpikingParams(
+            neurons=Neurons(feedback=dataclasses.replace(fb, t_ref_ms=4.0)), gains=Gains(feedback_to_bo=1.0)
+        ),
+        "group_to_feedback 0.2": SpikingParams(gains=Gains(group_to_feedback=0.2)),
+        "group_to_feedback 1.0": SpikingParams(gains=Gains(group_to_feedback=1.0)),
     }
 
 

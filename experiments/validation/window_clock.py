@@ -50,7 +50,7 @@ from experiments.validation.dvs_history import spiking_light_share as light_shar
 from snn_fg.events import iter_windows  # noqa: E402
 from snn_fg.frames.scenes import flipping_disc_recording  # noqa: E402
 from snn_fg.models.spiking.continuous import simulate_windows, window_maps  # noqa: E402
-from snn_fg.network import SpikingParams  # noqa: E402
+from snn_fg.network import Gains, SpikingParams  # noqa: E402
 from snn_fg.params import ModelParams  # noqa: E402
 from snn_fg.scoring.metrics import grouping_peak  # noqa: E402
 from snn_fg.scoring.outline import filled_outline, outline_scores  # noqa: E402
@@ -83,7 +83,7 @@ def _onset_ms(run, share: float = 0.05) -> list:
 
 def sweep_one(windows, regions, gain: float, params=None) -> dict:
     run = simulate_windows(
-        windows, params=params, spiking=SpikingParams(clock_inh_group=gain), backend="fast", progress=False
+        windows, params=params, spiking=SpikingParams(gains=Gains(clock_inh_group=gain)), backend="fast", progress=False
     )
     rows = []
     for m, region in zip(window_maps(run), regions):
@@ -205,7 +205,7 @@ def main():
     stem = "window_clock_synthetic" if a.no_dvs else "window_clock"  # (a partial run keeps off the full files)
     save_figure(fig, stem, dpi=90, bbox_inches=None)
     plt.close(fig)
-    summary = {"default_gain": SpikingParams().clock_inh_group, "inputs": results, "run": run.record()}
+    summary = {"default_gain": Gains().clock_inh_group, "inputs": results, "run": run.record()}
     save_json(stem, summary)
     save_markdown(stem, _markdown(summary))
 

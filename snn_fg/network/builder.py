@@ -16,7 +16,7 @@ from .. import validate as check
 from ..frames.pyramid import check_levels, level_shape
 from ..params import ModelParams
 from . import stages
-from .gains import Gains
+from .gains import GainsMv
 from .graph import Network
 from .nodes import Population
 from .projections import Conv, Resize
@@ -48,10 +48,10 @@ class Builder:
 
     def __init__(self, params: ModelParams, frame_shape, sp: SpikingParams):
         self.params, self.frame_shape, self.sp = params, frame_shape, sp
-        self.gains = Gains.of(params, sp)
+        self.gains_mv = GainsMv.of(params, sp)
         self.pops: list[Population] = []
         self.prjs: list = []
-        self.neurons = {kind: getattr(sp, kind) for kind in CELL_KINDS}
+        self.neurons = {kind: getattr(sp.neurons, kind) for kind in CELL_KINDS}
         self._made: dict[tuple[str, int], str] = {}
 
     def pop(self, role, level, *, shape=None, site_sources=(), **fields) -> str:
@@ -81,7 +81,7 @@ class Builder:
                 source=src,
                 target=dst,
                 gain_mv=gain,
-                delay_ms=self.sp.delay_ms if delay is None else delay,
+                delay_ms=self.sp.time.delay_ms if delay is None else delay,
                 **fields,
             )
         )
@@ -152,17 +152,17 @@ def build_network(
             stages.pooled_feedback(bld, level, g, z)
     stages.pooling(bld)
     side_cue(bld)
-    if spiking.clock_inh_group > 0:
+    if spiking.gains.clock_inh_group > 0:
         stages.window_clock(bld)
     return Network(
         params=params,
         frame_shape=frame_shape,
         populations=tuple(bld.pops),
         projections=tuple(bld.prjs),
-        input_rate_hz=spiking.input_rate_hz,
-        support_min=spiking.support_min,
-        drive_min=spiking.drive_min,
-        input_refractory_ms=spiking.input_refractory_ms,
-        dt_ms=spiking.dt_ms,
+        input_rate_hz=spiking.input.input_rate_hz,
+        support_min=spiking.input.support_min,
+        drive_min=spiking.input.drive_min,
+        input_refractory_ms=spiking.input.input_refractory_ms,
+        dt_ms=spiking.time.dt_ms,
         notes=NOTES,
     )

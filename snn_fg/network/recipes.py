@@ -19,6 +19,7 @@ a 346 x 260 DAVIS or an image alike.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,59 +51,67 @@ class Recipe:
         return build_network(self.params, shape, self.spiking)
 
 
-@dataclass(frozen=True)
+def _unchanged(x):
+    return x
+
+
+@dataclass(frozen=True, kw_only=True)
 class Lever:
     """One departure of the compact network from the default: a name, what
-    it does, and the model parameters and spiking constants it changes."""
+    it does, and how it changes the model parameters (``params``) and the
+    spiking constants (``spiking``), each a function of what it changes."""
 
     name: str
     does: str
-    params: dict
-    spiking: dict
+    params: Callable[[ModelParams], ModelParams] = _unchanged
+    spiking: Callable[[SpikingParams], SpikingParams] = _unchanged
 
     def apply(self, recipe: Recipe) -> Recipe:
-        return Recipe(
-            recipe.name, recipe.summary, recipe.params.replace(**self.params), recipe.spiking.replace(**self.spiking)
-        )
+        return Recipe(recipe.name, recipe.summary, self.params(recipe.params), self.spiking(recipe.spiking))
 
 
 #: The compact network's departures from the default, in the order
 #: ``docs/model.md`` ("The compact network") measures them one after the other.
 COMPACT_LEVERS = (
     Lever(
-        "pooled input",
-        "the sensor pooled 3 x 3 before stage 1 (the model sees blocks), R0 = 4 blocks (12 px)",
-        {"input_pool": 3, "r0": 4.0, "levels": 7},
-        {},
+        name="pooled input",
+        does="the sensor pooled 3 x 3 before stage 1 (the model sees blocks), R0 = 4 blocks (12 px)",
+        params=lambda p: p.replace(input_pool=3, r0=4.0, levels=7),
     ),
     Lever(
-        "input refractory period",
-        "a block and polarity passes on one event per 60 ms",
-        {},
-        {"input_refractory_ms": 60.0},
-    ),
-    Lever("octave levels", "3 levels an octave apart (1/2, not 1/sqrt(2))", {"levels_per_octave": 1, "levels": 3}, {}),
-    Lever(
-        "excess cells on the grouping lattice",
-        "one excess cell per 2 x 2 block of border-ownership cells",
-        {},
-        {"excess_stride": 2},
+        name="input refractory period",
+        does="a block and polarity passes on one event per 60 ms",
+        spiking=lambda s: s.replace(input=s.input.replace(input_refractory_ms=60.0)),
     ),
     Lever(
-        "8-bit interpolation weights", "Resize products under 1 % of their peak left out", {}, {"prune_resize": 0.01}
+        name="octave levels",
+        does="3 levels an octave apart (1/2, not 1/sqrt(2))",
+        params=lambda p: p.replace(levels_per_octave=1, levels=3),
     ),
     Lever(
-        "stronger window clock",
-        "the window clock puts 1400 thresholds on the grouping cells (300)",
-        {},
-        {"clock_inh_group": 1400.0},
+        name="excess cells on the grouping lattice",
+        does="one excess cell per 2 x 2 block of border-ownership cells",
+        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(excess_stride=2)),
     ),
-    Lever("1 ms time step", "stepped at 1 ms, SpiNNaker's own time step (0.5 ms)", {}, {"dt_ms": 1.0}),
     Lever(
-        "pruned kernels",
-        "DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out (5 %)",
-        {},
-        {"prune_dog": 0.3, "prune_vm": 0.2},
+        name="8-bit interpolation weights",
+        does="Resize products under 1 % of their peak left out",
+        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(prune_resize=0.01)),
+    ),
+    Lever(
+        name="stronger window clock",
+        does="the window clock puts 1400 thresholds on the grouping cells (300)",
+        spiking=lambda s: s.replace(gains=s.gains.replace(clock_inh_group=1400.0)),
+    ),
+    Lever(
+        name="1 ms time step",
+        does="stepped at 1 ms, SpiNNaker's own time step (0.5 ms)",
+        spiking=lambda s: s.replace(time=s.time.replace(dt_ms=1.0)),
+    ),
+    Lever(
+        name="pruned kernels",
+        does="DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out (5 %)",
+        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(prune_dog=0.3, prune_vm=0.2)),
     ),
 )
 

@@ -3,7 +3,7 @@ added to a network by the builder (:func:`side_cue`)."""
 
 from __future__ import annotations
 
-from .gains import Gains
+from .gains import GainsMv
 from .kernels import side_cue_kernels
 from .nodes import Kernel
 from .spiking_params import CELL_RATE_HZ, SIDE_CUE_REF
@@ -25,8 +25,8 @@ def side_cue(bld) -> None:
     level, n = p.cue_level, p.n_ori
     fb = bld.neurons["feedback"]  # the side cells are feedback cells too: a rate that follows the drive
     per_hz = fb.drive_for_rate(CELL_RATE_HZ) / CELL_RATE_HZ  # mV of drive per Hz of such a cell
-    gain_in = per_hz * CELL_RATE_HZ / (SIDE_CUE_REF * sp.input_rate_hz * fb.tau_exc_ms / 1000.0)
-    gain_out = p.side_cue * SIDE_CUE_REF * sp.z_hz * per_hz / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0)
+    gain_in = per_hz * CELL_RATE_HZ / (SIDE_CUE_REF * sp.input.input_rate_hz * fb.tau_exc_ms / 1000.0)
+    gain_out = p.side_cue * SIDE_CUE_REF * sp.gains.z_hz * per_hz / (CELL_RATE_HZ * fb.tau_exc_ms / 1000.0)
     kernel = side_cue_kernels(p)[:, None]
     inputs = ("input_on", "input_off", "relay_on", "relay_off")  # the level's ON and OFF inputs, as built
     sources = [q.name for q in bld.pops if q.level == level and q.role in inputs]
@@ -43,5 +43,5 @@ def side_cue(bld) -> None:
                 bld.named(f"feedback_{k}", 1),
                 sign=sign,
                 interpolation="linear",
-                gain=gain_out * (1.0 if sign > 0 else Gains.balance(fb)),
+                gain=gain_out * (1.0 if sign > 0 else GainsMv.balance(fb)),
             )

@@ -16,7 +16,7 @@ import dataclasses
 
 import numpy as np
 
-from .gains import Gains
+from .gains import GainsMv
 from .nodes import Kernel
 from .spiking_params import SIMPLE_RATE_HZ, UNTUNED_RATE_HZ
 from .wiring import (
@@ -44,9 +44,9 @@ def inputs(bld, level):
         bld.resize(
             bld.named(f"input_{polarity}", 1),
             name,
-            gain=bld.gains.relay,
+            gain=bld.gains_mv.relay,
             interpolation="cubic",
-            prune=bld.sp.prune_resize,
+            prune=bld.sp.connectivity.prune_resize,
         )
         relays.append(name)
     return tuple(relays)
@@ -59,11 +59,11 @@ def gate_mv(bld, kernels) -> float:
     worst = 0.0
     for kernel in kernels:
         k = kernel.array(bld.params)
-        kept = np.where(np.abs(k) >= bld.sp.prune_dog * np.abs(k).max(), k, 0.0)
+        kept = np.where(np.abs(k) >= bld.sp.connectivity.prune_dog * np.abs(k).max(), k, 0.0)
         worst = max(worst, float(np.clip(kept, 0, None).sum(axis=(1, 2, 3)).max()))
-    simple = bld.sp.simple
-    drive = worst * bld.gains.dog * bld.sp.input_rate_hz * simple.tau_exc_ms / 1000.0
-    return drive + bld.sp.gate_margin * simple.v_th_mv
+    simple = bld.sp.neurons.simple
+    drive = worst * bld.gains_mv.dog * bld.sp.input.input_rate_hz * simple.tau_exc_ms / 1000.0
+    return drive + bld.sp.input.gate_margin * simple.v_th_mv
 
 
 def simple_cells(bld, level, on, off):
@@ -87,14 +87,14 @@ def simple_cells(bld, level, on, off):
             src,
             s,
             kernel,
-            gain=bld.gains.dog,
+            gain=bld.gains_mv.dog,
             mode="conv",
             padding="wrap",
-            prune=bld.sp.prune_dog,
+            prune=bld.sp.connectivity.prune_dog,
             calibrated=True,
         )
     if gate:
-        copies = bld.sp.gate_copies
+        copies = bld.sp.input.gate_copies
         for src in (on, off):
             for i in range(copies):
                 bld.conv(
@@ -102,12 +102,12 @@ def simple_cells(bld, level, on, off):
                     s,
                     channel_map(n_dir, 1, [(k, 0) for k in range(n_dir)]),
                     verb="gates" if i == 0 else f"gates{i}",
-                    gain=gate / copies / (bld.sp.input_rate_hz * neuron.tau_exc_ms / 1000.0),
-                    delay=bld.sp.delay_ms + i * bld.sp.gate_spread_ms,
+                    gain=gate / copies / (bld.sp.input.input_rate_hz * neuron.tau_exc_ms / 1000.0),
+                    delay=bld.sp.time.delay_ms + i * bld.sp.input.gate_spread_ms,
                     calibrated=True,
                 )
     others = [(a, b) for a in range(n_dir) for b in range(n_dir) if a != b]
-    bld.conv(s, s, channel_map(n_dir, n_dir, others), sign=-1, gain=bld.gains.simple_inh_simple)
+    bld.conv(s, s, channel_map(n_dir, n_dir, others), sign=-1, gain=bld.gains_mv.simple_inh_simple)
     return s
 
 
@@ -116,11 +116,11 @@ def untuned_cells(bld, level, on, off, s):
     untuned cell is excited by its pixel's input after ``delay_untuned_ms``
     and silenced by any simple cell there."""
     u = bld.pop("untuned", level, neuron=bld.neurons["untuned"], sites="edges", edge_mask=True)
-    g_u = bld.gains.input_to_untuned(bld.sp, level)
+    g_u = bld.gains_mv.input_to_untuned(bld.sp, level)
     for src in (on, off):
-        bld.conv(src, u, channel_map(1, 1, [(0, 0)]), gain=g_u, delay=bld.sp.delay_untuned_ms, calibrated=True)
+        bld.conv(src, u, channel_map(1, 1, [(0, 0)]), gain=g_u, delay=bld.sp.time.delay_untuned_ms, calibrated=True)
     n_dir = bld.params.n_dir
-    bld.conv(s, u, channel_map(1, n_dir, [(0, k) for k in range(n_dir)]), sign=-1, gain=bld.gains.simple_inh_untuned)
+    bld.conv(s, u, channel_map(1, n_dir, [(0, k) for k in range(n_dir)]), sign=-1, gain=bld.gains_mv.simple_inh_untuned)
     return u
 
 
@@ -132,11 +132,11 @@ def bo_gate_mv(bld) -> float:
     usual resting potential and its simple-cell input gives it back, so
     feedback modulates a border-ownership cell only where its simple cell
     is active: ``B = S * f(z)`` with ``S`` binary (stage 8)."""
-    if bld.gains.feedback_to_bo <= 0:
+    if bld.gains_mv.feedback_to_bo <= 0:
         return 0.0
-    bo, fb = bld.sp.bo, bld.sp.feedback
-    strongest = bld.gains.feedback_to_bo * fb.max_rate_hz * bo.tau_exc_ms / 1000.0
-    return strongest + bld.sp.bo_gate_margin * bo.v_th_mv
+    bo, fb = bld.sp.neurons.bo, bld.sp.neurons.feedback
+    strongest = bld.gains_mv.feedback_to_bo * fb.max_rate_hz * bo.tau_exc_ms / 1000.0
+    return strongest + bld.sp.gains.bo_gate_margin * bo.v_th_mv
 
 
 def border_ownership(bld, level, s, u):
@@ -162,17 +162,17 @@ def border_ownership(bld, level, s, u):
             s,
             b[f],
             channel_map(n, n_dir, [(o, (o + half - n // 2) % n_dir) for o in range(n)]),
-            gain=bld.gains.simple_to_bo + gate / (SIMPLE_RATE_HZ * tau_s),
+            gain=bld.gains_mv.simple_to_bo + gate / (SIMPLE_RATE_HZ * tau_s),
         )
         if half == 0:
             bld.conv(
                 u,
                 b[f],
                 channel_map(n, 1, [(n // 2, 0)]),
-                gain=bld.gains.untuned_to_bo + gate / (UNTUNED_RATE_HZ * tau_s),
+                gain=bld.gains_mv.untuned_to_bo + gate / (UNTUNED_RATE_HZ * tau_s),
             )
-        if bld.gains.bo_inh_bo > 0:
-            bld.conv(b[PARTNER[f]], b[f], channel_map(n, n, same), sign=-1, gain=bld.gains.bo_inh_bo)
+        if bld.gains_mv.bo_inh_bo > 0:
+            bld.conv(b[PARTNER[f]], b[f], channel_map(n, n, same), sign=-1, gain=bld.gains_mv.bo_inh_bo)
     return b
 
 
@@ -185,7 +185,7 @@ def excess_cells(bld, level, b):
     and takes the excess of the block around it, ``rect(mean B_f - mean
     B_partner)`` (a ``block_mean`` kernel): s**2 times fewer cells, read
     by the grouping cells through every s-th tap of their kernel."""
-    n, st = bld.params.n_ori, bld.sp.excess_stride
+    n, st = bld.params.n_ori, bld.sp.connectivity.excess_stride
     same = (
         channel_map(n, n, [(o, o) for o in range(n)])
         if st == 1
@@ -204,10 +204,10 @@ def excess_cells(bld, level, b):
         )
         for f in FAMILIES
     }
-    gain = bld.gains.bo_to_excess * st
+    gain = bld.gains_mv.bo_to_excess * st
     for f in FAMILIES:
         bld.conv(b[f], x[f], same, gain=gain)
-        bld.conv(b[PARTNER[f]], x[f], same, sign=-1, gain=gain * Gains.balance(bld.neurons["excess"]))
+        bld.conv(b[PARTNER[f]], x[f], same, sign=-1, gain=gain * GainsMv.balance(bld.neurons["excess"]))
     return x
 
 
@@ -221,7 +221,7 @@ def grouping_cells(bld, level, b):
     grouping runs uninhibited while every pair is still symmetric, as the
     model's first iteration does, and with the model's inhibition once
     feedback has chosen. ``"direct"``: the rival cells inhibit as they are."""
-    st = bld.sp.grouping_stride
+    st = bld.sp.connectivity.grouping_stride
     g = {
         pol: bld.pop(
             f"group_{pol}",
@@ -234,26 +234,26 @@ def grouping_cells(bld, level, b):
         for pol in ("L", "D")
     }
     w = bld.params.w_inh
-    by_excess = w > 0 and bld.sp.rival_inhibition == "excess"
+    by_excess = w > 0 and bld.sp.connectivity.rival_inhibition == "excess"
     rivals = excess_cells(bld, level, b) if by_excess else b
     # a strided excess lattice is read through every s-th tap: s**2 makes up the rest, s of it in
     # the excess cells' own gain (a block crossed by an edge holds about s of its s**2 pixels)
-    sparse = bld.sp.excess_stride if by_excess else 1
+    sparse = bld.sp.connectivity.excess_stride if by_excess else 1
     for fam, pol, half, sign in GROUPING_INPUTS:
         if sign < 0 and w == 0:
             continue
-        gain = bld.gains.bo_to_group * (1.0 if sign > 0 else w * sparse * Gains.balance(bld.neurons["group"]))
+        gain = bld.gains_mv.bo_to_group * (1.0 if sign > 0 else w * sparse * GainsMv.balance(bld.neurons["group"]))
         bld.conv(
             (b if sign > 0 else rivals)[fam],
             g[pol],
             von_mises(half, "gather"),
             sign=sign,
             gain=gain,
-            prune=bld.sp.prune_vm,
+            prune=bld.sp.connectivity.prune_vm,
         )
     if bld.params.grouping_polarity == "compete":
         for a, c in (("L", "D"), ("D", "L")):
-            bld.conv(g[a], g[c], channel_map(1, 1, [(0, 0)]), sign=-1, gain=bld.gains.group_inh_group)
+            bld.conv(g[a], g[c], channel_map(1, 1, [(0, 0)]), sign=-1, gain=bld.gains_mv.group_inh_group)
     return g
 
 
@@ -262,8 +262,8 @@ def feedback_cells(bld, level, b, g) -> dict:
     z2 = VL2 - VD1 as rectified pairs on the grouping lattice (every
     stride-th tap is used, hence the stride**2); the half against a
     border-ownership cell inhibits it, the half for it excites it."""
-    st = bld.sp.grouping_stride
-    gain = bld.gains.group_to_feedback * st * st
+    st = bld.sp.connectivity.grouping_stride
+    gain = bld.gains_mv.group_to_feedback * st * st
     z = {
         k: bld.pop(
             f"feedback_{k}",
@@ -277,25 +277,25 @@ def feedback_cells(bld, level, b, g) -> dict:
     }
     for k in FEEDBACK_HALVES:
         (pol_for, half_for), (pol_against, half_against) = FEEDBACK_INPUTS[k]
-        bld.conv(g[pol_for], z[k], von_mises(half_for, "scatter"), gain=gain, prune=bld.sp.prune_vm)
+        bld.conv(g[pol_for], z[k], von_mises(half_for, "scatter"), gain=gain, prune=bld.sp.connectivity.prune_vm)
         bld.conv(
             g[pol_against],
             z[k],
             von_mises(half_against, "scatter"),
             sign=-1,
-            gain=gain * Gains.balance(bld.neurons["feedback"]),
-            prune=bld.sp.prune_vm,
+            gain=gain * GainsMv.balance(bld.neurons["feedback"]),
+            prune=bld.sp.connectivity.prune_vm,
         )
     for fam, (k_for, k_against) in FEEDBACK_TO_FAMILY.items():
-        for k, sign, gain in ((k_for, 1, bld.gains.feedback_to_bo), (k_against, -1, bld.gains.feedback_inh_bo)):
+        for k, sign, gain in ((k_for, 1, bld.gains_mv.feedback_to_bo), (k_against, -1, bld.gains_mv.feedback_inh_bo)):
             if gain > 0:
                 bld.resize(
                     z[k],
                     b[fam],
                     sign=sign,
                     gain=gain,
-                    interpolation=bld.sp.feedback_interpolation,
-                    delay=bld.sp.delay_feedback_ms,
+                    interpolation=bld.sp.connectivity.feedback_interpolation,
+                    delay=bld.sp.time.delay_feedback_ms,
                 )
     return z
 
@@ -307,19 +307,19 @@ def pooled_feedback(bld, level, g, z):
     each feedback cell reads the other polarity through the same halves
     (+ GD (*) m1 - GL (*) m2), so that it carries z1 = G (*) m1 - G (*) m2
     with G = GL + GD (likewise z2 and the negative halves)."""
-    st = bld.sp.grouping_stride
-    gain = bld.gains.group_to_feedback * st * st
+    st = bld.sp.connectivity.grouping_stride
+    gain = bld.gains_mv.group_to_feedback * st * st
     other = {"L": "D", "D": "L"}
     for k in FEEDBACK_HALVES:
         (pol_for, half_for), (pol_against, half_against) = FEEDBACK_INPUTS[k]
-        bld.conv(g[other[pol_for]], z[k], von_mises(half_for, "scatter"), gain=gain, prune=bld.sp.prune_vm)
+        bld.conv(g[other[pol_for]], z[k], von_mises(half_for, "scatter"), gain=gain, prune=bld.sp.connectivity.prune_vm)
         bld.conv(
             g[other[pol_against]],
             z[k],
             von_mises(half_against, "scatter"),
             sign=-1,
-            gain=gain * Gains.balance(bld.neurons["feedback"]),
-            prune=bld.sp.prune_vm,
+            gain=gain * GainsMv.balance(bld.neurons["feedback"]),
+            prune=bld.sp.connectivity.prune_vm,
         )
 
 
@@ -338,7 +338,7 @@ def window_clock(bld):
                 bld.named(f"group_{pol}", level),
                 sign=-1,
                 interpolation="linear",
-                gain=bld.sp.clock_inh_group * bld.sp.group.v_th_mv,
+                gain=bld.sp.gains.clock_inh_group * bld.sp.neurons.group.v_th_mv,
             )
 
 
@@ -351,15 +351,15 @@ def pooling(bld):
             bld.resize(
                 bld.named(f"feedback_{k}", level + 1),
                 dst,
-                gain=bld.gains.pool,
-                interpolation=bld.sp.pool_interpolation,
-                prune=bld.sp.prune_resize,
+                gain=bld.gains_mv.pool,
+                interpolation=bld.sp.connectivity.pool_interpolation,
+                prune=bld.sp.connectivity.prune_resize,
             )
             bld.resize(
                 bld.named(f"feedback_{OPPOSITE_HALF[k]}", level + 1),
                 dst,
                 sign=-1,
-                gain=bld.gains.pool * Gains.balance(bld.neurons["feedback"]),
-                interpolation=bld.sp.pool_interpolation,
-                prune=bld.sp.prune_resize,
+                gain=bld.gains_mv.pool * GainsMv.balance(bld.neurons["feedback"]),
+                interpolation=bld.sp.connectivity.pool_interpolation,
+                prune=bld.sp.connectivity.prune_resize,
             )

@@ -257,10 +257,9 @@ class SpikingModel(Model):
         self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
         self.save_spikes = check.flag("spiking model", "save_spikes", save_spikes)
         built = {"params": params} if network is None else {"network": network}
-        #: every option of the runs, checked here once: a frame uses its frame part, a recording its recording part
-        self.run_options = SpikingOptions.from_keywords(
-            "run_spiking", {**built, "backend": backend, "progress": progress is not None, **run_options}
-        )
+        #: the keyword options of every run (a frame takes its frame options, a recording its recording options)
+        self.run_keywords = {**built, "backend": backend, "progress": progress is not None, **run_options}
+        self.run_options = SpikingOptions.from_keywords("run_spiking", self.run_keywords)  # (checked here, once)
 
     @property
     def backend(self):
@@ -274,13 +273,24 @@ class SpikingModel(Model):
             self._backend = self.run_options.simulator.backend_object()
         return self._backend
 
+    def _keywords(self, run: str, **changes) -> dict:
+        """The keyword options of a ``run`` (``"frame"``: :func:`run_spiking`'s, without
+        the recording's; ``"recording"``: without the frame's), on the backend
+        object this model keeps, with ``changes``."""
+        from .spiking.options import FrameOptions, RecordingOptions
+
+        own, other = (FrameOptions, RecordingOptions) if run == "frame" else (RecordingOptions, FrameOptions)
+        left_out = {f.name for f in dataclasses.fields(other)} - {f.name for f in dataclasses.fields(own)}
+        kept = {k: v for k, v in self.run_keywords.items() if k not in left_out}
+        return {**kept, "backend": self._sim(), "backend_options": None, **changes}
+
     def __getstate__(self):
         return {**self.__dict__, "_backend": None}  # (a copy elsewhere makes its own: the arrays stay here)
 
     def _run(self, **inputs) -> Maps:
         from .spiking import run_spiking
 
-        return self.named(run_spiking(**inputs, options=self.run_options.on(self._sim())))
+        return self.named(run_spiking(**inputs, **self._keywords("frame")))
 
     def run_still(self, still: Still) -> Maps:
         if self.spike_input == "events":
@@ -324,12 +334,9 @@ class SpikingModel(Model):
             if window.index >= start:
                 emit(window, self.named(maps))
 
-        options = self.run_options.on(self._sim())
-        if not self.save_spikes:  # (the counts and spike trains would be dropped unread: not made)
-            options = dataclasses.replace(
-                options, simulator=dataclasses.replace(options.simulator, record_spikes=False)
-            )
-        return stream_spiking_windows(windows, done, options=options, cells=self.save_spikes)
+        # without save_spikes the counts and spike trains would be dropped unread: not made
+        keywords = self._keywords("recording", **({} if self.save_spikes else {"record_spikes": False}))
+        return stream_spiking_windows(windows, done, cells=self.save_spikes, **keywords)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
         """``maps.png``; and the spike raster and rate histograms where the

@@ -79,14 +79,11 @@ def _inputs(pos, neg, events, sensor_size, frame: FrameOptions, dt_ms: float, ne
     return inp
 
 
-def run_spiking_result(
-    pos=None, neg=None, *, events=None, sensor_size=None, options: SpikingOptions | None = None, **keywords
-) -> SpikingResult:
+def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, **keywords) -> SpikingResult:
     """:func:`run_spiking`, returning a :class:`SpikingResult` with the
-    internals. The options are :func:`run_spiking`'s keywords, or a
-    :class:`~snn_fg.models.spiking.options.SpikingOptions` made once (``options``)."""
+    internals. The options are :func:`run_spiking`'s keywords."""
     t_start = time.perf_counter()
-    opts = SpikingOptions.of("run_spiking", options, keywords, recording=False)
+    opts = SpikingOptions.from_keywords("run_spiking", keywords, recording=False)
     frame, sim = opts.frame, opts.simulator
     net, origin = opts.network.resolve(_sensor_shape(pos, events, sensor_size))
     pool = net.params.input_pool
@@ -133,7 +130,7 @@ def run_spiking_result(
     return SpikingResult(maps, net, result, inp, rec)
 
 
-def run_spiking(pos=None, neg=None, **options) -> Maps:
+def run_spiking(pos=None, neg=None, **keywords) -> Maps:
     """Run the spiking figure-ground network on one frame or window of input.
 
     Parameters
@@ -177,10 +174,9 @@ def run_spiking(pos=None, neg=None, **options) -> Maps:
     progress, log
         ``progress`` prints one-line stage messages and a progress bar on
         stderr; ``log`` receives the messages instead.
-    options : SpikingOptions, optional
-        All of the above made once (:mod:`snn_fg.models.spiking.options`), instead
-        of keywords: for a caller that runs many inputs. An unknown keyword
-        is a ``TypeError``.
+
+    An unknown keyword is a ``TypeError``; the keywords are checked once, as
+    :class:`~snn_fg.models.spiking.options.SpikingOptions`, and passed on whole.
 
     Returns
     -------
@@ -201,4 +197,4 @@ def run_spiking(pos=None, neg=None, **options) -> Maps:
     >>> maps.fg_x.shape == pos.shape
     True
     """
-    return run_spiking_result(pos, neg, **options).maps
+    return run_spiking_result(pos, neg, **keywords).maps

@@ -43,9 +43,7 @@ from .recording_input import WindowFeed, plan_recording
 from .window_reader import WindowReader, maps_of
 
 
-def run_spiking_windows(
-    windows, *, source: str = "<recording>", options: SpikingOptions | None = None, **keywords
-) -> list[Maps]:
+def run_spiking_windows(windows, *, source: str = "<recording>", **keywords) -> list[Maps]:
     """Run the spiking network once over consecutive windows of a recording.
 
     Parameters
@@ -68,9 +66,6 @@ def run_spiking_windows(
         and the network carries its state from window to window.
     progress, log
         Stage messages and a progress bar on stderr, or ``log`` receiving them.
-    options : SpikingOptions, optional
-        All of the above made once, instead of keywords (its frame part is
-        not used).
     source : str
         What the windows come from, for error messages.
 
@@ -92,13 +87,8 @@ def run_spiking_windows(
     >>> len(maps) == len(wins), maps[0].params["simulation"]["network_builds"]
     (True, 1)
     """
-    run = simulate_windows(
-        windows,
-        source=source,
-        keep_run=False,
-        options=SpikingOptions.of("run_spiking_windows", options, keywords, frame=False),
-    )
-    return window_maps(run)
+    opts = SpikingOptions.from_keywords("run_spiking_windows", keywords, frame=False)
+    return window_maps(_simulate(windows, opts, source=source, keep_run=False))
 
 
 def stream_spiking_windows(
@@ -106,7 +96,6 @@ def stream_spiking_windows(
     on_window,
     *,
     source: str = "<recording>",
-    options: SpikingOptions | None = None,
     cells: bool = True,
     **keywords,
 ) -> dict:
@@ -120,8 +109,8 @@ def stream_spiking_windows(
     ``backend_stats``, ``kept_kernel_mass``, ``timings_s``). ``cells=False``:
     the maps' ``extra`` holds no per-cell spike counts (nor is time spent
     gathering them)."""
-    opts = SpikingOptions.of("stream_spiking_windows", options, keywords, frame=False)
-    run = simulate_windows(windows, source=source, keep_run=False, options=opts, on_window=on_window, cells=cells)
+    opts = SpikingOptions.from_keywords("stream_spiking_windows", keywords, frame=False)
+    run = _simulate(windows, opts, source=source, keep_run=False, on_window=on_window, cells=cells)
     whole = run_provenance(run.network, run.origin, run.backend, run.result, {}, run.simulation, run.t_start)
     return {k: whole[k] for k in ("counts", "backend_stats", "kept_kernel_mass", "timings_s")}
 
@@ -154,7 +143,6 @@ def simulate_windows(
     *,
     source: str = "<recording>",
     keep_run: bool = True,
-    options: SpikingOptions | None = None,
     on_window=None,
     cells: bool = True,
     **keywords,
@@ -170,8 +158,13 @@ def simulate_windows(
     whole run's spikes). ``on_window(window, maps)``: each window's maps as it
     is decoded (:func:`stream_spiking_windows`), none kept in the result;
     ``cells=False``: the windows' records leave out the per-cell counts."""
+    opts = SpikingOptions.from_keywords("simulate_windows", keywords, frame=False)
+    return _simulate(windows, opts, source=source, keep_run=keep_run, on_window=on_window, cells=cells)
+
+
+def _simulate(windows, opts: SpikingOptions, *, source, keep_run, on_window=None, cells=True) -> ContinuousRun:
+    """:func:`simulate_windows` with its options made (checked once, passed whole)."""
     t_start = time.perf_counter()
-    opts = SpikingOptions.of("simulate_windows", options, keywords, frame=False)
     sim, lag = opts.simulator, opts.recording.readout_lag_ms
     if iter(windows) is windows:  # (read once only: kept, to be read twice)
         windows = list(windows)

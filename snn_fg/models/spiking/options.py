@@ -3,11 +3,9 @@
 :func:`~snn_fg.models.spiking.run_spiking`, :func:`~snn_fg.models.spiking.run_spiking_result`,
 :func:`~snn_fg.models.spiking.run_spiking_windows` and
 :func:`~snn_fg.models.spiking.continuous.simulate_windows` take their options as
-keywords; :meth:`SpikingOptions.from_keywords` sorts them into the parts
-below (a keyword no part has is refused, as Python refuses an unexpected
-keyword argument) and the run passes them on whole. A caller that runs many
-inputs (:class:`~snn_fg.models.interface.SpikingModel`) makes a :class:`SpikingOptions`
-once and hands it over as ``options=``.
+keywords, the one way to pass them; :meth:`SpikingOptions.from_keywords` sorts
+them into the parts below (a keyword no part has is refused, as Python refuses
+an unexpected keyword argument) and the run passes them on whole.
 
 * :class:`NetworkOptions` - which network: built from parameters or a stored
   one, with or without feedback, calibrated to the input or not;
@@ -235,24 +233,4 @@ class SpikingOptions:
                 part: kind(owner=owner, **{k: v for k, v in keywords.items() if k in names[part]})
                 for part, kind in kinds.items()
             }
-        )
-
-    @classmethod
-    def of(
-        cls, owner: str, options: SpikingOptions | None, keywords: dict, *, frame: bool = True, recording: bool = True
-    ) -> SpikingOptions:
-        """``options`` as given (then with no keyword options beside it), or
-        ``keywords`` made into options (:meth:`from_keywords`)."""
-        if options is None:
-            return cls.from_keywords(owner, keywords, frame=frame, recording=recording)
-        if not isinstance(options, SpikingOptions):
-            check.fail(owner, "options", options, "must be a SpikingOptions")
-        if keywords:
-            check.fail(owner, None, None, f"give options= or keyword options ({', '.join(sorted(keywords))}), not both")
-        return options
-
-    def on(self, backend: Backend) -> SpikingOptions:
-        """These options on the backend object ``backend`` (one that a caller keeps for many runs)."""
-        return dataclasses.replace(
-            self, simulator=dataclasses.replace(self.simulator, backend=backend, backend_options=None)
         )

@@ -2,15 +2,19 @@
 ``DEFAULT_DT_MS``); a run or an export takes the step it is given, else the
 network's (``Network.time_step``)."""
 
+import json
+
 import pytest
 
 from snn_fg.backends import RunSettings
 from snn_fg.errors import ParameterError
+from snn_fg.export.lava import export_lava
 from snn_fg.export.pynn import pynn_model
 from snn_fg.export.report import resource_report
 from snn_fg.export.spinnaker import spinnaker_plan
 from snn_fg.network import SpikingParams, Timing, build_network
 from snn_fg.network.graph import DEFAULT_DT_MS
+from snn_fg.network.recipes import RECIPES
 from snn_fg.params import ModelParams
 
 SMALL = ModelParams(levels=1)
@@ -49,3 +53,13 @@ def test_run_settings_have_no_step_of_their_own():
     with pytest.raises(TypeError, match="dt_ms"):
         RunSettings(duration_ms=10.0)
     assert RunSettings(duration_ms=10.0, dt_ms=1.0).dt_ms == 1.0
+
+
+def test_the_lava_export_takes_the_networks_step_unless_told(tmp_path):
+    net = RECIPES["compact"].build((24, 32))
+    assert json.loads((export_lava(net, tmp_path / "own") / "network.json").read_text())["dt_ms"] == net.dt_ms
+    given = export_lava(net, tmp_path / "given", dt_ms=2 * net.dt_ms)
+    assert json.loads((given / "network.json").read_text())["dt_ms"] == 2 * net.dt_ms
+    with pytest.raises(ParameterError, match=r"export_lava: dt_ms="):
+        export_lava(net, tmp_path / "bad", dt_ms=0)
+    assert not (tmp_path / "bad").exists()

@@ -141,8 +141,7 @@ def export_lava(
     ['README.md', 'fg_inputs.py', 'fg_lava.py', 'fg_loihi.py', 'fg_reference.py', 'fg_synapses.py',
      'fg_tables.py', 'network.json', 'requirements.txt', 'run.py', 'tables.npz']
     """
-    if dt_ms is not None:
-        network = dataclasses.replace(network, dt_ms=float(dt_ms))
+    network = dataclasses.replace(network, dt_ms=network.time_step(dt_ms, "export_lava"))
     meta, arrays = lava_model(network, command=command, sensor_shape=sensor_shape)
     copies = {standalone.HERE / src: dst for src, dst in standalone.COPIED.items()}
     copies.update({pynn_standalone.HERE / src: dst for src, dst in SHARED.items()})

@@ -162,8 +162,9 @@ def export_pynn(
     >>> d = export_pynn(build_network(ModelParams(levels=2), (40, 52)), pathlib.Path(tempfile.mkdtemp()) / "m")
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
     ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
-    >>> print(*sorted(p.name for p in d.glob("*.py")))
-    fg_cells.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py fg_spinnaker.py fg_tables.py run.py
+    >>> print(*sorted(p.name for p in d.glob("*.py")))  # doctest: +NORMALIZE_WHITESPACE
+    fg_cells.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py
+    fg_spinnaker.py fg_tables.py run.py
     """
     dt_ms = network.time_step(dt_ms, "export_pynn")
     meta, arrays = pynn_model(

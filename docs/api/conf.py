@@ -1,7 +1,7 @@
 """Sphinx configuration of the API reference, built from the docstrings.
 
 Build it from the repository root (the README's command):
-``python -m sphinx -W --keep-going -b html docs/api docs/api/_build``.
+``python -m sphinx -W -b html docs/api out/api``.
 """
 
 project = "snn-fg"
@@ -18,10 +18,13 @@ exclude_patterns = ["_build"]
 
 autosummary_generate = True
 #: modules left out of the reference (the module template skips them): the ``snn-fg`` command's entry point
-#: (importing it runs the command), the PyNN export's ``run.py`` program (it imports its sibling modules by
-#: their names in an export folder), and the fast engine, which is being rewritten (its rewrite brings it in,
+#: (importing it runs the command), the PyNN and Lava exports' ``run.py`` programs (they import their sibling
+#: modules by their names in an export folder), and the fast engine, which is being rewritten (its rewrite brings it in,
 #: as it brings it under the linter and the module ceiling)
-autosummary_context = {"skipped": ["snn_fg.cli.__main__", "snn_fg.pynn.run", "snn_fg.backends.fast"]}
+autosummary_context = {"skipped": ["snn_fg.cli.__main__", "snn_fg.pynn.run", "snn_fg.lava.run", "snn_fg.backends.fast"]}
+# Lava (an export folder's own Python 3.10 environment, not an extra of snn-fg): imitated, so that the Lava
+# processes' module is documented
+autodoc_mock_imports = ["lava"]
 # each object documented once, in the module that defines it (a package's ``__all__`` re-exports are not repeated)
 autodoc_default_options = {"members": True, "show-inheritance": True, "ignore-module-all": True}
 autodoc_member_order = "bysource"
@@ -31,7 +34,9 @@ napoleon_google_docstring = False
 napoleon_numpy_docstring = True
 
 # the docstrings write an absolute value as |x|, which reStructuredText would read as a substitution
-rst_prolog = "\n".join(f".. |{x}| replace:: \\|{x}\\|" for x in ("value", "weight", "kernel value"))
+rst_prolog = "\n".join(
+    f".. |{x}| replace:: \\|{x}\\|" for x in ("value", "weight", "kernel value", "u", "v", "a_in", "drive", "current")
+)
 
 html_theme = "alabaster"
 html_title = "snn-fg API reference"

@@ -1,7 +1,7 @@
 """``snn-fg export``: the network for neuromorphic boards and other simulators.
 
 Formats: ``pynn`` (a folder: self-contained PyNN model), ``lava`` (a
-folder: the network as Lava processes for Loihi 2, :mod:`.lava`), ``nir`` (a NIR
+folder: the network as Lava processes for Loihi 2, :mod:`snn_fg.export.lava`), ``nir`` (a NIR
 graph file), ``report`` (hardware resource report, JSON, also printed) and
 ``network`` (the snn-fg JSON description; with ``--network FILE.nir`` this
 is the NIR import). Bad arguments end with one line and exit status 2;

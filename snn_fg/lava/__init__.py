@@ -10,7 +10,7 @@ snn_fg.
   (``fg_loihi.py``), the rules the lowering and the reference follow;
 * :mod:`.reference` - the whole network stepped in that arithmetic with
   numpy alone (``fg_reference.py``; ``run.py --simulator reference``);
-* :mod:`.network` - the network as Lava processes (``fg_lava.py``);
+* :mod:`snn_fg.lava.network` - the network as Lava processes (``fg_lava.py``);
 * :mod:`.run` - the export's ``run.py`` (not importable inside snn_fg).
 
 They share the input reader and the table unroller of :mod:`snn_fg.pynn`

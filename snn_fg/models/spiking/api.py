@@ -175,9 +175,6 @@ def run_spiking(pos=None, neg=None, **keywords) -> Maps:
         ``progress`` prints one-line stage messages and a progress bar on
         stderr; ``log`` receives the messages instead.
 
-    An unknown keyword is a ``TypeError``; the keywords are checked once, as
-    :class:`~snn_fg.models.spiking.options.SpikingOptions`, and passed on whole.
-
     Returns
     -------
     Maps
@@ -186,6 +183,12 @@ def run_spiking(pos=None, neg=None, **keywords) -> Maps:
         backend, cell and synapse counts, rates and timings; the spike
         counts per population are the :class:`SpikingRecord`
         (``SpikingRecord.from_maps(maps)``).
+
+    Raises
+    ------
+    TypeError
+        An unknown keyword (the keywords are checked once, as
+        :class:`~snn_fg.models.spiking.options.SpikingOptions`, and passed on whole).
 
     Examples
     --------

@@ -5,7 +5,8 @@ The data flow is the package layout: :mod:`snn_fg.events` (recordings,
 windows, event-camera simulation) -> :mod:`snn_fg.frames` (event frames, input
 pooling, the pyramid) -> :mod:`snn_fg.network` (the network description) ->
 :mod:`snn_fg.lowering` (input spikes and synapses) -> a simulator of
-:mod:`snn_fg.backends` -> :mod:`snn_fg.models` (the spiking model's front end
+:mod:`snn_fg.backends` (with :mod:`snn_fg.backends.cancel`, which stops a long
+run, a simulation's or a rate model's, at its next check) -> :mod:`snn_fg.models` (the spiking model's front end
 and read-out, beside the rate models, behind one interface) ->
 :mod:`snn_fg.results` (decoded maps, their store and figures) ->
 :mod:`snn_fg.scoring` (metrics, ground truth). :mod:`snn_fg.export` writes the
@@ -14,8 +15,7 @@ program of :mod:`snn_fg.pynn`, which the NEST backend runs too, and the
 standalone Lava program of :mod:`snn_fg.lava` for Loihi 2),
 :mod:`snn_fg.datasets` fetches the data, and :mod:`snn_fg.cli` is the
 command line. Beneath them all: :mod:`snn_fg.errors`, :mod:`snn_fg.validate`
-(argument checks), :mod:`snn_fg.cancel` (stopping a run) and
-:mod:`snn_fg.params` (the model's parameters). Each layer imports only those
+(argument checks) and :mod:`snn_fg.params` (the model's parameters). Each layer imports only those
 below it.
 
 ``snn_fg.Maps`` is :class:`snn_fg.results.maps.Maps`, what every run writes and
@@ -38,4 +38,8 @@ def __getattr__(name):  # (imported when first asked for: ``import snn_fg`` stay
         from .results.maps import Maps
 
         return Maps
+    if name == "cancel":  # its earlier place (the fast engine, being rewritten, still imports it from here)
+        from .backends import cancel
+
+        return cancel
     raise AttributeError(f"module 'snn_fg' has no attribute {name!r}")

@@ -5,8 +5,7 @@ engine) is tested here as soon as it is registered in snn_fg.backends."""
 import numpy as np
 import pytest
 
-from snn_fg import cancel
-from snn_fg.backends import RunSettings, available_backends, backend_class, get_backend
+from snn_fg.backends import RunSettings, available_backends, backend_class, cancel, get_backend
 from snn_fg.events import image_to_events, image_to_frame
 from snn_fg.frames.scenes import demo, disc
 from snn_fg.models.rate.edfg import run_edfg

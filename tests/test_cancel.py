@@ -1,12 +1,11 @@
-"""A requested stop (snn_fg.cancel, set by the CLI's signal handler) ends the
+"""A requested stop (snn_fg.backends.cancel, set by the CLI's signal handler) ends the
 long loops at their next check, even when the KeyboardInterrupt the signal
 raised was swallowed by a library."""
 
 import numpy as np
 import pytest
 
-from snn_fg import cancel
-from snn_fg.backends import available_backends
+from snn_fg.backends import available_backends, cancel
 from snn_fg.events import image_to_frame
 from snn_fg.frames.scenes import disc
 from snn_fg.models.rate.edfg import run_edfg

@@ -23,7 +23,7 @@ MODULES = [
     "snn_fg.export.pynn",
     "snn_fg.export.nir",
     "snn_fg.export.report",
-    "snn_fg.cancel",
+    "snn_fg.backends.cancel",
     "snn_fg.datasets",
 ]
 #: examples that build and export whole networks (several seconds each)

@@ -21,10 +21,10 @@ import time
 
 import numpy as np
 
-from .. import cancel
 from .. import validate as check
 from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
+from . import cancel
 from .base import (
     Backend,
     RunSettings,

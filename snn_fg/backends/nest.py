@@ -31,7 +31,6 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from .. import cancel
 from .. import validate as check
 from ..errors import install_hint
 from ..lowering.quantise import quantise_unrolled
@@ -39,6 +38,7 @@ from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from ..pynn.simulator import import_simulator
+from . import cancel
 from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)

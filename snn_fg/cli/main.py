@@ -15,7 +15,8 @@ import os
 import sys
 import warnings
 
-from .. import __version__, cancel
+from .. import __version__
+from ..backends import cancel
 from ..errors import InputWarning, SnnFgError
 from .compare import add_compare_command
 from .data import add_data_command

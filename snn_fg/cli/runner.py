@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from .. import cancel
+from ..backends import cancel
 from ..errors import InputError
 from ..events import EmptyWindowWarning, RecordingWindows, iter_recording
 from ..events.activity import Activity, pixel_share, saturated_lines

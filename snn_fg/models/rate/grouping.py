@@ -35,8 +35,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from ... import cancel
 from ... import validate as check
+from ...backends import cancel
 from ...params import ModelParams
 from ..cores import usable_cores
 from . import _sparse_kernels as nbk

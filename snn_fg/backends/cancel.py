@@ -11,7 +11,7 @@ chunks and segments of a simulation, the iterations of the rate model) call
 
 Examples
 --------
->>> from snn_fg import cancel
+>>> from snn_fg.backends import cancel
 >>> cancel.check()                      # nothing requested: returns
 >>> cancel.request("SIGTERM")
 >>> try:

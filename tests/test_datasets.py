@@ -231,7 +231,7 @@ def test_the_authors_csvs_become_the_reference_npz_and_the_image_comes_from_the_
     assert _files_under(tmp_path) == ["images/7.jpg"]
 
 
-def test_the_reference_copies_match_the_catalogue(dataset):
-    for name in datasets.DATASETS:
-        dataset(name)
-        assert datasets.verify(name) == [], name
+@pytest.mark.parametrize("name", sorted(datasets.DATASETS))
+def test_the_reference_copies_match_the_catalogue(dataset, name):
+    dataset(name)  # (each dataset skips alone when absent: the others are still checked)
+    assert datasets.verify(name) == [], name

@@ -59,13 +59,20 @@ class _FakeAedat:
         later["t"] += 5000
         self.packets = [
             {"stream_id": 0, "events": ev},
-            {"stream_id": 1, "frame": {"width": 8, "height": 6}},
+            {"stream_id": 1, "frame": self.frame(2000)},
             {"stream_id": 2, "imus": np.zeros(7)},
-            {"stream_id": 1, "frame": {"width": 8, "height": 6}},
+            {"stream_id": 1, "frame": self.frame(6000)},
             {"stream_id": 3, "triggers": np.zeros(3)},
             {"stream_id": 4, "events": ev[:2]},
             {"stream_id": 0, "events": later},
         ]
+
+    @staticmethod
+    def frame(t):
+        """A grey frame exposed from ``t - 250`` to ``t + 250`` us."""
+        pixels = np.zeros((6, 8), np.uint8)
+        exposure = {"exposure_begin_t": t - 250, "exposure_end_t": t + 250, "offset_x": 0, "offset_y": 0}
+        return {"t": t, "format": "L", "width": 8, "height": 6, "pixels": pixels, **exposure}
 
     def id_to_stream(self):
         return {
@@ -90,9 +97,8 @@ def test_summaries_name_what_they_skip(tmp_path, monkeypatch, capsys):
     assert main(["events", str(path), "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "events:     10 " in out
-    assert (
-        "skipped:    2 APS frames, 7 IMU samples, 3 trigger events, 2 events of stream 4 (read, not used by the model)"
-    ) in out
+    assert "skipped:    7 IMU samples, 3 trigger events, 2 events of stream 4 (read, not used by the model)" in out
+    assert "APS frames: 2 frames of 8 x 6, one every 4.0 ms (250.0 per second), 2 to 6 ms after the first event" in out
 
     ev = np.zeros(6, EVENT_DTYPE)
     ev["x"], ev["t"] = np.arange(6), np.arange(6) * 100

@@ -149,10 +149,10 @@ def cmd_compare(args) -> int:
         print(f"snn-fg: metrics saved to {args.json}")
     if args.plot:
         # (matplotlib is imported only when a command draws)
-        from ..scoring.compare_figure import save_compare_figure
+        from ..scoring.compare_figure import aps_inputs, save_compare_figure
 
         names = tuple(f"{k} ({_run_name(f)})" for k, f in (("A", args.a), ("B", args.b)))
-        save_compare_figure(args.plot, a, b, rows, names=names, where=where)
+        save_compare_figure(args.plot, a, b, rows, names=names, where=where, inputs=aps_inputs(a, b))
         print(f"snn-fg: figure saved to {args.plot}")
     return 0
 

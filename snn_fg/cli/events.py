@@ -24,6 +24,7 @@ from ..events import (
     save_events,
 )
 from ..events.activity import activity, activity_figure, saturated_lines, timeline_text
+from ..events.aps import frame_summary, open_frames
 from ..events.esim import MOTIONS
 from ..events.images import IMAGE_SUFFIXES
 from ..results.atomic import save_figure, save_npz
@@ -195,6 +196,7 @@ def _recording_lines(path, args):
                 ", ".join(f"{n:,} {what}" for what, n in stream.skipped.items()) + " (read, not used by the model)",
             )
         )
+    lines += _frame_lines(path, stream, t_first)
     if args.write_frame:
         w = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         save_npz(
@@ -213,6 +215,23 @@ def _recording_lines(path, args):
         save_events(args.write_events, rec.events, rec.sensor_size)
         lines.append(("events written", _written_note(args.write_events)))
     return stream, lines, bool(n and t_last > t_first)
+
+
+def _frame_lines(path, stream, t_first) -> list:
+    """The APS frames line of a DAVIS recording (an AEDAT 4 file; other formats carry none):
+    how many and how often, or why the fbfg model cannot run on them."""
+    if stream.format != "aedat4":
+        return []
+    frames = open_frames(path)
+    if frames is None:
+        return [("APS frames", "none (the file holds no frame stream: the fbfg model cannot run on it)")]
+    try:
+        line = frame_summary(frames).text(t_first)
+    except InputError as exc:  # (frames out of time order: the events are still summarised)
+        return [("APS frames", f"unusable: {exc.problem}" + (f" ({exc.where})" if exc.where else ""))]
+    if frames.size != tuple(stream.sensor_size[:2]):
+        line += " (another size than the event sensor: the fbfg model cannot run on them)"
+    return [("APS frames", line)]
 
 
 def _check_plot(args, path):

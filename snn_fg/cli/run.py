@@ -11,13 +11,14 @@ window by window into a folder that a run cut short keeps for ``--resume``
 from __future__ import annotations
 
 from ..errors import InputError
+from ..events.aps import FramedWindows, pairing_note, require_frames
 from ..events.esim import MOTIONS
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..frames.still import input_kind, load_frame
 from ..models import MODELS
 from ..results.atomic import OutputFolder, growing_folder, settle_folder
-from ..results.store import STORE_NAME, finished_run, windows_complete
+from ..results.store import STORE_NAME, finished_run, store_arrays, windows_complete
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
 from .options import crop, number, sensor_size, subcommand
@@ -66,7 +67,8 @@ def add_run_command(sub):
         "--model",
         choices=tuple(MODELS),
         default="rate",
-        help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image; "
+        help="rate: the rate reference model (EDFG); fbfg: frame-based model on an image or on a "
+        "DAVIS recording's APS frames (each window: the last frame before its end); "
         "spiking: the spiking network; natural, natural-spiking: the variant for natural "
         "scenes (contrast-invariant grouping, docs/model.md), rate and spiking (default: rate)",
     )
@@ -141,12 +143,15 @@ def _run_still(args, model) -> str:
         return ", ".join(sorted(p.name for p in folder.dir.iterdir()))
 
 
-def _windows(args):
-    """The recording's windows as the options cut it, its ``params["source"]`` and its frame shape (rows, cols)."""
+def _windows(args, model):
+    """The recording's windows as the options cut it (for the frame-based model, each with its APS
+    frame), its ``params["source"]`` and its frame shape (rows, cols)."""
     opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
     windows, sensor = recording_windows(
         args.input, sensor_size=args.sensor_size, window_options=opts, progress=not args.no_progress
     )
+    if model.needs == "image":  # (a recording without frames, or of frames of another size: one line)
+        windows = FramedWindows(windows, require_frames(args.input, sensor), sensor)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
     source.setdefault("stride_ms", source["window_ms"])
     return windows, source, tuple(sensor[1::-1])
@@ -155,9 +160,7 @@ def _windows(args):
 def _run_recording(args, model) -> str | None:
     """A recording window by window into ``--out`` (continued with ``--resume``); what was
     written, or None when a resumed run is finished already."""
-    if model.needs == "image":
-        raise InputError(args.input, f"the {model.name} model needs an image, not an event recording")
-    windows, source, shape = _windows(args)
+    windows, source, shape = _windows(args, model)
     _check_frame(args, model, shape)
     out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
     if _finished_already(args, out):
@@ -169,6 +172,9 @@ def _run_recording(args, model) -> str | None:
     n = _settled(
         args, out, previous, lambda: run_recording(model, windows, out, source, **options, run_key=run_key(args))
     )
+    if model.needs == "image":
+        kept = store_arrays(out / STORE_NAME, n)
+        print("snn-fg: " + pairing_note(kept["t_end_us"], kept["aps_index"], kept.get("aps_t_us")))
     return f"{n} window{'s' if n != 1 else ''}, " + ", ".join(sorted(p.name for p in out.iterdir()))
 
 

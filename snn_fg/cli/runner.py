@@ -168,7 +168,9 @@ def run_recording(
     if figures:
         maps = Maps(*read_maps(path, lazy=True))
         titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(maps.extra["t_start_us"], maps.extra["t_end_us"])]
-        model.write_figures(out, maps, _LazyFrames(maps.extra["event_frame"]), titles, crop)
+        # (the frame-based model's input is the APS frame it ran on, the event models' the event frame)
+        inputs = maps.extra["aps_frame"] if "aps_frame" in maps.extra else _LazyFrames(maps.extra["event_frame"])
+        model.write_figures(out, maps, inputs, titles, crop)
     return store.n
 
 

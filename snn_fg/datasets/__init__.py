@@ -19,7 +19,7 @@ Examples
 --------
 >>> from snn_fg import datasets
 >>> sorted(datasets.DATASETS)
-['bsds-edfg', 'bsds-fg', 'events']
+['bsds-edfg', 'bsds-fg', 'davis', 'events']
 >>> rec = datasets.find("events", "dvs.es")      # None when absent
 """
 

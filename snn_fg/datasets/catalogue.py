@@ -23,6 +23,8 @@ RECORDING_URLS = {
     "test/test_data/sample_nmnist.bin",
     "expelliarmus_evt2_spinner.raw": f"{_RAW}/open-neuromorphic/expelliarmus/9ec30714e3e70fab080ae290c084605e9f42a838/"
     "tests/sample-files/evt2_sample.raw",
+    "aedat_davis346_street.aedat4": f"{_RAW}/neuromorphicsystems/aedat/6570e5d2a5cbaa304f4a7c95f5e7f2c86133ce76/"
+    "test_data.aedat4",
 }
 FG_LABELS_URL = "https://www2.eecs.berkeley.edu/Research/Projects/CS/vision/grouping/fg/fgdata.tar.gz"
 
@@ -95,6 +97,17 @@ def _catalogue() -> dict[str, Dataset]:
             "(DVXplorer, AEDAT4), a spinning dot (Prophesee EVT2), an N-MNIST digit",
             source="test data of the packages that read these formats: " + ", ".join(RECORDING_URLS.values()),
             licence="the packages' licences: event_stream and tonic GPL-3.0, expelliarmus GPL-2.0",
+        ),
+        Dataset(
+            name="davis",
+            files=tuple(files["davis"]),
+            fetch=fetch_direct,
+            download="6.1 MB",
+            description="a DAVIS346 recording with its grey-level (APS) frames: a street seen from a "
+            "still camera, cars passing, 2.4 s, 78,830 events and 59 frames (25 per second) on one clock",
+            source="test data of the aedat package (its sdist on PyPI holds the same file as "
+            "tests/data/test_data.aedat4): " + RECORDING_URLS["aedat_davis346_street.aedat4"],
+            licence="the aedat package's: MIT",
         ),
         Dataset(
             name="bsds-edfg",

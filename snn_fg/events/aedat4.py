@@ -3,7 +3,9 @@
 The Rust decoder panics on some corrupt input; every such failure is turned
 into an :class:`~snn_fg.errors.InputError`, and the XML description in the
 header is checked here first so that its corruption is reported with a byte
-offset.
+offset. A DAVIS camera's file also holds its grey-level (APS) frames, on the
+events' clock: :func:`iter_frames` reads them as the decoder gives them
+(:mod:`snn_fg.events.aps` checks and pairs them with the event windows).
 """
 
 from __future__ import annotations
@@ -64,13 +66,35 @@ def _check_aedat4_header(path):
         )
 
 
-def open_aedat4(path, sensor_size, chunk_events) -> Source:
-    """Open an AEDAT 4 file; its first event stream is read, packet by packet.
-    Frames, IMU samples, triggers and other event streams are counted in the
-    decode tally and left out."""
+def _decoder(path):
+    """The ``aedat`` decoder of ``path`` (header checked first), and its streams by id."""
     _check_aedat4_header(path)
     decoder = _panic_safe(path, "AEDAT4 decoder rejected the file", aedat.Decoder, str(path))
-    streams = _panic_safe(path, "AEDAT4 decoder rejected the file", decoder.id_to_stream)
+    return decoder, _panic_safe(path, "AEDAT4 decoder rejected the file", decoder.id_to_stream)
+
+
+def _packets(path):
+    """Every packet of the file in file order, as the decoder gives it (a dict
+    with ``stream_id`` and its content); a packet that cannot be decoded is an
+    :class:`InputError` naming it (its byte offset when the file ends inside it)."""
+    it = iter(_panic_safe(path, "AEDAT4 decoder rejected the file", aedat.Decoder, str(path)))
+    k = 0
+    while True:
+        try:
+            packet = _panic_safe(path, f"AEDAT4 packet {k} could not be decoded", next, it, None)
+        except InputError as exc:
+            raise _packet_error(path, k) or exc from None
+        if packet is None:
+            return
+        k += 1
+        yield packet
+
+
+def open_aedat4(path, sensor_size, chunk_events) -> Source:
+    """Open an AEDAT 4 file; its first event stream is read, packet by packet.
+    IMU samples, triggers and other event streams are counted in the decode
+    tally and left out; APS frames are read by :func:`iter_frames`."""
+    _, streams = _decoder(path)
     ids = [sid for sid, s in streams.items() if s.get("type") == "events"]
     if not ids:
         raise InputError(path, "AEDAT4 file has no event stream")
@@ -81,17 +105,7 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
     size = file_sensor_size(path, sensor_size, geom)
 
     def chunks(n, tally):
-        d = _panic_safe(path, "AEDAT4 decoder rejected the file", aedat.Decoder, str(path))
-        it = iter(d)
-        k = 0
-        while True:
-            try:
-                packet = _panic_safe(path, f"AEDAT4 packet {k} could not be decoded", next, it, None)
-            except InputError as exc:
-                raise _packet_error(path, k) or exc from None
-            if packet is None:
-                return
-            k += 1
+        for packet in _packets(path):
             if packet.get("stream_id") != target or "events" not in packet:
                 _count_skipped(packet, tally)
                 continue
@@ -99,6 +113,30 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
             yield pack_events(e["x"], e["y"], e["t"], e["on"])
 
     return Source(path, "aedat4", size, chunks)
+
+
+def frame_stream(path) -> tuple[int | None, int | None] | None:
+    """``(width, height)`` of the file's first frame stream as its header
+    declares it (``None`` for a size it does not declare); ``None`` when the
+    file has no frame stream."""
+    _, streams = _decoder(path)
+    ids = [sid for sid, s in streams.items() if s.get("type") == "frame"]
+    return None if not ids else (streams[min(ids)].get("width"), streams[min(ids)].get("height"))
+
+
+def iter_frames(path):
+    """The frames of the file's first frame stream in file order, each as the
+    decoder gives it: a dict with ``t`` (the frame's timestamp, us), the
+    exposure's ``exposure_begin_t`` and ``exposure_end_t``, ``format`` ("L",
+    "RGB" or "RGBA"), ``width``, ``height``, ``offset_x``, ``offset_y`` and
+    ``pixels`` (uint8, rows first)."""
+    _, streams = _decoder(path)
+    ids = [sid for sid, s in streams.items() if s.get("type") == "frame"]
+    if not ids:
+        return
+    for packet in _packets(path):
+        if packet.get("stream_id") == min(ids) and "frame" in packet:
+            yield packet["frame"]
 
 
 def _packet_error(path, k: int) -> InputError | None:
@@ -127,11 +165,12 @@ def _packet_error(path, k: int) -> InputError | None:
 
 
 def _count_skipped(packet: dict, tally) -> None:
-    """Add a packet the model does not use (a frame, IMU samples, triggers,
-    another event stream) to ``tally``."""
+    """Add a packet the event models do not use (IMU samples, triggers,
+    another event stream) to ``tally``; frames are not counted here, as
+    :mod:`snn_fg.events.aps` reads them."""
     if "frame" in packet:
-        tally.skip("APS frames")
-    elif "imus" in packet:
+        return
+    if "imus" in packet:
         tally.skip("IMU samples", len(packet["imus"]))
     elif "triggers" in packet:
         tally.skip("trigger events", len(packet["triggers"]))

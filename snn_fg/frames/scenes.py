@@ -213,3 +213,72 @@ def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: flo
         parts.append(ev)
     h, w = scenes[0].shape
     return scenes, Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)
+
+
+#: the synthetic DAVIS recording (:func:`davis_disc_recording`): a DAVIS346's sensor (rows, columns)
+DAVIS346_SHAPE = (260, 346)
+#: its clock's start: DAVIS cameras stamp Unix time in microseconds (14 Nov 2023)
+DAVIS_T0_US = 1_700_000_000_000_000
+#: the microsaccade's radius (px) and period (us): one turn per 85 ms window, as the iCub's
+MICROSACCADE_PX, MICROSACCADE_US = 1.0, 85_000
+#: time step of the simulated event camera (us): 34 positions per turn
+DAVIS_STEP_US = 2_500
+#: APS frames: one every 40 ms (25 per second), the first 20 ms in, each exposed 4 ms (sampled 5 times)
+APS_INTERVAL_US, APS_FIRST_US, APS_EXPOSURE_US, APS_EXPOSURE_SAMPLES = 40_000, 20_000, 4_000, 5
+
+
+@dataclass(frozen=True, kw_only=True)
+class DavisRecording:
+    """A synthetic DAVIS recording: the scene (its truth at rest), the
+    events (a :class:`~snn_fg.events.Recording`) and the APS frames
+    (:class:`~snn_fg.events.aps.ApsFrame` s), on one clock."""
+
+    scene: Scene
+    recording: Recording
+    frames: tuple
+
+
+def microsaccade_offset(t_us):
+    """The image's offset ``(dx, dy)`` (px, right and down) at ``t_us`` after the recording's start."""
+    a = 2 * np.pi * np.asarray(t_us, dtype=np.float64) / MICROSACCADE_US
+    return MICROSACCADE_PX * np.cos(a), MICROSACCADE_PX * np.sin(a)
+
+
+def davis_disc_recording(duration_ms: float = 400.0, threshold: float = 0.15, seed: int = 0) -> DavisRecording:
+    """A light disc on a dark ground as a DAVIS346 would see it through the
+    iCub's circular microsaccade (:data:`MICROSACCADE_PX`, one turn per
+    85 ms): events from the built-in event-camera simulator (contrast
+    ``threshold``, 0.03 threshold noise per pixel, seeded), and an APS frame
+    every 40 ms, the image where the motion has it during the frame's
+    exposure, in uint8 (no read noise: a noisy frame would not compress, and
+    a test file must stay small). Times are Unix microseconds from
+    :data:`DAVIS_T0_US`. The scene's truth is the disc at rest: the
+    microsaccade moves it by at most one pixel."""
+    from ..events import PixelOptions
+    from ..events.aps import ApsFrame
+    from ..events.esim import shift_image, simulate_frames
+
+    duration_us = int(
+        round(check.number("davis_disc_recording", "duration_ms", duration_ms, lo=0, lo_open=True) * 1000)
+    )
+    h, w = DAVIS346_SHAPE
+    scene = render([Disc(h * 0.48, w * 0.52, 40.0, 0.7)], DAVIS346_SHAPE, 0.3, name="davis-disc")
+    disc_ = scene.shapes[0]
+    m = int(disc_.size + MICROSACCADE_PX + 4)  # (the ground is uniform: only the disc's square can change)
+    r0, c0 = int(disc_.row) - m, int(disc_.col) - m
+    part = scene.image[r0 : r0 + 2 * m + 1, c0 : c0 + 2 * m + 1]
+    times = np.arange(0, duration_us + 1, DAVIS_STEP_US)
+    seen = np.stack([shift_image(part, *microsaccade_offset(t)) for t in times])
+    ev = simulate_frames(seen, times, threshold, pixels=PixelOptions(threshold_sigma=0.03), seed=seed)
+    ev["x"] += c0
+    ev["y"] += r0
+    ev["t"] += DAVIS_T0_US
+    frames = []
+    for k, t in enumerate(range(APS_FIRST_US, duration_us, APS_INTERVAL_US)):
+        during = t + np.linspace(-APS_EXPOSURE_US / 2, APS_EXPOSURE_US / 2, APS_EXPOSURE_SAMPLES)
+        image = np.mean([shift_image(scene.image, *microsaccade_offset(s)) for s in during], axis=0)
+        grey = np.round(255 * image).astype(np.uint8)
+        t_abs = DAVIS_T0_US + t
+        frames.append(ApsFrame(k, t_abs, grey, (t_abs - APS_EXPOSURE_US // 2, t_abs + APS_EXPOSURE_US // 2)))
+    rec = Recording(events=ev, sensor_size=(w, h, 2), format="synthetic", path=None)
+    return DavisRecording(scene=scene, recording=rec, frames=tuple(frames))

@@ -20,6 +20,8 @@ import numpy as np
 from .. import validate as check
 from ..backends import DEFAULT_BACKEND
 from ..errors import InputError
+from ..events.aps import ApsWindow
+from ..events.images import as_float_image
 from ..frames.still import Still
 from ..params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
 from ..results.maps import SPIKING_GROUPING_LABEL, Maps
@@ -173,16 +175,25 @@ class RateModel(Model):
 
 class FbfgModel(Model):
     """The frame-based model (FBFG) on a grey or RGB image; option ``edge_operator``
-    (``"gaussian"`` or ``"corf"``, see :mod:`snn_fg.models.rate.fbfg`)."""
+    (``"gaussian"`` or ``"corf"``, see :mod:`snn_fg.models.rate.fbfg`).
+
+    On a recording it reads a DAVIS camera's grey-level frames: each window,
+    an :class:`~snn_fg.events.aps.ApsWindow`, runs on its frame, the last one
+    before the window's end (none before the first frame: empty maps). Its
+    maps keep the frame (``aps_frame``), its index in the file
+    (``aps_index``, -1: none) and time (``aps_t_us``, on ``t_start_us``'s clock).
+    """
 
     name = "fbfg"
     needs = "image"
     options = ("edge_operator",)
     grouping_label = "grouping (normalised to 1)"
+    blank_window_hint = "a window before the recording's first APS frame has no frame to run on"
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, edge_operator="gaussian"):
         super().__init__(params, progress)
         self.edge_operator = check.choice("fbfg", "edge_operator", edge_operator, EDGE_OPERATORS)
+        self._last = None  # (frame index, maps): windows that share a frame share its maps
 
     def run_still(self, still: Still) -> Maps:
         from .rate.fbfg import run_fbfg
@@ -190,7 +201,18 @@ class FbfgModel(Model):
         return run_fbfg(still.image, self.params, progress=self.progress, edge_operator=self.edge_operator)
 
     def run_window(self, window) -> Maps:
-        raise InputError("<recording>", "the fbfg model needs an image, not an event recording")
+        if not isinstance(window, ApsWindow):
+            raise InputError("<recording>", "the fbfg model reads a recording's APS frames: give it ApsWindows")
+        frame, origin = window.aps, window.t_start_us if window.t_first_event_us is None else window.t_first_event_us
+        if frame is None:
+            return dataclasses.replace(self.empty_maps(window.pos.shape), extra={"aps_index": np.int64(-1)})
+        if self._last is None or self._last[0] != frame.index:
+            t = time.perf_counter()
+            maps = self.run_still(Still(image=as_float_image(frame.image, grey=False)))
+            maps.params["timings_s"] = {"run": time.perf_counter() - t}
+            self._last = (frame.index, maps)
+        at = {"aps_frame": frame.image, "aps_index": np.int64(frame.index), "aps_t_us": np.int64(frame.t_us - origin)}
+        return dataclasses.replace(self._last[1], extra={**self._last[1].extra, **at})
 
     def figure_input(self, still: Still) -> np.ndarray:
         return still.image

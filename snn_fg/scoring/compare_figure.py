@@ -1,5 +1,7 @@
 """The figure of two maps compared (``snn-fg compare --plot``): per compared
-pair of windows, the figure-ground map of each and the angle between them."""
+pair of windows, the figure-ground map of each and the angle between them;
+with a run on a DAVIS recording's frames (``snn-fg run REC --model fbfg``),
+first the APS frame and the event frame that the two models read."""
 
 from __future__ import annotations
 
@@ -9,25 +11,59 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..results.atomic import save_figure
-from ..results.figures import PANEL_IN, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
+from ..results.figures import PANEL_IN, event_frame_rgb, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
 from .metrics import angle_difference_deg, frame_of
 
 
-def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) -> Figure:
+def aps_inputs(a, b) -> list:
+    """The inputs drawn before the maps when ``a`` or ``b`` ran on a recording's
+    APS frames: ``(title, image)`` functions of a compared row for the APS
+    frame and for the event frame (none: an empty list)."""
+    with_aps = [(m, f"window_{k}") for m, k in ((a, "a"), (b, "b")) if "aps_frame" in m.extra]
+    with_events = [(m, f"window_{k}") for m, k in ((a, "a"), (b, "b")) if "event_frame" in m.extra]
+    if not with_aps or not with_events:
+        return []
+    (m_aps, key_aps), (m_ev, key_ev) = with_aps[0], with_events[0]
+
+    def aps(row):
+        i = row[key_aps]
+        if int(m_aps.extra["aps_index"][i]) < 0:
+            return "no APS frame yet", np.zeros(np.shape(m_aps.fg_x)[-2:])
+        at = int(m_aps.extra["aps_t_us"][i]) / 1000
+        return f"APS frame {int(m_aps.extra['aps_index'][i])} ({at:.1f} ms)", np.asarray(m_aps.extra["aps_frame"][i])
+
+    def events(row):
+        frame = np.asarray(m_ev.extra["event_frame"][row[key_ev]])
+        return "event frame", event_frame_rgb(frame > 0, frame < 0)
+
+    return [aps, events]
+
+
+def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=()) -> Figure:
     """Two maps side by side and how they differ: per compared pair of
     windows (``rows`` of :func:`~snn_fg.scoring.metrics.compare_maps`) the
     figure-ground map of each and the angle between them where both have a
     vector (grey: only one has a vector). ``where`` (as ``compare_maps``
     takes it: ``(window_a, window_b) ->`` the pixels compared): the
     difference is drawn on those pixels only, as its numbers were taken,
-    the rest of the frame pale."""
+    the rest of the frame pale. ``inputs``: functions of a row giving
+    ``(title, image)`` drawn first (:func:`aps_inputs`); a grey image is
+    drawn on the 0-255 scale of a camera's frame."""
     idx = rows_shown(len(rows), max_rows)
     h, w = np.shape(a.fg_x)[-2:]
     panel_w = panel_width(w / h)
-    fig = Figure(figsize=(3 * panel_w + 2.4, PANEL_IN * len(idx) + 0.6), layout="constrained")
-    axes = fig.subplots(len(idx), 3, squeeze=False)
-    for ax, i in zip(axes, idx):
+    n_in = len(inputs)
+    fig = Figure(figsize=((3 + n_in) * panel_w + 2.4, PANEL_IN * len(idx) + 0.6), layout="constrained")
+    axes = fig.subplots(len(idx), 3 + n_in, squeeze=False)
+    for ax_row, i in zip(axes, idx):
         r = rows[i]
+        for panel, show in zip(ax_row, inputs):
+            title, image = show(r)
+            grey = {"cmap": "gray", "vmin": 0, "vmax": 255} if np.ndim(image) == 2 else {}
+            panel.imshow(image, interpolation="nearest", **grey)
+            panel.set_title(title, fontsize=9)
+            panel.tick_params(labelsize=7)
+        ax = ax_row[n_in:]
         (ax_, ay_, _), (bx, by, _) = frame_of(a, r["window_a"]), frame_of(b, r["window_b"])
         when = "" if r["t_start_ms"] is None else f", {r['t_start_ms']:g} ms"
         sides = ((names[0], r["window_a"], ax_, ay_), (names[1], r["window_b"], bx, by))
@@ -55,12 +91,12 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) 
         )
         for x in ax:
             x.tick_params(labelsize=7)
-    wheel_inset(axes[0][1])
+    wheel_inset(axes[0][n_in + 1])
     note = shown_note(idx, len(rows), "compared windows", [f"A {r['window_a']}" for r in rows])
     fig.suptitle(f"{names[0]} vs {names[1]}" + (f"; {note}" if note else ""), fontsize=9)
     return fig
 
 
-def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None) -> Path:
+def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=()) -> Path:
     """Write :func:`compare_figure` to ``path`` (atomically)."""
-    return save_figure(compare_figure(a, b, rows, names, max_rows, where), path, dpi=110)
+    return save_figure(compare_figure(a, b, rows, names, max_rows, where, inputs), path, dpi=110)

@@ -18,12 +18,15 @@ from snn_fg.cli import main
 from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, iter_windows, open_recording, save_events
 from snn_fg.events.aps import ApsFrame, iter_frames, open_frames, require_frames, with_frames
+from snn_fg.events.images import as_float_image
 from snn_fg.events.window import EventWindow
 from snn_fg.frames.scenes import APS_FIRST_US, APS_INTERVAL_US, DAVIS_T0_US, davis_disc_recording
+from snn_fg.frames.still import Still
 from snn_fg.models import get_model
+from snn_fg.params import ModelParams
 from snn_fg.results.maps import Maps
 from snn_fg.scoring.compare_figure import aps_inputs, compare_figure
-from snn_fg.scoring.metrics import compare_maps, truth_scores
+from snn_fg.scoring.metrics import agreement, compare_maps, frame_of, truth_scores
 
 DATA = Path(__file__).resolve().parent / "data"
 DISC = DATA / "davis346_disc.aedat4"
@@ -124,6 +127,13 @@ def test_compare_holds_the_event_model_against_the_frame_model_window_by_window(
     assert [r["t_start_ms"] for r in rows] == [0.0, 85.0, 170.0, 255.0, 340.0]
     for r in rows:  # (both models see the same rim: they agree on who owns it)
         assert r["angle_within_45_frac"] >= 0.9 and r["pixels_compared"] > 200 and r["coverage_of_b"] > 0.8, r
+    # B's baseline: the frame model again at 20 iterations on the APS frame window 3 read, computed here
+    fbfg = Maps.load(disc_runs / "fbfg")
+    still = Still(image=as_float_image(fbfg.extra["aps_frame"][3], grey=False))
+    want = agreement(frame_of(fbfg, 3), get_model("fbfg", ModelParams(iterations=20)).run_still(still))
+    b_within, b_r = (float(x) for x in table[4].split()[-2:])
+    assert b_within == pytest.approx(want["within_45"], abs=1e-3) and b_r == pytest.approx(want["grouping_r"], abs=1e-3)
+    assert "B against its own model at 20 iterations instead of 10" in " ".join(table)
 
 
 @pytest.mark.slow

@@ -8,10 +8,11 @@ and scores the file against that run, window by window (the rate model's
 recordings): what ``snn-fg compare`` prints beside each comparison.
 
 The frames come from the file itself: a recording's run stores each
-window's event frame (``event_frame``); a still input's is made again from
-the input its parameters name. A model that is not iterated on an event
-frame here (a spiking run, the frame-based model) has no baseline of this
-kind, and :func:`self_agreement` says why instead.
+window's event frame (``event_frame``), and the frame-based model's run on a
+DAVIS recording the APS frame each window read (``aps_frame``); a still
+input's is made again from the input its parameters name. A model that is
+not iterated on a frame here (a spiking run) has no baseline of this kind,
+and :func:`self_agreement` says why instead.
 """
 
 from __future__ import annotations
@@ -25,8 +26,8 @@ from ..params import ModelParams
 from ..results.maps import Maps
 from .metrics import compare_frame, frame_of
 
-#: models whose maps a second run at twice the iterations can check (they read an event frame)
-ITERATED_MODELS = ("rate", "natural")
+#: models whose maps a second run at twice the iterations can check (they iterate on a frame)
+ITERATED_MODELS = ("rate", "natural", "fbfg")
 
 
 def model_params(params: dict) -> ModelParams:
@@ -35,24 +36,31 @@ def model_params(params: dict) -> ModelParams:
     return ModelParams.from_dict({k: v for k, v in params.items() if k in names})
 
 
-def event_frames(m: Maps, windows) -> list[tuple[np.ndarray, np.ndarray]] | str:
-    """The event frames ``(pos, neg)`` the maps of ``windows`` were made
-    from (``None``: ``m`` is one frame), or why they are not to be had."""
-    if m.fg_x.ndim == 3:
-        frames = m.extra.get("event_frame")
-        if frames is None:
-            return "it stores no event frames (a recording's run stores them)"
-        return [(frames[i] > 0, frames[i] < 0) for i in windows]
-    from ..frames.still import load_frame  # (an image is turned into events again: the camera simulator)
+def model_inputs(m: Maps, windows, needs: str) -> list | str:
+    """What the model that made ``m`` read in ``windows`` (``[None]``: ``m`` is one frame), as
+    :class:`~snn_fg.frames.still.Still` inputs: each window's event frame, or (``needs="image"``, the
+    frame-based model) the APS frame it ran on; ``None`` for a window with nothing to read. A string
+    says why they are not to be had."""
+    from ..events.images import as_float_image
+    from ..frames.still import Still, load_frame  # (an image is turned into events again: the camera simulator)
 
+    if m.fg_x.ndim == 3:
+        key = "aps_frame" if needs == "image" else "event_frame"
+        frames = m.extra.get(key)
+        if frames is None:
+            return f"it stores no {key} (a recording's run stores them)"
+        if needs == "image":
+            index = m.extra["aps_index"]
+            return [Still(image=as_float_image(frames[i], grey=False)) if index[i] >= 0 else None for i in windows]
+        return [Still(frames[i] > 0, frames[i] < 0) if np.any(frames[i]) else None for i in windows]
     source = m.params.get("source") or {}
     if "input" not in source:
         return "its parameters name no input"
     try:
-        still, _ = load_frame(source["input"], "events", source.get("threshold", 0.10), source.get("motion", "shift4"))
+        still, _ = load_frame(source["input"], needs, source.get("threshold", 0.10), source.get("motion", "shift4"))
     except (SnnFgError, OSError) as exc:
         return f"its input {source['input']} cannot be read again ({exc})"
-    return [(still.pos, still.neg)]
+    return [still]
 
 
 def self_agreement(m: Maps, windows, factor: int = 2, progress=None) -> list[dict] | str:
@@ -64,20 +72,21 @@ def self_agreement(m: Maps, windows, factor: int = 2, progress=None) -> list[dic
     model = m.params.get("model")
     if model not in ITERATED_MODELS:
         return f"B comes from the {model or 'unknown'} model, which is not iterated on an event frame here"
-    frames = event_frames(m, windows)
-    if isinstance(frames, str):
-        return f"B {frames}"
-    from ..models import Still, get_model  # (the rate models' packages compile on first use)
+    from ..models import MODELS, get_model  # (the rate models' packages compile on first use)
 
+    inputs = model_inputs(m, windows, MODELS[model].needs)
+    if isinstance(inputs, str):
+        return f"B {inputs}"
     params = model_params(m.params)
-    longer = get_model(model, params.replace(iterations=max(1, params.iterations) * factor), progress)
+    options = {k: m.params[k] for k in MODELS[model].options if k in m.params}
+    longer = get_model(model, params.replace(iterations=max(1, params.iterations) * factor), progress, **options)
     rows = []
-    for i, (pos, neg) in zip(windows, frames):
+    for i, still in zip(windows, inputs):
         fx, fy, g = frame_of(m, i)
-        if not (pos.any() or neg.any()):
+        if still is None:
             rows.append(None)
             continue
-        ref = longer.run_still(Still(pos, neg))
+        ref = longer.run_still(still)
         c = compare_frame(fx, fy, g, ref.fg_x, ref.fg_y, ref.grouping)
         rows.append(
             {

@@ -61,7 +61,7 @@ def test_the_frames_read_are_those_the_camera_writer_wrote():
     made = davis_disc_recording().frames
     assert [f.t_us for f in read] == FRAME_TIMES.tolist() == [f.t_us for f in made]
     assert [f.index for f in read] == list(range(10))
-    for a, b in zip(read, made):
+    for a, b in zip(read, made, strict=True):
         assert a.image.dtype == np.uint8 and np.array_equal(a.image, b.image)
         assert a.exposure_us == b.exposure_us  # (dv-processing stamps a frame at its exposure's start)
     assert open_frames(DATA / "davis346_no_frames.aedat4") is None

@@ -95,7 +95,9 @@ def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypa
         (tmp_path / "out" / name).mkdir(parents=True)
         Maps(z, z, z, {"model": "rate"}).save(tmp_path / "out" / name / "maps.npz")
     seen = []
-    monkeypatch.setattr(figures, "save_compare_figure", lambda path, a, b, rows, names, where, inputs: seen.append(names))
+    monkeypatch.setattr(
+        figures, "save_compare_figure", lambda path, a, b, rows, names, where, inputs: seen.append(names)
+    )
     for b in ("run-b", "run-b/maps.npz"):
         assert (
             main(

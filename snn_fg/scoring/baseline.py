@@ -81,7 +81,7 @@ def self_agreement(m: Maps, windows, factor: int = 2, progress=None) -> list[dic
     options = {k: m.params[k] for k in MODELS[model].options if k in m.params}
     longer = get_model(model, params.replace(iterations=max(1, params.iterations) * factor), progress, **options)
     rows = []
-    for i, still in zip(windows, inputs):
+    for i, still in zip(windows, inputs, strict=True):
         fx, fy, g = frame_of(m, i)
         if still is None:
             rows.append(None)

@@ -55,9 +55,9 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
     n_in = len(inputs)
     fig = Figure(figsize=((3 + n_in) * panel_w + 2.4, PANEL_IN * len(idx) + 0.6), layout="constrained")
     axes = fig.subplots(len(idx), 3 + n_in, squeeze=False)
-    for ax_row, i in zip(axes, idx):
+    for ax_row, i in zip(axes, idx, strict=True):
         r = rows[i]
-        for panel, show in zip(ax_row, inputs):
+        for panel, show in zip(ax_row, inputs, strict=False):
             title, image = show(r)
             grey = {"cmap": "gray", "vmin": 0, "vmax": 255} if np.ndim(image) == 2 else {}
             panel.imshow(image, interpolation="nearest", **grey)

@@ -36,7 +36,9 @@ SHORT_US = 30_000
 
 def _store(events) -> dv.EventStore:
     store = dv.EventStore()
-    for x, y, t, p in zip(events["x"].tolist(), events["y"].tolist(), events["t"].tolist(), events["p"].tolist()):
+    for x, y, t, p in zip(
+        events["x"].tolist(), events["y"].tolist(), events["t"].tolist(), events["p"].tolist(), strict=True
+    ):
         store.push_back(t, x, y, bool(p))
     return store
 

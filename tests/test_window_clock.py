@@ -68,11 +68,12 @@ def test_one_window_of_a_recording_runs_as_a_recording_of_that_window():
     assert frac >= 0.95 and n >= 30, (frac, n)
 
 
-def test_a_last_window_shorter_than_a_step_is_read_out_over_one_step():
+def test_a_last_window_cut_short_by_the_recording_is_read_out_over_a_whole_window():
     """A recording's last window ends 1 us after its last event; when that
-    event sits on a window boundary the window is shorter than a step. It
-    must still be read out over one step, not over none (which gave NaN
-    maps), and the whole run simulates no more than one step beyond it."""
+    event sits on a window boundary the window is shorter than a step. A
+    stream's end is not known ahead, so it is read out over a whole window's
+    span like every other (not over none, which gave NaN maps), and the run
+    simulates no further than that span's end."""
     from snn_fg.events import Recording
 
     _, rec = flipping_disc_recording(24, windows=2, window_ms=60.0)
@@ -85,8 +86,8 @@ def test_a_last_window_shorter_than_a_step_is_read_out_over_one_step():
     for m in maps:
         assert all(np.isfinite(getattr(m, k)).all() for k in ("fg_x", "fg_y", "grouping"))
     sim = maps[-1].params["simulation"]
-    assert sim["count_to_ms"] - sim["count_from_ms"] == pytest.approx(0.5)
-    assert sim["simulated_ms"] == pytest.approx(120.0 + sim["readout_lag_ms"] + 0.5)
+    assert sim["count_to_ms"] - sim["count_from_ms"] == pytest.approx(60.0)
+    assert sim["simulated_ms"] == pytest.approx(180.0 + sim["readout_lag_ms"])
 
 
 def _inward(scenes, maps):

@@ -260,8 +260,8 @@ def segments(settings: RunSettings) -> list[tuple[int, bool]]:
     def step(t_ms):
         return int(round(t_ms / settings.dt_ms))
 
-    edges = sorted({step(t) for t in settings.count_bins_ms or ()})
-    ends = sorted(set(edges) | {step(settings.duration_ms)})
+    edges = {step(t) for t in settings.count_bins_ms or ()}
+    ends = sorted(edges | {step(settings.duration_ms)})
     return [(e, e in edges) for e in ends]
 
 

@@ -125,6 +125,20 @@ class RecordingWindows:
     def __iter__(self):
         return iter_windows(self.recording, **self.options)
 
+    def cut(self):
+        """The recording's event chunks (a :class:`~snn_fg.events.io.RecordingStream`, read
+        once) and a :class:`WindowCutter` to cut them with, for a reader that takes the
+        events as they come (the spiking network) rather than window by window."""
+        window = {k: v for k, v in self.options.items() if k in WINDOW_KEYS}
+        read = check_read_options("RecordingWindows", {k: v for k, v in self.options.items() if k not in WINDOW_KEYS})
+        stream = iter_recording(self.recording, **read)
+        stream.warn_no_span = False  # (refused by the cut)
+        return stream, WindowCutter(stream.sensor_size, stream.path if stream.path is not None else "<array>", **window)
+
+
+#: the options of :func:`iter_windows` that say how a stream is cut (the others say how it is read)
+WINDOW_KEYS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
+
 
 def _check_window_options(max_windows, denoise_us, refractory_us) -> None:
     if max_windows is not None:
@@ -179,63 +193,138 @@ def iter_windows(
       ``codec``, ``channel``, ``timer_bits``); an option that does not apply
       to the recording's format is a ParameterError.
     """
-    read_options = check_read_options("iter_windows", read_options)
-    win, start, stride = _window_times(window_ms, start_ms, stride_ms)
-    _check_window_options(max_windows, denoise_us, refractory_us)
-    stream = iter_recording(recording_or_path, **read_options)
-    stream.warn_no_span = False  # (refused below)
-    size = stream.sensor_size
-    name = stream.path if stream.path is not None else "<array>"
+    stream, cut = RecordingWindows(
+        recording_or_path,
+        window_ms=window_ms,
+        start_ms=start_ms,
+        stride_ms=stride_ms,
+        max_windows=max_windows,
+        denoise_us=denoise_us,
+        refractory_us=refractory_us,
+        **read_options,
+    ).cut()
+    for chunk in stream:
+        yield from cut.add(chunk)
+        if cut.done:
+            return
+    yield from cut.finish()
 
-    buf = np.zeros(0, dtype=EVENT_DTYPE)
-    t0 = None
-    w_start = w_end = None
-    k = 0
-    seen = 0
-    prev_t = None
 
-    def emit(events, ws, we):
-        nonlocal k
-        ev = _filter(events, denoise_us, refractory_us)
-        if not len(ev):
-            warnings.warn(
-                f"{name}: window {k} [{ws} us, {we} us) has no events; its frames are all zero",
-                EmptyWindowWarning,
-                stacklevel=3,
-            )
-        pos, neg = events_to_frame(ev, size)
-        out = EventWindow(index=k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg, t_first_event_us=t0)
-        k += 1
+class WindowCutter:
+    """:func:`iter_windows`' cut made one chunk at a time, as a live stream
+    arrives: :meth:`add` takes the next events (in time order) and returns
+    the windows they complete, :meth:`finish` the last window once the
+    stream has ended. Windows are cut on the stream's own clock: window
+    ``k`` is ``[origin + k * stride, ... + window)`` with ``origin`` the
+    first event's time plus ``start_ms`` (:meth:`span`). The options are
+    :func:`iter_windows`' (``name`` is the stream's, for errors)."""
+
+    def __init__(
+        self,
+        sensor_size,
+        name="<stream>",
+        *,
+        window_ms: float = 85,
+        start_ms: float = 0,
+        stride_ms: float | None = None,
+        max_windows: int | None = None,
+        denoise_us: int | None = None,
+        refractory_us: int | None = None,
+    ):
+        self.win, self.start, self.stride = _window_times(window_ms, start_ms, stride_ms)
+        _check_window_options(max_windows, denoise_us, refractory_us)
+        self.max_windows, self.denoise_us, self.refractory_us = max_windows, denoise_us, refractory_us
+        self.start_ms = start_ms
+        self.size, self.name = sensor_size, name
+        self.buf = np.zeros(0, dtype=EVENT_DTYPE)
+        self.t0 = self.w_start = self.w_end = self.prev_t = None
+        self.k = self.seen = 0
+
+    @property
+    def filtered(self) -> bool:
+        """Whether a window's events are filtered (its own, not the stream's)."""
+        return bool(self.denoise_us or self.refractory_us)
+
+    @property
+    def origin(self) -> int | None:
+        """The first window's start (us, the stream's clock), once an event has come."""
+        return None if self.t0 is None else self.t0 + self.start
+
+    @property
+    def done(self) -> bool:
+        """Whether ``max_windows`` windows have been cut."""
+        return self.max_windows is not None and self.k >= self.max_windows
+
+    def span(self, k: int) -> tuple[int, int]:
+        """Window ``k``'s whole span ``(start, end)`` in us (a stream's last window may end earlier)."""
+        a = self.origin + k * self.stride
+        return a, a + self.win
+
+    def held(self, t: np.ndarray) -> np.ndarray:
+        """Which of the times ``t`` (in us) some window holds (none before the first
+        window, in the gaps of a stride longer than the window, after ``max_windows``)."""
+        d = np.asarray(t, dtype=np.int64) - self.origin
+        inside = (d >= 0) & (d % self.stride < self.win) if self.stride > self.win else d >= 0
+        if self.max_windows is not None:
+            inside &= d < (self.max_windows - 1) * self.stride + self.win
+        return inside
+
+    def add(self, chunk) -> list[EventWindow]:
+        """The windows that events ``chunk`` (later than every event before) complete."""
+        if self.done or not len(chunk):
+            return []
+        check_monotonic(chunk, self.name, offset=self.seen, prev_t=self.prev_t)
+        self.seen += len(chunk)
+        self.prev_t = int(chunk["t"][-1])
+        if self.t0 is None:
+            self.t0 = int(chunk["t"][0])
+            self.w_start = self.t0 + self.start
+            self.w_end = self.w_start + self.win
+        new = chunk[chunk["t"] >= self.w_start]
+        self.buf = np.concatenate([self.buf, new]) if len(self.buf) else new
+        out = []
+        while self.prev_t >= self.w_end:  # every window that ends at or before the newest timestamp is complete
+            cut = int(np.searchsorted(self.buf["t"], self.w_end, side="left"))
+            out.append(self._emit(self.buf[:cut], self.w_start, self.w_end))
+            if self.done:
+                break
+            self.w_start += self.stride
+            self.w_end = self.w_start + self.win
+            self.buf = self.buf[int(np.searchsorted(self.buf["t"], self.w_start, side="left")) :]
         return out
 
-    for chunk in stream:
-        check_monotonic(chunk, name, offset=seen, prev_t=prev_t)
-        seen += len(chunk)
-        prev_t = int(chunk["t"][-1])
-        if t0 is None:
-            t0 = int(chunk["t"][0])
-            w_start = t0 + start
-            w_end = w_start + win
-        buf = np.concatenate([buf, chunk[chunk["t"] >= w_start]]) if len(buf) else chunk[chunk["t"] >= w_start]
-        # every window that ends at or before the newest timestamp is complete
-        while prev_t >= w_end:
-            cut = int(np.searchsorted(buf["t"], w_end, side="left"))
-            yield emit(buf[:cut], w_start, w_end)
-            if max_windows is not None and k >= max_windows:
-                return
-            w_start += stride
-            w_end = w_start + win
-            keep_from = int(np.searchsorted(buf["t"], w_start, side="left"))
-            buf = buf[keep_from:]
-    if t0 is None:
-        raise InputError(name, "recording contains no events")
-    if seen > 1 and prev_t == t0:
-        raise InputError(name, f"{no_span_problem(seen, t0)} and has no window to cut; is the file cut short?")
-    if w_start > prev_t:
-        if k == 0:
+    def finish(self) -> list[EventWindow]:
+        """The last window, ending with the stream (one microsecond after its last event)."""
+        if self.done:
+            return []
+        if self.t0 is None:
+            raise InputError(self.name, "recording contains no events")
+        if self.seen > 1 and self.prev_t == self.t0:
             raise InputError(
-                name, f"start_ms={start_ms} lies after the last event ({(prev_t - t0) / 1000:g} ms after the first)"
+                self.name, f"{no_span_problem(self.seen, self.t0)} and has no window to cut; is the file cut short?"
             )
-        return
-    # the last window ends with the recording: its nominal end may lie far beyond
-    yield emit(buf, w_start, min(w_end, prev_t + 1))
+        if self.w_start > self.prev_t:
+            if self.k == 0:
+                raise InputError(
+                    self.name,
+                    f"start_ms={self.start_ms} lies after the last event "
+                    f"({(self.prev_t - self.t0) / 1000:g} ms after the first)",
+                )
+            return []
+        # the last window ends with the recording: its nominal end may lie far beyond
+        return [self._emit(self.buf, self.w_start, min(self.w_end, self.prev_t + 1))]
+
+    def _emit(self, events, ws, we) -> EventWindow:
+        ev = _filter(events, self.denoise_us, self.refractory_us)
+        if not len(ev):
+            warnings.warn(
+                f"{self.name}: window {self.k} [{ws} us, {we} us) has no events; its frames are all zero",
+                EmptyWindowWarning,
+                stacklevel=4,
+            )
+        pos, neg = events_to_frame(ev, self.size)
+        out = EventWindow(
+            index=self.k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg, t_first_event_us=self.t0
+        )
+        self.k += 1
+        return out

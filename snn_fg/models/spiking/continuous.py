@@ -39,7 +39,18 @@ from ...results.maps import Maps
 from ..cores import usable_cores
 from .options import SpikingOptions
 from .record import run_provenance
-from .recording_input import WindowFeed, plan_recording
+from .stream_input import (
+    HORIZON_MS,
+    SEGMENT_MS,
+    StreamEnded,
+    StreamFeed,
+    StreamLayout,
+    arrivals,
+    read_out_spans,
+    stream_rate_hz,
+    window_arrivals,
+    window_steps,
+)
 from .window_reader import WindowReader, maps_of
 
 
@@ -111,8 +122,13 @@ def stream_spiking_windows(
     gathering them)."""
     opts = SpikingOptions.from_keywords("stream_spiking_windows", keywords, frame=False)
     run = _simulate(windows, opts, source=source, keep_run=False, on_window=on_window, cells=cells)
-    whole = run_provenance(run.network, run.origin, run.backend, run.result, {}, run.simulation, run.t_start)
-    return {k: whole[k] for k in ("counts", "backend_stats", "kept_kernel_mass", "timings_s")}
+    result = run.result if run.result is not None else run.last_bin  # (a run stopped as its stream ended)
+    whole = run_provenance(run.network, run.origin, run.backend, result, {}, run.simulation, run.t_start)
+    return {
+        **{k: whole[k] for k in ("counts", "backend_stats", "kept_kernel_mass", "timings_s")},
+        "windows": run.n_windows,
+        "merged_input_spikes": run.merged,
+    }
 
 
 @dataclasses.dataclass
@@ -136,6 +152,8 @@ class ContinuousRun:
     t_start: float
     decoded: list
     decoded_at: list
+    merged: int = 0
+    last_bin: object = None
 
 
 def simulate_windows(
@@ -145,95 +163,141 @@ def simulate_windows(
     keep_run: bool = True,
     on_window=None,
     cells: bool = True,
+    segment_ms: float = SEGMENT_MS,
     **keywords,
 ) -> ContinuousRun:
     """The simulation half of :func:`run_spiking_windows` (same parameters):
     one run over every window, each window decoded as the run passes the
     end of its read-out span; :func:`window_maps` makes their maps.
 
+    ``windows``: a list of windows, or a stream cut as it is read (an
+    object with a ``cut()`` method giving its event chunks and a
+    :class:`~snn_fg.events.window.WindowCutter`, as
+    :class:`~snn_fg.events.RecordingWindows` and a live source do), read once
+    (:mod:`.stream_input`); ``segment_ms``: the input handed to the backend
+    at a time.
+
     ``keep_run=False`` lets the backend forget each counting bin once it is
     read (``RunSettings.on_bin``): the result then has no per-bin counts
     and no spike trains, and the memory need not grow with the recording.
     ``True`` keeps them in ``ContinuousRun.result`` (for analyses of the
-    whole run's spikes). ``on_window(window, maps)``: each window's maps as it
+    whole run's spikes; the stream is read whole first). ``on_window(window, maps)``: each window's maps as it
     is decoded (:func:`stream_spiking_windows`), none kept in the result;
     ``cells=False``: the windows' records leave out the per-cell counts."""
     opts = SpikingOptions.from_keywords("simulate_windows", keywords, frame=False)
-    return _simulate(windows, opts, source=source, keep_run=keep_run, on_window=on_window, cells=cells)
+    return _simulate(
+        windows, opts, source=source, keep_run=keep_run, on_window=on_window, cells=cells, segment_ms=segment_ms
+    )
 
 
-def _simulate(windows, opts: SpikingOptions, *, source, keep_run, on_window=None, cells=True) -> ContinuousRun:
+def _simulate(
+    windows, opts: SpikingOptions, *, source, keep_run, on_window=None, cells=True, segment_ms: float = SEGMENT_MS
+) -> ContinuousRun:
     """:func:`simulate_windows` with its options made (checked once, passed whole)."""
     t_start = time.perf_counter()
-    sim, lag = opts.simulator, opts.recording.readout_lag_ms
-    if iter(windows) is windows:  # (read once only: kept, to be read twice)
-        windows = list(windows)
+    sim, backend = opts.simulator, opts.simulator.backend_object()
     threaded = usable_cores() > 1
-    plan = plan_recording(
-        read_ahead(windows) if threaded else windows,
-        opts.network,
-        sim,
-        lag,
-        opts.recording.window_clock,
-        source,
-        opts.recording.seed,
+    cut = windows.cut() if hasattr(windows, "cut") else None
+    if cut is None:
+        stream = window_arrivals(windows)
+    else:
+        stream = arrivals(*cut)
+    feed = StreamFeed(
+        read_ahead(stream) if threaded else stream,
+        lambda f: lay_out(f, opts, None if cut is None else cut[1]),
+        name=source,
+        drain=keep_run or cut is None or not backend.streams_input,
+        keep=keep_run,
+        segment_ms=segment_ms,
     )
-    net, origin, rate = plan.network, plan.origin, plan.rate_hz
-    if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
-        origin["calibrated"] = {"from_hz": net.input_rate_hz, "to_hz": rate, "rate": "per active pixel in a window"}
-        net = net.calibrated(rate)
-    edges = sorted({t for span in plan.spans for t in span})
-    backend = sim.backend_object()
-    feed = WindowFeed(read_ahead(windows) if threaded else windows, plan, keep=keep_run)
+    lay = feed.layout
+    net = lay.network
+    edges = sorted({t for span in lay.spans for t in span})
     inp = feed.input if backend.streams_input else feed.input.whole()
     instantiate = sim.cells_for(backend, inp)
     simulation = {
         "mode": "continuous",
         "simulated_ms": edges[-1],
         "network_builds": 1,
-        "readout_lag_ms": lag,
-        "dt_ms": plan.dt_ms,
+        "readout_lag_ms": opts.recording.readout_lag_ms,
+        "dt_ms": lay.dt_ms,
         "input": "events",
         "input_coding": net.input_coding,
-        **({"seed": plan.seed} if plan.held else {}),
-        "rate_hz_used": rate,
-        "merged_input_spikes": plan.merged,
+        **({"seed": lay.seed} if lay.held else {}),
+        "rate_hz_used": lay.rate_hz,
         "instantiate": instantiate,
         "record_spikes": bool(sim.record_spikes),
-        "window_clock": plan.clock_steps is not None,
+        "window_clock": lay.clock,
     }
+    n = len(lay.spans)
     run = ContinuousRun(
-        len(plan.spans),
-        net,
-        origin,
-        backend,
-        None,
-        edges,
-        plan.spans,
-        simulation,
-        t_start,
-        [None] * len(plan.spans),
-        [None] * len(plan.spans),
+        n, net, lay.origin, backend, None, edges, lay.spans, simulation, t_start, [None] * n, [None] * n
     )
-    reader = WindowReader(feed, plan.spans, edges, net.params.input_pool, run, on_window, threaded, cells)
+    reader = WindowReader(feed, lay.spans, edges, net.params.input_pool, run, on_window, threaded, cells)
     simulation["decode_thread"] = reader.threaded
     settings = RunSettings(
         duration_ms=edges[-1],
-        dt_ms=plan.dt_ms,
+        dt_ms=lay.dt_ms,
         count_from_ms=edges[0],
         record_spikes=sim.record_spikes,
         instantiate=instantiate,
         count_bins_ms=tuple(edges),
         log=sim.say,
-        progress=sim.progress,
+        progress=sim.progress and feed.ended,  # (a run laid out ahead of its stream: the windows show the progress)
         on_bin=None if keep_run else reader,
     )
     with reader:
-        run.result = backend.simulate(net, inp, settings)
-        if run.result.binned_counts is not None:  # (a backend that kept its bins)
+        try:
+            run.result = backend.simulate(net, inp, settings)
+        except StreamEnded:  # (the stream ended before the run laid out for it: its last window is read)
+            run.n_windows = feed.n
+            simulation["simulated_ms"] = lay.spans[feed.n - 1][1]
+        if run.result is not None and run.result.binned_counts is not None:  # (a backend that kept its bins)
             for k, bin_result in each_bin(run.result):
                 reader(k, bin_result)
+    run.merged = feed.merged
+    run.last_bin = reader.last_result
     return run
+
+
+def lay_out(feed: StreamFeed, opts: SpikingOptions, cut) -> StreamLayout:
+    """The run over ``feed``'s stream, laid out before it starts (:class:`StreamLayout`):
+    the network for the sensor's frame, calibrated for a stream
+    (:func:`~.stream_input.stream_rate_hz`), and every window's read-out span,
+    for the windows known (a stream read whole, or a list of windows) or
+    for those the stream can hold within :data:`~.stream_input.HORIZON_MS`
+    (``cut``: the stream's :class:`~snn_fg.events.window.WindowCutter`; None for a list)."""
+    first = feed.held.get(0)
+    shape = first.pos.shape if cut is None else (int(cut.size[1]), int(cut.size[0]))
+    net, origin = opts.network.resolve(shape)
+    rate = stream_rate_hz(net, feed.first_window)
+    if opts.network.calibrate and not np.isclose(net.input_rate_hz, rate, rtol=1e-12, atol=0):
+        origin["calibrated"] = {
+            "from_hz": net.input_rate_hz,
+            "to_hz": rate,
+            "rate": "per active source, for a stream (stream_rate_hz)",
+        }
+        net = net.calibrated(rate)
+    dt_ms, lag = opts.simulator.step_for(net), opts.recording.readout_lag_ms
+    if cut is None:  # (times from the first window's start)
+        length = max(w.t_end_us - w.t_start_us for w in feed.held.values())
+        starts = np.array([w.t_start_us - feed.origin for _, w in sorted(feed.held.items())], dtype=np.int64)
+    else:
+        n = feed.n if feed.ended else int(HORIZON_MS * 1000 // cut.stride)
+        n = n if cut.max_windows is None else min(n, cut.max_windows)
+        length, starts = cut.win, cut.stride * np.arange(n, dtype=np.int64)
+    steps = window_steps(starts, starts + length, 0, dt_ms)
+    return StreamLayout(
+        network=net,
+        origin=origin,
+        shape=shape,
+        dt_ms=dt_ms,
+        rate_hz=net.input_rate_hz,
+        spans=read_out_spans(starts, starts + length, 0, lag, dt_ms),
+        steps=steps,
+        clock=bool(opts.recording.window_clock and net.by_role("clock")),
+        seed=opts.recording.seed,
+    )
 
 
 def read_ahead(windows):

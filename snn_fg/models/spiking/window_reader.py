@@ -17,12 +17,12 @@ from ...frames.pool import pool_frame
 from ...results.maps import CONFIDENCE, Maps
 from .decode import decode_maps
 from .record import SpikingRecord, run_provenance
-from .recording_input import WindowFeed
+from .stream_input import StreamEnded, StreamFeed
 
 
 def bins_of(span, edges) -> tuple[int, int]:
     """The counting bins ``k0 .. k1 - 1`` that make up a read-out span (spans
-    are made of edges)."""
+    are made of edges; ``edges`` sorted, best an array)."""
     return int(np.searchsorted(edges, span[0])), int(np.searchsorted(edges, span[1]))
 
 
@@ -32,7 +32,9 @@ class WindowReader:
     into ``run.decoded[k] = (fg_x, fg_y, grouping, SpikingRecord)``, or as
     its maps to ``on_window(window, maps)``. Only the windows still being
     read hold their counts and spikes; the windows themselves come from
-    ``feed`` (:class:`~snn_fg.models.spiking.recording_input.WindowFeed`).
+    ``feed`` (:class:`~snn_fg.models.spiking.stream_input.StreamFeed`); once the
+    stream has ended and its last window is read, :class:`StreamEnded` stops
+    a run laid out for more windows.
 
     ``threaded`` (where the process may use more than one core): a window
     is decoded and handed to ``on_window`` on a second thread while the
@@ -47,7 +49,7 @@ class WindowReader:
 
     def __init__(
         self,
-        feed: WindowFeed,
+        feed: StreamFeed,
         spans,
         edges,
         pool: int,
@@ -57,7 +59,8 @@ class WindowReader:
         cells: bool = True,
     ):
         self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
-        self.bins = [bins_of(span, edges) for span in spans]
+        ends = np.searchsorted(np.asarray(edges), np.asarray(spans, dtype=np.float64).reshape(-1, 2))
+        self.bins = [(int(a), int(b)) for a, b in ends]
         self.first = 0  # the first window not decoded yet (spans start and end in order)
         self.reading: dict = {}
         self.last_at = run.t_start  # perf_counter() when the last window was decoded
@@ -65,6 +68,7 @@ class WindowReader:
         self.worker = None
         self.pending: deque = deque()
         self.failed = False
+        self.last_result = None  # the last bin's result (the whole run's, if it is stopped early)
 
     def __enter__(self):
         if self.threaded:
@@ -87,6 +91,7 @@ class WindowReader:
             self.pending.popleft().result()
 
     def __call__(self, k: int, result):
+        self.last_result = result
         i = self.first
         while i < len(self.bins) and self.bins[i][0] <= k:
             if k < self.bins[i][1]:
@@ -94,6 +99,8 @@ class WindowReader:
             i += 1
         while self.first < len(self.bins) and self.bins[self.first][1] <= k + 1:
             self.first += 1
+        if self.feed.ended and self.feed.n <= self.first < len(self.bins):
+            raise StreamEnded(f"{self.feed.n} windows")
 
     def _add(self, i: int, k: int, k1: int, result):
         counts, spikes = self.reading.setdefault(i, ({}, []))
@@ -147,7 +154,17 @@ def maps_of(run, k: int, decoded, result, window_s: float) -> Maps:
     of ``result`` (the whole run's, or the bin's while it runs)."""
     fg_x, fg_y, grouping, conf, rec = decoded
     k0, k1 = bins_of(run.spans[k], run.edges)
-    simulation = {**rec.timing(), **run.simulation, "count_from_ms": run.edges[k0], "count_to_ms": run.edges[k1]}
+    so_far = {
+        "duration_ms": run.edges[k1],
+        "simulated_ms": run.edges[k1],
+    }  # (when it was read: a stream's end is not known)
+    simulation = {
+        **rec.timing(),
+        **run.simulation,
+        **so_far,
+        "count_from_ms": run.edges[k0],
+        "count_to_ms": run.edges[k1],
+    }
     params = run_provenance(run.network, run.origin, run.backend, result, rec.populations, simulation, run.t_start)
     params["timings_s"]["window"] = window_s
     extra = {**rec.arrays(), CONFIDENCE: conf.astype(np.float32)}

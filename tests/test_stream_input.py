@@ -1,0 +1,191 @@
+"""A recording's input made as the run needs it, read once: spikes from events handed
+over chunk by chunk, and the fast engine fed a segment of steps at a time,
+give what the whole recording's input at once gives, bit for bit; a run laid
+out ahead of its stream and stopped at its end gives the maps of a run that
+knew the windows beforehand, and asks for no event before the step it simulates."""
+
+import numpy as np
+import pytest
+
+from snn_fg.backends.fast import FastBackend
+from snn_fg.events import EVENT_DTYPE, RecordingWindows, iter_windows
+from snn_fg.frames.scenes import flipping_disc_recording
+from snn_fg.lowering.input_spikes import event_spikes
+from snn_fg.lowering.input_stream import SpikeStream
+from snn_fg.models.spiking.continuous import simulate_windows, window_maps
+from snn_fg.network import Input, SpikingParams
+from snn_fg.params import ModelParams
+
+pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
+
+
+def _events(n=4000, w=9, h=7, span_us=40_000, seed=3):
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["x"], ev["y"] = rng.integers(0, w, n), rng.integers(0, h, n)
+    ev["t"] = np.sort(rng.integers(0, span_us, n))
+    ev["p"] = rng.integers(0, 2, n)
+    return ev
+
+
+@pytest.mark.parametrize("refractory_ms", [0.0, 2.0])
+def test_spikes_of_events_added_in_chunks_are_those_of_all_the_events_at_once(refractory_ms):
+    """Chunks cut inside a step (two events of one source in that step
+    merge across the cut) and spikes taken at other points than the cuts:
+    the refractory period carries over, and the spikes, their order and the
+    merged count are event_spikes' on the whole."""
+    ev = _events()
+    whole = event_spikes(ev, (9, 7), 0.5, replay=False, t0_us=0, refractory_ms=refractory_ms)
+    stream = SpikeStream((7, 9), 0.5, 0, refractory_ms)
+    cuts = [0, 1, 997, 998, 2500, 3999, 4000]
+    assert ev["t"][997] // 500 == ev["t"][996] // 500 or ev["t"][998] // 500 == ev["t"][997] // 500
+    parts = []
+    for a, b in zip(cuts, cuts[1:]):
+        stream.add(ev[a:b])
+        complete = int(ev["t"][b - 1] // 500)  # (later events may still fall in this step)
+        parts.append(stream.take_until(complete - 3))
+    parts.append(stream.take_until(10**9))
+    idx, steps = (np.concatenate([p[k] for p in parts]) for k in (0, 1))
+    np.testing.assert_array_equal(idx, whole.indices)
+    np.testing.assert_array_equal(steps, whole.steps)
+    assert stream.merged == whole.merged
+    assert whole.merged > 0 if refractory_ms == 0 else idx.size < len(ev) - 1000  # (each case does something)
+    np.testing.assert_array_equal(stream.on, whole.on)
+    np.testing.assert_array_equal(stream.off, whole.off)
+
+
+class _WholeInputFast(FastBackend):
+    """The fast engine handed the whole run's input at once, as before it streamed it."""
+
+    streams_input = False
+
+
+def _same_runs(a, b):
+    ma, mb = window_maps(a), window_maps(b)
+    assert len(ma) == len(mb)
+    for x, y in zip(ma, mb):
+        for k in ("fg_x", "fg_y", "grouping"):
+            np.testing.assert_array_equal(getattr(x, k), getattr(y, k))
+        for k in x.extra:
+            np.testing.assert_array_equal(x.extra[k], y.extra[k], err_msg=k)
+        px, py = dict(x.params), dict(y.params)
+        px.pop("timings_s"), py.pop("timings_s")
+        px["backend"].pop("name", None), py["backend"].pop("name", None)
+        assert px == py
+    for name, c in a.result.counts.items():
+        np.testing.assert_array_equal(b.result.counts[name], c, err_msg=name)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("adapter", ["none", "pool and refractory"])
+def test_the_engine_fed_segment_by_segment_gives_the_run_fed_whole(adapter):
+    """Overlapping windows of a recording read once as it streams (a
+    RecordingWindows over the events), the input handed over in segments of
+    7 steps (cut across windows and counting bins): the maps, spike counts,
+    records and parameters are those of the engine fed the whole run's
+    input from a list of the windows, with and without an input adapter
+    (pooling and a refractory period: the gains are then calibrated to its
+    ceiling)."""
+    _, rec = flipping_disc_recording(24, windows=3, window_ms=40.0)
+    opts = dict(window_ms=40.0, stride_ms=25.0)
+    kw = dict(params=ModelParams(levels=3), progress=False, keep_run=True)
+    if adapter != "none":
+        kw.update(
+            params=ModelParams(levels=3, input_pool=2), spiking=SpikingParams(input=Input(input_refractory_ms=3.0))
+        )
+    whole = simulate_windows(list(iter_windows(rec, **opts)), backend=_WholeInputFast(), **kw)
+    fed = simulate_windows(RecordingWindows(rec, **opts), backend=FastBackend(), segment_ms=3.5, **kw)
+    assert fed.n_windows == whole.n_windows >= 4
+    assert whole.result.stats["input_spikes"] > 0
+    if adapter != "none":
+        assert fed.origin["calibrated"] == whole.origin["calibrated"]
+        assert fed.origin["calibrated"]["to_hz"] == pytest.approx(1000 / 3.0)
+    _same_runs(whole, fed)
+
+
+class _Chunks:
+    """A recording's events in chunks of ``n``, noting how far they have been read."""
+
+    def __init__(self, events, n):
+        self.events, self.n, self.read_to = events, n, -1
+
+    def __iter__(self):
+        for i in range(0, len(self.events), self.n):
+            chunk = self.events[i : i + self.n]
+            self.read_to = int(chunk["t"][-1])
+            yield chunk
+
+
+class _Stream:
+    """A stream cut as it is read (what a live source gives the spiking model)."""
+
+    def __init__(self, rec, chunks, **options):
+        from snn_fg.events.window import WindowCutter
+
+        self.chunks, self.cutter = chunks, WindowCutter(rec.sensor_size, **options)
+
+    def cut(self):
+        return self.chunks, self.cutter
+
+
+@pytest.mark.slow
+def test_a_run_laid_out_ahead_of_its_stream_reads_it_causally_and_ends_with_it():
+    """A stream of unknown length (laid out for an hour, stopped once its last
+    window is read): the maps of every window, the last included, are those
+    of the run over the list of its windows (whose clock fires for those
+    windows only), bit for bit; and after the first window (which calibrates
+    a network without an input refractory period) each segment of input is
+    asked for when the stream has been read to that segment's end and at
+    most two chunks further (one read ahead on a thread): the events arrive
+    as the network needs them, not a window ahead."""
+    _, rec = flipping_disc_recording(24, windows=4, window_ms=40.0)
+    kw = dict(params=ModelParams(levels=3), progress=False, window_ms=40.0) | {}
+    listed = window_maps(
+        simulate_windows(
+            list(iter_windows(rec, window_ms=40.0)), params=ModelParams(levels=3), progress=False, keep_run=True
+        )
+    )
+    chunks = _Chunks(rec.events, 50)
+    asked = []
+    streamed = []
+    stream = _Stream(rec, chunks, window_ms=kw.pop("window_ms"))
+    run = simulate_windows(
+        stream,
+        keep_run=False,
+        on_window=lambda w, m: streamed.append(m),
+        segment_ms=2.0,
+        backend=_Noting(asked, chunks),
+        **kw,
+    )
+    assert run.n_windows == len(listed) == len(streamed) == 4 and len(run.spans) > 1000  # (stopped early)
+    for a, b in zip(listed, streamed, strict=True):
+        for k in ("fg_x", "fg_y", "grouping"):
+            np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+    t0, ev_t = int(rec.events["t"][0]), rec.events["t"]
+    # (a network without an input refractory period is calibrated on the first window: none runs before it is read)
+    assert all(read_to >= t0 + 40_000 for _, read_to in asked)
+    later = [(s, r) for s, r in asked[:-5] if t0 + s * 500 > t0 + 40_000 + 2 * 500 * 4]
+    assert len(later) > 50
+    for end_step, read_to in later:
+        end_us = t0 + end_step * 500  # (0.5 ms steps)
+        assert read_to >= min(end_us, ev_t[-1])  # every event before the segment's end was read
+        assert np.count_nonzero((ev_t >= end_us) & (ev_t <= read_to)) <= 2 * 50  # (one chunk past it, one read ahead)
+
+
+class _Noting(FastBackend):
+    """The fast engine, noting how far the stream had been read as each segment of input was asked for."""
+
+    def __init__(self, asked, chunks):
+        super().__init__()
+        self.asked, self.chunks = asked, chunks
+
+    def simulate(self, network, inputs, settings):
+        segment = inputs.segment
+
+        def noted(j):
+            out = segment(j)
+            self.asked.append(((j + 1) * inputs.segment_steps, self.chunks.read_to))
+            return out
+
+        inputs.segment = noted
+        return super().simulate(network, inputs, settings)

@@ -43,13 +43,44 @@ def recording_windows(path, *, sensor_size=None, window_options: dict, progress:
 
 
 class _Counted:
-    """``windows`` (read again on every iteration) with a progress bar on each reading."""
+    """``windows`` (read again on every iteration) with a progress bar on each reading;
+    :meth:`cut` counts the windows of a reader that takes the events as they come."""
 
     def __init__(self, windows, total):
         self.windows, self.total = windows, total
 
     def __iter__(self):
         return _counted(self.windows, self.total)
+
+    def cut(self):
+        chunks, cutter = self.windows.cut()
+        return chunks, _CountingCutter(cutter, self.total)
+
+
+class _CountingCutter:
+    """A :class:`~snn_fg.events.window.WindowCutter` with a progress bar of the windows it cuts."""
+
+    def __init__(self, cutter, total):
+        self.cutter, self.total, self.bar = cutter, total, None
+
+    def __getattr__(self, name):
+        return getattr(self.cutter, name)
+
+    def _counted(self, windows):
+        if windows and self.bar is None:
+            self.bar = tqdm(desc="windows read", unit="win", file=sys.stderr, total=self.total, leave=False)
+        if self.bar is not None:
+            self.bar.update(len(windows))
+        return windows
+
+    def add(self, chunk):
+        return self._counted(self.cutter.add(chunk))
+
+    def finish(self):
+        out = self._counted(self.cutter.finish())
+        if self.bar is not None:
+            self.bar.close()
+        return out
 
 
 def _counted(windows, total):

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import Run, describe, markdown_table, save_figure, save_results
+from experiments.common import Run, dataset, describe, markdown_table, save_figure, save_results
 from experiments.validation.recording_fidelity import NETWORKS, inward, rate_maps, scores, windows_of
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -50,7 +50,7 @@ np.savez({out!r}, fg_x=np.stack([m.fg_x for m in maps]), fg_y=np.stack([m.fg_y f
 def _maps_of(src: Path | None, network: str, n: int, tmp: str):
     """The spiking maps of the code in ``src`` (None: this checkout), made in a process of its own."""
     out = os.path.join(tmp, f"{network}-{'before' if src else 'after'}.npz")
-    env = dict(os.environ, PYTHONPATH=str(src or ROOT))
+    env = dict(os.environ, PYTHONPATH=str(src or ROOT), SNN_FG_DATA=str(dataset("events").parent))
     code = _MAPS.format(n=n, network=network, out=out)
     subprocess.run([sys.executable, "-c", code], check=True, env=env, cwd=str(src or ROOT))
     with np.load(out) as z:

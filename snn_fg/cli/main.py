@@ -23,7 +23,9 @@ from .data import add_data_command
 from .decode import add_decode_command
 from .events import add_events_command
 from .export import add_export_command
+from .live import add_live_command
 from .run import add_run_command
+from .stream import add_stream_command
 
 #: the exit status of bad input, a usage error included
 EXIT_INPUT = 2
@@ -54,6 +56,8 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
         "export": add_export_command(sub),
         "decode": add_decode_command(sub),
         "data": add_data_command(sub),
+        "stream": add_stream_command(sub),
+        "live": add_live_command(sub),
     }
     return parser, subs
 

@@ -198,6 +198,7 @@ def _simulate(
     sim, backend = opts.simulator, opts.simulator.backend_object()
     threaded = usable_cores() > 1
     cut = windows.cut() if hasattr(windows, "cut") else None
+    segment_ms = getattr(windows, "segment_ms", segment_ms)  # (a live stream: handed over in shorter segments)
     if cut is None:
         stream = window_arrivals(windows)
     else:

@@ -1,0 +1,135 @@
+"""``snn-fg live``: a model on an event stream that arrives while it runs.
+
+The stream (``udp://`` SPIF packets or a ``dv://`` DV stream,
+:mod:`snn_fg.events.live_sources`) is received on a thread of its own and
+cut into windows on its own clock (:class:`~snn_fg.events.live.LiveStream`);
+the model runs on it as ``snn-fg run`` runs on a recording (the spiking
+network continuously, reading the events as they come), writing
+``DIR/maps.zarr`` window by window, publishing each window
+(:mod:`snn_fg.results.publish`) and ending when the sender has gone, with
+``DIR/live.json``. Ctrl-C ends it with the windows complete so far.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from ..errors import InputError
+from ..events.live import LiveStream
+from ..events.live_sources import open_source
+from ..frames.pool import pooled_shape
+from ..frames.pyramid import check_levels
+from ..models import MODELS
+from ..results.atomic import growing_folder, settle_folder
+from ..results.publish import LiveModel, LiveRecord, Publisher
+from ..results.store import windows_complete
+from .options import number, sensor_size, subcommand
+from .run_options import add_option_groups, chosen_model
+from .runner import run_recording
+
+#: simulated time the spiking network is handed at a time on a live stream (ms): it follows the events this closely
+LIVE_SEGMENT_MS = 5.0
+#: options of ``snn-fg run`` that a live stream has no use for
+_NOT_LIVE = ("resume", "max_windows", "stride_ms", "save_spikes")
+
+
+def add_live_command(sub):
+    p = subcommand(
+        sub,
+        "live",
+        help="run a model on a live event stream, writing maps as the windows complete",
+        description="Run a model on SOURCE as it arrives: udp://HOST:PORT (SpiNNaker interface board "
+        "packets, as aestream sends them; needs --sensor-size) or dv://HOST:PORT (a DV network stream, "
+        "pip install -e '.[live]'). Windows are cut on the stream's own clock; DIR/maps.zarr grows "
+        "window by window as with snn-fg run, and DIR/live.json keeps each window's latency (from its "
+        "last event's arrival to its maps) and what was dropped. Ends when the sender has gone (UDP: "
+        "no packet for --idle-s).",
+    )
+    p.add_argument("source", metavar="SOURCE", help="udp://HOST:PORT or dv://HOST:PORT")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
+    p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
+    p.add_argument("--model", choices=tuple(MODELS), default="rate", help="as snn-fg run (default: rate)")
+    p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="the sensor (udp://: required)")
+    p.add_argument(
+        "--hop-ms",
+        type=number(float, 0),
+        metavar="H",
+        help="a window's maps every H ms over the last --window-ms (a sliding read-out; default: one per window)",
+    )
+    p.add_argument("--publish", metavar="udp://HOST:PORT", help="one JSON line per window: its span and peaks")
+    p.add_argument("--peaks", type=number(int, 1), default=3, metavar="K", help="grouping peaks published (3)")
+    p.add_argument(
+        "--max-behind",
+        type=number(int, 0, strict=False),
+        default=2,
+        metavar="N",
+        help="windows waiting for their maps before whole windows are dropped (2)",
+    )
+    p.add_argument("--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s (30)")
+    p.add_argument("--idle-s", type=number(float, 0), default=1.0, metavar="S", help="udp://: end after S s idle (1)")
+    p.add_argument("--no-progress", action="store_true", help="no progress messages")
+    p.add_argument("--no-figures", action="store_true", help="no figures at the end (the maps only)")
+    add_option_groups(p)
+    p.set_defaults(handler=cmd_live, input=None, motion=None, crop=None)
+    return p
+
+
+def cmd_live(args) -> int:
+    args.input = args.source
+    given = [k for k in _NOT_LIVE if getattr(args, k, None) is not None]
+    if given:
+        flags = ", ".join("--" + k.replace("_", "-") for k in given)
+        raise InputError(args.source, f"{flags}: not for a live stream (--hop-ms slides the read-out)")
+    model = chosen_model(args, "recording")
+    if model.needs == "image":
+        raise InputError(args.source, f"the {model.name} model needs an image, not an event stream")
+    source = open_source(args.source, args.sensor_size, wait_s=args.wait_s, idle_s=args.idle_s)
+    w, h = source.sensor_size[:2]
+    try:
+        check_levels(
+            pooled_shape((h, w), model.params.input_pool),
+            model.params.levels,
+            args.source,
+            model.params.levels_per_octave,
+        )
+        out, previous = growing_folder(args.out, force=args.force)
+    except BaseException:
+        source.close()
+        raise
+    window_ms = args.window_ms if args.window_ms is not None else 85.0
+    stream = LiveStream(
+        source, window_ms=window_ms, stride_ms=args.hop_ms, start_ms=args.start_ms or 0.0, max_behind=args.max_behind
+    )
+    stream.segment_ms = LIVE_SEGMENT_MS
+    stream.on_ready = lambda: print(f"snn-fg: live: {model.name} model ready for {args.source}", flush=True)
+    publisher = Publisher(args.publish) if args.publish else None
+    record = LiveRecord(stream, publisher, args.peaks)
+    described = {"input": args.source, "kind": "live", "window_ms": window_ms, "start_ms": args.start_ms or 0.0}
+    described["stride_ms"] = args.hop_ms if args.hop_ms is not None else window_ms
+    args.interrupt_note = f"the windows complete so far are in {args.out}/ (live.json says how many)"
+    ended = "the sender closed the stream"
+    try:
+        n = run_recording(LiveModel(model, stream, record), stream, out, described, figures=not args.no_figures)
+    except KeyboardInterrupt:
+        ended = "interrupted"
+        raise
+    except BaseException as exc:
+        ended = f"error: {exc}"
+        raise
+    finally:
+        stream.close()
+        if publisher is not None:
+            publisher.close()
+        kept = bool(windows_complete(out))
+        if kept:
+            summary = record.save(out / "live.json", ended)
+        settle_folder(out, previous, keep_new=kept)
+    lat = summary["latency_ms"] or {}
+    print(
+        f"snn-fg: {model.name} model on {args.source}: {n} window{'s' if n != 1 else ''} "
+        f"({summary['windows_dropped']} dropped), {summary['events_received']} events received; latency "
+        f"median {lat.get('median', float('nan')):.1f} ms, p95 {lat.get('p95', float('nan')):.1f} ms, "
+        f"max {lat.get('max', float('nan')):.1f} ms; wrote {args.out}/",
+        file=sys.stdout,
+    )
+    return 0

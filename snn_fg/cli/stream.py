@@ -1,0 +1,57 @@
+"""``snn-fg stream``: a recording replayed as a live stream, in real time or
+``--speed`` times faster, to ``udp://`` (SPIF packets) or ``dv://`` (a DV
+network stream) (:mod:`snn_fg.events.replay`), so that ``snn-fg live`` can be
+tried without a camera."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from ..events import iter_recording
+from ..events.replay import looped, open_sender, paced
+from .options import number, sensor_size, subcommand
+
+
+def add_stream_command(sub):
+    p = subcommand(
+        sub,
+        "stream",
+        help="replay a recording as a live event stream (for snn-fg live)",
+        description="Replay the recording REC to udp://HOST:PORT (SpiNNaker interface board packets, with "
+        "timestamps) or dv://HOST:PORT (a DV network stream served there; pip install -e '.[live]'), in "
+        "real time or --speed X faster. Times start at 0 with the recording's first event. The "
+        "recording is read whole before the replay starts.",
+    )
+    p.add_argument("recording", metavar="REC", help="an event recording (any format snn-fg run reads)")
+    p.add_argument("--to", required=True, metavar="URL", help="udp://HOST:PORT or dv://HOST:PORT")
+    p.add_argument("--speed", type=number(float, 0), default=1.0, metavar="X", help="times real time (1)")
+    p.add_argument("--loop", type=number(int, 1), default=1, metavar="N", help="play the recording N times (1)")
+    p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="as snn-fg run (RAW files, arrays)")
+    p.add_argument("--no-timestamps", action="store_true", help="udp://: events without times (stamped on arrival)")
+    p.set_defaults(handler=cmd_stream)
+    return p
+
+
+def cmd_stream(args) -> int:
+    size = iter_recording(args.recording, sensor_size=args.sensor_size).sensor_size
+    events = np.concatenate(
+        list(looped(lambda: iter_recording(args.recording, sensor_size=args.sensor_size), args.loop))
+    )
+    sender = open_sender(args.to, size, timestamps=not args.no_timestamps)
+    sender.load(events)
+    args.interrupt_note = "the replay stopped"
+    t = time.perf_counter()
+    try:
+        for part in paced([events], args.speed):
+            sender.send(part)
+    finally:
+        sender.close()
+    print(
+        f"snn-fg: sent {sender.sent} events of {args.recording} to {args.to} in {time.perf_counter() - t:.2f} s "
+        f"({(events['t'][-1] - events['t'][0]) / 1e6:.2f} s of events at {args.speed:g}x)",
+        file=sys.stdout,
+    )
+    return 0

@@ -1,0 +1,211 @@
+"""A live event stream as a model reads it: received on a thread of its own,
+cut into windows on the stream's clock, with bounded memory.
+
+:class:`LiveStream` takes a source's packets (:mod:`snn_fg.events.live_sources`)
+on a receiving thread and hands their events to the model in the order
+they came, either as event chunks with the
+:class:`~snn_fg.events.window.WindowCutter` that cuts them (:meth:`cut`: the
+spiking network, which takes the events as they arrive) or window by
+window (iterating it: the rate model). Events outside the sensor and
+events earlier than the stream's latest are dropped and counted, each
+said once.
+
+Drop policy: the stream is cut into slots of one stride (the window, or
+``--hop-ms``); a window is made of ``window / stride`` slots. When a slot
+begins while more than ``max_behind`` complete windows wait for their maps
+(:meth:`done` says which window was published last), the whole slot is
+dropped: its events are counted and thrown away, and every window that
+holds it is dropped (:meth:`dropped_window`: not written, not published).
+The windows in between are kept whole. So at most ``max_behind`` windows
+and one slot of events wait, whatever the stream's rate; the model's
+clock runs on through a dropped slot without its events.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import warnings
+
+import numpy as np
+
+from snn_fg.errors import InputError, InputWarning
+from snn_fg.events.window import WindowCutter, _window_times
+
+#: the end of the stream, on the queue
+_END = object()
+
+
+class LiveStream:
+    """The events of ``source`` as they arrive; the window options are
+    :class:`~snn_fg.events.window.WindowCutter`'s (``stride_ms``: the hop)."""
+
+    def __init__(self, source, *, window_ms=85.0, stride_ms=None, start_ms=0.0, max_behind: int = 2):
+        self.source, self.name = source, source.name
+        self.sensor_size = source.sensor_size
+        self.options = {"window_ms": window_ms, "stride_ms": stride_ms, "start_ms": start_ms}
+        self.win, self.start, self.stride = _window_times(window_ms, start_ms, stride_ms)
+        self.slots_per_window = max(1, -(-self.win // self.stride))
+        self.max_behind = max_behind
+        self.q: queue.Queue = queue.Queue()
+        self.published = -1  # the last window whose maps are out
+        self.origin = None  # the first window's start (us, the stream's clock)
+        self.slot = -1  # the slot of the newest event
+        self.dropped_slots: set = set()
+        self.slot_arrival: dict = {}  # slot -> time its last event arrived (perf_counter)
+        self.events_received = self.events_dropped = self.outside = self.backwards = 0
+        self.windows_dropped, self.dropped_to = 0, -1  # (windows that hold a dropped slot, counted up to this one)
+        self.on_ready = None  # called once the model first asks for events
+        self.last_t = None
+        self.warned = False
+        self.thread = threading.Thread(target=self._receive, name="snn-fg live receiver", daemon=True)
+        self.thread.start()
+
+    # -- the receiving thread ----------------------------------------------------------------------
+    def _receive(self):
+        try:
+            for ev, arrived in self.source.packets():
+                self._take(ev, arrived)
+        except BaseException as exc:  # (handed to the model's thread, raised there)
+            self.q.put(exc)
+        self.q.put(_END)
+
+    def _take(self, ev, arrived):
+        self.events_received += len(ev)
+        w, h = self.sensor_size[:2]
+        inside = (ev["x"] >= 0) & (ev["x"] < w) & (ev["y"] >= 0) & (ev["y"] < h)
+        if not inside.all():
+            self.outside += int((~inside).sum())
+            if self.outside == int((~inside).sum()):
+                i = int(np.argmax(~inside))
+                warnings.warn(
+                    f"{self.name}: event at (x={int(ev['x'][i])}, y={int(ev['y'][i])}) lies outside the "
+                    f"{w} x {h} sensor; such events are dropped and counted (live.json: events_outside)",
+                    InputWarning,
+                    stacklevel=2,
+                )
+            ev = ev[inside]
+        if len(ev):
+            t = ev["t"]
+            before = np.maximum.accumulate(np.r_[t[0] if self.last_t is None else self.last_t, t])[:-1]
+            keep = t >= before  # (no earlier than every event before it)
+            if not keep.all():
+                self.backwards += int((~keep).sum())
+                if self.backwards == int((~keep).sum()):
+                    i = int(np.argmax(~keep))
+                    warnings.warn(
+                        f"{self.name}: time runs backwards ({int(t[i])} us after {int(before[i])} us); events "
+                        "earlier than the stream's latest are dropped and counted (live.json: events_backwards)",
+                        InputWarning,
+                        stacklevel=2,
+                    )
+                ev = ev[keep]
+        if not len(ev):
+            return
+        self.last_t = int(ev["t"][-1])
+        if self.origin is None:
+            self.origin = int(ev["t"][0]) + self.start
+        slots = (ev["t"] - self.origin) // self.stride
+        for s in np.unique(slots[slots > self.slot]):
+            self._begin(int(s))
+        self.slot = max(self.slot, int(slots[-1]))
+        drop = np.isin(slots, list(self.dropped_slots)) if self.dropped_slots else np.zeros(len(ev), bool)
+        if drop.any():
+            self.events_dropped += int(drop.sum())
+            ev, slots = ev[~drop], slots[~drop]
+        for s in np.unique(slots):
+            self.slot_arrival[int(s)] = arrived
+        if len(ev):
+            self.q.put(ev)
+
+    def _begin(self, s: int):
+        """Slot ``s`` begins: dropped whole where too many complete windows wait for their maps."""
+        complete = s - self.slots_per_window  # the last window complete once slot s begins
+        if complete - self.published > self.max_behind:
+            self.dropped_slots.add(s)
+            first = max(s - self.slots_per_window + 1, self.dropped_to + 1, 0)  # (the windows that hold slot s)
+            self.windows_dropped += max(0, s - first + 1)
+            self.dropped_to = s
+            if not self.warned:
+                self.warned = True
+                warnings.warn(
+                    f"{self.name}: the model fell {complete - self.published} windows behind the stream; "
+                    f"whole windows are dropped while more than {self.max_behind} wait (counted in live.json)",
+                    InputWarning,
+                    stacklevel=3,
+                )
+
+    # -- the model's thread ------------------------------------------------------------------------
+    def chunks(self):
+        """The events in arrival order, as much as has come at a time, until the stream ends."""
+        if self.on_ready is not None:
+            self.on_ready()
+        while True:
+            try:
+                items = [self.q.get(timeout=0.2)]
+            except queue.Empty:
+                continue
+            while True:
+                try:
+                    items.append(self.q.get_nowait())
+                except queue.Empty:
+                    break
+            events = [x for x in items if isinstance(x, np.ndarray)]
+            ended = any(x is _END for x in items)
+            failed = [x for x in items if isinstance(x, BaseException)]
+            if events:
+                yield np.concatenate(events)
+            if failed:
+                raise failed[0]
+            if ended:
+                return
+
+    def cutter(self) -> WindowCutter:
+        return WindowCutter(self.sensor_size, self.name, **self.options)
+
+    def cut(self):
+        """The event chunks and their cutter (a reader that takes the events as they come)."""
+        return self.chunks(), self.cutter()
+
+    def __iter__(self):
+        cut = self.cutter()
+        for chunk in self.chunks():
+            yield from cut.add(chunk)
+        if cut.t0 is None:
+            raise InputError(self.name, "the stream ended before any event")
+        yield from cut.finish()
+
+    def slots_of(self, w) -> range:
+        first = (w.t_start_us - self.origin) // self.stride
+        return range(first, first + self.slots_per_window)
+
+    def dropped_window(self, w) -> bool:
+        """Whether window ``w`` holds a dropped slot."""
+        return any(s in self.dropped_slots for s in self.slots_of(w))
+
+    def arrival(self, w) -> float | None:
+        """When the last event of window ``w`` arrived (perf_counter), None without events."""
+        times = [self.slot_arrival[s] for s in self.slots_of(w) if s in self.slot_arrival]
+        return max(times) if times else None
+
+    def done(self, w) -> None:
+        """Window ``w``'s maps are out (or it was dropped): its slots are forgotten."""
+        self.published = max(self.published, w.index)
+        first = self.slots_of(w).start  # (the next window starts a slot later: the slots before are done with)
+        for s in [s for s in self.slot_arrival if s <= first]:
+            del self.slot_arrival[s]
+        self.dropped_slots = {s for s in self.dropped_slots if s > first}
+
+    def close(self):
+        self.source.close()
+        self.thread.join(timeout=2)
+
+    def stats(self) -> dict:
+        return {
+            "windows_dropped": self.windows_dropped,
+            "events_received": self.events_received,
+            "events_dropped": self.events_dropped,
+            "events_outside": self.outside,
+            "events_backwards": self.backwards,
+            "packets_malformed": self.source.malformed,
+        }

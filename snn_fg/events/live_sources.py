@@ -1,0 +1,141 @@
+"""Live event sources: ``udp://HOST:PORT`` (SPIF packets, :mod:`snn_fg.events.spif`)
+and ``dv://HOST:PORT`` (iniVation's DV network stream, read with ``dv-processing``).
+
+A source's :meth:`packets` runs on the receiving thread and yields each
+packet's events with the time it arrived (``time.perf_counter()``), and
+ends when the sender has gone: a DV stream when its server closes the
+connection, a UDP stream (which has no end) once no packet has come for
+``idle_s`` seconds after the first. No packet within ``wait_s`` of the
+start is an error. Malformed packets are counted (:attr:`malformed`) and
+skipped.
+"""
+
+from __future__ import annotations
+
+import socket
+import time
+from urllib.parse import urlsplit
+
+import numpy as np
+
+from snn_fg.errors import InputError
+from snn_fg.events import spif
+from snn_fg.events._core import EVENT_DTYPE
+
+#: the schemes a live source is named by
+SCHEMES = ("udp", "dv")
+#: a UDP socket's receive buffer asked for (the kernel may give less: net.core.rmem_max)
+UDP_BUFFER = 8 << 20
+
+
+def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
+    """``(scheme, host, port)`` of ``udp://HOST:PORT`` or ``dv://HOST:PORT`` (an InputError naming ``url``)."""
+    parts = urlsplit(url)
+    if parts.scheme not in SCHEMES or not parts.hostname or parts.port is None:
+        raise InputError(url, f"{owner}: expected udp://HOST:PORT or dv://HOST:PORT")
+    return parts.scheme, parts.hostname, parts.port
+
+
+def open_source(url: str, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0):
+    """The live source ``url`` names; ``sensor_size`` ``(W, H)``: a UDP stream's (it
+    has none of its own), a DV stream's if given (it must agree with the stream's)."""
+    scheme, host, port = parse_address(url)
+    if scheme == "udp":
+        if sensor_size is None:
+            raise InputError(url, "a UDP (SPIF) stream has no sensor size of its own: give --sensor-size WxH")
+        return UdpSource(url, host, port, sensor_size, wait_s=wait_s, idle_s=idle_s)
+    return DvSource(url, host, port, sensor_size, wait_s=wait_s)
+
+
+class UdpSource:
+    """SPIF event packets arriving on a UDP port (bound at construction)."""
+
+    def __init__(self, url, host, port, sensor_size, *, wait_s: float = 30.0, idle_s: float = 1.0):
+        self.name, self.sensor_size = url, (int(sensor_size[0]), int(sensor_size[1]))
+        self.wait_s, self.idle_s, self.malformed, self.closed = wait_s, idle_s, 0, False
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, UDP_BUFFER)
+        try:
+            self.sock.bind((host, port))
+        except OSError as exc:
+            self.sock.close()
+            raise InputError(url, f"cannot listen there: {exc.strerror}") from None
+        self.t_start = time.perf_counter()
+
+    def packets(self):
+        unwrap, first = spif.Unwrap(), True
+        self.sock.settimeout(0.1)
+        last = time.perf_counter()
+        while not self.closed:
+            try:
+                data = self.sock.recv(1 << 16)
+            except TimeoutError:
+                now = time.perf_counter()
+                if first and now - self.t_start > self.wait_s:
+                    raise InputError(self.name, f"no packet arrived within {self.wait_s:g} s") from None
+                if not first and now - last > self.idle_s:
+                    return  # (the sender has gone: UDP has no end of its own)
+                continue
+            except OSError:
+                return  # (closed)
+            last = time.perf_counter()
+            ev = spif.decode(data, int((last - self.t_start) * 1e6))
+            if ev is None:
+                self.malformed += 1
+                continue
+            first = False
+            ev["t"] = unwrap(ev["t"])
+            yield ev, last
+
+    def close(self):
+        self.closed = True
+        self.sock.close()
+
+
+class DvSource:
+    """The event stream a DV server (DV software, ``dv-processing``'s NetworkWriter) serves over TCP."""
+
+    def __init__(self, url, host, port, sensor_size=None, *, wait_s: float = 30.0):
+        try:
+            import dv_processing as dv  # (the live extra)
+        except ImportError:
+            raise InputError(url, "reading dv:// needs dv-processing: pip install -e '.[live]'") from None
+        self.name, self.malformed, self.closed = url, 0, False
+        t0 = time.perf_counter()
+        while True:
+            try:
+                self.reader = dv.io.NetworkReader(host, port)
+                break
+            except RuntimeError as exc:
+                if time.perf_counter() - t0 > wait_s:
+                    raise InputError(url, f"no DV server answered within {wait_s:g} s ({exc})") from None
+                time.sleep(0.1)
+        if not self.reader.isEventStreamAvailable():
+            raise InputError(url, "the DV server there sends no event stream")
+        size = tuple(int(v) for v in self.reader.getEventResolution())
+        if sensor_size is not None and tuple(int(v) for v in sensor_size[:2]) != size:
+            raise InputError(
+                url, f"--sensor-size {sensor_size[0]}x{sensor_size[1]} disagrees with the stream's {size[0]}x{size[1]}"
+            )
+        self.sensor_size = size
+
+    def packets(self):
+        while not self.closed:
+            try:
+                batch = self.reader.getNextEventBatch()
+            except RuntimeError:  # (a packet the reader could not decode)
+                self.malformed += 1
+                continue
+            if batch is None:
+                if not self.reader.isRunning():
+                    return
+                time.sleep(0.0005)
+                continue
+            arrived = time.perf_counter()
+            a = batch.numpy()
+            ev = np.empty(len(a), EVENT_DTYPE)
+            ev["t"], ev["x"], ev["y"], ev["p"] = a["timestamp"], a["x"], a["y"], a["polarity"]
+            yield ev, arrived
+
+    def close(self):
+        self.closed = True

@@ -1,0 +1,126 @@
+"""A recording replayed as a live stream, in real time or ``speed`` times faster
+(``snn-fg stream``): SPIF packets over UDP (:mod:`snn_fg.events.spif`) or a
+DV network stream (``dv-processing``'s NetworkWriter, a server a reader connects to).
+
+Times are sent from the recording's first event (the stream starts at 0
+us), so that the windows a live reader cuts on the stream's clock are those
+``snn-fg run`` cuts on the recording. ``loop`` plays the recording that
+many times, each time after the last (:func:`looped`).
+"""
+
+from __future__ import annotations
+
+import socket
+import time
+
+import numpy as np
+
+from snn_fg.errors import InputError
+from snn_fg.events import spif
+from snn_fg.events.live_sources import parse_address
+
+#: how often the sender wakes to send what is due (s)
+TICK_S = 0.001
+
+
+def looped(chunks, n: int):
+    """The event chunks of a recording (``chunks()``: an iterable, made anew for
+    each loop) ``n`` times in a row, times from the first event on, each loop
+    1 ms after the one before ends."""
+    offset = 0
+    for _ in range(n):
+        t0 = last = None
+        for chunk in chunks():
+            if not len(chunk):
+                continue
+            t0 = int(chunk["t"][0]) if t0 is None else t0
+            out = chunk.copy()
+            out["t"] = chunk["t"] - t0 + offset
+            last = int(out["t"][-1])
+            yield out
+        if last is None:
+            return
+        offset = last + 1000
+
+
+def paced(chunks, speed: float, tick_s: float = TICK_S):
+    """The events of ``chunks`` (times in us from 0) in pieces, each yielded once the
+    wall clock has reached its last event's time (divided by ``speed``)."""
+    start = time.perf_counter()
+    for chunk in chunks:
+        t = chunk["t"]
+        i = 0
+        while i < len(t):
+            now_us = (time.perf_counter() - start) * 1e6 * speed
+            j = int(np.searchsorted(t, now_us, side="right"))
+            if j > i:
+                yield chunk[i:j]
+                i = j
+            else:
+                time.sleep(min(tick_s, max(0.0, (t[i] - now_us) / 1e6 / speed)))
+
+
+class UdpSender:
+    """SPIF packets (with timestamps unless ``timestamps=False``) to ``udp://HOST:PORT``."""
+
+    def __init__(self, url: str, timestamps: bool = True):
+        _, host, port = parse_address(url, "--to")
+        self.address, self.timestamps = (host, port), timestamps
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sent = 0
+
+    def load(self, events):
+        """(Nothing to prepare: packets are made as they are sent.)"""
+
+    def send(self, events):
+        for i in range(0, len(events), spif.PACKET_EVENTS):
+            part = events[i : i + spif.PACKET_EVENTS]
+            self.sock.sendto(spif.encode(part, self.timestamps), self.address)
+            self.sent += len(part)
+
+    def close(self):
+        self.sock.close()
+
+
+class DvSender:
+    """A DV network stream served on ``dv://HOST:PORT``; waits up to ``wait_s`` for a reader to connect."""
+
+    def __init__(self, url: str, sensor_size, wait_s: float = 30.0):
+        try:
+            import dv_processing as dv  # (the live extra)
+        except ImportError:
+            raise InputError(url, "serving dv:// needs dv-processing: pip install -e '.[live]'") from None
+        _, host, port = parse_address(url, "--to")
+        self.dv, self.sent = dv, 0
+        stream = dv.io.Stream.EventStream(0, "events", "snn-fg", (int(sensor_size[0]), int(sensor_size[1])))
+        self.writer = dv.io.NetworkWriter(host, port, stream)
+        t0 = time.perf_counter()
+        while self.writer.getClientCount() == 0:
+            if time.perf_counter() - t0 > wait_s:
+                raise InputError(url, f"no reader connected within {wait_s:g} s")
+            time.sleep(0.01)
+
+    def load(self, events):
+        """The whole replay as one event store before it starts (dv-processing adds an
+        event in about 2 us from Python, too slow to keep pace with a camera; a slice of
+        a store is taken at once)."""
+        self.store = self.dv.EventStore()
+        for t, x, y, p in zip(
+            events["t"].tolist(), events["x"].tolist(), events["y"].tolist(), events["p"].tolist(), strict=True
+        ):
+            self.store.push_back(t, x, y, bool(p))
+
+    def send(self, events):
+        self.writer.writeEvents(self.store.sliceTime(int(events["t"][0]), int(events["t"][-1]) + 1))
+        self.sent += len(events)
+
+    def close(self):
+        t0 = time.perf_counter()
+        while self.writer.getQueuedPacketCount() and time.perf_counter() - t0 < 5:
+            time.sleep(0.01)
+        del self.writer
+
+
+def open_sender(url: str, sensor_size, timestamps: bool = True):
+    scheme, _, _ = parse_address(url, "--to")
+    return UdpSender(url, timestamps) if scheme == "udp" else DvSender(url, sensor_size)

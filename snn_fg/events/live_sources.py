@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import socket
 import time
+import warnings
 from urllib.parse import urlsplit
 
 import numpy as np
 
-from snn_fg.errors import InputError
+from snn_fg.errors import InputError, InputWarning
 from snn_fg.events import spif
 from snn_fg.events._core import EVENT_DTYPE
 
@@ -82,6 +83,13 @@ class UdpSource:
             ev = spif.decode(data, int((last - self.t_start) * 1e6))
             if ev is None:
                 self.malformed += 1
+                if self.malformed == 1:
+                    warnings.warn(
+                        f"{self.name}: a malformed packet ({len(data)} bytes, not whole SPIF events); such packets "
+                        "are skipped and counted (live.json: packets_malformed)",
+                        InputWarning,
+                        stacklevel=2,
+                    )
                 continue
             first = False
             ev["t"] = unwrap(ev["t"])
@@ -110,13 +118,18 @@ class DvSource:
                 if time.perf_counter() - t0 > wait_s:
                     raise InputError(url, f"no DV server answered within {wait_s:g} s ({exc})") from None
                 time.sleep(0.1)
+        problem = None
         if not self.reader.isEventStreamAvailable():
-            raise InputError(url, "the DV server there sends no event stream")
-        size = tuple(int(v) for v in self.reader.getEventResolution())
-        if sensor_size is not None and tuple(int(v) for v in sensor_size[:2]) != size:
-            raise InputError(
-                url, f"--sensor-size {sensor_size[0]}x{sensor_size[1]} disagrees with the stream's {size[0]}x{size[1]}"
-            )
+            problem = "the DV server there sends no event stream"
+        else:
+            size = tuple(int(v) for v in self.reader.getEventResolution())
+            if sensor_size is not None and tuple(int(v) for v in sensor_size[:2]) != size:
+                problem = (
+                    f"--sensor-size {sensor_size[0]}x{sensor_size[1]} disagrees with the stream's {size[0]}x{size[1]}"
+                )
+        if problem is not None:
+            self.close()
+            raise InputError(url, problem)
         self.sensor_size = size
 
     def packets(self):
@@ -138,4 +151,6 @@ class DvSource:
             yield ev, arrived
 
     def close(self):
+        """Disconnects (a DV server waits for its readers to go)."""
         self.closed = True
+        self.reader = None

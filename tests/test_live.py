@@ -1,0 +1,229 @@
+"""A live stream in, maps and attention targets out: SPIF packets, the receiving
+thread's drop policy and checks, the grouping peaks, and snn-fg live fed by
+snn-fg stream's sender giving the maps of snn-fg run on the same events."""
+
+import json
+import socket
+import subprocess
+import sys
+import threading
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+from snn_fg.cli.main import main
+from snn_fg.errors import InputWarning
+from snn_fg.events import EVENT_DTYPE, save_events, spif
+from snn_fg.events.live import LiveStream
+from snn_fg.events.replay import UdpSender, looped, paced
+from snn_fg.frames.scenes import flipping_disc_recording
+from snn_fg.results.maps import Maps
+from snn_fg.results.peaks import grouping_peaks
+from snn_fg.results.store import read_maps
+
+
+def _events(t, x=None, y=None, p=None):
+    ev = np.zeros(len(t), EVENT_DTYPE)
+    ev["t"] = t
+    ev["x"] = np.arange(len(t)) % 7 if x is None else x
+    ev["y"] = np.arange(len(t)) % 5 if y is None else y
+    ev["p"] = np.arange(len(t)) % 2 if p is None else p
+    return ev
+
+
+def test_spif_packets_carry_the_events_and_refuse_what_is_not_whole():
+    ev = _events([5, 9, 4_000_000_123], x=[0, 319, 32767], y=[239, 0, 32767], p=[1, 0, 1])
+    back = spif.decode(spif.encode(ev), now_us=77)
+    np.testing.assert_array_equal(back, ev)
+    bare = spif.decode(spif.encode(ev, timestamps=False), now_us=77)
+    assert bare["t"].tolist() == [77] * 3 and bare["x"].tolist() == [0, 319, 32767]
+    data = spif.encode(ev)
+    assert spif.decode(data[:-2], 0) is None  # (not whole words)
+    assert spif.decode(data[:-4], 0) is None  # (a timestamped event without its time)
+    unwrap = spif.Unwrap()
+    assert unwrap(np.array([4_294_967_000, 4_294_967_290])).tolist() == [4_294_967_000, 4_294_967_290]
+    assert unwrap(np.array([100])).tolist() == [4_294_967_396]  # (carried past 2**32)
+
+
+class _Packets:
+    """A source whose packets are given (``arrived``: wall time of each)."""
+
+    name, sensor_size, malformed = "test://", (20, 10), 0
+
+    def __init__(self, packets, gate=None):
+        self.list, self.gate = packets, gate
+
+    def packets(self):
+        for ev in self.list:
+            if self.gate is not None:
+                self.gate.wait()
+            yield ev, time.perf_counter()
+
+    def close(self):
+        pass
+
+
+def test_events_outside_the_sensor_and_back_in_time_are_dropped_counted_and_said_once():
+    packets = [_events([0, 10, 20], x=[1, 25, 2]), _events([15, 30, 31]), _events([32], x=[99])]
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        stream = LiveStream(_Packets(packets), window_ms=10.0)
+        got = np.concatenate(list(stream.chunks()))
+    assert got["t"].tolist() == [0, 20, 30, 31]
+    s = stream.stats()
+    assert (s["events_received"], s["events_outside"], s["events_backwards"]) == (7, 2, 1)
+    lines = [str(w.message) for w in said if issubclass(w.category, InputWarning)]
+    assert len(lines) == 2 and "outside the 20 x 10 sensor" in lines[0] and "time runs backwards" in lines[1]
+
+
+def test_a_model_that_falls_behind_drops_whole_windows_and_keeps_memory_bounded():
+    """Nothing published: once more than max_behind windows are complete, each
+    new window's events are dropped whole, and the queue holds at most
+    max_behind + 1 windows of events (those before the first dropped)."""
+    packets = [_events(np.arange(k * 10_000, (k + 1) * 10_000, 100)) for k in range(12)]  # 12 windows of 100
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        stream = LiveStream(_Packets(packets), window_ms=10.0, max_behind=2)
+        stream.thread.join(5)
+    queued = sum(len(x) for x in list(stream.q.queue) if isinstance(x, np.ndarray))
+    assert queued == 3 * 100  # (windows 0-2: window 3 begins with 3 complete windows waiting, more than 2)
+    s = stream.stats()
+    assert s["windows_dropped"] == 9 and s["events_dropped"] == 900
+    assert sum("fell 3 windows behind" in str(w.message) for w in said) == 1
+    windows = list(stream)
+    assert [w.index for w in windows] == [0, 1, 2] and not any(stream.dropped_window(w) for w in windows)
+    assert stream.dropped_slots == set(range(3, 12))
+
+
+def test_grouping_peaks_are_the_strongest_maxima_with_the_direction_around_them():
+    yy, xx = np.mgrid[:40, :60]
+    g = 3 * np.exp(-((xx - 15) ** 2 + (yy - 20) ** 2) / 20) + 1 * np.exp(-((xx - 45) ** 2 + (yy - 10) ** 2) / 20)
+    fx, fy = np.zeros_like(g), np.zeros_like(g)
+    fx[18:23, 10:14], fy[8:12, 44:47] = 1.0, -2.0
+    peaks = grouping_peaks(Maps(fx.astype(np.float32), fy.astype(np.float32), g.astype(np.float32)), k=5)
+    assert [(p["x"], p["y"]) for p in peaks] == [(15, 20), (45, 10)]
+    assert peaks[0]["strength"] == pytest.approx(3.0) and peaks[0]["fg_deg"] == pytest.approx(0.0)
+    assert peaks[1]["fg_deg"] == pytest.approx(-90.0)
+
+
+def test_a_replay_is_paced_by_the_stream_clock_and_loops_after_itself():
+    ev = _events([0, 1000, 2000])
+    loops = np.concatenate(list(looped(lambda: [ev], 2)))
+    assert loops["t"].tolist() == [0, 1000, 2000, 3000, 4000, 5000]
+    t0 = time.perf_counter()
+    parts = list(paced([loops], speed=1.0))
+    assert 0.004 <= time.perf_counter() - t0 < 0.5 and sum(len(p) for p in parts) == 6
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _sending(port, events, delay_s=1.0, **kw):
+    """The events sent on a thread after ``delay_s`` (the live command runs on the main
+    thread, which handles the signals); its ``sent`` once joined."""
+    out = {}
+
+    def go():
+        time.sleep(delay_s)
+        out["sent"] = _send(port, events, **kw)
+
+    th = threading.Thread(target=go)
+    th.start()
+    return th, out
+
+
+def _send(port, events, speed=4.0, garbage=()):
+    sender = UdpSender(f"udp://127.0.0.1:{port}")
+    for g in garbage:
+        sender.sock.sendto(g, ("127.0.0.1", port))
+    for part in paced([events], speed):
+        sender.send(part)
+    sender.close()
+    return sender.sent
+
+
+@pytest.fixture(scope="module")
+def disc_file(tmp_path_factory):
+    _, rec = flipping_disc_recording(24, windows=3, window_ms=40.0)
+    path = tmp_path_factory.mktemp("live") / "disc.npz"
+    save_events(path, rec.events, rec.sensor_size)
+    ev = rec.events.copy()
+    ev["t"] -= ev["t"][0]
+    return path, ev, rec.sensor_size
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", [["--model", "rate"], ["--model", "spiking", "--levels", "3"]])
+def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(tmp_path, disc_file, model, capsys):
+    path, ev, size = disc_file
+    port, pub = _free_port(), _free_port()
+    inbox = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    inbox.bind(("127.0.0.1", pub))
+    inbox.settimeout(0.5)
+    common = ["--window-ms", "40", "--no-figures", "--no-progress", *model]
+    th, out = _sending(port, ev, garbage=[b"\x01\x02\x03"])
+    status = main(
+        ["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "live"), "--sensor-size", f"{size[0]}x{size[1]}"]
+        + ["--publish", f"udp://127.0.0.1:{pub}", "--max-behind", "1000", "--idle-s", "0.5", *common]
+    )
+    th.join(30)
+    sent = out["sent"]
+    assert status == 0
+    assert main(["run", str(path), "--out", str(tmp_path / "run"), *common]) == 0
+    live, run = read_maps(tmp_path / "live" / "maps.zarr"), read_maps(tmp_path / "run" / "maps.zarr")
+    assert len(live[0]) == len(run[0]) == 3
+    for a, b in zip(live[:3], run[:3], strict=True):
+        np.testing.assert_array_equal(a, b)
+    record = json.loads((tmp_path / "live" / "live.json").read_text())
+    assert record["events_received"] == sent == len(ev) and record["packets_malformed"] == 1
+    assert record["windows"] == 3 and record["windows_dropped"] == 0 and record["ended"].startswith("the sender")
+    assert record["latency_ms"]["max"] >= record["latency_ms"]["p95"] >= record["latency_ms"]["median"] > 0
+    lines = []
+    while True:
+        try:
+            lines.append(json.loads(inbox.recv(65536)))
+        except TimeoutError:
+            break
+    assert [m["window"] for m in lines] == [0, 1, 2]
+    assert [bool(m["peaks"]) for m in lines] == [bool((g > 0).any()) for g in live[2]]  # (a peak where grouping is)
+    assert any(m["peaks"] for m in lines)
+    assert "malformed packet" in capsys.readouterr().err
+
+
+def test_no_sender_ends_with_one_line_and_no_output(tmp_path, capsys):
+    port = _free_port()
+    status = main(
+        ["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "o"), "--sensor-size", "24x24"]
+        + ["--wait-s", "0.3"]
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and err == [f"snn-fg: error: udp://127.0.0.1:{port}: no packet arrived within 0.3 s"]
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_a_udp_source_without_a_sensor_size_is_refused_in_one_line(tmp_path, capsys):
+    assert main(["live", "udp://127.0.0.1:9", "--out", str(tmp_path / "o")]) == 2
+    assert "give --sensor-size WxH" in capsys.readouterr().err
+
+
+def test_a_dv_stream_whose_sensor_disagrees_with_the_one_given_is_refused(tmp_path, capsys):
+    pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    port = _free_port()
+    serve = (
+        "from snn_fg.events.replay import DvSender; import time; "
+        f"s = DvSender('dv://127.0.0.1:{port}', (32, 24), wait_s=20); time.sleep(1)"
+    )
+    server = subprocess.Popen([sys.executable, "-c", serve])
+    try:
+        status = main(["live", f"dv://127.0.0.1:{port}", "--out", str(tmp_path / "o"), "--sensor-size", "24x24"])
+    finally:
+        server.kill()
+        server.wait()
+    assert status == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"snn-fg: error: dv://127.0.0.1:{port}: --sensor-size 24x24 disagrees with the stream's 32x24"]

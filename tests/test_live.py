@@ -3,6 +3,7 @@ thread's drop policy and checks, the grouping peaks, and snn-fg live fed by
 snn-fg stream's sender giving the maps of snn-fg run on the same events."""
 
 import json
+import signal
 import socket
 import subprocess
 import sys
@@ -95,6 +96,30 @@ def test_a_model_that_falls_behind_drops_whole_windows_and_keeps_memory_bounded(
     windows = list(stream)
     assert [w.index for w in windows] == [0, 1, 2] and not any(stream.dropped_window(w) for w in windows)
     assert stream.dropped_slots == set(range(3, 12))
+
+
+def test_once_the_model_catches_up_the_windows_are_kept_again():
+    gate = threading.Event()
+
+    class Source(_Packets):
+        def packets(self):
+            for k in range(12):
+                if k == 6:
+                    gate.wait(5)
+                if k >= 6:
+                    time.sleep(0.05)  # (the model keeps up from here)
+                yield _events(np.arange(k * 10_000, (k + 1) * 10_000, 100)), time.perf_counter()
+
+    stream = LiveStream(Source([]), window_ms=10.0, max_behind=2)
+    while stream.slot < 5:  # (windows 0-5 arrive before the model starts: 3-5 are dropped)
+        time.sleep(0.01)
+    windows = []
+    for w in stream:
+        windows.append(w)
+        stream.done(w)
+        gate.set()
+    kept = [w.index for w in windows if not stream.dropped_window(w) and len(w.events)]
+    assert stream.stats()["windows_dropped"] == 3 and kept == [0, 1, 2, 6, 7, 8, 9, 10, 11]
 
 
 def test_grouping_peaks_are_the_strongest_maxima_with_the_direction_around_them():
@@ -227,3 +252,43 @@ def test_a_dv_stream_whose_sensor_disagrees_with_the_one_given_is_refused(tmp_pa
     assert status == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"snn-fg: error: dv://127.0.0.1:{port}: --sensor-size 24x24 disagrees with the stream's 32x24"]
+
+
+@pytest.mark.slow
+def test_ctrl_c_ends_a_live_run_with_its_complete_windows_kept(tmp_path, disc_file):
+    from snn_fg.results.store import windows_complete
+
+    _, ev, size = disc_file
+    port, out = _free_port(), tmp_path / "live"
+    cmd = [sys.executable, "-m", "snn_fg.cli", "live", f"udp://127.0.0.1:{port}", "--out", str(out)]
+    live = subprocess.Popen(
+        cmd
+        + [
+            "--sensor-size",
+            f"{size[0]}x{size[1]}",
+            "--window-ms",
+            "40",
+            "--no-figures",
+            "--no-progress",
+            "--idle-s",
+            "60",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert "ready" in live.stdout.readline()  # (bound to its port)
+    th, _ = _sending(port, np.concatenate(list(looped(lambda: [ev], 20))), delay_s=0.0, speed=1.0)
+    t0 = time.perf_counter()
+    while windows_complete(out) < 2 and time.perf_counter() - t0 < 60:
+        time.sleep(0.05)
+    live.send_signal(signal.SIGINT)
+    _, err = live.communicate(timeout=60)
+    th.join(30)
+    assert live.returncode == 130, err
+    said = [x for x in err.strip().splitlines() if "interrupted" in x]
+    assert said == [err.strip().splitlines()[-1]]  # (one line, the last)
+    assert said[0].startswith("snn-fg: interrupted (Ctrl-C); the windows complete so far")
+    record = json.loads((out / "live.json").read_text())
+    n = len(read_maps(out / "maps.zarr")[0])
+    assert record["ended"] == "interrupted" and record["windows"] == n >= 2

@@ -54,8 +54,10 @@ class LiveStream:
         self.dropped_slots: set = set()
         self.slot_arrival: dict = {}  # slot -> time its last event arrived (perf_counter)
         self.events_received = self.events_dropped = self.outside = self.backwards = 0
-        self.windows_dropped, self.dropped_to = 0, -1  # (windows that hold a dropped slot, counted up to this one)
+        self.windows_dropped = 0
+        self.dropped_windows: set = set()  # (those not yet passed by the published ones)
         self.on_ready = None  # called once the model first asks for events
+        self.lock = threading.Lock()  # (the drop bookkeeping, shared by both threads)
         self.last_t = None
         self.warned = False
         self.thread = threading.Thread(target=self._receive, name="snn-fg live receiver", daemon=True)
@@ -106,8 +108,9 @@ class LiveStream:
         if self.origin is None:
             self.origin = int(ev["t"][0]) + self.start
         slots = (ev["t"] - self.origin) // self.stride
-        for s in np.unique(slots[slots > self.slot]):
-            self._begin(int(s))
+        with self.lock:
+            for s in np.unique(slots[slots > self.slot]):
+                self._begin(int(s))
         self.slot = max(self.slot, int(slots[-1]))
         drop = np.isin(slots, list(self.dropped_slots)) if self.dropped_slots else np.zeros(len(ev), bool)
         if drop.any():
@@ -121,15 +124,16 @@ class LiveStream:
     def _begin(self, s: int):
         """Slot ``s`` begins: dropped whole where too many complete windows wait for their maps."""
         complete = s - self.slots_per_window  # the last window complete once slot s begins
-        if complete - self.published > self.max_behind:
+        waiting = complete - self.published - sum(self.published < k <= complete for k in self.dropped_windows)
+        if waiting > self.max_behind:
             self.dropped_slots.add(s)
-            first = max(s - self.slots_per_window + 1, self.dropped_to + 1, 0)  # (the windows that hold slot s)
-            self.windows_dropped += max(0, s - first + 1)
-            self.dropped_to = s
+            held = set(range(max(s - self.slots_per_window + 1, 0), s + 1)) - self.dropped_windows
+            self.dropped_windows |= held  # (the windows that hold slot s)
+            self.windows_dropped += len(held)
             if not self.warned:
                 self.warned = True
                 warnings.warn(
-                    f"{self.name}: the model fell {complete - self.published} windows behind the stream; "
+                    f"{self.name}: the model fell {waiting} windows behind the stream; "
                     f"whole windows are dropped while more than {self.max_behind} wait (counted in live.json)",
                     InputWarning,
                     stacklevel=3,
@@ -190,11 +194,16 @@ class LiveStream:
 
     def done(self, w) -> None:
         """Window ``w``'s maps are out (or it was dropped): its slots are forgotten."""
+        with self.lock:
+            self._done(w)
+
+    def _done(self, w) -> None:
         self.published = max(self.published, w.index)
         first = self.slots_of(w).start  # (the next window starts a slot later: the slots before are done with)
         for s in [s for s in self.slot_arrival if s <= first]:
             del self.slot_arrival[s]
         self.dropped_slots = {s for s in self.dropped_slots if s > first}
+        self.dropped_windows = {k for k in self.dropped_windows if k > self.published}
 
     def close(self):
         self.source.close()

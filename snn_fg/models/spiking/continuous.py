@@ -14,15 +14,13 @@ read-out span. :func:`run_spiking_windows` lets the backend forget each bin
 once it is read (:attr:`~snn_fg.backends.RunSettings.on_bin`), so that a long
 recording does not need the memory of all its spikes.
 
-The input gains are calibrated once, to the mean event rate of an active
-pixel inside a window (events per active pixel per window length, averaged
-over the windows that have events), the counterpart of a frame's rate. So
-the windows are read twice (:mod:`.recording_input`): once for that rate,
-then while the network runs, their events handed to a backend that streams
-its input (the fast engine) a segment of steps at a time. Windows that can
-be iterated again (a list, or :class:`~snn_fg.events.RecordingWindows`,
-which reads the file again) are never all in memory; a one-shot iterator
-is made a list first.
+The recording is read once, as a live stream is (:mod:`.stream_input`):
+its events are handed to a backend that streams its input (the fast engine)
+a segment of steps at a time as they are read, and nothing the run needs
+is taken from events not read yet. The input gains are calibrated before
+the run (the compact network to its input adapter's ceiling, a network
+without one to the rate of window 0), and every window is read out over a
+whole window's span, a recording's last one too (``docs/live.md``).
 """
 
 from __future__ import annotations

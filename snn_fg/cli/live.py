@@ -16,7 +16,7 @@ import sys
 
 from ..errors import InputError
 from ..events.live import LiveStream
-from ..events.live_sources import open_source
+from ..events.live_sources import open_source, parse_address
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..models import MODELS
@@ -80,6 +80,7 @@ def cmd_live(args) -> int:
     if given:
         flags = ", ".join("--" + k.replace("_", "-") for k in given)
         raise InputError(args.source, f"{flags}: not for a live stream (--hop-ms slides the read-out)")
+    publish_to = _udp_address(args.publish) if args.publish else None
     model = chosen_model(args, "recording")
     if model.needs == "image":
         raise InputError(args.source, f"the {model.name} model needs an image, not an event stream")
@@ -102,7 +103,7 @@ def cmd_live(args) -> int:
     )
     stream.segment_ms = LIVE_SEGMENT_MS
     stream.on_ready = lambda: print(f"snn-fg: live: {model.name} model ready for {args.source}", flush=True)
-    publisher = Publisher(args.publish) if args.publish else None
+    publisher = Publisher(publish_to) if publish_to else None
     record = LiveRecord(stream, publisher, args.peaks)
     described = {"input": args.source, "kind": "live", "window_ms": window_ms, "start_ms": args.start_ms or 0.0}
     described["stride_ms"] = args.hop_ms if args.hop_ms is not None else window_ms
@@ -133,3 +134,10 @@ def cmd_live(args) -> int:
         file=sys.stdout,
     )
     return 0
+
+
+def _udp_address(url: str) -> tuple[str, int]:
+    scheme, host, port = parse_address(url, "--publish")
+    if scheme != "udp":
+        raise InputError(url, "--publish: expected udp://HOST:PORT")
+    return host, port

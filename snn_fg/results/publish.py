@@ -15,7 +15,6 @@ import time
 
 import numpy as np
 
-from snn_fg.events.live_sources import parse_address
 from snn_fg.results.atomic import save_text
 from snn_fg.results.peaks import grouping_peaks
 
@@ -27,15 +26,10 @@ DROP_POLICY = (
 
 
 class Publisher:
-    """One JSON line per window to ``udp://HOST:PORT``."""
+    """One JSON line per window, in a UDP datagram to ``address`` ``(host, port)``."""
 
-    def __init__(self, url: str):
-        scheme, host, port = parse_address(url, "--publish")
-        if scheme != "udp":
-            from snn_fg.errors import InputError
-
-            raise InputError(url, "--publish: expected udp://HOST:PORT")
-        self.address = (host, port)
+    def __init__(self, address: tuple[str, int]):
+        self.address = address
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 
     def send(self, message: dict) -> None:

@@ -138,7 +138,8 @@ def arrivals(chunks, cut):
 
 
 def window_arrivals(windows):
-    """The :class:`Arrival` of each window of an iterable of windows (a list, say): its events not in the window before."""
+    """The :class:`Arrival` of each window of an iterable of windows (a list, say):
+    its events not in the window before."""
     fed_to = origin = None
     for w in windows:
         events, fed_to = _new_events([w], fed_to)

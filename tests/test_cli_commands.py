@@ -27,6 +27,8 @@ FLAGS = {
     "export": {"--format", "--out", "--force", "--network", "--sensor-size", "--target", "--weight-bits"},
     "decode": {"--export", "--out", "--input", "--force"},
     "data": set(),
+    "stream": {"--to", "--speed", "--loop", "--sensor-size"},
+    "live": {"--out", "--force", "--model", "--network", "--sensor-size", "--hop-ms", "--publish", "--max-behind"},
 }
 
 

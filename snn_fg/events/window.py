@@ -125,12 +125,12 @@ class RecordingWindows:
     def __iter__(self):
         return iter_windows(self.recording, **self.options)
 
-    def cut(self):
+    def cut(self, owner: str = "RecordingWindows"):
         """The recording's event chunks (a :class:`~snn_fg.events.io.RecordingStream`, read
         once) and a :class:`WindowCutter` to cut them with, for a reader that takes the
         events as they come (the spiking network) rather than window by window."""
         window = {k: v for k, v in self.options.items() if k in WINDOW_KEYS}
-        read = check_read_options("RecordingWindows", {k: v for k, v in self.options.items() if k not in WINDOW_KEYS})
+        read = check_read_options(owner, {k: v for k, v in self.options.items() if k not in WINDOW_KEYS})
         stream = iter_recording(self.recording, **read)
         stream.warn_no_span = False  # (refused by the cut)
         return stream, WindowCutter(stream.sensor_size, stream.path if stream.path is not None else "<array>", **window)
@@ -202,7 +202,7 @@ def iter_windows(
         denoise_us=denoise_us,
         refractory_us=refractory_us,
         **read_options,
-    ).cut()
+    ).cut("iter_windows")
     for chunk in stream:
         yield from cut.add(chunk)
         if cut.done:

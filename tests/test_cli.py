@@ -302,7 +302,8 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
     sim = m.params["simulation"]
     assert sim["mode"] == "continuous" and sim["network_builds"] == 1 and sim["readout_lag_ms"] == 10
     assert sim["window_clock"] is True
-    assert sim["simulated_ms"] == pytest.approx(180 + 10)
+    assert sim["simulated_ms"] == pytest.approx(60 + 10)  # (window 0's: what had been simulated when it was read)
+    assert m.params["whole_run"]["simulated_ms"] == pytest.approx(180 + 10)
     windows = list(iter_windows(path, window_ms=60, max_windows=3, sensor_size=(64, 64)))
     direct = run_spiking_windows(windows, params=ModelParams(levels=3), readout_lag_ms=10, progress=False)
     for i, d in enumerate(direct):

@@ -126,6 +126,7 @@ def stream_spiking_windows(
         **{k: whole[k] for k in ("counts", "backend_stats", "kept_kernel_mass", "timings_s")},
         "windows": run.n_windows,
         "merged_input_spikes": run.merged,
+        "simulated_ms": run.simulation["simulated_ms"],  # (a window's own is what had been simulated when it was read)
     }
 
 

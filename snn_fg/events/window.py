@@ -114,10 +114,10 @@ def _window_times(window_ms, start_ms, stride_ms) -> tuple[int, int, int]:
 class RecordingWindows:
     """A recording's windows that can be read more than once: each
     iteration is a fresh :func:`iter_windows` over ``recording_or_path``
-    with ``options`` (a file is read again from its start), so that a
-    reader that needs two passes (the spiking model calibrates its input
-    on the whole recording first) holds one window at a time, not the
-    recording."""
+    with ``options`` (a file is read again from its start), holding one
+    window at a time, not the recording; :meth:`cut` gives its events as
+    they are read and the cutter that makes the windows (the spiking model
+    reads a recording so, once, as it reads a live stream)."""
 
     def __init__(self, recording_or_path, **options):
         self.recording, self.options = recording_or_path, options

@@ -91,8 +91,8 @@ class SegmentedInput:
     ``(j + 1) * segment_steps - 1`` (:meth:`segment`), asked for in order;
     ``spikes_until(end_step)`` gives the spikes not given yet of the steps
     before ``end_step``, as :meth:`SpikeStream.take_until`. ``on``,
-    ``off``, ``merged`` and ``rate_hz`` are those of the whole run, known
-    before it starts (from a first pass over the recording). The clock
+    ``off`` (the sources that may fire), ``merged`` and ``rate_hz`` are
+    known before the run starts (``snn_fg/models/spiking/stream_input.py``). The clock
     fires at ``clock_steps`` (index :attr:`clock_index`).
     """
 

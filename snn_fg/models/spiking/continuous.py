@@ -59,9 +59,9 @@ def run_spiking_windows(windows, *, source: str = "<recording>", **keywords) -> 
     ----------
     windows : iterable of EventWindow
         The recording cut into windows (:func:`snn_fg.events.iter_windows`),
-        all from one sensor, in time order; read twice (a one-shot iterator
-        is made a list: :class:`~snn_fg.events.RecordingWindows` reads a file
-        again instead, so that memory does not grow with the recording).
+        all from one sensor, in time order, read once (a list, any iterable,
+        or :class:`~snn_fg.events.RecordingWindows`, whose events the network
+        takes as they are read: memory does not grow with the recording).
     params, spiking, network, backend, backend_options, dt_ms, calibrate, feedback, instantiate, record_spikes
         As for :func:`~snn_fg.models.spiking.run_spiking`.
     readout_lag_ms : float

@@ -4,6 +4,7 @@ makes run.py's input from a recording window, run.py simulates it on NEST
 counts into maps; and run.py's memory check."""
 
 import json
+import signal
 import subprocess
 import sys
 
@@ -358,6 +359,7 @@ def test_sizes_are_width_by_height_and_blocks_are_called_blocks(tmp_path, disc_r
                 "--crop-at",
                 "4,0",
                 "--no-progress",
+                "--force",
             ]
         )
         == 2
@@ -498,3 +500,28 @@ def test_run_py_progress_is_throttled_but_always_says_the_last_step(capsys):
     memory.progress("simulated 100/150 ms")
     memory.progress("simulated 150/150 ms", last=True)
     assert capsys.readouterr().err == "run.py: simulated 150/150 ms\n"
+
+
+@pytest.mark.slow
+@needs_nest
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_run_py_interrupted_says_so_in_one_line_and_writes_nothing(tmp_path, disc_recording, capsys, sig):
+    """Ctrl-C on an export's run.py gave a KeyboardInterrupt traceback. Now one line, exit 130
+    (SIGTERM: 143), and neither the counts file nor a part of it."""
+    folder = export_pynn(build_network(ModelParams(levels=1), (16, 16)), tmp_path / "model")
+    argv = ["events", str(disc_recording), "--write-spikes", str(folder / "input.npz"), "--export", str(folder)]
+    assert main([*argv, "--no-progress"]) == 0
+    code = (
+        "import sys; sys.modules['snn_fg'] = None; sys.argv = ['run.py', '--input', 'input.npz', '--out', "
+        "'counts.npz', '--duration-ms', '100000']; exec(open('run.py').read())"
+    )
+    before = sorted(p.name for p in folder.iterdir())
+    proc = subprocess.Popen([sys.executable, "-c", code], cwd=folder, stderr=subprocess.PIPE, text=True)
+    said = [proc.stderr.readline()]  # (its first progress line: the network is being built)
+    assert said[0].startswith("run.py: "), said
+    proc.send_signal(sig)
+    said += proc.stderr.read().splitlines()
+    assert proc.wait(timeout=300) == (130 if sig == signal.SIGINT else 143), said
+    name = "Ctrl-C" if sig == signal.SIGINT else "SIGTERM"
+    assert said[-1] == f"run.py: interrupted ({name}); nothing written" and "Traceback" not in "".join(said)
+    assert sorted(p.name for p in folder.iterdir() if p.name != "__pycache__") == before

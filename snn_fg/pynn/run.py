@@ -25,6 +25,8 @@ beside the export's own estimate.
 
 import argparse
 import json
+import os
+import signal
 import sys
 import time
 
@@ -109,6 +111,26 @@ def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
         )
     net.record([p["name"] for p in cells], spikes=args.spikes, count_edges_ms=edges)
     return net
+
+
+def save_atomically(path, write):
+    """``write(tmp)`` to a temporary file beside ``path``, moved onto it when complete: an
+    interrupted or failed write leaves no partial file."""
+    base, ext = os.path.splitext(os.path.abspath(path))
+    tmp = f"{os.path.dirname(base)}/.{os.path.basename(base)}.part{ext}"
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_json(path, value):
+    """``value`` as indented JSON text into ``path``."""
+    with open(path, "w") as fh:
+        json.dump(value, fh, indent=1)
 
 
 def check_simulator(name):
@@ -221,10 +243,11 @@ def main(argv=None):
             if args.spikes:
                 out[f"cell_{p['name']}"], out[f"t_{p['name']}"] = net.spikes(p["name"], p["size"])
     net.end()
-    np.savez(args.out, **out)
+    path = args.out if args.out.endswith(".npz") else f"{args.out}.npz"  # (what np.savez names it)
+    save_atomically(path, lambda tmp: np.savez(tmp, **out))
     print(
         f"run.py: built in {t1 - t0:.1f} s, simulated {args.duration_ms:g} ms in {time.perf_counter() - t1:.1f} s; "
-        f"wrote {args.out}"
+        f"wrote {path}"
     )
 
 
@@ -259,8 +282,7 @@ def write_mapping(sim, meta, plan, args, build_s, n_conv):
         "sPyNNaker_s": {k: round(v, 1) for k, v in spent.items()},
         "run_s": round(time.perf_counter() - t0, 1),
     }
-    with open("mapping.json", "w") as fh:
-        json.dump(out, fh, indent=1)
+    save_atomically("mapping.json", lambda tmp: write_json(tmp, out))
     print(
         f"run.py: sPyNNaker {out['tool']['version']} mapped the network onto {used['chips_used']} chips, "
         f"{used['cores_used']} cores (estimate: {est.get('chips')} chips, {est.get('cores')} cores); "
@@ -268,5 +290,20 @@ def write_mapping(sim, meta, plan, args, build_s, n_conv):
     )
 
 
+#: the signals that ended the run (SIGTERM; Ctrl-C arrives as KeyboardInterrupt)
+SIGNALLED = []
+
+
+def interrupted(signum, frame):
+    """SIGTERM ends the run as Ctrl-C does (nothing written), exit status 143."""
+    SIGNALLED.append(signum)
+    raise KeyboardInterrupt
+
+
 if __name__ == "__main__":
-    main()
+    signal.signal(signal.SIGTERM, interrupted)
+    try:
+        main()
+    except KeyboardInterrupt:
+        print(f"run.py: interrupted ({'SIGTERM' if SIGNALLED else 'Ctrl-C'}); nothing written", file=sys.stderr)
+        sys.exit(143 if SIGNALLED else 130)

@@ -80,3 +80,23 @@ def test_inputs_a_folder_a_glob_or_a_list_name(folder, tmp_path):
     assert output_names([tmp_path / "x" / "r.es", tmp_path / "y" / "r.es", tmp_path / "q.raw"]) == ["x_r", "y_r", "q"]
     assert main(["run", str(folder / "*.es"), "--out", str(tmp_path / "o")]) == 2  # names nothing
     assert main(["run", str(folder / "a.npy"), "--out", str(tmp_path / "p"), "--workers", "2"]) == 2
+
+
+def test_a_recording_named_txt_is_refused_as_a_list_in_one_line(tmp_path, capsys):
+    """``snn-fg run atis.txt`` where the file is a binary recording: a UnicodeDecodeError traceback.
+    Now one line saying a .txt INPUT is a list of paths, where the binary data starts, and what the
+    file looks like."""
+    from snn_fg.events import EVENT_DTYPE, save_events
+
+    rng = np.random.default_rng(0)
+    ev = np.zeros(500, EVENT_DTYPE)
+    ev["x"], ev["y"], ev["p"] = rng.integers(0, 32, 500), rng.integers(0, 24, 500), rng.integers(0, 2, 500)
+    ev["t"] = np.cumsum(rng.integers(0, 5000, 500))
+    save_events(tmp_path / "atis.es", ev, (32, 24))
+    (tmp_path / "atis.es").rename(tmp_path / "atis.txt")
+    assert main(["run", str(tmp_path / "atis.txt"), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in err[0]
+    assert "atis.txt: not a list of paths: a .txt INPUT is read as a list of recordings, one path a line" in err[0]
+    assert "it looks like an Event Stream (.es) file: give it the suffix .es" in err[0] and "(at byte offset" in err[0]
+    assert not (tmp_path / "o").exists()

@@ -71,7 +71,7 @@ def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path,
         text=True,
     )
     deadline = time.monotonic() + 120
-    while not list(tmp_path.glob(".out.*.staging")):  # the run has started writing
+    while not list(out.glob(".snn-fg.*.staging")):  # the run has started writing (inside the folder it replaces)
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline
         time.sleep(0.05)

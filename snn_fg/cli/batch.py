@@ -27,9 +27,10 @@ from pathlib import Path
 from tqdm import tqdm
 
 from ..errors import InputError, SnnFgError, install_hint
-from ..events.formats import SUFFIX_FORMAT
+from ..events.formats import SUFFIX_FORMAT, looks_like
 from ..models.cores import usable_cores
 from ..results.atomic import save_text
+from ..results.outputs import check_writable, writing
 from ..results.store import STORE_NAME, read_attrs, windows_complete
 
 #: the summary table's name in the output folder, and its columns
@@ -52,9 +53,7 @@ def recordings_of(spec: str) -> list[Path]:
     if path.is_dir():
         found = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in SUFFIX_FORMAT)
     elif path.suffix.lower() == ".txt":
-        if not path.is_file():
-            raise InputError(path, "no such list file")
-        lines = [line.strip() for line in path.read_text().splitlines()]
+        lines = [line.strip() for line in _list_text(path).splitlines()]
         found = [
             p if p.is_absolute() else path.parent / p
             for p in (Path(line) for line in lines if line and not line.startswith("#"))
@@ -64,6 +63,35 @@ def recordings_of(spec: str) -> list[Path]:
     if not found:
         raise InputError(path, "names no recording (a folder of recordings, a glob or a .txt list of paths)")
     return found
+
+
+def _list_text(path: Path) -> str:
+    """The text of a ``.txt`` list of recordings; a file that is not text (a recording named ``.txt``,
+    say) is refused in one line saying what it looks like."""
+    if not path.is_file():
+        raise InputError(path, "no such list file")
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(path, f"cannot read file ({exc.strerror or exc})") from None
+    bad = data.find(b"\0")
+    try:
+        text = data.decode()
+    except UnicodeDecodeError as exc:
+        bad = exc.start if bad < 0 else min(bad, exc.start)
+    if bad < 0:
+        return text
+    seen, suffixes = looks_like(data[:4096])
+    if suffixes:
+        hint = f"it looks like {seen}: give it the suffix {' or '.join(suffixes)} to run it as a recording"
+    else:
+        hint = f"a recording needs its format's suffix ({' '.join(sorted(SUFFIX_FORMAT))})"
+    raise InputError(
+        path,
+        f"not a list of paths: a .txt INPUT is read as a list of recordings, one path a line, and this file "
+        f"holds binary data; {hint}",
+        f"byte offset {bad}",
+    )
 
 
 def output_names(recordings: list[Path]) -> list[str]:
@@ -159,7 +187,9 @@ def run_dataset(args, command) -> int:
     0, or 1 when a recording failed."""
     jobs = _jobs(args)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    check_writable(out)
+    with writing(out):
+        out.mkdir(parents=True, exist_ok=True)
     workers = min(args.workers or usable_cores(), len(jobs))
     rows = sorted(
         _run_all(jobs, command, workers, args.scheduler, not args.no_progress),

@@ -18,7 +18,7 @@ from ..results.maps import Maps
 from ..scoring.baseline import self_agreement
 from ..scoring.metrics import compare_maps
 from ..scoring.outline import event_outlines
-from .options import number, subcommand
+from .options import check_output_file, number, subcommand
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide. The
 #: median angle and the angle MSE are in --json only: a median of angles can look perfect while a
@@ -92,6 +92,7 @@ def add_compare_command(sub):
         help="also draw both figure-ground maps and their angle difference, one row per compared "
         "window (at most 6, evenly spaced)",
     )
+    p.add_argument("--force", action="store_true", help="replace the files --json and --plot name if they exist")
     p.set_defaults(handler=cmd_compare)
     return p
 
@@ -131,9 +132,11 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
 
 def cmd_compare(args) -> int:
     """Handler of ``snn-fg compare``; prints the table, returns 0."""
-    for out in (args.json, args.plot):
+    for flag, out in (("--json", args.json), ("--plot", args.plot)):
         if out is not None and Path(out).resolve() in (Path(args.a).resolve(), Path(args.b).resolve()):
             raise InputError(out, "output would overwrite an input")
+        if out is not None:
+            check_output_file(out, args.force, flag)
     if args.plot is not None and Path(args.plot).suffix.lower() != ".png":
         raise InputError(args.plot, "--plot needs a .png file name")
     a, b = Maps.load(args.a), Maps.load(args.b)

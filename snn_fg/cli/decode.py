@@ -35,7 +35,7 @@ def add_decode_command(sub):
         default=None,
         help="the input spike file, for the figure's input panel (default: input.npz beside COUNTS)",
     )
-    p.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    p.add_argument("--force", action="store_true", help="replace OUT if it holds an earlier run (and nothing else)")
     p.set_defaults(handler=cmd_decode)
     return p
 
@@ -45,6 +45,7 @@ def cmd_decode(args) -> int:
     # (matplotlib, for the figure, is imported only when a command draws one)
     from ..results.figures import event_frame_rgb, save_maps_figure
 
+    folder = OutputFolder(args.out, force=args.force)  # (refused, or unwritable, before the work)
     net, _ = export_network(args.export)
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")
@@ -56,7 +57,7 @@ def cmd_decode(args) -> int:
     if origin is not None:  # (maps on the export's frame: blocks of the sensor where it pools)
         maps.params["source"] = origin
     placed = None if origin is None else (origin["crop_x_px"], origin["crop_y_px"], origin["pool"])
-    with OutputFolder(args.out, force=args.force) as out:
+    with folder as out:
         maps.save(out.dir / "maps.npz")
         save_maps_figure(
             out.dir / "maps.png",

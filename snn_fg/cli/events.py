@@ -28,7 +28,7 @@ from ..events.aps import frame_summary, open_frames
 from ..events.esim import MOTIONS
 from ..events.images import IMAGE_SUFFIXES
 from ..results.atomic import save_figure, save_npz
-from .options import sensor_size
+from .options import check_output_file, sensor_size
 from .spikes import add_spike_options, write_spikes
 
 
@@ -86,6 +86,11 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         default=None,
         help="recordings: draw the events and the share of pixels they cover, window by window",
     )
+    g.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the files --write-frame, --write-events, --write-spikes, --plot name",
+    )
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_spike_options(p)
     p.set_defaults(func=run_events, handler=run_events)
@@ -119,11 +124,9 @@ def run_events(args) -> int:
     path = Path(args.input)
     if not path.exists():
         raise InputError(path, "no such file")
+    _check_outputs(args, path)
     if args.write_spikes is not None:
         return write_spikes(args)
-    for out in (args.write_frame, args.write_events):
-        if out is not None and Path(out).resolve() == path.resolve():
-            raise InputError(out, "output would overwrite the input")
     if args.write_frame is not None and Path(args.write_frame).suffix.lower() != ".npz":
         raise InputError(args.write_frame, "--write-frame needs an .npz file name")
     _check_plot(args, path)
@@ -234,13 +237,26 @@ def _frame_lines(path, stream, t_first) -> list:
     return [("APS frames", line)]
 
 
+#: the options of ``snn-fg events`` that name a file to write
+OUTPUT_FLAGS = ("--write-frame", "--write-events", "--write-spikes", "--plot")
+
+
+def _check_outputs(args, path):
+    """Each file to write: not the input, replaced only with ``--force``, writable (before the work)."""
+    for flag in OUTPUT_FLAGS:
+        out = getattr(args, flag.lstrip("-").replace("-", "_"))
+        if out is None:
+            continue
+        if Path(out).resolve() == path.resolve():
+            raise InputError(out, "output would overwrite the input")
+        check_output_file(out, args.force, flag)
+
+
 def _check_plot(args, path):
     if args.plot is None:
         return
     if Path(args.plot).suffix.lower() != ".png":
         raise InputError(args.plot, "--plot needs a .png file name")
-    if Path(args.plot).resolve() == path.resolve():
-        raise InputError(args.plot, "output would overwrite the input")
     if path.suffix.lower() in IMAGE_SUFFIXES:
         raise InputError(path, "--plot draws a recording's activity over time; an image has none")
 

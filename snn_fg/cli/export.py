@@ -17,7 +17,7 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError
-from ..export.folder import INPUT_NAME
+from ..export.folder import EXPORT_FOLDER, INPUT_NAME
 from ..export.lava import export_lava
 from ..export.nir import describe_nir, export_nir
 from ..export.nir_import import read_nir
@@ -29,7 +29,8 @@ from ..frames.pyramid import check_levels
 from ..lowering.quantise import check_bits
 from ..network.recipes import RECIPES, is_recipe, load_description, network_for
 from ..results.atomic import save_text
-from .options import number, refuse_existing, sensor_size, subcommand
+from ..results.outputs import check_output_folder, check_writable
+from .options import check_output_file, number, sensor_size, subcommand
 
 FORMATS = ("pynn", "lava", "nir", "report", "network")
 TARGETS = ("generic", "spinnaker", "loihi2")
@@ -229,8 +230,11 @@ def cmd_export(args) -> int:
     """Handler of ``snn-fg export``; prints what it wrote (a report: its table too), returns 0."""
     bits = _checked_bits(args)
     out = None if args.out is None else Path(args.out)
-    if out is not None:
-        refuse_existing(out, args.force)
+    if out is not None and args.format in ("pynn", "lava"):
+        check_output_folder(out, EXPORT_FOLDER, args.force)
+        check_writable(out)
+    elif out is not None:
+        check_output_file(out, args.force)
     net, sensor = _network(args)
     if args.format == "pynn":
         export_pynn(

@@ -101,7 +101,11 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
                 # next is its consequence: report the interrupt, not the error
                 if signals.received:
                     raise KeyboardInterrupt(signals.received[-1]) from None
-                if not isinstance(exc, SnnFgError):
+                if isinstance(exc, OSError) and exc.filename is not None:
+                    # a file that cannot be read or written (a full disk part way through a run, say):
+                    # the file and the system's reason in one line
+                    exc = f"{exc.filename}: {exc.strerror or type(exc).__name__}"
+                elif not isinstance(exc, SnnFgError):
                     raise
                 print(f"snn-fg: error: {exc}", file=sys.stderr)
                 return EXIT_INPUT

@@ -45,7 +45,9 @@ def add_run_command(sub):
         "DIR/NAME with DIR/summary.csv",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
-    p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
+    p.add_argument(
+        "--force", action="store_true", help="replace the output folder if it holds an earlier run (and nothing else)"
+    )
     p.add_argument(
         "--resume",
         action="store_const",
@@ -179,7 +181,7 @@ def _run_recording(args, model) -> str | None:
 
 
 def _settled(args, out, previous, run) -> int:
-    """``run()`` into the growing folder ``out`` (``previous``: the earlier run set aside, see
+    """``run()`` into the growing folder ``out`` (``previous``: what it held, set aside, see
     :func:`~snn_fg.results.atomic.growing_folder`), then the folder settled by how it ended: kept
     when it completed; after bad input part way through, no half-written output (the earlier
     run kept); after an interrupt, the windows completed so far, for ``--resume``."""
@@ -191,10 +193,11 @@ def _settled(args, out, previous, run) -> int:
         if args.resume:
             raise
         done = windows_complete(out)
+        earlier = previous is not None and any(previous.iterdir())
         settle_folder(out, previous, keep_new=False)
-        if not done and previous is None:
+        if not done and not earlier:
             raise
-        said = f"; the earlier run in {args.out}/ is kept" if previous is not None else ""
+        said = f"; the earlier run in {args.out}/ is kept" if earlier else ""
         if done:
             said = (
                 f"; nothing written{said} (--max-windows {done} runs the {done} "

@@ -109,6 +109,14 @@ def _sniff(head: bytes):
     return None
 
 
+def looks_like(head: bytes) -> tuple[str | None, list[str]]:
+    """What a file whose first bytes are ``head`` looks like ("an Event Stream (.es) file", None when
+    nothing known), and the suffixes of the recording formats it may be (for a file misnamed)."""
+    seen = _sniff(head)
+    suffixes = [sfx for sfx, fmt in SUFFIX_FORMAT.items() if seen is not None and seen in FORMATS[fmt].looks_like]
+    return seen, suffixes
+
+
 def detect_format(path) -> str:
     """Format name from the extension, checked against the file's first bytes."""
     path = Path(path)

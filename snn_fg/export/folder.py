@@ -2,7 +2,9 @@
 the weight-shared tables (identical ones stored once), ``network.json`` (what
 ``snn-fg events --write-spikes`` and ``snn-fg decode`` read), the README's
 common facts, and the folder written whole, keeping an ``input.npz`` that
-still serves it."""
+still serves it. What an export folder may hold (:data:`EXPORT_FOLDER`: the export's own files and
+what the programs run in it write there) is what ``snn-fg export --force`` may replace; a folder
+holding anything else is refused (:mod:`snn_fg.results.outputs`)."""
 
 from __future__ import annotations
 
@@ -13,14 +15,54 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, lava, pynn
 from .. import validate as check
 from ..network.graph import Network
+from ..results.atomic import OutputFolder
+from ..results.outputs import FolderKind
 from .board import ConvTable, geometry, table
 from .synapses import projection_counts
 
 #: the input file ``snn-fg events --write-spikes`` writes into an export by the README's loop
 INPUT_NAME = "input.npz"
+#: what an input spike file holds, and what run.py's output (counts) always holds
+INPUT_KEYS = ("indices", "steps", "dt_ms", "period_steps", "shape")
+COUNTS_KEYS = ("duration_ms", "dt_ms", "count_from_ms")
+
+
+def _run_py_file(entry: Path) -> bool:
+    """Whether ``entry`` is a file run.py reads or writes (an input spike file, its counts), by its arrays."""
+    if entry.suffix != ".npz" or not entry.is_file():
+        return False
+    try:
+        with np.load(entry) as d:
+            return set(INPUT_KEYS) <= set(d.files) or set(COUNTS_KEYS) <= set(d.files)
+    except (OSError, ValueError, EOFError):
+        return False
+
+
+#: what a PyNN or Lava export folder holds: the export's files, and what run.py and Python write in it (the
+#: input and counts files, under any name; sPyNNaker's configuration and reports, the virtual board's
+#: mapping.json, Lava's resources.json)
+EXPORT_FOLDER = FolderKind(
+    "an snn-fg export",
+    names=(
+        *pynn.COPIED.values(),
+        *lava.COPIED.values(),
+        "network.json",
+        "tables.npz",
+        "spinnaker.json",
+        "requirements.txt",
+        "README.md",
+        INPUT_NAME,
+        "__pycache__",
+        "spinnaker",
+        "mapping.json",
+        "resources.json",
+    ),
+    marks=("network.json",),
+    owns=_run_py_file,
+)
 
 
 def weight_tables(network: Network):
@@ -132,12 +174,10 @@ def readme_fields(network: Network, meta: dict, sensor_shape) -> dict:
 def write_folder(out, *, force: bool, frame_shape, meta: dict, arrays: dict, copies: dict, texts: dict) -> Path:
     """An export folder written whole (via a staging folder): ``network.json`` (``meta``),
     ``tables.npz`` (``arrays``), the standalone modules ``copies`` (path -> name in the
-    folder) and ``texts`` (name -> text). With ``force`` an existing folder is replaced,
-    keeping its ``input.npz`` when it serves the same frame and time step."""
-    from ..results.atomic import OutputFolder
-
+    folder) and ``texts`` (name -> text). With ``force`` an earlier export (:data:`EXPORT_FOLDER`) is
+    replaced, keeping its ``input.npz`` when it serves the same frame and time step."""
     kept = reusable_input(Path(out) / INPUT_NAME, frame_shape, meta["dt_ms"]) if force else None
-    with OutputFolder(out, force=force) as folder:
+    with OutputFolder(out, force=force, kind=EXPORT_FOLDER) as folder:
         tmp = folder.dir
         if kept is not None:
             (tmp / INPUT_NAME).write_bytes(kept)

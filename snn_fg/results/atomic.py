@@ -19,28 +19,37 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from .outputs import RUN_FOLDER, WORKING_PREFIX, FolderKind, check_output_folder, check_writable, writing
 
 
 @contextlib.contextmanager
 def atomic_path(path, suffix: str | None = None):
     """Yield a temporary path next to ``path``; move it onto ``path`` on success.
 
-    On any exception (including KeyboardInterrupt) the temporary file is
-    removed and ``path`` is left untouched.
+    On any exception (including KeyboardInterrupt) the temporary file and
+    the folders made for it are removed and ``path`` is left untouched; a place that cannot be written
+    raises :class:`~snn_fg.errors.InputError` naming ``path``.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     suffix = path.suffix if suffix is None else suffix
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".part{suffix}", dir=path.parent)
+    made = []
+    try:
+        with writing(path):  # (an unwritable place: one line naming it)
+            made = _make_parents(path)
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".part{suffix}", dir=path.parent)
+    except BaseException:
+        _remove_empty(made)
+        raise
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_umask())  # (mkstemp creates 0600: give what a plain open() would)
     try:
         yield Path(tmp)
-        os.replace(tmp, path)
+        with writing(path):
+            os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+        _remove_empty(made)
         raise
 
 
@@ -99,97 +108,170 @@ def save_figure(fig, path, **kwargs) -> Path:
 
 
 class OutputFolder:
-    """A run's output folder, replaced as a whole on success.
+    """A run's output folder, written whole on success.
 
-    ``force=False`` refuses a destination that exists and is not empty (so an
-    earlier run is never mixed with this one); ``force=True`` replaces it.
-    ``cancelled`` (a callable) is asked once more before committing: a run
-    that was cancelled (an interrupt swallowed by a library) leaves nothing.
-    Use as a context manager; write into :attr:`dir` inside the block.
+    The folder must be new, empty, or hold an earlier output of ``kind``
+    and nothing else, which is replaced only with ``force``
+    (:func:`~snn_fg.results.outputs.check_output_folder`: a folder holding
+    anything else is refused, nothing deleted). ``cancelled`` (a callable)
+    is asked once more before committing: a run that was cancelled (an
+    interrupt swallowed by a library) leaves nothing. Use as a context
+    manager; write into :attr:`dir` inside the block.
+
+    A new folder is written beside its destination and renamed into place;
+    an existing one (which may be a mount point or the current folder,
+    neither of which can be renamed) is written inside it and its entries
+    exchanged on success, the earlier ones first set aside and then
+    removed. An error, Ctrl-C or SIGTERM leaves the destination as it was.
     """
 
-    def __init__(self, path, force: bool = False, cancelled=None):
+    def __init__(self, path, force: bool = False, cancelled=None, kind: FolderKind = RUN_FOLDER):
         self.path = Path(path)
         self.cancelled = cancelled or (lambda: False)
-        if self.path.exists() and not self.path.is_dir():
-            raise InputError(self.path, "--out must be a folder, but a file of that name exists")
-        if self.path.is_dir() and any(self.path.iterdir()) and not force:
-            held = ", ".join(sorted(p.name for p in self.path.iterdir())[:4])
-            raise InputError(
-                self.path,
-                f"output folder is not empty (holds {held}...); choose another folder or pass --force to replace it",
-            )
+        check_output_folder(self.path, kind, force)
+        check_writable(self.path)
         self.dir: Path | None = None
         self._made: list[Path] = []
 
     def __enter__(self) -> OutputFolder:
-        parent = self.path.parent
-        missing = []
-        while not parent.exists():
-            missing.append(parent)
-            parent = parent.parent
-        for p in reversed(missing):
-            p.mkdir()
-            self._made.append(p)
-        self.dir = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".staging", dir=self.path.parent))
+        with writing(self.path):
+            if self.path.is_dir():
+                self.dir = Path(tempfile.mkdtemp(prefix=WORKING_PREFIX, suffix=".staging", dir=self.path))
+                return self
+            self._made = _make_parents(self.path)
+            self.dir = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".staging", dir=self.path.parent))
         return self
 
     def __exit__(self, exc_type, exc, tb):
         if exc_type is None and self.cancelled():
-            exc_type = KeyboardInterrupt
+            self._clean()
+            raise KeyboardInterrupt("cancelled")
         if exc_type is not None:
-            shutil.rmtree(self.dir, ignore_errors=True)
-            for p in reversed(self._made):
-                with contextlib.suppress(OSError):
-                    p.rmdir()
-            if exc is None:
-                raise KeyboardInterrupt("cancelled")
+            self._clean()
             return False
+        try:
+            with writing(self.path):
+                self._commit()
+        except BaseException:
+            self._clean()
+            raise
+        return False
+
+    def _commit(self) -> None:
         os.chmod(self.dir, 0o777 & ~_umask())
-        if self.path.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".old", dir=self.path.parent))
-            os.replace(self.path, old / "previous")
-            os.replace(self.dir, self.path)
-            shutil.rmtree(old, ignore_errors=True)
+        if self.dir.parent == self.path:
+            exchange_entries(self.dir, self.path)
         else:
             os.replace(self.dir, self.path)
-        return False
+
+    def _clean(self) -> None:
+        shutil.rmtree(self.dir, ignore_errors=True)
+        _remove_empty(self._made)
+
+
+def _make_parents(path: Path) -> list[Path]:
+    """Make the missing folders above ``path``; the ones made, outermost first."""
+    missing = []
+    parent = path.parent
+    while not parent.exists():
+        missing.append(parent)
+        parent = parent.parent
+    made = []
+    try:
+        for p in reversed(missing):
+            p.mkdir()
+            made.append(p)
+    except BaseException:
+        _remove_empty(made)
+        raise
+    return made
+
+
+def _remove_empty(made: list[Path]) -> None:
+    """Remove the folders :func:`_make_parents` made, innermost first, as far as they are empty."""
+    for p in reversed(made):
+        with contextlib.suppress(OSError):
+            p.rmdir()
+
+
+def _entries(folder: Path) -> list[Path]:
+    """``folder``'s entries but snn-fg's own working folders in it."""
+    return [p for p in folder.iterdir() if not p.name.startswith(WORKING_PREFIX)]
+
+
+def set_aside(folder: Path) -> Path:
+    """Move ``folder``'s entries into a hidden folder inside it, and return that folder
+    (:func:`put_back` undoes it, :func:`shutil.rmtree` of it drops them)."""
+    aside = Path(tempfile.mkdtemp(prefix=WORKING_PREFIX, suffix=".previous", dir=folder))
+    moved = []
+    try:
+        for p in _entries(folder):
+            os.replace(p, aside / p.name)
+            moved.append(p.name)
+    except BaseException:
+        for name in moved:
+            os.replace(aside / name, folder / name)
+        aside.rmdir()
+        raise
+    return aside
+
+
+def put_back(aside: Path, folder: Path) -> None:
+    """Remove what ``folder`` holds now and move back the entries :func:`set_aside` put in ``aside``."""
+    for p in _entries(folder):
+        shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+    for p in list(aside.iterdir()):
+        os.replace(p, folder / p.name)
+    aside.rmdir()
+
+
+def exchange_entries(staging: Path, folder: Path) -> None:
+    """Replace ``folder``'s entries by those of ``staging`` (a folder inside it), which is removed:
+    the earlier entries are set aside first, and put back if a move fails."""
+    aside = set_aside(folder)
+    moved = []
+    try:
+        for p in list(staging.iterdir()):
+            os.replace(p, folder / p.name)
+            moved.append(p.name)
+    except BaseException:
+        for name in moved:
+            os.replace(folder / name, staging / name)
+        put_back(aside, folder)
+        raise
+    staging.rmdir()
+    shutil.rmtree(aside, ignore_errors=True)
 
 
 def growing_folder(path, force: bool = False, resume: bool = False) -> tuple[Path, Path | None]:
     """A recording's output folder, written in place as windows complete
     (:mod:`snn_fg.results.store`): made when new; an earlier run in it is refused,
-    set aside to be replaced (``force``) or continued (``resume``).
+    set aside to be replaced (``force``) or continued (``resume``); a folder that
+    holds anything else is refused (:func:`~snn_fg.results.outputs.check_output_folder`).
 
-    Returns ``(folder, previous)``: ``previous`` is where a replaced run waits
-    (a hidden sibling) until the new one has a window to show; give it to
-    :func:`settle_folder`, which drops it or puts it back.
+    Returns ``(folder, previous)``: ``previous``, for a folder that existed and is
+    not continued, is where its entries (an earlier run, or none) wait in a hidden
+    folder inside it (:func:`set_aside`) until the new run has a window to show;
+    give it to :func:`settle_folder`, which drops them or puts them back.
     """
     path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise InputError(path, "--out must be a folder, but a file of that name exists")
-    previous = None
-    if path.is_dir() and any(path.iterdir()) and not resume:
-        if not force:
-            held = ", ".join(sorted(p.name for p in path.iterdir())[:4])
-            raise InputError(
-                path,
-                f"output folder is not empty (holds {held}...); choose another folder, pass "
-                "--resume to continue its run or --force to replace it",
-            )
-        previous = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".previous", dir=path.parent))
-        os.replace(path, previous / "run")
-    path.mkdir(parents=True, exist_ok=True)
+    earlier = check_output_folder(path, RUN_FOLDER, force, resume=resume)
+    check_writable(path)
+    with writing(path):
+        previous = set_aside(path) if path.is_dir() and not (earlier and resume) else None
+        path.mkdir(parents=True, exist_ok=True)
     return path, previous
 
 
 def settle_folder(path, previous: Path | None, keep_new: bool) -> None:
     """After a recording's run into :func:`growing_folder` ``path``: keep what it
-    wrote (``keep_new``) and drop the run it replaced, if any; or remove what it
-    wrote and put the replaced run back where it was."""
-    if not keep_new:
-        shutil.rmtree(path, ignore_errors=True)
+    wrote (``keep_new``) and drop what was set aside, if anything; or remove what it
+    wrote and put back what was set aside (a folder the run made is removed)."""
+    path = Path(path)
+    if keep_new:
         if previous is not None:
-            os.replace(previous / "run", path)
-    if previous is not None:
-        shutil.rmtree(previous, ignore_errors=True)
+            shutil.rmtree(previous, ignore_errors=True)
+    elif previous is not None:
+        put_back(previous, path)
+    else:
+        shutil.rmtree(path, ignore_errors=True)

@@ -1,0 +1,159 @@
+"""What a command may write over: the rule ``--force`` follows, and the check that a destination can be written.
+
+A command writes its output folder whole (:class:`~snn_fg.results.atomic.OutputFolder`). A folder that
+exists is written into only when it is empty or holds an earlier output of the same kind and nothing
+else; ``--force`` is what allows the second. A folder that holds anything else (a user's recording,
+another program's files) is refused in one line, whatever the options, and nothing in it is touched:
+snn-fg never deletes a file it did not write. Each kind of output (:class:`FolderKind`) lists the
+names its command writes; :data:`RUN_FOLDER` is ``snn-fg run``'s (and ``snn-fg decode``'s).
+
+:func:`check_writable` tries the destination before the work starts, so that an unwritable one
+(read-only file system, no permission, a full disk) ends in one line naming it, not in a traceback
+after the work.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fnmatch
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from ..errors import InputError
+
+#: the prefix of what snn-fg makes inside an output folder while it writes it (a staging folder, the
+#: earlier output set aside); a run killed outright may leave one behind, which the next run removes
+WORKING_PREFIX = ".snn-fg."
+
+
+@dataclass(frozen=True)
+class FolderKind:
+    """The entries an output folder of one kind holds.
+
+    ``what`` names it in messages ("an snn-fg run"); ``names`` are the
+    patterns (:mod:`fnmatch`) of every entry its command and the programs
+    that run in it write; ``marks``: one of these names is in every earlier
+    output (a folder holding only a figure is not a run); ``owns``: further
+    entries recognised by their content (a file whose name the user chose).
+    """
+
+    what: str
+    names: tuple[str, ...]
+    marks: tuple[str, ...]
+    owns: Callable[[Path], bool] | None = None
+
+    def written(self, entry: Path) -> bool:
+        """Whether ``entry`` is one this kind of output writes."""
+        name = entry.name
+        if name.startswith(WORKING_PREFIX) or any(fnmatch.fnmatchcase(name, p) for p in self.names):
+            return True
+        return self.owns is not None and self.owns(entry)
+
+
+#: what ``snn-fg run`` and ``snn-fg decode`` write: maps (a frame's ``.npz``, a recording's Zarr store),
+#: their figures, a recording's per-window table and animation, the spiking model's figures
+RUN_FOLDER = FolderKind(
+    "an snn-fg run",
+    names=(
+        "maps.npz",
+        "maps.zarr",
+        "maps.png",
+        "timeline.png",
+        "windows.csv",
+        "windows",
+        "maps.gif",
+        "maps.mp4",
+        "spike_raster.png",
+        "rate_histograms.png",
+    ),
+    marks=("maps.npz", "maps.zarr"),
+)
+
+
+def _listed(entries, n: int = 4) -> str:
+    names = sorted(p.name for p in entries)
+    return ", ".join(names[:n]) + (", ..." if len(names) > n else "")
+
+
+def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False, resume: bool | None = None) -> bool:
+    """Whether the output folder ``path`` may be written, by :class:`FolderKind` ``kind``'s rule: it
+    does not exist, is empty, or holds an earlier output of ``kind`` and nothing else, which only
+    ``force`` (replace it) or ``resume`` (continue it; None: the output cannot be continued) allows.
+    Returns whether it holds such an earlier output; raises :class:`~snn_fg.errors.InputError` (one
+    line, nothing touched) otherwise."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(path, "--out must be a folder, but a file of that name exists")
+    if not path.is_dir():
+        return False
+    here = Path.cwd().resolve()
+    if path.resolve() != here and path.resolve() in here.parents:
+        raise InputError(path, "holds the current folder: choose an output folder outside it")
+    entries = [p for p in path.iterdir() if not p.name.startswith(WORKING_PREFIX)]
+    if not entries:
+        return False
+    foreign = [p for p in entries if not kind.written(p)]
+    if foreign or not any((path / m).exists() for m in kind.marks):
+        shown = foreign or entries
+        raise InputError(
+            path,
+            f"holds {_listed(shown)}, which snn-fg did not write"
+            + (
+                ": --force replaces only a folder holding an earlier run and nothing else; nothing was deleted"
+                if force
+                else ""
+            )
+            + "; choose another output folder",
+        )
+    if not (force or resume):
+        how = (
+            "pass --force to replace it" if resume is None else "pass --resume to continue it or --force to replace it"
+        )
+        raise InputError(path, f"holds {kind.what} already ({_listed(entries)}); choose another output folder or {how}")
+    return True
+
+
+#: what a failed write's error number means, in the line that names the path
+_WHY = {
+    errno.EROFS: "read-only file system",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "permission denied",
+    errno.ENOSPC: "no space left on the device",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.ENOTDIR: "a file stands where a folder must be",
+}
+
+
+def cannot_write(path, exc: OSError) -> InputError:
+    """The one-line error of a write to ``path`` that failed with ``exc``."""
+    why = _WHY.get(exc.errno, exc.strerror or type(exc).__name__)
+    return InputError(path, f"cannot write here ({why})")
+
+
+@contextlib.contextmanager
+def writing(path):
+    """Turn an :class:`OSError` raised while the block writes ``path`` into the one line of :func:`cannot_write`."""
+    try:
+        yield
+    except OSError as exc:
+        raise cannot_write(path, exc) from None
+
+
+def check_writable(path) -> None:
+    """Raise the one line of :func:`cannot_write` unless ``path`` (a file or folder to write) can be
+    made: a file is created and removed in the nearest folder of ``path`` that exists (a real write:
+    a read-only file system, permissions and a full disk all show)."""
+    path = Path(path)
+    place = path if path.is_dir() else path.parent
+    while not place.exists():
+        place = place.parent
+    with writing(path):
+        if not place.is_dir():
+            raise NotADirectoryError(errno.ENOTDIR, "not a directory", str(place))
+        fd, probe = tempfile.mkstemp(prefix=WORKING_PREFIX, suffix=".probe", dir=place)
+        os.close(fd)
+        os.unlink(probe)

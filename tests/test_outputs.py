@@ -1,0 +1,255 @@
+"""What a command may write over (snn_fg.results.outputs): ``--force`` replaces only a folder that
+holds an earlier output of the same command and nothing else (or nothing); a destination that cannot
+be written ends in one line naming it, exit 2, nothing partial; a file a command writes is replaced
+only with ``--force``, whichever command writes it."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from snn_fg.cli.main import main
+from snn_fg.events import image_to_events, save_events
+from snn_fg.frames.scenes import disc
+from snn_fg.results.maps import Maps
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    """A disc seen by a simulated camera moving in a circle (64 x 64 sensor, 0.45 s: 6 windows of
+    85 ms), as a .es recording."""
+    rec = image_to_events(disc(8).image, motion="circle")
+    path = tmp_path_factory.mktemp("rec") / "disc.es"
+    save_events(path, rec.events, rec.sensor_size)
+    return path
+
+
+def _maps(folder, r0=8.0):
+    folder.mkdir()
+    Maps(*(np.zeros((8, 8), np.float32) for _ in range(3)), params={"r0": r0}).save(folder / "maps.npz")
+    return folder
+
+
+def _one_error(capsys) -> str:
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1, err
+    return err[0]
+
+
+# -- --force -----------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("command", ["still", "recording", "decode", "export"])
+def test_force_never_deletes_a_file_snn_fg_did_not_write(tmp_path, recording, capsys, command):
+    """The new user's ``snn-fg run demo --out sb3 --force`` where sb3/ held only their recording: it
+    was deleted. Now each command that writes a folder refuses in one line, nothing deleted, also when
+    the folder holds an earlier run beside the user's file."""
+    out = tmp_path / "sb3"
+    out.mkdir()
+    (out / "my_recording.es").write_bytes(recording.read_bytes())
+    if command == "export":
+        (out / "network.json").write_text("{}")  # (an earlier export's beside it)
+    else:
+        Maps(*(np.zeros((4, 4), np.float32) for _ in range(3))).save(out / "maps.npz")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    argv = {
+        "still": ["run", "demo", "--out", str(out), "--force", "--no-progress"],
+        "recording": ["run", str(recording), "--out", str(out), "--force", "--no-progress"],
+        "decode": ["decode", str(tmp_path / "counts.npz"), "--export", str(tmp_path), "--out", str(out), "--force"],
+        "export": [
+            "export",
+            "--format",
+            "pynn",
+            "--out",
+            str(out),
+            "--sensor-size",
+            "16x16",
+            "--levels",
+            "1",
+            "--force",
+        ],
+    }[command]
+    assert main(argv) == 2
+    line = _one_error(capsys)
+    assert f"{out}: holds my_recording.es, which snn-fg did not write" in line and "nothing was deleted" in line
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sb3"]  # nothing set aside or staged beside it
+
+
+def test_force_replaces_an_earlier_run_and_a_folder_is_refused_without_it(tmp_path, capsys):
+    out = _maps(tmp_path / "o")
+    assert main(["run", "demo", "--out", str(out), "--levels", "2", "--no-progress", "--no-figures"]) == 2
+    assert "holds an snn-fg run already (maps.npz)" in _one_error(capsys)
+    assert main(["run", "demo", "--out", str(out), "--levels", "2", "--no-progress", "--no-figures", "--force"]) == 0
+    assert Maps.load(out).params["levels"] == 2 and sorted(os.listdir(out)) == ["maps.npz"]
+    assert sorted(os.listdir(tmp_path)) == ["o"]
+
+
+def test_a_folder_of_figures_only_is_not_an_earlier_run(tmp_path, capsys):
+    """A folder holding only a ``maps.png`` (the user's own figure, say) holds no run's maps: refused."""
+    out = tmp_path / "figs"
+    out.mkdir()
+    (out / "maps.png").write_bytes(b"a user's figure")
+    assert main(["run", "demo", "--out", str(out), "--force", "--no-progress"]) == 2
+    assert "holds maps.png, which snn-fg did not write" in _one_error(capsys)
+    assert (out / "maps.png").read_bytes() == b"a user's figure"
+
+
+def test_the_current_folder_is_written_in_place(tmp_path, monkeypatch, capsys):
+    """``--out .`` (empty, then holding the earlier run, with --force): it ended in a traceback
+    (the current folder cannot be renamed) and left hidden .old and .staging folders behind."""
+    here = tmp_path / "here"
+    here.mkdir()
+    monkeypatch.chdir(here)
+    opts = ["--levels", "2", "--no-progress", "--no-figures"]
+    assert main(["run", "demo", "--out", ".", *opts]) == 0
+    assert main(["run", "demo", "--out", ".", *opts, "--r0", "6", "--force"]) == 0
+    assert sorted(os.listdir(here)) == ["maps.npz"] and Maps.load(here).params["r0"] == 6
+    assert sorted(os.listdir(tmp_path)) == ["here"]
+
+
+def test_a_folder_holding_the_current_one_is_refused(tmp_path, monkeypatch, capsys):
+    out = _maps(tmp_path / "o")
+    (out / "maps.zarr").mkdir()
+    monkeypatch.chdir(out / "maps.zarr")
+    assert main(["run", "demo", "--out", str(out), "--force", "--no-progress"]) == 2
+    assert "holds the current folder" in _one_error(capsys)
+    assert sorted(os.listdir(out)) == ["maps.npz", "maps.zarr"]
+
+
+def test_a_forced_re_export_keeps_nothing_but_what_the_export_and_run_py_wrote(tmp_path, capsys):
+    """An export folder after the README's loop (input.npz, counts under a name the user chose,
+    sPyNNaker's folder) is replaced with --force; with a user's notes in it, refused."""
+    out = tmp_path / "model"
+    export = ["export", "--format", "pynn", "--out", str(out), "--sensor-size", "16x16", "--levels", "1"]
+    assert main(export) == 0
+    np.savez(out / "my_counts.npz", duration_ms=400.0, dt_ms=0.5, count_from_ms=200.0)
+    (out / "spinnaker").mkdir()
+    (out / "mapping.json").write_text("{}")
+    assert main([*export, "--force"]) == 0
+    assert not (out / "my_counts.npz").exists() and not (out / "spinnaker").exists()
+    (out / "notes.txt").write_text("mine")
+    assert main([*export, "--force"]) == 2
+    assert "holds notes.txt, which snn-fg did not write" in capsys.readouterr().err
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+# -- unwritable destinations -------------------------------------------------------------------------------------
+#: each command that writes, with RO standing for a folder that cannot be written
+WRITERS = {
+    "run a frame": ["run", "demo", "--out", "RO/run", "--no-progress"],
+    "run a recording": ["run", "REC", "--out", "RO/rec", "--no-progress"],
+    "run into the folder itself": ["run", "REC", "--out", "RO", "--no-progress"],
+    "run several recordings": ["run", "LIST", "--out", "RO/batch", "--no-progress"],
+    "plot": ["plot", "MAPS", "--windows", "0", "--out", "RO/plots"],
+    "plot --animate": ["plot", "MAPS", "--animate", "RO/maps.gif"],
+    "export pynn": ["export", "--format", "pynn", "--out", "RO/m", "--sensor-size", "16x16", "--levels", "1"],
+    "export nir": ["export", "--format", "nir", "--out", "RO/n.nir", "--sensor-size", "16x16", "--levels", "1"],
+    "export report": ["export", "--format", "report", "--out", "RO/r.json", "--sensor-size", "16x16", "--levels", "1"],
+    "export network": ["export", "--format", "network", "--out", "RO/n.json", "--sensor-size", "16x16"],
+    "decode": ["decode", "COUNTS", "--export", "EXPORT", "--out", "RO/maps"],
+    "compare --json": ["compare", "MAPS", "MAPS2", "--json", "RO/c.json"],
+    "compare --plot": ["compare", "MAPS", "MAPS2", "--plot", "RO/c.png"],
+    "events --plot": ["events", "REC", "--plot", "RO/a.png", "--no-progress"],
+    "events --write-frame": ["events", "REC", "--write-frame", "RO/f.npz", "--no-progress"],
+    "events --write-events": ["events", "REC", "--write-events", "RO/e.npy", "--no-progress"],
+    "events --write-spikes": ["events", "REC", "--write-spikes", "RO/s.npz", "--export", "EXPORT", "--no-progress"],
+    "data fetch": ["data", "fetch", "events", "--no-progress"],
+}
+
+#: the child that runs every command of WRITERS in one process (each through main()) and reports
+CHILD = textwrap.dedent(
+    """
+    import contextlib, io, json, sys
+    from snn_fg.cli.main import main
+    out = {}
+    for name, argv in json.loads(sys.argv[1]).items():
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            out[name] = [main(argv), err.getvalue()]
+    print(json.dumps(out))
+    """
+)
+
+
+def _run_unwritable(ro, commands: dict, env: dict) -> dict:
+    """Run ``commands`` (each ``main``'s argv) in a child process for which folder ``ro`` cannot be
+    written: a read-only file system mounted there in a mount namespace of its own when the tests run
+    as root (whom permissions do not stop), a folder without write permission otherwise."""
+    child = [sys.executable, "-c", CHILD, json.dumps(commands)]
+    if os.geteuid() == 0:
+        if shutil.which("unshare") is None:
+            pytest.skip("running as root without unshare: no way to make a folder unwritable")
+        probe = subprocess.run(["unshare", "-m", "true"], capture_output=True)
+        if probe.returncode != 0:
+            pytest.skip(f"running as root and cannot make a mount namespace: {probe.stderr.decode().strip()}")
+        mount = f'mount -t tmpfs -o ro tmpfs {ro} && exec "$@"'
+        child = ["unshare", "-m", "sh", "-c", mount, "sh", *child]
+    else:
+        os.chmod(ro, 0o555)
+    try:
+        done = subprocess.run(child, capture_output=True, text=True, timeout=600, env={**os.environ, **env})
+    finally:
+        os.chmod(ro, 0o755)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+@pytest.mark.slow
+def test_every_command_that_writes_says_in_one_line_that_it_cannot(tmp_path, recording):
+    """A read-only --out (``OSError: [Errno 30] Read-only file system: 'romnt/maps.zarr'``) and the
+    same for export, compare --json and events --plot ended in tracebacks."""
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    maps = _maps(tmp_path / "a")
+    assert main(["run", str(recording), "--out", str(tmp_path / "r"), "--no-progress", "--no-figures"]) == 0
+    export = tmp_path / "m"
+    assert main(["export", "--format", "pynn", "--out", str(export), "--sensor-size", "16x16", "--levels", "1"]) == 0
+    (tmp_path / "list.txt").write_text(f"{recording}\n")
+    names = {
+        "RO": str(ro),
+        "REC": str(recording),
+        "LIST": str(tmp_path / "list.txt"),
+        "MAPS": str(tmp_path / "r"),
+        "MAPS2": str(maps),
+        "EXPORT": str(export),
+        "COUNTS": str(tmp_path / "counts.npz"),
+    }
+
+    def named(word):
+        for key, value in names.items():
+            if word == key or word.startswith(key + "/"):
+                return value + word[len(key) :]
+        return word
+
+    commands = {name: [named(w) for w in argv] for name, argv in WRITERS.items()}
+    results = _run_unwritable(ro, commands, {"SNN_FG_DATA": str(ro / "data")})
+    for name, (code, err) in results.items():
+        lines = [line for line in err.splitlines() if line.strip() and "warning" not in line]
+        assert code == 2 and len(lines) == 1, (name, err)
+        assert "cannot write" in lines[0] and str(ro) in lines[0] and "Traceback" not in err, (name, err)
+    assert os.listdir(ro) == []  # nothing partial
+
+
+# -- one rule for files that exist -------------------------------------------------------------------------------
+def test_files_that_exist_are_replaced_only_with_force(tmp_path, recording, capsys):
+    """events --plot and compare --json/--plot overwrote without asking while run and export refused."""
+    a, b = _maps(tmp_path / "a"), _maps(tmp_path / "b", r0=6.0)
+    for argv, out in (
+        (["compare", str(a), str(b), "--json"], tmp_path / "c.json"),
+        (["compare", str(a), str(b), "--plot"], tmp_path / "c.png"),
+        (["events", str(recording), "--no-progress", "--plot"], tmp_path / "e.png"),
+        (["events", str(recording), "--no-progress", "--write-frame"], tmp_path / "f.npz"),
+    ):
+        out.write_bytes(b"the user's")
+        assert main([*argv, str(out)]) == 2
+        assert f"{out}: exists; pass --force to replace it" in _one_error(capsys)
+        assert out.read_bytes() == b"the user's"
+        assert main([*argv, str(out), "--force"]) == 0
+        assert out.read_bytes() != b"the user's"
+        capsys.readouterr()

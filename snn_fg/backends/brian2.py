@@ -293,7 +293,9 @@ def _progress_bar(settings: RunSettings):
     def segment(start, end):
         def report(elapsed, completed, t_start, duration):  # noqa: ARG001 - Brian2's signature
             if state["bar"] is None:
-                state["bar"] = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False)
+                state["bar"] = tqdm(
+                    total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False, disable=None
+                )
             now = int(round((start + float(completed) * (end - start)) * settings.dt_ms))
             state["bar"].update(now - state["ms"])
             state["ms"] = now

@@ -259,7 +259,7 @@ def _progress(settings: RunSettings):
         yield None
         return
 
-    bar = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating (NEST)", leave=False)
+    bar = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating (NEST)", leave=False, disable=None)
     seen = {"ms": 0}
 
     def report(done_ms):

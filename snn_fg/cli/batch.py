@@ -156,7 +156,9 @@ def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, pro
     """``run_job`` of ``command`` over ``jobs``: rows in completion order."""
     run_one = functools.partial(run_job, command=command)
 
-    bar = tqdm(total=len(jobs), desc="recordings", unit="rec", file=sys.stderr, disable=not progress, leave=False)
+    bar = tqdm(
+        total=len(jobs), desc="recordings", unit="rec", file=sys.stderr, disable=None if progress else True, leave=False
+    )
     if scheduler is not None:
         try:
             from dask.distributed import Client, as_completed  # (an optional extra: only for --scheduler)

@@ -73,7 +73,7 @@ def iterations_bar(no_progress: bool):
     None with ``--no-progress``."""
     if no_progress:
         return None
-    return lambda it: tqdm(it, desc="iterations", leave=False, file=sys.stderr)
+    return lambda it: tqdm(it, desc="iterations", leave=False, file=sys.stderr, disable=None)
 
 
 def check_output_file(out, force: bool, flag: str = "--out") -> Path:

@@ -10,6 +10,8 @@ window by window into a folder that a run cut short keeps for ``--resume``
 
 from __future__ import annotations
 
+import math
+
 from ..errors import InputError
 from ..events.aps import FramedWindows, pairing_note, require_frames
 from ..events.esim import MOTIONS
@@ -149,14 +151,32 @@ def _windows(args, model):
     """The recording's windows as the options cut it (for the frame-based model, each with its APS
     frame), its ``params["source"]`` and its frame shape (rows, cols)."""
     opts = {k: getattr(args, k) for k in WINDOW_OPTIONS if getattr(args, k) is not None}
+    if args.end_ms is not None:
+        opts["max_windows"] = min(opts.get("max_windows", math.inf), _windows_before_end(args))
     windows, sensor = recording_windows(
         args.input, sensor_size=args.sensor_size, window_options=opts, progress=not args.no_progress
     )
     if model.needs == "image":  # (a recording without frames, or of frames of another size: one line)
         windows = FramedWindows(windows, require_frames(args.input, sensor), sensor)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
+    if args.end_ms is not None:
+        source["end_ms"] = args.end_ms
     source.setdefault("stride_ms", source["window_ms"])
     return windows, source, tuple(sensor[1::-1])
+
+
+def _windows_before_end(args) -> int:
+    """How many windows end by ``--end-ms`` (at least one, or refused)."""
+    win = 85.0 if args.window_ms is None else args.window_ms
+    start = args.start_ms or 0.0
+    stride = win if args.stride_ms is None else args.stride_ms
+    n = math.floor((args.end_ms - start - win) / stride + 1e-9) + 1
+    if n < 1:
+        raise InputError(
+            args.input,
+            f"--end-ms {args.end_ms:g}: no window of {win:g} ms fits between --start-ms {start:g} and it",
+        )
+    return n
 
 
 def _run_recording(args, model) -> str | None:

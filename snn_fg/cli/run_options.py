@@ -17,6 +17,7 @@ MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh", "side_c
 WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
 #: options that only a recording uses
 RECORDING_OPTIONS = WINDOW_OPTIONS + (
+    "end_ms",
     "readout_lag_ms",
     "carry_state",
     "window_clock",
@@ -45,7 +46,7 @@ RUN_OPTIONS = (
             ("--levels", int, 1, False, "pyramid levels (10)"),
             ("--n-ori", int, 2, False, "orientations per half-turn (8)"),
             ("--r0", float, 0, True, "grouping radius in px: sets the object size grouped (8)"),
-            ("--iterations", int, 0, False, "grouping/feedback iterations (10)"),
+            ("--iterations", int, 1, False, "grouping/feedback iterations (10)"),
             ("--alpha", float, 0, False, "feedback gain (2)"),
             ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1)"),
             ("--side-cue", float, 0, False, "gain of the side cue, the busier side within 160 px (0; natural: 3000)"),
@@ -57,6 +58,7 @@ RUN_OPTIONS = (
             ("--window-ms", float, 0, True, "window length (85, the iCub microsaccade period)"),
             ("--start-ms", float, 0, False, "start of the first window, ms after the first event (0)"),
             ("--stride-ms", float, 0, True, "window stride (the window length)"),
+            ("--end-ms", float, 0, True, "end of the last window, ms after the first event (the recording's end)"),
             ("--max-windows", int, 1, False, "stop after this many windows (all)"),
             ("--denoise-us", int, 0, True, "tonic Denoise filter time in us (off)"),
             ("--refractory-us", int, 0, True, "tonic RefractoryPeriod in us (off)"),
@@ -73,8 +75,20 @@ RUN_OPTIONS = (
                 f"simulator: {', '.join(backend_names())} ({DEFAULT_BACKEND}; "
                 "the one used is recorded in the maps' params)",
             ),
-            ("--duration-ms", float, 0, True, "simulated time per frame or window (400)"),
-            ("--settle-ms", float, 0, False, "spikes before this time are not counted (half of --duration-ms)"),
+            (
+                "--duration-ms",
+                float,
+                0,
+                True,
+                "frames and images: simulated time (400; a recording runs as long as its windows)",
+            ),
+            (
+                "--settle-ms",
+                float,
+                0,
+                False,
+                "frames and images: spikes before this time are not counted (half of --duration-ms)",
+            ),
             (
                 "--dt-ms",
                 float,
@@ -84,7 +98,7 @@ RUN_OPTIONS = (
                 "ms on the default network takes about 3/4 of the time and moves the maps "
                 "of natural images by 5-14 deg: experiments/results/spiking_dt.md)",
             ),
-            ("--seed", int, -(2**63), False, "seed of the input spike phases (0)"),
+            ("--seed", int, -(2**63), False, "frames and images: seed of the input spike phases (0)"),
             (
                 "--spike-input",
                 ("regular", "events"),

@@ -90,7 +90,7 @@ def _counted(windows, total):
     first = next(it, None)
     if first is None:
         return
-    with tqdm(desc="windows read", unit="win", file=sys.stderr, total=total, leave=False) as bar:
+    with tqdm(desc="windows read", unit="win", file=sys.stderr, total=total, leave=False, disable=None) as bar:
         for w in itertools.chain([first], it):
             yield w
             bar.update()

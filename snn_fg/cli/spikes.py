@@ -82,6 +82,12 @@ def _crop_box(active, net, crop_at, source):
     return y, x
 
 
+def _span(win) -> str:
+    """A window's span in ms after the recording's first event (a camera's own clock may start anywhere)."""
+    t0 = win.t_start_us if win.t_first_event_us is None else win.t_first_event_us
+    return f"{(win.t_start_us - t0) / 1000:g}-{(win.t_end_us - t0) / 1000:g} ms after the first event"
+
+
 def _input_spikes(args, net, dt_ms):
     """InputSpikes of the input cut to the network's frame, and a description. A
     network that pools its input (``params.input_pool``) sees the input's blocks,
@@ -94,11 +100,10 @@ def _input_spikes(args, net, dt_ms):
         on, off = pool_frame(win.pos, win.neg, pool)
         r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)
         ev = crop_events(pool_events(win.events, pool), (r0, c0), shape)
+        span = _span(win)
         if ev.size == 0:
-            raise InputError(
-                args.input, f"no event in the crop at {_at(net, r0, c0)} of window {win.t_start_us}..{win.t_end_us} us"
-            )
-        what = f"window {win.t_start_us}..{win.t_end_us} us, {ev.size:,} events"
+            raise InputError(args.input, f"no event in the crop at {_at(net, r0, c0)} of window {span}")
+        what = f"window {span}, {ev.size:,} events"
         if net.input_coding == "window":  # (each pixel holds its last polarity as the window's frame)
             inp = _held_input(ev, shape, dt_ms, win, net.input_rate_hz)
             what += f", held as the window's frame at {net.input_rate_hz:g} Hz"

@@ -224,9 +224,11 @@ def read_attrs(path) -> dict:
 def _same_run(path, run_key: dict) -> dict:
     """The attributes of the store at ``path``; refused when it was made with another ``run_key``."""
     attrs = read_attrs(path)
-    stored = attrs["snn_fg"].get("run_key")
-    if json.loads(json.dumps(run_key)) != stored:
-        differ = sorted(k for k in set(stored or {}) | set(run_key) if (stored or {}).get(k) != run_key.get(k))
+    # (an option not given is left out on both sides: a run made before an option was added continues)
+    stored = {k: v for k, v in (attrs["snn_fg"].get("run_key") or {}).items() if v is not None}
+    given = {k: v for k, v in json.loads(json.dumps(run_key)).items() if v is not None}
+    if given != stored:
+        differ = sorted(k for k in set(stored) | set(given) if stored.get(k) != given.get(k))
         raise InputError(
             path,
             f"--resume needs the same input and options as the run being continued; these differ: {', '.join(differ)}",

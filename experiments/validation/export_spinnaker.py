@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import subprocess
 import sys
 import tempfile
@@ -28,7 +27,6 @@ from pathlib import Path
 from experiments.bench.export_memory import RUN_CHILD
 from experiments.common import RESULTS, Run, describe, load, load_change, markdown_table, save_results
 from snn_fg.network.recipes import RECIPES
-from snn_fg.pynn.spinnaker import CELLS_PER_CORE
 
 
 def export_args(config: str) -> list:
@@ -64,8 +62,7 @@ def one(config: str, combined: bool, tmp: Path) -> dict:
             "load": load_change(load0),
         }
     m = json.loads((folder / "mapping.json").read_text())
-    pops = json.loads((folder / "network.json").read_text())["populations"]
-    m["estimate_by_population"] = {p["name"]: math.ceil(p["size"] / CELLS_PER_CORE) for p in pops}
+    m["estimate_by_population"] = json.loads((folder / "spinnaker.json").read_text())["estimate"]["cores_by_population"]
     m.update(
         config=config,
         wall_s=time.perf_counter() - t0,
@@ -82,21 +79,17 @@ def _synapse_cores(m) -> int:
 
 
 def why(m) -> str:
-    """Where sPyNNaker's network cores and chips part from the report's
-    estimate (256 cells per core in every population, 15 cores per chip):
-    separate synapse cores, populations cut into more cores than 256 cells
-    each (a 2-D population per channel, tiles whose sides divide the grid's),
-    and the network cores per used chip."""
+    """Where sPyNNaker's network cores part from the report's estimate, population by population
+    (the three that differ most), and the network cores it placed per used chip (the report counts 15)."""
     if "estimate_by_population" not in m:
         return ""
-    est, syn = m["estimate_by_population"], _synapse_cores(m)
-    extra = {n: c - est.get(n, 0) for n, c in m["cores_by_population"].items()}
-    cut = sum(extra.values()) - syn
-    top = max(extra, key=lambda n: extra[n])
-    most = "" if syn else f" (most: {top} {extra[top]:+d})"  # with synapse cores, extra counts those too
+    est = m["estimate_by_population"]
+    extra = {n: c - est.get(n, 0) for n, c in m["cores_by_population"].items() if c != est.get(n, 0)}
+    most = sorted(extra.items(), key=lambda kv: (-abs(kv[1]), kv[0]))[:3]
+    listed = ", ".join(f"{n} {d:+d}" for n, d in most) or "every population as estimated"
     return (
-        f"{m['cores_network'] - m['estimate']['cores']:+d} cores: synapse cores +{syn}, populations cut finer "
-        f"{cut:+d}{most}; {m['cores_network'] / m['chips_used']:.1f} network cores per chip (report: 15)"
+        f"{m['cores_network'] - m['estimate']['cores']:+d} cores ({listed}); "
+        f"{m['cores_network'] / m['chips_used']:.1f} network cores per chip (report: 15)"
     )
 
 

@@ -22,6 +22,7 @@ from ..network.graph import Network
 from ..pynn.cells import grid_delay, quantise, split_receptors
 from .board import board_network, table, table_values
 from .hardware import LOIHI2, SPINNAKER1, SPINNAKER2
+from .spinnaker import spinnaker_cores
 from .synapses import projection_counts
 
 SCHEMA = "snn-fg.resources/1"
@@ -101,10 +102,10 @@ def _violation(what: str, value, limit, source: str) -> dict:
     return {"constraint": what, "value": value, "limit": limit, "source": source}
 
 
-def _spinnaker1(pops, prows, totals) -> dict:
+def _spinnaker1(pops, prows, totals, cores_by_population: dict) -> dict:
     lim = SPINNAKER1
     per_core = lim["neurons_per_core"].value
-    cores = sum(math.ceil(p["cells"] / per_core) for p in pops)
+    cores = sum(cores_by_population.values())
     slots = lim["delay_slots"].value
     long_src = {r["source"] for r in prows if r["delay_steps"] > slots}
     cores += sum(math.ceil(p["cells"] / per_core) for p in pops if p["name"] in long_src)  # delay extensions
@@ -134,9 +135,12 @@ def _spinnaker1(pops, prows, totals) -> dict:
         "boards_spinn5": math.ceil(chips / lim["chips_per_board"].value),
         "delay_extension_sources": sorted(long_src),
         "violations": bad,
-        "note": "cores: 256 neurons per core plus one delay-extension core per 256 sources of delays over "
-        "32 steps; chips: the larger of cores/15 (the cores sPyNNaker places on a chip of 16 free) "
-        "and synaptic memory at 4 bytes per synapse",
+        "cores_by_population": cores_by_population,
+        "note": "cores: each population cut as the PyNN export builds it on sPyNNaker (256 cells a core; "
+        "a population joined by convolutions in tiles whose sides divide its grid; below a 1 ms step "
+        "one synapse core per core of a population that takes explicit lists), plus one "
+        "delay-extension core per 256 sources of delays over 32 steps; chips: the larger of cores/15 "
+        "(the cores sPyNNaker places on a chip of 16 free) and synaptic memory at 4 bytes per synapse",
     }
 
 
@@ -264,7 +268,7 @@ def resource_report(network: Network, dt_ms: float | None = None, sensor_shape=N
         "notes": list(net.notes[-1:]),
         "totals": totals,
         "targets": {
-            "spinnaker1": _spinnaker1(pops, prows, totals),
+            "spinnaker1": _spinnaker1(pops, prows, totals, spinnaker_cores(net, dt_ms)),
             "spinnaker2": _spinnaker2(pops, prows, totals),
             "loihi2": _loihi2(pops, prows, totals, two_taus),
         },

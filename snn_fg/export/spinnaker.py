@@ -16,11 +16,19 @@ projections becomes one ``ConvolutionConnector`` per non-zero
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..network.graph import Network
 from ..network.projections import Conv
-from .report import resource_report
+from ..pynn.spinnaker import CELLS_PER_CORE, core_tile, layout
+
+#: time step below which sPyNNaker 1!7.4.1 gives the synapses of a population that takes explicit
+#: lists cores of their own, one per core of cells here (``PopulationVertex.use_combined_core``: below
+#: 1 ms it splits whenever a synapse core is needed; measured: 276 synapse cores beside 274 cores of
+#: cells for a 32 x 24 export at 0.5 ms, none at 1 ms; experiments/results/export_spinnaker.md)
+SPLIT_BELOW_MS = 1.0
 
 
 def _conv_reason(network: Network, pr) -> str | None:
@@ -111,9 +119,52 @@ def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float | N
         "projections": entries,
     }
     if estimate:
+        from .report import resource_report  # (the report imports this module for its core counts)
+
         out["estimate"] = {
             k: v
             for k, v in resource_report(network, dt_ms)["targets"]["spinnaker1"].items()
-            if k in ("cores", "chips", "boards_spinn5", "note")
+            if k in ("cores", "chips", "boards_spinn5", "cores_by_population", "note")
         }
     return out
+
+
+def _tiles(cols: int, rows: int) -> int:
+    """Cores of a 2-D population cut by :func:`~snn_fg.pynn.spinnaker.core_tile`."""
+    a, b = core_tile(cols, rows)
+    return (cols // a) * (rows // b)
+
+
+def spinnaker_cores(network: Network, dt_ms: float | None = None) -> dict[str, int]:
+    """The cores sPyNNaker gives each population of ``network`` (a board network) as the PyNN
+    export's ``run.py`` builds it on SpiNNaker, for ``dt_ms`` steps (the network's own by default).
+
+    Cells: 256 a core in a 1-D population; a population that a ConvolutionConnector joins is 2-D,
+    one per channel where its kernels mix channels (:func:`~snn_fg.pynn.spinnaker.layout`), cut
+    into tiles whose sides divide the grid's. Spike sources: one core, or the tiles of a 2-D one.
+    Below :data:`SPLIT_BELOW_MS` a population that takes explicit lists gets one synapse core per
+    core of cells; a local-only population (the target of convolutions) keeps its synapses on its
+    own cores."""
+    dt_ms = network.dt_ms if dt_ms is None else dt_ms
+    plan = spinnaker_plan(network)["projections"]
+    by_name = {pr.name: pr for pr in network.projections}
+    conv = [e for e in plan if e["connector"] == "ConvolutionConnector"]
+    kinds = layout(
+        {p.name: {"channels": p.channels} for p in network.populations},
+        [(e["source"], e["target"], _lattice_kernel(network, by_name[e["name"]])) for e in conv],
+    )
+    local_only = {e["target"] for e in conv}
+    lists = {e["target"] for e in plan if e["connector"] == "FromListConnector"}
+    cores = {}
+    for p in network.populations:
+        rows, cols = p.grid
+        kind = kinds.get(p.name)
+        if kind is None:
+            n = 1 if p.is_source else math.ceil(p.size / CELLS_PER_CORE)
+        elif kind == "stacked":
+            n = _tiles(cols, rows * p.channels)
+        else:
+            n = (p.channels if kind == "split" else 1) * _tiles(cols, rows)
+        split = dt_ms < SPLIT_BELOW_MS and p.name in lists and p.name not in local_only
+        cores[p.name] = 2 * n if split else n
+    return cores

@@ -6,7 +6,11 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from snn_fg.cli import main
+from snn_fg.events.activity import Activity, activity_figure
 from snn_fg.results.figures import event_frame_rgb, maps_figure
+from snn_fg.results.maps import Maps
+from snn_fg.scoring.compare_figure import compare_figure
+from snn_fg.scoring.metrics import compare_maps
 
 
 def _windows(n, h=40, w=60):
@@ -15,53 +19,72 @@ def _windows(n, h=40, w=60):
     return [event_frame_rgb(fx[0] > 0, fx[0] < 0)] * n, fx, np.zeros_like(fx), fx.copy()
 
 
+def _panels(fig):
+    return [ax for ax in fig.axes if ax.images and ax.get_label() not in ("<colorbar>", "colour wheel")]
+
+
 @pytest.mark.slow
 def test_the_maps_figure_says_which_windows_it_shows():
     inputs, fx, fy, g = _windows(28)
-    fig = maps_figure(inputs, fx, fy, g, [f"w{i}" for i in range(28)])
+    fig = maps_figure(inputs, fx, fy, g, [f"w{i}" for i in range(28)], hint="snn-fg plot OUT --windows I,J draws any")
     assert fig._suptitle.get_text() == (
-        "12 of 28 windows shown, evenly spaced: 0, 2, 5, 7, 10, 12, 15, 17, 20, 22, 25, 27"
+        "6 of 28 windows shown, evenly spaced: 0, 5, 11, 16, 22, 27; snn-fg plot OUT --windows I,J draws any"
     )
     FigureCanvasAgg(fig).draw()
     note = fig._suptitle.get_window_extent()
     for ax in fig.axes:  # the note has a strip of its own, above every panel and title
         assert not note.overlaps(ax.get_tightbbox()), ax.get_title()
     titles = [ax.get_title() for ax in fig.axes if ax.get_title().startswith("input")]
-    assert titles == [
-        "input w0",
-        "input w2",
-        "input w5",
-        "input w7",
-        "input w10",
-        "input w12",
-        "input w15",
-        "input w17",
-        "input w20",
-        "input w22",
-        "input w25",
-        "input w27",
-    ]
+    assert titles == ["input w0", "input w5", "input w11", "input w16", "input w22", "input w27"]
     fig = maps_figure(*_windows(3))
     assert fig._suptitle is None  # all shown: nothing to say
+    chosen = maps_figure(inputs, fx, fy, g, [f"w{i}" for i in range(28)], rows=[3, 9])
+    assert chosen._suptitle is None and [ax.get_title() for ax in _panels(chosen)][::3] == ["input w3", "input w9"]
 
 
 @pytest.mark.slow
-def test_the_colour_wheel_lies_outside_every_panel():
+def test_the_colour_wheel_lies_outside_every_panel_and_is_an_inch_across():
     fig = maps_figure(*_windows(2))
     FigureCanvasAgg(fig).draw()
-    panels = [ax for ax in fig.axes if ax.images and ax.get_label() != "<colorbar>"]
-    (wheel,) = [child for ax in panels for child in ax.child_axes]
+    panels = _panels(fig)
+    (wheel,) = [ax for ax in fig.axes if ax.get_label() == "colour wheel"]
     box = wheel.get_window_extent()
     assert len(panels) == 6  # three panels a row
     for ax in panels:
         assert not box.overlaps(ax.get_window_extent()), ax.get_title()
+    disc = wheel.images[0].get_window_extent()  # (the wheel itself, without its labels)
+    assert min(disc.width, disc.height) / fig.dpi >= 0.75  # it was 0.4 inch across, beside 3.4-inch panels
+
+
+def test_every_row_has_one_grouping_scale_and_its_axes_labelled():
+    """A recording's figure scaled each row's grouping map to its own maximum (a colour meant
+    different activity row to row) and labelled only the first row's axes."""
+    inputs, fx, fy, g = _windows(3)
+    g[0, 5, 5], g[1, 5, 5], g[2, 5, 5] = 1.0, 4.0, 0.5
+    fig = maps_figure(inputs, fx, fy, g)
+    grouping = [ax for ax in _panels(fig) if ax.get_title().startswith("grouping")]
+    assert [ax.images[0].get_clim() for ax in grouping] == [(0.0, 4.0)] * 3
+    assert all(ax.get_xlabel() == "x (px)" for ax in _panels(fig))
+    assert [ax.get_ylabel() for ax in _panels(fig)][::3] == ["y (px, rows down)"] * 3
+    (bar,) = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert "one scale for every window" in bar.get_xlabel()
+    fig = maps_figure(inputs, fx, fy, g, rows=[2], grouping_max=10.0)  # a window on the recording's scale
+    assert [ax.images[0].get_clim() for ax in _panels(fig) if ax.get_title().startswith("grouping")] == [(0.0, 10.0)]
+
+
+def test_a_recordings_overview_is_no_taller_than_a_screen_or_two():
+    """maps.png of a 12-window recording was 1760 x 4521 pixels (12 rows): the overview draws 6."""
+    inputs, fx, fy, g = _windows(12, 240, 304)
+    fig = maps_figure(inputs, fx, fy, g)
+    w, h = fig.get_size_inches() * 110
+    assert w <= 1400 and h <= 2400, (w, h)
 
 
 @pytest.mark.slow
 def test_a_crop_draws_that_part_at_its_own_coordinates(tmp_path):
     inputs, fx, fy, g = _windows(1)
     fig = maps_figure(inputs[0], fx[0], fy[0], g[0], crop=(5, 8, 25, 14))
-    panels = [ax for ax in fig.axes if ax.images and ax.get_label() != "<colorbar>"]
+    panels = _panels(fig)
     assert len(panels) == 3
     for ax in panels:
         assert ax.images[0].get_array().shape[:2] == (6, 20)
@@ -105,11 +128,43 @@ def test_a_window_without_grouping_activity_is_drawn_dark_and_said_so():
     inputs, fx, fy, g = _windows(2)
     g[1] = 0.0
     fig = maps_figure(inputs, fx, fy, g, ["w0", "w1"])
-    grouping = [ax for ax in fig.axes if ax.get_title().startswith("grouping")]
-    assert [ax.get_title() for ax in grouping] == ["grouping (proto-object centres are bright)", "grouping w1: none"]
+    grouping = [ax for ax in _panels(fig) if ax.get_title().startswith("grouping")]
+    assert [ax.get_title() for ax in grouping] == ["grouping w0", "grouping w1: no activity"]
     busy, silent = (ax.images[0] for ax in grouping)
     assert silent.get_clim() == (0.0, 1.0) and np.all(silent.to_rgba(silent.get_array())[..., :3] < 0.05)
     assert busy.get_clim() == (0.0, 1.0) and busy.to_rgba(np.array([[1.0]]))[0, 0, :3].max() > 0.9
     g[0] = 0.0
-    first = [ax for ax in maps_figure(inputs, fx, fy, g).axes if ax.get_title().startswith("grouping")][0]
+    first = [ax for ax in _panels(maps_figure(inputs, fx, fy, g)) if ax.get_title().startswith("grouping")][0]
     assert first.get_title() == "grouping: no activity"
+
+
+def test_the_compare_figure_shows_its_whole_title_and_labels_its_axes():
+    """compare --plot clipped the difference panel's title at the figure's edge and labelled no axis."""
+    rng = np.random.default_rng(0)
+    a, b = (Maps(*rng.normal(size=(2, 3, 40, 60)).astype(np.float32), np.zeros((3, 40, 60), np.float32)) for _ in "ab")
+    fig = compare_figure(a, b, compare_maps(a, b), names=("out/run-a", "out/run-b"))
+    FigureCanvasAgg(fig).draw()
+    page = fig.bbox
+    for ax in fig.axes:
+        for text in (ax.title, ax.xaxis.label, ax.yaxis.label):
+            if text.get_text():
+                box = text.get_window_extent()
+                assert page.x0 <= box.x0 and box.x1 <= page.x1 and box.y1 <= page.y1, text.get_text()
+    panels = [ax for ax in fig.axes if ax.images and ax.get_label() != "<colorbar>" and ax.get_xlim()[1] > 2]
+    assert len(panels) == 9 and all(ax.get_xlabel() == "x (px)" for ax in panels)
+    assert [ax.get_ylabel() for ax in panels][::3] == ["y (px, rows down)"] * 3
+
+
+def test_the_share_of_pixels_is_drawn_on_a_scale_that_shows_it():
+    """``events --plot`` drew a DAVIS recording's 0.2 % on 0-100 %: it looked empty."""
+    act = Activity(
+        t_start_ms=np.array([0.0, 85.0]),
+        t_end_ms=np.array([85.0, 170.0]),
+        events=np.array([900, 1200]),
+        share=np.array([0.0015, 0.002]),
+        window_ms=85.0,
+    )
+    fig = activity_figure(act)
+    share = fig.axes[1]
+    assert share.get_ylim()[1] == pytest.approx(0.23)
+    assert any("none saturated" in t.get_text() for t in share.texts)

@@ -51,84 +51,82 @@ def event_frame_rgb(pos, neg) -> np.ndarray:
     return img
 
 
-def wheel_inset(ax):
-    """Colour wheel with its directions labelled, and the brightness convention:
-    outside the axes, right of their top right corner, so that it hides no data
-    (``tight_layout`` makes room for it)."""
-    inset = ax.inset_axes([1.02, 0.62, 0.38, 0.38])
+def draw_wheel(ax) -> None:
+    """The colour wheel of :func:`fg_rgb` in ``ax``: hue = direction (0° right, 90° up, each
+    labelled), brightness growing from the centre with strength."""
     n = 101
     y, x = np.mgrid[1 : -1 : n * 1j, -1 : 1 : n * 1j]
     r = np.hypot(x, y)
     hue = (np.arctan2(y, x) % (2 * np.pi)) / (2 * np.pi)
     val = MIN_VALUE + (1 - MIN_VALUE) * np.clip(r, 0, 1)  # brightness grows with strength
     rgb = mcolors.hsv_to_rgb(np.stack([hue, np.ones_like(r), val], -1))
-    inset.imshow(np.concatenate([rgb, (r <= 1)[..., None].astype(float)], -1), extent=(-1, 1, -1, 1))
+    ax.imshow(np.concatenate([rgb, (r <= 1)[..., None].astype(float)], -1), extent=(-1, 1, -1, 1))
     for angle, label in ((0, "0°"), (90, "90°"), (180, "180°"), (270, "270°")):
         a = np.radians(angle)
-        inset.text(
-            1.25 * np.cos(a),
-            1.25 * np.sin(a),
-            label,
-            ha="center",
-            va="center",
-            fontsize=6,
-            color="white",
-            bbox={"facecolor": "black", "alpha": 0.5, "pad": 0.5, "lw": 0},
-        )
-    inset.set_xlim(-1.6, 1.6)
-    inset.set_ylim(-1.6, 1.6)
-    inset.set_axis_off()
+        ax.text(1.3 * np.cos(a), 1.3 * np.sin(a), label, ha="center", va="center", fontsize=7)
+    ax.set_xlim(-1.7, 1.7)
+    ax.set_ylim(-1.55, 1.55)
+    ax.set_axis_off()
+    ax.set_label("colour wheel")
 
 
-def plot_maps_row(
-    axes, input_img, fields, title: str = "", *, grouping_label: str = "grouping", key: bool = True, extent=None
-):
-    """Draw input, figure-ground map and grouping map into three axes.
+def wheel_inset(ax):
+    """:func:`draw_wheel` outside the axes ``ax``, right of their top right corner, so that it
+    hides no data (the layout makes room for it)."""
+    draw_wheel(ax.inset_axes([1.02, 0.55, 0.45, 0.45]))
 
-    ``fields`` is ``(fg_x, fg_y, grouping)`` of one frame.
-    ``grouping_label`` labels the grouping colour bar (say its unit).
-    ``key=False`` leaves out what repeats from row to row of a figure (the
-    colour wheel, the panels' explanations and axis labels): drawing them
-    on every row of a recording's figure took most of its 7 s.
-    ``extent`` (imshow's) places a crop at its own pixel coordinates.
-    """
+
+def plot_maps_row(axes, input_img, fields, title: str = "", *, norm=None, extent=None) -> None:
+    """Draw input, figure-ground map and grouping map into three axes, each titled and with its
+    axes labelled. ``fields`` is ``(fg_x, fg_y, grouping)`` of one frame; ``norm`` the grouping's
+    colour scale (:class:`matplotlib.colors.Normalize`, one for every row of a figure; by default
+    0 to this frame's largest value); ``extent`` (imshow's) places a crop at its own pixel coordinates."""
     a0, a1, a2 = axes
     fg_x, fg_y, grouping = fields
+    if norm is None:
+        norm = mcolors.Normalize(0.0, float(np.max(grouping, initial=0.0)) or 1.0)
     a0.imshow(input_img, cmap="gray" if np.ndim(input_img) == 2 else None, interpolation="nearest", extent=extent)
-    a0.set_title(f"input {title}".strip(), fontsize=9)
     a1.imshow(fg_rgb(fg_x, fg_y), interpolation="nearest", extent=extent)
-    silent = not np.any(grouping)  # (drawn dark, not at the middle of an autoscaled range)
-    im = a2.imshow(
-        grouping,
-        cmap=GROUPING_CMAP,
-        interpolation="nearest",
-        extent=extent,
-        **({"vmin": 0.0, "vmax": 1.0} if silent else {}),
-    )
-    bar = a2.figure.colorbar(im, ax=a2, fraction=0.046, pad=0.02)
-    bar.ax.tick_params(labelsize=7)
-    for a in axes:
+    a2.imshow(grouping, cmap=GROUPING_CMAP, norm=norm, interpolation="nearest", extent=extent)
+    silent = not np.any(grouping)
+    for a, what in zip(axes, ("input", "figure-ground", "grouping")):
+        a.set_title(f"{what} {title}".strip() + (": no activity" if a is a2 and silent else ""), fontsize=9)
         a.tick_params(labelsize=7)
-    if not key:
-        for a in axes:
-            a.locator_params(nbins=3)
-        a1.set_title(f"figure-ground {title}".strip(), fontsize=9)
-        a2.set_title(f"grouping {title}".strip() + (": none" if silent else ""), fontsize=9)
-        return
-    a1.set_title(
-        "figure-ground: hue = direction to the owner,\nbrightness = strength (wheel: 0° right, 90° up)", fontsize=8
-    )
-    wheel_inset(a1)
-    a2.set_title("grouping: no activity" if silent else "grouping (proto-object centres are bright)", fontsize=9)
-    bar.set_label(grouping_label, fontsize=8)
-    for a in axes:
-        a.set_xlabel("x (px)", fontsize=7)
+        a.set_xlabel("x (px)", fontsize=7, labelpad=1)
     a0.set_ylabel("y (px, rows down)", fontsize=7)
 
 
-def panel_width(aspect: float) -> float:
-    """Width (inches) of a map panel of ``aspect`` = width / height; very wide frames are capped."""
-    return min(PANEL_IN * max(aspect, 0.6), 1.8 * PANEL_IN)
+def _key(fig, cells, norm, grouping_label: str, shared: bool) -> None:
+    """The strip above the rows that explains each column once: what the input shows, the colour
+    wheel of the figure-ground map, and the grouping's colour bar (one scale for every row)."""
+    from matplotlib.cm import ScalarMappable
+
+    text = {"fontsize": 8, "va": "center", "ha": "left"}
+    a0 = fig.add_subplot(cells[0])
+    a0.set_axis_off()
+    a0.text(0.0, 0.5, "input: the events of the window\nwhite ON, black OFF, grey none", **text)
+    wheel_cell, words = cells[1].subgridspec(1, 2, width_ratios=(1, 1.6), wspace=0.05)
+    draw_wheel(fig.add_subplot(wheel_cell))
+    a1 = fig.add_subplot(words)
+    a1.set_axis_off()
+    a1.text(
+        0.0,
+        0.5,
+        "figure-ground: hue = direction\ntowards the owning object\n(wheel: 0° right, 90° up),\n"
+        "brightness = strength;\nblack: no vector",
+        **text,
+    )
+    bar_cell = cells[2].subgridspec(3, 1, height_ratios=(1, 0.5, 1.4))[1]
+    cax = fig.add_subplot(bar_cell, label="<colorbar>")  # (the label matplotlib gives the colour bars it makes)
+    bar = fig.colorbar(ScalarMappable(norm=norm, cmap=GROUPING_CMAP), cax=cax, orientation="horizontal")
+    bar.ax.tick_params(labelsize=7)
+    bar.set_label(grouping_label + (", one scale for every window" if shared else ""), fontsize=8)
+    bar.ax.set_title("grouping: proto-object centres are bright", fontsize=8)
+
+
+def panel_width(aspect: float, height: float = PANEL_IN) -> float:
+    """Width (inches) of a map panel of ``aspect`` = width / height and ``height``; very wide frames are capped."""
+    return min(height * max(aspect, 0.6), 1.8 * height)
 
 
 def rows_shown(n: int, max_rows: int) -> np.ndarray:
@@ -145,27 +143,37 @@ def shown_note(shown, n: int, what: str = "windows", labels=None) -> str:
     return f"{len(shown)} of {n} {what} shown, evenly spaced: {listed}"
 
 
+#: height of a map panel in a figure of several rows, inches (a frame's: PANEL_IN)
+ROW_PANEL_IN = 2.5
+#: height of the key above the rows, inches
+KEY_IN = 1.3
+
+
 def maps_figure(
     inputs,
     fg_x,
     fg_y,
     grouping,
     titles=None,
-    max_rows: int = 12,
+    max_rows: int = 6,
     grouping_label: str = "grouping",
     crop=None,
     placed=None,
+    rows=None,
+    grouping_max: float | None = None,
+    hint: str = "",
 ) -> Figure:
-    """One row per frame (input, figure-ground, grouping).
+    """One row per frame (input, figure-ground, grouping), under a key that explains each column
+    once (the colour wheel, the grouping's colour bar).
 
-    ``inputs`` is a list of images (grey or RGB), one per frame; arrays of
-    ndim 2 are one frame. At most ``max_rows`` frames are drawn, evenly
-    spaced, and the figure's title says which. ``crop`` ``(x0, y0, x1, y1)``
-    (pixels, x1 and y1 exclusive) draws only that part of every panel, at
-    its own coordinates. ``placed`` ``(x0, y0, scale)``: the maps are a
-    part of a sensor, their pixel ``(0, 0)`` its ``scale x scale`` pixels
-    from ``(x0, y0)`` on (an export's crop, of blocks where it pools), drawn
-    at the sensor's coordinates.
+    ``inputs`` is a list of images (grey or RGB), one per frame; arrays of ndim 2 are one frame.
+    ``rows`` chooses the frames drawn; by default at most ``max_rows``, evenly spaced, and the
+    figure's title says which (``hint`` follows, say how to draw others). Every row's grouping map
+    has one colour scale, 0 to ``grouping_max`` (default: the largest value drawn). ``crop``
+    ``(x0, y0, x1, y1)`` (pixels, x1 and y1 exclusive) draws only that part of every panel, at
+    its own coordinates. ``placed`` ``(x0, y0, scale)``: the maps are a part of a sensor, their
+    pixel ``(0, 0)`` its ``scale x scale`` pixels from ``(x0, y0)`` on (an export's crop, of
+    blocks where it pools), drawn at the sensor's coordinates.
     """
     # (a recording's maps may be read on indexing, snn_fg.results.store.ZarrArray: only the rows drawn are read)
     fg_x, fg_y, grouping = (v if hasattr(v, "ndim") else np.asarray(v) for v in (fg_x, fg_y, grouping))
@@ -181,28 +189,26 @@ def maps_figure(
             raise ValueError("maps_figure: crop and placed go alone")
         px, py, k = placed
         extent = (px - 0.5, px + k * (x1 - x0) - 0.5, py + k * (y1 - y0) - 0.5, py - 0.5)
-    idx = rows_shown(n, max_rows)
-    note = shown_note(idx, n)
+    idx = rows_shown(n, max_rows) if rows is None else np.asarray(rows, int)
+    note = shown_note(idx, n) if rows is None else ""  # (chosen rows are named in their titles)
+    note = f"{note}; {hint}" if note and hint else note
+    fields = [(fg_x[i][cut], fg_y[i][cut], grouping[i][cut]) for i in idx]
+    top = grouping_max if grouping_max is not None else max(float(np.max(f[2], initial=0.0)) for f in fields)
+    norm = mcolors.Normalize(0.0, top if top > 0 else 1.0)
     aspect = (x1 - x0) / (y1 - y0)  # (the same for a placed frame: its pixels are square)
-    panel_w = panel_width(aspect)
-    row_h = min(PANEL_IN, max(panel_w / aspect + 0.9, 1.8))  # (0.9 in: titles and tick labels)
-    note_in = 0.45 if note else 0.0  # (a strip of its own at the top, whatever the figure's height)
-    height = row_h * len(idx) + 0.3 + note_in
-    fig = Figure(figsize=(3 * panel_w + 2.4, height))
-    axes = fig.subplots(len(idx), 3, squeeze=False)
-    for row, i in enumerate(idx):  # (the key, on the first row, explains every row)
-        plot_maps_row(
-            axes[row],
-            np.asarray(inputs[i])[cut],
-            (fg_x[i][cut], fg_y[i][cut], grouping[i][cut]),
-            titles[i] if titles is not None else "",
-            grouping_label=grouping_label,
-            key=row == 0,
-            extent=extent,
-        )
+    panel_h = PANEL_IN if len(idx) == 1 else ROW_PANEL_IN
+    panel_w = panel_width(aspect, panel_h)
+    row_h = min(panel_h, panel_w / aspect) + 0.75  # (titles, tick and axis labels)
+    note_in = 0.35 if note else 0.0
+    fig = Figure(figsize=(3 * panel_w + 1.6, KEY_IN + row_h * len(idx) + note_in), layout="constrained")
+    grid = fig.add_gridspec(1 + len(idx), 3, height_ratios=(KEY_IN, *[row_h] * len(idx)))
+    _key(fig, [grid[0, c] for c in range(3)], norm, grouping_label, shared=len(idx) > 1 or grouping_max is not None)
+    for row, (i, f) in enumerate(zip(idx, fields), start=1):
+        axes = [fig.add_subplot(grid[row, c]) for c in range(3)]
+        title = titles[i] if titles is not None else ""
+        plot_maps_row(axes, np.asarray(inputs[i])[cut], f, title, norm=norm, extent=extent)
     if note:
-        fig.suptitle(note, fontsize=9, y=1 - 0.1 / height, va="top")
-    fig.tight_layout(rect=(0, 0, 1, 1 - note_in / height))
+        fig.suptitle(note, fontsize=9)
     return fig
 
 

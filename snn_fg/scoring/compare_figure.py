@@ -53,7 +53,7 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
     h, w = np.shape(a.fg_x)[-2:]
     panel_w = panel_width(w / h)
     n_in = len(inputs)
-    fig = Figure(figsize=((3 + n_in) * panel_w + 2.4, PANEL_IN * len(idx) + 0.6), layout="constrained")
+    fig = Figure(figsize=((3 + n_in) * panel_w + 2.4, (PANEL_IN + 0.3) * len(idx) + 0.8), layout="constrained")
     axes = fig.subplots(len(idx), 3 + n_in, squeeze=False)
     for ax_row, i in zip(axes, idx, strict=True):
         r = rows[i]
@@ -84,16 +84,18 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
         bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
         bar.set_label("angle difference (deg)", fontsize=8)
         ax[2].set_title(
-            f"difference{'' if where is None else ' on the compared pixels'}: mean "
-            f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45° (grey: one map "
+            f"difference{'' if where is None else ' on the compared pixels'}{when}: mean "
+            f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45°\n(grey: one map "
             f"only{'' if where is None else '; pale: not compared'})",
             fontsize=8,
         )
-        for x in ax:
+        for x in ax_row:
             x.tick_params(labelsize=7)
+            x.set_xlabel("x (px)", fontsize=7, labelpad=1)
+        ax_row[0].set_ylabel("y (px, rows down)", fontsize=7)
     wheel_inset(axes[0][n_in + 1])
     note = shown_note(idx, len(rows), "compared windows", [f"A {r['window_a']}" for r in rows])
-    fig.suptitle(f"{names[0]} vs {names[1]}" + (f"; {note}" if note else ""), fontsize=9)
+    fig.suptitle(f"{names[0]} vs {names[1]}" + (f"\n{note}" if note else ""), fontsize=9)
     return fig
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 from ..errors import InputError, SnnFgError
 from ..results.atomic import save_text
 from ..results.maps import Maps
+from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
 from ..scoring.metrics import compare_maps
 from ..scoring.outline import event_outlines
@@ -49,7 +50,8 @@ def add_compare_command(sub):
         "SSIM, and on the pixels where both have a figure-ground vector the angle "
         "difference (mean, median, fraction within 45 degrees) and angle-map MSE "
         "and SSIM. Times count from the recording's first event. Nothing is written "
-        "unless --json or --plot is given.",
+        "unless --json or --plot is given. A PyNN export's maps (snn-fg decode) against a run on "
+        "the whole recording: the run is cut to the export's crop and input window.",
     )
     p.add_argument("a", metavar="A.npz")
     p.add_argument("b", metavar="B.npz")
@@ -140,9 +142,14 @@ def cmd_compare(args) -> int:
     if args.plot is not None and Path(args.plot).suffix.lower() != ".png":
         raise InputError(args.plot, "--plot needs a .png file name")
     a, b = Maps.load(args.a), Maps.load(args.b)
+    a, b, notes = align_to_export(a, b, args.window, (args.a, args.b))  # (a board's maps against the reference)
+    for note in notes:
+        print(f"snn-fg: note: {note}")
     try:
         where = None if args.outline is None else event_outlines(a, b, args.outline)
-        rows = compare_maps(a, b, window=args.window, where=where, min_confidence=args.min_confidence)
+        rows = compare_maps(
+            a, b, window=None if notes else args.window, where=where, min_confidence=args.min_confidence
+        )
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
     baseline = None if args.no_baseline else add_baseline(rows, b)

@@ -82,10 +82,10 @@ def _crop_box(active, net, crop_at, source):
     return y, x
 
 
-def _span(win) -> str:
-    """A window's span in ms after the recording's first event (a camera's own clock may start anywhere)."""
+def _times_ms(win) -> tuple[float, float]:
+    """A window's start and end in ms after the recording's first event (a camera's own clock may start anywhere)."""
     t0 = win.t_start_us if win.t_first_event_us is None else win.t_first_event_us
-    return f"{(win.t_start_us - t0) / 1000:g}-{(win.t_end_us - t0) / 1000:g} ms after the first event"
+    return (win.t_start_us - t0) / 1000, (win.t_end_us - t0) / 1000
 
 
 def _input_spikes(args, net, dt_ms):
@@ -100,7 +100,8 @@ def _input_spikes(args, net, dt_ms):
         on, off = pool_frame(win.pos, win.neg, pool)
         r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)
         ev = crop_events(pool_events(win.events, pool), (r0, c0), shape)
-        span = _span(win)
+        times = _times_ms(win)
+        span = f"{times[0]:g}-{times[1]:g} ms after the first event"
         if ev.size == 0:
             raise InputError(args.input, f"no event in the crop at {_at(net, r0, c0)} of window {span}")
         what = f"window {span}, {ev.size:,} events"
@@ -117,6 +118,7 @@ def _input_spikes(args, net, dt_ms):
                 t0_us=win.t_start_us,
                 refractory_ms=net.input_refractory_ms,
             )
+        window = {"t_start_ms": times[0], "t_end_ms": times[1]}
     else:
         frame, _ = load_frame(args.input, "events", args.threshold, args.motion)
         on, off = pool_frame(frame.pos, frame.neg, pool)
@@ -127,6 +129,7 @@ def _input_spikes(args, net, dt_ms):
             raise InputError(args.input, f"no event {_pixel(net)} in the crop at {_at(net, r0, c0)}")
         inp = frame_spikes(pos, neg, FRAME_RATE_HZ, dt_ms, args.duration_ms)
         what = f"{kind}, regular trains at {FRAME_RATE_HZ:g} Hz for {args.duration_ms:g} ms"
+        window = {}
     share = float(((on > 0) | (off > 0))[r0 : r0 + shape[0], c0 : c0 + shape[1]].mean())
     origin = {
         "input": str(args.input),
@@ -135,6 +138,7 @@ def _input_spikes(args, net, dt_ms):
         "crop_x_px": int(c0 * pool),
         "crop_y_px": int(r0 * pool),
         "event_share": round(share, 4),
+        **window,
     }
     return inp, f"{what}; crop at {_at(net, r0, c0)}", origin
 

@@ -179,7 +179,7 @@ def test_recording_gives_windows(tmp_path):
     # each window's event frame is stored beside its maps: +1 ON, -1 OFF
     assert d["event_frame"].shape == m.fg_x.shape and set(np.unique(d["event_frame"])) <= {-1, 0, 1}
     assert np.all((m.fg_x != 0) <= (d["event_frame"] != 0))
-    assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr"]
+    assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr", "timeline.png", "windows.csv"]
     assert not list(out.rglob("*.part"))  # no temporary parts left
 
 

@@ -290,7 +290,12 @@ def test_a_recording_runs_through_the_compact_network_all_or_nothing(tmp_path):
     assert p["simulation"]["dt_ms"] == RECIPES["compact"].spiking.time.dt_ms == 1.0  # (the network's own step)
     times = [p["timings_s"]["window"]] + [w["timings_s"]["window"] for w in p["windows"][1:]]
     assert len(times) == 3 and all(t > 0 for t in times)
-    assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr"]  # (spike figures need --save-spikes)
+    assert sorted(os.listdir(out)) == [
+        "maps.png",
+        "maps.zarr",
+        "timeline.png",
+        "windows.csv",
+    ]  # (spike figures need --save-spikes)
     bad = tmp_path / "bad"
     assert (
         main(

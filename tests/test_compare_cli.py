@@ -43,10 +43,14 @@ def test_times_count_from_the_first_event_in_maps_figures_and_params(unix_record
     monkeypatch.setattr(
         Model,
         "write_figures",
-        lambda self, out, maps, inputs, t=None, crop=None: titles.append(t) or real(self, out, maps, inputs, t, crop),
+        lambda self, out, maps, inputs, crop=None, **kw: (
+            titles.append(kw["titles"]) or real(self, out, maps, inputs, crop=crop, **kw)
+        ),
     )
     m = _run(unix_recording, tmp_path / "a", "--start-ms", "100", "--max-windows", "3")
-    assert titles == [["100-150 ms", "150-200 ms", "200-250 ms"]]  # not "0-50 ms" (from the first window)
+    assert titles == [
+        ["window 0: 100-150 ms", "window 1: 150-200 ms", "window 2: 200-250 ms"]
+    ]  # not "0-50 ms" (from the first window)
     assert m.extra["t_start_us"].tolist() == [100_000, 150_000, 200_000]
     assert m.extra["t_end_us"].tolist() == [150_000, 200_000, 250_000]
     assert m.params["source"]["first_event_us"] == UNIX_T0 and m.params["source"]["start_ms"] == 100
@@ -63,7 +67,7 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
     assert (
         {d: sorted(os.listdir(tmp_path / d)) for d in ("a", "b")}
         == before
-        == {"a": ["maps.png", "maps.zarr"], "b": ["maps.png", "maps.zarr"]}
+        == {d: ["maps.png", "maps.zarr", "timeline.png", "windows.csv"] for d in ("a", "b")}
     )
     assert sorted(os.listdir(tmp_path)) == ["a", "b"] and "saved" not in out
     t_column = [line.split()[2] for line in out.splitlines()[1:4]]

@@ -24,6 +24,7 @@ from .decode import add_decode_command
 from .events import add_events_command
 from .export import add_export_command
 from .live import add_live_command
+from .plot import add_plot_command
 from .run import add_run_command
 from .stream import add_stream_command
 
@@ -52,6 +53,7 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
     subs = {
         "run": add_run_command(sub),
         "compare": add_compare_command(sub),
+        "plot": add_plot_command(sub),
         "events": add_events_command(sub),
         "export": add_export_command(sub),
         "decode": add_decode_command(sub),

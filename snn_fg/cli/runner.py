@@ -21,6 +21,7 @@ from ..events.activity import Activity, pixel_share, saturated_lines
 from ..frames.still import Still
 from ..models import Model
 from ..results.maps import Maps
+from ..results.overview import input_images, overview_options, write_run_tables
 from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
 
 #: events read at a time from a recording a model runs on (1.6 MB): the
@@ -107,26 +108,6 @@ def run_still(model: Model, still: Still, out: Path, source: dict, crop=None, fi
     return maps
 
 
-class _LazyFrames:
-    """Event frames (+1 ON, -1 OFF) shown as RGB only when a figure row needs them."""
-
-    def __init__(self, frames):
-        self.frames = frames
-
-    def __len__(self):
-        return len(self.frames)
-
-    def __getitem__(self, i):
-        f = self.frames[i]
-        return model_input_rgb(f)
-
-
-def model_input_rgb(frame):
-    from ..results.figures import event_frame_rgb  # (matplotlib: only for runs that draw)
-
-    return event_frame_rgb(frame > 0, frame < 0)
-
-
 def run_recording(
     model: Model,
     windows,
@@ -140,7 +121,7 @@ def run_recording(
 ) -> int:
     """Every window of a recording through ``model`` into ``out/maps.zarr``
     (:mod:`snn_fg.results.store`: each window written as it completes) and, at the
-    end, its figures. Returns the number of windows (``crop``: see
+    end, its table (``windows.csv``) and figures. Returns the number of windows (``crop``: see
     :meth:`Model.write_figures`). ``source`` describes the input (its
     ``"input"``, the name errors give, and the window options).
 
@@ -196,12 +177,11 @@ def run_recording(
     if whole:  # (kept apart: each window's own parameters are told against the first window's)
         final["whole_run"] = whole
     store.finish(final)
+    maps = Maps(*read_maps(path, lazy=True))
+    title = f"{Path(str(source.get('input', ''))).name}: the {model.name} model, window by window"
+    rows = write_run_tables(out, maps, figures=figures, title=title)
     if figures:
-        maps = Maps(*read_maps(path, lazy=True))
-        titles = [f"{a / 1000:.0f}-{b / 1000:.0f} ms" for a, b in zip(maps.extra["t_start_us"], maps.extra["t_end_us"])]
-        # (the frame-based model's input is the APS frame it ran on, the event models' the event frame)
-        inputs = maps.extra["aps_frame"] if "aps_frame" in maps.extra else _LazyFrames(maps.extra["event_frame"])
-        model.write_figures(out, maps, inputs, titles, crop)
+        model.write_figures(out, maps, input_images(maps), crop=crop, **overview_options(maps, rows, out))
     return store.n
 
 

@@ -97,9 +97,10 @@ class Model(ABC):
 
         return event_frame_rgb(still.pos, still.neg)
 
-    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
+    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
         """Figures of a run into folder ``out``; ``inputs`` one image per frame;
-        ``crop`` ``(x0, y0, x1, y1)``: the maps' part to draw (all of it)."""
+        ``crop`` ``(x0, y0, x1, y1)``: the maps' part to draw (all of it); ``options``:
+        further keywords of :func:`~snn_fg.results.figures.maps_figure`."""
         from ..results.figures import save_maps_figure
 
         return [
@@ -112,6 +113,7 @@ class Model(ABC):
                 titles=titles,
                 grouping_label=self.grouping_label,
                 crop=crop,
+                **options,
             )
         ]
 
@@ -360,10 +362,10 @@ class SpikingModel(Model):
         keywords = self._keywords("recording", **({} if self.save_spikes else {"record_spikes": False}))
         return stream_spiking_windows(windows, done, cells=self.save_spikes, **keywords)
 
-    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None) -> list[Path]:
+    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
         """``maps.png``; and the spike raster and rate histograms where the
         spike counts were kept (a frame, or a recording with ``save_spikes``)."""
-        written = super().write_figures(out, maps, inputs, titles, crop)
+        written = super().write_figures(out, maps, inputs, titles, crop, **options)
         if maps.fg_x.ndim == 3 and not self.save_spikes:
             return written
         from .spiking.figures import save_spiking_figures

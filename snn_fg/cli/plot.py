@@ -1,0 +1,125 @@
+"""``snn-fg plot RUN``: figures of a recording's run, drawn from its stored maps.
+
+``--windows 3,5`` (or ``10-14``, ``all``) draws each window as a figure of its own; ``--animate``
+the maps over the recording as a GIF or MP4; without either, the run's overview (``maps.png``,
+``timeline.png``, ``windows.csv``, as ``snn-fg run`` writes them: for a run made with
+``--no-figures``). Every window is drawn on the recording's one grouping scale.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import InputError
+from ..models import MODELS
+from ..results.animation import SUFFIXES, save_animation
+from ..results.figures import save_maps_figure
+from ..results.maps import Maps
+from ..results.overview import (
+    WINDOW_FIGURE,
+    input_images,
+    overview_options,
+    save_window_figures,
+    write_run_tables,
+)
+from ..results.store import STORE_NAME
+from ..results.timeline import TABLE_NAME, TIMELINE_NAME
+from .options import check_output_file, crop, number, subcommand
+
+#: the animation's name in the run's folder when --animate names no file
+ANIMATION_NAME = "maps.gif"
+
+
+def add_plot_command(sub):
+    """Register ``plot`` on an ``argparse`` subparsers object; returns the parser."""
+    p = subcommand(
+        sub,
+        "plot",
+        help="draw a recording's run: chosen windows, an animation, its overview",
+        description="Figures of a recording's run (RUN: the output folder of snn-fg run on a recording), "
+        "from its stored maps: --windows draws chosen windows, one figure each; --animate the maps "
+        "over the recording (GIF or MP4); without either, the overview snn-fg run writes (maps.png, "
+        "timeline.png, windows.csv). Every window is drawn on the recording's one grouping scale.",
+    )
+    p.add_argument("run", metavar="RUN", help="a recording's run: its output folder (or its maps.zarr)")
+    p.add_argument(
+        "--windows",
+        metavar="I,J,...",
+        help="windows to draw, one figure each: indices and ranges (3,5,10-14) or all; into --out "
+        "(default RUN/windows/) as window_0003.png, ...",
+    )
+    p.add_argument("--out", metavar="DIR", help="folder of the --windows figures (default: RUN/windows)")
+    p.add_argument(
+        "--animate",
+        nargs="?",
+        const="",
+        metavar="FILE",
+        help=f"the maps over the recording as an animation, one frame per window: FILE.gif or FILE.mp4 "
+        f"(default RUN/{ANIMATION_NAME})",
+    )
+    p.add_argument("--fps", type=number(float, 0), default=4.0, help="--animate: windows per second (4)")
+    p.add_argument("--crop", type=crop, metavar="X0,Y0,X1,Y1", help="draw only pixels X0 <= x < X1, Y0 <= y < Y1")
+    p.add_argument("--force", action="store_true", help="replace figures and files that exist")
+    p.set_defaults(handler=cmd_plot)
+    return p
+
+
+def window_list(text: str, n: int) -> list[int]:
+    """The windows ``3,5,10-14`` (or ``all``) names among ``n``; one line naming what is wrong otherwise."""
+    if text.strip().lower() == "all":
+        return list(range(n))
+    chosen = []
+    for part in text.split(","):
+        lo, _, hi = part.strip().partition("-")
+        try:
+            a, b = int(lo), int(hi or lo)
+        except ValueError:
+            raise InputError(f"--windows {text}", "expected indices and ranges such as 3,5,10-14, or all") from None
+        if not 0 <= a <= b < n:
+            raise InputError(f"--windows {text}", f"the run has {n} windows, 0 to {n - 1}")
+        chosen += range(a, b + 1)
+    return sorted(set(chosen))
+
+
+def _recording_maps(run: Path) -> tuple[Path, Maps]:
+    """The run's folder and its maps (a recording's, read lazily); one line for anything else."""
+    folder = run.parent if run.name == STORE_NAME else run
+    if not (folder / STORE_NAME).is_dir():
+        what = "a frame's run (maps.npz): its figure is maps.png" if (folder / "maps.npz").is_file() else "no run"
+        raise InputError(run, f"holds {what}; snn-fg plot draws a recording's run (its maps.zarr)")
+    maps = Maps.load(folder / STORE_NAME)
+    if maps.fg_x.shape[0] == 0:
+        raise InputError(run, "the run holds no complete window yet")
+    return folder, maps
+
+
+def cmd_plot(args) -> int:
+    """Handler of ``snn-fg plot``; prints what it wrote, returns 0."""
+    folder, maps = _recording_maps(Path(args.run))
+    label = MODELS[maps.params["model"]].grouping_label if maps.params.get("model") in MODELS else "grouping"
+    n = maps.fg_x.shape[0]
+    if args.out is not None and args.windows is None:
+        raise InputError(f"--out {args.out}", "names the folder of the --windows figures: give --windows")
+    written = []
+    if args.windows is not None:
+        chosen = window_list(args.windows, n)
+        out = Path(args.out) if args.out is not None else folder / "windows"
+        for i in chosen:
+            check_output_file(out / WINDOW_FIGURE.format(i), args.force)
+        written += save_window_figures(maps, chosen, out, grouping_label=label, crop=args.crop)
+    if args.animate is not None:
+        movie = Path(args.animate) if args.animate else folder / ANIMATION_NAME
+        if movie.suffix.lower() not in SUFFIXES:
+            raise InputError(movie, f"--animate writes {' or '.join(SUFFIXES)}")
+        check_output_file(movie, args.force, "--animate")
+        written.append(save_animation(movie, maps, grouping_label=label, fps=args.fps, crop=args.crop))
+    if args.windows is None and args.animate is None:
+        for name in ("maps.png", TIMELINE_NAME, TABLE_NAME):
+            check_output_file(folder / name, args.force)
+        rows = write_run_tables(folder, maps, figures=True, title=f"{folder.name}: window by window")
+        options = {**overview_options(maps, rows, folder), "grouping_label": label, "crop": args.crop}
+        save_maps_figure(folder / "maps.png", input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
+        written += [folder / "maps.png", folder / TIMELINE_NAME, folder / TABLE_NAME]
+    shown = ", ".join(str(p) for p in written[:4]) + (f", ... ({len(written)} files)" if len(written) > 4 else "")
+    print(f"snn-fg: wrote {shown}")
+    return 0

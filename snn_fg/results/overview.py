@@ -1,0 +1,104 @@
+"""What a recording's run writes beside its maps, and what ``snn-fg plot`` draws from them.
+
+A recording's output folder gets ``windows.csv`` (:mod:`.timeline`: a row per window) and, with
+figures, ``maps.png`` (:data:`OVERVIEW_ROWS` windows evenly spaced, one grouping scale for the
+whole recording) and ``timeline.png`` (the run over time). ``snn-fg plot`` draws any window as
+a figure of its own, on the same grouping scale (:func:`save_window_figures`), and the maps over
+the recording as an animation (:mod:`.animation`). Everything here reads a store's windows one at
+a time.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import save_figure
+from .figures import event_frame_rgb, maps_figure, rows_shown
+from .timeline import TABLE_NAME, TIMELINE_NAME, save_table, timeline_figure, window_rows
+
+#: windows the overview ``maps.png`` of a recording draws at most (evenly spaced)
+OVERVIEW_ROWS = 6
+#: a per-window figure's file name in the folder ``snn-fg plot --windows`` writes
+WINDOW_FIGURE = "window_{:04d}.png"
+
+
+class EventFrames:
+    """A recording's event frames (+1 ON, -1 OFF), each shown as RGB only when a figure needs it."""
+
+    def __init__(self, frames):
+        self.frames = frames
+
+    def __len__(self):
+        return len(self.frames)
+
+    def __getitem__(self, i):
+        f = np.asarray(self.frames[i])
+        return event_frame_rgb(f > 0, f < 0)
+
+
+def input_images(maps):
+    """What a recording's figures show as each window's input: the APS frame the frame-based model
+    ran on where the run stored one, else the window's event frame (:class:`EventFrames`)."""
+    return maps.extra["aps_frame"] if "aps_frame" in maps.extra else EventFrames(maps.extra["event_frame"])
+
+
+def window_titles(maps) -> list[str]:
+    """``window 3: 255-340 ms`` for every window (times from the recording's first event)."""
+    spans = zip(maps.extra["t_start_us"], maps.extra["t_end_us"])
+    return [f"window {i}: {a / 1000:.0f}-{b / 1000:.0f} ms" for i, (a, b) in enumerate(spans)]
+
+
+def overview_options(maps, rows: list[dict], folder) -> dict:
+    """The keywords of :func:`~.figures.maps_figure` for a recording's overview ``maps.png`` (its
+    titles, one grouping scale for every window, how to draw the windows it leaves out)."""
+    return {
+        "titles": window_titles(maps),
+        "max_rows": OVERVIEW_ROWS,
+        "grouping_max": max((r["grouping_peak"] for r in rows), default=0.0),
+        "hint": f"snn-fg plot {folder} --windows I,J,... draws any",
+    }
+
+
+def write_run_tables(folder, maps, *, figures: bool, title: str = "") -> list[dict]:
+    """``windows.csv`` and (``figures``) ``timeline.png`` of a recording's run into ``folder``;
+    the table's rows."""
+    folder = Path(folder)
+    rows = window_rows(maps)
+    save_table(folder / TABLE_NAME, rows)
+    if figures:
+        window_ms = float(maps.params.get("source", {}).get("window_ms", 0.0))
+        shown = rows_shown(len(rows), OVERVIEW_ROWS)
+        save_figure(timeline_figure(rows, window_ms, title, shown), folder / TIMELINE_NAME, dpi=110)
+    return rows
+
+
+def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, crop=None):
+    """Window ``i`` of a recording's maps as a figure of its own (input, figure-ground, grouping),
+    on the grouping scale ``grouping_max`` (the whole recording's, so that windows compare)."""
+    return maps_figure(
+        input_images(maps),
+        maps.fg_x,
+        maps.fg_y,
+        maps.grouping,
+        window_titles(maps),
+        rows=[i],
+        grouping_label=grouping_label,
+        grouping_max=grouping_max,
+        crop=crop,
+    )
+
+
+def save_window_figures(maps, windows, folder, *, grouping_label: str, crop=None) -> list[Path]:
+    """:func:`window_figure` of each of ``windows`` into ``folder`` (:data:`WINDOW_FIGURE`)."""
+    top = max(float(np.asarray(maps.grouping[i]).max(initial=0.0)) for i in range(maps.fg_x.shape[0]))
+    folder = Path(folder)
+    return [
+        save_figure(
+            window_figure(maps, i, grouping_label=grouping_label, grouping_max=top, crop=crop),
+            folder / WINDOW_FIGURE.format(i),
+            dpi=110,
+        )
+        for i in windows
+    ]

@@ -1,0 +1,128 @@
+"""A recording's run window by window: a table (``windows.csv``) and a figure over time
+(``timeline.png``).
+
+Per window: its span (ms after the recording's first event), its events and the share of the
+sensor's pixels they cover (a share above
+:data:`~snn_fg.events.activity.SATURATED_SHARE` is a sensor-wide burst, not a scene), the pixels
+with a figure-ground vector and their share of the pixels with an event (the coverage), and the
+grouping map's peak and where it lies (the strongest proto-object centre).
+
+Example
+-------
+>>> import numpy as np
+>>> from snn_fg.results.maps import Maps
+>>> g = np.zeros((2, 4, 6), np.float32); g[1, 2, 5] = 3.0
+>>> fx = np.zeros_like(g); fx[0, 1, 1] = 1.0
+>>> frame = np.zeros((2, 4, 6), np.int8); frame[0, 1, 1:3] = 1
+>>> extra = {"event_frame": frame, "t_start_us": np.array([0, 85_000]), "t_end_us": np.array([85_000, 170_000]),
+...          "event_count": np.array([40, 0]), "pixel_share": np.array([2 / 24, 0.0])}
+>>> rows = window_rows(Maps(fx, np.zeros_like(g), g, extra=extra))
+>>> [(r["window"], r["events"], r["fg_pixels"], r["fg_coverage"], r["grouping_peak"], r["peak_x"]) for r in rows]
+[(0, 40, 1, 0.5, 0.0, None), (1, 0, 0, None, 3.0, 5)]
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import numpy as np
+
+from ..events.activity import SATURATED_SHARE, Activity, draw_activity
+from .atomic import save_text
+
+#: the file names of the table and the figure in a recording's output folder
+TABLE_NAME = "windows.csv"
+TIMELINE_NAME = "timeline.png"
+#: the table's columns
+COLUMNS = (
+    "window",
+    "t_start_ms",
+    "t_end_ms",
+    "events",
+    "pixel_share",
+    "saturated",
+    "fg_pixels",
+    "fg_coverage",
+    "grouping_peak",
+    "peak_x",
+    "peak_y",
+)
+
+
+def window_rows(maps) -> list[dict]:
+    """One row of :data:`COLUMNS` per window of a recording's :class:`~snn_fg.results.maps.Maps`
+    (read window by window: a store's lazy arrays stay on disk)."""
+    ex = maps.extra
+    rows = []
+    for i in range(maps.fg_x.shape[0]):
+        has = (np.asarray(maps.fg_x[i]) != 0) | (np.asarray(maps.fg_y[i]) != 0)
+        events = np.asarray(ex["event_frame"][i]) != 0
+        g = np.asarray(maps.grouping[i])
+        peak = float(g.max(initial=0.0))
+        py, px = np.unravel_index(int(np.argmax(g)), g.shape) if peak > 0 else (None, None)
+        share = float(ex["pixel_share"][i])
+        rows.append(
+            {
+                "window": i,
+                "t_start_ms": float(ex["t_start_us"][i]) / 1000,
+                "t_end_ms": float(ex["t_end_us"][i]) / 1000,
+                "events": int(ex["event_count"][i]),
+                "pixel_share": round(share, 6),
+                "saturated": share > SATURATED_SHARE,
+                "fg_pixels": int(has.sum()),
+                "fg_coverage": round(float((has & events).sum() / events.sum()), 4) if events.any() else None,
+                "grouping_peak": float(f"{peak:.5g}"),
+                "peak_x": None if px is None else int(px),
+                "peak_y": None if py is None else int(py),
+            }
+        )
+    return rows
+
+
+def save_table(path, rows) -> None:
+    """``rows`` of :func:`window_rows` as CSV (an empty cell where a value does not exist)."""
+    text = io.StringIO()
+    writer = csv.DictWriter(text, COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows({k: ("" if v is None else v) for k, v in r.items()} for r in rows)
+    save_text(path, text.getvalue())
+
+
+def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
+    """The run over time, one bar per window: events, the share of pixels with an event, the
+    pixels with a figure-ground vector (and their coverage of the event pixels), the grouping
+    peak. ``shown``: windows an overview figure draws, marked on the time axis."""
+    from matplotlib.figure import Figure  # (matplotlib: only when the figure is drawn)
+
+    a, b = (np.array([r[k] for r in rows], float) for k in ("t_start_ms", "t_end_ms"))
+    act = Activity(
+        t_start_ms=a,
+        t_end_ms=b,
+        events=np.array([r["events"] for r in rows]),
+        share=np.array([r["pixel_share"] for r in rows]),
+        window_ms=window_ms,
+    )
+    fig = Figure(figsize=(9, 7.5), layout="constrained")
+    ax_n, ax_s, ax_f, ax_g = fig.subplots(4, 1, sharex=True)
+    draw_activity(ax_n, ax_s, act)
+    mid, width = (a + b) / 2, b - a
+    ax_f.bar(mid, [r["fg_pixels"] for r in rows], width=width, color="C2")
+    ax_f.set_ylabel("pixels with a\nfigure-ground vector", fontsize=8)
+    cover = np.array([np.nan if r["fg_coverage"] is None else 100 * r["fg_coverage"] for r in rows])
+    twin = ax_f.twinx()
+    twin.plot(mid, cover, "k.-", ms=3, lw=0.8)
+    twin.set_ylim(0, 105)
+    twin.set_ylabel("of the event\npixels (%, line)", fontsize=8)
+    twin.tick_params(labelsize=7)
+    ax_g.bar(mid, [r["grouping_peak"] for r in rows], width=width, color="C4")
+    ax_g.set_ylabel("grouping peak", fontsize=8)
+    ax_g.set_xlabel(f"time after the first event (ms); {window_ms:g} ms windows", fontsize=8)
+    for ax in (ax_f, ax_g):
+        ax.tick_params(labelsize=7)
+    for i in shown:
+        ax_n.annotate(str(i), (mid[i], 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=7)
+    if len(shown):
+        ax_n.set_title("numbers above: the windows maps.png draws", fontsize=8, loc="left")
+    fig.suptitle(title or "The run window by window", fontsize=10)
+    return fig

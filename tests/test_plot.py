@@ -1,0 +1,87 @@
+"""What a recording's run gives a researcher beside its maps: a table window by window
+(windows.csv), the run over time (timeline.png), and ``snn-fg plot``: chosen windows one figure
+each, an animation, the overview again."""
+
+from __future__ import annotations
+
+import csv
+
+import cv2
+import numpy as np
+import pytest
+from PIL import Image
+
+from snn_fg.cli.main import main
+from snn_fg.events import image_to_events, save_events
+from snn_fg.frames.scenes import disc
+from snn_fg.results.maps import Maps
+from snn_fg.results.timeline import COLUMNS
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A disc seen by a camera moving in a circle (64 x 64, 6 windows of 60 ms), run by the rate model."""
+    rec = image_to_events(disc(8).image, motion="circle")
+    path = tmp_path_factory.mktemp("rec") / "disc.es"
+    save_events(path, rec.events, rec.sensor_size)
+    out = tmp_path_factory.mktemp("runs") / "o"
+    assert main(["run", str(path), "--out", str(out), "--window-ms", "60", "--levels", "3", "--no-progress"]) == 0
+    return out
+
+
+def test_a_recordings_run_writes_a_table_and_a_timeline_beside_its_maps(run):
+    assert sorted(p.name for p in run.iterdir()) == ["maps.png", "maps.zarr", "timeline.png", "windows.csv"]
+    m = Maps.load(run)
+    with open(run / "windows.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert tuple(rows[0]) == COLUMNS and len(rows) == m.fg_x.shape[0] == 6
+    for i, r in enumerate(rows):
+        has = (m.fg_x[i] != 0) | (m.fg_y[i] != 0)
+        events = m.extra["event_frame"][i] != 0
+        assert int(r["window"]) == i and int(r["events"]) == int(m.extra["event_count"][i])
+        assert float(r["t_start_ms"]) == m.extra["t_start_us"][i] / 1000
+        assert float(r["pixel_share"]) == pytest.approx(events.mean(), abs=1e-6)
+        assert int(r["fg_pixels"]) == int(has.sum())
+        assert float(r["fg_coverage"]) == pytest.approx((has & events).sum() / events.sum(), abs=1e-4)
+        assert float(r["grouping_peak"]) == pytest.approx(float(m.grouping[i].max()), rel=1e-4)
+        y, x = np.unravel_index(np.argmax(m.grouping[i]), m.grouping[i].shape)
+        assert (int(r["peak_x"]), int(r["peak_y"])) == (x, y)
+    w, h = Image.open(run / "timeline.png").size
+    assert 900 <= w <= 1100 and h <= 900
+
+
+def test_plot_draws_chosen_windows_one_figure_each_on_one_scale(run, capsys):
+    assert main(["plot", str(run), "--windows", "1,4-5"]) == 0
+    assert sorted(p.name for p in (run / "windows").iterdir()) == [
+        "window_0001.png",
+        "window_0004.png",
+        "window_0005.png",
+    ]
+    assert main(["plot", str(run), "--windows", "1"]) == 2  # it exists
+    assert "window_0001.png: exists; pass --force to replace it" in capsys.readouterr().err
+    assert main(["plot", str(run), "--windows", "6"]) == 2
+    assert "--windows 6: the run has 6 windows, 0 to 5" in capsys.readouterr().err
+    assert main(["plot", str(run / "maps.png"), "--windows", "1"]) == 2
+    assert "snn-fg plot draws a recording's run" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["maps.gif", "maps.mp4"])
+def test_plot_animates_the_maps_one_frame_per_window(run, tmp_path, name):
+    out = tmp_path / name
+    assert main(["plot", str(run), "--animate", str(out), "--fps", "5"]) == 0
+    if name.endswith(".gif"):
+        gif = Image.open(out)
+        assert gif.n_frames == 6 and gif.info["duration"] == 200
+    else:
+        video = cv2.VideoCapture(str(out))
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 6 and video.get(cv2.CAP_PROP_FPS) == 5
+    assert [p.name for p in tmp_path.iterdir()] == [name]  # (no part file left)
+
+
+def test_plot_draws_the_overview_of_a_run_made_without_figures(run, tmp_path, capsys):
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    (bare / "maps.zarr").symlink_to(run / "maps.zarr", target_is_directory=True)
+    assert main(["plot", str(bare)]) == 0
+    assert sorted(p.name for p in bare.iterdir()) == ["maps.png", "maps.zarr", "timeline.png", "windows.csv"]
+    assert (bare / "windows.csv").read_text() == (run / "windows.csv").read_text()

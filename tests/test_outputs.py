@@ -44,7 +44,7 @@ def _one_error(capsys) -> str:
 
 
 # -- --force -----------------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("command", ["still", "recording", "decode", "export"])
+@pytest.mark.parametrize("command", ["still", "recording", "decode", "export", "export lava"])
 def test_force_never_deletes_a_file_snn_fg_did_not_write(tmp_path, recording, capsys, command):
     """The new user's ``snn-fg run demo --out sb3 --force`` where sb3/ held only their recording: it
     was deleted. Now each command that writes a folder refuses in one line, nothing deleted, also when
@@ -52,7 +52,7 @@ def test_force_never_deletes_a_file_snn_fg_did_not_write(tmp_path, recording, ca
     out = tmp_path / "sb3"
     out.mkdir()
     (out / "my_recording.es").write_bytes(recording.read_bytes())
-    if command == "export":
+    if command.startswith("export"):
         (out / "network.json").write_text("{}")  # (an earlier export's beside it)
     else:
         Maps(*(np.zeros((4, 4), np.float32) for _ in range(3))).save(out / "maps.npz")
@@ -73,6 +73,7 @@ def test_force_never_deletes_a_file_snn_fg_did_not_write(tmp_path, recording, ca
             "1",
             "--force",
         ],
+        "export lava": ["export", "--format", "lava", "--out", str(out), "--sensor-size", "16x16", "--force"],
     }[command]
     assert main(argv) == 2
     line = _one_error(capsys)
@@ -149,6 +150,7 @@ WRITERS = {
     "plot": ["plot", "MAPS", "--windows", "0", "--out", "RO/plots"],
     "plot --animate": ["plot", "MAPS", "--animate", "RO/maps.gif"],
     "export pynn": ["export", "--format", "pynn", "--out", "RO/m", "--sensor-size", "16x16", "--levels", "1"],
+    "export lava": ["export", "--format", "lava", "--out", "RO/l", "--sensor-size", "16x16", "--levels", "1"],
     "export nir": ["export", "--format", "nir", "--out", "RO/n.nir", "--sensor-size", "16x16", "--levels", "1"],
     "export report": ["export", "--format", "report", "--out", "RO/r.json", "--sensor-size", "16x16", "--levels", "1"],
     "export network": ["export", "--format", "network", "--out", "RO/n.json", "--sensor-size", "16x16"],

@@ -85,3 +85,29 @@ def test_plot_draws_the_overview_of_a_run_made_without_figures(run, tmp_path, ca
     assert main(["plot", str(bare)]) == 0
     assert sorted(p.name for p in bare.iterdir()) == ["maps.png", "maps.zarr", "timeline.png", "windows.csv"]
     assert (bare / "windows.csv").read_text() == (run / "windows.csv").read_text()
+
+
+def test_a_saturated_window_neither_sets_the_grouping_scale_nor_flattens_the_timeline():
+    """dvs.es's first window is a sensor-wide burst: its grouping (830) set the one colour scale and
+    dimmed every scene (430-630), and its 106,494 events flattened the other windows' bars."""
+    from snn_fg.events.activity import Activity, activity_figure
+    from snn_fg.results.overview import grouping_top, window_titles
+
+    g = np.zeros((3, 4, 4), np.float32)
+    g[0, 1, 1], g[1, 1, 1], g[2, 1, 1] = 830.0, 430.0, 630.0
+    extra = {"pixel_share": np.array([1.0, 0.09, 0.1]), "t_start_us": np.array([0, 85_000, 170_000])}
+    extra["t_end_us"] = extra["t_start_us"] + 85_000
+    maps = Maps(g, g, g, extra=extra)
+    assert grouping_top(maps) == 630.0
+    assert window_titles(maps)[:2] == ["window 0: 0-85 ms, saturated", "window 1: 85-170 ms"]
+    act = Activity(
+        t_start_ms=np.array([0.0, 85.0, 170.0]),
+        t_end_ms=np.array([85.0, 170.0, 255.0]),
+        events=np.array([106_494, 32_000, 36_000]),
+        share=extra["pixel_share"],
+        window_ms=85.0,
+    )
+    events, share = activity_figure(act).axes
+    assert events.get_ylim()[1] == pytest.approx(1.5 * 36_000)
+    assert any("clipped (largest 106,494)" in t.get_text() for t in events.texts)
+    assert share.get_ylim()[1] == pytest.approx(15.0)

@@ -116,8 +116,8 @@ def cmd_plot(args) -> int:
     if args.windows is None and args.animate is None:
         for name in ("maps.png", TIMELINE_NAME, TABLE_NAME):
             check_output_file(folder / name, args.force)
-        rows = write_run_tables(folder, maps, figures=True, title=f"{folder.name}: window by window")
-        options = {**overview_options(maps, rows, folder), "grouping_label": label, "crop": args.crop}
+        write_run_tables(folder, maps, figures=True)
+        options = {**overview_options(maps, folder), "grouping_label": label, "crop": args.crop}
         save_maps_figure(folder / "maps.png", input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
         written += [folder / "maps.png", folder / TIMELINE_NAME, folder / TABLE_NAME]
     shown = ", ".join(str(p) for p in written[:4]) + (f", ... ({len(written)} files)" if len(written) > 4 else "")

@@ -178,10 +178,9 @@ def run_recording(
         final["whole_run"] = whole
     store.finish(final)
     maps = Maps(*read_maps(path, lazy=True))
-    title = f"{Path(str(source.get('input', ''))).name}: the {model.name} model, window by window"
-    rows = write_run_tables(out, maps, figures=figures, title=title)
+    write_run_tables(out, maps, figures=figures)
     if figures:
-        model.write_figures(out, maps, input_images(maps), crop=crop, **overview_options(maps, rows, out))
+        model.write_figures(out, maps, input_images(maps), crop=crop, **overview_options(maps, out))
     return store.n
 
 

@@ -22,9 +22,9 @@ def _frames(maps, *, grouping_label: str, crop=None):
     """Each window of ``maps`` drawn as an RGB array (:func:`~.overview.window_figure`)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    from .overview import window_figure
+    from .overview import grouping_top, window_figure
 
-    top = max(float(np.asarray(maps.grouping[i]).max(initial=0.0)) for i in range(maps.fg_x.shape[0]))
+    top = grouping_top(maps)
     for i in range(maps.fg_x.shape[0]):
         fig = window_figure(maps, i, grouping_label=grouping_label, grouping_max=top, crop=crop)
         fig.set_dpi(FRAME_DPI)

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..events.activity import SATURATED_SHARE
 from .atomic import save_figure
 from .figures import event_frame_rgb, maps_figure, rows_shown
 from .timeline import TABLE_NAME, TIMELINE_NAME, save_table, timeline_figure, window_rows
@@ -44,31 +45,55 @@ def input_images(maps):
     return maps.extra["aps_frame"] if "aps_frame" in maps.extra else EventFrames(maps.extra["event_frame"])
 
 
+def _ms(us) -> str:
+    """A time in ms as a title gives it: whole ms, or tenths where the windows are not whole ms."""
+    return f"{round(float(us) / 1000, 1):g}"
+
+
+def saturated(maps) -> np.ndarray:
+    """Whether each window of a recording's maps is a sensor-wide burst (events on more than
+    :data:`~snn_fg.events.activity.SATURATED_SHARE` of the pixels: not a scene)."""
+    return np.asarray(maps.extra["pixel_share"], float) > SATURATED_SHARE
+
+
 def window_titles(maps) -> list[str]:
-    """``window 3: 255-340 ms`` for every window (times from the recording's first event)."""
-    spans = zip(maps.extra["t_start_us"], maps.extra["t_end_us"])
-    return [f"window {i}: {a / 1000:.0f}-{b / 1000:.0f} ms" for i, (a, b) in enumerate(spans)]
+    """``window 3: 255-340 ms`` for every window (times from the recording's first event), a
+    saturated window marked so."""
+    spans = zip(maps.extra["t_start_us"], maps.extra["t_end_us"], saturated(maps), strict=True)
+    return [f"window {i}: {_ms(a)}-{_ms(b)} ms" + (", saturated" if s else "") for i, (a, b, s) in enumerate(spans)]
 
 
-def overview_options(maps, rows: list[dict], folder) -> dict:
+def grouping_top(maps) -> float:
+    """The top of a recording's one grouping colour scale: the largest grouping value of its
+    windows, leaving out saturated ones (a burst's grouping, 830 on dvs.es against 430-630 in
+    its other windows, dimmed every scene; it is drawn clipped) unless every window is one."""
+    burst = saturated(maps)
+    keep = [i for i in range(len(burst)) if not burst[i]] or range(len(burst))
+    return max((float(np.asarray(maps.grouping[i]).max(initial=0.0)) for i in keep), default=0.0)
+
+
+def overview_options(maps, folder) -> dict:
     """The keywords of :func:`~.figures.maps_figure` for a recording's overview ``maps.png`` (its
     titles, one grouping scale for every window, how to draw the windows it leaves out)."""
     return {
         "titles": window_titles(maps),
         "max_rows": OVERVIEW_ROWS,
-        "grouping_max": max((r["grouping_peak"] for r in rows), default=0.0),
+        "grouping_max": grouping_top(maps),
         "hint": f"snn-fg plot {folder} --windows I,J,... draws any",
     }
 
 
-def write_run_tables(folder, maps, *, figures: bool, title: str = "") -> list[dict]:
+def write_run_tables(folder, maps, *, figures: bool) -> list[dict]:
     """``windows.csv`` and (``figures``) ``timeline.png`` of a recording's run into ``folder``;
     the table's rows."""
     folder = Path(folder)
     rows = window_rows(maps)
+    source = maps.params.get("source", {})
+    name = Path(str(source.get("input", folder.name))).name
+    title = f"{name}: the {maps.params.get('model', '?')} model, window by window"
     save_table(folder / TABLE_NAME, rows)
     if figures:
-        window_ms = float(maps.params.get("source", {}).get("window_ms", 0.0))
+        window_ms = float(source.get("window_ms", 0.0))
         shown = rows_shown(len(rows), OVERVIEW_ROWS)
         save_figure(timeline_figure(rows, window_ms, title, shown), folder / TIMELINE_NAME, dpi=110)
     return rows
@@ -92,7 +117,7 @@ def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, cro
 
 def save_window_figures(maps, windows, folder, *, grouping_label: str, crop=None) -> list[Path]:
     """:func:`window_figure` of each of ``windows`` into ``folder`` (:data:`WINDOW_FIGURE`)."""
-    top = max(float(np.asarray(maps.grouping[i]).max(initial=0.0)) for i in range(maps.fg_x.shape[0]))
+    top = grouping_top(maps)
     folder = Path(folder)
     return [
         save_figure(

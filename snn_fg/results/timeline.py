@@ -28,7 +28,7 @@ import io
 
 import numpy as np
 
-from ..events.activity import SATURATED_SHARE, Activity, draw_activity
+from ..events.activity import SATURATED_SHARE, Activity, draw_activity, scene_bars
 from .atomic import save_text
 
 #: the file names of the table and the figure in a recording's output folder
@@ -107,22 +107,23 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
     ax_n, ax_s, ax_f, ax_g = fig.subplots(4, 1, sharex=True)
     draw_activity(ax_n, ax_s, act)
     mid, width = (a + b) / 2, b - a
-    ax_f.bar(mid, [r["fg_pixels"] for r in rows], width=width, color="C2")
+    burst = act.share > SATURATED_SHARE
+    scene_bars(ax_f, mid, width, [r["fg_pixels"] for r in rows], burst, color="C2")
     ax_f.set_ylabel("pixels with a\nfigure-ground vector", fontsize=8)
     cover = np.array([np.nan if r["fg_coverage"] is None else 100 * r["fg_coverage"] for r in rows])
     twin = ax_f.twinx()
     twin.plot(mid, cover, "k.-", ms=3, lw=0.8)
-    twin.set_ylim(0, 105)
+    twin.set_ylim(0, 125)  # (the line below the note a clipped axis carries)
+    twin.set_yticks([0, 25, 50, 75, 100])
     twin.set_ylabel("of the event\npixels (%, line)", fontsize=8)
     twin.tick_params(labelsize=7)
-    ax_g.bar(mid, [r["grouping_peak"] for r in rows], width=width, color="C4")
+    scene_bars(ax_g, mid, width, [r["grouping_peak"] for r in rows], burst, color="C4")
     ax_g.set_ylabel("grouping peak", fontsize=8)
-    ax_g.set_xlabel(f"time after the first event (ms); {window_ms:g} ms windows", fontsize=8)
+    drawn = "; numbers on top: the windows maps.png draws" if len(shown) else ""
+    ax_g.set_xlabel(f"time after the first event (ms); {window_ms:g} ms windows{drawn}", fontsize=8)
     for ax in (ax_f, ax_g):
         ax.tick_params(labelsize=7)
     for i in shown:
         ax_n.annotate(str(i), (mid[i], 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=7)
-    if len(shown):
-        ax_n.set_title("numbers above: the windows maps.png draws", fontsize=8, loc="left")
     fig.suptitle(title or "The run window by window", fontsize=10)
     return fig

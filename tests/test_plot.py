@@ -63,6 +63,8 @@ def test_plot_draws_chosen_windows_one_figure_each_on_one_scale(run, capsys):
     assert "--windows 6: the run has 6 windows, 0 to 5" in capsys.readouterr().err
     assert main(["plot", str(run / "maps.png"), "--windows", "1"]) == 2
     assert "snn-fg plot draws a recording's run" in capsys.readouterr().err
+    assert main(["plot", str(run / "nothere")]) == 2
+    assert capsys.readouterr().err.strip().endswith("nothere: no such folder")
 
 
 @pytest.mark.parametrize("name", ["maps.gif", "maps.mp4"])

@@ -179,6 +179,13 @@ def add_baseline(rows, b: Maps) -> str:
     (:func:`~snn_fg.scoring.baseline.self_agreement`): its agreement with
     B goes into each row (``baseline_*``); returns the line that says so,
     or why there is no baseline."""
+    crop = b.params.get("export_crop")
+    if crop is not None:  # (the model run on the crop alone is another run than the whole frame's, cut)
+        again = "" if crop["window"] is None else f" --window {crop['window']}"
+        return (
+            "B <=45°, B grp r: no baseline for B cut to the export's crop; its whole window's: "
+            f"snn-fg compare B B{again}"
+        )
     windows = [r["window_b"] for r in rows]
     print(f"snn-fg: baseline: running B's model again on {len(windows)} frame(s)...", file=sys.stderr)
     got = self_agreement(b, windows)

@@ -84,6 +84,8 @@ def window_list(text: str, n: int) -> list[int]:
 def _recording_maps(run: Path) -> tuple[Path, Maps]:
     """The run's folder and its maps (a recording's, read lazily); one line for anything else."""
     folder = run.parent if run.name == STORE_NAME else run
+    if not run.exists():
+        raise InputError(run, "no such folder")
     if not (folder / STORE_NAME).is_dir():
         what = "a frame's run (maps.npz): its figure is maps.png" if (folder / "maps.npz").is_file() else "no run"
         raise InputError(run, f"holds {what}; snn-fg plot draws a recording's run (its maps.zarr)")

@@ -51,7 +51,8 @@ def _window(ref: Maps, origin: dict, window: int | None, name: str) -> int | Non
 def align_to_export(a: Maps, b: Maps, window: int | None = None, names=("A", "B")) -> tuple[Maps, Maps, list[str]]:
     """``a`` and ``b`` with the one that is not an export's decoded maps cut to the other's crop
     and window (``window``: that window of it, instead of the one the export's input was made
-    from), and notes in words; both unchanged unless exactly one is an export's."""
+    from; its ``params["export_crop"]`` says where), and notes in words; both unchanged unless
+    exactly one is an export's."""
     oa, ob = export_origin(a), export_origin(b)
     if (oa is None) == (ob is None):
         return a, b, []
@@ -79,7 +80,8 @@ def align_to_export(a: Maps, b: Maps, window: int | None = None, names=("A", "B"
         return np.asarray(v if i is None else v[i])[cut]
 
     extra = {"event_frame": part(ref.extra["event_frame"])} if "event_frame" in ref.extra else {}
-    cut_ref = Maps(part(ref.fg_x), part(ref.fg_y), part(ref.grouping), ref.params, extra)
+    params = {**ref.params, "export_crop": {"window": i, "x0": x0, "y0": y0, "width": w, "height": h}}
+    cut_ref = Maps(part(ref.fg_x), part(ref.fg_y), part(ref.grouping), params, extra)
     when = "" if i is None else f", window {i}"
     notes = [f"{name} cut to the export's crop: x {x0}-{x0 + w - 1}, y {y0}-{y0 + h - 1}{when}"]
     differ = [k for k in MATCHED if k in board.params and k in ref.params and board.params[k] != ref.params[k]]

@@ -186,6 +186,6 @@ def activity_figure(act: Activity, title: str = ""):
     fig = Figure(figsize=(9, 4.5), layout="constrained")
     ax_n, ax_s = fig.subplots(2, 1, sharex=True)
     draw_activity(ax_n, ax_s, act)
-    ax_s.set_xlabel(f"time after the first event (ms); {act.window_ms:g} ms windows")
+    ax_s.set_xlabel(f"time after the first event (ms); {act.window_ms:g} ms windows", fontsize=8)
     fig.suptitle(title or "Activity over time", fontsize=10)
     return fig

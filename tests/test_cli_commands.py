@@ -23,6 +23,7 @@ FLAGS = {
         "--workers",
     },
     "compare": {"--window", "--outline", "--json", "--plot"},
+    "plot": {"--windows", "--out", "--animate", "--fps", "--crop", "--force"},
     "events": {"--window-ms", "--sensor-size", "--write-frame", "--write-events", "--write-spikes", "--export"},
     "export": {"--format", "--out", "--force", "--network", "--sensor-size", "--target", "--weight-bits"},
     "decode": {"--export", "--out", "--input", "--force"},

@@ -145,7 +145,7 @@ def test_every_convolution_connector_gets_the_target_shape_spynnaker_requires():
     pytest.importorskip("spynnaker", reason='needs pip install -e ".[spinnaker]"')
     from spynnaker.pyNN.models.neural_projections.connectors.convolution_connector import ConvolutionConnector
 
-    from snn_fg.network.recipes import network_for
+    from snn_fg.network.recipes import load_description, network_for
 
     net = board_network(network_for("compact", (60, 78))[0])  # pooled 20 x 26; level 2 10 x 13
     plan = spinnaker_plan(net)["projections"]
@@ -168,7 +168,14 @@ MAPPINGS = Path(__file__).resolve().parents[1] / "experiments" / "results" / "ex
     ["32x24:2", "28x24:2", "compact:96x72", "compact:147x116", "compact:64x48"]
     + [
         pytest.param(c, marks=pytest.mark.slow)
-        for c in ("compact:112x88", "compact:144x114", "compact:152x120", "compact:159x126", "64x48:4")
+        for c in (
+            "compact:112x88",
+            "compact:144x114",
+            "compact:152x120",
+            "compact:159x126",
+            "64x48:4",
+            "networks/compact_304x240.json",
+        )
     ],
 )
 def test_the_estimate_is_within_15_percent_of_spynnakers_own_mapping(config):
@@ -180,11 +187,13 @@ def test_the_estimate_is_within_15_percent_of_spynnakers_own_mapping(config):
     but the grouping cells (one synapse core more there: sPyNNaker sizes synapse cores by its
     expected synaptic events; in 64x48:4 the simple cells too)."""
     from snn_fg.export.spinnaker import spinnaker_cores
-    from snn_fg.network.recipes import network_for
+    from snn_fg.network.recipes import load_description, network_for
 
     row = next(r for r in json.loads(MAPPINGS.read_text())["rows"] if r["config"] == config and not r["combined_cores"])
-    a, b = config.split(":")
-    if a == "compact":
+    a, _, b = config.partition(":")
+    if a.endswith(".json"):
+        net = load_description(str(MAPPINGS.parents[2] / a))
+    elif a == "compact":
         w, h = (int(v) for v in b.split("x"))
         net = network_for("compact", (h, w))[0]
     else:

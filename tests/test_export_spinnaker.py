@@ -145,7 +145,7 @@ def test_every_convolution_connector_gets_the_target_shape_spynnaker_requires():
     pytest.importorskip("spynnaker", reason='needs pip install -e ".[spinnaker]"')
     from spynnaker.pyNN.models.neural_projections.connectors.convolution_connector import ConvolutionConnector
 
-    from snn_fg.network.recipes import load_description, network_for
+    from snn_fg.network.recipes import network_for
 
     net = board_network(network_for("compact", (60, 78))[0])  # pooled 20 x 26; level 2 10 x 13
     plan = spinnaker_plan(net)["projections"]
@@ -186,6 +186,7 @@ def test_the_estimate_is_within_15_percent_of_spynnakers_own_mapping(config):
     and 3,689 cores against 269 and 4,215), and every population gets the cores sPyNNaker gave it
     but the grouping cells (one synapse core more there: sPyNNaker sizes synapse cores by its
     expected synaptic events; in 64x48:4 the simple cells too)."""
+    from snn_fg.export.report import spinnaker_estimate
     from snn_fg.export.spinnaker import spinnaker_cores
     from snn_fg.network.recipes import load_description, network_for
 
@@ -201,7 +202,7 @@ def test_the_estimate_is_within_15_percent_of_spynnakers_own_mapping(config):
         net = build_network(ModelParams(levels=int(b)), (h, w))
     board = board_network(net)
     assert set(row["cores_by_population"]) == {p.name for p in board.populations}  # (the network mapped)
-    estimate = spinnaker_plan(board, estimate=True)["estimate"]
+    estimate = spinnaker_estimate(board)
     assert abs(estimate["chips"] - row["chips_used"]) <= 0.15 * row["chips_used"]
     assert abs(estimate["cores"] - row["cores_network"]) <= 0.15 * row["cores_network"]
     if config == "64x48:4":  # (sPyNNaker gave simple_1 384 synapse cores more than one per core of cells)

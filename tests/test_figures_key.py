@@ -6,7 +6,7 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from snn_fg.cli import main
-from snn_fg.events.activity import Activity, activity_figure
+from snn_fg.results.activity import Activity, activity_figure
 from snn_fg.results.figures import event_frame_rgb, maps_figure
 from snn_fg.results.maps import Maps
 from snn_fg.scoring.compare_figure import compare_figure

@@ -92,7 +92,7 @@ def test_plot_draws_the_overview_of_a_run_made_without_figures(run, tmp_path, ca
 def test_a_saturated_window_neither_sets_the_grouping_scale_nor_flattens_the_timeline():
     """dvs.es's first window is a sensor-wide burst: its grouping (830) set the one colour scale and
     dimmed every scene (430-630), and its 106,494 events flattened the other windows' bars."""
-    from snn_fg.events.activity import Activity, activity_figure
+    from snn_fg.results.activity import Activity, activity_figure
     from snn_fg.results.overview import grouping_top, window_titles
 
     g = np.zeros((3, 4, 4), np.float32)

@@ -23,10 +23,11 @@ from ..events import (
     open_recording,
     save_events,
 )
-from ..events.activity import activity, activity_figure, saturated_lines, timeline_text
+from ..events.activity import activity, saturated_lines, timeline_text
 from ..events.aps import frame_summary, open_frames
 from ..events.esim import MOTIONS
 from ..events.images import IMAGE_SUFFIXES
+from ..results.activity import activity_figure
 from ..results.atomic import save_figure, save_npz
 from .options import check_output_file, sensor_size
 from .spikes import add_spike_options, write_spikes

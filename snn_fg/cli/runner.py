@@ -17,9 +17,10 @@ from tqdm import tqdm
 from ..backends import cancel
 from ..errors import InputError
 from ..events import EmptyWindowWarning, RecordingWindows, iter_recording
-from ..events.activity import Activity, pixel_share, saturated_lines
+from ..events.activity import pixel_share, saturated_lines
 from ..frames.still import Still
 from ..models import Model
+from ..results.activity import Activity
 from ..results.maps import Maps
 from ..results.overview import input_images, overview_options, write_run_tables
 from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
@@ -134,7 +135,7 @@ def run_recording(
     from the recording's first event; ``params["source"]["first_event_us"]``
     keeps that event's time in the file's own clock. Each window's share of
     pixels with an event is recorded (``pixel_share``), and a window above
-    :data:`~snn_fg.events.activity.SATURATED_SHARE` is warned about and
+    :data:`~snn_fg.results.activity.SATURATED_SHARE` is warned about and
     listed (``saturated_windows``)."""
     path = out / STORE_NAME
     run_key = {"source": source, "model": model.name, **model.params.to_dict()} if run_key is None else run_key

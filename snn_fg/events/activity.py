@@ -1,11 +1,12 @@
 """Activity of a recording over time, and windows that cover the whole sensor.
 
-A window whose events fall on more than :data:`SATURATED_SHARE` of the
+A window whose events fall on more than :data:`~snn_fg.results.activity.SATURATED_SHARE` of the
 sensor's pixels is not a scene but a sensor-wide burst: the start-up reset
 of an ATIS or DVS camera (tens of thousands of events on every pixel within
 a millisecond or so), flicker, or a sudden change of light. The model maps
 such a window as solid colour everywhere, so ``snn-fg events`` shows where
-they are (:func:`activity`, :func:`timeline_text`, :func:`activity_figure`)
+they are (:func:`activity`, :func:`timeline_text`,
+:func:`~snn_fg.results.activity.activity_figure`)
 and ``snn-fg run`` warns about each one (:func:`saturated_lines`).
 """
 
@@ -13,35 +14,15 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
 
 import numpy as np
 
 from snn_fg.events.window import EmptyWindowWarning, iter_windows
+from snn_fg.results.activity import SATURATED_SHARE, Activity
 
-#: a window with events on more than this share of the sensor's pixels is saturated
-#: (real scenes of the project's recordings reach 0.26 at most in 85 ms windows; start-up bursts 1.0)
-SATURATED_SHARE = 0.5
 #: rows of the text timeline at most (consecutive windows are merged beyond)
 TIMELINE_ROWS = 30
 _BAR = 30
-
-
-@dataclass(frozen=True)
-class Activity:
-    """Per window of a recording: start and end (ms after its first event),
-    events, and the share of the sensor's pixels that had an event."""
-
-    t_start_ms: np.ndarray
-    t_end_ms: np.ndarray
-    events: np.ndarray
-    share: np.ndarray
-    window_ms: float
-
-    @property
-    def saturated(self) -> np.ndarray:
-        """Indices of the windows with events on more than :data:`SATURATED_SHARE` of the pixels."""
-        return np.flatnonzero(self.share > SATURATED_SHARE)
 
 
 def pixel_share(window) -> float:
@@ -120,72 +101,3 @@ def timeline_text(act: Activity) -> str:
         span = f"{act.t_start_ms[k]:.0f}-{act.t_end_ms[min(k + group, n) - 1]:.0f}"
         lines.append(f"{span:>13}  {events:>11,}  {100 * share:5.1f} % |{bar:<{_BAR}}|{flag}")
     return "\n".join(lines)
-
-
-def scene_bars(ax, mid, width, values, burst, unit: str = "", color: str = "C0") -> bool:
-    """Bars of ``values`` (one per window, in ``color``, the ``burst`` ones red) in ``ax``, the axis scaled to the
-    windows that are not bursts where a burst would flatten them (dvs.es: 82,000 events in its
-    first 17 ms, 5,000-7,000 in every later window): a burst's bar is then clipped and the axis
-    says so with the largest value. Returns whether it clipped."""
-    values, burst = np.asarray(values, float), np.asarray(burst, bool)
-    ax.bar(mid, values, width=width, color=np.where(burst, "C3", color))
-    calm = values[~burst]
-    top = 1.5 * float(calm.max(initial=0.0))  # (room for the note above the bars)
-    if not (burst.any() and top > 0 and values[burst].max() > top):
-        return False
-    ax.set_ylim(0, top)
-    ax.text(
-        0.995,
-        0.96,
-        f"red: saturated windows, clipped (largest {values[burst].max():,.0f}{unit})",
-        ha="right",
-        va="top",
-        fontsize=7,
-        transform=ax.transAxes,
-    )
-    return True
-
-
-def draw_activity(ax_n, ax_s, act: Activity) -> None:
-    """Events per window into ``ax_n`` and the share of pixels they cover into ``ax_s``, saturated
-    windows in red (:func:`scene_bars`). The share's axis reaches just above its largest value (a
-    DAVIS346 recording covers 0.2 % of its pixels a window: on 0-100 % it looked empty); the
-    saturation threshold is drawn when it lies within it, and said otherwise."""
-    mid = (act.t_start_ms + act.t_end_ms) / 2
-    width = act.t_end_ms - act.t_start_ms
-    burst = act.share > SATURATED_SHARE
-    scene_bars(ax_n, mid, width, act.events, burst)
-    ax_n.set_ylabel("events per window", fontsize=8)
-    share = 100 * act.share
-    if not scene_bars(ax_s, mid, width, share, burst, " %"):
-        top = min(1.15 * float(share.max(initial=0.0)) or 1.0, 100.0)
-        ax_s.set_ylim(0, top)
-        if top >= 100 * SATURATED_SHARE:
-            ax_s.axhline(100 * SATURATED_SHARE, color="k", ls="--", lw=0.8)
-            said, at = f"saturated above {SATURATED_SHARE:.0%} (red)", 100 * SATURATED_SHARE
-        else:
-            said, at = f"none saturated (above {SATURATED_SHARE:.0%})", top
-        ax_s.text(
-            0.995,
-            at,
-            said,
-            ha="right",
-            va="bottom" if at < top else "top",
-            fontsize=8,
-            transform=ax_s.get_yaxis_transform(),
-        )
-    ax_s.set_ylabel("pixels with an event (%)", fontsize=8)
-    for ax in (ax_n, ax_s):
-        ax.tick_params(labelsize=7)
-
-
-def activity_figure(act: Activity, title: str = ""):
-    """Events per window and the share of pixels they cover (:func:`draw_activity`)."""
-    from matplotlib.figure import Figure  # (matplotlib: only when the figure is drawn)
-
-    fig = Figure(figsize=(9, 4.5), layout="constrained")
-    ax_n, ax_s = fig.subplots(2, 1, sharex=True)
-    draw_activity(ax_n, ax_s, act)
-    ax_s.set_xlabel(f"time after the first event (ms); {act.window_ms:g} ms windows", fontsize=8)
-    fig.suptitle(title or "Activity over time", fontsize=10)
-    return fig

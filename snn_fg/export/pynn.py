@@ -53,6 +53,7 @@ from .folder import (
     weight_tables,
     write_folder,
 )
+from .report import spinnaker_estimate
 from .spinnaker import spinnaker_plan
 
 SCHEMA = "snn-fg.pynn/1"
@@ -171,7 +172,8 @@ def export_pynn(
         network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape
     )
     copies = {standalone.HERE / src: dst for src, dst in standalone.COPIED.items()}
-    plan = spinnaker_plan(board_network(network), estimate=True, dt_ms=dt_ms)
+    board = board_network(network)
+    plan = {**spinnaker_plan(board), "estimate": spinnaker_estimate(board, dt_ms)}
     readme = README.format(
         **readme_fields(network, meta, sensor_shape),
         target=target,

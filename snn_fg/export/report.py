@@ -381,3 +381,12 @@ def report_table(rep: dict) -> str:
         if one:
             lines.append(f"  one board holds at most a {one['width']} x {one['height']} sensor ({one['chips']} chips)")
     return "\n".join(lines)
+
+
+def spinnaker_estimate(network: Network, dt_ms: float | None = None) -> dict:
+    """The report's SpiNNaker 1 figures for ``network`` at ``dt_ms`` steps (cores, chips, boards,
+    cores per population, how they were counted): what an export's ``spinnaker.json`` holds beside
+    :func:`~snn_fg.export.spinnaker.spinnaker_plan`, and ``run.py --virtual-board`` sets beside
+    sPyNNaker's own mapping."""
+    sp = resource_report(network, dt_ms)["targets"]["spinnaker1"]
+    return {k: v for k, v in sp.items() if k in ("cores", "chips", "boards_spinn5", "cores_by_population", "note")}

@@ -71,12 +71,10 @@ def _lattice_kernel(network: Network, pr: Conv) -> np.ndarray:
     return k if pr.mode == "conv" else k[:, :, ::-1, ::-1]
 
 
-def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float | None = None) -> dict:
+def spinnaker_plan(network: Network) -> dict:
     """Per projection: ``ConvolutionConnector`` (with its kernels, strides
-    and padding) or ``FromListConnector`` and why; with ``estimate`` also the
-    resource report's SpiNNaker 1 figures (cores, chips, boards) for
-    ``dt_ms`` steps, which ``run.py --virtual-board`` sets beside sPyNNaker's."""
-    dt_ms = network.time_step(dt_ms, "spinnaker_plan")
+    and padding) or ``FromListConnector`` and why (the resource report's
+    estimate beside it: :func:`~snn_fg.export.report.spinnaker_estimate`)."""
     reasons = {pr.name: _conv_reason(network, pr) for pr in network.projections}
     for name in {p.name for p in network.populations}:
         into = [pr for pr in network.incoming(name)]
@@ -118,14 +116,6 @@ def spinnaker_plan(network: Network, *, estimate: bool = False, dt_ms: float | N
         "from_list": len(entries) - len(conv),
         "projections": entries,
     }
-    if estimate:
-        from .report import resource_report  # (the report imports this module for its core counts)
-
-        out["estimate"] = {
-            k: v
-            for k, v in resource_report(network, dt_ms)["targets"]["spinnaker1"].items()
-            if k in ("cores", "chips", "boards_spinn5", "cores_by_population", "note")
-        }
     return out
 
 
@@ -145,7 +135,7 @@ def spinnaker_cores(network: Network, dt_ms: float | None = None) -> dict[str, i
     Below :data:`SPLIT_BELOW_MS` a population that takes explicit lists gets one synapse core per
     core of cells; a local-only population (the target of convolutions) keeps its synapses on its
     own cores."""
-    dt_ms = network.dt_ms if dt_ms is None else dt_ms
+    dt_ms = network.time_step(dt_ms, "spinnaker_cores")
     plan = spinnaker_plan(network)["projections"]
     by_name = {pr.name: pr for pr in network.projections}
     conv = [e for e in plan if e["connector"] == "ConvolutionConnector"]

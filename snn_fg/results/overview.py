@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..events.activity import SATURATED_SHARE
+from .activity import SATURATED_SHARE
 from .atomic import save_figure
 from .figures import event_frame_rgb, maps_figure, rows_shown
 from .timeline import TABLE_NAME, TIMELINE_NAME, save_table, timeline_figure, window_rows
@@ -52,7 +52,7 @@ def _ms(us) -> str:
 
 def saturated(maps) -> np.ndarray:
     """Whether each window of a recording's maps is a sensor-wide burst (events on more than
-    :data:`~snn_fg.events.activity.SATURATED_SHARE` of the pixels: not a scene)."""
+    :data:`~snn_fg.results.activity.SATURATED_SHARE` of the pixels: not a scene)."""
     return np.asarray(maps.extra["pixel_share"], float) > SATURATED_SHARE
 
 

@@ -3,7 +3,7 @@
 
 Per window: its span (ms after the recording's first event), its events and the share of the
 sensor's pixels they cover (a share above
-:data:`~snn_fg.events.activity.SATURATED_SHARE` is a sensor-wide burst, not a scene), the pixels
+:data:`~snn_fg.results.activity.SATURATED_SHARE` is a sensor-wide burst, not a scene), the pixels
 with a figure-ground vector and their share of the pixels with an event (the coverage), and the
 grouping map's peak and where it lies (the strongest proto-object centre).
 
@@ -28,7 +28,7 @@ import io
 
 import numpy as np
 
-from ..events.activity import SATURATED_SHARE, Activity, draw_activity, scene_bars
+from .activity import SATURATED_SHARE, Activity, draw_activity, scene_bars
 from .atomic import save_text
 
 #: the file names of the table and the figure in a recording's output folder

@@ -159,7 +159,7 @@ def test_every_convolution_connector_gets_the_target_shape_spynnaker_requires():
         assert connector.get_post_shape(net.population(pr.source).grid) == net.population(pr.target).grid, e["name"]
 
 
-#: sPyNNaker's own mappings of PyNN exports on virtual SpiNN-5 boards (python -m experiments.validation.export_spinnaker)
+#: sPyNNaker's own mappings of PyNN exports on virtual SpiNN-5 boards (experiments.validation.export_spinnaker)
 MAPPINGS = Path(__file__).resolve().parents[1] / "experiments" / "results" / "export_spinnaker.json"
 
 

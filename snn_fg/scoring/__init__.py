@@ -1,5 +1,6 @@
 """How maps are judged: against each other window by window (:mod:`.metrics`,
-with the figure of both, :mod:`.compare_figure`), along object outlines
+with the figure of both, :mod:`.compare_figure`; a board's maps cut to meet the
+reference, :mod:`.align`), along object outlines
 (:mod:`.outline`) and against human figure/ground labels (:mod:`.groundtruth`).
 The paper's evaluation on BSDS images and its sweeps are the experiments'
 (``experiments/evaluation.py``, ``experiments/sweep.py``)."""

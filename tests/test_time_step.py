@@ -10,8 +10,8 @@ from snn_fg.backends import RunSettings
 from snn_fg.errors import ParameterError
 from snn_fg.export.lava import export_lava
 from snn_fg.export.pynn import pynn_model
-from snn_fg.export.report import resource_report
-from snn_fg.export.spinnaker import spinnaker_plan
+from snn_fg.export.report import resource_report, spinnaker_estimate
+from snn_fg.export.spinnaker import spinnaker_cores
 from snn_fg.network import SpikingParams, Timing, build_network
 from snn_fg.network.graph import DEFAULT_DT_MS
 from snn_fg.network.recipes import RECIPES
@@ -38,8 +38,10 @@ def test_the_given_step_else_the_networks(coarse):
 
 @pytest.mark.parametrize("bad", [0, -0.5, float("nan"), "half"])
 def test_a_bad_step_names_the_caller(coarse, bad):
-    with pytest.raises(ParameterError, match=r"spinnaker_plan: dt_ms="):
-        spinnaker_plan(coarse, estimate=True, dt_ms=bad)
+    with pytest.raises(ParameterError, match=r"spinnaker_cores: dt_ms="):
+        spinnaker_cores(coarse, dt_ms=bad)
+    with pytest.raises(ParameterError, match=r"resource_report: dt_ms="):
+        spinnaker_estimate(coarse, dt_ms=bad)
 
 
 def test_exports_take_the_networks_step_unless_told(coarse):

@@ -313,7 +313,14 @@ def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_s
         w = m.params["windows"][i] if i else {}
         assert w.get("simulation", sim)["count_from_ms"] == pytest.approx(60 * i + 10)
     assert sum(int(window_part(m.extra, "spikes_bo_L1_1", i).sum()) for i in range(3)) > 0
-    assert sorted(os.listdir(out)) == ["maps.png", "maps.zarr", "rate_histograms.png", "spike_raster.png"]
+    assert sorted(os.listdir(out)) == [
+        "maps.png",
+        "maps.zarr",
+        "rate_histograms.png",
+        "spike_raster.png",
+        "timeline.png",
+        "windows.csv",
+    ]
     quiet = tmp_path / "quiet"
     assert (
         main(

@@ -104,7 +104,12 @@ def _key(fig, cells, norm, grouping_label: str, shared: bool) -> None:
     text = {"fontsize": 8, "va": "center", "ha": "left"}
     a0 = fig.add_subplot(cells[0])
     a0.set_axis_off()
-    a0.text(0.0, 0.5, "input: the events of the window\nwhite ON, black OFF, grey none", **text)
+    a0.text(
+        0.0,
+        0.5,
+        "input: the events of the window\nwhite ON, black OFF, grey none\n(or the APS frame the fbfg model ran on)",
+        **text,
+    )
     wheel_cell, words = cells[1].subgridspec(1, 2, width_ratios=(1, 1.6), wspace=0.05)
     draw_wheel(fig.add_subplot(wheel_cell))
     a1 = fig.add_subplot(words)

@@ -98,9 +98,8 @@ class Model(ABC):
         return event_frame_rgb(still.pos, still.neg)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
-        """Figures of a run into folder ``out``; ``inputs`` one image per frame;
-        ``crop`` ``(x0, y0, x1, y1)``: the maps' part to draw (all of it); ``options``:
-        further keywords of :func:`~snn_fg.results.figures.maps_figure`."""
+        """Figures of a run into folder ``out``; ``inputs`` one image per frame; ``crop``
+        ``(x0, y0, x1, y1)``: the part drawn; ``options``: more :func:`~snn_fg.results.figures.maps_figure` keywords."""
         from ..results.figures import save_maps_figure
 
         return [

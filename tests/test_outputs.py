@@ -91,6 +91,22 @@ def test_force_replaces_an_earlier_run_and_a_folder_is_refused_without_it(tmp_pa
     assert sorted(os.listdir(tmp_path)) == ["o"]
 
 
+def test_a_folder_of_window_figures_in_a_run_is_the_runs(tmp_path, capsys):
+    """snn-fg plot RUN --windows 2-3 --out RUN/w, then snn-fg run ... --out RUN --force: refused,
+    'holds w, which snn-fg did not write'; a folder of snn-fg plot's window figures is the run's."""
+    out = _maps(tmp_path / "o")
+    (out / "w").mkdir()
+    (out / "w" / "window_0002.png").write_bytes(b"a figure")
+    assert main(["run", "demo", "--out", str(out), "--levels", "2", "--no-progress", "--no-figures", "--force"]) == 0
+    assert sorted(os.listdir(out)) == ["maps.npz"]
+    (out / "mine").mkdir()
+    (out / "mine" / "window_0002.png").write_bytes(b"a figure")
+    (out / "mine" / "notes.txt").write_text("the user's")
+    assert main(["run", "demo", "--out", str(out), "--no-progress", "--no-figures", "--force"]) == 2
+    assert "holds mine, which snn-fg did not write" in _one_error(capsys)
+    assert (out / "mine" / "notes.txt").read_text() == "the user's"
+
+
 def test_a_folder_of_figures_only_is_not_an_earlier_run(tmp_path, capsys):
     """A folder holding only a ``maps.png`` (the user's own figure, say) holds no run's maps: refused."""
     out = tmp_path / "figs"

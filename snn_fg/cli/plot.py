@@ -15,8 +15,8 @@ from ..models import MODELS
 from ..results.animation import SUFFIXES, save_animation
 from ..results.figures import save_maps_figure
 from ..results.maps import Maps
+from ..results.outputs import WINDOW_FIGURE
 from ..results.overview import (
-    WINDOW_FIGURE,
     input_images,
     overview_options,
     save_window_figures,

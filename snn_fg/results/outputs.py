@@ -54,8 +54,21 @@ class FolderKind:
         return self.owns is not None and self.owns(entry)
 
 
+#: a per-window figure's file name (``snn-fg plot --windows``: into ``windows/`` or a folder of the user's naming)
+WINDOW_FIGURE = "window_{:04d}.png"
+
+
+def _window_figures(entry: Path) -> bool:
+    """Whether ``entry`` is a folder of ``snn-fg plot --windows`` figures and nothing else."""
+    if not entry.is_dir() or entry.is_symlink():
+        return False
+    names = [p.name for p in entry.iterdir()]
+    return bool(names) and all(fnmatch.fnmatchcase(n, WINDOW_FIGURE.replace("{:04d}", "[0-9]" * 4)) for n in names)
+
+
 #: what ``snn-fg run`` and ``snn-fg decode`` write: maps (a frame's ``.npz``, a recording's Zarr store),
-#: their figures, a recording's per-window table and animation, the spiking model's figures
+#: their figures, a recording's per-window table and animation, the spiking model's figures, and a folder
+#: of window figures under another name
 RUN_FOLDER = FolderKind(
     "an snn-fg run",
     names=(
@@ -71,6 +84,7 @@ RUN_FOLDER = FolderKind(
         "rate_histograms.png",
     ),
     marks=("maps.npz", "maps.zarr"),
+    owns=_window_figures,
 )
 
 

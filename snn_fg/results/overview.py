@@ -17,12 +17,11 @@ import numpy as np
 from .activity import SATURATED_SHARE
 from .atomic import save_figure
 from .figures import event_frame_rgb, maps_figure, rows_shown
+from .outputs import WINDOW_FIGURE
 from .timeline import TABLE_NAME, TIMELINE_NAME, save_table, timeline_figure, window_rows
 
 #: windows the overview ``maps.png`` of a recording draws at most (evenly spaced)
 OVERVIEW_ROWS = 6
-#: a per-window figure's file name in the folder ``snn-fg plot --windows`` writes
-WINDOW_FIGURE = "window_{:04d}.png"
 
 
 class EventFrames:
@@ -116,7 +115,8 @@ def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, cro
 
 
 def save_window_figures(maps, windows, folder, *, grouping_label: str, crop=None) -> list[Path]:
-    """:func:`window_figure` of each of ``windows`` into ``folder`` (:data:`WINDOW_FIGURE`)."""
+    """:func:`window_figure` of each of ``windows`` into ``folder``
+    (:data:`~snn_fg.results.outputs.WINDOW_FIGURE`)."""
     top = grouping_top(maps)
     folder = Path(folder)
     return [

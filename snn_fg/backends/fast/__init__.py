@@ -9,13 +9,17 @@ first unroll the kernels into per-synapse arrays (1e8-1e9 at full scale)
 and then update every instantiated cell at every step. This engine does
 neither:
 
-* **Weight-shared propagation.** A spike goes through its projection's kernel
-  footprint when it is delivered: a Conv's kept taps (pruned exactly as
-  :func:`~snn_fg.lowering.connect.kernel_taps` prunes them), a Resize's
-  interpolation weights (:func:`~snn_fg.lowering.connect.resize_factors`).
-  Memory is proportional to cells (about 40 bytes each), not synapses, so
-  the whole network (``instantiate="all"``) of a 320 x 240 sensor over ten
-  levels, 9 million cells, fits in a few hundred megabytes.
+* **Weight-shared propagation.** A spike adds its projection's *stencil* to
+  the summed input of its target when it is delivered: a Conv's kept taps
+  (pruned exactly as :func:`~snn_fg.lowering.connect.kernel_taps` prunes
+  them) as rows of the target's lattice, each one vector loop, and a
+  Resize's interpolation weights (:func:`~snn_fg.lowering.connect.resize_factors`).
+  Which cells received input is kept as bits, so that the hand-over to the
+  cells walks them in memory order and the synaptic events are counted
+  with ``popcount`` (:mod:`.deliver`). Memory is proportional to cells
+  (about 40 bytes each), not synapses, so the whole network
+  (``instantiate="all"``) of a 320 x 240 sensor over ten levels, 9 million
+  cells, fits in a few hundred megabytes.
 * **Active cells only.** A cell is updated step by step only while it might
   fire (or is refractory); otherwise it is *parked* and brought up to date
   in closed form when input next reaches it (:mod:`.core`). Cost then
@@ -34,6 +38,11 @@ neither:
 * **Compiled with numba**, a maintained JIT compiler for numerical Python:
   the inner loops are plain loops over integers, which numpy cannot
   vectorise (every event depends on the state the previous one left).
+* **Two threads** on a large network: the rows of every target population
+  are dealt out between them in bands, each thread updating its own cells
+  and adding every spike's stencil to its own rows, so each cell's input is
+  summed in the same order and the spikes do not depend on the number of
+  threads (:mod:`.core`).
 
 The engine honours the instantiation hints like Brian2 (``instantiate=
 "input"`` marks the cells the hints leave out as absent) so that both
@@ -41,9 +50,12 @@ backends simulate the same cells; with ``instantiate="all"`` it needs no
 per-input preparation beyond the edge masks.
 
 The package: :mod:`.backend` (:class:`FastBackend`, the backend interface),
-:mod:`.tables` (the description as the engine's arrays), :mod:`.run` (one
-simulation's state), :mod:`.core` and :mod:`.deliver` (the compiled loops),
-:mod:`.results` (spike trains and counts handed back).
+:mod:`.tables`, :mod:`.neurons` and :mod:`.stencils` (the description as
+the engine's arrays), :mod:`.run` (one simulation's state), the compiled
+loops (:mod:`.core`, the step; :mod:`.deliver`, the delivery; :mod:`.lif`,
+one cell; :mod:`.lists`, the sorted cell lists; :mod:`.counting`, spike
+counts; :mod:`.compiled`, numba's cache), :mod:`.results` (spike trains and
+counts handed back).
 
 Example
 -------

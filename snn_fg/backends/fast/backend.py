@@ -18,6 +18,12 @@ from .run import Pool, Run
 COMPILE_S = 10
 #: simulated time per call of the compiled loop (progress, Ctrl-C in between)
 CHUNK_MS = 25.0
+#: threads a run uses at most (the rows of each target are dealt out between them)
+MAX_THREADS = 2
+#: a run on fewer cells than this uses one thread unless told otherwise: the
+#: threads meet at every time step, and a small network's step is too short to
+#: share (the compact network on dvs.es, 0.54 M cells, ran slower on two)
+PARALLEL_FROM = 1_000_000
 
 
 class FastBackend(Backend):
@@ -32,6 +38,9 @@ class FastBackend(Backend):
         Run with every weight as the ``weight_bits``-bit integer times one
         scale per projection that a board holds (as ``snn-fg export
         --weight-bits`` writes them; weights that round to 0 are dropped).
+    threads : int, optional
+        Threads a run uses (default: the cores this process may use, at
+        most :data:`MAX_THREADS`). The spikes do not depend on it.
     """
 
     name = "fast"
@@ -46,13 +55,14 @@ class FastBackend(Backend):
     #: a recording's input is loaded a segment at a time (:class:`.run._InputFeed`)
     streams_input = True
 
-    def __init__(self, *, chunk_ms: float = CHUNK_MS, weight_bits: int | None = None):
+    def __init__(self, *, chunk_ms: float = CHUNK_MS, weight_bits: int | None = None, threads: int | None = None):
         from ... import validate as check
 
         self.chunk_ms = check.number("FastBackend", "chunk_ms", chunk_ms, lo=0, lo_open=True)
         self.weight_bits = (
             None if weight_bits is None else check.integer("FastBackend", "weight_bits", weight_bits, lo=2, hi=32)
         )
+        self.threads = None if threads is None else check.integer("FastBackend", "threads", threads, lo=1)
         self._tables: ft.EngineTables | None = None
         self._pool = Pool()
 
@@ -72,7 +82,23 @@ class FastBackend(Backend):
             "engine": "event-driven, weight-shared kernels",
             "numba": numba.__version__,
             "weight_bits": self.weight_bits,
+            "threads": self.threads,
         }
+
+    def threads_for_run(self, cells: int) -> int:
+        """The threads of a run on ``cells`` cells: :attr:`threads`, else the
+        cores this process may use (at most :data:`MAX_THREADS`, and one
+        below :data:`PARALLEL_FROM` cells); numba is told so."""
+        import numba
+
+        from ...cores import usable_cores
+
+        n = self.threads
+        if n is None:
+            n = min(usable_cores(), MAX_THREADS) if cells >= PARALLEL_FROM else 1
+        n = max(1, min(n, numba.config.NUMBA_NUM_THREADS))
+        numba.set_num_threads(n)
+        return n
 
     def tables(self, network: Network, dt_ms: float) -> ft.EngineTables:
         """The engine's arrays for ``network`` at ``dt_ms``, built once and
@@ -87,9 +113,9 @@ class FastBackend(Backend):
         return t
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
-        from .core import code_is_cached
+        from . import core
 
-        if not code_is_cached():
+        if not core.code_is_cached():
             settings.say(
                 f"compiling the fast engine's code as it prepares and simulates: the first run on this "
                 f"machine only, about {COMPILE_S} s on an idle machine for an image, up to a minute for a "
@@ -101,7 +127,8 @@ class FastBackend(Backend):
             network, source_masks(network, inputs.on, inputs.off), settings.sites, settings.instantiate
         )
         n_steps = int(round(settings.duration_ms / settings.dt_ms))
-        run = Run(tab, chosen, inputs, n_steps, self._pool)
+        cells = sum(chosen[p.name].size for p in network.populations)
+        run = Run(tab, chosen, inputs, n_steps, self._pool, self.threads_for_run(cells))
         stream = None
         if settings.on_bin is not None and settings.count_bins_ms is not None:
             stream = BinStream(self.name, tab, chosen, run, settings)

@@ -1,4 +1,4 @@
-"""The fast engine's inner loops, compiled by numba.
+"""The fast engine's step loop, compiled by numba.
 
 One call of :func:`run_steps` advances the simulation over a range of time
 steps. Each step follows Brian2's schedule as our Brian2 backend uses it
@@ -9,107 +9,84 @@ steps. Each step follows Brian2's schedule as our Brian2 backend uses it
    p_inh I_inh`` unless refractory, then both currents decay) and spikes if ``v > v_th`` and it is not
    refractory; the input spikes of the step join them;
 2. each projection takes the spikes its source emitted ``delay`` steps ago
-   and sends each one through its kernel footprint (Conv taps, Resize
-   interpolation weights), adding the weight to the target's current;
+   and sends each one through its stencil (Conv) or interpolation weights
+   (Resize) into its target's summed input, which is then added to the
+   cells it reached (:mod:`.deliver`);
 3. cells that spiked are reset.
 
 An active cell that can no longer reach threshold without new input is
 *parked* (at the start of the next step): it is not touched until input
 reaches it, and is then brought up to date in closed form (the update is
-linear between spikes, see :func:`snn_fg.backends.fast.tables.advance_tables`).
+linear between spikes, see :func:`snn_fg.backends.fast.neurons.advance_tables`).
 Parking is safe because, with no input, the potential stays under a bound
-computed from the current state (:func:`_safe`).
+computed from the current state (:func:`.lif.safe`).
 
 Cells are numbered compactly, population after population, only those
 instantiated (``cells[q]``: first number ``C_OFF`` and count ``C_N`` of
-population ``q``; for a population with cells left out, ``cmap[C_MAP + flat]``
-gives the local number of grid cell ``flat`` or -1, ``flat_of[C_FLAT +
-local]`` the way back and ``column_of[C_FLAT + local]`` its lattice column;
-its cells on lattice row ``r`` of channel ``c`` are the local numbers
-``row_ptr[C_ROW + c * rows + r]`` .. ``[+ 1]``; bit ``flat`` of the bytes
-from ``bits[C_BITS]`` says whether grid cell ``flat`` exists: a test that
-stays in cache where the map would not). The active cells are kept sorted
-by number, so that the per-step pass over them walks memory in one
-direction (in a random order it would wait for memory at nearly every
-cell). State per cell (:data:`STATE`): ``v``,
-``e`` (``I_exc``), ``i`` (``I_inh``) in volts, ``last`` (the step the values
-belong to, plus one; 0: never touched, i.e. at rest) and ``spike`` (the
-step of the last spike, plus one; 0: none).
+population ``q``; ``pres`` from word ``C_PRES`` holds its presence bits,
+one 64-bit word per 64 columns of each row of each channel, and ``rank``
+the number of cells that exist before each word, so that a grid cell's
+number is a ``popcount`` away; for a population with cells left out,
+``flat_of[C_FLAT + local]`` gives the grid cell of a number). The active
+cells are kept sorted by number, so that the per-step pass over them walks
+memory in one direction.
+State per cell (:data:`.lif.STATE`): ``v``, ``e`` (``I_exc``), ``i``
+(``I_inh``) in volts, ``last`` (the step the values belong to, plus one; 0:
+never touched, i.e. at rest) and ``spike`` (the step of the last spike, plus
+one, 0 for none, in its low 31 bits; its sign bit set while the cell is
+active).
 """
 
 from __future__ import annotations
 
-import hashlib
+import sys
 from collections import namedtuple
-from pathlib import Path
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from .deliver import (
-    AHEAD,
-    C_BITS,
-    C_FLAT,
-    C_MAP,
-    C_N,
-    C_OFF,
-    C_ROW,
-    EXC,
-    N_ACTIVE_STEPS,  # noqa: F401
-    N_ADVANCES,
-    N_EVENTS,
-    N_FRESH,
-    STATE,
-    U,
-    _advanced,
-    _conv,
-    _conv_gather,
-    _flush,
-    _resize,
-    _safe,
-    prefetch,
-)
-from .tables import (
-    CONV,
-    DE,
-    DI,
-    DM,
-    J_COL,
-    J_DELAY,
-    J_KIND,
-    J_SRC,
-    J_TGT,
-    P_TYPE,
-    PE,
-    PI,
-    SOURCE_TYPE,
-    V_RESET,
-    V_REST,
-    V_TH,
-)
+from . import compiled, counting, deliver, lif, lists
+from .deliver import C_N, C_OFF, N_ACTIVE_STEPS, N_EVENTS, conv_spikes, flush_rows, resize_spikes
+from .lif import ACTIVE, SPIKE_STEP, U, advanced, borrowed, prefetch, safe
+from .lists import gather_spikes, merge
+from .neurons import DE, DI, DM, GAP, PE, PEAK, PI, SOURCE_TYPE, TIGHT, V_RESET, V_REST, V_TH
+from .tables import CONV, J_COL, J_DELAY, J_KIND, J_SRC, J_TGT, P_TYPE
 
-#: the arrays :func:`run_steps` changes: cell state, active set, newly
-#: active and touched cells, spike log (``log``, ``step_start``), the input
-#: spikes (``in_ptr``, ``in_ids``), the delivery buffers and the counters
-RunArrays = namedtuple(
-    "RunArrays",
-    "state inact act new tmp radix fresh scalars log step_start in_ptr in_ids acc touched counters prj_events",
+#: the arrays :func:`run_steps` changes that all threads share: cell state,
+#: ``scalars`` (each thread's active cells, the log's length, and each
+#: thread's spikes of the step, from the end), spike log (``log``,
+#: ``step_start``), the input spikes (``in_ptr``, ``in_ids``) and the
+#: scratch of a step's spikes
+RunArrays = namedtuple("RunArrays", "state scalars log step_start in_ptr in_ids spike_tmp")
+#: each thread's own arrays, one row per thread: its active cells (sorted),
+#: those newly active, merge scratch, the cells it touched first (``fresh``),
+#: counters, events per projection, the summed input of the group it is
+#: at (threads move through the groups at their own pace), which cells
+#: received it (``bits``; the word span of each row, ``row_lo``, ``row_hi``;
+#: the rows, ``dirty``, ``n_dirty``) and hand-over batches (``found``, ``found_g``)
+ThreadArrays = namedtuple(
+    "ThreadArrays",
+    "act new tmp radix fresh counters prj_events acc bits row_lo row_hi dirty n_dirty found found_g",
 )
 #: how one run numbers its cells (module docstring): the neuron type of each
-#: cell, the per-population table ``cells`` (columns ``C_*``), the maps
-#: between grid and number, and which projections gather (:func:`_conv_gather`)
-CellNumbering = namedtuple("CellNumbering", "ctype cells cmap flat_of column_of row_ptr bits gather")
+#: cell, the per-population table ``cells`` (columns ``C_*``) and the maps
+#: between grid and number
+CellNumbering = namedtuple("CellNumbering", "ctype cells flat_of pres rank")
 #: the network at one time step (:class:`~snn_fg.backends.fast.tables.EngineTables`)
 KernelTables = namedtuple(
     "KernelTables",
-    "pops nrn ref_steps adv prj prj_w ch_ptr tap_co tap_qr tap_qc tap_w tap_off "
-    "dense pair_ptr pair_co pair_rlo pair_rhi csr_ptr csr_idx csr_val grp_ptr "
-    "grp_prj",
+    "pops nrn ref_steps adv_k prj prj_w cls_ptr row_co row_qr row_qc row_ncol row_w0 row_nz st_w "
+    "csr_ptr csr_idx csr_val grp_ptr grp_prj",
 )
+#: how many cells ahead of the one being updated the active-cell pass asks
+#: for a cell's state: a cell's 32 bytes are rarely in cache (24: side by
+#: side with 12 in 6 rounds of two windows, 0.82-0.99 of its time; 6 was
+#: slower, 32 and 48 about the same)
+AHEAD = 24
 
 
 @njit(cache=True)
-def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n):
+def _step_active(n, act, n_act, state, pops, cells, nrn, ref, log, log_n):
     """Brian2's ``groups`` and ``thresholds`` slots for the active cells
     (sorted by number, hence walked population by population), parking
     those that cannot fire. Returns ``(active cells, log length)``."""
@@ -120,16 +97,16 @@ def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
     for a in range(n_act):
         if a + AHEAD < n_act:
             prefetch(state, U(act[U(a + AHEAD)]))
-            prefetch(inact, U(act[U(a + AHEAD)]))  # (written when the cell is parked)
         g = act[U(a)]
         while g >= end:
             q += 1
             end = cells[q, C_OFF] + cells[q, C_N]
             t = pops[q, P_TYPE]
         r = state[U(g)]
-        ready = r.spike == 0 or n - (r.spike - 1) >= ref[t]
-        if ready and _safe(r.v, r.e, r.i, nrn[t]):
-            inact[U(g)] = 0
+        spike = r.spike & SPIKE_STEP
+        ready = spike == 0 or n - (spike - 1) >= ref[t]
+        if ready and safe(r.v, r.e, r.i, nrn[t, V_REST], nrn[t, TIGHT] > 0, nrn[t, PEAK], nrn[t, GAP]):
+            r.spike = spike  # (parked: no longer active)
             continue
         v, e, i = r.v, r.e, r.i
         if ready:  # (Brian2's generated expression, operation for operation)
@@ -141,250 +118,162 @@ def _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref, log, log_n)
         if ready and v > nrn[t, V_TH]:
             log[U(log_n)] = g
             log_n += 1
-            r.spike = n + 1
+            r.spike = (n + 1) | ACTIVE
         act[U(kept)] = g
         kept += 1
     return kept, log_n
 
 
 @njit(cache=True)
-def _radix_sort(a, n, tmp, counts):
-    """Sort ``a[:n]`` (cell numbers, below ``tmp.size``) in place, by
-    counting passes of 11 bits through ``tmp`` (``counts``: 2048 slots): a
-    comparison sort of the few thousand cells that become active in a step
-    took longer than the rest of the step's merge."""
-    if n < 64:
-        a[:n].sort()
-        return
-    src, dst = a, tmp
-    shift, flips = 0, 0
-    while shift == 0 or (tmp.size - 1) >> shift:
-        counts[:] = 0
-        for x in range(n):
-            counts[(src[U(x)] >> shift) & 2047] += 1
-        total = 0
-        for b in range(2048):
-            c = counts[b]
-            counts[b] = total
-            total += c
-        for x in range(n):
-            v = src[U(x)]
-            b = (v >> shift) & 2047
-            dst[U(counts[b])] = v
-            counts[b] += 1
-        src, dst = dst, src
-        shift += 11
-        flips += 1
-    if flips % 2:
-        a[:n] = tmp[:n]
+def _active_part(t, n, run, th, numbering, tables, first):
+    """Thread ``t``'s share of step ``n``'s ``groups``, ``thresholds`` and
+    ``resets`` slots: its active cells updated, its spikes written from
+    ``log[first]`` on and their potentials reset (the reset may come before
+    the step's deliveries: they change the currents of a cell that spiked,
+    which is active, not its potential)."""
+    nrn, ctype = tables.nrn, numbering.ctype
+    n_act = run.scalars[t]
+    th.counters[t, N_ACTIVE_STEPS] += n_act
+    kept, end = _step_active(
+        n, th.act[t], n_act, run.state, tables.pops, numbering.cells, nrn, tables.ref_steps, run.log, first
+    )
+    for x in range(first, end):
+        g = run.log[x]
+        run.state[g].v = nrn[ctype[g], V_RESET]
+    run.scalars[t] = kept
+    run.scalars[run.scalars.size - 1 - t] = end - first
 
 
 @njit(cache=True)
-def _merge_into(x, y, out):
-    """Merge the sorted arrays ``x`` and ``y`` into ``out``; returns the length."""
-    a = b = k = 0
-    while a < x.size or b < y.size:
-        if b == y.size or (a < x.size and x[U(a)] < y[U(b)]):
-            out[U(k)] = x[U(a)]
-            a += 1
-        else:
-            out[U(k)] = y[U(b)]
-            b += 1
-        k += 1
-    return k
+def _deliver_part(t, n_parts, n, run, th, numbering, tables):
+    """Thread ``t``'s share of step ``n``'s ``synapses`` slot (its rows of
+    every target), group by group of projections sharing a target
+    population and current: their input summed per target cell, then added
+    to each cell once; the cells that may now fire join its active list."""
+    log, step_start, cells, prj = run.log, run.step_start, numbering.cells, tables.prj
+    grp_ptr, grp_prj, counters = tables.grp_ptr, tables.grp_prj, th.counters[t]
+    stencil = (tables.cls_ptr, tables.row_co, tables.row_qr, tables.row_qc, tables.row_ncol, tables.row_w0)
+    stencil = stencil + (tables.row_nz, tables.st_w)
+    factors = (tables.csr_ptr, tables.csr_idx, tables.csr_val)
+    marks = (th.row_lo[t], th.row_hi[t], th.dirty[t], th.n_dirty[t : t + 1], th.bits[t], th.found[t], th.found_g[t])
+    acc = th.acc[t]
+    n_new = 0
+    for grp in range(grp_ptr.size - 1):
+        for y in range(grp_ptr[grp], grp_ptr[grp + 1]):
+            p = grp_prj[y]
+            m = n - prj[p, J_DELAY]
+            if m < 0 or step_start[m] == step_start[m + 1]:
+                continue
+            q = prj[p, J_SRC]
+            spikes = log[step_start[m] : step_start[m + 1]]
+            spikes = spikes[
+                np.searchsorted(spikes, cells[q, C_OFF]) : np.searchsorted(spikes, cells[q, C_OFF] + cells[q, C_N])
+            ]
+            if spikes.size == 0:
+                continue
+            if prj[p, J_KIND] == CONV:
+                ev = conv_spikes(
+                    p, spikes, tables.pops, cells, numbering.flat_of, numbering.pres, prj, stencil, acc, marks, t,
+                    n_parts,
+                )  # fmt: skip
+            else:
+                ev = resize_spikes(
+                    p, spikes, tables.pops, cells, numbering.flat_of, numbering.pres, prj, tables.prj_w, factors, acc,
+                    marks, t, n_parts,
+                )  # fmt: skip
+            th.prj_events[t, p] += ev
+            counters[N_EVENTS] += ev
+        if th.n_dirty[t]:
+            p = grp_prj[grp_ptr[grp]]
+            n_new = flush_rows(
+                prj[p, J_TGT], prj[p, J_COL], n, tables.pops, cells, numbering.pres, numbering.rank, acc, marks,
+                run.state, th.new[t], n_new, th.fresh[t], tables.nrn, tables.adv_k, counters,
+            )  # fmt: skip
+    run.scalars[t] = merge(th.act[t], run.scalars[t], th.new[t], n_new, th.tmp[t], th.radix[t], run.state.size)
 
 
 @njit(cache=True)
-def _merge(act, n_act, new, n_new, tmp, counts):
-    """Merge the newly active cells into the sorted active list."""
-    if n_new == 0:
-        return n_act
-    _radix_sort(new, n_new, tmp, counts)
-    k = _merge_into(act[:n_act], new[:n_new], tmp)
-    act[:k] = tmp[:k]
-    return k
-
-
-@njit(cache=True)
-def _merge_runs(log, start, mid, end, tmp):
-    """Sort ``log[start:end]``, made of two sorted runs split at ``mid``
-    (the cells that fired, in number order, then the step's input spikes,
-    also in number order), by merging them through ``tmp``."""
-    k = _merge_into(log[start:mid], log[mid:end], tmp)
-    log[start:end] = tmp[:k]
-
-
-@njit(cache=True, nogil=True)
-def run_steps(n0, n1, run, numbering, tables):
+def run_steps(n0, n1, run, th, numbering, tables):
     """Simulate steps ``n0 .. n1-1``; returns the step reached (less than
     ``n1`` when the spike log is too small for the next step: grow it and
-    call again from there). ``run`` (:class:`RunArrays`), ``numbering``
-    (:class:`CellNumbering`) and ``tables`` (:class:`KernelTables`) hold the
-    arrays; ``run.scalars`` holds (active cells, log length).
+    call again from there). ``run`` (:class:`RunArrays`), ``th``
+    (:class:`ThreadArrays`), ``numbering`` (:class:`CellNumbering`) and
+    ``tables`` (:class:`KernelTables`) hold the arrays.
 
-    Synaptic input is delivered per group of projections sharing a target
-    population and current (``grp_prj[grp_ptr[k]:grp_ptr[k+1]]``): summed
-    per target cell in ``acc`` first, then added to each touched cell once.
-    """
-    (
-        state,
-        inact,
-        act,
-        new,
-        tmp,
-        radix,
-        fresh,
-        scalars,
-        log,
-        step_start,
-        in_ptr,
-        in_ids,
-        acc,
-        touched,
-        counters,
-        prj_events,
-    ) = run
-    ctype, cells, cmap, flat_of, column_of, row_ptr, bits, gather = numbering
-    (
-        pops,
-        nrn,
-        ref_steps,
-        adv,
-        prj,
-        prj_w,
-        ch_ptr,
-        tap_co,
-        tap_qr,
-        tap_qc,
-        tap_w,
-        tap_off,
-        dense,
-        pair_ptr,
-        pair_co,
-        pair_rlo,
-        pair_rhi,
-        csr_ptr,
-        csr_idx,
-        csr_val,
-        grp_ptr,
-        grp_prj,
-    ) = tables
-    n_act, log_n = scalars[0], scalars[1]
+    With more than one row in ``th``, each step runs its two parts on that
+    many threads: every thread's active cells (their spikes are then merged
+    into the log, ascending, with the step's input spikes) and every
+    thread's rows of each target. Each thread sees every spike in the same
+    order, so a cell's input is summed in the same order whatever the
+    number of threads."""
+    run, th, numbering, tables = _borrow(run, th, numbering, tables)
+    return _steps(n0, n1, run, th, numbering, tables)
+
+
+@njit(cache=True, parallel=True)
+def _steps(n0, n1, run, th, numbering, tables):
+    """:func:`run_steps` on arrays that count no references."""
+    n_parts = th.act.shape[0]
+    log, step_start, in_ptr, in_ids, scalars = run.log, run.step_start, run.in_ptr, run.in_ids, run.scalars
+    # with every delay at least one step, a step's deliveries read only earlier steps' spikes:
+    # each thread then runs both parts of a step in one go (one meeting of the threads a step)
+    fused = tables.prj.shape[0] == 0 or tables.prj[:, J_DELAY].min() >= 1
+    firsts = np.zeros(n_parts, np.int64)
+    counts = np.zeros(n_parts, np.int64)
     for n in range(n0, n1):
         s = n % (in_ptr.size - 1)  # input spikes repeat with the period of in_ptr (if shorter than the run)
-        if log_n + n_act + (in_ptr[s + 1] - in_ptr[s]) > log.size:
-            scalars[0], scalars[1] = n_act, log_n
+        log_n = scalars[n_parts]
+        firsts[0] = log_n
+        for t in range(1, n_parts):
+            firsts[t] = firsts[t - 1] + scalars[t - 1]
+        if firsts[n_parts - 1] + scalars[n_parts - 1] + (in_ptr[s + 1] - in_ptr[s]) > log.size:
             return n
-        start = log_n
-        counters[N_ACTIVE_STEPS] += n_act
-        n_act, log_n = _step_active(n, act, n_act, state, inact, pops, cells, nrn, ref_steps, log, log_n)
-        mid = log_n
-        for x in range(in_ptr[s], in_ptr[s + 1]):
-            log[log_n] = in_ids[x]
-            log_n += 1
-        if mid > start and log_n > mid:
-            _merge_runs(log, start, mid, log_n, tmp)
+        if n_parts == 1:
+            _active_part(0, n, run, th, numbering, tables, log_n)
+            if fused:
+                _deliver_part(0, 1, n, run, th, numbering, tables)
+        else:
+            for t in prange(n_parts):
+                _active_part(t, n, run, th, numbering, tables, firsts[t])
+                if fused:
+                    _deliver_part(t, n_parts, n, run, th, numbering, tables)
+        for t in range(n_parts):
+            counts[t] = scalars[scalars.size - 1 - t]
+        log_n = gather_spikes(log, log_n, firsts, counts, in_ids[in_ptr[s] : in_ptr[s + 1]], run.spike_tmp)
+        scalars[n_parts] = log_n
         step_start[n + 1] = log_n
-        n_new = 0
-        for grp in range(grp_ptr.size - 1):
-            p = grp_prj[grp_ptr[grp]]
-            off_t, t_t, col = cells[prj[p, J_TGT], C_OFF], pops[prj[p, J_TGT], P_TYPE], prj[p, J_COL]
-            n_touched = 0
-            for y in range(grp_ptr[grp], grp_ptr[grp + 1]):
-                p = grp_prj[y]
-                m = n - prj[p, J_DELAY]
-                if m < 0 or step_start[m] == step_start[m + 1]:
-                    continue
-                q = prj[p, J_SRC]
-                spikes = log[step_start[m] : step_start[m + 1]]
-                spikes = spikes[
-                    np.searchsorted(spikes, cells[q, C_OFF]) : np.searchsorted(spikes, cells[q, C_OFF] + cells[q, C_N])
-                ]
-                before = counters[N_EVENTS]
-                x = 0
-                while True:
-                    if gather[p]:
-                        n_touched, x = _conv_gather(
-                            p,
-                            spikes,
-                            x,
-                            pops,
-                            cells,
-                            flat_of,
-                            column_of,
-                            row_ptr,
-                            prj,
-                            dense,
-                            pair_ptr,
-                            pair_co,
-                            pair_rlo,
-                            pair_rhi,
-                            acc,
-                            touched,
-                            n_touched,
-                            counters,
-                        )
-                    elif prj[p, J_KIND] == CONV:
-                        n_touched, x = _conv(
-                            p,
-                            spikes,
-                            x,
-                            pops,
-                            cells,
-                            cmap,
-                            flat_of,
-                            bits,
-                            prj,
-                            ch_ptr,
-                            tap_co,
-                            tap_qr,
-                            tap_qc,
-                            tap_w,
-                            tap_off,
-                            acc,
-                            touched,
-                            n_touched,
-                            counters,
-                        )
-                    else:
-                        n_touched, x = _resize(
-                            p,
-                            spikes,
-                            x,
-                            pops,
-                            cells,
-                            cmap,
-                            flat_of,
-                            bits,
-                            prj,
-                            prj_w,
-                            csr_ptr,
-                            csr_idx,
-                            csr_val,
-                            acc,
-                            touched,
-                            n_touched,
-                            counters,
-                        )
-                    if x >= spikes.size:
-                        break
-                    # the touched list is full: deliver what it holds, then go on
-                    n_new = _flush(
-                        acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, fresh, nrn, adv, counters
-                    )
-                    n_touched = 0
-                prj_events[p] += counters[N_EVENTS] - before
-            if n_touched:
-                n_new = _flush(
-                    acc, touched, n_touched, off_t, col, n, t_t, state, inact, new, n_new, fresh, nrn, adv, counters
-                )
-        for x in range(start, log_n):
-            g = log[x]
-            if ctype[g] < SOURCE_TYPE:
-                state[g].v = nrn[ctype[g], V_RESET]
-        n_act = _merge(act, n_act, new, n_new, tmp, radix)
-    scalars[0], scalars[1] = n_act, log_n
+        if fused:
+            continue
+        if n_parts == 1:
+            _deliver_part(0, 1, n, run, th, numbering, tables)
+        else:
+            for t in prange(n_parts):
+                _deliver_part(t, n_parts, n, run, th, numbering, tables)
     return n1
+
+
+@njit(cache=True)
+def _borrow(run, th, numbering, tables):
+    """The arrays as views that count no references (:func:`.lif.borrowed`):
+    the loops pass them to a function per projection and step."""
+    b = borrowed
+    return (
+        RunArrays(
+            b(run.state), b(run.scalars), b(run.log), b(run.step_start), b(run.in_ptr), b(run.in_ids),
+            b(run.spike_tmp),
+        ),
+        ThreadArrays(
+            b(th.act), b(th.new), b(th.tmp), b(th.radix), b(th.fresh), b(th.counters), b(th.prj_events), b(th.acc),
+            b(th.bits), b(th.row_lo), b(th.row_hi), b(th.dirty), b(th.n_dirty), b(th.found), b(th.found_g),
+        ),
+        CellNumbering(b(numbering.ctype), b(numbering.cells), b(numbering.flat_of), b(numbering.pres), b(numbering.rank)),
+        KernelTables(
+            b(tables.pops), b(tables.nrn), b(tables.ref_steps), b(tables.adv_k), b(tables.prj), b(tables.prj_w),
+            b(tables.cls_ptr), b(tables.row_co), b(tables.row_qr), b(tables.row_qc), b(tables.row_ncol),
+            b(tables.row_w0), b(tables.row_nz), b(tables.st_w), b(tables.csr_ptr), b(tables.csr_idx),
+            b(tables.csr_val), b(tables.grp_ptr), b(tables.grp_prj),
+        ),
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -401,108 +290,25 @@ def final_state(state, ctype, nrn, adv, n_steps, out):
         if r.last == 0:
             out[g, 0], out[g, 1], out[g, 2] = nrn[t, V_REST], 0.0, 0.0
         elif r.last < n_steps:
-            out[g, 0], out[g, 1], out[g, 2] = _advanced(r.v, r.e, r.i, nrn[t, V_REST], adv[t], n_steps - r.last)
+            out[g, 0], out[g, 1], out[g, 2] = advanced(r.v, r.e, r.i, nrn[t, V_REST], adv[t], n_steps - r.last)
         else:
             out[g, 0], out[g, 1], out[g, 2] = r.v, r.e, r.i
 
 
 @njit(cache=True)
-def reset(state, inact, act, n_act, fresh, n_fresh):
-    """Put back at rest the cells a run touched (``fresh``) and clear the
-    active flags, so that the arrays serve the next run without being
-    allocated (and their memory faulted in) again."""
-    for x in range(n_fresh):
-        r = state[U(fresh[U(x)])]
-        r.v, r.e, r.i, r.last, r.spike = 0.0, 0.0, 0.0, 0, 0
-    for x in range(n_act):
-        inact[U(act[U(x)])] = 0
-
-
-@njit(cache=True)
-def bin_counts(ids, cuts, out):
-    """``out[b, g]`` += spikes of cell ``g`` among ``ids[cuts[b]:cuts[b + 1]]``
-    (one pass, into an array allocated once: a bincount per bin would fault
-    in a fresh cell-sized array each time)."""
-    for b in range(cuts.size - 1):
-        for x in range(cuts[b], cuts[b + 1]):
-            out[b, ids[x]] += 1
-
-
-@njit(cache=True)
-def count_cells(ids, lo, hi, out):
-    """``out[g]`` += spikes of cell ``g`` among ``ids[lo:hi]`` (``np.bincount``
-    would first copy the int32 log to a machine-int array)."""
-    for x in range(lo, hi):
-        out[ids[x]] += 1
-
-
-@njit(cache=True)
-def population_totals(ids, starts, out):
-    """``out[q]`` = spikes of population ``q`` in ``ids`` (``starts``: each
-    population's first cell number, ascending)."""
-    for x in range(ids.size):
-        out[np.searchsorted(starts, ids[x], side="right") - 1] += 1
-
-
-@njit(cache=True)
-def group_by_population(ids, step_start, starts, keep, cuts, local, step_of):
-    """The spike log regrouped population by population, time order kept
-    within each (a counting sort: two passes, no sort keys).
-
-    ``cuts`` (the kept populations' spike totals as an exclusive prefix sum)
-    says where each population's spikes go; ``local[j]`` is the cell's
-    number within its population and ``step_of[j]`` its step. Spikes of
-    populations with ``keep[q] == 0`` are dropped."""
-    pos = cuts[:-1].copy()
-    for s in range(step_start.size - 1):
-        for x in range(step_start[s], step_start[s + 1]):
-            q = np.searchsorted(starts, ids[x], side="right") - 1
-            if keep[q]:
-                j = pos[q]
-                local[j] = ids[x] - starts[q]
-                step_of[j] = s
-                pos[q] = j + 1
+def reset(state, fresh, n_fresh):
+    """Put back at rest the cells a run touched (each thread's ``fresh``
+    cells, ``n_fresh`` of them), so that the arrays serve the next run
+    without being allocated (and their memory faulted in) again."""
+    for t in range(fresh.shape[0]):
+        for x in range(n_fresh[t]):
+            r = state[U(fresh[t, x])]
+            r.v, r.e, r.i, r.last, r.spike = 0.0, 0.0, 0.0, 0, 0
 
 
 def code_is_cached() -> bool:
-    """Whether :func:`run_steps` is compiled already, in this process or in
-    numba's cache, so that a first run can say it compiles first. Best
-    effort (numba's cache object is not public API): ``True`` when it cannot
-    tell."""
-    if getattr(run_steps, "signatures", True):  # (compiled here, or not numba's function at all)
-        return True
-    try:
-        return bool(run_steps._cache._cache_file._load_index())  # (empty when stale or flushed)
-    except Exception:  # noqa: BLE001 - whatever numba's private cache does, we cannot tell
-        return True
+    """Whether :func:`run_steps` is compiled already (:func:`.compiled.code_is_cached`)."""
+    return compiled.code_is_cached(run_steps)
 
 
-def _drop_stale_caches() -> None:
-    """Forget compiled code cached from older versions of the engine's files.
-
-    numba checks a cached function against the file that defines it, and no
-    other. :func:`run_steps` compiles in the functions and constants of
-    ``deliver.py`` and ``tables.py``, so after an edit there it kept
-    running the old code. The caches of both modules' functions are therefore
-    dropped whenever the three files change. Best effort: numba's cache
-    object is not public API, and if it changes this check is skipped.
-    """
-    from . import deliver
-
-    here = Path(__file__).parent
-    digest = hashlib.sha256(
-        b"".join((here / name).read_bytes() for name in ("core.py", "deliver.py", "tables.py"))
-    ).hexdigest()
-    try:
-        stamp = Path(run_steps._cache._cache_path) / "snn_fg_fast_engine.sources"
-        if stamp.exists() and stamp.read_text() == digest:
-            return
-        for f in [*vars(deliver).values(), *globals().values()]:
-            if hasattr(f, "_cache") and hasattr(f._cache, "flush"):
-                f._cache.flush()
-        stamp.write_text(digest)
-    except (AttributeError, OSError):
-        pass
-
-
-_drop_stale_caches()
+compiled.drop_stale_caches(run_steps, (lif, deliver, counting, lists, sys.modules[__name__]))

@@ -1,444 +1,214 @@
-"""Spike delivery of the fast engine: one source spike through a projection's
-weight-shared taps (:func:`_conv`, :func:`_conv_gather`) or a resize's sparse
-rows (:func:`_resize`), summed per target cell and current and handed over
-once per cell (:func:`_flush`), which brings each touched cell up to the
-present in closed form first. The numbering and state are described in
-:mod:`.core`."""
+"""Spike delivery of the fast engine, compiled: one step's spikes through a
+projection into the summed input of its target (:func:`conv_spikes`,
+:func:`resize_spikes`), then that input handed to each cell it reached
+(:func:`flush_rows`), which brings the cell up to the present in closed form
+first. The numbering and state are described in :mod:`.core`.
+
+The summed input ``acc`` of a target population has the layout of its grid,
+``(channel, row, column)``: a Conv's stencil row (:mod:`.stencils`) is one
+contiguous run of values, added by one vector loop. Which cells received
+input is kept as bits (``bits``, one 64-bit word per 64 columns of a row,
+and the list of rows with any, ``dirty``), each masked by the population's
+presence bits (``pres``: the cells that exist) where it matters: the synaptic events
+are the marked bits of existing cells, counted with ``popcount``, and the
+hand-over visits the cells that exist and received input, row by row in
+memory order (and clears what reached cells left out). A cell's
+inputs of one step are summed in the order of the spikes (ascending cell
+number), projection by projection: the sums, and hence the spikes, do not
+depend on how the deliveries are laid out.
+
+The loops are written out, not split into helpers: a helper that takes an
+array costs two atomic reference-count operations per call.
+
+``owner`` and ``n_parts`` split the target rows between threads: a thread
+handles the rows ``r`` with ``(r >> BAND) % n_parts == owner`` (every row
+when ``n_parts`` is 1), and every thread sees every spike in the same order.
+"""
 
 from __future__ import annotations
 
 import numpy as np
-from llvmlite import ir
-from numba import njit, types
-from numba.core import cgutils
-from numba.extending import intrinsic
+from numba import njit
 
+from .lif import ACTIVE, U, divide, low_bits, ones, prefetch, safe, trailing_zeros
+from .neurons import GAP, PEAK, TIGHT, V_REST
+from .stencils import MV
 from .tables import (
-    GAP,
     J_BASE,
     J_COLBASE,
-    J_DENSE,
-    J_GBASE,
     J_INH,
-    J_KR,
     J_PRUNE,
     J_RADIUS,
     J_SRC,
     J_TGT,
     J_WRAP,
-    MV,
-    P_CH,
     P_GC,
     P_GR,
-    P_LC,
-    P_LR,
     P_STRIDE,
-    PEAK,
-    TIGHT,
-    V_REST,
+    P_TYPE,
 )
 
-#: one cell's state (32 bytes, one half cache line)
-STATE = np.dtype([("v", "f8"), ("e", "f8"), ("i", "f8"), ("last", "i4"), ("spike", "i4")], align=True)
-#: array indices are converted to this unsigned type in the hot loops: numba
-#: then skips its negative-index handling, which otherwise doubles their cost
-U = np.uint64
 #: counters returned by run_steps
 N_EVENTS, N_ADVANCES, N_ACTIVE_STEPS, N_FRESH = range(4)
-#: columns of the per-run cell table ``cells``
-C_OFF, C_N, C_MAP, C_FLAT, C_ROW, C_BITS = range(6)
+#: columns of the per-run cell table ``cells``: first number and count of a
+#: population's cells, where its presence bits and their ranks start (in
+#: words), whether all its cells exist (1) and (when not) where its map from
+#: number to grid cell starts
+C_OFF, C_N, C_PRES, C_WHOLE, C_FLAT = range(5)
 EXC = 1
-#: how many cells ahead of the one being updated :func:`_flush` and the
-#: active-cell pass ask for a cell's state: a cell's 32 bytes are rarely in
-#: cache, and waiting for them was most of a run's time (asking 12 cells ahead
-#: took a dvs.es window's simulation from 4.2 to 3.0 s of CPU; 8 and 24 were
-#: no better then). Since the cell arrays sit in 2 MB pages, 24 is better:
-#: side by side with 12 in 6 rounds of two windows, 0.82-0.99 of its time
-#: (mean 0.91); 6 was slower, 32 and 48 about the same as 24
-AHEAD = 24
-
-
-@intrinsic
-def prefetch(typingctx, arr, idx):
-    """Ask the CPU to bring ``arr[idx]`` into cache, to be written (LLVM's
-    ``prefetch`` intrinsic: a hint, with no effect on any result)."""
-
-    def codegen(context, builder, signature, args):
-        aty = signature.args[0]
-        ary = context.make_array(aty)(context, builder, args[0])
-        ptr = cgutils.get_item_pointer2(
-            context,
-            builder,
-            data=ary.data,
-            shape=cgutils.unpack_tuple(builder, ary.shape),
-            strides=cgutils.unpack_tuple(builder, ary.strides),
-            layout=aty.layout,
-            inds=[args[1]],
-            wraparound=False,
-            boundscheck=False,
-        )
-        i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
-        # (the name without its pointer-type suffix: LLVM renames it to its own
-        # version's, p0i8 before opaque pointers and p0 after)
-        fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]), "llvm.prefetch"
-        )
-        # (address, 1: for writing, 3: keep in every cache level, 1: data)
-        builder.call(fn, [builder.bitcast(ptr, i8p), ir.Constant(i32, 1), ir.Constant(i32, 3), ir.Constant(i32, 1)])
-        return context.get_dummy_value()
-
-    return types.void(arr, idx), codegen
-
-
-@njit(cache=True, inline="always")
-def _advanced(v, e, i, v_rest, adv_row, k):
-    """``(v, I_exc, I_inh)`` after ``k`` silent steps (``adv_row``: the
-    advance tables of the cell's neuron type)."""
-    kmax = adv_row.shape[1] - 1
-    while k > 0:
-        s = k if k <= kmax else kmax
-        v = v_rest + ((adv_row[0, s] * (v - v_rest) + e * adv_row[3, s]) - i * adv_row[4, s])
-        e = e * adv_row[1, s]
-        i = i * adv_row[2, s]
-        k -= s
-    return v, e, i
-
-
-@njit(cache=True, inline="always")
-def _safe(v, e, i, nrn_row):
-    """Whether a cell in this state cannot reach threshold without new input.
-
-    With ``u = v - v_rest`` and no input, ``u_k = d_m^k u + e P_e(k) - i
-    P_i(k)``, where ``0 <= P_e(k) <= min(1 - d_m^k, peak)``. If the
-    inhibitory current decays no faster than the excitatory one
-    (``TIGHT``), ``P_i >= P_e`` and ``i >= 0`` let the inhibition be
-    subtracted: ``u_k <= d_m^k u + x P_e(k)`` with ``x = max(e - i, 0)``,
-    which is at most ``max(u, x)`` and at most ``max(u, 0) + peak x``.
-    Otherwise ``u_k <= max(u, e^+ + i^-)``.
-    """
-    u = v - nrn_row[V_REST]
-    if nrn_row[TIGHT] > 0 and i >= 0:
-        x = max(e - i, 0.0)
-        bound = min(max(u, x), max(u, 0.0) + nrn_row[PEAK] * x)
-    else:
-        bound = max(u, max(e, 0.0) + max(-i, 0.0))
-    return bound <= nrn_row[GAP]
+#: rows are handed to threads in bands of 2**BAND rows
+BAND = 3
+#: how many spikes ahead of the one being delivered its grid cell is asked for
+SPIKES_AHEAD = 8
+#: how many cells ahead of the one being updated the hand-over asks for a cell's
+#: state (the cells of a step are scattered: waiting for them was most of a run's time)
+AHEAD = 48
 
 
 @njit(cache=True)
-def _flush(acc, touched, n_touched, off, col, n, t, state, inact, new, n_new, fresh, nrn, adv, counters):
-    """Add the accumulated input ``acc[x]`` to current ``col`` of cell
-    ``off + x`` (neuron type ``t``) at step ``n``, for the ``touched`` cells,
-    bringing parked cells up to date first (and listing in ``fresh`` those
-    touched for the first time); a cell that might now fire is appended to
-    ``new``. Returns the new length of ``new``."""
-    nrn_row = nrn[t]
-    v_rest = nrn_row[V_REST]
-    adv_row = adv[t]
-    now = n + 1
-    advances = 0
-    for x in range(n_touched):
-        if x + AHEAD < n_touched:
-            later = touched[U(x + AHEAD)]
-            prefetch(state, U(off + later))
-            prefetch(inact, U(off + later))
-            prefetch(acc, U(later))  # (its summed input: 10 MB for dvs.es simple cells)
-        loc = touched[U(x)]
-        w = acc[U(loc)]
-        if w == 0.0:
-            continue  # (a cell listed twice after its input summed to zero)
-        acc[U(loc)] = 0.0
-        g = off + loc
-        r = state[U(g)]
-        if r.last != now:
-            if r.last == 0:
-                r.v = v_rest
-                fresh[U(counters[N_FRESH])] = g
-                counters[N_FRESH] += 1
-            else:
-                r.v, r.e, r.i = _advanced(r.v, r.e, r.i, v_rest, adv_row, now - r.last)
-                advances += 1
-            r.last = now
-        if col == EXC:
-            r.e += w
-        else:
-            r.i += w
-        if inact[U(g)] == 0 and not _safe(r.v, r.e, r.i, nrn_row):
-            inact[U(g)] = 1
-            new[U(n_new)] = g
-            n_new += 1
-    counters[N_ADVANCES] += advances
-    return n_new
-
-
-@njit(cache=True, inline="always")
-def _flat(g, q, cells, flat_of):
-    """Grid (flat) index of the cell numbered ``g`` of population ``q``."""
-    loc = g - cells[q, C_OFF]
-    return loc if cells[q, C_FLAT] < 0 else flat_of[cells[q, C_FLAT] + loc]
-
-
-@njit(cache=True)
-def _conv(
-    p,
-    spikes,
-    x0,
-    pops,
-    cells,
-    cmap,
-    flat_of,
-    bits,
-    prj,
-    ch_ptr,
-    tap_co,
-    tap_qr,
-    tap_qc,
-    tap_w,
-    tap_off,
-    acc,
-    touched,
-    n_touched,
-    counters,
-):
-    """Accumulate what ``spikes[x0:]`` (cell numbers) send through the taps
-    of Conv ``p`` into ``acc`` (indexed by target cell within its
-    population), listing newly touched cells in ``touched``. Returns the
-    list's length and the first spike not sent (when the list is full)."""
+def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks, owner, n_parts):
+    """Add what ``spikes`` (cell numbers, ascending) send through Conv ``p``
+    to ``acc``; ``stencil`` holds the tables' ``cls_ptr, row_co, row_qr,
+    row_qc, row_ncol, row_w0, row_nz, st_w`` and ``marks`` the run's
+    ``row_lo, row_hi, dirty, n_dirty, bits`` (the words of each row that
+    received input, the rows, and the cells). Returns the synaptic events:
+    the taps that landed on a cell that exists."""
+    cls_ptr, row_co, row_qr, row_qc, row_ncol, row_w0, row_nz, st_w = stencil
+    row_lo, row_hi, dirty, n_dirty_a, bits = marks[0], marks[1], marks[2], marks[3], marks[4]
+    n_dirty = n_dirty_a[0]
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]
+    c_off, c_flat = cells[qs, C_OFF], cells[qs, C_FLAT]
     gc_s, st_s = pops[qs, P_GC], pops[qs, P_STRIDE]
     plane = pops[qs, P_GR] * gc_s
+    inv_plane, inv_gc = 1.0 / plane, 1.0 / gc_s
     gr, gc, st = pops[qt, P_GR], pops[qt, P_GC], pops[qt, P_STRIDE]
-    mbase, bbase = cells[qt, C_MAP], cells[qt, C_BITS]
-    whole, wrap, rad = mbase < 0, prj[p, J_WRAP] == 1, prj[p, J_RADIUS]
-    base_ch = prj[p, J_BASE]
+    words, pbase = (gc + 63) >> 6, cells[qt, C_PRES]
+    wrap, rad = prj[p, J_WRAP] == 1, prj[p, J_RADIUS]
+    base_cls = prj[p, J_BASE]
+    split = n_parts > 1
     events = 0
-    for x in range(x0, spikes.size):
-        loc = _flat(spikes[U(x)], qs, cells, flat_of)
-        c = loc // plane
-        ii = (loc - c * plane) // gc_s
-        pr = ii * st_s
-        pc = (loc - c * plane - ii * gc_s) * st_s
+    for x in range(spikes.size):
+        loc = spikes[U(x)] - c_off
+        if c_flat >= 0:
+            if x + SPIKES_AHEAD < spikes.size:
+                prefetch(flat_of, U(c_flat + spikes[U(x + SPIKES_AHEAD)] - c_off))
+            loc = flat_of[U(c_flat + loc)]
+        c, rest = divide(loc, plane, inv_plane)
+        ii, jj = divide(rest, gc_s, inv_gc)
+        pr, pc = ii * st_s, jj * st_s
         if st == 1:
-            cls, row, column = base_ch + c, pr, pc
+            cls, row, column = base_cls + c, pr, pc
         else:
-            cls = base_ch + (c * st + pr % st) * st + pc % st
+            cls = base_cls + (c * st + pr % st) * st + pc % st
             row, column = pr // st, pc // st
-        k0, k1 = ch_ptr[U(cls)], ch_ptr[U(cls + 1)]
-        if n_touched + (k1 - k0) > touched.size:
-            counters[N_EVENTS] += events
-            return n_touched, x
-        # (the delivery below is written out in both branches on purpose: an
-        # inlined helper shared by them made a dvs.es window 4.5x slower, 4.4 -> 21 s)
-        if row >= rad and column >= rad and row + rad < gr and column + rad < gc:
-            base = row * gc + column  # the whole footprint lies inside the level
-            for k in range(k0, k1):
-                lt = base + tap_off[U(k)]
-                if not whole:
-                    if (bits[U(bbase + (lt >> 3))] >> (lt & 7)) & 1 == 0:
-                        continue
-                    lt = cmap[U(mbase + lt)]
-                if acc[U(lt)] == 0.0:
-                    touched[U(n_touched)] = lt
-                    n_touched += 1
-                acc[U(lt)] += tap_w[U(k)]
-                events += 1
-            continue
-        if not wrap:
-            # the taps are sorted by row offset: those landing inside the level
-            # (row - qr in [0, gr)) are the range with qr in [row - gr + 1, row]
-            a, b = k0, k1
-            while a < b:
-                h = (a + b) // 2
-                if tap_qr[U(h)] < row - gr + 1:
-                    a = h + 1
-                else:
-                    b = h
-            k0, b = a, k1
-            while a < b:
-                h = (a + b) // 2
-                if tap_qr[U(h)] <= row:
-                    a = h + 1
-                else:
-                    b = h
-            k1 = a
-        for k in range(k0, k1):
-            r = row - tap_qr[U(k)]
-            cc = column - tap_qc[U(k)]
-            if wrap:  # offsets lie within one level size (folded if the kernel is larger)
-                r += gr if r < 0 else (-gr if r >= gr else 0)
-                cc += gc if cc < 0 else (-gc if cc >= gc else 0)
-            elif cc < 0 or cc >= gc:
-                continue
-            lt = (tap_co[U(k)] * gr + r) * gc + cc
-            if not whole:
-                if (bits[U(bbase + (lt >> 3))] >> (lt & 7)) & 1 == 0:
-                    continue
-                lt = cmap[U(mbase + lt)]
-            if acc[U(lt)] == 0.0:
-                touched[U(n_touched)] = lt
-                n_touched += 1
-            acc[U(lt)] += tap_w[U(k)]
-            events += 1
-    counters[N_EVENTS] += events
-    return n_touched, spikes.size
-
-
-@njit(cache=True)
-def _conv_gather(
-    p,
-    spikes,
-    x0,
-    pops,
-    cells,
-    flat_of,
-    column_of,
-    row_ptr,
-    prj,
-    dense,
-    pair_ptr,
-    pair_co,
-    pair_rlo,
-    pair_rhi,
-    acc,
-    touched,
-    n_touched,
-    counters,
-):
-    """Like :func:`_conv`, for a target population with few cells: instead
-    of following every tap, each spike visits the target's cells on the
-    rows its kernel covers and reads the weight of each by its offset (the
-    same synapses, found from the other side)."""
-    qs, qt = prj[p, J_SRC], prj[p, J_TGT]
-    gc_s, st_s, c_in = pops[qs, P_GC], pops[qs, P_STRIDE], pops[qs, P_CH]
-    plane = pops[qs, P_GR] * gc_s
-    gr, st, lr, lc = pops[qt, P_GR], pops[qt, P_STRIDE], pops[qt, P_LR], pops[qt, P_LC]
-    wrap = prj[p, J_WRAP] == 1
-    rad = prj[p, J_KR]
-    size = 2 * rad + 1
-    fold = wrap and size > lc
-    kbase, gbase = prj[p, J_DENSE], prj[p, J_GBASE]
-    rbase, fbase = cells[qt, C_ROW], cells[qt, C_FLAT]
-    bound = pops[qt, P_CH] * size * size
-    events = 0
-    for x in range(x0, spikes.size):
-        if n_touched + bound > touched.size:
-            counters[N_EVENTS] += events
-            return n_touched, x
-        loc = _flat(spikes[U(x)], qs, cells, flat_of)
-        c = loc // plane
-        ii = (loc - c * plane) // gc_s
-        pr = ii * st_s
-        pc = (loc - c * plane - ii * gc_s) * st_s
-        for y in range(pair_ptr[gbase + c], pair_ptr[gbase + c + 1]):
-            co = pair_co[U(y)]
-            kc = kbase + (co * c_in + c) * size * size
-            for dr in range(pair_rlo[U(y)], pair_rhi[U(y)] + 1):
-                tr = pr - dr
+        inside = row >= rad and column >= rad and row + rad < gr and column + rad < gc
+        for s in range(cls_ptr[U(cls)], cls_ptr[U(cls + 1)]):
+            tr = row - row_qr[U(s)]
+            t0, ncol, w0 = column - row_qc[U(s)], row_ncol[U(s)], row_w0[U(s)]
+            a, b, parts = 0, ncol, 1
+            if not inside:  # the row may be cut, or wrap around, at the level's edges
                 if wrap:
-                    tr %= lr
-                elif tr < 0 or tr >= lr:
+                    tr += gr if tr < 0 else (-gr if tr >= gr else 0)
+                    t0 += gc if t0 < 0 else (-gc if t0 >= gc else 0)
+                    b = min(ncol, gc - t0)  # (a row is at most the level wide: it folds back once at most)
+                    parts = 2 if b < ncol else 1
+                elif tr < 0 or tr >= gr:
                     continue
-                if tr % st != 0:
-                    continue
-                a, b = row_ptr[U(rbase + co * gr + tr // st)], row_ptr[U(rbase + co * gr + tr // st + 1)]
-                if a == b:
-                    continue
-                kr = kc + (dr + rad) * size + rad
-                if fold:  # every cell of the row, each through all its folded offsets
-                    for lt in range(a, b):
-                        d = (pc - column_of[U(fbase + lt)]) % lc
-                        d -= lc * ((d + rad) // lc)
-                        while d <= rad:
-                            w = dense[U(kr + d)]
-                            if w != 0.0:
-                                if acc[U(lt)] == 0.0:
-                                    touched[U(n_touched)] = lt
-                                    n_touched += 1
-                                acc[U(lt)] += w
-                                events += 1
-                            d += lc
-                    continue
-                # level columns covered, [pc - rad, pc + rad], as up to two intervals inside
-                # the level; a column wrapped around is ``lc`` further from the source
-                lo, hi, shift = max(pc - rad, 0), min(pc + rad, lc - 1), 0
-                n_int = 1
-                if wrap and pc - rad < 0:
-                    lo2, hi2, shift2, n_int = pc - rad + lc, lc - 1, lc, 2
-                elif wrap and pc + rad >= lc:
-                    lo2, hi2, shift2, n_int = 0, pc + rad - lc, -lc, 2
                 else:
-                    lo2, hi2, shift2 = 0, -1, 0
-                for part in range(n_int):
-                    if part == 1:
-                        lo, hi, shift = lo2, hi2, shift2
-                    a = row_ptr[U(rbase + co * gr + tr // st)]
-                    b = row_ptr[U(rbase + co * gr + tr // st + 1)]
-                    end = b
-                    while a < b:  # first cell at or after lo
-                        h = (a + b) // 2
-                        if column_of[U(fbase + h)] * st < lo:
-                            a = h + 1
-                        else:
-                            b = h
-                    for lt in range(a, end):
-                        col = column_of[U(fbase + lt)] * st
-                        if col > hi:
-                            break
-                        w = dense[U(kr + pc - col + shift)]
-                        if w != 0.0:
-                            if acc[U(lt)] == 0.0:
-                                touched[U(n_touched)] = lt
-                                n_touched += 1
-                            acc[U(lt)] += w
-                            events += 1
-    counters[N_EVENTS] += events
-    return n_touched, spikes.size
+                    a, b = max(0, -t0), min(ncol, gc - t0)
+                    if a >= b:
+                        continue
+            rr = row_co[U(s)] * gr + tr
+            if split and (rr >> BAND) % n_parts != owner:
+                continue
+            nz = row_nz[U(s)]
+            for part in range(parts):
+                if part == 1:  # the columns wrapped around to the row's start
+                    a, b, t0 = b, ncol, t0 - gc
+                dst = rr * gc + t0
+                for j in range(a, b):
+                    acc[U(dst + j)] += st_w[U(w0 + j)]
+                # the taps of columns [t0 + a, t0 + b): marked, and counted where a cell exists
+                m = (nz >> U(a)) & low_bits(b - a)
+                lo = t0 + a
+                sh, wa = U(lo & 63), (lo >> 6) + rr * words
+                bits[U(wa)] |= m << sh
+                events += ones((m << sh) & pres[U(pbase + wa)])
+                if sh != 0 and (m >> U(64 - sh)) != 0:
+                    bits[U(wa + 1)] |= m >> U(64 - sh)
+                    events += ones((m >> U(64 - sh)) & pres[U(pbase + wa + 1)])
+                    wa += 1
+                if row_hi[U(rr)] < 0:
+                    dirty[U(n_dirty)] = rr
+                    n_dirty += 1
+                    row_lo[U(rr)], row_hi[U(rr)] = (lo >> 6) + rr * words, wa
+                else:
+                    row_lo[U(rr)] = min(row_lo[U(rr)], (lo >> 6) + rr * words)
+                    row_hi[U(rr)] = max(row_hi[U(rr)], wa)
+    n_dirty_a[0] = n_dirty
+    return events
 
 
 @njit(cache=True)
-def _resize(
-    p,
-    spikes,
-    x0,
-    pops,
-    cells,
-    cmap,
-    flat_of,
-    bits,
-    prj,
-    prj_w,
-    csr_ptr,
-    csr_idx,
-    csr_val,
-    acc,
-    touched,
-    n_touched,
-    counters,
-):
-    """Like :func:`_conv` for Resize ``p``: weight ``sign * gain * A_r[i, i'] * A_c[j, j']``, the
-    product rounded to the projection's quantisation step where it has one."""
+def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, acc, marks, owner, n_parts):
+    """Like :func:`conv_spikes` for Resize ``p`` (``factors``: the tables'
+    ``csr_ptr, csr_idx, csr_val``): weight ``sign * gain * A_r[i, i'] *
+    A_c[j, j']``, the product rounded to the projection's quantisation step
+    where it has one."""
+    csr_ptr, csr_idx, csr_val = factors
+    row_lo, row_hi, dirty, n_dirty_a, bits = marks[0], marks[1], marks[2], marks[3], marks[4]
+    n_dirty = n_dirty_a[0]
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]
+    c_off, c_flat = cells[qs, C_OFF], cells[qs, C_FLAT]
     gc_s = pops[qs, P_GC]
     plane = pops[qs, P_GR] * gc_s
+    inv_plane, inv_gc = 1.0 / plane, 1.0 / gc_s
     gr, gc = pops[qt, P_GR], pops[qt, P_GC]
-    mbase, bbase = cells[qt, C_MAP], cells[qt, C_BITS]
-    whole = mbase < 0
+    words, pbase = (gc + 63) >> 6, cells[qt, C_PRES]
     sg, thr, step = prj_w[p, 0], prj_w[p, 1], prj_w[p, 2]
     prune, inh = prj[p, J_PRUNE] == 1, prj[p, J_INH] == 1
     events = 0
-    for x in range(x0, spikes.size):
-        loc = _flat(spikes[U(x)], qs, cells, flat_of)
-        c = loc // plane
-        si = (loc - c * plane) // gc_s
-        rb, cb = prj[p, J_BASE] + si, prj[p, J_COLBASE] + (loc - c * plane - si * gc_s)
-        if n_touched + (csr_ptr[U(rb + 1)] - csr_ptr[U(rb)]) * (csr_ptr[U(cb + 1)] - csr_ptr[U(cb)]) > touched.size:
-            counters[N_EVENTS] += events
-            return n_touched, x
-        cbase = c * gr * gc
+    for x in range(spikes.size):
+        loc = spikes[U(x)] - c_off
+        if c_flat >= 0:
+            if x + SPIKES_AHEAD < spikes.size:
+                prefetch(flat_of, U(c_flat + spikes[U(x + SPIKES_AHEAD)] - c_off))
+            loc = flat_of[U(c_flat + loc)]
+        c, rest = divide(loc, plane, inv_plane)
+        si, sj = divide(rest, gc_s, inv_gc)
+        rb, cb = prj[p, J_BASE] + si, prj[p, J_COLBASE] + sj
+        c0, c1 = csr_ptr[U(cb)], csr_ptr[U(cb + 1)]
+        if c0 == c1:
+            continue
         for xr in range(csr_ptr[U(rb)], csr_ptr[U(rb + 1)]):
+            rr = c * gr + csr_idx[U(xr)]
+            if n_parts > 1 and (rr >> BAND) % n_parts != owner:
+                continue
             a = csr_val[U(xr)]
-            rbase = cbase + csr_idx[U(xr)] * gc
-            for xc in range(csr_ptr[U(cb)], csr_ptr[U(cb + 1)]):
+            dst = rr * gc
+            m, lo = U(0), csr_idx[U(c0)]
+            for xc in range(c0, c1 + 1):
+                col = csr_idx[U(xc)] if xc < c1 else lo + 64
+                if col - lo >= 64:
+                    # the targets of columns [lo, lo + 64): marked, and counted where a cell
+                    # exists (as conv_spikes does)
+                    sh, wa = U(lo & 63), (lo >> 6) + rr * words
+                    bits[U(wa)] |= m << sh
+                    events += ones((m << sh) & pres[U(pbase + wa)])
+                    if sh != 0 and (m >> U(64 - sh)) != 0:
+                        bits[U(wa + 1)] |= m >> U(64 - sh)
+                        events += ones((m >> U(64 - sh)) & pres[U(pbase + wa + 1)])
+                        wa += 1
+                    if row_hi[U(rr)] < 0:
+                        dirty[U(n_dirty)] = rr
+                        n_dirty += 1
+                        row_lo[U(rr)], row_hi[U(rr)] = (lo >> 6) + rr * words, wa
+                    else:
+                        row_lo[U(rr)] = min(row_lo[U(rr)], (lo >> 6) + rr * words)
+                        row_hi[U(rr)] = max(row_hi[U(rr)], wa)
+                    if xc == c1:
+                        break
+                    m, lo = U(0), col
                 val = a * csr_val[U(xc)]
                 if val == 0.0 or (prune and abs(val) < thr):
                     continue
@@ -446,18 +216,99 @@ def _resize(
                     val = np.round(val / step) * step
                     if val == 0.0:
                         continue
-                lt = rbase + csr_idx[U(xc)]
-                if not whole:
-                    if (bits[U(bbase + (lt >> 3))] >> (lt & 7)) & 1 == 0:
-                        continue
-                    lt = cmap[U(mbase + lt)]
                 w = sg * val
                 if inh:
                     w = abs(w)
-                if acc[U(lt)] == 0.0:
-                    touched[U(n_touched)] = lt
-                    n_touched += 1
-                acc[U(lt)] += w * MV
-                events += 1
-    counters[N_EVENTS] += events
-    return n_touched, spikes.size
+                acc[U(dst + col)] += w * MV
+                m |= U(1) << U(col - lo)
+    n_dirty_a[0] = n_dirty
+    return events
+
+
+@njit(cache=True)
+def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_new, fresh, nrn, adv_k, counters):
+    """Add the summed input ``acc`` of the cells marked in ``marks`` to
+    current ``col`` of the cells of population ``qt`` at step ``n``,
+    bringing parked cells up to date first (and listing in ``fresh`` those
+    touched for the first time); a cell that might now fire is appended to
+    ``new``. Clears the marks and the input it read. Returns the new length
+    of ``new``. ``adv_k``: the advance tables by steps (:func:`.neurons.by_steps`).
+
+    The marked cells are listed a batch at a time (``found``, their grid
+    index; ``found_g``, their number: for a population with cells left out,
+    the number of cells that exist before it, from ``rank`` and the presence
+    bits), so that each cell's state can be asked for :data:`AHEAD` cells
+    before it is needed."""
+    row_lo, row_hi, dirty, n_dirty_a, bits, found, found_g = marks
+    gc = pops[qt, P_GC]
+    words, pbase = (gc + 63) >> 6, cells[qt, C_PRES]
+    off, whole = cells[qt, C_OFF], cells[qt, C_WHOLE] == 1
+    t = pops[qt, P_TYPE]
+    v_rest, tight, peak, gap = nrn[t, V_REST], nrn[t, TIGHT] > 0, nrn[t, PEAK], nrn[t, GAP]
+    kmax = adv_k.shape[1] - 1
+    now = n + 1
+    advances = 0
+    n_fresh = counters[N_FRESH]
+    d, n_dirty = 0, n_dirty_a[0]
+    while d < n_dirty:
+        n_found = 0
+        while d < n_dirty and n_found + gc <= found.size:
+            rr = dirty[U(d)]
+            d += 1
+            for wd in range(row_lo[U(rr)], row_hi[U(rr)] + 1):
+                word = bits[U(wd)]
+                bits[U(wd)] = 0
+                first = rr * gc + ((wd - rr * words) << 6)
+                if not whole:
+                    absent = word & ~pres[U(pbase + wd)]
+                    word ^= absent
+                    while absent != 0:  # (input to cells left out: dropped)
+                        acc[U(first + np.int64(trailing_zeros(absent)))] = 0.0
+                        absent &= absent - U(1)
+                while word != 0:
+                    bit = np.int64(trailing_zeros(word))
+                    word &= word - U(1)
+                    found[U(n_found)] = first + bit
+                    if whole:
+                        found_g[U(n_found)] = off + first + bit
+                    else:
+                        found_g[U(n_found)] = off + rank[U(pbase + wd)] + ones(pres[U(pbase + wd)] & low_bits(bit))
+                    n_found += 1
+            row_hi[U(rr)] = -1
+        for x in range(n_found):
+            if x + AHEAD < n_found:
+                prefetch(state, U(found_g[U(x + AHEAD)]))
+            loc, g = found[U(x)], found_g[U(x)]
+            w = acc[U(loc)]
+            acc[U(loc)] = 0.0
+            if w == 0.0:
+                continue  # (input that summed to 0)
+            cell = state[U(g)]
+            if cell.last != now:
+                if cell.last == 0:
+                    cell.v = v_rest
+                    fresh[U(n_fresh)] = g
+                    n_fresh += 1
+                else:  # (lif.advanced, written out: see the module's docstring)
+                    v, e, i, k = cell.v, cell.e, cell.i, now - cell.last
+                    while k > 0:
+                        s = k if k <= kmax else kmax
+                        v = v_rest + ((adv_k[t, s, 0] * (v - v_rest) + e * adv_k[t, s, 3]) - i * adv_k[t, s, 4])
+                        e = e * adv_k[t, s, 1]
+                        i = i * adv_k[t, s, 2]
+                        k -= s
+                    cell.v, cell.e, cell.i = v, e, i
+                    advances += 1
+                cell.last = now
+            if col == EXC:
+                cell.e += w
+            else:
+                cell.i += w
+            if cell.spike >= 0 and not safe(cell.v, cell.e, cell.i, v_rest, tight, peak, gap):
+                cell.spike |= ACTIVE
+                new[U(n_new)] = g
+                n_new += 1
+    n_dirty_a[0] = 0
+    counters[N_ADVANCES] += advances
+    counters[N_FRESH] = n_fresh
+    return n_new

@@ -15,12 +15,14 @@ import numpy as np
 from ...network.graph import Network
 from ..base import RunSettings, SimulationResult, bin_result, lif_populations, segments
 from . import tables as ft
+from .neurons import MS
+from .stencils import MV
 
 
 def first_step_at(t_ms: float, dt_ms: float) -> int:
     """The first step whose time ``n * dt`` (seconds, as Brian2's clock
     computes it) is at or after ``t_ms``: where Brian2's ``t >= t_count`` starts."""
-    dt_s, t_s = dt_ms * ft.MS, t_ms * ft.MS
+    dt_s, t_s = dt_ms * MS, t_ms * MS
     n = max(0, int(np.floor(t_s / dt_s)) - 2)
     while np.int64(n) * dt_s < t_s:
         n += 1
@@ -38,7 +40,7 @@ class SpikeTrains(Mapping):
 
     def __init__(self, network: Network, ids, step_start, starts, dt_ms: float, first_step: int = 0):
         """``first_step``: the step of ``step_start[0]`` (a part of a run)."""
-        from .core import group_by_population, population_totals
+        from .counting import group_by_population, population_totals
 
         per_pop = np.zeros(starts.size, dtype=np.int64)
         population_totals(ids, starts, per_pop)
@@ -51,12 +53,12 @@ class SpikeTrains(Mapping):
         if first_step:
             self._step += np.int32(first_step)
         self._index = {p.name: q for q, p in enumerate(network.populations) if not p.is_source}
-        self._dt_s = dt_ms * ft.MS
+        self._dt_s = dt_ms * MS
 
     def __getitem__(self, name):
         q = self._index[name]
         a, b = self._cuts[q], self._cuts[q + 1]
-        return self._local[a:b], (self._step[a:b] * self._dt_s) / ft.MS  # Brian2's t = n * dt, in ms
+        return self._local[a:b], (self._step[a:b] * self._dt_s) / MS  # Brian2's t = n * dt, in ms
 
     def between(self, a_ms: float, b_ms: float) -> dict:
         """``name -> (cell, t_ms)`` of the spikes with ``a_ms <= t < b_ms``
@@ -70,14 +72,14 @@ class SpikeTrains(Mapping):
             steps = self._step[self._cuts[q] : self._cuts[q + 1]]
             lo = self._cuts[q] + np.searchsorted(steps, s_a)
             hi = self._cuts[q] + np.searchsorted(steps, s_b)
-            out[name] = self._local[lo:hi], (self._step[lo:hi] * self._dt_s) / ft.MS
+            out[name] = self._local[lo:hi], (self._step[lo:hi] * self._dt_s) / MS
         return out
 
     def _first_step(self, t_ms: float) -> int:
         """The first step whose time, as :meth:`__getitem__` computes it, is
         at or after ``t_ms``."""
-        n = max(0, int(np.floor(t_ms * ft.MS / self._dt_s)) - 2)
-        while (np.float64(n) * self._dt_s) / ft.MS < t_ms:
+        n = max(0, int(np.floor(t_ms * MS / self._dt_s)) - 2)
+        while (np.float64(n) * self._dt_s) / MS < t_ms:
             n += 1
         return n
 
@@ -122,7 +124,7 @@ class BinStream:
         return self.edges[self.j] if self.j < len(self.edges) else self.run.n_steps
 
     def reached(self, n: int):
-        from .core import count_cells
+        from .counting import count_cells
 
         while self.j < len(self.edges) and self.edges[self.j] <= n:
             if self.j:
@@ -136,7 +138,7 @@ class BinStream:
             self.dropped += self.run.forget_before(keep, n)
 
     def _hand_over(self, k: int):
-        from .core import count_cells
+        from .counting import count_cells
 
         ids, step_start = self.run.spikes()
         a, b = self.edges[k], self.edges[k + 1]
@@ -161,7 +163,7 @@ class BinStream:
 
     def final_counts(self) -> np.ndarray:
         """Each cell's spikes in the counting window, once the run is over."""
-        from .core import count_cells
+        from .counting import count_cells
 
         ids, step_start = self.run.spikes()
         count_cells(ids, step_start[self.counted_to], ids.size, self.counts)
@@ -171,7 +173,8 @@ class BinStream:
 def simulation_result(
     name: str, tab: ft.EngineTables, chosen: dict, run, settings: RunSettings, stream: "BinStream | None" = None
 ) -> SimulationResult:
-    from .core import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, bin_counts, count_cells
+    from .counting import bin_counts, count_cells
+    from .deliver import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS
 
     ids, step_start = run.spikes()
     n = run.state.size
@@ -205,19 +208,20 @@ def simulation_result(
         values = run.final_state()
         for p in pops:
             state[p.name] = {
-                var: values[cells[p.name], k] / ft.MV
+                var: values[cells[p.name], k] / MV
                 for k, var in enumerate(("v", "I_exc", "I_inh"))
                 if var in settings.record_state
             }
-    events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.prj_events)}
+    events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.events)}
+    totals = run.totals
     n_input = run.input_spikes()
     stats = {
         "kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()},
         "taps": dict(tab.taps),
         "synaptic_events": events,
-        "synaptic_events_total": int(run.counters[N_EVENTS]),
-        "closed_form_advances": int(run.counters[N_ADVANCES]),
-        "active_cell_steps": int(run.counters[N_ACTIVE_STEPS]),
+        "synaptic_events_total": int(totals[N_EVENTS]),
+        "closed_form_advances": int(totals[N_ADVANCES]),
+        "active_cell_steps": int(totals[N_ACTIVE_STEPS]),
         "cells": run.n_present,
         "input_spikes": n_input,
         "spikes": int(ids.size + (stream.dropped if stream else 0) - n_input),

@@ -11,18 +11,10 @@ from ..base import RunSettings, lif_populations, source_offsets
 from . import tables as ft
 from .results import BinStream  # noqa: F401 - (named in an annotation)
 
+#: cells handed their input in one batch (deliver.flush_rows)
+FOUND = 4096
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16
-#: a Conv into a population with fewer than this fraction of its cells
-#: instantiated, whose kernel has at least this many taps per row it covers,
-#: finds its synapses from the targets' side (deliver._conv_gather): visiting
-#: a row costs about as much as following that many taps. 0.05: with the
-#: level-1 simple cells masked to the event pixels, a dvs.es window has 9.9 %
-#: of them, and gathering their DoG input made windows 0 and 5 (from 100 ms)
-#: take 2.67-2.74 and 2.59-2.61 s against 2.32-2.40 and 2.09-2.11 s at 0.05
-#: (side by side, load 0.9-1.1); a BSDS frame, with 1 % of them, was the same
-GATHER_BELOW = 0.05
-GATHER_TAPS_PER_ROW = 8
 
 
 def _input_events(tab: ft.EngineTables, first_cell: dict, idx, steps, length: int, first_step: int = 0):
@@ -99,69 +91,78 @@ class Run:
     (:mod:`.core` describes the numbering and the maps between grid and
     number)."""
 
-    def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: "Pool"):
-        from .core import N_FRESH, STATE
+    def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: "Pool", threads: int = 1):
+        from .deliver import N_FRESH
+        from .lif import STATE
 
-        self.tab, self.n_steps, self.pool = tab, n_steps, pool
+        self.tab, self.n_steps, self.pool, self.threads = tab, n_steps, pool, threads
         off = self._number(chosen)
-        sparse = self.cells[tab.prj[:, ft.J_TGT], 1] < GATHER_BELOW * tab.pops[tab.prj[:, ft.J_TGT], ft.P_SIZE]
-        self.gather = (sparse & (tab.taps_per_row >= GATHER_TAPS_PER_ROW)).astype(np.uint8)
         self.ctype = np.repeat(tab.pops[:, ft.P_TYPE], self.cells[:, 1]).astype(np.uint8)
         self.feed = _InputFeed(tab, self.first, inputs, n_steps)
-        self.n_present = int(sum(chosen[p.name].size for p in lif_populations(tab.network)))
+        lif = lif_populations(tab.network)
+        self.n_present = int(sum(chosen[p.name].size for p in lif))
         self.state = pool.zeros("state", off, STATE)  # all at rest: never touched
-        self.inact = pool.zeros("inact", off, np.uint8)
-        self.act, self.new, self.tmp, self.fresh = (
-            pool.zeros(name, off, np.int32) for name in ("act", "new", "tmp", "fresh")
-        )
-        self.radix = np.zeros(2048, dtype=np.int64)
-        self.scalars = np.zeros(2, dtype=np.int64)
+        self.scalars = np.zeros(2 * threads + 1, dtype=np.int64)
         self.log = np.empty(LOG_START, dtype=np.int32)
         self.step_start = np.zeros(n_steps + 1, dtype=np.int64)
-        largest = int(max(chosen[p.name].size for p in lif_populations(tab.network)))
-        self.acc = pool.zeros("acc", max(largest, 1), np.float64)
-        self.touched = pool.zeros("touched", largest + tab.max_fanout, np.int64)
-        self.counters = np.zeros(N_FRESH + 1, dtype=np.int64)
-        self.prj_events = np.zeros(len(tab.network.projections), dtype=np.int64)
+        self.spike_tmp = pool.zeros("spike_tmp", off + 1, np.int32)
+        # each thread's own arrays: its summed input and its marks, and (as long
+        # as its share of the cells) its active cells and scratch
+        size = max([p.size for p in lif] + [1])
+        self.acc = pool.zeros("acc", threads * size, np.float64).reshape(threads, size)  # (at rest: all 0)
+        rows = max([p.channels * p.grid[0] for p in lif] + [1])
+        words = max([p.channels * p.grid[0] * ((p.grid[1] + 63) // 64) for p in lif] + [1])
+        self.bits = np.zeros((threads, words), np.uint64)
+        self.row_lo, self.row_hi = np.zeros((threads, rows), np.int64), np.full((threads, rows), -1, np.int64)
+        cap = max(1, int(max(owned_cells(lif, chosen, threads))))
+        self.act, self.new, self.tmp, self.fresh = (
+            pool.zeros(name, threads * cap, np.int32).reshape(threads, cap) for name in ("act", "new", "tmp", "fresh")
+        )
+        self.radix = np.zeros((threads, 2048), dtype=np.int64)
+        self.counters = np.zeros((threads, N_FRESH + 1), dtype=np.int64)
+        self.prj_events = np.zeros((threads, len(tab.network.projections)), dtype=np.int64)
+        self.dirty = np.zeros((threads, rows), np.int64)
+        self.n_dirty = np.zeros(threads, np.int64)
+        found = max([FOUND] + [p.grid[1] for p in lif])
+        self.found, self.found_g = np.zeros((threads, found), np.int64), np.zeros((threads, found), np.int64)
 
     def _number(self, chosen: dict) -> int:
         """Number the chosen cells (see :mod:`.core`); returns how many."""
-        from .core import C_BITS, C_FLAT, C_MAP, C_ROW
+        from .deliver import C_FLAT, C_PRES, C_WHOLE
 
         pops = self.tab.network.populations
-        self.cells = np.full((len(pops), 6), -1, dtype=np.int64)
-        maps, flats, columns, rows, bits, off, n_map, n_flat, n_row, n_bits = [], [], [], [], [], 0, 0, 0, 0, 0
+        self.cells = np.full((len(pops), 5), -1, dtype=np.int64)
+        flats, pres, rank, off, n_flat, n_words = [], [], [], 0, 0, 0
         for q, p in enumerate(pops):
             sites = chosen[p.name]
             self.cells[q, :2] = off, sites.size
+            self.cells[q, C_WHOLE] = int(sites.size == p.size)
             if sites.size != p.size:
-                local = np.full(p.size, -1, dtype=np.int32)
-                local[sites] = np.arange(sites.size, dtype=np.int32)
-                maps.append(local)
                 flats.append(sites.astype(np.int32))
-                columns.append((sites % p.grid[1]).astype(np.int32))
-                rows.append(np.searchsorted(sites, np.arange(p.channels * p.grid[0] + 1) * p.grid[1]))
-                bits.append(np.packbits(local >= 0, bitorder="little"))
-                self.cells[q, C_MAP], self.cells[q, C_FLAT], self.cells[q, C_ROW] = n_map, n_flat, n_row
-                self.cells[q, C_BITS] = n_bits
-                n_map, n_flat, n_row = n_map + p.size, n_flat + sites.size, n_row + rows[-1].size
-                n_bits += bits[-1].size
+                self.cells[q, C_FLAT] = n_flat
+                n_flat += sites.size
+            if not p.is_source:
+                words = presence_words(p, sites)
+                pres.append(words)
+                counts = np.bitwise_count(words) if hasattr(np, "bitwise_count") else _ones(words)
+                rank.append(np.concatenate([[0], np.cumsum(counts[:-1], dtype=np.int64)]))
+                self.cells[q, C_PRES] = n_words
+                n_words += words.size
             off += sites.size
         self.first = {p.name: int(self.cells[q, 0]) for q, p in enumerate(pops)}
-        self.cmap = np.concatenate(maps) if maps else np.zeros(1, dtype=np.int32)
         self.flat_of = np.concatenate(flats) if flats else np.zeros(1, dtype=np.int32)
-        self.column_of = np.concatenate(columns) if columns else np.zeros(1, dtype=np.int32)
-        self.row_ptr = np.concatenate(rows).astype(np.int64) if rows else np.zeros(1, dtype=np.int64)
-        self.bits = np.concatenate(bits) if bits else np.zeros(1, dtype=np.uint8)
+        self.pres = np.concatenate(pres) if pres else np.zeros(1, dtype=np.uint64)
+        self.rank = np.concatenate(rank) if rank else np.zeros(1, dtype=np.int64)
         return off
 
     def simulate(self, settings: RunSettings, chunk: int, stream: "BinStream | None" = None):
         """Run every step; with ``stream``, stop at each counting-bin edge
         for it to hand the bin over and drop the spikes no delay reaches."""
-        from .core import CellNumbering, KernelTables, RunArrays, run_steps
+        from .core import CellNumbering, KernelTables, RunArrays, ThreadArrays, run_steps
 
         tables = KernelTables(*(getattr(self.tab, name) for name in KernelTables._fields))
         numbering = CellNumbering(*(getattr(self, name) for name in CellNumbering._fields))
+        threads = ThreadArrays(*(getattr(self, name) for name in ThreadArrays._fields))
         with _progress(settings) as bar:
             n = 0
             if stream is not None:
@@ -172,7 +173,7 @@ class Run:
                 if stream is not None:
                     end = min(end, stream.next_stop(n))
                 run = RunArrays(*(getattr(self, name) for name in RunArrays._fields))  # (the log may have grown)
-                reached = run_steps(n, end, run, numbering, tables)
+                reached = run_steps(n, end, run, threads, numbering, tables)
                 if reached < end:  # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
                 bar(reached - n)
@@ -184,15 +185,16 @@ class Run:
 
     def release(self):
         """Hand the cell arrays back to the pool, at rest again."""
-        from .core import N_FRESH, reset
+        from .core import reset
+        from .deliver import N_FRESH
 
-        reset(self.state, self.inact, self.act, int(self.scalars[0]), self.fresh, int(self.counters[N_FRESH]))
+        reset(self.state, self.fresh, self.counters[:, N_FRESH])
 
     def spikes(self):
         """Every spike of the run: the cell numbers (int32, a view of the log)
         and where each step's spikes start in them (``step_start[s]``, with
         ``step_start[n_steps]`` the total)."""
-        return self.log[: int(self.scalars[1])], self.step_start
+        return self.log[: self.log_length], self.step_start
 
     def forget_before(self, step: int, now: int) -> int:
         """Drop the spikes of the steps before ``step`` from the log (no
@@ -202,11 +204,26 @@ class Run:
         were dropped."""
         k = int(self.step_start[step])
         if k:
-            log_n = int(self.scalars[1])
+            log_n = self.log_length
             self.log[: log_n - k] = self.log[k:log_n]
-            self.scalars[1] = log_n - k
+            self.scalars[self.threads] = log_n - k
             self.step_start[step : now + 1] -= k
         return k
+
+    @property
+    def log_length(self) -> int:
+        """How many spikes the log holds."""
+        return int(self.scalars[self.threads])
+
+    @property
+    def totals(self) -> np.ndarray:
+        """The counters (:data:`.deliver.N_EVENTS` ...) summed over threads."""
+        return self.counters.sum(axis=0)
+
+    @property
+    def events(self) -> np.ndarray:
+        """The synaptic events of each projection, summed over threads."""
+        return self.prj_events.sum(axis=0)
 
     def input_spikes(self) -> int:
         """How many input spikes the run fed."""
@@ -222,6 +239,37 @@ class Run:
         out = np.zeros((self.state.size, 3))
         final_state(self.state, self.ctype, self.tab.nrn, self.tab.adv, self.n_steps, out)
         return out
+
+
+def owned_cells(populations, chosen: dict, threads: int) -> np.ndarray:
+    """How many of the chosen cells each thread owns: a thread updates the
+    cells of its rows (those of each channel, in bands of ``2**BAND``; see
+    :mod:`.deliver`)."""
+    from .deliver import BAND
+
+    out = np.zeros(threads, np.int64)
+    for p in populations:
+        rows = chosen[p.name] // p.grid[1]  # (channel * rows + row)
+        out += np.bincount((rows >> BAND) % threads, minlength=threads)
+    return out
+
+
+def presence_words(p, sites: np.ndarray) -> np.ndarray:
+    """The presence bits of population ``p`` whose cells ``sites`` (flat
+    indices) exist: per row of each channel, ``ceil(cols / 64)`` words, bit
+    ``j % 64`` of word ``j // 64`` for column ``j``."""
+    c, r, cols = p.shape
+    words = (cols + 63) // 64
+    mask = np.zeros((c * r, words * 64), bool)
+    flat = np.zeros(p.size, bool)
+    flat[sites] = True
+    mask[:, :cols] = flat.reshape(c * r, cols)
+    return np.packbits(mask, axis=1, bitorder="little").view(np.uint64).reshape(-1).copy()
+
+
+def _ones(words: np.ndarray) -> np.ndarray:
+    """Set bits of each word (numpy before 2.0 has no bitwise_count)."""
+    return np.unpackbits(words.view(np.uint8).reshape(-1, 8), axis=1).sum(axis=1)
 
 
 class Pool:

@@ -145,6 +145,10 @@ def run_task(spec: dict):
     if spec["task"] == "calibrate":
         times = [correlate_seconds() for _ in range(spec["repeats"])]
         return {"times_s": times, "median_s": statistics.median(times)}
+    if spec["task"] == "floor":
+        from .floor import measure
+
+        return measure(spec.get("state_mb"))
     if spec["task"] == "profile":
         from .profile_rate import profile
 

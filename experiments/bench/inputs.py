@@ -82,6 +82,32 @@ def dvs_path() -> Path:
     return dataset("events", "dvs.es")
 
 
+#: each copy of dvs.es starts this long after the one before (us): its events span 0-999 ms
+COPY_SPAN_US = 1_000_000
+
+
+def dvs_played(path: Path, copies: int) -> Path:
+    """``dvs.es`` played ``copies`` times in a row into ``path`` (.npy of
+    events, sensor 320 x 240, written a copy at a time): a long recording
+    made of the one we have. Returns ``path``."""
+    from numpy.lib.format import open_memmap
+
+    from experiments.common import fail
+    from snn_fg.events import EVENT_DTYPE, open_recording
+
+    ev = open_recording(dvs_path()).events
+    if int(ev["t"][-1] - ev["t"][0]) >= COPY_SPAN_US:
+        fail(f"dvs.es spans {int(ev['t'][-1] - ev['t'][0])} us, more than a copy's {COPY_SPAN_US} us")
+    out = open_memmap(path, mode="w+", dtype=EVENT_DTYPE, shape=(len(ev) * copies,))
+    for k in range(copies):
+        part = out[k * len(ev) : (k + 1) * len(ev)]
+        part[:] = ev
+        part["t"] += k * COPY_SPAN_US - int(ev["t"][0])
+    out.flush()
+    del out
+    return path
+
+
 def dvs_windows(max_windows=None, start_ms: float = DVS_START_MS):
     """The 85 ms windows of dvs.es (EventWindow objects)."""
     from snn_fg.events import EmptyWindowWarning, iter_windows

@@ -30,6 +30,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from experiments.bench.inputs import dvs_played
 from experiments.common import (
     RESULTS,
     ROOT,
@@ -45,30 +46,8 @@ from experiments.common import (
 )
 
 NAME = "recording_length_memory"
-#: each copy of dvs.es starts this long after the one before (us): its events span 0-999 ms
-COPY_SPAN_US = 1_000_000
-
-
-def _recording(path: Path, seconds: int) -> str:
-    """``dvs.es`` played ``seconds`` times in a row into ``path`` (.npy,
-    written a copy at a time); returns its sensor size (WxH)."""
-    from numpy.lib.format import open_memmap
-
-    from experiments.common import dataset
-    from snn_fg.events import EVENT_DTYPE, open_recording
-
-    rec = open_recording(dataset("events", "dvs.es"))
-    ev = rec.events
-    if int(ev["t"][-1] - ev["t"][0]) >= COPY_SPAN_US:
-        fail(f"dvs.es spans {int(ev['t'][-1] - ev['t'][0])} us, more than a copy's {COPY_SPAN_US} us")
-    out = open_memmap(path, mode="w+", dtype=EVENT_DTYPE, shape=(len(ev) * seconds,))
-    for k in range(seconds):
-        part = out[k * len(ev) : (k + 1) * len(ev)]
-        part[:] = ev
-        part["t"] += k * COPY_SPAN_US - int(ev["t"][0])
-    out.flush()
-    del out
-    return f"{rec.sensor_size[0]}x{rec.sensor_size[1]}"
+#: the sensor of dvs.es (and of the recordings made of it, .npy arrays that do not say)
+SENSOR = "320x240"
 
 
 def _child(argv: list[str]) -> dict:
@@ -189,7 +168,8 @@ def main():
         paths, size = {}, None
         for s in seconds:
             paths[s] = Path(d) / f"dvs_{s}s.npy"
-            size = _recording(paths[s], s)
+            dvs_played(paths[s], s)
+            size = SENSOR
         measured = []
         for model, network, length in cases:
             rec = paths[max(seconds)] if length == "1w" else paths[int(length[:-1])]

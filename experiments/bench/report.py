@@ -111,29 +111,48 @@ REAL_TIME_S = 0.085
 
 
 def _stream(data):
-    print("\n== snn-fg run dvs.es --start-ms 100 --no-figures: seconds per 85 ms window, beyond the first ==")
-    for eng, r in data.items():
-        if _failed(eng, r, 34):
+    print("\n== snn-fg run REC --start-ms 100 --no-figures: seconds per 85 ms window, beyond the first ==")
+    rows = {k: v for k, v in data.items() if k not in ("floor", "summary")}
+    for eng, r in rows.items():
+        if _failed(eng, r, 40):
             continue
         ev = ""
-        if "synaptic_events_per_window" in r:
-            ev = f", {r['synaptic_events_per_window']:.3g} synaptic events at {r['ns_per_synaptic_event']:.1f} ns"
+        if "cpu_ns_per_synaptic_event" in r:
+            ev = (
+                f", {r['synaptic_events_per_window']:.3g} synaptic events at {r['cpu_ns_per_synaptic_event']:.1f} ns "
+                "of CPU"
+            )
         rounds, each = "", r.get("rounds_median_window_s", [])
         if len(each) > 1:
             rounds = f" (rounds {1000 * min(each):.0f}-{1000 * max(each):.0f} ms)"
         print(
-            f"  {eng:34s} median {1000 * r['median_window_s']:7.1f} ms{rounds} "
+            f"  {eng:40s} median {1000 * r['median_window_s']:7.1f} ms{rounds} "
             f"({'within' if r['median_window_s'] <= REAL_TIME_S else 'over'} real time; whole run "
             f"{1000 * r['wall_s_per_window']:.0f} ms per window{ev}), peak {r['peak_rss_mb']:.0f} MB   [{_load(r)}]"
         )
-    for eng, r in data.items():
-        if "@compact" in eng and eng.replace("@compact", "@default") in data and "median_window_s" in r:
-            d = data[eng.replace("@compact", "@default")]
-            if "median_window_s" in d:
-                print(
-                    f"  {eng.replace('@compact', '')}: compact {d['median_window_s'] / r['median_window_s']:.1f}x "
-                    "faster than default"
-                )
+    for f in data.get("floor", {}).get("rounds", []):
+        state = ", ".join(f"{k} {v:.2f}" for k, v in f.get("state_random", {}).items())
+        print(
+            f"  floor (state[idx[k]] += w[k]): random in {f['in_cache_mb']} MB {f['in_cache_random']:.2f} ns, "
+            f"contiguous {f['contiguous']:.2f} ns, random in {f['large_mb']:.0f} MB {f['large_random']:.2f} ns; "
+            f"random in a network's cell state: {state}"
+        )
+    for name, s in data.get("summary", {}).items():
+        if name.startswith("peer_"):
+            print(
+                f"  {name[5:]} on the compact network, first {s['windows']} windows: {s['wall_s_per_window']:.2f} s "
+                f"per window against {s['fast_wall_s_per_window']:.3f} s on the fast engine: {s['ratio']:.0f}x"
+            )
+            continue
+        two = ""
+        if "speedup_2_cores" in s:
+            two = f"; two cores {1000 * s['median_window_s_2_cores']:.0f} ms a window, {s['speedup_2_cores']:.2f}x one"
+        ratio = f"{s['ratio_to_floor']:.1f}x" if s.get("ratio_to_floor") else "-"
+        print(
+            f"  {name}: {s['synaptic_events_per_window']:.3g} synaptic events a window, "
+            f"{s['cpu_ns_per_event_1_core']:.2f} ns of CPU each on one core = {ratio} the in-cache floor "
+            f"({s['floor_in_cache_ns']:.2f} ns); one core {1000 * s['median_window_s_1_core']:.0f} ms a window{two}"
+        )
 
 
 def _profile(m):

@@ -22,7 +22,8 @@ a backend that is not installed is skipped with a note):
   median of each window's own time beyond the first (the maps' params:
   ``timings_s.window`` of a spiking run's stream, ``timings_s.run`` of the rate
   model), the whole run's wall time per window, and for the spiking network
-  its synaptic events per window and nanoseconds per event;
+  its synaptic events per window and CPU nanoseconds per event against the
+  machine's floor measured in each round (:mod:`.stream`, :mod:`.floor`);
 * ``profile``    - the rate model's time per stage.
 
 Every measurement runs in its own process (median of repeats after a
@@ -43,11 +44,8 @@ import argparse
 import datetime
 import json
 import os
-import statistics
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -56,7 +54,9 @@ import numpy as np
 from experiments.common import ROOT, git_commit, processor
 
 from .inputs import DVS_START_MS, WINDOW_MS, bsds_names, dvs_path, dvs_windows
+from .processes import measure, run_process, uptime
 from .report import plot_scaling, print_summary
+from .stream import section_stream  # noqa: F401 - (a section, found by name)
 
 SECTIONS = ("calibrate", "frames", "dvs", "synthetic", "throughput", "stream", "profile")
 #: sections that only run when named in --sections
@@ -64,44 +64,6 @@ ON_REQUEST = ("stream",)
 SYNTH_SIZES = (1000, 2000, 5000, 10000, 20000, 50000, 100000)
 QUICK_SIZES = (1000, 10000, 100000)
 RESULTS = ROOT / "experiments" / "results" / "bench.json"
-
-
-def uptime() -> str:
-    return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
-
-
-def _run_process(cmd, timeout_s, cores=None) -> tuple[int, str, float]:
-    """Run ``cmd`` (on the CPUs ``cores`` only, if given); return ``(exit
-    status, stdout, peak RSS in MB)`` of that process alone."""
-    pin = None if cores is None else (lambda: os.sched_setaffinity(0, cores))
-    p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True, preexec_fn=pin)
-    timer = threading.Timer(timeout_s, p.kill)
-    timer.start()
-    try:
-        out = p.stdout.read()
-        _, status, usage = os.wait4(p.pid, 0)
-    finally:
-        timer.cancel()
-    p.returncode = os.waitstatus_to_exitcode(status)
-    return p.returncode, out, usage.ru_maxrss / 1024.0
-
-
-def measure(spec: dict, timeout_s: float):
-    """Run one :mod:`experiments.bench.child` task; its result with load and memory."""
-    before = uptime()
-    code, out, rss = _run_process([sys.executable, "-m", "experiments.bench.child", json.dumps(spec)], timeout_s)
-    if code != 0:
-        return {
-            "error": f"exit status {code} (timeout {timeout_s:.0f} s?)",
-            "load_before": before,
-            "load_after": uptime(),
-        }
-    return {
-        "result": json.loads(out.strip().splitlines()[-1]),
-        "peak_rss_mb": rss,
-        "load_before": before,
-        "load_after": uptime(),
-    }
 
 
 def engines(only) -> tuple[list[tuple[str, str | None]], list[str]]:
@@ -243,7 +205,7 @@ def section_throughput(args, eng):
             print(f"[{engine_name(model, backend)}] snn-fg run dvs.es ({n} windows)", file=sys.stderr, flush=True)
             before = uptime()
             t = time.perf_counter()
-            code, _, rss = _run_process(cmd, args.timeout)
+            code, _, rss = run_process(cmd, args.timeout)
             wall = time.perf_counter() - t
         row = {
             "windows": n,
@@ -257,108 +219,6 @@ def section_throughput(args, eng):
         if code == 0:
             row.update(windows_per_s=n / wall, s_per_window=wall / n)
         out[engine_name(model, backend)] = row
-    return out
-
-
-def _stream_row(maps_path: Path, model: str) -> dict:
-    """Per-window times and the engine's counters from a run's maps (its output folder)."""
-    from snn_fg.results.maps import Maps
-
-    p = Maps.load(maps_path).params
-    per = [p["timings_s"]] + [w.get("timings_s", p["timings_s"]) for w in p.get("windows", [])[1:]]
-    key = "window" if model == "spiking" else "run"
-    times = [t[key] for t in per]
-    row = {"windows": len(times), "window_s": times, "median_window_s": statistics.median(times[1:] or times)}
-    if model == "spiking":
-        whole = p.get("whole_run", p)  # (a recording's store keeps the whole run's apart)
-        st, sim = whole.get("backend_stats", {}), whole["timings_s"]
-        events = st.get("synaptic_events_total")
-        if events:
-            row.update(
-                synaptic_events_per_window=events / len(times), ns_per_synaptic_event=1e9 * sim.get("run", 0.0) / events
-            )
-    return row
-
-
-def _stream_run(network: str, model: str, backend, cores: int, timeout) -> dict:
-    """One ``snn-fg run dvs.es --start-ms 100 --no-figures`` on ``cores`` cores."""
-    with tempfile.TemporaryDirectory() as tmp:
-        res = Path(tmp) / "out"
-        cmd = [
-            sys.executable,
-            "-c",
-            "from snn_fg.cli import console; console()",
-            "run",
-            str(dvs_path()),
-            "--model",
-            model,
-            "--network",
-            network,
-            "--window-ms",
-            str(WINDOW_MS),
-            "--start-ms",
-            "100",
-            "--no-figures",
-            "--no-progress",
-            "--out",
-            str(res),
-        ]
-        cmd += ["--backend", backend] if backend else []
-        before = uptime()
-        t = time.perf_counter()
-        code, _, rss = _run_process(cmd, timeout, cores=set(range(cores)))
-        wall = time.perf_counter() - t
-        row = {
-            "network": network,
-            "model": model,
-            "cores": cores,
-            "exit_status": code,
-            "wall_s": wall,
-            "peak_rss_mb": rss,
-            "load_before": before,
-            "load_after": uptime(),
-        }
-        if code == 0:
-            row.update(_stream_row(res, model))
-            row["wall_s_per_window"] = wall / row["windows"]
-        return row
-
-
-def section_stream(args, eng):
-    """``snn-fg run dvs.es --start-ms 100 --no-figures``, per network, model and core count, in
-    ``--stream-rounds`` rounds that alternate every configuration (this machine's speed moves by a
-    third between runs minutes apart): each entry is the round with the median time per window,
-    with every round's median beside it (``rounds_median_window_s``)."""
-    configs = [
-        (network, model, backend, cores)
-        for network in args.networks
-        for model, backend in eng
-        if not (model == "spiking" and backend != "fast")
-        for cores in args.cores
-    ]
-    runs: dict = {}
-    for k in range(args.stream_rounds):
-        for network, model, backend, cores in configs:
-            name = f"{engine_name(model, backend)}@{network} {cores} core{'s' if cores > 1 else ''}"
-            print(
-                f"[{name}] round {k + 1} of {args.stream_rounds}: snn-fg run dvs.es --start-ms 100 --no-figures",
-                file=sys.stderr,
-                flush=True,
-            )
-            runs.setdefault(name, []).append(_stream_run(network, model, backend, cores, args.timeout))
-    out = {}
-    for name, rows in runs.items():
-        good = sorted((r for r in rows if r["exit_status"] == 0), key=lambda r: r["median_window_s"])
-        if not good:
-            out[name] = rows[0]
-            continue
-        out[name] = {
-            **good[(len(good) - 1) // 2],
-            "rounds": len(rows),
-            "rounds_median_window_s": [r["median_window_s"] for r in good],
-            "load_first": rows[0]["load_before"],
-            "load_last": rows[-1]["load_after"],
-        }
     return out
 
 
@@ -393,6 +253,10 @@ def parse_args(argv=None):
         default=3,
         help="stream: rounds alternating every configuration; the median round is reported (3)",
     )
+    ap.add_argument("--stream-copies", type=int, default=1, help="stream: dvs.es played this many times in a row (1)")
+    ap.add_argument("--peer", default="", help="stream: comma list of peer backends on the compact network (nest)")
+    ap.add_argument("--peer-windows", type=int, default=2, help="stream: windows the peer simulates (2)")
+    ap.add_argument("--bsds-image", default="", help="stream: comma list of BSDS image ids run end to end")
     ap.add_argument("--only", help="comma list of engines: rate, spiking (every backend) or backend names")
     ap.add_argument(
         "--quick",
@@ -444,6 +308,8 @@ def parse_args(argv=None):
     args.only = None if args.only is None else set(args.only.split(","))
     args.networks = args.networks.split(",")
     args.cores = [int(c) for c in args.cores.split(",")]
+    args.peer = [p for p in args.peer.split(",") if p]
+    args.bsds_image = [b for b in args.bsds_image.split(",") if b]
     args.frames = args.frames.split(",") if args.frames else None
     if args.quick:
         args.repeats = min(args.repeats, 3)

@@ -232,7 +232,7 @@ def test_source_and_target_enumeration_give_the_same_synapses(frame):
     """Conv synapses are enumerated from whichever side has fewer (tap, cell)
     pairs; both sides must give the same set, on every kind of Conv (DoG with
     wrap-around, channel maps, von Mises gather and scatter across lattices)."""
-    from snn_fg.lowering.connect import conv_pairs
+    from snn_fg.lowering.connect import conv_cell_pairs
     from snn_fg.network import Conv
 
     pos, neg = frame
@@ -247,7 +247,7 @@ def test_source_and_target_enumeration_give_the_same_synapses(frame):
         act = un.active[src.name].ravel() if src.is_source else None
         got = []
         for side in ("sources", "targets"):
-            pre, post, k, _, _ = conv_pairs(pr, src, tgt, un.sites[src.name], un.sites[tgt.name], net, act, side)
+            pre, post, k, _, _ = conv_cell_pairs(pr, src, tgt, un.sites[src.name], un.sites[tgt.name], net, act, side)
             order = np.lexsort((pre, post))
             got.append((pre[order], post[order], k[order]))
         np.testing.assert_array_equal(got[0][0], got[1][0], err_msg=pr.name)

@@ -4,7 +4,9 @@ A weight-shared projection of the description becomes, for given cells at
 its two ends, arrays ``(pre, post, K)``: local source index, local target
 index and kernel (or interpolation) value of every synapse. Kernel taps
 under ``prune`` times the largest |value| are left out; the kept fraction of
-``sum |K|`` is reported.
+``sum |K|`` is reported. How taps become synapses (padding, strides,
+folding) is defined once, in the standalone :mod:`snn_fg.pynn.tables`; this
+module applies it to the cells a backend instantiates.
 """
 
 from __future__ import annotations
@@ -17,9 +19,8 @@ from .. import validate as check
 from ..network.graph import Network
 from ..network.nodes import Population
 from ..network.projections import Conv, Resize
+from ..pynn import tables as rule
 from .interp import interp_matrix, sparse_rows
-
-_CHUNK = 1 << 22  # elements per vectorised block when following kernel taps
 
 
 def positions(pop: Population, flat: np.ndarray):
@@ -40,29 +41,21 @@ def pairs(network: Network, proj, src: Population, tgt: Population, src_sites, t
     cells ``src_sites`` and ``tgt_sites``; ``src_active`` (bool over
     ``src_sites``) keeps only sources that can fire."""
     if isinstance(proj, Conv):
-        return conv_pairs(proj, src, tgt, src_sites, tgt_sites, network, src_active)
-    return resize_pairs(proj, src, tgt, src_sites, tgt_sites, src_active)
+        return conv_cell_pairs(proj, src, tgt, src_sites, tgt_sites, network, src_active)
+    return resize_cell_pairs(proj, src, tgt, src_sites, tgt_sites, src_active)
 
 
 def kernel_taps(proj: Conv, network: Network):
     """Kept taps of a Conv: arrays ``(c_out, c_in, dr, dc, k)`` and the kept
     mass. A target cell at level pixel ``P`` reads the source cell at
-    ``P + (dr, dc)`` (the mode is already applied)."""
+    ``P + (dr, dc)`` (the mode is already applied; :func:`snn_fg.pynn.tables.kernel_taps`)."""
     k = proj.kernel.array(network.params)
-    ab = np.abs(k)
-    total = ab.sum()
-    if total == 0:
+    if not np.abs(k).sum():
         check.fail(proj._owner, None, None, "kernel is all zero")
-    keep = ab >= proj.prune * ab.max() if proj.prune > 0 else ab > 0
-    co, ci, r, c = np.nonzero(keep)
-    cr, cc = k.shape[2] // 2, k.shape[3] // 2
-    dr, dc = r - cr, c - cc
-    if proj.mode == "conv":
-        dr, dc = -dr, -dc
-    return co, ci, dr, dc, k[co, ci, r, c], float(ab[keep].sum() / total)
+    return rule.kernel_taps(k, proj.prune, proj.mode)
 
 
-def conv_pairs(
+def conv_cell_pairs(
     proj: Conv,
     src: Population,
     tgt: Population,
@@ -107,7 +100,7 @@ def conv_pairs(
         kh = 2 * int(np.abs(dr).max()) + 1 if dr.size else 1
         kw = 2 * int(np.abs(dc).max()) + 1 if dc.size else 1
         if kh > lr or kw > lc:  # taps fold onto the same source: add them up
-            pre, post, w = _merge(pre, post, w, src_sites.size)
+            pre, post, w = rule.fold(pre, post, w, src_sites.size)
     return pre, post, w, kept, int(co.size)
 
 
@@ -120,45 +113,26 @@ Taps = namedtuple("Taps", "ch_from ch_to dr dc value")
 def _walk_taps(pop, cells, local, taps: Taps, other: Population, other_map, wrap: bool):
     """Follow every tap (:data:`Taps`) from the cells ``cells`` of ``pop``
     (flat indices; ``local`` their numbers in the result) to the cells of
-    ``other`` (same level; ``other_map`` gives their numbers, -1 where none).
+    ``other`` (same level; ``other_map`` gives their numbers, -1 where none),
+    channel by channel (:func:`snn_fg.pynn.tables.walk_taps`).
 
     Returns ``(other's numbers, local numbers, kernel values)`` of the hits.
     """
-    lr, lc = pop.level_shape
-    s_to = other.stride
-    g_r, g_c = other.grid
     ch_from, ch_to, dr, dc, kv = taps
     p_c, p_r, p_col = positions(pop, cells)
     order = np.argsort(p_c, kind="stable")
     bounds = np.searchsorted(p_c[order], np.arange(pop.channels + 1))
+    where = {"grid": other.grid, "stride": other.stride, "level_shape": other.level_shape}
     to_l, from_l, w_l = [], [], []
     for ch in np.unique(ch_from):
         loc = order[bounds[ch] : bounds[ch + 1]]
         if loc.size == 0:
             continue
         of_ch = np.nonzero(ch_from == ch)[0]
-        r0, c0 = p_r[loc], p_col[loc]
-        step = max(1, _CHUNK // loc.size)
-        for a0 in range(0, of_ch.size, step):
-            ta = of_ch[a0 : a0 + step]
-            r = r0[None, :] + dr[ta, None]
-            c = c0[None, :] + dc[ta, None]
-            if wrap:
-                r %= lr
-                c %= lc
-                ok = np.ones(r.shape, bool)
-            else:
-                ok = (r >= 0) & (r < lr) & (c >= 0) & (c < lc)
-            if s_to != 1:
-                ok &= (r % s_to == 0) & (c % s_to == 0)
-            flat = (ch_to[ta, None] * g_r + r // s_to) * g_c + c // s_to
-            idx = np.where(ok, other_map[np.where(ok, flat, 0)], -1)
-            ti, si = np.nonzero(idx >= 0)
-            if ti.size == 0:
-                continue
-            to_l.append(idx[ti, si])
-            from_l.append(local[loc[si]])
-            w_l.append(kv[ta][ti])
+        to, si, ti = rule.walk_taps(p_r[loc], p_col[loc], ch_to[of_ch], dr[of_ch], dc[of_ch], where, other_map, wrap)
+        to_l.append(to)
+        from_l.append(local[loc[si]])
+        w_l.append(kv[of_ch][ti])
     return _cat(to_l, from_l, w_l)
 
 
@@ -172,7 +146,7 @@ def resize_factors(proj: Resize, src: Population, tgt: Population):
     return ar, ac, np.abs(ar).max() * np.abs(ac).max()
 
 
-def resize_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_sites, src_active=None):
+def resize_cell_pairs(proj: Resize, src: Population, tgt: Population, src_sites, tgt_sites, src_active=None):
     ar, ac, peak = resize_factors(proj, src, tgt)
     ri, rv = sparse_rows(ar)
     cj, cv = sparse_rows(ac)
@@ -222,11 +196,3 @@ def _cat(pre_l, post_l, w_l):
         np.concatenate(post_l).astype(np.int64),
         np.concatenate(w_l).astype(np.float64),
     )
-
-
-def _merge(pre, post, w, n_pre):
-    key = post * n_pre + pre
-    uniq, inv = np.unique(key, return_inverse=True)
-    ws = np.bincount(inv, weights=w, minlength=uniq.size)
-    keep = ws != 0
-    return (uniq % n_pre)[keep], (uniq // n_pre)[keep], ws[keep]

@@ -21,6 +21,7 @@ import numpy as np
 from ...lowering.connect import kernel_taps
 from ...network.graph import Network
 from ...network.projections import Conv
+from ...pynn import tables as rule
 from ...pynn.cells import quantise
 from ..base import receptor
 from .neurons import MS, SOURCE_TYPE, by_steps, neuron_types
@@ -72,7 +73,7 @@ class EngineTables:
     taps: dict  # projection name -> kept taps (Conv) or interpolation weights (Resize)
     spans: np.ndarray  # int64 (n_projections, 2): a Conv's values st_w[a:b]
 
-    def with_gains(self, network: Network) -> "EngineTables":
+    def with_gains(self, network: Network) -> EngineTables:
         """These tables for ``network``, which must differ from
         :attr:`network` in projection gains only (:func:`gains_only`), e.g.
         the same description calibrated for another input rate: the weights
@@ -111,37 +112,24 @@ def conv_classes(network, pr, src, tgt, weight_bits=None):
     ``(co, cls, qr, qc, k, kept mass, n_cls, reach)``.
 
     A source at level pixel ``p`` reaches the target lattice only through
-    the taps with ``d = p (mod stride)`` (its class, with its input channel),
-    and those land on lattice point ``p // stride - q`` with ``q = (d - d mod
-    stride) / stride``. A wrap-around kernel larger than the level folds
-    onto it: its taps are taken modulo the level and those landing on the
-    same cell add up, as the unrolled synapses do
-    (:func:`~snn_fg.lowering.connect.conv_pairs`)."""
+    the taps of its class (its input channel, and ``p`` modulo the target's
+    stride), and those land on lattice point ``p // stride - q``
+    (:func:`snn_fg.pynn.tables.conv_stencil`, the rule every backend's
+    synapses follow). ``reach``: a spike at least this many lattice points
+    from the grid's edges lands whole; a wrap-around kernel folded onto a
+    smaller level never does."""
     co, ci, dr, dc, k, kept = kernel_taps(pr, network)
     if weight_bits is not None:
         k = quantised_values(k, float(np.abs(pr.kernel.array(network.params)).max()), weight_bits)
         co, ci, dr, dc, k = (a[k != 0] for a in (co, ci, dr, dc, k))
     st = tgt.stride
-    gr, gc = tgt.grid
     if pr.padding == "wrap" and st != 1:
         raise ValueError(f"the fast engine wraps a Conv around its level at stride 1 only ({pr.name!r})")
-    rr, rc = dr % st, dc % st
-    qr, qc = (dr - rr) // st, (dc - rc) // st
-    cls = (ci * st + rr) * st + rc
-    radius = int(max(np.abs(qr).max(), np.abs(qc).max())) if qr.size else 0
-    if pr.padding == "wrap" and 2 * radius + 1 > min(gr, gc):
-        co, cls, qr, qc, k = _fold(co, cls, qr % gr, qc % gc, k)
-        radius = max(gr, gc)  # (never whole inside the level)
-    return co, cls, qr, qc, k, kept, src.channels * st * st, radius
-
-
-def _fold(co, ci, qr, qc, k):
-    """Taps with the same channels and (folded) offset merged, their values summed."""
-    key = np.stack([co, ci, qr, qc], axis=1)
-    uniq, inv = np.unique(key, axis=0, return_inverse=True)
-    total = np.bincount(inv.ravel(), weights=k, minlength=len(uniq))
-    keep = total != 0
-    return uniq[keep, 0], uniq[keep, 1], uniq[keep, 2], uniq[keep, 3], total[keep]
+    where = {"grid": tgt.grid, "stride": st, "level_shape": tgt.level_shape}
+    taps = np.stack([co, ci, dr, dc], axis=1)
+    co, cls, qr, qc, k, folded = rule.conv_stencil(taps, k, where, pr.padding == "wrap")
+    reach = max(tgt.grid) if folded else (int(max(np.abs(qr).max(), np.abs(qc).max())) if qr.size else 0)
+    return co, cls, qr, qc, k, kept, src.channels * st * st, reach
 
 
 def gains_only(a: Network, b: Network) -> bool:
@@ -157,7 +145,7 @@ def gains_only(a: Network, b: Network) -> bool:
         and a.frame_shape == b.frame_shape
         and a.populations == b.populations
         and len(a.projections) == len(b.projections)
-        and all(x is y or rest(x) == rest(y) for x, y in zip(a.projections, b.projections))
+        and all(x is y or rest(x) == rest(y) for x, y in zip(a.projections, b.projections, strict=True))
     )
 
 

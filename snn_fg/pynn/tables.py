@@ -1,7 +1,7 @@
 """How a weight-shared projection becomes synapses: the one definition.
 
 STANDALONE like :mod:`snn_fg.pynn.network`: numpy only, copied verbatim
-into every PyNN export (as ``fg_tables.py``), where ``run.py`` unrolls each
+into every PyNN and Lava export (as ``fg_tables.py``), where ``run.py`` unrolls each
 projection's kernel taps or interpolation matrices into explicit synapse
 lists at build time. Inside snn_fg the same functions make the synapses of
 the Brian2 and NEST backends (:mod:`snn_fg.lowering.connect`), of a board's

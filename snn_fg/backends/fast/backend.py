@@ -91,7 +91,7 @@ class FastBackend(Backend):
         below :data:`PARALLEL_FROM` cells); numba is told so."""
         import numba
 
-        from ...cores import usable_cores
+        from ...models.cores import usable_cores
 
         n = self.threads
         if n is None:

@@ -93,7 +93,7 @@ def test_edge_normals_are_scipys_gaussians_bit_for_bit_at_the_pixels_asked_for(s
     at = np.nonzero(edges)
     want = _normals_by_scipy(edges, pool, at)
     for got in (edge_normals(edges, pool, at), [a[at] for a in edge_normals(edges, pool)]):
-        for g, w in zip(got, want):
+        for g, w in zip(got, want, strict=True):
             assert np.array_equal(g, w)
 
 

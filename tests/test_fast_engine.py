@@ -60,7 +60,7 @@ def _assert_identical(runs, min_spikes):
     total = 0
     for name in ref.populations:
         np.testing.assert_array_equal(fast.sites[name], ref.sites[name], err_msg=name)
-        for got, want in zip(_trains(fast, name), _trains(ref, name)):
+        for got, want in zip(_trains(fast, name), _trains(ref, name), strict=True):
             np.testing.assert_array_equal(got, want, err_msg=name)
         np.testing.assert_array_equal(fast.counts[name], ref.counts[name], err_msg=name)
         total += ref.spikes[name][0].size
@@ -216,7 +216,7 @@ def test_the_step_lists_come_out_sorted_as_a_comparison_sort_puts_them(n_cells):
         inputs = np.sort(cells[2::3])
         log = np.full(3 * cells.size + 10, -9, np.int32)
         firsts = np.array([4, 4 + runs[0].size + 2], np.int64)
-        for f, r in zip(firsts, runs):
+        for f, r in zip(firsts, runs, strict=True):
             log[f : f + r.size] = r
         end = gather_spikes(
             log, 2, firsts, np.array([r.size for r in runs], np.int64), inputs, np.zeros(log.size, np.int32)
@@ -251,7 +251,7 @@ def test_a_reused_engine_gives_the_spikes_of_a_fresh_one():
     fresh = get_backend("fast").simulate(net, b, settings)
     assert sum(int(c.sum()) for c in fresh.counts.values()) > 1000
     for name in fresh.populations:
-        for got, want in zip(_trains(again, name), _trains(fresh, name)):
+        for got, want in zip(_trains(again, name), _trains(fresh, name), strict=True):
             np.testing.assert_array_equal(got, want, err_msg=name)
         np.testing.assert_array_equal(again.state[name]["v"], fresh.state[name]["v"], err_msg=name)
 
@@ -347,7 +347,7 @@ def test_the_cells_left_out_by_the_edge_masks_never_fire(timed):
     total = 0
     for name in full.populations:
         got, want = _trains(masked, name), _trains(full, name)
-        for a, b in zip(got, want):
+        for a, b in zip(got, want, strict=True):
             np.testing.assert_array_equal(a, b, err_msg=name)
         total += want[0].size
     assert total > 10_000

@@ -122,7 +122,7 @@ def time_model(spec: dict) -> list[dict]:
         if LAST_RUN:
             row["spiking_run"] = dict(LAST_RUN)
         if corr:
-            ratios = [AUTHORS_CORRELATES_PER_FRAME * c / s for c, s in zip(corr, times)]
+            ratios = [AUTHORS_CORRELATES_PER_FRAME * c / s for c, s in zip(corr, times, strict=True)]
             row.update(
                 correlate_s=corr,
                 correlate_median_s=statistics.median(corr),

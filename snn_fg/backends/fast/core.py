@@ -266,7 +266,9 @@ def _borrow(run, th, numbering, tables):
             b(th.act), b(th.new), b(th.tmp), b(th.radix), b(th.fresh), b(th.counters), b(th.prj_events), b(th.acc),
             b(th.bits), b(th.row_lo), b(th.row_hi), b(th.dirty), b(th.n_dirty), b(th.found), b(th.found_g),
         ),
-        CellNumbering(b(numbering.ctype), b(numbering.cells), b(numbering.flat_of), b(numbering.pres), b(numbering.rank)),
+        CellNumbering(
+            b(numbering.ctype), b(numbering.cells), b(numbering.flat_of), b(numbering.pres), b(numbering.rank)
+        ),
         KernelTables(
             b(tables.pops), b(tables.nrn), b(tables.ref_steps), b(tables.adv_k), b(tables.prj), b(tables.prj_w),
             b(tables.cls_ptr), b(tables.row_co), b(tables.row_qr), b(tables.row_qc), b(tables.row_ncol),

@@ -171,7 +171,7 @@ class BinStream:
 
 
 def simulation_result(
-    name: str, tab: ft.EngineTables, chosen: dict, run, settings: RunSettings, stream: "BinStream | None" = None
+    name: str, tab: ft.EngineTables, chosen: dict, run, settings: RunSettings, stream: BinStream | None = None
 ) -> SimulationResult:
     from .counting import bin_counts, count_cells
     from .deliver import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS
@@ -212,7 +212,7 @@ def simulation_result(
                 for k, var in enumerate(("v", "I_exc", "I_inh"))
                 if var in settings.record_state
             }
-    events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.events)}
+    events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.events, strict=True)}
     totals = run.totals
     n_input = run.input_spikes()
     stats = {

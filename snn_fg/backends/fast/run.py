@@ -91,7 +91,7 @@ class Run:
     (:mod:`.core` describes the numbering and the maps between grid and
     number)."""
 
-    def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: "Pool", threads: int = 1):
+    def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: Pool, threads: int = 1):
         from .deliver import N_FRESH
         from .lif import STATE
 
@@ -155,7 +155,7 @@ class Run:
         self.rank = np.concatenate(rank) if rank else np.zeros(1, dtype=np.int64)
         return off
 
-    def simulate(self, settings: RunSettings, chunk: int, stream: "BinStream | None" = None):
+    def simulate(self, settings: RunSettings, chunk: int, stream: BinStream | None = None):
         """Run every step; with ``stream``, stop at each counting-bin edge
         for it to hand the bin over and drop the spikes no delay reaches."""
         from .core import CellNumbering, KernelTables, RunArrays, ThreadArrays, run_steps

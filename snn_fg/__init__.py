@@ -38,8 +38,4 @@ def __getattr__(name):  # (imported when first asked for: ``import snn_fg`` stay
         from .results.maps import Maps
 
         return Maps
-    if name == "cancel":  # its earlier place (the fast engine, being rewritten, still imports it from here)
-        from .backends import cancel
-
-        return cancel
     raise AttributeError(f"module 'snn_fg' has no attribute {name!r}")

@@ -11,7 +11,7 @@ snn_fg.
 * :mod:`.reference` - the whole network stepped in that arithmetic with
   numpy alone (``fg_reference.py``; ``run.py --simulator reference``);
 * :mod:`snn_fg.lava.network` - the network as Lava processes (``fg_lava.py``);
-* :mod:`.run` - the export's ``run.py`` (not importable inside snn_fg).
+* ``run`` - the export's ``run.py`` (not importable inside snn_fg, and left out of the API reference).
 
 They share the input reader and the table unroller of :mod:`snn_fg.pynn`
 (copied as ``fg_inputs.py`` and ``fg_tables.py``).

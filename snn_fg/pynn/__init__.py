@@ -15,7 +15,7 @@ exported model and the backend are one implementation.
 * :mod:`.spinnaker` - the network on sPyNNaker and its mapping (``fg_spinnaker.py``);
 * :mod:`.memory` - what a NEST run of the export costs (``fg_memory.py``);
 * :mod:`.simulator` - PyNN's simulator module, imported quietly (``fg_simulator.py``);
-* :mod:`.run` - the export's ``run.py`` (not importable inside snn_fg).
+* ``run`` - the export's ``run.py`` (not importable inside snn_fg, and left out of the API reference).
 """
 
 from pathlib import Path

@@ -13,8 +13,7 @@ from .results import BinStream, simulation_result
 from .run import Pool, Run
 
 #: seconds the engine's first run on a machine spends compiling (numba), as said while it does
-#: (the README's fresh clone: 13 s for the demo against 4.4 s once compiled, load 1.4-1.7; a first
-#: compact run on 2 dvs.es windows took 47 s against 3.9 s, load 1.8, 27 Nov)
+#: (the measured first runs: docs/performance.md, Installing and testing)
 COMPILE_S = 10
 #: simulated time per call of the compiled loop (progress, Ctrl-C in between)
 CHUNK_MS = 25.0

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ... import cancel
+from .. import cancel
 from ..base import RunSettings, lif_populations, source_offsets
 from . import tables as ft
 from .results import BinStream  # noqa: F401 - (named in an annotation)

@@ -24,8 +24,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from snn_fg.backends.cores import usable_cores
 from snn_fg.errors import SnnFgError, install_hint
-from snn_fg.models.cores import usable_cores
 from snn_fg.results.atomic import save_text
 
 #: What to install when Dask is missing.

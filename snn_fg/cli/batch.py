@@ -26,9 +26,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from ..backends.cores import usable_cores
 from ..errors import InputError, SnnFgError, install_hint
 from ..events.formats import SUFFIX_FORMAT, looks_like
-from ..models.cores import usable_cores
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
 from ..results.store import STORE_NAME, read_attrs, windows_complete

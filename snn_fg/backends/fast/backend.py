@@ -90,7 +90,7 @@ class FastBackend(Backend):
         below :data:`PARALLEL_FROM` cells); numba is told so."""
         import numba
 
-        from ...models.cores import usable_cores
+        from ..cores import usable_cores
 
         n = self.threads
         if n is None:

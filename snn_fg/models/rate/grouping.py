@@ -37,8 +37,8 @@ import numpy as np
 
 from ... import validate as check
 from ...backends import cancel
+from ...backends.cores import usable_cores
 from ...params import ModelParams
-from ..cores import usable_cores
 from . import _sparse_kernels as nbk
 from .fourier import irfft_crop, padded_shape, rfft_rows
 from .grouping_state import GroupingState

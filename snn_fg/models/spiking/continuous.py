@@ -33,8 +33,8 @@ import numpy as np
 
 from ...backends import RunSettings
 from ...backends.base import each_bin
+from ...backends.cores import usable_cores
 from ...results.maps import Maps
-from ..cores import usable_cores
 from .options import SpikingOptions
 from .record import run_provenance
 from .stream_input import (

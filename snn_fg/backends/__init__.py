@@ -10,7 +10,7 @@ description from :mod:`snn_fg.export`.
 
 >>> from snn_fg.backends import DEFAULT_BACKEND, backend_names, get_backend
 >>> backend_names()
-['brian2', 'fast', 'nest']
+['brian2', 'fast', 'nest', 'loihi2']
 >>> get_backend("brian2").name
 'brian2'
 >>> DEFAULT_BACKEND
@@ -31,6 +31,7 @@ BACKENDS = {
     "brian2": "snn_fg.backends.brian2:Brian2Backend",
     "fast": "snn_fg.backends.fast:FastBackend",
     "nest": "snn_fg.backends.nest:NestBackend",
+    "loihi2": "snn_fg.backends.loihi2:Loihi2Backend",
 }
 #: the backend runs use unless told otherwise: the fastest one verified against
 #: Brian2 (identical spike trains, tests/test_fast_engine.py; identical spike

@@ -11,6 +11,7 @@ import numpy as np
 from ... import cancel
 from ..base import RunSettings, SimulationResult, bin_result, lif_populations, segments
 from . import kernel as k
+from . import rest
 from .tables import InputFeed, Loihi2Tables
 
 #: initial room of the spike log (spikes); it grows when a step may not fit
@@ -31,22 +32,28 @@ class Run:
 
     def __init__(self, tab: Loihi2Tables, chosen: dict, inputs, settings: RunSettings):
         self.tab, self.chosen, self.settings = tab, chosen, settings
+        self.net = k.Net(*(getattr(tab, name) for name in k.Net._fields))
         self.n_steps = step_of(settings.duration_ms, settings.dt_ms)
         n = tab.n_cells
         self.pops = lif_populations(tab.network)
-        self.present = np.zeros(n, np.uint8)
+        self.flag = np.full(n, k.F_ABSENT, np.uint16)
         for p in self.pops:
-            self.present[tab.first[p.name] + chosen[p.name]] = 1
-        self.n_present = int(self.present.sum())
-        self.u, self.v, self.total = (np.zeros(n, np.int64) for _ in range(3))
-        self.last = np.full(n, -(10**9), np.int64)
+            self.flag[tab.first[p.name] + chosen[p.name]] = k.F_ACTIVE
+        self.act = np.flatnonzero(self.flag == k.F_ACTIVE).astype(np.int32)
+        self.n_present = int(self.act.size)
+        self.act.resize(n, refcheck=False)
+        self.state = np.zeros((n, rest.N_STATE_COLUMNS), np.int32)
+        self.state[:, rest.S_LAST] = -(10**9)
+        self.wake, self.wake_n = np.zeros((tab.depth, n), np.int32), np.zeros(tab.depth, np.int64)
+        self.total = np.zeros(n, np.int64)
+        self.merged = np.zeros(n, np.int32)
         self.pending = np.zeros((tab.depth, n), np.int64)
         self.buf, self.acc = np.zeros(n, np.int32), np.zeros(n, np.int64)
         self.mark, self.touched = np.zeros(n, np.uint8), np.zeros(n, np.int32)
         self.cnt = np.zeros(len(tab.pops), np.int64)
         self.log = np.zeros(LOG_START if settings.record_spikes else 1, np.int32)
         self.step_start = np.zeros(self.n_steps + 1, np.int64)
-        self.scalars = np.array([0, int(settings.record_spikes)], np.int64)
+        self.scalars = np.array([0, int(settings.record_spikes), self.n_present], np.int64)
         self.counters = np.zeros(k.N_COUNTERS, np.int64)
         self.feed = InputFeed(tab, inputs, self.n_steps)
         self.count_from = step_of(settings.count_from_ms, settings.dt_ms)
@@ -67,11 +74,9 @@ class Run:
                 return
             a, b, in_ptr, in_ids = self.feed.block(n)
             end = min(n + chunk, b, next(s for s in stops if s > n))
-            t = self.tab
-            reached = k.run_steps(n, end, t.pops, t.conns, t.ptr, t.post, t.w, self.present, self.u, self.v,
-                                  self.last, self.total, self.pending, in_ptr, in_ids, a, self.buf, self.cnt,
-                                  self.acc, self.mark, self.touched, self.log, self.step_start, self.scalars,
-                                  self.counters)  # fmt: skip
+            self.in_ptr, self.in_ids = in_ptr, in_ids
+            cells = k.Cells(*(getattr(self, name) for name in k.Cells._fields))  # (the log may have grown)
+            reached = k.run_steps(n, end, a, self.net, cells)
             if reached < end:  # the next step may not fit in the log
                 self.log = np.concatenate([self.log, np.zeros(max(self.log.size, self.n_present), np.int32)])
             if bar is not None:
@@ -148,7 +153,9 @@ class Run:
         if s.record_spikes and not self.streamed:
             res.spikes = self.spikes_between(0, self.n_steps)
         if "v" in s.record_state:
-            v = self.per_population(self.v)
+            t = self.tab
+            k.catch_up_all(self.n_steps - 1, t.pops, t.pop_of, self.flag, self.state)
+            v = self.per_population(self.state[:, rest.S_V])
             for p in self.pops:
                 res.state[p.name] = {"v": v[p.name] / self.tab.unit_per_mv[p.name] + p.neuron.v_reset_mv}
         synapses_in = {p.name: 0 for p in self.pops}
@@ -163,5 +170,7 @@ class Run:
             "max_a_in": int(self.counters[k.K_MAX_A_IN]),
             "u_wraps": int(self.counters[k.K_U_WRAPS]),
             "v_saturated": int(self.counters[k.K_V_SATURATED]),
+            "active_cell_steps": int(self.counters[k.K_UPDATES]),
+            "wakes": int(self.counters[k.K_WAKES]),
         }
         return res

@@ -28,7 +28,7 @@ from ...lava.synapses import connection
 from ...network.graph import Network
 from ...pynn.tables import load_tables
 from ..base import source_offsets
-from . import kernel as k
+from . import rest as r
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class Loihi2Tables:
     connection row ``c`` are ``ptr[conns[c, C_PTR] + s]`` to ``[+ 1]``;
     ``post`` the target's cell number), ``depth`` (the slots of steps ahead
     a connection can reach, plus this step's), ``first`` (population name
-    -> its first cell number), ``unit_per_mv`` (population -> integer steps
+    -> its first cell number), ``pop_of`` (each cell's row of ``pops``), ``unit_per_mv`` (population -> integer steps
     of its voltage per mV above its reset) and ``synapses`` per projection."""
 
     network: Network
@@ -53,27 +53,29 @@ class Loihi2Tables:
     w: np.ndarray
     depth: int
     first: dict
+    pop_of: np.ndarray
     unit_per_mv: dict
     synapses: dict
 
     @property
     def n_cells(self) -> int:
         """Cells of every population, spike sources included."""
-        return int(self.pops[:, k.P_SIZE].sum())
+        return int(self.pops[:, r.P_SIZE].sum())
 
 
 def _population_row(pop: dict, first: int) -> list[int]:
     """A population's row of ``pops`` from its ``network.json`` entry (its ``lava`` registers)."""
-    row = [0] * 8
-    row[k.P_FIRST], row[k.P_SIZE] = first, int(pop["size"])
+    row = [0] * r.N_POP_COLUMNS
+    row[r.P_FIRST], row[r.P_SIZE] = first, int(pop["size"])
     lava = pop.get("lava")
     if lava is not None:
-        row[k.P_LIF] = 1
-        row[k.P_KU] = fixed.DECAY_UNITY - (int(lava["du"]) + fixed.DU_OFFSET)
-        row[k.P_KV] = fixed.DECAY_UNITY - int(lava["dv"])
-        row[k.P_BIAS] = fixed.effective_bias(lava["bias_mant"], lava["bias_exp"])
-        row[k.P_VTH] = int(lava["vth"]) << fixed.VTH_SHIFT
-        row[k.P_REFR] = int(lava["refractory_steps"])
+        row[r.P_LIF] = 1
+        row[r.P_KU] = fixed.DECAY_UNITY - (int(lava["du"]) + fixed.DU_OFFSET)
+        row[r.P_KV] = fixed.DECAY_UNITY - int(lava["dv"])
+        row[r.P_BIAS] = fixed.effective_bias(lava["bias_mant"], lava["bias_exp"])
+        row[r.P_VTH] = int(lava["vth"]) << fixed.VTH_SHIFT
+        row[r.P_REFR] = int(lava["refractory_steps"])
+        row[r.P_PILE] = r.pile_factor(row[r.P_KU], row[r.P_KV])
     return row
 
 
@@ -110,7 +112,7 @@ def build_tables(network: Network, dt_ms: float) -> Loihi2Tables:
         synapses[c.name] = int(c.pre.size)
         if not c.pre.size:
             continue
-        order = np.argsort(c.pre, kind="stable")
+        order = np.argsort(c.pre * pops_meta[c.target]["size"] + c.post)  # (by source, then target)
         n_pre = int(pops_meta[c.source]["size"])
         is_linear = linear(c.w2m, c.weight_exp)
         w = fixed.shift(c.w2m[order], c.weight_exp) if is_linear else c.w2m[order]
@@ -120,16 +122,18 @@ def build_tables(network: Network, dt_ms: float) -> Loihi2Tables:
         conns.append([names.index(c.source), c.delay_steps, c.weight_exp, int(is_linear), n_ptr])
         n_ptr, n_syn = n_ptr + n_pre + 1, n_syn + int(c.pre.size)
         depth = max(depth, c.delay_steps + 2)
+    pops = np.array(rows, np.int64).reshape(-1, r.N_POP_COLUMNS)
     return Loihi2Tables(
         network=network,
         dt_ms=float(dt_ms),
-        pops=np.array(rows, np.int64).reshape(-1, 8),
+        pops=pops,
         conns=np.array(conns, np.int64).reshape(-1, 5),
         ptr=np.concatenate(ptrs).astype(np.int64) if ptrs else np.zeros(1, np.int64),
         post=np.concatenate(posts) if posts else np.zeros(1, np.int32),
         w=np.concatenate(ws) if ws else np.zeros(1, np.int32),
         depth=depth,
         first=first,
+        pop_of=np.repeat(np.arange(len(pops), dtype=np.int32), pops[:, r.P_SIZE]),
         unit_per_mv={p["name"]: p["lava"]["unit_per_mv"] for p in meta["populations"] if p.get("lava")},
         synapses=synapses,
     )

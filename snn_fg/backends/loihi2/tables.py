@@ -96,38 +96,44 @@ def build_tables(network: Network, dt_ms: float) -> Loihi2Tables:
         meta, arrays = lava_model(net, report=False)
     except ValueError as e:  # (the lowering's: a delay beyond 64 steps, no unit that fits 24 bits)
         raise InputError("the network", f"Loihi 2 cannot hold it: {e}") from None
+    pops = {p["name"]: p for p in meta["populations"]}
+    tabs = load_tables(meta, arrays)
+    conns = (connection(pr, pops, tabs[pr["name"]]) for pr in meta["projections"])  # (one at a time)
+    return tables_from(network, dt_ms, meta, conns)
+
+
+def tables_from(network: Network, dt_ms: float, meta: dict, conns) -> Loihi2Tables:
+    """The arrays of an export's ``network.json`` data ``meta`` and its
+    :class:`~snn_fg.lava.synapses.Connection` s ``conns`` (an iterable)."""
     first, rows, at = {}, [], 0
     for p in meta["populations"]:
         first[p["name"]] = at
         rows.append(_population_row(p, at))
         at += int(p["size"])
-    pops_meta = {p["name"]: p for p in meta["populations"]}
+    sizes = {p["name"]: int(p["size"]) for p in meta["populations"]}
     names = list(first)
-    tabs = load_tables(meta, arrays)
-    conns, ptrs, posts, ws, synapses = [], [], [], [], {}
+    table, ptrs, posts, ws, synapses = [], [], [], [], {}
     n_ptr = n_syn = 0
     depth = 1
-    for pr in meta["projections"]:
-        c = connection(pr, pops_meta, tabs[pr["name"]])
+    for c in conns:
         synapses[c.name] = int(c.pre.size)
         if not c.pre.size:
             continue
-        order = np.argsort(c.pre * pops_meta[c.target]["size"] + c.post)  # (by source, then target)
-        n_pre = int(pops_meta[c.source]["size"])
+        order = np.argsort(c.pre * sizes[c.target] + c.post)  # (by source, then target)
         is_linear = linear(c.w2m, c.weight_exp)
         w = fixed.shift(c.w2m[order], c.weight_exp) if is_linear else c.w2m[order]
-        ptrs.append(n_syn + np.searchsorted(c.pre[order], np.arange(n_pre + 1)))
+        ptrs.append(n_syn + np.searchsorted(c.pre[order], np.arange(sizes[c.source] + 1)))
         posts.append((first[c.target] + c.post[order]).astype(np.int32))
         ws.append(w.astype(np.int32))
-        conns.append([names.index(c.source), c.delay_steps, c.weight_exp, int(is_linear), n_ptr])
-        n_ptr, n_syn = n_ptr + n_pre + 1, n_syn + int(c.pre.size)
+        table.append([names.index(c.source), c.delay_steps, c.weight_exp, int(is_linear), n_ptr])
+        n_ptr, n_syn = n_ptr + sizes[c.source] + 1, n_syn + int(c.pre.size)
         depth = max(depth, c.delay_steps + 2)
     pops = np.array(rows, np.int64).reshape(-1, r.N_POP_COLUMNS)
     return Loihi2Tables(
         network=network,
         dt_ms=float(dt_ms),
         pops=pops,
-        conns=np.array(conns, np.int64).reshape(-1, 5),
+        conns=np.array(table, np.int64).reshape(-1, 5),
         ptr=np.concatenate(ptrs).astype(np.int64) if ptrs else np.zeros(1, np.int64),
         post=np.concatenate(posts) if posts else np.zeros(1, np.int32),
         w=np.concatenate(ws) if ws else np.zeros(1, np.int32),

@@ -55,19 +55,19 @@ DVS_START_MS, WINDOW_MS = 100.0, 85.0
 BSDS_THRESHOLD = 0.4
 
 
-def _backend(bits):
+def _backend(bits, name: str = "fast"):
     from snn_fg.backends import get_backend
 
-    return get_backend("fast", **({"weight_bits": bits} if bits else {}))
+    return get_backend(name, **({"weight_bits": bits} if bits else {}))
 
 
-def discs(network: str, bits) -> list[dict]:
+def discs(network: str, bits, backend: str = "fast") -> list[dict]:
     from snn_fg.events import image_to_frame
     from snn_fg.frames.scenes import disc
     from snn_fg.models.spiking import run_spiking
     from snn_fg.scoring.metrics import grouping_peak_inside, truth_scores
 
-    rows, backend = [], _backend(bits)
+    rows, backend = [], _backend(bits, backend)
     for radius in RADII:
         for light in (True, False):
             scene = disc(radius=radius, light_on_dark=light)
@@ -87,14 +87,14 @@ def discs(network: str, bits) -> list[dict]:
     return rows
 
 
-def dvs(network: str, bits) -> tuple[list[dict], list]:
+def dvs(network: str, bits, backend: str = "fast") -> tuple[list[dict], list]:
     from snn_fg.events import iter_windows
     from snn_fg.models.spiking.continuous import run_spiking_windows
     from snn_fg.scoring.metrics import grouping_peak
     from snn_fg.scoring.outline import filled_outline, outline_scores
 
     windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=WINDOW_MS, start_ms=DVS_START_MS))
-    maps = run_spiking_windows(windows, network=network, backend=_backend(bits), progress=False)
+    maps = run_spiking_windows(windows, network=network, backend=_backend(bits, backend), progress=False)
     rows = []
     for w, m in zip(windows, maps):
         region = filled_outline(w.pos | w.neg)

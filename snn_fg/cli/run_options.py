@@ -141,7 +141,7 @@ RUN_OPTIONS = (
                 None,
                 "cells to create: those this input can use, or every "
                 "cell of the network (the backend's choice: brian2 input, "
-                "fast all)",
+                "fast and loihi2 all)",
             ),
             (
                 "--save-spikes",

@@ -62,6 +62,16 @@ def make_export(folder: Path, source: str, extra: list) -> dict:
     return {"rate_hz": round(rate, 2)}
 
 
+def lava_env():
+    """The Python of the exports' Lava environment (made once, cached), or end with one line."""
+    from snn_fg.export.lava_env import LavaEnvMissing, lava_python
+
+    try:
+        return lava_python()
+    except LavaEnvMissing as e:
+        fail(f"no Lava environment: {e}")
+
+
 def run_py(python, folder: Path, out: str, *args) -> float:
     t0 = time.perf_counter()
     done = subprocess.run(
@@ -252,12 +262,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--inputs", nargs="+", default=["disc", "dvs"], choices=["disc", "dvs"])
     args = ap.parse_args(argv)
-    from snn_fg.export.lava_env import LavaEnvMissing, lava_python
-
-    try:
-        python = lava_python()
-    except LavaEnvMissing as e:
-        fail(f"no Lava environment: {e}")
+    python = lava_env()
     run = Run()
     results = {}
     with tempfile.TemporaryDirectory() as tmp:

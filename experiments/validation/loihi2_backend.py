@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import Run, dataset, describe, fail, markdown_table, save_figure, save_results
+from experiments.common import Run, dataset, describe, markdown_table, save_figure, save_results
 from experiments.validation import compact_accuracy, lava_export
 
 #: label -> (backend, weight bits): the fast engine in float and with the 8-bit weights of ``--weight-bits 8``
@@ -219,14 +219,7 @@ def main(argv=None):
     ap.add_argument("--lava", action="store_true", help="also against Lava's fixed_pt (the export's environment)")
     ap.add_argument("--skip-discs", action="store_true")
     args = ap.parse_args(argv)
-    python = None
-    if args.lava:
-        from snn_fg.export.lava_env import LavaEnvMissing, lava_python
-
-        try:
-            python = lava_python()
-        except LavaEnvMissing as e:
-            fail(f"no Lava environment: {e}")
+    python = lava_export.lava_env() if args.lava else None
     run = Run()
     exports = {}
     with tempfile.TemporaryDirectory() as tmp:

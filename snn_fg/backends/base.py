@@ -265,6 +265,14 @@ def segments(settings: RunSettings) -> list[tuple[int, bool]]:
     return [(e, e in edges) for e in ends]
 
 
+def importable(*modules: str, install: str) -> tuple[bool, str]:
+    """A backend's :meth:`Backend.available`: ``(True, "")`` when every one
+    of ``modules`` can be imported, else ``(False, install)``."""
+    from importlib.util import find_spec
+
+    return (True, "") if all(find_spec(m) is not None for m in modules) else (False, install)
+
+
 class Backend(ABC):
     """A simulator that runs a network description on input spikes.
 

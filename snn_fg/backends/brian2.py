@@ -29,6 +29,7 @@ from .base import (
     Backend,
     RunSettings,
     SimulationResult,
+    importable,
     lif_populations,
     receptor,
     receptor_weights,
@@ -134,11 +135,7 @@ class Brian2Backend(Backend):
 
     @classmethod
     def available(cls):
-        try:
-            import brian2  # noqa: F401
-        except ImportError:
-            return False, "pip install brian2"
-        return True, ""
+        return importable("brian2", install="pip install brian2")
 
     def describe(self) -> dict:
         return {"name": self.name, "codegen": self.used_codegen or self.codegen}

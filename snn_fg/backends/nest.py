@@ -25,7 +25,6 @@ thread: :func:`~snn_fg.pynn.network.nest_threads`); the wheel has no MPI.
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import time
 
 import numpy as np
@@ -39,7 +38,7 @@ from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from ..pynn.simulator import import_simulator
 from . import cancel
-from .base import Backend, RunSettings, SimulationResult, lif_populations, source_masks, source_offsets
+from .base import Backend, RunSettings, SimulationResult, importable, lif_populations, source_masks, source_offsets
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
 CHUNK_MS = 25.0
@@ -93,10 +92,7 @@ class NestBackend(Backend):
 
     @classmethod
     def available(cls):
-        missing = [m for m in ("pyNN", "nest") if importlib.util.find_spec(m) is None]
-        if missing:
-            return False, cls.requires
-        return True, ""
+        return importable("pyNN", "nest", install=cls.requires)
 
     def describe(self) -> dict:
         return {

@@ -36,10 +36,7 @@ import time
 from ...errors import SnnFgError
 from ...lowering.unroll import choose_sites
 from ...network.graph import Network
-from ..base import Backend, RunSettings, SimulationResult, source_masks
-
-#: simulated time per call of the compiled loop (progress, Ctrl-C in between)
-CHUNK_MS = 25.0
+from ..base import Backend, RunSettings, SimulationResult, importable, source_masks
 
 
 class Loihi2Backend(Backend):
@@ -48,8 +45,8 @@ class Loihi2Backend(Backend):
     Parameters
     ----------
     chunk_ms : float
-        Simulated time per call of the compiled loop; between calls the
-        progress bar moves and Ctrl-C is honoured.
+        How much simulated time the compiled loop runs at a time (25 ms):
+        the progress bar and Ctrl-C wait for it.
 
     Examples
     --------
@@ -65,7 +62,7 @@ class Loihi2Backend(Backend):
     #: a recording's input is taken a segment at a time
     streams_input = True
 
-    def __init__(self, *, chunk_ms: float = CHUNK_MS):
+    def __init__(self, *, chunk_ms: float = 25.0):
         from ... import validate as check
 
         self.chunk_ms = check.number("Loihi2Backend", "chunk_ms", chunk_ms, lo=0, lo_open=True)
@@ -74,11 +71,7 @@ class Loihi2Backend(Backend):
 
     @classmethod
     def available(cls):
-        try:
-            import numba  # noqa: F401
-        except ImportError:
-            return False, "pip install numba"
-        return True, ""
+        return importable("numba", install="pip install numba")
 
     def describe(self) -> dict:
         import numba

@@ -73,7 +73,7 @@ def test_a_sum_of_odd_weights_is_shifted_after_it_is_summed(export):
     """With weights ``2 m + 1`` (odd) under an exponent of -1, ``(sum W) >> 1`` is not ``sum (W >> 1)``;
     the backend shifts the sum, as Lava and the reference do (and on this input it matters)."""
     from snn_fg.backends.base import lif_populations
-    from snn_fg.backends.loihi2.run import Run
+    from snn_fg.backends.loihi2.simulation import Run
     from snn_fg.backends.loihi2.tables import tables_from
 
     out, meta, conns, net, inputs = export

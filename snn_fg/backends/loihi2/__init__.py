@@ -27,6 +27,11 @@ every backend honours them) are absent, where a board holds them all.
 Spike times are ``n * dt``, in the counting window and bins from step
 ``round(t / dt)``. ``record_state`` gives ``v`` (mV; Loihi 2's neuron has
 one current, not ``I_exc`` and ``I_inh``).
+
+The package: :mod:`.tables` (the network as the loop's arrays, the input
+as cell numbers), :mod:`.rest` (one cell's integer update, and when a
+cell may be left alone), :mod:`.kernel` (the compiled step loop) and
+:mod:`.simulation` (one run: bins, spikes, the result).
 """
 
 from __future__ import annotations
@@ -91,7 +96,7 @@ class Loihi2Backend(Backend):
         return self._tables
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
-        from .run import Run
+        from .simulation import Run
 
         other = [v for v in settings.record_state if v != "v"]
         if other:

@@ -91,7 +91,7 @@ def build_tables(network: Network, dt_ms: float) -> Loihi2Tables:
     Loihi 2's LIF cannot hold is refused with :class:`~snn_fg.errors.InputError`)."""
     from ...export.lava import lava_model
 
-    net = network if network.dt_ms == dt_ms else dataclasses.replace(network, dt_ms=float(dt_ms))
+    net = dataclasses.replace(network, dt_ms=network.time_step(dt_ms, "Loihi2Backend"))
     try:
         meta, arrays = lava_model(net, report=False)
     except ValueError as e:  # (the lowering's: a delay beyond 64 steps, no unit that fits 24 bits)

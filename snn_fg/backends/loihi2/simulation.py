@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from ... import cancel
+from .. import cancel
 from ..base import RunSettings, SimulationResult, bin_result, lif_populations, segments
 from . import kernel as k
 from . import rest

@@ -11,13 +11,9 @@ the export's notes say so (its cost is measured in
 the mask too; for them it only leaves out cells that cannot fire, so
 dropping it changes nothing but the cell count.
 
-Each projection becomes a table that needs no unrolling to store:
-
-* :class:`ConvTable` - the kept kernel taps ``(c_out, c_in, dr, dc)`` and
-  their values: target channel ``c_out`` at level pixel ``p`` reads source
-  channel ``c_in`` at ``p + (dr, dc)`` (a ``conv``-mode kernel is flipped
-  here once);
-* :class:`ResizeTable` - the two 1-D interpolation matrices, sparse.
+Each projection becomes a table that needs no unrolling to store
+(:mod:`snn_fg.lowering.kernel_tables`: :class:`ConvTable` of a Conv's kept
+taps, :class:`ResizeTable` of a Resize's two 1-D matrices).
 
 :func:`whole_pairs` unrolls a table into explicit synapses with the
 standalone code the PyNN export runs (:mod:`.pynn_tables`).
@@ -27,16 +23,24 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-from dataclasses import dataclass
 
 import numpy as np
 
-from ..lowering.connect import kernel_taps
-from ..lowering.interp import interp_matrix, sparse_rows
+from ..lowering.kernel_tables import ConvTable, ResizeTable, geometry, table
 from ..network.graph import Network
-from ..network.nodes import Population
-from ..network.projections import Conv, Projection
+from ..network.projections import Projection
 from ..pynn.tables import conv_pairs, resize_pairs
+
+__all__ = [
+    "ConvTable",
+    "ResizeTable",
+    "board_network",
+    "fingerprint",
+    "geometry",
+    "table",
+    "table_values",
+    "whole_pairs",
+]
 
 BOARD_NOTE = (
     "Export: the board network has every cell of every population; the coarse levels' edge mask "
@@ -56,50 +60,6 @@ def board_network(network: Network) -> Network:
         return network
     pops = tuple(dataclasses.replace(p, edge_mask=False) for p in network.populations)
     return dataclasses.replace(network, populations=pops, notes=network.notes + (BOARD_NOTE,))
-
-
-def geometry(pop: Population) -> dict:
-    """What the standalone unroller needs to know of a population."""
-    return {
-        "level_shape": tuple(pop.level_shape),
-        "grid": tuple(pop.grid),
-        "stride": pop.stride,
-        "channels": pop.channels,
-    }
-
-
-@dataclass(frozen=True)
-class ConvTable:
-    """Kept taps of a Conv: rows ``(c_out, c_in, dr, dc)`` and kernel values."""
-
-    taps: np.ndarray
-    values: np.ndarray
-    wrap: bool
-    kept_mass: float
-
-
-@dataclass(frozen=True)
-class ResizeTable:
-    """A Resize's 1-D matrices as per-row (index, value) arrays; products under ``k_min`` are left out."""
-
-    rows: tuple
-    cols: tuple
-    k_min: float
-
-
-def table(network: Network, pr: Projection):
-    """The weight-shared table of projection ``pr``."""
-    if isinstance(pr, Conv):
-        co, ci, dr, dc, kv, kept = kernel_taps(pr, network)
-        return ConvTable(
-            np.stack([co, ci, dr, dc], axis=1).astype(np.int64), kv.astype(np.float64), pr.padding == "wrap", kept
-        )
-    src, tgt = network.population(pr.source), network.population(pr.target)
-    mats = [
-        interp_matrix(src.level_shape[a], tgt.level_shape[a], src.stride, tgt.stride, pr.interpolation) for a in (0, 1)
-    ]
-    peak = float(np.abs(mats[0]).max() * np.abs(mats[1]).max())
-    return ResizeTable(sparse_rows(mats[0]), sparse_rows(mats[1]), pr.prune * peak if pr.prune > 0 else 0.0)
 
 
 def whole_pairs(network: Network, pr: Projection, tab=None):

@@ -17,10 +17,10 @@ import numpy as np
 
 from .. import __version__, lava, pynn
 from .. import validate as check
+from ..lowering.kernel_tables import ConvTable, geometry, table, table_fields
 from ..network.graph import Network
 from ..results.atomic import OutputFolder
 from ..results.outputs import FolderKind
-from .board import ConvTable, geometry, table
 from .synapses import projection_counts
 
 #: the input file ``snn-fg events --write-spikes`` writes into an export by the README's loop
@@ -72,14 +72,12 @@ def weight_tables(network: Network):
         tab = table(network, pr)
         if isinstance(tab, ConvTable):
             parts = {"taps": tab.taps.astype(np.int32), "values": tab.values}
-            extra = {"type": "conv", "wrap": tab.wrap}
         else:
             parts = {
                 f"{a}_{b}": arr
                 for a, m in (("rows", tab.rows), ("cols", tab.cols))
                 for b, arr in (("idx", m[0].astype(np.int32)), ("val", m[1]))
             }
-            extra = {"type": "resize", "k_min": tab.k_min}
         digest = hashlib.sha1(b"".join(np.ascontiguousarray(a).tobytes() for a in parts.values())).hexdigest()
         if digest not in seen:
             seen[digest] = f"t{len(seen)}"
@@ -95,7 +93,7 @@ def weight_tables(network: Network):
                 "delay_ms": pr.delay_ms,
                 "table": key,
                 "synapses": projection_counts(network, pr, tab).synapses,
-                **extra,
+                **table_fields(tab),
             }
         )
     return entries, arrays

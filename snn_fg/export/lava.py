@@ -55,9 +55,8 @@ LAVA_NOTE = (
 )
 
 
-def lava_model(network: Network, *, command: str | None = None, sensor_shape=None, report: bool = True):
-    """``(network.json data, tables.npz arrays)`` of the board network in Loihi 2's registers
-    (``report=False``: without our Loihi 2 resource report, which takes seconds at full size)."""
+def lava_model(network: Network, *, command: str | None = None, sensor_shape=None) -> tuple[dict, dict]:
+    """``(network.json data, tables.npz arrays)`` of the board network in Loihi 2's registers."""
     from .report import resource_report
 
     net = board_network(network)
@@ -65,7 +64,7 @@ def lava_model(network: Network, *, command: str | None = None, sensor_shape=Non
     entries, arrays = weight_tables(net)
     for e in entries:
         e["lava"] = low.synapses[e["name"]].to_dict()
-    rep = resource_report(network, sensor_shape=sensor_shape) if report else None
+    rep = resource_report(network, sensor_shape=sensor_shape)
     meta = export_meta(
         net,
         entries,
@@ -75,7 +74,7 @@ def lava_model(network: Network, *, command: str | None = None, sensor_shape=Non
         sensor_shape=sensor_shape,
         population_extra=lambda p: {"lava": None if p.neuron is None else low.neurons[p.name].to_dict()},
         weight_bits=8,
-        loihi2_report=rep and {"totals": rep["totals"], "loihi2": rep["targets"]["loihi2"]},
+        loihi2_report={"totals": rep["totals"], "loihi2": rep["targets"]["loihi2"]},
     )
     meta["notes"].append(LAVA_NOTE)
     return meta, arrays

@@ -3,7 +3,7 @@ fixed point computes Loihi 2's with, as the chip would run it.
 
 ``snn-fg run INPUT --model spiking --backend loihi2`` lowers the network to
 Loihi 2's registers and 8-bit weights exactly as ``snn-fg export --format
-lava`` does (:mod:`snn_fg.lowering.loihi2`, :func:`snn_fg.export.lava.lava_model`,
+lava`` does (:mod:`snn_fg.lowering.loihi2`, :mod:`snn_fg.lowering.kernel_tables`,
 :mod:`snn_fg.lava.synapses`) and steps it in the arithmetic of
 :mod:`snn_fg.lava.fixed`, in the order of the export's numpy reference
 (:func:`snn_fg.lava.reference.simulate`, which gives Lava 0.10's
@@ -86,10 +86,9 @@ class Loihi2Backend(Backend):
     def tables(self, network: Network, dt_ms: float):
         """The network's arrays at ``dt_ms``, built once and kept while the
         same description (by its JSON) is simulated again."""
-        from ...export.board import fingerprint
         from .tables import build_tables
 
-        key = (fingerprint(network), float(dt_ms))
+        key = (network.to_json(indent=None), float(dt_ms))
         if self._key != key:
             self._tables, self._key = None, None  # (let the old arrays go first)
             self._tables, self._key = build_tables(network, dt_ms), key

@@ -2,10 +2,10 @@
 and its input as cell numbers step by step.
 
 The registers and synapses are those of the Lava export, made by the same
-code: :func:`snn_fg.export.lava.lava_model` lowers the network
-(:mod:`snn_fg.lowering.loihi2`) and :func:`snn_fg.lava.synapses.connection`
-unrolls each projection into its stored weights ``W = 2 m``, its weight
-exponent and its delay. Here each connection's synapses are sorted by
+code: :mod:`snn_fg.lowering.loihi2` lowers the network, each projection's
+weight-shared table (:mod:`snn_fg.lowering.kernel_tables`) is unrolled by
+:func:`snn_fg.lava.synapses.connection` into its stored weights ``W = 2 m``,
+its weight exponent and its delay. Here each connection's synapses are sorted by
 source (a CSR table) and, where the exponent can be applied synapse by
 synapse without changing a sum (:mod:`.kernel`), its weights come shifted.
 
@@ -25,8 +25,9 @@ import numpy as np
 from ...errors import InputError
 from ...lava import fixed
 from ...lava.synapses import connection
+from ...lowering.kernel_tables import ConvTable, geometry, table, table_fields
+from ...lowering.loihi2 import lower
 from ...network.graph import Network
-from ...pynn.tables import load_tables
 from ..base import source_offsets
 from . import rest as r
 
@@ -87,19 +88,36 @@ def linear(w2m: np.ndarray, weight_exp: int) -> bool:
 
 
 def build_tables(network: Network, dt_ms: float) -> Loihi2Tables:
-    """The arrays of ``network`` lowered to Loihi 2 at ``dt_ms`` (a network
-    Loihi 2's LIF cannot hold is refused with :class:`~snn_fg.errors.InputError`)."""
-    from ...export.lava import lava_model
-
+    """The arrays of ``network`` lowered to Loihi 2 at ``dt_ms`` as its Lava
+    export holds it (a network Loihi 2's LIF cannot hold is refused with
+    :class:`~snn_fg.errors.InputError`)."""
     net = dataclasses.replace(network, dt_ms=network.time_step(dt_ms, "Loihi2Backend"))
     try:
-        meta, arrays = lava_model(net, report=False)
+        low = lower(net)
     except ValueError as e:  # (the lowering's: a delay beyond 64 steps, no unit that fits 24 bits)
         raise InputError("the network", f"Loihi 2 cannot hold it: {e}") from None
-    pops = {p["name"]: p for p in meta["populations"]}
-    tabs = load_tables(meta, arrays)
-    conns = (connection(pr, pops, tabs[pr["name"]]) for pr in meta["projections"])  # (one at a time)
-    return tables_from(network, dt_ms, meta, conns)
+    pops = [
+        {"name": p.name, "size": p.size, **geometry(p), "lava": p.neuron and low.neurons[p.name].to_dict()}
+        for p in net.populations
+    ]
+    return tables_from(network, dt_ms, {"populations": pops}, _connections(net, low, {p["name"]: p for p in pops}))
+
+
+def _connections(net: Network, low, pops: dict):
+    """Each projection's :class:`~snn_fg.lava.synapses.Connection`, made one at
+    a time from its weight-shared table as the Lava export's ``run.py`` makes it."""
+    for pr in net.projections:
+        tab = table(net, pr)
+        entry = {
+            "name": pr.name,
+            "source": pr.source,
+            "target": pr.target,
+            "sign": pr.sign,
+            "gain_mv": pr.gain_mv,
+            "lava": low.synapses[pr.name].to_dict(),
+            **table_fields(tab),
+        }
+        yield connection(entry, pops, (tab.taps, tab.values) if isinstance(tab, ConvTable) else (tab.rows, tab.cols))
 
 
 def tables_from(network: Network, dt_ms: float, meta: dict, conns) -> Loihi2Tables:

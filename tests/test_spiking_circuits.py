@@ -43,8 +43,14 @@ NEST_SIGNED = [
 ]
 
 
+#: backends that report the two synaptic currents this test reads; Loihi 2's neuron has one (its
+#: synapses are held cell for cell against Lava's reference in test_loihi2_backend.py)
+TWO_CURRENTS = [p for p in BACKENDS if p.values[0] != "loihi2"]
+
+
 @pytest.mark.parametrize(
-    "backend, options", [pytest.param(p.values[0], {}, id=p.values[0], marks=p.marks) for p in BACKENDS] + NEST_SIGNED
+    "backend, options",
+    [pytest.param(p.values[0], {}, id=p.values[0], marks=p.marks) for p in TWO_CURRENTS] + NEST_SIGNED,
 )
 @pytest.mark.parametrize("direction, prune", [(2, 0.05), (11, 0.2)])
 def test_one_input_spike_reaches_exactly_the_dog_footprint(backend, options, direction, prune):

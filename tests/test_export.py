@@ -78,8 +78,11 @@ def test_receptor_split_keeps_the_charge_and_quantisation_rounds_per_projection(
     assert np.allclose(q * 127, np.round(w * 127)) and q[2] == 0 and q[0] == 1.0
 
 
-def _disc_input(radius=8, duration=150.0):
+def _disc_input(radius=8, duration=150.0, side=64):
+    """A disc's frame and its input spikes; ``side`` < 64 crops the frame to its centre (a cheaper network)."""
     pos, neg = image_to_frame(disc(radius).image)
+    cut = (pos.shape[0] - side) // 2
+    pos, neg = pos[cut : cut + side, cut : cut + side], neg[cut : cut + side, cut : cut + side]
     return pos, neg, frame_spikes(pos, neg, 200.0, 0.5, duration)
 
 
@@ -88,7 +91,7 @@ def _disc_input(radius=8, duration=150.0):
 def test_pynn_export_runs_on_nest_without_snn_fg_and_reproduces_the_nest_backend(tmp_path):
     from snn_fg.export.pynn import export_pynn, read_counts, save_input
 
-    pos, neg, inp = _disc_input()
+    pos, neg, inp = _disc_input(side=40)
     net = build_network(ModelParams(levels=1, r0=4), pos.shape)
     folder = export_pynn(net, tmp_path / "model")
     save_input(inp, folder / "input.npz", 0.5)

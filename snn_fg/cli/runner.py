@@ -70,7 +70,9 @@ class _CountingCutter:
 
     def _counted(self, windows):
         if windows and self.bar is None:
-            self.bar = tqdm(desc="windows read", unit="win", file=sys.stderr, total=self.total, leave=False)
+            self.bar = tqdm(
+                desc="windows read", unit="win", file=sys.stderr, total=self.total, leave=False, disable=None
+            )
         if self.bar is not None:
             self.bar.update(len(windows))
         return windows

@@ -336,7 +336,9 @@ class _progress:
         if self.bar is None and self.settings.progress:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False)
+            self.bar = tqdm(
+                total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False, disable=None
+            )
         if self.bar is not None:
             self.bar.update(steps * self.settings.dt_ms)
 

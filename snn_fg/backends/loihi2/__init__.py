@@ -136,7 +136,9 @@ class _Progress:
         if self.settings.progress:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False)
+            self.bar = tqdm(
+                total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False, disable=None
+            )
         return self
 
     def __call__(self, steps: int):

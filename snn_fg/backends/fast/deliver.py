@@ -65,6 +65,20 @@ SPIKES_AHEAD = 8
 AHEAD = 48
 
 
+@njit(cache=True, inline="always")
+def mark_row(row_lo, row_hi, dirty, n_dirty, rr, first, last):
+    """Note that row ``rr`` received input in words ``first .. last``: its
+    span widened, or the row listed in ``dirty`` when it is new; returns the
+    new length of ``dirty``."""
+    if row_hi[U(rr)] < 0:
+        dirty[U(n_dirty)] = rr
+        row_lo[U(rr)], row_hi[U(rr)] = first, last
+        return n_dirty + 1
+    row_lo[U(rr)] = min(row_lo[U(rr)], first)
+    row_hi[U(rr)] = max(row_hi[U(rr)], last)
+    return n_dirty
+
+
 @njit(cache=True)
 def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks, owner, n_parts):
     """Add what ``spikes`` (cell numbers, ascending) send through Conv ``p``
@@ -105,6 +119,17 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
         for s in range(cls_ptr[U(cls)], cls_ptr[U(cls + 1)]):
             tr = row - row_qr[U(s)]
             t0, ncol, w0 = column - row_qc[U(s)], row_ncol[U(s)], row_w0[U(s)]
+            if inside and ncol == 1:  # (one tap: what the loops below do for it, without them)
+                rr = row_co[U(s)] * gr + tr
+                if split and (rr >> BAND) % n_parts != owner:
+                    continue
+                acc[U(rr * gc + t0)] += st_w[U(w0)]
+                wa = (t0 >> 6) + rr * words
+                bit = U(1) << U(t0 & 63)
+                bits[U(wa)] |= bit
+                events += ones(bit & pres[U(pbase + wa)])
+                n_dirty = mark_row(row_lo, row_hi, dirty, n_dirty, rr, wa, wa)
+                continue
             a, b, parts = 0, ncol, 1
             if not inside:  # the row may be cut, or wrap around, at the level's edges
                 if wrap:
@@ -138,13 +163,7 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
                     bits[U(wa + 1)] |= m >> U(64 - sh)
                     events += ones((m >> U(64 - sh)) & pres[U(pbase + wa + 1)])
                     wa += 1
-                if row_hi[U(rr)] < 0:
-                    dirty[U(n_dirty)] = rr
-                    n_dirty += 1
-                    row_lo[U(rr)], row_hi[U(rr)] = (lo >> 6) + rr * words, wa
-                else:
-                    row_lo[U(rr)] = min(row_lo[U(rr)], (lo >> 6) + rr * words)
-                    row_hi[U(rr)] = max(row_hi[U(rr)], wa)
+                n_dirty = mark_row(row_lo, row_hi, dirty, n_dirty, rr, (lo >> 6) + rr * words, wa)
     n_dirty_a[0] = n_dirty
     return events
 
@@ -199,13 +218,7 @@ def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, ac
                         bits[U(wa + 1)] |= m >> U(64 - sh)
                         events += ones((m >> U(64 - sh)) & pres[U(pbase + wa + 1)])
                         wa += 1
-                    if row_hi[U(rr)] < 0:
-                        dirty[U(n_dirty)] = rr
-                        n_dirty += 1
-                        row_lo[U(rr)], row_hi[U(rr)] = (lo >> 6) + rr * words, wa
-                    else:
-                        row_lo[U(rr)] = min(row_lo[U(rr)], (lo >> 6) + rr * words)
-                        row_hi[U(rr)] = max(row_hi[U(rr)], wa)
+                    n_dirty = mark_row(row_lo, row_hi, dirty, n_dirty, rr, (lo >> 6) + rr * words, wa)
                     if xc == c1:
                         break
                     m, lo = U(0), col

@@ -137,6 +137,8 @@ class FastBackend(Backend):
             f"(prepared in {timings['build']:.2f} s)"
         )
         t_run, cpu = time.perf_counter(), time.process_time()
+        if stream is not None:
+            stream.started = (t_run, cpu)
         try:
             run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))), stream)
             timings["run"] = time.perf_counter() - t_run

@@ -97,7 +97,8 @@ class BinStream:
     the log then holds a bin and the longest delay, not the whole run."""
 
     def __init__(self, name: str, tab: ft.EngineTables, chosen: dict, run, settings: RunSettings):
-        self.run, self.settings, self.on_bin = run, settings, settings.on_bin
+        self.run, self.settings, self.on_bin, self.tab = run, settings, settings.on_bin, tab
+        self.started = (time.perf_counter(), time.process_time())  # (the run's start: FastBackend.simulate sets it)
         self.edges = [end for end, snapshot in segments(settings) if snapshot]
         self.edges_ms = settings.count_bins_ms
         self.reach = int(tab.prj[:, ft.J_DELAY].max()) if len(tab.prj) else 0
@@ -128,7 +129,7 @@ class BinStream:
 
         while self.j < len(self.edges) and self.edges[self.j] <= n:
             if self.j:
-                self._hand_over(self.j - 1)
+                self._hand_over(self.j - 1, n)
             self.j += 1
             keep = max(0, n - self.reach)  # (the next bin starts at n: its spikes are all still to come)
             if keep > self.counted_to:
@@ -137,7 +138,7 @@ class BinStream:
                 self.counted_to = keep
             self.dropped += self.run.forget_before(keep, n)
 
-    def _hand_over(self, k: int):
+    def _hand_over(self, k: int, n: int):
         from .counting import count_cells
 
         ids, step_start = self.run.spikes()
@@ -157,7 +158,14 @@ class BinStream:
                 first_step=a,
             )
         t, cpu = time.perf_counter(), time.process_time()
-        self.on_bin(k, bin_result(self.template, counts, self.edges_ms[k], self.edges_ms[k + 1], spikes))
+        # (the run so far: its record if the caller stops it here, as a stream that ends does)
+        self.template.stats = run_stats(self.tab, self.run, self, n)
+        result = bin_result(self.template, counts, self.edges_ms[k], self.edges_ms[k + 1], spikes)
+        result.timings_s = {
+            "run": t - self.started[0] - self.seconds,
+            "run_cpu": cpu - self.started[1] - self.cpu_seconds,
+        }
+        self.on_bin(k, result)
         self.seconds += time.perf_counter() - t
         self.cpu_seconds += time.process_time() - cpu
 
@@ -174,7 +182,6 @@ def simulation_result(
     name: str, tab: ft.EngineTables, chosen: dict, run, settings: RunSettings, stream: BinStream | None = None
 ) -> SimulationResult:
     from .counting import bin_counts, count_cells
-    from .deliver import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS
 
     ids, step_start = run.spikes()
     n = run.state.size
@@ -212,20 +219,7 @@ def simulation_result(
                 for k, var in enumerate(("v", "I_exc", "I_inh"))
                 if var in settings.record_state
             }
-    events = {pr.name: int(e) for pr, e in zip(tab.network.projections, run.events, strict=True)}
-    totals = run.totals
-    n_input = run.input_spikes()
-    stats = {
-        "kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()},
-        "taps": dict(tab.taps),
-        "synaptic_events": events,
-        "synaptic_events_total": int(totals[N_EVENTS]),
-        "closed_form_advances": int(totals[N_ADVANCES]),
-        "active_cell_steps": int(totals[N_ACTIVE_STEPS]),
-        "cells": run.n_present,
-        "input_spikes": n_input,
-        "spikes": int(ids.size + (stream.dropped if stream else 0) - n_input),
-    }
+    stats = run_stats(tab, run, stream)
     return SimulationResult(
         network=tab.network,
         backend=name,
@@ -240,3 +234,24 @@ def simulation_result(
         count_bins_ms=settings.count_bins_ms,
         stats=stats,
     )
+
+
+def run_stats(tab: ft.EngineTables, run, stream: BinStream | None = None, n: int | None = None) -> dict:
+    """The engine's counters of ``run`` (its synaptic events in all and per
+    projection, closed-form advances, active cell-steps, input spikes and
+    spikes) before step ``n`` (default: the whole run), with the tables'
+    kept kernel mass and taps: a result's ``stats``."""
+    from .deliver import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS
+
+    totals, n_input = run.totals, run.input_spikes(n)
+    return {
+        "kept_kernel_mass": {k: round(v, 4) for k, v in tab.kept_mass.items()},
+        "taps": dict(tab.taps),
+        "synaptic_events": {pr.name: int(e) for pr, e in zip(tab.network.projections, run.events, strict=True)},
+        "synaptic_events_total": int(totals[N_EVENTS]),
+        "closed_form_advances": int(totals[N_ADVANCES]),
+        "active_cell_steps": int(totals[N_ACTIVE_STEPS]),
+        "cells": run.n_present,
+        "input_spikes": n_input,
+        "spikes": int(run.log_length + (stream.dropped if stream else 0) - n_input),
+    }

@@ -76,11 +76,13 @@ class _InputFeed:
             )
             self.loaded = j
 
-    def spikes_fed(self) -> int:
-        """How many input spikes the run fed, without a pass over the spike log."""
-        if self.segmented:
-            return self.total + int(self.ptr[-1])
-        periods, rest = divmod(self.n_steps, self.ptr.size - 1)
+    def spikes_fed(self, n: int | None = None) -> int:
+        """How many input spikes the run fed before step ``n`` (default: the
+        whole run), without a pass over the spike log."""
+        n = self.n_steps if n is None else n
+        if self.segmented:  # (the segment loaded holds step n, or ends at it)
+            return self.total + int(self.ptr[min(n - self.loaded * self.period, self.ptr.size - 1)])
+        periods, rest = divmod(n, self.ptr.size - 1)
         return int(periods * self.ptr[-1] + self.ptr[rest])
 
 
@@ -225,9 +227,9 @@ class Run:
         """The synaptic events of each projection, summed over threads."""
         return self.prj_events.sum(axis=0)
 
-    def input_spikes(self) -> int:
-        """How many input spikes the run fed."""
-        return self.feed.spikes_fed()
+    def input_spikes(self, n: int | None = None) -> int:
+        """How many input spikes the run fed (before step ``n``)."""
+        return self.feed.spikes_fed(n)
 
     in_ptr = property(lambda self: self.feed.ptr)
     in_ids = property(lambda self: self.feed.ids)

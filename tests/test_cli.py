@@ -521,3 +521,27 @@ def test_a_recording_whose_windows_give_no_vector_says_so(tmp_path, capsys):
             assert f"(their events last {min(spans):.0f}-{max(spans):.0f} ms)" in err  # (no hint: a rate model)
         else:
             assert "no figure-ground vector" not in err
+
+
+def test_a_spiking_recording_run_to_its_end_keeps_the_whole_runs_counters(tmp_path, monkeypatch):
+    """A recording read as a stream (in chunks, as a long one is) is laid out
+    for more windows than it holds and stopped at its last one: the whole
+    run's record still holds the engine's synaptic events and CPU time (how
+    the bench measures the engine), beyond those of window 0's read-out."""
+    from snn_fg.cli import runner
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.frames.scenes import disc
+    from snn_fg.results.maps import Maps
+
+    rec = image_to_events(disc(8).image, motion="circle")
+    path = tmp_path / "disc.npy"
+    save_events(path, rec.events, rec.sensor_size)
+    monkeypatch.setattr(runner, "RUN_CHUNK_EVENTS", max(1, len(rec.events) // 8))
+    out = tmp_path / "out"
+    opts = ["--window-ms", "60", "--levels", "2", "--sensor-size", "64x64", "--no-progress", "--no-figures"]
+    assert main(["run", str(path), "--out", str(out), "--model", "spiking", *opts]) == 0
+    m = Maps.load(out / "maps.zarr")
+    whole = m.params["whole_run"]
+    assert m.fg_x.shape[0] == whole["windows"] > 1
+    assert whole["backend_stats"]["synaptic_events_total"] > m.params["backend_stats"]["synaptic_events_total"] > 0
+    assert whole["timings_s"]["run_cpu"] > 0

@@ -13,6 +13,7 @@ network continuously, reading the events as they come), writing
 from __future__ import annotations
 
 import sys
+from contextlib import ExitStack, closing
 
 from ..errors import InputError
 from ..events.live import LiveStream
@@ -21,7 +22,8 @@ from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..models import MODELS
 from ..results.atomic import growing_folder, settle_folder
-from ..results.publish import LiveModel, LiveRecord, Publisher
+from ..results.live_view import LiveView
+from ..results.publish import LiveModel, LiveRecord, Publisher, warm_up
 from ..results.store import windows_complete
 from .options import number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
@@ -56,14 +58,24 @@ def add_live_command(sub):
         metavar="H",
         help="a window's maps every H ms over the last --window-ms (a sliding read-out; default: one per window)",
     )
-    p.add_argument("--publish", metavar="udp://HOST:PORT", help="one JSON line per window: its span and peaks")
+    p.add_argument(
+        "--publish",
+        metavar="URL",
+        help="one JSON line per window (its span and peaks): udp://HOST:PORT, or tcp://HOST:PORT (connects there)",
+    )
+    p.add_argument(
+        "--view",
+        type=number(int, 0, strict=False),
+        metavar="PORT",
+        help="serve a page on http://127.0.0.1:PORT/ showing each window's event frame and maps as they come",
+    )
     p.add_argument("--peaks", type=number(int, 1), default=3, metavar="K", help="grouping peaks published (3)")
     p.add_argument(
         "--max-behind",
-        type=number(int, 0, strict=False),
-        default=2,
+        type=number(int, 1, strict=False),
+        default=1,
         metavar="N",
-        help="windows waiting for their maps before whole windows are dropped (2)",
+        help="complete windows waiting for their maps before whole windows are dropped (1: the least latency)",
     )
     p.add_argument("--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s (30)")
     p.add_argument("--idle-s", type=number(float, 0), default=1.0, metavar="S", help="udp://: end after S s idle (1)")
@@ -80,31 +92,34 @@ def cmd_live(args) -> int:
     if given:
         flags = ", ".join("--" + k.replace("_", "-") for k in given)
         raise InputError(args.source, f"{flags}: not for a live stream (--hop-ms slides the read-out)")
-    publish_to = _udp_address(args.publish) if args.publish else None
     model = chosen_model(args, "recording")
     if model.needs == "image":
         raise InputError(args.source, f"the {model.name} model needs an image, not an event stream")
-    source = open_source(args.source, args.sensor_size, wait_s=args.wait_s, idle_s=args.idle_s)
-    w, h = source.sensor_size[:2]
-    try:
-        check_levels(
-            pooled_shape((h, w), model.params.input_pool),
-            model.params.levels,
-            args.source,
-            model.params.levels_per_octave,
-        )
-        out, previous = growing_folder(args.out, force=args.force)
-    except BaseException:
-        source.close()
-        raise
     window_ms = args.window_ms if args.window_ms is not None else 85.0
+    scheme = parse_address(args.source)[0]
+    with ExitStack() as opened:  # (what is open so far is closed on an error)
+        publisher = opened.enter_context(closing(Publisher(args.publish))) if args.publish else None
+        view = opened.enter_context(closing(LiveView(args.view, args.source))) if args.view is not None else None
+        warm_s = None
+        if scheme == "dv" and args.sensor_size is not None:  # (before connecting: a DV server sends from then on)
+            warm_s = _warmed(model, args.sensor_size, window_ms, args)
+        source = opened.enter_context(
+            closing(open_source(args.source, args.sensor_size, wait_s=args.wait_s, idle_s=args.idle_s))
+        )
+        if warm_s is None:
+            warm_s = _warmed(model, source.sensor_size, window_ms, args)
+        out, previous = growing_folder(args.out, force=args.force)
+        opened.pop_all()
     stream = LiveStream(
         source, window_ms=window_ms, stride_ms=args.hop_ms, start_ms=args.start_ms or 0.0, max_behind=args.max_behind
     )
     stream.segment_ms = LIVE_SEGMENT_MS
-    stream.on_ready = lambda: print(f"snn-fg: live: {model.name} model ready for {args.source}", flush=True)
-    publisher = Publisher(publish_to) if publish_to else None
-    record = LiveRecord(stream, publisher, args.peaks)
+    page = "" if view is None else f"; the live page is on http://127.0.0.1:{view.port}/"
+    stream.on_ready = lambda: print(
+        f"snn-fg: live: {model.name} model ready for {args.source} (warmed up in {warm_s:.1f} s){page}", flush=True
+    )
+    record = LiveRecord(stream, publisher, args.peaks, view)
+    record.warm_up_s = warm_s
     described = {"input": args.source, "kind": "live", "window_ms": window_ms, "start_ms": args.start_ms or 0.0}
     described["stride_ms"] = args.hop_ms if args.hop_ms is not None else window_ms
     args.interrupt_note = f"the windows complete so far are in {args.out}/ (live.json says how many)"
@@ -119,8 +134,9 @@ def cmd_live(args) -> int:
         raise
     finally:
         stream.close()
-        if publisher is not None:
-            publisher.close()
+        for part in (publisher, view):
+            if part is not None:
+                part.close()
         kept = bool(windows_complete(out))
         if kept:
             summary = record.save(out / "live.json", ended)
@@ -136,8 +152,10 @@ def cmd_live(args) -> int:
     return 0
 
 
-def _udp_address(url: str) -> tuple[str, int]:
-    scheme, host, port = parse_address(url, "--publish")
-    if scheme != "udp":
-        raise InputError(url, "--publish: expected udp://HOST:PORT")
-    return host, port
+def _warmed(model, sensor_size, window_ms: float, args) -> float:
+    """The model checked against the sensor and warmed up (:func:`~snn_fg.results.publish.warm_up`): seconds taken."""
+    w, h = sensor_size[:2]
+    check_levels(
+        pooled_shape((h, w), model.params.input_pool), model.params.levels, args.source, model.params.levels_per_octave
+    )
+    return warm_up(model, sensor_size, window_ms, args.peaks)

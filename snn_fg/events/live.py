@@ -15,10 +15,12 @@ Drop policy: the stream is cut into slots of one stride (the window, or
 begins while more than ``max_behind`` complete windows wait for their maps
 (:meth:`done` says which window was published last), the whole slot is
 dropped: its events are counted and thrown away, and every window that
-holds it is dropped (:meth:`dropped_window`: not written, not published).
-The windows in between are kept whole. So at most ``max_behind`` windows
-and one slot of events wait, whatever the stream's rate; the model's
-clock runs on through a dropped slot without its events.
+holds it is dropped (:meth:`dropped_window`: not written, not published,
+and not computed). The windows in between are kept whole. So at most
+``max_behind`` windows and one slot of events wait, whatever the stream's
+rate. A dropped slot costs no simulated time: where no kept window is read
+out (:meth:`resume_at`), the spiking network skips the rest of the slot and
+goes on at the next one put at rest, as if no event had come before it.
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ class LiveStream:
     """The events of ``source`` as they arrive; the window options are
     :class:`~snn_fg.events.window.WindowCutter`'s (``stride_ms``: the hop)."""
 
-    def __init__(self, source, *, window_ms=85.0, stride_ms=None, start_ms=0.0, max_behind: int = 2):
+    def __init__(self, source, *, window_ms=85.0, stride_ms=None, start_ms=0.0, max_behind: int = 1):
         self.source, self.name = source, source.name
         self.sensor_size = source.sensor_size
         self.options = {"window_ms": window_ms, "stride_ms": stride_ms, "start_ms": start_ms}
@@ -55,6 +57,7 @@ class LiveStream:
         self.slot_arrival: dict = {}  # slot -> time its last event arrived (perf_counter)
         self.events_received = self.events_dropped = self.outside = self.backwards = 0
         self.windows_dropped = 0
+        self.skipped_us = 0  # the stream time the model did not simulate (resume_at)
         self.dropped_windows: set = set()  # (those not yet passed by the published ones)
         self.on_ready = None  # called once the model first asks for events
         self.lock = threading.Lock()  # (the drop bookkeeping, shared by both threads)
@@ -172,12 +175,42 @@ class LiveStream:
         return self.chunks(), self.cutter()
 
     def __iter__(self):
+        """The windows kept, one by one (a dropped one is passed over, :meth:`done`)."""
         cut = self.cutter()
         for chunk in self.chunks():
-            yield from cut.add(chunk)
+            yield from self._kept(cut.add(chunk))
         if cut.t0 is None:
             raise InputError(self.name, "the stream ended before any event")
-        yield from cut.finish()
+        yield from self._kept(cut.finish())
+
+    def _kept(self, windows):
+        for w in windows:
+            if self.dropped_window(w):
+                self.done(w)
+            else:
+                yield w
+
+    def resume_at(self, t: float, lag_us: float) -> float:
+        """Where a model at time ``t`` (us from the first window's start) may go on:
+        ``t``, or, inside a dropped slot that no kept window reads out at ``t``
+        (window ``k`` is read over ``[k * stride + lag_us, ... + window)``), the
+        slot's end or the next kept window's read-out start, whichever is first.
+        The time skipped is counted (``live.json``: ``simulated_ms_skipped``)."""
+        with self.lock:
+            s = int(t // self.stride)
+            if s not in self.dropped_slots:
+                return t
+            to = (s + 1) * self.stride
+            first = max(0, int((t - lag_us - self.win) // self.stride) + 1)
+            for k in range(first, int((to - lag_us) // self.stride) + 1):
+                start = k * self.stride + lag_us
+                if k in self.dropped_windows or k <= self.published or start + self.win <= t:
+                    continue
+                if start <= t:
+                    return t  # (a kept window is being read out)
+                to = min(to, start)
+            self.skipped_us += to - t
+            return to
 
     def slots_of(self, w) -> range:
         first = (w.t_start_us - self.origin) // self.stride
@@ -212,6 +245,7 @@ class LiveStream:
     def stats(self) -> dict:
         return {
             "windows_dropped": self.windows_dropped,
+            "simulated_ms_skipped": self.skipped_us / 1000.0,
             "events_received": self.events_received,
             "events_dropped": self.events_dropped,
             "events_outside": self.outside,

@@ -45,19 +45,21 @@ def looped(chunks, n: int):
 
 def paced(chunks, speed: float, tick_s: float = TICK_S):
     """The events of ``chunks`` (times in us from 0) in pieces, each yielded once the
-    wall clock has reached its last event's time (divided by ``speed``)."""
+    wall clock has reached its last event's time (divided by ``speed``): what
+    is due every ``tick_s`` (the sender sleeps in between, so that a dense
+    stream does not keep a core busy; events are sent at most a tick late)."""
     start = time.perf_counter()
     for chunk in chunks:
-        t = chunk["t"]
+        t = np.ascontiguousarray(chunk["t"])  # (a field is strided: searched as it is, it is copied per search)
         i = 0
         while i < len(t):
             now_us = (time.perf_counter() - start) * 1e6 * speed
-            j = int(np.searchsorted(t, now_us, side="right"))
+            j = int(np.searchsorted(t, t.dtype.type(now_us), side="right"))  # (a float would cast all of t)
             if j > i:
                 yield chunk[i:j]
                 i = j
-            else:
-                time.sleep(min(tick_s, max(0.0, (t[i] - now_us) / 1e6 / speed)))
+            if i < len(t):  # (until the next event is due, at least a tick)
+                time.sleep(max(tick_s, (t[i] - now_us) / 1e6 / speed))
 
 
 class UdpSender:

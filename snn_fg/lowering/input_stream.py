@@ -93,7 +93,10 @@ class SegmentedInput:
     before ``end_step``, as :meth:`SpikeStream.take_until`. ``on``,
     ``off`` (the sources that may fire), ``merged`` and ``rate_hz`` are
     known before the run starts (``snn_fg/models/spiking/stream_input.py``). The clock
-    fires at ``clock_steps`` (index :attr:`clock_index`).
+    fires at ``clock_steps`` (index :attr:`clock_index`). ``resume_at(n)``
+    (optional): the step a run at step ``n`` may go on from, the steps
+    between unwanted and without input (a live stream's dropped time); a
+    backend that can skips them with the network put at rest.
     """
 
     shape: tuple
@@ -105,6 +108,7 @@ class SegmentedInput:
     spikes_until: object
     clock_steps: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
     kind: str = "events"
+    resume_at: object = None
     period_steps = None  # (never repeats)
 
     clock_index = InputSpikes.clock_index

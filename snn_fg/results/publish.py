@@ -1,10 +1,13 @@
 """What a live run gives out as each window's maps are made: one JSON line per
-window to ``--publish udp://HOST:PORT`` (its time span and strongest
-proto-objects, for a gaze controller), and the run's record, ``live.json``
-(every window's latency, and their median, 95th percentile and worst).
+window to ``--publish udp://HOST:PORT`` or ``tcp://HOST:PORT`` (its time span
+and strongest proto-objects, for a gaze controller), the live page's latest
+window (``--view``, :mod:`snn_fg.results.live_view`), and the run's record,
+``live.json`` (every window's latency, and their median, 95th percentile and
+worst).
 
 A window's latency is the time from the arrival of its last event to its
-maps being written and published.
+maps being published (its JSON line sent, the page given them); they are
+written to ``maps.zarr`` right after.
 """
 
 from __future__ import annotations
@@ -12,43 +15,79 @@ from __future__ import annotations
 import json
 import socket
 import time
+import warnings
+from urllib.parse import urlsplit
 
 import numpy as np
 
+from snn_fg.errors import InputError, InputWarning
 from snn_fg.results.atomic import save_text
 from snn_fg.results.peaks import grouping_peaks
 
 #: the drop policy, as live.json states it
 DROP_POLICY = (
     "whole windows: a stride's slot of events is dropped when it begins while more than max_behind complete "
-    "windows wait for their maps; a window holding a dropped slot is neither written nor published"
+    "windows wait for their maps; a window holding a dropped slot is neither computed, written nor published, "
+    "and the spiking network does not simulate the dropped time that no kept window reads out: it goes on at "
+    "the next kept slot with every cell at rest (simulated_ms_skipped)"
 )
+#: seconds a TCP subscriber is given to take a line before publishing stops
+TCP_TIMEOUT_S = 1.0
 
 
 class Publisher:
-    """One JSON line per window, in a UDP datagram to ``address`` ``(host, port)``."""
+    """One JSON line per window: in a UDP datagram to ``udp://HOST:PORT``, or on
+    a TCP connection made to ``tcp://HOST:PORT`` (a listening gaze controller).
+    A TCP subscriber that goes away (or takes no line for :data:`TCP_TIMEOUT_S`)
+    is said once, and the run goes on without publishing."""
 
-    def __init__(self, address: tuple[str, int]):
-        self.address = address
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    def __init__(self, url: str):
+        parts = urlsplit(url)
+        if parts.scheme not in ("udp", "tcp") or not parts.hostname or parts.port is None:
+            raise InputError(url, "--publish: expected udp://HOST:PORT or tcp://HOST:PORT")
+        self.url, self.address, self.tcp = url, (parts.hostname, parts.port), parts.scheme == "tcp"
+        if not self.tcp:
+            self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            return
+        try:
+            self.sock = socket.create_connection(self.address, timeout=TCP_TIMEOUT_S)
+        except OSError as exc:
+            raise InputError(url, f"--publish: cannot connect: {exc.strerror or exc}") from None
 
     def send(self, message: dict) -> None:
-        self.sock.sendto((json.dumps(message) + "\n").encode(), self.address)
+        line = (json.dumps(message) + "\n").encode()
+        if not self.tcp:
+            self.sock.sendto(line, self.address)
+            return
+        if self.sock is None:
+            return
+        try:
+            self.sock.sendall(line)
+        except OSError as exc:
+            warnings.warn(
+                f"{self.url}: the subscriber went away ({exc.strerror or exc}); the run goes on without publishing",
+                InputWarning,
+                stacklevel=2,
+            )
+            self.close()
 
     def close(self):
-        self.sock.close()
+        if self.sock is not None:
+            self.sock.close()
+            self.sock = None
 
 
 class LiveRecord:
     """The windows of a live run as they are published, and ``live.json`` at its end."""
 
-    def __init__(self, stream, publisher: Publisher | None = None, peaks: int = 3):
-        self.stream, self.publisher, self.k = stream, publisher, peaks
+    def __init__(self, stream, publisher: Publisher | None = None, peaks: int = 3, view=None):
+        self.stream, self.publisher, self.k, self.view = stream, publisher, peaks, view
         self.rows: list = []
         self.t_start = time.perf_counter()
+        self.warm_up_s = None  # (the warm-up before the stream, LiveModel.warm_up)
 
     def window(self, w, maps) -> None:
-        """Window ``w``'s maps are written: publish them, note the latency."""
+        """Window ``w``'s maps are made: publish them, note the latency."""
         arrived = self.stream.arrival(w)
         origin = self.stream.origin - self.stream.start
         message = {
@@ -62,6 +101,8 @@ class LiveRecord:
         message["latency_ms"] = None if arrived is None else round((now - arrived) * 1000, 3)
         if self.publisher is not None:
             self.publisher.send(message)
+        if self.view is not None:
+            self.view.show(w, maps, message)
         self.rows.append({k: message[k] for k in ("window", "t_start_us", "t_end_us", "events", "latency_ms")})
 
     def summary(self, ended: str) -> dict:
@@ -76,6 +117,7 @@ class LiveRecord:
             **self.stream.stats(),
             "latency_ms": latency,
             "ended": ended,
+            "warm_up_s": self.warm_up_s,
             "seconds": round(time.perf_counter() - self.t_start, 3),
             "drop_policy": DROP_POLICY,
             "max_behind": self.stream.max_behind,
@@ -90,8 +132,8 @@ class LiveRecord:
 
 class LiveModel:
     """``model`` as :func:`~snn_fg.cli.runner.run_recording` runs it, with each
-    window's maps published (``record``) once written, and the windows that
-    hold a dropped slot left out."""
+    window's maps published (``record``) once written (the windows that hold
+    a dropped slot are not handed over: :class:`~snn_fg.events.live.LiveStream`)."""
 
     def __init__(self, model, stream, record: LiveRecord):
         self.model, self.stream, self.record = model, stream, record
@@ -100,10 +142,44 @@ class LiveModel:
         return getattr(self.model, name)
 
     def run_windows_into(self, windows, emit, start: int = 0) -> dict:
-        def each(w, maps):
-            if not self.stream.dropped_window(w):  # (counted as its slot was dropped)
-                emit(w, maps)
-                self.record.window(w, maps)
+        def each(w, maps):  # (a dropped window comes not: the stream passes it over)
+            self.record.window(w, maps)  # (published first: the write adds nothing to the latency)
+            emit(w, maps)
             self.stream.done(w)
 
         return self.model.run_windows_into(windows, each, start)
+
+
+def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> float:
+    """Run ``model`` on ``windows`` windows of synthetic events of the sensor's
+    size (:func:`warm_up_events`), its maps thrown away, so that a live run
+    finds its code compiled and loaded, its network's tables built and its
+    arrays allocated (the spiking model keeps them on its backend object)
+    before the first packet; returns the seconds it took."""
+    from snn_fg.events import Recording, iter_windows
+
+    t0 = time.perf_counter()
+    w, h = sensor_size[:2]
+    rec = Recording(warm_up_events(w, h, window_ms * 1000.0, windows), (w, h, 2), "synthetic")
+    model.run_windows_into(list(iter_windows(rec, window_ms=window_ms)), lambda _, maps: grouping_peaks(maps, peaks))
+    return round(time.perf_counter() - t0, 3)
+
+
+def warm_up_events(w: int, h: int, window_us: float, windows: int, per_window: int = 20_000) -> np.ndarray:
+    """Synthetic events for a warm-up: a ring (a third of the sensor's height
+    across) moving right, ON on its leading half and OFF on its trailing one,
+    ``per_window`` events in each of ``windows`` windows (deterministic)."""
+    from snn_fg.events import EVENT_DTYPE
+
+    n = per_window * windows
+    rng = np.random.default_rng(0)
+    t = np.sort(rng.uniform(0, window_us * windows, n)).astype(np.int64)
+    angle = rng.uniform(0, 2 * np.pi, n)
+    r = h / 6 * (1 + 0.05 * rng.standard_normal(n))
+    cx = w / 3 + (w / 3) * t / (window_us * windows)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = t
+    ev["x"] = np.clip(cx + r * np.cos(angle), 0, w - 1).astype(ev["x"].dtype)
+    ev["y"] = np.clip(h / 2 + r * np.sin(angle), 0, h - 1).astype(ev["y"].dtype)
+    ev["p"] = np.cos(angle) > 0
+    return ev

@@ -101,7 +101,7 @@ class BinStream:
         self.started = (time.perf_counter(), time.process_time())  # (the run's start: FastBackend.simulate sets it)
         self.edges = [end for end, snapshot in segments(settings) if snapshot]
         self.edges_ms = settings.count_bins_ms
-        self.reach = int(tab.prj[:, ft.J_DELAY].max()) if len(tab.prj) else 0
+        self.reach = run.reach
         pops = lif_populations(tab.network)
         self.cells = {p.name: slice(run.first[p.name], run.first[p.name] + chosen[p.name].size) for p in pops}
         self.template = SimulationResult(
@@ -137,6 +137,18 @@ class BinStream:
                 count_cells(ids, step_start[self.counted_to], step_start[keep], self.counts)
                 self.counted_to = keep
             self.dropped += self.run.forget_before(keep, n)
+
+    def skipping(self, n: int) -> int:
+        """The run skips from step ``n`` on (:meth:`.run.Run.skip`), forgetting its log:
+        the log's spikes are counted first; returns the first step of the bin
+        being filled, whose log position is still read."""
+        from .counting import count_cells
+
+        ids, step_start = self.run.spikes()
+        count_cells(ids, step_start[self.counted_to], step_start[n], self.counts)
+        self.counted_to = n
+        self.dropped += ids.size
+        return self.edges[self.j - 1] if self.j else 0
 
     def _hand_over(self, k: int, n: int):
         from .counting import count_cells
@@ -254,4 +266,5 @@ def run_stats(tab: ft.EngineTables, run, stream: BinStream | None = None, n: int
         "cells": run.n_present,
         "input_spikes": n_input,
         "spikes": int(run.log_length + (stream.dropped if stream else 0) - n_input),
+        "steps_skipped": run.skipped,
     }

@@ -76,6 +76,12 @@ class _InputFeed:
             )
             self.loaded = j
 
+    def resume_at(self, n: int) -> int:
+        """The step the run at step ``n`` goes on from: ``n``, or later where its
+        input says the steps from ``n`` are not wanted (``inputs.resume_at``)."""
+        resume_at = getattr(self.inputs, "resume_at", None) if self.segmented else None
+        return n if resume_at is None else max(n, min(int(resume_at(n)), self.n_steps))
+
     def spikes_fed(self, n: int | None = None) -> int:
         """How many input spikes the run fed before step ``n`` (default: the
         whole run), without a pass over the spike log."""
@@ -101,6 +107,8 @@ class Run:
         off = self._number(chosen)
         self.ctype = np.repeat(tab.pops[:, ft.P_TYPE], self.cells[:, 1]).astype(np.uint8)
         self.feed = _InputFeed(tab, self.first, inputs, n_steps)
+        self.reach = int(tab.prj[:, ft.J_DELAY].max()) if len(tab.prj) else 0  # (the longest delay, steps)
+        self.skipped = 0  # steps not simulated (skip)
         lif = lif_populations(tab.network)
         self.n_present = int(sum(chosen[p.name].size for p in lif))
         self.state = pool.zeros("state", off, STATE)  # all at rest: never touched
@@ -181,9 +189,31 @@ class Run:
                 bar(reached - n)
                 cancel.check()
                 n = reached
-                self.feed.reached(n)
-                if stream is not None:
+                if stream is not None:  # (the bins that end here are handed over before the next input is awaited)
                     stream.reached(n)
+                resume = n if stream is None else self.feed.resume_at(n)  # (a run that keeps its log runs every step)
+                if resume > n:
+                    self.skip(n, resume, stream)
+                    n = resume
+                    if stream is not None:
+                        stream.reached(n)
+                self.feed.reached(n)
+
+    def skip(self, n: int, to: int, stream: BinStream | None = None):
+        """Steps ``n .. to - 1`` are not simulated (a live stream dropped
+        them, :meth:`_InputFeed.resume_at`): every cell is put at rest and
+        the spikes of the log forgotten (``stream`` counts them first), so
+        that step ``to`` begins as a run with no input before it would.
+        Counted in :attr:`skipped`."""
+        from .core import reset
+        from .deliver import N_FRESH
+
+        first = n if stream is None else stream.skipping(n)  # (the earliest step whose log position is still read)
+        reset(self.state, self.fresh, self.counters[:, N_FRESH])
+        self.counters[:, N_FRESH] = 0
+        self.scalars[:] = 0  # (no active cell, an empty log)
+        self.step_start[max(0, min(first, n - self.reach)) : to + 1] = 0
+        self.skipped += to - n
 
     def release(self):
         """Hand the cell arrays back to the pool, at rest again."""

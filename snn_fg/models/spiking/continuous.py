@@ -209,6 +209,7 @@ def _simulate(
         drain=keep_run or cut is None or not backend.streams_input,
         keep=keep_run,
         segment_ms=segment_ms,
+        drops=windows if hasattr(windows, "dropped_window") else None,
     )
     lay = feed.layout
     net = lay.network
@@ -297,6 +298,7 @@ def lay_out(feed: StreamFeed, opts: SpikingOptions, cut) -> StreamLayout:
         steps=steps,
         clock=bool(opts.recording.window_clock and net.by_role("clock")),
         seed=opts.recording.seed,
+        lag_ms=lag,
     )
 
 

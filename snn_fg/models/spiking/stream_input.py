@@ -164,7 +164,7 @@ class StreamLayout:
     (and its ``origin``), the sensor's frame ``shape``, the step ``dt_ms``, the
     calibration rate ``rate_hz``, each window's read-out ``spans`` (ms from the
     first window's start, step 0) and the steps at which each starts and ends
-    (``steps``, 2 x windows), and whether the window clock fires (``clock``)."""
+    (``steps``, 2 x windows), whether the window clock fires (``clock``), and the read-out lag ``lag_ms``."""
 
     network: object
     origin: dict
@@ -175,6 +175,7 @@ class StreamLayout:
     steps: np.ndarray
     clock: bool
     seed: int = 0
+    lag_ms: float = 0.0
 
     @property
     def held(self) -> bool:
@@ -210,12 +211,26 @@ class StreamFeed:
     ``lay_out(feed)`` returns the run's :class:`StreamLayout` before any
     event is read, or once the whole stream is (:attr:`ended`) where
     ``drain`` asks for it (a backend that takes its input whole). The first
-    event fixes step 0 at the first window's start (:attr:`origin`)."""
+    event fixes step 0 at the first window's start (:attr:`origin`).
+
+    ``drops``: a live stream that drops windows when the model falls behind
+    (:class:`~snn_fg.events.live.LiveStream`): the backend is told which
+    steps it may skip (its ``resume_at``), and a dropped window is not
+    decoded (:meth:`dropped`, :meth:`passed`)."""
 
     def __init__(
-        self, source, lay_out, *, name: str = "<stream>", drain: bool = False, keep: bool = False, segment_ms=SEGMENT_MS
+        self,
+        source,
+        lay_out,
+        *,
+        name: str = "<stream>",
+        drain: bool = False,
+        keep: bool = False,
+        segment_ms=SEGMENT_MS,
+        drops=None,
     ):
         self.it, self.keep, self.held, self.ended, self.name = iter(source), keep, {}, False, name
+        self.drops = drops
         self.n = 0  # windows arrived
         self.pending: list = []  # events arrived before step 0 was known
         self.known_until, self.origin, self.stream = -np.inf, None, None
@@ -236,6 +251,7 @@ class StreamFeed:
             max(1, int(round(segment_ms / lay.dt_ms))),
             self._spikes_until,
             lay.clock_steps(),
+            resume_at=None if drops is None else self._resume_at,
         )
         if self.origin is not None:
             self._start()
@@ -291,6 +307,22 @@ class StreamFeed:
         if self.stream is None:
             raise InputError(self.name, "no window to process")
         return self.stream.take_until(end_step)
+
+    def _resume_at(self, n: int) -> int:
+        """The step a run at step ``n`` may go on from (``drops.resume_at``, in the stream's time)."""
+        if self.origin is None:
+            return n
+        t = n * self.step_us
+        return max(n, int(self.drops.resume_at(t, self.layout.lag_ms * 1000.0) // self.step_us))
+
+    def dropped(self, w) -> bool:
+        """Whether window ``w`` was dropped by the stream (its maps are not wanted)."""
+        return self.drops is not None and self.drops.dropped_window(w)
+
+    def passed(self, w) -> None:
+        """Window ``w`` is done with (published or dropped): the stream is told."""
+        if self.drops is not None:
+            self.drops.done(w)
 
     @property
     def merged(self) -> int:

@@ -127,6 +127,9 @@ class WindowReader:
             raise
 
     def _hand(self, i, w, result, counts, spikes):
+        if self.feed.dropped(w):  # (a live stream dropped it: not decoded)
+            self.feed.passed(w)
+            return
         decoded, before = self._decode(i, w, result, counts, spikes), self.last_at
         self.last_at = time.perf_counter()
         if self.on_window is None:

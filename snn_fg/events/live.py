@@ -58,6 +58,7 @@ class LiveStream:
         self.events_received = self.events_dropped = self.outside = self.backwards = 0
         self.windows_dropped = 0
         self.skipped_us = 0  # the stream time the model did not simulate (resume_at)
+        self.first_dropped = None  # the first slot dropped
         self.dropped_windows: set = set()  # (those not yet passed by the published ones)
         self.on_ready = None  # called once the model first asks for events
         self.lock = threading.Lock()  # (the drop bookkeeping, shared by both threads)
@@ -130,6 +131,7 @@ class LiveStream:
         waiting = complete - self.published - sum(self.published < k <= complete for k in self.dropped_windows)
         if waiting > self.max_behind:
             self.dropped_slots.add(s)
+            self.first_dropped = s if self.first_dropped is None else self.first_dropped
             held = set(range(max(s - self.slots_per_window + 1, 0), s + 1)) - self.dropped_windows
             self.dropped_windows |= held  # (the windows that hold slot s)
             self.windows_dropped += len(held)
@@ -219,6 +221,10 @@ class LiveStream:
     def dropped_window(self, w) -> bool:
         """Whether window ``w`` holds a dropped slot."""
         return any(s in self.dropped_slots for s in self.slots_of(w))
+
+    def dropped_before(self, t_us: float) -> bool:
+        """Whether a slot that begins before ``t_us`` (the stream's clock) was dropped."""
+        return self.first_dropped is not None and self.origin + self.first_dropped * self.stride < t_us
 
     def arrival(self, w) -> float | None:
         """When the last event of window ``w`` arrived (perf_counter), None without events."""

@@ -103,7 +103,12 @@ class LiveRecord:
             self.publisher.send(message)
         if self.view is not None:
             self.view.show(w, maps, message)
-        self.rows.append({k: message[k] for k in ("window", "t_start_us", "t_end_us", "events", "latency_ms")})
+        row = {k: message[k] for k in ("window", "t_start_us", "t_end_us", "events", "latency_ms")}
+        lag_us = 1000.0 * maps.params.get("simulation", {}).get("readout_lag_ms", 0.0)  # (the spiking network's)
+        row["drop_before"] = self.stream.dropped_before(
+            w.t_end_us + lag_us
+        )  # (a slot dropped before its read-out ended)
+        self.rows.append(row)
 
     def summary(self, ended: str) -> dict:
         lat = np.array([r["latency_ms"] for r in self.rows if r["latency_ms"] is not None], dtype=np.float64)

@@ -182,24 +182,61 @@ def disc_file(tmp_path_factory):
     return path, ev, rec.sensor_size
 
 
+class _Inbox:
+    """Where the published lines arrive: a UDP port, or a TCP port that ``snn-fg live`` connects to."""
+
+    def __init__(self, scheme):
+        self.scheme, self.lines = scheme, []
+        kind = socket.SOCK_DGRAM if scheme == "udp" else socket.SOCK_STREAM
+        self.sock = socket.socket(socket.AF_INET, kind)
+        self.sock.bind(("127.0.0.1", 0))
+        self.url = f"{scheme}://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.sock.settimeout(0.5)
+        if scheme == "tcp":
+            self.sock.listen(1)
+            self.thread = threading.Thread(target=self._accept)
+            self.thread.start()
+
+    def _accept(self):
+        self.sock.settimeout(60)
+        conn, _ = self.sock.accept()
+        with conn, conn.makefile("r") as f:
+            self.lines = [json.loads(line) for line in f]  # (until snn-fg live closes the connection)
+
+    def read(self):
+        if self.scheme == "tcp":
+            self.thread.join(30)
+            return self.lines
+        lines = []
+        while True:
+            try:
+                lines.append(json.loads(self.sock.recv(65536)))
+            except TimeoutError:
+                return lines
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("model", [["--model", "rate"], ["--model", "spiking", "--levels", "3"]])
-def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(tmp_path, disc_file, model, capsys):
+@pytest.mark.parametrize(
+    "model, publish",
+    [(["--model", "rate"], "tcp"), (["--model", "spiking", "--levels", "3", "--view", "0"], "udp")],
+)
+def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(
+    tmp_path, disc_file, model, publish, capsys
+):
     path, ev, size = disc_file
-    port, pub = _free_port(), _free_port()
-    inbox = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    inbox.bind(("127.0.0.1", pub))
-    inbox.settimeout(0.5)
-    common = ["--window-ms", "40", "--no-figures", "--no-progress", *model]
+    port = _free_port()
+    inbox = _Inbox(publish)
+    common = ["--window-ms", "40", "--no-figures", "--no-progress"]
     th, out = _sending(port, ev, garbage=[b"\x01\x02\x03"])
     status = main(
         ["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "live"), "--sensor-size", f"{size[0]}x{size[1]}"]
-        + ["--publish", f"udp://127.0.0.1:{pub}", "--max-behind", "1000", "--idle-s", "0.5", *common]
+        + ["--publish", inbox.url, "--max-behind", "1000", "--idle-s", "0.5", *common, *model]
     )
     th.join(30)
     sent = out["sent"]
     assert status == 0
-    assert main(["run", str(path), "--out", str(tmp_path / "run"), *common]) == 0
+    run_model = [o for o in model if o not in ("--view", "0")]
+    assert main(["run", str(path), "--out", str(tmp_path / "run"), *common, *run_model]) == 0
     live, run = read_maps(tmp_path / "live" / "maps.zarr"), read_maps(tmp_path / "run" / "maps.zarr")
     assert len(live[0]) == len(run[0]) == 3
     for a, b in zip(live[:3], run[:3], strict=True):
@@ -208,16 +245,28 @@ def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(tmp_
     assert record["events_received"] == sent == len(ev) and record["packets_malformed"] == 1
     assert record["windows"] == 3 and record["windows_dropped"] == 0 and record["ended"].startswith("the sender")
     assert record["latency_ms"]["max"] >= record["latency_ms"]["p95"] >= record["latency_ms"]["median"] > 0
-    lines = []
-    while True:
-        try:
-            lines.append(json.loads(inbox.recv(65536)))
-        except TimeoutError:
-            break
+    assert record["warm_up_s"] > 0 and not any(w["drop_before"] for w in record["per_window"])
+    lines = inbox.read()
     assert [m["window"] for m in lines] == [0, 1, 2]
     assert [bool(m["peaks"]) for m in lines] == [bool((g > 0).any()) for g in live[2]]  # (a peak where grouping is)
     assert any(m["peaks"] for m in lines)
-    assert "malformed packet" in capsys.readouterr().err
+    said = capsys.readouterr()
+    assert "malformed packet" in said.err
+    ready = [x for x in said.out.splitlines() if "ready" in x]
+    assert len(ready) == 1 and "warmed up in" in ready[0]
+    assert ("the live page is on http://127.0.0.1:" in ready[0]) == ("--view" in model)
+
+
+def test_a_tcp_subscriber_that_is_not_there_is_said_in_one_line(tmp_path, capsys):
+    port = _free_port()  # (nothing listens there)
+    status = main(
+        ["live", "udp://127.0.0.1:9", "--out", str(tmp_path / "o"), "--sensor-size", "24x24"]
+        + ["--publish", f"tcp://127.0.0.1:{port}"]
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and len(err) == 1
+    assert err[0].startswith(f"snn-fg: error: tcp://127.0.0.1:{port}: --publish: cannot connect: ")
+    assert not (tmp_path / "o").exists()
 
 
 def test_no_sender_ends_with_one_line_and_no_output(tmp_path, capsys):

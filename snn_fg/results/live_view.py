@@ -7,7 +7,7 @@ A server thread (the standard library's ``http.server``) answers the page,
 one PNG per panel, ``/events.png``, ``/fg.png``, ``/grouping.png``, of the
 window ``?w=K`` names (the latest one if that has passed). The model's
 thread only hands over its arrays (:meth:`LiveView.show`); a panel is coloured
-(as the run's figures colour it, :mod:`.figures`) and encoded when a
+(as the run's figures colour it, :mod:`snn_fg.results.figures`) and encoded when a
 browser asks for it, once per window.
 """
 

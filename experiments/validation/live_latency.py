@@ -226,8 +226,10 @@ def _row(case, speed, cores, r, sent: int) -> list:
     median, p95, worst = (lat.get(k, float("nan")) for k in ("median", "p95", "max"))
     after = "-"
     if a["after_drop"]:
-        r_min, within = a["after_drop_grouping_r_min"], 100 * (a["after_drop_within_45_min"] or 0)
-        after = f"{r_min:.3f}, {within:.0f} % ({a['after_drop']} windows)"
+        r_min, within = a["after_drop_grouping_r_min"], a["after_drop_within_45_min"]
+        r_min = "-" if r_min is None else f"{r_min:.3f}"
+        within = "-" if within is None else f"{100 * within:.0f} %"
+        after = f"{r_min}, {within} ({a['after_drop']} windows)"
     return [
         case,
         f"{speed:g}x",

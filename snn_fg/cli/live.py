@@ -69,13 +69,16 @@ def add_live_command(sub):
         metavar="PORT",
         help="serve a page on http://127.0.0.1:PORT/ showing each window's event frame and maps as they come",
     )
-    p.add_argument("--peaks", type=number(int, 1), default=3, metavar="K", help="grouping peaks published (3)")
+    p.add_argument(
+        "--peaks", type=number(int, 1, strict=False), default=3, metavar="K", help="grouping peaks published (3)"
+    )
     p.add_argument(
         "--max-behind",
-        type=number(int, 1, strict=False),
-        default=1,
+        type=number(int, 0, strict=False),
+        default=0,
         metavar="N",
-        help="complete windows waiting for their maps before whole windows are dropped (1: the least latency)",
+        help="windows whose read-out is over waiting for their maps before whole windows are dropped "
+        "(0: the least latency; more keeps more windows, each later)",
     )
     p.add_argument("--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s (30)")
     p.add_argument("--idle-s", type=number(float, 0), default=1.0, metavar="S", help="udp://: end after S s idle (1)")
@@ -110,8 +113,14 @@ def cmd_live(args) -> int:
             warm_s = _warmed(model, source.sensor_size, window_ms, args)
         out, previous = growing_folder(args.out, force=args.force)
         opened.pop_all()
+    lag_ms = model.run_options.recording.readout_lag_ms if hasattr(model, "run_options") else 0.0  # (spiking)
     stream = LiveStream(
-        source, window_ms=window_ms, stride_ms=args.hop_ms, start_ms=args.start_ms or 0.0, max_behind=args.max_behind
+        source,
+        window_ms=window_ms,
+        stride_ms=args.hop_ms,
+        start_ms=args.start_ms or 0.0,
+        max_behind=args.max_behind,
+        lag_ms=lag_ms,
     )
     stream.segment_ms = LIVE_SEGMENT_MS
     page = "" if view is None else f"; the live page is on http://127.0.0.1:{view.port}/"

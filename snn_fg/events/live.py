@@ -12,13 +12,16 @@ said once.
 
 Drop policy: the stream is cut into slots of one stride (the window, or
 ``--hop-ms``); a window is made of ``window / stride`` slots. When a slot
-begins while more than ``max_behind`` complete windows wait for their maps
-(:meth:`done` says which window was published last), the whole slot is
+begins while more than ``max_behind`` windows wait for their maps that
+could have them (their read-out, ``lag_ms`` past their end, is over;
+:meth:`done` says which window was published last), the whole slot is
 dropped: its events are counted and thrown away, and every window that
 holds it is dropped (:meth:`dropped_window`: not written, not published,
 and not computed). The windows in between are kept whole. So at most
 ``max_behind`` windows and one slot of events wait, whatever the stream's
-rate. A dropped slot costs no simulated time: where no kept window is read
+rate; the model learns that the stream's clock has passed the dropped
+events (:class:`~snn_fg.events.window.TimePassed`), so that the windows
+before them complete. A dropped slot costs no simulated time: where no kept window is read
 out (:meth:`resume_at`), the spiking network skips the rest of the slot and
 goes on at the next one put at rest, as if no event had come before it.
 """
@@ -32,7 +35,7 @@ import warnings
 import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
-from snn_fg.events.window import WindowCutter, _window_times
+from snn_fg.events.window import TimePassed, WindowCutter, _window_times
 
 #: the end of the stream, on the queue
 _END = object()
@@ -42,12 +45,13 @@ class LiveStream:
     """The events of ``source`` as they arrive; the window options are
     :class:`~snn_fg.events.window.WindowCutter`'s (``stride_ms``: the hop)."""
 
-    def __init__(self, source, *, window_ms=85.0, stride_ms=None, start_ms=0.0, max_behind: int = 1):
+    def __init__(self, source, *, window_ms=85.0, stride_ms=None, start_ms=0.0, max_behind: int = 0, lag_ms=0.0):
         self.source, self.name = source, source.name
         self.sensor_size = source.sensor_size
         self.options = {"window_ms": window_ms, "stride_ms": stride_ms, "start_ms": start_ms}
         self.win, self.start, self.stride = _window_times(window_ms, start_ms, stride_ms)
         self.slots_per_window = max(1, -(-self.win // self.stride))
+        self.lag_slots = -(-int(round(lag_ms * 1000)) // self.stride)  # (slots a window's read-out reaches past it)
         self.max_behind = max_behind
         self.q: queue.Queue = queue.Queue()
         self.published = -1  # the last window whose maps are out
@@ -124,10 +128,12 @@ class LiveStream:
             self.slot_arrival[int(s)] = arrived
         if len(ev):
             self.q.put(ev)
+        if drop.any():  # (the clock has passed them: the windows before them are complete)
+            self.q.put(TimePassed(self.last_t))
 
     def _begin(self, s: int):
-        """Slot ``s`` begins: dropped whole where too many complete windows wait for their maps."""
-        complete = s - self.slots_per_window  # the last window complete once slot s begins
+        """Slot ``s`` begins: dropped whole where too many windows wait for their maps that could have them."""
+        complete = s - self.slots_per_window - self.lag_slots  # the last window read out once slot s begins
         waiting = complete - self.published - sum(self.published < k <= complete for k in self.dropped_windows)
         if waiting > self.max_behind:
             self.dropped_slots.add(s)
@@ -146,7 +152,8 @@ class LiveStream:
 
     # -- the model's thread ------------------------------------------------------------------------
     def chunks(self):
-        """The events in arrival order, as much as has come at a time, until the stream ends."""
+        """The events in arrival order, as much as has come at a time (and where events
+        were dropped, the time they reached: a :class:`~snn_fg.events.window.TimePassed`), until the stream ends."""
         if self.on_ready is not None:
             self.on_ready()
         while True:
@@ -160,10 +167,13 @@ class LiveStream:
                 except queue.Empty:
                     break
             events = [x for x in items if isinstance(x, np.ndarray)]
+            passed = [x for x in items if isinstance(x, TimePassed)]
             ended = any(x is _END for x in items)
             failed = [x for x in items if isinstance(x, BaseException)]
             if events:
                 yield np.concatenate(events)
+            if passed:
+                yield passed[-1]  # (the latest: none of the events after it is earlier)
             if failed:
                 raise failed[0]
             if ended:
@@ -187,7 +197,7 @@ class LiveStream:
 
     def _kept(self, windows):
         for w in windows:
-            if self.dropped_window(w):
+            if self.dropped_window(w.index):
                 self.done(w)
             else:
                 yield w
@@ -218,9 +228,9 @@ class LiveStream:
         first = (w.t_start_us - self.origin) // self.stride
         return range(first, first + self.slots_per_window)
 
-    def dropped_window(self, w) -> bool:
-        """Whether window ``w`` holds a dropped slot."""
-        return any(s in self.dropped_slots for s in self.slots_of(w))
+    def dropped_window(self, k: int) -> bool:
+        """Whether window ``k`` holds a dropped slot (asked before it is :meth:`done`)."""
+        return k in self.dropped_windows
 
     def dropped_before(self, t_us: float) -> bool:
         """Whether a slot that begins before ``t_us`` (the stream's clock) was dropped."""

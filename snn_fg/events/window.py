@@ -210,6 +210,18 @@ def iter_windows(
     yield from cut.finish()
 
 
+@dataclass(frozen=True)
+class TimePassed:
+    """A live stream's clock has reached ``t_us`` though no event came (those
+    of a dropped slot were thrown away): what :meth:`WindowCutter.add` takes
+    instead of events, so that the windows before it complete."""
+
+    t_us: int
+
+    def __len__(self) -> int:
+        return 0
+
+
 class WindowCutter:
     """:func:`iter_windows`' cut made one chunk at a time, as a live stream
     arrives: :meth:`add` takes the next events (in time order) and returns
@@ -270,7 +282,13 @@ class WindowCutter:
         return inside
 
     def add(self, chunk) -> list[EventWindow]:
-        """The windows that events ``chunk`` (later than every event before) complete."""
+        """The windows that events ``chunk`` (later than every event before), or
+        the stream's clock reaching a time (:class:`TimePassed`), complete."""
+        if isinstance(chunk, TimePassed):
+            if self.done or self.t0 is None or chunk.t_us <= self.prev_t:
+                return []
+            self.prev_t = int(chunk.t_us)
+            return self._complete()
         if self.done or not len(chunk):
             return []
         check_monotonic(chunk, self.name, offset=self.seen, prev_t=self.prev_t)
@@ -282,6 +300,10 @@ class WindowCutter:
             self.w_end = self.w_start + self.win
         new = chunk[chunk["t"] >= self.w_start]
         self.buf = np.concatenate([self.buf, new]) if len(self.buf) else new
+        return self._complete()
+
+    def _complete(self) -> list[EventWindow]:
+        """The windows that end at or before the newest time."""
         out = []
         while self.prev_t >= self.w_end:  # every window that ends at or before the newest timestamp is complete
             cut = int(np.searchsorted(self.buf["t"], self.w_end, side="left"))

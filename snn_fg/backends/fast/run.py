@@ -191,12 +191,10 @@ class Run:
                 n = reached
                 if stream is not None:  # (the bins that end here are handed over before the next input is awaited)
                     stream.reached(n)
-                resume = n if stream is None else self.feed.resume_at(n)  # (a run that keeps its log runs every step)
-                if resume > n:
+                while stream is not None and (resume := self.feed.resume_at(n)) > n:  # (a run keeping its log: none)
                     self.skip(n, resume, stream)
                     n = resume
-                    if stream is not None:
-                        stream.reached(n)
+                    stream.reached(n)
                 self.feed.reached(n)
 
     def skip(self, n: int, to: int, stream: BinStream | None = None):

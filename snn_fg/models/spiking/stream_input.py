@@ -128,8 +128,8 @@ def arrivals(chunks, cut):
             known = done[-1].t_end_us if done else known
         elif len(chunk):
             events, known = chunk[cut.held(chunk["t"])], cut.prev_t
-        else:
-            events = None
+        else:  # (no event; the clock may have passed dropped ones: events.window.TimePassed)
+            events, known = None, known if cut.prev_t is None else cut.prev_t
         yield Arrival(events, done, known, cut.origin)
         if cut.done:
             break
@@ -315,9 +315,9 @@ class StreamFeed:
         t = n * self.step_us
         return max(n, int(self.drops.resume_at(t, self.layout.lag_ms * 1000.0) // self.step_us))
 
-    def dropped(self, w) -> bool:
-        """Whether window ``w`` was dropped by the stream (its maps are not wanted)."""
-        return self.drops is not None and self.drops.dropped_window(w)
+    def dropped(self, k: int) -> bool:
+        """Whether window ``k`` was dropped by the stream (its maps are not wanted)."""
+        return self.drops is not None and self.drops.dropped_window(k)
 
     def passed(self, w) -> None:
         """Window ``w`` is done with (published or dropped): the stream is told."""

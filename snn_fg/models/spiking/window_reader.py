@@ -104,10 +104,13 @@ class WindowReader:
 
     def _add(self, i: int, k: int, k1: int, result):
         counts, spikes = self.reading.setdefault(i, ({}, []))
-        for name, c in result.counts.items():
-            counts[name] = counts[name] + c if name in counts else c.astype(np.int64)
-        if result.spikes is not None:
-            spikes.append(result.spikes)
+        if self.feed.dropped(i):  # (a live stream dropped it: its bins are not summed, nor is it decoded)
+            counts.clear(), spikes.clear()
+        else:
+            for name, c in result.counts.items():
+                counts[name] = counts[name] + c if name in counts else c.astype(np.int64)
+            if result.spikes is not None:
+                spikes.append(result.spikes)
         if k == k1 - 1:
             del self.reading[i]
             w = self.feed.window(i)
@@ -127,7 +130,7 @@ class WindowReader:
             raise
 
     def _hand(self, i, w, result, counts, spikes):
-        if self.feed.dropped(w):  # (a live stream dropped it: not decoded)
+        if self.feed.dropped(i):
             self.feed.passed(w)
             return
         decoded, before = self._decode(i, w, result, counts, spikes), self.last_at

@@ -13,9 +13,13 @@ network continuously, reading the events as they come), writing
 from __future__ import annotations
 
 import sys
+import time
 from contextlib import ExitStack, closing
 
+import numpy as np
+
 from ..errors import InputError
+from ..events import EVENT_DTYPE, Recording, iter_windows
 from ..events.live import LiveStream
 from ..events.live_sources import open_source, parse_address
 from ..frames.pool import pooled_shape
@@ -23,7 +27,8 @@ from ..frames.pyramid import check_levels
 from ..models import MODELS
 from ..results.atomic import growing_folder, settle_folder
 from ..results.live_view import LiveView
-from ..results.publish import LiveModel, LiveRecord, Publisher, warm_up
+from ..results.peaks import grouping_peaks
+from ..results.publish import LiveModel, LiveRecord, Publisher
 from ..results.store import windows_complete
 from .options import number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
@@ -168,3 +173,34 @@ def _warmed(model, sensor_size, window_ms: float, args) -> float:
         pooled_shape((h, w), model.params.input_pool), model.params.levels, args.source, model.params.levels_per_octave
     )
     return warm_up(model, sensor_size, window_ms, args.peaks)
+
+
+def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> float:
+    """Run ``model`` on ``windows`` windows of synthetic events of the sensor's
+    size (:func:`warm_up_events`), its maps thrown away, so that a live run
+    finds its code compiled and loaded, its network's tables built and its
+    arrays allocated (the spiking model keeps them on its backend object)
+    before the first packet; returns the seconds it took."""
+    t0 = time.perf_counter()
+    w, h = sensor_size[:2]
+    rec = Recording(warm_up_events(w, h, window_ms * 1000.0, windows), (w, h, 2), "synthetic")
+    model.run_windows_into(list(iter_windows(rec, window_ms=window_ms)), lambda _, maps: grouping_peaks(maps, peaks))
+    return round(time.perf_counter() - t0, 3)
+
+
+def warm_up_events(w: int, h: int, window_us: float, windows: int, per_window: int = 20_000) -> np.ndarray:
+    """Synthetic events for a warm-up: a ring (a third of the sensor's height
+    across) moving right, ON on its leading half and OFF on its trailing one,
+    ``per_window`` events in each of ``windows`` windows (deterministic)."""
+    n = per_window * windows
+    rng = np.random.default_rng(0)
+    t = np.sort(rng.uniform(0, window_us * windows, n)).astype(np.int64)
+    angle = rng.uniform(0, 2 * np.pi, n)
+    r = h / 6 * (1 + 0.05 * rng.standard_normal(n))
+    cx = w / 3 + (w / 3) * t / (window_us * windows)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = t
+    ev["x"] = np.clip(cx + r * np.cos(angle), 0, w - 1).astype(ev["x"].dtype)
+    ev["y"] = np.clip(h / 2 + r * np.sin(angle), 0, h - 1).astype(ev["y"].dtype)
+    ev["p"] = np.cos(angle) > 0
+    return ev

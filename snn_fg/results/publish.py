@@ -84,7 +84,7 @@ class LiveRecord:
         self.stream, self.publisher, self.k, self.view = stream, publisher, peaks, view
         self.rows: list = []
         self.t_start = time.perf_counter()
-        self.warm_up_s = None  # (the warm-up before the stream, LiveModel.warm_up)
+        self.warm_up_s = None  # (the warm-up before the stream: snn_fg.cli.live.warm_up)
 
     def window(self, w, maps) -> None:
         """Window ``w``'s maps are made: publish them, note the latency."""
@@ -153,38 +153,3 @@ class LiveModel:
             self.stream.done(w)
 
         return self.model.run_windows_into(windows, each, start)
-
-
-def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> float:
-    """Run ``model`` on ``windows`` windows of synthetic events of the sensor's
-    size (:func:`warm_up_events`), its maps thrown away, so that a live run
-    finds its code compiled and loaded, its network's tables built and its
-    arrays allocated (the spiking model keeps them on its backend object)
-    before the first packet; returns the seconds it took."""
-    from snn_fg.events import Recording, iter_windows
-
-    t0 = time.perf_counter()
-    w, h = sensor_size[:2]
-    rec = Recording(warm_up_events(w, h, window_ms * 1000.0, windows), (w, h, 2), "synthetic")
-    model.run_windows_into(list(iter_windows(rec, window_ms=window_ms)), lambda _, maps: grouping_peaks(maps, peaks))
-    return round(time.perf_counter() - t0, 3)
-
-
-def warm_up_events(w: int, h: int, window_us: float, windows: int, per_window: int = 20_000) -> np.ndarray:
-    """Synthetic events for a warm-up: a ring (a third of the sensor's height
-    across) moving right, ON on its leading half and OFF on its trailing one,
-    ``per_window`` events in each of ``windows`` windows (deterministic)."""
-    from snn_fg.events import EVENT_DTYPE
-
-    n = per_window * windows
-    rng = np.random.default_rng(0)
-    t = np.sort(rng.uniform(0, window_us * windows, n)).astype(np.int64)
-    angle = rng.uniform(0, 2 * np.pi, n)
-    r = h / 6 * (1 + 0.05 * rng.standard_normal(n))
-    cx = w / 3 + (w / 3) * t / (window_us * windows)
-    ev = np.zeros(n, EVENT_DTYPE)
-    ev["t"] = t
-    ev["x"] = np.clip(cx + r * np.cos(angle), 0, w - 1).astype(ev["x"].dtype)
-    ev["y"] = np.clip(h / 2 + r * np.sin(angle), 0, h - 1).astype(ev["y"].dtype)
-    ev["p"] = np.cos(angle) > 0
-    return ev

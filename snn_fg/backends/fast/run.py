@@ -197,16 +197,16 @@ class Run:
                     stream.reached(n)
                 self.feed.reached(n)
 
-    def skip(self, n: int, to: int, stream: BinStream | None = None):
+    def skip(self, n: int, to: int, stream: BinStream):
         """Steps ``n .. to - 1`` are not simulated (a live stream dropped
         them, :meth:`_InputFeed.resume_at`): every cell is put at rest and
-        the spikes of the log forgotten (``stream`` counts them first), so
-        that step ``to`` begins as a run with no input before it would.
-        Counted in :attr:`skipped`."""
+        the spikes of the log forgotten (``stream``, which hands the bins
+        over, counts them first), so that step ``to`` begins as a run with
+        no input before it would. Counted in :attr:`skipped`."""
         from .core import reset
         from .deliver import N_FRESH
 
-        first = n if stream is None else stream.skipping(n)  # (the earliest step whose log position is still read)
+        first = stream.skipping(n)  # (the earliest step whose log position is still read)
         reset(self.state, self.fresh, self.counters[:, N_FRESH])
         self.counters[:, N_FRESH] = 0
         self.scalars[:] = 0  # (no active cell, an empty log)

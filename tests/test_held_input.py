@@ -188,3 +188,74 @@ def test_an_export_whose_network_holds_the_frame_is_given_held_input_spikes(tmp_
     for source in np.unique(d["indices"]):
         gaps = np.diff(np.sort(d["steps"][d["indices"] == source]))
         assert np.all(gaps == 10)  # one spike each 5 ms (200 Hz) from the pixel's last event on
+
+
+def sliding(shape=(1, 2), hold=20, seed=0):
+    return HeldStream(shape, DT, 0.0, 200.0, (), seed, hold_steps=hold)
+
+
+def test_a_sliding_hold_crosses_a_window_edge_and_ends_a_window_after_its_event():
+    st = sliding(hold=20)
+    st.add(events([(0, 0, 15, 1)]))  # a window of 20 steps would start at step 20; the hold does not stop there
+    idx, steps = st.take_until(60)
+    assert set(idx) == {0} and list(steps) == expected(0, 15, 35, st.phase)
+
+
+def test_a_sliding_hold_is_renewed_by_its_pixel_next_event():
+    st = sliding(hold=20)
+    st.add(events([(1, 0, 5, 1), (1, 0, 18, 1), (1, 0, 30, 0)]))  # ON, ON again, then OFF
+    idx, steps = st.take_until(80)
+    on, off = 1, 3
+    assert list(steps[idx == on]) == expected(on, 5, 30, st.phase)  # the second event keeps it past step 25
+    assert list(steps[idx == off]) == expected(off, 30, 50, st.phase)
+
+
+def test_at_every_window_end_the_sliding_hold_is_that_window_event_frame():
+    """Windows of 40 steps, one after the other, sources firing every step (2 kHz at 0.5 ms): at
+    each window's last step the sources that fire are exactly the event frame of that window's
+    events, although no hold was cleared as it started."""
+    rng = np.random.default_rng(12)
+    h, w, length = 4, 5, 40
+    rows = sorted(
+        (
+            (int(rng.integers(0, w)), int(rng.integers(0, h)), int(rng.integers(0, 160)), int(rng.integers(0, 2)))
+            for _ in range(120)
+        ),
+        key=lambda r: r[2],
+    )
+    ev = events(rows)
+    st = HeldStream((h, w), DT, 0.0, 2000.0, (), 0, hold_steps=length)
+    assert st.period == 1
+    st.add(ev)
+    idx, steps = st.take_until(160)
+    step_of = np.array([r[2] for r in rows])
+    for end in (40, 80, 120, 160):
+        pos, neg = events_to_frame(ev[(step_of >= end - length) & (step_of < end)], (w, h))
+        frame = set(np.flatnonzero(pos)) | {h * w + i for i in np.flatnonzero(neg)}
+        assert set(idx[steps == end - 1]) == frame, end
+        assert set(idx[steps == end - length - 1]) != frame  # (the frame a window earlier is another)
+
+
+def test_a_sliding_hold_taken_in_chunks_gives_the_spikes_taken_at_once():
+    rng = np.random.default_rng(6)
+    rows = sorted(
+        (
+            (int(rng.integers(0, 6)), int(rng.integers(0, 4)), int(rng.integers(0, 300)), int(rng.integers(0, 2)))
+            for _ in range(200)
+        ),
+        key=lambda r: r[2],
+    )
+    ev = events(rows)
+    whole = sliding((4, 6), hold=70, seed=3)
+    whole.add(ev)
+    a_idx, a_steps = whole.take_until(300)
+    parts = sliding((4, 6), hold=70, seed=3)
+    got_i, got_s, done = [], [], 0
+    t = ev["t"] / (DT * 1000)
+    for cut in (37, 100, 101, 180, 255, 300):
+        parts.add(ev[(t >= done) & (t < cut)])
+        i, s = parts.take_until(cut)
+        got_i.append(i)
+        got_s.append(s)
+        done = cut
+    assert np.array_equal(np.concatenate(got_i), a_idx) and np.array_equal(np.concatenate(got_s), a_steps)

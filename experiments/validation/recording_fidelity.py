@@ -7,7 +7,8 @@ For each shared recording (dataset ``events``) and each network (the
 default, and the compact one against the rate model on its own recipe),
 the spiking network with each input coding (``events``: every event a
 spike at its time; ``window``: the window's event frame held as it is
-built) against the rate model, on the pixels where both have a vector:
+built; ``sliding``: each pixel's last polarity held for a window's length,
+not cleared at window edges) against the rate model, on the pixels where both have a vector:
 the share within 45 degrees (pooled over the windows, and its range per
 window), the mean absolute angle difference, the grouping r, and the share
 of the rate model's vectors the spiking map has (coverage). Beside them the
@@ -39,7 +40,7 @@ RECORDINGS = {
     "spinner": ("expelliarmus_evt2_spinner.raw", 25.0, 0.0, (640, 480)),  # (5 ms windows: no spiking vector)
 }
 NETWORKS = ("default", "compact")
-CODINGS = ("events", "window")
+CODINGS = ("events", "window", "sliding")
 
 
 def windows_of(name: str, n: int):
@@ -180,8 +181,8 @@ def figure(shown: dict):
     from snn_fg.results.figures import event_frame_rgb, fg_rgb
 
     names = list(shown)
-    cols = ("events", "rate model", "spiking, events coding", "spiking, window coding")
-    fig, axes = plt.subplots(len(names), 4, figsize=(16, 3.4 * len(names)), squeeze=False)
+    cols = ("events", "rate model", *(f"spiking, {c} coding" for c in CODINGS))
+    fig, axes = plt.subplots(len(names), len(cols), figsize=(4 * len(cols), 3.4 * len(names)), squeeze=False)
     for row, name in zip(axes, names):
         wins, maps = shown[name]["wins"], shown[name]["maps"]
         k = min(3, len(wins) - 1)
@@ -190,7 +191,7 @@ def figure(shown: dict):
             event_frame_rgb(w.pos, w.neg),
             *(
                 fg_rgb(m[k].fg_x, m[k].fg_y)
-                for m in (maps[("default", "rate")], maps[("default", "events")], maps[("default", "window")])
+                for m in (maps[("default", "rate")], *(maps[("default", c)] for c in CODINGS))
             ),
         ]
         for ax, img, title in zip(row, panels, cols):

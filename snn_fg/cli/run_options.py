@@ -8,6 +8,7 @@ from __future__ import annotations
 from ..backends import DEFAULT_BACKEND, backend_names
 from ..errors import InputError
 from ..models import MODELS
+from ..network.graph import HELD_CODINGS, INPUT_CODINGS
 from ..network.recipes import model_params_of
 from ..params import EDGE_OPERATORS, ModelParams
 from .options import iterations_bar, number
@@ -19,6 +20,7 @@ WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_
 RECORDING_OPTIONS = WINDOW_OPTIONS + (
     "end_ms",
     "readout_lag_ms",
+    "readout_ms",
     "carry_state",
     "window_clock",
     "input_coding",
@@ -116,6 +118,14 @@ RUN_OPTIONS = (
             ),
             ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later (20)"),
             (
+                "--readout-ms",
+                float,
+                0,
+                True,
+                "recordings: count each window's spikes over the last this many ms of its read-out span "
+                "only, once the network has settled on it (the whole window)",
+            ),
+            (
                 "--window-clock",
                 ("on", "off"),
                 None,
@@ -126,13 +136,14 @@ RUN_OPTIONS = (
             ),
             (
                 "--input-coding",
-                ("events", "window"),
+                INPUT_CODINGS,
                 None,
                 None,
                 "recordings: how events become input spikes: events, each a spike at its own time; "
                 "window, each pixel holds its last event's polarity in the window, firing at the input "
-                "rate, which builds the rate model's event frame as the events arrive (--seed sets "
-                "the phases) (the network's own: events)",
+                "rate, which builds the rate model's event frame as the events arrive; sliding, the same "
+                "hold kept for one window's length after each event, not cleared as a window starts "
+                "(--seed sets the phases) (the network's own: events)",
             ),
             (
                 "--instantiate",
@@ -227,7 +238,7 @@ def refused_options(args, kind) -> list[tuple[str, str]]:
             if given(k) and k not in named
         ]
     else:
-        held = args.input_coding == "window"  # (its held sources' phases are drawn from --seed)
+        held = args.input_coding in HELD_CODINGS  # (its held sources' phases are drawn from --seed)
         refused += [
             (k, f"applies to a single frame or image only; {_KIND_NAMES[kind]}, run as one continuous network")
             for k in FRAME_ONLY_OPTIONS

@@ -24,6 +24,7 @@ from ..frames.pool import pool_events, pool_frame
 from ..frames.still import input_kind, load_frame
 from ..lowering.held_input import held_window
 from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
+from ..network.graph import HELD_CODINGS
 from ..results.atomic import atomic_path
 
 
@@ -105,7 +106,7 @@ def _input_spikes(args, net, dt_ms):
         if ev.size == 0:
             raise InputError(args.input, f"no event in the crop at {_at(net, r0, c0)} of window {span}")
         what = f"window {span}, {ev.size:,} events"
-        if net.input_coding == "window":  # (each pixel holds its last polarity as the window's frame)
+        if net.input_coding in HELD_CODINGS:  # (each pixel holds its last polarity as the window's frame)
             inp = _held_input(ev, shape, dt_ms, win, net.input_rate_hz)
             what += f", held as the window's frame at {net.input_rate_hz:g} Hz"
         else:
@@ -144,7 +145,7 @@ def _input_spikes(args, net, dt_ms):
 
 
 def _held_input(ev, shape, dt_ms, win, rate_hz) -> InputSpikes:
-    """A window's events held as its frame (the ``window`` input coding), replayed every window."""
+    """A window's events held as its frame (a held input coding), replayed every window."""
     idx, steps, period = held_window(ev, shape, dt_ms, win.t_start_us, win.t_end_us, rate_hz)
     fired = np.zeros(2 * shape[0] * shape[1], bool)
     fired[idx] = True

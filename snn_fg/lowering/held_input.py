@@ -7,7 +7,11 @@ spike sources do the same, causally: an event sets its pixel's state to its
 polarity, and from that step the source of that polarity fires a regular
 train at the network's input rate, until the pixel's next event (which may
 switch it to the other source) or the window's end (or the next window's
-start, if windows overlap), when every pixel is cleared. At a window's end the sources that fire are exactly the
+start, if windows overlap), when every pixel is cleared. With the
+``sliding`` input coding no window edge clears a pixel: its hold ends one
+window's length after its last event (a sliding window, the same for every
+pixel), so that the input does not fall silent as each window starts and
+the network need not build its answer afresh. Either way, at a window's end the sources that fire are exactly the
 window's event frame, and each fires as a frame's pixel does
 (:func:`~snn_fg.lowering.input_spikes.frame_spikes`: regular, with a phase
 of its own). The phases are drawn once per source from a seed, so that
@@ -47,23 +51,28 @@ def held_spikes(
     start: int,
     end: int,
     resets: np.ndarray,
-    carried: tuple[np.ndarray, np.ndarray] | None = None,
+    carried: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    hold: int | None = None,
 ):
     """The spikes ``(sources, steps)`` of steps ``start .. end - 1``.
 
     ``steps``, ``sources``: the events of those steps in time order (a
     source is ``pixel`` for ON and ``n_pixels + pixel`` for OFF); ``carried``:
-    the pixels held at ``start`` and the source each holds; ``resets``:
-    sorted steps at which every hold ends (a window's start). A held source
+    the pixels held at ``start``, the source each holds and the step of the
+    event that set it; ``resets``: sorted steps at which every hold ends (a
+    window's start); ``hold``: a hold also ends this many steps after its
+    event (None: only at its pixel's next event or a reset). A held source
     fires at the steps ``s`` with ``(s - phase[source]) % period == 0``.
     Returns the spikes sorted by step and source, and the holds carried on
-    to ``end`` (pixels, sources)."""
-    c_pix, c_src = carried if carried is not None else (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    to ``end`` (pixels, sources, event steps)."""
+    none = np.zeros(0, np.int64)
+    c_pix, c_src, c_since = carried if carried is not None else (none, none, none)
     pix = np.concatenate([c_pix, sources % n_pixels])
     src = np.concatenate([c_src, sources])
     begin = np.concatenate([np.full(c_pix.size, start, np.int64), steps])
-    since = np.concatenate([np.full(c_pix.size, start - 1, np.int64), steps])  # (a carried hold began earlier)
-    # a hold ends at its pixel's next event, at the next reset after it began, or at the chunk's end
+    since = np.concatenate([c_since, steps])  # (the step of the event that set the hold)
+    # a hold ends at its pixel's next event, at the next reset after it began, ``hold`` steps after its event,
+    # or at the chunk's end
     order = np.lexsort((np.arange(pix.size), pix))  # by pixel, then in time order (carried first)
     stop = np.full(pix.size, end, np.int64)
     same = pix[order][1:] == pix[order][:-1]
@@ -71,6 +80,8 @@ def held_spikes(
     if resets.size:
         r = np.searchsorted(resets, since, side="right")
         stop = np.minimum(stop, np.where(r < resets.size, resets[np.minimum(r, resets.size - 1)], end))
+    if hold is not None:
+        stop = np.minimum(stop, since + hold)
     ph = phase[src]
     first = begin + (ph - begin) % period
     count = np.maximum(0, -(-(stop - first) // period))
@@ -82,7 +93,7 @@ def held_spikes(
     last[order[:-1][same]] = False
     alive = last & (stop >= end)
     key = np.unique(out_steps * (2 * n_pixels) + out_src)
-    return (key % (2 * n_pixels), key // (2 * n_pixels)), (pix[alive], src[alive])
+    return (key % (2 * n_pixels), key // (2 * n_pixels)), (pix[alive], src[alive], since[alive])
 
 
 class HeldStream:
@@ -104,13 +115,17 @@ class HeldStream:
         (:attr:`resets`, which may grow as windows come).
     seed : int
         Seed of the sources' phases.
+    hold_steps : int or None
+        A hold ends this many steps after its event (the ``sliding`` coding:
+        one window's length; give no ``window_steps`` then).
 
     ``on`` and ``off`` mark the sources that have fired so far; ``merged``
     is 0 (a held source fires once a period whatever its events).
     """
 
-    def __init__(self, shape, dt_ms: float, t0_us: float, rate_hz: float, window_steps, seed: int = 0):
+    def __init__(self, shape, dt_ms: float, t0_us: float, rate_hz: float, window_steps, seed: int = 0, hold_steps=None):
         self.h, self.w = shape
+        self.hold = None if hold_steps is None else max(1, int(hold_steps))
         self.step_us, self.t0_us = dt_ms * 1000.0, float(t0_us)
         self.period = hold_period_steps(rate_hz, dt_ms)
         self.phase = hold_phases(2 * self.h * self.w, self.period, seed)
@@ -146,7 +161,7 @@ class HeldStream:
         if end_step <= start:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         (out_idx, out_steps), self.carried = held_spikes(
-            step, idx, self.h * self.w, self.period, self.phase, start, end_step, self.resets, self.carried
+            step, idx, self.h * self.w, self.period, self.phase, start, end_step, self.resets, self.carried, self.hold
         )
         self.taken = end_step
         self.fired[out_idx] = True

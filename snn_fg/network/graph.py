@@ -22,7 +22,9 @@ from .nodes import Population
 from .projections import Conv, Projection, projection_from_dict
 
 #: how a recording's events become input spikes (:attr:`Network.input_coding`)
-INPUT_CODINGS = ("events", "window")
+INPUT_CODINGS = ("events", "window", "sliding")
+#: the codings that hold each pixel's last polarity (:mod:`snn_fg.lowering.held_input`)
+HELD_CODINGS = ("window", "sliding")
 
 SCHEMA = "snn-fg.network/2"
 #: the time step (ms) of a network that does not name one: the one default of the package's time step (a
@@ -54,8 +56,12 @@ class Network:
     after the last one it passed on (0: every event is a spike), so that a
     busy source fires like a quiet one. ``input_coding``: how a recording's
     events become spikes, ``events`` (each event one spike at its time,
-    through the refractory period) or ``window`` (the window's event frame
-    built as they arrive: :mod:`snn_fg.lowering.held_input`); a frame's
+    through the refractory period), ``window`` (the window's event frame
+    built as they arrive, cleared as each window starts:
+    :mod:`snn_fg.lowering.held_input`) or ``sliding`` (each pixel's last
+    polarity held for one window's length after its event, never cleared
+    at a window's edge: at each window's end the window's event frame, in
+    between the frame of the last window's length); a frame's
     pixels fire regular trains either way. ``one_grid``: every pyramid level
     lies on the frame's grid (its kernels dilated by the level's scale; a
     form for NIR consumers that cannot interpolate between levels,

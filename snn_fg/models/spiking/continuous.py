@@ -67,6 +67,9 @@ def run_spiking_windows(windows, *, source: str = "<recording>", **keywords) -> 
     readout_lag_ms : float
         Each window is read from the spikes ``readout_lag_ms`` later than
         its own time span; the simulation runs that long past the last window.
+    readout_ms : float or None
+        Count each window's spikes over the last ``readout_ms`` of that span
+        only (once the network has settled on the window; ``None``: all of it).
     window_clock : bool
         Fire the network's window clock (if it has one) as every window
         starts: its inhibitory pulse holds the grouping cells silent until
@@ -221,6 +224,7 @@ def _simulate(
         "simulated_ms": edges[-1],
         "network_builds": 1,
         "readout_lag_ms": opts.recording.readout_lag_ms,
+        **({"readout_ms": opts.recording.readout_ms} if opts.recording.readout_ms is not None else {}),
         "dt_ms": lay.dt_ms,
         "input": "events",
         "input_coding": net.input_coding,
@@ -288,17 +292,19 @@ def lay_out(feed: StreamFeed, opts: SpikingOptions, cut) -> StreamLayout:
         n = n if cut.max_windows is None else min(n, cut.max_windows)
         length, starts = cut.win, cut.stride * np.arange(n, dtype=np.int64)
     steps = window_steps(starts, starts + length, 0, dt_ms)
+    counted = length if opts.recording.readout_ms is None else min(length, opts.recording.readout_ms * 1000.0)
     return StreamLayout(
         network=net,
         origin=origin,
         shape=shape,
         dt_ms=dt_ms,
         rate_hz=net.input_rate_hz,
-        spans=read_out_spans(starts, starts + length, 0, lag, dt_ms),
+        spans=read_out_spans(starts + length - counted, starts + length, 0, lag, dt_ms),
         steps=steps,
         clock=bool(opts.recording.window_clock and net.by_role("clock")),
         seed=opts.recording.seed,
         lag_ms=lag,
+        window_length=max(1, int(round(length / (dt_ms * 1000.0)))),
     )
 
 

@@ -188,18 +188,24 @@ class FrameOptions:
 @dataclass(frozen=True, kw_only=True)
 class RecordingOptions:
     """A recording run as one network: each window is read from the spikes
-    ``readout_lag_ms`` later than its own span; ``window_clock`` fires the
+    ``readout_lag_ms`` later than its own span, counted over the last
+    ``readout_ms`` of it (``None``: the whole span); ``window_clock`` fires the
     network's window clock (if it has one) as every window starts; ``seed``
     draws the held sources' phases of the ``window`` input coding
     (:attr:`~snn_fg.network.Network.input_coding`)."""
 
     readout_lag_ms: float = READOUT_LAG_MS
+    readout_ms: float | None = None
     window_clock: bool = True
     seed: int = 0
     owner: InitVar[str] = "run_spiking_windows"
 
     def __post_init__(self, owner):
         object.__setattr__(self, "readout_lag_ms", check.number(owner, "readout_lag_ms", self.readout_lag_ms, lo=0))
+        if self.readout_ms is not None:
+            object.__setattr__(
+                self, "readout_ms", check.number(owner, "readout_ms", self.readout_ms, lo=0, lo_open=True)
+            )
         check.flag(owner, "window_clock", self.window_clock)
         check.integer(owner, "seed", self.seed)
 

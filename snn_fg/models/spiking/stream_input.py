@@ -36,6 +36,7 @@ from ...errors import InputError
 from ...frames.pool import pool_events, pooled_shape
 from ...lowering.held_input import HeldStream
 from ...lowering.input_stream import SegmentedInput, SpikeStream
+from ...network.graph import HELD_CODINGS
 
 #: simulated time per segment of input handed to a backend that streams it (ms); a live
 #: run hands it over in shorter segments, so that the network follows the events closely
@@ -64,9 +65,9 @@ def stream_rate_hz(net, first_window) -> float:
     one gets the rate of an active source in the stream's first window
     (``first_window()`` gives it: its events on the input grid, one spike per
     source and step), so that its run starts once that window is complete.
-    The ``window`` input coding needs none (its held sources fire at the
-    network's own rate, :attr:`~snn_fg.network.Network.input_rate_hz`)."""
-    if net.input_coding == "window":
+    The held input codings (``window``, ``sliding``) need none (their held
+    sources fire at the network's own rate, :attr:`~snn_fg.network.Network.input_rate_hz`)."""
+    if net.input_coding in HELD_CODINGS:
         return net.input_rate_hz
     if net.input_refractory_ms > 0:
         return 1000.0 / net.input_refractory_ms
@@ -164,7 +165,9 @@ class StreamLayout:
     (and its ``origin``), the sensor's frame ``shape``, the step ``dt_ms``, the
     calibration rate ``rate_hz``, each window's read-out ``spans`` (ms from the
     first window's start, step 0) and the steps at which each starts and ends
-    (``steps``, 2 x windows), whether the window clock fires (``clock``), and the read-out lag ``lag_ms``."""
+    (``steps``, 2 x windows), whether the window clock fires (``clock``), the read-out lag ``lag_ms``,
+    and a window's length in steps (``window_length``: how long the ``sliding``
+    coding holds a pixel)."""
 
     network: object
     origin: dict
@@ -176,11 +179,12 @@ class StreamLayout:
     clock: bool
     seed: int = 0
     lag_ms: float = 0.0
+    window_length: int = 1
 
     @property
     def held(self) -> bool:
-        """Whether the events are held as the window's frame (the ``window`` input coding)."""
-        return self.network.input_coding == "window"
+        """Whether the events are held as the window's frame (the ``window`` and ``sliding`` input codings)."""
+        return self.network.input_coding in HELD_CODINGS
 
     def clock_steps(self, n: int | None = None) -> np.ndarray:
         """The steps the window clock fires at (none without a clock), for the first ``n`` windows (all)."""
@@ -191,14 +195,18 @@ class StreamLayout:
         return np.unique(self.steps[:, :n])
 
 
-def input_stream(net, shape, dt_ms: float, t0_us: float, resets, seed: int = 0):
+def input_stream(net, shape, dt_ms: float, t0_us: float, resets, seed: int = 0, window_length: int = 1):
     """The stream that turns events into ``net``'s input spikes on its (pooled)
     input grid of ``shape``: each event a spike
     (:class:`~snn_fg.lowering.input_stream.SpikeStream`, through the input
     adapter's refractory period), or the window's frame held as it is built
-    (:class:`~snn_fg.lowering.held_input.HeldStream`, every hold ending at the steps ``resets``)."""
+    (:class:`~snn_fg.lowering.held_input.HeldStream`: ``window``, every hold
+    ending at the steps ``resets``; ``sliding``, every hold ending
+    ``window_length`` steps after its event)."""
     if net.input_coding == "window":
         return HeldStream(shape, dt_ms, t0_us, net.input_rate_hz, resets, seed)
+    if net.input_coding == "sliding":
+        return HeldStream(shape, dt_ms, t0_us, net.input_rate_hz, (), seed, hold_steps=window_length)
     return SpikeStream(shape, dt_ms, t0_us, net.input_refractory_ms)
 
 
@@ -268,7 +276,9 @@ class StreamFeed:
         """The spike stream, from step 0 at :attr:`origin` on, with the events that came before."""
         lay = self.layout
         shape = pooled_shape(lay.shape, self.pool)
-        self.stream = input_stream(lay.network, shape, lay.dt_ms, self.origin, lay.resets(), lay.seed)
+        self.stream = input_stream(
+            lay.network, shape, lay.dt_ms, self.origin, lay.resets(), lay.seed, lay.window_length
+        )
         for ev in self.pending:
             self.stream.add(pool_events(ev, self.pool))
         self.pending = None
@@ -298,7 +308,7 @@ class StreamFeed:
         self.ended = True
         if hasattr(self, "layout"):
             self.input.clock_steps = self.layout.clock_steps(self.n)
-            if isinstance(self.stream, HeldStream):
+            if isinstance(self.stream, HeldStream) and self.stream.hold is None:
                 self.stream.resets = self.layout.resets(self.n)
 
     def _spikes_until(self, end_step: int):

@@ -1,0 +1,63 @@
+"""A recording run's read-out: each window counted over the last ``readout_ms`` of its span,
+and the ``sliding`` input coding run end to end."""
+
+import numpy as np
+import pytest
+
+from snn_fg.errors import ParameterError
+from snn_fg.events import image_to_events, iter_windows
+from snn_fg.frames.scenes import disc
+from snn_fg.models.spiking import run_spiking_windows
+from snn_fg.params import ModelParams
+
+PARAMS = ModelParams(levels=2)
+
+
+@pytest.fixture(scope="module")
+def windows():
+    rec = image_to_events(disc(radius=8).image, motion="circle")
+    return list(iter_windows(rec, window_ms=40, max_windows=2))
+
+
+def _run(windows, **options):
+    return run_spiking_windows(windows, params=PARAMS, backend="fast", progress=False, **options)
+
+
+def test_a_window_is_counted_over_the_last_readout_ms_of_its_span(windows):
+    whole = _run(windows, readout_lag_ms=10.0)
+    last = _run(windows, readout_lag_ms=10.0, readout_ms=15.0)
+    for k, (w, p) in enumerate(zip(whole, last)):
+        sw, sp = w.params["simulation"], p.params["simulation"]
+        assert sw["count_from_ms"] == pytest.approx(40 * k + 10) and sw["count_to_ms"] == pytest.approx(40 * k + 50)
+        assert sp["count_from_ms"] == pytest.approx(40 * k + 35) and sp["count_to_ms"] == pytest.approx(40 * k + 50)
+        assert sp["readout_ms"] == 15.0
+        fewer = [p.extra[n].sum() <= w.extra[n].sum() for n in w.extra if n.startswith("spikes_bo_")]
+        assert fewer and all(fewer)  # (the same run, counted over a part of the span)
+        assert sum(p.extra[n].sum() for n in p.extra if n.startswith("spikes_bo_")) < sum(
+            w.extra[n].sum() for n in w.extra if n.startswith("spikes_bo_")
+        )
+
+
+def test_a_readout_longer_than_the_window_counts_the_whole_window(windows):
+    m = _run(windows[:1], readout_lag_ms=10.0, readout_ms=500.0)[0].params["simulation"]
+    assert m["count_from_ms"] == pytest.approx(10.0) and m["count_to_ms"] == pytest.approx(50.0)
+
+
+def test_the_readout_must_be_positive(windows):
+    with pytest.raises(ParameterError, match="readout_ms"):
+        _run(windows, readout_ms=0.0)
+
+
+def test_the_sliding_coding_holds_across_window_edges_in_a_run(windows):
+    held = _run(windows, input_coding="window", readout_lag_ms=0.0)
+    sliding = _run(windows, input_coding="sliding", readout_lag_ms=0.0)
+    assert sliding[0].params["simulation"]["input_coding"] == "sliding"
+    assert sliding[0].params["simulation"]["rate_hz_used"] == 200.0  # (held sources: nothing to calibrate)
+    # the first window is the same either way (nothing held before it); in the second the sliding input
+    # still holds the first window's pixels as it starts, so the network's spikes differ
+    for n in held[0].extra:
+        if n.startswith("spikes_"):
+            np.testing.assert_array_equal(held[0].extra[n], sliding[0].extra[n])
+    assert any(
+        not np.array_equal(held[1].extra[n], sliding[1].extra[n]) for n in held[1].extra if n.startswith("spikes_")
+    )

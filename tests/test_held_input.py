@@ -63,7 +63,15 @@ def test_a_window_start_clears_every_pixel():
     assert list(steps[idx == 3]) == expected(3, 25, 40, st.phase)  # the next window builds its own frame
 
 
-def test_steps_taken_in_chunks_give_the_spikes_taken_at_once():
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: stream((4, 6), resets=(0, 100, 170, 300), seed=3),  # (holds cleared at window edges)
+        lambda: HeldStream((4, 6), DT, 0.0, 200.0, (), 3, hold_steps=70),  # (sliding: 70 steps after each event)
+    ],
+    ids=["window", "sliding"],
+)
+def test_steps_taken_in_chunks_give_the_spikes_taken_at_once(make):
     rng = np.random.default_rng(5)
     rows = sorted(
         (
@@ -73,10 +81,10 @@ def test_steps_taken_in_chunks_give_the_spikes_taken_at_once():
         key=lambda r: r[2],
     )
     ev = events(rows)
-    whole = stream((4, 6), resets=(0, 100, 170, 300), seed=3)
+    whole = make()
     whole.add(ev)
     a_idx, a_steps = whole.take_until(300)
-    parts = stream((4, 6), resets=(0, 100, 170, 300), seed=3)
+    parts = make()
     got_i, got_s, done = [], [], 0
     t = ev["t"] / (DT * 1000)
     for cut in (37, 100, 101, 180, 255, 300):  # events added only as the steps before them are taken
@@ -234,28 +242,3 @@ def test_at_every_window_end_the_sliding_hold_is_that_window_event_frame():
         frame = set(np.flatnonzero(pos)) | {h * w + i for i in np.flatnonzero(neg)}
         assert set(idx[steps == end - 1]) == frame, end
         assert set(idx[steps == end - length - 1]) != frame  # (the frame a window earlier is another)
-
-
-def test_a_sliding_hold_taken_in_chunks_gives_the_spikes_taken_at_once():
-    rng = np.random.default_rng(6)
-    rows = sorted(
-        (
-            (int(rng.integers(0, 6)), int(rng.integers(0, 4)), int(rng.integers(0, 300)), int(rng.integers(0, 2)))
-            for _ in range(200)
-        ),
-        key=lambda r: r[2],
-    )
-    ev = events(rows)
-    whole = sliding((4, 6), hold=70, seed=3)
-    whole.add(ev)
-    a_idx, a_steps = whole.take_until(300)
-    parts = sliding((4, 6), hold=70, seed=3)
-    got_i, got_s, done = [], [], 0
-    t = ev["t"] / (DT * 1000)
-    for cut in (37, 100, 101, 180, 255, 300):
-        parts.add(ev[(t >= done) & (t < cut)])
-        i, s = parts.take_until(cut)
-        got_i.append(i)
-        got_s.append(s)
-        done = cut
-    assert np.array_equal(np.concatenate(got_i), a_idx) and np.array_equal(np.concatenate(got_s), a_steps)

@@ -61,3 +61,19 @@ def test_the_sliding_coding_holds_across_window_edges_in_a_run(windows):
     assert any(
         not np.array_equal(held[1].extra[n], sliding[1].extra[n]) for n in held[1].extra if n.startswith("spikes_")
     )
+
+
+def test_the_command_line_takes_the_sliding_coding_and_refuses_a_readout_on_a_still_input(tmp_path, capsys):
+    from snn_fg.cli import main
+
+    base = ["run", "demo", "--out", str(tmp_path / "o"), "--model", "spiking", "--no-progress"]
+    assert main([*base, "--readout-ms", "30"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--readout-ms" in err and "recordings only" in err, err
+    assert main([*base, "--input-coding", "sliding"]) == 2  # (a choice it knows: refused for a still input only)
+    err = capsys.readouterr().err
+    assert "--input-coding" in err and "recordings only" in err and "invalid choice" not in err, err
+    with pytest.raises(SystemExit):
+        main([*base, "--readout-ms", "0"])
+    assert "--readout-ms: must be > 0" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

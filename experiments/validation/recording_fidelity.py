@@ -127,29 +127,30 @@ def measure(name: str, n: int) -> tuple[dict, dict]:
     return out, {"wins": wins, "maps": shown}
 
 
+def score_cells(r: dict) -> list[str]:
+    """A table row's scores (:func:`scores`, ``inward``, ``s_per_window``) as text."""
+    per = r["within_45_per_window"]
+    return [
+        f"{r['within_45']:.1%} ({np.nanmin(per):.0%}-{np.nanmax(per):.0%})",
+        f"{r['mean_abs_deg']:.1f}",
+        f"{r['grouping_r_mean']:.3f} (min {r['grouping_r_min']:.3f})",
+        f"{r['coverage']:.1%}",
+        f"{np.median(r['inward']):.2f}" if "inward" in r else "",
+        f"{r['s_per_window']:.2f}" if "s_per_window" in r else "",
+    ]
+
+
 def table_lines(results: dict) -> list[str]:
     lines = []
     for name, res in results.items():
         rows = []
         for r in res["rows"]:
-            per = r["within_45_per_window"]
             inw = f"{np.median(r['inward']):.2f}" if "inward" in r else ""
             if not r["pixels"]:  # (no window has a vector: the windows are shorter than the network's answer)
                 timing = f"{r['s_per_window']:.2f}" if "s_per_window" in r else ""
                 rows.append([r["network"], r["map"], "no vector in any window", "", "", "0 %", inw, timing])
                 continue
-            rows.append(
-                [
-                    r["network"],
-                    r["map"],
-                    f"{r['within_45']:.1%} ({np.nanmin(per):.0%}-{np.nanmax(per):.0%})",
-                    f"{r['mean_abs_deg']:.1f}",
-                    f"{r['grouping_r_mean']:.3f} (min {r['grouping_r_min']:.3f})",
-                    f"{r['coverage']:.1%}",
-                    inw,
-                    f"{r['s_per_window']:.2f}" if "s_per_window" in r else "",
-                ]
-            )
+            rows.append([r["network"], r["map"], *score_cells(r)])
         file, window_ms, start_ms, _ = RECORDINGS[name]
         lines += [
             f"## {name} (`{file}`, {res['windows']} windows of {window_ms:g} ms from {start_ms:g} ms)",
@@ -203,6 +204,14 @@ def figure(shown: dict):
     return fig
 
 
+def frame_events(w, t_us) -> np.ndarray:
+    """Window ``w``'s event frame as events: one per pixel of the frame, with its polarity, at ``t_us``."""
+    ys, xs = np.nonzero(w.pos | w.neg)
+    ev = np.zeros(xs.size, dtype=w.events.dtype)
+    ev["x"], ev["y"], ev["t"], ev["p"] = xs, ys, t_us, w.pos[ys, xs] != 0
+    return ev
+
+
 def diagnose() -> tuple[dict, list[str]]:
     from snn_fg.models.spiking import run_spiking
     from snn_fg.scoring.metrics import agreement
@@ -230,12 +239,7 @@ def diagnose() -> tuple[dict, list[str]]:
 
     from snn_fg.models.spiking import run_spiking_windows
 
-    ahead = []
-    for w in wins:
-        ys, xs = np.nonzero(w.pos | w.neg)
-        ev = np.zeros(xs.size, dtype=w.events.dtype)
-        ev["x"], ev["y"], ev["t"], ev["p"] = xs, ys, w.t_start_us, w.pos[ys, xs] != 0
-        ahead.append(replace(w, events=ev))
+    ahead = [replace(w, events=frame_events(w, w.t_start_us)) for w in wins]
     foresight = {}
     for name, runs in (("held as it is built (causal)", wins), ("whole from the window's start (not causal)", ahead)):
         maps = run_spiking_windows(runs, input_coding="window", progress=False)

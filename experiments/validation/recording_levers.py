@@ -21,7 +21,10 @@ the latched input at x1/4, about 10x its time a window), on the windows of ``rec
 * read-out: the spikes of each window counted over the last 40 ms of its
   read-out span only (``readout_ms``), once the network has settled on it.
 
-Writes ``recording_levers.{json,md}``.
+Writes ``recording_levers.{json,md}``. ``--figure`` instead draws window 3 of
+``dvs.es`` (the one ``recording_fidelity.png`` shows), run alone, for the rate
+model and the default network with the events, the sliding and the latched
+x1/4 input: ``recording_levers.png``.
 """
 
 from __future__ import annotations
@@ -31,10 +34,16 @@ import contextlib
 import time
 from dataclasses import replace
 
-import numpy as np
-
-from experiments.common import Run, describe, markdown_table, save_results
-from experiments.validation.recording_fidelity import RECORDINGS, inward, rate_maps, scores, windows_of
+from experiments.common import Run, describe, save_figure, save_results
+from experiments.validation.recording_fidelity import (
+    RECORDINGS,
+    frame_events,
+    inward,
+    rate_maps,
+    scores,
+    table_lines,
+    windows_of,
+)
 
 #: (label, input, time scale, run options): sliding and latched input at three speeds
 LEVERS = (
@@ -97,13 +106,7 @@ def time_scaled(spiking, scale: float):
 
 def latched(wins):
     """Each window with its events replaced by its event frame at its end (the next window's start)."""
-    out = []
-    for w in wins:
-        ys, xs = np.nonzero(w.pos | w.neg)
-        ev = np.zeros(xs.size, dtype=w.events.dtype)
-        ev["x"], ev["y"], ev["t"], ev["p"] = xs, ys, w.t_end_us, w.pos[ys, xs] != 0
-        out.append(replace(w, events=ev))
-    return out
+    return [replace(w, events=frame_events(w, w.t_end_us)) for w in wins]
 
 
 def run_lever(wins, network: str, how: str, scale: float, options: dict):
@@ -127,64 +130,65 @@ def run_lever(wins, network: str, how: str, scale: float, options: dict):
     return maps, (time.perf_counter() - t) / len(wins)
 
 
+def figure():
+    import matplotlib
+
+    matplotlib.use("Agg")  # (an experiment script, never imported by the package)
+    import matplotlib.pyplot as plt
+
+    from snn_fg.models.spiking import run_spiking_windows
+    from snn_fg.results.figures import event_frame_rgb, fg_rgb
+    from snn_fg.scoring.metrics import agreement
+
+    w = windows_of("dvs_biplane", 4)[3:]
+    ref = rate_maps(w, "default")[0]
+    panels = [("events", event_frame_rgb(w[0].pos, w[0].neg)), ("rate model", fg_rgb(ref.fg_x, ref.fg_y))]
+    for label, m in (
+        ("spiking, events coding", run_spiking_windows(w, progress=False)[0]),
+        ("spiking, sliding coding", run_spiking_windows(w, input_coding="sliding", progress=False)[0]),
+        ("spiking, latched, x1/4", run_lever(w, "default", "latched", 0.25, {"readout_ms": 40.0})[0][0]),
+    ):
+        panels.append((f"{label}: {agreement(m, ref)['within_45']:.0%} within 45°", fg_rgb(m.fg_x, m.fg_y)))
+    fig, axes = plt.subplots(1, len(panels), figsize=(4 * len(panels), 3.4), squeeze=False)
+    for ax, (title, img) in zip(axes[0], panels):
+        ax.imshow(img)
+        ax.set_title(f"dvs.es window 3, default network: {title}" if title == "events" else title, fontsize=9)
+        ax.set_xlabel("x (px)")
+        ax.set_ylabel("y (px)")
+    fig.tight_layout()
+    return fig
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--windows", type=int, default=6, help="windows per recording (6)")
     ap.add_argument("--only", nargs="+", choices=sorted(RECORDINGS), default=["dvs_biplane", "person"])
     ap.add_argument("--default", action="store_true", help="the default network too (slow: minutes a window)")
+    ap.add_argument("--figure", action="store_true", help="only the figure of one dvs.es window (see above)")
     a = ap.parse_args()
+    if a.figure:
+        save_figure(figure(), "recording_levers")
+        return
     run = Run()
-    results, lines = {}, []
+    results = {}
     for name in a.only:
         wins = windows_of(name, a.windows)
-        rows, table = [], []
+        rows = []
         for network in ("compact", "default") if a.default else ("compact",):
             ref = rate_maps(wins, network)
             for label, how, scale, options in LEVERS:
                 if network == "default" and label not in DEFAULT_LEVERS:
                     continue
                 maps, per_window_s = run_lever(wins, network, how, scale, options)
-                row = {"network": network, "lever": label, "s_per_window": per_window_s, **scores(maps, ref)}
+                row = {"network": network, "map": label, "s_per_window": per_window_s, **scores(maps, ref)}
                 if name == "dvs_biplane":
                     row["inward"] = inward(maps, wins)
                 rows.append(row)
                 print(f"{name} {network} {label}: {row['within_45']:.3f} within 45 deg", flush=True)
-                per = row["within_45_per_window"]
-                table.append(
-                    [
-                        network,
-                        label,
-                        f"{row['within_45']:.1%} ({np.nanmin(per):.0%}-{np.nanmax(per):.0%})",
-                        f"{row['mean_abs_deg']:.1f}",
-                        f"{row['grouping_r_mean']:.3f}",
-                        f"{row['coverage']:.1%}",
-                        f"{np.median(row['inward']):.2f}" if "inward" in row else "",
-                        f"{per_window_s:.2f}",
-                    ]
-                )
-        results[name] = rows
-        file, window_ms, start_ms, _ = RECORDINGS[name]
-        lines += [
-            f"## {name} (`{file}`, {len(wins)} windows of {window_ms:g} ms from {start_ms:g} ms)",
-            "",
-            *markdown_table(
-                [
-                    "network",
-                    "input, speed, read-out",
-                    "within 45° of the rate model (pooled; per window)",
-                    "mean abs °",
-                    "grouping r",
-                    "coverage",
-                    "plane outline inward (median)",
-                    "s per window",
-                ],
-                table,
-            ),
-            "",
-        ]
+        results[name] = {"windows": len(wins), "rows": rows}
     head = ["# Levers on the spiking network's agreement with the rate model on recordings", "", describe(run.record())]
-    head += ["", "Scored as in `recording_fidelity.md`; the levers: the module docstring.", ""]
-    save_results("recording_levers", {"run": run.record(), "recordings": results}, head + lines)
+    head += ["", "Scored as in `recording_fidelity.md`; the maps: the levers of the module docstring.", ""]
+    save_results("recording_levers", {"run": run.record(), "recordings": results}, head + table_lines(results))
 
 
 if __name__ == "__main__":

@@ -229,11 +229,10 @@ class SpikingModel(Model):
 
     Options: ``network`` (a stored description), ``backend``, ``feedback``,
     ``dt_ms``, ``instantiate``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
-    ``spike_input`` (:data:`SPIKE_INPUTS`); for a
-    recording ``readout_lag_ms``, ``readout_ms``, ``window_clock`` and ``save_spikes`` (keep
-    each window's per-cell spike counts, :class:`~snn_fg.models.spiking.SpikingRecord`;
-    a frame always keeps them): a recording runs as one
-    continuous network, every event at its own time, its window clock firing
+    ``spike_input`` (:data:`SPIKE_INPUTS`); for a recording ``readout_lag_ms``,
+    ``readout_ms``, ``window_clock``, ``input_coding`` and ``save_spikes`` (keep each window's
+    per-cell spike counts, :class:`~snn_fg.models.spiking.SpikingRecord`; a frame always keeps
+    them): a recording runs as one continuous network, its window clock firing
     as each window starts (:mod:`snn_fg.models.spiking.continuous`).
     """
 

@@ -126,11 +126,12 @@ def test_held_spikes_carries_a_hold_across_chunks_and_cuts_it_at_a_reset_on_the_
     assert s2.size == 0 and carried[0].size == 0  # the reset at step 10 ended it
 
 
-def test_the_coding_is_part_of_a_stored_description():
+@pytest.mark.parametrize("coding", ["window", "sliding"])
+def test_the_coding_is_part_of_a_stored_description(coding):
     net = build_network(ModelParams(levels=2), (16, 16))
     assert net.input_coding == "events" and "input_coding" not in net.to_dict()  # (old files unchanged)
-    held = Network.from_dict({**net.to_dict(), "input_coding": "window"})
-    assert held.input_coding == "window" and Network.from_dict(held.to_dict()).input_coding == "window"
+    held = Network.from_dict({**net.to_dict(), "input_coding": coding})
+    assert held.input_coding == coding and Network.from_dict(held.to_dict()).input_coding == coding
     with pytest.raises(ParameterError, match="input_coding"):
         Network.from_dict({**net.to_dict(), "input_coding": "frames"})
 

@@ -137,7 +137,8 @@ def test_the_coding_is_part_of_a_stored_description(coding):
 
 
 @pytest.mark.slow
-def test_a_recording_run_with_the_window_coding_holds_the_frame_and_owns_a_disc_inward():
+@pytest.mark.parametrize("coding", ["window", "sliding"])
+def test_a_recording_run_with_a_held_coding_holds_the_frame_and_owns_a_disc_inward(coding):
     from snn_fg.events import image_to_events, iter_windows
     from snn_fg.frames.scenes import disc
     from snn_fg.models.spiking import run_spiking_windows
@@ -147,9 +148,9 @@ def test_a_recording_run_with_the_window_coding_holds_the_frame_and_owns_a_disc_
     scene = disc(radius=10)
     rec = image_to_events(scene.image, motion="circle")
     wins = list(iter_windows(rec, window_ms=60, max_windows=2))
-    maps = run_spiking_windows(wins, params=ModelParams(levels=3), input_coding="window", seed=4, progress=False)
+    maps = run_spiking_windows(wins, params=ModelParams(levels=3), input_coding=coding, seed=4, progress=False)
     sim = maps[0].params["simulation"]
-    assert sim["input_coding"] == "window" and sim["seed"] == 4
+    assert sim["input_coding"] == coding and sim["seed"] == 4
     assert sim["rate_hz_used"] == 200.0  # held sources fire at the network's own rate: nothing to calibrate
     for m in maps:
         assert truth_scores(m.fg_x, m.fg_y, scene)["frac_within_45"] >= 0.9

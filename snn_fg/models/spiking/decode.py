@@ -21,9 +21,18 @@ from ..rate.edfg import GroupingResult, readout
 
 def _grid(network: Network, sites: dict, rates: dict, name: str) -> np.ndarray:
     pop = network.population(name)
+    if sites[name].size == pop.size:  # every cell instantiated (sites are sorted): the rates are the grid
+        return np.array(rates[name], dtype=np.float64).reshape(pop.shape)
     out = np.zeros(pop.size)
     out[sites[name]] = rates[name]
     return out.reshape(pop.shape)
+
+
+def read_out(role: str, level: int) -> bool:
+    """Whether the maps read a population of ``role`` at ``level``: the grouping
+    cells of every level and the border-ownership cells of level 1
+    (:func:`~snn_fg.models.rate.edfg.readout`, :func:`vector_confidence`)."""
+    return role.startswith("group_") or (role.startswith("bo_") and level == 1)
 
 
 def to_level_grid(network: Network, name: str, grid: np.ndarray) -> np.ndarray:
@@ -37,31 +46,38 @@ def to_level_grid(network: Network, name: str, grid: np.ndarray) -> np.ndarray:
     return np.tensordot(ar, np.tensordot(grid, ac, axes=([2], [1])), axes=([1], [1])).transpose(1, 0, 2)
 
 
-def grouping_result(network: Network, sites: dict, rates: dict) -> GroupingResult:
+def grouping_result(network: Network, sites: dict, rates: dict, maps_only: bool = False) -> GroupingResult:
     """A GroupingResult filled with per-cell rates (population name -> values
-    over its ``sites``), level by level."""
+    over its ``sites``), level by level; ``maps_only``: only what the maps
+    read (:func:`read_out`; ``rates`` may hold only those), the simple cells
+    and the border-ownership cells of the higher levels left out (empty lists)."""
     fam = {f: [] for f in FAMILIES}
     s_l, gl_l, gd_l = [], [], []
     for level in range(1, network.params.levels + 1):
         for f in FAMILIES:
-            fam[f].append(_grid(network, sites, rates, network.one(f"bo_{f}", level).name))
-        s_l.append(_grid(network, sites, rates, network.one("simple", level).name))
+            if not maps_only or read_out(f"bo_{f}", level):
+                fam[f].append(_grid(network, sites, rates, network.one(f"bo_{f}", level).name))
+        if not maps_only or read_out("simple", level):
+            s_l.append(_grid(network, sites, rates, network.one("simple", level).name))
         for role, acc in (("group_L", gl_l), ("group_D", gd_l)):
             name = network.one(role, level).name
             acc.append(to_level_grid(network, name, _grid(network, sites, rates, name))[0])
     return GroupingResult(s_l, fam["L1"], fam["L2"], fam["D1"], fam["D2"], gl_l, gd_l)
 
 
-def decode_rates(network: Network, sites: dict, rates: dict):
-    """``(fg_x, fg_y, grouping, GroupingResult)`` from per-cell rates by population."""
-    g = grouping_result(network, sites, rates)
+def decode_rates(network: Network, sites: dict, rates: dict, maps_only: bool = False):
+    """``(fg_x, fg_y, grouping, GroupingResult)`` from per-cell rates by
+    population (``maps_only``: see :func:`grouping_result`)."""
+    g = grouping_result(network, sites, rates, maps_only)
     fg_x, fg_y, grouping = readout(g, network.params, network.frame_shape)
     return fg_x, fg_y, grouping, g
 
 
-def decode(result):
-    """``(fg_x, fg_y, grouping, GroupingResult)`` of a :class:`~snn_fg.backends.SimulationResult`."""
-    return decode_rates(result.network, result.sites, decoded_rates(result))
+def decode(result, maps_only: bool = False):
+    """``(fg_x, fg_y, grouping, GroupingResult)`` of a
+    :class:`~snn_fg.backends.SimulationResult` (``maps_only``: see
+    :func:`grouping_result`)."""
+    return decode_rates(result.network, result.sites, decoded_rates(result, maps_only), maps_only)
 
 
 def vector_confidence(g: GroupingResult, count_window_ms: float) -> np.ndarray:
@@ -92,7 +108,7 @@ def decode_maps(result, edges: np.ndarray | None = None, pool: int = 1):
     sensor's event pixels (``edges``) its block's vector
     (:func:`~snn_fg.frames.pool.unpool_maps`) and confidence
     (:func:`vector_confidence`)."""
-    fg_x, fg_y, grouping, g = decode(result)
+    fg_x, fg_y, grouping, g = decode(result, maps_only=True)
     conf = vector_confidence(g, result.count_window_ms)
     if pool > 1:
         fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, edges, pool)
@@ -108,7 +124,13 @@ def decode_maps(result, edges: np.ndarray | None = None, pool: int = 1):
 DECODED_ROLES = ("simple", "group_L", "group_D", *(f"bo_{f}" for f in FAMILIES))
 
 
-def decoded_rates(result) -> dict:
+def decoded_rates(result, maps_only: bool = False) -> dict:
     """Per-cell rates of the populations the read-out uses (the others,
-    most of a network's cells, are not needed)."""
-    return {name: result.rates(name) for role in DECODED_ROLES for name in result.of_role(role)}
+    most of a network's cells, are not needed); ``maps_only``: of those the
+    maps read (:func:`read_out`)."""
+    return {
+        p.name: result.rates(p.name)
+        for role in DECODED_ROLES
+        for p in result.network.by_role(role)
+        if p.name in result.counts and (not maps_only or read_out(role, p.level))
+    }

@@ -184,6 +184,8 @@ def _block_tensor(e, w, rows, cols, out):
                 gy[i, c] = -((e[h - 1, c] - e[h - 2, c]) / 1.0)
             else:
                 gy[i, c] = -((e[i + 1, c] - e[i - 1, c]) / 2.0)
+    # the products once per pixel, not once per tap that reads them
+    pxx, pyy, pxy = gx * gx, gy * gy, gx * gy
     txx, tyy, txy = np.zeros_like(e), np.zeros_like(e), np.zeros_like(e)
     need = np.zeros(h, np.bool_)
     for k in range(rows.size):
@@ -192,15 +194,15 @@ def _block_tensor(e, w, rows, cols, out):
         if not need[i]:
             continue
         for c in range(n):
-            txx[i, c] = (gx[i, c] * gx[i, c]) * w[r]
-            tyy[i, c] = (gy[i, c] * gy[i, c]) * w[r]
-            txy[i, c] = (gx[i, c] * gy[i, c]) * w[r]
+            txx[i, c] = pxx[i, c] * w[r]
+            tyy[i, c] = pyy[i, c] * w[r]
+            txy[i, c] = pxy[i, c] * w[r]
         for j in range(r, 0, -1):
             a, b, wj = _mirror(i - j, h), _mirror(i + j, h), w[r - j]
             for c in range(n):
-                txx[i, c] += (gx[a, c] * gx[a, c] + gx[b, c] * gx[b, c]) * wj
-                tyy[i, c] += (gy[a, c] * gy[a, c] + gy[b, c] * gy[b, c]) * wj
-                txy[i, c] += (gx[a, c] * gy[a, c] + gx[b, c] * gy[b, c]) * wj
+                txx[i, c] += (pxx[a, c] + pxx[b, c]) * wj
+                tyy[i, c] += (pyy[a, c] + pyy[b, c]) * wj
+                txy[i, c] += (pxy[a, c] + pxy[b, c]) * wj
     for q, t in enumerate((txx, tyy, txy)):
         for k in range(rows.size):
             i, c = rows[k], cols[k]

@@ -251,3 +251,17 @@ def test_a_model_keeps_one_backend_and_gives_a_fresh_models_maps():
     assert np.abs(fresh.fg_x).sum() > 0
     for k in ("fg_x", "fg_y", "grouping"):
         np.testing.assert_array_equal(getattr(again, k), getattr(fresh, k), err_msg=k)
+
+
+def test_the_maps_read_only_their_populations_and_are_the_whole_decode_s(small_run):
+    """decode(maps_only=True) (what a window's maps use) leaves out the simple
+    cells and the border-ownership cells above level 1, and its maps are
+    those of the whole decode bit for bit."""
+    from snn_fg.models.spiking.decode import decode
+
+    whole, part = decode(small_run.result), decode(small_run.result, maps_only=True)
+    assert np.abs(whole[0]).sum() > 0 and whole[2].max() > 0
+    for key, a, b in zip(("fg_x", "fg_y", "grouping"), whole[:3], part[:3]):
+        np.testing.assert_array_equal(a, b, err_msg=key)
+    assert len(whole[3].s) == len(whole[3].bl1) == 2
+    assert part[3].s == [] and len(part[3].bl1) == len(part[3].bd2) == 1 and len(part[3].gl) == 2

@@ -79,6 +79,37 @@ def mark_row(row_lo, row_hi, dirty, n_dirty, rr, first, last):
     return n_dirty
 
 
+@njit(cache=True, inline="always")
+def mark_taps(bits, pres, pbase, words, rr, lo, m, row_lo, row_hi, dirty, n_dirty):
+    """The targets of row ``rr`` at columns ``lo + k`` for the set bits ``k`` of
+    ``m`` (< 64 columns, so at most two words) marked, and the row noted
+    (:func:`mark_row`); returns the targets counted where a cell exists and
+    the new length of ``dirty``."""
+    sh, wa = U(lo & 63), (lo >> 6) + rr * words
+    bits[U(wa)] |= m << sh
+    events = ones((m << sh) & pres[U(pbase + wa)])
+    if sh != 0 and (m >> U(64 - sh)) != 0:
+        bits[U(wa + 1)] |= m >> U(64 - sh)
+        events += ones((m >> U(64 - sh)) & pres[U(pbase + wa + 1)])
+        wa += 1
+    return events, mark_row(row_lo, row_hi, dirty, n_dirty, rr, (lo >> 6) + rr * words, wa)
+
+
+@njit(cache=True, inline="always")
+def spike_site(spikes, x, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc):
+    """Spike ``x``'s source cell as (channel, row, column) of its population's
+    grid: its place in the population, through ``flat_of`` where only some of
+    its cells exist (``c_flat`` >= 0; the spike ``SPIKES_AHEAD`` on prefetched)."""
+    loc = spikes[U(x)] - c_off
+    if c_flat >= 0:
+        if x + SPIKES_AHEAD < spikes.size:
+            prefetch(flat_of, U(c_flat + spikes[U(x + SPIKES_AHEAD)] - c_off))
+        loc = flat_of[U(c_flat + loc)]
+    c, rest = divide(loc, plane, inv_plane)
+    i, j = divide(rest, gc_s, inv_gc)
+    return c, i, j
+
+
 @njit(cache=True)
 def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks, owner, n_parts):
     """Add what ``spikes`` (cell numbers, ascending) send through Conv ``p``
@@ -102,13 +133,7 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
     split = n_parts > 1
     events = 0
     for x in range(spikes.size):
-        loc = spikes[U(x)] - c_off
-        if c_flat >= 0:
-            if x + SPIKES_AHEAD < spikes.size:
-                prefetch(flat_of, U(c_flat + spikes[U(x + SPIKES_AHEAD)] - c_off))
-            loc = flat_of[U(c_flat + loc)]
-        c, rest = divide(loc, plane, inv_plane)
-        ii, jj = divide(rest, gc_s, inv_gc)
+        c, ii, jj = spike_site(spikes, x, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc)
         pr, pc = ii * st_s, jj * st_s
         if st == 1:
             cls, row, column = base_cls + c, pr, pc
@@ -155,15 +180,8 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
                     acc[U(dst + j)] += st_w[U(w0 + j)]
                 # the taps of columns [t0 + a, t0 + b): marked, and counted where a cell exists
                 m = (nz >> U(a)) & low_bits(b - a)
-                lo = t0 + a
-                sh, wa = U(lo & 63), (lo >> 6) + rr * words
-                bits[U(wa)] |= m << sh
-                events += ones((m << sh) & pres[U(pbase + wa)])
-                if sh != 0 and (m >> U(64 - sh)) != 0:
-                    bits[U(wa + 1)] |= m >> U(64 - sh)
-                    events += ones((m >> U(64 - sh)) & pres[U(pbase + wa + 1)])
-                    wa += 1
-                n_dirty = mark_row(row_lo, row_hi, dirty, n_dirty, rr, (lo >> 6) + rr * words, wa)
+                got, n_dirty = mark_taps(bits, pres, pbase, words, rr, t0 + a, m, row_lo, row_hi, dirty, n_dirty)
+                events += got
     n_dirty_a[0] = n_dirty
     return events
 
@@ -188,13 +206,7 @@ def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, ac
     prune, inh = prj[p, J_PRUNE] == 1, prj[p, J_INH] == 1
     events = 0
     for x in range(spikes.size):
-        loc = spikes[U(x)] - c_off
-        if c_flat >= 0:
-            if x + SPIKES_AHEAD < spikes.size:
-                prefetch(flat_of, U(c_flat + spikes[U(x + SPIKES_AHEAD)] - c_off))
-            loc = flat_of[U(c_flat + loc)]
-        c, rest = divide(loc, plane, inv_plane)
-        si, sj = divide(rest, gc_s, inv_gc)
+        c, si, sj = spike_site(spikes, x, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc)
         rb, cb = prj[p, J_BASE] + si, prj[p, J_COLBASE] + sj
         c0, c1 = csr_ptr[U(cb)], csr_ptr[U(cb + 1)]
         if c0 == c1:
@@ -211,14 +223,8 @@ def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, ac
                 if col - lo >= 64:
                     # the targets of columns [lo, lo + 64): marked, and counted where a cell
                     # exists (as conv_spikes does)
-                    sh, wa = U(lo & 63), (lo >> 6) + rr * words
-                    bits[U(wa)] |= m << sh
-                    events += ones((m << sh) & pres[U(pbase + wa)])
-                    if sh != 0 and (m >> U(64 - sh)) != 0:
-                        bits[U(wa + 1)] |= m >> U(64 - sh)
-                        events += ones((m >> U(64 - sh)) & pres[U(pbase + wa + 1)])
-                        wa += 1
-                    n_dirty = mark_row(row_lo, row_hi, dirty, n_dirty, rr, (lo >> 6) + rr * words, wa)
+                    got, n_dirty = mark_taps(bits, pres, pbase, words, rr, lo, m, row_lo, row_hi, dirty, n_dirty)
+                    events += got
                     if xc == c1:
                         break
                     m, lo = U(0), col

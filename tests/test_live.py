@@ -142,8 +142,8 @@ def test_a_replay_is_paced_by_the_stream_clock_and_loops_after_itself():
     assert 0.004 <= time.perf_counter() - t0 < 0.5 and sum(len(p) for p in parts) == 6
 
 
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+def _free_port(kind=socket.SOCK_DGRAM) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
 
@@ -213,6 +213,32 @@ class _Inbox:
                 lines.append(json.loads(self.sock.recv(65536)))
             except TimeoutError:
                 return lines
+
+
+def test_a_dv_replay_ends_when_it_is_sent_and_the_live_run_with_it(tmp_path, disc_file, capsys):
+    """snn-fg stream serving dv:// ends by itself once its events are sent, with a
+    reader still connected, and the live run then ends on the closed stream with
+    every event and the maps of snn-fg run (the rate model: stateless and quick)."""
+    pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    path, ev, size = disc_file
+    url = f"dv://127.0.0.1:{_free_port(socket.SOCK_STREAM)}"
+    replay = [sys.executable, "-m", "snn_fg.cli", "stream", str(path), "--to", url, "--speed", "4"]
+    sender = subprocess.Popen(replay, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    common = ["--window-ms", "40", "--no-figures", "--no-progress", "--model", "rate"]
+    try:
+        status = main(["live", url, "--out", str(tmp_path / "live"), "--max-behind", "1000", *common])
+        said, err = sender.communicate(timeout=30)  # (before the fix it waited for ever on its connected reader)
+    finally:
+        sender.kill()
+    assert status == 0 and sender.returncode == 0, err
+    assert said.startswith(f"snn-fg: sent {len(ev)} events of {path} to {url}")
+    record = json.loads((tmp_path / "live" / "live.json").read_text())
+    assert record["events_received"] == len(ev) and record["ended"].startswith("the sender")
+    assert main(["run", str(path), "--out", str(tmp_path / "run"), *common]) == 0
+    live, run = read_maps(tmp_path / "live" / "maps.zarr"), read_maps(tmp_path / "run" / "maps.zarr")
+    assert len(live[0]) == len(run[0]) == 3
+    for a, b in zip(live[:3], run[:3], strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.slow

@@ -1,12 +1,12 @@
 """snn-fg live on dvs.es replayed in real time: every window published, its latency,
 and its maps against snn-fg run on the same events.
 
-    python -m experiments.validation.live_latency [--loops 5] [--cases compact-1,compact-2,hop10-1,x4-1,rate-1]
+    python -m experiments.validation.live_latency [--loops 5] [--cases compact-1,...,dv-rate-1]
 
 ``dvs.es`` is played ``--loops`` times back to back (``snn-fg stream --loop``,
-5 s for 5) over UDP into ``snn-fg live --network compact --model spiking``
-(pinned with ``taskset`` to one core or two), once the live command says
-it is ready (after its warm-up). Each case gives the windows published and
+5 s for 5) over UDP (SPIF packets) or ``dv://`` (a DV network stream) into
+``snn-fg live --network compact --model spiking`` (pinned with ``taskset`` to
+one core or two), once the live command says it is ready (after its warm-up). Each case gives the windows published and
 dropped, the simulated time the dropped windows did not cost, the events
 received against those sent, the latency (from a window's last event's
 arrival to its maps published: median, 95th percentile, worst), the peak
@@ -38,43 +38,47 @@ from scipy import ndimage
 from experiments.common import Run, dataset, describe, load, markdown_table, save_results
 
 SNN_FG = [sys.executable, "-m", "snn_fg.cli"]
-#: case -> (live options, cores, speed)
+#: case -> (live options, cores, speed, transport)
 CASES = {
-    "compact-1": (["--model", "spiking", "--network", "compact"], 1, 1.0),
-    "compact-2": (["--model", "spiking", "--network", "compact"], 2, 1.0),
-    "hop10-1": (["--model", "spiking", "--network", "compact", "--hop-ms", "10"], 1, 1.0),
-    "x4-1": (["--model", "spiking", "--network", "compact"], 1, 4.0),
-    "rate-1": (["--model", "rate", "--network", "compact"], 1, 1.0),
+    "compact-1": (["--model", "spiking", "--network", "compact"], 1, 1.0, "udp"),
+    "compact-2": (["--model", "spiking", "--network", "compact"], 2, 1.0, "udp"),
+    "hop10-1": (["--model", "spiking", "--network", "compact", "--hop-ms", "10"], 1, 1.0, "udp"),
+    "x4-1": (["--model", "spiking", "--network", "compact"], 1, 4.0, "udp"),
+    "rate-1": (["--model", "rate", "--network", "compact"], 1, 1.0, "udp"),
+    "dv-compact-1": (["--model", "spiking", "--network", "compact"], 1, 1.0, "dv"),
+    "dv-rate-1": (["--model", "rate", "--network", "compact"], 1, 1.0, "dv"),
 }
 
 
-def _port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+def _port(kind=socket.SOCK_DGRAM) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
 
 
-def live_case(rec: Path, options, cores: int, speed: float, out: Path, loops: int) -> dict:
-    port, pub = _port(), _port()
+def live_case(rec: Path, options, cores: int, speed: float, transport: str, out: Path) -> dict:
+    """One live run: over ``udp://`` the live command binds first and the replay starts
+    once it is ready; over ``dv://`` the replay is the server, and the live command
+    (given the sensor size) warms up before it connects, from when the server sends."""
+    port, pub = _port(socket.SOCK_STREAM if transport == "dv" else socket.SOCK_DGRAM), _port()
+    url = f"{transport}://127.0.0.1:{port}"
     inbox = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     inbox.bind(("127.0.0.1", pub))
     inbox.settimeout(0.2)
     cpus = ",".join(str(c) for c in sorted(os.sched_getaffinity(0))[:cores])
-    cmd = ["/usr/bin/time", "-f", "peak_rss_kb=%M", "taskset", "-c", cpus, *SNN_FG, "live", f"udp://127.0.0.1:{port}"]
+    cmd = ["/usr/bin/time", "-f", "peak_rss_kb=%M", "taskset", "-c", cpus, *SNN_FG, "live", url]
     cmd += ["--out", str(out), "--sensor-size", "320x240", "--no-figures", "--no-progress"]
     cmd += ["--publish", f"udp://127.0.0.1:{pub}", *options]
+    replay = [*SNN_FG, "stream", str(rec), "--to", url, "--speed", str(speed)]
+    sender = subprocess.Popen(replay, stdout=subprocess.PIPE, text=True) if transport == "dv" else None
     live = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     for line in live.stdout:
         if "ready" in line:
             break
-    time.sleep(1.0)
     load_at_start = load()
-    sent = subprocess.run(
-        [*SNN_FG, "stream", str(rec), "--to", f"udp://127.0.0.1:{port}", "--speed", str(speed)],
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
+    if sender is None:
+        time.sleep(1.0)
+        sender = subprocess.Popen(replay, stdout=subprocess.PIPE, text=True)
     lines = []
     while live.poll() is None or True:
         try:
@@ -83,6 +87,9 @@ def live_case(rec: Path, options, cores: int, speed: float, out: Path, loops: in
             if live.poll() is not None:
                 break
     rest, err = live.communicate()
+    sent = sender.communicate()[0]
+    if sender.returncode:
+        raise RuntimeError(f"{' '.join(replay)} ended with {sender.returncode}")
     record = json.loads((out / "live.json").read_text())
     record["peak_rss_mb"] = int(err.split("peak_rss_kb=")[-1].split()[0]) / 1024
     record["load_at_start"] = load_at_start
@@ -172,9 +179,9 @@ def main(argv=None) -> None:
         events = np.concatenate(list(looped(lambda: iter_recording(src), args.loops)))
         save_events(rec, events, (320, 240, 2))
         for case in args.cases.split(","):
-            options, cores, speed = CASES[case]
+            options, cores, speed, transport = CASES[case]
             print(f"{case}: live ...", flush=True)
-            r = live_case(rec, options, cores, speed, tmp / case, args.loops)
+            r = live_case(rec, options, cores, speed, transport, tmp / case)
             hop = options[options.index("--hop-ms") + 1] if "--hop-ms" in options else None
             print(f"{case}: snn-fg run on the same events ...", flush=True)
             r["run"] = run_case(rec, options, hop, cores, tmp / f"run-{case}")
@@ -183,11 +190,11 @@ def main(argv=None) -> None:
                 tmp / case, tmp / f"run-{case}", r.pop("published"), r["per_window"], stateful
             )
             results[case] = r
-            rows.append(_row(case, speed, cores, r, len(events)))
+            rows.append(_row(case, transport, speed, cores, r, len(events)))
             print(rows[-1], flush=True)
     record = {"loops": args.loops, "events": len(events), "cases": results, "run": run.record()}
     lines = [
-        "# snn-fg live on dvs.es replayed over UDP",
+        "# snn-fg live on dvs.es replayed over UDP and dv://",
         "",
         describe(record["run"]),
         "",
@@ -201,6 +208,7 @@ def main(argv=None) -> None:
         *markdown_table(
             [
                 "case",
+                "stream",
                 "speed",
                 "cores",
                 "windows published / dropped",
@@ -221,7 +229,7 @@ def main(argv=None) -> None:
     save_results("live_latency", record, lines)
 
 
-def _row(case, speed, cores, r, sent: int) -> list:
+def _row(case, transport, speed, cores, r, sent: int) -> list:
     lat, a, run = r["latency_ms"] or {}, r["against_run"], r["run"]
     median, p95, worst = (lat.get(k, float("nan")) for k in ("median", "p95", "max"))
     after = "-"
@@ -232,6 +240,7 @@ def _row(case, speed, cores, r, sent: int) -> list:
         after = f"{r_min}, {within} ({a['after_drop']} windows)"
     return [
         case,
+        f"{transport}://",
         f"{speed:g}x",
         cores,
         f"{r['windows']} / {r['windows_dropped']}",

@@ -5,6 +5,7 @@ tried without a camera."""
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
@@ -48,10 +49,14 @@ def cmd_stream(args) -> int:
         for part in paced([events], args.speed):
             sender.send(part)
     finally:
-        sender.close()
+        end_process = sender.close()
     print(
         f"snn-fg: sent {sender.sent} events of {args.recording} to {args.to} in {time.perf_counter() - t:.2f} s "
         f"({(events['t'][-1] - events['t'][0]) / 1e6:.2f} s of events at {args.speed:g}x)",
         file=sys.stdout,
     )
+    if end_process:  # (a DV server with a reader still connected: see DvSender.close)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)
     return 0

@@ -80,8 +80,9 @@ class UdpSender:
             self.sock.sendto(spif.encode(part, self.timestamps), self.address)
             self.sent += len(part)
 
-    def close(self):
+    def close(self) -> bool:
         self.sock.close()
+        return False
 
 
 class DvSender:
@@ -116,11 +117,27 @@ class DvSender:
         self.writer.writeEvents(self.store.sliceTime(int(events["t"][0]), int(events["t"][-1]) + 1))
         self.sent += len(events)
 
-    def close(self):
+    def close(self, linger_s: float = 1.0) -> bool:
+        """Waits (up to 5 s) for the queue to be sent, then ``linger_s`` more while
+        a reader is connected: a ``dv-processing`` reader throws away what it
+        has received but not yet taken when the connection closes. Then the
+        server is taken down if no reader is connected; ``True`` if one is:
+        the writer cannot be deleted from Python while a reader is connected
+        (its destructor waits for its network thread, which waits for the
+        interpreter lock the deleting thread holds, to report the reader
+        gone). The caller then ends the process without tearing the writer
+        down (``os._exit``); the operating system closes the connection,
+        which is how a reader learns that the stream ended."""
         t0 = time.perf_counter()
         while self.writer.getQueuedPacketCount() and time.perf_counter() - t0 < 5:
             time.sleep(0.01)
+        t0 = time.perf_counter()
+        while self.writer.getClientCount() and time.perf_counter() - t0 < linger_s:
+            time.sleep(0.01)
+        if self.writer.getClientCount():
+            return True
         del self.writer
+        return False
 
 
 def open_sender(url: str, sensor_size, timestamps: bool = True):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from urllib.parse import urlsplit
 
 import numpy as np
 
@@ -101,6 +102,15 @@ def known_keys(owner: str, given: Iterable[str], allowed: Iterable[str]) -> None
     unknown = sorted(set(given) - set(allowed))
     if unknown:
         fail(owner, None, None, f"unknown field(s) {', '.join(unknown)} (known: {', '.join(sorted(allowed))})")
+
+
+def address(url: str, schemes: tuple[str, ...], owner: str) -> tuple[str, str, int]:
+    """``(scheme, host, port)`` of ``SCHEME://HOST:PORT``, the scheme one of
+    ``schemes``; else an InputError naming ``url`` and ``owner`` (the option)."""
+    parts = urlsplit(url)
+    if parts.scheme not in schemes or not parts.hostname or parts.port is None:
+        raise InputError(url, f"{owner}: expected " + " or ".join(f"{s}://HOST:PORT" for s in schemes))
+    return parts.scheme, parts.hostname, parts.port
 
 
 def check_crop(crop, shape, owner: str = "maps_figure") -> tuple[int, int, int, int]:

@@ -367,3 +367,25 @@ def test_ctrl_c_ends_a_live_run_with_its_complete_windows_kept(tmp_path, disc_fi
     record = json.loads((out / "live.json").read_text())
     n = len(read_maps(out / "maps.zarr")[0])
     assert record["ended"] == "interrupted" and record["windows"] == n >= 2
+
+
+@pytest.mark.parametrize(
+    "argv, said",
+    [
+        (["live", "foo://127.0.0.1:5"], "foo://127.0.0.1:5: source: expected udp://HOST:PORT or dv://HOST:PORT"),
+        (["live", "udp://127.0.0.1"], "udp://127.0.0.1: source: expected udp://HOST:PORT or dv://HOST:PORT"),
+        (
+            ["live", "udp://127.0.0.1:9", "--sensor-size", "8x8", "--publish", "http://a:1"],
+            "http://a:1: --publish: expected udp://HOST:PORT or tcp://HOST:PORT",
+        ),
+        (["stream", "x.npz", "--to", "tcp://a:1"], "tcp://a:1: --to: expected udp://HOST:PORT or dv://HOST:PORT"),
+    ],
+)
+def test_an_address_of_the_wrong_form_is_one_line_naming_it_and_the_option(tmp_path, capsys, disc_file, argv, said):
+    if argv[0] == "stream":
+        argv = ["stream", str(disc_file[0]), *argv[2:]]
+    else:
+        argv = [*argv, "--out", str(tmp_path / "o")]
+    assert main(argv) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [f"snn-fg: error: {said}"]
+    assert not (tmp_path / "o").exists()

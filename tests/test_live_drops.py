@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 
 from snn_fg.backends.fast import FastBackend, core
+from snn_fg.errors import ParameterError
 from snn_fg.events.live import LiveStream
 from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.models.spiking.continuous import simulate_windows
+from snn_fg.models.spiking.options import READOUT_LAG_MS
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -37,6 +39,7 @@ class _Given:
 def _stream(events, sensor_size, dropped=(), **options):
     """A live stream of ``events`` whose slots ``dropped`` were dropped (as a model that fell behind drops them)."""
     gate = threading.Event()
+    options.setdefault("lag_ms", READOUT_LAG_MS)  # (as snn-fg live gives it: the spiking network's)
     stream = LiveStream(_Given([events], sensor_size[:2], gate), max_behind=10**6, **options)
     with stream.lock:
         stream.dropped_slots |= set(dropped)
@@ -52,15 +55,15 @@ def test_the_stream_says_where_a_model_may_go_on_past_its_dropped_slots():
     and runs again at slot 10, which brings events; the time skipped is counted."""
     ended = threading.Event()
     ended.set()
-    stream = LiveStream(_Given([], (8, 8), ended), window_ms=40.0, stride_ms=10.0, max_behind=10**6)
+    stream = LiveStream(_Given([], (8, 8), ended), window_ms=40.0, stride_ms=10.0, max_behind=10**6, lag_ms=20.0)
     with stream.lock:
         stream.dropped_slots |= {5, 6, 7, 8, 9}
         stream.dropped_windows |= set(range(2, 10))
-    got = {t: stream.resume_at(t * 1000.0, 20_000.0) / 1000 for t in (40, 50, 60, 65, 70, 80, 90, 100)}
+    got = {t: stream.resume_at(t * 1000.0) / 1000 for t in (40, 50, 60, 65, 70, 80, 90, 100)}
     assert got == {40: 40, 50: 50, 60: 60, 65: 65, 70: 80, 80: 90, 90: 100, 100: 100}
     assert stream.stats()["simulated_ms_skipped"] == 30.0
     stream.published = 1  # (window 1 published: nothing reads slot 6 any more)
-    assert stream.resume_at(60_000.0, 20_000.0) == 70_000.0
+    assert stream.resume_at(60_000.0) == 70_000.0
 
 
 def _run(stream, steps):
@@ -141,3 +144,11 @@ def test_a_dropped_slot_is_not_simulated_and_the_network_goes_on_from_rest(noted
     assert not np.array_equal(
         gap[2].grouping, silent[2].grouping
     )  # (the network run through the gap carried its state)
+
+
+def test_a_stream_cut_for_another_read_out_lag_than_the_network_reads_is_refused():
+    """The stream drops windows by where their read-outs end: one told another lag
+    than the network's would drop what is still read out, so it is refused."""
+    _, rec = flipping_disc_recording(24, windows=2, window_ms=85.0)
+    with pytest.raises(ParameterError, match="read-outs 0 ms late; the network reads them 20 ms late"):
+        _run(_stream(rec.events, rec.sensor_size, window_ms=85.0, lag_ms=0.0), [])

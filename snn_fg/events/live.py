@@ -51,7 +51,8 @@ class LiveStream:
         self.options = {"window_ms": window_ms, "stride_ms": stride_ms, "start_ms": start_ms}
         self.win, self.start, self.stride = _window_times(window_ms, start_ms, stride_ms)
         self.slots_per_window = max(1, -(-self.win // self.stride))
-        self.lag_slots = -(-int(round(lag_ms * 1000)) // self.stride)  # (slots a window's read-out reaches past it)
+        self.lag_us = int(round(lag_ms * 1000))  # (how much later than its span a window is read out)
+        self.lag_slots = -(-self.lag_us // self.stride)  # (slots a window's read-out reaches past it)
         self.max_behind = max_behind
         self.q: queue.Queue = queue.Queue()
         self.published = -1  # the last window whose maps are out
@@ -202,12 +203,13 @@ class LiveStream:
             else:
                 yield w
 
-    def resume_at(self, t: float, lag_us: float) -> float:
+    def resume_at(self, t: float) -> float:
         """Where a model at time ``t`` (us from the first window's start) may go on:
         ``t``, or, inside a dropped slot that no kept window reads out at ``t``
         (window ``k`` is read over ``[k * stride + lag_us, ... + window)``), the
         slot's end or the next kept window's read-out start, whichever is first.
         The time skipped is counted (``live.json``: ``simulated_ms_skipped``)."""
+        lag_us = self.lag_us
         with self.lock:
             s = int(t // self.stride)
             if s not in self.dropped_slots:
@@ -232,9 +234,11 @@ class LiveStream:
         """Whether window ``k`` holds a dropped slot (asked before it is :meth:`done`)."""
         return k in self.dropped_windows
 
-    def dropped_before(self, t_us: float) -> bool:
-        """Whether a slot that begins before ``t_us`` (the stream's clock) was dropped."""
-        return self.first_dropped is not None and self.origin + self.first_dropped * self.stride < t_us
+    def dropped_before_read_out(self, w) -> bool:
+        """Whether a slot that begins before window ``w``'s read-out ends (``lag_us``
+        past its span, on the stream's clock) was dropped."""
+        end = w.t_end_us + self.lag_us
+        return self.first_dropped is not None and self.origin + self.first_dropped * self.stride < end
 
     def arrival(self, w) -> float | None:
         """When the last event of window ``w`` arrived (perf_counter), None without events."""

@@ -15,13 +15,13 @@ from __future__ import annotations
 import socket
 import time
 import warnings
-from urllib.parse import urlsplit
 
 import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events import spif
 from snn_fg.events._core import EVENT_DTYPE
+from snn_fg.validate import address
 
 #: the schemes a live source is named by
 SCHEMES = ("udp", "dv")
@@ -31,10 +31,7 @@ UDP_BUFFER = 8 << 20
 
 def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
     """``(scheme, host, port)`` of ``udp://HOST:PORT`` or ``dv://HOST:PORT`` (an InputError naming ``url``)."""
-    parts = urlsplit(url)
-    if parts.scheme not in SCHEMES or not parts.hostname or parts.port is None:
-        raise InputError(url, f"{owner}: expected udp://HOST:PORT or dv://HOST:PORT")
-    return parts.scheme, parts.hostname, parts.port
+    return address(url, SCHEMES, owner)
 
 
 def open_source(url: str, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0):

@@ -16,13 +16,13 @@ import json
 import socket
 import time
 import warnings
-from urllib.parse import urlsplit
 
 import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.results.atomic import save_text
 from snn_fg.results.peaks import grouping_peaks
+from snn_fg.validate import address
 
 #: the drop policy, as live.json states it
 DROP_POLICY = (
@@ -42,10 +42,8 @@ class Publisher:
     is said once, and the run goes on without publishing."""
 
     def __init__(self, url: str):
-        parts = urlsplit(url)
-        if parts.scheme not in ("udp", "tcp") or not parts.hostname or parts.port is None:
-            raise InputError(url, "--publish: expected udp://HOST:PORT or tcp://HOST:PORT")
-        self.url, self.address, self.tcp = url, (parts.hostname, parts.port), parts.scheme == "tcp"
+        scheme, host, port = address(url, ("udp", "tcp"), "--publish")
+        self.url, self.address, self.tcp = url, (host, port), scheme == "tcp"
         if not self.tcp:
             self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
             return
@@ -104,10 +102,7 @@ class LiveRecord:
         if self.view is not None:
             self.view.show(w, maps, message)
         row = {k: message[k] for k in ("window", "t_start_us", "t_end_us", "events", "latency_ms")}
-        lag_us = 1000.0 * maps.params.get("simulation", {}).get("readout_lag_ms", 0.0)  # (the spiking network's)
-        row["drop_before"] = self.stream.dropped_before(
-            w.t_end_us + lag_us
-        )  # (a slot dropped before its read-out ended)
+        row["drop_before"] = self.stream.dropped_before_read_out(w)
         self.rows.append(row)
 
     def summary(self, ended: str) -> dict:

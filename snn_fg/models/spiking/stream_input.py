@@ -32,7 +32,7 @@ import dataclasses
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, ParameterError
 from ...frames.pool import pool_events, pooled_shape
 from ...lowering.held_input import HeldStream
 from ...lowering.input_stream import SegmentedInput, SpikeStream
@@ -247,6 +247,11 @@ class StreamFeed:
         if self.ended and self.origin is None:
             raise InputError(name, "no window to process")
         self.layout = lay = lay_out(self)
+        if drops is not None and drops.lag_us != round(lay.lag_ms * 1000):  # (it drops by where read-outs end)
+            raise ParameterError(
+                f"the live stream {name} was cut for read-outs {drops.lag_us / 1000:g} ms late; "
+                f"the network reads them {lay.lag_ms:g} ms late (LiveStream's lag_ms)"
+            )
         self.pool, self.step_us = lay.network.params.input_pool, lay.dt_ms * 1000.0
         h, w = pooled_shape(lay.shape, self.pool)
         every = np.ones((h, w), bool)  # (which sources fire is not known ahead)
@@ -323,7 +328,7 @@ class StreamFeed:
         if self.origin is None:
             return n
         t = n * self.step_us
-        return max(n, int(self.drops.resume_at(t, self.layout.lag_ms * 1000.0) // self.step_us))
+        return max(n, int(self.drops.resume_at(t) // self.step_us))
 
     def dropped(self, k: int) -> bool:
         """Whether window ``k`` was dropped by the stream (its maps are not wanted)."""

@@ -62,6 +62,10 @@ class WindowReader:
         ends = np.searchsorted(np.asarray(edges), np.asarray(spans, dtype=np.float64).reshape(-1, 2))
         self.bins = [(int(a), int(b)) for a, b in ends]
         self.first = 0  # the first window not decoded yet (spans start and end in order)
+        # the counts of the bins so far, summed (int64); a window being read holds their value
+        # at its start and its spikes (a window's counts are the difference: one pass over the
+        # cells a bin, however many windows overlap, as with --stride-ms shorter than the window)
+        self.total: dict = {}
         self.reading: dict = {}
         self.last_at = run.t_start  # perf_counter() when the last window was decoded
         self.threaded, self.cells = threaded, cells
@@ -92,33 +96,46 @@ class WindowReader:
 
     def __call__(self, k: int, result):
         self.last_result = result
-        i = self.first
+        i, ending = self.first, []
         while i < len(self.bins) and self.bins[i][0] <= k:
-            if k < self.bins[i][1]:
-                self._add(i, k, self.bins[i][1], result)
+            k0, k1 = self.bins[i]
+            if k < k1:
+                if k == k0:  # (the counts so far, before this bin: what the window's end subtracts)
+                    self.reading[i] = ({name: a.copy() for name, a in self.total.items()}, [])
+                before, spikes = self.reading[i]
+                if self.feed.dropped(i):  # (a live stream dropped it: nothing of it is kept, nor is it decoded)
+                    before.clear(), spikes.clear()
+                elif result.spikes is not None:
+                    spikes.append(result.spikes)
+                if k == k1 - 1:
+                    ending.append(i)
             i += 1
+        if self.reading:  # (no window open: the total need not follow, its differences are what count)
+            for name, c in result.counts.items():
+                if name in self.total:
+                    np.add(self.total[name], c, out=self.total[name])
+                else:
+                    self.total[name] = c.astype(np.int64)
+        for i in ending:
+            self._read(i, result)
         while self.first < len(self.bins) and self.bins[self.first][1] <= k + 1:
             self.first += 1
         if self.feed.ended and self.feed.n <= self.first < len(self.bins):
             raise StreamEnded(f"{self.feed.n} windows")
 
-    def _add(self, i: int, k: int, k1: int, result):
-        counts, spikes = self.reading.setdefault(i, ({}, []))
-        if self.feed.dropped(i):  # (a live stream dropped it: its bins are not summed, nor is it decoded)
-            counts.clear(), spikes.clear()
+    def _read(self, i: int, result):
+        """Window ``i``'s last bin is in: its counts (the total now less that at its
+        start) are decoded here or on the decoding thread."""
+        before, spikes = self.reading.pop(i)
+        counts = {}
+        if not self.feed.dropped(i):
+            counts = {n: a - before[n] if n in before else a.copy() for n, a in self.total.items()}
+        w = self.feed.window(i)
+        if self.worker is None:
+            self._finish(i, w, result, counts, spikes)
         else:
-            for name, c in result.counts.items():
-                counts[name] = counts[name] + c if name in counts else c.astype(np.int64)
-            if result.spikes is not None:
-                spikes.append(result.spikes)
-        if k == k1 - 1:
-            del self.reading[i]
-            w = self.feed.window(i)
-            if self.worker is None:
-                self._finish(i, w, result, counts, spikes)
-            else:
-                self._wait(self.AHEAD - 1)
-                self.pending.append(self.worker.submit(self._finish, i, w, result, counts, spikes))
+            self._wait(self.AHEAD - 1)
+            self.pending.append(self.worker.submit(self._finish, i, w, result, counts, spikes))
 
     def _finish(self, i, w, result, counts, spikes):
         if self.failed:  # (an earlier window failed on the thread: none after it)

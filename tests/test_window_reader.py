@@ -1,0 +1,31 @@
+"""A continuous run's windows read as its counting bins arrive: each window
+counts exactly its own bins, however many windows overlap (a read-out that
+hops by less than a window), and a window the live stream dropped is not
+counted."""
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from snn_fg.models.spiking.window_reader import WindowReader
+
+
+def test_overlapping_windows_each_count_the_sum_of_their_bins_and_a_dropped_one_none():
+    spans = [(0, 4), (1, 5), (2, 6), (3, 7), (4, 8), (6, 8)]  # (ms; the bins are 1 ms)
+    feed = SimpleNamespace(ended=False, n=len(spans), dropped=lambda i: i == 2, window=lambda i: i)
+    reader = WindowReader(feed, spans, np.arange(9.0), pool=1, run=SimpleNamespace(t_start=0.0))
+    got = {}
+    reader._finish = lambda i, w, result, counts, spikes: got.setdefault(i, (counts, spikes))
+    rng = np.random.default_rng(0)
+    bins = [{"S": rng.integers(0, 9, 7, dtype=np.int32), "G": rng.integers(0, 3, 4, dtype=np.int32)} for _ in range(8)]
+    for k, counts in enumerate(bins):
+        reader(k, SimpleNamespace(counts=counts, spikes={"k": k}))
+    assert sorted(got) == list(range(len(spans)))
+    for i, (a, b) in enumerate(spans):
+        counts, spikes = got[i]
+        if i == 2:
+            assert counts == {} and spikes == []
+            continue
+        for name in ("S", "G"):
+            np.testing.assert_array_equal(counts[name], sum(bins[k][name].astype(np.int64) for k in range(a, b)))
+        assert [s["k"] for s in spikes] == list(range(a, b))

@@ -389,3 +389,14 @@ def test_an_address_of_the_wrong_form_is_one_line_naming_it_and_the_option(tmp_p
     assert main(argv) == 2
     assert capsys.readouterr().err.strip().splitlines() == [f"snn-fg: error: {said}"]
     assert not (tmp_path / "o").exists()
+
+
+def test_no_dv_server_is_one_line_without_the_librarys_source_location(tmp_path, capsys):
+    pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    port = _free_port(socket.SOCK_STREAM)  # (nothing listens there)
+    assert main(["live", f"dv://127.0.0.1:{port}", "--out", str(tmp_path / "o"), "--wait-s", "0.3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"snn-fg: error: dv://127.0.0.1:{port}: no DV server answered within 0.3 s (connect: Connection refused)"
+    ]
+    assert not (tmp_path / "o").exists()

@@ -16,9 +16,11 @@ import numpy as np
 import pytest
 
 from snn_fg.cli.main import main
+from snn_fg.errors import InputError
 from snn_fg.events import image_to_events, save_events
 from snn_fg.frames.scenes import disc
 from snn_fg.results.maps import Maps
+from snn_fg.results.outputs import check_output_folder
 
 
 @pytest.fixture(scope="module")
@@ -271,3 +273,16 @@ def test_files_that_exist_are_replaced_only_with_force(tmp_path, recording, caps
         assert main([*argv, str(out), "--force"]) == 0
         assert out.read_bytes() != b"the user's"
         capsys.readouterr()
+
+
+def test_an_earlier_live_run_is_replaced_with_force(tmp_path):
+    """snn-fg live --force on the folder of an earlier live run (its maps, table and live.json):
+    it was refused, 'holds live.json, which snn-fg did not write'."""
+    out = tmp_path / "live"
+    (out / "maps.zarr").mkdir(parents=True)
+    for name in ("live.json", "windows.csv", "timeline.png"):
+        (out / name).write_text("written by snn-fg live")
+    assert check_output_folder(out, force=True) is True
+    (out / "notes.txt").write_text("the user's")
+    with pytest.raises(InputError, match="holds notes.txt, which snn-fg did not write"):
+        check_output_folder(out, force=True)

@@ -145,7 +145,7 @@ class LiveStream:
             if not self.warned:
                 self.warned = True
                 warnings.warn(
-                    f"{self.name}: the model fell {waiting} windows behind the stream; "
+                    f"{self.name}: the model fell {waiting} window{'s' if waiting != 1 else ''} behind the stream; "
                     f"whole windows are dropped while more than {self.max_behind} wait (counted in live.json)",
                     InputWarning,
                     stacklevel=3,

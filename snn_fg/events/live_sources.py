@@ -113,7 +113,8 @@ class DvSource:
                 break
             except RuntimeError as exc:
                 if time.perf_counter() - t0 > wait_s:
-                    raise InputError(url, f"no DV server answered within {wait_s:g} s ({exc})") from None
+                    why = str(exc).split(" [")[0]  # (not the Boost source location dv-processing appends)
+                    raise InputError(url, f"no DV server answered within {wait_s:g} s ({why})") from None
                 time.sleep(0.1)
         problem = None
         if not self.reader.isEventStreamAvailable():

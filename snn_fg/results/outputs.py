@@ -66,9 +66,9 @@ def _window_figures(entry: Path) -> bool:
     return bool(names) and all(fnmatch.fnmatchcase(n, WINDOW_FIGURE.replace("{:04d}", "[0-9]" * 4)) for n in names)
 
 
-#: what ``snn-fg run`` and ``snn-fg decode`` write: maps (a frame's ``.npz``, a recording's Zarr store),
-#: their figures, a recording's per-window table and animation, the spiking model's figures, and a folder
-#: of window figures under another name
+#: what ``snn-fg run``, ``snn-fg live`` and ``snn-fg decode`` write: maps (a frame's ``.npz``, a
+#: recording's Zarr store), their figures, a recording's per-window table and animation, a live run's
+#: record, the spiking model's figures, and a folder of window figures under another name
 RUN_FOLDER = FolderKind(
     "an snn-fg run",
     names=(
@@ -80,6 +80,7 @@ RUN_FOLDER = FolderKind(
         "windows",
         "maps.gif",
         "maps.mp4",
+        "live.json",
         "spike_raster.png",
         "rate_histograms.png",
     ),

@@ -93,7 +93,10 @@ class LiveRecord:
             "t_start_us": int(w.t_start_us - origin),
             "t_end_us": int(w.t_end_us - origin),
             "events": int(len(w.events)),
-            "peaks": grouping_peaks(maps, self.k),
+            "peaks": [  # (float32 values to the digits they hold, not float64's tail of noise)
+                {k: round(v, 3) if isinstance(v, float) else v for k, v in peak.items()}
+                for peak in grouping_peaks(maps, self.k)
+            ],
         }
         now = time.perf_counter()
         message["latency_ms"] = None if arrived is None else round((now - arrived) * 1000, 3)

@@ -51,9 +51,8 @@ class _InputFeed:
         self.tab, self.first_cell, self.inputs, self.n_steps = tab, first_cell, inputs, n_steps
         self.segmented = hasattr(inputs, "segment")
         self.total = 0  # input spikes of the segments loaded before the current one
-        if self.segmented:
+        if self.segmented:  # (its first segment is loaded as the run starts: a live stream's may not be there yet)
             self.period, self.loaded = int(inputs.segment_steps), -1
-            self.reached(0)
         else:
             periodic = inputs.period_steps is not None and inputs.period_steps < n_steps
             self.period = int(inputs.period_steps) if periodic else max(n_steps, 1)
@@ -175,6 +174,7 @@ class Run:
         threads = ThreadArrays(*(getattr(self, name) for name in ThreadArrays._fields))
         with _progress(settings) as bar:
             n = 0
+            self.feed.reached(0)
             if stream is not None:
                 stream.reached(0)
             while n < self.n_steps:

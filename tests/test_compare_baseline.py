@@ -84,3 +84,40 @@ def test_without_a_baseline_compare_says_why(demo_runs, tmp_path, capsys):
     assert out.splitlines()[1].split()[-2:] == ["-", "-"]
     main(["compare", str(demo_runs / "ten"), str(demo_runs / "one"), "--no-baseline"])
     assert "B against its own model" not in capsys.readouterr().out
+
+
+def test_with_outline_the_baseline_is_scored_on_the_outline_pixels_too(tmp_path, capsys):
+    """snn-fg compare --outline: A against B on the outline band, and B's baseline
+    on that band as well (it was on the whole map, beside A's on the band)."""
+    import json
+
+    from snn_fg.events import save_events
+    from snn_fg.frames.scenes import flipping_disc_recording
+    from snn_fg.scoring.baseline import self_agreement
+    from snn_fg.scoring.outline import event_outlines
+
+    _, rec = flipping_disc_recording(32, windows=2, window_ms=40.0)
+    path = tmp_path / "disc.npz"
+    save_events(path, rec.events, rec.sensor_size)
+    for name, its in (("one", "1"), ("ten", "10")):
+        argv = ["run", str(path), "--out", str(tmp_path / name), "--iterations", its, "--window-ms", "40"]
+        assert main([*argv, "--no-figures", "--no-progress"]) == 0
+    a, b = Maps.load(tmp_path / "ten"), Maps.load(tmp_path / "one")
+    got = {}
+    for outline in (None, 1):
+        argv = ["compare", str(tmp_path / "ten"), str(tmp_path / "one"), "--json", str(tmp_path / "m.json"), "--force"]
+        assert main(argv + ([] if outline is None else ["--outline", str(outline)])) == 0
+        got[outline] = json.loads((tmp_path / "m.json").read_text())["windows"]
+    capsys.readouterr()
+    where = event_outlines(a, b, 1)
+    windows = [r["window_b"] for r in got[1]]
+    masks = [where(r["window_a"], r["window_b"]) for r in got[1]]
+    band, whole = self_agreement(b, windows, masks=masks), self_agreement(b, windows)
+    for row, on_band in zip(got[1], band, strict=True):
+        assert row["baseline_within_45"] == on_band["within_45"] and row["baseline_coverage"] == on_band["coverage"]
+    for row, on_all in zip(got[None], whole, strict=True):
+        assert row["baseline_within_45"] == on_all["within_45"]
+    for band_row, whole_row, keep in zip(got[1], got[None], masks, strict=True):  # (the band holds fewer)
+        assert 0 < band_row["baseline_pixels"] <= keep.sum() < whole_row["baseline_pixels"]
+    nothing = self_agreement(b, windows, masks=[np.zeros_like(m) for m in masks])
+    assert all(np.isnan(r["within_45"]) for r in nothing)  # (no pixel kept: no vector compared)

@@ -152,7 +152,7 @@ def cmd_compare(args) -> int:
         )
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
-    baseline = None if args.no_baseline else add_baseline(rows, b)
+    baseline = None if args.no_baseline else add_baseline(rows, b, where)
     print(compare_table(rows, args.outline, baseline))
     if args.json:
         save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
@@ -174,11 +174,13 @@ def _run_name(path) -> str:
     return p.parent.name if p.is_file() or p.suffix in (".npz", ".zarr") else p.name
 
 
-def add_baseline(rows, b: Maps) -> str:
+def add_baseline(rows, b: Maps, where=None) -> str:
     """B's model run again at twice its iterations on B's own frames
-    (:func:`~snn_fg.scoring.baseline.self_agreement`): its agreement with
-    B goes into each row (``baseline_*``); returns the line that says so,
-    or why there is no baseline."""
+    (:func:`~snn_fg.scoring.baseline.self_agreement`), on the pixels the
+    rows compared (``where``, as given to
+    :func:`~snn_fg.scoring.metrics.compare_maps`): its agreement with B goes
+    into each row (``baseline_*``); returns the line that says so, or why
+    there is no baseline."""
     crop = b.params.get("export_crop")
     if crop is not None:  # (the model run on the crop alone is another run than the whole frame's, cut)
         again = "" if crop["window"] is None else f" --window {crop['window']}"
@@ -188,7 +190,8 @@ def add_baseline(rows, b: Maps) -> str:
         )
     windows = [r["window_b"] for r in rows]
     print(f"snn-fg: baseline: running B's model again on {len(windows)} frame(s)...", file=sys.stderr)
-    got = self_agreement(b, windows)
+    masks = None if where is None else [where(r["window_a"], r["window_b"]) for r in rows]
+    got = self_agreement(b, windows, masks=masks)
     if isinstance(got, str):
         return (
             f"B <=45°, B grp r: no baseline: {got}; two runs with another --seed show a spiking run's spread "

@@ -63,12 +63,16 @@ def model_inputs(m: Maps, windows, needs: str) -> list | str:
     return [still]
 
 
-def self_agreement(m: Maps, windows, factor: int = 2, progress=None) -> list[dict] | str:
+def self_agreement(m: Maps, windows, factor: int = 2, progress=None, masks=None) -> list[dict] | str:
     """``m`` (its ``windows``: indices, or ``[None]`` for one frame) against
     its own model run again with ``factor`` times its iterations on the same
     frames: per window, the fraction of shared vectors within 45 degrees,
-    their mean angle difference, the grouping r and the share of the longer
-    run's vectors that ``m`` has. A string says why there is none."""
+    their mean angle difference, the grouping r, the share of the longer
+    run's vectors that ``m`` has and the number of shared vectors; ``masks`` (one boolean map a window, or
+    None): the vectors only on those pixels (as
+    :func:`~snn_fg.scoring.metrics.compare_maps` restricts its own with
+    ``where``; the grouping stays on the whole map). A string says why there
+    is none."""
     model = m.params.get("model")
     if model not in ITERATED_MODELS:
         return f"B comes from the {model or 'unknown'} model, which is not iterated on an event frame here"
@@ -81,13 +85,16 @@ def self_agreement(m: Maps, windows, factor: int = 2, progress=None) -> list[dic
     options = {k: m.params[k] for k in MODELS[model].options if k in m.params}
     longer = get_model(model, params.replace(iterations=max(1, params.iterations) * factor), progress, **options)
     rows = []
-    for i, still in zip(windows, inputs, strict=True):
+    for i, still, keep in zip(windows, inputs, masks or [None] * len(windows), strict=True):
         fx, fy, g = frame_of(m, i)
         if still is None:
             rows.append(None)
             continue
         ref = longer.run_still(still)
-        c = compare_frame(fx, fy, g, ref.fg_x, ref.fg_y, ref.grouping)
+        rx, ry = ref.fg_x, ref.fg_y
+        if keep is not None:
+            fx, fy, rx, ry = (np.where(keep, v, 0) for v in (fx, fy, rx, ry))
+        c = compare_frame(fx, fy, g, rx, ry, ref.grouping)
         rows.append(
             {
                 "iterations": int(params.iterations),
@@ -96,6 +103,7 @@ def self_agreement(m: Maps, windows, factor: int = 2, progress=None) -> list[dic
                 "mean_deg": c["angle_diff_mean_deg"],
                 "grouping_r": c["grouping_pearson_r"],
                 "coverage": c["coverage_of_b"],
+                "pixels": c["pixels_compared"],
             }
         )
     return rows

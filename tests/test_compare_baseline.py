@@ -121,3 +121,18 @@ def test_with_outline_the_baseline_is_scored_on_the_outline_pixels_too(tmp_path,
         assert 0 < band_row["baseline_pixels"] <= keep.sum() < whole_row["baseline_pixels"]
     nothing = self_agreement(b, windows, masks=[np.zeros_like(m) for m in masks])
     assert all(np.isnan(r["within_45"]) for r in nothing)  # (no pixel kept: no vector compared)
+
+
+def test_the_pixels_compared_are_the_band_and_both_maps_confident_vectors():
+    from snn_fg.scoring.metrics import compared_pixels
+
+    fx = np.ones((3, 4), np.float32)
+    conf = np.array([[0, 1, 2, 3]] * 3, np.float32)
+    a = Maps(fx, 0 * fx, fx.copy(), extra={CONFIDENCE: conf})
+    b = Maps(fx.copy(), 0 * fx, fx.copy())  # (a rate model's: no confidence, every vector kept)
+    band = np.zeros((3, 4), bool)
+    band[1] = True
+    assert compared_pixels(a, b, None, None) is None
+    np.testing.assert_array_equal(compared_pixels(a, b, None, None, min_confidence=2.0), conf >= 2)
+    keep = compared_pixels(a, b, None, None, where=lambda ia, ib: band, min_confidence=2.0)
+    np.testing.assert_array_equal(keep, band & (conf >= 2))

@@ -17,7 +17,7 @@ from ..results.atomic import save_text
 from ..results.maps import Maps
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
-from ..scoring.metrics import compare_maps
+from ..scoring.metrics import compare_maps, compared_pixels
 from ..scoring.outline import event_outlines
 from .options import check_output_file, number, subcommand
 
@@ -152,7 +152,7 @@ def cmd_compare(args) -> int:
         )
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
-    baseline = None if args.no_baseline else add_baseline(rows, b, where)
+    baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
     print(compare_table(rows, args.outline, baseline))
     if args.json:
         save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
@@ -174,13 +174,14 @@ def _run_name(path) -> str:
     return p.parent.name if p.is_file() or p.suffix in (".npz", ".zarr") else p.name
 
 
-def add_baseline(rows, b: Maps, where=None) -> str:
+def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str:
     """B's model run again at twice its iterations on B's own frames
     (:func:`~snn_fg.scoring.baseline.self_agreement`), on the pixels the
-    rows compared (``where``, as given to
-    :func:`~snn_fg.scoring.metrics.compare_maps`): its agreement with B goes
-    into each row (``baseline_*``); returns the line that says so, or why
-    there is no baseline."""
+    rows compared A and B on (``where`` and ``min_confidence``, as given to
+    :func:`~snn_fg.scoring.metrics.compare_maps`:
+    :func:`~snn_fg.scoring.metrics.compared_pixels`): its agreement with B
+    goes into each row (``baseline_*``); returns the line that says so, or
+    why there is no baseline."""
     crop = b.params.get("export_crop")
     if crop is not None:  # (the model run on the crop alone is another run than the whole frame's, cut)
         again = "" if crop["window"] is None else f" --window {crop['window']}"
@@ -190,7 +191,7 @@ def add_baseline(rows, b: Maps, where=None) -> str:
         )
     windows = [r["window_b"] for r in rows]
     print(f"snn-fg: baseline: running B's model again on {len(windows)} frame(s)...", file=sys.stderr)
-    masks = None if where is None else [where(r["window_a"], r["window_b"]) for r in rows]
+    masks = [compared_pixels(a, b, r["window_a"], r["window_b"], where, min_confidence) for r in rows]
     got = self_agreement(b, windows, masks=masks)
     if isinstance(got, str):
         return (

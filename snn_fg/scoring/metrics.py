@@ -153,6 +153,22 @@ def confident(m: Maps, i, min_confidence: float | None) -> np.ndarray | None:
     return (conf if i is None else conf[i]) >= min_confidence
 
 
+def compared_pixels(a: Maps, b: Maps, ia, ib, where=None, min_confidence: float | None = None):
+    """The pixels on which :func:`compare_maps` compares both maps' vectors
+    (windows ``ia``, ``ib``): ``where``'s, where each map that stores a
+    confidence has a vector at least ``min_confidence`` long; None: all
+    (a reference's own baseline is scored on the same pixels)."""
+    keep = None
+    for k in (
+        None if where is None else where(ia, ib),
+        confident(a, ia, min_confidence),
+        confident(b, ib, min_confidence),
+    ):
+        if k is not None:
+            keep = k if keep is None else keep & k
+    return keep
+
+
 def compare_maps(
     a: Maps, b: Maps, window: int | None = None, where=None, min_confidence: float | None = None
 ) -> list[dict]:

@@ -168,3 +168,17 @@ def test_the_share_of_pixels_is_drawn_on_a_scale_that_shows_it():
     share = fig.axes[1]
     assert share.get_ylim()[1] == pytest.approx(0.23)
     assert any("none saturated" in t.get_text() for t in share.texts)
+
+
+def test_the_key_says_what_the_input_column_shows():
+    """Every maps.png said '(or the APS frame the fbfg model ran on)', whatever it showed."""
+    from snn_fg.results.figures import APS_INPUT, EVENTS_INPUT
+    from snn_fg.results.overview import input_note
+
+    fx = np.zeros((2, 8, 8), np.float32)
+    events = Maps(fx, fx, fx, extra={"event_frame": np.zeros((2, 8, 8), np.int8)})
+    frames = Maps(fx, fx, fx, extra={"event_frame": np.zeros((2, 8, 8), np.int8), "aps_frame": np.zeros((2, 8, 8))})
+    assert input_note(events) == EVENTS_INPUT and input_note(frames) == APS_INPUT
+    for note in (EVENTS_INPUT, APS_INPUT):
+        texts = [t.get_text() for ax in maps_figure(*_windows(1), input_note=note).axes for t in ax.texts]
+        assert note in texts and not any("APS" in t for t in texts if t != note)

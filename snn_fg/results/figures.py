@@ -96,7 +96,12 @@ def plot_maps_row(axes, input_img, fields, title: str = "", *, norm=None, extent
     a0.set_ylabel("y (px, rows down)", fontsize=7)
 
 
-def _key(fig, cells, norm, grouping_label: str, shared: bool) -> None:
+#: what the key says the input column shows: a window's events, or the APS frame the frame-based model ran on
+EVENTS_INPUT = "input: the events of the window\nwhite ON, black OFF, grey none"
+APS_INPUT = "input: the camera's APS frame\nthe fbfg model ran on"
+
+
+def _key(fig, cells, norm, grouping_label: str, shared: bool, input_note: str = EVENTS_INPUT) -> None:
     """The strip above the rows that explains each column once: what the input shows, the colour
     wheel of the figure-ground map, and the grouping's colour bar (one scale for every row)."""
     from matplotlib.cm import ScalarMappable
@@ -104,12 +109,7 @@ def _key(fig, cells, norm, grouping_label: str, shared: bool) -> None:
     text = {"fontsize": 8, "va": "center", "ha": "left"}
     a0 = fig.add_subplot(cells[0])
     a0.set_axis_off()
-    a0.text(
-        0.0,
-        0.5,
-        "input: the events of the window\nwhite ON, black OFF, grey none\n(or the APS frame the fbfg model ran on)",
-        **text,
-    )
+    a0.text(0.0, 0.5, input_note, **text)
     wheel_cell, words = cells[1].subgridspec(1, 2, width_ratios=(1, 1.6), wspace=0.05)
     draw_wheel(fig.add_subplot(wheel_cell))
     a1 = fig.add_subplot(words)
@@ -167,6 +167,7 @@ def maps_figure(
     rows=None,
     grouping_max: float | None = None,
     hint: str = "",
+    input_note: str = EVENTS_INPUT,
 ) -> Figure:
     """One row per frame (input, figure-ground, grouping), under a key that explains each column
     once (the colour wheel, the grouping's colour bar).
@@ -178,7 +179,8 @@ def maps_figure(
     ``(x0, y0, x1, y1)`` (pixels, x1 and y1 exclusive) draws only that part of every panel, at
     its own coordinates. ``placed`` ``(x0, y0, scale)``: the maps are a part of a sensor, their
     pixel ``(0, 0)`` its ``scale x scale`` pixels from ``(x0, y0)`` on (an export's crop, of
-    blocks where it pools), drawn at the sensor's coordinates.
+    blocks where it pools), drawn at the sensor's coordinates. ``input_note``: what the key says
+    the input column shows (:data:`EVENTS_INPUT`, :data:`APS_INPUT`).
     """
     # (a recording's maps may be read on indexing, snn_fg.results.store.ZarrArray: only the rows drawn are read)
     fg_x, fg_y, grouping = (v if hasattr(v, "ndim") else np.asarray(v) for v in (fg_x, fg_y, grouping))
@@ -207,7 +209,8 @@ def maps_figure(
     note_in = 0.35 if note else 0.0
     fig = Figure(figsize=(3 * panel_w + 1.6, KEY_IN + row_h * len(idx) + note_in), layout="constrained")
     grid = fig.add_gridspec(1 + len(idx), 3, height_ratios=(KEY_IN, *[row_h] * len(idx)))
-    _key(fig, [grid[0, c] for c in range(3)], norm, grouping_label, shared=len(idx) > 1 or grouping_max is not None)
+    shared = len(idx) > 1 or grouping_max is not None
+    _key(fig, [grid[0, c] for c in range(3)], norm, grouping_label, shared, input_note)
     for row, (i, f) in enumerate(zip(idx, fields), start=1):
         axes = [fig.add_subplot(grid[row, c]) for c in range(3)]
         title = titles[i] if titles is not None else ""

@@ -16,7 +16,7 @@ import numpy as np
 
 from .activity import SATURATED_SHARE
 from .atomic import save_figure
-from .figures import event_frame_rgb, maps_figure, rows_shown
+from .figures import APS_INPUT, EVENTS_INPUT, event_frame_rgb, maps_figure, rows_shown
 from .outputs import WINDOW_FIGURE
 from .timeline import TABLE_NAME, TIMELINE_NAME, save_table, timeline_figure, window_rows
 
@@ -42,6 +42,11 @@ def input_images(maps):
     """What a recording's figures show as each window's input: the APS frame the frame-based model
     ran on where the run stored one, else the window's event frame (:class:`EventFrames`)."""
     return maps.extra["aps_frame"] if "aps_frame" in maps.extra else EventFrames(maps.extra["event_frame"])
+
+
+def input_note(maps) -> str:
+    """What a figure's key says the input column of :func:`input_images` shows."""
+    return APS_INPUT if "aps_frame" in maps.extra else EVENTS_INPUT
 
 
 def _ms(us) -> str:
@@ -79,6 +84,7 @@ def overview_options(maps, folder) -> dict:
         "max_rows": OVERVIEW_ROWS,
         "grouping_max": grouping_top(maps),
         "hint": f"snn-fg plot {folder} --windows I,J,... draws any",
+        "input_note": input_note(maps),
     }
 
 
@@ -111,6 +117,7 @@ def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, cro
         grouping_label=grouping_label,
         grouping_max=grouping_max,
         crop=crop,
+        input_note=input_note(maps),
     )
 
 

@@ -182,3 +182,35 @@ def test_the_key_says_what_the_input_column_shows():
     for note in (EVENTS_INPUT, APS_INPUT):
         texts = [t.get_text() for ax in maps_figure(*_windows(1), input_note=note).axes for t in ax.texts]
         assert note in texts and not any("APS" in t for t in texts if t != note)
+
+
+def test_the_raster_caption_explains_the_roles_drawn_and_fits_on_the_page():
+    """The caption was cut at the page's bottom and explained side-cue cells no network drew."""
+    from types import SimpleNamespace
+
+    from snn_fg.models.spiking.figures import raster_figure
+    from snn_fg.models.spiking.record import SpikingRecord
+    from snn_fg.network.roles import ROLE_ORDER
+
+    drawn = ["simple", "bo_L1", "feedback_1p"]
+    roles = np.repeat([ROLE_ORDER.index(r) for r in drawn], 5)
+    raster = SimpleNamespace(row=np.arange(roles.size), role=roles, t_ms=np.linspace(0, 400, roles.size))
+    record = SpikingRecord(
+        names=[],
+        counts={},
+        sites={},
+        raster=raster,
+        input_on=np.zeros((4, 4), np.uint8),
+        input_off=np.zeros((4, 4), np.uint8),
+        count_window_ms=200.0,
+        duration_ms=400.0,
+        settle_ms=200.0,
+        populations={},
+    )
+    fig = raster_figure(record)
+    FigureCanvasAgg(fig).draw()
+    (caption,) = fig.texts
+    explained = [line.split(": ", 1)[0] for line in caption.get_text().splitlines() if not line.startswith(" ")]
+    assert explained == ["simple", "bo_L1, bo_L2, bo_D1, bo_D2", "feedback_1p, feedback_1n, feedback_2p, feedback_2n"]
+    box, page, (ax,) = caption.get_window_extent(), fig.bbox, fig.axes
+    assert page.y0 <= box.y0 and box.y1 < ax.get_tightbbox().y0  # (on the page, under the axes and their labels)

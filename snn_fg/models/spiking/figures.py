@@ -18,15 +18,22 @@ from ...results.figures import event_frame_rgb, save_maps_figure
 from ...results.maps import SPIKING_GROUPING_LABEL
 from .record import RASTER_CELLS_PER_ROLE, SpikingRecord
 
+#: the raster's axes (inches high), and a line of the caption under them that says what the roles are
+RASTER_AXES_IN, CAPTION_LINE_IN = 7.2, 0.125
+
 
 def raster_figure(record, window: int | None = None) -> Figure:
     """Spike raster of a :class:`~snn_fg.models.spiking.record.SpikingRecord`'s sample."""
     where = "" if window is None else f" (window {window})"
-    fig = Figure(figsize=(10, 8.6), layout="constrained")
-    ax = fig.subplots()
-    fig.get_layout_engine().set(rect=(0, 0.16, 1, 0.84))  # below: what the roles are
-    fig.text(0.01, 0.15, role_caption(), fontsize=7, va="top")
     raster = record.raster
+    drawn = None if raster is None or not raster.row.size else {ROLE_ORDER[int(r)] for r in np.unique(raster.role)}
+    caption = role_caption(drawn)
+    below = CAPTION_LINE_IN * (caption.count("\n") + 1) + 0.2  # (inches under the axes: what the roles are)
+    height = RASTER_AXES_IN + below
+    fig = Figure(figsize=(10, height), layout="constrained")
+    ax = fig.subplots()
+    fig.get_layout_engine().set(rect=(0, below / height, 1, 1 - below / height))
+    fig.text(0.01, (below - 0.1) / height, caption, fontsize=7, va="top")
     if raster is not None and raster.row.size:
         cmap = mcolors.ListedColormap([f"C{i % 10}" for i in range(len(ROLE_ORDER))])
         for ri in np.unique(raster.role):
@@ -57,11 +64,13 @@ def raster_figure(record, window: int | None = None) -> Figure:
     return fig
 
 
-def role_caption(width: int = 170) -> str:
-    """What each population role's cells do, one line per family of roles."""
+def role_caption(roles=None, width: int = 170) -> str:
+    """What each population role's cells do, one line per family of roles
+    (``roles``: only the families with one of these; None: every family)."""
     return "\n".join(
-        textwrap.fill(f"{', '.join(roles)}: {meaning}", width, subsequent_indent="    ")
-        for roles, meaning in ROLE_MEANINGS
+        textwrap.fill(f"{', '.join(family)}: {meaning}", width, subsequent_indent="    ")
+        for family, meaning in ROLE_MEANINGS
+        if roles is None or set(family) & set(roles)
     )
 
 

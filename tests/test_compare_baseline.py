@@ -136,3 +136,9 @@ def test_the_pixels_compared_are_the_band_and_both_maps_confident_vectors():
     np.testing.assert_array_equal(compared_pixels(a, b, None, None, min_confidence=2.0), conf >= 2)
     keep = compared_pixels(a, b, None, None, where=lambda ia, ib: band, min_confidence=2.0)
     np.testing.assert_array_equal(keep, band & (conf >= 2))
+
+
+def test_compare_says_which_run_is_a_and_which_is_b(demo_runs, capsys):
+    main(["compare", str(demo_runs / "ten"), str(demo_runs / "one"), "--no-baseline"])
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[2:4] == [f"A: {demo_runs / 'ten'} (the rate model)", f"B: {demo_runs / 'one'} (the rate model)"]

@@ -99,14 +99,16 @@ def add_compare_command(sub):
     return p
 
 
-def compare_table(rows, outline_px: int | None = None, baseline: str | None = None) -> str:
+def compare_table(rows, outline_px: int | None = None, baseline: str | None = None, named=()) -> str:
     """The rows of :func:`~snn_fg.scoring.metrics.compare_maps` as a text
-    table; ``baseline``: what the B columns hold, or why they are empty."""
+    table; ``baseline``: what the B columns hold, or why they are empty;
+    ``named``: lines that say what A and B are, under the table."""
     lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COLUMNS)]
     lines += [
         "  ".join("-".rjust(w) if r.get(k) is None else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COLUMNS)
         for r in rows
     ]
+    lines += named
     where = "" if outline_px is None else f" within {outline_px} px of the event region's outline"
     lines += [
         "A, B: compared windows; t: window start after the recording's first event; angle columns on",
@@ -153,7 +155,11 @@ def cmd_compare(args) -> int:
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
     baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
-    print(compare_table(rows, args.outline, baseline))
+    named = [
+        f"{side}: {path} (the {m.params.get('model', 'unknown')} model)"
+        for side, path, m in (("A", args.a, a), ("B", args.b, b))
+    ]
+    print(compare_table(rows, args.outline, baseline, named))
     if args.json:
         save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
         print(f"snn-fg: metrics saved to {args.json}")

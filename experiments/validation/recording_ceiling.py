@@ -44,7 +44,7 @@ import time
 import numpy as np
 
 from experiments.common import Run, describe, markdown_table, save_figure, save_results
-from experiments.validation.recording_fidelity import NETWORKS, rate_maps, score_cells, scores, windows_of
+from experiments.validation.recording_fidelity import NETWORKS, rate_maps, score_cells, scores, show_row, windows_of
 
 #: how long a still frame is presented and where counting starts (``run_spiking``'s defaults)
 STILL_MS, COUNT_FROM_MS = 400.0, 200.0
@@ -125,11 +125,7 @@ def figure(shown: dict):
                 (f"rate model, {network}", fg_rgb(ref.fg_x, ref.fg_y)),
                 (f"spiking {network}, still: {a['within_45']:.0%} within 45°", fg_rgb(spk.fg_x, spk.fg_y)),
             ]
-        for ax, (title, img) in zip(row, panels):
-            ax.imshow(img)
-            ax.set_title(f"{name} window {k}: {title}", fontsize=9)
-            ax.set_xlabel("x (px)")
-            ax.set_ylabel("y (px)")
+        show_row(row, f"{name} window {k}", panels)
     fig.tight_layout()
     return fig
 

@@ -195,13 +195,18 @@ def figure(shown: dict):
                 for m in (maps[("default", "rate")], *(maps[("default", c)] for c in CODINGS))
             ),
         ]
-        for ax, img, title in zip(row, panels, cols):
-            ax.imshow(img)
-            ax.set_title(f"{name} window {k}: {title}", fontsize=9)
-            ax.set_xlabel("x (px)")
-            ax.set_ylabel("y (px)")
+        show_row(row, f"{name} window {k}", zip(cols, panels))
     fig.tight_layout()
     return fig
+
+
+def show_row(axes, label: str, panels) -> None:
+    """One figure row: each ``(title, image)`` of ``panels`` on its axes, titled ``label: title``."""
+    for ax, (title, img) in zip(axes, panels):
+        ax.imshow(img)
+        ax.set_title(f"{label}: {title}", fontsize=9)
+        ax.set_xlabel("x (px)")
+        ax.set_ylabel("y (px)")
 
 
 def frame_events(w, t_us) -> np.ndarray:

@@ -68,11 +68,10 @@ def self_agreement(m: Maps, windows, factor: int = 2, progress=None, masks=None)
     its own model run again with ``factor`` times its iterations on the same
     frames: per window, the fraction of shared vectors within 45 degrees,
     their mean angle difference, the grouping r, the share of the longer
-    run's vectors that ``m`` has and the number of shared vectors; ``masks`` (one boolean map a window, or
-    None): the vectors only on those pixels (as
-    :func:`~snn_fg.scoring.metrics.compare_maps` restricts its own with
-    ``where``; the grouping stays on the whole map). A string says why there
-    is none."""
+    run's vectors that ``m`` has and the number of shared vectors.
+    ``masks`` (a boolean map a window, or None): the vectors only on those
+    pixels (:func:`~snn_fg.scoring.metrics.compared_pixels`; the grouping
+    stays on the whole map). A string says why there is none."""
     model = m.params.get("model")
     if model not in ITERATED_MODELS:
         return f"B comes from the {model or 'unknown'} model, which is not iterated on an event frame here"

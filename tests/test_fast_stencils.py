@@ -46,14 +46,18 @@ def _deliver_one(tab, p, src_flat, present):
     q_src = [q.name for q in pops].index(net.projections[p].source)
     acc = np.zeros(tgt.size)
     rows, words = tgt.channels * tgt.grid[0], (tgt.grid[1] + 63) // 64
-    marks = (np.zeros(rows, np.int64), np.full(rows, -1, np.int64), np.zeros(rows, np.int64), np.zeros(1, np.int64))
-    marks += (np.zeros(rows * words, np.uint64),)
+    marks = (
+        np.zeros(rows, np.uint8),
+        np.zeros(rows, np.int64),
+        np.zeros(1, np.int64),
+        np.zeros(rows * words, np.uint64),
+    )
     stencil = (tab.cls_ptr, tab.row_co, tab.row_qr, tab.row_qc, tab.row_ncol, tab.row_w0, tab.row_nz, tab.st_w)
     spikes = np.array([cells[q_src, 0] + src_flat], np.int32)
     events = deliver.conv_spikes(
         p, spikes, tab.pops, cells, np.zeros(1, np.int32), np.concatenate(pres), tab.prj, stencil, acc, marks, 0, 1
     )
-    bits = np.unpackbits(marks[4].view(np.uint8), bitorder="little").reshape(rows, words * 64)[:, : tgt.grid[1]]
+    bits = np.unpackbits(marks[3].view(np.uint8), bitorder="little").reshape(rows, words * 64)[:, : tgt.grid[1]]
     marked = np.nonzero(bits.ravel())[0]
     return {int(t): acc[t] for t in marked if t in set(present.tolist())}, events, acc
 

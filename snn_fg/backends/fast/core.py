@@ -62,11 +62,11 @@ RunArrays = namedtuple("RunArrays", "state scalars log step_start in_ptr in_ids 
 #: those newly active, merge scratch, the cells it touched first (``fresh``),
 #: counters, events per projection, the summed input of the group it is
 #: at (threads move through the groups at their own pace), which cells
-#: received it (``bits``; the word span of each row, ``row_lo``, ``row_hi``;
+#: received it (``bits``; whether each row did, ``listed``;
 #: the rows, ``dirty``, ``n_dirty``) and hand-over batches (``found``, ``found_g``)
 ThreadArrays = namedtuple(
     "ThreadArrays",
-    "act new tmp radix fresh counters prj_events acc bits row_lo row_hi dirty n_dirty found found_g",
+    "act new tmp radix fresh counters prj_events acc bits listed dirty n_dirty found found_g",
 )
 #: how one run numbers its cells (module docstring): the neuron type of each
 #: cell, the per-population table ``cells`` (columns ``C_*``) and the maps
@@ -155,7 +155,7 @@ def _deliver_part(t, n_parts, n, run, th, numbering, tables):
     stencil = (tables.cls_ptr, tables.row_co, tables.row_qr, tables.row_qc, tables.row_ncol, tables.row_w0)
     stencil = stencil + (tables.row_nz, tables.st_w)
     factors = (tables.csr_ptr, tables.csr_idx, tables.csr_val)
-    marks = (th.row_lo[t], th.row_hi[t], th.dirty[t], th.n_dirty[t : t + 1], th.bits[t], th.found[t], th.found_g[t])
+    marks = (th.listed[t], th.dirty[t], th.n_dirty[t : t + 1], th.bits[t], th.found[t], th.found_g[t])
     acc = th.acc[t]
     n_new = 0
     for grp in range(grp_ptr.size - 1):
@@ -264,7 +264,7 @@ def _borrow(run, th, numbering, tables):
         ),
         ThreadArrays(
             b(th.act), b(th.new), b(th.tmp), b(th.radix), b(th.fresh), b(th.counters), b(th.prj_events), b(th.acc),
-            b(th.bits), b(th.row_lo), b(th.row_hi), b(th.dirty), b(th.n_dirty), b(th.found), b(th.found_g),
+            b(th.bits), b(th.listed), b(th.dirty), b(th.n_dirty), b(th.found), b(th.found_g),
         ),
         CellNumbering(
             b(numbering.ctype), b(numbering.cells), b(numbering.flat_of), b(numbering.pres), b(numbering.rank)

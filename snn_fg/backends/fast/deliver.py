@@ -66,21 +66,20 @@ AHEAD = 48
 
 
 @njit(cache=True, inline="always")
-def mark_row(row_lo, row_hi, dirty, n_dirty, rr, first, last):
-    """Note that row ``rr`` received input in words ``first .. last``: its
-    span widened, or the row listed in ``dirty`` when it is new; returns the
-    new length of ``dirty``."""
-    if row_hi[U(rr)] < 0:
+def mark_row(listed, dirty, n_dirty, rr):
+    """Note that row ``rr`` received input: listed in ``dirty`` when it is
+    new; returns the new length of ``dirty``. (The hand-over reads all the
+    words of a listed row: a row is a few words, and keeping the span that
+    received input cost more per stencil row than the zero words it skips.)"""
+    if listed[U(rr)] == 0:
         dirty[U(n_dirty)] = rr
-        row_lo[U(rr)], row_hi[U(rr)] = first, last
+        listed[U(rr)] = 1
         return n_dirty + 1
-    row_lo[U(rr)] = min(row_lo[U(rr)], first)
-    row_hi[U(rr)] = max(row_hi[U(rr)], last)
     return n_dirty
 
 
 @njit(cache=True, inline="always")
-def mark_taps(bits, pres, pbase, words, rr, lo, m, row_lo, row_hi, dirty, n_dirty):
+def mark_taps(bits, pres, pbase, words, rr, lo, m, listed, dirty, n_dirty):
     """The targets of row ``rr`` at columns ``lo + k`` for the set bits ``k`` of
     ``m`` (< 64 columns, so at most two words) marked, and the row noted
     (:func:`mark_row`); returns the targets counted where a cell exists and
@@ -91,8 +90,7 @@ def mark_taps(bits, pres, pbase, words, rr, lo, m, row_lo, row_hi, dirty, n_dirt
     if sh != 0 and (m >> U(64 - sh)) != 0:
         bits[U(wa + 1)] |= m >> U(64 - sh)
         events += ones((m >> U(64 - sh)) & pres[U(pbase + wa + 1)])
-        wa += 1
-    return events, mark_row(row_lo, row_hi, dirty, n_dirty, rr, (lo >> 6) + rr * words, wa)
+    return events, mark_row(listed, dirty, n_dirty, rr)
 
 
 @njit(cache=True, inline="always")
@@ -115,11 +113,11 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
     """Add what ``spikes`` (cell numbers, ascending) send through Conv ``p``
     to ``acc``; ``stencil`` holds the tables' ``cls_ptr, row_co, row_qr,
     row_qc, row_ncol, row_w0, row_nz, st_w`` and ``marks`` the run's
-    ``row_lo, row_hi, dirty, n_dirty, bits`` (the words of each row that
-    received input, the rows, and the cells). Returns the synaptic events:
+    ``listed, dirty, n_dirty, bits`` (whether each row received input, the
+    rows that did, and the cells). Returns the synaptic events:
     the taps that landed on a cell that exists."""
     cls_ptr, row_co, row_qr, row_qc, row_ncol, row_w0, row_nz, st_w = stencil
-    row_lo, row_hi, dirty, n_dirty_a, bits = marks[0], marks[1], marks[2], marks[3], marks[4]
+    listed, dirty, n_dirty_a, bits = marks[0], marks[1], marks[2], marks[3]
     n_dirty = n_dirty_a[0]
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]
     c_off, c_flat = cells[qs, C_OFF], cells[qs, C_FLAT]
@@ -153,7 +151,7 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
                 bit = U(1) << U(t0 & 63)
                 bits[U(wa)] |= bit
                 events += ones(bit & pres[U(pbase + wa)])
-                n_dirty = mark_row(row_lo, row_hi, dirty, n_dirty, rr, wa, wa)
+                n_dirty = mark_row(listed, dirty, n_dirty, rr)
                 continue
             a, b, parts = 0, ncol, 1
             if not inside:  # the row may be cut, or wrap around, at the level's edges
@@ -180,7 +178,7 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
                     acc[U(dst + j)] += st_w[U(w0 + j)]
                 # the taps of columns [t0 + a, t0 + b): marked, and counted where a cell exists
                 m = (nz >> U(a)) & low_bits(b - a)
-                got, n_dirty = mark_taps(bits, pres, pbase, words, rr, t0 + a, m, row_lo, row_hi, dirty, n_dirty)
+                got, n_dirty = mark_taps(bits, pres, pbase, words, rr, t0 + a, m, listed, dirty, n_dirty)
                 events += got
     n_dirty_a[0] = n_dirty
     return events
@@ -193,7 +191,7 @@ def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, ac
     A_c[j, j']``, the product rounded to the projection's quantisation step
     where it has one."""
     csr_ptr, csr_idx, csr_val = factors
-    row_lo, row_hi, dirty, n_dirty_a, bits = marks[0], marks[1], marks[2], marks[3], marks[4]
+    listed, dirty, n_dirty_a, bits = marks[0], marks[1], marks[2], marks[3]
     n_dirty = n_dirty_a[0]
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]
     c_off, c_flat = cells[qs, C_OFF], cells[qs, C_FLAT]
@@ -223,7 +221,7 @@ def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, ac
                 if col - lo >= 64:
                     # the targets of columns [lo, lo + 64): marked, and counted where a cell
                     # exists (as conv_spikes does)
-                    got, n_dirty = mark_taps(bits, pres, pbase, words, rr, lo, m, row_lo, row_hi, dirty, n_dirty)
+                    got, n_dirty = mark_taps(bits, pres, pbase, words, rr, lo, m, listed, dirty, n_dirty)
                     events += got
                     if xc == c1:
                         break
@@ -258,7 +256,7 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
     the number of cells that exist before it, from ``rank`` and the presence
     bits), so that each cell's state can be asked for :data:`AHEAD` cells
     before it is needed."""
-    row_lo, row_hi, dirty, n_dirty_a, bits, found, found_g = marks
+    listed, dirty, n_dirty_a, bits, found, found_g = marks
     gc = pops[qt, P_GC]
     words, pbase = (gc + 63) >> 6, cells[qt, C_PRES]
     off, whole = cells[qt, C_OFF], cells[qt, C_WHOLE] == 1
@@ -274,7 +272,7 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
         while d < n_dirty and n_found + gc <= found.size:
             rr = dirty[U(d)]
             d += 1
-            for wd in range(row_lo[U(rr)], row_hi[U(rr)] + 1):
+            for wd in range(rr * words, rr * words + words):
                 word = bits[U(wd)]
                 bits[U(wd)] = 0
                 first = rr * gc + ((wd - rr * words) << 6)
@@ -293,7 +291,7 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
                     else:
                         found_g[U(n_found)] = off + rank[U(pbase + wd)] + ones(pres[U(pbase + wd)] & low_bits(bit))
                     n_found += 1
-            row_hi[U(rr)] = -1
+            listed[U(rr)] = 0
         for x in range(n_found):
             if x + AHEAD < n_found:
                 prefetch(state, U(found_g[U(x + AHEAD)]))

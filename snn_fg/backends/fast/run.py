@@ -122,7 +122,7 @@ class Run:
         rows = max([p.channels * p.grid[0] for p in lif] + [1])
         words = max([p.channels * p.grid[0] * ((p.grid[1] + 63) // 64) for p in lif] + [1])
         self.bits = np.zeros((threads, words), np.uint64)
-        self.row_lo, self.row_hi = np.zeros((threads, rows), np.int64), np.full((threads, rows), -1, np.int64)
+        self.listed = np.zeros((threads, rows), np.uint8)
         cap = max(1, int(max(owned_cells(lif, chosen, threads))))
         self.act, self.new, self.tmp, self.fresh = (
             pool.zeros(name, threads * cap, np.int32).reshape(threads, cap) for name in ("act", "new", "tmp", "fresh")

@@ -301,30 +301,38 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
             if w == 0.0:
                 continue  # (input that summed to 0)
             cell = state[U(g)]
-            if cell.last != now:
-                if cell.last == 0:
-                    cell.v = v_rest
-                    fresh[U(n_fresh)] = g
-                    n_fresh += 1
-                else:  # (lif.advanced, written out: see the module's docstring)
-                    v, e, i, k = cell.v, cell.e, cell.i, now - cell.last
-                    while k > 0:
-                        s = k if k <= kmax else kmax
-                        v = v_rest + ((adv_k[t, s, 0] * (v - v_rest) + e * adv_k[t, s, 3]) - i * adv_k[t, s, 4])
-                        e = e * adv_k[t, s, 1]
-                        i = i * adv_k[t, s, 2]
-                        k -= s
-                    cell.v, cell.e, cell.i = v, e, i
-                    advances += 1
-                cell.last = now
+            v, e, i, last = cell.v, cell.e, cell.i, cell.last
+            if last == 0:  # (touched for the first time: at rest)
+                v, last = v_rest, now
+                fresh[U(n_fresh)] = g
+                n_fresh += 1
+            # brought up to the present in closed form (lif.advanced, written out: see the module's
+            # docstring); a cell already there (k = 0: the group of its other current came first)
+            # keeps its values, chosen without a branch (row 0 of the tables multiplies by 1)
+            k = now - last
+            s = k if k <= kmax else kmax
+            va = v_rest + ((adv_k[t, s, 0] * (v - v_rest) + e * adv_k[t, s, 3]) - i * adv_k[t, s, 4])
+            e = e * adv_k[t, s, 1]
+            i = i * adv_k[t, s, 2]
+            v = va if k > 0 else v
+            advances += k > 0
+            k -= s
+            while k > 0:  # (more than the tables' steps: rare)
+                s = k if k <= kmax else kmax
+                v = v_rest + ((adv_k[t, s, 0] * (v - v_rest) + e * adv_k[t, s, 3]) - i * adv_k[t, s, 4])
+                e = e * adv_k[t, s, 1]
+                i = i * adv_k[t, s, 2]
+                k -= s
             if col == EXC:
-                cell.e += w
+                e += w
             else:
-                cell.i += w
-            if cell.spike >= 0 and not safe(cell.v, cell.e, cell.i, v_rest, tight, peak, gap):
-                cell.spike |= ACTIVE
-                new[U(n_new)] = g
-                n_new += 1
+                i += w
+            cell.v, cell.e, cell.i, cell.last = v, e, i, now
+            # a cell that might now fire joins the active list (appended without a branch: new has a spare slot)
+            wake = (cell.spike >= 0) & (not safe(v, e, i, v_rest, tight, peak, gap))
+            cell.spike |= ACTIVE if wake else 0
+            new[U(n_new)] = g
+            n_new += wake
     n_dirty_a[0] = 0
     counters[N_ADVANCES] += advances
     counters[N_FRESH] = n_fresh

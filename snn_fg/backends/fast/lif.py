@@ -158,5 +158,5 @@ def safe(v, e, i, v_rest, tight, peak, gap):
     u = v - v_rest
     if tight and i >= 0:
         x = max(e - i, 0.0)
-        return max(u, x) <= gap or max(u, 0.0) + peak * x <= gap  # (the min of the two bounds)
+        return (max(u, x) <= gap) | (max(u, 0.0) + peak * x <= gap)  # (the min of the two bounds, no branch)
     return max(u, max(e, 0.0) + max(-i, 0.0)) <= gap

@@ -123,7 +123,7 @@ class Run:
         words = max([p.channels * p.grid[0] * ((p.grid[1] + 63) // 64) for p in lif] + [1])
         self.bits = np.zeros((threads, words), np.uint64)
         self.listed = np.zeros((threads, rows), np.uint8)
-        cap = max(1, int(max(owned_cells(lif, chosen, threads))))
+        cap = int(max(owned_cells(lif, chosen, threads))) + 1  # (a spare slot: flush_rows appends without a branch)
         self.act, self.new, self.tmp, self.fresh = (
             pool.zeros(name, threads * cap, np.int32).reshape(threads, cap) for name in ("act", "new", "tmp", "fresh")
         )

@@ -12,7 +12,7 @@ neither:
 * **Weight-shared propagation.** A spike adds its projection's *stencil* to
   the summed input of its target when it is delivered: a Conv's kept taps
   (pruned exactly as :func:`~snn_fg.lowering.connect.kernel_taps` prunes
-  them) as rows of the target's lattice, each one vector loop, and a
+  them) as rows of the target's lattice, each one short loop, and a
   Resize's interpolation weights (:func:`~snn_fg.lowering.connect.resize_factors`).
   Which cells received input is kept as bits, so that the hand-over to the
   cells walks them in memory order and the synaptic events are counted

@@ -7,7 +7,7 @@ channel and its level pixel modulo the target's stride, see
 lattice points before the source's own, on output channel ``co``. The taps
 of one class, output channel and ``qr`` with consecutive ``qc`` form a
 *row*: one contiguous run of weights in the target's ``(channel, row,
-column)`` layout, added with one vector loop (zeros where a tap was pruned).
+column)`` layout (zeros where a tap was pruned), its taps added one by one.
 More than :data:`MAX_GAP` empty columns between two taps start a new row,
 and a row spans at most :data:`MAX_COLS` columns (its taps are the bits of
 one 64-bit word, ``row_nz``: bit ``j`` for value ``j``).

@@ -66,6 +66,13 @@ AHEAD = 48
 
 
 @njit(cache=True, inline="always")
+def foreign(rr, owner, n_parts, inv_parts):
+    """Whether row ``rr`` belongs to another thread than ``owner`` (never with
+    one thread; the band's remainder without an integer division)."""
+    return n_parts > 1 and divide(rr >> BAND, n_parts, inv_parts)[1] != owner
+
+
+@njit(cache=True, inline="always")
 def mark_row(listed, dirty, n_dirty, rr):
     """Note that row ``rr`` received input: listed in ``dirty`` when it is
     new; returns the new length of ``dirty``. (The hand-over reads all the
@@ -129,26 +136,28 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
     plane = pops[qs, P_GR] * gc_s
     inv_plane, inv_gc = 1.0 / plane, 1.0 / gc_s
     gr, gc, st = pops[qt, P_GR], pops[qt, P_GC], pops[qt, P_STRIDE]
+    inv_st = 1.0 / st
     words, pbase, whole = (gc + 63) >> 6, cells[qt, C_PRES], cells[qt, C_WHOLE] == 1
     wrap, rad = prj[p, J_WRAP] == 1, prj[p, J_RADIUS]
     base_cls = prj[p, J_BASE]
-    split = n_parts > 1
+    inv_parts = 1.0 / n_parts
     events = 0
     for x in range(spikes.size):
         c, ii, jj = spike_site(spikes, x, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc)
         pr, pc = ii * st_s, jj * st_s
         if st == 1:
             cls, row, column = base_cls + c, pr, pc
-        else:
-            cls = base_cls + (c * st + pr % st) * st + pc % st
-            row, column = pr // st, pc // st
+        else:  # (the level pixel over the target's stride, without an integer division)
+            row, r_mod = divide(pr, st, inv_st)
+            column, c_mod = divide(pc, st, inv_st)
+            cls = base_cls + (c * st + r_mod) * st + c_mod
         inside = row >= rad and column >= rad and row + rad < gr and column + rad < gc
         for s in range(cls_ptr[U(cls)], cls_ptr[U(cls + 1)]):
             tr = row - row_qr[U(s)]
             t0, ncol, w0 = column - row_qc[U(s)], row_ncol[U(s)], row_w0[U(s)]
             if inside and ncol == 1:  # (one tap: what the loops below do for it, without them)
                 rr = row_co[U(s)] * gr + tr
-                if split and (rr >> BAND) % n_parts != owner:
+                if foreign(rr, owner, n_parts, inv_parts):
                     continue
                 acc[U(rr * gc + t0)] += st_w[U(w0)]
                 wa = (t0 >> 6) + rr * words
@@ -171,7 +180,7 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
                     if a >= b:
                         continue
             rr = row_co[U(s)] * gr + tr
-            if split and (rr >> BAND) % n_parts != owner:
+            if foreign(rr, owner, n_parts, inv_parts):
                 continue
             nz = row_nz[U(s)]
             for part in range(parts):
@@ -210,6 +219,7 @@ def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, ac
     words, pbase, whole = (gc + 63) >> 6, cells[qt, C_PRES], cells[qt, C_WHOLE] == 1
     sg, thr, step = prj_w[p, 0], prj_w[p, 1], prj_w[p, 2]
     prune, inh = prj[p, J_PRUNE] == 1, prj[p, J_INH] == 1
+    inv_parts = 1.0 / n_parts
     events = 0
     for x in range(spikes.size):
         c, si, sj = spike_site(spikes, x, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc)
@@ -219,7 +229,7 @@ def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, ac
             continue
         for xr in range(csr_ptr[U(rb)], csr_ptr[U(rb + 1)]):
             rr = c * gr + csr_idx[U(xr)]
-            if n_parts > 1 and (rr >> BAND) % n_parts != owner:
+            if foreign(rr, owner, n_parts, inv_parts):
                 continue
             a = csr_val[U(xr)]
             dst = rr * gc

@@ -328,19 +328,16 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
             # docstring); a cell already there (k = 0: the group of its other current came first)
             # keeps its values, chosen without a branch (row 0 of the tables multiplies by 1)
             k = now - last
-            s = k if k <= kmax else kmax
-            va = v_rest + ((adv_k[t, s, 0] * (v - v_rest) + e * adv_k[t, s, 3]) - i * adv_k[t, s, 4])
-            e = e * adv_k[t, s, 1]
-            i = i * adv_k[t, s, 2]
-            v = va if k > 0 else v
             advances += k > 0
-            k -= s
-            while k > 0:  # (more than the tables' steps: rare)
+            while True:  # (once, but for more than the tables' steps)
                 s = k if k <= kmax else kmax
-                v = v_rest + ((adv_k[t, s, 0] * (v - v_rest) + e * adv_k[t, s, 3]) - i * adv_k[t, s, 4])
+                va = v_rest + ((adv_k[t, s, 0] * (v - v_rest) + e * adv_k[t, s, 3]) - i * adv_k[t, s, 4])
                 e = e * adv_k[t, s, 1]
                 i = i * adv_k[t, s, 2]
+                v = va if k > 0 else v
                 k -= s
+                if k <= 0:
+                    break
             if col == EXC:
                 e += w
             else:

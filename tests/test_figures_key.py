@@ -97,24 +97,30 @@ def test_a_crop_draws_that_part_at_its_own_coordinates(tmp_path):
     assert not (tmp_path / "p").exists()
 
 
-def test_the_raster_explains_every_role_and_why_feedback_cells_fire_at_2_khz():
-    from snn_fg.models.spiking.figures import raster_figure
+def _record(raster):
+    """A spiking record of 400 ms (counted from 200 ms) holding ``raster`` and nothing else."""
     from snn_fg.models.spiking.record import SpikingRecord
-    from snn_fg.network.roles import ROLE_ORDER
 
-    record = SpikingRecord(
+    none = np.zeros((4, 4), np.uint8)
+    return SpikingRecord(
         names=[],
         counts={},
         sites={},
-        raster=None,
-        input_on=np.zeros((4, 4), np.uint8),
-        input_off=np.zeros((4, 4), np.uint8),
+        raster=raster,
+        input_on=none,
+        input_off=none.copy(),
         count_window_ms=200.0,
         duration_ms=400.0,
         settle_ms=200.0,
         populations={},
     )
-    caption = "\n".join(t.get_text() for t in raster_figure(record).texts)
+
+
+def test_the_raster_explains_every_role_and_why_feedback_cells_fire_at_2_khz():
+    from snn_fg.models.spiking.figures import raster_figure
+    from snn_fg.network.roles import ROLE_ORDER
+
+    caption = "\n".join(t.get_text() for t in raster_figure(_record(raster=None)).texts)
     explained = {r for line in caption.splitlines() if ": " in line for r in line.split(": ", 1)[0].split(", ")}
     assert explained == set(ROLE_ORDER)
     assert "bo_L1, bo_L2, bo_D1, bo_D2: border-ownership cells: a light (L) or dark (D) figure" in caption
@@ -189,25 +195,12 @@ def test_the_raster_caption_explains_the_roles_drawn_and_fits_on_the_page():
     from types import SimpleNamespace
 
     from snn_fg.models.spiking.figures import raster_figure
-    from snn_fg.models.spiking.record import SpikingRecord
     from snn_fg.network.roles import ROLE_ORDER
 
     drawn = ["simple", "bo_L1", "feedback_1p"]
     roles = np.repeat([ROLE_ORDER.index(r) for r in drawn], 5)
     raster = SimpleNamespace(row=np.arange(roles.size), role=roles, t_ms=np.linspace(0, 400, roles.size))
-    record = SpikingRecord(
-        names=[],
-        counts={},
-        sites={},
-        raster=raster,
-        input_on=np.zeros((4, 4), np.uint8),
-        input_off=np.zeros((4, 4), np.uint8),
-        count_window_ms=200.0,
-        duration_ms=400.0,
-        settle_ms=200.0,
-        populations={},
-    )
-    fig = raster_figure(record)
+    fig = raster_figure(_record(raster))
     FigureCanvasAgg(fig).draw()
     (caption,) = fig.texts
     explained = [line.split(": ", 1)[0] for line in caption.get_text().splitlines() if not line.startswith(" ")]

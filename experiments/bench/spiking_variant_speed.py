@@ -75,17 +75,20 @@ def _worker(js: str, specs: list[str], dt_ms: float):
         )
 
 
-def alternate(runs, specs: list[str], rounds: int, log=print) -> list[dict]:
+def alternate(runs, specs: list[str], rounds: int, log=print, worker: str = __spec__.name, pin=()) -> list[dict]:
     """Time the windows ``specs`` (``dvs:K@START`` strings) under each of
     ``runs`` (``(label, change JSON, dt_ms)``), one fresh process per run and
     round, the runs alternating within each round. Returns one row per window
-    timed, with its round, label, dt and the load when its process started."""
+    timed, with its round, label, dt and the load when its process started.
+    ``worker``: the module whose ``--worker JSON SPECS DT`` prints the rows
+    (this one's: :func:`_worker`); ``pin``: a command it runs under
+    (``("taskset", "-c", "0")``: one core)."""
     rows = []
     for r in range(rounds):
         for label, js, dt_ms in runs:
             now = load()[0]
             proc = subprocess.run(
-                [sys.executable, "-m", __spec__.name, "--worker", js, ",".join(specs), str(dt_ms)],
+                [*pin, sys.executable, "-m", worker, "--worker", js, ",".join(specs), str(dt_ms)],
                 capture_output=True,
                 text=True,
                 cwd=ROOT,

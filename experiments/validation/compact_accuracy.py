@@ -132,6 +132,27 @@ def recipe_digest(name: str) -> str:
     return hashlib.sha1(text.encode()).hexdigest()[:8]
 
 
+def bsds_scored(image_id: str, threshold: float, label: str, **run_options) -> dict:
+    """Labelled image ``image_id`` (its events at contrast ``threshold``) through the network
+    ``run_options`` give ``run_spiking``: its error parts against both labellers, and the seconds."""
+    from experiments.pooled import error_stats
+    from snn_fg.events import image_to_frame
+    from snn_fg.models.spiking import run_spiking
+    from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
+
+    gt = load_bsds_fg(dataset("bsds-fg"), image_id)
+    pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion="paper")
+    t = time.perf_counter()
+    m = run_spiking(pos, neg, progress=False, **run_options)
+    parts = [
+        error_stats(angle_errors(m.fg_x, m.fg_y, *truth), n_truth=int(truth[2].sum()))
+        for truth in (boundary_directions(f) for f in gt.fg)
+    ]
+    seconds = time.perf_counter() - t
+    print(f"  [{label}] BSDS {image_id}: {seconds:.0f} s", file=sys.stderr, flush=True)
+    return {"image_id": image_id, "parts": parts, "seconds": seconds}
+
+
 def bsds_image(job) -> dict:
     """One labelled image through one network: its error parts against both labellers."""
     image_id, network, bits, threshold = job
@@ -139,25 +160,10 @@ def bsds_image(job) -> dict:
     cached = CACHE / "compact_accuracy" / f"{key}.json"
     if cached.exists():  # an interrupted run keeps the images it finished
         return json.loads(cached.read_text())
-    from experiments.pooled import error_stats
-    from snn_fg.events import image_to_frame
-    from snn_fg.models.spiking import run_spiking
     from snn_fg.results.atomic import save_text
-    from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
 
-    gt = load_bsds_fg(dataset("bsds-fg"), image_id)
-    pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion="paper")
-    t = time.perf_counter()
-    m = run_spiking(pos, neg, network=network, backend=_backend(bits), progress=False)
-    parts = [
-        error_stats(angle_errors(m.fg_x, m.fg_y, *truth), n_truth=int(truth[2].sum()))
-        for truth in (boundary_directions(f) for f in gt.fg)
-    ]
-    seconds = time.perf_counter() - t
-    print(
-        f"  [{network}{f' {bits}-bit' if bits else ''}] BSDS {image_id}: {seconds:.0f} s", file=sys.stderr, flush=True
-    )
-    record = {"image_id": image_id, "parts": parts, "seconds": seconds}
+    label = f"{network}{f' {bits}-bit' if bits else ''}"
+    record = bsds_scored(image_id, threshold, label, network=network, backend=_backend(bits))
     cached.parent.mkdir(parents=True, exist_ok=True)
     save_text(cached, json.dumps(record))
     return record

@@ -157,6 +157,19 @@ def balanced_dog(prune: float):
         nodes.dog_kernels = full
 
 
+def compact_dog(prune: float, balance: bool):
+    """The compact network with its DoG pruned at ``prune`` of each kernel's peak (``balance``: as
+    :func:`balanced_dog`): the context to run it in and its run options (``params``, ``spiking``)."""
+    from snn_fg.network.recipes import RECIPES
+
+    recipe = RECIPES["compact"]
+    # (a balanced kernel carries its pruning: the projection keeps its non-zero taps)
+    kept = 0.0 if balance else prune
+    sp = recipe.spiking.replace(connectivity=recipe.spiking.connectivity.replace(prune_dog=kept))
+    context = balanced_dog(prune) if balance else contextlib.nullcontext()
+    return context, {"params": recipe.params, "spiking": sp}
+
+
 def pruning(n: int) -> tuple[dict, list[str]]:
     """The compact network's still ceiling with its DoG pruned as in :data:`PRUNINGS`."""
     from types import SimpleNamespace
@@ -173,13 +186,11 @@ def pruning(n: int) -> tuple[dict, list[str]]:
     refs = {name: [run_edfg(w.pos, w.neg, recipe.params) for w in wins] for name, wins in sets.items()}
     out, rows = [], []
     for prune, balance in PRUNINGS:
-        # (a balanced kernel carries its pruning: the projection keeps its non-zero taps)
-        kept = 0.0 if balance else prune
-        sp = recipe.spiking.replace(connectivity=recipe.spiking.connectivity.replace(prune_dog=kept))
         row = {"prune_dog": prune, "balanced": balance}
-        with balanced_dog(prune) if balance else contextlib.nullcontext():
+        context, options = compact_dog(prune, balance)
+        with context:
             for name, wins in sets.items():
-                maps, per_window_s = still_maps(wins, None, params=recipe.params, spiking=sp)
+                maps, per_window_s = still_maps(wins, None, **options)
                 row[name] = {**scores(maps, refs[name]), "s_per_window": per_window_s}
         taps = sum(int((np.abs(k) >= prune * np.abs(k).max()).sum()) for k in dog_kernels(recipe.params))
         row["taps"] = taps

@@ -132,18 +132,17 @@ def recipe_digest(name: str) -> str:
     return hashlib.sha1(text.encode()).hexdigest()[:8]
 
 
-def bsds_scored(image_id: str, threshold: float, label: str, **run_options) -> dict:
-    """Labelled image ``image_id`` (its events at contrast ``threshold``) through the network
-    ``run_options`` give ``run_spiking``: its error parts against both labellers, and the seconds."""
+def bsds_scored(image_id: str, threshold: float, label: str, run_maps) -> dict:
+    """Labelled image ``image_id`` (its events at contrast ``threshold``) through ``run_maps(pos, neg)``
+    (a model's maps): its error parts against both labellers, and the seconds."""
     from experiments.pooled import error_stats
     from snn_fg.events import image_to_frame
-    from snn_fg.models.spiking import run_spiking
     from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
 
     gt = load_bsds_fg(dataset("bsds-fg"), image_id)
     pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion="paper")
     t = time.perf_counter()
-    m = run_spiking(pos, neg, progress=False, **run_options)
+    m = run_maps(pos, neg)
     parts = [
         error_stats(angle_errors(m.fg_x, m.fg_y, *truth), n_truth=int(truth[2].sum()))
         for truth in (boundary_directions(f) for f in gt.fg)
@@ -160,10 +159,13 @@ def bsds_image(job) -> dict:
     cached = CACHE / "compact_accuracy" / f"{key}.json"
     if cached.exists():  # an interrupted run keeps the images it finished
         return json.loads(cached.read_text())
+    from snn_fg.models.spiking import run_spiking
     from snn_fg.results.atomic import save_text
 
-    label = f"{network}{f' {bits}-bit' if bits else ''}"
-    record = bsds_scored(image_id, threshold, label, network=network, backend=_backend(bits))
+    def run_maps(pos, neg):
+        return run_spiking(pos, neg, network=network, backend=_backend(bits), progress=False)
+
+    record = bsds_scored(image_id, threshold, f"{network}{f' {bits}-bit' if bits else ''}", run_maps)
     cached.parent.mkdir(parents=True, exist_ok=True)
     save_text(cached, json.dumps(record))
     return record

@@ -44,34 +44,46 @@ from experiments.validation.recording_ceiling import compact_dog
 PRUNE = 0.3
 KERNELS = {"as pruned": False, "balanced": True}
 PIN = ("taskset", "-c", "0")
+#: the reference beside them on BSDS: the rate model on the compact recipe's parameters (the full DoG)
+RATE = "rate model"
 
 
 def bsds_image(job) -> dict:
-    """One labelled image through the compact network with one of :data:`KERNELS`."""
-    image_id, kernel, threshold = job
-    context, options = compact_dog(PRUNE, KERNELS[kernel])
+    """One labelled image through the compact network with one of :data:`KERNELS`, or the rate model
+    (:data:`RATE`) on the compact recipe's parameters."""
+    image_id, model, threshold = job
+    if model == RATE:
+        from snn_fg.models.rate.edfg import run_edfg
+        from snn_fg.network.recipes import RECIPES
+
+        return bsds_scored(image_id, threshold, RATE, lambda pos, neg: run_edfg(pos, neg, RECIPES["compact"].params))
+    from snn_fg.models.spiking import run_spiking
+
+    context, options = compact_dog(PRUNE, KERNELS[model])
     with context:
-        return bsds_scored(image_id, threshold, f"compact, DoG {kernel}", **options)
+        run = lambda pos, neg: run_spiking(pos, neg, progress=False, **options)  # noqa: E731
+        return bsds_scored(image_id, threshold, f"compact, DoG {model}", run)
 
 
 def bsds(ids, workers: int, threshold: float) -> dict:
     """Both kernels on the images ``ids`` (each image's two runs one after the other)."""
     from experiments.pooled import bootstrap_difference, pool_stats
 
-    jobs = [(i, kernel, threshold) for i in ids for kernel in KERNELS]
+    models = [*KERNELS, RATE]
+    jobs = [(i, model, threshold) for i in ids for model in models]
     with ProcessPoolExecutor(workers) as pool:
         done = list(pool.map(bsds_image, jobs))
-    images = {kernel: [r for r, (_, k, _) in zip(done, jobs) if k == kernel] for kernel in KERNELS}
-    parts = {kernel: [im["parts"] for im in images[kernel]] for kernel in KERNELS}
+    images = {model: [r for r, (_, m, _) in zip(done, jobs) if m == model] for model in models}
+    parts = {model: [im["parts"] for im in images[model]] for model in models}
     keys = ("side_accuracy", "coverage", "within45", "mean_abs_deg")
     return {
         "images": ids,
         "threshold": threshold,
-        "pooled": {k: pool_stats(p for im in parts[k] for p in im) for k in KERNELS},
+        "pooled": {m: pool_stats(p for im in parts[m] for p in im) for m in models},
         "difference": bootstrap_difference(parts["as pruned"], parts["balanced"], keys=keys),
         "per_image": {
-            k: [{"image_id": im["image_id"], "seconds": im["seconds"], **pool_stats(im["parts"])} for im in images[k]]
-            for k in KERNELS
+            m: [{"image_id": im["image_id"], "seconds": im["seconds"], **pool_stats(im["parts"])} for im in images[m]]
+            for m in models
         },
     }
 
@@ -125,7 +137,7 @@ def timing(windows, start_ms: float, rounds: int) -> dict:
 def lines(record: dict) -> list[str]:
     out = ["# The compact network's DoG: as it is against balanced", "", describe(record["run"]), ""]
     if "bsds" in record:
-        b, ks = record["bsds"], list(KERNELS)
+        b, ks = record["bsds"], [*KERNELS, RATE]
         fmt = {"side_accuracy": "{:.3f}", "coverage": "{:.3f}", "within45": "{:.3f}", "mean_abs_deg": "{:.1f}"}
 
         def row(key):
@@ -135,7 +147,8 @@ def lines(record: dict) -> list[str]:
 
         out += [
             f"BSDS: {len(b['images'])} labelled images (every {record['every']}-th by id, events at contrast "
-            f"{b['threshold']:g}), both labellers pooled; the difference balanced minus as pruned with the 95 % "
+            f"{b['threshold']:g}), both labellers pooled; the compact network with each kernel and the {RATE} on "
+            "the compact recipe's parameters (its full DoG); the difference balanced minus as pruned with the 95 % "
             "interval of a paired bootstrap over the images.",
             "",
             *markdown_table(["score", *ks, "balanced - as pruned"], map(row, fmt)),
@@ -192,10 +205,16 @@ def figure(record: dict):
     fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4.2), squeeze=False)
     for ax, panel in zip(axes[0], panels):
         if panel == "bsds":
-            a, b = (np.array([im["side_accuracy"] for im in record["bsds"]["per_image"][k]]) for k in KERNELS)
-            ax.scatter(a, b, s=18)
+            side = {m: np.array([im["side_accuracy"] for im in ims]) for m, ims in record["bsds"]["per_image"].items()}
+            a = side.pop("as pruned")
+            for (model, b), marker in zip(side.items(), "ox"):
+                ax.scatter(a, b, s=18, marker=marker, label=model)
             ax.plot([0, 1], [0, 1], color="0.6", lw=0.8)
-            ax.set(xlim=(0, 1), ylim=(0, 1), xlabel="side accuracy, DoG as pruned", ylabel="balanced")
+            ax.axhline(0.5, color="0.8", lw=0.8)
+            ax.set(
+                xlim=(0, 1), ylim=(0, 1), xlabel="side accuracy, compact network, DoG as pruned", ylabel="side accuracy"
+            )
+            ax.legend()
             ax.set_title(f"BSDS, {len(a)} images: side accuracy per image")
         else:
             t = record["timing"]
@@ -226,12 +245,12 @@ def main():
     if a.worker:
         return _worker(a.worker[0], a.worker[1].split(","), a.worker[2])
     run, record = Run(), {"prune_dog": PRUNE, "every": a.every}
-    if a.windows:
-        record["timing"] = timing(a.windows, a.start_ms, a.rounds)
     if a.every:
         ids = bsds_ids(dataset("bsds-fg"))[:: a.every][: a.images]
-        print(f"BSDS: {len(ids)} images, both kernels", file=sys.stderr, flush=True)
+        print(f"BSDS: {len(ids)} images, both kernels and the {RATE}", file=sys.stderr, flush=True)
         record["bsds"] = bsds(ids, a.workers, a.threshold)
+    if a.windows:
+        record["timing"] = timing(a.windows, a.start_ms, a.rounds)
     record["run"] = run.record()
     record["load_after"] = load()
     save_results(a.name, record, lines(record))

@@ -155,8 +155,8 @@ def cmd_compare(args) -> int:
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
     baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
-    named = [
-        f"{side}: {path} (the {m.params.get('model', 'unknown')} model)"
+    named = [  # (by run, as the --plot figure names them: a path may be longer than the table is wide)
+        f"{side}: {_run_name(path)}, the {m.params.get('model', 'unknown')} model"
         for side, path, m in (("A", args.a, a), ("B", args.b, b))
     ]
     print(compare_table(rows, args.outline, baseline, named))

@@ -545,3 +545,14 @@ def test_a_spiking_recording_run_to_its_end_keeps_the_whole_runs_counters(tmp_pa
     assert m.fg_x.shape[0] == whole["windows"] > 1
     assert whole["backend_stats"]["synaptic_events_total"] > m.params["backend_stats"]["synaptic_events_total"] > 0
     assert whole["timings_s"]["run_cpu"] > 0
+
+
+def test_pearson_r_is_undefined_without_two_values_and_says_nothing_of_it():
+    import warnings
+
+    from snn_fg.scoring.metrics import pearson
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # (an empty pair warned twice on its way to nan)
+        assert np.isnan(pearson([], [])) and np.isnan(pearson([1.0], [2.0])) and np.isnan(pearson([1, 1], [1, 2]))
+        assert pearson([1.0, 2.0, 3.0], [2.0, 4.0, 7.0]) == pytest.approx(0.9933, abs=1e-4)

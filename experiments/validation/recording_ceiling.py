@@ -215,11 +215,6 @@ ITERATIONS = (1, 3, 5, 10, 20, 40)
 BSDS_FRAMES = ("105053", "35070")
 
 
-def _r(a, b) -> float:
-    a, b = np.ravel(a), np.ravel(b)
-    return float(np.corrcoef(a, b)[0, 1]) if a.size > 1 and a.std() > 0 and b.std() > 0 else float("nan")
-
-
 def stage_agreement(pos, neg, network: str, **options) -> dict:
     """Level-1 stages of the network on a still frame against the rate model's on the same frame."""
 
@@ -227,7 +222,7 @@ def stage_agreement(pos, neg, network: str, **options) -> dict:
     from snn_fg.models.spiking import run_spiking_result
     from snn_fg.models.spiking.decode import decode
     from snn_fg.network.recipes import RECIPES
-    from snn_fg.scoring.metrics import agreement
+    from snn_fg.scoring.metrics import agreement, pearson
 
     params = RECIPES[network].params
     rate = run_edfg_state(pos, neg, params)
@@ -254,8 +249,8 @@ def stage_agreement(pos, neg, network: str, **options) -> dict:
         "simple_same_direction_tuned": float(same[both & ~untuned].mean()),
         "rate_untuned_share": float(untuned.sum() / max(both.sum(), 1)),
         "bo_same_side": float(np.mean(np.sign(side_r[chose]) == np.sign(side_s[chose]))),
-        "bo_side_r": _r(side_r[chose], side_s[chose]),
-        "grouping_r": [_r(np.stack([a, b]), np.stack([c, d])) for a, b, c, d in zip(gr.gl, gr.gd, gs.gl, gs.gd)],
+        "bo_side_r": pearson(side_r[chose], side_s[chose]),
+        "grouping_r": [pearson(np.stack([a, b]), np.stack([c, d])) for a, b, c, d in zip(gr.gl, gr.gd, gs.gl, gs.gd)],
         "map": scores([res.maps], [ref]),
         "vs_iterations": {k: v["within_45"] for k, v in iterations.items()},
         "rate_10_vs_20": scores([ref], [ref20]),

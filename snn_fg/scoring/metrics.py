@@ -60,7 +60,7 @@ def _unit(a):
 def pearson(a, b) -> float:
     a = np.asarray(a, dtype=np.float64).ravel()
     b = np.asarray(b, dtype=np.float64).ravel()
-    if a.std() == 0 or b.std() == 0:
+    if a.size < 2 or a.std() == 0 or b.std() == 0:  # (no spread, or none to have one: undefined)
         return float("nan")
     return float(np.corrcoef(a, b)[0, 1])
 

@@ -155,10 +155,8 @@ def cmd_compare(args) -> int:
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
     baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
-    named = [  # (by run, as the --plot figure names them: a path may be longer than the table is wide)
-        f"{side}: {_run_name(path)}, the {m.params.get('model', 'unknown')} model"
-        for side, path, m in (("A", args.a, a), ("B", args.b, b))
-    ]
+    runs = (("A", _run_name(args.a), a), ("B", _run_name(args.b), b))  # (a path may be wider than the table)
+    named = [f"{side}: {run}, the {m.params.get('model', 'unknown')} model" for side, run, m in runs]
     print(compare_table(rows, args.outline, baseline, named))
     if args.json:
         save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
@@ -167,7 +165,7 @@ def cmd_compare(args) -> int:
         # (matplotlib is imported only when a command draws)
         from ..scoring.compare_figure import aps_inputs, save_compare_figure
 
-        names = tuple(f"{k} ({_run_name(f)})" for k, f in (("A", args.a), ("B", args.b)))
+        names = tuple(f"{side} ({run})" for side, run, _ in runs)
         save_compare_figure(args.plot, a, b, rows, names=names, where=where, inputs=aps_inputs(a, b))
         print(f"snn-fg: figure saved to {args.plot}")
     return 0

@@ -10,7 +10,7 @@ from snn_fg.frames.scenes import disc
 from snn_fg.models import get_model
 from snn_fg.params import ModelParams
 from snn_fg.results.maps import Maps
-from snn_fg.results.store import read_attrs, windows_complete
+from snn_fg.results.store import read_attrs
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -47,11 +47,11 @@ def test_a_cut_spiking_run_keeps_its_windows_and_resume_gives_the_uncut_maps(rec
     whole = tmp_path / "whole"
     whole.mkdir()
     assert _run(recording, whole) == 5
-    seen = []  # windows complete in the store each time a window comes out of the simulation
+    seen = []  # windows in the store each time a window comes out of the simulation
     real = runner._append_window
 
     def cut_at_the_fourth(store, w, maps):
-        seen.append((windows_complete(store.path.parent), simulating[-1]))
+        seen.append((store.n, simulating[-1]))
         if len(seen) == 4:
             raise KeyboardInterrupt
         real(store, w, maps)
@@ -61,7 +61,8 @@ def test_a_cut_spiking_run_keeps_its_windows_and_resume_gives_the_uncut_maps(rec
     out.mkdir()
     with pytest.raises(KeyboardInterrupt):
         _run(recording, out)
-    # each window came out with the ones before it already in the store, and while the one simulation
+    # each window came out with the ones before it already in the store (readers see them at the store's next
+    # flush, at most a second later, and at the interrupt, below), and while the one simulation
     # ran: at most two behind it when they are decoded on a second thread (then window k is written
     # before window k + 2 leaves the simulation)
     assert [n for n, _ in seen] == [0, 1, 2, 3]

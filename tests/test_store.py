@@ -3,10 +3,13 @@ missing per-window arrays, read back by Maps.load and by zarr-python (an
 independent Zarr reader), only complete windows visible, continued after a
 window cut short."""
 
+import json
+
 import numpy as np
 import pytest
 
 from snn_fg.errors import InputError
+from snn_fg.results.atomic import write_bytes
 from snn_fg.results.maps import Maps, window_part
 from snn_fg.results.store import FLAT_CHUNK, MapsStore, read_attrs
 
@@ -25,10 +28,13 @@ WINDOWS = [
 ]
 
 
-def _write(path, windows, **more):
+def _write(path, windows, flush=True):
+    """A store of ``windows``, flushed at the end (``flush``) as a run that stops is."""
     store = MapsStore.create(path, {"input": "x"})
     for i, m in enumerate(windows):
         store.append(m(), t_start_us=np.int64(10 * i))
+    if flush:
+        store.flush()
     return store
 
 
@@ -76,34 +82,65 @@ def test_per_window_scalars_span_chunks(tmp_path, monkeypatch):
     np.testing.assert_array_equal(zarr.open_group(str(path), mode="r")["t_start_us"][:], 10 * np.arange(10))
 
 
-def test_during_a_run_zarr_sees_whole_windows_up_to_a_second_late_and_all_at_the_end(tmp_path, monkeypatch):
-    """The arrays' shapes are written at the first window, then at most once
-    a second (SHAPES_EVERY_S), and at the end: between, a Zarr reader sees
-    a prefix of whole windows and snn-fg's reader every complete one."""
+def test_during_a_run_readers_see_whole_windows_up_to_a_second_late_and_all_at_the_end(tmp_path, monkeypatch):
+    """The store is flushed (chunks holding complete windows, shapes,
+    windows_complete) at the first window, then at most once a second
+    (FLUSH_EVERY_S), and at the end: between, every reader, Zarr's and
+    snn-fg's, sees a prefix of whole windows."""
     zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
     from snn_fg.results import store as st
+    from snn_fg.results import zarr_array
 
     path = tmp_path / "maps.zarr"
     now = [0.0]
     monkeypatch.setattr(st.time, "monotonic", lambda: now[0])
-    store = _write(path, [lambda i=i: _maps(i) for i in range(4)])
-    assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == 1  # written at the first window only
-    assert Maps.load(path).fg_x.shape[0] == 4 and read_attrs(path)["snn_fg"]["windows_complete"] == 4
-    now[0] = st.SHAPES_EVERY_S
+    replaced = []
+    monkeypatch.setattr(zarr_array, "write_bytes", lambda p, data: replaced.append(p.name) or write_bytes(p, data))
+    store = _write(path, [lambda: _maps(0)], flush=False)
+    n_first = len(replaced)
+    for i in range(1, 4):  # (within the second: no file replaced, the attributes and shapes wait for the flush)
+        store.append(_maps(i), t_start_us=np.int64(10 * i))
+    assert len(replaced) == n_first
+    for reader in (zarr.open_group(str(path), mode="r")["fg_x"], Maps.load(path).fg_x):
+        assert reader.shape[0] == 1  # flushed at the first window only
+    assert read_attrs(path)["snn_fg"]["windows_complete"] == 1
+    now[0] = st.FLUSH_EVERY_S
     store.append(_maps(4), t_start_us=np.int64(40))
     g = zarr.open_group(str(path), mode="r")
     assert g["fg_x"].shape[0] == g["t_start_us"].shape[0] == 5 and np.all(g["fg_x"][4] == 4)
+    np.testing.assert_array_equal(g["t_start_us"][:], 10 * np.arange(5))
+    assert Maps.load(path).fg_x.shape[0] == 5 and ".zattrs" in replaced[n_first:]
     store.append(_maps(5), t_start_us=np.int64(50))  # (under a second later)
-    assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == 5
+    assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == Maps.load(path).fg_x.shape[0] == 5
     store.finish({"model": "spiking"})
     g = zarr.open_group(str(path), mode="r")
     np.testing.assert_array_equal(g["t_start_us"][:], 10 * np.arange(6))
     assert g["fg_x"].shape[0] == g["window_params"].shape[0] == 6
+    assert g["fg_x"].metadata.compressor.codec_id == "zstd"
+
+
+def test_a_store_written_with_zlib_reads_and_resumes_in_zlib(tmp_path, monkeypatch):
+    """Stores written before the chunks were zstd (zlib): read as they are,
+    and a resumed run adds its windows in the array's own codec."""
+    zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
+    from snn_fg.results import zarr_array
+
+    path = tmp_path / "maps.zarr"
+    monkeypatch.setattr(zarr_array, "COMPRESSOR", {"id": "zlib", "level": 1})
+    _write(path, [lambda i=i: _maps(i) for i in range(3)])
+    monkeypatch.undo()
+    assert json.loads((path / "fg_x" / ".zarray").read_text())["compressor"]["id"] == "zlib"
+    store = MapsStore.reopen(path, {"input": "x"})
+    store.append(_maps(3), t_start_us=np.int64(30))
+    store.finish({})
+    for name in ("fg_x", "t_start_us"):
+        assert json.loads((path / name / ".zarray").read_text())["compressor"]["id"] == "zlib"
+    back = Maps.load(path)
+    assert [float(back.fg_x[i][0, 0]) for i in range(4)] == [0, 1, 2, 3]
+    np.testing.assert_array_equal(zarr.open_group(str(path), mode="r")["t_start_us"][:], 10 * np.arange(4))
 
 
 def test_a_failed_write_leaves_the_file_as_it_was_and_no_part(tmp_path):
-    from snn_fg.results.atomic import write_bytes
-
     target = tmp_path / "chunk"
     write_bytes(target, b"first")
     with pytest.raises(TypeError):
@@ -132,6 +169,7 @@ def test_a_reader_sees_complete_windows_only_and_a_cut_window_is_written_again(t
     store = MapsStore.reopen(path, {"input": "x"})
     assert store.n == 2
     store.append(WINDOWS[2](), t_start_us=np.int64(20))
+    store.flush()
     whole = tmp_path / "whole.zarr"
     _write(whole, WINDOWS)
     a, b = Maps.load(path), Maps.load(whole)

@@ -6,6 +6,7 @@ recording window by window into a store that a run can continue
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import sys
 import warnings
@@ -160,7 +161,12 @@ def run_recording(
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)  # counted and reported once below
-        whole = model.run_windows_into(windows, emit, start=store.n)
+        try:
+            whole = model.run_windows_into(windows, emit, start=store.n)
+        except BaseException:  # (an interrupt or bad input: the windows completed so far, for --resume)
+            with contextlib.suppress(OSError):  # (a disk that failed: its error, not this one)
+                store.flush()
+            raise
     if store.n == 0:
         raise InputError(
             source.get("input", "the recording"), "no window to process: the recording has no events after --start-ms"

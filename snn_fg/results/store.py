@@ -19,16 +19,22 @@ array per kind of per-window result, all growing along their first axis:
 The group's attributes hold the run's ``params`` and ``snn_fg``:
 ``windows_complete`` (the windows a reader may use: every array holds at
 least that many) and ``complete`` (the run has ended). Chunks are written
-before the attributes, so a reader never sees a window that is not whole:
-a chunk that holds complete windows is replaced atomically, and a chunk
-that holds only the window being written (a map's, a new one) is written
-in place, as no reader looks at it before the attributes say the window is
-complete. The arrays' shapes (``.zarray``) are written again at most once a
-second while the run writes (each is a file to replace, and a window has
-about ten arrays): a Zarr reader opening the store during a run sees the
-windows up to a second late, snn-fg's reader (from ``windows_complete``)
-at once; at the end of the run they are exact. Chunks are zlib-compressed
-(a codec every Zarr reader has); a map that is mostly zero compresses well.
+before the attributes, so a reader never sees a window that is not whole.
+A chunk that holds only the window being written (every map's, one chunk
+a window; a scalar's first) is written at once, in place: no reader looks
+at it before the attributes say the window is complete. A chunk that holds
+complete windows as well (a per-window scalar's, 1024 windows a chunk) is
+replaced atomically, and replacing a file is the costly write (ext4 makes
+the new file's data reach the disk first: about 3 ms, against 0.3 ms for a
+new file), so those chunks, the arrays' shapes (``.zarray``) and
+``windows_complete`` are written together at the first window, then at most
+once a second while the run writes (:meth:`MapsStore.flush`), and at its end
+or when it stops: every reader sees the windows up to a second late, and a
+run killed outright recomputes at most a second of windows on ``--resume``.
+Chunks are zstd-compressed (level 1: the sparse maps in about a quarter of
+zlib's time and a tenth smaller; zstd is a codec of zarr-python's numcodecs
+and of TensorStore); a store written with zlib (before 30 Nov 2026) reads
+and resumes in zlib.
 
 Nothing here keeps more than one chunk per array in memory.
 """
@@ -36,175 +42,27 @@ Nothing here keeps more than one chunk per array in memory.
 from __future__ import annotations
 
 import json
-import struct
 import time
-import zlib
 from pathlib import Path
 
 import numpy as np
 
 from .. import validate as check
 from ..errors import InputError
-from .atomic import write_bytes
+from .zarr_array import TEXT, GrowingArray, ZarrArray, write_json
 
 #: the store's name in a run's output folder
 STORE_NAME = "maps.zarr"
 #: ``attrs["snn_fg"]["format"]``: what wrote the group (a reader refuses another)
 FORMAT = "snn-fg maps 1"
-#: zlib level of every chunk: 1 compresses the sparse maps nearly as well as 9, several times faster
-ZLIB_LEVEL = 1
 #: elements per chunk of a growing 1-D array (scalars per window, ragged spike counts)
 FLAT_CHUNK = 1 << 14
-#: windows per chunk of a per-window scalar (the chunk being filled is written again every window)
+#: windows per chunk of a per-window scalar (the chunk being filled is written again at every flush)
 SCALAR_CHUNK = 1024
 #: windows per chunk of ``window_params`` (each window's text written once, not again with the next)
 PARAMS_CHUNK = 1
-#: seconds between writes of the arrays' shapes while a run writes (module docstring)
-SHAPES_EVERY_S = 1.0
-_TEXT = np.dtype(object)
-
-
-def _write_json(path: Path, value) -> None:
-    write_bytes(path, json.dumps(value, sort_keys=True, allow_nan=True).encode())
-
-
-def _encode(block: np.ndarray) -> bytes:
-    """One chunk's bytes: C-order values (text as numcodecs' vlen-utf8), zlib-compressed."""
-    if block.dtype == _TEXT:
-        items = [str(v).encode() for v in block.ravel()]
-        raw = struct.pack("<I", len(items)) + b"".join(struct.pack("<I", len(b)) + b for b in items)
-    else:
-        raw = np.ascontiguousarray(block).tobytes()
-    return zlib.compress(raw, ZLIB_LEVEL)
-
-
-def _decode(data: bytes, dtype: np.dtype, shape) -> np.ndarray:
-    raw = zlib.decompress(data)
-    if dtype != _TEXT:
-        return np.frombuffer(raw, dtype=dtype).reshape(shape).copy()
-    (n,) = struct.unpack_from("<I", raw)
-    items, at = [], 4
-    for _ in range(n):
-        (k,) = struct.unpack_from("<I", raw, at)
-        items.append(raw[at + 4 : at + 4 + k].decode())
-        at += 4 + k
-    return np.array(items, dtype=object).reshape(shape)
-
-
-def _blank(shape, dtype) -> np.ndarray:
-    """A chunk never written: the fill value (0, or empty text)."""
-    return np.full(shape, "" if dtype == _TEXT or dtype.kind in "US" else 0, dtype=dtype)
-
-
-class ZarrArray:
-    """One array of a store, read chunk by chunk on indexing (``a[i]``,
-    ``a[i:j]``; ``np.asarray(a)`` reads it all)."""
-
-    def __init__(self, path: Path, length: int | None = None):
-        self.path = Path(path)
-        self.meta = meta = json.loads((self.path / ".zarray").read_text())
-        self.dtype = np.dtype(meta["dtype"]) if meta["dtype"] != "|O" else _TEXT
-        self.chunks = tuple(meta["chunks"])
-        shape = tuple(meta["shape"])
-        # (a length from the attributes' windows_complete may run ahead of the
-        # stored shape, written at most once a second while a run writes)
-        self.shape = shape if length is None else (length,) + shape[1:]
-
-    ndim = property(lambda self: len(self.shape))
-
-    def __len__(self):
-        return self.shape[0]
-
-    def chunk(self, k: int) -> np.ndarray:
-        """Chunk ``k`` along the first axis (fill values where it was never written)."""
-        key = ".".join([str(k)] + ["0"] * (len(self.shape) - 1))
-        try:
-            return _decode((self.path / key).read_bytes(), self.dtype, self.chunks)
-        except FileNotFoundError:
-            return _blank(self.chunks, self.dtype)
-
-    def rows(self, a: int, b: int) -> np.ndarray:
-        """Rows ``a .. b - 1``."""
-        c = self.chunks[0]
-        parts = [self.chunk(k)[max(a - k * c, 0) : b - k * c] for k in range(a // c, -(-b // c))]
-        return np.concatenate(parts) if parts else np.zeros((0,) + self.shape[1:], self.dtype)
-
-    def __getitem__(self, index):
-        if isinstance(index, (int, np.integer)):
-            i = int(index) + (self.shape[0] if index < 0 else 0)
-            if not 0 <= i < self.shape[0]:
-                raise IndexError(f"index {index} out of range for {self.shape[0]} rows")
-            return self.rows(i, i + 1)[0]
-        if isinstance(index, slice) and index.step in (None, 1):
-            a, b, _ = index.indices(self.shape[0])
-            return self.rows(a, max(a, b))
-        return np.asarray(self)[index]
-
-    def __array__(self, dtype=None, copy=None):
-        out = self.rows(0, self.shape[0])
-        return out if dtype is None else out.astype(dtype)
-
-
-class GrowingArray(ZarrArray):
-    """An array of a store that grows along its first axis: :meth:`append`
-    writes the chunks it fills (the last one again as it fills), then the
-    new shape. It keeps the last, partly filled chunk in memory."""
-
-    @classmethod
-    def create(cls, path: Path, dtype, tail: tuple, chunk: int) -> GrowingArray:
-        path.mkdir(parents=True)
-        text = np.dtype(dtype) == _TEXT
-        meta = {
-            "zarr_format": 2,
-            "shape": [0, *tail],
-            "chunks": [chunk, *tail],
-            "order": "C",
-            "dtype": "|O" if text else np.dtype(dtype).str,
-            "fill_value": None if text else "" if np.dtype(dtype).kind in "US" else 0,
-            "filters": [{"id": "vlen-utf8"}] if text else None,
-            "dimension_separator": ".",
-            "compressor": {"id": "zlib", "level": ZLIB_LEVEL},
-        }
-        _write_json(path / ".zarray", meta)
-        return cls(path)
-
-    def __init__(self, path: Path, length: int | None = None):
-        super().__init__(path, length)
-        self.n = self.shape[0]
-        self._last: tuple[int, np.ndarray] | None = None  # (number, values) of the chunk being filled
-        self.shape_written = True
-
-    def append(self, values) -> None:
-        """Add rows (``values``: ``(k,) + tail``, cast to this array's dtype);
-        the new shape is written by :meth:`write_shape`."""
-        values = np.asarray(values, dtype=self.dtype).reshape((-1,) + self.chunks[1:])
-        c, at = self.chunks[0], 0
-        while at < len(values):
-            k, r = divmod(self.n, c)
-            if self._last is None or self._last[0] != k:
-                self._last = (k, self.chunk(k) if r else _blank(self.chunks, self.dtype))
-            take = min(c - r, len(values) - at)
-            self._last[1][r : r + take] = values[at : at + take]
-            key = ".".join([str(k)] + ["0"] * (len(self.chunks) - 1))
-            if r:  # (holds rows of complete windows)
-                write_bytes(self.path / key, _encode(self._last[1]))
-            else:  # (holds none: no reader looks at it yet)
-                (self.path / key).write_bytes(_encode(self._last[1]))
-            self.n, at = self.n + take, at + take
-        self.shape = (self.n,) + self.shape[1:]
-        self.shape_written = False
-
-    def write_shape(self) -> None:
-        """Write the shape, if it changed since it was last written."""
-        if not self.shape_written:
-            self.resize(self.n)
-
-    def resize(self, n: int) -> None:
-        """Declare ``n`` rows (rows past ``n`` are written again as the array grows)."""
-        self.meta["shape"][0] = self.n = n
-        self.shape = (n,) + self.shape[1:]
-        _write_json(self.path / ".zarray", self.meta)
-        self.shape_written = True
+#: seconds between flushes while a run writes (module docstring)
+FLUSH_EVERY_S = 1.0
 
 
 def read_attrs(path) -> dict:
@@ -292,14 +150,14 @@ class MapsStore:
         for name, length in _lengths(self.path, self.n).items():  # back to the last complete window
             self.arrays[name] = GrowingArray(self.path / name)
             self.arrays[name].resize(length)
-        self.shapes_at = time.monotonic()  # when the arrays' shapes were last written
+        self.flushed_at = time.monotonic()  # when the store was last flushed
 
     @classmethod
     def create(cls, path, run_key: dict) -> MapsStore:
         path = Path(path)
         path.mkdir(parents=True)
-        _write_json(path / ".zgroup", {"zarr_format": 2})
-        _write_json(
+        write_json(path / ".zgroup", {"zarr_format": 2})
+        write_json(
             path / ".zattrs",
             {"snn_fg": {"format": FORMAT, "windows_complete": 0, "complete": False, "run_key": run_key}, "params": {}},
         )
@@ -323,7 +181,7 @@ class MapsStore:
             self.attrs["params"] = dict(maps.params)
         base = self.attrs["params"]
         differ = {k: v for k, v in maps.params.items() if base.get(k) != v}
-        self._array("window_params", _TEXT, (), PARAMS_CHUNK).append([json.dumps(differ, sort_keys=True)])
+        self._array("window_params", TEXT, (), PARAMS_CHUNK).append([json.dumps(differ, sort_keys=True)])
         arrays = {"fg_x": maps.fg_x, "fg_y": maps.fg_y, "grouping": maps.grouping, **maps.extra, **more}
         for key, v in arrays.items():
             v = np.asarray(v)
@@ -347,14 +205,17 @@ class MapsStore:
             elif a.n == self.n and f"{key}_offsets" not in self.arrays:
                 a.append(np.zeros((1,) + a.chunks[1:], a.dtype))  # absent from this window: zeros
         self.n += 1
-        if self.n == 1 or time.monotonic() - self.shapes_at >= SHAPES_EVERY_S:
-            self._write_shapes()
-        self._status(windows_complete=self.n)
+        if self.n == 1 or time.monotonic() - self.flushed_at >= FLUSH_EVERY_S:
+            self.flush()
 
-    def _write_shapes(self) -> None:
+    def flush(self) -> None:
+        """Every window appended made visible to readers: the chunks that hold
+        complete windows, the arrays' shapes, then ``windows_complete``."""
         for a in self.arrays.values():
+            a.flush()
             a.write_shape()
-        self.shapes_at = time.monotonic()
+        self._status(windows_complete=self.n)
+        self.flushed_at = time.monotonic()
 
     def _array(self, key: str, dtype, tail: tuple, chunk: int) -> GrowingArray:
         """The array ``key``, made when first met (the windows before it: fill values, or no part)."""
@@ -369,12 +230,12 @@ class MapsStore:
     def finish(self, params: dict) -> None:
         """The run's final parameters, and the store marked complete."""
         self.attrs["params"] = params
-        self._write_shapes()
+        self.flush()
         self._status(complete=True)
 
     def _status(self, **changes) -> None:
         self.attrs["snn_fg"].update(changes)
-        _write_json(self.path / ".zattrs", self.attrs)
+        write_json(self.path / ".zattrs", self.attrs)
 
 
 def read_maps(path, lazy: bool = False) -> tuple:

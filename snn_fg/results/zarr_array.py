@@ -1,0 +1,179 @@
+"""One array of a Zarr (format 2) store, as :mod:`snn_fg.results.store` writes
+and reads it: its chunks encoded and decoded (zstd, or zlib in stores written
+before 30 Nov 2026; text as numcodecs' vlen-utf8), read chunk by chunk
+(:class:`ZarrArray`) and grown along its first axis (:class:`GrowingArray`).
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+import zstandard
+
+from .atomic import write_bytes
+
+#: how every chunk of a new array is compressed (:mod:`snn_fg.results.store`'s docstring says why)
+COMPRESSOR = {"id": "zstd", "level": 1}
+#: the dtype of a text array (vlen-utf8 chunks)
+TEXT = np.dtype(object)
+
+
+def write_json(path: Path, value) -> None:
+    write_bytes(path, json.dumps(value, sort_keys=True, allow_nan=True).encode())
+
+
+def _encode(block: np.ndarray, compressor: dict) -> bytes:
+    """One chunk's bytes: C-order values (text as numcodecs' vlen-utf8), compressed by ``compressor``."""
+    if block.dtype == TEXT:
+        items = [str(v).encode() for v in block.ravel()]
+        raw = struct.pack("<I", len(items)) + b"".join(struct.pack("<I", len(b)) + b for b in items)
+    else:
+        raw = np.ascontiguousarray(block)
+    if compressor["id"] == "zstd":
+        return zstandard.ZstdCompressor(level=compressor["level"]).compress(raw)
+    return zlib.compress(raw, compressor["level"])
+
+
+def _decode(data: bytes, dtype: np.dtype, shape, compressor: dict) -> np.ndarray:
+    raw = zstandard.ZstdDecompressor().decompress(data) if compressor["id"] == "zstd" else zlib.decompress(data)
+    if dtype != TEXT:
+        return np.frombuffer(raw, dtype=dtype).reshape(shape).copy()
+    (n,) = struct.unpack_from("<I", raw)
+    items, at = [], 4
+    for _ in range(n):
+        (k,) = struct.unpack_from("<I", raw, at)
+        items.append(raw[at + 4 : at + 4 + k].decode())
+        at += 4 + k
+    return np.array(items, dtype=object).reshape(shape)
+
+
+def _blank(shape, dtype) -> np.ndarray:
+    """A chunk never written: the fill value (0, or empty text)."""
+    return np.full(shape, "" if dtype == TEXT or dtype.kind in "US" else 0, dtype=dtype)
+
+
+class ZarrArray:
+    """One array of a store, read chunk by chunk on indexing (``a[i]``,
+    ``a[i:j]``; ``np.asarray(a)`` reads it all)."""
+
+    def __init__(self, path: Path, length: int | None = None):
+        self.path = Path(path)
+        self.meta = meta = json.loads((self.path / ".zarray").read_text())
+        self.dtype = np.dtype(meta["dtype"]) if meta["dtype"] != "|O" else TEXT
+        self.chunks = tuple(meta["chunks"])
+        shape = tuple(meta["shape"])
+        # (a length from the attributes' windows_complete may run ahead of a shape stored by an older run,
+        # which wrote the two apart)
+        self.shape = shape if length is None else (length,) + shape[1:]
+
+    ndim = property(lambda self: len(self.shape))
+
+    def __len__(self):
+        return self.shape[0]
+
+    def chunk(self, k: int) -> np.ndarray:
+        """Chunk ``k`` along the first axis (fill values where it was never written)."""
+        key = ".".join([str(k)] + ["0"] * (len(self.shape) - 1))
+        try:
+            return _decode((self.path / key).read_bytes(), self.dtype, self.chunks, self.meta["compressor"])
+        except FileNotFoundError:
+            return _blank(self.chunks, self.dtype)
+
+    def rows(self, a: int, b: int) -> np.ndarray:
+        """Rows ``a .. b - 1``."""
+        c = self.chunks[0]
+        parts = [self.chunk(k)[max(a - k * c, 0) : b - k * c] for k in range(a // c, -(-b // c))]
+        return np.concatenate(parts) if parts else np.zeros((0,) + self.shape[1:], self.dtype)
+
+    def __getitem__(self, index):
+        if isinstance(index, (int, np.integer)):
+            i = int(index) + (self.shape[0] if index < 0 else 0)
+            if not 0 <= i < self.shape[0]:
+                raise IndexError(f"index {index} out of range for {self.shape[0]} rows")
+            return self.rows(i, i + 1)[0]
+        if isinstance(index, slice) and index.step in (None, 1):
+            a, b, _ = index.indices(self.shape[0])
+            return self.rows(a, max(a, b))
+        return np.asarray(self)[index]
+
+    def __array__(self, dtype=None, copy=None):
+        out = self.rows(0, self.shape[0])
+        return out if dtype is None else out.astype(dtype)
+
+
+class GrowingArray(ZarrArray):
+    """An array of a store that grows along its first axis: :meth:`append`
+    writes a chunk that holds only new rows at once, and one that holds
+    complete windows too by :meth:`flush` (then :meth:`write_shape`); it
+    keeps the last, partly filled chunk in memory."""
+
+    @classmethod
+    def create(cls, path: Path, dtype, tail: tuple, chunk: int) -> GrowingArray:
+        path.mkdir(parents=True)
+        text = np.dtype(dtype) == TEXT
+        meta = {
+            "zarr_format": 2,
+            "shape": [0, *tail],
+            "chunks": [chunk, *tail],
+            "order": "C",
+            "dtype": "|O" if text else np.dtype(dtype).str,
+            "fill_value": None if text else "" if np.dtype(dtype).kind in "US" else 0,
+            "filters": [{"id": "vlen-utf8"}] if text else None,
+            "dimension_separator": ".",
+            "compressor": dict(COMPRESSOR),
+        }
+        write_json(path / ".zarray", meta)
+        return cls(path)
+
+    def __init__(self, path: Path, length: int | None = None):
+        super().__init__(path, length)
+        self.n = self.shape[0]
+        self._last: tuple[int, np.ndarray] | None = None  # (number, values) of the chunk being filled
+        self._unwritten = False  # whether that chunk holds rows not yet on disk
+        self.shape_written = True
+
+    def append(self, values) -> None:
+        """Add rows (``values``: ``(k,) + tail``, cast to this array's dtype);
+        a chunk that holds earlier rows is written by :meth:`flush`, the new
+        shape by :meth:`write_shape`."""
+        values = np.asarray(values, dtype=self.dtype).reshape((-1,) + self.chunks[1:])
+        c, at = self.chunks[0], 0
+        while at < len(values):
+            k, r = divmod(self.n, c)
+            if self._last is None or self._last[0] != k:
+                self.flush()
+                self._last = (k, self.chunk(k) if r else _blank(self.chunks, self.dtype))
+            take = min(c - r, len(values) - at)
+            self._last[1][r : r + take] = values[at : at + take]
+            if r:  # (holds rows of complete windows: replaced atomically, at the next flush)
+                self._unwritten = True
+            else:  # (holds none: no reader looks at it yet)
+                self._path_of(k).write_bytes(_encode(self._last[1], self.meta["compressor"]))
+            self.n, at = self.n + take, at + take
+        self.shape = (self.n,) + self.shape[1:]
+        self.shape_written = False
+
+    def _path_of(self, k: int) -> Path:
+        return self.path / ".".join([str(k)] + ["0"] * (len(self.chunks) - 1))
+
+    def flush(self) -> None:
+        """Write the chunk being filled, if it holds rows not yet on disk (atomically)."""
+        if self._unwritten:
+            write_bytes(self._path_of(self._last[0]), _encode(self._last[1], self.meta["compressor"]))
+            self._unwritten = False
+
+    def write_shape(self) -> None:
+        """Write the shape, if it changed since it was last written."""
+        if not self.shape_written:
+            self.resize(self.n)
+
+    def resize(self, n: int) -> None:
+        """Declare ``n`` rows (rows past ``n`` are written again as the array grows)."""
+        self.meta["shape"][0] = self.n = n
+        self.shape = (n,) + self.shape[1:]
+        write_json(self.path / ".zarray", self.meta)
+        self.shape_written = True

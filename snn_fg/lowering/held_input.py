@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .input_spikes import source_index
+from .input_spikes import EventQueue
 
 
 def hold_period_steps(rate_hz: float, dt_ms: float) -> int:
@@ -96,7 +96,7 @@ def held_spikes(
     return (key % (2 * n_pixels), key // (2 * n_pixels)), (pix[alive], src[alive], since[alive])
 
 
-class HeldStream:
+class HeldStream(EventQueue):
     """The ``window`` coding's input spikes of timed events added in time
     order (:meth:`add`), given out step range by step range
     (:meth:`take_until`), as :class:`~snn_fg.lowering.input_stream.SpikeStream`.
@@ -124,35 +124,19 @@ class HeldStream:
     """
 
     def __init__(self, shape, dt_ms: float, t0_us: float, rate_hz: float, window_steps, seed: int = 0, hold_steps=None):
-        self.h, self.w = shape
+        super().__init__(shape, dt_ms, t0_us)
         self.hold = None if hold_steps is None else max(1, int(hold_steps))
-        self.step_us, self.t0_us = dt_ms * 1000.0, float(t0_us)
         self.period = hold_period_steps(rate_hz, dt_ms)
         self.phase = hold_phases(2 * self.h * self.w, self.period, seed)
         self.resets = np.unique(np.asarray(window_steps, dtype=np.int64))
-        self.steps = np.zeros(0, np.int64)
-        self.indices = np.zeros(0, np.int64)
         self.carried = None
         self.taken = None  # steps before this one have been given out
-        self.fired = np.zeros(2 * self.h * self.w, bool)
-        self.merged = 0
-
-    def add(self, events) -> None:
-        """Events (fields ``x``, ``y``, ``t`` in microseconds, ``p``) later
-        than every step already taken."""
-        if not len(events):
-            return
-        step = np.floor((events["t"].astype(np.float64) - self.t0_us) / self.step_us).astype(np.int64)
-        idx = source_index(events["x"], events["y"], events["p"], (self.h, self.w))
-        self.steps, self.indices = np.concatenate([self.steps, step]), np.concatenate([self.indices, idx])
 
     def take_until(self, end_step: int) -> tuple[np.ndarray, np.ndarray]:
         """The spikes ``(indices, steps)`` of the steps before ``end_step``
         not taken yet, in step order and by source within a step; every
         event before that step's end must have been added."""
-        now = self.steps < end_step
-        step, idx = self.steps[now], self.indices[now]
-        self.steps, self.indices = self.steps[~now], self.indices[~now]
+        step, idx = self.due(end_step)
         order = np.argsort(step, kind="stable")
         step, idx = step[order], idx[order]
         if self.taken is None:  # (nothing is held before the first event)
@@ -166,14 +150,6 @@ class HeldStream:
         self.taken = end_step
         self.fired[out_idx] = True
         return out_idx, out_steps
-
-    @property
-    def on(self) -> np.ndarray:
-        return self.fired[: self.h * self.w].reshape(self.h, self.w)
-
-    @property
-    def off(self) -> np.ndarray:
-        return self.fired[self.h * self.w :].reshape(self.h, self.w)
 
 
 def held_window(events, shape, dt_ms: float, t0_us: float, t_end_us: float, rate_hz: float, seed: int = 0):

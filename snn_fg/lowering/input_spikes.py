@@ -245,3 +245,46 @@ def event_spikes(
     span_s = (period if period else int(st_u.max()) + 1) * dt_ms / 1000.0
     rate = idx_u.size / max(n_active, 1) / span_s
     return InputSpikes((h, w), idx_u, st_u, period, on.reshape(h, w), off.reshape(h, w), float(rate), merged, "events")
+
+
+class EventQueue:
+    """Events handed over in time order, chunk by chunk, queued as input
+    sources and steps until a stream gives them out as spikes
+    (:class:`~snn_fg.lowering.input_stream.SpikeStream`,
+    :class:`~snn_fg.lowering.held_input.HeldStream`): ``shape`` the input
+    grid ``(H, W)`` (sources as :func:`source_index` numbers them), step 0 at
+    ``t0_us``. ``on`` and ``off`` mark the sources that have fired so far
+    (the stream sets :attr:`fired`)."""
+
+    def __init__(self, shape, dt_ms: float, t0_us: float):
+        self.h, self.w = shape
+        self.step_us, self.t0_us = dt_ms * 1000.0, float(t0_us)
+        self.steps = np.zeros(0, np.int64)
+        self.indices = np.zeros(0, np.int64)
+        self.fired = np.zeros(2 * self.h * self.w, bool)
+        self.merged = 0
+
+    def add(self, events) -> None:
+        """Events (fields ``x``, ``y``, ``t`` in microseconds, ``p``) later
+        than every step already taken."""
+        if not len(events):
+            return
+        step = np.floor((events["t"].astype(np.float64) - self.t0_us) / self.step_us).astype(np.int64)
+        idx = source_index(events["x"], events["y"], events["p"], (self.h, self.w))
+        self.steps, self.indices = np.concatenate([self.steps, step]), np.concatenate([self.indices, idx])
+
+    def due(self, end_step: int) -> tuple[np.ndarray, np.ndarray]:
+        """The queued events of the steps before ``end_step`` as ``(steps, sources)``,
+        in the order they were added, taken off the queue."""
+        now = self.steps < end_step
+        step, idx = self.steps[now], self.indices[now]
+        self.steps, self.indices = self.steps[~now], self.indices[~now]
+        return step, idx
+
+    @property
+    def on(self) -> np.ndarray:
+        return self.fired[: self.h * self.w].reshape(self.h, self.w)
+
+    @property
+    def off(self) -> np.ndarray:
+        return self.fired[self.h * self.w :].reshape(self.h, self.w)

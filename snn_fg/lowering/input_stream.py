@@ -20,10 +20,10 @@ import dataclasses
 
 import numpy as np
 
-from .input_spikes import InputSpikes, source_index, step_spikes
+from .input_spikes import EventQueue, InputSpikes, step_spikes
 
 
-class SpikeStream:
+class SpikeStream(EventQueue):
     """Input spikes of timed events added in time order (:meth:`add`).
 
     Parameters
@@ -44,43 +44,19 @@ class SpikeStream:
     """
 
     def __init__(self, shape, dt_ms: float, t0_us: float, refractory_ms: float = 0.0):
-        self.h, self.w = shape
-        self.step_us, self.t0_us = dt_ms * 1000.0, float(t0_us)
+        super().__init__(shape, dt_ms, t0_us)
         self.gap = int(round(refractory_ms / dt_ms))
         self.last = np.full(2 * self.h * self.w, -max(self.gap, 1), dtype=np.int64)  # (every first event passes)
-        self.steps = np.zeros(0, np.int64)
-        self.indices = np.zeros(0, np.int64)
-        self.fired = np.zeros(2 * self.h * self.w, bool)
-        self.merged = 0
-
-    def add(self, events) -> None:
-        """Events (fields ``x``, ``y``, ``t`` in microseconds, ``p``) later
-        than every step already taken."""
-        if not len(events):
-            return
-        step = np.floor((events["t"].astype(np.float64) - self.t0_us) / self.step_us).astype(np.int64)
-        idx = source_index(events["x"], events["y"], events["p"], (self.h, self.w))
-        self.steps, self.indices = np.concatenate([self.steps, step]), np.concatenate([self.indices, idx])
 
     def take_until(self, end_step: int) -> tuple[np.ndarray, np.ndarray]:
         """The spikes ``(indices, steps)`` of the steps before ``end_step``
         not taken yet, in step order and by source within a step; every
         event before that step's end must have been added."""
-        now = self.steps < end_step
-        step, idx = self.steps[now], self.indices[now]
-        self.steps, self.indices = self.steps[~now], self.indices[~now]
+        step, idx = self.due(end_step)
         idx, step, merged = step_spikes(step, idx, 2 * self.h * self.w, self.gap, self.last)
         self.merged += merged
         self.fired[idx] = True
         return idx, step
-
-    @property
-    def on(self) -> np.ndarray:
-        return self.fired[: self.h * self.w].reshape(self.h, self.w)
-
-    @property
-    def off(self) -> np.ndarray:
-        return self.fired[self.h * self.w :].reshape(self.h, self.w)
 
 
 @dataclasses.dataclass

@@ -19,7 +19,9 @@ the latched input at x1/4, about 10x its time a window), on the windows of ``rec
   they are: the same network in faster time, at ``1 / s`` times the spikes
   and ``1 / s**2`` times the work);
 * read-out: the spikes of each window counted over the last 40 ms of its
-  read-out span only (``readout_ms``), once the network has settled on it.
+  read-out span only (``readout_ms``), once the network has settled on it;
+* the window clock off (the grouping not started afresh at each window:
+  the network settles across windows on the sliding input).
 
 Writes ``recording_levers.{json,md}``. ``--figure`` instead draws window 3 of
 ``dvs.es`` (the one ``recording_fidelity.png`` shows), run alone, for the rate
@@ -51,6 +53,12 @@ LEVERS = (
     ("sliding, last 30 ms (lag 10)", "sliding", 1.0, {"readout_ms": 30.0, "readout_lag_ms": 10.0}),
     ("sliding, x1/2, last 30 ms (lag 10)", "sliding", 0.5, {"readout_ms": 30.0, "readout_lag_ms": 10.0}),
     ("sliding, x1/4, last 30 ms (lag 10)", "sliding", 0.25, {"readout_ms": 30.0, "readout_lag_ms": 10.0}),
+    (
+        "sliding, no window clock, last 30 ms (lag 10)",
+        "sliding",
+        1.0,
+        {"readout_ms": 30.0, "readout_lag_ms": 10.0, "window_clock": False},
+    ),
     ("latched, last 40 ms of the next window", "latched", 1.0, {"readout_ms": 40.0}),
     ("latched, x1/2, last 40 ms of the next window", "latched", 0.5, {"readout_ms": 40.0}),
     ("latched, x1/4, last 40 ms of the next window", "latched", 0.25, {"readout_ms": 40.0}),

@@ -144,6 +144,18 @@ class SimulationResult:
     timings_s: dict = field(default_factory=dict)
     stats: dict = field(default_factory=dict)
 
+    @classmethod
+    def of_run(cls, settings: RunSettings, **fields) -> SimulationResult:
+        """The result of a run made with ``settings``: its counting window,
+        duration, step and bins from them, the rest from ``fields``."""
+        return cls(
+            count_window_ms=settings.count_window_ms,
+            simulated_ms=settings.duration_ms,
+            dt_ms=settings.dt_ms,
+            count_bins_ms=settings.count_bins_ms,
+            **fields,
+        )
+
     @property
     def populations(self) -> list[str]:
         """Names of the simulated (LIF) populations, in network order."""

@@ -161,20 +161,17 @@ class Brian2Backend(Backend):
         stats["brian2_synapse_objects"] = objects
         timings["total"] = time.perf_counter() - t0
         sites = {p.name: un.sites[p.name] for p in lif_populations(network)}
-        return SimulationResult(
+        return SimulationResult.of_run(
+            settings,
             network=network,
             backend=self.name,
             sites=sites,
             counts=counts,
-            count_window_ms=settings.count_window_ms,
-            simulated_ms=settings.duration_ms,
-            dt_ms=settings.dt_ms,
             spikes=spikes,
             state=state,
             timings_s=timings,
             stats=stats,
             binned_counts=binned,
-            count_bins_ms=settings.count_bins_ms,
         )
 
     def _run(self, un: Unrolled, inputs, settings: RunSettings, timings: dict):

@@ -139,18 +139,15 @@ class NestBackend(Backend):
             net.end()
         timings["total"] = time.perf_counter() - t0
         sites = {p.name: un.sites[p.name] for p in lif_populations(network)}
-        return SimulationResult(
+        return SimulationResult.of_run(
+            settings,
             network=network,
             backend=self.name,
             sites=sites,
             counts=counts,
-            count_window_ms=settings.count_window_ms,
-            simulated_ms=settings.duration_ms,
-            dt_ms=settings.dt_ms,
             spikes=spikes if settings.record_spikes else None,
             state=state,
             binned_counts=binned,
-            count_bins_ms=settings.count_bins_ms,
             timings_s=timings,
             stats=stats,
         )

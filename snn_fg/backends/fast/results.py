@@ -232,18 +232,15 @@ def simulation_result(
                 if var in settings.record_state
             }
     stats = run_stats(tab, run, stream)
-    return SimulationResult(
+    return SimulationResult.of_run(
+        settings,
         network=tab.network,
         backend=name,
         sites={p.name: chosen[p.name] for p in pops},
         counts=counts,
-        count_window_ms=settings.count_window_ms,
-        simulated_ms=settings.duration_ms,
-        dt_ms=settings.dt_ms,
         spikes=spikes,
         state=state,
         binned_counts=binned,
-        count_bins_ms=settings.count_bins_ms,
         stats=stats,
     )
 

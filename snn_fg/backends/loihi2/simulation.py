@@ -132,16 +132,12 @@ class Run:
 
     def template(self) -> SimulationResult:
         """A result with this run's network, cells and backend (a bin's, or the whole run's)."""
-        s = self.settings
-        return SimulationResult(
+        return SimulationResult.of_run(
+            self.settings,
             network=self.tab.network,
             backend="loihi2",
             sites={p.name: self.chosen[p.name] for p in self.pops},
             counts={},
-            count_window_ms=s.count_window_ms,
-            simulated_ms=s.duration_ms,
-            dt_ms=s.dt_ms,
-            count_bins_ms=s.count_bins_ms,
         )
 
     def result(self) -> SimulationResult:

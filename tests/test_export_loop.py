@@ -419,6 +419,21 @@ def test_a_forced_re_export_for_another_rate_keeps_the_folders_input(tmp_path, c
     assert not (out / "input.npz").exists() and "kept" not in capsys.readouterr().out
 
 
+def test_a_forced_re_export_never_deletes_run_py_counts(tmp_path, capsys):
+    """counts.npz (under any name) is a simulator's or a board's run of the export there: --force
+    refuses the folder in one line naming it, and leaves everything as it was."""
+    out = tmp_path / "model"
+    export = ["export", "--format", "pynn", "--out", str(out), "--sensor-size", "24x20", "--levels", "1"]
+    assert main(export) == 0
+    np.savez(out / "board_run.npz", duration_ms=400.0, dt_ms=0.5, count_from_ms=200.0, count_simple_1=np.zeros(3))
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    capsys.readouterr()
+    assert main([*export, "--input-rate-hz", "35", "--force"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds board_run.npz: run.py's counts" in err[0] and "nothing was deleted" in err[0]
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+
+
 def test_run_py_refuses_bad_input_and_a_missing_simulator_in_one_line(tmp_path, run_py):
     """What a user gets wrong with run.py ends in one line naming the file
     or option and the problem, exit status 1, no traceback and no output."""

@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import __version__, lava, pynn
 from .. import validate as check
+from ..errors import InputError
 from ..lowering.kernel_tables import ConvTable, geometry, table, table_fields
 from ..network.graph import Network
 from ..results.atomic import OutputFolder
@@ -30,15 +31,28 @@ INPUT_KEYS = ("indices", "steps", "dt_ms", "period_steps", "shape")
 COUNTS_KEYS = ("duration_ms", "dt_ms", "count_from_ms")
 
 
-def _run_py_file(entry: Path) -> bool:
-    """Whether ``entry`` is a file run.py reads or writes (an input spike file, its counts), by its arrays."""
+def _arrays_of(entry: Path) -> set:
+    """The array names of an ``.npz`` file (none for anything else, or one that cannot be read)."""
     if entry.suffix != ".npz" or not entry.is_file():
-        return False
+        return set()
     try:
         with np.load(entry) as d:
-            return set(INPUT_KEYS) <= set(d.files) or set(COUNTS_KEYS) <= set(d.files)
+            return set(d.files)
     except (OSError, ValueError, EOFError):
-        return False
+        return set()
+
+
+def _run_py_file(entry: Path) -> bool:
+    """Whether ``entry`` is a file run.py reads or writes (an input spike file, its counts), by its arrays."""
+    names = _arrays_of(entry)
+    return set(INPUT_KEYS) <= names or set(COUNTS_KEYS) <= names
+
+
+def _counts_files(folder: Path) -> list[str]:
+    """The counts files run.py wrote into an export ``folder`` (a simulator's or a board's run), by their arrays."""
+    if not folder.is_dir():
+        return []
+    return sorted(p.name for p in folder.iterdir() if set(COUNTS_KEYS) <= _arrays_of(p))
 
 
 #: what a PyNN or Lava export folder holds: the export's files, and what run.py and Python write in it (the
@@ -173,7 +187,16 @@ def write_folder(out, *, force: bool, frame_shape, meta: dict, arrays: dict, cop
     """An export folder written whole (via a staging folder): ``network.json`` (``meta``),
     ``tables.npz`` (``arrays``), the standalone modules ``copies`` (path -> name in the
     folder) and ``texts`` (name -> text). With ``force`` an earlier export (:data:`EXPORT_FOLDER`) is
-    replaced, keeping its ``input.npz`` when it serves the same frame and time step."""
+    replaced, keeping its ``input.npz`` when it serves the same frame and time step; one that holds
+    run.py's counts (a run on a simulator or a board, which the new export could not decode) is refused."""
+    counts = _counts_files(Path(out)) if force else []
+    if counts:
+        raise InputError(
+            out,
+            f"holds {', '.join(counts)}: run.py's counts from the export there (a simulator's or a board's run), "
+            "which --force would delete; move them out of the folder or choose another output folder; "
+            "nothing was deleted",
+        )
     kept = reusable_input(Path(out) / INPUT_NAME, frame_shape, meta["dt_ms"]) if force else None
     with OutputFolder(out, force=force, kind=EXPORT_FOLDER) as folder:
         tmp = folder.dir

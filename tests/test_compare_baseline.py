@@ -142,3 +142,34 @@ def test_compare_says_which_run_is_a_and_which_is_b(demo_runs, capsys):
     main(["compare", str(demo_runs / "ten"), str(demo_runs / "one"), "--no-baseline"])
     lines = capsys.readouterr().out.splitlines()
     assert lines[2:4] == ["A: ten, the rate model", "B: one, the rate model"]
+
+
+def test_the_verdict_puts_the_agreement_beside_chance_and_beside_b_against_itself():
+    """Over all windows (pixel-weighted): unrelated maps (a quarter within 45 degrees) are called near
+    chance, and a pair as close as B to itself is called so; a mean of the per-window fractions would
+    give another number here (0.5 rather than the pooled 0.28)."""
+    from snn_fg.cli.compare import verdict
+
+    rows = [
+        {"pixels_compared": 900, "angle_within_45_frac": 0.25, "angle_diff_mean_deg": 90.0, "baseline_within_45": 0.9},
+        {"pixels_compared": 100, "angle_within_45_frac": 0.75, "angle_diff_mean_deg": 30.0, "baseline_within_45": 0.9},
+    ]
+    line = verdict(rows)
+    assert "30.0% of 1,000 pixels, mean 84.0°" in line and "B against itself 90.0%" in line
+    assert line.endswith("near chance: the two maps' directions are unrelated.")
+    close = [dict(r, angle_within_45_frac=0.88) for r in rows]
+    assert verdict(close).endswith("as close as B's model comes to itself.")
+    assert verdict([{"pixels_compared": 0}]).startswith("All windows: no pixel")
+
+
+def test_compare_notes_a_pair_from_other_inputs_or_other_stage_parameters():
+    from snn_fg.cli.compare import mismatches
+
+    z = np.zeros((4, 4), np.float32)
+    a = Maps(z, z, z, {"levels": 3, "r0": 4.0, "input_pool": 3, "source": {"input": "/data/dvs.es"}})
+    b = Maps(z, z, z, {"levels": 10, "r0": 4.0, "input_pool": 1, "source": {"input": "/other/person.aedat4"}})
+    notes = mismatches(a, b)
+    assert len(notes) == 2 and "different inputs (dvs.es, person.aedat4)" in notes[0]
+    assert "levels 3 against 10, input_pool 3 against 1)" in notes[1] and "r0" not in notes[1]
+    same = Maps(z, z, z, {"levels": 3, "r0": 4.0, "input_pool": 3, "source": {"input": "/elsewhere/dvs.es"}})
+    assert mismatches(a, same) == []

@@ -70,7 +70,9 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
         == {d: ["maps.png", "maps.zarr", "timeline.png", "windows.csv"] for d in ("a", "b")}
     )
     assert sorted(os.listdir(tmp_path)) == ["a", "b"] and "saved" not in out
-    t_column = [line.split()[2] for line in out.splitlines()[1:4]]
+    lines = out.splitlines()
+    assert lines[0].startswith("snn-fg: note: A and B were made with other model parameters (r0 8.0 against 6.0)")
+    t_column = [line.split()[2] for line in lines[2:5]]
     assert t_column == ["0.0", "50.0", "100.0"] and str(UNIX_T0 // 1000)[:6] not in out
     assert (
         main(

@@ -118,6 +118,7 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
     ]
     if baseline is not None:
         lines += textwrap.wrap(baseline, 95)
+    lines += textwrap.wrap(verdict(rows), 95)
     confident = [r["confident_a"] for r in rows if "confident_a" in r]
     if confident:
         lines.append(
@@ -145,7 +146,7 @@ def cmd_compare(args) -> int:
         raise InputError(args.plot, "--plot needs a .png file name")
     a, b = Maps.load(args.a), Maps.load(args.b)
     a, b, notes = align_to_export(a, b, args.window, (args.a, args.b))  # (a board's maps against the reference)
-    for note in notes:
+    for note in notes + mismatches(a, b):
         print(f"snn-fg: note: {note}")
     try:
         where = None if args.outline is None else event_outlines(a, b, args.outline)
@@ -211,3 +212,57 @@ def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str
         f"of {its.get('iterations', '?')}, on the same frames: how far B moves on its own; A's agreement "
         "with B means little where it is near these"
     )
+
+
+#: what two unrelated maps give: directions uniformly at random, so a quarter within 45 degrees, 90 degrees apart
+CHANCE_WITHIN_45, CHANCE_MEAN_DEG = 0.25, 90.0
+
+
+def verdict(rows) -> str:
+    """One line over every compared window (pixel-weighted): A's agreement with B beside what
+    unrelated maps give and, where the rows have it, beside B's agreement with itself."""
+    n = sum(r.get("pixels_compared") or 0 for r in rows)
+    if not n:
+        return "All windows: no pixel where both maps have a vector; nothing to judge."
+    pooled = lambda key: sum((r.get("pixels_compared") or 0) * (r.get(key) or 0.0) for r in rows) / n  # noqa: E731
+    within, mean = pooled("angle_within_45_frac"), pooled("angle_diff_mean_deg")
+    base = [r for r in rows if r.get("baseline_within_45") is not None and r.get("pixels_compared")]
+    own = (
+        sum(r["pixels_compared"] * r["baseline_within_45"] for r in base) / sum(r["pixels_compared"] for r in base)
+        if base
+        else None
+    )
+    if within < CHANCE_WITHIN_45 + 0.10:
+        word = "near chance: the two maps' directions are unrelated"
+    elif own is not None and within >= own - 0.05:
+        word = "as close as B's model comes to itself"
+    else:
+        word = "above chance" + ("" if own is None else ", short of how close B's model comes to itself")
+    against = f"chance {CHANCE_WITHIN_45:.0%} and {CHANCE_MEAN_DEG:.0f}°" + (
+        "" if own is None else f"; B against itself {own:.1%}"
+    )
+    return f"All windows: A within 45° of B on {within:.1%} of {n:,} pixels, mean {mean:.1f}° ({against}): {word}."
+
+
+#: the model parameters that make the network's stages (two maps made with others are not one model's)
+_STAGE_PARAMS = ("levels", "levels_per_octave", "n_ori", "r0", "input_pool")
+
+
+def mismatches(a: Maps, b: Maps) -> list[str]:
+    """Notes for a pair that is not one input through two models: other inputs, other stage parameters."""
+    out = []
+    inputs = [(m.params.get("source") or {}).get("input") for m in (a, b)]
+    if None not in inputs and Path(inputs[0]).name != Path(inputs[1]).name:
+        out.append(f"A and B come from different inputs ({Path(inputs[0]).name}, {Path(inputs[1]).name})")
+    differ = [
+        f"{k} {a.params[k]} against {b.params[k]}"
+        for k in _STAGE_PARAMS
+        if k in a.params and k in b.params and a.params[k] != b.params[k]
+    ]
+    if differ:
+        out.append(
+            f"A and B were made with other model parameters ({', '.join(differ)}): B is not A's reference; "
+            "run B's model with A's --network (the rate model on the compact network: "
+            "snn-fg run REC --model rate --network compact)"
+        )
+    return out

@@ -80,3 +80,36 @@ def test_a_cut_spiking_run_keeps_its_windows_and_resume_gives_the_uncut_maps(rec
     # each window's own parameters besides its timing: the same cells, rates and read-out spans
     strip = lambda p: {k: v for k, v in p.items() if k != "timings_s"}  # noqa: E731
     assert [strip(w) for w in a.params["windows"]] == [strip(w) for w in b.params["windows"]]
+
+
+def test_a_spiking_run_over_a_recording_shows_the_windows_done(recording, tmp_path, monkeypatch):
+    """The spiking network reads a window well before it is done with it: its bar counts the
+    windows written (a bar of windows read sat at 0 while the first window ran, then vanished)."""
+    from snn_fg.cli import runner
+    from snn_fg.cli.runner import recording_windows, run_recording
+
+    bars = []
+
+    class Bar:
+        def __init__(self, desc=None, total=None, **_):
+            self.desc, self.total, self.ticks, self.closed = desc, total, [], False
+            bars.append(self)
+
+        def update(self, k=1):
+            self.ticks.append(len(list((out / "maps.zarr" / "fg_x").glob("[0-9]*"))))
+
+        def close(self):
+            self.closed = True
+
+    monkeypatch.setattr(runner, "tqdm", Bar)
+    np.save(tmp_path / "rec.npy", recording.events)
+    h, w = disc(12).image.shape
+    windows, _ = recording_windows(
+        tmp_path / "rec.npy", sensor_size=(w, h), window_options={"window_ms": 40.0, "max_windows": 3}
+    )
+    out = tmp_path / "out"
+    out.mkdir()
+    model = get_model("spiking", ModelParams(levels=3), readout_lag_ms=10.0)
+    assert run_recording(model, windows, out, {"input": "disc"}, figures=False) == 3
+    assert [(b.desc, b.total, b.closed) for b in bars] == [("windows done", 3, True)]
+    assert bars[0].ticks == [1, 2, 3]  # (each tick once that window's maps are written)

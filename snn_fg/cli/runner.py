@@ -46,46 +46,28 @@ def recording_windows(path, *, sensor_size=None, window_options: dict, progress:
 
 
 class _Counted:
-    """``windows`` (read again on every iteration) with a progress bar on each reading;
-    :meth:`cut` counts the windows of a reader that takes the events as they come."""
+    """``windows`` (read again on every iteration) with a progress bar on each reading. A model
+    that takes the events as they come (:meth:`cut`: the spiking network, whose windows are read
+    well before they are done) gets a bar of the windows done instead, which :meth:`done` moves."""
 
     def __init__(self, windows, total):
-        self.windows, self.total = windows, total
+        self.windows, self.total, self.bar = windows, total, None
 
     def __iter__(self):
         return _counted(self.windows, self.total)
 
     def cut(self):
-        chunks, cutter = self.windows.cut()
-        return chunks, _CountingCutter(cutter, self.total)
+        self.bar = tqdm(desc="windows done", unit="win", file=sys.stderr, total=self.total, leave=False, disable=None)
+        return self.windows.cut()
 
-
-class _CountingCutter:
-    """A :class:`~snn_fg.events.window.WindowCutter` with a progress bar of the windows it cuts."""
-
-    def __init__(self, cutter, total):
-        self.cutter, self.total, self.bar = cutter, total, None
-
-    def __getattr__(self, name):
-        return getattr(self.cutter, name)
-
-    def _counted(self, windows):
-        if windows and self.bar is None:
-            self.bar = tqdm(
-                desc="windows read", unit="win", file=sys.stderr, total=self.total, leave=False, disable=None
-            )
+    def done(self) -> None:
+        """A window's maps are written."""
         if self.bar is not None:
-            self.bar.update(len(windows))
-        return windows
+            self.bar.update()
 
-    def add(self, chunk):
-        return self._counted(self.cutter.add(chunk))
-
-    def finish(self):
-        out = self._counted(self.cutter.finish())
+    def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
-        return out
 
 
 def _counted(windows, total):
@@ -158,6 +140,8 @@ def run_recording(
             t = w.events["t"]
             blank_spans_ms.append((int(t.max()) - int(t.min())) / 1000 if len(t) else 0.0)
         _append_window(store, w, maps)
+        if isinstance(windows, _Counted):
+            windows.done()
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)  # counted and reported once below
@@ -167,6 +151,9 @@ def run_recording(
             with contextlib.suppress(OSError):  # (a disk that failed: its error, not this one)
                 store.flush()
             raise
+        finally:
+            if isinstance(windows, _Counted):
+                windows.close()
     if store.n == 0:
         raise InputError(
             source.get("input", "the recording"), "no window to process: the recording has no events after --start-ms"

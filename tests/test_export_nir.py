@@ -20,6 +20,32 @@ def _arrays(node) -> dict:
     return {k: np.asarray(v) for k, v in vars(node).items() if isinstance(v, np.ndarray)}
 
 
+def test_an_interrupt_stops_the_nir_export_between_nodes_and_leaves_no_file(tmp_path, monkeypatch):
+    """A Ctrl-C that arrived while the export ran (recorded by the command line's signal handler) stops
+    it at its next node, with nothing written (a user saw the export run on for 30 s after Ctrl-C)."""
+    from snn_fg.backends import cancel
+    from snn_fg.export import nir as nir_export
+    from snn_fg.export.nir import export_nir
+
+    written = []
+    real = nir_export._write_hdf5
+
+    def write_then_interrupt(group, d):
+        real(group, d)
+        if group.name.count("/") == 3:  # (a node: /node/nodes/NAME, not its metadata's group)
+            written.append(group.name)
+        if len(written) == 2:
+            cancel.request("SIGINT")
+
+    monkeypatch.setattr(nir_export, "_write_hdf5", write_then_interrupt)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            export_nir(build_network(ModelParams(levels=1, r0=4), (16, 16)), tmp_path / "net.nir")
+    finally:
+        cancel.clear()
+    assert len(written) == 2 and list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.slow
 def test_streamed_file_reads_back_as_the_whole_graph_written_by_nir(tmp_path):
     """write_streaming (one node in memory at a time) against nir.write of the

@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import __version__, lava, pynn
 from .. import validate as check
+from ..backends import cancel
 from ..errors import InputError
 from ..lowering.kernel_tables import ConvTable, geometry, table, table_fields
 from ..network.graph import Network
@@ -83,6 +84,7 @@ def weight_tables(network: Network):
     """(projection entries, table arrays) with identical tables stored once."""
     arrays, seen, entries = {}, {}, []
     for pr in network.projections:
+        cancel.check()  # (Ctrl-C and SIGTERM stop the export between projections)
         tab = table(network, pr)
         if isinstance(tab, ConvTable):
             parts = {"taps": tab.taps.astype(np.int32), "values": tab.values}

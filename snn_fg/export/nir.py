@@ -50,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..backends import cancel
 from ..errors import InputError, ParameterError, install_hint
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
@@ -320,6 +321,7 @@ def write_streaming(path, network: Network, *, weight_bits: int | None = None) -
         root = f.create_group("node")
         nodes = root.create_group("nodes")
         for name, node in _parts(nir, network, net, weight_bits, edges):
+            cancel.check()  # (Ctrl-C and SIGTERM stop the export between nodes: tens of seconds for a network)
             _write_hdf5(nodes.create_group(name), node.to_dict())
         _write_hdf5(root, {"type": "NIRGraph", "edges": edges, "metadata": graph_metadata(network, net, weight_bits)})
     return Path(path)

@@ -15,7 +15,7 @@ from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.cli import main
 from snn_fg.events.window import events_to_frame
 from snn_fg.export.board import board_network
-from snn_fg.export.loop import busiest_crop, centroid_crop, export_network, input_frame
+from snn_fg.export.loop import centroid_crop, export_network, input_frame, outline_crop, outline_pixels
 from snn_fg.export.pynn import export_pynn, read_input, save_input
 from snn_fg.frames.scenes import disc
 from snn_fg.lowering.input_spikes import event_spikes
@@ -28,14 +28,20 @@ NEST_OK, NEST_WHY = available_backends()["nest"]
 needs_nest = pytest.mark.skipif(not NEST_OK, reason=f"backend nest: {NEST_WHY}")
 
 
-def test_busiest_crop_finds_the_densest_box():
+def test_the_default_crop_holds_the_most_outline_not_the_inside_of_a_region():
+    active = np.zeros((12, 16), bool)
+    active[2:10, 2:14] = True  # a region of events 8 x 12: its inside has no edge
+    assert outline_pixels(active).sum() == 2 * 8 + 2 * 12 - 4
+    assert active[4:8, 6:10].all() and not outline_pixels(active)[4:8, 6:10].any()  # (dense, and no edge in it)
+    r, c = outline_crop(active, (4, 4))
+    assert outline_pixels(active)[r : r + 4, c : c + 4].sum() == 7  # (a corner of the region: 4 + 4 - 1)
+    assert outline_crop(active, (12, 16)) == (0, 0)
     active = np.zeros((10, 12), bool)
-    active[6:9, 1:4] = True
-    assert busiest_crop(active, (3, 3)) == (6, 1)
-    assert busiest_crop(active, (10, 12)) == (0, 0)
-    active[:] = False
-    active[4:6, 5:7] = True  # every 6 x 6 crop around it holds it all: the centred one
-    assert busiest_crop(active, (6, 6)) == (2, 3)
+    active[4:6, 5:7] = True  # every 6 x 6 crop around it holds all its outline: the centred one
+    assert outline_crop(active, (6, 6)) == (2, 3)
+    border = np.zeros((6, 6), bool)
+    border[:, :3] = True  # (the input's own border is no outline: only column 2 is)
+    assert outline_pixels(border).sum() == 6
 
 
 def test_centroid_crop_centres_the_box_on_the_mean_event_inside_the_sensor():

@@ -142,16 +142,19 @@ def test_a_folder_holding_the_current_one_is_refused(tmp_path, monkeypatch, caps
 
 
 def test_a_forced_re_export_keeps_nothing_but_what_the_export_and_run_py_wrote(tmp_path, capsys):
-    """An export folder after the README's loop (input.npz, counts under a name the user chose,
-    sPyNNaker's folder) is replaced with --force; with a user's notes in it, refused."""
+    """An export folder after the README's loop (sPyNNaker's folder and mapping) is replaced with
+    --force; with run.py's counts (under a name the user chose) or a user's notes in it, refused."""
     out = tmp_path / "model"
     export = ["export", "--format", "pynn", "--out", str(out), "--sensor-size", "16x16", "--levels", "1"]
     assert main(export) == 0
-    np.savez(out / "my_counts.npz", duration_ms=400.0, dt_ms=0.5, count_from_ms=200.0)
     (out / "spinnaker").mkdir()
     (out / "mapping.json").write_text("{}")
     assert main([*export, "--force"]) == 0
-    assert not (out / "my_counts.npz").exists() and not (out / "spinnaker").exists()
+    assert not (out / "spinnaker").exists() and not (out / "mapping.json").exists()
+    np.savez(out / "my_counts.npz", duration_ms=400.0, dt_ms=0.5, count_from_ms=200.0)
+    assert main([*export, "--force"]) == 2
+    assert "holds my_counts.npz: run.py's counts" in capsys.readouterr().err and (out / "my_counts.npz").exists()
+    (out / "my_counts.npz").unlink()
     (out / "notes.txt").write_text("mine")
     assert main([*export, "--force"]) == 2
     assert "holds notes.txt, which snn-fg did not write" in capsys.readouterr().err

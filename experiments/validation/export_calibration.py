@@ -4,8 +4,8 @@
 per active pixel (``Network.calibrated``); an export's gains are set for
 200 Hz unless it is made with ``--input-rate-hz``. The README's loop, as a
 user runs it: the small export (32 x 24, two levels), the ``dvs.es`` window
-from 100 ms (85 ms) cut to its busiest crop by ``snn-fg events
---write-spikes``, ``run.py`` on NEST (400 ms, counting from 200 ms),
+from 100 ms (85 ms) cut to the crop ``snn-fg events --write-spikes``
+picks (its busiest before 29 Nov 2026, its most outlined since), ``run.py`` on NEST (400 ms, counting from 200 ms),
 ``snn-fg decode``; once with the export as it comes and once re-exported
 with the ``--input-rate-hz`` that ``--write-spikes`` prints. Each decoded
 map against our own run of the calibrated network on the same input file:

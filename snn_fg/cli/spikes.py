@@ -5,7 +5,7 @@ A recording window (the ``--start-ms`` / ``--window-ms`` of ``snn-fg
 events``; its events at their own times, repeated as ``snn-fg run`` presents
 one window), an image (its simulated camera's event frame) or an event frame
 (regular trains, as ``snn-fg run``), cut to the export's frame (``--crop-at``;
-by default the crop with the most event pixels, :func:`~snn_fg.export.loop.busiest_crop`),
+by default the crop with the most outline pixels, :func:`~snn_fg.export.loop.outline_crop`),
 on the export's time step.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import InputError
 from ..events import iter_recording, iter_windows
 from ..export.folder import frame_size, frame_text
-from ..export.loop import FRAME_RATE_HZ, busiest_crop, crop_events, export_network, recalibration_hint
+from ..export.loop import FRAME_RATE_HZ, crop_events, export_network, outline_crop, recalibration_hint
 from ..export.pynn import save_input
 from ..frames.pool import pool_events, pool_frame
 from ..frames.still import input_kind, load_frame
@@ -43,7 +43,8 @@ def add_spike_options(parser):
         metavar="X,Y",
         default=None,
         help="top-left pixel of the export-sized crop, or block for an export that pools its input "
-        "(--network compact: 3 x 3 blocks; default: the crop with the most event pixels or blocks)",
+        "(--network compact: 3 x 3 blocks; default: the crop with the most event pixels (or blocks) "
+        "beside one without: the most outline)",
     )
     g.add_argument(
         "--duration-ms",
@@ -73,7 +74,7 @@ def _crop_box(active, net, crop_at, source):
     if h < eh or w < ew:
         raise InputError(source, f"an input of {size} is smaller than the export's frame of {frame_size(net)}")
     if crop_at is None:
-        return busiest_crop(active, want)
+        return outline_crop(active, want)
     try:
         x, y = (int(v) for v in crop_at.split(","))
     except ValueError:

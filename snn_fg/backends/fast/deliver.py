@@ -90,17 +90,20 @@ def mark_taps(bits, pres, pbase, words, rr, lo, m, whole, listed, dirty, n_dirty
     """The targets of row ``rr`` at columns ``lo + k`` for the set bits ``k`` of
     ``m`` (< 64 columns, so at most two words) marked, and the row noted
     (:func:`mark_row`); returns the targets counted where a cell exists (all
-    of them in a ``whole`` population) and the new length of ``dirty``."""
+    of them in a ``whole`` population) and the new length of ``dirty``.
+
+    Both words are marked and counted without asking whether the second
+    holds any (``spill`` is then 0): a branch around an array's element here
+    made numba count references to the arrays, four calls per stencil row.
+    ``bits`` and ``pres`` end with a spare word, for the last row's."""
     sh, wa = U(lo & 63), (lo >> 6) + rr * words
+    spill = (m >> U(63 - sh)) >> U(1)  # (the bits past the word: none when sh is 0)
     bits[U(wa)] |= m << sh
-    spill = m >> U(64 - sh) if sh != 0 else U(0)
-    if spill != 0:
-        bits[U(wa + 1)] |= spill
-    events = ones(m)
-    if not whole:
-        events = ones((m << sh) & pres[U(pbase + wa)])
-        if spill != 0:
-            events += ones(spill & pres[U(pbase + wa + 1)])
+    bits[U(wa + 1)] |= spill
+    if whole:
+        events = ones(m)
+    else:
+        events = ones((m << sh) & pres[U(pbase + wa)]) + ones(spill & pres[U(pbase + wa + 1)])
     return events, mark_row(listed, dirty, n_dirty, rr)
 
 

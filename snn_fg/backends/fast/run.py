@@ -121,7 +121,7 @@ class Run:
         self.acc = pool.zeros("acc", threads * size, np.float64).reshape(threads, size)  # (at rest: all 0)
         rows = max([p.channels * p.grid[0] for p in lif] + [1])
         words = max([p.channels * p.grid[0] * ((p.grid[1] + 63) // 64) for p in lif] + [1])
-        self.bits = np.zeros((threads, words), np.uint64)
+        self.bits = np.zeros((threads, words + 1), np.uint64)  # (a spare word: deliver.mark_taps)
         self.listed = np.zeros((threads, rows), np.uint8)
         cap = int(max(owned_cells(lif, chosen, threads))) + 1  # (a spare slot: flush_rows appends without a branch)
         self.act, self.new, self.tmp, self.fresh = (
@@ -160,7 +160,7 @@ class Run:
             off += sites.size
         self.first = {p.name: int(self.cells[q, 0]) for q, p in enumerate(pops)}
         self.flat_of = np.concatenate(flats) if flats else np.zeros(1, dtype=np.int32)
-        self.pres = np.concatenate(pres) if pres else np.zeros(1, dtype=np.uint64)
+        self.pres = np.concatenate(pres + [np.zeros(1, np.uint64)])  # (a spare word: deliver.mark_taps)
         self.rank = np.concatenate(rank) if rank else np.zeros(1, dtype=np.int64)
         return off
 

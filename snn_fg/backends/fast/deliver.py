@@ -60,6 +60,10 @@ EXC = 1
 BAND = 3
 #: how many spikes ahead of the one being delivered its grid cell is asked for
 SPIKES_AHEAD = 8
+#: how many stencil rows ahead of the one being added the summed input it lands on is
+#: asked for (a spike's rows are scattered over the target's channels: waiting for their
+#: input was a fifth of the delivery's time)
+ROWS_AHEAD = 4
 #: how many cells ahead of the one being updated the hand-over asks for a cell's
 #: state (the cells of a step are scattered: waiting for them was most of a run's time)
 AHEAD = 48
@@ -155,7 +159,13 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
             column, c_mod = divide(pc, st, inv_st)
             cls = base_cls + (c * st + r_mod) * st + c_mod
         inside = row >= rad and column >= rad and row + rad < gr and column + rad < gc
-        for s in range(cls_ptr[U(cls)], cls_ptr[U(cls + 1)]):
+        s0, s1 = cls_ptr[U(cls)], cls_ptr[U(cls + 1)]
+        for s in range(s0 - ROWS_AHEAD, s1):
+            if inside and s + ROWS_AHEAD < s1:  # (a hint: no effect on any result)
+                sa = s + ROWS_AHEAD
+                prefetch(acc, U((row_co[U(sa)] * gr + row - row_qr[U(sa)]) * gc + column - row_qc[U(sa)]))
+            if s < s0:
+                continue
             tr = row - row_qr[U(s)]
             t0, ncol, w0 = column - row_qc[U(s)], row_ncol[U(s)], row_w0[U(s)]
             if inside and ncol == 1:  # (one tap: what the loops below do for it, without them)

@@ -126,6 +126,22 @@ def spike_site(spikes, x, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc
     return c, i, j
 
 
+@njit(cache=True, inline="always")
+def conv_site(at, x):
+    """Spike ``x``'s stencil class and lattice point ``(row, column)`` on its Conv's target
+    (``at``: the spikes and what :func:`spike_site` needs, the source's and target's strides
+    and the Conv's first class)."""
+    spikes, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc, st_s, st, inv_st, base_cls = at
+    c, ii, jj = spike_site(spikes, x, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc)
+    pr, pc = ii * st_s, jj * st_s
+    if st == 1:
+        return base_cls + c, pr, pc
+    # (the level pixel over the target's stride, without an integer division)
+    row, r_mod = divide(pr, st, inv_st)
+    column, c_mod = divide(pc, st, inv_st)
+    return base_cls + (c * st + r_mod) * st + c_mod, row, column
+
+
 @njit(cache=True)
 def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks, owner, n_parts):
     """Add what ``spikes`` (cell numbers, ascending) send through Conv ``p``
@@ -149,23 +165,23 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
     base_cls = prj[p, J_BASE]
     inv_parts = 1.0 / n_parts
     events = 0
+    # each spike's class and lattice point are found one spike ahead, and the input its first rows land
+    # on asked for (a spike of a strided projection has 2-3 rows: asking within its own rows came too late)
+    at = (spikes, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc, st_s, st, inv_st, base_cls)
+    next_cls, next_row, next_column = conv_site(at, 0) if spikes.size else (0, 0, 0)
     for x in range(spikes.size):
-        c, ii, jj = spike_site(spikes, x, c_off, c_flat, flat_of, plane, inv_plane, gc_s, inv_gc)
-        pr, pc = ii * st_s, jj * st_s
-        if st == 1:
-            cls, row, column = base_cls + c, pr, pc
-        else:  # (the level pixel over the target's stride, without an integer division)
-            row, r_mod = divide(pr, st, inv_st)
-            column, c_mod = divide(pc, st, inv_st)
-            cls = base_cls + (c * st + r_mod) * st + c_mod
+        cls, row, column = next_cls, next_row, next_column
+        if x + 1 < spikes.size:
+            next_cls, next_row, next_column = conv_site(at, x + 1)
+            first = cls_ptr[U(next_cls)]
+            for sa in range(first, min(first + ROWS_AHEAD, cls_ptr[U(next_cls + 1)])):  # (a hint: no effect)
+                prefetch(acc, U((row_co[U(sa)] * gr + next_row - row_qr[U(sa)]) * gc + next_column - row_qc[U(sa)]))
         inside = row >= rad and column >= rad and row + rad < gr and column + rad < gc
-        s0, s1 = cls_ptr[U(cls)], cls_ptr[U(cls + 1)]
-        for s in range(s0 - ROWS_AHEAD, s1):
-            if inside and s + ROWS_AHEAD < s1:  # (a hint: no effect on any result)
+        s1 = cls_ptr[U(cls + 1)]
+        for s in range(cls_ptr[U(cls)], s1):
+            if s + ROWS_AHEAD < s1:
                 sa = s + ROWS_AHEAD
                 prefetch(acc, U((row_co[U(sa)] * gr + row - row_qr[U(sa)]) * gc + column - row_qc[U(sa)]))
-            if s < s0:
-                continue
             tr = row - row_qr[U(s)]
             t0, ncol, w0 = column - row_qc[U(s)], row_ncol[U(s)], row_w0[U(s)]
             if inside and ncol == 1:  # (one tap: what the loops below do for it, without them)

@@ -170,20 +170,35 @@ def compact_dog(prune: float, balance: bool):
     return context, {"params": recipe.params, "spiking": sp}
 
 
-def pruning(n: int) -> tuple[dict, list[str]]:
-    """The compact network's still ceiling with its DoG pruned as in :data:`PRUNINGS`."""
+def still_sets(n: int, bsds: bool = True) -> dict:
+    """The still frames ``--pruning`` scores on: ``n`` windows of each recording (``dvs_biplane``,
+    ``person``) and, with ``bsds``, the six BSDS frames (``BSDS (six frames)``), each with ``pos``, ``neg``."""
     from types import SimpleNamespace
 
     from experiments.common import dataset
+
+    sets = {name: windows_of(name, n) for name in ("dvs_biplane", "person")}
+    if bsds:
+        frames = [np.load(p) for p in sorted(dataset("bsds-edfg").glob("*.npz"))]
+        sets["BSDS (six frames)"] = [SimpleNamespace(pos=d["pos"], neg=d["neg"]) for d in frames]
+    return sets
+
+
+def rate_refs(sets: dict, params) -> dict:
+    """The rate model's maps on each of :func:`still_sets`' frames, with the model parameters ``params``."""
     from snn_fg.models.rate.edfg import run_edfg
+
+    return {name: [run_edfg(w.pos, w.neg, params) for w in wins] for name, wins in sets.items()}
+
+
+def pruning(n: int) -> tuple[dict, list[str]]:
+    """The compact network's still ceiling with its DoG pruned as in :data:`PRUNINGS`."""
     from snn_fg.network.kernels import dog_kernels
     from snn_fg.network.recipes import RECIPES
 
     recipe = RECIPES["compact"]
-    sets = {name: windows_of(name, n) for name in ("dvs_biplane", "person")}
-    bsds = [np.load(p) for p in sorted(dataset("bsds-edfg").glob("*.npz"))]
-    sets["BSDS (six frames)"] = [SimpleNamespace(pos=d["pos"], neg=d["neg"]) for d in bsds]
-    refs = {name: [run_edfg(w.pos, w.neg, recipe.params) for w in wins] for name, wins in sets.items()}
+    sets = still_sets(n)
+    refs = rate_refs(sets, recipe.params)
     out, rows = [], []
     for prune, balance in PRUNINGS:
         row = {"prune_dog": prune, "balanced": balance}

@@ -33,7 +33,7 @@ or when it stops: every reader sees the windows up to a second late, and a
 run killed outright recomputes at most a second of windows on ``--resume``.
 Chunks are zstd-compressed (level 1: the sparse maps in about a quarter of
 zlib's time and a tenth smaller; zstd is a codec of zarr-python's numcodecs
-and of TensorStore); a store written with zlib (before 30 Nov 2026) reads
+and of TensorStore); a store written with zlib (until 29 Nov 2026) reads
 and resumes in zlib.
 
 Nothing here keeps more than one chunk per array in memory.

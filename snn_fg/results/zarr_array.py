@@ -1,6 +1,6 @@
 """One array of a Zarr (format 2) store, as :mod:`snn_fg.results.store` writes
 and reads it: its chunks encoded and decoded (zstd, or zlib in stores written
-before 30 Nov 2026; text as numcodecs' vlen-utf8), read chunk by chunk
+until 29 Nov 2026; text as numcodecs' vlen-utf8), read chunk by chunk
 (:class:`ZarrArray`) and grown along its first axis (:class:`GrowingArray`).
 """
 

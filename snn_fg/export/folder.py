@@ -4,7 +4,8 @@ the weight-shared tables (identical ones stored once), ``network.json`` (what
 common facts, and the folder written whole, keeping an ``input.npz`` that
 still serves it. What an export folder may hold (:data:`EXPORT_FOLDER`: the export's own files and
 what the programs run in it write there) is what ``snn-fg export --force`` may replace; a folder
-holding anything else is refused (:mod:`snn_fg.results.outputs`)."""
+holding anything else is refused (:mod:`snn_fg.results.outputs`), and so is one holding run.py's
+counts (a simulator's or a board's run, kept from deletion)."""
 
 from __future__ import annotations
 

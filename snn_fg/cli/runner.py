@@ -154,6 +154,7 @@ def run_recording(
         finally:
             if isinstance(windows, _Counted):
                 windows.close()
+    store.flush()  # (every window made visible: what follows reads them back from the store)
     if store.n == 0:
         raise InputError(
             source.get("input", "the recording"), "no window to process: the recording has no events after --start-ms"

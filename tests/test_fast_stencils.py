@@ -59,7 +59,8 @@ def _deliver_one(tab, p, src_flat, present):
     )
     bits = np.unpackbits(marks[3].view(np.uint8), bitorder="little").reshape(rows, words * 64)[:, : tgt.grid[1]]
     marked = np.nonzero(bits.ravel())[0]
-    return {int(t): acc[t] for t in marked if t in set(present.tolist())}, events, acc
+    kept = set(present.tolist())
+    return {int(t): acc[t] for t in marked if t in kept}, events, acc
 
 
 @pytest.mark.parametrize("kept", [1.0, 0.4])

@@ -230,8 +230,8 @@ class MapsStore:
     def finish(self, params: dict) -> None:
         """The run's final parameters, and the store marked complete."""
         self.attrs["params"] = params
+        self.attrs["snn_fg"]["complete"] = True  # (written by the flush, after the chunks and shapes)
         self.flush()
-        self._status(complete=True)
 
     def _status(self, **changes) -> None:
         self.attrs["snn_fg"].update(changes)

@@ -75,11 +75,14 @@ class ZarrArray:
     def __len__(self):
         return self.shape[0]
 
+    def chunk_path(self, k: int) -> Path:
+        """The file of chunk ``k`` along the first axis."""
+        return self.path / ".".join([str(k)] + ["0"] * (len(self.chunks) - 1))
+
     def chunk(self, k: int) -> np.ndarray:
         """Chunk ``k`` along the first axis (fill values where it was never written)."""
-        key = ".".join([str(k)] + ["0"] * (len(self.shape) - 1))
         try:
-            return _decode((self.path / key).read_bytes(), self.dtype, self.chunks, self.meta["compressor"])
+            return _decode(self.chunk_path(k).read_bytes(), self.dtype, self.chunks, self.meta["compressor"])
         except FileNotFoundError:
             return _blank(self.chunks, self.dtype)
 
@@ -152,18 +155,18 @@ class GrowingArray(ZarrArray):
             if r:  # (holds rows of complete windows: replaced atomically, at the next flush)
                 self._unwritten = True
             else:  # (holds none: no reader looks at it yet)
-                self._path_of(k).write_bytes(_encode(self._last[1], self.meta["compressor"]))
+                self.chunk_path(k).write_bytes(self._last_encoded())
             self.n, at = self.n + take, at + take
         self.shape = (self.n,) + self.shape[1:]
         self.shape_written = False
 
-    def _path_of(self, k: int) -> Path:
-        return self.path / ".".join([str(k)] + ["0"] * (len(self.chunks) - 1))
+    def _last_encoded(self) -> bytes:
+        return _encode(self._last[1], self.meta["compressor"])
 
     def flush(self) -> None:
         """Write the chunk being filled, if it holds rows not yet on disk (atomically)."""
         if self._unwritten:
-            write_bytes(self._path_of(self._last[0]), _encode(self._last[1], self.meta["compressor"]))
+            write_bytes(self.chunk_path(self._last[0]), self._last_encoded())
             self._unwritten = False
 
     def write_shape(self) -> None:

@@ -218,20 +218,21 @@ def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str
 CHANCE_WITHIN_45, CHANCE_MEAN_DEG = 0.25, 90.0
 
 
+def _pooled(rows, key) -> float | None:
+    """``key`` over the rows that have it, each weighted by its pixels compared (None: no such row)."""
+    have = [r for r in rows if r.get(key) is not None and r.get("pixels_compared")]
+    n = sum(r["pixels_compared"] for r in have)
+    return sum(r["pixels_compared"] * r[key] for r in have) / n if n else None
+
+
 def verdict(rows) -> str:
     """One line over every compared window (pixel-weighted): A's agreement with B beside what
     unrelated maps give and, where the rows have it, beside B's agreement with itself."""
     n = sum(r.get("pixels_compared") or 0 for r in rows)
     if not n:
         return "All windows: no pixel where both maps have a vector; nothing to judge."
-    pooled = lambda key: sum((r.get("pixels_compared") or 0) * (r.get(key) or 0.0) for r in rows) / n  # noqa: E731
-    within, mean = pooled("angle_within_45_frac"), pooled("angle_diff_mean_deg")
-    base = [r for r in rows if r.get("baseline_within_45") is not None and r.get("pixels_compared")]
-    own = (
-        sum(r["pixels_compared"] * r["baseline_within_45"] for r in base) / sum(r["pixels_compared"] for r in base)
-        if base
-        else None
-    )
+    within, mean = _pooled(rows, "angle_within_45_frac"), _pooled(rows, "angle_diff_mean_deg")
+    own = _pooled(rows, "baseline_within_45")
     if within < CHANCE_WITHIN_45 + 0.10:
         word = "near chance: the two maps' directions are unrelated"
     elif own is not None and within >= own - 0.05:

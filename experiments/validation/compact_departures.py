@@ -154,19 +154,19 @@ def events_rows(labels, n: int) -> tuple[dict, list[str]]:
     ``n`` windows), against the rate model on each one's own parameters: what the input refractory period
     and the window clock act on, which a still frame never meets. Plus ``dvs.es``'s outline inward."""
     from experiments.validation.recording_fidelity import inward, windows_of
-    from snn_fg.models.rate.edfg import run_edfg
     from snn_fg.models.spiking import run_spiking_windows
 
     wins = {name: windows_of(name, n) for name in ("dvs_biplane", "person")}
-    out, rows = {}, []
+    out, rows, refs_by_params = {}, [], {}
     for label, _, recipe in variants([]):
         if labels and label not in labels:
             continue
+        key = repr(recipe.params)  # (the levers of the spiking constants share the rate model's maps)
+        refs = refs_by_params[key] = refs_by_params.get(key) or rate_refs(wins, recipe.params)
         out[label], cells_ = {}, [label]
         for name, ws in wins.items():
-            ref = [run_edfg(w.pos, w.neg, recipe.params) for w in ws]
             maps = run_spiking_windows(ws, params=recipe.params, spiking=recipe.spiking, progress=False)
-            r = out[label][name] = scores(maps, ref)
+            r = out[label][name] = scores(maps, refs[name])
             inw = ""
             if name == "dvs_biplane":
                 r["inward"] = inward(maps, ws)

@@ -80,22 +80,24 @@ def test_events_outside_the_sensor_and_back_in_time_are_dropped_counted_and_said
 
 
 def test_a_model_that_falls_behind_drops_whole_windows_and_keeps_memory_bounded():
-    """Nothing published: once more than max_behind windows are complete, each
-    new window's events are dropped whole, and the queue holds at most
-    max_behind + 1 windows of events (those before the first dropped)."""
+    """Nothing published: once more than max_behind windows were complete before
+    a window begins, its events are dropped whole, and the queue holds at most
+    max_behind + 2 windows of events (those before the first dropped: the window
+    a slot's first event completes is not counted)."""
     packets = [_events(np.arange(k * 10_000, (k + 1) * 10_000, 100)) for k in range(12)]  # 12 windows of 100
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")
         stream = LiveStream(_Packets(packets), window_ms=10.0, max_behind=2)
         stream.thread.join(5)
     queued = sum(len(x) for x in list(stream.q.queue) if isinstance(x, np.ndarray))
-    assert queued == 3 * 100  # (windows 0-2: window 3 begins with 3 complete windows waiting, more than 2)
+    # (windows 0-3: window 4 begins with windows 0-2 complete before it and waiting, more than 2)
+    assert queued == 4 * 100
     s = stream.stats()
-    assert s["windows_dropped"] == 9 and s["events_dropped"] == 900
+    assert s["windows_dropped"] == 8 and s["events_dropped"] == 800
     assert sum("fell 3 windows behind" in str(w.message) for w in said) == 1
-    assert stream.dropped_slots == set(range(3, 12))
+    assert stream.dropped_slots == set(range(4, 12))
     windows = list(stream)  # (the dropped ones passed over: the clock passed their events, TimePassed)
-    assert [w.index for w in windows] == [0, 1, 2] and stream.published == 11  # (all passed, the last at the end)
+    assert [w.index for w in windows] == [0, 1, 2, 3] and stream.published == 11  # (all passed, the last at the end)
 
 
 def test_once_the_model_catches_up_the_windows_are_kept_again():
@@ -111,7 +113,7 @@ def test_once_the_model_catches_up_the_windows_are_kept_again():
                 yield _events(np.arange(k * 10_000, (k + 1) * 10_000, 100)), time.perf_counter()
 
     stream = LiveStream(Source([]), window_ms=10.0, max_behind=2)
-    while stream.slot < 5:  # (windows 0-5 arrive before the model starts: 3-5 are dropped)
+    while stream.slot < 5:  # (windows 0-5 arrive before the model starts: 4 and 5 are dropped)
         time.sleep(0.01)
     windows = []
     for w in stream:
@@ -119,7 +121,30 @@ def test_once_the_model_catches_up_the_windows_are_kept_again():
         stream.done(w)
         gate.set()
     kept = [w.index for w in windows if not stream.dropped_window(w.index) and len(w.events)]
-    assert stream.stats()["windows_dropped"] == 3 and kept == [0, 1, 2, 6, 7, 8, 9, 10, 11]
+    assert stream.stats()["windows_dropped"] == 2 and kept == [0, 1, 2, 3, 6, 7, 8, 9, 10, 11]
+
+
+def test_a_model_without_read_out_lag_that_keeps_up_loses_no_window():
+    """The rate model reads a window at its end: the slot whose first event completes
+    a window is not dropped for that window, which no model can have had yet."""
+    made = threading.Event()
+
+    class Source(_Packets):
+        def packets(self):
+            made.wait(5)
+            for k in range(12):
+                deadline = time.perf_counter() + 5
+                while stream.published < k - 2 and time.perf_counter() < deadline:  # (a stride to make its maps)
+                    time.sleep(0.002)
+                yield _events(np.arange(k * 10_000, (k + 1) * 10_000, 100)), time.perf_counter()
+
+    stream = LiveStream(Source([]), window_ms=10.0, max_behind=0)
+    made.set()
+    kept = []
+    for w in stream:
+        kept.append(w.index)
+        stream.done(w)
+    assert stream.stats()["windows_dropped"] == 0 and kept == list(range(12))
 
 
 def test_grouping_peaks_are_the_strongest_maxima_with_the_direction_around_them():

@@ -13,12 +13,13 @@ said once.
 Drop policy: the stream is cut into slots of one stride (the window, or
 ``--hop-ms``); a window is made of ``window / stride`` slots. When a slot
 begins while more than ``max_behind`` windows wait for their maps that
-could have them (their read-out, ``lag_ms`` past their end, is over;
-:meth:`done` says which window was published last), the whole slot is
+could have them (their read-out, ``lag_ms`` past their end, was over
+before the slot began; :meth:`done` says which window was published
+last), the whole slot is
 dropped: its events are counted and thrown away, and every window that
 holds it is dropped (:meth:`dropped_window`: not written, not published,
 and not computed). The windows in between are kept whole. So at most
-``max_behind`` windows and one slot of events wait, whatever the stream's
+``max_behind`` windows, the one a slot's start completes and one slot of events wait, whatever the stream's
 rate; the model learns that the stream's clock has passed the dropped
 events (:class:`~snn_fg.events.window.TimePassed`), so that the windows
 before them complete. A dropped slot costs no simulated time: where no kept window is read
@@ -52,7 +53,6 @@ class LiveStream:
         self.win, self.start, self.stride = _window_times(window_ms, start_ms, stride_ms)
         self.slots_per_window = max(1, -(-self.win // self.stride))
         self.lag_us = int(round(lag_ms * 1000))  # (how much later than its span a window is read out)
-        self.lag_slots = -(-self.lag_us // self.stride)  # (slots a window's read-out reaches past it)
         self.max_behind = max_behind
         self.q: queue.Queue = queue.Queue()
         self.published = -1  # the last window whose maps are out
@@ -134,7 +134,11 @@ class LiveStream:
 
     def _begin(self, s: int):
         """Slot ``s`` begins: dropped whole where too many windows wait for their maps that could have them."""
-        complete = s - self.slots_per_window - self.lag_slots  # the last window read out once slot s begins
+        # the last window whose read-out was over before slot s began: the one that slot s's own first event
+        # completes (its read-out ending where the slot begins) is not counted, since no model can have made
+        # its maps before that event came (counted, a model with no read-out lag, the rate model, lost every
+        # other window however fast it was)
+        complete = s - (self.win + self.lag_us) // self.stride - 1
         waiting = complete - self.published - sum(self.published < k <= complete for k in self.dropped_windows)
         if waiting > self.max_behind:
             self.dropped_slots.add(s)

@@ -47,6 +47,8 @@ CASES = {
     "rate-1": (["--model", "rate", "--network", "compact"], 1, 1.0, "udp"),
     "dv-compact-1": (["--model", "spiking", "--network", "compact"], 1, 1.0, "dv"),
     "dv-rate-1": (["--model", "rate", "--network", "compact"], 1, 1.0, "dv"),
+    "dv-compact-2": (["--model", "spiking", "--network", "compact"], 2, 1.0, "dv"),
+    "dv-rate-2": (["--model", "rate", "--network", "compact"], 2, 1.0, "dv"),
 }
 
 

@@ -31,7 +31,7 @@ from .processes import measure, run_process, uptime
 CELL_BYTES = 32
 
 
-def _row(maps_path: Path, model: str) -> dict:
+def maps_row(maps_path: Path, model: str) -> dict:
     """Per-window times and the engine's counters from a run's maps (its output folder)."""
     from snn_fg.results.maps import Maps
 
@@ -68,7 +68,7 @@ def cli_run(recording, args: list, cores: int, timeout, model: str = "spiking") 
         row = {"cores": cores, "exit_status": code, "wall_s": wall, "peak_rss_mb": rss}
         row.update(load_before=before, load_after=uptime(), args=args)
         if code == 0:
-            row.update(_row(res, model))
+            row.update(maps_row(res, model))
             row["wall_s_per_window"] = wall / row["windows"]
         return row
 

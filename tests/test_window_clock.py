@@ -255,3 +255,24 @@ def test_a_run_that_forgets_each_bin_once_read_gives_the_kept_runs_maps(backend)
     for name, c in kept.result.counts.items():
         np.testing.assert_array_equal(streamed.result.counts[name], c, err_msg=name)
     assert streamed.result.stats.get("spikes") == kept.result.stats.get("spikes")
+
+
+def test_a_hop_changes_what_is_read_out_not_how_the_network_runs():
+    """Windows 85 ms long every 17 ms: the clock fires every 85 ms, not as each
+    window starts (every 17 ms it held the grouping silent for good, and no
+    window had a vector), so the windows that start on it are those of the run
+    without the hop, to the bit, and those between have their vectors too."""
+    from snn_fg.models.spiking.continuous import simulate_windows, window_maps
+
+    _, rec = flipping_disc_recording(24, windows=3, window_ms=85.0)
+    kw = dict(params=ModelParams(levels=3), backend="fast", progress=False)
+    whole = window_maps(simulate_windows(list(iter_windows(rec, window_ms=85.0)), **kw))
+    hop = window_maps(simulate_windows(list(iter_windows(rec, window_ms=85.0, stride_ms=17.0)), **kw))
+    assert len(whole) == 3 and len(hop) > 10
+    for k, m in enumerate(whole):
+        h = hop[5 * k]
+        assert h.params["simulation"]["count_from_ms"] == m.params["simulation"]["count_from_ms"]
+        for a, b in ((h.fg_x, m.fg_x), (h.fg_y, m.fg_y), (h.grouping, m.grouping)):
+            np.testing.assert_array_equal(a, b)
+    vectors = [int(np.count_nonzero(np.hypot(m.fg_x, m.fg_y))) for m in whole + hop]
+    assert min(vectors) > 0.5 * max(vectors)

@@ -305,6 +305,7 @@ def lay_out(feed: StreamFeed, opts: SpikingOptions, cut) -> StreamLayout:
         seed=opts.recording.seed,
         lag_ms=lag,
         window_length=max(1, int(round(length / (dt_ms * 1000.0)))),
+        period_us=int(length) if starts.size > 1 and np.diff(starts).min() < length else 0,
     )
 
 

@@ -166,8 +166,16 @@ class StreamLayout:
     calibration rate ``rate_hz``, each window's read-out ``spans`` (ms from the
     first window's start, step 0) and the steps at which each starts and ends
     (``steps``, 2 x windows), whether the window clock fires (``clock``), the read-out lag ``lag_ms``,
-    and a window's length in steps (``window_length``: how long the ``sliding``
-    coding holds a pixel)."""
+    a window's length in steps (``window_length``: how long the ``sliding``
+    coding holds a pixel) and, where windows overlap (a hop shorter than the
+    window), the window's length in us (``period_us``; 0 where they do not).
+
+    The window clock fires, and the ``window`` coding's holds end, as each
+    window starts; where windows overlap, once every window length from the
+    first window's start instead. So a hop changes what is read out, not how
+    the network runs: the windows that start on the clock are those of a run
+    without the hop, spike for spike (fired at every start, 10 ms apart, the
+    clock held the grouping silent for good: its onset is 22 ms)."""
 
     network: object
     origin: dict
@@ -180,19 +188,30 @@ class StreamLayout:
     seed: int = 0
     lag_ms: float = 0.0
     window_length: int = 1
+    period_us: int = 0
 
     @property
     def held(self) -> bool:
         """Whether the events are held as the window's frame (the ``window`` and ``sliding`` input codings)."""
         return self.network.input_coding in HELD_CODINGS
 
+    def _periods(self, n: int | None) -> np.ndarray:
+        """The steps at which the first ``n`` windows' periods start and end (2 x periods): each
+        window's span, or where windows overlap, every window length up to the last window's start."""
+        steps = self.steps[:, :n]
+        if not self.period_us or not steps.size:
+            return steps
+        j = np.arange(int(steps[0, -1] * self.dt_ms * 1000.0 // self.period_us) + 2, dtype=np.int64)
+        starts = window_steps(j * self.period_us, (j + 1) * self.period_us, 0, self.dt_ms)
+        return starts[:, starts[0] <= steps[0, -1]]
+
     def clock_steps(self, n: int | None = None) -> np.ndarray:
         """The steps the window clock fires at (none without a clock), for the first ``n`` windows (all)."""
-        return np.unique(self.steps[0, :n]) if self.clock else np.zeros(0, np.int64)
+        return np.unique(self._periods(n)[0]) if self.clock else np.zeros(0, np.int64)
 
     def resets(self, n: int | None = None) -> np.ndarray:
-        """The steps at which a held source's hold ends (a window starts or ends), for the first ``n`` windows."""
-        return np.unique(self.steps[:, :n])
+        """The steps at which a held source's hold ends (a period starts or ends), for the first ``n`` windows."""
+        return np.unique(self._periods(n))
 
 
 def input_stream(net, shape, dt_ms: float, t0_us: float, resets, seed: int = 0, window_length: int = 1):

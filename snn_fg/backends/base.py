@@ -94,10 +94,24 @@ class RunSettings:
         )
         check.choice(owner, "instantiate", self.instantiate, ("input", "all"))
         if self.count_bins_ms is not None:
-            edges = tuple(
-                check.number(owner, "count_bins_ms", t, lo=0, hi=self.duration_ms) for t in self.count_bins_ms
-            )
-            if len(edges) < 2 or any(b <= a for a, b in zip(edges, edges[1:])):
+            given = np.asarray(self.count_bins_ms)
+            plain = given.ndim == 1 and given.dtype.kind in "iuf"
+            # (True is no time, though numpy takes it as 1)
+            if plain and not isinstance(self.count_bins_ms, np.ndarray):
+                plain = not set(map(type, self.count_bins_ms)) & {bool, np.bool_}
+            times = given.astype(np.float64) + 0.0 if plain else None
+            if (
+                times is not None
+                and np.isfinite(times).all()
+                and (times >= 0).all()
+                and (times <= self.duration_ms).all()
+            ):
+                edges = tuple(times.tolist())  # (a recording laid out for an hour of 10 ms hops has 720,000)
+            else:  # (one by one, for the error that names the first bad one)
+                edges = tuple(
+                    check.number(owner, "count_bins_ms", t, lo=0, hi=self.duration_ms) for t in self.count_bins_ms
+                )
+            if len(edges) < 2 or (np.diff(edges) <= 0).any():
                 check.fail(owner, "count_bins_ms", self.count_bins_ms, "must be two or more increasing times")
             object.__setattr__(self, "count_bins_ms", edges)
         for v in self.record_state:
@@ -269,12 +283,9 @@ def segments(settings: RunSettings) -> list[tuple[int, bool]]:
     """``(end_step, snapshot)`` of each run segment: a simulation stops at
     every counting-bin edge (to read its spike counters) and at the end."""
 
-    def step(t_ms):
-        return int(round(t_ms / settings.dt_ms))
-
-    edges = {step(t) for t in settings.count_bins_ms or ()}
-    ends = sorted(edges | {step(settings.duration_ms)})
-    return [(e, e in edges) for e in ends]
+    edges = np.rint(np.asarray(settings.count_bins_ms or (), dtype=np.float64) / settings.dt_ms).astype(np.int64)
+    ends = np.union1d(edges, [round(settings.duration_ms / settings.dt_ms)])
+    return list(zip(ends.tolist(), np.isin(ends, edges).tolist()))
 
 
 def importable(*modules: str, install: str) -> tuple[bool, str]:

@@ -216,7 +216,7 @@ def _simulate(
     )
     lay = feed.layout
     net = lay.network
-    edges = sorted({t for span in lay.spans for t in span})
+    edges = np.unique(np.asarray(lay.spans, dtype=np.float64)).tolist()
     inp = feed.input if backend.streams_input else feed.input.whole()
     instantiate = sim.cells_for(backend, inp)
     simulation = {

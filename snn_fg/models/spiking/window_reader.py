@@ -60,7 +60,7 @@ class WindowReader:
     ):
         self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
         ends = np.searchsorted(np.asarray(edges), np.asarray(spans, dtype=np.float64).reshape(-1, 2))
-        self.bins = [(int(a), int(b)) for a, b in ends]
+        self.bins = list(zip(ends[:, 0].tolist(), ends[:, 1].tolist()))
         self.first = 0  # the first window not decoded yet (spans start and end in order)
         # the counts of the bins so far, summed (int64); a window being read holds their value
         # at its start and its spikes (a window's counts are the difference: one pass over the

@@ -15,12 +15,12 @@ Drop policy: the stream is cut into slots of one stride (the window, or
 begins while more than ``max_behind`` windows wait for their maps that
 could have them (their read-out, ``lag_ms`` past their end, was over
 before the slot began; :meth:`done` says which window was published
-last), the whole slot is
-dropped: its events are counted and thrown away, and every window that
-holds it is dropped (:meth:`dropped_window`: not written, not published,
-and not computed). The windows in between are kept whole. So at most
-``max_behind`` windows, the one a slot's start completes and one slot of events wait, whatever the stream's
-rate; the model learns that the stream's clock has passed the dropped
+last), the whole slot is dropped: its events are counted and thrown away,
+and every window that holds it is dropped (:meth:`dropped_window`: not
+written, not published, and not computed). The windows in between are
+kept whole. So at most ``max_behind`` windows, the one a slot's start
+completes and one slot of events wait, whatever the stream's rate; the
+model learns that the stream's clock has passed the dropped
 events (:class:`~snn_fg.events.window.TimePassed`), so that the windows
 before them complete. A dropped slot costs no simulated time: where no kept window is read
 out (:meth:`resume_at`), the spiking network skips the rest of the slot and

@@ -28,9 +28,9 @@ from snn_fg.validate import address
 DROP_POLICY = (
     "whole windows: a stride's slot of events is dropped when it begins while more than max_behind windows whose "
     "read-out (the read-out lag past their end) was over before it began wait for their maps; a window holding a "
-    "dropped slot is "
-    "neither computed, written nor published, and the spiking network does not simulate the dropped time that no "
-    "kept window reads out: it goes on at the next kept slot with every cell at rest (simulated_ms_skipped)"
+    "dropped slot is neither computed, written nor published, and the spiking network does not simulate the "
+    "dropped time that no kept window reads out: it goes on at the next kept slot with every cell at rest "
+    "(simulated_ms_skipped)"
 )
 #: seconds a TCP subscriber is given to take a line before publishing stops
 TCP_TIMEOUT_S = 1.0

@@ -221,3 +221,21 @@ def test_a_map_without_any_vector_is_named_under_the_table():
         "B has no figure-ground vector in 1 of 2 compared windows (1): nothing to compare there (nan)"
     )
     assert "has no figure-ground vector" not in compare_table(rows[:1])
+
+
+def test_compare_says_when_its_two_models_part_on_a_recording():
+    """The spiking network on a recording's events against the rate model gets a note pointing at why
+    they part there; a still frame's spiking maps, or two rate runs, do not."""
+    from snn_fg.cli.compare import expectations
+
+    z = np.zeros((4, 4), np.float32)
+
+    def maps(model, mode=None):
+        params = {"model": model, **({"simulation": {"mode": mode}} if mode else {})}
+        return Maps(z, z, z, params, {})
+
+    events, still, rate = maps("spiking", "continuous"), maps("spiking", "frame"), maps("rate")
+    for a, b in ((events, rate), (rate, events)):
+        (note,) = expectations(a, b)
+        assert "part there" in note and "docs/validation.md" in note and "--write-frame" in note
+    assert expectations(still, rate) == expectations(rate, rate) == expectations(events, events) == []

@@ -146,7 +146,7 @@ def cmd_compare(args) -> int:
         raise InputError(args.plot, "--plot needs a .png file name")
     a, b = Maps.load(args.a), Maps.load(args.b)
     a, b, notes = align_to_export(a, b, args.window, (args.a, args.b))  # (a board's maps against the reference)
-    for note in notes + mismatches(a, b):
+    for note in notes + mismatches(a, b) + expectations(a, b):
         print(f"snn-fg: note: {note}")
     try:
         where = None if args.outline is None else event_outlines(a, b, args.outline)
@@ -267,3 +267,18 @@ def mismatches(a: Maps, b: Maps) -> list[str]:
             "snn-fg run REC --model rate --network compact)"
         )
     return out
+
+
+def expectations(a: Maps, b: Maps) -> list[str]:
+    """A note for a pair whose models are known to part: the spiking network on a recording's events
+    against the rate model on its windows' frames."""
+    continuous = [m.params.get("simulation", {}).get("mode") == "continuous" for m in (a, b)]
+    models = [m.params.get("model") for m in (a, b)]
+    if sorted(models) != ["rate", "spiking"] or not continuous[models.index("spiking")]:
+        return []
+    return [
+        "the spiking network on a recording's events and the rate model on its windows' frames part there: "
+        "the network answers the events in their order and takes about 60 ms for each of the rate model's "
+        "iterations; docs/validation.md (on recordings) measures how far, and what a window's frame as a still "
+        "input gives (snn-fg events REC --start-ms S --window-ms W --write-frame F.npz, then snn-fg run F.npz)"
+    ]

@@ -238,4 +238,6 @@ def test_compare_says_when_its_two_models_part_on_a_recording():
     for a, b in ((events, rate), (rate, events)):
         (note,) = expectations(a, b)
         assert "part there" in note and "docs/validation.md" in note and "--write-frame" in note
+    unnamed = Maps(z, z, z, {}, {})  # (maps that do not say their model)
     assert expectations(still, rate) == expectations(rate, rate) == expectations(events, events) == []
+    assert expectations(unnamed, unnamed) == expectations(unnamed, events) == []

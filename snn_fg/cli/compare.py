@@ -274,7 +274,7 @@ def expectations(a: Maps, b: Maps) -> list[str]:
     against the rate model on its windows' frames."""
     continuous = [m.params.get("simulation", {}).get("mode") == "continuous" for m in (a, b)]
     models = [m.params.get("model") for m in (a, b)]
-    if sorted(models) != ["rate", "spiking"] or not continuous[models.index("spiking")]:
+    if set(models) != {"rate", "spiking"} or not continuous[models.index("spiking")]:
         return []
     return [
         "the spiking network on a recording's events and the rate model on its windows' frames part there: "

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 
 from .. import datasets
+from .commands import COMMANDS
 
 
 def _mb(n: int) -> str:
@@ -71,7 +72,7 @@ def add_data_command(subparsers) -> argparse.ArgumentParser:
     """Register ``data`` on an ``argparse`` subparsers object; returns the parser."""
     p = subparsers.add_parser(
         "data",
-        help="list, describe and fetch the datasets (recordings, BSDS references)",
+        help=COMMANDS["data"].help,
         description="The datasets live in one data folder: $SNN_FG_DATA, else the shared "
         "data beside a source checkout, else the user data folder.",
     )

@@ -47,7 +47,6 @@ def add_export_command(sub):
     p = subcommand(
         sub,
         "export",
-        help="export the network (PyNN, Lava, NIR, resource report)",
         description="Export the whole spiking network (every cell: a board holds one fixed network) "
         "as a self-contained PyNN model (--format pynn, a folder), Lava processes in Loihi 2's "
         "fixed-point arithmetic (--format lava, a folder; runs in Python 3.10), a NIR graph "

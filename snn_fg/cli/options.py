@@ -16,13 +16,14 @@ from tqdm import tqdm
 from ..errors import InputError
 from ..events import MAX_SENSOR_SIDE
 from ..results.outputs import check_writable
+from .commands import COMMANDS
 
 
-def subcommand(sub, name: str, *, help: str, description: str) -> argparse.ArgumentParser:
-    """The parser of subcommand ``name`` on an ``argparse`` subparsers object: its long
-    options must be typed whole (an abbreviation is refused, so that a later option
-    cannot change what an abbreviation means)."""
-    return sub.add_parser(name, allow_abbrev=False, help=help, description=description)
+def subcommand(sub, name: str, *, description: str) -> argparse.ArgumentParser:
+    """The parser of subcommand ``name`` on an ``argparse`` subparsers object, with its
+    line of :data:`~.commands.COMMANDS`: its long options must be typed whole (an
+    abbreviation is refused, so that a later option cannot change what an abbreviation means)."""
+    return sub.add_parser(name, allow_abbrev=False, help=COMMANDS[name].help, description=description)
 
 
 def number(kind, lo, strict=True):

@@ -35,7 +35,6 @@ def add_plot_command(sub):
     p = subcommand(
         sub,
         "plot",
-        help="draw a recording's run: chosen windows, an animation, its overview",
         description="Figures of a recording's run (RUN: the output folder of snn-fg run on a recording), "
         "from its stored maps: --windows draws chosen windows, one figure each; --animate the maps "
         "over the recording (GIF or MP4); without either, the overview snn-fg run writes (maps.png, "

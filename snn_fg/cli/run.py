@@ -33,7 +33,6 @@ def add_run_command(sub):
     p = subcommand(
         sub,
         "run",
-        help="run a figure-ground model on an input and write its maps",
         description="Run a model on INPUT: an .npz event frame (pos, neg), an image (png/jpg/...), "
         "an event recording (.es .raw .dat .aedat4 .bin data.log .npy .npz) or 'demo' "
         "(a built-in synthetic scene). Writes DIR/maps.npz (fg_x, fg_y, grouping, "

@@ -1,8 +1,11 @@
 """The command line's start: ``snn-fg --help`` imports no command (no simulator, no
-model, no numba)."""
+model, no numba), and Ctrl-C while a command's modules are still being imported
+ends in one line and exit status 130, as it does once the command runs."""
 
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -59,3 +62,24 @@ def test_a_typo_in_the_command_lists_the_commands(capsys):
     assert end.value.code == 2
     err = capsys.readouterr().err
     assert "invalid choice: 'rnu'" in err and "'run'" in err
+
+
+@pytest.mark.parametrize("after_s", [0.3, 0.8])
+def test_ctrl_c_while_the_command_is_imported_is_one_line_and_130(tmp_path, after_s):
+    """``snn-fg run`` spends its first 1-2 s importing the models and simulators; a
+    Ctrl-C then printed Python's traceback of the import it cut."""
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "snn_fg.cli", "run", "demo", "--model", "spiking", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(after_s)
+    assert proc.poll() is None, "the command ended before it could be interrupted"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert proc.returncode == 130, err
+    assert len(lines) == 1 and lines[0].startswith("snn-fg: interrupted (Ctrl-C)"), err
+    assert not out.exists()

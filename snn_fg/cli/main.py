@@ -4,7 +4,8 @@ subcommand, and how a command ends.
 Bad input ends with one line ``snn-fg: error: <file>: <problem>`` and exit
 status 2; an interrupted run (Ctrl-C, SIGTERM) exits 130 or 143 and leaves
 the output folder as it was (a frame), or with the windows completed so far
-(a recording, which ``--resume`` continues).
+(a recording, which ``--resume`` continues). Ctrl-C while the command's
+modules are still being imported ends the same way, in one line.
 """
 
 from __future__ import annotations
@@ -16,7 +17,6 @@ import os
 import sys
 import warnings
 
-from .. import __version__
 from ..errors import InputWarning, SnnFgError
 from .commands import COMMANDS
 
@@ -35,6 +35,8 @@ def build_parser(commands=None) -> tuple[argparse.ArgumentParser, dict]:
     """The parser and its subcommand parsers by name. ``commands``: the subcommands
     whose modules are imported and parsers made whole (default: all); the others
     are listed by name and help only (:data:`~.commands.COMMANDS`)."""
+    from .. import __version__
+
     parser = UsageParser(
         prog="snn-fg",
         allow_abbrev=False,
@@ -85,15 +87,18 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
     interrupt cut short in library code (a half-loaded compiled module, say)
     can crash the interpreter while it is torn down, or make it end itself by
     the signal. The output folder has been restored by then."""
-    parser, subs = build_parser(asked_for(argv))  # (only the command asked for is imported)
-    args, extra = parser.parse_known_args(argv)
-    if extra:  # report an unknown option under the subcommand's own usage
-        subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
-    from ..backends import cancel
+    args, received = argparse.Namespace(), []
+    try:
+        # (only the command asked for is imported, and its heavy imports may be interrupted too)
+        parser, subs = build_parser(asked_for(argv))
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # report an unknown option under the subcommand's own usage
+            subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+        from ..backends import cancel
 
-    with cancel.Signals() as signals, warnings_as_lines():
-        args.interrupted = lambda: bool(signals.received)
-        try:
+        with cancel.Signals() as signals, warnings_as_lines():
+            received = signals.received
+            args.interrupted = lambda: bool(signals.received)
             try:
                 return args.handler(args)
             except Exception as exc:
@@ -109,16 +114,16 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
                     raise
                 print(f"snn-fg: error: {exc}", file=sys.stderr)
                 return EXIT_INPUT
-        except KeyboardInterrupt:
-            term = "SIGTERM" in signals.received
-            note = getattr(args, "interrupt_note", "the output was left as it was before the run")
-            print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); {note}", file=sys.stderr)
-            code = 143 if term else 130
-            if exit_on_interrupt:
-                sys.stdout.flush()
-                sys.stderr.flush()
-                os._exit(code)
-            return code
+    except KeyboardInterrupt:
+        term = "SIGTERM" in received
+        note = getattr(args, "interrupt_note", "the output was left as it was before the run")
+        print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); {note}", file=sys.stderr)
+        code = 143 if term else 130
+        if exit_on_interrupt:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(code)
+        return code
 
 
 def console():

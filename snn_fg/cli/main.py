@@ -112,7 +112,7 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
                     exc = f"{exc.filename}: {exc.strerror or type(exc).__name__}"
                 elif not isinstance(exc, SnnFgError):
                     raise
-                print(f"snn-fg: error: {exc}", file=sys.stderr)
+                print(f"snn-fg: error: {exc if isinstance(exc, str) else exc.for_command_line()}", file=sys.stderr)
                 return EXIT_INPUT
     except KeyboardInterrupt:
         term = "SIGTERM" in received

@@ -11,10 +11,7 @@ import argparse
 
 from .. import datasets
 from .commands import COMMANDS
-
-
-def _mb(n: int) -> str:
-    return f"{n / 1e6:.1f} MB"
+from .options import size_text
 
 
 def _status(name: str, check: bool) -> str:
@@ -32,7 +29,8 @@ def cmd_list(args) -> int:
     print(f"data folder: {root} ({origin}; ${datasets.ENV_VAR} chooses another)")
     rows = [("name", "size", "status", "folder")]
     rows += [
-        (name, _mb(ds.size), _status(name, args.verify), str(root / name)) for name, ds in datasets.DATASETS.items()
+        (name, size_text(ds.size), _status(name, args.verify), str(root / name))
+        for name, ds in datasets.DATASETS.items()
     ]
     widths = [max(len(r[i]) for r in rows) for i in range(3)]
     for r in rows:
@@ -46,7 +44,7 @@ def cmd_info(args) -> int:
     for key, value in (
         ("dataset", ds.name),
         ("what", ds.description),
-        ("files", f"{len(ds.files)}, {_mb(ds.size)}"),
+        ("files", f"{len(ds.files)}, {size_text(ds.size)}"),
         ("source", ds.source),
         ("licence", ds.licence),
         ("download", ds.download),

@@ -97,7 +97,8 @@ def _recording_maps(run: Path) -> tuple[Path, Maps]:
 def cmd_plot(args) -> int:
     """Handler of ``snn-fg plot``; prints what it wrote, returns 0."""
     folder, maps = _recording_maps(Path(args.run))
-    label = MODELS[maps.params["model"]].grouping_label if maps.params.get("model") in MODELS else "grouping"
+    model = MODELS.get(maps.params.get("model"))
+    label = "grouping" if model is None else model.grouping_label
     n = maps.fg_x.shape[0]
     if args.out is not None and args.windows is None:
         raise InputError(f"--out {args.out}", "names the folder of the --windows figures: give --windows")
@@ -117,7 +118,7 @@ def cmd_plot(args) -> int:
     if args.windows is None and args.animate is None:
         for name in ("maps.png", TIMELINE_NAME, TABLE_NAME):
             check_output_file(folder / name, args.force)
-        write_run_tables(folder, maps, figures=True)
+        write_run_tables(folder, maps, figures=True, coverage=model is None or not model.vector_at_every_event)
         options = {**overview_options(maps, folder), "grouping_label": label, "crop": args.crop}
         save_maps_figure(folder / "maps.png", input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
         written += [folder / "maps.png", folder / TIMELINE_NAME, folder / TABLE_NAME]

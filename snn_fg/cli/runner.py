@@ -175,7 +175,7 @@ def run_recording(
         final["whole_run"] = whole
     store.finish(final)
     maps = Maps(*read_maps(path, lazy=True))
-    write_run_tables(out, maps, figures=figures)
+    write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)
     if figures:
         model.write_figures(out, maps, input_images(maps), crop=crop, **overview_options(maps, out))
     return store.n

@@ -48,6 +48,9 @@ class Model(ABC):
     grouping_label: ClassVar[str] = "grouping"
     #: why a recording's window with events can give no figure-ground vector, said with the warning that some did
     blank_window_hint: ClassVar[str] = ""
+    #: whether every pixel with an event gets a figure-ground vector by construction (then the share of
+    #: event pixels with one, ``windows.csv``'s ``fg_coverage``, is 1 and says nothing: left empty)
+    vector_at_every_event: ClassVar[bool] = False
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None):
         self.params = params
@@ -130,6 +133,9 @@ class RateModel(Model):
     name = "rate"
     options = ("carry_state",)
     grouping_label = "grouping activity (rate-model units)"
+    # (stage 9 reads the border-ownership difference out at every pixel with an event, and a
+    # difference of exactly zero does not happen in floating point)
+    vector_at_every_event = True
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, carry_state: bool = False):
         super().__init__(params, progress)

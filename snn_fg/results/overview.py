@@ -88,11 +88,11 @@ def overview_options(maps, folder) -> dict:
     }
 
 
-def write_run_tables(folder, maps, *, figures: bool) -> list[dict]:
+def write_run_tables(folder, maps, *, figures: bool, coverage: bool = True) -> list[dict]:
     """``windows.csv`` and (``figures``) ``timeline.png`` of a recording's run into ``folder``;
-    the table's rows."""
+    the table's rows (``coverage``: see :func:`~.timeline.window_rows`)."""
     folder = Path(folder)
-    rows = window_rows(maps)
+    rows = window_rows(maps, coverage=coverage)
     source = maps.params.get("source", {})
     name = Path(str(source.get("input", folder.name))).name
     title = f"{name}: the {maps.params.get('model', '?')} model, window by window"

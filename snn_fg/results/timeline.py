@@ -4,8 +4,10 @@
 Per window: its span (ms after the recording's first event), its events and the share of the
 sensor's pixels they cover (a share above
 :data:`~snn_fg.results.activity.SATURATED_SHARE` is a sensor-wide burst, not a scene), the pixels
-with a figure-ground vector and their share of the pixels with an event (the coverage), and the
-grouping map's peak and where it lies (the strongest proto-object centre).
+with a figure-ground vector and their share of the pixels with an event (``fg_coverage``: how much
+of the input the model decided on; empty for a model that gives every event pixel a vector by
+construction, the rate models, whose share is 1 in every window), and the grouping map's peak and
+where it lies (the strongest proto-object centre).
 
 Example
 -------
@@ -50,9 +52,10 @@ COLUMNS = (
 )
 
 
-def window_rows(maps) -> list[dict]:
+def window_rows(maps, *, coverage: bool = True) -> list[dict]:
     """One row of :data:`COLUMNS` per window of a recording's :class:`~snn_fg.results.maps.Maps`
-    (read window by window: a store's lazy arrays stay on disk)."""
+    (read window by window: a store's lazy arrays stay on disk); ``coverage=False``: ``fg_coverage``
+    left empty (a model whose share is 1 by construction)."""
     ex = maps.extra
     rows = []
     for i in range(maps.fg_x.shape[0]):
@@ -71,7 +74,9 @@ def window_rows(maps) -> list[dict]:
                 "pixel_share": round(share, 6),
                 "saturated": share > SATURATED_SHARE,
                 "fg_pixels": int(has.sum()),
-                "fg_coverage": round(float((has & events).sum() / events.sum()), 4) if events.any() else None,
+                "fg_coverage": round(float((has & events).sum() / events.sum()), 4)
+                if coverage and events.any()
+                else None,
                 "grouping_peak": float(f"{peak:.5g}"),
                 "peak_x": None if px is None else int(px),
                 "peak_y": None if py is None else int(py),
@@ -111,12 +116,13 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
     scene_bars(ax_f, mid, width, [r["fg_pixels"] for r in rows], burst, color="C2")
     ax_f.set_ylabel("pixels with a\nfigure-ground vector", fontsize=8)
     cover = np.array([np.nan if r["fg_coverage"] is None else 100 * r["fg_coverage"] for r in rows])
-    twin = ax_f.twinx()
-    twin.plot(mid, cover, "k.-", ms=3, lw=0.8)
-    twin.set_ylim(0, 125)  # (the line below the note a clipped axis carries)
-    twin.set_yticks([0, 25, 50, 75, 100])
-    twin.set_ylabel("of the event\npixels (%, line)", fontsize=8)
-    twin.tick_params(labelsize=7)
+    if not np.isnan(cover).all():  # (a model with a vector at every event pixel has none)
+        twin = ax_f.twinx()
+        twin.plot(mid, cover, "k.-", ms=3, lw=0.8)
+        twin.set_ylim(0, 125)  # (the line below the note a clipped axis carries)
+        twin.set_yticks([0, 25, 50, 75, 100])
+        twin.set_ylabel("of the event\npixels (%, line)", fontsize=8)
+        twin.tick_params(labelsize=7)
     scene_bars(ax_g, mid, width, [r["grouping_peak"] for r in rows], burst, color="C4")
     ax_g.set_ylabel("grouping peak", fontsize=8)
     drawn = "; numbers on top: the windows maps.png draws" if len(shown) else ""

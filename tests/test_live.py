@@ -251,7 +251,11 @@ def test_a_dv_replay_ends_when_it_is_sent_and_the_live_run_with_it(tmp_path, dis
     sender = subprocess.Popen(replay, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     common = ["--window-ms", "40", "--no-figures", "--no-progress", "--model", "rate"]
     try:
-        status = main(["live", url, "--out", str(tmp_path / "live"), "--max-behind", "1000", *common])
+        # (--sensor-size: warmed up before connecting, as docs/live.md says; warmed up after, the live run
+        # reads nothing until its warm-up's imports and compiling are done, and the replay, 90 ms and a
+        # second's linger, may have closed by then)
+        sized = ["--sensor-size", f"{size[0]}x{size[1]}"]
+        status = main(["live", url, "--out", str(tmp_path / "live"), "--max-behind", "1000", *sized, *common])
         said, err = sender.communicate(timeout=30)  # (before the fix it waited for ever on its connected reader)
     finally:
         sender.kill()

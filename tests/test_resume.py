@@ -136,3 +136,44 @@ def test_the_last_window_of_a_run_cut_by_max_windows_is_read_out_as_in_a_longer_
         np.testing.assert_array_equal(short, long, err_msg=key)
         assert np.count_nonzero(short[2]) > 50  # (equal and not empty)
     assert runs[3].params["windows"][2]["simulation"]["count_to_ms"] == 200.0  # (read out to 180 + 20 ms)
+
+
+def test_resume_with_a_larger_max_windows_goes_on_and_a_smaller_one_writes_nothing(
+    recording, tmp_path, capsys, monkeypatch
+):
+    """A user who stopped at 3 windows and wants 5: --resume --max-windows 5 goes on from the
+    store's end, and the 5 windows are those of a fresh 5-window run bit for bit (the spiking
+    network, whose state runs through the windows). Fewer than the store holds: one line, nothing
+    written."""
+    from snn_fg.cli import runner
+    from snn_fg.cli.main import main
+    from snn_fg.events import save_events
+
+    path = tmp_path / "disc.es"
+    save_events(path, recording.events, recording.sensor_size)
+    common = [str(path), "--model", "spiking", "--levels", "3", "--window-ms", "60", "--no-figures", "--no-progress"]
+    fresh, grown = tmp_path / "fresh", tmp_path / "grown"
+    assert main(["run", *common, "--out", str(fresh), "--max-windows", "5"]) == 0
+    assert main(["run", *common, "--out", str(grown), "--max-windows", "3"]) == 0
+    appended = []
+    real = runner._append_window
+    monkeypatch.setattr(
+        runner, "_append_window", lambda store, w, maps: (appended.append(w.index), real(store, w, maps))
+    )
+    assert main(["run", *common, "--out", str(grown), "--max-windows", "5", "--resume"]) == 0
+    monkeypatch.setattr(runner, "_append_window", real)
+    assert appended == [3, 4]  # (from where the store ended, not again from the start)
+    a, b = Maps.load(grown), Maps.load(fresh)
+    assert a.fg_x.shape[0] == 5 and read_attrs(grown / "maps.zarr")["snn_fg"]["complete"]
+    for key in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
+    assert a.params["source"]["max_windows"] == 5
+    capsys.readouterr()
+    before = {p: p.read_bytes() for p in grown.rglob("*") if p.is_file()}
+    assert main(["run", *common, "--out", str(grown), "--max-windows", "2", "--resume"]) == 0
+    said = capsys.readouterr().out.strip()
+    assert said.startswith(f"snn-fg: the run in {grown}/ holds 5 windows, more than the 2 of --max-windows: ")
+    assert "nothing written" in said
+    assert {p: p.read_bytes() for p in grown.rglob("*") if p.is_file()} == before
+    assert main(["run", *common, "--out", str(grown), "--max-windows", "5", "--resume"]) == 0
+    assert "is finished already (5 windows)" in capsys.readouterr().out

@@ -104,6 +104,7 @@ def run_recording(
     figures: bool = True,
     resume: bool = False,
     run_key: dict | None = None,
+    may_differ=(),
 ) -> int:
     """Every window of a recording through ``model`` into ``out/maps.zarr``
     (:mod:`snn_fg.results.store`: each window written as it completes) and, at the
@@ -113,8 +114,9 @@ def run_recording(
 
     ``resume``: continue the store in ``out`` from its last complete window
     (it must have been made with the same ``run_key``: by default the
-    ``source`` and the model's name and parameters); a complete store is
-    left as it is.
+    ``source`` and the model's name and parameters; the keys ``may_differ``
+    aside); a complete store is left as it is, unless its run ended at its
+    window limit and ``source`` asks for more (:func:`goes_on`).
 
     The windows' times (``t_start_us``, ``t_end_us``, figure titles) count
     from the recording's first event; ``params["source"]["first_event_us"]``
@@ -124,9 +126,11 @@ def run_recording(
     listed (``saturated_windows``)."""
     path = out / STORE_NAME
     run_key = {"source": source, "model": model.name, **model.params.to_dict()} if run_key is None else run_key
-    store = MapsStore.reopen(path, run_key) if resume and path.is_dir() else MapsStore.create(path, run_key)
+    store = MapsStore.reopen(path, run_key, may_differ) if resume and path.is_dir() else MapsStore.create(path, run_key)
     if store.complete:
-        return store.n
+        if not goes_on(store.attrs, source.get("max_windows")):
+            return store.n
+        store.go_on()
     n_empty = n_blank = 0
     blank_spans_ms: list = []  # how long the events of each window without a vector last
 
@@ -179,6 +183,16 @@ def run_recording(
     if figures:
         model.write_figures(out, maps, input_images(maps), crop=crop, **overview_options(maps, out))
     return store.n
+
+
+def goes_on(attrs: dict, asked: int | None) -> bool:
+    """Whether the finished run whose store has the attributes ``attrs`` goes on to the
+    ``asked`` windows (None: to the recording's end): it ended at its own window limit
+    (``--max-windows``, ``--end-ms``), not at the recording's end, and fewer windows
+    than asked."""
+    n = int(attrs["snn_fg"]["windows_complete"])
+    limit = attrs["params"].get("source", {}).get("max_windows")
+    return limit is not None and n >= limit and (asked is None or asked > n)
 
 
 def _append_window(store: MapsStore, w, maps: Maps) -> None:

@@ -196,14 +196,18 @@ def goes_on(attrs: dict, asked: int | None) -> bool:
 
 
 def _append_window(store: MapsStore, w, maps: Maps) -> None:
-    """One window's maps into the store, with its event frame (+1 ON, -1 OFF),
+    """One window's maps into the store, with its number in the recording or stream (``window``:
+    a live run that dropped windows keeps the others under their own), event frame (+1 ON, -1 OFF),
     times (from the recording's first event), event count and pixel share."""
     origin = store.attrs["snn_fg"].get("first_event_us")
     if origin is None:
         origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
         store.attrs["snn_fg"]["first_event_us"] = int(origin)
+    # (a store continued that was written without the numbers goes on without: its windows are numbered by place)
+    numbered = store.n == 0 or "window" in store.arrays
     store.append(
         maps,
+        **({"window": np.int64(w.index)} if numbered else {}),
         event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8),
         t_start_us=np.int64(w.t_start_us - origin),
         t_end_us=np.int64(w.t_end_us - origin),

@@ -52,11 +52,21 @@ COLUMNS = (
 )
 
 
+def window_numbers(maps) -> np.ndarray:
+    """Each stored window's number in its recording or stream: window ``k`` begins ``k`` strides
+    after the first window's start. A live run that dropped windows keeps the others under their
+    own numbers (``extra["window"]``, written with each window); a store written without them
+    holds every window from 0, numbered by its place."""
+    n = maps.fg_x.shape[0]
+    return np.asarray(maps.extra["window"], np.int64) if "window" in maps.extra else np.arange(n, dtype=np.int64)
+
+
 def window_rows(maps, *, coverage: bool = True) -> list[dict]:
     """One row of :data:`COLUMNS` per window of a recording's :class:`~snn_fg.results.maps.Maps`
     (read window by window: a store's lazy arrays stay on disk); ``coverage=False``: ``fg_coverage``
     left empty (a model whose share is 1 by construction)."""
     ex = maps.extra
+    numbers = window_numbers(maps)
     rows = []
     for i in range(maps.fg_x.shape[0]):
         has = (np.asarray(maps.fg_x[i]) != 0) | (np.asarray(maps.fg_y[i]) != 0)
@@ -67,7 +77,7 @@ def window_rows(maps, *, coverage: bool = True) -> list[dict]:
         share = float(ex["pixel_share"][i])
         rows.append(
             {
-                "window": i,
+                "window": int(numbers[i]),
                 "t_start_ms": float(ex["t_start_us"][i]) / 1000,
                 "t_end_ms": float(ex["t_end_us"][i]) / 1000,
                 "events": int(ex["event_count"][i]),

@@ -313,14 +313,14 @@ def lay_out(feed: StreamFeed, opts: SpikingOptions, cut, read_out: int | None = 
         length, starts = cut.win, cut.stride * np.arange(n, dtype=np.int64)
     steps = window_steps(starts, starts + length, 0, dt_ms)
     counted = length if opts.recording.readout_ms is None else min(length, opts.recording.readout_ms * 1000.0)
-    starts = starts[:read_out]
+    read = starts[:read_out]  # (the windows read out; those after them only feed the run, read_past_the_cut)
     return StreamLayout(
         network=net,
         origin=origin,
         shape=shape,
         dt_ms=dt_ms,
         rate_hz=net.input_rate_hz,
-        spans=read_out_spans(starts + length - counted, starts + length, 0, lag, dt_ms),
+        spans=read_out_spans(read + length - counted, read + length, 0, lag, dt_ms),
         steps=steps,
         clock=bool(opts.recording.window_clock and net.by_role("clock")),
         seed=opts.recording.seed,

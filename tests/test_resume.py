@@ -115,7 +115,8 @@ def test_a_spiking_run_over_a_recording_shows_the_windows_done(recording, tmp_pa
     assert bars[0].ticks == [1, 2, 3]  # (each tick once that window's maps are written)
 
 
-def test_the_last_window_of_a_run_cut_by_max_windows_is_read_out_as_in_a_longer_run(recording, tmp_path):
+@pytest.mark.parametrize("stride_ms", [None, 20.0])
+def test_the_last_window_of_a_run_cut_by_max_windows_is_read_out_as_in_a_longer_run(recording, tmp_path, stride_ms):
     """Its read-out span reaches the read-out lag past the cut: the network is fed the events
     there (and its window clock fires) as in a longer run, so the windows of a 3-window run
     are those of a 6-window run bit for bit (the last one's grouping and vectors differed
@@ -128,14 +129,15 @@ def test_the_last_window_of_a_run_cut_by_max_windows_is_read_out_as_in_a_longer_
         out = tmp_path / f"w{n}"
         out.mkdir()
         model = get_model("spiking", ModelParams(levels=3), readout_lag_ms=20.0)
-        windows = RecordingWindows(recording, window_ms=60, max_windows=n)
+        windows = RecordingWindows(recording, window_ms=60, stride_ms=stride_ms, max_windows=n)
         assert run_recording(model, windows, out, {"input": "disc"}, figures=False) == n
         runs[n] = Maps.load(out)
     for key in ("fg_x", "fg_y", "grouping"):
         short, long = getattr(runs[3], key), getattr(runs[6], key)[:3]
         np.testing.assert_array_equal(short, long, err_msg=key)
         assert np.count_nonzero(short[2]) > 50  # (equal and not empty)
-    assert runs[3].params["windows"][2]["simulation"]["count_to_ms"] == 200.0  # (read out to 180 + 20 ms)
+    # (read out to the window's end and 20 ms more: 180 + 20 ms, or 40 + 60 + 20 ms with the 20 ms stride)
+    assert runs[3].params["windows"][2]["simulation"]["count_to_ms"] == (200.0 if stride_ms is None else 120.0)
 
 
 def test_resume_with_a_larger_max_windows_goes_on_and_a_smaller_one_writes_nothing(

@@ -47,7 +47,7 @@ class InputError(SnnFgError, ValueError):
         added (``"...; pass sensor_size=(W, H)"``), ``note`` after it.
     """
 
-    def __init__(self, source, problem: str, where: str | None = None, *, remedy: Remedy | None = None, note=""):
+    def __init__(self, source, problem: str, where: str | None = None, *, remedy: Remedy | None = None, note: str = ""):
         self.source = str(source)
         self.problem = problem
         self.where = where

@@ -22,14 +22,6 @@ below it.
 ``Maps.load(folder)`` reads back.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("snn-fg")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0+unknown"
-
-
 __all__ = ["Maps", "__version__"]
 
 
@@ -38,4 +30,11 @@ def __getattr__(name):  # (imported when first asked for: ``import snn_fg`` stay
         from .results.maps import Maps
 
         return Maps
+    if name == "__version__":  # (importlib.metadata takes a tenth of a second: the command line's start waits for it)
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("snn-fg")
+        except PackageNotFoundError:  # running from a source tree that was not installed
+            return "0+unknown"
     raise AttributeError(f"module 'snn_fg' has no attribute {name!r}")

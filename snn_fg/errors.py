@@ -8,9 +8,25 @@ line and exits non-zero; nothing else should escape to the user.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 
 class SnnFgError(Exception):
     """Base class of every error this package raises on purpose."""
+
+    def for_command_line(self) -> str:
+        """The message as the command line prints it (the same unless the error says
+        otherwise: an :class:`InputError` with a :class:`Remedy` names the option)."""
+        return str(self)
+
+
+class Remedy(NamedTuple):
+    """What a user gives to make an input usable, as each front door spells it:
+    the keyword of the Python API (``"sensor_size=(W, H)"``) and the option of the
+    command line (``"--sensor-size WxH"``)."""
+
+    keyword: str
+    option: str
 
 
 class InputError(SnnFgError, ValueError):
@@ -24,14 +40,27 @@ class InputError(SnnFgError, ValueError):
         What is wrong, in words a user understands.
     where:
         Optional location: ``"byte offset 1024"``, ``"event 17"``...
+    remedy:
+        Optional :class:`Remedy`: what fixes it, said as ``pass KEYWORD`` in
+        ``str(error)`` (the API's message) and as ``give OPTION`` in
+        :meth:`for_command_line`. ``problem`` then ends where the remedy is
+        added (``"...; pass sensor_size=(W, H)"``), ``note`` after it.
     """
 
-    def __init__(self, source, problem: str, where: str | None = None):
+    def __init__(self, source, problem: str, where: str | None = None, *, remedy: Remedy | None = None, note: str = ""):
         self.source = str(source)
         self.problem = problem
         self.where = where
-        loc = f" (at {where})" if where else ""
-        super().__init__(f"{self.source}: {problem}{loc}")
+        self.remedy, self.note = remedy, note
+        super().__init__(self._message(None if remedy is None else f"pass {remedy.keyword}"))
+
+    def _message(self, fix: str | None) -> str:
+        loc = f" (at {self.where})" if self.where else ""
+        fix = f"; {fix}{self.note}" if fix else ""
+        return f"{self.source}: {self.problem}{fix}{loc}"
+
+    def for_command_line(self) -> str:
+        return str(self) if self.remedy is None else self._message(f"give {self.remedy.option}")
 
 
 class InputWarning(UserWarning):

@@ -63,8 +63,40 @@ def test_shared_es_matches_event_stream_package(dataset):
 
 
 def test_evt2_without_geometry_needs_sensor_size(dataset):
-    with pytest.raises(InputError, match="no geometry"):
+    with pytest.raises(InputError, match="gives no sensor size"):
         open_recording(dataset("events", "expelliarmus_evt2_spinner.raw"))
+
+
+#: EVT2 words of two events (TIME_HIGH, then CD_ON), after a header that gives no sensor size
+_NO_GEOMETRY_RAW = (
+    b"% evt 2.0\n% end\n" + np.array([(0x8 << 28) | 100, (0x1 << 28) | (5 << 22) | (7 << 11) | 3], "<u4").tobytes()
+)
+
+
+def test_a_raw_file_without_its_sensor_size_is_told_in_the_api_s_words(tmp_path):
+    path = tmp_path / "nogeom.raw"
+    path.write_bytes(_NO_GEOMETRY_RAW)
+    with pytest.raises(InputError) as err:
+        open_recording(path)
+    said = str(err.value)
+    assert said.startswith(f"{path}: EVT2 file whose header gives no sensor size")
+    assert "pass sensor_size=(W, H)" in said and "--sensor-size" not in said and "CLI" not in said
+
+
+@pytest.mark.parametrize("command", [["events"], ["run", "--out", "OUT"]])
+def test_a_raw_file_without_its_sensor_size_is_told_in_the_command_line_s_words(tmp_path, capsys, command):
+    from snn_fg.cli.main import main
+
+    path = tmp_path / "nogeom.raw"
+    path.write_bytes(_NO_GEOMETRY_RAW)
+    argv = [command[0], str(path)] + [str(tmp_path / "out") if a == "OUT" else a for a in command[1:]]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith(f"snn-fg: error: {path}: EVT2 file whose header gives no sensor size")
+    assert "give --sensor-size WxH (a Prophesee Gen3 VGA sensor is 640 x 480)" in err
+    assert "sensor_size=" not in err and "CLI" not in err
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize(

@@ -319,3 +319,27 @@ def test_the_nir_export_says_how_many_nodes_of_each_kind_it_wrote(capsys, tmp_pa
     counts = {k: int(n) for n, k in (item.split() for item in listed)}
     assert counts == {k: kinds.count(k) for k in set(kinds)} and f"; {len(kinds)} nodes: " in line
     assert list(counts.values()) == sorted(counts.values(), reverse=True) and "Delay" in counts
+
+
+@pytest.mark.parametrize("network", ["g.nir", "compact"])
+def test_the_description_export_says_what_it_wrote(capsys, tmp_path, monkeypatch, network):
+    """--format network (with a NIR file: the NIR import) names the file, its size and the
+    description's populations, projections, levels and frame, as the other formats' lines do."""
+    from snn_fg.cli import main
+    from snn_fg.network.graph import Network
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", "--format", "nir", "--network", "compact", "--sensor-size", "24x24", "--out", "g.nir"]) == 0
+    capsys.readouterr()
+    given = ["--network", network] + (["--sensor-size", "24x24"] if network == "compact" else [])
+    assert main(["export", "--format", "network", *given, "--out", "n.json"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    net = Network.load(tmp_path / "n.json")
+    h, w = net.frame_shape
+    size = (tmp_path / "n.json").stat().st_size
+    said = f"{size / 1e6:.1f} MB" if size >= 100_000 else f"{round(size / 1e3)} kB"
+    assert lines == [
+        f"snn-fg: wrote network description ({said}; {len(net.populations)} populations, "
+        f"{len(net.projections)} projections, {net.params.levels} levels, frame {h} x {w}) to n.json"
+    ]
+    assert len(net.populations) > 10 and (h, w) == (8, 8)  # (the compact network pools its input by 3)

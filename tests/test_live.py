@@ -251,7 +251,11 @@ def test_a_dv_replay_ends_when_it_is_sent_and_the_live_run_with_it(tmp_path, dis
     sender = subprocess.Popen(replay, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     common = ["--window-ms", "40", "--no-figures", "--no-progress", "--model", "rate"]
     try:
-        status = main(["live", url, "--out", str(tmp_path / "live"), "--max-behind", "1000", *common])
+        # (--sensor-size: warmed up before connecting, as docs/live.md says; warmed up after, the live run
+        # reads nothing until its warm-up's imports and compiling are done, and the replay, 90 ms and a
+        # second's linger, may have closed by then)
+        sized = ["--sensor-size", f"{size[0]}x{size[1]}"]
+        status = main(["live", url, "--out", str(tmp_path / "live"), "--max-behind", "1000", *sized, *common])
         said, err = sender.communicate(timeout=30)  # (before the fix it waited for ever on its connected reader)
     finally:
         sender.kill()
@@ -425,3 +429,58 @@ def test_no_dv_server_is_one_line_without_the_librarys_source_location(tmp_path,
         f"snn-fg: error: dv://127.0.0.1:{port}: no DV server answered within 0.3 s (connect: Connection refused)"
     ]
     assert not (tmp_path / "o").exists()
+
+
+def test_a_live_run_that_dropped_windows_numbers_the_others_as_the_stream_does(tmp_path):
+    """One numbering everywhere: window k begins k windows after the stream's first; with
+    windows 2 and 3 dropped, the published lines, live.json, maps.zarr, windows.csv, the figure
+    titles and snn-fg plot --windows all say 0, 1, 4, 5 (the published lines and the table
+    said 0, 1, 2, 3)."""
+    import csv
+
+    from snn_fg.cli.runner import run_recording
+    from snn_fg.models import get_model
+    from snn_fg.params import ModelParams
+    from snn_fg.results.overview import window_titles
+    from snn_fg.results.publish import LiveModel, LiveRecord
+
+    _, rec = flipping_disc_recording(24, windows=6, window_ms=40.0)
+    gate = threading.Event()
+
+    class Source(_Packets):
+        name, sensor_size = "test://", rec.sensor_size[:2]
+
+    stream = LiveStream(Source([rec.events], gate), window_ms=40.0, max_behind=10**6)
+    with stream.lock:  # (as a model that fell behind drops them: one slot a window)
+        stream.dropped_slots |= {2, 3}
+        stream.dropped_windows |= {2, 3}
+    gate.set()
+
+    class Inbox:
+        lines: list = []
+
+        def send(self, message):
+            self.lines.append(message)
+
+    inbox = Inbox()
+    record = LiveRecord(stream, inbox)
+    out = tmp_path / "live"
+    out.mkdir()
+    model = LiveModel(get_model("rate", ModelParams(levels=3)), stream, record)
+    try:
+        assert run_recording(model, stream, out, {"input": "test://", "window_ms": 40.0}, figures=False) == 4
+    finally:
+        stream.close()
+    record.save(out / "live.json", "the sender closed the stream")
+    kept = [0, 1, 4, 5]
+    assert [m["window"] for m in inbox.lines] == kept
+    assert [r["window"] for r in json.loads((out / "live.json").read_text())["per_window"]] == kept
+    maps = Maps.load(out)
+    assert maps.extra["window"].tolist() == kept
+    assert (maps.extra["t_start_us"] == np.array(kept) * 40_000).all()  # (the number says when it began)
+    with open(out / "windows.csv") as fh:
+        assert [int(r["window"]) for r in csv.DictReader(fh)] == kept
+    assert [t.split(":")[0] for t in window_titles(maps)] == [f"window {k}" for k in kept]
+    assert main(["plot", str(out), "--windows", "4-5"]) == 0
+    assert sorted(p.name for p in (out / "windows").iterdir()) == ["window_0004.png", "window_0005.png"]
+    assert main(["plot", str(out), "--windows", "2"]) == 2  # (dropped: not in the run)

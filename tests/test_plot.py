@@ -15,7 +15,7 @@ from snn_fg.cli.main import main
 from snn_fg.events import image_to_events, save_events
 from snn_fg.frames.scenes import disc
 from snn_fg.results.maps import Maps
-from snn_fg.results.timeline import COLUMNS
+from snn_fg.results.timeline import COLUMNS, window_rows
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +42,9 @@ def test_a_recordings_run_writes_a_table_and_a_timeline_beside_its_maps(run):
         assert float(r["t_start_ms"]) == m.extra["t_start_us"][i] / 1000
         assert float(r["pixel_share"]) == pytest.approx(events.mean(), abs=1e-6)
         assert int(r["fg_pixels"]) == int(has.sum())
-        assert float(r["fg_coverage"]) == pytest.approx((has & events).sum() / events.sum(), abs=1e-4)
+        # the rate model gives every event pixel a vector, and nothing else one: its share would be 1
+        # by construction, so the table leaves it empty
+        assert np.array_equal(has, events) and r["fg_coverage"] == ""
         assert float(r["grouping_peak"]) == pytest.approx(float(m.grouping[i].max()), rel=1e-4)
         y, x = np.unravel_index(np.argmax(m.grouping[i]), m.grouping[i].shape)
         assert (int(r["peak_x"]), int(r["peak_y"])) == (x, y)
@@ -113,3 +115,25 @@ def test_a_saturated_window_neither_sets_the_grouping_scale_nor_flattens_the_tim
     assert events.get_ylim()[1] == pytest.approx(1.5 * 36_000)
     assert any("clipped (largest 106,494)" in t.get_text() for t in events.texts)
     assert share.get_ylim()[1] == pytest.approx(15.0)
+
+
+def test_the_coverage_is_the_share_of_event_pixels_with_a_vector_where_a_model_can_leave_them_blank(run):
+    m = Maps.load(run)
+    blanked = m.fg_x.copy()
+    blanked[0][m.extra["event_frame"][0] != 0] *= np.arange(np.count_nonzero(m.extra["event_frame"][0])) % 4 != 0
+    m.fg_x, m.fg_y = blanked, np.where(blanked != 0, m.fg_y, 0)
+    rows = window_rows(m)
+    events = m.extra["event_frame"][0] != 0
+    assert rows[0]["fg_coverage"] == pytest.approx(((blanked[0] != 0) & events).sum() / events.sum(), abs=1e-4)
+    assert 0.7 < rows[0]["fg_coverage"] < 0.8 and rows[1]["fg_coverage"] == 1.0
+    assert all(r["fg_coverage"] is None for r in window_rows(m, coverage=False))
+
+
+def test_the_overview_drawn_again_leaves_the_rate_model_s_coverage_empty(run, tmp_path):
+    import shutil
+
+    again = tmp_path / "again"
+    shutil.copytree(run, again)
+    assert main(["plot", str(again), "--force"]) == 0
+    with open(again / "windows.csv") as fh:
+        assert {r["fg_coverage"] for r in csv.DictReader(fh)} == {""}

@@ -113,3 +113,69 @@ def test_a_spiking_run_over_a_recording_shows_the_windows_done(recording, tmp_pa
     assert run_recording(model, windows, out, {"input": "disc"}, figures=False) == 3
     assert [(b.desc, b.total, b.closed) for b in bars] == [("windows done", 3, True)]
     assert bars[0].ticks == [1, 2, 3]  # (each tick once that window's maps are written)
+
+
+@pytest.mark.parametrize("stride_ms", [None, 20.0])
+def test_the_last_window_of_a_run_cut_by_max_windows_is_read_out_as_in_a_longer_run(recording, tmp_path, stride_ms):
+    """Its read-out span reaches the read-out lag past the cut: the network is fed the events
+    there (and its window clock fires) as in a longer run, so the windows of a 3-window run
+    are those of a 6-window run bit for bit (the last one's grouping and vectors differed
+    while the lag ran without input)."""
+    from snn_fg.cli.runner import run_recording
+    from snn_fg.events import RecordingWindows
+
+    runs = {}
+    for n in (3, 6):
+        out = tmp_path / f"w{n}"
+        out.mkdir()
+        model = get_model("spiking", ModelParams(levels=3), readout_lag_ms=20.0)
+        windows = RecordingWindows(recording, window_ms=60, stride_ms=stride_ms, max_windows=n)
+        assert run_recording(model, windows, out, {"input": "disc"}, figures=False) == n
+        runs[n] = Maps.load(out)
+    for key in ("fg_x", "fg_y", "grouping"):
+        short, long = getattr(runs[3], key), getattr(runs[6], key)[:3]
+        np.testing.assert_array_equal(short, long, err_msg=key)
+        assert np.count_nonzero(short[2]) > 50  # (equal and not empty)
+    # (read out to the window's end and 20 ms more: 180 + 20 ms, or 40 + 60 + 20 ms with the 20 ms stride)
+    assert runs[3].params["windows"][2]["simulation"]["count_to_ms"] == (200.0 if stride_ms is None else 120.0)
+
+
+def test_resume_with_a_larger_max_windows_goes_on_and_a_smaller_one_writes_nothing(
+    recording, tmp_path, capsys, monkeypatch
+):
+    """A user who stopped at 3 windows and wants 5: --resume --max-windows 5 goes on from the
+    store's end, and the 5 windows are those of a fresh 5-window run bit for bit (the spiking
+    network, whose state runs through the windows). Fewer than the store holds: one line, nothing
+    written."""
+    from snn_fg.cli import runner
+    from snn_fg.cli.main import main
+    from snn_fg.events import save_events
+
+    path = tmp_path / "disc.es"
+    save_events(path, recording.events, recording.sensor_size)
+    common = [str(path), "--model", "spiking", "--levels", "3", "--window-ms", "60", "--no-figures", "--no-progress"]
+    fresh, grown = tmp_path / "fresh", tmp_path / "grown"
+    assert main(["run", *common, "--out", str(fresh), "--max-windows", "5"]) == 0
+    assert main(["run", *common, "--out", str(grown), "--max-windows", "3"]) == 0
+    appended = []
+    real = runner._append_window
+    monkeypatch.setattr(
+        runner, "_append_window", lambda store, w, maps: (appended.append(w.index), real(store, w, maps))
+    )
+    assert main(["run", *common, "--out", str(grown), "--max-windows", "5", "--resume"]) == 0
+    monkeypatch.setattr(runner, "_append_window", real)
+    assert appended == [3, 4]  # (from where the store ended, not again from the start)
+    a, b = Maps.load(grown), Maps.load(fresh)
+    assert a.fg_x.shape[0] == 5 and read_attrs(grown / "maps.zarr")["snn_fg"]["complete"]
+    for key in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
+    assert a.params["source"]["max_windows"] == 5
+    capsys.readouterr()
+    before = {p: p.read_bytes() for p in grown.rglob("*") if p.is_file()}
+    assert main(["run", *common, "--out", str(grown), "--max-windows", "2", "--resume"]) == 0
+    said = capsys.readouterr().out.strip()
+    assert said.startswith(f"snn-fg: the run in {grown}/ holds 5 windows, more than the 2 of --max-windows: ")
+    assert "nothing written" in said
+    assert {p: p.read_bytes() for p in grown.rglob("*") if p.is_file()} == before
+    assert main(["run", *common, "--out", str(grown), "--max-windows", "5", "--resume"]) == 0
+    assert "is finished already (5 windows)" in capsys.readouterr().out

@@ -130,7 +130,8 @@ def run_job(options: dict, command) -> dict:
         with contextlib.redirect_stdout(io.StringIO()):
             command(args)
     except Exception as exc:  # (every failure is one line in the summary)
-        first = str(exc).splitlines()[0] if str(exc) else ""
+        said = exc.for_command_line() if isinstance(exc, SnnFgError) else str(exc)
+        first = said.splitlines()[0] if said else ""
         row.update(status="failed", error=first if isinstance(exc, SnnFgError) else f"{type(exc).__name__}: {first}")
     row.update(windows=windows_complete(out), seconds=round(time.perf_counter() - t, 2))
     return row

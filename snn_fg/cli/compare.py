@@ -45,7 +45,6 @@ def add_compare_command(sub):
     p = subcommand(
         sub,
         "compare",
-        help="compare two maps.npz files (e.g. spiking vs rate)",
         description="Print, window by window, how two maps files agree: grouping Pearson r and "
         "SSIM, and on the pixels where both have a figure-ground vector the angle "
         "difference (mean, median, fraction within 45 degrees) and angle-map MSE "

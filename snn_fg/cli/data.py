@@ -10,10 +10,8 @@ from __future__ import annotations
 import argparse
 
 from .. import datasets
-
-
-def _mb(n: int) -> str:
-    return f"{n / 1e6:.1f} MB"
+from .commands import COMMANDS
+from .options import size_text
 
 
 def _status(name: str, check: bool) -> str:
@@ -31,7 +29,8 @@ def cmd_list(args) -> int:
     print(f"data folder: {root} ({origin}; ${datasets.ENV_VAR} chooses another)")
     rows = [("name", "size", "status", "folder")]
     rows += [
-        (name, _mb(ds.size), _status(name, args.verify), str(root / name)) for name, ds in datasets.DATASETS.items()
+        (name, size_text(ds.size), _status(name, args.verify), str(root / name))
+        for name, ds in datasets.DATASETS.items()
     ]
     widths = [max(len(r[i]) for r in rows) for i in range(3)]
     for r in rows:
@@ -45,7 +44,7 @@ def cmd_info(args) -> int:
     for key, value in (
         ("dataset", ds.name),
         ("what", ds.description),
-        ("files", f"{len(ds.files)}, {_mb(ds.size)}"),
+        ("files", f"{len(ds.files)}, {size_text(ds.size)}"),
         ("source", ds.source),
         ("licence", ds.licence),
         ("download", ds.download),
@@ -71,7 +70,7 @@ def add_data_command(subparsers) -> argparse.ArgumentParser:
     """Register ``data`` on an ``argparse`` subparsers object; returns the parser."""
     p = subparsers.add_parser(
         "data",
-        help="list, describe and fetch the datasets (recordings, BSDS references)",
+        help=COMMANDS["data"].help,
         description="The datasets live in one data folder: $SNN_FG_DATA, else the shared "
         "data beside a source checkout, else the user data folder.",
     )

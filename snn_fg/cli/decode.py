@@ -22,7 +22,6 @@ def add_decode_command(sub):
     p = subcommand(
         sub,
         "decode",
-        help="decode an exported network's spike counts into maps",
         description="Turn the counts an exported network's run.py wrote (counts.npz) into the maps "
         "snn-fg run writes for a spiking run: OUT/maps.npz and OUT/maps.png.",
     )

@@ -30,7 +30,7 @@ from ..lowering.quantise import check_bits
 from ..network.recipes import RECIPES, is_recipe, load_description, network_for
 from ..results.atomic import save_text
 from ..results.outputs import check_output_folder, check_writable
-from .options import check_output_file, number, sensor_size, subcommand
+from .options import check_output_file, number, sensor_size, subcommand, written_size
 
 FORMATS = ("pynn", "lava", "nir", "report", "network")
 TARGETS = ("generic", "spinnaker", "loihi2")
@@ -47,7 +47,6 @@ def add_export_command(sub):
     p = subcommand(
         sub,
         "export",
-        help="export the network (PyNN, Lava, NIR, resource report)",
         description="Export the whole spiking network (every cell: a board holds one fixed network) "
         "as a self-contained PyNN model (--format pynn, a folder), Lava processes in Loihi 2's "
         "fixed-point arithmetic (--format lava, a folder; runs in Python 3.10), a NIR graph "
@@ -198,6 +197,16 @@ def _check_sensor(params, shape, source: str):
     check_levels(pooled_shape(shape, params.input_pool), params.levels, source, params.levels_per_octave)
 
 
+def describe_network(net) -> str:
+    """``55 populations, 180 projections, 3 levels, frame 80 x 102``: a description's size, for the
+    export's last line."""
+    h, w = net.frame_shape
+    return (
+        f"{len(net.populations)} populations, {len(net.projections)} projections, "
+        f"{net.params.levels} levels, frame {h} x {w}"
+    )
+
+
 def read_network_file(path: Path):
     """A description from ``.json`` or a NIR export (``.nir``)."""
     if path.suffix.lower() == ".nir" or path.name.lower().endswith(".nir.gz"):
@@ -247,11 +256,12 @@ def cmd_export(args) -> int:
             command=export_command(args),
             sensor_shape=sensor,
         )
-        what = f"PyNN model ({', '.join(sorted(p.name for p in out.iterdir()))})"
+        what = f"PyNN model ({written_size(out)}: {', '.join(sorted(p.name for p in out.iterdir()))})"
     elif args.format == "lava":
         export_lava(net, out, force=args.force, command=export_command(args), sensor_shape=sensor, dt_ms=args.dt_ms)
         what = (
-            f"Lava model ({', '.join(sorted(p.name for p in out.iterdir()))}); its run.py needs Python 3.10 (README.md)"
+            f"Lava model ({written_size(out)}: {', '.join(sorted(p.name for p in out.iterdir()))}); "
+            "its run.py needs Python 3.10 (README.md)"
         )
     elif args.format == "nir" and args.nir_profile == "snntorch":
         export_nir_snntorch(
@@ -274,10 +284,10 @@ def cmd_export(args) -> int:
         if out is None:
             return 0
         save_text(out, json.dumps(rep, indent=1) + "\n")
-        what = "resource report"
+        what = f"resource report ({written_size(out)}, JSON)"
     else:
         net.save(out)
-        what = "network description"
+        what = f"network description ({written_size(out)}; {describe_network(net)})"
     if args.format in ("pynn", "lava") and (out / INPUT_NAME).exists():
         what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
     print(f"snn-fg: wrote {what} to {out}")

@@ -44,7 +44,6 @@ def add_live_command(sub):
     p = subcommand(
         sub,
         "live",
-        help="run a model on a live event stream, writing maps as the windows complete",
         description="Run a model on SOURCE as it arrives: udp://HOST:PORT (SpiNNaker interface board "
         "packets, as aestream sends them; needs --sensor-size) or dv://HOST:PORT (a DV network stream, "
         "pip install -e '.[live]'). Windows are cut on the stream's own clock; DIR/maps.zarr grows "

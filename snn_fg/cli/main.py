@@ -4,29 +4,21 @@ subcommand, and how a command ends.
 Bad input ends with one line ``snn-fg: error: <file>: <problem>`` and exit
 status 2; an interrupted run (Ctrl-C, SIGTERM) exits 130 or 143 and leaves
 the output folder as it was (a frame), or with the windows completed so far
-(a recording, which ``--resume`` continues).
+(a recording, which ``--resume`` continues). Ctrl-C while the command's
+modules are still being imported ends the same way, in one line.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib
 import os
 import sys
 import warnings
 
-from .. import __version__
-from ..backends import cancel
 from ..errors import InputWarning, SnnFgError
-from .compare import add_compare_command
-from .data import add_data_command
-from .decode import add_decode_command
-from .events import add_events_command
-from .export import add_export_command
-from .live import add_live_command
-from .plot import add_plot_command
-from .run import add_run_command
-from .stream import add_stream_command
+from .commands import COMMANDS
 
 #: the exit status of bad input, a usage error included
 EXIT_INPUT = 2
@@ -39,8 +31,12 @@ class UsageParser(argparse.ArgumentParser):
         self.exit(EXIT_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> tuple[argparse.ArgumentParser, dict]:
-    """The parser and its subcommand parsers by name."""
+def build_parser(commands=None) -> tuple[argparse.ArgumentParser, dict]:
+    """The parser and its subcommand parsers by name. ``commands``: the subcommands
+    whose modules are imported and parsers made whole (default: all); the others
+    are listed by name and help only (:data:`~.commands.COMMANDS`)."""
+    from .. import __version__
+
     parser = UsageParser(
         prog="snn-fg",
         allow_abbrev=False,
@@ -50,18 +46,20 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict]:
     )
     parser.add_argument("--version", action="version", version=f"snn-fg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    subs = {
-        "run": add_run_command(sub),
-        "compare": add_compare_command(sub),
-        "plot": add_plot_command(sub),
-        "events": add_events_command(sub),
-        "export": add_export_command(sub),
-        "decode": add_decode_command(sub),
-        "data": add_data_command(sub),
-        "stream": add_stream_command(sub),
-        "live": add_live_command(sub),
-    }
+    subs = {}
+    for name, command in COMMANDS.items():
+        if commands is None or name in commands:
+            subs[name] = getattr(importlib.import_module(command.module), f"add_{name}_command")(sub)
+        else:
+            subs[name] = sub.add_parser(name, help=command.help)
     return parser, subs
+
+
+def asked_for(argv) -> tuple[str, ...]:
+    """The subcommand an ``snn-fg`` command line names (its first word that is not an option),
+    as :func:`build_parser`'s ``commands``: none for ``snn-fg --help`` or a word that names none."""
+    words = [w for w in (sys.argv[1:] if argv is None else argv) if not w.startswith("-")]
+    return tuple(words[:1]) if words and words[0] in COMMANDS else ()
 
 
 @contextlib.contextmanager
@@ -89,13 +87,18 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
     interrupt cut short in library code (a half-loaded compiled module, say)
     can crash the interpreter while it is torn down, or make it end itself by
     the signal. The output folder has been restored by then."""
-    parser, subs = build_parser()
-    args, extra = parser.parse_known_args(argv)
-    if extra:  # report an unknown option under the subcommand's own usage
-        subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
-    with cancel.Signals() as signals, warnings_as_lines():
-        args.interrupted = lambda: bool(signals.received)
-        try:
+    args, received = argparse.Namespace(), []
+    try:
+        # (only the command asked for is imported, and its heavy imports may be interrupted too)
+        parser, subs = build_parser(asked_for(argv))
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # report an unknown option under the subcommand's own usage
+            subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+        from ..backends import cancel
+
+        with cancel.Signals() as signals, warnings_as_lines():
+            received = signals.received
+            args.interrupted = lambda: bool(signals.received)
             try:
                 return args.handler(args)
             except Exception as exc:
@@ -109,18 +112,18 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
                     exc = f"{exc.filename}: {exc.strerror or type(exc).__name__}"
                 elif not isinstance(exc, SnnFgError):
                     raise
-                print(f"snn-fg: error: {exc}", file=sys.stderr)
+                print(f"snn-fg: error: {exc if isinstance(exc, str) else exc.for_command_line()}", file=sys.stderr)
                 return EXIT_INPUT
-        except KeyboardInterrupt:
-            term = "SIGTERM" in signals.received
-            note = getattr(args, "interrupt_note", "the output was left as it was before the run")
-            print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); {note}", file=sys.stderr)
-            code = 143 if term else 130
-            if exit_on_interrupt:
-                sys.stdout.flush()
-                sys.stderr.flush()
-                os._exit(code)
-            return code
+    except KeyboardInterrupt:
+        term = "SIGTERM" in received
+        note = getattr(args, "interrupt_note", "the output was left as it was before the run")
+        print(f"snn-fg: interrupted ({'SIGTERM' if term else 'Ctrl-C'}); {note}", file=sys.stderr)
+        code = 143 if term else 130
+        if exit_on_interrupt:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(code)
+        return code
 
 
 def console():

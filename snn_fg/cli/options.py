@@ -16,13 +16,26 @@ from tqdm import tqdm
 from ..errors import InputError
 from ..events import MAX_SENSOR_SIDE
 from ..results.outputs import check_writable
+from .commands import COMMANDS
 
 
-def subcommand(sub, name: str, *, help: str, description: str) -> argparse.ArgumentParser:
-    """The parser of subcommand ``name`` on an ``argparse`` subparsers object: its long
-    options must be typed whole (an abbreviation is refused, so that a later option
-    cannot change what an abbreviation means)."""
-    return sub.add_parser(name, allow_abbrev=False, help=help, description=description)
+def subcommand(sub, name: str, *, description: str) -> argparse.ArgumentParser:
+    """The parser of subcommand ``name`` on an ``argparse`` subparsers object, with its
+    line of :data:`~.commands.COMMANDS`: its long options must be typed whole (an
+    abbreviation is refused, so that a later option cannot change what an abbreviation means)."""
+    return sub.add_parser(name, allow_abbrev=False, help=COMMANDS[name].help, description=description)
+
+
+def size_text(n_bytes: int) -> str:
+    """A size as a line of output gives it: ``7.0 MB``, or ``12 kB`` under a tenth of a megabyte."""
+    return f"{n_bytes / 1e6:.1f} MB" if n_bytes >= 100_000 else f"{max(1, round(n_bytes / 1e3))} kB"
+
+
+def written_size(path) -> str:
+    """:func:`size_text` of a file written, or of every file in a folder written."""
+    path = Path(path)
+    files = [path] if path.is_file() else [p for p in path.rglob("*") if p.is_file()]
+    return size_text(sum(p.stat().st_size for p in files))
 
 
 def number(kind, lo, strict=True):

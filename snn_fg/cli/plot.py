@@ -23,7 +23,7 @@ from ..results.overview import (
     write_run_tables,
 )
 from ..results.store import STORE_NAME
-from ..results.timeline import TABLE_NAME, TIMELINE_NAME
+from ..results.timeline import TABLE_NAME, TIMELINE_NAME, window_numbers
 from .options import check_output_file, crop, number, subcommand
 
 #: the animation's name in the run's folder when --animate names no file
@@ -35,7 +35,6 @@ def add_plot_command(sub):
     p = subcommand(
         sub,
         "plot",
-        help="draw a recording's run: chosen windows, an animation, its overview",
         description="Figures of a recording's run (RUN: the output folder of snn-fg run on a recording), "
         "from its stored maps: --windows draws chosen windows, one figure each; --animate the maps "
         "over the recording (GIF or MP4); without either, the overview snn-fg run writes (maps.png, "
@@ -45,8 +44,8 @@ def add_plot_command(sub):
     p.add_argument(
         "--windows",
         metavar="I,J,...",
-        help="windows to draw, one figure each: indices and ranges (3,5,10-14) or all; into --out "
-        "(default RUN/windows/) as window_0003.png, ...",
+        help="windows to draw, one figure each: their numbers (windows.csv's) and ranges (3,5,10-14) or all; "
+        "into --out (default RUN/windows/) as window_0003.png, ...",
     )
     p.add_argument("--out", metavar="DIR", help="folder of the --windows figures (default: RUN/windows)")
     p.add_argument(
@@ -64,20 +63,27 @@ def add_plot_command(sub):
     return p
 
 
-def window_list(text: str, n: int) -> list[int]:
-    """The windows ``3,5,10-14`` (or ``all``) names among ``n``; one line naming what is wrong otherwise."""
+def window_list(text: str, numbers) -> list[int]:
+    """The places of the windows ``3,5,10-14`` (or ``all``) names among the run's window ``numbers``
+    (:func:`~snn_fg.results.timeline.window_numbers`; a range takes the run's windows in it); one line
+    naming what is wrong otherwise."""
+    numbers = [int(k) for k in numbers]
     if text.strip().lower() == "all":
-        return list(range(n))
-    chosen = []
+        return list(range(len(numbers)))
+    place, chosen = {k: i for i, k in enumerate(numbers)}, []
     for part in text.split(","):
         lo, _, hi = part.strip().partition("-")
         try:
             a, b = int(lo), int(hi or lo)
         except ValueError:
             raise InputError(f"--windows {text}", "expected indices and ranges such as 3,5,10-14, or all") from None
-        if not 0 <= a <= b < n:
-            raise InputError(f"--windows {text}", f"the run has {n} windows, 0 to {n - 1}")
-        chosen += range(a, b + 1)
+        held = [place[k] for k in range(a, b + 1) if k in place] if a <= b else []
+        if not held:
+            kept = f"{len(numbers)} windows, 0 to {numbers[-1]}"
+            if numbers != list(range(len(numbers))):
+                kept = f"{len(numbers)} windows (windows.csv lists their numbers, {numbers[0]} to {numbers[-1]})"
+            raise InputError(f"--windows {text}", f"the run has {kept}")
+        chosen += held
     return sorted(set(chosen))
 
 
@@ -98,16 +104,17 @@ def _recording_maps(run: Path) -> tuple[Path, Maps]:
 def cmd_plot(args) -> int:
     """Handler of ``snn-fg plot``; prints what it wrote, returns 0."""
     folder, maps = _recording_maps(Path(args.run))
-    label = MODELS[maps.params["model"]].grouping_label if maps.params.get("model") in MODELS else "grouping"
-    n = maps.fg_x.shape[0]
+    model = MODELS.get(maps.params.get("model"))
+    label = "grouping" if model is None else model.grouping_label
     if args.out is not None and args.windows is None:
         raise InputError(f"--out {args.out}", "names the folder of the --windows figures: give --windows")
     written = []
     if args.windows is not None:
-        chosen = window_list(args.windows, n)
+        numbers = window_numbers(maps)
+        chosen = window_list(args.windows, numbers)
         out = Path(args.out) if args.out is not None else folder / "windows"
         for i in chosen:
-            check_output_file(out / WINDOW_FIGURE.format(i), args.force)
+            check_output_file(out / WINDOW_FIGURE.format(numbers[i]), args.force)
         written += save_window_figures(maps, chosen, out, grouping_label=label, crop=args.crop)
     if args.animate is not None:
         movie = Path(args.animate) if args.animate else folder / ANIMATION_NAME
@@ -118,7 +125,7 @@ def cmd_plot(args) -> int:
     if args.windows is None and args.animate is None:
         for name in ("maps.png", TIMELINE_NAME, TABLE_NAME):
             check_output_file(folder / name, args.force)
-        write_run_tables(folder, maps, figures=True)
+        write_run_tables(folder, maps, figures=True, coverage=model is None or not model.vector_at_every_event)
         options = {**overview_options(maps, folder), "grouping_label": label, "crop": args.crop}
         save_maps_figure(folder / "maps.png", input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
         written += [folder / "maps.png", folder / TIMELINE_NAME, folder / TABLE_NAME]

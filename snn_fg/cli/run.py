@@ -20,12 +20,12 @@ from ..frames.pyramid import check_levels
 from ..frames.still import input_kind, load_frame
 from ..models import MODELS
 from ..results.atomic import OutputFolder, growing_folder, settle_folder
-from ..results.store import STORE_NAME, finished_run, store_arrays, windows_complete
+from ..results.store import STORE_NAME, store_arrays, stored_run, windows_complete
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
 from .options import crop, number, sensor_size, subcommand
 from .run_options import WINDOW_OPTIONS, add_option_groups, chosen_model
-from .runner import recording_windows, run_recording, run_still
+from .runner import goes_on, recording_windows, run_recording, run_still
 
 
 def add_run_command(sub):
@@ -33,7 +33,6 @@ def add_run_command(sub):
     p = subcommand(
         sub,
         "run",
-        help="run a figure-ground model on an input and write its maps",
         description="Run a model on INPUT: an .npz event frame (pos, neg), an image (png/jpg/...), "
         "an event recording (.es .raw .dat .aedat4 .bin data.log .npy .npz) or 'demo' "
         "(a built-in synthetic scene). Writes DIR/maps.npz (fg_x, fg_y, grouping, "
@@ -185,15 +184,14 @@ def _run_recording(args, model) -> str | None:
     windows, source, shape = _windows(args, model)
     _check_frame(args, model, shape)
     out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
-    if _finished_already(args, out):
+    if _nothing_to_resume(args, out, source.get("max_windows")):
         return None
     args.interrupt_note = (
         f"the windows completed so far are in {args.out}/; the same command with --resume continues from the last one"
     )
     options = {"crop": args.crop, "figures": not args.no_figures, "resume": bool(args.resume)}
-    n = _settled(
-        args, out, previous, lambda: run_recording(model, windows, out, source, **options, run_key=run_key(args))
-    )
+    key = {"run_key": run_key(args), "may_differ": WINDOW_LIMITS}
+    n = _settled(args, out, previous, lambda: run_recording(model, windows, out, source, **options, **key))
     if model.needs == "image":
         kept = store_arrays(out / STORE_NAME, n)
         print("snn-fg: " + pairing_note(kept["t_end_us"], kept["aps_index"], kept.get("aps_t_us")))
@@ -232,6 +230,10 @@ def _settled(args, out, previous, run) -> int:
 
 
 # -- resume: a run continued must be the run it continues ---------------------------------------------------------
+#: run options that say how many windows a run goes to: a run continued may go further than the run it
+#: continues (a spiking run's windows do not depend on how many follow them: its last one is read out
+#: with the events after it, models.spiking.continuous.read_past_the_cut)
+WINDOW_LIMITS = ("max_windows", "end_ms")
 #: run options that do not change a recording's maps (a run may be continued with others)
 _NOT_IN_RUN_KEY = (
     "out",
@@ -254,12 +256,24 @@ def run_key(args) -> dict:
     return {k: v for k, v in sorted(vars(args).items()) if k not in _NOT_IN_RUN_KEY}
 
 
-def _finished_already(args, out) -> bool:
-    """With ``--resume``, whether the run in ``out`` is complete (said in one line: nothing is written)."""
-    finished = finished_run(out / STORE_NAME, run_key(args)) if args.resume else None
-    if finished is not None:
+def _nothing_to_resume(args, out, asked: int | None) -> bool:
+    """With ``--resume``, whether the run in ``out`` has nothing to add for the ``asked``
+    windows (None: to the recording's end), said in one line (nothing is written): it is
+    complete and does not go on (:func:`~.runner.goes_on`), or it holds more windows than asked
+    (it is left as it is). A finished run cut by its window limit goes on to a larger one."""
+    attrs = stored_run(out / STORE_NAME, run_key(args), WINDOW_LIMITS) if args.resume else None
+    if attrs is None:
+        return False
+    n, complete = int(attrs["snn_fg"]["windows_complete"]), attrs["snn_fg"]["complete"]
+    if asked is not None and asked < n:
+        limit = "--end-ms" if args.max_windows is None else "--max-windows"
         print(
-            f"snn-fg: the run in {args.out}/ is finished already ({finished} windows): nothing to resume, "
-            "nothing written"
+            f"snn-fg: the run in {args.out}/ holds {n} windows, more than the {asked} of {limit}: nothing to resume, "
+            f"nothing written (its first {asked} windows are those a {asked}-window run gives; a shorter run of its "
+            "own needs another --out)"
         )
-    return finished is not None
+        return True
+    if complete and not goes_on(attrs, asked):
+        print(f"snn-fg: the run in {args.out}/ is finished already ({n} windows): nothing to resume, nothing written")
+        return True
+    return False

@@ -104,6 +104,7 @@ def run_recording(
     figures: bool = True,
     resume: bool = False,
     run_key: dict | None = None,
+    may_differ=(),
 ) -> int:
     """Every window of a recording through ``model`` into ``out/maps.zarr``
     (:mod:`snn_fg.results.store`: each window written as it completes) and, at the
@@ -113,8 +114,9 @@ def run_recording(
 
     ``resume``: continue the store in ``out`` from its last complete window
     (it must have been made with the same ``run_key``: by default the
-    ``source`` and the model's name and parameters); a complete store is
-    left as it is.
+    ``source`` and the model's name and parameters; the keys ``may_differ``
+    aside); a complete store is left as it is, unless its run ended at its
+    window limit and ``source`` asks for more (:func:`goes_on`).
 
     The windows' times (``t_start_us``, ``t_end_us``, figure titles) count
     from the recording's first event; ``params["source"]["first_event_us"]``
@@ -124,9 +126,11 @@ def run_recording(
     listed (``saturated_windows``)."""
     path = out / STORE_NAME
     run_key = {"source": source, "model": model.name, **model.params.to_dict()} if run_key is None else run_key
-    store = MapsStore.reopen(path, run_key) if resume and path.is_dir() else MapsStore.create(path, run_key)
+    store = MapsStore.reopen(path, run_key, may_differ) if resume and path.is_dir() else MapsStore.create(path, run_key)
     if store.complete:
-        return store.n
+        if not goes_on(store.attrs, source.get("max_windows")):
+            return store.n
+        store.go_on()
     n_empty = n_blank = 0
     blank_spans_ms: list = []  # how long the events of each window without a vector last
 
@@ -175,21 +179,35 @@ def run_recording(
         final["whole_run"] = whole
     store.finish(final)
     maps = Maps(*read_maps(path, lazy=True))
-    write_run_tables(out, maps, figures=figures)
+    write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)
     if figures:
         model.write_figures(out, maps, input_images(maps), crop=crop, **overview_options(maps, out))
     return store.n
 
 
+def goes_on(attrs: dict, asked: int | None) -> bool:
+    """Whether the finished run whose store has the attributes ``attrs`` goes on to the
+    ``asked`` windows (None: to the recording's end): it ended at its own window limit
+    (``--max-windows``, ``--end-ms``), not at the recording's end, and fewer windows
+    than asked."""
+    n = int(attrs["snn_fg"]["windows_complete"])
+    limit = attrs["params"].get("source", {}).get("max_windows")
+    return limit is not None and n >= limit and (asked is None or asked > n)
+
+
 def _append_window(store: MapsStore, w, maps: Maps) -> None:
-    """One window's maps into the store, with its event frame (+1 ON, -1 OFF),
+    """One window's maps into the store, with its number in the recording or stream (``window``:
+    a live run that dropped windows keeps the others under their own), event frame (+1 ON, -1 OFF),
     times (from the recording's first event), event count and pixel share."""
     origin = store.attrs["snn_fg"].get("first_event_us")
     if origin is None:
         origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
         store.attrs["snn_fg"]["first_event_us"] = int(origin)
+    # (a store continued that was written without the numbers goes on without: its windows are numbered by place)
+    numbered = store.n == 0 or "window" in store.arrays
     store.append(
         maps,
+        **({"window": np.int64(w.index)} if numbered else {}),
         event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8),
         t_start_us=np.int64(w.t_start_us - origin),
         t_end_us=np.int64(w.t_end_us - origin),

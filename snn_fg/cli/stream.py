@@ -20,7 +20,6 @@ def add_stream_command(sub):
     p = subcommand(
         sub,
         "stream",
-        help="replay a recording as a live event stream (for snn-fg live)",
         description="Replay the recording REC to udp://HOST:PORT (SpiNNaker interface board packets, with "
         "timestamps) or dv://HOST:PORT (a DV network stream served there; pip install -e '.[live]'), in "
         "real time or --speed X faster. Times start at 0 with the recording's first event. The "

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from snn_fg import validate
-from snn_fg.errors import InputError, InputWarning
+from snn_fg.errors import InputError, InputWarning, Remedy
 
 #: Structured dtype of every event array this package returns (tonic-style
 #: field names; ``t`` in microseconds; ``p`` is 1 for ON, 0 for OFF).
@@ -18,6 +18,8 @@ EVENT_DTYPE = np.dtype([("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "i1")])
 _COORD_MAX = np.iinfo(np.int16).max
 #: the largest sensor side, in pixels, that event coordinates can address
 MAX_SENSOR_SIDE = _COORD_MAX + 1
+#: how a user gives a recording's sensor size where the file does not say it
+SENSOR_SIZE = Remedy("sensor_size=(W, H)", "--sensor-size WxH")
 
 
 @dataclass(frozen=True)
@@ -155,7 +157,7 @@ def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
     (mx, _), (my, _) = far["x"], far["y"]
     if mx < 0 or my < 0:
         raise InputError(
-            source, "cannot infer the sensor size (no events, or negative coordinates); pass sensor_size=(W, H)"
+            source, "cannot infer the sensor size (no events, or negative coordinates)", remedy=SENSOR_SIZE
         )
     keep = n - int(FAR_SHARE * n)
     bulk = {axis: int(np.searchsorted(np.cumsum(counts[axis]), keep)) + 1 for axis in "xy"}

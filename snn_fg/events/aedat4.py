@@ -14,7 +14,7 @@ import aedat
 import numpy as np
 
 from snn_fg.errors import InputError, SnnFgError
-from snn_fg.events._core import file_sensor_size, pack_events
+from snn_fg.events._core import SENSOR_SIZE, file_sensor_size, pack_events
 from snn_fg.events.source import Source
 
 MAGIC = b"#!AER-DAT4.0\r\n"
@@ -101,7 +101,7 @@ def open_aedat4(path, sensor_size, chunk_events) -> Source:
     target = min(ids)
     geom = (streams[target].get("width"), streams[target].get("height"))
     if sensor_size is None and None in geom:
-        raise InputError(path, "AEDAT4 event stream has no width/height; pass sensor_size=(W, H)")
+        raise InputError(path, "AEDAT4 event stream whose description gives no width/height", remedy=SENSOR_SIZE)
     size = file_sensor_size(path, sensor_size, geom)
 
     def chunks(n, tally):

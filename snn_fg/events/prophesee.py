@@ -14,7 +14,7 @@ import re
 import numpy as np
 
 from snn_fg.errors import InputError
-from snn_fg.events._core import file_sensor_size, pack_events
+from snn_fg.events._core import SENSOR_SIZE, file_sensor_size, pack_events
 from snn_fg.events.source import READ_BYTES, Source
 
 ENCODINGS = ("evt2", "evt3")
@@ -32,9 +32,9 @@ def open_raw(path, sensor_size, chunk_events, *, encoding: str | None = None) ->
     if sensor_size is None and geom is None:
         raise InputError(
             path,
-            f"{enc.upper()} file has no geometry in its header; pass the sensor size "
-            "explicitly (sensor_size=(W, H), CLI --sensor-size WxH; a Prophesee Gen3 "
-            "VGA sensor is 640x480)",
+            f"{enc.upper()} file whose header gives no sensor size (no geometry, width or height line)",
+            remedy=SENSOR_SIZE,
+            note=" (a Prophesee Gen3 VGA sensor is 640 x 480)",
         )
     size = file_sensor_size(path, sensor_size, geom)
     if enc == "evt3":
@@ -61,7 +61,9 @@ def open_dat(path, sensor_size, chunk_events) -> Source:
         )
     geom = header_geometry(info)
     if sensor_size is None and geom is None:
-        raise InputError(path, "DAT file has no Width/Height in its header; pass sensor_size=(W, H)")
+        raise InputError(
+            path, "DAT file whose header gives no sensor size (no '% Width'/'% Height' line)", remedy=SENSOR_SIZE
+        )
     size = file_sensor_size(path, sensor_size, geom)
 
     def chunks(n, tally):

@@ -48,6 +48,8 @@ class Model(ABC):
     grouping_label: ClassVar[str] = "grouping"
     #: why a recording's window with events can give no figure-ground vector, said with the warning that some did
     blank_window_hint: ClassVar[str] = ""
+    #: whether every event pixel gets a vector by construction (``windows.csv``'s ``fg_coverage``, 1, is left empty)
+    vector_at_every_event: ClassVar[bool] = False
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None):
         self.params = params
@@ -130,6 +132,7 @@ class RateModel(Model):
     name = "rate"
     options = ("carry_state",)
     grouping_label = "grouping activity (rate-model units)"
+    vector_at_every_event = True  # (stage 9 reads B2 - B1 out at every event pixel: never exactly 0)
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, carry_state: bool = False):
         super().__init__(params, progress)
@@ -162,16 +165,9 @@ class RateModel(Model):
             t = time.perf_counter()
             previous = run_edfg_state(w.pos, w.neg, self.params, progress=self.progress, previous=previous)
             if w.index >= start:
-                yield (
-                    w,
-                    self.named(
-                        previous.maps(
-                            carry_state=True,
-                            continued_from_previous_window=continued,
-                            timings_s={"run": time.perf_counter() - t},
-                        )
-                    ),
-                )
+                timings = {"run": time.perf_counter() - t}
+                maps = previous.maps(carry_state=True, continued_from_previous_window=continued, timings_s=timings)
+                yield w, self.named(maps)
 
 
 class FbfgModel(Model):

@@ -18,7 +18,7 @@ from .activity import SATURATED_SHARE
 from .atomic import save_figure
 from .figures import APS_INPUT, EVENTS_INPUT, event_frame_rgb, maps_figure, rows_shown
 from .outputs import WINDOW_FIGURE
-from .timeline import TABLE_NAME, TIMELINE_NAME, save_table, timeline_figure, window_rows
+from .timeline import TABLE_NAME, TIMELINE_NAME, save_table, timeline_figure, window_numbers, window_rows
 
 #: windows the overview ``maps.png`` of a recording draws at most (evenly spaced)
 OVERVIEW_ROWS = 6
@@ -61,10 +61,10 @@ def saturated(maps) -> np.ndarray:
 
 
 def window_titles(maps) -> list[str]:
-    """``window 3: 255-340 ms`` for every window (times from the recording's first event), a
-    saturated window marked so."""
-    spans = zip(maps.extra["t_start_us"], maps.extra["t_end_us"], saturated(maps), strict=True)
-    return [f"window {i}: {_ms(a)}-{_ms(b)} ms" + (", saturated" if s else "") for i, (a, b, s) in enumerate(spans)]
+    """``window 3: 255-340 ms`` for every window (its number, :func:`~.timeline.window_numbers`; times
+    from the recording's first event), a saturated window marked so."""
+    spans = zip(window_numbers(maps), maps.extra["t_start_us"], maps.extra["t_end_us"], saturated(maps), strict=True)
+    return [f"window {k}: {_ms(a)}-{_ms(b)} ms" + (", saturated" if s else "") for k, a, b, s in spans]
 
 
 def grouping_top(maps) -> float:
@@ -88,11 +88,11 @@ def overview_options(maps, folder) -> dict:
     }
 
 
-def write_run_tables(folder, maps, *, figures: bool) -> list[dict]:
+def write_run_tables(folder, maps, *, figures: bool, coverage: bool = True) -> list[dict]:
     """``windows.csv`` and (``figures``) ``timeline.png`` of a recording's run into ``folder``;
-    the table's rows."""
+    the table's rows (``coverage``: see :func:`~.timeline.window_rows`)."""
     folder = Path(folder)
-    rows = window_rows(maps)
+    rows = window_rows(maps, coverage=coverage)
     source = maps.params.get("source", {})
     name = Path(str(source.get("input", folder.name))).name
     title = f"{name}: the {maps.params.get('model', '?')} model, window by window"
@@ -122,14 +122,15 @@ def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, cro
 
 
 def save_window_figures(maps, windows, folder, *, grouping_label: str, crop=None) -> list[Path]:
-    """:func:`window_figure` of each of ``windows`` into ``folder``
-    (:data:`~snn_fg.results.outputs.WINDOW_FIGURE`)."""
+    """:func:`window_figure` of each of ``windows`` (places in ``maps``) into ``folder``, named
+    by its number (:data:`~snn_fg.results.outputs.WINDOW_FIGURE`, :func:`~.timeline.window_numbers`)."""
     top = grouping_top(maps)
     folder = Path(folder)
+    numbers = window_numbers(maps)
     return [
         save_figure(
             window_figure(maps, i, grouping_label=grouping_label, grouping_max=top, crop=crop),
-            folder / WINDOW_FIGURE.format(i),
+            folder / WINDOW_FIGURE.format(numbers[i]),
             dpi=110,
         )
         for i in windows

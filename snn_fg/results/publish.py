@@ -90,7 +90,7 @@ class LiveRecord:
         arrived = self.stream.arrival(w)
         origin = self.stream.origin - self.stream.start
         message = {
-            "window": len(self.rows),
+            "window": int(w.index),  # (its number in the stream, as in maps.zarr and windows.csv)
             "t_start_us": int(w.t_start_us - origin),
             "t_end_us": int(w.t_end_us - origin),
             "events": int(len(w.events)),

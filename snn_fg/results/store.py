@@ -79,12 +79,13 @@ def read_attrs(path) -> dict:
     return attrs
 
 
-def _same_run(path, run_key: dict) -> dict:
-    """The attributes of the store at ``path``; refused when it was made with another ``run_key``."""
+def _same_run(path, run_key: dict, may_differ=()) -> dict:
+    """The attributes of the store at ``path``; refused when it was made with another ``run_key``
+    (the keys ``may_differ`` left out: how many windows a run goes to, say)."""
     attrs = read_attrs(path)
     # (an option not given is left out on both sides: a run made before an option was added continues)
-    stored = {k: v for k, v in (attrs["snn_fg"].get("run_key") or {}).items() if v is not None}
-    given = {k: v for k, v in json.loads(json.dumps(run_key)).items() if v is not None}
+    stored = {k: v for k, v in (attrs["snn_fg"].get("run_key") or {}).items() if v is not None and k not in may_differ}
+    given = {k: v for k, v in json.loads(json.dumps(run_key)).items() if v is not None and k not in may_differ}
     if given != stored:
         differ = sorted(k for k in set(stored) | set(given) if stored.get(k) != given.get(k))
         raise InputError(
@@ -94,14 +95,11 @@ def _same_run(path, run_key: dict) -> dict:
     return attrs
 
 
-def finished_run(path, run_key: dict) -> int | None:
-    """The windows of the finished run in the store at ``path``, made with
-    ``run_key`` (None: no store there, or its run has not ended; refused
-    when made with another ``run_key``); reads only its attributes."""
-    if not Path(path).is_dir():
-        return None
-    attrs = _same_run(path, run_key)["snn_fg"]
-    return int(attrs["windows_complete"]) if attrs.get("complete") else None
+def stored_run(path, run_key: dict, may_differ=()) -> dict | None:
+    """The attributes of the store at ``path``, made with ``run_key`` (``may_differ``: see
+    :meth:`MapsStore.reopen`; None: no store there; refused when made with another
+    ``run_key``); reads only its attributes."""
+    return _same_run(path, run_key, may_differ) if Path(path).is_dir() else None
 
 
 def windows_complete(folder) -> int:
@@ -164,12 +162,19 @@ class MapsStore:
         return cls(path, read_attrs(path))
 
     @classmethod
-    def reopen(cls, path, run_key: dict) -> MapsStore:
-        """The store at ``path`` to continue; refused when it was made with another ``run_key``."""
-        attrs = _same_run(path, run_key)
+    def reopen(cls, path, run_key: dict, may_differ=()) -> MapsStore:
+        """The store at ``path`` to continue; refused when it was made with another ``run_key``
+        (but for the keys ``may_differ``, which it takes from ``run_key`` from then on)."""
+        attrs = _same_run(path, run_key, may_differ)
+        attrs["snn_fg"]["run_key"] = json.loads(json.dumps(run_key))
         for stray in Path(path).rglob("*.part"):  # (atomic writes cut short by a kill)
             stray.unlink()
         return cls(path, attrs)
+
+    def go_on(self) -> None:
+        """A finished run continued past its end (a longer run of the same recording): its
+        store is not complete until :meth:`finish` again."""
+        self._status(complete=False)
 
     @property
     def complete(self) -> bool:

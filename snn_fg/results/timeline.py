@@ -4,8 +4,10 @@
 Per window: its span (ms after the recording's first event), its events and the share of the
 sensor's pixels they cover (a share above
 :data:`~snn_fg.results.activity.SATURATED_SHARE` is a sensor-wide burst, not a scene), the pixels
-with a figure-ground vector and their share of the pixels with an event (the coverage), and the
-grouping map's peak and where it lies (the strongest proto-object centre).
+with a figure-ground vector and their share of the pixels with an event (``fg_coverage``: how much
+of the input the model decided on; empty for a model that gives every event pixel a vector by
+construction, the rate models, whose share is 1 in every window), and the grouping map's peak and
+where it lies (the strongest proto-object centre).
 
 Example
 -------
@@ -50,10 +52,21 @@ COLUMNS = (
 )
 
 
-def window_rows(maps) -> list[dict]:
+def window_numbers(maps) -> np.ndarray:
+    """Each stored window's number in its recording or stream: window ``k`` begins ``k`` strides
+    after the first window's start. A live run that dropped windows keeps the others under their
+    own numbers (``extra["window"]``, written with each window); a store written without them
+    holds every window from 0, numbered by its place."""
+    n = maps.fg_x.shape[0]
+    return np.asarray(maps.extra["window"], np.int64) if "window" in maps.extra else np.arange(n, dtype=np.int64)
+
+
+def window_rows(maps, *, coverage: bool = True) -> list[dict]:
     """One row of :data:`COLUMNS` per window of a recording's :class:`~snn_fg.results.maps.Maps`
-    (read window by window: a store's lazy arrays stay on disk)."""
+    (read window by window: a store's lazy arrays stay on disk); ``coverage=False``: ``fg_coverage``
+    left empty (a model whose share is 1 by construction)."""
     ex = maps.extra
+    numbers = window_numbers(maps)
     rows = []
     for i in range(maps.fg_x.shape[0]):
         has = (np.asarray(maps.fg_x[i]) != 0) | (np.asarray(maps.fg_y[i]) != 0)
@@ -64,14 +77,16 @@ def window_rows(maps) -> list[dict]:
         share = float(ex["pixel_share"][i])
         rows.append(
             {
-                "window": i,
+                "window": int(numbers[i]),
                 "t_start_ms": float(ex["t_start_us"][i]) / 1000,
                 "t_end_ms": float(ex["t_end_us"][i]) / 1000,
                 "events": int(ex["event_count"][i]),
                 "pixel_share": round(share, 6),
                 "saturated": share > SATURATED_SHARE,
                 "fg_pixels": int(has.sum()),
-                "fg_coverage": round(float((has & events).sum() / events.sum()), 4) if events.any() else None,
+                "fg_coverage": round(float((has & events).sum() / events.sum()), 4)
+                if coverage and events.any()
+                else None,
                 "grouping_peak": float(f"{peak:.5g}"),
                 "peak_x": None if px is None else int(px),
                 "peak_y": None if py is None else int(py),
@@ -111,12 +126,13 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
     scene_bars(ax_f, mid, width, [r["fg_pixels"] for r in rows], burst, color="C2")
     ax_f.set_ylabel("pixels with a\nfigure-ground vector", fontsize=8)
     cover = np.array([np.nan if r["fg_coverage"] is None else 100 * r["fg_coverage"] for r in rows])
-    twin = ax_f.twinx()
-    twin.plot(mid, cover, "k.-", ms=3, lw=0.8)
-    twin.set_ylim(0, 125)  # (the line below the note a clipped axis carries)
-    twin.set_yticks([0, 25, 50, 75, 100])
-    twin.set_ylabel("of the event\npixels (%, line)", fontsize=8)
-    twin.tick_params(labelsize=7)
+    if not np.isnan(cover).all():  # (a model with a vector at every event pixel has none)
+        twin = ax_f.twinx()
+        twin.plot(mid, cover, "k.-", ms=3, lw=0.8)
+        twin.set_ylim(0, 125)  # (the line below the note a clipped axis carries)
+        twin.set_yticks([0, 25, 50, 75, 100])
+        twin.set_ylabel("of the event\npixels (%, line)", fontsize=8)
+        twin.tick_params(labelsize=7)
     scene_bars(ax_g, mid, width, [r["grouping_peak"] for r in rows], burst, color="C4")
     ax_g.set_ylabel("grouping peak", fontsize=8)
     drawn = "; numbers on top: the windows maps.png draws" if len(shown) else ""

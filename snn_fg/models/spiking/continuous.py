@@ -20,7 +20,10 @@ a segment of steps at a time as they are read, and nothing the run needs
 is taken from events not read yet. The input gains are calibrated before
 the run (the compact network to its input adapter's ceiling, a network
 without one to the rate of window 0), and every window is read out over a
-whole window's span, a recording's last one too (``docs/live.md``).
+whole window's span, a recording's last one too (``docs/live.md``). A
+recording cut by ``max_windows`` is read on through its last window's
+read-out lag (:func:`read_past_the_cut`): that window's maps are those of a
+longer run.
 """
 
 from __future__ import annotations
@@ -62,6 +65,9 @@ def run_spiking_windows(windows, *, source: str = "<recording>", **keywords) -> 
         all from one sensor, in time order, read once (a list, any iterable,
         or :class:`~snn_fg.events.RecordingWindows`, whose events the network
         takes as they are read: memory does not grow with the recording).
+        A list ends with its last window: that window's read-out lag runs
+        without input; :class:`~snn_fg.events.RecordingWindows` cut by
+        ``max_windows`` reads on through it (:func:`read_past_the_cut`).
     params, spiking, network, backend, backend_options, dt_ms, calibrate, feedback, instantiate, record_spikes
         As for :func:`~snn_fg.models.spiking.run_spiking`.
     readout_lag_ms : float
@@ -200,6 +206,7 @@ def _simulate(
     sim, backend = opts.simulator, opts.simulator.backend_object()
     threaded = usable_cores() > 1
     cut = windows.cut() if hasattr(windows, "cut") else None
+    read_out = None if cut is None else read_past_the_cut(cut[1], opts.recording.readout_lag_ms)
     segment_ms = getattr(windows, "segment_ms", segment_ms)  # (a live stream: handed over in shorter segments)
     if cut is None:
         stream = window_arrivals(windows)
@@ -207,7 +214,7 @@ def _simulate(
         stream = arrivals(*cut)
     feed = StreamFeed(
         read_ahead(stream) if threaded else stream,
-        lambda f: lay_out(f, opts, None if cut is None else cut[1]),
+        lambda f: lay_out(f, opts, None if cut is None else cut[1], read_out),
         name=source,
         drain=keep_run or cut is None or not backend.streams_input,
         keep=keep_run,
@@ -265,13 +272,29 @@ def _simulate(
     return run
 
 
-def lay_out(feed: StreamFeed, opts: SpikingOptions, cut) -> StreamLayout:
+def read_past_the_cut(cut, lag_ms: float) -> int | None:
+    """For a stream ``cut`` (a :class:`~snn_fg.events.window.WindowCutter`) by ``max_windows``:
+    that number, the windows read out, after letting ``cut`` cut the windows that a longer
+    run begins before the last one's read-out ends (``lag_ms`` past its end). So the network
+    is fed the events a longer run feeds it until then, and its window clock fires and its
+    held inputs reset as there: the last window's maps are those of a longer run, not of a
+    read-out lag spent without input. None without ``max_windows``."""
+    n = cut.max_windows
+    if n is None:
+        return None
+    reach = cut.win + round(lag_ms * 1000)  # (window n - 1's read-out ends this long after it starts)
+    cut.max_windows = n + max(0, -(-reach // cut.stride) - 1)
+    return n
+
+
+def lay_out(feed: StreamFeed, opts: SpikingOptions, cut, read_out: int | None = None) -> StreamLayout:
     """The run over ``feed``'s stream, laid out before it starts (:class:`StreamLayout`):
     the network for the sensor's frame, calibrated for a stream
     (:func:`~.stream_input.stream_rate_hz`), and every window's read-out span,
     for the windows known (a stream read whole, or a list of windows) or
     for those the stream can hold within :data:`~.stream_input.HORIZON_MS`
-    (``cut``: the stream's :class:`~snn_fg.events.window.WindowCutter`; None for a list)."""
+    (``cut``: the stream's :class:`~snn_fg.events.window.WindowCutter`; None for a list);
+    ``read_out``: only the first so many windows are read out (:func:`read_past_the_cut`)."""
     first = feed.held.get(0)
     shape = first.pos.shape if cut is None else (int(cut.size[1]), int(cut.size[0]))
     net, origin = opts.network.resolve(shape)
@@ -293,13 +316,14 @@ def lay_out(feed: StreamFeed, opts: SpikingOptions, cut) -> StreamLayout:
         length, starts = cut.win, cut.stride * np.arange(n, dtype=np.int64)
     steps = window_steps(starts, starts + length, 0, dt_ms)
     counted = length if opts.recording.readout_ms is None else min(length, opts.recording.readout_ms * 1000.0)
+    read = starts[:read_out]  # (the windows read out; those after them only feed the run, read_past_the_cut)
     return StreamLayout(
         network=net,
         origin=origin,
         shape=shape,
         dt_ms=dt_ms,
         rate_hz=net.input_rate_hz,
-        spans=read_out_spans(starts + length - counted, starts + length, 0, lag, dt_ms),
+        spans=read_out_spans(read + length - counted, read + length, 0, lag, dt_ms),
         steps=steps,
         clock=bool(opts.recording.window_clock and net.by_role("clock")),
         seed=opts.recording.seed,

@@ -77,6 +77,9 @@ def live_case(rec: Path, options, cores: int, speed: float, transport: str, out:
     cmd += ["--out", str(out), "--sensor-size", "320x240", "--no-figures", "--no-progress"]
     cmd += ["--publish", f"udp://127.0.0.1:{pub}", *options]
     replay = [*SNN_FG, "stream", str(rec), "--to", url, "--speed", str(speed)]
+    rest = sorted(os.sched_getaffinity(0))[cores:]
+    if rest:  # (the sender kept off the live run's cores: a DV server beside the model took half its core)
+        replay = ["taskset", "-c", ",".join(str(c) for c in rest), *replay]
     sender = subprocess.Popen(replay, stdout=subprocess.PIPE, text=True) if transport == "dv" else None
     live = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     for line in live.stdout:

@@ -481,6 +481,16 @@ def test_a_live_run_that_dropped_windows_numbers_the_others_as_the_stream_does(t
     with open(out / "windows.csv") as fh:
         assert [int(r["window"]) for r in csv.DictReader(fh)] == kept
     assert [t.split(":")[0] for t in window_titles(maps)] == [f"window {k}" for k in kept]
+    # the overview's note on the windows it draws, and the timeline's marks, name them by number too
+    from snn_fg.results.figures import maps_figure
+    from snn_fg.results.overview import input_images, overview_options
+    from snn_fg.results.timeline import timeline_figure, window_rows
+
+    options = {**overview_options(maps, out), "max_rows": 3}
+    fig = maps_figure(input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
+    assert fig._suptitle.get_text().startswith("3 of 4 windows shown, evenly spaced: 0, 4, 5")
+    marks = timeline_figure(window_rows(maps), 40.0, shown=[0, 2, 3]).axes[0].texts
+    assert [t.get_text() for t in marks] == ["0", "4", "5"]
     assert main(["plot", str(out), "--windows", "4-5"]) == 0
     assert sorted(p.name for p in (out / "windows").iterdir()) == ["window_0004.png", "window_0005.png"]
     assert main(["plot", str(out), "--windows", "2"]) == 2  # (dropped: not in the run)

@@ -168,13 +168,15 @@ def maps_figure(
     grouping_max: float | None = None,
     hint: str = "",
     input_note: str = EVENTS_INPUT,
+    labels=None,
 ) -> Figure:
     """One row per frame (input, figure-ground, grouping), under a key that explains each column
     once (the colour wheel, the grouping's colour bar).
 
     ``inputs`` is a list of images (grey or RGB), one per frame; arrays of ndim 2 are one frame.
     ``rows`` chooses the frames drawn; by default at most ``max_rows``, evenly spaced, and the
-    figure's title says which (``hint`` follows, say how to draw others). Every row's grouping map
+    figure's title says which (``hint`` follows, say how to draw others; ``labels``: each frame's
+    name there, its number in a recording, default its place). Every row's grouping map
     has one colour scale, 0 to ``grouping_max`` (default: the largest value drawn). ``crop``
     ``(x0, y0, x1, y1)`` (pixels, x1 and y1 exclusive) draws only that part of every panel, at
     its own coordinates. ``placed`` ``(x0, y0, scale)``: the maps are a part of a sensor, their
@@ -197,7 +199,7 @@ def maps_figure(
         px, py, k = placed
         extent = (px - 0.5, px + k * (x1 - x0) - 0.5, py + k * (y1 - y0) - 0.5, py - 0.5)
     idx = rows_shown(n, max_rows) if rows is None else np.asarray(rows, int)
-    note = shown_note(idx, n) if rows is None else ""  # (chosen rows are named in their titles)
+    note = shown_note(idx, n, labels=labels) if rows is None else ""  # (chosen rows are named in their titles)
     note = f"{note}; {hint}" if note and hint else note
     fields = [(fg_x[i][cut], fg_y[i][cut], grouping[i][cut]) for i in idx]
     top = grouping_max if grouping_max is not None else max(float(np.max(f[2], initial=0.0)) for f in fields)

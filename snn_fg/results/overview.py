@@ -85,6 +85,7 @@ def overview_options(maps, folder) -> dict:
         "grouping_max": grouping_top(maps),
         "hint": f"snn-fg plot {folder} --windows I,J,... draws any",
         "input_note": input_note(maps),
+        "labels": window_numbers(maps).tolist(),
     }
 
 

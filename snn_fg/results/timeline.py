@@ -140,6 +140,13 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
     for ax in (ax_f, ax_g):
         ax.tick_params(labelsize=7)
     for i in shown:
-        ax_n.annotate(str(i), (mid[i], 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=7)
+        ax_n.annotate(
+            str(rows[i].get("window", i)),
+            (mid[i], 1.0),
+            xycoords=("data", "axes fraction"),
+            ha="center",
+            va="bottom",
+            fontsize=7,
+        )
     fig.suptitle(title or "The run window by window", fontsize=10)
     return fig

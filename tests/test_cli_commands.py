@@ -28,7 +28,7 @@ FLAGS = {
     "export": {"--format", "--out", "--force", "--network", "--sensor-size", "--target", "--weight-bits"},
     "decode": {"--export", "--out", "--input", "--force"},
     "data": set(),
-    "stream": {"--to", "--speed", "--loop", "--sensor-size"},
+    "stream": {"--to", "--speed", "--loop", "--start-ms", "--sensor-size"},
     "live": {"--out", "--force", "--model", "--network", "--sensor-size", "--hop-ms", "--publish", "--max-behind"},
 }
 

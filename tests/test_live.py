@@ -18,7 +18,7 @@ from snn_fg.cli.main import main
 from snn_fg.errors import InputWarning
 from snn_fg.events import EVENT_DTYPE, save_events, spif
 from snn_fg.events.live import LiveStream
-from snn_fg.events.replay import UdpSender, looped, paced
+from snn_fg.events.replay import UdpSender, from_ms, looped, paced
 from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.results.maps import Maps
 from snn_fg.results.peaks import grouping_peaks
@@ -165,6 +165,9 @@ def test_a_replay_is_paced_by_the_stream_clock_and_loops_after_itself():
     t0 = time.perf_counter()
     parts = list(paced([loops], speed=1.0))
     assert 0.004 <= time.perf_counter() - t0 < 0.5 and sum(len(p) for p in parts) == 6
+    # --start-ms: each loop from that far after the recording's first event (a start-up burst left out)
+    late = np.concatenate(list(looped(lambda: from_ms([ev[:2], ev[2:]], 1.0), 2)))
+    assert late["t"].tolist() == [0, 1000, 2000, 3000]
 
 
 def _free_port(kind=socket.SOCK_DGRAM) -> int:

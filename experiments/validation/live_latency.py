@@ -174,17 +174,6 @@ def run_case(rec: Path, options, hop, cores: int, out: Path) -> dict:
     return {"wall_s": wall, "cpu_s": cpu, "windows": windows, "median_window_s": median, "load_at_start": load_at_start}
 
 
-def _from_ms(chunks, ms: float):
-    """The chunks' events from ``ms`` after the first on (a recording's start-up burst left out)."""
-    t0 = None
-    for chunk in chunks:
-        if len(chunk):
-            t0 = int(chunk["t"][0]) if t0 is None else t0
-            chunk = chunk[chunk["t"] >= t0 + int(ms * 1000)]
-        if len(chunk):
-            yield chunk
-
-
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--loops", type=int, default=6)
@@ -197,7 +186,7 @@ def main(argv=None) -> None:
     )
     args = ap.parse_args(argv)
     from snn_fg.events import iter_recording, save_events
-    from snn_fg.events.replay import looped
+    from snn_fg.events.replay import from_ms, looped
 
     run = Run()
     src = dataset("events", "dvs.es")
@@ -205,7 +194,7 @@ def main(argv=None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         rec = tmp / "dvs_looped.npz"
-        events = np.concatenate(list(looped(lambda: _from_ms(iter_recording(src), args.start_ms), args.loops)))
+        events = np.concatenate(list(looped(lambda: from_ms(iter_recording(src), args.start_ms), args.loops)))
         save_events(rec, events, (320, 240, 2))
         for case in args.cases.split(","):
             options, cores, speed, transport = CASES[case]

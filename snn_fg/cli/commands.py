@@ -22,7 +22,7 @@ class Command(NamedTuple):
 #: every subcommand, in the order ``snn-fg --help`` lists them
 COMMANDS = {
     "run": Command("snn_fg.cli.run", "run a figure-ground model on an input and write its maps"),
-    "compare": Command("snn_fg.cli.compare", "compare two maps.npz files (e.g. spiking vs rate)"),
+    "compare": Command("snn_fg.cli.compare", "compare two runs' maps (e.g. spiking vs rate)"),
     "plot": Command("snn_fg.cli.plot", "draw a recording's run: chosen windows, an animation, its overview"),
     "events": Command(
         "snn_fg.cli.events", "summarise an event recording or simulate one from an image; write event frames"

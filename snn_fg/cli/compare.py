@@ -52,8 +52,8 @@ def add_compare_command(sub):
         "unless --json or --plot is given. A PyNN export's maps (snn-fg decode) against a run on "
         "the whole recording: the run is cut to the export's crop and input window.",
     )
-    p.add_argument("a", metavar="A.npz")
-    p.add_argument("b", metavar="B.npz")
+    p.add_argument("a", metavar="A", help="a run's maps: its folder, maps.npz or maps.zarr")
+    p.add_argument("b", metavar="B", help="the maps to compare A with (the reference), as A")
     p.add_argument(
         "--window",
         type=number(int, 0, strict=False),

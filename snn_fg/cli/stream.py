@@ -11,8 +11,9 @@ import time
 
 import numpy as np
 
-from ..events import iter_recording
-from ..events.replay import looped, open_sender, paced
+from ..errors import InputError
+from ..events import EVENT_DTYPE, iter_recording
+from ..events.replay import from_ms, looped, open_sender, paced
 from .options import number, sensor_size, subcommand
 
 
@@ -29,6 +30,13 @@ def add_stream_command(sub):
     p.add_argument("--to", required=True, metavar="URL", help="udp://HOST:PORT or dv://HOST:PORT")
     p.add_argument("--speed", type=number(float, 0), default=1.0, metavar="X", help="times real time (1)")
     p.add_argument("--loop", type=number(int, 1), default=1, metavar="N", help="play the recording N times (1)")
+    p.add_argument(
+        "--start-ms",
+        type=number(float, 0),
+        default=0.0,
+        metavar="MS",
+        help="each time from MS after the recording's first event (past a start-up burst, which --loop would repeat)",
+    )
     p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="as snn-fg run (RAW files, arrays)")
     p.add_argument("--no-timestamps", action="store_true", help="udp://: events without times (stamped on arrival)")
     p.set_defaults(handler=cmd_stream)
@@ -37,9 +45,12 @@ def add_stream_command(sub):
 
 def cmd_stream(args) -> int:
     size = iter_recording(args.recording, sensor_size=args.sensor_size).sensor_size
-    events = np.concatenate(
-        list(looped(lambda: iter_recording(args.recording, sensor_size=args.sensor_size), args.loop))
+    parts = looped(
+        lambda: from_ms(iter_recording(args.recording, sensor_size=args.sensor_size), args.start_ms), args.loop
     )
+    events = np.concatenate(list(parts) or [np.zeros(0, EVENT_DTYPE)])
+    if not len(events):
+        raise InputError(args.recording, f"no event from --start-ms {args.start_ms:g} on")
     sender = open_sender(args.to, size, timestamps=not args.no_timestamps)
     sender.load(events)
     args.interrupt_note = "the replay stopped"

@@ -43,6 +43,17 @@ def looped(chunks, n: int):
         offset = last + 1000
 
 
+def from_ms(chunks, ms: float):
+    """The events of ``chunks`` from ``ms`` after the first on (a recording's start-up burst left out)."""
+    t0 = None
+    for chunk in chunks:
+        if len(chunk):
+            t0 = int(chunk["t"][0]) if t0 is None else t0
+            chunk = chunk[chunk["t"] >= t0 + int(round(ms * 1000))]
+        if len(chunk):
+            yield chunk
+
+
 def paced(chunks, speed: float, tick_s: float = TICK_S):
     """The events of ``chunks`` (times in us from 0) in pieces, each yielded once the
     wall clock has reached its last event's time (divided by ``speed``): what

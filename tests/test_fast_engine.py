@@ -353,3 +353,57 @@ def test_the_cells_left_out_by_the_edge_masks_never_fire(timed):
     assert total > 10_000
     kept = sum(masked.sites[n].size for n in gated) / sum(full.sites[n].size for n in gated)
     assert kept < 0.5
+
+
+@pytest.mark.skipif(__import__("numba").config.NUMBA_NUM_THREADS < 2, reason="numba allows one thread here")
+@pytest.mark.parametrize("dealt", ["measured", "rotated"])
+def test_two_threads_give_the_spike_trains_of_one(dealt, monkeypatch):
+    """A step shared by two threads (each population owned whole by one of
+    them or banded, the table dealt again as the run goes, the cells that
+    change hands moved between the threads' lists: :mod:`.share`) gives one
+    thread's spike trains and final potentials, bit for bit. ``measured``:
+    the tables the run's measured work deals (some populations whole to each
+    thread); ``rotated``: every deal moves every population to the other
+    thread, one of them banded. (A cell listed active by the wrong thread
+    would be updated by one thread while another hands it input.)"""
+    import numba
+
+    from snn_fg.backends.fast import share
+
+    tables = []
+    if dealt == "rotated":
+
+        def rotated(work, threads):
+            owner = (np.arange(work.shape[0]) + len(tables)) % threads
+            owner[len(tables) % work.shape[0]] = share.BANDED
+            return owner
+
+        monkeypatch.setattr(share, "deal", rotated)
+        monkeypatch.setattr(share, "BETTER", np.inf)  # (every deal taken)
+    chunk_done = share.Sharing.chunk_done
+
+    def recorded(self, run):  # (and each thread's active cells are those it owns)
+        chunk_done(self, run)
+        tables.append(self.owner.copy())
+        for t in range(self.threads):
+            held = run.act[t, : run.scalars[t]]
+            owners = share.cell_owners(held, self.owner, run.cells, run.flat_of, run.tab.pops, self.threads)
+            assert (owners == t).all()
+
+    monkeypatch.setattr(share.Sharing, "chunk_done", recorded)
+    pos, neg = image_to_frame(disc(16).image)
+    inp = frame_spikes(pos, neg, 200.0, 0.5, 120.0, seed=3)
+    net = build_network(ModelParams(levels=2), pos.shape).calibrated(inp.rate_hz)
+    settings = RunSettings(duration_ms=120.0, dt_ms=net.dt_ms, record_state=("v",))
+    one = get_backend("fast", threads=1, chunk_ms=2.0).simulate(net, inp, settings)
+    tables.clear()
+    two = get_backend("fast", threads=2, chunk_ms=2.0).simulate(net, inp, settings)
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    dealt_whole = [t for t in tables if (t == 0).any() and (t == 1).any()]
+    assert len({t.tobytes() for t in dealt_whole}) >= (4 if dealt == "rotated" else 1)
+    assert dealt == "measured" or any((t == share.BANDED).any() for t in dealt_whole)
+    assert sum(int(c.sum()) for c in one.counts.values()) > 10_000
+    for name in one.populations:
+        for got, want in zip(_trains(two, name), _trains(one, name), strict=True):
+            np.testing.assert_array_equal(got, want, err_msg=name)
+        np.testing.assert_array_equal(two.state[name]["v"], one.state[name]["v"], err_msg=name)

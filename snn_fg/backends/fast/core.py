@@ -46,10 +46,11 @@ import numpy as np
 from numba import njit, prange
 
 from . import compiled, counting, deliver, lif, lists
-from .deliver import C_N, C_OFF, N_ACTIVE_STEPS, N_EVENTS, conv_spikes, flush_rows, resize_spikes
+from .deliver import C_N, C_OFF, N_ACTIVE_STEPS, N_EVENTS, N_FLUSHED, conv_spikes, flush_rows, resize_spikes
 from .lif import ACTIVE, SPIKE_STEP, U, advanced, borrowed, prefetch, safe
 from .lists import gather_spikes, merge
 from .neurons import DE, DI, DM, GAP, PE, PEAK, PI, SOURCE_TYPE, TIGHT, V_RESET, V_REST, V_TH
+from .share import W_ACTIVE, W_EVENTS, W_FLUSHED, W_SPIKES
 from .tables import CONV, J_COL, J_DELAY, J_KIND, J_SRC, J_TGT, P_TYPE
 
 #: the arrays :func:`run_steps` changes that all threads share: cell state,
@@ -63,10 +64,12 @@ RunArrays = namedtuple("RunArrays", "state scalars log step_start in_ptr in_ids 
 #: counters, events per projection, the summed input of the group it is
 #: at (threads move through the groups at their own pace), which cells
 #: received it (``bits``; whether each row did, ``listed``;
-#: the rows, ``dirty``, ``n_dirty``) and hand-over batches (``found``, ``found_g``)
+#: the rows, ``dirty``, ``n_dirty``), hand-over batches (``found``, ``found_g``),
+#: the work it did per population (``work``, columns :data:`.share.W_EVENTS` ...)
+#: and the table of who owns each population (``owner``, shared, :mod:`.share`)
 ThreadArrays = namedtuple(
     "ThreadArrays",
-    "act new tmp radix fresh counters prj_events acc bits listed dirty n_dirty found found_g",
+    "act new tmp radix fresh counters prj_events acc bits listed dirty n_dirty found found_g work owner",
 )
 #: how one run numbers its cells (module docstring): the neuron type of each
 #: cell, the per-population table ``cells`` (columns ``C_*``) and the maps
@@ -86,22 +89,27 @@ AHEAD = 24
 
 
 @njit(cache=True)
-def _step_active(n, act, n_act, state, pops, cells, nrn, ref, log, log_n):
+def _step_active(n, act, n_act, state, pops, cells, nrn, ref, log, log_n, work):
     """Brian2's ``groups`` and ``thresholds`` slots for the active cells
     (sorted by number, hence walked population by population), parking
-    those that cannot fire. Returns ``(active cells, log length)``."""
+    those that cannot fire, counted per population in ``work``. Returns
+    ``(active cells, log length)``."""
     kept = 0
     q = 0
     end = cells[0, C_OFF] + cells[0, C_N]
     t = pops[0, P_TYPE]
+    since = 0
     for a in range(n_act):
         if a + AHEAD < n_act:
             prefetch(state, U(act[U(a + AHEAD)]))
         g = act[U(a)]
-        while g >= end:
-            q += 1
-            end = cells[q, C_OFF] + cells[q, C_N]
-            t = pops[q, P_TYPE]
+        if g >= end:
+            work[q, W_ACTIVE] += a - since
+            since = a
+            while g >= end:
+                q += 1
+                end = cells[q, C_OFF] + cells[q, C_N]
+                t = pops[q, P_TYPE]
         r = state[U(g)]
         spike = r.spike & SPIKE_STEP
         ready = spike == 0 or n - (spike - 1) >= ref[t]
@@ -121,6 +129,7 @@ def _step_active(n, act, n_act, state, pops, cells, nrn, ref, log, log_n):
             r.spike = (n + 1) | ACTIVE
         act[U(kept)] = g
         kept += 1
+    work[q, W_ACTIVE] += n_act - since
     return kept, log_n
 
 
@@ -135,7 +144,7 @@ def _active_part(t, n, run, th, numbering, tables, first):
     n_act = run.scalars[t]
     th.counters[t, N_ACTIVE_STEPS] += n_act
     kept, end = _step_active(
-        n, th.act[t], n_act, run.state, tables.pops, numbering.cells, nrn, tables.ref_steps, run.log, first
+        n, th.act[t], n_act, run.state, tables.pops, numbering.cells, nrn, tables.ref_steps, run.log, first, th.work[t]
     )
     for x in range(first, end):
         g = run.log[x]
@@ -146,19 +155,25 @@ def _active_part(t, n, run, th, numbering, tables, first):
 
 @njit(cache=True)
 def _deliver_part(t, n_parts, n, run, th, numbering, tables):
-    """Thread ``t``'s share of step ``n``'s ``synapses`` slot (its rows of
-    every target), group by group of projections sharing a target
-    population and current: their input summed per target cell, then added
-    to each cell once; the cells that may now fire join its active list."""
+    """Thread ``t``'s share of step ``n``'s ``synapses`` slot (the
+    populations it owns and its rows of the banded ones, :mod:`.share`),
+    group by group of projections sharing a target population and current:
+    their input summed per target cell, then added to each cell once; the
+    cells that may now fire join its active list."""
     log, step_start, cells, prj = run.log, run.step_start, numbering.cells, tables.prj
     grp_ptr, grp_prj, counters = tables.grp_ptr, tables.grp_prj, th.counters[t]
     stencil = (tables.cls_ptr, tables.row_co, tables.row_qr, tables.row_qc, tables.row_ncol, tables.row_w0)
     stencil = stencil + (tables.row_nz, tables.st_w)
     factors = (tables.csr_ptr, tables.csr_idx, tables.csr_val)
     marks = (th.listed[t], th.dirty[t], th.n_dirty[t : t + 1], th.bits[t], th.found[t], th.found_g[t])
-    acc = th.acc[t]
+    acc, work = th.acc[t], th.work[t]
     n_new = 0
     for grp in range(grp_ptr.size - 1):
+        qt = prj[grp_prj[grp_ptr[grp]], J_TGT]
+        holder = th.owner[qt]
+        if holder >= 0 and holder != t:  # (another thread's population)
+            continue
+        parts = n_parts if holder < 0 else 1  # (with one part, conv_spikes and resize_spikes take every row)
         for y in range(grp_ptr[grp], grp_ptr[grp + 1]):
             p = grp_prj[y]
             m = n - prj[p, J_DELAY]
@@ -171,24 +186,28 @@ def _deliver_part(t, n_parts, n, run, th, numbering, tables):
             ]
             if spikes.size == 0:
                 continue
+            work[qt, W_SPIKES] += spikes.size if parts == 1 or t == 0 else 0  # (counted once)
             if prj[p, J_KIND] == CONV:
                 ev = conv_spikes(
                     p, spikes, tables.pops, cells, numbering.flat_of, numbering.pres, prj, stencil, acc, marks, t,
-                    n_parts,
+                    parts,
                 )  # fmt: skip
             else:
                 ev = resize_spikes(
                     p, spikes, tables.pops, cells, numbering.flat_of, numbering.pres, prj, tables.prj_w, factors, acc,
-                    marks, t, n_parts,
+                    marks, t, parts,
                 )  # fmt: skip
             th.prj_events[t, p] += ev
+            work[qt, W_EVENTS] += ev
             counters[N_EVENTS] += ev
         if th.n_dirty[t]:
             p = grp_prj[grp_ptr[grp]]
+            flushed = counters[N_FLUSHED]
             n_new = flush_rows(
-                prj[p, J_TGT], prj[p, J_COL], n, tables.pops, cells, numbering.pres, numbering.rank, acc, marks,
+                qt, prj[p, J_COL], n, tables.pops, cells, numbering.pres, numbering.rank, acc, marks,
                 run.state, th.new[t], n_new, th.fresh[t], tables.nrn, tables.adv_k, counters,
             )  # fmt: skip
+            work[qt, W_FLUSHED] += counters[N_FLUSHED] - flushed
     run.scalars[t] = merge(th.act[t], run.scalars[t], th.new[t], n_new, th.tmp[t], th.radix[t], run.state.size)
 
 
@@ -264,7 +283,8 @@ def _borrow(run, th, numbering, tables):
         ),
         ThreadArrays(
             b(th.act), b(th.new), b(th.tmp), b(th.radix), b(th.fresh), b(th.counters), b(th.prj_events), b(th.acc),
-            b(th.bits), b(th.listed), b(th.dirty), b(th.n_dirty), b(th.found), b(th.found_g),
+            b(th.bits), b(th.listed), b(th.dirty), b(th.n_dirty), b(th.found), b(th.found_g), b(th.work),
+            b(th.owner),
         ),
         CellNumbering(
             b(numbering.ctype), b(numbering.cells), b(numbering.flat_of), b(numbering.pres), b(numbering.rank)

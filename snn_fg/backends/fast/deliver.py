@@ -20,9 +20,10 @@ depend on how the deliveries are laid out.
 The loops are written out, not split into helpers: a helper that takes an
 array costs two atomic reference-count operations per call.
 
-``owner`` and ``n_parts`` split the target rows between threads: a thread
-handles the rows ``r`` with ``(r >> BAND) % n_parts == owner`` (every row
-when ``n_parts`` is 1), and every thread sees every spike in the same order.
+``owner`` and ``n_parts`` split a banded population's rows between threads
+(:mod:`.share`): a thread handles the rows ``r`` with ``(r >> BAND) % n_parts
+== owner`` (every row when ``n_parts`` is 1: a population it owns whole), and
+every thread sees every spike in the same order.
 """
 
 from __future__ import annotations
@@ -48,8 +49,8 @@ from .tables import (
     P_TYPE,
 )
 
-#: counters returned by run_steps
-N_EVENTS, N_ADVANCES, N_ACTIVE_STEPS, N_FRESH = range(4)
+#: counters returned by run_steps (``N_FLUSHED``: cells handed input)
+N_EVENTS, N_ADVANCES, N_ACTIVE_STEPS, N_FRESH, N_FLUSHED = range(5)
 #: columns of the per-run cell table ``cells``: first number and count of a
 #: population's cells, where its presence bits and their ranks start (in
 #: words), whether all its cells exist (1) and (when not) where its map from
@@ -339,6 +340,7 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
                         found_g[U(n_found)] = off + rank[U(pbase + wd)] + ones(pres[U(pbase + wd)] & low_bits(bit))
                     n_found += 1
             listed[U(rr)] = 0
+        counters[N_FLUSHED] += n_found
         for x in range(n_found):
             if x + AHEAD < n_found:
                 prefetch(state, U(found_g[U(x + AHEAD)]))

@@ -10,6 +10,7 @@ from .. import cancel
 from ..base import RunSettings, lif_populations, source_offsets
 from . import tables as ft
 from .results import BinStream  # noqa: F401 - (named in an annotation)
+from .share import Sharing
 
 #: cells handed their input in one batch (deliver.flush_rows)
 FOUND = 4096
@@ -99,7 +100,7 @@ class Run:
     number)."""
 
     def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: Pool, threads: int = 1):
-        from .deliver import N_FRESH
+        from .deliver import N_FLUSHED
         from .lif import STATE
 
         self.tab, self.n_steps, self.pool, self.threads = tab, n_steps, pool, threads
@@ -123,12 +124,14 @@ class Run:
         words = max([p.channels * p.grid[0] * ((p.grid[1] + 63) // 64) for p in lif] + [1])
         self.bits = np.zeros((threads, words + 1), np.uint64)  # (a spare word: deliver.mark_taps)
         self.listed = np.zeros((threads, rows), np.uint8)
-        cap = int(max(owned_cells(lif, chosen, threads))) + 1  # (a spare slot: flush_rows appends without a branch)
+        self.sharing = Sharing(tab.network.populations, chosen, threads)
+        self.owner, self.work = self.sharing.owner, self.sharing.work
+        cap = int(self.sharing.owned_cells().max()) + 1  # (a spare slot: flush_rows appends without a branch)
         self.act, self.new, self.tmp, self.fresh = (
             pool.zeros(name, threads * cap, np.int32).reshape(threads, cap) for name in ("act", "new", "tmp", "fresh")
         )
         self.radix = np.zeros((threads, 2048), dtype=np.int64)
-        self.counters = np.zeros((threads, N_FRESH + 1), dtype=np.int64)
+        self.counters = np.zeros((threads, N_FLUSHED + 1), dtype=np.int64)
         self.prj_events = np.zeros((threads, len(tab.network.projections)), dtype=np.int64)
         self.dirty = np.zeros((threads, rows), np.int64)
         self.n_dirty = np.zeros(threads, np.int64)
@@ -171,7 +174,6 @@ class Run:
 
         tables = KernelTables(*(getattr(self.tab, name) for name in KernelTables._fields))
         numbering = CellNumbering(*(getattr(self, name) for name in CellNumbering._fields))
-        threads = ThreadArrays(*(getattr(self, name) for name in ThreadArrays._fields))
         with _progress(settings) as bar:
             n = 0
             self.feed.reached(0)
@@ -183,7 +185,9 @@ class Run:
                 if stream is not None:
                     end = min(end, stream.next_stop(n))
                 run = RunArrays(*(getattr(self, name) for name in RunArrays._fields))  # (the log may have grown)
+                threads = ThreadArrays(*(getattr(self, name) for name in ThreadArrays._fields))  # (and the lists)
                 reached = run_steps(n, end, run, threads, numbering, tables)
+                self.sharing.chunk_done(self)
                 if reached < end:  # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])
                 bar(reached - n)
@@ -269,19 +273,6 @@ class Run:
         out = np.zeros((self.state.size, 3))
         final_state(self.state, self.ctype, self.tab.nrn, self.tab.adv, self.n_steps, out)
         return out
-
-
-def owned_cells(populations, chosen: dict, threads: int) -> np.ndarray:
-    """How many of the chosen cells each thread owns: a thread updates the
-    cells of its rows (those of each channel, in bands of ``2**BAND``; see
-    :mod:`.deliver`)."""
-    from .deliver import BAND
-
-    out = np.zeros(threads, np.int64)
-    for p in populations:
-        rows = chosen[p.name] // p.grid[1]  # (channel * rows + row)
-        out += np.bincount((rows >> BAND) % threads, minlength=threads)
-    return out
 
 
 def presence_words(p, sites: np.ndarray) -> np.ndarray:

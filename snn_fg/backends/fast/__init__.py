@@ -38,11 +38,17 @@ neither:
 * **Compiled with numba**, a maintained JIT compiler for numerical Python:
   the inner loops are plain loops over integers, which numpy cannot
   vectorise (every event depends on the state the previous one left).
-* **Two threads** on a large network: the rows of every target population
-  are dealt out between them in bands, each thread updating its own cells
-  and adding every spike's stencil to its own rows, so each cell's input is
-  summed in the same order and the spikes do not depend on the number of
-  threads (:mod:`.core`).
+* **Two threads** on a network large enough to share
+  (:data:`~.backend.PARALLEL_FROM` cells): each target population is owned
+  by one thread, which alone adds its projections' spikes to it and updates
+  its cells, so the other thread skips those projections whole (neither
+  their spikes nor their stencil rows walked); a population too costly for
+  one thread's share can be *banded* instead, its rows dealt out in bands
+  and every thread walking its spikes. The table is dealt from the work the
+  run measures per population (synaptic events, spikes walked, cells handed
+  input, active cell-steps) and dealt again as it grows (:mod:`.share`). A
+  cell's input is summed by one thread in the order of the spikes, so the
+  spikes depend neither on the number of threads nor on the table.
 
 The engine honours the instantiation hints like Brian2 (``instantiate=
 "input"`` marks the cells the hints leave out as absent) so that both
@@ -54,8 +60,8 @@ The package: :mod:`.backend` (:class:`FastBackend`, the backend interface),
 the engine's arrays), :mod:`.run` (one simulation's state), the compiled
 loops (:mod:`.core`, the step; :mod:`.deliver`, the delivery; :mod:`.lif`,
 one cell; :mod:`.lists`, the sorted cell lists; :mod:`.counting`, spike
-counts; :mod:`.compiled`, numba's cache), :mod:`.results` (spike trains and
-counts handed back).
+counts; :mod:`.compiled`, numba's cache), :mod:`.share` (who owns which
+population), :mod:`.results` (spike trains and counts handed back).
 
 Example
 -------

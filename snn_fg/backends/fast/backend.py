@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 
 from ...lowering.unroll import choose_sites
@@ -17,12 +18,19 @@ from .run import Pool, Run
 COMPILE_S = 10
 #: simulated time per call of the compiled loop (progress, Ctrl-C in between)
 CHUNK_MS = 25.0
-#: threads a run uses at most (the rows of each target are dealt out between them)
+#: threads a run uses at most (the target populations are dealt out between them, :mod:`.share`)
 MAX_THREADS = 2
 #: a run on fewer cells than this uses one thread unless told otherwise: the
 #: threads meet at every time step, and a small network's step is too short to
 #: share (the compact network on dvs.es, 0.54 M cells, ran slower on two)
-PARALLEL_FROM = 1_000_000
+PARALLEL_FROM = 500_000
+#: how OpenMP's threads (numba's threading layer here) wait for each other, unless the
+#: user says otherwise: asleep, not spinning. The threads meet at every time step, and on
+#: a machine shared with other work a spinning thread holds the core its partner needs: the
+#: compact network on dvs.es on two threads took 6.7-7.3 s spinning against 1.1-1.8 s asleep
+#: (1.5-2.4 s on one thread; 29 Nov, 1-minute load 3.0-3.6). Read when OpenMP starts, so set
+#: on import, before numba starts its threads
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
 class FastBackend(Backend):

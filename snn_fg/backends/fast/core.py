@@ -221,10 +221,11 @@ def run_steps(n0, n1, run, th, numbering, tables):
 
     With more than one row in ``th``, each step runs its two parts on that
     many threads: every thread's active cells (their spikes are then merged
-    into the log, ascending, with the step's input spikes) and every
-    thread's rows of each target. Each thread sees every spike in the same
-    order, so a cell's input is summed in the same order whatever the
-    number of threads."""
+    into the log, ascending, with the step's input spikes) and the target
+    populations it owns, or its rows of a banded one (``th.owner``,
+    :mod:`.share`). One thread adds a cell's input, in the order of the
+    spikes, so it is summed in the same order whatever the number of
+    threads and the table."""
     run, th, numbering, tables = _borrow(run, th, numbering, tables)
     return _steps(n0, n1, run, th, numbering, tables)
 

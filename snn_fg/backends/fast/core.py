@@ -165,7 +165,7 @@ def _deliver_part(t, n_parts, n, run, th, numbering, tables):
     stencil = (tables.cls_ptr, tables.row_co, tables.row_qr, tables.row_qc, tables.row_ncol, tables.row_w0)
     stencil = stencil + (tables.row_nz, tables.st_w)
     factors = (tables.csr_ptr, tables.csr_idx, tables.csr_val)
-    marks = (th.listed[t], th.dirty[t], th.n_dirty[t : t + 1], th.bits[t], th.found[t], th.found_g[t])
+    marks = (th.listed[t], th.dirty[t], th.n_dirty[t, :1], th.bits[t], th.found[t], th.found_g[t])
     acc, work = th.acc[t], th.work[t]
     n_new = 0
     for grp in range(grp_ptr.size - 1):
@@ -200,7 +200,7 @@ def _deliver_part(t, n_parts, n, run, th, numbering, tables):
             th.prj_events[t, p] += ev
             work[qt, W_EVENTS] += ev
             counters[N_EVENTS] += ev
-        if th.n_dirty[t]:
+        if th.n_dirty[t, 0]:
             p = grp_prj[grp_ptr[grp]]
             flushed = counters[N_FLUSHED]
             n_new = flush_rows(

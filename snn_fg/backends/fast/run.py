@@ -16,6 +16,8 @@ from .share import Sharing
 FOUND = 4096
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16
+#: int64 values between two threads' counters (two 64-byte cache lines)
+APART = 16
 
 
 def _input_events(tab: ft.EngineTables, first_cell: dict, idx, steps, length: int, first_step: int = 0):
@@ -131,10 +133,11 @@ class Run:
             pool.zeros(name, threads * cap, np.int32).reshape(threads, cap) for name in ("act", "new", "tmp", "fresh")
         )
         self.radix = np.zeros((threads, 2048), dtype=np.int64)
-        self.counters = np.zeros((threads, N_FLUSHED + 1), dtype=np.int64)
+        # (each thread's counters in a cache line of their own: written by the thread as it delivers)
+        self.counters = np.zeros((threads, max(N_FLUSHED + 1, APART)), dtype=np.int64)
         self.prj_events = np.zeros((threads, len(tab.network.projections)), dtype=np.int64)
         self.dirty = np.zeros((threads, rows), np.int64)
-        self.n_dirty = np.zeros(threads, np.int64)
+        self.n_dirty = np.zeros((threads, APART), np.int64)  # (column 0; apart, as the counters)
         found = max([FOUND] + [p.grid[1] for p in lif])
         self.found, self.found_g = np.zeros((threads, found), np.int64), np.zeros((threads, found), np.int64)
 

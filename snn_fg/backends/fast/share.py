@@ -14,13 +14,14 @@ order of the spikes whatever the table, so the spikes do not depend on it.
 
 The table is dealt from the work the run has measured per population
 (``work``, columns ``W_*``: synaptic events into it, spikes its projections
-walked, cells handed input, active cell-steps), weighed by :data:`COST_NS`:
-whole populations to the least loaded thread, costliest first, banding the
-costliest ones as long as that shortens the busiest thread's share
-(:func:`deal`). A run starts with every population banded (which needs no
-measurement) and is dealt again as its measured work grows
-(:class:`.run.Run`), the cells that change hands moving between the threads'
-lists (:func:`cell_owners`).
+walked, cells handed input, active cell-steps), chunk by chunk of steps,
+weighed by :data:`COST_NS`: whole populations, costliest first, each to the
+thread that lengthens the run least (the threads meet at every step, so
+what counts is each chunk's busiest thread), after banding none, one or two
+of the costliest, whichever is shortest (:func:`deal`). A run starts with
+every population banded (which needs no measurement) and is dealt again as
+its measured work grows (:class:`Sharing`), the cells that change hands
+moving between the threads' lists (:func:`move_cells`).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ W_EVENTS, W_SPIKES, W_FLUSHED, W_ACTIVE = range(4)
 #: a population whose rows are dealt out in bands (and, while a table is dealt, one not dealt yet)
 BANDED, UNDEALT = -1, -2
 #: the most populations :func:`deal` bands (the costliest ones)
-MAX_BANDED = 6
+MAX_BANDED = 2
 #: estimated nanoseconds of one unit of each column of ``work`` where its
 #: owner does it, and ``SKIP_NS`` of a synaptic event for a thread that walks
 #: a banded population's stencil row only to skip it. Rough costs on this
@@ -42,45 +43,61 @@ MAX_BANDED = 6
 #: handed input: its state fetched and advanced): only their ratios matter
 COST_NS = np.array([3.0, 20.0, 10.0, 8.0])
 SKIP_NS = 1.0
-#: a new table is taken when its busiest thread's predicted share is shorter
-#: than the current table's by this factor at least
+#: a new table is taken when its predicted :func:`span` is shorter than the
+#: current table's by this factor at least
 BETTER = 0.95
 
 
 def loads(owner: np.ndarray, work: np.ndarray, threads: int) -> np.ndarray:
-    """Each thread's predicted cost (ns) of ``work`` under the table ``owner``
-    (populations not yet dealt, :data:`UNDEALT`, left out)."""
+    """Each thread's predicted cost (ns) of ``work`` (``(..., populations,
+    W_*)``: e.g. one row per chunk of steps) under the table ``owner``
+    (populations not yet dealt, :data:`UNDEALT`, left out), ``(..., threads)``."""
     whole = work @ COST_NS
-    out = np.zeros(threads)
-    np.add.at(out, owner[owner >= 0], whole[owner >= 0])
-    band = work[owner == BANDED]
+    out = np.stack([whole[..., owner == t].sum(axis=-1) for t in range(threads)], axis=-1)
+    band = work[..., owner == BANDED, :]
     # (every thread walks a banded population's spikes and stencil rows; the rest is shared out)
-    walked = band[:, W_SPIKES] * COST_NS[W_SPIKES] + band[:, W_EVENTS] * SKIP_NS
-    return out + walked.sum() + (band @ COST_NS - band[:, W_SPIKES] * COST_NS[W_SPIKES]).sum() / threads
+    walked = band[..., W_SPIKES] * COST_NS[W_SPIKES]
+    shared = (walked + band[..., W_EVENTS] * SKIP_NS).sum(axis=-1) + (band @ COST_NS - walked).sum(axis=-1) / threads
+    return out + shared[..., None]
+
+
+def span(owner: np.ndarray, work: np.ndarray, threads: int) -> float:
+    """The predicted time of ``work`` (one row per chunk of steps, as for
+    :func:`loads`) under the table ``owner``: the threads meet at every step,
+    so each chunk takes its busiest thread's time."""
+    return float(loads(owner, work, threads).max(axis=-1).sum())
 
 
 def deal(work: np.ndarray, threads: int) -> np.ndarray:
     """The table (one entry per population, :data:`BANDED` or a thread) that
-    shares ``work`` (per population, columns ``W_*``) between ``threads``
-    threads: each population whole to the least loaded thread, costliest
-    first (every one to thread 0 with one thread), after banding the ``k``
-    costliest, for the ``k`` that gives the shortest busiest share."""
-    n = work.shape[0]
+    shares ``work`` (one row per chunk of steps, populations, ``W_*``)
+    between ``threads`` threads: after banding the ``k`` costliest
+    populations, each of the others, costliest first, to the thread that
+    lengthens the :func:`span` least (a whole run's least loaded thread
+    would leave the threads' shares apart from chunk to chunk), for the ``k``
+    (up to :data:`MAX_BANDED`) with the shortest span. One thread: every
+    population to thread 0."""
+    n = work.shape[-2]
     if threads == 1:
         return np.zeros(n, np.int64)
-    cost = work @ COST_NS
-    order = np.argsort(-cost, kind="stable")
+    cost = work @ COST_NS  # (chunks, populations)
+    order = np.argsort(-cost.sum(axis=0), kind="stable")
     best, best_span = None, np.inf
     for k in range(min(n, MAX_BANDED) + 1):
         owner = np.full(n, UNDEALT, np.int64)
         owner[order[:k]] = BANDED
         held = loads(owner, work, threads)
         for q in order[k:]:
-            t = int(np.argmin(held))
+            spans = []
+            for t in range(threads):
+                held[:, t] += cost[:, q]
+                spans.append(held.max(axis=1).sum())
+                held[:, t] -= cost[:, q]
+            t = int(np.argmin(spans))
             owner[q] = t
-            held[t] += cost[q]
-        if held.max() < best_span:
-            best, best_span = owner, held.max()
+            held[:, t] += cost[:, q]
+        if held.max(axis=1).sum() < best_span:
+            best, best_span = owner, held.max(axis=1).sum()
     return best
 
 
@@ -115,15 +132,17 @@ def band_cells(populations, chosen: dict, threads: int) -> np.ndarray:
 class Sharing:
     """The table of a run on ``threads`` threads (:attr:`owner`, every
     population banded at first), the work the threads measure in it
-    (:attr:`work`, one ``(populations, W_*)`` block per thread), and the
-    deals as that work grows: after the 1st, 2nd, 4th, 8th ... call of the
-    compiled loop (:meth:`chunk_done`)."""
+    (:attr:`work`, one ``(populations, W_*)`` block per thread; and
+    :attr:`chunk_work`, summed over the threads, one block per call of the
+    compiled loop), and the deals as that work grows: after the 1st, 2nd,
+    4th, 8th ... call (:meth:`chunk_done`)."""
 
     def __init__(self, populations, chosen: dict, threads: int):
         n = len(populations)
         self.threads, self.chunks, self.next_deal, self.deals = threads, 0, 1, 0
         self.owner = np.full(n, BANDED if threads > 1 else 0, np.int64)
         self.work = np.zeros((threads, n, 4), np.int64)
+        self.chunk_work, self.counted = [], np.zeros((n, 4), np.int64)  # (the work of each chunk, and the sum)
         self.bands = band_cells(populations, chosen, threads)
 
     def owned_cells(self, owner: np.ndarray | None = None) -> np.ndarray:
@@ -136,15 +155,20 @@ class Sharing:
     def chunk_done(self, run) -> None:
         """A call of the compiled loop is done: on a deal's turn, deal the
         table again from the work measured so far and, when the busiest
-        thread's predicted share shrinks by :data:`BETTER` at least, take it
+        thread's predicted :func:`span` shrinks by :data:`BETTER` at least, take it
         and move the cells that change hands (:func:`move_cells`)."""
         self.chunks += 1
-        if self.threads == 1 or self.chunks < self.next_deal:
+        if self.threads == 1:
+            return
+        total = self.work.sum(axis=0)
+        self.chunk_work.append(total - self.counted)
+        self.counted = total
+        if self.chunks < self.next_deal:
             return
         self.next_deal *= 2
-        work = self.work.sum(axis=0)
+        work = np.array(self.chunk_work)
         owner = deal(work, self.threads)
-        if loads(owner, work, self.threads).max() < BETTER * loads(self.owner, work, self.threads).max():
+        if span(owner, work, self.threads) < BETTER * span(self.owner, work, self.threads):
             move_cells(run, owner, int(self.owned_cells(owner).max()) + 1)
             self.owner[:] = owner
             self.deals += 1

@@ -22,13 +22,17 @@ CHUNK_MS = 25.0
 MAX_THREADS = 2
 #: a run on fewer cells than this uses one thread unless told otherwise: the
 #: threads meet at every time step, and a small network's step is too short to
-#: share (the compact network on dvs.es, 0.54 M cells, ran slower on two)
-PARALLEL_FROM = 500_000
+#: share. With populations dealt whole (:mod:`.share`) the compact network on
+#: dvs.es (0.75 M cells) does no work twice on two threads, but measured on the
+#: 2-core machine shared with other jobs (29 Nov, 1-minute load 3.0-3.5) two
+#: cores gave 0.81-1.19x one core's engine time, and compact networks on disc
+#: frames of 0.37-1.9 M cells 0.60-0.64x: a gain below 1 M cells is not shown
+PARALLEL_FROM = 1_000_000
 #: how OpenMP's threads (numba's threading layer here) wait for each other, unless the
 #: user says otherwise: asleep, not spinning. The threads meet at every time step, and on
 #: a machine shared with other work a spinning thread holds the core its partner needs: the
-#: compact network on dvs.es on two threads took 6.7-7.3 s spinning against 1.1-1.8 s asleep
-#: (1.5-2.4 s on one thread; 29 Nov, 1-minute load 3.0-3.6). Read when OpenMP starts, so set
+#: compact network on dvs.es on two threads took 6.7-7.3 s spinning against 1.1-2.5 s asleep
+#: (1.6-2.4 s on one thread; 29 Nov, 1-minute load 3.0-3.6). Read when OpenMP starts, so set
 #: on import, before numba starts its threads
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 

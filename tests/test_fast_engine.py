@@ -373,9 +373,9 @@ def test_two_threads_give_the_spike_trains_of_one(dealt, monkeypatch):
     tables = []
     if dealt == "rotated":
 
-        def rotated(work, threads):
-            owner = (np.arange(work.shape[0]) + len(tables)) % threads
-            owner[len(tables) % work.shape[0]] = share.BANDED
+        def rotated(work, threads):  # (work: chunks, populations, W_*)
+            owner = (np.arange(work.shape[1]) + len(tables)) % threads
+            owner[len(tables) % work.shape[1]] = share.BANDED
             return owner
 
         monkeypatch.setattr(share, "deal", rotated)

@@ -154,9 +154,9 @@ class Sharing:
 
     def chunk_done(self, run) -> None:
         """A call of the compiled loop is done: on a deal's turn, deal the
-        table again from the work measured so far and, when the busiest
-        thread's predicted :func:`span` shrinks by :data:`BETTER` at least, take it
-        and move the cells that change hands (:func:`move_cells`)."""
+        table again from the work measured so far and, when its predicted
+        :func:`span` is the current table's times :data:`BETTER` or less,
+        take it and move the cells that change hands (:func:`move_cells`)."""
         self.chunks += 1
         if self.threads == 1:
             return

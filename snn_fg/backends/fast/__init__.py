@@ -48,7 +48,14 @@ neither:
   run measures per population (synaptic events, spikes walked, cells handed
   input, active cell-steps) and dealt again as it grows (:mod:`.share`). A
   cell's input is summed by one thread in the order of the spikes, so the
-  spikes depend neither on the number of threads nor on the table.
+  spikes depend neither on the number of threads nor on the table. Two
+  threads pinned to one core do one thread's work (the banded split of
+  every population, before 29 Nov, did part of it twice); on the default
+  network over 2 ``dvs.es`` windows two cores took 7.1 s against one
+  thread's 8.9 s and the banded split's 8.2 s (29 Nov, 1-minute load
+  1.6-1.7, the machine shared); the compact network's gain on two cores was
+  not shown on that machine, so it runs on one (``docs/performance.md``,
+  "Two threads").
 
 The engine honours the instantiation hints like Brian2 (``instantiate=
 "input"`` marks the cells the hints leave out as absent) so that both

@@ -23,7 +23,7 @@ def run_cli(*args):
         (["run", "demo", "--out", "o", "--side-cue", "nan"], "--side-cue: must be a finite number >= 0, got nan"),
         (["run", "demo", "--out", "o", "--leves", "3"], "unrecognized arguments: --leves 3"),
         (["run", "demo"], "required: --out"),
-        (["compare", "a.npz"], "required: B.npz"),
+        (["compare", "a.npz"], "required: B"),
         (["events"], "required: INPUT"),
         (["export", "--format", "report", "--levels", "x"], "--levels: expected an integer"),
         (["run", "demo", "--out", "o", "--sensor-size", "0x0"], "--sensor-size: width and height must be 1 to 32768"),

@@ -96,36 +96,43 @@ def deal(work: np.ndarray, threads: int) -> np.ndarray:
             t = int(np.argmin(spans))
             owner[q] = t
             held[:, t] += cost[:, q]
-        if held.max(axis=1).sum() < best_span:
-            best, best_span = owner, held.max(axis=1).sum()
+        total = held.max(axis=1).sum()
+        if total < best_span:
+            best, best_span = owner, total
     return best
+
+
+def band_thread(rows, threads: int):
+    """The thread whose band holds each of ``rows`` (``channel * rows + row`` of a
+    banded population): bands of ``2**BAND`` rows dealt out in turn, as
+    :func:`.deliver.foreign` deals them inside the compiled loop."""
+    from .deliver import BAND
+
+    return (rows >> BAND) % threads
 
 
 def cell_owners(g: np.ndarray, owner: np.ndarray, cells: np.ndarray, flat_of: np.ndarray, pops, threads: int):
     """The thread that owns each cell of numbers ``g`` under the table
     ``owner`` (``cells``, ``flat_of``: the run's numbering, :mod:`.core`;
     ``pops``: the tables' population array)."""
-    from .deliver import BAND, C_FLAT, C_N, C_OFF, C_WHOLE
+    from .deliver import C_FLAT, C_N, C_OFF, C_WHOLE
     from .tables import P_GC
 
     q = np.searchsorted(cells[:, C_OFF] + cells[:, C_N], g, side="right")
     local = g - cells[q, C_OFF]
     flat = np.where(cells[q, C_WHOLE] == 1, local, flat_of[np.clip(cells[q, C_FLAT] + local, 0, flat_of.size - 1)])
-    band = (flat // pops[q, P_GC] >> BAND) % threads
-    return np.where(owner[q] >= 0, owner[q], band)
+    return np.where(owner[q] >= 0, owner[q], band_thread(flat // pops[q, P_GC], threads))
 
 
 def band_cells(populations, chosen: dict, threads: int) -> np.ndarray:
     """How many of each population's chosen cells (``chosen``: population
     name -> flat indices; ``populations``: the network's, in order) are in
     each thread's bands, one row per population."""
-    from .deliver import BAND
-
     out = np.zeros((len(populations), threads), np.int64)
     for q, p in enumerate(populations):
         if not p.is_source:
             rows = chosen[p.name] // p.grid[1]  # (channel * rows + row)
-            out[q] = np.bincount((rows >> BAND) % threads, minlength=threads)
+            out[q] = np.bincount(band_thread(rows, threads), minlength=threads)
     return out
 
 

@@ -14,6 +14,7 @@ import argparse
 import contextlib
 import importlib
 import os
+import signal
 import sys
 import warnings
 
@@ -89,12 +90,16 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
     the signal. The output folder has been restored by then."""
     args, received = argparse.Namespace(), []
     try:
-        # (only the command asked for is imported, and its heavy imports may be interrupted too)
-        parser, subs = build_parser(asked_for(argv))
-        args, extra = parser.parse_known_args(argv)
-        if extra:  # report an unknown option under the subcommand's own usage
-            subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
-        from ..backends import cancel
+        # (only the command asked for is imported, and its heavy imports may be interrupted too: an
+        # import can swallow the KeyboardInterrupt, so a Ctrl-C there is also noted and raised again)
+        with _noted(signal.SIGINT) as early:
+            parser, subs = build_parser(asked_for(argv))
+            args, extra = parser.parse_known_args(argv)
+            if extra:  # report an unknown option under the subcommand's own usage
+                subs[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+            from ..backends import cancel
+        if early:
+            raise KeyboardInterrupt(early[-1])
 
         with cancel.Signals() as signals, warnings_as_lines():
             received = signals.received
@@ -124,6 +129,24 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
             sys.stderr.flush()
             os._exit(code)
         return code
+
+
+@contextlib.contextmanager
+def _noted(signum):
+    """While the command's modules load: ``signum`` raises KeyboardInterrupt as Python's own
+    Ctrl-C does and is noted in the list yielded, which outlives an import that swallows the
+    interrupt (:class:`~snn_fg.backends.cancel.Signals` takes over once they are loaded)."""
+    noted: list[str] = []
+
+    def handler(sig, frame):  # noqa: ARG001 - signal handler signature
+        noted.append(signal.Signals(sig).name)
+        raise KeyboardInterrupt(noted[-1])
+
+    previous = signal.signal(signum, handler)
+    try:
+        yield noted
+    finally:
+        signal.signal(signum, previous)
 
 
 def console():

@@ -36,8 +36,22 @@ from .runner import run_recording
 
 #: simulated time the spiking network is handed at a time on a live stream (ms): it follows the events this closely
 LIVE_SEGMENT_MS = 5.0
-#: options of ``snn-fg run`` that a live stream has no use for
-_NOT_LIVE = ("resume", "max_windows", "stride_ms", "save_spikes")
+#: options of ``snn-fg run`` that a live run cannot use, and why: left out of ``snn-fg live --help``, refused in one
+#: line (until 29 Nov --end-ms, --denoise-us and --refractory-us were offered and silently ignored)
+_NOT_LIVE = {
+    "max_windows": "a live run ends with its stream",
+    "end_ms": "a live run ends with its stream",
+    "stride_ms": "--hop-ms slides the read-out",
+    "denoise_us": "a live stream is not filtered",
+    "refractory_us": "a live stream is not filtered",
+    "save_spikes": "a live run keeps the maps only",
+    "duration_ms": "a single frame or image only",
+    "settle_ms": "a single frame or image only",
+    "spike_input": "a single frame or image only",
+    "edge_operator": "the fbfg model's, which needs an image",
+}
+#: the models a live run offers: those that take events (the frame-based model needs an image)
+LIVE_MODELS = tuple(name for name, model in MODELS.items() if model.needs != "image")
 
 
 def add_live_command(sub):
@@ -54,7 +68,7 @@ def add_live_command(sub):
     p.add_argument("source", metavar="SOURCE", help="udp://HOST:PORT or dv://HOST:PORT")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
     p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
-    p.add_argument("--model", choices=tuple(MODELS), default="rate", help="as snn-fg run (default: rate)")
+    p.add_argument("--model", choices=LIVE_MODELS, default="rate", help="as snn-fg run (default: rate)")
     p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="the sensor (udp://: required)")
     p.add_argument(
         "--hop-ms",
@@ -88,20 +102,21 @@ def add_live_command(sub):
     p.add_argument("--idle-s", type=number(float, 0), default=1.0, metavar="S", help="udp://: end after S s idle (1)")
     p.add_argument("--no-progress", action="store_true", help="no progress messages")
     p.add_argument("--no-figures", action="store_true", help="no figures at the end (the maps only)")
-    add_option_groups(p)
+    add_option_groups(p, hidden=tuple(_NOT_LIVE))
     p.set_defaults(handler=cmd_live, input=None, motion=None, crop=None)
     return p
 
 
 def cmd_live(args) -> int:
     args.input = args.source
-    given = [k for k in _NOT_LIVE if getattr(args, k, None) is not None]
-    if given:
-        flags = ", ".join("--" + k.replace("_", "-") for k in given)
-        raise InputError(args.source, f"{flags}: not for a live stream (--hop-ms slides the read-out)")
+    refused: dict[str, list[str]] = {}
+    for k, why in _NOT_LIVE.items():
+        if getattr(args, k) is not None:
+            refused.setdefault(why, []).append("--" + k.replace("_", "-"))
+    if refused:
+        said = "; ".join(f"{', '.join(flags)}: {why}" for why, flags in refused.items())
+        raise InputError(args.source, f"not for a live stream: {said}")
     model = chosen_model(args, "recording")
-    if model.needs == "image":
-        raise InputError(args.source, f"the {model.name} model needs an image, not an event stream")
     window_ms = args.window_ms if args.window_ms is not None else 85.0
     scheme = parse_address(args.source)[0]
     with ExitStack() as opened:  # (what is open so far is closed on an error)

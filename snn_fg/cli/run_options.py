@@ -5,6 +5,8 @@ ask for (:func:`chosen_model`)."""
 
 from __future__ import annotations
 
+import argparse
+
 from ..backends import DEFAULT_BACKEND, backend_names
 from ..errors import InputError
 from ..models import MODELS
@@ -195,11 +197,13 @@ RUN_OPTIONS = (
 )
 
 
-def add_option_groups(parser) -> None:
-    """The groups of :data:`RUN_OPTIONS` on ``snn-fg run``'s parser."""
+def add_option_groups(parser, hidden=()) -> None:
+    """The groups of :data:`RUN_OPTIONS` on ``snn-fg run``'s parser; the options ``hidden`` (their
+    ``dest`` names) are parsed but left out of ``--help``, for a command that refuses them with its reason."""
     for title, options in RUN_OPTIONS:
         g = parser.add_argument_group(title)
         for flag, kind, lo, strict, text in options:
+            text = argparse.SUPPRESS if flag[2:].replace("-", "_") in hidden else text
             if kind is True:
                 g.add_argument(flag, action="store_const", const=True, help=text)
             elif isinstance(kind, tuple):

@@ -12,7 +12,6 @@ network continuously, reading the events as they come), writing
 
 from __future__ import annotations
 
-import sys
 import time
 from contextlib import ExitStack, closing
 
@@ -28,7 +27,7 @@ from ..models import MODELS
 from ..results.atomic import growing_folder, settle_folder
 from ..results.live_view import LiveView
 from ..results.peaks import grouping_peaks
-from ..results.publish import LiveModel, LiveRecord, Publisher
+from ..results.publish import END_OF_STREAM, LiveModel, LiveRecord, Publisher
 from ..results.store import windows_complete
 from .options import number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
@@ -132,7 +131,8 @@ def cmd_live(args) -> int:
             warm_s = _warmed(model, source.sensor_size, window_ms, args)
         out, previous = growing_folder(args.out, force=args.force)
         opened.pop_all()
-    lag_ms = model.run_options.recording.readout_lag_ms if hasattr(model, "run_options") else 0.0  # (spiking)
+    spiking = hasattr(model, "run_options")
+    lag_ms = model.run_options.recording.readout_lag_ms if spiking else 0.0
     stream = LiveStream(
         source,
         window_ms=window_ms,
@@ -141,7 +141,8 @@ def cmd_live(args) -> int:
         max_behind=args.max_behind,
         lag_ms=lag_ms,
     )
-    stream.segment_ms = LIVE_SEGMENT_MS
+    if spiking:  # (the rate model takes whole windows)
+        stream.segment_ms = LIVE_SEGMENT_MS
     page = "" if view is None else f"; the live page is on http://127.0.0.1:{view.port}/"
     stream.on_ready = lambda: print(
         f"snn-fg: live: {model.name} model ready for {args.source} (warmed up in {warm_s:.1f} s){page}", flush=True
@@ -153,7 +154,7 @@ def cmd_live(args) -> int:
     args.interrupt_note = f"the windows complete so far are in {args.out}/ (live.json says how many)"
     ended = "the sender closed the stream"
     try:
-        n = run_recording(LiveModel(model, stream, record), stream, out, described, figures=not args.no_figures)
+        run_recording(LiveModel(model, stream, record), stream, out, described, figures=not args.no_figures)
     except KeyboardInterrupt:
         ended = "interrupted"
         raise
@@ -169,15 +170,23 @@ def cmd_live(args) -> int:
         if kept:
             summary = record.save(out / "live.json", ended)
         settle_folder(out, previous, keep_new=kept)
-    lat = summary["latency_ms"] or {}
-    print(
-        f"snn-fg: {model.name} model on {args.source}: {n} window{'s' if n != 1 else ''} "
-        f"({summary['windows_dropped']} dropped), {summary['events_received']} events received; latency "
-        f"median {lat.get('median', float('nan')):.1f} ms, p95 {lat.get('p95', float('nan')):.1f} ms, "
-        f"max {lat.get('max', float('nan')):.1f} ms; wrote {args.out}/",
-        file=sys.stdout,
-    )
+    print(f"snn-fg: {model.name} model on {args.source}: {_summary_text(summary)}; wrote {args.out}/")
     return 0
+
+
+def _summary_text(summary: dict) -> str:
+    """``live.json``'s summary in words: the windows, the events, and the latency of the windows the stream's
+    own events completed, apart from those that waited for its end (``--idle-s``, or a server closing)."""
+    n, lat = summary["windows"], summary["latency_ms_streaming"] or {}
+    text = (
+        f"{n} window{'s' if n != 1 else ''} published, {summary['windows_dropped']} dropped, "
+        f"{summary['events_received']:,} events received; latency median {lat.get('median', float('nan')):.1f} ms, "
+        f"p95 {lat.get('p95', float('nan')):.1f} ms, max {lat.get('max', float('nan')):.1f} ms"
+    )
+    waited = [r["latency_ms"] for r in summary["per_window"] if r["completed_by"] == END_OF_STREAM]
+    if waited and waited[-1] is not None:
+        text += f" (the last window, completed by the end of the stream, not counted: {waited[-1]:.1f} ms)"
+    return text
 
 
 def _warmed(model, sensor_size, window_ms: float, args) -> float:

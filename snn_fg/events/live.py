@@ -249,6 +249,14 @@ class LiveStream:
         times = [self.slot_arrival[s] for s in self.slots_of(w) if s in self.slot_arrival]
         return max(times) if times else None
 
+    def completed_by_end(self, w) -> bool:
+        """Whether window ``w`` was completed by the end of the stream rather than by its events: none came
+        past its read-out (``lag_us`` past its span) and the segment the model reads it in
+        (``segment_ms``, where set). Its latency then holds the wait for that end (``udp://``: ``--idle-s``
+        without a packet; ``dv://``: the server closing), which a camera that goes on sending never has."""
+        segment_us = int(round(getattr(self, "segment_ms", 0.0) * 1000))  # (set by a spiking run's caller)
+        return self.last_t is None or self.last_t < w.t_end_us + self.lag_us + segment_us
+
     def done(self, w) -> None:
         """Window ``w``'s maps are out (or it was dropped): its slots are forgotten."""
         with self.lock:

@@ -7,7 +7,9 @@ worst).
 
 A window's latency is the time from the arrival of its last event to its
 maps being published (its JSON line sent, the page given them); they are
-written to ``maps.zarr`` right after.
+written to ``maps.zarr`` right after. A window that no later event completes
+(the last) waits for the end of the stream: ``live.json`` marks it
+(``completed_by``) and gives the latency also without it.
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ DROP_POLICY = (
     "dropped time that no kept window reads out: it goes on at the next kept slot with every cell at rest "
     "(simulated_ms_skipped)"
 )
+#: a window's ``completed_by`` when no event past its read-out came: the end of the stream completed it
+END_OF_STREAM = "the end of the stream"
 #: seconds a TCP subscriber is given to take a line before publishing stops
 TCP_TIMEOUT_S = 1.0
 
@@ -107,19 +111,18 @@ class LiveRecord:
             self.view.show(w, maps, message)
         row = {k: message[k] for k in ("window", "t_start_us", "t_end_us", "events", "latency_ms")}
         row["drop_before"] = self.stream.dropped_before_read_out(w)
+        row["completed_by"] = END_OF_STREAM if self.stream.completed_by_end(w) else "the stream's events"
         self.rows.append(row)
 
     def summary(self, ended: str) -> dict:
-        lat = np.array([r["latency_ms"] for r in self.rows if r["latency_ms"] is not None], dtype=np.float64)
-        latency = (
-            {"median": float(np.median(lat)), "p95": float(np.percentile(lat, 95)), "max": float(lat.max())}
-            if lat.size
-            else None
-        )
+        """``live.json``: ``latency_ms`` over every window, and ``latency_ms_streaming`` over those the
+        stream's own events completed, without the last one(s), which waited for the end of the stream."""
         return {
             "windows": len(self.rows),
             **self.stream.stats(),
-            "latency_ms": latency,
+            "latency_ms": _latency(self.rows),
+            "latency_ms_streaming": _latency([r for r in self.rows if r["completed_by"] != END_OF_STREAM]),
+            "windows_completed_by_end": sum(r["completed_by"] == END_OF_STREAM for r in self.rows),
             "ended": ended,
             "warm_up_s": self.warm_up_s,
             "seconds": round(time.perf_counter() - self.t_start, 3),
@@ -132,6 +135,14 @@ class LiveRecord:
         out = self.summary(ended)
         save_text(path, json.dumps(out, indent=1) + "\n")
         return out
+
+
+def _latency(rows) -> dict | None:
+    """Median, p95 and max of the latencies of ``rows`` (None without one)."""
+    lat = np.array([r["latency_ms"] for r in rows if r["latency_ms"] is not None], dtype=np.float64)
+    if not lat.size:
+        return None
+    return {"median": float(np.median(lat)), "p95": float(np.percentile(lat, 95)), "max": float(lat.max())}
 
 
 class LiveModel:

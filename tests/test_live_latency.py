@@ -1,0 +1,82 @@
+"""live.json's latency says which windows waited for the end of the stream: the last window is
+completed by no later event, only by the stream ending (udp://: --idle-s without a packet), so its
+latency holds that wait; it is marked, and the summary is given also without it."""
+
+import json
+import time
+
+import numpy as np
+
+from snn_fg.cli.live import _summary_text
+from snn_fg.cli.runner import run_recording
+from snn_fg.events.live import LiveStream
+from snn_fg.frames.scenes import flipping_disc_recording
+from snn_fg.models import get_model
+from snn_fg.params import ModelParams
+from snn_fg.results.publish import END_OF_STREAM, LiveModel, LiveRecord
+
+#: how long the source stays silent after its last packet before it ends (as --idle-s would)
+IDLE_S = 0.4
+
+
+class _Source:
+    """A window's events a packet, sent at once, then IDLE_S of silence before the stream ends."""
+
+    name, malformed = "test://", 0
+
+    def __init__(self, rec, window_us):
+        self.sensor_size = rec.sensor_size[:2]
+        t = rec.events["t"] - rec.events["t"][0]
+        self.list = [rec.events[t // window_us == k] for k in range(int(t[-1] // window_us) + 1)]
+
+    def packets(self):
+        for ev in self.list:
+            yield ev, time.perf_counter()
+        time.sleep(IDLE_S)
+
+    def close(self):
+        pass
+
+
+def test_the_window_the_end_of_the_stream_completes_is_marked_and_left_out_of_the_streaming_latency(tmp_path):
+    _, rec = flipping_disc_recording(24, windows=4, window_ms=40.0)
+    stream = LiveStream(_Source(rec, 40_000), window_ms=40.0, max_behind=10**6)
+    record = LiveRecord(stream)
+    out = tmp_path / "live"
+    out.mkdir()
+    model = LiveModel(get_model("rate", ModelParams(levels=3)), stream, record)
+    try:
+        n = run_recording(model, stream, out, {"input": "test://", "window_ms": 40.0}, figures=False)
+    finally:
+        stream.close()
+    record.save(out / "live.json", "the sender closed the stream")
+    live = json.loads((out / "live.json").read_text())
+    rows = live["per_window"]
+    assert n == len(rows) == 4
+    assert [r["completed_by"] for r in rows] == ["the stream's events"] * 3 + [END_OF_STREAM]
+    waited, others = rows[-1]["latency_ms"], [r["latency_ms"] for r in rows[:-1]]
+    assert waited >= IDLE_S * 1000  # (the last window's latency holds the silence)
+    assert live["latency_ms"]["max"] == waited  # (the key as it was: every window)
+    assert live["latency_ms_streaming"]["max"] == max(others)
+    assert live["latency_ms_streaming"]["median"] == float(np.median(others))
+    assert live["windows_completed_by_end"] == 1
+    said = _summary_text(live)
+    assert f"max {max(others):.1f} ms" in said and f"not counted: {waited:.1f} ms" in said
+    assert said.startswith("4 windows published, 0 dropped, ")
+
+
+def test_a_window_the_next_events_complete_is_not_marked():
+    """The criterion: an event past the window's read-out (and, for a spiking run, the segment it
+    is read in) came, so the window did not wait for the end."""
+
+    class W:
+        t_end_us = 40_000
+
+    stream = LiveStream(_Source(flipping_disc_recording(24, windows=2, window_ms=40.0)[1], 40_000), lag_ms=20.0)
+    stream.thread.join(5)
+    stream.last_t = 59_999
+    assert stream.completed_by_end(W)
+    stream.last_t = 60_000
+    assert not stream.completed_by_end(W)
+    stream.segment_ms = 5.0
+    assert stream.completed_by_end(W) and (setattr(stream, "last_t", 65_000) or not stream.completed_by_end(W))

@@ -10,8 +10,7 @@ from __future__ import annotations
 import argparse
 
 from .. import datasets
-from .commands import COMMANDS
-from .options import size_text
+from .options import size_text, subcommand
 
 
 def _status(name: str, check: bool) -> str:
@@ -68,20 +67,22 @@ def cmd_fetch(args) -> int:
 
 def add_data_command(subparsers) -> argparse.ArgumentParser:
     """Register ``data`` on an ``argparse`` subparsers object; returns the parser."""
-    p = subparsers.add_parser(
+    p = subcommand(
+        subparsers,
         "data",
-        help=COMMANDS["data"].help,
         description="The datasets live in one data folder: $SNN_FG_DATA, else the shared "
         "data beside a source checkout, else the user data folder.",
     )
     sub = p.add_subparsers(dest="data_command", required=True, metavar="ACTION")
-    q = sub.add_parser("list", help="each dataset: size, whether it is present, where")
+    q = sub.add_parser("list", allow_abbrev=False, help="each dataset: size, whether it is present, where")
     q.add_argument("--verify", action="store_true", help="check every file's checksum (slower)")
     q.set_defaults(handler=cmd_list)
-    q = sub.add_parser("info", help="one dataset: what it is, source, licence, how to fetch it")
+    q = sub.add_parser("info", allow_abbrev=False, help="one dataset: what it is, source, licence, how to fetch it")
     q.add_argument("name", metavar="NAME", choices=sorted(datasets.DATASETS))
     q.set_defaults(handler=cmd_info)
-    q = sub.add_parser("fetch", help="download a dataset from its public source, verified by checksum")
+    q = sub.add_parser(
+        "fetch", allow_abbrev=False, help="download a dataset from its public source, verified by checksum"
+    )
     q.add_argument("name", metavar="NAME", choices=sorted(datasets.DATASETS))
     q.add_argument("--no-progress", action="store_true", help="no progress bar")
     q.set_defaults(handler=cmd_fetch)

@@ -29,16 +29,15 @@ from ..events.esim import MOTIONS
 from ..events.images import IMAGE_SUFFIXES
 from ..results.activity import activity_figure
 from ..results.atomic import save_figure, save_npz
-from .commands import COMMANDS
-from .options import check_output_file, sensor_size
+from .options import check_output_file, sensor_size, subcommand
 from .spikes import add_spike_options, write_spikes
 
 
 def add_events_command(subparsers) -> argparse.ArgumentParser:
     """Register ``events`` on an ``argparse`` subparsers object; returns the parser."""
-    p = subparsers.add_parser(
+    p = subcommand(
+        subparsers,
         "events",
-        help=COMMANDS["events"].help,
         description="Print format, sensor size, event count, time span and rate of an event recording "
         "(.es .raw .dat .aedat4 .bin data.log .npy .npz). For an image (png/jpg/...) simulate "
         "an event camera (ESIM) under a small motion instead. Optionally write the event frame "

@@ -497,3 +497,24 @@ def test_a_live_run_that_dropped_windows_numbers_the_others_as_the_stream_does(t
     assert main(["plot", str(out), "--windows", "4-5"]) == 0
     assert sorted(p.name for p in (out / "windows").iterdir()) == ["window_0004.png", "window_0005.png"]
     assert main(["plot", str(out), "--windows", "2"]) == 2  # (dropped: not in the run)
+
+
+@pytest.mark.slow
+def test_the_engines_stage_messages_are_said_once_in_the_warm_up(tmp_path, disc_file, capsys):
+    """The warm-up prepares the fast engine and says so; the live run on the same engine says it
+    no more (its "fast engine: ... prepared" line came a second time, after "ready")."""
+    import snn_fg.cli.live  # noqa: F401 - (loaded before the sender starts: the port is bound once it is)
+
+    path, ev, size = disc_file
+    port = _free_port()
+    th, _ = _sending(port, ev, delay_s=2.0)
+    status = main(
+        ["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "live"), "--sensor-size", f"{size[0]}x{size[1]}"]
+        + ["--model", "spiking", "--levels", "3", "--window-ms", "40", "--no-figures", "--idle-s", "0.5"]
+        + ["--max-behind", "1000"]
+    )
+    th.join(30)
+    said = capsys.readouterr()
+    assert status == 0, said.err
+    assert said.err.count("snn-fg: fast engine: ") == 1, said.err
+    assert len(read_maps(tmp_path / "live" / "maps.zarr")[0]) == 3

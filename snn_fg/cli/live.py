@@ -131,6 +131,7 @@ def cmd_live(args) -> int:
             warm_s = _warmed(model, source.sensor_size, window_ms, args)
         out, previous = growing_folder(args.out, force=args.force)
         opened.pop_all()
+    _said_in_warm_up(model)
     spiking = hasattr(model, "run_options")
     lag_ms = model.run_options.recording.readout_lag_ms if spiking else 0.0
     stream = LiveStream(
@@ -196,6 +197,17 @@ def _warmed(model, sensor_size, window_ms: float, args) -> float:
         pooled_shape((h, w), model.params.input_pool), model.params.levels, args.source, model.params.levels_per_octave
     )
     return warm_up(model, sensor_size, window_ms, args.peaks)
+
+
+def _said_in_warm_up(model) -> None:
+    """The live run on the warmed-up model says no stage message: each was said in the warm-up, on the same
+    network and backend object (the fast engine's "prepared" line came a second time, after "ready")."""
+    if isinstance(getattr(model, "run_keywords", None), dict):  # (the spiking models: their backend's messages)
+        model.run_keywords["log"] = _unsaid
+
+
+def _unsaid(message: str) -> None:
+    """Where a message already said goes."""
 
 
 def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> float:

@@ -122,17 +122,18 @@ class Readout:
 
     def run(self, duration_ms: float, chunk_ms: float = 50.0, report=None) -> float:
         """Simulate ``duration_ms`` (plus the input shift) in chunks;
-        ``report(done_ms)`` after each. Returns the wall time in seconds."""
+        ``report(done_ms)`` after each that moves it on (``duration_ms`` once). Returns the wall time in seconds."""
         t0 = time.perf_counter()
         self.duration_ms = float(duration_ms)
         total = duration_ms + self.shift_ms + self.dt  # the last count edge is read one step later
-        done = 0.0
+        done = shown = 0.0
         while done < total - 1e-9:
             step = min(chunk_ms, total - done)
             self.sim.run(step)
             done += step
-            if report is not None:
-                report(min(done, duration_ms))
+            if report is not None and min(done, duration_ms) > shown:  # (the steps past duration_ms: said once)
+                shown = min(done, duration_ms)
+                report(shown)
         return time.perf_counter() - t0
 
     def spikes(self, name: str, size: int):

@@ -20,6 +20,7 @@ import io
 import multiprocessing
 import sys
 import time
+import warnings
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as done
 from pathlib import Path
@@ -27,7 +28,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from ..backends.cores import usable_cores
-from ..errors import InputError, SnnFgError, install_hint
+from ..errors import InputError, InputWarning, SnnFgError, install_hint
 from ..events.formats import SUFFIX_FORMAT, looks_like
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
@@ -126,9 +127,18 @@ def run_job(options: dict, command) -> dict:
             return {**row, "status": "skipped", "windows": windows_complete(out)}
     t = time.perf_counter()
     args = argparse.Namespace(**{**options, "resume": True if store.is_dir() and not options["force"] else None})
+    err = io.StringIO()
     try:
-        with contextlib.redirect_stdout(io.StringIO()):
-            command(args)
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            with warnings.catch_warnings(record=True) as caught:
+                try:
+                    command(args)
+                finally:  # (said by the parent, with the recording's name, above its progress bar: _say)
+                    said = [f"snn-fg: warning: {w.message}" for w in caught if issubclass(w.category, InputWarning)]
+                    row["said"] = said + [line for line in err.getvalue().splitlines() if line.strip()]
+                    for w in caught:
+                        if not issubclass(w.category, InputWarning):
+                            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     except Exception as exc:  # (every failure is one line in the summary)
         said = exc.for_command_line() if isinstance(exc, SnnFgError) else str(exc)
         first = said.splitlines()[0] if said else ""
@@ -168,17 +178,27 @@ def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, pro
         with Client(scheduler) as client:
             for future in as_completed(client.map(run_one, jobs, pure=False)):
                 bar.update()
-                yield future.result()
+                yield _say(future.result())
     elif workers == 1:
         for job in jobs:
-            yield run_one(job)
+            yield _say(run_one(job))
             bar.update()
     else:
         with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
             for future in done([pool.submit(run_one, job) for job in jobs]):
                 bar.update()
-                yield future.result()
+                yield _say(future.result())
     bar.close()
+
+
+def _say(row: dict) -> dict:
+    """What a job said on stderr (its warnings), each a line naming its recording, above the progress bar (a
+    worker's own line went to the end of the bar's, and did not say which recording it was about); the row
+    without it."""
+    for line in row.pop("said", ()):
+        head = "snn-fg: warning: " if line.startswith("snn-fg: warning: ") else "snn-fg: "
+        tqdm.write(f"{head}{row['recording']}: {line.removeprefix(head)}", file=sys.stderr)
+    return row
 
 
 def run_dataset(args, command) -> int:

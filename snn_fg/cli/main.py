@@ -66,13 +66,16 @@ def asked_for(argv) -> tuple[str, ...]:
 @contextlib.contextmanager
 def warnings_as_lines():
     """While a command runs, an :class:`~snn_fg.errors.InputWarning` is one
-    ``snn-fg: warning:`` line (not Python's file:line form); others as usual."""
+    ``snn-fg: warning:`` line (not Python's file:line form), above a progress bar
+    if one is drawn; others as usual."""
     with warnings.catch_warnings():
         shown = warnings.showwarning
 
         def show(message, category, *rest, **kw):
             if issubclass(category, InputWarning):
-                print(f"snn-fg: warning: {message}", file=sys.stderr)
+                from tqdm import tqdm  # (a line of its own above a progress bar, which print glued it to)
+
+                tqdm.write(f"snn-fg: warning: {message}", file=sys.stderr)
             else:
                 shown(message, category, *rest, **kw)
 

@@ -241,3 +241,17 @@ def test_compare_says_when_its_two_models_part_on_a_recording():
     unnamed = Maps(z, z, z, {}, {})  # (maps that do not say their model)
     assert expectations(still, rate) == expectations(rate, rate) == expectations(events, events) == []
     assert expectations(unnamed, unnamed) == expectations(unnamed, events) == []
+
+
+def test_compare_help_promises_in_its_table_only_what_the_table_prints(capsys):
+    """The help said the table gives the angle difference's median and MSE; they are in --json only."""
+    from snn_fg.cli.compare import _COLUMNS
+
+    with pytest.raises(SystemExit):
+        main(["compare", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    printed = " ".join(key for _, key, *_ in _COLUMNS)
+    for metric in ("median", "MSE"):
+        assert metric.lower() not in printed.lower()
+        at = text.index(metric)
+        assert "(--json also keeps" in text[max(0, at - 60) : at]

@@ -47,8 +47,8 @@ def add_compare_command(sub):
         "compare",
         description="Print, window by window, how two maps files agree: grouping Pearson r and "
         "SSIM, and on the pixels where both have a figure-ground vector the angle "
-        "difference (mean, median, fraction within 45 degrees) and angle-map MSE "
-        "and SSIM. Times count from the recording's first event. Nothing is written "
+        "difference (mean, fraction within 45 degrees) and angle-map SSIM (--json also "
+        "keeps their median and MSE). Times count from the recording's first event. Nothing is written "
         "unless --json or --plot is given. A PyNN export's maps (snn-fg decode) against a run on "
         "the whole recording: the run is cut to the export's crop and input window.",
     )

@@ -212,14 +212,15 @@ def _simulate(
         stream = window_arrivals(windows)
     else:
         stream = arrivals(*cut)
+    live = hasattr(windows, "dropped_window")  # (a live stream: its receiver's queue holds what has come)
     feed = StreamFeed(
-        read_ahead(stream) if threaded else stream,
+        read_ahead(stream) if threaded and not live else stream,
         lambda f: lay_out(f, opts, None if cut is None else cut[1], read_out),
         name=source,
         drain=keep_run or cut is None or not backend.streams_input,
         keep=keep_run,
         segment_ms=segment_ms,
-        drops=windows if hasattr(windows, "dropped_window") else None,
+        drops=windows if live else None,
     )
     lay = feed.layout
     net = lay.network

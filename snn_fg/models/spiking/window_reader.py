@@ -100,7 +100,9 @@ class WindowReader:
         while i < len(self.bins) and self.bins[i][0] <= k:
             k0, k1 = self.bins[i]
             if k < k1:
-                if k == k0:  # (the counts so far, before this bin: what the window's end subtracts)
+                if k == k0 and not self.reading:  # (none open: the window's counts are the total from here)
+                    self.total, self.reading[i] = {}, ({}, [])
+                elif k == k0:  # (the counts so far, before this bin: what the window's end subtracts)
                     self.reading[i] = ({name: a.copy() for name, a in self.total.items()}, [])
                 before, spikes = self.reading[i]
                 if self.feed.dropped(i):  # (a live stream dropped it: nothing of it is kept, nor is it decoded)
@@ -128,7 +130,11 @@ class WindowReader:
         start) are decoded here or on the decoding thread."""
         before, spikes = self.reading.pop(i)
         counts = {}
-        if not self.feed.dropped(i):
+        if self.feed.dropped(i):
+            pass
+        elif not before and not self.reading:  # (the total is this window's alone, and no other reads on from it)
+            counts, self.total = self.total, {}
+        else:
             counts = {n: a - before[n] if n in before else a.copy() for n, a in self.total.items()}
         w = self.feed.window(i)
         if self.worker is None:

@@ -44,7 +44,7 @@ from snn_fg.events.window import TimePassed, WindowCutter, _window_times
 _END = object()
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _screen(x, y, t, w, h, last_t):
     """Which events to keep: inside the ``w`` x ``h`` sensor and no earlier than
     every event before them (``last_t``: the latest so far). Returns the mask and

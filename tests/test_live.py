@@ -10,6 +10,7 @@ import sys
 import threading
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -176,13 +177,28 @@ def _free_port(kind=socket.SOCK_DGRAM) -> int:
         return s.getsockname()[1]
 
 
+def _udp_bound(port: int) -> bool:
+    """Whether a socket of this machine is bound to UDP ``port`` (the kernel's table: probing with a
+    bind of our own could take the port from the live run at the moment it binds)."""
+    tables = [Path("/proc/net", name) for name in ("udp", "udp6")]
+    tables = [t.read_text().splitlines()[1:] for t in tables if t.exists()]
+    if not tables:  # (not Linux: the delay alone)
+        return True
+    return any(int(line.split()[1].rsplit(":", 1)[1], 16) == port for lines in tables for line in lines)
+
+
 def _sending(port, events, delay_s=1.0, **kw):
-    """The events sent on a thread after ``delay_s`` (the live command runs on the main
-    thread, which handles the signals); its ``sent`` once joined."""
+    """The events sent on a thread once the live command has bound ``port`` and ``delay_s`` has
+    passed (the live command runs on the main thread, which handles the signals); its ``sent`` once
+    joined. (A fixed delay alone lost every packet when the live command's imports took longer
+    than it on a loaded machine: "no packet arrived within 30 s".)"""
     out = {}
 
     def go():
         time.sleep(delay_s)
+        t0 = time.perf_counter()
+        while not _udp_bound(port) and time.perf_counter() - t0 < 60:
+            time.sleep(0.02)
         out["sent"] = _send(port, events, **kw)
 
     th = threading.Thread(target=go)

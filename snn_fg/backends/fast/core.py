@@ -98,6 +98,11 @@ def _step_active(n, act, n_act, state, pops, cells, nrn, ref, log, log_n, work):
     q = 0
     end = cells[0, C_OFF] + cells[0, C_N]
     t = pops[0, P_TYPE]
+    # (the population's neuron type's row and refractory steps, taken when the population changes:
+    # indexing them by t in every cell's update cost a sign fix-up and a product each time; a
+    # spike source, without a row, has no active cell)
+    t0 = t if t < nrn.shape[0] else 0
+    nt, ref_t = nrn[t0], ref[t0]
     since = 0
     for a in range(n_act):
         if a + AHEAD < n_act:
@@ -109,21 +114,22 @@ def _step_active(n, act, n_act, state, pops, cells, nrn, ref, log, log_n, work):
             while g >= end:
                 q += 1
                 end = cells[q, C_OFF] + cells[q, C_N]
-                t = pops[q, P_TYPE]
+            t = pops[q, P_TYPE]
+            nt, ref_t = nrn[t], ref[t]
         r = state[U(g)]
         spike = r.spike & SPIKE_STEP
-        ready = spike == 0 or n - (spike - 1) >= ref[t]
-        if ready and safe(r.v, r.e, r.i, nrn[t, V_REST], nrn[t, TIGHT] > 0, nrn[t, PEAK], nrn[t, GAP]):
+        ready = spike == 0 or n - (spike - 1) >= ref_t
+        if ready and safe(r.v, r.e, r.i, nt[V_REST], nt[TIGHT] > 0, nt[PEAK], nt[GAP]):
             r.spike = spike  # (parked: no longer active)
             continue
         v, e, i = r.v, r.e, r.i
         if ready:  # (Brian2's generated expression, operation for operation)
-            v += ((e * nrn[t, PE]) + ((1.0 - nrn[t, DM]) * ((-v) + nrn[t, V_REST]))) - (i * nrn[t, PI])
+            v += ((e * nt[PE]) + ((1.0 - nt[DM]) * ((-v) + nt[V_REST]))) - (i * nt[PI])
         r.v = v
-        r.e = e * nrn[t, DE]
-        r.i = i * nrn[t, DI]
+        r.e = e * nt[DE]
+        r.i = i * nt[DI]
         r.last = n + 1
-        if ready and v > nrn[t, V_TH]:
+        if ready and v > nt[V_TH]:
             log[U(log_n)] = g
             log_n += 1
             r.spike = (n + 1) | ACTIVE

@@ -311,6 +311,7 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
     t = pops[qt, P_TYPE]
     v_rest, tight, peak, gap = nrn[t, V_REST], nrn[t, TIGHT] > 0, nrn[t, PEAK], nrn[t, GAP]
     kmax = adv_k.shape[1] - 1
+    adv_t, top = adv_k[t].ravel(), kmax << 3  # (the type's tables, 8 values a step; where step kmax starts)
     now = n + 1
     advances = 0
     n_fresh = counters[N_FRESH]
@@ -356,19 +357,23 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
                 fresh[U(n_fresh)] = g
                 n_fresh += 1
             # brought up to the present in closed form (lif.advanced, written out: see the module's
-            # docstring); a cell already there (k = 0: the group of its other current came first)
-            # keeps its values, chosen without a branch (row 0 of the tables multiplies by 1)
+            # docstring, in steps of at most kmax, the last one here); a cell already there (k = 0:
+            # the group of its other current came first) keeps its values, chosen without a branch
+            # (row 0 of the tables multiplies by 1). The type's tables are one flat run of 8 values
+            # a step (adv_t), indexed by unsigned offsets (no sign fix-up or stride product).
             k = now - last
             advances += k > 0
-            while True:  # (once, but for more than the tables' steps)
-                s = k if k <= kmax else kmax
-                va = v_rest + ((adv_k[t, s, 0] * (v - v_rest) + e * adv_k[t, s, 3]) - i * adv_k[t, s, 4])
-                e = e * adv_k[t, s, 1]
-                i = i * adv_k[t, s, 2]
-                v = va if k > 0 else v
-                k -= s
-                if k <= 0:
-                    break
+            while k > kmax:  # (rare: longer than the tables)
+                va = v_rest + ((adv_t[U(top)] * (v - v_rest) + e * adv_t[U(top + 3)]) - i * adv_t[U(top + 4)])
+                e = e * adv_t[U(top + 1)]
+                i = i * adv_t[U(top + 2)]
+                v = va
+                k -= kmax
+            at = U(k << 3)
+            va = v_rest + ((adv_t[at] * (v - v_rest) + e * adv_t[at + U(3)]) - i * adv_t[at + U(4)])
+            e = e * adv_t[at + U(1)]
+            i = i * adv_t[at + U(2)]
+            v = va if k > 0 else v
             if col == EXC:
                 e += w
             else:

@@ -39,11 +39,11 @@ def test_a_requested_stop_ends_a_simulation_on_every_backend(stop_requested, bac
 
 @pytest.mark.slow
 def test_the_fast_engine_stops_after_the_chunk_it_is_in(stop_requested, monkeypatch):
-    from snn_fg.backends.fast import unlocked
+    from snn_fg.backends.fast import core as fast_core
 
     calls = []
-    real = unlocked.run_steps
-    monkeypatch.setattr(unlocked, "run_steps", lambda *a: calls.append(a[:2]) or real(*a))
+    real = fast_core.run_steps
+    monkeypatch.setattr(fast_core, "run_steps", lambda *a: calls.append(a[:2]) or real(*a))
     pos, neg = image_to_frame(disc(16).image)
     with pytest.raises(KeyboardInterrupt):
         run_spiking_result(pos, neg, backend="fast", duration_ms=400, progress=False)

@@ -16,7 +16,7 @@ def test_a_warning_during_a_progress_bar_is_a_line_of_its_own(capsys):
     with warnings_as_lines():
         bar = tqdm(total=2, desc="recordings", file=sys.stderr, disable=False)
         bar.update()
-        warnings.warn("window 0 (0-85 ms): events on 100.0% of the sensor's pixels", InputWarning)
+        warnings.warn("window 0 (0-85 ms): events on 100.0% of the sensor's pixels", InputWarning, stacklevel=2)
         bar.close()
     lines = capsys.readouterr().err.replace("\r", "\n").splitlines()
     said = [line for line in lines if "snn-fg: warning:" in line]
@@ -29,7 +29,7 @@ def test_a_folder_runs_warnings_are_lines_of_their_own_naming_the_recording(tmp_
     from snn_fg.cli.batch import _run_all
 
     def command(args):  # (as snn-fg run says them: an InputWarning, and a line printed at the end)
-        warnings.warn("window 0 (0-85 ms): events on 100.0% of the sensor's pixels", InputWarning)
+        warnings.warn("window 0 (0-85 ms): events on 100.0% of the sensor's pixels", InputWarning, stacklevel=2)
         print("snn-fg: warning: 1 of 2 windows has events on more than 50% of the sensor's pixels", file=sys.stderr)
         (tmp_path / args.out).mkdir()
 

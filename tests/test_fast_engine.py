@@ -407,3 +407,12 @@ def test_two_threads_give_the_spike_trains_of_one(dealt, monkeypatch):
         for got, want in zip(_trains(two, name), _trains(one, name), strict=True):
             np.testing.assert_array_equal(got, want, err_msg=name)
         np.testing.assert_array_equal(two.state[name]["v"], one.state[name]["v"], err_msg=name)
+
+
+def test_the_step_loop_lets_go_of_the_interpreter_lock():
+    """A recording's decoding thread and a live stream's receiver run beside the step loop only if
+    it releases Python's lock (numba's nogil); a rewrite of the engine lost it once (28 Nov), and two
+    cores then kept fewer live windows than one."""
+    from snn_fg.backends.fast import core
+
+    assert core.run_steps.targetoptions.get("nogil") is True

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from snn_fg.backends.fast import core as fast_core
-from snn_fg.backends.fast import unlocked
 from snn_fg.events import image_to_frame
 from snn_fg.frames.scenes import disc
 from snn_fg.models.spiking import run_spiking
@@ -37,7 +36,7 @@ def test_the_progress_bar_appears_once_the_first_steps_are_done(monkeypatch):
     import tqdm
 
     calls, made_after = [0], []
-    real = unlocked.run_steps
+    real = fast_core.run_steps
 
     def counted(*args):
         calls[0] += 1
@@ -53,7 +52,7 @@ def test_the_progress_bar_appears_once_the_first_steps_are_done(monkeypatch):
         def close(self):
             pass
 
-    monkeypatch.setattr(unlocked, "run_steps", counted)
+    monkeypatch.setattr(fast_core, "run_steps", counted)
     monkeypatch.setattr(fast_core, "code_is_cached", lambda: True)
     monkeypatch.setattr(tqdm, "tqdm", Bar)
     _run(progress=True, log=lambda s: None)

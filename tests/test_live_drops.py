@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from snn_fg.backends.fast import FastBackend, unlocked
+from snn_fg.backends.fast import FastBackend, core
 from snn_fg.errors import ParameterError
 from snn_fg.events.live import LiveStream
 from snn_fg.frames.scenes import flipping_disc_recording
@@ -102,13 +102,13 @@ class _Counting(FastBackend):
 def noted_steps(monkeypatch):
     """``[dt_ms, (n0, n1), ...]``: the steps the fast engine simulated."""
     noted = []
-    run_steps = unlocked.run_steps
+    run_steps = core.run_steps
 
     def counted(n0, n1, *rest):
         noted.append((n0, n1))
         return run_steps(n0, n1, *rest)
 
-    monkeypatch.setattr(unlocked, "run_steps", counted)
+    monkeypatch.setattr(core, "run_steps", counted)
     return noted
 
 

@@ -24,7 +24,7 @@ def code_is_cached(fn) -> bool:
         return True
 
 
-def drop_stale_caches(anchor, modules, stamp: str = STAMP) -> None:
+def drop_stale_caches(anchor, modules) -> None:
     """Forget compiled code cached from older versions of the engine's files.
 
     numba checks a cached function against the file that defines it, and no
@@ -32,14 +32,13 @@ def drop_stale_caches(anchor, modules, stamp: str = STAMP) -> None:
     the package's other modules: after an edit there they kept running the
     old code. So the caches of every compiled function of ``modules`` are
     dropped whenever any source file of the package changes (the digest is
-    kept beside ``anchor``'s cache, in the file ``stamp``: one a set of
-    ``modules``). Best effort: numba's cache object is
+    kept beside ``anchor``'s cache). Best effort: numba's cache object is
     not public API, and if it changes this check is skipped.
     """
     here = Path(__file__).parent
     digest = hashlib.sha256(b"".join(f.read_bytes() for f in sorted(here.glob("*.py")))).hexdigest()
     try:
-        stamp = Path(anchor._cache._cache_path) / stamp
+        stamp = Path(anchor._cache._cache_path) / STAMP
         if stamp.exists() and stamp.read_text() == digest:
             return
         for module in modules:

@@ -217,7 +217,7 @@ def _deliver_part(t, n_parts, n, run, th, numbering, tables):
     run.scalars[t] = merge(th.act[t], run.scalars[t], th.new[t], n_new, th.tmp[t], th.radix[t], run.state.size)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def run_steps(n0, n1, run, th, numbering, tables):
     """Simulate steps ``n0 .. n1-1``; returns the step reached (less than
     ``n1`` when the spike log is too small for the next step: grow it and
@@ -231,7 +231,11 @@ def run_steps(n0, n1, run, th, numbering, tables):
     populations it owns, or its rows of a banded one (``th.owner``,
     :mod:`.share`). One thread adds a cell's input, in the order of the
     spikes, so it is summed in the same order whatever the number of
-    threads and the table."""
+    threads and the table.
+
+    It runs without Python's interpreter lock, so that the process's other
+    threads (a recording's decoding and writing thread, a live stream's
+    receiver) run beside it, not between its calls."""
     run, th, numbering, tables = _borrow(run, th, numbering, tables)
     return _steps(n0, n1, run, th, numbering, tables)
 

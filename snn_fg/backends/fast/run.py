@@ -173,8 +173,7 @@ class Run:
     def simulate(self, settings: RunSettings, chunk: int, stream: BinStream | None = None):
         """Run every step; with ``stream``, stop at each counting-bin edge
         for it to hand the bin over and drop the spikes no delay reaches."""
-        from .core import CellNumbering, KernelTables, RunArrays, ThreadArrays
-        from .unlocked import run_steps
+        from .core import CellNumbering, KernelTables, RunArrays, ThreadArrays, run_steps
 
         tables = KernelTables(*(getattr(self.tab, name) for name in KernelTables._fields))
         numbering = CellNumbering(*(getattr(self, name) for name in CellNumbering._fields))

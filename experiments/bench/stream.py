@@ -121,7 +121,7 @@ def section_stream(args, eng):
                 r["network"]: r["cells"]
                 for rows in runs.values()
                 for r in rows[-1:]
-                if r.get("cells") and r["model"] == "spiking"
+                if r.get("cells") and r.get("model") == "spiking"  # (the peer's and a BSDS image's rows name none)
             }
             _say("floor", k, args.stream_rounds, "state[idx[k]] += w[k], one core")
             state_mb = {n: c * CELL_BYTES / 1e6 for n, c in cells.items()}

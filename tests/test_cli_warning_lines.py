@@ -3,6 +3,7 @@ with snn-fg run glued the first recording's burst warning to the end of its 'rec
 ("recordings: 0%| | 0/2 [00:00<?, ?rec/s]snn-fg: warning: window 0 ..."), and the bar was drawn
 again below it."""
 
+import subprocess
 import sys
 import warnings
 
@@ -47,3 +48,21 @@ def test_a_folder_runs_warnings_are_lines_of_their_own_naming_the_recording(tmp_
             f"snn-fg: warning: rec{k}.es: 1 of 2 windows has events on more than 50% of the sensor's pixels",
         )
     ]
+
+
+def test_a_jobs_other_warnings_are_said_as_python_says_them_and_the_job_ends(tmp_path):
+    """A warning that is not an input warning (numpy's, a library's) is shown as Python shows it and
+    the job goes on: it was shown back into the list of recorded warnings being read, which grew for
+    ever (run in a process of its own, so that a hang fails the test instead of holding the suite)."""
+    code = (
+        "import warnings\n"
+        "from snn_fg.cli.batch import run_job\n"
+        "def command(args):\n"
+        "    warnings.warn('a library says so', UserWarning)\n"
+        f"row = run_job({{'input': 'rec.es', 'out': {str(tmp_path / 'o')!r}, 'force': False}}, command)\n"
+        "print(row['status'], row['said'])\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "done []"
+    assert "UserWarning: a library says so" in done.stderr

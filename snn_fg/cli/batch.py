@@ -127,22 +127,23 @@ def run_job(options: dict, command) -> dict:
             return {**row, "status": "skipped", "windows": windows_complete(out)}
     t = time.perf_counter()
     args = argparse.Namespace(**{**options, "resume": True if store.is_dir() and not options["force"] else None})
-    err = io.StringIO()
+    err, caught = io.StringIO(), []
     try:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
             with warnings.catch_warnings(record=True) as caught:
-                try:
-                    command(args)
-                finally:  # (said by the parent, with the recording's name, above its progress bar: _say)
-                    said = [f"snn-fg: warning: {w.message}" for w in caught if issubclass(w.category, InputWarning)]
-                    row["said"] = said + [line for line in err.getvalue().splitlines() if line.strip()]
-                    for w in caught:
-                        if not issubclass(w.category, InputWarning):
-                            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+                command(args)
     except Exception as exc:  # (every failure is one line in the summary)
         said = exc.for_command_line() if isinstance(exc, SnnFgError) else str(exc)
         first = said.splitlines()[0] if said else ""
         row.update(status="failed", error=first if isinstance(exc, SnnFgError) else f"{type(exc).__name__}: {first}")
+    # what the job said: its input warnings and stderr lines by the parent, with the recording's name, above its
+    # progress bar (_say); other warnings as Python says them, once out of the recording (inside it, showwarning
+    # appended them to the list being read, for ever)
+    said = [f"snn-fg: warning: {w.message}" for w in caught if issubclass(w.category, InputWarning)]
+    row["said"] = said + [line for line in err.getvalue().splitlines() if line.strip()]
+    for w in caught:
+        if not issubclass(w.category, InputWarning):
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     row.update(windows=windows_complete(out), seconds=round(time.perf_counter() - t, 2))
     return row
 

@@ -103,10 +103,8 @@ class UdpSource:
         """The next packet if one is waiting in the socket's buffer, else None."""
         try:
             return self.sock.recv(1 << 16, socket.MSG_DONTWAIT)
-        except (BlockingIOError, InterruptedError):
+        except OSError:  # (none waiting, interrupted, or closed: the next blocking receive says so)
             return None
-        except OSError:
-            return None  # (closed: the next blocking receive says so)
 
     def _malformed(self, data: bytes) -> None:
         self.malformed += 1

@@ -21,7 +21,8 @@ windows, start-up included, and the median of the windows' own times from
 its record) is what the model itself costs: a
 window with no dropped slot before the end of its read-out ("clean") must
 be bit for bit equal, one after a drop (the spiking network went on from
-rest) is compared by grouping r and the share of vectors within 45 degrees.
+rest) is compared by grouping r, the share of vectors within 45 degrees and
+their mean absolute difference (the worst window of each).
 Whether the strongest published peak lies on the plane (the window's filled
 event region) is checked too. Writes ``live_latency.{json,md}``.
 """
@@ -133,7 +134,8 @@ def against_run(live_dir: Path, run_dir: Path, published, per_window, stateful: 
         same = all(np.array_equal(a[i], b[k]) for a, b in ((lx, rx), (ly, ry), (lg, rg)))
         both = (np.hypot(lx[i], ly[i]) > 0) & (np.hypot(rx[k], ry[k]) > 0)
         d = angle_difference_deg(lx[i], ly[i], rx[k], ry[k])[both]
-        row = (same, pearson(lg[i], rg[k]), float(np.mean(d <= 45)) if d.size else float("nan"))
+        nan = float("nan")
+        row = (same, pearson(lg[i], rg[k]), float(np.mean(d <= 45)) if d.size else nan, np.mean(d) if d.size else nan)
         (after if stateful and per_window[i]["drop_before"] else clean).append(row)
         frame = rextra["event_frame"][k] != 0
         plane = ndimage.binary_fill_holes(ndimage.binary_closing(frame, iterations=3))
@@ -142,9 +144,9 @@ def against_run(live_dir: Path, run_dir: Path, published, per_window, stateful: 
             plane_windows += 1
             on_plane += bool(peaks) and bool(plane[peaks[0]["y"], peaks[0]["x"]])
 
-    def least(rows, j):
+    def least(rows, j, worst=min):
         values = [r[j] for r in rows if not np.isnan(r[j])]
-        return float(min(values)) if values else None
+        return float(worst(values)) if values else None
 
     return {
         "windows_compared": len(clean) + len(after),
@@ -152,9 +154,11 @@ def against_run(live_dir: Path, run_dir: Path, published, per_window, stateful: 
         "clean_bit_equal": sum(r[0] for r in clean),
         "clean_grouping_r_min": least(clean, 1),
         "clean_within_45_min": least(clean, 2),
+        "clean_mean_abs_deg_max": least(clean, 3, max),
         "after_drop": len(after),
         "after_drop_grouping_r_min": least(after, 1),
         "after_drop_within_45_min": least(after, 2),
+        "after_drop_mean_abs_deg_max": least(after, 3, max),
         "strongest_peak_on_plane": f"{on_plane} of {plane_windows}",
     }
 
@@ -242,7 +246,7 @@ def main(argv=None) -> None:
                 "latency ms, windows the stream's end completed",
                 "snn-fg run ms a window (wall / CPU / a window's own)",
                 "clean windows equal to snn-fg run",
-                "after a drop: grouping r min, within 45° min",
+                "after a drop: grouping r min, within 45° min, mean abs difference max",
                 "strongest peak on the plane",
                 "peak RSS MB",
                 "warm-up s",
@@ -263,7 +267,9 @@ def _row(case, transport, speed, cores, r, sent: int) -> list:
         r_min, within = a["after_drop_grouping_r_min"], a["after_drop_within_45_min"]
         r_min = "-" if r_min is None else f"{r_min:.3f}"
         within = "-" if within is None else f"{100 * within:.0f} %"
-        after = f"{r_min}, {within} ({a['after_drop']} windows)"
+        diff = a["after_drop_mean_abs_deg_max"]
+        diff = "-" if diff is None else f"{diff:.1f}°"
+        after = f"{r_min}, {within}, {diff} ({a['after_drop']} windows)"
     return [
         case,
         f"{transport}://",

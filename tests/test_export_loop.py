@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from snn_fg.backends import RunSettings, available_backends, get_backend
+from snn_fg.backends.base import lif_populations
 from snn_fg.cli import main
 from snn_fg.events.window import events_to_frame
 from snn_fg.export.board import board_network
@@ -125,6 +126,20 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     assert np.abs(ours.grouping).max() > 0
     assert np.array_equal(ours.fg_x, fx.astype(np.float32)) and np.array_equal(ours.fg_y, fy.astype(np.float32))
     assert np.array_equal(ours.grouping, g.astype(np.float32))
+    # --reference: the same network run by our own NEST backend over the counts' span (150 ms, counted
+    # from 75 ms), beside the board's maps, and the agreement said; a span or network of its own would differ
+    capsys.readouterr()
+    ref = tmp_path / "checked"
+    cmd = ["decode", str(folder / "counts.npz"), "--export", str(folder), "--out", str(ref), "--reference", "nest"]
+    assert main(cmd) == 0
+    said = capsys.readouterr().out
+    assert "against snn-fg's nest backend on the same network and input: grouping r 1.000, 100.0 %" in said
+    assert "mean absolute difference 0.0 degrees" in said and "at 100.0 % of the reference's" in said
+    checked = Maps.load(ref / "reference" / "maps.npz")
+    assert checked.params["backend"]["name"] == "nest" and checked.params["simulation"]["count_window_ms"] == 75.0
+    for a, b in ((checked.fg_x, ours.fg_x), (checked.fg_y, ours.fg_y), (checked.grouping, ours.grouping)):
+        assert np.array_equal(a, b)
+    assert (ref / "reference" / "maps.png").is_file() and (ref / "maps.npz").is_file()
 
 
 @pytest.mark.slow
@@ -171,6 +186,17 @@ def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "input.npz: an input spike file (run.py's --input), not the counts" in err[0]
     assert not (tmp_path / "maps").exists()
+    # --reference without the input file run.py ran: one line, nothing written
+    counts = tmp_path / "run" / "counts.npz"
+    counts.parent.mkdir()
+    silent = {f"count_{q.name}": np.zeros(q.size, np.int64) for q in lif_populations(board_network(net))}
+    np.savez(counts, duration_ms=100.0, count_from_ms=50.0, dt_ms=0.5, **silent)
+    cmd = ["decode", str(counts), "--export", str(folder), "--out", str(tmp_path / "maps"), "--reference", "fast"]
+    assert main(cmd) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "input.npz: no such file: --reference runs the export's network on the input" in err[0]
+    assert not (tmp_path / "maps").exists()
+    assert main(cmd[:-2]) == 0  # (the same counts decode without it)
 
 
 @pytest.mark.slow

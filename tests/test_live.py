@@ -279,7 +279,7 @@ def test_a_dv_replay_ends_when_it_is_sent_and_the_live_run_with_it(tmp_path, dis
     finally:
         sender.kill()
     assert status == 0 and sender.returncode == 0, err
-    assert said.startswith(f"snn-fg: sent {len(ev)} events of {path} to {url}")
+    assert said.startswith(f"snn-fg: sent {len(ev):,} events of {path} to {url}")
     record = json.loads((tmp_path / "live" / "live.json").read_text())
     assert record["events_received"] == len(ev) and record["ended"].startswith("the sender")
     assert main(["run", str(path), "--out", str(tmp_path / "run"), *common]) == 0

@@ -1,7 +1,10 @@
 """``snn-fg decode counts.npz --export DIR --out OUT``: the counts an exported
 network's ``run.py`` wrote, decoded as ``snn-fg run`` decodes a spiking run
 (:func:`~snn_fg.export.loop.decode_counts`), into ``OUT/maps.npz`` and
-``OUT/maps.png``."""
+``OUT/maps.png``; with ``--reference BACKEND``, also the maps snn-fg's own
+``BACKEND`` makes of the same network on the same input file
+(:func:`~snn_fg.export.loop.reference_maps`) in ``OUT/reference/``, and how
+the two agree."""
 
 from __future__ import annotations
 
@@ -9,11 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..backends import backend_names
 from ..errors import InputError
-from ..export.loop import decode_counts, export_network, input_frame
+from ..export.loop import decode_counts, export_network, input_frame, reference_maps
 from ..export.pynn import input_origin
 from ..results.atomic import OutputFolder
 from ..results.maps import SPIKING_GROUPING_LABEL
+from ..scoring.metrics import agreement
 from .options import subcommand
 
 
@@ -34,6 +39,13 @@ def add_decode_command(sub):
         default=None,
         help="the input spike file, for the figure's input panel (default: input.npz beside COUNTS)",
     )
+    p.add_argument(
+        "--reference",
+        metavar="BACKEND",
+        choices=backend_names(),
+        help="also run the same exported network on the same input file, over the same span, with snn-fg's "
+        f"BACKEND ({', '.join(backend_names())}): its maps in OUT/reference/, and how the two agree printed",
+    )
     p.add_argument("--force", action="store_true", help="replace OUT if it holds an earlier run (and nothing else)")
     p.set_defaults(handler=cmd_decode)
     return p
@@ -51,21 +63,39 @@ def cmd_decode(args) -> int:
     maps = decode_counts(net, args.counts)
     spikes = args.input or Path(args.counts).with_name("input.npz")
     frame = input_frame(spikes, net.frame_shape)
+    if args.reference and frame is None:
+        raise InputError(spikes, "no such file: --reference runs the export's network on the input file run.py ran")
     shown = event_frame_rgb(*frame) if frame is not None else np.zeros((*net.frame_shape, 3))
     origin = input_origin(spikes) if frame is not None else None
     if origin is not None:  # (maps on the export's frame: blocks of the sensor where it pools)
         maps.params["source"] = origin
     placed = None if origin is None else (origin["crop_x_px"], origin["crop_y_px"], origin["pool"])
+    ref = reference_maps(net, maps, spikes, args.reference) if args.reference else None
+    if ref is not None and origin is not None:
+        ref.params["source"] = origin
     with folder as out:
-        maps.save(out.dir / "maps.npz")
-        save_maps_figure(
-            out.dir / "maps.png",
-            shown,
-            maps.fg_x,
-            maps.fg_y,
-            maps.grouping,
-            grouping_label=SPIKING_GROUPING_LABEL,
-            placed=placed,
+        for m, where in ((maps, out.dir), (ref, out.dir / "reference")):
+            if m is None:
+                continue
+            where.mkdir(exist_ok=True)
+            m.save(where / "maps.npz")
+            save_maps_figure(
+                where / "maps.png",
+                shown,
+                m.fg_x,
+                m.fg_y,
+                m.grouping,
+                grouping_label=SPIKING_GROUPING_LABEL,
+                placed=placed,
+            )
+    written = "maps.npz, maps.png" + (", reference/" if ref is not None else "")
+    print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ ({written})")
+    if ref is not None:
+        a = agreement(maps, ref)
+        print(
+            f"snn-fg: against snn-fg's {args.reference} backend on the same network and input: grouping r "
+            f"{a['grouping_r']:.3f}, {100 * a['within_45']:.1f} % of the vectors both have within 45 degrees, "
+            f"mean absolute difference {a['mean_deg']:.1f} degrees; the board's maps have a vector at "
+            f"{100 * a['coverage']:.1f} % of the reference's vector pixels"
         )
-    print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ (maps.npz, maps.png)")
     return 0

@@ -61,7 +61,7 @@ def cmd_stream(args) -> int:
     finally:
         end_process = sender.close()
     print(
-        f"snn-fg: sent {sender.sent} events of {args.recording} to {args.to} in {time.perf_counter() - t:.2f} s "
+        f"snn-fg: sent {sender.sent:,} events of {args.recording} to {args.to} in {time.perf_counter() - t:.2f} s "
         f"({(events['t'][-1] - events['t'][0]) / 1e6:.2f} s of events at {args.speed:g}x)",
         file=sys.stdout,
     )

@@ -2,7 +2,8 @@
 cut from an input (:func:`outline_crop`, :func:`centroid_crop`,
 :func:`crop_events`), whether the input's rate suits the export's gains
 (:func:`recalibration_hint`), and the maps of ``run.py``'s counts
-(:func:`decode_counts`, with the input's event frame, :func:`input_frame`).
+(:func:`decode_counts`, with the input's event frame, :func:`input_frame`), and
+the maps snn-fg's own engine makes of the same network and input (:func:`reference_maps`).
 The commands over them are ``snn-fg events --write-spikes``
 (:mod:`snn_fg.cli.spikes`) and ``snn-fg decode`` (:mod:`snn_fg.cli.decode`).
 """
@@ -18,6 +19,7 @@ from ..errors import InputError
 from ..models.spiking.decode import decode_maps
 from ..network.graph import Network
 from ..results.maps import CONFIDENCE, Maps
+from .board import board_network
 from .pynn import read_counts, read_input
 
 #: regular trains of an event frame: the rate ``snn-fg run`` uses (Hz)
@@ -150,6 +152,36 @@ def decode_counts(network, counts_path):
         raise
     except (OSError, ValueError, KeyError) as e:
         raise InputError(counts_path, f"not a run.py counts file of this export ({type(e).__name__}: {e})") from None
+    return _maps(network, result, {"name": "pynn-export", "counts": str(counts_path)})
+
+
+def reference_maps(network, like: Maps, input_path, backend: str = "fast") -> Maps:
+    """The maps of the same exported network (as exported: its gains, every cell),
+    simulated by snn-fg's ``backend`` on the same input file over the span and count
+    window of the board's run (``like``: its :func:`decode_counts` maps): what the
+    board's maps are checked against, like for like."""
+    from ..backends import RunSettings, get_backend
+
+    sim = like.params["simulation"]
+    duration, window = float(sim["duration_ms"]), float(sim["count_window_ms"])
+    try:
+        inp = read_input(input_path)
+    except InputError:
+        raise
+    except (OSError, ValueError, KeyError) as e:
+        raise InputError(input_path, f"not a run.py input file ({type(e).__name__}: {e})") from None
+    net = board_network(network)
+    if inp.shape != tuple(net.frame_shape):
+        raise InputError(input_path, f"an input of {inp.shape}, the export's frame is {tuple(net.frame_shape)}")
+    settings = RunSettings(
+        duration_ms=duration, dt_ms=float(sim["dt_ms"]), count_from_ms=duration - window, instantiate="all"
+    )
+    result = get_backend(backend).simulate(net, inp, settings)
+    return _maps(network, result, {"name": backend, "input": str(input_path)})
+
+
+def _maps(network, result, backend: dict) -> Maps:
+    """The maps of a board network's run (``result``), with what made them."""
     fg_x, fg_y, grouping, conf = decode_maps(result)
     params = {
         "model": "spiking",
@@ -159,7 +191,7 @@ def decode_counts(network, counts_path):
             "frame_shape": list(network.frame_shape),
             "input_rate_hz": network.input_rate_hz,
         },
-        "backend": {"name": "pynn-export", "counts": str(counts_path)},
+        "backend": backend,
         "simulation": {
             "dt_ms": result.dt_ms,
             "duration_ms": result.simulated_ms,

@@ -37,7 +37,8 @@ def add_decode_command(sub):
         "--input",
         metavar="SPIKES.npz",
         default=None,
-        help="the input spike file, for the figure's input panel (default: input.npz beside COUNTS)",
+        help="the input spike file run.py ran: the figure's input panel, and --reference's input "
+        "(default: input.npz beside COUNTS)",
     )
     p.add_argument(
         "--reference",

@@ -26,6 +26,55 @@ def bins_of(span, edges) -> tuple[int, int]:
     return int(np.searchsorted(edges, span[0])), int(np.searchsorted(edges, span[1]))
 
 
+class RunningCounts:
+    """The spike counts of a run's bins summed cell by cell, every population
+    in one flat int32 array, so that a window's counts are one subtraction
+    (:meth:`since`) and the total at a window's start one copy (:meth:`mark`).
+
+    The sum wraps around at 2**32 (numpy's integer addition), and so does the
+    subtraction: a window's counts are exact however long the total has run,
+    as long as no cell fires 2**31 times within one window."""
+
+    def __init__(self):
+        self.flat = None  # (int32, every population's cells one after the other)
+        self.parts: dict = {}  # population -> its slice of ``flat``
+
+    def restart(self, counts: dict):
+        """The total from zero, laid out for ``counts`` (a bin's: population -> cells)."""
+        if not self.parts:
+            n = 0
+            for name, c in counts.items():
+                self.parts[name] = slice(n, n + c.size)
+                n += c.size
+        self.flat = np.zeros(sum(s.stop - s.start for s in self.parts.values()), np.int32)
+
+    def add(self, counts: dict):
+        """Add a bin's counts (the same populations, in any order, as every bin)."""
+        if self.flat is None:
+            self.restart(counts)
+        if counts.keys() != self.parts.keys():
+            raise RuntimeError(f"a bin counts the populations {sorted(counts)}, not those before {sorted(self.parts)}")
+        for name, c in counts.items():
+            part = self.flat[self.parts[name]]
+            np.add(part, c, out=part, casting="unsafe")
+
+    def mark(self) -> np.ndarray:
+        """The total now (a copy), for :meth:`since`."""
+        return self.flat.copy()
+
+    def since(self, mark: np.ndarray | None, hand_over: bool = False) -> dict:
+        """The counts added since ``mark`` (None: since :meth:`restart`), population by
+        population (views of one array); ``hand_over``: the total itself is handed over
+        (and restarted before it is added to again) in place of a copy."""
+        if mark is not None:
+            flat = self.flat - mark
+        elif hand_over:
+            flat, self.flat = self.flat, None
+        else:
+            flat = self.flat.copy()
+        return {name: flat[s] for name, s in self.parts.items()}
+
+
 class WindowReader:
     """Receives a run's counting bins in order (``RunSettings.on_bin``) and
     decodes each window as soon as the last bin of its read-out span is in:
@@ -62,10 +111,11 @@ class WindowReader:
         ends = np.searchsorted(np.asarray(edges), np.asarray(spans, dtype=np.float64).reshape(-1, 2))
         self.bins = list(zip(ends[:, 0].tolist(), ends[:, 1].tolist()))
         self.first = 0  # the first window not decoded yet (spans start and end in order)
-        # the counts of the bins so far, summed (int64); a window being read holds their value
-        # at its start and its spikes (a window's counts are the difference: one pass over the
-        # cells a bin, however many windows overlap, as with --stride-ms shorter than the window)
-        self.total: dict = {}
+        # the counts of the bins so far, summed; a window being read holds their value at its
+        # start (None: the total began with it) and its spikes (a window's counts are the difference:
+        # one pass over the cells a bin, however many windows overlap, as with --stride-ms shorter
+        # than the window)
+        self.total = RunningCounts()
         self.reading: dict = {}
         self.last_at = run.t_start  # perf_counter() when the last window was decoded
         self.threaded, self.cells = threaded, cells
@@ -101,23 +151,20 @@ class WindowReader:
             k0, k1 = self.bins[i]
             if k < k1:
                 if k == k0 and not self.reading:  # (none open: the window's counts are the total from here)
-                    self.total, self.reading[i] = {}, ({}, [])
+                    self.total.restart(result.counts)
+                    self.reading[i] = (None, [])
                 elif k == k0:  # (the counts so far, before this bin: what the window's end subtracts)
-                    self.reading[i] = ({name: a.copy() for name, a in self.total.items()}, [])
-                before, spikes = self.reading[i]
+                    self.reading[i] = (self.total.mark(), [])
+                spikes = self.reading[i][1]
                 if self.feed.dropped(i):  # (a live stream dropped it: nothing of it is kept, nor is it decoded)
-                    before.clear(), spikes.clear()
+                    self.reading[i] = (None, [])
                 elif result.spikes is not None:
                     spikes.append(result.spikes)
                 if k == k1 - 1:
                     ending.append(i)
             i += 1
         if self.reading:  # (no window open: the total need not follow, its differences are what count)
-            for name, c in result.counts.items():
-                if name in self.total:
-                    np.add(self.total[name], c, out=self.total[name])
-                else:
-                    self.total[name] = c.astype(np.int64)
+            self.total.add(result.counts)
         for i in ending:
             self._read(i, result)
         while self.first < len(self.bins) and self.bins[self.first][1] <= k + 1:
@@ -130,12 +177,8 @@ class WindowReader:
         start) are decoded here or on the decoding thread."""
         before, spikes = self.reading.pop(i)
         counts = {}
-        if self.feed.dropped(i):
-            pass
-        elif not before and not self.reading:  # (the total is this window's alone, and no other reads on from it)
-            counts, self.total = self.total, {}
-        else:
-            counts = {n: a - before[n] if n in before else a.copy() for n, a in self.total.items()}
+        if not self.feed.dropped(i):  # (the total is this window's alone where no other reads on from it)
+            counts = self.total.since(before, hand_over=before is None and not self.reading)
         w = self.feed.window(i)
         if self.worker is None:
             self._finish(i, w, result, counts, spikes)

@@ -166,50 +166,69 @@ def _block_tensor(e, w, rows, cols, out):
     """The structure tensor ``(jxx, jyy, jxy)`` of the smoothed frame ``e``
     at the pixels ``(rows, cols)`` into ``out`` (3 x pixels): the products of
     ``np.gradient``'s derivatives (x right, y up), smoothed by ``w`` along
-    axis 0 on the rows holding a pixel, then along axis 1 at the pixels."""
+    axis 0, then along axis 1 at the pixels. Each pass is computed only where
+    the next one reads it: the products on the rows within reach of a pixel's
+    row, the pass along axis 0 on the pixels' rows, between the columns
+    within reach of their first and last pixel."""
     h, n = e.shape
     r = (w.size - 1) // 2
-    gx, gy = np.empty_like(e), np.empty_like(e)
-    for i in range(h):
-        for c in range(n):
-            if c == 0:
-                gx[i, c] = (e[i, 1] - e[i, 0]) / 1.0
-            elif c == n - 1:
-                gx[i, c] = (e[i, n - 1] - e[i, n - 2]) / 1.0
-            else:
-                gx[i, c] = (e[i, c + 1] - e[i, c - 1]) / 2.0
-            if i == 0:
-                gy[i, c] = -((e[1, c] - e[0, c]) / 1.0)
-            elif i == h - 1:
-                gy[i, c] = -((e[h - 1, c] - e[h - 2, c]) / 1.0)
-            else:
-                gy[i, c] = -((e[i + 1, c] - e[i - 1, c]) / 2.0)
-    # the products once per pixel, not once per tap that reads them
-    pxx, pyy, pxy = gx * gx, gy * gy, gx * gy
-    txx, tyy, txy = np.zeros_like(e), np.zeros_like(e), np.zeros_like(e)
-    need = np.zeros(h, np.bool_)
+    slot = np.full(h, -1, np.int64)  # a pixel row's row in the axis-0 pass's arrays
+    lo, hi = np.full(h, n, np.int64), np.full(h, -1, np.int64)  # its columns within reach
     for k in range(rows.size):
-        need[rows[k]] = True
+        i, c = rows[k], cols[k]
+        slot[i] = 0
+        lo[i], hi[i] = min(lo[i], max(c - r, 0)), max(hi[i], min(c + r, n - 1))
+    reach = np.zeros(h, np.bool_)  # the rows the axis-0 pass reads
+    m = 0
     for i in range(h):
-        if not need[i]:
+        if slot[i] >= 0:
+            slot[i], m = m, m + 1
+            for j in range(-r, r + 1):
+                reach[_mirror(i + j, h)] = True
+    # the products once per pixel, not once per tap that reads them
+    pxx, pyy, pxy = np.empty_like(e), np.empty_like(e), np.empty_like(e)
+    for i in range(h):
+        if not reach[i]:
             continue
         for c in range(n):
-            txx[i, c] = pxx[i, c] * w[r]
-            tyy[i, c] = pyy[i, c] * w[r]
-            txy[i, c] = pxy[i, c] * w[r]
+            if c == 0:
+                gx = (e[i, 1] - e[i, 0]) / 1.0
+            elif c == n - 1:
+                gx = (e[i, n - 1] - e[i, n - 2]) / 1.0
+            else:
+                gx = (e[i, c + 1] - e[i, c - 1]) / 2.0
+            if i == 0:
+                gy = -((e[1, c] - e[0, c]) / 1.0)
+            elif i == h - 1:
+                gy = -((e[h - 1, c] - e[h - 2, c]) / 1.0)
+            else:
+                gy = -((e[i + 1, c] - e[i - 1, c]) / 2.0)
+            pxx[i, c], pyy[i, c], pxy[i, c] = gx * gx, gy * gy, gx * gy
+    txx, tyy, txy = np.empty((m, n)), np.empty((m, n)), np.empty((m, n))
+    for i in range(h):
+        s = slot[i]
+        if s < 0:
+            continue
+        a0, b0 = lo[i], hi[i] + 1
+        for c in range(a0, b0):
+            txx[s, c] = pxx[i, c] * w[r]
+            tyy[s, c] = pyy[i, c] * w[r]
+            txy[s, c] = pxy[i, c] * w[r]
         for j in range(r, 0, -1):
             a, b, wj = _mirror(i - j, h), _mirror(i + j, h), w[r - j]
-            for c in range(n):
-                txx[i, c] += (pxx[a, c] + pxx[b, c]) * wj
-                tyy[i, c] += (pyy[a, c] + pyy[b, c]) * wj
-                txy[i, c] += (pxy[a, c] + pxy[b, c]) * wj
-    for q, t in enumerate((txx, tyy, txy)):
-        for k in range(rows.size):
-            i, c = rows[k], cols[k]
-            acc = t[i, c] * w[r]
-            for j in range(r, 0, -1):
-                acc += (t[i, _mirror(c - j, n)] + t[i, _mirror(c + j, n)]) * w[r - j]
-            out[q, k] = acc
+            for c in range(a0, b0):
+                txx[s, c] += (pxx[a, c] + pxx[b, c]) * wj
+                tyy[s, c] += (pyy[a, c] + pyy[b, c]) * wj
+                txy[s, c] += (pxy[a, c] + pxy[b, c]) * wj
+    for k in range(rows.size):
+        s, c = slot[rows[k]], cols[k]
+        axx, ayy, axy = txx[s, c] * w[r], tyy[s, c] * w[r], txy[s, c] * w[r]
+        for j in range(r, 0, -1):
+            a, b, wj = _mirror(c - j, n), _mirror(c + j, n), w[r - j]
+            axx += (txx[s, a] + txx[s, b]) * wj
+            ayy += (tyy[s, a] + tyy[s, b]) * wj
+            axy += (txy[s, a] + txy[s, b]) * wj
+        out[0, k], out[1, k], out[2, k] = axx, ayy, axy
 
 
 def unpool_maps(fg_x, fg_y, grouping, edges: np.ndarray, pool: int):

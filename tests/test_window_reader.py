@@ -29,3 +29,21 @@ def test_overlapping_windows_each_count_the_sum_of_their_bins_and_a_dropped_one_
         for name in ("S", "G"):
             np.testing.assert_array_equal(counts[name], sum(bins[k][name].astype(np.int64) for k in range(a, b)))
         assert [s["k"] for s in spikes] == list(range(a, b))
+
+
+def test_a_windows_summary_counts_cells_spikes_active_cells_and_the_most_of_one_cell_in_place_or_apart():
+    from snn_fg.models.spiking.record import count_summary
+    from snn_fg.models.spiking.window_reader import RunningCounts
+
+    bins = {"A": np.array([0, 3, 0, 1], np.int32), "E": np.zeros(0, np.int32), "B": np.array([2, 0, 5], np.int32)}
+    want = [(3, 7, 2, 5), (4, 4, 2, 3), (0, 0, 0, 0)]  # (cells, spikes, cells that fired, most of one cell)
+    assert count_summary(bins, ["B", "A", "E"]) == want
+    total = RunningCounts()
+    total.restart(bins)
+    total.add(bins)
+    mark = total.mark()
+    total.add(bins)
+    total.add(bins)
+    window = total.since(mark)  # (twice the bin)
+    assert [c.base is window.flat for c in window.values()] == [True] * 3
+    assert count_summary(window, ["B", "A", "E"]) == [(3, 14, 2, 10), (4, 8, 2, 6), (0, 0, 0, 0)]

@@ -16,6 +16,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ...backends.base import SimulationResult
 from ...errors import InputError
@@ -77,16 +78,15 @@ class SpikingRecord:
         syn = result.stats.get("synapses_in", {})
         per_s = 1000.0 / result.count_window_ms
         summary = {}
-        for name in names:
+        for name, (size, total, active, most) in zip(names, count_summary(result.counts, names), strict=True):
             p = result.network.population(name)
-            c = result.counts[name]
             summary[name] = {
                 "role": p.role,
                 "level": p.level,
-                "cells": int(c.size),
-                "mean_rate_hz": float(c.sum()) / c.size * per_s if c.size else 0.0,
-                "active_frac": np.count_nonzero(c) / c.size if c.size else 0.0,
-                "max_rate_hz": float(c.max()) * per_s if c.size else 0.0,
+                "cells": size,
+                "mean_rate_hz": float(total) / size * per_s if size else 0.0,
+                "active_frac": active / size if size else 0.0,
+                "max_rate_hz": float(most) * per_s if size else 0.0,
                 "refractory_max_hz": p.neuron.max_rate_hz,
                 "synapses_in": int(syn.get(name, 0)) if syn else None,
             }
@@ -227,3 +227,38 @@ def run_provenance(
         "timings_s": {**result.timings_s, "total": time.perf_counter() - t_start},
         "notes": list(net.notes),
     }
+
+
+def count_summary(counts, names) -> list[tuple[int, int, int, int]]:
+    """For each population of ``names``: its cells, their spikes, the cells
+    that fired and the most spikes of one cell (``counts``: population -> the
+    spikes of each cell, integers), in one compiled pass over every cell. The
+    counts of a window read as a run goes are slices of one array
+    (:class:`~snn_fg.models.spiking.window_reader.WindowCounts`), read there."""
+    flat = getattr(counts, "flat", None)
+    if flat is None:
+        arrays = [np.asarray(counts[n]).reshape(-1) for n in names]
+        stops = np.cumsum([a.size for a in arrays], dtype=np.int64)
+        starts = stops - np.array([a.size for a in arrays], np.int64)
+        flat = np.concatenate(arrays) if arrays else np.zeros(0, np.int64)
+    else:
+        starts = np.array([counts.parts[n].start for n in names], np.int64)
+        stops = np.array([counts.parts[n].stop for n in names], np.int64)
+    out = np.zeros((len(names), 3), np.int64)
+    _segment_summary(flat, starts, stops, out)
+    return [(int(b - a), int(t), int(k), int(m)) for a, b, (t, k, m) in zip(starts, stops, out, strict=True)]
+
+
+@njit(cache=True)
+def _segment_summary(flat, starts, stops, out):
+    """``out[q]``: the sum, the non-zero values and the largest value of ``flat[starts[q]:stops[q]]``."""
+    for q in range(starts.size):
+        total, active, most = 0, 0, 0
+        for x in range(starts[q], stops[q]):
+            v = flat[x]
+            total += v
+            if v != 0:
+                active += 1
+            if x == starts[q] or v > most:
+                most = v
+        out[q, 0], out[q, 1], out[q, 2] = total, active, most

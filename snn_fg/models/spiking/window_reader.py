@@ -64,7 +64,7 @@ class RunningCounts:
 
     def since(self, mark: np.ndarray | None, hand_over: bool = False) -> dict:
         """The counts added since ``mark`` (None: since :meth:`restart`), population by
-        population (views of one array); ``hand_over``: the total itself is handed over
+        population (:class:`WindowCounts`); ``hand_over``: the total itself is handed over
         (and restarted before it is added to again) in place of a copy."""
         if mark is not None:
             flat = self.flat - mark
@@ -72,7 +72,15 @@ class RunningCounts:
             flat, self.flat = self.flat, None
         else:
             flat = self.flat.copy()
-        return {name: flat[s] for name, s in self.parts.items()}
+        return WindowCounts({name: flat[s] for name, s in self.parts.items()}, flat=flat, parts=self.parts)
+
+
+class WindowCounts(dict):
+    """Population -> a window's spike counts: slices ``parts[population]`` of one array ``flat``."""
+
+    def __init__(self, counts: dict, *, flat: np.ndarray, parts: dict):
+        super().__init__(counts)
+        self.flat, self.parts = flat, parts
 
 
 class WindowReader:

@@ -231,7 +231,7 @@ def _block_tensor(e, w, rows, cols, out):
         out[0, k], out[1, k], out[2, k] = axx, ayy, axy
 
 
-def unpool_maps(fg_x, fg_y, grouping, edges: np.ndarray, pool: int):
+def unpool_maps(fg_x, fg_y, grouping, edges: np.ndarray, pool: int, at=None):
     """Maps on the block grid back at the sensor's size (``edges``: H x W,
     the sensor's event pixels); the grouping map is resized bilinearly.
 
@@ -243,12 +243,12 @@ def unpool_maps(fg_x, fg_y, grouping, edges: np.ndarray, pool: int):
     or slanted edge is off the edge's own normal by up to the block's
     width; the side is the network's decision and is kept. Where the
     events around a pixel make no line (``c`` near 0) the block's vector
-    stays as it is."""
+    stays as it is. ``at``: ``np.nonzero(edges)``, where the caller has it."""
     if pool == 1:
         return fg_x, fg_y, grouping
     h, w = edges.shape
     on = np.asarray(edges) != 0
-    at = np.nonzero(on)
+    at = np.nonzero(on) if at is None else at
     bx, by = (np.asarray(a, np.float64)[at[0] // pool, at[1] // pool] for a in (fg_x, fg_y))
     mag = np.hypot(bx, by)
     nx, ny, c = edge_normals(on, pool, at)

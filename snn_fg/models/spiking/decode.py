@@ -22,7 +22,7 @@ from ..rate.edfg import GroupingResult, readout
 def _grid(network: Network, sites: dict, rates: dict, name: str) -> np.ndarray:
     pop = network.population(name)
     if sites[name].size == pop.size:  # every cell instantiated (sites are sorted): the rates are the grid
-        return np.array(rates[name], dtype=np.float64).reshape(pop.shape)
+        return np.asarray(rates[name], dtype=np.float64).reshape(pop.shape)
     out = np.zeros(pop.size)
     out[sites[name]] = rates[name]
     return out.reshape(pop.shape)
@@ -111,11 +111,10 @@ def decode_maps(result, edges: np.ndarray | None = None, pool: int = 1):
     fg_x, fg_y, grouping, g = decode(result, maps_only=True)
     conf = vector_confidence(g, result.count_window_ms)
     if pool > 1:
-        fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, edges, pool)
-        on = np.asarray(edges) != 0
-        rows, cols = np.nonzero(on)
-        block = np.zeros(on.shape, conf.dtype)
-        block[rows, cols] = conf[rows // pool, cols // pool]
+        rows, cols = at = np.nonzero(edges)
+        fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, edges, pool, at)
+        block = np.zeros(np.shape(edges), conf.dtype)
+        block[at] = conf[rows // pool, cols // pool]
         conf = block
     return fg_x, fg_y, grouping, conf
 

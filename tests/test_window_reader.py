@@ -6,12 +6,20 @@ counted."""
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from snn_fg.models.spiking.window_reader import WindowReader
 
 
-def test_overlapping_windows_each_count_the_sum_of_their_bins_and_a_dropped_one_none():
-    spans = [(0, 4), (1, 5), (2, 6), (3, 7), (4, 8), (6, 8)]  # (ms; the bins are 1 ms)
+@pytest.mark.parametrize(
+    "spans",
+    [
+        [(0, 4), (1, 5), (2, 6), (3, 7), (4, 8), (6, 8)],
+        [(0, 2), (0, 3), (3, 4), (4, 6), (4, 8), (6, 8)],  # (two windows begin in one bin)
+    ],
+)
+def test_overlapping_windows_each_count_the_sum_of_their_bins_and_a_dropped_one_none(spans):
+    # (ms; the bins are 1 ms)
     feed = SimpleNamespace(ended=False, n=len(spans), dropped=lambda i: i == 2, window=lambda i: i)
     reader = WindowReader(feed, spans, np.arange(9.0), pool=1, run=SimpleNamespace(t_start=0.0))
     got = {}

@@ -38,6 +38,7 @@ class RunningCounts:
     def __init__(self):
         self.flat = None  # (int32, every population's cells one after the other)
         self.parts: dict = {}  # population -> its slice of ``flat``
+        self.fresh = True  # (no bin added since the restart)
 
     def restart(self, counts: dict):
         """The total from zero, laid out for ``counts`` (a bin's: population -> cells)."""
@@ -46,21 +47,25 @@ class RunningCounts:
             for name, c in counts.items():
                 self.parts[name] = slice(n, n + c.size)
                 n += c.size
-        self.flat = np.zeros(sum(s.stop - s.start for s in self.parts.values()), np.int32)
+        self.flat, self.fresh = None, True
 
     def add(self, counts: dict):
         """Add a bin's counts (the same populations, in any order, as every bin)."""
-        if self.flat is None:
-            self.restart(counts)
         if counts.keys() != self.parts.keys():
             raise RuntimeError(f"a bin counts the populations {sorted(counts)}, not those before {sorted(self.parts)}")
+        if self.fresh:  # (the first bin since the restart is copied, not added to zeros: no pass over zeroed pages)
+            self.flat = np.empty(max((s.stop for s in self.parts.values()), default=0), np.int32)
         for name, c in counts.items():
             part = self.flat[self.parts[name]]
-            np.add(part, c, out=part, casting="unsafe")
+            if self.fresh:
+                np.copyto(part, c, casting="unsafe")
+            else:
+                np.add(part, c, out=part, casting="unsafe")
+        self.fresh = False
 
-    def mark(self) -> np.ndarray:
-        """The total now (a copy), for :meth:`since`."""
-        return self.flat.copy()
+    def mark(self) -> np.ndarray | None:
+        """The total now (a copy; None while it is zero since the restart), for :meth:`since`."""
+        return None if self.fresh else self.flat.copy()
 
     def since(self, mark: np.ndarray | None, hand_over: bool = False) -> dict:
         """The counts added since ``mark`` (None: since :meth:`restart`), population by

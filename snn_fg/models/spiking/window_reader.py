@@ -68,11 +68,11 @@ class RunningCounts:
         return None if self.fresh else self.flat.copy()
 
     def since(self, mark: np.ndarray | None, hand_over: bool = False) -> dict:
-        """The counts added since ``mark`` (None: since :meth:`restart`), population by
+        """The counts added since ``mark`` (None: since :meth:`restart`; written over), population by
         population (:class:`WindowCounts`); ``hand_over``: the total itself is handed over
         (and restarted before it is added to again) in place of a copy."""
-        if mark is not None:
-            flat = self.flat - mark
+        if mark is not None:  # (the mark is the window's own: its counts take its place)
+            flat = np.subtract(self.flat, mark, out=mark)
         elif hand_over:
             flat, self.flat = self.flat, None
         else:

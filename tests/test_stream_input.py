@@ -11,7 +11,7 @@ from snn_fg.backends.fast import FastBackend
 from snn_fg.events import EVENT_DTYPE, RecordingWindows, iter_windows
 from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.lowering.input_spikes import event_spikes
-from snn_fg.lowering.input_stream import SpikeStream
+from snn_fg.lowering.input_stream import SegmentedInput, SpikeStream
 from snn_fg.models.spiking.continuous import simulate_windows, window_maps
 from snn_fg.network import Input, SpikingParams
 from snn_fg.params import ModelParams
@@ -189,3 +189,24 @@ class _Noting(FastBackend):
 
         inputs.segment = noted
         return super().simulate(network, inputs, settings)
+
+
+def test_the_whole_input_of_a_drained_stream_marks_the_sources_that_fire():
+    """A backend that takes the run's input whole gets it once the stream has
+    ended: its ``on`` and ``off`` are then the sources that fire (so it creates
+    only the cells their spikes reach), while its edge masks stay those of the
+    sources the run was laid out with (every one: a stream's, the fast engine's)."""
+    ev = _events(n=600, w=5)  # (events on the 5 left columns of a 7 x 9 grid)
+    stream = SpikeStream((7, 9), 0.5, 0, 2.0)
+    stream.add(ev)
+    every = np.ones((7, 9), bool)
+    inp = SegmentedInput((7, 9), every, every.copy(), 200.0, 0, 10, stream.take_until, np.array([0, 40]))
+    whole = inp.whole()
+    on, off = np.zeros((7, 9), bool), np.zeros((7, 9), bool)
+    on[ev["y"][ev["p"] == 1], ev["x"][ev["p"] == 1]] = True
+    off[ev["y"][ev["p"] == 0], ev["x"][ev["p"] == 0]] = True
+    np.testing.assert_array_equal(whole.on, on)
+    np.testing.assert_array_equal(whole.off, off)
+    assert not on[:, 5:].any() and on.sum() + off.sum() > 40
+    np.testing.assert_array_equal(whole.edges, every)
+    assert np.count_nonzero(whole.indices == whole.clock_index) == 2

@@ -148,6 +148,7 @@ class Brian2Backend(Backend):
             source_masks(network, inputs.on, inputs.off),
             sites=settings.sites,
             instantiate=settings.instantiate,
+            edges1=inputs.edges,
         )
         stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
         timings = {"unroll": time.perf_counter() - t0}

@@ -111,6 +111,7 @@ class NestBackend(Backend):
             source_masks(network, inputs.on, inputs.off),
             sites=settings.sites,
             instantiate=settings.instantiate,
+            edges1=inputs.edges,
         )
         if self.weight_bits is not None:
             quantise_unrolled(un, self.weight_bits)

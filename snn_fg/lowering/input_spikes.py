@@ -37,6 +37,10 @@ class InputSpikes:
     one period; the pattern repeats every ``period_steps`` if that is not
     ``None``. ``on``/``off`` are the (H, W) masks of pixels that get spikes;
     ``rate_hz`` is the mean rate of an active pixel (used to calibrate gains).
+    ``edges``: the (H, W) level-1 map the populations' edge masks are made
+    from, where it is not the pixels that get spikes (None): a stream's, whose
+    network was laid out before its events were known
+    (:meth:`~snn_fg.lowering.input_stream.SegmentedInput.whole`).
     """
 
     shape: tuple
@@ -48,6 +52,7 @@ class InputSpikes:
     rate_hz: float
     merged: int = 0  # spikes dropped because they fell in an occupied step
     kind: str = "frame"
+    edges: np.ndarray | None = None
 
     @property
     def clock_index(self) -> int:

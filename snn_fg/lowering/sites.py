@@ -43,6 +43,19 @@ def edge_maps(network: Network, edges1: np.ndarray) -> dict:
     }
 
 
+def masked_edge_maps(network: Network, active: dict, edges1=None) -> dict:
+    """Edge map of every level for one input (``active``, as :func:`input_edges`
+    takes it): resized from ``edges1``, the level-1 map the populations' edge
+    masks are made from (None: the pixels with input), and at level 1 kept to
+    the pixels with input, where alone its gated cells can fire (``docs/model.md``)."""
+    given = input_edges(network, active)
+    if edges1 is None:
+        return edge_maps(network, given)
+    emaps = edge_maps(network, np.asarray(edges1, float).reshape(network.frame_shape))
+    emaps[1] = np.minimum(emaps[1], given)
+    return emaps
+
+
 def input_edges(network: Network, active: dict) -> np.ndarray:
     """The level-1 edge map: pixels where either input polarity (``active``:
     source name -> bool mask, flat or 2-D) has events. The window clock is
@@ -69,13 +82,13 @@ def _counts_for(pop: Population, proj) -> bool:
 
 
 class _Resolver:
-    def __init__(self, network: Network, active: dict, fixed: dict):
+    def __init__(self, network: Network, active: dict, fixed: dict, edges1=None):
         self.net = network
         self.active = active  # source name -> bool over its pixels (flat)
         self.sites = {p.name: all_sites(p) for p in network.sources}
         self.sites.update(fixed)
         self.rates = {name: network.input_rate_hz * a for name, a in active.items()}
-        self.emaps = edge_maps(network, input_edges(network, active))
+        self.emaps = masked_edge_maps(network, active, edges1)
 
     def pairs(self, proj, src_sites=None, tgt_sites=None):
         src, tgt = self.net.population(proj.source), self.net.population(proj.target)
@@ -153,14 +166,16 @@ class _Resolver:
         return self.rates[pop.name]
 
 
-def resolve_sites(network: Network, active: dict, fixed: dict | None = None) -> tuple[dict, dict]:
+def resolve_sites(network: Network, active: dict, fixed: dict | None = None, edges1=None) -> tuple[dict, dict]:
     """Instantiated cells of every population for one input.
 
     ``active`` maps each spike source's name to a flat bool array over its
     pixels (those with input); ``fixed`` fixes the cells of some populations
-    (flat indices), overriding their hints. Returns ``(sites, edge_maps)``.
+    (flat indices), overriding their hints; ``edges1``: the level-1 map the
+    edge masks are made from, where it is not the pixels with input
+    (:func:`masked_edge_maps`). Returns ``(sites, edge_maps)``.
     """
-    res = _Resolver(network, active, dict(fixed or {}))
+    res = _Resolver(network, active, dict(fixed or {}), edges1)
     pending = [p for p in network.populations if p.name not in res.sites]
     while pending:
         progressed = False

@@ -21,7 +21,7 @@ from .. import validate as check
 from ..network.graph import Network
 from ..network.projections import Projection
 from .connect import pairs
-from .sites import all_sites, edge_maps, edge_sites, input_edges, resolve_sites
+from .sites import all_sites, edge_sites, masked_edge_maps, resolve_sites
 
 INSTANTIATE = ("input", "all")
 
@@ -85,7 +85,7 @@ class Unrolled:
         return "\n".join(rows)
 
 
-def choose_sites(network: Network, active: dict, sites: dict | None = None, instantiate: str = "input"):
+def choose_sites(network: Network, active: dict, sites: dict | None = None, instantiate: str = "input", edges1=None):
     """The cells of every population a simulator instantiates for one input.
 
     Parameters are those of :func:`unroll`. Returns ``(chosen, masks, edge_maps)``:
@@ -116,19 +116,24 @@ def choose_sites(network: Network, active: dict, sites: dict | None = None, inst
         fixed[name] = idx
     flat = {k: v.ravel() for k, v in act.items()}
     if instantiate == "all":
-        emaps = edge_maps(network, input_edges(network, act))
+        emaps = masked_edge_maps(network, act, edges1)
         whole = {
             p.name: edge_sites(p, emaps[p.level], network.support_min) if p.edge_mask else all_sites(p)
             for p in network.populations
             if not p.is_source
         }
         fixed = whole | fixed
-    chosen, emaps = resolve_sites(network, flat, fixed)
+    chosen, emaps = resolve_sites(network, flat, fixed, edges1)
     return chosen, act, emaps
 
 
 def unroll(
-    network: Network, active: dict, progress=None, sites: dict | None = None, instantiate: str = "input"
+    network: Network,
+    active: dict,
+    progress=None,
+    sites: dict | None = None,
+    instantiate: str = "input",
+    edges1=None,
 ) -> Unrolled:
     """Instantiate the cells and synapses of ``network`` for one input.
 
@@ -147,8 +152,13 @@ def unroll(
     instantiate : {"input", "all"}
         ``input``: only the cells this input can use; ``all``: every cell
         (of an ``edge_mask`` population, every cell inside the mask).
+    edges1 : (rows, cols) array, optional
+        The level-1 map the edge masks are made from, where it is not the
+        pixels with input (:attr:`InputSpikes.edges
+        <snn_fg.lowering.input_spikes.InputSpikes.edges>`; see
+        :func:`~snn_fg.lowering.sites.masked_edge_maps`).
     """
-    chosen, act, emaps = choose_sites(network, active, sites, instantiate)
+    chosen, act, emaps = choose_sites(network, active, sites, instantiate, edges1)
     flat = {k: v.ravel() for k, v in act.items()}
     conns = []
     items = network.projections if progress is None else progress(network.projections)

@@ -154,8 +154,8 @@ def unroll(
         (of an ``edge_mask`` population, every cell inside the mask).
     edges1 : (rows, cols) array, optional
         The level-1 map the edge masks are made from, where it is not the
-        pixels with input (:attr:`InputSpikes.edges
-        <snn_fg.lowering.input_spikes.InputSpikes.edges>`; see
+        pixels with input (an input's ``edges``,
+        :class:`~snn_fg.lowering.input_spikes.InputSpikes`; see
         :func:`~snn_fg.lowering.sites.masked_edge_maps`).
     """
     chosen, act, emaps = choose_sites(network, active, sites, instantiate, edges1)

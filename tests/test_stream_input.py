@@ -193,9 +193,10 @@ class _Noting(FastBackend):
 
 def test_the_whole_input_of_a_drained_stream_marks_the_sources_that_fire():
     """A backend that takes the run's input whole gets it once the stream has
-    ended: its ``on`` and ``off`` are then the sources that fire (so it creates
-    only the cells their spikes reach), while its edge masks stay those of the
-    sources the run was laid out with (every one: a stream's, the fast engine's)."""
+    ended: its ``fired`` marks the sources that fire then (so that such a
+    backend can create only the cells their spikes reach), while ``on`` and
+    ``off`` stay the sources the run was laid out with (every one, as for the
+    fast engine: they make the edge masks)."""
     ev = _events(n=600, w=5)  # (events on the 5 left columns of a 7 x 9 grid)
     stream = SpikeStream((7, 9), 0.5, 0, 2.0)
     stream.add(ev)
@@ -205,8 +206,9 @@ def test_the_whole_input_of_a_drained_stream_marks_the_sources_that_fire():
     on, off = np.zeros((7, 9), bool), np.zeros((7, 9), bool)
     on[ev["y"][ev["p"] == 1], ev["x"][ev["p"] == 1]] = True
     off[ev["y"][ev["p"] == 0], ev["x"][ev["p"] == 0]] = True
-    np.testing.assert_array_equal(whole.on, on)
-    np.testing.assert_array_equal(whole.off, off)
+    np.testing.assert_array_equal(whole.fired[0], on)
+    np.testing.assert_array_equal(whole.fired[1], off)
     assert not on[:, 5:].any() and on.sum() + off.sum() > 40
-    np.testing.assert_array_equal(whole.edges, every)
+    np.testing.assert_array_equal(whole.on, every)
+    np.testing.assert_array_equal(whole.off, every)
     assert np.count_nonzero(whole.indices == whole.clock_index) == 2

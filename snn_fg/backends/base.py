@@ -253,6 +253,16 @@ def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:
     }
 
 
+def fired_masks(network: Network, inputs) -> dict | None:
+    """:func:`source_masks` of the sources that fire, where the input knows
+    them to be fewer than it marks (the ``fired`` of
+    :class:`~snn_fg.lowering.input_spikes.InputSpikes`: a recording read
+    whole), for a backend that creates only the cells they reach
+    (:func:`~snn_fg.lowering.unroll.unroll`); else None."""
+    fired = getattr(inputs, "fired", None)
+    return None if fired is None else source_masks(network, *fired)
+
+
 def source_offsets(network: Network) -> dict:
     """Spike-source name -> first input index: inputs number the ON pixels
     ``0..H*W-1``, the OFF pixels ``H*W..2*H*W-1`` (row-major) and the

@@ -29,6 +29,7 @@ from .base import (
     Backend,
     RunSettings,
     SimulationResult,
+    fired_masks,
     importable,
     lif_populations,
     receptor,
@@ -148,7 +149,7 @@ class Brian2Backend(Backend):
             source_masks(network, inputs.on, inputs.off),
             sites=settings.sites,
             instantiate=settings.instantiate,
-            edges1=inputs.edges,
+            fired=fired_masks(network, inputs),
         )
         stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
         timings = {"unroll": time.perf_counter() - t0}

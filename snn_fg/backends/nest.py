@@ -38,7 +38,16 @@ from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from ..pynn.simulator import import_simulator
 from . import cancel
-from .base import Backend, RunSettings, SimulationResult, importable, lif_populations, source_masks, source_offsets
+from .base import (
+    Backend,
+    RunSettings,
+    SimulationResult,
+    fired_masks,
+    importable,
+    lif_populations,
+    source_masks,
+    source_offsets,
+)
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
 CHUNK_MS = 25.0
@@ -111,7 +120,7 @@ class NestBackend(Backend):
             source_masks(network, inputs.on, inputs.off),
             sites=settings.sites,
             instantiate=settings.instantiate,
-            edges1=inputs.edges,
+            fired=fired_masks(network, inputs),
         )
         if self.weight_bits is not None:
             quantise_unrolled(un, self.weight_bits)

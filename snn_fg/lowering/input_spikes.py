@@ -37,10 +37,12 @@ class InputSpikes:
     one period; the pattern repeats every ``period_steps`` if that is not
     ``None``. ``on``/``off`` are the (H, W) masks of pixels that get spikes;
     ``rate_hz`` is the mean rate of an active pixel (used to calibrate gains).
-    ``edges``: the (H, W) level-1 map the populations' edge masks are made
-    from, where it is not the pixels that get spikes (None): a stream's, whose
-    network was laid out before its events were known
-    (:meth:`~snn_fg.lowering.input_stream.SegmentedInput.whole`).
+    ``fired``: ``(on, off)``, the pixels whose sources do fire, where
+    ``on``/``off`` mark more (None): a stream's, every source, as its network
+    was laid out before its events; once it has been read whole
+    (:meth:`~snn_fg.lowering.input_stream.SegmentedInput.whole`), a backend
+    that creates only the cells an input reaches may take these (the edge
+    masks stay those of ``on``/``off``: :func:`~snn_fg.lowering.unroll.unroll`).
     """
 
     shape: tuple
@@ -52,7 +54,7 @@ class InputSpikes:
     rate_hz: float
     merged: int = 0  # spikes dropped because they fell in an occupied step
     kind: str = "frame"
-    edges: np.ndarray | None = None
+    fired: tuple | None = None
 
     @property
     def clock_index(self) -> int:

@@ -97,17 +97,15 @@ class SegmentedInput:
 
     def whole(self) -> InputSpikes:
         """Every spike as one :class:`InputSpikes`, for a backend that takes
-        the whole run's input at once. Its ``on`` and ``off`` are the sources
-        that fire in it, so that such a backend creates only the cells their
-        spikes can reach (``instantiate="input"``); its edge masks are still
-        made from :attr:`on` and :attr:`off` (``edges``), those of the network
-        a backend that streams its input runs, laid out before any spike."""
+        the whole run's input at once; its ``fired`` marks the sources that
+        fire in it (:attr:`on` and :attr:`off` mark those that may)."""
         idx, steps = self._until(0, np.iinfo(np.int64).max // (2 * self.clock_index + 2))
         fired = np.zeros(self.clock_index, bool)
         fired[idx[idx < self.clock_index]] = True
         on, off = fired.reshape(2, *self.shape)
-        edges = np.asarray(self.on, bool) | np.asarray(self.off, bool)
-        return InputSpikes(self.shape, idx, steps, None, on, off, self.rate_hz, self.merged, self.kind, edges)
+        return InputSpikes(
+            self.shape, idx, steps, None, self.on, self.off, self.rate_hz, self.merged, self.kind, (on, off)
+        )
 
     def _until(self, a: int, b: int):
         """The spikes not given yet of the steps before ``b``, with the

@@ -21,7 +21,7 @@ from .. import validate as check
 from ..network.graph import Network
 from ..network.projections import Projection
 from .connect import pairs
-from .sites import all_sites, edge_sites, masked_edge_maps, resolve_sites
+from .sites import all_sites, edge_sites, input_edges, masked_edge_maps, resolve_sites
 
 INSTANTIATE = ("input", "all")
 
@@ -85,16 +85,8 @@ class Unrolled:
         return "\n".join(rows)
 
 
-def choose_sites(network: Network, active: dict, sites: dict | None = None, instantiate: str = "input", edges1=None):
-    """The cells of every population a simulator instantiates for one input.
-
-    Parameters are those of :func:`unroll`. Returns ``(chosen, masks, edge_maps)``:
-    population -> sorted flat indices, spike source -> bool (rows, cols) mask of
-    pixels with input, level -> edge map. Shared by every backend that honours
-    the instantiation hints (an unrolling one, or an event-driven engine that
-    marks the cells it leaves out).
-    """
-    check.choice("unroll", "instantiate", instantiate, INSTANTIATE)
+def _source_masks(network: Network, active: dict) -> dict:
+    """Spike-source name -> bool (rows, cols) mask, checked against its grid (the window clock's one cell added)."""
     act = {}
     for p in network.sources:
         if p.role == "clock" and p.name not in active:
@@ -105,6 +97,24 @@ def choose_sites(network: Network, active: dict, sites: dict | None = None, inst
         if a.shape != p.grid:
             check.fail(f"Population '{p.name}'", "input mask shape", a.shape, f"differs from its grid {p.grid}")
         act[p.name] = a
+    return act
+
+
+def choose_sites(
+    network: Network, active: dict, sites: dict | None = None, instantiate: str = "input", fired: dict | None = None
+):
+    """The cells of every population a simulator instantiates for one input.
+
+    Parameters are those of :func:`unroll`. Returns ``(chosen, masks, edge_maps)``:
+    population -> sorted flat indices, spike source -> bool (rows, cols) mask of
+    pixels with input (``fired``'s where given), level -> edge map. Shared by
+    every backend that honours the instantiation hints (an unrolling one, or an
+    event-driven engine that marks the cells it leaves out).
+    """
+    check.choice("unroll", "instantiate", instantiate, INSTANTIATE)
+    act, edges1 = _source_masks(network, active), None
+    if fired is not None:  # (the edge masks are made from active, the cells chosen for fired)
+        edges1, act = input_edges(network, act), _source_masks(network, fired)
     fixed = {}
     for name, idx in (sites or {}).items():
         pop = network.population(name)
@@ -133,7 +143,7 @@ def unroll(
     progress=None,
     sites: dict | None = None,
     instantiate: str = "input",
-    edges1=None,
+    fired: dict | None = None,
 ) -> Unrolled:
     """Instantiate the cells and synapses of ``network`` for one input.
 
@@ -152,13 +162,15 @@ def unroll(
     instantiate : {"input", "all"}
         ``input``: only the cells this input can use; ``all``: every cell
         (of an ``edge_mask`` population, every cell inside the mask).
-    edges1 : (rows, cols) array, optional
-        The level-1 map the edge masks are made from, where it is not the
-        pixels with input (an input's ``edges``,
-        :class:`~snn_fg.lowering.input_spikes.InputSpikes`; see
-        :func:`~snn_fg.lowering.sites.masked_edge_maps`).
+    fired : dict, optional
+        Spike-source name -> bool (rows, cols) mask of the pixels whose
+        sources fire, where ``active`` marks more (every source of a stream,
+        whose network was laid out before its events: the ``fired`` of
+        :class:`~snn_fg.lowering.input_spikes.InputSpikes`):
+        the cells are chosen for these, the edge masks made from ``active``
+        (:func:`~snn_fg.lowering.sites.masked_edge_maps`).
     """
-    chosen, act, emaps = choose_sites(network, active, sites, instantiate, edges1)
+    chosen, act, emaps = choose_sites(network, active, sites, instantiate, fired)
     flat = {k: v.ravel() for k, v in act.items()}
     conns = []
     items = network.projections if progress is None else progress(network.projections)

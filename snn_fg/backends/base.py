@@ -253,14 +253,18 @@ def source_masks(network: Network, on: np.ndarray, off: np.ndarray) -> dict:
     }
 
 
-def fired_masks(network: Network, inputs) -> dict | None:
-    """:func:`source_masks` of the sources that fire, where the input knows
-    them to be fewer than it marks (the ``fired`` of
-    :class:`~snn_fg.lowering.input_spikes.InputSpikes`: a recording read
-    whole), for a backend that creates only the cells they reach
-    (:func:`~snn_fg.lowering.unroll.unroll`); else None."""
+def input_masks(network: Network, inputs) -> dict:
+    """The masks an unrolling backend gives :func:`~snn_fg.lowering.unroll.unroll`
+    for ``inputs``: ``active``, :func:`source_masks` of its ``on`` and ``off``
+    (the edge masks are made from them), and ``fired``, those of the sources
+    that fire where the input knows them to be fewer (the ``fired`` of
+    :class:`~snn_fg.lowering.input_spikes.InputSpikes`: a recording read whole;
+    the cells are chosen for them), else None."""
     fired = getattr(inputs, "fired", None)
-    return None if fired is None else source_masks(network, *fired)
+    return {
+        "active": source_masks(network, inputs.on, inputs.off),
+        "fired": None if fired is None else source_masks(network, *fired),
+    }
 
 
 def source_offsets(network: Network) -> dict:

@@ -29,13 +29,12 @@ from .base import (
     Backend,
     RunSettings,
     SimulationResult,
-    fired_masks,
     importable,
+    input_masks,
     lif_populations,
     receptor,
     receptor_weights,
     segments,
-    source_masks,
     source_offsets,
 )
 
@@ -146,10 +145,9 @@ class Brian2Backend(Backend):
         settings.say("unrolling the network for this input")
         un = unroll(
             network,
-            source_masks(network, inputs.on, inputs.off),
+            **input_masks(network, inputs),
             sites=settings.sites,
             instantiate=settings.instantiate,
-            fired=fired_masks(network, inputs),
         )
         stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
         timings = {"unroll": time.perf_counter() - t0}

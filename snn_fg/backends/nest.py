@@ -38,16 +38,7 @@ from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from ..pynn.simulator import import_simulator
 from . import cancel
-from .base import (
-    Backend,
-    RunSettings,
-    SimulationResult,
-    fired_masks,
-    importable,
-    lif_populations,
-    source_masks,
-    source_offsets,
-)
+from .base import Backend, RunSettings, SimulationResult, importable, input_masks, lif_populations, source_offsets
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
 CHUNK_MS = 25.0
@@ -117,10 +108,9 @@ class NestBackend(Backend):
         settings.say("unrolling the network for this input")
         un = unroll(
             network,
-            source_masks(network, inputs.on, inputs.off),
+            **input_masks(network, inputs),
             sites=settings.sites,
             instantiate=settings.instantiate,
-            fired=fired_masks(network, inputs),
         )
         if self.weight_bits is not None:
             quantise_unrolled(un, self.weight_bits)

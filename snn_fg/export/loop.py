@@ -129,6 +129,12 @@ def input_frame(path, shape):
     """The event frame (:func:`last_spike_frame`) of a run.py input file of ``shape`` (None: no such file)."""
     if path is None or not Path(path).exists():
         return None
+    return last_spike_frame(export_input(path, shape))
+
+
+def export_input(path, shape):
+    """A run.py input file (:func:`~snn_fg.export.pynn.read_input`) for an export's frame ``shape``;
+    one line naming it where it is not one, or of another frame."""
     try:
         inp = read_input(path)
     except InputError:
@@ -141,7 +147,7 @@ def input_frame(path, shape):
             f"an input of {inp.shape[1]} x {inp.shape[0]}, the export's frame is "
             f"{shape[1]} x {shape[0]} (width x height)",
         )
-    return last_spike_frame(inp)
+    return inp
 
 
 def decode_counts(network, counts_path):
@@ -164,15 +170,8 @@ def reference_maps(network, like: Maps, input_path, backend: str = "fast") -> Ma
 
     sim = like.params["simulation"]
     duration, window = float(sim["duration_ms"]), float(sim["count_window_ms"])
-    try:
-        inp = read_input(input_path)
-    except InputError:
-        raise
-    except (OSError, ValueError, KeyError) as e:
-        raise InputError(input_path, f"not a run.py input file ({type(e).__name__}: {e})") from None
     net = board_network(network)
-    if inp.shape != tuple(net.frame_shape):
-        raise InputError(input_path, f"an input of {inp.shape}, the export's frame is {tuple(net.frame_shape)}")
+    inp = export_input(input_path, net.frame_shape)
     settings = RunSettings(
         duration_ms=duration, dt_ms=float(sim["dt_ms"]), count_from_ms=duration - window, instantiate="all"
     )

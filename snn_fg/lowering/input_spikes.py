@@ -20,6 +20,7 @@ of one neuron in the same step are merged (Brian2 allows one per step).
 from __future__ import annotations
 
 import dataclasses
+from collections import deque
 from dataclasses import dataclass
 
 import numba as nb
@@ -266,27 +267,52 @@ class EventQueue:
     def __init__(self, shape, dt_ms: float, t0_us: float):
         self.h, self.w = shape
         self.step_us, self.t0_us = dt_ms * 1000.0, float(t0_us)
-        self.steps = np.zeros(0, np.int64)
-        self.indices = np.zeros(0, np.int64)
+        # the queue: chunks of (steps, sources) in the order added, the first from ``_at`` on. The steps
+        # of events in time order never decrease, so the events due are a prefix of the queue, found by
+        # bisection: a live run a window behind holds a window of events here, and masking and copying
+        # all of them in every 5 ms segment cost it more the further it fell behind
+        self._chunks: deque = deque()
+        self._at = 0
+        self._last_step = np.iinfo(np.int64).min  # (the last step queued; an earlier one breaks the order)
         self.fired = np.zeros(2 * self.h * self.w, bool)
         self.merged = 0
 
     def add(self, events) -> None:
         """Events (fields ``x``, ``y``, ``t`` in microseconds, ``p``) later
-        than every step already taken."""
+        than every step already taken, in time order."""
         if not len(events):
             return
         step = np.floor((events["t"].astype(np.float64) - self.t0_us) / self.step_us).astype(np.int64)
         idx = source_index(events["x"], events["y"], events["p"], (self.h, self.w))
-        self.steps, self.indices = np.concatenate([self.steps, step]), np.concatenate([self.indices, idx])
+        if step[0] < self._last_step or (step.size > 1 and np.any(step[1:] < step[:-1])):
+            # (never from a stream, whose cutter refuses time running backwards: the queue made one
+            # chunk again, ordered by step, so that what is due stays a prefix)
+            self._chunks.append((step, idx))
+            step, idx = self.due(np.iinfo(np.int64).max)
+            order = np.argsort(step, kind="stable")
+            step, idx = step[order], idx[order]
+        self._last_step = int(step[-1])
+        self._chunks.append((step, idx))
 
     def due(self, end_step: int) -> tuple[np.ndarray, np.ndarray]:
         """The queued events of the steps before ``end_step`` as ``(steps, sources)``,
         in the order they were added, taken off the queue."""
-        now = self.steps < end_step
-        step, idx = self.steps[now], self.indices[now]
-        self.steps, self.indices = self.steps[~now], self.indices[~now]
-        return step, idx
+        steps, sources = [], []
+        while self._chunks:
+            step, idx = self._chunks[0]
+            cut = max(int(np.searchsorted(step, end_step, side="left")), self._at)
+            steps.append(step[self._at : cut])
+            sources.append(idx[self._at : cut])
+            if cut < step.size:  # (the rest of this chunk, and every later one, is not due yet)
+                self._at = cut
+                break
+            self._chunks.popleft()
+            self._at = 0
+        if len(steps) == 1:
+            return steps[0], sources[0]
+        if not steps:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return np.concatenate(steps), np.concatenate(sources)
 
     @property
     def on(self) -> np.ndarray:

@@ -4,6 +4,7 @@ independent Zarr reader), only complete windows visible, continued after a
 window cut short."""
 
 import json
+import threading
 
 import numpy as np
 import pytest
@@ -95,8 +96,10 @@ def test_during_a_run_readers_see_whole_windows_up_to_a_second_late_and_all_at_t
     now = [0.0]
     monkeypatch.setattr(st.time, "monotonic", lambda: now[0])
     replaced = []
-    monkeypatch.setattr(zarr_array, "write_bytes", lambda p, data: replaced.append(p.name) or write_bytes(p, data))
+    for module in (zarr_array, st):  # (the store's own files, and those its writing thread replaces)
+        monkeypatch.setattr(module, "write_bytes", lambda p, data: replaced.append(p.name) or write_bytes(p, data))
     store = _write(path, [lambda: _maps(0)], flush=False)
+    store.writer.wait()
     n_first = len(replaced)
     for i in range(1, 4):  # (within the second: no file replaced, the attributes and shapes wait for the flush)
         store.append(_maps(i), t_start_us=np.int64(10 * i))
@@ -106,17 +109,74 @@ def test_during_a_run_readers_see_whole_windows_up_to_a_second_late_and_all_at_t
     assert read_attrs(path)["snn_fg"]["windows_complete"] == 1
     now[0] = st.FLUSH_EVERY_S
     store.append(_maps(4), t_start_us=np.int64(40))
+    store.writer.wait()  # (the flush's files are replaced on the store's writing thread)
     g = zarr.open_group(str(path), mode="r")
     assert g["fg_x"].shape[0] == g["t_start_us"].shape[0] == 5 and np.all(g["fg_x"][4] == 4)
     np.testing.assert_array_equal(g["t_start_us"][:], 10 * np.arange(5))
     assert Maps.load(path).fg_x.shape[0] == 5 and ".zattrs" in replaced[n_first:]
     store.append(_maps(5), t_start_us=np.int64(50))  # (under a second later)
+    store.writer.wait()
     assert zarr.open_group(str(path), mode="r")["fg_x"].shape[0] == Maps.load(path).fg_x.shape[0] == 5
     store.finish({"model": "spiking"})
     g = zarr.open_group(str(path), mode="r")
     np.testing.assert_array_equal(g["t_start_us"][:], 10 * np.arange(6))
     assert g["fg_x"].shape[0] == g["window_params"].shape[0] == 6
     assert g["fg_x"].metadata.compressor.codec_id == "zstd"
+
+
+def test_a_flush_while_the_run_writes_does_not_wait_for_the_disk_and_keeps_its_order(tmp_path, monkeypatch):
+    """Replacing a file waits for the disk (ext4 writes the new file's data
+    first: about 4 ms each, 18 files a flush of a live run's store). The
+    flush a run makes once a second returns while its files are still being
+    written, on the store's writing thread, in order: chunks, shapes, then
+    the attributes that make the windows visible; readers see the earlier
+    windows meanwhile, and the run's end waits for every file."""
+    from snn_fg.results import store as st
+
+    path = tmp_path / "maps.zarr"
+    now = [0.0]
+    monkeypatch.setattr(st.time, "monotonic", lambda: now[0])
+    gate, order = threading.Event(), []
+
+    def slow_disk(p, data):
+        gate.wait(timeout=30)
+        order.append(p.name)
+        write_bytes(p, data)
+
+    store = _write(path, [lambda: _maps(0)], flush=False)
+    store.writer.wait()
+    monkeypatch.setattr(st, "write_bytes", slow_disk)
+    for i in range(1, 5):
+        now[0] = i * st.FLUSH_EVERY_S
+        store.append(_maps(i), t_start_us=np.int64(10 * i))  # (each a flush: returns with the disk held)
+    assert not order and read_attrs(path)["snn_fg"]["windows_complete"] == 1
+    assert Maps.load(path).fg_x.shape[0] == 1
+    gate.set()
+    store.finish({})
+    assert read_attrs(path)["snn_fg"]["windows_complete"] == 5 and Maps.load(path).fg_x.shape[0] == 5
+    # each flush: every array's chunk holding complete windows, then its shape; the attributes last
+    flushes = " ".join(order).split(".zattrs")
+    assert len(flushes) == 6 and flushes[-1] == ""  # (4 while writing, the end's, and nothing after)
+    for names in flushes[:4]:
+        names = names.split()
+        assert "0" in names and all(names[i + 1] == ".zarray" for i, n in enumerate(names) if n == "0")
+
+
+def test_a_disk_error_on_the_writing_thread_is_raised_in_the_run(tmp_path, monkeypatch):
+    from snn_fg.results import store as st
+
+    path = tmp_path / "maps.zarr"
+    store = _write(path, [lambda: _maps(0)], flush=False)
+    store.writer.wait()
+
+    def full_disk(p, data):
+        raise OSError(28, "No space left on device", str(p))
+
+    monkeypatch.setattr(st, "write_bytes", full_disk)
+    store.append(_maps(1), t_start_us=np.int64(10))
+    with pytest.raises(OSError, match="No space left"):
+        store.flush()
+    assert read_attrs(path)["snn_fg"]["windows_complete"] == 1  # (the store as it was before the error)
 
 
 def test_a_store_written_with_zlib_reads_and_resumes_in_zlib(tmp_path, monkeypatch):

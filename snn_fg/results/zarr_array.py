@@ -22,8 +22,12 @@ COMPRESSOR = {"id": "zstd", "level": 1}
 TEXT = np.dtype(object)
 
 
+def json_bytes(value) -> bytes:
+    return json.dumps(value, sort_keys=True, allow_nan=True).encode()
+
+
 def write_json(path: Path, value) -> None:
-    write_bytes(path, json.dumps(value, sort_keys=True, allow_nan=True).encode())
+    write_bytes(path, json_bytes(value))
 
 
 def _encode(block: np.ndarray, compressor: dict) -> bytes:
@@ -112,7 +116,12 @@ class GrowingArray(ZarrArray):
     """An array of a store that grows along its first axis: :meth:`append`
     writes a chunk that holds only new rows at once, and one that holds
     complete windows too by :meth:`flush` (then :meth:`write_shape`); it
-    keeps the last, partly filled chunk in memory."""
+    keeps the last, partly filled chunk in memory. Those files are replaced
+    through :attr:`replace` (``replace(path, data)``, an atomic write; the
+    store hands them to its writing thread, in order)."""
+
+    #: how a file that readers may look at is written (atomically)
+    replace = staticmethod(write_bytes)
 
     @classmethod
     def create(cls, path: Path, dtype, tail: tuple, chunk: int) -> GrowingArray:
@@ -166,7 +175,7 @@ class GrowingArray(ZarrArray):
     def flush(self) -> None:
         """Write the chunk being filled, if it holds rows not yet on disk (atomically)."""
         if self._unwritten:
-            write_bytes(self.chunk_path(self._last[0]), self._last_encoded())
+            self.replace(self.chunk_path(self._last[0]), self._last_encoded())
             self._unwritten = False
 
     def write_shape(self) -> None:
@@ -178,5 +187,5 @@ class GrowingArray(ZarrArray):
         """Declare ``n`` rows (rows past ``n`` are written again as the array grows)."""
         self.meta["shape"][0] = self.n = n
         self.shape = (n,) + self.shape[1:]
-        write_json(self.path / ".zarray", self.meta)
+        self.replace(self.path / ".zarray", json_bytes(self.meta))
         self.shape_written = True

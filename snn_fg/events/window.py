@@ -248,7 +248,9 @@ class WindowCutter:
         self.max_windows, self.denoise_us, self.refractory_us = max_windows, denoise_us, refractory_us
         self.start_ms = start_ms
         self.size, self.name = sensor_size, name
-        self.buf = np.zeros(0, dtype=EVENT_DTYPE)
+        # the events of the windows not yet complete, as they came: joined once a window completes
+        # (joined at every chunk, a live stream's 5 ms chunks copied the whole window 17 times)
+        self.parts: list = []
         self.t0 = self.w_start = self.w_end = self.prev_t = None
         self.k = self.seen = 0
 
@@ -299,20 +301,28 @@ class WindowCutter:
             self.w_start = self.t0 + self.start
             self.w_end = self.w_start + self.win
         new = chunk[chunk["t"] >= self.w_start]
-        self.buf = np.concatenate([self.buf, new]) if len(self.buf) else new
+        if len(new):
+            self.parts.append(new)
         return self._complete()
+
+    def _events(self) -> np.ndarray:
+        """The events held, in one array."""
+        if len(self.parts) != 1:
+            self.parts = [np.concatenate(self.parts) if self.parts else np.zeros(0, dtype=EVENT_DTYPE)]
+        return self.parts[0]
 
     def _complete(self) -> list[EventWindow]:
         """The windows that end at or before the newest time."""
         out = []
         while self.prev_t >= self.w_end:  # every window that ends at or before the newest timestamp is complete
-            cut = int(np.searchsorted(self.buf["t"], self.w_end, side="left"))
-            out.append(self._emit(self.buf[:cut], self.w_start, self.w_end))
+            buf = self._events()
+            cut = int(np.searchsorted(buf["t"], self.w_end, side="left"))
+            out.append(self._emit(buf[:cut], self.w_start, self.w_end))
             if self.done:
                 break
             self.w_start += self.stride
             self.w_end = self.w_start + self.win
-            self.buf = self.buf[int(np.searchsorted(self.buf["t"], self.w_start, side="left")) :]
+            self.parts = [buf[int(np.searchsorted(buf["t"], self.w_start, side="left")) :]]
         return out
 
     def finish(self) -> list[EventWindow]:
@@ -334,7 +344,7 @@ class WindowCutter:
                 )
             return []
         # the last window ends with the recording: its nominal end may lie far beyond
-        return [self._emit(self.buf, self.w_start, min(self.w_end, self.prev_t + 1))]
+        return [self._emit(self._events(), self.w_start, min(self.w_end, self.prev_t + 1))]
 
     def _emit(self, events, ws, we) -> EventWindow:
         ev = _filter(events, self.denoise_us, self.refractory_us)

@@ -67,6 +67,34 @@ class _Packets:
         pass
 
 
+def test_a_udp_packet_reaches_the_model_without_waiting_for_the_next():
+    """Packets 20 ms apart are handed over one by one: a batch holds only the
+    packets already waiting in the socket's buffer. (Until 29 Nov the socket's
+    timeout made the receiver wait for one more packet before each receive:
+    a batch grew to 64 packets, 160 ms of dvs.es, before the model saw any.)"""
+    from snn_fg.events.live_sources import open_source
+
+    src = open_source("udp://127.0.0.1:0", (64, 64), wait_s=10, idle_s=0.5)
+    port = src.sock.getsockname()[1]
+    sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+
+    def send():
+        for k in range(10):
+            sender.sendto(spif.encode(_events([1000 * k])), ("127.0.0.1", port))
+            time.sleep(0.02)
+
+    th = threading.Thread(target=send)
+    th.start()
+    try:
+        batches = [len(ev) for ev, _ in src.packets()]
+    finally:
+        th.join()
+        sender.close()
+        src.close()
+    assert sum(batches) == 10
+    assert len(batches) >= 6, batches  # (one each, but where the receiving thread was held up for 20 ms)
+
+
 def test_events_outside_the_sensor_and_back_in_time_are_dropped_counted_and_said_once():
     packets = [_events([0, 10, 20], x=[1, 25, 2]), _events([15, 30, 31]), _events([32], x=[99])]
     with warnings.catch_warnings(record=True) as said:

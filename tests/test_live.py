@@ -95,6 +95,25 @@ def test_a_udp_packet_reaches_the_model_without_waiting_for_the_next():
     assert len(batches) >= 6, batches  # (one each, but where the receiving thread was held up for 20 ms)
 
 
+def test_the_first_packet_is_waited_for_from_when_the_model_is_ready_not_from_the_binding():
+    """A first live run's warm-up compiles the engine for up to a minute after
+    the port is bound: --wait-s counts from when the receiving starts."""
+    from snn_fg.events.live_sources import open_source
+
+    src = open_source("udp://127.0.0.1:0", (64, 64), wait_s=1.0, idle_s=0.2)
+    port = src.sock.getsockname()[1]
+    time.sleep(1.5)  # (the warm-up: longer than wait_s)
+    sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    threading.Timer(0.4, lambda: sender.sendto(spif.encode(_events([5])), ("127.0.0.1", port))).start()
+    try:
+        got = [len(ev) for ev, _ in src.packets()]
+    finally:
+        time.sleep(0.15)
+        sender.close()
+        src.close()
+    assert got == [1]
+
+
 def test_events_outside_the_sensor_and_back_in_time_are_dropped_counted_and_said_once():
     packets = [_events([0, 10, 20], x=[1, 25, 2]), _events([15, 30, 31]), _events([32], x=[99])]
     with warnings.catch_warnings(record=True) as said:
@@ -380,6 +399,17 @@ def test_no_sender_ends_with_one_line_and_no_output(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and err == [f"snn-fg: error: udp://127.0.0.1:{port}: no packet arrived within 0.3 s"]
     assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_a_live_run_into_an_earlier_runs_folder_offers_force_only(tmp_path, capsys):
+    """A stream cannot be continued: the refusal names --force, not --resume (which live has not)."""
+    (tmp_path / "o").mkdir()
+    (tmp_path / "o" / "maps.npz").write_bytes(b"")
+    status = main(["live", "udp://127.0.0.1:9", "--out", str(tmp_path / "o"), "--sensor-size", "24x24"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert (
+        status == 2 and len(err) == 1 and err[0].endswith("choose another output folder or pass --force to replace it")
+    )
 
 
 def test_a_udp_source_without_a_sensor_size_is_refused_in_one_line(tmp_path, capsys):

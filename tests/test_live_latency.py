@@ -80,3 +80,20 @@ def test_a_window_the_next_events_complete_is_not_marked():
     assert not stream.completed_by_end(W)
     stream.segment_ms = 5.0
     assert stream.completed_by_end(W) and (setattr(stream, "last_t", 65_000) or not stream.completed_by_end(W))
+
+
+def test_the_closing_line_says_what_the_sensor_check_dropped():
+    """Events outside the sensor (a wrong --sensor-size) or back in time were warned about once, at
+    the start; the closing line says how many there were in all."""
+    summary = {
+        "windows": 11,
+        "windows_dropped": 0,
+        "events_received": 361_198,
+        "events_outside": 230_303,
+        "events_backwards": 0,
+        "latency_ms_streaming": {"median": 30.0, "p95": 40.0, "max": 50.0},
+        "per_window": [],
+    }
+    said = _summary_text(summary)
+    assert said.startswith("11 windows published, 0 dropped, 361,198 events received (230,303 outside the sensor, ")
+    assert "back in time" not in said and _summary_text({**summary, "events_outside": 0}).count("(") == 0

@@ -26,6 +26,7 @@ from ..frames.pyramid import check_levels
 from ..models import MODELS
 from ..results.atomic import growing_folder, settle_folder
 from ..results.live_view import LiveView
+from ..results.outputs import check_output_folder
 from ..results.peaks import grouping_peaks
 from ..results.publish import END_OF_STREAM, LiveModel, LiveRecord, Publisher
 from ..results.store import windows_complete
@@ -97,7 +98,9 @@ def add_live_command(sub):
         help="windows whose read-out is over waiting for their maps before whole windows are dropped "
         "(0: the least latency; more keeps more windows, each later)",
     )
-    p.add_argument("--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s (30)")
+    p.add_argument(
+        "--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s of 'ready' (30)"
+    )
     p.add_argument("--idle-s", type=number(float, 0), default=1.0, metavar="S", help="udp://: end after S s idle (1)")
     p.add_argument("--no-progress", action="store_true", help="no progress messages")
     p.add_argument("--no-figures", action="store_true", help="no figures at the end (the maps only)")
@@ -116,6 +119,7 @@ def cmd_live(args) -> int:
         said = "; ".join(f"{', '.join(flags)}: {why}" for why, flags in refused.items())
         raise InputError(args.source, f"not for a live stream: {said}")
     model = chosen_model(args, "recording")
+    check_output_folder(args.out, force=args.force)  # (before the warm-up: a folder refused at once, nothing touched)
     window_ms = args.window_ms if args.window_ms is not None else 85.0
     scheme = parse_address(args.source)[0]
     with ExitStack() as opened:  # (what is open so far is closed on an error)
@@ -129,7 +133,7 @@ def cmd_live(args) -> int:
         )
         if warm_s is None:
             warm_s = _warmed(model, source.sensor_size, window_ms, args)
-        out, previous = growing_folder(args.out, force=args.force)
+        out, previous = growing_folder(args.out, force=args.force, resume=None)  # (a stream cannot be resumed)
         opened.pop_all()
     _said_in_warm_up(model)
     spiking = hasattr(model, "run_options")
@@ -181,7 +185,17 @@ def _summary_text(summary: dict) -> str:
     n, lat = summary["windows"], summary["latency_ms_streaming"] or {}
     text = (
         f"{n} window{'s' if n != 1 else ''} published, {summary['windows_dropped']} dropped, "
-        f"{summary['events_received']:,} events received; latency median {lat.get('median', float('nan')):.1f} ms, "
+        f"{summary['events_received']:,} events received"
+    )
+    lost = [  # (events the model never saw, said again here: the warning came once, long before)
+        f"{summary[key]:,} {what}"
+        for key, what in (("events_outside", "outside the sensor"), ("events_backwards", "back in time"))
+        if summary.get(key)
+    ]
+    if lost:
+        text += f" ({' and '.join(lost)}, dropped)"
+    text += (
+        f"; latency median {lat.get('median', float('nan')):.1f} ms, "
         f"p95 {lat.get('p95', float('nan')):.1f} ms, max {lat.get('max', float('nan')):.1f} ms"
     )
     waited = [r["latency_ms"] for r in summary["per_window"] if r["completed_by"] == END_OF_STREAM]

@@ -6,8 +6,8 @@ events of each packet, or of the packets that came together, with the time
 the last of them arrived (``time.perf_counter()``), and
 ends when the sender has gone: a DV stream when its server closes the
 connection, a UDP stream (which has no end) once no packet has come for
-``idle_s`` seconds after the first. No packet within ``wait_s`` of the
-start is an error. Malformed packets are counted (:attr:`malformed`) and
+``idle_s`` seconds after the first. No packet within ``wait_s`` of
+:meth:`packets` starting (the model is ready then) is an error. Malformed packets are counted (:attr:`malformed`) and
 skipped.
 """
 
@@ -75,7 +75,9 @@ class UdpSource:
         # packet before every receive, MSG_DONTWAIT or not: a batch grew until 64 packets had come,
         # 160 ms of dvs.es, before any of its events reached the model)
         self.sock.setblocking(False)
-        last = time.perf_counter()
+        # (the first packet is waited for from here, when the model is ready for it, not from when the
+        # port was bound: a first run's warm-up compiles the engine for up to a minute meanwhile)
+        last = waiting_since = time.perf_counter()
         while not self.closed:
             try:
                 ready = select.select([self.sock], [], [], 0.1)[0]
@@ -84,7 +86,7 @@ class UdpSource:
             data = self._waiting() if ready else None
             if data is None:
                 now = time.perf_counter()
-                if first and now - self.t_start > self.wait_s:
+                if first and now - waiting_since > self.wait_s:
                     raise InputError(self.name, f"no packet arrived within {self.wait_s:g} s") from None
                 if not first and now - last > self.idle_s:
                     return  # (the sender has gone: UDP has no end of its own)

@@ -243,10 +243,11 @@ def exchange_entries(staging: Path, folder: Path) -> None:
     shutil.rmtree(aside, ignore_errors=True)
 
 
-def growing_folder(path, force: bool = False, resume: bool = False) -> tuple[Path, Path | None]:
+def growing_folder(path, force: bool = False, resume: bool | None = False) -> tuple[Path, Path | None]:
     """A recording's output folder, written in place as windows complete
     (:mod:`snn_fg.results.store`): made when new; an earlier run in it is refused,
-    set aside to be replaced (``force``) or continued (``resume``); a folder that
+    set aside to be replaced (``force``) or continued (``resume``; None: a run that
+    cannot continue one, whose refusal offers ``--force`` only); a folder that
     holds anything else is refused (:func:`~snn_fg.results.outputs.check_output_folder`).
 
     Returns ``(folder, previous)``: ``previous``, for a folder that existed and is

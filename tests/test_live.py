@@ -592,3 +592,11 @@ def test_the_engines_stage_messages_are_said_once_in_the_warm_up(tmp_path, disc_
     assert status == 0, said.err
     assert said.err.count("snn-fg: fast engine: ") == 1, said.err
     assert len(read_maps(tmp_path / "live" / "maps.zarr")[0]) == 3
+
+
+def test_a_udp_replay_says_that_udp_cannot_tell_whether_anything_received_it(disc_file, capsys):
+    """A new user replayed to a port nobody listened on and read 'sent ... events' as success."""
+    port = _free_port()
+    assert main(["stream", str(disc_file[0]), "--to", f"udp://127.0.0.1:{port}", "--speed", "20"]) == 0
+    said = capsys.readouterr().out.strip()
+    assert said.startswith("snn-fg: sent ") and said.endswith("; UDP does not tell whether anything received them")

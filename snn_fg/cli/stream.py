@@ -62,7 +62,8 @@ def cmd_stream(args) -> int:
         end_process = sender.close()
     print(
         f"snn-fg: sent {sender.sent:,} events of {args.recording} to {args.to} in {time.perf_counter() - t:.2f} s "
-        f"({(events['t'][-1] - events['t'][0]) / 1e6:.2f} s of events at {args.speed:g}x)",
+        f"({(events['t'][-1] - events['t'][0]) / 1e6:.2f} s of events at {args.speed:g}x)"
+        + ("; UDP does not tell whether anything received them" if args.to.startswith("udp:") else ""),
         file=sys.stdout,
     )
     if end_process:  # (a DV server with a reader still connected: see DvSender.close)

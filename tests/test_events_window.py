@@ -83,8 +83,12 @@ def test_out_of_sensor_names_event_index():
 def test_empty_recording_and_late_start_are_errors(tmp_path):
     with pytest.raises(InputError, match="no events"):
         list(iter_windows(np.zeros(0, EVENT_DTYPE), sensor_size=(8, 1)))
-    with pytest.raises(InputError, match="after the last event"):
+    with pytest.raises(InputError, match="after the last event") as late:
         list(iter_windows(ev_at([0, 10]), start_ms=5, sensor_size=(8, 1)))
+    assert str(late.value).endswith(
+        "the start, 5 ms, lies after the last event (0.01 ms after the first); pass start_ms below 0.01"
+    )
+    assert late.value.for_command_line().endswith("; give --start-ms below 0.01")  # (the option, not the keyword)
     for bad in (
         {"window_ms": 0},
         {"window_ms": -1},

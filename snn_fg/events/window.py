@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from snn_fg import validate
-from snn_fg.errors import InputError
+from snn_fg.errors import InputError, Remedy
 from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, sensor_size_parameter
 from snn_fg.events.formats import check_read_options
 from snn_fg.events.io import iter_recording, no_span_problem
@@ -337,10 +337,11 @@ class WindowCutter:
             )
         if self.w_start > self.prev_t:
             if self.k == 0:
+                last_ms = (self.prev_t - self.t0) / 1000
                 raise InputError(
                     self.name,
-                    f"start_ms={self.start_ms} lies after the last event "
-                    f"({(self.prev_t - self.t0) / 1000:g} ms after the first)",
+                    f"the start, {self.start_ms:g} ms, lies after the last event ({last_ms:g} ms after the first)",
+                    remedy=Remedy(f"start_ms below {last_ms:g}", f"--start-ms below {last_ms:g}"),
                 )
             return []
         # the last window ends with the recording: its nominal end may lie far beyond

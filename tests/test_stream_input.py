@@ -212,3 +212,30 @@ def test_the_whole_input_of_a_drained_stream_marks_the_sources_that_fire():
     np.testing.assert_array_equal(whole.on, every)
     np.testing.assert_array_equal(whole.off, every)
     assert np.count_nonzero(whole.indices == whole.clock_index) == 2
+
+
+def test_a_read_ahead_closed_before_its_end_does_not_wait_for_its_reading_thread():
+    """A run stopped part way (bad input further on) leaves its read-ahead unfinished; the garbage
+    collector closes it whenever it runs, inside threading's own locks too, where waiting for the
+    reading thread deadlocked (a test run hung in Thread.start). Closing it returns at once; the
+    reading thread ends once its read is done."""
+    import threading
+
+    from snn_fg.models.spiking.continuous import read_ahead
+
+    gate = threading.Event()
+
+    def slow():
+        yield 1
+        gate.wait(timeout=30)  # (the second read: held until the test lets it go)
+        yield 2
+
+    ahead = read_ahead(slow())
+    assert next(ahead) == 1  # (the reading thread is now held in the second read)
+    closing = threading.Thread(target=ahead.close)
+    closing.start()
+    closing.join(timeout=5)
+    held = closing.is_alive()
+    gate.set()
+    closing.join()
+    assert not held

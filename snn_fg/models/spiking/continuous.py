@@ -337,9 +337,16 @@ def lay_out(feed: StreamFeed, opts: SpikingOptions, cut, read_out: int | None = 
 def read_ahead(windows):
     """Iterate ``windows`` with the next one read on a second thread
     meanwhile (decoding a recording's file releases the interpreter lock in
-    its compiled byte walk and in numpy)."""
+    its compiled byte walk and in numpy).
+
+    Closed before its end (a run stopped by bad input further on, say), it
+    does not wait for the reading thread, which ends once its read is done:
+    a generator left unfinished is closed by the garbage collector whenever
+    it runs, inside ``threading``'s own locks too, where waiting for a
+    thread to end deadlocked (a test run hung in ``Thread.start``, 29 Nov)."""
     it, end = iter(windows), object()
-    with ThreadPoolExecutor(1, thread_name_prefix="snn-fg-read") as ahead:
+    ahead = ThreadPoolExecutor(1, thread_name_prefix="snn-fg-read")
+    try:
         coming = ahead.submit(next, it, end)
         while True:
             w = coming.result()
@@ -347,6 +354,8 @@ def read_ahead(windows):
                 return
             coming = ahead.submit(next, it, end)
             yield w
+    finally:
+        ahead.shutdown(wait=False, cancel_futures=True)
 
 
 def window_maps(run: ContinuousRun) -> list[Maps]:

@@ -303,7 +303,9 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
     index; ``found_g``, their number: for a population with cells left out,
     the number of cells that exist before it, from ``rank`` and the presence
     bits), so that each cell's state can be asked for :data:`AHEAD` cells
-    before it is needed."""
+    before it is needed; the first :data:`AHEAD` of a batch are asked for as
+    they are found. (A call hands over a few hundred cells: a batch's first
+    cells were an eighth of them, each waiting for its state.)"""
     listed, dirty, n_dirty_a, bits, found, found_g = marks
     gc = pops[qt, P_GC]
     words, pbase = (gc + 63) >> 6, cells[qt, C_PRES]
@@ -336,9 +338,12 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
                     word &= word - U(1)
                     found[U(n_found)] = first + bit
                     if whole:
-                        found_g[U(n_found)] = off + first + bit
+                        g = off + first + bit
                     else:
-                        found_g[U(n_found)] = off + rank[U(pbase + wd)] + ones(pres[U(pbase + wd)] & low_bits(bit))
+                        g = off + rank[U(pbase + wd)] + ones(pres[U(pbase + wd)] & low_bits(bit))
+                    found_g[U(n_found)] = g
+                    if n_found < AHEAD:  # (the batch's first cells, which the loop below asks for too late)
+                        prefetch(state, U(g))
                     n_found += 1
             listed[U(rr)] = 0
         counters[N_FLUSHED] += n_found

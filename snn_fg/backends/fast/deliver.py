@@ -82,11 +82,13 @@ def mark_row(listed, dirty, n_dirty, rr):
     """Note that row ``rr`` received input: listed in ``dirty`` when it is
     new; returns the new length of ``dirty``. (The hand-over reads all the
     words of a listed row: a row is a few words, and keeping the span that
-    received input cost more per stencil row than the zero words it skips.)"""
-    if listed[U(rr)] == 0:
-        dirty[U(n_dirty)] = rr
-        listed[U(rr)] = 1
-        return n_dirty + 1
+    received input cost more per stencil row than the zero words it skips.)
+    Without a branch (a quarter of the stencil rows reach a new row, in no
+    order a predictor follows): written past the list's end whatever, the
+    list grows only when the row is new (``dirty`` has a spare slot)."""
+    dirty[U(n_dirty)] = rr
+    n_dirty += 1 - np.int64(listed[U(rr)])
+    listed[U(rr)] = 1
     return n_dirty
 
 
@@ -150,8 +152,10 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
     row_qc, row_ncol, row_w0, row_nz, st_w`` and ``marks`` the run's
     ``listed, dirty, n_dirty, bits`` (whether each row received input, the
     rows that did, and the cells). Returns the synaptic events:
-    the taps that landed on a cell that exists."""
-    cls_ptr, row_co, row_qr, row_qc, row_ncol, row_w0, row_nz, st_w = stencil
+    the taps that landed on a cell that exists. (``stencil`` ends with
+    ``row_dr, row_off``: a row's place from lattice point ``(0, 0)``, which
+    a spike that lands whole adds to its own.)"""
+    cls_ptr, row_co, row_qr, row_qc, row_ncol, row_w0, row_nz, st_w, row_dr, row_off = stencil
     listed, dirty, n_dirty_a, bits = marks[0], marks[1], marks[2], marks[3]
     n_dirty = n_dirty_a[0]
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]
@@ -172,24 +176,23 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
     next_cls, next_row, next_column = conv_site(at, 0) if spikes.size else (0, 0, 0)
     for x in range(spikes.size):
         cls, row, column = next_cls, next_row, next_column
+        here = row * gc + column  # (the spike's lattice point in a channel's summed input)
         if x + 1 < spikes.size:
             next_cls, next_row, next_column = conv_site(at, x + 1)
-            first = cls_ptr[U(next_cls)]
+            first, there = cls_ptr[U(next_cls)], next_row * gc + next_column
             for sa in range(first, min(first + ROWS_AHEAD, cls_ptr[U(next_cls + 1)])):  # (a hint: no effect)
-                prefetch(acc, U((row_co[U(sa)] * gr + next_row - row_qr[U(sa)]) * gc + next_column - row_qc[U(sa)]))
+                prefetch(acc, U(there + row_off[U(sa)]))
         inside = row >= rad and column >= rad and row + rad < gr and column + rad < gc
         s1 = cls_ptr[U(cls + 1)]
         for s in range(cls_ptr[U(cls)], s1):
             if s + ROWS_AHEAD < s1:
-                sa = s + ROWS_AHEAD
-                prefetch(acc, U((row_co[U(sa)] * gr + row - row_qr[U(sa)]) * gc + column - row_qc[U(sa)]))
-            tr = row - row_qr[U(s)]
+                prefetch(acc, U(here + row_off[U(s + ROWS_AHEAD)]))
             t0, ncol, w0 = column - row_qc[U(s)], row_ncol[U(s)], row_w0[U(s)]
             if inside and ncol == 1:  # (one tap: what the loops below do for it, without them)
-                rr = row_co[U(s)] * gr + tr
+                rr = row + row_dr[U(s)]
                 if foreign(rr, owner, n_parts, inv_parts):
                     continue
-                acc[U(rr * gc + t0)] += st_w[U(w0)]
+                acc[U(here + row_off[U(s)])] += st_w[U(w0)]
                 wa = (t0 >> 6) + rr * words
                 bit = U(1) << U(t0 & 63)
                 bits[U(wa)] |= bit
@@ -197,6 +200,7 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
                 n_dirty = mark_row(listed, dirty, n_dirty, rr)
                 continue
             a, b, parts = 0, ncol, 1
+            tr = row - row_qr[U(s)]
             if not inside:  # the row may be cut, or wrap around, at the level's edges
                 if wrap:
                     tr += gr if tr < 0 else (-gr if tr >= gr else 0)

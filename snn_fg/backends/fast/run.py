@@ -136,7 +136,7 @@ class Run:
         # (each thread's counters in a cache line of their own: written by the thread as it delivers)
         self.counters = np.zeros((threads, max(N_FLUSHED + 1, APART)), dtype=np.int64)
         self.prj_events = np.zeros((threads, len(tab.network.projections)), dtype=np.int64)
-        self.dirty = np.zeros((threads, rows), np.int64)
+        self.dirty = np.zeros((threads, rows + 1), np.int64)  # (a spare slot: deliver.mark_row writes without a branch)
         self.n_dirty = np.zeros((threads, APART), np.int64)  # (column 0; apart, as the counters)
         found = max([FOUND] + [p.grid[1] for p in lif])
         self.found, self.found_g = np.zeros((threads, found), np.int64), np.zeros((threads, found), np.int64)

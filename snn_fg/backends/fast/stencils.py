@@ -107,20 +107,30 @@ class StencilCollector:
     projection into the flat arrays the compiled loops read."""
 
     def __init__(self):
-        self.parts = {name: [] for name in ("cls_ptr", "co", "qr", "qc_hi", "ncol", "w0", "nz", "k", "w")}
+        self.parts = {name: [] for name in ("cls_ptr", "co", "qr", "qc_hi", "ncol", "w0", "nz", "k", "w", "dr", "off")}
         self.parts["cls_ptr"].append(np.zeros(1, np.int64))
         self.n_cls = self.n_rows = self.n_values = 0
         self.csr = [[np.zeros(1, np.int64)], [], []]
         self.n_csr_rows = self.n_csr = 0
 
-    def conv(self, pr, rows: dict) -> tuple[int, int, int]:
-        """Add one Conv's rows (:func:`stencil_rows`); returns its first
-        class, and the span of its values (for remaking the weights)."""
+    def conv(self, pr, rows: dict, grid: tuple[int, int]) -> tuple[int, int, int]:
+        """Add one Conv's rows (:func:`stencil_rows`) onto a target of
+        ``grid`` (rows, columns); returns its first class, and the span of
+        its values (for remaking the weights).
+
+        Each row also gets where it lands from a source at lattice point
+        ``(0, 0)``, as offsets into the target's ``(channel, row)`` rows
+        (``dr = co * rows - qr``) and into its summed input (``off = dr *
+        columns - qc_hi``): a spike that lands whole then finds a row's
+        place with one addition each."""
         base, first = self.n_cls, self.n_values
         n_rows, k = rows["qr"].size, rows["k"]
         self.parts["cls_ptr"].append(rows["cls_ptr"][1:] + self.n_rows)
         for name in ("co", "qr", "qc_hi", "ncol", "nz"):
             self.parts[name].append(rows[name])
+        dr = np.asarray(rows["co"], np.int64) * grid[0] - rows["qr"]
+        self.parts["dr"].append(dr)
+        self.parts["off"].append(dr * grid[1] - rows["qc_hi"])
         self.parts["w0"].append(rows["w0"] + self.n_values)
         self.parts["k"].append(k)
         self.parts["w"].append(tap_weights(pr, k))
@@ -154,6 +164,8 @@ class StencilCollector:
             "row_ncol": cat["ncol"].astype(np.int32),
             "row_w0": cat["w0"].astype(np.int64),
             "row_nz": cat["nz"].astype(np.uint64),
+            "row_dr": cat["dr"].astype(np.int64),
+            "row_off": cat["off"].astype(np.int64),
             "st_w": cat["w"].astype(np.float64),
             "st_k": cat["k"].astype(np.float64),
             "csr_ptr": csr[0].astype(np.int64),

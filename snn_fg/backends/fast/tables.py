@@ -62,6 +62,8 @@ class EngineTables:
     row_ncol: np.ndarray  #   are taps (bits of row_nz)
     row_w0: np.ndarray
     row_nz: np.ndarray
+    row_dr: np.ndarray  # int64: per stencil row, its (channel, row) and its first value's place in the
+    row_off: np.ndarray  #   summed input from a source at lattice point (0, 0) (StencilCollector.conv)
     st_w: np.ndarray  # float64: stencil values, volts added to the receptor (0 in gaps)
     st_k: np.ndarray  # float64: the same as kernel values before the gain (st_w is made from them)
     csr_ptr: np.ndarray  # int64: Resize rows/cols: source index s of a factor starting at
@@ -179,7 +181,7 @@ def build_tables(network: Network, dt_ms: float, weight_bits: int | None = None)
         if isinstance(pr, Conv):
             co, cls, qr, qc, k, kept[pr.name], n_cls, radius = conv_classes(network, pr, src, tgt, weight_bits)
             taps[pr.name] = int(co.size)
-            base, a, b = out.conv(pr, stencil_rows(co, cls, qr, qc, k, n_cls))
+            base, a, b = out.conv(pr, stencil_rows(co, cls, qr, qc, k, n_cls), tgt.grid)
             kind, colbase, wrap, thr, step = CONV, 0, int(pr.padding == "wrap"), 0.0, 0.0
             spans.append([a, b])
         else:

@@ -7,8 +7,8 @@ the last of them arrived (``time.perf_counter()``), and
 ends when the sender has gone: a DV stream when its server closes the
 connection, a UDP stream (which has no end) once no packet has come for
 ``idle_s`` seconds after the first. No packet within ``wait_s`` of
-:meth:`packets` starting (the model is ready then) is an error. Malformed packets are counted (:attr:`malformed`) and
-skipped.
+:meth:`packets` starting (the model is ready then) is an error. Malformed
+packets are counted (:attr:`malformed`) and skipped.
 """
 
 from __future__ import annotations

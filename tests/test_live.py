@@ -566,8 +566,11 @@ def test_a_live_run_that_dropped_windows_numbers_the_others_as_the_stream_does(t
     options = {**overview_options(maps, out), "max_rows": 3}
     fig = maps_figure(input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
     assert fig._suptitle.get_text().startswith("3 of 4 windows shown, evenly spaced: 0, 4, 5")
-    marks = timeline_figure(window_rows(maps), 40.0, shown=[0, 2, 3]).axes[0].texts
-    assert [t.get_text() for t in marks] == ["0", "4", "5"]
+    timeline = timeline_figure(window_rows(maps), 40.0, shown=[0, 2, 3])
+    assert [t.get_text() for t in timeline.axes[0].texts] == ["0", "4", "5"]
+    # the dropped windows' time shaded on every panel (a blank before: a new user's report)
+    shaded = [p.get_x() for p in timeline.axes[0].patches if p.get_facecolor()[:3] == (0.85, 0.85, 0.85)]
+    assert shaded == [80.0] and "grey: windows dropped" in timeline.axes[3].get_xlabel()
     assert main(["plot", str(out), "--windows", "4-5"]) == 0
     assert sorted(p.name for p in (out / "windows").iterdir()) == ["window_0004.png", "window_0005.png"]
     assert main(["plot", str(out), "--windows", "2"]) == 2  # (dropped: not in the run)

@@ -136,7 +136,12 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
     scene_bars(ax_g, mid, width, [r["grouping_peak"] for r in rows], burst, color="C4")
     ax_g.set_ylabel("grouping peak", fontsize=8)
     drawn = "; numbers on top: the windows maps.png draws" if len(shown) else ""
-    ax_g.set_xlabel(f"time after the first event (ms); {window_ms:g} ms windows{drawn}", fontsize=8)
+    gaps = _dropped_spans(rows, a)
+    for lo, hi in gaps:  # (a live run's dropped windows: their time shaded, not left as a blank)
+        for ax in (ax_n, ax_s, ax_f, ax_g):
+            ax.axvspan(lo, hi, color="0.85", lw=0, zorder=0)
+    dropped = "; grey: windows dropped while the model was behind the stream" if gaps else ""
+    ax_g.set_xlabel(f"time after the first event (ms); {window_ms:g} ms windows{drawn}{dropped}", fontsize=8)
     for ax in (ax_f, ax_g):
         ax.tick_params(labelsize=7)
     for i in shown:
@@ -150,3 +155,15 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
         )
     fig.suptitle(title or "The run window by window", fontsize=10)
     return fig
+
+
+def _dropped_spans(rows, starts) -> list[tuple[float, float]]:
+    """Where a live run's window numbers (``window``) skip some: from the stride after the
+    last kept window's start to the next kept one's (ms)."""
+    numbers = [r.get("window") for r in rows]
+    if len(rows) < 2 or any(k is None for k in numbers):
+        return []
+    k = np.asarray(numbers, float)
+    step = np.diff(k)
+    stride = float(np.median(np.diff(starts) / step))
+    return [(starts[i] + stride, starts[i + 1]) for i in np.flatnonzero(step > 1)]

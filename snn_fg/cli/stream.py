@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..events import EVENT_DTYPE, iter_recording
-from ..events.replay import from_ms, looped, open_sender, paced
+from ..events.replay import UdpSender, from_ms, looped, open_sender, paced
 from .options import number, sensor_size, subcommand
 
 
@@ -63,7 +63,7 @@ def cmd_stream(args) -> int:
     print(
         f"snn-fg: sent {sender.sent:,} events of {args.recording} to {args.to} in {time.perf_counter() - t:.2f} s "
         f"({(events['t'][-1] - events['t'][0]) / 1e6:.2f} s of events at {args.speed:g}x)"
-        + ("; UDP does not tell whether anything received them" if args.to.startswith("udp:") else ""),
+        + ("; UDP does not tell whether anything received them" if isinstance(sender, UdpSender) else ""),
         file=sys.stdout,
     )
     if end_process:  # (a DV server with a reader still connected: see DvSender.close)

@@ -152,3 +152,35 @@ def test_a_stream_cut_for_another_read_out_lag_than_the_network_reads_is_refused
     _, rec = flipping_disc_recording(24, windows=2, window_ms=85.0)
     with pytest.raises(ParameterError, match="read-outs 0 ms late; the network reads them 20 ms late"):
         _run(_stream(rec.events, rec.sensor_size, window_ms=85.0, lag_ms=0.0), [])
+
+
+def test_hops_behind_the_stream_skip_read_outs_only_and_the_hops_made_are_a_runs():
+    """10 ms hops over 85 ms windows, every event received before the network starts: each hop
+    whose next hop's read-out is complete too is skipped (not decoded), the network simulates
+    every step (nothing dropped, nothing skipped), and the hops made equal, bit for bit, those
+    of the same events run as a recording with the same hop."""
+    from snn_fg.events.window import iter_windows
+
+    _, rec = flipping_disc_recording(24, windows=2, window_ms=85.0)
+    ev = rec.events.copy()
+    ev["t"] -= ev["t"][0]
+    stream = _stream(ev, rec.sensor_size, window_ms=85.0, stride_ms=10.0)
+    stream.thread.join(5)
+    live = _run(stream, [])
+    whole = {}
+    simulate_windows(
+        list(iter_windows(rec, window_ms=85.0, stride_ms=10.0)),
+        network="compact",
+        progress=False,
+        keep_run=False,
+        on_window=lambda w, m: whole.__setitem__(w.index, m),
+        segment_ms=5.0,
+    )
+    s = stream.stats()
+    assert s["windows_dropped"] == 0 and s["simulated_ms_skipped"] == 0 and s["windows_skipped"] > 0
+    assert len(live) + s["windows_skipped"] == len(whole) and len(live) < len(whole)
+    assert sorted(live) == list(range(len(whole) - len(live), len(whole)))  # (the newest hops: 6-9 of 10)
+    for k, m in live.items():
+        for name in ("fg_x", "fg_y", "grouping"):
+            np.testing.assert_array_equal(getattr(m, name), getattr(whole[k], name))
+    assert any(np.abs(m.fg_x).sum() > 0 for m in live.values())  # (maps, not zeros)

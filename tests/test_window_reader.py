@@ -20,10 +20,12 @@ from snn_fg.models.spiking.window_reader import WindowReader
 )
 def test_overlapping_windows_each_count_the_sum_of_their_bins_and_a_dropped_one_none(spans):
     # (ms; the bins are 1 ms)
-    feed = SimpleNamespace(ended=False, n=len(spans), dropped=lambda i: i == 2, window=lambda i: i)
+    feed = SimpleNamespace(
+        ended=False, n=len(spans), dropped=lambda i: i == 2, window=lambda i: i, stale=lambda w: False
+    )
     reader = WindowReader(feed, spans, np.arange(9.0), pool=1, run=SimpleNamespace(t_start=0.0))
     got = {}
-    reader._finish = lambda i, w, result, counts, spikes: got.setdefault(i, (counts, spikes))
+    reader._finish = lambda i, w, result, counts, spikes, skip: got.setdefault(i, (counts, spikes))
     rng = np.random.default_rng(0)
     bins = [{"S": rng.integers(0, 9, 7, dtype=np.int32), "G": rng.integers(0, 3, 4, dtype=np.int32)} for _ in range(8)]
     for k, counts in enumerate(bins):

@@ -74,7 +74,8 @@ def add_live_command(sub):
         "--hop-ms",
         type=number(float, 0),
         metavar="H",
-        help="a window's maps every H ms over the last --window-ms (a sliding read-out; default: one per window)",
+        help="a window's maps every H ms over the last --window-ms (a sliding read-out; default: one per window); "
+        "a hop whose next hop's events have come already is skipped for it",
     )
     p.add_argument(
         "--publish",
@@ -96,7 +97,7 @@ def add_live_command(sub):
         default=0,
         metavar="N",
         help="windows whose read-out is over waiting for their maps before whole windows are dropped "
-        "(0: the least latency; more keeps more windows, each later)",
+        "(0: the least latency; more keeps more windows, each later; with --hop-ms, windows' worth of hops)",
     )
     p.add_argument(
         "--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s of 'ready' (30)"
@@ -183,9 +184,11 @@ def _summary_text(summary: dict) -> str:
     """``live.json``'s summary in words: the windows, the events, and the latency of the windows the stream's
     own events completed, apart from those that waited for its end (``--idle-s``, or a server closing)."""
     n, lat = summary["windows"], summary["latency_ms_streaming"] or {}
+    skipped = summary.get("windows_skipped") or 0  # (hops: read-outs passed over for a newer hop's)
     text = (
-        f"{n} window{'s' if n != 1 else ''} published, {summary['windows_dropped']} dropped, "
-        f"{summary['events_received']:,} events received"
+        f"{n} window{'s' if n != 1 else ''} published, "
+        + (f"{skipped} skipped for a newer hop, " if skipped else "")
+        + f"{summary['windows_dropped']} dropped, {summary['events_received']:,} events received"
     )
     lost = [  # (events the model never saw, said again here: the warning came once, long before)
         f"{summary[key]:,} {what}"

@@ -25,6 +25,13 @@ events (:class:`~snn_fg.events.window.TimePassed`), so that the windows
 before them complete. A dropped slot costs no simulated time: where no kept window is read
 out (:meth:`resume_at`), the spiking network skips the rest of the slot and
 goes on at the next one put at rest, as if no event had come before it.
+
+With ``--hop-ms``, ``max_behind`` counts windows' worth of hops (a slot is
+dropped once the network lags a window behind, as without hops), and a hop
+falls behind first by its read-out: a hop whose read-out is due when the
+events that complete the next hop's have come already is not decoded
+(:meth:`LiveStream.stale`, ``windows_skipped``): the network takes its events
+all the same, and the newest hop's maps are made in its place.
 """
 
 from __future__ import annotations
@@ -90,6 +97,7 @@ class LiveStream:
         self.slot_arrival: dict = {}  # slot -> time its last event arrived (perf_counter)
         self.events_received = self.events_dropped = self.outside = self.backwards = 0
         self.windows_dropped = 0
+        self.windows_skipped = 0  # (hops whose read-out was skipped for a newer one: stale)
         self.skipped_us = 0  # the stream time the model did not simulate (resume_at)
         self.first_dropped = None  # the first slot dropped
         self.dropped_windows: set = set()  # (those not yet passed by the published ones)
@@ -174,6 +182,9 @@ class LiveStream:
         # other window however fast it was)
         complete = s - (self.win + self.lag_us) // self.stride - 1
         waiting = complete - self.published - sum(self.published < k <= complete for k in self.dropped_windows)
+        # (with --hop-ms, a window's worth of hops: the network may lag as far as without hops, its
+        # read-outs thinned meanwhile, stale, before any event is lost)
+        waiting //= self.slots_per_window
         if waiting > self.max_behind:
             self.dropped_slots.add(s)
             self.first_dropped = s if self.first_dropped is None else self.first_dropped
@@ -236,7 +247,7 @@ class LiveStream:
 
     def _kept(self, windows):
         for w in windows:
-            if self.dropped_window(w.index):
+            if self.dropped_window(w.index) or self.stale(w):
                 self.done(w)
             else:
                 yield w
@@ -263,6 +274,19 @@ class LiveStream:
                 to = min(to, start)
             self.skipped_us += to - t
             return to
+
+    def stale(self, w) -> bool:
+        """Whether window ``w``'s read-out is skipped for a newer one's: with ``--hop-ms``, when the
+        events that complete the next hop's read-out have come already (the model is behind) and
+        that hop is kept, so that its maps, fresher, can be made in the time ``w``'s would take. The
+        network takes every event all the same: the hops made are those of a run, bit for bit.
+        Counted (``windows_skipped``); asked once a window, before its maps are made."""
+        if self.slots_per_window == 1 or self.last_t is None or self.dropped_window(w.index + 1):
+            return False
+        if self.last_t < w.t_end_us + self.stride + self.lag_us:
+            return False
+        self.windows_skipped += 1
+        return True
 
     def slots_of(self, w) -> range:
         first = (w.t_start_us - self.origin) // self.stride
@@ -311,6 +335,7 @@ class LiveStream:
     def stats(self) -> dict:
         return {
             "windows_dropped": self.windows_dropped,
+            "windows_skipped": self.windows_skipped,
             "simulated_ms_skipped": self.skipped_us / 1000.0,
             "events_received": self.events_received,
             "events_dropped": self.events_dropped,

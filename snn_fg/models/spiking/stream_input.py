@@ -353,6 +353,11 @@ class StreamFeed:
         """Whether window ``k`` was dropped by the stream (its maps are not wanted)."""
         return self.drops is not None and self.drops.dropped_window(k)
 
+    def stale(self, w) -> bool:
+        """Whether window ``w``'s read-out is skipped for a newer one's (a live stream's hops:
+        :meth:`~snn_fg.events.live.LiveStream.stale`); the network has taken its events all the same."""
+        return self.drops is not None and self.drops.stale(w)
+
     def passed(self, w) -> None:
         """Window ``w`` is done with (published or dropped): the stream is told."""
         if self.drops is not None:

@@ -189,27 +189,29 @@ class WindowReader:
         """Window ``i``'s last bin is in: its counts (the total now less that at its
         start) are decoded here or on the decoding thread."""
         before, spikes = self.reading.pop(i)
-        counts = {}
-        if not self.feed.dropped(i):  # (the total is this window's alone where no other reads on from it)
-            counts = self.total.since(before, hand_over=before is None and not self.reading)
         w = self.feed.window(i)
+        # (skipped: a live stream dropped it, or a newer hop's read-out is due as soon: not decoded)
+        skip = self.feed.dropped(i) or self.feed.stale(w)
+        counts = {}
+        if not skip:  # (the total is this window's alone where no other reads on from it)
+            counts = self.total.since(before, hand_over=before is None and not self.reading)
         if self.worker is None:
-            self._finish(i, w, result, counts, spikes)
+            self._finish(i, w, result, counts, spikes, skip)
         else:
             self._wait(self.AHEAD - 1)
-            self.pending.append(self.worker.submit(self._finish, i, w, result, counts, spikes))
+            self.pending.append(self.worker.submit(self._finish, i, w, result, counts, spikes, skip))
 
-    def _finish(self, i, w, result, counts, spikes):
+    def _finish(self, i, w, result, counts, spikes, skip=False):
         if self.failed:  # (an earlier window failed on the thread: none after it)
             return
         try:
-            self._hand(i, w, result, counts, spikes)
+            self._hand(i, w, result, counts, spikes, skip)
         except BaseException:
             self.failed = True
             raise
 
-    def _hand(self, i, w, result, counts, spikes):
-        if self.feed.dropped(i):
+    def _hand(self, i, w, result, counts, spikes, skip=False):
+        if skip:  # (passed on in order, behind the windows still being decoded)
             self.feed.passed(w)
             return
         decoded, before = self._decode(i, w, result, counts, spikes), self.last_at

@@ -605,33 +605,31 @@ def test_a_udp_replay_says_that_udp_cannot_tell_whether_anything_received_it(dis
     assert said.startswith("snn-fg: sent ") and said.endswith("; UDP does not tell whether anything received them")
 
 
-def test_hops_behind_the_stream_skip_their_read_out_for_the_newest_and_drop_nothing():
-    """Hops of 10 ms over 40 ms windows, every event come before the model starts (120 ms; the
-    last at 119.9 ms): a hop whose next hop's span is complete too is skipped, not dropped (the
-    network takes its events), so only hops 7 and 8 (ending at 110 and 120 ms) are made."""
-    packets = [_events(np.arange(k * 10_000, (k + 1) * 10_000, 100)) for k in range(12)]
-    stream = LiveStream(_Packets(packets), window_ms=40.0, stride_ms=10.0, max_behind=100)
-    stream.thread.join(5)
-    kept = []
-    for w in stream:
-        kept.append(w.index)
-        stream.done(w)
-    s = stream.stats()
-    assert kept == [7, 8] and s["windows_skipped"] == 7 and s["windows_dropped"] == 0 and s["events_dropped"] == 0
-
-
-def test_hops_drop_events_only_a_window_behind_and_never_skip_for_a_dropped_hop():
-    """As above with max_behind 0: a slot is dropped once a window's worth of hops (4) wait, so from
-    slot 8 on (windows 5-8 hold it); hop 4 is made, since the hop after it is dropped."""
+def _hops_all_come_first(max_behind: int) -> tuple[list, dict]:
+    """10 ms hops over 40 ms windows, every event (one each 0.1 ms, to 119.9 ms) come before the
+    model asks: the hops made (each passed once made) and the stream's counts."""
     packets = [_events(np.arange(k * 10_000, (k + 1) * 10_000, 100)) for k in range(12)]
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", InputWarning)
-        stream = LiveStream(_Packets(packets), window_ms=40.0, stride_ms=10.0, max_behind=0)
+        warnings.simplefilter("ignore", InputWarning)  # (the one line that says a slot was dropped)
+        stream = LiveStream(_Packets(packets), window_ms=40.0, stride_ms=10.0, max_behind=max_behind)
         stream.thread.join(5)
         kept = []
         for w in stream:
             kept.append(w.index)
             stream.done(w)
-    s = stream.stats()
-    assert s["events_dropped"] == 4 * 100 and s["windows_dropped"] == 7  # (windows 5-11 hold slots 8-11)
+    return kept, stream.stats()
+
+
+def test_hops_behind_the_stream_skip_their_read_out_for_the_newest_and_drop_nothing():
+    """A hop whose next hop's span is complete too (the last event at 119.9 ms) is skipped, not
+    dropped (the network takes its events): only hops 7 and 8 (ending at 110 and 120 ms) are made."""
+    kept, s = _hops_all_come_first(max_behind=100)
+    assert kept == [7, 8] and s["windows_skipped"] == 7 and s["windows_dropped"] == 0 and s["events_dropped"] == 0
+
+
+def test_hops_drop_events_only_a_window_behind_and_never_skip_for_a_dropped_hop():
+    """With max_behind 0 a slot is dropped once a window's worth of hops (4) wait, so from slot 8
+    on (windows 5-11 hold one); hop 4 is made, since the hop after it is dropped."""
+    kept, s = _hops_all_come_first(max_behind=0)
+    assert s["events_dropped"] == 4 * 100 and s["windows_dropped"] == 7
     assert kept == [4] and s["windows_skipped"] == 4

@@ -88,8 +88,17 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
         )
         == 0
     )
-    rows = json.loads((tmp_path / "c.json").read_text())["windows"]
+    record = json.loads((tmp_path / "c.json").read_text())
+    rows = record["windows"]
     assert [r["t_start_ms"] for r in rows] == [0.0, 50.0, 100.0]
+    # (the pooled figures the printed verdict gives, and what chose the pixels: a table made from the file alone)
+    pooled, n = record["all_windows"], sum(r["pixels_compared"] for r in rows)
+    assert pooled["pixels_compared"] == n > 0 and record["options"]["outline_px"] is None
+    within = sum(r["pixels_compared"] * r["angle_within_45_frac"] for r in rows) / n
+    assert abs(pooled["angle_within_45_frac"] - within) < 1e-12 and f"{within:.1%} of {n:,} pixels" in pooled["verdict"]
+    assert (
+        pooled["verdict"] in " ".join(capsys.readouterr().out.split()) and record["snn_fg_version"]
+    )  # (as printed, wrapped)
     assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
 
 

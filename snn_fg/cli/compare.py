@@ -12,6 +12,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError, SnnFgError
 from ..results.atomic import save_text
 from ..results.maps import Maps
@@ -159,7 +161,7 @@ def cmd_compare(args) -> int:
     named = [f"{side}: {run}, the {m.params.get('model', 'unknown')} model" for side, run, m in runs]
     print(compare_table(rows, args.outline, baseline, named))
     if args.json:
-        save_text(args.json, json.dumps({"a": str(args.a), "b": str(args.b), "windows": rows}, indent=2))
+        save_text(args.json, json.dumps(_record(args, rows, baseline), indent=2))
         print(f"snn-fg: metrics saved to {args.json}")
     if args.plot:
         # (matplotlib is imported only when a command draws)
@@ -169,6 +171,36 @@ def cmd_compare(args) -> int:
         save_compare_figure(args.plot, a, b, rows, names=names, where=where, inputs=aps_inputs(a, b))
         print(f"snn-fg: figure saved to {args.plot}")
     return 0
+
+
+def _record(args, rows, baseline: str | None) -> dict:
+    """What ``--json`` keeps: the inputs, the options that chose the pixels compared, the pooled
+    figures the printed verdict gives (each window's rows weighted by their pixels compared;
+    metrics of :mod:`~snn_fg.scoring.metrics`), the verdict and baseline lines as printed, and
+    the snn-fg that measured them: a table made from the file alone says what it is."""
+    from .. import __version__
+
+    r = [x["grouping_pearson_r"] for x in rows if x.get("grouping_pearson_r") is not None]
+    pooled = {
+        "pixels_compared": sum(x.get("pixels_compared") or 0 for x in rows),
+        **{
+            key: _pooled(rows, key)
+            for key in ("angle_within_45_frac", "angle_diff_mean_deg", "coverage_of_b", "within_45_of_b")
+        },
+        "grouping_pearson_r_min": min(r, default=None),
+        "grouping_pearson_r_median": float(np.median(r)) if r else None,
+        "verdict": verdict(rows),
+        "baseline": baseline,
+    }
+    options = {"window": args.window, "outline_px": args.outline, "min_confidence": args.min_confidence}
+    return {
+        "a": str(args.a),
+        "b": str(args.b),
+        "options": options,
+        "all_windows": pooled,
+        "snn_fg_version": __version__,
+        "windows": rows,
+    }
 
 
 def _run_name(path) -> str:

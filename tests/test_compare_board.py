@@ -55,3 +55,14 @@ def test_a_reference_without_the_exports_window_says_how_to_make_one(pair, capsy
     assert "run it with --start-ms 50 --window-ms 50, or give --window I" in err
     assert main(["compare", str(pair / "shifted.npz"), str(pair / "board.npz"), "--window", "2"]) == 0
     assert "window 2" in capsys.readouterr().out
+
+
+def test_a_pooling_exports_maps_against_pixel_maps_say_how_to_make_a_reference(pair, capsys):
+    """An export that pools its input has maps on blocks: a run on pixels is no reference for it,
+    and the refusal gives the command whose output is one (decode's --reference)."""
+    board = Maps.load(pair / "board.npz")
+    board.params["source"]["pool"] = 3
+    board.save(pair / "pooled.npz")
+    assert main(["compare", str(pair / "pooled.npz"), str(pair / "ref.npz")]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "pools its input 3 x 3" in err and "--reference fast" in err and "OUT/reference/" in err

@@ -65,7 +65,8 @@ def align_to_export(a: Maps, b: Maps, window: int | None = None, names=("A", "B"
         raise InputError(
             name,
             f"the export pools its input {origin['pool']} x {origin['pool']}: its maps are on blocks, the "
-            "reference's on pixels; compare it with maps decoded from the same export",
+            "reference's on pixels; decode its counts with --reference fast (snn-fg decode COUNTS --export DIR "
+            "--out OUT --reference fast): OUT/reference/ holds the same network's maps on the same input",
         )
     x0, y0 = origin["crop_x_px"], origin["crop_y_px"]
     rows, cols = ref.fg_x.shape[-2:]

@@ -25,7 +25,8 @@ def _status(name: str, check: bool) -> str:
 
 def cmd_list(args) -> int:
     root, origin = datasets.root_and_origin()
-    print(f"data folder: {root} ({origin}; ${datasets.ENV_VAR} chooses another)")
+    chooses = "" if origin.endswith(datasets.ENV_VAR) else f"; ${datasets.ENV_VAR} chooses another"
+    print(f"data folder: {root} ({origin}{chooses})")
     rows = [("name", "size", "status", "folder")]
     rows += [
         (name, size_text(ds.size), _status(name, args.verify), str(root / name))

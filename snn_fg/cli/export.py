@@ -64,9 +64,8 @@ def add_export_command(sub):
     p.add_argument(
         "--network",
         metavar="NAME|FILE",
-        help="a network by name (default, compact: the deployment "
-        "form) or a stored description (.json) or NIR export "
-        "(.nir) (default)",
+        help="a network by name (default, the one used when none is given; compact, the deployment "
+        "form) or a stored description (.json) or NIR export (.nir)",
     )
     p.add_argument(
         "--sensor-size",

@@ -42,10 +42,10 @@ RUN_OPTIONS = (
                 None,
                 None,
                 None,
-                "a network by name (default, compact: the deployment form, "
+                "a network by name (default, the one used when none is given; compact, the deployment form, "
                 "docs/model.md) or a stored description (FILE.json, see networks/); "
                 "its model parameters replace the options below, for the rate and "
-                "the spiking model (default)",
+                "the spiking model",
             ),
             ("--levels", int, 1, False, "pyramid levels (10)"),
             ("--n-ori", int, 2, False, "orientations per half-turn (8)"),

@@ -343,3 +343,21 @@ def test_the_description_export_says_what_it_wrote(capsys, tmp_path, monkeypatch
         f"{len(net.projections)} projections, {net.params.levels} levels, frame {h} x {w}) to n.json"
     ]
     assert len(net.populations) > 10 and (h, w) == (8, 8)  # (the compact network pools its input by 3)
+
+
+def test_a_report_of_a_nir_file_says_it_counts_nirs_cells_not_the_networks(capsys, tmp_path, monkeypatch):
+    """A NIR file reads back with its coarser lattices at stride 1 and receptors split: its report
+    counts more neurons than the network it was written from, and says why on a note line."""
+    from snn_fg.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    size = ["--sensor-size", "48x48"]
+    assert main(["export", "--format", "nir", "--network", "compact", *size, "--out", "g.nir"]) == 0
+    counts = {}
+    for net in ("compact", "g.nir"):
+        capsys.readouterr()
+        assert main(["export", "--format", "report", "--network", net, *(size if net == "compact" else [])]) == 0
+        out = capsys.readouterr().out
+        counts[net] = int(out.split("neurons ")[1].split()[0].replace(",", ""))
+        assert ("snn-fg: note: a NIR file is read back as NIR holds it" in out) == (net == "g.nir")
+    assert counts["g.nir"] > counts["compact"]

@@ -141,6 +141,14 @@ def _options(parser) -> tuple:
     )
 
 
+#: what a report of a NIR file counts (snn_fg.export.nir's module docstring says why)
+NIR_READ_BACK = (
+    "a NIR file is read back as NIR holds it: coarser lattices on their level's full grid (stride 1, 4x the "
+    "cells) and each projection's receptors split, so it counts more cells and synapses than the network it was "
+    "written from (report that one by its name or .json); the sensor is given by --sensor-size"
+)
+
+
 def _network(args):
     """The network to export, for the sensor size asked for and calibrated to ``--input-rate-hz``,
     and that sensor size (rows, cols)."""
@@ -280,6 +288,8 @@ def cmd_export(args) -> int:
                 lambda shape: network_for(net, shape)[0], sensor, "spinnaker1", args.dt_ms
             )
         print(report_table(rep))
+        if args.network and Path(args.network).name.endswith((".nir", ".nir.gz")):
+            print(f"snn-fg: note: {NIR_READ_BACK}")
         if out is None:
             return 0
         save_text(out, json.dumps(rep, indent=1) + "\n")

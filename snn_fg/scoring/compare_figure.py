@@ -86,7 +86,7 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
         ax[2].set_title(
             f"difference{'' if where is None else ' on the compared pixels'}{when}: mean "
             f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45°\n(grey: one map "
-            f"only{'' if where is None else '; pale: not compared'})",
+            f"only; white: neither{'' if where is None else '; pale: not compared'})",
             fontsize=8,
         )
         for x in ax_row:

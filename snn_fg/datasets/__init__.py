@@ -133,11 +133,26 @@ def require(name: str, *parts, root=None) -> Path:
     """As :func:`find`, but an absent dataset raises :class:`DatasetError` saying how to get it."""
     path = find(name, *parts, root=root)
     if path is None:
+        folder = _folder(name, root)
         raise DatasetError(
-            f"needs the {name} dataset, which is not in {_folder(name, root)}: "
+            f"needs the {name} dataset, {_what_is_missing(name, folder)}: "
             f"run `{how_to_get(name)}` (or set ${ENV_VAR} to the folder that holds it)"
         )
     return path
+
+
+def _what_is_missing(name: str, folder: Path) -> str:
+    """Where the dataset falls short, in words: its folder, a sub-folder of it, or some files. A user
+    whose folder is there but lacks ``labels/`` would otherwise be told the dataset is not there."""
+    if not folder.is_dir():
+        return f"which is not in {folder}"
+    gone = missing(name, folder.parent)
+    subdirs = sorted({f.path.split("/")[0] for f in gone if "/" in f.path})
+    absent = [d for d in subdirs if not (folder / d).is_dir()]
+    if absent:
+        return f"but {folder} has no {' and no '.join(d + '/' for d in absent)} folder"
+    n = len(get(name).files)
+    return f"but {folder} lacks {len(gone)} of its {n} files (or holds them cut short), {gone[0].path} first"
 
 
 def fetch(name: str, *, root=None, progress: bool = True) -> list[DataFile]:

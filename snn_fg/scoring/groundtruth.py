@@ -70,16 +70,38 @@ def load_bsds_fg(root, image_id) -> GroundTruth:
     """
     path = Path(root, "labels", f"{image_id}.npz")
     arrays = read_npz_arrays(path, ("fg",), ("labellers",), what="bsds-fg label file")
-    fg = arrays["fg"]
-    labellers = tuple(int(v) for v in arrays.get("labellers", ()))
+    image = Path(root, "images", f"{image_id}.jpg")
+    fg = _checked_fg(path, arrays["fg"], image if image.exists() else None)
+    labellers = tuple(int(v) for v in np.ravel(arrays.get("labellers", ())))
+    if labellers and len(labellers) != fg.shape[0]:
+        raise InputError(path, f"'labellers' names {len(labellers)} labellers but 'fg' holds {fg.shape[0]} maps")
+    return GroundTruth(image_id=str(image_id), fg=fg, labellers=labellers, image_path=image if image.exists() else None)
+
+
+def _checked_fg(path, fg, image) -> np.ndarray:
+    """``fg`` as (labellers, H, W) int8, or an :class:`InputError` naming ``path``: every caller
+    scores the maps pixel by pixel against a model's field made from ``image``, so a wrong shape
+    would otherwise surface deep in a worker as a numpy broadcast error that names no file."""
+    if fg.dtype.kind not in "biu":  # float maps could hold 0.5s that np.isin rounds nowhere near
+        raise InputError(path, f"'fg' must be an integer array (int8), not {fg.dtype}")
     if fg.ndim == 2:
         fg = fg[None]
-    if fg.ndim != 3 or not np.isin(fg, (-1, 0, 1)).all():
-        raise InputError(path, f"'fg' must be (labellers, H, W) with values -1, 0, 1; got shape {fg.shape}")
-    image = Path(root, "images", f"{image_id}.jpg")
-    return GroundTruth(
-        image_id=str(image_id), fg=fg.astype(np.int8), labellers=labellers, image_path=image if image.exists() else None
-    )
+    if fg.ndim != 3 or 0 in fg.shape:
+        raise InputError(path, f"'fg' must be (labellers, H, W); got shape {fg.shape}")
+    if not np.isin(fg, (-1, 0, 1)).all():
+        raise InputError(
+            path, f"'fg' must hold only -1, 0 and 1; found {[int(v) for v in np.setdiff1d(fg, (-1, 0, 1))[:5]]}"
+        )
+    if image is not None:
+        from ..events.images import read_image
+
+        shape = read_image(image).shape[:2]
+        if fg.shape[1:] != shape:
+            raise InputError(
+                path,
+                f"'fg' maps are {fg.shape[1]} x {fg.shape[2]} but the image {image.name} is {shape[0]} x {shape[1]}",
+            )
+    return fg.astype(np.int8)
 
 
 def _window_sums(mask, side):

@@ -13,6 +13,7 @@ that produced it.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -31,6 +32,18 @@ def fail(message: str) -> NoReturn:
     """End the experiment with one line on stderr and exit status 2."""
     print(f"{Path(sys.argv[0]).stem}: error: {message}", file=sys.stderr)
     raise SystemExit(2)
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer of at least 1 (``--images 0`` would score nothing and print a table of nan,
+    ``--workers 0`` would start no worker)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, not {value}")
+    return value
 
 
 def dataset(name: str, *parts) -> Path:

@@ -8,7 +8,8 @@ paper`` events, C = 0.10) against both labellers, among images with at least
 MIN_PIXELS scored pixels; shows the K best and K worst, and the paper's own
 picks (best 135069, 105019, 118035; worst 8143) when they are among the
 evaluated images. Shares the per-image cache of table1.
-Writes experiments/results/best_worst.json / .csv and best_worst.png.
+Writes experiments/results/best_worst.json / .csv and best_worst.png (fewer than all
+the images: best_worst_<N>images.*; --ids: best_worst_ids-<ids>.*).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from experiments.common import Run, dataset, save_figure
-from experiments.paper.bsds import evaluate, parser, write_table
+from experiments.paper.bsds import evaluate, parser, subset_name, write_table
 
 MIN_PIXELS = 200
 PAPER_BEST = ("135069", "105019", "118035")
@@ -107,11 +108,13 @@ def figure(picks):
 
 
 def main():
-    p = parser(__doc__.splitlines()[0])
+    p = parser(__doc__)
     p.add_argument("--show", type=int, default=3, metavar="K", help="best and worst images to show (3)")
     args = p.parse_args()
     run = Run()
-    rows = ranking(evaluate(args))
+    results = evaluate(args)
+    stem = subset_name("best_worst", args, len(results))  # a subset never overwrites the full-set files
+    rows = ranking(results)
     k = min(args.show, len(rows) // 2 or 1)
     picks = [("best", r) for r in rows[:k]] + [("worst", r) for r in rows[-k:][::-1]]
     by_id = {r["image_id"]: r for r in rows}
@@ -121,7 +124,7 @@ def main():
         for i in ids
         if i in by_id and all(i != r["image_id"] for _, r in picks)
     ]
-    written = write_table("best_worst", rows, run=run.record()) + [save_figure(figure(picks), "best_worst")]
+    written = write_table(stem, rows, run=run.record()) + [save_figure(figure(picks), stem)]
     for label, r in picks:
         print(
             f"{label:14s} #{r['image_id']:>7s} rank {r['rank']:3d}/{len(rows)}  ED mean|err| "

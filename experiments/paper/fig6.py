@@ -10,7 +10,8 @@ labeller 1's directions (GT2: labeller 2's). Each comparison is computed two
 ways: on **angle maps** (direction in turns where a map has a vector, 0
 elsewhere) and on the **rendered colour-wheel images** (unit vectors, black
 background), which is what the authors compared. Shares the per-image cache of
-table1. Writes experiments/results/fig6.json / .csv and fig6.png.
+table1. Writes experiments/results/fig6.json / .csv and fig6.png (fewer than all the
+images: fig6_<N>images.*; --ids: fig6_ids-<ids>.*).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from experiments.common import Run, save_figure
-from experiments.paper.bsds import evaluate, parser, write_table
+from experiments.paper.bsds import evaluate, parser, subset_name, write_table
 
 #: (label, pair key of experiments.evaluation.evaluate_image)
 COMPARISONS = (
@@ -73,11 +74,12 @@ def figure(rows):
 
 
 def main():
-    args = parser(__doc__.splitlines()[0]).parse_args()
+    args = parser(__doc__).parse_args()
     run = Run()
     results = evaluate(args)
     rows = rows_of(results)
-    written = write_table("fig6", rows, run=run.record()) + [save_figure(figure(rows), "fig6")]
+    stem = subset_name("fig6", args, len(results))  # a subset never overwrites the full-set fig6.*
+    written = write_table(stem, rows, run=run.record()) + [save_figure(figure(rows), stem)]
     for r in rows:
         print(f"{r['comparison']:18s} {r['metric']:12s} {r['mean']:.4f} +- {r['sd']:.4f}  (n={r['n_images']})")
     print(f"runtime {run.seconds:.0f} s; wrote " + ", ".join(str(w) for w in written))

@@ -93,7 +93,7 @@ def figure(rows):
 
 
 def main():
-    p = parser(__doc__.splitlines()[0])
+    p = parser(__doc__)
     p.add_argument("--models", nargs="+", default=["rate", "fbfg", "spiking"], choices=("rate", "fbfg", "spiking"))
     p.add_argument(
         "--spiking-diameters",

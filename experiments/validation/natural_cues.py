@@ -243,7 +243,7 @@ def main():
     from experiments.sweep import SweepTask, run_sweep
     from experiments.validation.natural_scenes import halves
 
-    args = parser(__doc__.splitlines()[0]).parse_args()
+    args = parser(__doc__).parse_args()
     run = Run()
     split = halves()
     cache = CACHE / f"natural-cues-v{VERSION}"

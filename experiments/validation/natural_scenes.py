@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from experiments.common import Run, describe, markdown_table, save_json, save_markdown
-from experiments.paper.bsds import parser, select_ids, sweep, write_table
+from experiments.paper.bsds import parser, positive_int, select_ids, subset_name, sweep, write_table
 from experiments.paper.table1 import BOOTSTRAP_RESAMPLES, percent_with_interval, scored_row
 
 #: Contrast threshold and motion of the events every model sees.
@@ -137,9 +137,9 @@ def _table(rows) -> list[str]:
 
 
 def main():
-    p = parser(__doc__.splitlines()[0])
+    p = parser(__doc__)
     p.add_argument("--half", choices=("report", "tune"), default="report")
-    p.add_argument("--spiking-images", type=int, default=0, metavar="N")
+    p.add_argument("--spiking-images", type=positive_int, metavar="N")
     p.add_argument("--checks", action="store_true", help="also the synthetic scenes and dvs.es")
     args = p.parse_args()
     run = Run()
@@ -150,7 +150,10 @@ def main():
     results = sweep(evaluate_models, ids, settings, args)
     rows, per_image = _rows(results, MODELS)
     record = {"half": args.half, "images": ids, "threshold": THRESHOLD, "motion": MOTION, "rows": rows}
-    stem = "natural_scenes" + ("" if args.half == "report" else "_tune")
+    # a subset of the half (--images, --ids) never overwrites the files of the whole half
+    stem = subset_name(
+        "natural_scenes" + ("" if args.half == "report" else "_tune"), args, len(ids), len(halves()[args.half])
+    )
     lines = [
         f"# The natural-scene variant against the human labels ({args.half} half)",
         "",

@@ -1,4 +1,5 @@
-"""Spiking network against the rate model on human figure/ground labels (issue 11).
+"""Spiking network against the rate model on human figure/ground labels: how far the spiking
+network's figure-ground directions are from the rate model's in accuracy against the labels, on the same events.
 
 For N BSDS images (evenly spaced over the 160 of the dataset ``bsds-fg``), both
 models run on the same events (``--motion paper`` at one contrast threshold,
@@ -14,7 +15,8 @@ each pooled difference moves with the choice of images.
 Writes experiments/results/spiking_groundtruth.{json,md,png} (with
 ``--seed N`` other than 0, the seed of the spiking network's input trains,
 spiking_groundtruth_seedN.*: how far the pooled scores move with the input's
-phase alone; with other than 20 images, spiking_groundtruth_<N>images*); the
+phase alone; with other than 20 images, spiking_groundtruth_<N>images*, with ``--ids``
+spiking_groundtruth_ids-<ids>*); the
 figure puts each image's spiking score against its rate score (mean absolute
 error and fraction within 45 degrees).
 """
@@ -22,7 +24,7 @@ error and fraction within 45 degrees).
 from __future__ import annotations
 
 from experiments.common import RESULTS, Run, describe, markdown_table, save_json, save_markdown
-from experiments.paper.bsds import SETTINGS, evaluate, parser
+from experiments.paper.bsds import SETTINGS, contrast_threshold, coverage_warnings, evaluate, parser, subset_name
 
 KEYS = ("side_accuracy", "coverage", "mean_signed_deg", "mean_abs_deg", "within45", "median_abs_deg", "n_pixels")
 #: resamples of the paired bootstrap over images
@@ -32,10 +34,17 @@ BOOTSTRAP_RESAMPLES = 4000
 def main():
     from experiments.pooled import bootstrap_difference, pool_stats
 
-    p = parser(__doc__.splitlines()[0])
-    p.add_argument("--threshold", type=float, default=0.40, metavar="C")
+    p = parser(__doc__, images=20, workers=1)
+    p.add_argument(
+        "--threshold",
+        type=contrast_threshold,
+        default=0.40,
+        metavar="C",
+        help="contrast threshold of the simulated event camera, a step of log intensity (default 0.40: the "
+        "smallest event frames; the paper's Table 1 uses 0.10-0.40). Higher thresholds give fewer events "
+        "and fewer labelled pixels with a vector",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the spiking network's input trains (default 0)")
-    p.set_defaults(images=20, workers=1)
     args = p.parse_args()
     run = Run()
     results = evaluate(
@@ -50,11 +59,7 @@ def main():
             **({"spiking_options": {"seed": args.seed}} if args.seed else {}),
         },
     )
-    name = (
-        "spiking_groundtruth"
-        + (f"_{len(results)}images" if len(results) != 20 else "")
-        + (f"_seed{args.seed}" if args.seed else "")
-    )
+    name = subset_name("spiking_groundtruth", args, len(results), 20) + (f"_seed{args.seed}" if args.seed else "")
     # per model, per image: its scored units (one per labeller), pooled per image and over all
     ids = sorted(results, key=int)
     parts = {
@@ -64,6 +69,7 @@ def main():
     per_image = [{"image_id": i, **{m: pool_stats(parts[m][k]) for m in parts}} for k, i in enumerate(ids)]
     pooled = {m: pool_stats([u for ps in parts[m] for u in ps]) for m in parts}
     diff = {k: pooled["spiking"][k] - pooled["rate"][k] for k in KEYS[:6]}
+    warnings = coverage_warnings([(f"{m} model, pooled", pooled[m]) for m in pooled])
     spread = bootstrap_difference(parts["rate"], parts["spiking"], n_resamples=BOOTSTRAP_RESAMPLES, keys=KEYS[:5])
     record = {
         "threshold": args.threshold,
@@ -73,9 +79,9 @@ def main():
         "spiking_minus_rate": diff,
         "bootstrap_over_images": {"resamples": BOOTSTRAP_RESAMPLES, **spread},
         "per_image": per_image,
+        "warnings": warnings,
         "run": run.record(),
     }
-    save_json(name, record)
     lines = [
         "# Spiking network and rate model against human figure/ground labels",
         "",
@@ -84,6 +90,7 @@ def main():
         "labellers pooled.",
         "",
         *_table(per_image, pooled),
+        *(["", *warnings] if warnings else []),
     ]
     lines += [
         "",
@@ -108,9 +115,10 @@ def main():
         lines.append(
             f"- {label}: {fmt.format(s['difference'])}, from {fmt.format(s['low'])} to {fmt.format(s['high'])}"
         )
-    save_markdown(name, lines)
-    _figure(per_image, pooled, RESULTS / f"{name}.png")
+    written = [save_json(name, record), save_markdown(name, lines), RESULTS / f"{name}.png"]
+    _figure(per_image, pooled, written[-1])
     print("\n".join(lines))
+    print("wrote " + ", ".join(str(w) for w in written))
 
 
 def _table(per_image, pooled) -> list[str]:

@@ -116,6 +116,52 @@ def test_table1_on_fewer_than_all_images_leaves_the_full_set_files_alone(in_proc
     )
 
 
+def _capture_saves(monkeypatch, module, *names):
+    """Replace ``module``'s writers ``names`` by one that records the stem each is given."""
+    stems = []
+    for name in names:
+        monkeypatch.setattr(module, name, lambda stem, *a, **k: stems.append(str(stem)))
+    return stems
+
+
+def test_the_validation_scripts_name_a_part_run_apart_from_the_full_one(monkeypatch, tmp_path):
+    import experiments.validation.compact_dog as compact_dog
+    import experiments.validation.spiking_dt as spiking_dt
+    import experiments.validation.spiking_fidelity as spiking_fidelity
+    import experiments.validation.spiking_heldout as spiking_heldout
+    import snn_fg.scoring.groundtruth as groundtruth
+
+    assert spiking_heldout._stem(6) == "spiking_heldout" and spiking_heldout._stem(2) == "spiking_heldout_2images"
+    fid = spiking_fidelity._parser()
+    assert spiking_fidelity._stem(fid.parse_args([])) == "spiking_fidelity"
+    assert spiking_fidelity._stem(fid.parse_args(["--quick"])) == "spiking_fidelity_quick"
+    assert spiking_fidelity._stem(fid.parse_args(["--only", "disc r16"])) == "spiking_fidelity_only-disc_r16"
+
+    # spiking_dt --quick, with its three measurements stubbed out
+    for name in ("_timing", "_frames", "_recording"):
+        monkeypatch.setattr(spiking_dt, name, lambda *a, **k: {})
+    monkeypatch.setattr(spiking_dt, "dataset", lambda *a: None)
+    monkeypatch.setattr(spiking_dt, "_markdown", lambda rec: [])
+    stems = _capture_saves(monkeypatch, spiking_dt, "save_json", "save_markdown")
+    monkeypatch.setattr(spiking_dt, "_figure", lambda rec, path: stems.append(str(path)))
+    monkeypatch.setattr(sys, "argv", ["spiking_dt", "--quick"])
+    spiking_dt.main()
+    assert stems[:2] == ["spiking_dt_quick", "spiking_dt_quick"] and stems[2].endswith("spiking_dt_quick.png")
+
+    # compact_dog --images 2 of the every-8th images, with the BSDS runs stubbed out
+    monkeypatch.setattr(groundtruth, "bsds_ids", lambda root: [str(i) for i in range(40)])
+    monkeypatch.setattr(compact_dog, "dataset", lambda *a: tmp_path)
+    monkeypatch.setattr(compact_dog, "bsds", lambda ids, *a: {"images": ids})
+    monkeypatch.setattr(compact_dog, "lines", lambda record: [])
+    monkeypatch.setattr(compact_dog, "figure", lambda record: None)
+    stems = _capture_saves(monkeypatch, compact_dog, "save_results")
+    monkeypatch.setattr(compact_dog, "save_figure", lambda fig, stem, **k: stems.append(stem))
+    for argv, stem in ((["--images", "2"], "compact_dog_2images"), ([], "compact_dog")):
+        monkeypatch.setattr(sys, "argv", ["compact_dog", "--windows", *argv])
+        compact_dog.main()
+        assert stems[-2:] == [stem, stem]
+
+
 # 2. the cache follows the inputs
 
 

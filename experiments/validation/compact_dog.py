@@ -36,7 +36,17 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from experiments.common import Run, dataset, describe, fail, load, markdown_table, save_figure, save_results
+from experiments.common import (
+    Run,
+    dataset,
+    describe,
+    fail,
+    load,
+    markdown_table,
+    positive_int,
+    save_figure,
+    save_results,
+)
 from experiments.validation.compact_accuracy import BSDS_THRESHOLD, bsds_scored
 from experiments.validation.recording_ceiling import compact_dog
 
@@ -233,26 +243,32 @@ def main():
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--every", type=int, default=8, help="every N-th labelled BSDS image, by sorted id (0: none)")
-    ap.add_argument("--images", type=int, default=None, help="only the first N of those")
-    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument(
+        "--images", type=positive_int, default=None, help="only the first N of those (writes <name>_<N>images.*)"
+    )
+    ap.add_argument("--workers", type=positive_int, default=1)
     ap.add_argument("--threshold", type=float, default=BSDS_THRESHOLD, help="BSDS event conversion contrast")
     ap.add_argument("--windows", type=int, nargs="*", default=[0, 1, 2, 3], help="dvs.es windows to time (none: no)")
     ap.add_argument("--start-ms", type=float, default=85.0)
     ap.add_argument("--rounds", type=int, default=2)
-    ap.add_argument("--name", default="compact_dog")
+    ap.add_argument("--name", help="stem of the files written (compact_dog; with --images N compact_dog_<N>images)")
     ap.add_argument("--worker", nargs=3, metavar=("KERNEL", "SPECS", "DT"), help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.worker:
         return _worker(a.worker[0], a.worker[1].split(","), a.worker[2])
     run, record = Run(), {"prune_dog": PRUNE, "every": a.every}
     if a.every:
-        ids = bsds_ids(dataset("bsds-fg"))[:: a.every][: a.images]
+        every = bsds_ids(dataset("bsds-fg"))[:: a.every]
+        ids = every[: a.images]
+        # a subset of the --every images never overwrites the files of them all (the ones docs/ cite)
+        a.name = a.name or ("compact_dog" if len(ids) == len(every) else f"compact_dog_{len(ids)}images")
         print(f"BSDS: {len(ids)} images, both kernels and the {RATE}", file=sys.stderr, flush=True)
         record["bsds"] = bsds(ids, a.workers, a.threshold)
     if a.windows:
         record["timing"] = timing(a.windows, a.start_ms, a.rounds)
     record["run"] = run.record()
     record["load_after"] = load()
+    a.name = a.name or "compact_dog"
     save_results(a.name, record, lines(record))
     save_figure(figure(record), a.name)
 

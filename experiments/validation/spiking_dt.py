@@ -365,11 +365,13 @@ def main():
         default=[0.5, 1.0],
         help="time steps in ms; the first is the one the others are compared with (0.5 1.0)",
     )
-    ap.add_argument("--quick", action="store_true", help="leave out the BSDS frames")
+    ap.add_argument("--quick", action="store_true", help="leave out the BSDS frames (writes spiking_dt_quick.*)")
     ap.add_argument("--rounds", type=int, default=3, help="timing rounds (3)")
     ap.add_argument("--changes", default="{}", metavar="JSON", help="SpikingParams fields to change ({})")
-    ap.add_argument("--name", default="spiking_dt", help="stem of the files written (spiking_dt)")
+    ap.add_argument("--name", help="stem of the files written (spiking_dt; with --quick spiking_dt_quick)")
     a = ap.parse_args()
+    # without the BSDS frames the results are not the full set's: they never overwrite spiking_dt.*
+    a.name = a.name or ("spiking_dt_quick" if a.quick else "spiking_dt")
     sp = variant_params("--changes", a.changes)
     dataset("events", "dvs.es")
     run = Run()

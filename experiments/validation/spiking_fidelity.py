@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import resource
 import time
 from pathlib import Path
@@ -150,8 +151,14 @@ def _agreement(res, first):
 
 def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--quick", action="store_true", help="synthetic scenes only (no BSDS frames)")
-    ap.add_argument("--only", nargs="*", help="run only rows whose name contains one of these")
+    ap.add_argument(
+        "--quick", action="store_true", help="synthetic scenes only (no BSDS frames; writes spiking_fidelity_quick.*)"
+    )
+    ap.add_argument(
+        "--only",
+        nargs="*",
+        help="run only rows whose name contains one of these (writes spiking_fidelity_only-<NAMES>.*)",
+    )
     ap.add_argument(
         "--backend",
         nargs="+",
@@ -294,9 +301,19 @@ def main(argv=None):
         "simulation": res.maps.params["simulation"] if res else None,
         "run": run_record.record(),
     }
-    save_text(out / "spiking_fidelity.json", json.dumps(record, indent=1, default=float))
-    save_text(out / "spiking_fidelity.md", "\n".join(_markdown(rows, record["run"], args.seeds)) + "\n")
-    print(f"wrote {out / 'spiking_fidelity.json'} and .md", flush=True)
+    stem = _stem(args)
+    save_text(out / f"{stem}.json", json.dumps(record, indent=1, default=float))
+    save_text(out / f"{stem}.md", "\n".join(_markdown(rows, record["run"], args.seeds)) + "\n")
+    print(f"wrote {out / stem}.json and .md", flush=True)
+
+
+def _stem(args) -> str:
+    """``spiking_fidelity``, or for part of the inputs (``--quick``, ``--only``) a stem that says which part:
+    a part never overwrites the full set's files, the ones docs/ cite."""
+    stem = "spiking_fidelity" + ("_quick" if args.quick else "")
+    if args.only:
+        stem += "_only-" + re.sub(r"[^A-Za-z0-9.=+-]+", "_", "-".join(args.only))[:60]
+    return stem
 
 
 def _fmt(r):

@@ -29,7 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from experiments.common import Run, dataset, describe, fail, markdown_table, save_json, save_markdown
+from experiments.common import Run, dataset, describe, fail, markdown_table, positive_int, save_json, save_markdown
 from snn_fg.errors import SnnFgError
 from snn_fg.events import image_to_frame
 from snn_fg.frames import scenes
@@ -41,7 +41,12 @@ from snn_fg.scoring.metrics import agreement, grouping_peak_inside, truth_scores
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--images", type=int, default=6)
+    ap.add_argument(
+        "--images",
+        type=positive_int,
+        default=6,
+        help="held-out BSDS images (6; others write spiking_heldout_<N>images.*)",
+    )
     ap.add_argument(
         "--variant",
         action="append",
@@ -87,9 +92,15 @@ def main():
             )
             print(f"{sc.name} {name}: {rows[-1]}", flush=True)
     rec = {"rows": rows, "images": ids, "variants": {k: v.to_dict() for k, v in variants.items()}, "run": run.record()}
-    save_json("spiking_heldout", rec)
-    save_markdown("spiking_heldout", _markdown(rec, list(variants)))
-    print(f"wrote experiments/results/spiking_heldout.md ({rec['run']['seconds']:.0f} s)")
+    stem = _stem(a.images)
+    save_json(stem, rec)
+    save_markdown(stem, _markdown(rec, list(variants)))
+    print(f"wrote experiments/results/{stem}.md ({rec['run']['seconds']:.0f} s)")
+
+
+def _stem(images: int) -> str:
+    """As spiking_groundtruth's: a run on other than the default 6 images never overwrites spiking_heldout.*."""
+    return "spiking_heldout" if images == 6 else f"spiking_heldout_{images}images"
 
 
 #: the default variant: inhibition decaying with 10 ms in every kind but the

@@ -25,7 +25,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from snn_fg.backends.cores import usable_cores
-from snn_fg.errors import SnnFgError, install_hint
+from snn_fg.errors import InputError, SnnFgError, install_hint
 from snn_fg.results.atomic import save_text
 
 #: What to install when Dask is missing.
@@ -134,6 +134,20 @@ def run_sweep(
     return results
 
 
+#: The key under which :func:`_guarded` hands back a task's InputError.
+_INPUT_ERROR = "__input_error__"
+
+
+def _guarded(func, kwargs):
+    """``func(**kwargs)``, with an :class:`InputError` (a bad input file) returned as its message
+    instead of raised: a task that raises is logged by the Dask worker as "Compute Failed" with its
+    traceback, a dozen lines or more before the one line the experiment prints."""
+    try:
+        return func(**kwargs)
+    except InputError as exc:
+        return {_INPUT_ERROR: exc.for_command_line()}
+
+
 def _import_all(modules):
     for name in modules:
         importlib.import_module(name)
@@ -148,10 +162,14 @@ def _run(func, todo, cache_dir, results, *, client, bar, preload):
     try:
         if preload:
             client.run(_import_all, preload)  # client.run executes in each worker's main thread
-        futures = {client.submit(func, **t.kwargs, key=f"{t.key}-{os.getpid()}", pure=False): t.key for t in todo}
+        futures = {
+            client.submit(_guarded, func, t.kwargs, key=f"{t.key}-{os.getpid()}", pure=False): t.key for t in todo
+        }
         for fut in dd.as_completed(futures):
             key = futures[fut]
             results[key] = fut.result()
+            if isinstance(results[key], dict) and _INPUT_ERROR in results[key]:
+                raise SnnFgError(results[key][_INPUT_ERROR])  # not cached: a fixed input is run again
             save_text(cache_dir / f"{key}.json", json.dumps(results[key]))
             bar.update(1)
     finally:

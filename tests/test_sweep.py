@@ -34,6 +34,21 @@ def test_tiny_sweep_on_a_local_cluster_caches_and_resumes(tmp_path):
         assert again["t1"]["square"] == -1 and again["t2"]["square"] == 4
 
 
+def bad_input_task(*, x: int) -> dict:
+    from snn_fg.errors import InputError
+
+    raise InputError(f"labels/{x}.npz", "not an .npz file")
+
+
+@pytest.mark.slow
+def test_a_bad_input_in_a_task_is_one_error_and_no_worker_traceback(tmp_path, capfd):
+    with pytest.raises(SnnFgError, match=r"^labels/7.npz: not an .npz file$"):
+        run_sweep(bad_input_task, [SweepTask("t", {"x": 7})], tmp_path, workers=1, progress=False)
+    err = capfd.readouterr().err
+    assert "Compute Failed" not in err and "Traceback" not in err, err
+    assert not (tmp_path / "t.json").exists()
+
+
 def test_fully_cached_sweep_needs_no_cluster(tmp_path):
     (tmp_path / "a.json").write_text('{"v": 1}')
     assert run_sweep(

@@ -178,6 +178,45 @@ def test_a_changed_label_file_is_computed_again_not_read_back(in_process):
     assert len(in_process.calls) == 2 and len(in_process.calls[1]) == 1  # only image 1 again
 
 
+def test_natural_cues_keys_its_cache_on_the_label_files_too(in_process, monkeypatch):
+    import experiments.sweep as sweep_mod
+    import experiments.validation.natural_cues as natural_cues
+    import experiments.validation.natural_scenes as natural_scenes
+
+    keys = []
+
+    def stop(func, tasks, *a, **k):
+        keys.append([t.key for t in tasks])
+        raise SystemExit(0)  # the cues themselves are not under test
+
+    monkeypatch.setattr(sweep_mod, "run_sweep", stop)
+    monkeypatch.setattr(natural_cues, "CACHE", in_process.root.parent / "cache")
+    monkeypatch.setattr(natural_cues, "dataset", lambda *a: in_process.root)
+    monkeypatch.setattr(natural_scenes, "halves", lambda: {"tune": ["1"], "report": ["2"]})
+    monkeypatch.setattr(sys, "argv", ["natural_cues", "--workers", "1"])
+    for _ in range(2):
+        with pytest.raises(SystemExit):
+            natural_cues.main()
+        np.savez(in_process.root / "labels" / "2.npz", fg=-_labels(), labellers=np.array([1, 2], np.int32))
+    assert keys[0][0] == keys[1][0] and keys[0][1] != keys[1][1] and keys[0][1].startswith("2-")
+
+
+@pytest.mark.parametrize("module", ["experiments.paper.r0_sweep", "experiments.validation.natural_cues"])
+def test_scripts_that_run_every_image_refuse_a_selection_instead_of_ignoring_it(module, monkeypatch, capsys):
+    import importlib
+
+    import experiments.sweep as sweep_mod
+
+    def ran(*a, **k):
+        raise AssertionError("the sweep ran, --images ignored")
+
+    monkeypatch.setattr(sweep_mod, "run_sweep", ran)  # nor anything written to experiments/results
+    monkeypatch.setattr(sys, "argv", [module, "--images", "2"])
+    with pytest.raises(SystemExit) as end:
+        importlib.import_module(module).main()
+    assert end.value.code == 2 and "do not apply" in capsys.readouterr().err
+
+
 def test_the_input_digest_follows_the_bytes_not_the_mtime(tmp_path):
     root = fake_root(tmp_path)
     before = bsds.input_digest(root, "1")

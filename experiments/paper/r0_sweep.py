@@ -112,6 +112,8 @@ def main():
         help="disc diameters in px (4 to 200 in 13 steps)",
     )
     args = p.parse_args()
+    if args.images or args.quick or args.ids:
+        p.error("--images, --quick and --ids do not apply: the sweep runs on synthetic discs, not BSDS images")
     from experiments.evaluation import evaluate_disc
     from experiments.sweep import SweepTask, run_sweep
     from snn_fg.errors import SnnFgError

@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 
 from experiments.common import CACHE, Run, dataset, describe, fail, markdown_table, save_figure, save_results
-from experiments.paper.bsds import parser
+from experiments.paper.bsds import check_inputs, input_digest, parser
 from experiments.paper.table1 import BOOTSTRAP_RESAMPLES
 from snn_fg.network.kernels import half_disc
 
@@ -85,9 +85,10 @@ def side_difference(image, radius: float, rows, cols, direction) -> np.ndarray:
     return out
 
 
-def image_cues(*, root: str, image_id: str, cache: str) -> dict:
+def image_cues(*, root: str, image_id: str, cache: str, key: str | None = None) -> dict:
     """The cues of :data:`CUES` and whether the variant's side is right, at every labelled pixel of one image
-    where the variant has a vector; written to ``cache/<image_id>.npz`` (the sweep's result is its summary)."""
+    where the variant has a vector; written to ``cache/<key>.npz`` (``key``: the sweep task's, by default
+    the image id; the sweep's result is its summary)."""
     from pathlib import Path
 
     from snn_fg.events import image_to_frame
@@ -117,7 +118,7 @@ def image_cues(*, root: str, image_id: str, cache: str) -> dict:
     to_x, to_y = (w - 1) / 2 - c, r - (h - 1) / 2  # towards the centre, y up
     cues += [-ny, (nx * to_x + ny * to_y) / np.hypot(h, w)]
     right = np.abs(signed_angle_deg(nx, ny, tx, ty)) < SIDE_DEG  # as the side accuracy of every table
-    save_npz(Path(cache, f"{image_id}.npz"), cues=np.stack(cues, 1).astype(np.float32), right=right)
+    save_npz(Path(cache, f"{key or image_id}.npz"), cues=np.stack(cues, 1).astype(np.float32), right=right)
     return {"pixels": int(len(right)), "right": int(right.sum()), "version": VERSION}
 
 
@@ -242,17 +243,30 @@ def _figure(result: dict):
 def main():
     from experiments.sweep import SweepTask, run_sweep
     from experiments.validation.natural_scenes import halves
+    from snn_fg.errors import SnnFgError
 
-    args = parser(__doc__).parse_args()
+    p = parser(__doc__)
+    args = p.parse_args()
+    if args.images or args.quick or args.ids:
+        p.error("--images, --quick and --ids do not apply: the cues are read on every labelled image")
     run = Run()
     split = halves()
     cache = CACHE / f"natural-cues-v{VERSION}"
     cache.mkdir(parents=True, exist_ok=True)
     ids = split["tune"] + split["report"]
     root = str(dataset("bsds-fg"))
-    tasks = [SweepTask(i, {"root": root, "image_id": i, "cache": str(cache)}) for i in ids]
-    run_sweep(image_cues, tasks, cache, scheduler=args.scheduler, workers=args.workers, progress=not args.no_progress)
-    missing = [i for i in ids if not (cache / f"{i}.npz").exists()]
+    check_inputs(root, ids)
+    # as the BSDS experiments' cache: named by a digest of the image and label files, so that a changed
+    # label file is read again rather than its old cues
+    keys = {i: f"{i}-{input_digest(root, i)}" for i in ids}
+    tasks = [SweepTask(keys[i], {"root": root, "image_id": i, "cache": str(cache), "key": keys[i]}) for i in ids]
+    try:
+        run_sweep(
+            image_cues, tasks, cache, scheduler=args.scheduler, workers=args.workers, progress=not args.no_progress
+        )
+    except SnnFgError as exc:
+        fail(exc.for_command_line())
+    missing = [i for i in ids if not (cache / f"{keys[i]}.npz").exists()]
     if missing:
         fail(
             f"{cache} holds results without their cue files ({', '.join(missing[:3])}...): delete the folder "
@@ -262,7 +276,7 @@ def main():
     def read(part):
         images = []
         for i in split[part]:
-            with np.load(cache / f"{i}.npz") as d:
+            with np.load(cache / f"{keys[i]}.npz") as d:
                 images.append((d["cues"].astype(np.float64), d["right"]))
         return images
 

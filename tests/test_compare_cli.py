@@ -214,7 +214,7 @@ def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken
 
 def test_a_map_without_any_vector_is_named_under_the_table():
     """A window where one map has no vector compares nothing (nan in the
-    angle columns); the table says which map is empty, in which windows."""
+    rows, "-" in the table's angle columns, never "nan"); the table says which map is empty, in which windows."""
     from snn_fg.cli.compare import compare_table
     from snn_fg.scoring.metrics import compare_maps
 
@@ -227,8 +227,9 @@ def test_a_map_without_any_vector_is_named_under_the_table():
     text = compare_table(rows)
     assert rows[1]["pixels_b"] == 0 and np.isnan(rows[1]["angle_diff_mean_deg"])
     assert text.splitlines()[-1] == (
-        "B has no figure-ground vector in 1 of 2 compared windows (1): nothing to compare there (nan)"
+        "B has no figure-ground vector in 1 of 2 compared windows (1): nothing to compare there (-)"
     )
+    assert "nan" not in text and text.splitlines()[2].split()[4:7] == ["-", "-", "-"]  # (cover, mean, <=45)
     assert "has no figure-ground vector" not in compare_table(rows[:1])
 
 

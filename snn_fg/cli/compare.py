@@ -8,6 +8,7 @@ with :func:`add_compare_command`.
 from __future__ import annotations
 
 import json
+import math
 import sys
 import textwrap
 from pathlib import Path
@@ -106,7 +107,7 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
     ``named``: lines that say what A and B are, under the table."""
     lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COLUMNS)]
     lines += [
-        "  ".join("-".rjust(w) if r.get(k) is None else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COLUMNS)
+        "  ".join("-".rjust(w) if _blank(r.get(k)) else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COLUMNS)
         for r in rows
     ]
     lines += named
@@ -131,9 +132,15 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
             shown = ", ".join("-" if k is None else str(k) for k in empty[:8]) + (", ..." if len(empty) > 8 else "")
             lines.append(
                 f"{side.upper()} has no figure-ground vector in {len(empty)} of {len(rows)} compared "
-                f"window{'s' if len(rows) > 1 else ''} ({shown}): nothing to compare there (nan)"
+                f"window{'s' if len(rows) > 1 else ''} ({shown}): nothing to compare there (-)"
             )
     return "\n".join(lines)
+
+
+def _blank(value) -> bool:
+    """Whether a table cell has no number: not measured, or nothing to measure it on (a nan is shown
+    as "-", never as "nan": a window where a map has no vector is named under the table instead)."""
+    return value is None or (isinstance(value, float) and math.isnan(value))
 
 
 def cmd_compare(args) -> int:
@@ -180,7 +187,7 @@ def _record(args, rows, baseline: str | None) -> dict:
     the snn-fg that measured them: a table made from the file alone says what it is."""
     from .. import __version__
 
-    r = [x["grouping_pearson_r"] for x in rows if x.get("grouping_pearson_r") is not None]
+    r = [x["grouping_pearson_r"] for x in rows if not _blank(x.get("grouping_pearson_r"))]
     pooled = {
         "pixels_compared": sum(x.get("pixels_compared") or 0 for x in rows),
         **{
@@ -199,8 +206,14 @@ def _record(args, rows, baseline: str | None) -> dict:
         "options": options,
         "all_windows": pooled,
         "snn_fg_version": __version__,
-        "windows": rows,
+        "windows": _nulls(rows),
     }
+
+
+def _nulls(rows):
+    """``rows`` with each nan as None: --json writes null where there was nothing to measure (json.dumps
+    writes nan as NaN, which is not JSON, and other readers refuse it)."""
+    return [{k: None if _blank(v) else v for k, v in r.items()} for r in rows]
 
 
 def _run_name(path) -> str:

@@ -14,11 +14,18 @@ import numpy as np
 
 from ..backends import backend_names
 from ..errors import InputError
-from ..export.loop import decode_counts, export_network, input_frame, reference_maps
-from ..export.pynn import input_origin
+from ..export.loop import (
+    decode_counts,
+    export_network,
+    input_frame,
+    rate_mismatch,
+    recalibration_command,
+    reference_maps,
+)
+from ..export.pynn import input_origin, read_input
 from ..results.atomic import OutputFolder
 from ..results.maps import SPIKING_GROUPING_LABEL
-from ..scoring.metrics import agreement
+from ..scoring.metrics import compare_frame
 from .options import subcommand
 
 
@@ -58,7 +65,7 @@ def cmd_decode(args) -> int:
     from ..results.figures import event_frame_rgb, save_maps_figure
 
     folder = OutputFolder(args.out, force=args.force)  # (refused, or unwritable, before the work)
-    net, _ = export_network(args.export)
+    net, meta = export_network(args.export)
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")
     maps = decode_counts(net, args.counts)
@@ -92,11 +99,44 @@ def cmd_decode(args) -> int:
     written = "maps.npz, maps.png" + (", reference/" if ref is not None else "")
     print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ ({written})")
     if ref is not None:
-        a = agreement(maps, ref)
-        print(
-            f"snn-fg: against snn-fg's {args.reference} backend on the same network and input: grouping r "
-            f"{a['grouping_r']:.3f}, {100 * a['within_45']:.1f} % of the vectors both have within 45 degrees, "
-            f"mean absolute difference {a['mean_deg']:.1f} degrees; the board's maps have a vector at "
-            f"{100 * a['coverage']:.1f} % of the reference's vector pixels"
-        )
+        rate = read_input(spikes).rate_hz
+        print(agreement_line(maps, ref, args.reference, rate, net, meta.get("export_command")))
     return 0
+
+
+def agreement_line(board, ref, backend: str, input_hz: float, net, command: str | None) -> str:
+    """How the board's maps agree with ``backend``'s on the same network and input, in one line with
+    no nan in it: where a map has no figure-ground vector there is nothing to compare, and the line
+    says so and why that is likely (before, a board and a reference with no vector printed "nan %").
+    ``input_hz``: the input's rate per active pixel; ``net``: the export's network; ``command``: its
+    ``snn-fg export`` command, as ``snn-fg events --write-spikes`` says how to re-export calibrated."""
+    c = compare_frame(board.fg_x, board.fg_y, board.grouping, ref.fg_x, ref.fg_y, ref.grouping)
+    r = c["grouping_pearson_r"]
+    grouping = f"grouping r {r:.3f}" if np.isfinite(r) else "grouping r undefined (a grouping map is flat)"
+    head = f"snn-fg: against snn-fg's {backend} backend on the same network and input: "
+    if c["pixels_compared"]:
+        return head + (
+            f"{grouping}, {100 * c['angle_within_45_frac']:.1f} % of the vectors both have within 45 degrees, "
+            f"mean absolute difference {c['angle_diff_mean_deg']:.1f} degrees; the board's maps have a vector at "
+            f"{100 * c['coverage_of_b']:.1f} % of the reference's vector pixels"
+        )
+    if c["pixels_a"] or c["pixels_b"]:
+        has = "the board's maps" if c["pixels_a"] else "the reference"
+        what = f"{grouping}; only {has} have a figure-ground vector ({c['pixels_a'] or c['pixels_b']} pixels)"
+    else:
+        what = "neither the board's maps nor the reference have a figure-ground vector, nothing to compare"
+    pixel = "block" if net.params.input_pool > 1 else "pixel"
+    if rate_mismatch(input_hz, net.input_rate_hz):
+        why = (
+            f"likely cause: the input is {input_hz:.3g} Hz per active {pixel}, {input_hz / net.input_rate_hz:.2g} "
+            f"times the {net.input_rate_hz:g} Hz the export's gains are set for (snn-fg events --write-spikes "
+            f"warned); re-export calibrated: {recalibration_command(input_hz, command)}, then run run.py again"
+        )
+    elif c["pixels_a"] or c["pixels_b"]:
+        why = "the board's run and the reference's part: did run.py run this input file over this span?"
+    else:
+        why = (
+            "the input drives too few cells in the counted span: a longer run (run.py --duration-ms) "
+            "or a window with more edges (snn-fg events --start-ms, --crop-at)"
+        )
+    return head + what + "; " + why

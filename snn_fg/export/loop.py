@@ -86,17 +86,26 @@ def crop_events(events, top_left, shape):
     return ev
 
 
+def rate_mismatch(input_hz: float, export_hz: float) -> bool:
+    """Whether an input of ``input_hz`` per active pixel drives an export whose gains are set for
+    ``export_hz`` noticeably otherwise than ``snn-fg run`` drives its calibrated network."""
+    return input_hz > 0 and max(input_hz, export_hz) > RATE_MISMATCH * min(input_hz, export_hz)
+
+
+def recalibration_command(input_hz: float, command: str | None) -> str:
+    """The export command that calibrates the export to ``input_hz`` (``command``: the export's own, if known)."""
+    if command:
+        return f"{command} --input-rate-hz {input_hz:.3g} --force"
+    return f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
+
+
 def recalibration_hint(input_hz: float, export_hz: float, command: str | None, pixel: str = "pixel") -> str | None:
     """What to do when an input's rate is far from the one the export's gains
     are set for (``snn-fg run`` calibrates its network to its input's rate):
     the command to re-export with (``command``: the export's own, if known)."""
-    if max(input_hz, export_hz) <= RATE_MISMATCH * min(input_hz, export_hz):
+    if not rate_mismatch(input_hz, export_hz):
         return None
-    redo = (
-        f"{command} --input-rate-hz {input_hz:.3g} --force"
-        if command
-        else f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
-    )
+    redo = recalibration_command(input_hz, command)
     return (
         f"snn-fg: note: this input is {input_hz:.3g} Hz per active {pixel}, {input_hz / export_hz:.2g} times the "
         f"{export_hz:g} Hz the export's gains are set for; snn-fg run calibrates its network to its input's "

@@ -1,0 +1,67 @@
+"""``snn-fg decode --reference`` as a new user met it: an uncalibrated export whose board run and
+reference both made no figure-ground vector printed "nan %" as a result, and decoding again into the
+same folder with ``--force`` was refused because of the ``reference/`` decode itself had written."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from snn_fg.backends.base import lif_populations
+from snn_fg.cli import main
+from snn_fg.cli.decode import agreement_line
+from snn_fg.export.board import board_network
+from snn_fg.export.loop import export_network
+from snn_fg.export.pynn import export_pynn
+from snn_fg.network import build_network
+from snn_fg.params import ModelParams
+from snn_fg.results.maps import Maps
+
+
+@pytest.fixture(scope="module")
+def board_run(tmp_path_factory):
+    """A small export, its input (a square's outline, each pixel one spike every 70 ms: about 17 Hz,
+    far below the 200 Hz its gains are set for) and a board run's counts that hold no spike."""
+    tmp = tmp_path_factory.mktemp("board")
+    folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp / "model")
+    net, _ = export_network(folder)
+    idx, steps = [], []
+    for r in range(6, 18):
+        for c in range(6, 18):
+            if r in (6, 17) or c in (6, 17):
+                idx += [r * 24 + c] * 6
+                steps += [t + (r + c) % 7 for t in range(0, 840, 140)]
+    inp = dict(indices=np.array(idx), steps=np.array(steps), dt_ms=net.dt_ms, period_steps=-1, shape=np.array([24, 24]))
+    np.savez(folder / "input.npz", **inp)
+    silent = {f"count_{q.name}": np.zeros(q.size, np.int64) for q in lif_populations(board_network(net))}
+    np.savez(folder / "counts.npz", duration_ms=400.0, count_from_ms=200.0, dt_ms=net.dt_ms, **silent)
+    return folder
+
+
+def _decode(folder, out, *extra):
+    return main(["decode", str(folder / "counts.npz"), "--export", str(folder), "--out", str(out), *extra])
+
+
+@pytest.mark.slow
+def test_no_vector_in_either_map_is_said_with_its_cause_never_as_nan(board_run, tmp_path, capsys):
+    assert _decode(board_run, tmp_path / "maps", "--reference", "fast") == 0
+    said = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "nan" not in said, said
+    assert "neither the board's maps nor the reference have a figure-ground vector, nothing to compare" in said
+    assert "times the 200 Hz the export's gains are set for" in said and "--input-rate-hz 17" in said
+    for m in (Maps.load(tmp_path / "maps"), Maps.load(tmp_path / "maps" / "reference")):
+        assert not np.hypot(m.fg_x, m.fg_y).any()  # (what the line says)
+
+
+def test_a_map_with_vectors_against_one_without_is_said_without_nan(tmp_path):
+    net, _ = export_network(export_pynn(build_network(ModelParams(levels=1, r0=4), (12, 12)), tmp_path / "m"))
+    z = np.zeros((12, 12), np.float32)
+    some = z.copy()
+    some[3, 2:9] = 1.0
+    full, empty = Maps(some, z, some, {}), Maps(z, z, z, {})
+    for a, b, who in ((full, empty, "the board's maps"), (empty, full, "the reference")):
+        line = agreement_line(a, b, "fast", 200.0, net, None)
+        assert "nan" not in line and f"only {who} have a figure-ground vector (7 pixels)" in line, line
+        assert "--input-rate-hz" not in line  # (a calibrated input: not the cause)
+    line = agreement_line(full, full, "fast", 35.0, net, "snn-fg export --format pynn --out m")
+    assert "grouping r 1.000, 100.0 % of the vectors both have within 45 degrees" in line

@@ -65,3 +65,25 @@ def test_a_map_with_vectors_against_one_without_is_said_without_nan(tmp_path):
         assert "--input-rate-hz" not in line  # (a calibrated input: not the cause)
     line = agreement_line(full, full, "fast", 35.0, net, "snn-fg export --format pynn --out m")
     assert "grouping r 1.000, 100.0 % of the vectors both have within 45 degrees" in line
+
+
+@pytest.mark.slow
+def test_decode_again_into_its_own_folder_with_reference_and_force(board_run, tmp_path, capsys):
+    """The folder an earlier ``decode --reference`` wrote holds reference/, which decode wrote: --force
+    replaces it; a user's file beside it, or in a reference/ of their own, is still refused, nothing deleted."""
+    out = tmp_path / "maps2"
+    assert _decode(board_run, out, "--reference", "fast") == 0
+    assert _decode(board_run, out, "--reference", "fast", "--force") == 0
+    assert sorted(p.name for p in out.iterdir()) == ["maps.npz", "maps.png", "reference"]
+    assert _decode(board_run, out, "--force") == 0  # (and without --reference: reference/ goes)
+    assert sorted(p.name for p in out.iterdir()) == ["maps.npz", "maps.png"]
+    assert _decode(board_run, out, "--reference", "fast", "--force") == 0
+    capsys.readouterr()
+    for extra in (out / "notes.txt", out / "reference" / "notes.txt"):
+        extra.write_text("mine")
+        before = sorted(str(p.relative_to(out)) for p in out.rglob("*"))
+        assert _decode(board_run, out, "--reference", "fast", "--force") == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "which snn-fg did not write" in err[0] and "nothing was deleted" in err[0], err
+        assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == before and extra.read_text() == "mine"
+        extra.unlink()

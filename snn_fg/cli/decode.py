@@ -25,6 +25,7 @@ from ..export.loop import (
 from ..export.pynn import input_origin, read_input
 from ..results.atomic import OutputFolder
 from ..results.maps import SPIKING_GROUPING_LABEL
+from ..results.outputs import DECODE_FOLDER
 from ..scoring.metrics import compare_frame
 from .options import subcommand
 
@@ -64,7 +65,7 @@ def cmd_decode(args) -> int:
     # (matplotlib, for the figure, is imported only when a command draws one)
     from ..results.figures import event_frame_rgb, save_maps_figure
 
-    folder = OutputFolder(args.out, force=args.force)  # (refused, or unwritable, before the work)
+    folder = OutputFolder(args.out, force=args.force, kind=DECODE_FOLDER)  # (refused, or unwritable, before the work)
     net, meta = export_network(args.export)
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")

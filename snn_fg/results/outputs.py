@@ -5,7 +5,7 @@ exists is written into only when it is empty or holds an earlier output of the s
 else; ``--force`` is what allows the second. A folder that holds anything else (a user's recording,
 another program's files) is refused in one line, whatever the options, and nothing in it is touched:
 snn-fg never deletes a file it did not write. Each kind of output (:class:`FolderKind`) lists the
-names its command writes; :data:`RUN_FOLDER` is ``snn-fg run``'s (and ``snn-fg decode``'s).
+names its command writes; :data:`RUN_FOLDER` is ``snn-fg run``'s, :data:`DECODE_FOLDER` ``snn-fg decode``'s.
 
 :func:`check_writable` tries the destination before the work starts, so that an unwritable one
 (read-only file system, no permission, a full disk) ends in one line naming it, not in a traceback
@@ -86,6 +86,29 @@ RUN_FOLDER = FolderKind(
     ),
     marks=("maps.npz", "maps.zarr"),
     owns=_window_figures,
+)
+
+
+#: what ``snn-fg decode --reference`` writes in ``OUT/reference/``: the reference backend's maps and figure
+DECODE_REFERENCE = ("maps.npz", "maps.png")
+
+
+def _decode_reference(entry: Path) -> bool:
+    """Whether ``entry`` is the ``reference/`` an earlier ``snn-fg decode --reference`` wrote: told by its
+    content (a user's own folder of that name holding anything else is not replaced)."""
+    if entry.name != "reference" or not entry.is_dir() or entry.is_symlink():
+        return False
+    names = {p.name for p in entry.iterdir()}
+    return "maps.npz" in names and names <= set(DECODE_REFERENCE)
+
+
+#: what ``snn-fg decode`` writes: a run's maps and figure and, with ``--reference``, ``reference/``
+#: (before, a decode folder holding reference/ was refused with --force as not snn-fg's)
+DECODE_FOLDER = FolderKind(
+    "an snn-fg decode",
+    names=RUN_FOLDER.names,
+    marks=RUN_FOLDER.marks,
+    owns=lambda entry: _window_figures(entry) or _decode_reference(entry),
 )
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from snn_fg.cli import main
 from snn_fg.export.board import board_network, table
 from snn_fg.export.pynn import export_pynn
 from snn_fg.export.spinnaker import _lattice_kernel, spinnaker_plan
@@ -108,7 +109,7 @@ def test_spynnaker_maps_a_small_export_onto_a_virtual_board(tmp_path, monkeypatc
     home = tmp_path / "home"
     home.mkdir()
     monkeypatch.setenv("HOME", str(home))
-    folder = export_pynn(build_network(ModelParams(levels=2, r0=4), (24, 28)), tmp_path / "model")
+    folder = export_pynn(build_network(ModelParams(levels=2, r0=4), (24, 28)), tmp_path / "model", target="spinnaker")
     done = subprocess.run(
         [sys.executable, "run.py", "--simulator", "spinnaker", "--virtual-board", "--map-only", "--duration-ms", "50"],
         cwd=folder,
@@ -210,3 +211,25 @@ def test_the_estimate_is_within_15_percent_of_spynnakers_own_mapping(config):
     ours = spinnaker_cores(board)
     differ = {n: c - ours[n] for n, c in row["cores_by_population"].items() if c != ours[n]}
     assert set(differ) <= {"group_L_1", "group_D_1"} and all(d == 1 for d in differ.values()), differ
+
+
+def test_only_target_spinnaker_writes_spinnaker_json_and_run_py_says_so(tmp_path, capsys):
+    """``snn-fg export --help``: --target spinnaker "also writes spinnaker.json"; the default target
+    wrote it too. Now the default export has none, --target spinnaker's has its plan, and run.py
+    --simulator spinnaker in an export without one says what to do in one line (no traceback)."""
+    small = ["--format", "pynn", "--sensor-size", "16x16", "--levels", "1"]
+    assert main(["export", *small, "--out", str(tmp_path / "generic")]) == 0
+    assert not (tmp_path / "generic" / "spinnaker.json").exists()
+    assert main(["export", *small, "--target", "spinnaker", "--out", str(tmp_path / "spinnaker")]) == 0
+    plan = json.loads((tmp_path / "spinnaker" / "spinnaker.json").read_text())
+    assert plan["estimate"]["cores"] > 0
+    assert "--target spinnaker" in (tmp_path / "generic" / "README.md").read_text()
+    done = subprocess.run(
+        [sys.executable, "run.py", "--simulator", "spinnaker", "--virtual-board", "--map-only"],
+        cwd=tmp_path / "generic",
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr[-2000:]
+    assert "spinnaker.json: no such file" in done.stderr and "--target spinnaker" in done.stderr

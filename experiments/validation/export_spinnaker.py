@@ -44,7 +44,18 @@ def one(config: str, combined: bool, tmp: Path) -> dict:
     folder = tmp / (Path(config).stem if "." in config else config.replace(":", "_"))
     if not folder.exists():
         subprocess.run(
-            [sys.executable, "-m", "snn_fg.cli", "export", "--format", "pynn", "--out", str(folder)]
+            [
+                sys.executable,
+                "-m",
+                "snn_fg.cli",
+                "export",
+                "--format",
+                "pynn",
+                "--target",
+                "spinnaker",
+                "--out",
+                str(folder),
+            ]
             + export_args(config),
             check=True,
             capture_output=True,

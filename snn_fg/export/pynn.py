@@ -22,9 +22,10 @@ The export folder holds
   (ends, sign, gain, delay, per-projection weight scale, synapse count) and the snn-fg
   description it was made from; ``tables.npz`` - the weight-shared tables
   (kernel taps, interpolation matrices; identical tables stored once);
-* ``spinnaker.json`` - which projections sPyNNaker's ``ConvolutionConnector``
-  carries on SpiNNaker and why the others cannot, and the resource report's
-  estimate of the cores and chips (set beside sPyNNaker's own mapping by
+* ``spinnaker.json`` (``target="spinnaker"``, ``--target spinnaker``, only) -
+  which projections sPyNNaker's ``ConvolutionConnector`` carries on SpiNNaker
+  and why the others cannot, and the resource report's estimate of the cores
+  and chips (set beside sPyNNaker's own mapping by
   ``run.py --simulator spinnaker --virtual-board``);
 * ``README.md`` - how to run it.
 
@@ -107,7 +108,8 @@ Made by `snn-fg export --format pynn` (snn-fg {version}) for {frame},
 3. Maps: `snn-fg decode counts.npz --export . --out maps` writes `maps/maps.npz` and
    `maps/maps.png`, as `snn-fg run` does.
 
-On SpiNNaker: `python run.py ... --simulator spinnaker` (sPyNNaker,
+On SpiNNaker (an export made with `--target spinnaker`, which writes
+`spinnaker.json`): `python run.py ... --simulator spinnaker` (sPyNNaker,
 `pip install -e ".[spinnaker]"` or `sPyNNaker==1!7.4.1`). The projections
 `spinnaker.json` gives to `ConvolutionConnector` go through it, the others
 through `FromListConnector`. Without a board, `python run.py --simulator spinnaker
@@ -144,7 +146,8 @@ def export_pynn(
     weight_bits : int, optional
         Quantise weights to this many bits (one scale per projection).
     target : {"generic", "spinnaker"}
-        Recorded in ``network.json`` (every export holds ``spinnaker.json``).
+        Recorded in ``network.json``; ``"spinnaker"`` also writes ``spinnaker.json``,
+        the plan ``run.py --simulator spinnaker`` needs (as ``snn-fg export --help`` says).
     command : str, optional
         The ``snn-fg export`` command that made it, recorded in ``network.json``
         (``snn-fg events --write-spikes`` says how to re-export it calibrated
@@ -162,7 +165,7 @@ def export_pynn(
     >>> from snn_fg.params import ModelParams
     >>> d = export_pynn(build_network(ModelParams(levels=2), (40, 52)), pathlib.Path(tempfile.mkdtemp()) / "m")
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
-    ['README.md', 'network.json', 'spinnaker.json', 'tables.npz']
+    ['README.md', 'network.json', 'tables.npz']
     >>> print(*sorted(p.name for p in d.glob("*.py")))  # doctest: +NORMALIZE_WHITESPACE
     fg_cells.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py
     fg_spinnaker.py fg_tables.py run.py
@@ -172,15 +175,17 @@ def export_pynn(
         network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape
     )
     copies = {standalone.HERE / src: dst for src, dst in standalone.COPIED.items()}
-    board = board_network(network)
-    plan = {**spinnaker_plan(board), "estimate": spinnaker_estimate(board, dt_ms)}
     readme = README.format(
         **readme_fields(network, meta, sensor_shape),
         target=target,
         bits=f"{weight_bits}-bit" if weight_bits else "float",
         dt=dt_ms,
     )
-    texts = {"spinnaker.json": json.dumps(plan, indent=1) + "\n", "README.md": readme}
+    texts = {"README.md": readme}
+    if target == "spinnaker":  # (before, every export held it although the help said --target spinnaker writes it)
+        board = board_network(network)
+        plan = {**spinnaker_plan(board), "estimate": spinnaker_estimate(board, dt_ms)}
+        texts["spinnaker.json"] = json.dumps(plan, indent=1) + "\n"
     return write_folder(
         out, force=force, frame_shape=network.frame_shape, meta=meta, arrays=arrays, copies=copies, texts=texts
     )

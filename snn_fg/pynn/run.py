@@ -199,6 +199,11 @@ def parse(argv):
 
 def main(argv=None):
     args = parse(argv)
+    if args.simulator == "spiNNaker" and not os.path.exists("spinnaker.json"):  # (only a SpiNNaker export has it)
+        sys.exit(
+            "run.py: error: spinnaker.json: no such file: --simulator spinnaker needs an export made with "
+            "snn-fg export --format pynn --target spinnaker"
+        )
     check_simulator(args.simulator)
     meta, npz = fg_tables.load_export()
     tables = fg_tables.load_tables(meta, npz)

@@ -240,7 +240,7 @@ def test_resource_report_counts_and_limits(small_net):
     ],
 )
 def test_export_refuses_bad_arguments_in_one_line(tmp_path, capsys, args, fragment):
-    out = tmp_path / "out"
+    out = tmp_path / "out.json"  # (a report's name: its arguments, not the file name, are refused)
     try:
         status = main(["export", "--out", str(out)] + args)
     except SystemExit as stop:  # (refused by the argument parser itself)

@@ -261,7 +261,9 @@ def test_every_command_that_writes_says_in_one_line_that_it_cannot(tmp_path, rec
 
 # -- one rule for files that exist -------------------------------------------------------------------------------
 def test_files_that_exist_are_replaced_only_with_force(tmp_path, recording, capsys):
-    """events --plot and compare --json/--plot overwrote without asking while run and export refused."""
+    """events --plot and compare --json/--plot overwrote without asking while run and export refused;
+    then --force replaced any file of the name. Now, as for folders, --force replaces only an earlier
+    output of the kind being written: the user's file of that name is refused and kept."""
     a, b = _maps(tmp_path / "a"), _maps(tmp_path / "b", r0=6.0)
     for argv, out in (
         (["compare", str(a), str(b), "--json"], tmp_path / "c.json"),
@@ -272,10 +274,40 @@ def test_files_that_exist_are_replaced_only_with_force(tmp_path, recording, caps
         out.write_bytes(b"the user's")
         assert main([*argv, str(out)]) == 2
         assert f"{out}: exists; pass --force to replace it" in _one_error(capsys)
+        assert main([*argv, str(out), "--force"]) == 2
+        assert f"{out}: is not a {out.suffix} file snn-fg wrote: --force replaces only" in _one_error(capsys)
         assert out.read_bytes() == b"the user's"
+        out.unlink()
+        assert main([*argv, str(out)]) == 0
+        earlier = out.read_bytes()
+        out.write_bytes(earlier + b"\0")  # (told apart from what --force writes next)
         assert main([*argv, str(out), "--force"]) == 0
-        assert out.read_bytes() != b"the user's"
+        assert out.read_bytes() != earlier + b"\0"
         capsys.readouterr()
+
+
+@pytest.mark.slow
+def test_export_force_replaces_only_an_earlier_file_of_its_format(tmp_path, capsys):
+    """The new user's ``snn-fg export --format nir --out mine/notes.txt --force`` replaced their notes
+    with an HDF5 file and exited 0. Now a name with another suffix than the format's is refused (saying
+    which), with or without --force; a file of the format's suffix that is not one (notes.nir) is
+    refused with --force; an earlier .nir is replaced with --force. Refused: each file byte for byte."""
+    export = ["export", "--format", "nir", "--sensor-size", "16x16", "--levels", "1", "--force", "--out"]
+    notes, fake, earlier = tmp_path / "notes.txt", tmp_path / "notes.nir", tmp_path / "net.nir"
+    for path in (notes, fake):
+        path.write_bytes(b"my notes\n\x00\xff")
+    assert main([*export, str(notes)]) == 2
+    assert _one_error(capsys).endswith("notes.txt: --format nir writes .nir: give a file name ending .nir")
+    assert main([*export, str(fake)]) == 2
+    assert "notes.nir: is not a .nir file snn-fg wrote: --force replaces only" in _one_error(capsys)
+    assert notes.read_bytes() == fake.read_bytes() == b"my notes\n\x00\xff"
+    assert main([*export, str(earlier)]) == 0
+    first = earlier.stat().st_mtime_ns
+    assert main([*export, str(earlier)]) == 0 and earlier.stat().st_mtime_ns != first
+    assert earlier.read_bytes().startswith(b"\x89HDF")
+    report = ["export", "--format", "report", "--sensor-size", "16x16", "--levels", "1", "--out"]
+    assert main([*report, str(tmp_path / "r.txt")]) == 2
+    assert "--format report writes .json" in _one_error(capsys) and not (tmp_path / "r.txt").exists()
 
 
 def test_an_earlier_live_run_is_replaced_with_force(tmp_path):

@@ -18,11 +18,12 @@ import numpy as np
 from ..errors import InputError, SnnFgError
 from ..results.atomic import save_text
 from ..results.maps import Maps
+from ..results.outputs import check_output_file
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
 from ..scoring.metrics import compare_maps, compared_pixels
 from ..scoring.outline import event_outlines
-from .options import check_output_file, number, subcommand
+from .options import number, subcommand
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide. The
 #: median angle and the angle MSE are in --json only: a median of angles can look perfect while a
@@ -145,13 +146,11 @@ def _blank(value) -> bool:
 
 def cmd_compare(args) -> int:
     """Handler of ``snn-fg compare``; prints the table, returns 0."""
-    for flag, out in (("--json", args.json), ("--plot", args.plot)):
+    for flag, out, suffix in (("--json", args.json, ".json"), ("--plot", args.plot, ".png")):
         if out is not None and Path(out).resolve() in (Path(args.a).resolve(), Path(args.b).resolve()):
             raise InputError(out, "output would overwrite an input")
         if out is not None:
-            check_output_file(out, args.force, flag)
-    if args.plot is not None and Path(args.plot).suffix.lower() != ".png":
-        raise InputError(args.plot, "--plot needs a .png file name")
+            check_output_file(out, args.force, flag, (suffix,))
     a, b = Maps.load(args.a), Maps.load(args.b)
     a, b, notes = align_to_export(a, b, args.window, (args.a, args.b))  # (a board's maps against the reference)
     for note in notes + mismatches(a, b) + expectations(a, b):

@@ -29,7 +29,8 @@ from ..events.esim import MOTIONS
 from ..events.images import IMAGE_SUFFIXES
 from ..results.activity import activity_figure
 from ..results.atomic import save_figure, save_npz
-from .options import check_output_file, sensor_size, subcommand
+from ..results.outputs import check_output_file
+from .options import sensor_size, subcommand
 from .spikes import add_spike_options, write_spikes
 
 
@@ -128,8 +129,6 @@ def run_events(args) -> int:
     _check_outputs(args, path)
     if args.write_spikes is not None:
         return write_spikes(args)
-    if args.write_frame is not None and Path(args.write_frame).suffix.lower() != ".npz":
-        raise InputError(args.write_frame, "--write-frame needs an .npz file name")
     _check_plot(args, path)
     if path.suffix.lower() in IMAGE_SUFFIXES:
         print(_summary(_image_lines(path, args)))
@@ -238,26 +237,29 @@ def _frame_lines(path, stream, t_first) -> list:
     return [("APS frames", line)]
 
 
-#: the options of ``snn-fg events`` that name a file to write
-OUTPUT_FLAGS = ("--write-frame", "--write-events", "--write-spikes", "--plot")
+#: the options of ``snn-fg events`` that name a file to write, and the file names each writes
+OUTPUT_FLAGS = {
+    "--write-frame": (".npz",),
+    "--write-events": (".npy", ".npz", ".raw", ".es"),
+    "--write-spikes": (".npz",),
+    "--plot": (".png",),
+}
 
 
 def _check_outputs(args, path):
     """Each file to write: not the input, replaced only with ``--force``, writable (before the work)."""
-    for flag in OUTPUT_FLAGS:
+    for flag, suffixes in OUTPUT_FLAGS.items():
         out = getattr(args, flag.lstrip("-").replace("-", "_"))
         if out is None:
             continue
         if Path(out).resolve() == path.resolve():
             raise InputError(out, "output would overwrite the input")
-        check_output_file(out, args.force, flag)
+        check_output_file(out, args.force, flag, suffixes)
 
 
 def _check_plot(args, path):
     if args.plot is None:
         return
-    if Path(args.plot).suffix.lower() != ".png":
-        raise InputError(args.plot, "--plot needs a .png file name")
     if path.suffix.lower() in IMAGE_SUFFIXES:
         raise InputError(path, "--plot draws a recording's activity over time; an image has none")
 

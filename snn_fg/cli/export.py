@@ -29,8 +29,8 @@ from ..frames.pyramid import check_levels
 from ..lowering.quantise import check_bits
 from ..network.recipes import RECIPES, is_recipe, load_description, network_for
 from ..results.atomic import save_text
-from ..results.outputs import check_output_folder, check_writable
-from .options import check_output_file, number, sensor_size, subcommand, written_size
+from ..results.outputs import check_output_file, check_output_folder, check_writable
+from .options import number, sensor_size, subcommand, written_size
 
 FORMATS = ("pynn", "lava", "nir", "report", "network")
 TARGETS = ("generic", "spinnaker", "loihi2")
@@ -39,6 +39,8 @@ TARGETS = ("generic", "spinnaker", "loihi2")
 FORMAT_TARGETS = {"pynn": ("generic", "spinnaker"), "report": TARGETS}
 REPORT_CHIPS = {"spinnaker": ("spinnaker1", "spinnaker2"), "loihi2": ("loihi2",)}
 NIR_PROFILES = ("exact", "snntorch")
+#: the file name each single-file format writes (--force replaces only an earlier file of that kind)
+FILE_SUFFIXES = {"nir": (".nir",), "report": (".json",), "network": (".json",)}
 ICUB_SENSOR = (304, 240)  # iCub ATIS, width x height
 
 
@@ -250,7 +252,7 @@ def cmd_export(args) -> int:
         check_output_folder(out, EXPORT_FOLDER, args.force)
         check_writable(out)
     elif out is not None:
-        check_output_file(out, args.force)
+        check_output_file(out, args.force, "--format " + args.format, FILE_SUFFIXES[args.format])
     net, sensor = _network(args)
     if args.format == "pynn":
         export_pynn(

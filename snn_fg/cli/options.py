@@ -1,8 +1,8 @@
 """What several commands share, defined once: a subcommand's parser
 (:func:`subcommand`), the checked argument types (:func:`number`,
-:func:`sensor_size`, :func:`crop`), the progress bar of a model's
-iterations, and the rule for an output file that exists already
-(:func:`check_output_file`)."""
+:func:`sensor_size`, :func:`crop`) and the progress bar of a model's
+iterations. The rule for an output file that exists already is
+:func:`~snn_fg.results.outputs.check_output_file`, beside the folders' rule."""
 
 from __future__ import annotations
 
@@ -13,9 +13,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from ..errors import InputError
 from ..events import MAX_SENSOR_SIDE
-from ..results.outputs import check_writable
 from .commands import COMMANDS
 
 
@@ -87,15 +85,3 @@ def iterations_bar(no_progress: bool):
     if no_progress:
         return None
     return lambda it: tqdm(it, desc="iterations", leave=False, file=sys.stderr, disable=None)
-
-
-def check_output_file(out, force: bool, flag: str = "--out") -> Path:
-    """A file a command writes (``flag`` names it): not a folder, replaced only with ``--force``,
-    and in a place that can be written (one line naming it, before the work starts). Returns it as a Path."""
-    out = Path(out)
-    if out.is_dir():
-        raise InputError(out, f"{flag} names a file to write, but a folder of that name exists")
-    if out.exists() and not force:
-        raise InputError(out, "exists; pass --force to replace it")
-    check_writable(out)
-    return out

@@ -15,7 +15,7 @@ from ..models import MODELS
 from ..results.animation import SUFFIXES, save_animation
 from ..results.figures import save_maps_figure
 from ..results.maps import Maps
-from ..results.outputs import WINDOW_FIGURE
+from ..results.outputs import WINDOW_FIGURE, check_output_file
 from ..results.overview import (
     input_images,
     overview_options,
@@ -24,7 +24,7 @@ from ..results.overview import (
 )
 from ..results.store import STORE_NAME
 from ..results.timeline import TABLE_NAME, TIMELINE_NAME, window_numbers
-from .options import check_output_file, crop, number, subcommand
+from .options import crop, number, subcommand
 
 #: the animation's name in the run's folder when --animate names no file
 ANIMATION_NAME = "maps.gif"
@@ -114,17 +114,15 @@ def cmd_plot(args) -> int:
         chosen = window_list(args.windows, numbers)
         out = Path(args.out) if args.out is not None else folder / "windows"
         for i in chosen:
-            check_output_file(out / WINDOW_FIGURE.format(numbers[i]), args.force)
+            check_output_file(out / WINDOW_FIGURE.format(numbers[i]), args.force, "--windows", (".png",))
         written += save_window_figures(maps, chosen, out, grouping_label=label, crop=args.crop)
     if args.animate is not None:
         movie = Path(args.animate) if args.animate else folder / ANIMATION_NAME
-        if movie.suffix.lower() not in SUFFIXES:
-            raise InputError(movie, f"--animate writes {' or '.join(SUFFIXES)}")
-        check_output_file(movie, args.force, "--animate")
+        check_output_file(movie, args.force, "--animate", SUFFIXES)
         written.append(save_animation(movie, maps, grouping_label=label, fps=args.fps, crop=args.crop))
     if args.windows is None and args.animate is None:
         for name in ("maps.png", TIMELINE_NAME, TABLE_NAME):
-            check_output_file(folder / name, args.force)
+            check_output_file(folder / name, args.force, "plot", (Path(name).suffix,))
         write_run_tables(folder, maps, figures=True, coverage=model is None or not model.vector_at_every_event)
         options = {**overview_options(maps, folder), "grouping_label": label, "crop": args.crop}
         save_maps_figure(folder / "maps.png", input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)

@@ -11,8 +11,6 @@ on the export's time step.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from ..errors import InputError
@@ -161,8 +159,6 @@ def write_spikes(args) -> int:
         raise InputError(args.write_spikes, "--write-spikes needs --export DIR (the export's frame and time step)")
     if args.write_frame or args.write_events:
         raise InputError(args.write_spikes, "--write-spikes goes alone: not with --write-frame or --write-events")
-    if Path(args.write_spikes).suffix.lower() != ".npz":
-        raise InputError(args.write_spikes, "--write-spikes needs an .npz file name")
     net, meta = export_network(args.export)
     inp, what, origin = _input_spikes(args, net, float(meta["dt_ms"]))
     with atomic_path(args.write_spikes, suffix=".npz") as part:

@@ -51,13 +51,14 @@ import numpy as np
 
 from .. import __version__
 from ..backends import cancel
-from ..errors import InputError, ParameterError, install_hint
+from ..errors import ParameterError, install_hint
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
 from ..network.nodes import Kernel, Population
 from ..network.projections import Conv, Resize
 from ..pynn.cells import quantise, split_receptors
 from ..results.atomic import atomic_path
+from ..results.outputs import check_output_file
 from .board import board_network, fingerprint
 
 MS = 1e-3
@@ -341,9 +342,7 @@ def export_nir(network: Network, out, *, weight_bits: int | None = None, force: 
     >>> sorted({type(n).__name__ for n in g.nodes.values()})
     ['Conv2d', 'Delay', 'Input', 'LI', 'LIF', 'Output']
     """
-    out = Path(out)
-    if out.exists() and not force:
-        raise InputError(out, "exists; pass --force to replace it")
+    out = check_output_file(out, force, "export_nir", (".nir",))  # (the CLI's rule: a user's other file is kept)
     with atomic_path(out, suffix=".nir") as tmp:
         write_streaming(tmp, network, weight_bits=weight_bits)
     return out

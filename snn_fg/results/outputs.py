@@ -7,6 +7,9 @@ another program's files) is refused in one line, whatever the options, and nothi
 snn-fg never deletes a file it did not write. Each kind of output (:class:`FolderKind`) lists the
 names its command writes; :data:`RUN_FOLDER` is ``snn-fg run``'s, :data:`DECODE_FOLDER` ``snn-fg decode``'s.
 
+A single file (:func:`check_output_file`) follows the same rule: ``--force`` replaces only a file of
+the kind being written (its suffix and, where cheap, its first bytes), never a user's other file.
+
 :func:`check_writable` tries the destination before the work starts, so that an unwritable one
 (read-only file system, no permission, a full disk) ends in one line naming it, not in a traceback
 after the work.
@@ -153,6 +156,58 @@ def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False
         )
         raise InputError(path, f"holds {kind.what} already ({_listed(entries)}); choose another output folder or {how}")
     return True
+
+
+#: the first bytes of a file of each suffix snn-fg writes, where they tell it cheaply: HDF5 (a NIR graph),
+#: PNG, a zip (numpy's .npz), numpy's .npy, GIF; .json begins with { or [, .mp4 has "ftyp" at byte 4; the
+#: others (.csv, .es, .raw) are told by their suffix alone
+_SIGNATURES = {
+    ".nir": (b"\x89HDF\r\n\x1a\n",),
+    ".png": (b"\x89PNG\r\n\x1a\n",),
+    ".npz": (b"PK\x03\x04", b"PK\x05\x06"),
+    ".npy": (b"\x93NUMPY",),
+    ".gif": (b"GIF87a", b"GIF89a"),
+}
+
+
+def _of_kind(path: Path, suffix: str) -> bool:
+    """Whether the file ``path`` begins as a ``suffix`` file snn-fg writes does (see :data:`_SIGNATURES`)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except OSError:
+        return False
+    if suffix == ".json":
+        return head.lstrip()[:1] in (b"{", b"[")
+    if suffix == ".mp4":
+        return head[4:8] == b"ftyp"
+    return head.startswith(_SIGNATURES.get(suffix, (b"",)))
+
+
+def check_output_file(out, force: bool, flag: str = "--out", suffixes: tuple[str, ...] = ()) -> Path:
+    """A file a command writes (``flag`` names it; ``suffixes``: the names it may have, the first
+    the one it is usually given), by the folders' rule: not a folder; a name with another suffix is
+    refused (one line saying which); an existing file is replaced only with ``force`` and only when
+    it is of the kind being written (its suffix and, where cheap, its first bytes: a user's notes
+    named ``--out notes.txt`` or ``notes.nir`` are never replaced); and in a place that can be
+    written. Checked before the work starts; nothing is touched when refused. Returns it as a Path."""
+    out = Path(out)
+    if out.is_dir():
+        raise InputError(out, f"{flag} names a file to write, but a folder of that name exists")
+    suffix = out.suffix.lower()
+    if suffixes and suffix not in suffixes:
+        raise InputError(out, f"{flag} writes {' or '.join(suffixes)}: give a file name ending {suffixes[0]}")
+    if out.exists() or out.is_symlink():
+        if not force:
+            raise InputError(out, "exists; pass --force to replace it")
+        if out.is_symlink() or not out.is_file() or not _of_kind(out, suffix):
+            raise InputError(
+                out,
+                f"is not a {suffix or 'such'} file snn-fg wrote: --force replaces only an earlier output of the "
+                "kind being written; nothing was changed; choose another file name",
+            )
+    check_writable(out)
+    return out
 
 
 #: what a failed write's error number means, in the line that names the path

@@ -97,7 +97,12 @@ def add_compare_command(sub):
         help="also draw both figure-ground maps and their angle difference, one row per compared "
         "window (at most 6, evenly spaced)",
     )
-    p.add_argument("--force", action="store_true", help="replace the files --json and --plot name if they exist")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the files --json and --plot name if they are earlier ones of that kind "
+        "(a user's other file is refused)",
+    )
     p.set_defaults(handler=cmd_compare)
     return p
 

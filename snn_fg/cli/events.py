@@ -91,7 +91,8 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     g.add_argument(
         "--force",
         action="store_true",
-        help="replace the files --write-frame, --write-events, --write-spikes, --plot name",
+        help="replace the files --write-frame, --write-events, --write-spikes, --plot name if they are earlier ones of "
+        "that kind (a user's other file is refused)",
     )
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_spike_options(p)

@@ -62,7 +62,12 @@ def add_export_command(sub):
         metavar="PATH",
         help="output folder (pynn, lava) or file; optional for --format report, which prints its table",
     )
-    p.add_argument("--force", action="store_true", help="replace PATH if it exists")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace PATH if it holds an earlier export of the format "
+        "(a folder: that and nothing else; a file: one of the format's kind)",
+    )
     p.add_argument(
         "--network",
         metavar="NAME|FILE",

@@ -58,7 +58,12 @@ def add_plot_command(sub):
     )
     p.add_argument("--fps", type=number(float, 0), default=4.0, help="--animate: windows per second (4)")
     p.add_argument("--crop", type=crop, metavar="X0,Y0,X1,Y1", help="draw only pixels X0 <= x < X1, Y0 <= y < Y1")
-    p.add_argument("--force", action="store_true", help="replace figures and files that exist")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace figures and files that exist if they are earlier ones of that kind "
+        "(a user's other file is refused)",
+    )
     p.set_defaults(handler=cmd_plot)
     return p
 

@@ -4,8 +4,41 @@ step), without sorting it."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numba import njit
+
+
+class BinCounts(Mapping):
+    """A counting bin's spike counts, population -> each cell's spikes (int32),
+    kept as the cell numbers of the bin's spikes (``ids``, the engine's
+    numbering; ``parts``: population -> the slice of it its cells take;
+    ``cells``: the numbering's size). A bin holds a few thousand spikes
+    among ~1e6 cells: a window's reader adds its bins spike by spike
+    (:func:`count_cells` into one array, :meth:`into`) where cell-sized
+    copies, sums and differences cost 2.5 ms a 10 ms hop; the populations'
+    arrays are made only if read."""
+
+    def __init__(self, ids: np.ndarray, parts: dict, cells: int):
+        self.ids, self.parts, self.cells = ids, parts, cells
+        self._dense = None
+
+    def into(self, out: np.ndarray):
+        """Add the bin's spikes to ``out`` (every cell of the numbering)."""
+        count_cells(self.ids, 0, self.ids.size, out)
+
+    def __getitem__(self, name):
+        if self._dense is None:
+            self._dense = np.zeros(self.cells, np.int32)
+            self.into(self._dense)
+        return self._dense[self.parts[name]]
+
+    def __iter__(self):
+        return iter(self.parts)
+
+    def __len__(self):
+        return len(self.parts)
 
 
 @njit(cache=True)

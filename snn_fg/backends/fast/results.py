@@ -114,7 +114,6 @@ class BinStream:
             dt_ms=settings.dt_ms,
         )
         self.starts = np.ascontiguousarray(run.cells[:, 0])
-        self.scratch = np.zeros(run.state.size, dtype=np.int32)
         self.counts = np.zeros(run.state.size, dtype=np.int64)  # the whole counting window's
         self.counted_to = first_step_at(settings.count_from_ms, settings.dt_ms)
         self.dropped = 0
@@ -151,14 +150,12 @@ class BinStream:
         return self.edges[self.j - 1] if self.j else 0
 
     def _hand_over(self, k: int, n: int):
-        from .counting import count_cells
+        from .counting import BinCounts
 
         ids, step_start = self.run.spikes()
         a, b = self.edges[k], self.edges[k + 1]
         lo, hi = int(step_start[a]), int(step_start[b])
-        count_cells(ids, lo, hi, self.scratch)
-        counts = {name: self.scratch[sl].copy() for name, sl in self.cells.items()}
-        self.scratch[ids[lo:hi]] = 0
+        counts = BinCounts(ids[lo:hi].copy(), self.cells, self.counts.size)
         spikes = None
         if self.settings.record_spikes:
             spikes = SpikeTrains(

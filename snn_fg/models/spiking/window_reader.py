@@ -13,6 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ...backends.fast.counting import BinCounts
 from ...frames.pool import pool_frame
 from ...results.maps import CONFIDENCE, Maps
 from .decode import decode_maps
@@ -88,6 +89,15 @@ class WindowCounts(dict):
         self.flat, self.parts = flat, parts
 
 
+def window_counts(bins: list) -> WindowCounts:
+    """The sum of a window's :class:`~snn_fg.backends.fast.counting.BinCounts`, spike by spike."""
+    flat = np.zeros(bins[0].cells, np.int32)
+    for b in bins:
+        b.into(flat)
+    parts = bins[0].parts
+    return WindowCounts({name: flat[s] for name, s in parts.items()}, flat=flat, parts=parts)
+
+
 class WindowReader:
     """Receives a run's counting bins in order (``RunSettings.on_bin``) and
     decodes each window as soon as the last bin of its read-out span is in:
@@ -160,23 +170,30 @@ class WindowReader:
     def __call__(self, k: int, result):
         self.last_result = result
         i, ending = self.first, []
+        # (the fast engine's bins are their spikes: a window adds its own, see BinCounts)
+        sparse = isinstance(result.counts, BinCounts)
         while i < len(self.bins) and self.bins[i][0] <= k:
             k0, k1 = self.bins[i]
             if k < k1:
-                if k == k0 and not self.reading:  # (none open: the window's counts are the total from here)
+                if k == k0 and sparse:  # (its bins themselves, added up at its end)
+                    self.reading[i] = ([], [])
+                elif k == k0 and not self.reading:  # (none open: the window's counts are the total from here)
                     self.total.restart(result.counts)
                     self.reading[i] = (None, [])
                 elif k == k0:  # (the counts so far, before this bin: what the window's end subtracts)
                     self.reading[i] = (self.total.mark(), [])
-                spikes = self.reading[i][1]
+                before, spikes = self.reading[i]
                 if self.feed.dropped(i):  # (a live stream dropped it: nothing of it is kept, nor is it decoded)
                     self.reading[i] = (None, [])
-                elif result.spikes is not None:
-                    spikes.append(result.spikes)
+                else:
+                    if sparse:
+                        before.append(result.counts)
+                    if result.spikes is not None:
+                        spikes.append(result.spikes)
                 if k == k1 - 1:
                     ending.append(i)
             i += 1
-        if self.reading:  # (no window open: the total need not follow, its differences are what count)
+        if self.reading and not sparse:  # (no window open: the total need not follow, its differences are what count)
             self.total.add(result.counts)
         for i in ending:
             self._read(i, result)
@@ -193,7 +210,11 @@ class WindowReader:
         # (skipped: a live stream dropped it, or a newer hop's read-out is due as soon: not decoded)
         skip = self.feed.dropped(i) or self.feed.stale(w)
         counts = {}
-        if not skip:  # (the total is this window's alone where no other reads on from it)
+        if skip:
+            pass
+        elif isinstance(before, list):  # (the window's own bins, kept as their spikes)
+            counts = window_counts(before)
+        else:  # (the total is this window's alone where no other reads on from it)
             counts = self.total.since(before, hand_over=before is None and not self.reading)
         if self.worker is None:
             self._finish(i, w, result, counts, spikes, skip)

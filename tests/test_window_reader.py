@@ -68,7 +68,7 @@ def test_bins_kept_as_their_spikes_give_each_window_the_counts_and_summary_of_th
 
     parts = {"S": slice(2, 9), "G": slice(9, 13)}
     rng = np.random.default_rng(1)
-    sparse = [BinCounts(rng.integers(0, 14, rng.integers(0, 40)).astype(np.int32), parts, 14) for _ in range(8)]
+    sparse = [BinCounts(rng.integers(0, 14, rng.integers(0, 40)).astype(np.int32), parts, 14, 40) for _ in range(8)]
     dense = [{n: np.bincount(b.ids, minlength=14)[s].astype(np.int32) for n, s in parts.items()} for b in sparse]
     assert [{n: b[n].tolist() for n in b} for b in sparse] == [{n: b[n].tolist() for n in b} for b in dense]
     got = ({}, {})

@@ -18,10 +18,11 @@ class BinCounts(Mapping):
     among ~1e6 cells: a window's reader adds its bins spike by spike
     (:func:`count_cells` into one array, :meth:`into`) where cell-sized
     copies, sums and differences cost 2.5 ms a 10 ms hop; the populations'
-    arrays are made only if read."""
+    arrays are made only if read. ``steps``: the bin's time steps (a cell fires at
+    most once a step, so no cell's count is larger)."""
 
-    def __init__(self, ids: np.ndarray, parts: dict, cells: int):
-        self.ids, self.parts, self.cells = ids, parts, cells
+    def __init__(self, ids: np.ndarray, parts: dict, cells: int, steps: int):
+        self.ids, self.parts, self.cells, self.steps = ids, parts, cells, steps
         self._dense = None
 
     def into(self, out: np.ndarray):

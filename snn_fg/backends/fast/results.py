@@ -155,7 +155,7 @@ class BinStream:
         ids, step_start = self.run.spikes()
         a, b = self.edges[k], self.edges[k + 1]
         lo, hi = int(step_start[a]), int(step_start[b])
-        counts = BinCounts(ids[lo:hi].copy(), self.cells, self.counts.size)
+        counts = BinCounts(ids[lo:hi].copy(), self.cells, self.counts.size, b - a)
         spikes = None
         if self.settings.record_spikes:
             spikes = SpikeTrains(

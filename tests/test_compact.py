@@ -101,6 +101,27 @@ def test_edge_normals_are_scipys_gaussians_bit_for_bit_at_the_pixels_asked_for(s
             assert np.array_equal(g, w)
 
 
+@pytest.mark.parametrize(
+    "shape, pool, box",
+    [
+        ((60, 80), 2, (slice(20, 35), slice(30, 50))),
+        ((60, 80), 3, (slice(0, 12), slice(70, 80))),
+        ((9, 40), 2, (slice(None), slice(3, 6))),
+        ((30, 40), 3, (slice(5, 25), slice(0, 40))),
+    ],
+)
+def test_edge_normals_of_events_in_part_of_the_frame_are_scipys_bit_for_bit(shape, pool, box):
+    """The products of the gradients are taken only between the columns the
+    block average reads (events in part of the frame, away from or at its
+    edges, or across it): the same bits."""
+    rng = np.random.default_rng(shape[0] + pool)
+    edges = np.zeros(shape, bool)
+    edges[box] = rng.random(shape)[box] < 0.3
+    at = np.nonzero(edges)
+    for g, w in zip(edge_normals(edges, pool, at), _normals_by_scipy(edges, pool, at), strict=True):
+        assert np.array_equal(g, w)
+
+
 def test_octave_levels_halve_the_frame_and_the_default_steps_are_unchanged():
     assert level_shape((240, 304), 2, per_octave=1) == (121, 153)
     assert level_shape((240, 304), 3, per_octave=1) == (61, 77)

@@ -9,7 +9,15 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.frames.pool import NORMAL_SIGMA, edge_normals, pool_events, pool_frame, pooled_shape, unpool_maps
+from snn_fg.frames.pool import (
+    NORMAL_SIGMA,
+    edge_normals,
+    event_pixels,
+    pool_events,
+    pool_frame,
+    pooled_shape,
+    unpool_maps,
+)
 from snn_fg.frames.pyramid import level_shape, max_levels
 from snn_fg.network import Connectivity, SpikingParams, build_network
 from snn_fg.network.nodes import Kernel
@@ -120,6 +128,18 @@ def test_edge_normals_of_events_in_part_of_the_frame_are_scipys_bit_for_bit(shap
     at = np.nonzero(edges)
     for g, w in zip(edge_normals(edges, pool, at), _normals_by_scipy(edges, pool, at), strict=True):
         assert np.array_equal(g, w)
+
+
+@pytest.mark.parametrize("dtype", [bool, np.uint8, np.int8, np.float32])
+@pytest.mark.parametrize("shape", [(24, 32), (1, 7), (7, 1), (0, 5), (5, 0)])
+def test_event_pixels_are_nonzeros_arrays(shape, dtype):
+    rng = np.random.default_rng(shape[0] * 10 + shape[1])
+    signs = rng.choice([-1, 1], shape) if dtype in (np.int8, np.float32) else 1  # (OFF pixels as -1, too)
+    frame = np.where(rng.random(shape) < 0.2, signs, 0).astype(dtype)
+    got, want = event_pixels(frame), np.nonzero(frame)
+    assert len(got) == len(want) == 2
+    for g, w in zip(got, want, strict=True):
+        assert g.dtype == w.dtype and np.array_equal(g, w)
 
 
 def test_octave_levels_halve_the_frame_and_the_default_steps_are_unchanged():

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...frames.pool import unpool_maps
+from ...frames.pool import event_pixels, unpool_maps
 from ...lowering.interp import interp_matrix
 from ...network.graph import Network
 from ...network.wiring import FAMILIES
@@ -111,7 +111,7 @@ def decode_maps(result, edges: np.ndarray | None = None, pool: int = 1):
     fg_x, fg_y, grouping, g = decode(result, maps_only=True)
     conf = vector_confidence(g, result.count_window_ms)
     if pool > 1:
-        rows, cols = at = np.nonzero(edges)
+        rows, cols = at = event_pixels(edges)
         fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, edges, pool, at)
         block = np.zeros(np.shape(edges), conf.dtype)
         block[at] = conf[rows // pool, cols // pool]

@@ -132,6 +132,12 @@ def test_the_validation_scripts_name_a_part_run_apart_from_the_full_one(monkeypa
     import snn_fg.scoring.groundtruth as groundtruth
 
     assert spiking_heldout._stem(6) == "spiking_heldout" and spiking_heldout._stem(2) == "spiking_heldout_2images"
+    import experiments.validation.live_latency as live_latency
+
+    assert live_latency.stem(list(reversed(live_latency.CASES))) == "live_latency"
+    assert live_latency.stem(["compact-1", "compact-2"]) == "live_latency_cases-compact-1-compact-2"
+    with pytest.raises(SystemExit):  # (an unknown case: one argparse line, before any run)
+        live_latency.main(["--cases", "compact-1,nope"])
     fid = spiking_fidelity._parser()
     assert spiking_fidelity._stem(fid.parse_args([])) == "spiking_fidelity"
     assert spiking_fidelity._stem(fid.parse_args(["--quick"])) == "spiking_fidelity_quick"

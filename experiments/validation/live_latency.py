@@ -197,7 +197,11 @@ def run_case(rec: Path, options, hop, cores: int, out: Path) -> dict:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--loops", type=int, default=6)
-    ap.add_argument("--cases", default=",".join(CASES))
+    ap.add_argument(
+        "--cases",
+        default=",".join(CASES),
+        help="comma-separated cases (all); fewer write live_latency_cases-<CASES>.*, never the full set's files",
+    )
     ap.add_argument(
         "--start-ms",
         type=float,
@@ -205,6 +209,9 @@ def main(argv=None) -> None:
         help="each loop from this far into dvs.es (100: past its start-up burst, as recording_fidelity reads it)",
     )
     args = ap.parse_args(argv)
+    unknown = [c for c in args.cases.split(",") if c not in CASES]
+    if unknown:
+        ap.error(f"--cases: no case {', '.join(unknown)} (the cases: {', '.join(CASES)})")
     from snn_fg.events import iter_recording, save_events
     from snn_fg.events.replay import from_ms, looped
 
@@ -268,7 +275,13 @@ def main(argv=None) -> None:
             rows,
         ),
     ]
-    save_results("live_latency", record, lines)
+    save_results(stem(args.cases.split(",")), record, lines)
+
+
+def stem(cases: list) -> str:
+    """The results' file name of a run of ``cases``: a part run (an A/B of two cases, say) is named
+    apart, so that it never replaces the full set's results, which docs/live.md cites."""
+    return "live_latency" if sorted(cases) == sorted(CASES) else "live_latency_cases-" + "-".join(cases)
 
 
 def _row(case, transport, speed, cores, r, sent: int) -> list:

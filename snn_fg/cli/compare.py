@@ -160,6 +160,10 @@ def cmd_compare(args) -> int:
     a, b, notes = align_to_export(a, b, args.window, (args.a, args.b))  # (a board's maps against the reference)
     for note in notes + mismatches(a, b) + expectations(a, b):
         print(f"snn-fg: note: {note}")
+    for path, m in ((args.a, a), (args.b, b)):  # (the option by its own name, not compare_maps' keyword)
+        n = len(m.fg_x) if np.ndim(m.fg_x) == 3 else 1
+        if args.window is not None and not notes and n > 1 and not 0 <= args.window < n:
+            raise InputError(f"--window {args.window}", f"{path} holds windows 0 to {n - 1}")
     try:
         where = None if args.outline is None else event_outlines(a, b, args.outline)
         rows = compare_maps(

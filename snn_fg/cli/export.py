@@ -26,7 +26,7 @@ from ..export.pynn import export_pynn
 from ..export.report import largest_sensor, report_table, resource_report
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
-from ..lowering.quantise import check_bits
+from ..lowering.quantise import BITS_RANGE, check_bits
 from ..network.recipes import RECIPES, is_recipe, load_description, network_for
 from ..results.atomic import save_text
 from ..results.outputs import check_output_file, check_output_folder, check_writable
@@ -93,7 +93,7 @@ def add_export_command(sub):
     )
     p.add_argument(
         "--weight-bits",
-        type=int,
+        type=number(int, BITS_RANGE[0], strict=False, hi=BITS_RANGE[1]),
         metavar="B",
         help="quantise weights to B bits (2-32), one scale per projection (pynn, nir)",
     )

@@ -36,9 +36,10 @@ def written_size(path) -> str:
     return size_text(sum(p.stat().st_size for p in files))
 
 
-def number(kind, lo, strict=True):
+def number(kind, lo, strict=True, hi=None):
     """argparse type for an ``int`` or ``float`` (``kind``) above ``lo``
-    (``strict``) or at least ``lo``; infinities and NaN are refused."""
+    (``strict``) or at least ``lo``, and at most ``hi`` where given; infinities
+    and NaN are refused."""
 
     def parse(text):
         try:
@@ -48,11 +49,12 @@ def number(kind, lo, strict=True):
                 f"expected {'an integer' if kind is int else 'a number'}, got {text!r}"
             ) from None
         finite = v - v == 0  # False for inf and nan
-        if not finite or not (v > lo if strict else v >= lo):
-            raise argparse.ArgumentTypeError(
-                f"must be {'' if finite else 'a finite number '}{'>' if strict else '>='} {lo}, got {text}"
-            )
-        return v
+        if finite and (v > lo if strict else v >= lo) and (hi is None or v <= hi):
+            return v
+        if finite and hi is not None and not strict:
+            raise argparse.ArgumentTypeError(f"must be {lo} to {hi}, got {text}")
+        above = f"{'>' if strict else '>='} {lo}" + ("" if hi is None else f" and <= {hi}")
+        raise argparse.ArgumentTypeError(f"must be {'' if finite else 'a finite number '}{above}, got {text}")
 
     return parse
 

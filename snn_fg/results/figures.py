@@ -97,7 +97,7 @@ def plot_maps_row(axes, input_img, fields, title: str = "", *, norm=None, extent
 
 
 #: what the key says the input column shows: a window's events, or the APS frame the frame-based model ran on
-EVENTS_INPUT = "input: the events of the window\nwhite ON, black OFF, grey none"
+EVENTS_INPUT = "input: the event frame (a window's events, or an image's)\nwhite ON, black OFF, grey none"
 APS_INPUT = "input: the camera's APS frame\nthe fbfg model ran on"
 
 

@@ -465,7 +465,12 @@ def test_compare_pairs_windows_by_time_and_reads_at_100_columns(tmp_path):
     (row,) = json.loads((tmp_path / "w.json").read_text())["windows"]
     assert (row["window_a"], row["window_b"]) == (2, 0) and row["angle_within_45_frac"] < 1
     res = run_cli("compare", a, b, "--window", "9")
-    assert res.returncode == 2 and "window=9" in res.stderr and "Traceback" not in res.stderr
+    assert (
+        res.returncode == 2
+        and "--window 9: " in res.stderr
+        and "holds windows 0 to 3" in res.stderr
+        and "Traceback" not in res.stderr
+    )
 
 
 def test_angle_metrics_ignore_the_empty_background():

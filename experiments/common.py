@@ -13,7 +13,6 @@ that produced it.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
@@ -36,14 +35,11 @@ def fail(message: str) -> NoReturn:
 
 def positive_int(text: str) -> int:
     """argparse type: an integer of at least 1 (``--images 0`` would score nothing and print a table of nan,
-    ``--workers 0`` would start no worker)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {value}")
-    return value
+    ``--workers 0`` would start no worker), by the command line's own rule for numbers (imported here:
+    snn_fg's command line takes a second to import, which an experiment's --help need not wait for)."""
+    from snn_fg.cli.options import number
+
+    return number(int, 1, strict=False)(text)
 
 
 def dataset(name: str, *parts) -> Path:

@@ -16,13 +16,14 @@ from ..backends import backend_names
 from ..errors import InputError
 from ..export.loop import (
     decode_counts,
+    export_input,
     export_network,
-    input_frame,
+    last_spike_frame,
     rate_mismatch,
     recalibration_command,
     reference_maps,
 )
-from ..export.pynn import input_origin, read_input
+from ..export.pynn import input_origin
 from ..results.atomic import OutputFolder
 from ..results.maps import SPIKING_GROUPING_LABEL
 from ..results.outputs import DECODE_FOLDER
@@ -71,7 +72,9 @@ def cmd_decode(args) -> int:
         raise InputError(args.counts, "no such file")
     maps = decode_counts(net, args.counts)
     spikes = args.input or Path(args.counts).with_name("input.npz")
-    frame = input_frame(spikes, net.frame_shape)
+    # (read once: its frame for the figure, its rate for the agreement line)
+    inp = export_input(spikes, net.frame_shape) if Path(spikes).exists() else None
+    frame = None if inp is None else last_spike_frame(inp)
     if args.reference and frame is None:
         raise InputError(spikes, "no such file: --reference runs the export's network on the input file run.py ran")
     shown = event_frame_rgb(*frame) if frame is not None else np.zeros((*net.frame_shape, 3))
@@ -100,8 +103,7 @@ def cmd_decode(args) -> int:
     written = "maps.npz, maps.png" + (", reference/" if ref is not None else "")
     print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ ({written})")
     if ref is not None:
-        rate = read_input(spikes).rate_hz
-        print(agreement_line(maps, ref, args.reference, rate, net, meta.get("export_command")))
+        print(agreement_line(maps, ref, args.reference, inp.rate_hz, net, meta.get("export_command")))
     return 0
 
 

@@ -33,7 +33,7 @@ def test_a_first_run_says_that_it_compiles(monkeypatch):
 
 
 def test_the_progress_bar_appears_once_the_first_steps_are_done(monkeypatch):
-    import tqdm
+    from snn_fg import progress
 
     calls, made_after = [0], []
     real = fast_core.run_steps
@@ -54,6 +54,6 @@ def test_the_progress_bar_appears_once_the_first_steps_are_done(monkeypatch):
 
     monkeypatch.setattr(fast_core, "run_steps", counted)
     monkeypatch.setattr(fast_core, "code_is_cached", lambda: True)
-    monkeypatch.setattr(tqdm, "tqdm", Bar)
+    monkeypatch.setattr(progress, "bar", Bar)
     _run(progress=True, log=lambda s: None)
     assert calls[0] >= 1 and np.all(np.array(made_after) >= 1), made_after

@@ -91,7 +91,7 @@ def test_a_spiking_run_over_a_recording_shows_the_windows_done(recording, tmp_pa
     bars = []
 
     class Bar:
-        def __init__(self, desc=None, total=None, **_):
+        def __init__(self, desc, unit, total=None, **_):
             self.desc, self.total, self.ticks, self.closed = desc, total, [], False
             bars.append(self)
 
@@ -101,7 +101,7 @@ def test_a_spiking_run_over_a_recording_shows_the_windows_done(recording, tmp_pa
         def close(self):
             self.closed = True
 
-    monkeypatch.setattr(runner, "tqdm", Bar)
+    monkeypatch.setattr(runner, "bar", Bar)
     np.save(tmp_path / "rec.npy", recording.events)
     h, w = disc(12).image.shape
     windows, _ = recording_windows(

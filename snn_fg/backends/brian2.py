@@ -273,23 +273,21 @@ class Brian2Backend(Backend):
 @contextlib.contextmanager
 def _progress_bar(settings: RunSettings):
     """A factory of Brian2 ``report`` callbacks, one per run segment (steps
-    ``start..end``), driving one tqdm bar in simulated ms (or giving None).
+    ``start..end``), driving one progress bar (:mod:`snn_fg.progress`) in simulated ms (or giving None).
 
     The bar appears with Brian2's first report, once the code is compiled and
     the simulation runs, so it never sits at 0 % during the compilation."""
     if not settings.progress:
         yield lambda start, end: None
         return
-    from tqdm import tqdm
+    from ..progress import bar
 
     state = {"bar": None, "ms": 0}
 
     def segment(start, end):
         def report(elapsed, completed, t_start, duration):  # noqa: ARG001 - Brian2's signature
             if state["bar"] is None:
-                state["bar"] = tqdm(
-                    total=round(settings.duration_ms), unit="ms", desc="simulating", leave=False, disable=None
-                )
+                state["bar"] = bar("simulating", "ms", round(settings.duration_ms))
             now = int(round((start + float(completed) * (end - start)) * settings.dt_ms))
             state["bar"].update(now - state["ms"])
             state["ms"] = now

@@ -28,13 +28,13 @@ import contextlib
 import time
 
 import numpy as np
-from tqdm import tqdm
 
 from .. import validate as check
 from ..errors import install_hint
 from ..lowering.quantise import quantise_unrolled
 from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
+from ..progress import bar as progress_bar
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from ..pynn.simulator import import_simulator
 from . import cancel
@@ -247,12 +247,12 @@ def _collect(net, un: Unrolled, settings: RunSettings):
 
 @contextlib.contextmanager
 def _progress(settings: RunSettings):
-    """A callback ``report(done_ms)`` driving a tqdm bar (or None)."""
+    """A callback ``report(done_ms)`` driving a progress bar (:mod:`snn_fg.progress`; or None)."""
     if not settings.progress:
         yield None
         return
 
-    bar = tqdm(total=round(settings.duration_ms), unit="ms", desc="simulating (NEST)", leave=False, disable=None)
+    bar = progress_bar("simulating (NEST)", "ms", round(settings.duration_ms))
     seen = {"ms": 0}
 
     def report(done_ms):

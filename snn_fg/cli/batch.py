@@ -30,6 +30,7 @@ from tqdm import tqdm
 from ..backends.cores import usable_cores
 from ..errors import InputError, InputWarning, SnnFgError, install_hint
 from ..events.formats import SUFFIX_FORMAT, looks_like
+from ..progress import bar as progress_bar
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
 from ..results.store import STORE_NAME, read_attrs, windows_complete
@@ -168,9 +169,7 @@ def _run_all(jobs: list[dict], command, workers: int, scheduler: str | None, pro
     """``run_job`` of ``command`` over ``jobs``: rows in completion order."""
     run_one = functools.partial(run_job, command=command)
 
-    bar = tqdm(
-        total=len(jobs), desc="recordings", unit="rec", file=sys.stderr, disable=None if progress else True, leave=False
-    )
+    bar = progress_bar("recordings", "rec", len(jobs), disable=not progress)
     if scheduler is not None:
         try:
             from dask.distributed import Client, as_completed  # (an optional extra: only for --scheduler)

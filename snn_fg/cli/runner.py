@@ -13,7 +13,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from ..backends import cancel
 from ..errors import InputError
@@ -21,6 +20,7 @@ from ..events import EmptyWindowWarning, RecordingWindows, iter_recording
 from ..events.activity import pixel_share, saturated_lines
 from ..frames.still import Still
 from ..models import Model
+from ..progress import bar
 from ..results.activity import Activity
 from ..results.maps import Maps
 from ..results.overview import input_images, overview_options, write_run_tables
@@ -57,7 +57,7 @@ class _Counted:
         return _counted(self.windows, self.total)
 
     def cut(self):
-        self.bar = tqdm(desc="windows done", unit="win", file=sys.stderr, total=self.total, leave=False, disable=None)
+        self.bar = bar("windows done", "win", self.total)
         return self.windows.cut()
 
     def done(self) -> None:
@@ -77,10 +77,10 @@ def _counted(windows, total):
     first = next(it, None)
     if first is None:
         return
-    with tqdm(desc="windows read", unit="win", file=sys.stderr, total=total, leave=False, disable=None) as bar:
+    with bar("windows read", "win", total) as read:
         for w in itertools.chain([first], it):
             yield w
-            bar.update()
+            read.update()
 
 
 def run_still(model: Model, still: Still, out: Path, source: dict, crop=None, figures: bool = True) -> Maps:

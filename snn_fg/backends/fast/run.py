@@ -346,7 +346,7 @@ def zeroed(n: int, dtype) -> np.ndarray:
 
 
 class _progress:
-    """A callable advancing a tqdm bar by simulated steps (or doing nothing).
+    """A callable advancing a progress bar (:mod:`snn_fg.progress`) by simulated steps (or doing nothing).
     The bar appears when the first steps are done, so it never sits at 0
     while the engine's code compiles."""
 
@@ -358,11 +358,9 @@ class _progress:
 
     def __call__(self, steps: int):
         if self.bar is None and self.settings.progress:
-            from tqdm import tqdm
+            from ...progress import bar
 
-            self.bar = tqdm(
-                total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False, disable=None
-            )
+            self.bar = bar("simulating", "ms", round(self.settings.duration_ms))
         if self.bar is not None:
             self.bar.update(steps * self.settings.dt_ms)
 

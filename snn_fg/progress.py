@@ -4,7 +4,8 @@
 notebook, CI), so a run of many minutes said nothing until it ended. Where stderr is not a
 terminal, :func:`bar` gives a :class:`Lines` instead: one line ``snn-fg: windows done 12
 of 200 (1.5 min)`` at most every :data:`EVERY_S` seconds, none for a run that ends sooner.
-Every progress bar of the package (windows, recordings, simulated ms in each backend) is made here.
+Every progress bar of the package is made here (windows, recordings, a file's events read, downloads,
+simulated ms in each backend), except a still's model iterations (seconds: a terminal's bar only).
 """
 
 from __future__ import annotations
@@ -21,15 +22,17 @@ EVERY_S = 30.0
 COUNTED = ("win", "rec")
 
 
-def bar(desc: str, unit: str, total: int | None = None, *, disable: bool = False, clock=time.monotonic, file=None):
-    """A progress counter of ``desc`` (``"windows done"``) on stderr: a tqdm bar on a terminal,
-    :class:`Lines` elsewhere, a silent tqdm with ``disable``. It has ``update``, ``close`` and
-    ``with``."""
+def bar(
+    desc: str, unit: str, total: int | None = None, *, disable: bool = False, clock=time.monotonic, file=None, **shown
+):
+    """A progress counter of ``desc`` (``"windows done"``) on stderr: a tqdm bar on a terminal
+    (``shown``: more of tqdm's options, e.g. ``unit_scale``), :class:`Lines` elsewhere, a silent
+    tqdm with ``disable``. It has ``update``, ``close`` and ``with``."""
     file = sys.stderr if file is None else file
     if disable:
         return tqdm(disable=True)
     if _is_terminal(file):
-        return tqdm(desc=desc, unit=unit, total=total, file=file, leave=False)
+        return tqdm(desc=desc, unit=unit, total=total, file=file, leave=False, **shown)
     return Lines(desc, unit, total, clock=clock, file=file)
 
 
@@ -56,8 +59,11 @@ class Lines:
         if now - self.last >= EVERY_S:
             self.last = now
             of = f" of {self.total}" if self.total else ""
-            unit = "" if self.unit in COUNTED else f" {self.unit}"
-            done = f"{self.n:.0f}{of}{unit}"  # (simulated ms advance by a step's fraction)
+            if self.unit == "B":
+                done = f"{self.n / 1e6:.1f}" + (f" of {self.total / 1e6:.1f}" if self.total else "") + " MB"
+            else:
+                unit = "" if self.unit in COUNTED else f" {self.unit}"
+                done = f"{self.n:.0f}{of}{unit}"  # (simulated ms advance by a step's fraction)
             print(f"snn-fg: {self.desc} {done} ({_elapsed(now - self.start)})", file=self.file, flush=True)
 
     def close(self) -> None:

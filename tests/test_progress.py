@@ -78,3 +78,17 @@ def test_a_run_logged_to_a_file_says_how_far_it_is(tmp_path, monkeypatch, capsys
         == 0
     )
     assert "windows read" not in capsys.readouterr().err
+
+
+def test_a_download_counts_megabytes_and_simulated_time_counts_ms():
+    clock, out = Clock(), io.StringIO()
+    download = progress.bar("fetching bsds-fg", "B", 13_200_000, clock=clock, file=out)
+    clock.t += 31
+    download.update(4_500_000)
+    simulated = progress.bar("simulating", "ms", 3000, clock=clock, file=out)
+    clock.t += 31
+    simulated.update(1200.5)
+    assert out.getvalue().splitlines() == [
+        "snn-fg: fetching bsds-fg 4.5 of 13.2 MB (31 s)",
+        "snn-fg: simulating 1200 of 3000 ms (31 s)",
+    ]

@@ -11,15 +11,14 @@ from __future__ import annotations
 
 import hashlib
 import http.client
-import sys
 import urllib.error
 import urllib.request
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from snn_fg.errors import SnnFgError
+from snn_fg.progress import bar
 from snn_fg.results.atomic import atomic_path
 
 #: bytes read per step of a download or a checksum
@@ -63,17 +62,7 @@ def npz_sha256(path) -> str:
 
 
 def _progress(total, label, show):
-    # disable=None: a bar only when stderr is a terminal
-    return tqdm(
-        total=total,
-        desc=label,
-        unit="B",
-        unit_scale=True,
-        unit_divisor=1024,
-        leave=False,
-        file=sys.stderr,
-        disable=None if show else True,
-    )
+    return bar(label, "B", total, disable=not show, unit_scale=True, unit_divisor=1024)
 
 
 def _why(exc) -> str:

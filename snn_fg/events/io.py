@@ -18,7 +18,6 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from snn_fg import validate
 from snn_fg.errors import InputError, InputWarning
@@ -33,6 +32,7 @@ from snn_fg.events._core import (
 )
 from snn_fg.events.formats import FORMATS, check_format_options, detect_format, refuse_options
 from snn_fg.events.source import DecodeTally, Source
+from snn_fg.progress import bar
 
 DEFAULT_CHUNK = 1_000_000
 
@@ -143,7 +143,7 @@ class RecordingStream:
         if not self.progress:
             return None
 
-        return tqdm(unit="ev", unit_scale=True, desc=f"reading {Path(str(name)).name}", leave=False, disable=None)
+        return bar(f"reading {Path(str(name)).name}", "events", unit_scale=True)
 
 
 def no_span_problem(n: int, t: int) -> str:

@@ -127,18 +127,16 @@ class Loihi2Backend(Backend):
 
 
 class _Progress:
-    """A callable advancing a tqdm bar by simulated steps (or doing nothing)."""
+    """A callable advancing a progress bar (:mod:`snn_fg.progress`) by simulated steps (or doing nothing)."""
 
     def __init__(self, settings: RunSettings):
         self.settings, self.bar = settings, None
 
     def __enter__(self):
         if self.settings.progress:
-            from tqdm import tqdm
+            from ...progress import bar
 
-            self.bar = tqdm(
-                total=round(self.settings.duration_ms), unit="ms", desc="simulating", leave=False, disable=None
-            )
+            self.bar = bar("simulating", "ms", round(self.settings.duration_ms))
         return self
 
     def __call__(self, steps: int):

@@ -108,9 +108,14 @@ def address(url: str, schemes: tuple[str, ...], owner: str) -> tuple[str, str, i
     """``(scheme, host, port)`` of ``SCHEME://HOST:PORT``, the scheme one of
     ``schemes``; else an InputError naming ``url`` and ``owner`` (the option)."""
     parts = urlsplit(url)
-    if parts.scheme not in schemes or not parts.hostname or parts.port is None:
-        raise InputError(url, f"{owner}: expected " + " or ".join(f"{s}://HOST:PORT" for s in schemes))
-    return parts.scheme, parts.hostname, parts.port
+    expected = f"{owner}: expected " + " or ".join(f"{s}://HOST:PORT" for s in schemes)
+    try:
+        port = parts.port  # (urllib raises for a port out of 0-65535 or not a number)
+    except ValueError:
+        raise InputError(url, f"{expected}, with PORT an integer 0 to 65535") from None
+    if parts.scheme not in schemes or not parts.hostname or port is None:
+        raise InputError(url, expected)
+    return parts.scheme, parts.hostname, port
 
 
 def check_crop(crop, shape, owner: str = "maps_figure") -> tuple[int, int, int, int]:

@@ -1,6 +1,7 @@
 """snn-fg live offers only what a live run can run: its --help lists no frame-only option and no
 model that needs an image, and each of them given is refused in one line, before any stream is opened."""
 
+import numpy as np
 import pytest
 
 from snn_fg.cli.main import main
@@ -61,3 +62,36 @@ def test_the_frame_based_model_is_not_offered(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert ended.value.code == 2 and len(err) == 1
     assert "invalid choice: 'fbfg'" in err[0] and "snn-fg live" in err[0]
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["live", "udp://127.0.0.1:99999", "--sensor-size", "24x24"],
+        ["live", "udp://127.0.0.1:abc", "--sensor-size", "24x24"],
+        ["live", "udp://127.0.0.1:9", "--sensor-size", "24x24", "--publish", "udp://127.0.0.1:70000"],
+        ["stream", "REC", "--to", "udp://127.0.0.1:70000"],
+    ],
+)
+def test_a_port_out_of_range_is_one_line_naming_the_address(tmp_path, capsys, argv):
+    # (urllib raised ValueError "Port out of range 0-65535" from inside: a traceback)
+    if "REC" in argv:
+        from snn_fg.events import image_to_events
+        from snn_fg.frames.scenes import disc
+
+        np.save(tmp_path / "rec.npy", image_to_events(disc(12).image, motion="circle").events)
+        argv = [str(tmp_path / "rec.npy") if a == "REC" else a for a in argv]
+    status = main([*argv, *(["--out", str(tmp_path / "o")] if argv[0] == "live" else [])])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and "with PORT an integer 0 to 65535" in line
+    assert line.startswith(
+        f"snn-fg: error: {next(a for a in argv if '://' in a and a.endswith(('99999', 'abc', '70000')))}:"
+    )
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_view_port_out_of_range_is_refused_by_the_option(tmp_path, capsys):
+    with pytest.raises(SystemExit) as ended:
+        _live(tmp_path, "--view", "70000")
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert ended.value.code == 2 and "--view: must be 0 to 65535, got 70000" in line

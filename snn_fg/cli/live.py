@@ -84,7 +84,7 @@ def add_live_command(sub):
     )
     p.add_argument(
         "--view",
-        type=number(int, 0, strict=False),
+        type=number(int, 0, strict=False, hi=65535),
         metavar="PORT",
         help="serve a page on http://127.0.0.1:PORT/ showing each window's event frame and maps as they come",
     )

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..events import EVENT_DTYPE, iter_recording
-from ..events.replay import UdpSender, from_ms, looped, open_sender, paced
+from ..events.replay import UdpSender, from_ms, looped, open_sender, paced, parse_address
 from .options import number, sensor_size, subcommand
 
 
@@ -44,6 +44,7 @@ def add_stream_command(sub):
 
 
 def cmd_stream(args) -> int:
+    parse_address(args.to, "--to")  # (a wrong address before the recording is read and warned about)
     size = iter_recording(args.recording, sensor_size=args.sensor_size).sensor_size
     parts = looped(
         lambda: from_ms(iter_recording(args.recording, sensor_size=args.sensor_size), args.start_ms), args.loop

@@ -75,6 +75,8 @@ def test_a_window_the_next_events_complete_is_not_marked():
     stream = LiveStream(_Source(flipping_disc_recording(24, windows=2, window_ms=40.0)[1], 40_000), lag_ms=20.0)
     stream.thread.join(5)
     stream.last_t = 59_999
+    assert not stream.completed_by_end(W)  # (the stream goes on: its next events will complete it)
+    stream.end_seen = True
     assert stream.completed_by_end(W)
     stream.last_t = 60_000
     assert not stream.completed_by_end(W)

@@ -104,6 +104,7 @@ class LiveStream:
         self.on_ready = None  # called once the model first asks for events
         self.lock = threading.Lock()  # (the drop bookkeeping, shared by both threads)
         self.last_t = None
+        self.end_seen = False  # (the model's thread took the end of the stream)
         self.warned = False
         empty = np.zeros(0, EVENT_DTYPE)
         _screen(empty["x"], empty["y"], empty["t"], 1, 1, 0)  # (compiled, or loaded, before the first packet)
@@ -227,6 +228,7 @@ class LiveStream:
             if failed:
                 raise failed[0]
             if ended:
+                self.end_seen = True
                 return
 
     def cutter(self) -> WindowCutter:
@@ -311,9 +313,11 @@ class LiveStream:
         """Whether window ``w`` was completed by the end of the stream rather than by its events: none came
         past its read-out (``lag_us`` past its span) and the segment the model reads it in
         (``segment_ms``, where set). Its latency then holds the wait for that end (``udp://``: ``--idle-s``
-        without a packet; ``dv://``: the server closing), which a camera that goes on sending never has."""
+        without a packet; ``dv://``: the server closing), which a camera that goes on sending never has.
+        Only once the end has come: a window read out while the stream goes on was completed by its events
+        (with ``--hop-ms`` on a slow stream, early hops were marked completed by an end 0.7 s away)."""
         segment_us = int(round(getattr(self, "segment_ms", 0.0) * 1000))  # (set by a spiking run's caller)
-        return self.last_t is None or self.last_t < w.t_end_us + self.lag_us + segment_us
+        return self.end_seen and (self.last_t is None or self.last_t < w.t_end_us + self.lag_us + segment_us)
 
     def done(self, w) -> None:
         """Window ``w``'s maps are out (or it was dropped): its slots are forgotten."""

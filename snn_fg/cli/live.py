@@ -180,6 +180,22 @@ def cmd_live(args) -> int:
     return 0
 
 
+#: the share of the time a live run's stream came which, used by the run on all its cores or by the model's
+#: thread alone, says that the model (not other programs) is what fell behind
+BUSY_SHARE = 0.8
+
+
+def _why_behind(summary: dict) -> str:
+    """Why a live run fell behind, from its CPU while the stream came (``live.json``: ``streamed_s``, ``cpu_s``,
+    ``model_cpu_s``, ``cores``): the model is slower than the stream here, or other programs had the cores."""
+    wall, cores = summary["streamed_s"], summary["cores"]
+    run, model = summary["cpu_s"] / (wall * cores), summary["model_cpu_s"] / wall
+    said = f"the run used {run:.0%} of its {cores} core{'s' if cores != 1 else ''} while the stream came"
+    if run >= BUSY_SHARE or model >= BUSY_SHARE:
+        return f"{said}: the model is slower than the stream on this machine"
+    return f"{said}: other programs had the rest, and the model waited for them"
+
+
 def _summary_text(summary: dict) -> str:
     """``live.json``'s summary in words: the windows, the events, and the latency of the windows the stream's
     own events completed, apart from those that waited for its end (``--idle-s``, or a server closing)."""
@@ -197,6 +213,9 @@ def _summary_text(summary: dict) -> str:
     ]
     if lost:
         text += f" ({' and '.join(lost)}, dropped)"
+    reach = summary.get("events_outside_reach")
+    if reach:  # (a wrong --sensor-size: say what the events need)
+        text += f" (they reach x={reach['x']}, y={reach['y']}: is --sensor-size right?)"
     text += (
         f"; latency median {lat.get('median', float('nan')):.1f} ms, "
         f"p95 {lat.get('p95', float('nan')):.1f} ms, max {lat.get('max', float('nan')):.1f} ms"
@@ -204,6 +223,9 @@ def _summary_text(summary: dict) -> str:
     waited = [r["latency_ms"] for r in summary["per_window"] if r["completed_by"] == END_OF_STREAM]
     if waited and waited[-1] is not None:
         text += f" (the last window, completed by the end of the stream, not counted: {waited[-1]:.1f} ms)"
+    behind = (summary.get("windows_dropped") or 0) + skipped
+    if behind and summary.get("streamed_s"):
+        text += f"; {_why_behind(summary)}"
     return text
 
 

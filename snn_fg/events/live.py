@@ -96,6 +96,8 @@ class LiveStream:
         self.dropped_slots: set = set()
         self.slot_arrival: dict = {}  # slot -> time its last event arrived (perf_counter)
         self.events_received = self.events_dropped = self.outside = self.backwards = 0
+        self.outside_reach = (0, 0)  # (the largest x and y of the events outside the sensor: the sensor they fit)
+        self.first_arrival = None  # (perf_counter of the first packet with events)
         self.windows_dropped = 0
         self.windows_skipped = 0  # (hops whose read-out was skipped for a newer one: stale)
         self.skipped_us = 0  # the stream time the model did not simulate (resume_at)
@@ -129,8 +131,14 @@ class LiveStream:
         keep, (outside, first_out, backwards, first_back, back_t, back_before) = _screen(
             ev["x"], ev["y"], ev["t"], w, h, last
         )
+        if self.first_arrival is None:
+            self.first_arrival = arrived
         if outside:
             self.outside += outside
+            self.outside_reach = (
+                max(self.outside_reach[0], int(ev["x"].max())),
+                max(self.outside_reach[1], int(ev["y"].max())),
+            )
             if self.outside == outside:
                 warnings.warn(
                     f"{self.name}: event at (x={int(ev['x'][first_out])}, y={int(ev['y'][first_out])}) lies outside "
@@ -344,6 +352,11 @@ class LiveStream:
             "events_received": self.events_received,
             "events_dropped": self.events_dropped,
             "events_outside": self.outside,
+            **(
+                {"events_outside_reach": {"x": self.outside_reach[0], "y": self.outside_reach[1]}}
+                if self.outside
+                else {}
+            ),
             "events_backwards": self.backwards,
             "packets_malformed": self.source.malformed,
         }

@@ -15,6 +15,7 @@ written to ``maps.zarr`` right after. A window that no later event completes
 from __future__ import annotations
 
 import json
+import os
 import socket
 import time
 import warnings
@@ -89,6 +90,8 @@ class LiveRecord:
         self.stream, self.publisher, self.k, self.view = stream, publisher, peaks, view
         self.rows: list = []
         self.t_start = time.perf_counter()
+        self.cpu_start = time.process_time()  # (the warm-up is over: the CPU from here is the stream's)
+        self.thread_cpu_start = time.thread_time()  # (made and summed up on the model's thread)
         self.warm_up_s = None  # (the warm-up before the stream: snn_fg.cli.live.warm_up)
 
     def window(self, w, maps) -> None:
@@ -128,9 +131,23 @@ class LiveRecord:
             "ended": ended,
             "warm_up_s": self.warm_up_s,
             "seconds": round(time.perf_counter() - self.t_start, 3),
+            **self._cpu(),
             "drop_policy": DROP_POLICY,
             "max_behind": self.stream.max_behind,
             "per_window": self.rows,
+        }
+
+    def _cpu(self) -> dict:
+        """``streamed_s``: wall seconds from the first event's arrival to now; ``cpu_s``: the process's CPU
+        seconds (every thread) since the warm-up, ``model_cpu_s`` the model's thread's (asked on that thread);
+        ``cores``: the cores it may run on. A model behind its stream whose thread ran nearly all of
+        ``streamed_s`` is slower than the stream on this machine; one that ran much less waited for a core."""
+        arrived = self.stream.first_arrival
+        return {
+            "streamed_s": None if arrived is None else round(time.perf_counter() - arrived, 3),
+            "cpu_s": round(time.process_time() - self.cpu_start, 3),
+            "model_cpu_s": round(time.thread_time() - self.thread_cpu_start, 3),
+            "cores": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
         }
 
     def save(self, path, ended: str) -> dict:

@@ -7,7 +7,7 @@ the frame-based model with each edge operator through their public entry
 points, scores every figure-ground map against both labellers, and compares
 the maps with each other (Fig. 6). It returns a JSON-serialisable dict, so
 that :func:`experiments.sweep.run_sweep` can cache it per image. The
-scores are kept as sums to pool over images (:mod:`experiments.pooled`).
+scores are kept as sums to pool over images (:mod:`snn_fg.scoring.label_scores`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ from itertools import combinations
 import numpy as np
 from skimage.metrics import structural_similarity
 
-from experiments.pooled import error_stats
 from snn_fg.events import image_to_frame
 from snn_fg.events.images import read_image
 from snn_fg.frames.scenes import disc
@@ -28,6 +27,7 @@ from snn_fg.models.rate.fbfg import run_fbfg
 from snn_fg.params import ModelParams
 from snn_fg.results.figures import fg_rgb
 from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
+from snn_fg.scoring.label_scores import error_stats, field_errors
 from snn_fg.scoring.metrics import grouping_peak, truth_scores
 
 #: SSIM window of the paper (MATLAB's default).
@@ -71,12 +71,6 @@ def _similarity(va, vb) -> dict:
         "ssim_render": float(structural_similarity(ra, rb, win_size=SSIM_WINDOW, data_range=1.0, channel_axis=-1)),
         "mse_render": float(np.mean((ra - rb) ** 2)),
     }
-
-
-def _scores(fx, fy, truths) -> dict:
-    """Error stats of a field against every labeller's directions, pooled."""
-    signed = np.concatenate([angle_errors(fx, fy, *t) for t in truths])
-    return error_stats(signed, n_truth=sum(int(t[2].sum()) for t in truths))
 
 
 def _model(name: str, params, spiking_options: dict):
@@ -157,7 +151,7 @@ def evaluate_image(*, root: str, image_id: str, settings: ImageEvaluation | None
                 "motion": motion,
                 "threshold": threshold,
                 "event_pixels": n_events,
-                **_scores(maps.fg_x, maps.fg_y, truths),
+                **field_errors(maps.fg_x, maps.fg_y, truths),
             }
         )
         if motion == "paper" and np.isclose(threshold, FIG6_THRESHOLD):
@@ -172,7 +166,7 @@ def evaluate_image(*, root: str, image_id: str, settings: ImageEvaluation | None
                 "motion": "image",
                 "threshold": None,
                 "event_pixels": None,
-                **_scores(maps.fg_x, maps.fg_y, truths),
+                **field_errors(maps.fg_x, maps.fg_y, truths),
             }
         )
         fields[f"FB-{name}"] = (maps.fg_x, maps.fg_y)
@@ -259,6 +253,6 @@ def evaluate_models(*, root: str, image_id: str, models: dict, threshold: float 
         t0 = time.perf_counter()
         maps = get_model(kind, params, **spec.get("options", {})).run_still(frame)
         out["units"].append(
-            {"name": name, "seconds": time.perf_counter() - t0, **_scores(maps.fg_x, maps.fg_y, truths)}
+            {"name": name, "seconds": time.perf_counter() - t0, **field_errors(maps.fg_x, maps.fg_y, truths)}
         )
     return out

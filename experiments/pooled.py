@@ -1,16 +1,10 @@
-"""Scores against human labels pooled over images, with intervals from
-resampling the images.
+"""Intervals for the scores against human labels, from resampling the images.
 
-Angle errors are kept as sums and a histogram of absolute errors
-(:data:`HIST_BIN_DEG` bins, :func:`error_stats`), so that pooled means are
-exact and the pooled median is good to half a bin, without storing every
-pixel (:func:`pool_stats`). The scores (:data:`SCORES`): **side accuracy**,
-the field's own metric (the share of scored pixels whose direction is within
-90 degrees of the labelled one, i.e. on the figure's side; chance 50 %);
-**coverage** (labelled pixels that get a vector, over all labelled pixels);
-the share within 45 degrees; the mean absolute and the mean signed error (the
-paper's). :func:`bootstrap_scores` gives each, pooled over pixels and as a
-mean over images, with an interval from resampling the images;
+The scores and their pooling over pixels are library code
+(:mod:`snn_fg.scoring.label_scores`: :func:`~snn_fg.scoring.label_scores.error_stats`,
+:func:`~snn_fg.scoring.label_scores.pool_stats`, the scores :data:`SCORES`), which
+``snn-fg compare RUN LABELS`` prints as well. :func:`bootstrap_scores` gives each score,
+pooled over pixels and as a mean over images, with an interval from resampling the images;
 :func:`bootstrap_difference` the same for the difference of two models.
 """
 
@@ -20,70 +14,8 @@ import warnings
 
 import numpy as np
 
-from snn_fg.scoring.groundtruth import SIDE_DEG, WITHIN_DEG
-
-#: Width (degrees) of the bins of the absolute-error histogram.
-HIST_BIN_DEG = 0.5
-_N_BINS = int(round(180 / HIST_BIN_DEG))
-
-
-def error_stats(signed, n_truth: int | None = None) -> dict:
-    """Sums and histogram of signed errors (degrees), to pool over images with :func:`pool_stats`.
-
-    ``n_truth``: the labelled pixels the errors were taken on (with or without
-    a model vector), so that the pooled coverage can be formed."""
-    signed = np.asarray(signed, np.float64)
-    a = np.abs(signed)
-    hist = np.bincount(np.minimum((a / HIST_BIN_DEG).astype(int), _N_BINS - 1), minlength=_N_BINS)
-    out = {
-        "n": int(a.size),
-        "sum_signed": float(signed.sum()),
-        "sum_abs": float(a.sum()),
-        "n_within45": int((a <= WITHIN_DEG).sum()),
-        "n_side": int((a < SIDE_DEG).sum()),
-        "hist_abs": hist.tolist(),
-    }
-    if n_truth is not None:
-        out["n_truth"] = int(n_truth)
-    return out
-
-
-#: the pooled scores that are one sum of :func:`error_stats` divided by another:
-#: ``score: (numerator, denominator)``
-RATIO_OF = {
-    "mean_signed_deg": ("sum_signed", "n"),
-    "mean_abs_deg": ("sum_abs", "n"),
-    "within45": ("n_within45", "n"),
-    "side_accuracy": ("n_side", "n"),
-    "coverage": ("n", "n_truth"),
-}
-#: the scores of :data:`RATIO_OF` that a table reports, in its order
-SCORES = ("side_accuracy", "coverage", "within45", "mean_abs_deg", "mean_signed_deg")
-
-
-def _field(p: dict, name: str) -> float:
-    """One sum of an :func:`error_stats` part (nan for a coverage denominator it was made without)."""
-    return p.get(name, float("nan"))
-
-
-def pool_stats(parts) -> dict:
-    """Pooled scores of :data:`RATIO_OF` (over every pixel of every part), the median
-    absolute error (to half a histogram bin), the pixel count and labelled-pixel count."""
-    parts = list(parts)
-    n = sum(p["n"] for p in parts)
-    sums = {f: sum(_field(p, f) for p in parts) for pair in RATIO_OF.values() for f in pair}
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = {
-            key: float(np.float64(sums[a]) / sums[b]) if sums[b] else float("nan") for key, (a, b) in RATIO_OF.items()
-        }
-    if n:
-        hist = np.sum([p["hist_abs"] for p in parts], axis=0)
-        out["median_abs_deg"] = (int(np.searchsorted(np.cumsum(hist), n / 2)) + 0.5) * HIST_BIN_DEG
-    else:
-        out["median_abs_deg"] = float("nan")
-    out["n_pixels"] = n
-    out["n_truth"] = sums["n_truth"] if np.isnan(sums["n_truth"]) else int(sums["n_truth"])
-    return out
+from snn_fg.scoring.label_scores import RATIO_OF, SCORES
+from snn_fg.scoring.label_scores import stats_field as _field
 
 
 def _check_bootstrap(n_resamples, level, keys, what):

@@ -89,7 +89,7 @@ def test_a_subset_or_ids_get_a_name_of_their_own_and_the_full_set_keeps_the_plai
 
 
 def _fake_results(ids):
-    from experiments.pooled import error_stats
+    from snn_fg.scoring.label_scores import error_stats
 
     units = [
         {"model": m, "motion": mo, "threshold": t, **error_stats([10.0, -20.0, 100.0], n_truth=5)}

@@ -125,7 +125,8 @@ def test_map_similarity_is_perfect_only_for_the_same_field():
 
 
 def test_bootstrap_over_images_separates_a_steady_shift_from_one_image_s_outlier():
-    from experiments.pooled import bootstrap_difference, error_stats
+    from experiments.pooled import bootstrap_difference
+    from snn_fg.scoring.label_scores import error_stats
 
     rng = np.random.default_rng(3)
     errs = [rng.uniform(-120, 120, size=rng.integers(200, 400)) for _ in range(20)]
@@ -147,7 +148,7 @@ def test_bootstrap_over_images_separates_a_steady_shift_from_one_image_s_outlier
 
 
 def test_pooled_scores_add_pixels_over_images_and_coverage_counts_labelled_pixels():
-    from experiments.pooled import error_stats, pool_stats
+    from snn_fg.scoring.label_scores import error_stats, pool_stats
 
     # image 1: 3 scored of 4 labelled, sides right, wrong, right; image 2: 1 scored of 6, wrong
     a = error_stats([10.0, 100.0, -30.0], n_truth=4)
@@ -162,7 +163,8 @@ def test_pooled_scores_add_pixels_over_images_and_coverage_counts_labelled_pixel
 
 
 def test_bootstrap_scores_pool_over_images_and_the_image_mean_weighs_images_alike():
-    from experiments.pooled import bootstrap_scores, error_stats
+    from experiments.pooled import bootstrap_scores
+    from snn_fg.scoring.label_scores import error_stats
 
     # 10 images all right on 100 pixels each, one image all wrong on 1000 pixels
     parts = [[error_stats(np.zeros(100), n_truth=200)] for _ in range(10)]

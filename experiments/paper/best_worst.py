@@ -25,7 +25,7 @@ PAPER_WORST = ("8143",)
 
 
 def ranking(results: dict) -> list[dict]:
-    from experiments.pooled import pool_stats
+    from snn_fg.scoring.label_scores import pool_stats
 
     rows = []
     for image_id, res in results.items():

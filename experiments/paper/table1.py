@@ -20,7 +20,7 @@ the binary side accuracy (within 90 degrees of the labelled direction); the
 coverage is the share of labelled pixels that get a vector.
 
 Writes experiments/results/table1.json / .csv (rows: model, threshold, each
-score of experiments.pooled.SCORES with its _low / _high interval, the per-image
+score of snn_fg.scoring.label_scores.SCORES with its _low / _high interval, the per-image
 means, median_abs_deg, n_images, n_pixels, n_truth), table1.md (the table),
 table1_per_image.json / .csv (every image's scores per model and threshold),
 table1_extra.json (shift4 rows, the human ceiling, the authors' stored outputs
@@ -56,7 +56,8 @@ def scored_row(per_image_parts: list, **label) -> dict:
     """One table row: every score pooled over pixels with its 95 % bootstrap
     interval over images, the mean of the per-image side accuracy and within-45
     share (with theirs), the median, and the image, pixel and labelled-pixel counts."""
-    from experiments.pooled import SCORES, bootstrap_scores, pool_stats
+    from experiments.pooled import bootstrap_scores
+    from snn_fg.scoring.label_scores import SCORES, pool_stats
 
     pooled = pool_stats([u for ps in per_image_parts for u in ps])
     boot = bootstrap_scores(per_image_parts, n_resamples=BOOTSTRAP_RESAMPLES)
@@ -101,7 +102,7 @@ def rows_of(results: dict, motion: str = "paper") -> list[dict]:
 
 def per_image_rows(results: dict, motion: str = "paper") -> list[dict]:
     """Every image's own scores, per (model, threshold)."""
-    from experiments.pooled import pool_stats
+    from snn_fg.scoring.label_scores import pool_stats
 
     rows = []
     for (m, t), units in _groups(results, motion).items():
@@ -113,8 +114,8 @@ def per_image_rows(results: dict, motion: str = "paper") -> list[dict]:
 
 def authors_outputs() -> list[dict]:
     """The authors' stored rate-model maps (bsds-edfg) scored against the labels of the same images."""
-    from experiments.pooled import error_stats, pool_stats
-    from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
+    from snn_fg.scoring.groundtruth import boundary_directions, load_bsds_fg
+    from snn_fg.scoring.label_scores import field_errors, pool_stats
 
     rows, parts = [], []
     labels = dataset("bsds-fg")
@@ -124,8 +125,7 @@ def authors_outputs() -> list[dict]:
         ref = np.load(path)
         gt = load_bsds_fg(labels, path.stem)
         truths = [boundary_directions(m) for m in gt.fg]
-        signed = np.concatenate([angle_errors(ref["fg_x"], ref["fg_y"], *t) for t in truths])
-        parts.append(error_stats(signed, n_truth=sum(int(t[2].sum()) for t in truths)))
+        parts.append(field_errors(ref["fg_x"], ref["fg_y"], truths))
         rows.append({"image_id": path.stem, **pool_stats([parts[-1]])})
     return rows + [{"image_id": "pooled", **pool_stats(parts)}] if rows else []
 
@@ -302,7 +302,7 @@ def main():
         same_images = [r for r in spk_rows if r["model"] == "rate"]
         image_rows += [r for r in per_image_rows(spk) if r["model"] == "spiking"]
     shift4 = [{**r, "motion": "shift4"} for r in rows_of(results, "shift4") if r["model"] == "rate"]
-    from experiments.pooled import pool_stats
+    from snn_fg.scoring.label_scores import pool_stats
 
     ceiling = pool_stats([r["ceiling"] for r in results.values()])
     extra = {

@@ -16,7 +16,7 @@ a board holds (``--weight-bits``, 8 by default: "as deployed"):
   ``bsds-fg``, sorted by id; the paper's event conversion at
   contrast --threshold, 0.4 by default): against both labellers pooled, binary side accuracy
   (within 90 degrees), coverage, within 45 degrees and the mean absolute
-  error (``experiments.pooled.pool_stats``), pooled and per image.
+  error (``snn_fg.scoring.label_scores.pool_stats``), pooled and per image.
 
     python -m experiments.validation.compact_accuracy [--every 8] [--workers 2] [--weight-bits 8 --quantised compact]
 
@@ -135,18 +135,15 @@ def recipe_digest(name: str) -> str:
 def bsds_scored(image_id: str, threshold: float, label: str, run_maps) -> dict:
     """Labelled image ``image_id`` (its events at contrast ``threshold``) through ``run_maps(pos, neg)``
     (a model's maps): its error parts against both labellers, and the seconds."""
-    from experiments.pooled import error_stats
     from snn_fg.events import image_to_frame
-    from snn_fg.scoring.groundtruth import angle_errors, boundary_directions, load_bsds_fg
+    from snn_fg.scoring.groundtruth import boundary_directions, load_bsds_fg
+    from snn_fg.scoring.label_scores import labeller_errors
 
     gt = load_bsds_fg(dataset("bsds-fg"), image_id)
     pos, neg = image_to_frame(str(gt.image_path), threshold=threshold, motion="paper")
     t = time.perf_counter()
     m = run_maps(pos, neg)
-    parts = [
-        error_stats(angle_errors(m.fg_x, m.fg_y, *truth), n_truth=int(truth[2].sum()))
-        for truth in (boundary_directions(f) for f in gt.fg)
-    ]
+    parts = labeller_errors(m.fg_x, m.fg_y, [boundary_directions(f) for f in gt.fg])
     seconds = time.perf_counter() - t
     print(f"  [{label}] BSDS {image_id}: {seconds:.0f} s", file=sys.stderr, flush=True)
     return {"image_id": image_id, "parts": parts, "seconds": seconds}
@@ -178,8 +175,8 @@ def _runs(networks, quantised, bits) -> list[tuple[str, str, int | None]]:
 
 
 def main():
-    from experiments.pooled import SCORES, pool_stats
     from snn_fg.scoring.groundtruth import bsds_ids
+    from snn_fg.scoring.label_scores import SCORES, pool_stats
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--networks", default="default,compact")

@@ -77,7 +77,8 @@ def bsds_image(job) -> dict:
 
 def bsds(ids, workers: int, threshold: float) -> dict:
     """Both kernels on the images ``ids`` (each image's two runs one after the other)."""
-    from experiments.pooled import bootstrap_difference, pool_stats
+    from experiments.pooled import bootstrap_difference
+    from snn_fg.scoring.label_scores import pool_stats
 
     models = [*KERNELS, RATE]
     jobs = [(i, model, threshold) for i in ids for model in models]

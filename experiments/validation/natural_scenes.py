@@ -71,7 +71,7 @@ def _evenly(ids, n):
 
 def _rows(results: dict, names) -> tuple[list, list]:
     """Pooled rows and per-image rows of :func:`experiments.evaluation.evaluate_models` results."""
-    from experiments.pooled import pool_stats
+    from snn_fg.scoring.label_scores import pool_stats
 
     ids = sorted(results, key=int)
     by = {i: {u["name"]: u for u in results[i]["units"]} for i in ids}

@@ -32,7 +32,8 @@ BOOTSTRAP_RESAMPLES = 4000
 
 
 def main():
-    from experiments.pooled import bootstrap_difference, pool_stats
+    from experiments.pooled import bootstrap_difference
+    from snn_fg.scoring.label_scores import pool_stats
 
     p = parser(__doc__, images=20, workers=1)
     p.add_argument(

@@ -1,4 +1,5 @@
-"""``snn-fg compare``: how two maps files agree, window by window.
+"""``snn-fg compare``: how two maps files agree, window by window, or a run's maps against human
+figure/ground labels (:mod:`.compare_labels`).
 
 Prints a table; writes the metrics (``--json FILE``) and a figure of both
 maps and their difference (``--plot FILE.png``) only when asked. Wire it in
@@ -23,6 +24,7 @@ from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
 from ..scoring.metrics import compare_maps, compared_pixels
 from ..scoring.outline import event_outlines
+from .compare_labels import cmd_compare_labels, names_labels
 from .options import number, subcommand
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide. The
@@ -54,10 +56,27 @@ def add_compare_command(sub):
         "difference (mean, fraction within 45 degrees) and angle-map SSIM (--json also "
         "keeps their median and MSE). Times count from the recording's first event. Nothing is written "
         "unless --json or --plot is given. A PyNN export's maps (snn-fg decode) against a run on "
-        "the whole recording: the run is cut to the export's crop and input window.",
+        "the whole recording: the run is cut to the export's crop and input window. With human "
+        "figure/ground labels as B (a bsds-fg folder, or one labels/<id>.npz), it prints per image and "
+        "labeller: labelled pixels; coverage (the share of them where A has a vector); on those, side "
+        "accuracy (within 90 degrees of the labelled direction, the figure's side; chance 0.5), the share "
+        "within 45 degrees (chance 0.25), the mean absolute difference (chance 90) and the mean signed "
+        "difference (the paper's number: signs cancel in it), and pooled over the images of a folder "
+        "of runs; the numbers of experiments/paper/table1.py.",
     )
-    p.add_argument("a", metavar="A", help="a run's maps: its folder, maps.npz or maps.zarr")
-    p.add_argument("b", metavar="B", help="the maps to compare A with (the reference), as A")
+    p.add_argument(
+        "a",
+        metavar="A",
+        help="a run's maps: its folder, maps.npz or maps.zarr; against labels also a folder of runs "
+        "(snn-fg run on several images: its summary.csv)",
+    )
+    p.add_argument(
+        "b",
+        metavar="B",
+        help="the maps to compare A with (the reference), as A; or human figure/ground labels: a bsds-fg "
+        "folder (A's image found as labels/<id>.npz by A's input file name) or one such .npz (fg: -1 "
+        "ground, +1 figure side of each boundary, one map per labeller)",
+    )
     p.add_argument(
         "--window",
         type=number(int, 0, strict=False),
@@ -82,7 +101,8 @@ def add_compare_command(sub):
         default=None,
         help="compare only the spiking maps' vectors at least Z standard errors of their spike counts "
         "long (fg_confidence, stored by every spiking run; 2 leaves out vectors that a couple of "
-        "spikes decide); the cover column says how much of B is still compared",
+        "spikes decide); the cover column says how much of B is still compared (against labels: "
+        "the others count as no vector)",
     )
     p.add_argument(
         "--no-baseline",
@@ -95,7 +115,8 @@ def add_compare_command(sub):
         metavar="FILE.png",
         default=None,
         help="also draw both figure-ground maps and their angle difference, one row per compared "
-        "window (at most 6, evenly spaced)",
+        "window (at most 6, evenly spaced); against labels the image, A's vectors and per labeller "
+        "the labelled directions and A's error, one row per image",
     )
     p.add_argument(
         "--force",
@@ -156,6 +177,8 @@ def cmd_compare(args) -> int:
             raise InputError(out, "output would overwrite an input")
         if out is not None:
             check_output_file(out, args.force, flag, (suffix,))
+    if names_labels(args.b):
+        return cmd_compare_labels(args)
     a, b = Maps.load(args.a), Maps.load(args.b)
     a, b, notes = align_to_export(a, b, args.window, (args.a, args.b))  # (a board's maps against the reference)
     for note in notes + mismatches(a, b) + expectations(a, b):

@@ -2,7 +2,7 @@
 
 * :func:`load_bsds_fg` reads one image's labels from ``bsds-fg/labels/<id>.npz``
   (``fg``: int8, one map per labeller; +1 on the figure side and -1 on the
-  ground side of every labelled boundary).
+  ground side of every labelled boundary); :func:`load_labels` one such file by its path.
 * :func:`boundary_directions` turns one such map into a direction per figure
   pixel, the paper's conversion: fit a line to the +1 pixels in a 5 x 5 window
   centred on the pixel (grown by 2 up to 21 x 21 while the fit is
@@ -68,14 +68,27 @@ def load_bsds_fg(root, image_id) -> GroundTruth:
     >>> gt.fg.shape                                              # doctest: +SKIP
     (2, 321, 481)
     """
-    path = Path(root, "labels", f"{image_id}.npz")
-    arrays = read_npz_arrays(path, ("fg",), ("labellers",), what="bsds-fg label file")
     image = Path(root, "images", f"{image_id}.jpg")
-    fg = _checked_fg(path, arrays["fg"], image if image.exists() else None)
+    return load_labels(Path(root, "labels", f"{image_id}.npz"), image if image.exists() else None, str(image_id))
+
+
+def load_labels(path, image=None, image_id: str | None = None) -> GroundTruth:
+    """Labels from one ``.npz`` file in the bsds-fg format (``fg``, optional ``labellers``), checked:
+    a missing or unreadable file, another key set, values other than -1/0/1 or maps of another
+    size than ``image`` (a path, when given) are an :class:`InputError` naming ``path``.
+    ``image_id``: the file's stem unless given."""
+    path = Path(path)
+    arrays = read_npz_arrays(path, ("fg",), ("labellers",), what="figure/ground label file (bsds-fg format)")
+    fg = _checked_fg(path, arrays["fg"], image)
     labellers = tuple(int(v) for v in np.ravel(arrays.get("labellers", ())))
     if labellers and len(labellers) != fg.shape[0]:
         raise InputError(path, f"'labellers' names {len(labellers)} labellers but 'fg' holds {fg.shape[0]} maps")
-    return GroundTruth(image_id=str(image_id), fg=fg, labellers=labellers, image_path=image if image.exists() else None)
+    return GroundTruth(
+        image_id=path.stem if image_id is None else image_id,
+        fg=fg,
+        labellers=labellers,
+        image_path=None if image is None else Path(image),
+    )
 
 
 def _checked_fg(path, fg, image) -> np.ndarray:

@@ -1,0 +1,249 @@
+"""``snn-fg compare RUN LABELS``: a run's figure-ground maps against human figure/ground labels.
+
+LABELS is a ``bsds-fg`` folder (the run's image found by its input file's name, ``labels/<id>.npz``)
+or one labels file in that format (:mod:`snn_fg.scoring.groundtruth`). RUN is a run's output (its
+folder or ``maps.npz``) or a folder of runs made by ``snn-fg run`` on several images (its
+``summary.csv`` lists them), scored image by image and pooled. Every number is
+:mod:`snn_fg.scoring.label_scores`', the one the BSDS experiments report. Everything is read and
+checked before anything is printed or written, so a bad input ends in one line, nothing written.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..results.atomic import save_text
+from ..results.maps import Maps
+from ..scoring.groundtruth import GroundTruth, boundary_directions, load_labels
+from ..scoring.label_scores import labeller_errors, pool_stats
+from ..scoring.metrics import confident
+
+#: the options of compare that choose windows or pixels of two maps files, and have no meaning here
+_MAPS_ONLY = (("window", "--window"), ("outline", "--outline"), ("no_baseline", "--no-baseline"))
+
+#: the table: (header, score key of pool_stats, width, format); words in _KEY below
+_COLUMNS = (
+    ("labelled", "n_truth", 8, ","),
+    ("cover", "coverage", 6, ".3f"),
+    ("side", "side_accuracy", 6, ".3f"),
+    ("<=45°", "within45", 6, ".3f"),
+    ("mean°", "mean_abs_deg", 6, ".1f"),
+    ("signed°", "mean_signed_deg", 7, ".1f"),
+)
+_KEY = (
+    "labelled: a labeller's figure-side boundary pixels that got a direction; cover (coverage): the share "
+    "of them where the run's map has a vector; on those pixels: side (side accuracy): the vector within "
+    "90° of the labelled direction, so on the figure's side (chance 0.5); <=45°: within 45° (chance "
+    "0.25); mean°: the mean absolute difference (chance 90°); signed°: the mean signed difference, the "
+    "number the paper reports (signs cancel in it: near 0 says nothing alone); both: the labellers' "
+    "pixels pooled, as experiments/paper/table1.py counts them; all N: every image's pixels pooled "
+    "(labeller k: each image's k-th labelling)"
+)
+
+
+def names_labels(spec) -> bool:
+    """Whether compare's B names human labels rather than maps: a folder holding ``labels/``, or a
+    ``.npz`` file with ``fg`` and no ``fg_x``. A ``.npz`` numpy cannot read is refused here, in
+    words for either kind (the maps reader would call it a bad maps file)."""
+    path = Path(spec)
+    if path.is_dir():
+        return (path / "labels").is_dir() and not any((path / n).exists() for n in ("maps.npz", "maps.zarr"))
+    if path.suffix.lower() != ".npz" or not path.is_file():
+        return False
+    try:
+        with np.load(path, allow_pickle=False) as d:
+            return "fg" in d.files and "fg_x" not in d.files
+    except Exception as exc:  # (zip, pickle and format errors from numpy)
+        raise InputError(
+            path, f"cannot read the .npz archive ({type(exc).__name__}: {exc}); B is a run's maps or human labels"
+        ) from None
+
+
+@dataclass
+class Scored:
+    """One image of the run scored: its maps' path, the labels' path and what they hold, each
+    labeller's :func:`~snn_fg.scoring.label_scores.error_stats` part and the directions they came from."""
+
+    image_id: str
+    maps_path: Path
+    labels_path: Path
+    maps: Maps
+    labels: GroundTruth
+    truths: list
+    parts: list
+    fields: tuple
+
+
+def runs_of(spec) -> list[Path]:
+    """The maps RUN holds: itself, or each run a dataset folder's ``summary.csv`` lists as done
+    (or skipped as done before); a failed one is left out, named by :func:`failed_runs`."""
+    path = Path(spec)
+    summary = path / "summary.csv"
+    if not path.is_dir() or any((path / n).exists() for n in ("maps.npz", "maps.zarr")) or not summary.is_file():
+        return [path]
+    with open(summary, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    runs = [Path(r["output"]) for r in rows if r.get("status") in ("done", "skipped")]
+    runs = [p if p.is_absolute() or p.exists() else path / p.name for p in runs]
+    if not runs:
+        raise InputError(summary, "lists no run that finished: nothing to score")
+    return runs
+
+
+def failed_runs(spec) -> list[str]:
+    """The inputs a dataset folder's ``summary.csv`` lists as failed (none for a single run)."""
+    summary = Path(spec) / "summary.csv"
+    if not summary.is_file() or any((Path(spec) / n).exists() for n in ("maps.npz", "maps.zarr")):
+        return []
+    with open(summary, newline="") as fh:
+        return [r["recording"] for r in csv.DictReader(fh) if r.get("status") == "failed"]
+
+
+def _labels_path(run: Path, maps: Maps, labels) -> tuple[str, Path, Path | None]:
+    """(image id, labels file, the bsds-fg image beside the labels or None) for one run."""
+    source = maps.params.get("source") or {}
+    given = source.get("input")
+    if Path(labels).is_file():
+        return (Path(given).stem if given else Path(labels).stem), Path(labels), None
+    if given is None:
+        raise InputError(run, "its maps name no input image, so no labels can be matched to it; give the labels file")
+    image_id = Path(given).stem
+    found = Path(labels, "labels", f"{image_id}.npz")
+    if not found.is_file():
+        raise InputError(
+            labels, f"holds no labels for the run's image {image_id} (its input {Path(given).name}): no {found}"
+        )
+    image = Path(labels, "images", f"{image_id}.jpg")
+    return image_id, found, image if image.is_file() else None
+
+
+def score_run(run: Path, labels, min_confidence: float | None = None) -> Scored:
+    """One run's maps against their labels, checked first: a recording's maps, labels of another
+    size or a bad labels file end in an :class:`InputError` naming the file."""
+    maps = Maps.load(run)
+    if np.ndim(maps.fg_x) != 2:
+        raise InputError(
+            run, f"holds a recording's maps ({len(maps.fg_x)} windows); human labels score a still image's run"
+        )
+    image_id, path, image = _labels_path(run, maps, labels)
+    gt = load_labels(path, image, image_id)
+    if gt.fg.shape[1:] != maps.fg_x.shape:
+        h, w = maps.fg_x.shape
+        raise InputError(
+            path,
+            f"labels are {gt.fg.shape[1]} x {gt.fg.shape[2]} (rows x columns) but the run's maps ({run}) are {h} x {w}",
+        )
+    fx, fy = maps.fg_x, maps.fg_y
+    keep = confident(maps, None, min_confidence)
+    if keep is not None:  # (a spiking run's vectors below the threshold count as no vector: coverage drops)
+        fx, fy = np.where(keep, fx, 0), np.where(keep, fy, 0)
+    truths = [boundary_directions(m) for m in gt.fg]
+    return Scored(image_id, Path(run), path, maps, gt, truths, labeller_errors(fx, fy, truths), (fx, fy))
+
+
+def _who(s: Scored, k: int) -> str:
+    return f"{k + 1}" + (f" (id {s.labels.labellers[k]})" if s.labels.labellers else "")
+
+
+def _cells(name, who, stats) -> str:
+    cells = [f"{name:>10}", f"{who:>12}"]
+    for _, key, width, spec in _COLUMNS:
+        v = stats.get(key)
+        blank = v is None or (isinstance(v, float) and math.isnan(v))
+        cells.append("-".rjust(width) if blank else f"{v:>{width}{spec}}")
+    return "  ".join(cells)
+
+
+def table_rows(scored: list[Scored]) -> list[tuple[str, str, dict]]:
+    """(image, labeller, pool_stats) per image and labeller and both labellers; pooled over the
+    images when there are several (labeller k: each image's k-th labelling)."""
+    out = []
+    for s in scored:
+        out += [(s.image_id, _who(s, k), pool_stats([p])) for k, p in enumerate(s.parts)]
+        out.append((s.image_id, "both", pool_stats(s.parts)))
+    if len(scored) > 1:
+        n = max(len(s.parts) for s in scored)
+        out += [
+            (f"all {len(scored)}", f"{k + 1}", pool_stats(s.parts[k] for s in scored if k < len(s.parts)))
+            for k in range(n)
+        ]
+        out.append((f"all {len(scored)}", "both", pool_stats(p for s in scored for p in s.parts)))
+    return out
+
+
+def labels_table(rows, notes=()) -> str:
+    import textwrap
+
+    header = "  ".join([f"{'image':>10}", f"{'labeller':>12}"] + [f"{h:>{w}}" for h, _, w, _ in _COLUMNS])
+    lines = [header] + [_cells(*r) for r in rows] + list(notes)
+    return "\n".join(lines + textwrap.wrap(_KEY, 98))
+
+
+def _nulls(d: dict) -> dict:
+    return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in d.items()}
+
+
+def _record(args, scored: list[Scored], rows) -> dict:
+    """What --json keeps: the inputs, every row as printed (all scores of pool_stats, the median
+    to half a degree), the options and the snn-fg that measured them."""
+    from .. import __version__
+
+    return {
+        "a": str(args.a),
+        "b": str(args.b),
+        "options": {"min_confidence": args.min_confidence},
+        "images": [
+            {
+                "image_id": s.image_id,
+                "maps": str(s.maps_path),
+                "labels": str(s.labels_path),
+                "labellers": list(s.labels.labellers),
+            }
+            for s in scored
+        ],
+        "rows": [{"image": i, "labeller": w, **_nulls(st)} for i, w, st in rows],
+        "snn_fg_version": __version__,
+    }
+
+
+def cmd_compare_labels(args) -> int:
+    """Handler of ``snn-fg compare RUN LABELS`` (``args`` as compare parses them); prints the table, returns 0."""
+    for key, flag in _MAPS_ONLY:
+        if getattr(args, key) is not None and getattr(args, key) is not False:  # (--window 0 == False)
+            raise InputError(flag, f"chooses windows or pixels of two maps files; {args.b} holds human labels")
+    runs = runs_of(args.a)
+    if len(runs) > 1 and Path(args.b).is_file():
+        raise InputError(args.b, f"is one image's labels, but {args.a} holds {len(runs)} runs: give the labels folder")
+    scored = [score_run(r, args.b, args.min_confidence) for r in runs]
+    notes = [
+        f"snn-fg: note: {args.a} lists {len(f)} failed run(s), not scored: {', '.join(f[:4])}"
+        for f in [failed_runs(args.a)]
+        if f
+    ]
+    for s in scored:
+        given = (s.maps.params.get("source") or {}).get("input")
+        if len(s.labels.fg) > 1 and all(np.array_equal(s.labels.fg[0], f) for f in s.labels.fg[1:]):
+            notes.append(f"snn-fg: note: {s.image_id}: its labellers gave the same labels (so the same scores)")
+        if given and Path(given).stem != s.labels_path.stem:
+            notes.append(f"snn-fg: note: the run's input is {Path(given).name} but the labels are {s.labels_path.name}")
+    rows = table_rows(scored)
+    models = sorted({str(s.maps.params.get("model", "unknown")) for s in scored})
+    images = f"{len(scored)} image{'s' if len(scored) > 1 else ''}"
+    what = [f"run: {args.a} ({images}, the {'/'.join(models)} model); labels: {args.b}"]
+    print(labels_table(rows, what + notes))
+    if args.json:
+        save_text(args.json, json.dumps(_record(args, scored, rows), indent=2))
+        print(f"snn-fg: scores saved to {args.json}")
+    if args.plot:
+        from ..scoring.labels_figure import save_labels_figure
+
+        save_labels_figure(args.plot, scored)
+        print(f"snn-fg: figure saved to {args.plot}")
+    return 0

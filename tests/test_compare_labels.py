@@ -1,0 +1,160 @@
+"""``snn-fg compare RUN LABELS``: a run's maps against human figure/ground labels. On a disc with
+hand-made labels the answer is known (vectors inward: side accuracy 1; half flipped: a half; a
+quarter without vectors: coverage three quarters); on a BSDS image the numbers are Table 1's;
+bad labels end in one line naming the file, nothing written."""
+
+import json
+
+import numpy as np
+import pytest
+from scipy import ndimage as ndi
+
+from snn_fg.cli import main
+from snn_fg.frames.scenes import disc
+from snn_fg.results.maps import Maps
+from snn_fg.scoring.groundtruth import boundary_directions
+
+SIZE = 64
+
+
+def _disc_labels():
+    """A bsds-fg map of a radius-20 disc: +1 one pixel inside its outline, -1 one pixel outside."""
+    inside = disc(20).labels > 0
+    assert inside.shape == (SIZE, SIZE)
+    fig = inside & ~ndi.binary_erosion(inside)
+    ground = ~inside & ndi.binary_dilation(inside)
+    return fig.astype(np.int8) - ground.astype(np.int8)
+
+
+@pytest.fixture
+def disc_case(tmp_path):
+    """(labels folder, write(fg_x, fg_y) -> a run folder, the labelled directions) of the disc."""
+    fg = _disc_labels()
+    (tmp_path / "bsds" / "labels").mkdir(parents=True)
+    np.savez(tmp_path / "bsds" / "labels" / "disc.npz", fg=np.stack([fg, fg]), labellers=np.array([7, 9]))
+    truth = boundary_directions(fg)
+
+    def write(fx, fy, name="run"):
+        params = {"model": "rate", "source": {"input": str(tmp_path / "disc.png"), "kind": "image"}}
+        Maps(fx.astype(np.float32), fy.astype(np.float32), np.zeros((SIZE, SIZE), np.float32), params).save(
+            tmp_path / name / "maps.npz"
+        )
+        return tmp_path / name
+
+    return tmp_path / "bsds", write, truth
+
+
+def _scores(capsys, *args) -> dict:
+    """compare's --json rows, by (image, labeller)."""
+    out = args[0].parent / "scores.json"
+    assert main(["compare", *map(str, args), "--json", str(out), "--force"]) == 0
+    capsys.readouterr()
+    return {(r["image"], r["labeller"]): r for r in json.loads(out.read_text())["rows"]}
+
+
+def test_known_answers_on_a_disc(disc_case, capsys):
+    labels, write, (tx, ty, valid) = disc_case
+    rows, cols = np.nonzero(valid)
+    inward = _scores(capsys, write(tx, ty, "inward"), labels)
+    both = inward[("disc", "both")]
+    assert both["side_accuracy"] == 1.0 and both["within45"] == 1.0 and both["coverage"] == 1.0
+    assert both["mean_abs_deg"] < 1e-6 and both["n_truth"] == 2 * valid.sum()
+
+    left = np.zeros_like(valid)
+    left[:, : SIZE // 2] = True  # the left half of the disc's outline points outwards
+    flipped = _scores(capsys, write(np.where(left, -tx, tx), np.where(left, -ty, ty), "flipped"), labels)
+    share_right = float(np.mean(cols >= SIZE // 2))
+    for who in ("1 (id 7)", "2 (id 9)", "both"):
+        s = flipped[("disc", who)]
+        assert s["side_accuracy"] == pytest.approx(share_right) and abs(s["side_accuracy"] - 0.5) < 0.03
+        assert s["coverage"] == 1.0 and s["mean_abs_deg"] == pytest.approx(180 * (1 - share_right))
+
+    quarter = np.zeros_like(valid)
+    quarter[: SIZE // 2, : SIZE // 2] = True  # no vector on the top-left quarter of the outline
+    missing = _scores(capsys, write(np.where(quarter, 0, tx), np.where(quarter, 0, ty), "quarter"), labels)
+    s = missing[("disc", "both")]
+    assert s["coverage"] == pytest.approx(1 - np.mean(quarter[rows, cols])) and abs(s["coverage"] - 0.75) < 0.03
+    assert s["side_accuracy"] == 1.0  # what has a vector is right: read the two together
+
+
+def test_the_printed_table_says_what_each_number_is(disc_case, capsys, tmp_path):
+    labels, write, (tx, ty, _) = disc_case
+    run = write(tx, ty)
+    assert main(["compare", str(run), str(labels / "labels" / "disc.npz"), "--plot", str(tmp_path / "f.png")]) == 0
+    out = capsys.readouterr().out
+    head = out.splitlines()[0].split()
+    assert head == ["image", "labeller", "labelled", "cover", "side", "<=45°", "mean°", "signed°"]
+    for words in ("side accuracy", "coverage", "mean signed difference", "the paper reports", "chance 0.5"):
+        assert words in out.replace("\n", " ")
+    assert (tmp_path / "f.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_folder_of_runs_is_scored_per_image_and_pooled(disc_case, capsys, tmp_path):
+    labels, write, (tx, ty, valid) = disc_case
+    write(tx, ty, "runs/a")
+    left = np.zeros_like(valid)
+    left[:, : SIZE // 2] = True
+    write(np.where(left, -tx, tx), np.where(left, -ty, ty), "runs/b")
+    (tmp_path / "runs" / "summary.csv").write_text(
+        "recording,output,status,windows,seconds,error\n"
+        f"disc.png,{tmp_path / 'runs' / 'a'},done,1,1.0,\n"
+        f"disc.png,{tmp_path / 'runs' / 'b'},done,1,1.0,\n"
+        "other.png,,failed,0,0.1,bad\n"
+    )
+    rows = _scores(capsys, tmp_path / "runs", labels)
+    pooled = rows[("all 2", "both")]
+    assert pooled["n_truth"] == 4 * valid.sum()
+    assert pooled["side_accuracy"] == pytest.approx((1 + float(np.mean(np.nonzero(valid)[1] >= SIZE // 2))) / 2)
+    assert main(["compare", str(tmp_path / "runs"), str(labels)]) == 0
+    assert "1 failed run(s), not scored: other.png" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("case", ["size", "no_id", "garbage", "values", "recording_option"])
+def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
+    labels, write, (tx, ty, _) = disc_case
+    run = write(tx, ty)
+    b = labels
+    extra = []
+    if case == "size":
+        b = tmp_path / "small.npz"
+        np.savez(b, fg=np.zeros((2, 32, 48), np.int8))
+    elif case == "no_id":
+        (labels / "labels" / "disc.npz").rename(labels / "labels" / "12003.npz")
+    elif case == "garbage":
+        b = labels / "labels" / "disc.npz"
+        b.write_bytes(b"PK\x03\x04 not really a zip")
+    elif case == "values":
+        b = tmp_path / "two.npz"
+        np.savez(b, fg=np.full((1, SIZE, SIZE), 2, np.int8))
+    else:
+        extra = ["--window", "0"]
+    out = tmp_path / "s.json"
+    code = main(["compare", str(run), str(b), "--json", str(out), "--plot", str(tmp_path / "s.png"), *extra])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code != 0 and len(err) == 1 and not out.exists() and not (tmp_path / "s.png").exists()
+    named = {
+        "size": ("small.npz", "32 x 48", "64 x 64"),
+        "no_id": ("bsds", "disc", "no "),
+        "garbage": ("disc.npz",),
+        "values": ("two.npz", "-1, 0 and 1"),
+        "recording_option": ("--window", "human labels"),
+    }[case]
+    assert all(w in err[0] for w in named), err[0]
+
+
+@pytest.mark.slow
+def test_the_numbers_are_table1s_on_a_bsds_image(dataset, tmp_path, capsys):
+    """The command on `snn-fg run IMAGE --motion paper` equals experiments/paper/table1.py's per-image
+    row of that image (the rate model, threshold 0.10): the same scoring, one home."""
+    from experiments.evaluation import ImageEvaluation, evaluate_image
+    from experiments.paper.table1 import per_image_rows
+
+    root = dataset("bsds-fg")
+    image = root / "images" / "12003.jpg"
+    assert main(["run", str(image), "--out", str(tmp_path / "run"), "--motion", "paper", "--no-figures"]) == 0
+    got = _scores(capsys, tmp_path / "run", root)[("12003", "both")]
+    settings = ImageEvaluation(thresholds=(0.10,), fbfg_operators=(), fig6=False)
+    result = evaluate_image(root=str(root), image_id="12003", settings=settings)
+    (row,) = per_image_rows({"12003": result})
+    for key in ("side_accuracy", "coverage", "within45", "mean_abs_deg", "mean_signed_deg", "n_pixels", "n_truth"):
+        assert got[key] == pytest.approx(row[key], rel=1e-9, abs=1e-9), key

@@ -12,6 +12,7 @@ import time
 import warnings
 from pathlib import Path
 
+import matplotlib.colors as mcolors
 import numpy as np
 import pytest
 
@@ -623,7 +624,8 @@ def test_a_udp_replay_says_that_udp_cannot_tell_whether_anything_received_it(dis
 
 def _hops_all_come_first(max_behind: int) -> tuple[list, dict]:
     """10 ms hops over 40 ms windows, every event (one each 0.1 ms, to 119.9 ms) come before the
-    model asks: the hops made (each passed once made) and the stream's counts."""
+    model asks: the hops made (each passed once made) and the stream's counts (with the numbers
+    of the hops skipped, ``skipped``)."""
     packets = [_events(np.arange(k * 10_000, (k + 1) * 10_000, 100)) for k in range(12)]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", InputWarning)  # (the one line that says a slot was dropped)
@@ -633,7 +635,7 @@ def _hops_all_come_first(max_behind: int) -> tuple[list, dict]:
         for w in stream:
             kept.append(w.index)
             stream.done(w)
-    return kept, stream.stats()
+    return kept, {**stream.stats(), "skipped": stream.skipped_windows}
 
 
 def test_hops_behind_the_stream_skip_their_read_out_for_the_newest_and_drop_nothing():
@@ -641,6 +643,7 @@ def test_hops_behind_the_stream_skip_their_read_out_for_the_newest_and_drop_noth
     dropped (the network takes its events): only hops 7 and 8 (ending at 110 and 120 ms) are made."""
     kept, s = _hops_all_come_first(max_behind=100)
     assert kept == [7, 8] and s["windows_skipped"] == 7 and s["windows_dropped"] == 0 and s["events_dropped"] == 0
+    assert s["skipped"] == list(range(7))  # (by number: the timeline shades them apart from dropped ones)
 
 
 def test_hops_drop_events_only_a_window_behind_and_never_skip_for_a_dropped_hop():
@@ -649,3 +652,38 @@ def test_hops_drop_events_only_a_window_behind_and_never_skip_for_a_dropped_hop(
     kept, s = _hops_all_come_first(max_behind=0)
     assert s["events_dropped"] == 4 * 100 and s["windows_dropped"] == 7
     assert kept == [4] and s["windows_skipped"] == 4
+
+
+def test_the_timeline_shades_skipped_hops_apart_from_dropped_windows(tmp_path):
+    """A hop skipped for a newer one (every event simulated, no read-out) is not a dropped window
+    (events not simulated): the run's store keeps the skipped numbers and timeline.png shades them
+    blue, the dropped grey, each named under the plot (both were grey "dropped" before)."""
+    from snn_fg.cli.runner import run_recording
+    from snn_fg.events import iter_windows
+    from snn_fg.models import get_model
+    from snn_fg.params import ModelParams
+    from snn_fg.results.timeline import MISSING_COLOURS, timeline_figure, window_rows
+
+    _, rec = flipping_disc_recording(24, windows=8, window_ms=40.0)
+    path = save_events(tmp_path / "rec.npz", rec.events, rec.sensor_size)
+
+    class Stream(list):  # (what run_recording reads of a live stream: its windows and the hops it skipped)
+        skipped_windows = [2]
+
+    windows = Stream(w for w in iter_windows(path, window_ms=40.0) if w.index not in (2, 3, 5))
+    out = tmp_path / "run"
+    out.mkdir()
+    run_recording(get_model("rate", ModelParams(levels=3)), windows, out, {"input": "x", "window_ms": 40.0})
+    maps = Maps.load(out)
+    assert maps.params["skipped_windows"] == [2]
+    fig = timeline_figure(window_rows(maps), 40.0, skipped=maps.params["skipped_windows"])
+    grey, blue = (mcolors.to_rgba(MISSING_COLOURS[k]) for k in ("dropped", "skipped"))
+    spans = sorted(
+        (p.get_x(), p.get_width(), tuple(p.get_facecolor()))
+        for p in fig.axes[0].patches
+        if p.get_facecolor() in (grey, blue)
+    )
+    assert spans == [(80.0, 40.0, blue), (120.0, 40.0, grey), (200.0, 40.0, grey)]
+    label = fig.axes[3].get_xlabel()
+    assert "grey: windows dropped" in label and "blue: hops skipped" in label and "events not simulated" in label
+    assert (out / "timeline.png").read_bytes().startswith(b"\x89PNG")

@@ -177,6 +177,9 @@ def run_recording(
     final = {**store.attrs["params"], "source": _source_summary(store, source)}
     if whole:  # (kept apart: each window's own parameters are told against the first window's)
         final["whole_run"] = whole
+    skipped = getattr(windows, "skipped_windows", None)  # (a live stream's hops passed over: not dropped)
+    if skipped:
+        final["skipped_windows"] = sorted(skipped)
     store.finish(final)
     maps = Maps(*read_maps(path, lazy=True))
     write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)

@@ -100,6 +100,7 @@ class LiveStream:
         self.first_arrival = None  # (perf_counter of the first packet with events)
         self.windows_dropped = 0
         self.windows_skipped = 0  # (hops whose read-out was skipped for a newer one: stale)
+        self.skipped_windows: list = []  # (their numbers: the timeline tells them from dropped ones)
         self.skipped_us = 0  # the stream time the model did not simulate (resume_at)
         self.first_dropped = None  # the first slot dropped
         self.dropped_windows: set = set()  # (those not yet passed by the published ones)
@@ -296,6 +297,7 @@ class LiveStream:
         if self.last_t < w.t_end_us + self.stride + self.lag_us:
             return False
         self.windows_skipped += 1
+        self.skipped_windows.append(int(w.index))
         return True
 
     def slots_of(self, w) -> range:

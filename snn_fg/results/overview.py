@@ -101,7 +101,8 @@ def write_run_tables(folder, maps, *, figures: bool, coverage: bool = True) -> l
     if figures:
         window_ms = float(source.get("window_ms", 0.0))
         shown = rows_shown(len(rows), OVERVIEW_ROWS)
-        save_figure(timeline_figure(rows, window_ms, title, shown), folder / TIMELINE_NAME, dpi=110)
+        skipped = maps.params.get("skipped_windows", ())  # (a live run's: its store keeps them)
+        save_figure(timeline_figure(rows, window_ms, title, shown, skipped), folder / TIMELINE_NAME, dpi=110)
     return rows
 
 

@@ -104,10 +104,13 @@ def save_table(path, rows) -> None:
     save_text(path, text.getvalue())
 
 
-def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
+def timeline_figure(rows, window_ms: float, title: str = "", shown=(), skipped=()):
     """The run over time, one bar per window: events, the share of pixels with an event, the
     pixels with a figure-ground vector (and their coverage of the event pixels), the grouping
-    peak. ``shown``: windows an overview figure draws, marked on the time axis."""
+    peak. ``shown``: windows an overview figure draws, marked on the time axis. A live run's
+    missing windows are shaded by why: ``skipped`` (numbers of hops whose read-out was passed
+    over for a newer hop's; the network took their events) in blue, the others, dropped (their
+    events not simulated), in grey."""
     from matplotlib.figure import Figure  # (matplotlib: only when the figure is drawn)
 
     a, b = (np.array([r[k] for r in rows], float) for k in ("t_start_ms", "t_end_ms"))
@@ -136,12 +139,16 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
     scene_bars(ax_g, mid, width, [r["grouping_peak"] for r in rows], burst, color="C4")
     ax_g.set_ylabel("grouping peak", fontsize=8)
     drawn = "; numbers on top: the windows maps.png draws" if len(shown) else ""
-    gaps = _dropped_spans(rows, a)
-    for lo, hi in gaps:  # (a live run's dropped windows: their time shaded, not left as a blank)
+    gaps = _missing_spans(rows, a, set(skipped))
+    for lo, hi, kind in gaps:  # (a live run's missing windows: their time shaded by why, not left as a blank)
         for ax in (ax_n, ax_s, ax_f, ax_g):
-            ax.axvspan(lo, hi, color="0.85", lw=0, zorder=0)
-    dropped = "; grey: windows dropped while the model was behind the stream" if gaps else ""
-    ax_g.set_xlabel(f"time after the first event (ms); {window_ms:g} ms windows{drawn}{dropped}", fontsize=8)
+            ax.axvspan(lo, hi, color=MISSING_COLOURS[kind], lw=0, zorder=0)
+    kinds = {kind for *_, kind in gaps}
+    missing = "; ".join(MISSING_WORDS[k] for k in ("dropped", "skipped") if k in kinds)  # (a line of its own)
+    ax_g.set_xlabel(
+        f"time after the first event (ms); {window_ms:g} ms windows{drawn}" + (f"\n{missing}" if missing else ""),
+        fontsize=8,
+    )
     for ax in (ax_f, ax_g):
         ax.tick_params(labelsize=7)
     for i in shown:
@@ -157,13 +164,32 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=()):
     return fig
 
 
-def _dropped_spans(rows, starts) -> list[tuple[float, float]]:
-    """Where a live run's window numbers (``window``) skip some: from the stride after the
-    last kept window's start to the next kept one's (ms)."""
+#: the shades of a live run's missing windows, and what each says (the time axis is the windows' starts)
+MISSING_COLOURS = {"dropped": "0.85", "skipped": "#cfe2f3"}
+MISSING_WORDS = {
+    "dropped": "grey: windows dropped, the model behind (events not simulated)",
+    "skipped": "blue: hops skipped for a newer one (events simulated, no read-out)",
+}
+
+
+def _missing_spans(rows, starts, skipped=frozenset()) -> list[tuple[float, float, str]]:
+    """Where a live run's window numbers (``window``) miss some: ``(from, to, kind)`` over the
+    missing windows' starts (ms), ``kind`` "skipped" for the numbers in ``skipped``, else
+    "dropped"; neighbours of one kind merged."""
     numbers = [r.get("window") for r in rows]
     if len(rows) < 2 or any(k is None for k in numbers):
         return []
     k = np.asarray(numbers, float)
     step = np.diff(k)
     stride = float(np.median(np.diff(starts) / step))
-    return [(starts[i] + stride, starts[i + 1]) for i in np.flatnonzero(step > 1)]
+    spans: list = []
+    for i in np.flatnonzero(step > 1):
+        for n in range(int(k[i]) + 1, int(k[i + 1])):
+            lo = starts[i] + (n - k[i]) * stride
+            hi = starts[i + 1] if n == k[i + 1] - 1 else lo + stride
+            kind = "skipped" if n in skipped else "dropped"
+            if spans and spans[-1][2] == kind and abs(spans[-1][1] - lo) < 1e-9:
+                spans[-1] = (spans[-1][0], hi, kind)
+            else:
+                spans.append((lo, hi, kind))
+    return spans

@@ -331,6 +331,8 @@ def test_the_help_says_what_each_experiment_measures_in_whole_sentences():
     done = _run("experiments.paper.table1", "--help")
     text = " ".join(done.stdout.split())
     assert "against human labels, per event-simulator contrast threshold, for every model." in text
+    # --spiking-images has no default (no spiking run) and refuses 0: its help said "default 0"
+    assert "default 0" not in text and "without it no spiking network runs" in text
     done = _run("experiments.validation.spiking_groundtruth", "--help")
     text = " ".join(done.stdout.split())
     assert "issue 11" not in text and "--threshold C contrast threshold of the simulated event camera" in text

@@ -259,7 +259,7 @@ def main():
         "--spiking-images",
         type=positive_int,
         metavar="N",
-        help="also run the spiking network on N images (evenly spaced; default 0)",
+        help="also run the spiking network on N images (evenly spaced; N >= 1); without it no spiking network runs",
     )
     p.add_argument(
         "--spiking-threshold",

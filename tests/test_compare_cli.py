@@ -276,3 +276,11 @@ def test_a_window_beyond_a_recording_is_refused_by_the_options_name(tmp_path, ca
     assert main(["compare", str(tmp_path / "a.npz"), str(tmp_path / "b.npz"), "--window", "7"]) == 2
     err = capsys.readouterr().err
     assert "--window 7" in err and "holds windows 0 to 2" in err and "window=" not in err
+    # one check, compare_maps': its error carries the map and its windows, which the line above says
+    from snn_fg.scoring.metrics import WindowOutOfRange, compare_maps
+
+    one = Maps(z[0], z[0], z[0], {})
+    with pytest.raises(WindowOutOfRange) as got:
+        compare_maps(one, Maps.load(tmp_path / "b.npz"), window=7)
+    assert (got.value.window, got.value.side, got.value.n) == (7, "b", 3)
+    assert "window=7 is not among the 3 windows of b (0 to 2)" in str(got.value)

@@ -22,7 +22,7 @@ from ..results.maps import Maps
 from ..results.outputs import check_output_file
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
-from ..scoring.metrics import compare_maps, compared_pixels
+from ..scoring.metrics import WindowOutOfRange, compare_maps, compared_pixels
 from ..scoring.outline import event_outlines
 from .compare_labels import cmd_compare_labels, names_labels
 from .options import number, subcommand
@@ -183,15 +183,15 @@ def cmd_compare(args) -> int:
     a, b, notes = align_to_export(a, b, args.window, (args.a, args.b))  # (a board's maps against the reference)
     for note in notes + mismatches(a, b) + expectations(a, b):
         print(f"snn-fg: note: {note}")
-    for path, m in ((args.a, a), (args.b, b)):  # (the option by its own name, not compare_maps' keyword)
-        n = len(m.fg_x) if np.ndim(m.fg_x) == 3 else 1
-        if args.window is not None and not notes and n > 1 and not 0 <= args.window < n:
-            raise InputError(f"--window {args.window}", f"{path} holds windows 0 to {n - 1}")
     try:
         where = None if args.outline is None else event_outlines(a, b, args.outline)
         rows = compare_maps(
             a, b, window=None if notes else args.window, where=where, min_confidence=args.min_confidence
         )
+    except WindowOutOfRange as exc:  # (compare_maps checks it; said by the option's name and the file)
+        raise InputError(
+            f"--window {exc.window}", f"{args.a if exc.side == 'a' else args.b} holds windows 0 to {exc.n - 1}"
+        ) from None
     except SnnFgError as exc:
         raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
     baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)

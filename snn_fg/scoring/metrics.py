@@ -24,6 +24,7 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from .. import validate as check
+from ..errors import ParameterError
 from ..results.maps import CONFIDENCE, Maps
 
 
@@ -116,12 +117,22 @@ def frame_of(m: Maps, i):
     return (m.fg_x, m.fg_y, m.grouping) if i is None else (m.fg_x[i], m.fg_y[i], m.grouping[i])
 
 
+class WindowOutOfRange(ParameterError):
+    """:func:`compare_maps`' ``window`` is not among a map's windows. It carries what a caller
+    needs to say so in its own words: the window asked, which map (``side``: "a" or "b") and
+    how many windows it holds (``n``); the command line names the option and the file."""
+
+    def __init__(self, window: int, side: str, n: int):
+        self.window, self.side, self.n = window, side, n
+        super().__init__(f"compare_maps: window={window!r} is not among the {n} windows of {side} (0 to {n - 1})")
+
+
 def _window_pairs(wa, wb, window):
     """The ``((index, start), (index, start))`` pairs of windows ``wa``, ``wb`` that :func:`compare_maps` compares."""
     if window is not None:
-        for w in (wa, wb):
+        for side, w in (("a", wa), ("b", wb)):
             if len(w) > 1 and not 0 <= window < len(w):
-                check.fail("compare_maps", "window", window, f"is not among the {len(w)} windows of a map")
+                raise WindowOutOfRange(window, side, len(w))
         wa, wb = ([w[window]] if len(w) > 1 else w for w in (wa, wb))
     if window is None and all(t is not None for _, t in wa + wb):
         starts = {t: i for i, t in wb}

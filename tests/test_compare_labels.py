@@ -34,11 +34,10 @@ def disc_case(tmp_path):
     np.savez(tmp_path / "bsds" / "labels" / "disc.npz", fg=np.stack([fg, fg]), labellers=np.array([7, 9]))
     truth = boundary_directions(fg)
 
-    def write(fx, fy, name="run"):
+    def write(fx, fy, name="run", **extra):
         params = {"model": "rate", "source": {"input": str(tmp_path / "disc.png"), "kind": "image"}}
-        Maps(fx.astype(np.float32), fy.astype(np.float32), np.zeros((SIZE, SIZE), np.float32), params).save(
-            tmp_path / name / "maps.npz"
-        )
+        z = np.zeros((SIZE, SIZE), np.float32)
+        Maps(fx.astype(np.float32), fy.astype(np.float32), z, params, extra).save(tmp_path / name / "maps.npz")
         return tmp_path / name
 
     return tmp_path / "bsds", write, truth
@@ -76,6 +75,14 @@ def test_known_answers_on_a_disc(disc_case, capsys):
     assert s["coverage"] == pytest.approx(1 - np.mean(quarter[rows, cols])) and abs(s["coverage"] - 0.75) < 0.03
     assert s["side_accuracy"] == 1.0  # what has a vector is right: read the two together
 
+    # a spiking run's vectors below --min-confidence count as none: the same quarter, by its confidence
+    sure = write(tx, ty, "confidence", fg_confidence=np.where(quarter, 1.0, 3.0).astype(np.float32))
+    out = sure.parent / "conf.json"
+    assert main(["compare", str(sure), str(labels), "--min-confidence", "2", "--json", str(out)]) == 0
+    capsys.readouterr()
+    (row,) = [r for r in json.loads(out.read_text())["rows"] if r["labeller"] == "both"]
+    assert row["coverage"] == s["coverage"] and row["side_accuracy"] == 1.0
+
 
 def test_the_printed_table_says_what_each_number_is(disc_case, capsys, tmp_path):
     labels, write, (tx, ty, _) = disc_case
@@ -87,6 +94,8 @@ def test_the_printed_table_says_what_each_number_is(disc_case, capsys, tmp_path)
     for words in ("side accuracy", "coverage", "mean signed difference", "the paper reports", "chance 0.5"):
         assert words in out.replace("\n", " ")
     assert (tmp_path / "f.png").read_bytes().startswith(b"\x89PNG")
+    assert main(["compare", str(run), str(labels / "labels")]) == 0  # (the folder's labels/ itself)
+    assert capsys.readouterr().out.splitlines()[3].split()[:2] == ["disc", "both"]
 
 
 def test_a_folder_of_runs_is_scored_per_image_and_pooled(disc_case, capsys, tmp_path):

@@ -74,7 +74,7 @@ def add_compare_command(sub):
         "b",
         metavar="B",
         help="the maps to compare A with (the reference), as A; or human figure/ground labels: a bsds-fg "
-        "folder (A's image found as labels/<id>.npz by A's input file name) or one such .npz (fg: -1 "
+        "folder or its labels/ (A's image found as labels/<id>.npz by A's input file name) or one such .npz (fg: -1 "
         "ground, +1 figure side of each boundary, one map per labeller)",
     )
     p.add_argument(

@@ -49,12 +49,14 @@ _KEY = (
 
 
 def names_labels(spec) -> bool:
-    """Whether compare's B names human labels rather than maps: a folder holding ``labels/``, or a
+    """Whether compare's B names human labels rather than maps: a folder holding ``labels/`` (or that
+    ``labels/`` folder itself), or a
     ``.npz`` file with ``fg`` and no ``fg_x``. A ``.npz`` numpy cannot read is refused here, in
     words for either kind (the maps reader would call it a bad maps file)."""
     path = Path(spec)
     if path.is_dir():
-        return (path / "labels").is_dir() and not any((path / n).exists() for n in ("maps.npz", "maps.zarr"))
+        runs = any((path / n).exists() for n in ("maps.npz", "maps.zarr", ".zattrs"))
+        return ((path / "labels").is_dir() or path.name == "labels") and not runs
     if path.suffix.lower() != ".npz" or not path.is_file():
         return False
     try:
@@ -115,12 +117,13 @@ def _labels_path(run: Path, maps: Maps, labels) -> tuple[str, Path, Path | None]
     if given is None:
         raise InputError(run, "its maps name no input image, so no labels can be matched to it; give the labels file")
     image_id = Path(given).stem
-    found = Path(labels, "labels", f"{image_id}.npz")
+    root = Path(labels) if Path(labels, "labels").is_dir() else Path(labels).parent  # (bsds-fg, or its labels/)
+    found = root / "labels" / f"{image_id}.npz"
     if not found.is_file():
         raise InputError(
             labels, f"holds no labels for the run's image {image_id} (its input {Path(given).name}): no {found}"
         )
-    image = Path(labels, "images", f"{image_id}.jpg")
+    image = root / "images" / f"{image_id}.jpg"
     return image_id, found, image if image.is_file() else None
 
 
@@ -230,7 +233,7 @@ def cmd_compare_labels(args) -> int:
     for s in scored:
         given = (s.maps.params.get("source") or {}).get("input")
         if len(s.labels.fg) > 1 and all(np.array_equal(s.labels.fg[0], f) for f in s.labels.fg[1:]):
-            notes.append(f"snn-fg: note: {s.image_id}: its labellers gave the same labels (so the same scores)")
+            notes.append(f"snn-fg: note: {s.labels_path.name}: its labellers gave the same labels (the same scores)")
         if given and Path(given).stem != s.labels_path.stem:
             notes.append(f"snn-fg: note: the run's input is {Path(given).name} but the labels are {s.labels_path.name}")
     rows = table_rows(scored)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,11 +21,14 @@ import numpy as np
 
 from ..errors import InputError
 from ..results.atomic import save_text
+from ..results.figures import rows_shown
 from ..results.maps import Maps
 from ..scoring.groundtruth import GroundTruth, boundary_directions, load_labels
 from ..scoring.label_scores import labeller_errors, pool_stats
 from ..scoring.metrics import confident
 
+#: the images --plot draws at most (evenly spaced: :func:`~snn_fg.results.figures.rows_shown`)
+FIGURE_ROWS = 6
 #: the options of compare that choose windows or pixels of two maps files, and have no meaning here
 _MAPS_ONLY = (("window", "--window"), ("outline", "--outline"), ("no_baseline", "--no-baseline"))
 
@@ -70,17 +74,19 @@ def names_labels(spec) -> bool:
 
 @dataclass
 class Scored:
-    """One image of the run scored: its maps' path, the labels' path and what they hold, each
-    labeller's :func:`~snn_fg.scoring.label_scores.error_stats` part and the directions they came from."""
+    """One image of the run scored: its maps' path and run provenance, the labels' path and what
+    they hold, each labeller's :func:`~snn_fg.scoring.label_scores.error_stats` part and, for an
+    image the figure draws, the labelled directions and the run's field scored (``truths``,
+    ``fields``; None otherwise: a folder of 160 runs would hold 1.5 GB of them)."""
 
     image_id: str
     maps_path: Path
     labels_path: Path
-    maps: Maps
+    params: dict
     labels: GroundTruth
-    truths: list
     parts: list
-    fields: tuple
+    truths: list | None = None
+    fields: tuple | None = None
 
 
 def runs_of(spec) -> list[Path]:
@@ -127,9 +133,10 @@ def _labels_path(run: Path, maps: Maps, labels) -> tuple[str, Path, Path | None]
     return image_id, found, image if image.is_file() else None
 
 
-def score_run(run: Path, labels, min_confidence: float | None = None) -> Scored:
+def score_run(run: Path, labels, min_confidence: float | None = None, keep: bool = False) -> Scored:
     """One run's maps against their labels, checked first: a recording's maps, labels of another
-    size or a bad labels file end in an :class:`InputError` naming the file."""
+    size or a bad labels file end in an :class:`InputError` naming the file. ``keep``: keep the
+    directions and the field for the figure."""
     maps = Maps.load(run)
     if np.ndim(maps.fg_x) != 2:
         raise InputError(
@@ -144,11 +151,13 @@ def score_run(run: Path, labels, min_confidence: float | None = None) -> Scored:
             f"labels are {gt.fg.shape[1]} x {gt.fg.shape[2]} (rows x columns) but the run's maps ({run}) are {h} x {w}",
         )
     fx, fy = maps.fg_x, maps.fg_y
-    keep = confident(maps, None, min_confidence)
-    if keep is not None:  # (a spiking run's vectors below the threshold count as no vector: coverage drops)
-        fx, fy = np.where(keep, fx, 0), np.where(keep, fy, 0)
+    sure = confident(maps, None, min_confidence)
+    if sure is not None:  # (a spiking run's vectors below the threshold count as no vector: coverage drops)
+        fx, fy = np.where(sure, fx, 0), np.where(sure, fy, 0)
     truths = [boundary_directions(m) for m in gt.fg]
-    return Scored(image_id, Path(run), path, maps, gt, truths, labeller_errors(fx, fy, truths), (fx, fy))
+    parts = labeller_errors(fx, fy, truths)
+    kept = (truths, (fx, fy)) if keep else (None, None)
+    return Scored(image_id, Path(run), path, maps.params, gt, parts, *kept)
 
 
 def _who(s: Scored, k: int) -> str:
@@ -182,8 +191,7 @@ def table_rows(scored: list[Scored]) -> list[tuple[str, str, dict]]:
 
 
 def labels_table(rows, notes=()) -> str:
-    import textwrap
-
+    """The rows of :func:`table_rows` as text, ``notes`` under them, then what each column is."""
     header = "  ".join([f"{'image':>10}", f"{'labeller':>12}"] + [f"{h:>{w}}" for h, _, w, _ in _COLUMNS])
     lines = [header] + [_cells(*r) for r in rows] + list(notes)
     return "\n".join(lines + textwrap.wrap(_KEY, 98))
@@ -224,20 +232,20 @@ def cmd_compare_labels(args) -> int:
     runs = runs_of(args.a)
     if len(runs) > 1 and Path(args.b).is_file():
         raise InputError(args.b, f"is one image's labels, but {args.a} holds {len(runs)} runs: give the labels folder")
-    scored = [score_run(r, args.b, args.min_confidence) for r in runs]
-    notes = [
-        f"snn-fg: note: {args.a} lists {len(f)} failed run(s), not scored: {', '.join(f[:4])}"
-        for f in [failed_runs(args.a)]
-        if f
-    ]
+    drawn = set(rows_shown(len(runs), FIGURE_ROWS).tolist()) if args.plot else set()
+    scored = [score_run(r, args.b, args.min_confidence, keep=i in drawn) for i, r in enumerate(runs)]
+    notes = []
+    failed = failed_runs(args.a)
+    if failed:
+        notes.append(f"snn-fg: note: {args.a} lists {len(failed)} failed run(s), not scored: {', '.join(failed[:4])}")
     for s in scored:
-        given = (s.maps.params.get("source") or {}).get("input")
+        given = (s.params.get("source") or {}).get("input")
         if len(s.labels.fg) > 1 and all(np.array_equal(s.labels.fg[0], f) for f in s.labels.fg[1:]):
             notes.append(f"snn-fg: note: {s.labels_path.name}: its labellers gave the same labels (the same scores)")
         if given and Path(given).stem != s.labels_path.stem:
             notes.append(f"snn-fg: note: the run's input is {Path(given).name} but the labels are {s.labels_path.name}")
     rows = table_rows(scored)
-    models = sorted({str(s.maps.params.get("model", "unknown")) for s in scored})
+    models = sorted({str(s.params.get("model", "unknown")) for s in scored})
     images = f"{len(scored)} image{'s' if len(scored) > 1 else ''}"
     what = [f"run: {args.a} ({images}, the {'/'.join(models)} model); labels: {args.b}"]
     print(labels_table(rows, what + notes))
@@ -247,6 +255,6 @@ def cmd_compare_labels(args) -> int:
     if args.plot:
         from ..scoring.labels_figure import save_labels_figure
 
-        save_labels_figure(args.plot, scored)
+        save_labels_figure(args.plot, scored, FIGURE_ROWS)
         print(f"snn-fg: figure saved to {args.plot}")
     return 0

@@ -24,7 +24,7 @@ def _image(s):
     """The image the run read (its input, else the labels' own), or None when neither can be read."""
     from ..events.images import read_image
 
-    for path in ((s.maps.params.get("source") or {}).get("input"), s.labels.image_path):
+    for path in ((s.params.get("source") or {}).get("input"), s.labels.image_path):
         if path is not None and Path(path).is_file():
             try:
                 return read_image(path, grey=False)
@@ -48,9 +48,9 @@ def _distinct(s) -> list[tuple[int, str]]:
 
 def labels_figure(scored, max_rows: int = 6) -> Figure:
     """One row per image (at most ``max_rows``, evenly spaced) of :class:`~snn_fg.cli.compare_labels.Scored`."""
-    idx = rows_shown(len(scored), max_rows)
-    h, w = np.shape(scored[0].maps.fg_x)
-    n_lab = max(len(_distinct(s)) for s in scored)
+    idx = rows_shown(len(scored), max_rows)  # (the images the command kept the fields of)
+    h, w = np.shape(scored[idx[0]].fields[0])
+    n_lab = max(len(_distinct(scored[i])) for i in idx)
     cols = 2 + 2 * n_lab
     panel_w = panel_width(w / h)
     fig = Figure(figsize=(cols * panel_w + 2.6, (PANEL_IN + 0.5) * len(idx) + 1.0), layout="constrained")
@@ -65,7 +65,7 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
         row[0].set_title(f"image {s.image_id}", fontsize=9)
         fx, fy = s.fields
         row[1].imshow(fg_rgb(fx, fy), interpolation="nearest")
-        row[1].set_title(f"the run's vectors ({s.maps.params.get('model', '?')} model)", fontsize=9)
+        row[1].set_title(f"the run's vectors ({s.params.get('model', '?')} model)", fontsize=9)
         has = np.hypot(fx, fy) > 0
         for j, (k, who) in enumerate(_distinct(s)):
             tx, ty, valid = s.truths[k]

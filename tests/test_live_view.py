@@ -69,6 +69,12 @@ def test_the_page_serves_the_latest_window_as_three_panels_and_its_state(view):
     assert img["fg"][20, 10].tolist() == [255, 0, 0] and img["fg"][0, 0].tolist() == [0, 0, 0]  # (0 degrees: red)
     g = img["grouping"].astype(int).sum(axis=2)
     assert np.unravel_index(np.argmax(g), g.shape) == (12, 30)
+    status, kind, key = _get(view.port, "/key.png")  # (the figure-ground panel's colour wheel)
+    wheel = cv2.imdecode(np.frombuffer(key, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert status == 200 and kind == "image/png" and 'src="/key.png"' in page.decode()
+    h, w = wheel.shape[:2]
+    right = wheel[h // 2, int(w * 0.74), :3][::-1]  # (RGB, near the rim right of the centre: 0 degrees, red)
+    assert right[0] > 200 and right[1] < 80 and right[2] < 80, right
     with pytest.raises(urllib.error.HTTPError) as elsewhere:
         _get(view.port, "/nothing")
     assert elsewhere.value.code == 404

@@ -32,7 +32,8 @@ PAGE = """<!doctype html>
 <style>
 body {{ font-family: sans-serif; background: #222; color: #eee; margin: 1em; }}
 .panels {{ display: flex; gap: 1em; flex-wrap: wrap; }}
-figure {{ margin: 0; }} img {{ width: 320px; image-rendering: pixelated; background: #000; }}
+figure {{ margin: 0; }} img.panel {{ width: 320px; image-rendering: pixelated; background: #000; }}
+img.key {{ width: 90px; vertical-align: middle; }}
 </style></head>
 <body data-updates="0" data-window="">
 <h1>snn-fg live: {source}</h1>
@@ -60,7 +61,10 @@ poll();
 </script></body></html>
 """
 PANEL = '<figure><img class="panel" id="{name}" alt="{title}" onload="this.dataset.loaded = this.naturalWidth">'
-PANEL += "<figcaption>{title}</figcaption></figure>"
+PANEL += "<figcaption>{title}{key}</figcaption></figure>"
+#: the figure-ground panel's key: the colour wheel of maps.png (hue: the direction towards the figure, x right and
+#: y up; brightness: strength), drawn once as the page is made
+KEY = ' <img class="key" src="/key.png" alt="colour wheel: hue is the direction, 0 degrees right, 90 up">'
 
 
 class LiveView:
@@ -70,7 +74,8 @@ class LiveView:
     def __init__(self, port: int, source: str = "", host: str = "127.0.0.1"):
         from snn_fg.results import figures  # noqa: F401 - (matplotlib loaded now, not as the first window is shown)
 
-        panels = "".join(PANEL.format(name=k, title=v) for k, v in PANELS.items())
+        panels = "".join(PANEL.format(name=k, title=v, key=KEY if k == "fg" else "") for k, v in PANELS.items())
+        self.key = _wheel_png()
         self.page = PAGE.format(source=source, panels=panels, poll_ms=POLL_MS).encode()
         self.lock = threading.Lock()
         self.latest = None  # (message, arrays) of the latest window
@@ -129,6 +134,23 @@ def panel_rgb(panel: str, pos, neg, fg_x, fg_y, grouping) -> np.ndarray:
     return colormaps[GROUPING_CMAP](np.clip(g / top, 0, 1))[..., :3]
 
 
+def _wheel_png() -> bytes:
+    """The colour wheel of :func:`~snn_fg.results.figures.draw_wheel` as a PNG, light on the page's dark ground."""
+    import io
+
+    from matplotlib import rc_context
+    from matplotlib.figure import Figure  # (no pyplot: nothing global, no GUI backend)
+
+    from snn_fg.results.figures import draw_wheel
+
+    with rc_context({"text.color": "#eee"}):
+        fig = Figure(figsize=(1.2, 1.1), dpi=100)
+        draw_wheel(fig.add_axes([0, 0, 1, 1]))
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", transparent=True)
+    return buf.getvalue()
+
+
 def _encode(rgb: np.ndarray) -> bytes:
     import cv2
 
@@ -142,6 +164,8 @@ def _handler(view: LiveView):
             path = urlsplit(self.path).path.strip("/")  # (?w=K only makes each window's address its own)
             if path in ("", "index.html"):
                 self._send(200, "text/html; charset=utf-8", view.page)
+            elif path == "key.png":
+                self._send(200, "image/png", view.key)
             elif path == "state.json":
                 self._send(200, "application/json", json.dumps(view.state()).encode())
             elif path.endswith(".png") and path[:-4] in PANELS:

@@ -33,7 +33,7 @@ def test_a_first_run_says_that_it_compiles(monkeypatch):
 
 
 def test_the_progress_bar_appears_once_the_first_steps_are_done(monkeypatch):
-    from snn_fg import progress
+    from snn_fg.results import progress
 
     calls, made_after = [0], []
     real = fast_core.run_steps

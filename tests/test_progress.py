@@ -6,10 +6,10 @@ import io
 import numpy as np
 from tqdm import tqdm
 
-from snn_fg import progress
 from snn_fg.cli.main import main
 from snn_fg.events import image_to_events
 from snn_fg.frames.scenes import disc
+from snn_fg.results import progress
 
 
 class Clock:

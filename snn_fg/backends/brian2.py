@@ -273,14 +273,14 @@ class Brian2Backend(Backend):
 @contextlib.contextmanager
 def _progress_bar(settings: RunSettings):
     """A factory of Brian2 ``report`` callbacks, one per run segment (steps
-    ``start..end``), driving one progress bar (:mod:`snn_fg.progress`) in simulated ms (or giving None).
+    ``start..end``), driving one progress bar (:mod:`snn_fg.results.progress`) in simulated ms (or giving None).
 
     The bar appears with Brian2's first report, once the code is compiled and
     the simulation runs, so it never sits at 0 % during the compilation."""
     if not settings.progress:
         yield lambda start, end: None
         return
-    from ..progress import bar
+    from ..results.progress import bar
 
     state = {"bar": None, "ms": 0}
 

@@ -34,9 +34,9 @@ from ..errors import install_hint
 from ..lowering.quantise import quantise_unrolled
 from ..lowering.unroll import Unrolled, unroll
 from ..network.graph import Network
-from ..progress import bar as progress_bar
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from ..pynn.simulator import import_simulator
+from ..results.progress import bar as progress_bar
 from . import cancel
 from .base import Backend, RunSettings, SimulationResult, importable, input_masks, lif_populations, source_offsets
 
@@ -247,7 +247,7 @@ def _collect(net, un: Unrolled, settings: RunSettings):
 
 @contextlib.contextmanager
 def _progress(settings: RunSettings):
-    """A callback ``report(done_ms)`` driving a progress bar (:mod:`snn_fg.progress`; or None)."""
+    """A callback ``report(done_ms)`` driving a progress bar (:mod:`snn_fg.results.progress`; or None)."""
     if not settings.progress:
         yield None
         return

@@ -30,9 +30,9 @@ from tqdm import tqdm
 from ..backends.cores import usable_cores
 from ..errors import InputError, InputWarning, SnnFgError, install_hint
 from ..events.formats import SUFFIX_FORMAT, looks_like
-from ..progress import bar as progress_bar
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
+from ..results.progress import bar as progress_bar
 from ..results.store import STORE_NAME, read_attrs, windows_complete
 
 #: the summary table's name in the output folder, and its columns

@@ -20,10 +20,10 @@ from ..events import EmptyWindowWarning, RecordingWindows, iter_recording
 from ..events.activity import pixel_share, saturated_lines
 from ..frames.still import Still
 from ..models import Model
-from ..progress import bar
 from ..results.activity import Activity
 from ..results.maps import Maps
 from ..results.overview import input_images, overview_options, write_run_tables
+from ..results.progress import bar
 from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
 
 #: events read at a time from a recording a model runs on (1.6 MB): the

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from snn_fg.errors import SnnFgError
-from snn_fg.progress import bar
 from snn_fg.results.atomic import atomic_path
+from snn_fg.results.progress import bar
 
 #: bytes read per step of a download or a checksum
 CHUNK_BYTES = 1 << 20

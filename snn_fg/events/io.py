@@ -32,7 +32,7 @@ from snn_fg.events._core import (
 )
 from snn_fg.events.formats import FORMATS, check_format_options, detect_format, refuse_options
 from snn_fg.events.source import DecodeTally, Source
-from snn_fg.progress import bar
+from snn_fg.results.progress import bar
 
 DEFAULT_CHUNK = 1_000_000
 

@@ -346,7 +346,7 @@ def zeroed(n: int, dtype) -> np.ndarray:
 
 
 class _progress:
-    """A callable advancing a progress bar (:mod:`snn_fg.progress`) by simulated steps (or doing nothing).
+    """A callable advancing a progress bar (:mod:`snn_fg.results.progress`) by simulated steps (or doing nothing).
     The bar appears when the first steps are done, so it never sits at 0
     while the engine's code compiles."""
 
@@ -358,7 +358,7 @@ class _progress:
 
     def __call__(self, steps: int):
         if self.bar is None and self.settings.progress:
-            from ...progress import bar
+            from ...results.progress import bar
 
             self.bar = bar("simulating", "ms", round(self.settings.duration_ms))
         if self.bar is not None:

@@ -127,14 +127,14 @@ class Loihi2Backend(Backend):
 
 
 class _Progress:
-    """A callable advancing a progress bar (:mod:`snn_fg.progress`) by simulated steps (or doing nothing)."""
+    """A callable advancing a progress bar (:mod:`snn_fg.results.progress`) by simulated steps (or doing nothing)."""
 
     def __init__(self, settings: RunSettings):
         self.settings, self.bar = settings, None
 
     def __enter__(self):
         if self.settings.progress:
-            from ...progress import bar
+            from ...results.progress import bar
 
             self.bar = bar("simulating", "ms", round(self.settings.duration_ms))
         return self

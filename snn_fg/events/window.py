@@ -123,7 +123,7 @@ class RecordingWindows:
         self.recording, self.options = recording_or_path, options
 
     def __iter__(self):
-        return iter_windows(self.recording, **self.options)
+        return _cut_windows(self)
 
     def cut(self, owner: str = "RecordingWindows"):
         """The recording's event chunks (a :class:`~snn_fg.events.io.RecordingStream`, read
@@ -192,22 +192,58 @@ def iter_windows(
       and the format options of :mod:`snn_fg.events.formats` (``encoding``,
       ``codec``, ``channel``, ``timer_bits``); an option that does not apply
       to the recording's format is a ParameterError.
+    * It returns an iterator, read once like a generator, that can also hand
+      the spiking model its events as read (:class:`WindowIterator`): given to
+      ``model.run_windows`` whole, a run cut by ``max_windows`` reads on through
+      the last window's read-out lag, as ``snn-fg run --max-windows`` does (a
+      ``list`` of the windows ends with the last one: its lag runs without input).
     """
-    stream, cut = RecordingWindows(
-        recording_or_path,
-        window_ms=window_ms,
-        start_ms=start_ms,
-        stride_ms=stride_ms,
-        max_windows=max_windows,
-        denoise_us=denoise_us,
-        refractory_us=refractory_us,
-        **read_options,
-    ).cut("iter_windows")
+    return WindowIterator(
+        RecordingWindows(
+            recording_or_path,
+            window_ms=window_ms,
+            start_ms=start_ms,
+            stride_ms=stride_ms,
+            max_windows=max_windows,
+            denoise_us=denoise_us,
+            refractory_us=refractory_us,
+            **read_options,
+        )
+    )
+
+
+def _cut_windows(windows: RecordingWindows):
+    """The windows of ``windows``, cut as they are read (the generator :func:`iter_windows` returned)."""
+    stream, cut = windows.cut("iter_windows")
     for chunk in stream:
         yield from cut.add(chunk)
         if cut.done:
             return
     yield from cut.finish()
+
+
+class WindowIterator:
+    """What :func:`iter_windows` returns: its windows read once (``for``, ``next``),
+    or (:meth:`cut`, before any is read) its events as read, for the spiking model,
+    which reads the last window out from the events after it as a longer run does."""
+
+    def __init__(self, windows: RecordingWindows):
+        self._windows, self._it = windows, None
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> EventWindow:
+        if self._it is None:
+            self._it = _cut_windows(self._windows)
+        return next(self._it)
+
+    def cut(self, owner: str = "iter_windows"):
+        """As :meth:`RecordingWindows.cut`; the iterator is used up by it."""
+        if self._it is not None:
+            raise InputError("<windows>", "windows of iter_windows already read: they are read once; call it again")
+        self._it = iter(())
+        return self._windows.cut(owner)
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ import argparse
 
 from ..backends import DEFAULT_BACKEND, backend_names
 from ..errors import InputError
-from ..models import MODELS
+from ..models import MODELS, get_model
 from ..network.graph import HELD_CODINGS, INPUT_CODINGS
 from ..network.recipes import model_params_of
 from ..params import EDGE_OPERATORS, ModelParams
@@ -299,4 +299,4 @@ def chosen_model(args, kind):
         if k in options:
             options[k] = options[k] == "on"
     params = MODELS[args.model].base_params.replace(**given) if args.network is None else model_params_of(args.network)
-    return MODELS[args.model](params, iterations_bar(args.no_progress), **options)
+    return get_model(args.model, params, iterations_bar(args.no_progress), **options)

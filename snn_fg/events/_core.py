@@ -209,7 +209,10 @@ def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:
             bad = ~np.isfinite(col) | (col != np.round(col))
             if bad.any():
                 i = int(np.argmax(bad))
-                raise InputError(source, f"field {name} must hold integers, got {col[i]!r}", f"event {i + offset}")
+                unit = " microseconds (times in seconds: multiply by 1e6 and round to int64)" if name == "t" else ""
+                raise InputError(
+                    source, f"field {name} must hold integer{unit or 's'}, got {col[i]!r}", f"event {i + offset}"
+                )
         lim = (-_COORD_MAX - 1, _COORD_MAX) if name in "xy" else (np.iinfo(np.int64).min, np.iinfo(np.int64).max)
         if len(col) and col.dtype.kind != "b":
             bad = (col < lim[0]) | (col > lim[1])

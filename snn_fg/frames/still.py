@@ -22,6 +22,7 @@ from ..errors import InputError
 from ..events import events_to_frame, image_to_events
 from ..events.formats import SUFFIX_FORMAT
 from ..events.images import IMAGE_SUFFIXES, read_image
+from . import check as check_input
 from .scenes import demo
 
 
@@ -30,12 +31,34 @@ class Still:
     """A still input, what a model runs on once (a recording is run window by
     window): an event frame (``pos``, ``neg``) and/or an image, and for an
     image turned into events, the simulated camera's timed events
-    (``recording``, a :class:`~snn_fg.events.Recording`) the event frame was made of."""
+    (``recording``, a :class:`~snn_fg.events.Recording`) the event frame was made of.
+
+    * ``pos``, ``neg``: the event frame, two ``H x W`` arrays of one shape
+      (row 0 at the top of the image), uint8 or bool: 1 where the pixel's
+      last event was ON (``pos``) or OFF (``neg``), 0 elsewhere, as
+      :func:`~snn_fg.events.events_to_frame` and
+      :func:`~snn_fg.events.image_to_frame` make them. The event models
+      (rate, spiking, natural) run on it.
+    * ``image``: grey ``H x W`` or RGB ``H x W x 3``, floats in [0, 1] (an
+      8-bit image divided by 255), what the frame-based model (fbfg) runs on.
+
+    Anything else (one array of the frame missing, shapes that differ, RGB
+    frames, values outside [0, 1]) is refused here with an
+    :class:`~snn_fg.errors.InputError` (:mod:`snn_fg.frames.check`).
+    """
 
     pos: np.ndarray | None = None
     neg: np.ndarray | None = None
     image: np.ndarray | None = None
     recording: object | None = None
+
+    def __post_init__(self):
+        if self.pos is None and self.neg is None and self.image is None:
+            raise InputError("Still", "give an event frame (pos, neg) or an image")
+        if self.pos is not None or self.neg is not None:
+            check_input.event_frame("Still", self.pos, self.neg)
+        if self.image is not None:
+            check_input.image("Still", self.image)
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -25,10 +25,10 @@ from ..events.images import as_float_image
 from ..frames.still import Still
 from ..params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
 from ..results.maps import SPIKING_GROUPING_LABEL, Maps
+from . import checks
 
-# Each model's own package is imported by the methods that run it: the rate model compiles its numba loops
-# and the spiking model loads its backends on import (seconds), and a command runs one model; the figures
-# (matplotlib) are imported only by a run that draws.
+# Each model's own package is imported by the methods that run it: the rate model compiles its numba loops and
+# the spiking model loads its backends on import (seconds); the figures (matplotlib) only by a run that draws.
 
 
 class Model(ABC):
@@ -52,8 +52,7 @@ class Model(ABC):
     vector_at_every_event: ClassVar[bool] = False
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None):
-        self.params = params
-        self.progress = progress  # a factory wrapping iterables in a progress bar, or None
+        self.params, self.progress = params, progress  # progress: a factory wrapping iterables in a bar, or None
 
     @abstractmethod
     def run_still(self, still: Still) -> Maps:
@@ -70,7 +69,7 @@ class Model(ABC):
         ``start`` on (a run continued), in order; by default one window at a
         time (:meth:`run_window`), the windows before ``start`` skipped. A
         model whose windows carry state runs those too, and yields them not."""
-        for w in windows:
+        for w in checks.windows("run_windows", windows):
             if w.index >= start:
                 yield w, self.run_window(w)
 
@@ -155,7 +154,7 @@ class RateModel(Model):
         from .rate.edfg import run_edfg_state
 
         previous = None
-        for w in windows:
+        for w in checks.windows("run_windows", windows):
             if not (w.pos.any() or w.neg.any()):
                 previous = None
                 if w.index >= start:
@@ -324,10 +323,8 @@ class SpikingModel(Model):
         return self._run(pos=still.pos, neg=still.neg)
 
     def run_window(self, window) -> Maps:
-        """One window, run as a recording of that one window
-        (:meth:`run_windows`): its events at their own times, the window
-        clock, and the window plus the read-out lag simulated, as for every
-        window of a longer recording."""
+        """One window, run as a recording of that one window (:meth:`run_windows`): its events at their
+        own times, the window clock, and the window plus the read-out lag simulated, as in a longer one."""
         if not (window.pos.any() or window.neg.any()):
             return self.empty_maps(window.pos.shape)
         ((_, maps),) = self.run_windows([window])
@@ -355,7 +352,7 @@ class SpikingModel(Model):
 
         # without save_spikes the counts and spike trains would be dropped unread: not made
         keywords = self._keywords("recording", **({} if self.save_spikes else {"record_spikes": False}))
-        return stream_spiking_windows(windows, done, cells=self.save_spikes, **keywords)
+        return stream_spiking_windows(checks.windows("run_windows", windows), done, cells=self.save_spikes, **keywords)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
         """``maps.png``; and the spike raster and rate histograms where the
@@ -391,6 +388,12 @@ MODELS: dict[str, type[Model]] = {
 
 
 def get_model(name: str, params: ModelParams | None = None, progress=None, **options) -> Model:
-    """The model ``name`` (one of :data:`MODELS`) with its options (``params``: its own by default)."""
-    check.choice("model", "name", name, tuple(MODELS))
-    return MODELS[name](MODELS[name].base_params if params is None else params, progress, **options)
+    """The model ``name`` (one of :data:`MODELS`) with its options (a mistyped one is refused here, naming
+    the model's); ``params``: its own by default, or those of the ``network`` option (``"compact"``)."""
+    model = MODELS[check.choice("get_model", "name", name, tuple(MODELS))]
+    checks.model_options(name, options, model.options)
+    if params is None and options.get("network") is not None:
+        from ..network.recipes import model_params_of  # (a mistyped recipe name is refused here too)
+
+        params = model_params_of(options["network"])
+    return model(model.base_params if params is None else params, progress, **options)

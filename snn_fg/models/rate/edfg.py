@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import validate as check
+from ...frames.check import event_frame
 from ...frames.pool import pool_frame, unpool_maps
 from ...frames.pyramid import check_levels, level_shape, pyramid, resize
 from ...network.kernels import dog_kernels
@@ -263,6 +264,7 @@ def run_edfg_state(
     With ``params.input_pool > 1`` the model runs on the pooled frame
     (:mod:`snn_fg.frames.pool`) and its maps come back at the sensor's size.
     """
+    event_frame("run_edfg", pos, neg)
     sensor_edges = (np.asarray(pos) != 0) | (np.asarray(neg) != 0)
     pos, neg = pool_frame(pos, neg, params.input_pool)
     check_levels(np.shape(pos), params.levels, per_octave=params.levels_per_octave)

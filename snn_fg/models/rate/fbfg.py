@@ -34,6 +34,7 @@ import numpy as np
 from scipy import ndimage as ndi
 
 from ... import validate
+from ...frames import check as check_input
 from ...frames.pyramid import check_levels, pyramid
 from ...params import EDGE_OPERATORS, ModelParams
 from ...results.maps import Maps
@@ -148,6 +149,7 @@ def run_fbfg(image, params: ModelParams = ModelParams(), progress=None, edge_ope
     >>> maps.params["edge_operator"], maps.fg_x.shape
     ('corf', (64, 64))
     """
+    check_input.image("run_fbfg", image)
     img = np.asarray(image, dtype=np.float64)
     if params.input_pool != 1:
         validate.fail(

@@ -17,6 +17,7 @@ import numpy as np
 from ...backends import RunSettings, SimulationResult
 from ...errors import InputError
 from ...events.window import events_to_frame
+from ...frames.check import event_frame
 from ...frames.pool import pool_events, pool_frame, pooled_shape
 from ...lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ...network.graph import Network
@@ -38,11 +39,12 @@ class SpikingResult:
     record: SpikingRecord
 
 
-def _sensor_shape(pos, events, sensor_size) -> tuple[int, int]:
+def _sensor_shape(pos, neg, events, sensor_size) -> tuple[int, int]:
     """(rows, cols) of the input's sensor (the input is checked in full by :func:`_inputs`)."""
     if events is None:
-        if pos is None:
+        if pos is None and neg is None:
             raise InputError("<input>", "give events (with sensor_size) or both pos and neg")
+        event_frame("run_spiking", pos, neg)
         return np.shape(pos)[:2]
     if sensor_size is None:
         raise InputError("<events>", "sensor_size (width, height) is needed with events")
@@ -85,7 +87,7 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, **k
     t_start = time.perf_counter()
     opts = SpikingOptions.from_keywords("run_spiking", keywords, recording=False)
     frame, sim = opts.frame, opts.simulator
-    net, origin = opts.network.resolve(_sensor_shape(pos, events, sensor_size))
+    net, origin = opts.network.resolve(_sensor_shape(pos, neg, events, sensor_size))
     pool = net.params.input_pool
     sensor = None
     if pool > 1:

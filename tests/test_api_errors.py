@@ -1,0 +1,80 @@
+"""Wrong input to the Python API is one error naming the argument and the
+problem, raised where it comes in (snn_fg.errors' types), not a numpy,
+TypeError or AttributeError from deep inside a model (issue B)."""
+
+import inspect
+
+import numpy as np
+import pytest
+
+from snn_fg.errors import InputError, ParameterError
+from snn_fg.events import image_to_frame, iter_windows
+from snn_fg.frames.scenes import disc
+from snn_fg.models import Still, get_model
+from snn_fg.models.rate.edfg import run_edfg
+from snn_fg.models.rate.fbfg import run_fbfg
+from snn_fg.models.spiking import run_spiking
+
+
+@pytest.fixture(scope="module")
+def frame():
+    return image_to_frame(disc(12).image)
+
+
+def test_a_still_whose_frames_differ_in_shape_is_refused_before_the_model_runs(frame):
+    pos, neg = frame
+    with pytest.raises(InputError, match=r"Still: pos and neg differ in shape: \(64, 64\) vs \(63, 64\)"):
+        get_model("rate").run_still(Still(pos, neg[:-1]))
+    with pytest.raises(InputError, match="run_edfg: pos and neg differ in shape"):
+        run_edfg(pos, neg[:-1])
+    with pytest.raises(InputError, match="run_spiking: pos and neg differ in shape"):
+        run_spiking(pos, neg[:-1], progress=False)
+
+
+def test_rgb_frames_a_missing_frame_and_values_outside_0_1_are_refused(frame):
+    pos, neg = frame
+    rgb = [np.repeat(a[..., None], 3, axis=2) for a in frame]
+    with pytest.raises(InputError, match=r"pos has shape \(64, 64, 3\), not 2-D"):
+        Still(*rgb)
+    with pytest.raises(InputError, match="run_edfg: neg is None"):
+        run_edfg(pos, None)
+    with pytest.raises(InputError, match=r"pos holds values outside \[0, 1\] \(min 0, max 255\)"):
+        run_edfg(pos * 255.0, neg)
+    with pytest.raises(InputError, match=r"neg holds values outside \[0, 1\] \(min -1"):
+        Still(pos, -neg.astype(np.int8))
+    with pytest.raises(InputError, match=r"run_fbfg: image holds values outside \[0, 1\].*divided by 255"):
+        run_fbfg(disc(12).image * 255)
+    with pytest.raises(InputError, match=r"Still: image has shape \(64, 64, 2\)"):
+        Still(image=np.zeros((64, 64, 2)))
+    with pytest.raises(InputError, match="give an event frame"):
+        Still()
+
+
+def test_run_windows_refuses_a_path_and_stills_naming_what_to_give(frame):
+    for name in ("rate", "spiking"):
+        model = get_model(name)
+        with pytest.raises(InputError, match=r"dvs.es: run_windows takes windows, not a path: .*iter_windows\("):
+            list(model.run_windows("dvs.es"))
+        with pytest.raises(InputError, match="item 0 is a Still, not an EventWindow .*run_still"):
+            list(model.run_windows([Still(*frame)]))
+
+
+def test_get_model_refuses_an_unknown_option_and_network_naming_its_own():
+    with pytest.raises(ParameterError, match="get_model: model 'spiking' takes no option netwrok .*network, backend"):
+        get_model("spiking", netwrok="compact")
+    with pytest.raises(InputError, match=r"compactt: neither a network name \(default, compact\)"):
+        get_model("spiking", network="compactt")
+    assert get_model("spiking", network="compact").params.input_pool == 3  # (the compact network's own params)
+
+
+def test_float_timestamps_are_refused_as_integer_microseconds():
+    ev = np.zeros(3, dtype=[("x", "i2"), ("y", "i2"), ("t", "f8"), ("p", "i1")])
+    ev["t"] = [0.000654, 0.001, 0.002]
+    with pytest.raises(InputError, match="field t must hold integer microseconds .*multiply by 1e6"):
+        next(iter_windows(ev, sensor_size=(10, 10)))
+
+
+def test_help_of_still_says_dtype_range_and_shape():
+    doc = inspect.getdoc(Still)
+    for said in ("H x W", "uint8 or bool", "0 elsewhere", "floats in [0, 1]", "H x W x 3", "row 0 at the top"):
+        assert said in doc

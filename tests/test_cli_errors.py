@@ -197,3 +197,18 @@ def test_run_names_every_kind_of_input_for_an_unknown_extension_and_reads_webp(t
 
     maps = Maps.load(tmp_path / "o")
     assert maps.fg_x.shape == (48, 64) and np.hypot(maps.fg_x, maps.fg_y).max() > 0
+
+
+def test_a_sensor_given_by_hand_too_small_for_the_levels_is_questioned(tmp_path, capsys):
+    """An N-MNIST recording (34 x 34) run with --sensor-size 20x20 was refused for its levels alone
+    ("--levels 10 asks for more"); the real problem, the sensor, showed only at --levels 9."""
+    from snn_fg.cli import main
+    from snn_fg.events import EVENT_DTYPE, save_events
+
+    ev = np.zeros(40, EVENT_DTYPE)
+    ev["x"], ev["y"], ev["t"], ev["p"] = np.arange(40) % 34, np.arange(40) % 30, np.arange(40) * 1000, 1
+    save_events(tmp_path / "nmnist.npy", ev, (34, 34))
+    argv = ["run", str(tmp_path / "nmnist.npy"), "--out", str(tmp_path / "o"), "--no-progress"]
+    assert main([*argv, "--sensor-size", "20x20"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "at most 9 pyramid levels" in err and "(is --sensor-size 20x20 right?)" in err

@@ -130,9 +130,20 @@ def cmd_run(args) -> int:
 
 def _check_frame(args, model, shape) -> None:
     """The input's frame of ``shape`` (rows, cols) holds the model's levels and ``--crop``."""
-    check_levels(
-        pooled_shape(shape, model.params.input_pool), model.params.levels, args.input, model.params.levels_per_octave
-    )
+    try:
+        check_levels(
+            pooled_shape(shape, model.params.input_pool),
+            model.params.levels,
+            args.input,
+            model.params.levels_per_octave,
+        )
+    except InputError as e:
+        if getattr(args, "sensor_size", None) is None:
+            raise
+        # (a sensor given by hand too small for the recording is its real problem: it showed only at fewer levels)
+        raise InputError(
+            args.input, f"{e.problem} (is --sensor-size {args.sensor_size[0]}x{args.sensor_size[1]} right?)"
+        ) from None
     if args.crop is not None:
         check_crop(args.crop, shape, owner=f"{args.input}: --crop")
 

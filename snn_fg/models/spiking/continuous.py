@@ -66,8 +66,9 @@ def run_spiking_windows(windows, *, source: str = "<recording>", **keywords) -> 
         or :class:`~snn_fg.events.RecordingWindows`, whose events the network
         takes as they are read: memory does not grow with the recording).
         A list ends with its last window: that window's read-out lag runs
-        without input; :class:`~snn_fg.events.RecordingWindows` cut by
-        ``max_windows`` reads on through it (:func:`read_past_the_cut`).
+        without input; what ``iter_windows`` returns, or a
+        :class:`~snn_fg.events.RecordingWindows`, cut by ``max_windows``
+        reads on through it (:func:`read_past_the_cut`).
     params, spiking, network, backend, backend_options, dt_ms, calibrate, feedback, instantiate, record_spikes
         As for :func:`~snn_fg.models.spiking.run_spiking`.
     readout_lag_ms : float

@@ -47,7 +47,7 @@ def test_write_frame_of_chosen_window(recording, tmp_path):
     out = tmp_path / "frame.npz"
     run([path, "--window-ms", "50", "--start-ms", "100", "--write-frame", out])
     z = np.load(out)
-    assert set(z.files) == {"pos", "neg", "t_start_us", "t_end_us"}
+    assert set(z.files) == {"pos", "neg", "t_start_us", "t_end_us", "written_by"}  # (the mark: results.outputs)
     assert int(z["t_start_us"]) == 105_000 and int(z["t_end_us"]) == 155_000
     sel = ev[(ev["t"] >= 105_000) & (ev["t"] < 155_000)]
     pos, neg = events_to_frame(sel, (20, 10))

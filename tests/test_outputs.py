@@ -279,11 +279,35 @@ def test_files_that_exist_are_replaced_only_with_force(tmp_path, recording, caps
         assert out.read_bytes() == b"the user's"
         out.unlink()
         assert main([*argv, str(out)]) == 0
-        earlier = out.read_bytes()
-        out.write_bytes(earlier + b"\0")  # (told apart from what --force writes next)
+        os.utime(out, ns=(0, 0))  # (told apart from what --force writes next: the same bytes, another time)
         assert main([*argv, str(out), "--force"]) == 0
-        assert out.read_bytes() != earlier + b"\0"
+        assert out.stat().st_mtime_ns != 0
         capsys.readouterr()
+
+
+def test_force_never_replaces_a_users_photo_settings_or_recording_of_the_format(tmp_path, recording, capsys):
+    """A new user's ``compare ... --plot photo.png --force`` replaced their own photo: any PNG passed
+    for an earlier figure. Figures, .npz files and JSON records now carry snn-fg's mark, and --force
+    replaces a file of those formats only when it carries it: a real PNG, a JSON object and an events
+    .npz of the user's are refused and kept byte for byte."""
+    import cv2
+
+    a, b = _maps(tmp_path / "a"), _maps(tmp_path / "b", r0=6.0)
+    photo, settings, events = tmp_path / "photo.png", tmp_path / "settings.json", tmp_path / "mine.npz"
+    cv2.imwrite(str(photo), np.full((12, 16, 3), 200, np.uint8))
+    settings.write_text('{"threshold": 0.4, "schema": "my-lab/1"}')
+    np.savez(events, events=np.zeros(3), sensor_size=np.array([16, 12]))
+    kept = {p: p.read_bytes() for p in (photo, settings, events)}
+    for argv in (
+        ["compare", str(a), str(b), "--plot", str(photo)],
+        ["events", str(recording), "--no-progress", "--plot", str(photo)],
+        ["compare", str(a), str(b), "--json", str(settings)],
+        ["events", str(recording), "--no-progress", "--write-events", str(events)],
+    ):
+        assert main([*argv, "--force"]) == 2
+        err = _one_error(capsys)
+        assert "file snn-fg wrote: --force replaces only" in err and "has no mark" in err, err
+    assert all(p.read_bytes() == data for p, data in kept.items())
 
 
 @pytest.mark.slow

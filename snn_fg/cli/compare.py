@@ -121,8 +121,8 @@ def add_compare_command(sub):
     p.add_argument(
         "--force",
         action="store_true",
-        help="replace the files --json and --plot name if they are earlier ones of that kind "
-        "(a user's other file is refused)",
+        help="replace the files --json and --plot name if snn-fg wrote them (its mark in each figure and "
+        "record; a user's other file is refused)",
     )
     p.set_defaults(handler=cmd_compare)
     return p

@@ -61,8 +61,8 @@ def add_plot_command(sub):
     p.add_argument(
         "--force",
         action="store_true",
-        help="replace figures and files that exist if they are earlier ones of that kind "
-        "(a user's other file is refused)",
+        help="replace figures and files that exist if snn-fg wrote them (its mark in each figure; a GIF or MP4 "
+        "by its format; a user's other file is refused)",
     )
     p.set_defaults(handler=cmd_plot)
     return p

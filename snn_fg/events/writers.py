@@ -12,6 +12,7 @@ from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events._core import as_events, check_in_sensor, check_monotonic, sensor_size_parameter
 from snn_fg.results.atomic import atomic_path
+from snn_fg.results.outputs import MARK
 
 #: Largest sensor side EVT2/EVT3 can address (11-bit coordinates).
 PROPHESEE_MAX_SIZE = 2048
@@ -166,7 +167,7 @@ def save_events(path, events, sensor_size, encoding: str | None = None) -> Path:
     elif suffix == ".npz":
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
-                np.savez(fh, events=ev, sensor_size=np.array(size, dtype=np.int64))
+                np.savez(fh, events=ev, sensor_size=np.array(size, dtype=np.int64), written_by=np.array(MARK))
     elif suffix == ".raw":
         enc = encoding.lower() if isinstance(encoding, str) else (encoding or "evt2")
         validate.choice("save_events", "encoding", enc, ("evt2", "evt3"))

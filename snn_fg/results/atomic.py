@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .outputs import RUN_FOLDER, WORKING_PREFIX, FolderKind, check_output_folder, check_writable, writing
+from .outputs import MARK, RUN_FOLDER, WORKING_PREFIX, FolderKind, check_output_folder, check_writable, writing
 
 
 @contextlib.contextmanager
@@ -64,11 +64,12 @@ def _write_npy(fh, value):
 
 
 def save_npz(path, **arrays) -> Path:
-    """Write an uncompressed ``.npz`` atomically and return its path."""
+    """Write an uncompressed ``.npz`` atomically and return its path; it carries the member
+    ``written_by`` (:data:`~snn_fg.results.outputs.MARK`), so that ``--force`` knows it for ours."""
     path = Path(path)
     with atomic_path(path, suffix=".npz") as tmp:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
-            for name, value in arrays.items():
+            for name, value in {**arrays, "written_by": np.array(MARK)}.items():
                 with zf.open(f"{name}.npy", "w", force_zip64=True) as fh:
                     _write_npy(fh, value)
     return path
@@ -100,10 +101,14 @@ def save_text(path, text: str) -> Path:
 
 
 def save_figure(fig, path, **kwargs) -> Path:
-    """Save a matplotlib figure atomically (format from ``path``'s suffix)."""
+    """Save a matplotlib figure atomically (format from ``path``'s suffix); a PNG's ``Software``
+    text is :data:`~snn_fg.results.outputs.MARK`, so that ``--force`` knows it for ours."""
     path = Path(path)
+    kind = path.suffix.lstrip(".").lower() or "png"
+    if kind == "png":
+        kwargs["metadata"] = {**kwargs.get("metadata", {}), "Software": MARK}
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", **kwargs)
+        fig.savefig(tmp, format=kind, **kwargs)
     return path
 
 

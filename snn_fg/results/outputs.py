@@ -20,8 +20,10 @@ from __future__ import annotations
 import contextlib
 import errno
 import fnmatch
+import json
 import os
 import tempfile
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -168,28 +170,58 @@ _SIGNATURES = {
     ".npy": (b"\x93NUMPY",),
     ".gif": (b"GIF87a", b"GIF89a"),
 }
+#: what marks a file snn-fg wrote, where its format has room for it: a PNG's ``Software`` text
+#: (:func:`~snn_fg.results.atomic.save_figure`), an ``.npz``'s member ``written_by``
+#: (:func:`~snn_fg.results.atomic.save_npz`, ``save_events``), a JSON object's ``snn_fg_version`` or
+#: ``schema`` ``snn-fg.*`` (compare's and export's records, a network description)
+MARK = "snn-fg"
+#: the formats whose files carry :data:`MARK`: --force replaces one only when it does
+MARKED = (".png", ".npz", ".json")
 
 
 def _of_kind(path: Path, suffix: str) -> bool:
-    """Whether the file ``path`` begins as a ``suffix`` file snn-fg writes does (see :data:`_SIGNATURES`)."""
+    """Whether the file ``path`` is one snn-fg wrote, as far as its format tells: :data:`MARK` in
+    the formats of :data:`MARKED`, its first bytes (:data:`_SIGNATURES`) or suffix in the others."""
     try:
         with open(path, "rb") as fh:
-            head = fh.read(16)
+            head = fh.read(8192)
     except OSError:
         return False
     if suffix == ".json":
-        return head.lstrip()[:1] in (b"{", b"[")
+        return _marked_json(path) if head.lstrip()[:1] == b"{" else False
     if suffix == ".mp4":
         return head[4:8] == b"ftyp"
-    return head.startswith(_SIGNATURES.get(suffix, (b"",)))
+    if not head.startswith(_SIGNATURES.get(suffix, (b"",))):
+        return False
+    if suffix == ".png":  # (matplotlib writes the text chunks before the image data)
+        return b"Software\x00" + MARK.encode() in head
+    if suffix == ".npz":
+        try:
+            with zipfile.ZipFile(path) as zf:
+                return "written_by.npy" in zf.namelist()
+        except (OSError, zipfile.BadZipFile):
+            return False
+    return True
+
+
+def _marked_json(path: Path) -> bool:
+    try:
+        if path.stat().st_size > 64 << 20:  # (snn-fg's records are small: a user's data set is not read)
+            return False
+        record = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    schema = record.get("schema") if isinstance(record, dict) else None
+    return isinstance(record, dict) and ("snn_fg_version" in record or str(schema).startswith(MARK + "."))
 
 
 def check_output_file(out, force: bool, flag: str = "--out", suffixes: tuple[str, ...] = ()) -> Path:
     """A file a command writes (``flag`` names it; ``suffixes``: the names it may have, the first
     the one it is usually given), by the folders' rule: not a folder; a name with another suffix is
     refused (one line saying which); an existing file is replaced only with ``force`` and only when
-    it is of the kind being written (its suffix and, where cheap, its first bytes: a user's notes
-    named ``--out notes.txt`` or ``notes.nir`` are never replaced); and in a place that can be
+    snn-fg wrote it, as far as its format tells (:func:`_of_kind`: a figure, an ``.npz`` or a JSON
+    record by the mark it carries, so a user's photo, recording or settings of that name are never
+    replaced; the other formats by their first bytes and suffix); and in a place that can be
     written. Checked before the work starts; nothing is touched when refused. Returns it as a Path."""
     out = Path(out)
     if out.is_dir():
@@ -201,10 +233,16 @@ def check_output_file(out, force: bool, flag: str = "--out", suffixes: tuple[str
         if not force:
             raise InputError(out, "exists; pass --force to replace it")
         if out.is_symlink() or not out.is_file() or not _of_kind(out, suffix):
+            marked = (
+                f" (snn-fg marks each {suffix} file it writes, and this one has no mark; one it wrote before"
+                " 30 Nov 2026 has none either: remove it by hand if it is one)"
+                if suffix in MARKED
+                else ""
+            )
             raise InputError(
                 out,
                 f"is not a {suffix or 'such'} file snn-fg wrote: --force replaces only an earlier output of the "
-                "kind being written; nothing was changed; choose another file name",
+                f"kind being written; nothing was changed; choose another file name{marked}",
             )
     check_writable(out)
     return out

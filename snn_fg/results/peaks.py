@@ -4,7 +4,7 @@ grouping map's local maxima and the figure-ground map's mean direction around ea
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
+from numba import njit
 
 #: how far apart two peaks are at least, and the disc the direction is averaged over (px)
 PEAK_RADIUS = 8
@@ -26,8 +26,7 @@ def grouping_peaks(maps, k: int = 3, radius: int = PEAK_RADIUS) -> list[dict]:
     g = np.nan_to_num(np.asarray(maps.grouping))
     if g.dtype.kind != "f":
         g = g.astype(np.float64)
-    top = (g == ndimage.maximum_filter(g, size=2 * radius + 1, mode="constant")) & (g > 0)
-    ys, xs = np.nonzero(top)
+    ys, xs = local_maxima(g, radius)
     order = np.argsort(-g[ys, xs], kind="stable")
     out, taken = [], []
     h, w = g.shape
@@ -48,3 +47,37 @@ def grouping_peaks(maps, k: int = 3, radius: int = PEAK_RADIUS) -> list[dict]:
         if len(out) == k:
             break
     return out
+
+
+@njit(cache=True)
+def local_maxima(g, radius):
+    """``np.nonzero((g == maximum_filter(g, 2 * radius + 1, mode="constant")) & (g > 0))``
+    of a 2-D map: the pixels above zero that no pixel within the square of side
+    ``2 * radius + 1`` around them exceeds (the constant mode's zeros beyond the edge
+    exceed none of them), in row-major order. A pixel is first tested against its
+    eight neighbours, which rule out nearly every pixel of a smooth map, and only
+    then against the whole square: the comparisons are those of the filter, so the
+    pixels are the same."""
+    h, w = g.shape
+    ys, xs = np.empty(h * w, np.int64), np.empty(h * w, np.int64)
+    n = 0
+    for y in range(h):
+        for x in range(w):
+            v = g[y, x]
+            if not v > 0:
+                continue
+            top = True
+            for r in (1, radius):
+                for yy in range(max(y - r, 0), min(y + r + 1, h)):
+                    for xx in range(max(x - r, 0), min(x + r + 1, w)):
+                        if g[yy, xx] > v:
+                            top = False
+                            break
+                    if not top:
+                        break
+                if not top:
+                    break
+            if top:
+                ys[n], xs[n] = y, x
+                n += 1
+    return ys[:n], xs[:n]

@@ -269,3 +269,30 @@ def test_maps_come_from_the_package_and_print_as_one_short_line(tmp_path):
     assert "\n" not in text and len(text) < 300
     assert text.startswith("Maps(3 windows of 4 x 3, model 'spiking'") and "spikes_0" in text
     assert str(m) == text
+
+
+def test_a_growing_array_keeps_its_chunk_until_full_or_flushed_and_reads_back_the_same(tmp_path):
+    """Chunks of several rows: a full chunk is written once (in place before any flush
+    wrote it, atomically after), the chunk being filled at a flush (its rows past the
+    length as fill values, though its buffer held an earlier chunk's rows); every
+    row reads back as appended, by us and by zarr-python."""
+    from snn_fg.results.zarr_array import GrowingArray, ZarrArray
+
+    a = GrowingArray.create(tmp_path / "a", np.float32, (2, 3), 4)
+    replaced = []
+    a.replace = lambda p, data: replaced.append(p.name) or write_bytes(p, data)
+    rows = np.arange(14 * 6, dtype=np.float32).reshape(14, 2, 3) + 1
+    for i in range(9):  # (chunks 0 and 1 full and written in place, chunk 2 holds row 8)
+        a.append(rows[i : i + 1])
+    assert replaced == [] and sorted(p.name for p in a.path.glob("[0-9]*")) == ["0.0.0", "1.0.0"]
+    a.flush()  # (chunk 2 on disk: row 8, then fill values, not chunk 0's rows its buffer held)
+    assert replaced == ["2.0.0"]
+    np.testing.assert_array_equal(a.chunk(2)[1:], 0)
+    a.append(rows[9:12])  # (chunk 2 full: a flush wrote it, so it is replaced)
+    assert replaced == ["2.0.0", "2.0.0"]
+    a.append(rows[12:14])
+    a.flush()
+    a.write_shape()
+    np.testing.assert_array_equal(np.asarray(ZarrArray(a.path)), rows)
+    zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
+    np.testing.assert_array_equal(zarr.open_array(str(a.path), mode="r")[:], rows)

@@ -130,6 +130,27 @@ def test_edge_normals_of_events_in_part_of_the_frame_are_scipys_bit_for_bit(shap
         assert np.array_equal(g, w)
 
 
+def test_the_smoothing_passes_over_the_rows_within_reach_of_a_value_only_and_gives_scipys_bits():
+    """The two smoothing passes of the edge normals leave out the rows no value reaches
+    (and, along axis 0, the columns outside the values'): the same bits as
+    scipy.ndimage's Gaussian, a -0.0 included, and the rows they left out."""
+    from scipy.ndimage import gaussian_filter
+
+    from snn_fg.frames.pool import _gaussian_weights, _smooth_cols, _smooth_rows
+
+    rng = np.random.default_rng(5)
+    x = np.zeros((40, 50))
+    x[10:14, 20:30] = rng.random((4, 10))
+    x[30, 5], x[38, 49] = -0.0, 1.0
+    w = _gaussian_weights(NORMAL_SIGMA)
+    smooth, e, live = np.zeros_like(x), np.zeros_like(x), np.empty(40, bool)
+    _smooth_rows(x, w, smooth, live)
+    _smooth_cols(smooth, w, e, live)
+    want = gaussian_filter(x, NORMAL_SIGMA)
+    assert np.array_equal(e, want) and np.array_equal(np.signbit(e), np.signbit(want))
+    assert np.flatnonzero(live).tolist() == [*range(6, 18), *range(26, 40)]
+
+
 @pytest.mark.parametrize("dtype", [bool, np.uint8, np.int8, np.float32])
 @pytest.mark.parametrize("shape", [(24, 32), (1, 7), (7, 1), (0, 5), (5, 0)])
 def test_event_pixels_are_nonzeros_arrays(shape, dtype):

@@ -17,6 +17,8 @@ camera's events), so the network's spike sources are the blocks.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -101,10 +103,9 @@ def edge_normals(edges: np.ndarray, pool: int, at=None):
         out = np.ones(rows.size), np.zeros(rows.size), np.zeros(rows.size)
         return out if at is not None else tuple(a.reshape(shape) for a in out)
     w1 = _gaussian_weights(NORMAL_SIGMA)
-    smooth = np.empty_like(e0)
-    _smooth_rows(e0, w1, smooth)
-    e = np.empty_like(e0)
-    _smooth_cols(smooth, w1, e)
+    smooth, e, live = np.zeros_like(e0), np.zeros_like(e0), np.empty(shape[0], np.bool_)
+    _smooth_rows(e0, w1, smooth, live)
+    _smooth_cols(smooth, w1, e, live)
     j = np.empty((3, rows.size))
     _block_tensor(e, _gaussian_weights(float(pool)), rows, cols, j)
     jxx, jyy, jxy = j
@@ -139,27 +140,56 @@ def _mirror(i, n):
 # so their sums are its sums bit for bit.
 
 
+@njit(cache=True, inline="always")
+def _held(v):
+    """Whether ``v`` is anything but +0.0 (a pass over +0.0 alone gives +0.0: no product
+    of it, no sum with it changes a bit; -0.0 and NaN are passed over as they are)."""
+    return v != 0.0 or math.copysign(1.0, v) < 0.0
+
+
 @njit(cache=True)
-def _smooth_rows(x, w, out):
-    """``x`` smoothed along axis 0 by the symmetric kernel ``w``."""
-    h = x.shape[0]
+def _smooth_rows(x, w, out, live):
+    """``x`` smoothed along axis 0 by the symmetric kernel ``w`` into ``out``, which
+    holds +0.0 (np.zeros): only the rows within the kernel's reach of a row of ``x``
+    that holds a value (:func:`_held`), between the first and last column that
+    does, are computed, the rest being +0.0 in ``x`` too (a window's events cover
+    about two thirds of the frame's rows); ``live[i]``: row ``i`` was computed."""
+    h, n = x.shape
     r = (w.size - 1) // 2
+    held = np.zeros(h, np.bool_)
+    c0, c1 = n, -1
     for i in range(h):
-        o = out[i]
-        o[:] = x[i] * w[r]
+        for c in range(n):
+            if _held(x[i, c]):
+                held[i] = True
+                c0, c1 = min(c0, c), max(c1, c)
+    live[:] = False
+    for i in range(h):
+        for j in range(-r, r + 1):
+            if held[_mirror(i + j, h)]:
+                live[i] = True
+                break
+    for i in range(h):
+        if not live[i]:
+            continue
+        o = out[i, c0 : c1 + 1]
+        o[:] = x[i, c0 : c1 + 1] * w[r]
         for j in range(r, 0, -1):
-            a, b, wj = x[_mirror(i - j, h)], x[_mirror(i + j, h)], w[r - j]
+            a, b, wj = x[_mirror(i - j, h), c0 : c1 + 1], x[_mirror(i + j, h), c0 : c1 + 1], w[r - j]
             for c in range(o.size):
                 o[c] += (a[c] + b[c]) * wj
 
 
 @njit(cache=True)
-def _smooth_cols(x, w, out):
-    """``x`` smoothed along axis 1 by the symmetric kernel ``w``."""
+def _smooth_cols(x, w, out, live):
+    """``x`` smoothed along axis 1 by the symmetric kernel ``w`` into ``out`` (+0.0),
+    on the rows ``live`` only (the others of ``x`` are +0.0: :func:`_smooth_rows`)."""
     n = x.shape[1]
     r = (w.size - 1) // 2
     line = np.empty(n + 2 * r)
     for i in range(x.shape[0]):
+        if not live[i]:
+            continue
         for c in range(n + 2 * r):
             line[c] = x[i, _mirror(c - r, n)]
         o = out[i]

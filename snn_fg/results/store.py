@@ -42,7 +42,8 @@ zlib's time and a tenth smaller; zstd is a codec of zarr-python's numcodecs
 and of TensorStore); a store written with zlib (until 29 Nov 2026) reads
 and resumes in zlib.
 
-Nothing here keeps more than one chunk per array in memory.
+Nothing here keeps more than one chunk per array in memory (and the buffer of the
+last full one, which the next fills again).
 """
 
 from __future__ import annotations

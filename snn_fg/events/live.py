@@ -97,7 +97,7 @@ class LiveStream:
         self.slot_arrival: dict = {}  # slot -> time its last event arrived (perf_counter)
         self.events_received = self.events_dropped = self.outside = self.backwards = 0
         self.outside_reach = (0, 0)  # (the largest x and y of the events outside the sensor: the sensor they fit)
-        self.first_arrival = None  # (perf_counter of the first packet with events)
+        self.first_arrival = self.last_arrival = None  # (perf_counter of the first and latest packets with events)
         self.windows_dropped = 0
         self.windows_skipped = 0  # (hops whose read-out was skipped for a newer one: stale)
         self.skipped_windows: list = []  # (their numbers: the timeline tells them from dropped ones)
@@ -134,6 +134,7 @@ class LiveStream:
         )
         if self.first_arrival is None:
             self.first_arrival = arrived
+        self.last_arrival = arrived
         if outside:
             self.outside += outside
             self.outside_reach = (

@@ -138,13 +138,14 @@ class LiveRecord:
         }
 
     def _cpu(self) -> dict:
-        """``streamed_s``: wall seconds from the first event's arrival to now; ``cpu_s``: the process's CPU
-        seconds (every thread) since the warm-up, ``model_cpu_s`` the model's thread's (asked on that thread);
-        ``cores``: the cores it may run on. A model behind its stream whose thread ran nearly all of
-        ``streamed_s`` is slower than the stream on this machine; one that ran much less waited for a core."""
-        arrived = self.stream.first_arrival
+        """``streamed_s``: wall seconds from the first event's arrival to the last's (the silence that ends a
+        UDP stream left out); ``cpu_s``: the process's CPU seconds (every thread) since the warm-up,
+        ``model_cpu_s`` the model's thread's (asked on that thread); ``cores``: the cores it may run on. A
+        model behind its stream whose run used nearly all of ``streamed_s`` on its cores is slower than the
+        stream on this machine; one that used much less waited for a core."""
+        first, last = self.stream.first_arrival, self.stream.last_arrival
         return {
-            "streamed_s": None if arrived is None else round(time.perf_counter() - arrived, 3),
+            "streamed_s": None if first is None else round(last - first, 3),
             "cpu_s": round(time.process_time() - self.cpu_start, 3),
             "model_cpu_s": round(time.thread_time() - self.thread_cpu_start, 3),
             "cores": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),

@@ -128,4 +128,5 @@ def test_the_live_page_in_a_headless_browser_loads_shows_the_three_panels_and_up
         img = re.search(rf'<img[^>]*id="{name}"[^>]*>', dom).group(0)
         assert 'data-loaded="40"' in img, img  # (naturalWidth: the PNG decoded)
     status = re.search(r'<p id="status">([^<]*)</p>', dom).group(1)
-    assert re.match(r"window \d+, \d+-\d+ ms, 2 events, latency 12.5 ms, strongest proto-object at \(30, 12\)", status)
+    head = r"window \d+, \d+-\d+ ms, 2 events, latency 12.5 ms, "
+    assert re.match(head + r"strongest proto-object at x 30, y 12 \(from the top left\)", status)

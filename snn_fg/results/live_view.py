@@ -47,7 +47,8 @@ async function poll() {{
     if (s.window !== null && s.window !== shown) {{
       shown = s.window;
       for (const img of document.querySelectorAll('img.panel')) img.src = '/' + img.id + '.png?w=' + s.window;
-      const p = s.peaks.length ? `, strongest proto-object at (${{s.peaks[0].x}}, ${{s.peaks[0].y}})` : '';
+      const k = s.peaks[0];
+      const p = k ? `, strongest proto-object at x ${{k.x}}, y ${{k.y}} (from the top left)` : '';
       document.getElementById('status').textContent = `window ${{s.window}}, ` +
         `${{(s.t_start_us / 1000).toFixed(0)}}-${{(s.t_end_us / 1000).toFixed(0)}} ms, ${{s.events}} events, ` +
         `latency ${{s.latency_ms === null ? '-' : s.latency_ms.toFixed(1)}} ms${{p}}`;

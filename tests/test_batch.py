@@ -100,3 +100,19 @@ def test_a_recording_named_txt_is_refused_as_a_list_in_one_line(tmp_path, capsys
     assert "atis.txt: not a list of paths: a .txt INPUT is read as a list of recordings, one path a line" in err[0]
     assert "it looks like an Event Stream (.es) file: give it the suffix .es" in err[0] and "(at byte offset" in err[0]
     assert not (tmp_path / "o").exists()
+
+
+def test_a_folder_of_images_is_a_batch_as_their_glob_is(tmp_path, capsys):
+    """A new user's 'snn-fg run imgs --out batch' (BSDS images in a folder) was refused, 'names no
+    recording', while 'imgs/*.jpg' ran them: a folder's images are its inputs too, notes left out."""
+    import cv2
+
+    imgs = tmp_path / "imgs"
+    imgs.mkdir()
+    for name in ("b.png", "a.jpg"):
+        cv2.imwrite(str(imgs / name), np.full((24, 32, 3), 90, np.uint8))
+    (imgs / "notes.txt").write_text("mine")
+    assert [p.name for p in recordings_of(str(imgs))] == ["a.jpg", "b.png"]
+    (tmp_path / "none").mkdir()
+    assert main(["run", str(tmp_path / "none"), "--out", str(tmp_path / "o")]) == 2
+    assert "names no recording or image (a folder of recordings or images" in capsys.readouterr().err

@@ -30,6 +30,7 @@ from tqdm import tqdm
 from ..backends.cores import usable_cores
 from ..errors import InputError, InputWarning, SnnFgError, install_hint
 from ..events.formats import SUFFIX_FORMAT, looks_like
+from ..events.images import IMAGE_SUFFIXES
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
 from ..results.progress import bar as progress_bar
@@ -48,12 +49,13 @@ def is_dataset(spec: str) -> bool:
 
 
 def recordings_of(spec: str) -> list[Path]:
-    """The recordings INPUT names: a folder's files with a recording's suffix
-    (sorted), a glob's matches, or a list file's lines (blank lines and
+    """The recordings INPUT names: a folder's files with a recording's or an
+    image's suffix (sorted), a glob's matches, or a list file's lines (blank lines and
     ``#`` comments skipped, relative paths from the list's folder)."""
     path = Path(spec)
     if path.is_dir():
-        found = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in SUFFIX_FORMAT)
+        runs = set(SUFFIX_FORMAT) | set(IMAGE_SUFFIXES)  # (a folder of images runs as a glob of them does)
+        found = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in runs)
     elif path.suffix.lower() == ".txt":
         lines = [line.strip() for line in _list_text(path).splitlines()]
         found = [
@@ -63,7 +65,9 @@ def recordings_of(spec: str) -> list[Path]:
     else:
         found = sorted(Path(p) for p in glob.glob(spec))
     if not found:
-        raise InputError(path, "names no recording (a folder of recordings, a glob or a .txt list of paths)")
+        raise InputError(
+            path, "names no recording or image (a folder of recordings or images, a glob or a .txt list of paths)"
+        )
     return found
 
 

@@ -118,7 +118,9 @@ def test_a_folder_of_runs_is_scored_per_image_and_pooled(disc_case, capsys, tmp_
     assert "1 failed run(s), not scored: other.png" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("case", ["size", "no_id", "garbage", "values", "recording_option"])
+@pytest.mark.parametrize(
+    "case", ["size", "no_id", "garbage", "values", "recording_option", "other_image", "rate_confidence"]
+)
 def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
     labels, write, (tx, ty, _) = disc_case
     run = write(tx, ty)
@@ -135,6 +137,16 @@ def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
     elif case == "values":
         b = tmp_path / "two.npz"
         np.savez(b, fg=np.full((1, SIZE, SIZE), 2, np.int8))
+    elif case == "other_image":  # (a new user scored 100080's run against 104022's labels: a note, exit 0)
+        run = write(tx, ty, "bsds_run")
+        params = Maps.load(run).params
+        params["source"]["input"] = str(tmp_path / "100080.jpg")
+        m = Maps.load(run)
+        Maps(m.fg_x, m.fg_y, m.grouping, params, m.extra).save(run / "maps.npz")
+        b = tmp_path / "104022.npz"
+        np.savez(b, fg=np.stack([_disc_labels()]))
+    elif case == "rate_confidence":  # (--min-confidence on a rate run's maps was silently a no-op)
+        extra = ["--min-confidence", "2"]
     else:
         extra = ["--window", "0"]
     out = tmp_path / "s.json"
@@ -147,6 +159,8 @@ def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
         "garbage": ("disc.npz",),
         "values": ("two.npz", "-1, 0 and 1"),
         "recording_option": ("--window", "human labels"),
+        "other_image": ("104022.npz", "image 104022", "image 100080"),
+        "rate_confidence": ("--min-confidence", "no fg_confidence"),
     }[case]
     assert all(w in err[0] for w in named), err[0]
 

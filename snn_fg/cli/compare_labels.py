@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import InputError
 from ..results.atomic import save_text
 from ..results.figures import rows_shown
-from ..results.maps import Maps
+from ..results.maps import CONFIDENCE, Maps
 from ..scoring.groundtruth import GroundTruth, boundary_directions, load_labels
 from ..scoring.label_scores import labeller_errors, pool_stats
 from ..scoring.metrics import confident
@@ -143,6 +143,13 @@ def score_run(run: Path, labels, min_confidence: float | None = None, keep: bool
             run, f"holds a recording's maps ({len(maps.fg_x)} windows); human labels score a still image's run"
         )
     image_id, path, image = _labels_path(run, maps, labels)
+    given = Path(str((maps.params.get("source") or {}).get("input") or "")).stem
+    if given.isdigit() and path.stem.isdigit() and given != path.stem:  # (two BSDS ids: another image's labels)
+        raise InputError(path, f"labels image {path.stem}, but the run ({run}) is of image {given}")
+    if min_confidence is not None and CONFIDENCE not in maps.extra:
+        raise InputError(
+            "--min-confidence", f"{run} holds no fg_confidence (its model has no spike counts): leave the option out"
+        )
     gt = load_labels(path, image, image_id)
     if gt.fg.shape[1:] != maps.fg_x.shape:
         h, w = maps.fg_x.shape

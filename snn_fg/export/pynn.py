@@ -47,6 +47,7 @@ from ..errors import InputError
 from ..lowering.input_spikes import InputSpikes
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
+from ..results.outputs import MARK
 from .board import board_network
 from .folder import (
     export_meta,
@@ -204,6 +205,7 @@ def save_input(inputs, path, dt_ms: float, origin: dict | None = None) -> Path:
         dt_ms=dt_ms,
         period_steps=-1 if inputs.period_steps is None else int(inputs.period_steps),
         shape=np.array(inputs.shape),
+        written_by=np.array(MARK),  # (so that --force knows it for ours: results.outputs)
         **extra,
     )
     return Path(path)

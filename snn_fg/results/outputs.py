@@ -172,8 +172,9 @@ _SIGNATURES = {
 }
 #: what marks a file snn-fg wrote, where its format has room for it: a PNG's ``Software`` text
 #: (:func:`~snn_fg.results.atomic.save_figure`), an ``.npz``'s member ``written_by``
-#: (:func:`~snn_fg.results.atomic.save_npz`, ``save_events``), a JSON object's ``snn_fg_version`` or
-#: ``schema`` ``snn-fg.*`` (compare's and export's records, a network description)
+#: (:func:`~snn_fg.results.atomic.save_npz`, ``save_events``, ``export.pynn.save_input``), a JSON
+#: object's ``snn_fg_version`` or ``schema`` ``snn-fg.*`` (compare's and export's records, a network
+#: description)
 MARK = "snn-fg"
 #: the formats whose files carry :data:`MARK`: --force replaces one only when it does
 MARKED = (".png", ".npz", ".json")

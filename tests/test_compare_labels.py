@@ -119,7 +119,8 @@ def test_a_folder_of_runs_is_scored_per_image_and_pooled(disc_case, capsys, tmp_
 
 
 @pytest.mark.parametrize(
-    "case", ["size", "no_id", "garbage", "values", "recording_option", "other_image", "rate_confidence"]
+    "case",
+    ["size", "no_id", "garbage", "values", "recording_option", "other_image", "rate_confidence", "wrong_key"],
 )
 def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
     labels, write, (tx, ty, _) = disc_case
@@ -145,6 +146,9 @@ def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
         Maps(m.fg_x, m.fg_y, m.grouping, params, m.extra).save(run / "maps.npz")
         b = tmp_path / "104022.npz"
         np.savez(b, fg=np.stack([_disc_labels()]))
+    elif case == "wrong_key":  # (labels saved under another name were called "not a maps file")
+        b = tmp_path / "mine.npz"
+        np.savez(b, foo=np.stack([_disc_labels()]))
     elif case == "rate_confidence":  # (--min-confidence on a rate run's maps was silently a no-op)
         extra = ["--min-confidence", "2"]
     else:
@@ -161,6 +165,7 @@ def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
         "recording_option": ("--window", "human labels"),
         "other_image": ("104022.npz", "image 104022", "image 100080"),
         "rate_confidence": ("--min-confidence", "no fg_confidence"),
+        "wrong_key": ("mine.npz", "nor human labels (fg)", "found foo"),
     }[case]
     assert all(w in err[0] for w in named), err[0]
 

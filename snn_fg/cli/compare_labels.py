@@ -65,11 +65,18 @@ def names_labels(spec) -> bool:
         return False
     try:
         with np.load(path, allow_pickle=False) as d:
-            return "fg" in d.files and "fg_x" not in d.files
+            keys = list(d.files)
     except Exception as exc:  # (zip, pickle and format errors from numpy)
         raise InputError(
             path, f"cannot read the .npz archive ({type(exc).__name__}: {exc}); B is a run's maps or human labels"
         ) from None
+    if "fg" not in keys and "fg_x" not in keys:  # (neither kind: say both, not only what maps lack)
+        raise InputError(
+            path,
+            "holds neither a run's maps (fg_x, fg_y, grouping) nor human labels (fg); "
+            f"found {', '.join(keys) or 'nothing'}",
+        )
+    return "fg" in keys and "fg_x" not in keys
 
 
 @dataclass

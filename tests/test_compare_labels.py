@@ -120,7 +120,17 @@ def test_a_folder_of_runs_is_scored_per_image_and_pooled(disc_case, capsys, tmp_
 
 @pytest.mark.parametrize(
     "case",
-    ["size", "no_id", "garbage", "values", "recording_option", "other_image", "rate_confidence", "wrong_key"],
+    [
+        "size",
+        "no_id",
+        "garbage",
+        "values",
+        "recording_option",
+        "other_image",
+        "rate_confidence",
+        "wrong_key",
+        "figure_only",
+    ],
 )
 def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
     labels, write, (tx, ty, _) = disc_case
@@ -149,6 +159,9 @@ def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
     elif case == "wrong_key":  # (labels saved under another name were called "not a maps file")
         b = tmp_path / "mine.npz"
         np.savez(b, foo=np.stack([_disc_labels()]))
+    elif case == "figure_only":  # (only the +1 strip: every score was a dash, exit 0)
+        b = tmp_path / "plus.npz"
+        np.savez(b, fg=np.stack([np.maximum(_disc_labels(), 0)]))
     elif case == "rate_confidence":  # (--min-confidence on a rate run's maps was silently a no-op)
         extra = ["--min-confidence", "2"]
     else:
@@ -166,6 +179,7 @@ def test_bad_labels_one_line_nothing_written(disc_case, capsys, tmp_path, case):
         "other_image": ("104022.npz", "image 104022", "image 100080"),
         "rate_confidence": ("--min-confidence", "no fg_confidence"),
         "wrong_key": ("mine.npz", "nor human labels (fg)", "found foo"),
+        "figure_only": ("plus.npz", "give no direction", "no -1 pixel"),
     }[case]
     assert all(w in err[0] for w in named), err[0]
 

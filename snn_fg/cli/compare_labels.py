@@ -169,6 +169,13 @@ def score_run(run: Path, labels, min_confidence: float | None = None, keep: bool
     if sure is not None:  # (a spiking run's vectors below the threshold count as no vector: coverage drops)
         fx, fy = np.where(sure, fx, 0), np.where(sure, fy, 0)
     truths = [boundary_directions(m) for m in gt.fg]
+    if not any(valid.any() for _, _, valid in truths):  # (every cell of the table would be a dash)
+        raise InputError(
+            path,
+            "its labels give no direction: a labelled boundary needs +1 pixels on the figure's side and -1 "
+            "pixels on the ground's side beside them (fg), and these have "
+            + ("no -1 pixel" if not (gt.fg < 0).any() else "no +1 pixel" if not (gt.fg > 0).any() else "none near"),
+        )
     parts = labeller_errors(fx, fy, truths)
     kept = (truths, (fx, fy)) if keep else (None, None)
     return Scored(image_id, Path(run), path, maps.params, gt, parts, *kept)

@@ -17,6 +17,7 @@ from contextlib import ExitStack, closing
 
 import numpy as np
 
+from ..backends.cores import usable_cores
 from ..errors import InputError
 from ..events import EVENT_DTYPE, Recording, iter_windows
 from ..events.live import LiveStream
@@ -154,7 +155,7 @@ def cmd_live(args) -> int:
         f"snn-fg: live: {model.name} model ready for {args.source} (warmed up in {warm_s:.1f} s){page}", flush=True
     )
     record = LiveRecord(stream, publisher, args.peaks, view)
-    record.warm_up_s = warm_s
+    record.warm_up_s, record.cores = warm_s, usable_cores()
     described = {"input": args.source, "kind": "live", "window_ms": window_ms, "start_ms": args.start_ms or 0.0}
     described["stride_ms"] = args.hop_ms if args.hop_ms is not None else window_ms
     args.interrupt_note = f"the windows complete so far are in {args.out}/ (live.json says how many)"
@@ -224,7 +225,7 @@ def _summary_text(summary: dict) -> str:
     if waited and waited[-1] is not None:
         text += f" (the last window, completed by the end of the stream, not counted: {waited[-1]:.1f} ms)"
     behind = (summary.get("windows_dropped") or 0) + skipped
-    if behind and summary.get("streamed_s"):
+    if behind and summary.get("streamed_s") and summary.get("cores"):
         text += f"; {_why_behind(summary)}"
     return text
 

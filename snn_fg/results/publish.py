@@ -15,7 +15,6 @@ written to ``maps.zarr`` right after. A window that no later event completes
 from __future__ import annotations
 
 import json
-import os
 import socket
 import time
 import warnings
@@ -93,6 +92,7 @@ class LiveRecord:
         self.cpu_start = time.process_time()  # (the warm-up is over: the CPU from here is the stream's)
         self.thread_cpu_start = time.thread_time()  # (made and summed up on the model's thread)
         self.warm_up_s = None  # (the warm-up before the stream: snn_fg.cli.live.warm_up)
+        self.cores = None  # (the cores the run may use: snn_fg.cli.live gives backends.cores.usable_cores())
 
     def window(self, w, maps) -> None:
         """Window ``w``'s maps are made: publish them, note the latency."""
@@ -148,7 +148,7 @@ class LiveRecord:
             "streamed_s": None if first is None else round(last - first, 3),
             "cpu_s": round(time.process_time() - self.cpu_start, 3),
             "model_cpu_s": round(time.thread_time() - self.thread_cpu_start, 3),
-            "cores": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
+            "cores": self.cores,
         }
 
     def save(self, path, ended: str) -> dict:

@@ -9,7 +9,6 @@ with :func:`add_compare_command`.
 from __future__ import annotations
 
 import json
-import math
 import sys
 import textwrap
 from pathlib import Path
@@ -25,7 +24,7 @@ from ..scoring.baseline import self_agreement
 from ..scoring.metrics import WindowOutOfRange, compare_maps, compared_pixels
 from ..scoring.outline import event_outlines
 from .compare_labels import cmd_compare_labels, names_labels
-from .options import number, subcommand
+from .options import blank, cell, nulls, number, subcommand
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide. The
 #: median angle and the angle MSE are in --json only: a median of angles can look perfect while a
@@ -133,10 +132,7 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
     table; ``baseline``: what the B columns hold, or why they are empty;
     ``named``: lines that say what A and B are, under the table."""
     lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COLUMNS)]
-    lines += [
-        "  ".join("-".rjust(w) if _blank(r.get(k)) else f"{r[k]:>{w}{spec}}" for _, k, w, spec in _COLUMNS)
-        for r in rows
-    ]
+    lines += ["  ".join(cell(r.get(k), w, spec) for _, k, w, spec in _COLUMNS) for r in rows]
     lines += named
     where = "" if outline_px is None else f" within {outline_px} px of the event region's outline"
     lines += [
@@ -162,12 +158,6 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
                 f"window{'s' if len(rows) > 1 else ''} ({shown}): nothing to compare there (-)"
             )
     return "\n".join(lines)
-
-
-def _blank(value) -> bool:
-    """Whether a table cell has no number: not measured, or nothing to measure it on (a nan is shown
-    as "-", never as "nan": a window where a map has no vector is named under the table instead)."""
-    return value is None or (isinstance(value, float) and math.isnan(value))
 
 
 def cmd_compare(args) -> int:
@@ -218,7 +208,7 @@ def _record(args, rows, baseline: str | None) -> dict:
     the snn-fg that measured them: a table made from the file alone says what it is."""
     from .. import __version__
 
-    r = [x["grouping_pearson_r"] for x in rows if not _blank(x.get("grouping_pearson_r"))]
+    r = [x["grouping_pearson_r"] for x in rows if not blank(x.get("grouping_pearson_r"))]
     pooled = {
         "pixels_compared": sum(x.get("pixels_compared") or 0 for x in rows),
         **{
@@ -237,14 +227,8 @@ def _record(args, rows, baseline: str | None) -> dict:
         "options": options,
         "all_windows": pooled,
         "snn_fg_version": __version__,
-        "windows": _nulls(rows),
+        "windows": [nulls(r) for r in rows],  # (null where there was nothing to measure)
     }
-
-
-def _nulls(rows):
-    """``rows`` with each nan as None: --json writes null where there was nothing to measure (json.dumps
-    writes nan as NaN, which is not JSON, and other readers refuse it)."""
-    return [{k: None if _blank(v) else v for k, v in r.items()} for r in rows]
 
 
 def _run_name(path) -> str:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import json
-import math
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +25,7 @@ from ..results.maps import CONFIDENCE, Maps
 from ..scoring.groundtruth import GroundTruth, boundary_directions, load_labels
 from ..scoring.label_scores import labeller_errors, pool_stats
 from ..scoring.metrics import confident
+from .options import cell, nulls
 
 #: the images --plot draws at most (evenly spaced: :func:`~snn_fg.results.figures.rows_shown`)
 FIGURE_ROWS = 6
@@ -187,10 +187,7 @@ def _who(s: Scored, k: int) -> str:
 
 def _cells(name, who, stats) -> str:
     cells = [f"{name:>10}", f"{who:>12}"]
-    for _, key, width, spec in _COLUMNS:
-        v = stats.get(key)
-        blank = v is None or (isinstance(v, float) and math.isnan(v))
-        cells.append("-".rjust(width) if blank else f"{v:>{width}{spec}}")
+    cells += [cell(stats.get(key), width, spec) for _, key, width, spec in _COLUMNS]
     return "  ".join(cells)
 
 
@@ -218,10 +215,6 @@ def labels_table(rows, notes=()) -> str:
     return "\n".join(lines + textwrap.wrap(_KEY, 98))
 
 
-def _nulls(d: dict) -> dict:
-    return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in d.items()}
-
-
 def _record(args, scored: list[Scored], rows) -> dict:
     """What --json keeps: the inputs, every row as printed (all scores of pool_stats, the median
     to half a degree), the options and the snn-fg that measured them."""
@@ -240,7 +233,7 @@ def _record(args, scored: list[Scored], rows) -> dict:
             }
             for s in scored
         ],
-        "rows": [{"image": i, "labeller": w, **_nulls(st)} for i, w, st in rows],
+        "rows": [{"image": i, "labeller": w, **nulls(st)} for i, w, st in rows],
         "snn_fg_version": __version__,
     }
 

@@ -7,6 +7,7 @@ iterations. The rule for an output file that exists already is
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from pathlib import Path
@@ -87,3 +88,20 @@ def iterations_bar(no_progress: bool):
     if no_progress:
         return None
     return lambda it: tqdm(it, desc="iterations", leave=False, file=sys.stderr, disable=None)
+
+
+def blank(value) -> bool:
+    """Whether a cell of a command's table has no number: not measured, or nothing to measure it on
+    (a nan is shown as "-", never as "nan", and --json writes it as null)."""
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def cell(value, width: int, spec: str) -> str:
+    """One number of a command's text table, right-aligned in ``width`` by ``spec``; "-" where :func:`blank`."""
+    return "-".rjust(width) if blank(value) else f"{value:>{width}{spec}}"
+
+
+def nulls(record: dict) -> dict:
+    """``record`` with each :func:`blank` number as None, for --json (json.dumps writes nan as NaN,
+    which is not JSON, and other readers refuse it)."""
+    return {k: None if blank(v) else v for k, v in record.items()}

@@ -197,13 +197,16 @@ class StreamLayout:
 
     def _periods(self, n: int | None) -> np.ndarray:
         """The steps at which the first ``n`` windows' periods start and end (2 x periods): each
-        window's span, or where windows overlap, every window length up to the last window's start."""
+        window's span, or where windows overlap, every window length that starts before the last window ends."""
         steps = self.steps[:, :n]
         if not self.period_us or not steps.size:
             return steps
-        j = np.arange(int(steps[0, -1] * self.dt_ms * 1000.0 // self.period_us) + 2, dtype=np.int64)
+        # (every period that starts within the windows, the last one's end excluded: the windows a run
+        # without the hop cuts from the same events; up to the last window's start, the clock of a hop
+        # run missed the period its last windows' read-out reached near a stream's end)
+        j = np.arange(int(steps[1, -1] * self.dt_ms * 1000.0 // self.period_us) + 2, dtype=np.int64)
         starts = window_steps(j * self.period_us, (j + 1) * self.period_us, 0, self.dt_ms)
-        return starts[:, starts[0] <= steps[0, -1]]
+        return starts[:, starts[0] < steps[1, -1]]
 
     def clock_steps(self, n: int | None = None) -> np.ndarray:
         """The steps the window clock fires at (none without a clock), for the first ``n`` windows (all)."""

@@ -207,3 +207,27 @@ def test_the_raster_caption_explains_the_roles_drawn_and_fits_on_the_page():
     assert explained == ["simple", "bo_L1, bo_L2, bo_D1, bo_D2", "feedback_1p, feedback_1n, feedback_2p, feedback_2n"]
     box, page, (ax,) = caption.get_window_extent(), fig.bbox, fig.axes
     assert page.y0 <= box.y0 and box.y1 < ax.get_tightbbox().y0  # (on the page, under the axes and their labels)
+
+
+def test_the_key_of_a_portrait_frame_stays_in_its_columns():
+    """A portrait BSDS image (321 x 481) made panels 2.3 inches wide: the key's words ran into the
+    next column's wheel and text and off the figure's right edge. Its columns are now wide enough,
+    and every piece of the key's text lies inside the figure and clear of the others."""
+    inputs, fx, fy, g = _windows(1, h=481, w=321)
+    fig = maps_figure(inputs[0], fx[0], fy[0], g[0])
+    FigureCanvasAgg(fig).draw()
+    renderer = fig.canvas.get_renderer()
+    whole = fig.bbox
+    texts = [t for ax in fig.axes if not ax.images or ax.get_label() in ("<colorbar>",) for t in ax.texts]
+    (bar,) = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    texts += [bar.title, bar.xaxis.label]
+    boxes = [t.get_window_extent(renderer) for t in texts if t.get_text()]
+    (wheel,) = [ax for ax in fig.axes if ax.get_label() == "colour wheel"]
+    wheel_box = wheel.get_tightbbox(renderer)
+    assert len(boxes) >= 4
+    for b in boxes:
+        assert whole.x0 <= b.x0 and b.x1 <= whole.x1 + 1, b  # (inside the figure)
+        assert not b.overlaps(wheel_box), b
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1 :]:
+            assert not a.overlaps(b), (a, b)

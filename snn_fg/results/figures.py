@@ -13,6 +13,7 @@ strength; grouping maps use a perceptual colour map with a labelled colour bar.
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import matplotlib.colors as mcolors
@@ -101,15 +102,30 @@ EVENTS_INPUT = "input: the event frame (a window's events, or an image's)\nwhite
 APS_INPUT = "input: the camera's APS frame\nthe fbfg model ran on"
 
 
-def _key(fig, cells, norm, grouping_label: str, shared: bool, input_note: str = EVENTS_INPUT) -> None:
+#: the narrowest column (inches) the key's words fit in: a portrait frame's panels are narrower
+KEY_COLUMN_IN = 2.6
+#: characters of the key's 8-point text to an inch of column
+CHARS_PER_IN = 15
+
+
+def _wrapped(text: str, inches: float) -> str:
+    """``text`` with each of its lines wrapped to ``inches`` of 8-point text."""
+    width = max(12, int(inches * CHARS_PER_IN))
+    return "\n".join(textwrap.fill(line, width) for line in text.split("\n"))
+
+
+def _key(
+    fig, cells, norm, grouping_label: str, shared: bool, input_note: str = EVENTS_INPUT, column_in=KEY_COLUMN_IN
+) -> None:
     """The strip above the rows that explains each column once: what the input shows, the colour
-    wheel of the figure-ground map, and the grouping's colour bar (one scale for every row)."""
+    wheel of the figure-ground map, and the grouping's colour bar (one scale for every row); its
+    words wrapped to the columns, ``column_in`` inches wide."""
     from matplotlib.cm import ScalarMappable
 
     text = {"fontsize": 8, "va": "center", "ha": "left"}
     a0 = fig.add_subplot(cells[0])
     a0.set_axis_off()
-    a0.text(0.0, 0.5, input_note, **text)
+    a0.text(0.0, 0.5, _wrapped(input_note, column_in), **text)
     wheel_cell, words = cells[1].subgridspec(1, 2, width_ratios=(1, 1.6), wspace=0.05)
     draw_wheel(fig.add_subplot(wheel_cell))
     a1 = fig.add_subplot(words)
@@ -125,8 +141,9 @@ def _key(fig, cells, norm, grouping_label: str, shared: bool, input_note: str = 
     cax = fig.add_subplot(bar_cell, label="<colorbar>")  # (the label matplotlib gives the colour bars it makes)
     bar = fig.colorbar(ScalarMappable(norm=norm, cmap=GROUPING_CMAP), cax=cax, orientation="horizontal")
     bar.ax.tick_params(labelsize=7)
-    bar.set_label(grouping_label + (", one scale for every window" if shared else ""), fontsize=8)
-    bar.ax.set_title("grouping: proto-object centres are bright", fontsize=8)
+    label = grouping_label + (", one scale for every window" if shared else "")
+    bar.set_label(_wrapped(label, column_in), fontsize=8)
+    bar.ax.set_title(_wrapped("grouping: proto-object centres are bright", column_in), fontsize=8)
 
 
 def panel_width(aspect: float, height: float = PANEL_IN) -> float:
@@ -209,10 +226,12 @@ def maps_figure(
     panel_w = panel_width(aspect, panel_h)
     row_h = min(panel_h, panel_w / aspect) + 0.75  # (titles, tick and axis labels)
     note_in = 0.35 if note else 0.0
-    fig = Figure(figsize=(3 * panel_w + 1.6, KEY_IN + row_h * len(idx) + note_in), layout="constrained")
+    # (a portrait frame's panels are narrower than the key's words: its columns are not)
+    column_w = max(panel_w, KEY_COLUMN_IN)
+    fig = Figure(figsize=(3 * column_w + 1.6, KEY_IN + row_h * len(idx) + note_in), layout="constrained")
     grid = fig.add_gridspec(1 + len(idx), 3, height_ratios=(KEY_IN, *[row_h] * len(idx)))
     shared = len(idx) > 1 or grouping_max is not None
-    _key(fig, [grid[0, c] for c in range(3)], norm, grouping_label, shared, input_note)
+    _key(fig, [grid[0, c] for c in range(3)], norm, grouping_label, shared, input_note, column_w)
     for row, (i, f) in enumerate(zip(idx, fields), start=1):
         axes = [fig.add_subplot(grid[row, c]) for c in range(3)]
         title = titles[i] if titles is not None else ""

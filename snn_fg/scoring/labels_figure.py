@@ -55,6 +55,7 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
     panel_w = panel_width(w / h)
     fig = Figure(figsize=(cols * panel_w + 2.6, (PANEL_IN + 0.5) * len(idx) + 1.0), layout="constrained")
     axes = fig.subplots(len(idx), cols, squeeze=False)
+    errors = []  # (the error panels: one colour bar for them all, the same 0-180 scale)
     for row, i in zip(axes, idx, strict=True):
         s = scored[i]
         img = _image(s)
@@ -77,8 +78,7 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
             missing[valid & ~has] = to_rgba(NO_VECTOR)
             err.imshow(missing, interpolation="nearest")
             im = err.imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
-            bar = fig.colorbar(im, ax=err, fraction=0.046, pad=0.02, ticks=(0, 45, 90, 135, 180))
-            bar.set_label("|angle difference| (deg)", fontsize=8)
+            errors.append(err)
             st = pool_stats([s.parts[k]])  # (the table's numbers, not a second count)
             err.set_title(
                 f"{who}: error; side accuracy {st['side_accuracy']:.0%},\n"
@@ -89,6 +89,13 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
             ax.set_axis_off()
         for ax in row:
             ax.tick_params(labelsize=7)
+    if errors:
+        # (one bar beside every row; a bar per panel, as tall as its axes, stood far above and below
+        # a wide frame's image, and repeated the same scale for every labeller)
+        bar = fig.colorbar(im, ax=errors, shrink=min(0.9, 0.5 + 0.2 * len(idx)), aspect=25 * len(idx))
+        bar.set_ticks((0, 45, 90, 135, 180))
+        bar.set_label("error panels: |angle difference| (deg)", fontsize=8)
+        bar.ax.tick_params(labelsize=7)
     wheel_inset(axes[0][1])
     red = Patch(facecolor=NO_VECTOR, label="error panels: labelled, but no vector from the run (white: not labelled)")
     fig.legend(handles=[red], loc="outside lower center", fontsize=8, frameon=False)

@@ -128,3 +128,39 @@ def test_the_closing_line_says_whether_the_model_or_the_machine_fell_behind():
     )
     kept = _summary_text({**summary, "windows_dropped": 0, "cpu_s": 3.0, "model_cpu_s": 2.5})
     assert "while the stream came" not in kept  # (nothing fell behind: nothing to explain)
+
+
+def test_the_cpu_share_is_measured_over_the_stream_and_stays_within_its_cores():
+    """cpu_s and model_cpu_s are measured over streamed_s (the first packet's arrival to the last's),
+    not from the warm-up to the summary: the model's work after the last packet (the last windows,
+    the wait for the end) made a live run say it "used 119% of its 1 core". Here the model's thread
+    works 0.6 s after a 0.2 s stream; that work is not the stream's."""
+    import os
+
+    from snn_fg.cli.live import _why_behind
+
+    class Paced(_Source):
+        def packets(self):
+            for ev in self.list:
+                time.sleep(0.02)  # (a sender paced by the clock: the run idles between packets)
+                yield ev, time.perf_counter()
+
+    _, rec = flipping_disc_recording(24, windows=10, window_ms=20.0)
+    stream = LiveStream(Paced(rec, 20_000), window_ms=20.0, max_behind=10**6)
+    record = LiveRecord(stream)
+    record.cores = len(os.sched_getaffinity(0))
+    try:
+        got = sum(len(c) for c in stream.chunks() if isinstance(c, np.ndarray))
+        busy = time.thread_time() + 0.6
+        while time.thread_time() < busy:  # (the model's thread at work after the stream)
+            pass
+    finally:
+        stream.close()
+    assert got == len(rec.events)
+    live = record.summary("the sender closed the stream")
+    wall, cores = live["streamed_s"], live["cores"]
+    assert wall >= 0.1  # (the ten packets' 0.18 s, paced, to within the receiver's 10 ms sampling)
+    assert live["model_cpu_s"] <= wall + 0.002  # (one thread: no more CPU than wall time)
+    assert live["cpu_s"] <= wall * cores + 0.002
+    share = int(_why_behind(live).split("the run used ")[1].split("%")[0])
+    assert share <= 100

@@ -89,8 +89,6 @@ class LiveRecord:
         self.stream, self.publisher, self.k, self.view = stream, publisher, peaks, view
         self.rows: list = []
         self.t_start = time.perf_counter()
-        self.cpu_start = time.process_time()  # (the warm-up is over: the CPU from here is the stream's)
-        self.thread_cpu_start = time.thread_time()  # (made and summed up on the model's thread)
         self.warm_up_s = None  # (the warm-up before the stream: snn_fg.cli.live.warm_up)
         self.cores = None  # (the cores the run may use: snn_fg.cli.live gives backends.cores.usable_cores())
 
@@ -139,17 +137,15 @@ class LiveRecord:
 
     def _cpu(self) -> dict:
         """``streamed_s``: wall seconds from the first event's arrival to the last's (the silence that ends a
-        UDP stream left out); ``cpu_s``: the process's CPU seconds (every thread) since the warm-up,
-        ``model_cpu_s`` the model's thread's (asked on that thread); ``cores``: the cores it may run on. A
-        model behind its stream whose run used nearly all of ``streamed_s`` on its cores is slower than the
-        stream on this machine; one that used much less waited for a core."""
-        first, last = self.stream.first_arrival, self.stream.last_arrival
-        return {
-            "streamed_s": None if first is None else round(last - first, 3),
-            "cpu_s": round(time.process_time() - self.cpu_start, 3),
-            "model_cpu_s": round(time.thread_time() - self.thread_cpu_start, 3),
-            "cores": self.cores,
-        }
+        UDP stream left out); ``cpu_s``, ``model_cpu_s``: the CPU seconds of the whole process (every thread)
+        and of the model's thread over those same seconds (sampled as packets arrive,
+        :meth:`~snn_fg.events.live.LiveStream.cpu_span`), so that their share of ``streamed_s`` cannot pass
+        100 % a core; ``cores``: the cores it may run on. A model behind its stream whose run used nearly all
+        of ``streamed_s`` on its cores is slower than the stream on this machine; one that used much less
+        waited for a core."""
+        span = self.stream.cpu_span()
+        wall, cpu, model = (None, None, None) if span is None else (round(v, 3) for v in span)
+        return {"streamed_s": wall, "cpu_s": cpu, "model_cpu_s": model, "cores": self.cores}
 
     def save(self, path, ended: str) -> dict:
         out = self.summary(ended)

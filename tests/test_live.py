@@ -687,3 +687,53 @@ def test_the_timeline_shades_skipped_hops_apart_from_dropped_windows(tmp_path):
     label = fig.axes[3].get_xlabel()
     assert "grey: windows dropped" in label and "blue: hops skipped" in label and "events not simulated" in label
     assert (out / "timeline.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_udp_packet_without_events_is_counted_and_neither_begins_nor_prolongs_the_stream():
+    """A malformed or empty datagram is no arrival: one before the sender's first packet does not start
+    the --idle-s clock (an empty one ended the stream before it began), and garbage after the last packet
+    does not hold the stream open (each reset the clock: a noisy port kept a finished stream going)."""
+    from snn_fg.errors import InputError
+    from snn_fg.events.live_sources import open_source
+
+    src = open_source("udp://127.0.0.1:0", (64, 64), wait_s=5.0, idle_s=0.3)
+    port = src.sock.getsockname()[1]
+    sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sent = {}
+
+    def send():
+        sender.sendto(b"", ("127.0.0.1", port))  # (empty, then the real packet after more than --idle-s)
+        sender.sendto(b"\x01\x02\x03", ("127.0.0.1", port))
+        time.sleep(0.6)
+        sent["valid"] = time.perf_counter()
+        sender.sendto(spif.encode(_events([5, 6])), ("127.0.0.1", port))
+        for _ in range(12):  # (garbage every 0.1 s for 1.2 s after it: longer than --idle-s 4 times over)
+            time.sleep(0.1)
+            sender.sendto(b"\xff" * 6, ("127.0.0.1", port))
+
+    th = threading.Thread(target=send)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InputWarning)
+        th.start()
+        try:
+            got = [(len(ev), arrived) for ev, arrived in src.packets()]
+            ended = time.perf_counter()
+        finally:
+            th.join()
+            src.close()
+    assert [n for n, _ in got] == [2]
+    assert got[0][1] >= sent["valid"]  # (its arrival is the real packet's)
+    assert ended - sent["valid"] < 0.3 + 0.5  # (--idle-s after the real packet, not after the garbage's 1.2 s)
+    assert src.malformed >= 4  # (the empty one, the 3 bytes and the garbage before the end)
+
+    src = open_source("udp://127.0.0.1:0", (64, 64), wait_s=0.5, idle_s=0.3)  # (only garbage: said so)
+    port = src.sock.getsockname()[1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InputWarning)
+        sender.sendto(b"\x01", ("127.0.0.1", port))
+        try:
+            with pytest.raises(InputError, match="no event arrived within 0.5 s, only 1 malformed packet$"):
+                list(src.packets())
+        finally:
+            sender.close()
+            src.close()

@@ -77,35 +77,40 @@ class UdpSource:
         self.sock.setblocking(False)
         # (the first packet is waited for from here, when the model is ready for it, not from when the
         # port was bound: a first run's warm-up compiles the engine for up to a minute meanwhile)
-        last = waiting_since = time.perf_counter()
+        last = waiting_since = time.perf_counter()  # (last: the latest packet with events)
         while not self.closed:
             try:
                 ready = select.select([self.sock], [], [], 0.1)[0]
             except (OSError, ValueError):
                 return  # (closed)
             data = self._waiting() if ready else None
-            if data is None:
-                now = time.perf_counter()
-                if first and now - waiting_since > self.wait_s:
-                    raise InputError(self.name, f"no packet arrived within {self.wait_s:g} s") from None
-                if not first and now - last > self.idle_s:
-                    return  # (the sender has gone: UDP has no end of its own)
-                continue
-            parts = []
+            parts, arrived, taken = [], None, 0
             while data is not None:
-                last = time.perf_counter()
-                ev = spif.decode(data, int((last - self.t_start) * 1e6))
-                if ev is None:
+                taken += 1
+                now = time.perf_counter()
+                ev = spif.decode(data, int((now - self.t_start) * 1e6))
+                # (a packet without an event, garbage or empty, is counted and is no arrival: it neither
+                # begins the idle clock nor holds it back, so a noisy port cannot keep a stream open, and a
+                # stray datagram before the sender's first packet cannot end the stream before it begins)
+                if ev is None or not len(ev):
                     self._malformed(data)
                 else:
                     parts.append(ev)
-                data = self._waiting() if len(parts) < BATCH else None
-            if not parts:
+                    arrived = now
+                data = self._waiting() if taken < BATCH else None  # (packets taken: a flood of garbage too)
+            if parts:
+                first, last = False, arrived
+                ev = parts[0] if len(parts) == 1 else np.concatenate(parts)
+                ev["t"] = unwrap(ev["t"])
+                yield ev, last
                 continue
-            first = False
-            ev = parts[0] if len(parts) == 1 else np.concatenate(parts)
-            ev["t"] = unwrap(ev["t"])
-            yield ev, last
+            now = time.perf_counter()  # (no event came: the waits are checked, garbage or silence)
+            if first and now - waiting_since > self.wait_s:
+                n = self.malformed
+                came = f"no event arrived within {self.wait_s:g} s, only {n:,} malformed packet{'s' * (n != 1)}"
+                raise InputError(self.name, came if n else f"no packet arrived within {self.wait_s:g} s") from None
+            if not first and now - last > self.idle_s:
+                return  # (the sender has gone: UDP has no end of its own)
 
     def _waiting(self) -> bytes | None:
         """The next packet if one is waiting in the socket's buffer, else None."""
@@ -118,7 +123,7 @@ class UdpSource:
         self.malformed += 1
         if self.malformed == 1:
             warnings.warn(
-                f"{self.name}: a malformed packet ({len(data)} bytes, not whole SPIF events); such packets "
+                f"{self.name}: a malformed packet ({len(data)} bytes, not whole SPIF events, or none); such packets "
                 "are skipped and counted (live.json: packets_malformed)",
                 InputWarning,
                 stacklevel=3,

@@ -643,7 +643,9 @@ def test_hops_behind_the_stream_skip_their_read_out_for_the_newest_and_drop_noth
     dropped (the network takes its events): only hops 7 and 8 (ending at 110 and 120 ms) are made."""
     kept, s = _hops_all_come_first(max_behind=100)
     assert kept == [7, 8] and s["windows_skipped"] == 7 and s["windows_dropped"] == 0 and s["events_dropped"] == 0
-    assert s["skipped"] == list(range(7))  # (by number: the timeline shades them apart from dropped ones)
+    # (by number, as ranges of consecutive ones: one entry a hop grew without end on a long --hop-ms run;
+    # the timeline shades them apart from dropped ones)
+    assert s["skipped"] == s["skipped_windows"] == [[0, 6]]
 
 
 def test_hops_drop_events_only_a_window_behind_and_never_skip_for_a_dropped_hop():
@@ -668,22 +670,25 @@ def test_the_timeline_shades_skipped_hops_apart_from_dropped_windows(tmp_path):
     path = save_events(tmp_path / "rec.npz", rec.events, rec.sensor_size)
 
     class Stream(list):  # (what run_recording reads of a live stream: its windows and the hops it skipped)
-        skipped_windows = [2]
+        skipped_windows = [[2, 2]]
 
     windows = Stream(w for w in iter_windows(path, window_ms=40.0) if w.index not in (2, 3, 5))
     out = tmp_path / "run"
     out.mkdir()
     run_recording(get_model("rate", ModelParams(levels=3)), windows, out, {"input": "x", "window_ms": 40.0})
     maps = Maps.load(out)
-    assert maps.params["skipped_windows"] == [2]
-    fig = timeline_figure(window_rows(maps), 40.0, skipped=maps.params["skipped_windows"])
+    assert maps.params["skipped_windows"] == [[2, 2]]
     grey, blue = (mcolors.to_rgba(MISSING_COLOURS[k]) for k in ("dropped", "skipped"))
-    spans = sorted(
-        (p.get_x(), p.get_width(), tuple(p.get_facecolor()))
-        for p in fig.axes[0].patches
-        if p.get_facecolor() in (grey, blue)
-    )
-    assert spans == [(80.0, 40.0, blue), (120.0, 40.0, grey), (200.0, 40.0, grey)]
+
+    def spans(skipped):
+        fig = timeline_figure(window_rows(maps), 40.0, skipped=skipped)
+        drawn = [(p.get_x(), p.get_width(), tuple(p.get_facecolor())) for p in fig.axes[0].patches]
+        return fig, sorted(d for d in drawn if d[2] in (grey, blue))
+
+    fig, shaded = spans(maps.params["skipped_windows"])
+    assert shaded == [(80.0, 40.0, blue), (120.0, 40.0, grey), (200.0, 40.0, grey)]
+    assert spans([2])[1] == shaded  # (a run stored before 30 Nov: one number a hop)
+    assert spans([[2, 3], [5, 5]])[1] == [(80.0, 80.0, blue), (200.0, 40.0, blue)]
     label = fig.axes[3].get_xlabel()
     assert "grey: windows dropped" in label and "blue: hops skipped" in label and "events not simulated" in label
     assert (out / "timeline.png").read_bytes().startswith(b"\x89PNG")

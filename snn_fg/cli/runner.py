@@ -25,6 +25,7 @@ from ..results.maps import Maps
 from ..results.overview import input_images, overview_options, write_run_tables
 from ..results.progress import bar
 from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
+from ..results.timeline import skipped_ranges
 
 #: events read at a time from a recording a model runs on (1.6 MB): the
 #: spiking model reads the recording while the network runs, and the copies
@@ -178,8 +179,8 @@ def run_recording(
     if whole:  # (kept apart: each window's own parameters are told against the first window's)
         final["whole_run"] = whole
     skipped = getattr(windows, "skipped_windows", None)  # (a live stream's hops passed over: not dropped)
-    if skipped:
-        final["skipped_windows"] = sorted(skipped)
+    if skipped:  # (as ranges [first, last] of consecutive numbers)
+        final["skipped_windows"] = [list(r) for r in skipped_ranges(skipped)]
     store.finish(final)
     maps = Maps(*read_maps(path, lazy=True))
     write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)

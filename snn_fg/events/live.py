@@ -106,7 +106,9 @@ class LiveStream:
         self.cpu_first = self.cpu_last = None  # ((wall, process CPU, model thread CPU) at the first and latest sample)
         self.windows_dropped = 0
         self.windows_skipped = 0  # (hops whose read-out was skipped for a newer one: stale)
-        self.skipped_windows: list = []  # (their numbers: the timeline tells them from dropped ones)
+        # (their numbers, as ranges [first, last] of consecutive ones: a long --hop-ms run skips hops by the
+        # thousand; the timeline tells them from dropped ones)
+        self.skipped_windows: list = []
         self.skipped_us = 0  # the stream time the model did not simulate (resume_at)
         self.first_dropped = None  # the first slot dropped
         self.dropped_windows: set = set()  # (those not yet passed by the published ones)
@@ -325,7 +327,11 @@ class LiveStream:
         if self.last_t < w.t_end_us + self.stride + self.lag_us:
             return False
         self.windows_skipped += 1
-        self.skipped_windows.append(int(w.index))
+        k, runs = int(w.index), self.skipped_windows  # (asked in order: a run grows at its end)
+        if runs and runs[-1][1] == k - 1:
+            runs[-1][1] = k
+        else:
+            runs.append([k, k])
         return True
 
     def slots_of(self, w) -> range:
@@ -378,6 +384,7 @@ class LiveStream:
         return {
             "windows_dropped": self.windows_dropped,
             "windows_skipped": self.windows_skipped,
+            "skipped_windows": self.skipped_windows,
             "simulated_ms_skipped": self.skipped_us / 1000.0,
             "events_received": self.events_received,
             "events_dropped": self.events_dropped,

@@ -25,6 +25,7 @@ Example
 
 from __future__ import annotations
 
+import bisect
 import csv
 import io
 
@@ -108,9 +109,9 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=(), skipped=(
     """The run over time, one bar per window: events, the share of pixels with an event, the
     pixels with a figure-ground vector (and their coverage of the event pixels), the grouping
     peak. ``shown``: windows an overview figure draws, marked on the time axis. A live run's
-    missing windows are shaded by why: ``skipped`` (numbers of hops whose read-out was passed
-    over for a newer hop's; the network took their events) in blue, the others, dropped (their
-    events not simulated), in grey."""
+    missing windows are shaded by why: ``skipped`` (the hops whose read-out was passed over for
+    a newer hop's, as ranges ``[first, last]``: :func:`skipped_ranges`; the network took their
+    events) in blue, the others, dropped (their events not simulated), in grey."""
     from matplotlib.figure import Figure  # (matplotlib: only when the figure is drawn)
 
     a, b = (np.array([r[k] for r in rows], float) for k in ("t_start_ms", "t_end_ms"))
@@ -139,7 +140,7 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=(), skipped=(
     scene_bars(ax_g, mid, width, [r["grouping_peak"] for r in rows], burst, color="C4")
     ax_g.set_ylabel("grouping peak", fontsize=8)
     drawn = "; numbers on top: the windows maps.png draws" if len(shown) else ""
-    gaps = _missing_spans(rows, a, set(skipped))
+    gaps = _missing_spans(rows, a, skipped)
     for lo, hi, kind in gaps:  # (a live run's missing windows: their time shaded by why, not left as a blank)
         for ax in (ax_n, ax_s, ax_f, ax_g):
             ax.axvspan(lo, hi, color=MISSING_COLOURS[kind], lw=0, zorder=0)
@@ -172,13 +173,27 @@ MISSING_WORDS = {
 }
 
 
-def _missing_spans(rows, starts, skipped=frozenset()) -> list[tuple[float, float, str]]:
+def skipped_ranges(skipped) -> list[tuple[int, int]]:
+    """A live run's skipped hops (its store's ``skipped_windows``) as sorted ranges ``(first, last)``:
+    stored so since 30 Nov (one entry a hop before: a long --hop-ms run kept thousands), a bare number
+    (a run of before) a range of one."""
+    return sorted((k, k) if isinstance(k, int) else (int(k[0]), int(k[1])) for k in skipped)
+
+
+def _missing_spans(rows, starts, skipped=()) -> list[tuple[float, float, str]]:
     """Where a live run's window numbers (``window``) miss some: ``(from, to, kind)`` over the
-    missing windows' starts (ms), ``kind`` "skipped" for the numbers in ``skipped``, else
-    "dropped"; neighbours of one kind merged."""
+    missing windows' starts (ms), ``kind`` "skipped" for the numbers in the ranges ``skipped``
+    (:func:`skipped_ranges`), else "dropped"; neighbours of one kind merged."""
     numbers = [r.get("window") for r in rows]
     if len(rows) < 2 or any(k is None for k in numbers):
         return []
+    ranges = skipped_ranges(skipped)
+    firsts = [lo for lo, _ in ranges]
+
+    def was_skipped(n: int) -> bool:
+        i = bisect.bisect_right(firsts, n) - 1
+        return i >= 0 and n <= ranges[i][1]
+
     k = np.asarray(numbers, float)
     step = np.diff(k)
     stride = float(np.median(np.diff(starts) / step))
@@ -187,7 +202,7 @@ def _missing_spans(rows, starts, skipped=frozenset()) -> list[tuple[float, float
         for n in range(int(k[i]) + 1, int(k[i + 1])):
             lo = starts[i] + (n - k[i]) * stride
             hi = starts[i + 1] if n == k[i + 1] - 1 else lo + stride
-            kind = "skipped" if n in skipped else "dropped"
+            kind = "skipped" if was_skipped(n) else "dropped"
             if spans and spans[-1][2] == kind and abs(spans[-1][1] - lo) < 1e-9:
                 spans[-1] = (spans[-1][0], hi, kind)
             else:

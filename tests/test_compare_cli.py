@@ -284,3 +284,52 @@ def test_a_window_beyond_a_recording_is_refused_by_the_options_name(tmp_path, ca
         compare_maps(one, Maps.load(tmp_path / "b.npz"), window=7)
     assert (got.value.window, got.value.side, got.value.n) == (7, "b", 3)
     assert "window=7 is not among the 3 windows of b (0 to 2)" in str(got.value)
+
+
+def test_runs_made_one_at_a_time_are_paired_by_image_and_pooled(tmp_path, capsys):
+    """A user who ran each image to its own --out folder gets one pooled table: A's runs, then as many
+    of B's, paired by input image in any order. Image x: A equals B (0°); image y: A opposite to B
+    (180°), with as many vectors: pooled, half within 45°, mean 90°. Runs that do not pair up: one line."""
+    fx = np.zeros((20, 20), np.float32)
+    fx[5, 5:15] = 1.0
+    z = np.zeros_like(fx)
+
+    def save(name, image, sign, model):
+        params = {"model": model, "source": {"input": f"/data/{image}.jpg", "kind": "image"}}
+        Maps(sign * fx, z, z, params).save(tmp_path / name / "maps.npz")
+        return str(tmp_path / name)
+
+    a = [save("spk_x", "x", 1.0, "spiking"), save("spk_y", "y", -1.0, "spiking")]
+    b = [save("rate_y", "y", 1.0, "rate"), save("rate_x", "x", 1.0, "rate")]  # (another order)
+    out = tmp_path / "pooled.json"
+    assert main(["compare", *a, *b, "--no-baseline", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    lines = text.splitlines()
+    assert lines[0].split()[:3] == ["A", "B", "image"]
+    assert [ln.split()[2] for ln in lines[1:3]] == ["x", "y"]
+    assert "A within 45° of B on 50.0% of 20 pixels, mean 90.0°" in text
+    assert (
+        "A: 2 runs (spk_x, spk_y), the spiking model" in text and "B: 2 runs (rate_x, rate_y), the rate model" in text
+    )
+    record = json.loads(out.read_text())
+    assert record["all_windows"]["angle_within_45_frac"] == 0.5
+    assert record["all_windows"]["angle_diff_mean_deg"] == pytest.approx(90.0)
+    assert [(p["image"], os.path.basename(p["b"])) for p in record["pairs"]] == [("x", "rate_x"), ("y", "rate_y")]
+
+    for folder, runs in (("spk", a), ("rate", b)):  # (two folders of runs, snn-fg run on several images each)
+        rows = "".join(f"{os.path.basename(r)}.jpg,{r},done,1,1.0,\n" for r in runs)
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "summary.csv").write_text("recording,output,status,windows,seconds,error\n" + rows)
+    assert main(["compare", str(tmp_path / "spk"), str(tmp_path / "rate"), "--no-baseline"]) == 0
+    assert "A within 45° of B on 50.0% of 20 pixels, mean 90.0°" in capsys.readouterr().out
+
+    other = save("rate_z", "z", 1.0, "rate")
+    for given, said in (
+        ([*a, b[0]], "3 runs given: pooled runs are as many of A's model as of B's"),
+        ([*a, b[0], other], f"snn-fg: error: {a[0]}: A's run of image x has no B run of that image"),
+        ([a[0], a[0], *b], f"snn-fg: error: {a[0]}: is a second A run of image x (also {a[0]})"),
+    ):
+        assert main(["compare", *given, "--no-baseline", "--json", str(tmp_path / "no.json")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and said in err[0], err
+        assert not (tmp_path / "no.json").exists()

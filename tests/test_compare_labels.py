@@ -200,3 +200,39 @@ def test_the_numbers_are_table1s_on_a_bsds_image(dataset, tmp_path, capsys):
     (row,) = per_image_rows({"12003": result})
     for key in ("side_accuracy", "coverage", "within45", "mean_abs_deg", "mean_signed_deg", "n_pixels", "n_truth"):
         assert got[key] == pytest.approx(row[key], rel=1e-9, abs=1e-9), key
+
+
+def test_runs_made_one_at_a_time_are_scored_and_pooled_as_a_folder_of_runs_is(disc_case, capsys, tmp_path):
+    """Each image run to its own --out folder, then RUN1 RUN2 LABELS: one table, each image and all of them
+    pooled (side accuracy, coverage, within 45° and the mean absolute difference), as a batch's folder gives;
+    one image given twice, or runs for one labels file, is one line."""
+    labels, write, (tx, ty, valid) = disc_case
+    np.savez(labels / "labels" / "disc2.npz", **np.load(labels / "labels" / "disc.npz"))
+    inward = write(tx, ty, "one")
+    left = np.zeros_like(valid)
+    left[:, : SIZE // 2] = True
+    half = write(np.where(left, -tx, tx), np.where(left, -ty, ty), "two")  # (of disc.png: a second run of it)
+    m = Maps.load(half)  # (the same maps as a run of disc2.png, whose labels are disc's)
+    Maps(m.fg_x, m.fg_y, m.grouping, {**m.params, "source": {**m.params["source"], "input": "disc2.png"}}).save(
+        tmp_path / "two2" / "maps.npz"
+    )
+    rows = _scores(capsys, inward, tmp_path / "two2", labels)
+    share_right = float(np.mean(np.nonzero(valid)[1] >= SIZE // 2))
+    pooled = rows[("all 2", "both")]
+    assert pooled["n_truth"] == 4 * valid.sum() and pooled["coverage"] == 1.0
+    assert pooled["side_accuracy"] == pytest.approx((1 + share_right) / 2)
+    assert pooled["mean_abs_deg"] == pytest.approx(180 * (1 - share_right) / 2)
+    assert rows[("disc2", "both")]["side_accuracy"] == pytest.approx(share_right)
+    assert main(["compare", str(inward), str(tmp_path / "two2"), str(labels)]) == 0
+    said = capsys.readouterr().out
+    assert f"runs: {inward}, {tmp_path / 'two2'} (2 images, the rate model)" in said
+    for given, said in (
+        ([inward, half], f"{half}: is a second run of image disc (also {inward}): give each once"),
+        ([inward, tmp_path / "two2", labels / "labels" / "disc.npz"], "is one image's labels, but"),
+    ):
+        out = tmp_path / "no.json"
+        labelled = [] if len(given) == 3 else [str(labels)]
+        assert main(["compare", *map(str, given), *labelled, "--json", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and said in err[0], err
+        assert not out.exists()

@@ -23,7 +23,7 @@ from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
 from ..scoring.metrics import WindowOutOfRange, compare_maps, compared_pixels
 from ..scoring.outline import event_outlines
-from .compare_labels import cmd_compare_labels, names_labels
+from .compare_labels import cmd_compare_labels, names_labels, runs_of
 from .options import blank, cell, nulls, number, subcommand
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide. The
@@ -66,8 +66,11 @@ def add_compare_command(sub):
     p.add_argument(
         "a",
         metavar="A",
+        nargs="+",
         help="a run's maps: its folder, maps.npz or maps.zarr; against labels also a folder of runs "
-        "(snn-fg run on several images: its summary.csv)",
+        "(snn-fg run on several images: its summary.csv). Several: runs made one at a time, pooled: "
+        "against labels each image's run (A1 A2 ... LABELS); against maps first one model's runs, then as "
+        "many of the reference's (A1 A2 B1 B2), paired by their input image",
     )
     p.add_argument(
         "b",
@@ -131,12 +134,15 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
     """The rows of :func:`~snn_fg.scoring.metrics.compare_maps` as a text
     table; ``baseline``: what the B columns hold, or why they are empty;
     ``named``: lines that say what A and B are, under the table."""
-    lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in _COLUMNS)]
-    lines += ["  ".join(cell(r.get(k), w, spec) for _, k, w, spec in _COLUMNS) for r in rows]
+    pooled = any("image" in r for r in rows)  # (runs paired by image: the image in place of the time)
+    columns = [("image", "image", 8, "") if c[1] == "t_start_ms" and pooled else c for c in _COLUMNS]
+    lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in columns)]
+    lines += ["  ".join(cell(r.get(k), w, spec) for _, k, w, spec in columns) for r in rows]
     lines += named
     where = "" if outline_px is None else f" within {outline_px} px of the event region's outline"
+    when = "image: the pair's input image" if pooled else "t: window start after the recording's first event"
     lines += [
-        "A, B: compared windows; t: window start after the recording's first event; angle columns on",
+        f"A, B: compared windows; {when}; angle columns on",
         f"pixels{where} where both maps have a figure-ground vector (SSIM: where either has one);",
         "cover: the share of B's vectors that A has there; grouping r and SSIM on the whole map, SSIM",
         "with each map scaled to 1",
@@ -162,29 +168,20 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
 
 def cmd_compare(args) -> int:
     """Handler of ``snn-fg compare``; prints the table, returns 0."""
+    inputs = [Path(x).resolve() for x in (*args.a, args.b)]
     for flag, out, suffix in (("--json", args.json, ".json"), ("--plot", args.plot, ".png")):
-        if out is not None and Path(out).resolve() in (Path(args.a).resolve(), Path(args.b).resolve()):
+        if out is not None and Path(out).resolve() in inputs:
             raise InputError(out, "output would overwrite an input")
         if out is not None:
             check_output_file(out, args.force, flag, (suffix,))
     if names_labels(args.b):
         return cmd_compare_labels(args)
-    a, b = Maps.load(args.a), Maps.load(args.b)
-    a, b, notes = align_to_export(a, b, args.window, (args.a, args.b))  # (a board's maps against the reference)
-    for note in notes + mismatches(a, b) + expectations(a, b):
-        print(f"snn-fg: note: {note}")
-    try:
-        where = None if args.outline is None else event_outlines(a, b, args.outline)
-        rows = compare_maps(
-            a, b, window=None if notes else args.window, where=where, min_confidence=args.min_confidence
-        )
-    except WindowOutOfRange as exc:  # (compare_maps checks it; said by the option's name and the file)
-        raise InputError(
-            f"--window {exc.window}", f"{args.a if exc.side == 'a' else args.b} holds windows 0 to {exc.n - 1}"
-        ) from None
-    except SnnFgError as exc:
-        raise InputError(args.b, str(exc).removeprefix("compare_maps: ")) from None
-    baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
+    if len(args.a) > 1 or runs_of(args.a[0]) != [Path(args.a[0])]:  # (runs made one by one, or folders of runs)
+        from .compare_pooled import cmd_compare_pooled
+
+        return cmd_compare_pooled(args)
+    args.a = args.a[0]
+    a, b, rows, where, baseline = compare_pair(args, args.a, args.b)
     runs = (("A", _run_name(args.a), a), ("B", _run_name(args.b), b))  # (a path may be wider than the table)
     named = [f"{side}: {run}, the {m.params.get('model', 'unknown')} model" for side, run, m in runs]
     print(compare_table(rows, args.outline, baseline, named))
@@ -199,6 +196,29 @@ def cmd_compare(args) -> int:
         save_compare_figure(args.plot, a, b, rows, names=names, where=where, inputs=aps_inputs(a, b))
         print(f"snn-fg: figure saved to {args.plot}")
     return 0
+
+
+def compare_pair(args, path_a, path_b, say=print):
+    """Maps ``path_a`` against ``path_b`` as ``args`` (compare's options) ask: ``(a, b, rows, where,
+    baseline)``, each row of :func:`~snn_fg.scoring.metrics.compare_maps`; notes on the pair said by
+    ``say``, a bad pair or option one :class:`InputError`."""
+    a, b = Maps.load(path_a), Maps.load(path_b)
+    a, b, notes = align_to_export(a, b, args.window, (path_a, path_b))  # (a board's maps against the reference)
+    for note in notes + mismatches(a, b) + expectations(a, b):
+        say(f"snn-fg: note: {note}")
+    try:
+        where = None if args.outline is None else event_outlines(a, b, args.outline)
+        rows = compare_maps(
+            a, b, window=None if notes else args.window, where=where, min_confidence=args.min_confidence
+        )
+    except WindowOutOfRange as exc:  # (compare_maps checks it; said by the option's name and the file)
+        raise InputError(
+            f"--window {exc.window}", f"{path_a if exc.side == 'a' else path_b} holds windows 0 to {exc.n - 1}"
+        ) from None
+    except SnnFgError as exc:
+        raise InputError(path_b, str(exc).removeprefix("compare_maps: ")) from None
+    baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
+    return a, b, rows, where, baseline
 
 
 def _record(args, rows, baseline: str | None) -> dict:

@@ -3,7 +3,8 @@
 LABELS is a ``bsds-fg`` folder (the run's image found by its input file's name, ``labels/<id>.npz``)
 or one labels file in that format (:mod:`snn_fg.scoring.groundtruth`). RUN is a run's output (its
 folder or ``maps.npz``) or a folder of runs made by ``snn-fg run`` on several images (its
-``summary.csv`` lists them), scored image by image and pooled. Every number is
+``summary.csv`` lists them), or several of either (runs made one at a time: ``RUN1 RUN2 LABELS``),
+scored image by image and pooled. Every number is
 :mod:`snn_fg.scoring.label_scores`', the one the BSDS experiments report. Everything is read and
 checked before anything is printed or written, so a bad input ends in one line, nothing written.
 """
@@ -221,7 +222,7 @@ def _record(args, scored: list[Scored], rows) -> dict:
     from .. import __version__
 
     return {
-        "a": str(args.a),
+        "a": str(args.a[0]) if len(args.a) == 1 else [str(a) for a in args.a],
         "b": str(args.b),
         "options": {"min_confidence": args.min_confidence},
         "images": [
@@ -243,15 +244,27 @@ def cmd_compare_labels(args) -> int:
     for key, flag in _MAPS_ONLY:
         if getattr(args, key) is not None and getattr(args, key) is not False:  # (--window 0 == False)
             raise InputError(flag, f"chooses windows or pixels of two maps files; {args.b} holds human labels")
-    runs = runs_of(args.a)
+    runs_given = ", ".join(map(str, args.a))  # (RUN: one run or folder of runs, or several made one at a time)
+    runs = [r for a in args.a for r in runs_of(a)]
     if len(runs) > 1 and Path(args.b).is_file():
-        raise InputError(args.b, f"is one image's labels, but {args.a} holds {len(runs)} runs: give the labels folder")
+        raise InputError(
+            args.b, f"is one image's labels, but {runs_given} holds {len(runs)} runs: give the labels folder"
+        )
     drawn = set(rows_shown(len(runs), FIGURE_ROWS).tolist()) if args.plot else set()
     scored = [score_run(r, args.b, args.min_confidence, keep=i in drawn) for i, r in enumerate(runs)]
+    seen: dict = {}
+    for s in scored:  # (runs given one by one and pooled: an image given twice would weigh twice)
+        if s.image_id in seen and len(args.a) > 1:
+            raise InputError(
+                s.maps_path, f"is a second run of image {s.image_id} (also {seen[s.image_id]}): give each once"
+            )
+        seen[s.image_id] = s.maps_path
     notes = []
-    failed = failed_runs(args.a)
+    failed = [f for a in args.a for f in failed_runs(a)]
     if failed:
-        notes.append(f"snn-fg: note: {args.a} lists {len(failed)} failed run(s), not scored: {', '.join(failed[:4])}")
+        notes.append(
+            f"snn-fg: note: {runs_given} lists {len(failed)} failed run(s), not scored: {', '.join(failed[:4])}"
+        )
     for s in scored:
         given = (s.params.get("source") or {}).get("input")
         if len(s.labels.fg) > 1 and all(np.array_equal(s.labels.fg[0], f) for f in s.labels.fg[1:]):
@@ -261,7 +274,7 @@ def cmd_compare_labels(args) -> int:
     rows = table_rows(scored)
     models = sorted({str(s.params.get("model", "unknown")) for s in scored})
     images = f"{len(scored)} image{'s' if len(scored) > 1 else ''}"
-    what = [f"run: {args.a} ({images}, the {'/'.join(models)} model); labels: {args.b}"]
+    what = [f"run{'s' * (len(args.a) > 1)}: {runs_given} ({images}, the {'/'.join(models)} model); labels: {args.b}"]
     print(labels_table(rows, what + notes))
     if args.json:
         save_text(args.json, json.dumps(_record(args, scored, rows), indent=2))

@@ -236,3 +236,47 @@ def test_runs_made_one_at_a_time_are_scored_and_pooled_as_a_folder_of_runs_is(di
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and said in err[0], err
         assert not out.exists()
+
+
+def test_the_table_says_what_it_scored_and_the_pooled_interval_the_experiment_pages_give(disc_case, capsys, tmp_path):
+    """compare RUN LABELS names the model, network and settings read from the run, and under a table of
+    several images the pooled scores with the pages' 95 % bootstrap interval over the images. Two images
+    with as many labelled pixels, side accuracy 1 and s: resamples pool to 1, (1 + s) / 2 or s, a quarter
+    of them each of the ends, so the interval is [s, 1] around (1 + s) / 2."""
+    labels, write, (tx, ty, valid) = disc_case
+    one = write(tx, ty, "inward", fg_confidence=np.ones_like(tx, np.float32))
+    params = {
+        **Maps.load(one).params,
+        "model": "spiking",
+        "levels": 4,
+        "r0": 8.0,
+        "network": {"origin": "recipe", "recipe": "compact"},
+        "backend": {"name": "fast"},
+    }
+    m = Maps.load(one)
+    Maps(m.fg_x, m.fg_y, m.grouping, params, m.extra).save(tmp_path / "spiking" / "maps.npz")
+    assert main(["compare", str(tmp_path / "spiking"), str(labels)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "read: the spiking model on the compact network (fast backend); levels 4, r0 8" in lines
+    assert any(ln.startswith("interval: none for one image") for ln in lines)
+
+    left = np.zeros_like(valid)
+    left[:, : SIZE // 2] = True
+    write(np.where(left, -tx, tx), np.where(left, -ty, ty), "runs/b")
+    write(tx, ty, "runs/a")
+    (tmp_path / "runs" / "summary.csv").write_text(
+        "recording,output,status,windows,seconds,error\n"
+        f"disc.png,{tmp_path / 'runs' / 'a'},done,1,1.0,\n"
+        f"disc.png,{tmp_path / 'runs' / 'b'},done,1,1.0,\n"
+    )
+    out = tmp_path / "scores.json"
+    assert main(["compare", str(tmp_path / "runs"), str(labels), "--json", str(out)]) == 0
+    said = capsys.readouterr().out
+    s = float(np.mean(np.nonzero(valid)[1] >= SIZE // 2))
+    assert "read: the rate model\n" in said  # (no network, no stage parameter stored in these maps)
+    assert f"side {(1 + s) / 2:.3f} [{s:.3f}, 1.000]" in said and "95 % interval of 2000 bootstrap resamples" in said
+    assert "cover 1.000 [1.000, 1.000]" in said
+    record = json.loads(out.read_text())
+    side = record["interval"]["side_accuracy"]
+    assert (side["low"], side["high"]) == (pytest.approx(s), 1.0) and record["interval"]["resamples"] == 2000
+    assert record["images"][0]["settings"] == "the rate model"

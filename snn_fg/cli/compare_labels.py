@@ -216,9 +216,56 @@ def labels_table(rows, notes=()) -> str:
     return "\n".join(lines + textwrap.wrap(_KEY, 98))
 
 
-def _record(args, scored: list[Scored], rows) -> dict:
-    """What --json keeps: the inputs, every row as printed (all scores of pool_stats, the median
-    to half a degree), the options and the snn-fg that measured them."""
+#: resamples of the bootstrap over images behind the pooled interval (experiments/paper/table1.py's)
+BOOTSTRAP_RESAMPLES = 2000
+#: the interval line's scores: (score, word, format), in the table's words
+_INTERVAL = (("side_accuracy", "side", ".3f"), ("coverage", "cover", ".3f"), ("within45", "<=45°", ".3f"))
+_INTERVAL += (("mean_abs_deg", "mean°", ".1f"),)
+
+
+def run_settings(params: dict) -> str:
+    """What a run's maps say it was made with, in one line: the model, its network (a spiking run's
+    recipe, file or the default built from parameters) and backend, the stage parameters and how the
+    image was turned into events."""
+    net, backend = params.get("network"), params.get("backend")
+    said = f"the {params.get('model', 'unknown')} model"
+    if isinstance(net, dict):  # (a spiking run's: snn_fg.models.spiking.record.run_provenance)
+        origin = str(net.get("origin", "?"))
+        name = net.get("recipe") if origin == "recipe" else "default" if origin == "built" else Path(origin).name
+        said += f" on the {name} network"
+    if isinstance(backend, dict) and backend.get("name"):
+        said += f" ({backend['name']} backend)"
+    stages = [f"{k} {params[k]:g}" for k in ("levels", "n_ori", "r0", "iterations", "input_pool") if k in params]
+    source = params.get("source") or {}
+    events = [f"{k} {source[k]}" for k in ("motion", "threshold") if source.get(k) is not None]
+    return "; ".join(
+        [said] + ([", ".join(stages)] if stages else []) + ([f"events {', '.join(events)}"] * bool(events))
+    )
+
+
+def pooled_interval(scored: list[Scored]) -> tuple[str, dict | None]:
+    """The line under the table that gives the pooled scores of every image and labeller with the 95 %
+    interval of a bootstrap over the images, as the experiment pages give them
+    (:func:`~snn_fg.scoring.bootstrap.bootstrap_scores`, 2000 resamples), and those numbers; one image
+    allows none (resampling one image gives it back), and the line says so."""
+    if len(scored) < 2:
+        return "interval: none for one image (the experiment pages' 95 % interval resamples images: give several)", None
+    from ..scoring.bootstrap import bootstrap_scores
+
+    boot = bootstrap_scores(
+        [s.parts for s in scored], n_resamples=BOOTSTRAP_RESAMPLES, keys=tuple(k for k, _, _ in _INTERVAL)
+    )
+    cells = [
+        f"{word} {boot[k]['pooled']:{f}} [{boot[k]['low']:{f}}, {boot[k]['high']:{f}}]" for k, word, f in _INTERVAL
+    ]
+    head = f"all {len(scored)}, both, with the 95 % interval of {BOOTSTRAP_RESAMPLES} bootstrap resamples of the images"
+    return f"{head}: {'; '.join(cells)}", {k: nulls(boot[k]) for k, _, _ in _INTERVAL}
+
+
+def _record(args, scored: list[Scored], rows, interval=None) -> dict:
+    """What --json keeps: the inputs and what each run was made with, every row as printed (all scores
+    of pool_stats, the median to half a degree), the pooled interval over images (several images),
+    the options and the snn-fg that measured them."""
     from .. import __version__
 
     return {
@@ -231,10 +278,12 @@ def _record(args, scored: list[Scored], rows) -> dict:
                 "maps": str(s.maps_path),
                 "labels": str(s.labels_path),
                 "labellers": list(s.labels.labellers),
+                "settings": run_settings(s.params),
             }
             for s in scored
         ],
         "rows": [{"image": i, "labeller": w, **nulls(st)} for i, w, st in rows],
+        "interval": None if interval is None else {"level": 0.95, "resamples": BOOTSTRAP_RESAMPLES, **interval},
         "snn_fg_version": __version__,
     }
 
@@ -275,9 +324,15 @@ def cmd_compare_labels(args) -> int:
     models = sorted({str(s.params.get("model", "unknown")) for s in scored})
     images = f"{len(scored)} image{'s' if len(scored) > 1 else ''}"
     what = [f"run{'s' * (len(args.a) > 1)}: {runs_given} ({images}, the {'/'.join(models)} model); labels: {args.b}"]
-    print(labels_table(rows, what + notes))
+    settings: dict = {}
+    for s in scored:  # (one line when every run was made alike, as is usual; else one per kind, counted)
+        settings.setdefault(run_settings(s.params), []).append(s.image_id)
+    for line, ids in settings.items():
+        what.append(f"read: {line}" + (f" ({len(ids)} of {len(scored)} images)" if len(settings) > 1 else ""))
+    interval, boot = pooled_interval(scored)
+    print(labels_table(rows, what + [interval] + notes))
     if args.json:
-        save_text(args.json, json.dumps(_record(args, scored, rows), indent=2))
+        save_text(args.json, json.dumps(_record(args, scored, rows, boot), indent=2))
         print(f"snn-fg: scores saved to {args.json}")
     if args.plot:
         from ..scoring.labels_figure import save_labels_figure

@@ -120,7 +120,7 @@ class _Stream:
     """A stream cut as it is read (what a live source gives the spiking model)."""
 
     def __init__(self, rec, chunks, **options):
-        from snn_fg.events.window import WindowCutter
+        from snn_fg.events.cutter import WindowCutter
 
         self.chunks, self.cutter = chunks, WindowCutter(rec.sensor_size, **options)
 

@@ -4,7 +4,7 @@ cut into windows on the stream's clock, with bounded memory.
 :class:`LiveStream` takes a source's packets (:mod:`snn_fg.events.live_sources`)
 on a receiving thread and hands their events to the model in the order
 they came, either as event chunks with the
-:class:`~snn_fg.events.window.WindowCutter` that cuts them (:meth:`cut`: the
+:class:`~snn_fg.events.cutter.WindowCutter` that cuts them (:meth:`cut`: the
 spiking network, which takes the events as they arrive) or window by
 window (iterating it: the rate model). Events outside the sensor and
 events earlier than the stream's latest are dropped and counted, each
@@ -21,7 +21,7 @@ written, not published, and not computed). The windows in between are
 kept whole. So at most ``max_behind`` windows, the one a slot's start
 completes and one slot of events wait, whatever the stream's rate; the
 model learns that the stream's clock has passed the dropped
-events (:class:`~snn_fg.events.window.TimePassed`), so that the windows
+events (:class:`~snn_fg.events.cutter.TimePassed`), so that the windows
 before them complete. A dropped slot costs no simulated time: where no kept window is read
 out (:meth:`resume_at`), the spiking network skips the rest of the slot and
 goes on at the next one put at rest, as if no event had come before it.
@@ -46,7 +46,7 @@ from numba import njit
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events._core import EVENT_DTYPE
-from snn_fg.events.window import TimePassed, WindowCutter, _window_times
+from snn_fg.events.cutter import TimePassed, WindowCutter, _window_times
 
 #: the end of the stream, on the queue
 _END = object()
@@ -82,7 +82,7 @@ def _screen(x, y, t, w, h, last_t):
 
 class LiveStream:
     """The events of ``source`` as they arrive; the window options are
-    :class:`~snn_fg.events.window.WindowCutter`'s (``stride_ms``: the hop)."""
+    :class:`~snn_fg.events.cutter.WindowCutter`'s (``stride_ms``: the hop)."""
 
     def __init__(self, source, *, window_ms=85.0, stride_ms=None, start_ms=0.0, max_behind: int = 0, lag_ms=0.0):
         self.source, self.name = source, source.name
@@ -243,7 +243,7 @@ class LiveStream:
     # -- the model's thread ------------------------------------------------------------------------
     def chunks(self):
         """The events in arrival order, as much as has come at a time (and where events
-        were dropped, the time they reached: a :class:`~snn_fg.events.window.TimePassed`), until the stream ends."""
+        were dropped, the time they reached: a :class:`~snn_fg.events.cutter.TimePassed`), until the stream ends."""
         if self.on_ready is not None:
             self.on_ready()
         while True:

@@ -1,18 +1,17 @@
-"""Stage 1 of the model: event frames, and cutting a recording into time windows."""
+"""Stage 1 of the model: event frames (:func:`events_to_frame`, :class:`EventWindow`), and a
+recording cut into time windows (:func:`iter_windows`, with :mod:`snn_fg.events.cutter`'s cutter)."""
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from snn_fg import validate
-from snn_fg.errors import InputError, Remedy
-from snn_fg.events._core import EVENT_DTYPE, as_events, check_in_sensor, check_monotonic, sensor_size_parameter
+from snn_fg.errors import InputError
+from snn_fg.events._core import as_events, check_in_sensor, sensor_size_parameter
 from snn_fg.events.formats import check_read_options
-from snn_fg.events.io import iter_recording, no_span_problem
+from snn_fg.events.io import iter_recording
 
 
 def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):
@@ -83,34 +82,6 @@ class EventWindow:
         return self.pos | self.neg
 
 
-def _filter(events, denoise_us, refractory_us):
-    if len(events) and denoise_us:
-        from tonic.transforms import Denoise  # (tonic takes over a second to import: only when a filter is asked for)
-
-        events = Denoise(filter_time=denoise_us)(events)
-    if len(events) and refractory_us:
-        from tonic.transforms import RefractoryPeriod
-
-        events = RefractoryPeriod(delta=refractory_us)(events)
-    return events
-
-
-def _ms_to_us(name, value, positive=True) -> int:
-    """A time in milliseconds given to :func:`iter_windows`, as whole microseconds."""
-    ms = validate.number("iter_windows", name, value, lo=0, lo_open=positive)
-    us = round(ms * 1000)
-    if positive and us < 1:
-        validate.fail("iter_windows", name, value, "must be at least 0.001 ms (1 us)")
-    return int(us)
-
-
-def _window_times(window_ms, start_ms, stride_ms) -> tuple[int, int, int]:
-    """Window length, start and stride of :func:`iter_windows` in microseconds, checked."""
-    win = _ms_to_us("window_ms", window_ms)
-    start = _ms_to_us("start_ms", start_ms, positive=False)
-    return win, start, win if stride_ms is None else _ms_to_us("stride_ms", stride_ms)
-
-
 class RecordingWindows:
     """A recording's windows that can be read more than once: each
     iteration is a fresh :func:`iter_windows` over ``recording_or_path``
@@ -133,19 +104,13 @@ class RecordingWindows:
         read = check_read_options(owner, {k: v for k, v in self.options.items() if k not in WINDOW_KEYS})
         stream = iter_recording(self.recording, **read)
         stream.warn_no_span = False  # (refused by the cut)
+        from snn_fg.events.cutter import WindowCutter  # (the cutter builds on this module's windows)
+
         return stream, WindowCutter(stream.sensor_size, stream.path if stream.path is not None else "<array>", **window)
 
 
 #: the options of :func:`iter_windows` that say how a stream is cut (the others say how it is read)
 WINDOW_KEYS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
-
-
-def _check_window_options(max_windows, denoise_us, refractory_us) -> None:
-    if max_windows is not None:
-        validate.integer("iter_windows", "max_windows", max_windows, lo=1)
-    for name, v in (("denoise_us", denoise_us), ("refractory_us", refractory_us)):
-        if v is not None:
-            validate.number("iter_windows", name, v, lo=0)
 
 
 def iter_windows(
@@ -244,156 +209,3 @@ class WindowIterator:
             raise InputError("<windows>", "windows of iter_windows already read: they are read once; call it again")
         self._it = iter(())
         return self._windows.cut(owner)
-
-
-@dataclass(frozen=True)
-class TimePassed:
-    """A live stream's clock has reached ``t_us`` though no event came (those
-    of a dropped slot were thrown away): what :meth:`WindowCutter.add` takes
-    instead of events, so that the windows before it complete."""
-
-    t_us: int
-
-    def __len__(self) -> int:
-        return 0
-
-
-class WindowCutter:
-    """:func:`iter_windows`' cut made one chunk at a time, as a live stream
-    arrives: :meth:`add` takes the next events (in time order) and returns
-    the windows they complete, :meth:`finish` the last window once the
-    stream has ended. Windows are cut on the stream's own clock: window
-    ``k`` is ``[origin + k * stride, ... + window)`` with ``origin`` the
-    first event's time plus ``start_ms`` (:meth:`span`). The options are
-    :func:`iter_windows`' (``name`` is the stream's, for errors)."""
-
-    def __init__(
-        self,
-        sensor_size,
-        name="<stream>",
-        *,
-        window_ms: float = 85,
-        start_ms: float = 0,
-        stride_ms: float | None = None,
-        max_windows: int | None = None,
-        denoise_us: int | None = None,
-        refractory_us: int | None = None,
-    ):
-        self.win, self.start, self.stride = _window_times(window_ms, start_ms, stride_ms)
-        _check_window_options(max_windows, denoise_us, refractory_us)
-        self.max_windows, self.denoise_us, self.refractory_us = max_windows, denoise_us, refractory_us
-        self.start_ms = start_ms
-        self.size, self.name = sensor_size, name
-        # the events of the windows not yet complete, as they came: joined once a window completes
-        # (joined at every chunk, a live stream's 5 ms chunks copied the whole window 17 times)
-        self.parts: list = []
-        self.t0 = self.w_start = self.w_end = self.prev_t = None
-        self.k = self.seen = 0
-
-    @property
-    def filtered(self) -> bool:
-        """Whether a window's events are filtered (its own, not the stream's)."""
-        return bool(self.denoise_us or self.refractory_us)
-
-    @property
-    def origin(self) -> int | None:
-        """The first window's start (us, the stream's clock), once an event has come."""
-        return None if self.t0 is None else self.t0 + self.start
-
-    @property
-    def done(self) -> bool:
-        """Whether ``max_windows`` windows have been cut."""
-        return self.max_windows is not None and self.k >= self.max_windows
-
-    def span(self, k: int) -> tuple[int, int]:
-        """Window ``k``'s whole span ``(start, end)`` in us (a stream's last window may end earlier)."""
-        a = self.origin + k * self.stride
-        return a, a + self.win
-
-    def held(self, t: np.ndarray) -> np.ndarray:
-        """Which of the times ``t`` (in us) some window holds (none before the first
-        window, in the gaps of a stride longer than the window, after ``max_windows``)."""
-        d = np.asarray(t, dtype=np.int64) - self.origin
-        inside = (d >= 0) & (d % self.stride < self.win) if self.stride > self.win else d >= 0
-        if self.max_windows is not None:
-            inside &= d < (self.max_windows - 1) * self.stride + self.win
-        return inside
-
-    def add(self, chunk) -> list[EventWindow]:
-        """The windows that events ``chunk`` (later than every event before), or
-        the stream's clock reaching a time (:class:`TimePassed`), complete."""
-        if isinstance(chunk, TimePassed):
-            if self.done or self.t0 is None or chunk.t_us <= self.prev_t:
-                return []
-            self.prev_t = int(chunk.t_us)
-            return self._complete()
-        if self.done or not len(chunk):
-            return []
-        check_monotonic(chunk, self.name, offset=self.seen, prev_t=self.prev_t)
-        self.seen += len(chunk)
-        self.prev_t = int(chunk["t"][-1])
-        if self.t0 is None:
-            self.t0 = int(chunk["t"][0])
-            self.w_start = self.t0 + self.start
-            self.w_end = self.w_start + self.win
-        new = chunk[chunk["t"] >= self.w_start]
-        if len(new):
-            self.parts.append(new)
-        return self._complete()
-
-    def _events(self) -> np.ndarray:
-        """The events held, in one array."""
-        if len(self.parts) != 1:
-            self.parts = [np.concatenate(self.parts) if self.parts else np.zeros(0, dtype=EVENT_DTYPE)]
-        return self.parts[0]
-
-    def _complete(self) -> list[EventWindow]:
-        """The windows that end at or before the newest time."""
-        out = []
-        while self.prev_t >= self.w_end:  # every window that ends at or before the newest timestamp is complete
-            buf = self._events()
-            cut = int(np.searchsorted(buf["t"], self.w_end, side="left"))
-            out.append(self._emit(buf[:cut], self.w_start, self.w_end))
-            if self.done:
-                break
-            self.w_start += self.stride
-            self.w_end = self.w_start + self.win
-            self.parts = [buf[int(np.searchsorted(buf["t"], self.w_start, side="left")) :]]
-        return out
-
-    def finish(self) -> list[EventWindow]:
-        """The last window, ending with the stream (one microsecond after its last event)."""
-        if self.done:
-            return []
-        if self.t0 is None:
-            raise InputError(self.name, "recording contains no events")
-        if self.seen > 1 and self.prev_t == self.t0:
-            raise InputError(
-                self.name, f"{no_span_problem(self.seen, self.t0)} and has no window to cut; is the file cut short?"
-            )
-        if self.w_start > self.prev_t:
-            if self.k == 0:
-                last_ms = (self.prev_t - self.t0) / 1000
-                raise InputError(
-                    self.name,
-                    f"the start, {self.start_ms:g} ms, lies after the last event ({last_ms:g} ms after the first)",
-                    remedy=Remedy(f"start_ms below {last_ms:g}", f"--start-ms below {last_ms:g}"),
-                )
-            return []
-        # the last window ends with the recording: its nominal end may lie far beyond
-        return [self._emit(self._events(), self.w_start, min(self.w_end, self.prev_t + 1))]
-
-    def _emit(self, events, ws, we) -> EventWindow:
-        ev = _filter(events, self.denoise_us, self.refractory_us)
-        if not len(ev):
-            warnings.warn(
-                f"{self.name}: window {self.k} [{ws} us, {we} us) has no events; its frames are all zero",
-                EmptyWindowWarning,
-                stacklevel=4,
-            )
-        pos, neg = events_to_frame(ev, self.size)
-        out = EventWindow(
-            index=self.k, t_start_us=ws, t_end_us=we, events=ev, pos=pos, neg=neg, t_first_event_us=self.t0
-        )
-        self.k += 1
-        return out

@@ -181,7 +181,7 @@ def simulate_windows(
 
     ``windows``: a list of windows, or a stream cut as it is read (an
     object with a ``cut()`` method giving its event chunks and a
-    :class:`~snn_fg.events.window.WindowCutter`, as
+    :class:`~snn_fg.events.cutter.WindowCutter`, as
     :class:`~snn_fg.events.RecordingWindows` and a live source do), read once
     (:mod:`.stream_input`); ``segment_ms``: the input handed to the backend
     at a time.
@@ -275,7 +275,7 @@ def _simulate(
 
 
 def read_past_the_cut(cut, lag_ms: float) -> int | None:
-    """For a stream ``cut`` (a :class:`~snn_fg.events.window.WindowCutter`) by ``max_windows``:
+    """For a stream ``cut`` (a :class:`~snn_fg.events.cutter.WindowCutter`) by ``max_windows``:
     that number, the windows read out, after letting ``cut`` cut the windows that a longer
     run begins before the last one's read-out ends (``lag_ms`` past its end). So the network
     is fed the events a longer run feeds it until then, and its window clock fires and its
@@ -295,7 +295,7 @@ def lay_out(feed: StreamFeed, opts: SpikingOptions, cut, read_out: int | None = 
     (:func:`~.stream_input.stream_rate_hz`), and every window's read-out span,
     for the windows known (a stream read whole, or a list of windows) or
     for those the stream can hold within :data:`~.stream_input.HORIZON_MS`
-    (``cut``: the stream's :class:`~snn_fg.events.window.WindowCutter`; None for a list);
+    (``cut``: the stream's :class:`~snn_fg.events.cutter.WindowCutter`; None for a list);
     ``read_out``: only the first so many windows are read out (:func:`read_past_the_cut`)."""
     first = feed.held.get(0)
     shape = first.pos.shape if cut is None else (int(cut.size[1]), int(cut.size[0]))

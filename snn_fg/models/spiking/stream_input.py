@@ -2,7 +2,7 @@
 
 A stream can be read once. The events reach the network as they arrive
 (:func:`arrivals`: each chunk's events that some window holds, and the
-windows the chunk completes, cut by a :class:`~snn_fg.events.window.WindowCutter`
+windows the chunk completes, cut by a :class:`~snn_fg.events.cutter.WindowCutter`
 on the stream's own clock), and :class:`StreamFeed` turns them into input
 spikes as the backend asks for the next segment of steps
 (:class:`~snn_fg.lowering.input_stream.SegmentedInput`), holding each
@@ -116,7 +116,7 @@ class Arrival:
 
 def arrivals(chunks, cut):
     """The :class:`Arrival` of each chunk of events (in time order) cut by
-    ``cut`` (a :class:`~snn_fg.events.window.WindowCutter`), and a last one
+    ``cut`` (a :class:`~snn_fg.events.cutter.WindowCutter`), and a last one
     once the stream has ended. Windows whose events are filtered
     (``denoise_us``, ``refractory_us``: each window's own) feed their events
     as they complete, the others as they arrive."""
@@ -129,7 +129,7 @@ def arrivals(chunks, cut):
             known = done[-1].t_end_us if done else known
         elif len(chunk):
             events, known = chunk[cut.held(chunk["t"])], cut.prev_t
-        else:  # (no event; the clock may have passed dropped ones: events.window.TimePassed)
+        else:  # (no event; the clock may have passed dropped ones: events.cutter.TimePassed)
             events, known = None, known if cut.prev_t is None else cut.prev_t
         yield Arrival(events, done, known, cut.origin)
         if cut.done:

@@ -61,7 +61,7 @@ def test_the_stream_says_where_a_model_may_go_on_past_its_dropped_slots():
         stream.dropped_windows |= set(range(2, 10))
     got = {t: stream.resume_at(t * 1000.0) / 1000 for t in (40, 50, 60, 65, 70, 80, 90, 100)}
     assert got == {40: 40, 50: 50, 60: 60, 65: 65, 70: 80, 80: 90, 90: 100, 100: 100}
-    assert stream.stats()["simulated_ms_skipped"] == 30.0
+    assert stream.stats()["simulated_ms_dropped"] == 30.0
     stream.published = 1  # (window 1 published: nothing reads slot 6 any more)
     assert stream.resume_at(60_000.0) == 70_000.0
 
@@ -177,7 +177,7 @@ def test_hops_behind_the_stream_skip_read_outs_only_and_the_hops_made_are_a_runs
         segment_ms=5.0,
     )
     s = stream.stats()
-    assert s["windows_dropped"] == 0 and s["simulated_ms_skipped"] == 0 and s["windows_skipped"] > 0
+    assert s["windows_dropped"] == 0 and s["simulated_ms_dropped"] == 0 and s["windows_skipped"] > 0
     assert len(live) + s["windows_skipped"] == len(whole) and len(live) < len(whole)
     assert sorted(live) == list(range(len(whole) - len(live), len(whole)))  # (the newest hops: 6-9 of 10)
     for k, m in live.items():

@@ -302,7 +302,7 @@ def _row(case, transport, speed, cores, r, sent: int) -> list:
         f"{speed:g}x",
         cores,
         f"{r['windows']} / {r.get('windows_skipped', 0)} / {r['windows_dropped']}",
-        f"{r['simulated_ms_skipped']:.0f}",
+        f"{r['simulated_ms_dropped']:.0f}",
         f"{r['events_received']:,} / {sent:,}",
         f"{median:.0f} / {p95:.0f} / {worst:.0f}",
         ", ".join(f"{x:.0f}" for x in ended) or "-",

@@ -98,7 +98,8 @@ def add_live_command(sub):
         default=0,
         metavar="N",
         help="windows whose read-out is over waiting for their maps before whole windows are dropped "
-        "(0: the least latency; more keeps more windows, each later; with --hop-ms, windows' worth of hops)",
+        "(0: the least latency; more keeps more windows, each later; with --hop-ms, windows' worth of hops; "
+        "the policy: docs/live.md, 'When the model falls behind')",
     )
     p.add_argument(
         "--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s of 'ready' (30)"

@@ -18,8 +18,8 @@ before the slot began; :meth:`done` says which window was published
 last), the whole slot is dropped: its events are counted and thrown away,
 and every window that holds it is dropped (:meth:`dropped_window`: not
 written, not published, and not computed). The windows in between are
-kept whole. So at most ``max_behind`` windows, the one a slot's start
-completes and one slot of events wait, whatever the stream's rate; the
+kept whole. So at most ``max_behind + 2`` windows of events wait (docs/live.md,
+"When the model falls behind"; live.json: ``DROP_POLICY``); the
 model learns that the stream's clock has passed the dropped
 events (:class:`~snn_fg.events.cutter.TimePassed`), so that the windows
 before them complete. A dropped slot costs no simulated time: where no kept window is read
@@ -109,7 +109,7 @@ class LiveStream:
         # (their numbers, as ranges [first, last] of consecutive ones: a long --hop-ms run skips hops by the
         # thousand; the timeline tells them from dropped ones)
         self.skipped_windows: list = []
-        self.skipped_us = 0  # the stream time the model did not simulate (resume_at)
+        self.dropped_us = 0  # the dropped stream time the model did not simulate (resume_at)
         self.first_dropped = None  # the first slot dropped
         self.dropped_windows: set = set()  # (those not yet passed by the published ones)
         self.on_ready = None  # called once the model first asks for events
@@ -298,7 +298,7 @@ class LiveStream:
         ``t``, or, inside a dropped slot that no kept window reads out at ``t``
         (window ``k`` is read over ``[k * stride + lag_us, ... + window)``), the
         slot's end or the next kept window's read-out start, whichever is first.
-        The time skipped is counted (``live.json``: ``simulated_ms_skipped``)."""
+        The time skipped is counted (``live.json``: ``simulated_ms_dropped``)."""
         lag_us = self.lag_us
         with self.lock:
             s = int(t // self.stride)
@@ -313,7 +313,7 @@ class LiveStream:
                 if start <= t:
                     return t  # (a kept window is being read out)
                 to = min(to, start)
-            self.skipped_us += to - t
+            self.dropped_us += to - t
             return to
 
     def stale(self, w) -> bool:
@@ -385,7 +385,7 @@ class LiveStream:
             "windows_dropped": self.windows_dropped,
             "windows_skipped": self.windows_skipped,
             "skipped_windows": self.skipped_windows,
-            "simulated_ms_skipped": self.skipped_us / 1000.0,
+            "simulated_ms_dropped": self.dropped_us / 1000.0,
             "events_received": self.events_received,
             "events_dropped": self.events_dropped,
             "events_outside": self.outside,

@@ -32,7 +32,7 @@ DROP_POLICY = (
     "read-out (the read-out lag past their end) was over before it began wait for their maps; a window holding a "
     "dropped slot is neither computed, written nor published, and the spiking network does not simulate the "
     "dropped time that no kept window reads out: it goes on at the next kept slot with every cell at rest "
-    "(simulated_ms_skipped); with --hop-ms, max_behind counts windows' worth of hops, and a hop whose read-out is "
+    "(simulated_ms_dropped); with --hop-ms, max_behind counts windows' worth of hops, and a hop whose read-out is "
     "due when the next hop's events have all come already is not decoded (windows_skipped): the network takes its "
     "events all the same, and the next hop's maps, fresher, are made in its place"
 )

@@ -133,8 +133,9 @@ RUN_OPTIONS = (
                 None,
                 None,
                 "recordings: fire the network's window clock as each window "
-                "starts, so that its grouping cells compete afresh (off: "
-                "the network carries its state into the next window) (on)",
+                "starts (where windows overlap, once every window length), so "
+                "that its grouping cells compete afresh (off: the network "
+                "carries its state into the next window) (on)",
             ),
             (
                 "--input-coding",

@@ -228,7 +228,9 @@ class SpikingModel(Model):
     ``readout_ms``, ``window_clock``, ``input_coding`` and ``save_spikes`` (keep each window's
     per-cell spike counts, :class:`~snn_fg.models.spiking.SpikingRecord`; a frame always keeps
     them): a recording runs as one continuous network, its window clock firing
-    as each window starts (:mod:`snn_fg.models.spiking.continuous`).
+    as each window starts, or where windows overlap once every window length
+    (:mod:`snn_fg.models.spiking.continuous`; when exactly:
+    :class:`~snn_fg.models.spiking.stream_input.StreamLayout`).
     """
 
     name = "spiking"

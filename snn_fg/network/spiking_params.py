@@ -205,9 +205,11 @@ class Gains(_Part):
     back (so feedback modulates only where the simple cell is active).
 
     ``clock_inh_group``: thresholds of inhibitory current that the window
-    clock, one spike source firing as each window of a recording starts,
-    puts on every grouping cell (0: no clock). It must hold the grouping
-    cells silent until the feedback's inhibition of the border-ownership
+    clock, one spike source firing as each window of a recording starts
+    (where windows overlap, once every window length:
+    :class:`~snn_fg.models.spiking.stream_input.StreamLayout`), puts on
+    every grouping cell (0: no clock). It must hold the grouping cells
+    silent until the feedback's inhibition of the border-ownership
     cells that lost the previous window has faded (``feedback_inh_bo``
     thresholds per 100 Hz of the feedback half against them: about 120
     thresholds from a pair at 600 Hz, the 90th percentile on a BSDS frame,

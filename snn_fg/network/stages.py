@@ -325,11 +325,13 @@ def pooled_feedback(bld, level, g, z):
 
 def window_clock(bld):
     """The window clock: one spike source that fires as each window of a
-    recording starts and inhibits every grouping cell, so that the light
-    and dark grouping cells compete afresh in every window (without it the
-    family that won one window keeps winning the next: the winner-take-all
-    has hysteresis). Its weight is ``clock_inh_group`` thresholds of
-    inhibitory current, spread evenly over the cells by a 1 x 1 Resize."""
+    recording starts (where windows overlap, once every window length: see
+    :class:`~snn_fg.models.spiking.stream_input.StreamLayout`) and inhibits
+    every grouping cell, so that the light and dark grouping cells compete
+    afresh in every window (without it the family that won one window keeps
+    winning the next: the winner-take-all has hysteresis). Its weight is
+    ``clock_inh_group`` thresholds of inhibitory current, spread evenly over
+    the cells by a 1 x 1 Resize."""
     clock = bld.pop("clock", 1, shape=(1, 1))
     for level in range(1, bld.params.levels + 1):
         for pol in ("L", "D"):

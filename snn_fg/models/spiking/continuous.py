@@ -2,8 +2,8 @@
 
 A neuromorphic chip runs one fixed network on the event stream as it comes.
 So does this: the network is built (and, for backends that unroll it,
-instantiated) once for the whole recording, every event becomes one input
-spike at its own timestamp (no replay, no per-window rebuild), and each
+instantiated) once for the whole recording and fed the events as they come
+(no replay, no per-window rebuild), and each
 window's maps are decoded from the spikes counted inside that window,
 shifted by a read-out lag: the window ``[t_start, t_end)`` is read from the
 spikes in ``[t_start + lag, t_end + lag)``, since the network needs a few
@@ -13,6 +13,13 @@ and each window is decoded as soon as the run has passed the end of its
 read-out span. :func:`run_spiking_windows` lets the backend forget each bin
 once it is read (:attr:`~snn_fg.backends.RunSettings.on_bin`), so that a long
 recording does not need the memory of all its spikes.
+
+How events become input spikes is the network's input coding
+(:func:`~.stream_input.input_stream`): with ``events``, each event is a spike
+of its (pooled) source at its own time step, unless that source fired in
+that step already or within the input adapter's refractory period (the
+compact network's 60 ms); with ``window`` and ``sliding``, an event sets its
+source's hold, and held sources fire at the input rate, not once per event.
 
 The recording is read once, as a live stream is (:mod:`.stream_input`):
 its events are handed to a backend that streams its input (the fast engine)
@@ -78,11 +85,13 @@ def run_spiking_windows(windows, *, source: str = "<recording>", **keywords) -> 
         Count each window's spikes over the last ``readout_ms`` of that span
         only (once the network has settled on the window; ``None``: all of it).
     window_clock : bool
-        Fire the network's window clock (if it has one) as every window
-        starts: its inhibitory pulse holds the grouping cells silent until
-        the previous window's feedback has faded, so each window's light and
-        dark grouping cells compete afresh. ``False``: the clock stays silent
-        and the network carries its state from window to window.
+        Fire the network's window clock (if it has one) as each window
+        starts, or where windows overlap once every window length
+        (:class:`~.stream_input.StreamLayout` says when): its inhibitory
+        pulse holds the grouping cells silent until the previous window's
+        feedback has faded, so each window's light and dark grouping cells
+        compete afresh. ``False``: the clock stays silent and the network
+        carries its state from window to window.
     progress, log
         Stage messages and a progress bar on stderr, or ``log`` receiving them.
     source : str

@@ -190,7 +190,9 @@ class RecordingOptions:
     """A recording run as one network: each window is read from the spikes
     ``readout_lag_ms`` later than its own span, counted over the last
     ``readout_ms`` of it (``None``: the whole span); ``window_clock`` fires the
-    network's window clock (if it has one) as every window starts; ``seed``
+    network's window clock (if it has one) as each window starts, or where
+    windows overlap once every window length (see
+    :class:`~snn_fg.models.spiking.stream_input.StreamLayout`); ``seed``
     draws the held sources' phases of the ``window`` input coding
     (:attr:`~snn_fg.network.Network.input_coding`)."""
 

@@ -24,6 +24,12 @@ taken from events that have not arrived yet:
 So a recording run and a live run of the same events give the same maps.
 Each event is fed once: where windows overlap, the shared events are fed by
 the first window that holds them.
+
+:class:`StreamLayout` is that layout, fixed before the run starts: the
+network, each window's read-out span (the backend's counting bins are their
+edges), and when the window clock fires and the ``window`` coding's holds
+end (:meth:`StreamLayout.clock_steps`, :meth:`StreamLayout.resets`; its
+docstring states the clock's rule, ``docs/spiking-network.md`` explains it).
 """
 
 from __future__ import annotations
@@ -170,9 +176,12 @@ class StreamLayout:
     coding holds a pixel) and, where windows overlap (a hop shorter than the
     window), the window's length in us (``period_us``; 0 where they do not).
 
-    The window clock fires, and the ``window`` coding's holds end, as each
-    window starts; where windows overlap, once every window length from the
-    first window's start instead. So a hop changes what is read out, not how
+    The window clock fires (with ``clock``: a network with one, the clock
+    not turned off) as each window starts; where windows overlap, once every
+    window length from the first window's start instead, at every such
+    period that starts before the last window ends (:meth:`_periods`). The
+    ``window`` coding's holds end where those periods start or end
+    (:meth:`resets`). So a hop changes what is read out, not how
     the network runs: the windows that start on the clock are those of a run
     without the hop, spike for spike (fired at every start, 10 ms apart, the
     clock held the grouping silent for good: its onset is 22 ms)."""

@@ -25,10 +25,11 @@ So a recording run and a live run of the same events give the same maps.
 Each event is fed once: where windows overlap, the shared events are fed by
 the first window that holds them.
 
-:class:`StreamLayout` is that layout, fixed before the run starts: the
-network, each window's read-out span (the backend's counting bins are their
-edges), and when the window clock fires and the ``window`` coding's holds
-end (:meth:`StreamLayout.clock_steps`, :meth:`StreamLayout.resets`; its
+:class:`StreamLayout` owns that layout, fixed before the run starts (made
+by :func:`~snn_fg.models.spiking.continuous.lay_out`): the network, each
+window's read-out span (the backend's counting bins are their edges), and
+when the window clock fires and the ``window`` coding's holds end
+(:meth:`StreamLayout.clock_steps`, :meth:`StreamLayout.resets`; its
 docstring states the clock's rule, ``docs/spiking-network.md`` explains it).
 """
 

@@ -125,8 +125,8 @@ class WindowCutter:
         self.max_windows, self.denoise_us, self.refractory_us = max_windows, denoise_us, refractory_us
         self.start_ms = start_ms
         self.size, self.name = sensor_size, name
-        # the events of the windows not yet complete, as they came: joined once a window completes
-        # (joined at every chunk, a live stream's 5 ms chunks copied the whole window 17 times)
+        # the events from the current window's start on, as they came (views of the chunks): a window
+        # takes those before its end, and they are joined only when it is read (CutWindow)
         self.parts: list = []
         self.t0 = self.w_start = self.w_end = self.prev_t = None
         self.k = self.seen = 0

@@ -148,7 +148,7 @@ def test_the_verdict_puts_the_agreement_beside_chance_and_beside_b_against_itsel
     """Over all windows (pixel-weighted): unrelated maps (a quarter within 45 degrees) are called near
     chance, and a pair as close as B to itself is called so; a mean of the per-window fractions would
     give another number here (0.5 rather than the pooled 0.28)."""
-    from snn_fg.cli.compare import verdict
+    from snn_fg.cli.compare_maps import verdict
 
     rows = [
         {"pixels_compared": 900, "angle_within_45_frac": 0.25, "angle_diff_mean_deg": 90.0, "baseline_within_45": 0.9},
@@ -163,7 +163,7 @@ def test_the_verdict_puts_the_agreement_beside_chance_and_beside_b_against_itsel
 
 
 def test_compare_notes_a_pair_from_other_inputs_or_other_stage_parameters():
-    from snn_fg.cli.compare import mismatches
+    from snn_fg.cli.compare_maps import mismatches
 
     z = np.zeros((4, 4), np.float32)
     a = Maps(z, z, z, {"levels": 3, "r0": 4.0, "input_pool": 3, "source": {"input": "/data/dvs.es"}})

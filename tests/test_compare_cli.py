@@ -215,7 +215,7 @@ def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken
 def test_a_map_without_any_vector_is_named_under_the_table():
     """A window where one map has no vector compares nothing (nan in the
     rows, "-" in the table's angle columns, never "nan"); the table says which map is empty, in which windows."""
-    from snn_fg.cli.compare import compare_table
+    from snn_fg.cli.compare_maps import compare_table
     from snn_fg.scoring.metrics import compare_maps
 
     fx = np.zeros((2, 20, 20), np.float32)
@@ -236,7 +236,7 @@ def test_a_map_without_any_vector_is_named_under_the_table():
 def test_compare_says_when_its_two_models_part_on_a_recording():
     """The spiking network on a recording's events against the rate model gets a note pointing at why
     they part there; a still frame's spiking maps, or two rate runs, do not."""
-    from snn_fg.cli.compare import expectations
+    from snn_fg.cli.compare_maps import expectations
 
     z = np.zeros((4, 4), np.float32)
 
@@ -255,7 +255,7 @@ def test_compare_says_when_its_two_models_part_on_a_recording():
 
 def test_compare_help_promises_in_its_table_only_what_the_table_prints(capsys):
     """The help said the table gives the angle difference's median and MSE; they are in --json only."""
-    from snn_fg.cli.compare import _COLUMNS
+    from snn_fg.cli.compare_maps import _COLUMNS
 
     with pytest.raises(SystemExit):
         main(["compare", "--help"])

@@ -17,8 +17,8 @@ from pathlib import Path
 from ..errors import InputError
 from ..results.atomic import save_text
 from ..results.maps import Maps
-from .compare import _record, _run_name, compare_pair, compare_table
 from .compare_labels import runs_of
+from .compare_maps import _record, _run_name, compare_pair, compare_table
 
 
 def image_of(run) -> str:

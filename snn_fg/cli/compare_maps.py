@@ -1,0 +1,240 @@
+"""The comparison of two runs' maps behind ``snn-fg compare`` (:mod:`.compare`): a pair of maps
+files window by window (:func:`compare_pair`), its table (:func:`compare_table`) and ``--json``
+record, the reference's own stability beside it (:func:`add_baseline`), the verdict, and the notes
+on a pair whose settings differ; shared by a single pair and by runs pooled (:mod:`.compare_pooled`).
+"""
+
+from __future__ import annotations
+
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, SnnFgError
+from ..results.maps import Maps
+from ..scoring.align import align_to_export
+from ..scoring.baseline import self_agreement
+from ..scoring.metrics import WindowOutOfRange, compare_maps, compared_pixels
+from ..scoring.outline import event_outlines
+from .options import blank, cell, nulls
+
+#: compare's table: (header, row key, width, format spec); at most 100 characters wide. The
+#: median angle and the angle MSE are in --json only: a median of angles can look perfect while a
+#: third of the pixels are wrong
+_COLUMNS = (
+    ("A", "window_a", 3, "d"),
+    ("B", "window_b", 3, "d"),
+    ("t (ms)", "t_start_ms", 8, ".1f"),
+    ("pixels", "pixels_compared", 7, "d"),
+    ("cover", "coverage_of_b", 6, ".3f"),
+    ("mean°", "angle_diff_mean_deg", 6, ".1f"),
+    ("<=45°", "angle_within_45_frac", 6, ".3f"),
+    ("SSIM", "angle_ssim", 6, ".3f"),
+    ("grp r", "grouping_pearson_r", 6, ".3f"),
+    ("grp SSIM", "grouping_ssim", 8, ".3f"),
+    ("B <=45°", "baseline_within_45", 7, ".3f"),
+    ("B grp r", "baseline_grouping_r", 7, ".3f"),
+)
+
+
+def compare_table(rows, outline_px: int | None = None, baseline: str | None = None, named=()) -> str:
+    """The rows of :func:`~snn_fg.scoring.metrics.compare_maps` as a text
+    table; ``baseline``: what the B columns hold, or why they are empty;
+    ``named``: lines that say what A and B are, under the table."""
+    pooled = any("image" in r for r in rows)  # (runs paired by image: the image in place of the time)
+    columns = [("image", "image", 8, "") if c[1] == "t_start_ms" and pooled else c for c in _COLUMNS]
+    lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in columns)]
+    lines += ["  ".join(cell(r.get(k), w, spec) for _, k, w, spec in columns) for r in rows]
+    lines += named
+    where = "" if outline_px is None else f" within {outline_px} px of the event region's outline"
+    when = "image: the pair's input image" if pooled else "t: window start after the recording's first event"
+    lines += [
+        f"A, B: compared windows; {when}; angle columns on",
+        f"pixels{where} where both maps have a figure-ground vector (SSIM: where either has one);",
+        "cover: the share of B's vectors that A has there; grouping r and SSIM on the whole map, SSIM",
+        "with each map scaled to 1",
+    ]
+    if baseline is not None:
+        lines += textwrap.wrap(baseline, 95)
+    lines += textwrap.wrap(verdict(rows), 95)
+    confident = [r["confident_a"] for r in rows if "confident_a" in r]
+    if confident:
+        lines.append(
+            f"A's vectors above the confidence threshold: {min(confident):.1%} to {max(confident):.1%} per window"
+        )
+    for side in ("a", "b"):
+        empty = [r[f"window_{side}"] for r in rows if r.get(f"pixels_{side}") == 0]
+        if empty:
+            shown = ", ".join("-" if k is None else str(k) for k in empty[:8]) + (", ..." if len(empty) > 8 else "")
+            lines.append(
+                f"{side.upper()} has no figure-ground vector in {len(empty)} of {len(rows)} compared "
+                f"window{'s' if len(rows) > 1 else ''} ({shown}): nothing to compare there (-)"
+            )
+    return "\n".join(lines)
+
+
+def compare_pair(args, path_a, path_b, say=print):
+    """Maps ``path_a`` against ``path_b`` as ``args`` (compare's options) ask: ``(a, b, rows, where,
+    baseline)``, each row of :func:`~snn_fg.scoring.metrics.compare_maps`; notes on the pair said by
+    ``say``, a bad pair or option one :class:`InputError`."""
+    a, b = Maps.load(path_a), Maps.load(path_b)
+    a, b, notes = align_to_export(a, b, args.window, (path_a, path_b))  # (a board's maps against the reference)
+    for note in notes + mismatches(a, b) + expectations(a, b):
+        say(f"snn-fg: note: {note}")
+    try:
+        where = None if args.outline is None else event_outlines(a, b, args.outline)
+        rows = compare_maps(
+            a, b, window=None if notes else args.window, where=where, min_confidence=args.min_confidence
+        )
+    except WindowOutOfRange as exc:  # (compare_maps checks it; said by the option's name and the file)
+        raise InputError(
+            f"--window {exc.window}", f"{path_a if exc.side == 'a' else path_b} holds windows 0 to {exc.n - 1}"
+        ) from None
+    except SnnFgError as exc:
+        raise InputError(path_b, str(exc).removeprefix("compare_maps: ")) from None
+    baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
+    return a, b, rows, where, baseline
+
+
+def _record(args, rows, baseline: str | None) -> dict:
+    """What ``--json`` keeps: the inputs, the options that chose the pixels compared, the pooled
+    figures the printed verdict gives (each window's rows weighted by their pixels compared;
+    metrics of :mod:`~snn_fg.scoring.metrics`), the verdict and baseline lines as printed, and
+    the snn-fg that measured them: a table made from the file alone says what it is."""
+    from .. import __version__
+
+    r = [x["grouping_pearson_r"] for x in rows if not blank(x.get("grouping_pearson_r"))]
+    pooled = {
+        "pixels_compared": sum(x.get("pixels_compared") or 0 for x in rows),
+        **{
+            key: _pooled(rows, key)
+            for key in ("angle_within_45_frac", "angle_diff_mean_deg", "coverage_of_b", "within_45_of_b")
+        },
+        "grouping_pearson_r_min": min(r, default=None),
+        "grouping_pearson_r_median": float(np.median(r)) if r else None,
+        "verdict": verdict(rows),
+        "baseline": baseline,
+    }
+    options = {"window": args.window, "outline_px": args.outline, "min_confidence": args.min_confidence}
+    return {
+        "a": str(args.a),
+        "b": str(args.b),
+        "options": options,
+        "all_windows": pooled,
+        "snn_fg_version": __version__,
+        "windows": [nulls(r) for r in rows],  # (null where there was nothing to measure)
+    }
+
+
+def _run_name(path) -> str:
+    """The name of the run a maps argument belongs to: its output folder's
+    (``out/a``, ``out/a/maps.npz`` and ``out/a/maps.zarr`` are all run ``a``)."""
+    p = Path(path).resolve()
+    return p.parent.name if p.is_file() or p.suffix in (".npz", ".zarr") else p.name
+
+
+def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str:
+    """B's model run again at twice its iterations on B's own frames
+    (:func:`~snn_fg.scoring.baseline.self_agreement`), on the pixels the
+    rows compared A and B on (``where`` and ``min_confidence``, as given to
+    :func:`~snn_fg.scoring.metrics.compare_maps`:
+    :func:`~snn_fg.scoring.metrics.compared_pixels`): its agreement with B
+    goes into each row (``baseline_*``); returns the line that says so, or
+    why there is no baseline."""
+    crop = b.params.get("export_crop")
+    if crop is not None:  # (the model run on the crop alone is another run than the whole frame's, cut)
+        again = "" if crop["window"] is None else f" --window {crop['window']}"
+        return (
+            "B <=45°, B grp r: no baseline for B cut to the export's crop; its whole window's: "
+            f"snn-fg compare B B{again}"
+        )
+    windows = [r["window_b"] for r in rows]
+    print(f"snn-fg: baseline: running B's model again on {len(windows)} frame(s)...", file=sys.stderr)
+    masks = [compared_pixels(a, b, r["window_a"], r["window_b"], where, min_confidence) for r in rows]
+    got = self_agreement(b, windows, masks=masks)
+    if isinstance(got, str):
+        return (
+            f"B <=45°, B grp r: no baseline: {got}; two runs with another --seed show a spiking run's spread "
+            "(on a recording: with --input-coding window)"
+        )
+    for row, base in zip(rows, got):
+        for k, v in (base or {}).items():
+            row[f"baseline_{k}"] = v
+    its = next((x for x in got if x), {})
+    return (
+        f"B <=45°, B grp r: B against its own model at {its.get('against_iterations', '?')} iterations instead "
+        f"of {its.get('iterations', '?')}, on the same frames: how far B moves on its own; A's agreement "
+        "with B means little where it is near these"
+    )
+
+
+#: what two unrelated maps give: directions uniformly at random, so a quarter within 45 degrees, 90 degrees apart
+CHANCE_WITHIN_45, CHANCE_MEAN_DEG = 0.25, 90.0
+
+
+def _pooled(rows, key) -> float | None:
+    """``key`` over the rows that have it, each weighted by its pixels compared (None: no such row)."""
+    have = [r for r in rows if r.get(key) is not None and r.get("pixels_compared")]
+    n = sum(r["pixels_compared"] for r in have)
+    return sum(r["pixels_compared"] * r[key] for r in have) / n if n else None
+
+
+def verdict(rows) -> str:
+    """One line over every compared window (pixel-weighted): A's agreement with B beside what
+    unrelated maps give and, where the rows have it, beside B's agreement with itself."""
+    n = sum(r.get("pixels_compared") or 0 for r in rows)
+    if not n:
+        return "All windows: no pixel where both maps have a vector; nothing to judge."
+    within, mean = _pooled(rows, "angle_within_45_frac"), _pooled(rows, "angle_diff_mean_deg")
+    own = _pooled(rows, "baseline_within_45")
+    if within < CHANCE_WITHIN_45 + 0.10:
+        word = "near chance: the two maps' directions are unrelated"
+    elif own is not None and within >= own - 0.05:
+        word = "as close as B's model comes to itself"
+    else:
+        word = "above chance" + ("" if own is None else ", short of how close B's model comes to itself")
+    against = f"chance {CHANCE_WITHIN_45:.0%} and {CHANCE_MEAN_DEG:.0f}°" + (
+        "" if own is None else f"; B against itself {own:.1%}"
+    )
+    return f"All windows: A within 45° of B on {within:.1%} of {n:,} pixels, mean {mean:.1f}° ({against}): {word}."
+
+
+#: the model parameters that make the network's stages (two maps made with others are not one model's)
+_STAGE_PARAMS = ("levels", "levels_per_octave", "n_ori", "r0", "input_pool")
+
+
+def mismatches(a: Maps, b: Maps) -> list[str]:
+    """Notes for a pair that is not one input through two models: other inputs, other stage parameters."""
+    out = []
+    inputs = [(m.params.get("source") or {}).get("input") for m in (a, b)]
+    if None not in inputs and Path(inputs[0]).name != Path(inputs[1]).name:
+        out.append(f"A and B come from different inputs ({Path(inputs[0]).name}, {Path(inputs[1]).name})")
+    differ = [
+        f"{k} {a.params[k]} against {b.params[k]}"
+        for k in _STAGE_PARAMS
+        if k in a.params and k in b.params and a.params[k] != b.params[k]
+    ]
+    if differ:
+        out.append(
+            f"A and B were made with other model parameters ({', '.join(differ)}): B is not A's reference; "
+            "run B's model with A's --network (the rate model on the compact network: "
+            "snn-fg run REC --model rate --network compact)"
+        )
+    return out
+
+
+def expectations(a: Maps, b: Maps) -> list[str]:
+    """A note for a pair whose models are known to part: the spiking network on a recording's events
+    against the rate model on its windows' frames."""
+    continuous = [m.params.get("simulation", {}).get("mode") == "continuous" for m in (a, b)]
+    models = [m.params.get("model") for m in (a, b)]
+    if set(models) != {"rate", "spiking"} or not continuous[models.index("spiking")]:
+        return []
+    return [
+        "the spiking network on a recording's events and the rate model on its windows' frames part there: "
+        "the network answers the events in their order and takes about 60 ms for each of the rate model's "
+        "iterations; docs/validation.md (on recordings) measures how far, and what a window's frame as a still "
+        "input gives (snn-fg events REC --start-ms S --window-ms W --write-frame F.npz, then snn-fg run F.npz)"
+    ]

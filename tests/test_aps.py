@@ -18,8 +18,8 @@ from snn_fg.cli import main
 from snn_fg.errors import InputError
 from snn_fg.events import EVENT_DTYPE, iter_windows, open_recording, save_events
 from snn_fg.events.aps import ApsFrame, iter_frames, open_frames, require_frames, with_frames
+from snn_fg.events.frame import EventWindow
 from snn_fg.events.images import as_float_image
-from snn_fg.events.window import EventWindow
 from snn_fg.frames.scenes import APS_FIRST_US, APS_INTERVAL_US, DAVIS_T0_US, davis_disc_recording
 from snn_fg.frames.still import Still
 from snn_fg.models import get_model

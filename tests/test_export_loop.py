@@ -14,7 +14,7 @@ import pytest
 from snn_fg.backends import RunSettings, available_backends, get_backend
 from snn_fg.backends.base import lif_populations
 from snn_fg.cli import main
-from snn_fg.events.window import events_to_frame
+from snn_fg.events.frame import events_to_frame
 from snn_fg.export.board import board_network
 from snn_fg.export.loop import centroid_crop, export_network, input_frame, outline_crop, outline_pixels
 from snn_fg.export.pynn import export_pynn, read_input, save_input

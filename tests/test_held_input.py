@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from snn_fg.errors import ParameterError
-from snn_fg.events.window import events_to_frame
+from snn_fg.events.frame import events_to_frame
 from snn_fg.lowering.held_input import HeldStream, held_spikes, hold_period_steps
 from snn_fg.network import build_network
 from snn_fg.network.graph import Network

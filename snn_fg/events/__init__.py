@@ -24,9 +24,10 @@
 from snn_fg.events._core import EVENT_DTYPE, MAX_SENSOR_SIDE, Recording
 from snn_fg.events.esim import PixelOptions, image_to_events, image_to_frame, motion_frames
 from snn_fg.events.formats import detect_format
+from snn_fg.events.frame import EmptyWindowWarning, EventWindow, events_to_frame
 from snn_fg.events.io import RecordingStream, iter_recording, open_recording
 from snn_fg.events.source import STREAMING_FORMATS
-from snn_fg.events.window import EmptyWindowWarning, EventWindow, RecordingWindows, events_to_frame, iter_windows
+from snn_fg.events.window import RecordingWindows, iter_windows
 from snn_fg.events.writers import save_events
 
 __all__ = [

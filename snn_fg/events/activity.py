@@ -17,7 +17,8 @@ import warnings
 
 import numpy as np
 
-from snn_fg.events.window import EmptyWindowWarning, iter_windows
+from snn_fg.events.frame import EmptyWindowWarning
+from snn_fg.events.window import iter_windows
 from snn_fg.results.activity import SATURATED_SHARE, Activity
 
 #: rows of the text timeline at most (consecutive windows are merged beyond)

@@ -46,7 +46,7 @@ import numpy as np
 from snn_fg.errors import InputError
 from snn_fg.events import aedat4
 from snn_fg.events.formats import detect_format
-from snn_fg.events.window import EventWindow
+from snn_fg.events.frame import EventWindow
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,8 @@ import numpy as np
 from snn_fg import validate
 from snn_fg.errors import InputError, Remedy
 from snn_fg.events._core import EVENT_DTYPE, check_monotonic
+from snn_fg.events.frame import EmptyWindowWarning, EventWindow, events_to_frame
 from snn_fg.events.io import no_span_problem
-from snn_fg.events.window import EmptyWindowWarning, EventWindow, events_to_frame
 
 
 def _filter(events, denoise_us, refractory_us):
@@ -71,7 +71,7 @@ class TimePassed:
 
 
 class CutWindow(EventWindow):
-    """An :class:`~snn_fg.events.window.EventWindow` whose ``events`` (the ``parts``
+    """An :class:`~snn_fg.events.frame.EventWindow` whose ``events`` (the ``parts``
     it was cut from, joined) and ``pos``/``neg`` frames are made when first read,
     on whichever thread reads them (made twice at worst by two at once: the same
     arrays)."""

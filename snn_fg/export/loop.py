@@ -118,7 +118,7 @@ def last_spike_frame(inputs):
     """``(pos, neg)`` uint8 event frame of run.py input spikes
     (:class:`~snn_fg.lowering.input_spikes.InputSpikes`): each pixel the
     polarity of its last input spike (within the first period of a
-    repeating pattern), as :func:`~snn_fg.events.window.events_to_frame`
+    repeating pattern), as :func:`~snn_fg.events.frame.events_to_frame`
     gives each pixel the polarity of its last event. A pixel whose ON and
     OFF sources last fire in the same step is OFF (an input file holds no
     order within a step; the figures draw OFF over ON too)."""

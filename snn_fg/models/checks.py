@@ -12,7 +12,7 @@ import numpy as np
 
 from .. import validate as check
 from ..errors import InputError
-from ..events.window import EventWindow
+from ..events.frame import EventWindow
 from ..frames.still import Still
 
 

@@ -227,10 +227,9 @@ class SpikingModel(Model):
     ``spike_input`` (:data:`SPIKE_INPUTS`); for a recording ``readout_lag_ms``,
     ``readout_ms``, ``window_clock``, ``input_coding`` and ``save_spikes`` (keep each window's
     per-cell spike counts, :class:`~snn_fg.models.spiking.SpikingRecord`; a frame always keeps
-    them): a recording runs as one continuous network, its window clock firing
-    as each window starts, or where windows overlap once every window length
-    (:mod:`snn_fg.models.spiking.continuous`; when exactly:
-    :class:`~snn_fg.models.spiking.stream_input.StreamLayout`).
+    them): a recording runs as one continuous network (:mod:`snn_fg.models.spiking.continuous`),
+    its window clock firing as each window starts, or once every window length where windows
+    overlap (:class:`~snn_fg.models.spiking.stream_input.StreamLayout`).
     """
 
     name = "spiking"

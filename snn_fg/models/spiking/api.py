@@ -16,7 +16,7 @@ import numpy as np
 
 from ...backends import RunSettings, SimulationResult
 from ...errors import InputError
-from ...events.window import events_to_frame
+from ...events.frame import events_to_frame
 from ...frames.check import event_frame
 from ...frames.pool import pool_events, pool_frame, pooled_shape
 from ...lowering.input_spikes import InputSpikes, event_spikes, frame_spikes

@@ -291,7 +291,7 @@ def test_a_backend_keeps_its_tables_across_calibrated_runs():
     backend.simulate(net.calibrated(a.rate_hz), a, settings)
     first = backend._tables
     again = backend.simulate(net.calibrated(b.rate_hz), b, settings)
-    assert backend._tables is not first and backend._tables.row_co is first.row_co  # remade, not rebuilt
+    assert backend._tables is not first and backend._tables.row_tab is first.row_tab  # remade, not rebuilt
     fresh = get_backend("fast").simulate(net.calibrated(b.rate_hz), b, settings)
     assert sum(int(c.sum()) for c in fresh.counts.values()) > 500
     for name in fresh.populations:

@@ -52,8 +52,7 @@ def _deliver_one(tab, p, src_flat, present):
         np.zeros(1, np.int64),
         np.zeros(rows * words, np.uint64),
     )
-    stencil = (tab.cls_ptr, tab.row_co, tab.row_qr, tab.row_qc, tab.row_ncol, tab.row_w0, tab.row_nz, tab.st_w)
-    stencil = stencil + (tab.row_dr, tab.row_off)
+    stencil = (tab.cls_ptr, tab.row_tab, tab.st_w)
     spikes = np.array([cells[q_src, 0] + src_flat], np.int32)
     events = deliver.conv_spikes(
         p, spikes, tab.pops, cells, np.zeros(1, np.int32), np.concatenate(pres), tab.prj, stencil, acc, marks, 0, 1

@@ -45,8 +45,9 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
-from . import compiled, counting, deliver, lif, lists
-from .deliver import C_N, C_OFF, N_ACTIVE_STEPS, N_EVENTS, N_FLUSHED, conv_spikes, flush_rows, resize_spikes
+from . import compiled, counting, deliver, handover, lif, lists
+from .deliver import C_N, C_OFF, N_ACTIVE_STEPS, N_EVENTS, N_FLUSHED, conv_spikes, resize_spikes
+from .handover import flush_rows
 from .lif import ACTIVE, SPIKE_STEP, U, advanced, borrowed, prefetch, safe
 from .lists import gather_spikes, merge
 from .neurons import DE, DI, DM, GAP, PE, PEAK, PI, SOURCE_TYPE, TIGHT, V_RESET, V_REST, V_TH
@@ -78,8 +79,7 @@ CellNumbering = namedtuple("CellNumbering", "ctype cells flat_of pres rank")
 #: the network at one time step (:class:`~snn_fg.backends.fast.tables.EngineTables`)
 KernelTables = namedtuple(
     "KernelTables",
-    "pops nrn ref_steps adv_k prj prj_w cls_ptr row_co row_qr row_qc row_ncol row_w0 row_nz row_dr row_off st_w "
-    "csr_ptr csr_idx csr_val grp_ptr grp_prj",
+    "pops nrn ref_steps adv_k prj prj_w cls_ptr row_tab st_w csr_ptr csr_idx csr_val grp_ptr grp_prj",
 )
 #: how many cells ahead of the one being updated the active-cell pass asks
 #: for a cell's state: a cell's 32 bytes are rarely in cache (24: side by
@@ -168,8 +168,7 @@ def _deliver_part(t, n_parts, n, run, th, numbering, tables):
     cells that may now fire join its active list."""
     log, step_start, cells, prj = run.log, run.step_start, numbering.cells, tables.prj
     grp_ptr, grp_prj, counters = tables.grp_ptr, tables.grp_prj, th.counters[t]
-    stencil = (tables.cls_ptr, tables.row_co, tables.row_qr, tables.row_qc, tables.row_ncol, tables.row_w0)
-    stencil = stencil + (tables.row_nz, tables.st_w, tables.row_dr, tables.row_off)
+    stencil = (tables.cls_ptr, tables.row_tab, tables.st_w)
     factors = (tables.csr_ptr, tables.csr_idx, tables.csr_val)
     marks = (th.listed[t], th.dirty[t], th.n_dirty[t, :1], th.bits[t], th.found[t], th.found_g[t])
     acc, work = th.acc[t], th.work[t]
@@ -302,8 +301,7 @@ def _borrow(run, th, numbering, tables):
         ),
         KernelTables(
             b(tables.pops), b(tables.nrn), b(tables.ref_steps), b(tables.adv_k), b(tables.prj), b(tables.prj_w),
-            b(tables.cls_ptr), b(tables.row_co), b(tables.row_qr), b(tables.row_qc), b(tables.row_ncol),
-            b(tables.row_w0), b(tables.row_nz), b(tables.row_dr), b(tables.row_off), b(tables.st_w),
+            b(tables.cls_ptr), b(tables.row_tab), b(tables.st_w),
             b(tables.csr_ptr), b(tables.csr_idx), b(tables.csr_val), b(tables.grp_ptr), b(tables.grp_prj),
         ),
     )  # fmt: skip
@@ -344,4 +342,4 @@ def code_is_cached() -> bool:
     return compiled.code_is_cached(run_steps)
 
 
-compiled.drop_stale_caches(run_steps, (lif, deliver, counting, lists, sys.modules[__name__]))
+compiled.drop_stale_caches(run_steps, (lif, deliver, handover, counting, lists, sys.modules[__name__]))

@@ -1,12 +1,12 @@
 """Spike delivery of the fast engine, compiled: one step's spikes through a
 projection into the summed input of its target (:func:`conv_spikes`,
 :func:`resize_spikes`), then that input handed to each cell it reached
-(:func:`flush_rows`), which brings the cell up to the present in closed form
-first. The numbering and state are described in :mod:`.core`.
+(:func:`.handover.flush_rows`), which brings the cell up to the present in
+closed form first. The numbering and state are described in :mod:`.core`.
 
 The summed input ``acc`` of a target population has the layout of its grid,
 ``(channel, row, column)``: a Conv's stencil row (:mod:`.stencils`) is one
-contiguous run of values, its taps (the bits of ``row_nz``) added one by one. Which cells received
+contiguous run of values, its taps (the bits of its ``R_NZ`` value) added one by one. Which cells received
 input is kept as bits (``bits``, one 64-bit word per 64 columns of a row,
 and the list of rows with any, ``dirty``), each masked by the population's
 presence bits (``pres``: the cells that exist) where it matters: the synaptic events
@@ -31,9 +31,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .lif import ACTIVE, U, divide, low_bits, ones, prefetch, safe, trailing_zeros
-from .neurons import GAP, PEAK, TIGHT, V_REST
-from .stencils import MV
+from .lif import U, divide, low_bits, ones, prefetch, trailing_zeros
+from .stencils import MV, R_CO, R_DR, R_NCOL, R_NZ, R_OFF, R_QC, R_QR, R_W0
 from .tables import (
     J_BASE,
     J_COLBASE,
@@ -46,7 +45,6 @@ from .tables import (
     P_GC,
     P_GR,
     P_STRIDE,
-    P_TYPE,
 )
 
 #: counters returned by run_steps (``N_FLUSHED``: cells handed input)
@@ -65,9 +63,6 @@ SPIKES_AHEAD = 8
 #: asked for (a spike's rows are scattered over the target's channels: waiting for their
 #: input was a fifth of the delivery's time)
 ROWS_AHEAD = 4
-#: how many cells ahead of the one being updated the hand-over asks for a cell's
-#: state (the cells of a step are scattered: waiting for them was most of a run's time)
-AHEAD = 48
 
 
 @njit(cache=True, inline="always")
@@ -148,14 +143,14 @@ def conv_site(at, x):
 @njit(cache=True)
 def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks, owner, n_parts):
     """Add what ``spikes`` (cell numbers, ascending) send through Conv ``p``
-    to ``acc``; ``stencil`` holds the tables' ``cls_ptr, row_co, row_qr,
-    row_qc, row_ncol, row_w0, row_nz, st_w`` and ``marks`` the run's
+    to ``acc``; ``stencil`` holds the tables' ``cls_ptr, row_tab, st_w``
+    (a row's values at ``row_tab[8 s + R_*]``, :mod:`.stencils`) and ``marks`` the run's
     ``listed, dirty, n_dirty, bits`` (whether each row received input, the
     rows that did, and the cells). Returns the synaptic events:
-    the taps that landed on a cell that exists. (``stencil`` ends with
-    ``row_dr, row_off``: a row's place from lattice point ``(0, 0)``, which
-    a spike that lands whole adds to its own.)"""
-    cls_ptr, row_co, row_qr, row_qc, row_ncol, row_w0, row_nz, st_w, row_dr, row_off = stencil
+    the taps that landed on a cell that exists. (``R_DR``, ``R_OFF``: a row's
+    place from lattice point ``(0, 0)``, which a spike that lands whole adds
+    to its own.)"""
+    cls_ptr, rt, st_w = stencil
     listed, dirty, n_dirty_a, bits = marks[0], marks[1], marks[2], marks[3]
     n_dirty = n_dirty_a[0]
     qs, qt = prj[p, J_SRC], prj[p, J_TGT]
@@ -181,18 +176,19 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
             next_cls, next_row, next_column = conv_site(at, x + 1)
             first, there = cls_ptr[U(next_cls)], next_row * gc + next_column
             for sa in range(first, min(first + ROWS_AHEAD, cls_ptr[U(next_cls + 1)])):  # (a hint: no effect)
-                prefetch(acc, U(there + row_off[U(sa)]))
+                prefetch(acc, U(there + rt[U((sa << 3) + R_OFF)]))
         inside = row >= rad and column >= rad and row + rad < gr and column + rad < gc
         s1 = cls_ptr[U(cls + 1)]
         for s in range(cls_ptr[U(cls)], s1):
+            r8 = s << 3  # (the row's values: row_tab[r8 + R_*], one cache line)
             if s + ROWS_AHEAD < s1:
-                prefetch(acc, U(here + row_off[U(s + ROWS_AHEAD)]))
-            t0, ncol, w0 = column - row_qc[U(s)], row_ncol[U(s)], row_w0[U(s)]
+                prefetch(acc, U(here + rt[U(r8 + (ROWS_AHEAD << 3) + R_OFF)]))
+            t0, ncol, w0 = column - rt[U(r8 + R_QC)], rt[U(r8 + R_NCOL)], rt[U(r8 + R_W0)]
             if inside and ncol == 1:  # (one tap: what the loops below do for it, without them)
-                rr = row + row_dr[U(s)]
+                rr = row + rt[U(r8 + R_DR)]
                 if foreign(rr, owner, n_parts, inv_parts):
                     continue
-                acc[U(here + row_off[U(s)])] += st_w[U(w0)]
+                acc[U(here + rt[U(r8 + R_OFF)])] += st_w[U(w0)]
                 wa = (t0 >> 6) + rr * words
                 bit = U(1) << U(t0 & 63)
                 bits[U(wa)] |= bit
@@ -200,7 +196,7 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
                 n_dirty = mark_row(listed, dirty, n_dirty, rr)
                 continue
             a, b, parts = 0, ncol, 1
-            tr = row - row_qr[U(s)]
+            tr = row - rt[U(r8 + R_QR)]
             if not inside:  # the row may be cut, or wrap around, at the level's edges
                 if wrap:
                     tr += gr if tr < 0 else (-gr if tr >= gr else 0)
@@ -213,10 +209,10 @@ def conv_spikes(p, spikes, pops, cells, flat_of, pres, prj, stencil, acc, marks,
                     a, b = max(0, -t0), min(ncol, gc - t0)
                     if a >= b:
                         continue
-            rr = row_co[U(s)] * gr + tr
+            rr = rt[U(r8 + R_CO)] * gr + tr
             if foreign(rr, owner, n_parts, inv_parts):
                 continue
-            nz = row_nz[U(s)]
+            nz = U(rt[U(r8 + R_NZ)])  # (the tap bits, held as int64)
             for part in range(parts):
                 if part == 1:  # the columns wrapped around to the row's start
                     a, b, t0 = b, ncol, t0 - gc
@@ -292,108 +288,3 @@ def resize_spikes(p, spikes, pops, cells, flat_of, pres, prj, prj_w, factors, ac
                 m |= U(1) << U(col - lo)
     n_dirty_a[0] = n_dirty
     return events
-
-
-@njit(cache=True)
-def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_new, fresh, nrn, adv_k, counters):
-    """Add the summed input ``acc`` of the cells marked in ``marks`` to
-    current ``col`` of the cells of population ``qt`` at step ``n``,
-    bringing parked cells up to date first (and listing in ``fresh`` those
-    touched for the first time); a cell that might now fire is appended to
-    ``new``. Clears the marks and the input it read. Returns the new length
-    of ``new``. ``adv_k``: the advance tables by steps (:func:`.neurons.by_steps`).
-
-    The marked cells are listed a batch at a time (``found``, their grid
-    index; ``found_g``, their number: for a population with cells left out,
-    the number of cells that exist before it, from ``rank`` and the presence
-    bits), so that each cell's state can be asked for :data:`AHEAD` cells
-    before it is needed; the first :data:`AHEAD` of a batch are asked for as
-    they are found. (A call hands over a few hundred cells: a batch's first
-    cells were an eighth of them, each waiting for its state.)"""
-    listed, dirty, n_dirty_a, bits, found, found_g = marks
-    gc = pops[qt, P_GC]
-    words, pbase = (gc + 63) >> 6, cells[qt, C_PRES]
-    off, whole = cells[qt, C_OFF], cells[qt, C_WHOLE] == 1
-    t = pops[qt, P_TYPE]
-    v_rest, tight, peak, gap = nrn[t, V_REST], nrn[t, TIGHT] > 0, nrn[t, PEAK], nrn[t, GAP]
-    kmax = adv_k.shape[1] - 1
-    adv_t, top = adv_k[t].ravel(), kmax << 3  # (the type's tables, 8 values a step; where step kmax starts)
-    now = n + 1
-    advances = 0
-    n_fresh = counters[N_FRESH]
-    d, n_dirty = 0, n_dirty_a[0]
-    while d < n_dirty:
-        n_found = 0
-        while d < n_dirty and n_found + gc <= found.size:
-            rr = dirty[U(d)]
-            d += 1
-            for wd in range(rr * words, rr * words + words):
-                word = bits[U(wd)]
-                bits[U(wd)] = 0
-                first = rr * gc + ((wd - rr * words) << 6)
-                if not whole:
-                    absent = word & ~pres[U(pbase + wd)]
-                    word ^= absent
-                    while absent != 0:  # (input to cells left out: dropped)
-                        acc[U(first + np.int64(trailing_zeros(absent)))] = 0.0
-                        absent &= absent - U(1)
-                while word != 0:
-                    bit = np.int64(trailing_zeros(word))
-                    word &= word - U(1)
-                    found[U(n_found)] = first + bit
-                    if whole:
-                        g = off + first + bit
-                    else:
-                        g = off + rank[U(pbase + wd)] + ones(pres[U(pbase + wd)] & low_bits(bit))
-                    found_g[U(n_found)] = g
-                    if n_found < AHEAD:  # (the batch's first cells, which the loop below asks for too late)
-                        prefetch(state, U(g))
-                    n_found += 1
-            listed[U(rr)] = 0
-        counters[N_FLUSHED] += n_found
-        for x in range(n_found):
-            if x + AHEAD < n_found:
-                prefetch(state, U(found_g[U(x + AHEAD)]))
-            loc, g = found[U(x)], found_g[U(x)]
-            w = acc[U(loc)]
-            acc[U(loc)] = 0.0
-            if w == 0.0:
-                continue  # (input that summed to 0)
-            cell = state[U(g)]
-            v, e, i, last = cell.v, cell.e, cell.i, cell.last
-            if last == 0:  # (touched for the first time: at rest)
-                v, last = v_rest, now
-                fresh[U(n_fresh)] = g
-                n_fresh += 1
-            # brought up to the present in closed form (lif.advanced, written out: see the module's
-            # docstring, in steps of at most kmax, the last one here); a cell already there (k = 0:
-            # the group of its other current came first) keeps its values, chosen without a branch
-            # (row 0 of the tables multiplies by 1). The type's tables are one flat run of 8 values
-            # a step (adv_t), indexed by unsigned offsets (no sign fix-up or stride product).
-            k = now - last
-            advances += k > 0
-            while k > kmax:  # (rare: longer than the tables)
-                va = v_rest + ((adv_t[U(top)] * (v - v_rest) + e * adv_t[U(top + 3)]) - i * adv_t[U(top + 4)])
-                e = e * adv_t[U(top + 1)]
-                i = i * adv_t[U(top + 2)]
-                v = va
-                k -= kmax
-            at = U(k << 3)
-            va = v_rest + ((adv_t[at] * (v - v_rest) + e * adv_t[at + U(3)]) - i * adv_t[at + U(4)])
-            e = e * adv_t[at + U(1)]
-            i = i * adv_t[at + U(2)]
-            v = va if k > 0 else v
-            if col == EXC:
-                e += w
-            else:
-                i += w
-            cell.v, cell.e, cell.i, cell.last = v, e, i, now
-            # a cell that might now fire joins the active list (appended without a branch: new has a spare slot)
-            wake = (cell.spike >= 0) & (not safe(v, e, i, v_rest, tight, peak, gap))
-            cell.spike |= ACTIVE if wake else 0
-            new[U(n_new)] = g
-            n_new += wake
-    n_dirty_a[0] = 0
-    counters[N_ADVANCES] += advances
-    counters[N_FRESH] = n_fresh
-    return n_new

@@ -12,7 +12,7 @@ from . import tables as ft
 from .results import BinStream  # noqa: F401 - (named in an annotation)
 from .share import Sharing
 
-#: cells handed their input in one batch (deliver.flush_rows)
+#: cells handed their input in one batch (handover.flush_rows)
 FOUND = 4096
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16

@@ -10,7 +10,7 @@ of one class, output channel and ``qr`` with consecutive ``qc`` form a
 column)`` layout (zeros where a tap was pruned), its taps added one by one.
 More than :data:`MAX_GAP` empty columns between two taps start a new row,
 and a row spans at most :data:`MAX_COLS` columns (its taps are the bits of
-one 64-bit word, ``row_nz``: bit ``j`` for value ``j``).
+one 64-bit word, the row's ``R_NZ`` value: bit ``j`` for value ``j``).
 
 For a source at lattice point ``(row, column)`` (its level pixel divided by
 the target stride), a row lands on target row ``row - qr`` of channel
@@ -33,6 +33,11 @@ MV = 1e-3
 MAX_GAP = 4
 #: the most columns of one stencil row (a row's taps are one 64-bit mask)
 MAX_COLS = 64
+#: a stencil row's values in ``row_tab`` (8 int64 a row, one cache line): its output channel,
+#: lattice offsets, columns, first value in ``st_w``, which values are taps (bits, as int64), its
+#: (channel, row) and its first value's place in the summed input from lattice point (0, 0)
+R_CO, R_QR, R_QC, R_NCOL, R_W0, R_NZ, R_DR, R_OFF = range(8)
+R_N = 8
 
 
 def tap_weights(pr, k: np.ndarray) -> np.ndarray:
@@ -158,20 +163,29 @@ class StencilCollector:
         csr = [np.concatenate(x) if x else np.zeros(0) for x in self.csr]
         return {
             "cls_ptr": cat["cls_ptr"].astype(np.int64),
-            "row_co": cat["co"].astype(np.int32),
-            "row_qr": cat["qr"].astype(np.int32),
-            "row_qc": cat["qc_hi"].astype(np.int32),
-            "row_ncol": cat["ncol"].astype(np.int32),
-            "row_w0": cat["w0"].astype(np.int64),
-            "row_nz": cat["nz"].astype(np.uint64),
-            "row_dr": cat["dr"].astype(np.int64),
-            "row_off": cat["off"].astype(np.int64),
+            "row_tab": row_table(cat),
             "st_w": cat["w"].astype(np.float64),
             "st_k": cat["k"].astype(np.float64),
             "csr_ptr": csr[0].astype(np.int64),
             "csr_idx": csr[1].astype(np.int32),
             "csr_val": csr[2].astype(np.float64),
         }
+
+
+def row_table(cat: dict) -> np.ndarray:
+    """The stencil rows' values (``cat``: the collector's columns), 8 int64 a
+    row (columns ``R_*``) in one flat array starting on a 64-byte boundary:
+    a row is read from one cache line through one pointer (8 arrays held the
+    delivery's row loop's registers, and it kept its own counters on the stack)."""
+    cols = ("co", "qr", "qc_hi", "ncol", "w0", "nz", "dr", "off")
+    n = cat["co"].size
+    raw = np.zeros(n * R_N + R_N, np.int64)
+    skip = (-raw.ctypes.data % 64) // 8  # (numpy aligns to 16 bytes)
+    tab = raw[skip : skip + n * R_N].reshape(n, R_N)
+    for k, name in enumerate(cols):
+        x = cat[name]
+        tab[:, k] = x.astype(np.uint64).view(np.int64) if name == "nz" else x.astype(np.int64)
+    return tab.reshape(-1)
 
 
 def resize_factors_of(pr, src, tgt, collector: StencilCollector, weight_bits=None):

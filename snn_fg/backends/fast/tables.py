@@ -56,14 +56,9 @@ class EngineTables:
     prj_w: np.ndarray  # float64 (n_projections, 3): sign * gain (mV), prune threshold of a Resize,
     #                          and its quantisation step (interpolation products rounded to it; 0: exact)
     cls_ptr: np.ndarray  # int64: stencil rows of class c of Conv p: cls_ptr[J_BASE + c] .. [+ 1]
-    row_co: np.ndarray  # int32: per stencil row, its output channel, lattice offsets (:mod:`.stencils`),
-    row_qr: np.ndarray
-    row_qc: np.ndarray  #   its columns, its first value in st_w and which of its values
-    row_ncol: np.ndarray  #   are taps (bits of row_nz)
-    row_w0: np.ndarray
-    row_nz: np.ndarray
-    row_dr: np.ndarray  # int64: per stencil row, its (channel, row) and its first value's place in the
-    row_off: np.ndarray  #   summed input from a source at lattice point (0, 0) (StencilCollector.conv)
+    row_tab: np.ndarray  # int64 (8 per stencil row, columns stencils.R_*): its output channel, lattice
+    #                          offsets, columns, first value in st_w, which values are taps, its (channel, row) and
+    #                          its first value's place in the summed input from lattice point (0, 0)
     st_w: np.ndarray  # float64: stencil values, volts added to the receptor (0 in gaps)
     st_k: np.ndarray  # float64: the same as kernel values before the gain (st_w is made from them)
     csr_ptr: np.ndarray  # int64: Resize rows/cols: source index s of a factor starting at

@@ -44,7 +44,7 @@ def pool_frame(pos: np.ndarray, neg: np.ndarray, pool: int) -> tuple[np.ndarray,
     return out[0], out[1]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _any_in_block(frame, pool, out):
     """``out[block] = 1`` where any pixel of the block is non-zero."""
     for i in range(frame.shape[0]):
@@ -147,7 +147,7 @@ def _held(v):
     return v != 0.0 or math.copysign(1.0, v) < 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _smooth_rows(x, w, out, live):
     """``x`` smoothed along axis 0 by the symmetric kernel ``w`` into ``out``, which
     holds +0.0 (np.zeros): only the rows within the kernel's reach of a row of ``x``
@@ -180,7 +180,7 @@ def _smooth_rows(x, w, out, live):
                 o[c] += (a[c] + b[c]) * wj
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _smooth_cols(x, w, out, live):
     """``x`` smoothed along axis 1 by the symmetric kernel ``w`` into ``out`` (+0.0),
     on the rows ``live`` only (the others of ``x`` are +0.0: :func:`_smooth_rows`)."""
@@ -201,7 +201,7 @@ def _smooth_cols(x, w, out, live):
                 o[c] += (line[c + r - j] + line[c + r + j]) * wj
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _block_tensor(e, w, rows, cols, out):
     """The structure tensor ``(jxx, jyy, jxy)`` of the smoothed frame ``e``
     at the pixels ``(rows, cols)`` into ``out`` (3 x pixels): the products of

@@ -49,7 +49,7 @@ def grouping_peaks(maps, k: int = 3, radius: int = PEAK_RADIUS) -> list[dict]:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def local_maxima(g, radius):
     """``np.nonzero((g == maximum_filter(g, 2 * radius + 1, mode="constant")) & (g > 0))``
     of a 2-D map: the pixels above zero that no pixel within the square of side

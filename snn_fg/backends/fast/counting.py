@@ -42,7 +42,7 @@ class BinCounts(Mapping):
         return len(self.parts)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bin_counts(ids, cuts, out):
     """``out[b, g]`` += spikes of cell ``g`` among ``ids[cuts[b]:cuts[b + 1]]``
     (one pass, into an array allocated once: a bincount per bin would fault
@@ -52,7 +52,7 @@ def bin_counts(ids, cuts, out):
             out[b, ids[x]] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def count_cells(ids, lo, hi, out):
     """``out[g]`` += spikes of cell ``g`` among ``ids[lo:hi]`` (``np.bincount``
     would first copy the int32 log to a machine-int array)."""
@@ -60,7 +60,7 @@ def count_cells(ids, lo, hi, out):
         out[ids[x]] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def population_totals(ids, starts, out):
     """``out[q]`` = spikes of population ``q`` in ``ids`` (``starts``: each
     population's first cell number, ascending)."""
@@ -68,7 +68,7 @@ def population_totals(ids, starts, out):
         out[np.searchsorted(starts, ids[x], side="right") - 1] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def group_by_population(ids, step_start, starts, keep, cuts, local, step_of):
     """The spike log regrouped population by population, time order kept
     within each (a counting sort: two passes, no sort keys).

@@ -249,7 +249,7 @@ def count_summary(counts, names) -> list[tuple[int, int, int, int]]:
     return [(int(b - a), int(t), int(k), int(m)) for a, b, (t, k, m) in zip(starts, stops, out, strict=True)]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _segment_summary(flat, starts, stops, out):
     """``out[q]``: the sum, the non-zero values and the largest value of ``flat[starts[q]:stops[q]]``."""
     for q in range(starts.size):

@@ -1,6 +1,6 @@
-"""``snn-fg compare A1 A2 ... B1 B2 ...``: runs made one at a time (each image to its own ``--out``),
-one model's against another's, paired by their input image and pooled into one table; also two
-folders of runs (``snn-fg run`` on several images: their ``summary.csv``), one a model.
+"""``snn-fg compare`` on runs made one at a time (each image to its own ``--out``), one model's
+against another's (``A1 A2 … B1 B2 …``), paired by their input image and pooled into one table;
+also two folders of runs (``snn-fg run`` on several images: their ``summary.csv``), one a model.
 
 The first half of the runs are A's, the second half B's, in any order within each half: each A run
 is paired with the B run of the same input image (its file name without the suffix). Every pair is

@@ -23,6 +23,7 @@ from ..errors import InputError
 from ..results.atomic import save_text
 from ..results.figures import rows_shown
 from ..results.maps import CONFIDENCE, Maps
+from ..scoring.bootstrap import RESAMPLES, bootstrap_scores
 from ..scoring.groundtruth import GroundTruth, boundary_directions, load_labels
 from ..scoring.label_scores import labeller_errors, pool_stats
 from ..scoring.metrics import confident
@@ -216,8 +217,6 @@ def labels_table(rows, notes=()) -> str:
     return "\n".join(lines + textwrap.wrap(_KEY, 98))
 
 
-#: resamples of the bootstrap over images behind the pooled interval (experiments/paper/table1.py's)
-BOOTSTRAP_RESAMPLES = 2000
 #: the interval line's scores: (score, word, format), in the table's words
 _INTERVAL = (("side_accuracy", "side", ".3f"), ("coverage", "cover", ".3f"), ("within45", "<=45°", ".3f"))
 _INTERVAL += (("mean_abs_deg", "mean°", ".1f"),)
@@ -246,19 +245,16 @@ def run_settings(params: dict) -> str:
 def pooled_interval(scored: list[Scored]) -> tuple[str, dict | None]:
     """The line under the table that gives the pooled scores of every image and labeller with the 95 %
     interval of a bootstrap over the images, as the experiment pages give them
-    (:func:`~snn_fg.scoring.bootstrap.bootstrap_scores`, 2000 resamples), and those numbers; one image
-    allows none (resampling one image gives it back), and the line says so."""
+    (:func:`~snn_fg.scoring.bootstrap.bootstrap_scores`, :data:`~snn_fg.scoring.bootstrap.RESAMPLES`
+    resamples), and those numbers; one image allows none (resampling one image gives it back), and the
+    line says so."""
     if len(scored) < 2:
         return "interval: none for one image (the experiment pages' 95 % interval resamples images: give several)", None
-    from ..scoring.bootstrap import bootstrap_scores
-
-    boot = bootstrap_scores(
-        [s.parts for s in scored], n_resamples=BOOTSTRAP_RESAMPLES, keys=tuple(k for k, _, _ in _INTERVAL)
-    )
+    boot = bootstrap_scores([s.parts for s in scored], n_resamples=RESAMPLES, keys=tuple(k for k, _, _ in _INTERVAL))
     cells = [
         f"{word} {boot[k]['pooled']:{f}} [{boot[k]['low']:{f}}, {boot[k]['high']:{f}}]" for k, word, f in _INTERVAL
     ]
-    head = f"all {len(scored)}, both, with the 95 % interval of {BOOTSTRAP_RESAMPLES} bootstrap resamples of the images"
+    head = f"all {len(scored)}, both, with the 95 % interval of {RESAMPLES} bootstrap resamples of the images"
     return f"{head}: {'; '.join(cells)}", {k: nulls(boot[k]) for k, _, _ in _INTERVAL}
 
 
@@ -283,7 +279,7 @@ def _record(args, scored: list[Scored], rows, interval=None) -> dict:
             for s in scored
         ],
         "rows": [{"image": i, "labeller": w, **nulls(st)} for i, w, st in rows],
-        "interval": None if interval is None else {"level": 0.95, "resamples": BOOTSTRAP_RESAMPLES, **interval},
+        "interval": None if interval is None else {"level": 0.95, "resamples": RESAMPLES, **interval},
         "snn_fg_version": __version__,
     }
 

@@ -18,6 +18,9 @@ import numpy as np
 from snn_fg.scoring.label_scores import RATIO_OF, SCORES
 from snn_fg.scoring.label_scores import stats_field as _field
 
+#: resamples of the images behind every interval the experiment pages and ``snn-fg compare RUN LABELS`` give
+RESAMPLES = 2000
+
 
 def _check_bootstrap(n_resamples, level, keys, what):
     if not (isinstance(n_resamples, int) and n_resamples >= 1):
@@ -59,7 +62,7 @@ def _interval(values, level):
     return float(lo), float(hi)
 
 
-def bootstrap_scores(parts, n_resamples: int = 2000, seed: int = 0, keys=SCORES, level: float = 0.95) -> dict:
+def bootstrap_scores(parts, n_resamples: int = RESAMPLES, seed: int = 0, keys=SCORES, level: float = 0.95) -> dict:
     """Each score pooled over the images, and the mean of the per-image scores,
     with the central ``level`` interval of a bootstrap over images.
 
@@ -95,7 +98,7 @@ def bootstrap_scores(parts, n_resamples: int = 2000, seed: int = 0, keys=SCORES,
 def bootstrap_difference(
     parts_a,
     parts_b,
-    n_resamples: int = 2000,
+    n_resamples: int = RESAMPLES,
     seed: int = 0,
     keys=("mean_signed_deg", "mean_abs_deg", "within45"),
     level: float = 0.95,

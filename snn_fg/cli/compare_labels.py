@@ -127,8 +127,11 @@ def _labels_path(run: Path, maps: Maps, labels) -> tuple[str, Path, Path | None]
     """(image id, labels file, the bsds-fg image beside the labels or None) for one run."""
     source = maps.params.get("source") or {}
     given = source.get("input")
-    if Path(labels).is_file():
-        return (Path(given).stem if given else Path(labels).stem), Path(labels), None
+    if Path(labels).is_file():  # (one labels file: its name says its image where it is a BSDS id)
+        stem, own = Path(labels).stem, Path(given).stem if given else None
+        if own is not None and own.isdigit() and stem.isdigit() and own != stem:
+            raise InputError(labels, f"labels image {stem}, but the run ({run}) is of image {own}")
+        return own or stem, Path(labels), None
     if given is None:
         raise InputError(run, "its maps name no input image, so no labels can be matched to it; give the labels file")
     image_id = Path(given).stem
@@ -152,9 +155,6 @@ def score_run(run: Path, labels, min_confidence: float | None = None, keep: bool
             run, f"holds a recording's maps ({len(maps.fg_x)} windows); human labels score a still image's run"
         )
     image_id, path, image = _labels_path(run, maps, labels)
-    given = Path(str((maps.params.get("source") or {}).get("input") or "")).stem
-    if given.isdigit() and path.stem.isdigit() and given != path.stem:  # (two BSDS ids: another image's labels)
-        raise InputError(path, f"labels image {path.stem}, but the run ({run}) is of image {given}")
     if min_confidence is not None and CONFIDENCE not in maps.extra:
         raise InputError(
             "--min-confidence", f"{run} holds no fg_confidence (its model has no spike counts): leave the option out"

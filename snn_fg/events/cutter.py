@@ -91,11 +91,14 @@ class CutWindow(EventWindow):
     def __getattr__(self, name):  # (only for an attribute not yet set: the lazy ones)
         if name not in CutWindow._LAZY or "_parts" not in self.__dict__:
             raise AttributeError(name)
-        parts = self.__dict__["_parts"]
-        events = parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else np.zeros(0, EVENT_DTYPE)
-        pos, neg = events_to_frame(events, self.__dict__["_size"])
-        for key, v in (("events", events), ("pos", pos), ("neg", neg)):
-            object.__setattr__(self, key, v)
+        if name == "events":  # (joined alone: the feed of a filtered stream reads a window's events, not its frames)
+            parts = self.__dict__["_parts"]
+            events = parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else np.zeros(0, EVENT_DTYPE)
+            object.__setattr__(self, "events", events)
+            return events
+        pos, neg = events_to_frame(self.events, self.__dict__["_size"])
+        object.__setattr__(self, "pos", pos)
+        object.__setattr__(self, "neg", neg)
         return self.__dict__[name]
 
 

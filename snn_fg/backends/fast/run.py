@@ -5,6 +5,7 @@ arrays kept from one run to the next (:class:`Pool`)."""
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from .. import cancel
 from ..base import RunSettings, lif_populations, source_offsets
@@ -20,25 +21,57 @@ LOG_START = 1 << 16
 APART = 16
 
 
-def _input_events(tab: ft.EngineTables, first_cell: dict, idx, steps, length: int, first_step: int = 0):
-    """Input spikes ``(idx, steps)`` as cell numbers (``first_cell``:
-    population -> its first number) grouped by step, ``(ptr, ids)``: the
-    spikes of step ``first_step + s`` are ``ids[ptr[s]:ptr[s + 1]]``, for
-    ``s`` below ``length``."""
-    idx, steps = np.asarray(idx, dtype=np.int64), np.asarray(steps, dtype=np.int64) - first_step
-    keep = (steps >= 0) & (steps < length)
-    idx, steps = idx[keep], steps[keep]
+def input_cells(tab: ft.EngineTables, first_cell: dict) -> np.ndarray:
+    """Each input index's cell number (``first_cell``: population -> its first
+    number), -1 for an index no population has (the clock of a network without one)."""
     first = source_offsets(tab.network)
-    ids = np.empty(idx.size, dtype=np.int64)
-    known = np.zeros(idx.size, dtype=bool)
+    size = {name: tab.network.population(name).size for name in first}
+    lut = np.full(max((start + size[name] for name, start in first.items()), default=0), -1, np.int64)
     for name, start in first.items():
-        sel = (idx >= start) & (idx < start + tab.network.population(name).size)
-        ids[sel] = first_cell[name] + idx[sel] - start
-        known |= sel
-    ids, steps = ids[known], steps[known]  # (clock spikes for a network without a clock)
+        lut[start : start + size[name]] = first_cell[name] + np.arange(size[name])
+    return lut
+
+
+def _input_events(cells: np.ndarray, idx, steps, length: int, first_step: int = 0):
+    """Input spikes ``(idx, steps)`` as cell numbers (``cells``: :func:`input_cells`)
+    grouped by step, ``(ptr, ids)``: the spikes of step ``first_step + s`` are
+    ``ids[ptr[s]:ptr[s + 1]]``, for ``s`` below ``length``, by cell number within a step."""
+    idx, steps = np.asarray(idx, dtype=np.int64), np.asarray(steps, dtype=np.int64)
+    ptr, ids, grouped = _grouped(idx, steps, cells, length, first_step)
+    if grouped:
+        return ptr, ids
+    steps = steps - first_step  # (not in step and cell order: sorted)
+    keep = (steps >= 0) & (steps < length) & (idx < cells.size)
+    idx, steps = idx[keep], steps[keep]
+    ids = cells[idx]
+    ids, steps = ids[ids >= 0], steps[ids >= 0]
     order = np.lexsort((ids, steps))
     ids, steps = ids[order], steps[order]
     return np.searchsorted(steps, np.arange(length + 1)).astype(np.int64), ids.astype(np.int32)
+
+
+@njit(cache=True, nogil=True)
+def _grouped(idx, steps, cells, length, first_step):
+    """:func:`_input_events` in one pass where the spikes come in step and cell
+    order (a stream's segment: its spikes are in step and source order, and cells
+    follow sources); ``(ptr, ids, False)`` where they do not."""
+    ptr = np.zeros(length + 1, np.int64)
+    ids = np.empty(idx.size, np.int32)
+    k, last_s, last_c = 0, -1, -1
+    for e in range(idx.size):
+        s = steps[e] - first_step
+        if s < 0 or s >= length or idx[e] >= cells.size or cells[idx[e]] < 0:
+            continue
+        c = cells[idx[e]]
+        if s < last_s or (s == last_s and c < last_c):
+            return ptr, ids, False
+        ids[k] = c
+        ptr[s + 1] += 1
+        k += 1
+        last_s, last_c = s, c
+    for s in range(length):
+        ptr[s + 1] += ptr[s]
+    return ptr, ids[:k], True
 
 
 class _InputFeed:
@@ -52,6 +85,7 @@ class _InputFeed:
 
     def __init__(self, tab: ft.EngineTables, first_cell: dict, inputs, n_steps: int):
         self.tab, self.first_cell, self.inputs, self.n_steps = tab, first_cell, inputs, n_steps
+        self.cells = input_cells(tab, first_cell)
         self.segmented = hasattr(inputs, "segment")
         self.total = 0  # input spikes of the segments loaded before the current one
         if self.segmented:  # (its first segment is loaded as the run starts: a live stream's may not be there yet)
@@ -59,7 +93,7 @@ class _InputFeed:
         else:
             periodic = inputs.period_steps is not None and inputs.period_steps < n_steps
             self.period = int(inputs.period_steps) if periodic else max(n_steps, 1)
-            self.ptr, self.ids = _input_events(tab, first_cell, inputs.indices, inputs.steps, self.period)
+            self.ptr, self.ids = _input_events(self.cells, inputs.indices, inputs.steps, self.period)
 
     def stop_after(self, n: int) -> int:
         """The last step (exclusive) a call of the loop from step ``n`` may reach."""
@@ -73,9 +107,7 @@ class _InputFeed:
                 self.total += int(self.ptr[-1])
             idx, steps = self.inputs.segment(j)
             keep = steps < self.n_steps  # (the last segment may reach past the run's end)
-            self.ptr, self.ids = _input_events(
-                self.tab, self.first_cell, idx[keep], steps[keep], self.period, j * self.period
-            )
+            self.ptr, self.ids = _input_events(self.cells, idx[keep], steps[keep], self.period, j * self.period)
             self.loaded = j
 
     def resume_at(self, n: int) -> int:

@@ -246,7 +246,7 @@ def test_the_compiled_passes_of_a_stream_give_what_the_sorts_give(gap):
     """A segment's spikes, its clock's put in place and its cell numbers are made in
     compiled passes where the spikes come in order: each equals numpy's sorted result,
     and out-of-order input takes the sorting route to the same answer."""
-    from snn_fg.backends.fast.run import _input_events
+    from snn_fg.backends.fast.feed import input_events
     from snn_fg.lowering.input_spikes import step_spikes
     from snn_fg.lowering.input_stream import _in_order_spikes, _with_clock
 
@@ -275,7 +275,7 @@ def test_the_compiled_passes_of_a_stream_give_what_the_sorts_give(gap):
 
     cells = np.concatenate([np.arange(100, 100 + n_src), [-1]])  # (the clock: no cell)
     for i, s in ((merged[0], merged[1]), (merged[0][::-1].copy(), merged[1][::-1].copy())):
-        ptr, ids = _input_events(cells, i, s, 30, 5)  # (steps 5-34; the rest and the clock left out)
+        ptr, ids = input_events(cells, i, s, 30, 5)  # (steps 5-34; the rest and the clock left out)
         keep = (s >= 5) & (s < 35) & (i < n_src)
         ids_want = (cells[i[keep]]).astype(np.int32)
         order = np.lexsort((ids_want, s[keep]))

@@ -63,7 +63,7 @@ class FastBackend(Backend):
     #: frame's regular trains get the hinted cells on every backend instead
     #: (:meth:`snn_fg.spiking.options.SimulatorOptions.cells_for`)
     default_instantiate = "all"
-    #: a recording's input is loaded a segment at a time (:class:`.run._InputFeed`)
+    #: a recording's input is loaded a segment at a time (:class:`.feed.InputFeed`)
     streams_input = True
 
     def __init__(self, *, chunk_ms: float = CHUNK_MS, weight_bits: int | None = None, threads: int | None = None):

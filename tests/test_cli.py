@@ -270,10 +270,11 @@ def test_an_interrupted_recording_keeps_its_complete_windows_and_resume_finishes
 @pytest.mark.slow
 def test_spiking_recording_runs_one_network_and_reads_each_window_from_its_own_spikes(tmp_path):
     """snn-fg run RECORDING --model spiking: one continuous run (one network
-    build, every event at its own time, simulated time = the recording plus
-    the read-out lag); each window's stored spike counts are that run's
-    spikes inside the window shifted by the lag, and equal run_spiking_windows
-    called directly; frame-only options are refused for a recording."""
+    build, each event a spike in its time step: the default network's
+    ``events`` coding; simulated time = the recording plus the read-out lag);
+    each window's stored spike counts are that run's spikes inside the window
+    shifted by the lag, and equal run_spiking_windows called directly;
+    frame-only options are refused for a recording."""
     from snn_fg.events import image_to_events, iter_windows, save_events
     from snn_fg.frames.scenes import disc
     from snn_fg.models.spiking.continuous import run_spiking_windows

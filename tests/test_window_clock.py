@@ -55,7 +55,7 @@ def flip_runs():
 @pytest.mark.slow
 def test_one_window_of_a_recording_runs_as_a_recording_of_that_window():
     """The spiking model's ``run_window`` simulates the window and the
-    read-out lag once, events at their own times (no replay up to a frame's
+    read-out lag once, its events fed once (no replay up to a frame's
     400 ms), with the window clock: the dark disc after a light one, run
     alone, still points inwards."""
     scenes, windows = _flip_recording()

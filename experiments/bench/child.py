@@ -46,8 +46,9 @@ def _model(model: str, backend: str | None, instantiate: str | None = None):
 
 def _runner(mdl, inp):
     """The model on one input. A spiking window runs as a recording of one
-    window does (one continuous run, every event at its own time, the window
-    plus the read-out lag simulated, no replay)."""
+    window does (one continuous run, its events made spikes by the network's
+    input coding, docs/spiking-network.md, "How events become input spikes";
+    the window plus the read-out lag simulated, no replay)."""
     from snn_fg.models import Still
 
     if inp.events is None:

@@ -3,12 +3,14 @@ variants of it, side by side.
 
 Each round runs one fresh process per network, alternately, on the same
 windows (85 ms of ``dvs.es``, each run as a recording of one window: one
-continuous network, every event at its own time, the window clock, the
-read-out lag). A process warms up on the first window, then times every
-window once and reports its synaptic events, spikes and cell updates, which
-do not depend on the machine; the ratio of the medians is the speed cost of
-a variant. A variant is ``NAME=JSON`` (``SpikingParams`` to change, stored form)
-or ``NAME@DT=JSON`` to step it at ``DT`` ms instead of 0.5 ms; ``--variant``
+continuous network, each event a spike in its time step (the default
+network's ``events`` input coding: docs/spiking-network.md, "How events
+become input spikes"), the window clock, the read-out lag). A process warms
+up on the first window, then times every window once and reports its
+synaptic events, spikes and cell updates, which do not depend on the
+machine; the ratio of the medians is the speed cost of a variant. A
+variant is ``NAME=JSON`` (``SpikingParams`` to change, stored form) or
+``NAME@DT=JSON`` to step it at ``DT`` ms instead of 0.5 ms; ``--variant``
 repeats. Without one, the variant is ``experiments.validation.spiking_heldout.EARLIER``
 (inhibition with 10 ms in every kind of cell but the untuned cells, the
 network before 24 Nov 2026).

@@ -1,10 +1,12 @@
 """A model on the real DVS recording of a toy biplane (dvs.es of the dataset ``events``).
 
 The rate model runs window by window; the spiking model runs one continuous
-network over the whole recording (one build, every event at its own time,
-each window read from its own spikes plus the read-out lag). For every
-85 ms window (from --start-ms, default 1 ms: the first 1 ms is a reset burst) it reports
-whether the grouping maximum lies on the plane (inside the filled outline of
+network over the whole recording (one build, each event a spike in its
+0.5 ms step, the default network's ``events`` input coding:
+docs/spiking-network.md, "How events become input spikes"; each window read
+from its own spikes plus the read-out lag). For every 85 ms window (from
+--start-ms, default 1 ms: the first 1 ms is a reset burst) it reports whether
+the grouping maximum lies on the plane (inside the filled outline of
 that window's events) and the fraction of figure-ground vectors along the
 outline that point inwards. Writes experiments/results/dvs_biplane[_spiking].json and .png (input,
 figure-ground map, grouping map with the outline and the grouping maximum,

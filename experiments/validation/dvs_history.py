@@ -1,8 +1,9 @@
 """How much a window's spiking maps depend on what the network saw before it.
 
-The continuous spiking network (one build, every event at its own time)
-carries its state from one window into the next; the rate model starts each
-window afresh. This runs one window of ``dvs.es`` (default: window 8 from
+The continuous spiking network (one build, each event a spike in its 0.5 ms
+step: the default network's ``events`` input coding, docs/spiking-network.md,
+"How events become input spikes") carries its state from one window into the
+next; the rate model starts each window afresh. This runs one window of ``dvs.es`` (default: window 8 from
 100 ms, the one where the continuous run of ``dvs_biplane`` misses the
 inward-vector goal) as the last window of continuous runs that start
 0, 1, 3, ... windows earlier, and the rate model on the same window. For

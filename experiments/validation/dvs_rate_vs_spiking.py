@@ -13,8 +13,10 @@ thing:
    building up, where the rate model's early iterations are;
 2. the spiking network on each window's event frame (regular trains at
    every event pixel: the rate model's binary input, no timing);
-3. the spiking network on the recording (one network, every event at its
-   own time, the window clock): the default ``snn-fg run`` on a recording;
+3. the spiking network on the recording (one network, each event a spike in
+   its 0.5 ms step: the default network's ``events`` input coding,
+   docs/spiking-network.md; the window clock): the default ``snn-fg run`` on
+   a recording;
 4. scored only on the pixels where step 3 has a vector (which pixels it
    leaves blank), and only on the busy pixels (at least the median event
    count of the window), for steps 1-3.

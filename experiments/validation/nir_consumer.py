@@ -27,15 +27,17 @@ Inputs: a disc of radius 16 (regular trains, 200 Hz) and a 64 x 48 crop of a
 ``dvs.es`` window (the window from 100 ms, 85 ms, as the compact network's
 accuracy run starts; the crop centred on the window's mean event position,
 :func:`~snn_fg.export.loop.centroid_crop`, so the plane is in view; its
-events at their own times, replayed as ``snn-fg run`` presents one window).
+events each a spike in its time step through the network's input refractory
+period, the ``events`` coding, the window replayed).
 The network is calibrated to the input's rate as ``snn-fg run`` calibrates
 it (the disc's 200 Hz is the default; the crop's events are some 20 Hz per
 active block, and uncalibrated the compact network's simple cells stay
 silent on them). The default network with one level (the profile cannot
 interpolate between pyramid levels), or with ``--network compact`` the
 compact network's three octave levels on one grid (``--nir-one-grid``), its
-input the sensor's 3 x 3 blocks behind a 40 ms refractory period per
-block; 400 ms, counting from 200 ms, in steps of the network's own time
+input the sensor's 3 x 3 blocks behind its input refractory period per
+block (``Network.input_refractory_ms``: 60 ms since 27 Nov 12:53 UTC, 40 ms
+before); 400 ms, counting from 200 ms, in steps of the network's own time
 step (0.5 ms; the compact network 1 ms) in every engine.
 
 Writes experiments/results/nir_consumer.{json,md}.

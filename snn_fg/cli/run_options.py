@@ -142,7 +142,8 @@ RUN_OPTIONS = (
                 INPUT_CODINGS,
                 None,
                 None,
-                "recordings: how events become input spikes: events, each a spike at its own time; "
+                "recordings: how events become input spikes: events, each a spike in its time step, through the "
+                "network's input refractory period (the compact network's 60 ms); "
                 "window, each pixel holds its last event's polarity in the window, firing at the input "
                 "rate, which builds the rate model's event frame as the events arrive; sliding, the same "
                 "hold kept for one window's length after each event, not cleared as a window starts "

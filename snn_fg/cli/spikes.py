@@ -2,10 +2,13 @@
 exported network's ``run.py --input`` reads.
 
 A recording window (the ``--start-ms`` / ``--window-ms`` of ``snn-fg
-events``; its events at their own times, repeated as ``snn-fg run`` presents
-one window), an image (its simulated camera's event frame) or an event frame
-(regular trains, as ``snn-fg run``), cut to the export's frame (``--crop-at``;
-by default the crop with the most outline pixels, :func:`~snn_fg.export.loop.outline_crop`),
+events``; its events made spikes by the network's input coding, as in
+docs/spiking-network.md "How events become input spikes", and repeated
+window after window, where ``snn-fg run`` feeds a window's events once), an
+image (its simulated camera's event frame) or an event frame (regular
+trains, as ``snn-fg run``), cut to the export's frame (``--crop-at``; by
+default the crop with the most outline pixels,
+:func:`~snn_fg.export.loop.outline_crop`),
 on the export's time step.
 """
 

@@ -324,20 +324,19 @@ class SpikingModel(Model):
         return self._run(pos=still.pos, neg=still.neg)
 
     def run_window(self, window) -> Maps:
-        """One window, run as a recording of that one window (:meth:`run_windows`): its events at their
-        own times, the window clock, and the window plus the read-out lag simulated, as in a longer one."""
+        """One window, run as a recording of that one window (:meth:`run_windows`): its events fed once (no
+        replay), the window clock, and the window plus the read-out lag simulated, as in a longer one."""
         if not (window.pos.any() or window.neg.any()):
             return self.empty_maps(window.pos.shape)
         ((_, maps),) = self.run_windows([window])
         return maps
 
     def run_windows(self, windows, start: int = 0):
-        """One network over the whole recording (:func:`~snn_fg.models.spiking.run_spiking_windows`):
-        every event at its own time, each window read from its own spikes.
-        A run continued from window ``start`` simulates the windows before
-        it again (the network's state at a window's start comes from every
-        event before it), and yields them not. Each window's per-cell spike
-        counts are kept only with ``save_spikes``."""
+        """One network over the whole recording (:func:`~snn_fg.models.spiking.run_spiking_windows`), fed its
+        events as they come (how they become spikes: docs/spiking-network.md, "How events become input spikes"),
+        each window read from its own spikes. A run continued from window ``start`` simulates the windows before
+        it again (the network's state at a window's start comes from every event before it), and yields them
+        not. Each window's per-cell spike counts are kept only with ``save_spikes``."""
         out = []
         self.run_windows_into(windows, lambda w, m: out.append((w, m)), start)
         yield from out

@@ -49,10 +49,10 @@ RUN_OPTIONS = (
             ),
             ("--levels", int, 1, False, "pyramid levels (10)"),
             ("--n-ori", int, 2, False, "orientations per half-turn (8)"),
-            ("--r0", float, 0, True, "grouping radius in px: sets the object size grouped (8)"),
+            ("--r0", float, 0, True, "grouping radius in px: sets the object size grouped (8; natural: 4)"),
             ("--iterations", int, 1, False, "grouping/feedback iterations (10)"),
             ("--alpha", float, 0, False, "feedback gain (2)"),
-            ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1)"),
+            ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1; natural: 0)"),
             ("--side-cue", float, 0, False, "gain of the side cue, the busier side within 160 px (0; natural: 3000)"),
         ),
     ),
@@ -102,7 +102,14 @@ RUN_OPTIONS = (
                 "ms on the default network takes about 3/4 of the time and moves the maps "
                 "of natural images by 5-14 deg: experiments/results/spiking_dt.md)",
             ),
-            ("--seed", int, -(2**63), False, "frames and images: seed of the input spike phases (0)"),
+            (
+                "--seed",
+                int,
+                -(2**63),
+                False,
+                "frames and images: seed of the input spike phases (0); recordings: of the held sources' "
+                "phases, with --input-coding window or sliding only",
+            ),
             (
                 "--spike-input",
                 ("regular", "events"),

@@ -163,3 +163,27 @@ def test_streaming_memory_experiment_small(tmp_path):
     assert out["events_streamed"] == 200_000
     assert out["windows"] == 24  # ceil(2 s / 85 ms)
     assert out["within_target"] and out["peak_rss_mb"] < 1024
+
+
+def test_a_stream_chunk_held_whole_is_passed_on_uncopied_and_pooled_exactly():
+    """The cutter passes a chunk every window holds on as it is (no copy), and one
+    with events before the first window or in a hop's gap as its held events only;
+    pooling puts each event on its block without touching the chunk."""
+    from snn_fg.events.cutter import WindowCutter
+    from snn_fg.frames.pool import pool_events
+
+    ev = np.zeros(6, EVENT_DTYPE)
+    ev["t"], ev["x"], ev["y"], ev["p"] = [0, 10, 20, 30, 40, 50], [0, 5, 8, 9, 17, 31], [1, 2, 3, 4, 5, 6], [1, 0] * 3
+    cut = WindowCutter((32, 8), "test", window_ms=0.02, start_ms=0.015)
+    cut.add(ev[:1])
+    assert cut.held_events(ev[1:]).tolist() == ev[2:].tolist()  # (10 us lies before the first window, at 15)
+    later = ev[2:]
+    assert cut.held_events(later) is later
+    gaps = WindowCutter((32, 8), "test", window_ms=0.01, stride_ms=0.02)  # (windows [0, 10), [20, 30), ...)
+    gaps.add(ev[:1])
+    assert gaps.held_events(ev)["t"].tolist() == [0, 20, 40]
+    before = ev.copy()
+    pooled = pool_events(ev, 3)
+    assert pooled["x"].tolist() == [0, 1, 2, 3, 5, 10] and pooled["y"].tolist() == [0, 0, 1, 1, 1, 2]
+    assert pooled["t"].tolist() == ev["t"].tolist() and pooled["p"].tolist() == ev["p"].tolist()
+    assert ev.tolist() == before.tolist()

@@ -154,6 +154,13 @@ class WindowCutter:
         a = self.origin + k * self.stride
         return a, a + self.win
 
+    def held_events(self, events: np.ndarray) -> np.ndarray:
+        """The ``events`` some window holds (:meth:`held`): ``events`` itself where all are
+        (a live stream's chunk after its first window's start: no copy)."""
+        if self.stride <= self.win and self.max_windows is None and len(events) and events["t"][0] >= self.origin:
+            return events
+        return events[self.held(events["t"])]
+
     def held(self, t: np.ndarray) -> np.ndarray:
         """Which of the times ``t`` (in us) some window holds (none before the first
         window, in the gaps of a stride longer than the window, after ``max_windows``)."""
@@ -180,7 +187,7 @@ class WindowCutter:
             self.t0 = int(chunk["t"][0])
             self.w_start = self.t0 + self.start
             self.w_end = self.w_start + self.win
-        new = chunk[chunk["t"] >= self.w_start]
+        new = chunk if chunk["t"][0] >= self.w_start else chunk[chunk["t"] >= self.w_start]  # (no copy: all)
         if len(new):
             self.parts.append(new)
         return self._complete()

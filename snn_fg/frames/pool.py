@@ -57,10 +57,21 @@ def pool_events(events: np.ndarray, pool: int) -> np.ndarray:
     """A copy of ``events`` (:data:`~snn_fg.events.EVENT_DTYPE`) on the block grid."""
     if pool == 1:
         return events
-    out = events.copy()
+    out = np.empty_like(events)
+    if out.dtype.names == ("x", "y", "t", "p"):  # (one compiled pass: numpy's copy and two strided divisions
+        _pooled(events, pool, out)  # of a packed record's fields took 58 us a live chunk of 1,700 events)
+        return out
+    out[...] = events
     out["x"] //= pool
     out["y"] //= pool
     return out
+
+
+@njit(cache=True, nogil=True)
+def _pooled(events, pool, out):
+    for i in range(events.size):
+        out[i].x, out[i].y = events[i].x // pool, events[i].y // pool
+        out[i].t, out[i].p = events[i].t, events[i].p
 
 
 def event_pixels(frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -135,7 +135,7 @@ def arrivals(chunks, cut):
             events, fed_to = _new_events(done, fed_to)
             known = done[-1].t_end_us if done else known
         elif len(chunk):
-            events, known = chunk[cut.held(chunk["t"])], cut.prev_t
+            events, known = cut.held_events(chunk), cut.prev_t
         else:  # (no event; the clock may have passed dropped ones: events.cutter.TimePassed)
             events, known = None, known if cut.prev_t is None else cut.prev_t
         yield Arrival(events, done, known, cut.origin)

@@ -148,6 +148,7 @@ def test_a_model_that_falls_behind_drops_whole_windows_and_keeps_memory_bounded(
     assert queued == 4 * 100
     s = stream.stats()
     assert s["windows_dropped"] == 8 and s["events_dropped"] == 800
+    assert s["dropped_windows"] == [[4, 11]]  # (by number, as skipped hops are: live.json lists them)
     assert sum("fell 3 windows behind" in str(w.message) for w in said) == 1
     assert stream.dropped_slots == set(range(4, 12))
     windows = list(stream)  # (the dropped ones passed over: the clock passed their events, TimePassed)
@@ -176,6 +177,7 @@ def test_once_the_model_catches_up_the_windows_are_kept_again():
         gate.set()
     kept = [w.index for w in windows if not stream.dropped_window(w.index) and len(w.events)]
     assert stream.stats()["windows_dropped"] == 2 and kept == [0, 1, 2, 3, 6, 7, 8, 9, 10, 11]
+    assert stream.stats()["dropped_windows"] == [[4, 5]]
 
 
 def test_a_model_without_read_out_lag_that_keeps_up_loses_no_window():
@@ -657,7 +659,7 @@ def test_hops_drop_events_only_a_window_behind_and_never_skip_for_a_dropped_hop(
     """With max_behind 0 a slot is dropped once a window's worth of hops (4) wait, so from slot 8
     on (windows 5-11 hold one); hop 4 is made, since the hop after it is dropped."""
     kept, s = _hops_all_come_first(max_behind=0)
-    assert s["events_dropped"] == 4 * 100 and s["windows_dropped"] == 7
+    assert s["events_dropped"] == 4 * 100 and s["windows_dropped"] == 7 and s["dropped_windows"] == [[5, 11]]
     assert kept == [4] and s["windows_skipped"] == 4
 
 

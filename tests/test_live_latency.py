@@ -13,7 +13,7 @@ from snn_fg.events.live import LiveStream
 from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.models import get_model
 from snn_fg.params import ModelParams
-from snn_fg.results.publish import END_OF_STREAM, LiveModel, LiveRecord
+from snn_fg.results.publish import END_OF_STREAM, LiveModel, LiveRecord, why_behind
 
 #: how long the source stays silent after its last packet before it ends (as --idle-s would)
 IDLE_S = 0.4
@@ -60,6 +60,9 @@ def test_the_window_the_end_of_the_stream_completes_is_marked_and_left_out_of_th
     assert live["latency_ms_streaming"]["max"] == max(others)
     assert live["latency_ms_streaming"]["median"] == float(np.median(others))
     assert live["windows_completed_by_end"] == 1
+    for stats in (live["latency_ms"], live["latency_ms_streaming"]):  # (to 0.01 ms: 281.02610000000055 was said)
+        assert all(v == round(v, 2) for v in stats.values()), stats
+    assert live["dropped_windows"] == [] and live["why_behind"] is None
     said = _summary_text(live)
     assert f"max {max(others):.1f} ms" in said and f"not counted: {waited:.1f} ms" in said
     assert said.startswith("4 windows published, 0 dropped, ")
@@ -117,17 +120,26 @@ def test_the_closing_line_says_whether_the_model_or_the_machine_fell_behind():
         "streamed_s": 10.0,
         "cores": 2,
     }
-    crowded = _summary_text({**summary, "cpu_s": 3.0, "model_cpu_s": 2.5})
-    assert crowded.endswith(
-        "; the run used 15% of its 2 cores while the stream came: other programs had the rest, "
+
+    def closing(**cpu):  # (the closing line, and live.json's why_behind, which the same function makes)
+        s = {**summary, **cpu}
+        s["why_behind"] = why_behind(s)
+        return _summary_text(s), s["why_behind"]
+
+    crowded, verdict = closing(cpu_s=3.0, model_cpu_s=2.5)
+    assert verdict == (
+        "the run used 15% of its 2 cores while the stream came: other programs had the rest, "
         "and the model waited for them"
     )
-    slow = _summary_text({**summary, "cpu_s": 12.0, "model_cpu_s": 9.5})
-    assert slow.endswith(
-        "; the run used 60% of its 2 cores while the stream came: the model is slower than the stream on this machine"
+    assert crowded.endswith(f"; {verdict} (what to try: docs/live.md, 'If windows are dropped')")
+    slow, verdict = closing(cpu_s=12.0, model_cpu_s=9.5)
+    assert verdict == (
+        "the run used 60% of its 2 cores while the stream came: the model is slower than the stream on this machine"
     )
-    kept = _summary_text({**summary, "windows_dropped": 0, "cpu_s": 3.0, "model_cpu_s": 2.5})
-    assert "while the stream came" not in kept  # (nothing fell behind: nothing to explain)
+    assert f"; {verdict} (what to try" in slow
+    kept, verdict = closing(windows_dropped=0, cpu_s=3.0, model_cpu_s=2.5)
+    assert verdict is None and "while the stream came" not in kept  # (nothing fell behind: nothing to explain)
+    assert closing(windows_dropped=0, windows_skipped=3, cpu_s=3.0, model_cpu_s=2.5)[1] is not None  # (hops)
 
 
 def test_the_cpu_share_is_measured_over_the_stream_and_stays_within_its_cores():
@@ -136,8 +148,6 @@ def test_the_cpu_share_is_measured_over_the_stream_and_stays_within_its_cores():
     the wait for the end) made a live run say it "used 119% of its 1 core". Here the model's thread
     works 0.6 s after a 0.2 s stream; that work is not the stream's."""
     import os
-
-    from snn_fg.cli.live import _why_behind
 
     class Paced(_Source):
         def packets(self):
@@ -162,5 +172,48 @@ def test_the_cpu_share_is_measured_over_the_stream_and_stays_within_its_cores():
     assert wall >= 0.1  # (the ten packets' 0.18 s, paced, to within the receiver's 10 ms sampling)
     assert live["model_cpu_s"] <= wall + 0.002  # (one thread: no more CPU than wall time)
     assert live["cpu_s"] <= wall * cores + 0.002
-    share = int(_why_behind(live).split("the run used ")[1].split("%")[0])
+    assert live["why_behind"] is None  # (nothing dropped or skipped)
+    share = int(why_behind({**live, "windows_dropped": 1}).split("the run used ")[1].split("%")[0])
     assert share <= 100
+
+
+def test_each_published_line_says_when_it_was_sent_and_its_span_on_the_streams_own_clock(tmp_path):
+    """A controller matches a window to its robot's pose by the wall clock the line was sent at (Unix
+    seconds) or by the camera's own timestamps (here a DAVIS-like clock in Unix microseconds), not only
+    by t_start_us, which counts from the stream's first event."""
+    _, rec = flipping_disc_recording(24, windows=3, window_ms=40.0)
+    camera_t0 = 1_700_000_000_000_000
+    rec.events["t"] += camera_t0 - rec.events["t"][0]
+    lines = []
+
+    class Inbox:
+        def send(self, message):
+            lines.append(json.loads(json.dumps(message)))  # (as a subscriber reads it)
+
+    class Page:  # (the live page: given each line with the run's counts so far, /state.json)
+        shown: list = []
+
+        def show(self, w, maps, state):
+            self.shown.append(state)
+
+    stream = LiveStream(_Source(rec, 40_000), window_ms=40.0, start_ms=5.0, max_behind=10**6)
+    record = LiveRecord(stream, Inbox(), view=Page())
+    out = tmp_path / "live"
+    out.mkdir()
+    before = time.time()
+    try:
+        run_recording(LiveModel(get_model("rate", ModelParams(levels=3)), stream, record), stream, out, {})
+    finally:
+        stream.close()
+    after = time.time()
+    assert [m["window"] for m in lines] == [0, 1, 2]
+    for k, m in enumerate(lines):
+        assert m["t_start_us"] == 5_000 + 40_000 * k  # (from the first event, 5 ms on)
+        assert m["stream_t_start_us"] == camera_t0 + m["t_start_us"]  # (the events' own times)
+        assert m["stream_t_end_us"] == camera_t0 + m["t_end_us"]
+        assert before <= m["published_unix_s"] <= after
+        assert m["latency_ms"] == round(m["latency_ms"], 2)
+    assert lines[0]["published_unix_s"] <= lines[1]["published_unix_s"] <= lines[2]["published_unix_s"]
+    counts = [(s["windows"], s["windows_dropped"], s["windows_skipped"]) for s in Page.shown]
+    assert counts == [(1, 0, 0), (2, 0, 0), (3, 0, 0)]
+    assert [{k: v for k, v in s.items() if k in m} for s, m in zip(Page.shown, lines, strict=True)] == lines

@@ -32,6 +32,7 @@ def _window(k: int, w: int = 40, h: int = 30):
     fx[20, 10], g[12, 30] = 1.0, 5.0 + k
     message = {"window": k, "t_start_us": 85_000 * k, "t_end_us": 85_000 * (k + 1), "events": 2, "latency_ms": 12.5}
     message["peaks"] = [{"x": 30, "y": 12, "strength": 5.0 + k, "fg_x": 0.0, "fg_y": 0.0, "fg_deg": 0.0}]
+    message |= {"windows": k + 1, "windows_dropped": 2 * k, "windows_skipped": 3 * k}  # (the run's, as LiveRecord adds)
     return SimpleNamespace(pos=pos, neg=neg), Maps(fx, fy, g), message
 
 
@@ -89,6 +90,20 @@ def test_a_port_taken_is_one_line():
             LiveView(taken.port)
     finally:
         taken.close()
+    with pytest.raises(InputError, match="--view 0 --view-host 256.1.1.1: cannot serve the page there"):
+        LiveView(0, host="256.1.1.1")
+
+
+def test_the_page_is_served_on_the_host_asked_for():
+    """--view-host: here another of this machine's loopback addresses (0.0.0.0 would be every network)."""
+    view = LiveView(0, host="127.0.0.2")
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.2:{view.port}/state.json", timeout=5) as r:
+            assert json.loads(r.read()) == {"window": None}
+        with pytest.raises(urllib.error.URLError):
+            _get(view.port, "/state.json")  # (not on 127.0.0.1)
+    finally:
+        view.close()
 
 
 def _browser():
@@ -130,3 +145,6 @@ def test_the_live_page_in_a_headless_browser_loads_shows_the_three_panels_and_up
     status = re.search(r'<p id="status">([^<]*)</p>', dom).group(1)
     head = r"window \d+, \d+-\d+ ms, 2 events, latency 12.5 ms, "
     assert re.match(head + r"strongest proto-object at x 30, y 12 \(from the top left\)", status)
+    k = int(re.search(r'data-window="(\d+)"', body).group(1))  # (the run's counts, as of the window shown)
+    counts = re.search(r'<p id="counts">([^<]*)</p>', dom).group(1)
+    assert counts == f"windows: {k + 1} published, {2 * k} dropped, {3 * k} skipped for a newer hop"

@@ -26,7 +26,7 @@ from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..models import MODELS
 from ..results.atomic import growing_folder, settle_folder
-from ..results.live_view import LiveView
+from ..results.live_view import VIEW_HOST, LiveView
 from ..results.outputs import check_output_folder
 from ..results.peaks import grouping_peaks
 from ..results.publish import END_OF_STREAM, LiveModel, LiveRecord, Publisher
@@ -87,7 +87,15 @@ def add_live_command(sub):
         "--view",
         type=number(int, 0, strict=False, hi=65535),
         metavar="PORT",
-        help="serve a page on http://127.0.0.1:PORT/ showing each window's event frame and maps as they come",
+        help="serve a page on http://127.0.0.1:PORT/ (--view-host) showing each window's event frame and maps, "
+        "and the windows published, dropped and skipped, as they come",
+    )
+    p.add_argument(
+        "--view-host",
+        default=VIEW_HOST,
+        metavar="HOST",
+        help=f"the address --view serves on ({VIEW_HOST}: this machine only; 0.0.0.0: every network it is on, "
+        "to anyone who can reach it)",
     )
     p.add_argument(
         "--peaks", type=number(int, 1, strict=False), default=3, metavar="K", help="grouping peaks published (3)"
@@ -127,7 +135,9 @@ def cmd_live(args) -> int:
     scheme = parse_address(args.source)[0]
     with ExitStack() as opened:  # (what is open so far is closed on an error)
         publisher = opened.enter_context(closing(Publisher(args.publish))) if args.publish else None
-        view = opened.enter_context(closing(LiveView(args.view, args.source))) if args.view is not None else None
+        view = None
+        if args.view is not None:
+            view = opened.enter_context(closing(LiveView(args.view, args.source, args.view_host)))
         warm_s = None
         if scheme == "dv" and args.sensor_size is not None:  # (before connecting: a DV server sends from then on)
             warm_s = _warmed(model, args.sensor_size, window_ms, args)
@@ -151,7 +161,7 @@ def cmd_live(args) -> int:
     )
     if spiking:  # (the rate model takes whole windows)
         stream.segment_ms = LIVE_SEGMENT_MS
-    page = "" if view is None else f"; the live page is on http://127.0.0.1:{view.port}/"
+    page = "" if view is None else f"; the live page is on http://{view.host}:{view.port}/"
     stream.on_ready = lambda: print(
         f"snn-fg: live: {model.name} model ready for {args.source} (warmed up in {warm_s:.1f} s){page}", flush=True
     )
@@ -182,22 +192,6 @@ def cmd_live(args) -> int:
     return 0
 
 
-#: the share of the time a live run's stream came which, used by the run on all its cores or by the model's
-#: thread alone, says that the model (not other programs) is what fell behind
-BUSY_SHARE = 0.8
-
-
-def _why_behind(summary: dict) -> str:
-    """Why a live run fell behind, from its CPU while the stream came (``live.json``: ``streamed_s``, ``cpu_s``,
-    ``model_cpu_s``, ``cores``): the model is slower than the stream here, or other programs had the cores."""
-    wall, cores = summary["streamed_s"], summary["cores"]
-    run, model = summary["cpu_s"] / (wall * cores), summary["model_cpu_s"] / wall
-    said = f"the run used {run:.0%} of its {cores} core{'s' if cores != 1 else ''} while the stream came"
-    if run >= BUSY_SHARE or model >= BUSY_SHARE:
-        return f"{said}: the model is slower than the stream on this machine"
-    return f"{said}: other programs had the rest, and the model waited for them"
-
-
 def _summary_text(summary: dict) -> str:
     """``live.json``'s summary in words: the windows, the events, and the latency of the windows the stream's
     own events completed, apart from those that waited for its end (``--idle-s``, or a server closing)."""
@@ -225,9 +219,8 @@ def _summary_text(summary: dict) -> str:
     waited = [r["latency_ms"] for r in summary["per_window"] if r["completed_by"] == END_OF_STREAM]
     if waited and waited[-1] is not None:
         text += f" (the last window, completed by the end of the stream, not counted: {waited[-1]:.1f} ms)"
-    behind = (summary.get("windows_dropped") or 0) + skipped
-    if behind and summary.get("streamed_s") and summary.get("cores"):
-        text += f"; {_why_behind(summary)}"
+    if summary.get("why_behind"):  # (and where to read what to change)
+        text += f"; {summary['why_behind']} (what to try: docs/live.md, 'If windows are dropped')"
     return text
 
 

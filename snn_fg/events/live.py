@@ -42,42 +42,16 @@ import time
 import warnings
 
 import numpy as np
-from numba import njit
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events._core import EVENT_DTYPE
 from snn_fg.events.cutter import TimePassed, WindowCutter, _window_times
+from snn_fg.events.live_screen import screen_events
 
 #: the end of the stream, on the queue
 _END = object()
 #: seconds of arrivals between two samples of the CPU used (two clock reads: nothing beside a packet's 117 us)
 CPU_SAMPLE_S = 0.01
-
-
-@njit(cache=True, nogil=True)
-def _screen(x, y, t, w, h, last_t):
-    """Which events to keep: inside the ``w`` x ``h`` sensor and no earlier than
-    every event before them (``last_t``: the latest so far). Returns the mask and
-    ``(outside, first outside, backwards, first backwards, its time, the latest
-    before it)``, the firsts -1 where none (one pass, a packet at a time on the
-    receiving thread: in numpy it took a sixth of a core beside the compact network)."""
-    keep = np.ones(x.size, np.bool_)
-    outside, first_out, backwards, first_back, back_t, back_before = 0, -1, 0, -1, 0, 0
-    latest = last_t
-    for i in range(x.size):
-        if x[i] < 0 or x[i] >= w or y[i] < 0 or y[i] >= h:
-            keep[i] = False
-            outside += 1
-            if first_out < 0:
-                first_out = i
-        elif t[i] < latest:
-            keep[i] = False
-            backwards += 1
-            if first_back < 0:
-                first_back, back_t, back_before = i, t[i], latest
-        else:
-            latest = t[i]
-    return keep, (outside, first_out, backwards, first_back, back_t, back_before)
 
 
 class LiveStream:
@@ -106,9 +80,10 @@ class LiveStream:
         self.cpu_first = self.cpu_last = None  # ((wall, process CPU, model thread CPU) at the first and latest sample)
         self.windows_dropped = 0
         self.windows_skipped = 0  # (hops whose read-out was skipped for a newer one: stale)
-        # (their numbers, as ranges [first, last] of consecutive ones: a long --hop-ms run skips hops by the
-        # thousand; the timeline tells them from dropped ones)
+        # (the numbers of the skipped and the dropped, as ranges [first, last] of consecutive ones: a long --hop-ms
+        # run skips hops by the thousand; the timeline tells the two apart)
         self.skipped_windows: list = []
+        self.dropped_ranges: list = []
         self.dropped_us = 0  # the dropped stream time the model did not simulate (resume_at)
         self.first_dropped = None  # the first slot dropped
         self.dropped_windows: set = set()  # (those not yet passed by the published ones)
@@ -118,7 +93,7 @@ class LiveStream:
         self.end_seen = False  # (the model's thread took the end of the stream)
         self.warned = False
         empty = np.zeros(0, EVENT_DTYPE)
-        _screen(empty["x"], empty["y"], empty["t"], 1, 1, 0)  # (compiled, or loaded, before the first packet)
+        screen_events(empty["x"], empty["y"], empty["t"], 1, 1, 0)  # (compiled, or loaded, before the first packet)
         self.thread = threading.Thread(target=self._receive, name="snn-fg live receiver", daemon=True)
         self.thread.start()
 
@@ -137,7 +112,7 @@ class LiveStream:
             return
         w, h = self.sensor_size[:2]
         last = np.iinfo(np.int64).min if self.last_t is None else self.last_t
-        keep, (outside, first_out, backwards, first_back, back_t, back_before) = _screen(
+        keep, (outside, first_out, backwards, first_back, back_t, back_before) = screen_events(
             ev["x"], ev["y"], ev["t"], w, h, last
         )
         if self.cpu_last is None or arrived - self.cpu_last[0] >= CPU_SAMPLE_S:
@@ -231,6 +206,8 @@ class LiveStream:
             held = set(range(max(s - self.slots_per_window + 1, 0), s + 1)) - self.dropped_windows
             self.dropped_windows |= held  # (the windows that hold slot s)
             self.windows_dropped += len(held)
+            for k in sorted(held):  # (above those dropped before: the slots begin in order)
+                _note(self.dropped_ranges, k)
             if not self.warned:
                 self.warned = True
                 warnings.warn(
@@ -327,11 +304,7 @@ class LiveStream:
         if self.last_t < w.t_end_us + self.stride + self.lag_us:
             return False
         self.windows_skipped += 1
-        k, runs = int(w.index), self.skipped_windows  # (asked in order: a run grows at its end)
-        if runs and runs[-1][1] == k - 1:
-            runs[-1][1] = k
-        else:
-            runs.append([k, k])
+        _note(self.skipped_windows, int(w.index))  # (asked in order)
         return True
 
     def slots_of(self, w) -> range:
@@ -385,6 +358,7 @@ class LiveStream:
             "windows_dropped": self.windows_dropped,
             "windows_skipped": self.windows_skipped,
             "skipped_windows": self.skipped_windows,
+            "dropped_windows": self.dropped_ranges,
             "simulated_ms_dropped": self.dropped_us / 1000.0,
             "events_received": self.events_received,
             "events_dropped": self.events_dropped,
@@ -397,3 +371,11 @@ class LiveStream:
             "events_backwards": self.backwards,
             "packets_malformed": self.source.malformed,
         }
+
+
+def _note(ranges: list, k: int) -> None:
+    """Window ``k``, above every window in ``ranges`` (``[first, last]`` of consecutive numbers), added to them."""
+    if ranges and ranges[-1][1] == k - 1:
+        ranges[-1][1] = k
+    else:
+        ranges.append([k, k])

@@ -1,9 +1,11 @@
-"""The live page of ``snn-fg live --view PORT``: on ``http://127.0.0.1:PORT/``,
-the latest window's event frame, figure-ground map and grouping map, with
-its latency, updating as windows are published.
+"""The live page of ``snn-fg live --view PORT``: on ``http://127.0.0.1:PORT/``
+(``--view-host``), the latest window's event frame, figure-ground map and
+grouping map, with its latency and the windows published, dropped and
+skipped so far, updating as windows are published.
 
 A server thread (the standard library's ``http.server``) answers the page,
-``/state.json`` (the latest window's published line, :mod:`.publish`) and
+``/state.json`` (the latest window's published line, :mod:`.publish`, with
+the run's ``windows``, ``windows_dropped`` and ``windows_skipped`` so far) and
 one PNG per panel, ``/events.png``, ``/fg.png``, ``/grouping.png``, of the
 window ``?w=K`` names (the latest one if that has passed). The model's
 thread only hands over its arrays (:meth:`LiveView.show`); a panel is coloured
@@ -38,6 +40,7 @@ img.key {{ width: 90px; vertical-align: middle; }}
 <body data-updates="0" data-window="">
 <h1>snn-fg live: {source}</h1>
 <p id="status">waiting for the first window</p>
+<p id="counts"></p>
 <div class="panels">{panels}</div>
 <script>
 let shown = null;
@@ -52,6 +55,8 @@ async function poll() {{
       document.getElementById('status').textContent = `window ${{s.window}}, ` +
         `${{(s.t_start_us / 1000).toFixed(0)}}-${{(s.t_end_us / 1000).toFixed(0)}} ms, ${{s.events}} events, ` +
         `latency ${{s.latency_ms === null ? '-' : s.latency_ms.toFixed(1)}} ms${{p}}`;
+      if (s.windows !== undefined) document.getElementById('counts').textContent = `windows: ${{s.windows}} ` +
+        `published, ${{s.windows_dropped}} dropped, ${{s.windows_skipped}} skipped for a newer hop`;
       document.body.dataset.updates = Number(document.body.dataset.updates) + 1;
       document.body.dataset.window = s.window;
     }}
@@ -68,11 +73,15 @@ PANEL += "<figcaption>{title}{key}</figcaption></figure>"
 KEY = ' <img class="key" src="/key.png" alt="colour wheel: hue is the direction, 0 degrees right, 90 up">'
 
 
+#: where the page is served unless ``--view-host`` says otherwise: this machine alone
+VIEW_HOST = "127.0.0.1"
+
+
 class LiveView:
-    """The page on ``http://127.0.0.1:port/`` (``port`` 0: any free one, :attr:`port`),
+    """The page on ``http://host:port/`` (``port`` 0: any free one, :attr:`port`),
     served on a thread of its own until :meth:`close`."""
 
-    def __init__(self, port: int, source: str = "", host: str = "127.0.0.1"):
+    def __init__(self, port: int, source: str = "", host: str = VIEW_HOST):
         from snn_fg.results import figures  # noqa: F401 - (matplotlib loaded now, not as the first window is shown)
 
         panels = "".join(PANEL.format(name=k, title=v, key=KEY if k == "fg" else "") for k, v in PANELS.items())
@@ -84,7 +93,9 @@ class LiveView:
         try:
             self.server = ThreadingHTTPServer((host, port), _handler(self))
         except OSError as exc:
-            raise InputError(f"--view {port}", f"cannot serve the page there: {exc.strerror or exc}") from None
+            where = f"--view {port}" + ("" if host == VIEW_HOST else f" --view-host {host}")
+            raise InputError(where, f"cannot serve the page there: {exc.strerror or exc}") from None
+        self.host = host
         self.server.daemon_threads = True
         self.port = self.server.server_address[1]
         self.thread = threading.Thread(target=self.server.serve_forever, name="snn-fg live view", daemon=True)

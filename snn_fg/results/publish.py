@@ -40,6 +40,11 @@ DROP_POLICY = (
 END_OF_STREAM = "the end of the stream"
 #: seconds a TCP subscriber is given to take a line before publishing stops
 TCP_TIMEOUT_S = 1.0
+#: decimals of a latency in milliseconds (0.01 ms: the clocks' jitter is larger)
+LATENCY_DECIMALS = 2
+#: the share of the time a live run's stream came which, used by the run on all its cores or by the model's
+#: thread alone, says that the model (not other programs) is what fell behind
+BUSY_SHARE = 0.8
 
 
 class Publisher:
@@ -100,6 +105,8 @@ class LiveRecord:
             "window": int(w.index),  # (its number in the stream, as in maps.zarr and windows.csv)
             "t_start_us": int(w.t_start_us - origin),
             "t_end_us": int(w.t_end_us - origin),
+            "stream_t_start_us": int(w.t_start_us),  # (the span on the stream's own clock: its events' times)
+            "stream_t_end_us": int(w.t_end_us),
             "events": int(len(w.events)),
             "peaks": [  # (float32 values to the digits they hold, not float64's tail of noise)
                 {k: round(v, 3) if isinstance(v, float) else v for k, v in peak.items()}
@@ -107,11 +114,13 @@ class LiveRecord:
             ],
         }
         now = time.perf_counter()
-        message["latency_ms"] = None if arrived is None else round((now - arrived) * 1000, 3)
+        message["latency_ms"] = None if arrived is None else round((now - arrived) * 1000, LATENCY_DECIMALS)
+        message["published_unix_s"] = round(time.time(), 6)
         if self.publisher is not None:
             self.publisher.send(message)
-        if self.view is not None:
-            self.view.show(w, maps, message)
+        if self.view is not None:  # (with the run's counts so far, which the page shows)
+            counts = {"windows": len(self.rows) + 1, "windows_dropped": self.stream.windows_dropped}
+            self.view.show(w, maps, {**message, **counts, "windows_skipped": self.stream.windows_skipped})
         row = {k: message[k] for k in ("window", "t_start_us", "t_end_us", "events", "latency_ms")}
         row["drop_before"] = self.stream.dropped_before_read_out(w)
         row["completed_by"] = END_OF_STREAM if self.stream.completed_by_end(w) else "the stream's events"
@@ -120,7 +129,7 @@ class LiveRecord:
     def summary(self, ended: str) -> dict:
         """``live.json``: ``latency_ms`` over every window, and ``latency_ms_streaming`` over those the
         stream's own events completed, without the last one(s), which waited for the end of the stream."""
-        return {
+        out = {
             "windows": len(self.rows),
             **self.stream.stats(),
             "latency_ms": _latency(self.rows),
@@ -130,10 +139,9 @@ class LiveRecord:
             "warm_up_s": self.warm_up_s,
             "seconds": round(time.perf_counter() - self.t_start, 3),
             **self._cpu(),
-            "drop_policy": DROP_POLICY,
-            "max_behind": self.stream.max_behind,
-            "per_window": self.rows,
         }
+        out["why_behind"] = why_behind(out)
+        return {**out, "drop_policy": DROP_POLICY, "max_behind": self.stream.max_behind, "per_window": self.rows}
 
     def _cpu(self) -> dict:
         """``streamed_s``: wall seconds from the first event's arrival to the last's (the silence that ends a
@@ -158,7 +166,24 @@ def _latency(rows) -> dict | None:
     lat = np.array([r["latency_ms"] for r in rows if r["latency_ms"] is not None], dtype=np.float64)
     if not lat.size:
         return None
-    return {"median": float(np.median(lat)), "p95": float(np.percentile(lat, 95)), "max": float(lat.max())}
+    stats = {"median": np.median(lat), "p95": np.percentile(lat, 95), "max": lat.max()}
+    return {k: round(float(v), LATENCY_DECIMALS) for k, v in stats.items()}
+
+
+def why_behind(summary: dict) -> str | None:
+    """Why a live run fell behind (windows dropped or hops skipped), from its CPU while the stream came
+    (``live.json``: ``streamed_s``, ``cpu_s``, ``model_cpu_s``, ``cores``): the model is slower than the stream
+    here, or other programs had the cores. None when nothing fell behind or no event came. ``live.json`` keeps
+    it (``why_behind``) and the line ``snn-fg live`` ends with says it."""
+    behind = (summary.get("windows_dropped") or 0) + (summary.get("windows_skipped") or 0)
+    wall, cores = summary.get("streamed_s"), summary.get("cores")
+    if not (behind and wall and cores):
+        return None
+    run, model = summary["cpu_s"] / (wall * cores), summary["model_cpu_s"] / wall
+    said = f"the run used {run:.0%} of its {cores} core{'s' if cores != 1 else ''} while the stream came"
+    if run >= BUSY_SHARE or model >= BUSY_SHARE:
+        return f"{said}: the model is slower than the stream on this machine"
+    return f"{said}: other programs had the rest, and the model waited for them"
 
 
 class LiveModel:

@@ -1,0 +1,34 @@
+"""The screen each packet of a live stream passes on the receiving thread
+(:class:`~snn_fg.events.live.LiveStream`): events inside the sensor and in
+time order are kept, the others counted."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def screen_events(x, y, t, w, h, last_t):
+    """Which events to keep: inside the ``w`` x ``h`` sensor and no earlier than
+    every event before them (``last_t``: the latest so far). Returns the mask and
+    ``(outside, first outside, backwards, first backwards, its time, the latest
+    before it)``, the firsts -1 where none (one pass, a packet at a time on the
+    receiving thread: in numpy it took a sixth of a core beside the compact network)."""
+    keep = np.ones(x.size, np.bool_)
+    outside, first_out, backwards, first_back, back_t, back_before = 0, -1, 0, -1, 0, 0
+    latest = last_t
+    for i in range(x.size):
+        if x[i] < 0 or x[i] >= w or y[i] < 0 or y[i] >= h:
+            keep[i] = False
+            outside += 1
+            if first_out < 0:
+                first_out = i
+        elif t[i] < latest:
+            keep[i] = False
+            backwards += 1
+            if first_back < 0:
+                first_back, back_t, back_before = i, t[i], latest
+        else:
+            latest = t[i]
+    return keep, (outside, first_out, backwards, first_back, back_t, back_before)

@@ -30,7 +30,7 @@ from ..events.images import IMAGE_SUFFIXES
 from ..results.activity import activity_figure
 from ..results.atomic import save_figure, save_npz
 from ..results.outputs import check_output_file
-from .options import sensor_size, subcommand
+from .options import DEMO, recording_or_demo, sensor_size, subcommand
 from .spikes import add_spike_options, write_spikes
 
 
@@ -44,7 +44,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         "an event camera (ESIM) under a small motion instead. Optionally write the event frame "
         "of one window (.npz with pos, neg, t_start_us, t_end_us) and/or the events.",
     )
-    p.add_argument("input", metavar="INPUT", help="recording or image file")
+    p.add_argument("input", metavar="INPUT", help="recording or image file, or demo (the built-in demo recording)")
     g = p.add_argument_group("recordings")
     g.add_argument(
         "--window-ms",
@@ -100,6 +100,13 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+#: the file line of ``snn-fg events demo``
+DEMO_SAID = (
+    "demo (built in: the demo scene, as snn-fg run demo shows it, seen through the iCub's microsaccade, "
+    "85 ms windows; snn-fg stream demo sends it)"
+)
+
+
 def _summary(lines):
     width = max(len(k) for k, _ in lines)
     return "\n".join(f"{k + ':':<{width + 1}} {v}" for k, v in lines)
@@ -124,8 +131,8 @@ def _written_note(out):
 
 def run_events(args) -> int:
     """Handler of ``snn-fg events``; prints a summary, returns 0."""
-    path = Path(args.input)
-    if not path.exists():
+    path, demo = Path(args.input), args.input == DEMO
+    if not (demo or path.exists()):
         raise InputError(path, "no such file")
     _check_outputs(args, path)
     if args.write_spikes is not None:
@@ -178,7 +185,8 @@ def _image_lines(path, args) -> list:
 def _recording_lines(path, args):
     """The recording's stream, its summary (writing the frame and events
     asked for), and whether its events span any time."""
-    stream = iter_recording(path, sensor_size=args.sensor_size, progress=not args.no_progress)
+    source = recording_or_demo(args.input)
+    stream = iter_recording(source, sensor_size=args.sensor_size, progress=not args.no_progress)
     n = n_on = 0
     t_first = t_last = None
     for chunk in stream:
@@ -188,7 +196,7 @@ def _recording_lines(path, args):
             t_first = int(chunk["t"][0])
         t_last = int(chunk["t"][-1])
     lines = [
-        ("file", str(path)),
+        ("file", str(path) if source is args.input else DEMO_SAID),
         ("format", f"{stream.format}" + ("" if stream.streams else " (read whole)")),
         ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}"),
     ]

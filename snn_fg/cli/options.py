@@ -25,6 +25,21 @@ def subcommand(sub, name: str, *, description: str) -> argparse.ArgumentParser:
     return sub.add_parser(name, allow_abbrev=False, help=COMMANDS[name].help, description=description)
 
 
+#: the name that stands for the built-in demo: its still scene for ``snn-fg run``, its recording where a command
+#: takes a recording (:func:`recording_or_demo`)
+DEMO = "demo"
+
+
+def recording_or_demo(spec: str):
+    """A command's recording argument as :func:`~snn_fg.events.iter_recording` reads it: the path given,
+    or for :data:`DEMO` the built-in demo recording (:func:`~snn_fg.frames.scenes.demo_recording`)."""
+    if spec != DEMO:
+        return spec
+    from ..frames.scenes import demo_recording  # (the event simulator loaded only for it)
+
+    return demo_recording()
+
+
 def size_text(n_bytes: int) -> str:
     """A size as a line of output gives it: ``7.0 MB``, or ``12 kB`` under a tenth of a megabyte."""
     return f"{n_bytes / 1e6:.1f} MB" if n_bytes >= 100_000 else f"{max(1, round(n_bytes / 1e3))} kB"

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..events import EVENT_DTYPE, iter_recording
 from ..events.replay import UdpSender, from_ms, looped, open_sender, paced, parse_address
-from .options import number, sensor_size, subcommand
+from .options import number, recording_or_demo, sensor_size, subcommand
 
 
 def add_stream_command(sub):
@@ -26,7 +26,11 @@ def add_stream_command(sub):
         "real time or --speed X faster. Times start at 0 with the recording's first event. The "
         "recording is read whole before the replay starts.",
     )
-    p.add_argument("recording", metavar="REC", help="an event recording (any format snn-fg run reads)")
+    p.add_argument(
+        "recording",
+        metavar="REC",
+        help="an event recording (any format snn-fg run reads), or demo: 2 s of the built-in demo scene's events",
+    )
     p.add_argument("--to", required=True, metavar="URL", help="udp://HOST:PORT or dv://HOST:PORT")
     p.add_argument("--speed", type=number(float, 0), default=1.0, metavar="X", help="times real time (1)")
     p.add_argument("--loop", type=number(int, 1), default=1, metavar="N", help="play the recording N times (1)")
@@ -45,10 +49,9 @@ def add_stream_command(sub):
 
 def cmd_stream(args) -> int:
     parse_address(args.to, "--to")  # (a wrong address before the recording is read and warned about)
-    size = iter_recording(args.recording, sensor_size=args.sensor_size).sensor_size
-    parts = looped(
-        lambda: from_ms(iter_recording(args.recording, sensor_size=args.sensor_size), args.start_ms), args.loop
-    )
+    source = recording_or_demo(args.recording)
+    size = iter_recording(source, sensor_size=args.sensor_size).sensor_size
+    parts = looped(lambda: from_ms(iter_recording(source, sensor_size=args.sensor_size), args.start_ms), args.loop)
     events = np.concatenate(list(parts) or [np.zeros(0, EVENT_DTYPE)])
     if not len(events):
         raise InputError(args.recording, f"no event from --start-ms {args.start_ms:g} on")

@@ -205,14 +205,38 @@ def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: flo
     check.integer("flipping_disc_recording", "windows", windows, lo=1)
     window_ms = check.number("flipping_disc_recording", "window_ms", window_ms, lo=0, lo_open=True)
     scenes = [disc(radius, light_on_dark=k % 2 == 0) for k in range(windows)]
-    parts = []
+    return scenes, _seen_in_turn(scenes, window_ms)
+
+
+#: the windows of the demo recording (:func:`demo_recording`): 2 s of events at 85 ms a window
+DEMO_WINDOWS = 24
+
+
+def demo_recording(windows: int = DEMO_WINDOWS, window_ms: float = 85.0) -> Recording:
+    """The demo scene (:func:`demo`, the one ``snn-fg run demo`` shows) as an event
+    camera sees it through the iCub's circular microsaccade: ``windows`` windows of
+    ``window_ms`` ms, each the first ``window_ms`` of one turn (as
+    :func:`flipping_disc_recording`'s), on a 160 x 120 sensor. It is ``demo`` where a
+    command takes a recording (``snn-fg stream demo``, ``snn-fg events demo``), so that a
+    live run can be tried with no camera and no data."""
+    check.integer("demo_recording", "windows", windows, lo=1)
+    window_ms = check.number("demo_recording", "window_ms", window_ms, lo=0, lo_open=True)
+    return _seen_in_turn([demo()] * windows, window_ms)
+
+
+def _seen_in_turn(scenes, window_ms: float) -> Recording:
+    """One window of events a scene, each the first ``window_ms`` of the microsaccade's turn over it,
+    window ``k``'s from ``k * window_ms`` on."""
+    parts, seen = [], {}  # (a scene given again is simulated once)
     for k, scene in enumerate(scenes):
-        ev = image_to_events(scene.image, motion="circle").events
-        ev = ev[ev["t"] - ev["t"].min() < window_ms * 1000].copy()
+        if id(scene) not in seen:
+            ev = image_to_events(scene.image, motion="circle").events
+            seen[id(scene)] = ev[ev["t"] - ev["t"].min() < window_ms * 1000]
+        ev = seen[id(scene)].copy()
         ev["t"] += int(round(k * window_ms * 1000)) - ev["t"].min()
         parts.append(ev)
     h, w = scenes[0].shape
-    return scenes, Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)
+    return Recording(events=np.concatenate(parts), sensor_size=(w, h, 2), format="synthetic", path=None)
 
 
 #: the synthetic DAVIS recording (:func:`davis_disc_recording`): a DAVIS346's sensor (rows, columns)

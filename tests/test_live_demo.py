@@ -17,7 +17,10 @@ def test_snn_fg_events_demo_describes_the_built_in_recording(capsys):
     said = capsys.readouterr().out
     assert said.startswith("file:       demo (built in: the demo scene, as snn-fg run demo shows it")
     assert "sensor:     160 x 120\n" in said and f"events:     {len(rec.events):,} (ON " in said
-    assert "time span:  2.039979 s" in said  # (24 windows of 85 ms)
+    assert f"time span:  {(rec.events['t'][-1] - rec.events['t'][0]) / 1e6:.6f} s" in said
+    assert rec.sensor_size == (160, 120, 2) and 2.0 < rec.events["t"][-1] / 1e6 < 2.04  # (24 windows of 85 ms)
+    counts = np.bincount(rec.events["t"] // 85_000)  # (one turn a window: every window alike)
+    assert len(counts) == 24 and counts.min() == counts.max() > 0
 
 
 def test_snn_fg_stream_demo_sends_the_built_in_recording(capsys):

@@ -103,7 +103,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
 #: the file line of ``snn-fg events demo``
 DEMO_SAID = (
     "demo (built in: the demo scene, as snn-fg run demo shows it, seen through the iCub's microsaccade, "
-    "85 ms windows; snn-fg stream demo sends it)"
+    "a turn every 85 ms; snn-fg stream demo sends it)"
 )
 
 

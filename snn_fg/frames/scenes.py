@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import validate as check
 from ..events import Recording, image_to_events
+from ..events.esim import CIRCLE_STEPS
 
 _SUPERSAMPLE = 4
 
@@ -214,23 +215,25 @@ DEMO_WINDOWS = 24
 
 def demo_recording(windows: int = DEMO_WINDOWS, window_ms: float = 85.0) -> Recording:
     """The demo scene (:func:`demo`, the one ``snn-fg run demo`` shows) as an event
-    camera sees it through the iCub's circular microsaccade: ``windows`` windows of
-    ``window_ms`` ms, each the first ``window_ms`` of one turn (as
-    :func:`flipping_disc_recording`'s), on a 160 x 120 sensor. It is ``demo`` where a
-    command takes a recording (``snn-fg stream demo``, ``snn-fg events demo``), so that a
-    live run can be tried with no camera and no data."""
+    camera sees it through the iCub's circular microsaccade, one turn a window (as
+    the iCub's), for ``windows`` windows of ``window_ms`` ms on a 160 x 120 sensor.
+    It is ``demo`` where a command takes a recording (``snn-fg stream demo``,
+    ``snn-fg events demo``), so that a live run can be tried with no camera and no
+    data. (A whole turn, every border moved across: the first 85 ms of the
+    simulator's 360 ms turn, :func:`flipping_disc_recording`'s, left the compact
+    spiking network without a figure-ground vector.)"""
     check.integer("demo_recording", "windows", windows, lo=1)
     window_ms = check.number("demo_recording", "window_ms", window_ms, lo=0, lo_open=True)
-    return _seen_in_turn([demo()] * windows, window_ms)
+    return _seen_in_turn([demo()] * windows, window_ms, step_us=int(window_ms * 1000 // CIRCLE_STEPS))
 
 
-def _seen_in_turn(scenes, window_ms: float) -> Recording:
-    """One window of events a scene, each the first ``window_ms`` of the microsaccade's turn over it,
-    window ``k``'s from ``k * window_ms`` on."""
+def _seen_in_turn(scenes, window_ms: float, step_us: int = 5000) -> Recording:
+    """One window of events a scene, each the first ``window_ms`` of the microsaccade's turn over it
+    (a position every ``step_us``), window ``k``'s from ``k * window_ms`` on."""
     parts, seen = [], {}  # (a scene given again is simulated once)
     for k, scene in enumerate(scenes):
         if id(scene) not in seen:
-            ev = image_to_events(scene.image, motion="circle").events
+            ev = image_to_events(scene.image, motion="circle", frame_interval_us=step_us).events
             seen[id(scene)] = ev[ev["t"] - ev["t"].min() < window_ms * 1000]
         ev = seen[id(scene)].copy()
         ev["t"] += int(round(k * window_ms * 1000)) - ev["t"].min()

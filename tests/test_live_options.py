@@ -95,3 +95,12 @@ def test_a_view_port_out_of_range_is_refused_by_the_option(tmp_path, capsys):
         _live(tmp_path, "--view", "70000")
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert ended.value.code == 2 and "--view: must be 0 to 65535, got 70000" in line
+
+
+def test_a_view_host_without_a_page_is_refused_in_one_line(tmp_path, capsys):
+    status, out = _live(tmp_path, "--view-host", "0.0.0.0")
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and line == (
+        "snn-fg: error: --view-host 0.0.0.0: serves the page of --view PORT, which is not given"
+    )
+    assert not out.exists()

@@ -129,6 +129,8 @@ def cmd_live(args) -> int:
     if refused:
         said = "; ".join(f"{', '.join(flags)}: {why}" for why, flags in refused.items())
         raise InputError(args.source, f"not for a live stream: {said}")
+    if args.view is None and args.view_host != VIEW_HOST:
+        raise InputError(f"--view-host {args.view_host}", "serves the page of --view PORT, which is not given")
     model = chosen_model(args, "recording")
     check_output_folder(args.out, force=args.force)  # (before the warm-up: a folder refused at once, nothing touched)
     window_ms = args.window_ms if args.window_ms is not None else 85.0

@@ -277,7 +277,8 @@ def test_a_window_beyond_a_recording_is_refused_by_the_options_name(tmp_path, ca
     err = capsys.readouterr().err
     assert "--window 7" in err and "holds windows 0 to 2" in err and "window=" not in err
     # one check, compare_maps': its error carries the map and its windows, which the line above says
-    from snn_fg.scoring.metrics import WindowOutOfRange, compare_maps
+    from snn_fg.scoring.metrics import compare_maps
+    from snn_fg.scoring.pairing import WindowOutOfRange
 
     one = Maps(z[0], z[0], z[0], {})
     with pytest.raises(WindowOutOfRange) as got:

@@ -237,9 +237,14 @@ def test_a_replay_is_paced_by_the_stream_clock_and_loops_after_itself():
     t0 = time.perf_counter()
     parts = list(paced([loops], speed=1.0))
     assert 0.004 <= time.perf_counter() - t0 < 0.5 and sum(len(p) for p in parts) == 6
-    # --start-ms: each loop from that far after the recording's first event (a start-up burst left out)
+    # --start-ms: each loop from that far after the recording's first event (a start-up burst left out), the
+    # first at the recording's own times (until 30 Nov a replay began at 0: compare paired a live run's windows
+    # with a run's 100 ms apart)
     late = np.concatenate(list(looped(lambda: from_ms([ev[:2], ev[2:]], 1.0), 2)))
-    assert late["t"].tolist() == [0, 1000, 2000, 3000]
+    assert late["t"].tolist() == [1000, 2000, 3000, 4000]
+    far = _events([2**40, 2**40 + 1000])  # (paced from its first event: not 2**40 us of waiting)
+    t0 = time.perf_counter()
+    assert sum(len(p) for p in paced([far], speed=1.0)) == 2 and time.perf_counter() - t0 < 0.5
 
 
 def _free_port(kind=socket.SOCK_DGRAM) -> int:

@@ -27,7 +27,9 @@ def add_compare_command(sub):
         description="Print, window by window, how two maps files agree: grouping Pearson r and "
         "SSIM, and on the pixels where both have a figure-ground vector the angle "
         "difference (mean, fraction within 45 degrees) and angle-map SSIM (--json also "
-        "keeps their median and MSE). Times count from the recording's first event. Nothing is written "
+        "keeps their median and MSE). Two recordings' windows are paired by the events they hold: by "
+        "their start on the events' own clock (a live run of snn-fg stream's replay: the recording's), a "
+        "line under the table says how; t counts from B's first event. Nothing is written "
         "unless --json or --plot is given. A PyNN export's maps (snn-fg decode) against a run on "
         "the whole recording: the run is cut to the export's crop and input window. With human "
         "figure/ground labels as B (a bsds-fg folder, or one labels/<id>.npz), it prints per image and "
@@ -57,8 +59,9 @@ def add_compare_command(sub):
         "--window",
         type=number(int, 0, strict=False),
         metavar="I",
-        help="compare window I of each recording (a single frame is used as it is); by default "
-        "recordings are paired window by window, by start time when both store it",
+        help="compare the window at place I (from 0) among those each recording stored, whatever their "
+        "starts (a single frame is used as it is); by default windows are paired by their start on the "
+        "events' own clock",
     )
     p.add_argument(
         "--outline",
@@ -119,12 +122,12 @@ def cmd_compare(args) -> int:
 
         return cmd_compare_pooled(args)
     args.a = args.a[0]
-    a, b, rows, where, baseline = compare_pair(args, args.a, args.b)
+    a, b, rows, where, baseline, paired = compare_pair(args, args.a, args.b)
     runs = (("A", _run_name(args.a), a), ("B", _run_name(args.b), b))  # (a path may be wider than the table)
     named = [f"{side}: {run}, the {m.params.get('model', 'unknown')} model" for side, run, m in runs]
-    print(compare_table(rows, args.outline, baseline, named))
+    print(compare_table(rows, args.outline, baseline, named, paired))
     if args.json:
-        save_text(args.json, json.dumps(_record(args, rows, baseline), indent=2))
+        save_text(args.json, json.dumps(_record(args, rows, baseline, paired), indent=2))
         print(f"snn-fg: metrics saved to {args.json}")
     if args.plot:
         # (matplotlib is imported only when a command draws)

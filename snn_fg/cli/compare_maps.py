@@ -16,16 +16,17 @@ from ..errors import InputError, SnnFgError
 from ..results.maps import Maps
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
-from ..scoring.metrics import WindowOutOfRange, compare_maps, compared_pixels
+from ..scoring.metrics import compare_maps, compared_pixels
 from ..scoring.outline import event_outlines
+from ..scoring.pairing import WindowOutOfRange, pair_windows
 from .options import blank, cell, nulls
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide. The
 #: median angle and the angle MSE are in --json only: a median of angles can look perfect while a
 #: third of the pixels are wrong
 _COLUMNS = (
-    ("A", "window_a", 3, "d"),
-    ("B", "window_b", 3, "d"),
+    ("A", "number_a", 4, "d"),
+    ("B", "number_b", 4, "d"),
     ("t (ms)", "t_start_ms", 8, ".1f"),
     ("pixels", "pixels_compared", 7, "d"),
     ("cover", "coverage_of_b", 6, ".3f"),
@@ -39,23 +40,31 @@ _COLUMNS = (
 )
 
 
-def compare_table(rows, outline_px: int | None = None, baseline: str | None = None, named=()) -> str:
+def compare_table(rows, outline_px: int | None = None, baseline: str | None = None, named=(), paired=None) -> str:
     """The rows of :func:`~snn_fg.scoring.metrics.compare_maps` as a text
     table; ``baseline``: what the B columns hold, or why they are empty;
-    ``named``: lines that say what A and B are, under the table."""
+    ``named``: lines that say what A and B are, under the table; ``paired``: how
+    the windows were paired (:attr:`~snn_fg.scoring.pairing.Pairing.how`)."""
     pooled = any("image" in r for r in rows)  # (runs paired by image: the image in place of the time)
     columns = [("image", "image", 8, "") if c[1] == "t_start_ms" and pooled else c for c in _COLUMNS]
     lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in columns)]
     lines += ["  ".join(cell(r.get(k), w, spec) for _, k, w, spec in columns) for r in rows]
     lines += named
+    if paired:
+        lines += textwrap.wrap(f"A, B: {paired}", 95)
     where = "" if outline_px is None else f" within {outline_px} px of the event region's outline"
-    when = "image: the pair's input image" if pooled else "t: window start after the recording's first event"
-    lines += [
-        f"A, B: compared windows; {when}; angle columns on",
-        f"pixels{where} where both maps have a figure-ground vector (SSIM: where either has one);",
-        "cover: the share of B's vectors that A has there; grouping r and SSIM on the whole map, SSIM",
-        "with each map scaled to 1",
-    ]
+    when = (
+        "A, B: compared windows; image: the pair's input image"
+        if pooled
+        else "A, B: the compared windows' numbers in their recording or stream; t: B's window start after B's "
+        "first event"
+    )
+    lines += textwrap.wrap(
+        f"{when}; angle columns on pixels{where} where both maps have a figure-ground vector (SSIM: where "
+        "either has one); cover: the share of B's vectors that A has there; grouping r and SSIM on the whole "
+        "map, SSIM with each map scaled to 1",
+        95,
+    )
     if baseline is not None:
         lines += textwrap.wrap(baseline, 95)
     lines += textwrap.wrap(verdict(rows), 95)
@@ -65,7 +74,7 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
             f"A's vectors above the confidence threshold: {min(confident):.1%} to {max(confident):.1%} per window"
         )
     for side in ("a", "b"):
-        empty = [r[f"window_{side}"] for r in rows if r.get(f"pixels_{side}") == 0]
+        empty = [r[f"number_{side}"] for r in rows if r.get(f"pixels_{side}") == 0]
         if empty:
             shown = ", ".join("-" if k is None else str(k) for k in empty[:8]) + (", ..." if len(empty) > 8 else "")
             lines.append(
@@ -77,17 +86,18 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
 
 def compare_pair(args, path_a, path_b, say=print):
     """Maps ``path_a`` against ``path_b`` as ``args`` (compare's options) ask: ``(a, b, rows, where,
-    baseline)``, each row of :func:`~snn_fg.scoring.metrics.compare_maps`; notes on the pair said by
-    ``say``, a bad pair or option one :class:`InputError`."""
+    baseline, paired)``, each row of :func:`~snn_fg.scoring.metrics.compare_maps`, ``paired`` how
+    their windows were paired; notes on the pair said by ``say``, a bad pair or option one
+    :class:`InputError`."""
     a, b = Maps.load(path_a), Maps.load(path_b)
     a, b, notes = align_to_export(a, b, args.window, (path_a, path_b))  # (a board's maps against the reference)
     for note in notes + mismatches(a, b) + expectations(a, b):
         say(f"snn-fg: note: {note}")
+    window = None if notes else args.window
     try:
+        pairing = pair_windows(a, b, window)
         where = None if args.outline is None else event_outlines(a, b, args.outline)
-        rows = compare_maps(
-            a, b, window=None if notes else args.window, where=where, min_confidence=args.min_confidence
-        )
+        rows = compare_maps(a, b, window, where=where, min_confidence=args.min_confidence, pairing=pairing)
     except WindowOutOfRange as exc:  # (compare_maps checks it; said by the option's name and the file)
         raise InputError(
             f"--window {exc.window}", f"{path_a if exc.side == 'a' else path_b} holds windows 0 to {exc.n - 1}"
@@ -95,10 +105,10 @@ def compare_pair(args, path_a, path_b, say=print):
     except SnnFgError as exc:
         raise InputError(path_b, str(exc).removeprefix("compare_maps: ")) from None
     baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
-    return a, b, rows, where, baseline
+    return a, b, rows, where, baseline, pairing.how
 
 
-def _record(args, rows, baseline: str | None) -> dict:
+def _record(args, rows, baseline: str | None, paired: str | None = None) -> dict:
     """What ``--json`` keeps: the inputs, the options that chose the pixels compared, the pooled
     figures the printed verdict gives (each window's rows weighted by their pixels compared;
     metrics of :mod:`~snn_fg.scoring.metrics`), the verdict and baseline lines as printed, and
@@ -118,6 +128,8 @@ def _record(args, rows, baseline: str | None) -> dict:
         "baseline": baseline,
     }
     options = {"window": args.window, "outline_px": args.outline, "min_confidence": args.min_confidence}
+    if paired:
+        options["paired"] = paired
     return {
         "a": str(args.a),
         "b": str(args.b),
@@ -208,8 +220,10 @@ _STAGE_PARAMS = ("levels", "levels_per_octave", "n_ori", "r0", "input_pool")
 def mismatches(a: Maps, b: Maps) -> list[str]:
     """Notes for a pair that is not one input through two models: other inputs, other stage parameters."""
     out = []
-    inputs = [(m.params.get("source") or {}).get("input") for m in (a, b)]
-    if None not in inputs and Path(inputs[0]).name != Path(inputs[1]).name:
+    sources = [m.params.get("source") or {} for m in (a, b)]
+    inputs = [s.get("input") for s in sources]
+    live = any(s.get("kind") == "live" for s in sources)  # (a stream's address: its windows' clock tells instead)
+    if None not in inputs and not live and Path(inputs[0]).name != Path(inputs[1]).name:
         out.append(f"A and B come from different inputs ({Path(inputs[0]).name}, {Path(inputs[1]).name})")
     differ = [
         f"{k} {a.params[k]} against {b.params[k]}"

@@ -65,7 +65,7 @@ def cmd_compare_pooled(args) -> int:
     pairs = pairs_of(runs)
     rows, notes, models, baselines = [], [], [set(), set()], []
     for image, path_a, path_b in pairs:
-        a, b, got, _, baseline = compare_pair(args, path_a, path_b, say=notes.append)
+        a, b, got, _, baseline, _ = compare_pair(args, path_a, path_b, say=notes.append)
         rows += [{"image": image, **r} for r in got]
         baselines += [] if baseline is None else [baseline]
         for seen, m in zip(models, (a, b)):

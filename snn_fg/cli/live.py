@@ -20,6 +20,7 @@ import numpy as np
 from ..backends.cores import usable_cores
 from ..errors import InputError
 from ..events import EVENT_DTYPE, Recording, iter_windows
+from ..events.clock import clock_keys
 from ..events.live import LiveStream
 from ..events.live_sources import open_source, parse_address
 from ..frames.pool import pooled_shape
@@ -174,7 +175,14 @@ def cmd_live(args) -> int:
     args.interrupt_note = f"the windows complete so far are in {args.out}/ (live.json says how many)"
     ended = "the sender closed the stream"
     try:
-        run_recording(LiveModel(model, stream, record), stream, out, described, figures=not args.no_figures)
+        run_recording(
+            LiveModel(model, stream, record),
+            stream,
+            out,
+            described,
+            figures=not args.no_figures,
+            clock=lambda: clock_keys(source),
+        )
     except KeyboardInterrupt:
         ended = "interrupted"
         raise

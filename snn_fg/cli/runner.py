@@ -18,6 +18,7 @@ from ..backends import cancel
 from ..errors import InputError
 from ..events import EmptyWindowWarning, RecordingWindows, iter_recording
 from ..events.activity import pixel_share, saturated_lines
+from ..events.clock import clock_keys
 from ..frames.still import Still
 from ..models import Model
 from ..results.activity import Activity
@@ -105,6 +106,7 @@ def run_recording(
     resume: bool = False,
     run_key: dict | None = None,
     may_differ=(),
+    clock=clock_keys,
 ) -> int:
     """Every window of a recording through ``model`` into ``out/maps.zarr``
     (:mod:`snn_fg.results.store`: each window written as it completes) and, at the
@@ -120,8 +122,11 @@ def run_recording(
 
     The windows' times (``t_start_us``, ``t_end_us``, figure titles) count
     from the recording's first event; ``params["source"]["first_event_us"]``
-    keeps that event's time in the file's own clock. Each window's share of
-    pixels with an event is recorded (``pixel_share``), and a window above
+    keeps that event's time in the file's own clock, and the keys that ``clock()``
+    gives at the run's end say which clock that is (:mod:`snn_fg.events.clock`; by
+    default a recording's own; a live source's is known once it has ended, so that
+    ``snn-fg compare`` pairs windows on it). Each window's share of pixels with an
+    event is recorded (``pixel_share``), and a window above
     :data:`~snn_fg.results.activity.SATURATED_SHARE` is warned about and
     listed (``saturated_windows``)."""
     path = out / STORE_NAME
@@ -174,7 +179,7 @@ def run_recording(
             f"vector (their events last {span}{hint})",
             file=sys.stderr,
         )
-    final = {**store.attrs["params"], "source": _source_summary(store, source)}
+    final = {**store.attrs["params"], "source": {**_source_summary(store, source), **clock()}}
     if whole:  # (kept apart: each window's own parameters are told against the first window's)
         final["whole_run"] = whole
     skipped = getattr(windows, "skipped_windows", None)  # (a live stream's hops passed over: not dropped)

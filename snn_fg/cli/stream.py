@@ -23,7 +23,8 @@ def add_stream_command(sub):
         "stream",
         description="Replay the recording REC to udp://HOST:PORT (SpiNNaker interface board packets, with "
         "timestamps) or dv://HOST:PORT (a DV network stream served there; pip install -e '.[live]'), in "
-        "real time or --speed X faster. Times start at 0 with the recording's first event. The "
+        "real time or --speed X faster. Events keep the recording's own timestamps (udp://: modulo 2^32 us), "
+        "so that snn-fg compare pairs a live run's windows with snn-fg run's on the same events. The "
         "recording is read whole before the replay starts.",
     )
     p.add_argument(

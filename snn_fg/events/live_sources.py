@@ -23,6 +23,7 @@ import numpy as np
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events import spif
 from snn_fg.events._core import EVENT_DTYPE
+from snn_fg.events.clock import ARRIVAL, SENDER
 from snn_fg.validate import address
 
 #: the schemes a live source is named by
@@ -56,11 +57,17 @@ def open_source(url: str, sensor_size=None, *, wait_s: float = 30.0, idle_s: flo
 
 
 class UdpSource:
-    """SPIF event packets arriving on a UDP port (bound at construction)."""
+    """SPIF event packets arriving on a UDP port (bound at construction). Their times are the
+    sender's, modulo 2**32 us (``clock`` :data:`~snn_fg.events.clock.SENDER`, ``clock_span_us``),
+    or, once a packet came whose first event has no timestamp, the arrival's
+    (:data:`~snn_fg.events.clock.ARRIVAL`)."""
+
+    clock_span_us = spif.Unwrap.SPAN
 
     def __init__(self, url, host, port, sensor_size, *, wait_s: float = 30.0, idle_s: float = 1.0):
         self.name, self.sensor_size = url, (int(sensor_size[0]), int(sensor_size[1]))
         self.wait_s, self.idle_s, self.malformed, self.closed = wait_s, idle_s, 0, False
+        self.clock = SENDER
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, UDP_BUFFER)
         try:
@@ -101,6 +108,8 @@ class UdpSource:
                 else:
                     parts.append(ev)
                     arrived = now
+                    if data[3] & 0x80:  # (the first word's bit 31: an event stamped on arrival)
+                        self.clock = ARRIVAL
                 data = self._waiting() if taken < BATCH else None  # (packets taken: a flood of garbage too)
             if parts:
                 first, last = False, arrived
@@ -139,7 +148,10 @@ class UdpSource:
 
 
 class DvSource:
-    """The event stream a DV server (DV software, ``dv-processing``'s NetworkWriter) serves over TCP."""
+    """The event stream a DV server (DV software, ``dv-processing``'s NetworkWriter) serves over TCP
+    (its times the sender's: ``clock``)."""
+
+    clock, clock_span_us = SENDER, None
 
     def __init__(self, url, host, port, sensor_size=None, *, wait_s: float = 30.0):
         try:

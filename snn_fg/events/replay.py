@@ -2,10 +2,10 @@
 (``snn-fg stream``): SPIF packets over UDP (:mod:`snn_fg.events.spif`) or a
 DV network stream (``dv-processing``'s NetworkWriter, a server a reader connects to).
 
-Times are sent from the recording's first event (the stream starts at 0
-us), so that the windows a live reader cuts on the stream's clock are those
-``snn-fg run`` cuts on the recording. ``loop`` plays the recording that
-many times, each time after the last (:func:`looped`).
+Events keep the recording's own timestamps (a SPIF packet carries them modulo 2**32 us), so
+that a live run of the replay and ``snn-fg run`` on the recording have their windows on one
+clock and ``snn-fg compare`` pairs those that hold the same events. ``loop`` plays the
+recording that many times, each time after the last (:func:`looped`).
 """
 
 from __future__ import annotations
@@ -25,22 +25,22 @@ TICK_S = 0.001
 
 def looped(chunks, n: int):
     """The event chunks of a recording (``chunks()``: an iterable, made anew for
-    each loop) ``n`` times in a row, times from the first event on, each loop
-    1 ms after the one before ends."""
-    offset = 0
+    each loop) ``n`` times in a row: the first loop at the recording's own
+    times, each later one 1 ms after the one before ends."""
+    shift = 0  # (added to a loop's times)
     for _ in range(n):
         t0 = last = None
         for chunk in chunks():
             if not len(chunk):
                 continue
             t0 = int(chunk["t"][0]) if t0 is None else t0
-            out = chunk.copy()
-            out["t"] = chunk["t"] - t0 + offset
+            out = chunk.copy()  # (a reader may fill its chunks' memory again)
+            out["t"] += shift
             last = int(out["t"][-1])
             yield out
         if last is None:
             return
-        offset = last + 1000
+        shift = last + 1000 - t0
 
 
 def from_ms(chunks, ms: float):
@@ -55,16 +55,20 @@ def from_ms(chunks, ms: float):
 
 
 def paced(chunks, speed: float, tick_s: float = TICK_S):
-    """The events of ``chunks`` (times in us from 0) in pieces, each yielded once the
-    wall clock has reached its last event's time (divided by ``speed``): what
-    is due every ``tick_s`` (the sender sleeps in between, so that a dense
-    stream does not keep a core busy; events are sent at most a tick late)."""
-    start = time.perf_counter()
+    """The events of ``chunks`` (times in us) in pieces, each yielded once the
+    wall clock has reached its last event's time after the first event's (divided
+    by ``speed``): what is due every ``tick_s`` (the sender sleeps in between, so
+    that a dense stream does not keep a core busy; events are sent at most a tick late)."""
+    start = t0 = None
     for chunk in chunks:
+        if not len(chunk):
+            continue
+        if t0 is None:
+            start, t0 = time.perf_counter(), int(chunk["t"][0])
         t = np.ascontiguousarray(chunk["t"])  # (a field is strided: searched as it is, it is copied per search)
         i = 0
         while i < len(t):
-            now_us = (time.perf_counter() - start) * 1e6 * speed
+            now_us = t0 + (time.perf_counter() - start) * 1e6 * speed
             j = int(np.searchsorted(t, t.dtype.type(now_us), side="right"))  # (a float would cast all of t)
             if j > i:
                 yield chunk[i:j]

@@ -66,7 +66,7 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
         ax = ax_row[n_in:]
         (ax_, ay_, _), (bx, by, _) = frame_of(a, r["window_a"]), frame_of(b, r["window_b"])
         when = "" if r["t_start_ms"] is None else f", {r['t_start_ms']:g} ms"
-        sides = ((names[0], r["window_a"], ax_, ay_), (names[1], r["window_b"], bx, by))
+        sides = ((names[0], r.get("number_a"), ax_, ay_), (names[1], r.get("number_b"), bx, by))  # (their own numbers)
         for panel, (name, win, fx, fy) in zip(ax, sides):
             panel.imshow(fg_rgb(fx, fy), interpolation="nearest")
             panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when, fontsize=9)
@@ -94,7 +94,7 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
             x.set_xlabel("x (px)", fontsize=7, labelpad=1)
         ax_row[0].set_ylabel("y (px, rows down)", fontsize=7)
     wheel_inset(axes[0][n_in + 1])
-    note = shown_note(idx, len(rows), "compared windows", [f"A {r['window_a']}" for r in rows])
+    note = shown_note(idx, len(rows), "compared windows", [f"A {r.get('number_a')}" for r in rows])
     fig.suptitle(f"{names[0]} vs {names[1]}" + (f"\n{note}" if note else ""), fontsize=9)
     return fig
 

@@ -24,8 +24,8 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from .. import validate as check
-from ..errors import ParameterError
 from ..results.maps import CONFIDENCE, Maps
+from .pairing import Pairing, pair_windows
 
 
 def angle_difference_deg(ax, ay, bx, by) -> np.ndarray:
@@ -104,53 +104,9 @@ def agreement(a, b) -> dict:
     }
 
 
-def _windows(m: Maps):
-    """(index, start time in us or None) of each window of ``m`` (one frame: one window)."""
-    if m.fg_x.ndim == 2:
-        return [(None, None)]
-    t = m.extra.get("t_start_us")
-    return [(i, None if t is None else int(t[i])) for i in range(m.fg_x.shape[0])]
-
-
 def frame_of(m: Maps, i):
     """``(fg_x, fg_y, grouping)`` of window ``i`` of ``m`` (``None``: ``m`` is one frame)."""
     return (m.fg_x, m.fg_y, m.grouping) if i is None else (m.fg_x[i], m.fg_y[i], m.grouping[i])
-
-
-class WindowOutOfRange(ParameterError):
-    """:func:`compare_maps`' ``window`` is not among a map's windows. It carries what a caller
-    needs to say so in its own words: the window asked, which map (``side``: "a" or "b") and
-    how many windows it holds (``n``); the command line names the option and the file."""
-
-    def __init__(self, window: int, side: str, n: int):
-        self.window, self.side, self.n = window, side, n
-        super().__init__(f"compare_maps: window={window!r} is not among the {n} windows of {side} (0 to {n - 1})")
-
-
-def _window_pairs(wa, wb, window):
-    """The ``((index, start), (index, start))`` pairs of windows ``wa``, ``wb`` that :func:`compare_maps` compares."""
-    if window is not None:
-        for side, w in (("a", wa), ("b", wb)):
-            if len(w) > 1 and not 0 <= window < len(w):
-                raise WindowOutOfRange(window, side, len(w))
-        wa, wb = ([w[window]] if len(w) > 1 else w for w in (wa, wb))
-    if window is None and all(t is not None for _, t in wa + wb):
-        starts = {t: i for i, t in wb}
-        pairs = [((i, t), (starts[t], t)) for i, t in wa if t in starts]
-    elif len(wa) == 1 or len(wb) == 1:
-        pairs = [(x, y) for x in wa for y in wb]
-    elif len(wa) == len(wb):
-        pairs = list(zip(wa, wb))
-    else:
-        check.fail(
-            "compare_maps",
-            None,
-            None,
-            f"the maps hold {len(wa)} and {len(wb)} windows and no start times to pair them by; pick one with window=",
-        )
-    if not pairs:
-        check.fail("compare_maps", None, None, "the two recordings share no window start time")
-    return pairs
 
 
 def confident(m: Maps, i, min_confidence: float | None) -> np.ndarray | None:
@@ -181,7 +137,12 @@ def compared_pixels(a: Maps, b: Maps, ia, ib, where=None, min_confidence: float 
 
 
 def compare_maps(
-    a: Maps, b: Maps, window: int | None = None, where=None, min_confidence: float | None = None
+    a: Maps,
+    b: Maps,
+    window: int | None = None,
+    where=None,
+    min_confidence: float | None = None,
+    pairing: Pairing | None = None,
 ) -> list[dict]:
     """Compare two Maps; one dict per compared pair of windows.
 
@@ -203,11 +164,16 @@ def compare_maps(
         every vector). ``coverage_of_b`` then says how much of ``b`` is left
         compared; ``confident_a``/``confident_b`` how much of each map's
         vectors passed.
+    pairing : Pairing, optional
+        The windows to compare, as :func:`~snn_fg.scoring.pairing.pair_windows`
+        gives them for ``window`` (made here if not given).
 
     Returns
     -------
     list of dict
-        Per pair: ``window_a``, ``window_b``, ``t_start_ms`` and the metrics
+        Per pair: ``window_a``, ``window_b`` (the windows' places in the maps),
+        ``number_a``, ``number_b`` (their numbers in their recording or stream),
+        ``t_start_ms`` (B's window start after B's first event) and the metrics
         of :func:`compare_frame` (see the module docstring).
 
     Examples
@@ -221,21 +187,18 @@ def compare_maps(
     >>> row["pixels_compared"], row["angle_diff_mean_deg"], row["angle_within_45_frac"]
     (12, 180.0, 0.0)
 
-    Two recordings are paired by window start time (in the recording's own
-    clock) when both store it, keeping the windows both have; otherwise a
-    single frame or a one-window recording is compared with every window of
-    the other, and equal numbers of windows are paired index by index.
-    ``window`` picks that window of each map that has more than one, and
-    compares them whatever their start times. Every
-    row says which windows it compared (``window_a``, ``window_b``,
-    ``t_start_ms``).
+    Two recordings are paired by the events their windows hold: by window start on
+    the events' own clock where both runs keep it, keeping the windows both have
+    (:mod:`snn_fg.scoring.pairing` says how, and how runs stored before are paired).
+    ``window`` picks that place of each map that has more than one window, and
+    compares them whatever their start times. Every row says which windows it
+    compared.
     """
     if a.fg_x.shape[-2:] != b.fg_x.shape[-2:]:
         check.fail("compare_maps", None, None, f"frames differ in size: {a.fg_x.shape[-2:]} vs {b.fg_x.shape[-2:]}")
-    pairs = _window_pairs(_windows(a), _windows(b), window)
+    pairing = pair_windows(a, b, window) if pairing is None else pairing
     rows = []
-    for (ia, ta), (ib, tb) in pairs:
-        t = ta if ta is not None else tb
+    for (ia, ib), (na, nb), t in zip(pairing.pairs, pairing.numbers, pairing.t_us, strict=True):
         (ax, ay, ag), (bx, by, bg) = frame_of(a, ia), frame_of(b, ib)
         if where is not None:
             keep = where(ia, ib)
@@ -253,6 +216,8 @@ def compare_maps(
             {
                 "window_a": ia,
                 "window_b": ib,
+                "number_a": na,
+                "number_b": nb,
                 "t_start_ms": None if t is None else t / 1000.0,
                 **compare_frame(ax, ay, ag, bx, by, bg),
                 **share,

@@ -91,11 +91,7 @@ def pair_windows(a: Maps, b: Maps, window: int | None = None) -> Pairing:
     _check_window(a, b, window)
     (ia, na, ta), (ib, nb, tb) = _side(a), _side(b)
     if window is not None:
-        pick = [
-            (i, n, t) if len(i) == 1 else ([i[window]], [n[window]], [t[window]])
-            for i, n, t in ((ia, na, ta), (ib, nb, tb))
-        ]
-        (ia, na, ta), (ib, nb, tb) = pick
+        ia, ib = (i if len(i) == 1 else [i[window]] for i in (ia, ib))  # (positions: na, nb, tb read at them)
         how = f"window at place {window} of each run stored (counted from 0), whatever its start"
         return _pairing([(x, y) for x in ia for y in ib], na, nb, tb, how)
     ca, cb = _clock(a), _clock(b)

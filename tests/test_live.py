@@ -498,10 +498,13 @@ def test_ctrl_c_ends_a_live_run_with_its_complete_windows_kept(tmp_path, disc_fi
     assert live.returncode == 130, err
     said = [x for x in err.strip().splitlines() if "interrupted" in x]
     assert said == [err.strip().splitlines()[-1]]  # (one line, the last)
-    assert said[0].startswith("snn-fg: interrupted (Ctrl-C); the windows complete so far")
     record = json.loads((out / "live.json").read_text())
     n = len(read_maps(out / "maps.zarr")[0])
     assert record["ended"] == "interrupted" and record["windows"] == n >= 2
+    assert said[0] == (
+        f"snn-fg: interrupted (Ctrl-C); the {n} windows complete so far are in {out}/ with live.json, "
+        f"without figures: snn-fg plot {out} draws them"
+    )
 
 
 @pytest.mark.parametrize(

@@ -151,6 +151,43 @@ def cmd_live(args) -> int:
             warm_s = _warmed(model, source.sensor_size, window_ms, args)
         out, previous = growing_folder(args.out, force=args.force, resume=None)  # (a stream cannot be resumed)
         opened.pop_all()
+    earlier = previous is not None and any(previous.iterdir())  # (an earlier run set aside, with --force)
+    stream = record = None
+    ended = "the sender closed the stream"
+    try:  # (from here on the folder is settled however the run ends: kept with its windows, or as it was)
+        stream, record = _live_stream(model, source, publisher, view, window_ms, warm_s, args)
+        described = {"input": args.source, "kind": "live", "window_ms": window_ms, "start_ms": args.start_ms or 0.0}
+        described["stride_ms"] = args.hop_ms if args.hop_ms is not None else window_ms
+        run_recording(
+            LiveModel(model, stream, record),
+            stream,
+            out,
+            described,
+            figures=not args.no_figures,
+            clock=lambda: clock_keys(source),
+        )
+    except KeyboardInterrupt:
+        ended = "interrupted"
+        raise
+    except BaseException as exc:
+        ended = f"error: {exc}"
+        raise
+    finally:
+        for part in (stream if stream is not None else source, publisher, view):
+            if part is not None:
+                part.close()
+        kept = windows_complete(out)
+        if kept:
+            summary = record.save(out / "live.json", ended)
+        settle_folder(out, previous, keep_new=bool(kept))
+        args.interrupt_note = _interrupted_note(args.out, kept, earlier)
+    print(f"snn-fg: {model.name} model on {args.source}: {_summary_text(summary)}; wrote {args.out}/")
+    return 0
+
+
+def _live_stream(model, source, publisher, view, window_ms: float, warm_s: float, args):
+    """The stream cut from ``source`` for ``model`` (:class:`~snn_fg.events.live.LiveStream`), which says
+    when the model is ready for it, and the record of its windows (:class:`~snn_fg.results.publish.LiveRecord`)."""
     _said_in_warm_up(model)
     spiking = hasattr(model, "run_options")
     lag_ms = model.run_options.recording.readout_lag_ms if spiking else 0.0
@@ -170,36 +207,19 @@ def cmd_live(args) -> int:
     )
     record = LiveRecord(stream, publisher, args.peaks, view)
     record.warm_up_s, record.cores = warm_s, usable_cores()
-    described = {"input": args.source, "kind": "live", "window_ms": window_ms, "start_ms": args.start_ms or 0.0}
-    described["stride_ms"] = args.hop_ms if args.hop_ms is not None else window_ms
-    args.interrupt_note = f"the windows complete so far are in {args.out}/ (live.json says how many)"
-    ended = "the sender closed the stream"
-    try:
-        run_recording(
-            LiveModel(model, stream, record),
-            stream,
-            out,
-            described,
-            figures=not args.no_figures,
-            clock=lambda: clock_keys(source),
+    return stream, record
+
+
+def _interrupted_note(folder: str, kept: int, earlier: bool) -> str:
+    """What an interrupted live run left in ``folder``: its ``kept`` windows, whose figures are drawn
+    at the end of a run and so were not (``snn-fg plot`` draws them), or nothing (``earlier``: the
+    earlier run that ``--force`` would have replaced is back)."""
+    if kept:
+        return (
+            f"the {kept} window{'s' if kept != 1 else ''} complete so far {'are' if kept != 1 else 'is'} in "
+            f"{folder}/ with live.json, without figures: snn-fg plot {folder} draws them"
         )
-    except KeyboardInterrupt:
-        ended = "interrupted"
-        raise
-    except BaseException as exc:
-        ended = f"error: {exc}"
-        raise
-    finally:
-        stream.close()
-        for part in (publisher, view):
-            if part is not None:
-                part.close()
-        kept = bool(windows_complete(out))
-        if kept:
-            summary = record.save(out / "live.json", ended)
-        settle_folder(out, previous, keep_new=kept)
-    print(f"snn-fg: {model.name} model on {args.source}: {_summary_text(summary)}; wrote {args.out}/")
-    return 0
+    return "no window was complete: nothing written" + (f"; the earlier run in {folder}/ is kept" if earlier else "")
 
 
 def _summary_text(summary: dict) -> str:

@@ -159,6 +159,9 @@ def run_recording(
         except BaseException:  # (an interrupt or bad input: the windows completed so far, for --resume)
             with contextlib.suppress(OSError):  # (a disk that failed: its error, not this one)
                 store.flush()
+                if store.n:  # (with the run's parameters so far: plot and compare read them as a finished run's)
+                    store.describe(_run_params(store, source, windows, clock, warn=False))
+                    store.flush()
             raise
         finally:
             if isinstance(windows, _Counted):
@@ -179,13 +182,7 @@ def run_recording(
             f"vector (their events last {span}{hint})",
             file=sys.stderr,
         )
-    final = {**store.attrs["params"], "source": {**_source_summary(store, source), **clock()}}
-    if whole:  # (kept apart: each window's own parameters are told against the first window's)
-        final["whole_run"] = whole
-    skipped = getattr(windows, "skipped_windows", None)  # (a live stream's hops passed over: not dropped)
-    if skipped:  # (kept by the stream as ranges [first, last] of consecutive numbers, in order)
-        final["skipped_windows"] = [list(r) for r in skipped]
-    store.finish(final)
+    store.finish(_run_params(store, source, windows, clock, whole))
     maps = Maps(*read_maps(path, lazy=True))
     write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)
     if figures:
@@ -224,11 +221,28 @@ def _append_window(store: MapsStore, w, maps: Maps) -> None:
     )
 
 
-def _source_summary(store: MapsStore, source: dict) -> dict:
-    """``params["source"]`` of a finished recording: ``source``, the first
-    event's time, every window's pixel share and the saturated windows (each
-    warned about)."""
+def _run_params(store: MapsStore, source: dict, windows, clock, whole=None, *, warn: bool = True) -> dict:
+    """The run's ``params`` as its store keeps them, up to its last complete window: the first
+    window's parameters, ``params["source"]`` (:func:`_source_summary`; ``warn``: its saturated
+    windows warned about; with ``clock()``'s keys), the whole run's (``whole``: known only at its end) and, of a live
+    stream, the hops it skipped (their numbers up to the last window stored; a run cut short has
+    skipped some whose newer hop it never stored)."""
     arrays = store_arrays(store.path, store.n)
+    params = {**store.attrs["params"], "source": {**_source_summary(store, arrays, source, warn), **clock()}}
+    if whole:  # (kept apart: each window's own parameters are told against the first window's)
+        params["whole_run"] = whole
+    skipped = getattr(windows, "skipped_windows", None)  # (a live stream's hops passed over: not dropped)
+    last = int(np.asarray(arrays["window"])[-1]) if "window" in arrays else store.n - 1
+    # (kept by the stream as ranges [first, last] of consecutive numbers, in order)
+    skipped = [[first, min(end, last)] for first, end in skipped or () if first <= last]
+    if skipped:
+        params["skipped_windows"] = skipped
+    return params
+
+
+def _source_summary(store: MapsStore, arrays: dict, source: dict, warn: bool) -> dict:
+    """``params["source"]`` of a recording's run from its stored ``arrays``: ``source``, the first
+    event's time, every window's pixel share and the saturated windows (``warn``: each warned about)."""
     t0, t1 = (np.asarray(arrays[k]) for k in ("t_start_us", "t_end_us"))
     shares = np.asarray(arrays["pixel_share"])
     act = Activity(
@@ -238,7 +252,7 @@ def _source_summary(store: MapsStore, source: dict) -> dict:
         share=shares,
         window_ms=source.get("window_ms", 0),
     )
-    for line in saturated_lines(act):
+    for line in saturated_lines(act) if warn else ():
         print(f"snn-fg: warning: {line}", file=sys.stderr)
     return {
         **source,

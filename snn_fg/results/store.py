@@ -304,9 +304,14 @@ class MapsStore:
                 a.resize(self.n)
         return self.arrays[key]
 
+    def describe(self, params: dict) -> None:
+        """The run's parameters (its ``params``) as far as it has gone, written by the next
+        :meth:`flush`: a run cut short keeps them as a finished one does."""
+        self.attrs["params"] = params
+
     def finish(self, params: dict) -> None:
         """The run's final parameters, and the store marked complete."""
-        self.attrs["params"] = params
+        self.describe(params)
         self.attrs["snn_fg"]["complete"] = True  # (written by the flush, after the chunks and shapes)
         self.flush()
 

@@ -1,0 +1,106 @@
+"""A live run cut short (Ctrl-C, SIGTERM) keeps what a finished one keeps of its
+windows: the run's parameters in its store, so that snn-fg plot and compare
+read it the same, and a closing line that says what is there and how its
+figures are made, or that nothing was written."""
+
+import os
+import signal
+import socket
+import threading
+import time
+
+import pytest
+
+from snn_fg.cli.main import main
+from snn_fg.cli.runner import run_recording
+from snn_fg.events import iter_windows, save_events
+from snn_fg.frames.scenes import flipping_disc_recording
+from snn_fg.models import get_model
+from snn_fg.params import ModelParams
+from snn_fg.results.maps import Maps
+from snn_fg.results.store import read_attrs
+
+
+class _Stream:
+    """What run_recording reads of a live stream: its windows, then (``cut``) an interrupt, and the hops it
+    skipped for a newer one (those after the last window made too, when the run was cut short)."""
+
+    def __init__(self, windows, skipped, cut: bool):
+        self.windows, self.skipped_windows, self.cut = windows, skipped, cut
+
+    def __iter__(self):
+        yield from self.windows
+        if self.cut:
+            raise KeyboardInterrupt("SIGINT")
+
+
+def test_a_run_cut_short_keeps_the_parameters_of_a_finished_one(tmp_path):
+    """Before the fix an interrupted run's store held the first window's parameters only: no
+    ``source`` (snn-fg plot drew '0 ms windows' titled by the folder) and no ``skipped_windows``."""
+    _, rec = flipping_disc_recording(24, windows=8, window_ms=40.0)
+    path = save_events(tmp_path / "rec.npz", rec.events, rec.sensor_size)
+    windows = [w for w in iter_windows(path, window_ms=40.0) if w.index in (0, 1, 3, 4)]
+    source = {"input": "udp://127.0.0.1:9", "kind": "live", "window_ms": 40.0, "stride_ms": 40.0, "start_ms": 0.0}
+    model = get_model("rate", ModelParams(levels=3))
+    params = {}
+    for cut in (False, True):
+        out = tmp_path / f"cut{cut}"
+        out.mkdir()
+        skipped = [[2, 2], [5, 6]] if cut else [[2, 2]]  # (5 and 6 skipped for hop 7, which the interrupt cut)
+        if cut:
+            with pytest.raises(KeyboardInterrupt):
+                run_recording(model, _Stream(windows, skipped, cut), out, source, figures=False)
+        else:
+            run_recording(model, _Stream(windows, skipped, cut), out, source, figures=False)
+        params[cut] = {k: v for k, v in Maps.load(out).params.items() if k not in ("timings_s", "windows")}  # (times)
+        assert read_attrs(out / "maps.zarr")["snn_fg"]["complete"] is not cut  # (ended by its stream, or not)
+    assert params[True]["source"]["window_ms"] == 40.0 and params[True]["source"]["input"] == source["input"]
+    assert params[True]["skipped_windows"] == [[2, 2]]  # (up to window 4, the last one stored)
+    assert params[True] == params[False]
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _interrupted_once(folder, settle_s: float = 0.5) -> threading.Thread:
+    """Ctrl-C to this process ``settle_s`` after ``folder`` appears (the live run's store: warmed up, it
+    waits for its first packet then), on a thread: the live command runs on the main thread, which takes signals."""
+
+    def go():
+        t0 = time.perf_counter()
+        while not folder.exists() and time.perf_counter() - t0 < 60:
+            time.sleep(0.02)
+        time.sleep(settle_s)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    th = threading.Thread(target=go)
+    th.start()
+    return th
+
+
+@pytest.mark.parametrize("earlier", [False, True])
+def test_ctrl_c_before_the_first_window_says_that_nothing_was_written(tmp_path, capsys, earlier):
+    """The line named the folder as holding the windows complete so far, when there were none and
+    the folder had been removed."""
+    out = tmp_path / "o"
+    if earlier:  # (--force into an earlier run's folder: it is put back)
+        out.mkdir()
+        (out / "maps.npz").write_bytes(b"an earlier run")
+    th = _interrupted_once(out / "maps.zarr")
+    live = ["live", f"udp://127.0.0.1:{_free_port()}", "--out", str(out), "--sensor-size", "24x24"]
+    try:
+        status = main([*live, "--window-ms", "40", "--no-progress", "--levels", "3", "--wait-s", "30", "--force"])
+    finally:
+        th.join()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 130
+    if earlier:
+        kept = f"the earlier run in {out}/ is kept"
+        assert err[-1] == f"snn-fg: interrupted (Ctrl-C); no window was complete: nothing written; {kept}"
+        assert [p.name for p in out.iterdir()] == ["maps.npz"]
+    else:
+        assert err[-1] == "snn-fg: interrupted (Ctrl-C); no window was complete: nothing written"
+        assert not out.exists()

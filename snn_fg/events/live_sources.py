@@ -147,6 +147,12 @@ class UdpSource:
         self.sock.close()
 
 
+def dv_reason(exc: RuntimeError) -> str:
+    """What a ``dv-processing`` network error says, without the Boost source location it appends
+    (``connect: Connection refused``)."""
+    return str(exc).split(" [")[0]
+
+
 class DvSource:
     """The event stream a DV server (DV software, ``dv-processing``'s NetworkWriter) serves over TCP
     (its times the sender's: ``clock``)."""
@@ -166,8 +172,7 @@ class DvSource:
                 break
             except RuntimeError as exc:
                 if time.perf_counter() - t0 > wait_s:
-                    why = str(exc).split(" [")[0]  # (not the Boost source location dv-processing appends)
-                    raise InputError(url, f"no DV server answered within {wait_s:g} s ({why})") from None
+                    raise InputError(url, f"no DV server answered within {wait_s:g} s ({dv_reason(exc)})") from None
                 time.sleep(0.1)
         problem = None
         if not self.reader.isEventStreamAvailable():

@@ -17,7 +17,7 @@ import numpy as np
 
 from snn_fg.errors import InputError
 from snn_fg.events import spif
-from snn_fg.events.live_sources import parse_address
+from snn_fg.events.live_sources import dv_reason, parse_address
 
 #: how often the sender wakes to send what is due (s)
 TICK_S = 0.001
@@ -111,7 +111,10 @@ class DvSender:
         _, host, port = parse_address(url, "--to")
         self.dv, self.sent = dv, 0
         stream = dv.io.Stream.EventStream(0, "events", "snn-fg", (int(sensor_size[0]), int(sensor_size[1])))
-        self.writer = dv.io.NetworkWriter(host, port, stream)
+        try:
+            self.writer = dv.io.NetworkWriter(host, port, stream)
+        except RuntimeError as exc:  # (the port taken, or an address not of this machine)
+            raise InputError(url, f"cannot serve there: {dv_reason(exc).removeprefix('bind: ')}") from None
         t0 = time.perf_counter()
         while self.writer.getClientCount() == 0:
             if time.perf_counter() - t0 > wait_s:

@@ -1,7 +1,7 @@
-"""A live run cut short (Ctrl-C, SIGTERM) keeps what a finished one keeps of its
-windows: the run's parameters in its store, so that snn-fg plot and compare
-read it the same, and a closing line that says what is there and how its
-figures are made, or that nothing was written."""
+"""Faults of the live route, each said in one line or kept as a finished run keeps it: a live run cut
+short (Ctrl-C, SIGTERM) keeps its windows with the run's parameters, so that snn-fg plot and compare
+read them the same, and its closing line says what is there and how its figures are made, or that
+nothing was written; a DV stream served on a port in use is one line."""
 
 import os
 import signal
@@ -104,3 +104,18 @@ def test_ctrl_c_before_the_first_window_says_that_nothing_was_written(tmp_path, 
     else:
         assert err[-1] == "snn-fg: interrupted (Ctrl-C); no window was complete: nothing written"
         assert not out.exists()
+
+
+def test_a_dv_stream_served_on_a_port_in_use_is_one_line(tmp_path, capsys):
+    """dv-processing's bind error came out as a traceback with Boost's source location."""
+    pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    _, rec = flipping_disc_recording(24, windows=2, window_ms=40.0)
+    path = save_events(tmp_path / "rec.npz", rec.events, rec.sensor_size)
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        url = f"dv://127.0.0.1:{taken.getsockname()[1]}"
+        assert main(["stream", str(path), "--to", url]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"snn-fg: error: {url}: cannot serve there: Address already in use"
+    ]

@@ -1,11 +1,14 @@
 """Faults of the live route, each said in one line or kept as a finished run keeps it: a live run cut
 short (Ctrl-C, SIGTERM) keeps its windows with the run's parameters, so that snn-fg plot and compare
 read them the same, and its closing line says what is there and how its figures are made, or that
-nothing was written; a DV stream served on a port in use is one line."""
+nothing was written; a DV stream served on a port in use, and a sensor size that disagrees with a
+file's own, are one line each."""
 
 import os
 import signal
 import socket
+import subprocess
+import sys
 import threading
 import time
 
@@ -119,3 +122,47 @@ def test_a_dv_stream_served_on_a_port_in_use_is_one_line(tmp_path, capsys):
     assert capsys.readouterr().err.strip().splitlines() == [
         f"snn-fg: error: {url}: cannot serve there: Address already in use"
     ]
+
+
+@pytest.mark.parametrize("command", ["events", "stream"])
+def test_a_sensor_size_other_than_the_files_own_is_one_line(tmp_path, capsys, command):
+    """snn-fg events said 'sensor: 640 x 480' of a 320 x 240 file, and snn-fg stream sent it as such,
+    without a word (the check lives where files are opened: events._core.file_sensor_size)."""
+    _, rec = flipping_disc_recording(24, windows=2, window_ms=40.0)
+    path = save_events(tmp_path / "rec.es", rec.events, rec.sensor_size)
+    w, h = rec.sensor_size[:2]
+    argv = [command, str(path), "--sensor-size", f"{2 * w}x{2 * h}"]
+    assert main([*argv, "--to", f"udp://127.0.0.1:{_free_port()}"] if command == "stream" else argv) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"snn-fg: error: {path}: the sensor size given, {2 * w} x {2 * h}, disagrees with the file's own "
+        f"{w} x {h}: leave the size out for this file"
+    ]
+
+
+def test_a_dv_stream_that_ends_before_the_model_asks_for_it_keeps_its_events():
+    """dv-processing's reader throws away what it holds untaken when the server closes: a live run
+    without --sensor-size connects before its warm-up, and a short replay (its events, then a second's
+    linger) had closed by the warm-up's end, so the run said 'the stream ended before any event'. The
+    source now empties the reader from the connection on."""
+    pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    from snn_fg.events.live_sources import open_source
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        url = f"dv://127.0.0.1:{s.getsockname()[1]}"
+    serve = (
+        "import os, numpy as np; from snn_fg.events import EVENT_DTYPE; from snn_fg.events.replay import DvSender; "
+        "ev = np.zeros(1000, EVENT_DTYPE); ev['t'] = np.arange(1000) * 10; ev['x'] = np.arange(1000) % 32; "
+        f"s = DvSender('{url}', (32, 24), wait_s=20); s.load(ev); s.send(ev); s.close(linger_s=0.3); os._exit(0)"
+    )
+    server = subprocess.Popen([sys.executable, "-c", serve])
+    try:
+        src = open_source(url, wait_s=20)
+        server.wait(20)  # (the replay sent and closed: what the warm-up took longer than)
+        time.sleep(0.2)
+        got = sum(len(ev) for ev, _ in src.packets())
+        src.close()
+    finally:
+        server.kill()
+        server.wait()
+    assert src.sensor_size == (32, 24) and got == 1000

@@ -95,7 +95,7 @@ def add_run_command(sub):
         type=sensor_size,
         metavar="WxH",
         help="recordings: sensor size for RAW files without geometry and for .npy/.npz arrays (without it an "
-        "array's sensor is its events' extent, with a warning), or a larger one than a file's",
+        "array's sensor is its events' extent, with a warning); a file that states its own takes that one only",
     )
     g = p.add_argument_group("output")
     g.add_argument(

@@ -98,23 +98,22 @@ def check_sensor_size(sensor_size, source="<sensor_size>") -> tuple[int, int, in
 
 
 def file_sensor_size(path, given, header) -> tuple[int, int, int]:
-    """``(W, H, 2)`` a file is read with: the size ``given``, else its
-    header's. A size given smaller than the header's is refused, naming both:
-    the file's events may lie anywhere in the header's sensor (a larger one
-    pads). ``header`` may be ``None`` or hold ``None`` where the file says no
-    size (the opener then needs one given)."""
-    size = check_sensor_size(given or header, path)
-    if (
-        given is not None
-        and header is not None
-        and None not in tuple(header)[:2]
-        and (size[0] < header[0] or size[1] < header[1])
-    ):
+    """``(W, H, 2)`` a file is read with: its own (``header``), or the size ``given`` where
+    the file states none. A size given that differs from the file's own is refused, naming
+    both: the file says which sensor its events come from, and another size maps them onto a
+    sensor they were not recorded on (a larger one was taken silently until 30 Nov, a smaller
+    one refused). ``header`` may be ``None`` or hold ``None`` where the file says no size, or
+    none that makes sense (the opener then needs one given)."""
+    stated = header is not None and None not in tuple(header)[:2] and not _parse_sensor_size(header)[1]
+    if not stated:
+        return check_sensor_size(header if given is None else given, path)
+    size = check_sensor_size(header, path)
+    wanted = size if given is None else check_sensor_size(given, path)
+    if wanted[:2] != size[:2]:
         raise InputError(
             path,
-            f"the sensor size given, {size[0]} x {size[1]}, is smaller than the file's own "
-            f"{header[0]} x {header[1]} (its header), whose events may lie anywhere in it: "
-            f"leave the size out for this file",
+            f"the sensor size given, {wanted[0]} x {wanted[1]}, disagrees with the file's own "
+            f"{size[0]} x {size[1]}: leave the size out for this file",
         )
     return size
 

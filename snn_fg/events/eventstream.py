@@ -98,8 +98,7 @@ def read_header(path) -> Header:
 def open_es(path, sensor_size, chunk_events) -> Source:
     """Open a DVS (decoder ``"es"``) or ATIS (``"es-atis"``) Event Stream file.
 
-    ``sensor_size`` overrides the header's if no smaller (events may lie
-    anywhere inside the header's sensor, as the specification says).
+    ``sensor_size``, if given, must be the header's (:func:`~snn_fg.events._core.file_sensor_size`).
     """
     header = read_header(path)
     size = file_sensor_size(path, sensor_size, (header.width, header.height))

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import select
 import socket
+import threading
 import time
 import warnings
 
@@ -38,6 +39,9 @@ BATCH = 64
 #: reader cannot be waited on). Every 0.5 ms, with a batch passed on as it came, the receiving thread took
 #: about a fifth of one core beside the compact network (30 Nov): 2 ms bounds what it adds to a latency
 DV_POLL_S = 0.002
+#: events a DV stream's reader is emptied of, at most, before the model asks for the stream (while it
+#: warms up): about 260 MB; the rest is left to the reader, and said
+EARLY_EVENTS = 20_000_000
 
 
 def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
@@ -184,36 +188,85 @@ class DvSource:
                     f"--sensor-size {sensor_size[0]}x{sensor_size[1]} disagrees with the stream's {size[0]}x{size[1]}"
                 )
         if problem is not None:
-            self.close()
+            self.reader = None
             raise InputError(url, problem)
         self.sensor_size = size
+        # (the reader is emptied from the connection on: dv-processing's reader throws away what it holds
+        # untaken when the server closes, and a short stream's server closed before a model that warmed up
+        # after connecting, without --sensor-size, asked for the first event: "the stream ended before any event")
+        self.early, self.ended, self.handed_over = [], False, threading.Event()
+        self.taking = threading.Thread(target=self._take_early, name="snn-fg dv reader", daemon=True)
+        self.taking.start()
+
+    def _take_early(self):
+        """Until :meth:`packets` begins: what the reader holds, kept (up to :data:`EARLY_EVENTS`)."""
+        held = 0
+        while not self.handed_over.is_set():
+            got = self._take()
+            if got is _ENDED:
+                self.ended = True
+                return
+            if got is None:
+                time.sleep(DV_POLL_S)
+            elif held + len(got[0]) > EARLY_EVENTS:  # (a camera's stream during a long warm-up)
+                warnings.warn(
+                    f"{self.name}: more than {EARLY_EVENTS:,} events came before the model was ready; "
+                    "the stream goes on from where the reader is (--sensor-size warms up before connecting)",
+                    InputWarning,
+                    stacklevel=1,
+                )
+                return
+            else:
+                held += len(got[0])
+                self.early.append(got)
+
+    def _take(self):
+        """The batches the reader holds (up to :data:`BATCH`) as one, with when they were taken; None
+        when it holds none, :data:`_ENDED` once the server has closed."""
+        parts = []
+        while len(parts) < BATCH:
+            try:
+                batch = self.reader.getNextEventBatch()
+            except RuntimeError:  # (a packet the reader could not decode)
+                self.malformed += 1
+                continue
+            if batch is None:
+                break
+            parts.append(batch.numpy())
+        if not parts:
+            return None if self.reader.isRunning() else _ENDED
+        arrived = time.perf_counter()
+        a = parts[0] if len(parts) == 1 else np.concatenate(parts)
+        ev = np.empty(len(a), EVENT_DTYPE)
+        ev["t"], ev["x"], ev["y"], ev["p"] = a["timestamp"], a["x"], a["y"], a["polarity"]
+        return ev, arrived
 
     def packets(self):
-        """Each batch of events the reader holds (those it holds together, up to :data:`BATCH`), and
-        when the last of them was taken; the reader is asked every :data:`DV_POLL_S` while it has none."""
-        while not self.closed:
-            parts = []
-            while len(parts) < BATCH:
-                try:
-                    batch = self.reader.getNextEventBatch()
-                except RuntimeError:  # (a packet the reader could not decode)
-                    self.malformed += 1
-                    continue
-                if batch is None:
-                    break
-                parts.append(batch.numpy())
-            if not parts:
-                if not self.reader.isRunning():
-                    return
+        """What the reader held before (:meth:`_take_early`), then each batch of events the reader holds
+        (those it holds together, up to :data:`BATCH`), and when the last of them was taken; the reader
+        is asked every :data:`DV_POLL_S` while it has none."""
+        self._hand_over()
+        early, self.early = self.early, []
+        yield from early
+        while not (self.closed or self.ended):
+            got = self._take()
+            if got is _ENDED:
+                return
+            if got is None:
                 time.sleep(DV_POLL_S)
                 continue
-            arrived = time.perf_counter()
-            a = parts[0] if len(parts) == 1 else np.concatenate(parts)
-            ev = np.empty(len(a), EVENT_DTYPE)
-            ev["t"], ev["x"], ev["y"], ev["p"] = a["timestamp"], a["x"], a["y"], a["polarity"]
-            yield ev, arrived
+            yield got
+
+    def _hand_over(self):
+        self.handed_over.set()
+        self.taking.join()
 
     def close(self):
         """Disconnects (a DV server waits for its readers to go)."""
         self.closed = True
+        self._hand_over()
         self.reader = None
+
+
+#: what :meth:`DvSource._take` gives once the server has closed the stream
+_ENDED = object()

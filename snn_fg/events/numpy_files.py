@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from snn_fg.errors import InputError, SnnFgError
-from snn_fg.events._core import as_events, check_sensor_size, infer_sensor_size
+from snn_fg.events._core import as_events, check_sensor_size, file_sensor_size, infer_sensor_size
 from snn_fg.events.source import Source
 
 
@@ -88,6 +88,6 @@ def open_npz(path, sensor_size, chunk_events) -> Source:
     except Exception as exc:  # zip, zlib and numpy header errors of every kind
         raise InputError(path, f"not a readable .npz archive ({type(exc).__name__}: {exc})") from None
     ev = as_events(arr, path)
-    size = sensor_size if sensor_size is not None else file_size
-    size = check_sensor_size(size, path) if size is not None else infer_sensor_size(path, [ev])
+    stated = file_size is not None or sensor_size is not None
+    size = file_sensor_size(path, sensor_size, file_size) if stated else infer_sensor_size(path, [ev])
     return Source(path, "npz", size, lambda n, tally: iter([ev]))

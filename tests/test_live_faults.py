@@ -124,6 +124,21 @@ def test_a_dv_stream_served_on_a_port_in_use_is_one_line(tmp_path, capsys):
     ]
 
 
+def test_a_dv_server_waits_for_its_reader_as_long_as_it_is_told(tmp_path, capsys):
+    """--wait-s sets how long snn-fg stream's dv:// server waits for a reader (120 s by default: it
+    waited 30 s, less than a first live run's warm-up on a busy machine), and its end is one line."""
+    pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    _, rec = flipping_disc_recording(24, windows=2, window_ms=40.0)
+    path = save_events(tmp_path / "rec.npz", rec.events, rec.sensor_size)
+    with socket.socket() as free:
+        free.bind(("127.0.0.1", 0))
+        url = f"dv://127.0.0.1:{free.getsockname()[1]}"
+    t = time.perf_counter()
+    assert main(["stream", str(path), "--to", url, "--wait-s", "0.5"]) == 2
+    assert time.perf_counter() - t < 20
+    assert capsys.readouterr().err.strip().splitlines() == [f"snn-fg: error: {url}: no reader connected within 0.5 s"]
+
+
 @pytest.mark.parametrize("command", ["events", "stream"])
 def test_a_sensor_size_other_than_the_files_own_is_one_line(tmp_path, capsys, command):
     """snn-fg events said 'sensor: 640 x 480' of a 320 x 240 file, and snn-fg stream sent it as such,

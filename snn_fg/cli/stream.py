@@ -44,6 +44,14 @@ def add_stream_command(sub):
     )
     p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="as snn-fg run (RAW files, arrays)")
     p.add_argument("--no-timestamps", action="store_true", help="udp://: events without times (stamped on arrival)")
+    p.add_argument(
+        "--wait-s",
+        type=number(float, 0),
+        default=120.0,
+        metavar="S",
+        help="dv://: seconds the server waits for a reader to connect (120: a first snn-fg live compiles its model "
+        "for up to a minute before it connects, and longer on a busy machine)",
+    )
     p.set_defaults(handler=cmd_stream)
     return p
 
@@ -56,7 +64,7 @@ def cmd_stream(args) -> int:
     events = np.concatenate(list(parts) or [np.zeros(0, EVENT_DTYPE)])
     if not len(events):
         raise InputError(args.recording, f"no event from --start-ms {args.start_ms:g} on")
-    sender = open_sender(args.to, size, timestamps=not args.no_timestamps)
+    sender = open_sender(args.to, size, timestamps=not args.no_timestamps, wait_s=args.wait_s)
     sender.load(events)
     args.interrupt_note = "the replay stopped"
     t = time.perf_counter()

@@ -158,6 +158,7 @@ class DvSender:
         return False
 
 
-def open_sender(url: str, sensor_size, timestamps: bool = True):
+def open_sender(url: str, sensor_size, timestamps: bool = True, wait_s: float = 120.0):
+    """The sender of ``snn-fg stream --to url`` (``wait_s``: how long a ``dv://`` server waits for its reader)."""
     scheme, _, _ = parse_address(url, "--to")
-    return UdpSender(url, timestamps) if scheme == "udp" else DvSender(url, sensor_size)
+    return UdpSender(url, timestamps) if scheme == "udp" else DvSender(url, sensor_size, wait_s)

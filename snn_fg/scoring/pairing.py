@@ -96,7 +96,7 @@ def pair_windows(a: Maps, b: Maps, window: int | None = None) -> Pairing:
         return _pairing([(x, y) for x in ia for y in ib], na, nb, tb, how)
     ca, cb = _clock(a), _clock(b)
     if ca is not None and cb is not None:
-        return _by_clock(ca, cb, (ia, na, ta), (ib, nb, tb))
+        return _unpaired(_by_clock(ca, cb, (ia, na, ta), (ib, nb, tb)), len(ia), len(ib))
     if None not in ta + tb:
         starts = {t: i for i, t in zip(ib, tb)}
         pairs = [(i, starts[t]) for i, t in zip(ia, ta) if t in starts]
@@ -108,7 +108,7 @@ def pair_windows(a: Maps, b: Maps, window: int | None = None) -> Pairing:
             f"{'was' if len(old) == 1 else 'were'} stored without the events' clock, as before snn-fg kept it: "
             "a replay's then began at 0 wherever the recording's lay)"
         )
-        return _pairing(pairs, na, nb, tb, how)
+        return _unpaired(_pairing(pairs, na, nb, tb, how), len(ia), len(ib))
     if len(ia) == 1 or len(ib) == 1:
         what = "the frame" if ia == [None] or ib == [None] else "the one window"
         return _pairing([(x, y) for x in ia for y in ib], na, nb, tb, f"{what} against every window of the other")
@@ -120,6 +120,21 @@ def pair_windows(a: Maps, b: Maps, window: int | None = None) -> Pairing:
             f"the maps hold {len(ia)} and {len(ib)} windows and no start times to pair them by; pick one with window=",
         )
     return _pairing(list(zip(ia, ib)), na, nb, tb, "windows paired in the order stored (no start times)")
+
+
+def _unpaired(p: Pairing, n_a: int, n_b: int) -> Pairing:
+    """``p`` with its line saying how many of each run's windows found no partner (a live run's dropped
+    windows: ``live.json`` says which, and which kept windows came after a drop, ``drop_before``)."""
+    left = [
+        f"{n - len({pair[k] for pair in p.pairs})} of {side}'s {n} windows"
+        for k, (side, n) in enumerate((("A", n_a), ("B", n_b)))
+        if n > len({pair[k] for pair in p.pairs})
+    ]
+    if not left:
+        return p
+    return Pairing(
+        p.pairs, p.numbers, p.t_us, f"{p.how}; left out, with no partner in the other run: {' and '.join(left)}"
+    )
 
 
 def _pairing(pairs, na, nb, tb, how) -> Pairing:

@@ -239,6 +239,11 @@ def _summary_text(summary: dict) -> str:
     ]
     if lost:
         text += f" ({' and '.join(lost)}, dropped)"
+    if summary.get("packets_lost"):  # (UDP says nothing to its sender: the kernel's count for the socket)
+        text += (
+            f" ({summary['packets_lost']:,} UDP packets lost before they were read: the socket's buffer was "
+            "full; the receiver or the machine fell behind, or net.core.rmem_max keeps the buffer small)"
+        )
     reach = summary.get("events_outside_reach")
     if reach:  # (a wrong --sensor-size: say what the events need)
         text += f" (they reach x={reach['x']}, y={reach['y']}: is --sensor-size right?)"

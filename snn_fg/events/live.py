@@ -370,6 +370,8 @@ class LiveStream:
             ),
             "events_backwards": self.backwards,
             "packets_malformed": self.source.malformed,
+            # (UDP: packets the kernel dropped, its buffer full, before the receiver read them; None: unknown)
+            "packets_lost": getattr(self.source, "packets_lost", None),
         }
 
 

@@ -13,6 +13,7 @@ packets are counted (:attr:`malformed`) and skipped.
 
 from __future__ import annotations
 
+import os
 import select
 import socket
 import threading
@@ -72,6 +73,7 @@ class UdpSource:
         self.name, self.sensor_size = url, (int(sensor_size[0]), int(sensor_size[1]))
         self.wait_s, self.idle_s, self.malformed, self.closed = wait_s, idle_s, 0, False
         self.clock = SENDER
+        self.packets_lost = None  # (read as the socket closes: _udp_drops)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, UDP_BUFFER)
         try:
@@ -147,8 +149,26 @@ class UdpSource:
             )
 
     def close(self):
+        if not self.closed:  # (read while the socket is there: the kernel forgets its count with it)
+            self.packets_lost = _udp_drops(self.sock)
         self.closed = True
         self.sock.close()
+
+
+def _udp_drops(sock) -> int | None:
+    """The packets the kernel dropped for ``sock`` because its receive buffer was full (Linux's
+    ``/proc/net/udp`` ``drops``, matched by the socket's inode); None where that cannot be read."""
+    try:
+        inode = str(os.fstat(sock.fileno()).st_ino)
+        for table in ("/proc/net/udp", "/proc/net/udp6"):
+            with open(table) as f:
+                for line in f.readlines()[1:]:
+                    cols = line.split()
+                    if len(cols) > 12 and cols[9] == inode:
+                        return int(cols[-1])
+    except (OSError, ValueError):
+        pass
+    return None
 
 
 def dv_reason(exc: RuntimeError) -> str:

@@ -180,10 +180,11 @@ def _keep_after_gap(idx, step, gap, last, keep):
 
 
 @nb.njit(cache=True, nogil=True)
-def _steps_sources(t, x, y, p, t0_us, step_us, h, w):
-    """Each event's step (``floor((t - t0_us) / step_us)``) and source
-    (:func:`source_index`) in one compiled pass, and whether the steps never
-    decrease (a stream's chunk, every 5 ms of a live run)."""
+def steps_and_sources(t, x, y, p, t0_us, step_us, h, w):
+    """Each event's time step, ``floor((t - t0_us) / step_us)``, and input
+    source on a grid of ``(h, w)``: ON ``y * w + x``, OFF ``h * w + y * w + x``
+    (one compiled pass), and whether the steps never decrease (a stream's
+    chunk, every 5 ms of a live run: :class:`EventQueue`)."""
     step, idx = np.empty(t.size, np.int64), np.empty(t.size, np.int64)
     ordered = True
     for e in range(t.size):
@@ -192,13 +193,6 @@ def _steps_sources(t, x, y, p, t0_us, step_us, h, w):
         if e > 0 and step[e] < step[e - 1]:
             ordered = False
     return step, idx, ordered
-
-
-def source_index(x, y, p, shape) -> np.ndarray:
-    """The input source of events at ``(x, y)`` with polarity ``p`` on a
-    grid of ``shape`` ``(H, W)``: ON ``y * W + x``, OFF ``H * W + y * W + x``."""
-    h, w = shape
-    return (np.asarray(y).astype(np.int64) * w + np.asarray(x).astype(np.int64)) + np.where(np.asarray(p) > 0, 0, h * w)
 
 
 def step_spikes(step: np.ndarray, idx: np.ndarray, n_sources: int, gap: int, last: np.ndarray | None = None):
@@ -256,9 +250,9 @@ def event_spikes(
         raise InputError(
             source, f"an event at t={t.min():g} us lies before the start t0={t0:g} us", f"event {int(np.argmin(t))}"
         )
-    step = np.floor((t - t0) / (dt_ms * 1000.0)).astype(np.int64)
+    step, idx, _ = steps_and_sources(t, x, y, p, t0, dt_ms * 1000.0, h, w)
     gap = int(round(refractory_ms / dt_ms)) if refractory_ms > 0 else 0
-    idx_u, st_u, merged = step_spikes(step, source_index(x, y, p, (h, w)), 2 * h * w, gap)
+    idx_u, st_u, merged = step_spikes(step, idx, 2 * h * w, gap)
     period = int(st_u.max()) + 1 if replay else None
     on = np.zeros(h * w, bool)
     off = np.zeros(h * w, bool)
@@ -275,7 +269,7 @@ class EventQueue:
     sources and steps until a stream gives them out as spikes
     (:class:`~snn_fg.lowering.input_stream.SpikeStream`,
     :class:`~snn_fg.lowering.held_input.HeldStream`): ``shape`` the input
-    grid ``(H, W)`` (sources as :func:`source_index` numbers them), step 0 at
+    grid ``(H, W)`` (sources as :func:`steps_and_sources` numbers them), step 0 at
     ``t0_us``. ``on`` and ``off`` mark the sources that have fired so far
     (the stream sets :attr:`fired`)."""
 
@@ -297,7 +291,7 @@ class EventQueue:
         than every step already taken, in time order."""
         if not len(events):
             return
-        step, idx, ordered = _steps_sources(
+        step, idx, ordered = steps_and_sources(
             events["t"], events["x"], events["y"], events["p"], self.t0_us, self.step_us, self.h, self.w
         )
         if step[0] < self._last_step or not ordered:

@@ -21,7 +21,7 @@ import dataclasses
 import numpy as np
 from numba import njit
 
-from .input_spikes import EventQueue, InputSpikes, step_spikes
+from .input_spikes import EventQueue, InputSpikes, _keep_after_gap, step_spikes
 
 
 class SpikeStream(EventQueue):
@@ -72,16 +72,17 @@ def _in_order_spikes(step, idx, gap, last, fired):
     for e in range(1, step.size):
         if step[e] < step[e - 1]:
             return idx[:0], step[:0], -1
+    kept = np.ones(step.size, np.bool_)
+    if gap > 0:  # (through the refractory period, in the events' order)
+        kept[:] = False
+        _keep_after_gap(idx, step, gap, last, kept)
     out, steps = np.empty(step.size, np.int64), np.empty(step.size, np.int64)
     k, merged, e = 0, 0, 0
     while e < step.size:
         s, first = step[e], k
-        while e < step.size and step[e] == s:  # (the step's events, through the refractory period)
-            src = idx[e]
-            if gap <= 0 or s - last[src] >= gap:
-                if gap > 0:
-                    last[src] = s
-                out[k] = src
+        while e < step.size and step[e] == s:  # (the step's events kept)
+            if kept[e]:
+                out[k] = idx[e]
                 k += 1
             e += 1
         if k - first > 1:  # (by source, one spike each)

@@ -125,11 +125,8 @@ def pair_windows(a: Maps, b: Maps, window: int | None = None) -> Pairing:
 def _unpaired(p: Pairing, n_a: int, n_b: int) -> Pairing:
     """``p`` with its line saying how many of each run's windows found no partner (a live run's dropped
     windows: ``live.json`` says which, and which kept windows came after a drop, ``drop_before``)."""
-    left = [
-        f"{n - len({pair[k] for pair in p.pairs})} of {side}'s {n} windows"
-        for k, (side, n) in enumerate((("A", n_a), ("B", n_b)))
-        if n > len({pair[k] for pair in p.pairs})
-    ]
+    paired = [len(set(side)) for side in zip(*p.pairs)]  # (windows of A, of B, with a partner)
+    left = [f"{n - m} of {side}'s {n} windows" for side, n, m in zip("AB", (n_a, n_b), paired) if n > m]
     if not left:
         return p
     return Pairing(

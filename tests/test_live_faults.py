@@ -181,3 +181,27 @@ def test_a_dv_stream_that_ends_before_the_model_asks_for_it_keeps_its_events():
         server.kill()
         server.wait()
     assert src.sensor_size == (32, 24) and got == 1000
+
+
+def test_the_dv_servers_network_thread_gives_way_to_the_live_run_beside_it():
+    """dv-processing's NetworkWriter serves from a thread that polls without pause (a core's worth of CPU,
+    idle or not): beside a live run on two cores it took half their time, and the run dropped windows.
+    snn-fg stream puts that thread, and only it, at the lowest priority."""
+    pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    serve = (
+        "import os, threading, time, dv_processing as dv; from snn_fg.events.replay import DvSender; "
+        f"threading.Thread(target=lambda: (time.sleep(0.3), dv.io.NetworkReader('127.0.0.1', {port}), "
+        "time.sleep(5)), daemon=True).start(); "
+        "before = set(os.listdir('/proc/self/task')); "
+        f"s = DvSender('dv://127.0.0.1:{port}', (32, 24), wait_s=20); "
+        "nice = {t: os.getpriority(os.PRIO_PROCESS, int(t)) for t in os.listdir('/proc/self/task')}; "
+        "print(s.yielding, os.getpriority(os.PRIO_PROCESS, 0), sorted(n for t, n in nice.items() if t not in before)); "
+        "os._exit(0)"
+    )
+    said = subprocess.run([sys.executable, "-c", serve], capture_output=True, text=True, timeout=60).stdout.split()
+    # one thread came with the writer and gives way (the reader's came too, at 0); the sender's own keeps 0
+    assert said[0] == "1" and said[1] == "0"
+    assert "".join(said[2:]).strip("[]").split(",").count("19") == 1

@@ -12,32 +12,21 @@ network continuously, reading the events as they come), writing
 
 from __future__ import annotations
 
-import time
 from contextlib import ExitStack, closing
 
-import numpy as np
-
-from ..backends.cores import usable_cores
 from ..errors import InputError
-from ..events import EVENT_DTYPE, Recording, iter_windows
 from ..events.clock import clock_keys
-from ..events.live import LiveStream
-from ..events.live_sources import open_source, parse_address
-from ..frames.pool import pooled_shape
-from ..frames.pyramid import check_levels
 from ..models import MODELS
+from ..models.live import live_stream, open_warmed
 from ..results.atomic import growing_folder, settle_folder
 from ..results.live_view import VIEW_HOST, LiveView
 from ..results.outputs import check_output_folder
-from ..results.peaks import grouping_peaks
-from ..results.publish import END_OF_STREAM, LiveModel, LiveRecord, Publisher
+from ..results.publish import END_OF_STREAM, LiveModel, Publisher
 from ..results.store import windows_complete
 from .options import number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
 from .runner import run_recording
 
-#: simulated time the spiking network is handed at a time on a live stream (ms): it follows the events this closely
-LIVE_SEGMENT_MS = 5.0
 #: options of ``snn-fg run`` that a live run cannot use, and why: left out of ``snn-fg live --help``, refused in one
 #: line (until 29 Nov --end-ms, --denoise-us and --refractory-us were offered and silently ignored)
 _NOT_LIVE = {
@@ -135,20 +124,15 @@ def cmd_live(args) -> int:
     model = chosen_model(args, "recording")
     check_output_folder(args.out, force=args.force)  # (before the warm-up: a folder refused at once, nothing touched)
     window_ms = args.window_ms if args.window_ms is not None else 85.0
-    scheme = parse_address(args.source)[0]
     with ExitStack() as opened:  # (what is open so far is closed on an error)
         publisher = opened.enter_context(closing(Publisher(args.publish))) if args.publish else None
         view = None
         if args.view is not None:
             view = opened.enter_context(closing(LiveView(args.view, args.source, args.view_host)))
-        warm_s = None
-        if scheme == "dv" and args.sensor_size is not None:  # (before connecting: a DV server sends from then on)
-            warm_s = _warmed(model, args.sensor_size, window_ms, args)
-        source = opened.enter_context(
-            closing(open_source(args.source, args.sensor_size, wait_s=args.wait_s, idle_s=args.idle_s))
+        source, warm_s = open_warmed(
+            model, args.source, args.sensor_size, window_ms, args.peaks, wait_s=args.wait_s, idle_s=args.idle_s
         )
-        if warm_s is None:
-            warm_s = _warmed(model, source.sensor_size, window_ms, args)
+        opened.enter_context(closing(source))
         out, previous = growing_folder(args.out, force=args.force, resume=None)  # (a stream cannot be resumed)
         opened.pop_all()
     earlier = previous is not None and any(previous.iterdir())  # (an earlier run set aside, with --force)
@@ -186,28 +170,16 @@ def cmd_live(args) -> int:
 
 
 def _live_stream(model, source, publisher, view, window_ms: float, warm_s: float, args):
-    """The stream cut from ``source`` for ``model`` (:class:`~snn_fg.events.live.LiveStream`), which says
-    when the model is ready for it, and the record of its windows (:class:`~snn_fg.results.publish.LiveRecord`)."""
-    _said_in_warm_up(model)
-    spiking = hasattr(model, "run_options")
-    lag_ms = model.run_options.recording.readout_lag_ms if spiking else 0.0
-    stream = LiveStream(
-        source,
-        window_ms=window_ms,
-        stride_ms=args.hop_ms,
-        start_ms=args.start_ms or 0.0,
-        max_behind=args.max_behind,
-        lag_ms=lag_ms,
-    )
-    if spiking:  # (the rate model takes whole windows)
-        stream.segment_ms = LIVE_SEGMENT_MS
+    """The stream cut from ``source`` for ``model`` and the record of its windows
+    (:func:`~snn_fg.models.live.live_stream`), which says when the model is ready for it."""
     page = "" if view is None else f"; the live page is on http://{view.host}:{view.port}/"
-    stream.on_ready = lambda: print(
-        f"snn-fg: live: {model.name} model ready for {args.source} (warmed up in {warm_s:.1f} s){page}", flush=True
-    )
-    record = LiveRecord(stream, publisher, args.peaks, view)
-    record.warm_up_s, record.cores = warm_s, usable_cores()
-    return stream, record
+    return live_stream(
+        model, source, window_ms=window_ms, hop_ms=args.hop_ms, start_ms=args.start_ms or 0.0,
+        max_behind=args.max_behind, publisher=publisher, view=view, peaks=args.peaks, warm_s=warm_s,
+        on_ready=lambda: print(
+            f"snn-fg: live: {model.name} model ready for {args.source} (warmed up in {warm_s:.1f} s){page}", flush=True
+        ),
+    )  # fmt: skip
 
 
 def _interrupted_note(folder: str, kept: int, earlier: bool) -> str:
@@ -257,54 +229,3 @@ def _summary_text(summary: dict) -> str:
     if summary.get("why_behind"):  # (and where to read what to change)
         text += f"; {summary['why_behind']} (what to try: docs/live.md, 'If windows are dropped')"
     return text
-
-
-def _warmed(model, sensor_size, window_ms: float, args) -> float:
-    """The model checked against the sensor and warmed up (:func:`~snn_fg.results.publish.warm_up`): seconds taken."""
-    w, h = sensor_size[:2]
-    check_levels(
-        pooled_shape((h, w), model.params.input_pool), model.params.levels, args.source, model.params.levels_per_octave
-    )
-    return warm_up(model, sensor_size, window_ms, args.peaks)
-
-
-def _said_in_warm_up(model) -> None:
-    """The live run on the warmed-up model says no stage message: each was said in the warm-up, on the same
-    network and backend object (the fast engine's "prepared" line came a second time, after "ready")."""
-    if isinstance(getattr(model, "run_keywords", None), dict):  # (the spiking models: their backend's messages)
-        model.run_keywords["log"] = _unsaid
-
-
-def _unsaid(message: str) -> None:
-    """Where a message already said goes."""
-
-
-def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> float:
-    """Run ``model`` on ``windows`` windows of synthetic events of the sensor's
-    size (:func:`warm_up_events`), its maps thrown away, so that a live run
-    finds its code compiled and loaded, its network's tables built and its
-    arrays allocated (the spiking model keeps them on its backend object)
-    before the first packet; returns the seconds it took."""
-    t0 = time.perf_counter()
-    w, h = sensor_size[:2]
-    rec = Recording(warm_up_events(w, h, window_ms * 1000.0, windows), (w, h, 2), "synthetic")
-    model.run_windows_into(list(iter_windows(rec, window_ms=window_ms)), lambda _, maps: grouping_peaks(maps, peaks))
-    return round(time.perf_counter() - t0, 3)
-
-
-def warm_up_events(w: int, h: int, window_us: float, windows: int, per_window: int = 20_000) -> np.ndarray:
-    """Synthetic events for a warm-up: a ring (a third of the sensor's height
-    across) moving right, ON on its leading half and OFF on its trailing one,
-    ``per_window`` events in each of ``windows`` windows (deterministic)."""
-    n = per_window * windows
-    rng = np.random.default_rng(0)
-    t = np.sort(rng.uniform(0, window_us * windows, n)).astype(np.int64)
-    angle = rng.uniform(0, 2 * np.pi, n)
-    r = h / 6 * (1 + 0.05 * rng.standard_normal(n))
-    cx = w / 3 + (w / 3) * t / (window_us * windows)
-    ev = np.zeros(n, EVENT_DTYPE)
-    ev["t"] = t
-    ev["x"] = np.clip(cx + r * np.cos(angle), 0, w - 1).astype(ev["x"].dtype)
-    ev["y"] = np.clip(h / 2 + r * np.sin(angle), 0, h - 1).astype(ev["y"].dtype)
-    ev["p"] = np.cos(angle) > 0
-    return ev

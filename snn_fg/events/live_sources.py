@@ -1,5 +1,6 @@
-"""Live event sources: ``udp://HOST:PORT`` (SPIF packets, :mod:`snn_fg.events.spif`)
-and ``dv://HOST:PORT`` (iniVation's DV network stream, read with ``dv-processing``).
+"""Live event sources: ``udp://HOST:PORT`` (SPIF packets, :mod:`snn_fg.events.spif`),
+``dv://HOST:PORT`` (iniVation's DV network stream, read with ``dv-processing``), and
+from Python any iterable of event chunks that your own code makes (:class:`ChunkSource`).
 
 A source's :meth:`packets` runs on the receiving thread and yields the
 events of each packet, or of the packets that came together, with the time
@@ -24,7 +25,7 @@ import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events import spif
-from snn_fg.events._core import EVENT_DTYPE
+from snn_fg.events._core import EVENT_DTYPE, as_events, check_sensor_size
 from snn_fg.events.clock import ARRIVAL, SENDER
 from snn_fg.validate import address
 
@@ -50,15 +51,50 @@ def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
     return address(url, SCHEMES, owner)
 
 
-def open_source(url: str, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0):
+def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0):
     """The live source ``url`` names; ``sensor_size`` ``(W, H)``: a UDP stream's (it
-    has none of its own), a DV stream's if given (it must agree with the stream's)."""
+    has none of its own), a DV stream's if given (it must agree with the stream's).
+    Anything else than a string is taken for chunks of events (:class:`ChunkSource`)."""
+    if not isinstance(url, str):
+        if sensor_size is None:
+            raise InputError("<events>", "events handed over chunk by chunk have no sensor size of their own: give it")
+        return ChunkSource(url, sensor_size)
     scheme, host, port = parse_address(url)
     if scheme == "udp":
         if sensor_size is None:
             raise InputError(url, "a UDP (SPIF) stream has no sensor size of its own: give --sensor-size WxH")
         return UdpSource(url, host, port, sensor_size, wait_s=wait_s, idle_s=idle_s)
     return DvSource(url, host, port, sensor_size, wait_s=wait_s)
+
+
+class ChunkSource:
+    """A live stream that your own code hands over: ``chunks``, any iterable of event
+    arrays (fields ``x``, ``y``, ``t`` in microseconds, ``p``; :func:`~snn_fg.events._core.as_events`),
+    such as a generator reading a camera's SDK or a YARP port, read on the receiving
+    thread. A chunk has arrived when the iterable gives it; the stream ends with the
+    iterable. Its times are the chunks' own (``clock`` :data:`~snn_fg.events.clock.SENDER`).
+    A chunk that is not events is an error naming the event's place in the stream."""
+
+    clock, clock_span_us = SENDER, None
+
+    def __init__(self, chunks, sensor_size, name: str = "<events>"):
+        if isinstance(chunks, np.ndarray):  # (one array is a recording, not a stream of chunks)
+            raise InputError(name, "give the live stream as an iterable of event arrays (one array: snn-fg run)")
+        self.chunks, self.name = chunks, name
+        self.sensor_size = check_sensor_size(sensor_size, name)[:2]
+        self.malformed, self.closed, self.given = 0, False, 0
+
+    def packets(self):
+        for chunk in self.chunks:
+            if self.closed:  # (the iterable is left as it is: it may be blocked in another thread's read)
+                return
+            ev = as_events(chunk, self.name, self.given)
+            self.given += len(ev)
+            if len(ev):
+                yield ev, time.perf_counter()
+
+    def close(self):
+        self.closed = True
 
 
 class UdpSource:

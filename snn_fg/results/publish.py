@@ -94,7 +94,8 @@ class LiveRecord:
         self.stream, self.publisher, self.k, self.view = stream, publisher, peaks, view
         self.rows: list = []
         self.t_start = time.perf_counter()
-        self.warm_up_s = None  # (the warm-up before the stream: snn_fg.cli.live.warm_up)
+        self.warm_up_s = None  # (the warm-up before the stream: snn_fg.models.live.warm_up)
+        self.last = None  # (the latest window's published line)
         self.cores = None  # (the cores the run may use: snn_fg.cli.live gives backends.cores.usable_cores())
 
     def window(self, w, maps) -> None:
@@ -116,6 +117,7 @@ class LiveRecord:
         now = time.perf_counter()
         message["latency_ms"] = None if arrived is None else round((now - arrived) * 1000, LATENCY_DECIMALS)
         message["published_unix_s"] = round(time.time(), 6)
+        self.last = message  # (what run_live hands its caller with the maps)
         if self.publisher is not None:
             self.publisher.send(message)
         if self.view is not None:  # (with the run's counts so far, which the page shows)

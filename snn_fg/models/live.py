@@ -1,0 +1,174 @@
+"""A model on a live stream, in this process: what ``snn-fg live`` runs, and
+:func:`run_live`, the same from Python with each window handed to your own code
+(``from snn_fg.models import get_model, run_live``).
+
+A live run warms its model up on synthetic events (:func:`warm_up`), so that
+the first window's latency is the model's work and not its start-up, cuts
+the stream into windows on its own clock
+(:class:`~snn_fg.events.live.LiveStream`, which drops whole windows when the
+model falls behind), runs the model on it as ``snn-fg run`` runs on a
+recording, and publishes each window as its maps are made
+(:class:`~snn_fg.results.publish.LiveRecord`: the window's span, latency and
+grouping peaks, and ``live.json``'s summary at the end). ``snn-fg live``
+(:mod:`snn_fg.cli.live`) adds its output folder, the live page and figures.
+"""
+
+from __future__ import annotations
+
+import time
+from contextlib import ExitStack, closing
+
+import numpy as np
+
+from ..backends.cores import usable_cores
+from ..events import EVENT_DTYPE, Recording, iter_windows
+from ..events.live import LiveStream
+from ..events.live_sources import open_source, parse_address
+from ..frames.pool import pooled_shape
+from ..frames.pyramid import check_levels
+from ..results.peaks import grouping_peaks
+from ..results.publish import LiveModel, LiveRecord, Publisher
+
+#: simulated time the spiking network is handed at a time on a live stream (ms): it follows the events this closely
+LIVE_SEGMENT_MS = 5.0
+
+
+def run_live(
+    model,
+    source,
+    on_window=None,
+    *,
+    sensor_size=None,
+    window_ms: float = 85.0,
+    hop_ms: float | None = None,
+    start_ms: float = 0.0,
+    max_behind: int = 0,
+    peaks: int = 3,
+    publish: str | None = None,
+    wait_s: float = 30.0,
+    idle_s: float = 1.0,
+) -> dict:
+    """Run ``model`` (:func:`~snn_fg.models.get_model`) on a live stream until it ends, as
+    ``snn-fg live`` does without its folder, and return ``live.json``'s summary.
+
+    ``source``: ``udp://HOST:PORT`` or ``dv://HOST:PORT`` (as ``snn-fg live``), or your own
+    stream: any iterable of event arrays (fields ``x``, ``y``, ``t`` in microseconds, ``p``),
+    read on a thread of its own as it gives them, a chunk counting as arrived when it is given
+    (:class:`~snn_fg.events.live_sources.ChunkSource`; ``sensor_size`` ``(W, H)`` needed).
+    ``on_window(window, maps, line)`` is called with each window kept, in order, as soon as its
+    maps are made and published: ``line`` holds what ``--publish`` sends (the window's span,
+    ``latency_ms`` and grouping ``peaks``). It runs on the thread that makes the maps, so what
+    it takes adds to the next windows' latency: hand heavy work to a thread of your own.
+    Windows the model cannot keep up with are dropped whole (the policy of ``live.json``,
+    ``max_behind`` as ``--max-behind``); ``hop_ms``, ``start_ms``, ``peaks`` and ``publish``
+    are ``snn-fg live``'s ``--hop-ms``, ``--start-ms``, ``--peaks`` and ``--publish``."""
+    with ExitStack() as opened:
+        publisher = opened.enter_context(closing(Publisher(publish))) if publish else None
+        source, warm_s = open_warmed(model, source, sensor_size, window_ms, peaks, wait_s=wait_s, idle_s=idle_s)
+        opened.enter_context(closing(source))
+        stream, record = live_stream(
+            model, source, window_ms=window_ms, hop_ms=hop_ms, start_ms=start_ms, max_behind=max_behind,
+            publisher=publisher, peaks=peaks, warm_s=warm_s,
+        )  # fmt: skip
+        opened.enter_context(closing(stream))
+
+        def each(w, maps):
+            if on_window is not None:
+                on_window(w, maps, record.last)
+
+        LiveModel(model, stream, record).run_windows_into(stream, each)
+    # (after the stream and source are closed: a UDP socket's lost packets are read as it closes)
+    return record.summary("the sender closed the stream")
+
+
+def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **opening):
+    """The live source ``source`` opened (:func:`~snn_fg.events.live_sources.open_source`; ``opening``:
+    its ``wait_s``, ``idle_s``) and ``model`` warmed up for it: ``(source, seconds of the warm-up)``.
+    A ``dv://`` stream is connected to after the warm-up when its size is given (a DV server sends
+    from the moment a reader connects), else before it, since the stream tells the size; a UDP
+    port is bound before it (packets sent meanwhile wait in the kernel's buffer)."""
+    name = source if isinstance(source, str) else "<events>"
+    warm_s = None
+    if isinstance(source, str) and parse_address(source)[0] == "dv" and sensor_size is not None:
+        warm_s = warmed_up(model, sensor_size, window_ms, name, peaks)
+    opened = open_source(source, sensor_size, **opening)
+    if warm_s is None:
+        try:
+            warm_s = warmed_up(model, opened.sensor_size, window_ms, name, peaks)
+        except BaseException:
+            opened.close()
+            raise
+    return opened, warm_s
+
+
+def live_stream(
+    model, source, *, window_ms: float, hop_ms, start_ms: float, max_behind: int, publisher=None, view=None,
+    peaks: int = 3, warm_s=None, on_ready=None,
+):  # fmt: skip
+    """The stream cut from ``source`` for ``model`` (:class:`~snn_fg.events.live.LiveStream`; ``on_ready``
+    called once the model first asks for events) and the record of its windows
+    (:class:`~snn_fg.results.publish.LiveRecord`)."""
+    _said_in_warm_up(model)
+    spiking = hasattr(model, "run_options")
+    lag_ms = model.run_options.recording.readout_lag_ms if spiking else 0.0
+    stream = LiveStream(
+        source, window_ms=window_ms, stride_ms=hop_ms, start_ms=start_ms or 0.0, max_behind=max_behind, lag_ms=lag_ms
+    )
+    if spiking:  # (the rate model takes whole windows)
+        stream.segment_ms = LIVE_SEGMENT_MS
+    stream.on_ready = on_ready
+    record = LiveRecord(stream, publisher, peaks, view)
+    record.warm_up_s, record.cores = warm_s, usable_cores()
+    return stream, record
+
+
+def warmed_up(model, sensor_size, window_ms: float, name: str, peaks: int = 3) -> float:
+    """``model`` checked against the sensor (its pyramid's levels fit the frame; an InputError naming
+    ``name`` if not) and warmed up (:func:`warm_up`): seconds taken."""
+    w, h = sensor_size[:2]
+    check_levels(
+        pooled_shape((h, w), model.params.input_pool), model.params.levels, name, model.params.levels_per_octave
+    )
+    return warm_up(model, sensor_size, window_ms, peaks)
+
+
+def _said_in_warm_up(model) -> None:
+    """The live run on the warmed-up model says no stage message: each was said in the warm-up, on the same
+    network and backend object (the fast engine's "prepared" line came a second time, after "ready")."""
+    if isinstance(getattr(model, "run_keywords", None), dict):  # (the spiking models: their backend's messages)
+        model.run_keywords["log"] = _unsaid
+
+
+def _unsaid(message: str) -> None:
+    """Where a message already said goes."""
+
+
+def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> float:
+    """Run ``model`` on ``windows`` windows of synthetic events of the sensor's
+    size (:func:`warm_up_events`), its maps thrown away, so that a live run
+    finds its code compiled and loaded, its network's tables built and its
+    arrays allocated (the spiking model keeps them on its backend object)
+    before the first packet; returns the seconds it took."""
+    t0 = time.perf_counter()
+    w, h = sensor_size[:2]
+    rec = Recording(warm_up_events(w, h, window_ms * 1000.0, windows), (w, h, 2), "synthetic")
+    model.run_windows_into(list(iter_windows(rec, window_ms=window_ms)), lambda _, maps: grouping_peaks(maps, peaks))
+    return round(time.perf_counter() - t0, 3)
+
+
+def warm_up_events(w: int, h: int, window_us: float, windows: int, per_window: int = 20_000) -> np.ndarray:
+    """Synthetic events for a warm-up: a ring (a third of the sensor's height
+    across) moving right, ON on its leading half and OFF on its trailing one,
+    ``per_window`` events in each of ``windows`` windows (deterministic)."""
+    n = per_window * windows
+    rng = np.random.default_rng(0)
+    t = np.sort(rng.uniform(0, window_us * windows, n)).astype(np.int64)
+    angle = rng.uniform(0, 2 * np.pi, n)
+    r = h / 6 * (1 + 0.05 * rng.standard_normal(n))
+    cx = w / 3 + (w / 3) * t / (window_us * windows)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = t
+    ev["x"] = np.clip(cx + r * np.cos(angle), 0, w - 1).astype(ev["x"].dtype)
+    ev["y"] = np.clip(h / 2 + r * np.sin(angle), 0, h - 1).astype(ev["y"].dtype)
+    ev["p"] = np.cos(angle) > 0
+    return ev

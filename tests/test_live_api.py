@@ -1,0 +1,82 @@
+"""run_live: a model on a live stream from Python, fed by your own code's event chunks (a camera
+SDK, a YARP port), giving each window's maps and published line to your callback as it comes."""
+
+import time
+
+import numpy as np
+import pytest
+
+from snn_fg.errors import InputError
+from snn_fg.events import iter_windows
+from snn_fg.frames.scenes import flipping_disc_recording
+from snn_fg.models import get_model, run_live
+from snn_fg.params import ModelParams
+
+#: a pyramid that fits the small frames here
+SMALL = ModelParams(levels=3)
+
+
+@pytest.fixture(scope="module")
+def disc():
+    _, rec = flipping_disc_recording(24, windows=3, window_ms=40.0)
+    ev = rec.events.copy()
+    ev["t"] -= ev["t"][0]
+    return ev, rec.sensor_size[:2]
+
+
+def _paced(ev, chunk_us=2_000):
+    """The events in chunks of ``chunk_us``, each given when the wall clock reaches its end (real time)."""
+    start = time.perf_counter()
+    for t0 in range(0, int(ev["t"][-1]) + 1, chunk_us):
+        part = ev[(ev["t"] >= t0) & (ev["t"] < t0 + chunk_us)]
+        time.sleep(max(0.0, start + (t0 + chunk_us) / 1e6 - time.perf_counter()))
+        yield part
+
+
+@pytest.mark.parametrize("name", ["rate", "spiking"])
+def test_your_own_chunks_give_each_window_the_maps_of_a_run_on_the_same_events(disc, name):
+    ev, size = disc
+    seen = []
+    model = get_model(name, SMALL)
+    summary = run_live(
+        model,
+        _paced(ev),
+        lambda w, maps, line: seen.append((w.index, maps, line)),
+        sensor_size=size,
+        window_ms=40.0,
+        max_behind=1000,  # (a slow machine keeps every window, later)
+    )
+    run = list(get_model(name, SMALL).run_windows(iter_windows(ev, sensor_size=size, window_ms=40.0)))
+    assert [k for k, _, _ in seen] == [w.index for w, _ in run] == [0, 1, 2]
+    for (_, live, line), (w, maps) in zip(seen, run, strict=True):
+        for a, b in ((live.fg_x, maps.fg_x), (live.fg_y, maps.fg_y), (live.grouping, maps.grouping)):
+            np.testing.assert_array_equal(a, b)
+        assert line["window"] == w.index and line["events"] == len(w.events) and line["latency_ms"] > 0
+    assert summary["windows"] == 3 and summary["windows_dropped"] == 0
+    assert summary["events_received"] == len(ev) and summary["ended"] == "the sender closed the stream"
+    assert summary["warm_up_s"] > 0 and [r["window"] for r in summary["per_window"]] == [0, 1, 2]
+
+
+def test_a_chunk_that_is_not_events_is_one_error_naming_the_event():
+    """Times in seconds (floats) in the second chunk: the error names the stream and the event's place in it."""
+    good = np.zeros(5, [("x", "i2"), ("y", "i2"), ("t", "i8"), ("p", "i1")])
+    good["t"] = np.arange(5) * 1000
+    bad = np.zeros(3, [("x", "i2"), ("y", "i2"), ("t", "f8"), ("p", "i1")])
+    bad["t"] = [0.0051, 0.0062, 0.0073]
+    with pytest.raises(InputError) as err:
+        run_live(get_model("rate", SMALL), iter([good, bad]), sensor_size=(64, 48), window_ms=4.0)
+    assert str(err.value).startswith("<events>: field t must hold integer microseconds") and "event 5" in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "source, size, said",
+    [
+        (iter([]), None, "events handed over chunk by chunk have no sensor size of their own: give it"),
+        (np.zeros(3, [("x", "i2"), ("y", "i2"), ("t", "i8"), ("p", "i1")]), (64, 48), "an iterable of event arrays"),
+        (iter([]), (64, 48), "the stream ended before any event"),
+    ],
+)
+def test_a_stream_without_a_size_or_events_or_given_as_one_array_is_one_error(source, size, said):
+    with pytest.raises(InputError) as err:
+        run_live(get_model("rate", SMALL), source, sensor_size=size)
+    assert said in str(err.value)

@@ -2,6 +2,7 @@
 SDK, a YARP port), giving each window's maps and published line to your callback as it comes."""
 
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -80,3 +81,24 @@ def test_a_stream_without_a_size_or_events_or_given_as_one_array_is_one_error(so
     with pytest.raises(InputError) as err:
         run_live(get_model("rate", SMALL), source, sensor_size=size)
     assert said in str(err.value)
+
+
+def test_a_callback_slower_than_the_stream_drops_windows_and_says_so_once():
+    """The windows after a slow callback are dropped by the stream's policy, said in one warning; a dropped
+    window's events never came, and it is not said to be empty (its EmptyWindowWarning was noise)."""
+    _, rec = flipping_disc_recording(24, windows=6, window_ms=40.0)
+    ev = rec.events.copy()
+    ev["t"] -= ev["t"][0]
+    seen = []
+
+    def slow(w, maps, line):
+        seen.append(w.index)
+        time.sleep(0.15 if w.index == 0 else 0.0)
+
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        summary = run_live(get_model("rate", SMALL), _paced(ev), slow, sensor_size=rec.sensor_size[:2], window_ms=40.0)
+    kinds = [type(w.message).__name__ for w in said]
+    assert summary["windows_dropped"] > 0 and summary["windows"] == len(seen)
+    assert len(seen) + summary["windows_dropped"] == 6
+    assert kinds.count("InputWarning") == 1 and "EmptyWindowWarning" not in kinds

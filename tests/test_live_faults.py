@@ -4,6 +4,7 @@ read them the same, and its closing line says what is there and how its figures 
 nothing was written; a DV stream served on a port in use, and a sensor size that disagrees with a
 file's own, are one line each."""
 
+import json
 import os
 import signal
 import socket
@@ -11,12 +12,14 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from snn_fg.cli.main import main
 from snn_fg.cli.runner import run_recording
-from snn_fg.events import iter_windows, save_events
+from snn_fg.events import iter_windows, open_recording, save_events
 from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.models import get_model
 from snn_fg.params import ModelParams
@@ -205,3 +208,44 @@ def test_the_dv_servers_network_thread_gives_way_to_the_live_run_beside_it():
     # one thread came with the writer and gives way (the reader's came too, at 0); the sender's own keeps 0
     assert said[0] == "1" and said[1] == "0"
     assert "".join(said[2:]).strip("[]").split(",").count("19") == 1
+
+
+DAVIS = Path(__file__).resolve().parent / "data" / "davis346_disc.aedat4"
+#: what dv-processing says of a serial number it does not find (without its source location and stack)
+NOT_FOUND = "Could not find device with given serial number"
+
+
+def test_a_camera_on_usb_is_read_as_a_dv_stream_is(tmp_path, monkeypatch, capsys):
+    """camera:// opens an iniVation camera with dv-processing, no DV software. No camera is on this machine:
+    dv-processing's own reader of a DAVIS346 recording stands in for it (the camera's reader and the file's
+    share dv-processing's input interface); the run ends when the reader does, with every event received
+    and the rate model's maps of snn-fg run on the same file."""
+    dv = pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    monkeypatch.setattr(dv.io.camera, "discover", lambda: ["a camera"])
+    monkeypatch.setattr(dv.io.camera, "open", lambda *serial: dv.io.MonoCameraRecording(str(DAVIS)))
+    common = ["--window-ms", "40", "--no-figures", "--no-progress", "--model", "rate"]
+    live = ["live", "camera://", "--out", str(tmp_path / "live"), "--max-behind", "1000", *common]
+    assert main(live) == 0
+    assert main(["run", str(DAVIS), "--out", str(tmp_path / "run"), *common]) == 0
+    a, b = Maps.load(tmp_path / "live"), Maps.load(tmp_path / "run")
+    record = json.loads((tmp_path / "live" / "live.json").read_text())
+    assert record["events_received"] == len(open_recording(DAVIS).events) and record["windows_dropped"] == 0
+    assert a.fg_x.shape == b.fg_x.shape and a.fg_x.shape[0] > 1
+    for x, y in ((a.fg_x, b.fg_x), (a.fg_y, b.fg_y), (a.grouping, b.grouping)):
+        np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize(
+    "url, found, said",
+    [
+        ("camera://", [], "camera://: no iniVation camera found on this machine's USB (dv-processing looked)"),
+        ("camera://NOSUCH1", ["a camera"], "camera://NOSUCH1: cannot open the camera: " + NOT_FOUND),
+    ],
+)  # fmt: skip
+def test_no_camera_or_not_that_one_is_one_line(tmp_path, monkeypatch, capsys, url, found, said):
+    dv = pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    if found:  # (dv-processing's own open() then looks for the serial, and does not find it)
+        monkeypatch.setattr(dv.io.camera, "discover", lambda: found)
+    assert main(["live", url, "--out", str(tmp_path / "live"), "--model", "rate", "--no-progress"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [f"snn-fg: error: {said}"]
+    assert not (tmp_path / "live").exists()

@@ -50,13 +50,13 @@ def add_live_command(sub):
         sub,
         "live",
         description="Run a model on SOURCE as it arrives: udp://HOST:PORT (SpiNNaker interface board "
-        "packets, as aestream sends them; needs --sensor-size) or dv://HOST:PORT (a DV network stream, "
-        "pip install -e '.[live]'). Windows are cut on the stream's own clock; DIR/maps.zarr grows "
-        "window by window as with snn-fg run, and DIR/live.json keeps each window's latency (from its "
-        "last event's arrival to its maps) and what was dropped. Ends when the sender has gone (UDP: "
-        "no packet for --idle-s).",
+        "packets, as aestream sends them; needs --sensor-size), dv://HOST:PORT (a DV network stream, "
+        "pip install -e '.[live]') or camera://[SERIAL] (an iniVation camera on USB, the same extra). "
+        "Windows are cut on the stream's own clock; DIR/maps.zarr grows window by window as with snn-fg "
+        "run, and DIR/live.json keeps each window's latency (from its last event's arrival to its maps) "
+        "and what was dropped. Ends when the sender has gone (UDP: no packet for --idle-s).",
     )
-    p.add_argument("source", metavar="SOURCE", help="udp://HOST:PORT or dv://HOST:PORT")
+    p.add_argument("source", metavar="SOURCE", help="udp://HOST:PORT, dv://HOST:PORT or camera://[SERIAL]")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
     p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
     p.add_argument("--model", choices=LIVE_MODELS, default="rate", help="as snn-fg run (default: rate)")

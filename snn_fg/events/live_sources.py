@@ -29,8 +29,9 @@ from snn_fg.events._core import EVENT_DTYPE, as_events, check_sensor_size
 from snn_fg.events.clock import ARRIVAL, SENDER
 from snn_fg.validate import address
 
-#: the schemes a live source is named by
+#: the schemes a live source is named by (HOST:PORT after them), and the one of a camera on USB
 SCHEMES = ("udp", "dv")
+CAMERA = "camera://"
 #: a UDP socket's receive buffer asked for (the kernel may give less: net.core.rmem_max)
 UDP_BUFFER = 8 << 20
 #: packets taken off a UDP socket's buffer at a time, at most, once one has arrived: the events of those
@@ -59,6 +60,8 @@ def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 
         if sensor_size is None:
             raise InputError("<events>", "events handed over chunk by chunk have no sensor size of their own: give it")
         return ChunkSource(url, sensor_size)
+    if url.startswith(CAMERA):
+        return CameraSource(url, sensor_size)
     scheme, host, port = parse_address(url)
     if scheme == "udp":
         if sensor_size is None:
@@ -220,29 +223,29 @@ class DvSource:
     clock, clock_span_us = SENDER, None
 
     def __init__(self, url, host, port, sensor_size=None, *, wait_s: float = 30.0):
-        try:
-            import dv_processing as dv  # (the live extra)
-        except ImportError:
-            raise InputError(url, "reading dv:// needs dv-processing: pip install -e '.[live]'") from None
-        self.name, self.malformed, self.closed = url, 0, False
+        dv = _dv_processing(url)
         t0 = time.perf_counter()
         while True:
             try:
-                self.reader = dv.io.NetworkReader(host, port)
+                reader = dv.io.NetworkReader(host, port)
                 break
             except RuntimeError as exc:
                 if time.perf_counter() - t0 > wait_s:
                     raise InputError(url, f"no DV server answered within {wait_s:g} s ({dv_reason(exc)})") from None
                 time.sleep(0.1)
+        self._begin(url, reader, sensor_size, "the DV server there sends no event stream", "the stream's")
+
+    def _begin(self, url, reader, sensor_size, no_events: str, whose: str):
+        """Read ``reader`` (a ``dv-processing`` input) from now on, once it is found to give events
+        (``no_events``: what it is said when not) of the size ``sensor_size`` where given (``whose``: its size)."""
+        self.name, self.malformed, self.closed, self.reader = url, 0, False, reader
         problem = None
         if not self.reader.isEventStreamAvailable():
-            problem = "the DV server there sends no event stream"
+            problem = no_events
         else:
             size = tuple(int(v) for v in self.reader.getEventResolution())
             if sensor_size is not None and tuple(int(v) for v in sensor_size[:2]) != size:
-                problem = (
-                    f"--sensor-size {sensor_size[0]}x{sensor_size[1]} disagrees with the stream's {size[0]}x{size[1]}"
-                )
+                problem = f"--sensor-size {sensor_size[0]}x{sensor_size[1]} disagrees with {whose} {size[0]}x{size[1]}"
         if problem is not None:
             self.reader = None
             raise InputError(url, problem)
@@ -322,6 +325,38 @@ class DvSource:
         self.closed = True
         self._hand_over()
         self.reader = None
+
+
+class CameraSource(DvSource):
+    """An iniVation camera (DAVIS, DVXplorer, DVS128) on this machine's USB, read with
+    ``dv-processing`` as a ``dv://`` stream is read, with no DV software: ``camera://`` the
+    first one found, ``camera://SERIAL`` that one. Its times are the camera's (``clock``)."""
+
+    def __init__(self, url: str, sensor_size=None):
+        dv = _dv_processing(url)
+        serial = url.removeprefix(CAMERA)
+        if not dv.io.camera.discover():
+            raise InputError(url, "no iniVation camera found on this machine's USB (dv-processing looked)")
+        try:
+            reader = dv.io.camera.open(serial) if serial else dv.io.camera.open()
+        except (RuntimeError, IndexError) as exc:  # (a serial not found; a camera gone since it was found)
+            raise InputError(url, f"cannot open the camera: {_said(exc)}") from None
+        self._begin(url, reader, sensor_size, "the camera there gives no events", "the camera's")
+
+
+def _dv_processing(url: str):
+    try:
+        import dv_processing as dv  # (the live extra)
+    except ImportError:
+        raise InputError(url, f"reading {url.split('//')[0]}// needs dv-processing: pip install -e '.[live]'") from None
+    return dv
+
+
+def _said(exc: Exception) -> str:
+    """The message of a ``dv-processing`` error, without the source location and stack it carries."""
+    lines = str(exc).splitlines()
+    said = [line.split(": ", 1)[1] for line in lines if line.startswith("RuntimeError: ")]
+    return said[0] if said else dv_reason(exc)
 
 
 #: what :meth:`DvSource._take` gives once the server has closed the stream

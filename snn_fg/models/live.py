@@ -24,7 +24,7 @@ import numpy as np
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
 from ..events.live import LiveStream
-from ..events.live_sources import open_source, parse_address
+from ..events.live_sources import CAMERA, open_source, parse_address
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..results.peaks import grouping_peaks
@@ -87,12 +87,14 @@ def run_live(
 def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **opening):
     """The live source ``source`` opened (:func:`~snn_fg.events.live_sources.open_source`; ``opening``:
     its ``wait_s``, ``idle_s``) and ``model`` warmed up for it: ``(source, seconds of the warm-up)``.
-    A ``dv://`` stream is connected to after the warm-up when its size is given (a DV server sends
-    from the moment a reader connects), else before it, since the stream tells the size; a UDP
-    port is bound before it (packets sent meanwhile wait in the kernel's buffer)."""
+    A ``dv://`` stream is connected to (a ``camera://`` opened) after the warm-up when its size
+    is given (a DV server sends from the moment a reader connects, a camera once it is opened),
+    else before it, since the stream tells the size; a UDP port is bound before it (packets
+    sent meanwhile wait in the kernel's buffer)."""
     name = source if isinstance(source, str) else "<events>"
+    sends_at_once = isinstance(source, str) and (source.startswith(CAMERA) or parse_address(source)[0] == "dv")
     warm_s = None
-    if isinstance(source, str) and parse_address(source)[0] == "dv" and sensor_size is not None:
+    if sends_at_once and sensor_size is not None:
         warm_s = warmed_up(model, sensor_size, window_ms, name, peaks)
     opened = open_source(source, sensor_size, **opening)
     if warm_s is None:

@@ -13,6 +13,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -213,6 +214,7 @@ def test_the_dv_servers_network_thread_gives_way_to_the_live_run_beside_it():
 DAVIS = Path(__file__).resolve().parent / "data" / "davis346_disc.aedat4"
 #: what dv-processing says of a serial number it does not find (without its source location and stack)
 NOT_FOUND = "Could not find device with given serial number"
+NOT_THAT_ONE = "no camera with serial number NOSUCH1 on USB (found: DXA00093)"
 
 
 def test_a_camera_on_usb_is_read_as_a_dv_stream_is(tmp_path, monkeypatch, capsys):
@@ -239,13 +241,27 @@ def test_a_camera_on_usb_is_read_as_a_dv_stream_is(tmp_path, monkeypatch, capsys
     "url, found, said",
     [
         ("camera://", [], "camera://: no iniVation camera found on this machine's USB (dv-processing looked)"),
-        ("camera://NOSUCH1", ["a camera"], "camera://NOSUCH1: cannot open the camera: " + NOT_FOUND),
+        ("camera://NOSUCH1", ["DXA00093"], "camera://NOSUCH1: " + NOT_THAT_ONE),
     ],
 )  # fmt: skip
-def test_no_camera_or_not_that_one_is_one_line(tmp_path, monkeypatch, capsys, url, found, said):
+def test_no_camera_or_not_that_one_is_one_line_before_the_warm_up(tmp_path, monkeypatch, capsys, url, found, said):
+    """With --sensor-size the model warms up before the camera is opened (it sends from then on): that no
+    camera is there, or not the one named, is said before the warm-up's seconds, not after them."""
     dv = pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
-    if found:  # (dv-processing's own open() then looks for the serial, and does not find it)
-        monkeypatch.setattr(dv.io.camera, "discover", lambda: found)
-    assert main(["live", url, "--out", str(tmp_path / "live"), "--model", "rate", "--no-progress"]) == 2
+    import snn_fg.models.live as live
+
+    monkeypatch.setattr(dv.io.camera, "discover", lambda: [SimpleNamespace(serialNumber=s) for s in found])
+    monkeypatch.setattr(live, "warm_up", lambda *a, **k: pytest.fail("warmed up before the camera was found"))
+    argv = ["live", url, "--sensor-size", "346x260", "--out", str(tmp_path / "live"), "--model", "rate"]
+    assert main([*argv, "--no-progress"]) == 2
     assert capsys.readouterr().err.strip().splitlines() == [f"snn-fg: error: {said}"]
     assert not (tmp_path / "live").exists()
+
+
+def test_a_serial_number_dv_processing_finds_but_cannot_open_is_its_message_in_one_line(tmp_path, monkeypatch, capsys):
+    dv = pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    monkeypatch.setattr(dv.io.camera, "discover", lambda: [SimpleNamespace(serialNumber="NOSUCH1")])
+    # (dv-processing's own open() looks for the serial, does not find it, and says so with its source and stack)
+    assert main(["live", "camera://NOSUCH1", "--out", str(tmp_path / "live"), "--model", "rate"]) == 2
+    said = capsys.readouterr().err.strip().splitlines()
+    assert said == [f"snn-fg: error: camera://NOSUCH1: cannot open the camera: {NOT_FOUND}"]

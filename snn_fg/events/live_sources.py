@@ -333,15 +333,27 @@ class CameraSource(DvSource):
     first one found, ``camera://SERIAL`` that one. Its times are the camera's (``clock``)."""
 
     def __init__(self, url: str, sensor_size=None):
-        dv = _dv_processing(url)
+        dv = camera_found(url)
         serial = url.removeprefix(CAMERA)
-        if not dv.io.camera.discover():
-            raise InputError(url, "no iniVation camera found on this machine's USB (dv-processing looked)")
         try:
             reader = dv.io.camera.open(serial) if serial else dv.io.camera.open()
         except (RuntimeError, IndexError) as exc:  # (a serial not found; a camera gone since it was found)
             raise InputError(url, f"cannot open the camera: {_said(exc)}") from None
         self._begin(url, reader, sensor_size, "the camera there gives no events", "the camera's")
+
+
+def camera_found(url: str):
+    """dv-processing, once it has found the camera ``url`` names on USB (``camera://``: any,
+    ``camera://SERIAL``: that serial number); an InputError naming ``url`` if not. Asked before
+    a live run's warm-up too, which would otherwise come first."""
+    dv = _dv_processing(url)
+    found, serial = dv.io.camera.discover(), url.removeprefix(CAMERA)
+    if not found:
+        raise InputError(url, "no iniVation camera found on this machine's USB (dv-processing looked)")
+    serials = [str(getattr(d, "serialNumber", "")) for d in found]
+    if serial and serial not in serials:
+        raise InputError(url, f"no camera with serial number {serial} on USB (found: {', '.join(serials)})")
+    return dv
 
 
 def _dv_processing(url: str):

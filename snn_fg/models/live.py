@@ -24,7 +24,7 @@ import numpy as np
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
 from ..events.live import LiveStream
-from ..events.live_sources import CAMERA, open_source, parse_address
+from ..events.live_sources import CAMERA, camera_found, open_source, parse_address
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..results.peaks import grouping_peaks
@@ -92,7 +92,10 @@ def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **
     else before it, since the stream tells the size; a UDP port is bound before it (packets
     sent meanwhile wait in the kernel's buffer)."""
     name = source if isinstance(source, str) else "<events>"
-    sends_at_once = isinstance(source, str) and (source.startswith(CAMERA) or parse_address(source)[0] == "dv")
+    camera = isinstance(source, str) and source.startswith(CAMERA)
+    if camera:
+        camera_found(source)
+    sends_at_once = camera or (isinstance(source, str) and parse_address(source)[0] == "dv")
     warm_s = None
     if sends_at_once and sensor_size is not None:
         warm_s = warmed_up(model, sensor_size, window_ms, name, peaks)

@@ -28,11 +28,12 @@ from snn_fg.results.store import read_attrs
 
 
 class _Stream:
-    """What run_recording reads of a live stream: its windows, then (``cut``) an interrupt, and the hops it
-    skipped for a newer one (those after the last window made too, when the run was cut short)."""
+    """What run_recording reads of a live stream: its windows, then (``cut``) an interrupt, the hops it
+    skipped for a newer one and the windows it dropped (those after the last window made too, when the
+    run was cut short)."""
 
-    def __init__(self, windows, skipped, cut: bool):
-        self.windows, self.skipped_windows, self.cut = windows, skipped, cut
+    def __init__(self, windows, skipped, cut: bool, dropped=()):
+        self.windows, self.skipped_windows, self.cut, self.dropped_ranges = windows, skipped, cut, list(dropped)
 
     def __iter__(self):
         yield from self.windows
@@ -61,8 +62,50 @@ def test_a_run_cut_short_keeps_the_parameters_of_a_finished_one(tmp_path):
         params[cut] = {k: v for k, v in Maps.load(out).params.items() if k not in ("timings_s", "windows")}  # (times)
         assert read_attrs(out / "maps.zarr")["snn_fg"]["complete"] is not cut  # (ended by its stream, or not)
     assert params[True]["source"]["window_ms"] == 40.0 and params[True]["source"]["input"] == source["input"]
-    assert params[True]["skipped_windows"] == [[2, 2]]  # (up to window 4, the last one stored)
+    # (every hop skipped before the run stopped, 5 and 6 after window 4, the last one stored, too: the
+    # timeline draws the run as it went up to there)
+    assert params[True].pop("skipped_windows") == [[2, 2], [5, 6]]
+    assert params[False].pop("skipped_windows") == [[2, 2]]
     assert params[True] == params[False]
+
+
+def test_the_timeline_of_a_run_cut_short_draws_what_it_skipped_and_dropped_before_and_after_its_windows(tmp_path):
+    """A live run with 20 ms hops over 40 ms windows, cut short: hops 0 and 1 skipped before the first
+    window stored (2) and windows 5-7 dropped after the last (4). timeline.png left both out (shading only
+    the gaps between stored windows: the dropped ones were not even in the store), its axis ended at
+    window 4 and its title did not say that the run was cut short."""
+    from matplotlib.colors import to_rgba
+
+    from snn_fg.results.overview import timeline_of
+    from snn_fg.results.timeline import MISSING_COLOURS, window_rows
+
+    _, rec = flipping_disc_recording(24, windows=8, window_ms=40.0)
+    path = save_events(tmp_path / "rec.npz", rec.events, rec.sensor_size)
+    windows = [w for w in iter_windows(path, window_ms=40.0, stride_ms=20.0) if w.index in (2, 3, 4)]
+    source = {"input": "udp://127.0.0.1:9", "kind": "live", "window_ms": 40.0, "stride_ms": 20.0, "start_ms": 0.0}
+    out = tmp_path / "run"
+    out.mkdir()
+    with pytest.raises(KeyboardInterrupt):
+        stream = _Stream(windows, [[0, 1]], True, dropped=[[5, 7]])
+        run_recording(get_model("rate", ModelParams(levels=3)), stream, out, source, figures=False)
+    maps = Maps.load(out)
+    assert maps.params["skipped_windows"] == [[0, 1]] and maps.params["dropped_windows"] == [[5, 7]]
+    fig = timeline_of(maps, window_rows(maps), out)
+    ax = fig.axes[0]
+    colours = {to_rgba(c): kind for kind, c in MISSING_COLOURS.items()}
+    shaded = sorted(
+        (p.get_x(), p.get_width(), colours[p.get_facecolor()]) for p in ax.patches if p.get_facecolor() in colours
+    )
+    assert shaded == [(0.0, 40.0, "skipped"), (100.0, 60.0, "dropped")]  # (hops 0-1; windows 5-7, by their starts)
+    assert ax.get_xlim()[0] <= 0.0 and ax.get_xlim()[1] >= 160.0  # (to where the run stopped)
+    assert (
+        fig.get_suptitle()
+        == "127.0.0.1:9: the rate model, window by window up to window 7, where the run was cut short"
+    )
+    assert fig.axes[3].get_xlabel().startswith("time after the first event (ms); 40 ms windows, one every 20 ms")
+    plain = Maps(maps.fg_x, maps.fg_y, maps.grouping, {"source": source, "model": "rate"}, maps.extra)
+    title = timeline_of(plain, window_rows(plain), out).get_suptitle()  # (nothing skipped or dropped: a recording's)
+    assert title.endswith("window by window up to window 4, where the run was cut short")
 
 
 def _free_port() -> int:
@@ -85,6 +128,38 @@ def _interrupted_once(folder, settle_s: float = 0.5) -> threading.Thread:
     th = threading.Thread(target=go)
     th.start()
     return th
+
+
+def test_the_line_of_an_interrupted_run_says_what_it_skipped_and_dropped_as_a_finished_runs_does():
+    """A finished run's closing line gives the hops skipped, the windows dropped and why, with where to read
+    what to try; after Ctrl-C the line named the windows kept only (a trial with --hop-ms 10 on one core:
+    163 windows kept, 179 hops skipped and 70 windows dropped, said in live.json alone)."""
+    from snn_fg.cli.live import _interrupted_note, _summary_text
+    from snn_fg.results.publish import why_behind
+
+    summary = {
+        "windows": 163,
+        "windows_dropped": 70,
+        "windows_skipped": 179,
+        "events_received": 2_000_000,
+        "latency_ms_streaming": {"median": 30.0, "p95": 40.0, "max": 50.0},
+        "per_window": [],
+        **{"streamed_s": 4.0, "cpu_s": 3.9, "model_cpu_s": 3.8, "cores": 1},
+    }
+    summary["why_behind"] = why_behind(summary)
+    said = _interrupted_note("out/live", 163, False, summary)
+    why = "the run used 98% of its 1 core while the stream came: the model is slower than the stream on this machine"
+    assert said == (
+        "the 163 windows complete so far are in out/live/ with live.json, without figures: snn-fg plot out/live "
+        f"draws them; besides them, 179 skipped for a newer hop, 70 dropped; {why} (what to try: docs/live.md, "
+        "'If windows are dropped')"
+    )
+    finished = _summary_text(summary)  # (the same words, from the same function)
+    assert finished.startswith("163 windows published, 179 skipped for a newer hop, 70 dropped, 2,000,000 events")
+    assert finished.endswith(said.partition("70 dropped")[2])
+    calm = {**summary, "windows_dropped": 0, "windows_skipped": 0}
+    calm["why_behind"] = why_behind(calm)
+    assert _interrupted_note("o", 1, False, calm).endswith("snn-fg plot o draws it; besides it, 0 dropped")
 
 
 @pytest.mark.parametrize("earlier", [False, True])

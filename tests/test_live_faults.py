@@ -29,11 +29,12 @@ from snn_fg.results.store import read_attrs
 
 
 class _Stream:
-    """What run_recording reads of a live stream: its windows, then (``cut``) an interrupt, and the hops it
-    skipped for a newer one (those after the last window made too, when the run was cut short)."""
+    """What run_recording reads of a live stream: its windows, then (``cut``) an interrupt, the hops it
+    skipped for a newer one and the windows it dropped (those after the last window made too, when the
+    run was cut short)."""
 
-    def __init__(self, windows, skipped, cut: bool):
-        self.windows, self.skipped_windows, self.cut = windows, skipped, cut
+    def __init__(self, windows, skipped, cut: bool, dropped=()):
+        self.windows, self.skipped_windows, self.cut, self.dropped_ranges = windows, skipped, cut, list(dropped)
 
     def __iter__(self):
         yield from self.windows
@@ -62,8 +63,50 @@ def test_a_run_cut_short_keeps_the_parameters_of_a_finished_one(tmp_path):
         params[cut] = {k: v for k, v in Maps.load(out).params.items() if k not in ("timings_s", "windows")}  # (times)
         assert read_attrs(out / "maps.zarr")["snn_fg"]["complete"] is not cut  # (ended by its stream, or not)
     assert params[True]["source"]["window_ms"] == 40.0 and params[True]["source"]["input"] == source["input"]
-    assert params[True]["skipped_windows"] == [[2, 2]]  # (up to window 4, the last one stored)
+    # (every hop skipped before the run stopped, 5 and 6 after window 4, the last one stored, too: the
+    # timeline draws the run as it went up to there)
+    assert params[True].pop("skipped_windows") == [[2, 2], [5, 6]]
+    assert params[False].pop("skipped_windows") == [[2, 2]]
     assert params[True] == params[False]
+
+
+def test_the_timeline_of_a_run_cut_short_draws_what_it_skipped_and_dropped_before_and_after_its_windows(tmp_path):
+    """A live run with 20 ms hops over 40 ms windows, cut short: hops 0 and 1 skipped before the first
+    window stored (2) and windows 5-7 dropped after the last (4). timeline.png left both out (shading only
+    the gaps between stored windows: the dropped ones were not even in the store), its axis ended at
+    window 4 and its title did not say that the run was cut short."""
+    from matplotlib.colors import to_rgba
+
+    from snn_fg.results.overview import timeline_of
+    from snn_fg.results.timeline import MISSING_COLOURS, window_rows
+
+    _, rec = flipping_disc_recording(24, windows=8, window_ms=40.0)
+    path = save_events(tmp_path / "rec.npz", rec.events, rec.sensor_size)
+    windows = [w for w in iter_windows(path, window_ms=40.0, stride_ms=20.0) if w.index in (2, 3, 4)]
+    source = {"input": "udp://127.0.0.1:9", "kind": "live", "window_ms": 40.0, "stride_ms": 20.0, "start_ms": 0.0}
+    out = tmp_path / "run"
+    out.mkdir()
+    with pytest.raises(KeyboardInterrupt):
+        stream = _Stream(windows, [[0, 1]], True, dropped=[[5, 7]])
+        run_recording(get_model("rate", ModelParams(levels=3)), stream, out, source, figures=False)
+    maps = Maps.load(out)
+    assert maps.params["skipped_windows"] == [[0, 1]] and maps.params["dropped_windows"] == [[5, 7]]
+    fig = timeline_of(maps, window_rows(maps), out)
+    ax = fig.axes[0]
+    colours = {to_rgba(c): kind for kind, c in MISSING_COLOURS.items()}
+    shaded = sorted(
+        (p.get_x(), p.get_width(), colours[p.get_facecolor()]) for p in ax.patches if p.get_facecolor() in colours
+    )
+    assert shaded == [(0.0, 40.0, "skipped"), (100.0, 60.0, "dropped")]  # (hops 0-1; windows 5-7, by their starts)
+    assert ax.get_xlim()[0] <= 0.0 and ax.get_xlim()[1] >= 160.0  # (to where the run stopped)
+    assert (
+        fig.get_suptitle()
+        == "127.0.0.1:9: the rate model, window by window up to window 7, where the run was cut short"
+    )
+    assert fig.axes[3].get_xlabel().startswith("time after the first event (ms); 40 ms windows, one every 20 ms")
+    plain = Maps(maps.fg_x, maps.fg_y, maps.grouping, {"source": source, "model": "rate"}, maps.extra)
+    title = timeline_of(plain, window_rows(plain), out).get_suptitle()  # (nothing skipped or dropped: a recording's)
+    assert title.endswith("window by window up to window 4, where the run was cut short")
 
 
 def _free_port() -> int:
@@ -86,6 +129,38 @@ def _interrupted_once(folder, settle_s: float = 0.5) -> threading.Thread:
     th = threading.Thread(target=go)
     th.start()
     return th
+
+
+def test_the_line_of_an_interrupted_run_says_what_it_skipped_and_dropped_as_a_finished_runs_does():
+    """A finished run's closing line gives the hops skipped, the windows dropped and why, with where to read
+    what to try; after Ctrl-C the line named the windows kept only (a trial with --hop-ms 10 on one core:
+    163 windows kept, 179 hops skipped and 70 windows dropped, said in live.json alone)."""
+    from snn_fg.cli.live import _interrupted_note, _summary_text
+    from snn_fg.results.publish import why_behind
+
+    summary = {
+        "windows": 163,
+        "windows_dropped": 70,
+        "windows_skipped": 179,
+        "events_received": 2_000_000,
+        "latency_ms_streaming": {"median": 30.0, "p95": 40.0, "max": 50.0},
+        "per_window": [],
+        **{"streamed_s": 4.0, "cpu_s": 3.9, "model_cpu_s": 3.8, "cores": 1},
+    }
+    summary["why_behind"] = why_behind(summary)
+    said = _interrupted_note("out/live", 163, False, summary)
+    why = "the run used 98% of its 1 core while the stream came: the model is slower than the stream on this machine"
+    assert said == (
+        "the 163 windows complete so far are in out/live/ with live.json, without figures: snn-fg plot out/live "
+        f"draws them; besides them, 179 skipped for a newer hop, 70 dropped; {why} (what to try: docs/live.md, "
+        "'If windows are dropped')"
+    )
+    finished = _summary_text(summary)  # (the same words, from the same function)
+    assert finished.startswith("163 windows published, 179 skipped for a newer hop, 70 dropped, 2,000,000 events")
+    assert finished.endswith(said.partition("70 dropped")[2])
+    calm = {**summary, "windows_dropped": 0, "windows_skipped": 0}
+    calm["why_behind"] = why_behind(calm)
+    assert _interrupted_note("o", 1, False, calm).endswith("snn-fg plot o draws it; besides it, 0 dropped")
 
 
 @pytest.mark.parametrize("earlier", [False, True])
@@ -199,16 +274,17 @@ def test_the_dv_servers_network_thread_gives_way_to_the_live_run_beside_it():
         "import os, threading, time, dv_processing as dv; from snn_fg.events.replay import DvSender; "
         f"threading.Thread(target=lambda: (time.sleep(0.3), dv.io.NetworkReader('127.0.0.1', {port}), "
         "time.sleep(5)), daemon=True).start(); "
-        "before = set(os.listdir('/proc/self/task')); "
+        "base = os.getpriority(os.PRIO_PROCESS, 0); before = set(os.listdir('/proc/self/task')); "
         f"s = DvSender('dv://127.0.0.1:{port}', (32, 24), wait_s=20); "
         "nice = {t: os.getpriority(os.PRIO_PROCESS, int(t)) for t in os.listdir('/proc/self/task')}; "
-        "print(s.yielding, os.getpriority(os.PRIO_PROCESS, 0), sorted(n for t, n in nice.items() if t not in before)); "
-        "os._exit(0)"
+        "print(s.yielding, base, os.getpriority(os.PRIO_PROCESS, 0), *(n for t, n in nice.items() if t not in before))"
+        "; os._exit(0)"
     )
     said = subprocess.run([sys.executable, "-c", serve], capture_output=True, text=True, timeout=60).stdout.split()
-    # one thread came with the writer and gives way (the reader's came too, at 0); the sender's own keeps 0
-    assert said[0] == "1" and said[1] == "0"
-    assert "".join(said[2:]).strip("[]").split(",").count("19") == 1
+    yielding, base, own, new = int(said[0]), int(said[1]), int(said[2]), [int(n) for n in said[3:]]
+    # one thread came with the writer and gives way (the reader's came too, at the process's own priority);
+    # the sender's own thread keeps its priority (under nice 19 every thread is at 19: nothing to tell apart)
+    assert yielding == 1 and own == base and new.count(19) == (1 if base < 19 else len(new))
 
 
 DAVIS = Path(__file__).resolve().parent / "data" / "davis346_disc.aedat4"
@@ -265,3 +341,23 @@ def test_a_serial_number_dv_processing_finds_but_cannot_open_is_its_message_in_o
     assert main(["live", "camera://NOSUCH1", "--out", str(tmp_path / "live"), "--model", "rate"]) == 2
     said = capsys.readouterr().err.strip().splitlines()
     assert said == [f"snn-fg: error: camera://NOSUCH1: cannot open the camera: {NOT_FOUND}"]
+
+
+def test_the_warm_up_compiles_the_packet_screen_for_the_packets_it_will_see():
+    """The receiving thread's screen (events.live_screen.screen_events) was compiled for an empty packet only,
+    once connected (LiveStream), and again for the first real one, whose fields are strided views (numba's
+    'A' layout): on a first run over dv:// with --sensor-size, 1.5 s of compiling after 'ready' on a busy
+    machine, on the stream's time (18 of 24 demo windows dropped). The warm-up, before a dv:// stream is
+    connected to, compiles both; a fresh process, since numba keeps what it has compiled."""
+    probe = (
+        "import numpy as np; from snn_fg.events import EVENT_DTYPE; from snn_fg.events.live_screen import "
+        "screen_events; from snn_fg.models import get_model; from snn_fg.models.live import warm_up; "
+        "from snn_fg.params import ModelParams; "
+        "warm_up(get_model('rate', ModelParams(levels=2)), (32, 24), 40.0, windows=1); "
+        "n = len(screen_events.signatures); packets = (np.zeros(k, EVENT_DTYPE) for k in (0, 1, 5)); "
+        "[screen_events(ev['x'], ev['y'], ev['t'], 32, 24, 0) for ev in packets]; "
+        "print(n, len(screen_events.signatures))"
+    )
+    said = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300)
+    assert said.returncode == 0, said.stderr
+    assert said.stdout.split() == ["2", "2"]  # (compiled, or loaded, in the warm-up: nothing left for a packet)

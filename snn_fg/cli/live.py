@@ -164,7 +164,7 @@ def cmd_live(args) -> int:
         if kept:
             summary = record.save(out / "live.json", ended)
         settle_folder(out, previous, keep_new=bool(kept))
-        args.interrupt_note = _interrupted_note(args.out, kept, earlier)
+        args.interrupt_note = _interrupted_note(args.out, kept, earlier, summary if kept else None)
     print(f"snn-fg: {model.name} model on {args.source}: {_summary_text(summary)}; wrote {args.out}/")
     return 0
 
@@ -182,28 +182,38 @@ def _live_stream(model, source, publisher, view, window_ms: float, warm_s: float
     )  # fmt: skip
 
 
-def _interrupted_note(folder: str, kept: int, earlier: bool) -> str:
+def _interrupted_note(folder: str, kept: int, earlier: bool, summary: dict | None = None) -> str:
     """What an interrupted live run left in ``folder``: its ``kept`` windows, whose figures are drawn
-    at the end of a run and so were not (``snn-fg plot`` draws them), or nothing (``earlier``: the
-    earlier run that ``--force`` would have replaced is back)."""
+    at the end of a run and so were not (``snn-fg plot`` draws them), and what it skipped and dropped
+    besides and why (``live.json``'s ``summary``, worded as the closing line of a finished run words it:
+    :func:`_behind_text`), or nothing (``earlier``: the earlier run that ``--force`` would have replaced
+    is back)."""
     if kept:
+        counts, why = _behind_text(summary) if summary is not None else ("", "")
+        s, are, them = ("s", "are", "them") if kept != 1 else ("", "is", "it")
         return (
-            f"the {kept} window{'s' if kept != 1 else ''} complete so far {'are' if kept != 1 else 'is'} in "
-            f"{folder}/ with live.json, without figures: snn-fg plot {folder} draws them"
+            f"the {kept} window{s} complete so far {are} in {folder}/ with live.json, without figures: "
+            f"snn-fg plot {folder} draws {them}" + (f"; besides {them}, {counts}{why}" if counts else "")
         )
     return "no window was complete: nothing written" + (f"; the earlier run in {folder}/ is kept" if earlier else "")
 
 
-def _summary_text(summary: dict) -> str:
-    """``live.json``'s summary in words: the windows, the events, and the latency of the windows the stream's
-    own events completed, apart from those that waited for its end (``--idle-s``, or a server closing)."""
-    n, lat = summary["windows"], summary["latency_ms_streaming"] or {}
+def _behind_text(summary: dict) -> tuple[str, str]:
+    """What a live run left out, in words: its hops skipped for a newer one (with ``--hop-ms``, when any) and its
+    windows dropped, and why it fell behind with where to read what to change ("" when nothing fell behind)."""
     skipped = summary.get("windows_skipped") or 0  # (hops: read-outs passed over for a newer hop's)
-    text = (
-        f"{n} window{'s' if n != 1 else ''} published, "
-        + (f"{skipped} skipped for a newer hop, " if skipped else "")
-        + f"{summary['windows_dropped']} dropped, {summary['events_received']:,} events received"
-    )
+    counts = (f"{skipped} skipped for a newer hop, " if skipped else "") + f"{summary['windows_dropped']} dropped"
+    why = summary.get("why_behind")
+    return counts, f"; {why} (what to try: docs/live.md, 'If windows are dropped')" if why else ""
+
+
+def _summary_text(summary: dict) -> str:
+    """``live.json``'s summary in words: the windows (and those left out, :func:`_behind_text`), the events, and the
+    latency of the windows the stream's own events completed, apart from those that waited for its end
+    (``--idle-s``, or a server closing)."""
+    n, lat = summary["windows"], summary["latency_ms_streaming"] or {}
+    counts, why = _behind_text(summary)
+    text = f"{n} window{'s' if n != 1 else ''} published, {counts}, {summary['events_received']:,} events received"
     lost = [  # (events the model never saw, said again here: the warning came once, long before)
         f"{summary[key]:,} {what}"
         for key, what in (("events_outside", "outside the sensor"), ("events_backwards", "back in time"))
@@ -226,6 +236,4 @@ def _summary_text(summary: dict) -> str:
     waited = [r["latency_ms"] for r in summary["per_window"] if r["completed_by"] == END_OF_STREAM]
     if waited and waited[-1] is not None:
         text += f" (the last window, completed by the end of the stream, not counted: {waited[-1]:.1f} ms)"
-    if summary.get("why_behind"):  # (and where to read what to change)
-        text += f"; {summary['why_behind']} (what to try: docs/live.md, 'If windows are dropped')"
-    return text
+    return text + why

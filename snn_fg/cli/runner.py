@@ -225,18 +225,18 @@ def _run_params(store: MapsStore, source: dict, windows, clock, whole=None, *, w
     """The run's ``params`` as its store keeps them, up to its last complete window: the first
     window's parameters, ``params["source"]`` (:func:`_source_summary`; ``warn``: its saturated
     windows warned about; with ``clock()``'s keys), the whole run's (``whole``: known only at its end) and, of a live
-    stream, the hops it skipped (their numbers up to the last window stored; a run cut short has
-    skipped some whose newer hop it never stored)."""
+    stream, the hops it skipped and the windows it dropped, every one until it stopped (a run cut short
+    may have skipped or dropped some after its last window stored: its timeline draws them)."""
     arrays = store_arrays(store.path, store.n)
     params = {**store.attrs["params"], "source": {**_source_summary(store, arrays, source, warn), **clock()}}
     if whole:  # (kept apart: each window's own parameters are told against the first window's)
         params["whole_run"] = whole
-    skipped = getattr(windows, "skipped_windows", None)  # (a live stream's hops passed over: not dropped)
-    last = int(np.asarray(arrays["window"])[-1]) if "window" in arrays else store.n - 1
-    # (kept by the stream as ranges [first, last] of consecutive numbers, in order)
-    skipped = [[first, min(end, last)] for first, end in skipped or () if first <= last]
-    if skipped:
-        params["skipped_windows"] = skipped
+    # (a live stream's hops passed over, and its windows dropped: kept by the stream as ranges [first, last]
+    # of consecutive numbers, in order)
+    for key, kept in (("skipped_windows", "skipped_windows"), ("dropped_windows", "dropped_ranges")):
+        ranges = [[int(first), int(last)] for first, last in getattr(windows, kept, None) or ()]
+        if ranges:
+            params[key] = ranges
     return params
 
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._core import EVENT_DTYPE
+
 
 @njit(cache=True, nogil=True)
 def screen_events(x, y, t, w, h, last_t):
@@ -32,3 +34,14 @@ def screen_events(x, y, t, w, h, last_t):
         else:
             latest = t[i]
     return keep, (outside, first_out, backwards, first_back, back_t, back_before)
+
+
+def prepare_screen() -> None:
+    """:func:`screen_events` compiled (or loaded from numba's cache) for every packet it will see: the
+    fields of an event array are strided views (numba's layout 'A'), those of an empty or one-event
+    array contiguous ('C'), and each layout is compiled apart, on a first run for a second or more.
+    Called in a live run's warm-up, before a ``dv://`` stream is connected to (a DV server sends from
+    then on), and by :class:`~snn_fg.events.live.LiveStream` (at once when warmed up)."""
+    for n in (0, 2):
+        ev = np.zeros(n, EVENT_DTYPE)
+        screen_events(ev["x"], ev["y"], ev["t"], 1, 1, 0)

@@ -24,6 +24,7 @@ import numpy as np
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
 from ..events.live import LiveStream
+from ..events.live_screen import prepare_screen
 from ..events.live_sources import CAMERA, camera_found, open_source, parse_address
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
@@ -154,10 +155,12 @@ def _unsaid(message: str) -> None:
 def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> float:
     """Run ``model`` on ``windows`` windows of synthetic events of the sensor's
     size (:func:`warm_up_events`), its maps thrown away, so that a live run
-    finds its code compiled and loaded, its network's tables built and its
-    arrays allocated (the spiking model keeps them on its backend object)
-    before the first packet; returns the seconds it took."""
+    finds its code compiled and loaded (the packet screen's too:
+    :func:`~snn_fg.events.live_screen.prepare_screen`), its network's tables
+    built and its arrays allocated (the spiking model keeps them on its backend
+    object) before the first packet; returns the seconds it took."""
     t0 = time.perf_counter()
+    prepare_screen()  # (the receiving thread's, for each packet)
     w, h = sensor_size[:2]
     rec = Recording(warm_up_events(w, h, window_ms * 1000.0, windows), (w, h, 2), "synthetic")
     model.run_windows_into(list(iter_windows(rec, window_ms=window_ms)), lambda _, maps: grouping_peaks(maps, peaks))

@@ -18,7 +18,16 @@ from .activity import SATURATED_SHARE
 from .atomic import save_figure
 from .figures import APS_INPUT, EVENTS_INPUT, event_frame_rgb, maps_figure, rows_shown
 from .outputs import WINDOW_FIGURE
-from .timeline import TABLE_NAME, TIMELINE_NAME, save_table, timeline_figure, window_numbers, window_rows
+from .store import STORE_NAME, read_attrs
+from .timeline import (
+    TABLE_NAME,
+    TIMELINE_NAME,
+    number_ranges,
+    save_table,
+    timeline_figure,
+    window_numbers,
+    window_rows,
+)
 
 #: windows the overview ``maps.png`` of a recording draws at most (evenly spaced)
 OVERVIEW_ROWS = 6
@@ -94,16 +103,35 @@ def write_run_tables(folder, maps, *, figures: bool, coverage: bool = True) -> l
     the table's rows (``coverage``: see :func:`~.timeline.window_rows`)."""
     folder = Path(folder)
     rows = window_rows(maps, coverage=coverage)
-    source = maps.params.get("source", {})
-    name = Path(str(source.get("input", folder.name))).name
-    title = f"{name}: the {maps.params.get('model', '?')} model, window by window"
     save_table(folder / TABLE_NAME, rows)
     if figures:
-        window_ms = float(source.get("window_ms", 0.0))
-        shown = rows_shown(len(rows), OVERVIEW_ROWS)
-        skipped = maps.params.get("skipped_windows", ())  # (a live run's: its store keeps them)
-        save_figure(timeline_figure(rows, window_ms, title, shown, skipped), folder / TIMELINE_NAME, dpi=110)
+        save_figure(timeline_of(maps, rows, folder), folder / TIMELINE_NAME, dpi=110)
     return rows
+
+
+def timeline_of(maps, rows, folder):
+    """``timeline.png`` of the recording's run in ``folder`` (its ``maps`` and their ``rows``,
+    :func:`~.timeline.window_rows`): with a live run's hops skipped and windows dropped (its store
+    keeps them), and for a run cut short (its store not complete: Ctrl-C, an error) the window
+    where it stopped, the last one stored, skipped or dropped."""
+    source = maps.params.get("source", {})
+    name = Path(str(source.get("input", Path(folder).name))).name
+    title = f"{name}: the {maps.params.get('model', '?')} model, window by window"
+    skipped, dropped = (maps.params.get(k, ()) for k in ("skipped_windows", "dropped_windows"))
+    store = Path(folder) / STORE_NAME
+    if store.is_dir() and not read_attrs(store)["snn_fg"]["complete"]:
+        last = max([int(window_numbers(maps)[-1]), *(hi for _, hi in number_ranges([*skipped, *dropped]))])
+        title += f" up to window {last}, where the run was cut short"
+    stride = source.get("stride_ms")
+    return timeline_figure(
+        rows,
+        float(source.get("window_ms", 0.0)),
+        title,
+        rows_shown(len(rows), OVERVIEW_ROWS),
+        skipped,
+        dropped=dropped,
+        stride_ms=None if stride is None else float(stride),
+    )
 
 
 def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, crop=None):

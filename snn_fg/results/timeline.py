@@ -25,7 +25,6 @@ Example
 
 from __future__ import annotations
 
-import bisect
 import csv
 import io
 
@@ -105,13 +104,16 @@ def save_table(path, rows) -> None:
     save_text(path, text.getvalue())
 
 
-def timeline_figure(rows, window_ms: float, title: str = "", shown=(), skipped=()):
+def timeline_figure(rows, window_ms: float, title: str = "", shown=(), skipped=(), *, dropped=(), stride_ms=None):
     """The run over time, one bar per window: events, the share of pixels with an event, the
     pixels with a figure-ground vector (and their coverage of the event pixels), the grouping
     peak. ``shown``: windows an overview figure draws, marked on the time axis. A live run's
     missing windows are shaded by why: ``skipped`` (the hops whose read-out was passed over for
-    a newer hop's, as ranges ``[first, last]``: :func:`skipped_ranges`; the network took their
-    events) in blue, the others, dropped (their events not simulated), in grey."""
+    a newer hop's, as ranges ``[first, last]``: :func:`number_ranges`; the network took their
+    events) in blue, ``dropped`` (their events not simulated; as ranges too) in grey, before the
+    first window stored and after the last as between them; a window missing between two stored
+    ones and in neither is dropped (a run stored before 30 Nov kept no ``dropped``). ``stride_ms``:
+    from one window's start to the next's (None: the stored windows' own)."""
     from matplotlib.figure import Figure  # (matplotlib: only when the figure is drawn)
 
     a, b = (np.array([r[k] for r in rows], float) for k in ("t_start_ms", "t_end_ms"))
@@ -140,14 +142,16 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=(), skipped=(
     scene_bars(ax_g, mid, width, [r["grouping_peak"] for r in rows], burst, color="C4")
     ax_g.set_ylabel("grouping peak", fontsize=8)
     drawn = "; numbers on top: the windows maps.png draws" if len(shown) else ""
-    gaps = _missing_spans(rows, a, skipped)
+    every = f", one every {stride_ms:g} ms" if stride_ms and stride_ms != window_ms else ""
+    gaps = _missing_spans(rows, a, stride_ms, skipped, dropped)
     for lo, hi, kind in gaps:  # (a live run's missing windows: their time shaded by why, not left as a blank)
         for ax in (ax_n, ax_s, ax_f, ax_g):
             ax.axvspan(lo, hi, color=MISSING_COLOURS[kind], lw=0, zorder=0)
     kinds = {kind for *_, kind in gaps}
     missing = "; ".join(MISSING_WORDS[k] for k in ("dropped", "skipped") if k in kinds)  # (a line of its own)
     ax_g.set_xlabel(
-        f"time after the first event (ms); {window_ms:g} ms windows{drawn}" + (f"\n{missing}" if missing else ""),
+        f"time after the first event (ms); {window_ms:g} ms windows{every}{drawn}"
+        + (f"\n{missing}" if missing else ""),
         fontsize=8,
     )
     for ax in (ax_f, ax_g):
@@ -173,38 +177,40 @@ MISSING_WORDS = {
 }
 
 
-def skipped_ranges(skipped) -> list[tuple[int, int]]:
-    """A live run's skipped hops (its store's ``skipped_windows``) as sorted ranges ``(first, last)``:
-    stored so since 30 Nov (one entry a hop before: a long --hop-ms run kept thousands), a bare number
-    (a run of before) a range of one."""
-    return sorted((k, k) if isinstance(k, int) else (int(k[0]), int(k[1])) for k in skipped)
+def number_ranges(numbers) -> list[tuple[int, int]]:
+    """A live run's skipped hops or dropped windows (its store's ``skipped_windows``,
+    ``dropped_windows``) as sorted ranges ``(first, last)``: stored so since 30 Nov (one entry a hop
+    before: a long --hop-ms run kept thousands), a bare number (a run of before) a range of one."""
+    return sorted((k, k) if isinstance(k, int) else (int(k[0]), int(k[1])) for k in numbers)
 
 
-def _missing_spans(rows, starts, skipped=()) -> list[tuple[float, float, str]]:
+def _missing_spans(rows, starts, stride_ms=None, skipped=(), dropped=()) -> list[tuple[float, float, str]]:
     """Where a live run's window numbers (``window``) miss some: ``(from, to, kind)`` over the
-    missing windows' starts (ms), ``kind`` "skipped" for the numbers in the ranges ``skipped``
-    (:func:`skipped_ranges`), else "dropped"; neighbours of one kind merged."""
+    missing windows' starts (ms; a window's start ``stride_ms`` after the one before, None: the
+    stored windows' median step), ``kind`` "skipped" for the numbers in the ranges ``skipped``
+    (:func:`number_ranges`), else "dropped": between stored windows every number missing, before
+    the first and after the last those of ``skipped`` and ``dropped``; neighbours of one kind merged."""
     numbers = [r.get("window") for r in rows]
-    if len(rows) < 2 or any(k is None for k in numbers):
+    if not rows or any(k is None for k in numbers):
         return []
-    ranges = skipped_ranges(skipped)
-    firsts = [lo for lo, _ in ranges]
-
-    def was_skipped(n: int) -> bool:
-        i = bisect.bisect_right(firsts, n) - 1
-        return i >= 0 and n <= ranges[i][1]
-
     k = np.asarray(numbers, float)
-    step = np.diff(k)
-    stride = float(np.median(np.diff(starts) / step))
+    if stride_ms is None:
+        if len(rows) < 2:
+            return []
+        stride_ms = float(np.median(np.diff(starts) / np.diff(k)))
+    listed = {"skipped": number_ranges(skipped), "dropped": number_ranges(dropped)}
+    held = {int(n) for n in numbers}
+    kinds: dict[int, str] = {}
+    for kind in ("dropped", "skipped"):
+        for lo, hi in listed[kind]:
+            kinds.update((n, kind) for n in range(lo, hi + 1) if n not in held)
+    kinds.update((n, kinds.get(n, "dropped")) for n in range(int(k[0]), int(k[-1])) if n not in held)
+    origin = starts[0] - k[0] * stride_ms  # (window n starts n strides after window 0)
     spans: list = []
-    for i in np.flatnonzero(step > 1):
-        for n in range(int(k[i]) + 1, int(k[i + 1])):
-            lo = starts[i] + (n - k[i]) * stride
-            hi = starts[i + 1] if n == k[i + 1] - 1 else lo + stride
-            kind = "skipped" if was_skipped(n) else "dropped"
-            if spans and spans[-1][2] == kind and abs(spans[-1][1] - lo) < 1e-9:
-                spans[-1] = (spans[-1][0], hi, kind)
-            else:
-                spans.append((lo, hi, kind))
+    for n in sorted(kinds):
+        lo, kind = origin + n * stride_ms, kinds[n]
+        if spans and spans[-1][2] == kind and abs(spans[-1][1] - lo) < 1e-6:
+            spans[-1] = (spans[-1][0], lo + stride_ms, kind)
+        else:
+            spans.append((lo, lo + stride_ms, kind))
     return spans

@@ -231,3 +231,22 @@ def test_the_key_of_a_portrait_frame_stays_in_its_columns():
     for i, a in enumerate(boxes):
         for b in boxes[i + 1 :]:
             assert not a.overlaps(b), (a, b)
+
+
+def test_the_figures_say_which_model_and_network_made_the_maps(tmp_path):
+    """maps.png of a default and of a compact spiking run carried the same labels, and timeline.png said
+    only 'the spiking model' (a new user's trial): both now name the model, its network and backend."""
+    from snn_fg.results.maps import made_by
+
+    compact = {"model": "spiking", "network": {"origin": "recipe", "recipe": "compact"}, "backend": {"name": "fast"}}
+    built = {"model": "spiking", "network": {"origin": "built"}, "backend": {"name": "brian2"}}
+    stored = {"model": "spiking", "network": {"origin": "/home/me/net.json"}, "backend": {"name": "nest"}}
+    assert made_by(compact) == "the spiking model on the compact network (fast backend)"
+    assert made_by(built) == "the spiking model on the default network (brian2 backend)"
+    assert made_by(stored) == "the spiking model on the net.json network (nest backend)"
+    assert made_by({"model": "rate", "input_pool": 3}) == "the rate model on 3 x 3 blocks"
+    assert made_by({"model": "rate", "input_pool": 1}) == "the rate model"
+    fig = maps_figure(*_windows(2), made_by=made_by(compact))
+    assert fig._suptitle.get_text() == "The spiking model on the compact network (fast backend)"
+    assert main(["run", "demo", "--out", str(tmp_path / "demo"), "--no-progress"]) == 0
+    assert Maps.load(tmp_path / "demo").params["model"] == "rate"

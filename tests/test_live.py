@@ -599,7 +599,7 @@ def test_a_live_run_that_dropped_windows_numbers_the_others_as_the_stream_does(t
 
     options = {**overview_options(maps, out), "max_rows": 3}
     fig = maps_figure(input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
-    assert fig._suptitle.get_text().startswith("3 of 4 windows shown, evenly spaced: 0, 4, 5")
+    assert "; 3 of 4 windows shown, evenly spaced: 0, 4, 5;" in fig._suptitle.get_text()
     timeline = timeline_figure(window_rows(maps), 40.0, shown=[0, 2, 3])
     assert [t.get_text() for t in timeline.axes[0].texts] == ["0", "4", "5"]
     # the dropped windows' time shaded on every panel (a blank before: a new user's report)

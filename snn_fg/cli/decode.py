@@ -25,7 +25,7 @@ from ..export.loop import (
 )
 from ..export.pynn import input_origin
 from ..results.atomic import OutputFolder
-from ..results.maps import SPIKING_GROUPING_LABEL
+from ..results.maps import SPIKING_GROUPING_LABEL, made_by
 from ..results.outputs import DECODE_FOLDER
 from ..scoring.metrics import compare_frame
 from .options import subcommand
@@ -99,6 +99,9 @@ def cmd_decode(args) -> int:
                 m.grouping,
                 grouping_label=SPIKING_GROUPING_LABEL,
                 placed=placed,
+                made_by=f"the reference, {made_by(m.params)}"
+                if m is ref
+                else f"the export {Path(args.export).name}, decoded from {Path(args.counts).name}",
             )
     written = "maps.npz, maps.png" + (", reference/" if ref is not None else "")
     print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ ({written})")

@@ -102,7 +102,9 @@ class Model(ABC):
         """Figures of a run into folder ``out``; ``inputs`` one image per frame; ``crop``
         ``(x0, y0, x1, y1)``: the part drawn; ``options``: more :func:`~snn_fg.results.figures.maps_figure` keywords."""
         from ..results.figures import save_maps_figure
+        from ..results.maps import made_by
 
+        options.setdefault("made_by", made_by(maps.params))
         return [
             save_maps_figure(
                 out / "maps.png",

@@ -186,6 +186,7 @@ def maps_figure(
     hint: str = "",
     input_note: str = EVENTS_INPUT,
     labels=None,
+    made_by: str = "",
 ) -> Figure:
     """One row per frame (input, figure-ground, grouping), under a key that explains each column
     once (the colour wheel, the grouping's colour bar).
@@ -199,7 +200,8 @@ def maps_figure(
     its own coordinates. ``placed`` ``(x0, y0, scale)``: the maps are a part of a sensor, their
     pixel ``(0, 0)`` its ``scale x scale`` pixels from ``(x0, y0)`` on (an export's crop, of
     blocks where it pools), drawn at the sensor's coordinates. ``input_note``: what the key says
-    the input column shows (:data:`EVENTS_INPUT`, :data:`APS_INPUT`).
+    the input column shows (:data:`EVENTS_INPUT`, :data:`APS_INPUT`). ``made_by``: which model made
+    the maps, said in the figure's title (:func:`~snn_fg.results.maps.made_by`).
     """
     # (a recording's maps may be read on indexing, snn_fg.results.store.ZarrArray: only the rows drawn are read)
     fg_x, fg_y, grouping = (v if hasattr(v, "ndim") else np.asarray(v) for v in (fg_x, fg_y, grouping))
@@ -218,6 +220,7 @@ def maps_figure(
     idx = rows_shown(n, max_rows) if rows is None else np.asarray(rows, int)
     note = shown_note(idx, n, labels=labels) if rows is None else ""  # (chosen rows are named in their titles)
     note = f"{note}; {hint}" if note and hint else note
+    note = "; ".join(part for part in (made_by[:1].upper() + made_by[1:], note) if part)
     fields = [(fg_x[i][cut], fg_y[i][cut], grouping[i][cut]) for i in idx]
     top = grouping_max if grouping_max is not None else max(float(np.max(f[2], initial=0.0)) for f in fields)
     norm = mcolors.Normalize(0.0, top if top > 0 else 1.0)

@@ -101,6 +101,24 @@ class Maps:
             raise InputError(path, f"cannot read maps file ({type(exc).__name__}: {exc})") from None
 
 
+def made_by(params: dict) -> str:
+    """Which model made maps of ``params``, in words for a figure or a line: ``the spiking model on
+    the compact network (fast backend)`` (a spiking run's network: its recipe, its file, or the
+    default built from parameters), ``the rate model on 3 x 3 blocks`` (a model whose input is
+    pooled, as the compact recipe's)."""
+    net, backend = params.get("network"), params.get("backend")
+    said = f"the {params.get('model', 'unknown')} model"
+    if isinstance(net, dict):  # (a spiking run's: snn_fg.models.spiking.record.run_provenance)
+        origin = str(net.get("origin", "?"))
+        name = net.get("recipe") if origin == "recipe" else "default" if origin == "built" else Path(origin).name
+        said += f" on the {name} network"
+    elif int(params.get("input_pool", 1) or 1) > 1:
+        said += f" on {params['input_pool']} x {params['input_pool']} blocks"
+    if isinstance(backend, dict) and backend.get("name"):
+        said += f" ({backend['name']} backend)"
+    return said
+
+
 def window_part(extra: dict, key: str, window: int) -> np.ndarray:
     """Window ``window``'s part of a per-window array of a recording's Maps:
     a slice of a ragged array (``key`` with ``key_offsets``, see

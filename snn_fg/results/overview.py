@@ -17,6 +17,7 @@ import numpy as np
 from .activity import SATURATED_SHARE
 from .atomic import save_figure
 from .figures import APS_INPUT, EVENTS_INPUT, event_frame_rgb, maps_figure, rows_shown
+from .maps import made_by
 from .outputs import WINDOW_FIGURE
 from .store import STORE_NAME, read_attrs
 from .timeline import (
@@ -95,6 +96,7 @@ def overview_options(maps, folder) -> dict:
         "hint": f"snn-fg plot {folder} --windows I,J,... draws any",
         "input_note": input_note(maps),
         "labels": window_numbers(maps).tolist(),
+        "made_by": made_by(maps.params),
     }
 
 
@@ -116,7 +118,7 @@ def timeline_of(maps, rows, folder):
     where it stopped, the last one stored, skipped or dropped."""
     source = maps.params.get("source", {})
     name = Path(str(source.get("input", Path(folder).name))).name
-    title = f"{name}: the {maps.params.get('model', '?')} model, window by window"
+    title = f"{name}: {made_by(maps.params)}, window by window"
     skipped, dropped = (maps.params.get(k, ()) for k in ("skipped_windows", "dropped_windows"))
     store = Path(folder) / STORE_NAME
     if store.is_dir() and not read_attrs(store)["snn_fg"]["complete"]:

@@ -114,5 +114,15 @@ def test_a_folder_of_images_is_a_batch_as_their_glob_is(tmp_path, capsys):
     (imgs / "notes.txt").write_text("mine")
     assert [p.name for p in recordings_of(str(imgs))] == ["a.jpg", "b.png"]
     (tmp_path / "none").mkdir()
+    for name in ("b.png", "a.jpg"):  # (a bright square: events to run on)
+        img = np.full((24, 32, 3), 90, np.uint8)
+        img[8:16, 10:22] = 200
+        cv2.imwrite(str(imgs / name), img)
+    assert main(["run", str(imgs), "--out", str(tmp_path / "b"), "--no-progress", "--no-figures", "--levels", "2"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    # an image's run has no windows: the table and the count say images (the summary's windows left empty)
+    assert [line.split()[:2] for line in printed[:2]] == [["done", "image"], ["done", "image"]]
+    assert printed[2].startswith("snn-fg: 2 images, 0 failed; summary in ")
+    assert {r["windows"] for r in _summary(tmp_path / "b").values()} == {""}
     assert main(["run", str(tmp_path / "none"), "--out", str(tmp_path / "o")]) == 2
     assert "names no recording or image (a folder of recordings or images" in capsys.readouterr().err

@@ -64,7 +64,7 @@ def test_a_map_with_vectors_against_one_without_is_said_without_nan(tmp_path):
         assert "nan" not in line and f"only {who} have a figure-ground vector (7 pixels)" in line, line
         assert "--input-rate-hz" not in line  # (a calibrated input: not the cause)
     line = agreement_line(full, full, "fast", 35.0, net, "snn-fg export --format pynn --out m")
-    assert "grouping r 1.000, 100.0 % of the vectors both have within 45 degrees" in line
+    assert "grouping r 1.000, within 45 degrees on 100.0 % of the 7 pixels where both have a vector," in line
 
 
 @pytest.mark.slow

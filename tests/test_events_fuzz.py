@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from snn_fg import datasets
 from snn_fg.errors import InputError, SnnFgError
-from snn_fg.events import EVENT_DTYPE, events_to_frame, iter_windows, open_recording, save_events
+from snn_fg.events import EVENT_DTYPE, events_to_frame, iter_recording, iter_windows, open_recording, save_events
 from snn_fg.events.writers import encode_es_atis
 
 EVENTS = datasets.find("events")  # None on a machine without the sample recordings
@@ -186,6 +186,7 @@ def test_an_aedat4_file_cut_inside_a_packet_says_where_and_why():
         path.write_bytes(base[:100_000])
         with pytest.raises(InputError) as err:
             open_recording(path)
+        read = _events_before_the_error(path)
     # the packet table walked by hand: each packet a stream id and a size (uint32 each), then its bytes
     at = 18 + int.from_bytes(base[14:18], "little")
     k = 0
@@ -194,5 +195,35 @@ def test_an_aedat4_file_cut_inside_a_packet_says_where_and_why():
     assert str(err.value) == (
         f"{path}: file ends inside AEDAT4 packet {k} ({100_000 - at} of "
         f"{8 + int.from_bytes(base[at + 4 : at + 8], 'little')} bytes); is the file cut short? "
-        f"(at byte offset {at})"
+        f"(at byte offset {at}, event {read})"
+    )
+
+
+def _events_before_the_error(path) -> int:
+    """How many events a reading of ``path`` hands over before its error."""
+    n = 0
+    with pytest.raises(InputError):
+        for chunk in iter_recording(path):
+            n += len(chunk)
+    return n
+
+
+def test_an_aedat4_packet_that_cannot_be_decoded_is_named_with_its_byte_offset_and_event():
+    """Zeroed bytes inside a compressed packet: the decoder's error, with where the packet
+    starts and the index of the first event not read (those before it are handed over)."""
+    base = bytearray(_shared("tonic_sample_person.aedat4"))
+    base[400_000:400_400] = bytes(400)
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "zeros.aedat4"
+        path.write_bytes(bytes(base))
+        with pytest.raises(InputError) as err:
+            open_recording(path)
+        read = _events_before_the_error(path)
+    at = 18 + int.from_bytes(base[14:18], "little")
+    k = 0
+    while at + 8 + int.from_bytes(base[at + 4 : at + 8], "little") <= 400_000:
+        at, k = at + 8 + int.from_bytes(base[at + 4 : at + 8], "little"), k + 1
+    assert read > 0 and str(err.value) == (
+        f"{path}: AEDAT4 packet {k} could not be decoded: LZ4 error: ERROR_decompressionFailed "
+        f"(at byte offset {at}, event {read})"
     )

@@ -2,7 +2,9 @@
 its resource report; both must have been made from the network the code builds
 today (python experiments/spiking_export_network.py regenerates them)."""
 
+import gzip
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -29,3 +31,9 @@ def test_stored_icub_artefacts_are_current_and_small():
     assert {"Conv2d", "LIF", "LI", "Delay"} <= {type(n).__name__ for n in g.nodes.values()}
     for name in (NIR_NAME, REPORT_NAME, REPORT_TABLE):
         assert (NETWORKS / name).stat().st_size < MAX_BYTES, name
+
+
+def test_the_readme_gives_the_nir_files_size():
+    """networks/README.md says how large the gunzipped HDF5 file is: the stored file's size, in MB."""
+    said = re.search(r"the HDF5 file is ([\d.]+) MB", (NETWORKS / "README.md").read_text()).group(1)
+    assert said == f"{len(gzip.decompress((NETWORKS / NIR_NAME).read_bytes())) / 1e6:.1f}"

@@ -329,9 +329,9 @@ def test_the_description_export_says_what_it_wrote(capsys, tmp_path, monkeypatch
     from snn_fg.network.graph import Network
 
     monkeypatch.chdir(tmp_path)
-    assert main(["export", "--format", "nir", "--network", "compact", "--sensor-size", "24x24", "--out", "g.nir"]) == 0
+    assert main(["export", "--format", "nir", "--network", "compact", "--sensor-size", "30x24", "--out", "g.nir"]) == 0
     capsys.readouterr()
-    given = ["--network", network] + (["--sensor-size", "24x24"] if network == "compact" else [])
+    given = ["--network", network] + (["--sensor-size", "30x24"] if network == "compact" else [])
     assert main(["export", "--format", "network", *given, "--out", "n.json"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     net = Network.load(tmp_path / "n.json")
@@ -340,9 +340,9 @@ def test_the_description_export_says_what_it_wrote(capsys, tmp_path, monkeypatch
     said = f"{size / 1e6:.1f} MB" if size >= 100_000 else f"{round(size / 1e3)} kB"
     assert lines == [
         f"snn-fg: wrote network description ({said}; {len(net.populations)} populations, "
-        f"{len(net.projections)} projections, {net.params.levels} levels, frame {h} x {w}) to n.json"
-    ]
-    assert len(net.populations) > 10 and (h, w) == (8, 8)  # (the compact network pools its input by 3)
+        f"{len(net.projections)} projections, {net.params.levels} levels, a {w} x {h} frame) to n.json"
+    ]  # (width x height, as the resource report and docs/export.md give sizes)
+    assert len(net.populations) > 10 and (h, w) == (8, 10)  # (the compact network pools its input by 3)
 
 
 def test_a_report_of_a_nir_file_says_it_counts_nirs_cells_not_the_networks(capsys, tmp_path, monkeypatch):

@@ -416,3 +416,19 @@ def test_the_step_loop_lets_go_of_the_interpreter_lock():
     from snn_fg.backends.fast import core
 
     assert core.run_steps.targetoptions.get("nogil") is True
+
+
+def test_the_docs_give_the_cells_of_a_320_x_240_recordings_network():
+    """For recorded events the fast engine creates every cell of the network: the count the docs
+    give for dvs.es (320 x 240) is the network's (its run prints it as ``fast engine: N cells``)."""
+    import re
+    from pathlib import Path
+
+    from snn_fg.backends.base import lif_populations
+    from snn_fg.network import SpikingParams
+
+    root = Path(__file__).resolve().parents[1]
+    said = re.search(r"13\.9 M \(([\d,]+)\) for the 320 x 240 `dvs.es`", (root / "docs/spiking-network.md").read_text())
+    net = build_network(ModelParams(), (240, 320), SpikingParams())
+    assert int(said.group(1).replace(",", "")) == sum(p.size for p in lif_populations(net))
+    assert "(13.9 M for `dvs.es`'s 320 x 240 sensor)" in (root / "docs/usage.md").read_text()

@@ -345,3 +345,17 @@ def test_an_earlier_live_run_is_replaced_with_force(tmp_path):
     (out / "notes.txt").write_text("the user's")
     with pytest.raises(InputError, match="holds notes.txt, which snn-fg did not write"):
         check_output_folder(out, force=True)
+
+
+def test_the_folders_made_for_a_file_go_again_when_it_is_not_written(tmp_path):
+    """Missing folders above a file are made, as mkdir -p makes them (usage.md), and removed
+    again, innermost first, when the file is not written; a folder that was there stays."""
+    from snn_fg.results.atomic import atomic_path
+
+    with atomic_path(tmp_path / "a" / "b" / "x.json") as part:
+        part.write_text("{}")
+    assert (tmp_path / "a" / "b" / "x.json").read_text() == "{}"
+    with pytest.raises(RuntimeError), atomic_path(tmp_path / "c" / "d" / "x.json") as part:
+        part.write_text("{")
+        raise RuntimeError("the write failed")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]

@@ -124,59 +124,79 @@ def test_summaries_name_what_they_skip(tmp_path, monkeypatch, capsys):
     ]
 
 
-def test_a_file_cut_inside_an_event_part_way_leaves_nothing_half_written(tmp_path, capsys):
-    """A recording cut short inside an event is refused when the reading
-    gets there, windows already run or not: the output folder goes, and the
-    error says how to run the complete windows before the cut."""
-    import re
-
-    from snn_fg.results.maps import Maps
-
-    n = 400_000  # (2 MB: read in several chunks, windows finish before the cut)
+def _cut_es(tmp_path):
+    """A 0.8 s recording (2 MB: read in several chunks) and the same cut inside its last event."""
+    n = 400_000
     ev = np.zeros(n, EVENT_DTYPE)
     ev["x"], ev["y"], ev["p"] = np.arange(n) % 40, (np.arange(n) // 40) % 30, np.arange(n) % 2
-    ev["t"] = np.arange(n) * 2  # 0.8 s: nine 85 ms windows and a part
+    ev["t"] = np.arange(n) * 2  # nine 85 ms windows and a part
     save_events(tmp_path / "whole.es", ev, (40, 30))
     cut = tmp_path / "cut.es"
     cut.write_bytes((tmp_path / "whole.es").read_bytes()[:-3])
-    assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "file ends inside an event (2 of 5 bytes); nothing written (--max-windows" in err[0]
-    assert not (tmp_path / "o").exists()
-    done = int(re.search(r"--max-windows (\d+) runs", err[0]).group(1))
-    assert 1 <= done < 10
-    assert (
-        main(
-            ["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures", "--max-windows", str(done)]
-        )
-        == 0
-    )
-    assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done
-    # --force with the same cut file: the run it would replace is still there when the new one fails
+    return cut
+
+
+def test_a_file_cut_inside_an_event_part_way_ends_the_run_at_the_windows_before_it(tmp_path, capsys):
+    """A recording cut short inside an event: the run stops there with one line naming the
+    byte offset and the event, and its output is the finished run of the windows complete
+    before the cut, the same as --max-windows gives (never a half-written window)."""
+    from snn_fg.results.maps import Maps
+
+    cut = _cut_es(tmp_path)
+    opts = ["--no-progress", "--no-figures"]
+    assert main(["run", str(cut), "--out", str(tmp_path / "o"), *opts]) == 2
+    err = [line for line in capsys.readouterr().err.strip().splitlines() if "warning" not in line]
+    assert err == [
+        f"snn-fg: error: {cut}: file ends inside an event (2 of 5 bytes) (at byte offset 2000015, event 399999); "
+        f"stopped there: the 9 windows complete before it are written to {tmp_path / 'o'}/, a finished run "
+        "(what --max-windows 9 gives)"
+    ]
+    assert main(["run", str(cut), "--out", str(tmp_path / "m"), *opts, "--max-windows", "9"]) == 0
+    cut_short, limited = Maps.load(tmp_path / "o"), Maps.load(tmp_path / "m")
+    assert len(cut_short.extra["t_start_us"]) == 9
+    np.testing.assert_array_equal(cut_short.fg_x, limited.fg_x)
+    assert cut_short.params["source"]["max_windows"] == 9
+    # --force with the same cut file: the run it replaces is that run again
+    assert main(["run", str(cut), "--out", str(tmp_path / "o"), *opts, "--force"]) == 2
+    assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == 9
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # nothing set aside is left
+
+
+def test_bad_input_before_any_window_keeps_the_earlier_run(tmp_path, capsys):
+    """Refused before its first window, a --force run leaves the earlier run as it was."""
+    cut = _cut_es(tmp_path)
+    opts = ["--no-progress", "--no-figures"]
+    assert main(["run", str(tmp_path / "whole.es"), "--out", str(tmp_path / "o"), *opts, "--max-windows", "2"]) == 0
     before = sorted(p.name for p in (tmp_path / "o").iterdir())
     capsys.readouterr()
-    assert main(["run", str(cut), "--out", str(tmp_path / "o"), "--no-progress", "--no-figures", "--force"]) == 2
+    cut.write_bytes(cut.read_bytes()[: 20 + 5 * 10 + 1])  # (ten events, then the cut: no window)
+    assert main(["run", str(cut), "--out", str(tmp_path / "o"), *opts, "--force"]) == 2
     err = [line for line in capsys.readouterr().err.strip().splitlines() if "warning" not in line]
-    assert len(err) == 1 and f"nothing written; the earlier run in {tmp_path / 'o'}/ is kept" in err[0]
+    assert err == [
+        f"snn-fg: error: {cut}: file ends inside an event (1 of 5 bytes); the earlier run in "
+        f"{tmp_path / 'o'}/ is kept (at byte offset 70, event 10)"
+    ]
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == before
-    assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done
-    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # nothing set aside is left
-    # and a --force run that succeeds replaces it
-    assert (
-        main(
-            [
-                "run",
-                str(tmp_path / "whole.es"),
-                "--out",
-                str(tmp_path / "o"),
-                "--no-progress",
-                "--no-figures",
-                "--force",
-                "--max-windows",
-                str(done + 1),
-            ]
-        )
-        == 0
-    )
-    assert len(Maps.load(tmp_path / "o").extra["t_start_us"]) == done + 1
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_damage_after_the_last_window_asked_for_is_never_read(tmp_path):
+    """The windows asked for end before the damage: they are cut, and the reading stops
+    there (a decoder reads 4 MB at a time: it hands over the events before the damage
+    first); the damage itself is an error naming its byte offset and event."""
+    whole = _cut_es(tmp_path).with_name("whole.es").read_bytes()
+    bad = bytearray(whole)
+    bad[20 + 5 * 300_000 + 1 : 20 + 5 * 300_000 + 5] = b"\xff\x7f\xff\x7f"  # event 300000 at (32767, 32767)
+    (tmp_path / "bad.es").write_bytes(bytes(bad))
+    assert len(list(iter_windows(tmp_path / "bad.es", max_windows=7))) == 7  # (to 0.595 s; the damage at 0.6 s)
+    with pytest.raises(InputError) as caught:
+        list(iter_windows(tmp_path / "bad.es"))
+    assert str(caught.value).endswith(
+        "event at (x=32767, y=32767) lies outside the 40 x 30 sensor of the header "
+        "(at byte offset 1500020, event 300000)"
+    )
+    seen = []
+    with pytest.raises(InputError, match="ends inside an event .*byte offset 2000015, event 399999"):
+        for w in iter_windows(tmp_path / "cut.es"):
+            seen.append(w.index)
+    assert seen == list(range(9))

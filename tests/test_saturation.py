@@ -55,6 +55,22 @@ def test_events_shows_the_timeline_flags_the_burst_and_plots_it(burst_es, tmp_pa
     assert "rows: 8 windows of 1 ms each" in out and "--start-ms 1 skips window 0" in out
 
 
+def test_the_events_timeline_and_its_advice_start_at_start_ms(burst_es, capsys):
+    """--start-ms cuts the table's windows as it cuts --write-frame's and a run's: numbered
+    from there, and the start that skips a burst counted from the first event as --start-ms is."""
+    assert main(["events", str(burst_es), "--no-progress", "--start-ms", "100"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    table = out[out.index("activity:") + 1 :]
+    assert table[0].startswith("rows: 85 ms windows from 100 ms (--start-ms; times from the first event);")
+    assert table[2].split()[:2] == ["100-185", f"{17 * H:,}"]
+    assert not any("saturated" in line for line in out)
+    # a start inside the burst: window 0 is 0.2-0.8 ms (60 % of the pixels), and 0.8 skips it
+    assert main(["events", str(burst_es), "--no-progress", "--start-ms", "0.2", "--window-ms", "0.6"]) == 0
+    out = capsys.readouterr().out
+    assert "saturated: window 0 (0.2-0.8 ms): events on 60.0% of the sensor's pixels" in out
+    assert "--start-ms 0.8 skips window 0" in out
+
+
 @pytest.mark.slow
 def test_run_warns_per_saturated_window_and_records_the_shares(burst_es, tmp_path, capsys):
     assert main(["run", str(burst_es), "--out", str(tmp_path / "a"), "--levels", "3", "--no-progress"]) == 0

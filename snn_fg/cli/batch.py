@@ -31,6 +31,7 @@ from ..backends.cores import usable_cores
 from ..errors import InputError, InputWarning, SnnFgError, install_hint
 from ..events.formats import SUFFIX_FORMAT, looks_like
 from ..events.images import IMAGE_SUFFIXES
+from ..frames.still import input_kind
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
 from ..results.progress import bar as progress_bar
@@ -149,8 +150,25 @@ def run_job(options: dict, command) -> dict:
     for w in caught:
         if not issubclass(w.category, InputWarning):
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
-    row.update(windows=windows_complete(out), seconds=round(time.perf_counter() - t, 2))
+    still = input_word(options["input"]) != "recording"  # (its maps are one frame's: no windows)
+    row.update(windows="" if still else windows_complete(out), seconds=round(time.perf_counter() - t, 2))
     return row
+
+
+def input_word(path: str) -> str:
+    """What an input of several is, in the lines that count them: ``recording``, ``image`` or
+    ``event frame`` (a file that cannot be told is a recording: its run says why)."""
+    try:
+        kind = input_kind(path)
+    except InputError:
+        return "recording"
+    return {"frame": "event frame"}.get(kind, kind)
+
+
+def _counted(inputs: list[str]) -> str:
+    """``2 images``, ``1 recording, 2 images``: how many inputs of each kind."""
+    words = [input_word(p) for p in inputs]
+    return ", ".join(f"{words.count(w)} {w}{'' if words.count(w) == 1 else 's'}" for w in dict.fromkeys(words))
 
 
 def _jobs(args) -> list[dict]:
@@ -229,13 +247,8 @@ def run_dataset(args, command) -> int:
     save_text(out / SUMMARY_NAME, text.getvalue())
     for r in rows:
         error = r["error"].removeprefix(f"{r['recording']}: ")  # (an input error names its file already)
-        print(
-            f"{r['status']:>8}  {r['windows']:5d} windows  {r['seconds']:8.1f} s  {r['recording']}"
-            + (f": {error}" if error else "")
-        )
+        made = f"{r['windows']:5d} windows" if r["windows"] != "" else f"{input_word(r['recording']):>13}"
+        print(f"{r['status']:>8}  {made}  {r['seconds']:8.1f} s  {r['recording']}" + (f": {error}" if error else ""))
     failed = sum(r["status"] == "failed" for r in rows)
-    print(
-        f"snn-fg: {len(rows)} recording{'' if len(rows) == 1 else 's'}, {failed} failed; "
-        f"summary in {out / SUMMARY_NAME}"
-    )
+    print(f"snn-fg: {_counted([r['recording'] for r in rows])}, {failed} failed; summary in {out / SUMMARY_NAME}")
     return 1 if failed else 0

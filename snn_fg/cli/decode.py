@@ -122,7 +122,8 @@ def agreement_line(board, ref, backend: str, input_hz: float, net, command: str 
     head = f"snn-fg: against snn-fg's {backend} backend on the same network and input: "
     if c["pixels_compared"]:
         return head + (
-            f"{grouping}, {100 * c['angle_within_45_frac']:.1f} % of the vectors both have within 45 degrees, "
+            f"{grouping}, within 45 degrees on {100 * c['angle_within_45_frac']:.1f} % of the "
+            f"{c['pixels_compared']:,} pixels where both have a vector, "
             f"mean absolute difference {c['angle_diff_mean_deg']:.1f} degrees; the board's maps have a vector at "
             f"{100 * c['coverage_of_b']:.1f} % of the reference's vector pixels"
         )

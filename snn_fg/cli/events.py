@@ -52,7 +52,12 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         default=85.0,
         help="window length of the activity timeline and --write-frame (default 85, as snn-fg run)",
     )
-    g.add_argument("--start-ms", type=float, default=0.0, help="window start, ms after the first event (default 0)")
+    g.add_argument(
+        "--start-ms",
+        type=float,
+        default=0.0,
+        help="start of the activity table's first window and of --write-frame's, ms after the first event (default 0)",
+    )
     g.add_argument(
         "--sensor-size",
         type=sensor_size,
@@ -276,7 +281,7 @@ def _check_plot(args, path):
 def _print_activity(stream, args):
     """The recording's activity window by window (a second pass over the
     file), its saturated windows, and the ``--plot`` figure."""
-    act = activity(stream, window_ms=args.window_ms)
+    act = activity(stream, window_ms=args.window_ms, start_ms=args.start_ms)
     print("activity:\n" + timeline_text(act))
     for line in saturated_lines(act):
         print(textwrap.fill(f"saturated: {line}", width=100, subsequent_indent="  ", break_on_hyphens=False))

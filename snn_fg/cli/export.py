@@ -212,12 +212,12 @@ def _check_sensor(params, shape, source: str):
 
 
 def describe_network(net) -> str:
-    """``55 populations, 180 projections, 3 levels, frame 80 x 102``: a description's size, for the
-    export's last line."""
+    """``55 populations, 180 projections, 3 levels, a 102 x 80 frame``: a description's size, for the
+    export's last line (width x height, as the resource report gives it)."""
     h, w = net.frame_shape
     return (
         f"{len(net.populations)} populations, {len(net.projections)} projections, "
-        f"{net.params.levels} levels, frame {h} x {w}"
+        f"{net.params.levels} levels, a {w} x {h} frame"
     )
 
 

@@ -20,7 +20,7 @@ from ..frames.pyramid import check_levels
 from ..frames.still import input_kind, load_frame
 from ..models import MODELS
 from ..results.atomic import OutputFolder, growing_folder, settle_folder
-from ..results.store import STORE_NAME, store_arrays, stored_run, windows_complete
+from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, windows_complete
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
 from .options import crop, number, sensor_size, subcommand
@@ -212,27 +212,28 @@ def _run_recording(args, model) -> str | None:
 def _settled(args, out, previous, run) -> int:
     """``run()`` into the growing folder ``out`` (``previous``: what it held, set aside, see
     :func:`~snn_fg.results.atomic.growing_folder`), then the folder settled by how it ended: kept
-    when it completed; after bad input part way through, no half-written output (the earlier
-    run kept); after an interrupt, the windows completed so far, for ``--resume``."""
+    when it completed, or finished at bad input part way through (the windows before it: never
+    a half-written window); after an interrupt, the windows completed so far, for ``--resume``;
+    after bad input before any window, nothing (the earlier run kept)."""
     try:
         n = run()
     except InputError as exc:
-        # bad input part way through (a file cut short, say): no half-written output
-        # (an interrupted run, below, keeps its windows for --resume; a resumed one keeps the earlier run's)
-        if args.resume:
+        # bad input: a run that met it part way through has finished with the windows before it
+        # (run_recording, which says so); one that met it before any is dropped, the earlier run kept
+        kept, earlier = run_finished(out), previous is not None and any(previous.iterdir())
+        if not args.resume:  # (a run continued is kept as it is, as after an interrupt)
+            settle_folder(out, previous, keep_new=kept)
+        if kept:
+            n = windows_complete(out)
+            place, s = (f" (at {exc.where})" if exc.where else ""), ("s" if n > 1 else "")
+            raise InputError(
+                exc.source,
+                f"{exc.problem}{place}; stopped there: the {n} window{s} complete before it "
+                f"{'are' if s else 'is'} written to {args.out}/, a finished run (what --max-windows {n} gives)",
+            ) from None
+        if not earlier:
             raise
-        done = windows_complete(out)
-        earlier = previous is not None and any(previous.iterdir())
-        settle_folder(out, previous, keep_new=False)
-        if not done and not earlier:
-            raise
-        said = f"; the earlier run in {args.out}/ is kept" if earlier else ""
-        if done:
-            said = (
-                f"; nothing written{said} (--max-windows {done} runs the {done} "
-                f"window{'s' if done > 1 else ''} before it)"
-            )
-        raise InputError(exc.source, exc.problem + said, exc.where) from None
+        raise InputError(exc.source, f"{exc.problem}; the earlier run in {args.out}/ is kept", exc.where) from None
     except BaseException:  # (refused before its first window: nothing to keep)
         settle_folder(out, previous, keep_new=bool(windows_complete(out)))
         raise

@@ -112,7 +112,9 @@ def run_recording(
     (:mod:`snn_fg.results.store`: each window written as it completes) and, at the
     end, its table (``windows.csv``) and figures. Returns the number of windows (``crop``: see
     :meth:`Model.write_figures`). ``source`` describes the input (its
-    ``"input"``, the name errors give, and the window options).
+    ``"input"``, the name errors give, and the window options). Bad input part way
+    through (a file cut short) ends the run at the windows complete before it, as
+    ``max_windows`` of as many would, and is then raised.
 
     ``resume``: continue the store in ``out`` from its last complete window
     (it must have been made with the same ``run_key``: by default the
@@ -154,14 +156,16 @@ def run_recording(
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)  # counted and reported once below
+        damage = None
         try:
             whole = model.run_windows_into(windows, emit, start=store.n)
-        except BaseException:  # (an interrupt or bad input: the windows completed so far, for --resume)
-            with contextlib.suppress(OSError):  # (a disk that failed: its error, not this one)
-                store.flush()
-                if store.n:  # (with the run's parameters so far: plot and compare read them as a finished run's)
-                    store.describe(_run_params(store, source, windows, clock, warn=False))
-                    store.flush()
+        except InputError as exc:  # (bad input part way through: the windows before it make the run)
+            if not _part_way(store, source, windows, clock):
+                raise
+            damage, whole = exc, {}
+            source = {**source, "max_windows": store.n}  # (the run it is: --max-windows N's)
+        except BaseException:  # (an interrupt: the windows completed so far, for --resume)
+            _part_way(store, source, windows, clock)
             raise
         finally:
             if isinstance(windows, _Counted):
@@ -187,7 +191,21 @@ def run_recording(
     write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)
     if figures:
         model.write_figures(out, maps, input_images(maps), crop=crop, **overview_options(maps, out))
+    if damage is not None:
+        raise damage
     return store.n
+
+
+def _part_way(store: MapsStore, source: dict, windows, clock) -> int:
+    """The windows of a run stopped part way made visible (with the run's parameters so far: plot
+    and compare read them as a finished run's); how many there are (0 when its disk failed)."""
+    with contextlib.suppress(OSError):  # (a disk that failed: its error, not this one)
+        store.flush()
+        if store.n:
+            store.describe(_run_params(store, source, windows, clock, warn=False))
+            store.flush()
+        return store.n
+    return 0
 
 
 def goes_on(attrs: dict, asked: int | None) -> bool:

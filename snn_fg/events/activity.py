@@ -31,14 +31,15 @@ def pixel_share(window) -> float:
     return float(np.count_nonzero(window.pos | window.neg) / window.pos.size)
 
 
-def activity(recording, *, window_ms: float = 85.0, sensor_size=None) -> Activity:
+def activity(recording, *, window_ms: float = 85.0, start_ms: float = 0.0, sensor_size=None) -> Activity:
     """Events and pixel share of every window of ``recording`` (a path, a
     stream or an array), cut as :func:`~snn_fg.events.iter_windows` cuts it
-    from the first event."""
+    from ``start_ms`` after the first event (the windows a run with that
+    ``--start-ms`` is given, numbered as it numbers them)."""
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EmptyWindowWarning)  # an empty window is a row of zeros
-        for w in iter_windows(recording, window_ms=window_ms, sensor_size=sensor_size):
+        for w in iter_windows(recording, window_ms=window_ms, start_ms=start_ms, sensor_size=sensor_size):
             a, b = w.span_ms
             rows.append((a, b, len(w.events), pixel_share(w)))
     a, b, n, share = (np.array(c) for c in zip(*rows))
@@ -65,7 +66,7 @@ def saturated_lines(act: Activity, most: int = 5) -> list[str]:
     n = len(act.share)
     if lead == n:
         skip = "; every window here is in it: start later with --start-ms (snn-fg events INPUT shows where it ends)"
-    elif lead:
+    elif lead:  # (the windows count from the --start-ms the activity was cut from, as a run's do)
         which = "window 0" if lead == 1 else f"windows 0-{lead - 1}"
         skip = (
             f"; --start-ms {act.t_start_ms[lead]:g} skips {which} (a shorter --window-ms in snn-fg events "
@@ -89,8 +90,10 @@ def timeline_text(act: Activity) -> str:
     group = math.ceil(n / TIMELINE_ROWS)
     top = max(int(act.events.max()), 1)
     per = f"{act.window_ms:g} ms windows" if group == 1 else f"{group} windows of {act.window_ms:g} ms each"
+    start = act.t_start_ms[0] if n else 0
+    since = "the first event" if not start else f"{start:g} ms (--start-ms; times from the first event)"
     lines = [
-        f"rows: {per} from the first event; bar: events; share: pixels with an event"
+        f"rows: {per} from {since}; bar: events; share: pixels with an event"
         + ("" if group == 1 else " (largest of the row)"),
         f"{'t (ms)':>13}  {'events':>11}  {'share':>7}",
     ]

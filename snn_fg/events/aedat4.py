@@ -83,7 +83,7 @@ def _packets(path):
         try:
             packet = _panic_safe(path, f"AEDAT4 packet {k} could not be decoded", next, it, None)
         except InputError as exc:
-            raise _packet_error(path, k) or exc from None
+            raise _packet_error(path, k, exc) from None
         if packet is None:
             return
         k += 1
@@ -139,10 +139,10 @@ def iter_frames(path):
             yield packet["frame"]
 
 
-def _packet_error(path, k: int) -> InputError | None:
-    """Where packet ``k`` lies, for a decoder error: each packet is a stream
-    id and a size (little-endian uint32 each), then that many bytes. The
-    error when the file ends inside it (a recording cut short), else None."""
+def _packet_error(path, k: int, error: InputError) -> InputError:
+    """The decoder's ``error`` about packet ``k`` with where that packet lies: each packet is a
+    stream id and a size (little-endian uint32 each), then that many bytes. When the file ends
+    inside it (a recording cut short), an error that says so."""
     with open(path, "rb") as fh:
         fh.seek(len(MAGIC))
         at = _BODY_OFFSET + int.from_bytes(fh.read(4), "little")
@@ -153,15 +153,16 @@ def _packet_error(path, k: int) -> InputError | None:
             size = int.from_bytes(head[4:], "little") if len(head) == 8 else 0
             if len(head) < 8 or at + 8 + size > end:
                 if j < k:
-                    return None  # (the decoder read past this one: not a cut in the packet table)
+                    return error  # (the decoder read past this one: not a cut in the packet table)
                 whole = f"{8 + size} bytes" if len(head) == 8 else "its 8 header bytes"
                 return InputError(
                     path,
                     f"file ends inside AEDAT4 packet {k} ({end - at} of {whole}); is the file cut short?",
                     f"byte offset {at}",
                 )
-            at += 8 + size
-    return None
+            if j < k:
+                at += 8 + size
+    return InputError(error.source, error.problem, f"byte offset {at}")
 
 
 def _count_skipped(packet: dict, tally) -> None:

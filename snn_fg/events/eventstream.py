@@ -160,8 +160,10 @@ def iter_records(path, header: Header, read_bytes: int = READ_BYTES):
                 t_prev = int(t[-1])
                 x = buf[starts + 1] | (buf[starts + 2].astype(np.uint16) << 8)
                 y = buf[starts + 3] | (buf[starts + 4].astype(np.uint16) << 8)
-                _check_coordinates(path, header, x, y, starts, base)
-                yield head & ((1 << flag_bits) - 1), x, y, t
+                n = _first_outside(header, x, y)  # (the events before one outside: their windows are cut)
+                yield head[:n] & ((1 << flag_bits) - 1), x[:n], y[:n], t[:n]
+                if n < len(starts):
+                    raise _outside(path, header, x[n], y[n], base + int(starts[n]))
             else:
                 pending_us += int(((buf[specials].astype(np.int64) - special) * overflow_unit).sum())
             carry = bytes(buf[used:])
@@ -204,13 +206,15 @@ def _scan(buf: np.ndarray, special: int):
     return starts[:n_starts].copy(), specials[:n_specials].copy(), pos
 
 
-def _check_coordinates(path, header: Header, x, y, starts, base):
+def _first_outside(header: Header, x, y) -> int:
+    """The index of the first event outside the header's sensor (``len(x)``: none)."""
     bad = (x >= header.width) | (y >= header.height)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise InputError(
-            path,
-            f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the {header.width} x "
-            f"{header.height} sensor of the header",
-            f"byte offset {base + int(starts[i])}",
-        )
+    return int(np.argmax(bad)) if bad.any() else len(x)
+
+
+def _outside(path, header: Header, x, y, offset: int) -> InputError:
+    return InputError(
+        path,
+        f"event at (x={int(x)}, y={int(y)}) lies outside the {header.width} x {header.height} sensor of the header",
+        f"byte offset {offset}",
+    )

@@ -152,11 +152,24 @@ def no_span_problem(n: int, t: int) -> str:
 
 
 def _rechunk(raw_chunks, n: int, name, sensor_size) -> Iterator[np.ndarray]:
-    """Validated :data:`EVENT_DTYPE` chunks of exactly ``n`` events (the last may be shorter)."""
+    """Validated :data:`EVENT_DTYPE` chunks of exactly ``n`` events (the last may be shorter).
+
+    A decoder that meets damage (a file cut inside an event, bytes that are no event) has
+    yielded the events before it: they are yielded too, so that the windows they complete
+    are cut, and then its error is raised with the index of the event at fault
+    (:func:`at_event`)."""
     done = 0
     pending = []
     pending_n = 0
-    for raw in raw_chunks:
+    raw_chunks, damage = iter(raw_chunks), None
+    while True:
+        try:
+            raw = next(raw_chunks)
+        except StopIteration:
+            break
+        except InputError as exc:
+            damage = exc
+            break
         ev = as_events(raw, name, offset=done + pending_n)
         check_in_sensor(ev, sensor_size, name, offset=done + pending_n)
         if not len(ev):
@@ -171,6 +184,19 @@ def _rechunk(raw_chunks, n: int, name, sensor_size) -> Iterator[np.ndarray]:
             yield out
     if pending_n:
         yield np.concatenate(pending) if len(pending) > 1 else pending[0]
+    if damage is not None:
+        raise at_event(damage, done + pending_n) from None
+
+
+def at_event(error: InputError, index: int) -> InputError:
+    """``error``, a decoder's (which knows the byte offset), with the index of the event at
+    fault added to its place: ``index`` events came before it (an error that names an
+    event already is returned as it is)."""
+    where = error.where or ""
+    if "event" in where:
+        return error
+    where = f"{where}, event {index}" if where else f"event {index}"
+    return InputError(error.source, error.problem, where, remedy=error.remedy, note=error.note)
 
 
 def iter_recording(

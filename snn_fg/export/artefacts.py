@@ -23,7 +23,7 @@ from .nir import export_nir
 from .report import report_table, resource_report
 
 ICUB_SHAPE = (240, 304)  # rows, cols of the iCub ATIS
-NIR_NAME = "icub_304x240.nir.gz"  # gzip: the HDF5 file is 18 MB, mostly per-dataset headers
+NIR_NAME = "icub_304x240.nir.gz"  # gzipped: the HDF5 file is large (its size: networks/README.md)
 REPORT_NAME = "icub_304x240_resources.json"
 REPORT_TABLE = "icub_304x240_resources.txt"
 

@@ -125,6 +125,14 @@ def windows_complete(folder) -> int:
         return 0
 
 
+def run_finished(folder) -> bool:
+    """Whether the store in a run's output ``folder`` holds a run that has ended (:meth:`MapsStore.finish`)."""
+    try:
+        return bool(read_attrs(Path(folder) / STORE_NAME)["snn_fg"]["complete"])
+    except (InputError, OSError, KeyError):
+        return False
+
+
 def _lengths(path: Path, n: int) -> dict:
     """Each array of the store at ``path`` and its length at ``n`` windows
     (a ragged array's from its offsets)."""

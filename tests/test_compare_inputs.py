@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.cli.compare_maps import chance_margins, mismatches, verdict
+from snn_fg.cli.compare_maps import axis_flip, chance_margins, mismatches, verdict
 from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_events, save_events
 from snn_fg.frames.scenes import disc
 from snn_fg.results.maps import Maps
-from snn_fg.scoring.metrics import compare_maps
+from snn_fg.scoring.metrics import compare_maps, flipped_within_45
 from snn_fg.scoring.pairing import pair_windows
 
 RUN = ["--window-ms", "50", "--levels", "4", "--max-windows", "2", "--no-figures", "--no-progress"]
@@ -127,24 +127,28 @@ def _field(angles):
 
 
 def _judged(a, b):
+    """The verdict on ``a`` against ``b`` (each ``(fg_x, fg_y)``), after the note on a flipped axis if any."""
     (ax, ay), (bx, by) = a, b
-    return verdict(compare_maps(Maps(ax, ay, ax * 0), Maps(bx, by, bx * 0)))
+    a, b = Maps(ax, ay, ax * 0), Maps(bx, by, bx * 0)
+    pairing = pair_windows(a, b)
+    rows = compare_maps(a, b, pairing=pairing)
+    return f"{axis_flip(rows, flipped_within_45(a, b, pairing))} {verdict(rows)}"
 
 
 def test_the_verdict_tells_maps_that_point_the_other_way_from_unrelated_ones():
     """A disc's border owned by the disc (vectors towards its centre) against itself, unrelated
     directions and itself negated; horizontal edges against their vectors' y negated (an axis flip
-    reads as opposed where edges run across that axis; on the disc's every direction it spreads the
-    differences evenly over 0-180 degrees, as chance does: these two numbers cannot tell it)."""
+    reads as opposed where edges run across that axis). On the disc's every direction a flipped
+    axis spreads the differences over 0-180 degrees as chance does: a note says it, from B's
+    agreement once that axis is flipped back."""
     yy, xx = np.mgrid[-20:21, -20:21]
     r = np.hypot(xx, yy)
     ring = np.where(np.abs(r - 12) < 1.5, np.arctan2(-yy, -xx), np.nan)  # (towards the centre)
     a = _field(ring)
     rng = np.random.default_rng(0)
-    assert _judged(a, a).endswith("above chance.")
-    assert _judged(a, _field(np.where(np.isnan(ring), np.nan, rng.uniform(0, 2 * np.pi, ring.shape)))).endswith(
-        "near chance: the two maps' directions are unrelated."
-    )
+    assert _judged(a, a).startswith("None All windows") and _judged(a, a).endswith("above chance.")
+    unrelated = _judged(a, _field(np.where(np.isnan(ring), np.nan, rng.uniform(0, 2 * np.pi, ring.shape))))
+    assert unrelated.startswith("None") and unrelated.endswith("near chance: the two maps' directions are unrelated.")
     opposed = "opposed: B points the other way on most pixels (a sign or axis flip?)."
     assert _judged(a, _field(ring + np.pi)).endswith(opposed)
     stripes = np.full(r.shape, np.nan)
@@ -153,6 +157,13 @@ def test_the_verdict_tells_maps_that_point_the_other_way_from_unrelated_ones():
     assert _judged(_field(stripes), _field(-stripes)).endswith(opposed)
     # turned 90 degrees: none within 45, mean 90: not unrelated, not opposed
     assert "below chance" in _judged(a, _field(ring + np.pi / 2))
+    # one axis flipped on the disc: as drawn its differences spread like chance's; flipped back, all agree
+    y_flipped = _judged(a, (a[0], -a[1]))
+    assert y_flipped.startswith("A agrees with B once B's y axis is flipped (within 45° on 100.0% of the pixels")
+    assert y_flipped.endswith("near chance: the two maps' directions are unrelated.")
+    assert _judged(a, (-a[0], a[1])).startswith("A agrees with B once B's x axis is flipped")
+    assert _judged(a, tuple(f[::-1] for f in a)).startswith("A agrees with B once B's y axis is flipped")  # upside down
+    assert _judged(a, _field(ring + np.pi)).startswith("None")  # (negated: the verdict's "opposed" says it)
 
 
 def test_the_margin_from_chance_is_three_binomial_deviations_of_the_pixels_with_a_floor():

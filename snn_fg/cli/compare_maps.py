@@ -18,7 +18,7 @@ from ..results.maps import Maps
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
 from ..scoring.inputs import differing, other_frames, other_inputs, same_run
-from ..scoring.metrics import compare_maps, compared_pixels
+from ..scoring.metrics import compare_maps, compared_pixels, flipped_within_45
 from ..scoring.outline import event_outlines
 from ..scoring.pairing import WindowOutOfRange, pair_windows
 from .options import blank, cell, nulls
@@ -109,6 +109,9 @@ def compare_pair(args, path_a, path_b, say=print):
         ) from None
     except SnnFgError as exc:
         raise InputError(path_b, str(exc).removeprefix("compare_maps: ")) from None
+    flip = axis_flip(rows, flipped_within_45(a, b, pairing, where, args.min_confidence))
+    if flip:
+        say(f"snn-fg: note: {flip}")
     baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
     return a, b, rows, where, baseline, pairing.how
 
@@ -244,6 +247,25 @@ def verdict(rows) -> str:
         "" if own is None else f"; B against itself {own:.1%}"
     )
     return f"All windows: A within 45° of B on {within:.1%} of {n:,} pixels, mean {mean:.1f}° ({against}): {word}."
+
+
+def axis_flip(rows, flipped: dict) -> str | None:
+    """The note for a pair that agrees far better once one of B's axes is flipped
+    (:func:`~snn_fg.scoring.metrics.flipped_within_45`): above chance by :func:`chance_margins`,
+    that far above the agreement as stored, and better than B negated (which the verdict calls
+    opposed); None otherwise."""
+    n = sum(r.get("pixels_compared") or 0 for r in rows)
+    if not n or not flipped:
+        return None
+    margin, _ = chance_margins(n)
+    within = _pooled(rows, "angle_within_45_frac")
+    axis = max(flipped, key=flipped.get)  # (B negated first among equals: an edge's one axis flipped reads so too)
+    if axis == "both" or flipped[axis] < max(CHANCE_WITHIN_45, within) + margin:
+        return None
+    return (
+        f"A agrees with B once B's {axis} axis is flipped (within 45° on {flipped[axis]:.1%} of the pixels, "
+        f"against {within:.1%} as stored): does one of them draw {axis} the other way round?"
+    )
 
 
 #: the model parameters that make the network's stages (two maps made with others are not one model's)

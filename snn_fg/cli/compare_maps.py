@@ -6,6 +6,7 @@ on a pair whose settings differ; shared by a single pair and by runs pooled (:mo
 
 from __future__ import annotations
 
+import math
 import sys
 import textwrap
 from pathlib import Path
@@ -16,7 +17,8 @@ from ..errors import InputError, SnnFgError
 from ..results.maps import Maps
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
-from ..scoring.metrics import compare_maps, compared_pixels
+from ..scoring.inputs import differing, other_frames, other_inputs, same_run
+from ..scoring.metrics import compare_maps, compared_pixels, flipped_within_45
 from ..scoring.outline import event_outlines
 from ..scoring.pairing import WindowOutOfRange, pair_windows
 from .options import blank, cell, nulls
@@ -91,11 +93,14 @@ def compare_pair(args, path_a, path_b, say=print):
     :class:`InputError`."""
     a, b = Maps.load(path_a), Maps.load(path_b)
     a, b, notes = align_to_export(a, b, args.window, (path_a, path_b))  # (a board's maps against the reference)
-    for note in notes + mismatches(a, b) + expectations(a, b):
+    one = _run_dir(path_a) == _run_dir(path_b)
+    for note in notes + expectations(a, b):
         say(f"snn-fg: note: {note}")
     window = None if notes else args.window
     try:
         pairing = pair_windows(a, b, window)
+        for note in mismatches(a, b, pairing, same_folder=one):
+            say(f"snn-fg: note: {note}")
         where = None if args.outline is None else event_outlines(a, b, args.outline)
         rows = compare_maps(a, b, window, where=where, min_confidence=args.min_confidence, pairing=pairing)
     except WindowOutOfRange as exc:  # (compare_maps checks it; said by the option's name and the file)
@@ -104,6 +109,9 @@ def compare_pair(args, path_a, path_b, say=print):
         ) from None
     except SnnFgError as exc:
         raise InputError(path_b, str(exc).removeprefix("compare_maps: ")) from None
+    flip = axis_flip(rows, flipped_within_45(a, b, pairing, where, args.min_confidence))
+    if flip:
+        say(f"snn-fg: note: {flip}")
     baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)
     return a, b, rows, where, baseline, pairing.how
 
@@ -140,11 +148,16 @@ def _record(args, rows, baseline: str | None, paired: str | None = None) -> dict
     }
 
 
-def _run_name(path) -> str:
-    """The name of the run a maps argument belongs to: its output folder's
-    (``out/a``, ``out/a/maps.npz`` and ``out/a/maps.zarr`` are all run ``a``)."""
+def _run_dir(path) -> Path:
+    """The output folder of the run a maps argument belongs to (``out/a``, ``out/a/maps.npz`` and
+    ``out/a/maps.zarr`` are all run ``a``)."""
     p = Path(path).resolve()
-    return p.parent.name if p.is_file() or p.suffix in (".npz", ".zarr") else p.name
+    return p.parent if p.is_file() or p.suffix in (".npz", ".zarr") else p
+
+
+def _run_name(path) -> str:
+    """The name of the run a maps argument belongs to: its output folder's (:func:`_run_dir`)."""
+    return _run_dir(path).name
 
 
 def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str:
@@ -184,6 +197,22 @@ def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str
 
 #: what two unrelated maps give: directions uniformly at random, so a quarter within 45 degrees, 90 degrees apart
 CHANCE_WITHIN_45, CHANCE_MEAN_DEG = 0.25, 90.0
+#: one unrelated pixel's spread: within 45 degrees or not (binomial, p = 0.25), and its difference,
+#: uniform on 0-180 degrees
+_PIXEL_SD_WITHIN, _PIXEL_SD_MEAN_DEG = math.sqrt(CHANCE_WITHIN_45 * (1 - CHANCE_WITHIN_45)), 180 / math.sqrt(12)
+#: how far from chance a pooled figure of n pixels lies before the verdict tells it from chance:
+#: CHANCE_SDS standard deviations of what n unrelated pixels give, and at least the floors
+#: (neighbouring pixels' vectors are not independent: n pixels are fewer independent draws)
+CHANCE_SDS, FLOOR_WITHIN_45, FLOOR_MEAN_DEG = 3.0, 0.10, 10.0
+
+
+def chance_margins(n: int) -> tuple[float, float]:
+    """How far from chance (:data:`CHANCE_SDS`) the share within 45 degrees and the mean difference
+    of ``n`` compared pixels must lie to be told from unrelated maps'."""
+    return (
+        max(FLOOR_WITHIN_45, CHANCE_SDS * _PIXEL_SD_WITHIN / math.sqrt(n)),
+        max(FLOOR_MEAN_DEG, CHANCE_SDS * _PIXEL_SD_MEAN_DEG / math.sqrt(n)),
+    )
 
 
 def _pooled(rows, key) -> float | None:
@@ -195,13 +224,20 @@ def _pooled(rows, key) -> float | None:
 
 def verdict(rows) -> str:
     """One line over every compared window (pixel-weighted): A's agreement with B beside what
-    unrelated maps give and, where the rows have it, beside B's agreement with itself."""
+    unrelated maps give and, where the rows have it, beside B's agreement with itself. Within
+    :func:`chance_margins` of chance is near chance; the share within 45 degrees that far below it
+    is below chance, and with the mean difference that far above 90 degrees, opposed (B reversed)."""
     n = sum(r.get("pixels_compared") or 0 for r in rows)
     if not n:
         return "All windows: no pixel where both maps have a vector; nothing to judge."
     within, mean = _pooled(rows, "angle_within_45_frac"), _pooled(rows, "angle_diff_mean_deg")
     own = _pooled(rows, "baseline_within_45")
-    if within < CHANCE_WITHIN_45 + 0.10:
+    near_within, near_mean = chance_margins(n)
+    if within <= CHANCE_WITHIN_45 - near_within and mean >= CHANCE_MEAN_DEG + near_mean:
+        word = "opposed: B points the other way on most pixels (a sign or axis flip?)"
+    elif within <= CHANCE_WITHIN_45 - near_within:
+        word = "below chance: B's directions are turned from A's, not unrelated (an axis swapped?)"
+    elif within < CHANCE_WITHIN_45 + near_within:
         word = "near chance: the two maps' directions are unrelated"
     elif own is not None and within >= own - 0.05:
         word = "as close as B's model comes to itself"
@@ -213,26 +249,51 @@ def verdict(rows) -> str:
     return f"All windows: A within 45° of B on {within:.1%} of {n:,} pixels, mean {mean:.1f}° ({against}): {word}."
 
 
+def axis_flip(rows, flipped: dict) -> str | None:
+    """The note for a pair that agrees far better once one of B's axes is flipped
+    (:func:`~snn_fg.scoring.metrics.flipped_within_45`): above chance by :func:`chance_margins`,
+    that far above the agreement as stored, and better than B negated (which the verdict calls
+    opposed); None otherwise."""
+    n = sum(r.get("pixels_compared") or 0 for r in rows)
+    if not n or not flipped:
+        return None
+    margin, _ = chance_margins(n)
+    within = _pooled(rows, "angle_within_45_frac")
+    axis = max(flipped, key=flipped.get)  # (B negated first among equals: an edge's one axis flipped reads so too)
+    if axis == "both" or flipped[axis] < max(CHANCE_WITHIN_45, within) + margin:
+        return None
+    return (
+        f"A agrees with B once B's {axis} axis is flipped (within 45° on {flipped[axis]:.1%} of the pixels, "
+        f"against {within:.1%} as stored): does one of them draw {axis} the other way round?"
+    )
+
+
 #: the model parameters that make the network's stages (two maps made with others are not one model's)
 _STAGE_PARAMS = ("levels", "levels_per_octave", "n_ori", "r0", "input_pool")
 
 
-def mismatches(a: Maps, b: Maps) -> list[str]:
-    """Notes for a pair that is not one input through two models: other inputs, other stage parameters."""
+def mismatches(a: Maps, b: Maps, pairing=None, same_folder: bool = False) -> list[str]:
+    """Notes for a pair that is not one input through two models (:mod:`snn_fg.scoring.inputs`):
+    one run twice, other inputs, other event frames (their windows, ``pairing``, hold other
+    events), other stage parameters."""
+    one = same_run(a, b, same_folder)
+    if one is not None:
+        what = "the same run" if one == "the same run" else "identical runs (the same maps and parameters: a copy?)"
+        return [f"A and B are {what}: they agree by construction, which says nothing of a model"]
     out = []
-    sources = [m.params.get("source") or {} for m in (a, b)]
-    inputs = [s.get("input") for s in sources]
-    live = any(s.get("kind") == "live" for s in sources)  # (a stream's address: its windows' clock tells instead)
-    if None not in inputs and not live and Path(inputs[0]).name != Path(inputs[1]).name:
-        out.append(f"A and B come from different inputs ({Path(inputs[0]).name}, {Path(inputs[1]).name})")
-    differ = [
-        f"{k} {a.params[k]} against {b.params[k]}"
-        for k in _STAGE_PARAMS
-        if k in a.params and k in b.params and a.params[k] != b.params[k]
-    ]
-    if differ:
+    differ = other_inputs(a, b, pairing)
+    if differ is not None:
+        out.append(f"A and B come from different inputs ({differ})")
+    frames = other_frames(a, b, pairing)
+    if frames:
         out.append(
-            f"A and B were made with other model parameters ({', '.join(differ)}): B is not A's reference; "
+            f"A and B were made from other event frames ({', '.join(frames)}): the windows compared hold other "
+            "events, so the maps part by more than the models do; make both with the same options"
+        )
+    stages = differing(a.params, b.params, _STAGE_PARAMS)
+    if stages:
+        out.append(
+            f"A and B were made with other model parameters ({', '.join(stages)}): B is not A's reference; "
             "run B's model with A's --network (the rate model on the compact network: "
             "snn-fg run REC --model rate --network compact)"
         )

@@ -15,6 +15,7 @@ import math
 from ..errors import InputError
 from ..events.aps import FramedWindows, pairing_note, require_frames
 from ..events.esim import MOTIONS
+from ..events.identity import input_keys
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..frames.still import input_kind, load_frame
@@ -194,6 +195,7 @@ def _run_recording(args, model) -> str | None:
     written, or None when a resumed run is finished already."""
     windows, source, shape = _windows(args, model)
     _check_frame(args, model, shape)
+    source.update(input_keys(args.input, sensor_size=args.sensor_size))  # (compare tells inputs apart by them)
     out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
     if _nothing_to_resume(args, out, source.get("max_windows")):
         return None

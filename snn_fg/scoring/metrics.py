@@ -267,3 +267,21 @@ def grouping_peak_inside(grouping, scene, shape_index: int | None = 0) -> bool:
     r, c = grouping_peak(grouping)
     shapes = scene.shapes if shape_index is None else (scene.shapes[shape_index],)
     return any(s.contains(float(r), float(c)) for s in shapes)
+
+
+def flipped_within_45(a: Maps, b: Maps, pairing: Pairing, where=None, min_confidence: float | None = None) -> dict:
+    """Over the windows ``pairing`` pairs and the pixels :func:`compare_maps` compares there, the
+    share of A's vectors within 45 degrees of B's once B's ``"y"`` axis, its ``"x"`` axis, or
+    ``"both"`` (B negated) are flipped: an export that writes an axis the other way round agrees
+    only so. Pooled by pixel; ``{}`` when no pixel is compared."""
+    hits, n = {"both": 0, "y": 0, "x": 0}, 0
+    for ia, ib in pairing.pairs:
+        (ax, ay, _), (bx, by, _) = frame_of(a, ia), frame_of(b, ib)
+        keep = compared_pixels(a, b, ia, ib, where, min_confidence)
+        both = (np.hypot(ax, ay) > 0) & (np.hypot(bx, by) > 0) & (True if keep is None else keep)
+        ax, ay, bx, by = (np.asarray(v)[both] for v in (ax, ay, bx, by))
+        n += ax.size
+        hits["y"] += int(np.sum(angle_difference_deg(ax, ay, bx, -by) <= 45))
+        hits["x"] += int(np.sum(angle_difference_deg(ax, ay, -bx, by) <= 45))
+        hits["both"] += int(np.sum(angle_difference_deg(ax, ay, -bx, -by) <= 45))
+    return {axis: k / n for axis, k in hits.items()} if n else {}

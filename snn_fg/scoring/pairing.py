@@ -18,7 +18,7 @@ line says so.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -27,6 +27,7 @@ from ..errors import ParameterError
 from ..events.clock import ARRIVAL, SHARED
 from ..results.maps import Maps
 from ..results.timeline import window_numbers
+from .inputs import other_inputs
 
 #: how far apart (us) two windows' starts on the events' clock may lie and still be paired: a live run's
 #: first window starts at the first event it received, not at --start-ms itself (in dvs.es, 100 ms in,
@@ -57,12 +58,15 @@ class Pairing:
     """The windows paired: ``pairs`` of positions in ``a`` and ``b`` (``None``: that map is one
     frame), ``numbers`` the windows' own numbers in their recording or stream
     (:func:`~snn_fg.results.timeline.window_numbers`), ``t_us`` B's window start after B's first
-    event (None: unknown), and ``how``, the line that says how they were paired."""
+    event (None: unknown), ``how``, the line that says how they were paired, and ``by_start``
+    whether each pair's windows start together (on the events' clock, or after each run's first
+    event), not only at one place in their runs."""
 
     pairs: list
     numbers: list
     t_us: list
     how: str
+    by_start: bool = False
 
 
 def _side(m: Maps):
@@ -96,19 +100,21 @@ def pair_windows(a: Maps, b: Maps, window: int | None = None) -> Pairing:
         return _pairing([(x, y) for x in ia for y in ib], na, nb, tb, how)
     ca, cb = _clock(a), _clock(b)
     if ca is not None and cb is not None:
-        return _unpaired(_by_clock(ca, cb, (ia, na, ta), (ib, nb, tb)), len(ia), len(ib))
+        return _unpaired(_by_clock(ca, cb, (ia, na, ta), (ib, nb, tb), other_inputs(a, b)), len(ia), len(ib))
     if None not in ta + tb:
         starts = {t: i for i, t in zip(ib, tb)}
         pairs = [(i, starts[t]) for i, t in zip(ia, ta) if t in starts]
         if not pairs:
-            check.fail("compare_maps", None, None, "the two recordings share no window start time")
+            differ = other_inputs(a, b)
+            said = "" if differ is None else f": they are runs of different inputs ({differ})"
+            check.fail("compare_maps", None, None, f"the two recordings share no window start time{said}")
         old = " and ".join(name for name, c in (("A", ca), ("B", cb)) if c is None)
         how = (
             f"windows paired by their start after each run's own first event ({old} "
             f"{'was' if len(old) == 1 else 'were'} stored without the events' clock, as before snn-fg kept it: "
             "a replay's then began at 0 wherever the recording's lay)"
         )
-        return _unpaired(_pairing(pairs, na, nb, tb, how), len(ia), len(ib))
+        return _unpaired(_pairing(pairs, na, nb, tb, how, by_start=True), len(ia), len(ib))
     if len(ia) == 1 or len(ib) == 1:
         what = "the frame" if ia == [None] or ib == [None] else "the one window"
         return _pairing([(x, y) for x in ia for y in ib], na, nb, tb, f"{what} against every window of the other")
@@ -129,18 +135,17 @@ def _unpaired(p: Pairing, n_a: int, n_b: int) -> Pairing:
     left = [f"{n - m} of {side}'s {n} windows" for side, n, m in zip("AB", (n_a, n_b), paired) if n > m]
     if not left:
         return p
-    return Pairing(
-        p.pairs, p.numbers, p.t_us, f"{p.how}; left out, with no partner in the other run: {' and '.join(left)}"
-    )
+    return replace(p, how=f"{p.how}; left out, with no partner in the other run: {' and '.join(left)}")
 
 
-def _pairing(pairs, na, nb, tb, how) -> Pairing:
+def _pairing(pairs, na, nb, tb, how, by_start: bool = False) -> Pairing:
     numbers = [(na[0] if x is None else na[x], nb[0] if y is None else nb[y]) for x, y in pairs]
-    return Pairing(pairs, numbers, [tb[0] if y is None else tb[y] for _, y in pairs], how)
+    return Pairing(pairs, numbers, [tb[0] if y is None else tb[y] for _, y in pairs], how, by_start)
 
 
-def _by_clock(ca, cb, side_a, side_b) -> Pairing:
-    """The windows of two runs stored with their clocks, paired by start on the events' clock."""
+def _by_clock(ca, cb, side_a, side_b, differ: str | None = None) -> Pairing:
+    """The windows of two runs stored with their clocks, paired by start on the events' clock;
+    ``differ``: how the runs' inputs differ (:func:`~.inputs.other_inputs`), said if none pair."""
     for name, (clock, _, _) in (("A", ca), ("B", cb)):
         if clock not in SHARED:
             said = "stamped as they arrived (a stream sent without timestamps)" if clock == ARRIVAL else f"on {clock!r}"
@@ -163,14 +168,22 @@ def _by_clock(ca, cb, side_a, side_b) -> Pairing:
         if abs(int(d[j])) < PAIR_WITHIN_US:
             pairs.append((i, ib[int(order[j])]))
             apart.append(abs(int(d[j])))
+    if not pairs and differ is not None:
+        check.fail(
+            "compare_maps",
+            None,
+            None,
+            f"A and B are runs of different inputs ({differ}): their events share no clock, so no window of "
+            "one pairs with a window of the other; compare one window of each with window= (--window I)",
+        )
     if not pairs:
         first_a, first_b = (_apart(x, np.array([cb[1]]), span)[0] / 1000 for x in (abs_a[0], abs_b[0]))
         check.fail(
             "compare_maps",
             None,
             None,
-            f"A and B share no window start on the events' own clock: A's first window starts {first_a:g} ms "
-            f"after B's first event, B's {first_b:g} ms, and none of A's starts lies within "
+            f"A and B share no window start on the events' own clock: A's first window starts {_after(first_a)} "
+            f"B's first event, B's {_after(first_b)} it, and none of A's starts lies within "
             f"{PAIR_WITHIN_US / 1000:g} ms of one of B's; docs/live.md, 'Comparing a live run with snn-fg run', "
             "says how to cut the same windows",
         )
@@ -178,7 +191,17 @@ def _by_clock(ca, cb, side_a, side_b) -> Pairing:
     how = "windows paired by their start on the events' own clock (their timestamps), " + (
         f"starts up to {far} us apart" if far else "starts equal"
     )
-    return _pairing(pairs, na, nb, tb, how)
+    return _pairing(pairs, na, nb, tb, how, by_start=True)
+
+
+def _after(ms: float) -> str:
+    """``ms`` after (or before) a time, in words a reader takes in: two clocks can lie years apart."""
+    when = "after" if ms >= 0 else "before"
+    ms = abs(ms)
+    for unit, size in (("days", 86_400_000), ("h", 3_600_000), ("s", 1000)):
+        if ms >= 10 * size:
+            return f"{ms / size:,.0f} {unit} {when}"
+    return f"{ms:g} ms {when}"
 
 
 def _apart(t, starts: np.ndarray, span: int | None) -> np.ndarray:

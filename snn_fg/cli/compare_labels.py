@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import InputError
 from ..results.atomic import save_text
 from ..results.figures import rows_shown
-from ..results.maps import CONFIDENCE, Maps
+from ..results.maps import CONFIDENCE, Maps, made_by
 from ..scoring.bootstrap import RESAMPLES, bootstrap_scores
 from ..scoring.groundtruth import GroundTruth, boundary_directions, load_labels
 from ..scoring.label_scores import labeller_errors, pool_stats
@@ -225,15 +225,8 @@ _INTERVAL += (("mean_abs_deg", "mean°", ".1f"),)
 def run_settings(params: dict) -> str:
     """What a run's maps say it was made with, in one line: the model, its network (a spiking run's
     recipe, file or the default built from parameters) and backend, the stage parameters and how the
-    image was turned into events."""
-    net, backend = params.get("network"), params.get("backend")
-    said = f"the {params.get('model', 'unknown')} model"
-    if isinstance(net, dict):  # (a spiking run's: snn_fg.models.spiking.record.run_provenance)
-        origin = str(net.get("origin", "?"))
-        name = net.get("recipe") if origin == "recipe" else "default" if origin == "built" else Path(origin).name
-        said += f" on the {name} network"
-    if isinstance(backend, dict) and backend.get("name"):
-        said += f" ({backend['name']} backend)"
+    image was turned into events (the model and its network: :func:`~snn_fg.results.maps.made_by`)."""
+    said = made_by(params)
     stages = [f"{k} {params[k]:g}" for k in ("levels", "n_ori", "r0", "iterations", "input_pool") if k in params]
     source = params.get("source") or {}
     events = [f"{k} {source[k]}" for k in ("motion", "threshold") if source.get(k) is not None]

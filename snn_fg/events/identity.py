@@ -15,6 +15,7 @@ import hashlib
 
 import numpy as np
 
+from ..errors import InputError
 from ._core import EVENT_DTYPE
 from .io import iter_recording
 
@@ -43,10 +44,13 @@ def input_keys(path, sensor_size=None) -> dict:
     stream = iter_recording(path, sensor_size=sensor_size, chunk_events=HEAD_EVENTS)
     stream.warn_no_span = False  # (the run's own reading warns of a stream cut short, once)
     head, n = [], 0
-    for chunk in stream:
-        head.append(chunk[: HEAD_EVENTS - n])
-        n += len(head[-1])
-        if n >= HEAD_EVENTS:
-            break
+    try:
+        for chunk in stream:
+            head.append(chunk[: HEAD_EVENTS - n])
+            n += len(head[-1])
+            if n >= HEAD_EVENTS:
+                break
+    except InputError:  # (damage within the head: the digest of the events before it; the run says it)
+        pass
     events = np.concatenate(head) if head else np.zeros(0, EVENT_DTYPE)
     return {"sensor_size": [int(v) for v in stream.sensor_size[:2]], "events_head": head_digest(events)}

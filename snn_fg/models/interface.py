@@ -24,7 +24,7 @@ from ..events.aps import ApsWindow
 from ..events.images import as_float_image
 from ..frames.still import Still
 from ..params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
-from ..results.maps import SPIKING_GROUPING_LABEL, Maps
+from ..results.maps import SPIKING_GROUPING_LABEL, Maps, made_by
 from . import checks
 
 # Each model's own package is imported by the methods that run it: the rate model compiles its numba loops and
@@ -102,7 +102,6 @@ class Model(ABC):
         """Figures of a run into folder ``out``; ``inputs`` one image per frame; ``crop``
         ``(x0, y0, x1, y1)``: the part drawn; ``options``: more :func:`~snn_fg.results.figures.maps_figure` keywords."""
         from ..results.figures import save_maps_figure
-        from ..results.maps import made_by
 
         options.setdefault("made_by", made_by(maps.params))
         return [

@@ -120,6 +120,7 @@ class UdpSource:
         except OSError as exc:
             self.sock.close()
             raise InputError(url, f"cannot listen there: {exc.strerror}") from None
+        spif.prepare()  # (compiled now, before the model's warm-up, not at the first packet)
         self.t_start = time.perf_counter()
 
     def packets(self):

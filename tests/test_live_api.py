@@ -1,6 +1,7 @@
 """run_live: a model on a live stream from Python, fed by your own code's event chunks (a camera
 SDK, a YARP port), giving each window's maps and published line to your callback as it comes."""
 
+import threading
 import time
 import warnings
 
@@ -102,3 +103,37 @@ def test_a_callback_slower_than_the_stream_drops_windows_and_says_so_once():
     assert summary["windows_dropped"] > 0 and summary["windows"] == len(seen)
     assert len(seen) + summary["windows_dropped"] == 6
     assert kinds.count("InputWarning") == 1 and "EmptyWindowWarning" not in kinds
+    # (the model waited for the callback, not for other programs: said so)
+    assert summary["on_window_s"] >= 0.15 and summary["why_behind"].startswith("on_window took")
+
+
+def test_a_run_says_when_it_is_ready_and_ends_where_another_thread_stops_it(disc):
+    """A control loop starts its sender once the model is ready (on_ready, where snn-fg live says "ready"),
+    and stops an endless stream from another thread (stop): the run ends as at the sender's end, with the
+    windows before it made, and gives its summary."""
+    ev, size = disc[0].copy(), disc[1]  # (its times move on as it plays again)
+    said, seen, stop = [], [], threading.Event()
+
+    def endless():
+        while True:
+            yield from _paced(ev)
+            ev["t"] += int(ev["t"][-1]) + 1000  # (played again after itself)
+
+    def on_window(w, maps, line):
+        seen.append(w.index)
+        if w.index == 2:
+            stop.set()
+
+    summary = run_live(
+        get_model("rate", SMALL), endless(), on_window, sensor_size=size, window_ms=40.0, max_behind=1000,
+        on_ready=lambda: said.append(len(seen)), stop=stop,
+    )  # fmt: skip
+    assert said == [0] and summary["ended"] == "stopped"
+    assert seen[:3] == [0, 1, 2] and summary["windows"] == len(seen) and len(seen) <= 5
+
+
+def test_a_chunk_that_is_not_a_structured_array_says_which_and_what_it_is():
+    good = np.zeros(5, [("x", "i2"), ("y", "i2"), ("t", "i8"), ("p", "i1")])
+    with pytest.raises(InputError) as err:
+        run_live(get_model("rate", SMALL), iter([good, np.zeros((3, 4), np.int64)]), sensor_size=(64, 48))
+    assert str(err.value) == "<events>: chunk 1 is a int64 array of shape (3, 4), not events (fields x, y, t, p)"

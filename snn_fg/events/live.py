@@ -87,6 +87,7 @@ class LiveStream:
         self.first_dropped = None  # the first slot dropped
         self.dropped_windows: set = set()  # (those not yet passed by the published ones)
         self.on_ready = None  # called once the model first asks for events
+        self.stop = None  # (a threading.Event: once set, the stream ends where the model has read it)
         self.lock = threading.Lock()  # (the drop bookkeeping, shared by both threads)
         self.last_t = None
         self.end_seen = False  # (the model's thread took the end of the stream)
@@ -124,7 +125,8 @@ class LiveStream:
             if self.outside == outside:
                 warnings.warn(
                     f"{self.name}: event at (x={int(ev['x'][first_out])}, y={int(ev['y'][first_out])}) lies outside "
-                    f"the {w} x {h} sensor; such events are dropped and counted (live.json: events_outside)",
+                    f"the {w} x {h} sensor; such events are dropped and counted "
+                    "(events_outside: live.json, run_live's summary)",
                     InputWarning,
                     stacklevel=2,
                 )
@@ -133,7 +135,8 @@ class LiveStream:
             if self.backwards == backwards:
                 warnings.warn(
                     f"{self.name}: time runs backwards ({back_t} us after {back_before} us); events "
-                    "earlier than the stream's latest are dropped and counted (live.json: events_backwards)",
+                    "earlier than the stream's latest are dropped and counted "
+                    "(events_backwards: live.json, run_live's summary)",
                     InputWarning,
                     stacklevel=2,
                 )
@@ -210,7 +213,8 @@ class LiveStream:
                 self.warned = True
                 warnings.warn(
                     f"{self.name}: the model fell {waiting} window{'s' if waiting != 1 else ''} behind the stream; "
-                    f"whole windows are dropped while more than {self.max_behind} wait (counted in live.json)",
+                    f"whole windows are dropped while more than {self.max_behind} wait "
+                    "(counted: live.json, run_live's summary)",
                     InputWarning,
                     stacklevel=3,
                 )
@@ -222,6 +226,9 @@ class LiveStream:
         if self.on_ready is not None:
             self.on_ready()
         while True:
+            if self.stop is not None and self.stop.is_set():  # (run_live's caller: the stream ends here)
+                self.end_seen = True
+                return
             try:
                 items = [self.q.get(timeout=0.2)]
             except queue.Empty:

@@ -65,7 +65,9 @@ def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 
     scheme, host, port = parse_address(url)
     if scheme == "udp":
         if sensor_size is None:
-            raise InputError(url, "a UDP (SPIF) stream has no sensor size of its own: give --sensor-size WxH")
+            raise InputError(
+                url, "a UDP (SPIF) stream has no sensor size of its own: give --sensor-size WxH (sensor_size=(W, H))"
+            )
         return UdpSource(url, host, port, sensor_size, wait_s=wait_s, idle_s=idle_s)
     return DvSource(url, host, port, sensor_size, wait_s=wait_s)
 
@@ -88,9 +90,12 @@ class ChunkSource:
         self.malformed, self.closed, self.given = 0, False, 0
 
     def packets(self):
-        for chunk in self.chunks:
+        for k, chunk in enumerate(self.chunks):
             if self.closed:  # (the iterable is left as it is: it may be blocked in another thread's read)
                 return
+            if not isinstance(chunk, np.ndarray) or chunk.dtype.names is None:
+                what = f"{chunk.dtype} array of shape {chunk.shape}" if isinstance(chunk, np.ndarray) else type(chunk)
+                raise InputError(self.name, f"chunk {k} is a {what}, not events (fields x, y, t, p)")
             ev = as_events(chunk, self.name, self.given)
             self.given += len(ev)
             if len(ev):
@@ -183,7 +188,7 @@ class UdpSource:
         if self.malformed == 1:
             warnings.warn(
                 f"{self.name}: a malformed packet ({len(data)} bytes, not whole SPIF events, or none); such packets "
-                "are skipped and counted (live.json: packets_malformed)",
+                "are skipped and counted (packets_malformed: live.json, run_live's summary)",
                 InputWarning,
                 stacklevel=3,
             )

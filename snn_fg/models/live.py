@@ -33,6 +33,8 @@ from ..results.publish import LiveModel, LiveRecord, Publisher
 
 #: simulated time the spiking network is handed at a time on a live stream (ms): it follows the events this closely
 LIVE_SEGMENT_MS = 5.0
+#: the share of the stream's time that ``run_live``'s callback took for it to be named as why the model fell behind
+CALLBACK_SHARE = 0.2
 
 
 def run_live(
@@ -49,6 +51,8 @@ def run_live(
     publish: str | None = None,
     wait_s: float = 30.0,
     idle_s: float = 1.0,
+    on_ready=None,
+    stop=None,
 ) -> dict:
     """Run ``model`` (:func:`~snn_fg.models.get_model`) on a live stream until it ends, as
     ``snn-fg live`` does without its folder, and return ``live.json``'s summary.
@@ -63,26 +67,44 @@ def run_live(
     it takes adds to the next windows' latency: hand heavy work to a thread of your own.
     Windows the model cannot keep up with are dropped whole (the policy of ``live.json``,
     ``max_behind`` as ``--max-behind``); ``hop_ms``, ``start_ms``, ``peaks`` and ``publish``
-    are ``snn-fg live``'s ``--hop-ms``, ``--start-ms``, ``--peaks`` and ``--publish``."""
+    are ``snn-fg live``'s ``--hop-ms``, ``--start-ms``, ``--peaks`` and ``--publish``.
+    ``on_ready()`` is called once the model is warmed up and waits for the stream (where
+    ``snn-fg live`` says "ready": start a ``udp://`` sender then). ``stop``, a
+    ``threading.Event`` another thread may set, ends the run there as the sender's end would
+    (the windows before it are made; ``ended``: ``stopped``). The summary also gives
+    ``on_window_s``, the seconds ``on_window`` took, and says so in ``why_behind`` where they
+    made the model fall behind."""
     with ExitStack() as opened:
         publisher = opened.enter_context(closing(Publisher(publish))) if publish else None
         source, warm_s = open_warmed(model, source, sensor_size, window_ms, peaks, wait_s=wait_s, idle_s=idle_s)
         opened.enter_context(closing(source))
         stream, record = live_stream(
             model, source, window_ms=window_ms, hop_ms=hop_ms, start_ms=start_ms, max_behind=max_behind,
-            publisher=publisher, peaks=peaks, warm_s=warm_s,
+            publisher=publisher, peaks=peaks, warm_s=warm_s, on_ready=on_ready,
         )  # fmt: skip
+        stream.stop = stop
         opened.enter_context(closing(stream))
+        took = [0.0]
 
         def each(w, maps):
             if on_window is not None:
+                t = time.perf_counter()
                 on_window(w, maps, record.last)
+                took[0] += time.perf_counter() - t
 
         with warnings.catch_warnings():  # (a dropped window's events never came: it is no empty window)
             warnings.simplefilter("ignore", EmptyWindowWarning)  # (one that is, is handed over with line["events"] 0)
             LiveModel(model, stream, record).run_windows_into(stream, each)
     # (after the stream and source are closed: a UDP socket's lost packets are read as it closes)
-    return record.summary("the sender closed the stream")
+    summary = record.summary("stopped" if stop is not None and stop.is_set() else "the sender closed the stream")
+    summary["on_window_s"] = round(took[0], 3)
+    streamed = summary.get("streamed_s") or 0.0
+    if summary["why_behind"] and took[0] >= CALLBACK_SHARE * streamed:
+        summary["why_behind"] = (
+            f"on_window took {took[0]:.1f} s of the {streamed:.1f} s the stream came, and the model waited for it "
+            "(hand its work to a thread of your own)"
+        )
+    return summary
 
 
 def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **opening):

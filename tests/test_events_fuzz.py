@@ -187,16 +187,22 @@ def test_an_aedat4_file_cut_inside_a_packet_says_where_and_why():
         with pytest.raises(InputError) as err:
             open_recording(path)
         read = _events_before_the_error(path)
-    # the packet table walked by hand: each packet a stream id and a size (uint32 each), then its bytes
-    at = 18 + int.from_bytes(base[14:18], "little")
-    k = 0
-    while at + 8 + int.from_bytes(base[at + 4 : at + 8], "little") <= 100_000:
-        at, k = at + 8 + int.from_bytes(base[at + 4 : at + 8], "little"), k + 1
+    at, k = _packet_holding(base, 100_000)
     assert str(err.value) == (
         f"{path}: file ends inside AEDAT4 packet {k} ({100_000 - at} of "
         f"{8 + int.from_bytes(base[at + 4 : at + 8], 'little')} bytes); is the file cut short? "
         f"(at byte offset {at}, event {read})"
     )
+
+
+def _packet_holding(base: bytes, offset: int) -> tuple[int, int]:
+    """Where the AEDAT4 packet that holds byte ``offset`` of the file ``base`` starts, and its number:
+    the packet table walked by hand (each packet a stream id and a size, uint32 each, then its bytes)."""
+    at = 18 + int.from_bytes(base[14:18], "little")
+    k = 0
+    while at + 8 + int.from_bytes(base[at + 4 : at + 8], "little") <= offset:
+        at, k = at + 8 + int.from_bytes(base[at + 4 : at + 8], "little"), k + 1
+    return at, k
 
 
 def _events_before_the_error(path) -> int:
@@ -219,10 +225,7 @@ def test_an_aedat4_packet_that_cannot_be_decoded_is_named_with_its_byte_offset_a
         with pytest.raises(InputError) as err:
             open_recording(path)
         read = _events_before_the_error(path)
-    at = 18 + int.from_bytes(base[14:18], "little")
-    k = 0
-    while at + 8 + int.from_bytes(base[at + 4 : at + 8], "little") <= 400_000:
-        at, k = at + 8 + int.from_bytes(base[at + 4 : at + 8], "little"), k + 1
+    at, k = _packet_holding(base, 400_000)
     assert read > 0 and str(err.value) == (
         f"{path}: AEDAT4 packet {k} could not be decoded: LZ4 error: ERROR_decompressionFailed "
         f"(at byte offset {at}, event {read})"

@@ -358,9 +358,7 @@ def test_the_warm_up_compiles_the_packet_screen_for_the_packets_it_will_see():
         "[screen_events(ev['x'], ev['y'], ev['t'], 32, 24, 0) for ev in packets]; "
         "print(n, len(screen_events.signatures))"
     )
-    said = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300)
-    assert said.returncode == 0, said.stderr
-    assert said.stdout.split() == ["2", "2"]  # (compiled, or loaded, in the warm-up: nothing left for a packet)
+    assert _fresh(probe) == ["2", "2"]  # (compiled, or loaded, in the warm-up: nothing left for a packet)
 
 
 def test_a_udp_source_compiles_its_packet_decoding_before_the_first_packet():
@@ -379,7 +377,12 @@ def test_a_udp_source_compiles_its_packet_decoding_before_the_first_packet():
         "one['t'] = spif.Unwrap()(one['t']); src.close(); "
         "print(*n, len(spif._walk.signatures), len(spif._unwrap.signatures))"
     )
+    walk, unwrap, walk_after, unwrap_after = (int(v) for v in _fresh(probe))
+    assert walk >= 1 and unwrap >= 1 and (walk_after, unwrap_after) == (walk, unwrap)
+
+
+def _fresh(probe: str) -> list[str]:
+    """What the Python lines ``probe`` print in a fresh process (numba keeps what it has compiled), word by word."""
     said = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300)
     assert said.returncode == 0, said.stderr
-    walk, unwrap, walk_after, unwrap_after = (int(v) for v in said.stdout.split())
-    assert walk >= 1 and unwrap >= 1 and (walk_after, unwrap_after) == (walk, unwrap)
+    return said.stdout.split()

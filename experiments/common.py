@@ -111,6 +111,9 @@ class Run:
     """How a result is made; create it before the work, take :meth:`record` after."""
 
     def __init__(self):
+        # the commit is taken now: by the time of :meth:`record` the work has rewritten its
+        # own tracked results, which would mark every re-run of a page ``-dirty``
+        self.commit = git_commit()
         self.date = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
         self.load_before = load()
         self._t0 = time.perf_counter()
@@ -122,7 +125,7 @@ class Run:
     def record(self) -> dict:
         """``commit``, ``command``, ``date`` (start), ``seconds``, ``processor``, ``load_before``, ``load_after``."""
         return {
-            "commit": git_commit(),
+            "commit": self.commit,
             "command": command_line(),
             "date": self.date,
             "seconds": round(self.seconds, 1),

@@ -43,6 +43,13 @@ def test_a_run_record_names_the_commit_the_command_the_date_the_processor_and_th
     assert rec["processor"] in line
 
 
+def test_a_run_record_names_the_commit_as_it_was_when_the_run_began(monkeypatch):
+    monkeypatch.setattr(common, "git_commit", lambda: "0123456789")
+    run = common.Run()
+    monkeypatch.setattr(common, "git_commit", lambda: "0123456789-dirty")  # the run wrote its results
+    assert run.record()["commit"] == "0123456789"
+
+
 def test_the_processor_is_read_from_the_first_cpu_of_cpuinfo(tmp_path):
     info = tmp_path / "cpuinfo"
     info.write_text(

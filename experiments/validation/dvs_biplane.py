@@ -58,7 +58,7 @@ def _maps(model: str, windows, backend: str, instantiate=None):
     return (
         maps,
         {
-            "simulated_ms": sim["simulated_ms"],
+            "simulated_ms": run.simulation["simulated_ms"],  # (a window's own: up to its read-out)
             "network_builds": sim["network_builds"],
             "readout_lag_ms": sim["readout_lag_ms"],
             "backend": maps[0].params["backend"],

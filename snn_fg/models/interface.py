@@ -237,7 +237,7 @@ class SpikingModel(Model):
     grouping_label = SPIKING_GROUPING_LABEL
     blank_window_hint = (
         "the spiking network needs tens of ms of input before its feedback orders the "
-        "border-ownership cells: on dvs.es a window's grouping map takes a median 60 ms to settle. "
+        "border-ownership cells: on dvs.es a window's grouping map takes a median 52.5 ms to settle. "
         "A clip that short can run as its event frame, which the network sees for as long as it "
         "needs: snn-fg events REC --write-frame F.npz, then snn-fg run F.npz --model spiking"
     )

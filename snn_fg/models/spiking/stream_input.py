@@ -185,7 +185,7 @@ class StreamLayout:
     (:meth:`resets`). So a hop changes what is read out, not how
     the network runs: the windows that start on the clock are those of a run
     without the hop, spike for spike (fired at every start, 10 ms apart, the
-    clock held the grouping silent for good: its onset is 22 ms)."""
+    clock held the grouping silent for good: its onset is 15 ms)."""
 
     network: object
     origin: dict

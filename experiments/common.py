@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import subprocess
 import sys
 import time
@@ -83,11 +84,12 @@ def git_commit() -> str:
 
 
 def command_line() -> str:
-    """The command as typed from the repository root: ``python -m experiments.<tier>.<name> ARGS``."""
+    """The command as typed from the repository root: ``python -m experiments.<tier>.<name> ARGS``, each
+    argument quoted as a shell needs it (a ``--variant 'NAME={"a": 1}'`` pasted back runs the same)."""
     main = sys.modules.get("__main__")
     spec = getattr(main, "__spec__", None)
     what = f"-m {spec.name}" if spec is not None and spec.name else Path(sys.argv[0]).as_posix()
-    return " ".join(["python", what, *sys.argv[1:]])
+    return " ".join(["python", what, *map(shlex.quote, sys.argv[1:])])
 
 
 def processor(cpuinfo: str = "/proc/cpuinfo") -> str:

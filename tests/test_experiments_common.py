@@ -27,6 +27,8 @@ def test_the_command_line_is_the_module_as_typed(monkeypatch):
     monkeypatch.setitem(sys.modules, "__main__", main)
     monkeypatch.setattr(sys, "argv", [str(ROOT / "experiments" / "paper" / "table1.py"), "--quick"])
     assert common.command_line() == "python -m experiments.paper.table1 --quick"
+    monkeypatch.setattr(sys, "argv", ["x.py", "--variant", 'p={"prune_vm": 0.2}', "--rounds", "3"])
+    assert common.command_line() == "python -m experiments.paper.table1 --variant 'p={\"prune_vm\": 0.2}' --rounds 3"
 
 
 def test_a_run_record_names_the_commit_the_command_the_date_the_processor_and_the_load():

@@ -94,8 +94,9 @@ def main(argv=None):
             flush=True,
         )
     record = {"rows": rows, "run": run.record()}
+    lines = markdown(rows, record["run"])  # (before either file is written: never one without the other)
     save_json("spiking_scale", record)
-    save_markdown("spiking_scale", markdown(rows, record["run"]))
+    save_markdown("spiking_scale", lines)
     print("wrote experiments/results/spiking_scale.json and .md")
 
 
@@ -105,7 +106,7 @@ def _population_table(pops: dict) -> str:
     ]
     lines += [
         f"{name:16s} {p['role']:12s} {p['level']:5d} {p['cells']:10,d} {p['mean_rate_hz']:15.1f} "
-        f"{p['synapses_in']:12,d}"
+        + (f"{p['synapses_in']:12,d}" if p["synapses_in"] is not None else f"{'-':>12s}")  # (None: fast engine)
         for name, p in pops.items()
     ]
     return "\n".join(lines)

@@ -133,7 +133,8 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     cmd = ["decode", str(folder / "counts.npz"), "--export", str(folder), "--out", str(ref), "--reference", "nest"]
     assert main(cmd) == 0
     said = capsys.readouterr().out
-    assert "against snn-fg's nest backend on the same network and input: grouping r 1.000, 100.0 %" in said
+    head = "against snn-fg's nest backend on the same network and input: grouping r 1.000, within 45 degrees on 100.0 %"
+    assert head in said and "pixels where both have a vector" in said
     assert "mean absolute difference 0.0 degrees" in said and "at 100.0 % of the reference's" in said
     checked = Maps.load(ref / "reference" / "maps.npz")
     assert checked.params["backend"]["name"] == "nest" and checked.params["simulation"]["count_window_ms"] == 75.0

@@ -33,8 +33,6 @@ from ..results.publish import LiveModel, LiveRecord, Publisher
 
 #: simulated time the spiking network is handed at a time on a live stream (ms): it follows the events this closely
 LIVE_SEGMENT_MS = 5.0
-#: the share of the stream's time that ``run_live``'s callback took for it to be named as why the model fell behind
-CALLBACK_SHARE = 0.2
 
 
 def run_live(
@@ -84,27 +82,19 @@ def run_live(
         )  # fmt: skip
         stream.stop = stop
         opened.enter_context(closing(stream))
-        took = [0.0]
+        record.on_window_s = 0.0
 
         def each(w, maps):
             if on_window is not None:
                 t = time.perf_counter()
                 on_window(w, maps, record.last)
-                took[0] += time.perf_counter() - t
+                record.on_window_s += time.perf_counter() - t
 
         with warnings.catch_warnings():  # (a dropped window's events never came: it is no empty window)
             warnings.simplefilter("ignore", EmptyWindowWarning)  # (one that is, is handed over with line["events"] 0)
             LiveModel(model, stream, record).run_windows_into(stream, each)
     # (after the stream and source are closed: a UDP socket's lost packets are read as it closes)
-    summary = record.summary("stopped" if stop is not None and stop.is_set() else "the sender closed the stream")
-    summary["on_window_s"] = round(took[0], 3)
-    streamed = summary.get("streamed_s") or 0.0
-    if summary["why_behind"] and took[0] >= CALLBACK_SHARE * streamed:
-        summary["why_behind"] = (
-            f"on_window took {took[0]:.1f} s of the {streamed:.1f} s the stream came, and the model waited for it "
-            "(hand its work to a thread of your own)"
-        )
-    return summary
+    return record.summary("stopped" if stop is not None and stop.is_set() else "the sender closed the stream")
 
 
 def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **opening):

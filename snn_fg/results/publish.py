@@ -45,6 +45,8 @@ LATENCY_DECIMALS = 2
 #: the share of the time a live run's stream came which, used by the run on all its cores or by the model's
 #: thread alone, says that the model (not other programs) is what fell behind
 BUSY_SHARE = 0.8
+#: the share of the stream's time that ``run_live``'s callback took for it to be named as why the model fell behind
+CALLBACK_SHARE = 0.2
 
 
 class Publisher:
@@ -96,6 +98,7 @@ class LiveRecord:
         self.t_start = time.perf_counter()
         self.warm_up_s = None  # (the warm-up before the stream: snn_fg.models.live.warm_up)
         self.last = None  # (the latest window's published line)
+        self.on_window_s = None  # (run_live: the seconds its caller's callback took, said in the summary)
         self.cores = None  # (the cores the run may use: snn_fg.cli.live gives backends.cores.usable_cores())
 
     def window(self, w, maps) -> None:
@@ -142,6 +145,8 @@ class LiveRecord:
             "seconds": round(time.perf_counter() - self.t_start, 3),
             **self._cpu(),
         }
+        if self.on_window_s is not None:
+            out["on_window_s"] = round(self.on_window_s, 3)
         out["why_behind"] = why_behind(out)
         return {**out, "drop_policy": DROP_POLICY, "max_behind": self.stream.max_behind, "per_window": self.rows}
 
@@ -176,11 +181,18 @@ def why_behind(summary: dict) -> str | None:
     """Why a live run fell behind (windows dropped or hops skipped), from its CPU while the stream came
     (``live.json``: ``streamed_s``, ``cpu_s``, ``model_cpu_s``, ``cores``): the model is slower than the stream
     here, or other programs had the cores. None when nothing fell behind or no event came. ``live.json`` keeps
-    it (``why_behind``) and the line ``snn-fg live`` ends with says it."""
+    it (``why_behind``) and the line ``snn-fg live`` ends with says it. A ``run_live`` caller's callback that
+    took :data:`CALLBACK_SHARE` of that time or more (``on_window_s``) is named instead: the model waited for it."""
     behind = (summary.get("windows_dropped") or 0) + (summary.get("windows_skipped") or 0)
     wall, cores = summary.get("streamed_s"), summary.get("cores")
     if not (behind and wall and cores):
         return None
+    callback = summary.get("on_window_s")
+    if callback is not None and callback >= CALLBACK_SHARE * wall:
+        return (
+            f"on_window took {callback:.1f} s of the {wall:.1f} s the stream came, and the model waited for it "
+            "(hand its work to a thread of your own)"
+        )
     run, model = summary["cpu_s"] / (wall * cores), summary["model_cpu_s"] / wall
     said = f"the run used {run:.0%} of its {cores} core{'s' if cores != 1 else ''} while the stream came"
     if run >= BUSY_SHARE or model >= BUSY_SHARE:

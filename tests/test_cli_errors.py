@@ -212,3 +212,19 @@ def test_a_sensor_given_by_hand_too_small_for_the_levels_is_questioned(tmp_path,
     assert main([*argv, "--sensor-size", "20x20"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "at most 9 pyramid levels" in err and "(is --sensor-size 20x20 right?)" in err
+
+
+def test_a_run_out_of_memory_is_one_line_naming_the_size_and_the_smaller_network(tmp_path, monkeypatch, capsys):
+    # numpy's own error for an allocation the machine cannot give (the default network on a large sensor)
+    from snn_fg.backends.fast import run as fast_run
+    from snn_fg.cli.main import main
+
+    monkeypatch.setattr(fast_run, "zeroed", lambda n, dtype: np.zeros((1 << 40, 1 << 20), np.uint8))
+    out = tmp_path / "o"
+    rc = main(["run", "demo", "--out", str(out), "--model", "spiking", "--network", "compact", "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith("snn-fg: error: out of memory (Unable to allocate 1.00 EiB)"), err
+    assert "--network compact" in err and "shape" not in err
+    assert not out.exists()

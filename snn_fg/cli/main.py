@@ -118,6 +118,8 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
                     # a file that cannot be read or written (a full disk part way through a run, say):
                     # the file and the system's reason in one line
                     exc = f"{exc.filename}: {exc.strerror or type(exc).__name__}"
+                elif isinstance(exc, MemoryError):
+                    exc = out_of_memory(exc)
                 elif not isinstance(exc, SnnFgError):
                     raise
                 print(f"snn-fg: error: {exc if isinstance(exc, str) else exc.for_command_line()}", file=sys.stderr)
@@ -132,6 +134,17 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
             sys.stderr.flush()
             os._exit(code)
         return code
+
+
+def out_of_memory(exc: MemoryError) -> str:
+    """The one line for a command that ran out of memory: what it could not have (numpy's
+    ``Unable to allocate 5.03 GiB``, without the array's shape and type) and what needs less."""
+    what = str(exc).split(" for an array")[0].strip()
+    return (
+        f"out of memory{f' ({what})' if what else ''}: the model needs more than this machine gives it; "
+        "a smaller network needs less (--network compact; the default network on a 1280 x 720 sensor "
+        "makes 167 M cells: docs/performance.md, 'Memory')"
+    )
 
 
 @contextlib.contextmanager

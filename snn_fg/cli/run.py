@@ -92,6 +92,14 @@ def add_run_command(sub):
         "BSDS conversion (default shift4)",
     )
     g.add_argument(
+        "--image-scale",
+        type=number(float, 0),
+        metavar="F",
+        help="images: resize by F before the model (0.25: a quarter of the width and height); the model's "
+        "sizes in pixels were chosen for images of about 481 x 321 (BSDS), and a larger image gets a note "
+        "with the F that brings it there",
+    )
+    g.add_argument(
         "--sensor-size",
         type=sensor_size,
         metavar="WxH",
@@ -151,7 +159,7 @@ def _check_frame(args, model, shape) -> None:
 
 def _run_still(args, model) -> str:
     """A frame, an image or the demo into ``--out``, all or nothing; what was written."""
-    frame, source = load_frame(args.input, model.needs, args.threshold, args.motion or "shift4")
+    frame, source = load_frame(args.input, model.needs, args.threshold, args.motion or "shift4", args.image_scale)
     _check_frame(args, model, frame.shape)
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:
         run_still(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures)

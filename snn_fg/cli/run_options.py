@@ -257,6 +257,8 @@ def refused_options(args, kind) -> list[tuple[str, str]]:
             for k in FRAME_ONLY_OPTIONS
             if given(k) and k not in named and not (k == "seed" and held)
         ]
+    if getattr(args, "image_scale", None) is not None and kind in ("recording", "frame"):
+        refused.append(("image_scale", f"applies to images only; {_KIND_NAMES[kind]}"))
     if args.motion is not None and kind in ("recording", "frame") and model.needs != "image":  # images only
         refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))
     if model.needs == "image":  # the frame-based model: no events, no network

@@ -11,19 +11,60 @@ what a model runs on is a :class:`Still`.
 
 from __future__ import annotations
 
+import warnings
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from .. import validate as check
-from ..errors import InputError
+from ..errors import InputError, InputWarning
 from ..events import events_to_frame, image_to_events
 from ..events.formats import SUFFIX_FORMAT
 from ..events.images import IMAGE_SUFFIXES, read_image
 from . import check as check_input
 from .scenes import demo
+
+#: an image whose longer side has more pixels than this gets a note (:func:`large_image_note`)
+LARGE_IMAGE_SIDE = 1024
+#: the size the model's pixel sizes (kernels, the grouping radius R0) were chosen and scored at: the BSDS
+#: images' (481 x 321), whose longer side an image's note proposes to scale to
+MODEL_IMAGE_SIDE = 481
+#: the rate model's peak memory a pixel of an image, measured on photos of 0.75, 3 and 12 MP
+#: (0.88, 4.6 and 18.1 GB; docs/performance.md, "Memory")
+RATE_BYTES_PER_PIXEL = 1.5e3
+
+
+def scaled_image(image: np.ndarray, scale: float, spec) -> np.ndarray:
+    """``image`` (H x W [x 3], float in [0, 1]) resized by ``scale``: OpenCV's area
+    average where it shrinks, bilinear where it grows; at least one pixel a side."""
+    scale = check.number("image_scale", "image_scale", scale, lo=0, lo_open=True)
+    h, w = image.shape[:2]
+    size = (max(1, round(w * scale)), max(1, round(h * scale)))
+    if size == (w, h):
+        return image
+    method = cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR
+    out = cv2.resize(image, size, interpolation=method)
+    if min(out.shape[:2]) < 2:
+        raise InputError(spec, f"image_scale {scale:g} leaves {size[0]} x {size[1]} pixels of {w} x {h}")
+    return np.clip(out, 0.0, 1.0)
+
+
+def large_image_note(spec, shape) -> str:
+    """The note for an image larger than :data:`LARGE_IMAGE_SIDE`: its size, that the model's pixel
+    sizes were chosen for BSDS-sized images, the rate model's memory for it, and the scale that
+    brings its longer side to :data:`MODEL_IMAGE_SIDE`."""
+    h, w = shape[:2]
+    scale = float(f"{MODEL_IMAGE_SIDE / max(h, w):.2g}")  # (as the note writes it: the size it gives is that one's)
+    gb = h * w * RATE_BYTES_PER_PIXEL / 1e9
+    return (
+        f"{spec}: a {w} x {h} image ({w * h / 1e6:.1f} MP): the model's sizes in pixels (kernels, the grouping "
+        f"radius) were chosen for images of about {MODEL_IMAGE_SIDE} x 321 (BSDS), and its time and memory grow "
+        f"with the pixels (the rate model: about {gb:.1f} GB here); --image-scale {scale:g} makes it "
+        f"{round(w * scale)} x {round(h * scale)}"
+    )
 
 
 @dataclass
@@ -165,19 +206,24 @@ def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
     return pos, neg
 
 
-def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "shift4"):
+def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "shift4", image_scale=None):
     """The frame a model needs from ``INPUT`` (``demo``, an image or an event
     frame), and what to record about where it came from.
 
     ``needs`` is ``"events"`` (an event frame; images are turned into events
     by the simulated event camera at contrast ``threshold`` under ``motion``,
-    see :data:`snn_fg.events.esim.MOTIONS`) or ``"image"``.
+    see :data:`snn_fg.events.esim.MOTIONS`) or ``"image"``. ``image_scale``:
+    an image is resized by this factor first (:func:`scaled_image`); an image
+    larger than :data:`LARGE_IMAGE_SIDE` without it gets an
+    :class:`~snn_fg.errors.InputWarning` saying what it costs.
     Returns ``(Still, source)``.
     """
     kind = input_kind(spec)
     source = {"input": str(spec), "kind": kind}
     if kind == "recording":
         raise InputError(spec, "is an event recording, not a frame")
+    if image_scale is not None and kind == "frame":
+        raise InputError(spec, "image_scale applies to images; this is an event frame")
     if kind == "frame":
         if needs == "image":
             raise InputError(spec, "the fbfg model needs an image, not an event frame")
@@ -187,6 +233,11 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
         image = demo().image
     else:
         image = read_image(spec, grey=needs != "image" and motion != "paper")
+    if image_scale is not None:
+        source.update(image_size=[int(image.shape[1]), int(image.shape[0])], image_scale=float(image_scale))
+        image = scaled_image(image, image_scale, spec)
+    elif max(image.shape[:2]) > LARGE_IMAGE_SIDE:
+        warnings.warn(InputWarning(large_image_note(spec, image.shape)), stacklevel=2)
     if needs == "image":
         return Still(image=image), source
     recording = image_to_events(image, threshold=threshold, motion=motion)

@@ -57,9 +57,21 @@ def model_inputs(m: Maps, windows, needs: str) -> list | str:
     if "input" not in source:
         return "its parameters name no input"
     try:
-        still, _ = load_frame(source["input"], needs, source.get("threshold", 0.10), source.get("motion", "shift4"))
+        still, _ = load_frame(
+            source["input"],
+            needs,
+            source.get("threshold", 0.10),
+            source.get("motion", "shift4"),
+            source.get("image_scale"),
+        )
     except (SnnFgError, OSError) as exc:
         return f"its input {source['input']} cannot be read again ({exc})"
+    now = (still.image if needs == "image" else still.pos).shape[:2]
+    if now != m.fg_x.shape:  # (the file changed since the run)
+        return (
+            f"its input {source['input']} is {now[1]} x {now[0]} now, the run's maps {m.fg_x.shape[1]} x "
+            f"{m.fg_x.shape[0]}: not the image it ran on"
+        )
     return [still]
 
 

@@ -1,0 +1,88 @@
+"""Images larger than the model's scale: ``--image-scale`` resizes them, and a
+large image without it gets one note saying what it costs and what scale fits."""
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from snn_fg.cli import main
+from snn_fg.results.maps import Maps
+
+
+def _square(path, w, h, x0, x1, y0, y1):
+    """A grey image, a bright rectangle between columns x0..x1 and rows y0..y1."""
+    img = np.full((h, w), 60, np.uint8)
+    img[y0:y1, x0:x1] = 200
+    cv2.imwrite(str(path), img)
+    return path
+
+
+def _event_columns(maps):
+    return np.flatnonzero(np.hypot(maps.fg_x, maps.fg_y).any(axis=0))
+
+
+def test_image_scale_runs_the_model_on_the_resized_image_and_records_both_sizes(tmp_path, capsys):
+    img = _square(tmp_path / "big.png", 1200, 800, 400, 800, 200, 600)
+    out = tmp_path / "o"
+    assert main(["run", str(img), "--image-scale", "0.25", "--out", str(out), "--no-figures", "--no-progress"]) == 0
+    assert "warning" not in capsys.readouterr().err  # (a scale given: no note)
+    maps = Maps.load(out)
+    assert maps.fg_x.shape == (200, 300)
+    cols = _event_columns(maps)  # the rectangle's sides, at 400 / 4 and 800 / 4
+    assert abs(cols.min() - 100) <= 2 and abs(cols.max() - 200) <= 2
+    source = maps.params["source"]
+    assert source["image_size"] == [1200, 800] and source["image_scale"] == 0.25
+
+
+def test_a_large_image_gets_one_note_with_the_scale_that_brings_it_to_the_bsds_size(tmp_path, capsys):
+    img = _square(tmp_path / "big.png", 2000, 1200, 600, 1400, 300, 900)
+    from snn_fg.frames.still import load_frame
+
+    with pytest.warns(UserWarning) as caught:
+        still, source = load_frame(str(img), "image")
+    (note,) = [str(w.message) for w in caught]
+    assert "a 2000 x 1200 image (2.4 MP)" in note
+    assert "--image-scale 0.24 makes it 480 x 288" in note  # 481 / 2000 = 0.2405
+    assert "3.6 GB" in note  # 2.4 MP at the rate model's measured 1.5 kB a pixel
+    assert still.image.shape[:2] == (1200, 2000) and "image_scale" not in source
+
+
+@pytest.mark.parametrize("kind", ["recording", "frame"])
+def test_image_scale_is_refused_for_a_recording_or_an_event_frame(tmp_path, capsys, kind):
+    if kind == "recording":
+        ev = np.zeros(3, dtype=[("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "i1")])
+        ev["t"] = [0, 10, 20]
+        path = tmp_path / "rec.npz"
+        np.savez(path, events=ev, sensor_size=np.array([64, 48, 2]))
+    else:
+        path = tmp_path / "frame.npz"
+        np.savez(path, pos=np.eye(48, 64, dtype=np.uint8), neg=np.zeros((48, 64), np.uint8))
+    assert main(["run", str(path), "--image-scale", "0.5", "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--image-scale: applies to images only" in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_compare_reruns_the_reference_on_the_scaled_image(tmp_path, capsys):
+    img = _square(tmp_path / "big.png", 960, 640, 300, 660, 160, 480)
+    out = tmp_path / "o"
+    args = ["run", str(img), "--image-scale", "0.5", "--iterations", "1", "--no-figures", "--no-progress"]
+    assert main([*args, "--out", str(out)]) == 0
+    assert main(["compare", str(out), str(out), "--json", str(tmp_path / "c.json")]) == 0
+    report = json.loads((tmp_path / "c.json").read_text())
+    assert "cannot be read again" not in json.dumps(report)
+    assert "at 2 iterations instead of 1" in capsys.readouterr().out  # (the baseline ran on the 480 x 320 image)
+
+
+def test_compare_says_so_when_the_image_changed_size_since_the_run(tmp_path, capsys):
+    img = _square(tmp_path / "im.png", 480, 320, 150, 330, 80, 240)
+    out = tmp_path / "o"
+    assert main(["run", str(img), "--iterations", "1", "--out", str(out), "--no-figures", "--no-progress"]) == 0
+    _square(img, 960, 640, 300, 660, 160, 480)  # (the file replaced by a larger one)
+    assert main(["compare", str(out), str(out)]) == 0
+    said = capsys.readouterr()
+    text = " ".join((said.out + said.err).split())  # (compare wraps its notes)
+    assert "is 960 x 640 now, the run's maps 480 x 320: not the image it ran on" in text
+    assert "Traceback" not in said.err

@@ -18,7 +18,8 @@ GREY_WEIGHTS = np.array([0.299, 0.587, 0.114])
 
 
 def read_image(path, grey: bool = True) -> np.ndarray:
-    """Read an image file as float64 in [0, 1]: grey (H, W), or RGB (H, W, 3) if ``grey=False``."""
+    """Read an image file as float64 in [0, 1]: grey (H, W), or RGB (H, W, 3) if ``grey=False``;
+    upright as its EXIF orientation says (a photo as a viewer shows it)."""
     path = Path(path)
     if not path.is_file():
         raise InputError(path, "no such file")
@@ -28,7 +29,10 @@ def read_image(path, grey: bool = True) -> np.ndarray:
     level = cv2.utils.logging.getLogLevel()
     cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)  # a damaged file: one line, ours
     try:
-        img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+        # (its bit depth and channels as stored, alpha left out, turned upright by its EXIF orientation
+        # as a photo viewer shows it: IMREAD_UNCHANGED ignored the orientation, so a phone's portrait
+        # photo was run on its side)
+        img = cv2.imdecode(data, cv2.IMREAD_ANYDEPTH | cv2.IMREAD_ANYCOLOR)
     finally:
         cv2.utils.logging.setLogLevel(level)
     if img is None:

@@ -1,5 +1,6 @@
-"""Images larger than the model's scale: ``--image-scale`` resizes them, and a
-large image without it gets one note saying what it costs and what scale fits."""
+"""Photos as a phone takes them: larger than the model's scale (``--image-scale``
+resizes them, and a large image without it gets one note saying what it costs
+and what scale fits) and stored on their side with an EXIF orientation."""
 
 import json
 
@@ -86,3 +87,19 @@ def test_compare_says_so_when_the_image_changed_size_since_the_run(tmp_path, cap
     text = " ".join((said.out + said.err).split())  # (compare wraps its notes)
     assert "is 960 x 640 now, the run's maps 480 x 320: not the image it ran on" in text
     assert "Traceback" not in said.err
+
+
+def test_a_photo_is_read_upright_as_its_exif_orientation_says(tmp_path):
+    from PIL import Image
+
+    from snn_fg.events.images import read_image
+
+    stored = np.zeros((40, 80), np.uint8)
+    stored[:, :40] = 255  # stored wide, its left half white
+    im = Image.fromarray(stored)
+    exif = im.getexif()
+    exif[0x0112] = 6  # EXIF orientation 6: shown turned a quarter clockwise (a phone held upright)
+    im.save(tmp_path / "phone.jpg", exif=exif, quality=95)
+    img = read_image(tmp_path / "phone.jpg")
+    assert img.shape == (80, 40)  # upright: tall
+    assert img[:40].mean() > 0.9 and img[40:].mean() < 0.1  # the stored left half is now the top half

@@ -46,7 +46,7 @@ def test_a_large_image_gets_one_note_with_the_scale_that_brings_it_to_the_bsds_s
     (note,) = [str(w.message) for w in caught]
     assert "a 2000 x 1200 image (2.4 MP)" in note
     assert "--image-scale 0.24 makes it 480 x 288" in note  # 481 / 2000 = 0.2405
-    assert "3.6 GB" in note  # 2.4 MP at the rate model's measured 1.5 kB a pixel
+    assert "3.6 GB for the rate model, 103 GB for the default spiking network" in note  # 1.5 and 43 kB a pixel
     assert still.image.shape[:2] == (1200, 2000) and "image_scale" not in source
 
 

@@ -33,8 +33,11 @@ LARGE_IMAGE_SIDE = 1024
 #: images' (481 x 321), whose longer side an image's note proposes to scale to
 MODEL_IMAGE_SIDE = 481
 #: the rate model's peak memory a pixel of an image, measured on photos of 0.75, 3 and 12 MP
-#: (0.88, 4.6 and 18.1 GB; docs/performance.md, "Memory")
+#: (0.88, 4.6 and 18.1 GB; docs/performance.md, "Memory") ...
 RATE_BYTES_PER_PIXEL = 1.5e3
+#: ... and the default spiking network's, on BSDS image 12003 turned into events (6.7 GB for its
+#: 481 x 321 pixels, the same table)
+SPIKING_BYTES_PER_PIXEL = 43e3
 
 
 def scaled_image(image: np.ndarray, scale: float, spec) -> np.ndarray:
@@ -58,12 +61,12 @@ def large_image_note(spec, shape) -> str:
     brings its longer side to :data:`MODEL_IMAGE_SIDE`."""
     h, w = shape[:2]
     scale = float(f"{MODEL_IMAGE_SIDE / max(h, w):.2g}")  # (as the note writes it: the size it gives is that one's)
-    gb = h * w * RATE_BYTES_PER_PIXEL / 1e9
+    rate, spiking = (h * w * b / 1e9 for b in (RATE_BYTES_PER_PIXEL, SPIKING_BYTES_PER_PIXEL))
     return (
         f"{spec}: a {w} x {h} image ({w * h / 1e6:.1f} MP): the model's sizes in pixels (kernels, the grouping "
         f"radius) were chosen for images of about {MODEL_IMAGE_SIDE} x 321 (BSDS), and its time and memory grow "
-        f"with the pixels (the rate model: about {gb:.1f} GB here); --image-scale {scale:g} makes it "
-        f"{round(w * scale)} x {round(h * scale)}"
+        f"with the pixels (here about {rate:.1f} GB for the rate model, {spiking:.0f} GB for the default spiking "
+        f"network); --image-scale {scale:g} makes it {round(w * scale)} x {round(h * scale)}"
     )
 
 

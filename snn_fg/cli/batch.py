@@ -31,6 +31,7 @@ from ..backends.cores import usable_cores
 from ..errors import InputError, InputWarning, SnnFgError, install_hint
 from ..events.formats import SUFFIX_FORMAT, looks_like
 from ..events.images import IMAGE_SUFFIXES
+from ..events.text_events import reads_as_events
 from ..frames.still import input_kind
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
@@ -44,9 +45,11 @@ _GLOB = set("*?[")
 
 
 def is_dataset(spec: str) -> bool:
-    """Whether INPUT names several recordings: a folder, a glob pattern or a ``.txt`` list of paths."""
+    """Whether INPUT names several recordings: a folder, a glob pattern or a ``.txt`` list of paths
+    (a ``.txt`` whose first line is an event, ``t x y p``, is a recording)."""
     path = Path(spec)
-    return path.is_dir() or path.suffix.lower() == ".txt" or (not path.exists() and bool(_GLOB & set(spec)))
+    listed = path.suffix.lower() == ".txt" and not reads_as_events(path)
+    return path.is_dir() or listed or (not path.exists() and bool(_GLOB & set(spec)))
 
 
 def recordings_of(spec: str) -> list[Path]:
@@ -57,6 +60,7 @@ def recordings_of(spec: str) -> list[Path]:
     if path.is_dir():
         runs = set(SUFFIX_FORMAT) | set(IMAGE_SUFFIXES)  # (a folder of images runs as a glob of them does)
         found = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in runs)
+        found = [p for p in found if p.suffix.lower() != ".txt" or reads_as_events(p)]  # (not calib.txt...)
     elif path.suffix.lower() == ".txt":
         lines = [line.strip() for line in _list_text(path).splitlines()]
         found = [

@@ -40,7 +40,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         subparsers,
         "events",
         description="Print format, sensor size, event count, time span and rate of an event recording "
-        "(.es .raw .dat .aedat4 .bin data.log .npy .npz). For an image (png/jpg/...) simulate "
+        "(.es .raw .dat .aedat .aedat4 .bin data.log .txt .npy .npz). For an image (png/jpg/...) simulate "
         "an event camera (ESIM) under a small motion instead. Optionally write the event frame "
         "of one window (.npz with pos, neg, t_start_us, t_end_us) and/or the events.",
     )
@@ -64,6 +64,12 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         default=None,
         metavar="WxH",
         help="sensor size, needed for RAW files without geometry (e.g. 640x480)",
+    )
+    g.add_argument(
+        "--chip",
+        default=None,
+        help="recordings: the camera of an AEDAT 2.0 file (.aedat) whose header names none: dvs128, davis240, "
+        "davis346, davis640, davis128, davis208, or davis (with --sensor-size)",
     )
     g = p.add_argument_group("images (event-camera simulation)")
     g.add_argument("--threshold", type=float, default=0.10, metavar="C", help="contrast threshold (default 0.10)")
@@ -191,7 +197,7 @@ def _recording_lines(path, args):
     """The recording's stream, its summary (writing the frame and events
     asked for), and whether its events span any time."""
     source = recording_or_demo(args.input)
-    stream = iter_recording(source, sensor_size=args.sensor_size, progress=not args.no_progress)
+    stream = iter_recording(source, sensor_size=args.sensor_size, chip=args.chip, progress=not args.no_progress)
     n = n_on = 0
     t_first = t_last = None
     for chunk in stream:

@@ -35,7 +35,7 @@ def add_run_command(sub):
         sub,
         "run",
         description="Run a model on INPUT: an .npz event frame (pos, neg), an image (png/jpg/...), "
-        "an event recording (.es .raw .dat .aedat4 .bin data.log .npy .npz) or 'demo' "
+        "an event recording (.es .raw .dat .aedat .aedat4 .bin data.log .txt .npy .npz) or 'demo' "
         "(a built-in synthetic scene). Writes DIR/maps.npz (fg_x, fg_y, grouping, "
         "params; a recording: DIR/maps.zarr, window by window) and figures.",
     )
@@ -106,6 +106,12 @@ def add_run_command(sub):
         help="recordings: sensor size for RAW files without geometry and for .npy/.npz arrays (without it an "
         "array's sensor is its events' extent, with a warning); a file that states its own takes that one only",
     )
+    g.add_argument(
+        "--chip",
+        default=None,
+        help="recordings: the camera of an AEDAT 2.0 file (.aedat) whose header names none: dvs128, davis240, "
+        "davis346, davis640, davis128, davis208, or davis (with --sensor-size)",
+    )
     g = p.add_argument_group("output")
     g.add_argument(
         "--crop",
@@ -173,7 +179,7 @@ def _windows(args, model):
     if args.end_ms is not None:
         opts["max_windows"] = min(opts.get("max_windows", math.inf), _windows_before_end(args))
     windows, sensor = recording_windows(
-        args.input, sensor_size=args.sensor_size, window_options=opts, progress=not args.no_progress
+        args.input, sensor_size=args.sensor_size, chip=args.chip, window_options=opts, progress=not args.no_progress
     )
     if model.needs == "image":  # (a recording without frames, or of frames of another size: one line)
         windows = FramedWindows(windows, require_frames(args.input, sensor), sensor)
@@ -203,7 +209,9 @@ def _run_recording(args, model) -> str | None:
     written, or None when a resumed run is finished already."""
     windows, source, shape = _windows(args, model)
     _check_frame(args, model, shape)
-    source.update(input_keys(args.input, sensor_size=args.sensor_size))  # (compare tells inputs apart by them)
+    source.update(
+        input_keys(args.input, sensor_size=args.sensor_size, chip=args.chip)
+    )  # (compare tells inputs apart by them)
     out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
     if _nothing_to_resume(args, out, source.get("max_windows")):
         return None

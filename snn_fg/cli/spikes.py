@@ -98,7 +98,7 @@ def _input_spikes(args, net, dt_ms):
     shape, pool = tuple(net.frame_shape), net.params.input_pool
     kind = input_kind(args.input)
     if kind == "recording":
-        stream = iter_recording(args.input, sensor_size=args.sensor_size)
+        stream = iter_recording(args.input, sensor_size=args.sensor_size, chip=getattr(args, "chip", None))
         win = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         on, off = pool_frame(win.pos, win.neg, pool)
         r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)

@@ -43,6 +43,7 @@ def add_stream_command(sub):
         help="each time from MS after the recording's first event (past a start-up burst, which --loop would repeat)",
     )
     p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="as snn-fg run (RAW files, arrays)")
+    p.add_argument("--chip", default=None, help="as snn-fg run (AEDAT 2.0 files whose header names no camera)")
     p.add_argument("--no-timestamps", action="store_true", help="udp://: events without times (stamped on arrival)")
     p.add_argument(
         "--wait-s",
@@ -59,8 +60,9 @@ def add_stream_command(sub):
 def cmd_stream(args) -> int:
     parse_address(args.to, "--to")  # (a wrong address before the recording is read and warned about)
     source = recording_or_demo(args.recording)
-    size = iter_recording(source, sensor_size=args.sensor_size).sensor_size
-    parts = looped(lambda: from_ms(iter_recording(source, sensor_size=args.sensor_size), args.start_ms), args.loop)
+    read = {"sensor_size": args.sensor_size, "chip": args.chip}
+    size = iter_recording(source, **read).sensor_size
+    parts = looped(lambda: from_ms(iter_recording(source, **read), args.start_ms), args.loop)
     events = np.concatenate(list(parts) or [np.zeros(0, EVENT_DTYPE)])
     if not len(events):
         raise InputError(args.recording, f"no event from --start-ms {args.start_ms:g} on")

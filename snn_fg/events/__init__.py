@@ -1,14 +1,16 @@
 """Event-camera input for snn-fg.
 
 * :func:`open_recording` / :func:`iter_recording`: read any supported
-  recording (``.es`` DVS or ATIS, ``.raw`` EVT2/EVT3, ``.dat``, ``.aedat4``,
-  N-MNIST ``.bin``, iCub YARP ``data.log``, ``.npy``/``.npz``, or an
+  recording (``.es`` DVS or ATIS, ``.raw`` EVT2/EVT3, ``.dat``, ``.aedat``
+  (AEDAT 2.0, 3.1), ``.aedat4``, N-MNIST ``.bin``, iCub YARP ``data.log``,
+  events ``.txt``, ``.npy``/``.npz``, or an
   in-memory structured array) whole or in bounded chunks; see
   :mod:`snn_fg.events.formats` for the format table, which formats stream, and
   the keyword-only format options.  One module per format family decodes
   (:mod:`~snn_fg.events.eventstream`, :mod:`~snn_fg.events.prophesee`,
-  :mod:`~snn_fg.events.yarp`, :mod:`~snn_fg.events.aedat4`,
-  :mod:`~snn_fg.events.nmnist`, :mod:`~snn_fg.events.numpy_files`).
+  :mod:`~snn_fg.events.yarp`, :mod:`~snn_fg.events.aedat23`,
+  :mod:`~snn_fg.events.aedat4`, :mod:`~snn_fg.events.nmnist`,
+  :mod:`~snn_fg.events.text_events`, :mod:`~snn_fg.events.numpy_files`).
 * :func:`events_to_frame` (model stage 1), :func:`iter_windows` and
   :class:`RecordingWindows` (windows read again on every iteration).
 * :func:`image_to_events` / :func:`image_to_frame`: an ESIM-style simulator

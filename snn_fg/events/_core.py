@@ -243,9 +243,40 @@ def check_in_sensor(events: np.ndarray, sensor_size, source="<array>", offset: i
     bad = (x < 0) | (x >= w) | (y < 0) | (y >= h)
     if bad.any():
         i = int(np.argmax(bad))
-        raise InputError(
-            source, f"event at (x={int(x[i])}, y={int(y[i])}) lies outside the {w} x {h} sensor", f"event {i + offset}"
-        )
+        raise InputError(source, outside_problem(x[i], y[i], w, h), f"event {i + offset}")
+
+
+def outside_problem(x, y, w: int, h: int) -> str:
+    """What is wrong with an event at ``(x, y)`` on a ``w`` x ``h`` sensor it lies outside."""
+    return f"event at (x={int(x)}, y={int(y)}) lies outside the {w} x {h} sensor"
+
+
+def backwards_problem(t, before) -> str:
+    """What is wrong with an event at time ``t`` after one at ``before`` (us)."""
+    return f"timestamp goes backwards ({int(t)} us after {int(before)} us)"
+
+
+def first_fault(x, y, t, sensor_size, prev_t) -> tuple[int, str]:
+    """The index of a decoder's first event that lies outside ``sensor_size`` (``None``: not
+    checked) or is earlier than the event before it (``prev_t`` before the first; ``None``:
+    none), and what is wrong with it; ``(len(t), "")`` when none is. A decoder yields the
+    events before it and raises the problem with where in the file that event lies."""
+    n = len(t)
+    if not n:
+        return 0, ""
+    outside = np.zeros(n, bool)
+    if sensor_size is not None:
+        outside = (x < 0) | (x >= sensor_size[0]) | (y < 0) | (y >= sensor_size[1])
+    back = np.empty(n, bool)
+    back[0] = prev_t is not None and t[0] < prev_t
+    back[1:] = t[1:] < t[:-1]
+    bad = outside | back
+    if not bad.any():
+        return n, ""
+    i = int(np.argmax(bad))
+    if outside[i]:
+        return i, outside_problem(x[i], y[i], sensor_size[0], sensor_size[1])
+    return i, backwards_problem(t[i], t[i - 1] if i else prev_t)
 
 
 def check_monotonic(events: np.ndarray, source="<array>", offset: int = 0, prev_t: int | None = None) -> None:
@@ -254,12 +285,10 @@ def check_monotonic(events: np.ndarray, source="<array>", offset: int = 0, prev_
     if not len(t):
         return
     if prev_t is not None and t[0] < prev_t:
-        raise InputError(source, f"timestamp goes backwards ({int(t[0])} us after {int(prev_t)} us)", f"event {offset}")
+        raise InputError(source, backwards_problem(t[0], prev_t), f"event {offset}")
     if len(t) > 1:
         d = np.diff(t)
         bad = d < 0
         if bad.any():
             i = int(np.argmax(bad)) + 1
-            raise InputError(
-                source, f"timestamp goes backwards ({int(t[i])} us after {int(t[i - 1])} us)", f"event {i + offset}"
-            )
+            raise InputError(source, backwards_problem(t[i], t[i - 1]), f"event {i + offset}")

@@ -12,9 +12,14 @@ extension          format                        decoder (module)            str
                                                  expelliarmus 1.1 drifts
                                                  by 4096 us steps)
 ``.dat``           Prophesee DAT (CD events)     expelliarmus (+ our check)  yes
+``.aedat``         jAER AEDAT 2.0 (DVS128,       ours (``aedat23``)          yes
+                   DAVIS)
+``.aedat``         cAER AEDAT 3.1                ours (``aedat23``)          yes (per packet)
 ``.aedat4``        iniVation AEDAT 4             ``aedat`` package           yes (per packet)
 ``.bin``           N-MNIST / N-Caltech101        tonic ``read_mnist_file``   no
 ``.log``           iCub YARP ``data.log`` (AE)   ours (``yarp``)             yes
+``.txt``           ``t x y p`` lines, t in s     ours (``text_events``)      yes
+                   (Event Camera Dataset)
 ``.npy``           structured array x, y, t, p   numpy (memory-mapped)       yes
 ``.npz``           structured array x, y, t, p   numpy                       no
 (array)            structured array x, y, t, p   --                          yes
@@ -31,7 +36,15 @@ format is a :class:`~snn_fg.errors.ParameterError`:
   does not say (default: the header's, else EVT2);
 * ``codec`` (``.log``): address codec, ``"auto"`` (default), ``"24"`` or ``"20"``;
 * ``channel`` (``.log``): camera, 0 (left, default), 1 (right) or ``"both"``;
-* ``timer_bits`` (``.log``): bits of the timestamp counter (default 30).
+* ``timer_bits`` (``.log``): bits of the timestamp counter (default 30);
+* ``chip`` (``.aedat``): the camera of an AEDAT 2.0 file whose header names
+  none (no ``# AEChip:`` line): ``"dvs128"``, ``"davis240"``, ``"davis346"``,
+  ``"davis640"``, ``"davis128"``, ``"davis208"`` or ``"davis"`` (a DAVIS of the
+  sensor size given).
+
+Neither an events ``.txt`` nor an AEDAT 3.1 file from an unknown camera
+states its sensor: without a sensor size given, it is the events' extent,
+with a warning, as for ``.npy`` arrays.
 """
 
 from __future__ import annotations
@@ -45,7 +58,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.errors import InputError
-from snn_fg.events import aedat4, eventstream, nmnist, numpy_files, prophesee, yarp
+from snn_fg.events import aedat4, aedat23, eventstream, nmnist, numpy_files, prophesee, text_events, yarp
 from snn_fg.events._core import sensor_size_parameter
 from snn_fg.events.source import Source
 
@@ -53,9 +66,11 @@ SUFFIX_FORMAT = {
     ".es": "es",
     ".raw": "raw",
     ".dat": "dat",
+    ".aedat": "aedat",
     ".aedat4": "aedat4",
     ".bin": "nmnist",
     ".log": "yarp",
+    ".txt": "txt",
     ".npy": "npy",
     ".npz": "npz",
 }
@@ -77,9 +92,13 @@ FORMATS = {
     "es": Format("an Event Stream file", eventstream.open_es, ("an Event Stream (.es) file",)),
     "raw": Format("a Prophesee RAW file", prophesee.open_raw, ("a Prophesee RAW/DAT file", None)),
     "dat": Format("a Prophesee DAT file", prophesee.open_dat, ("a Prophesee RAW/DAT file", None)),
+    "aedat": Format(
+        "an AEDAT 2.0 or 3.1 file", aedat23.open_aedat, ("an AEDAT 2.0 or 3.1 file", "an AEDAT 1.0 or 3.0 file")
+    ),
     "aedat4": Format("an AEDAT 4 file", aedat4.open_aedat4, ("an AEDAT 4 (.aedat4) file",)),
     "nmnist": Format("an N-MNIST binary file", nmnist.open_nmnist, (None,)),
     "yarp": Format("a YARP data.log text file", yarp.open_yarp, ("a YARP data.log text file",)),
+    "txt": Format("a text file of events", text_events.open_txt, ("a text file",)),
     "npy": Format("a .npy file", numpy_files.open_npy, ("a numpy .npy file",)),
     "npz": Format("an .npz archive", numpy_files.open_npz, ("a zip/.npz file",)),
 }
@@ -87,7 +106,9 @@ FORMATS = {
 _MAGICS = [
     (eventstream.MAGIC, "an Event Stream (.es) file"),
     (b"#!AER-DAT4", "an AEDAT 4 (.aedat4) file"),
-    (b"#!AER-DAT", "an AEDAT 1-3 file (not supported)"),
+    (b"#!AER-DAT2.0", "an AEDAT 2.0 or 3.1 file"),
+    (b"#!AER-DAT3.1", "an AEDAT 2.0 or 3.1 file"),
+    (b"#!AER-DAT", "an AEDAT 1.0 or 3.0 file"),
     (b"\x93NUMPY", "a numpy .npy file"),
     (b"PK\x03\x04", "a zip/.npz file"),
     (b"PK\x05\x06", "a zip/.npz file"),
@@ -150,7 +171,7 @@ def detect_format(path) -> str:
     return fmt
 
 
-def check_format_options(owner: str, *, encoding=None, codec=None, channel=None, timer_bits=None) -> dict:
+def check_format_options(owner: str, *, encoding=None, codec=None, channel=None, timer_bits=None, chip=None) -> dict:
     """Check the format options passed to ``owner``; return the given ones (not ``None``).
 
     Values are checked here, for every entry point alike; whether an option
@@ -170,11 +191,13 @@ def check_format_options(owner: str, *, encoding=None, codec=None, channel=None,
         given["channel"] = channel if channel == "both" else int(channel)
     if timer_bits is not None:
         given["timer_bits"] = validate.integer(owner, "timer_bits", timer_bits, lo=1, hi=31)
+    if chip is not None:
+        given["chip"] = validate.choice(owner, "chip", chip.lower() if isinstance(chip, str) else chip, aedat23.CHIPS)
     return given
 
 
 #: how a recording is read, besides the source: what :func:`check_read_options` takes
-READ_OPTIONS = ("sensor_size", "chunk_events", "encoding", "codec", "channel", "timer_bits")
+READ_OPTIONS = ("sensor_size", "chunk_events", "encoding", "codec", "channel", "timer_bits", "chip")
 
 
 def check_read_options(owner: str, options: dict) -> dict:

@@ -80,7 +80,7 @@ class RecordingStream:
     latest iteration (the file's total once an iteration has finished);
     ``skipped`` names everything left out (exposure events, AEDAT4 frames,
     IMU samples and triggers, the other camera of a YARP log...) with counts.
-    The format options are described in the module docstring.
+    The format options are described in :mod:`snn_fg.events.formats`.
     An iteration that ends with more than one event, all at one timestamp,
     warns (:class:`~snn_fg.errors.InputWarning`): such a stream is most
     likely a file cut short (``warn_no_span = False`` turns this off, for a
@@ -100,9 +100,10 @@ class RecordingStream:
         codec: str | None = None,
         channel: int | str | None = None,
         timer_bits: int | None = None,
+        chip: str | None = None,
     ):
         options = check_format_options(
-            "RecordingStream", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits
+            "RecordingStream", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits, chip=chip
         )
         if sensor_size is not None:
             sensor_size = sensor_size_parameter("RecordingStream", sensor_size)
@@ -209,6 +210,7 @@ def iter_recording(
     codec: str | None = None,
     channel: int | str | None = None,
     timer_bits: int | None = None,
+    chip: str | None = None,
 ) -> RecordingStream:
     """Stream a recording in chunks of at most ``chunk_events`` events.
 
@@ -216,8 +218,8 @@ def iter_recording(
     returned :class:`RecordingStream` is iterable and knows ``format`` and
     ``sensor_size`` up front.  Memory stays bounded for the formats in
     :data:`STREAMING_FORMATS`; ``.npz`` and N-MNIST ``.bin`` are read whole.
-    ``encoding``, ``codec``, ``channel`` and ``timer_bits`` are the format
-    options of the module docstring.
+    ``encoding``, ``codec``, ``channel``, ``timer_bits`` and ``chip`` are the
+    format options of :mod:`snn_fg.events.formats`.
 
     Examples
     --------
@@ -230,7 +232,7 @@ def iter_recording(
     ('array', [100, 100, 50])
     """
     options = check_format_options(
-        "iter_recording", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits
+        "iter_recording", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits, chip=chip
     )
     if sensor_size is not None:
         sensor_size_parameter("iter_recording", sensor_size)
@@ -246,6 +248,7 @@ def open_recording(
     codec: str | None = None,
     channel: int | str | None = None,
     timer_bits: int | None = None,
+    chip: str | None = None,
 ) -> Recording:
     """Read a whole recording (any supported format, or a structured array).
 
@@ -260,11 +263,12 @@ def open_recording(
         ``(max x + 1, max y + 1)``.
     progress : bool
         Show a progress bar while reading.
-    encoding, codec, channel, timer_bits
+    encoding, codec, channel, timer_bits, chip
         Format options: ``encoding`` ("evt2", "evt3") for RAW files without a
         header, ``codec`` ("auto", "24", "20"), ``channel`` (0, 1, "both") and
-        ``timer_bits`` for iCub YARP logs. An option for another format is
-        refused.
+        ``timer_bits`` for iCub YARP logs, ``chip`` ("dvs128", "davis240", ...)
+        for AEDAT 2.0 files whose header names no camera. An option for another
+        format is refused.
 
     Returns
     -------
@@ -290,7 +294,7 @@ def open_recording(
     ('array', 3, (4, 3, 2), 20)
     """
     options = check_format_options(
-        "open_recording", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits
+        "open_recording", encoding=encoding, codec=codec, channel=channel, timer_bits=timer_bits, chip=chip
     )
     if sensor_size is not None:
         sensor_size_parameter("open_recording", sensor_size)

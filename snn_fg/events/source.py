@@ -15,7 +15,9 @@ from pathlib import Path
 import numpy as np
 
 #: Decoder names whose reader yields bounded chunks (see the table in :mod:`snn_fg.events.formats`).
-STREAMING_FORMATS = frozenset({"es", "es-atis", "evt2", "evt3", "dat", "aedat4", "yarp", "npy", "array"})
+STREAMING_FORMATS = frozenset(
+    {"es", "es-atis", "evt2", "evt3", "dat", "aedat2", "aedat3", "aedat4", "yarp", "txt", "npy", "array"}
+)
 #: Bytes a binary decoder reads at a time: its memory does not grow with the file.
 READ_BYTES = 1 << 22
 

@@ -73,6 +73,32 @@ def _yarp_bytes():
     return ("\n".join(lines) + "\n").encode()
 
 
+def _aedat2_bytes():
+    """A DVS128 AEDAT 2.0 file: jAER's addresses (x and y mirrored, raw polarity 0 = ON), big-endian."""
+    ev = synthetic()
+    addr = ((127 - ev["y"].astype(np.int64)) << 8) | ((127 - ev["x"].astype(np.int64)) << 1) | (1 - ev["p"])
+    records = np.stack([addr, ev["t"]], axis=1).astype(">u4")
+    return b"#!AER-DAT2.0\r\n# AEChip: ch.unizh.ini.jaer.chip.retina.DVS128\r\n" + records.tobytes()
+
+
+def _aedat3_bytes():
+    """An AEDAT 3.1 file of a DVS128: polarity packets of 100 events (libcaer's layout)."""
+    ev = synthetic()
+    data = (ev["x"].astype(np.int64) << 17) | (ev["y"].astype(np.int64) << 2) | (ev["p"].astype(np.int64) << 1) | 1
+    words = np.stack([data, ev["t"]], axis=1).astype("<u4")
+    out = b"#!AER-DAT3.1\r\n#Format: RAW\r\n#Source 0: DVS128\r\n#!END-HEADER\r\n"
+    for i in range(0, len(ev), 100):
+        n = len(words[i : i + 100])
+        out += np.array([1, 0], "<i2").tobytes() + np.array([8, 4, 0, n, n, n], "<i4").tobytes()
+        out += words[i : i + 100].tobytes()
+    return out
+
+
+def _txt_bytes():
+    ev = synthetic()
+    return "".join(f"{t / 1e6:.6f} {x} {y} {p}\n" for x, y, t, p in ev.tolist()).encode()
+
+
 def _atis_bytes():
     """An ATIS stream: the synthetic change detections, 200 exposure events, reset bytes after the header."""
     exposures = synthetic(200, seed=1)
@@ -100,6 +126,9 @@ CASES = {
     if EVENTS
     else (".bin", _nmnist_bytes(), {}, N),
     "yarp": (".log", _yarp_bytes(), {}, N),
+    "aedat2": (".aedat", _aedat2_bytes(), {}, N),
+    "aedat3": (".aedat", _aedat3_bytes(), {}, N),
+    "txt": (".txt", _txt_bytes(), {"sensor_size": SIZE}, N),
     "npy": (".npy", _written(".npy"), {}, N),
     "npz": (".npz", _written(".npz"), {}, N),
 }

@@ -30,7 +30,7 @@ from ..events.images import IMAGE_SUFFIXES
 from ..results.activity import activity_figure
 from ..results.atomic import save_figure, save_npz
 from ..results.outputs import check_output_file
-from .options import DEMO, recording_or_demo, sensor_size, subcommand
+from .options import DEMO, add_chip_option, recording_or_demo, sensor_size, subcommand
 from .spikes import add_spike_options, write_spikes
 
 
@@ -63,14 +63,10 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         type=sensor_size,
         default=None,
         metavar="WxH",
-        help="sensor size, needed for RAW files without geometry (e.g. 640x480)",
+        help="sensor size, needed for RAW files without geometry (e.g. 640x480); .txt events and arrays without it "
+        "take their extent, with a warning",
     )
-    g.add_argument(
-        "--chip",
-        default=None,
-        help="recordings: the camera of an AEDAT 2.0 file (.aedat) whose header names none: dvs128, davis240, "
-        "davis346, davis640, davis128, davis208, or davis (with --sensor-size)",
-    )
+    add_chip_option(g)
     g = p.add_argument_group("images (event-camera simulation)")
     g.add_argument("--threshold", type=float, default=0.10, metavar="C", help="contrast threshold (default 0.10)")
     g.add_argument(

@@ -15,6 +15,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from ..events import MAX_SENSOR_SIDE
+from ..events.aedat23 import CHIPS
 from .commands import COMMANDS
 
 
@@ -84,6 +85,19 @@ def sensor_size(text):
     if not (0 < w <= MAX_SENSOR_SIDE and 0 < h <= MAX_SENSOR_SIDE):
         raise argparse.ArgumentTypeError(f"width and height must be 1 to {MAX_SENSOR_SIDE} pixels, got {text!r}")
     return w, h
+
+
+def add_chip_option(parser) -> None:
+    """``--chip``: the camera of an AEDAT 2.0 file whose header names none (the ``chip`` format option)."""
+    parser.add_argument(
+        "--chip",
+        type=str.lower,
+        choices=tuple(CHIPS),
+        default=None,
+        metavar="CHIP",
+        help="recordings: the camera of an AEDAT 2.0 file (.aedat) whose header names none ('# AEChip:'): "
+        f"{', '.join(c for c in CHIPS if c != 'davis')}, or davis (a DAVIS of --sensor-size)",
+    )
 
 
 def crop(text):

@@ -24,7 +24,7 @@ from ..results.atomic import OutputFolder, growing_folder, settle_folder
 from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, windows_complete
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
-from .options import crop, number, sensor_size, subcommand
+from .options import add_chip_option, crop, number, sensor_size, subcommand
 from .run_options import WINDOW_OPTIONS, add_option_groups, chosen_model
 from .runner import goes_on, recording_windows, run_recording, run_still
 
@@ -103,15 +103,11 @@ def add_run_command(sub):
         "--sensor-size",
         type=sensor_size,
         metavar="WxH",
-        help="recordings: sensor size for RAW files without geometry and for .npy/.npz arrays (without it an "
-        "array's sensor is its events' extent, with a warning); a file that states its own takes that one only",
+        help="recordings: sensor size for RAW files without geometry, .txt events and .npy/.npz arrays (without "
+        "it, a text file's or an array's sensor is its events' extent, with a warning); a file that states its own "
+        "takes that one only",
     )
-    g.add_argument(
-        "--chip",
-        default=None,
-        help="recordings: the camera of an AEDAT 2.0 file (.aedat) whose header names none: dvs128, davis240, "
-        "davis346, davis640, davis128, davis208, or davis (with --sensor-size)",
-    )
+    add_chip_option(g)
     g = p.add_argument_group("output")
     g.add_argument(
         "--crop",

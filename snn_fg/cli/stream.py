@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..events import EVENT_DTYPE, iter_recording
 from ..events.replay import UdpSender, from_ms, looped, open_sender, paced, parse_address
-from .options import number, recording_or_demo, sensor_size, subcommand
+from .options import add_chip_option, number, recording_or_demo, sensor_size, subcommand
 
 
 def add_stream_command(sub):
@@ -43,7 +43,7 @@ def add_stream_command(sub):
         help="each time from MS after the recording's first event (past a start-up burst, which --loop would repeat)",
     )
     p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="as snn-fg run (RAW files, arrays)")
-    p.add_argument("--chip", default=None, help="as snn-fg run (AEDAT 2.0 files whose header names no camera)")
+    add_chip_option(p)
     p.add_argument("--no-timestamps", action="store_true", help="udp://: events without times (stamped on arrival)")
     p.add_argument(
         "--wait-s",

@@ -25,12 +25,13 @@ from snn_fg.events.source import READ_BYTES, Source
 
 #: one line: an event (seconds, fraction, x, y, p), a blank or ``#`` line, or anything else (group 6)
 _LINE = re.compile(
-    rb"^(?:[ \t]*(\d{1,12})(?:\.(\d*))?[ \t]+(\d{1,6})[ \t]+(\d{1,6})[ \t]+(-1|0|1)[ \t]*\r?"
+    rb"^(?:[ \t]*(\d{1,12})(?:\.(\d{0,18}))?[ \t]+(\d{1,6})[ \t]+(\d{1,6})[ \t]+(-1|0|1)[ \t]*\r?"
     rb"|[ \t]*\r?|[ \t]*#[^\n]*|([^\n]*))$",
     re.MULTILINE,
 )
 #: the fraction digits kept: one past the microsecond, to round on
 _DIGITS = 7
+_TEN = 10 ** np.arange(19, dtype=np.int64)
 _LONGEST_LINE = 1 << 20
 LAYOUT = "'t x y p' (t in seconds, x and y pixels, p 1 or 0)"
 
@@ -101,7 +102,10 @@ def _columns(rows: np.ndarray):
     """x, y, t (us, rounded) and p (0, 1) of event rows (seconds, fraction, x, y, p as digits)."""
     if not len(rows):
         return (np.zeros(0, np.int64),) * 4
-    fraction = np.char.ljust(rows[:, 1], _DIGITS, b"0").astype(f"S{_DIGITS}").astype(np.int64)
+    digits = rows[:, 1]
+    n = np.char.str_len(digits)
+    value = np.where(n > 0, digits, b"0").astype(np.int64)
+    fraction = np.where(n <= _DIGITS, value * _TEN[_DIGITS - np.minimum(n, _DIGITS)], value // _TEN[n - _DIGITS])
     t = rows[:, 0].astype(np.int64) * 1_000_000 + (fraction + 5) // 10
     return rows[:, 2].astype(np.int64), rows[:, 3].astype(np.int64), t, rows[:, 4].astype(np.int64) > 0
 

@@ -93,10 +93,7 @@ class ChunkSource:
         for k, chunk in enumerate(self.chunks):
             if self.closed:  # (the iterable is left as it is: it may be blocked in another thread's read)
                 return
-            if not isinstance(chunk, np.ndarray) or chunk.dtype.names is None:
-                what = f"{chunk.dtype} array of shape {chunk.shape}" if isinstance(chunk, np.ndarray) else type(chunk)
-                raise InputError(self.name, f"chunk {k} is a {what}, not events (fields x, y, t, p)")
-            ev = as_events(chunk, self.name, self.given)
+            ev = as_events(chunk, self.name, self.given, what=f"chunk {k}")
             self.given += len(ev)
             if len(ev):
                 yield ev, time.perf_counter()

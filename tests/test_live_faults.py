@@ -313,6 +313,36 @@ def test_a_camera_on_usb_is_read_as_a_dv_stream_is(tmp_path, monkeypatch, capsys
         np.testing.assert_array_equal(x, y)
 
 
+@pytest.mark.parametrize("size", [[], ["--sensor-size", "346x260"]])
+def test_a_camera_run_looks_for_the_camera_and_compiles_the_packet_screen_once(tmp_path, monkeypatch, size):
+    """camera:// asked dv-processing for the cameras on USB twice (before the warm-up, and again as it was
+    opened), and the packet screen was prepared twice (in the warm-up, and again as the stream began): once
+    each, with the size given (the camera opened after the warm-up) and without it (before)."""
+    dv = pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    import snn_fg.cli.live  # noqa: F401 (every module that may call prepare_screen, loaded)
+    from snn_fg.events import live_screen
+
+    calls = {"discover": 0, "prepare_screen": 0}
+    real = live_screen.prepare_screen
+
+    def discover():
+        calls["discover"] += 1
+        return ["a camera"]
+
+    def prepare_screen():
+        calls["prepare_screen"] += 1
+        real()
+
+    monkeypatch.setattr(dv.io.camera, "discover", discover)
+    monkeypatch.setattr(dv.io.camera, "open", lambda *serial: dv.io.MonoCameraRecording(str(DAVIS)))
+    for module in list(sys.modules.values()):  # (wherever it is called from)
+        if vars(module).get("prepare_screen") is real:
+            monkeypatch.setattr(module, "prepare_screen", prepare_screen)
+    argv = ["live", "camera://", *size, "--out", str(tmp_path / "live"), "--model", "rate", "--window-ms", "40"]
+    assert main([*argv, "--max-behind", "1000", "--no-figures", "--no-progress"]) == 0
+    assert calls == {"discover": 1, "prepare_screen": 1}
+
+
 @pytest.mark.parametrize(
     "url, found, said",
     [

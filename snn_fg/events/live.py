@@ -45,7 +45,7 @@ import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events.cutter import TimePassed, WindowCutter, _window_times
-from snn_fg.events.live_screen import prepare_screen, screen_events
+from snn_fg.events.live_screen import screen_events
 
 #: the end of the stream, on the queue
 _END = object()
@@ -92,7 +92,6 @@ class LiveStream:
         self.last_t = None
         self.end_seen = False  # (the model's thread took the end of the stream)
         self.warned = False
-        prepare_screen()  # (compiled, or loaded, before the first packet)
         self.thread = threading.Thread(target=self._receive, name="snn-fg live receiver", daemon=True)
         self.thread.start()
 

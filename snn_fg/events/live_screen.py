@@ -40,8 +40,9 @@ def prepare_screen() -> None:
     """:func:`screen_events` compiled (or loaded from numba's cache) for every packet it will see: the
     fields of an event array are strided views (numba's layout 'A'), those of an empty or one-event
     array contiguous ('C'), and each layout is compiled apart, on a first run for a second or more.
-    Called in a live run's warm-up, before a ``dv://`` stream is connected to (a DV server sends from
-    then on), and by :class:`~snn_fg.events.live.LiveStream` (at once when warmed up)."""
+    Called once, in a live run's warm-up (:func:`~snn_fg.models.live.warm_up`), before a ``dv://``
+    stream is connected to (a DV server sends from then on); a :class:`~snn_fg.events.live.LiveStream`
+    made without one compiles it at its first packet."""
     for n in (0, 2):
         ev = np.zeros(n, EVENT_DTYPE)
         screen_events(ev["x"], ev["y"], ev["t"], 1, 1, 0)

@@ -52,16 +52,17 @@ def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
     return address(url, SCHEMES, owner)
 
 
-def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0):
+def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0, found: bool = False):
     """The live source ``url`` names; ``sensor_size`` ``(W, H)``: a UDP stream's (it
     has none of its own), a DV stream's if given (it must agree with the stream's).
-    Anything else than a string is taken for chunks of events (:class:`ChunkSource`)."""
+    Anything else than a string is taken for chunks of events (:class:`ChunkSource`).
+    ``found``: a ``camera://`` found on USB already (:func:`camera_found`), not looked for again."""
     if not isinstance(url, str):
         if sensor_size is None:
             raise InputError("<events>", "events handed over chunk by chunk have no sensor size of their own: give it")
         return ChunkSource(url, sensor_size)
     if url.startswith(CAMERA):
-        return CameraSource(url, sensor_size)
+        return CameraSource(url, sensor_size, found=found)
     scheme, host, port = parse_address(url)
     if scheme == "udp":
         if sensor_size is None:
@@ -333,10 +334,11 @@ class DvSource:
 class CameraSource(DvSource):
     """An iniVation camera (DAVIS, DVXplorer, DVS128) on this machine's USB, read with
     ``dv-processing`` as a ``dv://`` stream is read, with no DV software: ``camera://`` the
-    first one found, ``camera://SERIAL`` that one. Its times are the camera's (``clock``)."""
+    first one found, ``camera://SERIAL`` that one (``found``: found already, :func:`camera_found`).
+    Its times are the camera's (``clock``)."""
 
-    def __init__(self, url: str, sensor_size=None):
-        dv = camera_found(url)
+    def __init__(self, url: str, sensor_size=None, *, found: bool = False):
+        dv = _dv_processing(url) if found else camera_found(url)
         serial = url.removeprefix(CAMERA)
         try:
             reader = dv.io.camera.open(serial) if serial else dv.io.camera.open()
@@ -348,7 +350,7 @@ class CameraSource(DvSource):
 def camera_found(url: str):
     """dv-processing, once it has found the camera ``url`` names on USB (``camera://``: any,
     ``camera://SERIAL``: that serial number); an InputError naming ``url`` if not. Asked before
-    a live run's warm-up too, which would otherwise come first."""
+    a live run's warm-up where that comes first (the size given), and not again as it is opened."""
     dv = _dv_processing(url)
     found, serial = dv.io.camera.discover(), url.removeprefix(CAMERA)
     if not found:

@@ -71,6 +71,7 @@ class LiveStream:
         self.slot = -1  # the slot of the newest event
         self.dropped_slots: set = set()
         self.slot_arrival: dict = {}  # slot -> time its last event arrived (perf_counter)
+        self.first_arrival = None  # (when the stream's first event arrived: before the warm-up's end, or after)
         self.events_received = self.events_dropped = self.outside = self.backwards = 0
         self.outside_reach = (0, 0)  # (the largest x and y of the events outside the sensor: the sensor they fit)
         # the CPU used while the stream comes, sampled on arrivals (cpu_span): the run's, and the model's thread's,
@@ -108,6 +109,8 @@ class LiveStream:
         self.events_received += len(ev)
         if not len(ev):
             return
+        if self.first_arrival is None:
+            self.first_arrival = arrived
         w, h = self.sensor_size[:2]
         last = np.iinfo(np.int64).min if self.last_t is None else self.last_t
         keep, (outside, first_out, backwards, first_back, back_t, back_before) = screen_events(

@@ -24,8 +24,9 @@ import numpy as np
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
 from ..events.live import LiveStream
+from ..events.live_dv import CAMERA, camera_found
 from ..events.live_screen import prepare_screen
-from ..events.live_sources import CAMERA, camera_found, open_source, parse_address
+from ..events.live_sources import open_source, parse_address
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..results.peaks import grouping_peaks

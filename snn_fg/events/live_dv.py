@@ -26,6 +26,9 @@ DV_POLL_S = 0.002
 #: events a DV stream's reader is emptied of, at most, before the model asks for the stream (while it
 #: warms up): about 260 MB; the rest is left to the reader, and said
 EARLY_EVENTS = 20_000_000
+#: packets in a row a DV reader cannot read before its stream is taken for broken (until then each is
+#: counted and skipped): a reader that raises at every ask held the run there, a core busy, without end
+UNREADABLE_IN_A_ROW = 100
 
 
 def dv_reason(exc: RuntimeError) -> str:
@@ -72,11 +75,21 @@ class DvSource:
         # untaken when the server closes, and a short stream's server closed before a model that warmed up
         # after connecting, without --sensor-size, asked for the first event: "the stream ended before any event")
         self.early, self.ended, self.handed_over = [], False, threading.Event()
+        self.taken, self.failed = 0, None  # (events taken; what stopped the early taking, raised by packets())
+        self.broken = None  # (the reader's stream cannot go on: raised once the events before it are given)
         self.taking = threading.Thread(target=self._take_early, name="snn-fg dv reader", daemon=True)
         self.taking.start()
 
     def _take_early(self):
-        """Until :meth:`packets` begins: what the reader holds, kept (up to :data:`EARLY_EVENTS`)."""
+        """Until :meth:`packets` begins: what the reader holds, kept (up to :data:`EARLY_EVENTS`); an error
+        is kept for :meth:`packets` to raise on the receiving thread (on this one it was a traceback of its
+        own, and the run went on without the rest of the stream)."""
+        try:
+            self._keep_early()
+        except BaseException as exc:
+            self.failed = exc
+
+    def _keep_early(self):
         held = 0
         while not self.handed_over.is_set():
             got = self._take()
@@ -99,24 +112,48 @@ class DvSource:
 
     def _take(self):
         """The batches the reader holds (up to :data:`BATCH`) as one, with when they were taken; None
-        when it holds none, :data:`_ENDED` once the server has closed."""
-        parts = []
+        when it holds none, :data:`_ENDED` once the server has closed. A stream that cannot go on
+        (:meth:`_broken`) raises its InputError once the events before it are given."""
+        if self.broken is not None:  # (the events before it were given first)
+            raise self.broken
+        parts, failed = [], 0
         while len(parts) < BATCH:
             try:
                 batch = self.reader.getNextEventBatch()
-            except RuntimeError:  # (a packet the reader could not decode)
-                self.malformed += 1
+            except RuntimeError as exc:  # (a packet the reader could not decode)
+                self.malformed, failed = self.malformed + 1, failed + 1
+                self.broken = self._broken(exc, failed, self.taken + sum(len(a) for a in parts))
+                if self.broken is not None:
+                    break
                 continue
+            failed = 0
             if batch is None:
                 break
             parts.append(batch.numpy())
         if not parts:
+            if self.broken is not None:
+                raise self.broken
             return None if self.reader.isRunning() else _ENDED
         arrived = time.perf_counter()
         a = parts[0] if len(parts) == 1 else np.concatenate(parts)
         ev = np.empty(len(a), EVENT_DTYPE)
         ev["t"], ev["x"], ev["y"], ev["p"] = a["timestamp"], a["x"], a["y"], a["polarity"]
+        self.taken += len(ev)
         return ev, arrived
+
+    def _broken(self, exc: RuntimeError, failed: int, at: int) -> InputError | None:
+        """What ends the stream when the reader could not read ``failed`` packets in a row (the last one
+        raising ``exc``) at event ``at``: once the reader has stopped, or after :data:`UNREADABLE_IN_A_ROW`
+        of them; None while it may go on (the packet counted as malformed, and skipped)."""
+        running = self.reader.isRunning()
+        if running and failed < UNREADABLE_IN_A_ROW:
+            return None
+        said = (
+            f"{failed} packets in a row could not be read"
+            if running
+            else "the reader stopped at a packet it could not read"
+        )
+        return InputError(self.name, f"the stream cannot go on: {said} ({_said(exc)})", f"event {at:,}")
 
     def packets(self):
         """What the reader held before (:meth:`_take_early`), then each batch of events the reader holds
@@ -125,6 +162,8 @@ class DvSource:
         self._hand_over()
         early, self.early = self.early, []
         yield from early
+        if self.failed is not None:
+            raise self.failed
         while not (self.closed or self.ended):
             got = self._take()
             if got is _ENDED:

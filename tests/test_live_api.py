@@ -10,6 +10,7 @@ import pytest
 
 from snn_fg.errors import InputError
 from snn_fg.events import iter_windows
+from snn_fg.events._core import as_events
 from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.models import get_model, run_live
 from snn_fg.params import ModelParams
@@ -136,4 +137,9 @@ def test_a_chunk_that_is_not_a_structured_array_says_which_and_what_it_is():
     good = np.zeros(5, [("x", "i2"), ("y", "i2"), ("t", "i8"), ("p", "i1")])
     with pytest.raises(InputError) as err:
         run_live(get_model("rate", SMALL), iter([good, np.zeros((3, 4), np.int64)]), sensor_size=(64, 48))
-    assert str(err.value) == "<events>: chunk 1 is a int64 array of shape (3, 4), not events (fields x, y, t, p)"
+    said = "<events>: chunk 1 is a int64 array of shape (3, 4), not events (fields x, y, t, p)"
+    assert str(err.value) == said
+    # (the check has one home, as_events, that an array read whole says too, with the array named so)
+    with pytest.raises(InputError) as err:
+        as_events(np.zeros((3, 4), np.int64), "<events>", what="chunk 1")
+    assert str(err.value) == said

@@ -4,6 +4,7 @@ read them the same, and its closing line says what is there and how its figures 
 nothing was written; a DV stream served on a port in use, and a sensor size that disagrees with a
 file's own, are one line each."""
 
+import _thread
 import json
 import os
 import signal
@@ -311,6 +312,117 @@ def test_a_camera_on_usb_is_read_as_a_dv_stream_is(tmp_path, monkeypatch, capsys
     assert a.fg_x.shape == b.fg_x.shape and a.fg_x.shape[0] > 1
     for x, y in ((a.fg_x, b.fg_x), (a.fg_y, b.fg_y), (a.grouping, b.grouping)):
         np.testing.assert_array_equal(x, y)
+
+
+class _Failing:
+    """dv-processing's reader of the DAVIS346 recording (a camera's stand-in) that fails after ``good``
+    batches: with dv-processing's RuntimeError at every ask (``stopped``: and says it is no longer running),
+    or once with ``error``."""
+
+    def __init__(self, dv, good: int, error=None, stopped: bool = True):
+        self.rec, self.asked, self.good, self.error, self.stopped = (
+            dv.io.MonoCameraRecording(str(DAVIS)),
+            0,
+            good,
+            error,
+            stopped,
+        )
+        self.given = 0
+
+    def __getattr__(self, name):
+        return getattr(self.rec, name)
+
+    def getNextEventBatch(self):  # noqa: N802 (dv-processing's name)
+        self.asked += 1
+        if self.asked > self.good and self.error is not None:
+            error, self.error = self.error, None
+            raise error
+        if self.asked > self.good and self.error is None and self.stopped is not None:
+            raise RuntimeError("read: Connection reset by peer [/dv-processing/network_reader.hpp:123]")
+        batch = self.rec.getNextEventBatch()
+        self.given += 0 if batch is None else len(batch)
+        return batch
+
+    def isRunning(self):  # noqa: N802
+        return not (self.stopped and self.asked > self.good) and self.rec.isRunning()
+
+
+def _live_camera(tmp_path, *size):
+    """snn-fg live on camera:// (dv-processing's camera.open, patched): its exit status (130: interrupted,
+    still running after 60 s)."""
+    argv = ["live", "camera://", *size, "--out", str(tmp_path / "live"), "--model", "rate", "--window-ms", "10"]
+    hung = threading.Timer(60, _thread.interrupt_main)
+    hung.start()
+    try:
+        return main([*argv, "--max-behind", "1000", "--no-figures", "--no-progress"])
+    finally:
+        hung.cancel()
+
+
+@pytest.mark.parametrize("stopped", [True, False], ids=["reader-stopped", "reader-stuck"])
+def test_a_dv_stream_that_cannot_go_on_is_one_line_after_its_windows(tmp_path, monkeypatch, capsys, stopped):
+    """A dv-processing reader that raises at every ask (a connection reset, a stream it cannot decode) was
+    asked again without end: the run hung, its receiving thread busy. Once the reader has stopped, or after
+    UNREADABLE_IN_A_ROW such packets, the run ends in one line naming the source, the problem and the event
+    it came at, with the windows of the events before it kept (live.json says why it ended)."""
+    dv = pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    from snn_fg.events.live_dv import UNREADABLE_IN_A_ROW
+
+    monkeypatch.setattr(dv.io.camera, "discover", lambda: ["a camera"])
+    reader = _Failing(dv, good=5, stopped=stopped)
+    monkeypatch.setattr(dv.io.camera, "open", lambda *serial: reader)
+    assert _live_camera(tmp_path, "--sensor-size", "346x260") == 2
+    said = "the reader stopped at a packet it could not read" if stopped else (
+        f"{UNREADABLE_IN_A_ROW} packets in a row could not be read"
+    )  # fmt: skip
+    line = f"camera://: the stream cannot go on: {said} (read: Connection reset by peer) (at event {reader.given:,})"
+    assert capsys.readouterr().err.strip().splitlines()[-1] == f"snn-fg: error: {line}"
+    record = json.loads((tmp_path / "live" / "live.json").read_text())
+    assert record["events_received"] == reader.given > 0 and record["windows"] > 0
+    assert record["ended"] == f"error: {line}"
+
+
+def test_an_error_while_the_model_warms_up_is_raised_by_the_run_not_lost_with_its_thread(tmp_path, monkeypatch, capsys):
+    """Without --sensor-size the camera is read from before the warm-up, on a thread of its own: an error
+    there was printed as that thread's traceback, and the run went on, exit status 0, without the rest of
+    the stream. It is the run's error now (here not dv-processing's RuntimeError: a fault, so a traceback)."""
+    dv = pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    monkeypatch.setattr(dv.io.camera, "discover", lambda: ["a camera"])
+    reader = _Failing(dv, good=0, error=ValueError("a fault in the reader"), stopped=None)
+    monkeypatch.setattr(dv.io.camera, "open", lambda *serial: reader)
+    with pytest.raises(ValueError, match="^a fault in the reader$"):
+        _live_camera(tmp_path)
+    assert "Exception in thread" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("size", [[], ["--sensor-size", "346x260"]])
+def test_a_camera_run_looks_for_the_camera_and_compiles_the_packet_screen_once(tmp_path, monkeypatch, size):
+    """camera:// asked dv-processing for the cameras on USB twice (before the warm-up, and again as it was
+    opened), and the packet screen was prepared twice (in the warm-up, and again as the stream began): once
+    each, with the size given (the camera opened after the warm-up) and without it (before)."""
+    dv = pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    import snn_fg.cli.live  # noqa: F401 (every module that may call prepare_screen, loaded)
+    from snn_fg.events import live_screen
+
+    calls = {"discover": 0, "prepare_screen": 0}
+    real = live_screen.prepare_screen
+
+    def discover():
+        calls["discover"] += 1
+        return ["a camera"]
+
+    def prepare_screen():
+        calls["prepare_screen"] += 1
+        real()
+
+    monkeypatch.setattr(dv.io.camera, "discover", discover)
+    monkeypatch.setattr(dv.io.camera, "open", lambda *serial: dv.io.MonoCameraRecording(str(DAVIS)))
+    for module in list(sys.modules.values()):  # (wherever it is called from)
+        if vars(module).get("prepare_screen") is real:
+            monkeypatch.setattr(module, "prepare_screen", prepare_screen)
+    argv = ["live", "camera://", *size, "--out", str(tmp_path / "live"), "--model", "rate", "--window-ms", "40"]
+    assert main([*argv, "--max-behind", "1000", "--no-figures", "--no-progress"]) == 0
+    assert calls == {"discover": 1, "prepare_screen": 1}
 
 
 @pytest.mark.parametrize(

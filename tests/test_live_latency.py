@@ -142,6 +142,49 @@ def test_the_closing_line_says_whether_the_model_or_the_machine_fell_behind():
     assert closing(windows_dropped=0, windows_skipped=3, cpu_s=3.0, model_cpu_s=2.5)[1] is not None  # (hops)
 
 
+class _Early(_Source):
+    """Packets that came before the warm-up ended, as a dv:// stream's do when its size is not given (connected
+    to first, to learn it): each stamped with its arrival then, handed over once the model asks."""
+
+    def __init__(self, rec, window_us, warm_up_s):
+        super().__init__(rec, window_us)
+        self.arrived = time.perf_counter()
+        time.sleep(warm_up_s)  # (the warm-up, on the stream's time)
+
+    def packets(self):
+        for ev in self.list:
+            yield ev, self.arrived
+
+
+def test_a_warm_up_on_the_streams_time_is_named_as_why_windows_were_dropped(tmp_path):
+    """Without --sensor-size a dv:// run learns the size from the stream, so it is built and warmed up after
+    the stream began (0.5 s of it for the demo): its first windows were dropped, and the closing line blamed
+    'other programs' (the run used 26% of its 2 cores) for what was its own warm-up. It says so, with the
+    warm-up's seconds on the stream's time (live.json: warm_up_on_stream_s); a stream that came whole during
+    a first run's minute of compiling, with no stream time after it, said nothing at all."""
+    _, rec = flipping_disc_recording(24, windows=6, window_ms=40.0)
+    stream = LiveStream(_Early(rec, 40_000, warm_up_s=0.3), window_ms=40.0, max_behind=0)
+    record = LiveRecord(stream)
+    record.cores = 2
+    out = tmp_path / "live"
+    out.mkdir()
+    model = LiveModel(get_model("rate", ModelParams(levels=3)), stream, record)
+    try:
+        run_recording(model, stream, out, {"input": "test://", "window_ms": 40.0}, figures=False)
+    finally:
+        stream.close()
+    live = record.summary("the sender closed the stream")
+    assert live["windows_dropped"] > 0 and 0.3 <= live["warm_up_on_stream_s"] < 1.0
+    assert live["why_behind"].startswith(
+        f"the model was built and warmed up after the stream's first event came, for "
+        f"{live['warm_up_on_stream_s']:.1f} s of the stream's time, which its first windows waited for"
+    )
+    for cpu in ({"streamed_s": 0.0, "cpu_s": 0.0, "model_cpu_s": 0.0}, {"cpu_s": 0.1, "model_cpu_s": 0.1}):
+        assert why_behind({**live, **cpu}) == live["why_behind"]  # (all came meanwhile; an idle CPU)
+    on_time = {**live, "warm_up_on_stream_s": 0.0, "streamed_s": 1.0, "cpu_s": 0.1, "model_cpu_s": 0.1}
+    assert "other programs had the rest" in why_behind(on_time)  # (a warm-up before the stream: the CPU's verdict)
+
+
 def test_the_cpu_share_is_measured_over_the_stream_and_stays_within_its_cores():
     """cpu_s and model_cpu_s are measured over streamed_s (the first packet's arrival to the last's),
     not from the warm-up to the summary: the model's work after the last packet (the last windows,

@@ -181,15 +181,17 @@ def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
     return size
 
 
-def as_events(arr, source="<array>", offset: int = 0) -> np.ndarray:
+def as_events(arr, source="<array>", offset: int = 0, what: str = "the array") -> np.ndarray:
     """Convert a structured array with fields x, y, t, p to :data:`EVENT_DTYPE`.
 
     ``p`` of 1 becomes ON (1), 0 or -1 OFF (0); a boolean ``p`` is kept; any other value is refused.
     Timestamps must be integers (or integral floats) in microseconds.
-    ``offset`` is added to event indices in error messages.
+    ``offset`` is added to event indices in error messages; ``what`` names ``arr`` in the one
+    for something that is not a structured array (a live stream's ``"chunk 3"``).
     """
     if not isinstance(arr, np.ndarray) or arr.dtype.names is None:
-        raise InputError(source, "expected a structured array with fields x, y, t, p")
+        kind = f"{arr.dtype} array of shape {arr.shape}" if isinstance(arr, np.ndarray) else type(arr)
+        raise InputError(source, f"{what} is a {kind}, not events (fields x, y, t, p)")
     missing = [f for f in "xytp" if f not in arr.dtype.names]
     if missing:
         raise InputError(

@@ -45,7 +45,7 @@ import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events.cutter import TimePassed, WindowCutter, _window_times
-from snn_fg.events.live_screen import prepare_screen, screen_events
+from snn_fg.events.live_screen import screen_events
 
 #: the end of the stream, on the queue
 _END = object()
@@ -71,6 +71,7 @@ class LiveStream:
         self.slot = -1  # the slot of the newest event
         self.dropped_slots: set = set()
         self.slot_arrival: dict = {}  # slot -> time its last event arrived (perf_counter)
+        self.first_arrival = None  # (when the stream's first event arrived: before the warm-up's end, or after)
         self.events_received = self.events_dropped = self.outside = self.backwards = 0
         self.outside_reach = (0, 0)  # (the largest x and y of the events outside the sensor: the sensor they fit)
         # the CPU used while the stream comes, sampled on arrivals (cpu_span): the run's, and the model's thread's,
@@ -92,7 +93,6 @@ class LiveStream:
         self.last_t = None
         self.end_seen = False  # (the model's thread took the end of the stream)
         self.warned = False
-        prepare_screen()  # (compiled, or loaded, before the first packet)
         self.thread = threading.Thread(target=self._receive, name="snn-fg live receiver", daemon=True)
         self.thread.start()
 
@@ -109,6 +109,8 @@ class LiveStream:
         self.events_received += len(ev)
         if not len(ev):
             return
+        if self.first_arrival is None:
+            self.first_arrival = arrived
         w, h = self.sensor_size[:2]
         last = np.iinfo(np.int64).min if self.last_t is None else self.last_t
         keep, (outside, first_out, backwards, first_back, back_t, back_before) = screen_events(

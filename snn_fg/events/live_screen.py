@@ -1,6 +1,7 @@
 """The screen each packet of a live stream passes on the receiving thread
 (:class:`~snn_fg.events.live.LiveStream`): events inside the sensor and in
-time order are kept, the others counted."""
+time order are kept, the others counted; a source takes up to :data:`BATCH`
+packets at a time for it."""
 
 from __future__ import annotations
 
@@ -8,6 +9,11 @@ import numpy as np
 from numba import njit
 
 from ._core import EVENT_DTYPE
+
+#: packets taken off a UDP socket's buffer (batches off a DV reader) at a time, at most, once one has
+#: arrived: the events of those already waiting are screened and queued for the model together (per
+#: packet, that took a sixth of a core beside the compact network, 29 Nov); none is waited for
+BATCH = 64
 
 
 @njit(cache=True, nogil=True)
@@ -40,8 +46,9 @@ def prepare_screen() -> None:
     """:func:`screen_events` compiled (or loaded from numba's cache) for every packet it will see: the
     fields of an event array are strided views (numba's layout 'A'), those of an empty or one-event
     array contiguous ('C'), and each layout is compiled apart, on a first run for a second or more.
-    Called in a live run's warm-up, before a ``dv://`` stream is connected to (a DV server sends from
-    then on), and by :class:`~snn_fg.events.live.LiveStream` (at once when warmed up)."""
+    Called once, in a live run's warm-up (:func:`~snn_fg.models.live.warm_up`), before a ``dv://``
+    stream is connected to (a DV server sends from then on); a :class:`~snn_fg.events.live.LiveStream`
+    made without one compiles it at its first packet."""
     for n in (0, 2):
         ev = np.zeros(n, EVENT_DTYPE)
         screen_events(ev["x"], ev["y"], ev["t"], 1, 1, 0)

@@ -1,6 +1,7 @@
 """Live event sources: ``udp://HOST:PORT`` (SPIF packets, :mod:`snn_fg.events.spif`),
-``dv://HOST:PORT`` (iniVation's DV network stream, read with ``dv-processing``), and
-from Python any iterable of event chunks that your own code makes (:class:`ChunkSource`).
+``dv://HOST:PORT`` and ``camera://`` (iniVation's DV network stream and cameras, read with
+``dv-processing``: :mod:`snn_fg.events.live_dv`), and from Python any iterable of event
+chunks that your own code makes (:class:`ChunkSource`); :func:`open_source` opens the one named.
 
 A source's :meth:`packets` runs on the receiving thread and yields the
 events of each packet, or of the packets that came together, with the time
@@ -17,7 +18,6 @@ from __future__ import annotations
 import os
 import select
 import socket
-import threading
 import time
 import warnings
 
@@ -25,26 +25,16 @@ import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events import spif
-from snn_fg.events._core import EVENT_DTYPE, as_events, check_sensor_size
+from snn_fg.events._core import as_events, check_sensor_size
 from snn_fg.events.clock import ARRIVAL, SENDER
+from snn_fg.events.live_dv import CAMERA, CameraSource, DvSource
+from snn_fg.events.live_screen import BATCH
 from snn_fg.validate import address
 
-#: the schemes a live source is named by (HOST:PORT after them), and the one of a camera on USB
+#: the schemes a live source is named by (HOST:PORT after them; a camera on USB: live_dv.CAMERA)
 SCHEMES = ("udp", "dv")
-CAMERA = "camera://"
 #: a UDP socket's receive buffer asked for (the kernel may give less: net.core.rmem_max)
 UDP_BUFFER = 8 << 20
-#: packets taken off a UDP socket's buffer at a time, at most, once one has arrived: the events of those
-#: already waiting are checked and queued for the model together (per packet, that took a sixth of a
-#: core beside the compact network, 29 Nov); none is waited for
-BATCH = 64
-#: how long a DV stream's reader is left before it is asked again, when it had no batch (dv-processing's
-#: reader cannot be waited on). Every 0.5 ms, with a batch passed on as it came, the receiving thread took
-#: about a fifth of one core beside the compact network (30 Nov): 2 ms bounds what it adds to a latency
-DV_POLL_S = 0.002
-#: events a DV stream's reader is emptied of, at most, before the model asks for the stream (while it
-#: warms up): about 260 MB; the rest is left to the reader, and said
-EARLY_EVENTS = 20_000_000
 
 
 def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
@@ -52,16 +42,17 @@ def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
     return address(url, SCHEMES, owner)
 
 
-def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0):
+def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0, found: bool = False):
     """The live source ``url`` names; ``sensor_size`` ``(W, H)``: a UDP stream's (it
     has none of its own), a DV stream's if given (it must agree with the stream's).
-    Anything else than a string is taken for chunks of events (:class:`ChunkSource`)."""
+    Anything else than a string is taken for chunks of events (:class:`ChunkSource`). ``found``:
+    a ``camera://`` found on USB already (:func:`~snn_fg.events.live_dv.camera_found`), not looked for again."""
     if not isinstance(url, str):
         if sensor_size is None:
             raise InputError("<events>", "events handed over chunk by chunk have no sensor size of their own: give it")
         return ChunkSource(url, sensor_size)
     if url.startswith(CAMERA):
-        return CameraSource(url, sensor_size)
+        return CameraSource(url, sensor_size, found=found)
     scheme, host, port = parse_address(url)
     if scheme == "udp":
         if sensor_size is None:
@@ -93,10 +84,7 @@ class ChunkSource:
         for k, chunk in enumerate(self.chunks):
             if self.closed:  # (the iterable is left as it is: it may be blocked in another thread's read)
                 return
-            if not isinstance(chunk, np.ndarray) or chunk.dtype.names is None:
-                what = f"{chunk.dtype} array of shape {chunk.shape}" if isinstance(chunk, np.ndarray) else type(chunk)
-                raise InputError(self.name, f"chunk {k} is a {what}, not events (fields x, y, t, p)")
-            ev = as_events(chunk, self.name, self.given)
+            ev = as_events(chunk, self.name, self.given, what=f"chunk {k}")
             self.given += len(ev)
             if len(ev):
                 yield ev, time.perf_counter()
@@ -214,168 +202,3 @@ def _udp_drops(sock) -> int | None:
     except (OSError, ValueError):
         pass
     return None
-
-
-def dv_reason(exc: RuntimeError) -> str:
-    """What a ``dv-processing`` network error says, without the Boost source location it appends
-    (``connect: Connection refused``)."""
-    return str(exc).split(" [")[0]
-
-
-class DvSource:
-    """The event stream a DV server (DV software, ``dv-processing``'s NetworkWriter) serves over TCP
-    (its times the sender's: ``clock``)."""
-
-    clock, clock_span_us = SENDER, None
-
-    def __init__(self, url, host, port, sensor_size=None, *, wait_s: float = 30.0):
-        dv = _dv_processing(url)
-        t0 = time.perf_counter()
-        while True:
-            try:
-                reader = dv.io.NetworkReader(host, port)
-                break
-            except RuntimeError as exc:
-                if time.perf_counter() - t0 > wait_s:
-                    raise InputError(url, f"no DV server answered within {wait_s:g} s ({dv_reason(exc)})") from None
-                time.sleep(0.1)
-        self._begin(url, reader, sensor_size, "the DV server there sends no event stream", "the stream's")
-
-    def _begin(self, url, reader, sensor_size, no_events: str, whose: str):
-        """Read ``reader`` (a ``dv-processing`` input) from now on, once it is found to give events
-        (``no_events``: what it is said when not) of the size ``sensor_size`` where given (``whose``: its size)."""
-        self.name, self.malformed, self.closed, self.reader = url, 0, False, reader
-        problem = None
-        if not self.reader.isEventStreamAvailable():
-            problem = no_events
-        else:
-            size = tuple(int(v) for v in self.reader.getEventResolution())
-            if sensor_size is not None and tuple(int(v) for v in sensor_size[:2]) != size:
-                problem = f"--sensor-size {sensor_size[0]}x{sensor_size[1]} disagrees with {whose} {size[0]}x{size[1]}"
-        if problem is not None:
-            self.reader = None
-            raise InputError(url, problem)
-        self.sensor_size = size
-        # (the reader is emptied from the connection on: dv-processing's reader throws away what it holds
-        # untaken when the server closes, and a short stream's server closed before a model that warmed up
-        # after connecting, without --sensor-size, asked for the first event: "the stream ended before any event")
-        self.early, self.ended, self.handed_over = [], False, threading.Event()
-        self.taking = threading.Thread(target=self._take_early, name="snn-fg dv reader", daemon=True)
-        self.taking.start()
-
-    def _take_early(self):
-        """Until :meth:`packets` begins: what the reader holds, kept (up to :data:`EARLY_EVENTS`)."""
-        held = 0
-        while not self.handed_over.is_set():
-            got = self._take()
-            if got is _ENDED:
-                self.ended = True
-                return
-            if got is None:
-                time.sleep(DV_POLL_S)
-            elif held + len(got[0]) > EARLY_EVENTS:  # (a camera's stream during a long warm-up)
-                warnings.warn(
-                    f"{self.name}: more than {EARLY_EVENTS:,} events came before the model was ready; "
-                    "the stream goes on from where the reader is (--sensor-size warms up before connecting)",
-                    InputWarning,
-                    stacklevel=1,
-                )
-                return
-            else:
-                held += len(got[0])
-                self.early.append(got)
-
-    def _take(self):
-        """The batches the reader holds (up to :data:`BATCH`) as one, with when they were taken; None
-        when it holds none, :data:`_ENDED` once the server has closed."""
-        parts = []
-        while len(parts) < BATCH:
-            try:
-                batch = self.reader.getNextEventBatch()
-            except RuntimeError:  # (a packet the reader could not decode)
-                self.malformed += 1
-                continue
-            if batch is None:
-                break
-            parts.append(batch.numpy())
-        if not parts:
-            return None if self.reader.isRunning() else _ENDED
-        arrived = time.perf_counter()
-        a = parts[0] if len(parts) == 1 else np.concatenate(parts)
-        ev = np.empty(len(a), EVENT_DTYPE)
-        ev["t"], ev["x"], ev["y"], ev["p"] = a["timestamp"], a["x"], a["y"], a["polarity"]
-        return ev, arrived
-
-    def packets(self):
-        """What the reader held before (:meth:`_take_early`), then each batch of events the reader holds
-        (those it holds together, up to :data:`BATCH`), and when the last of them was taken; the reader
-        is asked every :data:`DV_POLL_S` while it has none."""
-        self._hand_over()
-        early, self.early = self.early, []
-        yield from early
-        while not (self.closed or self.ended):
-            got = self._take()
-            if got is _ENDED:
-                return
-            if got is None:
-                time.sleep(DV_POLL_S)
-                continue
-            yield got
-
-    def _hand_over(self):
-        self.handed_over.set()
-        self.taking.join()
-
-    def close(self):
-        """Disconnects (a DV server waits for its readers to go)."""
-        self.closed = True
-        self._hand_over()
-        self.reader = None
-
-
-class CameraSource(DvSource):
-    """An iniVation camera (DAVIS, DVXplorer, DVS128) on this machine's USB, read with
-    ``dv-processing`` as a ``dv://`` stream is read, with no DV software: ``camera://`` the
-    first one found, ``camera://SERIAL`` that one. Its times are the camera's (``clock``)."""
-
-    def __init__(self, url: str, sensor_size=None):
-        dv = camera_found(url)
-        serial = url.removeprefix(CAMERA)
-        try:
-            reader = dv.io.camera.open(serial) if serial else dv.io.camera.open()
-        except (RuntimeError, IndexError) as exc:  # (a serial not found; a camera gone since it was found)
-            raise InputError(url, f"cannot open the camera: {_said(exc)}") from None
-        self._begin(url, reader, sensor_size, "the camera there gives no events", "the camera's")
-
-
-def camera_found(url: str):
-    """dv-processing, once it has found the camera ``url`` names on USB (``camera://``: any,
-    ``camera://SERIAL``: that serial number); an InputError naming ``url`` if not. Asked before
-    a live run's warm-up too, which would otherwise come first."""
-    dv = _dv_processing(url)
-    found, serial = dv.io.camera.discover(), url.removeprefix(CAMERA)
-    if not found:
-        raise InputError(url, "no iniVation camera found on this machine's USB (dv-processing looked)")
-    serials = [str(getattr(d, "serialNumber", "")) for d in found]
-    if serial and serial not in serials:
-        raise InputError(url, f"no camera with serial number {serial} on USB (found: {', '.join(serials)})")
-    return dv
-
-
-def _dv_processing(url: str):
-    try:
-        import dv_processing as dv  # (the live extra)
-    except ImportError:
-        raise InputError(url, f"reading {url.split('//')[0]}// needs dv-processing: pip install -e '.[live]'") from None
-    return dv
-
-
-def _said(exc: Exception) -> str:
-    """The message of a ``dv-processing`` error, without the source location and stack it carries."""
-    lines = str(exc).splitlines()
-    said = [line.split(": ", 1)[1] for line in lines if line.startswith("RuntimeError: ")]
-    return said[0] if said else dv_reason(exc)
-
-
-#: what :meth:`DvSource._take` gives once the server has closed the stream
-_ENDED = object()

@@ -18,7 +18,8 @@ import numpy as np
 
 from snn_fg.errors import InputError
 from snn_fg.events import spif
-from snn_fg.events.live_sources import dv_reason, parse_address
+from snn_fg.events.live_dv import dv_reason
+from snn_fg.events.live_sources import parse_address
 
 #: how often the sender wakes to send what is due (s)
 TICK_S = 0.001

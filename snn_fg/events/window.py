@@ -61,7 +61,8 @@ def iter_windows(
     * Windows continue until one contains the last event; a window longer
       than the recording yields one window holding everything after the start.
       The last window's ``t_end_us`` is one microsecond after the last event
-      (never past the end of the recording).
+      (never past the end of the recording): how the models read such a short
+      window out and how it is scored, ``docs/usage.md`` ("A recording's last window").
     * An empty window (a pause in the recording) is yielded with all-zero
       frames and an :class:`EmptyWindowWarning`.
     * Timestamps must not go backwards: that is an InputError naming the

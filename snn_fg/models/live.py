@@ -24,8 +24,9 @@ import numpy as np
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
 from ..events.live import LiveStream
+from ..events.live_dv import CAMERA, camera_found
 from ..events.live_screen import prepare_screen
-from ..events.live_sources import CAMERA, camera_found, open_source, parse_address
+from ..events.live_sources import open_source, parse_address
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..results.peaks import grouping_peaks
@@ -106,13 +107,13 @@ def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **
     sent meanwhile wait in the kernel's buffer)."""
     name = source if isinstance(source, str) else "<events>"
     camera = isinstance(source, str) and source.startswith(CAMERA)
-    if camera:
-        camera_found(source)
     sends_at_once = camera or (isinstance(source, str) and parse_address(source)[0] == "dv")
     warm_s = None
     if sends_at_once and sensor_size is not None:
+        if camera:  # (no camera is said before the warm-up's seconds, not after them)
+            camera_found(source)
         warm_s = warmed_up(model, sensor_size, window_ms, name, peaks)
-    opened = open_source(source, sensor_size, **opening)
+    opened = open_source(source, sensor_size, found=camera and warm_s is not None, **opening)
     if warm_s is None:
         try:
             warm_s = warmed_up(model, opened.sensor_size, window_ms, name, peaks)

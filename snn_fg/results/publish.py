@@ -47,6 +47,9 @@ LATENCY_DECIMALS = 2
 BUSY_SHARE = 0.8
 #: the share of the stream's time that ``run_live``'s callback took for it to be named as why the model fell behind
 CALLBACK_SHARE = 0.2
+#: seconds of a warm-up after the stream's first event arrived from which the warm-up is named as why the model
+#: fell behind (a little more than a window of the default 85 ms)
+LATE_WARM_UP_S = 0.1
 
 
 class Publisher:
@@ -142,6 +145,7 @@ class LiveRecord:
             "windows_completed_by_end": sum(r["completed_by"] == END_OF_STREAM for r in self.rows),
             "ended": ended,
             "warm_up_s": self.warm_up_s,
+            "warm_up_on_stream_s": self._warm_up_on_stream(),
             "seconds": round(time.perf_counter() - self.t_start, 3),
             **self._cpu(),
         }
@@ -149,6 +153,14 @@ class LiveRecord:
             out["on_window_s"] = round(self.on_window_s, 3)
         out["why_behind"] = why_behind(out)
         return {**out, "drop_policy": DROP_POLICY, "max_behind": self.stream.max_behind, "per_window": self.rows}
+
+    def _warm_up_on_stream(self) -> float | None:
+        """Seconds of the warm-up that ran after the stream's first event arrived (a ``dv://`` or ``camera://``
+        stream without its size given is connected to before the warm-up, to learn it), which the first
+        windows waited for; 0.0 when the warm-up came first, None when no event came. The record is made
+        as the warm-up ends (:attr:`t_start`)."""
+        first = self.stream.first_arrival
+        return None if first is None else round(max(0.0, self.t_start - first), 3)
 
     def _cpu(self) -> dict:
         """``streamed_s``: wall seconds from the first event's arrival to the last's (the silence that ends a
@@ -181,9 +193,19 @@ def why_behind(summary: dict) -> str | None:
     """Why a live run fell behind (windows dropped or hops skipped), from its CPU while the stream came
     (``live.json``: ``streamed_s``, ``cpu_s``, ``model_cpu_s``, ``cores``): the model is slower than the stream
     here, or other programs had the cores. None when nothing fell behind or no event came. ``live.json`` keeps
-    it (``why_behind``) and the line ``snn-fg live`` ends with says it. A ``run_live`` caller's callback that
-    took :data:`CALLBACK_SHARE` of that time or more (``on_window_s``) is named instead: the model waited for it."""
+    it (``why_behind``) and the line ``snn-fg live`` ends with says it. Named instead: a warm-up that ran
+    :data:`LATE_WARM_UP_S` or more after the stream's first event came (``warm_up_on_stream_s``: the model
+    was built on the stream's time, and its CPU says nothing of the windows that waited for it), or a
+    ``run_live`` caller's callback that took :data:`CALLBACK_SHARE` of the stream's time or more
+    (``on_window_s``): the model waited for it."""
     behind = (summary.get("windows_dropped") or 0) + (summary.get("windows_skipped") or 0)
+    late = summary.get("warm_up_on_stream_s")
+    if behind and late is not None and late >= LATE_WARM_UP_S:  # (before streamed_s: all may have come meanwhile)
+        return (
+            f"the model was built and warmed up after the stream's first event came, for {late:.1f} s of the "
+            "stream's time, which its first windows waited for (give the stream's size, --sensor-size WxH or "
+            "sensor_size=(W, H), and the warm-up comes before the stream)"
+        )
     wall, cores = summary.get("streamed_s"), summary.get("cores")
     if not (behind and wall and cores):
         return None

@@ -542,6 +542,50 @@ def test_no_dv_server_is_one_line_without_the_librarys_source_location(tmp_path,
     assert not (tmp_path / "o").exists()
 
 
+def test_a_server_that_answers_without_a_dv_stream_ends_the_run_in_one_line(tmp_path):
+    # (dv-processing's reader waits in its constructor for a DV stream's header, holding the interpreter
+    # lock: a server that accepts and sends nothing held snn-fg live there for good, Ctrl-C and all)
+    pytest.importorskip("dv_processing", reason="the live extra (pip install -e '.[live]')")
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    port = server.getsockname()[1]
+    held = []
+    stop = threading.Event()
+
+    def accept_and_say_nothing():
+        server.settimeout(0.05)
+        while not stop.is_set():
+            try:
+                held.append(server.accept()[0])
+            except OSError:
+                pass
+
+    th = threading.Thread(target=accept_and_say_nothing, daemon=True)
+    th.start()
+    try:
+        res = subprocess.run(
+            [sys.executable, "-m", "snn_fg.cli", "live", f"dv://127.0.0.1:{port}", "--out", str(tmp_path / "o")]
+            + ["--wait-s", "0.3"],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+    finally:
+        stop.set()
+        th.join()
+        for conn in held:
+            conn.close()
+        server.close()
+    assert res.returncode == 2
+    (err,) = res.stderr.strip().splitlines()
+    assert err == (
+        f"snn-fg: error: dv://127.0.0.1:{port}: a server answered but sent no DV event stream within 0.3 s (it "
+        "never sent a DV stream header): is it a DV network writer (DV software's output, snn-fg stream --to dv://)?"
+    )
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_live_run_that_dropped_windows_numbers_the_others_as_the_stream_does(tmp_path):
     """One numbering everywhere: window k begins k windows after the stream's first; with
     windows 2 and 3 dropped, the published lines, live.json, maps.zarr, windows.csv, the figure

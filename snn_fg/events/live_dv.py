@@ -16,6 +16,7 @@ from snn_fg.errors import InputError, InputWarning
 from snn_fg.events._core import EVENT_DTYPE
 from snn_fg.events.clock import SENDER
 from snn_fg.events.live_screen import BATCH
+from snn_fg.events.watchdog import ends_process_after
 
 #: how a camera on USB is named (``camera://``, or ``camera://SERIAL``)
 CAMERA = "camera://"
@@ -37,6 +38,23 @@ def dv_reason(exc: RuntimeError) -> str:
     return str(exc).split(" [")[0]
 
 
+#: how long a server that accepted the connection may take to send a DV stream's header past
+#: ``wait_s`` before the run is ended (:func:`~snn_fg.events.watchdog.ends_process_after`)
+HEADER_GRACE_S = 2.0
+
+
+def not_served(wait_s: float, reason: str) -> str:
+    """Why no DV stream came within ``wait_s``: nothing listening (a refused or timed-out
+    connection), or something that answered and sent no DV stream (a web server, a UDP
+    sender's port, a stream of another kind), which is not the same fault."""
+    if reason.startswith("connect:"):
+        return f"no DV server answered within {wait_s:g} s ({reason})"
+    return (
+        f"a server answered but sent no DV event stream within {wait_s:g} s ({reason}): is it a DV "
+        "network writer (DV software's output, snn-fg stream --to dv://)?"
+    )
+
+
 class DvSource:
     """The event stream a DV server (DV software, ``dv-processing``'s NetworkWriter) serves over TCP
     (its times the sender's: ``clock``)."""
@@ -47,12 +65,14 @@ class DvSource:
         dv = _dv_processing(url)
         t0 = time.perf_counter()
         while True:
+            left = max(wait_s - (time.perf_counter() - t0), 0.0) + HEADER_GRACE_S
             try:
-                reader = dv.io.NetworkReader(host, port)
+                with ends_process_after(left, f"{url}: {not_served(wait_s, 'it never sent a DV stream header')}"):
+                    reader = dv.io.NetworkReader(host, port)
                 break
             except RuntimeError as exc:
                 if time.perf_counter() - t0 > wait_s:
-                    raise InputError(url, f"no DV server answered within {wait_s:g} s ({dv_reason(exc)})") from None
+                    raise InputError(url, not_served(wait_s, dv_reason(exc))) from None
                 time.sleep(0.1)
         self._begin(url, reader, sensor_size, "the DV server there sends no event stream", "the stream's")
 

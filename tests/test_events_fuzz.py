@@ -8,6 +8,7 @@ so a decoder that refused everything could not pass.
 """
 
 import functools
+import importlib.util
 import tempfile
 from pathlib import Path
 
@@ -106,6 +107,24 @@ def _atis_bytes():
     return data[:20] + b"\xfc" * 5 + data[20:]
 
 
+def _hdf5_bytes(layout):
+    """DSEC's events/x, y, t, p (with t_offset) or MVSEC's N x 4 davis/left/events, as snn_fg.events.hdf5 reads."""
+    import h5py
+
+    ev = synthetic()
+    with tempfile.TemporaryDirectory() as d:
+        p = Path(d) / "f.h5"
+        with h5py.File(p, "w") as f:
+            if layout == "dsec":
+                for k, dtype in (("x", "u2"), ("y", "u2"), ("t", "u4"), ("p", "u1")):
+                    f.create_dataset(f"events/{k}", data=ev[k].astype(dtype))
+                f.create_dataset("t_offset", data=np.int64(1000))
+            else:
+                cols = [ev["x"], ev["y"], 1504645177.4 + ev["t"] / 1e6, 2.0 * ev["p"] - 1]
+                f.create_dataset("davis/left/events", data=np.stack(cols, axis=1))
+        return p.read_bytes()
+
+
 def _shared(name, limit=None):
     return (EVENTS / name).read_bytes()[:limit] if EVENTS else None
 
@@ -132,6 +151,9 @@ CASES = {
     "npy": (".npy", _written(".npy"), {}, N),
     "npz": (".npz", _written(".npz"), {}, N),
 }
+if importlib.util.find_spec("h5py"):
+    CASES["dsec"] = (".h5", _hdf5_bytes("dsec"), {}, N)
+    CASES["mvsec"] = (".hdf5", _hdf5_bytes("mvsec"), {}, N)
 if EVENTS:  # no AEDAT4 encoder exists to make a base here
     CASES["aedat4"] = (".aedat4", _shared("tonic_sample_person.aedat4"), {}, 111_954)
 

@@ -22,6 +22,7 @@ extension          format                        decoder (module)            str
                    (Event Camera Dataset)
 ``.npy``           structured array x, y, t, p   numpy (memory-mapped)       yes
 ``.npz``           structured array x, y, t, p   numpy                       no
+``.h5``/``.hdf5``  DSEC, MVSEC, Prophesee HDF5   h5py (``hdf5``)             yes
 (array)            structured array x, y, t, p   --                          yes
 =================  ============================  ==========================  =========
 
@@ -58,7 +59,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.errors import InputError
-from snn_fg.events import aedat4, aedat23, eventstream, nmnist, numpy_files, prophesee, text_events, yarp
+from snn_fg.events import aedat4, aedat23, eventstream, hdf5, nmnist, numpy_files, prophesee, text_events, yarp
 from snn_fg.events._core import sensor_size_parameter
 from snn_fg.events.source import Source
 
@@ -73,6 +74,8 @@ SUFFIX_FORMAT = {
     ".txt": "txt",
     ".npy": "npy",
     ".npz": "npz",
+    ".h5": "h5",
+    ".hdf5": "h5",
 }
 
 
@@ -101,6 +104,7 @@ FORMATS = {
     "txt": Format("a text file of events", text_events.open_txt, ("a text file",)),
     "npy": Format("a .npy file", numpy_files.open_npy, ("a numpy .npy file",)),
     "npz": Format("an .npz archive", numpy_files.open_npz, ("a zip/.npz file",)),
+    "h5": Format("an HDF5 file", hdf5.open_h5, ("an HDF5 file",)),
 }
 
 _MAGICS = [
@@ -110,6 +114,7 @@ _MAGICS = [
     (b"#!AER-DAT3.1", "an AEDAT 2.0 or 3.1 file"),
     (b"#!AER-DAT", "an AEDAT 1.0 or 3.0 file"),
     (b"\x93NUMPY", "a numpy .npy file"),
+    (b"\x89HDF\r\n\x1a\n", "an HDF5 file"),
     (b"PK\x03\x04", "a zip/.npz file"),
     (b"PK\x05\x06", "a zip/.npz file"),
     (b"\x89PNG", "a PNG image"),

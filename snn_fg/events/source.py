@@ -16,7 +16,23 @@ import numpy as np
 
 #: Decoder names whose reader yields bounded chunks (see the table in :mod:`snn_fg.events.formats`).
 STREAMING_FORMATS = frozenset(
-    {"es", "es-atis", "evt2", "evt3", "dat", "aedat2", "aedat3", "aedat4", "yarp", "txt", "npy", "array"}
+    {
+        "es",
+        "es-atis",
+        "evt2",
+        "evt3",
+        "dat",
+        "aedat2",
+        "aedat3",
+        "aedat4",
+        "yarp",
+        "txt",
+        "npy",
+        "array",
+        "dsec",
+        "mvsec",
+        "prophesee-hdf5",
+    }
 )
 #: Bytes a binary decoder reads at a time: its memory does not grow with the file.
 READ_BYTES = 1 << 22

@@ -244,8 +244,8 @@ def test_dvs_rate_vs_spiking_makes_its_spiking_maps_again_for_other_code_or_anot
 
     def served(value):
         made = [SimpleNamespace(fg_x=np.full((2, 3), value), fg_y=np.zeros((2, 3)))] * 2
-        maps = page.cached_maps(page.cache_file("timed", recording, 100.0), lambda: made)
-        assert len(maps) == 2
+        maps, read_back = page.cached_maps(page.cache_file("timed", recording, 100.0), lambda: made)
+        assert len(maps) == 2 and read_back == (maps[0][0][0, 0] != value)
         return maps[0][0][0, 0]
 
     monkeypatch.setattr(page, "source_digest", lambda: "old-code")

@@ -13,6 +13,8 @@ that produced it.
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import json
 import os
 import shlex
@@ -67,6 +69,20 @@ def peak_rss_mb() -> float:
 def load_change(before: Sequence[float]) -> str:
     """``"1.2 -> 3.4"``: the 1-minute load average ``before`` (a :func:`load`) and now."""
     return f"{before[0]:.1f} -> {load()[0]:.1f}"
+
+
+def source_digest(package: Path | None = None) -> str:
+    """A short digest of the Python source of ``package`` (a folder; by default the ``snn_fg`` that is
+    imported): each ``*.py`` file's path in it and bytes. A cache of maps that code made, named by it, is
+    not read back once the code has changed: a change of behaviour with no change of parameters (how a
+    recording's input gains are set, say) moves the maps as much as a new parameter does, and
+    :func:`git_commit` would miss an edit not yet committed."""
+    if package is None:
+        package = Path(importlib.util.find_spec("snn_fg").origin).parent
+    h = hashlib.sha1()
+    for path in sorted(package.rglob("*.py")):
+        h.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()[:10]
 
 
 def git_commit() -> str:

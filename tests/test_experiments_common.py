@@ -62,6 +62,23 @@ def test_the_processor_is_read_from_the_first_cpu_of_cpuinfo(tmp_path):
     assert common.processor(str(tmp_path / "absent")) == ""
 
 
+def test_the_source_digest_follows_each_code_file_its_bytes_and_its_name(tmp_path):
+    package = tmp_path / "pkg"
+    (package / "sub").mkdir(parents=True)
+    (package / "gains.py").write_text("PER_ACTIVE_SOURCE = False\n")
+    (package / "sub" / "read.py").write_text("")
+    first = common.source_digest(package)
+    assert common.source_digest(package) == first and len(first) == 10
+    (package / "notes.txt").write_text("not code")
+    assert common.source_digest(package) == first
+    (package / "gains.py").write_text("PER_ACTIVE_SOURCE = True\n")  # same size, other behaviour
+    edited = common.source_digest(package)
+    assert edited != first
+    (package / "sub" / "read.py").rename(package / "sub" / "once.py")
+    assert common.source_digest(package) != edited
+    assert common.source_digest() == common.source_digest(ROOT / "snn_fg")  # the snn_fg imported
+
+
 def test_an_absent_dataset_ends_the_experiment_with_the_fetch_command(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv(datasets.ENV_VAR, str(tmp_path))
     with pytest.raises(SystemExit) as stop:

@@ -1,6 +1,7 @@
 """The BSDS experiments on a new user's runs: a subset never overwrites the full-set results, a changed
-label file is computed again (not read back from the cache), a bad label file ends the run with one
-line naming it, and impossible option values are argparse errors.
+label file is computed again (not read back from the cache; nor are dvs_rate_vs_spiking's spiking maps
+after a change of code or recording), a bad label file ends the run with one line naming it, and
+impossible option values are argparse errors.
 
 Most tests build a tiny synthetic bsds-fg folder in tmp_path (two 10 x 12 images and their labels);
 the end-to-end ones need the dataset and skip without it."""
@@ -13,6 +14,7 @@ import subprocess
 import sys
 from argparse import Namespace
 from pathlib import Path
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -231,6 +233,28 @@ def test_the_input_digest_follows_the_bytes_not_the_mtime(tmp_path):
     assert bsds.input_digest(root, "1") == before
     (root / "images" / "1.jpg").write_bytes(b"x" + (root / "images" / "1.jpg").read_bytes()[1:])
     assert bsds.input_digest(root, "1") != before
+
+
+def test_dvs_rate_vs_spiking_makes_its_spiking_maps_again_for_other_code_or_another_recording(monkeypatch, tmp_path):
+    import experiments.validation.dvs_rate_vs_spiking as page
+
+    monkeypatch.setattr(page, "CACHE", tmp_path / "cache")
+    recording = tmp_path / "dvs.es"
+    recording.write_bytes(b"events")
+
+    def served(value):
+        made = [SimpleNamespace(fg_x=np.full((2, 3), value), fg_y=np.zeros((2, 3)))] * 2
+        maps, read_back = page.cached_maps(page.cache_file("timed", recording, 100.0), lambda: made)
+        assert len(maps) == 2 and read_back == (maps[0][0][0, 0] != value)
+        return maps[0][0][0, 0]
+
+    monkeypatch.setattr(page, "source_digest", lambda: "old-code")
+    assert served(1.0) == 1.0
+    assert served(2.0) == 1.0  # the same code and recording: read back
+    monkeypatch.setattr(page, "source_digest", lambda: "new-code")  # say, input gains set another way
+    assert served(3.0) == 3.0
+    recording.write_bytes(b"others")
+    assert served(4.0) == 4.0
 
 
 # 3. bad label files: one line naming the file, nothing run

@@ -21,34 +21,56 @@ thing:
    leaves blank), and only on the busy pixels (at least the median event
    count of the window), for steps 1-3.
 
-The spiking maps are kept in experiments/results/cache/dvs_rate_vs_spiking/
-and read back on a second run (the frame runs take about 6 s per window on
-an idle core, an hour at load 15). Writes experiments/results/dvs_rate_vs_spiking.{json,md}.
+The spiking maps are kept in experiments/results/cache/dvs_rate_vs_spiking/,
+named by the start, the recording's bytes and snn_fg's source
+(:func:`cache_file`), and read back by a second run of the same code on the
+same recording (the spiking runs are most of the time); the page says which
+were read back. Writes experiments/results/dvs_rate_vs_spiking.{json,md}.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 from pathlib import Path
 
 import numpy as np
 
-from experiments.common import CACHE, Run, dataset, describe, markdown_table, save_json, save_markdown
+from experiments.common import (
+    CACHE,
+    Run,
+    dataset,
+    describe,
+    markdown_table,
+    save_json,
+    save_markdown,
+    source_digest,
+)
 
 ITERATIONS = (1, 2, 3, 5, 10, 20)
 
 
-def _cached(path: Path, make):
-    """``[(fg_x, fg_y)]`` per window from ``path``, or made by ``make()`` and stored there."""
+def cache_file(kind: str, recording: Path, start_ms: float) -> Path:
+    """Where the spiking maps of ``kind`` (``"timed"``, ``"frame"``) are kept: named by the start, a digest
+    of the recording's bytes and :func:`~experiments.common.source_digest`, so that maps of another
+    recording or of other code are made again instead of read back as this code's."""
+    recording_digest = hashlib.sha1(Path(recording).read_bytes()).hexdigest()[:10]
+    name = f"{kind}_{start_ms:g}_{recording_digest}_{source_digest()}.npz"
+    return CACHE / "dvs_rate_vs_spiking" / name
+
+
+def cached_maps(path: Path, make) -> tuple[list[tuple[np.ndarray, np.ndarray]], bool]:
+    """``[(fg_x, fg_y)]`` per window from ``path``, or made by ``make()`` and stored there (atomically: an
+    interrupted run leaves no half-written file to be read back); and whether they were read back."""
+    from snn_fg.results.atomic import save_npz
+
     if path.exists():
-        z = np.load(path)
-        return [(z[f"x{k}"], z[f"y{k}"]) for k in range(len(z.files) // 2)]
+        with np.load(path) as z:
+            return [(z[f"x{k}"], z[f"y{k}"]) for k in range(sum(f.startswith("x") for f in z.files))], True
     maps = make()
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(
-        path, **{f"x{k}": m.fg_x for k, m in enumerate(maps)}, **{f"y{k}": m.fg_y for k, m in enumerate(maps)}
-    )
-    return [(m.fg_x, m.fg_y) for m in maps]
+    save_npz(path, **{f"x{k}": m.fg_x for k, m in enumerate(maps)}, **{f"y{k}": m.fg_y for k, m in enumerate(maps)})
+    return [(m.fg_x, m.fg_y) for m in maps], False
 
 
 def _score(fields, regions, masks=None) -> dict:
@@ -92,17 +114,16 @@ def main():
     run = Run()
     windows = list(iter_windows(rec, window_ms=85, start_ms=a.start_ms))
     regions = [filled_outline(w.pos | w.neg) for w in windows]
-    cache = CACHE / "dvs_rate_vs_spiking"
     rate = {
         it: [(m.fg_x, m.fg_y) for m in (run_edfg(w.pos, w.neg, ModelParams(iterations=it)) for w in windows)]
         for it in ITERATIONS
     }
-    timed = _cached(
-        cache / f"timed_{a.start_ms:g}.npz", lambda: run_spiking_windows(windows, backend="fast", progress=False)
+    timed, timed_read_back = cached_maps(
+        cache_file("timed", rec, a.start_ms), lambda: run_spiking_windows(windows, backend="fast", progress=False)
     )
     backend = as_backend("fast")
-    frame = _cached(
-        cache / f"frame_{a.start_ms:g}.npz",
+    frame, frame_read_back = cached_maps(
+        cache_file("frame", rec, a.start_ms),
         lambda: [run_spiking(w.pos, w.neg, backend=backend, progress=False, seed=0) for w in windows],
     )
     blank = [np.hypot(*f) > 0 for f in timed]
@@ -122,18 +143,34 @@ def main():
         ("spiking, the recording (timed events, window clock)", timed),
     ):
         rows[f"{name}, on busy pixels"] = _score(fields, regions, busy)
-    record = {"recording": rec.name, "start_ms": a.start_ms, "windows": len(windows), "rows": rows, "run": run.record()}
+    read_back = {"the recording's": timed_read_back, "the frames'": frame_read_back}
+    record = {
+        "recording": rec.name,
+        "start_ms": a.start_ms,
+        "windows": len(windows),
+        "spiking_maps_read_back": {"recording": timed_read_back, "frames": frame_read_back},
+        "rows": rows,
+        "run": run.record(),
+    }
     save_json("dvs_rate_vs_spiking", record)
     lines = [
         f"# Why the spiking network beats the rate model on {rec.name}",
         "",
-        f"{describe(record['run'])} {len(windows)} windows of 85 ms (spiking maps from the cache when there). "
+        f"{describe(record['run'])} {len(windows)} windows of 85 ms ({_maps_made(read_back)}). "
         "Inward: the share of outline vectors pointing into the plane, per window.",
         "",
         *_table(rows),
     ]
     save_markdown("dvs_rate_vs_spiking", lines)
     print("\n".join(lines))
+
+
+def _maps_made(read_back: dict) -> str:
+    """Where the page's spiking maps came from: ``{"the recording's": True, ...}`` -> words."""
+    cached = [name for name, was in read_back.items() if was]
+    if not cached:
+        return "spiking maps made in this run"
+    return f"{' and '.join(cached)} spiking maps read from the cache, made by the same snn_fg source"
 
 
 def _table(rows) -> list[str]:

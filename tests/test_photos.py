@@ -103,3 +103,39 @@ def test_a_photo_is_read_upright_as_its_exif_orientation_says(tmp_path):
     img = read_image(tmp_path / "phone.jpg")
     assert img.shape == (80, 40)  # upright: tall
     assert img[:40].mean() > 0.9 and img[40:].mean() < 0.1  # the stored left half is now the top half
+
+
+def test_an_image_whose_model_would_not_fit_the_memory_is_refused_with_the_scale_that_fits(tmp_path):
+    from snn_fg.errors import InputError
+    from snn_fg.frames.still import RATE_BYTES_PER_PIXEL, check_fits
+
+    shape = (3000, 4000)  # 12 MP: 18 GB for the rate model at 1.5 kB a pixel
+    with pytest.raises(InputError) as caught:
+        check_fits("phone.jpg", shape, "rate model", RATE_BYTES_PER_PIXEL, available=8e9)
+    said = str(caught.value)
+    assert "a 4000 x 3000 image: the rate model needs about 18.0 GB for it, more than the 8.0 GB" in said
+    scale = float(said.split("--image-scale ")[1].split()[0])
+    assert 4000 * 3000 * scale**2 * RATE_BYTES_PER_PIXEL <= 8e9 * 0.8  # (the F it gives fits, with room)
+    check_fits("phone.jpg", shape, "rate model", RATE_BYTES_PER_PIXEL, available=20e9)  # (fits: no error)
+
+
+def test_out_of_memory_on_an_image_names_the_image_scale_not_the_network():
+    from snn_fg.cli.main import out_of_memory
+
+    err = MemoryError("Unable to allocate 759. MiB for an array with shape (3000, 4000) and data type float64")
+    on_image = out_of_memory(err, "phone.jpg")
+    assert on_image.startswith("out of memory (Unable to allocate 759. MiB)") and "--image-scale" in on_image
+    assert "--network" not in on_image and "1280 x 720" not in on_image
+    assert "--network compact" in out_of_memory(err, "rec.aedat4")
+
+
+def test_run_refuses_an_image_too_large_for_the_memory_before_it_runs(tmp_path, monkeypatch, capsys):
+    from snn_fg.pynn import memory
+
+    monkeypatch.setattr(memory, "available_bytes", lambda: 1e8)  # (a machine with 100 MB free)
+    img = _square(tmp_path / "im.png", 640, 480, 200, 440, 120, 360)  # 0.3 MP: 0.46 GB for the rate model
+    out = tmp_path / "o"
+    assert main(["run", str(img), "--out", str(out), "--no-progress"]) == 2
+    (err,) = capsys.readouterr().err.strip().splitlines()
+    assert err.startswith(f"snn-fg: error: {img}: a 640 x 480 image: the rate model needs about 0.5 GB for it")
+    assert "--image-scale" in err and not out.exists()

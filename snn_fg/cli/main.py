@@ -17,6 +17,7 @@ import os
 import signal
 import sys
 import warnings
+from pathlib import Path
 
 from ..errors import InputWarning, SnnFgError
 from .commands import COMMANDS
@@ -119,7 +120,7 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
                     # the file and the system's reason in one line
                     exc = f"{exc.filename}: {exc.strerror or type(exc).__name__}"
                 elif isinstance(exc, MemoryError):
-                    exc = out_of_memory(exc)
+                    exc = out_of_memory(exc, getattr(args, "input", None))
                 elif not isinstance(exc, SnnFgError):
                     raise
                 print(f"snn-fg: error: {exc if isinstance(exc, str) else exc.for_command_line()}", file=sys.stderr)
@@ -136,15 +137,21 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
         return code
 
 
-def out_of_memory(exc: MemoryError) -> str:
+def out_of_memory(exc: MemoryError, spec=None) -> str:
     """The one line for a command that ran out of memory: what it could not have (numpy's
-    ``Unable to allocate 5.03 GiB``, without the array's shape and type) and what needs less."""
+    ``Unable to allocate 5.03 GiB``, without the array's shape and type) and what needs less for
+    its input ``spec``: a smaller image (an image file), or a smaller network."""
+    from ..events.images import IMAGE_SUFFIXES
+
     what = str(exc).split(" for an array")[0].strip()
-    return (
-        f"out of memory{f' ({what})' if what else ''}: the model needs more than this machine gives it; "
-        "a smaller network needs less (--network compact; the default network on a 1280 x 720 sensor "
-        "makes 167 M cells: docs/performance.md, 'Memory')"
-    )
+    if spec is not None and Path(str(spec)).suffix.lower() in IMAGE_SUFFIXES:
+        less = "a smaller image needs less (--image-scale F; a large image's note says which F)"
+    else:
+        less = (
+            "a smaller network needs less (--network compact; the default network on a 1280 x 720 sensor "
+            "makes 167 M cells: docs/performance.md, 'Memory')"
+        )
+    return f"out of memory{f' ({what})' if what else ''}: the model needs more than this machine gives it; {less}"
 
 
 @contextlib.contextmanager

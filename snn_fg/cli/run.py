@@ -18,7 +18,7 @@ from ..events.esim import MOTIONS
 from ..events.identity import input_keys
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
-from ..frames.still import input_kind, load_frame
+from ..frames.still import RATE_BYTES_PER_PIXEL, SPIKING_BYTES_PER_PIXEL, input_kind, load_frame
 from ..models import MODELS
 from ..results.atomic import OutputFolder, growing_folder, settle_folder
 from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, windows_complete
@@ -161,11 +161,24 @@ def _check_frame(args, model, shape) -> None:
 
 def _run_still(args, model) -> str:
     """A frame, an image or the demo into ``--out``, all or nothing; what was written."""
-    frame, source = load_frame(args.input, model.needs, args.threshold, args.motion or "shift4", args.image_scale)
+    frame, source = load_frame(
+        args.input, model.needs, args.threshold, args.motion or "shift4", args.image_scale, image_cost(args, model)
+    )
     _check_frame(args, model, frame.shape)
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:
         run_still(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures)
         return ", ".join(sorted(p.name for p in folder.dir.iterdir()))
+
+
+def image_cost(args, model):
+    """``(what, bytes a pixel)`` of the memory ``model`` needs for an image, where measured: the frame
+    models' (rate, fbfg, natural) and the default spiking network's (:mod:`snn_fg.frames.still`);
+    None for another network (not measured on images)."""
+    if model.name in ("rate", "fbfg", "natural"):
+        return f"{model.name} model", RATE_BYTES_PER_PIXEL
+    if args.network in (None, "default"):
+        return f"{model.name} model on the default network", SPIKING_BYTES_PER_PIXEL
+    return None
 
 
 def _windows(args, model):

@@ -70,6 +70,28 @@ def large_image_note(spec, shape) -> str:
     )
 
 
+def check_fits(spec, shape, model: str, bytes_per_pixel: float, available: float | None = None) -> None:
+    """An :class:`~snn_fg.errors.InputError` before an image of ``shape`` is run, if ``model``'s
+    memory for it (``bytes_per_pixel``, as measured: :data:`RATE_BYTES_PER_PIXEL`, ...) is more than
+    the machine has available (``available`` bytes; Linux's ``MemAvailable`` if None, no check
+    where that is not known): a run that would be ended by the system, or swap for hours, is
+    refused with the scale that fits."""
+    from ..pynn.memory import available_bytes  # (the standard library only)
+
+    have = available_bytes() if available is None else available
+    h, w = shape[:2]
+    need = h * w * bytes_per_pixel
+    if have is None or need <= have:
+        return
+    scale = float(f"{(have / need) ** 0.5 * 0.8:.2g}")  # (a fifth to spare: the cost a pixel is a measurement)
+    raise InputError(
+        spec,
+        f"a {w} x {h} image: the {model} needs about {need / 1e9:.1f} GB for it, more than the "
+        f"{have / 1e9:.1f} GB this machine has available; --image-scale {scale:g} makes it "
+        f"{round(w * scale)} x {round(h * scale)} (about {need * scale**2 / 1e9:.1f} GB)",
+    )
+
+
 @dataclass
 class Still:
     """A still input, what a model runs on once (a recording is run window by
@@ -209,7 +231,7 @@ def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
     return pos, neg
 
 
-def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "shift4", image_scale=None):
+def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "shift4", image_scale=None, cost=None):
     """The frame a model needs from ``INPUT`` (``demo``, an image or an event
     frame), and what to record about where it came from.
 
@@ -218,7 +240,9 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
     see :data:`snn_fg.events.esim.MOTIONS`) or ``"image"``. ``image_scale``:
     an image is resized by this factor first (:func:`scaled_image`); an image
     larger than :data:`LARGE_IMAGE_SIDE` without it gets an
-    :class:`~snn_fg.errors.InputWarning` saying what it costs.
+    :class:`~snn_fg.errors.InputWarning` saying what it costs. ``cost``:
+    ``(model, bytes a pixel)`` of the model to run, whose memory for an image
+    (:func:`check_fits`) must fit what the machine has available.
     Returns ``(Still, source)``.
     """
     kind = input_kind(spec)
@@ -241,6 +265,8 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
         image = scaled_image(image, image_scale, spec)
     elif max(image.shape[:2]) > LARGE_IMAGE_SIDE:
         warnings.warn(InputWarning(large_image_note(spec, image.shape)), stacklevel=2)
+    if cost is not None:
+        check_fits(spec, image.shape, *cost)
     if needs == "image":
         return Still(image=image), source
     recording = image_to_events(image, threshold=threshold, motion=motion)

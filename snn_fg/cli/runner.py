@@ -139,7 +139,8 @@ def run_recording(
             return store.n
         store.go_on()
     n_empty = n_blank = 0
-    blank_spans_ms: list = []  # how long the events of each window without a vector last
+    blank_spans_ms: list = []  # how long the events of each window without a vector last ...
+    blank_events: list = []  # ... and how many they are
 
     def emit(w, maps):
         nonlocal n_empty, n_blank
@@ -150,6 +151,7 @@ def run_recording(
             n_blank += 1
             t = w.events["t"]
             blank_spans_ms.append((int(t.max()) - int(t.min())) / 1000 if len(t) else 0.0)
+            blank_events.append(len(t))
         _append_window(store, w, maps)
         if isinstance(windows, _Counted):
             windows.done()
@@ -180,7 +182,8 @@ def run_recording(
     if n_blank:
         lo, hi = min(blank_spans_ms), max(blank_spans_ms)
         span = f"{lo:.0f} ms" if round(lo) == round(hi) else f"{lo:.0f}-{hi:.0f} ms"
-        hint = f"; {model.blank_window_hint}" if model.blank_window_hint else ""
+        why = model.blank_window_hint
+        hint = f"; {why.why(blank_spans_ms, blank_events)}" if why is not None else ""
         print(
             f"snn-fg: warning: {n_blank} of {store.n - n_empty} windows with events have no figure-ground "
             f"vector (their events last {span}{hint})",

@@ -25,7 +25,7 @@ from ..events.images import as_float_image
 from ..frames.still import Still
 from ..params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
 from ..results.maps import SPIKING_GROUPING_LABEL, Maps, made_by
-from . import checks
+from . import blank, checks
 
 # Each model's own package is imported by the methods that run it: the rate model compiles its numba loops and
 # the spiking model loads its backends on import (seconds); the figures (matplotlib) only by a run that draws.
@@ -47,7 +47,7 @@ class Model(ABC):
     options: ClassVar[tuple] = ()
     grouping_label: ClassVar[str] = "grouping"
     #: why a recording's window with events can give no figure-ground vector, said with the warning that some did
-    blank_window_hint: ClassVar[str] = ""
+    blank_window_hint: ClassVar[blank.BlankWindows | None] = None
     #: whether every event pixel gets a vector by construction (``windows.csv``'s ``fg_coverage``, 1, is left empty)
     vector_at_every_event: ClassVar[bool] = False
 
@@ -185,7 +185,7 @@ class FbfgModel(Model):
     needs = "image"
     options = ("edge_operator",)
     grouping_label = "grouping (normalised to 1)"
-    blank_window_hint = "a window before the recording's first APS frame has no frame to run on"
+    blank_window_hint = blank.FRAMES
 
     def __init__(self, params: ModelParams = ModelParams(), progress=None, *, edge_operator="gaussian"):
         super().__init__(params, progress)
@@ -235,12 +235,7 @@ class SpikingModel(Model):
 
     name = "spiking"
     grouping_label = SPIKING_GROUPING_LABEL
-    blank_window_hint = (
-        "the spiking network needs tens of ms of input before its feedback orders the "
-        "border-ownership cells: on dvs.es a window's grouping map takes a median 52.5 ms to settle. "
-        "A clip that short can run as its event frame, which the network sees for as long as it "
-        "needs: snn-fg events REC --write-frame F.npz, then snn-fg run F.npz --model spiking"
-    )
+    blank_window_hint = blank.SPIKING
     options = (
         "network",
         "backend",

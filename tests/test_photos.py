@@ -139,3 +139,17 @@ def test_run_refuses_an_image_too_large_for_the_memory_before_it_runs(tmp_path, 
     (err,) = capsys.readouterr().err.strip().splitlines()
     assert err.startswith(f"snn-fg: error: {img}: a 640 x 480 image: the rate model needs about 0.5 GB for it")
     assert "--image-scale" in err and not out.exists()
+
+
+def test_a_network_whose_cells_do_not_fit_the_memory_is_refused_before_it_runs():
+    from snn_fg.backends.fast.backend import check_cells_fit
+    from snn_fg.errors import InputError
+    from snn_fg.network import build_network
+
+    net = build_network(frame_shape=(720, 1280))
+    with pytest.raises(InputError) as caught:
+        check_cells_fit(net, 166_831_483, available=4e9)  # (the default network's cells on a 1280 x 720 sensor)
+    said = str(caught.value)
+    assert said.startswith("the network for a 1280 x 720 frame: its 166,831,483 cells need at least 5.3 GB")
+    assert "4.0 GB this machine has available" in said and "--network compact" in said
+    check_cells_fit(net, 166_831_483, available=8e9)  # (fits: no error)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import time
 
+from ...errors import InputError
 from ...lowering.unroll import choose_sites
 from ...network.graph import Network
 from ..base import Backend, RunSettings, SimulationResult, source_masks
@@ -139,6 +140,7 @@ class FastBackend(Backend):
         )
         n_steps = int(round(settings.duration_ms / settings.dt_ms))
         cells = sum(chosen[p.name].size for p in network.populations)
+        check_cells_fit(network, cells)
         run = Run(tab, chosen, inputs, n_steps, self._pool, self.threads_for_run(cells))
         stream = None
         if settings.on_bin is not None and settings.count_bins_ms is not None:
@@ -167,3 +169,25 @@ class FastBackend(Backend):
         timings["total"] = time.perf_counter() - t0
         result.timings_s = timings
         return result
+
+
+def check_cells_fit(network: Network, cells: int, available: float | None = None) -> None:
+    """An :class:`~snn_fg.errors.InputError` before a run whose cells' state alone (32 bytes a cell,
+    :data:`.lif.STATE`; a run's peak is more: 42 bytes a cell for the default network on a 1280 x 720
+    sensor, ``docs/performance.md``) is more than the machine has available (``available`` bytes;
+    Linux's ``MemAvailable`` if None, no check where that is not known): such a run would swap or be
+    ended by the system part way."""
+    from ...pynn.memory import available_bytes  # (the standard library only)
+    from .lif import STATE
+
+    have = available_bytes() if available is None else available
+    need = cells * STATE.itemsize
+    if have is None or need <= have:
+        return
+    h, w = network.frame_shape
+    smaller = "" if network.params.input_pool > 1 else "; --network compact makes about a twentieth of the cells"
+    raise InputError(
+        f"the network for a {w} x {h} frame",
+        f"its {cells:,} cells need at least {need / 1e9:.1f} GB (their state alone), more than the "
+        f"{have / 1e9:.1f} GB this machine has available{smaller}",
+    )

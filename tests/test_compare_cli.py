@@ -110,9 +110,7 @@ def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypa
         (tmp_path / "out" / name).mkdir(parents=True)
         Maps(z, z, z, {"model": "rate"}).save(tmp_path / "out" / name / "maps.npz")
     seen = []
-    monkeypatch.setattr(
-        figures, "save_compare_figure", lambda path, a, b, rows, names, where, inputs: seen.append(names)
-    )
+    monkeypatch.setattr(figures, "save_compare_figure", lambda path, a, b, rows, names, **_: seen.append(names))
     for b in ("run-b", "run-b/maps.npz"):
         assert (
             main(
@@ -183,7 +181,7 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
 
     ma.save(tmp_path / "a.npz"), mb.save(tmp_path / "b.npz")
     assert main(["compare", str(tmp_path / "a.npz"), str(tmp_path / "b.npz"), "--outline", "2"]) == 0
-    assert "within 2 px of the event region's outline" in capsys.readouterr().out
+    assert "within 2 px of the event region's outline" in " ".join(capsys.readouterr().out.split())
     mb.save(tmp_path / "c.npz")
     assert main(["compare", str(tmp_path / "b.npz"), str(tmp_path / "c.npz"), "--outline", "2"]) == 2
     err = capsys.readouterr().err
@@ -308,7 +306,9 @@ def test_runs_made_one_at_a_time_are_paired_by_image_and_pooled(tmp_path, capsys
     lines = text.splitlines()
     assert lines[0].split()[:3] == ["A", "B", "image"]
     assert [ln.split()[2] for ln in lines[1:3]] == ["x", "y"]
-    assert "A within 45° of B on 50.0% of 20 pixels, mean 90.0°" in text
+    assert "All images: A within 45° of B on 50.0% of 20 pixels, which are 100% of B's vectors; mean 90.0°" in " ".join(
+        text.split()
+    )
     assert (
         "A: 2 runs (spk_x, spk_y), the spiking model" in text and "B: 2 runs (rate_x, rate_y), the rate model" in text
     )
@@ -322,7 +322,7 @@ def test_runs_made_one_at_a_time_are_paired_by_image_and_pooled(tmp_path, capsys
         (tmp_path / folder).mkdir()
         (tmp_path / folder / "summary.csv").write_text("recording,output,status,windows,seconds,error\n" + rows)
     assert main(["compare", str(tmp_path / "spk"), str(tmp_path / "rate"), "--no-baseline"]) == 0
-    assert "A within 45° of B on 50.0% of 20 pixels, mean 90.0°" in capsys.readouterr().out
+    assert "50.0% of 20 pixels, which are 100% of B's vectors; mean 90.0°" in " ".join(capsys.readouterr().out.split())
 
     other = save("rate_z", "z", 1.0, "rate")
     for given, said in (

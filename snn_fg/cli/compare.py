@@ -80,8 +80,8 @@ def add_compare_command(sub):
         default=None,
         help="compare only the spiking maps' vectors at least Z standard errors of their spike counts "
         "long (fg_confidence, stored by every spiking run; 2 leaves out vectors that a couple of "
-        "spikes decide); the cover column says how much of B is still compared (against labels: "
-        "the others count as no vector)",
+        "spikes decide); the cover column says how much of B is still compared, and --plot draws "
+        "only those vectors (against labels: the others count as no vector)",
     )
     p.add_argument(
         "--no-baseline",
@@ -134,6 +134,9 @@ def cmd_compare(args) -> int:
         from ..scoring.compare_figure import aps_inputs, save_compare_figure
 
         names = tuple(f"{side} ({run})" for side, run, _ in runs)
-        save_compare_figure(args.plot, a, b, rows, names=names, where=where, inputs=aps_inputs(a, b))
+        inputs = aps_inputs(a, b)
+        save_compare_figure(
+            args.plot, a, b, rows, names=names, where=where, inputs=inputs, min_confidence=args.min_confidence
+        )
         print(f"snn-fg: figure saved to {args.plot}")
     return 0

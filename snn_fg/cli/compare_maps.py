@@ -18,10 +18,11 @@ from ..results.maps import Maps
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
 from ..scoring.inputs import differing, other_frames, other_inputs, same_run
-from ..scoring.metrics import compare_maps, compared_pixels, flipped_within_45
+from ..scoring.metrics import SURE_CONFIDENCE, compare_maps, compared_pixels, flipped_within_45
 from ..scoring.outline import event_outlines
 from ..scoring.pairing import WindowOutOfRange, pair_windows
 from .options import blank, cell, nulls
+from .run_options import WINDOW_OPTIONS
 
 #: compare's table: (header, row key, width, format spec); at most 100 characters wide. The
 #: median angle and the angle MSE are in --json only: a median of angles can look perfect while a
@@ -48,19 +49,23 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
     ``named``: lines that say what A and B are, under the table; ``paired``: how
     the windows were paired (:attr:`~snn_fg.scoring.pairing.Pairing.how`)."""
     pooled = any("image" in r for r in rows)  # (runs paired by image: the image in place of the time)
+    frames = _over(rows) == "The frame"  # (one frame each, a still's: no windows to number or time)
     columns = [("image", "image", 8, "") if c[1] == "t_start_ms" and pooled else c for c in _COLUMNS]
     lines = ["  ".join(f"{h:>{w}}" for h, _, w, _ in columns)]
     lines += ["  ".join(cell(r.get(k), w, spec) for _, k, w, spec in columns) for r in rows]
     lines += named
-    if paired:
+    if paired and not frames:
         lines += textwrap.wrap(f"A, B: {paired}", 95)
     where = "" if outline_px is None else f" within {outline_px} px of the event region's outline"
-    when = (
-        "A, B: compared windows; image: the pair's input image"
-        if pooled
-        else "A, B: the compared windows' numbers in their recording or stream; t: B's window start after B's "
-        "first event"
-    )
+    if pooled:
+        when = "A, B: compared windows; image: the pair's input image"
+    elif frames:
+        when = "A, B, t: - (each map is one frame)"
+    else:
+        when = (
+            "A, B: the compared windows' numbers in their recording or stream; t: B's window start after B's "
+            "first event"
+        )
     lines += textwrap.wrap(
         f"{when}; angle columns on pixels{where} where both maps have a figure-ground vector (SSIM: where "
         "either has one); cover: the share of B's vectors that A has there; grouping r and SSIM on the whole "
@@ -77,7 +82,9 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
         )
     for side in ("a", "b"):
         empty = [r[f"number_{side}"] for r in rows if r.get(f"pixels_{side}") == 0]
-        if empty:
+        if empty and frames:
+            lines.append(f"{side.upper()} has no figure-ground vector: nothing to compare (-)")
+        elif empty:
             shown = ", ".join("-" if k is None else str(k) for k in empty[:8]) + (", ..." if len(empty) > 8 else "")
             lines.append(
                 f"{side.upper()} has no figure-ground vector in {len(empty)} of {len(rows)} compared "
@@ -118,18 +125,13 @@ def compare_pair(args, path_a, path_b, say=print):
 
 def _record(args, rows, baseline: str | None, paired: str | None = None) -> dict:
     """What ``--json`` keeps: the inputs, the options that chose the pixels compared, the pooled
-    figures the printed verdict gives (each window's rows weighted by their pixels compared;
-    metrics of :mod:`~snn_fg.scoring.metrics`), the verdict and baseline lines as printed, and
+    figures the printed verdict gives (:func:`overall`), the verdict and baseline lines as printed, and
     the snn-fg that measured them: a table made from the file alone says what it is."""
     from .. import __version__
 
     r = [x["grouping_pearson_r"] for x in rows if not blank(x.get("grouping_pearson_r"))]
     pooled = {
-        "pixels_compared": sum(x.get("pixels_compared") or 0 for x in rows),
-        **{
-            key: _pooled(rows, key)
-            for key in ("angle_within_45_frac", "angle_diff_mean_deg", "coverage_of_b", "within_45_of_b")
-        },
+        **overall(rows),
         "grouping_pearson_r_min": min(r, default=None),
         "grouping_pearson_r_median": float(np.median(r)) if r else None,
         "verdict": verdict(rows),
@@ -190,7 +192,8 @@ def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str
     its = next((x for x in got if x), {})
     return (
         f"B <=45°, B grp r: B against its own model at {its.get('against_iterations', '?')} iterations instead "
-        f"of {its.get('iterations', '?')}, on the same frames: how far B moves on its own; A's agreement "
+        f"of {its.get('iterations', '?')}, on the same frame{'' if windows == [None] else 's'}: how far B moves on "
+        "its own; A's agreement "
         "with B means little where it is near these"
     )
 
@@ -222,15 +225,63 @@ def _pooled(rows, key) -> float | None:
     return sum(r["pixels_compared"] * r[key] for r in have) / n if n else None
 
 
+def overall(rows) -> dict:
+    """The figures the verdict gives, pooled over every compared window: the pixels compared, the
+    share of them within 45 degrees and the mean difference (each window weighted by its pixels
+    compared), the share of B's vectors they are (``coverage_of_b``) and of those within 45 degrees
+    (``within_45_of_b``), both over all B's vectors, and where A stores a confidence the share of
+    the pixels compared where A's vector is at least
+    :data:`~snn_fg.scoring.metrics.SURE_CONFIDENCE` long (``confidence_sure_a``) and the lowest and
+    highest of the windows' median confidence there; None where no row tells."""
+    n = sum(r.get("pixels_compared") or 0 for r in rows)
+    of_b = sum(r.get("pixels_b") or 0 for r in rows)
+    within = _pooled(rows, "angle_within_45_frac")
+    medians = [r["confidence_median_a"] for r in rows if r.get("pixels_compared") and "confidence_median_a" in r]
+    return {
+        "pixels_compared": n,
+        "angle_within_45_frac": within,
+        "angle_diff_mean_deg": _pooled(rows, "angle_diff_mean_deg"),
+        "coverage_of_b": n / of_b if of_b else None,
+        "within_45_of_b": within * n / of_b if of_b and within is not None else None,
+        "confidence_sure_a": _pooled(rows, "confidence_sure_a"),
+        "confidence_median_a_range": [min(medians), max(medians)] if medians else None,
+    }
+
+
+def _over(rows) -> str:
+    """What the verdict pools, in words: every image's windows, the one frame of each map, or every window."""
+    if any("image" in r for r in rows):
+        return "All images"
+    frames = all("window_a" in r and r["window_a"] is None and r["window_b"] is None for r in rows)
+    return "The frame" if frames else "All windows"
+
+
+def _how_many(figures: dict) -> str:
+    """How much of B the pixels compared are, and how sure A's vectors on them are, in words."""
+    said = "" if figures["coverage_of_b"] is None else f", which are {figures['coverage_of_b']:.0%} of B's vectors"
+    sure = figures["confidence_sure_a"]
+    if sure is None:
+        return said
+    low, high = figures["confidence_median_a_range"]
+    median = f"median {low:.1f}" + ("" if f"{low:.1f}" == f"{high:.1f}" else f" to {high:.1f} a window")
+    share = "none" if sure == 0 else "under 1%" if sure < 0.005 else f"{sure:.0%}"
+    at = f"at confidence {SURE_CONFIDENCE:g} or more"
+    if sure < 0.5:
+        return f"{said}, most of A's decided by a spike or two ({'only ' * (sure > 0)}{share} {at}, {median})"
+    return f"{said}, {share} of A's {at} ({median})"
+
+
 def verdict(rows) -> str:
-    """One line over every compared window (pixel-weighted): A's agreement with B beside what
-    unrelated maps give and, where the rows have it, beside B's agreement with itself. Within
+    """One line over every compared window (pixel-weighted, :func:`overall`): A's agreement with B
+    beside what unrelated maps give and, where the rows have it, beside B's agreement with itself;
+    with how much of B's vectors it was measured on, and how sure A's vectors there are. Within
     :func:`chance_margins` of chance is near chance; the share within 45 degrees that far below it
     is below chance, and with the mean difference that far above 90 degrees, opposed (B reversed)."""
-    n = sum(r.get("pixels_compared") or 0 for r in rows)
+    figures = overall(rows)
+    n, over, how = figures["pixels_compared"], _over(rows), _how_many(figures)
     if not n:
-        return "All windows: no pixel where both maps have a vector; nothing to judge."
-    within, mean = _pooled(rows, "angle_within_45_frac"), _pooled(rows, "angle_diff_mean_deg")
+        return f"{over}: no pixel where both maps have a vector; nothing to judge."
+    within, mean = figures["angle_within_45_frac"], figures["angle_diff_mean_deg"]
     own = _pooled(rows, "baseline_within_45")
     near_within, near_mean = chance_margins(n)
     if within <= CHANCE_WITHIN_45 - near_within and mean >= CHANCE_MEAN_DEG + near_mean:
@@ -246,7 +297,10 @@ def verdict(rows) -> str:
     against = f"chance {CHANCE_WITHIN_45:.0%} and {CHANCE_MEAN_DEG:.0f}°" + (
         "" if own is None else f"; B against itself {own:.1%}"
     )
-    return f"All windows: A within 45° of B on {within:.1%} of {n:,} pixels, mean {mean:.1f}° ({against}): {word}."
+    return (
+        f"{over}: A within 45° of B on {within:.1%} of {n:,} pixels{how}{';' if how else ','} mean {mean:.1f}° "
+        f"({against}): {word}."
+    )
 
 
 def axis_flip(rows, flipped: dict) -> str | None:
@@ -294,10 +348,33 @@ def mismatches(a: Maps, b: Maps, pairing=None, same_folder: bool = False) -> lis
     if stages:
         out.append(
             f"A and B were made with other model parameters ({', '.join(stages)}): B is not A's reference; "
-            "run B's model with A's --network (the rate model on the compact network: "
-            "snn-fg run REC --model rate --network compact)"
+            f"run B's model with A's --network{rerun(a, b)}"
         )
     return out
+
+
+#: the run options a still image was turned into events with, and their defaults (snn-fg run's)
+_STILL_OPTIONS = (("image_scale", None), ("threshold", 0.10), ("motion", "shift4"))
+
+
+def rerun(a: Maps, b: Maps) -> str:
+    """``": snn-fg run ..."``, the command that makes B's reference again on A's network: B's model on
+    B's input with the options that cut it (a still image's scale, contrast threshold and motion; a
+    recording's windows), A's network by its name or file; ``""`` where A's network has neither."""
+    net = a.params.get("network") or {}
+    network = net.get("recipe") if net.get("origin") == "recipe" else net.get("origin")
+    if not isinstance(network, str) or network in ("given", "built", "pynn-export"):
+        return ""
+    source = b.params.get("source") or {}
+    if source.get("kind") == "image":
+        given = [(k, source.get(k)) for k, default in _STILL_OPTIONS if source.get(k, default) != default]
+    else:
+        given = [(k, source.get(k)) for k in WINDOW_OPTIONS if source.get(k) is not None and source.get(k) != 0]
+    options = "".join(
+        f" --{k.replace('_', '-')} {v:g}" if isinstance(v, float) else f" --{k.replace('_', '-')} {v}" for k, v in given
+    )
+    model = b.params.get("model", "rate")
+    return f": snn-fg run {source.get('input', 'INPUT')} --model {model} --network {network}{options}"
 
 
 def expectations(a: Maps, b: Maps) -> list[str]:

@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 
 from ..results.atomic import save_figure
 from ..results.figures import PANEL_IN, event_frame_rgb, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
-from .metrics import angle_difference_deg, frame_of
+from .metrics import angle_difference_deg, confident, frame_of
 
 
 def aps_inputs(a, b) -> list:
@@ -39,7 +39,21 @@ def aps_inputs(a, b) -> list:
     return [aps, events]
 
 
-def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=()) -> Figure:
+def _difference_title(r, where, when: str, sure: str) -> str:
+    """The difference panel's title: the numbers of row ``r`` as the table gives them, or in words
+    that no pixel was compared there (never "nan")."""
+    on = "" if where is None else " on the compared pixels"
+    if r.get("pixels_compared"):
+        said = f"mean {r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45°"
+    else:
+        said = f"no pixel where both maps have a vector{sure}: nothing compared"
+    pale = "" if where is None else "; pale: not compared"
+    return f"difference{on}{when}: {said}\n(grey: one map only; white: neither{pale})"
+
+
+def compare_figure(
+    a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=(), min_confidence=None
+) -> Figure:
     """Two maps side by side and how they differ: per compared pair of
     windows (``rows`` of :func:`~snn_fg.scoring.metrics.compare_maps`) the
     figure-ground map of each and the angle between them where both have a
@@ -64,12 +78,16 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
             panel.set_title(title, fontsize=9)
             panel.tick_params(labelsize=7)
         ax = ax_row[n_in:]
-        (ax_, ay_, _), (bx, by, _) = frame_of(a, r["window_a"]), frame_of(b, r["window_b"])
+        (ax_, ay_, _), (bx, by, _) = (_sure(m, r[f"window_{k}"], min_confidence) for m, k in ((a, "a"), (b, "b")))
         when = "" if r["t_start_ms"] is None else f", {r['t_start_ms']:g} ms"
-        sides = ((names[0], r.get("number_a"), ax_, ay_), (names[1], r.get("number_b"), bx, by))  # (their own numbers)
-        for panel, (name, win, fx, fy) in zip(ax, sides):
+        sides = ((names[0], "a", ax_, ay_), (names[1], "b", bx, by))
+        for panel, (name, k, fx, fy) in zip(ax, sides):  # (each window by its own number)
             panel.imshow(fg_rgb(fx, fy), interpolation="nearest")
-            panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when, fontsize=9)
+            win = r.get(f"number_{k}")
+            kept = r.get(f"confident_{k}")
+            of = "it has no vector" if kept is None or np.isnan(kept) else f"{_share(kept)} of them"
+            left = "" if f"confident_{k}" not in r else f"\nonly vectors at confidence >= {min_confidence:g} ({of})"
+            panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when + left, fontsize=9)
         inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
         has_a, has_b = (np.hypot(ax_, ay_) > 0) & inside, (np.hypot(bx, by) > 0) & inside
         diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
@@ -83,12 +101,8 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
         im = ax[2].imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
         bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
         bar.set_label("angle difference (deg)", fontsize=8)
-        ax[2].set_title(
-            f"difference{'' if where is None else ' on the compared pixels'}{when}: mean "
-            f"{r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45°\n(grey: one map "
-            f"only; white: neither{'' if where is None else '; pale: not compared'})",
-            fontsize=8,
-        )
+        sure = "" if not any(f"confident_{k}" in r for k in "ab") else f" at confidence >= {min_confidence:g}"
+        ax[2].set_title(_difference_title(r, where, when, sure), fontsize=8)
         for x in ax_row:
             x.tick_params(labelsize=7)
             x.set_xlabel("x (px)", fontsize=7, labelpad=1)
@@ -99,6 +113,22 @@ def compare_figure(a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, 
     return fig
 
 
-def save_compare_figure(path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=()) -> Path:
+def _sure(m, i, min_confidence):
+    """``(fg_x, fg_y, grouping)`` of window ``i`` of ``m``, its vectors under ``min_confidence`` left out
+    (:func:`~snn_fg.scoring.metrics.confident`: none where ``m`` stores no confidence)."""
+    fx, fy, g = frame_of(m, i)
+    keep = confident(m, i, min_confidence)
+    return (fx, fy, g) if keep is None else (np.where(keep, fx, 0), np.where(keep, fy, 0), g)
+
+
+def _share(x: float) -> str:
+    """A share in words a title can hold: "none", "under 1%", "25%"."""
+    return "none" if x == 0 else "under 1%" if x < 0.005 else f"{x:.0%}"
+
+
+def save_compare_figure(
+    path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=(), min_confidence=None
+) -> Path:
     """Write :func:`compare_figure` to ``path`` (atomically)."""
-    return save_figure(compare_figure(a, b, rows, names, max_rows, where, inputs), path, dpi=110)
+    figure = compare_figure(a, b, rows, names, max_rows, where, inputs, min_confidence)
+    return save_figure(figure, path, dpi=110)

@@ -109,6 +109,11 @@ def frame_of(m: Maps, i):
     return (m.fg_x, m.fg_y, m.grouping) if i is None else (m.fg_x[i], m.fg_y[i], m.grouping[i])
 
 
+#: how many standard errors of its spike counts a spiking vector is long before a spike or two no longer
+#: decide it (about 1 where they do); the verdict says how many of A's compared vectors reach it
+SURE_CONFIDENCE = 2.0
+
+
 def confident(m: Maps, i, min_confidence: float | None) -> np.ndarray | None:
     """Where window ``i`` of ``m`` has a vector at least ``min_confidence``
     standard errors long (:data:`~snn_fg.results.maps.CONFIDENCE`), or
@@ -174,7 +179,10 @@ def compare_maps(
         Per pair: ``window_a``, ``window_b`` (the windows' places in the maps),
         ``number_a``, ``number_b`` (their numbers in their recording or stream),
         ``t_start_ms`` (B's window start after B's first event) and the metrics
-        of :func:`compare_frame` (see the module docstring).
+        of :func:`compare_frame` (see the module docstring); where ``a`` stores a
+        confidence (a spiking run), that of its vectors on the pixels compared:
+        ``confidence_median_a`` and ``confidence_sure_a``, the share at least
+        :data:`SURE_CONFIDENCE` long.
 
     Examples
     --------
@@ -221,9 +229,25 @@ def compare_maps(
                 "t_start_ms": None if t is None else t / 1000.0,
                 **compare_frame(ax, ay, ag, bx, by, bg),
                 **share,
+                **_sureness(a, ia, (np.hypot(ax, ay) > 0) & (np.hypot(bx, by) > 0)),
             }
         )
     return rows
+
+
+def _sureness(a: Maps, i, compared) -> dict:
+    """How sure A's vectors on the ``compared`` pixels of its window ``i`` are, where A stores a
+    confidence (a spiking run): their median confidence and the share at least
+    :data:`SURE_CONFIDENCE` long (nan: no pixel compared); ``{}`` otherwise."""
+    conf = a.extra.get(CONFIDENCE)
+    if conf is None:
+        return {}
+    c = np.asarray(conf if i is None else conf[i], dtype=np.float64)[compared]
+    nan = float("nan")
+    return {
+        "confidence_median_a": float(np.median(c)) if c.size else nan,
+        "confidence_sure_a": float(np.mean(c >= SURE_CONFIDENCE)) if c.size else nan,
+    }
 
 
 def truth_errors(fg_x, fg_y, scene) -> np.ndarray:

@@ -115,6 +115,8 @@ def pair_windows(a: Maps, b: Maps, window: int | None = None) -> Pairing:
             "a replay's then began at 0 wherever the recording's lay)"
         )
         return _unpaired(_pairing(pairs, na, nb, tb, how, by_start=True), len(ia), len(ib))
+    if ia == ib == [None]:
+        return _pairing([(None, None)], na, nb, tb, "one frame each")
     if len(ia) == 1 or len(ib) == 1:
         what = "the frame" if ia == [None] or ib == [None] else "the one window"
         return _pairing([(x, y) for x in ia for y in ib], na, nb, tb, f"{what} against every window of the other")

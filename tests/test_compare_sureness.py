@@ -8,7 +8,7 @@ import json
 import numpy as np
 
 from snn_fg.cli import main
-from snn_fg.cli.compare_maps import verdict
+from snn_fg.cli.compare_maps import compare_table, verdict
 from snn_fg.results.maps import CONFIDENCE, Maps
 from snn_fg.scoring.compare_figure import compare_figure
 from snn_fg.scoring.metrics import compare_maps
@@ -45,6 +45,8 @@ def test_the_compare_figure_leaves_out_the_vectors_min_confidence_leaves_out_and
     assert "nan" not in titles
     assert "no pixel where both maps have a vector at confidence >= 2: nothing compared" in axes[1, 2].get_title()
     assert "(none of them)" in axes[1, 0].get_title()
+    text = compare_table(rows)  # (A has vectors there, none sure enough: the table says which)
+    assert "A has no figure-ground vector at the confidence threshold in 1 of 2 compared windows (1)" in text
 
 
 def test_the_verdict_says_how_much_of_b_it_measured_and_how_sure_a_spiking_a_is(tmp_path, capsys):

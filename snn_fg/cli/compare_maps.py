@@ -82,12 +82,13 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
         )
     for side in ("a", "b"):
         empty = [r[f"number_{side}"] for r in rows if r.get(f"pixels_{side}") == 0]
+        sure = " at the confidence threshold" if any(f"confident_{side}" in r for r in rows) else ""
         if empty and frames:
-            lines.append(f"{side.upper()} has no figure-ground vector: nothing to compare (-)")
+            lines.append(f"{side.upper()} has no figure-ground vector{sure}: nothing to compare (-)")
         elif empty:
             shown = ", ".join("-" if k is None else str(k) for k in empty[:8]) + (", ..." if len(empty) > 8 else "")
             lines.append(
-                f"{side.upper()} has no figure-ground vector in {len(empty)} of {len(rows)} compared "
+                f"{side.upper()} has no figure-ground vector{sure} in {len(empty)} of {len(rows)} compared "
                 f"window{'s' if len(rows) > 1 else ''} ({shown}): nothing to compare there (-)"
             )
     return "\n".join(lines)

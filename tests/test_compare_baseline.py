@@ -81,6 +81,7 @@ def test_without_a_baseline_compare_says_why(demo_runs, tmp_path, capsys):
     main(["compare", str(demo_runs / "one"), str(tmp_path / "s.npz")])
     out = capsys.readouterr().out
     assert "no baseline: B comes from the spiking model" in out
+    assert "two runs with another --seed show a spiking run's spread" in " ".join(out.split())
     assert out.splitlines()[1].split()[-2:] == ["-", "-"]
     main(["compare", str(demo_runs / "ten"), str(demo_runs / "one"), "--no-baseline"])
     assert "B against its own model" not in capsys.readouterr().out

@@ -86,6 +86,7 @@ def test_compare_says_so_when_the_image_changed_size_since_the_run(tmp_path, cap
     said = capsys.readouterr()
     text = " ".join((said.out + said.err).split())  # (compare wraps its notes)
     assert "is 960 x 640 now, the run's maps 480 x 320: not the image it ran on" in text
+    assert "--seed" not in text  # (a rate run: no spiking run's spread to point to)
     assert "Traceback" not in said.err
 
 

@@ -183,10 +183,11 @@ def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str
     masks = [compared_pixels(a, b, r["window_a"], r["window_b"], where, min_confidence) for r in rows]
     got = self_agreement(b, windows, masks=masks)
     if isinstance(got, str):
-        return (
-            f"B <=45°, B grp r: no baseline: {got}; two runs with another --seed show a spiking run's spread "
-            "(on a recording: with --input-coding window)"
+        spiking = "spiking" in str(b.params.get("model", ""))  # (a spiking run's spread: its input seed's)
+        seeds = (
+            "; two runs with another --seed show a spiking run's spread (on a recording: with --input-coding window)"
         )
+        return f"B <=45°, B grp r: no baseline: {got}{seeds if spiking else ''}"
     for row, base in zip(rows, got):
         for k, v in (base or {}).items():
             row[f"baseline_{k}"] = v

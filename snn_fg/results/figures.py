@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 
 from ..validate import check_crop
 from .atomic import save_figure
+from .map_image import brightness, departure, show_map
 
 GROUPING_CMAP = "magma"
 #: darkest brightness of a non-zero figure-ground vector (0: invisible)
@@ -81,14 +82,16 @@ def plot_maps_row(axes, input_img, fields, title: str = "", *, norm=None, extent
     """Draw input, figure-ground map and grouping map into three axes, each titled and with its
     axes labelled. ``fields`` is ``(fg_x, fg_y, grouping)`` of one frame; ``norm`` the grouping's
     colour scale (:class:`matplotlib.colors.Normalize`, one for every row of a figure; by default
-    0 to this frame's largest value); ``extent`` (imshow's) places a crop at its own pixel coordinates."""
+    0 to this frame's largest value); ``extent`` (imshow's) places a crop at its own pixel coordinates.
+    A panel smaller than its map shows each screen pixel's most salient map pixel
+    (:mod:`~snn_fg.results.map_image`), so that one-pixel lines stay."""
     a0, a1, a2 = axes
     fg_x, fg_y, grouping = fields
     if norm is None:
         norm = mcolors.Normalize(0.0, float(np.max(grouping, initial=0.0)) or 1.0)
-    a0.imshow(input_img, cmap="gray" if np.ndim(input_img) == 2 else None, interpolation="nearest", extent=extent)
-    a1.imshow(fg_rgb(fg_x, fg_y), interpolation="nearest", extent=extent)
-    a2.imshow(grouping, cmap=GROUPING_CMAP, norm=norm, interpolation="nearest", extent=extent)
+    show_map(a0, input_img, departure, cmap="gray" if np.ndim(input_img) == 2 else None, extent=extent)
+    show_map(a1, fg_rgb(fg_x, fg_y), brightness, extent=extent)
+    show_map(a2, grouping, brightness, cmap=GROUPING_CMAP, norm=norm, extent=extent)
     silent = not np.any(grouping)
     for a, what in zip(axes, ("input", "figure-ground", "grouping")):
         a.set_title(f"{what} {title}".strip() + (": no activity" if a is a2 and silent else ""), fontsize=9)

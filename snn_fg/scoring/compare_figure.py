@@ -12,6 +12,7 @@ from matplotlib.figure import Figure
 
 from ..results.atomic import save_figure
 from ..results.figures import PANEL_IN, event_frame_rgb, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
+from ..results.map_image import brightness, departure, show_map
 from .metrics import angle_difference_deg, confident, frame_of
 
 
@@ -74,7 +75,7 @@ def compare_figure(
         for panel, show in zip(ax_row, inputs, strict=False):
             title, image = show(r)
             grey = {"cmap": "gray", "vmin": 0, "vmax": 255} if np.ndim(image) == 2 else {}
-            panel.imshow(image, interpolation="nearest", **grey)
+            show_map(panel, image, departure, **grey)
             panel.set_title(title, fontsize=9)
             panel.tick_params(labelsize=7)
         ax = ax_row[n_in:]
@@ -82,7 +83,7 @@ def compare_figure(
         when = "" if r["t_start_ms"] is None else f", {r['t_start_ms']:g} ms"
         sides = ((names[0], "a", ax_, ay_), (names[1], "b", bx, by))
         for panel, (name, k, fx, fy) in zip(ax, sides):  # (each window by its own number)
-            panel.imshow(fg_rgb(fx, fy), interpolation="nearest")
+            show_map(panel, fg_rgb(fx, fy), brightness)
             win = r.get(f"number_{k}")
             kept = r.get(f"confident_{k}")
             of = "it has no vector" if kept is None or np.isnan(kept) else f"{_share(kept)} of them"
@@ -91,14 +92,9 @@ def compare_figure(
         inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
         has_a, has_b = (np.hypot(ax_, ay_) > 0) & inside, (np.hypot(bx, by) > 0) & inside
         diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
-        ax[2].imshow(
-            np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92)),
-            cmap="gray",
-            vmin=0,
-            vmax=1,
-            interpolation="nearest",
-        )
-        im = ax[2].imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
+        marks = np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92))
+        show_map(ax[2], marks, departure, cmap="gray", vmin=0, vmax=1)
+        im = show_map(ax[2], diff, brightness, cmap="viridis", vmin=0, vmax=180)
         bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
         bar.set_label("angle difference (deg)", fontsize=8)
         sure = "" if not any(f"confident_{k}" in r for k in "ab") else f" at confidence >= {min_confidence:g}"

@@ -13,6 +13,7 @@ from matplotlib.patches import Patch
 
 from ..results.atomic import save_figure
 from ..results.figures import PANEL_IN, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
+from ..results.map_image import brightness, departure, show_map
 from .label_scores import pool_stats
 from .metrics import angle_difference_deg
 
@@ -62,22 +63,22 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
         if img is None:
             row[0].text(0.5, 0.5, "image not found", ha="center", va="center", transform=row[0].transAxes)
         else:
-            row[0].imshow(img, cmap="gray" if np.ndim(img) == 2 else None, interpolation="nearest")
+            show_map(row[0], img, departure, cmap="gray" if np.ndim(img) == 2 else None)
         row[0].set_title(f"image {s.image_id}", fontsize=9)
         fx, fy = s.fields
-        row[1].imshow(fg_rgb(fx, fy), interpolation="nearest")
+        show_map(row[1], fg_rgb(fx, fy), brightness)
         row[1].set_title(f"the run's vectors ({s.params.get('model', '?')} model)", fontsize=9)
         has = np.hypot(fx, fy) > 0
         for j, (k, who) in enumerate(_distinct(s)):
             tx, ty, valid = s.truths[k]
             lab, err = row[2 + 2 * j], row[3 + 2 * j]
-            lab.imshow(fg_rgb(np.where(valid, tx, 0), np.where(valid, ty, 0)), interpolation="nearest")
+            show_map(lab, fg_rgb(np.where(valid, tx, 0), np.where(valid, ty, 0)), brightness)
             lab.set_title(f"{who}: labelled direction\n(towards the figure)", fontsize=9)
             diff = np.where(valid & has, angle_difference_deg(fx, fy, tx, ty), np.nan)
             missing = np.zeros((*valid.shape, 4))
             missing[valid & ~has] = to_rgba(NO_VECTOR)
-            err.imshow(missing, interpolation="nearest")
-            im = err.imshow(diff, cmap="viridis", vmin=0, vmax=180, interpolation="nearest")
+            show_map(err, missing, brightness)
+            im = show_map(err, diff, brightness, cmap="viridis", vmin=0, vmax=180)
             errors.append(err)
             st = pool_stats([s.parts[k]])  # (the table's numbers, not a second count)
             err.set_title(

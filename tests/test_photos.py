@@ -154,3 +154,26 @@ def test_a_network_whose_cells_do_not_fit_the_memory_is_refused_before_it_runs()
     assert said.startswith("the network for a 1280 x 720 frame: its 166,831,483 cells need at least 5.3 GB")
     assert "4.0 GB this machine has available" in said and "--network compact" in said
     check_cells_fit(net, 166_831_483, available=8e9)  # (fits: no error)
+
+
+def test_events_on_a_large_image_gives_the_note_and_takes_image_scale(tmp_path, capsys):
+    img = _square(tmp_path / "big.png", 2000, 1200, 600, 1400, 300, 900)
+    assert main(["events", str(img)]) == 0
+    said = capsys.readouterr()
+    assert said.err.count("\n") == 1 and "--image-scale 0.24 makes it 480 x 288" in said.err, said.err
+    assert "sensor:     2000 x 1200" in said.out
+    assert main(["events", str(img), "--image-scale", "0.25"]) == 0
+    said = capsys.readouterr()
+    assert "warning" not in said.err  # (a scale given: no note)
+    assert "image:      2000 x 1200, resized by --image-scale 0.25 to 500 x 300" in said.out
+    assert "sensor:     500 x 300" in said.out
+
+
+def test_events_refuses_image_scale_for_a_recording(tmp_path, capsys):
+    ev = np.zeros(3, dtype=[("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "i1")])
+    ev["t"] = [0, 10, 20]
+    path = tmp_path / "rec.npz"
+    np.savez(path, events=ev, sensor_size=np.array([64, 48, 2]))
+    assert main(["events", str(path), "--image-scale", "0.5"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"snn-fg: error: {path}: --image-scale applies to images, not to this file\n", err

@@ -26,11 +26,12 @@ from ..events import (
 from ..events.activity import activity, saturated_lines, timeline_text
 from ..events.aps import frame_summary, open_frames
 from ..events.esim import MOTIONS
-from ..events.images import IMAGE_SUFFIXES
+from ..events.images import IMAGE_SUFFIXES, read_image
+from ..frames.still import sized_image
 from ..results.activity import activity_figure
 from ..results.atomic import save_figure, save_npz
 from ..results.outputs import check_output_file
-from .options import DEMO, add_chip_option, recording_or_demo, sensor_size, subcommand
+from .options import DEMO, add_chip_option, add_image_scale_option, recording_or_demo, sensor_size, subcommand
 from .spikes import add_spike_options, write_spikes
 
 
@@ -79,6 +80,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     g.add_argument("--amplitude-px", type=float, default=1.0, metavar="A", help="motion amplitude (default 1)")
     g.add_argument("--seed", type=int, default=0, help="seed for threshold noise (default 0)")
     g.add_argument("--threshold-sigma", type=float, default=0.0, help="per-pixel threshold noise (std, default 0)")
+    add_image_scale_option(g, "the simulated camera")
     g = p.add_argument_group("outputs")
     g.add_argument(
         "--write-frame",
@@ -142,10 +144,13 @@ def run_events(args) -> int:
     if not (demo or path.exists()):
         raise InputError(path, "no such file")
     _check_outputs(args, path)
+    is_image = path.suffix.lower() in IMAGE_SUFFIXES
+    if args.image_scale is not None and not is_image:
+        raise InputError(path, "--image-scale applies to images, not to this file")
     if args.write_spikes is not None:
         return write_spikes(args)
     _check_plot(args, path)
-    if path.suffix.lower() in IMAGE_SUFFIXES:
+    if is_image:
         print(_summary(_image_lines(path, args)))
         return 0
     stream, lines, spans_time = _recording_lines(path, args)
@@ -158,8 +163,10 @@ def run_events(args) -> int:
 def _image_lines(path, args) -> list:
     """The summary of an image's simulated events, writing the frame and
     events asked for."""
+    image = read_image(path, grey=args.motion != "paper")  # (paper: the authors' JPEG encoder makes the grey)
+    shown = sized_image(image, path, args.image_scale)
     rec = image_to_events(
-        path,
+        shown,
         threshold=args.threshold,
         motion=args.motion,
         amplitude_px=args.amplitude_px,
@@ -172,6 +179,7 @@ def _image_lines(path, args) -> list:
     lines = [
         ("file", str(path)),
         ("format", f"image, simulated (ESIM, {motion}, threshold {args.threshold:g})"),
+        *_scaled_line(image, shown, args.image_scale),
         ("sensor", f"{rec.sensor_size[0]} x {rec.sensor_size[1]}"),
     ]
     t_first, t_last = (int(ev["t"][0]), int(ev["t"][-1])) if n else (0, 0)
@@ -187,6 +195,14 @@ def _image_lines(path, args) -> list:
         save_events(args.write_events, ev, rec.sensor_size)
         lines.append(("events written", _written_note(args.write_events)))
     return lines
+
+
+def _scaled_line(image, shown, scale) -> list:
+    """The summary's line saying how an image was resized (none when it was not)."""
+    if scale is None:
+        return []
+    (h, w), (sh, sw) = image.shape[:2], shown.shape[:2]
+    return [("image", f"{w} x {h}, resized by --image-scale {scale:g} to {sw} x {sh}")]
 
 
 def _recording_lines(path, args):

@@ -100,6 +100,20 @@ def add_chip_option(parser) -> None:
     )
 
 
+def add_image_scale_option(parser, before: str) -> None:
+    """``--image-scale``: resize an image ``before`` (what reads it) uses it
+    (:func:`~snn_fg.frames.still.sized_image`)."""
+    parser.add_argument(
+        "--image-scale",
+        type=number(float, 0),
+        default=None,
+        metavar="F",
+        help=f"images: resize by F before {before} (0.25: a quarter of the width and height); the model's "
+        "sizes in pixels were chosen for images of about 481 x 321 (BSDS), and a larger image gets a note "
+        "with the F that brings it there",
+    )
+
+
 def crop(text):
     """argparse type for ``X0,Y0,X1,Y1`` (four integers)."""
     try:

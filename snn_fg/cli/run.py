@@ -24,7 +24,7 @@ from ..results.atomic import OutputFolder, growing_folder, settle_folder
 from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, windows_complete
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
-from .options import add_chip_option, crop, number, sensor_size, subcommand
+from .options import add_chip_option, add_image_scale_option, crop, number, sensor_size, subcommand
 from .run_options import WINDOW_OPTIONS, add_option_groups, chosen_model
 from .runner import goes_on, recording_windows, run_recording, run_still
 
@@ -91,14 +91,7 @@ def add_run_command(sub):
         help="images turned into events: motion of the simulated event camera; paper: the authors' "
         "BSDS conversion (default shift4)",
     )
-    g.add_argument(
-        "--image-scale",
-        type=number(float, 0),
-        metavar="F",
-        help="images: resize by F before the model (0.25: a quarter of the width and height); the model's "
-        "sizes in pixels were chosen for images of about 481 x 321 (BSDS), and a larger image gets a note "
-        "with the F that brings it there",
-    )
+    add_image_scale_option(g, "the model")
     g.add_argument(
         "--sensor-size",
         type=sensor_size,

@@ -123,7 +123,7 @@ def _input_spikes(args, net, dt_ms):
             )
         window = {"t_start_ms": times[0], "t_end_ms": times[1]}
     else:
-        frame, _ = load_frame(args.input, "events", args.threshold, args.motion)
+        frame, _ = load_frame(args.input, "events", args.threshold, args.motion, args.image_scale)
         on, off = pool_frame(frame.pos, frame.neg, pool)
         r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)
         cut = (slice(r0, r0 + shape[0]), slice(c0, c0 + shape[1]))

@@ -92,6 +92,17 @@ def check_fits(spec, shape, model: str, bytes_per_pixel: float, available: float
     )
 
 
+def sized_image(image: np.ndarray, spec, image_scale=None) -> np.ndarray:
+    """An image as a model or the simulated camera takes it: resized by ``image_scale``
+    (:func:`scaled_image`), or without one as it is, with an :class:`~snn_fg.errors.InputWarning`
+    (:func:`large_image_note`) when its longer side has more than :data:`LARGE_IMAGE_SIDE` pixels."""
+    if image_scale is not None:
+        return scaled_image(image, image_scale, spec)
+    if max(image.shape[:2]) > LARGE_IMAGE_SIDE:
+        warnings.warn(InputWarning(large_image_note(spec, image.shape)), stacklevel=3)
+    return image
+
+
 @dataclass
 class Still:
     """A still input, what a model runs on once (a recording is run window by
@@ -262,9 +273,7 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
         image = read_image(spec, grey=needs != "image" and motion != "paper")
     if image_scale is not None:
         source.update(image_size=[int(image.shape[1]), int(image.shape[0])], image_scale=float(image_scale))
-        image = scaled_image(image, image_scale, spec)
-    elif max(image.shape[:2]) > LARGE_IMAGE_SIDE:
-        warnings.warn(InputWarning(large_image_note(spec, image.shape)), stacklevel=2)
+    image = sized_image(image, spec, image_scale)
     if cost is not None:
         check_fits(spec, image.shape, *cost)
     if needs == "image":

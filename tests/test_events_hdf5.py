@@ -144,8 +144,9 @@ def test_sensor_size_given_else_inferred_with_the_warning(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert open_recording(path, sensor_size=(640, 480)).sensor_size == (640, 480, 2)
-    with pytest.warns(InputWarning, match="no sensor size given; 300 x 200 from the events' extent"):
+    with pytest.warns(InputWarning, match="no sensor size given; 300 x 200 from the events' extent") as said:
         assert open_recording(path).sensor_size == (300, 200, 2)
+    assert str(said[0].message).endswith("(a larger sensor gives other maps: --sensor-size WxH)")  # (no .npz here)
 
 
 # ------------------------------------------------------------------ errors: one line each

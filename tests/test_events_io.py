@@ -531,7 +531,11 @@ def _tonic_like(n=100_000):
 
 def test_an_array_without_a_sensor_size_says_the_size_it_takes_from_its_events(tmp_path):
     np.save(tmp_path / "a.npy", _tonic_like())
-    with pytest.warns(UserWarning, match=r"a\.npy: no sensor size given; 320 x 240 from the events' extent"):
+    with pytest.warns(
+        UserWarning,
+        match=r"a\.npy: no sensor size given; 320 x 240 from the events' extent \(a larger sensor gives other "
+        r"maps: --sensor-size WxH, or sensor_size in an \.npz\)",
+    ):
         rec = open_recording(tmp_path / "a.npy")
     assert rec.sensor_size[:2] == (320, 240)
 

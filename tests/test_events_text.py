@@ -41,8 +41,9 @@ def test_an_hour_of_stamps_keeps_every_microsecond(tmp_path):
 
 def test_without_a_sensor_size_it_is_the_events_extent_with_a_warning(tmp_path):
     path = write(tmp_path, "0.1 10 20 1\n0.2 99 5 0\n")
-    with pytest.warns(InputWarning, match="no sensor size given; 100 x 21 from the events' extent"):
+    with pytest.warns(InputWarning, match="no sensor size given; 100 x 21 from the events' extent") as said:
         assert open_recording(path).sensor_size == (100, 21, 2)
+    assert str(said[0].message).endswith("(a larger sensor gives other maps: --sensor-size WxH)")  # (no .npz here)
 
 
 def test_reads_in_chunks_the_same_events(tmp_path):

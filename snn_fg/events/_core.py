@@ -130,11 +130,18 @@ def sensor_size_parameter(owner: str, sensor_size) -> tuple[int, int, int]:
 FAR_SHARE = 1e-4
 
 
-def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
+def _size_hint(source) -> str:
+    """How to give ``source``'s sensor size: ``--sensor-size``, and for an array file an .npz's ``sensor_size``."""
+    in_npz = Path(str(source)).suffix.lower() in (".npz", ".npy")
+    return "--sensor-size WxH" + (", or sensor_size in an .npz" if in_npz else "")
+
+
+def infer_sensor_size(source, arrays, *, camera: str | None = None) -> tuple[int, int, int]:
     """Sensor size ``(max x + 1, max y + 1, 2)`` over event arrays, for inputs that give none.
 
     Says so in an :class:`~snn_fg.errors.InputWarning`: a sensor larger than
-    the events' extent gives other maps. Refused when a few far-out events set
+    the events' extent gives other maps (``camera``: the name of a camera a file's
+    header gives that snn-fg does not know, said there too). Refused when a few far-out events set
     it: more than twice (plus 64 px) the extent that holds all events but
     :data:`FAR_SHARE` of them (a stray x = 30000 among a 320 x 240 sensor's
     events would make a frame of 30001 columns)."""
@@ -160,21 +167,22 @@ def infer_sensor_size(source, arrays) -> tuple[int, int, int]:
         )
     keep = n - int(FAR_SHARE * n)
     bulk = {axis: int(np.searchsorted(np.cumsum(counts[axis]), keep)) + 1 for axis in "xy"}
+    unknown = f", and the header's camera {camera!r} is not one snn-fg knows" if camera else ""
     for axis in "xy":
         value, index = far[axis]
         if value + 1 > 2 * bulk[axis] + 64:
             outside = n - int(counts[axis][: bulk[axis]].sum())
             raise InputError(
                 source,
-                f"no sensor size given, and a few events lie far beyond the others "
+                f"no sensor size given{unknown}, and a few events lie far beyond the others "
                 f"({axis} = {value} at event {index}; {outside} of {n} events outside the "
                 f"{bulk['x']} x {bulk['y']} the others fill): give the sensor size "
-                f"(--sensor-size WxH, or sensor_size in an .npz) and remove those events",
+                f"({_size_hint(source)}) and remove those events",
             )
     size = check_sensor_size((mx + 1, my + 1), source)
     warnings.warn(
-        f"{source}: no sensor size given; {size[0]} x {size[1]} from the events' extent (a larger "
-        "sensor gives other maps: --sensor-size WxH, or sensor_size in an .npz)",
+        f"{source}: no sensor size given{unknown}; {size[0]} x {size[1]} from the events' extent (a larger "
+        f"sensor gives other maps: {_size_hint(source)})",
         InputWarning,
         stacklevel=2,
     )

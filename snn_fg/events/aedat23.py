@@ -135,10 +135,12 @@ def open_aedat(path, sensor_size, chunk_events, *, chip: str | None = None) -> S
     sources = [re.match(r"#Source (\d+): *(.*)", line) for line in header.lines]
     sources = [(int(m.group(1)), m.group(2).strip()) for m in sources if m]
     target = min(sources)[0] if sources else None
-    camera = chip_of(dict(sources)[target]) if sources else None
+    named = dict(sources)[target] if sources else None
+    camera = chip_of(named) if named else None
     stated = CHIPS.get(camera)
     if stated is None and sensor_size is None:
-        size = infer_sensor_size(path, iter_aedat3(path, header, target, None, DecodeTally()))
+        events = iter_aedat3(path, header, target, None, DecodeTally())
+        size = infer_sensor_size(path, events, camera=named if camera is None else None)
     else:
         size = file_sensor_size(path, sensor_size, stated)
     return Source(path, "aedat3", size, lambda n, tally: iter_aedat3(path, header, target, size, tally))

@@ -70,8 +70,9 @@ def test_get_model_refuses_an_unknown_option_and_network_naming_its_own():
 def test_float_timestamps_are_refused_as_integer_microseconds():
     ev = np.zeros(3, dtype=[("x", "i2"), ("y", "i2"), ("t", "f8"), ("p", "i1")])
     ev["t"] = [0.000654, 0.001, 0.002]
-    with pytest.raises(InputError, match="field t must hold integer microseconds .*multiply by 1e6"):
+    with pytest.raises(InputError, match="field t must hold integer microseconds .*multiply by 1e6") as caught:
         next(iter_windows(ev, sensor_size=(10, 10)))
+    assert str(caught.value).endswith(", got 0.000654 (at event 0)")  # (a number as written, not np.float64(...))
 
 
 def test_help_of_still_says_dtype_range_and_shape():

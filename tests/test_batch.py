@@ -126,3 +126,22 @@ def test_a_folder_of_images_is_a_batch_as_their_glob_is(tmp_path, capsys):
     assert {r["windows"] for r in _summary(tmp_path / "b").values()} == {""}
     assert main(["run", str(tmp_path / "none"), "--out", str(tmp_path / "o")]) == 2
     assert "names no recording or image (a folder of recordings or images" in capsys.readouterr().err
+
+
+def test_a_recordings_warning_names_it_once(tmp_path, capsys):
+    """A new user's batch said 'snn-fg: warning: data/u.aedat: data/u.aedat: no sensor size given':
+    a warning that names its file already is said as it is (one that does not gets the name, as before)."""
+    from snn_fg.events import image_to_events
+    from snn_fg.frames.scenes import disc
+
+    d = tmp_path / "recs"
+    d.mkdir()
+    for name in ("a", "b"):
+        np.save(d / f"{name}.npy", image_to_events(disc(10).image, motion="circle").events)  # (no sensor size)
+    opts = ["--max-windows", "1", "--levels", "3", "--no-figures", "--no-progress", "--workers", "1"]
+    assert main(["run", str(d / "*.npy"), "--out", str(tmp_path / "o"), *opts]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if "no sensor size given" in line]
+    assert len(warned) == 2, warned
+    for line, name in zip(sorted(warned), ("a", "b")):
+        assert line.startswith(f"snn-fg: warning: {d / name}.npy: no sensor size given;"), line
+        assert line.count(f"{name}.npy") == 1, line

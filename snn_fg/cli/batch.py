@@ -221,9 +221,11 @@ def _say(row: dict) -> dict:
     """What a job said on stderr (its warnings), each a line naming its recording, above the progress bar (a
     worker's own line went to the end of the bar's, and did not say which recording it was about); the row
     without it."""
+    name = f"{row['recording']}: "
     for line in row.pop("said", ()):
         head = "snn-fg: warning: " if line.startswith("snn-fg: warning: ") else "snn-fg: "
-        tqdm.write(f"{head}{row['recording']}: {line.removeprefix(head)}", file=sys.stderr)
+        said = line.removeprefix(head)
+        tqdm.write(f"{head}{'' if said.startswith(name) else name}{said}", file=sys.stderr)  # (named once)
     return row
 
 

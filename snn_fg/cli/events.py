@@ -305,4 +305,4 @@ def _print_activity(stream, args):
         print(textwrap.fill(f"saturated: {line}", width=100, subsequent_indent="  ", break_on_hyphens=False))
     if args.plot:
         save_figure(activity_figure(act, f"{Path(args.input).name}: activity over time"), args.plot, dpi=110)
-        print(f"plot written: {args.plot}")
+        print(f"snn-fg: figure saved to {args.plot}")

@@ -220,14 +220,14 @@ def as_events(arr, source="<array>", offset: int = 0, what: str = "the array") -
                 i = int(np.argmax(bad))
                 unit = " microseconds (times in seconds: multiply by 1e6 and round to int64)" if name == "t" else ""
                 raise InputError(
-                    source, f"field {name} must hold integer{unit or 's'}, got {col[i]!r}", f"event {i + offset}"
+                    source, f"field {name} must hold integer{unit or 's'}, got {col[i].item()!r}", f"event {i + offset}"
                 )
         lim = (-_COORD_MAX - 1, _COORD_MAX) if name in "xy" else (np.iinfo(np.int64).min, np.iinfo(np.int64).max)
         if len(col) and col.dtype.kind != "b":
             bad = (col < lim[0]) | (col > lim[1])
             if bad.any():
                 i = int(np.argmax(bad))
-                raise InputError(source, f"field {name} value {col[i]!r} is out of range", f"event {i + offset}")
+                raise InputError(source, f"field {name} value {col[i].item()!r} is out of range", f"event {i + offset}")
         out[name] = col
     pcol = arr["p"]
     if pcol.dtype.kind not in "iubf":

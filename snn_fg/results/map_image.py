@@ -2,7 +2,7 @@
 
 Matplotlib draws an image that has more pixels than its panel has screen pixels by sampling it
 (``interpolation="nearest"``: one map pixel per screen pixel, the others skipped) or averaging it
-(antialiased), so a one-pixel edge of a figure-ground map vanishes or fades. :class:`MapImage`
+(antialiased), so a one-pixel edge of a figure-ground map vanishes or fades. :func:`show_map`
 pools the map for the screen pixels its panel has when it is drawn: each screen pixel shows the
 most salient of the map pixels it covers (:func:`brightness` for the figure-ground and grouping
 maps, :func:`departure` where the background is not dark). Where the panel has a screen pixel per
@@ -60,7 +60,7 @@ def pool(image, shape, salience=brightness) -> np.ndarray:
     return image
 
 
-class MapImage(AxesImage):
+class _MapImage(AxesImage):
     """An image that is pooled (:func:`pool`) for the screen pixels it covers each time it is drawn."""
 
     def __init__(self, ax, data, salience=brightness, **kwargs):
@@ -78,7 +78,7 @@ class MapImage(AxesImage):
         super().draw(renderer)
 
 
-def show_map(ax, data, salience=brightness, *, extent=None, cmap=None, norm=None, vmin=None, vmax=None) -> MapImage:
+def show_map(ax, data, salience=brightness, *, extent=None, cmap=None, norm=None, vmin=None, vmax=None) -> AxesImage:
     """Draw ``data`` into ``ax`` as ``imshow`` with ``interpolation="nearest"`` would (``extent``,
     ``cmap``, ``norm`` or ``vmin``/``vmax`` as it takes them; a grey map's scale by default its
     whole range), pooled by ``salience`` where the panel is smaller than the map."""
@@ -88,7 +88,7 @@ def show_map(ax, data, salience=brightness, *, extent=None, cmap=None, norm=None
         low = vmin if vmin is not None else (float(finite.min()) if finite.size else 0.0)
         high = vmax if vmax is not None else (float(finite.max()) if finite.size else 1.0)
         norm = mcolors.Normalize(low, high)
-    image = MapImage(ax, data, salience, cmap=cmap, norm=norm, interpolation="nearest")
+    image = _MapImage(ax, data, salience, cmap=cmap, norm=norm, interpolation="nearest")
     image.set_clip_path(ax.patch)
     image.set_extent(extent if extent is not None else image.get_extent())
     ax.add_image(image)

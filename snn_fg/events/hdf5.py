@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from snn_fg.errors import InputError, SnnFgError, install_hint
-from snn_fg.events._core import as_events, check_in_sensor, check_monotonic, check_sensor_size, infer_sensor_size
+from snn_fg.events._core import as_events, check_sensor_size, first_fault, infer_sensor_size
 from snn_fg.events.source import DecodeTally, Source
 
 #: HDF5 filter ids whose absence is explained by name (the HDF Group's registry of filters)
@@ -274,15 +274,13 @@ def open_h5(path, sensor_size, chunk_events) -> Source:
                     ev = as_events(raw, path, offset=i)
                 except InputError as exc:
                     raise _named(exc, layout, _field_of(exc.problem)) from None
-                try:
-                    check_monotonic(ev, path, offset=i, prev_t=prev)
-                except InputError as exc:
-                    raise _named(exc, layout, "t") from None
-                if size is not None:
-                    try:
-                        check_in_sensor(ev, size, path, offset=i)
-                    except InputError as exc:
-                        raise _named(exc, layout, "xy") from None
+                x, y = ev["x"], ev["y"]
+                n, problem = first_fault(x, y, ev["t"], size, prev)
+                if problem:  # (the events before the fault first, as every decoder gives them)
+                    if n:
+                        yield ev[:n]
+                    outside = size is not None and not (0 <= x[n] < size[0] and 0 <= y[n] < size[1])
+                    raise _named(InputError(path, problem, f"event {i + n}"), layout, "xy" if outside else "t")
                 prev = int(ev["t"][-1]) if len(ev) else prev
                 yield ev
 

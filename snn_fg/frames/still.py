@@ -76,12 +76,12 @@ def check_fits(spec, shape, model: str, bytes_per_pixel: float, available: float
     the machine has available (``available`` bytes; Linux's ``MemAvailable`` if None, no check
     where that is not known): a run that would be ended by the system, or swap for hours, is
     refused with the scale that fits."""
-    from ..pynn.memory import available_bytes  # (the standard library only)
+    from ..pynn.memory import short_of  # (the standard library only)
 
-    have = available_bytes() if available is None else available
     h, w = shape[:2]
     need = h * w * bytes_per_pixel
-    if have is None or need <= have:
+    have = short_of(need, available)
+    if have is None:
         return
     scale = float(f"{(have / need) ** 0.5 * 0.8:.2g}")  # (a fifth to spare: the cost a pixel is a measurement)
     raise InputError(

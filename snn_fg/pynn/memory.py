@@ -56,6 +56,13 @@ def available_bytes() -> float | None:
     return None
 
 
+def short_of(need: float, available: float | None = None) -> float | None:
+    """The bytes available (``available``, else :func:`available_bytes`) when ``need`` bytes are
+    more than that; None when they fit, or when what is available is not known."""
+    have = available_bytes() if available is None else available
+    return None if have is None or need <= have else have
+
+
 def duration_text(seconds: float) -> str:
     """``seconds`` in words a person reads at a glance: s below 2 min, min below 2 h, else h."""
     if seconds < 120:
@@ -71,8 +78,8 @@ def check_memory(meta: dict, memory_gb: float | None = None, duration_ms: float 
     cells = sum(p["size"] for p in meta["populations"])
     synapses = sum(pr.get("synapses", 0) for pr in meta["projections"])
     need = nest_memory_bytes(cells, synapses)
-    have = memory_gb * 1e9 if memory_gb is not None else available_bytes()
-    if have is not None and need > have:
+    have = short_of(need, None if memory_gb is None else memory_gb * 1e9)
+    if have is not None:
         sys.exit(
             f"run.py: error: the network ({cells:,} cells, {synapses:,} synapses) needs about "
             f"{need / 1e9:.1f} GB on NEST, more than the {have / 1e9:.1f} GB "

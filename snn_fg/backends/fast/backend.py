@@ -177,12 +177,12 @@ def check_cells_fit(network: Network, cells: int, available: float | None = None
     sensor, ``docs/performance.md``) is more than the machine has available (``available`` bytes;
     Linux's ``MemAvailable`` if None, no check where that is not known): such a run would swap or be
     ended by the system part way."""
-    from ...pynn.memory import available_bytes  # (the standard library only)
+    from ...pynn.memory import short_of  # (the standard library only)
     from .lif import STATE
 
-    have = available_bytes() if available is None else available
     need = cells * STATE.itemsize
-    if have is None or need <= have:
+    have = short_of(need, available)
+    if have is None:
         return
     h, w = network.frame_shape
     smaller = "" if network.params.input_pool > 1 else "; --network compact makes about a twentieth of the cells"

@@ -211,9 +211,9 @@ def _run_recording(args, model) -> str | None:
     written, or None when a resumed run is finished already."""
     windows, source, shape = _windows(args, model)
     _check_frame(args, model, shape)
-    source.update(
-        input_keys(args.input, sensor_size=args.sensor_size, chip=args.chip)
-    )  # (compare tells inputs apart by them)
+    # (compare tells inputs apart by these keys; read with the sensor the windows found, which a file that
+    # states none took a whole pass over its events to infer: not a second one)
+    source.update(input_keys(args.input, sensor_size=shape[::-1], chip=args.chip))
     out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
     if _nothing_to_resume(args, out, source.get("max_windows")):
         return None

@@ -63,36 +63,59 @@ def window_numbers(maps) -> np.ndarray:
 
 def window_rows(maps, *, coverage: bool = True) -> list[dict]:
     """One row of :data:`COLUMNS` per window of a recording's :class:`~snn_fg.results.maps.Maps`
-    (read window by window: a store's lazy arrays stay on disk); ``coverage=False``: ``fg_coverage``
-    left empty (a model whose share is 1 by construction)."""
+    (read a block of windows at a time, a block being a store's chunk: its lazy arrays stay on
+    disk, and each chunk is decoded once); ``coverage=False``: ``fg_coverage`` left empty (a
+    model whose share is 1 by construction)."""
     ex = maps.extra
     numbers = window_numbers(maps)
+    n = maps.fg_x.shape[0]
+    step = max(1, int(getattr(maps.fg_x, "chunks", (BLOCK,))[0]))
     rows = []
-    for i in range(maps.fg_x.shape[0]):
-        has = (np.asarray(maps.fg_x[i]) != 0) | (np.asarray(maps.fg_y[i]) != 0)
-        events = np.asarray(ex["event_frame"][i]) != 0
-        g = np.asarray(maps.grouping[i])
-        peak = float(g.max(initial=0.0))
-        py, px = np.unravel_index(int(np.argmax(g)), g.shape) if peak > 0 else (None, None)
-        share = float(ex["pixel_share"][i])
-        rows.append(
-            {
-                "window": int(numbers[i]),
-                "t_start_ms": float(ex["t_start_us"][i]) / 1000,
-                "t_end_ms": float(ex["t_end_us"][i]) / 1000,
-                "events": int(ex["event_count"][i]),
-                "pixel_share": round(share, 6),
-                "saturated": share > SATURATED_SHARE,
-                "fg_pixels": int(has.sum()),
-                "fg_coverage": round(float((has & events).sum() / events.sum()), 4)
-                if coverage and events.any()
-                else None,
-                "grouping_peak": float(f"{peak:.5g}"),
-                "peak_x": None if px is None else int(px),
-                "peak_y": None if py is None else int(py),
-            }
+    for a in range(0, n, step):
+        b = min(n, a + step)
+        fg_x, fg_y, g_all, frames = (
+            np.asarray(x[a:b]) for x in (maps.fg_x, maps.fg_y, maps.grouping, ex["event_frame"])
         )
+        times = {k: np.asarray(ex[k][a:b]) for k in ("t_start_us", "t_end_us", "event_count", "pixel_share")}
+        for j in range(b - a):
+            rows.append(
+                _row(
+                    int(numbers[a + j]),
+                    fg_x[j],
+                    fg_y[j],
+                    g_all[j],
+                    frames[j],
+                    {k: v[j] for k, v in times.items()},
+                    coverage,
+                )
+            )
     return rows
+
+
+#: windows read at a time from maps whose arrays are not chunked (in memory)
+BLOCK = 64
+
+
+def _row(number, fg_x, fg_y, g, frame, at, coverage) -> dict:
+    """Window ``number``'s row of :func:`window_rows` from its maps, event frame and times (``at``)."""
+    has = (fg_x != 0) | (fg_y != 0)
+    events = frame != 0
+    peak = float(g.max(initial=0.0))
+    py, px = np.unravel_index(int(np.argmax(g)), g.shape) if peak > 0 else (None, None)
+    share = float(at["pixel_share"])
+    return {
+        "window": number,
+        "t_start_ms": float(at["t_start_us"]) / 1000,
+        "t_end_ms": float(at["t_end_us"]) / 1000,
+        "events": int(at["event_count"]),
+        "pixel_share": round(share, 6),
+        "saturated": share > SATURATED_SHARE,
+        "fg_pixels": int(has.sum()),
+        "fg_coverage": round(float((has & events).sum() / events.sum()), 4) if coverage and events.any() else None,
+        "grouping_peak": float(f"{peak:.5g}"),
+        "peak_x": None if px is None else int(px),
+        "peak_y": None if py is None else int(py),
+    }
 
 
 def save_table(path, rows) -> None:

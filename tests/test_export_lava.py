@@ -157,7 +157,7 @@ def _small_export(tmp_path, disc_recording, capsys):
 def test_loop_with_the_numpy_reference_gives_maps_near_the_fast_engines(tmp_path, disc_recording, capsys, run_py):
     """run.py --simulator reference needs numpy alone (it runs here, on 3.11,
     without snn_fg); its counts decode to maps that agree with the fast
-    engine's 8-bit run on the same input file; and run.py asked for Lava on
+    engine's 8-bit run on the same input file, in the file it names; and run.py asked for Lava on
     this Python stops with one line saying what to make."""
     from snn_fg.backends import RunSettings, get_backend
     from snn_fg.export.loop import export_network
@@ -172,13 +172,16 @@ def test_loop_with_the_numpy_reference_gives_maps_near_the_fast_engines(tmp_path
         "--input",
         "input.npz",
         "--out",
-        "counts.npz",
+        "counts",
         "--duration-ms",
         "80",
         "--simulator",
         "reference",
     )
     assert done.returncode == 0, done.stderr[-2000:]
+    # (the name numpy gives the file, said as written; no temporary part left beside it)
+    assert done.stdout.strip().endswith("wrote counts.npz"), done.stdout
+    assert not list(out.glob(".*part*"))
     assert main(["decode", str(out / "counts.npz"), "--export", str(out), "--out", str(tmp_path / "maps")]) == 0
     ours = Maps.load(tmp_path / "maps" / "maps.npz")
     net, _ = export_network(out)

@@ -574,3 +574,25 @@ def test_run_py_interrupted_says_so_in_one_line_and_writes_nothing(tmp_path, dis
     name = "Ctrl-C" if sig == signal.SIGINT else "SIGTERM"
     assert said[-1] == f"run.py: interrupted ({name}); nothing written" and "Traceback" not in "".join(said)
     assert sorted(p.name for p in folder.iterdir() if p.name != "__pycache__") == before
+
+
+def test_an_exports_result_file_is_whole_or_absent(tmp_path):
+    """fg_files.py (both exports' run.py write through it): a write that fails part way
+    leaves the file as it was and no temporary part; one that completes replaces it."""
+    from snn_fg.pynn import files
+
+    path = tmp_path / "counts.npz"
+    path.write_bytes(b"before")
+
+    def fails(tmp):
+        with open(tmp, "wb") as fh:
+            fh.write(b"half")
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        files.save_atomically(path, fails)
+    assert path.read_bytes() == b"before" and sorted(p.name for p in tmp_path.iterdir()) == ["counts.npz"]
+    assert files.save_npz(str(tmp_path / "counts"), {"a": np.arange(3)}) == str(path)
+    assert np.load(path)["a"].tolist() == [0, 1, 2]
+    files.write_json(tmp_path / "m.json", {"x": 1})
+    assert (tmp_path / "m.json").read_text() == '{\n "x": 1\n}'

@@ -11,8 +11,8 @@ The export folder holds
 * ``fg_lava.py`` (the processes: :mod:`snn_fg.lava.network`), ``fg_loihi.py``
   (the arithmetic: :mod:`snn_fg.lava.fixed`), ``fg_reference.py`` (the same
   in numpy: :mod:`snn_fg.lava.reference`), ``fg_synapses.py``,
-  ``fg_tables.py`` and ``fg_inputs.py`` (the synapses from the tables, the
-  input file: shared with the PyNN export);
+  ``fg_tables.py``, ``fg_inputs.py`` and ``fg_files.py`` (the synapses from the tables, the
+  input file, the output files written whole: shared with the PyNN export);
 * ``network.json`` - populations with their Loihi 2 registers (``du``,
   ``dv``, ``vth``, ``bias_mant``, ``bias_exp``, refractory steps and the
   unit they are in: :mod:`snn_fg.lowering.loihi2`), projections with their
@@ -44,7 +44,7 @@ from .folder import export_meta, readme_fields, weight_tables, write_folder
 
 SCHEMA = "snn-fg.lava/1"
 #: the PyNN export's standalone modules a Lava export carries too
-SHARED = {"tables.py": "fg_tables.py", "inputs.py": "fg_inputs.py"}
+SHARED = {"tables.py": "fg_tables.py", "inputs.py": "fg_inputs.py", "files.py": "fg_files.py"}
 #: the environment run.py needs (lava-nc 0.10 supports Python 3.8-3.10)
 REQUIREMENTS = "# Python 3.10: lava-nc 0.10 supports Python 3.8-3.10\nlava-nc==0.10.0\n"
 LAVA_NOTE = (
@@ -138,7 +138,7 @@ def export_lava(
     >>> from snn_fg.network.recipes import RECIPES
     >>> d = export_lava(RECIPES["compact"].build((48, 64)), pathlib.Path(tempfile.mkdtemp()) / "m")
     >>> sorted(p.name for p in d.iterdir())  # doctest: +NORMALIZE_WHITESPACE
-    ['README.md', 'fg_inputs.py', 'fg_lava.py', 'fg_loihi.py', 'fg_reference.py', 'fg_synapses.py',
+    ['README.md', 'fg_files.py', 'fg_inputs.py', 'fg_lava.py', 'fg_loihi.py', 'fg_reference.py', 'fg_synapses.py',
      'fg_tables.py', 'network.json', 'requirements.txt', 'run.py', 'tables.npz']
     """
     network = dataclasses.replace(network, dt_ms=network.time_step(dt_ms, "export_lava"))

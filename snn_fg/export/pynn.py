@@ -18,6 +18,7 @@ The export folder holds
   will cost, from measurement (:mod:`snn_fg.pynn.memory`);
   ``fg_simulator.py`` - PyNN's simulator module imported without PyNN's
   warnings about its optional NEST extensions (:mod:`snn_fg.pynn.simulator`);
+  ``fg_files.py`` - the files run.py writes, each whole (:mod:`snn_fg.pynn.files`);
 * ``network.json`` - populations (grids, neuron constants), projections
   (ends, sign, gain, delay, per-projection weight scale, synapse count) and the snn-fg
   description it was made from; ``tables.npz`` - the weight-shared tables
@@ -168,7 +169,7 @@ def export_pynn(
     >>> [p.name for p in sorted(d.iterdir()) if p.suffix != ".py"]
     ['README.md', 'network.json', 'tables.npz']
     >>> print(*sorted(p.name for p in d.glob("*.py")))  # doctest: +NORMALIZE_WHITESPACE
-    fg_cells.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py
+    fg_cells.py fg_files.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py
     fg_spinnaker.py fg_tables.py run.py
     """
     dt_ms = network.time_step(dt_ms, "export_pynn")

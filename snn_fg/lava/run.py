@@ -14,16 +14,15 @@ spikes from ``--count-from-ms`` (default: half the run) to the end;
 """
 
 import argparse
-import json
 import sys
 import time
 import warnings
 
+import fg_files
 import fg_inputs
 import fg_reference
 import fg_synapses
 import fg_tables
-import numpy as np
 
 INSTALL = (
     "make the export's environment: python3.10 -m venv .venv-lava && .venv-lava/bin/pip install -r requirements.txt"
@@ -98,8 +97,7 @@ def count_only(meta, conns):
         "note": "Lava's synapses are those whose 8-bit mantissa is not 0; the report counts every synapse of "
         "the description",
     }
-    with open("resources.json", "w") as fh:
-        json.dump(out, fh, indent=1)
+    fg_files.write_json("resources.json", out)
     lv = out["lava"]
     print(
         f"run.py: Lava holds {lv['processes']['total']} processes, {lv['neurons']:,} neurons and "
@@ -146,12 +144,12 @@ def main(argv=None):
         extra = {}
     out = {"duration_ms": args.duration_ms, "dt_ms": dt, "count_from_ms": count_from * dt, **extra}
     out.update({f"count_{name}": c for name, c in counts.items()})
-    np.savez(args.out, **out)
+    path = fg_files.save_npz(args.out, out)
     tag = {"fixed": "fixed_pt", "float": "floating_pt"}[args.arithmetic]
     tool = f"numpy reference ({tag})" if args.simulator == "reference" else f"Lava ({tag})"
     print(
         f"run.py: {tool}: built in {t1 - t0:.1f} s, simulated {args.duration_ms:g} ms in "
-        f"{time.perf_counter() - t1:.1f} s; wrote {args.out}"
+        f"{time.perf_counter() - t1:.1f} s; wrote {path}"
     )
 
 

@@ -14,6 +14,7 @@ exported model and the backend are one implementation.
 * :mod:`.inputs` - the input spike file run.py reads (``fg_inputs.py``);
 * :mod:`.spinnaker` - the network on sPyNNaker and its mapping (``fg_spinnaker.py``);
 * :mod:`.memory` - what a NEST run of the export costs (``fg_memory.py``);
+* :mod:`.files` - the files run.py writes, each whole (``fg_files.py``; Lava exports carry it too);
 * :mod:`.simulator` - PyNN's simulator module, imported quietly (``fg_simulator.py``);
 * ``run`` - the export's ``run.py`` (not importable inside snn_fg, and left out of the API reference).
 """
@@ -31,6 +32,7 @@ COPIED = {
     "inputs.py": "fg_inputs.py",
     "spinnaker.py": "fg_spinnaker.py",
     "memory.py": "fg_memory.py",
+    "files.py": "fg_files.py",
     "simulator.py": "fg_simulator.py",
     "run.py": "run.py",
 }

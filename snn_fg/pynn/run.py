@@ -31,12 +31,12 @@ import sys
 import time
 
 import fg_cells
+import fg_files
 import fg_inputs
 import fg_memory
 import fg_network as fg
 import fg_simulator
 import fg_tables
-import numpy as np
 
 SIMULATORS = {"spinnaker": "spiNNaker"}  # our name -> pyNN module
 
@@ -111,26 +111,6 @@ def build(sim, meta, tables, sources, dt_ms, args, edges, plan=None):
         )
     net.record([p["name"] for p in cells], spikes=args.spikes, count_edges_ms=edges)
     return net
-
-
-def save_atomically(path, write):
-    """``write(tmp)`` to a temporary file beside ``path``, moved onto it when complete: an
-    interrupted or failed write leaves no partial file."""
-    base, ext = os.path.splitext(os.path.abspath(path))
-    tmp = f"{os.path.dirname(base)}/.{os.path.basename(base)}.part{ext}"
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def write_json(path, value):
-    """``value`` as indented JSON text into ``path``."""
-    with open(path, "w") as fh:
-        json.dump(value, fh, indent=1)
 
 
 def check_simulator(name):
@@ -248,8 +228,7 @@ def main(argv=None):
             if args.spikes:
                 out[f"cell_{p['name']}"], out[f"t_{p['name']}"] = net.spikes(p["name"], p["size"])
     net.end()
-    path = args.out if args.out.endswith(".npz") else f"{args.out}.npz"  # (what np.savez names it)
-    save_atomically(path, lambda tmp: np.savez(tmp, **out))
+    path = fg_files.save_npz(args.out, out)
     print(
         f"run.py: built in {t1 - t0:.1f} s, simulated {args.duration_ms:g} ms in {time.perf_counter() - t1:.1f} s; "
         f"wrote {path}"
@@ -287,7 +266,7 @@ def write_mapping(sim, meta, plan, args, build_s, n_conv):
         "sPyNNaker_s": {k: round(v, 1) for k, v in spent.items()},
         "run_s": round(time.perf_counter() - t0, 1),
     }
-    save_atomically("mapping.json", lambda tmp: write_json(tmp, out))
+    fg_files.write_json("mapping.json", out)
     print(
         f"run.py: sPyNNaker {out['tool']['version']} mapped the network onto {used['chips_used']} chips, "
         f"{used['cores_used']} cores (estimate: {est.get('chips')} chips, {est.get('cores')} cores); "

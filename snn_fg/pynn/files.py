@@ -1,0 +1,47 @@
+"""The files an export's ``run.py`` writes, each written whole (``fg_files.py`` in
+PyNN and Lava export folders). Standard library only: the folder runs where snn_fg
+is not installed, so this is the export's copy of the rule
+:mod:`snn_fg.results.atomic` keeps for the package (a file is complete or absent)."""
+
+from __future__ import annotations
+
+import json
+import os
+
+
+def save_atomically(path, write):
+    """``write(tmp)`` to a temporary file beside ``path``, moved onto it when complete: an
+    interrupted or failed write leaves neither a partial file nor the temporary one."""
+    base, ext = os.path.splitext(os.path.abspath(path))
+    tmp = f"{os.path.dirname(base)}/.{os.path.basename(base)}.part{ext}"
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_json(path, value):
+    """``value`` as indented JSON text into ``path`` (whole: :func:`save_atomically`)."""
+
+    def dump(tmp):
+        with open(tmp, "w") as fh:
+            json.dump(value, fh, indent=1)
+
+    save_atomically(path, dump)
+
+
+def npz_path(out: str) -> str:
+    """The file ``np.savez(out, ...)`` writes: ``out``, with ``.npz`` added unless it ends so."""
+    return out if out.endswith(".npz") else f"{out}.npz"
+
+
+def save_npz(out: str, arrays: dict) -> str:
+    """``arrays`` into :func:`npz_path` of ``out`` (whole); returns that path."""
+    import numpy as np  # (numpy: an export's run.py has it; this module's other writers need only the library)
+
+    path = npz_path(out)
+    save_atomically(path, lambda tmp: np.savez(tmp, **arrays))
+    return path

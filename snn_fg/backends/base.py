@@ -267,6 +267,30 @@ def input_masks(network: Network, inputs) -> dict:
     }
 
 
+def unrolled(network: Network, inputs, settings: RunSettings, weight_bits: int | None = None):
+    """``(unrolled network, stats, timings)`` of a backend that makes explicit synapses (Brian2,
+    NEST): the network unrolled for ``inputs`` with the run's sites and instantiation, its weights
+    quantised to ``weight_bits`` where given, its synapses counted (``stats``: ``synapses_in``,
+    ``kept_kernel_mass``) and timed (``timings["unroll"]``), its size said (``settings.say``)."""
+    import time
+
+    from ..lowering.quantise import quantise_unrolled
+    from ..lowering.unroll import unroll
+
+    t0 = time.perf_counter()
+    settings.say("unrolling the network for this input")
+    un = unroll(network, **input_masks(network, inputs), sites=settings.sites, instantiate=settings.instantiate)
+    if weight_bits is not None:
+        quantise_unrolled(un, weight_bits)
+    stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
+    timings = {"unroll": time.perf_counter() - t0}
+    settings.say(
+        f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
+        f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)"
+    )
+    return un, stats, timings
+
+
 def source_offsets(network: Network) -> dict:
     """Spike-source name -> first input index: inputs number the ON pixels
     ``0..H*W-1``, the OFF pixels ``H*W..2*H*W-1`` (row-major) and the

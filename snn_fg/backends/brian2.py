@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from .. import validate as check
-from ..lowering.unroll import Unrolled, unroll
+from ..lowering.unroll import Unrolled
 from ..network.graph import Network
 from . import cancel
 from .base import (
@@ -30,12 +30,12 @@ from .base import (
     RunSettings,
     SimulationResult,
     importable,
-    input_masks,
     lif_populations,
     receptor,
     receptor_weights,
     segments,
     source_offsets,
+    unrolled,
 )
 
 #: CUBA LIF state, advanced once per step by :data:`_STEP` with the exact
@@ -142,19 +142,7 @@ class Brian2Backend(Backend):
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
         t0 = time.perf_counter()
-        settings.say("unrolling the network for this input")
-        un = unroll(
-            network,
-            **input_masks(network, inputs),
-            sites=settings.sites,
-            instantiate=settings.instantiate,
-        )
-        stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
-        timings = {"unroll": time.perf_counter() - t0}
-        settings.say(
-            f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
-            f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)"
-        )
+        un, stats, timings = unrolled(network, inputs, settings)
         with _brian2_session(self.codegen) as target:
             self.used_codegen = target
             counts, spikes, state, binned, objects = self._run(un, inputs, settings, timings)

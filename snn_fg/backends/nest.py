@@ -31,14 +31,13 @@ import numpy as np
 
 from .. import validate as check
 from ..errors import install_hint
-from ..lowering.quantise import quantise_unrolled
-from ..lowering.unroll import Unrolled, unroll
+from ..lowering.unroll import Unrolled
 from ..network.graph import Network
 from ..pynn.network import NEST_MAX_LOCAL_SENDERS, PyNNNetwork
 from ..pynn.simulator import import_simulator
 from ..results.progress import bar as progress_bar
 from . import cancel
-from .base import Backend, RunSettings, SimulationResult, importable, input_masks, lif_populations, source_offsets
+from .base import Backend, RunSettings, SimulationResult, importable, lif_populations, source_offsets, unrolled
 
 #: simulated milliseconds between two returns to Python (progress, Ctrl-C)
 CHUNK_MS = 25.0
@@ -105,21 +104,7 @@ class NestBackend(Backend):
 
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
         t0 = time.perf_counter()
-        settings.say("unrolling the network for this input")
-        un = unroll(
-            network,
-            **input_masks(network, inputs),
-            sites=settings.sites,
-            instantiate=settings.instantiate,
-        )
-        if self.weight_bits is not None:
-            quantise_unrolled(un, self.weight_bits)
-        stats = {"synapses_in": un.synapses_in(), "kept_kernel_mass": un.kept_mass()}
-        timings = {"unroll": time.perf_counter() - t0}
-        settings.say(
-            f"network for this input: {sum(map(un.n_cells, un.sites)):,} cells, "
-            f"{sum(stats['synapses_in'].values()):,} synapses (unrolled in {timings['unroll']:.1f} s)"
-        )
+        un, stats, timings = unrolled(network, inputs, settings, self.weight_bits)
         sim = import_simulator("nest")  # (quietly, as an export's run.py)
         net = _build(sim, un, inputs, settings, self, timings)
         try:

@@ -247,7 +247,7 @@ def refused_options(args, kind) -> list[tuple[str, str]]:
     if kind != "recording":
         refused += [
             (k, f"applies to event recordings only; {_KIND_NAMES[kind]}")
-            for k in RECORDING_OPTIONS + ("sensor_size", "chip")
+            for k in RECORDING_OPTIONS + ("sensor_size", "chip", "channel")
             if given(k) and k not in named
         ]
     else:

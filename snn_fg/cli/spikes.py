@@ -27,6 +27,7 @@ from ..lowering.held_input import held_window
 from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ..network.graph import HELD_CODINGS
 from ..results.atomic import atomic_path
+from .options import camera_options
 
 
 def add_spike_options(parser):
@@ -98,7 +99,7 @@ def _input_spikes(args, net, dt_ms):
     shape, pool = tuple(net.frame_shape), net.params.input_pool
     kind = input_kind(args.input)
     if kind == "recording":
-        stream = iter_recording(args.input, sensor_size=args.sensor_size, chip=getattr(args, "chip", None))
+        stream = iter_recording(args.input, sensor_size=args.sensor_size, **camera_options(args))
         win = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         on, off = pool_frame(win.pos, win.neg, pool)
         r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)

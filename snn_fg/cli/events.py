@@ -27,7 +27,7 @@ from ..events.activity import activity, saturated_lines, timeline_text
 from ..events.aps import frame_summary, open_frames
 from ..events.esim import MOTIONS
 from ..events.images import IMAGE_SUFFIXES, read_image
-from ..frames.still import sized_image
+from ..frames.still import image_scale_refusal, simulator_cost, sized_image
 from ..results.activity import activity_figure
 from ..results.atomic import save_figure, save_npz
 from ..results.outputs import check_output_file
@@ -154,7 +154,7 @@ def run_events(args) -> int:
     _check_outputs(args, path)
     is_image = path.suffix.lower() in IMAGE_SUFFIXES
     if args.image_scale is not None and not is_image:
-        raise InputError(path, "--image-scale applies to images, not to this file")
+        raise InputError(path, f"--image-scale: {image_scale_refusal('recording')}")
     if args.write_spikes is not None:
         return write_spikes(args)
     _check_plot(args, path)
@@ -172,7 +172,7 @@ def _image_lines(path, args) -> list:
     """The summary of an image's simulated events, writing the frame and
     events asked for."""
     image = read_image(path, grey=args.motion != "paper")  # (paper: the authors' JPEG encoder makes the grey)
-    shown = sized_image(image, path, args.image_scale)
+    shown = sized_image(image, path, args.image_scale, simulator_cost(args.motion))
     rec = image_to_events(
         shown,
         threshold=args.threshold,

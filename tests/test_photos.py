@@ -169,11 +169,30 @@ def test_events_on_a_large_image_gives_the_note_and_takes_image_scale(tmp_path, 
     assert "sensor:     500 x 300" in said.out
 
 
-def test_events_refuses_image_scale_for_a_recording(tmp_path, capsys):
+def test_events_refuses_image_scale_for_a_recording_in_run_s_words(tmp_path, capsys):
     ev = np.zeros(3, dtype=[("x", "<i2"), ("y", "<i2"), ("t", "<i8"), ("p", "i1")])
     ev["t"] = [0, 10, 20]
     path = tmp_path / "rec.npz"
     np.savez(path, events=ev, sensor_size=np.array([64, 48, 2]))
+    said = f"snn-fg: error: {path}: --image-scale: applies to images only; INPUT is an event recording\n"
     assert main(["events", str(path), "--image-scale", "0.5"]) == 2
-    err = capsys.readouterr().err
-    assert err == f"snn-fg: error: {path}: --image-scale applies to images, not to this file\n", err
+    assert capsys.readouterr().err == said
+    assert main(["run", str(path), "--image-scale", "0.5", "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    assert capsys.readouterr().err == said
+
+
+def test_events_refuses_an_image_whose_simulated_camera_would_not_fit_the_memory(tmp_path, monkeypatch, capsys):
+    from snn_fg.pynn import memory
+
+    monkeypatch.setattr(memory, "available_bytes", lambda: 1e8)  # (a machine with 100 MB free)
+    img = _square(tmp_path / "im.png", 1000, 800, 300, 700, 200, 600)  # 0.8 MP: 0.24 GB under shift4
+    written = tmp_path / "ev.npy"
+    assert main(["events", str(img), "--write-events", str(written)]) == 2
+    (err,) = capsys.readouterr().err.strip().splitlines()
+    assert err.startswith(
+        f"snn-fg: error: {img}: a 1000 x 800 image: the event-camera simulator (shift4 motion) needs about 0.2 GB"
+    ), err
+    assert "--image-scale" in err and not written.exists()
+    scale = float(err.split("--image-scale ")[1].split()[0])
+    assert main(["events", str(img), "--image-scale", str(scale), "--write-events", str(written)]) == 0
+    assert written.exists()

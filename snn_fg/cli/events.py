@@ -27,11 +27,19 @@ from ..events.activity import activity, saturated_lines, timeline_text
 from ..events.aps import frame_summary, open_frames
 from ..events.esim import MOTIONS
 from ..events.images import IMAGE_SUFFIXES, read_image
-from ..frames.still import sized_image
+from ..frames.still import image_scale_refusal, simulator_cost, sized_image
 from ..results.activity import activity_figure
 from ..results.atomic import save_figure, save_npz
 from ..results.outputs import check_output_file
-from .options import DEMO, add_chip_option, add_image_scale_option, recording_or_demo, sensor_size, subcommand
+from .options import (
+    DEMO,
+    add_camera_options,
+    add_image_scale_option,
+    camera_options,
+    recording_or_demo,
+    sensor_size,
+    subcommand,
+)
 from .spikes import add_spike_options, write_spikes
 
 
@@ -67,7 +75,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         help="sensor size, needed for RAW files without geometry (e.g. 640x480); .txt events and arrays without it "
         "take their extent, with a warning",
     )
-    add_chip_option(g)
+    add_camera_options(g)
     g = p.add_argument_group("images (event-camera simulation)")
     g.add_argument("--threshold", type=float, default=0.10, metavar="C", help="contrast threshold (default 0.10)")
     g.add_argument(
@@ -146,7 +154,7 @@ def run_events(args) -> int:
     _check_outputs(args, path)
     is_image = path.suffix.lower() in IMAGE_SUFFIXES
     if args.image_scale is not None and not is_image:
-        raise InputError(path, "--image-scale applies to images, not to this file")
+        raise InputError(path, f"--image-scale: {image_scale_refusal('recording')}")
     if args.write_spikes is not None:
         return write_spikes(args)
     _check_plot(args, path)
@@ -164,7 +172,7 @@ def _image_lines(path, args) -> list:
     """The summary of an image's simulated events, writing the frame and
     events asked for."""
     image = read_image(path, grey=args.motion != "paper")  # (paper: the authors' JPEG encoder makes the grey)
-    shown = sized_image(image, path, args.image_scale)
+    shown = sized_image(image, path, args.image_scale, simulator_cost(args.motion))
     rec = image_to_events(
         shown,
         threshold=args.threshold,
@@ -209,7 +217,7 @@ def _recording_lines(path, args):
     """The recording's stream, its summary (writing the frame and events
     asked for), and whether its events span any time."""
     source = recording_or_demo(args.input)
-    stream = iter_recording(source, sensor_size=args.sensor_size, chip=args.chip, progress=not args.no_progress)
+    stream = iter_recording(source, sensor_size=args.sensor_size, progress=not args.no_progress, **camera_options(args))
     n = n_on = 0
     t_first = t_last = None
     for chunk in stream:

@@ -87,8 +87,20 @@ def sensor_size(text):
     return w, h
 
 
-def add_chip_option(parser) -> None:
-    """``--chip``: the camera of an AEDAT 2.0 file whose header names none (the ``chip`` format option)."""
+#: a recording's camera as the command line names it (``--channel``): the ``channel`` format option
+CHANNELS = {"0": 0, "left": 0, "1": 1, "right": 1, "both": "both"}
+
+
+def channel(text):
+    """argparse type for ``--channel``: 0 or left, 1 or right, both."""
+    if text.lower() not in CHANNELS:
+        raise argparse.ArgumentTypeError(f"expected 0 (left), 1 (right) or both, got {text!r}")
+    return CHANNELS[text.lower()]
+
+
+def add_camera_options(parser) -> None:
+    """``--chip`` and ``--channel``: which camera a recording's events come from, for the files
+    that do not say (the ``chip`` and ``channel`` format options); :func:`camera_options` gives them."""
     parser.add_argument(
         "--chip",
         type=str.lower,
@@ -98,6 +110,20 @@ def add_chip_option(parser) -> None:
         help="recordings: the camera of an AEDAT 2.0 file (.aedat) whose header names none ('# AEChip:'): "
         f"{', '.join(c for c in CHIPS if c != 'davis')}, or davis (a DAVIS of --sensor-size)",
     )
+    parser.add_argument(
+        "--channel",
+        type=channel,
+        default=None,
+        metavar="CAM",
+        help="recordings of two cameras, MVSEC's .hdf5 (davis/left, davis/right) and an iCub data.log: "
+        "0 or left (the default), 1 or right; both (a data.log only) merges the two",
+    )
+
+
+def camera_options(args) -> dict:
+    """The format options of :func:`add_camera_options` given on the command line, as
+    :func:`~snn_fg.events.iter_recording` takes them."""
+    return {k: getattr(args, k) for k in ("chip", "channel") if getattr(args, k, None) is not None}
 
 
 def add_image_scale_option(parser, before: str) -> None:

@@ -24,7 +24,7 @@ from ..results.atomic import OutputFolder, growing_folder, settle_folder
 from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, windows_complete
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
-from .options import add_chip_option, add_image_scale_option, crop, number, sensor_size, subcommand
+from .options import add_camera_options, add_image_scale_option, camera_options, crop, number, sensor_size, subcommand
 from .run_options import WINDOW_OPTIONS, add_option_groups, chosen_model
 from .runner import goes_on, recording_windows, run_recording, run_still
 
@@ -100,7 +100,7 @@ def add_run_command(sub):
         "it, a text file's or an array's sensor is its events' extent, with a warning); a file that states its own "
         "takes that one only",
     )
-    add_chip_option(g)
+    add_camera_options(g)
     g = p.add_argument_group("output")
     g.add_argument(
         "--crop",
@@ -181,11 +181,16 @@ def _windows(args, model):
     if args.end_ms is not None:
         opts["max_windows"] = min(opts.get("max_windows", math.inf), _windows_before_end(args))
     windows, sensor = recording_windows(
-        args.input, sensor_size=args.sensor_size, chip=args.chip, window_options=opts, progress=not args.no_progress
+        args.input,
+        sensor_size=args.sensor_size,
+        window_options=opts,
+        progress=not args.no_progress,
+        **camera_options(args),
     )
     if model.needs == "image":  # (a recording without frames, or of frames of another size: one line)
         windows = FramedWindows(windows, require_frames(args.input, sensor), sensor)
     source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
+    source.update(camera_options(args))  # (compare names another camera: scoring.inputs.other_inputs)
     if args.end_ms is not None:
         source["end_ms"] = args.end_ms
     source.setdefault("stride_ms", source["window_ms"])
@@ -213,7 +218,7 @@ def _run_recording(args, model) -> str | None:
     _check_frame(args, model, shape)
     # (compare tells inputs apart by these keys; read with the sensor the windows found, which a file that
     # states none took a whole pass over its events to infer: not a second one)
-    source.update(input_keys(args.input, sensor_size=shape[::-1], chip=args.chip))
+    source.update(input_keys(args.input, sensor_size=shape[::-1], **camera_options(args)))
     out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
     if _nothing_to_resume(args, out, source.get("max_windows")):
         return None

@@ -9,6 +9,7 @@ import argparse
 
 from ..backends import DEFAULT_BACKEND, backend_names
 from ..errors import InputError
+from ..frames.still import KIND_NAMES, image_scale_refusal
 from ..models import MODELS, get_model
 from ..network.graph import HELD_CODINGS, INPUT_CODINGS
 from ..network.recipes import model_params_of
@@ -222,12 +223,6 @@ def add_option_groups(parser, hidden=()) -> None:
 
 
 #: what each kind of INPUT is called when an option does not apply to it
-_KIND_NAMES = {
-    "demo": "the demo is one image",
-    "frame": "INPUT is one event frame",
-    "image": "INPUT is one image",
-    "recording": "INPUT is an event recording",
-}
 
 
 def refused_options(args, kind) -> list[tuple[str, str]]:
@@ -246,21 +241,21 @@ def refused_options(args, kind) -> list[tuple[str, str]]:
     named = {k for k, _ in refused}
     if kind != "recording":
         refused += [
-            (k, f"applies to event recordings only; {_KIND_NAMES[kind]}")
-            for k in RECORDING_OPTIONS + ("sensor_size", "chip")
+            (k, f"applies to event recordings only; {KIND_NAMES[kind]}")
+            for k in RECORDING_OPTIONS + ("sensor_size", "chip", "channel")
             if given(k) and k not in named
         ]
     else:
         held = args.input_coding in HELD_CODINGS  # (its held sources' phases are drawn from --seed)
         refused += [
-            (k, f"applies to a single frame or image only; {_KIND_NAMES[kind]}, run as one continuous network")
+            (k, f"applies to a single frame or image only; {KIND_NAMES[kind]}, run as one continuous network")
             for k in FRAME_ONLY_OPTIONS
             if given(k) and k not in named and not (k == "seed" and held)
         ]
     if getattr(args, "image_scale", None) is not None and kind in ("recording", "frame"):
-        refused.append(("image_scale", f"applies to images only; {_KIND_NAMES[kind]}"))
+        refused.append(("image_scale", image_scale_refusal(kind)))
     if args.motion is not None and kind in ("recording", "frame") and model.needs != "image":  # images only
-        refused.append(("motion", f"applies to images turned into events only; {_KIND_NAMES[kind]}"))
+        refused.append(("motion", f"applies to images turned into events only; {KIND_NAMES[kind]}"))
     if model.needs == "image":  # the frame-based model: no events, no network
         refused += [
             (k, f"the {model.name} model {why}")
@@ -293,7 +288,7 @@ def _verb(why: str, n: int) -> str:
 
 
 def chosen_model(args, kind):
-    """The model the arguments ask for on an input of ``kind`` (:data:`_KIND_NAMES`), refusing
+    """The model the arguments ask for on an input of ``kind`` (:data:`~snn_fg.frames.still.KIND_NAMES`), refusing
     options that would be ignored (one line naming each with why)."""
     refused = refused_options(args, kind)
     if refused:

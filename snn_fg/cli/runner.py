@@ -35,11 +35,12 @@ from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
 RUN_CHUNK_EVENTS = 100_000
 
 
-def recording_windows(path, *, sensor_size=None, chip=None, window_options: dict, progress: bool = True):
+def recording_windows(path, *, sensor_size=None, window_options: dict, progress: bool = True, **camera):
     """The windows of the recording ``path`` as ``snn-fg run`` reads them
     (85 ms unless ``window_options`` say otherwise; read again on every
-    iteration, with a progress bar on each reading), and its sensor size."""
-    stream = iter_recording(path, sensor_size=sensor_size, chip=chip, chunk_events=RUN_CHUNK_EVENTS)
+    iteration, with a progress bar on each reading), and its sensor size;
+    ``camera``: the format options ``chip`` and ``channel``."""
+    stream = iter_recording(path, sensor_size=sensor_size, chunk_events=RUN_CHUNK_EVENTS, **camera)
     windows = RecordingWindows(stream, **{"window_ms": 85.0, **window_options}, chunk_events=RUN_CHUNK_EVENTS)
     if progress:
         windows = _Counted(windows, window_options.get("max_windows"))

@@ -22,11 +22,12 @@ from ..export.folder import frame_size, frame_text
 from ..export.loop import FRAME_RATE_HZ, crop_events, export_network, outline_crop, recalibration_hint
 from ..export.pynn import save_input
 from ..frames.pool import pool_events, pool_frame
-from ..frames.still import input_kind, load_frame
+from ..frames.still import input_kind, load_frame, simulator_cost
 from ..lowering.held_input import held_window
 from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ..network.graph import HELD_CODINGS
 from ..results.atomic import atomic_path
+from .options import camera_options
 
 
 def add_spike_options(parser):
@@ -98,7 +99,7 @@ def _input_spikes(args, net, dt_ms):
     shape, pool = tuple(net.frame_shape), net.params.input_pool
     kind = input_kind(args.input)
     if kind == "recording":
-        stream = iter_recording(args.input, sensor_size=args.sensor_size, chip=getattr(args, "chip", None))
+        stream = iter_recording(args.input, sensor_size=args.sensor_size, **camera_options(args))
         win = next(iter(iter_windows(stream, window_ms=args.window_ms, start_ms=args.start_ms, max_windows=1)))
         on, off = pool_frame(win.pos, win.neg, pool)
         r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)
@@ -123,7 +124,8 @@ def _input_spikes(args, net, dt_ms):
             )
         window = {"t_start_ms": times[0], "t_end_ms": times[1]}
     else:
-        frame, _ = load_frame(args.input, "events", args.threshold, args.motion, args.image_scale)
+        cost = simulator_cost(args.motion)  # (the image is checked as snn-fg events checks it)
+        frame, _ = load_frame(args.input, "events", args.threshold, args.motion, args.image_scale, cost)
         on, off = pool_frame(frame.pos, frame.neg, pool)
         r0, c0 = _crop_box((on > 0) | (off > 0), net, args.crop_at, args.input)
         cut = (slice(r0, r0 + shape[0]), slice(c0, c0 + shape[1]))

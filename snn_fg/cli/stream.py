@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..events import EVENT_DTYPE, iter_recording
 from ..events.replay import UdpSender, from_ms, looped, open_sender, paced, parse_address
-from .options import add_chip_option, number, recording_or_demo, sensor_size, subcommand
+from .options import add_camera_options, camera_options, number, recording_or_demo, sensor_size, subcommand
 
 
 def add_stream_command(sub):
@@ -43,7 +43,7 @@ def add_stream_command(sub):
         help="each time from MS after the recording's first event (past a start-up burst, which --loop would repeat)",
     )
     p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="as snn-fg run (RAW files, arrays)")
-    add_chip_option(p)
+    add_camera_options(p)
     p.add_argument("--no-timestamps", action="store_true", help="udp://: events without times (stamped on arrival)")
     p.add_argument(
         "--wait-s",
@@ -60,7 +60,7 @@ def add_stream_command(sub):
 def cmd_stream(args) -> int:
     parse_address(args.to, "--to")  # (a wrong address before the recording is read and warned about)
     source = recording_or_demo(args.recording)
-    read = {"sensor_size": args.sensor_size, "chip": args.chip}
+    read = {"sensor_size": args.sensor_size, **camera_options(args)}
     size = iter_recording(source, **read).sensor_size
     parts = looped(lambda: from_ms(iter_recording(source, **read), args.start_ms), args.loop)
     events = np.concatenate(list(parts) or [np.zeros(0, EVENT_DTYPE)])

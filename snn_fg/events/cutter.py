@@ -134,6 +134,13 @@ class WindowCutter:
         self.t0 = self.w_start = self.w_end = self.prev_t = None
         self.k = self.seen = 0
 
+    def begin_at(self, t_first: int, seen: int) -> None:
+        """The stream is read from past its start: its first event was at ``t_first`` (us) and
+        ``seen`` events before the first one to come are left out (all earlier than the first window)."""
+        self.t0, self.seen = int(t_first), int(seen)
+        self.w_start = self.t0 + self.start
+        self.w_end = self.w_start + self.win
+
     @property
     def filtered(self) -> bool:
         """Whether a window's events are filtered (its own, not the stream's)."""

@@ -36,7 +36,8 @@ format is a :class:`~snn_fg.errors.ParameterError`:
 * ``encoding`` (``.raw``): ``"evt2"`` or ``"evt3"``, for files whose header
   does not say (default: the header's, else EVT2);
 * ``codec`` (``.log``): address codec, ``"auto"`` (default), ``"24"`` or ``"20"``;
-* ``channel`` (``.log``): camera, 0 (left, default), 1 (right) or ``"both"``;
+* ``channel`` (``.log``, MVSEC's ``.hdf5``): camera, 0 (left, default), 1 (right) or, for
+  a ``.log``, ``"both"``;
 * ``timer_bits`` (``.log``): bits of the timestamp counter (default 30);
 * ``chip`` (``.aedat``): the camera of an AEDAT 2.0 file whose header names
   none (no ``# AEChip:`` line): ``"dvs128"``, ``"davis240"``, ``"davis346"``,

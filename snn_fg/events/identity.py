@@ -37,11 +37,11 @@ def head_digest(events: np.ndarray) -> str:
     return h.hexdigest()[:16]
 
 
-def input_keys(path, sensor_size=None, chip=None) -> dict:
-    """The keys ``params["source"]`` keeps about the recording ``path`` (``sensor_size`` and ``chip`` as
-    :func:`~snn_fg.events.iter_recording` takes them) to tell it from another: ``sensor_size`` and
-    ``events_head`` (the module docstring)."""
-    stream = iter_recording(path, sensor_size=sensor_size, chip=chip, chunk_events=HEAD_EVENTS)
+def input_keys(path, sensor_size=None, **camera) -> dict:
+    """The keys ``params["source"]`` keeps about the recording ``path`` (``sensor_size`` and the format
+    options ``chip`` and ``channel`` as :func:`~snn_fg.events.iter_recording` takes them) to tell it
+    from another: ``sensor_size`` and ``events_head`` (the module docstring)."""
+    stream = iter_recording(path, sensor_size=sensor_size, chunk_events=HEAD_EVENTS, **camera)
     stream.warn_no_span = False  # (the run's own reading warns of a stream cut short, once)
     head, n = [], 0
     try:

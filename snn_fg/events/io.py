@@ -111,6 +111,7 @@ class RecordingStream:
         self._source = _open_source(source, sensor_size, self.chunk_events, options)
         self.progress = progress
         self._tally = DecodeTally()
+        self._skip = None
 
     path = property(lambda self: self._source.path)
     format = property(lambda self: self._source.format)
@@ -120,14 +121,24 @@ class RecordingStream:
     #: what the latest iteration read and left out, by kind, with counts (see DecodeTally.skipped)
     skipped = property(lambda self: self._tally.skipped)
 
+    def skip_to(self, after_us: int) -> tuple[int, int] | None:
+        """Begin every later iteration at the events from ``after_us`` after the first one, where the
+        file's own index of its times says where they lie (DSEC's ``ms_to_idx``): ``(the first
+        event's time, the events left unread)``; None where it cannot say (the stream reads from the
+        start). Errors name events by their index in the whole file still."""
+        skip = self._source.skip(int(after_us)) if self._source.skip is not None else None
+        self._skip = skip
+        return None if skip is None else (skip.t_first, skip.index)
+
     def __iter__(self) -> Iterator[np.ndarray]:
         src = self._source
         name = src.path if src.path is not None else "<array>"
         self._tally = tally = DecodeTally()
         bar = self._progress_bar(name)
         n, t_first, t_last = 0, None, None
+        chunks, first = (src.chunks, 0) if self._skip is None else (self._skip.chunks, self._skip.index)
         try:
-            for out in _rechunk(src.chunks(self.chunk_events, tally), self.chunk_events, name, src.sensor_size):
+            for out in _rechunk(chunks(self.chunk_events, tally), self.chunk_events, name, src.sensor_size, first):
                 if bar is not None:
                     bar.update(len(out))
                 n += len(out)
@@ -152,14 +163,15 @@ def no_span_problem(n: int, t: int) -> str:
     return f"all {n:,} events have the same timestamp ({t} us), so the recording spans no time"
 
 
-def _rechunk(raw_chunks, n: int, name, sensor_size) -> Iterator[np.ndarray]:
-    """Validated :data:`EVENT_DTYPE` chunks of exactly ``n`` events (the last may be shorter).
+def _rechunk(raw_chunks, n: int, name, sensor_size, first: int = 0) -> Iterator[np.ndarray]:
+    """Validated :data:`EVENT_DTYPE` chunks of exactly ``n`` events (the last may be shorter);
+    ``first``: the file's events before the first of ``raw_chunks`` (for the indices errors give).
 
     A decoder that meets damage (a file cut inside an event, bytes that are no event) has
     yielded the events before it: they are yielded too, so that the windows they complete
     are cut, and then its error is raised with the index of the event at fault
     (:func:`at_event`)."""
-    done = 0
+    done = first
     pending = []
     pending_n = 0
     raw_chunks, damage = iter(raw_chunks), None
@@ -266,7 +278,7 @@ def open_recording(
     encoding, codec, channel, timer_bits, chip
         Format options: ``encoding`` ("evt2", "evt3") for RAW files without a
         header, ``codec`` ("auto", "24", "20"), ``channel`` (0, 1, "both") and
-        ``timer_bits`` for iCub YARP logs, ``chip`` ("dvs128", "davis240", ...)
+        ``timer_bits`` for iCub YARP logs (``channel`` 0 or 1 for MVSEC's HDF5), ``chip`` ("dvs128", "davis240", ...)
         for AEDAT 2.0 files whose header names no camera. An option for another
         format is refused.
 

@@ -59,18 +59,32 @@ class DecodeTally:
 
 
 @dataclass(frozen=True)
+class Skip:
+    """Where a reading may begin instead of a recording's start: found by :attr:`Source.skip`."""
+
+    t_first: int  # the recording's first event's time (us)
+    index: int  # the events before, left unread
+    chunks: Callable[[int, DecodeTally], Iterator[np.ndarray]] = field(repr=False)  # from event ``index`` on
+
+
+@dataclass(frozen=True)
 class Source:
     """An opened recording, ready to decode.
 
     ``chunks(n, tally)`` yields event arrays (any structured dtype with
     x, y, t, p; roughly ``n`` events each where the decoder can choose) from
-    the start of the file, and adds what it skips to ``tally``.
+    the start of the file, and adds what it skips to ``tally``. ``skip(us)``,
+    where the file has an index of its times (DSEC's ``ms_to_idx``), gives a
+    :class:`Skip` to the events from ``us`` after the first one (at or before
+    the first of them; every event before it is earlier), or None where the
+    index cannot say.
     """
 
     path: Path | None
     format: str
     sensor_size: tuple[int, int, int]
     chunks: Callable[[int, DecodeTally], Iterator[np.ndarray]] = field(repr=False)
+    skip: Callable[[int], Skip | None] | None = field(default=None, repr=False)
 
     @property
     def streams(self) -> bool:

@@ -32,7 +32,12 @@ class RecordingWindows:
         read = check_read_options(owner, {k: v for k, v in self.options.items() if k not in WINDOW_KEYS})
         stream = iter_recording(self.recording, **read)
         stream.warn_no_span = False  # (refused by the cut)
-        return stream, WindowCutter(stream.sensor_size, stream.path if stream.path is not None else "<array>", **window)
+        cutter = WindowCutter(stream.sensor_size, stream.path if stream.path is not None else "<array>", **window)
+        if cutter.start > 0:  # (a file that indexes its times is read from the first window's start)
+            skipped = stream.skip_to(cutter.start)
+            if skipped is not None:
+                cutter.begin_at(*skipped)
+        return stream, cutter
 
 
 #: the options of :func:`iter_windows` that say how a stream is cut (the others say how it is read)

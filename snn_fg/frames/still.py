@@ -38,6 +38,26 @@ RATE_BYTES_PER_PIXEL = 1.5e3
 #: ... and the default spiking network's, on BSDS image 12003 turned into events (6.7 GB for its
 #: 481 x 321 pixels, the same table)
 SPIKING_BYTES_PER_PIXEL = 43e3
+#: the simulated event camera's peak memory a pixel of an image, by motion (amplitude 1 px), rounded up
+#: from its measurement on BSDS images tiled to 1.4 and 5.6 MP (docs/performance.md, "Memory")
+SIMULATOR_BYTES_PER_PIXEL = {"shift4": 0.3e3, "circle": 1.75e3, "paper": 0.2e3}
+#: what an input of each kind (:func:`input_kind`) is, as the refusal of an option for another says it
+KIND_NAMES = {
+    "demo": "the demo is one image",
+    "frame": "INPUT is one event frame",
+    "image": "INPUT is one image",
+    "recording": "INPUT is an event recording",
+}
+
+
+def image_scale_refusal(kind: str) -> str:
+    """Why ``--image-scale`` does not apply to an input of ``kind`` (not an image), as every command says it."""
+    return f"applies to images only; {KIND_NAMES[kind]}"
+
+
+def simulator_cost(motion: str) -> tuple[str, float]:
+    """``(what, bytes a pixel)`` of the simulated event camera under ``motion``, for :func:`check_fits`."""
+    return f"event-camera simulator ({motion} motion)", SIMULATOR_BYTES_PER_PIXEL[motion]
 
 
 def scaled_image(image: np.ndarray, scale: float, spec) -> np.ndarray:
@@ -92,14 +112,18 @@ def check_fits(spec, shape, model: str, bytes_per_pixel: float, available: float
     )
 
 
-def sized_image(image: np.ndarray, spec, image_scale=None) -> np.ndarray:
+def sized_image(image: np.ndarray, spec, image_scale=None, cost=None) -> np.ndarray:
     """An image as a model or the simulated camera takes it: resized by ``image_scale``
     (:func:`scaled_image`), or without one as it is, with an :class:`~snn_fg.errors.InputWarning`
-    (:func:`large_image_note`) when its longer side has more than :data:`LARGE_IMAGE_SIDE` pixels."""
+    (:func:`large_image_note`) when its longer side has more than :data:`LARGE_IMAGE_SIDE` pixels;
+    refused (:func:`check_fits`) when what it goes to (``cost``: ``(what, bytes a pixel)``, e.g.
+    :func:`simulator_cost`) needs more memory than the machine has available."""
     if image_scale is not None:
-        return scaled_image(image, image_scale, spec)
-    if max(image.shape[:2]) > LARGE_IMAGE_SIDE:
+        image = scaled_image(image, image_scale, spec)
+    elif max(image.shape[:2]) > LARGE_IMAGE_SIDE:
         warnings.warn(InputWarning(large_image_note(spec, image.shape)), stacklevel=3)
+    if cost is not None:
+        check_fits(spec, image.shape, *cost)
     return image
 
 
@@ -261,7 +285,7 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
     if kind == "recording":
         raise InputError(spec, "is an event recording, not a frame")
     if image_scale is not None and kind == "frame":
-        raise InputError(spec, "image_scale applies to images; this is an event frame")
+        raise InputError(spec, f"image_scale {image_scale_refusal(kind)}")
     if kind == "frame":
         if needs == "image":
             raise InputError(spec, "the fbfg model needs an image, not an event frame")
@@ -273,9 +297,7 @@ def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "sh
         image = read_image(spec, grey=needs != "image" and motion != "paper")
     if image_scale is not None:
         source.update(image_size=[int(image.shape[1]), int(image.shape[0])], image_scale=float(image_scale))
-    image = sized_image(image, spec, image_scale)
-    if cost is not None:
-        check_fits(spec, image.shape, *cost)
+    image = sized_image(image, spec, image_scale, cost)
     if needs == "image":
         return Still(image=image), source
     recording = image_to_events(image, threshold=threshold, motion=motion)

@@ -7,8 +7,9 @@ the recording's first events (:mod:`snn_fg.events.identity`): two runs that both
 one input when these agree, whatever their files are named (every iCub recording is a
 ``data.log``) and whatever format holds the events. A run stored before snn-fg kept them is told by
 its windows paired at one start and cut alike, whose event counts (``event_count``, stored with
-each window) differ only between inputs, else by its input's file name. A live run's input is a
-stream's address: its windows' clock tells instead.
+each window) differ only between inputs, else by its input's file name. Runs on the two cameras of
+one recording (MVSEC's, an iCub log's) are told by the ``channel`` each kept (``--channel``; none:
+the left, 0). A live run's input is a stream's address: its windows' clock tells instead.
 
 **Event frames.** A paired window holds other events when the runs were cut with another window
 length or event filter, or a still image was turned into events at another contrast threshold or
@@ -64,6 +65,9 @@ def other_inputs(a, b, pairing=None) -> str | None:
         return None
     na, nb = (Path(str(s["input"])).name for s in (sa, sb))
     named = f"both {na}" if na == nb else f"{na}, {nb}"
+    cameras = [s.get("channel", 0) for s in (sa, sb)]  # (a recording of two cameras: the left one unless told)
+    if cameras[0] != cameras[1]:
+        return f"{named}: channel {cameras[0]} against {cameras[1]}, other cameras"
     if all(k in sa and k in sb for k in IDENTITY_KEYS):
         if sa["sensor_size"] != sb["sensor_size"]:
             size = [" x ".join(map(str, s["sensor_size"])) for s in (sa, sb)]

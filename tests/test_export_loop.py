@@ -565,7 +565,11 @@ def test_run_py_interrupted_says_so_in_one_line_and_writes_nothing(tmp_path, dis
         "'counts.npz', '--duration-ms', '100000']; exec(open('run.py').read())"
     )
     before = sorted(p.name for p in folder.iterdir())
-    proc = subprocess.Popen([sys.executable, "-c", code], cwd=folder, stderr=subprocess.PIPE, text=True)
+    # (started with SIGINT ignored, as a shell starts a command in the background: run.py takes it all the same)
+    ignored = lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)  # noqa: E731
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], cwd=folder, stderr=subprocess.PIPE, text=True, preexec_fn=ignored
+    )
     said = [proc.stderr.readline()]  # (its first progress line: the network is being built)
     assert said[0].startswith("run.py: "), said
     proc.send_signal(sig)

@@ -286,6 +286,9 @@ def interrupted(signum, frame):
 
 if __name__ == "__main__":
     signal.signal(signal.SIGTERM, interrupted)
+    # (Ctrl-C's own handler, set even where the run was started with SIGINT ignored, as a shell does
+    # for a command it puts in the background: `kill -INT` then ends it as Ctrl-C does)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         main()
     except KeyboardInterrupt:

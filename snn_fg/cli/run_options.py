@@ -222,9 +222,6 @@ def add_option_groups(parser, hidden=()) -> None:
                 g.add_argument(flag, type=number(kind, lo, strict) if kind else None, help=text)
 
 
-#: what each kind of INPUT is called when an option does not apply to it
-
-
 def refused_options(args, kind) -> list[tuple[str, str]]:
     """``(flag, why it does not apply)`` for every given option the run would ignore."""
     model = MODELS[args.model]

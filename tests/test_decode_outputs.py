@@ -4,6 +4,9 @@ same folder with ``--force`` was refused because of the ``reference/`` decode it
 
 from __future__ import annotations
 
+import json
+import shutil
+
 import numpy as np
 import pytest
 
@@ -87,3 +90,50 @@ def test_decode_again_into_its_own_folder_with_reference_and_force(board_run, tm
         assert len(err) == 1 and "which snn-fg did not write" in err[0] and "nothing was deleted" in err[0], err
         assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == before and extra.read_text() == "mine"
         extra.unlink()
+
+
+def _edited(folder, tmp_path, edit):
+    """A copy of the export ``folder`` whose network.json's top level ``edit(meta)`` changed, as a user edits it."""
+    copy = tmp_path / "edited"
+    shutil.copytree(folder, copy)
+    meta = json.loads((copy / "network.json").read_text())
+    edit(meta)
+    (copy / "network.json").write_text(json.dumps(meta, indent=1))
+    return copy
+
+
+@pytest.mark.slow
+def test_an_edited_export_is_no_longer_called_the_same_network(board_run, tmp_path, capsys):
+    """run.py builds network.json's populations and projections, the reference the description embedded
+    beside them: with a gain edited (a new user set the feedback cells' inhibition of the border-ownership
+    cells from 400 to 100), --reference is refused in one line naming the field, old -> new; a plain decode
+    goes on (the counts are placed by the populations, which the edit leaves) and says so; an edited
+    population size is refused either way. An unedited export decodes without a word of it (and is
+    still called the same network by --reference: the tests above)."""
+
+    def gains(meta):
+        for p in meta["projections"]:
+            if "_inh_bo_" in p["name"]:
+                p["gain_mv"] = 100.0
+
+    edited = _edited(board_run, tmp_path, gains)
+    exported = json.loads((board_run / "network.json").read_text())["projections"]
+    first = next(p for p in exported if "_inh_bo_" in p["name"])
+    assert _decode(edited, tmp_path / "ref", "--reference", "fast") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "network.json: differs from the snn-fg description it embeds" in err[0], err
+    assert f"projection {first['name']} gain_mv {json.dumps(first['gain_mv'])} -> 100.0" in err[0], err
+    assert "export it again with --network" in err[0] and not (tmp_path / "ref").exists()
+    assert _decode(edited, tmp_path / "plain") == 0
+    said = capsys.readouterr().out
+    assert "snn-fg: note:" in said and f"{first['name']} gain_mv" in said and (tmp_path / "plain" / "maps.npz").exists()
+
+    def size(meta):
+        meta["populations"][-1]["size"] += 1
+
+    resized = _edited(board_run, tmp_path / "s", size)
+    assert _decode(resized, tmp_path / "plain2") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "its populations differ" in err[0] and " size " in err[0], err
+    assert _decode(board_run, tmp_path / "same") == 0  # (and with --reference: the tests above)
+    assert "note" not in capsys.readouterr().out

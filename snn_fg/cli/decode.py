@@ -14,6 +14,7 @@ import numpy as np
 
 from ..backends import backend_names
 from ..errors import InputError
+from ..export.edits import checked_export
 from ..export.loop import (
     decode_counts,
     export_input,
@@ -68,6 +69,8 @@ def cmd_decode(args) -> int:
 
     folder = OutputFolder(args.out, force=args.force, kind=DECODE_FOLDER)  # (refused, or unwritable, before the work)
     net, meta = export_network(args.export)
+    # (an edited network.json: --reference refused, a plain decode noted; before, both went on unsaid)
+    edited = checked_export(Path(args.export) / "network.json", net, meta, args.reference)
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")
     maps = decode_counts(net, args.counts)
@@ -105,6 +108,8 @@ def cmd_decode(args) -> int:
             )
     written = "maps.npz, maps.png" + (", reference/" if ref is not None else "")
     print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ ({written})")
+    if edited:
+        print(edited)
     if ref is not None:
         print(agreement_line(maps, ref, args.reference, inp.rate_hz, net, meta.get("export_command")))
     return 0

@@ -81,8 +81,35 @@ EXPORT_FOLDER = FolderKind(
 )
 
 
-def weight_tables(network: Network):
-    """(projection entries, table arrays) with identical tables stored once."""
+def projection_entry(pr) -> dict:
+    """What ``network.json`` says of a projection that the description gives directly (its ends, sign,
+    gain and delay); :func:`weight_tables` adds what its table gives."""
+    return {
+        "name": pr.name,
+        "source": pr.source,
+        "target": pr.target,
+        "sign": pr.sign,
+        "gain_mv": pr.gain_mv,
+        "delay_ms": pr.delay_ms,
+    }
+
+
+def population_entry(p, population_extra=None) -> dict:
+    """What ``network.json`` says of a population (``population_extra(p)`` adds to it)."""
+    return {
+        "name": p.name,
+        "role": p.role,
+        "level": p.level,
+        "size": p.size,
+        **geometry(p),
+        "neuron": None if p.neuron is None else p.neuron.to_dict(),
+        **(population_extra(p) if population_extra else {}),
+    }
+
+
+def weight_tables(network: Network, projection_extra=None):
+    """(projection entries, table arrays) with identical tables stored once; ``projection_extra(pr)``
+    adds to each entry (a format's own fields)."""
     arrays, seen, entries = {}, {}, []
     for pr in network.projections:
         cancel.check()  # (Ctrl-C and SIGTERM stop the export between projections)
@@ -102,15 +129,11 @@ def weight_tables(network: Network):
         key = seen[digest]
         entries.append(
             {
-                "name": pr.name,
-                "source": pr.source,
-                "target": pr.target,
-                "sign": pr.sign,
-                "gain_mv": pr.gain_mv,
-                "delay_ms": pr.delay_ms,
+                **projection_entry(pr),
                 "table": key,
                 "synapses": projection_counts(network, pr, tab).synapses,
                 **table_fields(tab),
+                **(projection_extra(pr) if projection_extra else {}),
             }
         )
     return entries, arrays
@@ -143,18 +166,7 @@ def export_meta(
     ``snn-fg decode`` read): the board network ``net``'s populations (``population_extra(p)``
     adds to each), the projection ``entries``, the time step, the command that made it and the
     sensor; ``fields`` join them."""
-    pops = [
-        {
-            "name": p.name,
-            "role": p.role,
-            "level": p.level,
-            "size": p.size,
-            **geometry(p),
-            "neuron": None if p.neuron is None else p.neuron.to_dict(),
-            **(population_extra(p) if population_extra else {}),
-        }
-        for p in net.populations
-    ]
+    pops = [population_entry(p, population_extra) for p in net.populations]
     return {
         "schema": schema,
         "snn_fg_version": __version__,

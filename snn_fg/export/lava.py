@@ -55,15 +55,23 @@ LAVA_NOTE = (
 )
 
 
+def entry_extras(net: Network):
+    """``(population_extra, projection_extra)``: what the Lava export adds to ``network.json``'s
+    entries of the board network ``net``: each population's and projection's Loihi 2 registers."""
+    low = lower(net)
+    return (
+        lambda p: {"lava": None if p.neuron is None else low.neurons[p.name].to_dict()},
+        lambda pr: {"lava": low.synapses[pr.name].to_dict()},
+    )
+
+
 def lava_model(network: Network, *, command: str | None = None, sensor_shape=None) -> tuple[dict, dict]:
     """``(network.json data, tables.npz arrays)`` of the board network in Loihi 2's registers."""
     from .report import resource_report
 
     net = board_network(network)
-    low = lower(net)
-    entries, arrays = weight_tables(net)
-    for e in entries:
-        e["lava"] = low.synapses[e["name"]].to_dict()
+    population_extra, projection_extra = entry_extras(net)
+    entries, arrays = weight_tables(net, projection_extra)
     rep = resource_report(network, sensor_shape=sensor_shape)
     meta = export_meta(
         net,
@@ -72,7 +80,7 @@ def lava_model(network: Network, *, command: str | None = None, sensor_shape=Non
         dt_ms=net.dt_ms,
         command=command,
         sensor_shape=sensor_shape,
-        population_extra=lambda p: {"lava": None if p.neuron is None else low.neurons[p.name].to_dict()},
+        population_extra=population_extra,
         weight_bits=8,
         loihi2_report={"totals": rep["totals"], "loihi2": rep["targets"]["loihi2"]},
     )

@@ -77,13 +77,12 @@ def pynn_model(
     ``sensor_shape`` (rows, cols): the sensor it was made for, if known."""
     dt_ms = network.time_step(dt_ms, "pynn_model")
     net = board_network(network)
-    entries, arrays = weight_tables(net)
-    scales = projection_scales(net, weight_bits) if weight_bits else {}
-    for e in entries:
-        e["scale_mv"] = scales.get(e["name"], 0.0)
+    population_extra, projection_extra = entry_extras(net, weight_bits)
+    entries, arrays = weight_tables(net, projection_extra)
     meta = export_meta(
         net,
         entries,
+        population_extra=population_extra,
         schema=SCHEMA,
         dt_ms=dt_ms,
         weight_bits=weight_bits,
@@ -92,6 +91,13 @@ def pynn_model(
         target=target,
     )
     return meta, arrays
+
+
+def entry_extras(net: Network, weight_bits: int | None):
+    """``(population_extra, projection_extra)``: what the PyNN export adds to ``network.json``'s
+    entries of the board network ``net`` (each projection's weight scale for ``weight_bits``, 0: float)."""
+    scales = projection_scales(net, weight_bits) if weight_bits else {}
+    return None, lambda pr: {"scale_mv": scales.get(pr.name, 0.0)}
 
 
 README = """# PyNN model of the snn-fg figure-ground network

@@ -4,6 +4,7 @@ makes run.py's input from a recording window, run.py simulates it on NEST
 counts into maps; and run.py's memory check."""
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -450,6 +451,31 @@ def test_a_forced_re_export_for_another_rate_keeps_the_folders_input(tmp_path, c
     assert json.loads((out / "network.json").read_text())["input_rate_hz"] == 35.0
     assert main([*export[:-4], "--sensor-size", "28x20", "--levels", "1", "--force"]) == 0
     assert not (out / "input.npz").exists() and "kept" not in capsys.readouterr().out
+
+
+def test_a_forced_re_export_keeps_the_environment_its_readme_has_the_user_make(tmp_path, capsys):
+    """A Lava export's README has the user make .venv-lava inside the folder; the re-export
+    --write-spikes advises (--input-rate-hz ... --force) keeps it where it is, untouched (before: refused,
+    "holds .venv-lava, which snn-fg did not write"), and says so without counting it as written."""
+    from snn_fg.export.folder import LAVA_ENV
+
+    out = tmp_path / "lava2"
+    export = ["export", "--format", "lava", "--out", str(out), "--sensor-size", "16x16", "--levels", "1"]
+    assert main(export) == 0
+    assert f"python3.10 -m venv {LAVA_ENV}" in (out / "README.md").read_text()
+    env = out / LAVA_ENV
+    (env / "bin").mkdir(parents=True)
+    (env / "pyvenv.cfg").write_text("home = /usr/bin\n")
+    (env / "bin" / "python").symlink_to("/usr/bin/python3.10")
+    made = env.stat().st_ino
+    capsys.readouterr()
+    assert main([*export, "--input-rate-hz", "35", "--force"]) == 0, capsys.readouterr().err
+    said = capsys.readouterr().out
+    assert env.stat().st_ino == made and (env / "pyvenv.cfg").read_text() == "home = /usr/bin\n"
+    assert os.readlink(env / "bin" / "python") == "/usr/bin/python3.10"
+    assert f"; {LAVA_ENV} kept where it was" in said and f"{LAVA_ENV}," not in said, said
+    assert json.loads((out / "network.json").read_text())["input_rate_hz"] == 35.0
+    assert not [p for p in out.iterdir() if p.name.startswith(".snn-fg.")]  # (no working folder left)
 
 
 def test_a_forced_re_export_never_deletes_run_py_counts(tmp_path, capsys):

@@ -30,7 +30,7 @@ from ..lowering.quantise import BITS_RANGE, check_bits
 from ..network.recipes import RECIPES, is_recipe, load_description, network_for
 from ..results.atomic import save_text
 from ..results.outputs import check_output_file, check_output_folder, check_writable
-from .options import number, sensor_size, subcommand, written_size
+from .options import number, sensor_size, size_text, subcommand, written_size
 
 FORMATS = ("pynn", "lava", "nir", "report", "network")
 TARGETS = ("generic", "spinnaker", "loihi2")
@@ -270,13 +270,10 @@ def cmd_export(args) -> int:
             command=export_command(args),
             sensor_shape=sensor,
         )
-        what = f"PyNN model ({written_size(out)}: {', '.join(sorted(p.name for p in out.iterdir()))})"
+        what = f"PyNN model ({_folder_summary(out)})"
     elif args.format == "lava":
         export_lava(net, out, force=args.force, command=export_command(args), sensor_shape=sensor, dt_ms=args.dt_ms)
-        what = (
-            f"Lava model ({written_size(out)}: {', '.join(sorted(p.name for p in out.iterdir()))}); "
-            "its run.py needs Python 3.10 (README.md)"
-        )
+        what = f"Lava model ({_folder_summary(out)}); its run.py needs Python 3.10 (README.md)"
     elif args.format == "nir" and args.nir_profile == "snntorch":
         export_nir_snntorch(
             net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid, deeper_reset=args.nir_refractory_as_deeper_reset
@@ -306,5 +303,15 @@ def cmd_export(args) -> int:
         what = f"network description ({written_size(out)}; {describe_network(net)})"
     if args.format in ("pynn", "lava") and (out / INPUT_NAME).exists():
         what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
+    if args.format in ("pynn", "lava"):
+        kept = sorted(p.name for p in out.iterdir() if EXPORT_FOLDER.keeps(p))
+        what += "".join(f"; {k} kept where it was (the environment the README has you make there)" for k in kept)
     print(f"snn-fg: wrote {what} to {out}")
     return 0
+
+
+def _folder_summary(out: Path) -> str:
+    """The size and names of what an export wrote into ``out`` (not what it kept there: an environment)."""
+    written = sorted((p for p in out.iterdir() if not EXPORT_FOLDER.keeps(p)), key=lambda p: p.name)
+    files = [f for p in written for f in ([p] if p.is_file() else p.rglob("*")) if f.is_file()]
+    return f"{size_text(sum(f.stat().st_size for f in files))}: {', '.join(p.name for p in written)}"

@@ -3,7 +3,8 @@ the weight-shared tables (identical ones stored once), ``network.json`` (what
 ``snn-fg events --write-spikes`` and ``snn-fg decode`` read), the README's
 common facts, and the folder written whole, keeping an ``input.npz`` that
 still serves it. What an export folder may hold (:data:`EXPORT_FOLDER`: the export's own files and
-what the programs run in it write there) is what ``snn-fg export --force`` may replace; a folder
+what the programs run in it write there) is what ``snn-fg export --force`` may replace, and what it
+keeps (the environment a Lava export's README has the user make there, :data:`LAVA_ENV`); a folder
 holding anything else is refused (:mod:`snn_fg.results.outputs`), and so is one holding run.py's
 counts (a simulator's or a board's run, kept from deletion)."""
 
@@ -57,9 +58,13 @@ def _counts_files(folder: Path) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if set(COUNTS_KEYS) <= _arrays_of(p))
 
 
+#: the Python 3.10 environment a Lava export's README tells the user to make inside the folder
+LAVA_ENV = ".venv-lava"
+
 #: what a PyNN or Lava export folder holds: the export's files, and what run.py and Python write in it (the
 #: input and counts files, under any name; sPyNNaker's configuration and reports, the virtual board's
-#: mapping.json, Lava's resources.json)
+#: mapping.json, Lava's resources.json); the environment its README has the user make there is kept where
+#: it is (before, a Lava export's --force re-export was refused for it)
 EXPORT_FOLDER = FolderKind(
     "an snn-fg export",
     names=(
@@ -78,6 +83,7 @@ EXPORT_FOLDER = FolderKind(
     ),
     marks=("network.json",),
     owns=_run_py_file,
+    kept=(LAVA_ENV,),
 )
 
 

@@ -40,7 +40,7 @@ from .. import pynn as pynn_standalone
 from ..lowering.loihi2 import lower
 from ..network.graph import Network
 from .board import board_network
-from .folder import export_meta, readme_fields, weight_tables, write_folder
+from .folder import LAVA_ENV, export_meta, readme_fields, weight_tables, write_folder
 
 SCHEMA = "snn-fg.lava/1"
 #: the PyNN export's standalone modules a Lava export carries too
@@ -95,18 +95,18 @@ levels: {cells:,} neurons in {lif} LIF processes, {sources:,} spike sources, {pr
 connections with 8-bit weights, stepped at {dt} ms. Needs Python 3.10 and Lava (lava-nc 0.10);
 no snn-fg. Make its environment once:
 
-    python3.10 -m venv .venv-lava   # pyenv: ~/.pyenv/versions/3.10.13/bin/python -m venv .venv-lava
-    .venv-lava/bin/pip install -r requirements.txt
+    python3.10 -m venv {env}   # pyenv: ~/.pyenv/versions/3.10.13/bin/python -m venv {env}
+    {env}/bin/pip install -r requirements.txt
 
 1. Input: `snn-fg events RECORDING --start-ms 100 --window-ms 85 --write-spikes input.npz --export .`
    (cut to {size}, on {dt} ms steps; sizes are width x height).
-2. Run: `.venv-lava/bin/python run.py --input input.npz --out counts.npz --duration-ms 150`
+2. Run: `{env}/bin/python run.py --input input.npz --out counts.npz --duration-ms 150`
    (Lava's bit-accurate fixed point, `Loihi2SimCfg(select_tag="fixed_pt")`; `--arithmetic
    float` for its floating point on the same numbers, `--simulator reference` for the same
    fixed point in numpy alone; `--count-from-ms`, default half the run).
 3. Maps: `snn-fg decode counts.npz --export . --out maps` writes `maps/maps.npz` and `maps/maps.png`.
 
-`.venv-lava/bin/python run.py --count-only` writes `resources.json`: the processes, neurons and
+`{env}/bin/python run.py --count-only` writes `resources.json`: the processes, neurons and
 synapses Lava holds, beside snn-fg's Loihi 2 report.
 
 Approximations (see `network.json` notes): {notes}
@@ -157,6 +157,7 @@ def export_lava(
         **readme_fields(network, meta, sensor_shape),
         lif=sum(1 for p in meta["populations"] if p["neuron"]),
         dt=meta["dt_ms"],
+        env=LAVA_ENV,
     )
     texts = {"requirements.txt": REQUIREMENTS, "README.md": readme}
     return write_folder(

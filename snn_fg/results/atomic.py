@@ -133,6 +133,7 @@ class OutputFolder:
     def __init__(self, path, force: bool = False, cancelled=None, kind: FolderKind = RUN_FOLDER):
         self.path = Path(path)
         self.cancelled = cancelled or (lambda: False)
+        self.kind = kind
         check_output_folder(self.path, kind, force)
         check_writable(self.path)
         self.dir: Path | None = None
@@ -165,7 +166,7 @@ class OutputFolder:
     def _commit(self) -> None:
         os.chmod(self.dir, 0o777 & ~_umask())
         if self.dir.parent == self.path:
-            exchange_entries(self.dir, self.path)
+            exchange_entries(self.dir, self.path, kept=self.kind.keeps)
         else:
             os.replace(self.dir, self.path)
 
@@ -199,18 +200,18 @@ def _remove_empty(made: list[Path]) -> None:
             p.rmdir()
 
 
-def _entries(folder: Path) -> list[Path]:
-    """``folder``'s entries but snn-fg's own working folders in it."""
-    return [p for p in folder.iterdir() if not p.name.startswith(WORKING_PREFIX)]
+def _entries(folder: Path, kept=None) -> list[Path]:
+    """``folder``'s entries but snn-fg's own working folders in it and those ``kept(entry)`` keeps."""
+    return [p for p in folder.iterdir() if not (p.name.startswith(WORKING_PREFIX) or (kept and kept(p)))]
 
 
-def set_aside(folder: Path) -> Path:
-    """Move ``folder``'s entries into a hidden folder inside it, and return that folder
-    (:func:`put_back` undoes it, :func:`shutil.rmtree` of it drops them)."""
+def set_aside(folder: Path, kept=None) -> Path:
+    """Move ``folder``'s entries (but those ``kept(entry)`` keeps where they are) into a hidden folder
+    inside it, and return that folder (:func:`put_back` undoes it, :func:`shutil.rmtree` of it drops them)."""
     aside = Path(tempfile.mkdtemp(prefix=WORKING_PREFIX, suffix=".previous", dir=folder))
     moved = []
     try:
-        for p in _entries(folder):
+        for p in _entries(folder, kept):
             os.replace(p, aside / p.name)
             moved.append(p.name)
     except BaseException:
@@ -221,19 +222,21 @@ def set_aside(folder: Path) -> Path:
     return aside
 
 
-def put_back(aside: Path, folder: Path) -> None:
-    """Remove what ``folder`` holds now and move back the entries :func:`set_aside` put in ``aside``."""
-    for p in _entries(folder):
+def put_back(aside: Path, folder: Path, kept=None) -> None:
+    """Remove what ``folder`` holds now (but what ``kept(entry)`` keeps) and move back the entries
+    :func:`set_aside` put in ``aside``."""
+    for p in _entries(folder, kept):
         shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
     for p in list(aside.iterdir()):
         os.replace(p, folder / p.name)
     aside.rmdir()
 
 
-def exchange_entries(staging: Path, folder: Path) -> None:
-    """Replace ``folder``'s entries by those of ``staging`` (a folder inside it), which is removed:
-    the earlier entries are set aside first, and put back if a move fails."""
-    aside = set_aside(folder)
+def exchange_entries(staging: Path, folder: Path, kept=None) -> None:
+    """Replace ``folder``'s entries (but those ``kept(entry)`` keeps where they are) by those of
+    ``staging`` (a folder inside it), which is removed: the earlier entries are set aside first, and
+    put back if a move fails."""
+    aside = set_aside(folder, kept)
     moved = []
     try:
         for p in list(staging.iterdir()):
@@ -242,7 +245,7 @@ def exchange_entries(staging: Path, folder: Path) -> None:
     except BaseException:
         for name in moved:
             os.replace(folder / name, staging / name)
-        put_back(aside, folder)
+        put_back(aside, folder, kept)
         raise
     staging.rmdir()
     shutil.rmtree(aside, ignore_errors=True)

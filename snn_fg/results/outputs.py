@@ -43,13 +43,20 @@ class FolderKind:
     patterns (:mod:`fnmatch`) of every entry its command and the programs
     that run in it write; ``marks``: one of these names is in every earlier
     output (a folder holding only a figure is not a run); ``owns``: further
-    entries recognised by their content (a file whose name the user chose).
+    entries recognised by their content (a file whose name the user chose); ``kept``: the names of
+    what the output's own instructions tell the user to make in it (a Lava export's environment), which
+    a later output of the kind leaves where it is: never refused, never replaced, never deleted.
     """
 
     what: str
     names: tuple[str, ...]
     marks: tuple[str, ...]
     owns: Callable[[Path], bool] | None = None
+    kept: tuple[str, ...] = ()
+
+    def keeps(self, entry: Path) -> bool:
+        """Whether ``entry`` is one of :attr:`kept`: left where it is when the folder is written again."""
+        return entry.name in self.kept
 
     def written(self, entry: Path) -> bool:
         """Whether ``entry`` is one this kind of output writes."""
@@ -136,7 +143,7 @@ def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False
     here = Path.cwd().resolve()
     if path.resolve() != here and path.resolve() in here.parents:
         raise InputError(path, "holds the current folder: choose an output folder outside it")
-    entries = [p for p in path.iterdir() if not p.name.startswith(WORKING_PREFIX)]
+    entries = [p for p in path.iterdir() if not (p.name.startswith(WORKING_PREFIX) or kind.keeps(p))]
     if not entries:
         return False
     foreign = [p for p in entries if not kind.written(p)]

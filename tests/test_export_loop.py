@@ -165,6 +165,21 @@ def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
     assert "an input of 64 x 64 is smaller than the export's frame of 80 x 24" in capsys.readouterr().err
 
 
+def test_export_pointed_at_a_nir_graph_says_what_it_takes_in_one_line(tmp_path, disc_recording, capsys):
+    """--export given the NIR file snn-fg export wrote (before: "net.nir/network.json: Not a directory")."""
+    graph = tmp_path / "net.nir"
+    graph.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(64))
+    out = tmp_path / "in.npz"
+    events = ["events", str(disc_recording), "--write-spikes", str(out), "--export", str(graph), "--no-progress"]
+    decode = ["decode", str(out), "--export", str(graph), "--out", str(tmp_path / "maps")]
+    for cmd in (events, decode):
+        assert main(cmd) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{graph}: a NIR graph, not an export folder: --export takes the folder" in err[0]
+        assert "pynn or lava" in err[0] and "a NIR graph is run as docs/export.md says" in err[0], err
+        assert not out.exists() and not (tmp_path / "maps").exists()
+
+
 @pytest.mark.slow
 def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
     folder = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "model")

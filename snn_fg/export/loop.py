@@ -31,7 +31,15 @@ RATE_MISMATCH = 1.2
 
 def export_network(folder):
     """The snn-fg description a PyNN or Lava export was made from (its board network), and its ``network.json``."""
-    path = Path(folder) / "network.json"
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():  # (before: "DIR/network.json: Not a directory")
+        what = "a NIR graph" if folder.name.endswith((".nir", ".nir.gz")) else "a file"
+        raise InputError(
+            folder,
+            f"{what}, not an export folder: --export takes the folder snn-fg export --format pynn or lava "
+            "writes; a NIR graph is run as docs/export.md says (A NIR export has no loop of its own yet)",
+        )
+    path = folder / "network.json"
     try:
         meta = json.loads(path.read_text())
         return Network.from_dict(meta["snn_fg_network"]), meta

@@ -15,6 +15,8 @@
   the hardware each target needs (:mod:`.hardware` holds the documented limits);
 * :mod:`.loop` - both ends of a board run: where the export's frame is cut from an
   input, and maps from ``run.py``'s counts.
+* :mod:`.edits` - whether an export's ``network.json`` still says what the
+  description it embeds says (``snn-fg decode`` checks it).
 
 The commands over them (``snn-fg export``, ``snn-fg decode``, ``snn-fg events
 --write-spikes``) are in :mod:`snn_fg.cli`.

@@ -11,7 +11,8 @@ cells, as the report counts). ``mapping.json`` of each run is kept.
 Writes experiments/results/export_spinnaker.{json,md}.
 Usage: python -m experiments.validation.export_spinnaker [--configs 64x48:4 compact:159x126 NETWORK.json ...]
        [--no-combined] [--keep]
-(--keep: the stored rows of other configurations stay in the results)
+(--keep: the stored rows of other configurations stay in the results, and the runs that made them
+are listed)
 """
 
 from __future__ import annotations
@@ -127,14 +128,17 @@ def _row(m) -> list:
     ]
 
 
-def markdown(rows, run) -> list[str]:
-    return [
-        "# sPyNNaker's mapping of the PyNN export (virtual SpiNN-5 boards)",
-        "",
-        f"{describe(run)} sPyNNaker {rows[0]['tool']['version'] if rows and 'tool' in rows[0] else '?'}, "
-        "`run.py --simulator spinnaker --virtual-board --map-only`; shared 2-core machine.",
-        "",
-    ] + markdown_table(
+def markdown(rows, runs) -> list[str]:
+    """The results page: one line for each run whose rows it holds (``runs``, oldest first)."""
+    tool = rows[0]["tool"]["version"] if rows and "tool" in rows[0] else "?"
+    head = ["# sPyNNaker's mapping of the PyNN export (virtual SpiNN-5 boards)", ""]
+    for run in runs:
+        head += [
+            f"{describe(run)} sPyNNaker {tool}, `run.py --simulator spinnaker --virtual-board --map-only`; "
+            "shared 2-core machine.",
+            "",
+        ]
+    return head + markdown_table(
         [
             "export",
             "cores",
@@ -161,14 +165,15 @@ def main(argv=None):
     args = ap.parse_args(argv)
     run = Run()
     stored = RESULTS / "export_spinnaker.json"
-    kept = json.loads(stored.read_text())["rows"] if args.keep and stored.exists() else []
-    rows = [m for m in kept if m["config"] not in args.configs]
+    old = json.loads(stored.read_text()) if args.keep and stored.exists() else {"rows": []}
+    rows = [m for m in old["rows"] if m["config"] not in args.configs]
+    earlier = old.get("earlier_runs", []) + ([old["run"]] if "run" in old else [])
     with tempfile.TemporaryDirectory() as tmp:
         for config in args.configs:
             for combined in (False,) if args.no_combined else (False, True):
                 rows.append(one(config, combined, Path(tmp)))
-    record = {"rows": rows, "run": run.record()}
-    save_results("export_spinnaker", record, markdown(rows, record["run"]))
+    record = {"rows": rows, "run": run.record(), "earlier_runs": earlier}
+    save_results("export_spinnaker", record, markdown(rows, [*earlier, record["run"]]))
 
 
 if __name__ == "__main__":

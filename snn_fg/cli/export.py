@@ -289,7 +289,7 @@ def cmd_export(args) -> int:
         sp = rep["targets"].get("spinnaker1")
         if sensor is not None and sp is not None and sp["boards_spinn5"] > 1:
             sp["largest_sensor_one_board"] = largest_sensor(
-                lambda shape: network_for(net, shape)[0], sensor, "spinnaker1", args.dt_ms
+                lambda shape: network_for(net, shape)[0], sensor, args.dt_ms
             )
         print(report_table(rep))
         if args.network and Path(args.network).name.endswith((".nir", ".nir.gz")):

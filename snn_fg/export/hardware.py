@@ -36,6 +36,17 @@ SPINNAKER1 = {
         True,
     ),
     "chips_per_board": Limit(48, "chips", "SpiNNMachine: SpiNN-5 board"),
+    "gatherer_cores_per_board": Limit(
+        1,
+        "cores",
+        "sPyNNaker: a DataSpeedUpPacketGatherer on each board's Ethernet chip "
+        "(every mapping in experiments/results/export_spinnaker.json)",
+    ),
+    "boards_per_triad": Limit(
+        3,
+        "boards",
+        "SpiNNMachine size_from_n_boards, as spalloc allocates: more than one board is a rectangle of triads",
+    ),
     "sdram_per_chip": Limit(123e6, "bytes", "SpiNNMachine: about 123 MB SDRAM per chip", True),
     "bytes_per_synapse": Limit(4, "bytes", "sPyNNaker synaptic matrix: one 32-bit word per synapse", True),
     "delay_slots": Limit(

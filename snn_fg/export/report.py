@@ -17,12 +17,20 @@ import textwrap
 
 import numpy as np
 
-from ..errors import SnnFgError
 from ..network.graph import Network
-from ..pynn.cells import grid_delay, quantise, split_receptors
+from ..pynn.cells import delay_steps, quantise, split_receptors
 from .board import board_network, table, table_values
 from .hardware import LOIHI2, SPINNAKER1, SPINNAKER2
-from .spinnaker import spinnaker_cores
+from .spinn5 import (
+    COUNTED,
+    board_cores,
+    boards_allocated,
+    boards_needed,
+    chips_estimate,
+    network_cores,
+    one_board_lines,
+    widest_on_one_board,
+)
 from .synapses import projection_counts
 
 SCHEMA = "snn-fg.resources/1"
@@ -59,7 +67,7 @@ def _projection_rows(network: Network, dt_ms: float) -> list:
                 "max_fan_in": c.max_fan_in,
                 "max_fan_out": c.max_fan_out,
                 "delay_ms": pr.delay_ms,
-                "delay_steps": int(round(grid_delay(pr.delay_ms, dt_ms) / dt_ms)),
+                "delay_steps": delay_steps(pr.delay_ms, dt_ms),
                 "weights_mv": _weights(network, pr, tab),
                 "lost_at_8_bits": _lost_at(8, network, pr, tab),
                 "_fan_in": c.fan_in_by_channel,
@@ -102,17 +110,12 @@ def _violation(what: str, value, limit, source: str) -> dict:
     return {"constraint": what, "value": value, "limit": limit, "source": source}
 
 
-def _spinnaker1(pops, prows, totals, cores_by_population: dict) -> dict:
+def _spinnaker1(pops, totals, cores: dict) -> dict:
     lim = SPINNAKER1
-    per_core = lim["neurons_per_core"].value
-    cores = sum(cores_by_population.values())
-    slots = lim["delay_slots"].value
-    long_src = {r["source"] for r in prows if r["delay_steps"] > slots}
-    cores += sum(math.ceil(p["cells"] / per_core) for p in pops if p["name"] in long_src)  # delay extensions
     mem_chips = math.ceil(totals["synapses"] * lim["bytes_per_synapse"].value / lim["sdram_per_chip"].value)
-    chips = max(math.ceil(cores / lim["cores_placed_per_chip"].value), mem_chips)
+    boards = boards_needed(cores["cores"], mem_chips)
     bad = []
-    top = slots * lim["delay_extension"].value
+    top = lim["delay_slots"].value * lim["delay_extension"].value
     if totals["max_delay_steps"] > top:
         bad.append(_violation("delay", totals["max_delay_steps"], top, lim["delay_extension"].source))
     top16 = 2 ** lim["weight_bits"].value - 1
@@ -130,17 +133,20 @@ def _spinnaker1(pops, prows, totals, cores_by_population: dict) -> dict:
             )
         )
     return {
-        "cores": cores,
-        "chips": chips,
-        "boards_spinn5": math.ceil(chips / lim["chips_per_board"].value),
-        "delay_extension_sources": sorted(long_src),
+        "cores": cores["cores"],
+        "chips": chips_estimate(cores["cores"], mem_chips, boards),
+        "boards_spinn5": boards,
+        "boards_allocated": boards_allocated(boards),
+        "board_cores": board_cores(),
+        "delay_extension_sources": cores["delay_extension_sources"],
         "violations": bad,
-        "cores_by_population": cores_by_population,
+        "cores_by_population": cores["by_population"],
         "note": "cores: each population cut as the PyNN export builds it on sPyNNaker (256 cells a core; "
         "a population joined by convolutions in tiles whose sides divide its grid; below a 1 ms step "
         "one synapse core per core of a population that takes explicit lists), plus one "
-        "delay-extension core per 256 sources of delays over 32 steps; chips: the larger of cores/15 "
-        "(the cores sPyNNaker places on a chip of 16 free) and synaptic memory at 4 bytes per synapse",
+        "delay-extension core per 256 sources of delays over 32 steps; "
+        + COUNTED.removeprefix("counted: ")
+        + "; synaptic memory at 4 bytes per synapse counts too (chips of 123 MB)",
     }
 
 
@@ -268,7 +274,7 @@ def resource_report(network: Network, dt_ms: float | None = None, sensor_shape=N
         "notes": list(net.notes[-1:]),
         "totals": totals,
         "targets": {
-            "spinnaker1": _spinnaker1(pops, prows, totals, spinnaker_cores(net, dt_ms)),
+            "spinnaker1": _spinnaker1(pops, totals, network_cores(net, dt_ms)),
             "spinnaker2": _spinnaker2(pops, prows, totals),
             "loihi2": _loihi2(pops, prows, totals, two_taus),
         },
@@ -277,34 +283,11 @@ def resource_report(network: Network, dt_ms: float | None = None, sensor_shape=N
     }
 
 
-def largest_sensor(make, sensor_shape, target: str = "spinnaker1", dt_ms: float | None = None):
-    """The largest sensor of the same aspect as ``sensor_shape`` (rows,
-    cols) whose network (``make(shape)``) fits one board of ``target``
-    (:data:`~.hardware.TARGETS`: at most ``chips_per_board`` chips, no
-    violated limit), as ``{"width", "height", "chips"}``; ``None`` if even the
-    smallest network that can be made does not."""
-    h, w = sensor_shape
-    per_board = {"spinnaker1": SPINNAKER1["chips_per_board"].value}[target]
-
-    def chips(width):
-        shape = (max(1, round(width * h / w)), width)
-        try:
-            tg = resource_report(make(shape), dt_ms)["targets"][target]
-        except SnnFgError:  # too small for the network's levels
-            return None
-        return tg["chips"] if not tg["violations"] else None
-
-    lo, hi, best = 1, w, None
-    while lo <= hi:
-        mid = (lo + hi) // 2
-        c = chips(mid)
-        if c is not None and c <= per_board:
-            best, lo = {"width": mid, "height": max(1, round(mid * h / w)), "chips": int(c)}, mid + 1
-        elif c is None and mid < w // 8:  # below the smallest buildable size: look larger
-            lo = mid + 1
-        else:
-            hi = mid - 1
-    return best
+def largest_sensor(make, sensor_shape, dt_ms: float | None = None) -> dict | None:
+    """The widest sensor of ``sensor_shape``'s aspect (rows, cols) whose network (``make(shape)``)
+    fits one SpiNN-5 board, the same whatever size was asked (:func:`~.spinn5.widest_on_one_board`,
+    each candidate checked by its whole report)."""
+    return widest_on_one_board(make, sensor_shape, dt_ms, lambda net: resource_report(net, dt_ms)["targets"])
 
 
 def _global_weights(lif) -> dict:
@@ -331,6 +314,10 @@ def readable(v: float) -> str:
     if 100 <= abs(v) < 1e6:
         return f"{v:,.0f}"
     return f"{v:.3g}"
+
+
+def _wrapped(line: str) -> str:
+    return textwrap.fill(line, TABLE_WIDTH, initial_indent="  ", subsequent_indent="      ", break_on_hyphens=False)
 
 
 def report_table(rep: dict) -> str:
@@ -363,23 +350,18 @@ def report_table(rep: dict) -> str:
         size = f"cores {tg['cores']:,}   chips {tg['chips']:,}"
         if "boards_spinn5" in tg:
             size += f"   SpiNN-5 boards {tg['boards_spinn5']:,}"
+            if tg["boards_allocated"] != tg["boards_spinn5"]:
+                size += f" (a machine of {tg['boards_allocated']:,})"
         if not tg["violations"]:
             size += "   no limit broken"
         lines.append(f"{name:11s} {size}")
         for v in tg["violations"]:
             value, limit = (readable(x) if isinstance(x, (int, float)) else x for x in (v["value"], v["limit"]))
-            lines.append(
-                textwrap.fill(
-                    f"violates {v['constraint']}: {value} (limit {limit}; {v['source']})",
-                    TABLE_WIDTH,
-                    initial_indent="  ",
-                    subsequent_indent="      ",
-                    break_on_hyphens=False,
-                )
-            )
-        one = tg.get("largest_sensor_one_board")
-        if one:
-            lines.append(f"  one board holds at most a {one['width']} x {one['height']} sensor ({one['chips']} chips)")
+            lines.append(_wrapped(f"violates {v['constraint']}: {value} (limit {limit}; {v['source']})"))
+        notes = [COUNTED] if "boards_spinn5" in tg else []
+        if tg.get("largest_sensor_one_board"):
+            notes += one_board_lines(tg["largest_sensor_one_board"])
+        lines += [_wrapped(n) for n in notes]
     return "\n".join(lines)
 
 

@@ -81,7 +81,12 @@ def quantise(values: np.ndarray, bits: int | None, scale: float) -> np.ndarray:
 
 def grid_delay(delay_ms: float, dt_ms: float) -> float:
     """A delay on the simulation grid, at least one step (NEST's rule)."""
-    return max(1, int(round(delay_ms / dt_ms))) * dt_ms
+    return delay_steps(delay_ms, dt_ms) * dt_ms
+
+
+def delay_steps(delay_ms: float, dt_ms: float) -> int:
+    """A delay in whole time steps, at least one (:func:`grid_delay` in steps)."""
+    return max(1, int(round(delay_ms / dt_ms)))
 
 
 def list_rows(pre, post, w, delay) -> np.ndarray:

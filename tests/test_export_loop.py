@@ -641,3 +641,26 @@ def test_an_exports_result_file_is_whole_or_absent(tmp_path):
     assert np.load(path)["a"].tolist() == [0, 1, 2]
     files.write_json(tmp_path / "m.json", {"x": 1})
     assert (tmp_path / "m.json").read_text() == '{\n "x": 1\n}'
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_an_exports_run_py_ends_an_interrupt_in_one_line(sig):
+    """fg_files.run_main (the ending of both exports' run.py; Lava's gave a traceback): Ctrl-C,
+    taken even where the run was started with SIGINT ignored, and SIGTERM end it in one line,
+    exit 130 / 143."""
+    from snn_fg.pynn import files
+
+    code = (
+        "import os, signal, sys, time; sys.path.insert(0, sys.argv[1]); import files; "
+        f"files.run_main(lambda: os.kill(os.getpid(), {int(sig)}) or time.sleep(30))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, os.path.dirname(files.__file__)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )
+    name = "Ctrl-C" if sig == signal.SIGINT else "SIGTERM"
+    assert done.returncode == (130 if sig == signal.SIGINT else 143), done.stderr
+    assert done.stderr == f"run.py: interrupted ({name}); nothing written\n"

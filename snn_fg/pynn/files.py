@@ -1,12 +1,16 @@
-"""The files an export's ``run.py`` writes, each written whole (``fg_files.py`` in
-PyNN and Lava export folders). Standard library only: the folder runs where snn_fg
-is not installed, so this is the export's copy of the rule
-:mod:`snn_fg.results.atomic` keeps for the package (a file is complete or absent)."""
+"""The files an export's ``run.py`` writes, each written whole, and how it ends when
+interrupted: with nothing written (``fg_files.py`` in PyNN and Lava export folders).
+Standard library only: the folder runs where snn_fg is not installed, so this is the
+export's copy of the rules :mod:`snn_fg.results.atomic` and
+:mod:`snn_fg.backends.cancel` keep for the package (a file is complete or absent; Ctrl-C
+and SIGTERM end a run in one line, exit 130 and 143)."""
 
 from __future__ import annotations
 
 import json
 import os
+import signal
+import sys
 
 
 def save_atomically(path, write):
@@ -45,3 +49,26 @@ def save_npz(out: str, arrays: dict) -> str:
     path = npz_path(out)
     save_atomically(path, lambda tmp: np.savez(tmp, **arrays))
     return path
+
+
+#: the signals that ended the run (SIGTERM; Ctrl-C arrives as KeyboardInterrupt)
+_SIGNALLED = []
+
+
+def _terminated(signum, frame):
+    _SIGNALLED.append(signum)
+    raise KeyboardInterrupt
+
+
+def run_main(main):
+    """``main()`` as an export's run.py runs it: Ctrl-C (SIGINT, taken even where the run was
+    started with it ignored, as a shell starts a command in the background) and SIGTERM end it
+    with one line, ``run.py: interrupted (Ctrl-C); nothing written``, exit 130 (SIGTERM: 143);
+    what it writes goes through :func:`save_atomically`, so nothing is half-written."""
+    signal.signal(signal.SIGTERM, _terminated)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        main()
+    except KeyboardInterrupt:
+        print(f"run.py: interrupted ({'SIGTERM' if _SIGNALLED else 'Ctrl-C'}); nothing written", file=sys.stderr)
+        sys.exit(143 if _SIGNALLED else 130)

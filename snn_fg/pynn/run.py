@@ -26,7 +26,6 @@ beside the export's own estimate.
 import argparse
 import json
 import os
-import signal
 import sys
 import time
 
@@ -274,23 +273,5 @@ def write_mapping(sim, meta, plan, args, build_s, n_conv):
     )
 
 
-#: the signals that ended the run (SIGTERM; Ctrl-C arrives as KeyboardInterrupt)
-SIGNALLED = []
-
-
-def interrupted(signum, frame):
-    """SIGTERM ends the run as Ctrl-C does (nothing written), exit status 143."""
-    SIGNALLED.append(signum)
-    raise KeyboardInterrupt
-
-
 if __name__ == "__main__":
-    signal.signal(signal.SIGTERM, interrupted)
-    # (Ctrl-C's own handler, set even where the run was started with SIGINT ignored, as a shell does
-    # for a command it puts in the background: `kill -INT` then ends it as Ctrl-C does)
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        main()
-    except KeyboardInterrupt:
-        print(f"run.py: interrupted ({'SIGTERM' if SIGNALLED else 'Ctrl-C'}); nothing written", file=sys.stderr)
-        sys.exit(143 if SIGNALLED else 130)
+    fg_files.run_main(main)

@@ -71,6 +71,21 @@ def twin_row(pos, neg, ref, knobs):
     }
 
 
+def full_row(pos, neg, ref) -> dict:
+    """The default network on a whole frame: its twin (structure) and its spiking run (structure +
+    dynamics) against the reference ``ref``, and the spiking maps against the twin's."""
+    tw = twin_row(pos, neg, ref, SpikingParams())
+    res = run_spiking_result(pos, neg, progress=False)
+    m = res.maps
+    # the run freed its unrolled synapses (they would double its peak memory): unroll again for the twin
+    tfx, tfy, tg, _ = run_twin(unroll(res.network, {"input_on_1": res.inputs.on, "input_off_1": res.inputs.off}))
+    return {
+        "twin_vs_ref": tw,
+        "spiking_vs_ref": _cmp(m.fg_x, m.fg_y, m.grouping, ref),
+        "spiking_vs_twin": _cmp(m.fg_x, m.fg_y, m.grouping, {"fg_x": tfx, "fg_y": tfy, "grouping": tg}),
+    }
+
+
 def main():
     frames = sorted(dataset("bsds-edfg").glob("*.npz"))
     run = Run()
@@ -92,19 +107,12 @@ def main():
     # 1b + 2. full frames: twin (structure) and spiking (structure + dynamics)
     for path in frames:
         d = np.load(path)
-        ref = {k: d[k] for k in ("fg_x", "fg_y", "grouping")}
-        tw = twin_row(d["pos"], d["neg"], ref, {})
-        res = run_spiking_result(d["pos"], d["neg"], progress=False)
-        m = res.maps
-        sp = _cmp(m.fg_x, m.fg_y, m.grouping, ref)
-        # the run freed its unrolled synapses (they would double its peak memory): unroll again for the twin
-        tfx, tfy, tg, _ = run_twin(unroll(res.network, {"input_on_1": res.inputs.on, "input_off_1": res.inputs.off}))
-        tw_vs_sp = _cmp(m.fg_x, m.fg_y, m.grouping, {"fg_x": tfx, "fg_y": tfy, "grouping": tg})
-        row = {"frame": path.stem, "twin_vs_ref": tw, "spiking_vs_ref": sp, "spiking_vs_twin": tw_vs_sp}
+        row = {"frame": path.stem, **full_row(d["pos"], d["neg"], {k: d[k] for k in ("fg_x", "fg_y", "grouping")})}
         record["full"].append(row)
         print(
-            f"full {path.stem:7s} twin r {tw['grouping_pearson_r']:.3f}  spiking r {sp['grouping_pearson_r']:.3f}  "
-            f"spiking vs twin r {tw_vs_sp['grouping_pearson_r']:.3f}",
+            f"full {path.stem:7s} twin r {row['twin_vs_ref']['grouping_pearson_r']:.3f}  "
+            f"spiking r {row['spiking_vs_ref']['grouping_pearson_r']:.3f}  "
+            f"spiking vs twin r {row['spiking_vs_twin']['grouping_pearson_r']:.3f}",
             flush=True,
         )
     # 2b. mechanisms switched off one at a time

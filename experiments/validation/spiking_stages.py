@@ -147,17 +147,22 @@ def _coarse_share(result, eng: SparseGrouping, params: ModelParams) -> list:
     return shares
 
 
-def _noisy_reference(pos, neg, params: ModelParams, sigma: float, seed: int):
-    """The rate model with relative noise ``sigma`` on every feedback correlation."""
-    rng = np.random.default_rng(seed)
+def noisy_reference(pos, neg, params: ModelParams, sigma: float, seed: int):
+    """The rate model with relative noise ``sigma`` on every feedback correlation.
+
+    Each level draws from a generator of its own (seeded by ``seed`` and the level's index): the rate
+    model computes its levels on two threads, and one generator shared by them would hand each level
+    the draws of whichever thread came first, other maps on every run."""
 
     class Noisy(SparseGrouping):
         def _correlate(self, lv):
             x = super()._correlate(lv)
-            return x * (1 + sigma * rng.standard_normal(x.shape))
+            return x * (1 + sigma * rngs[id(lv)].standard_normal(x.shape))
 
     entries, shapes = event_entries(pos, neg, params)
-    return Noisy(entries, shapes, params).run().readout(pos.shape)
+    engine = Noisy(entries, shapes, params)
+    rngs = {id(lv): np.random.default_rng([seed, k]) for k, lv in enumerate(engine.levels)}
+    return engine.run().readout(pos.shape)
 
 
 def main():
@@ -200,7 +205,7 @@ def main():
         row["stages"] = _stages(default_result, pos, neg, params)
         print(f"{f} stages: {row['stages']}", flush=True)
         row["noise"] = {
-            s: [agreement(_noisy_reference(pos, neg, params, s, seed), ref) for seed in range(3)] for s in NOISE
+            s: [agreement(noisy_reference(pos, neg, params, s, seed), ref) for seed in range(3)] for s in NOISE
         }
         row["share"] = {
             c: agreement(

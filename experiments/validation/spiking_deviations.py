@@ -162,7 +162,8 @@ def _markdown(rec) -> list[str]:
             "# Deviations of the spiking network from the rate model, measured",
             "",
             f"{describe(rec['run'])} *Twin* = the unrolled network run as the rate model's iteration (structure "
-            "only); *spiking* = the Brian2 network (structure + dynamics).",
+            "only); *spiking* = the network simulated (fast engine; structure + dynamics). Grouping cells' rate: "
+            "the mean over the grouping populations of each one's mean rate over the cells the frame creates.",
             "",
             "## Structural knobs, one at a time (twin vs reference, 128 x 160 crops)",
             "",

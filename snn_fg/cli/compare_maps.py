@@ -18,7 +18,7 @@ from ..results.maps import Maps
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
 from ..scoring.inputs import differing, other_frames, other_inputs, same_run
-from ..scoring.metrics import SURE_CONFIDENCE, compare_maps, compared_pixels, flipped_within_45
+from ..scoring.metrics import SURE_CONFIDENCE, compare_maps, compared_pixels, flipped_within_45, share_text
 from ..scoring.outline import event_outlines
 from ..scoring.pairing import WindowOutOfRange, pair_windows
 from .options import blank, cell, nulls
@@ -266,7 +266,7 @@ def _how_many(figures: dict) -> str:
         return said
     low, high = figures["confidence_median_a_range"]
     median = f"median {low:.1f}" + ("" if f"{low:.1f}" == f"{high:.1f}" else f" to {high:.1f} a window")
-    share = "none" if sure == 0 else "under 1%" if sure < 0.005 else f"{sure:.0%}"
+    share = share_text(sure)
     at = f"at confidence {SURE_CONFIDENCE:g} or more"
     if sure < 0.5:
         return f"{said}, most of A's decided by a spike or two ({'only ' * (sure > 0)}{share} {at}, {median})"

@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 from ..results.atomic import save_figure
 from ..results.figures import PANEL_IN, event_frame_rgb, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
 from ..results.map_image import brightness, departure, show_map
-from .metrics import angle_difference_deg, confident, frame_of
+from .metrics import angle_difference_deg, confident, frame_of, share_text
 
 
 def aps_inputs(a, b) -> list:
@@ -86,7 +86,7 @@ def compare_figure(
             show_map(panel, fg_rgb(fx, fy), brightness)
             win = r.get(f"number_{k}")
             kept = r.get(f"confident_{k}")
-            of = "it has no vector" if kept is None or np.isnan(kept) else f"{_share(kept)} of them"
+            of = "it has no vector" if kept is None or np.isnan(kept) else f"{share_text(kept)} of them"
             left = "" if f"confident_{k}" not in r else f"\nonly vectors at confidence >= {min_confidence:g} ({of})"
             panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when + left, fontsize=9)
         inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
@@ -115,11 +115,6 @@ def _sure(m, i, min_confidence):
     fx, fy, g = frame_of(m, i)
     keep = confident(m, i, min_confidence)
     return (fx, fy, g) if keep is None else (np.where(keep, fx, 0), np.where(keep, fy, 0), g)
-
-
-def _share(x: float) -> str:
-    """A share in words a title can hold: "none", "under 1%", "25%"."""
-    return "none" if x == 0 else "under 1%" if x < 0.005 else f"{x:.0%}"
 
 
 def save_compare_figure(

@@ -114,6 +114,11 @@ def frame_of(m: Maps, i):
 SURE_CONFIDENCE = 2.0
 
 
+def share_text(x: float) -> str:
+    """A share in words a title or a verdict can hold: "none", "under 1%", "25%"."""
+    return "none" if x == 0 else "under 1%" if x < 0.005 else f"{x:.0%}"
+
+
 def confident(m: Maps, i, min_confidence: float | None) -> np.ndarray | None:
     """Where window ``i`` of ``m`` has a vector at least ``min_confidence``
     standard errors long (:data:`~snn_fg.results.maps.CONFIDENCE`), or

@@ -369,7 +369,11 @@ def test_a_dv_replay_ends_when_it_is_sent_and_the_live_run_with_it(tmp_path, dis
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "model, publish",
-    [(["--model", "rate"], "tcp"), (["--model", "spiking", "--levels", "3", "--view", "0"], "udp")],
+    [
+        (["--model", "rate"], "tcp"),
+        (["--model", "spiking", "--levels", "3", "--view", "0"], "udp"),
+        (["--model", "rate", "--network", "compact", "--maps-grid", "blocks", "--view", "0"], "udp"),
+    ],
 )
 def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(
     tmp_path, disc_file, model, publish, capsys

@@ -9,6 +9,7 @@ import argparse
 
 from ..backends import DEFAULT_BACKEND, backend_names
 from ..errors import InputError
+from ..frames.pool import MAPS_GRIDS
 from ..frames.still import KIND_NAMES, image_scale_refusal
 from ..models import MODELS, get_model
 from ..network.graph import HELD_CODINGS, INPUT_CODINGS
@@ -177,6 +178,21 @@ RUN_OPTIONS = (
         ),
     ),
     (
+        "maps (rate and spiking models)",
+        (
+            (
+                "--maps-grid",
+                MAPS_GRIDS,
+                None,
+                None,
+                "where the maps are read out on a network that pools its input (the compact network's "
+                "3 x 3 blocks): on the sensor's pixels, each event pixel's vector turned onto its own edge, or "
+                "on the network's blocks, a ninth of the pixels to decode and store (what a live run with a "
+                "short --hop-ms can afford) (sensor)",
+            ),
+        ),
+    ),
+    (
         "rate model",
         (
             (
@@ -302,4 +318,10 @@ def chosen_model(args, kind):
         if k in options:
             options[k] = options[k] == "on"
     params = MODELS[args.model].base_params.replace(**given) if args.network is None else model_params_of(args.network)
+    if options.get("maps_grid") == "blocks" and params.input_pool == 1:
+        raise InputError(
+            args.input,
+            "--maps-grid blocks: this network sees every sensor pixel (no input pool), so its maps are on "
+            "the sensor's grid already; blocks are for a network that pools its input (--network compact)",
+        )
     return get_model(args.model, params, iterations_bar(args.no_progress), **options)

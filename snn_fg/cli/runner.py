@@ -19,10 +19,11 @@ from ..errors import InputError
 from ..events import EmptyWindowWarning, RecordingWindows, iter_recording
 from ..events.activity import pixel_share, saturated_lines
 from ..events.clock import clock_keys
+from ..frames.pool import signed_frame
 from ..frames.still import Still
 from ..models import Model
 from ..results.activity import Activity
-from ..results.maps import Maps
+from ..results.maps import Maps, maps_scale
 from ..results.overview import input_images, overview_options, write_run_tables
 from ..results.progress import bar
 from ..results.store import STORE_NAME, MapsStore, read_maps, store_arrays
@@ -224,8 +225,9 @@ def goes_on(attrs: dict, asked: int | None) -> bool:
 
 def _append_window(store: MapsStore, w, maps: Maps) -> None:
     """One window's maps into the store, with its number in the recording or stream (``window``:
-    a live run that dropped windows keeps the others under their own), event frame (+1 ON, -1 OFF),
-    times (from the recording's first event), event count and pixel share."""
+    a live run that dropped windows keeps the others under their own), event frame (+1 ON, -1 OFF,
+    on the maps' grid: :func:`~snn_fg.frames.pool.signed_frame`), times (from the recording's first
+    event), event count and pixel share."""
     origin = store.attrs["snn_fg"].get("first_event_us")
     if origin is None:
         origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
@@ -235,7 +237,7 @@ def _append_window(store: MapsStore, w, maps: Maps) -> None:
     store.append(
         maps,
         **({"window": np.int64(w.index)} if numbered else {}),
-        event_frame=w.pos.astype(np.int8) - w.neg.astype(np.int8),
+        event_frame=signed_frame(w.pos, w.neg, maps_scale(maps.params)),
         t_start_us=np.int64(w.t_start_us - origin),
         t_end_us=np.int64(w.t_end_us - origin),
         event_count=np.int64(len(w.events)),

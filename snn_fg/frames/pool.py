@@ -11,6 +11,12 @@ takes its block's figure-ground vector, turned towards the pixel's own edge
 normal (the network decides the side, the sensor's pixels say where the
 edge runs), and the grouping map is resized bilinearly.
 
+A run can keep its maps on the blocks instead (``--maps-grid blocks``,
+:data:`MAPS_GRIDS`): one value per block, no unpooling, and the event frame
+stored beside them pooled as the network saw it
+(:func:`~snn_fg.results.maps.maps_scale` says how many sensor pixels one map
+pixel is wide).
+
 On a board this is the input adapter's job (an FPGA or host binning the
 camera's events), so the network's spike sources are the blocks.
 """
@@ -23,6 +29,11 @@ import numpy as np
 from numba import njit
 
 from .pyramid import resize
+
+#: where a run's maps are read out: on the sensor's pixels (the blocks unpooled, :func:`unpool_maps`),
+#: or on the network's own blocks (a network that pools its input: one value per block, 1/pool**2 of
+#: the pixels to decode, store and draw; what a live run with a short hop can afford)
+MAPS_GRIDS = ("sensor", "blocks")
 
 
 def pooled_shape(shape: tuple[int, int], pool: int) -> tuple[int, int]:
@@ -42,6 +53,16 @@ def pool_frame(pos: np.ndarray, neg: np.ndarray, pool: int) -> tuple[np.ndarray,
         _any_in_block(frame, pool, blocks)
         out.append(blocks)
     return out[0], out[1]
+
+
+def signed_frame(pos: np.ndarray, neg: np.ndarray, pool: int = 1) -> np.ndarray:
+    """The event frame as one int8 array, on the blocks of ``pool``: +1 ON, -1 OFF,
+    0 no event; a block with both ON and OFF pixels is ON (so that it reads as a
+    block with events)."""
+    if pool == 1:
+        return np.asarray(pos).astype(np.int8) - np.asarray(neg).astype(np.int8)
+    on, off = pool_frame(pos, neg, pool)
+    return np.where(on != 0, 1, -off.astype(np.int8)).astype(np.int8)
 
 
 @njit(cache=True, nogil=True)

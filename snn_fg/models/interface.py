@@ -1,19 +1,17 @@
-"""The models ``snn-fg run`` can run, behind one interface: :class:`Model`.
+"""The models ``snn-fg run`` can run, behind one interface: :class:`~.base.Model`.
 
 A model runs one still input (a :class:`~snn_fg.frames.still.Still`: an event
 frame, or an image for the frame-based model) or one window of a recording, and draws
 its figures. The command line and the experiments pick a model by name from
 :data:`MODELS` and never branch on which one it is. To add a model, subclass
-:class:`Model` and register it.
+:class:`~.base.Model` and register it.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
-from abc import ABC, abstractmethod
 from pathlib import Path
-from typing import ClassVar
 
 import numpy as np
 
@@ -24,99 +22,12 @@ from ..events.aps import ApsWindow
 from ..events.images import as_float_image
 from ..frames.still import Still
 from ..params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
-from ..results.maps import SPIKING_GROUPING_LABEL, Maps, made_by
+from ..results.maps import SPIKING_GROUPING_LABEL, Maps
 from . import blank, checks
+from .base import Model
 
 # Each model's own package is imported by the methods that run it: the rate model compiles its numba loops and
 # the spiking model loads its backends on import (seconds); the figures (matplotlib) only by a run that draws.
-
-
-class Model(ABC):
-    """A figure-ground model: still inputs and windows in, :class:`Maps` out.
-
-    ``needs`` says what a still input must hold (``"events"``: ``pos``/``neg``;
-    ``"image"``: an image); ``grouping_label`` labels the grouping map's
-    colour bar with its unit.
-    """
-
-    name: ClassVar[str]
-    #: the parameters the command line's model flags change (the paper's, or a variant's)
-    base_params: ClassVar[ModelParams] = ModelParams()
-    needs: ClassVar[str] = "events"
-    #: keyword options of the constructor besides params and progress (CLI flags of the same name)
-    options: ClassVar[tuple] = ()
-    grouping_label: ClassVar[str] = "grouping"
-    #: why a recording's window with events can give no figure-ground vector, said with the warning that some did
-    blank_window_hint: ClassVar[blank.BlankWindows | None] = None
-    #: whether every event pixel gets a vector by construction (``windows.csv``'s ``fg_coverage``, 1, is left empty)
-    vector_at_every_event: ClassVar[bool] = False
-
-    def __init__(self, params: ModelParams = ModelParams(), progress=None):
-        self.params, self.progress = params, progress  # progress: a factory wrapping iterables in a bar, or None
-
-    @abstractmethod
-    def run_still(self, still: Still) -> Maps:
-        """Maps of one still input."""
-
-    def run_window(self, window) -> Maps:
-        """Maps of one window of a recording (an :class:`~snn_fg.events.EventWindow`)."""
-        if not (window.pos.any() or window.neg.any()):
-            return self.empty_maps(window.pos.shape)
-        return self.run_still(Still(window.pos, window.neg))
-
-    def run_windows(self, windows, start: int = 0):
-        """``(window, Maps)`` for every window of a recording from window
-        ``start`` on (a run continued), in order; by default one window at a
-        time (:meth:`run_window`), the windows before ``start`` skipped. A
-        model whose windows carry state runs those too, and yields them not."""
-        for w in checks.windows("run_windows", windows):
-            if w.index >= start:
-                yield w, self.run_window(w)
-
-    def run_windows_into(self, windows, emit, start: int = 0) -> dict:
-        """:meth:`run_windows` handing each ``(window, maps)`` to ``emit`` as
-        soon as it is done (the spiking model's windows come out of one
-        simulation while it runs). Returns parameters of the whole run
-        known only at its end (none by default; a run's store keeps them as
-        ``params["whole_run"]``)."""
-        for w, maps in self.run_windows(windows, start):
-            emit(w, maps)
-        return {}
-
-    def named(self, maps: Maps) -> Maps:
-        """``maps`` with this model's name in their parameters."""
-        maps.params["model"] = self.name
-        return maps
-
-    def empty_maps(self, shape) -> Maps:
-        z = np.zeros(shape, np.float32)
-        return Maps(z, z.copy(), z.copy(), {"model": self.name, **self.params.to_dict()})
-
-    def figure_input(self, still: Still) -> np.ndarray:
-        """The image shown beside the maps."""
-        from ..results.figures import event_frame_rgb  # (matplotlib: only for runs that draw)
-
-        return event_frame_rgb(still.pos, still.neg)
-
-    def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
-        """Figures of a run into folder ``out``; ``inputs`` one image per frame; ``crop``
-        ``(x0, y0, x1, y1)``: the part drawn; ``options``: more :func:`~snn_fg.results.figures.maps_figure` keywords."""
-        from ..results.figures import save_maps_figure
-
-        options.setdefault("made_by", made_by(maps.params))
-        return [
-            save_maps_figure(
-                out / "maps.png",
-                inputs,
-                maps.fg_x,
-                maps.fg_y,
-                maps.grouping,
-                titles=titles,
-                grouping_label=self.grouping_label,
-                crop=crop,
-                **options,
-            )
-        ]
 
 
 class RateModel(Model):
@@ -130,19 +41,22 @@ class RateModel(Model):
     """
 
     name = "rate"
-    options = ("carry_state",)
+    options = ("carry_state", "maps_grid")
     grouping_label = "grouping activity (rate-model units)"
     vector_at_every_event = True  # (stage 9 reads B2 - B1 out at every event pixel: never exactly 0)
 
-    def __init__(self, params: ModelParams = ModelParams(), progress=None, *, carry_state: bool = False):
-        super().__init__(params, progress)
+    def __init__(
+        self, params: ModelParams = ModelParams(), progress=None, *, carry_state: bool = False, maps_grid="sensor"
+    ):
+        super().__init__(params, progress, maps_grid=maps_grid)
         self.carry_state = check.flag("rate", "carry_state", carry_state)
 
     def run_still(self, still: Still) -> Maps:
         from .rate.edfg import run_edfg
 
         t = time.perf_counter()
-        maps = self.named(run_edfg(still.pos, still.neg, self.params, progress=self.progress))
+        on_blocks = self.maps_grid == "blocks"
+        maps = self.named(run_edfg(still.pos, still.neg, self.params, progress=self.progress, on_blocks=on_blocks))
         maps.params["timings_s"] = {"run": time.perf_counter() - t}
         return maps
 
@@ -163,7 +77,9 @@ class RateModel(Model):
                 continue
             continued = previous is not None
             t = time.perf_counter()
-            previous = run_edfg_state(w.pos, w.neg, self.params, progress=self.progress, previous=previous)
+            previous = run_edfg_state(
+                w.pos, w.neg, self.params, self.progress, previous, on_blocks=self.maps_grid == "blocks"
+            )
             if w.index >= start:
                 timings = {"run": time.perf_counter() - t}
                 maps = previous.maps(carry_state=True, continued_from_previous_window=continued, timings_s=timings)
@@ -225,7 +141,7 @@ class SpikingModel(Model):
 
     Options: ``network`` (a stored description), ``backend``, ``feedback``,
     ``dt_ms``, ``instantiate``; for one frame ``duration_ms``, ``settle_ms``, ``seed``,
-    ``spike_input`` (:data:`SPIKE_INPUTS`); for a recording ``readout_lag_ms``,
+    ``spike_input`` (:data:`SPIKE_INPUTS`); ``maps_grid`` (:class:`Model`); for a recording ``readout_lag_ms``,
     ``readout_ms``, ``window_clock``, ``input_coding`` and ``save_spikes`` (keep each window's
     per-cell spike counts, :class:`~snn_fg.models.spiking.SpikingRecord`; a frame always keeps
     them): a recording runs as one continuous network (:mod:`snn_fg.models.spiking.continuous`),
@@ -251,6 +167,7 @@ class SpikingModel(Model):
         "spike_input",
         "instantiate",
         "save_spikes",
+        "maps_grid",
     )
 
     def __init__(
@@ -262,18 +179,21 @@ class SpikingModel(Model):
         backend=DEFAULT_BACKEND,
         spike_input: str = "regular",
         save_spikes: bool = False,
+        maps_grid: str = "sensor",
         **run_options,
     ):
         from .spiking.options import SpikingOptions
 
-        super().__init__(params, progress)
+        super().__init__(params, progress, maps_grid=maps_grid)
         self.network = network  # a stored description (its own ModelParams), or None: build from params
         self._backend = None  # the backend object, made on first use and kept (see _sim)
         self.spike_input = check.choice("spiking model", "spike_input", spike_input, SPIKE_INPUTS)
         self.save_spikes = check.flag("spiking model", "save_spikes", save_spikes)
         built = {"params": params} if network is None else {"network": network}
         #: the keyword options of every run (a frame takes its frame options, a recording its recording options)
-        self.run_keywords = {**built, "backend": backend, "progress": progress is not None, **run_options}
+        self.run_keywords = {
+            **built, "backend": backend, "progress": progress is not None, "maps_grid": maps_grid, **run_options
+        }  # fmt: skip
         self.run_options = SpikingOptions.from_keywords("run_spiking", self.run_keywords)  # (checked here, once)
 
     @property

@@ -127,3 +127,15 @@ def window_part(extra: dict, key: str, window: int) -> np.ndarray:
         off = extra[f"{key}_offsets"]
         return np.asarray(extra[key][int(off[window]) : int(off[window + 1])])
     return np.asarray(extra[key][window])
+
+
+def maps_scale(params: dict) -> int:
+    """How many sensor pixels wide one pixel of maps made with ``params`` (their
+    ``Maps.params``) is: the input pool of maps kept on the blocks, else 1."""
+    return int(params.get("input_pool", 1)) if params.get("maps_grid") == "blocks" else 1
+
+
+def sensor_pixel(index: int, scale: int) -> int:
+    """The sensor pixel (a column or a row) at the centre of map pixel ``index`` of maps
+    ``scale`` sensor pixels wide (:func:`maps_scale`)."""
+    return index * scale + scale // 2

@@ -6,14 +6,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .maps import maps_scale, sensor_pixel
+
 #: how far apart two peaks are at least, and the disc the direction is averaged over (px)
 PEAK_RADIUS = 8
 
 
 def grouping_peaks(maps, k: int = 3, radius: int = PEAK_RADIUS) -> list[dict]:
     """The ``k`` strongest local maxima of ``maps.grouping`` (strongest first,
-    at least ``radius`` apart, above zero): ``x``, ``y`` (pixels, y down as in
-    the map's rows), ``strength`` (the grouping value) and the mean figure-ground
+    at least ``radius`` apart, above zero): ``x``, ``y`` (sensor pixels, y down as in
+    the map's rows; of maps kept on blocks, the block's centre pixel,
+    :func:`~snn_fg.results.maps.sensor_pixel`, and ``radius`` counts sensor pixels too),
+    ``strength`` (the grouping value) and the mean figure-ground
     vector within ``radius`` (``fg_x``, ``fg_y``, x right, y up; ``fg_deg`` its
     direction, None where no vector lies there).
 
@@ -23,6 +27,8 @@ def grouping_peaks(maps, k: int = 3, radius: int = PEAK_RADIUS) -> list[dict]:
     comparisons are exact in either; the disc's vectors are the same values in
     the same order): 1.3-2.0 ms a window where that took 2.1-2.9 (the 83
     hops of ``dvs.es`` from 100 ms, 320 x 240, three rounds side by side)."""
+    scale = maps_scale(maps.params)
+    radius = max(1, round(radius / scale))
     g = np.nan_to_num(np.asarray(maps.grouping))
     if g.dtype.kind != "f":
         g = g.astype(np.float64)
@@ -43,7 +49,16 @@ def grouping_peaks(maps, k: int = 3, radius: int = PEAK_RADIUS) -> list[dict]:
         has = np.hypot(fx, fy) > 0
         mx, my = (float(fx[has].mean()), float(fy[has].mean())) if has.any() else (0.0, 0.0)
         deg = float(np.degrees(np.arctan2(my, mx))) if has.any() and (mx or my) else None
-        out.append({"x": x, "y": y, "strength": float(g[y, x]), "fg_x": mx, "fg_y": my, "fg_deg": deg})
+        out.append(
+            {
+                "x": sensor_pixel(x, scale),
+                "y": sensor_pixel(y, scale),
+                "strength": float(g[y, x]),
+                "fg_x": mx,
+                "fg_y": my,
+                "fg_deg": deg,
+            }
+        )
         if len(out) == k:
             break
     return out

@@ -7,7 +7,8 @@ sensor's pixels they cover (a share above
 with a figure-ground vector and their share of the pixels with an event (``fg_coverage``: how much
 of the input the model decided on; empty for a model that gives every event pixel a vector by
 construction, the rate models, whose share is 1 in every window), and the grouping map's peak and
-where it lies (the strongest proto-object centre).
+where it lies (the strongest proto-object centre, in sensor pixels also for maps kept on blocks:
+their pixels and coverage are counted in blocks).
 
 Example
 -------
@@ -30,6 +31,7 @@ import io
 
 import numpy as np
 
+from .maps import maps_scale, sensor_pixel
 from .activity import SATURATED_SHARE, Activity, draw_activity, scene_bars
 from .atomic import save_text
 
@@ -70,6 +72,7 @@ def window_rows(maps, *, coverage: bool = True) -> list[dict]:
     numbers = window_numbers(maps)
     n = maps.fg_x.shape[0]
     step = max(1, int(getattr(maps.fg_x, "chunks", (BLOCK,))[0]))
+    scale = maps_scale(maps.params)
     rows = []
     for a in range(0, n, step):
         b = min(n, a + step)
@@ -87,6 +90,7 @@ def window_rows(maps, *, coverage: bool = True) -> list[dict]:
                     frames[j],
                     {k: v[j] for k, v in times.items()},
                     coverage,
+                    scale,
                 )
             )
     return rows
@@ -96,8 +100,9 @@ def window_rows(maps, *, coverage: bool = True) -> list[dict]:
 BLOCK = 64
 
 
-def _row(number, fg_x, fg_y, g, frame, at, coverage) -> dict:
-    """Window ``number``'s row of :func:`window_rows` from its maps, event frame and times (``at``)."""
+def _row(number, fg_x, fg_y, g, frame, at, coverage, scale=1) -> dict:
+    """Window ``number``'s row of :func:`window_rows` from its maps, event frame and times (``at``);
+    ``scale``: the maps' pixel in sensor pixels (:func:`~snn_fg.results.maps.maps_scale`)."""
     has = (fg_x != 0) | (fg_y != 0)
     events = frame != 0
     peak = float(g.max(initial=0.0))
@@ -113,8 +118,8 @@ def _row(number, fg_x, fg_y, g, frame, at, coverage) -> dict:
         "fg_pixels": int(has.sum()),
         "fg_coverage": round(float((has & events).sum() / events.sum()), 4) if coverage and events.any() else None,
         "grouping_peak": float(f"{peak:.5g}"),
-        "peak_x": None if px is None else int(px),
-        "peak_y": None if py is None else int(py),
+        "peak_x": None if px is None else sensor_pixel(int(px), scale),
+        "peak_y": None if py is None else sensor_pixel(int(py), scale),
     }
 
 

@@ -208,7 +208,15 @@ def compare_maps(
     compared.
     """
     if a.fg_x.shape[-2:] != b.fg_x.shape[-2:]:
-        check.fail("compare_maps", None, None, f"frames differ in size: {a.fg_x.shape[-2:]} vs {b.fg_x.shape[-2:]}")
+        grids = [m.params.get("maps_grid", "sensor") for m in (a, b)]
+        hint = (
+            f" (maps on the {grids[0]} grid vs the {grids[1]} grid: run both with one --maps-grid)"
+            if grids[0] != grids[1]
+            else ""
+        )
+        check.fail(
+            "compare_maps", None, None, f"frames differ in size: {a.fg_x.shape[-2:]} vs {b.fg_x.shape[-2:]}{hint}"
+        )
     pairing = pair_windows(a, b, window) if pairing is None else pairing
     rows = []
     for (ia, ib), (na, nb), t in zip(pairing.pairs, pairing.numbers, pairing.t_us, strict=True):

@@ -253,7 +253,14 @@ class RateState:
 
 
 def run_edfg_state(
-    pos, neg, params: ModelParams = ModelParams(), progress=None, previous: RateState | None = None, carry: float = 1.0
+    pos,
+    neg,
+    params: ModelParams = ModelParams(),
+    progress=None,
+    previous: RateState | None = None,
+    carry: float = 1.0,
+    *,
+    on_blocks: bool = False,
 ) -> RateState:
     """Run stages 1-9 on an event frame and return every intermediate map.
 
@@ -262,7 +269,8 @@ def run_edfg_state(
     with the fraction ``carry`` of its grouping maps
     (:meth:`~snn_fg.models.rate.grouping.SparseGrouping.continue_from`).
     With ``params.input_pool > 1`` the model runs on the pooled frame
-    (:mod:`snn_fg.frames.pool`) and its maps come back at the sensor's size.
+    (:mod:`snn_fg.frames.pool`) and its maps come back at the sensor's size,
+    or stay on the blocks with ``on_blocks``.
     """
     event_frame("run_edfg", pos, neg)
     sensor_edges = (np.asarray(pos) != 0) | (np.asarray(neg) != 0)
@@ -276,11 +284,13 @@ def run_edfg_state(
     if previous is not None:
         engine.continue_from(previous.engine, carry)
     engine.run(progress)
-    fg_x, fg_y, grouping = unpool_maps(*engine.readout(np.shape(pos)), sensor_edges, params.input_pool)
+    fg_x, fg_y, grouping = engine.readout(np.shape(pos))
+    if not on_blocks:
+        fg_x, fg_y, grouping = unpool_maps(fg_x, fg_y, grouping, sensor_edges, params.input_pool)
     return RateState(pos, neg, params, engine, fg_x, fg_y, grouping)
 
 
-def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None) -> Maps:
+def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None, *, on_blocks: bool = False) -> Maps:
     """The rate reference model (stages 1-9 of ``docs/model.md``) on one event frame.
 
     Parameters
@@ -292,6 +302,9 @@ def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None) -> Ma
         The model's parameters (default: the paper's).
     progress : callable, optional
         Wraps the iterations of stages 7-8 (e.g. ``tqdm``).
+    on_blocks : bool
+        With ``params.input_pool > 1``, keep the maps on the blocks the model
+        saw instead of bringing them back to the sensor's size.
 
     Returns
     -------
@@ -309,4 +322,4 @@ def run_edfg(pos, neg, params: ModelParams = ModelParams(), progress=None) -> Ma
     >>> maps.fg_x.shape, grouping_peak_inside(maps.grouping, scene)
     ((64, 64), True)
     """
-    return run_edfg_state(pos, neg, params, progress).maps()
+    return run_edfg_state(pos, neg, params, progress, on_blocks=on_blocks).maps()

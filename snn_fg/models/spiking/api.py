@@ -111,7 +111,8 @@ def run_spiking_result(pos=None, neg=None, *, events=None, sensor_size=None, **k
         progress=sim.progress,
     )
     result = backend.simulate(net, inp, settings)
-    fg_x, fg_y, grouping, conf = decode_maps(result, sensor, pool if sensor is not None else 1)
+    unpooled = sensor is not None and opts.network.maps_grid == "sensor"
+    fg_x, fg_y, grouping, conf = decode_maps(result, sensor, pool if unpooled else 1)
     rec = SpikingRecord.from_result(result, inp, frame.settle_ms)
     simulation = {
         **rec.timing(),

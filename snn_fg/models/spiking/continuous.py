@@ -256,7 +256,8 @@ def _simulate(
     run = ContinuousRun(
         n, net, lay.origin, backend, None, edges, lay.spans, simulation, t_start, [None] * n, [None] * n
     )
-    reader = WindowReader(feed, lay.spans, edges, net.params.input_pool, run, on_window, threaded, cells)
+    unpool = opts.network.maps_grid == "sensor"
+    reader = WindowReader(feed, lay.spans, edges, net.params.input_pool, run, on_window, threaded, cells, unpool)
     simulation["decode_thread"] = reader.threaded
     settings = RunSettings(
         duration_ms=edges[-1],

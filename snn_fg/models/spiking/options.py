@@ -29,7 +29,7 @@ from tqdm import tqdm
 
 from ... import validate as check
 from ...backends import DEFAULT_BACKEND, Backend, as_backend
-from ...frames.pool import pooled_shape
+from ...frames.pool import MAPS_GRIDS, pooled_shape
 from ...network.builder import build_network
 from ...network.graph import INPUT_CODINGS, Network
 from ...network.recipes import network_for
@@ -60,7 +60,9 @@ class NetworkOptions:
     (:meth:`Network.without_feedback`, the model's ablation); ``calibrate``
     scales the input gains to the input's actual mean rate; ``input_coding``
     (``None``: the network's own) sets how a recording's events become
-    spikes (:attr:`~snn_fg.network.Network.input_coding`).
+    spikes (:attr:`~snn_fg.network.Network.input_coding`); ``maps_grid``
+    (:data:`~snn_fg.frames.pool.MAPS_GRIDS`) where its maps are read out: on
+    the sensor's pixels, or on the blocks of a network that pools its input.
     """
 
     params: ModelParams | None = None
@@ -69,9 +71,11 @@ class NetworkOptions:
     feedback: bool = True
     calibrate: bool = True
     input_coding: str | None = None
+    maps_grid: str = "sensor"
     owner: InitVar[str] = "run_spiking"
 
     def __post_init__(self, owner):
+        check.choice(owner, "maps_grid", self.maps_grid, MAPS_GRIDS)
         if self.network is not None and (self.params is not None or self.spiking is not None):
             check.fail(owner, None, None, "give either a network or params/spiking to build one, not both")
         check.flag(owner, "feedback", self.feedback)

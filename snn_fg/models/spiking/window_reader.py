@@ -134,8 +134,10 @@ class WindowReader:
         on_window=None,
         threaded: bool = False,
         cells: bool = True,
+        unpool: bool = True,
     ):
         self.feed, self.edges, self.pool, self.run, self.on_window = feed, edges, pool, run, on_window
+        self.unpool = unpool  # (False: the maps stay on the network's blocks)
         ends = np.searchsorted(np.asarray(edges), np.asarray(spans, dtype=np.float64).reshape(-1, 2))
         self.bins = list(zip(ends[:, 0].tolist(), ends[:, 1].tolist()))
         self.first = 0  # the first window not decoded yet (spans start and end in order)
@@ -255,7 +257,10 @@ class WindowReader:
         window_result = dataclasses.replace(
             result, counts=counts, count_window_ms=self.edges[k1] - self.edges[k0], spikes=trains
         )
-        fg_x, fg_y, grouping, conf = decode_maps(window_result, w.pos | w.neg, self.pool)
+        if self.unpool and self.pool > 1:
+            fg_x, fg_y, grouping, conf = decode_maps(window_result, w.pos | w.neg, self.pool)
+        else:  # (on the network's own grid)
+            fg_x, fg_y, grouping, conf = decode_maps(window_result)
         on, off = pool_frame(w.pos, w.neg, self.pool)
         masks = SimpleNamespace(on=on != 0, off=off != 0)
         rec = SpikingRecord.from_result(window_result, masks, self.edges[k0], self.cells)

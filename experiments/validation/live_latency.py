@@ -65,6 +65,24 @@ CASES = {
         1.0,
         "udp",
     ),
+    # (the maps kept on the network's blocks: a ninth of the read-out, what a 10 ms hop on one core needs)
+    "hop10-lag5-blocks-1": (
+        [
+            "--model",
+            "spiking",
+            "--network",
+            "compact",
+            "--hop-ms",
+            "10",
+            "--readout-lag-ms",
+            "5",
+            "--maps-grid",
+            "blocks",
+        ],
+        1,
+        1.0,
+        "udp",
+    ),
     "x4-1": (["--model", "spiking", "--network", "compact"], 1, 4.0, "udp"),
     "rate-1": (["--model", "rate", "--network", "compact"], 1, 1.0, "udp"),
     "dv-compact-1": (["--model", "spiking", "--network", "compact"], 1, 1.0, "dv"),
@@ -133,11 +151,13 @@ def against_run(live_dir: Path, run_dir: Path, published, per_window, stateful: 
     network is put at rest after a drop, and the lag reads into the dropped
     slot): equality is judged on the others (all for the stateless rate
     model), the rest are compared for how close they came."""
+    from snn_fg.results.maps import maps_scale
     from snn_fg.results.store import read_maps
     from snn_fg.scoring.metrics import angle_difference_deg, pearson
 
     lx, ly, lg, _, lextra = read_maps(live_dir / "maps.zarr")
-    rx, ry, rg, _, rextra = read_maps(run_dir / "maps.zarr")
+    rx, ry, rg, rparams, rextra = read_maps(run_dir / "maps.zarr")
+    s = maps_scale(rparams)  # (a peak is told in sensor pixels, on maps kept on blocks too)
     by_start = {int(t): k for k, t in enumerate(rextra["t_start_us"])}
     clean, after, on_plane, plane_windows = [], [], 0, 0
     for i, t in enumerate(lextra["t_start_us"]):
@@ -155,7 +175,7 @@ def against_run(live_dir: Path, run_dir: Path, published, per_window, stateful: 
         peaks = published[i]["peaks"] if i < len(published) else []
         if plane.mean() < 0.5 and plane.any():  # (not the start-up burst)
             plane_windows += 1
-            on_plane += bool(peaks) and bool(plane[peaks[0]["y"], peaks[0]["x"]])
+            on_plane += bool(peaks) and bool(plane[peaks[0]["y"] // s, peaks[0]["x"] // s])
 
     def least(rows, j, worst=min):
         values = [r[j] for r in rows if not np.isnan(r[j])]

@@ -139,3 +139,8 @@ def sensor_pixel(index: int, scale: int) -> int:
     """The sensor pixel (a column or a row) at the centre of map pixel ``index`` of maps
     ``scale`` sensor pixels wide (:func:`maps_scale`)."""
     return index * scale + scale // 2
+
+
+def has_vector(fg_x, fg_y) -> np.ndarray:
+    """Where a figure-ground map has a vector: its length is above zero (a NaN is none)."""
+    return np.hypot(fg_x, fg_y) > 0

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .maps import maps_scale, sensor_pixel
+from .maps import has_vector, maps_scale, sensor_pixel
 
 #: how far apart two peaks are at least, and the disc the direction is averaged over (px)
 PEAK_RADIUS = 8
@@ -46,7 +46,7 @@ def grouping_peaks(maps, k: int = 3, radius: int = PEAK_RADIUS) -> list[dict]:
         yy, xx = np.ogrid[y0:y1, x0:x1]
         disc = (yy - y) ** 2 + (xx - x) ** 2 <= radius**2
         fx, fy = fg_x[y0:y1, x0:x1][disc], fg_y[y0:y1, x0:x1][disc]
-        has = np.hypot(fx, fy) > 0
+        has = has_vector(fx, fy)
         mx, my = (float(fx[has].mean()), float(fy[has].mean())) if has.any() else (0.0, 0.0)
         deg = float(np.degrees(np.arctan2(my, mx))) if has.any() and (mx or my) else None
         out.append(

@@ -31,9 +31,9 @@ import io
 
 import numpy as np
 
-from .maps import maps_scale, sensor_pixel
 from .activity import SATURATED_SHARE, Activity, draw_activity, scene_bars
 from .atomic import save_text
+from .maps import has_vector, maps_scale, sensor_pixel
 
 #: the file names of the table and the figure in a recording's output folder
 TABLE_NAME = "windows.csv"
@@ -103,7 +103,7 @@ BLOCK = 64
 def _row(number, fg_x, fg_y, g, frame, at, coverage, scale=1) -> dict:
     """Window ``number``'s row of :func:`window_rows` from its maps, event frame and times (``at``);
     ``scale``: the maps' pixel in sensor pixels (:func:`~snn_fg.results.maps.maps_scale`)."""
-    has = (fg_x != 0) | (fg_y != 0)
+    has = has_vector(fg_x, fg_y)
     events = frame != 0
     peak = float(g.max(initial=0.0))
     py, px = np.unravel_index(int(np.argmax(g)), g.shape) if peak > 0 else (None, None)

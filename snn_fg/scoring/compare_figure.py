@@ -13,6 +13,7 @@ from matplotlib.figure import Figure
 from ..results.atomic import save_figure
 from ..results.figures import PANEL_IN, event_frame_rgb, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
 from ..results.map_image import brightness, departure, show_map
+from ..results.maps import has_vector
 from .metrics import angle_difference_deg, confident, frame_of, share_text
 
 
@@ -90,7 +91,7 @@ def compare_figure(
             left = "" if f"confident_{k}" not in r else f"\nonly vectors at confidence >= {min_confidence:g} ({of})"
             panel.set_title(f"{name}" + ("" if win is None else f" window {win}") + when + left, fontsize=9)
         inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
-        has_a, has_b = (np.hypot(ax_, ay_) > 0) & inside, (np.hypot(bx, by) > 0) & inside
+        has_a, has_b = has_vector(ax_, ay_) & inside, has_vector(bx, by) & inside
         diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
         marks = np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92))
         show_map(ax[2], marks, departure, cmap="gray", vmin=0, vmax=1)

@@ -29,6 +29,7 @@ from scipy import ndimage as ndi
 
 from ..errors import InputError
 from ..frames.still import read_npz_arrays
+from ..results.maps import has_vector
 
 #: Window sides tried in turn for the line fit (the paper: 5 x 5 grown to 21 x 21).
 WINDOWS = tuple(range(5, 22, 2))
@@ -223,7 +224,7 @@ def signed_angle_deg(ax, ay, bx, by) -> np.ndarray:
 def angle_errors(fg_x, fg_y, truth_x, truth_y, valid) -> np.ndarray:
     """Signed errors (degrees) of the model field at the valid truth pixels where the model has a vector."""
     fg_x, fg_y = np.asarray(fg_x, np.float64), np.asarray(fg_y, np.float64)
-    m = valid & (np.hypot(fg_x, fg_y) > 0)
+    m = valid & has_vector(fg_x, fg_y)
     return signed_angle_deg(fg_x[m], fg_y[m], truth_x[m], truth_y[m])
 
 

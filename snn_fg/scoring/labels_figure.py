@@ -14,6 +14,7 @@ from matplotlib.patches import Patch
 from ..results.atomic import save_figure
 from ..results.figures import PANEL_IN, fg_rgb, panel_width, rows_shown, shown_note, wheel_inset
 from ..results.map_image import brightness, departure, show_map
+from ..results.maps import has_vector
 from .label_scores import pool_stats
 from .metrics import angle_difference_deg
 
@@ -68,7 +69,7 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
         fx, fy = s.fields
         show_map(row[1], fg_rgb(fx, fy), brightness)
         row[1].set_title(f"the run's vectors ({s.params.get('model', '?')} model)", fontsize=9)
-        has = np.hypot(fx, fy) > 0
+        has = has_vector(fx, fy)
         for j, (k, who) in enumerate(_distinct(s)):
             tx, ty, valid = s.truths[k]
             lab, err = row[2 + 2 * j], row[3 + 2 * j]

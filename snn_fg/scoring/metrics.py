@@ -24,7 +24,7 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from .. import validate as check
-from ..results.maps import CONFIDENCE, Maps
+from ..results.maps import CONFIDENCE, Maps, has_vector
 from .pairing import Pairing, pair_windows
 
 
@@ -36,7 +36,7 @@ def angle_difference_deg(ax, ay, bx, by) -> np.ndarray:
 
 
 def angle_map(fg_x, fg_y) -> np.ndarray:
-    nz = np.hypot(fg_x, fg_y) > 0
+    nz = has_vector(fg_x, fg_y)
     a = (np.degrees(np.arctan2(fg_y, fg_x)) % 360.0) / 360.0
     return np.where(nz, a, 0.0)
 
@@ -68,7 +68,7 @@ def pearson(a, b) -> float:
 
 def compare_frame(ax, ay, ag, bx, by, bg) -> dict:
     """Metrics between two single-frame maps (see the module docstring)."""
-    has_a, has_b = np.hypot(ax, ay) > 0, np.hypot(bx, by) > 0
+    has_a, has_b = has_vector(ax, ay), has_vector(bx, by)
     both = has_a & has_b
     diff = angle_difference_deg(ax, ay, bx, by)[both]
     nan = float("nan")
@@ -229,7 +229,7 @@ def compare_maps(
             keep = confident(m, i, min_confidence)
             if keep is not None:
                 x, y = (ax, ay) if side == "a" else (bx, by)
-                has = np.hypot(x, y) > 0
+                has = has_vector(x, y)
                 share[f"confident_{side}"] = float((has & keep).sum() / has.sum()) if has.any() else float("nan")
                 x, y = np.where(keep, x, 0), np.where(keep, y, 0)
                 ax, ay, bx, by = (x, y, bx, by) if side == "a" else (ax, ay, x, y)
@@ -242,7 +242,7 @@ def compare_maps(
                 "t_start_ms": None if t is None else t / 1000.0,
                 **compare_frame(ax, ay, ag, bx, by, bg),
                 **share,
-                **_sureness(a, ia, (np.hypot(ax, ay) > 0) & (np.hypot(bx, by) > 0)),
+                **_sureness(a, ia, has_vector(ax, ay) & has_vector(bx, by)),
             }
         )
     return rows
@@ -267,7 +267,7 @@ def truth_errors(fg_x, fg_y, scene) -> np.ndarray:
     """Angle (deg) between each scored pixel's vector and the analytic
     direction: the boundary pixels where the model has a vector; NaN
     elsewhere."""
-    m = scene.boundary & (np.hypot(fg_x, fg_y) > 0)
+    m = scene.boundary & has_vector(fg_x, fg_y)
     err = np.full(np.shape(fg_x), np.nan)
     err[m] = angle_difference_deg(fg_x[m], fg_y[m], scene.truth_x[m], scene.truth_y[m])
     return err
@@ -315,7 +315,7 @@ def flipped_within_45(a: Maps, b: Maps, pairing: Pairing, where=None, min_confid
     for ia, ib in pairing.pairs:
         (ax, ay, _), (bx, by, _) = frame_of(a, ia), frame_of(b, ib)
         keep = compared_pixels(a, b, ia, ib, where, min_confidence)
-        both = (np.hypot(ax, ay) > 0) & (np.hypot(bx, by) > 0) & (True if keep is None else keep)
+        both = has_vector(ax, ay) & has_vector(bx, by) & (True if keep is None else keep)
         ax, ay, bx, by = (np.asarray(v)[both] for v in (ax, ay, bx, by))
         n += ax.size
         hits["y"] += int(np.sum(angle_difference_deg(ax, ay, bx, -by) <= 45))

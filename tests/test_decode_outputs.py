@@ -127,6 +127,15 @@ def test_an_edited_export_is_no_longer_called_the_same_network(board_run, tmp_pa
     assert _decode(edited, tmp_path / "plain") == 0
     said = capsys.readouterr().out
     assert "snn-fg: note:" in said and f"{first['name']} gain_mv" in said and (tmp_path / "plain" / "maps.npz").exists()
+    # the input spikes for it: written for the embedded description, and said so
+    frame = tmp_path / "frame.npz"
+    pos = np.zeros((24, 24), np.uint8)
+    pos[6:18, 6] = 1
+    np.savez(frame, pos=pos, neg=np.zeros_like(pos))
+    spikes = ["events", str(frame), "--write-spikes", str(tmp_path / "in.npz"), "--export"]
+    assert main([*spikes, str(edited)]) == 0
+    said = capsys.readouterr().out
+    assert "snn-fg: note:" in said and "the spikes are written for the embedded description's populations" in said
 
     def size(meta):
         meta["populations"][-1]["size"] += 1
@@ -135,5 +144,8 @@ def test_an_edited_export_is_no_longer_called_the_same_network(board_run, tmp_pa
     assert _decode(resized, tmp_path / "plain2") == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "its populations differ" in err[0] and " size " in err[0], err
+    assert main([*spikes[:3], str(tmp_path / "in2.npz"), "--export", str(resized)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "its populations differ" in err[0] and not (tmp_path / "in2.npz").exists(), err
     assert _decode(board_run, tmp_path / "same") == 0  # (and with --reference: the tests above)
     assert "note" not in capsys.readouterr().out

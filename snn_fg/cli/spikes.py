@@ -14,10 +14,13 @@ on the export's time step.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from ..errors import InputError
 from ..events import iter_recording, iter_windows
+from ..export.edits import checked_export
 from ..export.folder import frame_size, frame_text
 from ..export.loop import FRAME_RATE_HZ, crop_events, export_network, outline_crop, recalibration_hint
 from ..export.pynn import save_input
@@ -165,6 +168,8 @@ def write_spikes(args) -> int:
     if args.write_frame or args.write_events:
         raise InputError(args.write_spikes, "--write-spikes goes alone: not with --write-frame or --write-events")
     net, meta = export_network(args.export)
+    # (an edited network.json: the spikes are for the description it embeds; refused where run.py's layout differs)
+    edited = checked_export(Path(args.export) / "network.json", net, meta, None, "the spikes are written for")
     inp, what, origin = _input_spikes(args, net, float(meta["dt_ms"]))
     with atomic_path(args.write_spikes, suffix=".npz") as part:
         save_input(inp, part, float(meta["dt_ms"]), origin)
@@ -182,4 +187,6 @@ def write_spikes(args) -> int:
     hint = recalibration_hint(inp.rate_hz, net.input_rate_hz, meta.get("export_command"), _pixel(net))
     if hint:
         print(hint)
+    if edited:
+        print(edited)
     return 0

@@ -102,8 +102,9 @@ REDO = (
 )
 
 
-def checked_export(path, net: Network, meta: dict, reference: str | None) -> str | None:
-    """Whether ``snn-fg decode`` may use an export whose ``network.json`` is ``path``.
+def checked_export(path, net: Network, meta: dict, reference: str | None, done: str = "decoded with") -> str | None:
+    """Whether ``snn-fg decode`` (and ``snn-fg events --write-spikes``, ``done`` saying what it does
+    with the description) may use an export whose ``network.json`` is ``path``.
 
     With ``reference`` (a backend) any edit is refused: the reference runs the embedded
     description, and its agreement line would call that the network run.py ran. Without, an
@@ -128,6 +129,6 @@ def checked_export(path, net: Network, meta: dict, reference: str | None) -> str
             f"runs: {edits_text(edits)}, so the reference would not be of the network run.py ran; {REDO}",
         )
     return (
-        f"snn-fg: note: {path} differs from the snn-fg description it embeds: {edits_text(edits)}; decoded "
-        "with the embedded description's populations (names, sizes, grids), which these leave as they are"
+        f"snn-fg: note: {path} differs from the snn-fg description it embeds: {edits_text(edits)}; {done} "
+        "the embedded description's populations (names, sizes, grids), which these leave as they are"
     )

@@ -129,6 +129,19 @@ def test_a_dsec_start_reads_from_ms_to_idx_and_gives_what_a_scan_gives(tmp_path,
     assert min(reads) > 0
 
 
+@pytest.mark.parametrize("start_ms", [12.5, 1234.567])
+def test_a_dsec_replay_from_a_start_reads_from_ms_to_idx_and_sends_what_a_scan_sends(tmp_path, monkeypatch, start_ms):
+    """``snn-fg stream --start-ms`` (:func:`~snn_fg.events.replay.recording_from_ms`): the events of a scan
+    from the start, without reading those before it."""
+    from snn_fg.events.replay import from_ms, recording_from_ms
+
+    path, c = dsec_file(tmp_path)
+    scan = np.concatenate(list(from_ms([expected(c, 5_000_000)], start_ms)))
+    reads = first_read(monkeypatch)
+    np.testing.assert_array_equal(np.concatenate(list(recording_from_ms(path, start_ms, sensor_size=(640, 480)))), scan)
+    assert min(reads) == np.searchsorted(c["t"], (c["t"][0] + start_ms * 1000) // 1000 * 1000) > 0
+
+
 @pytest.mark.parametrize(
     "table, said",
     [

@@ -232,8 +232,8 @@ def main(argv=None) -> None:
     unknown = [c for c in args.cases.split(",") if c not in CASES]
     if unknown:
         ap.error(f"--cases: no case {', '.join(unknown)} (the cases: {', '.join(CASES)})")
-    from snn_fg.events import iter_recording, save_events
-    from snn_fg.events.replay import from_ms, looped
+    from snn_fg.events import save_events
+    from snn_fg.events.replay import looped, recording_from_ms
 
     run = Run()
     src = dataset("events", "dvs.es")
@@ -241,7 +241,7 @@ def main(argv=None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         rec = tmp / "dvs_looped.npz"
-        events = np.concatenate(list(looped(lambda: from_ms(iter_recording(src), args.start_ms), args.loops)))
+        events = np.concatenate(list(looped(lambda: recording_from_ms(src, args.start_ms), args.loops)))
         save_events(rec, events, (320, 240, 2))
         for case in args.cases.split(","):
             options, cores, speed, transport = CASES[case]

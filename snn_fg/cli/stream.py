@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..events import EVENT_DTYPE, iter_recording
-from ..events.replay import UdpSender, from_ms, looped, open_sender, paced, parse_address
+from ..events.replay import UdpSender, looped, open_sender, paced, parse_address, recording_from_ms
 from .options import add_camera_options, camera_options, number, recording_or_demo, sensor_size, subcommand
 
 
@@ -62,7 +62,7 @@ def cmd_stream(args) -> int:
     source = recording_or_demo(args.recording)
     read = {"sensor_size": args.sensor_size, **camera_options(args)}
     size = iter_recording(source, **read).sensor_size
-    parts = looped(lambda: from_ms(iter_recording(source, **read), args.start_ms), args.loop)
+    parts = looped(lambda: recording_from_ms(source, args.start_ms, **read), args.loop)
     events = np.concatenate(list(parts) or [np.zeros(0, EVENT_DTYPE)])
     if not len(events):
         raise InputError(args.recording, f"no event from --start-ms {args.start_ms:g} on")

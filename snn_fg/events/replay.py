@@ -18,6 +18,7 @@ import numpy as np
 
 from snn_fg.errors import InputError
 from snn_fg.events import spif
+from snn_fg.events.io import iter_recording
 from snn_fg.events.live_dv import dv_reason
 from snn_fg.events.live_sources import parse_address
 
@@ -45,15 +46,25 @@ def looped(chunks, n: int):
         shift = last + 1000 - t0
 
 
-def from_ms(chunks, ms: float):
-    """The events of ``chunks`` from ``ms`` after the first on (a recording's start-up burst left out)."""
-    t0 = None
+def from_ms(chunks, ms: float, t_first: int | None = None):
+    """The events of ``chunks`` from ``ms`` after the first on (a recording's start-up burst left out);
+    ``t_first``: the recording's first event's time, where ``chunks`` begin past it."""
+    t0 = t_first
     for chunk in chunks:
         if len(chunk):
             t0 = int(chunk["t"][0]) if t0 is None else t0
             chunk = chunk[chunk["t"] >= t0 + int(round(ms * 1000))]
         if len(chunk):
             yield chunk
+
+
+def recording_from_ms(source, ms: float, **read):
+    """The events of the recording ``source`` (``read``: :func:`~snn_fg.events.io.iter_recording`'s
+    options) from ``ms`` after its first on: read from there where the file indexes its times (DSEC's
+    ``ms_to_idx``, :meth:`~snn_fg.events.io.RecordingStream.skip_to`), else from its start."""
+    stream = iter_recording(source, **read)
+    skipped = stream.skip_to(int(round(ms * 1000))) if ms > 0 else None
+    return from_ms(stream, ms, None if skipped is None else skipped[0])
 
 
 def paced(chunks, speed: float, tick_s: float = TICK_S):

@@ -13,6 +13,7 @@ from snn_fg.events import image_to_events, image_to_frame, save_events
 from snn_fg.frames.scenes import disc
 from snn_fg.models.rate.edfg import run_edfg
 from snn_fg.params import ModelParams
+from snn_fg.results.figures import on_sensor
 from snn_fg.results.maps import Maps
 from snn_fg.results.peaks import grouping_peaks
 
@@ -63,7 +64,7 @@ def test_the_rate_models_maps_on_blocks_are_what_its_sensor_maps_are_made_from()
     _check_sensor_maps_come_from_the_blocks(run_edfg(pos, neg, params), run_edfg(pos, neg, params, on_blocks=True))
 
 
-def test_a_recording_on_blocks_stores_the_pooled_event_frame_and_sensor_positions(tmp_path):
+def test_a_recording_on_blocks_stores_the_pooled_event_frame_and_sensor_positions(tmp_path, capsys):
     rec = image_to_events(disc(20).image, motion="circle")
     path = tmp_path / "disc.npy"
     save_events(path, rec.events, rec.sensor_size)
@@ -87,6 +88,16 @@ def test_a_recording_on_blocks_stores_the_pooled_event_frame_and_sensor_position
     for a, b in zip(sensor_rows, block_rows, strict=True):  # (the rate model's peaks, at a block's centre pixel)
         assert (a["peak_x"], a["peak_y"], a["events"]) == (b["peak_x"], b["peak_y"], b["events"])
         assert int(b["peak_x"]) % POOL == POOL // 2
+    # a crop in sensor pixels (the figures' axes) takes the blocks it touches
+    crop = ["--crop", "6,3,50,40", "--force"]
+    assert main(["plot", str(tmp_path / "blocks"), "--windows", "1", *crop]) == 0
+    assert (tmp_path / "blocks" / "windows" / "window_0001.png").is_file()
+    capsys.readouterr()
+    assert main(["plot", str(tmp_path / "blocks"), "--windows", "1", "--crop", "6,3,60,50", "--force"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()  # (told in the sensor's pixels, as given)
+    assert len(err) == 1 and "crop x0,y0,x1,y1 = 6,3,60,50 must satisfy 0 <= x0 < x1 <= 54" in err[0], err
+    assert on_sensor(blocks.params, (6, 3, 50, 40)) == {"crop": (2, 1, 17, 14), "placed": (0, 0, POOL)}
+    assert on_sensor(sensor.params, (6, 3, 60, 50)) == {"crop": (6, 3, 60, 50)}
 
 
 @pytest.mark.parametrize(

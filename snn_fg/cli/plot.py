@@ -13,7 +13,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..models import MODELS
 from ..results.animation import SUFFIXES, save_animation
-from ..results.figures import save_maps_figure
+from ..results.figures import on_sensor, save_maps_figure
 from ..results.maps import Maps
 from ..results.outputs import WINDOW_FIGURE, check_output_file
 from ..results.overview import (
@@ -129,7 +129,11 @@ def cmd_plot(args) -> int:
         for name in ("maps.png", TIMELINE_NAME, TABLE_NAME):
             check_output_file(folder / name, args.force, "plot", (Path(name).suffix,))
         write_run_tables(folder, maps, figures=True, coverage=model is None or not model.vector_at_every_event)
-        options = {**overview_options(maps, folder), "grouping_label": label, "crop": args.crop}
+        options = {
+            **overview_options(maps, folder),
+            "grouping_label": label,
+            **on_sensor(maps.params, args.crop, maps.fg_x.shape),
+        }
         save_maps_figure(folder / "maps.png", input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
         written += [folder / "maps.png", folder / TIMELINE_NAME, folder / TABLE_NAME]
     shown = ", ".join(str(p) for p in written[:4]) + (f", ... ({len(written)} files)" if len(written) > 4 else "")

@@ -14,7 +14,7 @@ from .. import validate as check
 from ..frames.pool import MAPS_GRIDS, pooled_shape
 from ..frames.still import Still
 from ..params import ModelParams
-from ..results.maps import Maps, made_by, maps_scale
+from ..results.maps import Maps, made_by
 from . import blank, checks
 
 
@@ -99,12 +99,12 @@ class Model(ABC):
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
         """Figures of a run into folder ``out``; ``inputs`` one image per frame; ``crop``
         ``(x0, y0, x1, y1)``: the part drawn; ``options``: more :func:`~snn_fg.results.figures.maps_figure` keywords."""
-        from ..results.figures import save_maps_figure
+        from ..results.figures import on_sensor, save_maps_figure
 
         options.setdefault("made_by", made_by(maps.params))
-        scale = maps_scale(maps.params)
-        if scale > 1 and crop is None:  # (maps on blocks, drawn at the sensor's coordinates)
-            options.setdefault("placed", (0, 0, scale))
+        if "placed" not in options:  # (maps kept on blocks: drawn at the sensor's coordinates)
+            options.update(on_sensor(maps.params, crop, maps.fg_x.shape))
+            crop = options.pop("crop")
         return [
             save_maps_figure(
                 out / "maps.png",

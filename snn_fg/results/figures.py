@@ -23,6 +23,7 @@ from matplotlib.figure import Figure
 from ..validate import check_crop
 from .atomic import save_figure
 from .map_image import brightness, departure, show_map
+from .maps import maps_scale
 
 GROUPING_CMAP = "magma"
 #: darkest brightness of a non-zero figure-ground vector (0: invisible)
@@ -202,7 +203,8 @@ def maps_figure(
     ``(x0, y0, x1, y1)`` (pixels, x1 and y1 exclusive) draws only that part of every panel, at
     its own coordinates. ``placed`` ``(x0, y0, scale)``: the maps are a part of a sensor, their
     pixel ``(0, 0)`` its ``scale x scale`` pixels from ``(x0, y0)`` on (an export's crop, of
-    blocks where it pools), drawn at the sensor's coordinates. ``input_note``: what the key says
+    blocks where it pools; maps kept on blocks: :func:`on_sensor`), drawn at the sensor's
+    coordinates (``crop`` then counts the maps' pixels). ``input_note``: what the key says
     the input column shows (:data:`EVENTS_INPUT`, :data:`APS_INPUT`). ``made_by``: which model made
     the maps, said in the figure's title (:func:`~snn_fg.results.maps.made_by`).
     """
@@ -215,11 +217,9 @@ def maps_figure(
     x0, y0, x1, y1 = check_crop(crop, fg_x.shape[1:]) if crop is not None else (0, 0) + fg_x.shape[:0:-1]
     cut = (slice(y0, y1), slice(x0, x1))
     extent = None if crop is None else (x0 - 0.5, x1 - 0.5, y1 - 0.5, y0 - 0.5)
-    if placed is not None:
-        if crop is not None:
-            raise ValueError("maps_figure: crop and placed go alone")
+    if placed is not None:  # (a crop of placed maps: its own part of the sensor)
         px, py, k = placed
-        extent = (px - 0.5, px + k * (x1 - x0) - 0.5, py + k * (y1 - y0) - 0.5, py - 0.5)
+        extent = (px + k * x0 - 0.5, px + k * x1 - 0.5, py + k * y1 - 0.5, py + k * y0 - 0.5)
     idx = rows_shown(n, max_rows) if rows is None else np.asarray(rows, int)
     note = shown_note(idx, n, labels=labels) if rows is None else ""  # (chosen rows are named in their titles)
     note = f"{note}; {hint}" if note and hint else note
@@ -245,6 +245,22 @@ def maps_figure(
     if note:
         fig.suptitle(note, fontsize=9)
     return fig
+
+
+def on_sensor(params: dict, crop=None, shape=None) -> dict:
+    """:func:`maps_figure`'s ``crop`` and ``placed`` for maps made with ``params``: maps kept on
+    blocks are drawn at the sensor's coordinates, and a ``crop`` (sensor pixels, x1 and y1
+    exclusive; checked against the blocks' ``shape`` times their size, where given) takes the
+    blocks it touches."""
+    s = maps_scale(params)
+    if s == 1:
+        return {"crop": crop}
+    if crop is not None:
+        if shape is not None:
+            check_crop(crop, (shape[-2] * s, shape[-1] * s))
+        x0, y0, x1, y1 = crop
+        crop = (x0 // s, y0 // s, -(-x1 // s), -(-y1 // s))
+    return {"crop": crop, "placed": (0, 0, s)}
 
 
 def save_maps_figure(path, inputs, fg_x, fg_y, grouping, **options) -> Path:

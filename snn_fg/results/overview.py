@@ -16,7 +16,7 @@ import numpy as np
 
 from .activity import SATURATED_SHARE
 from .atomic import save_figure
-from .figures import APS_INPUT, EVENTS_INPUT, event_frame_rgb, maps_figure, rows_shown
+from .figures import APS_INPUT, EVENTS_INPUT, event_frame_rgb, maps_figure, on_sensor, rows_shown
 from .maps import made_by
 from .outputs import WINDOW_FIGURE
 from .store import STORE_NAME, read_attrs
@@ -148,8 +148,8 @@ def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, cro
         rows=[i],
         grouping_label=grouping_label,
         grouping_max=grouping_max,
-        crop=crop,
         input_note=input_note(maps),
+        **on_sensor(maps.params, crop, maps.fg_x.shape),
     )
 
 

@@ -245,8 +245,13 @@ def test_another_run_and_a_changing_shape_are_refused(tmp_path):
     store = _write(path, WINDOWS[:1])
     with pytest.raises(ValueError, match="'frame' changes its shape between windows"):
         store.append(_maps(1, frame=np.zeros((2, 3))))
-    with pytest.raises(InputError, match="these differ: input"):
+    with pytest.raises(InputError, match=r"these differ: input \(x before, y now\)$"):
         MapsStore.reopen(path, {"input": "y"})
+    with pytest.raises(
+        InputError,
+        match=r"these differ: input \(x before, not given now\), maps_grid \(not given before, blocks now\)$",
+    ):
+        MapsStore.reopen(path, {"maps_grid": "blocks"})
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputError, match="not a maps store"):
         Maps.load(tmp_path / "empty")

@@ -55,14 +55,24 @@ def pool_frame(pos: np.ndarray, neg: np.ndarray, pool: int) -> tuple[np.ndarray,
     return out[0], out[1]
 
 
+#: a block of a :func:`signed_frame` with ON and OFF pixels both (a sensor pixel keeps one polarity)
+BOTH = 2
+
+
 def signed_frame(pos: np.ndarray, neg: np.ndarray, pool: int = 1) -> np.ndarray:
     """The event frame as one int8 array, on the blocks of ``pool``: +1 ON, -1 OFF,
-    0 no event; a block with both ON and OFF pixels is ON (so that it reads as a
-    block with events)."""
+    0 no event, :data:`BOTH` a block with ON and OFF pixels (``> 0`` reads it as ON,
+    ``!= 0`` as a block with events; :func:`frame_polarities` gives both back)."""
     if pool == 1:
         return np.asarray(pos).astype(np.int8) - np.asarray(neg).astype(np.int8)
-    on, off = pool_frame(pos, neg, pool)
-    return np.where(on != 0, 1, -off.astype(np.int8)).astype(np.int8)
+    on, off = (np.asarray(f) != 0 for f in pool_frame(pos, neg, pool))
+    return np.where(on & off, BOTH, on.astype(np.int8) - off.astype(np.int8)).astype(np.int8)
+
+
+def frame_polarities(frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(pos, neg)`` (bool) of a :func:`signed_frame`: the ON and the OFF pixels or blocks."""
+    frame = np.asarray(frame)
+    return frame > 0, (frame < 0) | (frame == BOTH)
 
 
 @njit(cache=True, nogil=True)

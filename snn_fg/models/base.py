@@ -11,7 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import validate as check
-from ..frames.pool import MAPS_GRIDS, pooled_shape
+from ..frames.pool import MAPS_GRIDS, frame_polarities, pooled_shape, signed_frame
 from ..frames.still import Still
 from ..params import ModelParams
 from ..results.maps import Maps, made_by
@@ -91,10 +91,11 @@ class Model(ABC):
         return self.named(Maps(z, z.copy(), z.copy(), {"model": self.name, **self.params.to_dict()}))
 
     def figure_input(self, still: Still) -> np.ndarray:
-        """The image shown beside the maps."""
+        """The image shown beside the maps (on their grid: the blocks' frame for maps kept there)."""
         from ..results.figures import event_frame_rgb  # (matplotlib: only for runs that draw)
 
-        return event_frame_rgb(still.pos, still.neg)
+        pool = self.params.input_pool if self.maps_grid == "blocks" else 1
+        return event_frame_rgb(*frame_polarities(signed_frame(still.pos, still.neg, pool)))
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
         """Figures of a run into folder ``out``; ``inputs`` one image per frame; ``crop``

@@ -287,6 +287,7 @@ class NaturalModel(RateModel):
 
     name = "natural"
     base_params = NATURAL_PARAMS
+    options = ("carry_state",)  # (its parameters pool no input: no blocks to keep maps on)
 
 
 class NaturalSpikingModel(SpikingModel):
@@ -296,6 +297,7 @@ class NaturalSpikingModel(SpikingModel):
 
     name = "natural-spiking"
     base_params = NATURAL_PARAMS
+    options = tuple(o for o in SpikingModel.options if o != "maps_grid")  # (as the natural model)
 
 
 MODELS: dict[str, type[Model]] = {

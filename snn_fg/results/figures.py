@@ -110,6 +110,8 @@ APS_INPUT = "input: the camera's APS frame\nthe fbfg model ran on"
 KEY_COLUMN_IN = 2.6
 #: characters of the key's 8-point text to an inch of column
 CHARS_PER_IN = 15
+#: characters of the 9-point title to an inch of figure
+TITLE_CHARS_PER_IN = 13
 
 
 def _wrapped(text: str, inches: float) -> str:
@@ -231,10 +233,13 @@ def maps_figure(
     panel_h = PANEL_IN if len(idx) == 1 else ROW_PANEL_IN
     panel_w = panel_width(aspect, panel_h)
     row_h = min(panel_h, panel_w / aspect) + 0.75  # (titles, tick and axis labels)
-    note_in = 0.35 if note else 0.0
     # (a portrait frame's panels are narrower than the key's words: its columns are not)
     column_w = max(panel_w, KEY_COLUMN_IN)
-    fig = Figure(figsize=(3 * column_w + 1.6, KEY_IN + row_h * len(idx) + note_in), layout="constrained")
+    fig_w = 3 * column_w + 1.6
+    # (the title wrapped to the figure's width: a run's hint names its folder, which may be long)
+    note = textwrap.fill(note, max(40, int(fig_w * TITLE_CHARS_PER_IN))) if note else ""
+    note_in = 0.2 + 0.15 * (note.count("\n") + 1) if note else 0.0
+    fig = Figure(figsize=(fig_w, KEY_IN + row_h * len(idx) + note_in), layout="constrained")
     grid = fig.add_gridspec(1 + len(idx), 3, height_ratios=(KEY_IN, *[row_h] * len(idx)))
     shared = len(idx) > 1 or grouping_max is not None
     _key(fig, [grid[0, c] for c in range(3)], norm, grouping_label, shared, input_note, column_w)
@@ -257,7 +262,7 @@ def on_sensor(params: dict, crop=None, shape=None) -> dict:
         return {"crop": crop}
     if crop is not None:
         if shape is not None:
-            check_crop(crop, (shape[-2] * s, shape[-1] * s))
+            check_crop(crop, (shape[-2] * s, shape[-1] * s), "--crop")
         x0, y0, x1, y1 = crop
         crop = (x0 // s, y0 // s, -(-x1 // s), -(-y1 // s))
     return {"crop": crop, "placed": (0, 0, s)}

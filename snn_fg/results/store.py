@@ -94,6 +94,12 @@ def read_attrs(path) -> dict:
     return attrs
 
 
+def _said(value) -> str:
+    """A run key's value in a line (cut short past 40 characters), or ``not given``."""
+    text = "not given" if value is None else json.dumps(value) if isinstance(value, (dict, list)) else str(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def _same_run(path, run_key: dict, may_differ=()) -> dict:
     """The attributes of the store at ``path``; refused when it was made with another ``run_key``
     (the keys ``may_differ`` left out: how many windows a run goes to, say)."""
@@ -105,7 +111,8 @@ def _same_run(path, run_key: dict, may_differ=()) -> dict:
         differ = sorted(k for k in set(stored) | set(given) if stored.get(k) != given.get(k))
         raise InputError(
             path,
-            f"--resume needs the same input and options as the run being continued; these differ: {', '.join(differ)}",
+            "--resume needs the same input and options as the run being continued; these differ: "
+            + ", ".join(f"{k} ({_said(stored.get(k))} before, {_said(given.get(k))} now)" for k in differ),
         )
     return attrs
 

@@ -22,8 +22,9 @@ import dataclasses
 import numpy as np
 
 from ..errors import SnnFgError
+from ..frames.pool import frame_polarities
 from ..params import ModelParams
-from ..results.maps import Maps
+from ..results.maps import Maps, maps_scale
 from .metrics import compare_frame, frame_of
 
 #: models whose maps a second run at twice the iterations can check (they iterate on a frame)
@@ -52,7 +53,7 @@ def model_inputs(m: Maps, windows, needs: str) -> list | str:
         if needs == "image":
             index = m.extra["aps_index"]
             return [Still(image=as_float_image(frames[i], grey=False)) if index[i] >= 0 else None for i in windows]
-        return [Still(frames[i] > 0, frames[i] < 0) if np.any(frames[i]) else None for i in windows]
+        return [Still(*frame_polarities(frames[i])) if np.any(frames[i]) else None for i in windows]
     source = m.params.get("source") or {}
     if "input" not in source:
         return "its parameters name no input"
@@ -94,6 +95,8 @@ def self_agreement(m: Maps, windows, factor: int = 2, progress=None, masks=None)
         return f"B {inputs}"
     params = model_params(m.params)
     options = {k: m.params[k] for k in MODELS[model].options if k in m.params}
+    if m.fg_x.ndim == 3 and maps_scale(m.params) > 1:  # (maps and stored frames on blocks: the frames pooled already)
+        params, options = params.replace(input_pool=1), {k: v for k, v in options.items() if k != "maps_grid"}
     longer = get_model(model, params.replace(iterations=max(1, params.iterations) * factor), progress, **options)
     rows = []
     for i, still, keep in zip(windows, inputs, masks or [None] * len(windows), strict=True):

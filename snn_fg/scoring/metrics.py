@@ -214,9 +214,8 @@ def compare_maps(
             if grids[0] != grids[1]
             else ""
         )
-        check.fail(
-            "compare_maps", None, None, f"frames differ in size: {a.fg_x.shape[-2:]} vs {b.fg_x.shape[-2:]}{hint}"
-        )
+        (ha, wa), (hb, wb) = a.fg_x.shape[-2:], b.fg_x.shape[-2:]
+        check.fail("compare_maps", None, None, f"frames differ in size: {wa} x {ha} vs {wb} x {hb}{hint}")
     pairing = pair_windows(a, b, window) if pairing is None else pairing
     rows = []
     for (ia, ib), (na, nb), t in zip(pairing.pairs, pairing.numbers, pairing.t_us, strict=True):

@@ -12,6 +12,7 @@ import numpy as np
 from scipy import ndimage as ndi
 
 from .. import validate as check
+from ..results.maps import maps_scale
 from .metrics import angle_difference_deg
 
 
@@ -44,8 +45,8 @@ def event_outlines(a, b, band_px: int):
     objects fill with events the pixels inside carry no border, and both
     maps' vectors there are noise that swamps the outline's agreement."""
     band_px = check.integer("compare_maps", "outline_px", band_px, lo=1)
-    frames = [(m.extra.get("event_frame"), k) for k, m in enumerate((a, b))]
-    frames = [(ef, k) for ef, k in frames if ef is not None]
+    frames = [(m.extra.get("event_frame"), k, maps_scale(m.params)) for k, m in enumerate((a, b))]
+    frames = [(ef, k, s) for ef, k, s in frames if ef is not None]
     if not frames:
         check.fail(
             "compare_maps",
@@ -55,12 +56,14 @@ def event_outlines(a, b, band_px: int):
             "stores with its maps; neither map has one (a still "
             "image's run stores none)",
         )
-    ef, k = frames[0]
+    ef, k, scale = frames[0]
+    # (maps kept on blocks: the band and the closing in sensor pixels all the same)
+    band, close = max(1, round(band_px / scale)), max(1, round(4 / scale))
 
     def where(ia, ib):
         i = (ia, ib)[k]
         frame = np.asarray(ef if i is None or np.ndim(ef) == 2 else ef[i])
-        return outline_band(filled_outline(frame != 0), band_px)
+        return outline_band(filled_outline(frame != 0, close), band)
 
     return where
 

@@ -66,6 +66,11 @@ def test_the_window_the_end_of_the_stream_completes_is_marked_and_left_out_of_th
     said = _summary_text(live)
     assert f"max {max(others):.1f} ms" in said and f"not counted: {waited:.1f} ms" in said
     assert said.startswith("4 windows published, 0 dropped, ")
+    # (with --hop-ms the end completes the last few hops: said as many, with the longest wait)
+    hops = [*rows[:1], *({**r, "completed_by": END_OF_STREAM} for r in rows[1:])]
+    said = _summary_text({**live, "per_window": hops})
+    longest = max(r["latency_ms"] for r in hops[1:])
+    assert f"(the last 3 windows, completed by the end of the stream, not counted: up to {longest:.1f} ms)" in said
 
 
 def test_a_window_the_next_events_complete_is_not_marked():

@@ -234,6 +234,9 @@ def _summary_text(summary: dict) -> str:
         f"p95 {lat.get('p95', float('nan')):.1f} ms, max {lat.get('max', float('nan')):.1f} ms"
     )
     waited = [r["latency_ms"] for r in summary["per_window"] if r["completed_by"] == END_OF_STREAM]
-    if waited and waited[-1] is not None:
-        text += f" (the last window, completed by the end of the stream, not counted: {waited[-1]:.1f} ms)"
+    waited = [ms for ms in waited if ms is not None]
+    if waited:  # (with --hop-ms, the last few hops)
+        last = "the last window" if len(waited) == 1 else f"the last {len(waited)} windows"
+        most = f"{waited[0]:.1f} ms" if len(waited) == 1 else f"up to {max(waited):.1f} ms"
+        text += f" ({last}, completed by the end of the stream, not counted: {most})"
     return text + why

@@ -22,12 +22,13 @@ MODULES = [
     "snn_fg.models.rate.fbfg",
     "snn_fg.export.pynn",
     "snn_fg.export.nir",
+    "snn_fg.export.nir_folder",
     "snn_fg.export.report",
     "snn_fg.backends.cancel",
     "snn_fg.datasets",
 ]
 #: examples that build and export whole networks (several seconds each)
-SLOW = {"snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.report"}
+SLOW = {"snn_fg.export.pynn", "snn_fg.export.nir", "snn_fg.export.nir_folder", "snn_fg.export.report"}
 
 
 @pytest.mark.parametrize("name", [pytest.param(m, marks=pytest.mark.slow) if m in SLOW else m for m in MODULES])

@@ -166,7 +166,8 @@ def test_write_spikes_refusals_leave_nothing(tmp_path, disc_recording, capsys):
 
 
 def test_export_pointed_at_a_nir_graph_says_what_it_takes_in_one_line(tmp_path, disc_recording, capsys):
-    """--export given the NIR file snn-fg export wrote (before: "net.nir/network.json: Not a directory")."""
+    """--export given the NIR file snn-fg export wrote (before: "net.nir/network.json: Not a directory"): the
+    line names the folder that has a loop (--format nir --nir-profile snntorch --out DIR)."""
     graph = tmp_path / "net.nir"
     graph.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(64))
     out = tmp_path / "in.npz"
@@ -175,8 +176,8 @@ def test_export_pointed_at_a_nir_graph_says_what_it_takes_in_one_line(tmp_path, 
     for cmd in (events, decode):
         assert main(cmd) == 2
         err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and f"{graph}: a NIR graph, not an export folder: --export takes the folder" in err[0]
-        assert "pynn or lava" in err[0] and "a NIR graph is run as docs/export.md says" in err[0], err
+        assert len(err) == 1 and f"{graph}: a NIR graph alone, not an export folder: --export takes" in err[0]
+        assert "--format nir --nir-profile snntorch with --out DIR" in err[0], err
         assert not out.exists() and not (tmp_path / "maps").exists()
 
 

@@ -18,9 +18,11 @@ exclude_patterns = ["_build"]
 
 autosummary_generate = True
 #: modules left out of the reference (the module template skips them): the ``snn-fg`` command's entry point
-#: (importing it runs the command), the PyNN and Lava exports' ``run.py`` programs (they import their sibling
-#: modules by their names in an export folder)
-autosummary_context = {"skipped": ["snn_fg.cli.__main__", "snn_fg.pynn.run", "snn_fg.lava.run"]}
+#: (importing it runs the command), the PyNN, Lava and NIR exports' ``run.py`` programs (they import their
+#: sibling modules by their names in an export folder)
+autosummary_context = {
+    "skipped": ["snn_fg.cli.__main__", "snn_fg.pynn.run", "snn_fg.lava.run", "snn_fg.export.snntorch_loop.run"]
+}
 # Lava (an export folder's own Python 3.10 environment, not an extra of snn-fg): imitated, so that the Lava
 # processes' module is documented
 autodoc_mock_imports = ["lava"]

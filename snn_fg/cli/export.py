@@ -2,7 +2,9 @@
 
 Formats: ``pynn`` (a folder: self-contained PyNN model), ``lava`` (a
 folder: the network as Lava processes for Loihi 2, :mod:`snn_fg.export.lava`), ``nir`` (a NIR
-graph file), ``report`` (hardware resource report, JSON, also printed) and
+graph file; with ``--nir-profile snntorch`` and an ``--out`` not ending ``.nir``, a folder with
+the graph and its loop in snnTorch, :mod:`snn_fg.export.nir_folder`), ``report`` (hardware
+resource report, JSON, also printed) and
 ``network`` (the snn-fg JSON description; with ``--network FILE.nir`` this
 is the NIR import). Bad arguments end with one line and exit status 2;
 nothing partial is written.
@@ -20,6 +22,7 @@ from ..errors import InputError
 from ..export.folder import EXPORT_FOLDER, INPUT_NAME
 from ..export.lava import export_lava
 from ..export.nir import describe_nir, export_nir
+from ..export.nir_folder import export_nir_folder
 from ..export.nir_import import read_nir
 from ..export.nir_snntorch import export_nir_snntorch
 from ..export.pynn import export_pynn
@@ -52,7 +55,8 @@ def add_export_command(sub):
         description="Export the whole spiking network (every cell: a board holds one fixed network) "
         "as a self-contained PyNN model (--format pynn, a folder), Lava processes in Loihi 2's "
         "fixed-point arithmetic (--format lava, a folder; runs in Python 3.10), a NIR graph "
-        "(--format nir), a hardware resource report for SpiNNaker 1/2 and Loihi 2 "
+        "(--format nir; with --nir-profile snntorch, a folder with the graph and its run.py in snnTorch "
+        "unless --out ends .nir), a hardware resource report for SpiNNaker 1/2 and Loihi 2 "
         "(--format report, JSON, also printed) or the snn-fg description (--format "
         "network; with --network FILE.nir this reads a NIR export back).",
     )
@@ -60,7 +64,8 @@ def add_export_command(sub):
     p.add_argument(
         "--out",
         metavar="PATH",
-        help="output folder (pynn, lava) or file; optional for --format report, which prints its table",
+        help="output folder (pynn, lava; nir --nir-profile snntorch: a folder with its run.py unless PATH ends "
+        ".nir) or file; optional for --format report, which prints its table",
     )
     p.add_argument(
         "--force",
@@ -249,11 +254,20 @@ def _checked_bits(args) -> int | None:
     return bits
 
 
+def writes_folder(args) -> bool:
+    """Whether the export is a folder with a run.py: ``pynn``, ``lava``, and ``nir`` of the snnTorch
+    profile unless ``--out`` names a ``.nir`` file (the graph alone, as before the folder existed)."""
+    if args.format == "nir":
+        return args.nir_profile == "snntorch" and not str(args.out).lower().endswith(FILE_SUFFIXES["nir"])
+    return args.format in ("pynn", "lava")
+
+
 def cmd_export(args) -> int:
     """Handler of ``snn-fg export``; prints what it wrote (a report: its table too), returns 0."""
     bits = _checked_bits(args)
     out = None if args.out is None else Path(args.out)
-    if out is not None and args.format in ("pynn", "lava"):
+    folder = writes_folder(args)
+    if out is not None and folder:
         check_output_folder(out, EXPORT_FOLDER, args.force)
         check_writable(out)
     elif out is not None:
@@ -274,6 +288,21 @@ def cmd_export(args) -> int:
     elif args.format == "lava":
         export_lava(net, out, force=args.force, command=export_command(args), sensor_shape=sensor, dt_ms=args.dt_ms)
         what = f"Lava model ({_folder_summary(out)}); its run.py needs Python 3.10 (README.md)"
+    elif args.format == "nir" and folder:
+        export_nir_folder(
+            net,
+            out,
+            step_ms=args.dt_ms,
+            one_grid=args.nir_one_grid,
+            deeper_reset=args.nir_refractory_as_deeper_reset,
+            force=args.force,
+            command=export_command(args),
+            sensor_shape=sensor,
+        )
+        what = (
+            f"NIR graph, snntorch profile, with its loop ({_folder_summary(out)}); "
+            "its run.py needs torch and snntorch (README.md)"
+        )
     elif args.format == "nir" and args.nir_profile == "snntorch":
         export_nir_snntorch(
             net, out, step_ms=args.dt_ms, one_grid=args.nir_one_grid, deeper_reset=args.nir_refractory_as_deeper_reset
@@ -301,9 +330,9 @@ def cmd_export(args) -> int:
     else:
         net.save(out)
         what = f"network description ({written_size(out)}; {describe_network(net)})"
-    if args.format in ("pynn", "lava") and (out / INPUT_NAME).exists():
+    if folder and (out / INPUT_NAME).exists():
         what += f"; {INPUT_NAME} kept from the folder it replaced (the same frame and time step)"
-    if args.format in ("pynn", "lava"):
+    if folder:
         kept = sorted(p.name for p in out.iterdir() if EXPORT_FOLDER.keeps(p))
         what += "".join(f"; {k} kept where it was (the environment the README has you make there)" for k in kept)
     print(f"snn-fg: wrote {what} to {out}")

@@ -35,7 +35,9 @@ from .options import camera_options
 
 def add_spike_options(parser):
     """``--write-spikes`` and its options on ``snn-fg events``'s parser."""
-    g = parser.add_argument_group("input spikes for an exported network (snn-fg export --format pynn or lava)")
+    g = parser.add_argument_group(
+        "input spikes for an exported network (snn-fg export --format pynn or lava, or nir into a folder)"
+    )
     g.add_argument(
         "--write-spikes",
         metavar="OUT.npz",

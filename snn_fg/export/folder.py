@@ -1,4 +1,4 @@
-"""What every export folder holds, written once for the PyNN and the Lava export:
+"""What every export folder holds, written once for the PyNN, the Lava and the NIR (snnTorch) export:
 the weight-shared tables (identical ones stored once), ``network.json`` (what
 ``snn-fg events --write-spikes`` and ``snn-fg decode`` read), the README's
 common facts, and the folder written whole, keeping an ``input.npz`` that
@@ -25,6 +25,7 @@ from ..lowering.kernel_tables import ConvTable, geometry, table, table_fields
 from ..network.graph import Network
 from ..results.atomic import OutputFolder
 from ..results.outputs import FolderKind
+from .snntorch_loop import COPIED as SNNTORCH_COPIED
 from .synapses import projection_counts
 
 #: the input file ``snn-fg events --write-spikes`` writes into an export by the README's loop
@@ -61,7 +62,10 @@ def _counts_files(folder: Path) -> list[str]:
 #: the Python 3.10 environment a Lava export's README tells the user to make inside the folder
 LAVA_ENV = ".venv-lava"
 
-#: what a PyNN or Lava export folder holds: the export's files, and what run.py and Python write in it (the
+#: the NIR graph a NIR export folder holds (snn_fg.export.nir_folder)
+GRAPH_NAME = "model.nir"
+
+#: what a PyNN, Lava or NIR export folder holds: the export's files, and what run.py and Python write in it (the
 #: input and counts files, under any name; sPyNNaker's configuration and reports, the virtual board's
 #: mapping.json, Lava's resources.json); the environment its README has the user make there is kept where
 #: it is (before, a Lava export's --force re-export was refused for it)
@@ -70,6 +74,8 @@ EXPORT_FOLDER = FolderKind(
     names=(
         *pynn.COPIED.values(),
         *lava.COPIED.values(),
+        *SNNTORCH_COPIED.values(),
+        GRAPH_NAME,
         "network.json",
         "tables.npz",
         "spinnaker.json",
@@ -204,10 +210,13 @@ def readme_fields(network: Network, meta: dict, sensor_shape) -> dict:
     }
 
 
-def write_folder(out, *, force: bool, frame_shape, meta: dict, arrays: dict, copies: dict, texts: dict) -> Path:
+def write_folder(
+    out, *, force: bool, frame_shape, meta: dict, arrays: dict | None, copies: dict, texts: dict, files=None
+) -> Path:
     """An export folder written whole (via a staging folder): ``network.json`` (``meta``),
-    ``tables.npz`` (``arrays``), the standalone modules ``copies`` (path -> name in the
-    folder) and ``texts`` (name -> text). With ``force`` an earlier export (:data:`EXPORT_FOLDER`) is
+    ``tables.npz`` (``arrays``; None: none), the standalone modules ``copies`` (path -> name in the
+    folder), ``texts`` (name -> text) and ``files`` (name -> a function writing that file at the
+    path it is given). With ``force`` an earlier export (:data:`EXPORT_FOLDER`) is
     replaced, keeping its ``input.npz`` when it serves the same frame and time step; one that holds
     run.py's counts (a run on a simulator or a board, which the new export could not decode) is refused."""
     counts = _counts_files(Path(out)) if force else []
@@ -224,11 +233,14 @@ def write_folder(out, *, force: bool, frame_shape, meta: dict, arrays: dict, cop
         if kept is not None:
             (tmp / INPUT_NAME).write_bytes(kept)
         (tmp / "network.json").write_text(json.dumps(meta, indent=1) + "\n")
-        np.savez_compressed(tmp / "tables.npz", **arrays)
+        if arrays is not None:
+            np.savez_compressed(tmp / "tables.npz", **arrays)
         for src, dst in copies.items():
             shutil.copyfile(src, tmp / dst)
         for name, text in texts.items():
             (tmp / name).write_text(text)
+        for name, write in (files or {}).items():
+            write(tmp / name)
     return Path(out)
 
 

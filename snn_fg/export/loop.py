@@ -20,6 +20,8 @@ from ..models.spiking.decode import decode_maps
 from ..network.graph import Network
 from ..results.maps import CONFIDENCE, Maps
 from .board import board_network
+from .nir_folder import SCHEMA as NIR_SCHEMA
+from .nir_folder import graph_network
 from .pynn import read_counts, read_input
 
 #: regular trains of an event frame: the rate ``snn-fg run`` uses (Hz)
@@ -30,22 +32,25 @@ RATE_MISMATCH = 1.2
 
 
 def export_network(folder):
-    """The snn-fg description a PyNN or Lava export was made from (its board network), and its ``network.json``."""
+    """The snn-fg network a PyNN, Lava or NIR export folder's run.py runs (the board network; of a NIR
+    export, the network its graph holds: :func:`~snn_fg.export.nir_folder.graph_network`), and its
+    ``network.json``."""
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():  # (before: "DIR/network.json: Not a directory")
-        what = "a NIR graph" if folder.name.endswith((".nir", ".nir.gz")) else "a file"
+        what = "a NIR graph alone" if folder.name.endswith((".nir", ".nir.gz")) else "a file"
         raise InputError(
             folder,
-            f"{what}, not an export folder: --export takes the folder snn-fg export --format pynn or lava "
-            "writes; a NIR graph is run as docs/export.md says (A NIR export has no loop of its own yet)",
+            f"{what}, not an export folder: --export takes the folder snn-fg export --format pynn or lava, "
+            "or --format nir --nir-profile snntorch with --out DIR, writes (docs/export.md)",
         )
     path = folder / "network.json"
     try:
         meta = json.loads(path.read_text())
-        return Network.from_dict(meta["snn_fg_network"]), meta
+        net = Network.from_dict(meta["snn_fg_network"])
+        return (graph_network(net, meta["nir_profile"]) if meta.get("schema") == NIR_SCHEMA else net), meta
     except FileNotFoundError:
         raise InputError(
-            path, "no such file: --export needs a folder written by snn-fg export --format pynn or lava"
+            path, "no such file: --export needs a folder written by snn-fg export --format pynn, lava or nir"
         ) from None
     except (ValueError, KeyError, TypeError) as e:
         raise InputError(path, f"not an export's network.json ({type(e).__name__}: {e})") from None

@@ -128,3 +128,27 @@ def test_the_loop_runs_the_graph_in_snntorch_and_decode_checks_its_maps(tmp_path
     covered = float(line.split("have a vector at ")[1].split(" %")[0])
     assert r >= 0.9 and within >= 85 and covered >= 90, line
     assert (maps / "maps.npz").exists() and (maps / "reference" / "maps.npz").exists()
+
+
+@pytest.mark.slow
+def test_run_py_leaves_the_window_clocks_spikes_out_and_says_so(tmp_path):
+    """The graph has no window clock: an input with clock spikes (source 2 H W) gives the counts of the
+    same input without them, and run.py says how many it left out (before: an index past the frame)."""
+    pytest.importorskip("snntorch", reason='needs pip install -e ".[snntorch]"')
+    folder = tmp_path / "model"
+    _export(folder)
+    n = 2 * 16 * 16
+    pixels = {"indices": np.arange(0, n, 7), "steps": np.arange(0, n, 7) % 5}
+    with_clock = {"indices": np.append(pixels["indices"], [n, n]), "steps": np.append(pixels["steps"], [0, 3])}
+    counts = {}
+    for name, spikes in (("pixels", pixels), ("with_clock", with_clock)):
+        np.savez(folder / f"{name}.npz", **spikes, dt_ms=1.0, period_steps=5, shape=np.array([16, 16]))
+        args = ["--input", f"{name}.npz", "--out", f"counts_{name}.npz", "--duration-ms", "20"]
+        status, out, err = _run(folder, *args)
+        assert status == 0, err
+        assert ("run.py: note: 8 spikes of the window clock left out" in out) == (name == "with_clock"), out
+        with np.load(folder / f"counts_{name}.npz") as d:
+            counts[name] = {k: d[k] for k in d.files}
+    assert counts["pixels"].keys() == counts["with_clock"].keys()
+    assert all(np.array_equal(counts["pixels"][k], counts["with_clock"][k]) for k in counts["pixels"])
+    assert sum(int(v.sum()) for k, v in counts["pixels"].items() if k.startswith("count_")) > 0

@@ -41,6 +41,10 @@ from snn_fg.scoring.metrics import compare_frame
 
 #: the quantisation table's row of the float network on input trains of seed 1
 SEED_1 = "float, input seed 1"
+#: what one board holds, per target: the key of a ``fit`` row's chip count and the most chips
+ONE_BOARD = {"spinn5": ("spinnaker_chips", 48), "loihi2": ("loihi2_chips", 1)}
+#: the parts, in the page's order, and what each stores in the results
+PARTS = {"reports": "report_304x240", "fit": "fit", "fidelity": "fit", "quant": "quantisation"}
 CROPS = ((160, 120), (128, 96), (112, 84), (96, 72), (80, 60), (64, 48), (56, 42), (48, 36), (40, 30))
 
 
@@ -64,10 +68,6 @@ def reports(out):
         out[f"report_{w}x{h}"] = {k: rep[k] for k in ("totals", "targets", "frame_shape")}
 
 
-def _fits(rep):
-    return {"spinn5": rep["targets"]["spinnaker1"]["chips"] <= 48, "loihi2": rep["targets"]["loihi2"]["chips"] <= 1}
-
-
 def _config(w, h, n_ori, levels):
     rep = resource_report(build_network(ModelParams(levels=levels, n_ori=n_ori), (h, w), SpikingParams()))
     t = rep["totals"]
@@ -80,8 +80,8 @@ def _config(w, h, n_ori, levels):
         "spinnaker_chips": rep["targets"]["spinnaker1"]["chips"],
         "loihi2_chips": rep["targets"]["loihi2"]["chips"],
         "loihi2_cores": rep["targets"]["loihi2"]["cores"],
-        **_fits(rep),
     }
+    row.update({t: row[key] <= most for t, (key, most) in ONE_BOARD.items()})
     print(json.dumps(row), flush=True)
     return row
 
@@ -205,12 +205,16 @@ def quant(out, bsds: bool):
     out["quantisation_bsds"] = bool(bsds)
 
 
-def write(out, run):
-    """Merge ``out`` into the stored results (each part keeps what it last measured) and rewrite the page."""
+def write(out, run, part):
+    """Merge ``out`` into the stored results (each part keeps what it last measured, and the
+    record of the run that measured it) and rewrite the page."""
     old = RESULTS / "export_hardware.json"
     merged = json.loads(old.read_text()) if old.exists() else {}
     merged.update(out)
-    merged["run"] = run.record()
+    merged["runs"] = {**merged.get("runs", {}), part: run.record()}
+    if part == "fit":
+        merged["runs"].pop("fidelity", None)  # fit measures the fidelity again
+    merged.pop("run", None)  # the latest part's run alone, before each part kept its own
     save_json("export_hardware", merged)
     save_markdown("export_hardware", _markdown(merged))
 
@@ -244,13 +248,33 @@ def _fit_rows(fit) -> list:
     return rows
 
 
-def _markdown(merged) -> list[str]:
+def _no_fit_lines(fit) -> list[str]:
+    """A line for each target none of the tried configurations fits, with the one nearest to fitting."""
+    lines = []
+    for target, (key, most) in ONE_BOARD.items():
+        if target not in fit["largest"] and fit["tried"]:
+            c = min(fit["tried"], key=lambda r: r[key])
+            lines.append(
+                f"{target}: none of the {len(fit['tried'])} configurations tried fits ({most} chips at most); "
+                f"the fewest chips, {c[key]}, are {c['sensor'][0]}x{c['sensor'][1]}'s with {c['levels']} levels "
+                f"and {c['n_ori']} orientations."
+            )
+    return lines
+
+
+def _runs_lines(merged) -> list[str]:
+    """Which run measured each part on the page (2 shared cores)."""
+    runs = merged.get("runs", {})
     lines = [
-        "# Export: hardware resources, fitting configurations, quantisation",
-        "",
-        f"The latest part run: {describe(merged['run'])} (2 shared cores.)",
-        "",
+        f"- `{part}`: " + (describe(runs[part]) if part in runs else "run before each part kept its own record.")
+        for part, key in PARTS.items()
+        if part in runs or (part != "fidelity" and key in merged)
     ]
+    return ["Each part as its last run left it (2 shared cores):", "", *lines, ""]
+
+
+def _markdown(merged) -> list[str]:
+    lines = ["# Export: hardware resources, fitting configurations, quantisation", "", *_runs_lines(merged)]
     for key in ("report_304x240", "report_481x321"):
         if key in merged:
             t = merged[key]["totals"]
@@ -291,6 +315,7 @@ def _markdown(merged) -> list[str]:
             ],
             _fit_rows(merged["fit"]),
         )
+        lines += ["", *_no_fit_lines(merged["fit"])]
         lines.append("")
     if "quantisation" in merged:
         scope = (
@@ -327,16 +352,19 @@ def _markdown(merged) -> list[str]:
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("parts", nargs="*", default=["reports", "fit", "quant"])
+    ap.add_argument("parts", nargs="*", choices=PARTS, default=["reports", "fit", "quant"])
     ap.add_argument("--bsds", action="store_true")
     args = ap.parse_args()
-    run, out = Run(), {}
+    # the commit is taken once, before the first part rewrites the page's own tracked results
+    commit = Run().commit
     for part in args.parts:
+        run, out = Run(), {}
+        run.commit = commit
         if part == "quant":
             quant(out, args.bsds)
         else:
             {"reports": reports, "fit": fit, "fidelity": fidelity}[part](out)
-        write(out, run)
+        write(out, run, part)
 
 
 if __name__ == "__main__":

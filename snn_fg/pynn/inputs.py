@@ -54,8 +54,9 @@ def read_input(path, frame_shape, n_sources):
     return d
 
 
-def input_steps(path, n_steps, n_sources, frame_shape=None):
-    """Spike steps of every source (periodic patterns repeated up to n_steps)."""
+def input_spikes(path, n_steps, n_sources, frame_shape=None):
+    """``(indices, steps, dt_ms)``: every spike of the file's sources before ``n_steps`` (periodic
+    patterns repeated up to it), ordered by source, then step."""
     d = read_input(path, frame_shape, n_sources)
     idx, steps, period = d["indices"].astype(np.int64), d["steps"].astype(np.int64), int(d["period_steps"])
     if period > 0:
@@ -65,6 +66,11 @@ def input_steps(path, n_steps, n_sources, frame_shape=None):
     keep = steps < n_steps
     idx, steps = idx[keep], steps[keep]
     order = np.lexsort((steps, idx))
-    idx, steps = idx[order], steps[order]
+    return idx[order], steps[order], float(d["dt_ms"])
+
+
+def input_steps(path, n_steps, n_sources, frame_shape=None):
+    """Spike steps of every source (periodic patterns repeated up to n_steps)."""
+    idx, steps, dt_ms = input_spikes(path, n_steps, n_sources, frame_shape)
     bounds = np.searchsorted(idx, np.arange(n_sources + 1))
-    return [steps[a:b] for a, b in zip(bounds[:-1], bounds[1:])], float(d["dt_ms"])
+    return [steps[a:b] for a, b in zip(bounds[:-1], bounds[1:])], dt_ms

@@ -58,12 +58,6 @@ def parse(argv):
     return args
 
 
-def pixel_spikes(sources, n_pixels):
-    """``(indices, steps)`` of the pixel sources' spikes (``sources``: each source's steps)."""
-    idx = [np.full(len(s), i, np.int64) for i, s in enumerate(sources[:n_pixels])]
-    return np.concatenate(idx + [np.zeros(0, np.int64)]), np.concatenate(list(sources[:n_pixels]) + [np.zeros(0)])
-
-
 def main(argv=None):
     args = parse(argv)
     with open("network.json") as fh:
@@ -72,12 +66,12 @@ def main(argv=None):
     dt_ms, n_pixels = float(meta["dt_ms"]), 2 * h * w
     n_steps = int(round(args.duration_ms / dt_ms))
     # (the sources of an input file: every pixel's ON and OFF, and the window clock after them)
-    sources, dt_in = fg_inputs.input_steps(args.input, n_steps, n_pixels + 1, (h, w))
+    indices, steps, dt_in = fg_inputs.input_spikes(args.input, n_steps, n_pixels + 1, (h, w))
     if abs(dt_in - dt_ms) > 1e-9:
         sys.exit(f"run.py: error: {args.input}: dt_ms={dt_in} differs from the network's {dt_ms}")
-    if len(sources[n_pixels]):
-        print(f"run.py: note: {len(sources[n_pixels])} spikes of the window clock left out (the graph has no clock)")
-    indices, steps = pixel_spikes(sources, n_pixels)
+    clock = int(np.count_nonzero(indices == n_pixels))  # (fg_snntorch leaves them out: no node takes them)
+    if clock:
+        print(f"run.py: note: {clock} spikes of the window clock left out (the graph has no clock)")
     start = args.duration_ms / 2 if args.count_from_ms is None else args.count_from_ms
     check_packages()
     import nir
@@ -91,7 +85,7 @@ def main(argv=None):
         graph,
         cells,
         indices,
-        steps.astype(np.int64),
+        steps,
         (h, w),
         n_steps=n_steps,
         count_from_step=fg_snntorch.first_counted_step(start, dt_ms),

@@ -11,7 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import validate as check
-from ..frames.pool import MAPS_GRIDS, frame_polarities, pooled_shape, signed_frame
+from ..frames.pool import MAPS_GRIDS, pooled_shape, signed_frame
 from ..frames.still import Still
 from ..params import ModelParams
 from ..results.maps import Maps, made_by
@@ -92,10 +92,11 @@ class Model(ABC):
 
     def figure_input(self, still: Still) -> np.ndarray:
         """The image shown beside the maps (on their grid: the blocks' frame for maps kept there)."""
-        from ..results.figures import event_frame_rgb  # (matplotlib: only for runs that draw)
+        from ..results.figures import event_frame_rgb, signed_frame_rgb  # (matplotlib: only for runs that draw)
 
-        pool = self.params.input_pool if self.maps_grid == "blocks" else 1
-        return event_frame_rgb(*frame_polarities(signed_frame(still.pos, still.neg, pool)))
+        if self.maps_grid == "blocks":  # (as a recording's stored blocks are drawn)
+            return signed_frame_rgb(signed_frame(still.pos, still.neg, self.params.input_pool))
+        return event_frame_rgb(still.pos, still.neg)
 
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
         """Figures of a run into folder ``out``; ``inputs`` one image per frame; ``crop``

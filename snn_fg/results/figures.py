@@ -54,6 +54,13 @@ def event_frame_rgb(pos, neg) -> np.ndarray:
     return img
 
 
+def signed_frame_rgb(frame) -> np.ndarray:
+    """:func:`event_frame_rgb` of a stored event frame (+1 ON, -1 OFF; on blocks 2, ON and OFF
+    pixels both, drawn ON: :func:`~snn_fg.frames.pool.signed_frame`)."""
+    frame = np.asarray(frame)
+    return event_frame_rgb(frame > 0, frame < 0)
+
+
 def draw_wheel(ax) -> None:
     """The colour wheel of :func:`fg_rgb` in ``ax``: hue = direction (0° right, 90° up, each
     labelled), brightness growing from the centre with strength."""

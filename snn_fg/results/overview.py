@@ -16,7 +16,7 @@ import numpy as np
 
 from .activity import SATURATED_SHARE
 from .atomic import save_figure
-from .figures import APS_INPUT, EVENTS_INPUT, event_frame_rgb, maps_figure, on_sensor, rows_shown
+from .figures import APS_INPUT, EVENTS_INPUT, maps_figure, on_sensor, rows_shown, signed_frame_rgb
 from .maps import made_by
 from .outputs import WINDOW_FIGURE
 from .store import STORE_NAME, read_attrs
@@ -44,8 +44,7 @@ class EventFrames:
         return len(self.frames)
 
     def __getitem__(self, i):
-        f = np.asarray(self.frames[i])
-        return event_frame_rgb(f > 0, f < 0)
+        return signed_frame_rgb(self.frames[i])
 
 
 def input_images(maps):

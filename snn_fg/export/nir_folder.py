@@ -92,8 +92,8 @@ def export_nir_folder(
     network : Network
         The description (exported whole, at ``step_ms``: default its own time step).
     out : path
-        Folder to write (whole, via a staging folder; an existing non-empty folder is replaced
-        only with ``force``, which keeps its ``input.npz`` when the frame and time step are the same).
+        Folder to write, as :func:`~snn_fg.export.folder.write_folder` writes an export (``force``: over
+        an earlier one).
     one_grid, deeper_reset : bool
         As :func:`~snn_fg.export.nir_snntorch.to_nir_snntorch` takes them.
     command : str, optional

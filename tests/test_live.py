@@ -20,7 +20,7 @@ import pytest
 from snn_fg.cli.main import main
 from snn_fg.errors import InputWarning
 from snn_fg.events import EVENT_DTYPE, save_events, spif
-from snn_fg.events.live import LiveStream
+from snn_fg.events.live import SKIP_BEHIND, LiveStream
 from snn_fg.events.replay import UdpSender, from_ms, looped, paced
 from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.results.maps import Maps
@@ -385,7 +385,7 @@ def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(
     th, out = _sending(port, ev, garbage=[b"\x01\x02\x03"])
     status = main(
         ["live", f"udp://127.0.0.1:{port}", "--out", str(tmp_path / "live"), "--sensor-size", f"{size[0]}x{size[1]}"]
-        + ["--publish", inbox.url, "--max-behind", "1000", "--idle-s", "0.5", *common, *model]
+        + ["--publish", inbox.url, "--max-behind", "1000", "--skip-behind", "3", "--idle-s", "0.5", *common, *model]
     )
     th.join(30)
     sent = out["sent"]
@@ -396,7 +396,10 @@ def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(
     assert len(live[0]) == len(run[0]) == 3
     for a, b in zip(live[:3], run[:3], strict=True):
         np.testing.assert_array_equal(a, b)
+    # (the same arrays: the live store made them from the warm-up's last window before the first came)
+    assert sorted(live[4]) == sorted(run[4]) and all(live[4][k].shape == run[4][k].shape for k in run[4])
     record = json.loads((tmp_path / "live" / "live.json").read_text())
+    assert record["skip_behind"] == 3
     assert record["events_received"] == sent == len(ev) and record["packets_malformed"] == 1
     assert record["windows"] == 3 and record["windows_dropped"] == 0 and record["ended"].startswith("the sender")
     assert record["latency_ms"]["max"] >= record["latency_ms"]["p95"] >= record["latency_ms"]["median"] > 0
@@ -687,14 +690,16 @@ def test_a_udp_replay_says_that_udp_cannot_tell_whether_anything_received_it(dis
     assert said.startswith("snn-fg: sent ") and said.endswith("; UDP does not tell whether anything received them")
 
 
-def _hops_all_come_first(max_behind: int) -> tuple[list, dict]:
+def _hops_all_come_first(max_behind: int, skip_behind: int = 1) -> tuple[list, dict]:
     """10 ms hops over 40 ms windows, every event (one each 0.1 ms, to 119.9 ms) come before the
     model asks: the hops made (each passed once made) and the stream's counts (with the numbers
     of the hops skipped, ``skipped``)."""
     packets = [_events(np.arange(k * 10_000, (k + 1) * 10_000, 100)) for k in range(12)]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", InputWarning)  # (the one line that says a slot was dropped)
-        stream = LiveStream(_Packets(packets), window_ms=40.0, stride_ms=10.0, max_behind=max_behind)
+        stream = LiveStream(
+            _Packets(packets), window_ms=40.0, stride_ms=10.0, max_behind=max_behind, skip_behind=skip_behind
+        )
         stream.thread.join(5)
         kept = []
         for w in stream:
@@ -704,13 +709,17 @@ def _hops_all_come_first(max_behind: int) -> tuple[list, dict]:
 
 
 def test_hops_behind_the_stream_skip_their_read_out_for_the_newest_and_drop_nothing():
-    """A hop whose next hop's span is complete too (the last event at 119.9 ms) is skipped, not
-    dropped (the network takes its events): only hops 7 and 8 (ending at 110 and 120 ms) are made."""
-    kept, s = _hops_all_come_first(max_behind=100)
+    """A hop is skipped, not dropped (the network takes its events), when the events that complete the
+    read-out of the hop ``skip_behind`` later have come (the last event at 119.9 ms): with 1, hops whose
+    next hop is complete too, so only hops 7 and 8 (ending at 110 and 120 ms) are made; with the default,
+    2, hop 6 too, whose next hop but one (ending at 120 ms) is not complete."""
+    kept, s = _hops_all_come_first(max_behind=100, skip_behind=1)
     assert kept == [7, 8] and s["windows_skipped"] == 7 and s["windows_dropped"] == 0 and s["events_dropped"] == 0
     # (by number, as ranges of consecutive ones: one entry a hop grew without end on a long --hop-ms run;
     # the timeline shades them apart from dropped ones)
     assert s["skipped"] == s["skipped_windows"] == [[0, 6]]
+    kept, s = _hops_all_come_first(max_behind=100, skip_behind=SKIP_BEHIND)
+    assert SKIP_BEHIND == 2 and kept == [6, 7, 8] and s["skipped_windows"] == [[0, 5]] and s["events_dropped"] == 0
 
 
 def test_hops_drop_events_only_a_window_behind_and_never_skip_for_a_dropped_hop():

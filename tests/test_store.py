@@ -60,6 +60,26 @@ def test_stacked_ragged_and_missing_arrays_read_back_by_us_and_by_zarr(tmp_path)
     assert g["window_params"][1] == '{"counts": {"cells": 2}}'
 
 
+def test_arrays_made_ahead_from_a_template_store_the_same_windows(tmp_path):
+    """A live run makes its store's arrays from its warm-up's last window before the first window
+    comes (MapsStore.prepare): nothing is appended (no window, no row), and the windows that follow
+    read back as from a store that made each array at its first window, the ragged ones' offsets and
+    the zeros of an array a window lacks included."""
+    plain = _write(tmp_path / "plain.zarr", WINDOWS)
+    ahead = MapsStore.create(tmp_path / "ahead.zarr", {"input": "x"})
+    ahead.prepare(_maps(9, spikes_S=np.array([5], np.int32), frame=np.ones((3, 4), np.uint8)), t_start_us=np.int64(0))
+    assert ahead.n == 0 and {a.n for k, a in ahead.arrays.items() if not k.endswith("_offsets")} == {0}
+    for i, m in enumerate(WINDOWS):
+        ahead.append(m(), t_start_us=np.int64(10 * i))
+    ahead.flush()
+    a, b = Maps.load(tmp_path / "ahead.zarr"), Maps.load(plain.path)
+    assert sorted(a.extra) == sorted(b.extra) and a.params == b.params
+    for key in ("fg_x", "fg_y", "grouping"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+    for key in b.extra:
+        np.testing.assert_array_equal(a.extra[key], b.extra[key])
+
+
 def test_flat_arrays_span_chunks(tmp_path):
     """A ragged array longer than one chunk, filled across chunk edges."""
     path = tmp_path / "maps.zarr"

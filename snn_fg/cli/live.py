@@ -16,6 +16,7 @@ from contextlib import ExitStack, closing
 
 from ..errors import InputError
 from ..events.clock import clock_keys
+from ..events.live import SKIP_BEHIND
 from ..models import MODELS
 from ..models.live import live_stream, open_warmed
 from ..results.atomic import growing_folder, settle_folder
@@ -66,7 +67,7 @@ def add_live_command(sub):
         type=number(float, 0),
         metavar="H",
         help="a window's maps every H ms over the last --window-ms (a sliding read-out; default: one per window); "
-        "a hop whose next hop's events have come already is skipped for it",
+        "a hop's read-out is skipped for a newer one when the model is --skip-behind hops behind",
     )
     p.add_argument(
         "--publish",
@@ -100,6 +101,14 @@ def add_live_command(sub):
         "the policy: docs/live.md, 'When the model falls behind')",
     )
     p.add_argument(
+        "--skip-behind",
+        type=number(int, 1, strict=False),
+        default=SKIP_BEHIND,
+        metavar="N",
+        help=f"with --hop-ms: a hop's read-out is skipped for a newer one when the events that complete the read-out "
+        f"N hops later have come already ({SKIP_BEHIND}; 1: the freshest maps, more: more hops made, each later)",
+    )
+    p.add_argument(
         "--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s of 'ready' (30)"
     )
     p.add_argument("--idle-s", type=number(float, 0), default=1.0, metavar="S", help="udp://: end after S s idle (1)")
@@ -129,7 +138,7 @@ def cmd_live(args) -> int:
         view = None
         if args.view is not None:
             view = opened.enter_context(closing(LiveView(args.view, args.source, args.view_host)))
-        source, warm_s = open_warmed(
+        source, warm = open_warmed(
             model, args.source, args.sensor_size, window_ms, args.peaks, wait_s=args.wait_s, idle_s=args.idle_s
         )
         opened.enter_context(closing(source))
@@ -139,7 +148,7 @@ def cmd_live(args) -> int:
     stream = record = None
     ended = "the sender closed the stream"
     try:  # (from here on the folder is settled however the run ends: kept with its windows, or as it was)
-        stream, record = _live_stream(model, source, publisher, view, window_ms, warm_s, args)
+        stream, record = _live_stream(model, source, publisher, view, window_ms, warm.seconds, args)
         described = {"input": args.source, "kind": "live", "window_ms": window_ms, "start_ms": args.start_ms or 0.0}
         described["stride_ms"] = args.hop_ms if args.hop_ms is not None else window_ms
         run_recording(
@@ -149,6 +158,7 @@ def cmd_live(args) -> int:
             described,
             figures=not args.no_figures,
             clock=lambda: clock_keys(source),
+            template=(warm.window, warm.maps),
         )
     except KeyboardInterrupt:
         ended = "interrupted"
@@ -175,7 +185,8 @@ def _live_stream(model, source, publisher, view, window_ms: float, warm_s: float
     page = "" if view is None else f"; the live page is on http://{view.host}:{view.port}/"
     return live_stream(
         model, source, window_ms=window_ms, hop_ms=args.hop_ms, start_ms=args.start_ms or 0.0,
-        max_behind=args.max_behind, publisher=publisher, view=view, peaks=args.peaks, warm_s=warm_s,
+        max_behind=args.max_behind, skip_behind=args.skip_behind, publisher=publisher, view=view, peaks=args.peaks,
+        warm_s=warm_s,
         on_ready=lambda: print(
             f"snn-fg: live: {model.name} model ready for {args.source} (warmed up in {warm_s:.1f} s){page}", flush=True
         ),

@@ -109,6 +109,7 @@ def run_recording(
     run_key: dict | None = None,
     may_differ=(),
     clock=clock_keys,
+    template=None,
 ) -> int:
     """Every window of a recording through ``model`` into ``out/maps.zarr``
     (:mod:`snn_fg.results.store`: each window written as it completes) and, at the
@@ -132,10 +133,15 @@ def run_recording(
     ``snn-fg compare`` pairs windows on it). Each window's share of pixels with an
     event is recorded (``pixel_share``), and a window above
     :data:`~snn_fg.results.activity.SATURATED_SHARE` is warned about and
-    listed (``saturated_windows``)."""
+    listed (``saturated_windows``).
+
+    ``template``: ``(window, maps)`` like the windows to come (a live run's warm-up's last), from
+    which a new store's arrays are made before the first window (:meth:`MapsStore.prepare`)."""
     path = out / STORE_NAME
     run_key = {"source": source, "model": model.name, **model.params.to_dict()} if run_key is None else run_key
     store = MapsStore.reopen(path, run_key, may_differ) if resume and path.is_dir() else MapsStore.create(path, run_key)
+    if template is not None and store.n == 0:
+        _append_window(store, *template, prepare=True)
     if store.complete:
         if not goes_on(store.attrs, source.get("max_windows")):
             return store.n
@@ -223,18 +229,20 @@ def goes_on(attrs: dict, asked: int | None) -> bool:
     return limit is not None and n >= limit and (asked is None or asked > n)
 
 
-def _append_window(store: MapsStore, w, maps: Maps) -> None:
+def _append_window(store: MapsStore, w, maps: Maps, *, prepare: bool = False) -> None:
     """One window's maps into the store, with its number in the recording or stream (``window``:
     a live run that dropped windows keeps the others under their own), event frame (+1 ON, -1 OFF,
     on the maps' grid: :func:`~snn_fg.frames.pool.signed_frame`), times (from the recording's first
-    event), event count and pixel share."""
+    event), event count and pixel share. ``prepare``: nothing appended, the store's arrays made for
+    a window like ``w`` (:meth:`MapsStore.prepare`)."""
     origin = store.attrs["snn_fg"].get("first_event_us")
     if origin is None:
         origin = w.t_start_us if w.t_first_event_us is None else w.t_first_event_us
-        store.attrs["snn_fg"]["first_event_us"] = int(origin)
+        if not prepare:
+            store.attrs["snn_fg"]["first_event_us"] = int(origin)
     # (a store continued that was written without the numbers goes on without: its windows are numbered by place)
     numbered = store.n == 0 or "window" in store.arrays
-    store.append(
+    (store.prepare if prepare else store.append)(
         maps,
         **({"window": np.int64(w.index)} if numbered else {}),
         event_frame=signed_frame(w.pos, w.neg, maps_scale(maps.params)),

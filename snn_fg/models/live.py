@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections import namedtuple
 from contextlib import ExitStack, closing
 
 import numpy as np
 
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
-from ..events.live import LiveStream
+from ..events.live import SKIP_BEHIND, LiveStream
 from ..events.live_dv import CAMERA, camera_found
 from ..events.live_screen import prepare_screen
 from ..events.live_sources import open_source, parse_address
@@ -31,6 +32,9 @@ from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..results.peaks import grouping_peaks
 from ..results.publish import LiveModel, LiveRecord, Publisher
+
+#: what a warm-up gives (:func:`warm_up`): its seconds, and its last window with its maps
+WarmUp = namedtuple("WarmUp", "seconds window maps")
 
 #: simulated time the spiking network is handed at a time on a live stream (ms): it follows the events this closely
 LIVE_SEGMENT_MS = 5.0
@@ -46,6 +50,7 @@ def run_live(
     hop_ms: float | None = None,
     start_ms: float = 0.0,
     max_behind: int = 0,
+    skip_behind: int = SKIP_BEHIND,
     peaks: int = 3,
     publish: str | None = None,
     wait_s: float = 30.0,
@@ -65,8 +70,9 @@ def run_live(
     ``latency_ms`` and grouping ``peaks``). It runs on the thread that makes the maps, so what
     it takes adds to the next windows' latency: hand heavy work to a thread of your own.
     Windows the model cannot keep up with are dropped whole (the policy of ``live.json``,
-    ``max_behind`` as ``--max-behind``); ``hop_ms``, ``start_ms``, ``peaks`` and ``publish``
-    are ``snn-fg live``'s ``--hop-ms``, ``--start-ms``, ``--peaks`` and ``--publish``.
+    ``max_behind`` as ``--max-behind``); ``hop_ms``, ``skip_behind``, ``start_ms``, ``peaks`` and
+    ``publish`` are ``snn-fg live``'s ``--hop-ms``, ``--skip-behind``, ``--start-ms``, ``--peaks``
+    and ``--publish``.
     ``on_ready()`` is called once the model is warmed up and waits for the stream (where
     ``snn-fg live`` says "ready": start a ``udp://`` sender then). ``stop``, a
     ``threading.Event`` another thread may set, ends the run there as the sender's end would
@@ -75,11 +81,11 @@ def run_live(
     made the model fall behind."""
     with ExitStack() as opened:
         publisher = opened.enter_context(closing(Publisher(publish))) if publish else None
-        source, warm_s = open_warmed(model, source, sensor_size, window_ms, peaks, wait_s=wait_s, idle_s=idle_s)
+        source, warm = open_warmed(model, source, sensor_size, window_ms, peaks, wait_s=wait_s, idle_s=idle_s)
         opened.enter_context(closing(source))
         stream, record = live_stream(
             model, source, window_ms=window_ms, hop_ms=hop_ms, start_ms=start_ms, max_behind=max_behind,
-            publisher=publisher, peaks=peaks, warm_s=warm_s, on_ready=on_ready,
+            skip_behind=skip_behind, publisher=publisher, peaks=peaks, warm_s=warm.seconds, on_ready=on_ready,
         )  # fmt: skip
         stream.stop = stop
         opened.enter_context(closing(stream))
@@ -100,7 +106,7 @@ def run_live(
 
 def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **opening):
     """The live source ``source`` opened (:func:`~snn_fg.events.live_sources.open_source`; ``opening``:
-    its ``wait_s``, ``idle_s``) and ``model`` warmed up for it: ``(source, seconds of the warm-up)``.
+    its ``wait_s``, ``idle_s``) and ``model`` warmed up for it: ``(source, WarmUp)``.
     A ``dv://`` stream is connected to (a ``camera://`` opened) after the warm-up when its size
     is given (a DV server sends from the moment a reader connects, a camera once it is opened),
     else before it, since the stream tells the size; a UDP port is bound before it (packets
@@ -108,23 +114,24 @@ def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **
     name = source if isinstance(source, str) else "<events>"
     camera = isinstance(source, str) and source.startswith(CAMERA)
     sends_at_once = camera or (isinstance(source, str) and parse_address(source)[0] == "dv")
-    warm_s = None
+    warm = None
     if sends_at_once and sensor_size is not None:
         if camera:  # (no camera is said before the warm-up's seconds, not after them)
             camera_found(source)
-        warm_s = warmed_up(model, sensor_size, window_ms, name, peaks)
-    opened = open_source(source, sensor_size, found=camera and warm_s is not None, **opening)
-    if warm_s is None:
+        warm = warmed_up(model, sensor_size, window_ms, name, peaks)
+    opened = open_source(source, sensor_size, found=camera and warm is not None, **opening)
+    if warm is None:
         try:
-            warm_s = warmed_up(model, opened.sensor_size, window_ms, name, peaks)
+            warm = warmed_up(model, opened.sensor_size, window_ms, name, peaks)
         except BaseException:
             opened.close()
             raise
-    return opened, warm_s
+    return opened, warm
 
 
 def live_stream(
-    model, source, *, window_ms: float, hop_ms, start_ms: float, max_behind: int, publisher=None, view=None,
+    model, source, *, window_ms: float, hop_ms, start_ms: float, max_behind: int, skip_behind: int = SKIP_BEHIND,
+    publisher=None, view=None,
     peaks: int = 3, warm_s=None, on_ready=None,
 ):  # fmt: skip
     """The stream cut from ``source`` for ``model`` (:class:`~snn_fg.events.live.LiveStream`; ``on_ready``
@@ -134,7 +141,13 @@ def live_stream(
     spiking = hasattr(model, "run_options")
     lag_ms = model.run_options.recording.readout_lag_ms if spiking else 0.0
     stream = LiveStream(
-        source, window_ms=window_ms, stride_ms=hop_ms, start_ms=start_ms or 0.0, max_behind=max_behind, lag_ms=lag_ms
+        source,
+        window_ms=window_ms,
+        stride_ms=hop_ms,
+        start_ms=start_ms or 0.0,
+        max_behind=max_behind,
+        lag_ms=lag_ms,
+        skip_behind=skip_behind,
     )
     if spiking:  # (the rate model takes whole windows)
         stream.segment_ms = LIVE_SEGMENT_MS
@@ -144,9 +157,9 @@ def live_stream(
     return stream, record
 
 
-def warmed_up(model, sensor_size, window_ms: float, name: str, peaks: int = 3) -> float:
+def warmed_up(model, sensor_size, window_ms: float, name: str, peaks: int = 3) -> WarmUp:
     """``model`` checked against the sensor (its pyramid's levels fit the frame; an InputError naming
-    ``name`` if not) and warmed up (:func:`warm_up`): seconds taken."""
+    ``name`` if not) and warmed up (:func:`warm_up`)."""
     w, h = sensor_size[:2]
     check_levels(
         pooled_shape((h, w), model.params.input_pool), model.params.levels, name, model.params.levels_per_octave
@@ -165,19 +178,27 @@ def _unsaid(message: str) -> None:
     """Where a message already said goes."""
 
 
-def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> float:
+def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> WarmUp:
     """Run ``model`` on ``windows`` windows of synthetic events of the sensor's
-    size (:func:`warm_up_events`), its maps thrown away, so that a live run
-    finds its code compiled and loaded (the packet screen's too:
+    size (:func:`warm_up_events`), so that a live run finds its code compiled
+    and loaded (the packet screen's too:
     :func:`~snn_fg.events.live_screen.prepare_screen`), its network's tables
     built and its arrays allocated (the spiking model keeps them on its backend
-    object) before the first packet; returns the seconds it took."""
+    object) before the first packet. Returns the seconds it took and the last
+    window with its maps, which the run's store makes its arrays from
+    (:func:`~snn_fg.cli.runner.run_recording`'s ``template``)."""
     t0 = time.perf_counter()
     prepare_screen()  # (the receiving thread's, for each packet)
     w, h = sensor_size[:2]
     rec = Recording(warm_up_events(w, h, window_ms * 1000.0, windows), (w, h, 2), "synthetic")
-    model.run_windows_into(list(iter_windows(rec, window_ms=window_ms)), lambda _, maps: grouping_peaks(maps, peaks))
-    return round(time.perf_counter() - t0, 3)
+    made = []
+
+    def each(window, maps):
+        grouping_peaks(maps, peaks)
+        made[:] = [window, maps]
+
+    model.run_windows_into(list(iter_windows(rec, window_ms=window_ms)), each)
+    return WarmUp(round(time.perf_counter() - t0, 3), *made)
 
 
 def warm_up_events(w: int, h: int, window_us: float, windows: int, per_window: int = 20_000) -> np.ndarray:

@@ -33,8 +33,9 @@ DROP_POLICY = (
     "dropped slot is neither computed, written nor published, and the spiking network does not simulate the "
     "dropped time that no kept window reads out: it goes on at the next kept slot with every cell at rest "
     "(simulated_ms_dropped); with --hop-ms, max_behind counts windows' worth of hops, and a hop whose read-out is "
-    "due when the next hop's events have all come already is not decoded (windows_skipped): the network takes its "
-    "events all the same, and the next hop's maps, fresher, are made in its place"
+    "due when the events that complete the read-out of the hop skip_behind hops later have all come already is not "
+    "decoded (windows_skipped): the network takes its events all the same, and a newer hop's maps are made in its "
+    "place"
 )
 #: a window's ``completed_by`` when no event past its read-out came: the end of the stream completed it
 END_OF_STREAM = "the end of the stream"
@@ -152,7 +153,13 @@ class LiveRecord:
         if self.on_window_s is not None:
             out["on_window_s"] = round(self.on_window_s, 3)
         out["why_behind"] = why_behind(out)
-        return {**out, "drop_policy": DROP_POLICY, "max_behind": self.stream.max_behind, "per_window": self.rows}
+        return {
+            **out,
+            "drop_policy": DROP_POLICY,
+            "max_behind": self.stream.max_behind,
+            "skip_behind": self.stream.skip_behind,
+            "per_window": self.rows,
+        }
 
     def _warm_up_on_stream(self) -> float | None:
         """Seconds of the warm-up that ran after the stream's first event arrived (a ``dv://`` or ``camera://``

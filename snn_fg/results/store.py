@@ -263,6 +263,13 @@ class MapsStore:
     def complete(self) -> bool:
         return bool(self.attrs["snn_fg"]["complete"])
 
+    def prepare(self, maps, **more) -> None:
+        """Make the arrays that a window like ``maps`` (with ``more``) writes, before the first
+        window is appended: a live run makes them from its warm-up's last window, so that their
+        folders and files (8-12 ms for a dozen arrays) are not the first window's time."""
+        self._array("window_params", TEXT, (), WINDOW_CHUNK)
+        self._window_arrays(maps, more)
+
     def append(self, maps, **more) -> None:
         """Add one window: ``maps`` (its arrays, ``extra`` and ``params``) and ``more`` arrays."""
         if self.n == 0:
@@ -270,23 +277,8 @@ class MapsStore:
         base = self.attrs["params"]
         differ = {k: v for k, v in maps.params.items() if base.get(k) != v}
         self._array("window_params", TEXT, (), WINDOW_CHUNK).append([json.dumps(differ, sort_keys=True)])
-        arrays = {"fg_x": maps.fg_x, "fg_y": maps.fg_y, "grouping": maps.grouping, **maps.extra, **more}
-        for key, v in arrays.items():
-            v = np.asarray(v)
-            if v.ndim == 1:  # ragged: its length may vary from window to window
-                self._array(f"{key}_offsets", np.int64, (), FLAT_CHUNK)
-                self._array(key, v.dtype, (), FLAT_CHUNK).append(v)
-            else:
-                a = self._array(key, v.dtype, v.shape, WINDOW_CHUNK if v.ndim else SCALAR_CHUNK)
-                if a.chunks[1:] != v.shape:
-                    check.fail(
-                        "MapsStore",
-                        None,
-                        None,
-                        f"array {key!r} changes its shape between windows "
-                        f"({a.chunks[1:]} before, {v.shape} in window {self.n}); cannot store it",
-                    )
-                a.append(v[None])
+        for a, v in self._window_arrays(maps, more):
+            a.append(v)
         for key, a in self.arrays.items():
             if key.endswith("_offsets"):
                 a.append([self.arrays[key.removesuffix("_offsets")].n])
@@ -295,6 +287,29 @@ class MapsStore:
         self.n += 1
         if self.n == 1 or time.monotonic() - self.flushed_at >= FLUSH_EVERY_S:
             self.flush(wait=False)
+
+    def _window_arrays(self, maps, more: dict) -> list:
+        """The arrays a window's ``maps`` and ``more`` go to, made where new, with the rows to append:
+        ``[(array, rows)]`` (a ragged one's offsets made too)."""
+        out = []
+        arrays = {"fg_x": maps.fg_x, "fg_y": maps.fg_y, "grouping": maps.grouping, **maps.extra, **more}
+        for key, v in arrays.items():
+            v = np.asarray(v)
+            if v.ndim == 1:  # ragged: its length may vary from window to window
+                self._array(f"{key}_offsets", np.int64, (), FLAT_CHUNK)
+                out.append((self._array(key, v.dtype, (), FLAT_CHUNK), v))
+                continue
+            a = self._array(key, v.dtype, v.shape, WINDOW_CHUNK if v.ndim else SCALAR_CHUNK)
+            if a.chunks[1:] != v.shape:
+                check.fail(
+                    "MapsStore",
+                    None,
+                    None,
+                    f"array {key!r} changes its shape between windows "
+                    f"({a.chunks[1:]} before, {v.shape} in window {self.n}); cannot store it",
+                )
+            out.append((a, v[None]))
+        return out
 
     def flush(self, wait: bool = True) -> None:
         """Every window appended made visible to readers: the chunks that hold

@@ -184,6 +184,7 @@ def test_loop_with_the_numpy_reference_gives_maps_near_the_fast_engines(tmp_path
     assert not list(out.glob(".*part*"))
     assert main(["decode", str(out / "counts.npz"), "--export", str(out), "--out", str(tmp_path / "maps")]) == 0
     ours = Maps.load(tmp_path / "maps" / "maps.npz")
+    assert ours.params["backend"]["name"] == "lava-export"  # (until 30 Nov: "pynn-export", as every export's)
     net, _ = export_network(out)
     fast = get_backend("fast", weight_bits=8).simulate(
         net,

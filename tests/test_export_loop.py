@@ -118,6 +118,7 @@ def test_recording_window_to_board_input_to_nest_to_maps(tmp_path, disc_recordin
     assert main(["decode", str(folder / "counts.npz"), "--export", str(folder), "--out", str(tmp_path / "maps")]) == 0
     assert sorted(p.name for p in (tmp_path / "maps").iterdir()) == ["maps.npz", "maps.png"]
     ours = Maps.load(tmp_path / "maps" / "maps.npz")
+    assert ours.params["backend"]["name"] == ours.params["network"]["origin"] == "pynn-export"
     # the NEST backend on the same input file and the board network
     inp = read_input(spikes)
     backend = get_backend("nest").simulate(

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
+from snn_fg.results.maps import Maps
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -128,6 +129,11 @@ def test_the_loop_runs_the_graph_in_snntorch_and_decode_checks_its_maps(tmp_path
     covered = float(line.split("have a vector at ")[1].split(" %")[0])
     assert r >= 0.9 and within >= 85 and covered >= 90, line
     assert (maps / "maps.npz").exists() and (maps / "reference" / "maps.npz").exists()
+    # (what ran the export is the NIR folder's run.py, the reference its network in our engine: until 30 Nov
+    # every export's counts were labelled PyNN's)
+    board, ref = Maps.load(maps / "maps.npz"), Maps.load(maps / "reference" / "maps.npz")
+    assert board.params["backend"]["name"] == board.params["network"]["origin"] == "nir-export"
+    assert ref.params["backend"]["name"] == "fast" and ref.params["network"]["origin"] == "nir-export"
 
 
 @pytest.mark.slow

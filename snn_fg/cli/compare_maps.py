@@ -365,7 +365,7 @@ def rerun(a: Maps, b: Maps) -> str:
     recording's windows), A's network by its name or file; ``""`` where A's network has neither."""
     net = a.params.get("network") or {}
     network = net.get("recipe") if net.get("origin") == "recipe" else net.get("origin")
-    if not isinstance(network, str) or network in ("given", "built", "pynn-export"):
+    if not isinstance(network, str) or network in ("given", "built") or network.endswith("-export"):
         return ""
     source = b.params.get("source") or {}
     if source.get("kind") == "image":

@@ -73,7 +73,7 @@ def cmd_decode(args) -> int:
     edited = checked_export(Path(args.export) / "network.json", net, meta, args.reference)
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")
-    maps = decode_counts(net, args.counts)
+    maps = decode_counts(net, args.counts, meta)
     spikes = args.input or Path(args.counts).with_name("input.npz")
     # (read once: its frame for the figure, its rate for the agreement line)
     inp = export_input(spikes, net.frame_shape) if Path(spikes).exists() else None

@@ -20,10 +20,15 @@ from ..models.spiking.decode import decode_maps
 from ..network.graph import Network
 from ..results.maps import CONFIDENCE, Maps
 from .board import board_network
+from .lava import SCHEMA as LAVA_SCHEMA
 from .nir_folder import SCHEMA as NIR_SCHEMA
 from .nir_folder import graph_network
+from .pynn import SCHEMA as PYNN_SCHEMA
 from .pynn import read_counts, read_input
 
+#: what ran an export folder's run.py, by its network.json's ``schema``: the decoded maps' backend and network
+#: origin (until 30 Nov every export's counts were said to be PyNN's)
+EXPORT_RUNNERS = {PYNN_SCHEMA: "pynn-export", LAVA_SCHEMA: "lava-export", NIR_SCHEMA: "nir-export"}
 #: regular trains of an event frame: the rate ``snn-fg run`` uses (Hz)
 FRAME_RATE_HZ = 200.0
 #: an input whose rate differs from the one the export's gains are set for by more than this factor
@@ -172,15 +177,17 @@ def export_input(path, shape):
     return inp
 
 
-def decode_counts(network, counts_path):
-    """:class:`~snn_fg.results.maps.Maps` of ``run.py``'s counts for the export of ``network``."""
+def decode_counts(network, counts_path, meta: dict | None = None):
+    """:class:`~snn_fg.results.maps.Maps` of ``run.py``'s counts for the export of ``network`` (``meta``:
+    its ``network.json``, which says what ran it: :data:`EXPORT_RUNNERS`; a PyNN export without it)."""
+    runner = EXPORT_RUNNERS.get((meta or {}).get("schema"), EXPORT_RUNNERS[PYNN_SCHEMA])
     try:
         result = read_counts(network, counts_path)
     except InputError:
         raise
     except (OSError, ValueError, KeyError) as e:
         raise InputError(counts_path, f"not a run.py counts file of this export ({type(e).__name__}: {e})") from None
-    return _maps(network, result, {"name": "pynn-export", "counts": str(counts_path)})
+    return _maps(network, result, {"name": runner, "counts": str(counts_path)}, runner)
 
 
 def reference_maps(network, like: Maps, input_path, backend: str = "fast") -> Maps:
@@ -198,17 +205,17 @@ def reference_maps(network, like: Maps, input_path, backend: str = "fast") -> Ma
         duration_ms=duration, dt_ms=float(sim["dt_ms"]), count_from_ms=duration - window, instantiate="all"
     )
     result = get_backend(backend).simulate(net, inp, settings)
-    return _maps(network, result, {"name": backend, "input": str(input_path)})
+    return _maps(network, result, {"name": backend, "input": str(input_path)}, like.params["network"]["origin"])
 
 
-def _maps(network, result, backend: dict) -> Maps:
-    """The maps of a board network's run (``result``), with what made them."""
+def _maps(network, result, backend: dict, origin: str) -> Maps:
+    """The maps of a board network's run (``result``), with what made them (``origin``: the export's kind)."""
     fg_x, fg_y, grouping, conf = decode_maps(result)
     params = {
         "model": "spiking",
         **network.params.to_dict(),
         "network": {
-            "origin": "pynn-export",
+            "origin": origin,
             "frame_shape": list(network.frame_shape),
             "input_rate_hz": network.input_rate_hz,
         },

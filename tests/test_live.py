@@ -401,7 +401,8 @@ def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(
     record = json.loads((tmp_path / "live" / "live.json").read_text())
     assert record["skip_behind"] == 3
     assert record["events_received"] == sent == len(ev) and record["packets_malformed"] == 1
-    assert record["windows"] == 3 and record["windows_dropped"] == 0 and record["ended"].startswith("the sender")
+    assert record["windows"] == 3 and record["windows_dropped"] == 0
+    assert record["ended"] == "the sender stopped: no packet for 0.5 s (--idle-s)"  # (UDP has no close of its own)
     assert record["latency_ms"]["max"] >= record["latency_ms"]["p95"] >= record["latency_ms"]["median"] > 0
     assert record["warm_up_s"] > 0 and not any(w["drop_before"] for w in record["per_window"])
     lines = inbox.read()
@@ -413,6 +414,16 @@ def test_live_over_udp_writes_the_maps_snn_fg_run_writes_on_the_same_events(
     ready = [x for x in said.out.splitlines() if "ready" in x]
     assert len(ready) == 1 and "warmed up in" in ready[0]
     assert ("the live page is on http://127.0.0.1:" in ready[0]) == ("--view" in model)
+
+
+def test_a_udp_stream_without_a_sensor_size_is_one_line_naming_the_option(tmp_path, capsys):
+    """The command line names its option, not the Python API's keyword (until 30 Nov it gave both)."""
+    assert main(["live", "udp://127.0.0.1:9", "--out", str(tmp_path / "o")]) == 2
+    said = capsys.readouterr().err.strip().splitlines()
+    assert said == [
+        "snn-fg: error: udp://127.0.0.1:9: a UDP (SPIF) stream has no sensor size of its own; give --sensor-size WxH"
+    ]
+    assert not (tmp_path / "o").exists()
 
 
 def test_a_tcp_subscriber_that_is_not_there_is_said_in_one_line(tmp_path, capsys):
@@ -650,7 +661,7 @@ def test_a_live_run_that_dropped_windows_numbers_the_others_as_the_stream_does(t
 
     options = {**overview_options(maps, out), "max_rows": 3}
     fig = maps_figure(input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
-    assert "; 3 of 4 windows shown, evenly spaced: 0, 4, 5;" in fig._suptitle.get_text()
+    assert "; 3 of 4 windows shown, evenly spaced among the 4: 0, 4, 5;" in fig._suptitle.get_text()
     timeline = timeline_figure(window_rows(maps), 40.0, shown=[0, 2, 3])
     assert [t.get_text() for t in timeline.axes[0].texts] == ["0", "4", "5"]
     # the dropped windows' time shaded on every panel (a blank before: a new user's report)

@@ -25,7 +25,7 @@ import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events import spif
-from snn_fg.events._core import as_events, check_sensor_size
+from snn_fg.events._core import SENSOR_SIZE, as_events, check_sensor_size
 from snn_fg.events.clock import ARRIVAL, SENDER
 from snn_fg.events.live_dv import CAMERA, CameraSource, DvSource
 from snn_fg.events.live_screen import BATCH
@@ -56,9 +56,7 @@ def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 
     scheme, host, port = parse_address(url)
     if scheme == "udp":
         if sensor_size is None:
-            raise InputError(
-                url, "a UDP (SPIF) stream has no sensor size of its own: give --sensor-size WxH (sensor_size=(W, H))"
-            )
+            raise InputError(url, "a UDP (SPIF) stream has no sensor size of its own", remedy=SENSOR_SIZE)
         return UdpSource(url, host, port, sensor_size, wait_s=wait_s, idle_s=idle_s)
     return DvSource(url, host, port, sensor_size, wait_s=wait_s)
 
@@ -104,6 +102,8 @@ class UdpSource:
     def __init__(self, url, host, port, sensor_size, *, wait_s: float = 30.0, idle_s: float = 1.0):
         self.name, self.sensor_size = url, (int(sensor_size[0]), int(sensor_size[1]))
         self.wait_s, self.idle_s, self.malformed, self.closed = wait_s, idle_s, 0, False
+        # (UDP has no end of its own: the stream ends when it falls silent; live.json's ``ended``)
+        self.ended_by = f"the sender stopped: no packet for {idle_s:g} s (--idle-s)"
         self.clock = SENDER
         self.packets_lost = None  # (read as the socket closes: _udp_drops)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)

@@ -175,7 +175,10 @@ def shown_note(shown, n: int, what: str = "windows", labels=None) -> str:
     if len(shown) == n:
         return ""
     listed = ", ".join(str(i if labels is None else labels[i]) for i in shown)
-    return f"{len(shown)} of {n} {what} shown, evenly spaced: {listed}"
+    # (labels that are not the rows' places, a live run's window numbers with windows dropped or skipped
+    # between: evenly spaced among the rows, not by number)
+    among = f" among the {n}" if labels is not None and any(labels[i] != i for i in shown) else ""
+    return f"{len(shown)} of {n} {what} shown, evenly spaced{among}: {listed}"
 
 
 #: height of a map panel in a figure of several rows, inches (a frame's: PANEL_IN)

@@ -37,6 +37,8 @@ DROP_POLICY = (
     "decoded (windows_skipped): the network takes its events all the same, and a newer hop's maps are made in its "
     "place"
 )
+#: live.json's ``ended`` when the stream ended by itself (a UDP source says it went silent: ``ended_by``)
+SENDER_CLOSED = "the sender closed the stream"
 #: a window's ``completed_by`` when no event past its read-out came: the end of the stream completed it
 END_OF_STREAM = "the end of the stream"
 #: seconds a TCP subscriber is given to take a line before publishing stops

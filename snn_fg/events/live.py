@@ -53,8 +53,9 @@ _END = object()
 #: seconds of arrivals between two samples of the CPU used (two clock reads: nothing beside a packet's 117 us)
 CPU_SAMPLE_S = 0.01
 #: with --hop-ms, how many hops behind the stream the model may be when a hop's read-out is due before it is
-#: skipped (--skip-behind): with 1, the compact network on one core skipped 3-16 of the 533 hops of dvs.es looped
-#: 6 times (its latency 95th percentile 9-11 ms); with 2 it made every one (p95 9-11 ms, worst 19-21 ms; 30 Nov)
+#: skipped (--skip-behind): with 1, the compact network on its blocks on one core made 517-530 of the 533 hops of
+#: dvs.es looped 6 times; with 2, 530-533 (p95 9-12 ms, worst 19-23 ms), and 533 with the store made in the
+#: warm-up (30 Nov, docs/live.md "Measured")
 SKIP_BEHIND = 2
 
 

@@ -88,8 +88,8 @@ def test_two_stills_are_compared_in_the_words_of_a_still(tmp_path, capsys):
     assert main(["compare", str(tmp_path / "photo_spk"), str(tmp_path / "photo_rate"), "--no-baseline"]) == 0
     out = " ".join(capsys.readouterr().out.split())
     assert (
-        "run B's model with A's --network: snn-fg run data/phone.jpg --model rate --network compact --image-scale 0.12"
-        in out
+        "run B's model with A's --network: snn-fg run data/phone.jpg --out DIR --model rate --network compact "
+        "--image-scale 0.12" in out
     )
     assert "REC" not in out and "window" not in out.lower() and "recording" not in out
     assert "The frame: A within 45° of B on 100.0% of 20 pixels" in out and "A, B, t: - (each map is one frame)" in out

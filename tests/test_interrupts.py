@@ -119,6 +119,7 @@ def test_an_interrupted_recording_keeps_its_complete_windows_and_resumes(inputs,
     assert len(lines) == 1 and "interrupted" in lines[0] and "--resume" in lines[0], err
     n = windows_complete(out)
     assert 2 <= n < 40 and Maps.load(out).fg_x.shape[0] == n
+    assert f"the {n} windows completed so far are in {out}/ (maps.zarr: snn-fg plot {out} draws them)" in lines[0]
     assert not read_attrs(out / "maps.zarr")["snn_fg"]["complete"]
     done = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr

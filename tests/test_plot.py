@@ -67,6 +67,14 @@ def test_plot_draws_chosen_windows_one_figure_each_on_one_scale(run, capsys):
     assert "snn-fg plot draws a recording's run" in capsys.readouterr().err
     assert main(["plot", str(run / "nothere")]) == 2
     assert capsys.readouterr().err.strip().endswith("nothere: no such folder")
+    # a crop off the sensor: one line naming the run and the option (until 30 Nov: the figure's function)
+    assert main(["plot", str(run), "--windows", "2", "--crop", "10,10,100,50"]) == 2
+    said = capsys.readouterr().err.strip().splitlines()
+    assert said == [
+        f"snn-fg: error: {run}: --crop: crop x0,y0,x1,y1 = 10,10,100,50 must satisfy 0 <= x0 < x1 <= 64 "
+        "and 0 <= y0 < y1 <= 64 (the frame is 64 x 64)"
+    ]
+    assert not (run / "windows" / "window_0002.png").exists()
 
 
 @pytest.mark.parametrize("name", ["maps.gif", "maps.mp4"])

@@ -166,7 +166,11 @@ def test_resume_with_a_larger_max_windows_goes_on_and_a_smaller_one_writes_nothi
     monkeypatch.setattr(
         runner, "_append_window", lambda store, w, maps: (appended.append(w.index), real(store, w, maps))
     )
+    capsys.readouterr()
     assert main(["run", *common, "--out", str(grown), "--max-windows", "5", "--resume"]) == 0
+    # (said where it goes on from: until 30 Nov a resumed run said nothing before its end)
+    said = capsys.readouterr().out.splitlines()
+    assert said[0] == f"snn-fg: the run in {grown}/ holds 3 complete windows: continuing from window 3"
     monkeypatch.setattr(runner, "_append_window", real)
     assert appended == [3, 4]  # (from where the store ended, not again from the start)
     a, b = Maps.load(grown), Maps.load(fresh)

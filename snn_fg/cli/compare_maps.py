@@ -376,7 +376,8 @@ def rerun(a: Maps, b: Maps) -> str:
         f" --{k.replace('_', '-')} {v:g}" if isinstance(v, float) else f" --{k.replace('_', '-')} {v}" for k, v in given
     )
     model = b.params.get("model", "rate")
-    return f": snn-fg run {source.get('input', 'INPUT')} --model {model} --network {network}{options}"
+    # (with an output folder to name: until 30 Nov the command lacked --out and could not run as printed)
+    return f": snn-fg run {source.get('input', 'INPUT')} --out DIR --model {model} --network {network}{options}"
 
 
 def expectations(a: Maps, b: Maps) -> list[str]:

@@ -14,7 +14,7 @@ from ..errors import InputError
 from ..models import MODELS
 from ..results.animation import SUFFIXES, save_animation
 from ..results.figures import on_sensor, save_maps_figure
-from ..results.maps import Maps
+from ..results.maps import Maps, maps_scale
 from ..results.outputs import WINDOW_FIGURE, check_output_file
 from ..results.overview import (
     input_images,
@@ -24,6 +24,7 @@ from ..results.overview import (
 )
 from ..results.store import STORE_NAME
 from ..results.timeline import TABLE_NAME, TIMELINE_NAME, window_numbers
+from ..validate import check_crop
 from .options import crop, number, subcommand
 
 #: the animation's name in the run's folder when --animate names no file
@@ -98,7 +99,11 @@ def _recording_maps(run: Path) -> tuple[Path, Maps]:
     if not run.exists():
         raise InputError(run, "no such folder")
     if not (folder / STORE_NAME).is_dir():
-        what = "a frame's run (maps.npz): its figure is maps.png" if (folder / "maps.npz").is_file() else "no run"
+        what = (
+            "a frame's run (maps.npz): its figure is maps.png (snn-fg run ... --crop X0,Y0,X1,Y1 draws a part)"
+            if (folder / "maps.npz").is_file()
+            else "no run"
+        )
         raise InputError(run, f"holds {what}; snn-fg plot draws a recording's run (its maps.zarr)")
     maps = Maps.load(folder / STORE_NAME)
     if maps.fg_x.shape[0] == 0:
@@ -113,6 +118,9 @@ def cmd_plot(args) -> int:
     label = "grouping" if model is None else model.grouping_label
     if args.out is not None and args.windows is None:
         raise InputError(f"--out {args.out}", "names the folder of the --windows figures: give --windows")
+    if args.crop is not None:  # (checked on the sensor's pixels, the run named: before, the figure's function was)
+        h, w, s = *maps.fg_x.shape[1:], maps_scale(maps.params)
+        check_crop(args.crop, (h * s, w * s), owner=f"{args.run}: --crop")
     written = []
     if args.windows is not None:
         numbers = window_numbers(maps)

@@ -222,9 +222,7 @@ def _run_recording(args, model) -> str | None:
     out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
     if _nothing_to_resume(args, out, source.get("max_windows")):
         return None
-    args.interrupt_note = (
-        f"the windows completed so far are in {args.out}/; the same command with --resume continues from the last one"
-    )
+    args.interrupt_note = _interrupted(args.out, None)
     options = {"crop": args.crop, "figures": not args.no_figures, "resume": bool(args.resume)}
     key = {"run_key": run_key(args), "may_differ": WINDOW_LIMITS}
     n = _settled(args, out, previous, lambda: run_recording(model, windows, out, source, **options, **key))
@@ -232,6 +230,19 @@ def _run_recording(args, model) -> str | None:
         kept = store_arrays(out / STORE_NAME, n)
         print("snn-fg: " + pairing_note(kept["t_end_us"], kept["aps_index"], kept.get("aps_t_us")))
     return f"{n} window{'s' if n != 1 else ''}, " + ", ".join(sorted(p.name for p in out.iterdir()))
+
+
+def _interrupted(folder: str, n: int | None, earlier: bool = False) -> str:
+    """What an interrupted recording run left in ``folder``: its ``n`` windows (None: not known yet), or
+    nothing (``earlier``: the earlier run that ``--force`` would have replaced is back), as a live run says it."""
+    if n == 0:
+        kept = f"; the earlier run in {folder}/ is kept" if earlier else ""
+        return f"no window was complete: nothing written{kept}"
+    kept = "the windows" if n is None else f"the {n} window{'s' if n != 1 else ''}"
+    return (
+        f"{kept} completed so far are in {folder}/ (maps.zarr: snn-fg plot {folder} draws them); "
+        "the same command with --resume continues from the last one"
+    )
 
 
 def _settled(args, out, previous, run) -> int:
@@ -259,8 +270,11 @@ def _settled(args, out, previous, run) -> int:
         if not earlier:
             raise
         raise InputError(exc.source, f"{exc.problem}; the earlier run in {args.out}/ is kept", exc.where) from None
-    except BaseException:  # (refused before its first window: nothing to keep)
-        settle_folder(out, previous, keep_new=bool(windows_complete(out)))
+    except BaseException as exc:  # (refused before its first window: nothing to keep)
+        n, earlier = windows_complete(out), previous is not None and any(previous.iterdir())
+        settle_folder(out, previous, keep_new=bool(n))
+        if isinstance(exc, KeyboardInterrupt):  # (the note says how many windows were kept)
+            args.interrupt_note = _interrupted(args.out, n, earlier)
         raise
     settle_folder(out, previous, keep_new=True)
     return n
@@ -313,4 +327,6 @@ def _nothing_to_resume(args, out, asked: int | None) -> bool:
     if complete and not goes_on(attrs, asked):
         print(f"snn-fg: the run in {args.out}/ is finished already ({n} windows): nothing to resume, nothing written")
         return True
+    if n:  # (said before the work: a resumed run's progress counts the windows read again too)
+        print(f"snn-fg: the run in {args.out}/ holds {n} complete windows: continuing from window {n}", flush=True)
     return False

@@ -145,6 +145,19 @@ def test_the_closing_line_says_whether_the_model_or_the_machine_fell_behind():
     kept, verdict = closing(windows_dropped=0, cpu_s=3.0, model_cpu_s=2.5)
     assert verdict is None and "while the stream came" not in kept  # (nothing fell behind: nothing to explain)
     assert closing(windows_dropped=0, windows_skipped=3, cpu_s=3.0, model_cpu_s=2.5)[1] is not None  # (hops)
+    # the stream's first windows fell behind (dvs.es from its start, its start-up burst): a share of the CPU over
+    # the whole stream called other programs the cause (a new user's trial, 30 Nov); said as what it is
+    start = {"windows_dropped": 0, "windows_skipped": 17, "skipped_windows": [[0, 16]], "cpu_s": 9.2, "model_cpu_s": 7}
+    assert closing(**start)[1] == (
+        "only the stream's first windows fell behind (0-16), and the model kept up after them (the run used 46% of "
+        "its 2 cores while the stream came): a recording's start-up burst, events on most of the sensor, does this "
+        "(--start-ms past it)"
+    )
+    later = {**start, "windows_skipped": 19, "skipped_windows": [[1, 16], [40, 40]], "dropped_windows": [[17, 17]]}
+    assert closing(**later)[1] == (
+        "the run used 46% of its 2 cores while the stream came: other programs had the rest, and the model waited "
+        "for them; 17 of them at the stream's start (windows 1-17)"
+    )
 
 
 class _Early(_Source):

@@ -226,9 +226,33 @@ def why_behind(summary: dict) -> str | None:
         )
     run, model = summary["cpu_s"] / (wall * cores), summary["model_cpu_s"] / wall
     said = f"the run used {run:.0%} of its {cores} core{'s' if cores != 1 else ''} while the stream came"
+    start = _at_the_start(summary)
+    if start is not None and start[1] - start[0] + 1 == behind:  # (all of them: the stream's start, then caught up)
+        return (
+            f"only the stream's first windows fell behind ({start[0]}-{start[1]}), and the model kept up after them "
+            f"({said}): a recording's start-up burst, events on most of the sensor, does this (--start-ms past it)"
+        )
     if run >= BUSY_SHARE or model >= BUSY_SHARE:
-        return f"{said}: the model is slower than the stream on this machine"
-    return f"{said}: other programs had the rest, and the model waited for them"
+        verdict = f"{said}: the model is slower than the stream on this machine"
+    else:
+        verdict = f"{said}: other programs had the rest, and the model waited for them"
+    if start is not None:  # (a share over the whole stream does not tell a burst at its start apart: said too)
+        verdict += f"; {start[1] - start[0] + 1} of them at the stream's start (windows {start[0]}-{start[1]})"
+    return verdict
+
+
+def _at_the_start(summary: dict) -> tuple[int, int] | None:
+    """The windows skipped or dropped in one run from the stream's first ones on (``[first, last]``, first
+    at most 1: the first window itself completes a stream's first slot), or None."""
+    ranges = sorted([*(summary.get("skipped_windows") or ()), *(summary.get("dropped_windows") or ())])
+    if not ranges or ranges[0][0] > 1:
+        return None
+    first, last = ranges[0]
+    for a, b in ranges[1:]:  # (a hop skipped and the windows dropped after it: one run)
+        if a > last + 1:
+            break
+        last = max(last, b)
+    return int(first), int(last)
 
 
 class LiveModel:

@@ -242,8 +242,8 @@ def why_behind(summary: dict) -> str | None:
 
 
 def _at_the_start(summary: dict) -> tuple[int, int] | None:
-    """The windows skipped or dropped in one run from the stream's first ones on (``[first, last]``, first
-    at most 1: the first window itself completes a stream's first slot), or None."""
+    """The windows skipped or dropped in one unbroken run from the stream's start (``[first, last]``, with
+    ``first`` its first or second window), or None."""
     ranges = sorted([*(summary.get("skipped_windows") or ()), *(summary.get("dropped_windows") or ())])
     if not ranges or ranges[0][0] > 1:
         return None

@@ -69,6 +69,17 @@ def test_three_recordings_on_a_local_cluster_one_broken(folder, tmp_path, capsys
     assert main(["run", str(folder), "--out", str(out), "--workers", "1", *opts]) == 1
     again = _summary(out)
     assert [again[k]["status"] for k in sorted(again)] == ["skipped", "failed", "skipped"]
+    # a rerun with other options keeps nothing made with the old ones as if it were theirs: each finished run is
+    # refused in one line (until 30 Nov it was skipped, its 60 ms windows read as the 50 ms ones asked for)
+    before = Maps.load(out / "a").fg_x
+    assert main(["run", str(folder), "--out", str(out), "--workers", "1", *opts[:1], "50", *opts[2:]]) == 1
+    other = _summary(out)
+    assert [other[k]["status"] for k in sorted(other)] == ["failed", "failed", "failed"]
+    assert other["a.npy"]["error"] == (
+        f"{out / 'a'}: holds a finished run made with other options (these differ: window_ms (60.0 before, 50.0 "
+        "now)); --force replaces it"
+    )
+    np.testing.assert_array_equal(Maps.load(out / "a").fg_x, before)
 
 
 def test_inputs_a_folder_a_glob_or_a_list_name(folder, tmp_path):

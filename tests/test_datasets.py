@@ -97,6 +97,16 @@ def _files_under(folder):
     return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
 
 
+def test_each_dataset_names_the_sources_of_its_own_files():
+    """``snn-fg data info events`` listed the davis dataset's file among its sources (five for four files)."""
+    from snn_fg.datasets.catalogue import DATASETS, RECORDING_URLS
+
+    events, davis = DATASETS["events"], DATASETS["davis"]
+    assert events.source.count("https://") == len(events.files) == 4
+    assert RECORDING_URLS["aedat_davis346_street.aedat4"] not in events.source
+    assert RECORDING_URLS["aedat_davis346_street.aedat4"] in davis.source
+
+
 def test_the_environment_variable_chooses_the_data_folder(tmp_path, monkeypatch):
     monkeypatch.setenv(datasets.ENV_VAR, str(tmp_path))
     assert datasets.data_root() == tmp_path

@@ -252,3 +252,19 @@ def test_the_figures_say_which_model_and_network_made_the_maps(tmp_path):
     assert fig._suptitle.get_text() == "The spiking model on the compact network (fast backend)"
     assert main(["run", "demo", "--out", str(tmp_path / "demo"), "--no-progress"]) == 0
     assert Maps.load(tmp_path / "demo").params["model"] == "rate"
+
+
+def test_the_fbfg_model_on_an_image_names_its_input_panel_the_image(tmp_path, monkeypatch):
+    """Its figure's input panel is the image it read: the key said "the event frame ... white ON, black OFF"
+    beside a colour photo (a new user's trial, 30 Nov); an events model's keeps the event frame's key."""
+    import snn_fg.results.figures as figures
+    from snn_fg.models import get_model
+    from snn_fg.results.figures import IMAGE_INPUT
+
+    said = []
+    monkeypatch.setattr(figures, "save_maps_figure", lambda path, *a, **k: said.append(k.get("input_note")))
+    z = np.zeros((8, 8))
+    for name in ("fbfg", "rate"):
+        get_model(name).write_figures(tmp_path, Maps(z, z, z, {"model": name}), [np.zeros((8, 8, 3))])
+    assert said == [IMAGE_INPUT, None]  # (None: maps_figure's own, the event frame's)
+    assert IMAGE_INPUT.startswith("input: the image")

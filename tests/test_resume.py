@@ -167,7 +167,10 @@ def test_resume_with_a_larger_max_windows_goes_on_and_a_smaller_one_writes_nothi
         runner, "_append_window", lambda store, w, maps: (appended.append(w.index), real(store, w, maps))
     )
     capsys.readouterr()
-    assert main(["run", *common, "--out", str(grown), "--max-windows", "5", "--resume"]) == 0
+    # (a default typed out is the run's own: --window-ms 60 here, --start-ms 0 and a stride of the window's length,
+    # not given before; until 30 Nov each was refused as "not given before, 0.0 now")
+    again = ["--start-ms", "0", "--stride-ms", "60"]
+    assert main(["run", *common, *again, "--out", str(grown), "--max-windows", "5", "--resume"]) == 0
     # (said where it goes on from: until 30 Nov a resumed run said nothing before its end)
     said = capsys.readouterr().out.splitlines()
     assert said[0] == f"snn-fg: the run in {grown}/ holds 3 complete windows: continuing from window 3"

@@ -36,7 +36,7 @@ from ..frames.still import input_kind
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
 from ..results.progress import bar as progress_bar
-from ..results.store import STORE_NAME, read_attrs, windows_complete
+from ..results.store import STORE_NAME, read_attrs, stored_run, windows_complete
 
 #: the summary table's name in the output folder, and its columns
 SUMMARY_NAME = "summary.csv"
@@ -132,9 +132,19 @@ def run_job(options: dict, command) -> dict:
         "error": "",
     }
     store = out / STORE_NAME
+    finished = False
     with contextlib.suppress(SnnFgError):
-        if store.is_dir() and not options["force"] and read_attrs(store)["snn_fg"]["complete"]:
-            return {**row, "status": "skipped", "windows": windows_complete(out)}
+        finished = store.is_dir() and not options["force"] and read_attrs(store)["snn_fg"]["complete"]
+    if finished:  # (skipped only when made with these options: until 30 Nov, whatever options had made it)
+        from .run import WINDOW_LIMITS, run_key
+
+        try:
+            stored_run(store, run_key(argparse.Namespace(**options)), WINDOW_LIMITS)
+        except InputError as exc:
+            differ = exc.problem.partition("these differ: ")[2]
+            said = f"{out}: holds a finished run made with other options (these differ: {differ}); --force replaces it"
+            return {**row, "status": "failed", "error": said}
+        return {**row, "status": "skipped", "windows": windows_complete(out)}
     t = time.perf_counter()
     args = argparse.Namespace(**{**options, "resume": True if store.is_dir() and not options["force"] else None})
     err, caught = io.StringIO(), []

@@ -10,12 +10,14 @@ window by window into a folder that a run cut short keeps for ``--resume``
 
 from __future__ import annotations
 
+import inspect
 import math
 
 from ..errors import InputError
 from ..events.aps import FramedWindows, pairing_note, require_frames
 from ..events.esim import MOTIONS
 from ..events.identity import input_keys
+from ..events.window import iter_windows
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..frames.still import RATE_BYTES_PER_PIXEL, SPIKING_BYTES_PER_PIXEL, input_kind, load_frame
@@ -303,8 +305,18 @@ _NOT_IN_RUN_KEY = (
 
 
 def run_key(args) -> dict:
-    """What a continued run (--resume) must share with the run it continues."""
-    return {k: v for k, v in sorted(vars(args).items()) if k not in _NOT_IN_RUN_KEY}
+    """What a continued run (--resume) must share with the run it continues: a window option given
+    at its default counts as not given (``--window-ms 85``, ``--start-ms 0``, a stride of the window's
+    length), so that typing a default out continues a run made without it (until 30 Nov: refused)."""
+    key = {k: v for k, v in sorted(vars(args).items()) if k not in _NOT_IN_RUN_KEY}
+    defaults = inspect.signature(iter_windows).parameters
+    for name in ("window_ms", "start_ms"):
+        if key.get(name) is not None and float(key[name]) == float(defaults[name].default):
+            key[name] = None
+    window = key.get("window_ms") if key.get("window_ms") is not None else defaults["window_ms"].default
+    if key.get("stride_ms") is not None and float(key["stride_ms"]) == float(window):
+        key["stride_ms"] = None
+    return key
 
 
 def _nothing_to_resume(args, out, asked: int | None) -> bool:

@@ -95,7 +95,9 @@ def _catalogue() -> dict[str, Dataset]:
             download="5.5 MB",
             description="four real event-camera recordings: dvs.es (a toy biplane, ATIS, 1 s), a person "
             "(DVXplorer, AEDAT4), a spinning dot (Prophesee EVT2), an N-MNIST digit",
-            source="test data of the packages that read these formats: " + ", ".join(RECORDING_URLS.values()),
+            # (its own files' sources: the davis dataset's file is listed there, not here)
+            source="test data of the packages that read these formats: "
+            + ", ".join(f.url for f in files["events"] if f.url),
             licence="the packages' licences: event_stream and tonic GPL-3.0, expelliarmus GPL-2.0",
         ),
         Dataset(

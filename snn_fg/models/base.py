@@ -101,9 +101,11 @@ class Model(ABC):
     def write_figures(self, out: Path, maps: Maps, inputs, titles=None, crop=None, **options) -> list[Path]:
         """Figures of a run into folder ``out``; ``inputs`` one image per frame; ``crop``
         ``(x0, y0, x1, y1)``: the part drawn; ``options``: more :func:`~snn_fg.results.figures.maps_figure` keywords."""
-        from ..results.figures import on_sensor, save_maps_figure
+        from ..results.figures import IMAGE_INPUT, on_sensor, save_maps_figure
 
         options.setdefault("made_by", made_by(maps.params))
+        if self.needs == "image":  # (its panel is the image it read, not an event frame: until 30 Nov said as one)
+            options.setdefault("input_note", IMAGE_INPUT)
         if "placed" not in options:  # (maps kept on blocks: drawn at the sensor's coordinates)
             options.update(on_sensor(maps.params, crop, maps.fg_x.shape))
             crop = options.pop("crop")

@@ -111,6 +111,8 @@ def plot_maps_row(axes, input_img, fields, title: str = "", *, norm=None, extent
 #: what the key says the input column shows: a window's events, or the APS frame the frame-based model ran on
 EVENTS_INPUT = "input: the event frame (a window's events, or an image's)\nwhite ON, black OFF, grey none"
 APS_INPUT = "input: the camera's APS frame\nthe fbfg model ran on"
+#: the input column's note for a model that reads an image itself (fbfg on a photo: its panel is the image)
+IMAGE_INPUT = "input: the image\nthe fbfg model ran on"
 
 
 #: the narrowest column (inches) the key's words fit in: a portrait frame's panels are narrower
@@ -217,7 +219,7 @@ def maps_figure(
     pixel ``(0, 0)`` its ``scale x scale`` pixels from ``(x0, y0)`` on (an export's crop, of
     blocks where it pools; maps kept on blocks: :func:`on_sensor`), drawn at the sensor's
     coordinates (``crop`` then counts the maps' pixels). ``input_note``: what the key says
-    the input column shows (:data:`EVENTS_INPUT`, :data:`APS_INPUT`). ``made_by``: which model made
+    the input column shows (:data:`EVENTS_INPUT`, :data:`APS_INPUT`, :data:`IMAGE_INPUT`). ``made_by``: which model made
     the maps, said in the figure's title (:func:`~snn_fg.results.maps.made_by`).
     """
     # (a recording's maps may be read on indexing, snn_fg.results.store.ZarrArray: only the rows drawn are read)

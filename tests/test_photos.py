@@ -108,7 +108,7 @@ def test_a_photo_is_read_upright_as_its_exif_orientation_says(tmp_path):
 
 def test_an_image_whose_model_would_not_fit_the_memory_is_refused_with_the_scale_that_fits(tmp_path):
     from snn_fg.errors import InputError
-    from snn_fg.frames.still import RATE_BYTES_PER_PIXEL, check_fits
+    from snn_fg.frames.still import RATE_BYTES_PER_PIXEL, check_fits, large_image_note
 
     shape = (3000, 4000)  # 12 MP: 18 GB for the rate model at 1.5 kB a pixel
     with pytest.raises(InputError) as caught:
@@ -117,6 +117,8 @@ def test_an_image_whose_model_would_not_fit_the_memory_is_refused_with_the_scale
     assert "a 4000 x 3000 image: the rate model needs about 18.0 GB for it, more than the 8.0 GB" in said
     scale = float(said.split("--image-scale ")[1].split()[0])
     assert 4000 * 3000 * scale**2 * RATE_BYTES_PER_PIXEL <= 8e9 * 0.8  # (the F it gives fits, with room)
+    # (and is the large-image note's own, which fits too: the two lines gave two scales before)
+    assert f"--image-scale {scale:g} makes it" in large_image_note("phone.jpg", shape)
     check_fits("phone.jpg", shape, "rate model", RATE_BYTES_PER_PIXEL, available=20e9)  # (fits: no error)
 
 

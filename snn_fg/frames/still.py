@@ -104,6 +104,9 @@ def check_fits(spec, shape, model: str, bytes_per_pixel: float, available: float
     if have is None:
         return
     scale = float(f"{(have / need) ** 0.5 * 0.8:.2g}")  # (a fifth to spare: the cost a pixel is a measurement)
+    model_scale = float(f"{MODEL_IMAGE_SIDE / max(h, w):.2g}")
+    if max(h, w) > LARGE_IMAGE_SIDE and model_scale < scale:  # (the large-image note's scale fits too: one said, not
+        scale = model_scale  # two: a new user was told 0.3 by the note and 0.43 by this line, 30 Nov)
     raise InputError(
         spec,
         f"a {w} x {h} image: the {model} needs about {need / 1e9:.1f} GB for it, more than the "

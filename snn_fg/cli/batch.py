@@ -37,6 +37,7 @@ from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
 from ..results.progress import bar as progress_bar
 from ..results.store import STORE_NAME, read_attrs, stored_run, windows_complete
+from .run_options import WINDOW_LIMITS, run_key
 
 #: the summary table's name in the output folder, and its columns
 SUMMARY_NAME = "summary.csv"
@@ -136,8 +137,6 @@ def run_job(options: dict, command) -> dict:
     with contextlib.suppress(SnnFgError):
         finished = store.is_dir() and not options["force"] and read_attrs(store)["snn_fg"]["complete"]
     if finished:  # (skipped only when made with these options: until 30 Nov, whatever options had made it)
-        from .run import WINDOW_LIMITS, run_key
-
         try:
             stored_run(store, run_key(argparse.Namespace(**options)), WINDOW_LIMITS)
         except InputError as exc:

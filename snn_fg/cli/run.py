@@ -10,14 +10,12 @@ window by window into a folder that a run cut short keeps for ``--resume``
 
 from __future__ import annotations
 
-import inspect
 import math
 
 from ..errors import InputError
 from ..events.aps import FramedWindows, pairing_note, require_frames
 from ..events.esim import MOTIONS
 from ..events.identity import input_keys
-from ..events.window import iter_windows
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..frames.still import RATE_BYTES_PER_PIXEL, SPIKING_BYTES_PER_PIXEL, input_kind, load_frame
@@ -27,7 +25,7 @@ from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, 
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
 from .options import add_camera_options, add_image_scale_option, camera_options, crop, number, sensor_size, subcommand
-from .run_options import WINDOW_OPTIONS, add_option_groups, chosen_model
+from .run_options import WINDOW_LIMITS, WINDOW_OPTIONS, add_option_groups, chosen_model, run_key
 from .runner import goes_on, recording_windows, run_recording, run_still
 
 
@@ -280,43 +278,6 @@ def _settled(args, out, previous, run) -> int:
         raise
     settle_folder(out, previous, keep_new=True)
     return n
-
-
-# -- resume: a run continued must be the run it continues ---------------------------------------------------------
-#: run options that say how many windows a run goes to: a run continued may go further than the run it
-#: continues (a spiking run's windows do not depend on how many follow them: its last one is read out
-#: with the events after it, models.spiking.continuous.read_past_the_cut)
-WINDOW_LIMITS = ("max_windows", "end_ms")
-#: run options that do not change a recording's maps (a run may be continued with others)
-_NOT_IN_RUN_KEY = (
-    "out",
-    "force",
-    "resume",
-    "no_progress",
-    "no_figures",
-    "crop",
-    "handler",
-    "command",
-    "interrupted",
-    "interrupt_note",
-    "workers",
-    "scheduler",
-)
-
-
-def run_key(args) -> dict:
-    """What a continued run (--resume) must share with the run it continues: a window option given
-    at its default counts as not given (``--window-ms 85``, ``--start-ms 0``, a stride of the window's
-    length), so that typing a default out continues a run made without it (until 30 Nov: refused)."""
-    key = {k: v for k, v in sorted(vars(args).items()) if k not in _NOT_IN_RUN_KEY}
-    defaults = inspect.signature(iter_windows).parameters
-    for name in ("window_ms", "start_ms"):
-        if key.get(name) is not None and float(key[name]) == float(defaults[name].default):
-            key[name] = None
-    window = key.get("window_ms") if key.get("window_ms") is not None else defaults["window_ms"].default
-    if key.get("stride_ms") is not None and float(key["stride_ms"]) == float(window):
-        key["stride_ms"] = None
-    return key
 
 
 def _nothing_to_resume(args, out, asked: int | None) -> bool:

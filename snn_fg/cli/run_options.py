@@ -6,9 +6,11 @@ ask for (:func:`chosen_model`)."""
 from __future__ import annotations
 
 import argparse
+import inspect
 
 from ..backends import DEFAULT_BACKEND, backend_names
 from ..errors import InputError
+from ..events.window import iter_windows
 from ..frames.pool import MAPS_GRIDS
 from ..frames.still import KIND_NAMES, image_scale_refusal
 from ..models import MODELS, get_model
@@ -325,3 +327,40 @@ def chosen_model(args, kind):
             "the sensor's grid already; blocks are for a network that pools its input (--network compact)",
         )
     return get_model(args.model, params, iterations_bar(args.no_progress), **options)
+
+
+# -- resume: a run continued must be the run it continues ---------------------------------------------------------
+#: run options that say how many windows a run goes to: a run continued may go further than the run it
+#: continues (a spiking run's windows do not depend on how many follow them: its last one is read out
+#: with the events after it, models.spiking.continuous.read_past_the_cut)
+WINDOW_LIMITS = ("max_windows", "end_ms")
+#: run options that do not change a recording's maps (a run may be continued with others)
+_NOT_IN_RUN_KEY = (
+    "out",
+    "force",
+    "resume",
+    "no_progress",
+    "no_figures",
+    "crop",
+    "handler",
+    "command",
+    "interrupted",
+    "interrupt_note",
+    "workers",
+    "scheduler",
+)
+
+
+def run_key(args) -> dict:
+    """What a continued run (--resume) must share with the run it continues: a window option given
+    at its default counts as not given (``--window-ms 85``, ``--start-ms 0``, a stride of the window's
+    length), so that typing a default out continues a run made without it (until 30 Nov: refused)."""
+    key = {k: v for k, v in sorted(vars(args).items()) if k not in _NOT_IN_RUN_KEY}
+    defaults = inspect.signature(iter_windows).parameters
+    for name in ("window_ms", "start_ms"):
+        if key.get(name) is not None and float(key[name]) == float(defaults[name].default):
+            key[name] = None
+    window = key.get("window_ms") if key.get("window_ms") is not None else defaults["window_ms"].default
+    if key.get("stride_ms") is not None and float(key["stride_ms"]) == float(window):
+        key["stride_ms"] = None
+    return key

@@ -40,6 +40,17 @@ def test_summary(recording, capsys):
     assert "300 (ON 33.3 %)" in out
     assert "0.299000 s" in out
     assert f"{300 / 0.299:,.0f} events/s" in out
+    assert "format:     es\n" in out  # (streamed: nothing said)
+
+
+def test_a_format_read_whole_says_what_that_means(recording, tmp_path, capsys):
+    """An .npz is read into memory whole (an .es is streamed): said as that, not "(read whole)" alone."""
+    from snn_fg.events import save_events
+
+    _, ev = recording
+    path = save_events(tmp_path / "rec.npz", ev, (20, 10))
+    assert run([path]) == 0
+    assert "format:     npz (read into memory whole, not streamed)" in capsys.readouterr().out
 
 
 def test_write_frame_of_chosen_window(recording, tmp_path):

@@ -228,7 +228,7 @@ def _recording_lines(path, args):
         t_last = int(chunk["t"][-1])
     lines = [
         ("file", str(path) if source is args.input else DEMO_SAID),
-        ("format", f"{stream.format}" + ("" if stream.streams else " (read whole)")),
+        ("format", f"{stream.format}" + ("" if stream.streams else " (read into memory whole, not streamed)")),
         ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}"),
     ]
     lines += _span_lines(n, n_on, t_first or 0, t_last or 0)

@@ -25,6 +25,7 @@ from ..events import (
 )
 from ..events.activity import activity, saturated_lines, timeline_text
 from ..events.aps import frame_summary, open_frames
+from ..events.cutter import WINDOW_MS
 from ..events.esim import MOTIONS
 from ..events.images import IMAGE_SUFFIXES, read_image
 from ..frames.still import image_scale_refusal, simulator_cost, sized_image
@@ -58,7 +59,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     g.add_argument(
         "--window-ms",
         type=float,
-        default=85.0,
+        default=WINDOW_MS,
         help="window length of the activity timeline and --write-frame (default 85, as snn-fg run)",
     )
     g.add_argument(

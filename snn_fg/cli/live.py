@@ -16,6 +16,7 @@ from contextlib import ExitStack, closing
 
 from ..errors import InputError
 from ..events.clock import clock_keys
+from ..events.cutter import WINDOW_MS
 from ..events.live import SKIP_BEHIND
 from ..models import MODELS
 from ..models.live import live_stream, open_warmed
@@ -26,7 +27,7 @@ from ..results.publish import END_OF_STREAM, SENDER_CLOSED, LiveModel, Publisher
 from ..results.store import windows_complete
 from .options import number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
-from .runner import run_recording
+from .runner import nothing_written, run_recording
 
 #: options of ``snn-fg run`` that a live run cannot use, and why: left out of ``snn-fg live --help``, refused in one
 #: line (until 29 Nov --end-ms, --denoise-us and --refractory-us were offered and silently ignored)
@@ -132,7 +133,7 @@ def cmd_live(args) -> int:
         raise InputError(f"--view-host {args.view_host}", "serves the page of --view PORT, which is not given")
     model = chosen_model(args, "recording")
     check_output_folder(args.out, force=args.force)  # (before the warm-up: a folder refused at once, nothing touched)
-    window_ms = args.window_ms if args.window_ms is not None else 85.0
+    window_ms = args.window_ms if args.window_ms is not None else WINDOW_MS
     with ExitStack() as opened:  # (what is open so far is closed on an error)
         publisher = opened.enter_context(closing(Publisher(args.publish))) if args.publish else None
         view = None
@@ -206,7 +207,7 @@ def _interrupted_note(folder: str, kept: int, earlier: bool, summary: dict | Non
             f"the {kept} window{s} complete so far {are} in {folder}/ with live.json, without figures: "
             f"snn-fg plot {folder} draws {them}" + (f"; besides {them}, {counts}{why}" if counts else "")
         )
-    return "no window was complete: nothing written" + (f"; the earlier run in {folder}/ is kept" if earlier else "")
+    return nothing_written(folder, earlier)
 
 
 def _behind_text(summary: dict) -> tuple[str, str]:

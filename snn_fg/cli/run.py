@@ -14,6 +14,7 @@ import math
 
 from ..errors import InputError
 from ..events.aps import FramedWindows, pairing_note, require_frames
+from ..events.cutter import WINDOW_MS
 from ..events.esim import MOTIONS
 from ..events.identity import input_keys
 from ..frames.pool import pooled_shape
@@ -26,7 +27,7 @@ from ..validate import check_crop
 from .batch import is_dataset, run_dataset
 from .options import add_camera_options, add_image_scale_option, camera_options, crop, number, sensor_size, subcommand
 from .run_options import WINDOW_LIMITS, WINDOW_OPTIONS, add_option_groups, chosen_model, run_key
-from .runner import goes_on, recording_windows, run_recording, run_still
+from .runner import goes_on, nothing_written, recording_windows, run_recording, run_still
 
 
 def add_run_command(sub):
@@ -189,7 +190,7 @@ def _windows(args, model):
     )
     if model.needs == "image":  # (a recording without frames, or of frames of another size: one line)
         windows = FramedWindows(windows, require_frames(args.input, sensor), sensor)
-    source = {"input": args.input, "kind": "recording", "window_ms": 85.0, "start_ms": 0.0, **opts}
+    source = {"input": args.input, "kind": "recording", "window_ms": WINDOW_MS, "start_ms": 0.0, **opts}
     source.update(camera_options(args))  # (compare names another camera: scoring.inputs.other_inputs)
     if args.end_ms is not None:
         source["end_ms"] = args.end_ms
@@ -199,7 +200,7 @@ def _windows(args, model):
 
 def _windows_before_end(args) -> int:
     """How many windows end by ``--end-ms`` (at least one, or refused)."""
-    win = 85.0 if args.window_ms is None else args.window_ms
+    win = WINDOW_MS if args.window_ms is None else args.window_ms
     start = args.start_ms or 0.0
     stride = win if args.stride_ms is None else args.stride_ms
     n = math.floor((args.end_ms - start - win) / stride + 1e-9) + 1
@@ -236,8 +237,7 @@ def _interrupted(folder: str, n: int | None, earlier: bool = False) -> str:
     """What an interrupted recording run left in ``folder``: its ``n`` windows (None: not known yet), or
     nothing (``earlier``: the earlier run that ``--force`` would have replaced is back), as a live run says it."""
     if n == 0:
-        kept = f"; the earlier run in {folder}/ is kept" if earlier else ""
-        return f"no window was complete: nothing written{kept}"
+        return nothing_written(folder, earlier)
     kept = "the windows" if n is None else f"the {n} window{'s' if n != 1 else ''}"
     return (
         f"{kept} completed so far are in {folder}/ (maps.zarr: snn-fg plot {folder} draws them); "

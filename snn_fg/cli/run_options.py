@@ -6,11 +6,10 @@ ask for (:func:`chosen_model`)."""
 from __future__ import annotations
 
 import argparse
-import inspect
 
 from ..backends import DEFAULT_BACKEND, backend_names
 from ..errors import InputError
-from ..events.window import iter_windows
+from ..events.cutter import WINDOW_MS
 from ..frames.pool import MAPS_GRIDS
 from ..frames.still import KIND_NAMES, image_scale_refusal
 from ..models import MODELS, get_model
@@ -356,11 +355,10 @@ def run_key(args) -> dict:
     at its default counts as not given (``--window-ms 85``, ``--start-ms 0``, a stride of the window's
     length), so that typing a default out continues a run made without it (until 30 Nov: refused)."""
     key = {k: v for k, v in sorted(vars(args).items()) if k not in _NOT_IN_RUN_KEY}
-    defaults = inspect.signature(iter_windows).parameters
-    for name in ("window_ms", "start_ms"):
-        if key.get(name) is not None and float(key[name]) == float(defaults[name].default):
+    for name, default in (("window_ms", WINDOW_MS), ("start_ms", 0.0)):
+        if key.get(name) is not None and float(key[name]) == default:
             key[name] = None
-    window = key.get("window_ms") if key.get("window_ms") is not None else defaults["window_ms"].default
+    window = WINDOW_MS if key.get("window_ms") is None else key["window_ms"]
     if key.get("stride_ms") is not None and float(key["stride_ms"]) == float(window):
         key["stride_ms"] = None
     return key

@@ -19,6 +19,7 @@ from ..errors import InputError
 from ..events import EmptyWindowWarning, RecordingWindows, iter_recording
 from ..events.activity import pixel_share, saturated_lines
 from ..events.clock import clock_keys
+from ..events.cutter import WINDOW_MS
 from ..frames.pool import signed_frame
 from ..frames.still import Still
 from ..models import Model
@@ -42,7 +43,7 @@ def recording_windows(path, *, sensor_size=None, window_options: dict, progress:
     iteration, with a progress bar on each reading), and its sensor size;
     ``camera``: the format options ``chip`` and ``channel``."""
     stream = iter_recording(path, sensor_size=sensor_size, chunk_events=RUN_CHUNK_EVENTS, **camera)
-    windows = RecordingWindows(stream, **{"window_ms": 85.0, **window_options}, chunk_events=RUN_CHUNK_EVENTS)
+    windows = RecordingWindows(stream, **{"window_ms": WINDOW_MS, **window_options}, chunk_events=RUN_CHUNK_EVENTS)
     if progress:
         windows = _Counted(windows, window_options.get("max_windows"))
     return windows, stream.sensor_size
@@ -217,6 +218,12 @@ def _part_way(store: MapsStore, source: dict, windows, clock) -> int:
             store.flush()
         return store.n
     return 0
+
+
+def nothing_written(folder, earlier: bool) -> str:
+    """What a run stopped before its first window left (``snn-fg run`` and ``snn-fg live`` after an
+    interrupt): nothing, and, where ``--force`` had set an earlier run aside (``earlier``), that run back."""
+    return "no window was complete: nothing written" + (f"; the earlier run in {folder}/ is kept" if earlier else "")
 
 
 def goes_on(attrs: dict, asked: int | None) -> bool:

@@ -17,6 +17,7 @@ import warnings
 
 import numpy as np
 
+from snn_fg.events.cutter import WINDOW_MS
 from snn_fg.events.frame import EmptyWindowWarning
 from snn_fg.events.window import iter_windows
 from snn_fg.results.activity import SATURATED_SHARE, Activity
@@ -31,7 +32,7 @@ def pixel_share(window) -> float:
     return float(np.count_nonzero(window.pos | window.neg) / window.pos.size)
 
 
-def activity(recording, *, window_ms: float = 85.0, start_ms: float = 0.0, sensor_size=None) -> Activity:
+def activity(recording, *, window_ms: float = WINDOW_MS, start_ms: float = 0.0, sensor_size=None) -> Activity:
     """Events and pixel share of every window of ``recording`` (a path, a
     stream or an array), cut as :func:`~snn_fg.events.iter_windows` cuts it
     from ``start_ms`` after the first event (the windows a run with that

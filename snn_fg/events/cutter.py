@@ -21,6 +21,9 @@ from snn_fg.events._core import EVENT_DTYPE, check_monotonic
 from snn_fg.events.frame import EmptyWindowWarning, EventWindow, events_to_frame
 from snn_fg.events.io import no_span_problem
 
+#: a window's length by default (ms): the iCub's microsaccade period, the paper's window
+WINDOW_MS = 85.0
+
 
 def _filter(events, denoise_us, refractory_us):
     if len(events) and denoise_us:
@@ -116,7 +119,7 @@ class WindowCutter:
         sensor_size,
         name="<stream>",
         *,
-        window_ms: float = 85,
+        window_ms: float = WINDOW_MS,
         start_ms: float = 0,
         stride_ms: float | None = None,
         max_windows: int | None = None,

@@ -45,7 +45,7 @@ import warnings
 import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
-from snn_fg.events.cutter import TimePassed, WindowCutter, _window_times
+from snn_fg.events.cutter import WINDOW_MS, TimePassed, WindowCutter, _window_times
 from snn_fg.events.live_screen import screen_events
 
 #: the end of the stream, on the queue
@@ -64,7 +64,7 @@ class LiveStream:
     :class:`~snn_fg.events.cutter.WindowCutter`'s (``stride_ms``: the hop)."""
 
     def __init__(
-        self, source, *, window_ms=85.0, stride_ms=None, start_ms=0.0, max_behind: int = 0, lag_ms=0.0,
+        self, source, *, window_ms=WINDOW_MS, stride_ms=None, start_ms=0.0, max_behind: int = 0, lag_ms=0.0,
         skip_behind: int = SKIP_BEHIND,
     ):  # fmt: skip
         self.source, self.name = source, source.name

@@ -4,7 +4,7 @@ or again, with :mod:`snn_fg.events.cutter`'s cutter; the windows are :mod:`snn_f
 from __future__ import annotations
 
 from snn_fg.errors import InputError
-from snn_fg.events.cutter import WindowCutter
+from snn_fg.events.cutter import WINDOW_MS, WindowCutter
 from snn_fg.events.formats import check_read_options
 from snn_fg.events.frame import EventWindow
 from snn_fg.events.io import iter_recording
@@ -47,7 +47,7 @@ WINDOW_KEYS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us"
 def iter_windows(
     recording_or_path,
     *,
-    window_ms: float = 85,
+    window_ms: float = WINDOW_MS,
     start_ms: float = 0,
     stride_ms: float | None = None,
     max_windows: int | None = None,

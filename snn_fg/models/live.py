@@ -24,6 +24,7 @@ import numpy as np
 
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
+from ..events.cutter import WINDOW_MS
 from ..events.live import SKIP_BEHIND, LiveStream
 from ..events.live_dv import CAMERA, camera_found
 from ..events.live_screen import prepare_screen
@@ -46,7 +47,7 @@ def run_live(
     on_window=None,
     *,
     sensor_size=None,
-    window_ms: float = 85.0,
+    window_ms: float = WINDOW_MS,
     hop_ms: float | None = None,
     start_ms: float = 0.0,
     max_behind: int = 0,

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import os
+import threading
 import time
 
 from ...errors import InputError
@@ -17,6 +18,8 @@ from .run import Pool, Run
 #: seconds the engine's first run on a machine spends compiling (numba), as said while it does
 #: (the measured first runs: docs/performance.md, Installing and testing)
 COMPILE_S = 10
+#: seconds between the lines that say the engine's code is still compiling (a first run)
+STILL_COMPILING_S = 15.0
 #: simulated time per call of the compiled loop (progress, Ctrl-C in between)
 CHUNK_MS = 25.0
 #: threads a run uses at most (the target populations are dealt out between them, :mod:`.share`)
@@ -127,7 +130,8 @@ class FastBackend(Backend):
     def simulate(self, network: Network, inputs, settings: RunSettings) -> SimulationResult:
         from . import core
 
-        if not core.code_is_cached():
+        compiling = not core.code_is_cached()
+        if compiling:
             settings.say(
                 f"compiling the fast engine's code as it prepares and simulates: the first run on this "
                 f"machine only, about {COMPILE_S} s on an idle machine for an image, up to a minute for a "
@@ -153,8 +157,9 @@ class FastBackend(Backend):
         t_run, cpu = time.perf_counter(), time.process_time()
         if stream is not None:
             stream.started = (t_run, cpu)
+        compiling = still_compiling(settings.say) if compiling else None
         try:
-            run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))), stream)
+            run.simulate(settings, max(1, int(round(self.chunk_ms / settings.dt_ms))), stream, compiling)
             timings["run"] = time.perf_counter() - t_run
             timings["run_cpu"] = time.process_time() - cpu  # (wall time on a shared machine overstates the work)
             if stream is not None:  # (the caller's reading of the bins, done while the run paused)
@@ -166,9 +171,25 @@ class FastBackend(Backend):
         except BaseException:
             self._pool.clear()  # (e.g. interrupted mid-step: the arrays are not at rest)
             raise
+        finally:
+            if compiling is not None:
+                compiling.set()  # (also when the run failed before its first steps were done)
         timings["total"] = time.perf_counter() - t0
         result.timings_s = timings
         return result
+
+
+def still_compiling(say, every_s: float = STILL_COMPILING_S) -> threading.Event:
+    """Say every ``every_s`` seconds how long the engine's code has been compiling, from a thread of
+    its own (a first run is otherwise silent for up to a minute), until the event returned is set."""
+    done, t0 = threading.Event(), time.perf_counter()
+
+    def beat():
+        while not done.wait(every_s):
+            say(f"still compiling the fast engine's code ({time.perf_counter() - t0:.0f} s so far)")
+
+    threading.Thread(target=beat, name="snn-fg still compiling", daemon=True).start()
+    return done
 
 
 def check_cells_fit(network: Network, cells: int, available: float | None = None) -> None:

@@ -24,19 +24,20 @@ def code_is_cached(fn) -> bool:
         return True
 
 
-def drop_stale_caches(anchor, modules) -> None:
+def drop_stale_caches(anchor, modules, variant: bytes = b"") -> None:
     """Forget compiled code cached from older versions of the engine's files.
 
     numba checks a cached function against the file that defines it, and no
     other, but the engine's loops compile in functions and constants of
     the package's other modules: after an edit there they kept running the
     old code. So the caches of every compiled function of ``modules`` are
-    dropped whenever any source file of the package changes (the digest is
-    kept beside ``anchor``'s cache). Best effort: numba's cache object is
+    dropped whenever any source file of the package changes, or
+    ``variant`` (a constant compiled in that the sources do not show, such
+    as :data:`.lif.PHASES`); the digest is kept beside ``anchor``'s cache. Best effort: numba's cache object is
     not public API, and if it changes this check is skipped.
     """
     here = Path(__file__).parent
-    digest = hashlib.sha256(b"".join(f.read_bytes() for f in sorted(here.glob("*.py")))).hexdigest()
+    digest = hashlib.sha256(b"".join(f.read_bytes() for f in sorted(here.glob("*.py"))) + variant).hexdigest()
     try:
         stamp = Path(anchor._cache._cache_path) / STAMP
         if stamp.exists() and stamp.read_text() == digest:

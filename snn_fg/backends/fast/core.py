@@ -46,9 +46,23 @@ import numpy as np
 from numba import njit, prange
 
 from . import compiled, counting, deliver, handover, lif, lists
-from .deliver import C_N, C_OFF, N_ACTIVE_STEPS, N_EVENTS, N_FLUSHED, conv_spikes, resize_spikes
+from .deliver import (
+    C_N,
+    C_OFF,
+    N_ACTIVE_STEPS,
+    N_EVENTS,
+    N_FLUSHED,
+    PH_ACTIVE,
+    PH_CONV,
+    PH_GATHER,
+    PH_HANDOVER,
+    PH_MERGE,
+    PH_RESIZE,
+    conv_spikes,
+    resize_spikes,
+)
 from .handover import flush_rows
-from .lif import ACTIVE, SPIKE_STEP, U, advanced, borrowed, prefetch, safe
+from .lif import ACTIVE, PHASES, SPIKE_STEP, U, advanced, borrowed, cycles, prefetch, safe
 from .lists import gather_spikes, merge
 from .neurons import DE, DI, DM, GAP, PE, PEAK, PI, SOURCE_TYPE, TIGHT, V_RESET, V_REST, V_TH
 from .share import W_ACTIVE, W_EVENTS, W_FLUSHED, W_SPIKES
@@ -149,6 +163,7 @@ def _active_part(t, n, run, th, numbering, tables, first):
     nrn, ctype = tables.nrn, numbering.ctype
     n_act = run.scalars[t]
     th.counters[t, N_ACTIVE_STEPS] += n_act
+    c0 = cycles() if PHASES else 0
     kept, end = _step_active(
         n, th.act[t], n_act, run.state, tables.pops, numbering.cells, nrn, tables.ref_steps, run.log, first, th.work[t]
     )
@@ -157,6 +172,8 @@ def _active_part(t, n, run, th, numbering, tables, first):
         run.state[g].v = nrn[ctype[g], V_RESET]
     run.scalars[t] = kept
     run.scalars[run.scalars.size - 1 - t] = end - first
+    if PHASES:
+        th.counters[t, PH_ACTIVE] += cycles() - c0
 
 
 @njit(cache=True)
@@ -192,6 +209,7 @@ def _deliver_part(t, n_parts, n, run, th, numbering, tables):
             if spikes.size == 0:
                 continue
             work[qt, W_SPIKES] += spikes.size if parts == 1 or t == 0 else 0  # (counted once)
+            c0 = cycles() if PHASES else 0
             if prj[p, J_KIND] == CONV:
                 ev = conv_spikes(
                     p, spikes, tables.pops, cells, numbering.flat_of, numbering.pres, prj, stencil, acc, marks, t,
@@ -202,18 +220,26 @@ def _deliver_part(t, n_parts, n, run, th, numbering, tables):
                     p, spikes, tables.pops, cells, numbering.flat_of, numbering.pres, prj, tables.prj_w, factors, acc,
                     marks, t, parts,
                 )  # fmt: skip
+            if PHASES:
+                counters[PH_CONV if prj[p, J_KIND] == CONV else PH_RESIZE] += cycles() - c0
             th.prj_events[t, p] += ev
             work[qt, W_EVENTS] += ev
             counters[N_EVENTS] += ev
         if th.n_dirty[t, 0]:
             p = grp_prj[grp_ptr[grp]]
             flushed = counters[N_FLUSHED]
+            c0 = cycles() if PHASES else 0
             n_new = flush_rows(
                 qt, prj[p, J_COL], n, tables.pops, cells, numbering.pres, numbering.rank, acc, marks,
                 run.state, th.new[t], n_new, th.fresh[t], tables.nrn, tables.adv_k, counters,
             )  # fmt: skip
             work[qt, W_FLUSHED] += counters[N_FLUSHED] - flushed
+            if PHASES:
+                counters[PH_HANDOVER] += cycles() - c0
+    c0 = cycles() if PHASES else 0
     run.scalars[t] = merge(th.act[t], run.scalars[t], th.new[t], n_new, th.tmp[t], th.radix[t], run.state.size)
+    if PHASES:
+        counters[PH_MERGE] += cycles() - c0
 
 
 @njit(cache=True, nogil=True)
@@ -268,7 +294,10 @@ def _steps(n0, n1, run, th, numbering, tables):
                     _deliver_part(t, n_parts, n, run, th, numbering, tables)
         for t in range(n_parts):
             counts[t] = scalars[scalars.size - 1 - t]
+        c0 = cycles() if PHASES else 0
         log_n = gather_spikes(log, log_n, firsts, counts, in_ids[in_ptr[s] : in_ptr[s + 1]], run.spike_tmp)
+        if PHASES:
+            th.counters[0, PH_GATHER] += cycles() - c0
         scalars[n_parts] = log_n
         step_start[n + 1] = log_n
         if fused:
@@ -342,4 +371,6 @@ def code_is_cached() -> bool:
     return compiled.code_is_cached(run_steps)
 
 
-compiled.drop_stale_caches(run_steps, (lif, deliver, handover, counting, lists, sys.modules[__name__]))
+compiled.drop_stale_caches(
+    run_steps, (lif, deliver, handover, counting, lists, sys.modules[__name__]), b"phases" if PHASES else b""
+)

@@ -49,6 +49,12 @@ from .tables import (
 
 #: counters returned by run_steps (``N_FLUSHED``: cells handed input)
 N_EVENTS, N_ADVANCES, N_ACTIVE_STEPS, N_FRESH, N_FLUSHED = range(5)
+#: where the same counters hold the cycles of each phase of a step, when they are
+#: counted (:data:`.lif.PHASES`): the active cells' update, Conv and Resize
+#: delivery, the hand-over (of which finding the cells that received input),
+#: merging the newly active cells into the list, and gathering the step's spikes
+PH_ACTIVE, PH_CONV, PH_RESIZE, PH_HANDOVER, PH_FIND, PH_MERGE, PH_GATHER = range(8, 15)
+PHASE_NAMES = ("active", "conv", "resize", "handover", "handover_find", "merge", "gather")
 #: columns of the per-run cell table ``cells``: first number and count of a
 #: population's cells, where its presence bits and their ranks start (in
 #: words), whether all its cells exist (1) and (when not) where its map from

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .deliver import C_OFF, C_PRES, C_WHOLE, EXC, N_ADVANCES, N_FLUSHED, N_FRESH
-from .lif import ACTIVE, U, low_bits, ones, prefetch, safe, trailing_zeros
+from .deliver import C_OFF, C_PRES, C_WHOLE, EXC, N_ADVANCES, N_FLUSHED, N_FRESH, PH_FIND
+from .lif import ACTIVE, PHASES, U, cycles, low_bits, ones, prefetch, safe, trailing_zeros
 from .neurons import GAP, PEAK, TIGHT, V_REST
 from .tables import P_GC, P_TYPE
 
@@ -48,6 +48,7 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
     n_fresh = counters[N_FRESH]
     d, n_dirty = 0, n_dirty_a[0]
     while d < n_dirty:
+        c0 = cycles() if PHASES else 0
         n_found = 0
         while d < n_dirty and n_found + gc <= found.size:
             rr = dirty[U(d)]
@@ -76,6 +77,8 @@ def flush_rows(qt, col, n, pops, cells, pres, rank, acc, marks, state, new, n_ne
                     n_found += 1
             listed[U(rr)] = 0
         counters[N_FLUSHED] += n_found
+        if PHASES:
+            counters[PH_FIND] += cycles() - c0
         for x in range(n_found):
             if x + AHEAD < n_found:
                 prefetch(state, U(found_g[U(x + AHEAD)]))

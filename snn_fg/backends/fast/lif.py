@@ -1,8 +1,11 @@
 """One cell of the fast engine, compiled: its state (:data:`STATE`), the
 closed-form advance over silent steps (:func:`advanced`) and the bound that
-lets a cell be parked (:func:`safe`)."""
+lets a cell be parked (:func:`safe`), and the processor's cycle counter
+that the loops read per phase of a step when told to (:data:`PHASES`)."""
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 from llvmlite import ir
@@ -21,6 +24,12 @@ ACTIVE = -0x80000000
 U = np.uint64
 #: a 64-bit word of ones (the marks of cells that received input are bits)
 FULL = np.uint64(0xFFFFFFFFFFFFFFFF)
+#: whether the loops add up the processor's cycle counter per phase of a step
+#: (:data:`.deliver.PHASE_NAMES`), set by ``SNN_FG_ENGINE_PHASES=1`` before the
+#: engine is imported (``experiments/bench/phases.py``). numba compiles the flag
+#: in as a constant: off, the counting is compiled away; the cached code is
+#: dropped when it changes (:func:`.compiled.drop_stale_caches`)
+PHASES = os.environ.get("SNN_FG_ENGINE_PHASES", "") == "1"
 
 
 @intrinsic
@@ -160,3 +169,18 @@ def safe(v, e, i, v_rest, tight, peak, gap):
         x = max(e - i, 0.0)
         return (max(u, x) <= gap) | (max(u, 0.0) + peak * x <= gap)  # (the min of the two bounds, no branch)
     return max(u, max(e, 0.0) + max(-i, 0.0)) <= gap
+
+
+@intrinsic
+def cycles(typingctx):
+    """The processor's cycle counter (LLVM's ``readcyclecounter``: ``rdtsc``
+    on x86-64, which ticks at a constant rate whatever the core's clock;
+    other processors may not let a program read it, so the phases are
+    counted on x86-64 only)."""
+
+    def codegen(context, builder, signature, args):
+        i64 = ir.IntType(64)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, []), "llvm.readcyclecounter")
+        return builder.call(fn, [])
+
+    return types.int64(), codegen

@@ -247,12 +247,22 @@ def simulation_result(
 
 def run_stats(tab: ft.EngineTables, run, stream: BinStream | None = None, n: int | None = None) -> dict:
     """The engine's counters of ``run`` (its synaptic events in all and per
-    projection, closed-form advances, active cell-steps, input spikes and
-    spikes) before step ``n`` (default: the whole run), with the tables'
-    kept kernel mass and taps: a result's ``stats``."""
-    from .deliver import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS
+    projection, closed-form advances, active cell-steps, cells handed input,
+    input spikes and spikes; with :data:`.lif.PHASES`, the cycles of each
+    phase as ``cycles_<phase>`` and the synaptic events by kind of
+    projection) before step ``n`` (default: the whole run),
+    with the tables' kept kernel mass and taps: a result's ``stats``."""
+    from .deliver import N_ACTIVE_STEPS, N_ADVANCES, N_EVENTS, N_FLUSHED, PH_ACTIVE, PHASE_NAMES
+    from .lif import PHASES
 
     totals, n_input = run.totals, run.input_spikes(n)
+    phases = {}
+    if PHASES:
+        phases = {f"cycles_{name}": int(totals[PH_ACTIVE + k]) for k, name in enumerate(PHASE_NAMES)}
+        conv = tab.prj[:, ft.J_KIND] == ft.CONV
+        phases.update(
+            synaptic_events_conv=int(run.events[conv].sum()), synaptic_events_resize=int(run.events[~conv].sum())
+        )
     kept = stream.kept_kernel_mass if stream is not None else {k: round(v, 4) for k, v in tab.kept_mass.items()}
     return {
         "kept_kernel_mass": dict(kept),
@@ -262,8 +272,10 @@ def run_stats(tab: ft.EngineTables, run, stream: BinStream | None = None, n: int
         "synaptic_events_total": int(totals[N_EVENTS]),
         "closed_form_advances": int(totals[N_ADVANCES]),
         "active_cell_steps": int(totals[N_ACTIVE_STEPS]),
+        "cells_handed_input": int(totals[N_FLUSHED]),
         "cells": run.n_present,
         "input_spikes": n_input,
         "spikes": int(run.log_length + (stream.dropped if stream else 0) - n_input),
         "steps_skipped": run.skipped,
+        **phases,
     }

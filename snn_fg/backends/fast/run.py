@@ -17,7 +17,8 @@ from .share import Sharing
 FOUND = 4096
 #: initial room of the spike log (spikes); it doubles when a step needs more
 LOG_START = 1 << 16
-#: int64 values between two threads' counters (two 64-byte cache lines)
+#: int64 values between two threads' counters (two 64-byte cache lines; they
+#: hold :data:`.deliver.PH_GATHER` too)
 APART = 16
 
 
@@ -29,7 +30,7 @@ class Run:
     number)."""
 
     def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: Pool, threads: int = 1):
-        from .deliver import N_FLUSHED
+        from .deliver import PH_GATHER
         from .lif import STATE
 
         self.tab, self.n_steps, self.pool, self.threads = tab, n_steps, pool, threads
@@ -61,7 +62,7 @@ class Run:
         )
         self.radix = np.zeros((threads, 2048), dtype=np.int64)
         # (each thread's counters in a cache line of their own: written by the thread as it delivers)
-        self.counters = np.zeros((threads, max(N_FLUSHED + 1, APART)), dtype=np.int64)
+        self.counters = np.zeros((threads, max(PH_GATHER + 1, APART)), dtype=np.int64)
         self.prj_events = np.zeros((threads, len(tab.network.projections)), dtype=np.int64)
         self.dirty = np.zeros((threads, rows + 1), np.int64)  # (a spare slot: deliver.mark_row writes without a branch)
         self.n_dirty = np.zeros((threads, APART), np.int64)  # (column 0; apart, as the counters)
@@ -97,9 +98,11 @@ class Run:
         self.rank = np.concatenate(rank) if rank else np.zeros(1, dtype=np.int64)
         return off
 
-    def simulate(self, settings: RunSettings, chunk: int, stream: BinStream | None = None):
+    def simulate(self, settings: RunSettings, chunk: int, stream: BinStream | None = None, compiled=None):
         """Run every step; with ``stream``, stop at each counting-bin edge
-        for it to hand the bin over and drop the spikes no delay reaches."""
+        for it to hand the bin over and drop the spikes no delay reaches.
+        ``compiled`` (a :class:`threading.Event`) is set once the first call
+        of the compiled loop returns: its code is compiled by then."""
         from .core import CellNumbering, KernelTables, RunArrays, ThreadArrays, run_steps
 
         tables = KernelTables(*(getattr(self.tab, name) for name in KernelTables._fields))
@@ -117,6 +120,8 @@ class Run:
                 run = RunArrays(*(getattr(self, name) for name in RunArrays._fields))  # (the log may have grown)
                 threads = ThreadArrays(*(getattr(self, name) for name in ThreadArrays._fields))  # (and the lists)
                 reached = run_steps(n, end, run, threads, numbering, tables)
+                if compiled is not None:
+                    compiled.set()
                 self.sharing.chunk_done(self)
                 if reached < end:  # the next step may not fit in the spike log
                     self.log = np.concatenate([self.log, np.empty(self.log.size, dtype=np.int32)])

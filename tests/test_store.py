@@ -321,3 +321,27 @@ def test_a_growing_array_keeps_its_chunk_until_full_or_flushed_and_reads_back_th
     np.testing.assert_array_equal(np.asarray(ZarrArray(a.path)), rows)
     zarr = pytest.importorskip("zarr", reason="zarr-python is in the test extra: pip install -e '.[test]'")
     np.testing.assert_array_equal(zarr.open_array(str(a.path), mode="r")[:], rows)
+
+
+def test_a_damaged_store_is_refused_in_one_line_not_read_as_zeros(tmp_path, monkeypatch):
+    """A chunk deleted from a copied run read as zeros, and ``snn-fg compare`` printed a normal
+    table made from them (a new user's trial, 30 Nov); an array deleted whole ended in a traceback."""
+    import shutil
+
+    monkeypatch.setattr("snn_fg.results.store.WINDOW_CHUNK", 1)  # (one window a chunk: the second's alone)
+    path = tmp_path / "maps.zarr"
+    _write(path, WINDOWS).finish({"model": "spiking"})
+    whole = tmp_path / "whole.zarr"
+    shutil.copytree(path, whole)
+    (path / "fg_y" / "1.0.0").unlink()
+    with pytest.raises(InputError, match=r"fg_y/1\.0\.0: missing: windows 1-1 of the 3 the store holds complete"):
+        Maps.load(path)
+    shutil.rmtree(whole / "grouping")
+    with pytest.raises(InputError, match="has no grouping array: the store is incomplete or damaged"):
+        Maps.load(whole)
+    # an array first met at a later window has no chunks for the windows before it: not damage
+    late = tmp_path / "late.zarr"
+    _write(late, [lambda: _maps(1), lambda: _maps(2), lambda: _maps(3, frame=np.ones((3, 4), np.uint8))]).finish({})
+    assert not (late / "frame" / "0.0.0").exists()
+    back = Maps.load(late)
+    assert not back.extra["frame"][0].any() and back.extra["frame"][2].all()

@@ -350,6 +350,30 @@ class MapsStore:
         self.writer.put(self.path / ".zattrs", json_bytes(self.attrs))
 
 
+#: the arrays every window writes from the first on (the maps and the window's parameters): all
+#: their chunks up to ``windows_complete`` exist in a store that is whole. (An array first met at
+#: a later window has no chunks for the windows before it: they read as fill values.)
+EVERY_WINDOW = ("fg_x", "fg_y", "grouping", "window_params")
+
+
+def _check_whole(path: Path, arrays: dict, n: int) -> None:
+    """One clear line when the store at ``path`` lacks one of :data:`EVERY_WINDOW` or a chunk of
+    one for its ``n`` complete windows (a folder copied in part, a file deleted): read on, the
+    missing windows would be fill values, zeros, and every number made from them wrong."""
+    for key in EVERY_WINDOW:
+        if key not in arrays:
+            raise InputError(path, f"has no {key} array: the store is incomplete or damaged")
+        a = arrays[key]
+        c = a.chunks[0]
+        for k in range(-(-n // c)):
+            if not a.chunk_path(k).is_file():
+                raise InputError(
+                    a.chunk_path(k),
+                    f"missing: windows {k * c}-{min(n, (k + 1) * c) - 1} of the {n} the store holds complete "
+                    "are not there (the store is damaged: run the recording again)",
+                )
+
+
 def read_maps(path, lazy: bool = False) -> tuple:
     """The fields of the :class:`~snn_fg.results.maps.Maps` of a store (``fg_x``,
     ``fg_y``, ``grouping``, ``params``, the other arrays): its complete windows (all
@@ -363,6 +387,7 @@ def read_maps(path, lazy: bool = False) -> tuple:
     if n == 0:
         raise InputError(path, "holds no complete window yet")
     arrays = store_arrays(path, n)
+    _check_whole(path, arrays, n)
     own = [json.loads(t) for t in np.asarray(arrays.pop("window_params"))]
     params = dict(attrs["params"])
     if any(own):

@@ -192,6 +192,24 @@ def test_decode_refuses_counts_of_another_export(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "counts.npz: not a run.py counts file of this export: no count_" in err[0]
     assert "Error" not in err[0] and not (tmp_path / "maps").exists() and net.frame_shape == (24, 24)
+    # counts with this export's names but another frame's sizes (a trial's Lava counts of 64 x 48 against
+    # a 32 x 24 export): until 30 Nov a traceback ("cannot reshape array of size ...")
+
+    pops = lif_populations(board_network(net))
+    other = {f"count_{p.name}": np.zeros(p.size * 4, np.int64) for p in pops}
+    np.savez(bogus, duration_ms=100.0, count_from_ms=50.0, dt_ms=0.5, **other)
+    assert main(["decode", str(bogus), "--export", str(folder), "--out", str(tmp_path / "maps")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    p = pops[0]
+    assert (
+        len(err) == 1
+        and (
+            f"counts.npz: not the counts of this export: count_{p.name} holds {4 * p.size:,} cells, where this "
+            f"export's {p.name} has {p.size:,} (its frame is 24 x 24)"
+        )
+        in err[0]
+    )
+    assert not (tmp_path / "maps").exists()
     # run.py's input handed to decode instead of its output: said so, with the step between
     np.savez(
         tmp_path / "input.npz",

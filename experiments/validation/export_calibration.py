@@ -63,6 +63,7 @@ def _run_py(folder: Path) -> dict:
             "input.npz",
             "--out",
             "counts.npz",
+            "--force",
             "--simulator",
             "nest",
             "--duration-ms",

@@ -75,7 +75,18 @@ def lava_env():
 def run_py(python, folder: Path, out: str, *args) -> float:
     t0 = time.perf_counter()
     done = subprocess.run(
-        [str(python), "run.py", "--input", "input.npz", "--out", out, "--duration-ms", f"{DURATION_MS:g}", *args],
+        [
+            str(python),
+            "run.py",
+            "--input",
+            "input.npz",
+            "--out",
+            out,
+            "--force",
+            "--duration-ms",
+            f"{DURATION_MS:g}",
+            *args,
+        ],
         cwd=folder,
         capture_output=True,
         text=True,

@@ -276,6 +276,16 @@ def read_counts(network: Network, path):
             f"not a run.py counts file of this export: no {', '.join(missing[:3])}"
             + (f" and {len(missing) - 3} more" if len(missing) > 3 else ""),
         )
+    for p in pops:
+        have = int(np.asarray(d[f"count_{p.name}"]).size)
+        if have != p.size:
+            h, w = net.frame_shape
+            raise InputError(
+                path,
+                f"not the counts of this export: count_{p.name} holds {have:,} cells, where this export's "
+                f"{p.name} has {p.size:,} (its frame is {w} x {h}): counts of another export, or of this one "
+                "before it was made again?",
+            )
     duration, start = float(d["duration_ms"]), float(d["count_from_ms"])
     spikes = {p.name: (d[f"cell_{p.name}"], d[f"t_{p.name}"]) for p in pops} if f"cell_{pops[0].name}" in d else None
     return SimulationResult(

@@ -54,6 +54,7 @@ def parse(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--input", help="input spike file (required but with --count-only)")
     ap.add_argument("--out", help="output counts file (required but with --count-only)")
+    ap.add_argument("--force", action="store_true", help="replace the --out file if it exists")
     ap.add_argument("--duration-ms", type=float, default=150.0)
     ap.add_argument("--count-from-ms", type=float, default=None, help="start of the counting window (half the run)")
     ap.add_argument(
@@ -69,6 +70,8 @@ def parse(argv):
     args = ap.parse_args(argv)
     if not args.count_only and not (args.input and args.out):
         ap.error("--input and --out are required (but with --count-only)")
+    if args.out and not args.count_only:
+        fg_files.check_out(args.out, args.force)
     return args
 
 

@@ -42,6 +42,18 @@ def npz_path(out: str) -> str:
     return out if out.endswith(".npz") else f"{out}.npz"
 
 
+def check_out(out: str, force: bool) -> None:
+    """Exit with one line, before anything runs, when run.py's ``--out`` file (:func:`npz_path`)
+    exists and ``--force`` was not given: it holds an earlier run's counts, perhaps a longer or
+    another simulator's run, which replacing would lose."""
+    path = npz_path(out)
+    if os.path.exists(path) and not force:
+        sys.exit(
+            f"run.py: error: {path}: exists (an earlier run's counts?); pass --force to replace it, "
+            "or give another --out; nothing was run"
+        )
+
+
 def save_npz(out: str, arrays: dict) -> str:
     """``arrays`` into :func:`npz_path` of ``out`` (whole); returns that path."""
     import numpy as np  # (numpy: an export's run.py has it; this module's other writers need only the library)

@@ -139,6 +139,7 @@ def parse(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--input", help="input spike file (required but with --virtual-board)")
     ap.add_argument("--out", help="output counts file (required but with --virtual-board)")
+    ap.add_argument("--force", action="store_true", help="replace the --out file if it exists")
     ap.add_argument("--simulator", default="nest", help="nest, spinnaker (sPyNNaker) or another pyNN.<module>")
     ap.add_argument(
         "--virtual-board",
@@ -173,6 +174,8 @@ def parse(argv):
         ap.error("--map-only needs --virtual-board")
     if not args.virtual_board and not (args.input and args.out):
         ap.error("--input and --out are required (but with --virtual-board)")
+    if args.out:
+        fg_files.check_out(args.out, args.force)
     return args
 
 

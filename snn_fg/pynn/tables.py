@@ -206,11 +206,94 @@ def load_tables(meta, tables):
 
 
 def load_export():
-    """``(network.json, tables.npz)`` of the export folder run.py runs in, or exit with one line."""
+    """``(network.json, tables.npz)`` of the export folder run.py runs in, or exit with one line
+    (also when ``network.json``, which a user may edit, is not valid JSON or breaks a rule of
+    :func:`export_problem`)."""
     for name in ("network.json", "tables.npz"):
         if not os.path.isfile(name):
             sys.exit(
                 f"run.py: error: no {name} here: run run.py in the folder of its export (cd DIR && python run.py ...)"
             )
     with open("network.json") as fh:
-        return json.load(fh), np.load("tables.npz")
+        try:
+            meta = json.load(fh)
+        except ValueError as exc:
+            sys.exit(f"run.py: error: network.json: not valid JSON: {exc}")
+    problem = export_problem(meta)
+    if problem:
+        sys.exit(f"run.py: error: network.json: {problem}; nothing was run")
+    return meta, np.load("tables.npz")
+
+
+def _number(value, lo=None, lo_open=False) -> bool:
+    """Whether ``value`` is a finite number (not a bool) at least ``lo`` (above it: ``lo_open``)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        return False
+    return lo is None or (value > lo if lo_open else value >= lo)
+
+
+#: the neuron constants of an export's population, and the rule each keeps (snn-fg's own, snn_fg.network.nodes.Neuron)
+NEURON_RULES = {
+    "tau_m_ms": (0, True),
+    "tau_exc_ms": (0, True),
+    "tau_inh_ms": (0, True),
+    "t_ref_ms": (0, False),
+    "v_rest_mv": (None, False),
+    "v_reset_mv": (None, False),
+    "v_th_mv": (None, False),
+}
+
+
+def export_problem(meta) -> str:
+    """What makes an export's ``network.json`` (``meta``, as read) unfit to run, in words, or ``""``:
+    a missing key (a key misspelt in an edit), or a value that breaks the rule snn-fg's own
+    description keeps (a time constant above 0, the threshold above rest and reset, a projection's
+    gain and delay at least 0, its sign +1 or -1, its populations in the file; a Lava export's
+    threshold above 0)."""
+    if not isinstance(meta, dict):
+        return "expected a JSON object"
+    for key in ("dt_ms", "populations", "projections"):
+        if key not in meta:
+            return f"has no {key!r} (a key misspelt?)"
+    if not _number(meta["dt_ms"], 0, True):
+        return f"dt_ms={meta['dt_ms']!r} must be a number above 0"
+    names = set()
+    for p in meta["populations"]:
+        name = p.get("name") if isinstance(p, dict) else None
+        if not isinstance(name, str) or not name:
+            return f"a population without a name: {str(p)[:60]}"
+        names.add(name)
+        for key in ("size", "neuron"):
+            if key not in p:
+                return f"population {name!r} has no {key!r} (a key misspelt?)"
+        neuron = p["neuron"]
+        if neuron is not None:
+            for key, (lo, lo_open) in NEURON_RULES.items():
+                if key not in neuron:
+                    return f"population {name!r}: its neuron has no {key!r} (a key misspelt?)"
+                if not _number(neuron[key], lo, lo_open):
+                    rule = "a number" if lo is None else f"a number {'above' if lo_open else 'at least'} {lo}"
+                    return f"population {name!r}: {key}={neuron[key]!r} must be {rule}"
+            if neuron["v_th_mv"] <= max(neuron["v_rest_mv"], neuron["v_reset_mv"]):
+                return f"population {name!r}: v_th_mv={neuron['v_th_mv']!r} must lie above v_rest_mv and v_reset_mv"
+        lava = p.get("lava")
+        if isinstance(lava, dict) and "vth" in lava and not _number(lava["vth"], 0, True):
+            return f"population {name!r}: lava vth={lava['vth']!r} must be a number above 0"
+    for pr in meta["projections"]:
+        name = pr.get("name") if isinstance(pr, dict) else None
+        if not isinstance(name, str) or not name:
+            return f"a projection without a name: {str(pr)[:60]}"
+        for key in ("source", "target", "sign", "gain_mv", "delay_ms", "table", "type"):
+            if key not in pr:
+                return f"projection {name!r} has no {key!r} (a key misspelt?)"
+        for key in ("source", "target"):
+            if pr[key] not in names:
+                return f"projection {name!r}: its {key} {pr[key]!r} is no population of the file"
+        if pr["sign"] not in (1, -1) or isinstance(pr["sign"], bool):
+            return f"projection {name!r}: sign={pr['sign']!r} must be 1 or -1"
+        for key in ("gain_mv", "delay_ms"):
+            if not _number(pr[key], 0):
+                return f"projection {name!r}: {key}={pr[key]!r} must be a number at least 0"
+        if pr["type"] not in ("conv", "resize"):
+            return f"projection {name!r}: type={pr['type']!r} must be 'conv' or 'resize'"
+    return ""

@@ -47,6 +47,7 @@ def parse(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--input", required=True, help="input spike file (snn-fg events --write-spikes)")
     ap.add_argument("--out", required=True, help="output counts file")
+    ap.add_argument("--force", action="store_true", help="replace the --out file if it exists")
     ap.add_argument("--duration-ms", type=float, default=400.0)
     ap.add_argument("--count-from-ms", type=float, default=None, help="start of the counting window (half the run)")
     ap.add_argument("--threads", type=int, default=1, help="torch's threads (1)")
@@ -55,13 +56,17 @@ def parse(argv):
         ap.error("--duration-ms must be > 0")
     if args.count_from_ms is not None and not 0 <= args.count_from_ms < args.duration_ms:
         ap.error("--count-from-ms must lie in [0, --duration-ms)")
+    fg_files.check_out(args.out, args.force)
     return args
 
 
 def main(argv=None):
     args = parse(argv)
     with open("network.json") as fh:
-        meta = json.load(fh)
+        try:
+            meta = json.load(fh)
+        except ValueError as exc:
+            sys.exit(f"run.py: error: network.json: not valid JSON: {exc}")
     h, w = meta["frame_shape"]
     dt_ms, n_pixels = float(meta["dt_ms"]), 2 * h * w
     n_steps = int(round(args.duration_ms / dt_ms))

@@ -107,6 +107,19 @@ def test_each_dataset_names_the_sources_of_its_own_files():
     assert RECORDING_URLS["aedat_davis346_street.aedat4"] in davis.source
 
 
+def test_a_dataset_fetched_by_hand_names_its_files_where_a_pip_user_can_read_them(capsys):
+    """bsds-fg is not downloaded for the user: its instructions pointed at a file in the source tree
+    (snn_fg/datasets/checksums.txt), which a pip install does not show. They now name a command that
+    lists the files, one path a line under the dataset's folder."""
+    ds = datasets.get("bsds-fg")
+    assert "checksums.txt" not in ds.unavailable
+    assert "snn-fg data info bsds-fg --files" in ds.unavailable
+    assert main(["data", "info", "bsds-fg", "--files"]) == 0
+    listed = capsys.readouterr().out.split()
+    assert listed == [f.path for f in ds.files] and len(listed) == 320
+    assert sum(p.startswith("images/") for p in listed) == sum(p.startswith("labels/") for p in listed) == 160
+
+
 def test_the_environment_variable_chooses_the_data_folder(tmp_path, monkeypatch):
     monkeypatch.setenv(datasets.ENV_VAR, str(tmp_path))
     assert datasets.data_root() == tmp_path

@@ -77,6 +77,15 @@ def test_plot_draws_chosen_windows_one_figure_each_on_one_scale(run, capsys):
     assert not (run / "windows" / "window_0002.png").exists()
 
 
+def test_a_window_figure_says_which_model_made_it_and_from_which_recording(run):
+    """A window's figure, sent on its own, named neither (until 30 Nov: only its panels' times)."""
+    from snn_fg.results.overview import window_figure
+
+    fig = window_figure(Maps.load(run), 2, grouping_label="grouping", grouping_max=1.0)
+    assert fig._suptitle is not None
+    assert fig._suptitle.get_text() == "The rate model: disc.es"
+
+
 @pytest.mark.parametrize("name", ["maps.gif", "maps.mp4"])
 def test_plot_animates_the_maps_one_frame_per_window(run, tmp_path, name):
     out = tmp_path / name

@@ -40,6 +40,9 @@ def cmd_list(args) -> int:
 
 def cmd_info(args) -> int:
     ds = datasets.get(args.name)
+    if args.files:  # (one path a line, relative to the dataset's folder: what to put where by hand)
+        print("\n".join(f.path for f in ds.files))
+        return 0
     fetch = f"snn-fg data fetch {ds.name}" if ds.fetch else f"not available: {ds.unavailable}"
     for key, value in (
         ("dataset", ds.name),
@@ -80,6 +83,9 @@ def add_data_command(subparsers) -> argparse.ArgumentParser:
     q.set_defaults(handler=cmd_list)
     q = sub.add_parser("info", allow_abbrev=False, help="one dataset: what it is, source, licence, how to fetch it")
     q.add_argument("name", metavar="NAME", choices=sorted(datasets.DATASETS))
+    q.add_argument(
+        "--files", action="store_true", help="list the dataset's files instead, one path a line (under its folder)"
+    )
     q.set_defaults(handler=cmd_info)
     q = sub.add_parser(
         "fetch", allow_abbrev=False, help="download a dataset from its public source, verified by checksum"

@@ -23,7 +23,7 @@ from ..models.live import live_stream, open_warmed
 from ..results.atomic import growing_folder, settle_folder
 from ..results.live_view import VIEW_HOST, LiveView
 from ..results.outputs import check_output_folder
-from ..results.publish import END_OF_STREAM, SENDER_CLOSED, LiveModel, Publisher
+from ..results.publish import END_OF_STREAM, LiveModel, Publisher, ended_by
 from ..results.store import windows_complete
 from .options import number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
@@ -147,7 +147,7 @@ def cmd_live(args) -> int:
         opened.pop_all()
     earlier = previous is not None and any(previous.iterdir())  # (an earlier run set aside, with --force)
     stream = record = None
-    ended = getattr(source, "ended_by", SENDER_CLOSED)
+    ended = ended_by(source)
     try:  # (from here on the folder is settled however the run ends: kept with its windows, or as it was)
         stream, record = _live_stream(model, source, publisher, view, window_ms, warm.seconds, args)
         described = {"input": args.source, "kind": "live", "window_ms": window_ms, "start_ms": args.start_ms or 0.0}

@@ -132,8 +132,8 @@ def _catalogue() -> dict[str, Dataset]:
             "& Malik (2007), the ground truth of the paper's Table 1 and Fig. 6",
             source=f"labels {FG_LABELS_URL}, images {BSDS300_IMAGES_URL}",
             licence="BSDS300 and its figure/ground labels: non-commercial research and education",
-            unavailable=f"download {FG_LABELS_URL} and {BSDS300_IMAGES_URL}; for each image id listed in "
-            "snn_fg/datasets/checksums.txt copy images/<id>.jpg and write labels/<id>.npz with "
+            unavailable=f"download {FG_LABELS_URL} and {BSDS300_IMAGES_URL}; for each image id that "
+            "'snn-fg data info bsds-fg --files' lists, copy images/<id>.jpg and write labels/<id>.npz with "
             "fg: int8 (2, H, W), the first matrix of each of the two labellers' .fg files "
             "(MATLAB readbin) unchanged, and labellers: int32 (2,) their ids (no converter is "
             "offered: it could not be checked against the reference here)",

@@ -37,9 +37,12 @@ def open_nmnist(path, sensor_size, chunk_events) -> Source:
         bad = (raw[:, 1] != _OVERFLOW_Y) & ((raw[:, 0] >= size[0]) | (raw[:, 1] >= size[1]))
         if bad.any():
             i = int(np.argmax(bad))
+            ev = raw[raw[:, 1] != _OVERFLOW_Y]
+            span = f"{int(ev[:, 0].max()) + 1}x{int(ev[:, 1].max()) + 1}"
             raise InputError(
                 path,
-                f"event at (x={int(raw[i, 0])}, y={int(raw[i, 1])}) lies outside the {size[0]} x {size[1]} sensor",
+                f"event at (x={int(raw[i, 0])}, y={int(raw[i, 1])}) lies outside the {size[0]} x {size[1]} sensor "
+                f"(the file's events span {span}: --sensor-size {span} or the camera's size)",
                 f"byte offset {RECORD_BYTES * i}",
             )
         yield read_mnist_file(str(path), dtype=EVENT_DTYPE)

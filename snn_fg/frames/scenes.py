@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import validate as check
 from ..events import Recording, image_to_events
+from ..events.cutter import WINDOW_MS
 from ..events.esim import CIRCLE_STEPS
 
 _SUPERSAMPLE = 4
@@ -189,7 +190,7 @@ def shared_border_ownership(scene: Scene, fg_x, fg_y, front: int, back: int, tol
     return float(np.mean(cos > np.cos(np.radians(tol_deg)))), int(m.sum())
 
 
-def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: float = 85.0):
+def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: float = WINDOW_MS):
     """A synthetic recording whose figure changes polarity every window: a
     disc seen through the iCub's circular microsaccade (the built-in event
     simulator), light on dark in even windows and dark on light in odd ones.
@@ -213,7 +214,7 @@ def flipping_disc_recording(radius: float = 16, windows: int = 4, window_ms: flo
 DEMO_WINDOWS = 24
 
 
-def demo_recording(windows: int = DEMO_WINDOWS, window_ms: float = 85.0) -> Recording:
+def demo_recording(windows: int = DEMO_WINDOWS, window_ms: float = WINDOW_MS) -> Recording:
     """The demo scene (:func:`demo`, the one ``snn-fg run demo`` shows) as an event
     camera sees it through the iCub's circular microsaccade, one turn a window (as
     the iCub's), for ``windows`` windows of ``window_ms`` ms on a 160 x 120 sensor.
@@ -247,7 +248,7 @@ DAVIS346_SHAPE = (260, 346)
 #: its clock's start: DAVIS cameras stamp Unix time in microseconds (14 Nov 2023)
 DAVIS_T0_US = 1_700_000_000_000_000
 #: the microsaccade's radius (px) and period (us): one turn per 85 ms window, as the iCub's
-MICROSACCADE_PX, MICROSACCADE_US = 1.0, 85_000
+MICROSACCADE_PX, MICROSACCADE_US = 1.0, int(WINDOW_MS * 1000)
 #: time step of the simulated event camera (us): 34 positions per turn
 DAVIS_STEP_US = 2_500
 #: APS frames: one every 40 ms (25 per second), the first 20 ms in, each exposed 4 ms (sampled 5 times)

@@ -32,7 +32,7 @@ from ..events.live_sources import open_source, parse_address
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..results.peaks import grouping_peaks
-from ..results.publish import SENDER_CLOSED, LiveModel, LiveRecord, Publisher
+from ..results.publish import LiveModel, LiveRecord, Publisher, ended_by
 
 #: what a warm-up gives (:func:`warm_up`): its seconds, and its last window with its maps
 WarmUp = namedtuple("WarmUp", "seconds window maps")
@@ -102,7 +102,7 @@ def run_live(
             warnings.simplefilter("ignore", EmptyWindowWarning)  # (one that is, is handed over with line["events"] 0)
             LiveModel(model, stream, record).run_windows_into(stream, each)
     # (after the stream and source are closed: a UDP socket's lost packets are read as it closes)
-    ended = "stopped" if stop is not None and stop.is_set() else getattr(source, "ended_by", SENDER_CLOSED)
+    ended = "stopped" if stop is not None and stop.is_set() else ended_by(source)
     return record.summary(ended)
 
 

@@ -116,8 +116,7 @@ def timeline_of(maps, rows, folder):
     keeps them), and for a run cut short (its store not complete: Ctrl-C, an error) the window
     where it stopped, the last one stored, skipped or dropped."""
     source = maps.params.get("source", {})
-    name = Path(str(source.get("input", Path(folder).name))).name
-    title = f"{name}: {made_by(maps.params)}, window by window"
+    title = f"{recording_name(maps, folder)}: {made_by(maps.params)}, window by window"
     skipped, dropped = (maps.params.get(k, ()) for k in ("skipped_windows", "dropped_windows"))
     store = Path(folder) / STORE_NAME
     if store.is_dir() and not read_attrs(store)["snn_fg"]["complete"]:
@@ -135,9 +134,18 @@ def timeline_of(maps, rows, folder):
     )
 
 
+def recording_name(maps, folder=None) -> str:
+    """The name of the recording a run's ``maps`` were made from (its file's name; else the name
+    of the run's ``folder``, where given)."""
+    source = maps.params.get("source", {})
+    fallback = Path(folder).name if folder is not None else "the recording"
+    return Path(str(source.get("input", fallback))).name
+
+
 def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, crop=None):
     """Window ``i`` of a recording's maps as a figure of its own (input, figure-ground, grouping),
-    on the grouping scale ``grouping_max`` (the whole recording's, so that windows compare)."""
+    on the grouping scale ``grouping_max`` (the whole recording's, so that windows compare), under
+    a title that names the model and the recording."""
     return maps_figure(
         input_images(maps),
         maps.fg_x,
@@ -148,6 +156,7 @@ def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, cro
         grouping_label=grouping_label,
         grouping_max=grouping_max,
         input_note=input_note(maps),
+        made_by=f"{made_by(maps.params)}: {recording_name(maps)}",
         **on_sensor(maps.params, crop, maps.fg_x.shape),
     )
 

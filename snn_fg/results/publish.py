@@ -37,7 +37,7 @@ DROP_POLICY = (
     "decoded (windows_skipped): the network takes its events all the same, and a newer hop's maps are made in its "
     "place"
 )
-#: live.json's ``ended`` when the stream ended by itself (a UDP source says it went silent: ``ended_by``)
+#: live.json's ``ended`` when the stream ended by itself (a UDP source says it went silent: :func:`ended_by`)
 SENDER_CLOSED = "the sender closed the stream"
 #: a window's ``completed_by`` when no event past its read-out came: the end of the stream completed it
 END_OF_STREAM = "the end of the stream"
@@ -53,6 +53,12 @@ CALLBACK_SHARE = 0.2
 #: seconds of a warm-up after the stream's first event arrived from which the warm-up is named as why the model
 #: fell behind (a little more than a window of the default 85 ms)
 LATE_WARM_UP_S = 0.1
+
+
+def ended_by(source) -> str:
+    """live.json's ``ended`` for a stream that ended by itself: what ``source`` says of it (a UDP
+    source's ``ended_by``: it went silent), else :data:`SENDER_CLOSED`."""
+    return getattr(source, "ended_by", SENDER_CLOSED)
 
 
 class Publisher:

@@ -156,7 +156,7 @@ def test_the_verdict_puts_the_agreement_beside_chance_and_beside_b_against_itsel
         {"pixels_compared": 100, "angle_within_45_frac": 0.75, "angle_diff_mean_deg": 30.0, "baseline_within_45": 0.9},
     ]
     line = verdict(rows)
-    assert "30.0% of 1,000 pixels, mean 84.0°" in line and "B against itself 90.0%" in line
+    assert "30.0% of 1,000 pixels, mean absolute difference 84.0°" in line and "B against itself 90.0%" in line
     assert line.endswith("near chance: the two maps' directions are unrelated.")
     close = [dict(r, angle_within_45_frac=0.88) for r in rows]
     assert verdict(close).endswith("as close as B's model comes to itself.")

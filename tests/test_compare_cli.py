@@ -185,7 +185,7 @@ def test_outline_compares_the_vectors_on_the_event_regions_outline_only(tmp_path
     mb.save(tmp_path / "c.npz")
     assert main(["compare", str(tmp_path / "b.npz"), str(tmp_path / "c.npz"), "--outline", "2"]) == 2
     err = capsys.readouterr().err
-    assert "(--outline) needs the event frame a recording" in err and "still image" in err
+    assert "--outline 2 (outline_px=2 in Python) needs the event frame a recording" in err and "still image" in err
 
 
 def test_with_outline_the_compare_figure_draws_the_difference_where_it_was_taken():
@@ -306,8 +306,9 @@ def test_runs_made_one_at_a_time_are_paired_by_image_and_pooled(tmp_path, capsys
     lines = text.splitlines()
     assert lines[0].split()[:3] == ["A", "B", "image"]
     assert [ln.split()[2] for ln in lines[1:3]] == ["x", "y"]
-    assert "All images: A within 45° of B on 50.0% of 20 pixels, which are 100% of B's vectors; mean 90.0°" in " ".join(
-        text.split()
+    assert (
+        "All images: A within 45° of B on 50.0% of 20 pixels, which are 100% of B's vectors; "
+        "mean absolute difference 90.0°" in " ".join(text.split())
     )
     assert (
         "A: 2 runs (spk_x, spk_y), the spiking model" in text and "B: 2 runs (rate_x, rate_y), the rate model" in text
@@ -322,7 +323,9 @@ def test_runs_made_one_at_a_time_are_paired_by_image_and_pooled(tmp_path, capsys
         (tmp_path / folder).mkdir()
         (tmp_path / folder / "summary.csv").write_text("recording,output,status,windows,seconds,error\n" + rows)
     assert main(["compare", str(tmp_path / "spk"), str(tmp_path / "rate"), "--no-baseline"]) == 0
-    assert "50.0% of 20 pixels, which are 100% of B's vectors; mean 90.0°" in " ".join(capsys.readouterr().out.split())
+    assert "50.0% of 20 pixels, which are 100% of B's vectors; mean absolute difference 90.0°" in " ".join(
+        capsys.readouterr().out.split()
+    )
 
     other = save("rate_z", "z", 1.0, "rate")
     for given, said in (

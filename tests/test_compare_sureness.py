@@ -62,10 +62,10 @@ def test_the_verdict_says_how_much_of_b_it_measured_and_how_sure_a_spiking_a_is(
     line = verdict(compare_maps(a, b))
     assert line.startswith(
         "All windows: A within 45° of B on 100.0% of 10 pixels, which are 25% of B's vectors, most of A's "
-        "decided by a spike or two (none at confidence 2 or more, median 0.7); mean 0.0°"
+        "decided by a spike or two (none at confidence 2 or more, median 0.7); mean absolute difference 0.0°"
     )
     rate = verdict(compare_maps(b, a))  # (a rate A: no confidence to speak of)
-    assert "which are 100% of B's vectors; mean 0.0°" in rate and "confidence" not in rate
+    assert "which are 100% of B's vectors; mean absolute difference 0.0°" in rate and "confidence" not in rate
 
     a.save(tmp_path / "a.npz"), b.save(tmp_path / "b.npz")
     out = tmp_path / "c.json"

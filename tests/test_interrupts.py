@@ -175,3 +175,33 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_ne
     assert os.listdir(out) == ["maps.zarr"] and Maps.load(out).fg_x.shape[0] == (2 if then == "goes_on" else 1)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     assert (signal.getsignal(signal.SIGINT), sys.unraisablehook) == before  # both restored
+
+
+def test_an_interrupt_while_the_figures_are_drawn_says_to_draw_them_not_to_resume(
+    inputs, tmp_path, monkeypatch, capsys
+):
+    """Every window done, the run interrupted as it drew its figures: it had said '--resume continues',
+    and --resume then said 'finished already' with no figure drawn (two new users' trials, 30 Nov)."""
+    from snn_fg import cli
+    from snn_fg.cli import runner
+
+    def interrupted(*a, **kw):
+        raise KeyboardInterrupt
+
+    out = tmp_path / "out"
+    args = ["run", str(inputs / "long.npz"), "--window-ms", "50", "--max-windows", "2", "--out", str(out)]
+    with monkeypatch.context() as m:
+        m.setattr(runner, "write_run_tables", interrupted)
+        assert cli.main([*args, "--no-progress"]) == 130
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].endswith(
+        f"every window was done: the 2 windows are in {out}/ (maps.zarr), but not every figure was drawn: "
+        f"snn-fg plot {out} --force draws them (--resume has nothing left to run)"
+    )
+    assert cli.main([*args, "--resume", "--no-progress"]) == 0
+    said = capsys.readouterr().out
+    assert (
+        f"finished already (2 windows): nothing to resume, nothing written (maps.png is not there: "
+        f"snn-fg plot {out} --force draws the figures)" in said
+    )
+    assert cli.main(["plot", str(out), "--force"]) == 0 and (out / "maps.png").exists()

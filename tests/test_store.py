@@ -273,7 +273,10 @@ def test_another_run_and_a_changing_shape_are_refused(tmp_path):
     ):
         MapsStore.reopen(path, {"maps_grid": "blocks"})
     (tmp_path / "empty").mkdir()
-    with pytest.raises(InputError, match="not a maps store"):
+    with pytest.raises(InputError, match="holds no maps.npz or maps.zarr"):
+        Maps.load(tmp_path / "empty")
+    (tmp_path / "empty" / ".zattrs").write_text("{}")  # (a Zarr group of another program)
+    with pytest.raises(InputError, match="not a maps store written by snn-fg"):
         Maps.load(tmp_path / "empty")
 
 
@@ -345,3 +348,11 @@ def test_a_damaged_store_is_refused_in_one_line_not_read_as_zeros(tmp_path, monk
     assert not (late / "frame" / "0.0.0").exists()
     back = Maps.load(late)
     assert not back.extra["frame"][0].any() and back.extra["frame"][2].all()
+
+
+def test_a_folder_with_no_maps_says_so_not_that_it_lacks_a_zattrs(tmp_path):
+    """An empty folder, or a still run's with its maps.npz deleted, was 'not a maps store: no .zattrs'."""
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "maps.png").write_bytes(b"a figure")
+    with pytest.raises(InputError, match="holds no maps.npz or maps.zarr: not a finished run's folder"):
+        Maps.load(tmp_path / "run")

@@ -68,8 +68,9 @@ def compare_table(rows, outline_px: int | None = None, baseline: str | None = No
         )
     lines += textwrap.wrap(
         f"{when}; angle columns on pixels{where} where both maps have a figure-ground vector (SSIM: where "
-        "either has one); cover: the share of B's vectors that A has there; grouping r and SSIM on the whole "
-        "map, SSIM with each map scaled to 1",
+        "either has one); mean°: the mean absolute difference of their directions (chance 90°), <=45°: the "
+        "share within 45° (chance 0.25); cover: the share of B's vectors that A has there; grouping r and "
+        "SSIM on the whole map, SSIM with each map scaled to 1",
         95,
     )
     if baseline is not None:
@@ -300,7 +301,8 @@ def verdict(rows) -> str:
         "" if own is None else f"; B against itself {own:.1%}"
     )
     return (
-        f"{over}: A within 45° of B on {within:.1%} of {n:,} pixels{how}{';' if how else ','} mean {mean:.1f}° "
+        f"{over}: A within 45° of B on {within:.1%} of {n:,} pixels{how}{';' if how else ','} "
+        f"mean absolute difference {mean:.1f}° "
         f"({against}): {word}."
     )
 

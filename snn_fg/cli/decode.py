@@ -28,6 +28,7 @@ from ..export.pynn import input_origin
 from ..results.atomic import OutputFolder
 from ..results.maps import SPIKING_GROUPING_LABEL, made_by
 from ..results.outputs import DECODE_FOLDER
+from ..results.timeline import MAPS_FIGURE
 from ..scoring.metrics import compare_frame
 from .options import subcommand
 
@@ -95,7 +96,7 @@ def cmd_decode(args) -> int:
             where.mkdir(exist_ok=True)
             m.save(where / "maps.npz")
             save_maps_figure(
-                where / "maps.png",
+                where / MAPS_FIGURE,
                 shown,
                 m.fg_x,
                 m.fg_y,

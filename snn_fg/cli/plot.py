@@ -23,7 +23,7 @@ from ..results.overview import (
     write_run_tables,
 )
 from ..results.store import STORE_NAME
-from ..results.timeline import TABLE_NAME, TIMELINE_NAME, window_numbers
+from ..results.timeline import MAPS_FIGURE, TABLE_NAME, TIMELINE_NAME, window_numbers
 from ..validate import check_crop
 from .options import crop, number, subcommand
 
@@ -134,7 +134,7 @@ def cmd_plot(args) -> int:
         check_output_file(movie, args.force, "--animate", SUFFIXES)
         written.append(save_animation(movie, maps, grouping_label=label, fps=args.fps, crop=args.crop))
     if args.windows is None and args.animate is None:
-        for name in ("maps.png", TIMELINE_NAME, TABLE_NAME):
+        for name in (MAPS_FIGURE, TIMELINE_NAME, TABLE_NAME):
             check_output_file(folder / name, args.force, "plot", (Path(name).suffix,))
         write_run_tables(folder, maps, figures=True, coverage=model is None or not model.vector_at_every_event)
         options = {
@@ -142,8 +142,8 @@ def cmd_plot(args) -> int:
             "grouping_label": label,
             **on_sensor(maps.params, args.crop, maps.fg_x.shape),
         }
-        save_maps_figure(folder / "maps.png", input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
-        written += [folder / "maps.png", folder / TIMELINE_NAME, folder / TABLE_NAME]
+        save_maps_figure(folder / MAPS_FIGURE, input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
+        written += [folder / MAPS_FIGURE, folder / TIMELINE_NAME, folder / TABLE_NAME]
     shown = ", ".join(str(p) for p in written[:4]) + (f", ... ({len(written)} files)" if len(written) > 4 else "")
     print(f"snn-fg: wrote {shown}")
     return 0

@@ -23,6 +23,7 @@ from ..frames.still import RATE_BYTES_PER_PIXEL, SPIKING_BYTES_PER_PIXEL, input_
 from ..models import MODELS
 from ..results.atomic import OutputFolder, growing_folder, settle_folder
 from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, windows_complete
+from ..results.timeline import MAPS_FIGURE
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
 from .options import add_camera_options, add_image_scale_option, camera_options, crop, number, sensor_size, subcommand
@@ -233,11 +234,17 @@ def _run_recording(args, model) -> str | None:
     return f"{n} window{'s' if n != 1 else ''}, " + ", ".join(sorted(p.name for p in out.iterdir()))
 
 
-def _interrupted(folder: str, n: int | None, earlier: bool = False) -> str:
+def _interrupted(folder: str, n: int | None, earlier: bool = False, finished: bool = False) -> str:
     """What an interrupted recording run left in ``folder``: its ``n`` windows (None: not known yet), or
-    nothing (``earlier``: the earlier run that ``--force`` would have replaced is back), as a live run says it."""
+    nothing (``earlier``: the earlier run that ``--force`` would have replaced is back), as a live run says it;
+    ``finished``: every window was done, and the run was drawing its figures (there is nothing to resume)."""
     if n == 0:
         return nothing_written(folder, earlier)
+    if finished:
+        return (
+            f"every window was done: the {n} window{'s' if n != 1 else ''} are in {folder}/ (maps.zarr), but not "
+            f"every figure was drawn: snn-fg plot {folder} --force draws them (--resume has nothing left to run)"
+        )
     kept = "the windows" if n is None else f"the {n} window{'s' if n != 1 else ''}"
     return (
         f"{kept} completed so far are in {folder}/ (maps.zarr: snn-fg plot {folder} draws them); "
@@ -274,7 +281,7 @@ def _settled(args, out, previous, run) -> int:
         n, earlier = windows_complete(out), previous is not None and any(previous.iterdir())
         settle_folder(out, previous, keep_new=bool(n))
         if isinstance(exc, KeyboardInterrupt):  # (the note says how many windows were kept)
-            args.interrupt_note = _interrupted(args.out, n, earlier)
+            args.interrupt_note = _interrupted(args.out, n, earlier, finished=run_finished(out))
         raise
     settle_folder(out, previous, keep_new=True)
     return n
@@ -298,7 +305,12 @@ def _nothing_to_resume(args, out, asked: int | None) -> bool:
         )
         return True
     if complete and not goes_on(attrs, asked):
-        print(f"snn-fg: the run in {args.out}/ is finished already ({n} windows): nothing to resume, nothing written")
+        drawn = (out / MAPS_FIGURE).exists() or args.no_figures
+        figures = "" if drawn else f" ({MAPS_FIGURE} is not there: snn-fg plot {args.out} --force draws the figures)"
+        print(
+            f"snn-fg: the run in {args.out}/ is finished already ({n} windows): nothing to resume, nothing written"
+            + figures
+        )
         return True
     if n:  # (said before the work: a resumed run's progress counts the windows read again too)
         print(f"snn-fg: the run in {args.out}/ holds {n} complete windows: continuing from window {n}", flush=True)

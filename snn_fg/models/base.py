@@ -15,6 +15,7 @@ from ..frames.pool import MAPS_GRIDS, pooled_shape, signed_frame
 from ..frames.still import Still
 from ..params import ModelParams
 from ..results.maps import Maps, made_by
+from ..results.timeline import MAPS_FIGURE
 from . import blank, checks
 
 
@@ -111,7 +112,7 @@ class Model(ABC):
             crop = options.pop("crop")
         return [
             save_maps_figure(
-                out / "maps.png",
+                out / MAPS_FIGURE,
                 inputs,
                 maps.fg_x,
                 maps.fg_y,

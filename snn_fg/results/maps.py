@@ -84,6 +84,12 @@ class Maps:
         if path.is_dir() and (path / "maps.npz").is_file():
             path = path / "maps.npz"
         elif path.is_dir():
+            if not (path / STORE_NAME).is_dir() and not (path / ".zattrs").is_file():  # (neither a run nor a store)
+                raise InputError(
+                    path,
+                    f"holds no maps.npz or {STORE_NAME}: not a finished run's folder (empty, or its maps "
+                    "deleted or not written yet)",
+                )
             return cls(*read_maps(path / STORE_NAME if (path / STORE_NAME).is_dir() else path))
         try:
             with check.load_npz(path, "maps.npz or a run's output folder") as d:

@@ -35,9 +35,10 @@ from .activity import SATURATED_SHARE, Activity, draw_activity, scene_bars
 from .atomic import save_text
 from .maps import has_vector, maps_scale, sensor_pixel
 
-#: the file names of the table and the figure in a recording's output folder
+#: the file names of the table and the figures in a run's output folder (the maps' figure: a still's too)
 TABLE_NAME = "windows.csv"
 TIMELINE_NAME = "timeline.png"
+MAPS_FIGURE = "maps.png"
 #: the table's columns
 COLUMNS = (
     "window",

@@ -50,11 +50,10 @@ def event_outlines(a, b, band_px: int):
     if not frames:
         check.fail(
             "compare_maps",
-            "outline_px",
-            band_px,
-            "(--outline) needs the event frame a recording's run "
-            "stores with its maps; neither map has one (a still "
-            "image's run stores none)",
+            None,
+            None,
+            f"--outline {band_px} (outline_px={band_px} in Python) needs the event frame a recording's run "
+            "stores with its maps; neither map has one (a still image's run stores none)",
         )
     ef, k, scale = frames[0]
     # (maps kept on blocks: the band and the closing in sensor pixels all the same)

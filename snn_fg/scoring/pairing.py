@@ -156,7 +156,7 @@ def _by_clock(ca, cb, side_a, side_b, differ: str | None = None) -> Pairing:
                 None,
                 None,
                 f"{name}'s events were {said}: no other run's windows share that clock; "
-                "compare one window of each with window= (--window I)",
+                "compare one window of each: --window I (window=I in Python)",
             )
     (ia, na, ta), (ib, nb, tb) = side_a, side_b
     span = ca[2] or cb[2]  # (a udp:// stream's times: its sender's modulo 2**32 us)
@@ -176,7 +176,7 @@ def _by_clock(ca, cb, side_a, side_b, differ: str | None = None) -> Pairing:
             None,
             None,
             f"A and B are runs of different inputs ({differ}): their events share no clock, so no window of "
-            "one pairs with a window of the other; compare one window of each with window= (--window I)",
+            "one pairs with a window of the other; compare one window of each: --window I (window=I in Python)",
         )
     if not pairs:
         first_a, first_b = (_apart(x, np.array([cb[1]]), span)[0] / 1000 for x in (abs_a[0], abs_b[0]))

@@ -16,6 +16,7 @@ from ...network.roles import ROLE_MEANINGS, ROLE_ORDER
 from ...results.atomic import save_figure
 from ...results.figures import event_frame_rgb, save_maps_figure
 from ...results.maps import SPIKING_GROUPING_LABEL
+from ...results.timeline import MAPS_FIGURE
 from .record import RASTER_CELLS_PER_ROLE, SpikingRecord
 
 #: the raster's axes (inches high), and a line of the caption under them that says what the roles are
@@ -117,7 +118,7 @@ def save_spiking_figures(maps, out_dir, window: int | None = None, with_maps: bo
     written = (
         [
             save_maps_figure(
-                out / "maps.png",
+                out / MAPS_FIGURE,
                 event_frame_rgb(record.input_on, record.input_off),
                 pick(maps.fg_x),
                 pick(maps.fg_y),

@@ -427,3 +427,29 @@ def test_the_builder_hands_out_the_populations_it_made_by_role_and_level():
     assert bld.named("feedback_1p", 2) == made == bld.pops[-1].name
     with pytest.raises(KeyError, match="no 'feedback_1p' population at level 1"):
         bld.named("feedback_1p", 1)
+
+
+def test_a_stored_description_is_refused_at_load_when_the_decoder_cannot_read_it(tmp_path):
+    """params.levels edited to 4 without the populations exported without a word (its README said 4
+    levels) and a run failed part way, naming no file (a new user's trial, 30 Nov). A population's
+    bad neuron constant now names the population."""
+    from snn_fg.network.recipes import load_description, network_for
+
+    net, _ = network_for("compact", (24, 32))
+    d = net.to_dict()
+    d["params"]["levels"] = net.params.levels + 1
+    path = tmp_path / "levels.json"
+    path.write_text(json.dumps(d))
+    with pytest.raises(
+        InputError, match=r"levels.json: cannot be run and decoded: level 4 of its params.levels=4 has 0"
+    ):
+        load_description(path)
+    d = net.to_dict()
+    pop = next(p for p in d["populations"] if p.get("neuron"))
+    pop["neuron"]["tau_m_ms"] = -20.0
+    path.write_text(json.dumps(d))
+    with pytest.raises(
+        InputError,
+        match=rf"invalid network description: Population '{pop['name']}', its neuron: Neuron: tau_m_ms=-20.0",
+    ):
+        load_description(path)

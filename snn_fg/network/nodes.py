@@ -32,6 +32,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import validate as check
+from ..errors import ParameterError
 from ..params import ModelParams
 from .kernels import dog_kernels, von_mises_masks
 from .roles import ROLES, SOURCE_ROLES
@@ -97,7 +98,10 @@ class Node:
         d = dict(d)
         for key, node_type in cls._nested.items():
             if d.get(key) is not None:
-                d[key] = node_type.from_dict(d[key])
+                try:
+                    d[key] = node_type.from_dict(d[key])
+                except ParameterError as exc:  # (say whose: a population's neuron, not just "Neuron")
+                    raise ParameterError(f"{owner}, its {key}: {exc}") from None
         return cls(**d)
 
 

@@ -30,6 +30,7 @@ from ..frames.pyramid import check_levels
 from ..params import ModelParams
 from .builder import build_network
 from .graph import Network
+from .roles import READOUT_ROLES
 from .spiking_params import SpikingParams
 
 
@@ -184,4 +185,15 @@ def load_description(path) -> Network:
                 path, f"no such file (from {Path.cwd()}); a stored description's path is taken from the current folder"
             )
         raise InputError(path, f"neither a network name ({', '.join(RECIPES)}) nor a stored description (.json)")
-    return Network.load(path)
+    net = Network.load(path)
+    for level in range(1, net.params.levels + 1):  # (checked here, not part way through a run or after an export)
+        for role in READOUT_ROLES:
+            found = len(net.by_role(role, level))
+            if found != 1:
+                raise InputError(
+                    path,
+                    f"cannot be run and decoded: level {level} of its params.levels={net.params.levels} has "
+                    f"{found} populations of role {role!r}, where the decoder reads exactly 1 (levels edited "
+                    "without the populations? snn-fg export --format network --levels N writes a network of N)",
+                )
+    return net

@@ -31,6 +31,9 @@ ROLES = (
     "clock",  # one spike source marking where each window of a recording starts
 )
 SOURCE_ROLES = ("input_on", "input_off", "clock")
+#: the roles the decoder reads at every level, one population each
+#: (:func:`snn_fg.models.spiking.decode.grouping_result`)
+READOUT_ROLES = ("simple", "bo_L1", "bo_L2", "bo_D1", "bo_D2", "group_L", "group_D")
 
 #: non-source roles in display order (figures, summaries)
 ROLE_ORDER = tuple(r for r in ROLES if r not in SOURCE_ROLES)

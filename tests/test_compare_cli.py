@@ -105,12 +105,18 @@ def test_compare_writes_nothing_unless_asked_and_shows_relative_times(unix_recor
 def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypatch):
     import snn_fg.scoring.compare_figure as figures
 
-    for name in ("run-a", "run-b"):
+    spiking = {"model": "spiking", "network": {"origin": "recipe", "recipe": "compact"}, "backend": {"name": "fast"}}
+    for name, params in (("run-a", spiking), ("run-b", {"model": "rate", "input_pool": 3})):
         z = np.zeros((4, 5), np.float32)
         (tmp_path / "out" / name).mkdir(parents=True)
-        Maps(z, z, z, {"model": "rate"}).save(tmp_path / "out" / name / "maps.npz")
-    seen = []
-    monkeypatch.setattr(figures, "save_compare_figure", lambda path, a, b, rows, names, **_: seen.append(names))
+        Maps(z, z, z, params).save(tmp_path / "out" / name / "maps.npz")
+    seen, described = [], []
+
+    def save(path, a, b, rows, names, **kw):
+        seen.append(names)
+        described.append(kw["described"])
+
+    monkeypatch.setattr(figures, "save_compare_figure", save)
     for b in ("run-b", "run-b/maps.npz"):
         assert (
             main(
@@ -125,6 +131,11 @@ def test_the_compare_figure_names_each_side_by_its_run_folder(tmp_path, monkeypa
             == 0
         )
     assert seen == [("A (run-a)", "B (run-b)")] * 2
+    # the title says which model made each (until 30 Nov the figure named the folders only)
+    assert described[0] == [
+        "A: run-a, the spiking model on the compact network (fast backend)",
+        "B: run-b, the rate model, its input pooled in 3 x 3 blocks",
+    ]
 
 
 def test_the_compare_figure_draws_both_maps_and_their_angle_difference():

@@ -246,7 +246,8 @@ def test_the_figures_say_which_model_and_network_made_the_maps(tmp_path):
     assert made_by(compact) == "the spiking model on the compact network (fast backend)"
     assert made_by(built) == "the spiking model on the default network (brian2 backend)"
     assert made_by(stored) == "the spiking model on the net.json network (nest backend)"
-    assert made_by({"model": "rate", "input_pool": 3}) == "the rate model on 3 x 3 blocks"
+    # (the blocks are its input's: "on 3 x 3 blocks" read as maps kept on blocks, --maps-grid blocks)
+    assert made_by({"model": "rate", "input_pool": 3}) == "the rate model, its input pooled in 3 x 3 blocks"
     assert made_by({"model": "rate", "input_pool": 1}) == "the rate model"
     fig = maps_figure(*_windows(2), made_by=made_by(compact))
     assert fig._suptitle.get_text() == "The spiking model on the compact network (fast backend)"

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..results.atomic import save_text
+from ..results.maps import made_by
 from ..results.outputs import check_output_file
 from .compare_labels import cmd_compare_labels, names_labels, runs_of
 from .compare_maps import _record, _run_name, compare_pair, compare_table
@@ -124,7 +125,7 @@ def cmd_compare(args) -> int:
     args.a = args.a[0]
     a, b, rows, where, baseline, paired = compare_pair(args, args.a, args.b)
     runs = (("A", _run_name(args.a), a), ("B", _run_name(args.b), b))  # (a path may be wider than the table)
-    named = [f"{side}: {run}, the {m.params.get('model', 'unknown')} model" for side, run, m in runs]
+    named = [f"{side}: {run}, {made_by(m.params)}" for side, run, m in runs]  # (until 30 Nov: the model only)
     print(compare_table(rows, args.outline, baseline, named, paired))
     if args.json:
         save_text(args.json, json.dumps(_record(args, rows, baseline, paired), indent=2))
@@ -136,7 +137,15 @@ def cmd_compare(args) -> int:
         names = tuple(f"{side} ({run})" for side, run, _ in runs)
         inputs = aps_inputs(a, b)
         save_compare_figure(
-            args.plot, a, b, rows, names=names, where=where, inputs=inputs, min_confidence=args.min_confidence
+            args.plot,
+            a,
+            b,
+            rows,
+            names=names,
+            where=where,
+            inputs=inputs,
+            min_confidence=args.min_confidence,
+            described=named,
         )
         print(f"snn-fg: figure saved to {args.plot}")
     return 0

@@ -110,8 +110,9 @@ class Maps:
 def made_by(params: dict) -> str:
     """Which model made maps of ``params``, in words for a figure or a line: ``the spiking model on
     the compact network (fast backend)`` (a spiking run's network: its recipe, its file, or the
-    default built from parameters), ``the rate model on 3 x 3 blocks`` (a model whose input is
-    pooled, as the compact recipe's), and ``, maps on its blocks`` where they were kept there."""
+    default built from parameters), ``the rate model, its input pooled in 3 x 3 blocks`` (a model
+    whose input is pooled, as the compact recipe's; its maps are on the sensor's pixels unless
+    they were kept on the blocks), and ``, maps on its blocks`` where they were kept there."""
     net, backend = params.get("network"), params.get("backend")
     said = f"the {params.get('model', 'unknown')} model"
     if isinstance(net, dict):  # (a spiking run's: snn_fg.models.spiking.record.run_provenance)
@@ -119,7 +120,7 @@ def made_by(params: dict) -> str:
         name = net.get("recipe") if origin == "recipe" else "default" if origin == "built" else Path(origin).name
         said += f" on the {name} network"
     elif int(params.get("input_pool", 1) or 1) > 1:
-        said += f" on {params['input_pool']} x {params['input_pool']} blocks"
+        said += f", its input pooled in {params['input_pool']} x {params['input_pool']} blocks"
     if isinstance(backend, dict) and backend.get("name"):
         said += f" ({backend['name']} backend)"
     if maps_scale(params) > 1:

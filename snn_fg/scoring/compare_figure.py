@@ -54,7 +54,7 @@ def _difference_title(r, where, when: str, sure: str) -> str:
 
 
 def compare_figure(
-    a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=(), min_confidence=None
+    a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=(), min_confidence=None, described=()
 ) -> Figure:
     """Two maps side by side and how they differ: per compared pair of
     windows (``rows`` of :func:`~snn_fg.scoring.metrics.compare_maps`) the
@@ -64,7 +64,8 @@ def compare_figure(
     difference is drawn on those pixels only, as its numbers were taken,
     the rest of the frame pale. ``inputs``: functions of a row giving
     ``(title, image)`` drawn first (:func:`aps_inputs`); a grey image is
-    drawn on the 0-255 scale of a camera's frame."""
+    drawn on the 0-255 scale of a camera's frame. ``described``: the title's lines, one per map
+    (which run and which model made it); by default ``A vs B`` by ``names``."""
     idx = rows_shown(len(rows), max_rows)
     h, w = np.shape(a.fg_x)[-2:]
     panel_w = panel_width(w / h)
@@ -106,7 +107,8 @@ def compare_figure(
         ax_row[0].set_ylabel("y (px, rows down)", fontsize=7)
     wheel_inset(axes[0][n_in + 1])
     note = shown_note(idx, len(rows), "compared windows", [f"A {r.get('number_a')}" for r in rows])
-    fig.suptitle(f"{names[0]} vs {names[1]}" + (f"\n{note}" if note else ""), fontsize=9)
+    title = "\n".join(described) if described else f"{names[0]} vs {names[1]}"
+    fig.suptitle(title + (f"\n{note}" if note else ""), fontsize=9)
     return fig
 
 
@@ -119,8 +121,8 @@ def _sure(m, i, min_confidence):
 
 
 def save_compare_figure(
-    path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=(), min_confidence=None
+    path, a, b, rows, names=("A", "B"), max_rows: int = 6, where=None, inputs=(), min_confidence=None, described=()
 ) -> Path:
     """Write :func:`compare_figure` to ``path`` (atomically)."""
-    figure = compare_figure(a, b, rows, names, max_rows, where, inputs, min_confidence)
+    figure = compare_figure(a, b, rows, names, max_rows, where, inputs, min_confidence, described)
     return save_figure(figure, path, dpi=110)

@@ -88,6 +88,8 @@ def test_empty_recording_and_late_start_are_errors(tmp_path):
     assert str(late.value).endswith(
         "the start, 5 ms, lies after the last event (0.01 ms after the first); pass start_ms below 0.01"
     )
+    with pytest.raises(InputError, match=r"the start, 99,999,999 ms, lies after"):  # (it said 1e+08 ms)
+        list(iter_windows(ev_at([0, 10]), start_ms=99_999_999, sensor_size=(8, 1)))
     assert late.value.for_command_line().endswith("; give --start-ms below 0.01")  # (the option, not the keyword)
     for bad in (
         {"window_ms": 0},

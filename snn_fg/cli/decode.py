@@ -16,6 +16,7 @@ from ..backends import backend_names
 from ..errors import InputError
 from ..export.edits import checked_export
 from ..export.loop import (
+    EXPORT_KINDS,
     decode_counts,
     export_input,
     export_network,
@@ -105,7 +106,7 @@ def cmd_decode(args) -> int:
                 placed=placed,
                 made_by=f"the reference, {made_by(m.params)}"
                 if m is ref
-                else f"the export {Path(args.export).name}, decoded from {Path(args.counts).name}",
+                else f"the {_kind(m)} export {args.export}, decoded from {Path(args.counts).name}",
             )
     written = "maps.npz, maps.png" + (", reference/" if ref is not None else "")
     print(f"snn-fg: decoded {args.counts} with the export {args.export}: wrote {args.out}/ ({written})")
@@ -153,3 +154,8 @@ def agreement_line(board, ref, backend: str, input_hz: float, net, command: str 
             "or a window with more edges (snn-fg events --start-ms, --crop-at)"
         )
     return head + what + "; " + why
+
+
+def _kind(maps) -> str:
+    """Which kind of export's run ``maps`` were decoded from, in words (``PyNN``, ``Lava``, ``NIR``)."""
+    return EXPORT_KINDS.get((maps.params.get("backend") or {}).get("name"), "board")

@@ -176,7 +176,7 @@ def write_spikes(args) -> int:
     with atomic_path(args.write_spikes, suffix=".npz") as part:
         save_input(inp, part, float(meta["dt_ms"]), origin)
     print(
-        f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.0f} Hz per active "
+        f"snn-fg: wrote {args.write_spikes}: {inp.indices.size:,} spikes ({inp.rate_hz:.3g} Hz per active "
         f"{_pixel(net)}; the export's gains are set for {net.input_rate_hz:g} Hz) for the export {args.export} "
         f"({frame_text(net, meta.get('sensor_shape'))}) at dt {meta['dt_ms']} ms; {what}"
     )

@@ -248,7 +248,8 @@ class WindowCutter:
                 last_ms = (self.prev_t - self.t0) / 1000
                 raise InputError(
                     self.name,
-                    f"the start, {self.start_ms:g} ms, lies after the last event ({last_ms:g} ms after the first)",
+                    f"the start, {_ms(self.start_ms)} ms, lies after the last event "
+                    f"({_ms(last_ms)} ms after the first)",
                     remedy=Remedy(f"start_ms below {last_ms:g}", f"--start-ms below {last_ms:g}"),
                 )
             return []
@@ -271,3 +272,8 @@ class WindowCutter:
         out = CutWindow.of_parts(parts, self.size, index=self.k, t_start_us=ws, t_end_us=we, t_first_event_us=self.t0)
         self.k += 1
         return out
+
+
+def _ms(value: float) -> str:
+    """A time in ms for a line: ``85``, ``2.5``, and ``99,999,999`` (not ``1e+08``)."""
+    return f"{value:,.0f}" if abs(value) >= 1e5 else f"{value:g}"

@@ -46,7 +46,7 @@ def check_levels(shape: tuple[int, int], levels: int, source="<frame>", per_octa
     if levels > most:
         raise InputError(
             source,
-            f"a {shape[0]} x {shape[1]} frame has at most {most} pyramid levels of at least "
+            f"a {shape[1]} x {shape[0]} frame (width x height) has at most {most} pyramid levels of at least "
             f"2 x 2 pixels; --levels {levels} asks for more",
         )
 

@@ -15,7 +15,7 @@ from matplotlib.ticker import NullLocator
 from ...network.roles import ROLE_MEANINGS, ROLE_ORDER
 from ...results.atomic import save_figure
 from ...results.figures import event_frame_rgb, save_maps_figure
-from ...results.maps import SPIKING_GROUPING_LABEL
+from ...results.maps import SPIKING_GROUPING_LABEL, made_by
 from ...results.timeline import MAPS_FIGURE
 from .record import RASTER_CELLS_PER_ROLE, SpikingRecord
 
@@ -23,9 +23,10 @@ from .record import RASTER_CELLS_PER_ROLE, SpikingRecord
 RASTER_AXES_IN, CAPTION_LINE_IN = 7.2, 0.125
 
 
-def raster_figure(record, window: int | None = None) -> Figure:
-    """Spike raster of a :class:`~snn_fg.models.spiking.record.SpikingRecord`'s sample."""
-    where = "" if window is None else f" (window {window})"
+def raster_figure(record, window: int | None = None, made: str = "") -> Figure:
+    """Spike raster of a :class:`~snn_fg.models.spiking.record.SpikingRecord`'s sample (``made``:
+    which model and network, :func:`~snn_fg.results.maps.made_by`, for the title)."""
+    where = ("" if window is None else f" (window {window})") + (f", {made}" if made else "")
     raster = record.raster
     drawn = None if raster is None or not raster.row.size else {ROLE_ORDER[int(r)] for r in np.unique(raster.role)}
     caption = role_caption(drawn)
@@ -75,9 +76,9 @@ def role_caption(roles=None, width: int = 170) -> str:
     )
 
 
-def rate_histogram_figure(record, window: int | None = None) -> Figure:
-    """Firing-rate histograms per population role (all levels pooled)."""
-    where = "" if window is None else f" (window {window})"
+def rate_histogram_figure(record, window: int | None = None, made: str = "") -> Figure:
+    """Firing-rate histograms per population role (all levels pooled; ``made``: as :func:`raster_figure`)."""
+    where = ("" if window is None else f" (window {window})") + (f",\n{made}" if made else "")
     by_role: dict = {}
     for name in record.names:
         by_role.setdefault(record.populations[name]["role"], []).append(record.all_rates(name))
@@ -130,6 +131,8 @@ def save_spiking_figures(maps, out_dir, window: int | None = None, with_maps: bo
         if with_maps
         else []
     )
-    written.append(save_figure(raster_figure(record, window), out / "spike_raster.png", dpi=120))
-    written.append(save_figure(rate_histogram_figure(record, window), out / "rate_histograms.png", dpi=110))
+    # (the network named: runs of a description and of its edit could not be told apart)
+    made = made_by(maps.params)
+    written.append(save_figure(raster_figure(record, window, made), out / "spike_raster.png", dpi=120))
+    written.append(save_figure(rate_histogram_figure(record, window, made), out / "rate_histograms.png", dpi=110))
     return written

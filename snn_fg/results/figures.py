@@ -82,8 +82,12 @@ def draw_wheel(ax) -> None:
 
 def wheel_inset(ax):
     """:func:`draw_wheel` outside the axes ``ax``, right of their top right corner, so that it
-    hides no data (the layout makes room for it)."""
-    draw_wheel(ax.inset_axes([1.02, 0.55, 0.45, 0.45]))
+    hides no data (the layout makes room for it), with what its hue means under it (a reader of a
+    compare or labels figure was not told)."""
+    wheel = ax.inset_axes([1.02, 0.55, 0.45, 0.45])
+    draw_wheel(wheel)
+    wheel.text(0.5, -0.2, "hue: direction towards\nthe owning object", transform=wheel.transAxes,
+               ha="center", va="top", fontsize=7)  # fmt: skip
 
 
 def plot_maps_row(axes, input_img, fields, title: str = "", *, norm=None, extent=None) -> None:

@@ -211,7 +211,8 @@ def test_a_sensor_given_by_hand_too_small_for_the_levels_is_questioned(tmp_path,
     argv = ["run", str(tmp_path / "nmnist.npy"), "--out", str(tmp_path / "o"), "--no-progress"]
     assert main([*argv, "--sensor-size", "20x20"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "a 20 x 20 frame (width x height) has at most 9 pyramid levels" in err and "(is --sensor-size 20x20 right?)" in err
+    assert err.count("\n") == 1 and "a 20 x 20 frame (width x height) has at most 9 pyramid levels" in err
+    assert "(is --sensor-size 20x20 right?)" in err
 
 
 def test_a_run_out_of_memory_is_one_line_naming_the_size_and_the_smaller_network(tmp_path, monkeypatch, capsys):

@@ -85,3 +85,19 @@ def test_run_py_keeps_an_earlier_runs_counts_unless_forced(export, tmp_path, run
         "or give another --out; nothing was run"
     )
     assert (folder / "counts.npz").read_bytes() == before
+
+
+def test_the_exports_copy_of_the_neuron_rules_is_snn_fgs():
+    """run.py cannot import snn_fg, so fg_tables keeps a copy of the neuron's rules: a value one
+    side refuses, the other must refuse too."""
+    from snn_fg.errors import ParameterError
+    from snn_fg.network.nodes import Neuron
+    from snn_fg.pynn.tables import NEURON_RULES
+
+    assert set(NEURON_RULES) == {f for f in Neuron.__dataclass_fields__ if f != "model"}
+    for key, (lo, lo_open) in NEURON_RULES.items():
+        if lo is None:
+            continue
+        with pytest.raises(ParameterError, match=key):
+            Neuron(**{key: lo if lo_open else lo - 1.0})
+        Neuron(**{key: lo + 1.0})  # (just inside: both accept it)

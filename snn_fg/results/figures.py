@@ -80,14 +80,15 @@ def draw_wheel(ax) -> None:
     ax.set_label("colour wheel")
 
 
-def wheel_inset(ax):
+def wheel_inset(ax, caption: bool = True):
     """:func:`draw_wheel` outside the axes ``ax``, right of their top right corner, so that it
-    hides no data (the layout makes room for it), with what its hue means under it (a reader of a
-    compare or labels figure was not told)."""
+    hides no data (the layout makes room for it), with what its hue means under it (``caption``;
+    a reader of a compare figure was not told; a figure whose title says it leaves it out)."""
     wheel = ax.inset_axes([1.02, 0.55, 0.45, 0.45])
     draw_wheel(wheel)
-    wheel.text(0.5, -0.2, "hue: direction towards\nthe owning object", transform=wheel.transAxes,
-               ha="center", va="top", fontsize=7)  # fmt: skip
+    if caption:
+        wheel.text(0.5, -0.2, "hue: direction towards\nthe owning object", transform=wheel.transAxes,
+                   ha="center", va="top", fontsize=7)  # fmt: skip
 
 
 def plot_maps_row(axes, input_img, fields, title: str = "", *, norm=None, extent=None) -> None:

@@ -98,13 +98,13 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
         bar.set_ticks((0, 45, 90, 135, 180))
         bar.set_label("error panels: |angle difference| (deg)", fontsize=8)
         bar.ax.tick_params(labelsize=7)
-    wheel_inset(axes[0][1])
+    wheel_inset(axes[0][1], caption=False)  # (the title says what the hue is: no room beside these panels)
     red = Patch(facecolor=NO_VECTOR, label="error panels: labelled, but no vector from the run (white: not labelled)")
     fig.legend(handles=[red], loc="outside lower center", fontsize=8, frameon=False)
     note = shown_note(idx, len(scored), "images", [s.image_id for s in scored])
     fig.suptitle(
-        "the run against the human figure/ground labels (colour wheel: direction, 0° right, 90° up)"
-        + (f"\n{note}" if note else ""),
+        "the run against the human figure/ground labels (colour wheel: the direction towards the figure, "
+        "0° right, 90° up)" + (f"\n{note}" if note else ""),
         fontsize=9,
     )
     return fig

@@ -445,7 +445,9 @@ def test_no_sender_ends_with_one_line_and_no_output(tmp_path, capsys):
         + ["--wait-s", "0.3"]
     )
     err = capsys.readouterr().err.strip().splitlines()
-    assert status == 2 and err == [f"snn-fg: error: udp://127.0.0.1:{port}: no packet arrived within 0.3 s"]
+    assert status == 2 and err == [
+        f"snn-fg: error: udp://127.0.0.1:{port}: no packet arrived within 0.3 s (--wait-s S waits longer)"
+    ]
     assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
 
 

@@ -83,7 +83,7 @@ def test_a_window_figure_says_which_model_made_it_and_from_which_recording(run):
 
     fig = window_figure(Maps.load(run), 2, grouping_label="grouping", grouping_max=1.0)
     assert fig._suptitle is not None
-    assert fig._suptitle.get_text() == "The rate model: disc.es"
+    assert fig._suptitle.get_text() == "The rate model: disc.es"  # (made_from: the model and the input)
 
 
 @pytest.mark.parametrize("name", ["maps.gif", "maps.mp4"])

@@ -160,7 +160,8 @@ class UdpSource:
             if first and now - waiting_since > self.wait_s:
                 n = self.malformed
                 came = f"no event arrived within {self.wait_s:g} s, only {n:,} malformed packet{'s' * (n != 1)}"
-                raise InputError(self.name, came if n else f"no packet arrived within {self.wait_s:g} s") from None
+                said = came if n else f"no packet arrived within {self.wait_s:g} s"
+                raise InputError(self.name, f"{said} (--wait-s S waits longer)") from None
             if not first and now - last > self.idle_s:
                 return  # (the sender has gone: UDP has no end of its own)
 

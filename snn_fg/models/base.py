@@ -14,7 +14,7 @@ from .. import validate as check
 from ..frames.pool import MAPS_GRIDS, pooled_shape, signed_frame
 from ..frames.still import Still
 from ..params import ModelParams
-from ..results.maps import Maps, made_by
+from ..results.maps import Maps, made_from
 from ..results.timeline import MAPS_FIGURE
 from . import blank, checks
 
@@ -104,7 +104,7 @@ class Model(ABC):
         ``(x0, y0, x1, y1)``: the part drawn; ``options``: more :func:`~snn_fg.results.figures.maps_figure` keywords."""
         from ..results.figures import IMAGE_INPUT, on_sensor, save_maps_figure
 
-        options.setdefault("made_by", made_by(maps.params))
+        options.setdefault("made_by", made_from(maps.params))
         if self.needs == "image":  # (its panel is the image it read, not an event frame: until 30 Nov said as one)
             options.setdefault("input_note", IMAGE_INPUT)
         if "placed" not in options:  # (maps kept on blocks: drawn at the sensor's coordinates)

@@ -128,6 +128,14 @@ def made_by(params: dict) -> str:
     return said
 
 
+def made_from(params: dict) -> str:
+    """:func:`made_by` and the name of the input the maps were made from, for a figure's title:
+    ``the rate model: dvs.es`` (a figure sent on its own said which model, not of what)."""
+    source = params.get("source") or {}
+    given = source.get("input") if isinstance(source, dict) else None
+    return made_by(params) + (f": {Path(str(given)).name}" if given else "")
+
+
 def window_part(extra: dict, key: str, window: int) -> np.ndarray:
     """Window ``window``'s part of a per-window array of a recording's Maps:
     a slice of a ragged array (``key`` with ``key_offsets``, see

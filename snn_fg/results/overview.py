@@ -17,7 +17,7 @@ import numpy as np
 from .activity import SATURATED_SHARE
 from .atomic import save_figure
 from .figures import APS_INPUT, EVENTS_INPUT, maps_figure, on_sensor, rows_shown, signed_frame_rgb
-from .maps import made_by
+from .maps import made_by, made_from
 from .outputs import WINDOW_FIGURE
 from .store import STORE_NAME, read_attrs
 from .timeline import (
@@ -95,7 +95,7 @@ def overview_options(maps, folder) -> dict:
         "hint": f"snn-fg plot {folder} --windows I,J,... draws any",
         "input_note": input_note(maps),
         "labels": window_numbers(maps).tolist(),
-        "made_by": made_by(maps.params),
+        "made_by": made_from(maps.params),
     }
 
 
@@ -156,7 +156,7 @@ def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, cro
         grouping_label=grouping_label,
         grouping_max=grouping_max,
         input_note=input_note(maps),
-        made_by=f"{made_by(maps.params)}: {recording_name(maps)}",
+        made_by=made_from(maps.params),
         **on_sensor(maps.params, crop, maps.fg_x.shape),
     )
 

@@ -15,7 +15,7 @@ from matplotlib.ticker import NullLocator
 from ...network.roles import ROLE_MEANINGS, ROLE_ORDER
 from ...results.atomic import save_figure
 from ...results.figures import event_frame_rgb, save_maps_figure
-from ...results.maps import SPIKING_GROUPING_LABEL, made_by
+from ...results.maps import SPIKING_GROUPING_LABEL, made_from
 from ...results.timeline import MAPS_FIGURE
 from .record import RASTER_CELLS_PER_ROLE, SpikingRecord
 
@@ -132,7 +132,7 @@ def save_spiking_figures(maps, out_dir, window: int | None = None, with_maps: bo
         else []
     )
     # (the network named: runs of a description and of its edit could not be told apart)
-    made = made_by(maps.params)
+    made = made_from(maps.params)
     written.append(save_figure(raster_figure(record, window, made), out / "spike_raster.png", dpi=120))
     written.append(save_figure(rate_histogram_figure(record, window, made), out / "rate_histograms.png", dpi=110))
     return written

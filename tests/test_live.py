@@ -824,7 +824,9 @@ def test_a_udp_packet_without_events_is_counted_and_neither_begins_nor_prolongs_
         warnings.simplefilter("ignore", InputWarning)
         sender.sendto(b"\x01", ("127.0.0.1", port))
         try:
-            with pytest.raises(InputError, match="no event arrived within 0.5 s, only 1 malformed packet$"):
+            with pytest.raises(
+                InputError, match=r"no event arrived within 0.5 s, only 1 malformed packet \(--wait-s S waits longer\)$"
+            ):
                 list(src.packets())
         finally:
             sender.close()

@@ -77,3 +77,37 @@ def test_the_command_line_takes_the_sliding_coding_and_refuses_a_readout_on_a_st
         main([*base, "--readout-ms", "0"])
     assert "--readout-ms: must be > 0" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_run_that_reaches_the_recordings_end_says_its_last_read_out_ran_without_input(tmp_path, capsys):
+    """The last window's read-out lag runs past the recording's end with no events: a live run's
+    last window showed a grouping peak of 211 against about 120 before it (a new user's trial,
+    1 Dec). The run says so; one cut by --max-windows reads on through the events after it, and
+    does not."""
+    from snn_fg.cli import main
+    from snn_fg.events import save_events
+
+    rec = image_to_events(disc(radius=8).image, motion="circle")
+    path = tmp_path / "disc.npz"
+    save_events(path, rec.events, rec.sensor_size)
+    base = [
+        "run",
+        str(path),
+        "--model",
+        "spiking",
+        "--levels",
+        "2",
+        "--window-ms",
+        "40",
+        "--no-figures",
+        "--no-progress",
+    ]
+    assert main([*base, "--out", str(tmp_path / "all")]) == 0
+    n = sum(1 for _ in open(tmp_path / "all" / "windows.csv")) - 1
+    err = capsys.readouterr().err
+    assert n >= 3 and (
+        "snn-fg: note: the last window's read-out lag ran 20 ms past the recording's end, without input: its maps can "
+        f"differ from the windows before it (--max-windows {n - 1} leaves it out"
+    ) in " ".join(err.split())
+    assert main([*base, "--out", str(tmp_path / "cut"), "--max-windows", str(n - 1)]) == 0
+    assert "past the recording's end" not in capsys.readouterr().err

@@ -198,6 +198,18 @@ def run_recording(
             f"vector (their events last {span}{hint})",
             file=sys.stderr,
         )
+    lag = float((whole or {}).get("readout_without_input_ms") or 0.0)
+    if lag > 0 and damage is None:
+        print(
+            f"snn-fg: note: the last window's read-out lag ran {lag:g} ms past the recording's end, without input: "
+            "its maps can differ from the windows before it"
+            + (
+                f" (--max-windows {store.n - 1} leaves it out and reads the window before it with the events after it)"
+                if store.n > 1
+                else ""
+            ),
+            file=sys.stderr,
+        )
     store.finish(_run_params(store, source, windows, clock, whole))
     maps = Maps(*read_maps(path, lazy=True))
     write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)

@@ -146,6 +146,7 @@ def stream_spiking_windows(
         "windows": run.n_windows,
         "merged_input_spikes": run.merged,
         "simulated_ms": run.simulation["simulated_ms"],  # (a window's own is what had been simulated when it was read)
+        "readout_without_input_ms": run.without_input_ms,
     }
 
 
@@ -172,6 +173,9 @@ class ContinuousRun:
     decoded_at: list
     merged: int = 0
     last_bin: object = None
+    #: ms of the last window's read-out lag that ran past the stream's end, without input
+    #: (0: events came until the read-out ended, :func:`read_past_the_cut`)
+    without_input_ms: float = 0.0
 
 
 def simulate_windows(
@@ -280,6 +284,8 @@ def _simulate(
             for k, bin_result in each_bin(run.result):
                 reader(k, bin_result)
     run.merged = feed.merged
+    if feed.ended and feed.n <= run.n_windows:  # (no window cut past the last read out: the stream ended in it)
+        run.without_input_ms = opts.recording.readout_lag_ms
     run.last_bin = reader.last_result
     return run
 

@@ -130,7 +130,7 @@ def figure(results: dict):
     import matplotlib.pyplot as plt
 
     names = [*(p for p in TOP if p != "handover"), "handover_find", "handover (rest)", "other"]
-    labels = {"other": "other (outside the step loop)"}
+    labels = {"other": "other (mostly the decoding thread beside the engine)"}
     fig, ax = plt.subplots(figsize=(8, 1.2 + 0.8 * len(results)))
     colours = plt.get_cmap("tab10")(range(len(names)))
     for y, res in enumerate(results.values()):

@@ -118,7 +118,9 @@ def compare_pair(args, path_a, path_b, say=print):
         ) from None
     except SnnFgError as exc:
         raise InputError(path_b, str(exc).removeprefix("compare_maps: ")) from None
-    flip = axis_flip(rows, flipped_within_45(a, b, pairing, where, args.min_confidence))
+    # (not for a board's maps against a run cut to its crop: a small network against a whole one can agree
+    # better flipped by chance, and a new user read the guess as a coordinate bug; decode --reference checks it)
+    flip = None if notes else axis_flip(rows, flipped_within_45(a, b, pairing, where, args.min_confidence))
     if flip:
         say(f"snn-fg: note: {flip}")
     baseline = None if args.no_baseline else add_baseline(rows, a, b, where, args.min_confidence)

@@ -56,7 +56,7 @@ ROLE_MEANINGS = (
         "feedback cells: z1 = VL1 - VD2 and z2 = VL2 - VD1 as positive (p) and negative (n) halves (stage 8). "
         "They carry z as a rate and have a refractory period of one time step so that the rate stays "
         "proportional to z; where z is strong they fire a spike every step by design (up to 2 kHz at the "
-        "default network's 0.5 ms step, 1 kHz at the compact one's 1 ms; snn_fg.network.SpikingParams)",
+        "default network's 0.5 ms step, 1 kHz at the compact one's 1 ms; docs/spiking-network.md)",
     ),
     (
         ("side_p", "side_n"),

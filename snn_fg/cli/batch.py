@@ -36,7 +36,7 @@ from ..frames.still import input_kind
 from ..results.atomic import save_text
 from ..results.outputs import check_writable, writing
 from ..results.progress import bar as progress_bar
-from ..results.store import STORE_NAME, read_attrs, stored_run, windows_complete
+from ..results.store import STORE_NAME, run_finished, stored_run, windows_complete
 from .run_options import WINDOW_LIMITS, run_key
 
 #: the summary table's name in the output folder, and its columns
@@ -133,10 +133,8 @@ def run_job(options: dict, command) -> dict:
         "error": "",
     }
     store = out / STORE_NAME
-    finished = False
-    with contextlib.suppress(SnnFgError):
-        finished = store.is_dir() and not options["force"] and read_attrs(store)["snn_fg"]["complete"]
-    if finished:  # (skipped only when made with these options: until 30 Nov, whatever options had made it)
+    # (a finished run is skipped only when made with these options: until 30 Nov, whatever options had made it)
+    if not options["force"] and run_finished(out):
         try:
             stored_run(store, run_key(argparse.Namespace(**options)), WINDOW_LIMITS)
         except InputError as exc:

@@ -128,12 +128,19 @@ def made_by(params: dict) -> str:
     return said
 
 
+def input_name(params: dict, fallback: str | None = None) -> str | None:
+    """The name of the input maps of ``params`` were made from (its file's name, ``demo``), else
+    ``fallback``."""
+    source = params.get("source") or {}
+    given = source.get("input") if isinstance(source, dict) else None
+    return Path(str(given)).name if given else fallback
+
+
 def made_from(params: dict) -> str:
     """:func:`made_by` and the name of the input the maps were made from, for a figure's title:
     ``the rate model: dvs.es`` (a figure sent on its own said which model, not of what)."""
-    source = params.get("source") or {}
-    given = source.get("input") if isinstance(source, dict) else None
-    return made_by(params) + (f": {Path(str(given)).name}" if given else "")
+    name = input_name(params)
+    return made_by(params) + (f": {name}" if name else "")
 
 
 def window_part(extra: dict, key: str, window: int) -> np.ndarray:

@@ -17,7 +17,7 @@ import numpy as np
 from .activity import SATURATED_SHARE
 from .atomic import save_figure
 from .figures import APS_INPUT, EVENTS_INPUT, maps_figure, on_sensor, rows_shown, signed_frame_rgb
-from .maps import made_by, made_from
+from .maps import input_name, made_by, made_from
 from .outputs import WINDOW_FIGURE
 from .store import STORE_NAME, read_attrs
 from .timeline import (
@@ -116,7 +116,7 @@ def timeline_of(maps, rows, folder):
     keeps them), and for a run cut short (its store not complete: Ctrl-C, an error) the window
     where it stopped, the last one stored, skipped or dropped."""
     source = maps.params.get("source", {})
-    title = f"{recording_name(maps, folder)}: {made_by(maps.params)}, window by window"
+    title = f"{input_name(maps.params, Path(folder).name)}: {made_by(maps.params)}, window by window"
     skipped, dropped = (maps.params.get(k, ()) for k in ("skipped_windows", "dropped_windows"))
     store = Path(folder) / STORE_NAME
     if store.is_dir() and not read_attrs(store)["snn_fg"]["complete"]:
@@ -132,14 +132,6 @@ def timeline_of(maps, rows, folder):
         dropped=dropped,
         stride_ms=None if stride is None else float(stride),
     )
-
-
-def recording_name(maps, folder=None) -> str:
-    """The name of the recording a run's ``maps`` were made from (its file's name; else the name
-    of the run's ``folder``, where given)."""
-    source = maps.params.get("source", {})
-    fallback = Path(folder).name if folder is not None else "the recording"
-    return Path(str(source.get("input", fallback))).name
 
 
 def window_figure(maps, i: int, *, grouping_label: str, grouping_max: float, crop=None):

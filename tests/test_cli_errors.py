@@ -229,3 +229,16 @@ def test_a_run_out_of_memory_is_one_line_naming_the_size_and_the_smaller_network
     assert err.startswith("snn-fg: error: out of memory (Unable to allocate 1.00 EiB)"), err
     assert "--network compact" in err and "shape" not in err
     assert not out.exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "args, starts",
+    [
+        (["--backend", "nest"], "snn-fg: error: --backend: applies to the spiking"),  # (any input: the option first)
+        (["--window-ms", "20"], "snn-fg: error: demo: --window-ms: applies to event recordings only"),
+    ],
+)
+def test_a_refusal_names_the_input_only_where_the_input_is_the_reason(tmp_path, args, starts):
+    res = run_cli("run", "demo", "--out", tmp_path / "o", *args, "--no-progress")
+    assert res.returncode == 2 and res.stderr.startswith(starts), res.stderr

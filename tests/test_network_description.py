@@ -441,7 +441,7 @@ def test_a_stored_description_is_refused_at_load_when_the_decoder_cannot_read_it
     path = tmp_path / "levels.json"
     path.write_text(json.dumps(d))
     with pytest.raises(
-        InputError, match=r"levels.json: cannot be run and decoded: level 4 of its params.levels=4 has 0"
+        InputError, match=r"levels.json: cannot be run and decoded \(params.levels=4\): level 4 has 0 populations"
     ):
         load_description(path)
     d = net.to_dict()

@@ -140,7 +140,7 @@ def cmd_plot(args) -> int:
         options = {
             **overview_options(maps, folder),
             "grouping_label": label,
-            **on_sensor(maps.params, args.crop, maps.fg_x.shape),
+            **on_sensor(maps.params, args.crop),  # (the crop was checked above)
         }
         save_maps_figure(folder / MAPS_FIGURE, input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
         written += [folder / MAPS_FIGURE, folder / TIMELINE_NAME, folder / TABLE_NAME]

@@ -309,9 +309,11 @@ def chosen_model(args, kind):
         reasons: dict[str, list[str]] = {}
         for k, why in refused:
             reasons.setdefault(why, []).append("--" + k.replace("_", "-"))
-        raise InputError(
-            args.input, "; ".join(f"{', '.join(flags)}: {_verb(why, len(flags))}" for why, flags in reasons.items())
-        )
+        said = "; ".join(f"{', '.join(flags)}: {_verb(why, len(flags))}" for why, flags in reasons.items())
+        if any(KIND_NAMES[kind] in why for why in reasons):  # (a refusal that is about the input names it first)
+            raise InputError(args.input, said)
+        flags, problem = said.split(": ", 1)  # (refused whatever the input: the options are the subject)
+        raise InputError(flags, problem)
     given = {k: getattr(args, k) for k in MODEL_PARAMS if getattr(args, k) is not None}
     takes = MODELS[args.model].options
     options = {k: getattr(args, k) for k in takes if getattr(args, k) is not None}

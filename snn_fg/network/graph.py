@@ -20,6 +20,7 @@ from ..params import ModelParams
 from ..results.atomic import save_text
 from .nodes import Population
 from .projections import Conv, Projection, projection_from_dict
+from .roles import READOUT_ROLES
 
 #: how a recording's events become input spikes (:attr:`Network.input_coding`)
 INPUT_CODINGS = ("events", "window", "sliding")
@@ -31,6 +32,11 @@ SCHEMA = "snn-fg.network/2"
 #: recipe's ``SpikingParams.dt_ms``, a stored description without ``dt_ms``); a run or an export takes the
 #: network's own step unless told otherwise (:meth:`Network.time_step`)
 DEFAULT_DT_MS = 0.5
+
+
+def _not_one(role: str, level: int, found: int) -> str:
+    """The one wording of a level without exactly one population of ``role``."""
+    return f"level {level} has {found} populations of role {role!r}, need exactly 1"
 
 
 def _grid_shape(pop, frame_shape, per_octave: int, one_grid: bool = False) -> tuple[int, int]:
@@ -190,10 +196,18 @@ class Network:
         """The population of ``role`` at ``level`` (exactly one must exist)."""
         found = self.by_role(role, level)
         if len(found) != 1:
-            check.fail(
-                "Network", None, None, f"level {level} has {len(found)} populations of role {role!r}, need exactly 1"
-            )
+            check.fail("Network", None, None, _not_one(role, level, len(found)))
         return found[0]
+
+    def readout_fault(self) -> str | None:
+        """Why the decoder could not read this network's spikes (a level of ``params.levels``
+        without exactly one population of each of :data:`.roles.READOUT_ROLES`), or None."""
+        for level in range(1, self.params.levels + 1):
+            for role in READOUT_ROLES:
+                found = len(self.by_role(role, level))
+                if found != 1:
+                    return _not_one(role, level, found)
+        return None
 
     def incoming(self, name: str) -> list[Projection]:
         return [pr for pr in self.projections if pr.target == name]

@@ -30,7 +30,6 @@ from ..frames.pyramid import check_levels
 from ..params import ModelParams
 from .builder import build_network
 from .graph import Network
-from .roles import READOUT_ROLES
 from .spiking_params import SpikingParams
 
 
@@ -186,14 +185,11 @@ def load_description(path) -> Network:
             )
         raise InputError(path, f"neither a network name ({', '.join(RECIPES)}) nor a stored description (.json)")
     net = Network.load(path)
-    for level in range(1, net.params.levels + 1):  # (checked here, not part way through a run or after an export)
-        for role in READOUT_ROLES:
-            found = len(net.by_role(role, level))
-            if found != 1:
-                raise InputError(
-                    path,
-                    f"cannot be run and decoded: level {level} of its params.levels={net.params.levels} has "
-                    f"{found} populations of role {role!r}, where the decoder reads exactly 1 (levels edited "
-                    "without the populations? snn-fg export --format network --levels N writes a network of N)",
-                )
+    fault = net.readout_fault()  # (checked here, not part way through a run or after an export)
+    if fault is not None:
+        raise InputError(
+            path,
+            f"cannot be run and decoded (params.levels={net.params.levels}): {fault} for the decoder (levels "
+            "edited without the populations? snn-fg export --format network --levels N writes a network of N)",
+        )
     return net

@@ -6,12 +6,15 @@ cached code dropped when that changes, and how
 
 import types
 
+import numpy as np
 import pytest
 
-from experiments.bench.phases import TOP, phase_rows, without_delivery
+from experiments.bench.floor import example_tables, step, visit
+from experiments.bench.phases import TOP, at_every_floor, phase_rows, without_delivery
 from snn_fg.backends import RunSettings, get_backend
 from snn_fg.backends.fast import compiled
 from snn_fg.backends.fast.deliver import PHASE_NAMES
+from snn_fg.backends.fast.lif import STATE, advanced
 from snn_fg.events import image_to_frame
 from snn_fg.frames.scenes import disc
 from snn_fg.lowering.input_spikes import frame_spikes
@@ -79,3 +82,30 @@ def test_without_delivery_leaves_every_phase_but_conv_and_resize():
     stats.update(active_cell_steps=1, synaptic_events_conv=1, synaptic_events_resize=1, cells_handed_input=1, spikes=1)
     rows = phase_rows(stats, run_cpu_s=4.0, ticks_per_s=1e9)  # six top phases of 1 s each: "other" is -2 s
     assert without_delivery(rows, events=1_000_000_000) == pytest.approx(4.0 - 2.0)
+
+
+def test_an_engine_at_every_floor_pays_the_floor_an_event_and_its_visits_at_their_least_cost():
+    stats = {"synaptic_events_total": 1000, "cells_handed_input": 450, "active_cell_steps": 180}
+    assert at_every_floor(stats, floor=0.8, visit=3.0, step=2.0) == pytest.approx(0.8 + 0.45 * 3.0 + 0.18 * 2.0)
+
+
+def test_the_floor_of_a_visit_does_the_engines_arithmetic():
+    """The least cost of a visit is only a floor of the engine's if it does the
+    same work: the closed-form advance of lif.advanced, the input added, and
+    the cell listed where the bound says it might fire."""
+    tab = example_tables()
+    adv = tab.reshape(-1, 8)[:, :5].T.copy()  # (lif.advanced reads the tables by row: decays, then responses)
+    state = np.zeros(3, STATE)
+    state["v"], state["e"], state["i"] = [-0.07, -0.055, -0.05], [0.0, 2e-3, 1e-3], [0.0, 1e-3, 5e-4]
+    before = state.copy()
+    idx, k, w = np.array([0, 1, 2], np.uint64), np.array([3, 1, 7], np.uint64), np.array([1e-3, 0.0, 2e-3])
+    new = np.zeros(3, np.int64)
+    listed = visit(idx, w, k, state, tab, -0.07, 0.2, 0.01, new)
+    for c in range(3):
+        v, e, i = advanced(before["v"][c], before["e"][c], before["i"][c], -0.07, adv, int(k[c]))
+        assert (state["v"][c], state["e"][c], state["i"][c]) == pytest.approx((v, e + w[c], i), rel=1e-12)
+    assert listed == 2 and list(new[:2]) == [1, 2]  # (cell 0 at rest with a little input cannot reach 10 mV)
+    fired = np.zeros(3, np.int64)
+    state["v"] = [-0.07, -0.04, -0.07]  # (above the -0.05 threshold of the call below: fires and is reset)
+    assert step(idx, state, tab[8:16].copy(), -0.07, -0.05, -0.07, fired) == 1 and fired[0] == 1
+    assert state["v"][1] == -0.07

@@ -16,6 +16,18 @@ time per event is reported as a ratio to it, measured in the same run:
 Each is the best of :data:`REPEATS` passes over :data:`EVENTS` events, in
 CPU time (the machine is shared: the best pass is the least disturbed).
 
+A spike-for-spike exact engine also visits cells: it hands each cell that
+received input its summed input, the cell brought up to the present in
+closed form first, and it updates the active cells step by step. The least
+such visits cost is measured the same way (:func:`visit_ns`,
+:func:`step_ns`): the engine's own state records (32 bytes a cell, one
+cache line's half) and the arithmetic of its hand-over and active step,
+with nothing else, the next cells' records asked for 48 cells ahead.
+(Arrays of each field instead of records, and the same arithmetic eight
+cells at a time with AVX-512 gathers and scatters, were slower on the
+machine of 1 Dec 2026: 4.5 and 4.9 ns a visit in cache, against 3.1 with
+records; ``experiments/bench/visit_simd.c``.)
+
     python -m experiments.bench.floor [--state-mb 17 125]
 """
 
@@ -27,6 +39,8 @@ import time
 
 import numpy as np
 from numba import njit
+
+from snn_fg.backends.fast.lif import STATE, prefetch
 
 IN_CACHE_MB = 2.8
 LARGE_MB = 256.0
@@ -59,6 +73,90 @@ def ns_per_event(state_mb: float, contiguous: bool = False, events: int = EVENTS
     return 1e9 * best / events
 
 
+@njit(cache=True)
+def visit(idx, w, k, state, tab, v_rest, peak, gap, new):
+    """The least a hand-over does for each cell ``idx[j]``: bring it ``k[j]``
+    steps forward in closed form (the ``k``-th run of 8 values of ``tab``), add
+    ``w[j]`` to its excitatory current, bound whether it might now fire, store
+    it, and list it if it might (without a branch). Returns how many it listed."""
+    n_new = 0
+    for j in range(idx.size):
+        if j + 48 < idx.size:
+            prefetch(state, idx[j + 48])
+        g = idx[j]
+        c = state[g]
+        at = k[j] * 8
+        v = v_rest + ((tab[at] * (c.v - v_rest) + c.e * tab[at + 3]) - c.i * tab[at + 4])
+        e = c.e * tab[at + 1] + w[j]
+        i = c.i * tab[at + 2]
+        c.v, c.e, c.i = v, e, i
+        u, x = v - v_rest, max(e - i, 0.0)
+        new[n_new] = g
+        n_new += (max(u, x) > gap) & (max(u, 0.0) + peak * x > gap)
+    return n_new
+
+
+@njit(cache=True)
+def step(idx, state, a, v_rest, v_th, v_reset, fired):
+    """The least an active cell's step does for each cell ``idx[j]`` (sorted, as
+    the engine keeps its active cells): one step of the closed form (``a``), the
+    threshold and the reset; the cells that fired listed. Returns how many fired."""
+    n_fired = 0
+    for j in range(idx.size):
+        g = idx[j]
+        c = state[g]
+        v = v_rest + ((a[0] * (c.v - v_rest) + c.e * a[3]) - c.i * a[4])
+        c.e, c.i = c.e * a[1], c.i * a[2]
+        spike = v > v_th
+        c.v = v_reset if spike else v
+        fired[n_fired] = g
+        n_fired += spike
+    return n_fired
+
+
+def example_tables(steps: int = 64) -> np.ndarray:
+    """Advance tables shaped as the engine's (8 values a step: the decays of
+    ``v``, ``I_exc``, ``I_inh``, then ``v``'s response to each current), of a
+    cell with 20, 5 and 6.7 ms time constants at 1 ms steps."""
+    k = np.arange(steps + 1)
+    dm, de, di = 0.95, 0.8, 0.85
+    t = np.zeros((steps + 1, 8))
+    t[:, 0], t[:, 1], t[:, 2] = dm**k, de**k, di**k
+    t[:, 3], t[:, 4] = 0.1 * (de**k - dm**k), 0.1 * (di**k - dm**k)
+    return t.ravel()
+
+
+def _best(call, repeats: int) -> float:
+    call()  # (compiled, or loaded from numba's cache; the state warmed)
+    best = np.inf
+    for _ in range(repeats):
+        t = time.process_time()
+        call()
+        best = min(best, time.process_time() - t)
+    return best
+
+
+def visit_ns(state_mb: float = IN_CACHE_MB, visits: int = EVENTS, repeats: int = 3) -> float:
+    """CPU nanoseconds a cell of :func:`visit`, to random cells of a ``state_mb`` MB state."""
+    rng = np.random.default_rng(SEED)
+    n = max(1, int(state_mb * 1e6 / STATE.itemsize))
+    state = np.zeros(n, STATE)
+    state["v"] = -0.07
+    idx = rng.integers(0, n, visits).astype(np.uint64)
+    w, k = 1e-3 * rng.random(visits), rng.integers(1, 20, visits).astype(np.uint64)
+    new, tab = np.zeros(visits, np.int64), example_tables()
+    return 1e9 * _best(lambda: visit(idx, w, k, state, tab, -0.07, 0.2, 0.01, new), repeats) / visits
+
+
+def step_ns(state_mb: float = IN_CACHE_MB, repeats: int = 5) -> float:
+    """CPU nanoseconds a cell of :func:`step`, over every cell of a ``state_mb`` MB state in order."""
+    n = max(1, int(state_mb * 1e6 / STATE.itemsize))
+    state = np.zeros(n, STATE)
+    state["v"] = -0.07
+    idx, fired, a = np.arange(n, dtype=np.uint64), np.zeros(n, np.int64), example_tables()[8:16].copy()
+    return 1e9 * _best(lambda: step(idx, state, a, -0.07, -0.05, -0.07, fired), repeats) / n
+
+
 def measure(state_mb: dict | None = None, events: int = EVENTS) -> dict:
     """Every floor of the module docstring (ns per event); ``state_mb``:
     network name -> the size of its cell state (MB)."""
@@ -67,6 +165,8 @@ def measure(state_mb: dict | None = None, events: int = EVENTS) -> dict:
         "contiguous": ns_per_event(IN_CACHE_MB, contiguous=True, events=events),
         "large_random": ns_per_event(LARGE_MB, events=events),
         "state_random": {name: ns_per_event(mb, events=events) for name, mb in (state_mb or {}).items()},
+        "visit_in_cache": visit_ns(IN_CACHE_MB, visits=events),
+        "active_step_in_cache": step_ns(IN_CACHE_MB),
         "in_cache_mb": IN_CACHE_MB,
         "large_mb": LARGE_MB,
         "state_mb": dict(state_mb or {}),

@@ -361,3 +361,19 @@ def test_a_report_of_a_nir_file_says_it_counts_nirs_cells_not_the_networks(capsy
         counts[net] = int(out.split("neurons ")[1].split()[0].replace(",", ""))
         assert ("snn-fg: note: a NIR file is read back as NIR holds it" in out) == (net == "g.nir")
     assert counts["g.nir"] > counts["compact"]
+
+
+def test_a_nir_file_read_back_keeps_every_setting_of_the_network(tmp_path):
+    """The compact network's 60 ms input refractory period came back as 0 from its NIR file (and its
+    input coding, one grid and thresholds as the defaults): a maintainer's read, 1 Dec."""
+    from snn_fg.export.nir import write_streaming
+    from snn_fg.export.nir_import import read_nir
+    from snn_fg.network.graph import SETTINGS
+    from snn_fg.network.recipes import network_for
+
+    net, _ = network_for("compact", (16, 16))
+    net = dataclasses.replace(net, input_coding="sliding", support_min=0.25, drive_min=0.8)
+    assert net.input_refractory_ms > 0 and net.dt_ms != 0.5  # (settings that are not the defaults)
+    write_streaming(tmp_path / "c.nir", net)
+    back = read_nir(tmp_path / "c.nir")
+    assert {k: getattr(back, k) for k in SETTINGS} == {k: getattr(net, k) for k in SETTINGS}

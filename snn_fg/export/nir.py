@@ -269,8 +269,7 @@ def graph_metadata(network: Network, net: Network, weight_bits) -> dict:
         "network_sha256": fingerprint(network),
         "frame_shape": list(net.frame_shape),
         "params": net.params.to_dict(),
-        "input_rate_hz": net.input_rate_hz,
-        "dt_ms": net.dt_ms,
+        **net.settings(),  # (every one: read back, the graph gives the same network)
         "weight_bits": weight_bits or 0,
         "time_unit": "s",
         "approximations": APPROXIMATIONS,

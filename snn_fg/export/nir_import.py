@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, ParameterError
-from ..network.graph import DEFAULT_DT_MS, Network
+from ..network.graph import SETTINGS, Network
 from ..network.nodes import Kernel, Neuron, Population
 from ..network.projections import Conv, Resize
 from ..params import ModelParams
@@ -106,8 +106,8 @@ def _network_from(g, meta) -> Network:
         frame_shape=tuple(meta["frame_shape"]),
         populations=tuple(pops),
         projections=tuple(prjs),
-        input_rate_hz=meta["input_rate_hz"],
-        dt_ms=meta.get("dt_ms", DEFAULT_DT_MS),
+        # (a graph written before 1 Dec 2026 carries only the input rate and the step: the rest are the defaults)
+        **{k: meta[k] for k in SETTINGS if k in meta},
         notes=tuple(meta["notes"])
         + ("Read from NIR: " + "; ".join(f"{k}: {v}" for k, v in meta["approximations"].items()),),
     )

@@ -34,6 +34,10 @@ SCHEMA = "snn-fg.network/2"
 DEFAULT_DT_MS = 0.5
 
 
+#: a :class:`Network`'s settings: its fields other than its parameters, frame, cells, wiring and notes
+SETTINGS = ("input_rate_hz", "support_min", "drive_min", "input_refractory_ms", "input_coding", "one_grid", "dt_ms")
+
+
 def _not_one(role: str, level: int, found: int) -> str:
     """The one wording of a level without exactly one population of ``role``."""
     return f"level {level} has {found} populations of role {role!r}, need exactly 1"
@@ -264,20 +268,20 @@ class Network:
         return dataclasses.replace(self, frame_shape=shape, populations=pops)
 
     # -- serialisation -----------------------------------------------------
+    def settings(self) -> dict:
+        """The network's own settings, every one: what a format that carries the cells and their
+        wiring its own way (NIR) stores beside them, so that reading it back gives this network."""
+        return {name: getattr(self, name) for name in SETTINGS}
+
     def to_dict(self) -> dict:
         # input_coding, one_grid and dt_ms only when not the default: the stored descriptions (and their
         # fingerprints) stay as they were
+        optional = {"input_coding": "events", "one_grid": False, "dt_ms": DEFAULT_DT_MS}
         return {
             "schema": SCHEMA,
             "params": self.params.to_dict(),
             "frame_shape": list(self.frame_shape),
-            "input_rate_hz": self.input_rate_hz,
-            "support_min": self.support_min,
-            "drive_min": self.drive_min,
-            "input_refractory_ms": self.input_refractory_ms,
-            **({"input_coding": self.input_coding} if self.input_coding != "events" else {}),
-            **({"one_grid": True} if self.one_grid else {}),
-            **({"dt_ms": self.dt_ms} if self.dt_ms != DEFAULT_DT_MS else {}),
+            **{k: v for k, v in self.settings().items() if k not in optional or v != optional[k]},
             "notes": list(self.notes),
             "populations": [p.to_dict() for p in self.populations],
             "projections": [pr.to_dict() for pr in self.projections],
@@ -289,20 +293,7 @@ class Network:
             check.fail("Network", None, None, f"expected a mapping, got {type(d).__name__}")
         if d.get("schema") != SCHEMA:
             check.fail("Network", "schema", d.get("schema"), f"is not {SCHEMA!r}")
-        fields = {
-            "params",
-            "frame_shape",
-            "input_rate_hz",
-            "support_min",
-            "drive_min",
-            "input_refractory_ms",
-            "input_coding",
-            "one_grid",
-            "dt_ms",
-            "notes",
-            "populations",
-            "projections",
-        }
+        fields = {"params", "frame_shape", *SETTINGS, "notes", "populations", "projections"}
         check.known_keys("Network", set(d) - {"schema"}, fields)
         missing = sorted({"params", "frame_shape", "populations", "projections"} - set(d))
         if missing:

@@ -13,6 +13,43 @@ from . import validate as check
 
 #: How grouping cells treat the two contrast polarities (``ModelParams.grouping_polarity``).
 GROUPING_POLARITIES = ("compete", "pool")
+#: The lower bound of each model parameter that has one, and whether it is excluded: the one home of
+#: the ranges, which :class:`ModelParams` and the command line's options (``--levels``...) both check.
+#: Two orientations at least: one gives edges of one orientation only; one iteration at least: none
+#: gives no vector and no grouping; ``w_inh`` inhibits, so it is not negative.
+LOWER = {
+    "levels": (1, False),
+    "levels_per_octave": (1, False),
+    "input_pool": (1, False),
+    "n_ori": (2, False),
+    "iterations": (1, False),
+    "side_cue_level": (1, False),
+    "r0": (0, True),
+    "alpha": (0, False),
+    "w_inh": (0, False),
+    "dog_half_width": (0, True),
+    "dog_step": (0, True),
+    "fbfg_edge_sigma": (0, True),
+    "side_cue": (0, False),
+    "side_cue_radius": (0, True),
+}
+#: the whole-number parameters, and the real-valued ones that are checked
+INTEGERS = ("levels", "levels_per_octave", "input_pool", "n_ori", "iterations", "side_cue_level")
+NUMBERS = (
+    "r0",
+    "alpha",
+    "w_inh",
+    "dog_half_width",
+    "dog_step",
+    "edge_threshold",
+    "sum_threshold",
+    "pyramid_decay",
+    "grouping_floor",
+    "fbfg_edge_sigma",
+    "fbfg_edge_floor",
+    "side_cue",
+    "side_cue_radius",
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -85,27 +122,10 @@ class ModelParams:
 
     def __post_init__(self):
         owner = "ModelParams"
-        check.integer(owner, "levels", self.levels, lo=1)
-        check.integer(owner, "levels_per_octave", self.levels_per_octave, lo=1)
-        check.integer(owner, "input_pool", self.input_pool, lo=1)
-        check.integer(owner, "n_ori", self.n_ori, lo=1)
-        check.integer(owner, "iterations", self.iterations, lo=0)
-        check.integer(owner, "side_cue_level", self.side_cue_level, lo=1)
-        for name, lo, strict in (
-            ("r0", 0, True),
-            ("alpha", 0, False),
-            ("w_inh", None, False),
-            ("dog_half_width", 0, True),
-            ("dog_step", 0, True),
-            ("edge_threshold", None, False),
-            ("sum_threshold", None, False),
-            ("pyramid_decay", None, False),
-            ("grouping_floor", None, False),
-            ("fbfg_edge_sigma", 0, True),
-            ("fbfg_edge_floor", None, False),
-            ("side_cue", 0, False),
-            ("side_cue_radius", 0, True),
-        ):
+        for name in INTEGERS:
+            check.integer(owner, name, getattr(self, name), lo=LOWER[name][0])
+        for name in NUMBERS:
+            lo, strict = LOWER.get(name, (None, False))
             object.__setattr__(self, name, check.number(owner, name, getattr(self, name), lo=lo, lo_open=strict))
         check.choice(owner, "grouping_polarity", self.grouping_polarity, GROUPING_POLARITIES)
         for name in ("dog_s1", "dog_s2"):

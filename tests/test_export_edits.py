@@ -5,6 +5,7 @@ network.json (or the file), before anything runs."""
 
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -101,3 +102,17 @@ def test_the_exports_copy_of_the_neuron_rules_is_snn_fgs():
         with pytest.raises(ParameterError, match=key):
             Neuron(**{key: lo if lo_open else lo - 1.0})
         Neuron(**{key: lo + 1.0})  # (just inside: both accept it)
+
+
+@pytest.mark.parametrize("script", ["pynn/run.py", "export/snntorch_loop/run.py"])
+def test_the_exports_run_a_frame_as_long_as_snn_fg_does(script):
+    """run.py cannot import snn_fg, so it types the frame's duration itself: it must be snn-fg's
+    (Lava's run.py runs 150 ms on purpose, docs/export.md says why)."""
+    import re
+
+    import snn_fg
+    from snn_fg.models.spiking.options import FRAME_DURATION_MS
+
+    text = (Path(snn_fg.__file__).parent / script).read_text()
+    found = re.findall(r'"--duration-ms",\s*type=float,\s*default=([0-9.]+)', text)
+    assert found and [float(v) for v in found] == [FRAME_DURATION_MS]

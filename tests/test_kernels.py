@@ -88,3 +88,23 @@ def test_params_round_trip_and_validation():
         ModelParams(levels=0)
     with pytest.raises(ParameterError, match="unknown"):
         ModelParams.from_dict({"radius": 3})
+
+
+@pytest.mark.parametrize(
+    "name, bad, flag", [("n_ori", 1, "--n-ori"), ("iterations", 0, "--iterations"), ("w_inh", -1.0, "--w-inh")]
+)
+def test_the_python_api_and_the_command_line_refuse_the_same_values(name, bad, flag):
+    """ModelParams took n_ori=1, iterations=0 (a map without a vector) and w_inh=-1 that snn-fg run
+    refused: the two front doors had their own bounds (a maintainer's read, 1 Dec)."""
+    import argparse
+
+    from snn_fg.cli.run_options import add_option_groups
+
+    with pytest.raises(ParameterError, match=name):
+        ModelParams(**{name: bad})
+    parser = argparse.ArgumentParser(exit_on_error=False)
+    add_option_groups(parser)
+    with pytest.raises(argparse.ArgumentError, match="must be >="):
+        parser.parse_args([flag, str(bad)])
+    ModelParams(**{name: type(bad)(2)})  # (just inside: both take it)
+    assert parser.parse_args([flag, "2"])

@@ -31,6 +31,7 @@ from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..lowering.quantise import BITS_RANGE, check_bits
 from ..network.recipes import RECIPES, is_recipe, load_description, network_for
+from ..params import LOWER
 from ..results.atomic import save_text
 from ..results.outputs import check_output_file, check_output_folder, check_writable
 from .options import number, sensor_size, size_text, subcommand, written_size
@@ -85,9 +86,9 @@ def add_export_command(sub):
         metavar="WxH",
         help="sensor size (default 304x240, the iCub ATIS; a stored network keeps its own unless given)",
     )
-    p.add_argument("--levels", type=number(int, 1, False), help="pyramid levels (10)")
-    p.add_argument("--n-ori", type=number(int, 2, False), help="orientations per half-turn (8)")
-    p.add_argument("--r0", type=number(float, 0), help="grouping radius in px (8)")
+    p.add_argument("--levels", type=number(int, *LOWER["levels"]), help="pyramid levels (10)")
+    p.add_argument("--n-ori", type=number(int, *LOWER["n_ori"]), help="orientations per half-turn (8)")
+    p.add_argument("--r0", type=number(float, *LOWER["r0"]), help="grouping radius in px (8)")
     p.add_argument(
         "--target",
         default="generic",

@@ -13,9 +13,10 @@ from ..events.cutter import WINDOW_MS
 from ..frames.pool import MAPS_GRIDS
 from ..frames.still import KIND_NAMES, image_scale_refusal
 from ..models import MODELS, get_model
+from ..models.spiking.options import FRAME_DURATION_MS, READOUT_LAG_MS
 from ..network.graph import HELD_CODINGS, INPUT_CODINGS
 from ..network.recipes import model_params_of
-from ..params import EDGE_OPERATORS, ModelParams
+from ..params import EDGE_OPERATORS, LOWER, NATURAL_PARAMS, ModelParams
 from .options import iterations_bar, number
 
 MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh", "side_cue")
@@ -35,6 +36,15 @@ RECORDING_OPTIONS = WINDOW_OPTIONS + (
 #: spiking options for one frame that a recording (one continuous run) does not use
 FRAME_ONLY_OPTIONS = ("duration_ms", "settle_ms", "seed", "spike_input")
 
+_DEFAULTS = ModelParams()
+
+
+def _default(name: str) -> str:
+    """A parameter's default as the help gives it: the paper's, and the natural model's where it differs."""
+    paper, natural = getattr(_DEFAULTS, name), getattr(NATURAL_PARAMS, name)
+    return f"{paper:g}" + ("" if natural == paper else f"; natural: {natural:g}")
+
+
 #: (group title, ((flag, type, lower bound, strictly above it, help), ...)); defaults in brackets
 RUN_OPTIONS = (
     (
@@ -50,19 +60,25 @@ RUN_OPTIONS = (
                 "its model parameters replace the options below, for the rate and "
                 "the spiking model",
             ),
-            ("--levels", int, 1, False, "pyramid levels (10)"),
-            ("--n-ori", int, 2, False, "orientations per half-turn (8)"),
-            ("--r0", float, 0, True, "grouping radius in px: sets the object size grouped (8; natural: 4)"),
-            ("--iterations", int, 1, False, "grouping/feedback iterations (10)"),
-            ("--alpha", float, 0, False, "feedback gain (2)"),
-            ("--w-inh", float, 0, False, "opposite border-ownership inhibition (1; natural: 0)"),
-            ("--side-cue", float, 0, False, "gain of the side cue, the busier side within 160 px (0; natural: 3000)"),
+            ("--levels", int, *LOWER["levels"], f"pyramid levels ({_default('levels')})"),
+            ("--n-ori", int, *LOWER["n_ori"], f"orientations per half-turn ({_default('n_ori')})"),
+            ("--r0", float, *LOWER["r0"], f"grouping radius in px: sets the object size grouped ({_default('r0')})"),
+            ("--iterations", int, *LOWER["iterations"], f"grouping/feedback iterations ({_default('iterations')})"),
+            ("--alpha", float, *LOWER["alpha"], f"feedback gain ({_default('alpha')})"),
+            ("--w-inh", float, *LOWER["w_inh"], f"opposite border-ownership inhibition ({_default('w_inh')})"),
+            (
+                "--side-cue",
+                float,
+                *LOWER["side_cue"],
+                f"gain of the side cue, the busier side within {_DEFAULTS.side_cue_radius:g} px "
+                f"({_default('side_cue')})",
+            ),
         ),
     ),
     (
         "recordings (not for frames or images)",
         (
-            ("--window-ms", float, 0, True, "window length (85, the iCub microsaccade period)"),
+            ("--window-ms", float, 0, True, f"window length ({WINDOW_MS:g}, the iCub microsaccade period)"),
             ("--start-ms", float, 0, False, "start of the first window, ms after the first event (0)"),
             ("--stride-ms", float, 0, True, "window stride (the window length)"),
             ("--end-ms", float, 0, True, "end of the last window, ms after the first event (the recording's end)"),
@@ -87,7 +103,7 @@ RUN_OPTIONS = (
                 float,
                 0,
                 True,
-                "frames and images: simulated time (400; a recording runs as long as its windows)",
+                f"frames and images: simulated time ({FRAME_DURATION_MS:g}; a recording runs as long as its windows)",
             ),
             (
                 "--settle-ms",
@@ -128,7 +144,13 @@ RUN_OPTIONS = (
                 None,
                 "off: remove the feedback onto border-ownership cells, the model's ablation (on)",
             ),
-            ("--readout-lag-ms", float, 0, False, "recordings: read each window from the spikes this much later (20)"),
+            (
+                "--readout-lag-ms",
+                float,
+                0,
+                False,
+                f"recordings: read each window from the spikes this much later ({READOUT_LAG_MS:g})",
+            ),
             (
                 "--readout-ms",
                 float,

@@ -28,6 +28,7 @@ from ..frames.pool import pool_events, pool_frame
 from ..frames.still import input_kind, load_frame, simulator_cost
 from ..lowering.held_input import held_window
 from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
+from ..models.spiking.options import FRAME_DURATION_MS
 from ..network.graph import HELD_CODINGS
 from ..results.atomic import atomic_path
 from .options import camera_options
@@ -56,8 +57,8 @@ def add_spike_options(parser):
     g.add_argument(
         "--duration-ms",
         type=float,
-        default=400.0,
-        help="frames and images: length of the regular trains (400, as snn-fg run)",
+        default=FRAME_DURATION_MS,
+        help=f"frames and images: length of the regular trains ({FRAME_DURATION_MS:g}, as snn-fg run)",
     )
 
 

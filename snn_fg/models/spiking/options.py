@@ -40,6 +40,9 @@ from ...params import ModelParams
 #: :mod:`snn_fg.models.spiking.continuous` and ``experiments/validation/dvs_latency.py`` for how
 #: long the network takes to answer.
 READOUT_LAG_MS = 20.0
+#: how long a frame or image is shown to a spiking network, unless told otherwise (ms); the PyNN and NIR
+#: exports' run.py default to the same (tests/test_export_edits.py)
+FRAME_DURATION_MS = 400.0
 
 
 def stderr_log(message: str):
@@ -165,7 +168,7 @@ class FrameOptions:
     until the end with ``replay``. ``record_state`` and ``sites``: see
     :class:`~snn_fg.backends.RunSettings`."""
 
-    duration_ms: float = 400.0
+    duration_ms: float = FRAME_DURATION_MS
     settle_ms: float | None = None
     seed: int = 0
     rate_hz: float = 200.0

@@ -27,6 +27,7 @@ from ..events.activity import activity, saturated_lines, timeline_text
 from ..events.aps import frame_summary, open_frames
 from ..events.cutter import WINDOW_MS
 from ..events.esim import MOTIONS
+from ..events.formats import SUFFIXES_TEXT
 from ..events.images import IMAGE_SUFFIXES, read_image
 from ..frames.still import image_scale_refusal, simulator_cost, sized_image
 from ..results.activity import activity_figure
@@ -50,7 +51,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         subparsers,
         "events",
         description="Print format, sensor size, event count, time span and rate of an event recording "
-        "(.es .raw .dat .aedat .aedat4 .bin data.log .txt .npy .npz). For an image (png/jpg/...) simulate "
+        f"({SUFFIXES_TEXT}). For an image (png/jpg/...) simulate "
         "an event camera (ESIM) under a small motion instead. Optionally write the event frame "
         "of one window (.npz with pos, neg, t_start_us, t_end_us) and/or the events.",
     )

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from .. import validate as check
 from ..errors import InputError
+from ..events.yarp import SENSOR_SIZE as ICUB_SENSOR_SIZE
 from ..export.folder import EXPORT_FOLDER, INPUT_NAME
 from ..export.lava import export_lava
 from ..export.nir import describe_nir, export_nir
@@ -45,7 +46,6 @@ REPORT_CHIPS = {"spinnaker": ("spinnaker1", "spinnaker2"), "loihi2": ("loihi2",)
 NIR_PROFILES = ("exact", "snntorch")
 #: the file name each single-file format writes (--force replaces only an earlier file of that kind)
 FILE_SUFFIXES = {"nir": (".nir",), "report": (".json",), "network": (".json",)}
-ICUB_SENSOR = (304, 240)  # iCub ATIS, width x height
 
 
 def add_export_command(sub):
@@ -193,8 +193,6 @@ def export_command(args) -> str:
 def _sized_network(args):
     """The network to export, for the sensor size asked for, and that sensor size (rows, cols)."""
     given = {k: getattr(args, k) for k in ("levels", "n_ori", "r0") if getattr(args, k) is not None}
-    if args.sensor_size and min(args.sensor_size) < 1:
-        raise InputError(f"--sensor-size {args.sensor_size[0]}x{args.sensor_size[1]}", "width and height must be >= 1")
     if args.network and given:
         raise InputError(
             args.network, "--levels/--n-ori/--r0: a named or stored network carries its own model parameters"
@@ -206,7 +204,7 @@ def _sized_network(args):
         w, h = args.sensor_size
         _check_sensor(net.params, (h, w), f"--sensor-size {w}x{h}")
         return network_for(net, (h, w))[0], (h, w)
-    w, h = args.sensor_size or ICUB_SENSOR
+    w, h = args.sensor_size or ICUB_SENSOR_SIZE
     recipe = RECIPES[args.network or "default"]
     params = recipe.params.replace(**given)
     _check_sensor(params, (h, w), f"--sensor-size {w}x{h}")

@@ -16,6 +16,7 @@ from ..errors import InputError
 from ..events.aps import FramedWindows, pairing_note, require_frames
 from ..events.cutter import WINDOW_MS
 from ..events.esim import MOTIONS
+from ..events.formats import SUFFIXES_TEXT
 from ..events.identity import input_keys
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
@@ -37,7 +38,7 @@ def add_run_command(sub):
         sub,
         "run",
         description="Run a model on INPUT: an .npz event frame (pos, neg), an image (png/jpg/...), "
-        "an event recording (.es .raw .dat .aedat .aedat4 .bin data.log .txt .npy .npz) or 'demo' "
+        f"an event recording ({SUFFIXES_TEXT}) or 'demo' "
         "(a built-in synthetic scene). Writes DIR/maps.npz (fg_x, fg_y, grouping, "
         "params; a recording: DIR/maps.zarr, window by window) and figures.",
     )

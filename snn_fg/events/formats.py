@@ -78,6 +78,8 @@ SUFFIX_FORMAT = {
     ".h5": "h5",
     ".hdf5": "h5",
 }
+#: the recordings' names as the commands' help lists them (a YARP log is a folder's ``data.log``)
+SUFFIXES_TEXT = " ".join("data.log" if s == ".log" else s for s in SUFFIX_FORMAT)
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from ..events.yarp import SENSOR_SIZE
 from ..network import SpikingParams, build_network
 from ..params import ModelParams
 from ..results.atomic import atomic_path, save_text
@@ -22,7 +23,7 @@ from .board import fingerprint
 from .nir import export_nir
 from .report import report_table, resource_report
 
-ICUB_SHAPE = (240, 304)  # rows, cols of the iCub ATIS
+ICUB_SHAPE = SENSOR_SIZE[::-1]  # rows, cols of the iCub ATIS
 NIR_NAME = "icub_304x240.nir.gz"  # gzipped: the HDF5 file is large (its size: networks/README.md)
 REPORT_NAME = "icub_304x240_resources.json"
 REPORT_TABLE = "icub_304x240_resources.txt"

@@ -28,6 +28,7 @@ import numpy as np
 
 from .. import validate as check
 from ..errors import InputError
+from ..events._core import check_sensor_size
 
 
 @dataclass
@@ -228,12 +229,7 @@ def event_spikes(
     _check_dt(dt_ms)
     if not isinstance(events, np.ndarray) or events.dtype.names is None:
         raise InputError(source, "events must be a structured array with fields x, y, t, p")
-    try:
-        w, h = int(sensor_size[0]), int(sensor_size[1])
-    except (TypeError, ValueError, IndexError):
-        raise InputError(source, f"sensor_size must be (width, height[, 2]), got {sensor_size!r}") from None
-    if w < 1 or h < 1:
-        raise InputError(source, f"sensor_size must be positive, got {sensor_size!r}")
+    w, h, _ = check_sensor_size(sensor_size, source)
     x, y, t, p = (_field(events, k) for k in ("x", "y", "t", "p"))
     if x.size == 0:
         raise InputError(source, "no events in the window")

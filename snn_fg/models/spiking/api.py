@@ -16,6 +16,7 @@ import numpy as np
 
 from ...backends import RunSettings, SimulationResult
 from ...errors import InputError
+from ...events._core import check_sensor_size
 from ...events.frame import events_to_frame
 from ...frames.check import event_frame
 from ...frames.pool import pool_events, pool_frame, pooled_shape
@@ -48,10 +49,8 @@ def _sensor_shape(pos, neg, events, sensor_size) -> tuple[int, int]:
         return np.shape(pos)[:2]
     if sensor_size is None:
         raise InputError("<events>", "sensor_size (width, height) is needed with events")
-    try:
-        return int(sensor_size[1]), int(sensor_size[0])
-    except (TypeError, ValueError, IndexError):
-        raise InputError("<events>", f"sensor_size must be (width, height[, 2]), got {sensor_size!r}") from None
+    w, h, _ = check_sensor_size(sensor_size, "<events>")
+    return h, w
 
 
 def _pooled(pos, neg, events, sensor_size, pool: int):

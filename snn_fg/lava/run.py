@@ -122,9 +122,7 @@ def main(argv=None):
     start_ms = args.duration_ms / 2 if args.count_from_ms is None else args.count_from_ms
     count_from = int(round(start_ms / dt))
     n_src = sum(p["size"] for p in meta["populations"] if p["neuron"] is None)
-    steps, in_dt = fg_inputs.input_steps(args.input, n_steps, n_src, meta["frame_shape"])
-    if abs(in_dt - dt) > 1e-9:
-        sys.exit(f"run.py: error: {args.input}: dt_ms={in_dt} differs from the network's {dt}")
+    steps, _ = fg_inputs.input_steps(args.input, n_steps, n_src, meta["frame_shape"], dt)
     t0 = time.perf_counter()
     if args.simulator == "reference":
         t1 = t0

@@ -17,10 +17,11 @@ import numpy as np
 INPUT_KEYS = ("indices", "steps", "dt_ms", "period_steps", "shape")
 
 
-def read_input(path, frame_shape, n_sources):
+def read_input(path, frame_shape, n_sources, dt_ms=None):
     """The arrays of an input spike file, or exit with one line naming the
     file and what is wrong with it (missing, not an .npz, a key missing, a
-    frame other than the network's, a source the network does not have)."""
+    frame other than the network's, a time step other than the network's
+    ``dt_ms`` where given, a source the network does not have)."""
     if not os.path.isfile(path):
         sys.exit(
             f"run.py: error: {path}: no such file (snn-fg events INPUT --write-spikes {path} --export . writes one)"
@@ -45,6 +46,8 @@ def read_input(path, frame_shape, n_sources):
             f"run.py: error: {path}: spikes of a {shape[1]} x {shape[0]} frame; this network's frame is "
             f"{frame_shape[1]} x {frame_shape[0]} (width x height): write them with --export . from this folder"
         )
+    if dt_ms is not None and abs(float(d["dt_ms"]) - float(dt_ms)) > 1e-9:
+        sys.exit(f"run.py: error: {path}: dt_ms={float(d['dt_ms'])} differs from the network's {float(dt_ms)}")
     idx = d["indices"]
     if idx.size and (idx.min() < 0 or idx.max() >= n_sources):
         bad = int(np.flatnonzero((idx < 0) | (idx >= n_sources))[0])
@@ -54,10 +57,10 @@ def read_input(path, frame_shape, n_sources):
     return d
 
 
-def input_spikes(path, n_steps, n_sources, frame_shape=None):
+def input_spikes(path, n_steps, n_sources, frame_shape=None, dt_ms=None):
     """``(indices, steps, dt_ms)``: every spike of the file's sources before ``n_steps`` (periodic
-    patterns repeated up to it), ordered by source, then step."""
-    d = read_input(path, frame_shape, n_sources)
+    patterns repeated up to it), ordered by source, then step; checked by :func:`read_input`."""
+    d = read_input(path, frame_shape, n_sources, dt_ms)
     idx, steps, period = d["indices"].astype(np.int64), d["steps"].astype(np.int64), int(d["period_steps"])
     if period > 0:
         reps = -(-n_steps // period)
@@ -69,8 +72,8 @@ def input_spikes(path, n_steps, n_sources, frame_shape=None):
     return idx[order], steps[order], float(d["dt_ms"])
 
 
-def input_steps(path, n_steps, n_sources, frame_shape=None):
+def input_steps(path, n_steps, n_sources, frame_shape=None, dt_ms=None):
     """Spike steps of every source (periodic patterns repeated up to n_steps)."""
-    idx, steps, dt_ms = input_spikes(path, n_steps, n_sources, frame_shape)
+    idx, steps, dt_ms = input_spikes(path, n_steps, n_sources, frame_shape, dt_ms)
     bounds = np.searchsorted(idx, np.arange(n_sources + 1))
     return [steps[a:b] for a, b in zip(bounds[:-1], bounds[1:])], dt_ms

@@ -192,12 +192,10 @@ def main(argv=None):
     n_src = sum(p["size"] for p in meta["populations"] if p["neuron"] is None)
     n_steps = int(round(args.duration_ms / meta["dt_ms"]))
     sources, dt_ms = (
-        fg_inputs.input_steps(args.input, n_steps, n_src, meta.get("frame_shape"))
+        fg_inputs.input_steps(args.input, n_steps, n_src, meta.get("frame_shape"), meta["dt_ms"])
         if args.input
         else ([[]] * n_src, meta["dt_ms"])
     )
-    if abs(dt_ms - meta["dt_ms"]) > 1e-9:
-        sys.exit(f"run.py: error: {args.input}: dt_ms={dt_ms} differs from the network's {meta['dt_ms']}")
     plan = None
     if args.simulator == "spiNNaker":
         with open("spinnaker.json") as fh:

@@ -67,13 +67,14 @@ def main(argv=None):
             meta = json.load(fh)
         except ValueError as exc:
             sys.exit(f"run.py: error: network.json: not valid JSON: {exc}")
+    missing = [k for k in ("frame_shape", "dt_ms", "graph", "populations") if k not in meta]
+    if missing:  # (the network itself is model.nir: this file names it and the populations' sizes)
+        sys.exit(f"run.py: error: network.json: no {', '.join(missing)} (snn-fg export --format nir writes it)")
     h, w = meta["frame_shape"]
     dt_ms, n_pixels = float(meta["dt_ms"]), 2 * h * w
     n_steps = int(round(args.duration_ms / dt_ms))
     # (the sources of an input file: every pixel's ON and OFF, and the window clock after them)
-    indices, steps, dt_in = fg_inputs.input_spikes(args.input, n_steps, n_pixels + 1, (h, w))
-    if abs(dt_in - dt_ms) > 1e-9:
-        sys.exit(f"run.py: error: {args.input}: dt_ms={dt_in} differs from the network's {dt_ms}")
+    indices, steps, _ = fg_inputs.input_spikes(args.input, n_steps, n_pixels + 1, (h, w), dt_ms)
     clock = int(np.count_nonzero(indices == n_pixels))  # (fg_snntorch leaves them out: no node takes them)
     if clock:
         print(f"run.py: note: {clock} spikes of the window clock left out (the graph has no clock)")

@@ -10,7 +10,17 @@
   :mod:`snn_fg.lowering.loihi2`), run in its own Python 3.10 environment
   (:mod:`.lava_env`);
 * :mod:`.folder` - what every export folder holds (``network.json``, tables);
-* :mod:`.nir` - ``--format nir``: a NIR graph, and the reader back into a Network;
+* :mod:`.nir` - ``--format nir``: a NIR graph, written node by node; :mod:`.nir_import`
+  reads one back into a Network;
+* :mod:`.nir_snntorch` - ``--nir-profile snntorch``: the graph in the node kinds
+  snnTorch imports; :mod:`.nir_folder` puts it in a folder with its own loop
+  (the standalone program of :mod:`.snntorch_loop`), and :mod:`.snntorch_run`
+  runs it in snnTorch itself, as an independent consumer;
+* :mod:`.spinnaker` - which projections sPyNNaker's convolution connector
+  carries; :mod:`.spinn5` - how many SpiNN-5 boards a network needs;
+* :mod:`.synapses` - synapse counts, fan-in and fan-out without unrolling;
+* :mod:`.artefacts` - the exported artefacts kept in ``networks/`` (the iCub-size
+  NIR graph and its resource report);
 * :mod:`.report` - ``--format report``: neurons, synapses, delays, weights and
   the hardware each target needs (:mod:`.hardware` holds the documented limits);
 * :mod:`.loop` - both ends of a board run: where the export's frame is cut from an

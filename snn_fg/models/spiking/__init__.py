@@ -5,8 +5,12 @@
 * :func:`run_spiking_windows` - a recording's windows through one continuous
   network -> one :class:`~snn_fg.results.maps.Maps` per window (:mod:`.continuous`);
 * :class:`SpikingOptions` - every option of a run, checked once (:mod:`.options`);
+* :mod:`.api` - the entry points above, for an event frame or timed events;
+* :mod:`.stream_input` - a recording's or a live stream's input, read once
+  and causally; :mod:`.window_reader` - its windows decoded as the run goes;
 * :mod:`.decode` - firing rates -> the rate model's readout;
 * :mod:`.record` - the spike counts kept beside the maps;
+* :mod:`.figures` - the raster and the firing-rate histograms;
 * :mod:`.twin` - the unrolled network iterated like the rate model.
 
 The network is described in :mod:`snn_fg.network`, lowered to input spikes

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, SnnFgError
+from ..events.esim import MOTION, THRESHOLD
 from ..results.maps import Maps
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
@@ -360,7 +361,7 @@ def mismatches(a: Maps, b: Maps, pairing=None, same_folder: bool = False) -> lis
 
 
 #: the run options a still image was turned into events with, and their defaults (snn-fg run's)
-_STILL_OPTIONS = (("image_scale", None), ("threshold", 0.10), ("motion", "shift4"))
+_STILL_OPTIONS = (("image_scale", None), ("threshold", THRESHOLD), ("motion", MOTION))
 
 
 def rerun(a: Maps, b: Maps) -> str:

@@ -26,7 +26,7 @@ from ..events import (
 from ..events.activity import activity, saturated_lines, timeline_text
 from ..events.aps import frame_summary, open_frames
 from ..events.cutter import WINDOW_MS
-from ..events.esim import MOTIONS
+from ..events.esim import MOTION, MOTIONS, THRESHOLD
 from ..events.formats import SUFFIXES_TEXT
 from ..events.images import IMAGE_SUFFIXES, read_image
 from ..frames.still import image_scale_refusal, simulator_cost, sized_image
@@ -79,12 +79,14 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     )
     add_camera_options(g)
     g = p.add_argument_group("images (event-camera simulation)")
-    g.add_argument("--threshold", type=float, default=0.10, metavar="C", help="contrast threshold (default 0.10)")
+    g.add_argument(
+        "--threshold", type=float, default=THRESHOLD, metavar="C", help=f"contrast threshold (default {THRESHOLD:g})"
+    )
     g.add_argument(
         "--motion",
         choices=MOTIONS,
-        default="shift4",
-        help="shift4: 1-px shift up, right, down, left; circle: iCub microsaccade; paper: the authors' "
+        default=MOTION,
+        help="shift4 (default): 1-px shift up, right, down, left; circle: iCub microsaccade; paper: the authors' "
         "BSDS conversion (2-px copies down and right, through JPEG)",
     )
     g.add_argument("--amplitude-px", type=float, default=1.0, metavar="A", help="motion amplitude (default 1)")

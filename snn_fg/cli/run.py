@@ -15,7 +15,7 @@ import math
 from ..errors import InputError
 from ..events.aps import FramedWindows, pairing_note, require_frames
 from ..events.cutter import WINDOW_MS
-from ..events.esim import MOTIONS
+from ..events.esim import MOTION, MOTIONS, THRESHOLD
 from ..events.formats import SUFFIXES_TEXT
 from ..events.identity import input_keys
 from ..frames.pool import pooled_shape
@@ -83,9 +83,9 @@ def add_run_command(sub):
     g.add_argument(
         "--threshold",
         type=number(float, 0),
-        default=0.10,
+        default=THRESHOLD,
         metavar="C",
-        help="images turned into events: contrast threshold of the simulated event camera (0.10)",
+        help=f"images turned into events: contrast threshold of the simulated event camera ({THRESHOLD:g})",
     )
     g.add_argument(
         "--motion",
@@ -158,7 +158,7 @@ def _check_frame(args, model, shape) -> None:
 def _run_still(args, model) -> str:
     """A frame, an image or the demo into ``--out``, all or nothing; what was written."""
     frame, source = load_frame(
-        args.input, model.needs, args.threshold, args.motion or "shift4", args.image_scale, image_cost(args, model)
+        args.input, model.needs, args.threshold, args.motion or MOTION, args.image_scale, image_cost(args, model)
     )
     _check_frame(args, model, frame.shape)
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:

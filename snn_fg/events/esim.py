@@ -55,6 +55,9 @@ LOG_EPS = 1e-3
 #: Smallest contrast threshold kept after adding threshold noise.
 MIN_THRESHOLD = 0.01
 MOTIONS = ("shift4", "circle", "paper")
+#: the simulated camera's defaults wherever an image is turned into events: its contrast threshold and motion
+THRESHOLD = 0.10
+MOTION = "shift4"
 #: Positions per turn of the ``circle`` motion (every 5 degrees).
 CIRCLE_STEPS = 72
 
@@ -72,7 +75,7 @@ def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
     return cv2.warpAffine(img, m, (img.shape[1], img.shape[0]), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
-def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndarray:
+def motion_offsets(motion: str = MOTION, amplitude_px: float = 1.0) -> np.ndarray:
     """Image offsets ``(dx, dy)`` (pixels; +x right, +y down) of each frame."""
     validate.choice("motion_offsets", "motion", motion, MOTIONS)
     if motion == "paper":
@@ -88,7 +91,7 @@ def motion_offsets(motion: str = "shift4", amplitude_px: float = 1.0) -> np.ndar
     return np.round(off, 12)  # exact integers where the circle meets the axes
 
 
-def motion_frames(image, motion: str = "shift4", amplitude_px: float = 1.0, frame_interval_us: int = 5000):
+def motion_frames(image, motion: str = MOTION, amplitude_px: float = 1.0, frame_interval_us: int = 5000):
     """Return ``(frames, times_us)``: grey frames (N x H x W float64) and their times.
 
     ``paper`` ignores ``amplitude_px`` (its shift is the authors' 2 px) and
@@ -137,7 +140,9 @@ class PixelOptions:
         validate.number("PixelOptions", "eps", self.eps, lo=0, lo_open=True)
 
 
-def simulate_frames(frames, times_us, threshold_on=0.10, *, pixels: PixelOptions | None = None, seed=0) -> np.ndarray:
+def simulate_frames(
+    frames, times_us, threshold_on=THRESHOLD, *, pixels: PixelOptions | None = None, seed=0
+) -> np.ndarray:
     """Simulate events from grey frames in [0, 1] (N x H x W) at ``times_us``."""
     px_opts = pixels or PixelOptions()
     frames = np.asarray(frames, dtype=np.float64)
@@ -199,8 +204,8 @@ def simulate_frames(frames, times_us, threshold_on=0.10, *, pixels: PixelOptions
 
 def image_to_events(
     image,
-    threshold: float = 0.10,
-    motion: str = "shift4",
+    threshold: float = THRESHOLD,
+    motion: str = MOTION,
     *,
     amplitude_px: float = 1.0,
     frame_interval_us: int = 5000,
@@ -223,7 +228,7 @@ def image_to_events(
     return Recording(events=ev, sensor_size=(int(w), int(h), 2), format="esim", path=src)
 
 
-def image_to_frame(image, threshold: float = 0.10, motion: str = "shift4", **kwargs):
+def image_to_frame(image, threshold: float = THRESHOLD, motion: str = MOTION, **kwargs):
     """``(pos, neg)`` event frame of the simulated events (whole motion = one window)."""
     rec = image_to_events(image, threshold=threshold, motion=motion, **kwargs)
     return events_to_frame(rec.events, rec.sensor_size)

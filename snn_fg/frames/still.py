@@ -22,6 +22,7 @@ import numpy as np
 from .. import validate as check
 from ..errors import InputError, InputWarning
 from ..events import events_to_frame, image_to_events
+from ..events.esim import MOTION, THRESHOLD
 from ..events.formats import SUFFIX_FORMAT
 from ..events.images import IMAGE_SUFFIXES, read_image
 from . import check as check_input
@@ -269,7 +270,7 @@ def load_event_frame(path) -> tuple[np.ndarray, np.ndarray]:
     return pos, neg
 
 
-def load_frame(spec: str, needs: str, threshold: float = 0.10, motion: str = "shift4", image_scale=None, cost=None):
+def load_frame(spec: str, needs: str, threshold: float = THRESHOLD, motion: str = MOTION, image_scale=None, cost=None):
     """The frame a model needs from ``INPUT`` (``demo``, an image or an event
     frame), and what to record about where it came from.
 

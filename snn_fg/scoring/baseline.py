@@ -22,6 +22,7 @@ import dataclasses
 import numpy as np
 
 from ..errors import SnnFgError
+from ..events.esim import MOTION, THRESHOLD
 from ..frames.pool import frame_polarities
 from ..params import ModelParams
 from ..results.maps import Maps, maps_scale
@@ -61,8 +62,8 @@ def model_inputs(m: Maps, windows, needs: str) -> list | str:
         still, _ = load_frame(
             source["input"],
             needs,
-            source.get("threshold", 0.10),
-            source.get("motion", "shift4"),
+            source.get("threshold", THRESHOLD),
+            source.get("motion", MOTION),
             source.get("image_scale"),
         )
     except (SnnFgError, OSError) as exc:

@@ -31,7 +31,7 @@ from ..results.maps import SPIKING_GROUPING_LABEL, made_by
 from ..results.outputs import DECODE_FOLDER
 from ..results.timeline import MAPS_FIGURE
 from ..scoring.metrics import compare_frame
-from .options import subcommand
+from .options import FORCE_FOLDER_HELP, subcommand
 
 
 def add_decode_command(sub):
@@ -59,7 +59,7 @@ def add_decode_command(sub):
         help="also run the same exported network on the same input file, over the same span, with snn-fg's "
         f"BACKEND ({', '.join(backend_names())}): its maps in OUT/reference/, and how the two agree printed",
     )
-    p.add_argument("--force", action="store_true", help="replace OUT if it holds an earlier run (and nothing else)")
+    p.add_argument("--force", action="store_true", help=FORCE_FOLDER_HELP)
     p.set_defaults(handler=cmd_decode)
     return p
 

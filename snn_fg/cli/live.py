@@ -25,7 +25,7 @@ from ..results.live_view import VIEW_HOST, LiveView
 from ..results.outputs import check_output_folder
 from ..results.publish import END_OF_STREAM, LiveModel, Publisher, ended_by
 from ..results.store import windows_complete
-from .options import number, sensor_size, subcommand
+from .options import FORCE_FOLDER_HELP, number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
 from .runner import nothing_written, run_recording
 
@@ -60,7 +60,7 @@ def add_live_command(sub):
     )
     p.add_argument("source", metavar="SOURCE", help="udp://HOST:PORT, dv://HOST:PORT or camera://[SERIAL]")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
-    p.add_argument("--force", action="store_true", help="replace the output folder if it holds an earlier run")
+    p.add_argument("--force", action="store_true", help=FORCE_FOLDER_HELP)
     p.add_argument("--model", choices=LIVE_MODELS, default="rate", help="as snn-fg run (default: rate)")
     p.add_argument("--sensor-size", type=sensor_size, metavar="WxH", help="the sensor (udp://: required)")
     p.add_argument(

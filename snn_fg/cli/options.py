@@ -29,6 +29,8 @@ def subcommand(sub, name: str, *, description: str) -> argparse.ArgumentParser:
 #: the name that stands for the built-in demo: its still scene for ``snn-fg run``, its recording where a command
 #: takes a recording (:func:`recording_or_demo`)
 DEMO = "demo"
+#: ``--force`` of a command that writes a run's folder (run, live, decode): the one wording of its rule
+FORCE_FOLDER_HELP = "replace the output folder if it holds an earlier run (and nothing else)"
 
 
 def recording_or_demo(spec: str):

@@ -27,7 +27,16 @@ from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, 
 from ..results.timeline import MAPS_FIGURE
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
-from .options import add_camera_options, add_image_scale_option, camera_options, crop, number, sensor_size, subcommand
+from .options import (
+    FORCE_FOLDER_HELP,
+    add_camera_options,
+    add_image_scale_option,
+    camera_options,
+    crop,
+    number,
+    sensor_size,
+    subcommand,
+)
 from .run_options import WINDOW_LIMITS, WINDOW_OPTIONS, add_option_groups, chosen_model, run_key
 from .runner import goes_on, nothing_written, recording_windows, run_recording, run_still
 
@@ -50,9 +59,7 @@ def add_run_command(sub):
         "DIR/NAME with DIR/summary.csv",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (must be new or empty)")
-    p.add_argument(
-        "--force", action="store_true", help="replace the output folder if it holds an earlier run (and nothing else)"
-    )
+    p.add_argument("--force", action="store_true", help=FORCE_FOLDER_HELP)
     p.add_argument(
         "--resume",
         action="store_const",

@@ -1,6 +1,6 @@
 """The figure of a run against human labels (``snn-fg compare RUN LABELS --plot``): per image,
 the image, the run's figure-ground map, and for each labeller the labelled directions and the
-angle between them and the run's vectors (grey: labelled, but the run has no vector there)."""
+angle between them and the run's vectors (red: labelled, but the run has no vector there)."""
 
 from __future__ import annotations
 
@@ -112,4 +112,4 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
 
 def save_labels_figure(path, scored, max_rows: int = 6) -> Path:
     """Write :func:`labels_figure` to ``path`` (atomically)."""
-    return save_figure(labels_figure(scored, max_rows), path, dpi=110)
+    return save_figure(labels_figure(scored, max_rows), path, dpi=160)  # (one-pixel contours: 110 dpi drew them faint)

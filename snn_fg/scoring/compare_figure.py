@@ -41,6 +41,11 @@ def aps_inputs(a, b) -> list:
     return [aps, events]
 
 
+#: the difference panel's colours where no angle is drawn (RGB): one map has a vector there, neither
+#: has, and outside the pixels compared (a tint, not a second grey: two greys were told apart by nobody)
+ONE_MAP, NEITHER, NOT_COMPARED = (0.6, 0.6, 0.6), (1.0, 1.0, 1.0), (0.98, 0.94, 0.86)
+
+
 def _difference_title(r, where, when: str, sure: str) -> str:
     """The difference panel's title: the numbers of row ``r`` as the table gives them, or in words
     that no pixel was compared there (never "nan")."""
@@ -49,7 +54,7 @@ def _difference_title(r, where, when: str, sure: str) -> str:
         said = f"mean {r['angle_diff_mean_deg']:.0f}°, {r['angle_within_45_frac']:.0%} within 45°"
     else:
         said = f"no pixel where both maps have a vector{sure}: nothing compared"
-    pale = "" if where is None else "; pale: not compared"
+    pale = "" if where is None else "; beige: not compared"
     return f"difference{on}{when}: {said}\n(grey: one map only; white: neither{pale})"
 
 
@@ -94,8 +99,8 @@ def compare_figure(
         inside = np.ones(np.shape(ax_), bool) if where is None else np.asarray(where(r["window_a"], r["window_b"]))
         has_a, has_b = has_vector(ax_, ay_) & inside, has_vector(bx, by) & inside
         diff = np.where(has_a & has_b, angle_difference_deg(ax_, ay_, bx, by), np.nan)
-        marks = np.where(has_a ^ has_b, 0.75, np.where(inside, 1.0, 0.92))
-        show_map(ax[2], marks, departure, cmap="gray", vmin=0, vmax=1)
+        marks = np.where((has_a ^ has_b)[..., None], ONE_MAP, np.where(inside[..., None], NEITHER, NOT_COMPARED))
+        show_map(ax[2], marks, departure)
         im = show_map(ax[2], diff, brightness, cmap="viridis", vmin=0, vmax=180)
         bar = fig.colorbar(im, ax=ax[2], fraction=0.046, pad=0.02)
         bar.set_label("angle difference (deg)", fontsize=8)

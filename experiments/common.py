@@ -28,6 +28,10 @@ from typing import NoReturn
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "experiments" / "results"
 CACHE = RESULTS / "cache"
+#: where every experiment on dvs.es starts its windows (ms after its first event): past the reset burst
+#: and start-up the recording opens with (docs/validation.md); the windows are snn-fg's default length
+#: (snn_fg.events.cutter.WINDOW_MS, 85 ms)
+DVS_FROM_MS = 100.0
 
 
 def fail(message: str) -> NoReturn:

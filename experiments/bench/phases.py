@@ -39,7 +39,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from experiments.common import Run, describe, fail, markdown_table, save_figure, save_results
+from experiments.common import DVS_FROM_MS, Run, describe, fail, markdown_table, save_figure, save_results
 
 #: the phases as the engine names them (snn_fg.backends.fast.deliver.PHASE_NAMES), and the work each is
 #: divided by: the run's counter, and what it counts
@@ -179,7 +179,7 @@ def main(argv=None) -> None:
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         rec = dvs_played(Path(tmp) / "dvs_x.npy", a.copies)
-        common = ["--window-ms", str(WINDOW_MS), "--start-ms", "100", "--sensor-size", "320x240"]
+        common = ["--window-ms", str(WINDOW_MS), "--start-ms", f"{DVS_FROM_MS:g}", "--sensor-size", "320x240"]
         cache = str(Path(tmp) / "numba")
         for network in a.networks:
             print(f"[{network}] compiling the counting code (one window, not counted)", file=sys.stderr, flush=True)

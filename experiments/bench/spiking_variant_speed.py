@@ -42,7 +42,7 @@ import subprocess
 import sys
 import time
 
-from experiments.common import ROOT, Run, describe, fail, load, markdown_table, save_json, save_markdown
+from experiments.common import DVS_FROM_MS, ROOT, Run, describe, fail, load, markdown_table, save_json, save_markdown
 from experiments.validation.spiking_heldout import EARLIER, variant_params
 
 
@@ -170,7 +170,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variant", action="append", default=None, metavar="NAME[@DT]=JSON")
     ap.add_argument("--windows", type=int, nargs="+", default=[0, 1, 2])
-    ap.add_argument("--start-ms", type=float, default=100.0)
+    ap.add_argument("--start-ms", type=float, default=DVS_FROM_MS)
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--save", metavar="NAME", help="also write experiments/results/NAME.{json,md}")
     ap.add_argument("--worker", nargs=3, metavar=("JSON", "SPECS", "DT"), help=argparse.SUPPRESS)

@@ -24,6 +24,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from experiments.common import DVS_FROM_MS
+
 from .inputs import WINDOW_MS, dvs_path, dvs_played
 from .processes import measure, run_process, uptime
 
@@ -105,7 +107,7 @@ def section_stream(args, eng):
     with tempfile.TemporaryDirectory() as tmp:
         rec = dvs_path() if args.stream_copies <= 1 else dvs_played(Path(tmp) / "dvs_x.npy", args.stream_copies)
         sensor = [] if args.stream_copies <= 1 else ["--sensor-size", "320x240"]
-        common = ["--window-ms", str(WINDOW_MS), "--start-ms", "100", *sensor]
+        common = ["--window-ms", str(WINDOW_MS), "--start-ms", f"{DVS_FROM_MS:g}", *sensor]
         for network in args.networks:  # (compiles what numba has not cached yet: not measured)
             _say(f"warm-up {network}", 0, 1, "snn-fg run ... --max-windows 1")
             cli_run(rec, common + ["--network", network, "--max-windows", "1"], max(args.cores), args.timeout)
@@ -149,7 +151,7 @@ def _peer_round(runs: dict, peer: str, args, k: int, common: list) -> None:
         _say(name, k, args.stream_rounds, f"snn-fg run ... --backend {backend} --max-windows {args.peer_windows}")
         row = cli_run(
             dvs_path(),
-            ["--window-ms", str(WINDOW_MS), "--start-ms", "100", "--backend", backend, *windows],
+            ["--window-ms", str(WINDOW_MS), "--start-ms", f"{DVS_FROM_MS:g}", "--backend", backend, *windows],
             1,
             args.timeout,
         )

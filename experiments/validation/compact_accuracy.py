@@ -39,6 +39,7 @@ import numpy as np  # noqa: E402
 
 from experiments.common import (
     CACHE,
+    DVS_FROM_MS,
     Run,
     dataset,
     describe,
@@ -47,9 +48,10 @@ from experiments.common import (
     save_json,  # noqa: E402
     save_markdown,
 )
+from snn_fg.events.cutter import WINDOW_MS
 
 RADII = (16, 24, 32, 48, 64)
-DVS_START_MS, WINDOW_MS = 100.0, 85.0
+DVS_START_MS = DVS_FROM_MS
 #: the event conversion's contrast threshold on BSDS (0.4 as experiments.validation.spiking_groundtruth:
 #: fewer events than the paper's 0.10, so that the default network's runs take minutes, not hours)
 BSDS_THRESHOLD = 0.4

@@ -33,7 +33,8 @@ import sys
 
 import numpy as np
 
-from experiments.common import RESULTS, Run, dataset, describe, markdown_table, save_json, save_markdown
+from experiments.common import DVS_FROM_MS, RESULTS, Run, dataset, describe, markdown_table, save_json, save_markdown
+from snn_fg.events.cutter import WINDOW_MS
 
 ICUB = (240, 304)
 RADII = (16, 24, 32, 48, 64)
@@ -90,7 +91,7 @@ def dvs(recipe) -> dict:
     from snn_fg.scoring.metrics import grouping_peak
     from snn_fg.scoring.outline import filled_outline, outline_scores
 
-    windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=85, start_ms=100))
+    windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=WINDOW_MS, start_ms=DVS_FROM_MS))
     maps = run_spiking_windows(
         windows, network=recipe.build(windows[0].pos.shape), backend=get_backend("fast"), progress=False
     )

@@ -42,6 +42,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from experiments.common import (
+    DVS_FROM_MS,
     Run,
     dataset,
     describe,
@@ -133,7 +134,7 @@ def _spiking_each_alone(windows, backend, run_windows) -> list[dict]:
 def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--window", type=int, default=8, help="the window studied, counted from --start-ms (8)")
-    ap.add_argument("--start-ms", type=float, default=100.0)
+    ap.add_argument("--start-ms", type=float, default=DVS_FROM_MS)
     ap.add_argument(
         "--before",
         default="0,1,3,8",

@@ -38,6 +38,7 @@ import numpy as np
 
 from experiments.common import (
     CACHE,
+    DVS_FROM_MS,
     Run,
     dataset,
     describe,
@@ -100,7 +101,7 @@ def _busy(window) -> np.ndarray:
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--start-ms", type=float, default=100.0)
+    ap.add_argument("--start-ms", type=float, default=DVS_FROM_MS)
     a = ap.parse_args()
     rec = dataset("events", "dvs.es")
     from snn_fg.backends import as_backend

@@ -28,9 +28,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from experiments.common import Run, dataset, describe, load, load_change, markdown_table, save_results
+from experiments.common import DVS_FROM_MS, Run, dataset, describe, load, load_change, markdown_table, save_results
 from snn_fg.backends import RunSettings, get_backend
 from snn_fg.cli import main as snn_fg
+from snn_fg.events.cutter import WINDOW_MS
 from snn_fg.export.board import board_network
 from snn_fg.export.loop import export_network
 from snn_fg.export.pynn import read_input
@@ -39,7 +40,7 @@ from snn_fg.results.maps import Maps
 from snn_fg.scoring.metrics import agreement
 
 EXPORT = ["--format", "pynn", "--sensor-size", "32x24", "--levels", "2"]
-WINDOW = ["--start-ms", "100", "--window-ms", "85"]
+WINDOW = ["--start-ms", f"{DVS_FROM_MS:g}", "--window-ms", f"{WINDOW_MS:g}"]
 DURATION_MS, COUNT_FROM_MS = 400.0, 200.0
 
 

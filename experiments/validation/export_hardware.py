@@ -28,9 +28,10 @@ import time
 
 import numpy as np
 
-from experiments.common import RESULTS, Run, dataset, describe, markdown_table, save_json, save_markdown
+from experiments.common import DVS_FROM_MS, RESULTS, Run, dataset, describe, markdown_table, save_json, save_markdown
 from snn_fg.backends import RunSettings
 from snn_fg.backends.brian2 import Brian2Backend
+from snn_fg.events.cutter import WINDOW_MS
 from snn_fg.export.report import report_table, resource_report
 from snn_fg.frames.pyramid import max_levels
 from snn_fg.lowering.quantise import quantise_unrolled
@@ -114,7 +115,7 @@ def fit(out):
 def _dvs_window():
     from snn_fg.events import iter_windows
 
-    return next(iter_windows(dataset("events", "dvs.es"), window_ms=85.0, start_ms=100.0))
+    return next(iter_windows(dataset("events", "dvs.es"), window_ms=WINDOW_MS, start_ms=DVS_FROM_MS))
 
 
 def _crop_fidelity(cfg):

@@ -34,7 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import Run, dataset, describe, fail, markdown_table, save_figure, save_results
+from experiments.common import DVS_FROM_MS, Run, dataset, describe, fail, markdown_table, save_figure, save_results
+from snn_fg.events.cutter import WINDOW_MS
 
 DURATION_MS, COUNT_FROM_MS = 150.0, 75.0
 DISC_RADIUS = 11.0
@@ -159,7 +160,7 @@ def one_input(python, folder: Path, name: str) -> dict:
         r = make_export(folder, str(folder.parent / "disc.npz"), [])
         r["what"] = f"disc r{DISC_RADIUS:g} (64 x 64 image, its event frame at 200 Hz)"
     else:
-        extra = ["--start-ms", "100", "--window-ms", "85", "--crop-at", DVS_CROP_BLOCKS]
+        extra = ["--start-ms", f"{DVS_FROM_MS:g}", "--window-ms", f"{WINDOW_MS:g}", "--crop-at", DVS_CROP_BLOCKS]
         r = make_export(folder, str(dataset("events", "dvs.es")), extra)
         r["what"] = f"dvs.es 100..185 ms, crop at block {DVS_CROP_BLOCKS}"
     run = Run()

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import Run, dataset, describe, fail, load, markdown_table, save_results
+from experiments.common import DVS_FROM_MS, Run, dataset, describe, fail, load, markdown_table, save_results
 
 SNN_FG = [sys.executable, "-m", "snn_fg.cli"]
 
@@ -89,7 +89,7 @@ def live_from_aestream(aestream: str, aedat4: Path, out: Path, size) -> dict:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ms", type=float, default=300.0, help="how much of dvs.es (ms, 300)")
-    ap.add_argument("--start-ms", type=float, default=100.0, help="from where in dvs.es (ms, 100)")
+    ap.add_argument("--start-ms", type=float, default=DVS_FROM_MS, help=f"from where in dvs.es (ms, {DVS_FROM_MS:g})")
     args = ap.parse_args(argv)
     aestream = aestream_command()
     if aestream is None:

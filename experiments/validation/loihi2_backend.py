@@ -33,8 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import Run, dataset, describe, markdown_table, save_figure, save_results
+from experiments.common import DVS_FROM_MS, Run, dataset, describe, markdown_table, save_figure, save_results
 from experiments.validation import compact_accuracy, lava_export
+from snn_fg.events.cutter import WINDOW_MS
 
 #: label -> (backend, weight bits): the fast engine in float and with the 8-bit weights of ``--weight-bits 8``
 BACKENDS = {"fast": ("fast", None), "fast 8-bit": ("fast", 8), "loihi2": ("loihi2", None)}
@@ -50,7 +51,14 @@ def export_inputs(folder: Path, name: str) -> dict:
         pos, neg = image_to_frame(disc(lava_export.DISC_RADIUS).image)
         np.savez(folder.parent / "disc.npz", pos=pos, neg=neg)
         return lava_export.make_export(folder, str(folder.parent / "disc.npz"), [])
-    extra = ["--start-ms", "100", "--window-ms", "85", "--crop-at", lava_export.DVS_CROP_BLOCKS]
+    extra = [
+        "--start-ms",
+        f"{DVS_FROM_MS:g}",
+        "--window-ms",
+        f"{WINDOW_MS:g}",
+        "--crop-at",
+        lava_export.DVS_CROP_BLOCKS,
+    ]
     return lava_export.make_export(folder, str(dataset("events", "dvs.es")), extra)
 
 

@@ -16,7 +16,8 @@ its rate and spiking forms (``natural_scenes --checks`` runs these).
 
 from __future__ import annotations
 
-from experiments.common import Run, describe, markdown_table, save_results
+from experiments.common import DVS_FROM_MS, Run, describe, markdown_table, save_results
+from snn_fg.events.cutter import WINDOW_MS
 
 RADII = (16, 24, 32, 48, 64)
 FORMS = {"natural": {}, "natural-spiking": {"backend": "fast"}}
@@ -69,7 +70,7 @@ def dvs_check(name, recording) -> list[dict]:
     from snn_fg.scoring.metrics import grouping_peak
     from snn_fg.scoring.outline import filled_outline, outline_scores
 
-    windows = list(iter_windows(recording, window_ms=85, start_ms=100))
+    windows = list(iter_windows(recording, window_ms=WINDOW_MS, start_ms=DVS_FROM_MS))
     out = []
     for w, maps in _model(name).run_windows(windows):
         region = filled_outline(w.pos | w.neg)

@@ -40,6 +40,7 @@ from experiments.common import (
     CACHE as RESULTS_CACHE,
 )
 from experiments.common import (
+    DVS_FROM_MS,
     RESULTS,
     ROOT,
     Run,
@@ -51,10 +52,11 @@ from experiments.common import (
     save_markdown,
     save_results,
 )
+from snn_fg.events.cutter import WINDOW_MS
 from snn_fg.results.atomic import save_text
 
 CACHE = RESULTS_CACHE / "nest_vs_brian2"
-WINDOW = (100.0, 85.0)  # start, length (ms) of the dvs.es window
+WINDOW = (DVS_FROM_MS, WINDOW_MS)  # start, length (ms) of the dvs.es window
 #: NEST needs about 2 KB per node (each cell and its spike counter) and 80 bytes per
 #: synapse (39 to connect, 43 more to prepare the run; ``--nest-memory``):
 #: the dvs window (1.4 M cells the input can use, 98 M synapses) peaked at 19.0 GB (it was

@@ -56,8 +56,9 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import RESULTS, Run, dataset, markdown_table, save_json, save_markdown
+from experiments.common import DVS_FROM_MS, RESULTS, Run, dataset, markdown_table, save_json, save_markdown
 from snn_fg.backends import RunSettings, get_backend
+from snn_fg.events.cutter import WINDOW_MS
 from snn_fg.export.board import board_network
 from snn_fg.export.nir_snntorch import RESET_DRIVE, snntorch_network, to_nir_snntorch
 from snn_fg.export.snntorch_run import run_snntorch
@@ -81,7 +82,9 @@ def disc_input(radius: float, duration_ms: float, pool: int, dt_ms: float):
     return frame_spikes(pos, neg, 200.0, dt_ms, duration_ms), what, disc(radius).image.shape
 
 
-def dvs_input(dt_ms: float, shape=(48, 64), start_ms=100.0, window_ms=85.0, pool: int = 1, refractory_ms: float = 0.0):
+def dvs_input(
+    dt_ms: float, shape=(48, 64), start_ms=DVS_FROM_MS, window_ms=WINDOW_MS, pool: int = 1, refractory_ms: float = 0.0
+):
     """The sensor's ``shape`` crop (rows, cols) centred on the window's mean
     event position, its events pooled into ``pool`` x ``pool`` blocks as the
     network's input adapter does."""
@@ -299,7 +302,7 @@ def main(argv=None):
         default=RESET_DRIVE,
         help=f"deeper-reset: the drive it is reckoned for (the export's: {RESET_DRIVE:g})",
     )
-    ap.add_argument("--dvs-start-ms", type=float, default=100.0, help="dvs: where its 85 ms window starts")
+    ap.add_argument("--dvs-start-ms", type=float, default=DVS_FROM_MS, help="dvs: where its 85 ms window starts")
     ap.add_argument(
         "--choices-only",
         action="store_true",

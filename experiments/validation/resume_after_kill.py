@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import ROOT, Run, dataset, describe, fail, markdown_table, save_json, save_markdown
+from experiments.common import DVS_FROM_MS, ROOT, Run, dataset, describe, fail, markdown_table, save_json, save_markdown
 
 
 def _kill_and_resume(cmd: list[str], out: Path, kill_at: int) -> dict:
@@ -57,7 +57,7 @@ def main():
     ap.add_argument("--recording", type=Path, default=None)
     ap.add_argument("--max-windows", type=int, default=8)
     ap.add_argument("--kill-at", type=int, default=4)
-    ap.add_argument("--start-ms", type=float, default=100.0)
+    ap.add_argument("--start-ms", type=float, default=DVS_FROM_MS)
     a = ap.parse_args()
     from snn_fg.results.maps import Maps
 

@@ -54,6 +54,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from experiments.common import (
+    DVS_FROM_MS,
     RESULTS,
     Run,
     dataset,
@@ -74,7 +75,7 @@ from snn_fg.results.atomic import save_figure  # noqa: E402
 from snn_fg.scoring.metrics import agreement, grouping_peak  # noqa: E402
 from snn_fg.scoring.outline import filled_outline, outline_scores  # noqa: E402
 
-START_MS = 100.0  # dvs.es opens with a reset burst; issue 11 measures from 100 ms
+START_MS = DVS_FROM_MS
 WINDOW_MS = 85.0
 TIMED_WINDOWS = (0, 1, 2)
 

@@ -38,6 +38,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from experiments.common import (
+    DVS_FROM_MS,
     Run,
     dataset,
     describe,
@@ -175,7 +176,7 @@ def main():
         regions, windows = flip_recording(radius)
         inputs[f"synthetic: disc r{radius}, polarity flipping every window"] = (windows, regions, ModelParams(levels=5))
     if not a.no_dvs:
-        windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=WINDOW_MS, start_ms=100))
+        windows = list(iter_windows(dataset("events", "dvs.es"), window_ms=WINDOW_MS, start_ms=DVS_FROM_MS))
         inputs["dvs.es from 100 ms"] = (windows, [filled_outline(w.pos | w.neg) for w in windows], None)
     results = {}
     for name, (windows, regions, params) in inputs.items():

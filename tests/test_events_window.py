@@ -189,3 +189,21 @@ def test_a_stream_chunk_held_whole_is_passed_on_uncopied_and_pooled_exactly():
     assert pooled["x"].tolist() == [0, 1, 2, 3, 5, 10] and pooled["y"].tolist() == [0, 0, 1, 1, 1, 2]
     assert pooled["t"].tolist() == ev["t"].tolist() and pooled["p"].tolist() == ev["p"].tolist()
     assert ev.tolist() == before.tolist()
+
+
+def test_a_window_handed_out_is_not_kept_while_its_chunk_yields_the_rest():
+    """A chunk of events can complete thousands of short windows at once; a window whose frames were
+    read must go when its reader lets it go, not when the chunk's last window is handed out
+    (`snn-fg events --window-ms 0.001` held every window's frames: 24 GB, a new user's trial, 1 Dec)."""
+    import gc
+    import weakref
+
+    ev = ev_at(np.arange(1000) * 10)  # (one chunk of 1000 events, a window every 10 us of a 1 us window grid)
+    windows = iter_windows(ev, window_ms=0.01, sensor_size=(8, 1), chunk_events=10_000)
+    first = next(windows)
+    assert first.pos.any()  # (its frames made)
+    gone = weakref.ref(first)
+    del first
+    next(windows)
+    gc.collect()
+    assert gone() is None

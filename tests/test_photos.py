@@ -130,6 +130,9 @@ def test_out_of_memory_on_an_image_names_the_image_scale_not_the_network():
     assert on_image.startswith("out of memory (Unable to allocate 759. MiB)") and "--image-scale" in on_image
     assert "--network" not in on_image and "1280 x 720" not in on_image
     assert "--network compact" in out_of_memory(err, "rec.aedat4")
+    # (a command that runs no model is not told of one: snn-fg events blamed "the model", 1 Dec)
+    on_events = out_of_memory(err, "rec.aedat4", "events")
+    assert on_events.endswith("snn-fg events needs more than this machine gives it") and "model" not in on_events
 
 
 def test_run_refuses_an_image_too_large_for_the_memory_before_it_runs(tmp_path, monkeypatch, capsys):

@@ -120,7 +120,7 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
                     # the file and the system's reason in one line
                     exc = f"{exc.filename}: {exc.strerror or type(exc).__name__}"
                 elif isinstance(exc, MemoryError):
-                    exc = out_of_memory(exc, getattr(args, "input", None))
+                    exc = out_of_memory(exc, getattr(args, "input", None), args.command)
                 elif not isinstance(exc, SnnFgError):
                     raise
                 print(f"snn-fg: error: {exc if isinstance(exc, str) else exc.for_command_line()}", file=sys.stderr)
@@ -137,13 +137,20 @@ def main(argv=None, *, exit_on_interrupt: bool = False) -> int:
         return code
 
 
-def out_of_memory(exc: MemoryError, spec=None) -> str:
+#: the commands that run a model (an out-of-memory line says what needs less memory for them)
+MODEL_COMMANDS = ("run", "live", "decode")
+
+
+def out_of_memory(exc: MemoryError, spec=None, command: str = "run") -> str:
     """The one line for a command that ran out of memory: what it could not have (numpy's
-    ``Unable to allocate 5.03 GiB``, without the array's shape and type) and what needs less for
-    its input ``spec``: a smaller image (an image file), or a smaller network."""
+    ``Unable to allocate 5.03 GiB``, without the array's shape and type) and, for a command that
+    runs a model, what needs less for its input ``spec``: a smaller image (an image file), or a
+    smaller network."""
     from ..events.images import IMAGE_SUFFIXES
 
     what = str(exc).split(" for an array")[0].strip()
+    if command not in MODEL_COMMANDS:
+        return f"out of memory{f' ({what})' if what else ''}: snn-fg {command} needs more than this machine gives it"
     if spec is not None and Path(str(spec)).suffix.lower() in IMAGE_SUFFIXES:
         less = "a smaller image needs less (--image-scale F; a large image's note says which F)"
     else:

@@ -47,6 +47,7 @@ import numpy as np
 from snn_fg.errors import InputError, InputWarning
 from snn_fg.events.cutter import WINDOW_MS, TimePassed, WindowCutter, _window_times
 from snn_fg.events.live_screen import screen_events
+from snn_fg.events.window import handed_out
 
 #: the end of the stream, on the queue
 _END = object()
@@ -274,10 +275,10 @@ class LiveStream:
         """The windows kept, one by one (a dropped one is passed over, :meth:`done`)."""
         cut = self.cutter()
         for chunk in self.chunks():
-            yield from self._kept(cut.add(chunk))
+            yield from self._kept(handed_out(cut.add(chunk)))
         if cut.t0 is None:
             raise InputError(self.name, "the stream ended before any event")
-        yield from self._kept(cut.finish())
+        yield from self._kept(handed_out(cut.finish()))
 
     def _kept(self, windows):
         for w in windows:

@@ -113,10 +113,19 @@ def _cut_windows(windows: RecordingWindows):
     """The windows of ``windows``, cut as they are read (the generator :func:`iter_windows` returned)."""
     stream, cut = windows.cut("iter_windows")
     for chunk in stream:
-        yield from cut.add(chunk)
+        yield from handed_out(cut.add(chunk))
         if cut.done:
             return
-    yield from cut.finish()
+    yield from handed_out(cut.finish())
+
+
+def handed_out(windows: list):
+    """The windows of the list one by one, each let go of as it is handed out: a chunk can
+    complete thousands of short windows at once, and a window read keeps its frames (a
+    0.1 ms window over a 1 s recording held 1.5 GB of frames until its chunk was done)."""
+    windows.reverse()
+    while windows:
+        yield windows.pop()
 
 
 class WindowIterator:

@@ -108,6 +108,22 @@ def test_plot_draws_the_overview_of_a_run_made_without_figures(run, tmp_path, ca
     assert (bare / "windows.csv").read_text() == (run / "windows.csv").read_text()
 
 
+def test_plot_draws_the_figures_of_a_run_made_with_no_figures_keeping_its_table(run, tmp_path, capsys):
+    """A run made with --no-figures writes windows.csv: plot alone refused it ('exists; pass --force'),
+    where usage.md says plot draws such a run's overview (a new user's trial, 1 Dec)."""
+    import shutil
+
+    bare = tmp_path / "nofig"
+    bare.mkdir()
+    (bare / "maps.zarr").symlink_to(run / "maps.zarr", target_is_directory=True)
+    shutil.copy2(run / "windows.csv", bare / "windows.csv")
+    before = (bare / "windows.csv").stat().st_mtime_ns
+    assert main(["plot", str(bare)]) == 0
+    assert sorted(p.name for p in bare.iterdir()) == ["maps.png", "maps.zarr", "timeline.png", "windows.csv"]
+    assert (bare / "windows.csv").stat().st_mtime_ns == before  # (kept as the run wrote it)
+    assert "windows.csv" not in capsys.readouterr().out
+
+
 def test_a_saturated_window_neither_sets_the_grouping_scale_nor_flattens_the_timeline():
     """dvs.es's first window is a sensor-wide burst: its grouping (830) set the one colour scale and
     dimmed every scene (430-630), and its 106,494 events flattened the other windows' bars."""

@@ -134,16 +134,21 @@ def cmd_plot(args) -> int:
         check_output_file(movie, args.force, "--animate", SUFFIXES)
         written.append(save_animation(movie, maps, grouping_label=label, fps=args.fps, crop=args.crop))
     if args.windows is None and args.animate is None:
-        for name in (MAPS_FIGURE, TIMELINE_NAME, TABLE_NAME):
+        for name in (MAPS_FIGURE, TIMELINE_NAME):
             check_output_file(folder / name, args.force, "plot", (Path(name).suffix,))
-        write_run_tables(folder, maps, figures=True, coverage=model is None or not model.vector_at_every_event)
+        # (a run made with --no-figures wrote its table: kept, not refused, unless --force asks it written again)
+        table = args.force or not (folder / TABLE_NAME).exists()
+        if table:
+            check_output_file(folder / TABLE_NAME, args.force, "plot", (".csv",))
+        coverage = model is None or not model.vector_at_every_event
+        write_run_tables(folder, maps, figures=True, coverage=coverage, table=table)
         options = {
             **overview_options(maps, folder),
             "grouping_label": label,
             **on_sensor(maps.params, args.crop),  # (the crop was checked above)
         }
         save_maps_figure(folder / MAPS_FIGURE, input_images(maps), maps.fg_x, maps.fg_y, maps.grouping, **options)
-        written += [folder / MAPS_FIGURE, folder / TIMELINE_NAME, folder / TABLE_NAME]
+        written += [folder / MAPS_FIGURE, folder / TIMELINE_NAME, *([folder / TABLE_NAME] if table else [])]
     shown = ", ".join(str(p) for p in written[:4]) + (f", ... ({len(written)} files)" if len(written) > 4 else "")
     print(f"snn-fg: wrote {shown}")
     return 0

@@ -99,12 +99,13 @@ def overview_options(maps, folder) -> dict:
     }
 
 
-def write_run_tables(folder, maps, *, figures: bool, coverage: bool = True) -> list[dict]:
-    """``windows.csv`` and (``figures``) ``timeline.png`` of a recording's run into ``folder``;
-    the table's rows (``coverage``: see :func:`~.timeline.window_rows`)."""
+def write_run_tables(folder, maps, *, figures: bool, coverage: bool = True, table: bool = True) -> list[dict]:
+    """``windows.csv`` (``table``) and (``figures``) ``timeline.png`` of a recording's run into
+    ``folder``; the table's rows (``coverage``: see :func:`~.timeline.window_rows`)."""
     folder = Path(folder)
     rows = window_rows(maps, coverage=coverage)
-    save_table(folder / TABLE_NAME, rows)
+    if table:
+        save_table(folder / TABLE_NAME, rows)
     if figures:
         save_figure(timeline_of(maps, rows, folder), folder / TIMELINE_NAME, dpi=110)
     return rows

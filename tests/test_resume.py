@@ -190,3 +190,26 @@ def test_resume_with_a_larger_max_windows_goes_on_and_a_smaller_one_writes_nothi
     assert {p: p.read_bytes() for p in grown.rglob("*") if p.is_file()} == before
     assert main(["run", *common, "--out", str(grown), "--max-windows", "5", "--resume"]) == 0
     assert "is finished already (5 windows)" in capsys.readouterr().out
+
+
+def test_resume_knows_the_recording_however_its_path_is_typed(recording, tmp_path, monkeypatch, capsys):
+    """A run started as `run rec.es` and continued from another folder as `run ../rec.es`, or with
+    the absolute path, was refused ("these differ: input"): a job script that runs elsewhere could
+    not resume (a new user's trial, 1 Dec). The same recording is known by its sensor and first
+    events, as compare knows it; another recording is still refused."""
+    from snn_fg.cli.main import main
+    from snn_fg.events import save_events
+
+    save_events(tmp_path / "disc.es", recording.events, recording.sensor_size)
+    save_events(tmp_path / "other.es", recording.events[100:], recording.sensor_size)
+    (tmp_path / "jobs").mkdir()
+    common = ["--model", "rate", "--levels", "3", "--window-ms", "40", "--no-figures", "--no-progress"]
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "disc.es", *common, "--out", "out", "--max-windows", "2"]) == 0
+    monkeypatch.chdir(tmp_path / "jobs")
+    assert main(["run", "../disc.es", *common, "--out", "../out", "--max-windows", "3", "--resume"]) == 0
+    assert main(["run", str(tmp_path / "disc.es"), *common, "--out", "../out", "--max-windows", "4", "--resume"]) == 0
+    assert Maps.load(tmp_path / "out").fg_x.shape[0] == 4
+    capsys.readouterr()
+    assert main(["run", "../other.es", *common, "--out", "../out", "--max-windows", "5", "--resume"]) == 2
+    assert "these differ: input" in capsys.readouterr().err

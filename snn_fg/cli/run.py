@@ -23,7 +23,7 @@ from ..frames.pyramid import check_levels
 from ..frames.still import RATE_BYTES_PER_PIXEL, SPIKING_BYTES_PER_PIXEL, input_kind, load_frame
 from ..models import MODELS
 from ..results.atomic import OutputFolder, growing_folder, settle_folder
-from ..results.store import STORE_NAME, run_finished, store_arrays, stored_run, windows_complete
+from ..results.store import STORE_NAME, read_attrs, run_finished, store_arrays, stored_run, windows_complete
 from ..results.timeline import MAPS_FIGURE
 from ..validate import check_crop
 from .batch import is_dataset, run_dataset
@@ -230,11 +230,12 @@ def _run_recording(args, model) -> str | None:
     # states none took a whole pass over its events to infer: not a second one)
     source.update(input_keys(args.input, sensor_size=shape[::-1], **camera_options(args)))
     out, previous = growing_folder(args.out, force=args.force, resume=bool(args.resume))
-    if _nothing_to_resume(args, out, source.get("max_windows")):
+    resumed = _resume_key(args, out, source)
+    if _nothing_to_resume(args, out, source.get("max_windows"), resumed):
         return None
     args.interrupt_note = _interrupted(args.out, None)
     options = {"crop": args.crop, "figures": not args.no_figures, "resume": bool(args.resume)}
-    key = {"run_key": run_key(args), "may_differ": WINDOW_LIMITS}
+    key = {"run_key": resumed, "may_differ": WINDOW_LIMITS}
     n = _settled(args, out, previous, lambda: run_recording(model, windows, out, source, **options, **key))
     if model.needs == "image":
         kept = store_arrays(out / STORE_NAME, n)
@@ -295,12 +296,32 @@ def _settled(args, out, previous, run) -> int:
     return n
 
 
-def _nothing_to_resume(args, out, asked: int | None) -> bool:
+def _resume_key(args, out, source: dict) -> dict:
+    """:func:`~.run_options.run_key` of the arguments; with ``--resume``, its input named as the run
+    being continued names it where both read the same recording (the same sensor and first events,
+    ``source``'s :func:`~snn_fg.events.identity.input_keys`): a path typed from another folder, or
+    made absolute, is the same input (a job script that ran elsewhere was refused for the spelling)."""
+    key = run_key(args)
+    store = out / STORE_NAME
+    if not args.resume or not store.is_dir():
+        return key
+    attrs = read_attrs(store)
+    before = (attrs.get("params") or {}).get("source") or {}
+    stored_input = (attrs["snn_fg"].get("run_key") or {}).get("input")
+    same = before.get("events_head") is not None and all(
+        before.get(k) == source.get(k) for k in ("events_head", "sensor_size")
+    )
+    if same and stored_input is not None:
+        key["input"] = stored_input
+    return key
+
+
+def _nothing_to_resume(args, out, asked: int | None, key: dict) -> bool:
     """With ``--resume``, whether the run in ``out`` has nothing to add for the ``asked``
     windows (None: to the recording's end), said in one line (nothing is written): it is
     complete and does not go on (:func:`~.runner.goes_on`), or it holds more windows than asked
     (it is left as it is). A finished run cut by its window limit goes on to a larger one."""
-    attrs = stored_run(out / STORE_NAME, run_key(args), WINDOW_LIMITS) if args.resume else None
+    attrs = stored_run(out / STORE_NAME, key, WINDOW_LIMITS) if args.resume else None
     if attrs is None:
         return False
     n, complete = int(attrs["snn_fg"]["windows_complete"]), attrs["snn_fg"]["complete"]

@@ -200,3 +200,59 @@ def test_damage_after_the_last_window_asked_for_is_never_read(tmp_path):
         for w in iter_windows(tmp_path / "cut.es"):
             seen.append(w.index)
     assert seen == list(range(9))
+
+
+@pytest.mark.parametrize("damage", ["cut", "bad word", "outside"])
+def test_an_evt2_file_is_read_up_to_its_damage_as_every_other_format_is(tmp_path, damage):
+    """An EVT2 .raw file cut inside a word, or holding a word of no EVT2 type or an event outside
+    the sensor, was refused whole before its first event, naming event 0 (a new user's trial,
+    1 Dec): its events before the damage now come as the C decoder gives them for the whole file,
+    then the error, with the byte offset and the number of events before it."""
+    from snn_fg.events import iter_recording
+
+    rng = np.random.default_rng(3)
+    ev = np.zeros(5000, EVENT_DTYPE)
+    ev["x"], ev["y"], ev["p"] = rng.integers(0, 64, 5000), rng.integers(0, 48, 5000), rng.integers(0, 2, 5000)
+    ev["t"] = np.sort(rng.integers(0, 3_000_000, 5000))  # (3 s: time-high words every 64 us of the clock)
+    data = encode_evt2(ev, (64, 48))
+    (tmp_path / "whole.raw").write_bytes(data)
+    body = data.index(b"% end\n") + len(b"% end\n")
+    at = body + 4 * (len(data[body:]) // 8)  # (a word half way through)
+    bad = bytearray(data)
+    if damage == "cut":
+        bad = bad[: at + 3]
+    elif damage == "bad word":
+        bad[at : at + 4] = (0x5 << 28).to_bytes(4, "little")
+    else:
+        bad[at : at + 4] = ((1 << 28) | (100 << 11) | 7).to_bytes(4, "little")  # (a CD word at x 100: outside)
+    (tmp_path / "bad.raw").write_bytes(bytes(bad))
+    whole = np.concatenate(list(iter_recording(tmp_path / "whole.raw")))
+    got = []
+    with pytest.raises(InputError) as caught:
+        for chunk in iter_recording(tmp_path / "bad.raw", chunk_events=700):
+            got.append(chunk)
+    got = np.concatenate(got)
+    assert 0 < len(got) < len(whole) and str(caught.value).endswith(f"(at byte offset {at}, event {len(got)})")
+    np.testing.assert_array_equal(got, whole[: len(got)])
+    assert len(got) == np.count_nonzero(np.frombuffer(data[body:at], "<u4") >> 28 <= 1)  # (every event before it)
+
+
+def test_an_nmnist_file_cut_inside_a_record_is_read_up_to_the_cut(tmp_path):
+    """A .bin file cut inside its last 5-byte record was refused whole, naming no event."""
+    from snn_fg.events import iter_recording
+
+    n = 200
+    rec = np.zeros((n, 5), np.uint8)
+    rec[:, 0], rec[:, 1] = np.arange(n) % 34, np.arange(n) // 34 % 34
+    t = np.arange(n) * 100
+    rec[:, 2] = ((np.arange(n) % 2) << 7) | (t >> 16)
+    rec[:, 3], rec[:, 4] = (t >> 8) & 0xFF, t & 0xFF
+    (tmp_path / "whole.bin").write_bytes(rec.tobytes())
+    (tmp_path / "cut.bin").write_bytes(rec.tobytes()[: 5 * 150 + 3])
+    whole = np.concatenate(list(iter_recording(tmp_path / "whole.bin")))
+    got = []
+    with pytest.raises(InputError) as caught:
+        for chunk in iter_recording(tmp_path / "cut.bin"):
+            got.append(chunk)
+    np.testing.assert_array_equal(np.concatenate(got), whole[:150])
+    assert str(caught.value).endswith("file ends inside an event (3 of 5 bytes) (at byte offset 750, event 150)")

@@ -7,6 +7,8 @@ bad records are reported with their byte offset.
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 
 from snn_fg.errors import InputError
@@ -19,32 +21,39 @@ _OVERFLOW_Y = 240
 
 
 def open_nmnist(path, sensor_size, chunk_events) -> Source:
-    """Open an N-MNIST / N-Caltech101 ``.bin`` file (read whole by tonic)."""
+    """Open an N-MNIST / N-Caltech101 ``.bin`` file (read whole by tonic). A file cut inside a
+    record, or holding a record outside the sensor, is read up to it: its events before it are
+    handed on, then the error (with the byte offset; the stream adds the event's index)."""
     from tonic.io import read_mnist_file  # (tonic takes over a second to import: only for a .bin file)
 
     nbytes = path.stat().st_size
-    if nbytes % RECORD_BYTES:
-        whole = nbytes - nbytes % RECORD_BYTES
-        raise InputError(
-            path,
-            f"N-MNIST files hold {RECORD_BYTES}-byte events; {nbytes} bytes leaves {nbytes - whole} trailing",
-            f"byte offset {whole}",
+    whole = nbytes - nbytes % RECORD_BYTES
+    cut = None
+    if whole != nbytes:
+        cut = InputError(
+            path, f"file ends inside an event ({nbytes - whole} of {RECORD_BYTES} bytes)", f"byte offset {whole}"
         )
     size = check_sensor_size(sensor_size or SENSOR_SIZE, path)
 
+    def decoded(raw):
+        return read_mnist_file(io.BytesIO(raw.tobytes()), dtype=EVENT_DTYPE, is_stream=True)
+
     def chunks(n, tally):
-        raw = np.fromfile(path, dtype=np.uint8).reshape(-1, RECORD_BYTES)
+        raw = np.fromfile(path, dtype=np.uint8, count=whole).reshape(-1, RECORD_BYTES)
         bad = (raw[:, 1] != _OVERFLOW_Y) & ((raw[:, 0] >= size[0]) | (raw[:, 1] >= size[1]))
         if bad.any():
             i = int(np.argmax(bad))
             ev = raw[raw[:, 1] != _OVERFLOW_Y]
             span = f"{int(ev[:, 0].max()) + 1}x{int(ev[:, 1].max()) + 1}"
+            yield decoded(raw[:i])
             raise InputError(
                 path,
                 f"event at (x={int(raw[i, 0])}, y={int(raw[i, 1])}) lies outside the {size[0]} x {size[1]} sensor "
                 f"(the file's events span {span}: --sensor-size {span} or the camera's size)",
                 f"byte offset {RECORD_BYTES * i}",
             )
-        yield read_mnist_file(str(path), dtype=EVENT_DTYPE)
+        yield decoded(raw)
+        if cut is not None:
+            raise cut
 
     return Source(path, "nmnist", size, chunks)

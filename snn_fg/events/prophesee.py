@@ -41,7 +41,11 @@ def open_raw(path, sensor_size, chunk_events, *, encoding: str | None = None) ->
         return Source(path, "evt3", size, lambda n, tally: iter_evt3(path, off, tally=tally))
 
     def chunks(n, tally):
-        check_evt2(path, off, size, tally)  # clear errors (with byte offsets) before the C decoder runs
+        try:
+            check_evt2(path, off, size, tally)  # clear errors (with byte offsets) before the C decoder runs
+        except InputError as damage:  # (read up to it, as every other format is: then the error)
+            yield from evt2_before(path, off, _offset_of(damage))
+            raise damage from None
         yield from _expelliarmus_chunks(path, "evt2", n)
 
     return Source(path, "evt2", size, chunks)
@@ -145,13 +149,13 @@ def _iter_words(path, offset, word_bytes, read_bytes=READ_BYTES):
             if not raw:
                 return
             usable = len(raw) - len(raw) % word_bytes
+            yield pos, np.frombuffer(raw[:usable], dtype=dtype)  # (the whole words before a cut, then the cut)
             if usable != len(raw):
                 raise InputError(
                     path,
                     f"file ends inside a {8 * word_bytes}-bit word ({len(raw) - usable} trailing bytes)",
                     f"byte offset {pos + usable}",
                 )
-            yield pos, np.frombuffer(raw, dtype=dtype)
             pos += len(raw)
 
 
@@ -182,6 +186,31 @@ def check_evt2(path, offset, sensor_size, tally=None):
         x = np.where(cd, (words >> 11) & 0x7FF, 0)
         y = np.where(cd, words & 0x7FF, 0)
         _refuse_outside(path, x, y, w, h, pos, 4)
+
+
+def _offset_of(error: InputError) -> int:
+    """The byte offset this module's errors give in their place (``byte offset N``)."""
+    return int(re.search(r"byte offset (\d+)", error.where or "").group(1))
+
+
+def evt2_before(path, offset, end):
+    """The CD events of the EVT2 words from byte ``offset`` up to byte ``end`` (where damage
+    begins), decoded here: the C decoder reads a whole file. As it decodes them: a CD word's time
+    is the last time-high word's 28 bits above its own 6 (0 before the first)."""
+    high = 0
+    for pos, words in _iter_words(path, offset, 4):
+        words = words[: max(0, (end - pos) // 4)]
+        typ = words >> 28
+        is_high = typ == 8
+        last = np.maximum.accumulate(np.where(is_high, np.arange(len(words)), -1))
+        t_high = np.where(last >= 0, (words[np.maximum(last, 0)] & 0x0FFFFFFF).astype(np.int64), high)
+        if is_high.any():
+            high = int(words[np.flatnonzero(is_high)[-1]] & 0x0FFFFFFF)
+        cd = typ <= 1
+        w = words[cd]
+        yield pack_events((w >> 11) & 0x7FF, w & 0x7FF, (t_high[cd] << 6) | ((w >> 22) & 0x3F), typ[cd])
+        if pos + 4 * len(words) >= end:
+            return
 
 
 EVT3_KNOWN = np.zeros(16, dtype=bool)

@@ -156,3 +156,20 @@ def test_a_recordings_warning_names_it_once(tmp_path, capsys):
     for line, name in zip(sorted(warned), ("a", "b")):
         assert line.startswith(f"snn-fg: warning: {d / name}.npy: no sensor size given;"), line
         assert line.count(f"{name}.npy") == 1, line
+
+
+def test_an_interrupted_batch_says_what_it_left_and_that_the_same_command_goes_on(
+    folder, tmp_path, capsys, monkeypatch
+):
+    """Ctrl-C during a batch said 'the output was left as it was before the run', while its folder held
+    the recordings done and the windows of the one cut short (a new user's trial, 1 Dec)."""
+    from snn_fg.cli import batch
+
+    def cut_short(jobs, *args):
+        yield from ()
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch, "_run_all", cut_short)
+    assert main(["run", str(folder), "--out", str(tmp_path / "out"), "--no-progress"]) == 130
+    said = capsys.readouterr().err
+    assert "left as it was" not in said and "no summary.csv was written: the same command goes on" in said

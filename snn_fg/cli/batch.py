@@ -249,6 +249,11 @@ def run_dataset(args, command) -> int:
     with writing(out):
         out.mkdir(parents=True, exist_ok=True)
     workers = min(args.workers or usable_cores(), len(jobs))
+    args.interrupt_note = (
+        f"the recordings done so far are in {out}/, a folder each, and one cut short keeps the windows it "
+        f"completed; no {SUMMARY_NAME} was written: the same command goes on (it skips the recordings done "
+        "and continues the one cut short)"
+    )
     rows = sorted(
         _run_all(jobs, command, workers, args.scheduler, not args.no_progress),
         key=lambda r: [j["input"] for j in jobs].index(r["recording"]),

@@ -173,3 +173,32 @@ def test_an_interrupted_batch_says_what_it_left_and_that_the_same_command_goes_o
     assert main(["run", str(folder), "--out", str(tmp_path / "out"), "--no-progress"]) == 130
     said = capsys.readouterr().err
     assert "left as it was" not in said and "no summary.csv was written: the same command goes on" in said
+
+
+def test_an_earlier_batch_is_an_earlier_run_to_force_not_a_users_folder(folder, tmp_path, capsys):
+    """A single run with --force into the folder of an earlier batch was refused: 'holds a, summary.csv,
+    ..., which snn-fg did not write' (a new user's trial, 1 Dec). A batch's folder (its summary.csv and
+    a run per recording) is an earlier run: replaced with --force, never continued with --resume; a
+    user's own summary.csv is still not snn-fg's; plot names a run in the batch."""
+    from snn_fg.results.outputs import SUMMARY_COLUMNS
+
+    out = tmp_path / "batch"
+    one = [str(folder / "a.npy"), "--model", "rate", "--levels", "3", "--no-progress", "--no-figures"]
+    assert main(["run", *one, "--out", str(out / "a")]) == 0
+    (out / "summary.csv").write_text(",".join(SUMMARY_COLUMNS) + "\n")
+    capsys.readouterr()
+    assert main(["plot", str(out)]) == 2
+    assert f"a batch, a run per recording (a): plot one, {out / 'a'}" in capsys.readouterr().err
+    assert main(["run", *one, "--out", str(out)]) == 2
+    assert "holds an earlier batch of runs (a, summary.csv); choose another output folder or pass --force" in (
+        capsys.readouterr().err
+    )
+    assert main(["run", *one, "--out", str(out), "--resume"]) == 2
+    assert "not one run to continue" in capsys.readouterr().err
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "summary.csv").write_text("my,own,table\n")
+    assert main(["run", *one, "--out", str(mine), "--force"]) == 2
+    assert "which snn-fg did not write" in capsys.readouterr().err and (mine / "summary.csv").exists()
+    assert main(["run", *one, "--out", str(out), "--force"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["maps.zarr", "windows.csv"]

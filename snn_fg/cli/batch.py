@@ -34,14 +34,12 @@ from ..events.images import IMAGE_SUFFIXES
 from ..events.text_events import reads_as_events
 from ..frames.still import input_kind
 from ..results.atomic import save_text
-from ..results.outputs import check_writable, writing
+from ..results.outputs import SUMMARY_COLUMNS, SUMMARY_NAME, check_writable, writing
 from ..results.progress import bar as progress_bar
 from ..results.store import STORE_NAME, run_finished, stored_run, windows_complete
 from .run_options import WINDOW_LIMITS, run_key
 
 #: the summary table's name in the output folder, and its columns
-SUMMARY_NAME = "summary.csv"
-SUMMARY_COLUMNS = ("recording", "output", "status", "windows", "seconds", "error")
 _GLOB = set("*?[")
 
 

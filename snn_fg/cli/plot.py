@@ -99,11 +99,14 @@ def _recording_maps(run: Path) -> tuple[Path, Maps]:
     if not run.exists():
         raise InputError(run, "no such folder")
     if not (folder / STORE_NAME).is_dir():
-        what = (
-            "a frame's run (maps.npz): its figure is maps.png (snn-fg run ... --crop X0,Y0,X1,Y1 draws a part)"
-            if (folder / "maps.npz").is_file()
-            else "no run"
-        )
+        runs = sorted(p.name for p in folder.iterdir() if (p / STORE_NAME).is_dir()) if folder.is_dir() else []
+        if (folder / "maps.npz").is_file():
+            what = "a frame's run (maps.npz): its figure is maps.png (snn-fg run ... --crop X0,Y0,X1,Y1 draws a part)"
+        elif runs:  # (a batch: a run per recording)
+            named = ", ".join(runs[:3]) + (", ..." if len(runs) > 3 else "")
+            what = f"a batch, a run per recording ({named}): plot one, {folder / runs[0]}"
+        else:
+            what = "no run"
         raise InputError(run, f"holds {what}; snn-fg plot draws a recording's run (its maps.zarr)")
     maps = Maps.load(folder / STORE_NAME)
     if maps.fg_x.shape[0] == 0:

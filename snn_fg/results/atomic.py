@@ -19,7 +19,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .outputs import MARK, RUN_FOLDER, WORKING_PREFIX, FolderKind, check_output_folder, check_writable, writing
+from .outputs import (
+    BATCH_OR_RUN,
+    MARK,
+    WORKING_PREFIX,
+    FolderKind,
+    check_output_folder,
+    check_writable,
+    writing,
+)
 
 
 @contextlib.contextmanager
@@ -130,7 +138,7 @@ class OutputFolder:
     removed. An error, Ctrl-C or SIGTERM leaves the destination as it was.
     """
 
-    def __init__(self, path, force: bool = False, cancelled=None, kind: FolderKind = RUN_FOLDER):
+    def __init__(self, path, force: bool = False, cancelled=None, kind: FolderKind = BATCH_OR_RUN):
         self.path = Path(path)
         self.cancelled = cancelled or (lambda: False)
         self.kind = kind
@@ -264,7 +272,7 @@ def growing_folder(path, force: bool = False, resume: bool | None = False) -> tu
     give it to :func:`settle_folder`, which drops them or puts them back.
     """
     path = Path(path)
-    earlier = check_output_folder(path, RUN_FOLDER, force, resume=resume)
+    earlier = check_output_folder(path, BATCH_OR_RUN, force, resume=resume)
     check_writable(path)
     with writing(path):
         previous = set_aside(path) if path.is_dir() and not (earlier and resume) else None

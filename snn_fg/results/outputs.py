@@ -78,6 +78,23 @@ def _window_figures(entry: Path) -> bool:
     return bool(names) and all(fnmatch.fnmatchcase(n, WINDOW_FIGURE.replace("{:04d}", "[0-9]" * 4)) for n in names)
 
 
+#: a batch's table beside its runs (``snn-fg run FOLDER|GLOB|LIST``: :mod:`snn_fg.cli.batch`), told by its header
+SUMMARY_NAME = "summary.csv"
+SUMMARY_COLUMNS = ("recording", "output", "status", "windows", "seconds", "error")
+
+
+def _batch_part(entry: Path) -> bool:
+    """Whether ``entry`` is part of an earlier batch: its ``summary.csv`` (by its header), or one
+    recording's run folder in it (holding a run's maps, and only what a run writes)."""
+    if entry.name == SUMMARY_NAME and entry.is_file() and not entry.is_symlink():
+        with open(entry, encoding="utf-8", errors="replace") as fh:
+            return fh.readline().strip() == ",".join(SUMMARY_COLUMNS)
+    if not entry.is_dir() or entry.is_symlink():
+        return False
+    inside = list(entry.iterdir())
+    return any(p.name in RUN_FOLDER.marks for p in inside) and all(RUN_FOLDER.written(p) for p in inside)
+
+
 #: what ``snn-fg run``, ``snn-fg live`` and ``snn-fg decode`` write: maps (a frame's ``.npz``, a
 #: recording's Zarr store), their figures, a recording's per-window table and animation, a live run's
 #: record, the spiking model's figures, and a folder of window figures under another name
@@ -98,6 +115,14 @@ RUN_FOLDER = FolderKind(
     ),
     marks=("maps.npz", "maps.zarr"),
     owns=_window_figures,
+)
+#: an earlier batch of runs is an earlier run too: ``--force`` replaces it with a run, and a batch with
+#: another (its summary.csv and its recordings' folders; ``marks``: the summary)
+BATCH_OR_RUN = FolderKind(
+    "an snn-fg run",
+    names=RUN_FOLDER.names,
+    marks=(*RUN_FOLDER.marks, SUMMARY_NAME),
+    owns=lambda entry: _window_figures(entry) or _batch_part(entry),
 )
 
 
@@ -159,11 +184,21 @@ def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False
             )
             + "; choose another output folder",
         )
-    if not (force or resume):
-        how = (
-            "pass --force to replace it" if resume is None else "pass --resume to continue it or --force to replace it"
+    if resume and not force and not any((path / m).exists() for m in RUN_FOLDER.marks):
+        raise InputError(
+            path,
+            f"holds an earlier batch of runs ({SUMMARY_NAME} and a folder per recording), not one run to continue: "
+            "the batch's own command goes on with it, and --force replaces it",
         )
-        raise InputError(path, f"holds {kind.what} already ({_listed(entries)}); choose another output folder or {how}")
+    if not (force or resume):
+        batch = not any((path / m).exists() for m in RUN_FOLDER.marks)  # (an earlier batch: replaced, not continued)
+        how = (
+            "pass --force to replace it"
+            if resume is None or batch
+            else "pass --resume to continue it or --force to replace it"
+        )
+        what = "an earlier batch of runs" if batch else f"{kind.what} already"
+        raise InputError(path, f"holds {what} ({_listed(entries)}); choose another output folder or {how}")
     return True
 
 

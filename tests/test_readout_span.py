@@ -111,3 +111,12 @@ def test_a_run_that_reaches_the_recordings_end_says_its_last_read_out_ran_withou
     ) in " ".join(err.split())
     assert main([*base, "--out", str(tmp_path / "cut"), "--max-windows", str(n - 1)]) == 0
     assert "past the recording's end" not in capsys.readouterr().err
+
+
+def test_a_live_runs_last_window_note_offers_no_max_windows():
+    """A live run's note offered --max-windows 23, which snn-fg live refuses (a new user's trial, 1 Dec)."""
+    from snn_fg.cli.runner import last_window_note
+
+    assert "--max-windows 23 leaves it out" in last_window_note(20.0, 24, {"kind": "recording"})
+    live = last_window_note(20.0, 24, {"kind": "live"})
+    assert "--max-windows" not in live and live.endswith("its maps can differ from the windows before it")

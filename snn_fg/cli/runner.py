@@ -98,6 +98,22 @@ def run_still(model: Model, still: Still, out: Path, source: dict, crop=None, fi
     return maps
 
 
+def last_window_note(lag_ms: float, n: int, source: dict) -> str:
+    """The line for a run whose last window's read-out lag ran ``lag_ms`` past the end of its input,
+    a run of ``n`` windows from ``source``; a recording's names the ``--max-windows`` that leaves
+    the window out (a live stream takes none)."""
+    cut = n > 1 and source.get("kind") != "live"
+    return (
+        f"snn-fg: note: the last window's read-out lag ran {lag_ms:g} ms past the recording's end, without input: "
+        "its maps can differ from the windows before it"
+        + (
+            f" (--max-windows {n - 1} leaves it out and reads the window before it with the events after it)"
+            if cut
+            else ""
+        )
+    )
+
+
 def run_recording(
     model: Model,
     windows,
@@ -200,16 +216,7 @@ def run_recording(
         )
     lag = float((whole or {}).get("readout_without_input_ms") or 0.0)
     if lag > 0 and damage is None:
-        print(
-            f"snn-fg: note: the last window's read-out lag ran {lag:g} ms past the recording's end, without input: "
-            "its maps can differ from the windows before it"
-            + (
-                f" (--max-windows {store.n - 1} leaves it out and reads the window before it with the events after it)"
-                if store.n > 1
-                else ""
-            ),
-            file=sys.stderr,
-        )
+        print(last_window_note(lag, store.n, source), file=sys.stderr)
     store.finish(_run_params(store, source, windows, clock, whole))
     maps = Maps(*read_maps(path, lazy=True))
     write_run_tables(out, maps, figures=figures, coverage=not model.vector_at_every_event)

@@ -256,3 +256,19 @@ def test_an_nmnist_file_cut_inside_a_record_is_read_up_to_the_cut(tmp_path):
             got.append(chunk)
     np.testing.assert_array_equal(np.concatenate(got), whole[:150])
     assert str(caught.value).endswith("file ends inside an event (3 of 5 bytes) (at byte offset 750, event 150)")
+
+
+@pytest.mark.parametrize("suffix, keep", [(".es", 10), (".es", 17), (".raw", 30)])
+def test_a_file_cut_inside_its_header_says_so(tmp_path, suffix, keep):
+    """A .es file's first 10 bytes were 'a text file, mislabelled?' and a .raw file cut in its header
+    line 'unterminated or longer than 4 KiB' (a new user's trial, 1 Dec): each ends inside its header."""
+    from snn_fg.events import open_recording
+
+    ev = np.zeros(50, EVENT_DTYPE)
+    ev["x"], ev["t"] = np.arange(50) % 40, np.arange(50) * 1000
+    whole = tmp_path / f"whole{suffix}"
+    save_events(whole, ev, (40, 30))
+    cut = tmp_path / f"cut{suffix}"
+    cut.write_bytes(whole.read_bytes()[:keep])
+    with pytest.raises(InputError, match=rf"file ends inside its header.*byte offset {keep}\)"):
+        open_recording(cut, sensor_size=(40, 30) if suffix == ".raw" else None)

@@ -66,10 +66,12 @@ def read_header(path) -> Header:
     """Parse and check the header; other stream types are refused by name."""
     with open(path, "rb") as fh:
         head = fh.read(_BODY_OFFSET)
+    if len(head) < _BODY_OFFSET and MAGIC.startswith(head[: len(MAGIC)]):  # (a file cut inside its header)
+        raise InputError(
+            path, f"file ends inside its header ({len(head)} of {_BODY_OFFSET} bytes)", f"byte offset {len(head)}"
+        )
     if not head.startswith(MAGIC):
         raise InputError(path, "not an Event Stream file (missing 'Event Stream' signature)", "byte offset 0")
-    if len(head) <= _TYPE_OFFSET:
-        raise InputError(path, "Event Stream header is truncated", f"byte offset {len(head)}")
     major, minor, patch = head[_VERSION_OFFSET:_TYPE_OFFSET]
     if major != 2:
         raise InputError(

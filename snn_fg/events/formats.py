@@ -127,7 +127,8 @@ _MAGICS = [
 
 def _sniff(head: bytes):
     for magic, name in _MAGICS:
-        if head.startswith(magic):
+        # (a file cut inside its signature is still that kind of file: its reader says it ends there)
+        if head.startswith(magic) or (len(head) < len(magic) and magic.startswith(head)):
             return name
     if head.startswith(b"%"):
         return "a Prophesee RAW/DAT file"

@@ -92,7 +92,9 @@ def read_header(path, max_header: int = 1 << 20):
                 break
             line = peek + fh.readline(4096)
             if not line.endswith(b"\n"):
-                raise InputError(path, "header line is unterminated or longer than 4 KiB", f"byte offset {offset}")
+                if len(line) <= 4096:  # (the file ended before the line did)
+                    raise InputError(path, "file ends inside its header", f"byte offset {offset + len(line)}")
+                raise InputError(path, "header line is longer than 4 KiB", f"byte offset {offset}")
             try:
                 text = line[1:].decode("ascii").strip()
             except UnicodeDecodeError:

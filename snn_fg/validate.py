@@ -104,11 +104,15 @@ def known_keys(owner: str, given: Iterable[str], allowed: Iterable[str]) -> None
         fail(owner, None, None, f"unknown field(s) {', '.join(unknown)} (known: {', '.join(sorted(allowed))})")
 
 
-def address(url: str, schemes: tuple[str, ...], owner: str) -> tuple[str, str, int]:
+def address(url: str, schemes: tuple[str, ...], owner: str, others: tuple[str, ...] = ()) -> tuple[str, str, int]:
     """``(scheme, host, port)`` of ``SCHEME://HOST:PORT``, the scheme one of
-    ``schemes``; else an InputError naming ``url`` and ``owner`` (the option)."""
+    ``schemes``; else an InputError naming ``url`` and ``owner`` (the option), and the
+    ``others`` the option also takes (``camera://[SERIAL]``)."""
     parts = urlsplit(url)
-    expected = f"{owner}: expected " + " or ".join(f"{s}://HOST:PORT" for s in schemes)
+    named = [f"{s}://HOST:PORT" for s in schemes] + list(others)
+    expected = f"{owner}: expected " + (
+        " or ".join(named) if len(named) < 3 else f"{', '.join(named[:-1])} or {named[-1]}"
+    )
     try:
         port = parts.port  # (urllib raises for a port out of 0-65535 or not a number)
     except ValueError:

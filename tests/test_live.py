@@ -532,8 +532,14 @@ def test_ctrl_c_ends_a_live_run_with_its_complete_windows_kept(tmp_path, disc_fi
 @pytest.mark.parametrize(
     "argv, said",
     [
-        (["live", "foo://127.0.0.1:5"], "foo://127.0.0.1:5: source: expected udp://HOST:PORT or dv://HOST:PORT"),
-        (["live", "udp://127.0.0.1"], "udp://127.0.0.1: source: expected udp://HOST:PORT or dv://HOST:PORT"),
+        (
+            ["live", "foo://127.0.0.1:5"],
+            "foo://127.0.0.1:5: source: expected udp://HOST:PORT, dv://HOST:PORT or camera://[SERIAL]",
+        ),
+        (
+            ["live", "udp://127.0.0.1"],
+            "udp://127.0.0.1: source: expected udp://HOST:PORT, dv://HOST:PORT or camera://[SERIAL]",
+        ),
         (
             ["live", "udp://127.0.0.1:9", "--sensor-size", "8x8", "--publish", "http://a:1"],
             "http://a:1: --publish: expected udp://HOST:PORT or tcp://HOST:PORT",

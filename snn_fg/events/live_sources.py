@@ -39,7 +39,7 @@ UDP_BUFFER = 8 << 20
 
 def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
     """``(scheme, host, port)`` of ``udp://HOST:PORT`` or ``dv://HOST:PORT`` (an InputError naming ``url``)."""
-    return address(url, SCHEMES, owner)
+    return address(url, SCHEMES, owner, others=(f"{CAMERA}[SERIAL]",) if owner == "source" else ())
 
 
 def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0, found: bool = False):

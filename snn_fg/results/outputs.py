@@ -271,7 +271,8 @@ def check_output_file(out, force: bool, flag: str = "--out", suffixes: tuple[str
         raise InputError(out, f"{flag} names a file to write, but a folder of that name exists")
     suffix = out.suffix.lower()
     if suffixes and suffix not in suffixes:
-        raise InputError(out, f"{flag} writes {' or '.join(suffixes)}: give a file name ending {suffixes[0]}")
+        ending = suffixes[0] if len(suffixes) == 1 else f"{', '.join(suffixes[:-1])} or {suffixes[-1]}"
+        raise InputError(out, f"{flag} writes {' or '.join(suffixes)}: give a file name ending {ending}")
     if out.exists() or out.is_symlink():
         if not force:
             raise InputError(out, "exists; pass --force to replace it")

@@ -179,8 +179,8 @@ def add_baseline(rows, a: Maps, b: Maps, where=None, min_confidence=None) -> str
     if crop is not None:  # (the model run on the crop alone is another run than the whole frame's, cut)
         again = "" if crop["window"] is None else f" --window {crop['window']}"
         return (
-            "B <=45°, B grp r: no baseline for B cut to the export's crop; its whole window's: "
-            f"snn-fg compare B B{again}"
+            "B <=45°, B grp r: no baseline for B cut to the export's crop; for its whole window, compare B's run "
+            f"with itself, which prints its baseline: snn-fg compare B B{again} (B: the run's folder)"
         )
     windows = [r["window_b"] for r in rows]
     print(f"snn-fg: baseline: running B's model again on {len(windows)} frame(s)...", file=sys.stderr)

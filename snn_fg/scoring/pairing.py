@@ -186,8 +186,9 @@ def _by_clock(ca, cb, side_a, side_b, differ: str | None = None) -> Pairing:
             None,
             f"A and B share no window start on the events' own clock: A's first window starts {_after(first_a)} "
             f"B's first event, B's {_after(first_b)} it, and none of A's starts lies within "
-            f"{PAIR_WITHIN_US / 1000:g} ms of one of B's; docs/live.md, 'Comparing a live run with snn-fg run', "
-            "says how to cut the same windows",
+            f"{PAIR_WITHIN_US / 1000:g} ms of one of B's: run one again with the other's --start-ms "
+            f"({first_b:g} for B's, from its first event) and --window-ms/--stride-ms, or compare one window of "
+            "each with --window I (a live run: docs/live.md, 'Comparing a live run with snn-fg run')",
         )
     far = max(apart)
     how = "windows paired by their start on the events' own clock (their timestamps), " + (

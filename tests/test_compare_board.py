@@ -41,8 +41,8 @@ def test_compare_cuts_the_reference_to_the_exports_crop_and_window(pair, capsys)
     # (its baseline would be the model run on the crop alone, another run: it says where to find one)
     said = " ".join(out.split())  # (the table's notes are wrapped)
     assert (
-        "no baseline for B cut to the export's crop; for its whole window, compare B's run with itself, which prints its baseline: snn-fg compare B B --window 1"
-        in said
+        "no baseline for B cut to the export's crop; for its whole window, compare B's run with itself, "
+        "which prints its baseline: snn-fg compare B B --window 1" in said
     )
     (row,) = json.loads((pair / "c.json").read_text())["windows"]
     assert row["angle_within_45_frac"] == 1.0 and row["angle_diff_mean_deg"] == pytest.approx(0.0, abs=1e-3)

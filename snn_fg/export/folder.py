@@ -30,6 +30,10 @@ from .synapses import projection_counts
 
 #: the input file ``snn-fg events --write-spikes`` writes into an export by the README's loop
 INPUT_NAME = "input.npz"
+#: the first and last steps of every export folder's README (its ``{input_step}`` and ``{maps_step}``):
+#: the input spikes written for the export, and the maps decoded from the counts its run.py writes
+INPUT_STEP = f"1. Input: `snn-fg events RECORDING --start-ms 100 --window-ms 85 --write-spikes {INPUT_NAME} --export .`"
+MAPS_STEP = "3. Maps: `snn-fg decode counts.npz --export . --out maps` writes `maps/maps.npz` and `maps/maps.png`"
 #: what an input spike file holds, and what run.py's output (counts) always holds
 INPUT_KEYS = ("indices", "steps", "dt_ms", "period_steps", "shape")
 COUNTS_KEYS = ("duration_ms", "dt_ms", "count_from_ms")

@@ -40,7 +40,7 @@ from .. import pynn as pynn_standalone
 from ..lowering.loihi2 import lower
 from ..network.graph import Network
 from .board import board_network
-from .folder import LAVA_ENV, export_meta, readme_fields, weight_tables, write_folder
+from .folder import INPUT_STEP, LAVA_ENV, MAPS_STEP, export_meta, readme_fields, weight_tables, write_folder
 
 SCHEMA = "snn-fg.lava/1"
 #: the PyNN export's standalone modules a Lava export carries too
@@ -98,13 +98,13 @@ no snn-fg. Make its environment once:
     python3.10 -m venv {env}   # pyenv: ~/.pyenv/versions/3.10.13/bin/python -m venv {env}
     {env}/bin/pip install -r requirements.txt
 
-1. Input: `snn-fg events RECORDING --start-ms 100 --window-ms 85 --write-spikes input.npz --export .`
+{input_step}
    (cut to {size}, on {dt} ms steps; sizes are width x height).
 2. Run: `{env}/bin/python run.py --input input.npz --out counts.npz --duration-ms 150`
    (Lava's bit-accurate fixed point, `Loihi2SimCfg(select_tag="fixed_pt")`; `--arithmetic
    float` for its floating point on the same numbers, `--simulator reference` for the same
    fixed point in numpy alone; `--count-from-ms`, default half the run).
-3. Maps: `snn-fg decode counts.npz --export . --out maps` writes `maps/maps.npz` and `maps/maps.png`.
+{maps_step}.
 
 `{env}/bin/python run.py --count-only` writes `resources.json`: the processes, neurons and
 synapses Lava holds, beside snn-fg's Loihi 2 report.
@@ -154,6 +154,8 @@ def export_lava(
     copies = {standalone.HERE / src: dst for src, dst in standalone.COPIED.items()}
     copies.update({pynn_standalone.HERE / src: dst for src, dst in SHARED.items()})
     readme = README.format(
+        input_step=INPUT_STEP,
+        maps_step=MAPS_STEP,
         **readme_fields(network, meta, sensor_shape),
         lif=sum(1 for p in meta["populations"] if p["neuron"]),
         dt=meta["dt_ms"],

@@ -31,7 +31,7 @@ from .. import pynn as pynn_standalone
 from ..network.graph import Network
 from . import snntorch_loop
 from .board import board_network
-from .folder import GRAPH_NAME, export_meta, projection_entry, readme_fields, write_folder
+from .folder import GRAPH_NAME, INPUT_STEP, MAPS_STEP, export_meta, projection_entry, readme_fields, write_folder
 from .nir import nir_package
 from .nir_snntorch import RESET_DRIVE, snntorch_network, to_nir_snntorch
 
@@ -59,11 +59,11 @@ Made by `snn-fg export --format nir --nir-profile snntorch` (snn-fg {version}) f
 projections, one snnTorch step for each {dt} ms step; refractory periods {refractory}. Needs torch,
 snnTorch, nir and numpy (`pip install torch==2.13.0 snntorch==1.0.0 nirtorch==2.6 nir==1.0.8`); no snn-fg.
 
-1. Input: `snn-fg events RECORDING --start-ms 100 --window-ms 85 --write-spikes input.npz --export .`
+{input_step}
    (cut to {size}, on {dt} ms steps; sizes are width x height).
 2. Run: `python run.py --input input.npz --out counts.npz --duration-ms 400`
    (snnTorch's NIR import, stepped by nirtorch; `--count-from-ms`, default half the run).
-3. Maps: `snn-fg decode counts.npz --export . --out maps` writes `maps/maps.npz` and `maps/maps.png`;
+{maps_step};
    `--reference fast` also runs the network the graph holds (`network.json`) with snn-fg's engine on
    the same input and says how the two agree.
 
@@ -129,6 +129,8 @@ def export_nir_folder(
     copies = {snntorch_loop.HERE / src: dst for src, dst in snntorch_loop.COPIED.items()}
     copies.update({pynn_standalone.HERE / src: dst for src, dst in SHARED.items()})
     readme = README.format(
+        input_step=INPUT_STEP,
+        maps_step=MAPS_STEP,
         **readme_fields(held, meta, sensor_shape),
         grid=" on one grid" if one_grid else "",
         graph=GRAPH_NAME,

@@ -51,6 +51,8 @@ from ..network.graph import Network
 from ..results.outputs import MARK
 from .board import board_network
 from .folder import (
+    INPUT_STEP,
+    MAPS_STEP,
     export_meta,
     readme_fields,
     weight_tables,
@@ -106,15 +108,14 @@ Made by `snn-fg export --format pynn` (snn-fg {version}) for {frame},
 {levels} pyramid levels: {cells:,} neurons, {sources:,} spike sources, {prj} projections
 (target: {target}; weights: {bits}). Needs PyNN, numpy and a PyNN simulator; no snn-fg.
 
-1. Input: `snn-fg events RECORDING --start-ms 100 --window-ms 85 --write-spikes input.npz --export .`
+{input_step}
    (a recording's window, an image or an event frame, cut to {size}, on {dt} ms steps;
    sizes are width x height).
 2. Run: `python run.py --input input.npz --out counts.npz --simulator nest --duration-ms 400`
    (`--count-from-ms`, default half the run). It says first how much memory and time
    to expect (the measured figures are in `fg_memory.py`) and stops with one line when
    the network will not fit the machine's memory.
-3. Maps: `snn-fg decode counts.npz --export . --out maps` writes `maps/maps.npz` and
-   `maps/maps.png`, as `snn-fg run` does.
+{maps_step}, as `snn-fg run` does.
 
 On SpiNNaker (an export made with `--target spinnaker`, which writes
 `spinnaker.json`): `python run.py ... --simulator spinnaker` (sPyNNaker,
@@ -184,6 +185,8 @@ def export_pynn(
     )
     copies = {standalone.HERE / src: dst for src, dst in standalone.COPIED.items()}
     readme = README.format(
+        input_step=INPUT_STEP,
+        maps_step=MAPS_STEP,
         **readme_fields(network, meta, sensor_shape),
         target=target,
         bits=f"{weight_bits}-bit" if weight_bits else "float",

@@ -70,6 +70,9 @@ class Lever:
         return Recipe(recipe.name, recipe.summary, self.params(recipe.params), self.spiking(recipe.spiking))
 
 
+#: the default network's constants, which a lever's words give in brackets beside its own
+_DEFAULT = SpikingParams()
+
 #: The compact network's departures from the default, in the order
 #: ``docs/model.md`` ("The compact network") measures them one after the other.
 COMPACT_LEVERS = (
@@ -100,17 +103,20 @@ COMPACT_LEVERS = (
     ),
     Lever(
         name="stronger window clock",
-        does="the window clock puts 1400 thresholds on the grouping cells (300)",
+        does=f"the window clock puts 1400 thresholds on the grouping cells ({_DEFAULT.gains.clock_inh_group:g})",
         spiking=lambda s: s.replace(gains=s.gains.replace(clock_inh_group=1400.0)),
     ),
     Lever(
         name="1 ms time step",
-        does="stepped at 1 ms, SpiNNaker's own time step (0.5 ms)",
+        does=f"stepped at 1 ms, SpiNNaker's own time step ({_DEFAULT.time.dt_ms:g} ms)",
         spiking=lambda s: s.replace(time=s.time.replace(dt_ms=1.0)),
     ),
     Lever(
         name="pruned kernels",
-        does="DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out (5 %)",
+        does=(
+            "DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out "
+            f"({100 * _DEFAULT.connectivity.prune_dog:g} %)"
+        ),
         spiking=lambda s: s.replace(connectivity=s.connectivity.replace(prune_dog=0.3, prune_vm=0.2)),
     ),
 )

@@ -153,6 +153,15 @@ def test_the_closing_line_says_whether_the_model_or_the_machine_fell_behind():
         "its 2 cores while the stream came): a recording's start-up burst, events on most of the sensor, does this "
         "(--start-ms past it)"
     )
+    # the default rate model works on threads of its own and leaves the cores idle while windows are dropped: its
+    # thread's CPU and the run's share said "other programs" on an idle machine (a new user's trial, 1 Dec); a
+    # model that makes each window on its own says its time for one, and that decides
+    rate = {"cpu_s": 3.0, "model_cpu_s": 0.5, "model_ms_a_window": 160.0, "stride_ms": 85.0}
+    assert closing(**rate)[1] == (
+        "the model took 160 ms a window (the median) against the stream's 85 ms: it is slower than the stream on "
+        "this machine (--network compact needs less)"
+    )
+    assert "other programs had the rest" in closing(**{**rate, "model_ms_a_window": 30.0})[1]
     later = {**start, "windows_skipped": 19, "skipped_windows": [[1, 16], [40, 40]], "dropped_windows": [[17, 17]]}
     assert closing(**later)[1] == (
         "the run used 46% of its 2 cores while the stream came: other programs had the rest, and the model waited "

@@ -112,10 +112,15 @@ class LiveRecord:
         self.last = None  # (the latest window's published line)
         self.on_window_s = None  # (run_live: the seconds its caller's callback took, said in the summary)
         self.cores = None  # (the cores the run may use: snn_fg.cli.live gives backends.cores.usable_cores())
+        self.window_run_s: list = []  # (a window-by-window model's own time for each window: its maps' timings)
 
     def window(self, w, maps) -> None:
-        """Window ``w``'s maps are made: publish them, note the latency."""
+        """Window ``w``'s maps are made: publish them, note the latency (and, for a model that makes each
+        window on its own, the rate and frame-based models, its time for the window: their maps say it)."""
         arrived = self.stream.arrival(w)
+        run_s = (getattr(maps, "params", None) or {}).get("timings_s", {}).get("run")
+        if run_s is not None:
+            self.window_run_s.append(float(run_s))
         origin = self.stream.origin - self.stream.start
         message = {
             "window": int(w.index),  # (its number in the stream, as in maps.zarr and windows.csv)
@@ -157,7 +162,10 @@ class LiveRecord:
             "warm_up_on_stream_s": self._warm_up_on_stream(),
             "seconds": round(time.perf_counter() - self.t_start, 3),
             **self._cpu(),
+            "stride_ms": self.stream.stride / 1000,
         }
+        if self.window_run_s:  # (the median: a window's time, not the warm-up of the first)
+            out["model_ms_a_window"] = round(1000 * float(np.median(self.window_run_s)), 1)
         if self.on_window_s is not None:
             out["on_window_s"] = round(self.on_window_s, 3)
         out["why_behind"] = why_behind(out)
@@ -232,6 +240,14 @@ def why_behind(summary: dict) -> str | None:
         )
     run, model = summary["cpu_s"] / (wall * cores), summary["model_cpu_s"] / wall
     said = f"the run used {run:.0%} of its {cores} core{'s' if cores != 1 else ''} while the stream came"
+    own, stride = summary.get("model_ms_a_window"), summary.get("stride_ms")
+    if own is not None and stride and own >= BUSY_SHARE * stride:
+        # (a model that makes each window on its own says its time for one: its thread's CPU leaves out the
+        # threads it works on, and the windows dropped leave the cores idle, so neither share tells it)
+        return (
+            f"the model took {own:g} ms a window (the median) against the stream's {stride:g} ms: it is slower "
+            "than the stream on this machine (--network compact needs less)"
+        )
     start = _at_the_start(summary)
     if start is not None and start[1] - start[0] + 1 == behind:  # (all of them: the stream's start, then caught up)
         return (

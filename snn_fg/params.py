@@ -33,6 +33,8 @@ LOWER = {
     "side_cue": (0, False),
     "side_cue_radius": (0, True),
 }
+#: the parameters ``snn-fg run`` takes as options (``--levels``...) and ``get_model`` as keywords
+RUN_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh", "side_cue")
 #: the whole-number parameters, and the real-valued ones that are checked
 INTEGERS = ("levels", "levels_per_octave", "input_pool", "n_ori", "iterations", "side_cue_level")
 NUMBERS = (

@@ -14,6 +14,7 @@ from snn_fg.models import Still, get_model
 from snn_fg.models.rate.edfg import run_edfg
 from snn_fg.models.rate.fbfg import run_fbfg
 from snn_fg.models.spiking import run_spiking
+from snn_fg.params import ModelParams
 
 
 @pytest.fixture(scope="module")
@@ -65,6 +66,20 @@ def test_get_model_refuses_an_unknown_option_and_network_naming_its_own():
     with pytest.raises(InputError, match=r"compactt: neither a network name \(default, compact\)"):
         get_model("spiking", network="compactt")
     assert get_model("spiking", network="compact").params.input_pool == 3  # (the compact network's own params)
+
+
+def test_get_model_takes_what_snn_fg_run_takes_for_the_rate_model():
+    """get_model("rate", network="compact") and get_model("rate", r0=8) were refused, where `snn-fg run
+    --model rate --network compact` and `--r0 8` run (a new user's trial from Python, 1 Dec)."""
+    from snn_fg.network.recipes import model_params_of
+
+    assert get_model("rate", network="compact").params == model_params_of("compact")
+    assert get_model("rate", r0=4, levels=6).params == ModelParams(r0=4, levels=6)
+    assert get_model("spiking", r0=4).params.r0 == 4
+    with pytest.raises(ParameterError, match="r0: give the model parameters as params=.* or as keywords, and not"):
+        get_model("rate", network="compact", r0=4)
+    with pytest.raises(ParameterError, match="model 'fbfg' takes no option network"):  # (as the command line)
+        get_model("fbfg", network="compact")
 
 
 def test_float_timestamps_are_refused_as_integer_microseconds():

@@ -16,10 +16,10 @@ from ..models import MODELS, get_model
 from ..models.spiking.options import FRAME_DURATION_MS, READOUT_LAG_MS
 from ..network.graph import HELD_CODINGS, INPUT_CODINGS
 from ..network.recipes import model_params_of
-from ..params import EDGE_OPERATORS, LOWER, NATURAL_PARAMS, ModelParams
+from ..params import EDGE_OPERATORS, LOWER, NATURAL_PARAMS, RUN_PARAMS, ModelParams
 from .options import iterations_bar, number
 
-MODEL_PARAMS = ("levels", "n_ori", "r0", "iterations", "alpha", "w_inh", "side_cue")
+MODEL_PARAMS = RUN_PARAMS
 #: how a recording is cut into windows (snn_fg.events.iter_windows)
 WINDOW_OPTIONS = ("window_ms", "start_ms", "stride_ms", "max_windows", "denoise_us", "refractory_us")
 #: options that only a recording uses

@@ -21,7 +21,7 @@ from ..errors import InputError
 from ..events.aps import ApsWindow
 from ..events.images import as_float_image
 from ..frames.still import Still
-from ..params import EDGE_OPERATORS, NATURAL_PARAMS, ModelParams
+from ..params import EDGE_OPERATORS, NATURAL_PARAMS, RUN_PARAMS, ModelParams
 from ..results.maps import SPIKING_GROUPING_LABEL, Maps
 from . import blank, checks
 from .base import Model
@@ -306,12 +306,26 @@ MODELS: dict[str, type[Model]] = {
 
 
 def get_model(name: str, params: ModelParams | None = None, progress=None, **options) -> Model:
-    """The model ``name`` (one of :data:`MODELS`) with its options (a mistyped one is refused here, naming
-    the model's); ``params``: its own by default, or those of the ``network`` option (``"compact"``)."""
+    """The model ``name`` (one of :data:`MODELS`) with its options, as ``snn-fg run --model NAME`` takes
+    them (a mistyped one is refused here, naming the model's). ``params``: its own by default, or those of
+    the ``network`` option (``"compact"``, a stored description), which the rate model takes too for its
+    model parameters (``--model rate --network compact``); or the parameters ``snn-fg run`` takes as
+    options, as keywords (``r0=4``: :data:`~snn_fg.params.RUN_PARAMS`), over the model's own."""
     model = MODELS[check.choice("get_model", "name", name, tuple(MODELS))]
+    given = {k: options.pop(k) for k in RUN_PARAMS if k in options}
+    network = options.get("network")
+    if network is not None and "network" not in model.options and model is RateModel:
+        options.pop("network")  # (the rate model reads a network's model parameters only)
     checks.model_options(name, options, model.options)
-    if params is None and options.get("network") is not None:
+    if given and (params is not None or network is not None):
+        check.fail(
+            "get_model", None, None,
+            f"{', '.join(given)}: give the model parameters as params=ModelParams(...) or as keywords, and not "
+            "with a network, which carries its own",
+        )  # fmt: skip
+    if params is None and network is not None:
         from ..network.recipes import model_params_of  # (a mistyped recipe name is refused here too)
 
-        params = model_params_of(options["network"])
-    return model(model.base_params if params is None else params, progress, **options)
+        params = model_params_of(network)
+    params = (model.base_params if params is None else params).replace(**given)
+    return model(params, progress, **options)

@@ -94,3 +94,18 @@ def test_help_of_still_says_dtype_range_and_shape():
     doc = inspect.getdoc(Still)
     for said in ("H x W", "uint8 or bool", "0 elsewhere", "floats in [0, 1]", "H x W x 3", "row 0 at the top"):
         assert said in doc
+
+
+def test_wrong_things_handed_to_the_api_are_named_not_tracebacks(frame):
+    """A new user's trial from Python (1 Dec): run_still((pos, neg)) was an AttributeError from inside the
+    model, get_model(network=1) a TypeError from pathlib, run_live(window_ms="85") a TypeError from its
+    warm-up."""
+    from snn_fg.models import run_live
+
+    for given in (frame, frame[0]):
+        with pytest.raises(InputError, match=r"run_still takes a Still: Still\(pos, neg\) for an event frame"):
+            get_model("rate").run_still(given)
+    with pytest.raises(InputError, match=r"<int>: a network is a name \(default, compact\)"):
+        get_model("spiking", network=1)
+    with pytest.raises(ParameterError, match="run_live: window_ms='85' must be a finite number"):
+        run_live(get_model("rate"), [], None, sensor_size=(16, 16), window_ms="85")

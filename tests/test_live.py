@@ -446,7 +446,7 @@ def test_no_sender_ends_with_one_line_and_no_output(tmp_path, capsys):
     )
     err = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and err == [
-        f"snn-fg: error: udp://127.0.0.1:{port}: no packet arrived within 0.3 s (--wait-s S waits longer)"
+        f"snn-fg: error: udp://127.0.0.1:{port}: no packet arrived within 0.3 s; give --wait-s S to wait longer"
     ]
     assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
 
@@ -831,7 +831,8 @@ def test_a_udp_packet_without_events_is_counted_and_neither_begins_nor_prolongs_
         sender.sendto(b"\x01", ("127.0.0.1", port))
         try:
             with pytest.raises(
-                InputError, match=r"no event arrived within 0.5 s, only 1 malformed packet \(--wait-s S waits longer\)$"
+                InputError,
+                match=r"no event arrived within 0.5 s, only 1 malformed packet; pass wait_s=S to wait longer$",
             ):
                 list(src.packets())
         finally:

@@ -23,7 +23,7 @@ import warnings
 
 import numpy as np
 
-from snn_fg.errors import InputError, InputWarning
+from snn_fg.errors import InputError, InputWarning, Remedy
 from snn_fg.events import spif
 from snn_fg.events._core import SENSOR_SIZE, as_events, check_sensor_size
 from snn_fg.events.clock import ARRIVAL, SENDER
@@ -161,7 +161,10 @@ class UdpSource:
                 n = self.malformed
                 came = f"no event arrived within {self.wait_s:g} s, only {n:,} malformed packet{'s' * (n != 1)}"
                 said = came if n else f"no packet arrived within {self.wait_s:g} s"
-                raise InputError(self.name, f"{said} (--wait-s S waits longer)") from None
+                # (run_live's keyword, or the command line's option: each front door names its own)
+                raise InputError(
+                    self.name, said, remedy=Remedy("wait_s=S", "--wait-s S"), note=" to wait longer"
+                ) from None
             if not first and now - last > self.idle_s:
                 return  # (the sender has gone: UDP has no end of its own)
 

@@ -51,3 +51,15 @@ def _window(owner: str, k: int, w) -> EventWindow:
         hint = " (a Still runs with run_still)" if isinstance(w, Still) else ""
         raise InputError("<windows>", f"{owner}: item {k} is a {type(w).__name__}, not an EventWindow{hint}; {_HOW}")
     return w
+
+
+def still(owner: str, given) -> Still:
+    """``given`` if it is a :class:`~snn_fg.frames.still.Still`; else one line saying what to give (a
+    tuple ``(pos, neg)`` or an image array was an AttributeError from inside the model)."""
+    if not isinstance(given, Still):
+        raise InputError(
+            f"<{type(given).__name__}>",
+            f"{owner} takes a Still: Still(pos, neg) for an event frame, Still(image=...) for an image "
+            "(from snn_fg.frames.still import Still); a recording's windows go to run_windows",
+        )
+    return given

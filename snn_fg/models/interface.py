@@ -52,6 +52,7 @@ class RateModel(Model):
         self.carry_state = check.flag("rate", "carry_state", carry_state)
 
     def run_still(self, still: Still) -> Maps:
+        checks.still("run_still", still)
         from .rate.edfg import run_edfg
 
         t = time.perf_counter()
@@ -109,6 +110,7 @@ class FbfgModel(Model):
         self._last = None  # (frame index, maps): windows that share a frame share its maps
 
     def run_still(self, still: Still) -> Maps:
+        checks.still("run_still", still)
         from .rate.fbfg import run_fbfg
 
         return run_fbfg(still.image, self.params, progress=self.progress, edge_operator=self.edge_operator)
@@ -228,6 +230,7 @@ class SpikingModel(Model):
         return self.named(run_spiking(**inputs, **self._keywords("frame")))
 
     def run_still(self, still: Still) -> Maps:
+        checks.still("run_still", still)
         if self.spike_input == "events":
             if still.recording is None:
                 raise InputError(

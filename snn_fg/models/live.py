@@ -22,6 +22,7 @@ from contextlib import ExitStack, closing
 
 import numpy as np
 
+from .. import validate as check
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
 from ..events.cutter import WINDOW_MS
@@ -80,6 +81,8 @@ def run_live(
     (the windows before it are made; ``ended``: ``stopped``). The summary also gives
     ``on_window_s``, the seconds ``on_window`` took, and says so in ``why_behind`` where they
     made the model fall behind."""
+    window_ms = check.number("run_live", "window_ms", window_ms, lo=0, lo_open=True)  # (before a warm-up uses it)
+    start_ms = check.number("run_live", "start_ms", start_ms, lo=0)
     with ExitStack() as opened:
         publisher = opened.enter_context(closing(Publisher(publish))) if publish else None
         source, warm = open_warmed(model, source, sensor_size, window_ms, peaks, wait_s=wait_s, idle_s=idle_s)

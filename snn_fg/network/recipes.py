@@ -184,6 +184,11 @@ def model_params_of(network) -> ModelParams:
 def load_description(path) -> Network:
     """A stored description; a name that is neither a recipe nor a file is
     refused with the recipes' names (a mistyped ``--network compcat``)."""
+    if not isinstance(path, (str, Path)):
+        raise InputError(
+            f"<{type(path).__name__}>",
+            f"a network is a name ({', '.join(RECIPES)}), a stored description's path (.json) or a Network",
+        )
     if not Path(path).exists():
         if str(path).endswith(".json"):
             raise InputError(

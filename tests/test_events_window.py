@@ -207,3 +207,15 @@ def test_a_window_handed_out_is_not_kept_while_its_chunk_yields_the_rest():
     next(windows)
     gc.collect()
     assert gone() is None
+
+
+def test_a_stream_of_many_events_within_a_millisecond_is_warned_of_as_times_in_milliseconds():
+    """40,000 events with times in ms made one window of 0.1 ms, without a word (a new user's trial, 1 Dec)."""
+    from snn_fg.errors import InputWarning
+
+    ev = ev_at(np.arange(2000) // 2, np.arange(2000) % 8)  # (1000 "ms" read as 1000 us)
+    with pytest.warns(InputWarning, match="all 2,000 events lie within 999 us.*milliseconds"):
+        assert len(list(iter_windows(ev, sensor_size=(8, 1)))) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InputWarning)  # (the same events in microseconds: 1 ms of them, no word)
+        list(iter_windows(ev_at(np.arange(2000) * 1000 // 2, np.arange(2000) % 8), sensor_size=(8, 1)))

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from snn_fg import validate
-from snn_fg.errors import InputError, Remedy
+from snn_fg.errors import InputError, InputWarning, Remedy
 from snn_fg.events._core import EVENT_DTYPE, check_monotonic
 from snn_fg.events.frame import EmptyWindowWarning, EventWindow, events_to_frame
 from snn_fg.events.io import no_span_problem
@@ -253,6 +253,14 @@ class WindowCutter:
                     remedy=Remedy(f"start_ms below {last_ms:g}", f"--start-ms below {last_ms:g}"),
                 )
             return []
+        span_us = self.prev_t - self.t0
+        if self.k == 0 and self.seen >= SHORT_STREAM_EVENTS and span_us < SHORT_STREAM_US:
+            warnings.warn(
+                f"{self.name}: all {self.seen:,} events lie within {span_us} us, so its one window holds them all: "
+                "are its times in milliseconds? They are read as microseconds (multiply by 1000)",
+                InputWarning,
+                stacklevel=4,
+            )
         # the last window ends with the recording: its nominal end may lie far beyond
         return [self._emit(list(self.parts), self.w_start, min(self.w_end, self.prev_t + 1))]
 
@@ -272,6 +280,11 @@ class WindowCutter:
         out = CutWindow.of_parts(parts, self.size, index=self.k, t_start_us=ws, t_end_us=we, t_first_event_us=self.t0)
         self.k += 1
         return out
+
+
+#: a stream of this many events or more that spans less than this many microseconds is warned of: its
+#: times are likely milliseconds (a new user's 40,000 events in one window of 0.1 ms, 1 Dec)
+SHORT_STREAM_EVENTS, SHORT_STREAM_US = 1000, 1000
 
 
 def _ms(value: float) -> str:

@@ -146,7 +146,11 @@ def test_the_verdict_tells_maps_that_point_the_other_way_from_unrelated_ones():
     ring = np.where(np.abs(r - 12) < 1.5, np.arctan2(-yy, -xx), np.nan)  # (towards the centre)
     a = _field(ring)
     rng = np.random.default_rng(0)
-    assert _judged(a, a).startswith("None The frame") and _judged(a, a).endswith("above chance.")
+    # (a map against itself: the same directions, said so; it read "above chance", a new user's trial, 1 Dec)
+    same = _judged(a, a)
+    assert same.startswith("None The frame") and same.endswith(
+        "the same directions on every compared pixel (under 0.01° apart)."
+    )
     unrelated = _judged(a, _field(np.where(np.isnan(ring), np.nan, rng.uniform(0, 2 * np.pi, ring.shape))))
     assert unrelated.startswith("None") and unrelated.endswith("near chance: the two maps' directions are unrelated.")
     opposed = "opposed: B points the other way on most pixels (a sign or axis flip?)."

@@ -120,3 +120,4 @@ def test_a_live_runs_last_window_note_offers_no_max_windows():
     assert "--max-windows 23 leaves it out" in last_window_note(20.0, 24, {"kind": "recording"})
     live = last_window_note(20.0, 24, {"kind": "live"})
     assert "--max-windows" not in live and live.endswith("its maps can differ from the windows before it")
+    assert "past the stream's end" in live  # (not "the recording's": a live run reads a stream)

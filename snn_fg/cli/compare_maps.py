@@ -277,6 +277,11 @@ def _how_many(figures: dict) -> str:
     return f"{said}, {share} of A's {at} ({median})"
 
 
+#: a mean absolute difference under this (degrees) is two maps with the same directions (a run against
+#: itself, or a board against the reference bit for bit), said so rather than "above chance"
+SAME_DEG = 0.01
+
+
 def verdict(rows) -> str:
     """One line over every compared window (pixel-weighted, :func:`overall`): A's agreement with B
     beside what unrelated maps give and, where the rows have it, beside B's agreement with itself;
@@ -290,7 +295,9 @@ def verdict(rows) -> str:
     within, mean = figures["angle_within_45_frac"], figures["angle_diff_mean_deg"]
     own = _pooled(rows, "baseline_within_45")
     near_within, near_mean = chance_margins(n)
-    if within <= CHANCE_WITHIN_45 - near_within and mean >= CHANCE_MEAN_DEG + near_mean:
+    if mean < SAME_DEG:
+        word = f"the same directions on every compared pixel (under {SAME_DEG:g}° apart)"
+    elif within <= CHANCE_WITHIN_45 - near_within and mean >= CHANCE_MEAN_DEG + near_mean:
         word = "opposed: B points the other way on most pixels (a sign or axis flip?)"
     elif within <= CHANCE_WITHIN_45 - near_within:
         word = "below chance: B's directions are turned from A's, not unrelated (an axis swapped?)"

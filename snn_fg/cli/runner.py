@@ -102,9 +102,11 @@ def last_window_note(lag_ms: float, n: int, source: dict) -> str:
     """The line for a run whose last window's read-out lag ran ``lag_ms`` past the end of its input,
     a run of ``n`` windows from ``source``; a recording's names the ``--max-windows`` that leaves
     the window out (a live stream takes none)."""
-    cut = n > 1 and source.get("kind") != "live"
+    live = source.get("kind") == "live"
+    cut = n > 1 and not live
     return (
-        f"snn-fg: note: the last window's read-out lag ran {lag_ms:g} ms past the recording's end, without input: "
+        f"snn-fg: note: the last window's read-out lag ran {lag_ms:g} ms past the "
+        f"{'stream' if live else 'recording'}'s end, without input: "
         "its maps can differ from the windows before it"
         + (
             f" (--max-windows {n - 1} leaves it out and reads the window before it with the events after it)"

@@ -13,6 +13,7 @@ strength; grouping maps use a perceptual colour map with a labelled colour bar.
 
 from __future__ import annotations
 
+import re
 import textwrap
 from pathlib import Path
 
@@ -129,9 +130,11 @@ TITLE_CHARS_PER_IN = 13
 
 
 def _wrapped(text: str, inches: float) -> str:
-    """``text`` with each of its lines wrapped to ``inches`` of 8-point text."""
+    """``text`` with each of its lines wrapped to ``inches`` of 8-point text; a bracketed phrase that fits
+    a line is kept whole (its spaces made non-breaking: it wrapped as "(... or an / image's)")."""
     width = max(12, int(inches * CHARS_PER_IN))
-    return "\n".join(textwrap.fill(line, width) for line in text.split("\n"))
+    whole = lambda m: m.group(0).replace(" ", "\u00a0") if len(m.group(0)) <= width else m.group(0)  # noqa: E731
+    return "\n".join(textwrap.fill(re.sub(r"\([^()]*\)", whole, line), width) for line in text.split("\n"))
 
 
 def _key(

@@ -269,3 +269,14 @@ def test_the_fbfg_model_on_an_image_names_its_input_panel_the_image(tmp_path, mo
         get_model(name).write_figures(tmp_path, Maps(z, z, z, {"model": name}), [np.zeros((8, 8, 3))])
     assert said == [IMAGE_INPUT, None]  # (None: maps_figure's own, the event frame's)
     assert IMAGE_INPUT.startswith("input: the image")
+
+
+def test_the_keys_words_keep_a_bracketed_phrase_whole_where_it_fits():
+    """'(a window's events, or an / image's)' wrapped mid-phrase in a narrow figure (a new user's trial, 1 Dec)."""
+    from snn_fg.results.figures import EVENTS_INPUT, _wrapped
+
+    assert _wrapped(EVENTS_INPUT, 3.0).split("\n") == [
+        "input: the event frame",
+        "(a window's events, or an image's)",
+        "white ON, black OFF, grey none",
+    ]

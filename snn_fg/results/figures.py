@@ -134,7 +134,8 @@ def _wrapped(text: str, inches: float) -> str:
     a line is kept whole (its spaces made non-breaking: it wrapped as "(... or an / image's)")."""
     width = max(12, int(inches * CHARS_PER_IN))
     whole = lambda m: m.group(0).replace(" ", "\u00a0") if len(m.group(0)) <= width else m.group(0)  # noqa: E731
-    return "\n".join(textwrap.fill(re.sub(r"\([^()]*\)", whole, line), width) for line in text.split("\n"))
+    lines = (textwrap.fill(re.sub(r"\([^()]*\)", whole, line), width) for line in text.split("\n"))
+    return "\n".join(lines).replace("\u00a0", " ")  # (plain spaces again, once the lines are made)
 
 
 def _key(

@@ -149,7 +149,7 @@ def test_the_verdict_puts_the_agreement_beside_chance_and_beside_b_against_itsel
     """Over all windows (pixel-weighted): unrelated maps (a quarter within 45 degrees) are called near
     chance, and a pair as close as B to itself is called so; a mean of the per-window fractions would
     give another number here (0.5 rather than the pooled 0.28)."""
-    from snn_fg.cli.compare_maps import verdict
+    from snn_fg.cli.compare_verdict import verdict
 
     rows = [
         {"pixels_compared": 900, "angle_within_45_frac": 0.25, "angle_diff_mean_deg": 90.0, "baseline_within_45": 0.9},

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from snn_fg.cli import main
-from snn_fg.cli.compare_maps import axis_flip, chance_margins, mismatches, verdict
+from snn_fg.cli.compare_maps import mismatches
+from snn_fg.cli.compare_verdict import axis_flip, chance_margins, verdict
 from snn_fg.errors import ParameterError
 from snn_fg.events import image_to_events, save_events
 from snn_fg.frames.scenes import disc

@@ -8,7 +8,8 @@ import json
 import numpy as np
 
 from snn_fg.cli import main
-from snn_fg.cli.compare_maps import compare_table, verdict
+from snn_fg.cli.compare_maps import compare_table
+from snn_fg.cli.compare_verdict import verdict
 from snn_fg.results.maps import CONFIDENCE, Maps
 from snn_fg.scoring.compare_figure import compare_figure
 from snn_fg.scoring.metrics import compare_maps

@@ -88,8 +88,7 @@ class LiveStream:
         # the thread that makes the stream (snn_fg.cli.live), since its clock is read from the receiving thread
         self.model_clock = time.pthread_getcpuclockid(threading.get_ident())
         self.cpu_first = self.cpu_last = None  # ((wall, process CPU, model thread CPU) at the first and latest sample)
-        self.windows_dropped = 0
-        self.windows_skipped = 0  # (hops whose read-out was skipped for a newer one: stale)
+        self.windows_dropped, self.windows_skipped = 0, 0  # (skipped: hops whose read-out gave way to a newer one)
         # (the numbers of the skipped and the dropped, as ranges [first, last] of consecutive ones: a long --hop-ms
         # run skips hops by the thousand; the timeline tells the two apart)
         self.skipped_windows: list = []

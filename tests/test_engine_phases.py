@@ -9,7 +9,7 @@ import types
 import numpy as np
 import pytest
 
-from experiments.bench.floor import example_tables, step, visit
+from experiments.bench.floor import LAZY_STATE, example_tables, lazy_visit, step, visit
 from experiments.bench.phases import TOP, at_every_floor, phase_rows, without_delivery
 from snn_fg.backends import RunSettings, get_backend
 from snn_fg.backends.fast import compiled
@@ -109,3 +109,16 @@ def test_the_floor_of_a_visit_does_the_engines_arithmetic():
     state["v"] = [-0.07, -0.04, -0.07]  # (above the -0.05 threshold of the call below: fires and is reset)
     assert step(idx, state, tab[8:16].copy(), -0.07, -0.05, -0.07, fired) == 1 and fired[0] == 1
     assert state["v"][1] == -0.07
+
+
+def test_the_floor_of_a_visit_that_only_adds_input_raises_the_bound_and_the_pending_sums():
+    """The route of fewer visits is measured by a visit that only adds: the bound raised by the most the
+    input can raise the potential, the input pending with the step's two factors, the cell listed
+    once the bound reaches the gap."""
+    state = np.zeros(2, LAZY_STATE)
+    state["bound"] = [0.0, 0.009]
+    new = np.zeros(2, np.int64)
+    listed = lazy_visit(np.array([0, 1], np.uint64), np.array([0.01, 0.01]), 2.0, 3.0, state, 0.2, 0.01, new)
+    assert state["bound"].tolist() == pytest.approx([0.002, 0.011])
+    assert state["pe"].tolist() == pytest.approx([0.02, 0.02]) and state["pm"].tolist() == pytest.approx([0.03, 0.03])
+    assert listed == 1 and new[0] == 1

@@ -129,6 +129,8 @@ def lazy_visit(idx, w, ge, gm, state, peak, gap, new):
     step's factors ``ge``, ``gm``, and the cell listed when the bound reaches ``gap`` (to be
     brought up to the present then). Returns how many it listed."""
     n_new = 0
+    # (the loop's head written out as in visit: a helper that takes the arrays made a visit 20.9 ns, not 3.2,
+    # numba counting references to them on each call; 1 Dec 02:46)
     for j in range(idx.size):
         if j + 48 < idx.size:
             prefetch(state, idx[j + 48])

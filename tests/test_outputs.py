@@ -84,6 +84,19 @@ def test_force_never_deletes_a_file_snn_fg_did_not_write(tmp_path, recording, ca
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sb3"]  # nothing set aside or staged beside it
 
 
+def test_an_earlier_export_is_refused_as_an_export_not_as_a_batch(tmp_path, capsys):
+    """An export folder has none of a run's maps: the batch rule (a folder without them is a batch of
+    runs) once named it "an earlier batch of runs" too; only a run's folder can hold a batch."""
+    from snn_fg.export.folder import EXPORT_FOLDER
+    from snn_fg.results.outputs import check_output_folder
+
+    out = tmp_path / "exp"
+    out.mkdir()
+    (out / "network.json").write_text(json.dumps({"schema": "snn-fg.pynn/1"}))
+    with pytest.raises(InputError, match=r"holds an snn-fg export already \(network.json\); .* pass --force"):
+        check_output_folder(out, EXPORT_FOLDER)
+
+
 def test_force_replaces_an_earlier_run_and_a_folder_is_refused_without_it(tmp_path, capsys):
     out = _maps(tmp_path / "o")
     assert main(["run", "demo", "--out", str(out), "--levels", "2", "--no-progress", "--no-figures"]) == 2

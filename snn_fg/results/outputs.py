@@ -184,14 +184,15 @@ def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False
             )
             + "; choose another output folder",
         )
-    if resume and not force and not any((path / m).exists() for m in RUN_FOLDER.marks):
+    # (an earlier batch: a summary and a run per recording, no run's maps of its own; replaced, never continued)
+    batch = kind is BATCH_OR_RUN and not any((path / m).exists() for m in RUN_FOLDER.marks)
+    if resume and not force and batch:
         raise InputError(
             path,
             f"holds an earlier batch of runs ({SUMMARY_NAME} and a folder per recording), not one run to continue: "
             "the batch's own command goes on with it, and --force replaces it",
         )
     if not (force or resume):
-        batch = not any((path / m).exists() for m in RUN_FOLDER.marks)  # (an earlier batch: replaced, not continued)
         how = (
             "pass --force to replace it"
             if resume is None or batch

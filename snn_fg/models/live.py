@@ -159,6 +159,7 @@ def live_stream(
     stream.on_ready = on_ready
     record = LiveRecord(stream, publisher, peaks, view)
     record.warm_up_s, record.cores = warm_s, usable_cores()
+    record.windows_alone = not spiking  # (a spiking model's timings are the whole run's, not a window's own)
     return stream, record
 
 

@@ -113,13 +113,14 @@ class LiveRecord:
         self.on_window_s = None  # (run_live: the seconds its caller's callback took, said in the summary)
         self.cores = None  # (the cores the run may use: snn_fg.cli.live gives backends.cores.usable_cores())
         self.window_run_s: list = []  # (a window-by-window model's own time for each window: its maps' timings)
+        self.windows_alone = False  # (whether the model makes each window on its own: live_stream says)
 
     def window(self, w, maps) -> None:
         """Window ``w``'s maps are made: publish them, note the latency (and, for a model that makes each
         window on its own, the rate and frame-based models, its time for the window: their maps say it)."""
         arrived = self.stream.arrival(w)
         run_s = (getattr(maps, "params", None) or {}).get("timings_s", {}).get("run")
-        if run_s is not None:
+        if self.windows_alone and run_s is not None:
             self.window_run_s.append(float(run_s))
         origin = self.stream.origin - self.stream.start
         message = {

@@ -153,7 +153,7 @@ def test_a_recording_without_frames_gets_one_line(capsys, tmp_path):
     err = _error_line(
         capsys, ["run", str(DATA / "davis346_no_frames.aedat4"), "--model", "fbfg", "--out", str(tmp_path / "o")]
     )
-    assert "has no APS frames (it holds events only)" in err and "--model rate or spiking" in err
+    assert "has no APS frames (it holds events only)" in err and "give --model rate or spiking" in err
     ev = np.zeros(3, EVENT_DTYPE)
     ev["t"] = [0, 10, 20]
     save_events(tmp_path / "r.es", ev, (4, 4))

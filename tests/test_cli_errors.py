@@ -212,7 +212,20 @@ def test_a_sensor_given_by_hand_too_small_for_the_levels_is_questioned(tmp_path,
     assert main([*argv, "--sensor-size", "20x20"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "a 20 x 20 frame (width x height) has at most 9 pyramid levels" in err
-    assert "(is --sensor-size 20x20 right?)" in err
+    assert "(is --sensor-size 20x20 right?); give --levels 9 or fewer" in err
+
+
+def test_too_many_levels_are_refused_in_each_front_doors_own_words():
+    """The Python API names its keyword, the command line its option (a script author was told
+    of --levels, an option of a command they never ran)."""
+    from snn_fg.errors import InputError
+    from snn_fg.frames.pyramid import check_levels
+
+    with pytest.raises(InputError) as caught:
+        check_levels((20, 20), 10, "<frame>")
+    assert str(caught.value).endswith("and 10 were asked for; pass levels=9 or fewer")
+    assert caught.value.for_command_line().endswith("and 10 were asked for; give --levels 9 or fewer")
+    check_levels((20, 20), 9, "<frame>")  # (as many as it can have: no error)
 
 
 def test_a_run_out_of_memory_is_one_line_naming_the_size_and_the_smaller_network(tmp_path, monkeypatch, capsys):

@@ -406,7 +406,8 @@ def test_nmnist_synthetic_and_truncated(tmp_path):
     bad[5] = 40
     path.write_bytes(bytes(bad))
     with pytest.raises(
-        InputError, match=r"outside the 34 x 34 sensor \(the file's events span 41x34: --sensor-size 41x34"
+        InputError,
+        match=r"outside the 34 x 34 sensor \(the file's events span 41x34\); pass sensor_size=\(41, 34\) or the camera",
     ):
         open_recording(path)
     assert open_recording(path, sensor_size=(41, 34)).events["x"].max() == 40  # (the size it named holds them)

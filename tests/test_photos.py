@@ -113,9 +113,11 @@ def test_an_image_whose_model_would_not_fit_the_memory_is_refused_with_the_scale
     shape = (3000, 4000)  # 12 MP: 18 GB for the rate model at 1.5 kB a pixel
     with pytest.raises(InputError) as caught:
         check_fits("phone.jpg", shape, "rate model", RATE_BYTES_PER_PIXEL, available=8e9)
-    said = str(caught.value)
+    said, on_command_line = str(caught.value), caught.value.for_command_line()
     assert "a 4000 x 3000 image: the rate model needs about 18.0 GB for it, more than the 8.0 GB" in said
-    scale = float(said.split("--image-scale ")[1].split()[0])
+    # (each front door names its own spelling: the API's keyword, the command line's option)
+    scale = float(said.split("pass image_scale=")[1].split()[0])
+    assert f"give --image-scale {scale:g} to make it " in on_command_line and "--" not in said
     assert 4000 * 3000 * scale**2 * RATE_BYTES_PER_PIXEL <= 8e9 * 0.8  # (the F it gives fits, with room)
     # (and is the large-image note's own, which fits too: the two lines gave two scales before)
     assert f"--image-scale {scale:g} makes it" in large_image_note("phone.jpg", shape)

@@ -155,8 +155,9 @@ def _check_frame(args, model, shape) -> None:
         if getattr(args, "sensor_size", None) is None:
             raise
         # (a sensor given by hand too small for the recording is its real problem: it showed only at fewer levels)
+        size = f"{args.sensor_size[0]}x{args.sensor_size[1]}"
         raise InputError(
-            args.input, f"{e.problem} (is --sensor-size {args.sensor_size[0]}x{args.sensor_size[1]} right?)"
+            args.input, f"{e.problem} (is --sensor-size {size} right?)", remedy=e.remedy, note=e.note
         ) from None
     if args.crop is not None:
         check_crop(args.crop, shape, owner=f"{args.input}: --crop")

@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from snn_fg.errors import InputError
+from snn_fg.errors import InputError, Remedy
 from snn_fg.events import aedat4
 from snn_fg.events.formats import detect_format
 from snn_fg.events.frame import EventWindow
@@ -131,7 +131,8 @@ def require_frames(source, sensor_size) -> FrameSource:
         raise InputError(
             source if isinstance(source, (str, Path)) else "<array>",
             f"has no APS frames (it {has}): the fbfg model reads the grey-level frames of a DAVIS "
-            "camera's AEDAT4 recording; run an event model on it (--model rate or spiking)",
+            "camera's AEDAT4 recording, and an event model reads its events",
+            remedy=Remedy("name='rate' or 'spiking' to get_model", "--model rate or spiking"),
         )
     _check_size(frames.path, frames.size, (0, 0), sensor_size, "the frame stream")
     return frames

@@ -11,7 +11,7 @@ import io
 
 import numpy as np
 
-from snn_fg.errors import InputError
+from snn_fg.errors import InputError, Remedy
 from snn_fg.events._core import EVENT_DTYPE, check_sensor_size
 from snn_fg.events.source import Source
 
@@ -49,8 +49,10 @@ def open_nmnist(path, sensor_size, chunk_events) -> Source:
             raise InputError(
                 path,
                 f"event at (x={int(raw[i, 0])}, y={int(raw[i, 1])}) lies outside the {size[0]} x {size[1]} sensor "
-                f"(the file's events span {span}: --sensor-size {span} or the camera's size)",
+                f"(the file's events span {span})",
                 f"byte offset {RECORD_BYTES * i}",
+                remedy=Remedy(f"sensor_size=({span.replace('x', ', ')})", f"--sensor-size {span}"),
+                note=" or the camera's size",
             )
         yield decoded(raw)
         if cut is not None:

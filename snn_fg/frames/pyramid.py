@@ -9,7 +9,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, Remedy
 
 
 def level_scale(level: int, per_octave: int = 2) -> float:
@@ -47,7 +47,8 @@ def check_levels(shape: tuple[int, int], levels: int, source="<frame>", per_octa
         raise InputError(
             source,
             f"a {shape[1]} x {shape[0]} frame (width x height) has at most {most} pyramid levels of at least "
-            f"2 x 2 pixels; --levels {levels} asks for more",
+            f"2 x 2 pixels, and {levels} were asked for",
+            remedy=Remedy(f"levels={most} or fewer", f"--levels {most} or fewer"),
         )
 
 

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from .. import validate as check
-from ..errors import InputError, InputWarning
+from ..errors import InputError, InputWarning, Remedy
 from ..events import events_to_frame, image_to_events
 from ..events.esim import MOTION, THRESHOLD
 from ..events.formats import SUFFIX_FORMAT
@@ -111,8 +111,9 @@ def check_fits(spec, shape, model: str, bytes_per_pixel: float, available: float
     raise InputError(
         spec,
         f"a {w} x {h} image: the {model} needs about {need / 1e9:.1f} GB for it, more than the "
-        f"{have / 1e9:.1f} GB this machine has available; --image-scale {scale:g} makes it "
-        f"{round(w * scale)} x {round(h * scale)} (about {need * scale**2 / 1e9:.1f} GB)",
+        f"{have / 1e9:.1f} GB this machine has available",
+        remedy=Remedy(f"image_scale={scale:g}", f"--image-scale {scale:g}"),
+        note=f" to make it {round(w * scale)} x {round(h * scale)} (about {need * scale**2 / 1e9:.1f} GB)",
     )
 
 

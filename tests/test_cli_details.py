@@ -107,3 +107,12 @@ def test_an_offline_fetch_leaves_no_empty_folder(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no network" in err[0] and "nothing was written" in err[0]
     assert not (tmp_path / "data").exists()
+
+
+def test_export_pynn_refuses_a_target_it_does_not_know(tmp_path):
+    """``export_pynn(target="bogus")`` wrote ``"target": "bogus"`` into network.json."""
+    from snn_fg.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="target.*must be one of 'generic', 'spinnaker'"):
+        export_pynn(build_network(ModelParams(levels=1), (16, 16)), tmp_path / "model", target="bogus")
+    assert not (tmp_path / "model").exists()

@@ -170,3 +170,22 @@ def test_a_start_beyond_the_table_or_without_one_scans(tmp_path, monkeypatch):
     assert windows(path, 1234.5) == windows(expected(c, 5_000_000), 1234.5)
     with pytest.raises(InputError, match="the start, 3100 ms, lies after the last event"):
         windows(path, 3100)
+
+
+@pytest.mark.parametrize("channel", [2, -1, True, 1.0, "left", None])
+def test_a_camera_other_than_left_right_or_both_is_refused(channel):
+    from snn_fg.errors import ParameterError
+    from snn_fg.events.formats import check_format_options
+
+    if channel is None:  # (not given: nothing to check)
+        assert check_format_options("open_recording", channel=channel) == {}
+        return
+    with pytest.raises(ParameterError, match="must be 0 \\(left camera\\), 1 \\(right camera\\) or 'both'"):
+        check_format_options("open_recording", channel=channel)
+
+
+@pytest.mark.parametrize("channel", [0, 1, np.int64(1), "both"])
+def test_the_left_right_or_both_cameras_are_taken(channel):
+    from snn_fg.events.formats import check_format_options
+
+    assert check_format_options("open_recording", channel=channel) == {"channel": channel}

@@ -14,7 +14,7 @@ def test_brian2_compiles_and_runs_every_kind_of_projection_of_the_default_networ
     net, res = warm_simulators.network, warm_simulators.brian2
     assert warm_simulators.brian2_codegen == want
     delays = {round(p.delay_ms, 6) for p in net.projections}
-    assert len(res.stats["brian2_synapse_objects"]) >= len(delays)
+    assert len(res.stats["backend_objects"]) >= len(delays)
     lif = {p.name for p in net.populations if not p.is_source}
     assert set(res.counts) == lif
     for name in lif:

@@ -127,6 +127,24 @@ class RunSettings:
             self.log(message)
 
 
+class SparseCounts(Mapping):
+    """A counting bin's spike counts kept as its spikes, for a backend whose bins
+    hold a few thousand spikes among ~1e6 cells (the fast engine's): population ->
+    each cell's spikes (int32) when read, and, without making those arrays,
+    :meth:`into`, which adds the bin's spikes to an array of every cell of the
+    run's numbering (``cells`` long; ``parts``: population -> the slice of it its
+    cells take; ``steps``: the bin's time steps). A window's reader adds such
+    bins spike by spike; other bins (plain dicts) it adds array by array."""
+
+    cells: int
+    parts: dict
+    steps: int
+
+    @abstractmethod
+    def into(self, out: np.ndarray) -> None:
+        """Add the bin's spikes to ``out``."""
+
+
 @dataclass
 class SimulationResult:
     """What one simulation produced, whichever backend ran it.
@@ -141,7 +159,7 @@ class SimulationResult:
     ``binned_counts[name]`` is an int array ``(n_bins, n_cells)``: the spikes
     of each cell in each bin. ``stats`` holds what the backend
     knows about its own build (synapses per target population, kept kernel
-    mass per projection, simulator objects).
+    mass per projection, and ``backend_objects``: the simulator objects it made, name -> their synapses).
     """
 
     network: Network

@@ -146,7 +146,7 @@ class Brian2Backend(Backend):
         with _brian2_session(self.codegen) as target:
             self.used_codegen = target
             counts, spikes, state, binned, objects = self._run(un, inputs, settings, timings)
-        stats["brian2_synapse_objects"] = objects
+        stats["backend_objects"] = objects  # (its Synapses objects: name -> synapses)
         timings["total"] = time.perf_counter() - t0
         sites = {p.name: un.sites[p.name] for p in lif_populations(network)}
         return SimulationResult.of_run(

@@ -26,6 +26,7 @@ from ..export.nir import describe_nir, export_nir
 from ..export.nir_folder import export_nir_folder
 from ..export.nir_import import read_nir
 from ..export.nir_snntorch import export_nir_snntorch
+from ..export.pynn import TARGETS as PYNN_TARGETS
 from ..export.pynn import export_pynn
 from ..export.report import largest_sensor, report_table, resource_report
 from ..frames.pool import pooled_shape
@@ -41,7 +42,7 @@ FORMATS = ("pynn", "lava", "nir", "report", "network")
 TARGETS = ("generic", "spinnaker", "loihi2")
 #: the targets each format takes (generic: none in particular) and, for the
 #: report, which of its chips each one shows
-FORMAT_TARGETS = {"pynn": ("generic", "spinnaker"), "report": TARGETS}
+FORMAT_TARGETS = {"pynn": PYNN_TARGETS, "report": TARGETS}
 REPORT_CHIPS = {"spinnaker": ("spinnaker1", "spinnaker2"), "loihi2": ("loihi2",)}
 NIR_PROFILES = ("exact", "snntorch")
 #: the file name each single-file format writes (--force replaces only an earlier file of that kind)

@@ -193,9 +193,8 @@ def check_format_options(owner: str, *, encoding=None, codec=None, channel=None,
     if codec is not None:
         given["codec"] = validate.choice(owner, "codec", codec, yarp.CODECS)
     if channel is not None:
-        if channel != "both" and (
-            isinstance(channel, bool) or not isinstance(channel, (int, np.integer)) or channel not in (0, 1)
-        ):
+        whole = isinstance(channel, (int, np.integer)) and not isinstance(channel, bool)
+        if not (channel == "both" if isinstance(channel, str) else whole and channel in yarp.CHANNELS):
             validate.fail(owner, "channel", channel, "must be 0 (left camera), 1 (right camera) or 'both'")
         given["channel"] = channel if channel == "both" else int(channel)
     if timer_bits is not None:

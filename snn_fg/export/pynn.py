@@ -179,6 +179,7 @@ def export_pynn(
     fg_cells.py fg_files.py fg_inputs.py fg_memory.py fg_network.py fg_readout.py fg_simulator.py
     fg_spinnaker.py fg_tables.py run.py
     """
+    check.choice("export_pynn", "target", target, TARGETS)
     dt_ms = network.time_step(dt_ms, "export_pynn")
     meta, arrays = pynn_model(
         network, dt_ms=dt_ms, weight_bits=weight_bits, target=target, command=command, sensor_shape=sensor_shape

@@ -84,8 +84,6 @@ BIAS_EXP_MAX = 7
 MANTISSA_MAX = 127
 #: Lava's DelaySparse takes delays of 0..63 steps (Loihi 2's 6 bits)
 DELAY_MAX = 63
-#: the chip's dendritic accumulator (a_in) holds 16 bits
-A_IN_BITS = 16
 
 
 def trunc_decay(x, d: int) -> np.ndarray:

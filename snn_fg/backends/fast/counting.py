@@ -4,14 +4,15 @@ step), without sorting it."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import numpy as np
 from numba import njit
 
+from ..base import SparseCounts
 
-class BinCounts(Mapping):
-    """A counting bin's spike counts, population -> each cell's spikes (int32),
+
+class BinCounts(SparseCounts):
+    """The fast engine's :class:`~snn_fg.backends.base.SparseCounts`: a counting bin's
+    spike counts, population -> each cell's spikes (int32),
     kept as the cell numbers of the bin's spikes (``ids``, the engine's
     numbering; ``parts``: population -> the slice of it its cells take;
     ``cells``: the numbering's size). A bin holds a few thousand spikes

@@ -218,7 +218,7 @@ def run_provenance(
             "synapses_in": {n: int(syn.get(n, 0)) if syn else None for n in result.sites},
             "total_cells": result.total_cells,
             "total_synapses": int(sum(syn.values())) if syn else None,
-            "backend_objects": result.stats.get("brian2_synapse_objects", {}),
+            "backend_objects": result.stats.get("backend_objects", {}),
         },
         "kept_kernel_mass": result.stats.get("kept_kernel_mass", {}),
         # the backend's own counters (fast: synaptic events, spikes, cells updated)

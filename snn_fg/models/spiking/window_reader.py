@@ -13,7 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ...backends.fast.counting import BinCounts
+from ...backends.base import SparseCounts
 from ...frames.pool import pool_frame
 from ...results.maps import CONFIDENCE, Maps
 from .decode import decode_maps
@@ -90,7 +90,7 @@ class WindowCounts(dict):
 
 
 def window_counts(bins: list) -> WindowCounts:
-    """The sum of a window's :class:`~snn_fg.backends.fast.counting.BinCounts`, spike by spike,
+    """The sum of a window's :class:`~snn_fg.backends.base.SparseCounts`, spike by spike,
     in the narrowest unsigned integers that hold a cell firing every step (an 85 ms window
     at 1 ms fits a byte: the passes over every cell after, its summary and rates, read a
     quarter of int32's bytes)."""
@@ -177,8 +177,8 @@ class WindowReader:
     def __call__(self, k: int, result):
         self.last_result = result
         i, ending = self.first, []
-        # (the fast engine's bins are their spikes: a window adds its own, see BinCounts)
-        sparse = isinstance(result.counts, BinCounts)
+        # (bins kept as their spikes: a window adds its own, see SparseCounts)
+        sparse = isinstance(result.counts, SparseCounts)
         while i < len(self.bins) and self.bins[i][0] <= k:
             k0, k1 = self.bins[i]
             if k < k1:

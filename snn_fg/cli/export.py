@@ -32,13 +32,16 @@ from ..export.report import largest_sensor, report_table, resource_report
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..lowering.quantise import BITS_RANGE, check_bits
-from ..network.recipes import RECIPES, is_recipe, load_description, network_for
-from ..params import LOWER
+from ..network.graph import INPUT_RATE_HZ
+from ..network.recipes import RECIPES, TIME_STEPS_TEXT, is_recipe, load_description, network_for
+from ..params import LOWER, ModelParams
 from ..results.atomic import save_text
 from ..results.outputs import check_output_file, check_output_folder, check_writable
 from .options import number, sensor_size, size_text, subcommand, written_size
 
 FORMATS = ("pynn", "lava", "nir", "report", "network")
+#: the model parameters' defaults, as the help gives them
+_PARAMS = ModelParams()
 TARGETS = ("generic", "spinnaker", "loihi2")
 #: the targets each format takes (generic: none in particular) and, for the
 #: report, which of its chips each one shows
@@ -85,11 +88,12 @@ def add_export_command(sub):
         "--sensor-size",
         type=sensor_size,
         metavar="WxH",
-        help="sensor size (default 304x240, the iCub ATIS; a stored network keeps its own unless given)",
+        help=f"sensor size (default {ICUB_SENSOR_SIZE[0]}x{ICUB_SENSOR_SIZE[1]}, the iCub ATIS; a stored network "
+        "keeps its own unless given)",
     )
-    p.add_argument("--levels", type=number(int, *LOWER["levels"]), help="pyramid levels (10)")
-    p.add_argument("--n-ori", type=number(int, *LOWER["n_ori"]), help="orientations per half-turn (8)")
-    p.add_argument("--r0", type=number(float, *LOWER["r0"]), help="grouping radius in px (8)")
+    p.add_argument("--levels", type=number(int, *LOWER["levels"]), help=f"pyramid levels ({_PARAMS.levels})")
+    p.add_argument("--n-ori", type=number(int, *LOWER["n_ori"]), help=f"orientations per half-turn ({_PARAMS.n_ori})")
+    p.add_argument("--r0", type=number(float, *LOWER["r0"]), help=f"grouping radius in px ({_PARAMS.r0:g})")
     p.add_argument(
         "--target",
         default="generic",
@@ -102,7 +106,7 @@ def add_export_command(sub):
         "--weight-bits",
         type=number(int, BITS_RANGE[0], strict=False, hi=BITS_RANGE[1]),
         metavar="B",
-        help="quantise weights to B bits (2-32), one scale per projection (pynn, nir)",
+        help=f"quantise weights to B bits ({BITS_RANGE[0]}-{BITS_RANGE[1]}), one scale per projection (pynn, nir)",
     )
     p.add_argument(
         "--input-rate-hz",
@@ -110,12 +114,12 @@ def add_export_command(sub):
         metavar="HZ",
         help="gains calibrated for input spikes at HZ per active pixel, as snn-fg run calibrates its "
         "network to its input's rate (Network.calibrated; snn-fg events --write-spikes prints the "
-        "input's rate); default: the network's own (200 Hz; a stored network keeps its own)",
+        f"input's rate); default: the network's own ({INPUT_RATE_HZ:g} Hz; a stored network keeps its own)",
     )
     p.add_argument(
         "--dt-ms",
         type=number(float, 0),
-        help="time step delays are counted in (the network's: 0.5 ms, the compact network 1 ms)",
+        help=f"time step delays are counted in ({TIME_STEPS_TEXT})",
     )
     p.add_argument(
         "--nir-profile",

@@ -15,7 +15,7 @@ from ..frames.still import KIND_NAMES, image_scale_refusal
 from ..models import MODELS, get_model
 from ..models.spiking.options import FRAME_DURATION_MS, READOUT_LAG_MS
 from ..network.graph import HELD_CODINGS, INPUT_CODINGS
-from ..network.recipes import model_params_of
+from ..network.recipes import INPUT_REFRACTORY_MS, POOL, TIME_STEPS_TEXT, model_params_of
 from ..params import EDGE_OPERATORS, LOWER, NATURAL_PARAMS, RUN_PARAMS, ModelParams
 from .options import iterations_bar, number
 
@@ -117,7 +117,7 @@ RUN_OPTIONS = (
                 float,
                 0,
                 True,
-                "simulation time step (the network's: 0.5 ms, the compact network 1 ms; 1 "
+                f"simulation time step ({TIME_STEPS_TEXT}; 1 "
                 "ms on the default network takes about 3/4 of the time and moves the maps "
                 "of natural images by 5-14 deg: experiments/results/spiking_dt.md)",
             ),
@@ -175,7 +175,7 @@ RUN_OPTIONS = (
                 None,
                 None,
                 "recordings: how events become input spikes: events, each a spike in its time step, through the "
-                "network's input refractory period (the compact network's 60 ms); "
+                f"network's input refractory period (the compact network's {INPUT_REFRACTORY_MS:g} ms); "
                 "window, each pixel holds its last event's polarity in the window, firing at the input "
                 "rate, which builds the rate model's event frame as the events arrive; sliding, the same "
                 "hold kept for one window's length after each event, not cleared as a window starts "
@@ -209,7 +209,8 @@ RUN_OPTIONS = (
                 None,
                 None,
                 "where the maps are read out on a network that pools its input (the compact network's "
-                "3 x 3 blocks): on the sensor's pixels, each event pixel's vector turned onto its own edge, or "
+                f"{POOL} x {POOL} blocks): on the sensor's pixels, each event pixel's vector turned onto its own "
+                "edge, or "
                 "on the network's blocks, a ninth of the pixels to decode and store (what a live run with a "
                 "short --hop-ms can afford) (sensor)",
             ),

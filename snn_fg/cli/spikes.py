@@ -22,14 +22,15 @@ from ..errors import InputError
 from ..events import iter_recording, iter_windows
 from ..export.edits import checked_export
 from ..export.folder import frame_size, frame_text
-from ..export.loop import FRAME_RATE_HZ, crop_events, export_network, outline_crop, recalibration_hint
+from ..export.loop import crop_events, export_network, outline_crop, recalibration_hint
 from ..export.pynn import save_input
 from ..frames.pool import pool_events, pool_frame
 from ..frames.still import input_kind, load_frame, simulator_cost
 from ..lowering.held_input import held_window
 from ..lowering.input_spikes import InputSpikes, event_spikes, frame_spikes
 from ..models.spiking.options import FRAME_DURATION_MS
-from ..network.graph import HELD_CODINGS
+from ..network.graph import HELD_CODINGS, INPUT_RATE_HZ
+from ..network.recipes import POOL
 from ..results.atomic import atomic_path
 from .options import camera_options
 
@@ -51,7 +52,7 @@ def add_spike_options(parser):
         metavar="X,Y",
         default=None,
         help="top-left pixel of the export-sized crop, or block for an export that pools its input "
-        "(--network compact: 3 x 3 blocks; default: the crop with the most event pixels (or blocks) "
+        f"(--network compact: {POOL} x {POOL} blocks; default: the crop with the most event pixels (or blocks) "
         "beside one without: the most outline)",
     )
     g.add_argument(
@@ -138,8 +139,8 @@ def _input_spikes(args, net, dt_ms):
         pos, neg = on[cut], off[cut]
         if not (pos.any() or neg.any()):
             raise InputError(args.input, f"no event {_pixel(net)} in the crop at {_at(net, r0, c0)}")
-        inp = frame_spikes(pos, neg, FRAME_RATE_HZ, dt_ms, args.duration_ms)
-        what = f"{kind}, regular trains at {FRAME_RATE_HZ:g} Hz for {args.duration_ms:g} ms"
+        inp = frame_spikes(pos, neg, INPUT_RATE_HZ, dt_ms, args.duration_ms)
+        what = f"{kind}, regular trains at {INPUT_RATE_HZ:g} Hz for {args.duration_ms:g} ms"
         window = {}
     share = float(((on > 0) | (off > 0))[r0 : r0 + shape[0], c0 : c0 + shape[1]].mean())
     origin = {

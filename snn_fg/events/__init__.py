@@ -3,7 +3,8 @@
 * :func:`open_recording` / :func:`iter_recording`: read any supported
   recording (``.es`` DVS or ATIS, ``.raw`` EVT2/EVT3, ``.dat``, ``.aedat``
   (AEDAT 2.0, 3.1), ``.aedat4``, N-MNIST ``.bin``, iCub YARP ``data.log``,
-  events ``.txt``, ``.npy``/``.npz``, or an
+  events ``.txt``, ``.npy``/``.npz``, HDF5 ``.h5``/``.hdf5`` (DSEC,
+  MVSEC, Prophesee), or an
   in-memory structured array) whole or in bounded chunks; see
   :mod:`snn_fg.events.formats` for the format table, which formats stream, and
   the keyword-only format options.  One module per format family decodes

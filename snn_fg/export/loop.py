@@ -31,8 +31,6 @@ from .pynn import read_counts, read_input
 EXPORT_RUNNERS = {PYNN_SCHEMA: "pynn-export", LAVA_SCHEMA: "lava-export", NIR_SCHEMA: "nir-export"}
 #: each runner's export in words (a decoded map's figure says which export ran)
 EXPORT_KINDS = {"pynn-export": "PyNN", "lava-export": "Lava", "nir-export": "NIR"}
-#: regular trains of an event frame: the rate ``snn-fg run`` uses (Hz)
-FRAME_RATE_HZ = 200.0
 #: an input whose rate differs from the one the export's gains are set for by more than this factor
 #: is driven noticeably differently from how ``snn-fg run`` (which calibrates to its input) drives it
 RATE_MISMATCH = 1.2

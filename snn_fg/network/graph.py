@@ -32,6 +32,13 @@ SCHEMA = "snn-fg.network/2"
 #: recipe's ``SpikingParams.dt_ms``, a stored description without ``dt_ms``); a run or an export takes the
 #: network's own step unless told otherwise (:meth:`Network.time_step`)
 DEFAULT_DT_MS = 0.5
+#: the input a network is made for unless told otherwise (each described in
+#: :class:`~snn_fg.network.spiking_params.Input`, whose defaults they are): the
+#: rate of an input pixel with events that its gains are set for, which is also
+#: the rate of an event frame's regular trains (``snn-fg run``'s, an export's
+#: input); which coarse cells exist (``support_min``, ``drive_min``); the input
+#: adapter's refractory period (0: every event a spike)
+INPUT_RATE_HZ, SUPPORT_MIN, DRIVE_MIN, INPUT_REFRACTORY_MS = 200.0, 0.3, 0.85, 0.0
 
 
 #: a :class:`Network`'s settings: its fields other than its parameters, frame, cells, wiring and notes
@@ -85,10 +92,10 @@ class Network:
     frame_shape: tuple[int, int]
     populations: tuple[Population, ...]
     projections: tuple[Projection, ...]
-    input_rate_hz: float = 200.0
-    support_min: float = 0.3
-    drive_min: float = 0.85
-    input_refractory_ms: float = 0.0
+    input_rate_hz: float = INPUT_RATE_HZ
+    support_min: float = SUPPORT_MIN
+    drive_min: float = DRIVE_MIN
+    input_refractory_ms: float = INPUT_REFRACTORY_MS
     input_coding: str = "events"
     one_grid: bool = False
     dt_ms: float = DEFAULT_DT_MS

@@ -73,51 +73,70 @@ class Lever:
 #: the default network's constants, which a lever's words give in brackets beside its own
 _DEFAULT = SpikingParams()
 
+#: The compact network's values, each written once: its levers' words and changes are made from them
+POOL, POOLED_R0, POOLED_LEVELS = 3, 4.0, 7  # (R0 in blocks)
+INPUT_REFRACTORY_MS = 60.0
+OCTAVE_LEVELS = 3
+EXCESS_STRIDE = 2
+PRUNE_RESIZE = 0.01
+CLOCK_INH_GROUP = 1400.0
+DT_MS = 1.0
+PRUNE_DOG, PRUNE_VM = 0.3, 0.2
+
+#: the time steps of the named networks, as a help text says them
+TIME_STEPS_TEXT = f"the network's: {_DEFAULT.time.dt_ms:g} ms, the compact network {DT_MS:g} ms"
+
 #: The compact network's departures from the default, in the order
 #: ``docs/model.md`` ("The compact network") measures them one after the other.
 COMPACT_LEVERS = (
     Lever(
         name="pooled input",
-        does="the sensor pooled 3 x 3 before stage 1 (the model sees blocks), R0 = 4 blocks (12 px)",
-        params=lambda p: p.replace(input_pool=3, r0=4.0, levels=7),
+        does=(
+            f"the sensor pooled {POOL} x {POOL} before stage 1 (the model sees blocks), "
+            f"R0 = {POOLED_R0:g} blocks ({POOLED_R0 * POOL:g} px)"
+        ),
+        params=lambda p: p.replace(input_pool=POOL, r0=POOLED_R0, levels=POOLED_LEVELS),
     ),
     Lever(
         name="input refractory period",
-        does="a block and polarity passes on one event per 60 ms",
-        spiking=lambda s: s.replace(input=s.input.replace(input_refractory_ms=60.0)),
+        does=f"a block and polarity passes on one event per {INPUT_REFRACTORY_MS:g} ms",
+        spiking=lambda s: s.replace(input=s.input.replace(input_refractory_ms=INPUT_REFRACTORY_MS)),
     ),
     Lever(
         name="octave levels",
-        does="3 levels an octave apart (1/2, not 1/sqrt(2))",
-        params=lambda p: p.replace(levels_per_octave=1, levels=3),
+        does=f"{OCTAVE_LEVELS} levels an octave apart (1/2, not 1/sqrt(2))",
+        params=lambda p: p.replace(levels_per_octave=1, levels=OCTAVE_LEVELS),
     ),
     Lever(
         name="excess cells on the grouping lattice",
-        does="one excess cell per 2 x 2 block of border-ownership cells",
-        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(excess_stride=2)),
+        does=f"one excess cell per {EXCESS_STRIDE} x {EXCESS_STRIDE} block of border-ownership cells",
+        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(excess_stride=EXCESS_STRIDE)),
     ),
     Lever(
         name="8-bit interpolation weights",
-        does="Resize products under 1 % of their peak left out",
-        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(prune_resize=0.01)),
+        does=f"Resize products under {100 * PRUNE_RESIZE:g} % of their peak left out",
+        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(prune_resize=PRUNE_RESIZE)),
     ),
     Lever(
         name="stronger window clock",
-        does=f"the window clock puts 1400 thresholds on the grouping cells ({_DEFAULT.gains.clock_inh_group:g})",
-        spiking=lambda s: s.replace(gains=s.gains.replace(clock_inh_group=1400.0)),
+        does=(
+            f"the window clock puts {CLOCK_INH_GROUP:g} thresholds on the grouping cells "
+            f"({_DEFAULT.gains.clock_inh_group:g})"
+        ),
+        spiking=lambda s: s.replace(gains=s.gains.replace(clock_inh_group=CLOCK_INH_GROUP)),
     ),
     Lever(
         name="1 ms time step",
-        does=f"stepped at 1 ms, SpiNNaker's own time step ({_DEFAULT.time.dt_ms:g} ms)",
-        spiking=lambda s: s.replace(time=s.time.replace(dt_ms=1.0)),
+        does=f"stepped at {DT_MS:g} ms, SpiNNaker's own time step ({_DEFAULT.time.dt_ms:g} ms)",
+        spiking=lambda s: s.replace(time=s.time.replace(dt_ms=DT_MS)),
     ),
     Lever(
         name="pruned kernels",
         does=(
-            "DoG taps under 30 % and von Mises taps under 20 % of the kernel's peak left out "
-            f"({100 * _DEFAULT.connectivity.prune_dog:g} %)"
+            f"DoG taps under {100 * PRUNE_DOG:g} % and von Mises taps under {100 * PRUNE_VM:g} % of the kernel's "
+            f"peak left out ({100 * _DEFAULT.connectivity.prune_dog:g} %)"
         ),
-        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(prune_dog=0.3, prune_vm=0.2)),
+        spiking=lambda s: s.replace(connectivity=s.connectivity.replace(prune_dog=PRUNE_DOG, prune_vm=PRUNE_VM)),
     ),
 )
 

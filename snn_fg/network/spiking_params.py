@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from .. import validate as check
-from .graph import DEFAULT_DT_MS
+from .graph import DEFAULT_DT_MS, DRIVE_MIN, INPUT_RATE_HZ, INPUT_REFRACTORY_MS, SUPPORT_MIN
 from .nodes import Neuron, Node
 
 #: Reference presynaptic rates (Hz) of the dimensionless gains.
@@ -138,13 +138,13 @@ class Input(_Part):
     network in the tests).
     """
 
-    input_rate_hz: float = 200.0
-    input_refractory_ms: float = 0.0
+    input_rate_hz: float = INPUT_RATE_HZ
+    input_refractory_ms: float = INPUT_REFRACTORY_MS
     gate_margin: float = 1.0
     gate_copies: int = 5
     gate_spread_ms: float = 1.0
-    support_min: float = 0.3
-    drive_min: float = 0.85
+    support_min: float = SUPPORT_MIN
+    drive_min: float = DRIVE_MIN
 
 
 @dataclass(frozen=True, kw_only=True)

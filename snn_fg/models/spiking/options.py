@@ -31,7 +31,7 @@ from ... import validate as check
 from ...backends import DEFAULT_BACKEND, Backend, as_backend
 from ...frames.pool import MAPS_GRIDS, pooled_shape
 from ...network.builder import build_network
-from ...network.graph import INPUT_CODINGS, Network
+from ...network.graph import INPUT_CODINGS, INPUT_RATE_HZ, Network
 from ...network.recipes import network_for
 from ...network.spiking_params import SpikingParams
 from ...params import ModelParams
@@ -171,7 +171,7 @@ class FrameOptions:
     duration_ms: float = FRAME_DURATION_MS
     settle_ms: float | None = None
     seed: int = 0
-    rate_hz: float = 200.0
+    rate_hz: float = INPUT_RATE_HZ
     input_process: str = "regular"
     replay: bool = True
     record_state: tuple = ()

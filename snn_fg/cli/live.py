@@ -17,13 +17,15 @@ from contextlib import ExitStack, closing
 from ..errors import InputError
 from ..events.clock import clock_keys
 from ..events.cutter import WINDOW_MS
-from ..events.live import SKIP_BEHIND
+from ..events.live import MAX_BEHIND, SKIP_BEHIND
+from ..events.live_dv import WAIT_S
+from ..events.live_sources import IDLE_S
 from ..models import MODELS
 from ..models.live import live_stream, open_warmed
 from ..results.atomic import growing_folder, settle_folder
 from ..results.live_view import VIEW_HOST, LiveView
 from ..results.outputs import check_output_folder
-from ..results.publish import END_OF_STREAM, LiveModel, Publisher, ended_by
+from ..results.publish import END_OF_STREAM, PEAKS, LiveModel, Publisher, ended_by
 from ..results.store import windows_complete
 from .options import FORCE_FOLDER_HELP, number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
@@ -90,12 +92,16 @@ def add_live_command(sub):
         "to anyone who can reach it)",
     )
     p.add_argument(
-        "--peaks", type=number(int, 1, strict=False), default=3, metavar="K", help="grouping peaks published (3)"
+        "--peaks",
+        type=number(int, 1, strict=False),
+        default=PEAKS,
+        metavar="K",
+        help=f"grouping peaks published ({PEAKS})",
     )
     p.add_argument(
         "--max-behind",
         type=number(int, 0, strict=False),
-        default=0,
+        default=MAX_BEHIND,
         metavar="N",
         help="windows whose read-out is over waiting for their maps before whole windows are dropped "
         "(0: the least latency; more keeps more windows, each later; with --hop-ms, windows' worth of hops; "
@@ -110,9 +116,15 @@ def add_live_command(sub):
         f"N hops later have come already ({SKIP_BEHIND}; 1: the freshest maps, more: more hops made, each later)",
     )
     p.add_argument(
-        "--wait-s", type=number(float, 0), default=30.0, metavar="S", help="first packet within S s of 'ready' (30)"
+        "--wait-s",
+        type=number(float, 0),
+        default=WAIT_S,
+        metavar="S",
+        help=f"first packet within S s of 'ready' ({WAIT_S:g})",
     )
-    p.add_argument("--idle-s", type=number(float, 0), default=1.0, metavar="S", help="udp://: end after S s idle (1)")
+    p.add_argument(
+        "--idle-s", type=number(float, 0), default=IDLE_S, metavar="S", help=f"udp://: end after S s idle ({IDLE_S:g})"
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress messages")
     p.add_argument("--no-figures", action="store_true", help="no figures at the end (the maps only)")
     add_option_groups(p, hidden=tuple(_NOT_LIVE))

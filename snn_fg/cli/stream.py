@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..events import EVENT_DTYPE, iter_recording
-from ..events.replay import UdpSender, looped, open_sender, paced, parse_address, recording_from_ms
+from ..events.replay import SEND_WAIT_S, UdpSender, looped, open_sender, paced, parse_address, recording_from_ms
 from .options import add_camera_options, camera_options, number, recording_or_demo, sensor_size, subcommand
 
 
@@ -48,10 +48,10 @@ def add_stream_command(sub):
     p.add_argument(
         "--wait-s",
         type=number(float, 0),
-        default=120.0,
+        default=SEND_WAIT_S,
         metavar="S",
-        help="dv://: seconds the server waits for a reader to connect (120: a first snn-fg live compiles its model "
-        "for up to a minute before it connects, and longer on a busy machine)",
+        help=f"dv://: seconds the server waits for a reader to connect ({SEND_WAIT_S:g}: a first snn-fg live "
+        "compiles its model for up to a minute before it connects, and longer on a busy machine)",
     )
     p.set_defaults(handler=cmd_stream)
     return p

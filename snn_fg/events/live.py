@@ -26,13 +26,11 @@ before them complete. A dropped slot costs no simulated time: where no kept wind
 out (:meth:`resume_at`), the spiking network skips the rest of the slot and
 goes on at the next one put at rest, as if no event had come before it.
 
-With ``--hop-ms``, ``max_behind`` counts windows' worth of hops (a slot is
-dropped once the network lags a window behind, as without hops), and a hop
-falls behind first by its read-out: a hop whose read-out is due when the
-events that complete the read-out of the hop ``skip_behind`` hops later have
-come already (the model is that many hops behind) is not decoded
-(:meth:`LiveStream.stale`, ``windows_skipped``): the network takes its events
-all the same, and a newer hop's maps are made in its place.
+With ``--hop-ms``, ``max_behind`` counts windows' worth of hops (a slot is dropped once the network lags a
+window behind, as without hops), and a hop falls behind first by its read-out: a hop whose read-out is due
+when the events that complete the read-out of the hop ``skip_behind`` hops later have come already (the
+model is that many hops behind) is not decoded (:meth:`LiveStream.stale`, ``windows_skipped``): the network
+takes its events all the same, and a newer hop's maps are made in its place.
 """
 
 from __future__ import annotations
@@ -53,11 +51,13 @@ from snn_fg.events.window import handed_out
 _END = object()
 #: seconds of arrivals between two samples of the CPU used (two clock reads: nothing beside a packet's 117 us)
 CPU_SAMPLE_S = 0.01
-#: with --hop-ms, how many hops behind the stream the model may be when a hop's read-out is due before it is
-#: skipped (--skip-behind): with 1, the compact network on its blocks on one core made 517-530 of the 533 hops of
-#: dvs.es looped 6 times; with 2, 530-533 (p95 9-12 ms, worst 19-23 ms), and 533 with the store made in the
-#: warm-up (30 Nov, docs/live.md "Measured")
+#: with --hop-ms, how many hops behind the stream the model may be when a hop's read-out is due before it is skipped
+#: (--skip-behind): with 1, the compact network on its blocks on one core made 517-530 of the 533 hops of dvs.es
+#: looped 6 times; with 2, 530-533 (p95 9-12 ms, worst 19-23 ms), and 533 with the store made in the warm-up (30 Nov,
+#: docs/live.md "Measured")
 SKIP_BEHIND = 2
+#: read-out windows that may wait for their maps before whole ones are dropped (--max-behind; 0: least latency)
+MAX_BEHIND = 0
 
 
 class LiveStream:
@@ -65,7 +65,7 @@ class LiveStream:
     :class:`~snn_fg.events.cutter.WindowCutter`'s (``stride_ms``: the hop)."""
 
     def __init__(
-        self, source, *, window_ms=WINDOW_MS, stride_ms=None, start_ms=0.0, max_behind: int = 0, lag_ms=0.0,
+        self, source, *, window_ms=WINDOW_MS, stride_ms=None, start_ms=0.0, max_behind: int = MAX_BEHIND, lag_ms=0.0,
         skip_behind: int = SKIP_BEHIND,
     ):  # fmt: skip
         self.source, self.name = source, source.name

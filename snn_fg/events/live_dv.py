@@ -18,6 +18,9 @@ from snn_fg.events.clock import SENDER
 from snn_fg.events.live_screen import BATCH
 from snn_fg.events.watchdog import ends_process_after
 
+#: how long a live stream waits for its first packet once ready (s; ``--wait-s``)
+WAIT_S = 30.0
+
 #: how a camera on USB is named (``camera://``, or ``camera://SERIAL``)
 CAMERA = "camera://"
 #: how long a DV stream's reader is left before it is asked again, when it had no batch (dv-processing's
@@ -61,7 +64,7 @@ class DvSource:
 
     clock, clock_span_us = SENDER, None
 
-    def __init__(self, url, host, port, sensor_size=None, *, wait_s: float = 30.0):
+    def __init__(self, url, host, port, sensor_size=None, *, wait_s: float = WAIT_S):
         dv = _dv_processing(url)
         t0 = time.perf_counter()
         while True:

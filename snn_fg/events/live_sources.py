@@ -27,7 +27,7 @@ from snn_fg.errors import InputError, InputWarning, Remedy
 from snn_fg.events import spif
 from snn_fg.events._core import SENSOR_SIZE, as_events, check_sensor_size
 from snn_fg.events.clock import ARRIVAL, SENDER
-from snn_fg.events.live_dv import CAMERA, CameraSource, DvSource
+from snn_fg.events.live_dv import CAMERA, WAIT_S, CameraSource, DvSource
 from snn_fg.events.live_screen import BATCH
 from snn_fg.validate import address
 
@@ -37,12 +37,16 @@ SCHEMES = ("udp", "dv")
 UDP_BUFFER = 8 << 20
 
 
+#: how long a UDP stream may be idle before it counts as ended (s; ``--idle-s``)
+IDLE_S = 1.0
+
+
 def parse_address(url: str, owner: str = "source") -> tuple[str, str, int]:
     """``(scheme, host, port)`` of ``udp://HOST:PORT`` or ``dv://HOST:PORT`` (an InputError naming ``url``)."""
     return address(url, SCHEMES, owner, others=(f"{CAMERA}[SERIAL]",) if owner == "source" else ())
 
 
-def open_source(url, sensor_size=None, *, wait_s: float = 30.0, idle_s: float = 1.0, found: bool = False):
+def open_source(url, sensor_size=None, *, wait_s: float = WAIT_S, idle_s: float = IDLE_S, found: bool = False):
     """The live source ``url`` names; ``sensor_size`` ``(W, H)``: a UDP stream's (it
     has none of its own), a DV stream's if given (it must agree with the stream's).
     Anything else than a string is taken for chunks of events (:class:`ChunkSource`). ``found``:
@@ -99,7 +103,7 @@ class UdpSource:
 
     clock_span_us = spif.Unwrap.SPAN
 
-    def __init__(self, url, host, port, sensor_size, *, wait_s: float = 30.0, idle_s: float = 1.0):
+    def __init__(self, url, host, port, sensor_size, *, wait_s: float = WAIT_S, idle_s: float = IDLE_S):
         self.name, self.sensor_size = url, (int(sensor_size[0]), int(sensor_size[1]))
         self.wait_s, self.idle_s, self.malformed, self.closed = wait_s, idle_s, 0, False
         # (UDP has no end of its own: the stream ends when it falls silent; live.json's ``ended``)

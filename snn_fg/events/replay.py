@@ -22,6 +22,10 @@ from snn_fg.events.io import iter_recording
 from snn_fg.events.live_dv import dv_reason
 from snn_fg.events.live_sources import parse_address
 
+#: how long a ``dv://`` sender waits for its reader (s; ``snn-fg stream --wait-s``: a first
+#: ``snn-fg live`` compiles its model for up to a minute before it connects)
+SEND_WAIT_S = 120.0
+
 #: how often the sender wakes to send what is due (s)
 TICK_S = 0.001
 
@@ -116,7 +120,7 @@ class UdpSender:
 class DvSender:
     """A DV network stream served on ``dv://HOST:PORT``; waits up to ``wait_s`` for a reader to connect."""
 
-    def __init__(self, url: str, sensor_size, wait_s: float = 30.0):
+    def __init__(self, url: str, sensor_size, wait_s: float = SEND_WAIT_S):
         try:
             import dv_processing as dv  # (the live extra)
         except ImportError:
@@ -203,7 +207,7 @@ def _yield_cpu(tids) -> int:
     return done
 
 
-def open_sender(url: str, sensor_size, timestamps: bool = True, wait_s: float = 120.0):
+def open_sender(url: str, sensor_size, timestamps: bool = True, wait_s: float = SEND_WAIT_S):
     """The sender of ``snn-fg stream --to url`` (``wait_s``: how long a ``dv://`` server waits for its reader)."""
     scheme, _, _ = parse_address(url, "--to")
     return UdpSender(url, timestamps) if scheme == "udp" else DvSender(url, sensor_size, wait_s)

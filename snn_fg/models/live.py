@@ -26,14 +26,14 @@ from .. import validate as check
 from ..backends.cores import usable_cores
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
 from ..events.cutter import WINDOW_MS
-from ..events.live import SKIP_BEHIND, LiveStream
-from ..events.live_dv import CAMERA, camera_found
+from ..events.live import MAX_BEHIND, SKIP_BEHIND, LiveStream
+from ..events.live_dv import CAMERA, WAIT_S, camera_found
 from ..events.live_screen import prepare_screen
-from ..events.live_sources import open_source, parse_address
+from ..events.live_sources import IDLE_S, open_source, parse_address
 from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..results.peaks import grouping_peaks
-from ..results.publish import LiveModel, LiveRecord, Publisher, ended_by
+from ..results.publish import PEAKS, LiveModel, LiveRecord, Publisher, ended_by
 
 #: what a warm-up gives (:func:`warm_up`): its seconds, and its last window with its maps
 WarmUp = namedtuple("WarmUp", "seconds window maps")
@@ -51,12 +51,12 @@ def run_live(
     window_ms: float = WINDOW_MS,
     hop_ms: float | None = None,
     start_ms: float = 0.0,
-    max_behind: int = 0,
+    max_behind: int = MAX_BEHIND,
     skip_behind: int = SKIP_BEHIND,
-    peaks: int = 3,
+    peaks: int = PEAKS,
     publish: str | None = None,
-    wait_s: float = 30.0,
-    idle_s: float = 1.0,
+    wait_s: float = WAIT_S,
+    idle_s: float = IDLE_S,
     on_ready=None,
     stop=None,
 ) -> dict:
@@ -109,7 +109,7 @@ def run_live(
     return record.summary(ended)
 
 
-def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **opening):
+def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = PEAKS, **opening):
     """The live source ``source`` opened (:func:`~snn_fg.events.live_sources.open_source`; ``opening``:
     its ``wait_s``, ``idle_s``) and ``model`` warmed up for it: ``(source, WarmUp)``.
     A ``dv://`` stream is connected to (a ``camera://`` opened) after the warm-up when its size
@@ -137,7 +137,7 @@ def open_warmed(model, source, sensor_size, window_ms: float, peaks: int = 3, **
 def live_stream(
     model, source, *, window_ms: float, hop_ms, start_ms: float, max_behind: int, skip_behind: int = SKIP_BEHIND,
     publisher=None, view=None,
-    peaks: int = 3, warm_s=None, on_ready=None,
+    peaks: int = PEAKS, warm_s=None, on_ready=None,
 ):  # fmt: skip
     """The stream cut from ``source`` for ``model`` (:class:`~snn_fg.events.live.LiveStream`; ``on_ready``
     called once the model first asks for events) and the record of its windows
@@ -163,7 +163,7 @@ def live_stream(
     return stream, record
 
 
-def warmed_up(model, sensor_size, window_ms: float, name: str, peaks: int = 3) -> WarmUp:
+def warmed_up(model, sensor_size, window_ms: float, name: str, peaks: int = PEAKS) -> WarmUp:
     """``model`` checked against the sensor (its pyramid's levels fit the frame; an InputError naming
     ``name`` if not) and warmed up (:func:`warm_up`)."""
     w, h = sensor_size[:2]
@@ -184,7 +184,7 @@ def _unsaid(message: str) -> None:
     """Where a message already said goes."""
 
 
-def warm_up(model, sensor_size, window_ms: float, peaks: int = 3, windows: int = 3) -> WarmUp:
+def warm_up(model, sensor_size, window_ms: float, peaks: int = PEAKS, windows: int = 3) -> WarmUp:
     """Run ``model`` on ``windows`` windows of synthetic events of the sensor's
     size (:func:`warm_up_events`), so that a live run finds its code compiled
     and loaded (the packet screen's too:

@@ -43,6 +43,8 @@ SENDER_CLOSED = "the sender closed the stream"
 END_OF_STREAM = "the end of the stream"
 #: seconds a TCP subscriber is given to take a line before publishing stops
 TCP_TIMEOUT_S = 1.0
+#: the grouping peaks a live window's line gives (``--peaks``)
+PEAKS = 3
 #: decimals of a latency in milliseconds (0.01 ms: the clocks' jitter is larger)
 LATENCY_DECIMALS = 2
 #: the share of the time a live run's stream came which, used by the run on all its cores or by the model's
@@ -104,7 +106,7 @@ class Publisher:
 class LiveRecord:
     """The windows of a live run as they are published, and ``live.json`` at its end."""
 
-    def __init__(self, stream, publisher: Publisher | None = None, peaks: int = 3, view=None):
+    def __init__(self, stream, publisher: Publisher | None = None, peaks: int = PEAKS, view=None):
         self.stream, self.publisher, self.k, self.view = stream, publisher, peaks, view
         self.rows: list = []
         self.t_start = time.perf_counter()

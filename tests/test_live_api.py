@@ -10,7 +10,7 @@ import pytest
 
 from snn_fg.errors import InputError
 from snn_fg.events import iter_windows
-from snn_fg.events._core import as_events
+from snn_fg.events.core import as_events
 from snn_fg.frames.scenes import flipping_disc_recording
 from snn_fg.models import get_model, run_live
 from snn_fg.params import ModelParams

@@ -222,7 +222,7 @@ def test_a_dv_server_waits_for_its_reader_as_long_as_it_is_told(tmp_path, capsys
 @pytest.mark.parametrize("command", ["events", "stream"])
 def test_a_sensor_size_other_than_the_files_own_is_one_line(tmp_path, capsys, command):
     """snn-fg events said 'sensor: 640 x 480' of a 320 x 240 file, and snn-fg stream sent it as such,
-    without a word (the check lives where files are opened: events._core.file_sensor_size)."""
+    without a word (the check lives where files are opened: events.core.file_sensor_size)."""
     _, rec = flipping_disc_recording(24, windows=2, window_ms=40.0)
     path = save_events(tmp_path / "rec.es", rec.events, rec.sensor_size)
     w, h = rec.sensor_size[:2]

@@ -143,7 +143,7 @@ def _contour_pixels(rng, width, height, want):
 def synthetic_window(n_events: int):
     """``(events, pos, neg)`` of a synthetic 85 ms window with ``n_events`` events."""
     from snn_fg.events import events_to_frame
-    from snn_fg.events._core import pack_events
+    from snn_fg.events.core import pack_events
 
     rng = np.random.default_rng(SEED + n_events)
     width, height = SENSOR

@@ -24,7 +24,7 @@
   simulator's input (and the frame-based model's).
 """
 
-from snn_fg.events._core import EVENT_DTYPE, MAX_SENSOR_SIDE, Recording
+from snn_fg.events.core import EVENT_DTYPE, MAX_SENSOR_SIDE, Recording
 from snn_fg.events.esim import PixelOptions, image_to_events, image_to_frame, motion_frames
 from snn_fg.events.formats import detect_format
 from snn_fg.events.frame import EmptyWindowWarning, EventWindow, events_to_frame

@@ -54,7 +54,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.errors import InputError, Remedy
-from snn_fg.events._core import SENSOR_SIZE, file_sensor_size, first_fault, infer_sensor_size, pack_events
+from snn_fg.events.core import SENSOR_SIZE, file_sensor_size, first_fault, infer_sensor_size, pack_events
 from snn_fg.events.source import READ_BYTES, DecodeTally, Source
 
 #: AEDAT 2.0 cameras by the ``chip`` option, with their sensors (W, H); ``"davis"``: a DAVIS of the size given

@@ -14,7 +14,7 @@ import aedat
 import numpy as np
 
 from snn_fg.errors import InputError, SnnFgError
-from snn_fg.events._core import SENSOR_SIZE, file_sensor_size, pack_events
+from snn_fg.events.core import SENSOR_SIZE, file_sensor_size, pack_events
 from snn_fg.events.source import Source
 
 MAGIC = b"#!AER-DAT4.0\r\n"

@@ -17,7 +17,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.errors import InputError, InputWarning, Remedy
-from snn_fg.events._core import EVENT_DTYPE, check_monotonic
+from snn_fg.events.core import EVENT_DTYPE, check_monotonic
 from snn_fg.events.frame import EmptyWindowWarning, EventWindow, events_to_frame
 from snn_fg.events.io import no_span_problem
 

@@ -45,7 +45,7 @@ import cv2
 import numpy as np
 
 from snn_fg import validate
-from snn_fg.events._core import EVENT_DTYPE, Recording
+from snn_fg.events.core import EVENT_DTYPE, Recording
 from snn_fg.events.frame import events_to_frame
 from snn_fg.events.images import to_grey
 from snn_fg.events.paper_motion import PAPER_SHIFT_PX, paper_frames

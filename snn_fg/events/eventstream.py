@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from snn_fg.errors import InputError
-from snn_fg.events._core import check_sensor_size, file_sensor_size, pack_events
+from snn_fg.events.core import check_sensor_size, file_sensor_size, pack_events
 from snn_fg.events.source import READ_BYTES, DecodeTally, Source
 
 MAGIC = b"Event Stream"
@@ -100,7 +100,7 @@ def read_header(path) -> Header:
 def open_es(path, sensor_size, chunk_events) -> Source:
     """Open a DVS (decoder ``"es"``) or ATIS (``"es-atis"``) Event Stream file.
 
-    ``sensor_size``, if given, must be the header's (:func:`~snn_fg.events._core.file_sensor_size`).
+    ``sensor_size``, if given, must be the header's (:func:`~snn_fg.events.core.file_sensor_size`).
     """
     header = read_header(path)
     size = file_sensor_size(path, sensor_size, (header.width, header.height))

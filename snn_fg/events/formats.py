@@ -61,7 +61,7 @@ import numpy as np
 from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events import aedat4, aedat23, eventstream, hdf5, nmnist, numpy_files, prophesee, text_events, yarp
-from snn_fg.events._core import sensor_size_parameter
+from snn_fg.events.core import sensor_size_parameter
 from snn_fg.events.source import Source
 
 SUFFIX_FORMAT = {

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from snn_fg.events._core import as_events, check_in_sensor, sensor_size_parameter
+from snn_fg.events.core import as_events, check_in_sensor, sensor_size_parameter
 
 
 def events_to_frame(events, sensor_size, source="<array>", offset: int = 0):

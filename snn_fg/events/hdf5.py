@@ -14,9 +14,9 @@ Prophesee ``.hdf5``    ``CD/events``: compound x, y, p, t      int64 us; p 0/1  
 
 DSEC's and MVSEC's files state no sensor size: give it (``--sensor-size 640x480`` for DSEC,
 ``346x260`` for MVSEC), else it is taken from the events' extent, with a warning
-(:func:`~snn_fg.events._core.infer_sensor_size`). A Metavision file states its camera's in
+(:func:`~snn_fg.events.core.infer_sensor_size`). A Metavision file states its camera's in
 the root attribute ``geometry`` (``"1280x720"``, the metadata of its RAW header), which is
-taken, as a RAW file's header is (:func:`~snn_fg.events._core.file_sensor_size`); without
+taken, as a RAW file's header is (:func:`~snn_fg.events.core.file_sensor_size`); without
 it, the events' extent, with the same warning.
 
 MVSEC holds two cameras (``davis/left/events``, ``davis/right/events``): the format option
@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from snn_fg.errors import InputError, InputWarning, SnnFgError, install_hint
-from snn_fg.events._core import as_events, file_sensor_size, first_fault, infer_sensor_size
+from snn_fg.events.core import as_events, file_sensor_size, first_fault, infer_sensor_size
 from snn_fg.events.prophesee import header_geometry
 from snn_fg.events.source import DecodeTally, Skip, Source
 

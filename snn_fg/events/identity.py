@@ -16,7 +16,7 @@ import hashlib
 import numpy as np
 
 from ..errors import InputError
-from ._core import EVENT_DTYPE
+from .core import EVENT_DTYPE
 from .io import iter_recording
 
 #: events at the head of a recording that its digest covers: a few ms of a busy scene, read in one

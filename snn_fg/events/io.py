@@ -21,7 +21,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.errors import InputError, InputWarning
-from snn_fg.events._core import (
+from snn_fg.events.core import (
     Recording,
     as_events,
     check_in_sensor,

@@ -13,8 +13,8 @@ import warnings
 import numpy as np
 
 from snn_fg.errors import InputError, InputWarning
-from snn_fg.events._core import EVENT_DTYPE
 from snn_fg.events.clock import SENDER
+from snn_fg.events.core import EVENT_DTYPE
 from snn_fg.events.live_screen import BATCH
 from snn_fg.events.watchdog import ends_process_after
 

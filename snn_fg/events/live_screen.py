@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._core import EVENT_DTYPE
+from .core import EVENT_DTYPE
 
 #: packets taken off a UDP socket's buffer (batches off a DV reader) at a time, at most, once one has
 #: arrived: the events of those already waiting are screened and queued for the model together (per

@@ -25,8 +25,8 @@ import numpy as np
 
 from snn_fg.errors import InputError, InputWarning, Remedy
 from snn_fg.events import spif
-from snn_fg.events._core import SENSOR_SIZE, as_events, check_sensor_size
 from snn_fg.events.clock import ARRIVAL, SENDER
+from snn_fg.events.core import SENSOR_SIZE, as_events, check_sensor_size
 from snn_fg.events.live_dv import CAMERA, WAIT_S, CameraSource, DvSource
 from snn_fg.events.live_screen import BATCH
 from snn_fg.validate import address
@@ -67,7 +67,7 @@ def open_source(url, sensor_size=None, *, wait_s: float = WAIT_S, idle_s: float 
 
 class ChunkSource:
     """A live stream that your own code hands over: ``chunks``, any iterable of event
-    arrays (fields ``x``, ``y``, ``t`` in microseconds, ``p``; :func:`~snn_fg.events._core.as_events`),
+    arrays (fields ``x``, ``y``, ``t`` in microseconds, ``p``; :func:`~snn_fg.events.core.as_events`),
     such as a generator reading a camera's SDK or a YARP port, read on the receiving
     thread. A chunk has arrived when the iterable gives it; the stream ends with the
     iterable. Its times are the chunks' own (``clock`` :data:`~snn_fg.events.clock.SENDER`).

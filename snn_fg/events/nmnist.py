@@ -12,7 +12,7 @@ import io
 import numpy as np
 
 from snn_fg.errors import InputError, Remedy
-from snn_fg.events._core import EVENT_DTYPE, check_sensor_size
+from snn_fg.events.core import EVENT_DTYPE, check_sensor_size
 from snn_fg.events.source import Source
 
 SENSOR_SIZE = (34, 34)

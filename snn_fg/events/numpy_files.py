@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from snn_fg.errors import InputError, SnnFgError
-from snn_fg.events._core import as_events, check_sensor_size, file_sensor_size, infer_sensor_size
+from snn_fg.events.core import as_events, check_sensor_size, file_sensor_size, infer_sensor_size
 from snn_fg.events.source import Source
 
 

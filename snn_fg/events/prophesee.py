@@ -14,7 +14,7 @@ import re
 import numpy as np
 
 from snn_fg.errors import InputError
-from snn_fg.events._core import SENSOR_SIZE, file_sensor_size, pack_events
+from snn_fg.events.core import SENSOR_SIZE, file_sensor_size, pack_events
 from snn_fg.events.source import READ_BYTES, Source
 
 ENCODINGS = ("evt2", "evt3")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from snn_fg.events._core import EVENT_DTYPE
+from snn_fg.events.core import EVENT_DTYPE
 
 #: bit 31 set: the event has no timestamp word after it
 NO_TIME = np.uint32(1 << 31)

@@ -20,7 +20,7 @@ import re
 import numpy as np
 
 from snn_fg.errors import InputError
-from snn_fg.events._core import check_sensor_size, first_fault, infer_sensor_size, pack_events
+from snn_fg.events.core import check_sensor_size, first_fault, infer_sensor_size, pack_events
 from snn_fg.events.source import READ_BYTES, Source
 
 #: one line: an event (seconds, fraction, x, y, p), a blank or ``#`` line, or anything else (group 6)

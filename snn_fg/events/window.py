@@ -87,7 +87,7 @@ def iter_windows(
     * ``read_options`` say how the recording is read, as for
       :func:`~snn_fg.events.iter_recording`: ``sensor_size``, ``chunk_events``
       and the format options of :mod:`snn_fg.events.formats` (``encoding``,
-      ``codec``, ``channel``, ``timer_bits``); an option that does not apply
+      ``codec``, ``channel``, ``timer_bits``, ``chip``); an option that does not apply
       to the recording's format is a ParameterError.
     * It returns an iterator, read once like a generator, that can also hand
       the spiking model its events as read (:class:`WindowIterator`): given to

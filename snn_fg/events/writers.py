@@ -10,7 +10,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.errors import InputError
-from snn_fg.events._core import as_events, check_in_sensor, check_monotonic, sensor_size_parameter
+from snn_fg.events.core import as_events, check_in_sensor, check_monotonic, sensor_size_parameter
 from snn_fg.results.atomic import atomic_path
 from snn_fg.results.outputs import MARK
 

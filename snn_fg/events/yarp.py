@@ -13,7 +13,7 @@ import numpy as np
 
 from snn_fg import validate
 from snn_fg.errors import InputError
-from snn_fg.events._core import check_sensor_size, empty_events, pack_events
+from snn_fg.events.core import check_sensor_size, empty_events, pack_events
 from snn_fg.events.source import DecodeTally, Source
 
 #: Address codecs of event-driven ("auto": guessed from the first AE words).

@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import validate as check
 from ..errors import InputError
-from ..events._core import check_sensor_size
+from ..events.core import check_sensor_size
 
 
 @dataclass

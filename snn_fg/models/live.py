@@ -63,7 +63,7 @@ def run_live(
     """Run ``model`` (:func:`~snn_fg.models.get_model`) on a live stream until it ends, as
     ``snn-fg live`` does without its folder, and return ``live.json``'s summary.
 
-    ``source``: ``udp://HOST:PORT`` or ``dv://HOST:PORT`` (as ``snn-fg live``), or your own
+    ``source``: ``udp://HOST:PORT``, ``dv://HOST:PORT`` or ``camera://[SERIAL]`` (as ``snn-fg live``), or your own
     stream: any iterable of event arrays (fields ``x``, ``y``, ``t`` in microseconds, ``p``),
     read on a thread of its own as it gives them, a chunk counting as arrived when it is given
     (:class:`~snn_fg.events.live_sources.ChunkSource`; ``sensor_size`` ``(W, H)`` needed).
@@ -72,9 +72,10 @@ def run_live(
     ``latency_ms`` and grouping ``peaks``). It runs on the thread that makes the maps, so what
     it takes adds to the next windows' latency: hand heavy work to a thread of your own.
     Windows the model cannot keep up with are dropped whole (the policy of ``live.json``,
-    ``max_behind`` as ``--max-behind``); ``hop_ms``, ``skip_behind``, ``start_ms``, ``peaks`` and
-    ``publish`` are ``snn-fg live``'s ``--hop-ms``, ``--skip-behind``, ``--start-ms``, ``--peaks``
-    and ``--publish``.
+    ``max_behind`` as ``--max-behind``); ``window_ms``, ``hop_ms``, ``skip_behind``, ``start_ms``,
+    ``peaks``, ``publish``, ``wait_s`` and ``idle_s`` are ``snn-fg live``'s ``--window-ms``,
+    ``--hop-ms``, ``--skip-behind``, ``--start-ms``, ``--peaks``, ``--publish``, ``--wait-s`` and
+    ``--idle-s``.
     ``on_ready()`` is called once the model is warmed up and waits for the stream (where
     ``snn-fg live`` says "ready": start a ``udp://`` sender then). ``stop``, a
     ``threading.Event`` another thread may set, ends the run there as the sender's end would

@@ -22,7 +22,7 @@ neither:
   cells, fits in a few hundred megabytes.
 * **Active cells only.** A cell is updated step by step only while it might
   fire (or is refractory); otherwise it is *parked* and brought up to date
-  in closed form when input next reaches it (:mod:`.core`). Cost then
+  in closed form when input next reaches it (:mod:`~snn_fg.backends.fast.core`). Cost then
   follows synaptic events and active cells, not network size times steps.
 * **Brian2's step, bit for bit where it can be.** Each step runs the slots of
   Brian2's schedule as our Brian2 backend uses them (state update, then
@@ -65,7 +65,7 @@ per-input preparation beyond the edge masks.
 The package: :mod:`.backend` (:class:`FastBackend`, the backend interface),
 :mod:`.tables`, :mod:`.neurons` and :mod:`.stencils` (the description as
 the engine's arrays), :mod:`.run` (one simulation's state), the compiled
-loops (:mod:`.core`, the step; :mod:`.deliver`, the delivery; :mod:`.lif`,
+loops (:mod:`~snn_fg.backends.fast.core`, the step; :mod:`.deliver`, the delivery; :mod:`.lif`,
 one cell; :mod:`.lists`, the sorted cell lists; :mod:`.counting`, spike
 counts; :mod:`.compiled`, numba's cache), :mod:`.share` (who owns which
 population), :mod:`.results` (spike trains and counts handed back).

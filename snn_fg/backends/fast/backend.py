@@ -65,7 +65,7 @@ class FastBackend(Backend):
     #: unrolling in Python, longer than simulating the cells it leaves out), and
     #: no cell that bursts of events can make fire is left out. An event
     #: frame's regular trains get the hinted cells on every backend instead
-    #: (:meth:`snn_fg.spiking.options.SimulatorOptions.cells_for`)
+    #: (:meth:`snn_fg.models.spiking.options.SimulatorOptions.cells_for`)
     default_instantiate = "all"
     #: a recording's input is loaded a segment at a time (:class:`.feed.InputFeed`)
     streams_input = True

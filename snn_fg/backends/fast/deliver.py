@@ -2,7 +2,7 @@
 projection into the summed input of its target (:func:`conv_spikes`,
 :func:`resize_spikes`), then that input handed to each cell it reached
 (:func:`.handover.flush_rows`), which brings the cell up to the present in
-closed form first. The numbering and state are described in :mod:`.core`.
+closed form first. The numbering and state are described in :mod:`~snn_fg.backends.fast.core`.
 
 The summed input ``acc`` of a target population has the layout of its grid,
 ``(channel, row, column)``: a Conv's stencil row (:mod:`.stencils`) is one

@@ -1,7 +1,7 @@
 """The fast engine's hand-over, compiled: the summed input that
 :mod:`.deliver` left in ``acc`` added to each cell it reached
 (:func:`flush_rows`), the cell brought up to the present in closed form
-first. The numbering and state are described in :mod:`.core`.
+first. The numbering and state are described in :mod:`~snn_fg.backends.fast.core`.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 (:class:`BinStream`, for ``RunSettings.on_bin``) and the
 :class:`~snn_fg.backends.base.SimulationResult` (:func:`simulation_result`). The engine
 itself is :mod:`.backend`; the numbering of cells and the spike log it keeps are
-described in :mod:`.core`."""
+described in :mod:`~snn_fg.backends.fast.core`."""
 
 from __future__ import annotations
 

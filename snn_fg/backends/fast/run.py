@@ -1,5 +1,5 @@
 """One simulation of the fast engine: its cells, active set and spike log
-(:class:`Run`), fed by the compiled loop of :mod:`.core`, and the cell
+(:class:`Run`), fed by the compiled loop of :mod:`~snn_fg.backends.fast.core`, and the cell
 arrays kept from one run to the next (:class:`Pool`)."""
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ class Run:
     """The mutable state of one simulation: cells, active set and spike log.
 
     Only the chosen cells exist, numbered population after population
-    (:mod:`.core` describes the numbering and the maps between grid and
+    (:mod:`~snn_fg.backends.fast.core` describes the numbering and the maps between grid and
     number)."""
 
     def __init__(self, tab: ft.EngineTables, chosen: dict, inputs, n_steps: int, pool: Pool, threads: int = 1):
@@ -70,7 +70,7 @@ class Run:
         self.found, self.found_g = np.zeros((threads, found), np.int64), np.zeros((threads, found), np.int64)
 
     def _number(self, chosen: dict) -> int:
-        """Number the chosen cells (see :mod:`.core`); returns how many."""
+        """Number the chosen cells (see :mod:`~snn_fg.backends.fast.core`); returns how many."""
         from .deliver import C_FLAT, C_PRES, C_WHOLE
 
         pops = self.tab.network.populations

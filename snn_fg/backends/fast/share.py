@@ -2,7 +2,7 @@
 population's cells.
 
 A thread *owns* a cell when it adds the cell's summed input to it and
-updates it while it is active (:mod:`.core`). Ownership is dealt per target
+updates it while it is active (:mod:`~snn_fg.backends.fast.core`). Ownership is dealt per target
 population, from a table (``owner``): a population owned whole by one
 thread (``owner[q] >= 0``) is skipped by the others, projection by
 projection, so that they walk neither its projections' spikes nor their
@@ -113,7 +113,7 @@ def band_thread(rows, threads: int):
 
 def cell_owners(g: np.ndarray, owner: np.ndarray, cells: np.ndarray, flat_of: np.ndarray, pops, threads: int):
     """The thread that owns each cell of numbers ``g`` under the table
-    ``owner`` (``cells``, ``flat_of``: the run's numbering, :mod:`.core`;
+    ``owner`` (``cells``, ``flat_of``: the run's numbering, :mod:`~snn_fg.backends.fast.core`;
     ``pops``: the tables' population array)."""
     from .deliver import C_FLAT, C_N, C_OFF, C_WHOLE
     from .tables import P_GC

@@ -16,7 +16,7 @@ import numpy as np
 
 from ...backends import RunSettings, SimulationResult
 from ...errors import InputError
-from ...events._core import check_sensor_size
+from ...events.core import check_sensor_size
 from ...events.frame import events_to_frame
 from ...frames.check import event_frame
 from ...frames.pool import pool_events, pool_frame, pooled_shape
@@ -145,6 +145,9 @@ def run_spiking(pos=None, neg=None, **keywords) -> Maps:
         Timed events instead (fields x, y, t in microseconds, p), with
         ``sensor_size`` (W, H[, 2]); they keep their timestamps, and with
         ``replay`` the window repeats until ``duration_ms``.
+    input_coding : str, optional
+        How a recording's events become input spikes (default: the
+        network's own, :attr:`~snn_fg.network.Network.input_coding`).
     params : ModelParams, optional
         Model parameters to build the default network from (default: the
         paper's); with ``spiking`` (:class:`~snn_fg.network.SpikingParams`).
@@ -173,6 +176,13 @@ def run_spiking(pos=None, neg=None, **keywords) -> Maps:
         ``default_instantiate``; recorded in ``params``).
     record_spikes : bool
         Keep spike times for the raster figure.
+    record_state, sites
+        Final state variables to keep, and the cells to make per population
+        (:class:`~snn_fg.backends.RunSettings`).
+    maps_grid : {"sensor", "blocks"}
+        Where the maps of a network that pools its input are read out: on
+        the sensor's pixels (default), or on its blocks
+        (:data:`~snn_fg.frames.pool.MAPS_GRIDS`).
     progress, log
         ``progress`` prints one-line stage messages and a progress bar on
         stderr; ``log`` receives the messages instead.

@@ -46,11 +46,77 @@ html_title = "snn-fg API reference"
 _PROSE = ("data", "attribute", "property")
 
 
+def _defined_at(target: str, module: str | None) -> str | None:
+    """Where the object a cross-reference names is defined (``module.qualname``), when the
+    reference names it by a path that re-exports it (``snn_fg.network.Network``) or by a
+    name its module imports (``iter_recording`` in :mod:`snn_fg.events.window`); None if
+    it names no class or function of snn_fg's (an attribute: its class's, then its own name)."""
+    import importlib
+
+    def lookup(path: str):
+        parts = path.split(".")
+        if not all(parts):  # (a relative name, ``.core``: Sphinx resolves those itself)
+            return None
+        for cut in range(len(parts) - 1, 0, -1):
+            try:
+                obj = importlib.import_module(".".join(parts[:cut]))
+            except ImportError:
+                continue
+            try:
+                for name in parts[cut:]:
+                    obj = getattr(obj, name)
+            except AttributeError:
+                return None
+            return obj
+        return None
+
+    def assigned_in(name: str, value) -> str | None:
+        """The snn_fg module whose own source assigns ``name`` (a constant has no ``__module__``)."""
+        import inspect
+        import re
+        import sys
+
+        for modname, mod in sorted(sys.modules.items()):
+            if modname.startswith("snn_fg") and getattr(mod, name, None) is value:
+                try:
+                    source = inspect.getsource(mod)
+                except (OSError, TypeError):
+                    continue
+                if re.search(rf"^{re.escape(name)}\b[^=\n]*=", source, re.M):
+                    return f"{modname}.{name}"
+        return None
+
+    candidates = [target] + ([f"{module}.{target}"] if module else [])
+    for path in candidates:
+        head, _, attr = path.rpartition(".")
+        for obj, rest in ((lookup(path), ""), (lookup(head), attr)):
+            where = getattr(obj, "__module__", None), getattr(obj, "__qualname__", None)
+            if where[0] and where[1] and where[0].startswith("snn_fg"):
+                return ".".join(filter(None, (*where, rest)))
+        parent = lookup(head) if head else None
+        if type(parent).__name__ == "module" and hasattr(parent, attr):
+            return assigned_in(attr, getattr(parent, attr))
+    return None
+
+
 def setup(app):
     """Constants', attributes' and properties' docstrings (the ``#:`` comments)
     are prose, read as written: napoleon would take whatever precedes a first
-    colon as the object's type."""
+    colon as the object's type. A cross-reference to an object by a path that
+    re-exports it is sent to the page where it is defined (each object is
+    documented once, there)."""
     written = {}
+
+    def reexported(app, env, node, contnode):
+        if node.get("refdomain") != "py":
+            return None
+        real = _defined_at(node["reftarget"], node.get("py:module"))
+        if real is None or real == node["reftarget"]:
+            return None
+        py = env.get_domain("py")
+        return py.resolve_xref(env, node["refdoc"], app.builder, node["reftype"], real, node, contnode)
+
+    app.connect("missing-reference", reexported)
 
     def keep(app, what, name, obj, options, lines):
         if what in _PROSE:

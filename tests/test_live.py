@@ -454,7 +454,7 @@ def test_no_sender_ends_with_one_line_and_no_output(tmp_path, capsys):
 def test_a_live_run_into_an_earlier_runs_folder_offers_force_only(tmp_path, capsys):
     """A stream cannot be continued: the refusal names --force, not --resume (which live has not)."""
     (tmp_path / "o").mkdir()
-    (tmp_path / "o" / "maps.npz").write_bytes(b"")
+    Maps(*(np.zeros((4, 4), np.float32) for _ in range(3)), params={}).save(tmp_path / "o" / "maps.npz")
     status = main(["live", "udp://127.0.0.1:9", "--out", str(tmp_path / "o"), "--sensor-size", "24x24"])
     err = capsys.readouterr().err.strip().splitlines()
     assert (

@@ -350,10 +350,7 @@ def test_export_force_replaces_only_an_earlier_file_of_its_format(tmp_path, caps
 def test_an_earlier_live_run_is_replaced_with_force(tmp_path):
     """snn-fg live --force on the folder of an earlier live run (its maps, table and live.json):
     it was refused, 'holds live.json, which snn-fg did not write'."""
-    out = tmp_path / "live"
-    (out / "maps.zarr").mkdir(parents=True)
-    for name in ("live.json", "windows.csv", "timeline.png"):
-        (out / name).write_text("written by snn-fg live")
+    out = _earlier_live_run(tmp_path / "live")
     assert check_output_folder(out, force=True) is True
     (out / "notes.txt").write_text("the user's")
     with pytest.raises(InputError, match="holds notes.txt, which snn-fg did not write"):
@@ -372,3 +369,71 @@ def test_the_folders_made_for_a_file_go_again_when_it_is_not_written(tmp_path):
         part.write_text("{")
         raise RuntimeError("the write failed")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]
+
+
+def _earlier_live_run(out):
+    """The entries of an earlier live run, each with the content snn-fg gives it (its store's
+    attributes, live.json's version, the table's header, the figure's mark)."""
+    from snn_fg.results.outputs import WINDOWS_TABLE_HEAD
+
+    (out / "maps.zarr" / "fg_x").mkdir(parents=True)
+    (out / "maps.zarr" / "fg_x" / ".zarray").write_text("{}")
+    (out / "maps.zarr" / ".zgroup").write_text('{"zarr_format": 2}')
+    (out / "maps.zarr" / ".zattrs").write_text(json.dumps({"snn_fg": {"format": "snn-fg maps 1"}}))
+    (out / "live.json").write_text(json.dumps({"snn_fg_version": "0.1", "windows": 3}))
+    (out / "windows.csv").write_text(WINDOWS_TABLE_HEAD + "events\n0,0,85,10\n")
+    (out / "timeline.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"tEXtSoftware\x00snn-fg 0.1")
+    return out
+
+
+@pytest.mark.parametrize(
+    "entry",
+    ["maps.npz", "maps.zarr/data.txt", "maps.zarr", "windows/notes.txt", "windows.csv", "live.json", "timeline.png"],
+)
+def test_force_never_replaces_a_users_entry_that_has_a_runs_name(tmp_path, entry):
+    """A user's maps.npz in a folder, or a maps.zarr folder of their own, was taken for a run's by its
+    name: `snn-fg run demo --out D --force` replaced the file and emptied the folder. Each entry of a
+    run's name is now judged by its content too; a user's is refused, with or without --force, and kept."""
+    out = _earlier_live_run(tmp_path / "o")
+    assert check_output_folder(out, force=True) is True  # (every entry snn-fg's: replaced)
+    path = out / entry
+    if entry in (
+        "maps.zarr",
+        "windows.csv",
+        "live.json",
+        "timeline.png",
+    ):  # (the name of the run's, the user's content)
+        shutil.rmtree(path) if path.is_dir() else path.unlink()
+        if entry == "maps.zarr":
+            path.mkdir()
+            (path / ".zattrs").write_text(json.dumps({"project": "mine"}))
+        else:
+            path.write_text("the user's")
+    else:
+        path.parent.mkdir(exist_ok=True)
+        if entry == "maps.npz":
+            np.savez(path, fg_x=np.zeros(2), fg_y=np.zeros(2), grouping=np.zeros(2), params="{}")
+        else:
+            path.write_text("the user's")
+    top = entry.split("/")[0]
+    with pytest.raises(InputError, match=f"holds {top}, which snn-fg did not write"):
+        check_output_folder(out, force=True)
+    assert path.exists()
+
+
+def test_the_table_head_a_run_is_told_by_is_the_tables(tmp_path):
+    from snn_fg.results.outputs import WINDOWS_TABLE_HEAD
+    from snn_fg.results.timeline import COLUMNS
+
+    assert ",".join(COLUMNS).startswith(WINDOWS_TABLE_HEAD)
+
+
+def test_run_force_keeps_a_users_maps_npz(tmp_path, capsys):
+    """The new user's case, through the command line."""
+    out = tmp_path / "d"
+    out.mkdir()
+    np.savez(out / "maps.npz", mydata=np.arange(3))
+    before = (out / "maps.npz").read_bytes()
+    assert main(["run", "demo", "--out", str(out), "--force", "--no-progress", "--no-figures"]) == 2
+    assert "holds maps.npz, which snn-fg did not write" in _one_error(capsys)
+    assert (out / "maps.npz").read_bytes() == before and sorted(os.listdir(out)) == ["maps.npz"]

@@ -53,6 +53,9 @@ class FolderKind:
     marks: tuple[str, ...]
     owns: Callable[[Path], bool] | None = None
     kept: tuple[str, ...] = ()
+    #: whether an entry with one of ``names`` holds what this output writes there, as far as its
+    #: content tells (None: its name is enough); a user's file of that name is then not replaced
+    made: Callable[[Path], bool] | None = None
 
     def keeps(self, entry: Path) -> bool:
         """Whether ``entry`` is one of :attr:`kept`: left where it is when the folder is written again."""
@@ -61,8 +64,10 @@ class FolderKind:
     def written(self, entry: Path) -> bool:
         """Whether ``entry`` is one this kind of output writes."""
         name = entry.name
-        if name.startswith(WORKING_PREFIX) or any(fnmatch.fnmatchcase(name, p) for p in self.names):
+        if name.startswith(WORKING_PREFIX):
             return True
+        if any(fnmatch.fnmatchcase(name, p) for p in self.names):
+            return self.made is None or self.made(entry)
         return self.owns is not None and self.owns(entry)
 
 
@@ -95,6 +100,48 @@ def _batch_part(entry: Path) -> bool:
     return any(p.name in RUN_FOLDER.marks for p in inside) and all(RUN_FOLDER.written(p) for p in inside)
 
 
+def _zarr_store(entry: Path) -> bool:
+    """Whether ``entry`` is a maps store snn-fg wrote: its attributes say so (``snn_fg``'s
+    ``format``, :data:`MARK` ...), and it holds a store's entries only (its group and
+    attributes, arrays, and the parts an interrupted write left)."""
+    if not entry.is_dir() or entry.is_symlink():
+        return False
+    try:
+        attrs = json.loads((entry / ".zattrs").read_text())
+    except (OSError, ValueError):
+        return False
+    ours = isinstance(attrs, dict) and str((attrs.get("snn_fg") or {}).get("format", "")).startswith(MARK)
+    return ours and all(
+        p.name in (".zgroup", ".zattrs")
+        or (p.name.startswith(".") and p.name.endswith(".part"))
+        or (p.is_dir() and not p.is_symlink() and (p / ".zarray").is_file())
+        for p in entry.iterdir()
+    )
+
+
+#: the first line of a recording's ``windows.csv`` (:data:`snn_fg.results.timeline.COLUMNS`) starts so
+WINDOWS_TABLE_HEAD = "window,t_start_ms,t_end_ms,"
+
+
+def _run_entry(entry: Path) -> bool:
+    """Whether an entry named as a run's is what a run writes there: a maps store by
+    :func:`_zarr_store`, window figures by :func:`_window_figures`, the table by its header, the
+    other files by :func:`_of_kind` (a figure or ``maps.npz`` by its mark, ``live.json``
+    by its record's)."""
+    if entry.is_symlink():
+        return False
+    if entry.name == "maps.zarr":
+        return _zarr_store(entry)
+    if entry.name == "windows":
+        return _window_figures(entry)
+    if not entry.is_file():
+        return False
+    if entry.name == "windows.csv":
+        with open(entry, encoding="utf-8", errors="replace") as fh:
+            return fh.readline().startswith(WINDOWS_TABLE_HEAD)
+    return _of_kind(entry, entry.suffix.lower())
+
+
 #: what ``snn-fg run``, ``snn-fg live`` and ``snn-fg decode`` write: maps (a frame's ``.npz``, a
 #: recording's Zarr store), their figures, a recording's per-window table and animation, a live run's
 #: record, the spiking model's figures, and a folder of window figures under another name
@@ -115,6 +162,7 @@ RUN_FOLDER = FolderKind(
     ),
     marks=("maps.npz", "maps.zarr"),
     owns=_window_figures,
+    made=_run_entry,
 )
 #: an earlier batch of runs is an earlier run too: ``--force`` replaces it with a run, and a batch with
 #: another (its summary.csv and its recordings' folders; ``marks``: the summary)
@@ -123,6 +171,7 @@ BATCH_OR_RUN = FolderKind(
     names=RUN_FOLDER.names,
     marks=(*RUN_FOLDER.marks, SUMMARY_NAME),
     owns=lambda entry: _window_figures(entry) or _batch_part(entry),
+    made=_run_entry,
 )
 
 
@@ -146,6 +195,7 @@ DECODE_FOLDER = FolderKind(
     names=RUN_FOLDER.names,
     marks=RUN_FOLDER.marks,
     owns=lambda entry: _window_figures(entry) or _decode_reference(entry),
+    made=_run_entry,
 )
 
 

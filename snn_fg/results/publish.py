@@ -201,8 +201,12 @@ class LiveRecord:
         return {"streamed_s": wall, "cpu_s": cpu, "model_cpu_s": model, "cores": self.cores}
 
     def save(self, path, ended: str) -> dict:
+        """Write ``live.json`` (:meth:`summary`, marked by the version that wrote it: a later run's
+        ``--force`` replaces only such a record) and return the summary."""
+        from snn_fg import __version__
+
         out = self.summary(ended)
-        save_text(path, json.dumps(out, indent=1) + "\n")
+        save_text(path, json.dumps({"snn_fg_version": __version__, **out}, indent=1) + "\n")
         return out
 
 

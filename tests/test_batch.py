@@ -69,17 +69,19 @@ def test_three_recordings_on_a_local_cluster_one_broken(folder, tmp_path, capsys
     assert main(["run", str(folder), "--out", str(out), "--workers", "1", *opts]) == 1
     again = _summary(out)
     assert [again[k]["status"] for k in sorted(again)] == ["skipped", "failed", "skipped"]
-    # a rerun with other options keeps nothing made with the old ones as if it were theirs: each finished run is
-    # refused in one line (until 30 Nov it was skipped, its 60 ms windows read as the 50 ms ones asked for)
-    before = Maps.load(out / "a").fg_x
-    assert main(["run", str(folder), "--out", str(out), "--workers", "1", *opts[:1], "50", *opts[2:]]) == 1
-    other = _summary(out)
-    assert [other[k]["status"] for k in sorted(other)] == ["failed", "failed", "failed"]
-    assert other["a.npy"]["error"] == (
-        f"{out / 'a'}: holds a finished run made with other options (these differ: window_ms (60.0 before, 50.0 "
-        "now)); --force replaces it"
+    # a rerun with other options keeps nothing made with the old ones as if it were theirs (until 30 Nov it was
+    # skipped, its 60 ms windows read as the 50 ms ones asked for), and is refused before it runs anything: until
+    # 1 Dec each recording failed and the summary was rewritten to say nothing had been done
+    before, summary = Maps.load(out / "a").fg_x, (out / "summary.csv").read_text()
+    capsys.readouterr()
+    assert main(["run", str(folder), "--out", str(out), "--workers", "1", *opts[:1], "50", *opts[2:]]) == 2
+    assert capsys.readouterr().err == (
+        f"snn-fg: error: {out / 'a'}: holds an earlier run made with other options (these differ: window_ms (60.0 "
+        "before, 50.0 now)) (and 1 other recording have earlier runs here): nothing was run; --force replaces the "
+        "earlier runs, or choose another --out\n"
     )
     np.testing.assert_array_equal(Maps.load(out / "a").fg_x, before)
+    assert (out / "summary.csv").read_text() == summary
 
 
 def test_inputs_a_folder_a_glob_or_a_list_name(folder, tmp_path):
@@ -202,3 +204,47 @@ def test_an_earlier_batch_is_an_earlier_run_to_force_not_a_users_folder(folder, 
     assert "which snn-fg did not write" in capsys.readouterr().err and (mine / "summary.csv").exists()
     assert main(["run", *one, "--out", str(out), "--force"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["maps.zarr", "windows.csv"]
+
+
+def _one_recording(tmp_path):
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.frames.scenes import disc
+
+    d = tmp_path / "recs"
+    d.mkdir()
+    rec = image_to_events(disc(10).image, motion="circle")
+    save_events(d / "a.npy", rec.events, rec.sensor_size)
+    save_events(d / "c.npy", rec.events[: rec.events.size // 2], rec.sensor_size)
+    return d
+
+
+_QUICK = ["--window-ms", "60", "--levels", "3", "--sensor-size", "64x64", "--no-figures", "--no-progress"]
+
+
+def test_a_users_summary_csv_is_refused_before_anything_runs(tmp_path, capsys):
+    """A batch wrote its table over a user's summary.csv in the output folder, without --force."""
+    d, out = _one_recording(tmp_path), tmp_path / "out"
+    out.mkdir()
+    (out / "summary.csv").write_text("my summary\n")
+    assert main(["run", str(d), "--out", str(out), "--workers", "1", "--max-windows", "1", *_QUICK]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "summary.csv: is not a batch's summary" in err and "nothing was run" in err
+    assert (out / "summary.csv").read_text() == "my summary\n" and sorted(p.name for p in out.iterdir()) == [
+        "summary.csv"
+    ]
+
+
+def test_a_rerun_with_a_larger_window_limit_continues_the_runs_it_cut(tmp_path, capsys):
+    """A batch rerun with --max-windows 3 after one with 2 said 'skipped 2 windows' for every recording,
+    where a single run's --resume --max-windows 3 goes on to 3 windows."""
+    d, out = _one_recording(tmp_path), tmp_path / "out"
+    run = ["run", str(d), "--out", str(out), "--workers", "1", *_QUICK]
+    assert main([*run, "--max-windows", "2"]) == 0
+    assert {k: r["windows"] for k, r in _summary(out).items()} == {"a.npy": "2", "c.npy": "2"}
+    first = Maps.load(out / "a").fg_x
+    assert main([*run, "--max-windows", "3"]) == 0
+    rows = _summary(out)
+    assert {k: (r["status"], r["windows"]) for k, r in rows.items()} == {"a.npy": ("done", "3"), "c.npy": ("done", "3")}
+    np.testing.assert_array_equal(Maps.load(out / "a").fg_x[:2], first)  # (continued, not made again)
+    assert main([*run, "--max-windows", "3"]) == 0  # (nothing to add now)
+    assert [r["status"] for r in _summary(out).values()] == ["skipped", "skipped"]

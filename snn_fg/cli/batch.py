@@ -34,10 +34,11 @@ from ..events.images import IMAGE_SUFFIXES
 from ..events.text_events import reads_as_events
 from ..frames.still import input_kind
 from ..results.atomic import save_text
-from ..results.outputs import SUMMARY_COLUMNS, SUMMARY_NAME, check_writable, writing
+from ..results.outputs import SUMMARY_COLUMNS, SUMMARY_NAME, check_writable, is_batch_summary, writing
 from ..results.progress import bar as progress_bar
 from ..results.store import STORE_NAME, run_finished, stored_run, windows_complete
 from .run_options import WINDOW_LIMITS, run_key
+from .runner import goes_on
 
 #: the summary table's name in the output folder, and its columns
 _GLOB = set("*?[")
@@ -131,15 +132,17 @@ def run_job(options: dict, command) -> dict:
         "error": "",
     }
     store = out / STORE_NAME
-    # (a finished run is skipped only when made with these options: until 30 Nov, whatever options had made it)
+    # (a finished run is skipped only when made with these options: until 30 Nov, whatever options had made it;
+    # and only when it has nothing to add: a larger window limit continues one cut by its own, as --resume does)
     if not options["force"] and run_finished(out):
         try:
-            stored_run(store, run_key(argparse.Namespace(**options)), WINDOW_LIMITS)
+            attrs = stored_run(store, run_key(argparse.Namespace(**options)), WINDOW_LIMITS)
         except InputError as exc:
             differ = exc.problem.partition("these differ: ")[2]
             said = f"{out}: holds a finished run made with other options (these differ: {differ}); --force replaces it"
             return {**row, "status": "failed", "error": said}
-        return {**row, "status": "skipped", "windows": windows_complete(out)}
+        if not _goes_further(attrs, options):
+            return {**row, "status": "skipped", "windows": windows_complete(out)}
     t = time.perf_counter()
     args = argparse.Namespace(**{**options, "resume": True if store.is_dir() and not options["force"] else None})
     err, caught = io.StringIO(), []
@@ -162,6 +165,46 @@ def run_job(options: dict, command) -> dict:
     still = input_word(options["input"]) != "recording"  # (its maps are one frame's: no windows)
     row.update(windows="" if still else windows_complete(out), seconds=round(time.perf_counter() - t, 2))
     return row
+
+
+def _goes_further(attrs: dict, options: dict) -> bool:
+    """Whether a finished run (its store's ``attrs``) has windows to add for ``options``' window
+    limits: it ended at its own limit (not the recording's end) and the limit asked for now is
+    larger (no limit, a larger ``max_windows``, or another ``end_ms``, which the run itself
+    weighs against the windows it holds)."""
+    if options.get("end_ms") is not None:
+        stored = (attrs["snn_fg"].get("run_key") or {}).get("end_ms")
+        return stored != options["end_ms"] and goes_on(attrs, None)
+    return goes_on(attrs, options.get("max_windows"))
+
+
+def refused_before_running(jobs: list[dict], out: Path) -> None:
+    """Refuse a batch in one line before any recording runs (nothing run, nothing written) when it
+    could only end half-done: a ``summary.csv`` in ``out`` that is not a batch's (the user's own
+    table, which the batch would replace), or, without ``--force``, a recording's earlier run that
+    was made with other options (every such recording would fail, and the summary say nothing was done)."""
+    summary = out / SUMMARY_NAME
+    if (summary.exists() or summary.is_symlink()) and not is_batch_summary(summary):
+        raise InputError(
+            summary,
+            f"is not a batch's summary (its first line is not {','.join(SUMMARY_COLUMNS)}), and the batch would "
+            "replace it: nothing was run; choose another output folder",
+        )
+    for job in jobs:
+        store = Path(job["out"]) / STORE_NAME
+        if job["force"] or not store.is_dir():
+            continue
+        try:
+            stored_run(store, run_key(argparse.Namespace(**job)), WINDOW_LIMITS)
+        except InputError as exc:
+            others = sum((Path(j["out"]) / STORE_NAME).is_dir() for j in jobs) - 1
+            more = f" (and {others} other recording{'s' * (others != 1)} have earlier runs here)" if others else ""
+            differ = exc.problem.partition("these differ: ")[2]
+            raise InputError(
+                Path(job["out"]),
+                f"holds an earlier run made with other options (these differ: {differ}){more}: nothing was run; "
+                "--force replaces the earlier runs, or choose another --out",
+            ) from None
 
 
 def input_word(path: str) -> str:
@@ -243,6 +286,7 @@ def run_dataset(args, command) -> int:
     0, or 1 when a recording failed."""
     jobs = _jobs(args)
     out = Path(args.out)
+    refused_before_running(jobs, out)
     check_writable(out)
     with writing(out):
         out.mkdir(parents=True, exist_ok=True)

@@ -88,12 +88,19 @@ SUMMARY_NAME = "summary.csv"
 SUMMARY_COLUMNS = ("recording", "output", "status", "windows", "seconds", "error")
 
 
+def is_batch_summary(entry: Path) -> bool:
+    """Whether ``entry`` is a batch's ``summary.csv``, told by its header."""
+    if entry.name != SUMMARY_NAME or not entry.is_file() or entry.is_symlink():
+        return False
+    with open(entry, encoding="utf-8", errors="replace") as fh:
+        return fh.readline().strip() == ",".join(SUMMARY_COLUMNS)
+
+
 def _batch_part(entry: Path) -> bool:
-    """Whether ``entry`` is part of an earlier batch: its ``summary.csv`` (by its header), or one
+    """Whether ``entry`` is part of an earlier batch: its ``summary.csv`` (:func:`is_batch_summary`), or one
     recording's run folder in it (holding a run's maps, and only what a run writes)."""
-    if entry.name == SUMMARY_NAME and entry.is_file() and not entry.is_symlink():
-        with open(entry, encoding="utf-8", errors="replace") as fh:
-            return fh.readline().strip() == ",".join(SUMMARY_COLUMNS)
+    if entry.name == SUMMARY_NAME:
+        return is_batch_summary(entry)
     if not entry.is_dir() or entry.is_symlink():
         return False
     inside = list(entry.iterdir())

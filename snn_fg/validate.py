@@ -70,6 +70,11 @@ def integer(owner: str, name: str, value, *, lo: int | None = None, hi: int | No
     return v
 
 
+def seed(owner: str, value, name: str = "seed") -> int:
+    """A random seed: an integer >= 0 (numpy's generators take no negative one)."""
+    return integer(owner, name, value, lo=0)
+
+
 def flag(owner: str, name: str, value) -> bool:
     """A bool (not 0 or 1)."""
     if not isinstance(value, bool):

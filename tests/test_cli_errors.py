@@ -255,3 +255,36 @@ def test_a_run_out_of_memory_is_one_line_naming_the_size_and_the_smaller_network
 def test_a_refusal_names_the_input_only_where_the_input_is_the_reason(tmp_path, args, starts):
     res = run_cli("run", "demo", "--out", tmp_path / "o", *args, "--no-progress")
     assert res.returncode == 2 and res.stderr.startswith(starts), res.stderr
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "demo", "--model", "spiking", "--network", "compact", "--seed", "-1"],
+        ["run", "demo", "--model", "natural-spiking", "--seed", "-2"],
+        ["events", "demo", "--seed", "-1"],
+    ],
+)
+def test_a_negative_seed_is_one_line_not_numpys_traceback(argv, tmp_path, capsys):
+    """``--seed -1`` ended in numpy's traceback ('expected non-negative integer')."""
+    from snn_fg.cli import main
+
+    with pytest.raises(SystemExit) as ended:  # (argparse's own refusal: its usage line, then the error)
+        main([*argv, "--out", str(tmp_path / "o")] if argv[0] == "run" else argv)
+    err = capsys.readouterr().err
+    assert ended.value.code == 2 and "argument --seed: must be >= 0, got -" in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_negative_seed_is_refused_where_a_model_or_the_camera_is_made():
+    import numpy as np
+
+    from snn_fg.errors import ParameterError
+    from snn_fg.events.esim import simulate_frames
+    from snn_fg.models import get_model
+
+    with pytest.raises(ParameterError, match="seed=-1 must be >= 0"):
+        get_model("spiking", seed=-1)
+    with pytest.raises(ParameterError, match="simulate_frames: seed=-1 must be >= 0"):
+        simulate_frames(np.zeros((2, 4, 4)), [0, 10], seed=-1)
+    assert get_model("spiking", seed=0) is not None

@@ -38,6 +38,7 @@ from .options import (
     add_camera_options,
     add_image_scale_option,
     camera_options,
+    number,
     recording_or_demo,
     sensor_size,
     subcommand,
@@ -90,7 +91,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         "BSDS conversion (2-px copies down and right, through JPEG)",
     )
     g.add_argument("--amplitude-px", type=float, default=1.0, metavar="A", help="motion amplitude (default 1)")
-    g.add_argument("--seed", type=int, default=0, help="seed for threshold noise (default 0)")
+    g.add_argument("--seed", type=number(int, 0, strict=False), default=0, help="seed for threshold noise (default 0)")
     g.add_argument("--threshold-sigma", type=float, default=0.0, help="per-pixel threshold noise (std, default 0)")
     add_image_scale_option(g, "the simulated camera")
     g = p.add_argument_group("outputs")

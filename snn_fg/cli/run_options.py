@@ -124,7 +124,7 @@ RUN_OPTIONS = (
             (
                 "--seed",
                 int,
-                -(2**63),
+                0,
                 False,
                 "frames and images: seed of the input spike phases (0); recordings: of the held sources' "
                 "phases, with --input-coding window or sliding only",

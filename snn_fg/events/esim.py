@@ -154,7 +154,7 @@ def simulate_frames(
     threshold_off = threshold_on if px_opts.threshold_off is None else px_opts.threshold_off
     threshold_sigma, refractory_us, eps = px_opts.threshold_sigma, px_opts.refractory_us, px_opts.eps
     _, h, w = frames.shape
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(validate.seed("simulate_frames", seed))
     c_on = _thresholds(threshold_on, threshold_sigma, h * w, rng, "threshold_on")
     c_off = _thresholds(threshold_off, threshold_sigma, h * w, rng, "threshold_off")
 

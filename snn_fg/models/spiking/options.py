@@ -188,7 +188,7 @@ class FrameOptions:
             if self.settle_ms is None
             else check.number(owner, "settle_ms", self.settle_ms, lo=0, hi=duration, hi_open=True),
         )
-        check.integer(owner, "seed", self.seed)
+        check.seed(owner, self.seed)
         object.__setattr__(self, "record_state", tuple(self.record_state))
 
 
@@ -216,7 +216,7 @@ class RecordingOptions:
                 self, "readout_ms", check.number(owner, "readout_ms", self.readout_ms, lo=0, lo_open=True)
             )
         check.flag(owner, "window_clock", self.window_clock)
-        check.integer(owner, "seed", self.seed)
+        check.seed(owner, self.seed)
 
 
 @dataclass(frozen=True)

@@ -213,3 +213,23 @@ def test_resume_knows_the_recording_however_its_path_is_typed(recording, tmp_pat
     capsys.readouterr()
     assert main(["run", "../other.es", *common, "--out", "../out", "--max-windows", "5", "--resume"]) == 2
     assert "these differ: input" in capsys.readouterr().err
+
+
+def test_a_resumed_run_says_its_earlier_animation_shows_the_windows_before(recording, tmp_path, capsys):
+    """snn-fg plot RUN --animate at 53 windows, then --resume to 183: the closing line listed maps.gif among
+    what was written, still the 53-window animation."""
+    from snn_fg.cli.main import main
+    from snn_fg.events import save_events
+
+    save_events(tmp_path / "disc.es", recording.events, recording.sensor_size)
+    out = tmp_path / "out"
+    common = [str(tmp_path / "disc.es"), "--model", "rate", "--levels", "3", "--window-ms", "40", "--no-progress"]
+    assert main(["run", *common, "--no-figures", "--out", str(out), "--max-windows", "2"]) == 0
+    assert main(["plot", str(out), "--animate"]) == 0
+    gif = (out / "maps.gif").read_bytes()
+    capsys.readouterr()
+    assert main(["run", *common, "--no-figures", "--out", str(out), "--max-windows", "3", "--resume"]) == 0
+    said = capsys.readouterr().out
+    assert f"{out}/maps.gif shows the windows before this run: snn-fg plot {out} --animate {out}/maps.gif" in said
+    assert "draws all 3" in said and "maps.gif" not in said.splitlines()[-1]  # (not among what was written)
+    assert (out / "maps.gif").read_bytes() == gif  # (left as it was)

@@ -237,11 +237,20 @@ def _run_recording(args, model) -> str | None:
     args.interrupt_note = _interrupted(args.out, None)
     options = {"crop": args.crop, "figures": not args.no_figures, "resume": bool(args.resume)}
     key = {"run_key": resumed, "may_differ": WINDOW_LIMITS}
+    # (an animation snn-fg plot drew of the windows before: a resumed run adds windows, and does not draw it again)
+    stale = sorted(p.name for p in out.glob("maps.*") if p.suffix in (".gif", ".mp4")) if args.resume else []
     n = _settled(args, out, previous, lambda: run_recording(model, windows, out, source, **options, **key))
     if model.needs == "image":
         kept = store_arrays(out / STORE_NAME, n)
         print("snn-fg: " + pairing_note(kept["t_end_us"], kept["aps_index"], kept.get("aps_t_us")))
-    return f"{n} window{'s' if n != 1 else ''}, " + ", ".join(sorted(p.name for p in out.iterdir()))
+    for name in stale:
+        print(
+            f"snn-fg: {args.out}/{name} shows the windows before this run: snn-fg plot {args.out} --animate "
+            f"{args.out}/{name} --force draws all {n}"
+        )
+    return f"{n} window{'s' if n != 1 else ''}, " + ", ".join(
+        sorted(p.name for p in out.iterdir() if p.name not in stale)
+    )
 
 
 def _interrupted(folder: str, n: int | None, earlier: bool = False, finished: bool = False) -> str:

@@ -109,3 +109,36 @@ def test_wrong_things_handed_to_the_api_are_named_not_tracebacks(frame):
         get_model("spiking", network=1)
     with pytest.raises(ParameterError, match="run_live: window_ms='85' must be a finite number"):
         run_live(get_model("rate"), [], None, sensor_size=(16, 16), window_ms="85")
+
+
+@pytest.mark.parametrize("name", ["rate", "spiking", "natural"])
+def test_an_event_model_given_an_image_says_how_to_make_its_event_frame(name):
+    """get_model("rate").run_still(Still(image=img)) said 'run_edfg: pos is None'."""
+    from snn_fg.errors import InputError
+    from snn_fg.frames.still import Still
+    from snn_fg.models import get_model
+
+    with pytest.raises(InputError, match="runs on an event frame, and this Still holds an image only: pos, neg = "):
+        get_model(name).run_still(Still(image=np.full((16, 16), 0.5)))
+
+
+def test_the_frame_model_given_an_event_frame_asks_for_an_image():
+    from snn_fg.errors import InputError
+    from snn_fg.frames.still import Still
+    from snn_fg.models import get_model
+
+    frame = np.zeros((16, 16), np.uint8)
+    with pytest.raises(InputError, match="the fbfg model runs on an image, and this Still holds an event frame only"):
+        get_model("fbfg").run_still(Still(frame, frame))
+
+
+def test_get_model_refuses_a_backend_it_has_not_when_made_and_names_every_option():
+    """get_model("spiking", backend="gpu") was made, and refused only when it first ran; the rate model's
+    unknown-option line left out network and the parameters it takes as keywords."""
+    from snn_fg.errors import ParameterError
+    from snn_fg.models import get_model
+
+    with pytest.raises(ParameterError, match="backend='gpu' must be one of 'brian2', 'fast'"):
+        get_model("spiking", backend="gpu")
+    with pytest.raises(ParameterError, match="takes no option bogus \\(it takes params, .*network, and the model "):
+        get_model("rate", bogus=1)

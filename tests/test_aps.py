@@ -161,8 +161,20 @@ def test_a_recording_without_frames_gets_one_line(capsys, tmp_path):
     assert "has no APS frames (it is .es, a format that carries no frames)" in err
     assert not (tmp_path / "o").exists()
     window = next(iter(iter_windows(DISC)))
-    with pytest.raises(InputError, match="reads a recording's APS frames: give it ApsWindows"):
+    with pytest.raises(InputError, match="give run_windows FramedWindows\\(iter_windows\\(path, ...\\)") as said:
         get_model("fbfg").run_window(window)
+    assert "ApsWindow" not in str(said.value)  # (a name the docs never give)
+
+
+def test_the_way_the_fbfg_refusal_names_runs(tmp_path):
+    """What the refusal above tells a script to write runs the fbfg model on a recording's frames."""
+    from snn_fg.events import open_recording
+    from snn_fg.events.aps import FramedWindows, require_frames
+
+    sensor = open_recording(DISC).sensor_size
+    windows = FramedWindows(iter_windows(DISC, max_windows=2), require_frames(DISC, sensor), sensor)
+    done = list(get_model("fbfg").run_windows(windows))
+    assert len(done) == 2 and all(int(maps.extra["aps_index"]) >= 0 for _, maps in done)
 
 
 def test_frames_of_another_size_than_the_sensor_get_one_line(capsys, tmp_path):

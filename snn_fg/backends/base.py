@@ -19,6 +19,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import validate as check
+from ..lowering.unroll import INSTANTIATE
 from ..network.graph import Network
 from ..network.nodes import Population
 
@@ -92,7 +93,7 @@ class RunSettings:
             "count_from_ms",
             check.number(owner, "count_from_ms", self.count_from_ms, lo=0, hi=self.duration_ms, hi_open=True),
         )
-        check.choice(owner, "instantiate", self.instantiate, ("input", "all"))
+        check.choice(owner, "instantiate", self.instantiate, INSTANTIATE)
         if self.count_bins_ms is not None:
             given = np.asarray(self.count_bins_ms)
             plain = given.ndim == 1 and given.dtype.kind in "iuf"

@@ -12,7 +12,9 @@ from ..errors import InputError
 from ..events.cutter import WINDOW_MS
 from ..frames.pool import MAPS_GRIDS
 from ..frames.still import KIND_NAMES, image_scale_refusal
+from ..lowering.unroll import INSTANTIATE
 from ..models import MODELS, get_model
+from ..models.interface import SPIKE_INPUTS
 from ..models.spiking.options import FRAME_DURATION_MS, READOUT_LAG_MS
 from ..network.graph import HELD_CODINGS, INPUT_CODINGS
 from ..network.recipes import INPUT_REFRACTORY_MS, POOL, TIME_STEPS_TEXT, model_params_of
@@ -131,7 +133,7 @@ RUN_OPTIONS = (
             ),
             (
                 "--spike-input",
-                ("regular", "events"),
+                SPIKE_INPUTS,
                 None,
                 None,
                 "images: regular trains at every event pixel, or the "
@@ -183,7 +185,7 @@ RUN_OPTIONS = (
             ),
             (
                 "--instantiate",
-                ("input", "all"),
+                INSTANTIATE,
                 None,
                 None,
                 "cells to create: those this input can use, or every "

@@ -21,7 +21,13 @@ def model_options(name: str, options: dict, takes: tuple) -> None:
     unknown = sorted(set(options) - set(takes))
     if unknown:
         known = ", ".join(("params", "progress", *takes))
-        check.fail("get_model", None, None, f"model {name!r} takes no option {', '.join(unknown)} (it takes {known})")
+        check.fail(
+            "get_model",
+            None,
+            None,
+            f"model {name!r} takes no option {', '.join(unknown)} (it takes {known}, and the model parameters "
+            "snn-fg run takes as options, as keywords: r0=4, levels=7, ...)",
+        )
 
 
 _HOW = "give the windows of iter_windows(RECORDING, window_ms=..., max_windows=...)"
@@ -53,13 +59,26 @@ def _window(owner: str, k: int, w) -> EventWindow:
     return w
 
 
-def still(owner: str, given) -> Still:
-    """``given`` if it is a :class:`~snn_fg.frames.still.Still`; else one line saying what to give (a
-    tuple ``(pos, neg)`` or an image array was an AttributeError from inside the model)."""
+def still(owner: str, given, model) -> Still:
+    """``given`` if it is a :class:`~snn_fg.frames.still.Still` holding what ``model`` runs on (its
+    ``needs``: an event frame, or an image); else one line saying what to give (a tuple ``(pos, neg)``
+    or an image array was an AttributeError from inside the model, and an image given to an event
+    model 'run_edfg: pos is None')."""
     if not isinstance(given, Still):
         raise InputError(
             f"<{type(given).__name__}>",
             f"{owner} takes a Still: Still(pos, neg) for an event frame, Still(image=...) for an image "
             "(from snn_fg.frames.still import Still); a recording's windows go to run_windows",
         )
+    if model.needs == "image" and given.image is None:
+        raise InputError(
+            "<Still>", f"the {model.name} model runs on an image, and this Still holds an event frame only: "
+            "give Still(image=...) (grey or RGB, floats in [0, 1])",
+        )  # fmt: skip
+    if model.needs != "image" and given.pos is None:
+        raise InputError(
+            "<Still>", f"the {model.name} model runs on an event frame, and this Still holds an image only: "
+            "pos, neg = image_to_frame(image) makes one as the simulated camera sees it (from snn_fg.events "
+            "import image_to_frame), then Still(pos, neg)",
+        )  # fmt: skip
     return given

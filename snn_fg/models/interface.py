@@ -52,7 +52,7 @@ class RateModel(Model):
         self.carry_state = check.flag("rate", "carry_state", carry_state)
 
     def run_still(self, still: Still) -> Maps:
-        checks.still("run_still", still)
+        checks.still("run_still", still, self)
         from .rate.edfg import run_edfg
 
         t = time.perf_counter()
@@ -110,14 +110,19 @@ class FbfgModel(Model):
         self._last = None  # (frame index, maps): windows that share a frame share its maps
 
     def run_still(self, still: Still) -> Maps:
-        checks.still("run_still", still)
+        checks.still("run_still", still, self)
         from .rate.fbfg import run_fbfg
 
         return run_fbfg(still.image, self.params, progress=self.progress, edge_operator=self.edge_operator)
 
     def run_window(self, window) -> Maps:
         if not isinstance(window, ApsWindow):
-            raise InputError("<recording>", "the fbfg model reads a recording's APS frames: give it ApsWindows")
+            raise InputError(
+                "<recording>",
+                "the fbfg model reads a DAVIS recording's APS frames, which these windows do not carry: give "
+                "run_windows FramedWindows(iter_windows(path, ...), require_frames(path), sensor_size) (from "
+                "snn_fg.events.aps), as snn-fg run --model fbfg does",
+            )
         frame, origin = window.aps, window.t_start_us if window.t_first_event_us is None else window.t_first_event_us
         if frame is None:
             return dataclasses.replace(self.empty_maps(window.pos.shape), extra={"aps_index": np.int64(-1)})
@@ -230,7 +235,7 @@ class SpikingModel(Model):
         return self.named(run_spiking(**inputs, **self._keywords("frame")))
 
     def run_still(self, still: Still) -> Maps:
-        checks.still("run_still", still)
+        checks.still("run_still", still, self)
         if self.spike_input == "events":
             if still.recording is None:
                 raise InputError(
@@ -319,7 +324,7 @@ def get_model(name: str, params: ModelParams | None = None, progress=None, **opt
     network = options.get("network")
     if network is not None and "network" not in model.options and model is RateModel:
         options.pop("network")  # (the rate model reads a network's model parameters only)
-    checks.model_options(name, options, model.options)
+    checks.model_options(name, options, model.options + (("network",) if model is RateModel else ()))
     if given and (params is not None or network is not None):
         check.fail(
             "get_model", None, None,

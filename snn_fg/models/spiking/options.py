@@ -28,8 +28,9 @@ from pathlib import Path
 from tqdm import tqdm
 
 from ... import validate as check
-from ...backends import DEFAULT_BACKEND, Backend, as_backend
+from ...backends import DEFAULT_BACKEND, Backend, as_backend, backend_names
 from ...frames.pool import MAPS_GRIDS, pooled_shape
+from ...lowering.unroll import INSTANTIATE
 from ...network.builder import build_network
 from ...network.graph import INPUT_CODINGS, INPUT_RATE_HZ, Network
 from ...network.recipes import network_for
@@ -127,10 +128,12 @@ class SimulatorOptions:
     owner: InitVar[str] = "run_spiking"
 
     def __post_init__(self, owner):
+        if not isinstance(self.backend, Backend):  # (a name: refused here, not when the first run starts)
+            check.choice(owner, "backend", self.backend, tuple(backend_names()))
         if self.dt_ms is not None:
             object.__setattr__(self, "dt_ms", check.number(owner, "dt_ms", self.dt_ms, lo=0, lo_open=True))
         if self.instantiate is not None:
-            check.choice(owner, "instantiate", self.instantiate, ("input", "all"))
+            check.choice(owner, "instantiate", self.instantiate, INSTANTIATE)
 
     def step_for(self, network: Network) -> float:
         """The time step of a run of ``network``: ``dt_ms``, or the network's own."""

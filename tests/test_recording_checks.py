@@ -162,6 +162,22 @@ def test_a_file_cut_inside_an_event_part_way_ends_the_run_at_the_windows_before_
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # nothing set aside is left
 
 
+def test_events_summarises_a_cut_file_up_to_its_damage_then_says_it(tmp_path, capsys):
+    """snn-fg events on a file cut inside an event printed only the error, where run keeps the
+    windows before it: the summary now counts the events before the damage, and the error follows."""
+    cut = _cut_es(tmp_path)
+    assert main(["events", str(cut), "--no-progress"]) == 2
+    said = capsys.readouterr()
+    assert "events:     399,999 (ON" in said.out
+    assert "damaged:    the events above are those before it (byte offset 2000015, event 399999)" in said.out
+    err = [line for line in said.err.strip().splitlines() if "warning" not in line]
+    assert err == [
+        f"snn-fg: error: {cut}: file ends inside an event (2 of 5 bytes) (at byte offset 2000015, event 399999)"
+    ]
+    assert main(["events", str(cut), "--no-progress", "--write-events", str(tmp_path / "e.npy")]) == 2  # (no file
+    assert not (tmp_path / "e.npy").exists()  # is written from a damaged one)
+
+
 def test_bad_input_before_any_window_keeps_the_earlier_run(tmp_path, capsys):
     """Refused before its first window, a --force run leaves the earlier run as it was."""
     cut = _cut_es(tmp_path)

@@ -166,8 +166,10 @@ def run_events(args) -> int:
     if is_image:
         print(_summary(_image_lines(path, args)))
         return 0
-    stream, lines, spans_time = _recording_lines(path, args)
+    stream, lines, spans_time, damage = _recording_lines(path, args)
     print(_summary(lines))
+    if damage is not None:  # (the events before the damage summarised, then the error's one line)
+        raise damage
     if spans_time:  # (a stream that spans no time has been warned about)
         _print_activity(stream, args)
     return 0
@@ -220,23 +222,32 @@ def _scaled_line(image, shown, scale) -> list:
 
 def _recording_lines(path, args):
     """The recording's stream, its summary (writing the frame and events
-    asked for), and whether its events span any time."""
+    asked for), whether its events span any time, and the error of a damaged
+    file (None): its events before the damage are summarised (no file is written
+    from them), as ``snn-fg run`` keeps its whole windows."""
     source = recording_or_demo(args.input)
     stream = iter_recording(source, sensor_size=args.sensor_size, progress=not args.no_progress, **camera_options(args))
     n = n_on = 0
-    t_first = t_last = None
-    for chunk in stream:
-        n += len(chunk)
-        n_on += int((chunk["p"] > 0).sum())
-        if t_first is None:
-            t_first = int(chunk["t"][0])
-        t_last = int(chunk["t"][-1])
+    t_first = t_last = damage = None
+    try:
+        for chunk in stream:
+            n += len(chunk)
+            n_on += int((chunk["p"] > 0).sum())
+            if t_first is None:
+                t_first = int(chunk["t"][0])
+            t_last = int(chunk["t"][-1])
+    except InputError as exc:
+        if not n or args.write_frame or args.write_events:
+            raise
+        damage = exc
     lines = [
         ("file", str(path) if source is args.input else DEMO_SAID),
         ("format", f"{stream.format}" + ("" if stream.streams else " (read into memory whole, not streamed)")),
         ("sensor", f"{stream.sensor_size[0]} x {stream.sensor_size[1]}"),
     ]
     lines += _span_lines(n, n_on, t_first or 0, t_last or 0)
+    if damage is not None:
+        lines.append(("damaged", f"the events above are those before it ({damage.where or 'see below'})"))
     if stream.skipped:
         lines.append(
             (
@@ -262,7 +273,9 @@ def _recording_lines(path, args):
         rec = open_recording(stream)
         save_events(args.write_events, rec.events, rec.sensor_size)
         lines.append(("events written", _written_note(args.write_events)))
-    return stream, lines, bool(n and t_last > t_first)
+    if damage is not None:
+        return stream, lines, False, damage
+    return stream, lines, bool(n and t_last > t_first), None
 
 
 def _frame_lines(path, stream, t_first) -> list:

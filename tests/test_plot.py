@@ -170,3 +170,15 @@ def test_the_overview_drawn_again_leaves_the_rate_model_s_coverage_empty(run, tm
     assert main(["plot", str(again), "--force"]) == 0
     with open(again / "windows.csv") as fh:
         assert {r["fg_coverage"] for r in csv.DictReader(fh)} == {""}
+
+
+def test_window_titles_tell_short_windows_apart():
+    """--start-ms 998.9 --window-ms 0.05: two windows were both titled '999-999 ms' in maps.png."""
+    from snn_fg.results.overview import window_titles
+
+    g = np.zeros((3, 4, 4), np.float32)
+    extra = {"pixel_share": np.full(3, 0.1), "t_start_us": np.array([998_900, 998_950, 999_000])}
+    extra["t_end_us"] = extra["t_start_us"] + 50
+    titles = window_titles(Maps(g, g, g, extra=extra))
+    assert titles == ["window 0: 998.9-998.95 ms", "window 1: 998.95-999 ms", "window 2: 999-999.05 ms"]
+    assert len(set(titles)) == 3

@@ -75,17 +75,17 @@ def draw_activity(ax_n, ax_s, act: Activity) -> None:
         ax_s.set_ylim(0, top)
         if top >= 100 * SATURATED_SHARE:
             ax_s.axhline(100 * SATURATED_SHARE, color="k", ls="--", lw=0.8)
-            said, at = f"saturated above {SATURATED_SHARE:.0%} (red)", 100 * SATURATED_SHARE
-        else:
-            said, at = f"none saturated (above {SATURATED_SHARE:.0%})", top
+            said, at, where = f"saturated above {SATURATED_SHARE:.0%} (red)", 100 * SATURATED_SHARE, "data"
+        else:  # (inside the panel's top corner: at the top's data value it sat across the frame's line)
+            said, at, where = f"none saturated (above {SATURATED_SHARE:.0%})", 0.97, "axes"
         ax_s.text(
             0.995,
             at,
             said,
             ha="right",
-            va="bottom" if at < top else "top",
+            va="bottom" if where == "data" and at < top else "top",
             fontsize=8,
-            transform=ax_s.get_yaxis_transform(),
+            transform=ax_s.get_yaxis_transform() if where == "data" else ax_s.transAxes,
         )
     ax_s.set_ylabel("pixels with an event (%)", fontsize=8)
     for ax in (ax_n, ax_s):

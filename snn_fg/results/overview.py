@@ -58,9 +58,17 @@ def input_note(maps) -> str:
     return APS_INPUT if "aps_frame" in maps.extra else EVENTS_INPUT
 
 
-def _ms(us) -> str:
-    """A time in ms as a title gives it: whole ms, or tenths where the windows are not whole ms."""
-    return f"{round(float(us) / 1000, 1):g}"
+def _ms(us, decimals: int = 1) -> str:
+    """A time in ms as a title gives it: whole ms, or to ``decimals`` places where the windows are not whole ms."""
+    return f"{round(float(us) / 1000, decimals):g}"
+
+
+def _decimals(times_us) -> int:
+    """The places of ms that tell a recording's window times apart: tenths, more for windows shorter
+    than 0.1 ms (two windows of 0.05 ms were both titled 999-999 ms), at most microseconds."""
+    t = np.unique(np.asarray(times_us, np.int64))
+    step = int(np.diff(t).min()) if t.size > 1 else 1000
+    return min(3, max(1, 3 - len(str(max(step, 1))) + 1))
 
 
 def saturated(maps) -> np.ndarray:
@@ -72,8 +80,10 @@ def saturated(maps) -> np.ndarray:
 def window_titles(maps) -> list[str]:
     """``window 3: 255-340 ms`` for every window (its number, :func:`~.timeline.window_numbers`; times
     from the recording's first event), a saturated window marked so."""
-    spans = zip(window_numbers(maps), maps.extra["t_start_us"], maps.extra["t_end_us"], saturated(maps), strict=True)
-    return [f"window {k}: {_ms(a)}-{_ms(b)} ms" + (", saturated" if s else "") for k, a, b, s in spans]
+    starts, ends = maps.extra["t_start_us"], maps.extra["t_end_us"]
+    d = _decimals(np.concatenate([np.ravel(starts), np.ravel(ends)]))
+    spans = zip(window_numbers(maps), starts, ends, saturated(maps), strict=True)
+    return [f"window {k}: {_ms(a, d)}-{_ms(b, d)} ms" + (", saturated" if s else "") for k, a, b, s in spans]
 
 
 def grouping_top(maps) -> float:

@@ -280,3 +280,20 @@ def test_the_table_says_what_it_scored_and_the_pooled_interval_the_experiment_pa
     side = record["interval"]["side_accuracy"]
     assert (side["low"], side["high"]) == (pytest.approx(s), 1.0) and record["interval"]["resamples"] == 2000
     assert record["images"][0]["settings"] == "the rate model"
+
+
+def test_the_labels_figure_draws_each_labelled_pixel_three_wide_with_its_own_value():
+    """One-pixel boundaries could not be read at screen size in a 5306 px wide figure: each labelled
+    pixel's value is drawn over its 3 x 3 neighbourhood (display only), and a labelled pixel keeps its own."""
+    from snn_fg.scoring.labels_figure import _spread, _thick
+
+    valid = np.zeros((7, 7), bool)
+    valid[3, 3] = valid[3, 5] = True
+    values = np.full((7, 7), np.nan)
+    values[3, 3], values[3, 5] = 10.0, 170.0
+    shown = _spread(values, _thick(valid), np.nan)
+    assert np.isfinite(shown).sum() == 15  # (two 3 x 3 blocks sharing column 4: rows 2-4, columns 2-6)
+    assert shown[3, 3] == 10.0 and shown[3, 5] == 170.0 and shown[2, 2] == 10.0 and shown[4, 6] == 170.0
+    assert np.isnan(shown[0, 0]) and np.isnan(shown[3, 0])
+    empty = np.zeros((4, 4), bool)
+    assert np.array_equal(_spread(np.zeros((4, 4)), _thick(empty), 0.0), np.zeros((4, 4)))

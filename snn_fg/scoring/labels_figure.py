@@ -48,6 +48,32 @@ def _distinct(s) -> list[tuple[int, str]]:
     return out
 
 
+#: how far (px) a labelled pixel's colour is spread in the figure, so that one-pixel boundaries can be read
+#: at screen size (a 5306 px wide figure of three labellers showed them as hairlines); display only
+SHOWN_WIDTH_PX = 1.5
+
+
+def _thick(valid: np.ndarray):
+    """Where to draw a labelled pixel's colour (within :data:`SHOWN_WIDTH_PX` of one), and the nearest
+    labelled pixel of each place (its row and column index arrays)."""
+    from scipy import ndimage
+
+    if not valid.any():
+        return valid, None
+    dist, nearest = ndimage.distance_transform_edt(~valid, return_indices=True)
+    return dist <= SHOWN_WIDTH_PX, tuple(nearest)
+
+
+def _spread(values: np.ndarray, near, fill):
+    """``values`` (at labelled pixels) drawn at every place of ``near`` (:func:`_thick`)."""
+    shown, nearest = near
+    if nearest is None:
+        return values
+    out = np.full_like(values, fill)
+    out[shown] = values[nearest][shown]
+    return out
+
+
 def labels_figure(scored, max_rows: int = 6) -> Figure:
     """One row per image (at most ``max_rows``, evenly spaced) of :class:`~snn_fg.cli.compare_labels.Scored`."""
     idx = rows_shown(len(scored), max_rows)  # (the images the command kept the fields of)
@@ -73,13 +99,15 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
         for j, (k, who) in enumerate(_distinct(s)):
             tx, ty, valid = s.truths[k]
             lab, err = row[2 + 2 * j], row[3 + 2 * j]
-            show_map(lab, fg_rgb(np.where(valid, tx, 0), np.where(valid, ty, 0)), brightness)
+            near = _thick(valid)  # (each labelled pixel drawn a few pixels wide: the scores are the pixels')
+            labelled = fg_rgb(np.where(valid, tx, 0), np.where(valid, ty, 0))
+            show_map(lab, _spread(labelled, near, 0.0), brightness)
             lab.set_title(f"{who}: labelled direction\n(towards the figure)", fontsize=9)
             diff = np.where(valid & has, angle_difference_deg(fx, fy, tx, ty), np.nan)
             missing = np.zeros((*valid.shape, 4))
             missing[valid & ~has] = to_rgba(NO_VECTOR)
-            show_map(err, missing, brightness)
-            im = show_map(err, diff, brightness, cmap="viridis", vmin=0, vmax=180)
+            show_map(err, _spread(missing, near, 0.0), brightness)
+            im = show_map(err, _spread(diff, near, np.nan), brightness, cmap="viridis", vmin=0, vmax=180)
             errors.append(err)
             st = pool_stats([s.parts[k]])  # (the table's numbers, not a second count)
             err.set_title(
@@ -99,7 +127,10 @@ def labels_figure(scored, max_rows: int = 6) -> Figure:
         bar.set_label("error panels: |angle difference| (deg)", fontsize=8)
         bar.ax.tick_params(labelsize=7)
     wheel_inset(axes[0][1], caption=False)  # (the title says what the hue is: no room beside these panels)
-    red = Patch(facecolor=NO_VECTOR, label="error panels: labelled, but no vector from the run (white: not labelled)")
+    red = Patch(
+        facecolor=NO_VECTOR,
+        label="error panels: labelled, but no vector from the run (white: not labelled); boundaries drawn 3 px wide",
+    )
     fig.legend(handles=[red], loc="outside lower center", fontsize=8, frameon=False)
     note = shown_note(idx, len(scored), "images", [s.image_id for s in scored])
     fig.suptitle(

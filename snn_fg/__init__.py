@@ -22,6 +22,12 @@ below it, with one exception: every layer writes files and shows progress with
 
 ``snn_fg.Maps`` is :class:`snn_fg.results.maps.Maps`, what every run writes and
 ``Maps.load(folder)`` reads back.
+
+From Python, every model runs as ``snn-fg run`` runs it through
+:func:`snn_fg.models.get_model` (``get_model("spiking", network="compact")``, then its
+``run_windows`` or ``run_still``); :func:`snn_fg.events.iter_windows` cuts a recording
+into windows, and :func:`snn_fg.scoring.metrics.compare_maps` compares two runs' maps as
+``snn-fg compare`` does (``docs/usage.md``, "From Python").
 """
 
 __all__ = ["Maps", "__version__"]

@@ -66,6 +66,11 @@ class Maps:
         return np.hypot(self.fg_x, self.fg_y)
 
     def save(self, path) -> Path:
+        """Write the maps to the ``.npz`` file ``path`` (whole, or not at: written aside and moved
+        into place) and return its path: ``fg_x``, ``fg_y``, ``grouping``, ``params`` as a JSON
+        string, and every ``extra`` array (:meth:`load` reads it back). Like every file snn-fg
+        writes it carries the mark that lets a later ``--force`` replace it; a file of that name
+        is replaced whatever it holds (the command line asks for ``--force`` first)."""
         return save_npz(
             path,
             fg_x=self.fg_x,

@@ -288,3 +288,19 @@ def test_a_negative_seed_is_refused_where_a_model_or_the_camera_is_made():
     with pytest.raises(ParameterError, match="simulate_frames: seed=-1 must be >= 0"):
         simulate_frames(np.zeros((2, 4, 4)), [0, 10], seed=-1)
     assert get_model("spiking", seed=0) is not None
+
+
+def test_a_stored_network_made_for_another_frame_is_said_to_run_resized(tmp_path, capsys):
+    """A 304 x 240 network read back ran on a 320 x 240 recording without a word (a new user's trial)."""
+    from snn_fg.cli import main
+    from snn_fg.network import build_network
+    from snn_fg.params import ModelParams
+
+    desc = tmp_path / "net.json"
+    build_network(ModelParams(levels=2), (20, 24)).save(desc)
+    common = ["demo", "--network", str(desc), "--no-figures", "--no-progress"]
+    assert main(["run", *common, "--model", "spiking", "--duration-ms", "40", "--out", str(tmp_path / "s")]) == 0
+    out = capsys.readouterr().out
+    assert f"snn-fg: note: {desc} was made for a 24 x 20 frame and runs resized to this input's " in out
+    assert main(["run", *common, "--model", "rate", "--out", str(tmp_path / "r")]) == 0  # (its parameters only)
+    assert "resized" not in capsys.readouterr().out

@@ -11,6 +11,7 @@ window by window into a folder that a run cut short keeps for ``--resume``
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 from ..errors import InputError
 from ..events.aps import FramedWindows, pairing_note, require_frames
@@ -22,6 +23,7 @@ from ..frames.pool import pooled_shape
 from ..frames.pyramid import check_levels
 from ..frames.still import RATE_BYTES_PER_PIXEL, SPIKING_BYTES_PER_PIXEL, input_kind, load_frame
 from ..models import MODELS
+from ..network.recipes import is_recipe, load_description
 from ..results.atomic import OutputFolder, growing_folder, settle_folder
 from ..results.store import STORE_NAME, read_attrs, run_finished, store_arrays, stored_run, windows_complete
 from ..results.timeline import MAPS_FIGURE
@@ -143,7 +145,18 @@ def cmd_run(args) -> int:
 
 
 def _check_frame(args, model, shape) -> None:
-    """The input's frame of ``shape`` (rows, cols) holds the model's levels and ``--crop``."""
+    """The input's frame of ``shape`` (rows, cols) holds the model's levels and ``--crop``; a
+    stored network made for another frame is said to run resized to it (its kernels are weight
+    shared: only its populations' sizes change; ``params["network"]["resized_from"]`` records it)."""
+    stored = getattr(args, "network", None)
+    if "network" in model.options and stored is not None and not is_recipe(stored) and Path(stored).is_file():
+        made = load_description(stored).frame_shape
+        runs = pooled_shape(shape, model.params.input_pool)
+        if tuple(made) != tuple(runs):
+            print(
+                f"snn-fg: note: {stored} was made for a {made[1]} x {made[0]} frame and runs resized to this "
+                f"input's {runs[1]} x {runs[0]} (the same kernels: only its populations' sizes change)"
+            )
     try:
         check_levels(
             pooled_shape(shape, model.params.input_pool),

@@ -9,6 +9,7 @@ import pytest
 
 from snn_fg.cli import main
 from snn_fg.cli.batch import output_names, recordings_of
+from snn_fg.errors import InputError
 from snn_fg.results.maps import Maps
 
 
@@ -90,6 +91,10 @@ def test_inputs_a_folder_a_glob_or_a_list_name(folder, tmp_path):
     assert [p.name for p in recordings_of(str(folder))] == ["a.npy", "b.npy", "c.npy"]
     assert [p.name for p in recordings_of(str(folder / "[ac].npy"))] == ["a.npy", "c.npy"]
     assert recordings_of(str(listed)) == [tmp_path / "recs" / "c.npy", folder / "a.npy"]
+    twice = tmp_path / "twice.txt"  # (the same recording, named two ways: it ran twice, as a_1 and a_2)
+    twice.write_text(f"recs/a.npy\n# again\n{folder / 'a.npy'}\n")
+    with pytest.raises(InputError, match=r"names .*a.npy twice \(lines 1 and 3\): a recording runs once"):
+        recordings_of(str(twice))
     assert output_names([tmp_path / "x" / "r.es", tmp_path / "y" / "r.es", tmp_path / "q.raw"]) == ["x_r", "y_r", "q"]
     assert main(["run", str(folder / "*.es"), "--out", str(tmp_path / "o")]) == 2  # names nothing
     assert main(["run", str(folder / "a.npy"), "--out", str(tmp_path / "p"), "--workers", "2"]) == 2

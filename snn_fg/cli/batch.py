@@ -63,10 +63,14 @@ def recordings_of(spec: str) -> list[Path]:
         found = [p for p in found if p.suffix.lower() != ".txt" or reads_as_events(p)]  # (not calib.txt...)
     elif path.suffix.lower() == ".txt":
         lines = [line.strip() for line in _list_text(path).splitlines()]
-        found = [
-            p if p.is_absolute() else path.parent / p
-            for p in (Path(line) for line in lines if line and not line.startswith("#"))
-        ]
+        named = [(i + 1, Path(line)) for i, line in enumerate(lines) if line and not line.startswith("#")]
+        found = [p if p.is_absolute() else path.parent / p for _, p in named]
+        first: dict = {}
+        for (line, _), p in zip(named, found, strict=True):  # (one recording twice ran twice, _1 and _2)
+            key = p.resolve()
+            if key in first:
+                raise InputError(path, f"names {p} twice (lines {first[key]} and {line}): a recording runs once")
+            first[key] = line
     else:
         found = sorted(Path(p) for p in glob.glob(spec))
     if not found:

@@ -26,7 +26,7 @@ from ..events import (
 from ..events.activity import activity, saturated_lines, timeline_text
 from ..events.aps import frame_summary, open_frames
 from ..events.cutter import WINDOW_MS
-from ..events.esim import MOTION, MOTIONS, THRESHOLD
+from ..events.esim import AMPLITUDE_PX, MOTION, MOTIONS, THRESHOLD
 from ..events.formats import SUFFIXES_TEXT
 from ..events.images import IMAGE_SUFFIXES, read_image
 from ..frames.still import image_scale_refusal, simulator_cost, sized_image
@@ -62,7 +62,7 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         "--window-ms",
         type=float,
         default=WINDOW_MS,
-        help="window length of the activity timeline and --write-frame (default 85, as snn-fg run)",
+        help=f"window length of the activity timeline and --write-frame (default {WINDOW_MS:g}, as snn-fg run)",
     )
     g.add_argument(
         "--start-ms",
@@ -87,10 +87,16 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
         "--motion",
         choices=MOTIONS,
         default=MOTION,
-        help="shift4 (default): 1-px shift up, right, down, left; circle: iCub microsaccade; paper: the authors' "
-        "BSDS conversion (2-px copies down and right, through JPEG)",
+        help="shift4: 1-px shift up, right, down, left; circle: iCub microsaccade; paper: the authors' "
+        f"BSDS conversion (2-px copies down and right, through JPEG) (default {MOTION})",
     )
-    g.add_argument("--amplitude-px", type=float, default=1.0, metavar="A", help="motion amplitude (default 1)")
+    g.add_argument(
+        "--amplitude-px",
+        type=float,
+        default=AMPLITUDE_PX,
+        metavar="A",
+        help=f"motion amplitude (default {AMPLITUDE_PX:g})",
+    )
     g.add_argument("--seed", type=number(int, 0, strict=False), default=0, help="seed for threshold noise (default 0)")
     g.add_argument("--threshold-sigma", type=float, default=0.0, help="per-pixel threshold noise (std, default 0)")
     add_image_scale_option(g, "the simulated camera")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..models import MODELS
-from ..results.animation import SUFFIXES, save_animation
+from ..results.animation import FPS, SUFFIXES, save_animation
 from ..results.figures import on_sensor, save_maps_figure
 from ..results.maps import Maps, maps_scale
 from ..results.outputs import WINDOW_FIGURE, check_output_file
@@ -57,7 +57,7 @@ def add_plot_command(sub):
         help=f"the maps over the recording as an animation, one frame per window: FILE.gif or FILE.mp4 "
         f"(default RUN/{ANIMATION_NAME})",
     )
-    p.add_argument("--fps", type=number(float, 0), default=4.0, help="--animate: windows per second (4)")
+    p.add_argument("--fps", type=number(float, 0), default=FPS, help=f"--animate: windows per second ({FPS:g})")
     p.add_argument("--crop", type=crop, metavar="X0,Y0,X1,Y1", help="draw only pixels X0 <= x < X1, Y0 <= y < Y1")
     p.add_argument(
         "--force",

@@ -58,6 +58,8 @@ MOTIONS = ("shift4", "circle", "paper")
 #: the simulated camera's defaults wherever an image is turned into events: its contrast threshold and motion
 THRESHOLD = 0.10
 MOTION = "shift4"
+#: how far (px) a motion moves the image unless told otherwise
+AMPLITUDE_PX = 1.0
 #: Positions per turn of the ``circle`` motion (every 5 degrees).
 CIRCLE_STEPS = 72
 
@@ -75,7 +77,7 @@ def shift_image(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
     return cv2.warpAffine(img, m, (img.shape[1], img.shape[0]), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
-def motion_offsets(motion: str = MOTION, amplitude_px: float = 1.0) -> np.ndarray:
+def motion_offsets(motion: str = MOTION, amplitude_px: float = AMPLITUDE_PX) -> np.ndarray:
     """Image offsets ``(dx, dy)`` (pixels; +x right, +y down) of each frame."""
     validate.choice("motion_offsets", "motion", motion, MOTIONS)
     if motion == "paper":
@@ -91,7 +93,7 @@ def motion_offsets(motion: str = MOTION, amplitude_px: float = 1.0) -> np.ndarra
     return np.round(off, 12)  # exact integers where the circle meets the axes
 
 
-def motion_frames(image, motion: str = MOTION, amplitude_px: float = 1.0, frame_interval_us: int = 5000):
+def motion_frames(image, motion: str = MOTION, amplitude_px: float = AMPLITUDE_PX, frame_interval_us: int = 5000):
     """Return ``(frames, times_us)``: grey frames (N x H x W float64) and their times.
 
     ``paper`` ignores ``amplitude_px`` (its shift is the authors' 2 px) and
@@ -207,7 +209,7 @@ def image_to_events(
     threshold: float = THRESHOLD,
     motion: str = MOTION,
     *,
-    amplitude_px: float = 1.0,
+    amplitude_px: float = AMPLITUDE_PX,
     frame_interval_us: int = 5000,
     seed: int = 0,
     pixels: PixelOptions | None = None,

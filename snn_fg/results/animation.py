@@ -18,6 +18,10 @@ SUFFIXES = (".gif", ".mp4")
 FRAME_DPI = 80
 
 
+#: windows a second of an animation unless told otherwise (``snn-fg plot --fps``)
+FPS = 4.0
+
+
 def _frames(maps, *, grouping_label: str, crop=None):
     """Each window of ``maps`` drawn as an RGB array (:func:`~.overview.window_figure`)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -33,7 +37,7 @@ def _frames(maps, *, grouping_label: str, crop=None):
         yield np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
 
-def save_animation(path, maps, *, grouping_label: str, fps: float = 4.0, crop=None) -> Path:
+def save_animation(path, maps, *, grouping_label: str, fps: float = FPS, crop=None) -> Path:
     """The windows of a recording's ``maps`` as an animation at ``fps`` windows a second into
     ``path`` (``.gif`` or ``.mp4``)."""
     path = Path(path)

@@ -31,6 +31,24 @@ def dataset_path(name: str, *parts):
     return path
 
 
+def earlier_run_files() -> dict:
+    """An earlier run's ``maps.npz`` and ``maps.png`` as snn-fg writes them, each with the mark
+    ``--force`` tells them by (bytes of other content are a user's: never replaced)."""
+    import tempfile
+    from pathlib import Path
+
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from snn_fg.results.atomic import save_figure
+    from snn_fg.results.maps import Maps
+
+    with tempfile.TemporaryDirectory() as tmp:
+        Maps(*(np.zeros((4, 4), np.float32) for _ in range(3)), params={}).save(Path(tmp) / "maps.npz")
+        save_figure(Figure(figsize=(1, 1)), Path(tmp) / "maps.png", dpi=20)
+        return {name: (Path(tmp) / name).read_bytes() for name in ("maps.npz", "maps.png")}
+
+
 @pytest.fixture
 def dataset():
     return dataset_path

@@ -16,6 +16,7 @@ import pytest
 from snn_fg.events import image_to_events, save_events
 from snn_fg.frames.scenes import demo
 from snn_fg.results.maps import Maps
+from tests.conftest import earlier_run_files
 
 pytestmark = pytest.mark.usefixtures("warm_simulators")  # compiles the engines first (conftest)
 
@@ -59,7 +60,7 @@ CASES = {
 def test_an_interrupted_run_leaves_the_output_folder_as_it_was(inputs, tmp_path, case, sig, after_s):
     out = tmp_path / "out"
     out.mkdir()
-    earlier = {"maps.npz": b"an earlier run's maps", "maps.png": b"and its figure"}
+    earlier = earlier_run_files()
     for name, data in earlier.items():
         (out / name).write_bytes(data)
     args = CASES[case](inputs)
@@ -161,7 +162,7 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_stops_a_recording_at_the_ne
     monkeypatch.setattr(runner.MapsStore, "append", append)
     out = tmp_path / "out"
     out.mkdir()
-    (out / "maps.npz").write_bytes(b"an earlier run's maps")
+    (out / "maps.npz").write_bytes(earlier_run_files()["maps.npz"])
     before = signal.getsignal(signal.SIGINT), sys.unraisablehook
     code = cli.main(
         ["run", str(inputs / "long.npz"), "--window-ms", "50", "--out", str(out), "--force", "--no-progress"]

@@ -27,6 +27,7 @@ from snn_fg.models import get_model
 from snn_fg.params import ModelParams
 from snn_fg.results.maps import Maps
 from snn_fg.results.store import read_attrs
+from tests.conftest import earlier_run_files
 
 
 class _Stream:
@@ -171,7 +172,7 @@ def test_ctrl_c_before_the_first_window_says_that_nothing_was_written(tmp_path, 
     out = tmp_path / "o"
     if earlier:  # (--force into an earlier run's folder: it is put back)
         out.mkdir()
-        (out / "maps.npz").write_bytes(b"an earlier run")
+        (out / "maps.npz").write_bytes(earlier_run_files()["maps.npz"])
     th = _interrupted_once(out / "maps.zarr")
     live = ["live", f"udp://127.0.0.1:{_free_port()}", "--out", str(out), "--sensor-size", "24x24"]
     try:

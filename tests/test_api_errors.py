@@ -142,3 +142,11 @@ def test_get_model_refuses_a_backend_it_has_not_when_made_and_names_every_option
         get_model("spiking", backend="gpu")
     with pytest.raises(ParameterError, match="takes no option bogus \\(it takes params, .*network, and the model "):
         get_model("rate", bogus=1)
+
+
+@pytest.mark.parametrize("bad", [{"rate_hz": -1.0}, {"rate_hz": True}, {"input_process": "burst"}])
+def test_a_frames_trains_are_checked_where_the_options_are_made(bad):
+    """FrameOptions left rate_hz and input_process to frame_spikes, which named itself, not run_spiking."""
+    pos, neg = image_to_frame(disc(radius=6).image)
+    with pytest.raises(ParameterError, match=f"run_spiking: {next(iter(bad))}="):
+        run_spiking(pos, neg, **bad)

@@ -100,6 +100,19 @@ def _check_dt(dt_ms):
         check.fail("input spikes", "dt_ms", dt_ms, "must be a positive number")
 
 
+#: how an event frame's pixels fire: regular trains with a random phase, or Poisson trains
+INPUT_PROCESSES = ("regular", "poisson")
+
+
+def check_trains(owner: str, rate_hz, process) -> float:
+    """An event frame's trains as ``owner`` is given them: ``rate_hz`` a positive number and
+    ``process`` one of :data:`INPUT_PROCESSES`; returns the rate as a float."""
+    if isinstance(rate_hz, bool) or not (isinstance(rate_hz, (int, float)) and np.isfinite(rate_hz) and rate_hz > 0):
+        check.fail(owner, "rate_hz", rate_hz, "must be a positive number")
+    check.choice(owner, "input_process", process, INPUT_PROCESSES)
+    return float(rate_hz)
+
+
 def frame_spikes(
     pos, neg, rate_hz: float, dt_ms: float, duration_ms: float, seed: int = 0, process: str = "regular"
 ) -> InputSpikes:
@@ -114,10 +127,7 @@ def frame_spikes(
     neg = np.asarray(neg)
     if pos.ndim != 2 or pos.shape != neg.shape:
         raise InputError("<frame>", f"pos and neg must be 2-D arrays of one shape, got {pos.shape} and {neg.shape}")
-    if not (isinstance(rate_hz, (int, float)) and np.isfinite(rate_hz) and rate_hz > 0):
-        check.fail("frame_spikes", "rate_hz", rate_hz, "must be a positive number")
-    if process not in ("regular", "poisson"):
-        check.fail("frame_spikes", "input_process", process, "must be 'regular' or 'poisson'")
+    check_trains("frame_spikes", rate_hz, process)
     on = pos != 0
     off = neg != 0
     h, w = pos.shape

@@ -30,6 +30,7 @@ from tqdm import tqdm
 from ... import validate as check
 from ...backends import DEFAULT_BACKEND, Backend, as_backend, backend_names
 from ...frames.pool import MAPS_GRIDS, pooled_shape
+from ...lowering.input_spikes import check_trains
 from ...lowering.unroll import INSTANTIATE
 from ...network.builder import build_network
 from ...network.graph import INPUT_CODINGS, INPUT_RATE_HZ, Network
@@ -192,6 +193,7 @@ class FrameOptions:
             else check.number(owner, "settle_ms", self.settle_ms, lo=0, hi=duration, hi_open=True),
         )
         check.seed(owner, self.seed)
+        object.__setattr__(self, "rate_hz", check_trains(owner, self.rate_hz, self.input_process))
         object.__setattr__(self, "record_state", tuple(self.record_state))
 
 

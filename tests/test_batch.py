@@ -78,7 +78,7 @@ def test_three_recordings_on_a_local_cluster_one_broken(folder, tmp_path, capsys
     assert main(["run", str(folder), "--out", str(out), "--workers", "1", *opts[:1], "50", *opts[2:]]) == 2
     assert capsys.readouterr().err == (
         f"snn-fg: error: {out / 'a'}: holds an earlier run made with other options (these differ: window_ms (60.0 "
-        "before, 50.0 now)) (and 1 other recording have earlier runs here): nothing was run; --force replaces the "
+        "before, 50.0 now)) (and 1 other recording has an earlier run here): nothing was run; --force replaces the "
         "earlier runs, or choose another --out\n"
     )
     np.testing.assert_array_equal(Maps.load(out / "a").fg_x, before)
@@ -253,3 +253,28 @@ def test_a_rerun_with_a_larger_window_limit_continues_the_runs_it_cut(tmp_path, 
     np.testing.assert_array_equal(Maps.load(out / "a").fg_x[:2], first)  # (continued, not made again)
     assert main([*run, "--max-windows", "3"]) == 0  # (nothing to add now)
     assert [r["status"] for r in _summary(out).values()] == ["skipped", "skipped"]
+
+
+def test_a_batch_named_another_way_goes_on_with_its_runs(tmp_path, monkeypatch):
+    """Run again with the folder's path made absolute (or from another folder), a batch was refused
+    whole: 'these differ: input (recs/a.npy before, /abs/recs/a.npy now)', where --resume goes on."""
+    d = _one_recording(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "recs", "--out", "out", "--workers", "1", "--max-windows", "2", *_QUICK]) == 0
+    assert main(["run", str(d), "--out", "out", "--workers", "1", "--max-windows", "3", *_QUICK]) == 0
+    assert {k: (r["status"], r["windows"]) for k, r in _summary(tmp_path / "out").items()} == {
+        "a.npy": ("done", "3"),
+        "c.npy": ("done", "3"),
+    }
+
+
+def test_a_rerun_whose_runs_have_nothing_to_add_skips_them(tmp_path):
+    """With --end-ms and --max-windows both given, a larger --max-windows was skipped; a limit the runs
+    already hold goes through the run and is said skipped, not done."""
+    d, out = _one_recording(tmp_path), tmp_path / "out"
+    run = ["run", str(d), "--out", str(out), "--workers", "1", "--end-ms", "5000", *_QUICK]
+    assert main([*run, "--max-windows", "2"]) == 0
+    assert main([*run, "--max-windows", "3"]) == 0
+    assert {r["windows"] for r in _summary(out).values()} == {"3"}
+    assert main([*run, "--max-windows", "2"]) == 0  # (fewer than they hold: nothing to add)
+    assert {(r["status"], r["windows"]) for r in _summary(out).values()} == {("skipped", "3")}

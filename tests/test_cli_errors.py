@@ -304,3 +304,21 @@ def test_a_stored_network_made_for_another_frame_is_said_to_run_resized(tmp_path
     assert f"snn-fg: note: {desc} was made for a 24 x 20 frame and runs resized to this input's " in out
     assert main(["run", *common, "--model", "rate", "--out", str(tmp_path / "r")]) == 0  # (its parameters only)
     assert "resized" not in capsys.readouterr().out
+
+
+def test_an_error_met_part_way_keeps_its_remedy_when_the_run_says_where_it_stopped(tmp_path, capsys):
+    """An N-MNIST event outside --sensor-size met part way through a recording lost its
+    '--sensor-size 34x18' when the run added where it had stopped."""
+    from snn_fg.cli import main
+
+    n = 400
+    t = np.arange(n) * 500
+    rec = np.zeros((n, 5), np.uint8)
+    rec[:, 0], rec[:, 1] = np.where(np.arange(n) < 300, np.arange(n) % 18, np.arange(n) % 34), np.arange(n) % 18
+    rec[:, 2], rec[:, 3], rec[:, 4] = ((t >> 16) & 0x7F) | 0x80, (t >> 8) & 0xFF, t & 0xFF
+    rec.tofile(tmp_path / "digit.bin")
+    argv = ["run", str(tmp_path / "digit.bin"), "--out", str(tmp_path / "o"), "--model", "rate", "--levels", "3"]
+    assert main([*argv, "--window-ms", "20", "--sensor-size", "20x20", "--no-figures", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "(the file's events span 34x18); give --sensor-size 34x18 or the camera's size (at byte offset 1500, " in err
+    assert "; stopped there: the 7 windows complete before it are written to" in err and err.count("\n") == 1

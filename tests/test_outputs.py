@@ -437,3 +437,34 @@ def test_run_force_keeps_a_users_maps_npz(tmp_path, capsys):
     assert main(["run", "demo", "--out", str(out), "--force", "--no-progress", "--no-figures"]) == 2
     assert "holds maps.npz, which snn-fg did not write" in _one_error(capsys)
     assert (out / "maps.npz").read_bytes() == before and sorted(os.listdir(out)) == ["maps.npz"]
+
+
+def test_earlier_outputs_without_a_mark_are_still_a_runs(tmp_path):
+    """A review of the content checks: a live.json from before it carried the version, the figure of
+    window 10000 (five digits), a figure drawn before figures carried a mark beside the run's own store,
+    and a store whose write was killed before an array's .zarray, were all refused as not snn-fg's."""
+    out = _earlier_live_run(tmp_path / "o")
+    (out / "live.json").write_text(json.dumps({"windows": 3, "latency_ms": None, "ended": "stream ended"}))
+    (out / "windows").mkdir()
+    (out / "windows" / "window_10000.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"tEXtSoftware\x00snn-fg 0.1")
+    (out / "maps.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"tEXtSoftware\x00Matplotlib version3.9")  # (no mark)
+    (out / "maps.zarr" / "grouping").mkdir()
+    (out / "maps.zarr" / "grouping" / ".zarray.x1y2.part").write_text("{")
+    assert check_output_folder(out, force=True) is True
+    assert check_output_folder(out, resume=True) is True
+    # (without the run's own maps beside it, an unmarked figure is a user's)
+    (tmp_path / "figs").mkdir()
+    (tmp_path / "figs" / "maps.png").write_bytes((out / "maps.png").read_bytes())
+    with pytest.raises(InputError, match="holds maps.png, which snn-fg did not write"):
+        check_output_folder(tmp_path / "figs", force=True)
+
+
+def test_a_batch_recording_folder_named_like_a_runs_entry_is_the_batchs(tmp_path):
+    """A recording named windows.aedat4 gives a batch folder windows/, a run's figure folder's name."""
+    from snn_fg.results.outputs import BATCH_OR_RUN, SUMMARY_COLUMNS
+
+    out = tmp_path / "batch"
+    out.mkdir()
+    (out / "summary.csv").write_text(",".join(SUMMARY_COLUMNS) + "\n")
+    _earlier_live_run(out / "windows")
+    assert check_output_folder(out, BATCH_OR_RUN, force=True) is True

@@ -36,7 +36,7 @@ from ..frames.still import input_kind
 from ..results.atomic import save_text
 from ..results.outputs import SUMMARY_COLUMNS, SUMMARY_NAME, check_writable, is_batch_summary, writing
 from ..results.progress import bar as progress_bar
-from ..results.store import STORE_NAME, run_finished, stored_run, windows_complete
+from ..results.store import STORE_NAME, read_attrs, run_finished, stored_run, windows_complete
 from .run_options import WINDOW_LIMITS, run_key
 from .runner import goes_on
 
@@ -140,13 +140,15 @@ def run_job(options: dict, command) -> dict:
     # and only when it has nothing to add: a larger window limit continues one cut by its own, as --resume does)
     if not options["force"] and run_finished(out):
         try:
-            attrs = stored_run(store, run_key(argparse.Namespace(**options)), WINDOW_LIMITS)
+            attrs = stored_run(store, batch_key(options, store), WINDOW_LIMITS)
         except InputError as exc:
             differ = exc.problem.partition("these differ: ")[2]
             said = f"{out}: holds a finished run made with other options (these differ: {differ}); --force replaces it"
             return {**row, "status": "failed", "error": said}
         if not _goes_further(attrs, options):
             return {**row, "status": "skipped", "windows": windows_complete(out)}
+    # (a finished run handed on, which its run may find nothing to add to: then it is skipped all the same)
+    held = windows_complete(out) if not options["force"] and run_finished(out) else None
     t = time.perf_counter()
     args = argparse.Namespace(**{**options, "resume": True if store.is_dir() and not options["force"] else None})
     err, caught = io.StringIO(), []
@@ -168,6 +170,8 @@ def run_job(options: dict, command) -> dict:
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     still = input_word(options["input"]) != "recording"  # (its maps are one frame's: no windows)
     row.update(windows="" if still else windows_complete(out), seconds=round(time.perf_counter() - t, 2))
+    if held is not None and row["status"] == "done" and row["windows"] == held:
+        row["status"] = "skipped"
     return row
 
 
@@ -176,10 +180,27 @@ def _goes_further(attrs: dict, options: dict) -> bool:
     limits: it ended at its own limit (not the recording's end) and the limit asked for now is
     larger (no limit, a larger ``max_windows``, or another ``end_ms``, which the run itself
     weighs against the windows it holds)."""
-    if options.get("end_ms") is not None:
-        stored = (attrs["snn_fg"].get("run_key") or {}).get("end_ms")
-        return stored != options["end_ms"] and goes_on(attrs, None)
-    return goes_on(attrs, options.get("max_windows"))
+    if options.get("end_ms") is None:
+        return goes_on(attrs, options.get("max_windows"))
+    stored = attrs["snn_fg"].get("run_key") or {}
+    changed = any(stored.get(k) != options.get(k) for k in WINDOW_LIMITS)
+    return changed and goes_on(attrs, None)  # (the run itself weighs --end-ms against the windows it holds)
+
+
+def batch_key(options: dict, store: Path) -> dict:
+    """:func:`~.run_options.run_key` of a recording's job, its input named as the run in ``store``
+    names it where both name a file of the same name: a batch run again from another folder, or
+    with the folder's path made absolute, names each recording another way (its output folder is
+    the same, made from the file's name; ``--resume`` inside the run then knows the recording by
+    its sensor and first events)."""
+    key = run_key(argparse.Namespace(**options))
+    try:
+        stored = (read_attrs(store)["snn_fg"].get("run_key") or {}).get("input")
+    except (InputError, OSError, KeyError):
+        return key
+    if stored is not None and Path(str(stored)).name == Path(str(key.get("input"))).name:
+        key["input"] = stored
+    return key
 
 
 def refused_before_running(jobs: list[dict], out: Path) -> None:
@@ -199,11 +220,14 @@ def refused_before_running(jobs: list[dict], out: Path) -> None:
         if job["force"] or not store.is_dir():
             continue
         try:
-            stored_run(store, run_key(argparse.Namespace(**job)), WINDOW_LIMITS)
+            stored_run(store, batch_key(job, store), WINDOW_LIMITS)
         except InputError as exc:
-            others = sum((Path(j["out"]) / STORE_NAME).is_dir() for j in jobs) - 1
-            more = f" (and {others} other recording{'s' * (others != 1)} have earlier runs here)" if others else ""
             differ = exc.problem.partition("these differ: ")[2]
+            if not differ:  # (not a store of ours, say: the recording's own run says what is wrong)
+                continue
+            others = sum((Path(j["out"]) / STORE_NAME).is_dir() for j in jobs) - 1
+            have = "has an earlier run" if others == 1 else "have earlier runs"
+            more = f" (and {others} other recording{'s' * (others != 1)} {have} here)" if others else ""
             raise InputError(
                 Path(job["out"]),
                 f"holds an earlier run made with other options (these differ: {differ}){more}: nothing was run; "

@@ -301,14 +301,14 @@ def _settled(args, out, previous, run) -> int:
         if kept:
             n = windows_complete(out)
             place, s = (f" (at {exc.where})" if exc.where else ""), ("s" if n > 1 else "")
-            raise InputError(
-                exc.source,
-                f"{exc.problem}{place}; stopped there: the {n} window{s} complete before it "
-                f"{'are' if s else 'is'} written to {args.out}/, a finished run (what --max-windows {n} gives)",
-            ) from None
+            said = (
+                f"{place}; stopped there: the {n} window{s} complete before it "
+                f"{'are' if s else 'is'} written to {args.out}/, a finished run (what --max-windows {n} gives)"
+            )
+            raise _said_after(exc, said) from None
         if not earlier:
             raise
-        raise InputError(exc.source, f"{exc.problem}; the earlier run in {args.out}/ is kept", exc.where) from None
+        raise _said_after(exc, f"; the earlier run in {args.out}/ is kept", exc.where) from None
     except BaseException as exc:  # (refused before its first window: nothing to keep)
         n, earlier = windows_complete(out), previous is not None and any(previous.iterdir())
         settle_folder(out, previous, keep_new=bool(n))
@@ -317,6 +317,13 @@ def _settled(args, out, previous, run) -> int:
         raise
     settle_folder(out, previous, keep_new=True)
     return n
+
+
+def _said_after(exc: InputError, said: str, where=None) -> InputError:
+    """``exc`` with ``said`` after its problem and its remedy (which each front door words its own way)."""
+    if exc.remedy is None:
+        return InputError(exc.source, f"{exc.problem}{said}", where)
+    return InputError(exc.source, exc.problem, where, remedy=exc.remedy, note=f"{exc.note}{said}")
 
 
 def _resume_key(args, out, source: dict) -> dict:

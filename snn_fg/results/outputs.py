@@ -22,6 +22,7 @@ import errno
 import fnmatch
 import json
 import os
+import re
 import tempfile
 import zipfile
 from collections.abc import Callable
@@ -66,9 +67,9 @@ class FolderKind:
         name = entry.name
         if name.startswith(WORKING_PREFIX):
             return True
-        if any(fnmatch.fnmatchcase(name, p) for p in self.names):
-            return self.made is None or self.made(entry)
-        return self.owns is not None and self.owns(entry)
+        if any(fnmatch.fnmatchcase(name, p) for p in self.names) and (self.made is None or self.made(entry)):
+            return True
+        return self.owns is not None and self.owns(entry)  # (a batch's recording folder may bear a run's name)
 
 
 #: a per-window figure's file name (``snn-fg plot --windows``: into ``windows/`` or a folder of the user's naming)
@@ -80,7 +81,7 @@ def _window_figures(entry: Path) -> bool:
     if not entry.is_dir() or entry.is_symlink():
         return False
     names = [p.name for p in entry.iterdir()]
-    return bool(names) and all(fnmatch.fnmatchcase(n, WINDOW_FIGURE.replace("{:04d}", "[0-9]" * 4)) for n in names)
+    return bool(names) and all(re.fullmatch(r"window_[0-9]{4,}\.png", n) for n in names)  # (window 10000 on: 5 digits)
 
 
 #: a batch's table beside its runs (``snn-fg run FOLDER|GLOB|LIST``: :mod:`snn_fg.cli.batch`), told by its header
@@ -113,6 +114,8 @@ def _zarr_store(entry: Path) -> bool:
     attributes, arrays, and the parts an interrupted write left)."""
     if not entry.is_dir() or entry.is_symlink():
         return False
+    if not (entry / ".zattrs").exists():  # (killed between making the folder and writing its attributes)
+        return _left_by_a_write(entry)
     try:
         attrs = json.loads((entry / ".zattrs").read_text())
     except (OSError, ValueError):
@@ -120,21 +123,37 @@ def _zarr_store(entry: Path) -> bool:
     ours = isinstance(attrs, dict) and str((attrs.get("snn_fg") or {}).get("format", "")).startswith(MARK)
     return ours and all(
         p.name in (".zgroup", ".zattrs")
-        or (p.name.startswith(".") and p.name.endswith(".part"))
-        or (p.is_dir() and not p.is_symlink() and (p / ".zarray").is_file())
+        or _part(p)
+        or (p.is_dir() and not p.is_symlink() and ((p / ".zarray").is_file() or _left_by_a_write(p)))
         for p in entry.iterdir()
     )
+
+
+def _part(p: Path) -> bool:
+    """A file an interrupted write left (``.NAME.XXXX.part``, :func:`~snn_fg.results.atomic.write_bytes`)."""
+    return p.name.startswith(".") and p.name.endswith(".part") and p.is_file()
+
+
+def _left_by_a_write(folder: Path) -> bool:
+    """A folder a write was killed in before it wrote anything of its own: empty, or parts only."""
+    return not folder.is_symlink() and all(_part(p) for p in folder.iterdir())
 
 
 #: the first line of a recording's ``windows.csv`` (:data:`snn_fg.results.timeline.COLUMNS`) starts so
 WINDOWS_TABLE_HEAD = "window,t_start_ms,t_end_ms,"
 
 
+#: the keys of a live run's record (``live.json``) that tell one written before it carried its mark
+LIVE_RECORD_KEYS = ("windows", "latency_ms", "ended")
+
+
 def _run_entry(entry: Path) -> bool:
     """Whether an entry named as a run's is what a run writes there: a maps store by
     :func:`_zarr_store`, window figures by :func:`_window_figures`, the table by its header, the
     other files by :func:`_of_kind` (a figure or ``maps.npz`` by its mark, ``live.json``
-    by its record's)."""
+    by its record's, or its keys). Beside a run's own maps (its store, or a marked ``maps.npz``),
+    a figure or animation is told by its first bytes alone: one snn-fg drew before figures
+    carried a mark (30 Nov 2026) is the run's."""
     if entry.is_symlink():
         return False
     if entry.name == "maps.zarr":
@@ -143,10 +162,44 @@ def _run_entry(entry: Path) -> bool:
         return _window_figures(entry)
     if not entry.is_file():
         return False
+    suffix = entry.suffix.lower()
     if entry.name == "windows.csv":
         with open(entry, encoding="utf-8", errors="replace") as fh:
             return fh.readline().startswith(WINDOWS_TABLE_HEAD)
-    return _of_kind(entry, entry.suffix.lower())
+    if _of_kind(entry, suffix):
+        return True
+    if entry.name == "live.json":
+        return _json_keys(entry, LIVE_RECORD_KEYS)
+    if suffix in (".png", ".gif", ".mp4") and _anchored(entry.parent):
+        return _signed(entry, suffix)
+    return False
+
+
+def _anchored(folder: Path) -> bool:
+    """Whether ``folder`` holds a run's own maps: its store, or a marked ``maps.npz``."""
+    npz = folder / "maps.npz"
+    return _zarr_store(folder / "maps.zarr") or (npz.is_file() and _of_kind(npz, ".npz"))
+
+
+def _signed(path: Path, suffix: str) -> bool:
+    """Whether ``path`` begins as a file of ``suffix`` does (:data:`_SIGNATURES`; an MP4 its ``ftyp`` box)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError:
+        return False
+    return head[4:8] == b"ftyp" if suffix == ".mp4" else head.startswith(_SIGNATURES[suffix])
+
+
+def _json_keys(path: Path, keys) -> bool:
+    """Whether ``path`` holds a JSON object with every one of ``keys`` (a small file only)."""
+    try:
+        if path.stat().st_size > 64 << 20:
+            return False
+        record = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(record, dict) and all(k in record for k in keys)
 
 
 #: what ``snn-fg run``, ``snn-fg live`` and ``snn-fg decode`` write: maps (a frame's ``.npz``, a

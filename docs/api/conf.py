@@ -60,7 +60,7 @@ def _defined_at(target: str, module: str | None) -> str | None:
         for cut in range(len(parts) - 1, 0, -1):
             try:
                 obj = importlib.import_module(".".join(parts[:cut]))
-            except ImportError:
+            except Exception:  # (a module that cannot be imported here: the reference stays unresolved)
                 continue
             try:
                 for name in parts[cut:]:
@@ -82,7 +82,8 @@ def _defined_at(target: str, module: str | None) -> str | None:
                     source = inspect.getsource(mod)
                 except (OSError, TypeError):
                     continue
-                if re.search(rf"^{re.escape(name)}\b[^=\n]*=", source, re.M):
+                # (NAME = ..., NAME: type = ..., or one of the names of A, NAME, B = ...)
+                if re.search(rf"^(?:\w+\s*,\s*)*{re.escape(name)}\b[^=\n]*=", source, re.M):
                     return f"{modname}.{name}"
         return None
 

@@ -78,7 +78,7 @@ def test_three_recordings_on_a_local_cluster_one_broken(folder, tmp_path, capsys
     assert main(["run", str(folder), "--out", str(out), "--workers", "1", *opts[:1], "50", *opts[2:]]) == 2
     assert capsys.readouterr().err == (
         f"snn-fg: error: {out / 'a'}: holds an earlier run made with other options (these differ: window_ms (60.0 "
-        "before, 50.0 now)) (and 1 other recording has an earlier run here): nothing was run; --force replaces the "
+        "before, 50.0 now)) (and 1 other input has an earlier run here): nothing was run; --force replaces the "
         "earlier runs, or choose another --out\n"
     )
     np.testing.assert_array_equal(Maps.load(out / "a").fg_x, before)
@@ -278,3 +278,28 @@ def test_a_rerun_whose_runs_have_nothing_to_add_skips_them(tmp_path):
     assert {r["windows"] for r in _summary(out).values()} == {"3"}
     assert main([*run, "--max-windows", "2"]) == 0  # (fewer than they hold: nothing to add)
     assert {(r["status"], r["windows"]) for r in _summary(out).values()} == {("skipped", "3")}
+
+
+def test_a_batch_of_images_run_again_skips_them_and_refuses_other_options(tmp_path, capsys):
+    """Run again, a batch of images marked every image failed ('holds an snn-fg run already') and
+    rewrote the summary, where the interrupt note says the same command goes on: an image's maps now
+    keep the run's key, and a rerun skips the images done; with other options it is refused whole."""
+    import cv2
+
+    imgs, out = tmp_path / "imgs", tmp_path / "b"
+    imgs.mkdir()
+    for name in ("a.png", "b.png"):
+        img = np.full((24, 32, 3), 90, np.uint8)
+        img[8:16, 10:22] = 200
+        cv2.imwrite(str(imgs / name), img)
+    run = ["run", str(imgs), "--out", str(out), "--no-progress", "--no-figures", "--workers", "1"]
+    assert main([*run, "--levels", "2"]) == 0
+    first = (out / "a" / "maps.npz").read_bytes()
+    assert main([*run, "--levels", "2"]) == 0
+    assert [r["status"] for r in _summary(out).values()] == ["skipped", "skipped"]
+    assert (out / "a" / "maps.npz").read_bytes() == first
+    capsys.readouterr()
+    assert main([*run, "--levels", "3"]) == 2
+    err = capsys.readouterr().err
+    assert "holds an earlier run made with other options (these differ: levels (2 before, 3 now))" in err
+    assert [r["status"] for r in _summary(out).values()] == ["skipped", "skipped"]  # (the summary kept)

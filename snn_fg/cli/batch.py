@@ -34,9 +34,10 @@ from ..events.images import IMAGE_SUFFIXES
 from ..events.text_events import reads_as_events
 from ..frames.still import input_kind
 from ..results.atomic import save_text
+from ..results.maps import Maps
 from ..results.outputs import SUMMARY_COLUMNS, SUMMARY_NAME, check_writable, is_batch_summary, writing
 from ..results.progress import bar as progress_bar
-from ..results.store import STORE_NAME, read_attrs, run_finished, stored_run, windows_complete
+from ..results.store import STORE_NAME, key_differences, read_attrs, run_finished, windows_complete
 from .run_options import WINDOW_LIMITS, run_key
 from .runner import goes_on
 
@@ -137,15 +138,16 @@ def run_job(options: dict, command) -> dict:
     }
     store = out / STORE_NAME
     # (a finished run is skipped only when made with these options: until 30 Nov, whatever options had made it;
-    # and only when it has nothing to add: a larger window limit continues one cut by its own, as --resume does)
+    # and only when it has nothing to add: a larger window limit continues one cut by its own, as --resume does;
+    # a frame's or image's run, by the key its maps keep)
+    differ = earlier_differences(options)
+    if differ:
+        said = f"{out}: holds a finished run made with other options (these differ: {differ}); --force replaces it"
+        return {**row, "status": "failed", "error": said}
+    if differ == "" and not store.is_dir():
+        return {**row, "status": "skipped", "windows": ""}
     if not options["force"] and run_finished(out):
-        try:
-            attrs = stored_run(store, batch_key(options, store), WINDOW_LIMITS)
-        except InputError as exc:
-            differ = exc.problem.partition("these differ: ")[2]
-            said = f"{out}: holds a finished run made with other options (these differ: {differ}); --force replaces it"
-            return {**row, "status": "failed", "error": said}
-        if not _goes_further(attrs, options):
+        if not _goes_further(read_attrs(store), options):
             return {**row, "status": "skipped", "windows": windows_complete(out)}
     # (a finished run handed on, which its run may find nothing to add to: then it is skipped all the same)
     held = windows_complete(out) if not options["force"] and run_finished(out) else None
@@ -187,20 +189,39 @@ def _goes_further(attrs: dict, options: dict) -> bool:
     return changed and goes_on(attrs, None)  # (the run itself weighs --end-ms against the windows it holds)
 
 
-def batch_key(options: dict, store: Path) -> dict:
-    """:func:`~.run_options.run_key` of a recording's job, its input named as the run in ``store``
+def batch_key(options: dict, stored: dict) -> dict:
+    """:func:`~.run_options.run_key` of a job, its input named as the earlier run's ``stored`` key
     names it where both name a file of the same name: a batch run again from another folder, or
     with the folder's path made absolute, names each recording another way (its output folder is
     the same, made from the file's name; ``--resume`` inside the run then knows the recording by
     its sensor and first events)."""
     key = run_key(argparse.Namespace(**options))
-    try:
-        stored = (read_attrs(store)["snn_fg"].get("run_key") or {}).get("input")
-    except (InputError, OSError, KeyError):
-        return key
-    if stored is not None and Path(str(stored)).name == Path(str(key.get("input"))).name:
-        key["input"] = stored
+    before = stored.get("input")
+    if before is not None and Path(str(before)).name == Path(str(key.get("input"))).name:
+        key["input"] = before
     return key
+
+
+def earlier_differences(options: dict) -> str | None:
+    """How a job's options differ from those of the earlier run in its output folder (empty: they
+    do not; None: no earlier run of ours that says, or ``--force``): a recording's store, or a
+    frame's or image's ``maps.npz``, which keeps its run key from 1 Dec 2026 on."""
+    out = Path(options["out"])
+    if options["force"]:
+        return None
+    if (out / STORE_NAME).is_dir():
+        try:
+            stored = read_attrs(out / STORE_NAME)["snn_fg"].get("run_key") or {}
+        except (InputError, OSError, KeyError):
+            return None
+        return key_differences(stored, batch_key(options, stored), WINDOW_LIMITS)
+    if (out / "maps.npz").is_file():
+        try:
+            stored = Maps.load(out / "maps.npz").params.get("run_key")
+        except (InputError, OSError, ValueError, KeyError):
+            return None
+        return None if stored is None else key_differences(stored, batch_key(options, stored))
+    return None
 
 
 def refused_before_running(jobs: list[dict], out: Path) -> None:
@@ -216,23 +237,17 @@ def refused_before_running(jobs: list[dict], out: Path) -> None:
             "replace it: nothing was run; choose another output folder",
         )
     for job in jobs:
-        store = Path(job["out"]) / STORE_NAME
-        if job["force"] or not store.is_dir():
+        differ = earlier_differences(job)
+        if not differ:  # (none there, the same options, or not a run of ours: the job's own run says what is wrong)
             continue
-        try:
-            stored_run(store, batch_key(job, store), WINDOW_LIMITS)
-        except InputError as exc:
-            differ = exc.problem.partition("these differ: ")[2]
-            if not differ:  # (not a store of ours, say: the recording's own run says what is wrong)
-                continue
-            others = sum((Path(j["out"]) / STORE_NAME).is_dir() for j in jobs) - 1
-            have = "has an earlier run" if others == 1 else "have earlier runs"
-            more = f" (and {others} other recording{'s' * (others != 1)} {have} here)" if others else ""
-            raise InputError(
-                Path(job["out"]),
-                f"holds an earlier run made with other options (these differ: {differ}){more}: nothing was run; "
-                "--force replaces the earlier runs, or choose another --out",
-            ) from None
+        others = sum(Path(j["out"]).is_dir() for j in jobs) - 1
+        have = "has an earlier run" if others == 1 else "have earlier runs"
+        more = f" (and {others} other input{'s' * (others != 1)} {have} here)" if others else ""
+        raise InputError(
+            Path(job["out"]),
+            f"holds an earlier run made with other options (these differ: {differ}){more}: nothing was run; "
+            "--force replaces the earlier runs, or choose another --out",
+        )
 
 
 def input_word(path: str) -> str:

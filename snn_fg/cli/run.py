@@ -183,7 +183,8 @@ def _run_still(args, model) -> str:
     )
     _check_frame(args, model, frame.shape)
     with OutputFolder(args.out, force=args.force, cancelled=getattr(args, "interrupted", None)) as folder:
-        run_still(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures)
+        key = run_key(args)
+        run_still(model, frame, folder.dir, source, crop=args.crop, figures=not args.no_figures, run_key=key)
         return ", ".join(sorted(p.name for p in folder.dir.iterdir()))
 
 

@@ -87,11 +87,15 @@ def _counted(windows, total):
             read.update()
 
 
-def run_still(model: Model, still: Still, out: Path, source: dict, crop=None, figures: bool = True) -> Maps:
+def run_still(
+    model: Model, still: Still, out: Path, source: dict, crop=None, figures: bool = True, run_key: dict | None = None
+) -> Maps:
     """One still input through ``model``; ``maps.npz`` and (with ``figures``) its
-    figures into ``out`` (``crop``: see :meth:`Model.write_figures`)."""
+    figures into ``out`` (``crop``: see :meth:`Model.write_figures`). ``run_key``: the
+    command's (:func:`~.run_options.run_key`), kept in ``params`` as a recording's store keeps
+    it, so that a batch run again knows the run for its own."""
     maps = model.run_still(still)
-    maps.params = {**maps.params, "source": source}
+    maps.params = {**maps.params, "source": source, **({"run_key": run_key} if run_key is not None else {})}
     maps.save(out / "maps.npz")
     if figures:
         model.write_figures(out, maps, model.figure_input(still), crop=crop)

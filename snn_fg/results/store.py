@@ -100,19 +100,25 @@ def _said(value) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+def key_differences(stored: dict, run_key: dict, may_differ=()) -> str:
+    """How the run key ``run_key`` differs from the ``stored`` one of an earlier run, in words
+    (``"window_ms (60.0 before, 50.0 now)"``; empty when it does not): the keys ``may_differ``
+    left out, and an option not given left out on both sides (a run made before an option was
+    added continues)."""
+    stored = {k: v for k, v in stored.items() if v is not None and k not in may_differ}
+    given = {k: v for k, v in json.loads(json.dumps(run_key)).items() if v is not None and k not in may_differ}
+    differ = sorted(k for k in set(stored) | set(given) if stored.get(k) != given.get(k))
+    return ", ".join(f"{k} ({_said(stored.get(k))} before, {_said(given.get(k))} now)" for k in differ)
+
+
 def _same_run(path, run_key: dict, may_differ=()) -> dict:
     """The attributes of the store at ``path``; refused when it was made with another ``run_key``
     (the keys ``may_differ`` left out: how many windows a run goes to, say)."""
     attrs = read_attrs(path)
-    # (an option not given is left out on both sides: a run made before an option was added continues)
-    stored = {k: v for k, v in (attrs["snn_fg"].get("run_key") or {}).items() if v is not None and k not in may_differ}
-    given = {k: v for k, v in json.loads(json.dumps(run_key)).items() if v is not None and k not in may_differ}
-    if given != stored:
-        differ = sorted(k for k in set(stored) | set(given) if stored.get(k) != given.get(k))
+    differ = key_differences(attrs["snn_fg"].get("run_key") or {}, run_key, may_differ)
+    if differ:
         raise InputError(
-            path,
-            "--resume needs the same input and options as the run being continued; these differ: "
-            + ", ".join(f"{k} ({_said(stored.get(k))} before, {_said(given.get(k))} now)" for k in differ),
+            path, f"--resume needs the same input and options as the run being continued; these differ: {differ}"
         )
     return attrs
 

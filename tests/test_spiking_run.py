@@ -204,7 +204,7 @@ def test_errors_name_what_is_wrong(frame):
         )
     with pytest.raises(TypeError, match="codegen"):  # an option the backend does not have
         run_spiking(pos, neg, backend="fast", backend_options={"codegen": "cython"}, progress=False)
-    with pytest.raises(ParameterError, match="backend: name='nest2'"):
+    with pytest.raises(ParameterError, match="run_spiking: backend='nest2' must be one of 'brian2', 'fast'"):
         run_spiking(pos, neg, backend="nest2", progress=False)
     with pytest.raises(TypeError, match="durration_ms"):
         run_spiking(pos, neg, durration_ms=10)

@@ -55,7 +55,7 @@ def test_force_never_deletes_a_file_snn_fg_did_not_write(tmp_path, recording, ca
     out.mkdir()
     (out / "my_recording.es").write_bytes(recording.read_bytes())
     if command.startswith("export"):
-        (out / "network.json").write_text("{}")  # (an earlier export's beside it)
+        (out / "network.json").write_text('{"schema": "snn-fg.pynn/1"}')  # (an earlier export's beside it)
     else:
         Maps(*(np.zeros((4, 4), np.float32) for _ in range(3))).save(out / "maps.npz")
     before = {p.name: p.read_bytes() for p in out.iterdir()}
@@ -468,3 +468,28 @@ def test_a_batch_recording_folder_named_like_a_runs_entry_is_the_batchs(tmp_path
     (out / "summary.csv").write_text(",".join(SUMMARY_COLUMNS) + "\n")
     _earlier_live_run(out / "windows")
     assert check_output_folder(out, BATCH_OR_RUN, force=True) is True
+
+
+@pytest.mark.parametrize("fmt", ["pynn", "lava"])
+def test_export_force_keeps_a_users_network_json_and_run_py(tmp_path, capsys, fmt):
+    """A folder of the user's own run.py and network.json was taken for an earlier export by the names:
+    'export --force' replaced both. network.json is told by its schema, the rest by being beside it."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "run.py").write_text("print('mine')\n")
+    (out / "network.json").write_text('{"my": 1}\n')
+    argv = ["export", "--format", fmt, "--out", str(out), "--sensor-size", "32x24", "--force"]
+    assert main([*argv, *(["--levels", "2"] if fmt == "pynn" else ["--network", "compact"])]) == 2
+    assert (
+        "holds network.json, run.py, which snn-fg did not write: --force replaces only a folder holding an "
+        "snn-fg export and nothing else" in _one_error(capsys)
+    )
+    assert (out / "run.py").read_text() == "print('mine')\n" and (out / "network.json").read_text() == '{"my": 1}\n'
+    # (an export's own folder, with a run.py the user changed in it, is the export's: replaced whole)
+    (out / "network.json").unlink()
+    (out / "run.py").unlink()
+    base = ["export", "--format", fmt, "--out", str(out), "--sensor-size", "32x24"]
+    base += ["--levels", "2"] if fmt == "pynn" else ["--network", "compact"]
+    assert main(base) == 0
+    (out / "run.py").write_text("print('changed')\n")
+    assert main([*base, "--force"]) == 0 and "changed" not in (out / "run.py").read_text()

@@ -24,7 +24,7 @@ from ..errors import InputError
 from ..lowering.kernel_tables import ConvTable, geometry, table, table_fields
 from ..network.graph import Network
 from ..results.atomic import OutputFolder
-from ..results.outputs import FolderKind
+from ..results.outputs import FolderKind, made_by_snn_fg
 from .snntorch_loop import COPIED as SNNTORCH_COPIED
 from .synapses import projection_counts
 
@@ -69,6 +69,16 @@ LAVA_ENV = ".venv-lava"
 #: the NIR graph a NIR export folder holds (snn_fg.export.nir_folder)
 GRAPH_NAME = "model.nir"
 
+
+def _export_entry(entry: Path) -> bool:
+    """Whether an entry named as an export's is the export's: ``network.json`` by its schema (a JSON
+    record snn-fg marks), every other one beside such a ``network.json`` (a user's own ``network.json``
+    and ``run.py`` in a folder were replaced by --force, told by their names alone)."""
+    if entry.name == "network.json":
+        return made_by_snn_fg(entry)
+    return made_by_snn_fg(entry.parent / "network.json")
+
+
 #: what a PyNN, Lava or NIR export folder holds: the export's files, and what run.py and Python write in it (the
 #: input and counts files, under any name; sPyNNaker's configuration and reports, the virtual board's
 #: mapping.json, Lava's resources.json); the environment its README has the user make there is kept where
@@ -94,6 +104,7 @@ EXPORT_FOLDER = FolderKind(
     marks=("network.json",),
     owns=_run_py_file,
     kept=(LAVA_ENV,),
+    made=_export_entry,
 )
 
 

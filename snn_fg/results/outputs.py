@@ -288,7 +288,7 @@ def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False
             path,
             f"holds {_listed(shown)}, which snn-fg did not write"
             + (
-                ": --force replaces only a folder holding an earlier run and nothing else; nothing was deleted"
+                f": --force replaces only a folder holding {kind.what} and nothing else; nothing was deleted"
                 if force
                 else ""
             )
@@ -356,6 +356,12 @@ def _of_kind(path: Path, suffix: str) -> bool:
         except (OSError, zipfile.BadZipFile):
             return False
     return True
+
+
+def made_by_snn_fg(path) -> bool:
+    """Whether the file ``path`` is one snn-fg wrote, as far as its format tells (:func:`_of_kind`)."""
+    path = Path(path)
+    return path.is_file() and not path.is_symlink() and _of_kind(path, path.suffix.lower())
 
 
 def _marked_json(path: Path) -> bool:

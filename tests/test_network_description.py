@@ -453,3 +453,20 @@ def test_a_stored_description_is_refused_at_load_when_the_decoder_cannot_read_it
         match=rf"invalid network description: Population '{pop['name']}', its neuron: Neuron: tau_m_ms=-20.0",
     ):
         load_description(path)
+
+
+@pytest.mark.parametrize("key", ["gain_mv", "delay_ms", "sign"])
+def test_a_stored_projection_that_leaves_out_a_key_is_refused_not_defaulted(tmp_path, small, key):
+    """A description edited by hand with delay_ms deleted ran with 1 ms, gain_mv deleted with 1 mV,
+    and nothing said so (the export's run.py refuses the same file)."""
+    d = small.to_dict()
+    name = d["projections"][3]["name"]
+    del d["projections"][3][key]
+    bad = tmp_path / "edited.json"
+    bad.write_text(json.dumps(d))
+    with pytest.raises(InputError, match=rf"edited.json: invalid network description: .* '{name}': has no {key}"):
+        Network.load(bad)
+    d = small.to_dict()
+    for p in d["projections"]:  # (what later versions added may be left out: descriptions stored before them load)
+        p.pop("prune", None), p.pop("calibrated", None)
+    assert len(Network.from_dict(d).projections) == len(small.projections)

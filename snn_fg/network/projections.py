@@ -63,6 +63,21 @@ class Projection(Node):
     def to_dict(self) -> dict:
         return {"type": self.type_name, **super().to_dict()}
 
+    #: what a stored projection must state: a key left out took its default silently (a description
+    #: edited by hand with delay_ms deleted ran with 1 ms, where the export's run.py refuses it)
+    STATED: ClassVar[tuple] = ("name", "source", "target", "sign", "gain_mv", "delay_ms")
+
+    @classmethod
+    def from_dict(cls, d: dict):
+        if isinstance(d, dict):
+            missing = [k for k in cls.STATED if k not in d]
+            if missing:
+                check.fail(
+                    f"{cls.__name__} {d.get('name', '?')!r}", None, None,
+                    f"has no {', '.join(missing)} (a key left out or misspelt? a stored projection states each)",
+                )  # fmt: skip
+        return super().from_dict(d)
+
 
 def projection_from_dict(d: dict) -> Projection:
     """Rebuild a projection from :meth:`Projection.to_dict` output (by its ``type``)."""

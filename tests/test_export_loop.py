@@ -354,6 +354,10 @@ def test_write_spikes_says_how_to_re_export_for_the_inputs_rate():
     assert recalibration_hint(239.0, 200.0, "x") is None and recalibration_hint(166.7, 200.0, "x") is None
     assert "--input-rate-hz 241" in recalibration_hint(241.0, 200.0, "x")
     assert "with --input-rate-hz 35.2" in recalibration_hint(35.24, 200.0, None)
+    # (the folder as the user names it now: `--export .` inside the export made with `--out out/lava`
+    # was told to re-export into ./out/lava, a new export, the folder keeping its old gains)
+    here = recalibration_hint(12.6, 200.0, "snn-fg export --format lava --out out/lava --network compact", folder=".")
+    assert "re-export: snn-fg export --format lava --out . --network compact --input-rate-hz 12.6 --force" in here
 
 
 @pytest.mark.slow

@@ -113,16 +113,17 @@ def cmd_decode(args) -> int:
     if edited:
         print(edited)
     if ref is not None:
-        print(agreement_line(maps, ref, args.reference, inp.rate_hz, net, meta.get("export_command")))
+        print(agreement_line(maps, ref, args.reference, inp.rate_hz, net, meta.get("export_command"), args.export))
     return 0
 
 
-def agreement_line(board, ref, backend: str, input_hz: float, net, command: str | None) -> str:
+def agreement_line(board, ref, backend: str, input_hz: float, net, command: str | None, folder=None) -> str:
     """How the board's maps agree with ``backend``'s on the same network and input, in one line with
     no nan in it: where a map has no figure-ground vector there is nothing to compare, and the line
     says so and why that is likely (before, a board and a reference with no vector printed "nan %").
     ``input_hz``: the input's rate per active pixel; ``net``: the export's network; ``command``: its
-    ``snn-fg export`` command, as ``snn-fg events --write-spikes`` says how to re-export calibrated."""
+    ``snn-fg export`` command, as ``snn-fg events --write-spikes`` says how to re-export calibrated (into
+    ``folder``, the export's folder as the user named it)."""
     c = compare_frame(board.fg_x, board.fg_y, board.grouping, ref.fg_x, ref.fg_y, ref.grouping)
     r = c["grouping_pearson_r"]
     grouping = f"grouping r {r:.3f}" if np.isfinite(r) else "grouping r undefined (a grouping map is flat)"
@@ -144,7 +145,7 @@ def agreement_line(board, ref, backend: str, input_hz: float, net, command: str 
         why = (
             f"likely cause: the input is {input_hz:.3g} Hz per active {pixel}, {input_hz / net.input_rate_hz:.2g} "
             f"times the {net.input_rate_hz:g} Hz the export's gains are set for (snn-fg events --write-spikes "
-            f"warned); re-export calibrated: {recalibration_command(input_hz, command)}, then run run.py again"
+            f"warned); re-export calibrated: {recalibration_command(input_hz, command, folder)}, then run run.py again"
         )
     elif c["pixels_a"] or c["pixels_b"]:
         why = "the board's run and the reference's part: did run.py run this input file over this span?"

@@ -188,7 +188,7 @@ def write_spikes(args) -> int:
             f"lies inside a filled object holds its texture, not its outline, and its maps show little of the "
             f"object's figure-ground; --crop-at X,Y places the crop elsewhere"
         )
-    hint = recalibration_hint(inp.rate_hz, net.input_rate_hz, meta.get("export_command"), _pixel(net))
+    hint = recalibration_hint(inp.rate_hz, net.input_rate_hz, meta.get("export_command"), _pixel(net), args.export)
     if hint:
         print(hint)
     if edited:

@@ -11,6 +11,7 @@ The commands over them are ``snn-fg events --write-spikes``
 from __future__ import annotations
 
 import json
+import shlex
 from pathlib import Path
 
 import numpy as np
@@ -110,20 +111,30 @@ def rate_mismatch(input_hz: float, export_hz: float) -> bool:
     return input_hz > 0 and max(input_hz, export_hz) > RATE_MISMATCH * min(input_hz, export_hz)
 
 
-def recalibration_command(input_hz: float, command: str | None) -> str:
-    """The export command that calibrates the export to ``input_hz`` (``command``: the export's own, if known)."""
-    if command:
-        return f"{command} --input-rate-hz {input_hz:.3g} --force"
-    return f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
+def recalibration_command(input_hz: float, command: str | None, folder=None) -> str:
+    """The export command that calibrates the export to ``input_hz`` (``command``: the export's own, if
+    known; ``folder``: the export's folder as the user named it now, in place of the ``--out`` the
+    command was given, which named it from wherever the export was made)."""
+    if not command:
+        return f"the export's snn-fg export command with --input-rate-hz {input_hz:.3g}"
+    if folder is not None:
+        words = shlex.split(command)
+        if "--out" in words[:-1]:
+            words[words.index("--out") + 1] = str(folder)
+            command = " ".join(shlex.quote(w) for w in words)
+    return f"{command} --input-rate-hz {input_hz:.3g} --force"
 
 
-def recalibration_hint(input_hz: float, export_hz: float, command: str | None, pixel: str = "pixel") -> str | None:
+def recalibration_hint(
+    input_hz: float, export_hz: float, command: str | None, pixel: str = "pixel", folder=None
+) -> str | None:
     """What to do when an input's rate is far from the one the export's gains
     are set for (``snn-fg run`` calibrates its network to its input's rate):
-    the command to re-export with (``command``: the export's own, if known)."""
+    the command to re-export with (``command``: the export's own, if known; ``folder``: see
+    :func:`recalibration_command`)."""
     if not rate_mismatch(input_hz, export_hz):
         return None
-    redo = recalibration_command(input_hz, command)
+    redo = recalibration_command(input_hz, command, folder)
     return (
         f"snn-fg: note: this input is {input_hz:.3g} Hz per active {pixel}, {input_hz / export_hz:.2g} times the "
         f"{export_hz:g} Hz the export's gains are set for; snn-fg run calibrates its network to its input's "

@@ -522,6 +522,8 @@ def test_ctrl_c_ends_a_live_run_with_its_complete_windows_kept(tmp_path, disc_fi
     record = json.loads((out / "live.json").read_text())
     n = len(read_maps(out / "maps.zarr")[0])
     assert record["ended"] == "interrupted" and record["windows"] == n >= 2
+    held = Maps.load(out).extra["window"]  # (per_window names the windows the folder holds, and only those)
+    assert [r["window"] for r in record["per_window"]] == [int(w) for w in held]
     assert said[0].startswith(
         f"snn-fg: interrupted (Ctrl-C); the {n} windows complete so far are in {out}/ with live.json, "
         f"without figures: snn-fg plot {out} draws them; besides them, "  # (what was dropped: as a finished run's)
@@ -860,3 +862,14 @@ def test_udp_packets_the_kernel_dropped_are_counted_as_the_socket_closes():
     quiet = open_source("udp://127.0.0.1:0", (64, 64), wait_s=5.0, idle_s=0.3)
     quiet.close()
     assert quiet.packets_lost == 0
+
+
+def test_live_json_keeps_only_the_windows_its_store_took_whole():
+    """Cut by Ctrl-C, a live run's live.json said 52 windows and listed window 57, published as the run
+    was cut, where maps.zarr held 51."""
+    from snn_fg.results.publish import LiveRecord
+
+    record = LiveRecord.__new__(LiveRecord)  # (its rows only: what keep_only reads)
+    record.rows = [{"window": w, "latency_ms": 1.0} for w in (54, 55, 56, 57)]
+    record.keep_only(np.array([54, 55, 56]))
+    assert [r["window"] for r in record.rows] == [54, 55, 56]

@@ -26,7 +26,7 @@ from ..results.atomic import growing_folder, settle_folder
 from ..results.live_view import VIEW_HOST, LiveView
 from ..results.outputs import check_output_folder
 from ..results.publish import END_OF_STREAM, PEAKS, LiveModel, Publisher, ended_by
-from ..results.store import windows_complete
+from ..results.store import STORE_NAME, store_arrays, windows_complete
 from .options import FORCE_FOLDER_HELP, number, sensor_size, subcommand
 from .run_options import add_option_groups, chosen_model
 from .runner import nothing_written, run_recording
@@ -184,7 +184,9 @@ def cmd_live(args) -> int:
             if part is not None:
                 part.close()
         kept = windows_complete(out)
-        if kept:
+        if kept:  # (a window published as the run was cut, which its store did not take whole, left out)
+            arrays = store_arrays(out / STORE_NAME, kept)
+            record.keep_only(arrays["window"][:] if "window" in arrays else range(kept))
             summary = record.save(out / "live.json", ended)
         settle_folder(out, previous, keep_new=bool(kept))
         args.interrupt_note = _interrupted_note(args.out, kept, earlier, summary if kept else None)

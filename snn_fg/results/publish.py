@@ -200,6 +200,12 @@ class LiveRecord:
         wall, cpu, model = (None, None, None) if span is None else (round(v, 3) for v in span)
         return {"streamed_s": wall, "cpu_s": cpu, "model_cpu_s": model, "cores": self.cores}
 
+    def keep_only(self, windows) -> None:
+        """Keep the rows of ``windows`` (their numbers) only: a run cut short may have published a
+        window its store did not take whole, and live.json says what the folder holds."""
+        held = {int(w) for w in windows}
+        self.rows = [r for r in self.rows if r["window"] in held]
+
     def save(self, path, ended: str) -> dict:
         """Write ``live.json`` (:meth:`summary`, marked by the version that wrote it: a later run's
         ``--force`` replaces only such a record) and return the summary."""

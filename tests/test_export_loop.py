@@ -688,3 +688,22 @@ def test_an_exports_run_py_ends_an_interrupt_in_one_line(sig):
     name = "Ctrl-C" if sig == signal.SIGINT else "SIGTERM"
     assert done.returncode == (130 if sig == signal.SIGINT else 143), done.stderr
     assert done.stderr == f"run.py: interrupted ({name}); nothing written\n"
+
+
+def test_decode_refuses_counts_made_by_another_export_of_the_same_size(tmp_path, capsys):
+    """Counts of a 14 Hz export decoded with a 200 Hz export of the same frame said nothing, and blamed
+    the input's rate when the maps parted: run.py's counts now name the network.json it ran."""
+    from snn_fg.pynn.files import EXPORT_KEY, network_digest
+
+    a = export_pynn(build_network(ModelParams(levels=1, r0=4), (24, 24)), tmp_path / "a")
+    b = export_pynn(build_network(ModelParams(levels=1, r0=6), (24, 24)), tmp_path / "b")
+    net, _ = export_network(a)
+    counts = {f"count_{p.name}": np.zeros(p.size, np.int64) for p in lif_populations(board_network(net))}
+    made = tmp_path / "counts.npz"
+    np.savez(made, duration_ms=100.0, count_from_ms=50.0, dt_ms=0.5, **counts,
+             **{EXPORT_KEY: network_digest(str(a / "network.json"))})  # fmt: skip
+    assert main(["decode", str(made), "--export", str(b), "--out", str(tmp_path / "maps")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "counts.npz: not the counts of this export: run.py made them with a network.json" in err[0]
+    assert not (tmp_path / "maps").exists()
+    assert main(["decode", str(made), "--export", str(a), "--out", str(tmp_path / "maps")]) == 0  # (its own)

@@ -75,6 +75,7 @@ def cmd_decode(args) -> int:
     edited = checked_export(Path(args.export) / "network.json", net, meta, args.reference)
     if not Path(args.counts).exists():
         raise InputError(args.counts, "no such file")
+    _check_made_by(args.counts, Path(args.export) / "network.json")
     maps = decode_counts(net, args.counts, meta)
     spikes = args.input or Path(args.counts).with_name("input.npz")
     # (read once: its frame for the figure, its rate for the agreement line)
@@ -115,6 +116,27 @@ def cmd_decode(args) -> int:
     if ref is not None:
         print(agreement_line(maps, ref, args.reference, inp.rate_hz, net, meta.get("export_command"), args.export))
     return 0
+
+
+def _check_made_by(counts, network_json: Path) -> None:
+    """Refuse ``counts`` that name another export than the one whose ``network_json`` decodes them
+    (:data:`~snn_fg.pynn.files.EXPORT_KEY`: a digest of the network.json run.py ran; counts that do
+    not name theirs, written before 1 Dec 2026, are decoded as before). Counts of another export of
+    the same size were decoded silently, and a wrong cause told when the maps then parted."""
+    from ..pynn.files import EXPORT_KEY, network_digest
+
+    try:
+        with np.load(counts) as d:
+            made_by = str(d[EXPORT_KEY]) if EXPORT_KEY in d.files else None
+    except (OSError, ValueError, EOFError):
+        return  # (not an .npz: decoding says so, in its own words)
+    if made_by is not None and made_by != network_digest(str(network_json)):
+        raise InputError(
+            counts,
+            f"not the counts of this export: run.py made them with a network.json whose digest is {made_by}, "
+            f"and {network_json} is another ({network_digest(str(network_json))}): another export, or this one "
+            "made again or edited since; run python run.py again in this export's folder",
+        )
 
 
 def agreement_line(board, ref, backend: str, input_hz: float, net, command: str | None, folder=None) -> str:

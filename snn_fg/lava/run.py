@@ -144,6 +144,7 @@ def main(argv=None):
             net.stop()
         extra = {}
     out = {"duration_ms": args.duration_ms, "dt_ms": dt, "count_from_ms": count_from * dt, **extra}
+    out[fg_files.EXPORT_KEY] = fg_files.network_digest()
     out.update({f"count_{name}": c for name, c in counts.items()})
     path = fg_files.save_npz(args.out, out)
     tag = {"fixed": "fixed_pt", "float": "floating_pt"}[args.arithmetic]

@@ -7,10 +7,21 @@ and SIGTERM end a run in one line, exit 130 and 143)."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
 import sys
+
+#: the counts key naming the export they were made by: a digest of the ``network.json`` run.py ran
+#: (``snn-fg decode`` refuses counts of another export of the same size, which it cannot tell by their arrays)
+EXPORT_KEY = "export_network_sha256"
+
+
+def network_digest(path: str = "network.json") -> str:
+    """The first 16 hex digits of the SHA-256 of the export's ``network.json`` (run.py runs in its folder)."""
+    with open(path, "rb") as fh:
+        return hashlib.sha256(fh.read()).hexdigest()[:16]
 
 
 def save_atomically(path, write):

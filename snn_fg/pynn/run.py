@@ -222,6 +222,7 @@ def main(argv=None):
         ),
     )
     out = {"duration_ms": args.duration_ms, "dt_ms": dt_ms, "count_from_ms": start}
+    out[fg_files.EXPORT_KEY] = fg_files.network_digest()
     for p in meta["populations"]:
         if p["neuron"] is not None:
             out[f"count_{p['name']}"] = net.counts(p["name"], p["size"], start, args.duration_ms)

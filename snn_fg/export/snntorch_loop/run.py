@@ -97,6 +97,7 @@ def main(argv=None):
         count_from_step=fg_snntorch.first_counted_step(start, dt_ms),
     )
     out = {"duration_ms": args.duration_ms, "dt_ms": dt_ms, "count_from_ms": start}
+    out[fg_files.EXPORT_KEY] = fg_files.network_digest()
     out.update({f"count_{name}": c for name, c in counts.items()})
     path = fg_files.save_npz(args.out, out)
     print(

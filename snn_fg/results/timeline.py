@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import csv
 import io
+import textwrap
 
 import numpy as np
 
@@ -53,6 +54,10 @@ COLUMNS = (
     "peak_x",
     "peak_y",
 )
+
+
+#: the characters of a title line in the 9-inch figure (a longer title is wrapped)
+TITLE_CHARS = 110
 
 
 def window_numbers(maps) -> np.ndarray:
@@ -194,7 +199,8 @@ def timeline_figure(rows, window_ms: float, title: str = "", shown=(), skipped=(
             va="bottom",
             fontsize=7,
         )
-    fig.suptitle(title or "The run window by window", fontsize=10)
+    # (wrapped: a live run's title, its source's address and how the run ended, ran off both sides)
+    fig.suptitle("\n".join(textwrap.wrap(title or "The run window by window", TITLE_CHARS)), fontsize=10)
     return fig
 
 

@@ -17,8 +17,8 @@ standalone Lava program of :mod:`snn_fg.lava` for Loihi 2),
 command line. Beneath them all: :mod:`snn_fg.errors`, :mod:`snn_fg.validate`
 (argument checks) and :mod:`snn_fg.params` (the model's parameters). Each layer imports only those
 below it, with one exception: every layer writes files and shows progress with
-:mod:`snn_fg.results`' helpers (``atomic``, ``outputs``, ``progress`` and
-``activity``), which import nothing of snn_fg's but :mod:`snn_fg.errors`.
+:mod:`snn_fg.results`' helpers (``atomic``, ``outputs``, ``marks``, ``progress``
+and ``activity``), which import nothing of snn_fg's but :mod:`snn_fg.errors`.
 
 ``snn_fg.Maps`` is :class:`snn_fg.results.maps.Maps`, what every run writes and
 ``Maps.load(folder)`` reads back.

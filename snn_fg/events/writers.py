@@ -12,7 +12,7 @@ from snn_fg import validate
 from snn_fg.errors import InputError
 from snn_fg.events.core import as_events, check_in_sensor, check_monotonic, sensor_size_parameter
 from snn_fg.results.atomic import atomic_path
-from snn_fg.results.outputs import MARK
+from snn_fg.results.marks import MARK
 
 #: Largest sensor side EVT2/EVT3 can address (11-bit coordinates).
 PROPHESEE_MAX_SIZE = 2048

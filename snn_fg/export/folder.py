@@ -24,7 +24,8 @@ from ..errors import InputError
 from ..lowering.kernel_tables import ConvTable, geometry, table, table_fields
 from ..network.graph import Network
 from ..results.atomic import OutputFolder
-from ..results.outputs import FolderKind, made_by_snn_fg
+from ..results.marks import made_by_snn_fg
+from ..results.outputs import FolderKind
 from .snntorch_loop import COPIED as SNNTORCH_COPIED
 from .synapses import projection_counts
 

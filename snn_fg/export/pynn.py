@@ -48,7 +48,7 @@ from ..errors import InputError
 from ..lowering.input_spikes import InputSpikes
 from ..lowering.quantise import projection_scales
 from ..network.graph import Network
-from ..results.outputs import MARK
+from ..results.marks import MARK
 from .board import board_network
 from .folder import (
     INPUT_STEP,

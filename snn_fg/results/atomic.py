@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .marks import MARK
 from .outputs import (
     BATCH_OR_RUN,
-    MARK,
     WORKING_PREFIX,
     FolderKind,
     check_output_folder,
@@ -73,7 +73,7 @@ def _write_npy(fh, value):
 
 def save_npz(path, **arrays) -> Path:
     """Write an uncompressed ``.npz`` atomically and return its path; it carries the member
-    ``written_by`` (:data:`~snn_fg.results.outputs.MARK`), so that ``--force`` knows it for ours."""
+    ``written_by`` (:data:`~snn_fg.results.marks.MARK`), so that ``--force`` knows it for ours."""
     path = Path(path)
     with atomic_path(path, suffix=".npz") as tmp:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
@@ -110,7 +110,7 @@ def save_text(path, text: str) -> Path:
 
 def save_figure(fig, path, **kwargs) -> Path:
     """Save a matplotlib figure atomically (format from ``path``'s suffix); a PNG's ``Software``
-    text is :data:`~snn_fg.results.outputs.MARK`, so that ``--force`` knows it for ours."""
+    text is :data:`~snn_fg.results.marks.MARK`, so that ``--force`` knows it for ours."""
     path = Path(path)
     kind = path.suffix.lstrip(".").lower() or "png"
     if kind == "png":

@@ -24,12 +24,12 @@ import json
 import os
 import re
 import tempfile
-import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
+from .marks import MARK, MARKED, json_keys, of_kind, signed
 
 #: the prefix of what snn-fg makes inside an output folder while it writes it (a staging folder, the
 #: earlier output set aside); a run killed outright may leave one behind, which the next run removes
@@ -150,7 +150,7 @@ LIVE_RECORD_KEYS = ("windows", "latency_ms", "ended")
 def _run_entry(entry: Path) -> bool:
     """Whether an entry named as a run's is what a run writes there: a maps store by
     :func:`_zarr_store`, window figures by :func:`_window_figures`, the table by its header, the
-    other files by :func:`_of_kind` (a figure or ``maps.npz`` by its mark, ``live.json``
+    other files by :func:`~.marks.of_kind` (a figure or ``maps.npz`` by its mark, ``live.json``
     by its record's, or its keys). Beside a run's own maps (its store, or a marked ``maps.npz``),
     a figure or animation is told by its first bytes alone: one snn-fg drew before figures
     carried a mark (30 Nov 2026) is the run's."""
@@ -166,40 +166,19 @@ def _run_entry(entry: Path) -> bool:
     if entry.name == "windows.csv":
         with open(entry, encoding="utf-8", errors="replace") as fh:
             return fh.readline().startswith(WINDOWS_TABLE_HEAD)
-    if _of_kind(entry, suffix):
+    if of_kind(entry, suffix):
         return True
     if entry.name == "live.json":
-        return _json_keys(entry, LIVE_RECORD_KEYS)
+        return json_keys(entry, LIVE_RECORD_KEYS)
     if suffix in (".png", ".gif", ".mp4") and _anchored(entry.parent):
-        return _signed(entry, suffix)
+        return signed(entry, suffix)
     return False
 
 
 def _anchored(folder: Path) -> bool:
     """Whether ``folder`` holds a run's own maps: its store, or a marked ``maps.npz``."""
     npz = folder / "maps.npz"
-    return _zarr_store(folder / "maps.zarr") or (npz.is_file() and _of_kind(npz, ".npz"))
-
-
-def _signed(path: Path, suffix: str) -> bool:
-    """Whether ``path`` begins as a file of ``suffix`` does (:data:`_SIGNATURES`; an MP4 its ``ftyp`` box)."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(8)
-    except OSError:
-        return False
-    return head[4:8] == b"ftyp" if suffix == ".mp4" else head.startswith(_SIGNATURES[suffix])
-
-
-def _json_keys(path: Path, keys) -> bool:
-    """Whether ``path`` holds a JSON object with every one of ``keys`` (a small file only)."""
-    try:
-        if path.stat().st_size > 64 << 20:
-            return False
-        record = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(record, dict) and all(k in record for k in keys)
+    return _zarr_store(folder / "maps.zarr") or (npz.is_file() and of_kind(npz, ".npz"))
 
 
 #: what ``snn-fg run``, ``snn-fg live`` and ``snn-fg decode`` write: maps (a frame's ``.npz``, a
@@ -313,73 +292,11 @@ def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False
     return True
 
 
-#: the first bytes of a file of each suffix snn-fg writes, where they tell it cheaply: HDF5 (a NIR graph),
-#: PNG, a zip (numpy's .npz), numpy's .npy, GIF; .json begins with { or [, .mp4 has "ftyp" at byte 4; the
-#: others (.csv, .es, .raw) are told by their suffix alone
-_SIGNATURES = {
-    ".nir": (b"\x89HDF\r\n\x1a\n",),
-    ".png": (b"\x89PNG\r\n\x1a\n",),
-    ".npz": (b"PK\x03\x04", b"PK\x05\x06"),
-    ".npy": (b"\x93NUMPY",),
-    ".gif": (b"GIF87a", b"GIF89a"),
-}
-#: what marks a file snn-fg wrote, where its format has room for it: a PNG's ``Software`` text
-#: (:func:`~snn_fg.results.atomic.save_figure`), an ``.npz``'s member ``written_by``
-#: (:func:`~snn_fg.results.atomic.save_npz`, ``save_events``, ``export.pynn.save_input``), a JSON
-#: object's ``snn_fg_version`` or ``schema`` ``snn-fg.*`` (compare's and export's records, a network
-#: description)
-MARK = "snn-fg"
-#: the formats whose files carry :data:`MARK`: --force replaces one only when it does
-MARKED = (".png", ".npz", ".json")
-
-
-def _of_kind(path: Path, suffix: str) -> bool:
-    """Whether the file ``path`` is one snn-fg wrote, as far as its format tells: :data:`MARK` in
-    the formats of :data:`MARKED`, its first bytes (:data:`_SIGNATURES`) or suffix in the others."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(8192)
-    except OSError:
-        return False
-    if suffix == ".json":
-        return _marked_json(path) if head.lstrip()[:1] == b"{" else False
-    if suffix == ".mp4":
-        return head[4:8] == b"ftyp"
-    if not head.startswith(_SIGNATURES.get(suffix, (b"",))):
-        return False
-    if suffix == ".png":  # (matplotlib writes the text chunks before the image data)
-        return b"Software\x00" + MARK.encode() in head
-    if suffix == ".npz":
-        try:
-            with zipfile.ZipFile(path) as zf:
-                return "written_by.npy" in zf.namelist()
-        except (OSError, zipfile.BadZipFile):
-            return False
-    return True
-
-
-def made_by_snn_fg(path) -> bool:
-    """Whether the file ``path`` is one snn-fg wrote, as far as its format tells (:func:`_of_kind`)."""
-    path = Path(path)
-    return path.is_file() and not path.is_symlink() and _of_kind(path, path.suffix.lower())
-
-
-def _marked_json(path: Path) -> bool:
-    try:
-        if path.stat().st_size > 64 << 20:  # (snn-fg's records are small: a user's data set is not read)
-            return False
-        record = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return False
-    schema = record.get("schema") if isinstance(record, dict) else None
-    return isinstance(record, dict) and ("snn_fg_version" in record or str(schema).startswith(MARK + "."))
-
-
 def check_output_file(out, force: bool, flag: str = "--out", suffixes: tuple[str, ...] = ()) -> Path:
     """A file a command writes (``flag`` names it; ``suffixes``: the names it may have, the first
     the one it is usually given), by the folders' rule: not a folder; a name with another suffix is
     refused (one line saying which); an existing file is replaced only with ``force`` and only when
-    snn-fg wrote it, as far as its format tells (:func:`_of_kind`: a figure, an ``.npz`` or a JSON
+    snn-fg wrote it, as far as its format tells (:func:`~.marks.of_kind`: a figure, an ``.npz`` or a JSON
     record by the mark it carries, so a user's photo, recording or settings of that name are never
     replaced; the other formats by their first bytes and suffix); and in a place that can be
     written. Checked before the work starts; nothing is touched when refused. Returns it as a Path."""
@@ -393,7 +310,7 @@ def check_output_file(out, force: bool, flag: str = "--out", suffixes: tuple[str
     if out.exists() or out.is_symlink():
         if not force:
             raise InputError(out, "exists; pass --force to replace it")
-        if out.is_symlink() or not out.is_file() or not _of_kind(out, suffix):
+        if out.is_symlink() or not out.is_file() or not of_kind(out, suffix):
             marked = (
                 f" (snn-fg marks each {suffix} file it writes, and this one has no mark; one it wrote before"
                 " 30 Nov 2026 has none either: remove it by hand if it is one)"

@@ -101,10 +101,9 @@ def _said(value) -> str:
 
 
 def key_differences(stored: dict, run_key: dict, may_differ=()) -> str:
-    """How the run key ``run_key`` differs from the ``stored`` one of an earlier run, in words
-    (``"window_ms (60.0 before, 50.0 now)"``; empty when it does not): the keys ``may_differ``
-    left out, and an option not given left out on both sides (a run made before an option was
-    added continues)."""
+    """How the run key ``run_key`` differs from the ``stored`` one of an earlier run, in words (``"window_ms
+    (60.0 before, 50.0 now)"``; empty: it does not): the keys ``may_differ`` left out, and an option not given
+    left out on both sides (a run made before an option was added continues)."""
     stored = {k: v for k, v in stored.items() if v is not None and k not in may_differ}
     given = {k: v for k, v in json.loads(json.dumps(run_key)).items() if v is not None and k not in may_differ}
     differ = sorted(k for k in set(stored) | set(given) if stored.get(k) != given.get(k))
@@ -112,11 +111,9 @@ def key_differences(stored: dict, run_key: dict, may_differ=()) -> str:
 
 
 def _same_run(path, run_key: dict, may_differ=()) -> dict:
-    """The attributes of the store at ``path``; refused when it was made with another ``run_key``
-    (the keys ``may_differ`` left out: how many windows a run goes to, say)."""
+    """The attributes of the store at ``path``; refused when made with another ``run_key`` (``may_differ`` left out)."""
     attrs = read_attrs(path)
-    differ = key_differences(attrs["snn_fg"].get("run_key") or {}, run_key, may_differ)
-    if differ:
+    if differ := key_differences(attrs["snn_fg"].get("run_key") or {}, run_key, may_differ):
         raise InputError(
             path, f"--resume needs the same input and options as the run being continued; these differ: {differ}"
         )
@@ -124,9 +121,8 @@ def _same_run(path, run_key: dict, may_differ=()) -> dict:
 
 
 def stored_run(path, run_key: dict, may_differ=()) -> dict | None:
-    """The attributes of the store at ``path``, made with ``run_key`` (``may_differ``: see
-    :meth:`MapsStore.reopen`; None: no store there; refused when made with another
-    ``run_key``); reads only its attributes."""
+    """The attributes of the store at ``path``, made with ``run_key`` (``may_differ``: see :meth:`MapsStore.reopen`;
+    None: no store there; refused when made with another ``run_key``); reads only its attributes."""
     return _same_run(path, run_key, may_differ) if Path(path).is_dir() else None
 
 

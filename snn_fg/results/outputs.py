@@ -243,6 +243,13 @@ def _listed(entries, n: int = 4) -> str:
     return ", ".join(names[:n]) + (", ..." if len(names) > n else "")
 
 
+#: said of a refused entry that bears an output's name: it is told by its content
+_NAMED_LIKE = (
+    " (an entry of an output's name is told by its content; maps snn-fg wrote before 30 Nov 2026 carry no mark:"
+    " remove such an entry by hand if it is one)"
+)
+
+
 def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False, resume: bool | None = None) -> bool:
     """Whether the output folder ``path`` may be written, by :class:`FolderKind` ``kind``'s rule: it
     does not exist, is empty, or holds an earlier output of ``kind`` and nothing else, which only
@@ -271,7 +278,8 @@ def check_output_folder(path, kind: FolderKind = RUN_FOLDER, force: bool = False
                 if force
                 else ""
             )
-            + "; choose another output folder",
+            + "; choose another output folder"
+            + (_NAMED_LIKE if any(fnmatch.fnmatchcase(e.name, n) for e in foreign for n in kind.names) else ""),
         )
     # (an earlier batch: a summary and a run per recording, no run's maps of its own; replaced, never continued)
     batch = kind is BATCH_OR_RUN and not any((path / m).exists() for m in RUN_FOLDER.marks)

@@ -322,3 +322,27 @@ def test_an_error_met_part_way_keeps_its_remedy_when_the_run_says_where_it_stopp
     err = capsys.readouterr().err
     assert "(the file's events span 34x18); give --sensor-size 34x18 or the camera's size (at byte offset 1500, " in err
     assert "; stopped there: the 7 windows complete before it are written to" in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "REC", "--threshold", "0.2"],
+        ["run", "REC", "--model", "spiking", "--network", "compact", "--threshold", "0.3"],
+        ["events", "REC", "--motion", "circle"],
+        ["events", "REC", "--threshold-sigma", "0.02"],
+    ],
+)
+def test_a_simulated_cameras_option_set_on_a_recording_is_refused(argv, tmp_path, capsys):
+    """`run dvs.es --threshold 0.2` and `events dvs.es --motion ...` ran as if the option had not been given."""
+    from snn_fg.cli import main
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.frames.scenes import disc
+
+    rec = image_to_events(disc(6).image, motion="circle")
+    save_events(tmp_path / "r.es", rec.events, rec.sensor_size)
+    argv = [str(tmp_path / "r.es") if a == "REC" else a for a in argv]
+    out = ["--out", str(tmp_path / "o")] if argv[0] == "run" else []
+    assert main([*argv, *out, "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "applies to images turned into events only" in err and not (tmp_path / "o").exists()

@@ -166,6 +166,18 @@ def run_events(args) -> int:
     is_image = path.suffix.lower() in IMAGE_SUFFIXES
     if args.image_scale is not None and not is_image:
         raise InputError(path, f"--image-scale: {image_scale_refusal('recording')}")
+    simulated = {
+        "threshold": THRESHOLD,
+        "motion": MOTION,
+        "amplitude_px": AMPLITUDE_PX,
+        "seed": 0,
+        "threshold_sigma": 0.0,
+    }
+    # (set away from its default on a recording, an option of the simulated camera was ignored without a word)
+    for name, default in simulated.items():
+        if not is_image and getattr(args, name) != default:
+            flag = "--" + name.replace("_", "-")
+            raise InputError(path, f"{flag}: applies to images turned into events only; INPUT is an event recording")
     if args.write_spikes is not None:
         return write_spikes(args)
     _check_plot(args, path)

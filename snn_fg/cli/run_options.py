@@ -10,6 +10,7 @@ import argparse
 from ..backends import DEFAULT_BACKEND, backend_names
 from ..errors import InputError
 from ..events.cutter import WINDOW_MS
+from ..events.esim import THRESHOLD
 from ..frames.pool import MAPS_GRIDS
 from ..frames.still import KIND_NAMES, image_scale_refusal
 from ..lowering.unroll import INSTANTIATE
@@ -295,6 +296,8 @@ def refused_options(args, kind) -> list[tuple[str, str]]:
         refused.append(("image_scale", image_scale_refusal(kind)))
     if args.motion is not None and kind in ("recording", "frame") and model.needs != "image":  # images only
         refused.append(("motion", f"applies to images turned into events only; {KIND_NAMES[kind]}"))
+    if args.threshold != THRESHOLD and kind in ("recording", "frame"):  # (set on a recording, it was ignored unsaid)
+        refused.append(("threshold", f"applies to images turned into events only; {KIND_NAMES[kind]}"))
     if model.needs == "image":  # the frame-based model: no events, no network
         refused += [
             (k, f"the {model.name} model {why}")

@@ -452,6 +452,11 @@ def test_earlier_outputs_without_a_mark_are_still_a_runs(tmp_path):
     (out / "maps.zarr" / "grouping" / ".zarray.x1y2.part").write_text("{")
     assert check_output_folder(out, force=True) is True
     assert check_output_folder(out, resume=True) is True
+    # (a user's photo of a figure's name, beside the run's maps: not drawn by matplotlib, so not the run's)
+    (out / "timeline.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"tEXtSoftware\x00Phone camera 2.0")
+    with pytest.raises(InputError, match="holds timeline.png, which snn-fg did not write"):
+        check_output_folder(out, force=True)
+    (out / "timeline.png").write_bytes((out / "maps.png").read_bytes())
     # (without the run's own maps beside it, an unmarked figure is a user's)
     (tmp_path / "figs").mkdir()
     (tmp_path / "figs" / "maps.png").write_bytes((out / "maps.png").read_bytes())

@@ -152,8 +152,8 @@ def _run_entry(entry: Path) -> bool:
     :func:`_zarr_store`, window figures by :func:`_window_figures`, the table by its header, the
     other files by :func:`~.marks.of_kind` (a figure or ``maps.npz`` by its mark, ``live.json``
     by its record's, or its keys). Beside a run's own maps (its store, or a marked ``maps.npz``),
-    a figure or animation is told by its first bytes alone: one snn-fg drew before figures
-    carried a mark (30 Nov 2026) is the run's."""
+    an animation is told by its first bytes, and a figure that matplotlib drew is the run's: one
+    snn-fg drew before figures carried a mark (30 Nov 2026); a user's photo of that name is not."""
     if entry.is_symlink():
         return False
     if entry.name == "maps.zarr":
@@ -171,8 +171,18 @@ def _run_entry(entry: Path) -> bool:
     if entry.name == "live.json":
         return json_keys(entry, LIVE_RECORD_KEYS)
     if suffix in (".png", ".gif", ".mp4") and _anchored(entry.parent):
-        return signed(entry, suffix)
+        # (a PNG snn-fg drew before its mark says matplotlib drew it: a user's photo of the name does not)
+        return signed(entry, suffix) and (suffix != ".png" or _drawn_by_matplotlib(entry))
     return False
+
+
+def _drawn_by_matplotlib(path: Path) -> bool:
+    """Whether a PNG's text says matplotlib wrote it (as every figure snn-fg drew before its own mark)."""
+    try:
+        with open(path, "rb") as fh:
+            return b"Software\x00Matplotlib" in fh.read(8192)
+    except OSError:
+        return False
 
 
 def _anchored(folder: Path) -> bool:

@@ -326,9 +326,10 @@ def check_output_file(out, force: bool, flag: str = "--out", suffixes: tuple[str
         ending = suffixes[0] if len(suffixes) == 1 else f"{', '.join(suffixes[:-1])} or {suffixes[-1]}"
         raise InputError(out, f"{flag} writes {' or '.join(suffixes)}: give a file name ending {ending}")
     if out.exists() or out.is_symlink():
-        if not force:
+        ours = not out.is_symlink() and out.is_file() and of_kind(out, suffix)
+        if not force and ours:
             raise InputError(out, "exists; pass --force to replace it")
-        if out.is_symlink() or not out.is_file() or not of_kind(out, suffix):
+        if not ours:  # (told before --force too: its hint led a user's photo to a second refusal)
             marked = (
                 f" (snn-fg marks each {suffix} file it writes, and this one has no mark; one it wrote before"
                 " 30 Nov 2026 has none either: remove it by hand if it is one)"

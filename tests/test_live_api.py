@@ -146,3 +146,19 @@ def test_a_chunk_that_is_not_a_structured_array_says_which_and_what_it_is():
     with pytest.raises(InputError) as err:
         as_events(np.zeros((3, 4), np.int64), "<events>", what="chunk 1")
     assert str(err.value) == said
+
+
+@pytest.mark.parametrize("name", ["rate", "spiking"])
+def test_a_run_stopped_before_any_event_came_ends_with_its_summary(name):
+    """Stopped 0.3 s in, while its own generator had given nothing yet, run_live ended in a traceback
+    ('the stream ended before any event'): the caller ended it, and no window is no error then."""
+    stop = threading.Event()
+
+    def late():
+        time.sleep(3)
+        yield as_events(np.zeros(0, dtype=[("x", "<u2"), ("y", "<u2"), ("t", "<i8"), ("p", "u1")]))
+
+    model = get_model(name, SMALL) if name == "rate" else get_model(name, network="compact")
+    threading.Timer(0.3, stop.set).start()
+    summary = run_live(model, late(), sensor_size=(32, 24), window_ms=40.0, stop=stop)
+    assert summary["ended"] == "stopped" and summary["windows"] == 0

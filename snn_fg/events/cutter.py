@@ -136,6 +136,7 @@ class WindowCutter:
         self.parts: list = []
         self.t0 = self.w_start = self.w_end = self.prev_t = None
         self.k = self.seen = 0
+        self.stopped = False  # (a live stream its caller ended: with no event, no window and no error)
 
     def begin_at(self, t_first: int, seen: int) -> None:
         """The stream is read from past its start: its first event was at ``t_first`` (us) and
@@ -238,6 +239,8 @@ class WindowCutter:
         if self.done:
             return []
         if self.t0 is None:
+            if self.stopped:
+                return []
             raise InputError(self.name, "recording contains no events")
         if self.seen > 1 and self.prev_t == self.t0:
             raise InputError(

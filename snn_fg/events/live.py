@@ -1,14 +1,11 @@
 """A live event stream as a model reads it: received on a thread of its own,
 cut into windows on the stream's clock, with bounded memory.
 
-:class:`LiveStream` takes a source's packets (:mod:`snn_fg.events.live_sources`)
-on a receiving thread and hands their events to the model in the order
-they came, either as event chunks with the
-:class:`~snn_fg.events.cutter.WindowCutter` that cuts them (:meth:`cut`: the
-spiking network, which takes the events as they arrive) or window by
-window (iterating it: the rate model). Events outside the sensor and
-events earlier than the stream's latest are dropped and counted, each
-said once.
+:class:`LiveStream` takes a source's packets (:mod:`snn_fg.events.live_sources`) on a receiving
+thread and hands their events to the model in the order they came, either as event chunks with the
+:class:`~snn_fg.events.cutter.WindowCutter` that cuts them (:meth:`cut`: the spiking network, which
+takes the events as they arrive) or window by window (iterating it: the rate model). Events outside
+the sensor and events earlier than the stream's latest are dropped and counted, each said once.
 
 Drop policy: the stream is cut into slots of one stride (the window, or
 ``--hop-ms``); a window is made of ``window / stride`` slots. When a slot
@@ -99,9 +96,8 @@ class LiveStream:
         self.on_ready = None  # called once the model first asks for events
         self.stop = None  # (a threading.Event: once set, the stream ends where the model has read it)
         self.lock = threading.Lock()  # (the drop bookkeeping, shared by both threads)
-        self.last_t = None
-        self.end_seen = False  # (the model's thread took the end of the stream)
-        self.warned = False
+        self.last_t = self.cutting = None  # (the last event's time; the cutter the model reads with)
+        self.end_seen = self.warned = False  # (the model's thread took the end of the stream; a warning was given)
         self.thread = threading.Thread(target=self._receive, name="snn-fg live receiver", daemon=True)
         self.thread.start()
 
@@ -239,6 +235,8 @@ class LiveStream:
         while True:
             if self.stop is not None and self.stop.is_set():  # (run_live's caller: the stream ends here)
                 self.end_seen = True
+                if self.cutting is not None:
+                    self.cutting.stopped = True
                 return
             try:
                 items = [self.q.get(timeout=0.2)]
@@ -264,7 +262,8 @@ class LiveStream:
                 return
 
     def cutter(self) -> WindowCutter:
-        return WindowCutter(self.sensor_size, self.name, **self.options)
+        self.cutting = WindowCutter(self.sensor_size, self.name, **self.options)  # (told if stop ends the stream)
+        return self.cutting
 
     def cut(self):
         """The event chunks and their cutter (a reader that takes the events as they come)."""
@@ -275,7 +274,7 @@ class LiveStream:
         cut = self.cutter()
         for chunk in self.chunks():
             yield from self._kept(handed_out(cut.add(chunk)))
-        if cut.t0 is None:
+        if cut.t0 is None and not cut.stopped:  # (stopped by the caller before anything came: no window)
             raise InputError(self.name, "the stream ended before any event")
         yield from self._kept(handed_out(cut.finish()))
 

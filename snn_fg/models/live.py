@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import validate as check
 from ..backends.cores import usable_cores
+from ..errors import InputError
 from ..events import EVENT_DTYPE, EmptyWindowWarning, Recording, iter_windows
 from ..events.cutter import WINDOW_MS
 from ..events.live import MAX_BEHIND, SKIP_BEHIND, LiveStream
@@ -104,7 +105,11 @@ def run_live(
 
         with warnings.catch_warnings():  # (a dropped window's events never came: it is no empty window)
             warnings.simplefilter("ignore", EmptyWindowWarning)  # (one that is, is handed over with line["events"] 0)
-            LiveModel(model, stream, record).run_windows_into(stream, each)
+            try:
+                LiveModel(model, stream, record).run_windows_into(stream, each)
+            except InputError:  # (stopped by the caller before any event came: no window, and no error)
+                if not (stream.cutting is not None and stream.cutting.stopped and stream.cutting.t0 is None):
+                    raise
     # (after the stream and source are closed: a UDP socket's lost packets are read as it closes)
     ended = "stopped" if stop is not None and stop.is_set() else ended_by(source)
     return record.summary(ended)

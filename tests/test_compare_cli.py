@@ -348,3 +348,17 @@ def test_runs_made_one_at_a_time_are_paired_by_image_and_pooled(tmp_path, capsys
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and said in err[0], err
         assert not (tmp_path / "no.json").exists()
+
+
+def test_min_confidence_on_two_maps_without_confidence_is_refused(tmp_path, capsys):
+    """compare RATE_A RATE_B --min-confidence 2 ran, applied nothing, and recorded the threshold in --json."""
+    fx = np.zeros((8, 8), np.float32)
+    fx[4, 1:7] = 1.0
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+        Maps(fx, 0 * fx, fx.copy(), params={"model": "rate"}).save(tmp_path / name / "maps.npz")
+    argv = ["compare", str(tmp_path / "a"), str(tmp_path / "b"), "--no-baseline"]
+    assert main([*argv, "--min-confidence", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--min-confidence: neither" in err and "holds fg_confidence" in err
+    assert main(argv) == 0

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError, SnnFgError
 from ..events.esim import MOTION, THRESHOLD
-from ..results.maps import Maps
+from ..results.maps import CONFIDENCE, Maps
 from ..scoring.align import align_to_export
 from ..scoring.baseline import self_agreement
 from ..scoring.inputs import differing, other_frames, other_inputs, same_run
@@ -103,6 +103,10 @@ def compare_pair(args, path_a, path_b, say=print):
     their windows were paired; notes on the pair said by ``say``, a bad pair or option one
     :class:`InputError`."""
     a, b = Maps.load(path_a), Maps.load(path_b)
+    if args.min_confidence is not None and not any(CONFIDENCE in m.extra for m in (a, b)):  # (as against labels)
+        raise InputError(
+            "--min-confidence", f"neither {path_a} nor {path_b} holds fg_confidence (no spike counts): leave it out"
+        )
     a, b, notes = align_to_export(a, b, args.window, (path_a, path_b))  # (a board's maps against the reference)
     one = _run_dir(path_a) == _run_dir(path_b)
     for note in notes + expectations(a, b):

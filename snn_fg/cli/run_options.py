@@ -296,7 +296,7 @@ def refused_options(args, kind) -> list[tuple[str, str]]:
         refused.append(("image_scale", image_scale_refusal(kind)))
     if args.motion is not None and kind in ("recording", "frame") and model.needs != "image":  # images only
         refused.append(("motion", f"applies to images turned into events only; {KIND_NAMES[kind]}"))
-    if args.threshold != THRESHOLD and kind in ("recording", "frame"):  # (set on a recording, it was ignored unsaid)
+    if getattr(args, "threshold", THRESHOLD) != THRESHOLD and kind in ("recording", "frame"):  # (ignored unsaid)
         refused.append(("threshold", f"applies to images turned into events only; {KIND_NAMES[kind]}"))
     if model.needs == "image":  # the frame-based model: no events, no network
         refused += [

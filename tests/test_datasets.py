@@ -258,3 +258,13 @@ def test_the_authors_csvs_become_the_reference_npz_and_the_image_comes_from_the_
 def test_the_reference_copies_match_the_catalogue(dataset, name):
     dataset(name)  # (each dataset skips alone when absent: the others are still checked)
     assert datasets.verify(name) == [], name
+
+
+def test_data_list_says_why_every_dataset_is_absent_when_its_folder_is(tmp_path, monkeypatch, capsys):
+    """$SNN_FG_DATA naming a folder that does not exist listed every dataset absent, and no more."""
+    monkeypatch.setenv(datasets.ENV_VAR, str(tmp_path / "nowhere"))
+    assert main(["data", "list"]) == 0
+    assert f"({tmp_path / 'nowhere'} does not exist: snn-fg data fetch NAME makes it" in capsys.readouterr().out
+    monkeypatch.setenv(datasets.ENV_VAR, str(tmp_path))
+    assert main(["data", "list"]) == 0
+    assert "does not exist" not in capsys.readouterr().out

@@ -8,6 +8,7 @@ and exits non-zero).
 from __future__ import annotations
 
 import argparse
+import os
 
 from .. import datasets
 from .options import size_text, subcommand
@@ -27,6 +28,10 @@ def cmd_list(args) -> int:
     root, origin = datasets.root_and_origin()
     chooses = "" if origin.endswith(datasets.ENV_VAR) else f"; ${datasets.ENV_VAR} chooses another"
     print(f"data folder: {root} ({origin}{chooses})")
+    if not root.is_dir():  # (every dataset then shows absent: say why, not only that)
+        print(f"  ({root} does not exist: snn-fg data fetch NAME makes it, or ${datasets.ENV_VAR} names another)")
+    elif not os.access(root, os.W_OK):  # (a fetch there could never be written: said before it is tried)
+        print(f"  ({root} cannot be written here: a fetch needs ${datasets.ENV_VAR} naming a folder you can write)")
     rows = [("name", "size", "status", "folder")]
     rows += [
         (name, size_text(ds.size), _status(name, args.verify), str(root / name))

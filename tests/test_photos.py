@@ -203,3 +203,17 @@ def test_events_refuses_an_image_whose_simulated_camera_would_not_fit_the_memory
     scale = float(err.split("--image-scale ")[1].split()[0])
     assert main(["events", str(img), "--image-scale", str(scale), "--write-events", str(written)]) == 0
     assert written.exists()
+
+
+def test_a_recording_named_as_an_image_is_said_to_look_like_one(tmp_path, capsys):
+    """Event Stream bytes in a .png said only 'not an image', where a .txt list of them names the format."""
+    from snn_fg.events import image_to_events, save_events
+    from snn_fg.frames.scenes import disc
+
+    rec = image_to_events(disc(6).image, motion="circle")
+    save_events(tmp_path / "r.es", rec.events, rec.sensor_size)
+    (tmp_path / "r.png").write_bytes((tmp_path / "r.es").read_bytes())
+    assert main(["run", str(tmp_path / "r.png"), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "not an image: its first bytes are no image format's: it looks like an Event Stream (.es) file; " in err
+    assert "give it the suffix .es (at byte offset 0)" in err and err.count("\n") == 1

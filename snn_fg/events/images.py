@@ -38,7 +38,11 @@ def read_image(path, grey: bool = True) -> np.ndarray:
     if img is None:
         kind = image_format(data[:16].tobytes())
         if kind is None:
-            raise InputError(path, "not an image: its first bytes are no image format's", "byte offset 0")
+            from .formats import looks_like  # (a recording given an image's suffix: said what it is, as a list is)
+
+            seen, suffixes = looks_like(data[:4096].tobytes())
+            hint = f": it looks like {seen}; give it the suffix {' or '.join(suffixes)}" if suffixes else ""
+            raise InputError(path, f"not an image: its first bytes are no image format's{hint}", "byte offset 0")
         raise InputError(path, f"a {kind} file that OpenCV cannot decode: damaged or cut short ({len(data):,} bytes)")
     if img.ndim == 3:
         if img.shape[2] == 4:

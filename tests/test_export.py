@@ -257,7 +257,8 @@ def test_export_refuses_an_existing_output_and_a_foreign_nir_file(tmp_path, caps
     assert (
         main(["export", "--format", "report", "--out", str(existing), "--sensor-size", "32x24", "--levels", "2"]) == 2
     )
-    assert existing.read_text() == "keep" and "exists" in capsys.readouterr().err
+    # (a user's file of the name: said not snn-fg's at once, not "pass --force" to a second refusal)
+    assert existing.read_text() == "keep" and "is not a .json file snn-fg wrote" in capsys.readouterr().err
     foreign = tmp_path / "x.nir"
     foreign.write_bytes(b"not hdf5 at all")
     assert main(["export", "--format", "network", "--network", str(foreign), "--out", str(tmp_path / "n.json")]) == 2

@@ -60,15 +60,21 @@ def made_by_snn_fg(path) -> bool:
     return path.is_file() and not path.is_symlink() and of_kind(path, path.suffix.lower())
 
 
-def _marked_json(path: Path) -> bool:
+def _record(path: Path) -> dict | None:
+    """The JSON object ``path`` holds, or None (not one, or larger than snn-fg's records: a user's
+    data set is not read)."""
     try:
-        if path.stat().st_size > 64 << 20:  # (snn-fg's records are small: a user's data set is not read)
-            return False
+        if path.stat().st_size > 64 << 20:
+            return None
         record = json.loads(path.read_text())
     except (OSError, ValueError):
-        return False
-    schema = record.get("schema") if isinstance(record, dict) else None
-    return isinstance(record, dict) and ("snn_fg_version" in record or str(schema).startswith(MARK + "."))
+        return None
+    return record if isinstance(record, dict) else None
+
+
+def _marked_json(path: Path) -> bool:
+    record = _record(path)
+    return record is not None and ("snn_fg_version" in record or str(record.get("schema")).startswith(MARK + "."))
 
 
 def signed(path: Path, suffix: str) -> bool:
@@ -83,10 +89,5 @@ def signed(path: Path, suffix: str) -> bool:
 
 def json_keys(path: Path, keys) -> bool:
     """Whether ``path`` holds a JSON object with every one of ``keys`` (a small file only)."""
-    try:
-        if path.stat().st_size > 64 << 20:
-            return False
-        record = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(record, dict) and all(k in record for k in keys)
+    record = _record(path)
+    return record is not None and all(k in record for k in keys)

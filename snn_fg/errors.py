@@ -44,7 +44,8 @@ class InputError(SnnFgError, ValueError):
         Optional :class:`Remedy`: what fixes it, said as ``pass KEYWORD`` in
         ``str(error)`` (the API's message) and as ``give OPTION`` in
         :meth:`for_command_line`. ``problem`` then ends where the remedy is
-        added (``"...; pass sensor_size=(W, H)"``), ``note`` after it.
+        added (``"...; pass sensor_size=(W, H)"``), ``note`` after it (after
+        the problem, without a remedy).
     """
 
     def __init__(self, source, problem: str, where: str | None = None, *, remedy: Remedy | None = None, note: str = ""):
@@ -56,11 +57,18 @@ class InputError(SnnFgError, ValueError):
 
     def _message(self, fix: str | None) -> str:
         loc = f" (at {self.where})" if self.where else ""
-        fix = f"; {fix}{self.note}" if fix else ""
-        return f"{self.source}: {self.problem}{fix}{loc}"
+        fix = f"; {fix}" if fix else ""
+        return f"{self.source}: {self.problem}{fix}{self.note}{loc}"
 
     def for_command_line(self) -> str:
         return str(self) if self.remedy is None else self._message(f"give {self.remedy.option}")
+
+    def but(self, **changes) -> InputError:
+        """This error with ``changes`` made (``problem``, ``where``, ``note``): a caller that knows
+        more of the place, or what follows it, says so, and each front door keeps its remedy."""
+        was = {"source": self.source, "problem": self.problem, "where": self.where}
+        fields = {**was, "remedy": self.remedy, "note": self.note, **changes}
+        return InputError(fields.pop("source"), fields.pop("problem"), fields.pop("where"), **fields)
 
 
 class InputWarning(UserWarning):

@@ -169,9 +169,7 @@ def _check_frame(args, model, shape) -> None:
             raise
         # (a sensor given by hand too small for the recording is its real problem: it showed only at fewer levels)
         size = f"{args.sensor_size[0]}x{args.sensor_size[1]}"
-        raise InputError(
-            args.input, f"{e.problem} (is --sensor-size {size} right?)", remedy=e.remedy, note=e.note
-        ) from None
+        raise e.but(source=args.input, problem=f"{e.problem} (is --sensor-size {size} right?)") from None
     if args.crop is not None:
         check_crop(args.crop, shape, owner=f"{args.input}: --crop")
 
@@ -306,10 +304,10 @@ def _settled(args, out, previous, run) -> int:
                 f"{place}; stopped there: the {n} window{s} complete before it "
                 f"{'are' if s else 'is'} written to {args.out}/, a finished run (what --max-windows {n} gives)"
             )
-            raise _said_after(exc, said) from None
+            raise exc.but(where=None, note=f"{exc.note}{said}") from None
         if not earlier:
             raise
-        raise _said_after(exc, f"; the earlier run in {args.out}/ is kept", exc.where) from None
+        raise exc.but(note=f"{exc.note}; the earlier run in {args.out}/ is kept") from None
     except BaseException as exc:  # (refused before its first window: nothing to keep)
         n, earlier = windows_complete(out), previous is not None and any(previous.iterdir())
         settle_folder(out, previous, keep_new=bool(n))
@@ -318,13 +316,6 @@ def _settled(args, out, previous, run) -> int:
         raise
     settle_folder(out, previous, keep_new=True)
     return n
-
-
-def _said_after(exc: InputError, said: str, where=None) -> InputError:
-    """``exc`` with ``said`` after its problem and its remedy (which each front door words its own way)."""
-    if exc.remedy is None:
-        return InputError(exc.source, f"{exc.problem}{said}", where)
-    return InputError(exc.source, exc.problem, where, remedy=exc.remedy, note=f"{exc.note}{said}")
 
 
 def _resume_key(args, out, source: dict) -> dict:

@@ -323,7 +323,7 @@ def _check_readable(f, path, layout: Layout, h5py) -> None:
 def _named(error: InputError, layout: Layout, fields: str) -> InputError:
     """``error`` of a check on event fields, with the datasets they come from added to its place."""
     names = ", ".join(dict.fromkeys(layout.where[k] for k in fields))
-    return InputError(error.source, error.problem, f"{error.where}; {names}", remedy=error.remedy, note=error.note)
+    return error.but(where=f"{error.where}; {names}")
 
 
 def _field_of(problem: str) -> str:

@@ -209,7 +209,7 @@ def at_event(error: InputError, index: int) -> InputError:
     if "event" in where:
         return error
     where = f"{where}, event {index}" if where else f"event {index}"
-    return InputError(error.source, error.problem, where, remedy=error.remedy, note=error.note)
+    return error.but(where=where)
 
 
 def iter_recording(

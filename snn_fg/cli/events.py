@@ -45,6 +45,10 @@ from .options import (
 )
 from .spikes import add_spike_options, write_spikes
 
+#: the simulated camera's options (an image's) and their defaults: the parser's, and what a recording
+#: must leave them at (each set otherwise is refused: it would be ignored)
+CAMERA = {"threshold": THRESHOLD, "motion": MOTION, "amplitude_px": AMPLITUDE_PX, "seed": 0, "threshold_sigma": 0.0}
+
 
 def add_events_command(subparsers) -> argparse.ArgumentParser:
     """Register ``events`` on an ``argparse`` subparsers object; returns the parser."""
@@ -81,24 +85,35 @@ def add_events_command(subparsers) -> argparse.ArgumentParser:
     add_camera_options(g)
     g = p.add_argument_group("images (event-camera simulation)")
     g.add_argument(
-        "--threshold", type=float, default=THRESHOLD, metavar="C", help=f"contrast threshold (default {THRESHOLD:g})"
+        "--threshold",
+        type=float,
+        default=CAMERA["threshold"],
+        metavar="C",
+        help=f"contrast threshold (default {THRESHOLD:g})",
     )
     g.add_argument(
         "--motion",
         choices=MOTIONS,
-        default=MOTION,
+        default=CAMERA["motion"],
         help="shift4: 1-px shift up, right, down, left; circle: iCub microsaccade; paper: the authors' "
         f"BSDS conversion (2-px copies down and right, through JPEG) (default {MOTION})",
     )
     g.add_argument(
         "--amplitude-px",
         type=float,
-        default=AMPLITUDE_PX,
+        default=CAMERA["amplitude_px"],
         metavar="A",
         help=f"motion amplitude (default {AMPLITUDE_PX:g})",
     )
-    g.add_argument("--seed", type=number(int, 0, strict=False), default=0, help="seed for threshold noise (default 0)")
-    g.add_argument("--threshold-sigma", type=float, default=0.0, help="per-pixel threshold noise (std, default 0)")
+    g.add_argument(
+        "--seed", type=number(int, 0, strict=False), default=CAMERA["seed"], help="seed for threshold noise (default 0)"
+    )
+    g.add_argument(
+        "--threshold-sigma",
+        type=float,
+        default=CAMERA["threshold_sigma"],
+        help="per-pixel threshold noise (std, default 0)",
+    )
     add_image_scale_option(g, "the simulated camera")
     g = p.add_argument_group("outputs")
     g.add_argument(
@@ -166,15 +181,8 @@ def run_events(args) -> int:
     is_image = path.suffix.lower() in IMAGE_SUFFIXES
     if args.image_scale is not None and not is_image:
         raise InputError(path, f"--image-scale: {image_scale_refusal('recording')}")
-    simulated = {
-        "threshold": THRESHOLD,
-        "motion": MOTION,
-        "amplitude_px": AMPLITUDE_PX,
-        "seed": 0,
-        "threshold_sigma": 0.0,
-    }
     # (set away from its default on a recording, an option of the simulated camera was ignored without a word)
-    for name, default in simulated.items():
+    for name, default in CAMERA.items():
         if not is_image and getattr(args, name) != default:
             flag = "--" + name.replace("_", "-")
             raise InputError(path, f"{flag}: applies to images turned into events only; INPUT is an event recording")
